@@ -1,0 +1,167 @@
+//! The CPU backend: runs each scheduled pass with rayon. Buffers live in physical slots assigned by
+//! the schedule's pool plan, so intermediates whose lifetimes do not overlap share storage.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use wedge_graph::{BufferId, Pass};
+
+use crate::buffer::BufferData;
+use crate::kernel::{Access, Counters, KernelCtx};
+use crate::{Backend, BackendError, Job, PassTiming, RunResult};
+
+#[derive(Default)]
+pub struct CpuBackend;
+
+impl CpuBackend {
+    pub fn new() -> Self {
+        CpuBackend
+    }
+}
+
+/// Check a pass's bindings against its kernel's declaration: every required binding is bound, no
+/// undeclared one is, and formats agree. Shared by every backend so they reject the same passes.
+pub fn check_bindings(job: &Job<'_>, pass: &Pass) -> Result<(), BackendError> {
+    let kernel = job.kernels.get(&pass.kernel).ok_or_else(|| BackendError::UnknownKernel {
+        pass: pass.name.clone(),
+        kernel: pass.kernel.clone(),
+        known: job.kernels.names().collect::<Vec<_>>().join(", "),
+    })?;
+    let decls = kernel.bindings();
+    let berr = |binding: &str, message: String| BackendError::Binding {
+        pass: pass.name.clone(),
+        binding: binding.to_string(),
+        message,
+    };
+    for (list, access) in [(&pass.reads, Access::Read), (&pass.writes, Access::Write)] {
+        for (name, id) in list {
+            let d = decls
+                .iter()
+                .find(|d| d.name == name && d.access == access)
+                .ok_or_else(|| berr(name, format!("is not declared by kernel `{}` as a {access:?}", pass.kernel)))?;
+            let f = job.schedule.buffers[id.0].format;
+            if f != d.format {
+                return Err(berr(name, format!("is bound to a {f} buffer but the kernel declares {}", d.format)));
+            }
+        }
+    }
+    for d in decls.iter().filter(|d| !d.optional) {
+        let bound = match d.access {
+            Access::Read => pass.read(d.name).is_some(),
+            Access::Write => pass.write(d.name).is_some(),
+        };
+        if !bound {
+            return Err(berr(d.name, format!("is required by kernel `{}` but not bound", pass.kernel)));
+        }
+    }
+    Ok(())
+}
+
+/// Run one pass on the CPU with the given input buffers; returns its outputs by binding name. The
+/// parity harness uses this to run a pass in isolation.
+pub fn run_pass(
+    job: &Job<'_>,
+    pass: &Pass,
+    inputs: &BTreeMap<BufferId, &BufferData>,
+    counters: &Counters,
+) -> Result<BTreeMap<String, BufferData>, BackendError> {
+    check_bindings(job, pass)?;
+    let kernel = job.kernels.get(&pass.kernel).expect("checked");
+    let mut reads = BTreeMap::new();
+    for (name, id) in &pass.reads {
+        let b = inputs.get(id).ok_or_else(|| BackendError::Binding {
+            pass: pass.name.clone(),
+            binding: name.clone(),
+            message: format!("reads `{}`, which holds no data", job.schedule.buffers[id.0].name),
+        })?;
+        reads.insert(name.clone(), *b);
+    }
+    let writes = pass.writes.iter().map(|(n, _)| (n.clone(), None)).collect();
+    let mut ctx = KernelCtx::new(
+        job.width,
+        job.height,
+        job.seed,
+        job.scene,
+        &pass.name,
+        &pass.params,
+        counters,
+        job.progress,
+        reads,
+        writes,
+    );
+    kernel.run_cpu(&mut ctx)?;
+    let mut out = BTreeMap::new();
+    for (name, data) in ctx.writes {
+        let data = data.ok_or_else(|| BackendError::Binding {
+            pass: pass.name.clone(),
+            binding: name.clone(),
+            message: "was bound but the kernel wrote nothing to it".into(),
+        })?;
+        out.insert(name, data);
+    }
+    Ok(out)
+}
+
+impl Backend for CpuBackend {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
+        let sched = job.schedule;
+        let counters = Counters::default();
+        // Physical storage, indexed by pool slot; a slot holds the buffer currently living in it.
+        let mut slots: Vec<Option<(BufferId, BufferData)>> = vec![None; sched.slot_formats.len()];
+        let mut allocations = 0usize;
+        let mut timings = Vec::with_capacity(sched.passes.len());
+        for pass in &sched.passes {
+            let start = Instant::now();
+            let outputs = {
+                let mut inputs = BTreeMap::new();
+                for (_, id) in &pass.reads {
+                    let slot = sched.slots[id.0].expect("scheduled buffer has a slot");
+                    match &slots[slot] {
+                        Some((held, data)) if held == id => {
+                            inputs.insert(*id, data);
+                        }
+                        _ => {
+                            return Err(BackendError::Other(format!(
+                                "pass `{}` reads `{}` after its storage was reused (pool plan bug)",
+                                pass.name, sched.buffers[id.0].name
+                            )))
+                        }
+                    }
+                }
+                run_pass(job, pass, &inputs, &counters)?
+            };
+            for (binding, data) in outputs {
+                let id = pass.write(&binding).expect("bound");
+                let slot = sched.slots[id.0].expect("scheduled buffer has a slot");
+                // Storage is reused in place when the slot is taken over; a fresh allocation is
+                // counted only the first time a slot is filled.
+                if slots[slot].is_none() {
+                    allocations += 1;
+                }
+                slots[slot] = Some((id, data));
+            }
+            let kernel = job.kernels.get(&pass.kernel).expect("checked");
+            timings.push(PassTiming {
+                pass: pass.name.clone(),
+                kernel: pass.kernel.clone(),
+                class: kernel.class(),
+                seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        let mut outputs = BTreeMap::new();
+        for (node, port, id) in &sched.sink_inputs {
+            let slot = sched.slots[id.0].expect("sink buffer has a slot");
+            match &slots[slot] {
+                Some((held, data)) if held == id => {
+                    outputs.insert((node.clone(), port.clone()), data.clone());
+                }
+                _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
+            }
+        }
+        Ok(RunResult { outputs, timings, rays: counters.snapshot(), allocations })
+    }
+}

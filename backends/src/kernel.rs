@@ -1,0 +1,277 @@
+//! Kernels: the unit of work a pass runs. A kernel declares its bindings (name, format, read or
+//! write) and implements the per-pixel work on the CPU; the GPU backend adds a WGSL source for the
+//! same name. The set is open: a user crate registers its own kernels next to wedge's.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use wedge_graph::{Format, ParamValue};
+use wedge_scene::Scene;
+
+use crate::buffer::{BufferData, Texel};
+use crate::BackendError;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    Read,
+    Write,
+}
+
+/// One buffer a kernel touches.
+#[derive(Clone, Debug)]
+pub struct Binding {
+    pub name: &'static str,
+    pub format: Format,
+    pub access: Access,
+    /// May be left unbound by a pass (the kernel then skips that work).
+    pub optional: bool,
+}
+
+impl Binding {
+    pub const fn read(name: &'static str, format: Format) -> Self {
+        Binding { name, format, access: Access::Read, optional: false }
+    }
+    pub const fn read_opt(name: &'static str, format: Format) -> Self {
+        Binding { name, format, access: Access::Read, optional: true }
+    }
+    pub const fn write(name: &'static str, format: Format) -> Self {
+        Binding { name, format, access: Access::Write, optional: false }
+    }
+    pub const fn write_opt(name: &'static str, format: Format) -> Self {
+        Binding { name, format, access: Access::Write, optional: true }
+    }
+}
+
+/// Whether a kernel traces rays (its time counts as sampling) or only reads and writes buffers
+/// (bandwidth, rates, filters, compose: the overhead the thesis keeps around 5%).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum KernelClass {
+    Sampling,
+    Bandwidth,
+    Filter,
+    Compose,
+}
+
+pub trait Kernel: Send + Sync {
+    fn name(&self) -> &'static str;
+    fn class(&self) -> KernelClass;
+    fn bindings(&self) -> Vec<Binding>;
+    /// Run over every pixel. Reads come from `ctx.read`, writes are handed back with `ctx.put`.
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError>;
+}
+
+/// Kernels by name.
+#[derive(Clone, Default)]
+pub struct KernelRegistry {
+    kernels: BTreeMap<&'static str, Arc<dyn Kernel>>,
+}
+
+impl KernelRegistry {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// A later registration under the same name replaces the earlier one.
+    pub fn register(&mut self, k: Arc<dyn Kernel>) -> &mut Self {
+        self.kernels.insert(k.name(), k);
+        self
+    }
+    pub fn get(&self, name: &str) -> Option<&Arc<dyn Kernel>> {
+        self.kernels.get(name)
+    }
+    pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.kernels.keys().copied()
+    }
+}
+
+/// Counters a run accumulates (integer sums, so they are identical for any thread count).
+#[derive(Debug, Default)]
+pub struct Counters {
+    pub primary_rays: AtomicU64,
+    pub shadow_rays: AtomicU64,
+    pub secondary_rays: AtomicU64,
+    /// Samples whose value was NaN or infinite: excluded from every estimate, never spread.
+    pub non_finite_samples: AtomicU64,
+}
+
+impl Counters {
+    pub fn add(counter: &AtomicU64, n: u64) {
+        if n > 0 {
+            counter.fetch_add(n, Ordering::Relaxed);
+        }
+    }
+    pub fn snapshot(&self) -> RayCounts {
+        RayCounts {
+            primary_rays: self.primary_rays.load(Ordering::Relaxed),
+            shadow_rays: self.shadow_rays.load(Ordering::Relaxed),
+            secondary_rays: self.secondary_rays.load(Ordering::Relaxed),
+            non_finite_samples: self.non_finite_samples.load(Ordering::Relaxed),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    pub primary_rays: u64,
+    pub shadow_rays: u64,
+    pub secondary_rays: u64,
+    pub non_finite_samples: u64,
+}
+
+impl RayCounts {
+    pub fn total_rays(&self) -> u64 {
+        self.primary_rays + self.shadow_rays + self.secondary_rays
+    }
+}
+
+/// Progress of long passes (rows done), shown by the CLI as a progress bar.
+pub trait Progress: Send + Sync {
+    fn begin(&self, _pass: &str, _rows: u64) {}
+    fn advance(&self, _rows: u64) {}
+    fn end(&self) {}
+}
+
+/// No progress display.
+pub struct Silent;
+impl Progress for Silent {}
+
+/// Everything one pass sees while it runs: size, seed, scene, its parameter block, the buffers it
+/// declared (reads borrowed, writes owned until handed back), counters and progress.
+pub struct KernelCtx<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub scene: &'a Scene,
+    pub pass: &'a str,
+    pub params: &'a BTreeMap<String, ParamValue>,
+    pub counters: &'a Counters,
+    pub progress: &'a dyn Progress,
+    pub(crate) reads: BTreeMap<String, &'a BufferData>,
+    pub(crate) writes: BTreeMap<String, Option<BufferData>>,
+}
+
+impl<'a> KernelCtx<'a> {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        width: u32,
+        height: u32,
+        seed: u32,
+        scene: &'a Scene,
+        pass: &'a str,
+        params: &'a BTreeMap<String, ParamValue>,
+        counters: &'a Counters,
+        progress: &'a dyn Progress,
+        reads: BTreeMap<String, &'a BufferData>,
+        writes: BTreeMap<String, Option<BufferData>>,
+    ) -> Self {
+        KernelCtx { width, height, seed, scene, pass, params, counters, progress, reads, writes }
+    }
+
+    pub fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    fn err(&self, message: String) -> BackendError {
+        BackendError::Kernel { pass: self.pass.to_string(), message }
+    }
+
+    /// A bound input, viewed as `T`.
+    pub fn read<T: Texel>(&self, binding: &str) -> Result<&'a [T], BackendError> {
+        let b = self.reads.get(binding).ok_or_else(|| self.err(format!("reads `{binding}`, which is not bound")))?;
+        T::slice(b).ok_or_else(|| self.err(format!("`{binding}` is {}, not {}", b.format(), T::FORMAT)))
+    }
+    /// An optional input: `None` when the pass left it unbound.
+    pub fn read_opt<T: Texel>(&self, binding: &str) -> Result<Option<&'a [T]>, BackendError> {
+        if self.reads.contains_key(binding) {
+            self.read(binding).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+    pub fn is_bound(&self, binding: &str) -> bool {
+        self.reads.contains_key(binding) || self.writes.contains_key(binding)
+    }
+    /// Hand back the contents of a write binding. Writing one that the pass did not bind is an error
+    /// (a pass can only touch what it declared); an unbound *optional* write is skipped silently by
+    /// checking [`KernelCtx::is_bound`] first.
+    pub fn put<T: Texel>(&mut self, binding: &str, data: Vec<T>) -> Result<(), BackendError> {
+        if data.len() != self.pixels() {
+            return Err(self.err(format!("wrote {} elements to `{binding}`, expected {}", data.len(), self.pixels())));
+        }
+        match self.writes.get_mut(binding) {
+            Some(slot) => {
+                *slot = Some(T::wrap(data));
+                Ok(())
+            }
+            None => Err(self.err(format!("writes `{binding}`, which is not bound"))),
+        }
+    }
+    pub fn put_opt<T: Texel>(&mut self, binding: &str, data: impl FnOnce() -> Vec<T>) -> Result<(), BackendError> {
+        if self.writes.contains_key(binding) {
+            self.put(binding, data())
+        } else {
+            Ok(())
+        }
+    }
+
+    pub fn f32_param(&self, name: &str) -> Result<f32, BackendError> {
+        match self.params.get(name) {
+            Some(ParamValue::Float(v)) => Ok(*v as f32),
+            Some(ParamValue::Int(v)) => Ok(*v as f32),
+            other => Err(self.err(format!("parameter `{name}` must be a number, found {other:?}"))),
+        }
+    }
+    pub fn int_param(&self, name: &str) -> Result<i64, BackendError> {
+        match self.params.get(name) {
+            Some(ParamValue::Int(v)) => Ok(*v),
+            other => Err(self.err(format!("parameter `{name}` must be an integer, found {other:?}"))),
+        }
+    }
+    pub fn str_param(&self, name: &str) -> Result<&'a str, BackendError> {
+        match self.params.get(name) {
+            Some(ParamValue::Str(v)) => Ok(v.as_str()),
+            other => Err(self.err(format!("parameter `{name}` must be a string, found {other:?}"))),
+        }
+    }
+    pub fn bool_param(&self, name: &str) -> Result<bool, BackendError> {
+        match self.params.get(name) {
+            Some(ParamValue::Bool(v)) => Ok(*v),
+            other => Err(self.err(format!("parameter `{name}` must be true or false, found {other:?}"))),
+        }
+    }
+    pub fn light_param(&self, name: &str) -> Result<usize, BackendError> {
+        let i = self.int_param(name)?;
+        if i < 0 || i as usize >= self.scene.lights.len() {
+            return Err(self.err(format!(
+                "`{name}` = {i} but the scene has {} area light(s); pick 0..{}",
+                self.scene.lights.len(),
+                self.scene.lights.len().saturating_sub(1)
+            )));
+        }
+        Ok(i as usize)
+    }
+
+    /// Evaluate `f(x, y)` for every pixel in parallel (rows across threads). The result depends
+    /// only on `f`, never on the thread count. Progress is reported per row when `report` is set.
+    pub fn map_pixels<T: Send>(&self, report: bool, f: impl Fn(u32, u32) -> T + Sync) -> Vec<T> {
+        let w = self.width;
+        if report {
+            self.progress.begin(self.pass, self.height as u64);
+        }
+        let rows: Vec<Vec<T>> = (0..self.height)
+            .into_par_iter()
+            .map(|y| {
+                let row = (0..w).map(|x| f(x, y)).collect();
+                if report {
+                    self.progress.advance(1);
+                }
+                row
+            })
+            .collect();
+        if report {
+            self.progress.end();
+        }
+        rows.into_iter().flatten().collect()
+    }
+}

@@ -1,0 +1,204 @@
+//! `direct.light`: Monte Carlo direct illumination from area lights at each pixel's surface point,
+//! with the per-pixel occluder statistics soft-shadow filtering needs.
+//!
+//! Estimator (unbiased, per sample exact): for `y` uniform on the light (pdf `1/A`),
+//! `L_e · V(x,y) · cos θ_x · cos θ_y / |x−y|² · A / π` — diffuse radiance for unit albedo; the albedo
+//! (texture) multiplies after filtering. With `form_factor: "light_centre"` the geometric term is taken
+//! at the light centre instead (thesis eq. 3.1's `r(x)`), so only visibility is sampled.
+//!
+//! Counts: a fixed `count`, or per pixel from `rays_per_pixel` (the adaptive second pass), continuing
+//! an earlier estimate `previous` (its `w` = samples already taken) so the first-pass samples are reused.
+//! Samples are stratified per pass with correlated multi-jitter over any count, or independent.
+//! Non-finite sample values are counted and excluded from the mean.
+
+use glam::{Vec2, Vec3};
+use wedge_graph::Format;
+use wedge_scene::{AreaLight, Scene};
+
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx};
+use crate::kernels::v3;
+use crate::rng::{dim, PixelRng};
+use crate::BackendError;
+
+pub struct DirectLight;
+
+/// Offset of shadow-ray origins along the normal, relative to the scene extent.
+pub const RAY_EPSILON: f32 = 1e-4;
+
+/// Occluder statistics of one pixel over its first-pass samples (thesis eq. 3.4 inputs). Distances
+/// are measured perpendicular to the light plane, the `x`/`y` parameterisation of Sec. 3.3.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OccluderStats {
+    pub d1: f32,
+    pub d2_min: f32,
+    pub d2_max: f32,
+    pub occluded: u32,
+}
+
+/// One sample of direct light toward `light` from point `x` with normal `n`: returns the value
+/// (before albedo) and, when occluded, the occluder's distance to the light plane.
+#[inline]
+pub fn light_sample(
+    scene: &Scene,
+    light: &AreaLight,
+    x: Vec3,
+    n: Vec3,
+    u: Vec2,
+    centre_factor: Option<Vec3>,
+    want_distance: bool,
+) -> (Vec3, Option<f32>) {
+    let y = light.sample_point(u);
+    let to = y - x;
+    let r2 = to.length_squared();
+    let dir = to / r2.sqrt();
+    let cos_x = n.dot(dir);
+    let ln = light.normal();
+    let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
+    if cos_x <= 0.0 || cos_y <= 0.0 {
+        return (Vec3::ZERO, None);
+    }
+    // The shadow ray starts off the surface and aims at `y` from there, stopping just short of the
+    // light so the light's own triangles never count as occluders.
+    let origin = x + n * (RAY_EPSILON * scene.extent());
+    let seg = y - origin;
+    let seg_len = seg.length();
+    let ray_dir = seg / seg_len;
+    let tmax = seg_len * (1.0 - 1e-4);
+    if want_distance {
+        if let Some(hit) = scene.intersect(origin, ray_dir, 0.0, tmax) {
+            let p = origin + ray_dir * hit.t;
+            return (Vec3::ZERO, Some((light.centre() - p).dot(ln).abs()));
+        }
+    } else if scene.occluded(origin, ray_dir, 0.0, tmax) {
+        return (Vec3::ZERO, None);
+    }
+    let value = match centre_factor {
+        Some(f) => f,
+        None => light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI),
+    };
+    (value, None)
+}
+
+/// Unoccluded diffuse radiance (unit albedo) with the geometry evaluated at the light centre: the
+/// thesis's `r(x)` (eq. 3.1).
+pub fn light_centre_factor(light: &AreaLight, x: Vec3, n: Vec3) -> Vec3 {
+    let to = light.centre() - x;
+    let r2 = to.length_squared();
+    let dir = to / r2.sqrt();
+    let cos_x = n.dot(dir).max(0.0);
+    let cos_y = light.normal().dot(-dir);
+    let cos_y = if light.two_sided { cos_y.abs() } else { cos_y.max(0.0) };
+    light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI)
+}
+
+impl Kernel for DirectLight {
+    fn name(&self) -> &'static str {
+        "direct.light"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Sampling
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            // Per-pixel total sample count (including `previous`'s); else the `count` parameter.
+            Binding::read_opt("rays_per_pixel", Format::U32),
+            // Earlier estimate to continue: rgb mean, w = samples in it.
+            Binding::read_opt("previous", Format::Vec4),
+            // rgb mean of all samples so far, w = number of samples in the mean.
+            Binding::write("estimate", Format::Vec4),
+            // d1, d2_min, d2_max, number of occluded samples (see [`OccluderStats`]).
+            Binding::write_opt("occlusion", Format::Vec4),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let scene = ctx.scene;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let rpp = ctx.read_opt::<u32>("rays_per_pixel")?;
+        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
+        let light_param = ctx.int_param("light")?;
+        let lights: Vec<usize> = if light_param < 0 {
+            (0..scene.lights.len()).collect()
+        } else {
+            vec![ctx.light_param("light")?]
+        };
+        let count = ctx.int_param("count")?.max(0) as u32;
+        let stratified = match ctx.str_param("sampling")? {
+            "stratified" => true,
+            "independent" => false,
+            other => return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("unknown sampling `{other}`") }),
+        };
+        let centre = ctx.str_param("form_factor")? == "light_centre";
+        let stream = ctx.int_param("stream")? as u32;
+        let want_stats = ctx.is_bound("occlusion");
+        let seed = ctx.seed;
+        let width = ctx.width;
+        let counters = ctx.counters;
+
+        let results = ctx.map_pixels(true, |px, py| {
+            let i = (py * width + px) as usize;
+            let prev = previous.map_or([0.0; 4], |p| p[i]);
+            if position[i][3] == 0.0 {
+                return (prev, [0.0; 4], 0u64, 0u64);
+            }
+            let x = v3(position[i]);
+            let n = v3(normal[i]);
+            let target = rpp.map_or(count, |r| r[i]);
+            let done = prev[3] as u32;
+            let extra = target.saturating_sub(done);
+            let mut sum = Vec3::ZERO;
+            let mut valid = 0u32;
+            let mut bad = 0u64;
+            let mut stats = OccluderStats { d2_min: f32::INFINITY, ..Default::default() };
+            for &l in &lights {
+                let light = &scene.lights[l];
+                if want_stats {
+                    stats.d1 = (light.centre() - x).dot(light.normal()).abs();
+                }
+                let rng = PixelRng::new(seed, i as u32, stream.wrapping_mul(64).wrapping_add(l as u32));
+                let factor = centre.then(|| light_centre_factor(light, x, n));
+                for s in 0..extra {
+                    let u = if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };
+                    let (v, occ) = light_sample(scene, light, x, n, Vec2::from(u), factor, want_stats);
+                    if let Some(d2) = occ {
+                        stats.occluded += 1;
+                        stats.d2_min = stats.d2_min.min(d2);
+                        stats.d2_max = stats.d2_max.max(d2);
+                    }
+                    if v.is_finite() {
+                        sum += v;
+                        valid += 1;
+                    } else {
+                        bad += 1;
+                    }
+                }
+            }
+            // With several lights, each light gets `extra` samples and the estimates add.
+            let per_light = valid as f32 / lights.len().max(1) as f32;
+            let total = prev[3] + per_light;
+            let mean = if total > 0.0 {
+                (Vec3::new(prev[0], prev[1], prev[2]) * prev[3] + sum) / total
+            } else {
+                Vec3::ZERO
+            };
+            if stats.occluded == 0 {
+                stats.d2_min = 0.0;
+            }
+            let occ = [stats.d1, stats.d2_min, stats.d2_max, stats.occluded as f32];
+            (
+                [mean.x, mean.y, mean.z, total],
+                occ,
+                (extra as u64) * lights.len() as u64,
+                bad,
+            )
+        });
+        let rays: u64 = results.iter().map(|r| r.2).sum();
+        let bad: u64 = results.iter().map(|r| r.3).sum();
+        Counters::add(&counters.shadow_rays, rays);
+        Counters::add(&counters.non_finite_samples, bad);
+        ctx.put_opt("occlusion", || results.iter().map(|r| r.1).collect::<Vec<_>>())?;
+        ctx.put("estimate", results.into_iter().map(|r| r.0).collect::<Vec<_>>())
+    }
+}

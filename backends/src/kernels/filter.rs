@@ -1,0 +1,146 @@
+//! `filter.gaussian`: one axis of the separable, spatially varying world-space Gaussian every
+//! axis-aligned filter uses (thesis eqs. 3.10–3.12, Sec. 3.6; the same shape serves Ch. 4's indirect
+//! filter with the full 3-D distance).
+//!
+//! For pixel `i` with bandwidth `β_i` (metres; `0` = not filtered, the value passes through), the
+//! neighbours `j` along the axis within `ceil(3 β_i / d_i)` pixels (capped by `max_radius`) are
+//! weighted by `exp(−‖x_i − x_j‖² / (2 β_i²))`, where the distance drops its component along
+//! the normal of light `plane_light` when one is given (eq. 3.12: distance in the plane parallel to the light).
+//! Neighbours on another object or the background (position `w`, see `primary.gbuffer`), whose normals differ by more than the normal test allows
+//! (thesis: 10°), or whose values are not finite, are not used. `w` of the value passes through.
+
+use glam::Vec3;
+use wedge_graph::Format;
+
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx};
+use crate::kernels::v3;
+use crate::BackendError;
+
+pub struct GaussianFilter;
+
+/// Largest slope (offset from the tangent plane over distance) a neighbour on the same smooth
+/// surface may have; 0.2 allows a curvature radius down to about 2.5× the filter reach.
+pub const TANGENT_SLOPE: f32 = 0.2;
+
+/// Parameters of one filter pass, read once from the pass's parameter block.
+#[derive(Clone, Copy, Debug)]
+pub struct FilterParams {
+    pub axis: u32,
+    pub plane_normal: Vec3,
+    pub max_radius: i32,
+    pub normal_cos: f32,
+}
+
+/// Squared distance in the plane with unit normal `n` (eq. 3.12); `n = 0` gives the 3-D distance.
+#[inline]
+pub fn plane_distance2(a: Vec3, b: Vec3, n: Vec3) -> f32 {
+    let d = a - b;
+    let along = d.dot(n);
+    (d.length_squared() - along * along).max(0.0)
+}
+
+/// Filter one pixel along one axis.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn filter_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    p: &FilterParams,
+    value: &[[f32; 4]],
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    bandwidth: &[f32],
+) -> [f32; 4] {
+    let i = (y * width + x) as usize;
+    let beta = bandwidth[i];
+    let centre = value[i];
+    if beta <= 0.0 || position[i][3] == 0.0 || !beta.is_finite() {
+        return centre;
+    }
+    let d = normal[i][3].max(1e-12);
+    let radius = ((3.0 * beta / d).ceil() as i64).clamp(0, p.max_radius as i64) as i32;
+    let xi = v3(position[i]);
+    let ni = v3(normal[i]);
+    let inv = -0.5 / (beta * beta);
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for k in -radius..=radius {
+        let (jx, jy) = if p.axis == 0 { (x + k, y) } else { (x, y + k) };
+        if jx < 0 || jy < 0 || jx >= width || jy >= height {
+            continue;
+        }
+        let j = (jy * width + jx) as usize;
+        // Different object (or background): never mix. The plane distance of eq. 3.12 ignores
+        // offsets along the light normal, so without this a lit bar and the shadowed surface right
+        // below it would look like neighbours (thesis Sec. 3.6 footnote 7 offers the object-ID test).
+        if position[j][3] != position[i][3] {
+            continue;
+        }
+        if ni.dot(v3(normal[j])) < p.normal_cos {
+            continue;
+        }
+        let v = value[j];
+        if !(v[0].is_finite() && v[1].is_finite() && v[2].is_finite()) {
+            continue;
+        }
+        let xj = v3(position[j]);
+        let delta = xj - xi;
+        // Tangent-plane test: a neighbour well off pixel i's tangent plane is another surface
+        // (a bar above a floor, a step). Eq. 3.12 drops offsets along the light normal, so
+        // surfaces stacked along it would otherwise blend with full weight.
+        if delta.dot(ni).abs() > TANGENT_SLOPE * delta.length() + 0.25 * d {
+            continue;
+        }
+        let w = (plane_distance2(xi, xj, p.plane_normal) * inv).exp();
+        for c in 0..3 {
+            sum[c] += w * v[c];
+        }
+        wsum += w;
+    }
+    if wsum > 0.0 {
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, centre[3]]
+    } else {
+        centre
+    }
+}
+
+impl Kernel for GaussianFilter {
+    fn name(&self) -> &'static str {
+        "filter.gaussian"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("value", Format::Vec4),
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read("bandwidth", Format::F32),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let value = ctx.read::<[f32; 4]>("value")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let bandwidth = ctx.read::<f32>("bandwidth")?;
+        let p = FilterParams {
+            axis: ctx.int_param("axis")?.clamp(0, 1) as u32,
+            // `plane_light` names the light whose plane distances are measured in; -1 = full 3-D.
+            plane_normal: match ctx.int_param("plane_light")? {
+                l if l < 0 => Vec3::ZERO,
+                _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
+            },
+            max_radius: ctx.int_param("max_radius")?.clamp(0, 1024) as i32,
+            normal_cos: ctx.f32_param("normal_cos")?,
+        };
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| {
+            filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth)
+        });
+        ctx.put("out", out)
+    }
+}

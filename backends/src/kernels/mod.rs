@@ -1,0 +1,25 @@
+//! Shared kernels: the heavy machinery every effect node reuses. Effect-specific formulas
+//! (bandwidths, rates) live with their effect in `wedge-effects`.
+
+use std::sync::Arc;
+
+use crate::kernel::KernelRegistry;
+
+pub mod compose;
+pub mod direct;
+pub mod filter;
+pub mod neighbourhood;
+pub mod primary;
+
+pub fn register(reg: &mut KernelRegistry) {
+    reg.register(Arc::new(primary::PrimaryGBuffer));
+    reg.register(Arc::new(direct::DirectLight));
+    reg.register(Arc::new(neighbourhood::FillInvalid));
+    reg.register(Arc::new(filter::GaussianFilter));
+    reg.register(Arc::new(compose::Modulate));
+}
+
+/// Small vector helpers on the plain arrays buffers hold.
+pub(crate) fn v3(a: [f32; 4]) -> glam::Vec3 {
+    glam::Vec3::new(a[0], a[1], a[2])
+}

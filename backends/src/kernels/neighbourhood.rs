@@ -1,0 +1,69 @@
+//! `neighbourhood.fill`: give pixels with no statistic of their own the average of their
+//! neighbours' within a radius (thesis Sec. 3.6: unoccluded pixels take the averages of `d1`, `d2`
+//! within a 5-pixel radius). Input `value.w > 0` marks a pixel that has its own statistic; output
+//! `w` is 1 for own, 2 for filled from neighbours, 0 for neither (such pixels are not filtered).
+
+use wedge_graph::Format;
+
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx};
+use crate::BackendError;
+
+pub struct FillInvalid;
+
+impl Kernel for FillInvalid {
+    fn name(&self) -> &'static str {
+        "neighbourhood.fill"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("value", Format::Vec4),
+            Binding::read("position", Format::Vec4),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let value = ctx.read::<[f32; 4]>("value")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let radius = ctx.int_param("radius")?.clamp(0, 64) as i32;
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| {
+            let i = (y as i32 * w + x as i32) as usize;
+            let v = value[i];
+            if v[3] > 0.0 {
+                return [v[0], v[1], v[2], 1.0];
+            }
+            if position[i][3] == 0.0 {
+                return [0.0; 4];
+            }
+            let mut sum = [0.0f32; 3];
+            let mut n = 0u32;
+            for dy in -radius..=radius {
+                for dx in -radius..=radius {
+                    if dx * dx + dy * dy > radius * radius {
+                        continue;
+                    }
+                    let (nx, ny) = (x as i32 + dx, y as i32 + dy);
+                    if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                        continue;
+                    }
+                    let u = value[(ny * w + nx) as usize];
+                    if u[3] > 0.0 {
+                        for c in 0..3 {
+                            sum[c] += u[c];
+                        }
+                        n += 1;
+                    }
+                }
+            }
+            if n == 0 {
+                [0.0; 4]
+            } else {
+                [sum[0] / n as f32, sum[1] / n as f32, sum[2] / n as f32, 2.0]
+            }
+        });
+        ctx.put("out", out)
+    }
+}

@@ -1,0 +1,73 @@
+//! `primary.gbuffer`: one primary ray through each pixel centre and the per-pixel surface data every
+//! effect reads (thesis Ch. 3–4 shade the point a pixel sees; lens and shutter sampling for Ch. 5 and
+//! App. B belong to a multi-sample primary kernel, not this one).
+
+use wedge_graph::Format;
+
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx};
+use crate::BackendError;
+
+pub struct PrimaryGBuffer;
+
+/// Per-pixel G-buffer entry.
+#[derive(Clone, Copy, Default)]
+struct Texel {
+    position: [f32; 4],
+    normal: [f32; 4],
+    albedo: [f32; 3],
+    emission: [f32; 3],
+}
+
+impl Kernel for PrimaryGBuffer {
+    fn name(&self) -> &'static str {
+        "primary.gbuffer"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Sampling
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            // xyz world position; w = 1 + object id where the pixel sees a surface, 0 for background
+            // (exact in f32 up to 2^24 objects). Filters use it to keep to one object (thesis
+            // Sec. 3.6, footnote 7).
+            Binding::write("position", Format::Vec4),
+            // xyz unit shading normal facing the camera, w = projected pixel size d (metres).
+            Binding::write("normal", Format::Vec4),
+            Binding::write("albedo", Format::Vec3),
+            Binding::write("emission", Format::Vec3),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let scene = ctx.scene;
+        let cam = &scene.camera;
+        let (w, h) = (ctx.width, ctx.height);
+        // Angle subtended by one pixel at the image centre.
+        let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / h as f32;
+        let texels = ctx.map_pixels(false, |x, y| {
+            let (o, d) = cam.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, glam::Vec2::splat(0.5));
+            let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) else {
+                return Texel::default();
+            };
+            let sp = scene.surface(&hit, o, d);
+            let n = sp.shading_normal;
+            // Projected pixel size (thesis Sec. 3.4.1: world length per pixel, foreshortening
+            // included): the footprint area is (t·θ)²/|cos θ|; d is its square root.
+            let cos = n.dot(-d).abs().max(0.05);
+            let footprint = hit.t * pixel_angle / cos.sqrt();
+            let a = scene.albedo(&sp);
+            let e = scene.emission(&sp);
+            Texel {
+                position: [sp.position.x, sp.position.y, sp.position.z, 1.0 + sp.object as f32],
+                normal: [n.x, n.y, n.z, footprint],
+                albedo: a.to_array(),
+                emission: e.to_array(),
+            }
+        });
+        Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64);
+        ctx.put("position", texels.iter().map(|t| t.position).collect::<Vec<_>>())?;
+        ctx.put("normal", texels.iter().map(|t| t.normal).collect::<Vec<_>>())?;
+        ctx.put("albedo", texels.iter().map(|t| t.albedo).collect::<Vec<_>>())?;
+        ctx.put("emission", texels.iter().map(|t| t.emission).collect::<Vec<_>>())?;
+        Ok(())
+    }
+}

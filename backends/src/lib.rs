@@ -1,0 +1,90 @@
+//! # wedge-backends
+//!
+//! Where passes run. A [`Backend`] executes a [`wedge_graph::Schedule`] against a scene: each pass is
+//! an instance of a registered [`Kernel`] with its bindings and parameter block. This crate holds
+//! - the [`Kernel`] trait and [`KernelRegistry`] (open: user crates register their own),
+//! - the counter-based sampler ([`rng`]) that both backends share bit for bit,
+//! - the shared kernels every effect reuses ([`kernels`]): primary visibility, light sampling,
+//!   neighbourhood fill, the separable world-space Gaussian filter, compose,
+//! - the CPU backend ([`cpu::CpuBackend`], rayon), which pools buffers by lifetime.
+
+pub mod buffer;
+pub mod cpu;
+pub mod kernel;
+pub mod kernels;
+pub mod rng;
+
+use std::collections::BTreeMap;
+
+pub use buffer::{BufferData, Texel};
+pub use kernel::{
+    Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Silent,
+};
+use wedge_graph::Schedule;
+use wedge_scene::Scene;
+
+#[derive(Debug, thiserror::Error)]
+pub enum BackendError {
+    #[error("pass `{pass}`: {message}")]
+    Kernel { pass: String, message: String },
+    #[error("pass `{pass}` runs kernel `{kernel}`, which is not registered; registered kernels: {known}")]
+    UnknownKernel { pass: String, kernel: String, known: String },
+    #[error("pass `{pass}`: binding `{binding}` {message}")]
+    Binding { pass: String, binding: String, message: String },
+    #[error("{0}")]
+    Other(String),
+}
+
+/// What a run needs besides the schedule.
+pub struct Job<'a> {
+    pub schedule: &'a Schedule,
+    pub scene: &'a Scene,
+    pub kernels: &'a KernelRegistry,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub progress: &'a dyn Progress,
+}
+
+/// Time spent in one pass.
+#[derive(Clone, Debug)]
+pub struct PassTiming {
+    pub pass: String,
+    pub kernel: String,
+    pub class: KernelClass,
+    pub seconds: f64,
+}
+
+/// What a run hands back: the buffers bound to sink inputs, per-pass times and counters.
+#[derive(Debug)]
+pub struct RunResult {
+    /// `(sink node, input port)` → contents.
+    pub outputs: BTreeMap<(String, String), BufferData>,
+    pub timings: Vec<PassTiming>,
+    pub rays: RayCounts,
+    /// Physical buffers allocated (after pooling by lifetime).
+    pub allocations: usize,
+}
+
+impl RunResult {
+    /// Output bound to input `port` of the (first) sink, whatever the sink node is called.
+    pub fn output(&self, port: &str) -> Option<&BufferData> {
+        self.outputs.iter().find(|((_, p), _)| p == port).map(|(_, b)| b)
+    }
+    pub fn seconds(&self, class: KernelClass) -> f64 {
+        self.timings.iter().filter(|t| t.class == class).map(|t| t.seconds).sum()
+    }
+    pub fn total_seconds(&self) -> f64 {
+        self.timings.iter().map(|t| t.seconds).sum()
+    }
+}
+
+pub trait Backend {
+    fn name(&self) -> &'static str;
+    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError>;
+}
+
+/// wedge's own shared kernels.
+pub fn register_shared_kernels(reg: &mut KernelRegistry) {
+    kernels::register(reg);
+}

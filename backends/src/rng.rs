@@ -1,0 +1,182 @@
+//! Counter-based randomness: every random number is a pure function of (seed, pixel, sample index,
+//! dimension), built from 32-bit integer hashing only, so the WGSL mirror (`shaders/rng.wgsl`)
+//! reproduces it bit for bit and no RNG state exists anywhere.
+//!
+//! Stratification uses Kensler's correlated multi-jittered sampling (Pixar TM 13-01, 2013): a pure
+//! function of (sample index, count, pattern) that stratifies any count `n` in 2-D and in each 1-D
+//! projection — which is what adaptive per-pixel counts need (a 3×3 grid for the first pass is the
+//! `n = 9` case).
+
+/// PCG-style 32-bit hash (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020).
+#[inline]
+pub fn pcg_hash(v: u32) -> u32 {
+    let state = v.wrapping_mul(747796405).wrapping_add(2891336453);
+    let word = ((state >> ((state >> 28).wrapping_add(4))) ^ state).wrapping_mul(277803737);
+    (word >> 22) ^ word
+}
+
+/// Hash of four words, chained so that each word changes every bit of the result.
+#[inline]
+pub fn hash4(a: u32, b: u32, c: u32, d: u32) -> u32 {
+    let mut h = pcg_hash(a);
+    h = pcg_hash(h ^ b);
+    h = pcg_hash(h ^ c);
+    pcg_hash(h ^ d)
+}
+
+/// Uniform float in [0, 1) from the top 24 bits (exactly representable, identical in WGSL).
+#[inline]
+pub fn to_unit(h: u32) -> f32 {
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Named sampling dimensions, so different estimators never reuse a dimension by accident.
+/// A `stream` separates passes that sample the same dimension (first pass vs adaptive pass).
+pub mod dim {
+    pub const PIXEL: u32 = 0;
+    pub const LENS: u32 = 2;
+    pub const TIME: u32 = 4;
+    pub const LIGHT: u32 = 8;
+    pub const LIGHT_SELECT: u32 = 10;
+    pub const BSDF: u32 = 12;
+    /// Each further bounce shifts by this much.
+    pub const BOUNCE_STRIDE: u32 = 16;
+}
+
+/// Identifies one pixel's random sequence in one stream (pass) of one render.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelRng {
+    key: u32,
+}
+
+impl PixelRng {
+    pub fn new(seed: u32, pixel: u32, stream: u32) -> Self {
+        PixelRng { key: hash4(seed, pixel, stream, 0x9e37_79b9) }
+    }
+    /// Independent uniform number for (sample, dimension).
+    #[inline]
+    pub fn uniform(&self, sample: u32, dimension: u32) -> f32 {
+        to_unit(hash4(self.key, sample, dimension, 0x85eb_ca6b))
+    }
+    #[inline]
+    pub fn uniform2(&self, sample: u32, dimension: u32) -> [f32; 2] {
+        [self.uniform(sample, dimension), self.uniform(sample, dimension + 1)]
+    }
+    /// Sample `s` of a stratified 2-D pattern of `n` samples for `dimension` (CMJ).
+    #[inline]
+    pub fn stratified2(&self, s: u32, n: u32, dimension: u32) -> [f32; 2] {
+        cmj(s, n, hash4(self.key, dimension, 0x68bc_21eb, 0x02e5_be93))
+    }
+}
+
+/// Kensler's `permute`: a bijection on [0, l) chosen by `p`, by cycle walking over the next power of two.
+#[inline]
+pub fn permute(mut i: u32, l: u32, p: u32) -> u32 {
+    let mut w = l.wrapping_sub(1);
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= p;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= p >> 16;
+        i ^= (i & w) >> 4;
+        i ^= p >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= p >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | (p >> 27));
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < l {
+            break;
+        }
+    }
+    (i.wrapping_add(p)) % l
+}
+
+/// Kensler's `randfloat`: a hashed float in [0, 1) for index `i` under pattern `p`.
+#[inline]
+fn randfloat(mut i: u32, p: u32) -> f32 {
+    i ^= p;
+    i ^= i >> 17;
+    i ^= i >> 10;
+    i = i.wrapping_mul(0xb365_34e5);
+    i ^= i >> 12;
+    i ^= i >> 21;
+    i = i.wrapping_mul(0x93fc_4795);
+    i ^= 0xdf6e_307f;
+    i ^= i >> 17;
+    i = i.wrapping_mul(1 | (p >> 18));
+    to_unit(i)
+}
+
+/// Correlated multi-jittered sample `s` of `n` (Kensler 2013, Listing 6 with aspect 1): stratified
+/// on an m×k grid (m = ceil(sqrt n), k = ceil(n/m)) and in both 1-D projections.
+#[inline]
+pub fn cmj(s: u32, n: u32, p: u32) -> [f32; 2] {
+    let n = n.max(1);
+    let m = (n as f32).sqrt().ceil() as u32;
+    let m = if (m - 1) * (m - 1) >= n { m - 1 } else { m }; // guard sqrt rounding
+    let k = n.div_ceil(m);
+    let s = permute(s, n, p.wrapping_mul(0x5163_3e2d));
+    let sx = permute(s % m, m, p.wrapping_mul(0x68bc_21eb));
+    let sy = permute(s / m, k, p.wrapping_mul(0x02e5_be93));
+    let jx = randfloat(s, p.wrapping_mul(0x967a_889b));
+    let jy = randfloat(s, p.wrapping_mul(0x368c_c8b7));
+    let x = ((s % m) as f32 + (sy as f32 + jx) / k as f32) / m as f32;
+    let y = ((s / m) as f32 + (sx as f32 + jy) / m as f32) / k as f32;
+    // f32 rounding may land exactly on 1.0; keep the half-open interval.
+    [x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS)]
+}
+
+const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permute_is_a_bijection() {
+        for l in [1u32, 2, 3, 9, 10, 31, 64, 100] {
+            let mut seen = vec![false; l as usize];
+            for i in 0..l {
+                let j = permute(i, l, 0x1234_5678);
+                assert!(j < l);
+                assert!(!seen[j as usize]);
+                seen[j as usize] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn cmj_nine_is_a_three_by_three_stratification() {
+        let mut cells = [0u32; 9];
+        let mut rows = [0u32; 9];
+        for s in 0..9 {
+            let [x, y] = cmj(s, 9, 77);
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+            cells[(x * 3.0) as usize + 3 * (y * 3.0) as usize] += 1;
+            rows[(x * 9.0) as usize] += 1;
+        }
+        assert_eq!(cells, [1; 9]);
+        assert_eq!(rows, [1; 9], "1-D projection stratified into n strata");
+    }
+
+    #[test]
+    fn uniform_is_uniform() {
+        let r = PixelRng::new(1, 2, 3);
+        let n = 100_000;
+        let mean: f64 = (0..n).map(|i| r.uniform(i, 0) as f64).sum::<f64>() / n as f64;
+        assert!((mean - 0.5).abs() < 0.005, "{mean}");
+    }
+}

@@ -1,0 +1,42 @@
+//! # wedge-effects
+//!
+//! Effect nodes, one file each. An effect is three things (see `ARCHITECTURE.md`): what to sample,
+//! its bandwidth and rate formulas (pure per-pixel functions, unit-tested against the thesis), and the
+//! buffers it reads and writes. The heavy machinery — sampling, neighbourhood fill, the separable
+//! world-space Gaussian, compose — is shared from `wedge-backends`.
+//!
+//! - [`primary`]: `Primary`, the G-buffer every effect reads.
+//! - [`shadows`]: `SoftShadows`, axis-aligned filtering of area-light soft shadows (thesis Ch. 3).
+//! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — references and baselines.
+//! - [`output`]: `Output`, the sink whose inputs a run hands back.
+//!
+//! A user crate adds its own node the same way: implement [`wedge_graph::NodeKind`] (and any
+//! [`wedge_backends::Kernel`] it needs) and register both next to [`register`]'s.
+
+use std::sync::Arc;
+
+use wedge_backends::KernelRegistry;
+use wedge_graph::NodeRegistry;
+
+pub mod montecarlo;
+pub mod output;
+pub mod primary;
+pub mod shadows;
+
+/// Register wedge's node kinds and every kernel they use (shared and effect-specific).
+pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
+    wedge_backends::register_shared_kernels(kernels);
+    nodes.register(Arc::new(primary::Primary));
+    nodes.register(Arc::new(output::Output));
+    nodes.register(Arc::new(montecarlo::MonteCarlo));
+    nodes.register(Arc::new(shadows::SoftShadows));
+    shadows::register_kernels(kernels);
+}
+
+/// The registries with everything wedge ships.
+pub fn builtin() -> (NodeRegistry, KernelRegistry) {
+    let mut n = NodeRegistry::new();
+    let mut k = KernelRegistry::new();
+    register(&mut n, &mut k);
+    (n, k)
+}

@@ -1,0 +1,348 @@
+//! `SoftShadows`: axis-aligned filtering of area-light soft shadows (Mehta thesis Ch. 3,
+//! `seeds/000_956e982470d7e5bf.txt`; `EQUATIONS.md` "SoftShadows").
+//!
+//! Passes: `sample_initial` (9 stratified light samples: first estimate and `d1, d2_min, d2_max`)
+//! → `fill` (unoccluded pixels take their neighbours' averages within 5 pixels, Sec. 3.6)
+//! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21) → `sample_adaptive` (up to n, reusing the
+//! first 9) → `filter_x` → `filter_y` (separable world-space Gaussian in the light's plane, eq. 3.12,
+//! 10° normal test) → `compose` (albedo after filtering). Pixels with no occluder statistics, own or
+//! neighbours', are not filtered and keep their first-pass samples.
+
+use std::sync::Arc;
+
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
+
+/// Slopes of the occlusion spectrum's double wedge (thesis eq. 3.4):
+/// `s_min = d1/d2_max − 1`, `s_max = d1/d2_min − 1`.
+pub fn slopes(d1: f32, d2_min: f32, d2_max: f32) -> (f32, f32) {
+    (d1 / d2_max - 1.0, d1 / d2_min - 1.0)
+}
+
+/// Filter std-dev β in metres (thesis eq. 3.13):
+/// `β = (1/k)(1/μ) max[σ s_min, 1/Ω_x^max]` with `Ω_x^max = α/d` (eq. 3.6, conservative choice).
+/// As μ → ∞, β → 0: the filter shrinks to the pixel itself and the result converges to Monte Carlo.
+pub fn filter_beta(sigma: f32, s_min: f32, d: f32, mu: f32, alpha: f32, k: f32) -> f32 {
+    (sigma * s_min).max(d / alpha) / (k * mu)
+}
+
+/// Samples per pixel (thesis eq. 3.21), including the initial ones:
+/// `n(μ) = 4(1 + μ s_max/s_min)² (μ (2/s_min) sqrt(A_p/A_l) + α/(1 + s_min))²`,
+/// with `A_p = d²` and `A_l = (2σ)²` (Sec. 3.5.1). Returns `f32::INFINITY` when `s_min ≤ 0`
+/// (occluder on the receiver), which the caller clamps to the maximum count.
+pub fn samples_per_pixel(s_min: f32, s_max: f32, d: f32, sigma: f32, mu: f32, alpha: f32) -> f32 {
+    if s_min <= 0.0 || !s_min.is_finite() {
+        return f32::INFINITY;
+    }
+    let a_p = d * d;
+    let a_l = (2.0 * sigma) * (2.0 * sigma);
+    let first = 1.0 + mu * s_max / s_min;
+    let second = mu * (2.0 / s_min) * (a_p / a_l).sqrt() + alpha / (1.0 + s_min);
+    4.0 * first * first * second * second
+}
+
+pub struct SoftShadows;
+
+impl NodeKind for SoftShadows {
+    fn kind(&self) -> &'static str {
+        "SoftShadows"
+    }
+    fn doc(&self) -> &'static str {
+        "Axis-aligned filtering of area-light soft shadows with adaptive sampling (Mehta thesis Ch. 3)"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("position", Format::Vec4, "from Primary"),
+            PortDecl::new("normal", Format::Vec4, "from Primary (w = pixel footprint d)"),
+            PortDecl::optional("albedo", Format::Vec3, "texture, multiplied after filtering; white if absent"),
+            PortDecl::optional("emission", Format::Vec3, "added after filtering"),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "filtered direct light × albedo + emission"),
+            PortDecl::new("unfiltered", Format::Vec3, "the adaptive-sampled estimate before filtering"),
+            PortDecl::new("filter_width", Format::F32, "filter std-dev β in pixels (0 = not filtered)"),
+            PortDecl::new("rays_per_pixel", Format::U32, "shadow rays per pixel, both passes (eq. 3.21)"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::positive("mu", 2.0, 1e6, "μ: scales the filter bandwidth; larger = narrower filter, more rays (eq. 3.21)"),
+            ParamDecl::positive("alpha", 1.0, 1.0, "α = Ω_g^max/Ω_pix^max ∈ (0, 1] (eq. 3.5); 1 is conservative"),
+            ParamDecl::positive("k", 3.0, 100.0, "k: Gaussian spread correction in eq. 3.13"),
+            ParamDecl::int("light", 0, 0, 1 << 16, "index of the area light whose shadows this node filters"),
+            ParamDecl::int("initial_rays", 9, 1, 4096, "first-pass light samples (thesis: 9, 3×3 stratified)"),
+            ParamDecl::int("max_rays", 400, 1, 1 << 20, "cap on rays per pixel from eq. 3.21"),
+            ParamDecl::int("fill_radius", 5, 0, 64, "radius (pixels) for averaging d1, d2 into unoccluded pixels"),
+            ParamDecl::int("max_radius", 64, 0, 1024, "cap on the filter half-width in pixels"),
+            ParamDecl::float("normal_angle_deg", 10.0, 0.0, 180.0, "neighbours whose normals differ by more are not used"),
+            ParamDecl::choice(
+                "form_factor",
+                "exact",
+                &["exact", "light_centre"],
+                "per-sample geometry term (unbiased), or the thesis's light-centre approximation r(x)",
+            ),
+        ]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let position = ctx.required("position")?;
+        let normal = ctx.required("normal")?;
+        let (albedo, emission) = (ctx.input("albedo"), ctx.input("emission"));
+        let light = ctx.param("light").clone();
+        let initial_rays = ctx.param("initial_rays").clone();
+        let fill_radius = ctx.param("fill_radius").clone();
+        let max_radius = ctx.param("max_radius").clone();
+        let normal_cos = match ctx.param("normal_angle_deg") {
+            ParamValue::Float(a) => a.to_radians().cos(),
+            _ => 10f64.to_radians().cos(),
+        };
+
+        let initial = ctx.buffer("initial", Format::Vec4);
+        let occlusion = ctx.buffer("occlusion", Format::Vec4);
+        ctx.pass("sample_initial", "direct.light")
+            .read("position", position)
+            .read("normal", normal)
+            .write("estimate", initial)
+            .write("occlusion", occlusion)
+            .param("count", initial_rays)
+            .param("light", light.clone())
+            .param("sampling", ParamValue::Str("stratified".into()))
+            .node_params(&["form_factor"])
+            .int("stream", 0)
+            .finish();
+
+        let filled = ctx.buffer("occlusion_filled", Format::Vec4);
+        ctx.pass("fill", "neighbourhood.fill")
+            .read("value", occlusion)
+            .read("position", position)
+            .write("out", filled)
+            .param("radius", fill_radius)
+            .finish();
+
+        let beta = ctx.buffer("beta", Format::F32);
+        let width_px = ctx.buffer("filter_width", Format::F32);
+        ctx.pass("bandwidth", "shadows.bandwidth")
+            .read("occlusion", filled)
+            .read("normal", normal)
+            .write("beta", beta)
+            .write("filter_width", width_px)
+            .node_params(&["mu", "alpha", "k", "light"])
+            .finish();
+
+        let rays = ctx.buffer("rays_per_pixel", Format::U32);
+        ctx.pass("rates", "shadows.rates")
+            .read("occlusion", filled)
+            .read("normal", normal)
+            .write("rays_per_pixel", rays)
+            .node_params(&["mu", "alpha", "light", "initial_rays", "max_rays"])
+            .finish();
+
+        let noisy = ctx.buffer("noisy", Format::Vec4);
+        ctx.pass("sample_adaptive", "direct.light")
+            .read("position", position)
+            .read("normal", normal)
+            .read("rays_per_pixel", rays)
+            .read("previous", initial)
+            .write("estimate", noisy)
+            .int("count", 0)
+            .param("light", light.clone())
+            .param("sampling", ParamValue::Str("stratified".into()))
+            .node_params(&["form_factor"])
+            .int("stream", 1)
+            .finish();
+
+        let mut filtered = noisy;
+        for (axis, name) in [(0, "filter_x"), (1, "filter_y")] {
+            let out = ctx.buffer(name, Format::Vec4);
+            ctx.pass(name, "filter.gaussian")
+                .read("value", filtered)
+                .read("position", position)
+                .read("normal", normal)
+                .read("bandwidth", beta)
+                .write("out", out)
+                .int("axis", axis)
+                .param("plane_light", light.clone())
+                .param("max_radius", max_radius.clone())
+                .float("normal_cos", normal_cos)
+                .finish();
+            filtered = out;
+        }
+
+        for (pass, value, port) in [("compose", filtered, "radiance"), ("compose_unfiltered", noisy, "unfiltered")] {
+            let out = ctx.buffer(port, Format::Vec3);
+            ctx.pass(pass, "compose.modulate")
+                .read("value", value)
+                .read_opt("albedo", albedo)
+                .read_opt("emission", emission)
+                .write("out", out)
+                .finish();
+            ctx.output(port, out);
+        }
+        ctx.output("filter_width", width_px);
+        ctx.output("rays_per_pixel", rays);
+        Ok(())
+    }
+}
+
+/// Per-pixel inputs of the formulas, read from the filled occluder statistics.
+struct PixelStats {
+    filterable: bool,
+    s_min: f32,
+    s_max: f32,
+    d: f32,
+}
+
+fn pixel_stats(occ: [f32; 4], normal: [f32; 4]) -> PixelStats {
+    let (s_min, s_max) = slopes(occ[0], occ[1], occ[2]);
+    PixelStats { filterable: occ[3] > 0.0, s_min, s_max, d: normal[3] }
+}
+
+/// `shadows.bandwidth`: β (metres) and β in pixels for the heatmap.
+pub struct Bandwidth;
+
+impl Kernel for Bandwidth {
+    fn name(&self) -> &'static str {
+        "shadows.bandwidth"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("occlusion", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::write("beta", Format::F32),
+            Binding::write("filter_width", Format::F32),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let occ = ctx.read::<[f32; 4]>("occlusion")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let (mu, alpha, k) = (ctx.f32_param("mu")?, ctx.f32_param("alpha")?, ctx.f32_param("k")?);
+        let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
+        let beta: Vec<f32> = (0..ctx.pixels())
+            .map(|i| {
+                let p = pixel_stats(occ[i], normal[i]);
+                if p.filterable {
+                    filter_beta(sigma, p.s_min, p.d, mu, alpha, k)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let px = beta.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
+        ctx.put("beta", beta)?;
+        ctx.put("filter_width", px)
+    }
+}
+
+/// `shadows.rates`: total shadow rays per pixel from eq. 3.21, clamped to `[initial, max]`.
+pub struct Rates;
+
+impl Kernel for Rates {
+    fn name(&self) -> &'static str {
+        "shadows.rates"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("occlusion", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::write("rays_per_pixel", Format::U32),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let occ = ctx.read::<[f32; 4]>("occlusion")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let (mu, alpha) = (ctx.f32_param("mu")?, ctx.f32_param("alpha")?);
+        let initial = ctx.int_param("initial_rays")?.max(1) as u32;
+        let max = (ctx.int_param("max_rays")?.max(1) as u32).max(initial);
+        let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
+        let n: Vec<u32> = (0..ctx.pixels())
+            .map(|i| {
+                let p = pixel_stats(occ[i], normal[i]);
+                if !p.filterable {
+                    return initial;
+                }
+                let n = samples_per_pixel(p.s_min, p.s_max, p.d, sigma, mu, alpha);
+                if n.is_finite() {
+                    (n.ceil() as u32).clamp(initial, max)
+                } else {
+                    max
+                }
+            })
+            .collect();
+        ctx.put("rays_per_pixel", n)
+    }
+}
+
+pub fn register_kernels(reg: &mut KernelRegistry) {
+    reg.register(Arc::new(Bandwidth));
+    reg.register(Arc::new(Rates));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slopes_eq_3_4() {
+        // d1 = 3, occluders at 1 and 2 from the light: s_min = 3/2 − 1, s_max = 3/1 − 1.
+        let (s_min, s_max) = slopes(3.0, 1.0, 2.0);
+        assert!((s_min - 0.5).abs() < 1e-6);
+        assert!((s_max - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn beta_eq_3_13_by_hand() {
+        // σ = 0.3, s_min = 0.5, d = 0.01, μ = 2, α = 1, k = 3: max(0.15, 0.01)/6 = 0.025.
+        let b = filter_beta(0.3, 0.5, 0.01, 2.0, 1.0, 3.0);
+        assert!((b - 0.025).abs() < 1e-7, "{b}");
+        // Pixel limit wins when σ s_min < d/α: max(0.003, 0.01)/(3·1) = 0.0033333.
+        let b = filter_beta(0.3, 0.01, 0.01, 1.0, 1.0, 3.0);
+        assert!((b - 0.01 / 3.0).abs() < 1e-7, "{b}");
+        // α < 1 raises the pixel limit: d/α = 0.02.
+        let b = filter_beta(0.0, 0.0, 0.01, 1.0, 0.5, 1.0);
+        assert!((b - 0.02).abs() < 1e-7);
+    }
+
+    #[test]
+    fn beta_shrinks_to_a_pixel_as_mu_grows() {
+        // β scales as 1/μ; at μ = 1e6 it is far below a pixel (d = 0.01), so the Gaussian's weight
+        // on the nearest neighbour, exp(−d²/(2β²)), underflows to 0: a one-pixel filter.
+        let b = filter_beta(0.3, 0.5, 0.01, 1e6, 1.0, 3.0);
+        assert!(b < 1e-6);
+        assert_eq!((-(0.01f32 * 0.01) / (2.0 * b * b)).exp(), 0.0);
+        assert!((filter_beta(0.3, 0.5, 0.01, 4.0, 1.0, 3.0) * 2.0 - filter_beta(0.3, 0.5, 0.01, 2.0, 1.0, 3.0)).abs() < 1e-7);
+    }
+
+    #[test]
+    fn samples_eq_3_21_by_hand() {
+        // s_min = 0.5, s_max = 2, d = 0.01, σ = 0.1 (A_l = 0.04, sqrt(A_p/A_l) = 0.05), μ = 2, α = 1:
+        // 4 (1 + 2·4)² (2·4·0.05 + 1/1.5)² = 4 · 81 · (0.4 + 0.666667)² = 368.64.
+        let n = samples_per_pixel(0.5, 2.0, 0.01, 0.1, 2.0, 1.0);
+        assert!((n - 368.64).abs() < 0.01, "{n}");
+        // μ = 1: 4 (1 + 4)² (0.2 + 0.666667)² = 100 · 0.751111 = 75.1111.
+        let n = samples_per_pixel(0.5, 2.0, 0.01, 0.1, 1.0, 1.0);
+        assert!((n - 75.1111).abs() < 0.001, "{n}");
+        // A single occluder depth (s_max = s_min) and a tiny pixel: 4·(1+μ)²·(α/(1+s))² → μ = 1: 16/2.25.
+        let n = samples_per_pixel(0.5, 0.5, 0.0, 0.1, 1.0, 1.0);
+        assert!((n - 16.0 / 2.25).abs() < 1e-4, "{n}");
+        // Contact shadows (s_min → 0) need unbounded samples: the caller clamps.
+        assert!(samples_per_pixel(0.0, 2.0, 0.01, 0.1, 2.0, 1.0).is_infinite());
+    }
+
+    #[test]
+    fn samples_grow_quadratically_in_mu() {
+        // Fig. 3.5(a): for large μ, n ∝ μ⁴ asymptotically only through both factors; check monotone growth.
+        let mut last = 0.0;
+        for mu in [0.5, 1.0, 2.0, 4.0, 8.0] {
+            let n = samples_per_pixel(0.5, 2.0, 0.01, 0.1, mu, 1.0);
+            assert!(n > last);
+            last = n;
+        }
+    }
+}

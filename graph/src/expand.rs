@@ -1,0 +1,207 @@
+//! Expansion of validated effect nodes into passes (kajiya-rg style: a small fluent builder).
+//!
+//! Every buffer is written by exactly one pass (single assignment), so the pass DAG follows from the
+//! buffers alone: an edge runs from a buffer's writer to each of its readers. A node sees its inputs as
+//! buffer handles resolved from the wiring, creates node-local buffers by writing them, and binds each
+//! declared output port to one of its buffers.
+
+use std::collections::BTreeMap;
+
+use crate::decl::{Format, ParamValue};
+use crate::GraphError;
+
+/// Handle to a buffer in an [`Expansion`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BufferId(pub usize);
+
+#[derive(Clone, Debug)]
+pub struct BufferInfo {
+    /// `<node>.<name>`, unique in the pipeline.
+    pub name: String,
+    pub format: Format,
+}
+
+/// One kernel invocation with its bindings and parameter block.
+#[derive(Clone, Debug)]
+pub struct Pass {
+    /// `<node>.<pass>`, unique in the pipeline.
+    pub name: String,
+    pub node: String,
+    /// Registered kernel name, e.g. `filter.gaussian_x`.
+    pub kernel: String,
+    /// Binding name (as the kernel declares it) → buffer.
+    pub reads: Vec<(String, BufferId)>,
+    pub writes: Vec<(String, BufferId)>,
+    pub params: BTreeMap<String, ParamValue>,
+}
+
+impl Pass {
+    pub fn read(&self, binding: &str) -> Option<BufferId> {
+        self.reads
+            .iter()
+            .find(|(b, _)| b == binding)
+            .map(|(_, id)| *id)
+    }
+    pub fn write(&self, binding: &str) -> Option<BufferId> {
+        self.writes
+            .iter()
+            .find(|(b, _)| b == binding)
+            .map(|(_, id)| *id)
+    }
+}
+
+/// All passes and buffers of a pipeline, before culling and scheduling.
+#[derive(Clone, Debug, Default)]
+pub struct Expansion {
+    pub buffers: Vec<BufferInfo>,
+    pub passes: Vec<Pass>,
+    /// `(node, port)` → buffer, for every output port bound by its node.
+    pub outputs: BTreeMap<(String, String), BufferId>,
+    /// Sink inputs: `(sink node, input port)` → buffer. These are the roots of culling and what a
+    /// run hands back.
+    pub sink_inputs: Vec<(String, String, BufferId)>,
+}
+
+impl Expansion {
+    pub fn buffer(&self, id: BufferId) -> &BufferInfo {
+        &self.buffers[id.0]
+    }
+    pub fn find_buffer(&self, name: &str) -> Option<BufferId> {
+        self.buffers
+            .iter()
+            .position(|b| b.name == name)
+            .map(BufferId)
+    }
+}
+
+/// What [`crate::NodeKind::expand`] sees of the pipeline: its own name, parameters (validated,
+/// defaults filled in), the buffers wired to its inputs, and a builder for its passes.
+pub struct ExpandCtx<'a> {
+    pub(crate) node: &'a str,
+    pub(crate) params: &'a BTreeMap<String, ParamValue>,
+    pub(crate) inputs: &'a BTreeMap<String, BufferId>,
+    pub(crate) expansion: &'a mut Expansion,
+}
+
+impl<'a> ExpandCtx<'a> {
+    /// Build a context by hand (tests, tools). Normally [`crate::expand()`] makes these.
+    pub fn new(
+        node: &'a str,
+        params: &'a BTreeMap<String, ParamValue>,
+        inputs: &'a BTreeMap<String, BufferId>,
+        expansion: &'a mut Expansion,
+    ) -> Self {
+        ExpandCtx {
+            node,
+            params,
+            inputs,
+            expansion,
+        }
+    }
+    pub fn node(&self) -> &str {
+        self.node
+    }
+    /// The buffer wired to an input port; `None` for an unconnected optional input.
+    pub fn input(&self, port: &str) -> Option<BufferId> {
+        self.inputs.get(port).copied()
+    }
+    /// The buffer wired to a required input port (validation guarantees it is there).
+    pub fn required(&self, port: &str) -> Result<BufferId, GraphError> {
+        self.input(port).ok_or_else(|| GraphError::Expand {
+            node: self.node.to_string(),
+            message: format!("input `{port}` is not connected"),
+        })
+    }
+    pub fn param(&self, name: &str) -> &ParamValue {
+        self.params.get(name).unwrap_or_else(|| {
+            panic!(
+                "node `{}` reads undeclared parameter `{name}`: declare it in params()",
+                self.node
+            )
+        })
+    }
+    pub fn params(&self) -> &BTreeMap<String, ParamValue> {
+        self.params
+    }
+    pub fn format_of(&self, id: BufferId) -> Format {
+        self.expansion.buffers[id.0].format
+    }
+    /// A node-local buffer, named `<node>.<name>`.
+    pub fn buffer(&mut self, name: &str, format: Format) -> BufferId {
+        let full = format!("{}.{name}", self.node);
+        self.expansion
+            .buffers
+            .push(BufferInfo { name: full, format });
+        BufferId(self.expansion.buffers.len() - 1)
+    }
+    /// Start a pass named `<node>.<name>` running `kernel`.
+    pub fn pass(&mut self, name: &str, kernel: &str) -> PassBuilder<'_, 'a> {
+        PassBuilder {
+            ctx: self,
+            pass: Pass {
+                name: String::new(),
+                node: String::new(),
+                kernel: kernel.to_string(),
+                reads: Vec::new(),
+                writes: Vec::new(),
+                params: BTreeMap::new(),
+            },
+            local_name: name.to_string(),
+        }
+    }
+    /// Bind a declared output port to a buffer.
+    pub fn output(&mut self, port: &str, id: BufferId) {
+        self.expansion
+            .outputs
+            .insert((self.node.to_string(), port.to_string()), id);
+    }
+}
+
+/// Fluent builder for one pass; `finish()` adds it.
+pub struct PassBuilder<'c, 'a> {
+    ctx: &'c mut ExpandCtx<'a>,
+    pass: Pass,
+    local_name: String,
+}
+
+impl PassBuilder<'_, '_> {
+    pub fn read(mut self, binding: &str, id: BufferId) -> Self {
+        self.pass.reads.push((binding.to_string(), id));
+        self
+    }
+    /// Read an optional input if it is connected.
+    pub fn read_opt(self, binding: &str, id: Option<BufferId>) -> Self {
+        match id {
+            Some(id) => self.read(binding, id),
+            None => self,
+        }
+    }
+    /// Write a buffer made by [`ExpandCtx::buffer`]. Each buffer has exactly one writer.
+    pub fn write(mut self, binding: &str, id: BufferId) -> Self {
+        self.pass.writes.push((binding.to_string(), id));
+        self
+    }
+    pub fn param(mut self, name: &str, value: ParamValue) -> Self {
+        self.pass.params.insert(name.to_string(), value);
+        self
+    }
+    pub fn float(self, name: &str, v: f64) -> Self {
+        self.param(name, ParamValue::Float(v))
+    }
+    pub fn int(self, name: &str, v: i64) -> Self {
+        self.param(name, ParamValue::Int(v))
+    }
+    /// Forward the node's own parameters (already validated) into the pass's parameter block.
+    pub fn node_params(mut self, names: &[&str]) -> Self {
+        for n in names {
+            let v = self.ctx.param(n).clone();
+            self.pass.params.insert((*n).to_string(), v);
+        }
+        self
+    }
+    pub fn finish(mut self) {
+        self.pass.name = format!("{}.{}", self.ctx.node, self.local_name);
+        self.pass.node = self.ctx.node.to_string();
+        self.ctx.expansion.passes.push(self.pass);
+    }
+}

@@ -1,0 +1,69 @@
+//! # wedge-graph
+//!
+//! The render graph of wedge, independent of scenes and GPUs:
+//! - [`pipeline`]: the RON pipeline schema (unknown fields rejected) with source locations;
+//! - [`decl`]: what a node kind declares (ports with formats, typed parameters with ranges) and the
+//!   [`NodeRegistry`] a user crate extends;
+//! - [`validate()`]: checks a parsed pipeline against the declarations and reports *every* problem at
+//!   once, each with file, line and column;
+//! - [`expand()`]: turns validated nodes into passes (kernel + bindings + parameter block);
+//! - [`schedule()`]: culls passes that feed no sink, orders the rest topologically (petgraph), computes
+//!   buffer lifetimes and a pool plan that lets buffers with disjoint lifetimes share storage, and
+//!   prints the schedule as a table or Graphviz.
+
+pub mod decl;
+pub mod expand;
+pub mod pipeline;
+mod schedule;
+mod source_map;
+mod validate;
+
+pub use decl::{Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
+pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
+pub use pipeline::{CameraSpec, Location, NodeSpec, Pipeline, RawParam};
+pub use schedule::{schedule, Lifetime, Schedule};
+pub use validate::{
+    expand, load_pipeline, parse_pipeline, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
+    ValidatedNode, ValidatedPipeline,
+};
+
+/// Everything that can go wrong between a pipeline file and a schedule.
+#[derive(Debug, thiserror::Error)]
+pub enum GraphError {
+    /// The file could not be read.
+    #[error("{path}: {message}")]
+    Io { path: String, message: String },
+    /// RON syntax or schema error (includes unknown fields), with ron's position.
+    #[error("{location}: {message}\n  help: {help}")]
+    Parse {
+        location: Location,
+        message: String,
+        help: String,
+    },
+    /// Every validation problem found, in file order.
+    #[error("{}", format_diagnostics(.0))]
+    Invalid(Vec<Diagnostic>),
+    /// A node kind's `expand` refused its (validated) configuration.
+    #[error("node `{node}`: {message}")]
+    Expand { node: String, message: String },
+}
+
+fn format_diagnostics(d: &[Diagnostic]) -> String {
+    let mut s = format!("{} problem(s) in the pipeline:", d.len());
+    for x in d {
+        s.push_str(&format!("\n{x}"));
+    }
+    s
+}
+
+/// Parse, validate, expand and schedule a pipeline file in one call.
+pub fn compile(
+    path: &std::path::Path,
+    registry: &NodeRegistry,
+) -> Result<(ValidatedPipeline, Schedule), GraphError> {
+    let loaded = load_pipeline(path)?;
+    let validated = validate(&loaded, registry)?;
+    let expansion = expand(&validated)?;
+    let sched = schedule(expansion)?;
+    Ok((validated, sched))
+}

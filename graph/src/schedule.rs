@@ -1,0 +1,397 @@
+//! Culling, ordering, lifetimes and the buffer pool plan.
+//!
+//! Passes form a DAG through their buffers (each buffer has exactly one writer; an edge runs from the
+//! writer to every reader). Scheduling:
+//! 1. **Cull** every pass from which no sink input is reachable: its work would be thrown away. This
+//!    is what lets a pipeline keep a debug node around at no cost.
+//! 2. **Order** the survivors topologically. Among ready passes the one added first during expansion
+//!    runs first, so the schedule is deterministic and follows the pipeline's own order.
+//! 3. **Lifetimes**: a buffer lives from the pass that writes it to the last pass that reads it (sink
+//!    inputs to the end, since the run hands them back).
+//! 4. **Pool plan**: buffers of the same format whose lifetimes do not overlap share a physical slot
+//!    (greedy interval colouring in order of first write). A buffer may reuse a slot only if the
+//!    previous occupant's last use is strictly before the buffer's first write, so a pass never reads
+//!    and writes the same storage.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashSet};
+use std::fmt::Write as _;
+
+use petgraph::graph::{DiGraph, NodeIndex};
+use petgraph::visit::{Dfs, Reversed};
+
+use crate::decl::Format;
+use crate::expand::{BufferId, BufferInfo, Expansion, Pass};
+use crate::GraphError;
+
+/// Indices into [`Schedule::passes`] of a buffer's first write and last use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Lifetime {
+    pub first: usize,
+    pub last: usize,
+}
+
+impl Lifetime {
+    pub fn overlaps(&self, other: &Lifetime) -> bool {
+        self.first <= other.last && other.first <= self.last
+    }
+}
+
+/// The passes to run, in order, and how their buffers map onto storage.
+#[derive(Clone, Debug)]
+pub struct Schedule {
+    pub passes: Vec<Pass>,
+    /// All buffers of the expansion, indexed by [`BufferId`] (culled ones included).
+    pub buffers: Vec<BufferInfo>,
+    /// Per buffer; `None` for buffers of culled passes.
+    pub lifetimes: Vec<Option<Lifetime>>,
+    /// Buffer → physical slot; `None` where the lifetime is `None`.
+    pub slots: Vec<Option<usize>>,
+    /// Format of each physical slot.
+    pub slot_formats: Vec<Format>,
+    pub sink_inputs: Vec<(String, String, BufferId)>,
+    /// Names of the culled passes, in expansion order.
+    pub culled: Vec<String>,
+}
+
+/// Cull, order, and plan the storage of an expansion.
+pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
+    let Expansion {
+        buffers,
+        passes,
+        sink_inputs,
+        ..
+    } = e;
+    let nb = buffers.len();
+
+    // Writer of every buffer (expansion guarantees at most one).
+    let mut writer: Vec<Option<usize>> = vec![None; nb];
+    for (pi, p) in passes.iter().enumerate() {
+        for (_, id) in &p.writes {
+            if id.0 >= nb {
+                return Err(GraphError::Expand {
+                    node: p.node.clone(),
+                    message: format!(
+                        "pass `{}` writes buffer #{} that does not exist",
+                        p.name, id.0
+                    ),
+                });
+            }
+            writer[id.0] = Some(pi);
+        }
+    }
+
+    // Pass DAG: writer → reader, per buffer read.
+    let mut g: DiGraph<usize, BufferId> = DiGraph::new();
+    let idx: Vec<NodeIndex> = (0..passes.len()).map(|i| g.add_node(i)).collect();
+    for (pi, p) in passes.iter().enumerate() {
+        for (binding, id) in &p.reads {
+            let w =
+                (id.0 < nb)
+                    .then(|| writer[id.0])
+                    .flatten()
+                    .ok_or_else(|| GraphError::Expand {
+                        node: p.node.clone(),
+                        message: format!(
+                            "pass `{}` reads `{}` (binding `{binding}`), which no pass writes",
+                            p.name,
+                            buffers
+                                .get(id.0)
+                                .map_or("<no such buffer>", |b| b.name.as_str())
+                        ),
+                    })?;
+            g.add_edge(idx[w], idx[pi], *id);
+        }
+    }
+
+    // Culling: keep the passes from which a sink input is reachable, i.e. those reachable from the
+    // sink inputs' writers when walking edges backwards.
+    let mut live = vec![false; passes.len()];
+    let rev = Reversed(&g);
+    for (node, port, id) in &sink_inputs {
+        let w = (id.0 < nb)
+            .then(|| writer[id.0])
+            .flatten()
+            .ok_or_else(|| GraphError::Expand {
+                node: node.clone(),
+                message: format!("sink input `{port}` is a buffer that no pass writes"),
+            })?;
+        if live[w] {
+            continue;
+        }
+        let mut dfs = Dfs::new(rev, idx[w]);
+        while let Some(n) = dfs.next(rev) {
+            live[n.index()] = true;
+        }
+    }
+    let culled: Vec<String> = passes
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !live[*i])
+        .map(|(_, p)| p.name.clone())
+        .collect();
+
+    // Deterministic topological order of the live passes (Kahn; ready set ordered by expansion index).
+    let mut indeg = vec![0usize; passes.len()];
+    for e in g.raw_edges() {
+        if live[e.source().index()] && live[e.target().index()] {
+            indeg[e.target().index()] += 1;
+        }
+    }
+    let mut ready: BinaryHeap<Reverse<usize>> = (0..passes.len())
+        .filter(|&i| live[i] && indeg[i] == 0)
+        .map(Reverse)
+        .collect();
+    let mut order: Vec<usize> = Vec::new();
+    while let Some(Reverse(i)) = ready.pop() {
+        order.push(i);
+        for n in g.neighbors(idx[i]) {
+            let t = n.index();
+            // `neighbors` yields one entry per edge, matching the per-edge in-degree count.
+            indeg[t] -= 1;
+            if indeg[t] == 0 {
+                ready.push(Reverse(t));
+            }
+        }
+    }
+    let live_count = live.iter().filter(|&&l| l).count();
+    if order.len() != live_count {
+        let stuck = (0..passes.len())
+            .find(|&i| live[i] && indeg[i] > 0)
+            .unwrap();
+        return Err(GraphError::Expand {
+            node: passes[stuck].node.clone(),
+            message: format!("pass `{}` is part of a cycle of passes", passes[stuck].name),
+        });
+    }
+    let mut position = vec![usize::MAX; passes.len()];
+    for (pos, &pi) in order.iter().enumerate() {
+        position[pi] = pos;
+    }
+
+    // Lifetimes.
+    let mut lifetimes: Vec<Option<Lifetime>> = vec![None; nb];
+    for (b, w) in writer.iter().enumerate() {
+        if let Some(w) = *w {
+            if live[w] {
+                lifetimes[b] = Some(Lifetime {
+                    first: position[w],
+                    last: position[w],
+                });
+            }
+        }
+    }
+    for &pi in &order {
+        for (_, id) in &passes[pi].reads {
+            if let Some(l) = lifetimes[id.0].as_mut() {
+                l.last = l.last.max(position[pi]);
+            }
+        }
+    }
+    let end = order.len().saturating_sub(1);
+    for (_, _, id) in &sink_inputs {
+        if let Some(l) = lifetimes[id.0].as_mut() {
+            l.last = end;
+        }
+    }
+
+    // Pool plan: greedy interval colouring per format, buffers in order of first write.
+    let mut by_first: Vec<usize> = (0..nb).filter(|&b| lifetimes[b].is_some()).collect();
+    by_first.sort_by_key(|&b| (lifetimes[b].unwrap().first, b));
+    let mut slots: Vec<Option<usize>> = vec![None; nb];
+    let mut slot_formats: Vec<Format> = Vec::new();
+    let mut slot_last: Vec<usize> = Vec::new(); // last use of the slot's current occupant
+    for b in by_first {
+        let l = lifetimes[b].unwrap();
+        let f = buffers[b].format;
+        let free =
+            (0..slot_formats.len()).find(|&s| slot_formats[s] == f && slot_last[s] < l.first);
+        let s = free.unwrap_or_else(|| {
+            slot_formats.push(f);
+            slot_last.push(0);
+            slot_formats.len() - 1
+        });
+        slot_last[s] = l.last;
+        slots[b] = Some(s);
+    }
+
+    let passes_in_order: Vec<Pass> = order.iter().map(|&i| passes[i].clone()).collect();
+    Ok(Schedule {
+        passes: passes_in_order,
+        buffers,
+        lifetimes,
+        slots,
+        slot_formats,
+        sink_inputs,
+        culled,
+    })
+}
+
+impl Schedule {
+    /// Number of physical buffers the pool plan needs.
+    pub fn physical_allocations(&self) -> usize {
+        self.slot_formats.len()
+    }
+
+    /// The buffer handed to sink `node`'s input `port`, if connected.
+    pub fn sink(&self, node: &str, port: &str) -> Option<BufferId> {
+        self.sink_inputs
+            .iter()
+            .find(|(n, p, _)| n == node && p == port)
+            .map(|(_, _, id)| *id)
+    }
+
+    /// Buffers that are scheduled (not culled), in id order.
+    pub fn live_buffers(&self) -> impl Iterator<Item = BufferId> + '_ {
+        (0..self.buffers.len())
+            .filter(|&b| self.lifetimes[b].is_some())
+            .map(BufferId)
+    }
+
+    /// Human-readable schedule: passes, buffers with lifetimes and slots, culled passes.
+    pub fn table(&self) -> String {
+        let mut s = String::new();
+        let name_w = self
+            .passes
+            .iter()
+            .map(|p| p.name.len())
+            .max()
+            .unwrap_or(4)
+            .max(4);
+        let kern_w = self
+            .passes
+            .iter()
+            .map(|p| p.kernel.len())
+            .max()
+            .unwrap_or(6)
+            .max(6);
+        let bname = |id: &BufferId| {
+            self.buffers
+                .get(id.0)
+                .map_or("?", |b| b.name.as_str())
+                .to_string()
+        };
+        let _ = writeln!(s, "passes ({}):", self.passes.len());
+        let _ = writeln!(
+            s,
+            "  {:>3}  {:name_w$}  {:kern_w$}  reads -> writes",
+            "#", "pass", "kernel"
+        );
+        for (i, p) in self.passes.iter().enumerate() {
+            let reads: Vec<String> = p
+                .reads
+                .iter()
+                .map(|(b, id)| format!("{b}={}", bname(id)))
+                .collect();
+            let writes: Vec<String> = p
+                .writes
+                .iter()
+                .map(|(b, id)| format!("{b}={}", bname(id)))
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {i:>3}  {:name_w$}  {:kern_w$}  [{}] -> [{}]",
+                p.name,
+                p.kernel,
+                reads.join(", "),
+                writes.join(", ")
+            );
+        }
+        let buf_w = self
+            .buffers
+            .iter()
+            .map(|b| b.name.len())
+            .max()
+            .unwrap_or(6)
+            .max(6);
+        let _ = writeln!(
+            s,
+            "buffers ({} logical, {} physical):",
+            self.live_buffers().count(),
+            self.physical_allocations()
+        );
+        let _ = writeln!(
+            s,
+            "  {:buf_w$}  {:9}  {:9}  slot",
+            "buffer", "format", "lifetime"
+        );
+        for (b, info) in self.buffers.iter().enumerate() {
+            let (life, slot) = match (self.lifetimes[b], self.slots[b]) {
+                (Some(l), Some(sl)) => (format!("{}..={}", l.first, l.last), sl.to_string()),
+                _ => ("culled".to_string(), "-".to_string()),
+            };
+            let sink = if self.sink_inputs.iter().any(|(_, _, id)| id.0 == b) {
+                "  (sink)"
+            } else {
+                ""
+            };
+            let _ = writeln!(
+                s,
+                "  {:buf_w$}  {:9}  {:9}  {slot}{sink}",
+                info.name,
+                info.format.to_string(),
+                life
+            );
+        }
+        if !self.culled.is_empty() {
+            let _ = writeln!(
+                s,
+                "culled ({}): {}",
+                self.culled.len(),
+                self.culled.join(", ")
+            );
+        }
+        s
+    }
+
+    /// Graphviz DOT: passes as boxes (`name\nkernel`), live buffers as ellipses with their format,
+    /// edges writer → buffer → reader, sink inputs as double ellipses.
+    pub fn to_dot(&self) -> String {
+        fn esc(s: &str) -> String {
+            s.replace('\\', "\\\\").replace('"', "\\\"")
+        }
+        let mut s = String::from("digraph wedge {\n  rankdir=LR;\n");
+        let mut shown: HashSet<usize> = HashSet::new();
+        for (i, p) in self.passes.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "  p{i} [shape=box, label=\"{}\\n{}\"];",
+                esc(&p.name),
+                esc(&p.kernel)
+            );
+            for (_, id) in p.reads.iter().chain(&p.writes) {
+                shown.insert(id.0);
+            }
+        }
+        let mut shown: Vec<usize> = shown.into_iter().collect();
+        shown.sort_unstable();
+        for b in shown {
+            let info = &self.buffers[b];
+            let sink = self.sink_inputs.iter().any(|(_, _, id)| id.0 == b);
+            let slot = self.slots[b]
+                .map(|s| format!(" [slot {s}]"))
+                .unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "  b{b} [shape={}, label=\"{}\\n{}{slot}\"];",
+                if sink {
+                    "ellipse, peripheries=2"
+                } else {
+                    "ellipse"
+                },
+                esc(&info.name),
+                info.format
+            );
+        }
+        for (i, p) in self.passes.iter().enumerate() {
+            for (binding, id) in &p.reads {
+                let _ = writeln!(s, "  b{} -> p{i} [label=\"{}\"];", id.0, esc(binding));
+            }
+            for (binding, id) in &p.writes {
+                let _ = writeln!(s, "  p{i} -> b{} [label=\"{}\"];", id.0, esc(binding));
+            }
+        }
+        s.push_str("}\n");
+        s
+    }
+}

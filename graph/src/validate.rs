@@ -1,0 +1,909 @@
+//! Parsing, validation and expansion of a pipeline.
+//!
+//! Validation checks a parsed [`Pipeline`] against the [`NodeRegistry`] and reports *every* problem in
+//! one go, in file order, each pointing at the token that is wrong (the kind string, the input key,
+//! the reference string, …) with a help line that says how to fix it. Reporting all problems at once
+//! matters because a pipeline is edited by hand and re-running to discover the next mistake is slow.
+//!
+//! Only a pipeline without problems is ordered (topologically, ties in file order so the result is
+//! stable under unrelated edits) and handed to [`expand`], which asks each node kind for its passes.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::decl::{NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
+use crate::expand::{BufferId, ExpandCtx, Expansion};
+use crate::pipeline::{Location, Pipeline};
+use crate::source_map::{NodeSource, Pos, SourceMap};
+use crate::GraphError;
+
+/// Largest admissible image side, and largest pixel count (2^26 = 64 Mpixel): buffers are
+/// full-resolution, so this bounds memory per buffer (vec4 at 2^26 pixels is 1 GiB).
+const MAX_SIDE: u32 = 16384;
+const MAX_PIXELS: u64 = 1 << 26;
+
+/// A parsed pipeline together with its source, so that validation can point into the file.
+#[derive(Clone, Debug)]
+pub struct LoadedPipeline {
+    pub pipeline: Pipeline,
+    pub path: PathBuf,
+    pub source: String,
+    /// Token positions of the parts of the file that validation may point at.
+    pub(crate) map: SourceMap,
+}
+
+impl LoadedPipeline {
+    /// Location of node `index`'s tuple (file order).
+    pub fn node_location(&self, index: usize) -> Location {
+        self.loc(self.map.nodes.get(index).map(|n| n.tuple))
+    }
+
+    fn loc(&self, pos: Option<Pos>) -> Location {
+        let pos = pos.unwrap_or(Pos { line: 1, col: 1 });
+        Location {
+            file: self.path.clone(),
+            line: pos.line,
+            col: pos.col,
+        }
+    }
+
+    fn node_src(&self, index: usize) -> NodeSource {
+        self.map.nodes.get(index).cloned().unwrap_or_default()
+    }
+}
+
+/// Parse pipeline text; `path` is only used for messages and relative paths.
+pub fn parse_pipeline(path: &Path, text: &str) -> Result<LoadedPipeline, GraphError> {
+    match ron::from_str::<Pipeline>(text) {
+        Ok(pipeline) => Ok(LoadedPipeline {
+            pipeline,
+            path: path.to_path_buf(),
+            source: text.to_string(),
+            map: SourceMap::build(text),
+        }),
+        Err(e) => {
+            let location = Location {
+                file: path.to_path_buf(),
+                line: e.span.start.line,
+                col: e.span.start.col,
+            };
+            Err(GraphError::Parse {
+                location,
+                message: e.code.to_string(),
+                help: parse_help(&e.code),
+            })
+        }
+    }
+}
+
+/// What to do about a ron error, in words.
+fn parse_help(code: &ron::Error) -> String {
+    use ron::Error as E;
+    match code {
+        E::NoSuchStructField {
+            expected,
+            found,
+            outer,
+        } => {
+            let what = outer.as_deref().unwrap_or("this struct");
+            format!(
+                "`{found}` is not a field of {what}; remove it or use one of: {}",
+                expected.join(", ")
+            )
+        }
+        E::MissingStructField { field, outer } => {
+            let what = outer.as_deref().unwrap_or("this struct");
+            format!("add `{field}: …` to {what}")
+        }
+        E::DuplicateStructField { field, .. } => format!("remove one of the `{field}` fields"),
+        E::ExpectedComma => "separate entries with `,`".into(),
+        E::ExpectedMap | E::ExpectedMapColon | E::ExpectedMapEnd => {
+            "write maps as {\"key\": value, …} (string keys, `:` between key and value)".into()
+        }
+        E::ExpectedString | E::ExpectedStringEnd => {
+            "write this value as a double-quoted string".into()
+        }
+        E::ExpectedArray | E::ExpectedArrayEnd => "write `nodes` as a list `[ (…), (…) ]`".into(),
+        E::Eof => "the file ends early; close every open `(`, `[` and `{`".into(),
+        E::InvalidValueForType { expected, .. } => format!("write {expected} here"),
+        E::IntegerOutOfBounds => "use a smaller, non-negative integer".into(),
+        E::TrailingCharacters => "remove everything after the closing `)` of the pipeline".into(),
+        E::UnclosedBlockComment => "close the comment with `*/`".into(),
+        _ => "see the pipeline format in the wedge documentation (README) and fix the syntax here"
+            .into(),
+    }
+}
+
+/// Read and parse a pipeline file.
+pub fn load_pipeline(path: &Path) -> Result<LoadedPipeline, GraphError> {
+    let text = std::fs::read_to_string(path).map_err(|e| GraphError::Io {
+        path: path.display().to_string(),
+        message: format!("cannot read pipeline file: {e}"),
+    })?;
+    parse_pipeline(path, &text)
+}
+
+/// A node that passed validation.
+#[derive(Clone)]
+pub struct ValidatedNode {
+    pub name: String,
+    pub kind: Arc<dyn NodeKind>,
+    /// Checked parameters with defaults filled in for everything the kind declares.
+    pub params: BTreeMap<String, ParamValue>,
+    /// Input port → (producer node, producer port).
+    pub inputs: BTreeMap<String, (String, String)>,
+    pub location: Location,
+}
+
+impl fmt::Debug for ValidatedNode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ValidatedNode")
+            .field("name", &self.name)
+            .field("kind", &self.kind.kind())
+            .field("params", &self.params)
+            .field("inputs", &self.inputs)
+            .field("location", &self.location)
+            .finish()
+    }
+}
+
+/// A pipeline without problems, its nodes in topological order (ties in file order).
+#[derive(Clone, Debug)]
+pub struct ValidatedPipeline {
+    pub pipeline: Pipeline,
+    pub path: PathBuf,
+    pub nodes: Vec<ValidatedNode>,
+}
+
+impl ValidatedPipeline {
+    /// Directory of the pipeline file, against which relative scene paths are resolved.
+    pub fn base_dir(&self) -> PathBuf {
+        match self.path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
+    }
+    pub fn node(&self, name: &str) -> Option<&ValidatedNode> {
+        self.nodes.iter().find(|n| n.name == name)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DiagnosticKind {
+    UnknownNodeKind,
+    DuplicateNode,
+    UnknownInputPort,
+    UnknownOutputPort,
+    /// A reference not of the form `node.port`.
+    BadReference,
+    /// A reference to a node that does not exist.
+    UnknownNode,
+    /// A required input is not connected.
+    MissingProducer,
+    /// The same input port is given twice.
+    TwoProducers,
+    FormatConflict,
+    Cycle,
+    UnknownParam,
+    DuplicateParam,
+    ParamType,
+    ParamOutOfRange,
+    NoSink,
+    /// width/height 0 or > 16384, or width*height > 2^26.
+    BadSize,
+}
+
+impl DiagnosticKind {
+    /// Short kebab-case code, as printed in `error[…]`.
+    pub fn code(self) -> &'static str {
+        match self {
+            DiagnosticKind::UnknownNodeKind => "unknown-node-kind",
+            DiagnosticKind::DuplicateNode => "duplicate-node",
+            DiagnosticKind::UnknownInputPort => "unknown-input-port",
+            DiagnosticKind::UnknownOutputPort => "unknown-output-port",
+            DiagnosticKind::BadReference => "bad-reference",
+            DiagnosticKind::UnknownNode => "unknown-node",
+            DiagnosticKind::MissingProducer => "missing-producer",
+            DiagnosticKind::TwoProducers => "two-producers",
+            DiagnosticKind::FormatConflict => "format-conflict",
+            DiagnosticKind::Cycle => "cycle",
+            DiagnosticKind::UnknownParam => "unknown-param",
+            DiagnosticKind::DuplicateParam => "duplicate-param",
+            DiagnosticKind::ParamType => "param-type",
+            DiagnosticKind::ParamOutOfRange => "param-out-of-range",
+            DiagnosticKind::NoSink => "no-sink",
+            DiagnosticKind::BadSize => "bad-size",
+        }
+    }
+}
+
+impl fmt::Display for DiagnosticKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.code())
+    }
+}
+
+/// One validation problem, located at the offending token.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    pub kind: DiagnosticKind,
+    pub location: Location,
+    pub message: String,
+    pub help: String,
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: error[{}]: {}\n  help: {}",
+            self.location, self.kind, self.message, self.help
+        )
+    }
+}
+
+/// Levenshtein distance (case-insensitive), to suggest the closest spelling.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let a: Vec<char> = a.to_lowercase().chars().collect();
+    let b: Vec<char> = b.to_lowercase().chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.iter().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// `candidates` ordered closest spelling first (stable for ties).
+fn by_closeness<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut v: Vec<&str> = candidates.into_iter().collect();
+    v.sort_by_key(|c| edit_distance(word, c));
+    v
+}
+
+/// "did you mean `x`? " when the closest candidate is a plausible misspelling (at most a third of
+/// the word's letters wrong, at least one allowed), else nothing: suggesting `Blur` for `Fog` would
+/// mislead more than help.
+fn did_you_mean(word: &str, sorted: &[&str]) -> String {
+    match sorted.first() {
+        Some(c) if edit_distance(word, c) <= (word.chars().count() / 3).max(1) => {
+            format!("did you mean `{c}`? ")
+        }
+        _ => String::new(),
+    }
+}
+
+fn ports_list(ports: &[PortDecl]) -> String {
+    if ports.is_empty() {
+        return "(none)".into();
+    }
+    ports
+        .iter()
+        .map(|p| {
+            format!(
+                "{}: {}{}",
+                p.name,
+                p.format,
+                if p.optional { " (optional)" } else { "" }
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn params_list(params: &[ParamDecl]) -> String {
+    if params.is_empty() {
+        return "(none)".into();
+    }
+    params
+        .iter()
+        .map(|p| match &p.kind {
+            ParamKind::Float {
+                min,
+                max,
+                min_exclusive,
+                ..
+            } => {
+                format!(
+                    "{}: number in {}{min}, {max}]",
+                    p.name,
+                    if *min_exclusive { "(" } else { "[" }
+                )
+            }
+            ParamKind::Int { min, max, .. } => format!("{}: integer in [{min}, {max}]", p.name),
+            ParamKind::Bool { .. } => format!("{}: bool", p.name),
+            ParamKind::Choice { options, .. } => format!("{}: one of {options:?}", p.name),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Whether a written value has the declared type (range aside); integers count as numbers.
+fn type_matches(kind: &ParamKind, v: &ParamValue) -> bool {
+    matches!(
+        (kind, v),
+        (
+            ParamKind::Float { .. },
+            ParamValue::Float(_) | ParamValue::Int(_)
+        ) | (ParamKind::Int { .. }, ParamValue::Int(_))
+            | (ParamKind::Bool { .. }, ParamValue::Bool(_))
+            | (ParamKind::Choice { .. }, ParamValue::Str(_))
+    )
+}
+
+/// Split `node.port` at its single dot; `None` if it is not of that form.
+fn split_reference(r: &str) -> Option<(&str, &str)> {
+    let (n, p) = r.split_once('.')?;
+    let ok = |s: &str| !s.is_empty() && !s.contains('.') && !s.contains(char::is_whitespace);
+    (ok(n) && ok(p)).then_some((n, p))
+}
+
+/// Check `p` against `reg`; all problems are collected before returning.
+pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipeline, GraphError> {
+    let pl = &p.pipeline;
+    let mut diags: Vec<Diagnostic> = Vec::new();
+    let mut diag = |kind, pos: Option<Pos>, message: String, help: String| {
+        diags.push(Diagnostic {
+            kind,
+            location: p.loc(pos),
+            message,
+            help,
+        });
+    };
+
+    // Image size.
+    for (what, v, pos) in [
+        ("width", pl.width, p.map.width),
+        ("height", pl.height, p.map.height),
+    ] {
+        if v == 0 || v > MAX_SIDE {
+            diag(
+                DiagnosticKind::BadSize,
+                pos,
+                format!("{what} = {v} is not a usable image size"),
+                format!("set {what} to a value in 1..={MAX_SIDE}"),
+            );
+        }
+    }
+    let pixels = u64::from(pl.width) * u64::from(pl.height);
+    if pl.width > 0
+        && pl.height > 0
+        && pl.width <= MAX_SIDE
+        && pl.height <= MAX_SIDE
+        && pixels > MAX_PIXELS
+    {
+        diag(
+            DiagnosticKind::BadSize,
+            p.map.width,
+            format!(
+                "{}x{} = {pixels} pixels is more than the limit of {MAX_PIXELS} (2^26)",
+                pl.width, pl.height
+            ),
+            "reduce width or height (render tiles separately if you need a larger image)".into(),
+        );
+    }
+
+    // Node names: first definition wins for wiring; later ones are reported.
+    let mut index_of: HashMap<&str, usize> = HashMap::new();
+    for (i, n) in pl.nodes.iter().enumerate() {
+        let src = p.node_src(i);
+        if let Some(&first) = index_of.get(n.name.as_str()) {
+            let f = p.loc(p.node_src(first).name);
+            diag(
+                DiagnosticKind::DuplicateNode,
+                src.name,
+                format!(
+                    "a node named `{}` is already defined at {}:{}",
+                    n.name, f.line, f.col
+                ),
+                "give each node a unique name (and update the references to it)".into(),
+            );
+        } else {
+            index_of.insert(&n.name, i);
+        }
+    }
+    let kind_of = |name: &str| index_of.get(name).and_then(|&i| reg.get(&pl.nodes[i].kind));
+
+    // Resolved wiring for nodes without problems in their inputs: (consumer, port, producer, port).
+    let mut edges: Vec<(usize, String, usize, String)> = Vec::new();
+    let mut validated_params: Vec<BTreeMap<String, ParamValue>> = Vec::new();
+
+    for (i, n) in pl.nodes.iter().enumerate() {
+        let src = p.node_src(i);
+        let kind = reg.get(&n.kind);
+        if kind.is_none() {
+            let names = by_closeness(&n.kind, reg.names());
+            let closest = did_you_mean(&n.kind, &names);
+            diag(
+                DiagnosticKind::UnknownNodeKind,
+                src.kind,
+                format!("node `{}` has unknown kind `{}`", n.name, n.kind),
+                format!("{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)", names.join(", ")),
+            );
+        }
+
+        // Parameters.
+        let decls = kind.map(|k| k.params()).unwrap_or_default();
+        let mut params: BTreeMap<String, ParamValue> = decls
+            .iter()
+            .map(|d| (d.name.to_string(), d.default_value()))
+            .collect();
+        let mut seen: HashSet<&str> = HashSet::new();
+        for (j, (key, raw)) in n.params.iter().enumerate() {
+            let pos = src.params.get(j).copied().or(src.tuple_pos());
+            if !seen.insert(key) {
+                diag(
+                    DiagnosticKind::DuplicateParam,
+                    pos,
+                    format!("parameter `{key}` of node `{}` is given twice", n.name),
+                    "remove one of the two entries".into(),
+                );
+                continue;
+            }
+            let Some(k) = kind else { continue };
+            let Some(decl) = decls.iter().find(|d| d.name == key) else {
+                let names = by_closeness(key, decls.iter().map(|d| d.name));
+                let closest = did_you_mean(key, &names);
+                diag(
+                    DiagnosticKind::UnknownParam,
+                    pos,
+                    format!(
+                        "node `{}` of kind `{}` has no parameter `{key}`",
+                        n.name,
+                        k.kind()
+                    ),
+                    format!(
+                        "{closest}parameters of {}: {}",
+                        k.kind(),
+                        params_list(&decls)
+                    ),
+                );
+                continue;
+            };
+            let value = ParamValue::from(raw);
+            match decl.check(&value) {
+                Ok(v) => {
+                    params.insert(key.clone(), v);
+                }
+                Err(why) => {
+                    let kind = if type_matches(&decl.kind, &value) {
+                        DiagnosticKind::ParamOutOfRange
+                    } else {
+                        DiagnosticKind::ParamType
+                    };
+                    diag(
+                        kind,
+                        pos,
+                        format!("invalid parameter `{key}` of node `{}`", n.name),
+                        format!(
+                            "{why}{}",
+                            if decl.doc.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" ({})", decl.doc)
+                            }
+                        ),
+                    );
+                }
+            }
+        }
+        validated_params.push(params);
+
+        // Inputs.
+        let in_decls = kind.map(|k| k.inputs()).unwrap_or_default();
+        let mut seen: HashMap<&str, usize> = HashMap::new();
+        for (j, (port, reference)) in n.inputs.iter().enumerate() {
+            let (kpos, vpos) = src
+                .inputs
+                .get(j)
+                .map(|&(k, v)| (Some(k), Some(v)))
+                .unwrap_or((src.tuple_pos(), src.tuple_pos()));
+            if let Some(&first) = seen.get(port.as_str()) {
+                diag(
+                    DiagnosticKind::TwoProducers,
+                    kpos,
+                    format!(
+                        "input `{port}` of node `{}` is connected twice (to `{}` and `{reference}`)",
+                        n.name, n.inputs[first].1
+                    ),
+                    "an input has exactly one producer: keep one of the two entries".into(),
+                );
+                continue;
+            }
+            seen.insert(port, j);
+            let decl = match kind {
+                Some(k) => match in_decls.iter().find(|d| d.name == port) {
+                    Some(d) => Some(d),
+                    None => {
+                        let names = by_closeness(port, in_decls.iter().map(|d| d.name));
+                        let closest = did_you_mean(port, &names);
+                        diag(
+                            DiagnosticKind::UnknownInputPort,
+                            kpos,
+                            format!(
+                                "node `{}` of kind `{}` has no input `{port}`",
+                                n.name,
+                                k.kind()
+                            ),
+                            format!("{closest}inputs of {}: {}", k.kind(), ports_list(&in_decls)),
+                        );
+                        None
+                    }
+                },
+                None => None,
+            };
+            let Some((pnode, pport)) = split_reference(reference) else {
+                // If the text names a node, offer that node's outputs.
+                let outputs = kind_of(reference)
+                    .map(|k| {
+                        k.outputs()
+                            .iter()
+                            .map(|o| format!("\"{reference}.{}\"", o.name))
+                            .collect::<Vec<_>>()
+                    })
+                    .filter(|o| !o.is_empty())
+                    .map(|o| format!(" (here: {})", o.join(", ")))
+                    .unwrap_or_default();
+                diag(
+                    DiagnosticKind::BadReference,
+                    vpos,
+                    format!("`{reference}` is not a reference to an output"),
+                    format!("write references as \"<node>.<output port>\", e.g. \"primary.normal\"{outputs}"),
+                );
+                continue;
+            };
+            let Some(&pi) = index_of.get(pnode) else {
+                let names = by_closeness(pnode, pl.nodes.iter().map(|n| n.name.as_str()));
+                let closest = did_you_mean(pnode, &names);
+                diag(
+                    DiagnosticKind::UnknownNode,
+                    vpos,
+                    format!("input `{port}` of node `{}` refers to node `{pnode}`, which does not exist", n.name),
+                    format!("{closest}nodes in this pipeline: {}", names.join(", ")),
+                );
+                continue;
+            };
+            let Some(pkind) = kind_of(pnode) else {
+                // The producer's kind is unknown, which is reported at the producer.
+                continue;
+            };
+            let outs = pkind.outputs();
+            let Some(out) = outs.iter().find(|o| o.name == pport) else {
+                let names = by_closeness(pport, outs.iter().map(|o| o.name));
+                let closest = did_you_mean(pport, &names);
+                diag(
+                    DiagnosticKind::UnknownOutputPort,
+                    vpos,
+                    format!(
+                        "node `{pnode}` of kind `{}` has no output `{pport}`",
+                        pkind.kind()
+                    ),
+                    format!(
+                        "{closest}outputs of {}: {}",
+                        pkind.kind(),
+                        ports_list(&outs)
+                    ),
+                );
+                continue;
+            };
+            if let Some(d) = decl {
+                if d.format != out.format {
+                    let same: Vec<String> = outs
+                        .iter()
+                        .filter(|o| o.format == d.format)
+                        .map(|o| format!("{pnode}.{}", o.name))
+                        .collect();
+                    let alt = if same.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({pnode} has: {})", same.join(", "))
+                    };
+                    diag(
+                        DiagnosticKind::FormatConflict,
+                        vpos,
+                        format!(
+                            "input `{port}` of node `{}` expects {} but `{reference}` is {}",
+                            n.name, d.format, out.format
+                        ),
+                        format!("connect `{port}` to an output of format {}{alt}", d.format),
+                    );
+                    continue;
+                }
+                edges.push((i, port.clone(), pi, pport.to_string()));
+            }
+        }
+
+        // Required inputs left unconnected.
+        if let Some(k) = kind {
+            for d in in_decls
+                .iter()
+                .filter(|d| !d.optional && !seen.contains_key(d.name))
+            {
+                let candidates: Vec<String> = pl
+                    .nodes
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, _)| j != i)
+                    .filter_map(|(_, m)| reg.get(&m.kind).map(|mk| (m, mk)))
+                    .flat_map(|(m, mk)| {
+                        mk.outputs()
+                            .into_iter()
+                            .filter(|o| o.format == d.format)
+                            .map(move |o| format!("\"{}.{}\"", m.name, o.name))
+                            .collect::<Vec<_>>()
+                    })
+                    .collect();
+                let hint = if candidates.is_empty() {
+                    format!("add a node with a {} output", d.format)
+                } else {
+                    format!("candidates: {}", candidates.join(", "))
+                };
+                diag(
+                    DiagnosticKind::MissingProducer,
+                    src.name.or(src.tuple_pos()),
+                    format!(
+                        "required input `{}` ({}) of node `{}` ({}) is not connected",
+                        d.name,
+                        d.format,
+                        n.name,
+                        k.kind()
+                    ),
+                    format!(
+                        "add `inputs: {{\"{}\": \"<node>.<port>\"}}`; {hint}",
+                        d.name
+                    ),
+                );
+            }
+        }
+    }
+
+    // Sinks.
+    if !pl
+        .nodes
+        .iter()
+        .any(|n| reg.get(&n.kind).is_some_and(|k| k.is_sink()))
+    {
+        let sinks: Vec<&str> = reg
+            .names()
+            .into_iter()
+            .filter(|n| reg.get(n).is_some_and(|k| k.is_sink()))
+            .collect();
+        diag(
+            DiagnosticKind::NoSink,
+            p.map.nodes_key,
+            "the pipeline has no sink, so nothing would be computed".into(),
+            format!(
+                "add a sink node (kinds: {}) and connect what you want to see to it",
+                sinks.join(", ")
+            ),
+        );
+    }
+
+    // Cycles among the resolved wiring.
+    let n = pl.nodes.len();
+    let mut succ: Vec<Vec<(usize, String, String)>> = vec![Vec::new(); n]; // producer → (consumer, out port, in port)
+    for (c, cport, pidx, pport) in &edges {
+        succ[*pidx].push((*c, pport.clone(), cport.clone()));
+    }
+    for cycle in find_cycles(&succ) {
+        let path: Vec<String> = cycle
+            .iter()
+            .map(|(from, out, to, inp)| {
+                format!(
+                    "{}.{out} -> {}.{inp}",
+                    pl.nodes[*from].name, pl.nodes[*to].name
+                )
+            })
+            .collect();
+        let first = cycle[0].0;
+        diag(
+            DiagnosticKind::Cycle,
+            p.node_src(first).name.or(p.node_src(first).tuple_pos()),
+            format!("the wiring has a cycle: {}", path.join(", ")),
+            "a node cannot depend on its own output; remove one of these connections".into(),
+        );
+    }
+
+    if !diags.is_empty() {
+        // File order; the sort is stable, so problems at one token keep their discovery order.
+        diags.sort_by_key(|d| (d.location.line, d.location.col));
+        return Err(GraphError::Invalid(diags));
+    }
+
+    // Topological order, ties broken by file order (Kahn with an ordered ready set).
+    let mut indeg = vec![0usize; n];
+    for s in &succ {
+        for (c, _, _) in s {
+            indeg[*c] += 1;
+        }
+    }
+    let mut ready: BTreeSet<usize> = (0..n).filter(|&i| indeg[i] == 0).collect();
+    let mut order = Vec::with_capacity(n);
+    while let Some(i) = ready.pop_first() {
+        order.push(i);
+        for (c, _, _) in &succ[i] {
+            indeg[*c] -= 1;
+            if indeg[*c] == 0 {
+                ready.insert(*c);
+            }
+        }
+    }
+    debug_assert_eq!(order.len(), n, "cycles were reported above");
+
+    let mut inputs: Vec<BTreeMap<String, (String, String)>> = vec![BTreeMap::new(); n];
+    for (c, cport, pidx, pport) in edges {
+        inputs[c].insert(cport, (pl.nodes[pidx].name.clone(), pport));
+    }
+    let mut validated_params: Vec<Option<BTreeMap<String, ParamValue>>> =
+        validated_params.into_iter().map(Some).collect();
+    let nodes = order
+        .into_iter()
+        .map(|i| {
+            let spec = &pl.nodes[i];
+            ValidatedNode {
+                name: spec.name.clone(),
+                kind: reg.get(&spec.kind).expect("kinds were checked").clone(),
+                params: validated_params[i].take().unwrap_or_default(),
+                inputs: std::mem::take(&mut inputs[i]),
+                location: p.loc(p.node_src(i).name.or(p.node_src(i).tuple_pos())),
+            }
+        })
+        .collect();
+    Ok(ValidatedPipeline {
+        pipeline: pl.clone(),
+        path: p.path.clone(),
+        nodes,
+    })
+}
+
+impl NodeSource {
+    fn tuple_pos(&self) -> Option<Pos> {
+        (self.tuple.line > 0).then_some(self.tuple)
+    }
+}
+
+/// One cycle per strongly connected component that has one, as a list of edges
+/// `(producer, out port, consumer, in port)` starting at the component's first node in file order.
+fn find_cycles(succ: &[Vec<(usize, String, String)>]) -> Vec<Vec<(usize, String, usize, String)>> {
+    use petgraph::graph::{DiGraph, NodeIndex};
+    let mut g: DiGraph<(), ()> = DiGraph::new();
+    let idx: Vec<NodeIndex> = (0..succ.len()).map(|_| g.add_node(())).collect();
+    for (p, s) in succ.iter().enumerate() {
+        for (c, _, _) in s {
+            g.add_edge(idx[p], idx[*c], ());
+        }
+    }
+    let mut cycles = Vec::new();
+    for scc in petgraph::algo::tarjan_scc(&g) {
+        let members: BTreeSet<usize> = scc.iter().map(|x| x.index()).collect();
+        let start = *members.first().unwrap();
+        let self_loop = succ[start].iter().any(|(c, _, _)| *c == start);
+        if members.len() < 2 && !self_loop {
+            continue;
+        }
+        // Breadth-first search inside the component for the shortest way back to `start`, which is a
+        // simple cycle through it; edges tried in file order for a stable report.
+        let mut prev: HashMap<usize, (usize, usize)> = HashMap::new(); // node → (from, edge index)
+        let mut queue = std::collections::VecDeque::from([start]);
+        let mut closing = None;
+        'bfs: while let Some(u) = queue.pop_front() {
+            for (e, (c, _, _)) in succ[u].iter().enumerate() {
+                if !members.contains(c) {
+                    continue;
+                }
+                if *c == start {
+                    closing = Some((u, e));
+                    break 'bfs;
+                }
+                if !prev.contains_key(c) {
+                    prev.insert(*c, (u, e));
+                    queue.push_back(*c);
+                }
+            }
+        }
+        let Some((mut u, e)) = closing else { continue };
+        let mut rev = vec![(u, e)];
+        while u != start {
+            let (from, e) = prev[&u];
+            rev.push((from, e));
+            u = from;
+        }
+        rev.reverse();
+        cycles.push(
+            rev.into_iter()
+                .map(|(from, e)| {
+                    let (to, out, inp) = &succ[from][e];
+                    (from, out.clone(), *to, inp.clone())
+                })
+                .collect(),
+        );
+    }
+    cycles
+}
+
+/// Expand every node into passes, in topological order.
+pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
+    let mut expansion = Expansion::default();
+    let mut written: HashMap<BufferId, String> = HashMap::new(); // buffer → name of the pass writing it
+    for node in &v.nodes {
+        let err = |message: String| GraphError::Expand {
+            node: node.name.clone(),
+            message,
+        };
+        let mut inputs: BTreeMap<String, BufferId> = BTreeMap::new();
+        for (port, (pnode, pport)) in &node.inputs {
+            let id = expansion
+                .outputs
+                .get(&(pnode.clone(), pport.clone()))
+                .copied()
+                .ok_or_else(|| err(format!("input `{port}`: `{pnode}.{pport}` has no buffer")))?;
+            inputs.insert(port.clone(), id);
+        }
+        let first_pass = expansion.passes.len();
+        let first_buffer = expansion.buffers.len();
+        node.kind.expand(&mut ExpandCtx::new(
+            &node.name,
+            &node.params,
+            &inputs,
+            &mut expansion,
+        ))?;
+
+        // The node kind must keep its declared contract; a violation is a bug in the kind.
+        let kind = node.kind.kind();
+        for out in node.kind.outputs() {
+            match expansion
+                .outputs
+                .get(&(node.name.clone(), out.name.to_string()))
+            {
+                None => {
+                    return Err(err(format!(
+                        "kind `{kind}` did not bind its declared output `{}`",
+                        out.name
+                    )))
+                }
+                Some(id) => {
+                    let f = expansion.buffers[id.0].format;
+                    if f != out.format {
+                        return Err(err(format!(
+                            "kind `{kind}` bound output `{}` (declared {}) to a {f} buffer",
+                            out.name, out.format
+                        )));
+                    }
+                }
+            }
+        }
+        for pass in &expansion.passes[first_pass..] {
+            for (binding, id) in &pass.writes {
+                if id.0 < first_buffer {
+                    return Err(err(format!(
+                        "pass `{}` writes `{}` (binding `{binding}`), a buffer made by another node; \
+                         a node may only write its own buffers",
+                        pass.name, expansion.buffers[id.0].name
+                    )));
+                }
+                if let Some(prev) = written.insert(*id, pass.name.clone()) {
+                    return Err(err(format!(
+                        "buffer `{}` is written by both `{prev}` and `{}`; each buffer has exactly one writer",
+                        expansion.buffers[id.0].name, pass.name
+                    )));
+                }
+            }
+        }
+        if node.kind.is_sink() {
+            for d in node.kind.inputs() {
+                if let Some(id) = inputs.get(d.name) {
+                    expansion
+                        .sink_inputs
+                        .push((node.name.clone(), d.name.to_string(), *id));
+                }
+            }
+        }
+    }
+    Ok(expansion)
+}

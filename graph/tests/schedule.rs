@@ -1,0 +1,263 @@
+//! Expansion and scheduling: culling, order, lifetimes, the pool plan, printing, and the checks on
+//! node kinds that break their declared contract.
+
+mod common;
+
+use common::*;
+use wedge_graph::*;
+
+const SRC: &str = r#"(name: "src", kind: "Source")"#;
+
+fn blur(name: &str, from: &str) -> String {
+    format!(r#"(name: "{name}", kind: "Blur", inputs: {{"x": "{from}"}})"#)
+}
+
+fn sink(from: &str) -> String {
+    format!(r#"(name: "out", kind: "Sink", inputs: {{"color": "{from}"}})"#)
+}
+
+fn pass_names(s: &Schedule) -> Vec<&str> {
+    s.passes.iter().map(|p| p.name.as_str()).collect()
+}
+
+fn buffer(s: &Schedule, name: &str) -> BufferId {
+    BufferId(
+        s.buffers
+            .iter()
+            .position(|b| b.name == name)
+            .unwrap_or_else(|| panic!("no buffer {name}")),
+    )
+}
+
+#[test]
+fn chain_order_and_lifetimes() {
+    // Source -> Blur -> Blur -> Sink.
+    let text = pipeline(&[
+        SRC,
+        &blur("b1", "src.a"),
+        &blur("b2", "b1.y"),
+        &sink("b2.y"),
+    ]);
+    let (_, s) = compile_text(&text);
+    assert_eq!(pass_names(&s), ["src.gen", "b1.h", "b1.v", "b2.h", "b2.v"]);
+    assert!(s.culled.is_empty());
+    let life = |n: &str| s.lifetimes[buffer(&s, n).0].unwrap();
+    assert_eq!(life("src.a"), Lifetime { first: 0, last: 1 });
+    // src.b is written but nobody reads it: it lives only during its writer.
+    assert_eq!(life("src.b"), Lifetime { first: 0, last: 0 });
+    assert_eq!(life("b1.tmp"), Lifetime { first: 1, last: 2 });
+    assert_eq!(life("b1.y"), Lifetime { first: 2, last: 3 });
+    assert_eq!(life("b2.tmp"), Lifetime { first: 3, last: 4 });
+    // The sink input lives to the end.
+    assert_eq!(life("b2.y"), Lifetime { first: 4, last: 4 });
+    assert_eq!(s.sink("out", "color"), Some(buffer(&s, "b2.y")));
+    assert_eq!(s.sink("out", "aux"), None);
+    // Pass parameters carry the node's validated parameters.
+    assert_eq!(s.passes[2].params["taps"], ParamValue::Int(3));
+}
+
+#[test]
+fn sink_input_read_early_lives_to_the_end() {
+    // The sink shows src.a, which is also read by the first pass of the blur chain.
+    let text = pipeline(&[
+        SRC,
+        &blur("b1", "src.a"),
+        r#"(name: "out", kind: "Sink", inputs: {"color": "src.a"})"#,
+        r#"(name: "out2", kind: "Sink", inputs: {"color": "b1.y"})"#,
+    ]);
+    let (_, s) = compile_text(&text);
+    assert_eq!(
+        s.lifetimes[buffer(&s, "src.a").0],
+        Some(Lifetime { first: 0, last: 2 })
+    );
+}
+
+#[test]
+fn schedule_respects_dependencies() {
+    // Nodes written in reverse; two branches joined at the sink through `aux`-free wiring.
+    let text = pipeline(&[
+        &sink("b3.y"),
+        &blur("b3", "b2.y"),
+        &blur("b2", "b1.y"),
+        &blur("b1", "src.a"),
+        SRC,
+    ]);
+    let (_, s) = compile_text(&text);
+    let pos = |name: &str| s.passes.iter().position(|p| p.name == name).unwrap();
+    for (i, p) in s.passes.iter().enumerate() {
+        for (_, id) in &p.reads {
+            let writer = s
+                .passes
+                .iter()
+                .position(|q| q.writes.iter().any(|(_, w)| w == id))
+                .unwrap();
+            assert!(writer < i, "{} reads a buffer written later", p.name);
+        }
+    }
+    assert!(pos("src.gen") < pos("b1.h") && pos("b1.v") < pos("b2.h") && pos("b2.v") < pos("b3.h"));
+}
+
+#[test]
+fn unread_blur_is_culled() {
+    let text = pipeline(&[
+        SRC,
+        &blur("used", "src.a"),
+        &blur("debug", "src.a"),
+        &sink("used.y"),
+    ]);
+    let (_, s) = compile_text(&text);
+    assert_eq!(s.culled, ["debug.h", "debug.v"]);
+    assert_eq!(pass_names(&s), ["src.gen", "used.h", "used.v"]);
+    assert_eq!(s.lifetimes[buffer(&s, "debug.tmp").0], None);
+    assert_eq!(s.slots[buffer(&s, "debug.y").0], None);
+    assert!(
+        s.table().contains("culled (2): debug.h, debug.v"),
+        "{}",
+        s.table()
+    );
+}
+
+#[test]
+fn pool_plan_of_four_blurs_shares_slots_without_overlap() {
+    let text = pipeline(&[
+        SRC,
+        &blur("b1", "src.a"),
+        &blur("b2", "b1.y"),
+        &blur("b3", "b2.y"),
+        &blur("b4", "b3.y"),
+        &sink("b4.y"),
+    ]);
+    let (_, s) = compile_text(&text);
+    let live: Vec<BufferId> = s.live_buffers().collect();
+    assert_eq!(live.len(), 10); // src.a, src.b, 4 × (tmp, y)
+    let f32_buffers = live
+        .iter()
+        .filter(|b| s.buffers[b.0].format == Format::F32)
+        .count();
+    assert_eq!(f32_buffers, 9);
+    // A chain needs only two f32 slots at a time (the one being read and the one being written),
+    // plus one vec3 slot.
+    assert_eq!(s.physical_allocations(), 3);
+    assert!(s.physical_allocations() < live.len());
+    for (i, a) in live.iter().enumerate() {
+        let (la, sa) = (s.lifetimes[a.0].unwrap(), s.slots[a.0].unwrap());
+        assert_eq!(s.slot_formats[sa], s.buffers[a.0].format);
+        for b in &live[i + 1..] {
+            let (lb, sb) = (s.lifetimes[b.0].unwrap(), s.slots[b.0].unwrap());
+            if la.overlaps(&lb) {
+                assert_ne!(
+                    sa, sb,
+                    "{} and {} overlap but share slot {sa}",
+                    s.buffers[a.0].name, s.buffers[b.0].name
+                );
+            }
+        }
+    }
+    // A pass never reads and writes the same slot.
+    for p in &s.passes {
+        for (_, r) in &p.reads {
+            for (_, w) in &p.writes {
+                assert_ne!(s.slots[r.0], s.slots[w.0], "{}", p.name);
+            }
+        }
+    }
+}
+
+#[test]
+fn table_and_dot_show_every_scheduled_pass() {
+    let text = pipeline(&[
+        SRC,
+        &blur("b1", "src.a"),
+        &blur("dbg", "src.a"),
+        &sink("b1.y"),
+    ]);
+    let (_, s) = compile_text(&text);
+    let dot = s.to_dot();
+    assert!(dot.starts_with("digraph"));
+    assert!(dot.trim_end().ends_with('}'));
+    for p in &s.passes {
+        assert!(
+            dot.contains(&format!("label=\"{}\\n{}\"", p.name, p.kernel)),
+            "{} missing:\n{dot}",
+            p.name
+        );
+    }
+    assert!(dot.contains("shape=box") && dot.contains("shape=ellipse"));
+    assert!(dot.contains("b1.tmp\\nf32"), "{dot}");
+    assert!(
+        !dot.contains("dbg.h"),
+        "culled passes are not drawn:\n{dot}"
+    );
+    let table = s.table();
+    for p in &s.passes {
+        assert!(
+            table.contains(&p.name) && table.contains(&p.kernel),
+            "{table}"
+        );
+    }
+    assert!(
+        table.contains("x=src.a") && table.contains("out=b1.tmp"),
+        "{table}"
+    );
+    assert!(table.contains("0..=1"), "{table}");
+}
+
+fn expand_err(nodes: &[&str]) -> (String, String) {
+    let v = validate(&parse(&pipeline(nodes)), &registry()).unwrap_or_else(|e| panic!("{e}"));
+    match expand(&v) {
+        Err(GraphError::Expand { node, message }) => (node, message),
+        Err(e) => panic!("expected an expand error, got {e}"),
+        Ok(_) => panic!("expected an expand error"),
+    }
+}
+
+#[test]
+fn broken_node_kinds_are_caught_at_expansion() {
+    let (node, message) = expand_err(&[r#"(name: "l", kind: "Lazy")"#, &sink("l.y")]);
+    assert_eq!(node, "l");
+    assert!(
+        message.contains("did not bind") && message.contains("`y`"),
+        "{message}"
+    );
+
+    let (node, message) = expand_err(&[r#"(name: "t", kind: "Twice")"#, &sink("t.y")]);
+    assert_eq!(node, "t");
+    assert!(
+        message.contains("t.p1") && message.contains("t.p2"),
+        "{message}"
+    );
+
+    let (node, message) = expand_err(&[r#"(name: "w", kind: "WrongFormat")"#, &sink("w.y")]);
+    assert_eq!(node, "w");
+    assert!(message.contains("vec3<f32>"), "{message}");
+}
+
+#[test]
+fn reading_an_unwritten_buffer_is_an_error() {
+    let mut e = Expansion::default();
+    e.buffers.push(BufferInfo {
+        name: "n.orphan".into(),
+        format: Format::F32,
+    });
+    e.buffers.push(BufferInfo {
+        name: "n.y".into(),
+        format: Format::F32,
+    });
+    e.passes.push(Pass {
+        name: "n.p".into(),
+        node: "n".into(),
+        kernel: "k".into(),
+        reads: vec![("x".into(), BufferId(0))],
+        writes: vec![("out".into(), BufferId(1))],
+        params: Default::default(),
+    });
+    e.sink_inputs
+        .push(("out".into(), "color".into(), BufferId(1)));
+    match schedule(e) {
+        Err(GraphError::Expand { node, message }) => {
+            assert_eq!(node, "n");
+            assert!(message.contains("n.orphan"), "{message}");
+        }
+        other => panic!("expected an error, got {:?}", other.map(|_| ())),
+    }
+}

@@ -1,0 +1,374 @@
+//! Built-in procedural scenes (no files, fully deterministic).
+//!
+//! - `grids`: thesis Fig. 3.6 — a 0.6×0.6 m Rect light 3 m above (1 m behind the grids, seen from the camera) a checker-textured ground (14×12 m so it fills the frame), three rotated grids
+//!   of thin bars at 0.6, 0.8 and 1.05 m casting overlapping penumbrae toward the camera; the light is out of view.
+//! - `curved`: thesis Fig. 3.8 — curved occluders (sphere, torus) over a wavy, smooth-shaded receiver.
+//! - `heavy`: the grids' occluders and light over a displaced terrain plus many spheres (>100k triangles),
+//!   for throughput benchmarks.
+
+use std::f32::consts::{PI, TAU};
+
+use glam::{Mat4, Quat, Vec2, Vec3};
+
+use crate::data::SceneData;
+use crate::{Camera, Material, Scene, SceneError, Texture, TriangleShading};
+
+pub const NAMES: &[&str] = &["grids", "curved", "heavy"];
+
+pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
+    match name {
+        "grids" => Ok(grids()),
+        "curved" => Ok(curved()),
+        "heavy" => Ok(heavy()),
+        _ => Err(SceneError::UnknownBuiltin {
+            name: name.to_string(),
+            known: NAMES.join(", "),
+        }),
+    }
+}
+
+pub(crate) fn builtin(name: &str) -> Result<Scene, SceneError> {
+    builtin_data(name)?.into_scene(name)
+}
+
+/// Push a triangle with per-vertex normals/uvs, wound so its geometric normal agrees with the vertex
+/// normals (so one-sided consumers see a consistent front).
+fn smooth_tri(
+    d: &mut SceneData,
+    p: [Vec3; 3],
+    n: [Vec3; 3],
+    uv: [Vec2; 3],
+    material: u32,
+    object: u32,
+) {
+    let g = (p[1] - p[0]).cross(p[2] - p[0]);
+    if g.length_squared() == 0.0 {
+        return; // degenerate (sphere poles): skip rather than store an untraceable triangle
+    }
+    let (p, n, uv) = if g.dot(n[0] + n[1] + n[2]) < 0.0 {
+        (
+            [p[0], p[2], p[1]],
+            [n[0], n[2], n[1]],
+            [uv[0], uv[2], uv[1]],
+        )
+    } else {
+        (p, n, uv)
+    };
+    d.tris.push((
+        p[0],
+        p[1],
+        p[2],
+        TriangleShading {
+            n,
+            uv,
+            material,
+            object,
+        },
+    ));
+}
+
+/// Tessellate a parametric surface f(u,v) -> (position, normal), u,v in [0,1], into nu×nv cells.
+fn parametric(
+    d: &mut SceneData,
+    nu: u32,
+    nv: u32,
+    material: u32,
+    object: u32,
+    f: impl Fn(f32, f32) -> (Vec3, Vec3),
+) {
+    let at = |i: u32, j: u32| {
+        let (u, v) = (i as f32 / nu as f32, j as f32 / nv as f32);
+        let (p, n) = f(u, v);
+        (p, n, Vec2::new(u, v))
+    };
+    for j in 0..nv {
+        for i in 0..nu {
+            let c = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+            for idx in [[0, 1, 2], [0, 2, 3]] {
+                let t = idx.map(|k| c[k]);
+                smooth_tri(
+                    d,
+                    t.map(|x| x.0),
+                    t.map(|x| x.1),
+                    t.map(|x| x.2),
+                    material,
+                    object,
+                );
+            }
+        }
+    }
+}
+
+/// An oriented box (12 flat triangles, outward normals).
+fn add_box(d: &mut SceneData, xf: Mat4, half: Vec3, material: u32, object: u32) {
+    let c = |sx: f32, sy: f32, sz: f32| {
+        xf.transform_point3(Vec3::new(sx * half.x, sy * half.y, sz * half.z))
+    };
+    let centre = xf.transform_point3(Vec3::ZERO);
+    let faces = [
+        [
+            c(1., -1., -1.),
+            c(1., 1., -1.),
+            c(1., 1., 1.),
+            c(1., -1., 1.),
+        ],
+        [
+            c(-1., -1., -1.),
+            c(-1., -1., 1.),
+            c(-1., 1., 1.),
+            c(-1., 1., -1.),
+        ],
+        [
+            c(-1., 1., -1.),
+            c(-1., 1., 1.),
+            c(1., 1., 1.),
+            c(1., 1., -1.),
+        ],
+        [
+            c(-1., -1., -1.),
+            c(1., -1., -1.),
+            c(1., -1., 1.),
+            c(-1., -1., 1.),
+        ],
+        [
+            c(-1., -1., 1.),
+            c(1., -1., 1.),
+            c(1., 1., 1.),
+            c(-1., 1., 1.),
+        ],
+        [
+            c(-1., -1., -1.),
+            c(-1., 1., -1.),
+            c(1., 1., -1.),
+            c(1., -1., -1.),
+        ],
+    ];
+    for [a, b, cc, dd] in faces {
+        let fc = (a + b + cc + dd) * 0.25;
+        if (b - a).cross(cc - a).dot(fc - centre) >= 0.0 {
+            d.quad(a, b, cc, dd, material, object);
+        } else {
+            d.quad(a, dd, cc, b, material, object);
+        }
+    }
+}
+
+fn add_sphere(
+    d: &mut SceneData,
+    centre: Vec3,
+    r: f32,
+    stacks: u32,
+    slices: u32,
+    material: u32,
+    object: u32,
+) {
+    parametric(d, slices, stacks, material, object, |u, v| {
+        let (phi, theta) = (u * TAU, v * PI);
+        let n = Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            theta.sin() * phi.sin(),
+        );
+        (centre + r * n, n)
+    });
+}
+
+fn add_torus(d: &mut SceneData, xf: Mat4, big_r: f32, small_r: f32, material: u32, object: u32) {
+    let nm = xf.inverse().transpose();
+    parametric(d, 96, 32, material, object, |u, v| {
+        let (a, b) = (u * TAU, v * TAU);
+        let ring = Vec3::new(a.cos(), 0.0, a.sin());
+        let n = ring * b.cos() + Vec3::Y * b.sin();
+        let p = ring * big_r + n * small_r;
+        (xf.transform_point3(p), nm.transform_vector3(n).normalize())
+    });
+}
+
+/// A square light of `side` m, `height` m up, centred above (0, height, centre_z), facing down (two emissive
+/// triangles → one Rect light).
+fn add_ceiling_light(d: &mut SceneData, radiance: f32, centre_z: f32, height: f32, side: f32) {
+    let m = d.add_material(Material::emitter("light", Vec3::splat(radiance)), false);
+    let o = d.new_object();
+    let corner = Vec3::new(-0.5 * side, height, centre_z - 0.5 * side);
+    let (eu, ev) = (Vec3::X * side, Vec3::Z * side); // eu × ev = -Y: emits downward
+    d.quad(corner, corner + eu, corner + eu + ev, corner + ev, m, o);
+}
+
+/// Three layered, mutually rotated grids of 4 cm bars (x bars below z bars, so no coplanar faces).
+fn add_grids(d: &mut SceneData) {
+    const SEGMENT: f32 = 0.1;
+    let m = d.add_material(Material::diffuse("bars", Vec3::splat(0.5)), false);
+    let t = 0.03;
+    // Under a 0.6 m light 3 m up, penumbrae are 0.6·h/(3 − h) = 0.14–0.26 m wide, comparable to the
+    // bar spacing, so the three grids' shadows overlap into intricate patterns; heights within a factor
+    // 1.8 keep the spread of occluder depths per pixel (s_max/s_min, eq. 3.21) in the thesis's range.
+    for (height, angle_deg, spacing, count) in [
+        (0.6f32, 0.0f32, 0.22f32, 7i32),
+        (0.8, 30.0, 0.26, 6),
+        (1.05, 60.0, 0.30, 5),
+    ] {
+        let o = d.new_object();
+        let rot = Quat::from_rotation_y(angle_deg.to_radians());
+        let half_len = spacing * count as f32 * 0.5 + 0.1;
+        for k in 0..count {
+            let off = (k as f32 - (count - 1) as f32 * 0.5) * spacing;
+            // Each bar is built from short boxes: a long, rotated bar has a huge axis-aligned box,
+            // and 36 of them overlapping made every shadow ray test most of the scene (measured
+            // 1 Mray/s on one core); segments keep BVH boxes tight.
+            let segments = (2.0 * half_len / SEGMENT).ceil() as i32;
+            let seg_half = half_len / segments as f32;
+            for k in 0..segments {
+                let along = -half_len + (2 * k + 1) as f32 * seg_half;
+                let xbar = Mat4::from_rotation_translation(
+                    rot,
+                    rot * Vec3::new(along, 0.0, off) + Vec3::new(0.0, height + 0.5 * t, 0.0),
+                );
+                add_box(d, xbar, Vec3::new(seg_half, 0.5 * t, 0.5 * t), m, o);
+                let zbar = Mat4::from_rotation_translation(
+                    rot,
+                    rot * Vec3::new(off, 0.0, along) + Vec3::new(0.0, height + 1.5 * t, 0.0),
+                );
+                add_box(d, zbar, Vec3::new(0.5 * t, 0.5 * t, seg_half), m, o);
+            }
+        }
+    }
+}
+
+fn grids() -> SceneData {
+    let mut d = SceneData::default();
+    // Mild checker (0.55/0.75 in linear units) so texture-after-filter is exercised without dominating.
+    d.textures.push(Texture::checker(64, 8, 0.55, 0.75));
+    let ground = d.add_material(
+        Material {
+            base_color_texture: Some(0),
+            ..Material::diffuse("ground", Vec3::ONE)
+        },
+        false,
+    );
+    let o = d.new_object();
+    // 14 m × 12 m so the ground fills the whole frame from the default camera (a 6 m square would leave
+    // the top ~17% of the image empty); uv = position/2 m with 8 checks per uv unit → 25 cm squares.
+    let (x0, x1, z0, z1) = (-7.0f32, 7.0f32, -7.0f32, 5.0f32);
+    let p = [
+        Vec3::new(x0, 0.0, z1),
+        Vec3::new(x1, 0.0, z1),
+        Vec3::new(x1, 0.0, z0),
+        Vec3::new(x0, 0.0, z0),
+    ];
+    let uv = p.map(|p| Vec2::new(p.x, p.z) * 0.5);
+    for idx in [[0, 1, 2], [0, 2, 3]] {
+        smooth_tri(
+            &mut d,
+            idx.map(|k| p[k]),
+            [Vec3::Y; 3],
+            idx.map(|k| uv[k]),
+            ground,
+            o,
+        );
+    }
+    add_grids(&mut d);
+    // The light sits 1 m behind the grids (seen from the camera) so their shadows fall toward the
+    // camera, in front of the grids rather than hidden under them.
+    add_ceiling_light(&mut d, 60.0, -1.0, 3.0, 0.6);
+    d.camera = Some(Camera {
+        position: Vec3::new(0.0, 2.3, 3.4),
+        look_at: Vec3::new(0.0, 0.0, 0.5),
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+        aperture_radius: 0.0,
+        focus_distance: 0.0,
+    });
+    d
+}
+
+fn wavy(x: f32, z: f32) -> (f32, Vec3) {
+    let y = 0.1 * (2.0 * x).sin() * (2.0 * z).cos();
+    let dx = 0.2 * (2.0 * x).cos() * (2.0 * z).cos();
+    let dz = -0.2 * (2.0 * x).sin() * (2.0 * z).sin();
+    (y, Vec3::new(-dx, 1.0, -dz).normalize())
+}
+
+fn curved() -> SceneData {
+    let mut d = SceneData::default();
+    let ground = d.add_material(Material::diffuse("ground", Vec3::splat(0.7)), false);
+    let o = d.new_object();
+    // 10 m × 9.5 m (fills the frame from the camera below), 160×152 cells ≈ 6 cm: smooth enough that
+    // the interpolated normals, not the facets, shape the shading.
+    parametric(&mut d, 160, 152, ground, o, |u, v| {
+        let (x, z) = (-5.0 + 10.0 * u, -5.5 + 9.5 * v);
+        let (y, n) = wavy(x, z);
+        (Vec3::new(x, y, z), n)
+    });
+    let red = d.add_material(
+        Material::diffuse("sphere", Vec3::new(0.7, 0.35, 0.3)),
+        false,
+    );
+    let o = d.new_object();
+    add_sphere(&mut d, Vec3::new(-0.6, 0.9, 0.2), 0.35, 32, 64, red, o);
+    let blue = d.add_material(Material::diffuse("torus", Vec3::new(0.3, 0.4, 0.7)), false);
+    let o = d.new_object();
+    let xf = Mat4::from_rotation_translation(Quat::from_rotation_x(0.5), Vec3::new(0.7, 0.7, -0.1));
+    add_torus(&mut d, xf, 0.4, 0.1, blue, o);
+    add_ceiling_light(&mut d, 10.0, 0.0, 3.0, 1.0);
+    d.camera = Some(Camera {
+        position: Vec3::new(0.0, 3.4, 3.2),
+        look_at: Vec3::new(0.0, 0.2, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+        aperture_radius: 0.0,
+        focus_distance: 0.0,
+    });
+    d
+}
+
+fn heavy() -> SceneData {
+    let mut d = SceneData::default();
+    let ground = d.add_material(Material::diffuse("terrain", Vec3::splat(0.65)), false);
+    let o = d.new_object();
+    // 200×200 cells = 80k triangles of gently displaced terrain (kept below the grids' lowest bar).
+    parametric(&mut d, 200, 200, ground, o, |u, v| {
+        let (x, z) = (-4.0 + 8.0 * u, -4.0 + 8.0 * v);
+        let h = |x: f32, z: f32| {
+            0.06 * (3.0 * x).sin() * (2.5 * z).cos() + 0.03 * (7.0 * x + 5.0 * z).sin()
+        };
+        let e = 1e-3;
+        let n = Vec3::new(
+            -(h(x + e, z) - h(x - e, z)) / (2.0 * e),
+            1.0,
+            -(h(x, z + e) - h(x, z - e)) / (2.0 * e),
+        );
+        (Vec3::new(x, h(x, z), z), n.normalize())
+    });
+    add_grids(&mut d);
+    add_ceiling_light(&mut d, 10.0, 0.0, 3.0, 1.0);
+    // 12 spheres × ~7.7k triangles, on a ring outside the light's footprint.
+    for k in 0..12 {
+        let m = d.add_material(
+            Material::diffuse(
+                &format!("sphere{k}"),
+                Vec3::new(0.4 + 0.04 * k as f32, 0.5, 0.6),
+            ),
+            false,
+        );
+        let o = d.new_object();
+        let a = k as f32 / 12.0 * TAU;
+        add_sphere(
+            &mut d,
+            Vec3::new(2.6 * a.cos(), 0.45, 2.6 * a.sin()),
+            0.3,
+            40,
+            96,
+            m,
+            o,
+        );
+    }
+    d.camera = Some(Camera {
+        position: Vec3::new(0.0, 3.6, 5.5),
+        look_at: Vec3::new(0.0, 0.0, 0.3),
+        up: Vec3::Y,
+        vfov_deg: 50.0,
+        aperture_radius: 0.0,
+        focus_distance: 0.0,
+    });
+    d
+}

@@ -1,0 +1,258 @@
+//! The flat BVH2 the CPU and the GPU both traverse, and the triangle layout they test against.
+//!
+//! obvhs builds the tree (PLOC + reinsertion, `medium_build`); we only keep its node array and
+//! primitive order. The traversal below is deliberately plain — a fixed 64-entry stack, near child first,
+//! slab test, Möller–Trumbore in f32 — so the WGSL kernel can mirror it line by line and the two agree.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Depth of the traversal stack. The builder rejects trees deeper than this (a push happens at most once
+/// per level, so depth ≤ STACK_SIZE guarantees the stack never overflows).
+pub const STACK_SIZE: usize = 64;
+
+/// Marker for "no light" in [`TriangleRecord::light`].
+pub const NO_LIGHT: u32 = u32::MAX;
+
+/// GPU-friendly flattened BVH2 node (32 bytes). Inner node: `count == 0`, children at `index` and
+/// `index + 1`. Leaf: `count > 0` triangles starting at `Scene::triangles[index]`. Node 0 is the root.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    pub index: u32,
+    pub max: [f32; 3],
+    pub count: u32,
+}
+
+/// A triangle as traced (48 bytes, `repr(C)`, Pod): `v0`, `e1 = v1 - v0`, `e2 = v2 - v0`, each followed
+/// by a u32 so every vec3 sits in a 16-byte slot (WGSL `vec3<f32>` + `u32` packs exactly like this):
+/// - `material`: index into `Scene::materials` (same as `Scene::shading[i].material`, duplicated so a
+///   shadow/any-hit kernel need not read the shading array),
+/// - `light`: index into `Scene::lights` of the emitter this triangle belongs to, or [`NO_LIGHT`],
+/// - `source`: the triangle's index in the input order given to `Scene::from_triangles` (before BVH
+///   reordering), for debugging and for callers that kept per-input-triangle data.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct TriangleRecord {
+    pub v0: [f32; 3],
+    pub material: u32,
+    pub e1: [f32; 3],
+    pub light: u32,
+    pub e2: [f32; 3],
+    pub source: u32,
+}
+
+impl TriangleRecord {
+    pub fn new(a: Vec3, b: Vec3, c: Vec3, material: u32, source: u32) -> Self {
+        TriangleRecord {
+            v0: a.to_array(),
+            material,
+            e1: (b - a).to_array(),
+            light: NO_LIGHT,
+            e2: (c - a).to_array(),
+            source,
+        }
+    }
+    pub fn vertices(&self) -> [Vec3; 3] {
+        let v0 = Vec3::from(self.v0);
+        [v0, v0 + Vec3::from(self.e1), v0 + Vec3::from(self.e2)]
+    }
+}
+
+/// A ray–scene intersection: distance along the (not necessarily unit) direction, the triangle index in
+/// `Scene::triangles`, and the barycentric weights of v1 and v2 (v0's is 1 - b1 - b2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub triangle: u32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// Möller–Trumbore. Returns (t, b1, b2) for a hit with tmin < t < tmax. Single-sided tests are not done:
+/// both faces are hit.
+#[inline]
+pub fn intersect_triangle(
+    tri: &TriangleRecord,
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, f32, f32)> {
+    let e1 = Vec3::from(tri.e1);
+    let e2 = Vec3::from(tri.e2);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None; // ray parallel to the plane (or degenerate triangle)
+    }
+    let inv_det = 1.0 / det;
+    let s = o - Vec3::from(tri.v0);
+    let b1 = s.dot(p) * inv_det;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let b2 = d.dot(q) * inv_det;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv_det;
+    if t > tmin && t < tmax {
+        Some((t, b1, b2))
+    } else {
+        None
+    }
+}
+
+/// Slab test. Returns the entry distance if the ray overlaps the box within (tmin, tmax), else +inf.
+/// The exit distance is widened by a few ulps (PBRT's 1 + 2γ₃) so rounding never culls a triangle that
+/// Möller–Trumbore would hit — thin boxes (a flat ground plane has zero height) need this.
+#[inline]
+pub fn slab(node: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> f32 {
+    let t0 = (Vec3::from(node.min) - o) * inv_d;
+    let t1 = (Vec3::from(node.max) - o) * inv_d;
+    // f32::min/max return the non-NaN operand, so 0 * inf (origin on a slab plane, axis-parallel ray)
+    // does not poison the interval.
+    let near = t0.min(t1);
+    let far = t0.max(t1);
+    let t_enter = near.x.max(near.y).max(near.z).max(tmin);
+    let t_exit = far.x.min(far.y).min(far.z).min(tmax) * 1.000_000_4;
+    if t_enter <= t_exit {
+        t_enter
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// Shared traversal. With `any_hit` it returns the first hit found (shadow rays); otherwise the closest.
+pub fn traverse(
+    nodes: &[BvhNode],
+    tris: &[TriangleRecord],
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    tmax: f32,
+    any_hit: bool,
+) -> Option<Hit> {
+    if nodes.is_empty() || !(o.is_finite() && d.is_finite()) {
+        return None;
+    }
+    let inv_d = d.recip();
+    let mut best: Option<Hit> = None;
+    let mut t_best = tmax;
+    if slab(&nodes[0], o, inv_d, tmin, t_best) == f32::INFINITY {
+        return None;
+    }
+    let mut stack = [0u32; STACK_SIZE];
+    let mut sp = 0usize;
+    let mut node = 0u32;
+    loop {
+        let n = &nodes[node as usize];
+        if n.count > 0 {
+            // Leaf: test its triangles.
+            for i in n.index..n.index + n.count {
+                if let Some((t, b1, b2)) = intersect_triangle(&tris[i as usize], o, d, tmin, t_best)
+                {
+                    t_best = t;
+                    best = Some(Hit {
+                        t,
+                        triangle: i,
+                        b1,
+                        b2,
+                    });
+                    if any_hit {
+                        return best;
+                    }
+                }
+            }
+        } else {
+            // Inner node: visit the nearer child first, keep the farther one for later.
+            let a = n.index;
+            let b = n.index + 1;
+            let ta = slab(&nodes[a as usize], o, inv_d, tmin, t_best);
+            let tb = slab(&nodes[b as usize], o, inv_d, tmin, t_best);
+            if ta != f32::INFINITY && tb != f32::INFINITY {
+                let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
+                stack[sp] = far;
+                sp += 1;
+                node = near;
+                continue;
+            } else if ta != f32::INFINITY {
+                node = a;
+                continue;
+            } else if tb != f32::INFINITY {
+                node = b;
+                continue;
+            }
+        }
+        // Pop. Entries were culled against an older t_best; re-testing them here would save triangle
+        // tests but costs a node fetch either way, so we keep the loop simple.
+        if sp == 0 {
+            break;
+        }
+        sp -= 1;
+        node = stack[sp];
+    }
+    best
+}
+
+/// The result of building: nodes plus the input-triangle order the leaves expect.
+pub struct BuiltBvh {
+    pub nodes: Vec<BvhNode>,
+    /// `order[k]` = input index of the triangle that must be stored at position k.
+    pub order: Vec<u32>,
+    pub depth: usize,
+}
+
+/// Build with obvhs and flatten. With a preset that pre-splits (spatial splits) a triangle is referenced
+/// from several leaves, so `order` may repeat input indices; the scene stores one copy per reference.
+/// `medium_build` (no splits) measured as fast as `slow_build` on `grids`.
+pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
+    use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle, BvhBuildParams};
+    let input: Vec<Triangle> = tris
+        .iter()
+        .map(|t| Triangle {
+            v0: t[0].into(),
+            v1: t[1].into(),
+            v2: t[2].into(),
+        })
+        .collect();
+    let mut core_time = std::time::Duration::ZERO;
+    let bvh = build_bvh2_from_tris(&input, BvhBuildParams::medium_build(), &mut core_time);
+    let nodes: Vec<BvhNode> = bvh
+        .nodes
+        .iter()
+        .map(|n| BvhNode {
+            min: Vec3::from(n.aabb.min).to_array(),
+            index: n.first_index,
+            max: Vec3::from(n.aabb.max).to_array(),
+            count: n.prim_count,
+        })
+        .collect();
+    let depth = tree_depth(&nodes);
+    BuiltBvh {
+        nodes,
+        order: bvh.primitive_indices,
+        depth,
+    }
+}
+
+/// Depth of the tree (root alone = 1), iteratively so deep trees cannot blow the Rust stack.
+pub fn tree_depth(nodes: &[BvhNode]) -> usize {
+    if nodes.is_empty() {
+        return 0;
+    }
+    let mut max_depth = 0;
+    let mut todo = vec![(0u32, 1usize)];
+    while let Some((i, d)) = todo.pop() {
+        max_depth = max_depth.max(d);
+        let n = &nodes[i as usize];
+        if n.count == 0 {
+            todo.push((n.index, d + 1));
+            todo.push((n.index + 1, d + 1));
+        }
+    }
+    max_depth
+}

@@ -1,0 +1,122 @@
+//! Thin-lens / pinhole camera.
+
+use glam::{Vec2, Vec3};
+
+/// A look-at camera. `aperture_radius == 0` is a pinhole. `focus_distance` is measured along the view
+/// direction (the focal plane is perpendicular to `look_at - position`); a value `<= 0` means
+/// "focus on `look_at`".
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    pub vfov_deg: f32,
+    pub aperture_radius: f32,
+    pub focus_distance: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            position: Vec3::new(0.0, 1.0, 4.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+            aperture_radius: 0.0,
+            focus_distance: 0.0,
+        }
+    }
+}
+
+impl Camera {
+    /// Orthonormal camera frame (right, up, forward). Falls back to another up vector when `up` is
+    /// parallel to the view direction so the frame is never NaN.
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let forward = (self.look_at - self.position)
+            .try_normalize()
+            .unwrap_or(Vec3::NEG_Z);
+        let mut right = forward.cross(self.up).try_normalize();
+        if right.is_none() {
+            let alt = if forward.y.abs() < 0.9 {
+                Vec3::Y
+            } else {
+                Vec3::Z
+            };
+            right = forward.cross(alt).try_normalize();
+        }
+        let right = right.unwrap_or(Vec3::X);
+        let up = right.cross(forward);
+        (right, up, forward)
+    }
+
+    /// The distance to the focal plane actually used (see the struct doc).
+    pub fn effective_focus_distance(&self) -> f32 {
+        if self.focus_distance > 0.0 {
+            self.focus_distance
+        } else {
+            (self.look_at - self.position).length().max(1e-4)
+        }
+    }
+
+    /// Primary ray through image coordinates (px, py) in pixels, (0,0) the top-left corner, y down;
+    /// the centre of pixel (x,y) is (x+0.5, y+0.5). `lens` in [0,1)^2 is mapped to the aperture disk with
+    /// Shirley's concentric mapping (ignored for a pinhole). Returns (origin, unit direction).
+    pub fn generate_ray(
+        &self,
+        px: f32,
+        py: f32,
+        width: u32,
+        height: u32,
+        lens: Vec2,
+    ) -> (Vec3, Vec3) {
+        let (right, up, forward) = self.basis();
+        let w = width.max(1) as f32;
+        let h = height.max(1) as f32;
+        let tan_half = (self.vfov_deg.to_radians() * 0.5).tan();
+        let sx = (2.0 * px / w - 1.0) * tan_half * (w / h);
+        let sy = (1.0 - 2.0 * py / h) * tan_half;
+        let dir = (forward + sx * right + sy * up).normalize();
+        if self.aperture_radius <= 0.0 {
+            return (self.position, dir);
+        }
+        // Thin lens: every ray through this pixel meets the pinhole ray on the focal plane.
+        let focus = self.position + dir * (self.effective_focus_distance() / dir.dot(forward));
+        let d = concentric_disk(lens) * self.aperture_radius;
+        let origin = self.position + d.x * right + d.y * up;
+        (origin, (focus - origin).normalize())
+    }
+
+    /// A camera that frames an axis-aligned box from the front (+z) and slightly above.
+    pub fn framing(min: Vec3, max: Vec3) -> Camera {
+        let centre = (min + max) * 0.5;
+        let radius = ((max - min).length() * 0.5).max(1e-3);
+        let vfov_deg: f32 = 45.0;
+        let dist = radius / (vfov_deg.to_radians() * 0.5).sin() * 1.05;
+        let position = centre + Vec3::new(0.0, 0.35, 1.0).normalize() * dist;
+        Camera {
+            position,
+            look_at: centre,
+            up: Vec3::Y,
+            vfov_deg,
+            aperture_radius: 0.0,
+            focus_distance: dist,
+        }
+    }
+}
+
+/// Shirley–Chiu concentric square-to-disk mapping (low distortion, so stratified lens samples stay stratified).
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (
+            o.y,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
+        )
+    };
+    Vec2::new(theta.cos(), theta.sin()) * r
+}

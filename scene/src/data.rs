@@ -1,0 +1,103 @@
+//! Loader-side scene description: loose triangles plus what `Scene::from_triangles` needs. Loaders and
+//! built-ins produce this so the RON composer can merge several sources before one BVH build.
+
+use glam::{Mat4, Vec2, Vec3};
+
+use crate::{Camera, Material, Scene, SceneError, Texture, TriangleShading};
+
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SceneData {
+    pub tris: Vec<(Vec3, Vec3, Vec3, TriangleShading)>,
+    pub materials: Vec<Material>,
+    /// Per material: emits from both sides (glTF `doubleSided`, RON `two_sided`).
+    pub two_sided: Vec<bool>,
+    pub textures: Vec<Texture>,
+    pub camera: Option<Camera>,
+    /// Next free object id.
+    pub next_object: u32,
+}
+
+impl SceneData {
+    pub fn add_material(&mut self, m: Material, two_sided: bool) -> u32 {
+        self.materials.push(m);
+        self.two_sided.push(two_sided);
+        (self.materials.len() - 1) as u32
+    }
+
+    pub fn new_object(&mut self) -> u32 {
+        self.next_object += 1;
+        self.next_object - 1
+    }
+
+    /// A triangle with flat normals and zero uvs.
+    pub fn flat(&mut self, a: Vec3, b: Vec3, c: Vec3, material: u32, object: u32) {
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        self.tris.push((
+            a,
+            b,
+            c,
+            TriangleShading {
+                n: [n; 3],
+                uv: [Vec2::ZERO; 3],
+                material,
+                object,
+            },
+        ));
+    }
+
+    /// A quad a-b-c-d (counter-clockwise around its front) as two flat triangles sharing the a-c diagonal.
+    pub fn quad(&mut self, a: Vec3, b: Vec3, c: Vec3, d: Vec3, material: u32, object: u32) {
+        self.flat(a, b, c, material, object);
+        self.flat(a, c, d, material, object);
+    }
+
+    /// Append another description (materials/textures/objects renumbered); its camera is ignored.
+    pub fn append(&mut self, other: SceneData, transform: Mat4, material_override: Option<u32>) {
+        let mat_off = self.materials.len() as u32;
+        let tex_off = self.textures.len() as u32;
+        let obj_off = self.next_object;
+        let normal_m = transform.inverse().transpose();
+        for (a, b, c, mut s) in other.tris {
+            s.material = material_override.unwrap_or(s.material + mat_off);
+            s.object += obj_off;
+            s.n =
+                s.n.map(|n| normal_m.transform_vector3(n).normalize_or_zero());
+            self.tris.push((
+                transform.transform_point3(a),
+                transform.transform_point3(b),
+                transform.transform_point3(c),
+                s,
+            ));
+        }
+        for mut m in other.materials {
+            m.base_color_texture = m.base_color_texture.map(|t| t + tex_off);
+            self.materials.push(m);
+        }
+        self.two_sided.extend(other.two_sided);
+        self.textures.extend(other.textures);
+        self.next_object += other.next_object;
+    }
+
+    pub fn into_scene(self, name: &str) -> Result<Scene, SceneError> {
+        let mut bounds = crate::Aabb::empty();
+        for t in &self.tris {
+            for p in [t.0, t.1, t.2] {
+                if p.is_finite() {
+                    bounds.grow(p);
+                }
+            }
+        }
+        let camera = self.camera.unwrap_or_else(|| {
+            if bounds.min.is_finite() {
+                Camera::framing(bounds.min, bounds.max)
+            } else {
+                Camera::default()
+            }
+        });
+        let two_sided = self.two_sided;
+        let mut scene =
+            Scene::from_triangles(name, self.tris, self.materials, self.textures, camera)?;
+        scene.set_two_sided_by_material(&two_sided);
+        Ok(scene)
+    }
+}

@@ -1,0 +1,155 @@
+//! Planar area lights: sampling, the thesis's footprint std-dev, and closed-form unoccluded irradiance.
+
+use glam::{Vec2, Vec3};
+
+/// A planar emitter. Rectangles (parallelograms, strictly) are the thesis's case; triangles are allowed too.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightShape {
+    /// The parallelogram `corner + s*edge_u + t*edge_v`, s,t in [0,1]. Its emitting side is
+    /// `edge_u × edge_v`.
+    Rect {
+        corner: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+    },
+    /// Emitting side `(v1-v0) × (v2-v0)` (counter-clockwise seen from the lit side).
+    Triangle { v0: Vec3, v1: Vec3, v2: Vec3 },
+}
+
+/// A uniformly emitting planar light. `radiance` is L_e toward `normal()`; with `two_sided` it also
+/// emits the same radiance from the back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaLight {
+    pub shape: LightShape,
+    pub radiance: Vec3,
+    pub two_sided: bool,
+}
+
+impl AreaLight {
+    fn cross(&self) -> Vec3 {
+        match self.shape {
+            LightShape::Rect { edge_u, edge_v, .. } => edge_u.cross(edge_v),
+            LightShape::Triangle { v0, v1, v2 } => (v1 - v0).cross(v2 - v0),
+        }
+    }
+
+    /// The polygon's vertices in order, counter-clockwise around `normal()`.
+    pub fn vertices(&self) -> Vec<Vec3> {
+        match self.shape {
+            LightShape::Rect {
+                corner,
+                edge_u,
+                edge_v,
+            } => {
+                vec![
+                    corner,
+                    corner + edge_u,
+                    corner + edge_u + edge_v,
+                    corner + edge_v,
+                ]
+            }
+            LightShape::Triangle { v0, v1, v2 } => vec![v0, v1, v2],
+        }
+    }
+
+    pub fn area(&self) -> f32 {
+        match self.shape {
+            LightShape::Rect { .. } => self.cross().length(),
+            LightShape::Triangle { .. } => 0.5 * self.cross().length(),
+        }
+    }
+
+    /// Unit normal of the emitting side (`edge_u × edge_v` for a rect).
+    pub fn normal(&self) -> Vec3 {
+        self.cross().normalize_or_zero()
+    }
+
+    /// Centroid.
+    pub fn centre(&self) -> Vec3 {
+        match self.shape {
+            LightShape::Rect {
+                corner,
+                edge_u,
+                edge_v,
+            } => corner + 0.5 * (edge_u + edge_v),
+            LightShape::Triangle { v0, v1, v2 } => (v0 + v1 + v2) / 3.0,
+        }
+    }
+
+    /// Uniform-area sample from u in [0,1)^2 (pdf w.r.t. area = 1/area()). Rect: `corner + u.x*edge_u +
+    /// u.y*edge_v`, so a stratified u gives stratified points. Triangle: the square-root parameterisation
+    /// `(1-√u.x) v0 + √u.x (1-u.y) v1 + √u.x u.y v2`.
+    pub fn sample_point(&self, u: Vec2) -> Vec3 {
+        match self.shape {
+            LightShape::Rect {
+                corner,
+                edge_u,
+                edge_v,
+            } => corner + u.x * edge_u + u.y * edge_v,
+            LightShape::Triangle { v0, v1, v2 } => {
+                let su = u.x.max(0.0).sqrt();
+                (1.0 - su) * v0 + su * (1.0 - u.y) * v1 + su * u.y * v2
+            }
+        }
+    }
+
+    /// Std-dev (metres) of the emitter's footprint, the σ of the thesis's bandwidth (EQUATIONS.md,
+    /// SoftShadows). Rect: `max(|edge_u|, |edge_v|)/√12`, the std-dev of a uniform distribution over the
+    /// longer side. Triangle: √(largest eigenvalue) of the covariance of a point uniformly distributed over
+    /// the triangle, `Cov = (e1 e1ᵀ + e2 e2ᵀ)/18 − (e1 e2ᵀ + e2 e1ᵀ)/36` with e1 = v1−v0, e2 = v2−v0 (from
+    /// the barycentric moments Var(s) = 1/18, Cov(s,t) = −1/36). For a rect the same eigen-analysis would
+    /// give the same value when its edges are orthogonal.
+    pub fn sigma(&self) -> f32 {
+        match self.shape {
+            LightShape::Rect { edge_u, edge_v, .. } => {
+                edge_u.length().max(edge_v.length()) / 12f32.sqrt()
+            }
+            LightShape::Triangle { v0, v1, v2 } => {
+                let (e1, e2) = ((v1 - v0) as Vec3, (v2 - v0) as Vec3);
+                // Work in a 2-D orthonormal basis of the triangle's plane: the covariance has rank ≤ 2.
+                let t1 = e1.normalize_or_zero();
+                let t2 = (e2 - t1 * e2.dot(t1)).normalize_or_zero();
+                let a = Vec2::new(e1.dot(t1), e1.dot(t2));
+                let b = Vec2::new(e2.dot(t1), e2.dot(t2));
+                let cxx = (a.x * a.x + b.x * b.x) / 18.0 - (2.0 * a.x * b.x) / 36.0;
+                let cyy = (a.y * a.y + b.y * b.y) / 18.0 - (2.0 * a.y * b.y) / 36.0;
+                let cxy = (a.x * a.y + b.x * b.y) / 18.0 - (a.x * b.y + b.x * a.y) / 36.0;
+                let mean = 0.5 * (cxx + cyy);
+                let disc = (0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy).sqrt();
+                (mean + disc).max(0.0).sqrt()
+            }
+        }
+    }
+
+    /// Exact irradiance at `p` (unit normal `n`) from this light, ignoring occlusion, by Lambert's
+    /// closed-form polygon formula E = L_e/2 · Σ_i θ_i (n · Γ_i), with v_i = vertex_i − p,
+    /// θ_i = angle(v_i, v_{i+1}) and Γ_i = normalize(v_i × v_{i+1}).
+    ///
+    /// Sign: with vertices counter-clockwise around `normal()` and `p` on the emitting side, the raw sum
+    /// is negative for a light above the tangent plane, so we negate it; seen from the back the order flips.
+    /// A one-sided light seen from behind gives 0. Nothing is clipped: the formula assumes the polygon is
+    /// entirely above p's tangent plane; a polygon entirely below gives a negative sum which is clamped
+    /// to 0, and one straddling the plane gives an inexact value (callers that need that case must clip).
+    pub fn irradiance_unoccluded(&self, p: Vec3, n: Vec3) -> Vec3 {
+        let verts = self.vertices();
+        let side = (p - verts[0]).dot(self.cross());
+        if side == 0.0 || (side < 0.0 && !self.two_sided) {
+            return Vec3::ZERO;
+        }
+        let mut sum = 0.0f64;
+        for i in 0..verts.len() {
+            // f64 keeps the small-angle terms accurate for distant or tiny lights.
+            let a = (verts[i] - p).as_dvec3();
+            let b = (verts[(i + 1) % verts.len()] - p).as_dvec3();
+            let c = a.cross(b);
+            let cl = c.length();
+            if cl == 0.0 {
+                continue;
+            }
+            let theta = cl.atan2(a.dot(b));
+            sum += theta * n.as_dvec3().dot(c / cl);
+        }
+        let oriented = if side > 0.0 { -sum } else { sum };
+        self.radiance * (0.5 * oriented.max(0.0)) as f32
+    }
+}
