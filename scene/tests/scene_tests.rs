@@ -371,7 +371,7 @@ fn camera_rays() {
 #[test]
 fn builtins_load_and_are_sane() {
     assert_eq!(builtin_names(), &["grids", "curved", "heavy"]);
-    for name in ["grids", "curved"] {
+    for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
         assert_eq!(s.lights.len(), 1, "{name}");
         let l = &s.lights[0];
@@ -380,8 +380,8 @@ fn builtins_load_and_are_sane() {
             "{name}: {:?}",
             l.shape
         );
-        assert!((l.area() - 1.0).abs() < 1e-5 && l.normal().abs_diff_eq(Vec3::NEG_Y, 1e-6));
-        assert!((l.sigma() - 1.0 / 12f32.sqrt()).abs() < 1e-6);
+        assert!((l.area() - side * side).abs() < 1e-5 && l.normal().abs_diff_eq(Vec3::NEG_Y, 1e-6));
+        assert!((l.sigma() - side / 12f32.sqrt()).abs() < 1e-6);
         let e = l.irradiance_unoccluded(Vec3::ZERO, Vec3::Y).x;
         assert!(e > 0.5 && e < 3.0, "{name}: ground irradiance {e}");
         // Both light triangles map to light 0, nothing else does.
