@@ -24,6 +24,11 @@ impl SceneData {
         (self.materials.len() - 1) as u32
     }
 
+    /// One triangle with per-vertex normals and uvs (every loader's common path).
+    pub fn push(&mut self, p: [Vec3; 3], n: [Vec3; 3], uv: [Vec2; 3], material: u32, object: u32) {
+        self.tris.push((p[0], p[1], p[2], TriangleShading { n, uv, material, object }));
+    }
+
     pub fn new_object(&mut self) -> u32 {
         self.next_object += 1;
         self.next_object - 1

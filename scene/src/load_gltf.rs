@@ -13,7 +13,7 @@ use std::path::Path;
 use glam::{Mat4, Vec2, Vec3};
 
 use crate::data::SceneData;
-use crate::{Camera, Material, SceneError, Texture, TriangleShading};
+use crate::{Camera, Material, SceneError, Texture};
 
 pub(crate) fn load_gltf(path: &Path) -> Result<SceneData, SceneError> {
     if !path.is_file() {
@@ -195,17 +195,7 @@ pub(crate) fn load_gltf(path: &Path) -> Result<SceneData, SceneError> {
                         Some(uv) => tri.map(|i| uv.get(i as usize).copied().unwrap_or(Vec2::ZERO)),
                         None => [Vec2::ZERO; 3],
                     };
-                    d.tris.push((
-                        p[0],
-                        p[1],
-                        p[2],
-                        TriangleShading {
-                            n,
-                            uv,
-                            material,
-                            object,
-                        },
-                    ));
+                    d.push(p, n, uv, material, object);
                 }
             }
         }

@@ -9,7 +9,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 
 use crate::data::SceneData;
-use crate::{Material, SceneError, Texture, TriangleShading};
+use crate::{Material, SceneError, Texture};
 
 pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
     if !path.is_file() {
@@ -153,17 +153,7 @@ pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
                     }
                 }
             }
-            d.tris.push((
-                p[0],
-                p[1],
-                p[2],
-                TriangleShading {
-                    n,
-                    uv,
-                    material,
-                    object,
-                },
-            ));
+            d.push(p, n, uv, material, object);
         }
     }
     if d.tris.is_empty() {
