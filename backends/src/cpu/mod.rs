@@ -137,8 +137,9 @@ impl Backend for CpuBackend {
             for (binding, data) in outputs {
                 let id = pass.write(&binding).expect("bound");
                 let slot = sched.slots[id.0].expect("scheduled buffer has a slot");
-                // Storage is reused in place when the slot is taken over; a fresh allocation is
-                // counted only the first time a slot is filled.
+                // A slot's previous occupant is dropped when the next buffer of its pool slot is
+                // written, so at most `slot_formats.len()` buffers are alive between passes (plus
+                // the outputs of the pass running). `allocations` counts slots ever filled.
                 if slots[slot].is_none() {
                     allocations += 1;
                 }
