@@ -1,11 +1,13 @@
 //! The flat BVH2 the CPU and the GPU both traverse, and the triangle layout they test against.
 //!
 //! obvhs builds the tree (PLOC + reinsertion, `medium_build`); we only keep its node array and
-//! primitive order. The traversal below is deliberately plain — a fixed 64-entry stack, near child first,
-//! slab test, Möller–Trumbore in f32 — so the WGSL kernel can mirror it line by line and the two agree.
+//! primitive order. The traversal below is deliberately plain — a fixed 64-entry stack, near child first
+//! (closest hit; any-hit takes the children in array order), slab test, Möller–Trumbore in f32 — so the
+//! WGSL kernel can mirror it line by line and the two agree. The CPU version evaluates the same formulas
+//! on glam `Vec3A` (SSE) lanes; see [`slab`] for why that is bit-identical to the scalar form.
 
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// Depth of the traversal stack. The builder rejects trees deeper than this (a push happens at most once
 /// per level, so depth ≤ STACK_SIZE guarantees the stack never overflows).
@@ -80,15 +82,29 @@ pub fn intersect_triangle(
     tmin: f32,
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
-    let e1 = Vec3::from(tri.e1);
-    let e2 = Vec3::from(tri.e2);
+    intersect_triangle_a(tri, o.into(), d.into(), tmin, tmax)
+}
+
+/// [`intersect_triangle`] on SIMD vectors. Bit-identical to the scalar formulation: glam's `Vec3A`
+/// dot is `(x·x' + y·y') + z·z'` and its cross computes the same products and differences as `Vec3`'s
+/// (Rust never fuses multiply-adds), so hits, t and barycentrics match the WGSL mirror exactly.
+#[inline(always)]
+fn intersect_triangle_a(
+    tri: &TriangleRecord,
+    o: Vec3A,
+    d: Vec3A,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, f32, f32)> {
+    let e1 = Vec3A::from(tri.e1);
+    let e2 = Vec3A::from(tri.e2);
     let p = d.cross(e2);
     let det = e1.dot(p);
     if det == 0.0 || !det.is_finite() {
         return None; // ray parallel to the plane (or degenerate triangle)
     }
     let inv_det = 1.0 / det;
-    let s = o - Vec3::from(tri.v0);
+    let s = o - Vec3A::from(tri.v0);
     let b1 = s.dot(p) * inv_det;
     if !(0.0..=1.0).contains(&b1) {
         return None;
@@ -109,16 +125,27 @@ pub fn intersect_triangle(
 /// Slab test. Returns the entry distance if the ray overlaps the box within (tmin, tmax), else +inf.
 /// The exit distance is widened by a few ulps (PBRT's 1 + 2γ₃) so rounding never culls a triangle that
 /// Möller–Trumbore would hit — thin boxes (a flat ground plane has zero height) need this.
+///
+/// NaN handling (0 · inf: origin on a slab plane, axis-parallel ray): the per-axis near/far are glam's
+/// `if a < b { a } else { b }` (a NaN in `t1` propagates), and the reductions ignore NaN axes like
+/// `f32::max`/`f32::min` (so an all-NaN axis, a flat box containing the origin, does not cull).
 #[inline]
 pub fn slab(node: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> f32 {
-    let t0 = (Vec3::from(node.min) - o) * inv_d;
-    let t1 = (Vec3::from(node.max) - o) * inv_d;
-    // f32::min/max return the non-NaN operand, so 0 * inf (origin on a slab plane, axis-parallel ray)
-    // does not poison the interval.
+    slab_a(node, o.into(), inv_d.into(), Vec3A::splat(tmin), tmax)
+}
+
+/// [`slab`] on SIMD vectors, bit-identical to the scalar form: `Vec3A::min/max` are SSE `minps/maxps`
+/// (= glam `Vec3`'s `if a < b { a } else { b }`, NaN → second operand), and folding `tmin`/`tmax` in
+/// lane-wise *before* the horizontal reduction (`maxps(near, tmin)` turns a NaN lane into `tmin`)
+/// gives exactly the NaN-ignoring `f32::max`/`f32::min` chain of the scalar code.
+#[inline(always)]
+fn slab_a(node: &BvhNode, o: Vec3A, inv_d: Vec3A, tmin: Vec3A, tmax: f32) -> f32 {
+    let t0 = (Vec3A::from(node.min) - o) * inv_d;
+    let t1 = (Vec3A::from(node.max) - o) * inv_d;
     let near = t0.min(t1);
     let far = t0.max(t1);
-    let t_enter = near.x.max(near.y).max(near.z).max(tmin);
-    let t_exit = far.x.min(far.y).min(far.z).min(tmax) * 1.000_000_4;
+    let t_enter = near.max(tmin).max_element();
+    let t_exit = far.min(Vec3A::splat(tmax)).min_element() * 1.000_000_4;
     if t_enter <= t_exit {
         t_enter
     } else {
@@ -136,16 +163,43 @@ pub fn traverse(
     tmax: f32,
     any_hit: bool,
 ) -> Option<Hit> {
+    if any_hit {
+        traverse_impl::<true>(nodes, tris, o, d, tmin, tmax)
+    } else {
+        traverse_impl::<false>(nodes, tris, o, d, tmin, tmax)
+    }
+}
+
+/// The traversal loop, monomorphised for any-hit / closest-hit so the per-leaf `any_hit` branch and
+/// the closest-hit-only pop culling cost nothing in the other variant.
+///
+/// Closest hit: the stack keeps each deferred (far) child's entry distance next to its index; a popped
+/// entry that starts beyond the (widened) current `t_best` is dropped without fetching the node — the
+/// same test [`slab`] would fail on it now, one level earlier. Any-hit never shrinks `t_best` before it
+/// returns, so it skips that bookkeeping.
+#[inline(always)]
+fn traverse_impl<const ANY_HIT: bool>(
+    nodes: &[BvhNode],
+    tris: &[TriangleRecord],
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    tmax: f32,
+) -> Option<Hit> {
     if nodes.is_empty() || !(o.is_finite() && d.is_finite()) {
         return None;
     }
+    let o = Vec3A::from(o);
+    let d = Vec3A::from(d);
     let inv_d = d.recip();
+    let tmin_v = Vec3A::splat(tmin);
     let mut best: Option<Hit> = None;
     let mut t_best = tmax;
-    if slab(&nodes[0], o, inv_d, tmin, t_best) == f32::INFINITY {
+    if slab_a(&nodes[0], o, inv_d, tmin_v, t_best) == f32::INFINITY {
         return None;
     }
     let mut stack = [0u32; STACK_SIZE];
+    let mut stack_t = [0f32; STACK_SIZE];
     let mut sp = 0usize;
     let mut node = 0u32;
     loop {
@@ -153,7 +207,8 @@ pub fn traverse(
         if n.count > 0 {
             // Leaf: test its triangles.
             for i in n.index..n.index + n.count {
-                if let Some((t, b1, b2)) = intersect_triangle(&tris[i as usize], o, d, tmin, t_best)
+                if let Some((t, b1, b2)) =
+                    intersect_triangle_a(&tris[i as usize], o, d, tmin, t_best)
                 {
                     t_best = t;
                     best = Some(Hit {
@@ -162,7 +217,7 @@ pub fn traverse(
                         b1,
                         b2,
                     });
-                    if any_hit {
+                    if ANY_HIT {
                         return best;
                     }
                 }
@@ -171,11 +226,18 @@ pub fn traverse(
             // Inner node: visit the nearer child first, keep the farther one for later.
             let a = n.index;
             let b = n.index + 1;
-            let ta = slab(&nodes[a as usize], o, inv_d, tmin, t_best);
-            let tb = slab(&nodes[b as usize], o, inv_d, tmin, t_best);
+            let ta = slab_a(&nodes[a as usize], o, inv_d, tmin_v, t_best);
+            let tb = slab_a(&nodes[b as usize], o, inv_d, tmin_v, t_best);
             if ta != f32::INFINITY && tb != f32::INFINITY {
-                let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
+                // Any-hit only answers "is there a hit", so the order cannot change its result; a fixed
+                // order skips the (unpredictable) compare and measured faster at the same node count.
+                let (near, far, t_far) = if ANY_HIT || ta <= tb {
+                    (a, b, tb)
+                } else {
+                    (b, a, ta)
+                };
                 stack[sp] = far;
+                stack_t[sp] = t_far;
                 sp += 1;
                 node = near;
                 continue;
@@ -187,15 +249,18 @@ pub fn traverse(
                 continue;
             }
         }
-        // Pop. Entries were culled against an older t_best; re-testing them here would save triangle
-        // tests but costs a node fetch either way, so we keep the loop simple.
-        if sp == 0 {
-            break;
+        // Pop, dropping entries a closer hit has since made unreachable (closest hit only).
+        loop {
+            if sp == 0 {
+                return best;
+            }
+            sp -= 1;
+            if ANY_HIT || stack_t[sp] <= t_best * 1.000_000_4 {
+                break;
+            }
         }
-        sp -= 1;
         node = stack[sp];
     }
-    best
 }
 
 /// The result of building: nodes plus the input-triangle order the leaves expect.
@@ -208,9 +273,16 @@ pub struct BuiltBvh {
 
 /// Build with obvhs and flatten. With a preset that pre-splits (spatial splits) a triangle is referenced
 /// from several leaves, so `order` may repeat input indices; the scene stores one copy per reference.
-/// `medium_build` (no splits) measured as fast as `slow_build` on `grids`.
+/// `medium_build` (no splits) measured as fast as `slow_build` on `grids` and `heavy` (slow/very_slow
+/// visit 2–11% fewer nodes but the difference was within noise, at 2–6× the build time); smaller
+/// leaves (`max_prims_per_leaf` 4, or collapse cost 1–2) trade triangle tests for more node visits.
 pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
-    use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle, BvhBuildParams};
+    build_with(tris, obvhs::BvhBuildParams::medium_build())
+}
+
+/// [`build`] with explicit obvhs parameters (for experiments and benchmarks).
+pub fn build_with(tris: &[[Vec3; 3]], params: obvhs::BvhBuildParams) -> BuiltBvh {
+    use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle};
     let input: Vec<Triangle> = tris
         .iter()
         .map(|t| Triangle {
@@ -220,7 +292,7 @@ pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
         })
         .collect();
     let mut core_time = std::time::Duration::ZERO;
-    let bvh = build_bvh2_from_tris(&input, BvhBuildParams::medium_build(), &mut core_time);
+    let bvh = build_bvh2_from_tris(&input, params, &mut core_time);
     let nodes: Vec<BvhNode> = bvh
         .nodes
         .iter()
