@@ -133,10 +133,27 @@ pub fn cmj(s: u32, n: u32, p: u32) -> [f32; 2] {
     let sy = permute(s / m, k, p.wrapping_mul(0x02e5_be93));
     let jx = randfloat(s, p.wrapping_mul(0x967a_889b));
     let jy = randfloat(s, p.wrapping_mul(0x368c_c8b7));
-    let x = ((s % m) as f32 + (sy as f32 + jx) / k as f32) / m as f32;
-    let y = ((s / m) as f32 + (sx as f32 + jy) / m as f32) / k as f32;
+    let mut x = ((s % m) as f32 + (sy as f32 + jx) / k as f32) / m as f32;
+    let mut y = ((s / m) as f32 + (sx as f32 + jy) / m as f32) / k as f32;
+    if m * k != n {
+        // With n < m·k cells the last row is only partly filled, so the pattern's density is not
+        // uniform and an estimate from it would be biased. A random toroidal shift per pattern
+        // (Cranley–Patterson rotation) makes every sample uniform again and keeps the strata.
+        x = wrap_unit(x + randfloat(0x5bd1_e995, p.wrapping_mul(0x1b87_3593)));
+        y = wrap_unit(y + randfloat(0x27d4_eb2f, p.wrapping_mul(0x85eb_ca6b)));
+    }
     // f32 rounding may land exactly on 1.0; keep the half-open interval.
     [x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS)]
+}
+
+/// `v mod 1` for `v` in [0, 2).
+#[inline]
+fn wrap_unit(v: f32) -> f32 {
+    if v >= 1.0 {
+        v - 1.0
+    } else {
+        v
+    }
 }
 
 const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -170,6 +187,27 @@ mod tests {
         }
         assert_eq!(cells, [1; 9]);
         assert_eq!(rows, [1; 9], "1-D projection stratified into n strata");
+    }
+
+    #[test]
+    fn cmj_is_uniform_for_counts_that_do_not_fill_the_grid() {
+        // n = 10 uses a 4×3 grid (12 cells). Over many patterns every sample must still be uniform:
+        // count y in 6 bins and check each bin's share (unrotated, the top third would get 2/10 of
+        // the samples instead of 1/3).
+        let n = 10u32;
+        let patterns = 40_000u32;
+        let mut bins = [0u32; 6];
+        for p in 0..patterns {
+            for s in 0..n {
+                let [_, y] = cmj(s, n, pcg_hash(p));
+                bins[(y * 6.0) as usize] += 1;
+            }
+        }
+        let total = (n * patterns) as f64;
+        for (i, b) in bins.iter().enumerate() {
+            let share = *b as f64 / total;
+            assert!((share - 1.0 / 6.0).abs() < 0.003, "bin {i}: {share}");
+        }
     }
 
     #[test]
