@@ -2,4 +2,28 @@
 # The test command (README): installs what the tests need, then runs every test in release mode.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+# The wgpu backend's tests (tests/parity.rs) need a Vulkan driver; without a GPU that is Mesa's
+# software rasteriser lavapipe. Install it when missing and we can (root + apt-get). Without an
+# adapter the GPU tests print that they were skipped and why — except under CI=true, where they fail.
+has_vulkan() {
+    ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' &&
+        ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1
+}
+if ! has_vulkan; then
+    if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
+        echo "test.sh: no Vulkan driver found; installing Mesa's software Vulkan (mesa-vulkan-drivers libvulkan1)"
+        apt-get update -qq && apt-get install -y -qq mesa-vulkan-drivers libvulkan1 >/dev/null ||
+            echo "test.sh: warning: installing mesa-vulkan-drivers failed; GPU tests will be skipped (fail under CI=true)"
+    else
+        echo "test.sh: no Vulkan driver and no way to install one (needs root and apt-get):" \
+             "GPU tests will be skipped (fail under CI=true). Install with: apt-get install mesa-vulkan-drivers libvulkan1"
+    fi
+fi
+
 cargo test --release --workspace --all-targets "$@"
+
+# The user-crate example (examples/custom_kernel: outside the workspace; its own kernel + WGSL + node,
+# run through parity). Shares the target directory so wgpu is not rebuilt.
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" \
+    cargo test --release --manifest-path examples/custom_kernel/Cargo.toml "$@"

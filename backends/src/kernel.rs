@@ -60,6 +60,79 @@ pub trait Kernel: Send + Sync {
     fn bindings(&self) -> Vec<Binding>;
     /// Run over every pixel. Reads come from `ctx.read`, writes are handed back with `ctx.put`.
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError>;
+    /// The WGSL implementation for the wgpu backend; `None` = CPU only (the wgpu backend then
+    /// refuses the pass with a clear error).
+    fn wgsl(&self) -> Option<WgslSource> {
+        None
+    }
+}
+
+/// A kernel's WGSL implementation (see `shaders/common.wgsl` for the binding convention):
+/// - `source`: the kernel's WGSL with an entry point `main`, `@workgroup_size(8, 8)`, one invocation
+///   per pixel. Lines `#include "NAME.wgsl"` are replaced by that file — one of wedge's shared files
+///   in `shaders/` (`common`, `rng`, `sampling`, `scene`, `bvh`) or one of `includes` — each file at
+///   most once (later includes of the same name are dropped), so shared code is never copied.
+/// - `uniforms`: packs the pass's parameter block into the kernel's `Params` uniform (group 0,
+///   binding 1) as 4-byte words in declaration order — the same parameter parsing the CPU path
+///   uses (`KernelCtx::f32_param` …); it sees size, seed, scene and params, not buffers.
+/// - `scene`: whether the kernel reads the scene (group 2: BVH, triangles, materials, lights).
+#[derive(Clone)]
+pub struct WgslSource {
+    pub source: std::borrow::Cow<'static, str>,
+    pub includes: Vec<(&'static str, std::borrow::Cow<'static, str>)>,
+    pub uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>,
+    pub scene: bool,
+}
+
+impl WgslSource {
+    pub fn new(source: impl Into<std::borrow::Cow<'static, str>>, uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>) -> Self {
+        WgslSource { source: source.into(), includes: Vec::new(), uniforms, scene: false }
+    }
+    /// Make `name` available to `#include` (e.g. an effect's formula file).
+    pub fn with_include(mut self, name: &'static str, text: impl Into<std::borrow::Cow<'static, str>>) -> Self {
+        self.includes.push((name, text.into()));
+        self
+    }
+    /// The kernel reads the scene (group 2).
+    pub fn with_scene(mut self) -> Self {
+        self.scene = true;
+        self
+    }
+}
+
+/// The words of a kernel's `Params` uniform block, in WGSL declaration order. Only 4-byte scalars
+/// and `vec4`s keep this layout trivial: a `vec3` must be followed by one scalar (use [`Uniforms::vec3`]
+/// with a fourth value). The backend pads the block to 16 bytes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Uniforms(pub Vec<u32>);
+
+impl Uniforms {
+    pub fn new() -> Self {
+        Uniforms(Vec::new())
+    }
+    pub fn f32(mut self, v: f32) -> Self {
+        self.0.push(v.to_bits());
+        self
+    }
+    pub fn u32(mut self, v: u32) -> Self {
+        self.0.push(v);
+        self
+    }
+    pub fn i32(mut self, v: i32) -> Self {
+        self.0.push(v as u32);
+        self
+    }
+    /// A `vec4<f32>` made of `xyz` and `w`.
+    pub fn vec3(self, xyz: [f32; 3], w: f32) -> Self {
+        self.f32(xyz[0]).f32(xyz[1]).f32(xyz[2]).f32(w)
+    }
+    /// Pad with zero words up to a multiple of four (a 16-byte boundary).
+    pub fn align16(mut self) -> Self {
+        while self.0.len() % 4 != 0 {
+            self.0.push(0);
+        }
+        self
+    }
 }
 
 /// Kernels by name.

@@ -6,19 +6,26 @@
 //! - the counter-based sampler ([`rng`]) that both backends share bit for bit,
 //! - the shared kernels every effect reuses ([`kernels`]): primary visibility, light sampling,
 //!   neighbourhood fill, the separable world-space Gaussian filter, compose,
-//! - the CPU backend ([`cpu::CpuBackend`], rayon), which pools buffers by lifetime.
+//! - the CPU backend ([`cpu::CpuBackend`], rayon), which pools buffers by lifetime,
+//! - the wgpu backend (`gpu::GpuBackend`, WGSL compute; cargo feature `gpu`, on by default) and the
+//!   pass-by-pass parity harness (`parity`) that checks it against the CPU backend.
 
 pub mod buffer;
 pub mod cpu;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod kernel;
 pub mod kernels;
+#[cfg(feature = "gpu")]
+pub mod parity;
 pub mod rng;
 
 use std::collections::BTreeMap;
 
 pub use buffer::{BufferData, Texel};
 pub use kernel::{
-    Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Silent,
+    Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Silent, Uniforms,
+    WgslSource,
 };
 use wedge_graph::Schedule;
 use wedge_scene::Scene;
@@ -33,6 +40,9 @@ pub enum BackendError {
     Binding { pass: String, binding: String, message: String },
     #[error("{0}")]
     Other(String),
+    /// The wgpu backend failed: no adapter, shader validation, device lost, out of memory, a limit.
+    #[error("wgpu backend: {0}")]
+    Gpu(String),
 }
 
 /// What a run needs besides the schedule.

@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry};
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
 
 /// Slopes of the occlusion spectrum's double wedge (thesis eq. 3.4):
@@ -216,6 +216,16 @@ impl Kernel for Bandwidth {
             Binding::write("filter_width", Format::F32),
         ]
     }
+    /// WGSL mirror: `shaders/shadows_bandwidth.wgsl` with the formulas of `shaders/shadows_formulas.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../shaders/shadows_bandwidth.wgsl"), |ctx| {
+                let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
+                Ok(Uniforms::new().f32(ctx.f32_param("mu")?).f32(ctx.f32_param("alpha")?).f32(ctx.f32_param("k")?).f32(sigma))
+            })
+            .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl")),
+        )
+    }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let occ = ctx.read::<[f32; 4]>("occlusion")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
@@ -253,6 +263,24 @@ impl Kernel for Rates {
             Binding::read("normal", Format::Vec4),
             Binding::write("rays_per_pixel", Format::U32),
         ]
+    }
+    /// WGSL mirror: `shaders/shadows_rates.wgsl` with the formulas of `shaders/shadows_formulas.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../shaders/shadows_rates.wgsl"), |ctx| {
+                let initial = ctx.int_param("initial_rays")?.max(1) as u32;
+                let max = (ctx.int_param("max_rays")?.max(1) as u32).max(initial);
+                let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
+                Ok(Uniforms::new()
+                    .f32(ctx.f32_param("mu")?)
+                    .f32(ctx.f32_param("alpha")?)
+                    .f32(sigma)
+                    .u32(initial)
+                    .u32(max)
+                    .align16())
+            })
+            .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl")),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let occ = ctx.read::<[f32; 4]>("occlusion")?;

@@ -3,7 +3,7 @@
 
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
 
 pub struct Modulate;
@@ -22,6 +22,9 @@ impl Kernel for Modulate {
             Binding::read_opt("emission", Format::Vec3),
             Binding::write("out", Format::Vec3),
         ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../../shaders/compose_modulate.wgsl"), |_| Ok(Uniforms::new().align16())))
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;

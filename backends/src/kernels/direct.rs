@@ -15,7 +15,7 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::{AreaLight, Scene};
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx};
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::v3;
 use crate::rng::{dim, PixelRng};
 use crate::BackendError;
@@ -111,6 +111,31 @@ impl Kernel for DirectLight {
             // d1, d2_min, d2_max, number of occluded samples (see [`OccluderStats`]).
             Binding::write_opt("occlusion", Format::Vec4),
         ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/direct_light.wgsl"), |ctx| {
+                let light = ctx.int_param("light")?;
+                let light = if light < 0 { -1 } else { ctx.light_param("light")? as i32 };
+                let stratified = match ctx.str_param("sampling")? {
+                    "stratified" => 1,
+                    "independent" => 0,
+                    other => {
+                        return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("unknown sampling `{other}`") })
+                    }
+                };
+                Ok(Uniforms::new()
+                    .i32(light)
+                    .u32(ctx.int_param("count")?.max(0) as u32)
+                    .u32(stratified)
+                    .u32((ctx.str_param("form_factor")? == "light_centre") as u32)
+                    .u32(ctx.int_param("stream")? as u32)
+                    .f32(ctx.scene.extent())
+                    .u32(ctx.scene.lights.len() as u32)
+                    .align16())
+            })
+            .with_scene(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let scene = ctx.scene;

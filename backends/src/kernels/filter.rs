@@ -12,7 +12,7 @@
 use glam::Vec3;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::v3;
 use crate::BackendError;
 
@@ -121,6 +121,20 @@ impl Kernel for GaussianFilter {
             Binding::read("bandwidth", Format::F32),
             Binding::write("out", Format::Vec4),
         ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {
+            let plane_normal = match ctx.int_param("plane_light")? {
+                l if l < 0 => Vec3::ZERO,
+                _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
+            };
+            Ok(Uniforms::new()
+                .u32(ctx.int_param("axis")?.clamp(0, 1) as u32)
+                .i32(ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
+                .f32(ctx.f32_param("normal_cos")?)
+                .u32(0)
+                .vec3(plane_normal.to_array(), 0.0))
+        }))
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;

@@ -1,0 +1,747 @@
+//! The wgpu backend: every pass runs as a WGSL compute shader (one invocation per pixel, 8×8
+//! workgroups) on whatever adapter wgpu finds — a GPU, or Mesa's software Vulkan (lavapipe).
+//!
+//! - **Device**: the adapter's own limits are requested (more storage buffers per stage, larger
+//!   bindings than wgpu's defaults); `TIMESTAMP_QUERY` is enabled where offered and then each pass
+//!   is timed on the device (on lavapipe these are CPU-emulation times, not GPU times).
+//! - **Buffers**: per-pixel buffers follow the schedule's pool plan: one `wgpu::Buffer` per
+//!   physical slot (`Schedule::slot_formats`), created on first use, so a run allocates exactly
+//!   `slot_formats.len()` of them ([`RunResult::allocations`]). Layout per format: f32, vec2, vec4
+//!   and u32 are WGSL arrays of that type; **vec3 buffers are packed `array<f32>` (3 floats per
+//!   pixel)**, the same bytes as the CPU's `Vec<[f32; 3]>`, so upload/readback is a plain copy and
+//!   no 16-byte padding is stored.
+//! - **Scene**: uploaded once per distinct scene ([`scene`]); kernels that declare `scene` see it in
+//!   bind group 2.
+//! - **Errors**: no adapter, WGSL/naga validation, out of memory, a device loss, a buffer over the
+//!   device's binding limit, a kernel without WGSL — all become [`BackendError::Gpu`] with what to do;
+//!   nothing panics (wgpu's default panicking error handler is replaced).
+
+pub mod scene;
+pub mod shaders;
+
+use std::collections::{BTreeMap, HashMap};
+use std::hash::{Hash, Hasher};
+use std::sync::{mpsc, Arc, Mutex};
+use std::time::Instant;
+
+use wgpu::util::DeviceExt;
+use wedge_graph::{BufferId, Format, Pass};
+
+use crate::buffer::BufferData;
+use crate::cpu::check_bindings;
+use crate::kernel::{Access, Counters, Kernel, KernelCtx};
+use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
+
+/// What to tell a user when there is no adapter at all.
+pub const INSTALL_HINT: &str = "no GPU adapter was found. Without a GPU, install Mesa's software Vulkan driver \
+(lavapipe): `apt-get install mesa-vulkan-drivers libvulkan1` (Debian/Ubuntu; `dnf install mesa-vulkan-drivers` on \
+Fedora), or run with `--backend cpu`";
+
+const WORKGROUP: u32 = 8;
+
+fn gpu_err(msg: impl Into<String>) -> BackendError {
+    BackendError::Gpu(msg.into())
+}
+
+/// A compiled kernel: pipeline plus the layouts its bind groups are made against.
+struct KernelPipeline {
+    pipeline: wgpu::ComputePipeline,
+    g0: wgpu::BindGroupLayout,
+    g1: wgpu::BindGroupLayout,
+    g2: Option<wgpu::BindGroupLayout>,
+}
+
+struct SceneBuffers {
+    hash: u64,
+    buffers: Vec<wgpu::Buffer>,
+}
+
+/// Time of one dispatch: device timestamps where supported, else wall clock around submit + wait.
+#[derive(Clone, Copy, Debug)]
+pub struct DispatchTime {
+    pub seconds: f64,
+    pub from_timestamps: bool,
+}
+
+pub struct GpuBackend {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    limits: wgpu::Limits,
+    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    /// Errors wgpu reported outside an error scope, and device-lost reports.
+    errors: Arc<Mutex<Vec<String>>>,
+    pipelines: HashMap<u64, Arc<KernelPipeline>>,
+    scene: Option<SceneBuffers>,
+    /// Stand-ins for unbound optional bindings, one per binding index (never shared within a dispatch).
+    dummies: Vec<wgpu::Buffer>,
+    /// Per-pass device times of the last run (seconds, from timestamp queries); empty when unsupported.
+    pub last_device_times: Vec<(String, f64)>,
+}
+
+impl GpuBackend {
+    /// Open the default adapter (high performance preference; `WGPU_BACKEND` etc. are honoured).
+    pub fn new() -> Result<GpuBackend, BackendError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            ..Default::default()
+        }))
+        .map_err(|e| gpu_err(format!("{INSTALL_HINT} (wgpu: {e})")))?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("wedge"),
+            required_features: features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| gpu_err(format!("adapter `{}` refused a device with its own limits: {e}", info.name)))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        {
+            let errors = errors.clone();
+            device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                if let Ok(mut v) = errors.lock() {
+                    v.push(e.to_string());
+                }
+            }));
+        }
+        {
+            let errors = errors.clone();
+            device.set_device_lost_callback(move |reason, message| {
+                if let Ok(mut v) = errors.lock() {
+                    v.push(format!("the GPU device was lost ({reason:?}): {message}"));
+                }
+            });
+        }
+        let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
+            let qs = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("wedge timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("wedge timestamp resolve"),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (qs, resolve)
+        });
+        Ok(GpuBackend {
+            device,
+            queue,
+            info,
+            limits,
+            timestamps,
+            errors,
+            pipelines: HashMap::new(),
+            scene: None,
+            dummies: Vec::new(),
+            last_device_times: Vec::new(),
+        })
+    }
+
+    /// `name (backend, device type)` of the adapter in use.
+    pub fn adapter_description(&self) -> String {
+        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+    }
+    /// Whether the adapter is a CPU emulation (lavapipe/llvmpipe): its timings say nothing about GPUs.
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+    pub fn has_timestamps(&self) -> bool {
+        self.timestamps.is_some()
+    }
+    pub fn limits(&self) -> &wgpu::Limits {
+        &self.limits
+    }
+
+    /// Errors wgpu reported asynchronously (uncaptured or device lost) since the last check.
+    fn check_async_errors(&self, what: &str) -> Result<(), BackendError> {
+        let mut v = self.errors.lock().map_err(|_| gpu_err("error log poisoned"))?;
+        if v.is_empty() {
+            return Ok(());
+        }
+        let all = v.drain(..).collect::<Vec<_>>().join("; ");
+        Err(gpu_err(format!("{what}: {all}")))
+    }
+
+    /// Run `f` inside validation + out-of-memory error scopes and turn what they catch into errors.
+    fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, BackendError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let v = pollster::block_on(val.pop());
+        let o = pollster::block_on(oom.pop());
+        if let Some(e) = v {
+            return Err(gpu_err(format!("{what}: validation error: {e}")));
+        }
+        if let Some(e) = o {
+            return Err(gpu_err(format!(
+                "{what}: out of GPU memory ({e}); try a smaller --width/--height or a smaller scene"
+            )));
+        }
+        self.check_async_errors(what)?;
+        Ok(out)
+    }
+
+    fn wait(&self, what: &str) -> Result<(), BackendError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| gpu_err(format!("{what}: waiting for the device failed: {e}")))?;
+        self.check_async_errors(what)
+    }
+
+    /// Check one storage binding's size against the device's limits.
+    fn check_binding_size(&self, what: &str, bytes: u64) -> Result<(), BackendError> {
+        let max_binding = self.limits.max_storage_buffer_binding_size as u64;
+        if bytes > max_binding {
+            return Err(gpu_err(format!(
+                "{what} needs {bytes} bytes, over this device's max_storage_buffer_binding_size ({max_binding} bytes, adapter `{}`); \
+                 render smaller (--width/--height), use a smaller scene, or use --backend cpu",
+                self.info.name
+            )));
+        }
+        if bytes > self.limits.max_buffer_size {
+            return Err(gpu_err(format!(
+                "{what} needs {bytes} bytes, over this device's max_buffer_size ({} bytes)",
+                self.limits.max_buffer_size
+            )));
+        }
+        Ok(())
+    }
+
+    fn storage(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer, BackendError> {
+        self.check_binding_size(label, bytes)?;
+        let size = bytes.max(16).div_ceil(4) * 4;
+        self.scoped(&format!("allocating `{label}`"), || {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })
+    }
+
+    fn storage_init(&self, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, BackendError> {
+        self.check_binding_size(label, bytes.len() as u64)?;
+        let mut data = bytes.to_vec();
+        while data.len() < 16 || data.len() % 4 != 0 {
+            data.push(0);
+        }
+        self.scoped(&format!("uploading `{label}`"), || {
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &data,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            })
+        })
+    }
+
+    /// Copy a buffer back to the host.
+    fn read_bytes(&self, what: &str, buf: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, BackendError> {
+        let size = bytes.div_ceil(4) * 4;
+        let staging = self.scoped(what, || {
+            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("wedge readback"),
+                size: size.max(4),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+            enc.copy_buffer_to_buffer(buf, 0, &staging, 0, size);
+            self.queue.submit([enc.finish()]);
+            staging
+        })?;
+        let slice = staging.slice(..size);
+        let (tx, rx) = mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait(what)?;
+        rx.recv()
+            .map_err(|_| gpu_err(format!("{what}: the read-back never completed")))?
+            .map_err(|e| gpu_err(format!("{what}: mapping the read-back buffer failed: {e}")))?;
+        let data = {
+            let view = slice.get_mapped_range().map_err(|e| gpu_err(format!("{what}: {e}")))?;
+            view[..bytes as usize].to_vec()
+        };
+        staging.unmap();
+        Ok(data)
+    }
+
+    fn read_buffer(&self, what: &str, buf: &wgpu::Buffer, format: Format, pixels: usize) -> Result<BufferData, BackendError> {
+        let bytes = self.read_bytes(what, buf, (pixels * format.components() * 4) as u64)?;
+        Ok(from_bytes(format, &bytes))
+    }
+
+    fn scene_buffers(&mut self, scene: &wedge_scene::Scene) -> Result<(), BackendError> {
+        let arrays = scene::scene_bytes(scene);
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        arrays.hash(&mut h);
+        let hash = h.finish();
+        if self.scene.as_ref().is_some_and(|s| s.hash == hash) {
+            return Ok(());
+        }
+        let mut buffers = Vec::new();
+        for (name, bytes) in scene::SCENE_ARRAYS.iter().zip(&arrays) {
+            buffers.push(self.storage_init(&format!("scene `{}` array {name}", scene.name), bytes)?);
+        }
+        self.scene = Some(SceneBuffers { hash, buffers });
+        Ok(())
+    }
+
+    fn dummy(&mut self, index: usize) -> Result<wgpu::Buffer, BackendError> {
+        while self.dummies.len() <= index {
+            let b = self.storage("unbound optional binding", 16)?;
+            self.dummies.push(b);
+        }
+        Ok(self.dummies[index].clone())
+    }
+
+    fn pipeline(&mut self, kernel: &dyn Kernel) -> Result<(Arc<KernelPipeline>, crate::kernel::WgslSource), BackendError> {
+        let name = kernel.name();
+        let src = kernel.wgsl().ok_or_else(|| {
+            gpu_err(format!(
+                "kernel `{name}` has no WGSL implementation (Kernel::wgsl returns None); run this pipeline with --backend cpu, or give the kernel a WGSL source"
+            ))
+        })?;
+        let text = shaders::compose(name, &src)?;
+        let bindings = kernel.bindings();
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        (name, &text, src.scene).hash(&mut h);
+        for b in &bindings {
+            (b.name, b.access == Access::Read).hash(&mut h);
+        }
+        let key = h.finish();
+        if let Some(p) = self.pipelines.get(&key) {
+            return Ok((p.clone(), src));
+        }
+        let storage_needed = 1 + bindings.len() as u32 + if src.scene { scene::SCENE_ARRAYS.len() as u32 } else { 0 };
+        if storage_needed > self.limits.max_storage_buffers_per_shader_stage {
+            return Err(gpu_err(format!(
+                "kernel `{name}` needs {storage_needed} storage buffers in one shader stage, over this device's \
+                 max_storage_buffers_per_shader_stage ({})",
+                self.limits.max_storage_buffers_per_shader_stage
+            )));
+        }
+        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let uniform = |binding: u32| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let what = format!("compiling kernel `{name}`");
+        let p = self.scoped(&what, || {
+            let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(text.clone().into()),
+            });
+            let g0 = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("wedge frame"),
+                entries: &[uniform(0), uniform(1), storage(2, false)],
+            });
+            let g1_entries: Vec<_> =
+                bindings.iter().enumerate().map(|(k, b)| storage(k as u32, b.access == Access::Read)).collect();
+            let g1 = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("wedge buffers"),
+                entries: &g1_entries,
+            });
+            let g2 = src.scene.then(|| {
+                let e: Vec<_> = (0..scene::SCENE_ARRAYS.len() as u32).map(|k| storage(k, true)).collect();
+                self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("wedge scene"), entries: &e })
+            });
+            let mut layouts = vec![Some(&g0), Some(&g1)];
+            if let Some(g2) = &g2 {
+                layouts.push(Some(g2));
+            }
+            let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(name),
+                bind_group_layouts: &layouts,
+                immediate_size: 0,
+            });
+            let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            KernelPipeline { pipeline, g0, g1, g2 }
+        })?;
+        let p = Arc::new(p);
+        self.pipelines.insert(key, p.clone());
+        Ok((p, src))
+    }
+
+    /// Run one pass with its declared bindings mapped to device buffers (`None` = unbound optional).
+    fn dispatch(
+        &mut self,
+        job: &Job<'_>,
+        pass: &Pass,
+        buffers: &[Option<wgpu::Buffer>],
+        counters: &wgpu::Buffer,
+    ) -> Result<DispatchTime, BackendError> {
+        let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+        let (p, src) = self.pipeline(kernel.as_ref())?;
+        // The parameter block, packed by the kernel from the same KernelCtx accessors its CPU path uses.
+        let cpu_counters = Counters::default();
+        let ctx = KernelCtx::new(
+            job.width,
+            job.height,
+            job.seed,
+            job.scene,
+            &pass.name,
+            &pass.params,
+            &cpu_counters,
+            job.progress,
+            BTreeMap::new(),
+            BTreeMap::new(),
+        );
+        let mut words = (src.uniforms)(&ctx)?.align16().0;
+        if words.is_empty() {
+            words = vec![0; 4];
+        }
+        if buffers.len() > 32 {
+            return Err(gpu_err(format!("kernel `{}` declares more than 32 bindings", pass.kernel)));
+        }
+        let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
+        let frame = [job.width, job.height, job.seed, bound, f32::INFINITY.to_bits(), 0x3f80_0800, 0x3f80_1000, 0];
+        let groups = (job.width.div_ceil(WORKGROUP), job.height.div_ceil(WORKGROUP));
+        let max_groups = self.limits.max_compute_workgroups_per_dimension;
+        if groups.0 > max_groups || groups.1 > max_groups {
+            return Err(gpu_err(format!(
+                "{}×{} pixels need {}×{} workgroups, over this device's max_compute_workgroups_per_dimension ({max_groups})",
+                job.width, job.height, groups.0, groups.1
+            )));
+        }
+        let mut bufs = Vec::with_capacity(buffers.len());
+        for (k, b) in buffers.iter().enumerate() {
+            bufs.push(match b {
+                Some(b) => b.clone(),
+                None => self.dummy(k)?,
+            });
+        }
+        let what = format!("pass `{}` (kernel `{}`)", pass.name, pass.kernel);
+        let start = Instant::now();
+        self.scoped(&what, || {
+            let uniform = |label: &str, data: &[u32]| {
+                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(data),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                })
+            };
+            let frame_buf = uniform("frame", &frame);
+            let params_buf = uniform("params", &words);
+            let g0 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("frame"),
+                layout: &p.g0,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: params_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: counters.as_entire_binding() },
+                ],
+            });
+            let e1: Vec<_> = bufs
+                .iter()
+                .enumerate()
+                .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+                .collect();
+            let g1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 });
+            let g2 = match (&p.g2, &self.scene) {
+                (Some(layout), Some(s)) => {
+                    let e: Vec<_> = s
+                        .buffers
+                        .iter()
+                        .enumerate()
+                        .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+                        .collect();
+                    Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("scene"), layout, entries: &e }))
+                }
+                _ => None,
+            };
+            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
+            {
+                let ts = self.timestamps.as_ref().map(|(qs, _)| wgpu::ComputePassTimestampWrites {
+                    query_set: qs,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                });
+                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
+                cp.set_pipeline(&p.pipeline);
+                cp.set_bind_group(0, &g0, &[]);
+                cp.set_bind_group(1, &g1, &[]);
+                if let Some(g2) = &g2 {
+                    cp.set_bind_group(2, g2, &[]);
+                }
+                cp.dispatch_workgroups(groups.0, groups.1, 1);
+            }
+            if let Some((qs, resolve)) = &self.timestamps {
+                enc.resolve_query_set(qs, 0..2, resolve, 0);
+            }
+            self.queue.submit([enc.finish()]);
+        })?;
+        self.wait(&what)?;
+        let wall = start.elapsed().as_secs_f64();
+        if let Some((_, resolve)) = &self.timestamps {
+            let bytes = self.read_bytes(&what, resolve, 16)?;
+            let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
+            let ns = t[1].saturating_sub(t[0]) as f64 * self.queue.get_timestamp_period() as f64;
+            if ns > 0.0 {
+                return Ok(DispatchTime { seconds: ns * 1e-9, from_timestamps: true });
+            }
+        }
+        Ok(DispatchTime { seconds: wall, from_timestamps: false })
+    }
+
+    fn kernels_ready(&mut self, job: &Job<'_>, passes: &[&Pass]) -> Result<bool, BackendError> {
+        let mut scene = false;
+        for pass in passes {
+            check_bindings(job, pass)?;
+            let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+            let (_, src) = self.pipeline(kernel.as_ref())?;
+            scene |= src.scene;
+        }
+        Ok(scene)
+    }
+
+    fn counters_buffer(&self) -> Result<wgpu::Buffer, BackendError> {
+        self.storage_init("counters", &[0u8; 16])
+    }
+
+    fn read_counters(&self, buf: &wgpu::Buffer) -> Result<RayCounts, BackendError> {
+        let b = self.read_bytes("reading counters", buf, 16)?;
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(&b);
+        Ok(RayCounts {
+            primary_rays: c[0] as u64,
+            shadow_rays: c[1] as u64,
+            secondary_rays: c[2] as u64,
+            non_finite_samples: c[3] as u64,
+        })
+    }
+
+    /// Run one pass alone: upload `inputs`, dispatch, read every output back (by binding name).
+    /// The parity harness feeds it the CPU backend's inputs.
+    pub fn run_pass(
+        &mut self,
+        job: &Job<'_>,
+        pass: &Pass,
+        inputs: &BTreeMap<BufferId, &BufferData>,
+    ) -> Result<(BTreeMap<String, BufferData>, DispatchTime), BackendError> {
+        if self.kernels_ready(job, &[pass])? {
+            self.scene_buffers(job.scene)?;
+        }
+        let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+        let pixels = job.width as usize * job.height as usize;
+        let mut bufs = Vec::new();
+        let mut outs = Vec::new();
+        for b in kernel.bindings() {
+            let buf = match b.access {
+                Access::Read => match pass.read(b.name) {
+                    Some(id) => {
+                        let data = inputs.get(&id).ok_or_else(|| BackendError::Binding {
+                            pass: pass.name.clone(),
+                            binding: b.name.to_string(),
+                            message: format!("reads `{}`, which holds no data", job.schedule.buffers[id.0].name),
+                        })?;
+                        if data.len() != pixels || data.format() != b.format {
+                            return Err(BackendError::Binding {
+                                pass: pass.name.clone(),
+                                binding: b.name.to_string(),
+                                message: format!("input is {} × {}, expected {pixels} × {}", data.len(), data.format(), b.format),
+                            });
+                        }
+                        Some(self.storage_init(b.name, &to_bytes(data))?)
+                    }
+                    None => None,
+                },
+                Access::Write => match pass.write(b.name) {
+                    Some(_) => {
+                        let buf = self.storage(b.name, (pixels * b.format.components() * 4) as u64)?;
+                        outs.push((b.name.to_string(), b.format, buf.clone()));
+                        Some(buf)
+                    }
+                    None => None,
+                },
+            };
+            bufs.push(buf);
+        }
+        let counters = self.counters_buffer()?;
+        let time = self.dispatch(job, pass, &bufs, &counters)?;
+        let mut out = BTreeMap::new();
+        for (name, format, buf) in outs {
+            let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, pixels)?;
+            out.insert(name, data);
+        }
+        Ok((out, time))
+    }
+}
+
+impl GpuBackend {
+    /// Run one kernel outside any pipeline: `inputs` by binding name, `params` as its parameter block.
+    /// Returns every bound write binding. For tests and user crates trying out a kernel's WGSL
+    /// (e.g. the RNG bit-exactness test runs a tiny WGSL kernel through this).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_kernel(
+        &mut self,
+        kernel: Arc<dyn Kernel>,
+        scene: &wedge_scene::Scene,
+        width: u32,
+        height: u32,
+        seed: u32,
+        params: BTreeMap<String, wedge_graph::ParamValue>,
+        inputs: &BTreeMap<String, BufferData>,
+    ) -> Result<BTreeMap<String, BufferData>, BackendError> {
+        let mut buffers = Vec::new();
+        let mut reads = Vec::new();
+        let mut writes = Vec::new();
+        let mut data = BTreeMap::new();
+        for b in kernel.bindings() {
+            let id = BufferId(buffers.len());
+            match b.access {
+                Access::Read => match inputs.get(b.name) {
+                    Some(d) => {
+                        reads.push((b.name.to_string(), id));
+                        data.insert(id, d);
+                    }
+                    None if b.optional => continue,
+                    None => return Err(gpu_err(format!("kernel `{}`: input `{}` not given", kernel.name(), b.name))),
+                },
+                Access::Write => writes.push((b.name.to_string(), id)),
+            }
+            buffers.push(wedge_graph::BufferInfo { name: b.name.to_string(), format: b.format });
+        }
+        let n = buffers.len();
+        let pass = Pass { name: kernel.name().to_string(), node: "test".into(), kernel: kernel.name().to_string(), reads, writes, params };
+        let schedule = wedge_graph::Schedule {
+            passes: vec![pass.clone()],
+            buffers,
+            lifetimes: vec![Some(wedge_graph::Lifetime { first: 0, last: 0 }); n],
+            slots: (0..n).map(Some).collect(),
+            slot_formats: Vec::new(),
+            sink_inputs: Vec::new(),
+            culled: Vec::new(),
+        };
+        let mut registry = crate::KernelRegistry::new();
+        registry.register(kernel);
+        let job = Job { schedule: &schedule, scene, kernels: &registry, width, height, seed, progress: &crate::Silent };
+        Ok(self.run_pass(&job, &pass, &data)?.0)
+    }
+}
+
+/// The bytes of a per-pixel buffer as the GPU stores it (vec3 packed, see the module docs).
+pub fn to_bytes(b: &BufferData) -> Vec<u8> {
+    match b {
+        BufferData::F32(v) => bytemuck::cast_slice(v).to_vec(),
+        BufferData::Vec2(v) => bytemuck::cast_slice(v).to_vec(),
+        BufferData::Vec3(v) => bytemuck::cast_slice(v).to_vec(),
+        BufferData::Vec4(v) => bytemuck::cast_slice(v).to_vec(),
+        BufferData::U32(v) => bytemuck::cast_slice(v).to_vec(),
+    }
+}
+
+pub fn from_bytes(format: Format, bytes: &[u8]) -> BufferData {
+    match format {
+        Format::F32 => BufferData::F32(bytemuck::pod_collect_to_vec(bytes)),
+        Format::Vec2 => BufferData::Vec2(bytemuck::pod_collect_to_vec(bytes)),
+        Format::Vec3 => BufferData::Vec3(bytemuck::pod_collect_to_vec(bytes)),
+        Format::Vec4 => BufferData::Vec4(bytemuck::pod_collect_to_vec(bytes)),
+        Format::U32 => BufferData::U32(bytemuck::pod_collect_to_vec(bytes)),
+    }
+}
+
+impl Backend for GpuBackend {
+    fn name(&self) -> &'static str {
+        "wgpu"
+    }
+
+    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
+        let sched = job.schedule;
+        let passes: Vec<&Pass> = sched.passes.iter().collect();
+        // Fail before any work if a pass cannot run here (bindings, missing WGSL, shader errors).
+        if self.kernels_ready(job, &passes)? {
+            self.scene_buffers(job.scene)?;
+        }
+        let pixels = job.width as usize * job.height as usize;
+        // Physical storage by pool slot, and which logical buffer currently lives in each.
+        let mut slots: Vec<Option<wgpu::Buffer>> = vec![None; sched.slot_formats.len()];
+        let mut holder: Vec<Option<BufferId>> = vec![None; sched.slot_formats.len()];
+        let mut allocations = 0usize;
+        let counters = self.counters_buffer()?;
+        let mut timings = Vec::with_capacity(passes.len());
+        self.last_device_times.clear();
+        for pass in &passes {
+            let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+            let mut bufs = Vec::new();
+            for b in kernel.bindings() {
+                let id = match b.access {
+                    Access::Read => pass.read(b.name),
+                    Access::Write => pass.write(b.name),
+                };
+                let Some(id) = id else {
+                    bufs.push(None);
+                    continue;
+                };
+                let slot = sched.slots[id.0].ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)))?;
+                match b.access {
+                    Access::Read => {
+                        if holder[slot] != Some(id) {
+                            return Err(BackendError::Other(format!(
+                                "pass `{}` reads `{}` after its storage was reused (pool plan bug)",
+                                pass.name, sched.buffers[id.0].name
+                            )));
+                        }
+                    }
+                    Access::Write => {
+                        if slots[slot].is_none() {
+                            let f = sched.slot_formats[slot];
+                            slots[slot] = Some(self.storage(&format!("pool slot {slot} ({f})"), (pixels * f.components() * 4) as u64)?);
+                            allocations += 1;
+                        }
+                        holder[slot] = Some(id);
+                    }
+                }
+                bufs.push(slots[slot].clone());
+            }
+            let t = self.dispatch(job, pass, &bufs, &counters)?;
+            if t.from_timestamps {
+                self.last_device_times.push((pass.name.clone(), t.seconds));
+            }
+            timings.push(PassTiming { pass: pass.name.clone(), kernel: pass.kernel.clone(), class: kernel.class(), seconds: t.seconds });
+        }
+        let mut outputs = BTreeMap::new();
+        for (node, port, id) in &sched.sink_inputs {
+            let slot = sched.slots[id.0].ok_or_else(|| gpu_err("sink buffer has no slot"))?;
+            match (&slots[slot], holder[slot]) {
+                (Some(buf), Some(h)) if h == *id => {
+                    let data = self.read_buffer(&format!("reading `{node}.{port}`"), buf, sched.buffers[id.0].format, pixels)?;
+                    outputs.insert((node.clone(), port.clone()), data);
+                }
+                _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
+            }
+        }
+        let rays = self.read_counters(&counters)?;
+        Ok(RunResult { outputs, timings, rays, allocations })
+    }
+}

@@ -1,0 +1,213 @@
+//! Pass-by-pass parity between the CPU and wgpu backends.
+//!
+//! The CPU backend runs the whole schedule, keeping every buffer (no pooling). For each pass the
+//! wgpu backend then runs that pass **alone on the CPU's inputs** ([`GpuBackend::run_pass`]), so a
+//! difference is always that pass's own, never inherited. Every output buffer is compared per
+//! element and per pixel; [`Tolerance`] says what counts as agreeing:
+//!
+//! - **Bandwidth / filter / compose passes** (no rays): must agree to float round-off on every pixel:
+//!   `|gpu − cpu| ≤ 1e-5·|cpu| + 1e-6`. The kernels mirror the Rust expression order, but WGSL does
+//!   not require correctly rounded `exp`, `sqrt` or division (Vulkan allows several ulp) and may
+//!   contract `a*b+c` into an fma; 1e-5 relative is ~80 ulp of headroom for sums of a few hundred
+//!   such terms, and the absolute 1e-6 covers values that cancel to ~0.
+//! - **Sampling passes** (rays): the same tolerance per pixel, but up to 0.1% of pixels may exceed
+//!   it: a ray that grazes a triangle edge or a BVH box may hit on one backend and miss on the other
+//!   after a one-ulp difference, changing that pixel's estimate by a whole sample. Such pixels are
+//!   counted and printed.
+//! - **Integer outputs** (rays per pixel): exact, except a difference of one where `ceil` of a float
+//!   input sits on a rounding boundary; those are counted as `boundary` and allowed up to 0.1% of pixels.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use wedge_graph::BufferId;
+
+use crate::buffer::BufferData;
+use crate::cpu::run_pass;
+use crate::gpu::GpuBackend;
+use crate::kernel::{Counters, KernelClass};
+use crate::{BackendError, Job};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerance {
+    pub rel: f32,
+    pub abs: f32,
+    /// Share of pixels allowed over tolerance (and, for integers, off by one).
+    pub max_share: f64,
+}
+
+impl Tolerance {
+    pub fn for_class(class: KernelClass) -> Tolerance {
+        match class {
+            KernelClass::Sampling => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 1e-3 },
+            _ => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 0.0 },
+        }
+    }
+}
+
+/// Comparison of one output buffer of one pass.
+#[derive(Clone, Debug)]
+pub struct BufferParity {
+    pub pass: String,
+    pub kernel: String,
+    pub binding: String,
+    pub class: KernelClass,
+    pub pixels: usize,
+    pub max_abs: f64,
+    pub max_rel: f64,
+    /// Pixels with a component over tolerance (floats) or off by more than one (integers).
+    pub over: usize,
+    /// Integer pixels off by exactly one (rounding boundary).
+    pub boundary: usize,
+    pub tolerance: Tolerance,
+    /// Device time of the pass (timestamp queries where supported, else wall clock).
+    pub gpu_seconds: f64,
+    pub ok: bool,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct ParityReport {
+    pub rows: Vec<BufferParity>,
+    pub adapter: String,
+}
+
+impl ParityReport {
+    pub fn ok(&self) -> bool {
+        self.rows.iter().all(|r| r.ok)
+    }
+    /// The table `wedge parity` prints.
+    pub fn table(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "adapter: {}", self.adapter);
+        let _ = writeln!(
+            s,
+            "{:<30} {:<18} {:<15} {:>10} {:>10} {:>7} {:>6} {:>9} {:>9}  {}",
+            "pass", "kernel", "output", "max abs", "max rel", "over", "bound", "allowed", "gpu ms", "result"
+        );
+        for r in &self.rows {
+            let allowed = (r.tolerance.max_share * r.pixels as f64).floor() as usize;
+            let _ = writeln!(
+                s,
+                "{:<30} {:<18} {:<15} {:>10.3e} {:>10.3e} {:>7} {:>6} {:>9} {:>9.3}  {}",
+                r.pass,
+                r.kernel,
+                r.binding,
+                r.max_abs,
+                r.max_rel,
+                r.over,
+                r.boundary,
+                allowed,
+                r.gpu_seconds * 1e3,
+                if r.ok { "ok" } else { "MISMATCH" }
+            );
+        }
+        let _ = writeln!(
+            s,
+            "tolerance per pixel: |gpu-cpu| <= 1e-5*|cpu| + 1e-6 on every component; sampling passes may exceed it on \
+             <= 0.1% of pixels (grazing rays); integers exact except off-by-one at rounding boundaries (<= 0.1%)"
+        );
+        let _ = writeln!(s, "{}", if self.ok() { "parity: ok" } else { "parity: MISMATCH" });
+        s
+    }
+}
+
+/// Compare one output buffer.
+pub fn compare(cpu: &BufferData, gpu: &BufferData, tol: Tolerance) -> (f64, f64, usize, usize) {
+    let n = cpu.len().min(gpu.len());
+    let comps = cpu.format().components();
+    let (mut max_abs, mut max_rel, mut over, mut boundary) = (0f64, 0f64, 0usize, 0usize);
+    if cpu.len() != gpu.len() || cpu.format() != gpu.format() {
+        return (f64::INFINITY, f64::INFINITY, cpu.len().max(gpu.len()), 0);
+    }
+    if let (BufferData::U32(a), BufferData::U32(b)) = (cpu, gpu) {
+        for i in 0..n {
+            let d = a[i].abs_diff(b[i]);
+            max_abs = max_abs.max(d as f64);
+            if a[i] > 0 {
+                max_rel = max_rel.max(d as f64 / a[i] as f64);
+            }
+            match d {
+                0 => {}
+                1 => boundary += 1,
+                _ => over += 1,
+            }
+        }
+        return (max_abs, max_rel, over, boundary);
+    }
+    for i in 0..n {
+        let mut bad = false;
+        for c in 0..comps {
+            let (x, y) = (cpu.component(i, c), gpu.component(i, c));
+            if x.is_nan() && y.is_nan() || x == y {
+                continue;
+            }
+            let d = (x as f64 - y as f64).abs();
+            if d.is_nan() {
+                bad = true;
+                max_abs = f64::INFINITY;
+                continue;
+            }
+            max_abs = max_abs.max(d);
+            if x != 0.0 {
+                max_rel = max_rel.max(d / (x as f64).abs());
+            }
+            if d > tol.rel as f64 * (x as f64).abs() + tol.abs as f64 {
+                bad = true;
+            }
+        }
+        over += bad as usize;
+    }
+    (max_abs, max_rel, over, boundary)
+}
+
+/// Run every pass of `job` on the CPU, then each pass alone on the GPU with the CPU's inputs, and
+/// compare every output.
+pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, BackendError> {
+    let counters = Counters::default();
+    let mut held: BTreeMap<BufferId, BufferData> = BTreeMap::new();
+    let mut report = ParityReport { rows: Vec::new(), adapter: gpu.adapter_description() };
+    for pass in &job.schedule.passes {
+        let kernel = job.kernels.get(&pass.kernel).ok_or_else(|| BackendError::UnknownKernel {
+            pass: pass.name.clone(),
+            kernel: pass.kernel.clone(),
+            known: job.kernels.names().collect::<Vec<_>>().join(", "),
+        })?;
+        let class = kernel.class();
+        let inputs: BTreeMap<BufferId, &BufferData> =
+            pass.reads.iter().filter_map(|(_, id)| held.get(id).map(|b| (*id, b))).collect();
+        let cpu_out = run_pass(job, pass, &inputs, &counters)?;
+        let (gpu_out, time) = gpu.run_pass(job, pass, &inputs)?;
+        let tol = Tolerance::for_class(class);
+        for (binding, cpu_buf) in &cpu_out {
+            let gpu_buf = gpu_out.get(binding).ok_or_else(|| BackendError::Binding {
+                pass: pass.name.clone(),
+                binding: binding.clone(),
+                message: "the wgpu backend returned no data for it".into(),
+            })?;
+            let (max_abs, max_rel, over, boundary) = compare(cpu_buf, gpu_buf, tol);
+            let pixels = cpu_buf.len();
+            let allowed = (tol.max_share * pixels as f64).floor() as usize;
+            let is_int = matches!(cpu_buf, BufferData::U32(_));
+            let ok = if is_int { over == 0 && boundary <= allowed } else { over <= allowed };
+            report.rows.push(BufferParity {
+                pass: pass.name.clone(),
+                kernel: pass.kernel.clone(),
+                binding: binding.clone(),
+                class,
+                pixels,
+                max_abs,
+                max_rel,
+                over,
+                boundary,
+                tolerance: tol,
+                gpu_seconds: time.seconds,
+                ok,
+            });
+        }
+        for (binding, data) in cpu_out {
+            let id = pass.write(&binding).expect("bound");
+            held.insert(id, data);
+        }
+    }
+    Ok(report)
+}

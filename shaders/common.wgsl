@@ -1,0 +1,118 @@
+// common.wgsl — prepended to every wedge kernel by the wgpu backend (backends/src/gpu/shaders.rs).
+//
+// Bind-group convention (the backend builds the layouts explicitly):
+//   group(0) binding(0)  frame: Frame          (uniform, filled by the backend)
+//   group(0) binding(1)  params: Params        (uniform, declared by the kernel; packed by
+//                                                `WgslSource::uniforms` as 4-byte words in order)
+//   group(0) binding(2)  counters              (atomic u32: primary, shadow, secondary, non-finite)
+//   group(1) binding(k)  the k-th buffer of `Kernel::bindings()`, in declaration order:
+//                        f32 → array<f32>, vec2 → array<vec2<f32>>, vec4 → array<vec4<f32>>,
+//                        u32 → array<u32>, vec3 → array<f32> PACKED (3 floats per pixel, no padding;
+//                        see vec3_at / vec3_set). Unbound optional bindings get a dummy buffer and
+//                        `is_bound(k)` is false.
+//   group(2)             the scene (scene.wgsl), only for kernels that declare `scene: true`.
+//
+// Floating point: WGSL implementations may contract a*b+c into fma and need not round exp/sqrt/
+// division correctly, so kernels mirror the Rust expression order but parity allows round-off.
+// NaN handling never relies on builtin min/max: rmin/rmax reproduce Rust's f32::min/max and
+// gmin/gmax glam's Vec3::min/max, both with bit tests for NaN.
+
+struct Frame {
+    width: u32,
+    height: u32,
+    seed: u32,
+    bound: u32,
+    inf_bits: u32,
+    fma_probe_x: u32, // 1 + 2^-12: fma(x, x, -y) is 2^-24 when fma is fused, 0 when not
+    fma_probe_y: u32, // 1 + 2^-11
+    _p2: u32,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>, 4>;
+
+const COUNTER_PRIMARY: u32 = 0u;
+const COUNTER_SHADOW: u32 = 1u;
+const COUNTER_SECONDARY: u32 = 2u;
+const COUNTER_NON_FINITE: u32 = 3u;
+
+fn is_bound(k: u32) -> bool {
+    return (frame.bound & (1u << k)) != 0u;
+}
+
+// +inf, read from the uniform so no compiler folds it away.
+fn inf() -> f32 {
+    return bitcast<f32>(frame.inf_bits);
+}
+
+fn is_nan(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
+}
+
+fn is_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn is_finite3(v: vec3<f32>) -> bool {
+    return is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
+}
+
+// Rust f32::min / f32::max: a NaN operand is ignored.
+fn rmin(a: f32, b: f32) -> f32 {
+    if (is_nan(a)) { return b; }
+    if (is_nan(b)) { return a; }
+    return select(b, a, a < b);
+}
+
+fn rmax(a: f32, b: f32) -> f32 {
+    if (is_nan(a)) { return b; }
+    if (is_nan(b)) { return a; }
+    return select(b, a, a > b);
+}
+
+// glam Vec3::min / max: `if a < b { a } else { b }` per component.
+fn gmin(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return select(b, a, a < b);
+}
+
+fn gmax(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return select(b, a, a > b);
+}
+
+// glam's dot / cross / length, same operation order.
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return (a.x * b.x) + (a.y * b.y) + (a.z * b.z);
+}
+
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
+}
+
+fn length3(a: vec3<f32>) -> f32 {
+    return sqrt(dot3(a, a));
+}
+
+fn normalize3(a: vec3<f32>) -> vec3<f32> {
+    return a * (1.0 / length3(a));
+}
+
+fn normalize_or_zero3(a: vec3<f32>) -> vec3<f32> {
+    let r = 1.0 / length3(a);
+    if (is_finite(r) && r > 0.0) {
+        return a * r;
+    }
+    return vec3<f32>(0.0);
+}
+
+fn is_zero3(a: vec3<f32>) -> bool {
+    return a.x == 0.0 && a.y == 0.0 && a.z == 0.0;
+}
+
+// The pixel of an invocation (workgroups of 8×8 tile the image); false outside it.
+fn pixel_of(gid: vec3<u32>) -> bool {
+    return gid.x < frame.width && gid.y < frame.height;
+}
+
+fn pixel_index(gid: vec3<u32>) -> u32 {
+    return gid.y * frame.width + gid.x;
+}

@@ -1,0 +1,90 @@
+// filter.gaussian — one axis of the separable world-space Gaussian driven by a per-pixel bandwidth;
+// mirrors backends/src/kernels/filter.rs (filter_pixel) term by term and in the same order.
+#include "common.wgsl"
+
+struct Params {
+    axis: u32,
+    max_radius: i32,
+    normal_cos: f32,
+    _pad: u32,
+    plane_normal: vec4<f32>, // xyz; zero = full 3-D distance
+}
+@group(0) @binding(1) var<uniform> params: Params;
+
+@group(1) @binding(0) var<storage, read> value: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> position: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> normal: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> bandwidth: array<f32>;
+@group(1) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
+
+const TANGENT_SLOPE: f32 = 0.2;
+
+fn plane_distance2(a: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {
+    let d = a - b;
+    let along = dot3(d, n);
+    return rmax(dot3(d, d) - along * along, 0.0);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let width = i32(frame.width);
+    let height = i32(frame.height);
+    let x = i32(gid.x);
+    let y = i32(gid.y);
+    let beta = bandwidth[i];
+    let centre = value[i];
+    if (beta <= 0.0 || position[i].w == 0.0 || !is_finite(beta)) {
+        out[i] = centre;
+        return;
+    }
+    let d = rmax(normal[i].w, 1e-12);
+    let r = ceil(3.0 * beta / d);
+    var radius = params.max_radius;
+    if (r < f32(params.max_radius)) {
+        radius = max(i32(r), 0);
+    }
+    let xi = position[i].xyz;
+    let ni = normal[i].xyz;
+    let inv = -0.5 / (beta * beta);
+    var sum = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var k = -radius; k <= radius; k = k + 1) {
+        var jx = x;
+        var jy = y + k;
+        if (params.axis == 0u) {
+            jx = x + k;
+            jy = y;
+        }
+        if (jx < 0 || jy < 0 || jx >= width || jy >= height) {
+            continue;
+        }
+        let j = u32(jy * width + jx);
+        if (position[j].w != position[i].w) {
+            continue;
+        }
+        if (dot3(ni, normal[j].xyz) < params.normal_cos) {
+            continue;
+        }
+        let v = value[j];
+        if (!is_finite3(v.xyz)) {
+            continue;
+        }
+        let xj = position[j].xyz;
+        let delta = xj - xi;
+        if (abs(dot3(delta, ni)) > TANGENT_SLOPE * length3(delta) + 0.25 * d) {
+            continue;
+        }
+        let w = exp(plane_distance2(xi, xj, params.plane_normal.xyz) * inv);
+        sum = sum + w * v.xyz;
+        wsum = wsum + w;
+    }
+    if (wsum > 0.0) {
+        out[i] = vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, centre.w);
+    } else {
+        out[i] = centre;
+    }
+}

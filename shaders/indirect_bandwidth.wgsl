@@ -1,0 +1,53 @@
+// indirect.bandwidth — β (metres) per component and the diffuse β in pixels; mirrors
+// effects/src/indirect.rs `Bandwidth` with the formulas of indirect_formulas.wgsl.
+#include "common.wgsl"
+#include "indirect_formulas.wgsl"
+
+struct Params {
+    mu: f32,
+    alpha: f32,
+    z_fraction: f32,
+    extent: f32,   // Scene::extent()
+    blinn: u32,    // brdf == "blinn_phong"
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+@group(0) @binding(1) var<uniform> params: Params;
+
+@group(1) @binding(0) var<storage, read> depth: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> specular: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read_write> beta_diffuse: array<f32>;
+@group(1) @binding(4) var<storage, read_write> beta_glossy: array<f32>;
+@group(1) @binding(5) var<storage, read_write> filter_width: array<f32>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    // The bandwidth pass reads no rate settings: initial = max = 1 as on the CPU.
+    let s = IndirectSettings(params.mu, params.alpha, params.z_fraction, params.extent, 1u, 1u);
+    let dp = depth[i];
+    let d = normal[i].w;
+    let has_stats = dp.w > 0.0;
+    var bd = 0.0;
+    if (has_stats) {
+        bd = indirect_component(Receiver(RECEIVER_DIFFUSE, 0.0), dp, d, s).beta;
+    }
+    beta_diffuse[i] = bd;
+    filter_width[i] = select(0.0, bd / d, bd > 0.0);
+    if (is_bound(4u)) {
+        var bg = 0.0;
+        if (has_stats && is_bound(2u)) {
+            let sp = specular[i];
+            if (indirect_has_glossy(sp)) {
+                let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.blinn != 0u), sp.w);
+                bg = indirect_component(r, dp, d, s).beta;
+            }
+        }
+        beta_glossy[i] = bg;
+    }
+}

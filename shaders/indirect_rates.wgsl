@@ -1,0 +1,54 @@
+// indirect.rates — samples per pixel per component (eq. 4.21) clamped to [initial, max·max(μ,1)]
+// and to `rays_cap`, and their sum; mirrors effects/src/indirect.rs `Rates` with the formulas of
+// indirect_formulas.wgsl.
+#include "common.wgsl"
+#include "indirect_formulas.wgsl"
+
+struct Params {
+    mu: f32,
+    alpha: f32,
+    z_fraction: f32,
+    extent: f32,   // Scene::extent()
+    initial: u32,  // initial_rays.max(1)
+    max_rays: u32, // max_rays.max(1)
+    cap: u32,      // rays_cap.max(1)
+    blinn: u32,    // brdf == "blinn_phong"
+}
+@group(0) @binding(1) var<uniform> params: Params;
+
+@group(1) @binding(0) var<storage, read> depth: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> specular: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read_write> rays_diffuse: array<u32>;
+@group(1) @binding(4) var<storage, read_write> rays_glossy: array<u32>;
+@group(1) @binding(5) var<storage, read_write> rays_per_pixel: array<u32>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let s = IndirectSettings(params.mu, params.alpha, params.z_fraction, params.extent, params.initial, params.max_rays);
+    let dp = depth[i];
+    var nd = 0u;
+    var ng = 0u;
+    if (dp.w > 0.0) {
+        let d = normal[i].w;
+        nd = indirect_component(Receiver(RECEIVER_DIFFUSE, 0.0), dp, d, s).rays;
+        if (is_bound(2u) && is_bound(4u)) {
+            let sp = specular[i];
+            if (indirect_has_glossy(sp)) {
+                let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.blinn != 0u), sp.w);
+                ng = indirect_component(r, dp, d, s).rays;
+            }
+        }
+        nd = min(nd, params.cap);
+        ng = min(ng, params.cap);
+    }
+    rays_diffuse[i] = nd;
+    if (is_bound(4u)) {
+        rays_glossy[i] = ng;
+    }
+    rays_per_pixel[i] = nd + ng;
+}

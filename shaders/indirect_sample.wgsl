@@ -1,0 +1,325 @@
+// indirect.sample — path tracing of indirect light (diffuse and glossy components) or AO at each
+// pixel's surface point, with next-event estimation at every path vertex, per-pixel counts,
+// `previous_*` continuation and first-hit statistics; mirrors backends/src/kernels/indirect.rs
+// (next_event, trace_path, IndirectSample::run_cpu) with the same RNG calls and dimensions.
+#include "common.wgsl"
+#include "rng.wgsl"
+#include "bvh.wgsl"
+#include "sampling.wgsl"
+#include "hemisphere.wgsl"
+
+struct Params {
+    camera: vec4<f32>,   // xyz = camera position
+    count: u32,
+    stratified: u32,
+    ao: u32,
+    bounces: u32,        // ≥ 1
+    max_distance: f32,
+    lobe: u32,           // LOBE_PHONG / LOBE_BLINN_PHONG
+    eps: f32,            // RAY_EPSILON · Scene::extent()
+    stream: u32,
+    light_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+@group(0) @binding(1) var<uniform> params: Params;
+
+@group(1) @binding(0) var<storage, read> position: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> specular: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> rays_diffuse: array<u32>;
+@group(1) @binding(4) var<storage, read> rays_glossy: array<u32>;
+@group(1) @binding(5) var<storage, read> previous_diffuse: array<vec4<f32>>;
+@group(1) @binding(6) var<storage, read> previous_glossy: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read_write> diffuse: array<vec4<f32>>;
+@group(1) @binding(8) var<storage, read_write> glossy: array<vec4<f32>>;
+@group(1) @binding(9) var<storage, read_write> depth: array<vec4<f32>>;
+
+// Dimension offset between lights in next-event estimation.
+const LIGHT_DIM_STRIDE: u32 = 65536u;
+// Dimension choosing the lobe at a path vertex.
+const LOBE_SELECT: u32 = 14u;
+
+// Rays traced by the current invocation (for the counters).
+var<private> rays_secondary: u32 = 0u;
+var<private> rays_shadow: u32 = 0u;
+
+// Rust's `x as u32` (saturating; NaN → 0).
+fn f32_to_u32_sat(x: f32) -> u32 {
+    if (!(x > 0.0)) {
+        return 0u;
+    }
+    if (x >= 4294967296.0) {
+        return 0xffffffffu;
+    }
+    return u32(x);
+}
+
+fn weight_of(c: vec3<f32>) -> f32 {
+    return (c.x + c.y + c.z) / 3.0;
+}
+
+// next_event: one uniform area sample per light.
+fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
+    for (var l = 0u; l < params.light_count; l = l + 1u) {
+        let light = lights[l];
+        let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
+        let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
+        let to = target_point - y;
+        let r2 = dot3(to, to);
+        if (r2 <= 0.0) {
+            continue;
+        }
+        let dir = to / sqrt(r2);
+        let cos_y = dot3(n, dir);
+        let ln = light.normal_area.xyz;
+        var cos_l = dot3(ln, -dir);
+        if (light.two_sided != 0u) {
+            cos_l = abs(cos_l);
+        }
+        if (cos_y <= 0.0 || cos_l <= 0.0) {
+            continue;
+        }
+        let origin = y + n * params.eps;
+        let seg = target_point - origin;
+        let seg_len = length3(seg);
+        rays_shadow = rays_shadow + 1u;
+        if (scene_occluded(origin, seg / seg_len, 0.0, seg_len * bitcast<f32>(0x3f7ff972u))) { // (1.0 - 1e-4) in f32
+            continue;
+        }
+        var f = kd * FRAC_1_PI_F32;
+        if (is_glossy) {
+            f = f + ks * glossy_brdf(params.lobe, m, n, wo, dir);
+        }
+        sum = sum + light.radiance.xyz * f * (cos_y * cos_l / r2 * light.normal_area.w);
+    }
+    return sum;
+}
+
+struct PathResult {
+    value: vec3<f32>,
+    hit: bool,   // the first ray hit (AO: a reflector within max_distance)
+    first: f32,  // distance to the first hit
+}
+
+// trace_path: one path leaving `x` (normal `n`) in direction `wi`.
+fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) -> PathResult {
+    let side = select(-1.0, 1.0, dot3(wi, n) >= 0.0);
+    var origin = x + n * (side * params.eps);
+    var dir = wi;
+    rays_secondary = rays_secondary + 1u;
+    var hit = scene_intersect(origin, dir, 0.0, inf());
+    if (!hit.hit) {
+        return PathResult(vec3<f32>(0.0), false, 0.0);
+    }
+    let first = hit.t;
+    if (params.ao != 0u) {
+        let inside = params.max_distance <= 0.0 || first <= params.max_distance;
+        if (inside) {
+            return PathResult(vec3<f32>(1.0), true, first);
+        }
+        return PathResult(vec3<f32>(0.0), false, 0.0);
+    }
+    var radiance = vec3<f32>(0.0);
+    var throughput = vec3<f32>(1.0);
+    for (var bounce = 1u; bounce <= params.bounces; bounce = bounce + 1u) {
+        let sp = surface(hit.triangle, hit.b1, hit.b2, dir);
+        let y = sp.position;
+        let ny = sp.shading_normal;
+        let wo = -dir;
+        let mat = materials[sp.material];
+        let kd = albedo(sp);
+        let ks = mat.specular;
+        let m = mat.phong_exponent;
+        radiance = radiance + throughput * next_event(y, ny, wo, kd, ks, m, key, sample, bounce);
+        if (bounce == params.bounces) {
+            break;
+        }
+        // Continue: one-sample mixture of the vertex's lobes.
+        let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
+        let wd = rmax(weight_of(kd), 0.0);
+        var ws = 0.0;
+        if (is_glossy) {
+            ws = rmax(weight_of(ks), 0.0);
+        }
+        if (wd + ws <= 0.0) {
+            break;
+        }
+        let pd = wd / (wd + ws);
+        let d = DIM_BSDF + bounce * DIM_BOUNCE_STRIDE;
+        let u = rng_uniform2(key, sample, d);
+        var next: vec3<f32>;
+        if (rng_uniform(key, sample, LOBE_SELECT + bounce * DIM_BOUNCE_STRIDE) < pd) {
+            next = sample_diffuse(ny, u);
+        } else {
+            next = sample_glossy(params.lobe, m, ny, wo, u).wi;
+        }
+        let cos_i = dot3(next, ny);
+        if (cos_i <= 0.0) {
+            break;
+        }
+        var f = kd * FRAC_1_PI_F32;
+        var pdf = pd * cos_i * FRAC_1_PI_F32;
+        if (is_glossy) {
+            f = f + ks * glossy_brdf(params.lobe, m, ny, wo, next);
+            pdf = pdf + (1.0 - pd) * glossy_pdf(params.lobe, m, ny, wo, next);
+        }
+        if (pdf <= 0.0) {
+            break;
+        }
+        throughput = throughput * (f * (cos_i / pdf));
+        origin = y + ny * params.eps;
+        dir = next;
+        rays_secondary = rays_secondary + 1u;
+        hit = scene_intersect(origin, dir, 0.0, inf());
+        if (!hit.hit) {
+            break;
+        }
+    }
+    return PathResult(radiance, true, first);
+}
+
+// continue_mean: rgb mean and the number of samples in it.
+fn continue_mean(prev: vec4<f32>, sum: vec3<f32>, valid: u32) -> vec4<f32> {
+    let total = prev.w + f32(valid);
+    var mean = vec3<f32>(0.0);
+    if (total > 0.0) {
+        mean = (prev.xyz * prev.w + sum) / total;
+    }
+    return vec4<f32>(mean, total);
+}
+
+// First-hit statistics over the hemisphere rays.
+var<private> z_min: f32;
+var<private> z_max: f32 = 0.0;
+var<private> hits: u32 = 0u;
+var<private> traced: u32 = 0u;
+
+fn record(r: PathResult) {
+    traced = traced + 1u;
+    if (r.hit) {
+        hits = hits + 1u;
+        z_min = rmin(z_min, r.first);
+        z_max = rmax(z_max, r.first);
+    }
+}
+
+fn sample_2d(key: u32, s: u32, n: u32) -> vec2<f32> {
+    if (params.stratified != 0u) {
+        return rng_stratified2(key, s, n, DIM_BSDF);
+    }
+    return rng_uniform2(key, s, DIM_BSDF);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let want_glossy = is_bound(8u) && is_bound(2u) && params.ao == 0u;
+    var pd = vec4<f32>(0.0);
+    if (is_bound(5u)) {
+        pd = previous_diffuse[i];
+    }
+    var pg = vec4<f32>(0.0);
+    if (is_bound(6u)) {
+        pg = previous_glossy[i];
+    }
+    var out_d = pd;
+    var out_g = pg;
+    var out_depth = vec4<f32>(0.0);
+    var bad = 0u;
+    if (position[i].w != 0.0) {
+        let x = position[i].xyz;
+        let n = normal[i].xyz;
+        let wo = normalize_or_zero3(params.camera.xyz - x);
+        var ks = vec3<f32>(0.0);
+        var m = 0.0;
+        if (is_bound(2u)) {
+            ks = specular[i].xyz;
+            m = specular[i].w;
+        }
+        let is_glossy = want_glossy && m > 0.0 && max_element3(ks) > 0.0;
+        z_min = inf();
+        // Diffuse component.
+        var target_d = params.count;
+        if (is_bound(3u)) {
+            target_d = rays_diffuse[i];
+        }
+        let done_d = f32_to_u32_sat(pd.w);
+        let extra_d = select(0u, target_d - done_d, target_d > done_d);
+        let key_d = rng_key(frame.seed, i, 0x4000u + 2u * params.stream);
+        var sum = vec3<f32>(0.0);
+        var valid = 0u;
+        for (var s = 0u; s < extra_d; s = s + 1u) {
+            let u = sample_2d(key_d, s, extra_d);
+            let wi = sample_diffuse(n, u);
+            let r = trace_path(x, n, wi, key_d, s);
+            record(r);
+            if (is_finite3(r.value)) {
+                sum = sum + r.value;
+                valid = valid + 1u;
+            } else {
+                bad = bad + 1u;
+            }
+        }
+        out_d = continue_mean(pd, sum, valid);
+        let dbg_d = vec4<f32>(f32(extra_d), f32(valid), f32(bad), f32(target_d));
+        // Glossy component.
+        if (is_glossy) {
+            var target_g = params.count;
+            if (is_bound(4u)) {
+                target_g = rays_glossy[i];
+            }
+            let done_g = f32_to_u32_sat(pg.w);
+            let extra_g = select(0u, target_g - done_g, target_g > done_g);
+            let key_g = rng_key(frame.seed, i, 0x4001u + 2u * params.stream);
+            var gsum = vec3<f32>(0.0);
+            var gvalid = 0u;
+            for (var s = 0u; s < extra_g; s = s + 1u) {
+                let u = sample_2d(key_g, s, extra_g);
+                let gs = sample_glossy(params.lobe, m, n, wo, u);
+                var v = vec3<f32>(0.0);
+                if (gs.weight > 0.0) {
+                    let r = trace_path(x, n, gs.wi, key_g, s);
+                    record(r);
+                    v = r.value * gs.weight;
+                }
+                if (is_finite3(v)) {
+                    gsum = gsum + v;
+                    gvalid = gvalid + 1u;
+                } else {
+                    bad = bad + 1u;
+                }
+            }
+            out_g = continue_mean(pg, gsum, gvalid);
+            out_g = vec4<f32>(f32(extra_g), f32(gvalid), f32(bad), f32(target_g));
+        }
+        var zmin_out = z_min;
+        if (hits == 0u) {
+            zmin_out = 0.0;
+        }
+        out_depth = vec4<f32>(zmin_out, z_max, f32(hits), f32(traced));
+        out_d = dbg_d;
+    }
+    diffuse[i] = out_d;
+    if (is_bound(8u)) {
+        glossy[i] = out_g;
+    }
+    if (is_bound(9u)) {
+        depth[i] = out_depth;
+    }
+    if (rays_secondary > 0u) {
+        atomicAdd(&counters[COUNTER_SECONDARY], rays_secondary);
+    }
+    if (rays_shadow > 0u) {
+        atomicAdd(&counters[COUNTER_SHADOW], rays_shadow);
+    }
+    if (bad > 0u) {
+        atomicAdd(&counters[COUNTER_NON_FINITE], bad);
+    }
+}

@@ -1,0 +1,61 @@
+// neighbourhood.fill — average of neighbours' statistics within a radius for pixels without their
+// own; mirrors backends/src/kernels/neighbourhood.rs (same visiting order, so the sums agree).
+#include "common.wgsl"
+
+struct Params {
+    radius: i32,
+    _p0: u32,
+    _p1: u32,
+    _p2: u32,
+}
+@group(0) @binding(1) var<uniform> params: Params;
+
+@group(1) @binding(0) var<storage, read> value: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> position: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let w = i32(frame.width);
+    let h = i32(frame.height);
+    let x = i32(gid.x);
+    let y = i32(gid.y);
+    let v = value[i];
+    if (v.w > 0.0) {
+        out[i] = vec4<f32>(v.xyz, 1.0);
+        return;
+    }
+    if (position[i].w == 0.0) {
+        out[i] = vec4<f32>(0.0);
+        return;
+    }
+    let radius = params.radius;
+    var sum = vec3<f32>(0.0);
+    var n = 0u;
+    for (var dy = -radius; dy <= radius; dy = dy + 1) {
+        for (var dx = -radius; dx <= radius; dx = dx + 1) {
+            if (dx * dx + dy * dy > radius * radius) {
+                continue;
+            }
+            let nx = x + dx;
+            let ny = y + dy;
+            if (nx < 0 || ny < 0 || nx >= w || ny >= h) {
+                continue;
+            }
+            let u = value[u32(ny * w + nx)];
+            if (u.w > 0.0) {
+                sum = sum + u.xyz;
+                n = n + 1u;
+            }
+        }
+    }
+    if (n == 0u) {
+        out[i] = vec4<f32>(0.0);
+    } else {
+        out[i] = vec4<f32>(sum / f32(n), 2.0);
+    }
+}

@@ -1,0 +1,305 @@
+//! GPU parity: the wgpu backend against the CPU backend, on whatever adapter wgpu finds (Mesa's
+//! lavapipe on machines without a GPU; `scripts/test.sh` installs it where it can).
+//!
+//! Without an adapter these tests print why they were skipped and pass — except under `CI=true`,
+//! where a missing adapter is a failure (CI must exercise the GPU path).
+//!
+//! - every pass of every pipeline in `pipelines/` at 64×48 (`run_parity`'s tolerances),
+//! - end to end: `render --backend wgpu` vs `--backend cpu` on pipelines/shadows.ron, relMSE ≤ 1e-4,
+//! - the RNG: a tiny WGSL kernel writes `hash4`/`uniform`/`cmj`/`permute` for 65 536 inputs, compared
+//!   with `backends/src/rng.rs` bit for bit,
+//! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use wedge::backends::cpu::CpuBackend;
+use wedge::backends::gpu::GpuBackend;
+use wedge::backends::parity::run_parity;
+use wedge::backends::{
+    rng, Backend, BackendError, Binding, BufferData, Job, Kernel, KernelClass, KernelCtx, Silent, Uniforms, WgslSource,
+};
+use wedge::graph::Format;
+use wedge::{Overrides, Session};
+
+/// The GPU backend, or `None` (with the reason printed) when there is no adapter outside CI.
+fn gpu_or_skip(test: &str) -> Option<GpuBackend> {
+    match GpuBackend::new() {
+        Ok(g) => {
+            eprintln!("{test}: wgpu adapter {}", g.adapter_description());
+            Some(g)
+        }
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
+            }
+            eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
+            None
+        }
+    }
+}
+
+fn small(w: u32, h: u32) -> Overrides {
+    Overrides { width: Some(w), height: Some(h), ..Default::default() }
+}
+
+fn job(s: &Session) -> Job<'_> {
+    Job {
+        schedule: &s.schedule,
+        scene: &s.scene,
+        kernels: &s.kernels,
+        width: s.width,
+        height: s.height,
+        seed: s.seed,
+        progress: &Silent,
+    }
+}
+
+fn pipelines() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("pipelines/")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn parity_every_pass_of_every_pipeline() {
+    let Some(mut gpu) = gpu_or_skip("parity_every_pass_of_every_pipeline") else { return };
+    let mut failures = Vec::new();
+    for path in pipelines() {
+        let session = Session::open(Some(&path), &small(64, 48)).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        // Kernels without WGSL are reported by `every_scheduled_kernel_has_wgsl`; compare the rest.
+        let missing = kernels_without_wgsl(&session);
+        if !missing.is_empty() {
+            println!("{}: NOT COMPARED — kernel(s) without WGSL: {}", path.display(), missing.join(", "));
+            continue;
+        }
+        match run_parity(&job(&session), &mut gpu) {
+            Ok(report) => {
+                println!("{}\n{}", path.display(), report.table());
+                if !report.ok() {
+                    failures.push(format!("{}: parity mismatch (table above)", path.display()));
+                }
+            }
+            Err(e) => failures.push(format!("{}: {e}", path.display())),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+fn kernels_without_wgsl(s: &Session) -> Vec<String> {
+    let mut v: Vec<String> = s
+        .schedule
+        .passes
+        .iter()
+        .filter(|p| s.kernels.get(&p.kernel).is_none_or(|k| k.wgsl().is_none()))
+        .map(|p| p.kernel.clone())
+        .collect();
+    v.sort();
+    v.dedup();
+    v
+}
+
+/// Every kernel a shipped pipeline schedules must have a WGSL implementation (no GPU needed).
+#[test]
+fn every_scheduled_kernel_has_wgsl() {
+    let mut gaps = Vec::new();
+    for path in pipelines() {
+        let session = Session::open(Some(&path), &small(8, 6)).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let missing = kernels_without_wgsl(&session);
+        if !missing.is_empty() {
+            gaps.push(format!("{}: {}", path.display(), missing.join(", ")));
+        }
+    }
+    assert!(gaps.is_empty(), "kernels without a WGSL implementation (the wgpu backend cannot run them):\n{}", gaps.join("\n"));
+}
+
+fn rel_mse(test: &BufferData, reference: &BufferData) -> f64 {
+    let (mut s, mut n) = (0f64, 0usize);
+    for i in 0..reference.len() {
+        for c in 0..reference.format().components() {
+            let (x, r) = (test.component(i, c) as f64, reference.component(i, c) as f64);
+            if x.is_finite() && r.is_finite() {
+                s += (x - r) * (x - r) / (r * r + 0.01);
+                n += 1;
+            }
+        }
+    }
+    s / n.max(1) as f64
+}
+
+#[test]
+fn end_to_end_render_matches_cpu() {
+    let Some(mut gpu) = gpu_or_skip("end_to_end_render_matches_cpu") else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    let session = Session::open(Some(&path), &small(80, 60)).unwrap();
+    let cpu = session.run(&mut CpuBackend::new(), &Silent).unwrap();
+    let wgpu = session.run(&mut gpu, &Silent).unwrap();
+    assert_eq!(cpu.outputs.len(), wgpu.outputs.len());
+    for (key, reference) in &cpu.outputs {
+        let test = &wgpu.outputs[key];
+        let e = rel_mse(test, reference);
+        println!("{key:?}: relMSE {e:.3e}");
+        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
+    }
+    assert_eq!(cpu.rays, wgpu.rays, "ray counters differ");
+    for t in &wgpu.timings {
+        println!("{:<30} {:<20} {:>9.3} ms", t.pass, t.kernel, t.seconds * 1e3);
+    }
+}
+
+#[test]
+fn gpu_pool_allocates_one_buffer_per_slot() {
+    let Some(mut gpu) = gpu_or_skip("gpu_pool_allocates_one_buffer_per_slot") else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    let session = Session::open(Some(&path), &small(32, 24)).unwrap();
+    let run = session.run(&mut gpu, &Silent).unwrap();
+    let logical = session.schedule.lifetimes.iter().filter(|l| l.is_some()).count();
+    println!("physical {} (slots {}), logical {logical}", run.allocations, session.schedule.slot_formats.len());
+    assert_eq!(run.allocations, session.schedule.slot_formats.len());
+    assert!(run.allocations < logical, "pooling saved nothing: {} physical for {logical} logical", run.allocations);
+}
+
+/// A test-only kernel whose WGSL writes `hash4`, `uniform`, `cmj` and `permute` outputs for many
+/// inputs (one per pixel); the Rust side recomputes them with `wedge::backends::rng`.
+struct RngProbe;
+
+const RNG_PROBE_WGSL: &str = r#"
+#include "rng.wgsl"
+struct Params { _unused: u32 }
+@group(0) @binding(1) var<uniform> params: Params;
+@group(1) @binding(0) var<storage, read_write> out_hash: array<u32>;
+@group(1) @binding(1) var<storage, read_write> out_uniform: array<f32>;
+@group(1) @binding(2) var<storage, read_write> out_cmj: array<vec2<f32>>;
+@group(1) @binding(3) var<storage, read_write> out_perm: array<u32>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) { return; }
+    let i = pixel_index(gid);
+    let h = hash4(i, i * 2654435761u, frame.seed, i ^ 0xdeadbeefu);
+    out_hash[i] = h;
+    out_uniform[i] = rng_uniform(rng_key(frame.seed, i, 3u), i % 97u, DIM_LIGHT);
+    let n = 1u + (i % 401u);
+    out_cmj[i] = cmj(h % n, n, hash4(i, 17u, 0u, 0u));
+    out_perm[i] = permute(i % n, n, h);
+}
+"#;
+
+impl Kernel for RngProbe {
+    fn name(&self) -> &'static str {
+        "test.rng_probe"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::write("hash", Format::U32),
+            Binding::write("uniform", Format::F32),
+            Binding::write("cmj", Format::Vec2),
+            Binding::write("perm", Format::U32),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let seed = ctx.seed;
+        let n = ctx.pixels() as u32;
+        let hash: Vec<u32> = (0..n).map(|i| rng::hash4(i, i.wrapping_mul(2654435761), seed, i ^ 0xdead_beef)).collect();
+        let uniform: Vec<f32> = (0..n).map(|i| rng::PixelRng::new(seed, i, 3).uniform(i % 97, rng::dim::LIGHT)).collect();
+        let cmj: Vec<[f32; 2]> = (0..n)
+            .map(|i| {
+                let m = 1 + i % 401;
+                rng::cmj(hash[i as usize] % m, m, rng::hash4(i, 17, 0, 0))
+            })
+            .collect();
+        let perm: Vec<u32> = (0..n).map(|i| {
+            let m = 1 + i % 401;
+            rng::permute(i % m, m, hash[i as usize])
+        }).collect();
+        ctx.put("hash", hash)?;
+        ctx.put("uniform", uniform)?;
+        ctx.put("cmj", cmj)?;
+        ctx.put("perm", perm)
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(RNG_PROBE_WGSL, |_| Ok(Uniforms::new().align16())))
+    }
+}
+
+#[test]
+fn rng_wgsl_is_bit_exact() {
+    let Some(mut gpu) = gpu_or_skip("rng_wgsl_is_bit_exact") else { return };
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    let (w, h, seed) = (256u32, 256u32, 12345u32);
+    let out = gpu.run_kernel(Arc::new(RngProbe), &scene, w, h, seed, BTreeMap::new(), &BTreeMap::new()).unwrap();
+    let (mut hash, mut uniform, mut cmj, mut perm) = (0, 0, 0, 0);
+    let (BufferData::U32(gh), BufferData::F32(gu), BufferData::Vec2(gc), BufferData::U32(gp)) =
+        (&out["hash"], &out["uniform"], &out["cmj"], &out["perm"])
+    else {
+        panic!("unexpected formats")
+    };
+    for i in 0..w * h {
+        let k = i as usize;
+        let hs = rng::hash4(i, i.wrapping_mul(2654435761), seed, i ^ 0xdead_beef);
+        let m = 1 + i % 401;
+        hash += (gh[k] != hs) as usize;
+        uniform += (gu[k].to_bits() != rng::PixelRng::new(seed, i, 3).uniform(i % 97, rng::dim::LIGHT).to_bits()) as usize;
+        let c = rng::cmj(hs % m, m, rng::hash4(i, 17, 0, 0));
+        cmj += (gc[k][0].to_bits() != c[0].to_bits() || gc[k][1].to_bits() != c[1].to_bits()) as usize;
+        perm += (gp[k] != rng::permute(i % m, m, hs)) as usize;
+    }
+    println!("mismatches of {}: hash4 {hash}, uniform {uniform}, cmj {cmj}, permute {perm}", w * h);
+    assert_eq!((hash, uniform, cmj, perm), (0, 0, 0, 0));
+}
+
+#[test]
+fn kernel_without_wgsl_is_a_clear_error() {
+    let Some(mut gpu) = gpu_or_skip("kernel_without_wgsl_is_a_clear_error") else { return };
+    struct CpuOnly;
+    impl Kernel for CpuOnly {
+        fn name(&self) -> &'static str {
+            "test.cpu_only"
+        }
+        fn class(&self) -> KernelClass {
+            KernelClass::Compose
+        }
+        fn bindings(&self) -> Vec<Binding> {
+            vec![Binding::write("out", Format::F32)]
+        }
+        fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+            let n = ctx.pixels();
+            ctx.put("out", vec![0f32; n])
+        }
+    }
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    let e = gpu.run_kernel(Arc::new(CpuOnly), &scene, 8, 8, 1, BTreeMap::new(), &BTreeMap::new()).unwrap_err();
+    assert!(e.to_string().contains("no WGSL implementation"), "{e}");
+
+    // A shader that does not validate is an error naming the kernel, not a panic.
+    struct Broken;
+    impl Kernel for Broken {
+        fn name(&self) -> &'static str {
+            "test.broken"
+        }
+        fn class(&self) -> KernelClass {
+            KernelClass::Compose
+        }
+        fn bindings(&self) -> Vec<Binding> {
+            vec![Binding::write("out", Format::F32)]
+        }
+        fn run_cpu(&self, _: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn wgsl(&self) -> Option<WgslSource> {
+            Some(WgslSource::new("fn main( { this is not wgsl", |_| Ok(Uniforms::new())))
+        }
+    }
+    let e = gpu.run_kernel(Arc::new(Broken), &scene, 8, 8, 1, BTreeMap::new(), &BTreeMap::new()).unwrap_err();
+    println!("{e}");
+    assert!(e.to_string().contains("test.broken"), "{e}");
+}
