@@ -11,6 +11,7 @@ pub use wedge_effects as effects;
 pub use wedge_graph as graph;
 pub use wedge_scene as scene;
 
+pub mod bench;
 pub mod heatmap;
 pub mod image;
 pub mod metrics;

@@ -40,6 +40,9 @@ struct Common {
     /// Set a node parameter: NODE.PARAM=VALUE (e.g. shadows.max_rays=200). Repeatable.
     #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
     set: Vec<String>,
+    /// Where passes run: `cpu` (rayon) or `wgpu` (WGSL compute on a GPU, or Mesa's software Vulkan).
+    #[arg(long, default_value = "cpu", value_parser = ["cpu", "wgpu"])]
+    backend: String,
 }
 
 #[derive(Subcommand)]
@@ -72,6 +75,38 @@ enum Command {
         /// Where to write the error heatmap PNG.
         #[arg(long, default_value = "out/error.png")]
         heatmap: PathBuf,
+    },
+    /// Benchmark a pipeline: equal-error speedup vs Monte Carlo, convergence plots, report.md.
+    Bench {
+        pipeline: PathBuf,
+        /// Small and fast (CI smoke test): 128x96, reference 512 spp, 2 mu values, 3 spp per baseline.
+        #[arg(long)]
+        quick: bool,
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+        #[arg(long)]
+        width: Option<u32>,
+        #[arg(long)]
+        height: Option<u32>,
+        #[arg(long)]
+        seed: Option<u32>,
+    },
+    /// Check the wgpu backend against the CPU backend pass by pass (each GPU pass runs on the CPU's
+    /// inputs) and print max abs / max rel differences and pixels over tolerance; fails on a mismatch.
+    Parity {
+        pipeline: Option<PathBuf>,
+        /// Scene override, as for `render`.
+        #[arg(long)]
+        scene: Option<String>,
+        #[arg(long, default_value_t = 64)]
+        width: u32,
+        #[arg(long, default_value_t = 48)]
+        height: u32,
+        #[arg(long)]
+        seed: Option<u32>,
+        /// Set a node parameter: NODE.PARAM=VALUE. Repeatable.
+        #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
+        set: Vec<String>,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes).
     Graph {
@@ -125,7 +160,7 @@ where
     }
 }
 
-fn render(session: &Session, common: &Common, stem: &str) -> Result<(), WedgeError> {
+fn render(session: &Session, common: &Common, stem: &str) -> Result<String, WedgeError> {
     eprintln!(
         "{} on scene `{}` ({} triangles, {} lights), {}x{}, seed {}",
         session.pipeline.path.display(),
@@ -137,26 +172,61 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<(), WedgeErr
         session.seed
     );
     let bars = Bars::default();
-    let run = with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??;
+    let (run, note) = match common.backend.as_str() {
+        "wgpu" => run_wgpu(session, &bars)?,
+        _ => (with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??, None),
+    };
     let files = write_run(&common.out, stem, &run, session.width, session.height)?;
-    print!("{}", summary(&run, session.width, session.height));
-    for f in files {
-        println!("wrote {}", f.display());
+    let mut text = summary(&run, session.width, session.height);
+    if let Some(note) = note {
+        text.push_str(&note);
     }
-    Ok(())
+    for f in files {
+        text.push_str(&format!("wrote {}\n", f.display()));
+    }
+    Ok(text)
 }
 
-fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<(), WedgeError> {
+fn run_wgpu(session: &Session, bars: &Bars) -> Result<(wedge::backends::RunResult, Option<String>), WedgeError> {
+    let mut gpu = wedge::backends::gpu::GpuBackend::new()?;
+    eprintln!("wgpu adapter: {}", gpu.adapter_description());
+    let run = session.run(&mut gpu, bars)?;
+    let mut note = format!(
+        "backend wgpu on {}; pass times are {}\n",
+        gpu.adapter_description(),
+        if gpu.has_timestamps() { "device timestamps (timestamp queries)" } else { "wall clock (no timestamp queries)" }
+    );
+    if gpu.is_software() {
+        note.push_str("note: this adapter is a CPU emulation (lavapipe/llvmpipe); its times say nothing about a GPU\n");
+    }
+    Ok((run, Some(note)))
+}
+
+fn parity(session: &Session) -> Result<(String, bool), WedgeError> {
+    let mut gpu = wedge::backends::gpu::GpuBackend::new()?;
+    let job = wedge::backends::Job {
+        schedule: &session.schedule,
+        scene: &session.scene,
+        kernels: &session.kernels,
+        width: session.width,
+        height: session.height,
+        seed: session.seed,
+        progress: &wedge::backends::Silent,
+    };
+    let report = wedge::backends::parity::run_parity(&job, &mut gpu)?;
+    Ok((report.table(), report.ok()))
+}
+
+fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, WedgeError> {
     let a = read_exr(test)?;
     let b = read_exr(reference)?;
     let m = wedge::metrics::compare(&a, &b)?;
-    println!("RMSE    {:.6}", m.rmse);
-    println!("relMSE  {:.6}", m.rel_mse);
-    println!("PSNR    {:.2} dB", m.psnr);
-    println!("SMAPE   {:.6}", m.smape);
-    println!("max abs {:.6}", m.max_abs);
+    let mut text = format!(
+        "RMSE    {:.6}\nrelMSE  {:.6}\nPSNR    {:.2} dB\nSMAPE   {:.6}\nmax abs {:.6}\n",
+        m.rmse, m.rel_mse, m.psnr, m.smape, m.max_abs
+    );
     if m.non_finite > 0 {
-        println!("warning: {} pixel(s) with non-finite values were excluded", m.non_finite);
+        text.push_str(&format!("warning: {} pixel(s) with non-finite values were excluded\n", m.non_finite));
     }
     let err = wedge::metrics::error_map(&a, &b);
     if let Some(dir) = heatmap.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -170,11 +240,12 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<(), WedgeErr
         range: None,
     };
     wedge::heatmap::write_heatmap_png(heatmap, a.width, a.height, &err, None, &spec)?;
-    println!("wrote {}", heatmap.display());
-    Ok(())
+    text.push_str(&format!("wrote {}\n", heatmap.display()));
+    Ok(text)
 }
 
-fn run(cli: Cli) -> Result<(), WedgeError> {
+/// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
+fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
         Command::Render { pipeline, common, mu } => {
             let session = Session::open(pipeline.as_deref(), &overrides(&common, mu)?)?;
@@ -188,24 +259,53 @@ fn run(cli: Cli) -> Result<(), WedgeError> {
             render(&session, &common, "reference")
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
+        Command::Parity { pipeline, scene, width, height, seed, set } => {
+            let ov = Overrides {
+                scene,
+                width: Some(width),
+                height: Some(height),
+                seed,
+                mu: None,
+                params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+            };
+            let session = Session::open(pipeline.as_deref(), &ov)?;
+            let (table, ok) = parity(&session)?;
+            if ok {
+                Ok(table)
+            } else {
+                Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
+            }
+        }
+        Command::Bench { pipeline, quick, out, width, height, seed } => {
+            let opts = wedge::bench::BenchOptions {
+                quick,
+                width,
+                height,
+                seed,
+                verbose: true,
+                ..wedge::bench::BenchOptions::new(pipeline, out)
+            };
+            let r = wedge::bench::run(&opts)?;
+            Ok(format!("{}\n", wedge::bench::report::summary(&r)))
+        }
         Command::Graph { pipeline, dot } => {
             let loaded = wedge::session::load_pipeline_or_default(pipeline.as_deref())?;
             let (nodes, _) = wedge::effects::builtin();
             let validated = wedge::graph::validate(&loaded, &nodes)?;
             let sched = wedge::graph::schedule(wedge::graph::expand(&validated)?)?;
-            if dot {
-                print!("{}", sched.to_dot());
-            } else {
-                print!("{}", sched.table());
-            }
-            Ok(())
+            Ok(if dot { sched.to_dot() } else { sched.table() })
         }
     }
 }
 
 fn main() -> ExitCode {
     match run(Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(text) => {
+            use std::io::Write;
+            // A reader that closed the pipe early (`wedge graph | head`) is not an error.
+            let _ = std::io::stdout().lock().write_all(text.as_bytes());
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE

@@ -1,0 +1,153 @@
+//! `wedge bench --quick` end to end on the soft-shadow pipeline: CSV rows and columns, report,
+//! plots and crops, and the reference cache on a second run.
+
+use std::path::{Path, PathBuf};
+
+use wedge::bench::report::CSV_COLUMNS;
+use wedge::bench::{run, BenchOptions, BenchResult, Method, Role};
+
+fn options(out: &Path) -> BenchOptions {
+    let pipeline = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    BenchOptions { quick: true, ..BenchOptions::new(pipeline, out) }
+}
+
+fn decode_png(path: &Path) -> (u32, u32) {
+    let img = ::image::ImageReader::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .with_guessed_format()
+        .unwrap()
+        .decode()
+        .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()));
+    assert_eq!(::image::ImageFormat::from_path(path).unwrap(), ::image::ImageFormat::Png);
+    (img.width(), img.height())
+}
+
+fn check_csv(r: &BenchResult) {
+    let text = std::fs::read_to_string(&r.csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header, CSV_COLUMNS);
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_string).collect()).collect();
+    // Quick: mu 1 and 2 (2 is the file's), two seeds each; 3 spp per baseline; one equal-time run.
+    assert_eq!(rows.len(), 2 * 2 + 3 + 3 + 1, "{text}");
+    assert_eq!(rows.len(), r.runs.len());
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let count = |method: &str, role: &str| rows.iter().filter(|x| x[col("method")] == method && x[col("role")] == role).count();
+    assert_eq!(count("pipeline", "sweep"), 2);
+    assert_eq!(count("pipeline", "seed2"), 2);
+    assert_eq!(count("independent", "curve"), 3);
+    assert_eq!(count("stratified", "curve"), 3);
+    assert_eq!(count("stratified", "equal-time"), 1);
+    let finite = |row: &Vec<String>, name: &str| {
+        let v: f64 = row[col(name)].parse().unwrap_or_else(|_| panic!("{name} = {:?} in {row:?}", row[col(name)]));
+        assert!(v.is_finite(), "{name} = {v} in {row:?}");
+        v
+    };
+    for row in &rows {
+        assert_eq!(row.len(), header.len());
+        for name in ["rays_per_pixel", "shadow_rays_per_pixel", "time_total_s", "time_sampling_s", "rmse", "rel_mse", "psnr_db", "smape", "flip"] {
+            finite(row, name);
+        }
+        assert!(finite(row, "rmse") > 0.0);
+        let flip = finite(row, "flip");
+        assert!((0.0..1.0).contains(&flip));
+        assert!(finite(row, "rays_per_pixel") >= 1.0);
+    }
+    for row in rows.iter().filter(|x| x[col("role")] == "sweep") {
+        for name in ["variance", "bias2", "filter_overhead", "speedup_rays_vs_independent", "speedup_time_vs_independent", "speedup_rays_vs_stratified", "speedup_time_vs_stratified"] {
+            assert!(finite(row, name) >= 0.0, "{name}");
+        }
+        assert!(["true", "false"].contains(&row[col("extrapolated_vs_independent")].as_str()));
+    }
+    let primary: Vec<&Vec<String>> = rows.iter().filter(|x| x[col("primary")] == "true").collect();
+    assert_eq!(primary.len(), 1);
+    assert_eq!(primary[0][col("mu")], "2");
+    // Monte Carlo rays: one primary ray plus spp shadow rays per pixel (for lit, visible pixels).
+    for row in rows.iter().filter(|x| x[col("role")] == "curve") {
+        let spp: f64 = row[col("spp")].parse().unwrap();
+        let shadow = finite(row, "shadow_rays_per_pixel");
+        assert!(shadow <= spp + 1e-9 && shadow > 0.5 * spp, "{row:?}");
+    }
+}
+
+#[test]
+fn quick_bench_writes_everything_and_caches_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let first = run(&options(dir.path())).expect("bench runs");
+    assert!(!first.reference.from_cache);
+    assert_eq!((first.width, first.height), (128, 96));
+    assert_eq!(first.reference.spp, 512);
+    assert!(first.reference.noise_rmse > 0.0 && first.reference.noise_rmse.is_finite());
+    check_csv(&first);
+
+    // The primary run's numbers are consistent with their definitions.
+    let p = first.primary().unwrap();
+    let bv = p.bias_variance.unwrap();
+    assert!((bv.mse - p.metrics.rmse.powi(2)).abs() < 1e-15);
+    assert!(bv.variance > 0.0 && bv.bias2 >= 0.0);
+    for m in [Method::Independent, Method::Stratified] {
+        let s = p.speedup(m).unwrap();
+        let needed = s.rays_needed.unwrap().cost;
+        assert!((s.rays - needed / p.rays.total).abs() < 1e-9 * s.rays);
+    }
+    // Stratified beats independent at equal spp on this scene (except at noise level).
+    let ind: Vec<f64> = first.curve_runs(Method::Independent).map(|r| r.metrics.rmse).collect();
+    let strat: Vec<f64> = first.curve_runs(Method::Stratified).map(|r| r.metrics.rmse).collect();
+    assert!(ind.iter().zip(&strat).all(|(i, s)| s < i), "{ind:?} {strat:?}");
+    assert!(first.runs.iter().any(|r| r.role == Role::EqualTime));
+
+    // Report: every method, the goals with PASS/MISS, links to plots and crops.
+    let report = std::fs::read_to_string(&first.report).unwrap();
+    for needle in [
+        "independent MC",
+        "stratified MC",
+        "ours",
+        "reference",
+        "equal-RMSE speedup vs independent MC",
+        "equal-RMSE speedup vs stratified MC",
+        "filter overhead",
+        "error_vs_rays.png",
+        "error_vs_time.png",
+        "images/crop_ours.png",
+        "pipeline/filter_width.png",
+        "pipeline/rays_per_pixel.png",
+    ] {
+        assert!(report.contains(needle), "report lacks {needle:?}:\n{report}");
+    }
+    assert!(report.contains("PASS") || report.contains("MISS"));
+    assert_eq!(first.goals.len(), 3);
+    for g in first.goals.iter().filter(|g| !g.pass) {
+        assert!(!g.note.is_empty(), "a miss names its cause: {g:?}");
+    }
+    for p in &first.plots {
+        assert_eq!(decode_png(p), (wedge::bench::plots::PLOT_WIDTH, wedge::bench::plots::PLOT_HEIGHT));
+    }
+    assert_eq!(first.plots.len(), 2);
+    for i in &first.images {
+        decode_png(i);
+    }
+    for name in ["crop_input.png", "crop_ours.png", "crop_equal_time_mc.png", "crop_reference.png"] {
+        // Centre quarter (64×48) enlarged 4×.
+        assert_eq!(decode_png(&dir.path().join("images").join(name)), (256, 192));
+    }
+    for name in ["filter_width.png", "rays_per_pixel.png", "render.exr"] {
+        assert!(dir.path().join("pipeline").join(name).exists(), "{name}");
+    }
+
+    // Second run: the reference comes from the cache, bit for bit.
+    let second = run(&options(dir.path())).expect("second bench runs");
+    assert!(second.reference.from_cache);
+    assert_eq!(second.reference.key, first.reference.key);
+    assert_eq!(second.reference.noise_rmse, first.reference.noise_rmse);
+    assert!(
+        second.reference.obtain_seconds * 5.0 < first.reference.obtain_seconds,
+        "cache load {:.3} s vs render {:.3} s",
+        second.reference.obtain_seconds,
+        first.reference.obtain_seconds
+    );
+    assert!(second.seconds < first.seconds, "{} vs {}", second.seconds, first.seconds);
+    let rmses = |r: &BenchResult| r.runs.iter().filter(|x| x.role == Role::Sweep).map(|x| x.metrics.rmse).collect::<Vec<_>>();
+    assert_eq!(rmses(&second), rmses(&first));
+    let report = std::fs::read_to_string(&second.report).unwrap();
+    assert!(report.contains("loaded from the cache"));
+}
