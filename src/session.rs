@@ -76,7 +76,25 @@ impl Session {
         let (nodes, kernels) = wedge_effects::builtin();
         let original = load_pipeline_or_default(path)?;
         let p = &original.pipeline;
-        let text = reference_pipeline_text(&p.scene, p.width, p.height, p.seed, spp, sampling);
+        // A pipeline with an `Indirect` node gets a reference with the same indirect light: its
+        // bounces, mode (radiance or AO), AO distance and glossy lobe, path-traced at `spp`.
+        let validated = validate(&original, &nodes)?;
+        let indirect = validated.nodes.iter().find(|n| n.kind.kind() == "Indirect").map(|n| IndirectSpec {
+            bounces: match n.params.get("bounces") {
+                Some(ParamValue::Int(b)) => *b,
+                _ => 1,
+            },
+            ao: matches!(n.params.get("mode"), Some(ParamValue::Str(m)) if m == "ao"),
+            max_distance: match n.params.get("max_distance") {
+                Some(ParamValue::Float(d)) => *d,
+                _ => 0.0,
+            },
+            brdf: match n.params.get("brdf") {
+                Some(ParamValue::Str(b)) => b.clone(),
+                _ => "phong".into(),
+            },
+        });
+        let text = reference_pipeline_text(&p.scene, p.width, p.height, p.seed, spp, sampling, indirect.as_ref());
         let mut loaded = parse_pipeline(&original.path, &text)?;
         loaded.pipeline.camera = p.camera.clone();
         Session::build(loaded, ov, nodes, kernels)
@@ -125,15 +143,44 @@ impl Session {
     }
 }
 
-fn reference_pipeline_text(scene: &str, width: u32, height: u32, seed: u32, spp: u32, sampling: &str) -> String {
+/// The indirect light a reference must include (from the pipeline's `Indirect` node).
+struct IndirectSpec {
+    bounces: i64,
+    ao: bool,
+    max_distance: f64,
+    brdf: String,
+}
+
+fn reference_pipeline_text(
+    scene: &str,
+    width: u32,
+    height: u32,
+    seed: u32,
+    spp: u32,
+    sampling: &str,
+    indirect: Option<&IndirectSpec>,
+) -> String {
+    let (extra_params, extra_inputs) = match indirect {
+        None => (String::new(), String::new()),
+        Some(i) => (
+            format!(
+                r#", "bounces": {}, "mode": {:?}, "max_distance": {:?}, "brdf": {:?}"#,
+                i.bounces,
+                if i.ao { "ao" } else { "radiance" },
+                i.max_distance,
+                i.brdf
+            ),
+            r#", "specular": "primary.specular""#.to_string(),
+        ),
+    };
     format!(
         r#"Pipeline(
     scene: {scene:?}, width: {width}, height: {height}, seed: {seed},
     nodes: [
         (name: "primary", kind: "Primary"),
-        (name: "reference", kind: "MonteCarlo", params: {{"spp": {spp}, "sampling": {sampling:?}, "light": -1}},
+        (name: "reference", kind: "MonteCarlo", params: {{"spp": {spp}, "sampling": {sampling:?}, "light": -1{extra_params}}},
          inputs: {{"position": "primary.position", "normal": "primary.normal",
-                   "albedo": "primary.albedo", "emission": "primary.emission"}}),
+                   "albedo": "primary.albedo", "emission": "primary.emission"{extra_inputs}}}),
         (name: "out", kind: "Output", inputs: {{"color": "reference.radiance"}}),
     ],
 )"#

@@ -7,6 +7,8 @@
 //!
 //! - [`primary`]: `Primary`, the G-buffer every effect reads.
 //! - [`shadows`]: `SoftShadows`, axis-aligned filtering of area-light soft shadows (thesis Ch. 3).
+//! - [`indirect`]: `Indirect`, axis-aligned filtering of diffuse/glossy indirect light and AO (thesis Ch. 4).
+//! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — references and baselines.
 //! - [`output`]: `Output`, the sink whose inputs a run hands back.
 //!
@@ -18,6 +20,8 @@ use std::sync::Arc;
 use wedge_backends::KernelRegistry;
 use wedge_graph::NodeRegistry;
 
+pub mod add;
+pub mod indirect;
 pub mod montecarlo;
 pub mod output;
 pub mod primary;
@@ -31,6 +35,10 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     nodes.register(Arc::new(montecarlo::MonteCarlo));
     nodes.register(Arc::new(shadows::SoftShadows));
     shadows::register_kernels(kernels);
+    nodes.register(Arc::new(indirect::Indirect));
+    indirect::register_kernels(kernels);
+    nodes.register(Arc::new(add::Add));
+    add::register_kernels(kernels);
 }
 
 /// The registries with everything wedge ships.

@@ -2,8 +2,13 @@
 //! reference renderer (`wedge reference`) and the baselines every effect is measured against:
 //! `sampling: "independent"` is the thesis's "standard Monte Carlo", `"stratified"` (correlated
 //! multi-jitter over the light) the stronger baseline for soft shadows.
+//!
+//! With `bounces > 0` it also path-traces indirect light (the `Indirect` node's estimator,
+//! `indirect.sample`, at `spp` hemisphere samples per component, unfiltered); `direct: false` leaves
+//! the direct light out (an indirect-only baseline); `mode: "ao"` gives plain Monte Carlo ambient
+//! occlusion instead. `bounces: 0, mode: "radiance"` (the default) is the original direct-only node.
 
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
 
 pub struct MonteCarlo;
 
@@ -20,6 +25,7 @@ impl NodeKind for MonteCarlo {
             PortDecl::new("normal", Format::Vec4, "from Primary"),
             PortDecl::optional("albedo", Format::Vec3, "multiplied after integration; white if absent"),
             PortDecl::optional("emission", Format::Vec3, "added to the result"),
+            PortDecl::optional("specular", Format::Vec4, "k_s, m from Primary: glossy indirect component (bounces > 0)"),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -36,26 +42,88 @@ impl NodeKind for MonteCarlo {
                 &["exact", "light_centre"],
                 "per-sample geometry term, or the thesis's light-centre approximation",
             ),
+            ParamDecl::int("bounces", 0, 0, 64, "indirect bounces path-traced with next-event estimation (0 = direct only)"),
+            ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "radiance, or ambient occlusion (spp hemisphere rays)"),
+            ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: hits farther than this are misses (0 = no limit)"),
+            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m for indirect paths"),
+            ParamDecl::boolean("direct", true, "include direct light (false with bounces > 0: indirect only)"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;
         let spp = ctx.param("spp").clone();
-        let estimate = ctx.buffer("estimate", Format::Vec4);
-        ctx.pass("sample", "direct.light")
+        let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
+        let bounces = match ctx.param("bounces") {
+            ParamValue::Int(b) => *b,
+            _ => 0,
+        };
+        let direct = !ao && matches!(ctx.param("direct"), ParamValue::Bool(true));
+        let (albedo, emission, specular) = (ctx.input("albedo"), ctx.input("emission"), ctx.input("specular"));
+        if !ao && bounces == 0 {
+            if !direct {
+                return Err(GraphError::Expand {
+                    node: ctx.node().to_string(),
+                    message: "`direct: false` with `bounces: 0` samples nothing; set bounces ≥ 1 or direct: true".into(),
+                });
+            }
+            let estimate = ctx.buffer("estimate", Format::Vec4);
+            ctx.pass("sample", "direct.light")
+                .read("position", position)
+                .read("normal", normal)
+                .write("estimate", estimate)
+                .param("count", spp)
+                .node_params(&["sampling", "light", "form_factor"])
+                .int("stream", 0)
+                .finish();
+            let radiance = ctx.buffer("radiance", Format::Vec3);
+            ctx.pass("compose", "compose.modulate")
+                .read("value", estimate)
+                .read_opt("albedo", albedo)
+                .read_opt("emission", emission)
+                .write("out", radiance)
+                .finish();
+            ctx.output("radiance", radiance);
+            return Ok(());
+        }
+        let estimate = direct.then(|| {
+            let estimate = ctx.buffer("estimate", Format::Vec4);
+            ctx.pass("sample", "direct.light")
+                .read("position", position)
+                .read("normal", normal)
+                .write("estimate", estimate)
+                .param("count", spp.clone())
+                .node_params(&["sampling", "light", "form_factor"])
+                .int("stream", 0)
+                .finish();
+            estimate
+        });
+        let specular = if ao { None } else { specular };
+        let diffuse = ctx.buffer("indirect_diffuse", Format::Vec4);
+        let glossy = specular.map(|_| ctx.buffer("indirect_glossy", Format::Vec4));
+        let mut pass = ctx
+            .pass("sample_indirect", "indirect.sample")
             .read("position", position)
             .read("normal", normal)
-            .write("estimate", estimate)
-            .param("count", spp)
-            .node_params(&["sampling", "light", "form_factor"])
-            .int("stream", 0)
+            .read_opt("specular", specular)
+            .write("diffuse", diffuse);
+        if let Some(g) = glossy {
+            pass = pass.write("glossy", g);
+        }
+        pass.param("count", spp)
+            .param("bounces", ParamValue::Int(bounces.max(1)))
+            .node_params(&["sampling", "mode", "max_distance", "brdf"])
+            .int("stream", 2)
             .finish();
         let radiance = ctx.buffer("radiance", Format::Vec3);
-        let (albedo, emission) = (ctx.input("albedo"), ctx.input("emission"));
-        ctx.pass("compose", "compose.modulate")
-            .read("value", estimate)
+        // Emission is the zero-bounce part of the direct light: left out with it.
+        let (albedo, emission) = if ao { (None, None) } else { (albedo, if direct { emission } else { None }) };
+        ctx.pass("compose", "indirect.compose")
+            .read("diffuse", diffuse)
+            .read_opt("glossy", glossy)
+            .read_opt("direct", estimate)
             .read_opt("albedo", albedo)
+            .read_opt("specular", specular)
             .read_opt("emission", emission)
             .write("out", radiance)
             .finish();

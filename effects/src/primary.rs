@@ -20,6 +20,7 @@ impl NodeKind for Primary {
             PortDecl::new("normal", Format::Vec4, "unit shading normal; w = projected pixel size d (metres)"),
             PortDecl::new("albedo", Format::Vec3, "diffuse albedo k_d (texture applied)"),
             PortDecl::new("emission", Format::Vec3, "emitted radiance of the visible surface"),
+            PortDecl::new("specular", Format::Vec4, "glossy k_s (rgb) and Phong exponent m (w; 0 = no glossy lobe)"),
         ]
     }
     fn params(&self) -> Vec<ParamDecl> {
@@ -30,13 +31,21 @@ impl NodeKind for Primary {
         let normal = ctx.buffer("normal", Format::Vec4);
         let albedo = ctx.buffer("albedo", Format::Vec3);
         let emission = ctx.buffer("emission", Format::Vec3);
+        let specular = ctx.buffer("specular", Format::Vec4);
         ctx.pass("gbuffer", "primary.gbuffer")
             .write("position", position)
             .write("normal", normal)
             .write("albedo", albedo)
             .write("emission", emission)
+            .write("specular", specular)
             .finish();
-        for (port, id) in [("position", position), ("normal", normal), ("albedo", albedo), ("emission", emission)] {
+        for (port, id) in [
+            ("position", position),
+            ("normal", normal),
+            ("albedo", albedo),
+            ("emission", emission),
+            ("specular", specular),
+        ] {
             ctx.output(port, id);
         }
         Ok(())

@@ -5,21 +5,26 @@
 //! - `curved`: thesis Fig. 3.8 — curved occluders (sphere, torus) over a wavy, smooth-shaded receiver.
 //! - `heavy`: the grids' occluders and light over a displaced terrain plus many spheres (>100k triangles),
 //!   for throughput benchmarks.
+//! - `cornell`: thesis Figs. 4.7, 4.8, 4.11 — a 2 m Cornell-box-like room (red and green side walls,
+//!   checker-textured back wall, open front), a 0.5 m square ceiling light, a glossy tall box (Phong
+//!   m = 20) and a glossy sphere (m = 12): diffuse and glossy indirect light, colour bleeding, a curved
+//!   receiver.
 
 use std::f32::consts::{PI, TAU};
 
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::data::SceneData;
-use crate::{Camera, Material, Scene, SceneError, Texture, TriangleShading};
+use crate::{Camera, Material, Scene, SceneError, Texture};
 
-pub const NAMES: &[&str] = &["grids", "curved", "heavy"];
+pub const NAMES: &[&str] = &["grids", "curved", "heavy", "cornell"];
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
     match name {
         "grids" => Ok(grids()),
         "curved" => Ok(curved()),
         "heavy" => Ok(heavy()),
+        "cornell" => Ok(cornell()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),
@@ -54,17 +59,7 @@ fn smooth_tri(
     } else {
         (p, n, uv)
     };
-    d.tris.push((
-        p[0],
-        p[1],
-        p[2],
-        TriangleShading {
-            n,
-            uv,
-            material,
-            object,
-        },
-    ));
+    d.push(p, n, uv, material, object);
 }
 
 /// Tessellate a parametric surface f(u,v) -> (position, normal), u,v in [0,1], into nu×nv cells.
@@ -367,6 +362,74 @@ fn heavy() -> SceneData {
         look_at: Vec3::new(0.0, 0.0, 0.3),
         up: Vec3::Y,
         vfov_deg: 50.0,
+        aperture_radius: 0.0,
+        focus_distance: 0.0,
+    });
+    d
+}
+
+fn cornell() -> SceneData {
+    let mut d = SceneData::default();
+    d.textures.push(Texture::checker(64, 8, 0.45, 0.85));
+    // Walls: (corners counter-clockwise seen from inside, inward normal, material).
+    let white = d.add_material(Material::diffuse("white", Vec3::splat(0.75)), false);
+    let red = d.add_material(Material::diffuse("red", Vec3::new(0.7, 0.12, 0.1)), false);
+    let green = d.add_material(Material::diffuse("green", Vec3::new(0.12, 0.55, 0.12)), false);
+    let back = d.add_material(
+        Material {
+            base_color_texture: Some(0),
+            ..Material::diffuse("back", Vec3::new(0.85, 0.8, 0.7))
+        },
+        false,
+    );
+    let (lo, hi, top) = (-1.0f32, 1.0f32, 2.0f32);
+    let walls = [
+        // floor, ceiling, back, left, right
+        ([Vec3::new(lo, 0.0, lo), Vec3::new(hi, 0.0, lo), Vec3::new(hi, 0.0, hi), Vec3::new(lo, 0.0, hi)], Vec3::Y, white),
+        ([Vec3::new(lo, top, lo), Vec3::new(hi, top, lo), Vec3::new(hi, top, hi), Vec3::new(lo, top, hi)], -Vec3::Y, white),
+        ([Vec3::new(lo, 0.0, lo), Vec3::new(hi, 0.0, lo), Vec3::new(hi, top, lo), Vec3::new(lo, top, lo)], Vec3::Z, back),
+        ([Vec3::new(lo, 0.0, lo), Vec3::new(lo, 0.0, hi), Vec3::new(lo, top, hi), Vec3::new(lo, top, lo)], Vec3::X, red),
+        ([Vec3::new(hi, 0.0, lo), Vec3::new(hi, 0.0, hi), Vec3::new(hi, top, hi), Vec3::new(hi, top, lo)], -Vec3::X, green),
+    ];
+    for (p, n, m) in walls {
+        let o = d.new_object();
+        // uv = 1 per metre of the wall's first two axes (8 checks per uv unit → 25 cm squares on the back wall).
+        let uv = p.map(|q| {
+            let r = q - p[0];
+            Vec2::new((r.x + r.z).abs(), r.y.abs().max((r.z * n.y).abs())) * 0.5
+        });
+        for idx in [[0, 1, 2], [0, 2, 3]] {
+            smooth_tri(&mut d, idx.map(|k| p[k]), [n; 3], idx.map(|k| uv[k]), m, o);
+        }
+    }
+    // Glossy tall box (Phong m = 20) and glossy sphere (m = 12), thesis Fig. 4.8.
+    let box_mat = d.add_material(
+        Material {
+            specular: Vec3::splat(0.35),
+            phong_exponent: 20.0,
+            ..Material::diffuse("glossy box", Vec3::new(0.5, 0.45, 0.35))
+        },
+        false,
+    );
+    let o = d.new_object();
+    let xf = Mat4::from_rotation_translation(Quat::from_rotation_y(0.35), Vec3::new(-0.4, 0.6, -0.35));
+    add_box(&mut d, xf, Vec3::new(0.28, 0.6, 0.28), box_mat, o);
+    let sphere_mat = d.add_material(
+        Material {
+            specular: Vec3::splat(0.4),
+            phong_exponent: 12.0,
+            ..Material::diffuse("glossy sphere", Vec3::new(0.15, 0.25, 0.5))
+        },
+        false,
+    );
+    let o = d.new_object();
+    add_sphere(&mut d, Vec3::new(0.45, 0.35, 0.25), 0.35, 24, 48, sphere_mat, o);
+    add_ceiling_light(&mut d, 25.0, 0.0, 1.98, 0.5);
+    d.camera = Some(Camera {
+        position: Vec3::new(0.0, 1.0, 3.9),
+        look_at: Vec3::new(0.0, 1.0, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 38.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
     });

@@ -8,6 +8,8 @@ use crate::kernel::KernelRegistry;
 pub mod compose;
 pub mod direct;
 pub mod filter;
+pub mod hemisphere;
+pub mod indirect;
 pub mod neighbourhood;
 pub mod primary;
 
@@ -17,6 +19,8 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(neighbourhood::FillInvalid));
     reg.register(Arc::new(filter::GaussianFilter));
     reg.register(Arc::new(compose::Modulate));
+    reg.register(Arc::new(indirect::IndirectSample));
+    reg.register(Arc::new(indirect::IndirectCompose));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

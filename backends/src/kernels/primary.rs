@@ -4,7 +4,7 @@
 
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx};
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
 
 pub struct PrimaryGBuffer;
@@ -16,6 +16,7 @@ struct Texel {
     normal: [f32; 4],
     albedo: [f32; 3],
     emission: [f32; 3],
+    specular: [f32; 4],
 }
 
 impl Kernel for PrimaryGBuffer {
@@ -35,7 +36,25 @@ impl Kernel for PrimaryGBuffer {
             Binding::write("normal", Format::Vec4),
             Binding::write("albedo", Format::Vec3),
             Binding::write("emission", Format::Vec3),
+            // Optional: k_s rgb, w = Phong exponent m (0 = no glossy lobe). Read by `Indirect`.
+            Binding::write_opt("specular", Format::Vec4),
         ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/primary_gbuffer.wgsl"), |ctx| {
+                let cam = &ctx.scene.camera;
+                let (right, up, forward) = cam.basis();
+                let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+                let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / ctx.height as f32;
+                Ok(Uniforms::new()
+                    .vec3(cam.position.to_array(), tan_half)
+                    .vec3(right.to_array(), pixel_angle)
+                    .vec3(up.to_array(), cam.aperture_radius)
+                    .vec3(forward.to_array(), cam.effective_focus_distance()))
+            })
+            .with_scene(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let scene = ctx.scene;
@@ -56,11 +75,13 @@ impl Kernel for PrimaryGBuffer {
             let footprint = hit.t * pixel_angle / cos.sqrt();
             let a = scene.albedo(&sp);
             let e = scene.emission(&sp);
+            let mat = &scene.materials[sp.material as usize];
             Texel {
                 position: [sp.position.x, sp.position.y, sp.position.z, 1.0 + sp.object as f32],
                 normal: [n.x, n.y, n.z, footprint],
                 albedo: a.to_array(),
                 emission: e.to_array(),
+                specular: [mat.specular.x, mat.specular.y, mat.specular.z, mat.phong_exponent],
             }
         });
         Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64);
@@ -68,6 +89,7 @@ impl Kernel for PrimaryGBuffer {
         ctx.put("normal", texels.iter().map(|t| t.normal).collect::<Vec<_>>())?;
         ctx.put("albedo", texels.iter().map(|t| t.albedo).collect::<Vec<_>>())?;
         ctx.put("emission", texels.iter().map(|t| t.emission).collect::<Vec<_>>())?;
+        ctx.put_opt("specular", || texels.iter().map(|t| t.specular).collect::<Vec<_>>())?;
         Ok(())
     }
 }

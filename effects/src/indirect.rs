@@ -1,0 +1,550 @@
+//! `Indirect`: axis-aligned filtering of diffuse and glossy indirect light, multi-bounce, and the
+//! ambient-occlusion variant (Mehta thesis Ch. 4, eqs. 4.15–4.21, App. A; `EQUATIONS.md` "Indirect").
+//!
+//! Passes: `sample_initial` (16 stratified hemisphere rays per component: first estimate and the
+//! first-hit distances `z_min, z_max`) → `bandwidth` (β per component, eqs. 4.15–4.16, 4.18, A.3,
+//! A.5) → `rates` (n per component, eq. 4.21) → `sample_adaptive` (up to n, reusing the first 16) →
+//! `filter_x`/`filter_y` per component (the shared separable world-space Gaussian, full 3-D distance,
+//! 10° normal test) → `compose` (k_d and k_s multiply after filtering).
+//!
+//! Readings taken (documented in the report and `EQUATIONS.md`'s map):
+//! - **Components**: the diffuse component (cosine sampling) and, on pixels whose `specular` input has
+//!   `k_s > 0, m > 0`, the glossy component (Phong-lobe sampling) are each sampled with *their own*
+//!   count from eq. 4.21 (own `Ω_h`, own `γ`) and filtered with their own β. `rays_per_pixel` is the
+//!   sum of both counts (hemisphere rays, i.e. paths, per pixel).
+//! - **Indirect only**: the primary hit's direct light is not included (lights enter only by
+//!   next-event estimation at path vertices beyond the primary hit); pair the node with a direct-light
+//!   node (`SoftShadows`, `MonteCarlo`) and an `Add`.
+//! - `z_min` is clamped to at least `z_min_fraction` (2%) of the scene's largest dimension; `z_max` is
+//!   kept ≥ the clamped `z_min`. Pixels whose first-pass rays all miss (AO: no reflector within
+//!   `max_distance`) have no statistics: they are not filtered and keep the initial count.
+//! - Rates are clamped to `[initial_rays, max_rays · max(μ, 1)]` (thesis: 16 and 100μ).
+
+use std::f32::consts::FRAC_PI_2;
+use std::sync::Arc;
+
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
+
+/// Receiver BRDF for the transfer-function bandlimit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Receiver {
+    Diffuse,
+    BlinnPhong(f32),
+    Phong(f32),
+}
+
+/// Transfer-function bandlimit `Ω_h^max` capturing 99% of its energy (thesis eq. 4.18, A.3, A.5):
+/// diffuse 2.8, Blinn-Phong `3.6 + 0.084 m`, Phong `4.27 + 0.15 m`.
+pub fn transfer_bandlimit(r: Receiver) -> f32 {
+    match r {
+        Receiver::Diffuse => 2.8,
+        Receiver::BlinnPhong(m) => 3.6 + 0.084 * m,
+        Receiver::Phong(m) => 4.27 + 0.15 * m,
+    }
+}
+
+/// `γ` of eq. 4.21: 0.4 for diffuse; `acos(c^{1/m})/(π/2)` with `c = 1/√2` for glossy receivers
+/// (the fraction of the hemisphere's angular extent the lobe occupies at half power).
+pub fn gamma(r: Receiver) -> f32 {
+    match r {
+        Receiver::Diffuse => 0.4,
+        Receiver::BlinnPhong(m) | Receiver::Phong(m) => {
+            let c = std::f32::consts::FRAC_1_SQRT_2;
+            c.powf(1.0 / m.max(1e-6)).acos() / FRAC_PI_2
+        }
+    }
+}
+
+/// `z_min` clamped to at least `fraction` of the scene's largest dimension (thesis Sec. 4.5).
+pub fn clamp_z_min(z_min: f32, extent: f32, fraction: f32) -> f32 {
+    z_min.max(fraction * extent)
+}
+
+/// Filter bandwidth (world units⁻¹), thesis eq. 4.15: `Ω_x^r = μ · min(Ω_h/z_min, α/d)`.
+pub fn filter_bandwidth(omega_h: f32, z_min: f32, d: f32, mu: f32, alpha: f32) -> f32 {
+    mu * (omega_h / z_min).min(alpha / d)
+}
+
+/// Spatial std-dev (metres), thesis eq. 4.16: `β = 2/Ω_x^r`. As μ → ∞, β → 0: a one-pixel filter.
+pub fn filter_beta(omega_x_r: f32) -> f32 {
+    2.0 / omega_x_r
+}
+
+/// Samples per pixel (thesis eq. 4.21), before clamping:
+/// `n = γ (μ Ω_h sqrt(A_p)/z_min + α)² Ω_h² (1 + μ z_max/z_min)²` with `A_p = d²`.
+pub fn samples_per_pixel(gamma: f32, omega_h: f32, d: f32, z_min: f32, z_max: f32, mu: f32, alpha: f32) -> f32 {
+    let first = mu * omega_h * d / z_min + alpha;
+    let second = 1.0 + mu * z_max / z_min;
+    gamma * first * first * omega_h * omega_h * second * second
+}
+
+/// Round eq. 4.21 up and clamp to `[initial, max · max(μ, 1)]` (thesis: 16 and 100μ).
+pub fn clamp_rate(n: f32, mu: f32, initial: u32, max: u32) -> u32 {
+    let hi = ((max as f32) * mu.max(1.0)).ceil().max(initial as f32) as u32;
+    if n.is_finite() {
+        (n.ceil().max(0.0) as u32).clamp(initial, hi)
+    } else {
+        hi
+    }
+}
+
+/// What one pixel's formulas need, for one component.
+#[derive(Clone, Copy, Debug)]
+pub struct ComponentRate {
+    pub beta: f32,
+    pub rays: u32,
+}
+
+/// Formula settings read from a pass's parameter block.
+#[derive(Clone, Copy, Debug)]
+pub struct Settings {
+    pub mu: f32,
+    pub alpha: f32,
+    pub z_fraction: f32,
+    pub extent: f32,
+    pub initial: u32,
+    pub max: u32,
+}
+
+/// β and n for one component at one pixel from its first-pass statistics `depth` (z_min, z_max,
+/// hits, traced) and footprint `d`.
+/// Pixels whose first-pass rays all missed (no reflector statistics) are not filtered (β = 0) and
+/// keep the initial count, as `SoftShadows` treats pixels without occluders.
+pub fn component(r: Receiver, depth: [f32; 4], d: f32, s: &Settings) -> ComponentRate {
+    if depth[2] <= 0.0 {
+        return ComponentRate { beta: 0.0, rays: s.initial };
+    }
+    let (z_min, z_max) = (depth[0], depth[1]);
+    let z_min = clamp_z_min(z_min, s.extent, s.z_fraction);
+    let z_max = z_max.max(z_min);
+    let omega_h = transfer_bandlimit(r);
+    let beta = filter_beta(filter_bandwidth(omega_h, z_min, d.max(1e-12), s.mu, s.alpha));
+    let n = samples_per_pixel(gamma(r), omega_h, d, z_min, z_max, s.mu, s.alpha);
+    ComponentRate { beta, rays: clamp_rate(n, s.mu, s.initial, s.max) }
+}
+
+pub struct Indirect;
+
+fn normal_cos(ctx: &ExpandCtx<'_>) -> f64 {
+    match ctx.param("normal_angle_deg") {
+        ParamValue::Float(a) => a.to_radians().cos(),
+        _ => 10f64.to_radians().cos(),
+    }
+}
+
+impl NodeKind for Indirect {
+    fn kind(&self) -> &'static str {
+        "Indirect"
+    }
+    fn doc(&self) -> &'static str {
+        "Axis-aligned filtering of diffuse and glossy indirect light (path traced, multi-bounce) or ambient occlusion (Mehta thesis Ch. 4)"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("position", Format::Vec4, "from Primary"),
+            PortDecl::new("normal", Format::Vec4, "from Primary (w = pixel footprint d)"),
+            PortDecl::optional("albedo", Format::Vec3, "k_d, multiplied after filtering; white if absent"),
+            PortDecl::optional("specular", Format::Vec4, "k_s and Phong exponent (w) from Primary; no glossy component if absent"),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "filtered indirect light (k_d diffuse + k_s glossy); AO mode: the filtered unoccluded fraction"),
+            PortDecl::new("unfiltered", Format::Vec3, "the adaptive-sampled estimate before filtering"),
+            PortDecl::new("filter_width", Format::F32, "diffuse filter std-dev β in pixels (0 = not filtered)"),
+            PortDecl::new("rays_per_pixel", Format::U32, "hemisphere samples (paths) per pixel, both components and passes (eq. 4.21)"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::positive("mu", 0.9, 1e6, "μ: scales the filter bandwidth (eq. 4.15); larger = narrower filter, more rays (eq. 4.21)"),
+            ParamDecl::positive("alpha", 0.3, 1.0, "α = Ω_x^max · d ∈ (0, 1] (eq. 4.15)"),
+            ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
+            ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (a hit reflector returns 1)"),
+            ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: hits farther than this are misses (0 = no limit)"),
+            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m: Phong (A.5) or Blinn-Phong (4.18, A.3)"),
+            ParamDecl::int("initial_rays", 16, 1, 4096, "first-pass hemisphere rays per component (thesis: 16, stratified)"),
+            ParamDecl::int("max_rays", 100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
+            ParamDecl::int("rays_cap", 1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
+            ParamDecl::float("z_min_fraction", 0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
+            ParamDecl::int("max_radius", 64, 0, 1024, "cap on the filter half-width in pixels"),
+            ParamDecl::float("normal_angle_deg", 10.0, 0.0, 180.0, "neighbours whose normals differ by more are not used"),
+        ]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let position = ctx.required("position")?;
+        let normal = ctx.required("normal")?;
+        let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
+        let albedo = if ao { None } else { ctx.input("albedo") };
+        let specular = if ao { None } else { ctx.input("specular") };
+        let glossy = specular.is_some();
+        let initial_rays = ctx.param("initial_rays").clone();
+        let max_radius = ctx.param("max_radius").clone();
+        let ncos = normal_cos(ctx);
+        const SAMPLE_PARAMS: [&str; 4] = ["bounces", "mode", "max_distance", "brdf"];
+
+        let init_d = ctx.buffer("initial_diffuse", Format::Vec4);
+        let init_g = ctx.buffer("initial_glossy", Format::Vec4);
+        let depth = ctx.buffer("depth", Format::Vec4);
+        let mut pass = ctx
+            .pass("sample_initial", "indirect.sample")
+            .read("position", position)
+            .read("normal", normal)
+            .read_opt("specular", specular)
+            .write("diffuse", init_d)
+            .write("depth", depth);
+        if glossy {
+            pass = pass.write("glossy", init_g);
+        }
+        pass.param("count", initial_rays)
+            .param("sampling", ParamValue::Str("stratified".into()))
+            .node_params(&SAMPLE_PARAMS)
+            .int("stream", 0)
+            .finish();
+
+        let beta_d = ctx.buffer("beta_diffuse", Format::F32);
+        let beta_g = ctx.buffer("beta_glossy", Format::F32);
+        let width_px = ctx.buffer("filter_width", Format::F32);
+        let mut pass = ctx
+            .pass("bandwidth", "indirect.bandwidth")
+            .read("depth", depth)
+            .read("normal", normal)
+            .read_opt("specular", specular)
+            .write("beta_diffuse", beta_d)
+            .write("filter_width", width_px);
+        if glossy {
+            pass = pass.write("beta_glossy", beta_g);
+        }
+        pass.node_params(&["mu", "alpha", "brdf", "z_min_fraction"]).finish();
+
+        let rays_d = ctx.buffer("rays_diffuse", Format::U32);
+        let rays_g = ctx.buffer("rays_glossy", Format::U32);
+        let rays = ctx.buffer("rays_per_pixel", Format::U32);
+        let mut pass = ctx
+            .pass("rates", "indirect.rates")
+            .read("depth", depth)
+            .read("normal", normal)
+            .read_opt("specular", specular)
+            .write("rays_diffuse", rays_d)
+            .write("rays_per_pixel", rays);
+        if glossy {
+            pass = pass.write("rays_glossy", rays_g);
+        }
+        pass.node_params(&["mu", "alpha", "brdf", "z_min_fraction", "initial_rays", "max_rays", "rays_cap"]).finish();
+
+        let noisy_d = ctx.buffer("noisy_diffuse", Format::Vec4);
+        let noisy_g = ctx.buffer("noisy_glossy", Format::Vec4);
+        let mut pass = ctx
+            .pass("sample_adaptive", "indirect.sample")
+            .read("position", position)
+            .read("normal", normal)
+            .read_opt("specular", specular)
+            .read("rays_diffuse", rays_d)
+            .read("previous_diffuse", init_d)
+            .write("diffuse", noisy_d);
+        if glossy {
+            pass = pass.read("rays_glossy", rays_g).read("previous_glossy", init_g).write("glossy", noisy_g);
+        }
+        pass.int("count", 0)
+            .param("sampling", ParamValue::Str("stratified".into()))
+            .node_params(&SAMPLE_PARAMS)
+            .int("stream", 1)
+            .finish();
+
+        let filter = |ctx: &mut ExpandCtx<'_>, prefix: &str, value, beta| {
+            let mut v = value;
+            for (axis, name) in [(0, "filter_x"), (1, "filter_y")] {
+                let local = format!("{prefix}_{name}");
+                let out = ctx.buffer(&local, Format::Vec4);
+                ctx.pass(&local, "filter.gaussian")
+                    .read("value", v)
+                    .read("position", position)
+                    .read("normal", normal)
+                    .read("bandwidth", beta)
+                    .write("out", out)
+                    .int("axis", axis)
+                    .int("plane_light", -1)
+                    .param("max_radius", max_radius.clone())
+                    .float("normal_cos", ncos)
+                    .finish();
+                v = out;
+            }
+            v
+        };
+        let filtered_d = filter(ctx, "diffuse", noisy_d, beta_d);
+        let filtered_g = glossy.then(|| filter(ctx, "glossy", noisy_g, beta_g));
+
+        for (pass, d, g, port) in [
+            ("compose", filtered_d, filtered_g, "radiance"),
+            ("compose_unfiltered", noisy_d, glossy.then_some(noisy_g), "unfiltered"),
+        ] {
+            let out = ctx.buffer(port, Format::Vec3);
+            ctx.pass(pass, "indirect.compose")
+                .read("diffuse", d)
+                .read_opt("glossy", g)
+                .read_opt("albedo", albedo)
+                .read_opt("specular", specular)
+                .write("out", out)
+                .finish();
+            ctx.output(port, out);
+        }
+        ctx.output("filter_width", width_px);
+        ctx.output("rays_per_pixel", rays);
+        Ok(())
+    }
+}
+
+/// Settings and the glossy receiver model of a formula pass.
+fn settings(ctx: &KernelCtx<'_>, with_rates: bool) -> Result<(Settings, Option<bool>), BackendError> {
+    let s = Settings {
+        mu: ctx.f32_param("mu")?,
+        alpha: ctx.f32_param("alpha")?,
+        z_fraction: ctx.f32_param("z_min_fraction")?,
+        extent: ctx.scene.extent(),
+        initial: if with_rates { ctx.int_param("initial_rays")?.max(1) as u32 } else { 1 },
+        max: if with_rates { ctx.int_param("max_rays")?.max(1) as u32 } else { 1 },
+    };
+    let blinn = match ctx.str_param("brdf")? {
+        "phong" => Some(false),
+        "blinn_phong" => Some(true),
+        _ => None,
+    };
+    Ok((s, blinn))
+}
+
+/// The glossy receiver at a pixel, if it has a glossy lobe.
+fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<Receiver> {
+    let s = spec?[i];
+    let m = s[3];
+    (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then(|| if blinn { Receiver::BlinnPhong(m) } else { Receiver::Phong(m) })
+}
+
+fn bad_brdf(ctx: &KernelCtx<'_>) -> BackendError {
+    BackendError::Kernel { pass: ctx.pass.into(), message: "`brdf` must be phong or blinn_phong".into() }
+}
+
+/// `indirect.bandwidth`: β (metres) per component and the diffuse β in pixels for the heatmap.
+pub struct Bandwidth;
+
+impl Kernel for Bandwidth {
+    fn name(&self) -> &'static str {
+        "indirect.bandwidth"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("depth", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read_opt("specular", Format::Vec4),
+            Binding::write("beta_diffuse", Format::F32),
+            Binding::write_opt("beta_glossy", Format::F32),
+            Binding::write("filter_width", Format::F32),
+        ]
+    }
+    /// WGSL mirror: `shaders/indirect_bandwidth.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../shaders/indirect_bandwidth.wgsl"), |ctx| {
+                let (s, blinn) = settings(ctx, false)?;
+                let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
+                Ok(Uniforms::new().f32(s.mu).f32(s.alpha).f32(s.z_fraction).f32(s.extent).u32(blinn as u32).align16())
+            })
+            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl")),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let depth = ctx.read::<[f32; 4]>("depth")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let (s, blinn) = settings(ctx, false)?;
+        let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
+        let active = |i: usize| depth[i][3] > 0.0;
+        let beta_d: Vec<f32> = (0..ctx.pixels())
+            .map(|i| if active(i) { component(Receiver::Diffuse, depth[i], normal[i][3], &s).beta } else { 0.0 })
+            .collect();
+        let px = beta_d.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
+        ctx.put_opt("beta_glossy", || {
+            (0..beta_d.len())
+                .map(|i| match glossy_receiver(spec, i, blinn) {
+                    Some(r) if active(i) => component(r, depth[i], normal[i][3], &s).beta,
+                    _ => 0.0,
+                })
+                .collect::<Vec<f32>>()
+        })?;
+        ctx.put("beta_diffuse", beta_d)?;
+        ctx.put("filter_width", px)
+    }
+}
+
+/// `indirect.rates`: samples per pixel per component from eq. 4.21, clamped to `[16, 100·max(μ,1)]`,
+/// and their sum (the `rays_per_pixel` heatmap).
+pub struct Rates;
+
+impl Kernel for Rates {
+    fn name(&self) -> &'static str {
+        "indirect.rates"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("depth", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read_opt("specular", Format::Vec4),
+            Binding::write("rays_diffuse", Format::U32),
+            Binding::write_opt("rays_glossy", Format::U32),
+            Binding::write("rays_per_pixel", Format::U32),
+        ]
+    }
+    /// WGSL mirror: `shaders/indirect_rates.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../shaders/indirect_rates.wgsl"), |ctx| {
+                let (s, blinn) = settings(ctx, true)?;
+                let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
+                let cap = ctx.int_param("rays_cap")?.max(1) as u32;
+                Ok(Uniforms::new()
+                    .f32(s.mu)
+                    .f32(s.alpha)
+                    .f32(s.z_fraction)
+                    .f32(s.extent)
+                    .u32(s.initial)
+                    .u32(s.max)
+                    .u32(cap)
+                    .u32(blinn as u32))
+            })
+            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl")),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let depth = ctx.read::<[f32; 4]>("depth")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let (s, blinn) = settings(ctx, true)?;
+        let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
+        let glossy_bound = ctx.is_bound("rays_glossy");
+        let cap = ctx.int_param("rays_cap")?.max(1) as u32;
+        let per: Vec<(u32, u32)> = (0..ctx.pixels())
+            .map(|i| {
+                if depth[i][3] <= 0.0 {
+                    return (0, 0);
+                }
+                let nd = component(Receiver::Diffuse, depth[i], normal[i][3], &s).rays;
+                let ng = match glossy_receiver(spec, i, blinn) {
+                    Some(r) if glossy_bound => component(r, depth[i], normal[i][3], &s).rays,
+                    _ => 0,
+                };
+                (nd.min(cap), ng.min(cap))
+            })
+            .collect();
+        ctx.put_opt("rays_glossy", || per.iter().map(|p| p.1).collect::<Vec<u32>>())?;
+        ctx.put("rays_per_pixel", per.iter().map(|p| p.0 + p.1).collect::<Vec<u32>>())?;
+        ctx.put("rays_diffuse", per.iter().map(|p| p.0).collect::<Vec<u32>>())
+    }
+}
+
+pub fn register_kernels(reg: &mut KernelRegistry) {
+    reg.register(Arc::new(Bandwidth));
+    reg.register(Arc::new(Rates));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: f32, b: f32, tol: f32) -> bool {
+        (a - b).abs() <= tol * b.abs().max(1e-6)
+    }
+
+    #[test]
+    fn bandlimits_eq_4_18_a_3_a_5() {
+        assert_eq!(transfer_bandlimit(Receiver::Diffuse), 2.8);
+        // Blinn-Phong m = 12 (thesis Fig. 4.8): 3.6 + 1.008 = 4.608; m = 20: 5.28.
+        assert!(close(transfer_bandlimit(Receiver::BlinnPhong(12.0)), 4.608, 1e-6));
+        assert!(close(transfer_bandlimit(Receiver::BlinnPhong(20.0)), 5.28, 1e-6));
+        // Phong m = 12: 4.27 + 1.8 = 6.07; m = 20: 7.27.
+        assert!(close(transfer_bandlimit(Receiver::Phong(12.0)), 6.07, 1e-6));
+        assert!(close(transfer_bandlimit(Receiver::Phong(20.0)), 7.27, 1e-6));
+    }
+
+    #[test]
+    fn gamma_by_hand() {
+        assert_eq!(gamma(Receiver::Diffuse), 0.4);
+        // m = 1: acos(1/√2) = π/4 → 0.5. m = 12: acos(0.5^{1/24}) = acos(0.971532) = 0.239 → 0.15218.
+        assert!(close(gamma(Receiver::Phong(1.0)), 0.5, 1e-5));
+        assert!(close(gamma(Receiver::Phong(12.0)), 0.152_18, 1e-3), "{}", gamma(Receiver::Phong(12.0)));
+        assert!(gamma(Receiver::BlinnPhong(50.0)) < gamma(Receiver::BlinnPhong(12.0)));
+    }
+
+    #[test]
+    fn bandwidth_and_beta_eq_4_15_4_16_by_hand() {
+        // Ω_h = 2.8, z_min = 0.5, d = 0.01, μ = 0.9, α = 0.3: min(5.6, 30) = 5.6 → Ω = 5.04, β = 0.396825.
+        let w = filter_bandwidth(2.8, 0.5, 0.01, 0.9, 0.3);
+        assert!(close(w, 5.04, 1e-6), "{w}");
+        assert!(close(filter_beta(w), 2.0 / 5.04, 1e-6));
+        // Pixel limit wins for a very near reflector: z_min = 0.05 → 56 vs α/d = 30 → Ω = 27, β = 0.074074.
+        let w = filter_bandwidth(2.8, 0.05, 0.01, 0.9, 0.3);
+        assert!(close(w, 27.0, 1e-6), "{w}");
+        assert!(close(filter_beta(w), 0.074_074, 1e-4));
+        // z_min clamp: 2% of a 5 m scene = 0.1 m.
+        assert!(close(clamp_z_min(0.01, 5.0, 0.02), 0.1, 1e-6));
+        assert_eq!(clamp_z_min(0.3, 5.0, 0.02), 0.3);
+    }
+
+    #[test]
+    fn one_pixel_filter_as_mu_grows() {
+        // μ = 1e6: β far below a pixel (d = 0.01): the nearest neighbour's weight underflows to 0.
+        let b = filter_beta(filter_bandwidth(2.8, 0.5, 0.01, 1e6, 0.3));
+        assert!(b < 1e-6, "{b}");
+        assert_eq!((-(0.01f32 * 0.01) / (2.0 * b * b)).exp(), 0.0);
+        // β ∝ 1/μ.
+        let b1 = filter_beta(filter_bandwidth(2.8, 0.5, 0.01, 1.0, 0.3));
+        let b2 = filter_beta(filter_bandwidth(2.8, 0.5, 0.01, 2.0, 0.3));
+        assert!(close(b1, 2.0 * b2, 1e-6));
+    }
+
+    #[test]
+    fn samples_eq_4_21_by_hand() {
+        // Diffuse: γ = 0.4, Ω_h = 2.8, d = 0.01, z_min = 0.5, z_max = 2, μ = 0.9, α = 0.3:
+        // (0.9·2.8·0.01/0.5 + 0.3)² = (0.0504 + 0.3)² = 0.12278; Ω_h² = 7.84; (1 + 0.9·4)² = 21.16.
+        // n = 0.4 · 0.12278016 · 7.84 · 21.16 = 8.14766.
+        let n = samples_per_pixel(0.4, 2.8, 0.01, 0.5, 2.0, 0.9, 0.3);
+        assert!(close(n, 8.147_66, 1e-4), "{n}");
+        assert_eq!(clamp_rate(n, 0.9, 16, 100), 16, "clamped up to the 16 initial rays");
+        // z_max/z_min = 20: (1 + 18)² = 361 → n = 0.4 · 0.12278 · 7.84 · 361 = 139.0 → clamp at 100.
+        let n = samples_per_pixel(0.4, 2.8, 0.01, 0.5, 10.0, 0.9, 0.3);
+        assert!(close(n, 139.002, 1e-3), "{n}");
+        assert_eq!(clamp_rate(n, 0.9, 16, 100), 100);
+        // μ = 2 raises the cap to 200: n = 0.4 (0.112 + 0.3)² 7.84 (1 + 40)² = 0.4·0.169744·7.84·1681 = 894.8 → 200.
+        let n = samples_per_pixel(0.4, 2.8, 0.01, 0.5, 10.0, 2.0, 0.3);
+        assert!(close(n, 894.81, 1e-3), "{n}");
+        assert_eq!(clamp_rate(n, 2.0, 16, 100), 200);
+        // In range: z_max/z_min = 6 → (1 + 5.4)² = 40.96 → n = 0.4·0.12278·7.84·40.96 = 15.77 → 16;
+        // z_max/z_min = 8 → (8.2)² = 67.24 → 25.89 → 26.
+        let n = samples_per_pixel(0.4, 2.8, 0.01, 0.5, 4.0, 0.9, 0.3);
+        assert!(close(n, 25.889, 1e-3), "{n}");
+        assert_eq!(clamp_rate(n, 0.9, 16, 100), 26);
+        // Glossy Phong m = 12: γ = 0.15218, Ω_h = 6.07; same geometry as the first case:
+        // (0.9·6.07·0.02 + 0.3)² = (0.10926 + 0.3)² = 0.167494; n = 0.15218·0.167494·36.8449·21.16 = 19.873.
+        let g = gamma(Receiver::Phong(12.0));
+        let n = samples_per_pixel(g, 6.07, 0.01, 0.5, 2.0, 0.9, 0.3);
+        assert!(close(n, 19.873, 2e-3), "{n}");
+        assert_eq!(clamp_rate(f32::INFINITY, 0.5, 16, 100), 100);
+    }
+
+    #[test]
+    fn component_uses_clamped_depths() {
+        let s = Settings { mu: 0.9, alpha: 0.3, z_fraction: 0.02, extent: 5.0, initial: 16, max: 100 };
+        // z_min = 0.01 clamps to 0.1: Ω = 0.9·min(28, 30) = 25.2 → β = 0.079365.
+        let c = component(Receiver::Diffuse, [0.01, 0.5, 16.0, 16.0], 0.01, &s);
+        assert!(close(c.beta, 2.0 / 25.2, 1e-5), "{}", c.beta);
+        // No hits: not filtered, initial count.
+        let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.01, &s);
+        assert_eq!(c.beta, 0.0);
+        assert_eq!(c.rays, 16);
+    }
+}
