@@ -33,6 +33,48 @@ fn indirect_transfer_bandlimit(r: Receiver) -> f32 {
     return 2.8;
 }
 
+// acos to about 1 ulp (musl's acosf), like Rust's f32::acos: the builtin acos may be a coarse
+// polynomial (Mesa lowers it so), which moves eq. 4.21's count across ceil boundaries.
+fn acos_r(z: f32) -> f32 {
+    let p = z * (1.6666586697e-01 + z * (-4.2743422091e-02 + z * -8.6563630030e-03));
+    let q = 1.0 + z * -7.0662963390e-01;
+    return p / q;
+}
+
+fn acos_precise(x: f32) -> f32 {
+    let pio2_hi: f32 = 1.5707962513e+00;
+    let pio2_lo: f32 = 7.5497894159e-08;
+    let hx = bitcast<u32>(x);
+    let ix = hx & 0x7fffffffu;
+    if (ix >= 0x3f800000u) {
+        if (ix == 0x3f800000u) {
+            if ((hx >> 31u) != 0u) {
+                return 2.0 * pio2_hi;
+            }
+            return 0.0;
+        }
+        return bitcast<f32>(0x7fc00000u);
+    }
+    if (ix < 0x3f000000u) {
+        if (ix <= 0x32800000u) {
+            return pio2_hi;
+        }
+        return pio2_hi - (x - (pio2_lo - x * acos_r(x * x)));
+    }
+    if ((hx >> 31u) != 0u) {
+        let z = (1.0 + x) * 0.5;
+        let s = sqrt(z);
+        let w = acos_r(z) * s - pio2_lo;
+        return 2.0 * (pio2_hi - (s + w));
+    }
+    let z = (1.0 - x) * 0.5;
+    let s = sqrt(z);
+    let df = bitcast<f32>(bitcast<u32>(s) & 0xfffff000u);
+    let c = (z - df * df) / (s + df);
+    let w = acos_r(z) * s + c;
+    return 2.0 * (df + w);
+}
+
 // γ of eq. 4.21.
 fn indirect_gamma(r: Receiver) -> f32 {
     if (r.kind == RECEIVER_DIFFUSE) {
@@ -40,7 +82,7 @@ fn indirect_gamma(r: Receiver) -> f32 {
     }
     let c: f32 = 0.707106781186547524401; // FRAC_1_SQRT_2
     let half_pi: f32 = 1.57079632679489661923; // FRAC_PI_2
-    return acos(pow(c, 1.0 / rmax(r.m, 1e-6))) / half_pi;
+    return acos_precise(pow(c, 1.0 / rmax(r.m, 1e-6))) / half_pi;
 }
 
 fn indirect_clamp_z_min(z_min: f32, extent: f32, fraction: f32) -> f32 {

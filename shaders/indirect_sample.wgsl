@@ -268,7 +268,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
         out_d = continue_mean(pd, sum, valid);
-        let dbg_d = vec4<f32>(f32(extra_d), f32(valid), f32(bad), f32(target_d));
         // Glossy component.
         if (is_glossy) {
             var target_g = params.count;
@@ -297,14 +296,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
             }
             out_g = continue_mean(pg, gsum, gvalid);
-            out_g = vec4<f32>(f32(extra_g), f32(gvalid), f32(bad), f32(target_g));
         }
         var zmin_out = z_min;
         if (hits == 0u) {
             zmin_out = 0.0;
         }
         out_depth = vec4<f32>(zmin_out, z_max, f32(hits), f32(traced));
-        out_d = dbg_d;
     }
     diffuse[i] = out_d;
     if (is_bound(8u)) {
