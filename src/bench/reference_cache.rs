@@ -4,7 +4,7 @@
 //! `<dir>/<key>.txt` (what it is: one `name=value` per line). The key is a 64-bit FNV-1a hash of
 //! a canonical description of everything the image depends on — the pipeline file's contents, the
 //! scene spec (and the scene file's contents when it is a file), seed, resolution, sample count,
-//! sampling, and a format version — and the description itself is stored and compared on load,
+//! sampling, a format version and a hash of the running executable — and the description itself is stored and compared on load,
 //! so a hash collision or a stale file reads as a miss, never as a wrong reference.
 
 use std::fs;
@@ -14,6 +14,20 @@ use crate::image::{read_exr, write_exr, Image, ImageError};
 
 /// Bump when the way references are made changes (seeds of the halves, averaging, …).
 const FORMAT_VERSION: u32 = 1;
+
+/// Hash of the running executable: a reference rendered by a different build (a sampler fix, a
+/// new estimator) is a miss, not a silently stale answer. Falls back to the crate version when the
+/// executable cannot be read.
+fn renderer_fingerprint() -> String {
+    static FP: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    FP.get_or_init(|| {
+        std::env::current_exe()
+            .and_then(fs::read)
+            .map(|bytes| format!("{:016x}", fnv1a64(&bytes)))
+            .unwrap_or_else(|_| env!("CARGO_PKG_VERSION").to_string())
+    })
+    .clone()
+}
 
 /// What a reference depends on.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,8 +59,9 @@ impl ReferenceSpec {
     /// One line naming everything the image depends on (file contents by hash).
     pub fn description(&self) -> String {
         format!(
-            "v{FORMAT_VERSION} wedge {} pipeline {:016x} scene {:?} scene-file {} seed {} size {}x{} spp {} sampling {}",
+            "v{FORMAT_VERSION} wedge {} build {} pipeline {:016x} scene {:?} scene-file {} seed {} size {}x{} spp {} sampling {}",
             env!("CARGO_PKG_VERSION"),
+            renderer_fingerprint(),
             fnv1a64(self.pipeline_text.as_bytes()),
             self.scene,
             self.scene_bytes.as_ref().map_or("-".to_string(), |b| format!("{:016x}", fnv1a64(b))),
