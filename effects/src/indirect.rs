@@ -26,6 +26,8 @@ use std::sync::Arc;
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
 
+use crate::filtering::{self, Separable};
+
 /// Receiver BRDF for the transfer-function bandlimit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Receiver {
@@ -126,13 +128,6 @@ pub fn component(r: Receiver, depth: [f32; 4], d: f32, s: &Settings) -> Componen
 
 pub struct Indirect;
 
-fn normal_cos(ctx: &ExpandCtx<'_>) -> f64 {
-    match ctx.param("normal_angle_deg") {
-        ParamValue::Float(a) => a.to_radians().cos(),
-        _ => 10f64.to_radians().cos(),
-    }
-}
-
 impl NodeKind for Indirect {
     fn kind(&self) -> &'static str {
         "Indirect"
@@ -168,9 +163,10 @@ impl NodeKind for Indirect {
             ParamDecl::int("max_rays", 100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
             ParamDecl::int("rays_cap", 1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
             ParamDecl::float("z_min_fraction", 0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
-            ParamDecl::int("max_radius", 64, 0, 1024, "cap on the filter half-width in pixels"),
-            ParamDecl::float("normal_angle_deg", 10.0, 0.0, 180.0, "neighbours whose normals differ by more are not used"),
         ]
+        .into_iter()
+        .chain(filtering::params())
+        .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let position = ctx.required("position")?;
@@ -180,8 +176,6 @@ impl NodeKind for Indirect {
         let specular = if ao { None } else { ctx.input("specular") };
         let glossy = specular.is_some();
         let initial_rays = ctx.param("initial_rays").clone();
-        let max_radius = ctx.param("max_radius").clone();
-        let ncos = normal_cos(ctx);
         const SAMPLE_PARAMS: [&str; 4] = ["bounces", "mode", "max_distance", "brdf"];
 
         let init_d = ctx.buffer("initial_diffuse", Format::Vec4);
@@ -252,28 +246,12 @@ impl NodeKind for Indirect {
             .int("stream", 1)
             .finish();
 
-        let filter = |ctx: &mut ExpandCtx<'_>, prefix: &str, value, beta| {
-            let mut v = value;
-            for (axis, name) in [(0, "filter_x"), (1, "filter_y")] {
-                let local = format!("{prefix}_{name}");
-                let out = ctx.buffer(&local, Format::Vec4);
-                ctx.pass(&local, "filter.gaussian")
-                    .read("value", v)
-                    .read("position", position)
-                    .read("normal", normal)
-                    .read("bandwidth", beta)
-                    .write("out", out)
-                    .int("axis", axis)
-                    .int("plane_light", -1)
-                    .param("max_radius", max_radius.clone())
-                    .float("normal_cos", ncos)
-                    .finish();
-                v = out;
-            }
-            v
+        // Full 3-D distances (Ch. 4 has no light plane); each component with its own β.
+        let filter = |ctx: &mut ExpandCtx<'_>, prefix: &str, value, bandwidth| {
+            filtering::separable(ctx, prefix, value, &Separable { position, normal, bandwidth, plane_light: None })
         };
-        let filtered_d = filter(ctx, "diffuse", noisy_d, beta_d);
-        let filtered_g = glossy.then(|| filter(ctx, "glossy", noisy_g, beta_g));
+        let filtered_d = filter(ctx, "diffuse_", noisy_d, beta_d);
+        let filtered_g = glossy.then(|| filter(ctx, "glossy_", noisy_g, beta_g));
 
         for (pass, d, g, port) in [
             ("compose", filtered_d, filtered_g, "radiance"),

@@ -21,6 +21,7 @@ use wedge_backends::KernelRegistry;
 use wedge_graph::NodeRegistry;
 
 pub mod add;
+pub mod filtering;
 pub mod indirect;
 pub mod montecarlo;
 pub mod output;

@@ -13,6 +13,8 @@ use std::sync::Arc;
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
 
+use crate::filtering::{self, Separable};
+
 /// Slopes of the occlusion spectrum's double wedge (thesis eq. 3.4):
 /// `s_min = d1/d2_max − 1`, `s_max = d1/d2_min − 1`.
 pub fn slopes(d1: f32, d2_min: f32, d2_max: f32) -> (f32, f32) {
@@ -75,8 +77,6 @@ impl NodeKind for SoftShadows {
             ParamDecl::int("initial_rays", 9, 1, 4096, "first-pass light samples (thesis: 9, 3×3 stratified)"),
             ParamDecl::int("max_rays", 400, 1, 1 << 20, "cap on rays per pixel from eq. 3.21"),
             ParamDecl::int("fill_radius", 5, 0, 64, "radius (pixels) for averaging d1, d2 into unoccluded pixels"),
-            ParamDecl::int("max_radius", 64, 0, 1024, "cap on the filter half-width in pixels"),
-            ParamDecl::float("normal_angle_deg", 10.0, 0.0, 180.0, "neighbours whose normals differ by more are not used"),
             ParamDecl::choice(
                 "form_factor",
                 "exact",
@@ -84,6 +84,9 @@ impl NodeKind for SoftShadows {
                 "per-sample geometry term (unbiased), or the thesis's light-centre approximation r(x)",
             ),
         ]
+        .into_iter()
+        .chain(filtering::params())
+        .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let position = ctx.required("position")?;
@@ -92,11 +95,6 @@ impl NodeKind for SoftShadows {
         let light = ctx.param("light").clone();
         let initial_rays = ctx.param("initial_rays").clone();
         let fill_radius = ctx.param("fill_radius").clone();
-        let max_radius = ctx.param("max_radius").clone();
-        let normal_cos = match ctx.param("normal_angle_deg") {
-            ParamValue::Float(a) => a.to_radians().cos(),
-            _ => 10f64.to_radians().cos(),
-        };
 
         let initial = ctx.buffer("initial", Format::Vec4);
         let occlusion = ctx.buffer("occlusion", Format::Vec4);
@@ -152,22 +150,9 @@ impl NodeKind for SoftShadows {
             .int("stream", 1)
             .finish();
 
-        let mut filtered = noisy;
-        for (axis, name) in [(0, "filter_x"), (1, "filter_y")] {
-            let out = ctx.buffer(name, Format::Vec4);
-            ctx.pass(name, "filter.gaussian")
-                .read("value", filtered)
-                .read("position", position)
-                .read("normal", normal)
-                .read("bandwidth", beta)
-                .write("out", out)
-                .int("axis", axis)
-                .param("plane_light", light.clone())
-                .param("max_radius", max_radius.clone())
-                .float("normal_cos", normal_cos)
-                .finish();
-            filtered = out;
-        }
+        // Distances in the plane parallel to the light (eq. 3.12).
+        let filter = Separable { position, normal, bandwidth: beta, plane_light: Some(light.clone()) };
+        let filtered = filtering::separable(ctx, "", noisy, &filter);
 
         for (pass, value, port) in [("compose", filtered, "radiance"), ("compose_unfiltered", noisy, "unfiltered")] {
             let out = ctx.buffer(port, Format::Vec3);
