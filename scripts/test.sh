@@ -26,4 +26,4 @@ cargo test --release --workspace --all-targets "$@"
 # The user-crate example (examples/custom_kernel: outside the workspace; its own kernel + WGSL + node,
 # run through parity). Shares the target directory so wgpu is not rebuilt.
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" \
-    cargo test --release --manifest-path examples/custom_kernel/Cargo.toml "$@"
+    cargo test --release --all-targets --manifest-path examples/custom_kernel/Cargo.toml "$@"

@@ -12,7 +12,6 @@ mod common;
 
 use common::*;
 use wedge::backends::RunResult;
-use wedge::graph::ParamValue;
 use wedge::image::Image;
 use wedge::outputs::buffer_to_image;
 use wedge::Session;

@@ -18,7 +18,7 @@ use wedge::backends::cpu::CpuBackend;
 use wedge::backends::gpu::GpuBackend;
 use wedge::backends::parity::run_parity;
 use wedge::backends::{
-    rng, Backend, BackendError, Binding, BufferData, Job, Kernel, KernelClass, KernelCtx, Silent, Uniforms, WgslSource,
+    rng, BackendError, Binding, BufferData, Job, Kernel, KernelClass, KernelCtx, Silent, Uniforms, WgslSource,
 };
 use wedge::graph::Format;
 use wedge::{Overrides, Session};
