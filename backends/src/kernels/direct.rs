@@ -117,13 +117,7 @@ impl Kernel for DirectLight {
             WgslSource::new(include_str!("../../../shaders/direct_light.wgsl"), |ctx| {
                 let light = ctx.int_param("light")?;
                 let light = if light < 0 { -1 } else { ctx.light_param("light")? as i32 };
-                let stratified = match ctx.str_param("sampling")? {
-                    "stratified" => 1,
-                    "independent" => 0,
-                    other => {
-                        return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("unknown sampling `{other}`") })
-                    }
-                };
+                let stratified = ctx.stratified_param()? as u32;
                 Ok(Uniforms::new()
                     .i32(light)
                     .u32(ctx.int_param("count")?.max(0) as u32)
@@ -150,11 +144,7 @@ impl Kernel for DirectLight {
             vec![ctx.light_param("light")?]
         };
         let count = ctx.int_param("count")?.max(0) as u32;
-        let stratified = match ctx.str_param("sampling")? {
-            "stratified" => true,
-            "independent" => false,
-            other => return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("unknown sampling `{other}`") }),
-        };
+        let stratified = ctx.stratified_param()?;
         let centre = ctx.str_param("form_factor")? == "light_centre";
         let stream = ctx.int_param("stream")? as u32;
         let want_stats = ctx.is_bound("occlusion");

@@ -234,11 +234,7 @@ impl Kernel for IndirectSample {
         Some(
             WgslSource::new(include_str!("../../../shaders/indirect_sample.wgsl"), |ctx| {
                 let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
-                let stratified = match ctx.str_param("sampling")? {
-                    "stratified" => 1,
-                    "independent" => 0,
-                    other => return Err(err(format!("unknown sampling `{other}`; use stratified or independent"))),
-                };
+                let stratified = ctx.stratified_param()? as u32;
                 let ao = match ctx.str_param("mode")? {
                     "radiance" => 0,
                     "ao" => 1,
@@ -278,11 +274,7 @@ impl Kernel for IndirectSample {
         let prev_g = ctx.read_opt::<[f32; 4]>("previous_glossy")?;
         let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
         let count = ctx.int_param("count")?.max(0) as u32;
-        let stratified = match ctx.str_param("sampling")? {
-            "stratified" => true,
-            "independent" => false,
-            other => return Err(err(format!("unknown sampling `{other}`; use stratified or independent"))),
-        };
+        let stratified = ctx.stratified_param()?;
         let ao = match ctx.str_param("mode")? {
             "radiance" => false,
             "ao" => true,
