@@ -7,9 +7,17 @@
 //   group(0) binding(2)  counters              (atomic u32: primary, shadow, secondary, non-finite)
 //   group(1) binding(k)  the k-th buffer of `Kernel::bindings()`, in declaration order:
 //                        f32 → array<f32>, vec2 → array<vec2<f32>>, vec4 → array<vec4<f32>>,
-//                        u32 → array<u32>, vec3 → array<f32> PACKED (3 floats per pixel, no padding;
-//                        see vec3_at / vec3_set). Unbound optional bindings get a dummy buffer and
+//                        u32 → array<u32>, vec3 → array<f32> PACKED (3 floats per pixel, no padding:
+//                        pixel i is [3i, 3i+2]). Unbound optional bindings get a dummy buffer and
 //                        `is_bound(k)` is false.
+//
+// Bands: an image whose per-pixel bindings exceed the device's binding limit is dispatched as bands
+// of rows [frame.row0, frame.row_end); each band binds its buffers from pixel `frame.first` on.
+// So a kernel must
+//   - index its buffers with `pixel_index(gid)` (its own pixel) or `index_at(x, y)` (a neighbour),
+//   - key randomness and anything else per-pixel with the absolute `pixel_id(gid)` / `pixel_xy(gid)`,
+//   - declare how far it reads (`WgslSource::per_pixel` / `with_reach`); one that does not is never
+//     split. Without bands row0 = 0, row_end = height, first = 0: indices equal ids.
 //   group(2)             the scene (scene.wgsl), only for kernels that declare `scene: true`.
 //
 // Floating point: WGSL implementations may contract a*b+c into fma and need not round exp/sqrt/
@@ -25,7 +33,11 @@ struct Frame {
     inf_bits: u32,
     fma_probe_x: u32, // 1 + 2^-12: fma(x, x, -y) is 2^-24 when fma is fused, 0 when not
     fma_probe_y: u32, // 1 + 2^-11
-    _p2: u32,
+    row0: u32,        // first row of this dispatch's band
+    row_end: u32,     // one past its last row
+    first: u32,       // the pixel (y * width + x) at element 0 of every bound per-pixel buffer
+    _p0: u32,
+    _p1: u32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -108,11 +120,27 @@ fn is_zero3(a: vec3<f32>) -> bool {
     return a.x == 0.0 && a.y == 0.0 && a.z == 0.0;
 }
 
-// The pixel of an invocation (workgroups of 8×8 tile the image); false outside it.
+// Whether an invocation has a pixel (workgroups of 8×8 tile the band); false outside it.
 fn pixel_of(gid: vec3<u32>) -> bool {
-    return gid.x < frame.width && gid.y < frame.height;
+    return gid.x < frame.width && gid.y + frame.row0 < frame.row_end;
 }
 
+// The invocation's pixel (x, y) in the image.
+fn pixel_xy(gid: vec3<u32>) -> vec2<u32> {
+    return vec2<u32>(gid.x, gid.y + frame.row0);
+}
+
+// The invocation's pixel as y * width + x: keys the RNG (the CPU uses the same number).
+fn pixel_id(gid: vec3<u32>) -> u32 {
+    return (gid.y + frame.row0) * frame.width + gid.x;
+}
+
+// The invocation's own element in every bound per-pixel buffer.
 fn pixel_index(gid: vec3<u32>) -> u32 {
-    return gid.y * frame.width + gid.x;
+    return pixel_id(gid) - frame.first;
+}
+
+// The element of pixel (x, y) — inside the image and within the kernel's declared reach.
+fn index_at(x: i32, y: i32) -> u32 {
+    return u32(y) * frame.width + u32(x) - frame.first;
 }

@@ -33,8 +33,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let width = i32(frame.width);
     let height = i32(frame.height);
-    let x = i32(gid.x);
-    let y = i32(gid.y);
+    let xy = vec2<i32>(pixel_xy(gid));
+    let x = xy.x;
+    let y = xy.y;
     let beta = bandwidth[i];
     let centre = value[i];
     if (beta <= 0.0 || position[i].w == 0.0 || !is_finite(beta)) {
@@ -62,7 +63,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (jx < 0 || jy < 0 || jx >= width || jy >= height) {
             continue;
         }
-        let j = u32(jy * width + jx);
+        let j = index_at(jx, jy);
         if (position[j].w != position[i].w) {
             continue;
         }

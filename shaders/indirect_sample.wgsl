@@ -252,7 +252,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let done_d = f32_to_u32_sat(pd.w);
         let extra_d = select(0u, target_d - done_d, target_d > done_d);
-        let key_d = rng_key(frame.seed, i, 0x4000u + 2u * params.stream);
+        let key_d = rng_key(frame.seed, pixel_id(gid), 0x4000u + 2u * params.stream);
         var sum = vec3<f32>(0.0);
         var valid = 0u;
         for (var s = 0u; s < extra_d; s = s + 1u) {
@@ -276,7 +276,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let done_g = f32_to_u32_sat(pg.w);
             let extra_g = select(0u, target_g - done_g, target_g > done_g);
-            let key_g = rng_key(frame.seed, i, 0x4001u + 2u * params.stream);
+            let key_g = rng_key(frame.seed, pixel_id(gid), 0x4001u + 2u * params.stream);
             var gsum = vec3<f32>(0.0);
             var gvalid = 0u;
             for (var s = 0u; s < extra_g; s = s + 1u) {

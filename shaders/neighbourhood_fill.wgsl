@@ -22,8 +22,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let w = i32(frame.width);
     let h = i32(frame.height);
-    let x = i32(gid.x);
-    let y = i32(gid.y);
+    let xy = vec2<i32>(pixel_xy(gid));
+    let x = xy.x;
+    let y = xy.y;
     let v = value[i];
     if (v.w > 0.0) {
         out[i] = vec4<f32>(v.xyz, 1.0);
@@ -46,7 +47,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (nx < 0 || ny < 0 || nx >= w || ny >= h) {
                 continue;
             }
-            let u = value[u32(ny * w + nx)];
+            let u = value[index_at(nx, ny)];
             if (u.w > 0.0) {
                 sum = sum + u.xyz;
                 n = n + 1u;

@@ -64,7 +64,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     atomicAdd(&counters[COUNTER_PRIMARY], 1u);
-    let ray = generate_ray(f32(gid.x) + 0.5, f32(gid.y) + 0.5);
+    let xy = pixel_xy(gid);
+    let ray = generate_ray(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let hit = scene_intersect(ray.o, ray.d, 0.0, inf());
     if (!hit.hit) {
         out_position[i] = vec4<f32>(0.0);

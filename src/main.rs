@@ -196,6 +196,14 @@ fn run_wgpu(session: &Session, bars: &Bars) -> Result<(wedge::backends::RunResul
         gpu.adapter_description(),
         if gpu.has_timestamps() { "device timestamps (timestamp queries)" } else { "wall clock (no timestamp queries)" }
     );
+    let split: Vec<String> = gpu.last_bands.iter().filter(|(_, n)| *n > 1).map(|(p, n)| format!("{p} ×{n}")).collect();
+    if !split.is_empty() {
+        note.push_str(&format!(
+            "passes split into bands of rows (buffers over the device's storage-binding limit of {} bytes): {}\n",
+            gpu.limits().max_storage_buffer_binding_size,
+            split.join(", ")
+        ));
+    }
     if gpu.is_software() {
         note.push_str("note: this adapter is a CPU emulation (lavapipe/llvmpipe); its times say nothing about a GPU\n");
     }

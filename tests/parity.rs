@@ -8,7 +8,9 @@
 //! - end to end: `render --backend wgpu` vs `--backend cpu` on pipelines/shadows.ron, relMSE ≤ 1e-4,
 //! - the RNG: a tiny WGSL kernel writes `hash4`/`uniform`/`cmj`/`permute` for 65 536 inputs, compared
 //!   with `backends/src/rng.rs` bit for bit,
-//! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`.
+//! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`,
+//! - bands: with the binding limit lowered so every pass is split into bands of rows, every pipeline
+//!   gives the same outputs and ray counts, bit for bit, as one dispatch per pass.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -165,6 +167,43 @@ fn gpu_pool_allocates_one_buffer_per_slot() {
     assert!(run.allocations < logical, "pooling saved nothing: {} physical for {logical} logical", run.allocations);
 }
 
+/// The band path (what runs when an image's buffers exceed the device's binding limit, e.g. 4K+
+/// `vec4` on 128 MiB), forced at 64×48 by lowering the limit to 20 rows of `vec4`: every pass of every
+/// pipeline runs as 2–4 bands, and the result must equal the unsplit run exactly (same shader, same
+/// inputs per pixel). Filter radii are capped at 4 so a y-filter band (±4 rows) fits the limit.
+#[test]
+fn bands_give_the_same_outputs_as_one_dispatch() {
+    let Some(mut whole) = gpu_or_skip("bands_give_the_same_outputs_as_one_dispatch") else { return };
+    let Some(mut banded) = gpu_or_skip("bands_give_the_same_outputs_as_one_dispatch") else { return };
+    let (w, h) = (64u32, 48u32);
+    banded.set_binding_limit(20 * w as u64 * 16);
+    for path in pipelines() {
+        let probe = Session::open(Some(&path), &small(w, h)).unwrap();
+        let mut ov = small(w, h);
+        for node in &probe.pipeline.nodes {
+            if node.params.contains_key("max_radius") {
+                ov.params.push((node.name.clone(), "max_radius".into(), wedge::graph::ParamValue::Int(4)));
+            }
+        }
+        let session = Session::open(Some(&path), &ov).unwrap();
+        let a = session.run(&mut whole, &Silent).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let b = session.run(&mut banded, &Silent).unwrap_or_else(|e| panic!("{}: banded: {e}", path.display()));
+        for (key, x) in &a.outputs {
+            let y = &b.outputs[key];
+            let differ = (0..x.len())
+                .filter(|&i| (0..x.format().components()).any(|c| x.component(i, c).to_bits() != y.component(i, c).to_bits()))
+                .count();
+            println!("{}: {key:?}: {differ} of {} pixels differ", path.display(), x.len());
+            assert_eq!(differ, 0, "{}: {key:?} differs between banded and whole dispatches", path.display());
+        }
+        assert_eq!(a.rays, b.rays, "{}: ray counts differ", path.display());
+        assert!(whole.last_bands.iter().all(|(_, n)| *n == 1));
+        let fewest = banded.last_bands.iter().map(|(_, n)| *n).min().unwrap();
+        println!("{}: bands per pass {:?}", path.display(), banded.last_bands);
+        assert!(fewest >= 2, "{}: every pass should have been split: {:?}", path.display(), banded.last_bands);
+    }
+}
+
 /// A test-only kernel whose WGSL writes `hash4`, `uniform`, `cmj` and `permute` outputs for many
 /// inputs (one per pixel); the Rust side recomputes them with `wedge::backends::rng`.
 struct RngProbe;
@@ -255,6 +294,18 @@ fn rng_wgsl_is_bit_exact() {
     }
     println!("mismatches of {}: hash4 {hash}, uniform {uniform}, cmj {cmj}, permute {perm}", w * h);
     assert_eq!((hash, uniform, cmj, perm), (0, 0, 0, 0));
+}
+
+/// A kernel that does not declare how far it reads (the RNG probe keeps the default `Reach::Image`)
+/// is never split: over the binding limit it is an error that says why and what to do.
+#[test]
+fn kernel_without_declared_reach_is_not_split() {
+    let Some(mut gpu) = gpu_or_skip("kernel_without_declared_reach_is_not_split") else { return };
+    gpu.set_binding_limit(1024);
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    let e = gpu.run_kernel(Arc::new(RngProbe), &scene, 64, 64, 1, BTreeMap::new(), &BTreeMap::new()).unwrap_err().to_string();
+    println!("{e}");
+    assert!(e.contains("test.rng_probe") && e.contains("Reach::Image") && e.contains("--backend cpu"), "{e}");
 }
 
 #[test]

@@ -76,17 +76,44 @@ pub trait Kernel: Send + Sync {
 ///   binding 1) as 4-byte words in declaration order — the same parameter parsing the CPU path
 ///   uses (`KernelCtx::f32_param` …); it sees size, seed, scene and params, not buffers.
 /// - `scene`: whether the kernel reads the scene (group 2: BVH, triangles, materials, lights).
+/// - `reach`: how far from its own pixel the WGSL reads per-pixel buffers, given the pass's
+///   parameters ([`Reach`]). The backend splits an image whose buffers exceed the device's binding
+///   limit into bands of rows only for kernels that say how far they read; the default is
+///   [`Reach::Image`] (never split), so a kernel that does not declare it fails clearly on such an
+///   image instead of reading outside its band.
 #[derive(Clone)]
 pub struct WgslSource {
     pub source: std::borrow::Cow<'static, str>,
     pub includes: Vec<(&'static str, std::borrow::Cow<'static, str>)>,
     pub uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>,
     pub scene: bool,
+    pub reach: fn(&KernelCtx<'_>) -> Result<Reach, BackendError>,
+}
+
+/// How far from its own pixel a kernel reads per-pixel buffers (see [`WgslSource::reach`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reach {
+    /// Only its own pixel: any band of rows works.
+    Pixel,
+    /// Pixels up to `n` rows above or below its own (neighbourhood filters, separable passes).
+    Rows(u32),
+    /// Anywhere in the image (reductions, gathers): never split.
+    Image,
 }
 
 impl WgslSource {
     pub fn new(source: impl Into<std::borrow::Cow<'static, str>>, uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>) -> Self {
-        WgslSource { source: source.into(), includes: Vec::new(), uniforms, scene: false }
+        WgslSource { source: source.into(), includes: Vec::new(), uniforms, scene: false, reach: |_| Ok(Reach::Image) }
+    }
+    /// The kernel reads only its own pixel of every per-pixel buffer.
+    pub fn per_pixel(mut self) -> Self {
+        self.reach = |_| Ok(Reach::Pixel);
+        self
+    }
+    /// How far the kernel reads, from the pass's parameters (e.g. a filter's radius and axis).
+    pub fn with_reach(mut self, reach: fn(&KernelCtx<'_>) -> Result<Reach, BackendError>) -> Self {
+        self.reach = reach;
+        self
     }
     /// Make `name` available to `#include` (e.g. an effect's formula file).
     pub fn with_include(mut self, name: &'static str, text: impl Into<std::borrow::Cow<'static, str>>) -> Self {
@@ -195,6 +222,12 @@ pub struct RayCounts {
 impl RayCounts {
     pub fn total_rays(&self) -> u64 {
         self.primary_rays + self.shadow_rays + self.secondary_rays
+    }
+    pub fn add(&mut self, other: &RayCounts) {
+        self.primary_rays += other.primary_rays;
+        self.shadow_rays += other.shadow_rays;
+        self.secondary_rays += other.secondary_rays;
+        self.non_finite_samples += other.non_finite_samples;
     }
 }
 

@@ -24,8 +24,8 @@ use std::collections::BTreeMap;
 
 pub use buffer::{BufferData, Texel};
 pub use kernel::{
-    Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Silent, Uniforms,
-    WgslSource,
+    Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
+    Uniforms, WgslSource,
 };
 use wedge_graph::Schedule;
 use wedge_scene::Scene;
@@ -82,10 +82,11 @@ impl RunResult {
         self.outputs.iter().find(|((_, p), _)| p == port).map(|(_, b)| b)
     }
     pub fn seconds(&self, class: KernelClass) -> f64 {
-        self.timings.iter().filter(|t| t.class == class).map(|t| t.seconds).sum()
+        // fold from +0.0: an empty f64 `sum()` is -0.0, which prints as "-0.0 ms".
+        self.timings.iter().filter(|t| t.class == class).fold(0.0, |a, t| a + t.seconds)
     }
     pub fn total_seconds(&self) -> f64 {
-        self.timings.iter().map(|t| t.seconds).sum()
+        self.timings.iter().fold(0.0, |a, t| a + t.seconds)
     }
 }
 

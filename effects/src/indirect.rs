@@ -330,7 +330,8 @@ impl Kernel for Bandwidth {
                 let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
                 Ok(Uniforms::new().f32(s.mu).f32(s.alpha).f32(s.z_fraction).f32(s.extent).u32(blinn as u32).align16())
             })
-            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl")),
+            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -395,7 +396,8 @@ impl Kernel for Rates {
                     .u32(cap)
                     .u32(blinn as u32))
             })
-            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl")),
+            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

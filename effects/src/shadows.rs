@@ -208,7 +208,8 @@ impl Kernel for Bandwidth {
                 let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
                 Ok(Uniforms::new().f32(ctx.f32_param("mu")?).f32(ctx.f32_param("alpha")?).f32(ctx.f32_param("k")?).f32(sigma))
             })
-            .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl")),
+            .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl"))
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -264,7 +265,8 @@ impl Kernel for Rates {
                     .u32(max)
                     .align16())
             })
-            .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl")),
+            .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl"))
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

@@ -10,12 +10,17 @@
 //!   and u32 are WGSL arrays of that type; **vec3 buffers are packed `array<f32>` (3 floats per
 //!   pixel)**, the same bytes as the CPU's `Vec<[f32; 3]>`, so upload/readback is a plain copy and
 //!   no 16-byte padding is stored.
+//! - **Bands**: a pass whose per-pixel bindings would exceed the device's storage-binding limit
+//!   (e.g. `vec4` from 4096×2160 on, against 128 MiB) is dispatched as bands of rows, each binding only its rows
+//!   plus the rows its kernel reads around them ([`bands`]); kernels see the band in `Frame` and
+//!   index through `pixel_index`/`index_at` (shaders/common.wgsl), so the result is the same image.
 //! - **Scene**: uploaded once per distinct scene ([`scene`]); kernels that declare `scene` see it in
 //!   bind group 2.
 //! - **Errors**: no adapter, WGSL/naga validation, out of memory, a device loss, a buffer over the
 //!   device's binding limit, a kernel without WGSL — all become [`BackendError::Gpu`] with what to do;
 //!   nothing panics (wgpu's default panicking error handler is replaced).
 
+pub mod bands;
 pub mod scene;
 pub mod shaders;
 
@@ -30,6 +35,7 @@ use wedge_graph::{BufferId, Format, Pass};
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
 use crate::kernel::{Access, Counters, Kernel, KernelCtx};
+use bands::{BindLimits, Band};
 use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
 
 /// What to tell a user when there is no adapter at all.
@@ -68,6 +74,8 @@ pub struct GpuBackend {
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
+    /// Largest per-pixel storage binding one dispatch may use: the device's, or less (`set_binding_limit`).
+    max_binding: u64,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     /// Errors wgpu reported outside an error scope, and device-lost reports.
     errors: Arc<Mutex<Vec<String>>>,
@@ -77,6 +85,8 @@ pub struct GpuBackend {
     dummies: Vec<wgpu::Buffer>,
     /// Per-pass device times of the last run (seconds, from timestamp queries); empty when unsupported.
     pub last_device_times: Vec<(String, f64)>,
+    /// Per-pass number of bands (dispatches) of the last run: 1 unless a binding was over the limit.
+    pub last_bands: Vec<(String, usize)>,
 }
 
 impl GpuBackend {
@@ -135,6 +145,7 @@ impl GpuBackend {
             device,
             queue,
             info,
+            max_binding: limits.max_storage_buffer_binding_size as u64,
             limits,
             timestamps,
             errors,
@@ -142,6 +153,7 @@ impl GpuBackend {
             scene: None,
             dummies: Vec::new(),
             last_device_times: Vec::new(),
+            last_bands: Vec::new(),
         })
     }
 
@@ -158,6 +170,12 @@ impl GpuBackend {
     }
     pub fn limits(&self) -> &wgpu::Limits {
         &self.limits
+    }
+    /// Bind at most `bytes` of each per-pixel buffer per dispatch (never more than the device
+    /// allows), so passes over it run as bands of rows. For tests and users checking the band path
+    /// at small sizes; the scene is still bound whole under the device's own limit.
+    pub fn set_binding_limit(&mut self, bytes: u64) {
+        self.max_binding = bytes.min(self.limits.max_storage_buffer_binding_size as u64).max(16);
     }
 
     /// Errors wgpu reported asynchronously (uncaptured or device lost) since the last check.
@@ -196,27 +214,21 @@ impl GpuBackend {
         self.check_async_errors(what)
     }
 
-    /// Check one storage binding's size against the device's limits.
-    fn check_binding_size(&self, what: &str, bytes: u64) -> Result<(), BackendError> {
-        let max_binding = self.limits.max_storage_buffer_binding_size as u64;
-        if bytes > max_binding {
-            return Err(gpu_err(format!(
-                "{what} needs {bytes} bytes, over this device's max_storage_buffer_binding_size ({max_binding} bytes, adapter `{}`); \
-                 render smaller (--width/--height), use a smaller scene, or use --backend cpu",
-                self.info.name
-            )));
-        }
+    /// Check one buffer's size against the device's limit. (What one dispatch binds is limited
+    /// separately: per-pixel buffers by bands, the scene in `scene_buffers`.)
+    fn check_buffer_size(&self, what: &str, bytes: u64) -> Result<(), BackendError> {
         if bytes > self.limits.max_buffer_size {
             return Err(gpu_err(format!(
-                "{what} needs {bytes} bytes, over this device's max_buffer_size ({} bytes)",
-                self.limits.max_buffer_size
+                "{what} needs {bytes} bytes, over this device's max_buffer_size ({} bytes, adapter `{}`); \
+                 render smaller (--width/--height), use a smaller scene, or use --backend cpu",
+                self.limits.max_buffer_size, self.info.name
             )));
         }
         Ok(())
     }
 
     fn storage(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer, BackendError> {
-        self.check_binding_size(label, bytes)?;
+        self.check_buffer_size(label, bytes)?;
         let size = bytes.max(16).div_ceil(4) * 4;
         self.scoped(&format!("allocating `{label}`"), || {
             self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -229,7 +241,7 @@ impl GpuBackend {
     }
 
     fn storage_init(&self, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, BackendError> {
-        self.check_binding_size(label, bytes.len() as u64)?;
+        self.check_buffer_size(label, bytes.len() as u64)?;
         let mut data = bytes.to_vec();
         while data.len() < 16 || data.len() % 4 != 0 {
             data.push(0);
@@ -290,6 +302,18 @@ impl GpuBackend {
         }
         let mut buffers = Vec::new();
         for (name, bytes) in scene::SCENE_ARRAYS.iter().zip(&arrays) {
+            // Scene arrays are bound whole (a ray may touch any node or triangle).
+            let max_binding = self.limits.max_storage_buffer_binding_size as u64;
+            if bytes.len() as u64 > max_binding {
+                return Err(gpu_err(format!(
+                    "scene `{}` array {name} needs {} bytes, over this device's max_storage_buffer_binding_size ({} bytes, \
+                     adapter `{}`); use a smaller scene or --backend cpu",
+                    scene.name,
+                    bytes.len(),
+                    max_binding,
+                    self.info.name
+                )));
+            }
             buffers.push(self.storage_init(&format!("scene `{}` array {name}", scene.name), bytes)?);
         }
         self.scene = Some(SceneBuffers { hash, buffers });
@@ -394,16 +418,18 @@ impl GpuBackend {
         Ok((p, src))
     }
 
-    /// Run one pass with its declared bindings mapped to device buffers (`None` = unbound optional).
+    /// Run one pass with its declared bindings mapped to device buffers (`None` = unbound optional):
+    /// one dispatch per band of rows ([`bands::plan`]; one band unless the bindings exceed the
+    /// device's limit). Returns its time and the rays it counted.
     fn dispatch(
         &mut self,
         job: &Job<'_>,
         pass: &Pass,
         buffers: &[Option<wgpu::Buffer>],
-        counters: &wgpu::Buffer,
-    ) -> Result<DispatchTime, BackendError> {
+    ) -> Result<(DispatchTime, RayCounts, usize), BackendError> {
         let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
         let (p, src) = self.pipeline(kernel.as_ref())?;
+        let what = format!("pass `{}` (kernel `{}`)", pass.name, pass.kernel);
         // The parameter block, packed by the kernel from the same KernelCtx accessors its CPU path uses.
         let cpu_counters = Counters::default();
         let ctx = KernelCtx::new(
@@ -425,16 +451,25 @@ impl GpuBackend {
         if buffers.len() > 32 {
             return Err(gpu_err(format!("kernel `{}` declares more than 32 bindings", pass.kernel)));
         }
-        let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
-        let frame = [job.width, job.height, job.seed, bound, f32::INFINITY.to_bits(), 0x3f80_0800, 0x3f80_1000, 0];
-        let groups = (job.width.div_ceil(WORKGROUP), job.height.div_ceil(WORKGROUP));
+        let bindings = kernel.bindings();
+        let bytes_per_pixel = |k: usize| bindings[k].format.components() as u64 * 4;
+        let widest = (0..buffers.len()).filter(|&k| buffers[k].is_some()).map(bytes_per_pixel).max().unwrap_or(4);
         let max_groups = self.limits.max_compute_workgroups_per_dimension;
-        if groups.0 > max_groups || groups.1 > max_groups {
+        if job.width.div_ceil(WORKGROUP) > max_groups {
             return Err(gpu_err(format!(
-                "{}×{} pixels need {}×{} workgroups, over this device's max_compute_workgroups_per_dimension ({max_groups})",
-                job.width, job.height, groups.0, groups.1
+                "{what}: {} pixels per row need {} workgroups, over this device's max_compute_workgroups_per_dimension ({max_groups})",
+                job.width,
+                job.width.div_ceil(WORKGROUP)
             )));
         }
+        let limits = BindLimits {
+            max_binding: self.max_binding,
+            offset_alignment: self.limits.min_storage_buffer_offset_alignment as u64,
+            max_rows: max_groups.saturating_mul(WORKGROUP),
+        };
+        let reach = (src.reach)(&ctx)?;
+        let bands = bands::plan(job.width, job.height, widest, reach, &limits).map_err(|e| gpu_err(format!("{what}: {e}")))?;
+        let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
         let mut bufs = Vec::with_capacity(buffers.len());
         for (k, b) in buffers.iter().enumerate() {
             bufs.push(match b {
@@ -442,7 +477,9 @@ impl GpuBackend {
                 None => self.dummy(k)?,
             });
         }
-        let what = format!("pass `{}` (kernel `{}`)", pass.name, pass.kernel);
+        // One 16-byte counter block per band, each at an aligned offset; summed in 64 bits after.
+        let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(16);
+        let counters = self.storage("counters", stride * bands.len() as u64)?;
         let start = Instant::now();
         self.scoped(&what, || {
             let uniform = |label: &str, data: &[u32]| {
@@ -452,24 +489,8 @@ impl GpuBackend {
                     usage: wgpu::BufferUsages::UNIFORM,
                 })
             };
-            let frame_buf = uniform("frame", &frame);
             let params_buf = uniform("params", &words);
-            let g0 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("frame"),
-                layout: &p.g0,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: params_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: counters.as_entire_binding() },
-                ],
-            });
-            let e1: Vec<_> = bufs
-                .iter()
-                .enumerate()
-                .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
-                .collect();
-            let g1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 });
-            let g2 = match (&p.g2, &self.scene) {
+            let scene_group = match (&p.g2, &self.scene) {
                 (Some(layout), Some(s)) => {
                     let e: Vec<_> = s
                         .buffers
@@ -481,6 +502,62 @@ impl GpuBackend {
                 }
                 _ => None,
             };
+            let groups: Vec<_> = bands
+                .iter()
+                .enumerate()
+                .map(|(n, band)| {
+                    let Band { row0, row_end, first, end } = *band;
+                    let frame = [
+                        job.width,
+                        job.height,
+                        job.seed,
+                        bound,
+                        f32::INFINITY.to_bits(),
+                        0x3f80_0800,
+                        0x3f80_1000,
+                        row0,
+                        row_end,
+                        first as u32,
+                        0,
+                        0,
+                    ];
+                    let frame_buf = uniform("frame", &frame);
+                    let g0 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("frame"),
+                        layout: &p.g0,
+                        entries: &[
+                            wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
+                            wgpu::BindGroupEntry { binding: 1, resource: params_buf.as_entire_binding() },
+                            wgpu::BindGroupEntry {
+                                binding: 2,
+                                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                    buffer: &counters,
+                                    offset: n as u64 * stride,
+                                    size: wgpu::BufferSize::new(16),
+                                }),
+                            },
+                        ],
+                    });
+                    let e1: Vec<_> = bufs
+                        .iter()
+                        .enumerate()
+                        .map(|(k, b)| {
+                            let resource = match &buffers[k] {
+                                // The whole buffer when one band covers the image.
+                                Some(_) if bands.len() > 1 => wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                    buffer: b,
+                                    offset: first * bytes_per_pixel(k),
+                                    size: wgpu::BufferSize::new((end - first) * bytes_per_pixel(k)),
+                                }),
+                                _ => b.as_entire_binding(),
+                            };
+                            wgpu::BindGroupEntry { binding: k as u32, resource }
+                        })
+                        .collect();
+                    let g1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 });
+                    (g0, g1, (job.width.div_ceil(WORKGROUP), (row_end - row0).div_ceil(WORKGROUP)))
+                })
+                .collect();
             let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
             {
                 let ts = self.timestamps.as_ref().map(|(qs, _)| wgpu::ComputePassTimestampWrites {
@@ -490,12 +567,14 @@ impl GpuBackend {
                 });
                 let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
                 cp.set_pipeline(&p.pipeline);
-                cp.set_bind_group(0, &g0, &[]);
-                cp.set_bind_group(1, &g1, &[]);
-                if let Some(g2) = &g2 {
+                if let Some(g2) = &scene_group {
                     cp.set_bind_group(2, g2, &[]);
                 }
-                cp.dispatch_workgroups(groups.0, groups.1, 1);
+                for (g0, g1, (gx, gy)) in &groups {
+                    cp.set_bind_group(0, g0, &[]);
+                    cp.set_bind_group(1, g1, &[]);
+                    cp.dispatch_workgroups(*gx, *gy, 1);
+                }
             }
             if let Some((qs, resolve)) = &self.timestamps {
                 enc.resolve_query_set(qs, 0..2, resolve, 0);
@@ -504,15 +583,16 @@ impl GpuBackend {
         })?;
         self.wait(&what)?;
         let wall = start.elapsed().as_secs_f64();
+        let rays = self.read_counters(&counters, bands.len(), stride)?;
         if let Some((_, resolve)) = &self.timestamps {
             let bytes = self.read_bytes(&what, resolve, 16)?;
             let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
             let ns = t[1].saturating_sub(t[0]) as f64 * self.queue.get_timestamp_period() as f64;
             if ns > 0.0 {
-                return Ok(DispatchTime { seconds: ns * 1e-9, from_timestamps: true });
+                return Ok((DispatchTime { seconds: ns * 1e-9, from_timestamps: true }, rays, bands.len()));
             }
         }
-        Ok(DispatchTime { seconds: wall, from_timestamps: false })
+        Ok((DispatchTime { seconds: wall, from_timestamps: false }, rays, bands.len()))
     }
 
     fn kernels_ready(&mut self, job: &Job<'_>, passes: &[&Pass]) -> Result<bool, BackendError> {
@@ -526,19 +606,13 @@ impl GpuBackend {
         Ok(scene)
     }
 
-    fn counters_buffer(&self) -> Result<wgpu::Buffer, BackendError> {
-        self.storage_init("counters", &[0u8; 16])
-    }
-
-    fn read_counters(&self, buf: &wgpu::Buffer) -> Result<RayCounts, BackendError> {
-        let b = self.read_bytes("reading counters", buf, 16)?;
+    /// Sum the per-band counter blocks of one pass (each 4 × u32) in 64 bits.
+    fn read_counters(&self, buf: &wgpu::Buffer, bands: usize, stride: u64) -> Result<RayCounts, BackendError> {
+        let b = self.read_bytes("reading counters", buf, stride * bands as u64)?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&b);
-        Ok(RayCounts {
-            primary_rays: c[0] as u64,
-            shadow_rays: c[1] as u64,
-            secondary_rays: c[2] as u64,
-            non_finite_samples: c[3] as u64,
-        })
+        let words = (stride / 4) as usize;
+        let sum = |k: usize| (0..bands).map(|n| c[n * words + k] as u64).sum::<u64>();
+        Ok(RayCounts { primary_rays: sum(0), shadow_rays: sum(1), secondary_rays: sum(2), non_finite_samples: sum(3) })
     }
 
     /// Run one pass alone: upload `inputs`, dispatch, read every output back (by binding name).
@@ -587,8 +661,7 @@ impl GpuBackend {
             };
             bufs.push(buf);
         }
-        let counters = self.counters_buffer()?;
-        let time = self.dispatch(job, pass, &bufs, &counters)?;
+        let (time, _, _) = self.dispatch(job, pass, &bufs)?;
         let mut out = BTreeMap::new();
         for (name, format, buf) in outs {
             let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, pixels)?;
@@ -688,9 +761,10 @@ impl Backend for GpuBackend {
         let mut slots: Vec<Option<wgpu::Buffer>> = vec![None; sched.slot_formats.len()];
         let mut holder: Vec<Option<BufferId>> = vec![None; sched.slot_formats.len()];
         let mut allocations = 0usize;
-        let counters = self.counters_buffer()?;
+        let mut rays = RayCounts::default();
         let mut timings = Vec::with_capacity(passes.len());
         self.last_device_times.clear();
+        self.last_bands.clear();
         for pass in &passes {
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
             let mut bufs = Vec::new();
@@ -724,7 +798,9 @@ impl Backend for GpuBackend {
                 }
                 bufs.push(slots[slot].clone());
             }
-            let t = self.dispatch(job, pass, &bufs, &counters)?;
+            let (t, counted, bands) = self.dispatch(job, pass, &bufs)?;
+            rays.add(&counted);
+            self.last_bands.push((pass.name.clone(), bands));
             if t.from_timestamps {
                 self.last_device_times.push((pass.name.clone(), t.seconds));
             }
@@ -741,7 +817,6 @@ impl Backend for GpuBackend {
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
             }
         }
-        let rays = self.read_counters(&counters)?;
         Ok(RunResult { outputs, timings, rays, allocations })
     }
 }

@@ -128,7 +128,8 @@ impl Kernel for DirectLight {
                     .u32(ctx.scene.lights.len() as u32)
                     .align16())
             })
-            .with_scene(),
+            .with_scene()
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

@@ -12,7 +12,7 @@
 use glam::Vec3;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::v3;
 use crate::BackendError;
 
@@ -134,6 +134,13 @@ impl Kernel for GaussianFilter {
                 .f32(ctx.f32_param("normal_cos")?)
                 .u32(0)
                 .vec3(plane_normal.to_array(), 0.0))
+        })
+        .with_reach(|ctx| {
+            // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
+            Ok(match ctx.int_param("axis")? {
+                0 => Reach::Pixel,
+                _ => Reach::Rows(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
+            })
         }))
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

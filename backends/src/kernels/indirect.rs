@@ -260,7 +260,8 @@ impl Kernel for IndirectSample {
                     .align16())
             })
             .with_include("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl"))
-            .with_scene(),
+            .with_scene()
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -406,7 +407,7 @@ impl Kernel for IndirectCompose {
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new().align16())))
+        Some(WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new().align16())).per_pixel())
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let diffuse = ctx.read::<[f32; 4]>("diffuse")?;

@@ -5,7 +5,7 @@
 
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
 pub struct FillInvalid;
@@ -27,7 +27,8 @@ impl Kernel for FillInvalid {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(WgslSource::new(include_str!("../../../shaders/neighbourhood_fill.wgsl"), |ctx| {
             Ok(Uniforms::new().i32(ctx.int_param("radius")?.clamp(0, 64) as i32).align16())
-        }))
+        })
+        .with_reach(|ctx| Ok(Reach::Rows(ctx.int_param("radius")?.clamp(0, 64) as u32))))
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;

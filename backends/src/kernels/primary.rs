@@ -53,7 +53,8 @@ impl Kernel for PrimaryGBuffer {
                     .vec3(up.to_array(), cam.aperture_radius)
                     .vec3(forward.to_array(), cam.effective_focus_distance()))
             })
-            .with_scene(),
+            .with_scene()
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
