@@ -134,7 +134,8 @@ struct ComponentRate {
 // indirect::component: β and n of one component from its first-pass statistics.
 fn indirect_component(r: Receiver, dp: vec4<f32>, d: f32, s: IndirectSettings) -> ComponentRate {
     if (dp.z <= 0.0) {
-        return ComponentRate(0.0, s.initial);
+        // No reflector: z_min = ∞, Ω_x^r = 0, β = ∞ (the widest window; see effects/src/indirect.rs).
+        return ComponentRate(inf(), s.initial);
     }
     let z_min = indirect_clamp_z_min(dp.x, s.extent, s.z_fraction);
     let z_max = rmax(dp.y, z_min);

@@ -10,8 +10,7 @@
 //!   colour-blind viewers and stays monotonic when printed in grey, so equal
 //!   steps in value look like equal steps in colour. Its darkest colour is a
 //!   dark purple (#440154), distinct from the pure black used for masked
-//!   pixels, and it contains no magenta, which is reserved for non-finite
-//!   values.
+//!   pixels, and it contains no magenta, which is reserved for NaN.
 //! * **Text: `embedded-graphics`** with its built-in 6×10 ISO-8859-1 mono
 //!   font, drawn straight into the RGB8 buffer. The font is compiled into the
 //!   crate, so it builds offline from crates.io with no system fonts or TTF
@@ -25,8 +24,9 @@
 //!   (no resampling, so every value is one output pixel) with a white margin,
 //!   on a white background with black text, like a figure in a paper.
 //!
-//! Pixel colours: masked pixels are black, non-finite values magenta
-//! (255, 0, 255), everything else the colormap, clamped at the range ends.
+//! Pixel colours: masked pixels are black, NaN magenta (255, 0, 255), everything else the
+//! colormap, clamped at the range ends (±∞ too, e.g. an unbounded filter width; the range is
+//! taken from finite values only).
 
 use std::path::Path;
 
@@ -373,6 +373,8 @@ pub fn render_heatmap(
                     let c = match values.get(i) {
                         _ if masked => MASKED,
                         Some(&v) if v.is_finite() => colour_of(mapping.t(v)),
+                        // ±∞ (e.g. an unbounded filter width) saturates; only NaN is magenta.
+                        Some(&v) if v.is_infinite() => colour_of(if v > 0.0 { 1.0 } else { 0.0 }),
                         _ => NON_FINITE,
                     };
                     let o = (lay.map_x as usize + x) * 3;
@@ -565,7 +567,7 @@ mod tests {
                 "max -> last colour"
             );
             assert_eq!(map_pixel(&out, &lay, 5, 0), NON_FINITE);
-            assert_eq!(map_pixel(&out, &lay, 6, 0), NON_FINITE);
+            assert_eq!(map_pixel(&out, &lay, 6, 0), colormap(1.0), "+inf saturates (does not stretch the range)");
             assert_eq!(map_pixel(&out, &lay, 7, 0), MASKED);
         }
         // viridis ends, as in matplotlib.
