@@ -90,6 +90,10 @@ enum Command {
         height: Option<u32>,
         #[arg(long)]
         seed: Option<u32>,
+        /// Reference samples per pixel, split over two seeds (default 4096; quick 512). Baselines
+        /// run up to a quarter of it, so a larger reference brackets more of their curves.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
+        reference_spp: Option<u32>,
     },
     /// Check the wgpu backend against the CPU backend pass by pass (each GPU pass runs on the CPU's
     /// inputs) and print max abs / max rel differences and pixels over tolerance; fails on a mismatch.
@@ -284,12 +288,13 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
             }
         }
-        Command::Bench { pipeline, quick, out, width, height, seed } => {
+        Command::Bench { pipeline, quick, out, width, height, seed, reference_spp } => {
             let opts = wedge::bench::BenchOptions {
                 quick,
                 width,
                 height,
                 seed,
+                reference_spp,
                 verbose: true,
                 ..wedge::bench::BenchOptions::new(pipeline, out)
             };
