@@ -127,6 +127,8 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
         }
         node = stack[sp];
     }
+    // Unreachable unless the driver cut the loop short (the loop only exits by `return`).
+    atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u);
     return best;
 }
 

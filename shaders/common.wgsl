@@ -4,7 +4,8 @@
 //   group(0) binding(0)  frame: Frame          (uniform, filled by the backend)
 //   group(0) binding(1)  params: Params        (uniform, declared by the kernel; packed by
 //                                                `WgslSource::uniforms` as 4-byte words in order)
-//   group(0) binding(2)  counters              (atomic u32: primary, shadow, secondary, non-finite)
+//   group(0) binding(2)  counters              (atomic u32: primary, shadow, secondary, non-finite,
+//                                                loops cut short by the driver; 8 slots)
 //   group(1) binding(k)  the k-th buffer of `Kernel::bindings()`, in declaration order:
 //                        f32 → array<f32>, vec2 → array<vec2<f32>>, vec4 → array<vec4<f32>>,
 //                        u32 → array<u32>, vec3 → array<f32> PACKED (3 floats per pixel, no padding:
@@ -41,12 +42,16 @@ struct Frame {
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>, 4>;
+@group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>, 8>;
 
 const COUNTER_PRIMARY: u32 = 0u;
 const COUNTER_SHADOW: u32 = 1u;
 const COUNTER_SECONDARY: u32 = 2u;
 const COUNTER_NON_FINITE: u32 = 3u;
+// A loop that ended without reaching its exit: some drivers stop a shader loop after a fixed number
+// of iterations (lavapipe: 65,535), which would otherwise lose work silently. Code after a loop that
+// only exits by `return`/`break` counts it here; the backend reports the total.
+const COUNTER_CUT_LOOPS: u32 = 4u;
 
 fn is_bound(k: u32) -> bool {
     return (frame.bound & (1u << k)) != 0u;

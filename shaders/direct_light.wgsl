@@ -136,7 +136,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (use_centre) {
             factor = light_centre_factor(l, x, n);
         }
-        for (var s = 0u; s < extra; s = s + 1u) {
+        var s = 0u;
+        for (; s < extra; s = s + 1u) {
             var u: vec2<f32>;
             if (params.stratified != 0u) {
                 u = rng_stratified2(key, s, extra, DIM_LIGHT);
@@ -155,6 +156,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             } else {
                 bad = bad + 1u;
             }
+        }
+        if (s < extra) {
+            atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
         }
     }
     let per_light = f32(valid) / f32(max(n_lights, 1u));

@@ -255,7 +255,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let key_d = rng_key(frame.seed, pixel_id(gid), 0x4000u + 2u * params.stream);
         var sum = vec3<f32>(0.0);
         var valid = 0u;
-        for (var s = 0u; s < extra_d; s = s + 1u) {
+        var s = 0u;
+        for (; s < extra_d; s = s + 1u) {
             let u = sample_2d(key_d, s, extra_d);
             let wi = sample_diffuse(n, u);
             let r = trace_path(x, n, wi, key_d, s);
@@ -266,6 +267,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             } else {
                 bad = bad + 1u;
             }
+        }
+        if (s < extra_d) {
+            atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
         }
         out_d = continue_mean(pd, sum, valid);
         // Glossy component.
@@ -279,12 +283,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let key_g = rng_key(frame.seed, pixel_id(gid), 0x4001u + 2u * params.stream);
             var gsum = vec3<f32>(0.0);
             var gvalid = 0u;
-            for (var s = 0u; s < extra_g; s = s + 1u) {
-                let u = sample_2d(key_g, s, extra_g);
+            var sg = 0u;
+            for (; sg < extra_g; sg = sg + 1u) {
+                let u = sample_2d(key_g, sg, extra_g);
                 let gs = sample_glossy(params.lobe, m, n, wo, u);
                 var v = vec3<f32>(0.0);
                 if (gs.weight > 0.0) {
-                    let r = trace_path(x, n, gs.wi, key_g, s);
+                    let r = trace_path(x, n, gs.wi, key_g, sg);
                     record(r);
                     v = r.value * gs.weight;
                 }
@@ -294,6 +299,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 } else {
                     bad = bad + 1u;
                 }
+            }
+            if (sg < extra_g) {
+                atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u);
             }
             out_g = continue_mean(pg, gsum, gvalid);
         }

@@ -70,6 +70,15 @@ pub fn summary(run: &RunResult, width: u32, height: u32) -> String {
     if r.non_finite_samples > 0 {
         let _ = writeln!(s, "warning: {} non-finite samples were excluded", r.non_finite_samples);
     }
+    if r.cut_loops > 0 {
+        let _ = writeln!(
+            s,
+            "warning: the GPU driver stopped {} shader loops before they finished (lavapipe ends a loop after 65,535 \
+             iterations), so some rays and samples are missing from this image; lower mu / bounces / max_rays, or use \
+             --backend cpu",
+            r.cut_loops
+        );
+    }
     let _ = writeln!(s, "{:<32} {:<22} {:>10}", "pass", "kernel", "ms");
     for t in &run.timings {
         let _ = writeln!(s, "{:<32} {:<22} {:>10.2}", t.pass, t.kernel, t.seconds * 1e3);

@@ -8,6 +8,7 @@
 //! - end to end: `render --backend wgpu` vs `--backend cpu` on pipelines/shadows.ron, relMSE ≤ 1e-4,
 //! - the RNG: a tiny WGSL kernel writes `hash4`/`uniform`/`cmj`/`permute` for 65 536 inputs, compared
 //!   with `backends/src/rng.rs` bit for bit,
+//! - loops the driver cuts short (lavapipe's 65,535-iteration limit) are counted, not silent,
 //! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`,
 //! - bands: with the binding limit lowered so every pass is split into bands of rows, every pipeline
 //!   gives the same outputs and ray counts, bit for bit, as one dispatch per pass.
@@ -294,6 +295,35 @@ fn rng_wgsl_is_bit_exact() {
     }
     println!("mismatches of {}: hash4 {hash}, uniform {uniform}, cmj {cmj}, permute {perm}", w * h);
     assert_eq!((hash, uniform, cmj, perm), (0, 0, 0, 0));
+}
+
+/// Loops the driver cuts short are counted, never silent: lavapipe ends a shader loop after 65,535
+/// iterations, which heavy Indirect settings (μ 4, 4 bounces) exceed; the run must report it
+/// (`RayCounts::cut_loops`, printed as a warning by `wedge render`). Default settings stay under it,
+/// and a real GPU cuts nothing.
+#[test]
+fn loops_cut_by_the_driver_are_counted() {
+    let Some(mut gpu) = gpu_or_skip("loops_cut_by_the_driver_are_counted") else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/indirect.ron");
+    let cut = |gpu: &mut GpuBackend, params: Vec<(String, String, wedge::graph::ParamValue)>| {
+        let session = Session::open(Some(&path), &Overrides { params, ..small(16, 12) }).unwrap();
+        session.run(gpu, &Silent).unwrap().rays.cut_loops
+    };
+    let default = cut(&mut gpu, vec![]);
+    let heavy = cut(
+        &mut gpu,
+        vec![
+            ("indirect".into(), "mu".into(), wedge::graph::ParamValue::Float(4.0)),
+            ("indirect".into(), "bounces".into(), wedge::graph::ParamValue::Int(4)),
+        ],
+    );
+    println!("cut loops: default settings {default}, mu 4 with 4 bounces {heavy} ({})", gpu.adapter_description());
+    assert_eq!(default, 0);
+    if gpu.is_software() {
+        assert!(heavy > 0, "lavapipe's loop limit should have been hit and counted");
+    } else {
+        assert_eq!(heavy, 0);
+    }
 }
 
 /// A kernel that does not declare how far it reads (the RNG probe keeps the default `Reach::Image`)

@@ -207,6 +207,7 @@ impl Counters {
             shadow_rays: self.shadow_rays.load(Ordering::Relaxed),
             secondary_rays: self.secondary_rays.load(Ordering::Relaxed),
             non_finite_samples: self.non_finite_samples.load(Ordering::Relaxed),
+            cut_loops: 0,
         }
     }
 }
@@ -217,6 +218,10 @@ pub struct RayCounts {
     pub shadow_rays: u64,
     pub secondary_rays: u64,
     pub non_finite_samples: u64,
+    /// GPU only: shader loops the driver stopped before they finished (lavapipe ends a loop after
+    /// 65,535 iterations): traversals that report a miss and sample loops that took fewer samples.
+    /// Non-zero means the image lacks work; the CPU backend never cuts a loop.
+    pub cut_loops: u64,
 }
 
 impl RayCounts {
@@ -228,6 +233,7 @@ impl RayCounts {
         self.shadow_rays += other.shadow_rays;
         self.secondary_rays += other.secondary_rays;
         self.non_finite_samples += other.non_finite_samples;
+        self.cut_loops += other.cut_loops;
     }
 }
 

@@ -69,6 +69,8 @@ pub struct BufferParity {
 pub struct ParityReport {
     pub rows: Vec<BufferParity>,
     pub adapter: String,
+    /// Passes in which the GPU driver stopped shader loops early ([`crate::RayCounts::cut_loops`]).
+    pub cut_loops: Vec<(String, u64)>,
 }
 
 impl ParityReport {
@@ -106,6 +108,13 @@ impl ParityReport {
             "tolerance per pixel: |gpu-cpu| <= 1e-5*|cpu| + 1e-6 on every component; sampling passes may exceed it on \
              <= 0.1% of pixels (grazing rays); integers exact except off-by-one at rounding boundaries (<= 0.1%)"
         );
+        for (pass, n) in &self.cut_loops {
+            let _ = writeln!(
+                s,
+                "note: in `{pass}` the driver stopped {n} shader loops before they finished (lavapipe ends a loop after \
+                 65,535 iterations), so the GPU skipped work there; lighter settings (mu, bounces, max_rays) avoid it"
+            );
+        }
         let _ = writeln!(s, "{}", if self.ok() { "parity: ok" } else { "parity: MISMATCH" });
         s
     }
@@ -165,7 +174,7 @@ pub fn compare(cpu: &BufferData, gpu: &BufferData, tol: Tolerance) -> (f64, f64,
 pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, BackendError> {
     let counters = Counters::default();
     let mut held: BTreeMap<BufferId, BufferData> = BTreeMap::new();
-    let mut report = ParityReport { rows: Vec::new(), adapter: gpu.adapter_description() };
+    let mut report = ParityReport { adapter: gpu.adapter_description(), ..Default::default() };
     for pass in &job.schedule.passes {
         let kernel = job.kernels.get(&pass.kernel).ok_or_else(|| BackendError::UnknownKernel {
             pass: pass.name.clone(),
@@ -176,7 +185,10 @@ pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, B
         let inputs: BTreeMap<BufferId, &BufferData> =
             pass.reads.iter().filter_map(|(_, id)| held.get(id).map(|b| (*id, b))).collect();
         let cpu_out = run_pass(job, pass, &inputs, &counters)?;
-        let (gpu_out, time) = gpu.run_pass(job, pass, &inputs)?;
+        let (gpu_out, time, gpu_rays) = gpu.run_pass(job, pass, &inputs)?;
+        if gpu_rays.cut_loops > 0 {
+            report.cut_loops.push((pass.name.clone(), gpu_rays.cut_loops));
+        }
         let tol = Tolerance::for_class(class);
         for (binding, cpu_buf) in &cpu_out {
             let gpu_buf = gpu_out.get(binding).ok_or_else(|| BackendError::Binding {

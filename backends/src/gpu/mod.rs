@@ -44,6 +44,8 @@ pub const INSTALL_HINT: &str = "no GPU adapter was found. Without a GPU, install
 Fedora), or run with `--backend cpu`";
 
 const WORKGROUP: u32 = 8;
+/// Bytes of one counter block: `array<atomic<u32>, 8>` in shaders/common.wgsl.
+const COUNTER_BLOCK: u64 = 32;
 
 fn gpu_err(msg: impl Into<String>) -> BackendError {
     BackendError::Gpu(msg.into())
@@ -477,8 +479,9 @@ impl GpuBackend {
                 None => self.dummy(k)?,
             });
         }
-        // One 16-byte counter block per band, each at an aligned offset; summed in 64 bits after.
-        let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(16);
+        // One counter block (8 × u32, see shaders/common.wgsl) per band, each at an aligned offset;
+        // summed in 64 bits after.
+        let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
         let counters = self.storage("counters", stride * bands.len() as u64)?;
         let start = Instant::now();
         self.scoped(&what, || {
@@ -533,7 +536,7 @@ impl GpuBackend {
                                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                     buffer: &counters,
                                     offset: n as u64 * stride,
-                                    size: wgpu::BufferSize::new(16),
+                                    size: wgpu::BufferSize::new(COUNTER_BLOCK),
                                 }),
                             },
                         ],
@@ -606,23 +609,29 @@ impl GpuBackend {
         Ok(scene)
     }
 
-    /// Sum the per-band counter blocks of one pass (each 4 × u32) in 64 bits.
+    /// Sum the per-band counter blocks of one pass in 64 bits.
     fn read_counters(&self, buf: &wgpu::Buffer, bands: usize, stride: u64) -> Result<RayCounts, BackendError> {
         let b = self.read_bytes("reading counters", buf, stride * bands as u64)?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&b);
         let words = (stride / 4) as usize;
         let sum = |k: usize| (0..bands).map(|n| c[n * words + k] as u64).sum::<u64>();
-        Ok(RayCounts { primary_rays: sum(0), shadow_rays: sum(1), secondary_rays: sum(2), non_finite_samples: sum(3) })
+        Ok(RayCounts {
+            primary_rays: sum(0),
+            shadow_rays: sum(1),
+            secondary_rays: sum(2),
+            non_finite_samples: sum(3),
+            cut_loops: sum(4),
+        })
     }
 
-    /// Run one pass alone: upload `inputs`, dispatch, read every output back (by binding name).
-    /// The parity harness feeds it the CPU backend's inputs.
+    /// Run one pass alone: upload `inputs`, dispatch, read every output back (by binding name),
+    /// with the pass's time and counters. The parity harness feeds it the CPU backend's inputs.
     pub fn run_pass(
         &mut self,
         job: &Job<'_>,
         pass: &Pass,
         inputs: &BTreeMap<BufferId, &BufferData>,
-    ) -> Result<(BTreeMap<String, BufferData>, DispatchTime), BackendError> {
+    ) -> Result<(BTreeMap<String, BufferData>, DispatchTime, RayCounts), BackendError> {
         if self.kernels_ready(job, &[pass])? {
             self.scene_buffers(job.scene)?;
         }
@@ -661,13 +670,13 @@ impl GpuBackend {
             };
             bufs.push(buf);
         }
-        let (time, _, _) = self.dispatch(job, pass, &bufs)?;
+        let (time, rays, _) = self.dispatch(job, pass, &bufs)?;
         let mut out = BTreeMap::new();
         for (name, format, buf) in outs {
             let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, pixels)?;
             out.insert(name, data);
         }
-        Ok((out, time))
+        Ok((out, time, rays))
     }
 }
 
