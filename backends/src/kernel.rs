@@ -155,7 +155,7 @@ impl Uniforms {
     }
     /// Pad with zero words up to a multiple of four (a 16-byte boundary).
     pub fn align16(mut self) -> Self {
-        while self.0.len() % 4 != 0 {
+        while !self.0.len().is_multiple_of(4) {
             self.0.push(0);
         }
         self

@@ -83,8 +83,8 @@ impl ParityReport {
         let _ = writeln!(s, "adapter: {}", self.adapter);
         let _ = writeln!(
             s,
-            "{:<30} {:<18} {:<15} {:>10} {:>10} {:>7} {:>6} {:>9} {:>9}  {}",
-            "pass", "kernel", "output", "max abs", "max rel", "over", "bound", "allowed", "gpu ms", "result"
+            "{:<30} {:<18} {:<15} {:>10} {:>10} {:>7} {:>6} {:>9} {:>9}  result",
+            "pass", "kernel", "output", "max abs", "max rel", "over", "bound", "allowed", "gpu ms"
         );
         for r in &self.rows {
             let allowed = (r.tolerance.max_share * r.pixels as f64).floor() as usize;

@@ -300,7 +300,7 @@ fn settings(ctx: &KernelCtx<'_>, with_rates: bool) -> Result<(Settings, Option<b
 fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<Receiver> {
     let s = spec?[i];
     let m = s[3];
-    (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then(|| if blinn { Receiver::BlinnPhong(m) } else { Receiver::Phong(m) })
+    (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then_some(if blinn { Receiver::BlinnPhong(m) } else { Receiver::Phong(m) })
 }
 
 fn bad_brdf(ctx: &KernelCtx<'_>) -> BackendError {

@@ -177,7 +177,7 @@ impl GpuBackend {
     /// allows), so passes over it run as bands of rows. For tests and users checking the band path
     /// at small sizes; the scene is still bound whole under the device's own limit.
     pub fn set_binding_limit(&mut self, bytes: u64) {
-        self.max_binding = bytes.min(self.limits.max_storage_buffer_binding_size as u64).max(16);
+        self.max_binding = bytes.min(self.limits.max_storage_buffer_binding_size).max(16);
     }
 
     /// Errors wgpu reported asynchronously (uncaptured or device lost) since the last check.
@@ -245,7 +245,7 @@ impl GpuBackend {
     fn storage_init(&self, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, BackendError> {
         self.check_buffer_size(label, bytes.len() as u64)?;
         let mut data = bytes.to_vec();
-        while data.len() < 16 || data.len() % 4 != 0 {
+        while data.len() < 16 || !data.len().is_multiple_of(4) {
             data.push(0);
         }
         self.scoped(&format!("uploading `{label}`"), || {
@@ -305,7 +305,7 @@ impl GpuBackend {
         let mut buffers = Vec::new();
         for (name, bytes) in scene::SCENE_ARRAYS.iter().zip(&arrays) {
             // Scene arrays are bound whole (a ray may touch any node or triangle).
-            let max_binding = self.limits.max_storage_buffer_binding_size as u64;
+            let max_binding = self.limits.max_storage_buffer_binding_size;
             if bytes.len() as u64 > max_binding {
                 return Err(gpu_err(format!(
                     "scene `{}` array {name} needs {} bytes, over this device's max_storage_buffer_binding_size ({} bytes, \

@@ -117,8 +117,10 @@ pub fn next_event(
 }
 
 /// Trace one path leaving `x` (normal `n`) in direction `wi`. Returns the incident indirect radiance
-/// along `wi` (AO: 1 or 0) and the distance to the first hit, if any.
+/// along `wi` (AO: 1 or 0) and the distance to the first hit, if any. (The WGSL `trace_path` takes
+/// the same point, direction, RNG key and sample; scene, settings and counters are globals there.)
 #[inline]
+#[allow(clippy::too_many_arguments)]
 pub fn trace_path(
     scene: &Scene,
     p: &PathParams,
