@@ -47,8 +47,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (nx < 0 || ny < 0 || nx >= w || ny >= h) {
                 continue;
             }
-            let u = value[index_at(nx, ny)];
-            if (u.w > 0.0) {
+            let j = index_at(nx, ny);
+            let u = value[j];
+            if (u.w > 0.0 && position[j].w == position[i].w) {
                 sum = sum + u.xyz;
                 n = n + 1u;
             }

@@ -1,7 +1,9 @@
 //! `neighbourhood.fill`: give pixels with no statistic of their own the average of their
 //! neighbours' within a radius (thesis Sec. 3.6: unoccluded pixels take the averages of `d1`, `d2`
-//! within a 5-pixel radius). Input `value.w > 0` marks a pixel that has its own statistic; output
-//! `w` is 1 for own, 2 for filled from neighbours, 0 for neither (such pixels are not filtered).
+//! within a 5-pixel radius). Only neighbours on the same object (position `w`) count, as in the
+//! filter: otherwise a bar's edge takes the ground's occluder distances. Input `value.w > 0` marks a
+//! pixel that has its own statistic; output `w` is 1 for own, 2 for filled from neighbours, 0 for
+//! neither (such pixels are not filtered).
 
 use wedge_graph::Format;
 
@@ -55,8 +57,10 @@ impl Kernel for FillInvalid {
                     if nx < 0 || ny < 0 || nx >= w || ny >= h {
                         continue;
                     }
-                    let u = value[(ny * w + nx) as usize];
-                    if u[3] > 0.0 {
+                    let j = (ny * w + nx) as usize;
+                    let u = value[j];
+                    // Same object only, as the filter (a bar must not take the ground's d1, d2).
+                    if u[3] > 0.0 && position[j][3] == position[i][3] {
                         for c in 0..3 {
                             sum[c] += u[c];
                         }
