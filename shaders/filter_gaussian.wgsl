@@ -38,7 +38,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let y = xy.y;
     let beta = bandwidth[i];
     let centre = value[i];
-    if (beta <= 0.0 || position[i].w == 0.0 || is_nan(beta)) {
+    if (beta <= 0.0 || position[i].w == 0.0 || !is_finite(beta)) {
         out[i] = centre;
         return;
     }
@@ -50,10 +50,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let xi = position[i].xyz;
     let ni = normal[i].xyz;
-    var inv = 0.0;
-    if (is_finite(beta)) {
-        inv = -0.5 / (beta * beta);
-    }
+    let inv = -0.5 / (beta * beta);
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
     for (var k = -radius; k <= radius; k = k + 1) {

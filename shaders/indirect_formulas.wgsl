@@ -133,12 +133,13 @@ struct ComponentRate {
 
 // indirect::component: β and n of one component from its first-pass statistics.
 fn indirect_component(r: Receiver, dp: vec4<f32>, d: f32, s: IndirectSettings) -> ComponentRate {
+    // No reflector found: the farthest one can be, the scene's size (see effects/src/indirect.rs).
+    var z = dp.xy;
     if (dp.z <= 0.0) {
-        // No reflector: z_min = ∞, Ω_x^r = 0, β = ∞ (the widest window; see effects/src/indirect.rs).
-        return ComponentRate(inf(), s.initial);
+        z = vec2<f32>(s.extent, s.extent);
     }
-    let z_min = indirect_clamp_z_min(dp.x, s.extent, s.z_fraction);
-    let z_max = rmax(dp.y, z_min);
+    let z_min = indirect_clamp_z_min(z.x, s.extent, s.z_fraction);
+    let z_max = rmax(z.y, z_min);
     let omega_h = indirect_transfer_bandlimit(r);
     let beta = indirect_filter_beta(indirect_filter_bandwidth(omega_h, z_min, rmax(d, 1e-12), s.mu, s.alpha));
     let n = indirect_samples_per_pixel(indirect_gamma(r), omega_h, d, z_min, z_max, s.mu, s.alpha);

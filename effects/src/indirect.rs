@@ -18,11 +18,12 @@
 //! - `z_min` is clamped to at least `z_min_fraction` (2%) of the scene's largest dimension; `z_max` is
 //!   kept ≥ the clamped `z_min`.
 //! - **No reflector found**: a pixel whose first-pass rays all miss (AO: nothing within
-//!   `max_distance`) has `z_min = ∞`, so eq. 4.15 gives `Ω_x^r = 0` — its incident indirect light has
-//!   no spatial bandwidth — and `β = ∞`: the filter's widest window (`max_radius`, flat weights).
-//!   Eq. 4.21 gives `γ α² Ω_h² (1 + μ)²` (taking `z_max/z_min = 1`) ≈ 1, so it keeps the initial count.
-//!   Leaving such pixels unfiltered instead keeps exactly the pixels whose 16 rays happened to miss at
-//!   0, a selection bias: on the open `curved` AO scene the image mean was 27% low.
+//!   `max_distance`) takes `z_min = z_max =` the scene's largest dimension, the farthest any reflector
+//!   can be: eqs. 4.15–4.21 then give a wide filter (usually the whole `max_radius` window) and about
+//!   the initial count, and β still shrinks as `1/μ`, so μ → ∞ stays plain Monte Carlo. Leaving such
+//!   pixels unfiltered instead keeps exactly the pixels whose 16 rays happened to miss at 0, a
+//!   selection bias: on the open `curved` AO scene the image mean was 27% low. (`z_min = ∞`, i.e.
+//!   `β = ∞`, removes that bias too but never converges as μ grows.)
 //! - Rates are clamped to `[initial_rays, max_rays · max(μ, 1)]` (thesis: 16 and 100μ).
 
 use std::f32::consts::FRAC_PI_2;
@@ -116,13 +117,10 @@ pub struct Settings {
 
 /// β and n for one component at one pixel from its first-pass statistics `depth` (z_min, z_max,
 /// hits, traced) and footprint `d`.
-/// Pixels whose first-pass rays all missed have `z_min = ∞`: `β = ∞` (the widest filter window,
-/// eq. 4.15 with `Ω_x^r = 0`) and the initial count (see the module docs).
+/// Pixels whose first-pass rays all missed take `z_min = z_max = extent`, the farthest a reflector
+/// can be (see the module docs).
 pub fn component(r: Receiver, depth: [f32; 4], d: f32, s: &Settings) -> ComponentRate {
-    if depth[2] <= 0.0 {
-        return ComponentRate { beta: f32::INFINITY, rays: s.initial };
-    }
-    let (z_min, z_max) = (depth[0], depth[1]);
+    let (z_min, z_max) = if depth[2] > 0.0 { (depth[0], depth[1]) } else { (s.extent, s.extent) };
     let z_min = clamp_z_min(z_min, s.extent, s.z_fraction);
     let z_max = z_max.max(z_min);
     let omega_h = transfer_bandlimit(r);
@@ -152,7 +150,7 @@ impl NodeKind for Indirect {
         vec![
             PortDecl::new("radiance", Format::Vec3, "filtered indirect light (k_d diffuse + k_s glossy); AO mode: the filtered unoccluded fraction"),
             PortDecl::new("unfiltered", Format::Vec3, "the adaptive-sampled estimate before filtering"),
-            PortDecl::new("filter_width", Format::F32, "diffuse filter std-dev β in pixels (0 = not filtered, ∞ = no reflector: widest window)"),
+            PortDecl::new("filter_width", Format::F32, "diffuse filter std-dev β in pixels (0 = not filtered)"),
             PortDecl::new("rays_per_pixel", Format::U32, "hemisphere samples (paths) per pixel, both components and passes (eq. 4.21)"),
         ]
     }
@@ -527,9 +525,13 @@ mod tests {
         // z_min = 0.01 clamps to 0.1: Ω = 0.9·min(28, 30) = 25.2 → β = 0.079365.
         let c = component(Receiver::Diffuse, [0.01, 0.5, 16.0, 16.0], 0.01, &s);
         assert!(close(c.beta, 2.0 / 25.2, 1e-5), "{}", c.beta);
-        // No hits: z_min = ∞ → Ω_x^r = 0 → β = ∞ (widest window), initial count.
+        // No hits: z_min = z_max = extent = 5: Ω = 0.9·min(0.56, 30) = 0.504 → β = 3.968;
+        // n = 0.4·(0.9·2.8·0.01/5 + 0.3)²·7.84·1.9² = 1.037 → the initial 16.
         let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.01, &s);
-        assert_eq!(c.beta, f32::INFINITY);
+        assert!(close(c.beta, 2.0 / 0.504, 1e-5), "{}", c.beta);
         assert_eq!(c.rays, 16);
+        // ... and still a one-pixel filter as μ → ∞ (consistency): β = 2/(1e6·0.56) ≪ d.
+        let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.01, &Settings { mu: 1e6, ..s });
+        assert!(c.beta < 0.01 / 100.0, "{}", c.beta);
     }
 }

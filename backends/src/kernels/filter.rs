@@ -2,8 +2,8 @@
 //! axis-aligned filter uses (thesis eqs. 3.10–3.12, Sec. 3.6; the same shape serves Ch. 4's indirect
 //! filter with the full 3-D distance).
 //!
-//! For pixel `i` with bandwidth `β_i` (metres; `0` = not filtered, the value passes through; `+∞` =
-//! a signal without bandwidth, the whole `max_radius` window with equal weights), the
+//! For pixel `i` with bandwidth `β_i` (metres; `0` or non-finite = not filtered, the value passes
+//! through), the
 //! neighbours `j` along the axis within `ceil(3 β_i / d_i)` pixels (capped by `max_radius`) are
 //! weighted by `exp(−‖x_i − x_j‖² / (2 β_i²))`, where the distance drops its component along
 //! the normal of light `plane_light` when one is given (eq. 3.12: distance in the plane parallel to the light).
@@ -57,15 +57,14 @@ pub fn filter_pixel(
     let i = (y * width + x) as usize;
     let beta = bandwidth[i];
     let centre = value[i];
-    // β = 0: not filtered; β = ∞: no bandwidth, the widest window with flat weights; NaN: never spread.
-    if beta <= 0.0 || position[i][3] == 0.0 || beta.is_nan() {
+    if beta <= 0.0 || position[i][3] == 0.0 || !beta.is_finite() {
         return centre;
     }
     let d = normal[i][3].max(1e-12);
     let radius = ((3.0 * beta / d).ceil() as i64).clamp(0, p.max_radius as i64) as i32;
     let xi = v3(position[i]);
     let ni = v3(normal[i]);
-    let inv = if beta.is_finite() { -0.5 / (beta * beta) } else { 0.0 };
+    let inv = -0.5 / (beta * beta);
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
     for k in -radius..=radius {
