@@ -9,6 +9,10 @@
 //!   surface or the light are skipped like the kernel skips them;
 //! - shadow closest: the same rays through `Scene::intersect` (the first pass needs occluder distances).
 //!
+//! - paths: the `indirect.sample` kernel itself (what `Indirect` and `MonteCarlo` run) on `cornell`
+//!   with 1, 2 and 3 bounces: hemisphere/bounce rays plus next-event shadow rays per second, and
+//!   paths per second (kernel time from the run's pass timings).
+//!
 //! Shadow rays are generated once up front so only traversal is timed. Each row also prints a
 //! checksum (hit count and a hash of the hit triangles' input indices) so runs before and after a
 //! traversal change can be compared for identical results.
@@ -21,6 +25,8 @@ use std::time::{Duration, Instant};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use wedge::backends::rng::PixelRng;
+use wedge::backends::cpu::CpuBackend;
+use wedge::backends::Silent;
 use wedge::scene::{Scene, SceneSource};
 
 const W: u32 = 640;
@@ -145,6 +151,41 @@ fn measure(pool: &rayon::ThreadPool, scene: &Scene, rays: &[Ray], mode: Mode, mi
     })
 }
 
+/// The bench's path pipeline on `cornell`: indirect light only, `spp` paths per pixel and component.
+fn path_session(bounces: u32, size: (u32, u32), spp: u32) -> wedge::Session {
+    let text = format!(
+        r#"Pipeline(scene: "builtin:cornell", width: {}, height: {}, seed: 1, nodes: [
+    (name: "primary", kind: "Primary"),
+    (name: "mc", kind: "MonteCarlo", params: {{"spp": {spp}, "bounces": {bounces}, "direct": false, "light": -1}},
+     inputs: {{"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo",
+               "specular": "primary.specular"}}),
+    (name: "out", kind: "Output", inputs: {{"color": "mc.radiance"}}),
+])"#,
+        size.0, size.1
+    );
+    let loaded = wedge::graph::parse_pipeline(std::path::Path::new("paths.ron"), &text).expect("bench pipeline parses");
+    let (nodes, kernels) = wedge::effects::builtin();
+    wedge::Session::build(loaded, &Default::default(), nodes, kernels).expect("bench session")
+}
+
+/// Multi-bounce path throughput of the `indirect.sample` kernel: (Mrays/s, Mpaths/s, rays per path).
+fn paths(threads: usize, bounces: u32, size: (u32, u32), spp: u32, min: Duration) -> (f64, f64, f64) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let run = |s: &wedge::Session| pool.install(|| s.run(&mut CpuBackend::new(), &Silent)).expect("bench run");
+    // With one bounce every bounce ray starts a path: that run's count is the paths per run.
+    let paths_per_run = run(&path_session(1, size, spp)).rays.secondary_rays;
+    let session = path_session(bounces, size, spp);
+    let (mut rays, mut runs, mut secs) = (0u64, 0u64, 0f64);
+    while runs == 0 || secs < min.as_secs_f64() {
+        let r = run(&session);
+        secs += r.timings.iter().filter(|t| t.kernel == "indirect.sample").map(|t| t.seconds).sum::<f64>();
+        rays += r.rays.secondary_rays + r.rays.shadow_rays;
+        runs += 1;
+    }
+    let paths = (paths_per_run * runs).max(1) as f64;
+    (rays as f64 / secs / 1e6, paths / secs / 1e6, rays as f64 / paths)
+}
+
 fn main() {
     // `cargo bench` passes `--bench`; accept and ignore libtest-style arguments.
     // `cargo test --all-targets` runs this binary without `--bench`: then only a quick smoke run
@@ -204,6 +245,14 @@ fn main() {
             rows.push((name.clone(), threads, primary.len(), shadow.len(), p, s, c));
         }
     }
+    // Multi-bounce paths (Indirect's sampler) on `cornell`.
+    let (size, spp) = if smoke { ((32, 24), 1) } else { ((320, 240), 16) };
+    let mut path_rows = Vec::new();
+    for bounces in [1u32, 2, 3] {
+        for threads in [1usize, 2] {
+            path_rows.push((bounces, threads, paths(threads, bounces, size, spp, min)));
+        }
+    }
     println!();
     println!("| scene | threads | primary Mrays/s | shadow (any-hit) Mrays/s | shadow (closest) Mrays/s | rays (primary / shadow) | passes | checksum |");
     println!("|---|---:|---:|---:|---:|---:|---:|---|");
@@ -212,5 +261,12 @@ fn main() {
             "| {name} | {threads} | {:.2} | {:.2} | {:.2} | {np} / {ns} | {}/{}/{} | p {}:{:x} s {} c {}:{:x} |",
             p.mrays, s.mrays, c.mrays, p.passes, s.passes, c.passes, p.check.0, p.check.1, s.check.0, c.check.0, c.check.1
         );
+    }
+    println!();
+    println!("Paths on `cornell` ({}×{}, {spp} paths per pixel and component; `indirect.sample`, next-event estimation at every vertex):\n", size.0, size.1);
+    println!("| bounces | threads | Mrays/s (bounce + shadow) | rays per path | Mpaths/s |");
+    println!("|---:|---:|---:|---:|---:|");
+    for (bounces, threads, (mrays, mpaths, per)) in path_rows {
+        println!("| {bounces} | {threads} | {mrays:.2} | {per:.2} | {mpaths:.3} |");
     }
 }
