@@ -17,8 +17,11 @@
 //! - **Scene**: uploaded once per distinct scene ([`scene`]); kernels that declare `scene` see it in
 //!   bind group 2.
 //! - **Errors**: no adapter, WGSL/naga validation, out of memory, a device loss, a buffer over the
-//!   device's binding limit, a kernel without WGSL — all become [`BackendError::Gpu`] with what to do;
-//!   nothing panics (wgpu's default panicking error handler is replaced).
+//!   device's `max_buffer_size`, a scene array over its binding limit, a pass too large for the
+//!   limit that cannot be split (a kernel reading the whole image, or a band too narrow for its
+//!   reach), a kernel without WGSL — all become [`BackendError::Gpu`] with what to do; nothing panics
+//!   (wgpu's default panicking error handler is replaced). Shader loops the driver cuts short are
+//!   counted (`RayCounts::cut_loops`), not silent.
 
 pub mod bands;
 pub mod scene;
@@ -35,8 +38,8 @@ use wedge_graph::{BufferId, Format, Pass};
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
 use crate::kernel::{Access, Counters, Kernel, KernelCtx};
-use bands::{BindLimits, Band};
 use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
+use bands::{Band, BindLimits};
 
 /// What to tell a user when there is no adapter at all.
 pub const INSTALL_HINT: &str = "no GPU adapter was found. Without a GPU, install Mesa's software Vulkan driver \
