@@ -5,7 +5,7 @@
 //! where a missing adapter is a failure (CI must exercise the GPU path).
 //!
 //! - every pass of every pipeline in `pipelines/` at 64×48 (`run_parity`'s tolerances),
-//! - end to end: `render --backend wgpu` vs `--backend cpu` on pipelines/shadows.ron, relMSE ≤ 1e-4,
+//! - end to end: `render --backend wgpu` vs `--backend cpu` on every pipeline, relMSE ≤ 1e-4,
 //! - the RNG: a tiny WGSL kernel writes `hash4`/`uniform`/`cmj`/`permute` for 65 536 inputs, compared
 //!   with `backends/src/rng.rs` bit for bit,
 //! - loops the driver cuts short (lavapipe's 65,535-iteration limit) are counted, not silent,
@@ -139,20 +139,23 @@ fn rel_mse(test: &BufferData, reference: &BufferData) -> f64 {
 #[test]
 fn end_to_end_render_matches_cpu() {
     let Some(mut gpu) = gpu_or_skip("end_to_end_render_matches_cpu") else { return };
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
-    let session = Session::open(Some(&path), &small(80, 60)).unwrap();
-    let cpu = session.run(&mut CpuBackend::new(), &Silent).unwrap();
-    let wgpu = session.run(&mut gpu, &Silent).unwrap();
-    assert_eq!(cpu.outputs.len(), wgpu.outputs.len());
-    for (key, reference) in &cpu.outputs {
-        let test = &wgpu.outputs[key];
-        let e = rel_mse(test, reference);
-        println!("{key:?}: relMSE {e:.3e}");
-        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
-    }
-    assert_eq!(cpu.rays, wgpu.rays, "ray counters differ");
-    for t in &wgpu.timings {
-        println!("{:<30} {:<20} {:>9.3} ms", t.pass, t.kernel, t.seconds * 1e3);
+    // shadows.ron at 80×60 (the check), every other pipeline at 48×36.
+    for path in pipelines() {
+        let size = if path.ends_with("shadows.ron") { small(80, 60) } else { small(48, 36) };
+        let session = Session::open(Some(&path), &size).unwrap();
+        let cpu = session.run(&mut CpuBackend::new(), &Silent).unwrap();
+        let wgpu = session.run(&mut gpu, &Silent).unwrap();
+        assert_eq!(cpu.outputs.len(), wgpu.outputs.len());
+        for (key, reference) in &cpu.outputs {
+            let test = &wgpu.outputs[key];
+            let e = rel_mse(test, reference);
+            println!("{}: {key:?}: relMSE {e:.3e}", path.display());
+            assert!(e <= 1e-4, "{}: {key:?}: relMSE {e} > 1e-4", path.display());
+        }
+        assert_eq!(cpu.rays, wgpu.rays, "{}: ray counters differ", path.display());
+        for t in &wgpu.timings {
+            println!("{:<30} {:<20} {:>9.3} ms", t.pass, t.kernel, t.seconds * 1e3);
+        }
     }
 }
 
