@@ -37,8 +37,8 @@ struct Frame {
     row0: u32,        // first row of this dispatch's band
     row_end: u32,     // one past its last row
     first: u32,       // the pixel (y * width + x) at element 0 of every bound per-pixel buffer
-    _p0: u32,
-    _p1: u32,
+    chunk_begin: u32, // sampling kernels that resume (WgslSource::chunked): this dispatch takes the
+    chunk_end: u32,   // pass's sample indices [chunk_begin, chunk_end); unchunked: [0, 2^32 - 1)
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -52,6 +52,24 @@ const COUNTER_NON_FINITE: u32 = 3u;
 // of iterations (lavapipe: 65,535), which would otherwise lose work silently. Code after a loop that
 // only exits by `return`/`break` counts it here; the backend reports the total.
 const COUNTER_CUT_LOOPS: u32 = 4u;
+// Pixels with samples left beyond frame.chunk_end: the backend dispatches the next chunk while > 0.
+const COUNTER_REMAINING: u32 = 5u;
+
+// Chunked sampling kernels: whether this dispatch continues the pass, and the end of its sample
+// range [chunk_begin, min(count, chunk_end)). Between chunks a pixel that is not finished keeps
+// its raw running sum and sample count in its output, so the final mean is computed once, from
+// the same sum in the same order as one dispatch would: the result does not depend on chunking.
+fn chunk_resumes() -> bool {
+    return frame.chunk_begin > 0u;
+}
+
+fn chunk_end_of(count: u32) -> u32 {
+    if (count > frame.chunk_end) {
+        atomicAdd(&counters[COUNTER_REMAINING], 1u);
+        return frame.chunk_end;
+    }
+    return count;
+}
 
 fn is_bound(k: u32) -> bool {
     return (frame.bound & (1u << k)) != 0u;

@@ -96,7 +96,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (is_bound(3u)) {
         prev = previous[i];
     }
+    let resume = chunk_resumes();
     if (position[i].w == 0.0) {
+        if (resume) {
+            return;
+        }
         estimate[i] = prev;
         if (want_stats) {
             occlusion[i] = vec4<f32>(0.0);
@@ -111,6 +115,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let done = u32(prev.w);
     let extra = select(0u, target_count - done, target_count > done);
+    // This dispatch's samples (all of them unless the backend chunks the pass) and, when it
+    // continues earlier chunks, their raw sum, count and occluder statistics (common.wgsl).
+    let s_begin = frame.chunk_begin;
+    let s_end = chunk_end_of(extra);
     var sum = vec3<f32>(0.0);
     var valid = 0u;
     var bad = 0u;
@@ -118,6 +126,23 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var d2_min = inf();
     var d2_max = 0.0;
     var occluded = 0u;
+    if (resume) {
+        if (s_end <= s_begin) {
+            return; // finished in an earlier chunk
+        }
+        let partial = estimate[i];
+        sum = partial.xyz;
+        valid = u32(partial.w);
+        if (want_stats) {
+            let o = occlusion[i];
+            d1 = o.x;
+            occluded = u32(o.w);
+            if (occluded > 0u) {
+                d2_min = o.y;
+            }
+            d2_max = o.z;
+        }
+    }
     var first = 0u;
     var end = params.light_count;
     if (params.light >= 0) {
@@ -136,8 +161,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (use_centre) {
             factor = light_centre_factor(l, x, n);
         }
-        var s = 0u;
-        for (; s < extra; s = s + 1u) {
+        var s = s_begin;
+        for (; s < s_end; s = s + 1u) {
             var u: vec2<f32>;
             if (params.stratified != 0u) {
                 u = rng_stratified2(key, s, extra, DIM_LIGHT);
@@ -157,24 +182,28 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 bad = bad + 1u;
             }
         }
-        if (s < extra) {
+        if (s < s_end) {
             atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
         }
     }
-    let per_light = f32(valid) / f32(max(n_lights, 1u));
-    let total = prev.w + per_light;
-    var mean = vec3<f32>(0.0);
-    if (total > 0.0) {
-        mean = (prev.xyz * prev.w + sum) / total;
+    if (s_end < extra) {
+        estimate[i] = vec4<f32>(sum, f32(valid)); // unfinished: raw sum for the next chunk
+    } else {
+        let per_light = f32(valid) / f32(max(n_lights, 1u));
+        let total = prev.w + per_light;
+        var mean = vec3<f32>(0.0);
+        if (total > 0.0) {
+            mean = (prev.xyz * prev.w + sum) / total;
+        }
+        estimate[i] = vec4<f32>(mean, total);
     }
     if (occluded == 0u) {
         d2_min = 0.0;
     }
-    estimate[i] = vec4<f32>(mean, total);
     if (want_stats) {
         occlusion[i] = vec4<f32>(d1, d2_min, d2_max, f32(occluded));
     }
-    let rays = extra * n_lights;
+    let rays = select(0u, s_end - s_begin, s_end > s_begin) * n_lights;
     if (rays > 0u) {
         atomicAdd(&counters[COUNTER_SHADOW], rays);
     }

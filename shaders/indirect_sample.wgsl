@@ -233,6 +233,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var out_g = pg;
     var out_depth = vec4<f32>(0.0);
     var bad = 0u;
+    // A dispatch that continues earlier chunks of the pass (WgslSource::chunked) starts from the raw
+    // sums, counts and first-hit statistics they left in its outputs (common.wgsl).
+    let resume = chunk_resumes();
+    if (resume) {
+        if (position[i].w == 0.0) {
+            return;
+        }
+        out_d = diffuse[i];
+        if (is_bound(8u)) {
+            out_g = glossy[i];
+        }
+    }
     if (position[i].w != 0.0) {
         let x = position[i].xyz;
         let n = normal[i].xyz;
@@ -245,6 +257,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let is_glossy = want_glossy && m > 0.0 && max_element3(ks) > 0.0;
         z_min = inf();
+        if (resume && is_bound(9u)) {
+            let dp = depth[i];
+            hits = u32(dp.z);
+            traced = u32(dp.w);
+            if (hits > 0u) {
+                z_min = dp.x;
+            }
+            z_max = dp.y;
+        }
         // Diffuse component.
         var target_d = params.count;
         if (is_bound(3u)) {
@@ -255,8 +276,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let key_d = rng_key(frame.seed, pixel_id(gid), 0x4000u + 2u * params.stream);
         var sum = vec3<f32>(0.0);
         var valid = 0u;
-        var s = 0u;
-        for (; s < extra_d; s = s + 1u) {
+        let s_end = chunk_end_of(extra_d);
+        let active_d = !resume || s_end > frame.chunk_begin;
+        if (resume && active_d) {
+            sum = out_d.xyz;
+            valid = u32(out_d.w);
+        }
+        var s = frame.chunk_begin;
+        for (; s < s_end; s = s + 1u) {
             let u = sample_2d(key_d, s, extra_d);
             let wi = sample_diffuse(n, u);
             let r = trace_path(x, n, wi, key_d, s);
@@ -268,10 +295,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 bad = bad + 1u;
             }
         }
-        if (s < extra_d) {
+        if (s < s_end) {
             atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
         }
-        out_d = continue_mean(pd, sum, valid);
+        if (s_end < extra_d) {
+            out_d = vec4<f32>(sum, f32(valid)); // unfinished: raw sum for the next chunk
+        } else if (active_d) {
+            out_d = continue_mean(pd, sum, valid);
+        }
         // Glossy component.
         if (is_glossy) {
             var target_g = params.count;
@@ -283,8 +314,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let key_g = rng_key(frame.seed, pixel_id(gid), 0x4001u + 2u * params.stream);
             var gsum = vec3<f32>(0.0);
             var gvalid = 0u;
-            var sg = 0u;
-            for (; sg < extra_g; sg = sg + 1u) {
+            let sg_end = chunk_end_of(extra_g);
+            let active_g = !resume || sg_end > frame.chunk_begin;
+            if (resume && active_g) {
+                gsum = out_g.xyz;
+                gvalid = u32(out_g.w);
+            }
+            var sg = frame.chunk_begin;
+            for (; sg < sg_end; sg = sg + 1u) {
                 let u = sample_2d(key_g, sg, extra_g);
                 let gs = sample_glossy(params.lobe, m, n, wo, u);
                 var v = vec3<f32>(0.0);
@@ -300,10 +337,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     bad = bad + 1u;
                 }
             }
-            if (sg < extra_g) {
+            if (sg < sg_end) {
                 atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u);
             }
-            out_g = continue_mean(pg, gsum, gvalid);
+            if (sg_end < extra_g) {
+                out_g = vec4<f32>(gsum, f32(gvalid));
+            } else if (active_g) {
+                out_g = continue_mean(pg, gsum, gvalid);
+            }
         }
         var zmin_out = z_min;
         if (hits == 0u) {

@@ -8,7 +8,8 @@
 //! - end to end: `render --backend wgpu` vs `--backend cpu` on every pipeline, relMSE ≤ 1e-4,
 //! - the RNG: a tiny WGSL kernel writes `hash4`/`uniform`/`cmj`/`permute` for 65 536 inputs, compared
 //!   with `backends/src/rng.rs` bit for bit,
-//! - loops the driver cuts short (lavapipe's 65,535-iteration limit) are counted, not silent,
+//! - heavy sampling runs in chunks (lavapipe's 65,535-iteration loop limit): equal to the CPU,
+//!   independent of the chunk size, and loops cut without chunking are counted, not silent,
 //! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`,
 //! - bands: with the binding limit lowered so every pass is split into bands of rows, every pipeline
 //!   gives the same outputs and ray counts, bit for bit, as one dispatch per pass.
@@ -300,32 +301,44 @@ fn rng_wgsl_is_bit_exact() {
     assert_eq!((hash, uniform, cmj, perm), (0, 0, 0, 0));
 }
 
-/// Loops the driver cuts short are counted, never silent: lavapipe ends a shader loop after 65,535
-/// iterations, which heavy Indirect settings (μ 4, 4 bounces) exceed; the run must report it
-/// (`RayCounts::cut_loops`, printed as a warning by `wedge render`). Default settings stay under it,
-/// and a real GPU cuts nothing.
+/// Heavy sampling on lavapipe, which ends a shader loop after 65,535 iterations (`indirect.ron` at
+/// μ 4 with 4 bounces, 16×12): sampling passes run in chunks of samples per dispatch, so
+/// - by default no loop is cut and the render equals the CPU's (relMSE ≤ 1e-4, same ray counts);
+/// - the result does not depend on the chunk size, bit for bit (raw sums carried between chunks);
+/// - with chunking off, the cut loops are counted (`RayCounts::cut_loops`), never silent.
 #[test]
-fn loops_cut_by_the_driver_are_counted() {
-    let Some(mut gpu) = gpu_or_skip("loops_cut_by_the_driver_are_counted") else { return };
+fn heavy_sampling_is_chunked_and_cut_loops_are_counted() {
+    let Some(mut gpu) = gpu_or_skip("heavy_sampling_is_chunked_and_cut_loops_are_counted") else { return };
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/indirect.ron");
-    let cut = |gpu: &mut GpuBackend, params: Vec<(String, String, wedge::graph::ParamValue)>| {
-        let session = Session::open(Some(&path), &Overrides { params, ..small(16, 12) }).unwrap();
-        session.run(gpu, &Silent).unwrap().rays.cut_loops
-    };
-    let default = cut(&mut gpu, vec![]);
-    let heavy = cut(
-        &mut gpu,
-        vec![
-            ("indirect".into(), "mu".into(), wedge::graph::ParamValue::Float(4.0)),
-            ("indirect".into(), "bounces".into(), wedge::graph::ParamValue::Int(4)),
-        ],
-    );
-    println!("cut loops: default settings {default}, mu 4 with 4 bounces {heavy} ({})", gpu.adapter_description());
-    assert_eq!(default, 0);
+    let heavy = vec![
+        ("indirect".to_string(), "mu".to_string(), wedge::graph::ParamValue::Float(4.0)),
+        ("indirect".to_string(), "bounces".to_string(), wedge::graph::ParamValue::Int(4)),
+    ];
+    let session = Session::open(Some(&path), &Overrides { params: heavy, ..small(16, 12) }).unwrap();
+    let cpu = session.run(&mut CpuBackend::new(), &Silent).unwrap();
+    let chunked = session.run(&mut gpu, &Silent).unwrap();
+    println!("default chunking: cut loops {}", chunked.rays.cut_loops);
+    assert_eq!(chunked.rays.cut_loops, 0);
+    assert_eq!(cpu.rays, chunked.rays, "ray counters differ");
+    for (key, reference) in &cpu.outputs {
+        let e = rel_mse(&chunked.outputs[key], reference);
+        println!("{key:?}: relMSE vs CPU {e:.3e}");
+        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
+    }
+    gpu.set_samples_per_dispatch(5);
+    let small_chunks = session.run(&mut gpu, &Silent).unwrap();
+    for (key, a) in &chunked.outputs {
+        let b = &small_chunks.outputs[key];
+        let differ = (0..a.len())
+            .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
+            .count();
+        assert_eq!(differ, 0, "{key:?}: 5 samples per dispatch differs from the default in {differ} pixels");
+    }
+    gpu.set_samples_per_dispatch(u32::MAX);
+    let unchunked = session.run(&mut gpu, &Silent).unwrap();
+    println!("one dispatch per pass: cut loops {} ({})", unchunked.rays.cut_loops, gpu.adapter_description());
     if gpu.is_software() {
-        assert!(heavy > 0, "lavapipe's loop limit should have been hit and counted");
-    } else {
-        assert_eq!(heavy, 0);
+        assert!(unchunked.rays.cut_loops > 0, "lavapipe's loop limit should have been hit and counted");
     }
 }
 

@@ -81,6 +81,10 @@ pub trait Kernel: Send + Sync {
 ///   limit into bands of rows only for kernels that say how far they read; the default is
 ///   [`Reach::Image`] (never split), so a kernel that does not declare it fails clearly on such an
 ///   image instead of reading outside its band.
+/// - `chunked`: the kernel's sample loop takes only the pass's sample indices
+///   `[frame.chunk_begin, frame.chunk_end)` and, when `chunk_begin > 0`, continues from the partial
+///   result in its own outputs (see `shaders/common.wgsl`). The backend then runs long sampling
+///   passes as several dispatches ([`WgslSource::chunked`]).
 #[derive(Clone)]
 pub struct WgslSource {
     pub source: std::borrow::Cow<'static, str>,
@@ -88,6 +92,7 @@ pub struct WgslSource {
     pub uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>,
     pub scene: bool,
     pub reach: fn(&KernelCtx<'_>) -> Result<Reach, BackendError>,
+    pub chunked: bool,
 }
 
 /// How far from its own pixel a kernel reads per-pixel buffers (see [`WgslSource::reach`]).
@@ -103,11 +108,25 @@ pub enum Reach {
 
 impl WgslSource {
     pub fn new(source: impl Into<std::borrow::Cow<'static, str>>, uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>) -> Self {
-        WgslSource { source: source.into(), includes: Vec::new(), uniforms, scene: false, reach: |_| Ok(Reach::Image) }
+        WgslSource {
+            source: source.into(),
+            includes: Vec::new(),
+            uniforms,
+            scene: false,
+            reach: |_| Ok(Reach::Image),
+            chunked: false,
+        }
     }
     /// The kernel reads only its own pixel of every per-pixel buffer.
     pub fn per_pixel(mut self) -> Self {
         self.reach = |_| Ok(Reach::Pixel);
+        self
+    }
+    /// The kernel's sample loop can be split over several dispatches (see the struct docs): the
+    /// wgpu backend then bounds the samples per pixel of one dispatch, which keeps each shader
+    /// invocation short (drivers that cap loop iterations, like lavapipe, or GPU watchdogs).
+    pub fn chunked(mut self) -> Self {
+        self.chunked = true;
         self
     }
     /// How far the kernel reads, from the pass's parameters (e.g. a filter's radius and axis).

@@ -22,6 +22,9 @@
 //!   reach), a kernel without WGSL — all become [`BackendError::Gpu`] with what to do; nothing panics
 //!   (wgpu's default panicking error handler is replaced). Shader loops the driver cuts short are
 //!   counted (`RayCounts::cut_loops`), not silent.
+//! - **Chunks**: a sampling kernel that declares `WgslSource::chunked` runs as dispatches of at most
+//!   `samples_per_dispatch` samples per pixel (16 on software adapters, whose loops stop after
+//!   65,535 iterations; 64 on GPUs) until no pixel has samples left; the image does not depend on it.
 
 pub mod bands;
 pub mod scene;
@@ -49,6 +52,13 @@ Fedora), or run with `--backend cpu`";
 const WORKGROUP: u32 = 8;
 /// Bytes of one counter block: `array<atomic<u32>, 8>` in shaders/common.wgsl.
 const COUNTER_BLOCK: u64 = 32;
+/// Samples per pixel per dispatch of chunked sampling kernels on a CPU-emulated adapter: lavapipe
+/// ends a shader loop after 65,535 iterations, and 16 samples (each a few rays of up to a few
+/// hundred traversal steps) stay well under that.
+const SOFTWARE_SAMPLES_PER_DISPATCH: u32 = 16;
+/// ... and on a GPU: short enough that one dispatch stays far from OS watchdogs (about 2 s on
+/// Windows) at large sizes, long enough that the per-dispatch sync costs nothing.
+const GPU_SAMPLES_PER_DISPATCH: u32 = 64;
 
 fn gpu_err(msg: impl Into<String>) -> BackendError {
     BackendError::Gpu(msg.into())
@@ -92,6 +102,8 @@ pub struct GpuBackend {
     pub last_device_times: Vec<(String, f64)>,
     /// Per-pass number of bands (dispatches) of the last run: 1 unless a binding was over the limit.
     pub last_bands: Vec<(String, usize)>,
+    /// Most samples per pixel one dispatch of a chunked sampling kernel takes (`set_samples_per_dispatch`).
+    samples_per_dispatch: u32,
 }
 
 impl GpuBackend {
@@ -106,6 +118,8 @@ impl GpuBackend {
         }))
         .map_err(|e| gpu_err(format!("{INSTALL_HINT} (wgpu: {e})")))?;
         let info = adapter.get_info();
+        let samples_per_dispatch =
+            if info.device_type == wgpu::DeviceType::Cpu { SOFTWARE_SAMPLES_PER_DISPATCH } else { GPU_SAMPLES_PER_DISPATCH };
         let limits = adapter.limits();
         let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -159,6 +173,7 @@ impl GpuBackend {
             dummies: Vec::new(),
             last_device_times: Vec::new(),
             last_bands: Vec::new(),
+            samples_per_dispatch,
         })
     }
 
@@ -175,6 +190,11 @@ impl GpuBackend {
     }
     pub fn limits(&self) -> &wgpu::Limits {
         &self.limits
+    }
+    /// Chunked sampling kernels take at most `n` samples per pixel per dispatch (`u32::MAX`: one
+    /// dispatch per pass). Results agree with any `n` to float round-off of the running mean.
+    pub fn set_samples_per_dispatch(&mut self, n: u32) {
+        self.samples_per_dispatch = n.max(1);
     }
     /// Bind at most `bytes` of each per-pixel buffer per dispatch (never more than the device
     /// allows), so passes over it run as bands of rows. For tests and users checking the band path
@@ -483,18 +503,20 @@ impl GpuBackend {
             });
         }
         // One counter block (8 × u32, see shaders/common.wgsl) per band, each at an aligned offset;
-        // summed in 64 bits after.
+        // summed in 64 bits after each dispatch.
         let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
         let counters = self.storage("counters", stride * bands.len() as u64)?;
-        let start = Instant::now();
-        self.scoped(&what, || {
-            let uniform = |label: &str, data: &[u32]| {
-                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: bytemuck::cast_slice(data),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                })
-            };
+        // A chunked sampling kernel takes at most `samples_per_dispatch` samples per pixel per
+        // dispatch; the next chunk runs while some pixel still has samples left.
+        let chunk = if src.chunked { self.samples_per_dispatch } else { u32::MAX };
+        let uniform = |label: &str, data: &[u32]| {
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(data),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        let (params_buf, scene_group, buffer_groups) = self.scoped(&what, || {
             let params_buf = uniform("params", &words);
             let scene_group = match (&p.g2, &self.scene) {
                 (Some(layout), Some(s)) => {
@@ -508,42 +530,9 @@ impl GpuBackend {
                 }
                 _ => None,
             };
-            let groups: Vec<_> = bands
+            let buffer_groups: Vec<_> = bands
                 .iter()
-                .enumerate()
-                .map(|(n, band)| {
-                    let Band { row0, row_end, first, end } = *band;
-                    let frame = [
-                        job.width,
-                        job.height,
-                        job.seed,
-                        bound,
-                        f32::INFINITY.to_bits(),
-                        0x3f80_0800,
-                        0x3f80_1000,
-                        row0,
-                        row_end,
-                        first as u32,
-                        0,
-                        0,
-                    ];
-                    let frame_buf = uniform("frame", &frame);
-                    let g0 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("frame"),
-                        layout: &p.g0,
-                        entries: &[
-                            wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
-                            wgpu::BindGroupEntry { binding: 1, resource: params_buf.as_entire_binding() },
-                            wgpu::BindGroupEntry {
-                                binding: 2,
-                                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                    buffer: &counters,
-                                    offset: n as u64 * stride,
-                                    size: wgpu::BufferSize::new(COUNTER_BLOCK),
-                                }),
-                            },
-                        ],
-                    });
+                .map(|&Band { first, end, .. }| {
                     let e1: Vec<_> = bufs
                         .iter()
                         .enumerate()
@@ -560,45 +549,104 @@ impl GpuBackend {
                             wgpu::BindGroupEntry { binding: k as u32, resource }
                         })
                         .collect();
-                    let g1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 });
-                    (g0, g1, (job.width.div_ceil(WORKGROUP), (row_end - row0).div_ceil(WORKGROUP)))
+                    self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 })
                 })
                 .collect();
-            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
-            {
-                let ts = self.timestamps.as_ref().map(|(qs, _)| wgpu::ComputePassTimestampWrites {
-                    query_set: qs,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
-                });
-                let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
-                cp.set_pipeline(&p.pipeline);
-                if let Some(g2) = &scene_group {
-                    cp.set_bind_group(2, g2, &[]);
-                }
-                for (g0, g1, (gx, gy)) in &groups {
-                    cp.set_bind_group(0, g0, &[]);
-                    cp.set_bind_group(1, g1, &[]);
-                    cp.dispatch_workgroups(*gx, *gy, 1);
-                }
-            }
-            if let Some((qs, resolve)) = &self.timestamps {
-                enc.resolve_query_set(qs, 0..2, resolve, 0);
-            }
-            self.queue.submit([enc.finish()]);
+            (params_buf, scene_group, buffer_groups)
         })?;
-        self.wait(&what)?;
-        let wall = start.elapsed().as_secs_f64();
-        let rays = self.read_counters(&counters, bands.len(), stride)?;
-        if let Some((_, resolve)) = &self.timestamps {
-            let bytes = self.read_bytes(&what, resolve, 16)?;
-            let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
-            let ns = t[1].saturating_sub(t[0]) as f64 * self.queue.get_timestamp_period() as f64;
-            if ns > 0.0 {
-                return Ok((DispatchTime { seconds: ns * 1e-9, from_timestamps: true }, rays, bands.len()));
+        let mut rays = RayCounts::default();
+        let mut time = DispatchTime { seconds: 0.0, from_timestamps: self.timestamps.is_some() };
+        let mut chunk_begin = 0u32;
+        loop {
+            let chunk_end = chunk_begin.saturating_add(chunk);
+            let start = Instant::now();
+            self.scoped(&what, || {
+                let frames: Vec<_> = bands
+                    .iter()
+                    .enumerate()
+                    .map(|(n, &Band { row0, row_end, first, .. })| {
+                        let frame = [
+                            job.width,
+                            job.height,
+                            job.seed,
+                            bound,
+                            f32::INFINITY.to_bits(),
+                            0x3f80_0800,
+                            0x3f80_1000,
+                            row0,
+                            row_end,
+                            first as u32,
+                            chunk_begin,
+                            chunk_end,
+                        ];
+                        let frame_buf = uniform("frame", &frame);
+                        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("frame"),
+                            layout: &p.g0,
+                            entries: &[
+                                wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
+                                wgpu::BindGroupEntry { binding: 1, resource: params_buf.as_entire_binding() },
+                                wgpu::BindGroupEntry {
+                                    binding: 2,
+                                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                        buffer: &counters,
+                                        offset: n as u64 * stride,
+                                        size: wgpu::BufferSize::new(COUNTER_BLOCK),
+                                    }),
+                                },
+                            ],
+                        })
+                    })
+                    .collect();
+                let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
+                enc.clear_buffer(&counters, 0, None);
+                {
+                    let ts = self.timestamps.as_ref().map(|(qs, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: qs,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: Some(1),
+                    });
+                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
+                    cp.set_pipeline(&p.pipeline);
+                    if let Some(g2) = &scene_group {
+                        cp.set_bind_group(2, g2, &[]);
+                    }
+                    for ((g0, g1), band) in frames.iter().zip(&buffer_groups).zip(&bands) {
+                        cp.set_bind_group(0, g0, &[]);
+                        cp.set_bind_group(1, g1, &[]);
+                        cp.dispatch_workgroups(job.width.div_ceil(WORKGROUP), (band.row_end - band.row0).div_ceil(WORKGROUP), 1);
+                    }
+                }
+                if let Some((qs, resolve)) = &self.timestamps {
+                    enc.resolve_query_set(qs, 0..2, resolve, 0);
+                }
+                self.queue.submit([enc.finish()]);
+            })?;
+            self.wait(&what)?;
+            let wall = start.elapsed().as_secs_f64();
+            let (counted, remaining) = self.read_counters(&counters, bands.len(), stride)?;
+            rays.add(&counted);
+            let device_seconds = match &self.timestamps {
+                Some((_, resolve)) => {
+                    let bytes = self.read_bytes(&what, resolve, 16)?;
+                    let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
+                    t[1].saturating_sub(t[0]) as f64 * self.queue.get_timestamp_period() as f64 * 1e-9
+                }
+                None => 0.0,
+            };
+            // Timestamps where the adapter gives them (a zero span means it did not), else wall clock.
+            if device_seconds > 0.0 {
+                time.seconds += device_seconds;
+            } else {
+                time.seconds += wall;
+                time.from_timestamps = false;
             }
+            if remaining == 0 || chunk_end == u32::MAX {
+                break;
+            }
+            chunk_begin = chunk_end;
         }
-        Ok((DispatchTime { seconds: wall, from_timestamps: false }, rays, bands.len()))
+        Ok((time, rays, bands.len()))
     }
 
     fn kernels_ready(&mut self, job: &Job<'_>, passes: &[&Pass]) -> Result<bool, BackendError> {
@@ -612,19 +660,21 @@ impl GpuBackend {
         Ok(scene)
     }
 
-    /// Sum the per-band counter blocks of one pass in 64 bits.
-    fn read_counters(&self, buf: &wgpu::Buffer, bands: usize, stride: u64) -> Result<RayCounts, BackendError> {
+    /// Sum the per-band counter blocks of one dispatch in 64 bits; also returns the pixels that
+    /// still have samples left (`COUNTER_REMAINING`, chunked sampling kernels).
+    fn read_counters(&self, buf: &wgpu::Buffer, bands: usize, stride: u64) -> Result<(RayCounts, u64), BackendError> {
         let b = self.read_bytes("reading counters", buf, stride * bands as u64)?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&b);
         let words = (stride / 4) as usize;
         let sum = |k: usize| (0..bands).map(|n| c[n * words + k] as u64).sum::<u64>();
-        Ok(RayCounts {
+        let rays = RayCounts {
             primary_rays: sum(0),
             shadow_rays: sum(1),
             secondary_rays: sum(2),
             non_finite_samples: sum(3),
             cut_loops: sum(4),
-        })
+        };
+        Ok((rays, sum(5)))
     }
 
     /// Run one pass alone: upload `inputs`, dispatch, read every output back (by binding name),

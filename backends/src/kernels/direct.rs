@@ -129,7 +129,8 @@ impl Kernel for DirectLight {
                     .align16())
             })
             .with_scene()
-            .per_pixel(),
+            .per_pixel()
+            .chunked(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

@@ -263,7 +263,8 @@ impl Kernel for IndirectSample {
             })
             .with_include("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl"))
             .with_scene()
-            .per_pixel(),
+            .per_pixel()
+            .chunked(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
