@@ -192,6 +192,40 @@ fn continue_mean(prev: vec4<f32>, sum: vec3<f32>, valid: u32) -> vec4<f32> {
     return vec4<f32>(mean, total);
 }
 
+// One component's samples in this dispatch: the raw sum and count so far (carried from earlier
+// chunks when resuming), the end of its sample range, and whether it has samples left at all.
+struct Running {
+    sum: vec3<f32>,
+    valid: u32,
+    end: u32,
+    has_work: bool,
+}
+
+fn running_start(out: vec4<f32>, extra: u32, resume: bool) -> Running {
+    let end = chunk_end_of(extra);
+    let has_work = !resume || end > frame.chunk_begin;
+    if (resume && has_work) {
+        return Running(out.xyz, u32(out.w), end, true);
+    }
+    return Running(vec3<f32>(0.0), 0u, end, has_work);
+}
+
+// The component's output after this dispatch: a raw sum while samples remain, the mean (continuing
+// the previous pass `prev`) once they are all taken, unchanged if it had nothing to do. `reached`
+// is where the sample loop stopped (short of `end` only if the driver cut it).
+fn running_finish(r: Running, reached: u32, extra: u32, prev: vec4<f32>, out: vec4<f32>) -> vec4<f32> {
+    if (reached < r.end) {
+        atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
+    }
+    if (r.end < extra) {
+        return vec4<f32>(r.sum, f32(r.valid));
+    }
+    if (r.has_work) {
+        return continue_mean(prev, r.sum, r.valid);
+    }
+    return out;
+}
+
 // First-hit statistics over the hemisphere rays.
 var<private> z_min: f32;
 var<private> z_max: f32 = 0.0;
@@ -274,35 +308,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let done_d = f32_to_u32_sat(pd.w);
         let extra_d = select(0u, target_d - done_d, target_d > done_d);
         let key_d = rng_key(frame.seed, pixel_id(gid), 0x4000u + 2u * params.stream);
-        var sum = vec3<f32>(0.0);
-        var valid = 0u;
-        let s_end = chunk_end_of(extra_d);
-        let active_d = !resume || s_end > frame.chunk_begin;
-        if (resume && active_d) {
-            sum = out_d.xyz;
-            valid = u32(out_d.w);
-        }
+        var rd = running_start(out_d, extra_d, resume);
         var s = frame.chunk_begin;
-        for (; s < s_end; s = s + 1u) {
+        for (; s < rd.end; s = s + 1u) {
             let u = sample_2d(key_d, s, extra_d);
             let wi = sample_diffuse(n, u);
             let r = trace_path(x, n, wi, key_d, s);
             record(r);
             if (is_finite3(r.value)) {
-                sum = sum + r.value;
-                valid = valid + 1u;
+                rd.sum = rd.sum + r.value;
+                rd.valid = rd.valid + 1u;
             } else {
                 bad = bad + 1u;
             }
         }
-        if (s < s_end) {
-            atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
-        }
-        if (s_end < extra_d) {
-            out_d = vec4<f32>(sum, f32(valid)); // unfinished: raw sum for the next chunk
-        } else if (active_d) {
-            out_d = continue_mean(pd, sum, valid);
-        }
+        out_d = running_finish(rd, s, extra_d, pd, out_d);
         // Glossy component.
         if (is_glossy) {
             var target_g = params.count;
@@ -312,16 +332,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let done_g = f32_to_u32_sat(pg.w);
             let extra_g = select(0u, target_g - done_g, target_g > done_g);
             let key_g = rng_key(frame.seed, pixel_id(gid), 0x4001u + 2u * params.stream);
-            var gsum = vec3<f32>(0.0);
-            var gvalid = 0u;
-            let sg_end = chunk_end_of(extra_g);
-            let active_g = !resume || sg_end > frame.chunk_begin;
-            if (resume && active_g) {
-                gsum = out_g.xyz;
-                gvalid = u32(out_g.w);
-            }
+            var rg = running_start(out_g, extra_g, resume);
             var sg = frame.chunk_begin;
-            for (; sg < sg_end; sg = sg + 1u) {
+            for (; sg < rg.end; sg = sg + 1u) {
                 let u = sample_2d(key_g, sg, extra_g);
                 let gs = sample_glossy(params.lobe, m, n, wo, u);
                 var v = vec3<f32>(0.0);
@@ -331,20 +344,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     v = r.value * gs.weight;
                 }
                 if (is_finite3(v)) {
-                    gsum = gsum + v;
-                    gvalid = gvalid + 1u;
+                    rg.sum = rg.sum + v;
+                    rg.valid = rg.valid + 1u;
                 } else {
                     bad = bad + 1u;
                 }
             }
-            if (sg < sg_end) {
-                atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u);
-            }
-            if (sg_end < extra_g) {
-                out_g = vec4<f32>(gsum, f32(gvalid));
-            } else if (active_g) {
-                out_g = continue_mean(pg, gsum, gvalid);
-            }
+            out_g = running_finish(rg, sg, extra_g, pg, out_g);
         }
         var zmin_out = z_min;
         if (hits == 0u) {
