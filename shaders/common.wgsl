@@ -71,6 +71,51 @@ fn chunk_end_of(count: u32) -> u32 {
     return count;
 }
 
+// One estimate's samples in this dispatch: the raw sum and count so far (carried from earlier
+// chunks when resuming), the end of its sample range, and whether it has samples left at all.
+struct Running {
+    sum: vec3<f32>,
+    valid: u32,
+    end: u32,
+    has_work: bool,
+}
+
+// `out`: the estimate's output as the earlier chunks left it (read only when resuming);
+// `count`: the pass's samples for this pixel.
+fn running_start(out: vec4<f32>, count: u32, resume: bool) -> Running {
+    let end = chunk_end_of(count);
+    let has_work = !resume || end > frame.chunk_begin;
+    if (resume && has_work) {
+        return Running(out.xyz, u32(out.w), end, true);
+    }
+    return Running(vec3<f32>(0.0), 0u, end, has_work);
+}
+
+// The estimate's output after this dispatch: the raw sum while samples remain; once all are taken,
+// the mean continuing the previous pass's `prev` (rgb mean, w = its samples) with `weight` more
+// samples' worth; unchanged (`out`) if it had nothing to do.
+fn running_finish(r: Running, count: u32, prev: vec4<f32>, weight: f32, out: vec4<f32>) -> vec4<f32> {
+    if (r.end < count) {
+        return vec4<f32>(r.sum, f32(r.valid));
+    }
+    if (!r.has_work) {
+        return out;
+    }
+    let total = prev.w + weight;
+    var mean = vec3<f32>(0.0);
+    if (total > 0.0) {
+        mean = (prev.xyz * prev.w + r.sum) / total;
+    }
+    return vec4<f32>(mean, total);
+}
+
+// A sample loop that stopped at `reached` short of its `end` was cut by the driver.
+fn count_cut_loop(reached: u32, end: u32) {
+    if (reached < end) {
+        atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u);
+    }
+}
+
 fn is_bound(k: u32) -> bool {
     return (frame.bound & (1u << k)) != 0u;
 }

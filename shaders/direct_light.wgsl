@@ -117,22 +117,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let extra = select(0u, target_count - done, target_count > done);
     // This dispatch's samples (all of them unless the backend chunks the pass) and, when it
     // continues earlier chunks, their raw sum, count and occluder statistics (common.wgsl).
+    var partial = prev;
+    if (resume) {
+        partial = estimate[i];
+    }
+    var run = running_start(partial, extra, resume);
+    if (!run.has_work) {
+        return; // finished in an earlier chunk
+    }
     let s_begin = frame.chunk_begin;
-    let s_end = chunk_end_of(extra);
-    var sum = vec3<f32>(0.0);
-    var valid = 0u;
     var bad = 0u;
     var d1 = 0.0;
     var d2_min = inf();
     var d2_max = 0.0;
     var occluded = 0u;
     if (resume) {
-        if (s_end <= s_begin) {
-            return; // finished in an earlier chunk
-        }
-        let partial = estimate[i];
-        sum = partial.xyz;
-        valid = u32(partial.w);
         if (want_stats) {
             let o = occlusion[i];
             d1 = o.x;
@@ -162,7 +161,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             factor = light_centre_factor(l, x, n);
         }
         var s = s_begin;
-        for (; s < s_end; s = s + 1u) {
+        for (; s < run.end; s = s + 1u) {
             var u: vec2<f32>;
             if (params.stratified != 0u) {
                 u = rng_stratified2(key, s, extra, DIM_LIGHT);
@@ -176,34 +175,23 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 d2_max = rmax(d2_max, ls.distance);
             }
             if (is_finite3(ls.value)) {
-                sum = sum + ls.value;
-                valid = valid + 1u;
+                run.sum = run.sum + ls.value;
+                run.valid = run.valid + 1u;
             } else {
                 bad = bad + 1u;
             }
         }
-        if (s < s_end) {
-            atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
-        }
+        count_cut_loop(s, run.end);
     }
-    if (s_end < extra) {
-        estimate[i] = vec4<f32>(sum, f32(valid)); // unfinished: raw sum for the next chunk
-    } else {
-        let per_light = f32(valid) / f32(max(n_lights, 1u));
-        let total = prev.w + per_light;
-        var mean = vec3<f32>(0.0);
-        if (total > 0.0) {
-            mean = (prev.xyz * prev.w + sum) / total;
-        }
-        estimate[i] = vec4<f32>(mean, total);
-    }
+    // Each light took the same samples: the estimate's count is per light.
+    estimate[i] = running_finish(run, extra, prev, f32(run.valid) / f32(max(n_lights, 1u)), partial);
     if (occluded == 0u) {
         d2_min = 0.0;
     }
     if (want_stats) {
         occlusion[i] = vec4<f32>(d1, d2_min, d2_max, f32(occluded));
     }
-    let rays = select(0u, s_end - s_begin, s_end > s_begin) * n_lights;
+    let rays = select(0u, run.end - s_begin, run.end > s_begin) * n_lights;
     if (rays > 0u) {
         atomicAdd(&counters[COUNTER_SHADOW], rays);
     }

@@ -182,50 +182,6 @@ fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) 
     return PathResult(radiance, true, first);
 }
 
-// continue_mean: rgb mean and the number of samples in it.
-fn continue_mean(prev: vec4<f32>, sum: vec3<f32>, valid: u32) -> vec4<f32> {
-    let total = prev.w + f32(valid);
-    var mean = vec3<f32>(0.0);
-    if (total > 0.0) {
-        mean = (prev.xyz * prev.w + sum) / total;
-    }
-    return vec4<f32>(mean, total);
-}
-
-// One component's samples in this dispatch: the raw sum and count so far (carried from earlier
-// chunks when resuming), the end of its sample range, and whether it has samples left at all.
-struct Running {
-    sum: vec3<f32>,
-    valid: u32,
-    end: u32,
-    has_work: bool,
-}
-
-fn running_start(out: vec4<f32>, extra: u32, resume: bool) -> Running {
-    let end = chunk_end_of(extra);
-    let has_work = !resume || end > frame.chunk_begin;
-    if (resume && has_work) {
-        return Running(out.xyz, u32(out.w), end, true);
-    }
-    return Running(vec3<f32>(0.0), 0u, end, has_work);
-}
-
-// The component's output after this dispatch: a raw sum while samples remain, the mean (continuing
-// the previous pass `prev`) once they are all taken, unchanged if it had nothing to do. `reached`
-// is where the sample loop stopped (short of `end` only if the driver cut it).
-fn running_finish(r: Running, reached: u32, extra: u32, prev: vec4<f32>, out: vec4<f32>) -> vec4<f32> {
-    if (reached < r.end) {
-        atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u); // the driver stopped the loop (common.wgsl)
-    }
-    if (r.end < extra) {
-        return vec4<f32>(r.sum, f32(r.valid));
-    }
-    if (r.has_work) {
-        return continue_mean(prev, r.sum, r.valid);
-    }
-    return out;
-}
-
 // First-hit statistics over the hemisphere rays.
 var<private> z_min: f32;
 var<private> z_max: f32 = 0.0;
@@ -322,7 +278,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 bad = bad + 1u;
             }
         }
-        out_d = running_finish(rd, s, extra_d, pd, out_d);
+        count_cut_loop(s, rd.end);
+        out_d = running_finish(rd, extra_d, pd, f32(rd.valid), out_d);
         // Glossy component.
         if (is_glossy) {
             var target_g = params.count;
@@ -350,7 +307,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     bad = bad + 1u;
                 }
             }
-            out_g = running_finish(rg, sg, extra_g, pg, out_g);
+            count_cut_loop(sg, rg.end);
+            out_g = running_finish(rg, extra_g, pg, f32(rg.valid), out_g);
         }
         var zmin_out = z_min;
         if (hits == 0u) {
