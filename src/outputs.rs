@@ -68,7 +68,19 @@ pub fn summary(run: &RunResult, width: u32, height: u32) -> String {
         r.total_rays() as f64 / px
     );
     if r.non_finite_samples > 0 {
-        let _ = writeln!(s, "warning: {} non-finite samples were excluded", r.non_finite_samples);
+        let by_pass: Vec<String> = run
+            .timings
+            .iter()
+            .filter(|t| t.counts.non_finite_samples > 0)
+            .map(|t| format!("{} {}", t.pass, t.counts.non_finite_samples))
+            .collect();
+        let _ = writeln!(
+            s,
+            "warning: {} non-finite (NaN or infinite) samples were excluded from the image ({}); check the scene's \
+             emission and material values",
+            r.non_finite_samples,
+            by_pass.join(", ")
+        );
     }
     if r.cut_loops > 0 {
         let _ = writeln!(

@@ -56,13 +56,15 @@ pub struct Job<'a> {
     pub progress: &'a dyn Progress,
 }
 
-/// Time spent in one pass.
+/// Time spent in one pass, and what it counted (rays traced, non-finite samples excluded), so a
+/// NaN or infinity can be traced to the pass that met it.
 #[derive(Clone, Debug)]
 pub struct PassTiming {
     pub pass: String,
     pub kernel: String,
     pub class: KernelClass,
     pub seconds: f64,
+    pub counts: RayCounts,
 }
 
 /// What a run hands back: the buffers bound to sink inputs, per-pass times and counters.

@@ -109,13 +109,14 @@ impl Backend for CpuBackend {
 
     fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
         let sched = job.schedule;
-        let counters = Counters::default();
+        let mut rays = crate::RayCounts::default();
         // Physical storage, indexed by pool slot; a slot holds the buffer currently living in it.
         let mut slots: Vec<Option<(BufferId, BufferData)>> = vec![None; sched.slot_formats.len()];
         let mut allocations = 0usize;
         let mut timings = Vec::with_capacity(sched.passes.len());
         for pass in &sched.passes {
             let start = Instant::now();
+            let counters = Counters::default();
             let outputs = {
                 let mut inputs = BTreeMap::new();
                 for (_, id) in &pass.reads {
@@ -146,11 +147,14 @@ impl Backend for CpuBackend {
                 slots[slot] = Some((id, data));
             }
             let kernel = job.kernels.get(&pass.kernel).expect("checked");
+            let counts = counters.snapshot();
+            rays.add(&counts);
             timings.push(PassTiming {
                 pass: pass.name.clone(),
                 kernel: pass.kernel.clone(),
                 class: kernel.class(),
                 seconds: start.elapsed().as_secs_f64(),
+                counts,
             });
         }
         let mut outputs = BTreeMap::new();
@@ -163,6 +167,6 @@ impl Backend for CpuBackend {
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
             }
         }
-        Ok(RunResult { outputs, timings, rays: counters.snapshot(), allocations })
+        Ok(RunResult { outputs, timings, rays, allocations })
     }
 }

@@ -866,7 +866,13 @@ impl Backend for GpuBackend {
             if t.from_timestamps {
                 self.last_device_times.push((pass.name.clone(), t.seconds));
             }
-            timings.push(PassTiming { pass: pass.name.clone(), kernel: pass.kernel.clone(), class: kernel.class(), seconds: t.seconds });
+            timings.push(PassTiming {
+                pass: pass.name.clone(),
+                kernel: pass.kernel.clone(),
+                class: kernel.class(),
+                seconds: t.seconds,
+                counts: counted,
+            });
         }
         let mut outputs = BTreeMap::new();
         for (node, port, id) in &sched.sink_inputs {
