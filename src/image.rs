@@ -12,8 +12,10 @@
 //!   notice shows up as a loud colour.
 //!
 //! **Nothing is written half-way.** Every writer writes to a hidden
-//! temporary file next to the destination (`.<name>.tmp`) and renames it
-//! over the destination only once everything has been written and flushed.
+//! temporary file with a unique name next to the destination
+//! (`.<name>.<pid>.<random>.tmp`) and renames it over the destination only
+//! once everything has been written and flushed (see [`crate::staging`],
+//! which also refuses destinations that are symbolic links).
 //! A rename within one directory is atomic, so an interrupted or failed write
 //! leaves either the old file or no file, never a truncated image that a later
 //! comparison would silently read as garbage.
@@ -21,7 +23,7 @@
 //! Errors ([`ImageError`]) always name the file and say what to do; bad input
 //! files give errors, never panics.
 
-use std::fs::{self, File};
+use std::fs::File;
 use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 
@@ -142,6 +144,9 @@ pub enum ImageError {
         #[source]
         source: io::Error,
     },
+    /// The destination is a symbolic link: wedge neither replaces the link nor writes through it.
+    #[error("refusing to write {}: it is a symbolic link; remove the link or choose another output path", path.display())]
+    Symlink { path: PathBuf },
     /// The encoder refused the data (should not happen with valid input).
     #[error("cannot encode {}: {reason}; this is likely a bug in wedge, please report it", path.display())]
     Encode { path: PathBuf, reason: String },
@@ -167,55 +172,15 @@ pub enum ImageError {
 // Atomic writing
 // ---------------------------------------------------------------------------
 
-/// The temporary sibling of `path`: `dir/.name.tmp`. Same directory so that
-/// the final rename never crosses file systems (which would not be atomic).
-fn temp_path_for(path: &Path) -> Result<PathBuf, ImageError> {
-    let name = path.file_name().ok_or_else(|| ImageError::Write {
-        path: path.to_path_buf(),
-        source: io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "the path does not end in a file name",
-        ),
-    })?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(".tmp");
-    Ok(path.with_file_name(tmp_name))
-}
-
-/// Runs `write` against a buffered temporary file and renames it over `path`
-/// only if `write` succeeded and the data reached the disk. On any error the
-/// temporary file is removed, so the destination is either the complete new
-/// file or whatever was there before.
+/// Runs `write` against a buffered temporary file with a unique name and renames it over `path`
+/// only if `write` succeeded and the data reached the disk; see [`crate::staging`].
 ///
-/// `pub(crate)` so other writers in the crate (heatmaps, reports) share the
-/// same guarantee.
+/// `pub(crate)` so other writers in the crate (heatmaps, reports) share the same guarantee.
 pub(crate) fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), ImageError>,
 ) -> Result<(), ImageError> {
-    let tmp = temp_path_for(path)?;
-    let io_err = |source: io::Error| ImageError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-
-    let file = File::create(&tmp).map_err(io_err)?;
-    let result = (|| {
-        let mut out = BufWriter::new(file);
-        write(&mut out)?;
-        let file = out.into_inner().map_err(|e| io_err(e.into_error()))?;
-        // Flush to disk before the rename: otherwise a crash right after the
-        // rename could leave a complete-looking name with empty contents.
-        file.sync_all().map_err(io_err)?;
-        drop(file);
-        fs::rename(&tmp, path).map_err(io_err)
-    })();
-    if result.is_err() {
-        // Best effort: the error we report is the original one.
-        let _ = fs::remove_file(&tmp);
-    }
-    result
+    crate::staging::write_file_atomically(path, write)
 }
 
 // ---------------------------------------------------------------------------
@@ -475,6 +440,7 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
     use std::io::Write;
 
     fn gradient(w: u32, h: u32) -> Image {

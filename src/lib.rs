@@ -18,5 +18,6 @@ pub mod metrics;
 pub mod outputs;
 pub mod progress;
 pub mod session;
+pub mod staging;
 
 pub use session::{Overrides, Session, WedgeError};

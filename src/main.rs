@@ -9,6 +9,7 @@ use wedge::graph::ParamValue;
 use wedge::image::read_exr;
 use wedge::outputs::{summary, write_run};
 use wedge::progress::Bars;
+use wedge::session::RunMode;
 use wedge::{Overrides, Session, WedgeError};
 
 #[derive(Parser)]
@@ -27,16 +28,22 @@ struct Common {
     /// Output directory.
     #[arg(long, default_value = "out")]
     out: PathBuf,
-    /// Seed of the counter-based sampler.
+    /// Seed of the counter-based sampler (0..=4294967295).
     #[arg(long)]
     seed: Option<u32>,
-    #[arg(long)]
+    /// Image width in pixels (1..=16384; width × height at most 2^26).
+    #[arg(long, value_parser = side_parser())]
     width: Option<u32>,
-    #[arg(long)]
+    /// Image height in pixels (1..=16384; width × height at most 2^26).
+    #[arg(long, value_parser = side_parser())]
     height: Option<u32>,
-    /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
+    /// Worker threads (default: all cores; at most 4 × the cores). The image does not depend on it.
+    #[arg(long, value_parser = parse_threads)]
     threads: Option<usize>,
+    /// Refuse a run whose estimated peak memory exceeds SIZE (bytes, or K/M/G/T: 512M, 8G).
+    /// Default: 3/4 of the memory available when the run starts.
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    memory_limit: Option<u64>,
     /// Set a node parameter: NODE.PARAM=VALUE (e.g. shadows.max_rays=200). Repeatable.
     #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
     set: Vec<String>,
@@ -52,8 +59,8 @@ enum Command {
         pipeline: Option<PathBuf>,
         #[command(flatten)]
         common: Common,
-        /// Scale every node's bandwidth parameter `mu`.
-        #[arg(long)]
+        /// Scale every node's bandwidth parameter `mu` (a finite number > 0).
+        #[arg(long, value_parser = parse_mu)]
         mu: Option<f64>,
     },
     /// Plain Monte Carlo reference (no filtering) of the pipeline's scene and camera.
@@ -61,11 +68,11 @@ enum Command {
         pipeline: Option<PathBuf>,
         #[command(flatten)]
         common: Common,
-        /// Light samples per pixel (per light).
-        #[arg(long, default_value_t = 1024)]
+        /// Light samples per pixel (per light), 1..=1048576.
+        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
         spp: u32,
         /// `stratified` (default) or `independent`.
-        #[arg(long, default_value = "stratified")]
+        #[arg(long, default_value = "stratified", value_parser = ["stratified", "independent"])]
         sampling: String,
     },
     /// Compare two EXR images: RMSE, relMSE, PSNR, SMAPE, and an error heatmap.
@@ -84,9 +91,9 @@ enum Command {
         quick: bool,
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
-        #[arg(long)]
+        #[arg(long, value_parser = side_parser())]
         width: Option<u32>,
-        #[arg(long)]
+        #[arg(long, value_parser = side_parser())]
         height: Option<u32>,
         #[arg(long)]
         seed: Option<u32>,
@@ -102,15 +109,18 @@ enum Command {
         /// Scene override, as for `render`.
         #[arg(long)]
         scene: Option<String>,
-        #[arg(long, default_value_t = 64)]
+        #[arg(long, default_value_t = 64, value_parser = side_parser())]
         width: u32,
-        #[arg(long, default_value_t = 48)]
+        #[arg(long, default_value_t = 48, value_parser = side_parser())]
         height: u32,
         #[arg(long)]
         seed: Option<u32>,
         /// Set a node parameter: NODE.PARAM=VALUE. Repeatable.
         #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
         set: Vec<String>,
+        /// As for `render`; parity holds CPU and GPU copies of the buffers.
+        #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+        memory_limit: Option<u64>,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes).
     Graph {
@@ -119,6 +129,55 @@ enum Command {
         #[arg(long)]
         dot: bool,
     },
+}
+
+/// Largest `reference --spp` (the `MonteCarlo` node's own limit).
+const MAX_SPP: i64 = 1 << 20;
+
+/// `--width`/`--height`: clap checks the range and names the flag in its message.
+fn side_parser() -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(1..=i64::from(wedge::graph::MAX_SIDE))
+}
+
+/// `--mu`: finite and > 0 (0 would be an infinitely wide filter, NaN no filter at all).
+fn parse_mu(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(_) => Err("must be a finite number > 0 (e.g. 2.0)".into()),
+        Err(e) => Err(format!("{e}; use a finite number > 0 (e.g. 2.0)")),
+    }
+}
+
+/// `--threads`: 1 ..= 4 × the cores (more threads than that only cost memory and start-up time;
+/// 100000 of them took minutes to spawn).
+fn parse_threads(s: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cap = 4 * cores;
+    match s.parse::<usize>() {
+        Ok(n) if (1..=cap).contains(&n) => Ok(n),
+        Ok(_) => Err(format!("must be in 1..={cap} (at most 4 × the {cores} core(s) of this machine)")),
+        Err(e) => Err(format!("{e}; use a whole number in 1..={cap}")),
+    }
+}
+
+fn parse_size(s: &str) -> Result<u64, String> {
+    wedge::session::parse_size(s)
+}
+
+/// The memory budget: `--memory-limit`, else 3/4 of the available memory, else none.
+fn memory_budget(flag: Option<u64>) -> Option<(u64, String)> {
+    match flag {
+        Some(l) => Some((l, "--memory-limit".into())),
+        None => wedge::session::default_memory_limit().map(|l| (l, "default: 3/4 of the available memory".into())),
+    }
+}
+
+/// Refuse `session` in `mode` before anything large is allocated when it will not fit the budget.
+fn check_memory(session: &Session, mode: RunMode, flag: Option<u64>) -> Result<(), WedgeError> {
+    match memory_budget(flag) {
+        Some((limit, source)) => session.memory_estimate(mode).check(limit, &source),
+        None => Ok(()),
+    }
 }
 
 fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
@@ -156,7 +215,7 @@ where
         None => Ok(f()),
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n.max(1))
+                .num_threads(n)
                 .build()
                 .map_err(|e| WedgeError::Usage(format!("--threads {n}: {e}")))?;
             Ok(pool.install(f))
@@ -175,17 +234,20 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
         session.height,
         session.seed
     );
+    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    check_memory(session, mode, common.memory_limit)?;
     let bars = Bars::default();
     let (run, note) = match common.backend.as_str() {
         "wgpu" => run_wgpu(session, &bars)?,
         _ => (with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??, None),
     };
-    let files = write_run(&common.out, stem, &run, session.width, session.height)?;
+    let written = write_run(&common.out, stem, &run, session.width, session.height)?;
     let mut text = summary(&run, session.width, session.height);
+    text.push_str(&written.warnings());
     if let Some(note) = note {
         text.push_str(&note);
     }
-    for f in files {
+    for f in &written.files {
         text.push_str(&format!("wrote {}\n", f.display()));
     }
     Ok(text)
@@ -241,6 +303,7 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
         text.push_str(&format!("warning: {} pixel(s) with non-finite values were excluded\n", m.non_finite));
     }
     let err = wedge::metrics::error_map(&a, &b);
+    // One file: written under a unique temporary name and renamed into place (src/staging.rs).
     if let Some(dir) = heatmap.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|source| wedge::image::ImageError::Write { path: dir.to_path_buf(), source })?;
@@ -264,14 +327,11 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             render(&session, &common, "render")
         }
         Command::Reference { pipeline, common, spp, sampling } => {
-            if !["stratified", "independent"].contains(&sampling.as_str()) {
-                return Err(WedgeError::Usage(format!("--sampling {sampling}: use `stratified` or `independent`")));
-            }
             let session = Session::reference(pipeline.as_deref(), spp, &sampling, &overrides(&common, None)?)?;
             render(&session, &common, "reference")
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
-        Command::Parity { pipeline, scene, width, height, seed, set } => {
+        Command::Parity { pipeline, scene, width, height, seed, set, memory_limit } => {
             let ov = Overrides {
                 scene,
                 width: Some(width),
@@ -281,6 +341,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
             };
             let session = Session::open(pipeline.as_deref(), &ov)?;
+            check_memory(&session, RunMode::Parity, memory_limit)?;
             let (table, ok) = parity(&session)?;
             if ok {
                 Ok(table)
@@ -306,19 +367,49 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             let (nodes, _) = wedge::effects::builtin();
             let validated = wedge::graph::validate(&loaded, &nodes)?;
             let sched = wedge::graph::schedule(wedge::graph::expand(&validated)?)?;
-            Ok(if dot { sched.to_dot() } else { sched.table() })
+            Ok(if dot { sched.to_dot() } else { sched.table() + &memory_line(&sched, loaded.pipeline.width, loaded.pipeline.height) })
         }
     }
 }
 
+/// `wedge graph`'s memory line: the schedule's buffers at the pipeline's size (no scene is loaded).
+fn memory_line(sched: &wedge::graph::Schedule, width: u32, height: u32) -> String {
+    use wedge::session::format_bytes;
+    let b = sched.buffer_bytes(width, height);
+    format!(
+        "memory at {width}x{height}: estimated peak {} of buffers on the CPU or wgpu backend (pool {} + one pass's \
+         outputs {} + sink copies {}), {} for parity; the scene and output images come on top\n",
+        format_bytes(sched.peak_bytes(width, height)),
+        format_bytes(b.pool),
+        format_bytes(b.pass_outputs),
+        format_bytes(b.sinks),
+        format_bytes(wedge::session::parity_buffer_bytes(&b))
+    )
+}
+
+/// Write what a command prints. A reader that closed the pipe early (`wedge graph | head`) is not
+/// an error; any other failure (`wedge graph > /dev/full`) is.
+fn print_stdout(text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
+}
+
 fn main() -> ExitCode {
+    if let Err(e) = wedge::staging::install_signal_handler() {
+        eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}); an interrupted run may leave temporary files");
+    }
     match run(Cli::parse()) {
-        Ok(text) => {
-            use std::io::Write;
-            // A reader that closed the pipe early (`wedge graph | head`) is not an error.
-            let _ = std::io::stdout().lock().write_all(text.as_bytes());
-            ExitCode::SUCCESS
-        }
+        Ok(text) => match print_stdout(&text) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: cannot write to standard output: {e}; check the disk or the file stdout goes to");
+                ExitCode::FAILURE
+            }
+        },
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE

@@ -1,5 +1,7 @@
 //! Turning a run into files and a summary: the final image (EXR linear + PNG sRGB), the unfiltered
 //! image, heatmaps of filter width and rays per pixel (thesis Fig. 3.7), and per-pass timings.
+//! A run's files are written as one all-or-nothing set ([`crate::staging::Staging`]), and images
+//! with NaN/inf pixels are counted and warned about ([`WrittenRun::warnings`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -8,6 +10,7 @@ use wedge_backends::{BufferData, KernelClass, RunResult};
 
 use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
 use crate::image::{write_exr, write_png_srgb, Image, ImageError};
+use crate::staging::Staging;
 
 /// A vec3/vec4 buffer as an image (first three components).
 pub fn buffer_to_image(b: &BufferData, width: u32, height: u32) -> Image {
@@ -17,41 +20,67 @@ pub fn buffer_to_image(b: &BufferData, width: u32, height: u32) -> Image {
     })
 }
 
-/// Write `stem.exr` and `stem.png`; returns the paths.
-pub fn write_image_pair(dir: &Path, stem: &str, img: &Image) -> Result<Vec<PathBuf>, ImageError> {
-    let exr = dir.join(format!("{stem}.exr"));
-    let png = dir.join(format!("{stem}.png"));
-    write_exr(&exr, img)?;
-    write_png_srgb(&png, img, 1.0)?;
-    Ok(vec![exr, png])
+/// Pixels of `img` with a NaN or infinite channel.
+pub fn non_finite_pixels(img: &Image) -> usize {
+    img.pixels.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count()
 }
 
-/// Write everything a run produced into `dir` (created if missing); `stem` names the final image.
-pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u32) -> Result<Vec<PathBuf>, ImageError> {
-    std::fs::create_dir_all(dir).map_err(|source| ImageError::Write { path: dir.to_path_buf(), source })?;
-    let mut written = Vec::new();
-    if let Some(c) = run.output("color") {
-        written.extend(write_image_pair(dir, stem, &buffer_to_image(c, width, height))?);
+/// What [`write_run`] put on disk.
+#[derive(Clone, Debug, Default)]
+pub struct WrittenRun {
+    pub files: Vec<PathBuf>,
+    /// `(file stem, pixels)` of every written image with NaN/inf pixels (EXR keeps them, the PNG
+    /// shows them magenta): never written silently, see [`WrittenRun::warnings`].
+    pub non_finite: Vec<(String, usize)>,
+}
+
+impl WrittenRun {
+    /// One warning line per image with non-finite pixels (empty when there are none).
+    pub fn warnings(&self) -> String {
+        let mut s = String::new();
+        for (stem, n) in &self.non_finite {
+            let _ = writeln!(
+                s,
+                "warning: {n} pixel(s) of {stem}.exr/{stem}.png are NaN or infinite (stored as-is in the EXR, magenta in \
+                 the PNG); check the scene's emission and material values"
+            );
+        }
+        s
     }
-    if let Some(u) = run.output("unfiltered") {
-        written.extend(write_image_pair(dir, "unfiltered", &buffer_to_image(u, width, height))?);
+}
+
+/// Stage `stem.exr` and `stem.png` of `img` into `set`; returns the number of non-finite pixels.
+fn stage_image_pair(set: &mut Staging, stem: &str, img: &Image) -> Result<usize, ImageError> {
+    write_exr(&set.file(format!("{stem}.exr"))?, img)?;
+    write_png_srgb(&set.file(format!("{stem}.png"))?, img, 1.0)?;
+    Ok(non_finite_pixels(img))
+}
+
+/// Write everything a run produced into `dir` (created if missing), all-or-nothing (see
+/// [`crate::staging`]); `stem` names the final image.
+pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
+    let mut set = Staging::new(dir)?;
+    let mut non_finite = Vec::new();
+    for (port, name) in [("color", stem), ("unfiltered", "unfiltered")] {
+        if let Some(b) = run.output(port) {
+            let bad = stage_image_pair(&mut set, name, &buffer_to_image(b, width, height))?;
+            if bad > 0 {
+                non_finite.push((name.to_string(), bad));
+            }
+        }
     }
     if let Some(f) = run.output("filter_width") {
         let values = f.to_scalar();
         let mask: Vec<bool> = values.iter().map(|v| *v <= 0.0).collect();
-        let path = dir.join("filter_width.png");
         let spec = HeatmapSpec { title: "filter width (beta)", unit: "px", scale: Scale::Log, range: None };
-        write_heatmap_png(&path, width, height, &values, Some(&mask), &spec)?;
-        written.push(path);
+        write_heatmap_png(&set.file("filter_width.png")?, width, height, &values, Some(&mask), &spec)?;
     }
     if let Some(r) = run.output("rays_per_pixel") {
         let values = r.to_scalar();
-        let path = dir.join("rays_per_pixel.png");
         let spec = HeatmapSpec { title: "rays per pixel", unit: "rays", scale: Scale::Log, range: None };
-        write_heatmap_png(&path, width, height, &values, None, &spec)?;
-        written.push(path);
+        write_heatmap_png(&set.file("rays_per_pixel.png")?, width, height, &values, None, &spec)?;
     }
-    Ok(written)
+    Ok(WrittenRun { files: set.commit()?, non_finite })
 }
 
 /// Average rays per pixel of each kind, and the per-pass time table.

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use wedge_backends::{Backend, BackendError, Job, KernelRegistry, Progress, RunResult};
 use wedge_graph::{
-    expand, parse_pipeline, schedule, validate, GraphError, LoadedPipeline, NodeRegistry, ParamValue, Schedule,
+    expand, parse_pipeline, schedule, validate, BufferBytes, GraphError, LoadedPipeline, NodeRegistry, ParamValue, Schedule,
     ValidatedPipeline,
 };
 use wedge_scene::{Camera, Scene, SceneError, SceneSource};
@@ -117,6 +117,7 @@ impl Session {
         if let Some(s) = ov.seed {
             p.seed = s;
         }
+        check_pixel_count(ov, p.width, p.height)?;
         let mut pipeline = validate(&loaded, &nodes)?;
         apply_param_overrides(&mut pipeline, ov)?;
         let schedule = schedule(expand(&pipeline)?)?;
@@ -141,6 +142,162 @@ impl Session {
         };
         Ok(backend.run(&job)?)
     }
+
+    /// Peak memory of running this session in `mode` (see [`MemoryEstimate`]).
+    pub fn memory_estimate(&self, mode: RunMode) -> MemoryEstimate {
+        let b = self.schedule.buffer_bytes(self.width, self.height);
+        let scene = scene_bytes(&self.scene);
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        match mode {
+            RunMode::Cpu => MemoryEstimate {
+                buffers: self.schedule.peak_bytes(self.width, self.height),
+                scene,
+                images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
+            },
+            // The pool lives on the device, the sink copies and images on the host; a software
+            // adapter (lavapipe) takes both from the same RAM, so both count. The scene is uploaded.
+            RunMode::Gpu => MemoryEstimate {
+                buffers: self.schedule.peak_bytes(self.width, self.height),
+                scene: scene.saturating_mul(2),
+                images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
+            },
+            RunMode::Parity => MemoryEstimate {
+                buffers: parity_buffer_bytes(&b),
+                scene: scene.saturating_mul(2),
+                images: 0,
+            },
+        }
+    }
+}
+
+/// Buffer bytes of `wedge parity`: every CPU buffer kept (no pooling), plus one pass's bindings on
+/// the device and the read-back copies of its outputs on the host.
+pub fn parity_buffer_bytes(b: &BufferBytes) -> u64 {
+    b.unpooled.saturating_add(b.pass_bindings).saturating_add(b.pass_outputs)
+}
+
+/// How a session is run, for [`Session::memory_estimate`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RunMode {
+    /// `render`/`reference` on the CPU backend.
+    Cpu,
+    /// `render --backend wgpu`.
+    Gpu,
+    /// `wedge parity`: CPU and GPU copies of the buffers.
+    Parity,
+}
+
+/// Bytes per pixel of writing the outputs: one image as `[f32; 3]` plus its 8-bit PNG encoding
+/// (the images are written one after the other).
+const OUTPUT_BYTES_PER_PIXEL: u64 = 12 + 3;
+
+/// Estimated peak bytes of a run, by what holds them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    /// The schedule's buffers ([`Schedule::buffer_bytes`]).
+    pub buffers: u64,
+    /// Triangles, shading, BVH, materials, textures, lights (times two where a device copy exists).
+    pub scene: u64,
+    /// Converting and encoding the output images.
+    pub images: u64,
+}
+
+impl MemoryEstimate {
+    pub fn total(&self) -> u64 {
+        self.buffers.saturating_add(self.scene).saturating_add(self.images)
+    }
+
+    /// Refuse the run when the estimate exceeds `limit` (bytes); `limit_source` says where the
+    /// limit came from (`--memory-limit`, or the default's derivation) for the message.
+    pub fn check(&self, limit: u64, limit_source: &str) -> Result<(), WedgeError> {
+        if self.total() <= limit {
+            return Ok(());
+        }
+        Err(WedgeError::Usage(format!(
+            "this run needs an estimated {} ({} buffers + {} scene + {} output images), more than the memory \
+             limit of {} ({limit_source}); lower --width/--height, or raise the limit with --memory-limit SIZE \
+             (e.g. --memory-limit 16G) if the machine has the memory",
+            format_bytes(self.total()),
+            format_bytes(self.buffers),
+            format_bytes(self.scene),
+            format_bytes(self.images),
+            format_bytes(limit)
+        )))
+    }
+}
+
+/// Bytes the loaded scene's arrays take.
+pub fn scene_bytes(scene: &Scene) -> u64 {
+    fn of<T>(v: &[T]) -> u64 {
+        std::mem::size_of_val(v) as u64
+    }
+    let texels: u64 = scene.textures.iter().map(|t| of(&t.texels)).sum();
+    of(&scene.triangles) + of(&scene.shading) + of(&scene.bvh) + of(&scene.materials) + of(&scene.lights) + texels
+}
+
+/// The default memory limit: 3/4 of the memory the kernel reports available (`MemAvailable` of
+/// /proc/meminfo), leaving room for the rest of the system. `None` where it cannot be read.
+pub fn default_memory_limit() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kib: u64 = text.lines().find_map(|l| l.strip_prefix("MemAvailable:"))?.trim().strip_suffix("kB")?.trim().parse().ok()?;
+    Some(kib.saturating_mul(1024) / 4 * 3)
+}
+
+/// Parse a size: bytes (`1048576`), or a number with a binary suffix `K`, `M`, `G`, `T`
+/// (optionally followed by `B` or `iB`; `1.5G` allowed). For `--memory-limit`.
+pub fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let shift = match unit.trim().to_ascii_uppercase().trim_end_matches("IB").trim_end_matches('B') {
+        "" => 0,
+        "K" => 10,
+        "M" => 20,
+        "G" => 30,
+        "T" => 40,
+        _ => return Err(format!("`{s}` has an unknown unit; write bytes or a number with K, M, G or T (e.g. 512M, 8G)")),
+    };
+    let n: f64 = number.parse().map_err(|_| format!("`{s}` is not a size; write e.g. 512M, 8G or 1073741824"))?;
+    let bytes = n * (1u64 << shift) as f64;
+    if !(bytes >= 1.0 && bytes < 1.8e19) {
+        return Err(format!("`{s}` is outside 1 byte ..= 16E; write e.g. 512M or 8G"));
+    }
+    Ok(bytes as u64)
+}
+
+/// `1536` → `1.5 KiB`; binary units, three significant digits.
+pub fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 6] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.1} {}", UNITS[u])
+    }
+}
+
+/// Width and height given on the command line are checked here, where the pipeline's other side is
+/// known, so the message blames the flags rather than a line of the pipeline file.
+fn check_pixel_count(ov: &Overrides, width: u32, height: u32) -> Result<(), WedgeError> {
+    let pixels = u64::from(width) * u64::from(height);
+    if (ov.width.is_none() && ov.height.is_none()) || pixels <= wedge_graph::MAX_PIXELS {
+        return Ok(());
+    }
+    let side = |flag: &str, given: Option<u32>, v: u32| match given {
+        Some(_) => format!("--{flag} {v}"),
+        None => format!("the pipeline's {flag} {v}"),
+    };
+    Err(WedgeError::Usage(format!(
+        "{} × {} = {pixels} pixels is more than the limit of {} (2^26); lower --width/--height",
+        side("width", ov.width, width),
+        side("height", ov.height, height),
+        wedge_graph::MAX_PIXELS
+    )))
 }
 
 /// The indirect light a reference must include (from the pipeline's `Indirect` node).

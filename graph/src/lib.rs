@@ -21,10 +21,10 @@ mod validate;
 pub use decl::{Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
 pub use pipeline::{CameraSpec, Location, NodeSpec, Pipeline, RawParam};
-pub use schedule::{schedule, Lifetime, Schedule};
+pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use validate::{
     expand, load_pipeline, parse_pipeline, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
-    ValidatedNode, ValidatedPipeline,
+    ValidatedNode, ValidatedPipeline, MAX_PIXELS, MAX_SIDE,
 };
 
 /// Everything that can go wrong between a pipeline file and a schedule.

@@ -12,6 +12,8 @@
 //!    (greedy interval colouring in order of first write). A buffer may reuse a slot only if the
 //!    previous occupant's last use is strictly before the buffer's first write, so a pass never reads
 //!    and writes the same storage.
+//! 5. **Memory estimate** ([`Schedule::buffer_bytes`], [`Schedule::peak_bytes`]): what the plan
+//!    costs at a given image size, so a run too large for the machine is refused before it allocates.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashSet};
@@ -227,7 +229,63 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     })
 }
 
+/// Bytes one pixel of `format` takes in a buffer: 4 bytes per component, tightly packed (the CPU
+/// backend's `Vec<[f32; N]>` and the wgpu backend's storage buffers alike; no vec3 padding).
+pub fn bytes_per_pixel(format: Format) -> u64 {
+    format.components() as u64 * 4
+}
+
+/// The buffer memory of a schedule at one image size, in bytes, by what holds it. Each figure is
+/// `pixels × bytes per pixel` summed over the buffers named; see [`Schedule::peak_bytes`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BufferBytes {
+    /// The pool: one buffer per physical slot (all slots are filled by the end of a run).
+    pub pool: u64,
+    /// The most one pass writes: a pass's outputs exist before its slots' previous occupants are
+    /// dropped, so for a moment they come on top of the pool.
+    pub pass_outputs: u64,
+    /// The copies of the sink inputs a run hands back.
+    pub sinks: u64,
+    /// Every live buffer at once, without pooling (the parity harness keeps them all).
+    pub unpooled: u64,
+    /// The most one pass binds (reads + writes): what running a single pass on a device holds.
+    pub pass_bindings: u64,
+}
+
 impl Schedule {
+    /// The buffer memory of this schedule at `width × height` (saturating, never overflowing).
+    pub fn buffer_bytes(&self, width: u32, height: u32) -> BufferBytes {
+        let pixels = u64::from(width) * u64::from(height);
+        let of = |f: Format| pixels.saturating_mul(bytes_per_pixel(f));
+        let of_buffer = |id: &BufferId| self.buffers.get(id.0).map_or(0, |b| of(b.format));
+        let sum = |it: &mut dyn Iterator<Item = u64>| it.fold(0u64, u64::saturating_add);
+        BufferBytes {
+            pool: sum(&mut self.slot_formats.iter().map(|f| of(*f))),
+            pass_outputs: self
+                .passes
+                .iter()
+                .map(|p| sum(&mut p.writes.iter().map(|(_, id)| of_buffer(id))))
+                .max()
+                .unwrap_or(0),
+            sinks: sum(&mut self.sink_inputs.iter().map(|(_, _, id)| of_buffer(id))),
+            unpooled: sum(&mut self.live_buffers().map(|id| of_buffer(&id))),
+            pass_bindings: self
+                .passes
+                .iter()
+                .map(|p| sum(&mut p.reads.iter().chain(&p.writes).map(|(_, id)| of_buffer(id))))
+                .max()
+                .unwrap_or(0),
+        }
+    }
+
+    /// Peak bytes of the buffers of one run at `width × height` on a backend that follows the pool
+    /// plan: the pool, plus one pass's outputs in flight, plus the sink copies handed back. Scene
+    /// data and image files come on top; the caller (who knows them) adds them.
+    pub fn peak_bytes(&self, width: u32, height: u32) -> u64 {
+        let b = self.buffer_bytes(width, height);
+        b.pool.saturating_add(b.pass_outputs).saturating_add(b.sinks)
+    }
+
     /// Number of physical buffers the pool plan needs.
     pub fn physical_allocations(&self) -> usize {
         self.slot_formats.len()

@@ -21,8 +21,8 @@ use crate::GraphError;
 
 /// Largest admissible image side, and largest pixel count (2^26 = 64 Mpixel): buffers are
 /// full-resolution, so this bounds memory per buffer (vec4 at 2^26 pixels is 1 GiB).
-const MAX_SIDE: u32 = 16384;
-const MAX_PIXELS: u64 = 1 << 26;
+pub const MAX_SIDE: u32 = 16384;
+pub const MAX_PIXELS: u64 = 1 << 26;
 
 /// A parsed pipeline together with its source, so that validation can point into the file.
 #[derive(Clone, Debug)]

@@ -8,6 +8,7 @@ use std::time::Instant;
 use super::plots::{write_plot, Plot, Series, SeriesStyle, BLUE, GREEN, GREY, RED};
 use super::{BenchResult, GoalOutcome, Goals, KeptImages, Method, Role, RunRecord};
 use crate::image::{write_png_srgb, Image, ImageError};
+use crate::staging::Staging;
 use crate::WedgeError;
 
 /// Column names of `bench.csv`, in order.
@@ -230,44 +231,51 @@ fn rel(path: &Path, base: &Path) -> String {
     path.strip_prefix(base).unwrap_or(path).to_string_lossy().replace('\\', "/")
 }
 
-/// Write CSV, plots, crops and `report.md`; fills `result.plots`, `result.images`, `result.seconds`.
+/// Write CSV, plots, crops and `report.md` as one all-or-nothing set ([`Staging`]); fills
+/// `result.plots`, `result.images`, `result.seconds`.
 pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_dir: &Path, t0: Instant) -> Result<(), WedgeError> {
     let out = result.out.clone();
-    let werr = |path: &Path, source: std::io::Error| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source });
-    std::fs::write(&result.csv, csv(&result.runs)).map_err(|e| werr(&result.csv, e))?;
+    let mut set = Staging::new(&out)?;
+    // Every file of the set is named relative to `out`, staged, and moved into place at the end.
+    let rel = |path: &Path| path.strip_prefix(&out).map(Path::to_path_buf).unwrap_or_else(|_| path.file_name().unwrap_or_default().into());
+    let write_text = |set: &mut Staging, path: &Path, text: String| -> Result<(), WedgeError> {
+        let staged = set.file(rel(path))?;
+        std::fs::write(&staged, text).map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
+    };
+    write_text(&mut set, &result.csv, csv(&result.runs))?;
 
     let rays_plot = plot_for(result, |r| r.rays.total, "rays per pixel (total)", "RMSE vs rays per pixel (log-log)");
     let time_plot = plot_for(result, |r| r.time.total, "time (s)", "RMSE vs render time (log-log)");
     for (name, plot) in [("error_vs_rays.png", rays_plot), ("error_vs_time.png", time_plot)] {
-        let p = out.join(name);
-        write_plot(&p, &plot)?;
-        result.plots.push(p);
+        write_plot(&set.file(name)?, &plot)?;
+        result.plots.push(out.join(name));
     }
 
     let img_dir = out.join("images");
-    std::fs::create_dir_all(&img_dir).map_err(|e| werr(&img_dir, e))?;
     let mut crops: Vec<(String, PathBuf)> = Vec::new();
-    let mut add = |name: &str, caption: String, img: &Image| -> Result<(), WedgeError> {
+    let mut add = |set: &mut Staging, name: &str, caption: String, img: &Image| -> Result<(), WedgeError> {
         let p = img_dir.join(format!("crop_{name}.png"));
-        write_png_srgb(&p, &centre_crop(img), 1.0)?;
+        write_png_srgb(&set.file(rel(&p))?, &centre_crop(img), 1.0)?;
         crops.push((caption, p));
         Ok(())
     };
     if let Some(u) = &kept.unfiltered {
-        add("input", "input (unfiltered)".into(), u)?;
+        add(&mut set, "input", "input (unfiltered)".into(), u)?;
     }
-    add("ours", Method::Pipeline.name().into(), &kept.ours)?;
+    add(&mut set, "ours", Method::Pipeline.name().into(), &kept.ours)?;
     if let Some((img, n)) = &kept.equal_time {
-        add("equal_time_mc", format!("equal-time {} ({n} spp)", Method::Stratified.name()), img)?;
+        add(&mut set, "equal_time_mc", format!("equal-time {} ({n} spp)", Method::Stratified.name()), img)?;
     }
-    add("reference", format!("reference ({} spp)", result.reference.spp), &kept.reference)?;
+    add(&mut set, "reference", format!("reference ({} spp)", result.reference.spp), &kept.reference)?;
     let full_ref = img_dir.join("reference.png");
-    write_png_srgb(&full_ref, &kept.reference, 1.0)?;
+    write_png_srgb(&set.file(rel(&full_ref))?, &kept.reference, 1.0)?;
     result.images = crops.iter().map(|c| c.1.clone()).chain([full_ref]).collect();
 
     result.seconds = t0.elapsed().as_secs_f64();
     let md = markdown(result, &crops, pipeline_dir);
-    std::fs::write(&result.report, md).map_err(|e| werr(&result.report, e))?;
+    let report = result.report.clone();
+    write_text(&mut set, &report, md)?;
+    set.commit()?;
     Ok(())
 }
 
