@@ -28,7 +28,7 @@ pub struct Series {
     pub label: String,
     pub color: [u8; 3],
     pub style: SeriesStyle,
-    /// `(x, y)`; non-positive or non-finite points are skipped (log axes).
+    /// `(x, y)`; non-positive, non-finite or absurd points are skipped (log axes), see [`usable`].
     pub points: Vec<(f64, f64)>,
 }
 
@@ -49,8 +49,29 @@ pub const BLUE: [u8; 3] = [31, 119, 180];
 pub const GREEN: [u8; 3] = [44, 160, 44];
 pub const GREY: [u8; 3] = [110, 110, 110];
 
+/// Smallest and largest coordinate a log axis takes. Outside it a value is not a measurement but
+/// a corrupt or overflowed number (a cache file saying `noise_rmse=1e300`), and plotters' log-axis
+/// tick generation does not finish on ranges spanning hundreds of decades or reaching infinity.
+const MIN_PLOTTABLE: f64 = 1e-30;
+const MAX_PLOTTABLE: f64 = 1e30;
+
+/// Finite, positive and within [`MIN_PLOTTABLE`]..=[`MAX_PLOTTABLE`] on both axes.
 fn usable(p: &(f64, f64)) -> bool {
-    p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0
+    let ok = |v: f64| (MIN_PLOTTABLE..=MAX_PLOTTABLE).contains(&v);
+    ok(p.0) && ok(p.1)
+}
+
+/// Points of `plot` that [`usable`] rejects (they are skipped, and the title says how many).
+fn unplottable_points(plot: &Plot) -> usize {
+    plot.series.iter().flat_map(|s| &s.points).filter(|p| !usable(p)).count()
+}
+
+/// The plot's title, with a note when points had to be skipped.
+fn title_with_note(plot: &Plot) -> String {
+    match unplottable_points(plot) {
+        0 => plot.title.clone(),
+        n => format!("{} [{n} point(s) off the plottable range skipped: NaN, inf, <= 0 or beyond 1e±30]", plot.title),
+    }
 }
 
 /// Log range covering `values` with a margin of a tenth of a decade at each end.
@@ -66,6 +87,8 @@ fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     if hi <= lo {
         return (lo / 2.0, hi * 2.0);
     }
+    // Values come from `usable` points (within 1e±30), so the margin below is at most ~5 decades
+    // and the range stays finite and positive.
     let m = ((hi / lo).log10() * 0.08).max(0.05);
     (lo / 10f64.powf(m), hi * 10f64.powf(m))
 }
@@ -84,7 +107,7 @@ pub fn render_plot(plot: &Plot, width: u32, height: u32) -> Result<Vec<u8>, Stri
         let (x0, x1) = log_range(pts().map(|p| p.0));
         let (y0, y1) = log_range(pts().map(|p| p.1));
         let mut chart = ChartBuilder::on(&root)
-            .caption(&plot.title, ("sans-serif", 20))
+            .caption(title_with_note(plot), ("sans-serif", 20))
             .margin(14)
             .x_label_area_size(44)
             .y_label_area_size(78)
@@ -205,5 +228,53 @@ mod tests {
         assert_eq!(fmt_tick(100.0), "100");
         assert_eq!(fmt_tick(0.002), "0.002");
         assert_eq!(fmt_tick(0.0001), "1e-4");
+    }
+}
+
+#[cfg(test)]
+mod extreme_value_tests {
+    use super::*;
+    use std::sync::mpsc;
+    use std::time::Duration;
+
+    /// Render on a thread and give up after `secs`: a hang fails the test instead of stalling it.
+    fn render_within(plot: Plot, secs: u64) -> Result<Vec<u8>, String> {
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let _ = tx.send(render_plot(&plot, 300, 200));
+        });
+        rx.recv_timeout(Duration::from_secs(secs)).expect("render_plot must finish (it hung on extreme values)")
+    }
+
+    fn plot_with(points: Vec<(f64, f64)>) -> Plot {
+        Plot {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![
+                Series { label: "ok".into(), color: RED, style: SeriesStyle::LinePoints, points: vec![(1.0, 0.1), (16.0, 0.02)] },
+                Series { label: "bad".into(), color: GREY, style: SeriesStyle::Dashed, points },
+            ],
+        }
+    }
+
+    #[test]
+    fn extreme_and_non_finite_values_neither_hang_nor_panic() {
+        for bad in [1e300, f64::MAX, f64::INFINITY, f64::NAN, 0.0, -1.0, 1e-300, f64::MIN_POSITIVE] {
+            let buf = render_within(plot_with(vec![(1.0, bad), (16.0, bad)]), 30).unwrap();
+            let red = buf.chunks(3).filter(|p| *p == RED).count();
+            assert!(red > 20, "the usable series is still drawn with {bad:e} beside it");
+        }
+        // Only unusable points: an empty chart, no hang.
+        let only_bad = Plot { series: vec![plot_with(vec![(1e300, 1e300)]).series[1].clone()], ..plot_with(vec![]) };
+        render_within(only_bad, 30).unwrap();
+    }
+
+    #[test]
+    fn skipped_points_are_counted_in_the_title() {
+        let plot = plot_with(vec![(1.0, 1e300), (f64::NAN, 1.0), (2.0, 0.5)]);
+        assert_eq!(unplottable_points(&plot), 2);
+        assert!(title_with_note(&plot).contains("2 point(s) off the plottable range"), "{}", title_with_note(&plot));
+        assert_eq!(title_with_note(&plot_with(vec![(2.0, 0.5)])), "t");
     }
 }

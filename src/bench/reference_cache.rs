@@ -105,8 +105,10 @@ pub fn load(dir: &Path, spec: &ReferenceSpec) -> Option<StoredReference> {
     if field("description")? != spec.description() {
         return None;
     }
-    let noise_rmse: f64 = field("noise_rmse")?.parse().ok()?;
-    let render_seconds: f64 = field("render_seconds")?.parse().ok()?;
+    // A value no render can produce (NaN, inf, negative, or so large its square overflows) means
+    // the file is corrupt or hand-edited: a miss, so the reference is rendered again.
+    let noise_rmse: f64 = field("noise_rmse")?.parse().ok().filter(|v: &f64| *v >= 0.0 && (v * v).is_finite())?;
+    let render_seconds: f64 = field("render_seconds")?.parse().ok().filter(|v: &f64| *v >= 0.0 && v.is_finite())?;
     let image = read_exr(&exr).ok()?;
     if (image.width, image.height) != (spec.width, spec.height) {
         return None;
@@ -183,5 +185,30 @@ mod tests {
         let mut other = spec();
         other.width = 5;
         assert!(load(dir.path(), &other).is_none());
+    }
+
+    #[test]
+    fn corrupt_numbers_in_the_description_are_a_miss() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = Image::from_fn(4, 3, |x, y| [x as f32, y as f32, 0.5]);
+        let (_, meta) = paths(dir.path(), &spec());
+        for (field, bad) in [
+            ("noise_rmse", "1e300"),
+            ("noise_rmse", "NaN"),
+            ("noise_rmse", "inf"),
+            ("noise_rmse", "-1"),
+            ("noise_rmse", "x"),
+            ("render_seconds", "inf"),
+            ("render_seconds", "-2"),
+        ] {
+            store(dir.path(), &spec(), &img, 1.5e-3, 2.0).unwrap();
+            let text = fs::read_to_string(&meta).unwrap();
+            let edited: String = text
+                .lines()
+                .map(|l| if l.starts_with(&format!("{field}=")) { format!("{field}={bad}\n") } else { format!("{l}\n") })
+                .collect();
+            fs::write(&meta, edited).unwrap();
+            assert!(load(dir.path(), &spec()).is_none(), "{field}={bad} must be a cache miss");
+        }
     }
 }
