@@ -138,3 +138,50 @@ pub fn summary(run: &RunResult, width: u32, height: u32) -> String {
     );
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+    use wedge_backends::RayCounts;
+
+    fn run_with_color(color: Vec<[f32; 3]>) -> RunResult {
+        let mut outputs = BTreeMap::new();
+        outputs.insert(("out".to_string(), "color".to_string()), BufferData::Vec3(color));
+        RunResult { outputs, timings: Vec::new(), rays: RayCounts::default(), allocations: 0 }
+    }
+
+    #[test]
+    fn non_finite_output_pixels_are_counted_and_warned_about() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut color = vec![[0.5f32; 3]; 6];
+        color[1] = [f32::NAN, 0.0, 0.0];
+        color[4] = [0.0, f32::INFINITY, 0.0];
+        let w = write_run(dir.path(), "render", &run_with_color(color), 3, 2).unwrap();
+        assert_eq!(w.non_finite, vec![("render".to_string(), 2)]);
+        let text = w.warnings();
+        assert!(text.contains("warning: 2 pixel(s) of render.exr/render.png are NaN or infinite"), "{text}");
+        assert_eq!(w.files, vec![dir.path().join("render.exr"), dir.path().join("render.png")]);
+        let back = crate::image::read_exr(&dir.path().join("render.exr")).unwrap();
+        assert!(back.pixels[1][0].is_nan(), "the EXR keeps the value as it is");
+        let clean = write_run(dir.path(), "render", &run_with_color(vec![[0.5; 3]; 6]), 3, 2).unwrap();
+        assert!(clean.non_finite.is_empty() && clean.warnings().is_empty());
+    }
+
+    #[test]
+    fn a_failed_write_leaves_the_previous_set_and_no_temporaries() {
+        let dir = tempfile::tempdir().unwrap();
+        write_run(dir.path(), "render", &run_with_color(vec![[0.5; 3]; 6]), 3, 2).unwrap();
+        let before = std::fs::read(dir.path().join("render.exr")).unwrap();
+        // The filter-width heatmap is one pixel short: it fails after render.exr/.png were staged.
+        let mut run = run_with_color(vec![[0.9; 3]; 6]);
+        run.outputs.insert(("out".into(), "filter_width".into()), BufferData::F32(vec![1.0; 5]));
+        let err = write_run(dir.path(), "render", &run, 3, 2).unwrap_err().to_string();
+        assert!(err.contains("filter_width.png"), "{err}");
+        assert_eq!(std::fs::read(dir.path().join("render.exr")).unwrap(), before);
+        let mut names: Vec<String> =
+            std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        assert_eq!(names, ["render.exr", "render.png"]);
+    }
+}

@@ -402,3 +402,89 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec) -> Camera {
         focus_distance: c.focus_distance.unwrap_or((look_at - position).length()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadows_estimate_at_640x480_equals_the_hand_count() {
+        let ov = Overrides { width: Some(640), height: Some(480), ..Overrides::default() };
+        let s = Session::open(None, &ov).unwrap();
+        let px = 640 * 480u64;
+        // From `wedge graph pipelines/shadows.ron`: 12 slots = 5 vec4 (16 B) + 4 vec3 (12 B)
+        // + 3 scalar (4 B) = 140 B/px; primary.gbuffer writes position, normal, specular (vec4)
+        // + albedo, emission (vec3) = 72 B/px; sinks filter_width, rays_per_pixel (4 B) + radiance,
+        // unfiltered (12 B) = 32 B/px; all 16 buffers unpooled = 204 B/px.
+        let b = s.schedule.buffer_bytes(640, 480);
+        assert_eq!(
+            b,
+            BufferBytes { pool: 140 * px, pass_outputs: 72 * px, sinks: 32 * px, unpooled: 204 * px, pass_bindings: 72 * px }
+        );
+        assert_eq!(s.schedule.peak_bytes(640, 480), 244 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 74_956_800);
+        let cpu = s.memory_estimate(RunMode::Cpu);
+        assert_eq!(cpu.buffers, 244 * px);
+        assert_eq!(cpu.images, 15 * px);
+        assert_eq!(cpu.scene, scene_bytes(&s.scene));
+        assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
+        assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (204 + 72 + 72) * px);
+    }
+
+    #[test]
+    fn over_budget_names_estimate_limit_and_fix() {
+        let e = MemoryEstimate { buffers: 3 << 30, scene: 1 << 20, images: 0 };
+        assert!(e.check(4 << 30, "--memory-limit").is_ok());
+        let msg = e.check(1 << 30, "--memory-limit").unwrap_err().to_string();
+        for needle in ["3.0 GiB", "1.0 GiB (--memory-limit)", "--width/--height", "--memory-limit SIZE"] {
+            assert!(msg.contains(needle), "{needle:?} in {msg}");
+        }
+    }
+
+    #[test]
+    fn sizes_parse_with_binary_units() {
+        assert_eq!(parse_size("1048576"), Ok(1 << 20));
+        assert_eq!(parse_size("512M"), Ok(512 << 20));
+        assert_eq!(parse_size("8G"), Ok(8 << 30));
+        assert_eq!(parse_size("8GiB"), Ok(8 << 30));
+        assert_eq!(parse_size("1.5k"), Ok(1536));
+        assert_eq!(parse_size("2TB"), Ok(2 << 40));
+        for bad in ["", "G", "-1", "0", "8X", "1e3", "nan", "99999999999T"] {
+            assert!(parse_size(bad).is_err(), "{bad:?}");
+        }
+        assert_eq!(format_bytes(512), "512 B");
+        assert_eq!(format_bytes(1536), "1.5 KiB");
+        assert_eq!(format_bytes(74_956_800), "71.5 MiB");
+    }
+
+    #[test]
+    fn default_limit_is_three_quarters_of_available_memory() {
+        if let Ok(text) = std::fs::read_to_string("/proc/meminfo") {
+            assert!(text.contains("MemAvailable"));
+            let kib: u64 = text
+                .lines()
+                .find_map(|l| l.strip_prefix("MemAvailable:"))
+                .and_then(|v| v.split_whitespace().next())
+                .and_then(|v| v.parse().ok())
+                .unwrap();
+            // Memory moves between the two reads: allow 64 MiB of drift.
+            let expected = kib * 1024 / 4 * 3;
+            let limit = default_memory_limit().expect("readable on Linux");
+            assert!(limit.abs_diff(expected) < 64 << 20, "{limit} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn too_many_pixels_from_the_flags_blame_the_flags() {
+        let ov = Overrides { width: Some(16384), ..Overrides::default() };
+        let ov_both = Overrides { height: Some(16384), ..ov.clone() };
+        let msg = Session::open(None, &ov_both).err().unwrap().to_string();
+        assert!(msg.contains("--width 16384 × --height 16384") && msg.contains("2^26"), "{msg}");
+        let text = DEFAULT_PIPELINE.replace("height: 480", "height: 16384");
+        let loaded = parse_pipeline(Path::new("p.ron"), &text).unwrap();
+        let (nodes, kernels) = wedge_effects::builtin();
+        let msg = Session::build(loaded, &ov, nodes, kernels).err().unwrap().to_string();
+        assert!(msg.contains("--width 16384 × the pipeline's height 16384"), "{msg}");
+    }
+}
