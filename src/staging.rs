@@ -114,7 +114,12 @@ pub(crate) fn write_file_atomically(
     let prefix = format!(".{}.{}.", name.to_string_lossy(), std::process::id());
     let tmp = {
         let mut list = temporaries();
-        let tmp = tempfile::Builder::new().prefix(&prefix).suffix(".tmp").tempfile_in(parent_dir(path)).map_err(io_err)?;
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        // tempfile makes private (0600) files; an output should get the usual mode (0666 less the umask).
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        let tmp = builder.tempfile_in(parent_dir(path)).map_err(io_err)?;
         list.push(tmp.path().to_path_buf());
         tmp
     };
@@ -314,6 +319,17 @@ mod tests {
         let pid = format!(".x.bin.{}.", std::process::id());
         assert!(seen[0].starts_with(&pid) && seen[0].ends_with(".tmp"), "{seen:?}");
         assert_eq!(entries(d.path()), ["x.bin"]);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = fs::metadata(&path).unwrap().permissions().mode() & 0o777;
+            // Like any file the user creates: 0666 less the umask, not tempfile's private 0600.
+            let status = fs::read_to_string("/proc/self/status").unwrap_or_default();
+            if let Some(umask) = status.lines().find_map(|l| l.strip_prefix("Umask:")) {
+                let umask = u32::from_str_radix(umask.trim(), 8).unwrap();
+                assert_eq!(mode, 0o666 & !umask, "{mode:o} with umask {umask:o}");
+            }
+        }
     }
 
     #[test]

@@ -1,0 +1,285 @@
+//! Regression tests of issue 10 for the command line: values blamed on their flag, `--threads` and
+//! `--memory-limit` limits, stdout to a full device, outputs that are never corrupt or mixed (two
+//! writers at once, symbolic links, SIGINT/SIGTERM while rendering or writing).
+//!
+//! Each test spawns the `wedge` binary and asserts the exit code and a fragment of the message.
+
+use std::fs;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn wedge(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).current_dir(cwd).output().expect("wedge runs")
+}
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Assert exit `code` and that stderr has every fragment of `needles`; returns stderr.
+fn fails_with(o: &Output, code: i32, needles: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(code), "exit code; stderr: {err}");
+    assert!(!err.contains("panicked"), "must not panic: {err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr should mention {n:?}: {err}");
+    }
+    err
+}
+
+/// Names in `dir` that start with a dot: temporary files or staging directories left behind.
+fn hidden_entries(dir: &Path) -> Vec<String> {
+    fs::read_dir(dir)
+        .map(|rd| rd.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with('.')).collect())
+        .unwrap_or_default()
+}
+
+#[test]
+fn size_and_parameter_flags_are_blamed_on_the_flag_with_the_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // clap's range checks: exit 2, the flag and the allowed range named.
+    for (args, needles) in [
+        (&["render", "--width", "0"][..], &["'--width <WIDTH>'", "1..=16384"][..]),
+        (&["render", "--height", "0"], &["'--height <HEIGHT>'", "1..=16384"]),
+        (&["render", "--width", "100000", "--height", "100000"], &["'--width <WIDTH>'", "1..=16384"]),
+        (&["parity", "--width", "0"], &["'--width <WIDTH>'", "1..=16384"]),
+        (&["bench", "pipelines/shadows.ron", "--height", "0"], &["'--height <HEIGHT>'", "1..=16384"]),
+        (&["reference", "--spp", "0"], &["'--spp <SPP>'", "1..=1048576"]),
+        (&["reference", "--sampling", "halton"], &["'--sampling <SAMPLING>'", "stratified", "independent"]),
+        (&["render", "--mu", "0"], &["'--mu <MU>'", "finite number > 0"]),
+        (&["render", "--mu", "NaN"], &["'--mu <MU>'", "finite number > 0"]),
+        (&["render", "--mu", "inf"], &["'--mu <MU>'", "finite number > 0"]),
+        (&["render", "--seed", "abc"], &["'--seed <SEED>'"]),
+        (&["render", "--seed", "4294967296"], &["'--seed <SEED>'"]),
+    ] {
+        let err = fails_with(&wedge(args, d), 2, needles);
+        assert!(!err.contains(".ron:"), "{args:?} must not blame a pipeline line: {err}");
+    }
+    // Both sides in range, too many pixels: checked where the pipeline's other side is known.
+    let err = fails_with(
+        &wedge(&["render", "--width", "16384", "--height", "16384"], d),
+        1,
+        &["--width 16384 × --height 16384", "67108864 (2^26)", "lower --width/--height"],
+    );
+    assert!(!err.contains("shadows.ron:"), "{err}");
+    assert!(!d.join("out").exists(), "nothing written by refused runs");
+}
+
+#[test]
+fn threads_are_capped_at_four_times_the_cores() {
+    let dir = tempfile::tempdir().unwrap();
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let cap = format!("1..={}", 4 * cores);
+    let too_many = (4 * cores + 1).to_string();
+    for n in ["0", too_many.as_str(), "100000"] {
+        fails_with(&wedge(&["render", "--threads", n], dir.path()), 2, &["'--threads <THREADS>'", &cap, "4 ×"]);
+    }
+    let out = dir.path().join("out");
+    let o = wedge(&["render", "--threads", "1", "--width", "16", "--height", "12", "--out", out.to_str().unwrap()], dir.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn memory_limit_refuses_before_allocating_and_graph_prints_the_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let err = fails_with(
+        &wedge(&["render", "--memory-limit", "1M", "--width", "32", "--height", "24", "--out", "o"], d),
+        1,
+        &["more than the memory limit of 1.0 MiB (--memory-limit)", "estimated", "--memory-limit SIZE"],
+    );
+    assert!(err.contains("buffers +"), "{err}");
+    assert!(!d.join("o").exists(), "a refused run writes nothing");
+    fails_with(&wedge(&["render", "--memory-limit", "8X"], d), 2, &["'--memory-limit <SIZE>'", "unknown unit"]);
+    fails_with(&wedge(&["render", "--memory-limit", "0"], d), 2, &["'--memory-limit <SIZE>'"]);
+    // Parity at the largest allowed size (2^26 pixels) is refused at once, before the GPU is even
+    // opened (this machine may have none: the message must be the memory one).
+    let t = Instant::now();
+    let err = fails_with(
+        &wedge(&["parity", "--width", "16384", "--height", "4096", "--memory-limit", "8G"], d),
+        1,
+        &["more than the memory limit of 8.0 GiB (--memory-limit)"],
+    );
+    assert!(err.contains("GiB buffers"), "{err}");
+    assert!(t.elapsed() < Duration::from_secs(20), "refused before allocating: took {:?}", t.elapsed());
+    // `wedge graph` prints the buffer estimate at the pipeline's size (640x480: 244 B/px).
+    let o = wedge(&["graph", "pipelines/shadows.ron"], repo());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    assert!(out.contains("memory at 640x480: estimated peak 71.5 MiB of buffers"), "{out}");
+}
+
+#[test]
+fn stdout_to_a_full_device_fails_but_a_closed_pipe_does_not() {
+    if let Ok(full) = fs::OpenOptions::new().write(true).open("/dev/full") {
+        let o = Command::new(env!("CARGO_BIN_EXE_wedge"))
+            .args(["graph", "pipelines/shadows.ron"])
+            .current_dir(repo())
+            .stdout(full)
+            .output()
+            .unwrap();
+        fails_with(&o, 1, &["cannot write to standard output", "No space left on device"]);
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wedge"))
+        .args(["graph", "pipelines/shadows.ron"])
+        .current_dir(repo())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader goes away before reading anything
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// Decode every image in `dir` in full: a file interleaved from two writers fails here.
+fn decode_all(dir: &Path) -> usize {
+    let mut n = 0;
+    for e in fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        match p.extension().and_then(|x| x.to_str()) {
+            Some("exr") => {
+                let img = wedge::image::read_exr(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+                assert_eq!((img.width, img.height), (32, 24), "{}", p.display());
+            }
+            Some("png") => {
+                image::open(&p).unwrap_or_else(|e| panic!("{} is corrupt: {e}", p.display()));
+            }
+            _ => continue,
+        }
+        n += 1;
+    }
+    n
+}
+
+#[test]
+fn two_concurrent_writers_never_produce_a_corrupt_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out_s = out.to_str().unwrap();
+    for round in 0..3 {
+        let spawn = |seed: &str| {
+            Command::new(env!("CARGO_BIN_EXE_wedge"))
+                .args(["render", "--width", "32", "--height", "24", "--seed", seed, "--out", out_s])
+                .current_dir(dir.path())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap()
+        };
+        let (a, b) = (spawn("1"), spawn("2"));
+        for child in [a, b] {
+            let o = child.wait_with_output().unwrap();
+            assert!(o.status.success(), "round {round}: {}", String::from_utf8_lossy(&o.stderr));
+        }
+        assert_eq!(decode_all(&out), 6, "render, unfiltered (exr+png), two heatmaps");
+        assert_eq!(hidden_entries(&out), Vec::<String>::new(), "no temporaries left");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn symlinked_outputs_are_refused_and_their_targets_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let precious = d.join("precious.png");
+    fs::write(&precious, "keep me").unwrap();
+    // compare --heatmap onto a link.
+    let out = d.join("out");
+    let o = wedge(&["render", "--width", "16", "--height", "12", "--out", "out"], d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let exr = out.join("render.exr");
+    let before_exr = fs::read(&exr).unwrap();
+    std::os::unix::fs::symlink(&precious, d.join("link.png")).unwrap();
+    let e = exr.to_str().unwrap();
+    fails_with(&wedge(&["compare", e, e, "--heatmap", "link.png"], d), 1, &["refusing to write link.png", "symbolic link"]);
+    assert!(fs::symlink_metadata(d.join("link.png")).unwrap().file_type().is_symlink());
+    // A render whose set contains a link: refused as a whole, the rest of the old set stays.
+    fs::remove_file(out.join("render.png")).unwrap();
+    std::os::unix::fs::symlink(&precious, out.join("render.png")).unwrap();
+    fails_with(&wedge(&["render", "--width", "16", "--height", "12", "--seed", "9", "--out", "out"], d), 1, &["render.png", "symbolic link"]);
+    assert_eq!(fs::read(&exr).unwrap(), before_exr, "render.exr not replaced: the set is all-or-nothing");
+    assert_eq!(fs::read_to_string(&precious).unwrap(), "keep me");
+    assert_eq!(hidden_entries(&out), Vec::<String>::new());
+}
+
+/// Spawn `wedge`, wait until `ready` says so (polled every millisecond), send `signal`, and return
+/// the output; panics if the run ends before it is ready.
+#[cfg(unix)]
+fn interrupt_when(args: &[&str], cwd: &Path, signal: i32, mut ready: impl FnMut(&mut Child) -> bool) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wedge"))
+        .args(args)
+        .current_dir(cwd)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while !ready(&mut child) {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before it could be interrupted");
+        assert!(t.elapsed() < Duration::from_secs(300), "never became ready");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    // SAFETY: kill(2) on the pid of a child we spawned and have not reaped.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    child.wait_with_output().unwrap()
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_while_rendering_exits_130_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    // Ready once the render has printed its first line (the scene is loaded, passes are running).
+    let mut stderr_lines: Option<std::io::Lines<BufReader<std::process::ChildStderr>>> = None;
+    let started = std::cell::Cell::new(false);
+    let o = interrupt_when(
+        &["render", "--width", "512", "--height", "384", "--out", out.to_str().unwrap()],
+        dir.path(),
+        libc::SIGINT,
+        |child| {
+            let lines = stderr_lines.get_or_insert_with(|| BufReader::new(child.stderr.take().unwrap()).lines());
+            if !started.get() {
+                started.set(lines.next().is_some_and(|l| l.unwrap().contains("on scene")));
+            }
+            started.get()
+        },
+    );
+    assert_eq!(o.status.code(), Some(130));
+    let rest: String = stderr_lines.unwrap().map(|l| l.unwrap() + "\n").collect();
+    assert!(rest.contains("wedge: stopped by SIGINT"), "{rest}");
+    assert_eq!(rest.lines().filter(|l| l.contains("stopped by")).count(), 1, "one line: {rest}");
+    let left: Vec<PathBuf> = fs::read_dir(&out).map(|rd| rd.map(|e| e.unwrap().path()).collect()).unwrap_or_default();
+    assert!(left.is_empty(), "nothing written: {left:?}");
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_while_writing_exits_143_and_removes_the_staging_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    fs::create_dir(&out).unwrap();
+    fs::write(out.join("reference.png"), "old").unwrap();
+    // A cheap render with large images: ready when the staging directory appears (files are
+    // being written).
+    let o = interrupt_when(
+        &["reference", "--spp", "1", "--width", "2048", "--height", "1536", "--out", out.to_str().unwrap()],
+        dir.path(),
+        libc::SIGTERM,
+        |_| !hidden_entries(&out).is_empty(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(143), "{err}");
+    assert!(err.contains("wedge: stopped by SIGTERM; removed") && err.contains("temporary"), "{err}");
+    assert_eq!(hidden_entries(&out), Vec::<String>::new(), "staging directory removed");
+    // All or nothing: the signal came while files were written (the usual case: the old file
+    // stays and no new one appears) or during the commit, which then finished first.
+    if out.join("reference.exr").exists() {
+        image::open(out.join("reference.png")).expect("a committed set is complete");
+    } else {
+        assert_eq!(fs::read_to_string(out.join("reference.png")).unwrap(), "old", "old output untouched");
+    }
+}
