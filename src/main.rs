@@ -101,6 +101,9 @@ enum Command {
         /// run up to a quarter of it, so a larger reference brackets more of their curves.
         #[arg(long, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
         reference_spp: Option<u32>,
+        /// As for `render` (the bench also keeps a few full-size images for its report).
+        #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+        memory_limit: Option<u64>,
     },
     /// Check the wgpu backend against the CPU backend pass by pass (each GPU pass runs on the CPU's
     /// inputs) and print max abs / max rel differences and pixels over tolerance; fails on a mismatch.
@@ -164,17 +167,9 @@ fn parse_size(s: &str) -> Result<u64, String> {
     wedge::session::parse_size(s)
 }
 
-/// The memory budget: `--memory-limit`, else 3/4 of the available memory, else none.
-fn memory_budget(flag: Option<u64>) -> Option<(u64, String)> {
-    match flag {
-        Some(l) => Some((l, "--memory-limit".into())),
-        None => wedge::session::default_memory_limit().map(|l| (l, "default: 3/4 of the available memory".into())),
-    }
-}
-
 /// Refuse `session` in `mode` before anything large is allocated when it will not fit the budget.
 fn check_memory(session: &Session, mode: RunMode, flag: Option<u64>) -> Result<(), WedgeError> {
-    match memory_budget(flag) {
+    match wedge::session::memory_budget(flag) {
         Some((limit, source)) => session.memory_estimate(mode).check(limit, &source),
         None => Ok(()),
     }
@@ -349,13 +344,14 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
             }
         }
-        Command::Bench { pipeline, quick, out, width, height, seed, reference_spp } => {
+        Command::Bench { pipeline, quick, out, width, height, seed, reference_spp, memory_limit } => {
             let opts = wedge::bench::BenchOptions {
                 quick,
                 width,
                 height,
                 seed,
                 reference_spp,
+                memory_limit,
                 verbose: true,
                 ..wedge::bench::BenchOptions::new(pipeline, out)
             };

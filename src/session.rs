@@ -243,6 +243,15 @@ pub fn default_memory_limit() -> Option<u64> {
     Some(kib.saturating_mul(1024) / 4 * 3)
 }
 
+/// The memory budget and where it comes from: `--memory-limit` (`flag`), else 3/4 of the
+/// available memory ([`default_memory_limit`]), else none.
+pub fn memory_budget(flag: Option<u64>) -> Option<(u64, String)> {
+    match flag {
+        Some(l) => Some((l, "--memory-limit".into())),
+        None => default_memory_limit().map(|l| (l, "default: 3/4 of the available memory".into())),
+    }
+}
+
 /// Parse a size: bytes (`1048576`), or a number with a binary suffix `K`, `M`, `G`, `T`
 /// (optionally followed by `B` or `iB`; `1.5G` allowed). For `--memory-limit`.
 pub fn parse_size(s: &str) -> Result<u64, String> {
@@ -259,7 +268,7 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
     };
     let n: f64 = number.parse().map_err(|_| format!("`{s}` is not a size; write e.g. 512M, 8G or 1073741824"))?;
     let bytes = n * (1u64 << shift) as f64;
-    if !(bytes >= 1.0 && bytes < 1.8e19) {
+    if !(1.0..1.8e19).contains(&bytes) {
         return Err(format!("`{s}` is outside 1 byte ..= 16E; write e.g. 512M or 8G"));
     }
     Ok(bytes as u64)

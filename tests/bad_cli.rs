@@ -95,6 +95,12 @@ fn memory_limit_refuses_before_allocating_and_graph_prints_the_estimate() {
     assert!(!d.join("o").exists(), "a refused run writes nothing");
     fails_with(&wedge(&["render", "--memory-limit", "8X"], d), 2, &["'--memory-limit <SIZE>'", "unknown unit"]);
     fails_with(&wedge(&["render", "--memory-limit", "0"], d), 2, &["'--memory-limit <SIZE>'"]);
+    fails_with(
+        &wedge(&["bench", repo().join("pipelines/shadows.ron").to_str().unwrap(), "--quick", "--memory-limit", "1M", "--out", "b"], d),
+        1,
+        &["more than the memory limit of 1.0 MiB (--memory-limit)"],
+    );
+    assert!(!d.join("b").exists(), "a refused bench writes nothing");
     // Parity at the largest allowed size (2^26 pixels) is refused at once, before the GPU is even
     // opened (this machine may have none: the message must be the memory one).
     let t = Instant::now();

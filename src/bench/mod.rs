@@ -80,6 +80,9 @@ pub struct BenchOptions {
     pub baseline_spp: Option<Vec<u32>>,
     /// Reference samples per pixel (default: quick 512, full 4096), split over two seeds.
     pub reference_spp: Option<u32>,
+    /// Refuse a bench whose estimated peak memory exceeds this many bytes (default: 3/4 of the
+    /// available memory, see [`crate::session::memory_budget`]).
+    pub memory_limit: Option<u64>,
     /// Where references are cached (default `<out>/.cache`).
     pub cache_dir: Option<PathBuf>,
     pub goals: Goals,
@@ -100,6 +103,7 @@ impl BenchOptions {
             mu_values: None,
             baseline_spp: None,
             reference_spp: None,
+            memory_limit: None,
             cache_dir: None,
             goals: Goals::default(),
             verbose: false,
@@ -422,6 +426,14 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     let path = opts.pipeline.as_path();
     let session = Session::open(Some(path), &base)?;
     let (width, height, seed) = (session.width, session.height, session.seed);
+    if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
+        // One run at a time, plus the full-size images the report keeps (reference, its two
+        // halves, ours at two seeds, unfiltered, equal-time baseline): 7 × [f32; 3] per pixel.
+        let mut estimate = session.memory_estimate(crate::session::RunMode::Cpu);
+        let pixels = u64::from(width) * u64::from(height);
+        estimate.images = estimate.images.saturating_add(pixels.saturating_mul(7 * 12));
+        estimate.check(limit, &source)?;
+    }
     let pipeline_name = path.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().into_owned());
     let scene_spec = opts.scene.clone().unwrap_or_else(|| session.pipeline.pipeline.scene.clone());
     let scene_name = session.scene.name.clone();

@@ -128,7 +128,9 @@ pub fn store(dir: &Path, spec: &ReferenceSpec, image: &Image, noise_rmse: f64, r
         spec.spp,
         spec.sampling
     );
-    fs::write(&meta, text).map_err(|source| ImageError::Write { path: meta.clone(), source })?;
+    crate::image::write_atomically(&meta, |out| {
+        std::io::Write::write_all(out, text.as_bytes()).map_err(|source| ImageError::Write { path: meta.clone(), source })
+    })?;
     Ok(exr)
 }
 
