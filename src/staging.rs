@@ -58,7 +58,8 @@ fn remove_path(path: &Path) -> bool {
 }
 
 /// Remove every registered temporary (what a signal does before exiting); returns how many were
-/// registered. Holding the lock until the process exits keeps any commit from starting.
+/// registered. The handler holds the lock until the process exits, and everything that creates a
+/// temporary or commits takes it, so nothing new appears on disk after the removal.
 fn remove_temporaries(list: &mut Vec<PathBuf>) -> usize {
     let n = list.len();
     for p in list.drain(..) {
@@ -172,6 +173,9 @@ impl Staging {
         let rel = rel.as_ref().to_path_buf();
         let staged = self.tmp.join(&rel);
         let parent = parent_dir(&staged);
+        // Under the lock: after a signal's handler removed the staging directory (and holds the
+        // lock until the process exits), this must not create it again.
+        let _list = temporaries();
         fs::create_dir_all(parent).map_err(|source| ImageError::Write { path: self.dir.join(&rel), source })?;
         self.files.push(rel);
         Ok(staged)
