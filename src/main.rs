@@ -43,6 +43,9 @@ struct Common {
     /// Where passes run: `cpu` (rayon) or `wgpu` (WGSL compute on a GPU, or Mesa's software Vulkan).
     #[arg(long, default_value = "cpu", value_parser = ["cpu", "wgpu"])]
     backend: String,
+    /// Let the scene file read buffers, textures and meshes outside its own directory.
+    #[arg(long)]
+    allow_outside_scene_dir: bool,
 }
 
 #[derive(Subcommand)]
@@ -145,6 +148,7 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         seed: c.seed,
         mu,
         params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+        allow_outside_scene_dir: c.allow_outside_scene_dir,
     })
 }
 
@@ -175,6 +179,9 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
         session.height,
         session.seed
     );
+    for w in &session.scene.warnings {
+        eprintln!("warning: {w}");
+    }
     let bars = Bars::default();
     let (run, note) = match common.backend.as_str() {
         "wgpu" => run_wgpu(session, &bars)?,
@@ -279,6 +286,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 seed,
                 mu: None,
                 params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+                ..Overrides::default()
             };
             let session = Session::open(pipeline.as_deref(), &ov)?;
             let (table, ok) = parity(&session)?;

@@ -361,8 +361,8 @@ fn check_material(path: &std::path::Path, i: usize, m: &Material, textures: usiz
 }
 
 /// Indices of the triangles worth building a BVH over: zero-area ones (cross product of the edges is
-/// zero) and exact copies of an earlier triangle (same three vertices in any rotation or order, bit for
-/// bit) are left out. Returns the kept input indices and one warning per kind of drop.
+/// zero) and exact copies of an earlier triangle (same three vertices bit for bit, in the same cyclic
+/// order) are left out. Returns the kept input indices and one warning per kind of drop.
 fn drop_degenerate_and_duplicates(
     name: &str,
     tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
@@ -376,8 +376,11 @@ fn drop_degenerate_and_duplicates(
             zero_area += 1;
             continue;
         }
+        // Same vertices in the same cyclic order (same winding): rotate the smallest first. Opposite
+        // windings are kept — back-to-back faces (e.g. the shared cap between two boxes) are legitimate.
         let mut k = [key(*a), key(*b), key(*c)];
-        k.sort_unstable();
+        let first = (0..3).min_by_key(|&i| k[i]).unwrap_or(0);
+        k.rotate_left(first);
         if !seen.insert(k) {
             duplicates += 1;
             continue;
