@@ -221,25 +221,30 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             let p = [pos(tri[0])?, pos(tri[1])?, pos(tri[2])?];
             let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
             let mut n = [flat; 3];
-            if !mesh.normal_indices.is_empty() {
-                for (k, nk) in n.iter_mut().enumerate() {
-                    let ni = *mesh.normal_indices.get(f * 3 + k).unwrap_or(&u32::MAX) as usize * 3;
-                    if let Some(s) = mesh.normals.get(ni..ni + 3) {
-                        let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
-                        if v != Vec3::ZERO && v.is_finite() {
-                            *nk = v;
-                        }
+            // tobj checks v indices but not vt/vn ones: an out-of-range one is an error, not a default.
+            let out_of_range = |what: &str| {
+                SceneError::invalid(
+                    path,
+                    format!("object '{}' face {f} has a {what} index beyond the {what} lines", model.name),
+                    format!("fix the f lines' {what} indices"),
+                )
+            };
+            for k in 0..3 {
+                if let Some(&ni) = mesh.normal_indices.get(f * 3 + k) {
+                    let ni = ni as usize * 3;
+                    let s = mesh.normals.get(ni..ni + 3).ok_or_else(|| out_of_range("vn"))?;
+                    let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
+                    if v != Vec3::ZERO {
+                        n[k] = v;
                     }
                 }
             }
             let mut uv = [Vec2::ZERO; 3];
-            if !mesh.texcoord_indices.is_empty() {
-                for (k, uvk) in uv.iter_mut().enumerate() {
-                    let ti =
-                        *mesh.texcoord_indices.get(f * 3 + k).unwrap_or(&u32::MAX) as usize * 2;
-                    if let Some(s) = mesh.texcoords.get(ti..ti + 2) {
-                        *uvk = Vec2::new(s[0], 1.0 - s[1]); // OBJ v=0 is the bottom row
-                    }
+            for (k, uvk) in uv.iter_mut().enumerate() {
+                if let Some(&ti) = mesh.texcoord_indices.get(f * 3 + k) {
+                    let ti = ti as usize * 2;
+                    let s = mesh.texcoords.get(ti..ti + 2).ok_or_else(|| out_of_range("vt"))?;
+                    *uvk = Vec2::new(s[0], 1.0 - s[1]); // OBJ v=0 is the bottom row
                 }
             }
             d.push(p, n, uv, material, object);

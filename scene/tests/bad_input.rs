@@ -330,6 +330,9 @@ fn obj_unknown_usemtl_is_a_warning_with_the_line() {
     let obj = dir.join("vn.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 nan\nf 1//1 2//1 3//1\n").unwrap();
     fails(&obj, &["NaN or infinite normal"]);
+    let obj = dir.join("vt.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/9 3/1\n").unwrap();
+    fails(&obj, &["vt.obj", "texcoord index out of bounds"]);
 }
 
 /// A PNG claiming `w`×`h` pixels with an empty IDAT: enough for the header-based size check.
