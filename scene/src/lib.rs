@@ -56,8 +56,8 @@ pub enum SceneSource {
 pub mod limits {
     /// Most triangles a scene may have (after glTF instancing), checked before geometry is allocated.
     pub const MAX_TRIANGLES: usize = 1 << 26;
-    /// Most vertices one glTF accessor may hold.
-    pub const MAX_ACCESSOR_ELEMENTS: u64 = 3 * (1 << 26);
+    /// Most elements (vertices, indices) one glTF accessor may hold.
+    pub const MAX_ACCESSOR_ELEMENTS: u64 = 1 << 26;
     /// Largest texture (width × height); 8192 × 8192. Checked from the image header before decoding.
     pub const MAX_TEXTURE_PIXELS: u64 = 1 << 26;
     /// Largest texture side.

@@ -179,16 +179,38 @@ const INDICES: Layout = Layout {
     components: &[(ComponentType::U8, false), (ComponentType::U16, false), (ComponentType::U32, false)],
 };
 
-/// Read accessor `index` (referenced at JSON path `at`) as `layout` says, after checking every bound.
-/// Values come back as f64 (exact for u32 indices and f32 data); normalized integers are mapped to 0..1.
-fn read_accessor(
+/// One component as f32 (normalized integers mapped to 0..1). Only layouts above reach it, so signed
+/// integers never do.
+fn decode_f32(comp: ComponentType, b: &[u8], normalized: bool) -> f32 {
+    match comp {
+        ComponentType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        ComponentType::U16 if normalized => u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0,
+        ComponentType::U8 if normalized => b[0] as f32 / 255.0,
+        _ => decode_u32(comp, b, normalized) as f32,
+    }
+}
+
+/// One unsigned integer component (indices).
+fn decode_u32(comp: ComponentType, b: &[u8], _normalized: bool) -> u32 {
+    match comp {
+        ComponentType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        ComponentType::U16 => u16::from_le_bytes([b[0], b[1]]) as u32,
+        ComponentType::U8 => b[0] as u32,
+        _ => 0,
+    }
+}
+
+/// Read accessor `index` (referenced at JSON path `at`) as `layout` says, after checking every bound;
+/// `decode` turns one component's little-endian bytes into a value.
+fn read_accessor<T: Default + Clone>(
     path: &Path,
     root: &json::Root,
     buffers: &mut Buffers,
     index: usize,
     at: &str,
     layout: &Layout,
-) -> Result<Vec<f64>, SceneError> {
+    decode: fn(ComponentType, &[u8], bool) -> T,
+) -> Result<Vec<T>, SceneError> {
     let acc = get(path, &root.accessors, index, "accessors", at)?;
     let here = format!("accessors[{index}] (used as {at})");
     let (Checked::Valid(ty), Checked::Valid(GenericComponentType(comp))) = (&acc.type_, &acc.component_type) else {
@@ -222,7 +244,7 @@ fn read_accessor(
     let elem = comps * size;
     let Some(view_index) = acc.buffer_view.map(|v| v.value()) else {
         // The spec: an accessor without a bufferView (and not sparse) is all zeros.
-        return Ok(vec![0.0; (count * comps) as usize]);
+        return Ok(vec![T::default(); (count * comps) as usize]);
     };
     let view_at = format!("accessors[{index}].bufferView");
     let view = get(path, &root.buffer_views, view_index, "bufferViews", &view_at)?;
@@ -269,21 +291,7 @@ fn read_accessor(
         let base = (i * stride) as usize;
         for c in 0..comps {
             let at = base + (c * size) as usize;
-            let b = &bytes[at..at + size as usize];
-            out.push(match comp {
-                ComponentType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                ComponentType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                ComponentType::U16 => {
-                    let v = u16::from_le_bytes([b[0], b[1]]) as f64;
-                    if acc.normalized { v / 65535.0 } else { v }
-                }
-                ComponentType::U8 => {
-                    let v = b[0] as f64;
-                    if acc.normalized { v / 255.0 } else { v }
-                }
-                // No layout above allows signed integers.
-                ComponentType::I8 | ComponentType::I16 => 0.0,
-            });
+            out.push(decode(comp, &bytes[at..at + size as usize], acc.normalized));
         }
     }
     Ok(out)
@@ -298,12 +306,12 @@ fn read_floats(
     at: &str,
     layout: &Layout,
 ) -> Result<Vec<f32>, SceneError> {
-    let values = read_accessor(path, root, buffers, index, at, layout)?;
+    let values = read_accessor(path, root, buffers, index, at, layout, decode_f32)?;
     let n = type_components(layout.ty) as usize;
     if let Some(k) = values.iter().position(|v| !v.is_finite()) {
         return Err(bad(path, format!("{at}: element {} (accessors[{index}]) is NaN or infinite", k / n), "fix the mesh data"));
     }
-    Ok(values.into_iter().map(|v| v as f32).collect())
+    Ok(values)
 }
 
 /// A primitive's data as read from the file (before the node transform).
@@ -371,21 +379,21 @@ fn read_primitive(
     let indices: Vec<u32> = match prim.indices.map(|i| i.value()) {
         Some(i) => {
             let idx_at = format!("{at}.indices");
-            let raw = read_accessor(path, root, buffers, i, &idx_at, &INDICES)?;
-            if raw.len() % 3 != 0 {
+            let raw = read_accessor(path, root, buffers, i, &idx_at, &INDICES, decode_u32)?;
+            if !raw.len().is_multiple_of(3) {
                 return Err(bad(path, format!("{idx_at}: {} indices is not a multiple of 3", raw.len()), "export triangle lists (mode 4) with whole triangles"));
             }
-            if let Some(k) = raw.iter().position(|&v| v >= n as f64) {
+            if let Some(k) = raw.iter().position(|&v| v as usize >= n) {
                 return Err(bad(
                     path,
                     format!("{idx_at}: index {} at position {k} is out of range (POSITION has {n} vertices)", raw[k]),
                     "fix the index data or re-export the mesh",
                 ));
             }
-            raw.into_iter().map(|v| v as u32).collect()
+            raw
         }
         None => {
-            if n % 3 != 0 {
+            if !n.is_multiple_of(3) {
                 return Err(bad(path, format!("{pos_at} has {n} vertices, not a multiple of 3 (the primitive has no indices)"), "export whole triangles"));
             }
             (0..n as u32).collect()
@@ -456,7 +464,8 @@ fn material(path: &Path, i: usize, m: &json::Material) -> Result<(Material, bool
         }
     }
     let emission = Vec3::from(e) * strength;
-    if !(emission.max_element() <= MAX_RADIANCE) {
+    // Both factors are finite and non-negative here, so the product is never NaN; overflow gives inf.
+    if emission.max_element() > MAX_RADIANCE {
         return Err(bad(
             path,
             format!("{at}: emissiveFactor {e:?} × emissiveStrength {strength} = {emission}, more than the limit of {MAX_RADIANCE:e}"),
@@ -646,11 +655,12 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             if prim.mode != Checked::Valid(Mode::Triangles) {
                 continue;
             }
-            if !read.contains_key(&(inst.mesh, p)) {
-                let data = read_primitive(path, &root, &mut buffers, inst.mesh, p, &texcoord_set)?;
-                read.insert((inst.mesh, p), data);
-            }
-            let data = &read[&(inst.mesh, p)];
+            let data = match read.entry((inst.mesh, p)) {
+                std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+                std::collections::hash_map::Entry::Vacant(e) => {
+                    e.insert(read_primitive(path, &root, &mut buffers, inst.mesh, p, &texcoord_set)?)
+                }
+            };
             let material = match data.material {
                 Some(i) if i < d.materials.len() => i as u32,
                 Some(i) => {

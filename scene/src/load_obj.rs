@@ -210,7 +210,7 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
                 "fix the vn/vt lines",
             ));
         }
-        if mesh.indices.len() % 3 != 0 {
+        if !mesh.indices.len().is_multiple_of(3) {
             return Err(SceneError::invalid(
                 path,
                 format!("object '{}' has a non-triangle face", model.name),
@@ -229,13 +229,13 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
                     format!("fix the f lines' {what} indices"),
                 )
             };
-            for k in 0..3 {
+            for (k, nk) in n.iter_mut().enumerate() {
                 if let Some(&ni) = mesh.normal_indices.get(f * 3 + k) {
                     let ni = ni as usize * 3;
                     let s = mesh.normals.get(ni..ni + 3).ok_or_else(|| out_of_range("vn"))?;
                     let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
                     if v != Vec3::ZERO {
-                        n[k] = v;
+                        *nk = v;
                     }
                 }
             }
