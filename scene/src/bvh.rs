@@ -289,7 +289,11 @@ pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
     // PLOC pair poorly too, without any tie. A PLOC build of an evenly strided sample is cheap and shows
     // it: ordinary scenes' samples are 18–23 deep (built-ins), such inputs' 130+.
     if tris.len() > PROBE_SIZE {
-        let sample: Vec<[Vec3; 3]> = tris.iter().step_by(tris.len() / PROBE_SIZE).copied().collect();
+        let sample: Vec<[Vec3; 3]> = tris
+            .iter()
+            .step_by(tris.len() / PROBE_SIZE)
+            .copied()
+            .collect();
         if build_with(&sample, obvhs::BvhBuildParams::medium_build()).depth > MAX_PROBE_DEPTH {
             return build_median(tris);
         }
@@ -355,7 +359,12 @@ pub fn build_median(tris: &[[Vec3; 3]]) -> BuiltBvh {
             chi = chi.max(centres[i as usize]);
         }
         if end - start <= LEAF {
-            nodes[node] = BvhNode { min: lo.to_array(), index: start as u32, max: hi.to_array(), count: (end - start) as u32 };
+            nodes[node] = BvhNode {
+                min: lo.to_array(),
+                index: start as u32,
+                max: hi.to_array(),
+                count: (end - start) as u32,
+            };
             continue;
         }
         let axis = (chi - clo).max_position();
@@ -366,12 +375,21 @@ pub fn build_median(tris: &[[Vec3; 3]]) -> BuiltBvh {
         let first_child = nodes.len();
         nodes.push(BvhNode::zeroed());
         nodes.push(BvhNode::zeroed());
-        nodes[node] = BvhNode { min: lo.to_array(), index: first_child as u32, max: hi.to_array(), count: 0 };
+        nodes[node] = BvhNode {
+            min: lo.to_array(),
+            index: first_child as u32,
+            max: hi.to_array(),
+            count: 0,
+        };
         todo.push((first_child, start, start + mid));
         todo.push((first_child + 1, start + mid, end));
     }
     let depth = tree_depth(&nodes);
-    BuiltBvh { nodes, order, depth }
+    BuiltBvh {
+        nodes,
+        order,
+        depth,
+    }
 }
 
 /// [`build`] with explicit obvhs parameters (for experiments and benchmarks).

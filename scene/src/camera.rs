@@ -43,7 +43,11 @@ impl Camera {
     /// parallel to the view direction; `aperture_radius >= 0` (`focus_distance` <= 0 means "focus on
     /// look_at", so any finite value is fine). Returns what is wrong, without the file name.
     pub fn validate(&self) -> Result<(), String> {
-        let vectors = [("position", self.position), ("look_at", self.look_at), ("up", self.up)];
+        let vectors = [
+            ("position", self.position),
+            ("look_at", self.look_at),
+            ("up", self.up),
+        ];
         for (name, v) in vectors {
             if !v.is_finite() {
                 return Err(format!("{name} {v} is not finite"));
@@ -60,7 +64,10 @@ impl Camera {
             }
         }
         if !(self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
-            return Err(format!("vfov_deg {} is outside 0 < vfov_deg < 180", self.vfov_deg));
+            return Err(format!(
+                "vfov_deg {} is outside 0 < vfov_deg < 180",
+                self.vfov_deg
+            ));
         }
         let Some(forward) = (self.look_at - self.position).try_normalize() else {
             return Err(format!(
@@ -72,10 +79,16 @@ impl Camera {
             return Err(format!("up {} has no direction", self.up));
         };
         if forward.cross(up).length() < Self::MIN_UP_VIEW_SINE {
-            return Err(format!("up {} is parallel to the view direction {forward}", self.up));
+            return Err(format!(
+                "up {} is parallel to the view direction {forward}",
+                self.up
+            ));
         }
         if self.aperture_radius < 0.0 {
-            return Err(format!("aperture_radius {} is negative", self.aperture_radius));
+            return Err(format!(
+                "aperture_radius {} is negative",
+                self.aperture_radius
+            ));
         }
         Ok(())
     }

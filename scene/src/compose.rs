@@ -107,7 +107,10 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
     let text = String::from_utf8(bytes).map_err(|e| {
         SceneError::invalid(
             path,
-            format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()),
+            format!(
+                "not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
             "save the scene file as UTF-8",
         )
     })?;

@@ -64,8 +64,12 @@ fn io_what(e: &std::io::Error) -> String {
 
 fn io_fix(e: &std::io::Error) -> &'static str {
     match e.kind() {
-        std::io::ErrorKind::NotFound => "check the path (relative paths start at the referencing file's directory)",
-        std::io::ErrorKind::PermissionDenied => "make the file readable (chmod) or run as a user who may read it",
+        std::io::ErrorKind::NotFound => {
+            "check the path (relative paths start at the referencing file's directory)"
+        }
+        std::io::ErrorKind::PermissionDenied => {
+            "make the file readable (chmod) or run as a user who may read it"
+        }
         _ => "check the path, the permissions and the disk",
     }
 }
@@ -85,7 +89,11 @@ impl SceneError {
             source,
         }
     }
-    pub(crate) fn io_referenced(path: &Path, referenced_by: String, source: std::io::Error) -> Self {
+    pub(crate) fn io_referenced(
+        path: &Path,
+        referenced_by: String,
+        source: std::io::Error,
+    ) -> Self {
         SceneError::Io {
             path: path.to_path_buf(),
             referenced_by: Some(referenced_by),

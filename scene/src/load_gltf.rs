@@ -41,7 +41,13 @@ fn bad(path: &Path, what: impl Into<String>, fix: impl Into<String>) -> SceneErr
 }
 
 /// `items[index]`, or an error naming the JSON path that holds the index.
-fn get<'a, T>(path: &Path, items: &'a [T], index: usize, kind: &str, at: &str) -> Result<&'a T, SceneError> {
+fn get<'a, T>(
+    path: &Path,
+    items: &'a [T],
+    index: usize,
+    kind: &str,
+    at: &str,
+) -> Result<&'a T, SceneError> {
     items.get(index).ok_or_else(|| {
         bad(
             path,
@@ -80,7 +86,10 @@ impl Buffers<'_> {
         if (data.len() as u64) < declared {
             return Err(bad(
                 self.path,
-                format!("buffers[{b}] declares byteLength {declared} but its data has {} bytes", data.len()),
+                format!(
+                    "buffers[{b}] declares byteLength {declared} but its data has {} bytes",
+                    data.len()
+                ),
                 "re-export the file with its complete .bin (or fix byteLength)",
             ));
         }
@@ -94,18 +103,40 @@ fn read_uri(path: &Path, res: &Resources, uri: &str, at: &str) -> Result<Vec<u8>
     let by = format!("{at} = \"{}\"", shorten(uri));
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((_, b64)) = rest.split_once(";base64,") else {
-            return Err(bad(path, format!("{by} is a data URI without ;base64,"), "embed data as base64 data URIs"));
+            return Err(bad(
+                path,
+                format!("{by} is a data URI without ;base64,"),
+                "embed data as base64 data URIs",
+            ));
         };
-        return base64::decode(b64)
-            .map_err(|e| bad(path, format!("{by} is not valid base64 ({e})"), "re-export the file"));
+        return base64::decode(b64).map_err(|e| {
+            bad(
+                path,
+                format!("{by} is not valid base64 ({e})"),
+                "re-export the file",
+            )
+        });
     }
-    let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+    let file = if let Some(rest) = uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
         rest.to_string()
     } else if uri.contains("://") {
-        return Err(bad(path, format!("{by} uses a URI scheme other than data: or a file path"), "download the resource and refer to it by a relative path"));
+        return Err(bad(
+            path,
+            format!("{by} uses a URI scheme other than data: or a file path"),
+            "download the resource and refer to it by a relative path",
+        ));
     } else {
         urlencoding::decode(uri)
-            .map_err(|_| bad(path, format!("{by} has percent-escapes that are not UTF-8"), "fix the uri"))?
+            .map_err(|_| {
+                bad(
+                    path,
+                    format!("{by} has percent-escapes that are not UTF-8"),
+                    "fix the uri",
+                )
+            })?
             .into_owned()
     };
     res.read_referenced(path, Path::new(&file), &by)
@@ -168,15 +199,26 @@ struct Layout {
     components: &'static [(ComponentType, bool)],
 }
 
-const POSITION: Layout = Layout { ty: Type::Vec3, components: &[(ComponentType::F32, false)] };
+const POSITION: Layout = Layout {
+    ty: Type::Vec3,
+    components: &[(ComponentType::F32, false)],
+};
 const NORMAL: Layout = POSITION;
 const TEXCOORD: Layout = Layout {
     ty: Type::Vec2,
-    components: &[(ComponentType::F32, false), (ComponentType::U8, true), (ComponentType::U16, true)],
+    components: &[
+        (ComponentType::F32, false),
+        (ComponentType::U8, true),
+        (ComponentType::U16, true),
+    ],
 };
 const INDICES: Layout = Layout {
     ty: Type::Scalar,
-    components: &[(ComponentType::U8, false), (ComponentType::U16, false), (ComponentType::U32, false)],
+    components: &[
+        (ComponentType::U8, false),
+        (ComponentType::U16, false),
+        (ComponentType::U32, false),
+    ],
 };
 
 /// One component as f32 (normalized integers mapped to 0..1). Only layouts above reach it, so signed
@@ -213,31 +255,63 @@ fn read_accessor<T: Default + Clone>(
 ) -> Result<Vec<T>, SceneError> {
     let acc = get(path, &root.accessors, index, "accessors", at)?;
     let here = format!("accessors[{index}] (used as {at})");
-    let (Checked::Valid(ty), Checked::Valid(GenericComponentType(comp))) = (&acc.type_, &acc.component_type) else {
-        return Err(bad(path, format!("{here} has an unknown type or componentType"), "re-export the file"));
+    let (Checked::Valid(ty), Checked::Valid(GenericComponentType(comp))) =
+        (&acc.type_, &acc.component_type)
+    else {
+        return Err(bad(
+            path,
+            format!("{here} has an unknown type or componentType"),
+            "re-export the file",
+        ));
     };
     let (ty, comp) = (*ty, *comp);
     let allowed = layout.components.iter().find(|(c, _)| *c == comp);
     if ty != layout.ty || allowed.is_none() {
-        let names: Vec<_> = layout.components.iter().map(|(c, _)| component_name(*c)).collect();
+        let names: Vec<_> = layout
+            .components
+            .iter()
+            .map(|(c, _)| component_name(*c))
+            .collect();
         return Err(bad(
             path,
-            format!("{here} is {} {}, but {at} must be {} of {}", type_name(ty), component_name(comp), type_name(layout.ty), names.join(" or ")),
+            format!(
+                "{here} is {} {}, but {at} must be {} of {}",
+                type_name(ty),
+                component_name(comp),
+                type_name(layout.ty),
+                names.join(" or ")
+            ),
             "re-export the mesh with a standard vertex layout",
         ));
     }
     if allowed.is_some_and(|(_, must_normalize)| *must_normalize && !acc.normalized) {
-        return Err(bad(path, format!("{here} is {} but not normalized", component_name(comp)), "set \"normalized\": true or store FLOAT"));
+        return Err(bad(
+            path,
+            format!("{here} is {} but not normalized", component_name(comp)),
+            "set \"normalized\": true or store FLOAT",
+        ));
     }
     if acc.sparse.is_some() {
-        return Err(bad(path, format!("{here} is a sparse accessor, which wedge does not read"), "export without sparse accessors"));
+        return Err(bad(
+            path,
+            format!("{here} is a sparse accessor, which wedge does not read"),
+            "export without sparse accessors",
+        ));
     }
     let count = acc.count.0;
     if count == 0 {
-        return Err(bad(path, format!("{here} has count 0"), "remove the empty primitive or fix the count"));
+        return Err(bad(
+            path,
+            format!("{here} has count 0"),
+            "remove the empty primitive or fix the count",
+        ));
     }
     if count > MAX_ACCESSOR_ELEMENTS {
-        return Err(bad(path, format!("{here} has count {count}, more than the limit of {MAX_ACCESSOR_ELEMENTS}"), "split the mesh"));
+        return Err(bad(
+            path,
+            format!("{here} has count {count}, more than the limit of {MAX_ACCESSOR_ELEMENTS}"),
+            "split the mesh",
+        ));
     }
     let comps = type_components(ty);
     let size = component_size(comp);
@@ -247,7 +321,13 @@ fn read_accessor<T: Default + Clone>(
         return Ok(vec![T::default(); (count * comps) as usize]);
     };
     let view_at = format!("accessors[{index}].bufferView");
-    let view = get(path, &root.buffer_views, view_index, "bufferViews", &view_at)?;
+    let view = get(
+        path,
+        &root.buffer_views,
+        view_index,
+        "bufferViews",
+        &view_at,
+    )?;
     let stride = view.byte_stride.map(|s| s.0 as u64).unwrap_or(elem);
     if stride < elem {
         return Err(bad(
@@ -261,7 +341,10 @@ fn read_accessor<T: Default + Clone>(
         ));
     }
     let offset = acc.byte_offset.map(|o| o.0).unwrap_or(0);
-    let need = (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem));
+    let need = (count - 1)
+        .checked_mul(stride)
+        .and_then(|x| x.checked_add(offset))
+        .and_then(|x| x.checked_add(elem));
     let view_len = view.byte_length.0;
     if need.is_none_or(|n| n > view_len) {
         return Err(bad(
@@ -275,15 +358,30 @@ fn read_accessor<T: Default + Clone>(
     }
     let buffer_index = view.buffer.value();
     let view_offset = view.byte_offset.map(|o| o.0).unwrap_or(0);
-    let buffer_len = get(path, &root.buffers, buffer_index, "buffers", &format!("bufferViews[{view_index}].buffer"))?.byte_length.0;
-    if view_offset.checked_add(view_len).is_none_or(|end| end > buffer_len) {
+    let buffer_len = get(
+        path,
+        &root.buffers,
+        buffer_index,
+        "buffers",
+        &format!("bufferViews[{view_index}].buffer"),
+    )?
+    .byte_length
+    .0;
+    if view_offset
+        .checked_add(view_len)
+        .is_none_or(|end| end > buffer_len)
+    {
         return Err(bad(
             path,
             format!("bufferViews[{view_index}] (byteOffset {view_offset} + byteLength {view_len}) runs past buffers[{buffer_index}].byteLength {buffer_len}"),
             "fix the bufferView or re-export the file",
         ));
     }
-    let data = buffers.get(root, buffer_index, &format!("bufferViews[{view_index}].buffer"))?;
+    let data = buffers.get(
+        root,
+        buffer_index,
+        &format!("bufferViews[{view_index}].buffer"),
+    )?;
     // All bounds are checked above, so these slices are in range (`get` would only hide a bug).
     let bytes = &data[(view_offset + offset) as usize..(view_offset + view_len) as usize];
     let mut out = Vec::with_capacity((count * comps) as usize);
@@ -309,7 +407,14 @@ fn read_floats(
     let values = read_accessor(path, root, buffers, index, at, layout, decode_f32)?;
     let n = type_components(layout.ty) as usize;
     if let Some(k) = values.iter().position(|v| !v.is_finite()) {
-        return Err(bad(path, format!("{at}: element {} (accessors[{index}]) is NaN or infinite", k / n), "fix the mesh data"));
+        return Err(bad(
+            path,
+            format!(
+                "{at}: element {} (accessors[{index}]) is NaN or infinite",
+                k / n
+            ),
+            "fix the mesh data",
+        ));
     }
     Ok(values)
 }
@@ -336,7 +441,11 @@ fn read_primitive(
     let at = format!("meshes[{mesh}].primitives[{p}]");
     let attribute = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|i| i.value());
     let Some(pos_index) = attribute(Semantic::Positions) else {
-        return Err(bad(path, format!("{at} has no POSITION attribute"), "export positions"));
+        return Err(bad(
+            path,
+            format!("{at} has no POSITION attribute"),
+            "export positions",
+        ));
     };
     let pos_at = format!("{at}.attributes.POSITION");
     let positions: Vec<Vec3> = read_floats(path, root, buffers, pos_index, &pos_at, &POSITION)?
@@ -348,15 +457,26 @@ fn read_primitive(
         if len == n {
             Ok(())
         } else {
-            Err(bad(path, format!("{at}.attributes.{what} has {len} elements but POSITION has {n}"), "re-export the mesh"))
+            Err(bad(
+                path,
+                format!("{at}.attributes.{what} has {len} elements but POSITION has {n}"),
+                "re-export the mesh",
+            ))
         }
     };
     let normals = match attribute(Semantic::Normals) {
         Some(i) => {
-            let v: Vec<Vec3> = read_floats(path, root, buffers, i, &format!("{at}.attributes.NORMAL"), &NORMAL)?
-                .chunks_exact(3)
-                .map(|c| Vec3::new(c[0], c[1], c[2]))
-                .collect();
+            let v: Vec<Vec3> = read_floats(
+                path,
+                root,
+                buffers,
+                i,
+                &format!("{at}.attributes.NORMAL"),
+                &NORMAL,
+            )?
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
             check_count("NORMAL", v.len())?;
             Some(v)
         }
@@ -367,10 +487,17 @@ fn read_primitive(
     let uvs = match attribute(Semantic::TexCoords(set)) {
         Some(i) => {
             let name = format!("TEXCOORD_{set}");
-            let v: Vec<Vec2> = read_floats(path, root, buffers, i, &format!("{at}.attributes.{name}"), &TEXCOORD)?
-                .chunks_exact(2)
-                .map(|c| Vec2::new(c[0], c[1]))
-                .collect();
+            let v: Vec<Vec2> = read_floats(
+                path,
+                root,
+                buffers,
+                i,
+                &format!("{at}.attributes.{name}"),
+                &TEXCOORD,
+            )?
+            .chunks_exact(2)
+            .map(|c| Vec2::new(c[0], c[1]))
+            .collect();
             check_count(&name, v.len())?;
             Some(v)
         }
@@ -381,7 +508,11 @@ fn read_primitive(
             let idx_at = format!("{at}.indices");
             let raw = read_accessor(path, root, buffers, i, &idx_at, &INDICES, decode_u32)?;
             if !raw.len().is_multiple_of(3) {
-                return Err(bad(path, format!("{idx_at}: {} indices is not a multiple of 3", raw.len()), "export triangle lists (mode 4) with whole triangles"));
+                return Err(bad(
+                    path,
+                    format!("{idx_at}: {} indices is not a multiple of 3", raw.len()),
+                    "export triangle lists (mode 4) with whole triangles",
+                ));
             }
             if let Some(k) = raw.iter().position(|&v| v as usize >= n) {
                 return Err(bad(
@@ -399,7 +530,13 @@ fn read_primitive(
             (0..n as u32).collect()
         }
     };
-    Ok(Primitive { positions, normals, uvs, indices, material })
+    Ok(Primitive {
+        positions,
+        normals,
+        uvs,
+        indices,
+        material,
+    })
 }
 
 /// A node's local transform (matrix, or translation·rotation·scale), refusing non-finite values.
@@ -408,7 +545,11 @@ fn local_transform(path: &Path, node: &json::Node, n: usize) -> Result<Mat4, Sce
         if v.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
-            Err(bad(path, format!("nodes[{n}].{what} {v:?} is not finite"), "use finite transform values"))
+            Err(bad(
+                path,
+                format!("nodes[{n}].{what} {v:?} is not finite"),
+                "use finite transform values",
+            ))
         }
     };
     if let Some(m) = &node.matrix {
@@ -416,7 +557,11 @@ fn local_transform(path: &Path, node: &json::Node, n: usize) -> Result<Mat4, Sce
         return Ok(Mat4::from_cols_array(m));
     }
     let t = node.translation.unwrap_or([0.0; 3]);
-    let r = node.rotation.as_ref().map(|q| q.0).unwrap_or([0.0, 0.0, 0.0, 1.0]);
+    let r = node
+        .rotation
+        .as_ref()
+        .map(|q| q.0)
+        .unwrap_or([0.0, 0.0, 0.0, 1.0]);
     let s = node.scale.unwrap_or([1.0; 3]);
     finite("translation", &t)?;
     finite("rotation", &r)?;
@@ -424,10 +569,18 @@ fn local_transform(path: &Path, node: &json::Node, n: usize) -> Result<Mat4, Sce
     let q = Quat::from_array(r);
     let len = q.length();
     if !(len.is_finite() && len > 1e-6) {
-        return Err(bad(path, format!("nodes[{n}].rotation {r:?} is not a rotation"), "use a unit quaternion"));
+        return Err(bad(
+            path,
+            format!("nodes[{n}].rotation {r:?} is not a rotation"),
+            "use a unit quaternion",
+        ));
     }
     let q = q / len;
-    Ok(Mat4::from_scale_rotation_translation(Vec3::from(s), q, Vec3::from(t)))
+    Ok(Mat4::from_scale_rotation_translation(
+        Vec3::from(s),
+        q,
+        Vec3::from(t),
+    ))
 }
 
 /// A mesh instance found while walking the node tree.
@@ -456,11 +609,18 @@ fn material(path: &Path, i: usize, m: &json::Material) -> Result<(Material, bool
         ("pbrMetallicRoughness.metallicFactor", &[metallic]),
         ("pbrMetallicRoughness.roughnessFactor", &[roughness]),
         ("emissiveFactor", &e),
-        ("extensions.KHR_materials_emissive_strength.emissiveStrength", &[strength]),
+        (
+            "extensions.KHR_materials_emissive_strength.emissiveStrength",
+            &[strength],
+        ),
     ];
     for (field, v) in checks {
         if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-            return Err(bad(path, format!("{at}.{field} is {v:?}"), "use finite, non-negative values"));
+            return Err(bad(
+                path,
+                format!("{at}.{field} is {v:?}"),
+                "use finite, non-negative values",
+            ));
         }
     }
     let emission = Vec3::from(e) * strength;
@@ -477,7 +637,11 @@ fn material(path: &Path, i: usize, m: &json::Material) -> Result<(Material, bool
     let roughness = roughness.clamp(0.0, 1.0);
     let alpha = (roughness * roughness).max(1e-3);
     let m_exp = (2.0 / (alpha * alpha) - 2.0).clamp(0.0, 1e4);
-    let specular = if m_exp > 0.0 { Vec3::splat(0.04).lerp(base, metallic) } else { Vec3::ZERO };
+    let specular = if m_exp > 0.0 {
+        Vec3::splat(0.04).lerp(base, metallic)
+    } else {
+        Vec3::ZERO
+    };
     Ok((
         Material {
             name: m.name.clone().unwrap_or_else(|| format!("material{i}")),
@@ -492,24 +656,48 @@ fn material(path: &Path, i: usize, m: &json::Material) -> Result<(Material, bool
 }
 
 /// Decode `images[img]` (from its bufferView or uri).
-fn image(path: &Path, res: &Resources, root: &json::Root, buffers: &mut Buffers, img: usize, at: &str) -> Result<Texture, SceneError> {
+fn image(
+    path: &Path,
+    res: &Resources,
+    root: &json::Root,
+    buffers: &mut Buffers,
+    img: usize,
+    at: &str,
+) -> Result<Texture, SceneError> {
     let image = get(path, &root.images, img, "images", at)?;
     let bytes = match (&image.buffer_view, &image.uri) {
         (Some(v), _) => {
             let v = v.value();
             let view_at = format!("images[{img}].bufferView");
             let view = get(path, &root.buffer_views, v, "bufferViews", &view_at)?;
-            let (off, len) = (view.byte_offset.map(|o| o.0).unwrap_or(0), view.byte_length.0);
-            let data = buffers.get(root, view.buffer.value(), &format!("bufferViews[{v}].buffer"))?;
+            let (off, len) = (
+                view.byte_offset.map(|o| o.0).unwrap_or(0),
+                view.byte_length.0,
+            );
+            let data = buffers.get(
+                root,
+                view.buffer.value(),
+                &format!("bufferViews[{v}].buffer"),
+            )?;
             match off.checked_add(len) {
                 Some(end) if end <= data.len() as u64 => data[off as usize..end as usize].to_vec(),
                 _ => {
-                    return Err(bad(path, format!("bufferViews[{v}] (for images[{img}]) runs past its buffer"), "re-export the file"));
+                    return Err(bad(
+                        path,
+                        format!("bufferViews[{v}] (for images[{img}]) runs past its buffer"),
+                        "re-export the file",
+                    ));
                 }
             }
         }
         (None, Some(uri)) => read_uri(path, res, uri, &format!("images[{img}].uri"))?,
-        (None, None) => return Err(bad(path, format!("images[{img}] has neither uri nor bufferView"), "re-export the file")),
+        (None, None) => {
+            return Err(bad(
+                path,
+                format!("images[{img}] has neither uri nor bufferView"),
+                "re-export the file",
+            ))
+        }
     };
     decode_texture(&bytes, path, &format!("images[{img}]"))
 }
@@ -517,12 +705,21 @@ fn image(path: &Path, res: &Resources, root: &json::Root, buffers: &mut Buffers,
 pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, SceneError> {
     let bytes = read_capped(path, None)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
-        bad(path, format!("not a valid glTF file ({e})"), "re-export it as glTF 2.0 (.gltf JSON or .glb)")
+        bad(
+            path,
+            format!("not a valid glTF file ({e})"),
+            "re-export it as glTF 2.0 (.gltf JSON or .glb)",
+        )
     })?;
     drop(bytes);
     let blob = gltf.blob;
     let root = gltf.document.into_json();
-    let mut buffers = Buffers { path, res, blob, loaded: vec![None; root.buffers.len()] };
+    let mut buffers = Buffers {
+        path,
+        res,
+        blob,
+        loaded: vec![None; root.buffers.len()],
+    };
     let mut d = SceneData::default();
 
     // Materials in document order, so material i is SceneData material i; textures on first use.
@@ -531,13 +728,20 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         let (mut mat, two_sided) = material(path, i, m)?;
         if let Some(info) = &m.pbr_metallic_roughness.base_color_texture {
             let tex_at = format!("materials[{i}].pbrMetallicRoughness.baseColorTexture.index");
-            let texture = get(path, &root.textures, info.index.value(), "textures", &tex_at)?;
+            let texture = get(
+                path,
+                &root.textures,
+                info.index.value(),
+                "textures",
+                &tex_at,
+            )?;
             let img = texture.source.value();
             let t = match image_to_texture.get(&img) {
                 Some(&t) => t,
                 None => {
                     let src_at = format!("textures[{}].source", info.index.value());
-                    d.textures.push(image(path, res, &root, &mut buffers, img, &src_at)?);
+                    d.textures
+                        .push(image(path, res, &root, &mut buffers, img, &src_at)?);
                     let t = (d.textures.len() - 1) as u32;
                     image_to_texture.insert(img, t);
                     t
@@ -562,7 +766,11 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         None => (0, "scenes".to_string()),
     };
     if root.scenes.is_empty() {
-        return Err(bad(path, "the file has no scene", "export at least one scene with meshes"));
+        return Err(bad(
+            path,
+            "the file has no scene",
+            "export at least one scene with meshes",
+        ));
     }
     let scene = get(path, &root.scenes, scene_index, "scenes", &scene_at)?;
     let mut visited = vec![false; root.nodes.len()];
@@ -571,7 +779,13 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         .iter()
         .enumerate()
         .rev()
-        .map(|(k, n)| (n.value(), Mat4::IDENTITY, format!("scenes[{scene_index}].nodes[{k}]")))
+        .map(|(k, n)| {
+            (
+                n.value(),
+                Mat4::IDENTITY,
+                format!("scenes[{scene_index}].nodes[{k}]"),
+            )
+        })
         .collect();
     let mut instances = Vec::new();
     let mut camera: Option<(usize, Mat4, f32)> = None;
@@ -589,18 +803,36 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         visited[n] = true;
         let world = parent * local_transform(path, node, n)?;
         if !world.is_finite() {
-            return Err(bad(path, format!("nodes[{n}]: its transform combined with its parents' overflows"), "check the scale/matrix of this node and its parents"));
+            return Err(bad(
+                path,
+                format!("nodes[{n}]: its transform combined with its parents' overflows"),
+                "check the scale/matrix of this node and its parents",
+            ));
         }
         if let (None, Some(c)) = (&camera, node.camera) {
             let c = c.value();
-            let cam = get(path, &root.cameras, c, "cameras", &format!("nodes[{n}].camera"))?;
+            let cam = get(
+                path,
+                &root.cameras,
+                c,
+                "cameras",
+                &format!("nodes[{n}].camera"),
+            )?;
             if let Some(p) = &cam.perspective {
                 if !(p.yfov.is_finite() && p.yfov > 0.0 && p.yfov < std::f32::consts::PI) {
-                    return Err(bad(path, format!("cameras[{c}].perspective.yfov is {} radians", p.yfov), "use a vertical field of view with 0 < yfov < π (radians)"));
+                    return Err(bad(
+                        path,
+                        format!("cameras[{c}].perspective.yfov is {} radians", p.yfov),
+                        "use a vertical field of view with 0 < yfov < π (radians)",
+                    ));
                 }
                 if let Some(a) = p.aspect_ratio {
                     if !(a.is_finite() && a > 0.0) {
-                        return Err(bad(path, format!("cameras[{c}].perspective.aspectRatio is {a}"), "use a finite aspect ratio > 0 or leave it out"));
+                        return Err(bad(
+                            path,
+                            format!("cameras[{c}].perspective.aspectRatio is {a}"),
+                            "use a finite aspect ratio > 0 or leave it out",
+                        ));
                     }
                 }
                 camera = Some((n, world, p.yfov));
@@ -608,7 +840,13 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         }
         if let Some(m) = node.mesh {
             let mesh_index = m.value();
-            let mesh = get(path, &root.meshes, mesh_index, "meshes", &format!("nodes[{n}].mesh"))?;
+            let mesh = get(
+                path,
+                &root.meshes,
+                mesh_index,
+                "meshes",
+                &format!("nodes[{n}].mesh"),
+            )?;
             for (p, prim) in mesh.primitives.iter().enumerate() {
                 let pat = format!("meshes[{mesh_index}].primitives[{p}]");
                 match prim.mode {
@@ -620,12 +858,41 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                         }
                         continue;
                     }
-                    Checked::Invalid => return Err(bad(path, format!("{pat}.mode is not a glTF primitive mode"), "use mode 4 (triangles)")),
+                    Checked::Invalid => {
+                        return Err(bad(
+                            path,
+                            format!("{pat}.mode is not a glTF primitive mode"),
+                            "use mode 4 (triangles)",
+                        ))
+                    }
                 }
                 // Count before reading: a small file can instance a mesh millions of times.
-                let counted = match (prim.indices, prim.attributes.get(&Checked::Valid(Semantic::Positions))) {
-                    (Some(i), _) => get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.indices"))?.count.0,
-                    (None, Some(i)) => get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.attributes.POSITION"))?.count.0,
+                let counted = match (
+                    prim.indices,
+                    prim.attributes.get(&Checked::Valid(Semantic::Positions)),
+                ) {
+                    (Some(i), _) => {
+                        get(
+                            path,
+                            &root.accessors,
+                            i.value(),
+                            "accessors",
+                            &format!("{pat}.indices"),
+                        )?
+                        .count
+                        .0
+                    }
+                    (None, Some(i)) => {
+                        get(
+                            path,
+                            &root.accessors,
+                            i.value(),
+                            "accessors",
+                            &format!("{pat}.attributes.POSITION"),
+                        )?
+                        .count
+                        .0
+                    }
                     (None, None) => 0,
                 };
                 triangles = triangles.saturating_add(counted / 3);
@@ -637,7 +904,11 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                     ));
                 }
             }
-            instances.push(Instance { node: n, mesh: mesh_index, world });
+            instances.push(Instance {
+                node: n,
+                mesh: mesh_index,
+                world,
+            });
         }
         if let Some(children) = &node.children {
             for (k, c) in children.iter().enumerate().rev() {
@@ -657,26 +928,37 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             }
             let data = match read.entry((inst.mesh, p)) {
                 std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
-                std::collections::hash_map::Entry::Vacant(e) => {
-                    e.insert(read_primitive(path, &root, &mut buffers, inst.mesh, p, &texcoord_set)?)
-                }
+                std::collections::hash_map::Entry::Vacant(e) => e.insert(read_primitive(
+                    path,
+                    &root,
+                    &mut buffers,
+                    inst.mesh,
+                    p,
+                    &texcoord_set,
+                )?),
             };
             let material = match data.material {
                 Some(i) if i < d.materials.len() => i as u32,
-                Some(i) => {
-                    return Err(bad(
-                        path,
-                        format!("meshes[{}].primitives[{p}].material = {i} but the file has {} materials", inst.mesh, d.materials.len()),
-                        "point the primitive at an existing material",
-                    ))
-                }
-                None => *default_material.get_or_insert_with(|| d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)),
+                Some(i) => return Err(bad(
+                    path,
+                    format!(
+                        "meshes[{}].primitives[{p}].material = {i} but the file has {} materials",
+                        inst.mesh,
+                        d.materials.len()
+                    ),
+                    "point the primitive at an existing material",
+                )),
+                None => *default_material.get_or_insert_with(|| {
+                    d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)
+                }),
             };
             let object = d.new_object();
             for tri in data.indices.chunks_exact(3) {
                 let tri = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 let p = tri.map(|i| inst.world.transform_point3(data.positions[i]));
-                if p.iter().any(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE)) {
+                if p.iter()
+                    .any(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE))
+                {
                     return Err(bad(
                         path,
                         format!(
@@ -692,7 +974,11 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                 let n = match &data.normals {
                     Some(ns) => tri.map(|i| {
                         let n = normal_m.transform_vector3(ns[i]).normalize_or_zero();
-                        if n == Vec3::ZERO || !n.is_finite() { flat } else { n }
+                        if n == Vec3::ZERO || !n.is_finite() {
+                            flat
+                        } else {
+                            n
+                        }
                     }),
                     None => [flat; 3],
                 };
@@ -705,7 +991,11 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         }
     }
     if d.tris.is_empty() {
-        return Err(bad(path, "no triangles in the default scene", "export triangle meshes"));
+        return Err(bad(
+            path,
+            "no triangles in the default scene",
+            "export triangle meshes",
+        ));
     }
     if let Some((n, world, yfov)) = camera {
         let position = world.transform_point3(Vec3::ZERO);
@@ -730,7 +1020,11 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             focus_distance: dist,
         };
         cam.validate().map_err(|what| {
-            bad(path, format!("the camera of nodes[{n}]: {what} (its transform is degenerate)"), "give the camera node an invertible transform without zero scale")
+            bad(
+                path,
+                format!("the camera of nodes[{n}]: {what} (its transform is degenerate)"),
+                "give the camera node an invertible transform without zero scale",
+            )
         })?;
         d.camera = Some(cam);
     }

@@ -31,14 +31,22 @@ struct Prescan {
 }
 
 fn prescan(bytes: &[u8]) -> Prescan {
-    let mut scan = Prescan { triangles: 0, usemtl: Vec::new() };
+    let mut scan = Prescan {
+        triangles: 0,
+        usemtl: Vec::new(),
+    };
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
         let line = String::from_utf8_lossy(line);
         let mut words = line.split_whitespace();
         match words.next() {
             Some("f") => scan.triangles += words.count().saturating_sub(2) as u64,
             Some("usemtl") => {
-                let name = line.trim().split_once(' ').map(|x| x.1.trim()).unwrap_or("").to_string();
+                let name = line
+                    .trim()
+                    .split_once(' ')
+                    .map(|x| x.1.trim())
+                    .unwrap_or("")
+                    .to_string();
                 if !scan.usemtl.iter().any(|(n, _)| *n == name) {
                     scan.usemtl.push((name, i + 1));
                 }
@@ -55,7 +63,10 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     if scan.triangles > MAX_TRIANGLES as u64 {
         return Err(SceneError::invalid(
             path,
-            format!("its faces make {} triangles, more than the limit of {MAX_TRIANGLES}", scan.triangles),
+            format!(
+                "its faces make {} triangles, more than the limit of {MAX_TRIANGLES}",
+                scan.triangles
+            ),
             "decimate the mesh or split the scene",
         ));
     }
@@ -74,7 +85,10 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             tobj::load_mtl_buf(&mut Cursor::new(b)).map_err(|e| {
                 SceneError::invalid(
                     &crate::resource::parent_dir(path).join(mtl),
-                    format!("not a valid MTL material library ({e}; referenced by {} {by})", path.display()),
+                    format!(
+                        "not a valid MTL material library ({e}; referenced by {} {by})",
+                        path.display()
+                    ),
                     "fix or re-export the .mtl file",
                 )
             })
@@ -86,12 +100,12 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     };
     let (models, mats) = tobj::load_obj_buf(&mut Cursor::new(&bytes[..]), &opts, material_loader)
         .map_err(|e| {
-            SceneError::invalid(
-                path,
-                format!("not a valid OBJ file ({e})"),
-                "fix the v/vt/vn/f lines (Wavefront OBJ text, 1-based or negative indices)",
-            )
-        })?;
+        SceneError::invalid(
+            path,
+            format!("not a valid OBJ file ({e})"),
+            "fix the v/vt/vn/f lines (Wavefront OBJ text, 1-based or negative indices)",
+        )
+    })?;
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
     }
@@ -102,7 +116,11 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     for (name, line) in &scan.usemtl {
         if !mats.iter().any(|m| &m.name == name) {
             let libs = mtl_names.borrow();
-            let libs = if libs.is_empty() { "no mtllib line".to_string() } else { libs.join(", ") };
+            let libs = if libs.is_empty() {
+                "no mtllib line".to_string()
+            } else {
+                libs.join(", ")
+            };
             d.warnings.push(format!(
                 "{}:{line}: usemtl '{name}' is not defined in the material library ({libs}); its faces use \
                  the default grey material — define it in the .mtl or fix the name",
@@ -203,10 +221,15 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
                 )),
             }
         };
-        if !(mesh.normals.iter().all(|x| x.is_finite()) && mesh.texcoords.iter().all(|x| x.is_finite())) {
+        if !(mesh.normals.iter().all(|x| x.is_finite())
+            && mesh.texcoords.iter().all(|x| x.is_finite()))
+        {
             return Err(SceneError::invalid(
                 path,
-                format!("object '{}' has a NaN or infinite normal (vn) or texture coordinate (vt)", model.name),
+                format!(
+                    "object '{}' has a NaN or infinite normal (vn) or texture coordinate (vt)",
+                    model.name
+                ),
                 "fix the vn/vt lines",
             ));
         }
@@ -225,14 +248,20 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             let out_of_range = |what: &str| {
                 SceneError::invalid(
                     path,
-                    format!("object '{}' face {f} has a {what} index beyond the {what} lines", model.name),
+                    format!(
+                        "object '{}' face {f} has a {what} index beyond the {what} lines",
+                        model.name
+                    ),
                     format!("fix the f lines' {what} indices"),
                 )
             };
             for (k, nk) in n.iter_mut().enumerate() {
                 if let Some(&ni) = mesh.normal_indices.get(f * 3 + k) {
                     let ni = ni as usize * 3;
-                    let s = mesh.normals.get(ni..ni + 3).ok_or_else(|| out_of_range("vn"))?;
+                    let s = mesh
+                        .normals
+                        .get(ni..ni + 3)
+                        .ok_or_else(|| out_of_range("vn"))?;
                     let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
                     if v != Vec3::ZERO {
                         *nk = v;
@@ -243,7 +272,10 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             for (k, uvk) in uv.iter_mut().enumerate() {
                 if let Some(&ti) = mesh.texcoord_indices.get(f * 3 + k) {
                     let ti = ti as usize * 2;
-                    let s = mesh.texcoords.get(ti..ti + 2).ok_or_else(|| out_of_range("vt"))?;
+                    let s = mesh
+                        .texcoords
+                        .get(ti..ti + 2)
+                        .ok_or_else(|| out_of_range("vt"))?;
                     *uvk = Vec2::new(s[0], 1.0 - s[1]); // OBJ v=0 is the bottom row
                 }
             }
@@ -274,7 +306,11 @@ fn load_texture_cached(
     let by = format!("material '{material}' map_Kd {name}");
     let bytes = res.read_referenced(obj, Path::new(name), &by)?;
     let file = crate::resource::parent_dir(obj).join(name);
-    let tex = decode_texture(&bytes, &file, &format!("the texture ({} {by})", obj.display()))?;
+    let tex = decode_texture(
+        &bytes,
+        &file,
+        &format!("the texture ({} {by})", obj.display()),
+    )?;
     d.textures.push(tex);
     let i = (d.textures.len() - 1) as u32;
     cache.insert(name.to_string(), i);

@@ -33,11 +33,16 @@ impl Resources {
 
     /// Resolve `reference` (a path written in `scene`, relative to `scene`'s directory unless absolute).
     /// `referenced_by` says where, e.g. `buffers[0].uri = "a.bin"` or `line 3: mtllib a.mtl`.
-    pub fn resolve(&self, scene: &Path, reference: &Path, referenced_by: &str) -> Result<PathBuf, SceneError> {
+    pub fn resolve(
+        &self,
+        scene: &Path,
+        reference: &Path,
+        referenced_by: &str,
+    ) -> Result<PathBuf, SceneError> {
         let joined = parent_dir(scene).join(reference);
         let by = format!("{} {referenced_by}", scene.display());
-        let canonical =
-            std::fs::canonicalize(&joined).map_err(|e| SceneError::io_referenced(&joined, by, e))?;
+        let canonical = std::fs::canonicalize(&joined)
+            .map_err(|e| SceneError::io_referenced(&joined, by, e))?;
         if !self.allow_outside && !canonical.starts_with(&self.root) {
             return Err(SceneError::OutsideSceneDir {
                 scene: scene.to_path_buf(),
@@ -50,26 +55,39 @@ impl Resources {
     }
 
     /// Resolve and read a referenced file (see [`Resources::resolve`]).
-    pub fn read_referenced(&self, scene: &Path, reference: &Path, referenced_by: &str) -> Result<Vec<u8>, SceneError> {
+    pub fn read_referenced(
+        &self,
+        scene: &Path,
+        reference: &Path,
+        referenced_by: &str,
+    ) -> Result<Vec<u8>, SceneError> {
         let file = self.resolve(scene, reference, referenced_by)?;
         read_capped(&file, Some(format!("{} {referenced_by}", scene.display())))
     }
 }
 
 /// Read a whole file, refusing files over [`MAX_FILE_BYTES`] before allocating.
-pub(crate) fn read_capped(file: &Path, referenced_by: Option<String>) -> Result<Vec<u8>, SceneError> {
+pub(crate) fn read_capped(
+    file: &Path,
+    referenced_by: Option<String>,
+) -> Result<Vec<u8>, SceneError> {
     let io_err = |e| match &referenced_by {
         Some(by) => SceneError::io_referenced(file, by.clone(), e),
         None => SceneError::io(file, e),
     };
     let meta = std::fs::metadata(file).map_err(io_err)?;
     if !meta.is_file() {
-        return Err(io_err(std::io::Error::other("it is a directory or a device, not a regular file")));
+        return Err(io_err(std::io::Error::other(
+            "it is a directory or a device, not a regular file",
+        )));
     }
     if meta.len() > MAX_FILE_BYTES {
         return Err(SceneError::invalid(
             file,
-            format!("the file has {} bytes, more than the limit of {MAX_FILE_BYTES}", meta.len()),
+            format!(
+                "the file has {} bytes, more than the limit of {MAX_FILE_BYTES}",
+                meta.len()
+            ),
             "split the scene into smaller files",
         ));
     }

@@ -140,7 +140,10 @@ impl Scene {
         if tris.len() > MAX_TRIANGLES {
             return Err(SceneError::invalid(
                 &path,
-                format!("{} triangles, more than the limit of {MAX_TRIANGLES}", tris.len()),
+                format!(
+                    "{} triangles, more than the limit of {MAX_TRIANGLES}",
+                    tris.len()
+                ),
                 "decimate the meshes or split the scene",
             ));
         }
@@ -331,28 +334,50 @@ impl Scene {
 /// [`MAX_RADIANCE`] (larger sums overflow to inf and NaN pixels), a finite Phong exponent, a valid
 /// texture index. One check for every loader; loaders with a more precise location (a glTF JSON path)
 /// check their raw values first.
-fn check_material(path: &std::path::Path, i: usize, m: &Material, textures: usize) -> Result<(), SceneError> {
+fn check_material(
+    path: &std::path::Path,
+    i: usize,
+    m: &Material,
+    textures: usize,
+) -> Result<(), SceneError> {
     let what = |field: &str, v: String| format!("material {i} ('{}') has {field} {v}", m.name);
-    for (field, v) in [("base colour", m.base_color), ("specular", m.specular), ("emission", m.emission)] {
+    for (field, v) in [
+        ("base colour", m.base_color),
+        ("specular", m.specular),
+        ("emission", m.emission),
+    ] {
         if !v.is_finite() || v.min_element() < 0.0 {
-            return Err(SceneError::invalid(path, what(field, v.to_string()), "use finite, non-negative values"));
+            return Err(SceneError::invalid(
+                path,
+                what(field, v.to_string()),
+                "use finite, non-negative values",
+            ));
         }
     }
     if m.emission.max_element() > MAX_RADIANCE {
         return Err(SceneError::invalid(
             path,
             what("emission", m.emission.to_string()),
-            format!("keep emitted radiance at most {MAX_RADIANCE:e} per channel (scale the light down)"),
+            format!(
+                "keep emitted radiance at most {MAX_RADIANCE:e} per channel (scale the light down)"
+            ),
         ));
     }
     if !(m.phong_exponent.is_finite() && m.phong_exponent >= 0.0) {
-        return Err(SceneError::invalid(path, what("Phong exponent", m.phong_exponent.to_string()), "use a finite exponent >= 0"));
+        return Err(SceneError::invalid(
+            path,
+            what("Phong exponent", m.phong_exponent.to_string()),
+            "use a finite exponent >= 0",
+        ));
     }
     if let Some(t) = m.base_color_texture {
         if t as usize >= textures {
             return Err(SceneError::invalid(
                 path,
-                format!("material {i} ('{}') uses texture {t} but there are {textures}", m.name),
+                format!(
+                    "material {i} ('{}') uses texture {t} but there are {textures}",
+                    m.name
+                ),
                 "give every material a valid texture index",
             ));
         }
@@ -368,7 +393,8 @@ fn drop_degenerate_and_duplicates(
     tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
 ) -> (Vec<u32>, Vec<String>) {
     let key = |v: Vec3| v.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() }); // -0 == +0
-    let mut seen: std::collections::HashSet<[[u32; 3]; 3]> = std::collections::HashSet::with_capacity(tris.len());
+    let mut seen: std::collections::HashSet<[[u32; 3]; 3]> =
+        std::collections::HashSet::with_capacity(tris.len());
     let (mut zero_area, mut duplicates) = (0usize, 0usize);
     let mut kept = Vec::with_capacity(tris.len());
     for (i, (a, b, c, _)) in tris.iter().enumerate() {

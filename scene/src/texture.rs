@@ -137,8 +137,9 @@ pub(crate) fn decode_texture(bytes: &[u8], file: &Path, what: &str) -> Result<Te
     let mut decoder = reader()?;
     decoder.limits(limits);
     let img = decoder.decode().map_err(|e| unreadable(&e))?;
-    Texture::from_image(&img)
-        .ok_or_else(|| SceneError::invalid(file, format!("{what} is empty"), "use a non-empty image"))
+    Texture::from_image(&img).ok_or_else(|| {
+        SceneError::invalid(file, format!("{what} is empty"), "use a non-empty image")
+    })
 }
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).
