@@ -316,3 +316,16 @@ fn load_texture_cached(
     cache.insert(name.to_string(), i);
     Ok(i)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::prescan;
+
+    #[test]
+    fn prescan_bounds_triangles_and_lists_usemtl_lines() {
+        let scan = prescan(b"v 0 0 0\nf 1 2 3\nusemtl a\nf 1 2 3 4 5\r\nusemtl b\nusemtl a\nf 1 2\n");
+        // 1 + 3 (fan of a pentagon) + 0 (a two-vertex face makes none).
+        assert_eq!(scan.triangles, 4);
+        assert_eq!(scan.usemtl, vec![("a".to_string(), 3), ("b".to_string(), 5)]);
+    }
+}
