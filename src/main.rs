@@ -50,6 +50,9 @@ struct Common {
     /// Where passes run: `cpu` (rayon) or `wgpu` (WGSL compute on a GPU, or Mesa's software Vulkan).
     #[arg(long, default_value = "cpu", value_parser = ["cpu", "wgpu"])]
     backend: String,
+    /// Let the scene file read buffers, textures and meshes outside its own directory.
+    #[arg(long)]
+    allow_outside_scene_dir: bool,
 }
 
 #[derive(Subcommand)]
@@ -199,6 +202,7 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         seed: c.seed,
         mu,
         params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+        allow_outside_scene_dir: c.allow_outside_scene_dir,
     })
 }
 
@@ -229,6 +233,9 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
         session.height,
         session.seed
     );
+    for w in &session.scene.warnings {
+        eprintln!("warning: {w}");
+    }
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
     check_memory(session, mode, common.memory_limit)?;
     let bars = Bars::default();
@@ -334,6 +341,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 seed,
                 mu: None,
                 params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+                ..Overrides::default()
             };
             let session = Session::open(pipeline.as_deref(), &ov)?;
             check_memory(&session, RunMode::Parity, memory_limit)?;

@@ -42,6 +42,8 @@ pub struct Overrides {
     pub mu: Option<f64>,
     /// `(node, parameter, value)`: set one node's parameter (checked against its declaration).
     pub params: Vec<(String, String, ParamValue)>,
+    /// Let the scene file read buffers/textures/meshes outside its own directory.
+    pub allow_outside_scene_dir: bool,
 }
 
 pub struct Session {
@@ -122,7 +124,8 @@ impl Session {
         apply_param_overrides(&mut pipeline, ov)?;
         let schedule = schedule(expand(&pipeline)?)?;
         let source = scene_source(&pipeline, ov.scene.as_deref());
-        let mut scene = wedge_scene::load(&source)?;
+        let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
+        let mut scene = wedge_scene::load_with(&source, &scene_opts)?;
         if let Some(c) = &pipeline.pipeline.camera {
             scene.camera = camera_from_spec(c);
         }

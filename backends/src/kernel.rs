@@ -382,6 +382,14 @@ impl<'a> KernelCtx<'a> {
     }
     pub fn light_param(&self, name: &str) -> Result<usize, BackendError> {
         let i = self.int_param(name)?;
+        if self.scene.lights.is_empty() {
+            return Err(self.err(format!(
+                "`{name}` = {i} but scene `{}` has no area light (no emissive triangles) — add an emissive \
+                 material (glTF emissiveFactor, MTL Ke, a `lights` entry in a .ron scene) or use a scene with \
+                 a light, e.g. --scene grids",
+                self.scene.name
+            )));
+        }
         if i < 0 || i as usize >= self.scene.lights.len() {
             return Err(self.err(format!(
                 "`{name}` = {i} but the scene has {} area light(s); pick 0..{}",

@@ -1,7 +1,12 @@
 //! The flat BVH2 the CPU and the GPU both traverse, and the triangle layout they test against.
 //!
 //! obvhs builds the tree (PLOC + reinsertion, `medium_build`); we only keep its node array and
-//! primitive order. The traversal below is deliberately plain — a fixed 64-entry stack, near child first
+//! primitive order. PLOC pairs mutual nearest neighbours along the Morton order; when many primitives
+//! share one Morton code (identical bounding-box centres, e.g. a million triangles rotated about one
+//! point) the merge costs tie, only one pair merges per pass and the build turns quadratic with a
+//! chain-shaped tree (1M such triangles did not finish in minutes). [`build`] detects that input and
+//! uses a plain median-split builder instead ([`build_median`]: O(n log n), depth ≤ log2(n) + 1), and
+//! also falls back to it when obvhs returns a tree deeper than the traversal stack. The traversal below is deliberately plain — a fixed 64-entry stack, near child first
 //! (closest hit; any-hit takes the children in array order), slab test, Möller–Trumbore in f32 — so the
 //! WGSL kernel can mirror it line by line and the two agree. The CPU version evaluates the same formulas
 //! on glam `Vec3A` (SSE) lanes; see [`slab`] for why that is bit-identical to the scalar form.
@@ -277,7 +282,114 @@ pub struct BuiltBvh {
 /// visit 2–11% fewer nodes but the difference was within noise, at 2–6× the build time); smaller
 /// leaves (`max_prims_per_leaf` 4, or collapse cost 1–2) trade triangle tests for more node visits.
 pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
-    build_with(tris, obvhs::BvhBuildParams::medium_build())
+    if largest_morton_cell(tris) > MAX_SHARED_MORTON_CELL {
+        return build_median(tris);
+    }
+    // Heavily nested boxes (e.g. a million triangles rotated about one axis, all centres on a line) make
+    // PLOC pair poorly too, without any tie. A PLOC build of an evenly strided sample is cheap and shows
+    // it: ordinary scenes' samples are 18–23 deep (built-ins), such inputs' 130+.
+    if tris.len() > PROBE_SIZE {
+        let sample: Vec<[Vec3; 3]> = tris
+            .iter()
+            .step_by(tris.len() / PROBE_SIZE)
+            .copied()
+            .collect();
+        if build_with(&sample, obvhs::BvhBuildParams::medium_build()).depth > MAX_PROBE_DEPTH {
+            return build_median(tris);
+        }
+    }
+    let built = build_with(tris, obvhs::BvhBuildParams::medium_build());
+    if built.depth > STACK_SIZE {
+        return build_median(tris);
+    }
+    built
+}
+
+/// Sample size of [`build`]'s PLOC probe on large inputs.
+pub const PROBE_SIZE: usize = 16384;
+/// Deepest sample tree [`build`] accepts before using [`build_median`] for the whole input.
+pub const MAX_PROBE_DEPTH: usize = 48;
+
+/// Most primitives allowed to share one Morton cell before [`build`] avoids PLOC. PLOC needs about
+/// one pass over all nodes per primitive in the largest tied group, so this bounds its extra passes.
+pub const MAX_SHARED_MORTON_CELL: usize = 256;
+
+/// The largest number of triangles whose bounding-box centres fall into the same cell of a 2^21-per-axis
+/// grid over the centres' bounds (the resolution of obvhs's 64-bit Morton codes).
+pub fn largest_morton_cell(tris: &[[Vec3; 3]]) -> usize {
+    let centre = |t: &[Vec3; 3]| (t[0].min(t[1]).min(t[2]) + t[0].max(t[1]).max(t[2])) * 0.5;
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in tris {
+        let c = centre(t);
+        lo = lo.min(c);
+        hi = hi.max(c);
+    }
+    let scale = ((1u32 << 21) - 1) as f32 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+    let mut cells: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+    let mut largest = 0;
+    for t in tris {
+        let q = ((centre(t) - lo) * scale).to_array().map(|x| x as u64); // NaN/inf saturate, never panic
+        let n = cells.entry(q[0] << 42 | q[1] << 21 | q[2]).or_insert(0);
+        *n += 1;
+        largest = largest.max(*n);
+    }
+    largest
+}
+
+/// Top-down median split on the longest axis of the centres' bounds (ties split by position in the
+/// list, so identical centres still halve): O(n log n) and depth ≤ ⌈log2(n / 4)⌉ + 1 on any input.
+/// Slower to trace than obvhs's trees on ordinary scenes, so only [`build`]'s fallback.
+pub fn build_median(tris: &[[Vec3; 3]]) -> BuiltBvh {
+    const LEAF: usize = 4;
+    let boxes: Vec<(Vec3, Vec3)> = tris
+        .iter()
+        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+        .collect();
+    let centres: Vec<Vec3> = boxes.iter().map(|(a, b)| (*a + *b) * 0.5).collect();
+    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+    let mut nodes = vec![BvhNode::zeroed()];
+    let mut todo = vec![(0usize, 0usize, tris.len())];
+    while let Some((node, start, end)) = todo.pop() {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let (mut clo, mut chi) = (lo, hi);
+        for &i in &order[start..end] {
+            lo = lo.min(boxes[i as usize].0);
+            hi = hi.max(boxes[i as usize].1);
+            clo = clo.min(centres[i as usize]);
+            chi = chi.max(centres[i as usize]);
+        }
+        if end - start <= LEAF {
+            nodes[node] = BvhNode {
+                min: lo.to_array(),
+                index: start as u32,
+                max: hi.to_array(),
+                count: (end - start) as u32,
+            };
+            continue;
+        }
+        let axis = (chi - clo).max_position();
+        let mid = (end - start) / 2;
+        order[start..end].select_nth_unstable_by(mid, |&a, &b| {
+            centres[a as usize][axis].total_cmp(&centres[b as usize][axis])
+        });
+        let first_child = nodes.len();
+        nodes.push(BvhNode::zeroed());
+        nodes.push(BvhNode::zeroed());
+        nodes[node] = BvhNode {
+            min: lo.to_array(),
+            index: first_child as u32,
+            max: hi.to_array(),
+            count: 0,
+        };
+        todo.push((first_child, start, start + mid));
+        todo.push((first_child + 1, start + mid, end));
+    }
+    let depth = tree_depth(&nodes);
+    BuiltBvh {
+        nodes,
+        order,
+        depth,
+    }
 }
 
 /// [`build`] with explicit obvhs parameters (for experiments and benchmarks).

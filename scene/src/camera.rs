@@ -29,6 +29,70 @@ impl Default for Camera {
 }
 
 impl Camera {
+    /// What [`Camera::validate`] requires, phrased as the fix for a message.
+    pub const VALID_RULES: &'static str = "use finite numbers, 0 < vfov_deg < 180, look_at different from \
+        position, an up vector that is not zero or parallel to look_at - position, and aperture_radius >= 0";
+
+    /// Smallest sine of the angle between `up` and the view direction accepted by [`Camera::validate`]
+    /// (about 0.06°); below it the image's roll is decided by rounding.
+    pub const MIN_UP_VIEW_SINE: f32 = 1e-3;
+
+    /// The one place that decides whether a camera can produce an image (scene files and the pipeline's
+    /// camera use it): every field finite; 0 < `vfov_deg` < 180; `look_at - position` normalisable
+    /// (not zero, not overflowing); `up` non-zero and at least [`Camera::MIN_UP_VIEW_SINE`] away from
+    /// parallel to the view direction; `aperture_radius >= 0` (`focus_distance` <= 0 means "focus on
+    /// look_at", so any finite value is fine). Returns what is wrong, without the file name.
+    pub fn validate(&self) -> Result<(), String> {
+        let vectors = [
+            ("position", self.position),
+            ("look_at", self.look_at),
+            ("up", self.up),
+        ];
+        for (name, v) in vectors {
+            if !v.is_finite() {
+                return Err(format!("{name} {v} is not finite"));
+            }
+        }
+        let scalars = [
+            ("vfov_deg", self.vfov_deg),
+            ("aperture_radius", self.aperture_radius),
+            ("focus_distance", self.focus_distance),
+        ];
+        for (name, x) in scalars {
+            if !x.is_finite() {
+                return Err(format!("{name} {x} is not finite"));
+            }
+        }
+        if !(self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
+            return Err(format!(
+                "vfov_deg {} is outside 0 < vfov_deg < 180",
+                self.vfov_deg
+            ));
+        }
+        let Some(forward) = (self.look_at - self.position).try_normalize() else {
+            return Err(format!(
+                "look_at {} and position {} give no view direction (equal, or too far apart for f32)",
+                self.look_at, self.position
+            ));
+        };
+        let Some(up) = self.up.try_normalize() else {
+            return Err(format!("up {} has no direction", self.up));
+        };
+        if forward.cross(up).length() < Self::MIN_UP_VIEW_SINE {
+            return Err(format!(
+                "up {} is parallel to the view direction {forward}",
+                self.up
+            ));
+        }
+        if self.aperture_radius < 0.0 {
+            return Err(format!(
+                "aperture_radius {} is negative",
+                self.aperture_radius
+            ));
+        }
+        Ok(())
+    }
+
     /// Orthonormal camera frame (right, up, forward). Falls back to another up vector when `up` is
     /// parallel to the view direction so the frame is never NaN.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {

@@ -13,6 +13,8 @@
 //! Every field except `path`, the light geometry/radiance and the camera's position/look_at/vfov_deg
 //! has a default. A `Rect` light becomes two emissive triangles (so primary rays see it), which
 //! `Scene::from_triangles` merges back into one Rect `AreaLight`. Lights may set `two_sided: true`.
+//! Mesh paths must stay under the scene file's directory (see [`crate::LoadOptions`]); the camera must
+//! pass [`Camera::validate`].
 
 use std::path::Path;
 
@@ -20,6 +22,7 @@ use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
 
 use crate::data::SceneData;
+use crate::resource::{read_capped, Resources};
 use crate::{builtin, Camera, Material, Scene, SceneError};
 
 type V3 = (f32, f32, f32);
@@ -99,8 +102,18 @@ struct CameraEntry {
     focus_distance: f32,
 }
 
-pub(crate) fn load_ron(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
+pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError> {
+    let bytes = read_capped(path, None)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        SceneError::invalid(
+            path,
+            format!(
+                "not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+            "save the scene file as UTF-8",
+        )
+    })?;
     let file: SceneFile = ron::from_str(&text).map_err(|e| {
         // SpannedError displays as "line:col: message".
         SceneError::invalid(
@@ -109,15 +122,15 @@ pub(crate) fn load_ron(path: &Path) -> Result<Scene, SceneError> {
             "fix the scene file (see wedge-scene's compose module for the fields)",
         )
     })?;
-    let dir = path.parent().unwrap_or(Path::new("."));
     let mut d = match &file.builtin {
         Some(name) => builtin::builtin_data(name)
             .map_err(|e| SceneError::invalid(path, format!("{e}"), "use a known built-in name"))?,
         None => SceneData::default(),
     };
     for (i, m) in file.meshes.iter().enumerate() {
-        let mesh_path = dir.join(&m.path);
-        let mesh = crate::load_data(&mesh_path)?;
+        let by = format!("meshes[{i}].path = \"{}\"", m.path);
+        let mesh_path = res.resolve(path, Path::new(&m.path), &by)?;
+        let mesh = crate::load_data(&mesh_path, res)?;
         if !(m.scale.is_finite()
             && m.scale != 0.0
             && m.rotate_y_deg.is_finite()
@@ -190,14 +203,18 @@ pub(crate) fn load_ron(path: &Path) -> Result<Scene, SceneError> {
         }
     }
     if let Some(c) = &file.camera {
-        d.camera = Some(Camera {
+        let camera = Camera {
             position: v(c.position),
             look_at: v(c.look_at),
             up: v(c.up),
             vfov_deg: c.vfov_deg,
             aperture_radius: c.aperture_radius,
             focus_distance: c.focus_distance,
-        });
+        };
+        camera.validate().map_err(|what| {
+            SceneError::invalid(path, format!("camera: {what}"), Camera::VALID_RULES)
+        })?;
+        d.camera = Some(camera);
     }
     let name = path.display().to_string();
     d.into_scene(&name)

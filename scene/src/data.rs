@@ -15,6 +15,8 @@ pub(crate) struct SceneData {
     pub camera: Option<Camera>,
     /// Next free object id.
     pub next_object: u32,
+    /// Things the loader accepted but the user should know about (become `Scene::warnings`).
+    pub warnings: Vec<String>,
 }
 
 impl SceneData {
@@ -81,6 +83,7 @@ impl SceneData {
         self.two_sided.extend(other.two_sided);
         self.textures.extend(other.textures);
         self.next_object += other.next_object;
+        self.warnings.extend(other.warnings);
     }
 
     pub fn into_scene(self, name: &str) -> Result<Scene, SceneError> {
@@ -103,6 +106,10 @@ impl SceneData {
         let mut scene =
             Scene::from_triangles(name, self.tris, self.materials, self.textures, camera)?;
         scene.set_two_sided_by_material(&two_sided);
+        // Loader warnings first (they are about the files), then the builder's (dropped triangles).
+        let mut warnings = self.warnings;
+        warnings.append(&mut scene.warnings);
+        scene.warnings = warnings;
         Ok(scene)
     }
 }

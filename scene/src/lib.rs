@@ -14,7 +14,10 @@
 //! - **Materials/textures**: Lambertian base colour (optionally textured, linear RGB), Phong k_s/m, emission.
 //! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, see [`builtin`]), glTF, OBJ/MTL, and a
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
-//!   and the fix — never a panic.
+//!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an
+//!   unbounded allocation: inputs are validated before use and sizes are capped ([`limits`]). Files a
+//!   scene references must lie under the scene file's directory unless [`LoadOptions`] allows more.
+//!   Recoverable oddities (unknown `usemtl`, dropped degenerate triangles) become [`Scene::warnings`].
 //!
 //! Conventions: right-handed, y up, metres; image y points down; textures have v = 0 at the top row.
 
@@ -27,6 +30,7 @@ pub mod error;
 pub mod light;
 pub mod load_gltf;
 pub mod load_obj;
+mod resource;
 pub mod scene;
 pub mod texture;
 
@@ -48,16 +52,50 @@ pub enum SceneSource {
     File(PathBuf),
 }
 
-/// Load a scene: built-in by name, or `.gltf`/`.glb`, `.obj` (+MTL) or `.ron` by extension.
+/// Size and value caps applied while loading, so no input can exhaust memory or overflow f32 maths.
+pub mod limits {
+    /// Most triangles a scene may have (after glTF instancing), checked before geometry is allocated.
+    pub const MAX_TRIANGLES: usize = 1 << 26;
+    /// Most elements (vertices, indices) one glTF accessor may hold.
+    pub const MAX_ACCESSOR_ELEMENTS: u64 = 1 << 26;
+    /// Largest texture (width × height); 8192 × 8192. Checked from the image header before decoding.
+    pub const MAX_TEXTURE_PIXELS: u64 = 1 << 26;
+    /// Largest texture side.
+    pub const MAX_TEXTURE_SIDE: u32 = 16384;
+    /// Largest file (scene, buffer, texture) read.
+    pub const MAX_FILE_BYTES: u64 = 4 << 30;
+    /// Largest |coordinate| of a vertex after all transforms (metres). Beyond it edge cross products
+    /// and ray distances overflow f32.
+    pub const MAX_COORDINATE: f32 = 1e8;
+    /// Largest emitted radiance channel; sums of many samples of it must stay finite in f32.
+    pub const MAX_RADIANCE: f32 = 1e12;
+}
+
+/// How a scene file may reach other files.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Allow buffers, images, material libraries, textures and meshes outside the directory of the
+    /// scene file (after following symlinks). Off by default: a scene must not read arbitrary files.
+    pub allow_outside_scene_dir: bool,
+}
+
+/// Load a scene with default [`LoadOptions`]: built-in by name, or `.gltf`/`.glb`, `.obj` (+MTL) or
+/// `.ron` by extension.
 pub fn load(source: &SceneSource) -> Result<Scene, SceneError> {
+    load_with(source, &LoadOptions::default())
+}
+
+/// [`load`] with explicit options.
+pub fn load_with(source: &SceneSource, opts: &LoadOptions) -> Result<Scene, SceneError> {
     match source {
         SceneSource::Builtin(name) => builtin::builtin(name),
         SceneSource::File(path) => {
+            let res = resource::Resources::for_scene(path, opts)?;
             if ext(path).as_deref() == Some("ron") {
-                return compose::load_ron(path);
+                return compose::load_ron(path, &res);
             }
             let name = path.display().to_string();
-            load_data(path)?.into_scene(&name)
+            load_data(path, &res)?.into_scene(&name)
         }
     }
 }
@@ -73,10 +111,10 @@ fn ext(path: &Path) -> Option<String> {
 }
 
 /// Load a mesh file into loose triangles (used by `load` and by `.ron` composition).
-pub(crate) fn load_data(path: &Path) -> Result<data::SceneData, SceneError> {
+pub(crate) fn load_data(path: &Path, res: &resource::Resources) -> Result<data::SceneData, SceneError> {
     match ext(path).as_deref() {
-        Some("gltf") | Some("glb") => load_gltf::load_gltf(path),
-        Some("obj") => load_obj::load_obj(path),
+        Some("gltf") | Some("glb") => load_gltf::load_gltf(path, res),
+        Some("obj") => load_obj::load_obj(path, res),
         _ => Err(SceneError::UnsupportedFormat {
             path: path.to_path_buf(),
         }),

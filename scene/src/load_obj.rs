@@ -2,20 +2,72 @@
 //! Ke (emission), Ks (k_s), Ns (Phong exponent). OBJ has no camera (the caller frames the bounds).
 //! OBJ's `vt` has v = 0 at the image's bottom row; textures here use v = 0 at the top (glTF), so we store
 //! `1 - v`.
+//!
+//! We read the files ourselves and hand tobj the bytes, so a missing or unreadable `.obj`/`.mtl`/texture
+//! is an IO error naming that file and who referenced it (tobj only says "open file failed"), and
+//! `mtllib`/`map_Kd` paths go through the scene-directory check of [`crate::resource`]. A cheap pre-scan
+//! of the text bounds the triangle count before tobj allocates and finds `usemtl` names the libraries do
+//! not define (a warning: those faces get the default material).
 
+use std::cell::RefCell;
 use std::collections::HashMap;
+use std::io::Cursor;
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
 use crate::data::SceneData;
-use crate::{Material, SceneError, Texture};
+use crate::limits::MAX_TRIANGLES;
+use crate::resource::{read_capped, Resources};
+use crate::texture::decode_texture;
+use crate::{Material, SceneError};
 
-pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
-    if !path.is_file() {
-        return Err(SceneError::io(
+/// What the pre-scan learns from the OBJ text without parsing it fully.
+struct Prescan {
+    /// Upper bound of the triangles a fan triangulation of the `f` lines yields.
+    triangles: u64,
+    /// `usemtl` names with the 1-based line of their first use.
+    usemtl: Vec<(String, usize)>,
+}
+
+fn prescan(bytes: &[u8]) -> Prescan {
+    let mut scan = Prescan {
+        triangles: 0,
+        usemtl: Vec::new(),
+    };
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("f") => scan.triangles += words.count().saturating_sub(2) as u64,
+            Some("usemtl") => {
+                let name = line
+                    .trim()
+                    .split_once(' ')
+                    .map(|x| x.1.trim())
+                    .unwrap_or("")
+                    .to_string();
+                if !scan.usemtl.iter().any(|(n, _)| *n == name) {
+                    scan.usemtl.push((name, i + 1));
+                }
+            }
+            _ => {}
+        }
+    }
+    scan
+}
+
+pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneError> {
+    let bytes = read_capped(path, None)?;
+    let scan = prescan(&bytes);
+    if scan.triangles > MAX_TRIANGLES as u64 {
+        return Err(SceneError::invalid(
             path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
+            format!(
+                "its faces make {} triangles, more than the limit of {MAX_TRIANGLES}",
+                scan.triangles
+            ),
+            "decimate the mesh or split the scene",
         ));
     }
     let opts = tobj::LoadOptions {
@@ -23,52 +75,100 @@ pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
         triangulate: true,
         ..Default::default()
     };
-    let (models, mats) = tobj::load_obj(path, &opts).map_err(|e| {
+    // tobj's material callback can only return tobj's error enum, so keep our (more precise) error here.
+    let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
+    let mtl_names: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    let material_loader = |mtl: &Path| -> tobj::MTLLoadResult {
+        let by = format!("mtllib {}", mtl.display());
+        mtl_names.borrow_mut().push(mtl.display().to_string());
+        let loaded = res.read_referenced(path, mtl, &by).and_then(|b| {
+            tobj::load_mtl_buf(&mut Cursor::new(b)).map_err(|e| {
+                SceneError::invalid(
+                    &crate::resource::parent_dir(path).join(mtl),
+                    format!(
+                        "not a valid MTL material library ({e}; referenced by {} {by})",
+                        path.display()
+                    ),
+                    "fix or re-export the .mtl file",
+                )
+            })
+        });
+        loaded.map_err(|e| {
+            mtl_error.borrow_mut().get_or_insert(e);
+            tobj::LoadError::OpenFileFailed
+        })
+    };
+    let (models, mats) = tobj::load_obj_buf(&mut Cursor::new(&bytes[..]), &opts, material_loader)
+        .map_err(|e| {
         SceneError::invalid(
             path,
             format!("not a valid OBJ file ({e})"),
-            "export the mesh again as Wavefront OBJ",
+            "fix the v/vt/vn/f lines (Wavefront OBJ text, 1-based or negative indices)",
         )
     })?;
-    let mats = mats.map_err(|e| {
-        SceneError::invalid(
-            path,
-            format!("its material library could not be loaded ({e})"),
-            "put the .mtl next to the .obj or remove the mtllib line",
-        )
-    })?;
-    let dir = path.parent().unwrap_or(Path::new("."));
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    // Only a library-loader failure (reported above) makes tobj return an error here.
+    let mats = mats.unwrap_or_default();
 
     let mut d = SceneData::default();
+    for (name, line) in &scan.usemtl {
+        if !mats.iter().any(|m| &m.name == name) {
+            let libs = mtl_names.borrow();
+            let libs = if libs.is_empty() {
+                "no mtllib line".to_string()
+            } else {
+                libs.join(", ")
+            };
+            d.warnings.push(format!(
+                "{}:{line}: usemtl '{name}' is not defined in the material library ({libs}); its faces use \
+                 the default grey material — define it in the .mtl or fix the name",
+                path.display()
+            ));
+        }
+    }
+
     let mut tex_cache: HashMap<String, u32> = HashMap::new();
     for m in &mats {
         let base_color_texture = match &m.diffuse_texture {
             Some(name) if !name.trim().is_empty() => Some(load_texture_cached(
                 &mut d,
                 &mut tex_cache,
-                dir,
-                name.trim(),
+                res,
                 path,
+                &m.name,
+                name.trim(),
             )?),
             _ => None,
         };
-        let v3 = |a: Option<[f32; 3]>, def: Vec3| {
-            a.map(Vec3::from)
-                .filter(|v| v.is_finite())
-                .unwrap_or(def)
-                .max(Vec3::ZERO)
+        // NaN/inf in a library is refused (it would render black or NaN); the .mtl path is named.
+        let mtl_file = mtl_names.borrow().join(", ");
+        let v3 = |a: Option<[f32; 3]>, key: &str, def: Vec3| -> Result<Vec3, SceneError> {
+            match a.map(Vec3::from) {
+                Some(v) if !v.is_finite() => Err(SceneError::invalid(
+                    path,
+                    format!("material '{}' in {mtl_file} has {key} {v}", m.name),
+                    format!("use finite, non-negative {key} values"),
+                )),
+                v => Ok(v.unwrap_or(def).max(Vec3::ZERO)),
+            }
         };
-        let specular = v3(m.specular, Vec3::ZERO);
-        let ns = m
-            .shininess
-            .filter(|s| s.is_finite() && *s > 0.0)
-            .unwrap_or(0.0);
+        let specular = v3(m.specular, "Ks", Vec3::ZERO)?;
+        if m.shininess.is_some_and(|s| !s.is_finite()) {
+            return Err(SceneError::invalid(
+                path,
+                format!("material '{}' in {mtl_file} has a non-finite Ns", m.name),
+                "use a finite Phong exponent Ns >= 0",
+            ));
+        }
+        let ns = m.shininess.filter(|s| *s > 0.0).unwrap_or(0.0);
         d.add_material(
             Material {
                 name: m.name.clone(),
-                base_color: v3(m.diffuse, Vec3::splat(0.8)),
+                base_color: v3(m.diffuse, "Kd", Vec3::splat(0.8))?,
                 base_color_texture,
-                emission: v3(m.emissive, Vec3::ZERO),
+                emission: v3(m.emissive, "Ke", Vec3::ZERO)?,
                 specular: if ns > 0.0 { specular } else { Vec3::ZERO },
                 phong_exponent: if specular.max_element() > 0.0 {
                     ns
@@ -121,7 +221,19 @@ pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
                 )),
             }
         };
-        if mesh.indices.len() % 3 != 0 {
+        if !(mesh.normals.iter().all(|x| x.is_finite())
+            && mesh.texcoords.iter().all(|x| x.is_finite()))
+        {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "object '{}' has a NaN or infinite normal (vn) or texture coordinate (vt)",
+                    model.name
+                ),
+                "fix the vn/vt lines",
+            ));
+        }
+        if !mesh.indices.len().is_multiple_of(3) {
             return Err(SceneError::invalid(
                 path,
                 format!("object '{}' has a non-triangle face", model.name),
@@ -132,25 +244,39 @@ pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
             let p = [pos(tri[0])?, pos(tri[1])?, pos(tri[2])?];
             let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
             let mut n = [flat; 3];
-            if !mesh.normal_indices.is_empty() {
-                for (k, nk) in n.iter_mut().enumerate() {
-                    let ni = *mesh.normal_indices.get(f * 3 + k).unwrap_or(&u32::MAX) as usize * 3;
-                    if let Some(s) = mesh.normals.get(ni..ni + 3) {
-                        let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
-                        if v != Vec3::ZERO && v.is_finite() {
-                            *nk = v;
-                        }
+            // tobj checks v indices but not vt/vn ones: an out-of-range one is an error, not a default.
+            let out_of_range = |what: &str| {
+                SceneError::invalid(
+                    path,
+                    format!(
+                        "object '{}' face {f} has a {what} index beyond the {what} lines",
+                        model.name
+                    ),
+                    format!("fix the f lines' {what} indices"),
+                )
+            };
+            for (k, nk) in n.iter_mut().enumerate() {
+                if let Some(&ni) = mesh.normal_indices.get(f * 3 + k) {
+                    let ni = ni as usize * 3;
+                    let s = mesh
+                        .normals
+                        .get(ni..ni + 3)
+                        .ok_or_else(|| out_of_range("vn"))?;
+                    let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
+                    if v != Vec3::ZERO {
+                        *nk = v;
                     }
                 }
             }
             let mut uv = [Vec2::ZERO; 3];
-            if !mesh.texcoord_indices.is_empty() {
-                for (k, uvk) in uv.iter_mut().enumerate() {
-                    let ti =
-                        *mesh.texcoord_indices.get(f * 3 + k).unwrap_or(&u32::MAX) as usize * 2;
-                    if let Some(s) = mesh.texcoords.get(ti..ti + 2) {
-                        *uvk = Vec2::new(s[0], 1.0 - s[1]); // OBJ v=0 is the bottom row
-                    }
+            for (k, uvk) in uv.iter_mut().enumerate() {
+                if let Some(&ti) = mesh.texcoord_indices.get(f * 3 + k) {
+                    let ti = ti as usize * 2;
+                    let s = mesh
+                        .texcoords
+                        .get(ti..ti + 2)
+                        .ok_or_else(|| out_of_range("vt"))?;
+                    *uvk = Vec2::new(s[0], 1.0 - s[1]); // OBJ v=0 is the bottom row
                 }
             }
             d.push(p, n, uv, material, object);
@@ -169,32 +295,37 @@ pub(crate) fn load_obj(path: &Path) -> Result<SceneData, SceneError> {
 fn load_texture_cached(
     d: &mut SceneData,
     cache: &mut HashMap<String, u32>,
-    dir: &Path,
-    name: &str,
+    res: &Resources,
     obj: &Path,
+    material: &str,
+    name: &str,
 ) -> Result<u32, SceneError> {
     if let Some(&i) = cache.get(name) {
         return Ok(i);
     }
-    let tex = load_texture_file(&dir.join(name), obj)?;
+    let by = format!("material '{material}' map_Kd {name}");
+    let bytes = res.read_referenced(obj, Path::new(name), &by)?;
+    let file = crate::resource::parent_dir(obj).join(name);
+    let tex = decode_texture(
+        &bytes,
+        &file,
+        &format!("the texture ({} {by})", obj.display()),
+    )?;
     d.textures.push(tex);
     let i = (d.textures.len() - 1) as u32;
     cache.insert(name.to_string(), i);
     Ok(i)
 }
 
-/// Decode an image file (PNG/JPEG) as an sRGB base-colour texture.
-pub(crate) fn load_texture_file(file: &Path, referenced_by: &Path) -> Result<Texture, SceneError> {
-    let img = image::open(file).map_err(|e| {
-        SceneError::invalid(
-            file,
-            format!(
-                "texture referenced by {} could not be loaded ({e})",
-                referenced_by.display()
-            ),
-            "put the image next to the scene file (PNG or JPEG) or fix the path",
-        )
-    })?;
-    Texture::from_image(&img)
-        .ok_or_else(|| SceneError::invalid(file, "texture is empty", "use a non-empty image"))
+#[cfg(test)]
+mod tests {
+    use super::prescan;
+
+    #[test]
+    fn prescan_bounds_triangles_and_lists_usemtl_lines() {
+        let scan = prescan(b"v 0 0 0\nf 1 2 3\nusemtl a\nf 1 2 3 4 5\r\nusemtl b\nusemtl a\nf 1 2\n");
+        // 1 + 3 (fan of a pentagon) + 0 (a two-vertex face makes none).
+        assert_eq!(scan.triangles, 4);
+        assert_eq!(scan.usemtl, vec![("a".to_string(), 3), ("b".to_string(), 5)]);
+    }
 }

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 
 use crate::bvh::{self, BvhNode, Hit, TriangleRecord, NO_LIGHT, STACK_SIZE};
+use crate::limits::{MAX_COORDINATE, MAX_RADIANCE, MAX_TRIANGLES};
 use crate::{AreaLight, Camera, LightShape, SceneError, Texture};
 
 /// A surface material: Lambertian `base_color` (times the optional texture) is k_d; a Phong lobe
@@ -104,6 +105,9 @@ pub struct Scene {
     pub lights: Vec<AreaLight>,
     pub camera: Camera,
     pub bounds: Aabb,
+    /// Problems the loader worked around (unknown `usemtl`, dropped zero-area or duplicate triangles…);
+    /// the CLI prints them after the scene line.
+    pub warnings: Vec<String>,
 }
 
 /// Where a scene came from, for error messages of `from_triangles` (built-ins have no file).
@@ -133,12 +137,18 @@ impl Scene {
                 "add geometry (meshes or a built-in)",
             ));
         }
-        if tris.len() >= u32::MAX as usize / 2 {
+        if tris.len() > MAX_TRIANGLES {
             return Err(SceneError::invalid(
                 &path,
-                "too many triangles",
-                "split the scene",
+                format!(
+                    "{} triangles, more than the limit of {MAX_TRIANGLES}",
+                    tris.len()
+                ),
+                "decimate the meshes or split the scene",
             ));
+        }
+        for (i, m) in materials.iter().enumerate() {
+            check_material(&path, i, m, textures.len())?;
         }
         let mut bounds = Aabb::empty();
         for (i, (a, b, c, s)) in tris.iter().enumerate() {
@@ -147,6 +157,14 @@ impl Scene {
                     &path,
                     format!("triangle {i} has a non-finite (NaN or infinite) vertex"),
                     "fix or remove the broken geometry",
+                ));
+            }
+            let far = a.abs().max(b.abs()).max(c.abs()).max_element();
+            if far > MAX_COORDINATE {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!("triangle {i} has a vertex {far:e} m from the origin, beyond the limit of {MAX_COORDINATE:e} m"),
+                    "check the units and the transforms' scale/translation",
                 ));
             }
             if s.material as usize >= materials.len() {
@@ -164,21 +182,19 @@ impl Scene {
             bounds.grow(*b);
             bounds.grow(*c);
         }
-        for (i, m) in materials.iter().enumerate() {
-            if let Some(t) = m.base_color_texture {
-                if t as usize >= textures.len() {
-                    return Err(SceneError::invalid(
-                        &path,
-                        format!(
-                            "material {i} ('{}') uses texture {t} but there are {}",
-                            m.name,
-                            textures.len()
-                        ),
-                        "give every material a valid texture index",
-                    ));
-                }
-            }
+
+        // Zero-area triangles can never be hit and exact duplicates add nothing but BVH work (and a
+        // million copies of one triangle is a pathological builder input), so both are dropped here,
+        // counted into a warning. `kept[k]` is the input index of the k-th kept triangle.
+        let (kept, warnings) = drop_degenerate_and_duplicates(name, &tris);
+        if kept.is_empty() {
+            return Err(SceneError::invalid(
+                &path,
+                format!("all {} triangles have zero area", tris.len()),
+                "add geometry with non-degenerate triangles",
+            ));
         }
+        let tris: Vec<_> = kept.iter().map(|&i| tris[i as usize]).collect();
 
         // Lights first, in input order (so light indices do not depend on the BVH).
         let (lights, input_light) = extract_lights(&tris, &materials, bounds.size().max_element());
@@ -208,7 +224,7 @@ impl Scene {
         let mut shading = Vec::with_capacity(tris.len());
         for &src in &built.order {
             let (a, b, c, s) = tris[src as usize];
-            let mut rec = TriangleRecord::new(a, b, c, s.material, src);
+            let mut rec = TriangleRecord::new(a, b, c, s.material, kept[src as usize]);
             rec.light = input_light[src as usize];
             triangles.push(rec);
             shading.push(s);
@@ -223,6 +239,7 @@ impl Scene {
             lights,
             camera,
             bounds,
+            warnings,
         })
     }
 
@@ -311,6 +328,105 @@ impl Scene {
             }
         }
     }
+}
+
+/// Whether a material's numbers are usable: finite, non-negative colours, emission at most
+/// [`MAX_RADIANCE`] (larger sums overflow to inf and NaN pixels), a finite Phong exponent, a valid
+/// texture index. One check for every loader; loaders with a more precise location (a glTF JSON path)
+/// check their raw values first.
+fn check_material(
+    path: &std::path::Path,
+    i: usize,
+    m: &Material,
+    textures: usize,
+) -> Result<(), SceneError> {
+    let what = |field: &str, v: String| format!("material {i} ('{}') has {field} {v}", m.name);
+    for (field, v) in [
+        ("base colour", m.base_color),
+        ("specular", m.specular),
+        ("emission", m.emission),
+    ] {
+        if !v.is_finite() || v.min_element() < 0.0 {
+            return Err(SceneError::invalid(
+                path,
+                what(field, v.to_string()),
+                "use finite, non-negative values",
+            ));
+        }
+    }
+    if m.emission.max_element() > MAX_RADIANCE {
+        return Err(SceneError::invalid(
+            path,
+            what("emission", m.emission.to_string()),
+            format!(
+                "keep emitted radiance at most {MAX_RADIANCE:e} per channel (scale the light down)"
+            ),
+        ));
+    }
+    if !(m.phong_exponent.is_finite() && m.phong_exponent >= 0.0) {
+        return Err(SceneError::invalid(
+            path,
+            what("Phong exponent", m.phong_exponent.to_string()),
+            "use a finite exponent >= 0",
+        ));
+    }
+    if let Some(t) = m.base_color_texture {
+        if t as usize >= textures {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "material {i} ('{}') uses texture {t} but there are {textures}",
+                    m.name
+                ),
+                "give every material a valid texture index",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Indices of the triangles worth building a BVH over: zero-area ones (cross product of the edges is
+/// zero) and exact copies of an earlier triangle (same three vertices bit for bit, in the same cyclic
+/// order) are left out. Returns the kept input indices and one warning per kind of drop.
+fn drop_degenerate_and_duplicates(
+    name: &str,
+    tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
+) -> (Vec<u32>, Vec<String>) {
+    let key = |v: Vec3| v.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() }); // -0 == +0
+    let mut seen: std::collections::HashSet<[[u32; 3]; 3]> =
+        std::collections::HashSet::with_capacity(tris.len());
+    let (mut zero_area, mut duplicates) = (0usize, 0usize);
+    let mut kept = Vec::with_capacity(tris.len());
+    for (i, (a, b, c, _)) in tris.iter().enumerate() {
+        if (*b - *a).cross(*c - *a).length_squared() == 0.0 {
+            zero_area += 1;
+            continue;
+        }
+        // Same vertices in the same cyclic order (same winding): rotate the smallest first. Opposite
+        // windings are kept — back-to-back faces (e.g. the shared cap between two boxes) are legitimate.
+        let mut k = [key(*a), key(*b), key(*c)];
+        let first = (0..3).min_by_key(|&i| k[i]).unwrap_or(0);
+        k.rotate_left(first);
+        if !seen.insert(k) {
+            duplicates += 1;
+            continue;
+        }
+        kept.push(i as u32);
+    }
+    let mut warnings = Vec::new();
+    if zero_area > 0 {
+        warnings.push(format!(
+            "{name}: dropped {zero_area} zero-area triangle(s) of {} (they cannot be hit) — remove them in the modelling tool",
+            tris.len()
+        ));
+    }
+    if duplicates > 0 {
+        warnings.push(format!(
+            "{name}: dropped {duplicates} exact duplicate triangle(s) of {} — remove the copies in the modelling tool",
+            tris.len()
+        ));
+    }
+    (kept, warnings)
 }
 
 /// Turn emissive triangles into lights. Returns the lights and, per input triangle, its light index.

@@ -1,7 +1,12 @@
 //! Linear-RGB textures with bilinear, repeating lookup.
 
+use std::path::Path;
+
 use glam::Vec2;
 use glam::Vec3;
+
+use crate::limits::{MAX_TEXTURE_PIXELS, MAX_TEXTURE_SIDE};
+use crate::SceneError;
 
 /// A texture in linear RGB (sRGB-encoded images are decoded on load). Row 0 is the top row of the
 /// image and `v = 0` addresses it, as in glTF. OBJ's `vt` has `v = 0` at the bottom, so the OBJ loader
@@ -94,6 +99,47 @@ impl Texture {
         let rgb = img.to_rgb8();
         Texture::from_srgb8(rgb.width(), rgb.height(), 3, rgb.as_raw())
     }
+}
+
+/// Decode an encoded image (PNG/JPEG) as an sRGB base-colour texture. The size is read from the
+/// header and checked against [`MAX_TEXTURE_SIDE`]/[`MAX_TEXTURE_PIXELS`] before any pixel is decoded, so
+/// a 100000 × 100000 PNG of a few bytes is refused instead of allocating gigabytes. `file` is the file
+/// the error is reported against, `what` says which image it is (e.g. `images[0]` or `map_Kd wood.png`).
+pub(crate) fn decode_texture(bytes: &[u8], file: &Path, what: &str) -> Result<Texture, SceneError> {
+    let unreadable = |e: &dyn std::fmt::Display| {
+        SceneError::invalid(
+            file,
+            format!("{what} is not a readable PNG or JPEG image ({e})"),
+            "re-export the texture as 8-bit PNG or JPEG",
+        )
+    };
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| unreadable(&e))
+    };
+    let (w, h) = reader()?.into_dimensions().map_err(|e| unreadable(&e))?;
+    if w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
+        return Err(SceneError::invalid(
+            file,
+            format!(
+                "{what} is {w}x{h} pixels, more than the limit ({MAX_TEXTURE_SIDE} per side, \
+                 {MAX_TEXTURE_PIXELS} pixels in all)"
+            ),
+            "downscale the texture (8192x8192 at most)",
+        ));
+    }
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+    // RGBA16 at the largest allowed size, plus decoder scratch.
+    limits.max_alloc = Some(MAX_TEXTURE_PIXELS * 8 + (64 << 20));
+    let mut decoder = reader()?;
+    decoder.limits(limits);
+    let img = decoder.decode().map_err(|e| unreadable(&e))?;
+    Texture::from_image(&img).ok_or_else(|| {
+        SceneError::invalid(file, format!("{what} is empty"), "use a non-empty image")
+    })
 }
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).

@@ -422,6 +422,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         seed: opts.seed,
         mu: None,
         params: Vec::new(),
+        ..Overrides::default()
     };
     let path = opts.pipeline.as_path();
     let session = Session::open(Some(path), &base)?;
