@@ -39,6 +39,10 @@ struct Frame {
     first: u32,       // the pixel (y * width + x) at element 0 of every bound per-pixel buffer
     chunk_begin: u32, // sampling kernels that resume (WgslSource::chunked): this dispatch takes the
     chunk_end: u32,   // pass's sample indices [chunk_begin, chunk_end); unchunked: [0, 2^32 - 1)
+    packed_pixels: u32, // packed binding plan: elements per binding region (the band's end - first)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

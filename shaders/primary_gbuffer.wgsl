@@ -12,11 +12,6 @@ struct Params {
 }
 @group(0) @binding(1) var<uniform> params: Params;
 
-@group(1) @binding(0) var<storage, read_write> out_position: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read_write> out_normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> out_albedo: array<f32>;   // vec3, packed
-@group(1) @binding(3) var<storage, read_write> out_emission: array<f32>; // vec3, packed
-@group(1) @binding(4) var<storage, read_write> out_specular: array<vec4<f32>>; // optional: k_s, m
 
 struct Ray {
     o: vec3<f32>,
@@ -47,13 +42,9 @@ fn generate_ray(px: f32, py: f32) -> Ray {
 
 fn put3(buf_is_albedo: bool, i: u32, v: vec3<f32>) {
     if (buf_is_albedo) {
-        out_albedo[3u * i] = v.x;
-        out_albedo[3u * i + 1u] = v.y;
-        out_albedo[3u * i + 2u] = v.z;
+        albedo_put(i, v);
     } else {
-        out_emission[3u * i] = v.x;
-        out_emission[3u * i + 1u] = v.y;
-        out_emission[3u * i + 2u] = v.z;
+        emission_put(i, v);
     }
 }
 
@@ -68,12 +59,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let ray = generate_ray(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let hit = scene_intersect(ray.o, ray.d, 0.0, inf());
     if (!hit.hit) {
-        out_position[i] = vec4<f32>(0.0);
-        out_normal[i] = vec4<f32>(0.0);
+        position_put(i, vec4<f32>(0.0));
+        normal_put(i, vec4<f32>(0.0));
         put3(true, i, vec3<f32>(0.0));
         put3(false, i, vec3<f32>(0.0));
-        if (is_bound(4u)) {
-            out_specular[i] = vec4<f32>(0.0);
+        if (specular_bound()) {
+            specular_put(i, vec4<f32>(0.0));
         }
         return;
     }
@@ -81,12 +72,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let n = sp.shading_normal;
     let c = rmax(abs(dot3(n, -ray.d)), 0.05);
     let footprint = hit.t * params.right_pixel_angle.w / sqrt(c);
-    out_position[i] = vec4<f32>(sp.position, 1.0 + f32(sp.object));
-    out_normal[i] = vec4<f32>(n, footprint);
+    position_put(i, vec4<f32>(sp.position, 1.0 + f32(sp.object)));
+    normal_put(i, vec4<f32>(n, footprint));
     put3(true, i, albedo(sp));
     put3(false, i, emission(sp));
-    if (is_bound(4u)) {
-        let m = materials[sp.material];
-        out_specular[i] = vec4<f32>(m.specular, m.phong_exponent);
+    if (specular_bound()) {
+        let m = material(sp.material);
+        specular_put(i, vec4<f32>(m.specular, m.phong_exponent));
     }
 }

@@ -217,21 +217,17 @@ const RNG_PROBE_WGSL: &str = r#"
 #include "rng.wgsl"
 struct Params { _unused: u32 }
 @group(0) @binding(1) var<uniform> params: Params;
-@group(1) @binding(0) var<storage, read_write> out_hash: array<u32>;
-@group(1) @binding(1) var<storage, read_write> out_uniform: array<f32>;
-@group(1) @binding(2) var<storage, read_write> out_cmj: array<vec2<f32>>;
-@group(1) @binding(3) var<storage, read_write> out_perm: array<u32>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) { return; }
     let i = pixel_index(gid);
     let h = hash4(i, i * 2654435761u, frame.seed, i ^ 0xdeadbeefu);
-    out_hash[i] = h;
-    out_uniform[i] = rng_uniform(rng_key(frame.seed, i, 3u), i % 97u, DIM_LIGHT);
+    hash_put(i, h);
+    uniform_put(i, rng_uniform(rng_key(frame.seed, i, 3u), i % 97u, DIM_LIGHT));
     let n = 1u + (i % 401u);
-    out_cmj[i] = cmj(h % n, n, hash4(i, 17u, 0u, 0u));
-    out_perm[i] = permute(i % n, n, h);
+    cmj_put(i, cmj(h % n, n, hash4(i, 17u, 0u, 0u)));
+    perm_put(i, permute(i % n, n, h));
 }
 "#;
 

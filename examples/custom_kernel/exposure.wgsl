@@ -10,8 +10,6 @@ struct Params {
 }
 @group(0) @binding(1) var<uniform> params: Params;
 
-@group(1) @binding(0) var<storage, read> value: array<f32>; // vec3, packed
-@group(1) @binding(1) var<storage, read_write> out: array<f32>; // vec3, packed
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -19,7 +17,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    for (var c = 0u; c < 3u; c = c + 1u) {
-        out[3u * i + c] = value[3u * i + c] * params.scale;
-    }
+    out_put(i, value_at(i) * params.scale);
 }
