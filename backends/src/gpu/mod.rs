@@ -724,7 +724,8 @@ impl GpuBackend {
                         }
                     }
                     {
-                        let ts = self.timestamps.as_ref().map(|(qs, _)| wgpu::ComputePassTimestampWrites {
+                        // The first band's pass starts the timer and the last one stops it.
+                        let ts = self.timestamps.as_ref().filter(|_| n == 0 || n == last).map(|(qs, _)| wgpu::ComputePassTimestampWrites {
                             query_set: qs,
                             beginning_of_pass_write_index: (n == 0).then_some(0),
                             end_of_pass_write_index: (n == last).then_some(1),
