@@ -5,19 +5,6 @@
 #include "bvh.wgsl"
 #include "sampling.wgsl"
 
-struct Params {
-    light: i32,        // -1 = every light
-    count: u32,
-    stratified: u32,
-    light_centre: u32, // form_factor == "light_centre"
-    stream: u32,
-    extent: f32,       // Scene::extent()
-    light_count: u32,
-    _pad: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 const RAY_EPSILON: f32 = 1e-4;
 
 struct LightSample {

@@ -2,16 +2,6 @@
 // mirrors backends/src/kernels/filter.rs (filter_pixel) term by term and in the same order.
 #include "common.wgsl"
 
-struct Params {
-    axis: u32,
-    max_radius: i32,
-    normal_cos: f32,
-    _pad: u32,
-    plane_normal: vec4<f32>, // xyz; zero = full 3-D distance
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 const TANGENT_SLOPE: f32 = 0.2;
 
 fn plane_distance2(a: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {

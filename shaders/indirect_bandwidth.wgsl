@@ -3,19 +3,6 @@
 #include "common.wgsl"
 #include "indirect_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    z_fraction: f32,
-    extent: f32,   // Scene::extent()
-    blinn: u32,    // brdf == "blinn_phong"
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {

@@ -3,12 +3,6 @@
 // vec3 buffers are packed f32 arrays.
 #include "common.wgsl"
 
-struct Params {
-    _unused: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {

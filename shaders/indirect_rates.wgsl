@@ -4,19 +4,6 @@
 #include "common.wgsl"
 #include "indirect_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    z_fraction: f32,
-    extent: f32,   // Scene::extent()
-    initial: u32,  // initial_rays.max(1)
-    max_rays: u32, // max_rays.max(1)
-    cap: u32,      // rays_cap.max(1)
-    blinn: u32,    // brdf == "blinn_phong"
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {

@@ -8,24 +8,6 @@
 #include "sampling.wgsl"
 #include "hemisphere.wgsl"
 
-struct Params {
-    camera: vec4<f32>,   // xyz = camera position
-    count: u32,
-    stratified: u32,
-    ao: u32,
-    bounces: u32,        // ≥ 1
-    max_distance: f32,
-    lobe: u32,           // LOBE_PHONG / LOBE_BLINN_PHONG
-    eps: f32,            // RAY_EPSILON · Scene::extent()
-    stream: u32,
-    light_count: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 // Dimension offset between lights in next-event estimation.
 const LIGHT_DIM_STRIDE: u32 = 65536u;
 // Dimension choosing the lobe at a path vertex.

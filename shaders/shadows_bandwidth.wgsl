@@ -2,15 +2,6 @@
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    k: f32,
-    sigma: f32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {

@@ -3,19 +3,6 @@
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    sigma: f32,
-    initial: u32,
-    max_rays: u32,
-    _p0: u32,
-    _p1: u32,
-    _p2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {

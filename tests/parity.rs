@@ -310,9 +310,6 @@ struct RngProbe;
 
 const RNG_PROBE_WGSL: &str = r#"
 #include "rng.wgsl"
-struct Params { _unused: u32 }
-@group(0) @binding(1) var<uniform> params: Params;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) { return; }
@@ -362,7 +359,7 @@ impl Kernel for RngProbe {
         ctx.put("perm", perm)
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(RNG_PROBE_WGSL, |_| Ok(Uniforms::new().align16())))
+        Some(WgslSource::new(RNG_PROBE_WGSL, |_| Ok(Uniforms::new())))
     }
 }
 

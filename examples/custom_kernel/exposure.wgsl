@@ -2,15 +2,6 @@
 // handed over in the uniform block, so both backends multiply by the same float: bit-identical.
 #include "common.wgsl"
 
-struct Params {
-    scale: f32,
-    _p0: u32,
-    _p1: u32,
-    _p2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {

@@ -40,7 +40,7 @@ use wedge_graph::{BufferId, Format, Pass};
 
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
-use crate::kernel::{Access, Counters, Kernel, KernelCtx};
+use crate::kernel::{Access, Counters, Kernel, KernelCtx, Reach};
 use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
 use bands::{Band, BindLimits};
 
@@ -118,6 +118,8 @@ pub struct GpuBackend {
     samples_per_dispatch: u32,
     /// Bind every pass's per-pixel buffers packed, even where they fit one per binding (`force_packed`).
     force_packed: bool,
+    /// `Params` fields per kernel name, as its first pass gave them.
+    uniform_layouts: HashMap<String, Vec<(&'static str, crate::kernel::UniformType)>>,
     /// Per-pass binding plan of the last run.
     pub last_plans: Vec<(String, shaders::BindingPlan)>,
 }
@@ -200,6 +202,7 @@ impl GpuBackend {
             last_bands: Vec::new(),
             samples_per_dispatch,
             force_packed: false,
+            uniform_layouts: HashMap::new(),
             last_plans: Vec::new(),
         })
     }
@@ -414,20 +417,60 @@ impl GpuBackend {
         Ok(self.dummies[index].clone())
     }
 
-    /// The compiled pipeline of a kernel under the binding plan this device needs for it.
+    fn wgsl_of(kernel: &dyn Kernel) -> Result<crate::kernel::WgslSource, BackendError> {
+        kernel.wgsl().ok_or_else(|| {
+            gpu_err(format!(
+                "kernel `{}` has no WGSL implementation (Kernel::wgsl returns None); run this pipeline with --backend cpu, or give the kernel a WGSL source",
+                kernel.name()
+            ))
+        })
+    }
+
+    /// The pass's `Params` block ([`crate::kernel::Uniforms`]), from the same `KernelCtx` accessors
+    /// its CPU path uses.
+    fn uniforms(job: &Job<'_>, pass: &Pass, src: &crate::kernel::WgslSource) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
+        let cpu_counters = Counters::default();
+        let ctx = KernelCtx::new(
+            job.width,
+            job.height,
+            job.seed,
+            job.scene,
+            &pass.name,
+            &pass.params,
+            &cpu_counters,
+            job.progress,
+            BTreeMap::new(),
+            BTreeMap::new(),
+        );
+        Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
+    }
+
+    /// The compiled pipeline of a kernel under the binding plan this device needs for it, with its
+    /// `Params` struct generated from `uniforms` (every pass of a kernel must give the same fields).
     fn pipeline(
         &mut self,
         kernel: &dyn Kernel,
+        uniforms: &crate::kernel::Uniforms,
     ) -> Result<(Arc<KernelPipeline>, crate::kernel::WgslSource, shaders::BindingPlan), BackendError> {
         let name = kernel.name();
-        let src = kernel.wgsl().ok_or_else(|| {
-            gpu_err(format!(
-                "kernel `{name}` has no WGSL implementation (Kernel::wgsl returns None); run this pipeline with --backend cpu, or give the kernel a WGSL source"
-            ))
-        })?;
+        let src = Self::wgsl_of(kernel)?;
         let bindings = kernel.bindings();
         let plan = self.binding_plan(name, &bindings, src.scene)?;
-        let header = shaders::binding_header(name, &bindings, plan)?;
+        let fields = uniforms.layout();
+        match self.uniform_layouts.get(name) {
+            Some(first) if *first != fields => {
+                return Err(gpu_err(format!(
+                    "kernel `{name}`: WgslSource::uniforms gave the fields {fields:?} for one pass and {first:?} for another; \
+                     the Params fields must not depend on the pass's parameters (only their values may)"
+                )))
+            }
+            Some(_) => {}
+            None => {
+                self.uniform_layouts.insert(name.to_string(), fields);
+            }
+        }
+        let params = uniforms.wgsl_struct().map_err(|e| gpu_err(format!("kernel `{name}`: {e}")))?;
+        let header = params + &shaders::binding_header(name, &bindings, plan)?;
         let text = shaders::compose(name, &src, &header)?;
         let mut h = std::collections::hash_map::DefaultHasher::new();
         (name, &text, src.scene, plan).hash(&mut h);
@@ -526,26 +569,11 @@ impl GpuBackend {
     ) -> Result<(DispatchTime, RayCounts, usize, shaders::BindingPlan), BackendError> {
         use shaders::BindingPlan;
         let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
-        let (p, src, plan) = self.pipeline(kernel.as_ref())?;
+        let src = Self::wgsl_of(kernel.as_ref())?;
+        let (uniforms, reach) = Self::uniforms(job, pass, &src)?;
+        let (p, src, plan) = self.pipeline(kernel.as_ref(), &uniforms)?;
         let what = format!("pass `{}` (kernel `{}`)", pass.name, pass.kernel);
-        // The parameter block, packed by the kernel from the same KernelCtx accessors its CPU path uses.
-        let cpu_counters = Counters::default();
-        let ctx = KernelCtx::new(
-            job.width,
-            job.height,
-            job.seed,
-            job.scene,
-            &pass.name,
-            &pass.params,
-            &cpu_counters,
-            job.progress,
-            BTreeMap::new(),
-            BTreeMap::new(),
-        );
-        let mut words = (src.uniforms)(&ctx)?.align16().0;
-        if words.is_empty() {
-            words = vec![0; 4];
-        }
+        let words = uniforms.words();
         if buffers.len() > 32 {
             return Err(gpu_err(format!("kernel `{}` declares more than 32 bindings", pass.kernel)));
         }
@@ -571,7 +599,6 @@ impl GpuBackend {
             offset_alignment: self.limits.min_storage_buffer_offset_alignment as u64,
             max_rows: max_groups.saturating_mul(WORKGROUP),
         };
-        let reach = (src.reach)(&ctx)?;
         let bands = bands::plan(job.width, job.height, widest, reach, &limits).map_err(|e| gpu_err(format!("{what}: {e}")))?;
         let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
         // Packed plan: one staging buffer for all inputs and one for all outputs, as large as the
@@ -797,7 +824,8 @@ impl GpuBackend {
         for pass in passes {
             check_bindings(job, pass)?;
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
-            let (_, src, _) = self.pipeline(kernel.as_ref())?;
+            let (uniforms, _) = Self::uniforms(job, pass, &Self::wgsl_of(kernel.as_ref())?)?;
+            let (_, src, _) = self.pipeline(kernel.as_ref(), &uniforms)?;
             scene |= src.scene;
         }
         Ok(scene)
