@@ -304,6 +304,46 @@ fn parity_with_webgpu_default_limits() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The GL backend (what wgpu picks without Vulkan; `WGPU_BACKEND=gl`), headless through EGL on
+/// Mesa's llvmpipe: every pass of every pipeline agrees with the CPU, and its limits are reported.
+/// Skipped with the reason printed when no GL adapter exists, except under CI=true.
+#[test]
+fn parity_on_the_gl_backend() {
+    use wedge::backends::gpu::LimitsChoice;
+    let mut gpu = match GpuBackend::open_on(Some(wedge::backends::gpu::Backends::GL), LimitsChoice::Adapter) {
+        Ok(g) => g,
+        Err(e) => {
+            assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "CI=true and no GL adapter: {e}");
+            eprintln!("parity_on_the_gl_backend: SKIPPED — no GL adapter (install libegl1 libgl1-mesa-dri): {e}");
+            return;
+        }
+    };
+    let l = gpu.limits();
+    println!(
+        "GL adapter {}: storage buffers per stage {}, storage binding {} B, workgroup storage {} B, invocations per workgroup {}",
+        gpu.adapter_description(),
+        l.max_storage_buffers_per_shader_stage,
+        l.max_storage_buffer_binding_size,
+        l.max_compute_workgroup_storage_size,
+        l.max_compute_invocations_per_workgroup
+    );
+    assert!(gpu.adapter_description().contains("Gl"), "{}", gpu.adapter_description());
+    let mut failures = Vec::new();
+    for path in pipelines() {
+        let session = Session::open(Some(&path), &small(32, 24)).unwrap();
+        match run_parity(&job(&session), &mut gpu) {
+            Ok(report) => {
+                println!("{} (GL)\n{}", path.display(), report.table());
+                if !report.ok() {
+                    failures.push(format!("{}: parity mismatch on GL (table above)", path.display()));
+                }
+            }
+            Err(e) => failures.push(format!("{}: {e}", path.display())),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// A test-only kernel whose WGSL writes `hash4`, `uniform`, `cmj` and `permute` outputs for many
 /// inputs (one per pixel); the Rust side recomputes them with `wedge::backends::rng`.
 struct RngProbe;

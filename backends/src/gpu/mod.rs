@@ -30,6 +30,9 @@ pub mod bands;
 pub mod scene;
 pub mod shaders;
 
+/// Which graphics APIs [`GpuBackend::open_on`] may use (wgpu's set: `Backends::GL`, `Backends::VULKAN`, …).
+pub use wgpu::Backends;
+
 use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
 use std::sync::{mpsc, Arc, Mutex};
@@ -133,7 +136,17 @@ impl GpuBackend {
 
     /// Open the default adapter with the limits `choice` names.
     pub fn open(choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        Self::open_on(None, choice)
+    }
+
+    /// Open an adapter of one of `backends` (e.g. `wgpu::Backends::GL`; `None`: those
+    /// `WGPU_BACKEND` names, else all) with the limits `choice` names.
+    pub fn open_on(backends: Option<wgpu::Backends>, choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if let Some(b) = backends {
+            desc.backends = b;
+        }
+        let instance = wgpu::Instance::new(desc);
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,
