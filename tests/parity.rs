@@ -482,6 +482,41 @@ fn kernel_without_declared_reach_is_not_split() {
     assert!(e.contains("test.rng_probe") && e.contains("Reach::Image") && e.contains("--backend cpu"), "{e}");
 }
 
+/// The `Params` struct is generated from the fields `WgslSource::uniforms` returns; a kernel whose
+/// fields change with the pass's parameters is refused with a message saying so.
+#[test]
+fn params_fields_must_not_depend_on_parameters() {
+    let Some(mut gpu) = gpu_or_skip("params_fields_must_not_depend_on_parameters") else { return };
+    struct Shifty;
+    impl Kernel for Shifty {
+        fn name(&self) -> &'static str {
+            "test.shifty"
+        }
+        fn class(&self) -> KernelClass {
+            KernelClass::Compose
+        }
+        fn bindings(&self) -> Vec<Binding> {
+            vec![Binding::write("out", Format::F32)]
+        }
+        fn run_cpu(&self, _: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn wgsl(&self) -> Option<WgslSource> {
+            let src = "@compute @workgroup_size(8, 8)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n    if (pixel_of(gid)) { out_put(pixel_index(gid), 1.0); }\n}\n";
+            Some(WgslSource::new(src, |ctx| {
+                Ok(if ctx.params.contains_key("wide") { Uniforms::new().vec3("a", [1.0; 3]) } else { Uniforms::new().f32("a", 1.0) })
+            }))
+        }
+    }
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    let out = gpu.run_kernel(Arc::new(Shifty), &scene, 8, 8, 1, BTreeMap::new(), &BTreeMap::new()).unwrap();
+    assert_eq!(out["out"], BufferData::F32(vec![1.0; 64]));
+    let wide = BTreeMap::from([("wide".to_string(), wedge::graph::ParamValue::Bool(true))]);
+    let e = gpu.run_kernel(Arc::new(Shifty), &scene, 8, 8, 1, wide, &BTreeMap::new()).unwrap_err().to_string();
+    println!("{e}");
+    assert!(e.contains("test.shifty") && e.contains("must not depend on the pass's parameters"), "{e}");
+}
+
 #[test]
 fn kernel_without_wgsl_is_a_clear_error() {
     let Some(mut gpu) = gpu_or_skip("kernel_without_wgsl_is_a_clear_error") else { return };

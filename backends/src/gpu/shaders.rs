@@ -220,3 +220,45 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn indirect_like() -> Vec<Binding> {
+        let mut v: Vec<Binding> = ["position", "normal", "specular", "previous_diffuse", "previous_glossy"]
+            .iter()
+            .map(|n| Binding::read(n, Format::Vec4))
+            .collect();
+        v.push(Binding::read_opt("rays", Format::U32));
+        v.push(Binding::read("albedo", Format::Vec3));
+        v.push(Binding::write("diffuse", Format::Vec4));
+        v.push(Binding::write_opt("depth", Format::F32));
+        v
+    }
+
+    #[test]
+    fn packed_plan_uses_two_storage_bindings_and_fixed_offsets() {
+        let b = indirect_like();
+        assert_eq!(storage_bindings(&b, BindingPlan::Direct), 9);
+        assert_eq!(storage_bindings(&b, BindingPlan::Packed), 2);
+        let (offsets, inputs, outputs) = packed_layout(&b);
+        assert_eq!(offsets, vec![0, 4, 8, 12, 16, 20, 21, 0, 4]);
+        assert_eq!((inputs, outputs), (24, 5));
+        let h = binding_header("k", &b, BindingPlan::Packed).unwrap();
+        assert!(h.contains("@group(1) @binding(0) var<storage, read> packed_inputs: array<u32>;"), "{h}");
+        assert!(h.contains("@group(1) @binding(1) var<storage, read_write> packed_outputs: array<u32>;"), "{h}");
+        assert!(h.contains("fn albedo_at(i: u32) -> vec3<f32>") && h.contains("21u * frame.packed_pixels + 3u * i"), "{h}");
+        assert!(h.contains("fn depth_put(i: u32, v: f32) {\n    if (!is_bound(8u)) { return; }"), "{h}");
+        assert!(!h.contains("fn position_put"), "inputs get no writer: {h}");
+        let d = binding_header("k", &b, BindingPlan::Direct).unwrap();
+        assert!(d.contains("@group(1) @binding(6) var<storage, read> albedo_data: array<f32>;"), "{d}");
+        assert!(d.contains("return vec3<f32>(albedo_data[b], albedo_data[b + 1u], albedo_data[b + 2u]);"), "{d}");
+    }
+
+    #[test]
+    fn binding_names_must_be_wgsl_identifiers() {
+        let e = binding_header("user.k", &[Binding::read("my-input", Format::F32)], BindingPlan::Direct).unwrap_err();
+        assert!(e.to_string().contains("`my-input` is not a WGSL identifier") && e.to_string().contains("user.k"), "{e}");
+    }
+}
