@@ -1,9 +1,19 @@
 //! The wgpu backend: every pass runs as a WGSL compute shader (one invocation per pixel, 8×8
 //! workgroups) on whatever adapter wgpu finds — a GPU, or Mesa's software Vulkan (lavapipe).
 //!
-//! - **Device**: the adapter's own limits are requested (more storage buffers per stage, larger
-//!   bindings than wgpu's defaults); `TIMESTAMP_QUERY` is enabled where offered and then each pass
-//!   is timed on the device (on lavapipe these are CPU-emulation times, not GPU times).
+//! - **Device**: the adapter's own limits are requested (larger bindings than wgpu's defaults), or
+//!   wgpu's `Limits::default()` ([`LimitsChoice::WebGpuDefault`], what any WebGPU device offers);
+//!   any wgpu API may be used ([`GpuBackend::open_on`]; the GL backend runs headless through EGL).
+//!   `TIMESTAMP_QUERY` is enabled where offered and then each pass is timed on the device (on
+//!   lavapipe these are CPU-emulation times, not GPU times).
+//! - **Generated WGSL**: a kernel's bindings (group 1) and `Params` struct are generated from its
+//!   Rust declaration ([`shaders::binding_header`], [`crate::kernel::Uniforms`]); the kernel only
+//!   calls `NAME_at`/`NAME_put`/`NAME_bound` and reads `params.NAME`.
+//! - **Binding plans**: per dispatch, one storage binding per declared buffer
+//!   ([`shaders::BindingPlan::Direct`]) when `1 (counters) + scene + bindings` fits the device's
+//!   `max_storage_buffers_per_shader_stage`; else [`shaders::BindingPlan::Packed`]: all inputs in
+//!   one storage buffer, all outputs in another, filled and emptied with `copy_buffer_to_buffer`
+//!   around each band's dispatch. Same bits either way ([`GpuBackend::force_packed`] for tests).
 //! - **Buffers**: per-pixel buffers follow the schedule's pool plan: one `wgpu::Buffer` per
 //!   physical slot (`Schedule::slot_formats`), created on first use, so a run allocates exactly
 //!   `slot_formats.len()` of them ([`RunResult::allocations`]). Layout per format: f32, vec2, vec4
@@ -11,15 +21,16 @@
 //!   pixel)**, the same bytes as the CPU's `Vec<[f32; 3]>`, so upload/readback is a plain copy and
 //!   no 16-byte padding is stored.
 //! - **Bands**: a pass whose per-pixel bindings would exceed the device's storage-binding limit
-//!   (e.g. `vec4` from 4096×2160 on, against 128 MiB) is dispatched as bands of rows, each binding only its rows
-//!   plus the rows its kernel reads around them ([`bands`]); kernels see the band in `Frame` and
+//!   (e.g. `vec4` from 4096×2160 on, against 128 MiB; packed: the packed buffer's bytes per pixel)
+//!   is dispatched as bands of rows, each binding only its rows plus the rows its kernel reads
+//!   around them ([`bands`]); kernels see the band in `Frame` and
 //!   index through `pixel_index`/`index_at` (shaders/common.wgsl), so the result is the same image.
-//! - **Scene**: uploaded once per distinct scene ([`scene`]); kernels that declare `scene` see it in
-//!   bind group 2.
+//! - **Scene**: uploaded once per distinct scene as ONE storage buffer holding all 7 arrays plus a
+//!   uniform of their offsets ([`scene`]); kernels that declare `scene` see it in bind group 2.
 //! - **Errors**: no adapter, WGSL/naga validation, out of memory, a device loss, a buffer over the
-//!   device's `max_buffer_size`, a scene array over its binding limit, a pass too large for the
-//!   limit that cannot be split (a kernel reading the whole image, or a band too narrow for its
-//!   reach), a kernel without WGSL — all become [`BackendError::Gpu`] with what to do; nothing panics
+//!   device's `max_buffer_size`, a scene over the binding limit, a kernel over the storage buffers
+//!   per stage even packed, a pass too large for the limit that cannot be split (a kernel reading
+//!   the whole image, or a band too narrow for its reach), a kernel without WGSL — all become [`BackendError::Gpu`] with what to do; nothing panics
 //!   (wgpu's default panicking error handler is replaced). Shader loops the driver cuts short are
 //!   counted (`RayCounts::cut_loops`), not silent.
 //! - **Chunks**: a sampling kernel that declares `WgslSource::chunked` runs as dispatches of at most
@@ -129,9 +140,23 @@ pub struct GpuBackend {
 
 impl GpuBackend {
     /// Open the default adapter (high performance preference; `WGPU_BACKEND` etc. are honoured)
-    /// with the adapter's own limits.
+    /// with the adapter's own limits, or with wgpu's `Limits::default()` when the environment says
+    /// `WEDGE_WGPU_LIMITS=default` (so `wedge render`/`parity` can check WebGPU portability).
     pub fn new() -> Result<GpuBackend, BackendError> {
-        Self::open(LimitsChoice::Adapter)
+        let choice = match std::env::var("WEDGE_WGPU_LIMITS") {
+            Err(_) => LimitsChoice::Adapter,
+            Ok(v) => match v.as_str() {
+                "" | "adapter" => LimitsChoice::Adapter,
+                "default" => LimitsChoice::WebGpuDefault,
+                other => {
+                    return Err(gpu_err(format!(
+                        "environment variable WEDGE_WGPU_LIMITS is `{other}`; use `adapter` (the adapter's own limits, the \
+                         default) or `default` (wgpu's Limits::default(), WebGPU's)"
+                    )))
+                }
+            },
+        };
+        Self::open(choice)
     }
 
     /// Open the default adapter with the limits `choice` names.
