@@ -179,13 +179,13 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
                     Format::Vec3 => "array<f32>".to_string(),
                     f => format!("array<{}>", element_type(f)),
                 };
-                out.push_str(&format!("@group(1) @binding({k}) var<storage, {access}> {name}_data: {array};\n"));
+                out.push_str(&format!("@group(1) @binding({k}) var<storage, {access}> buf_{name}: {array};\n"));
                 match b.format {
                     Format::Vec3 => (
-                        format!("    let b = 3u * i;\n    return vec3<f32>({name}_data[b], {name}_data[b + 1u], {name}_data[b + 2u]);\n"),
-                        format!("    let b = 3u * i;\n    {name}_data[b] = v.x;\n    {name}_data[b + 1u] = v.y;\n    {name}_data[b + 2u] = v.z;\n"),
+                        format!("    let b = 3u * i;\n    return vec3<f32>(buf_{name}[b], buf_{name}[b + 1u], buf_{name}[b + 2u]);\n"),
+                        format!("    let b = 3u * i;\n    buf_{name}[b] = v.x;\n    buf_{name}[b + 1u] = v.y;\n    buf_{name}[b + 2u] = v.z;\n"),
                     ),
-                    _ => (format!("    return {name}_data[i];\n"), format!("    {name}_data[i] = v;\n")),
+                    _ => (format!("    return buf_{name}[i];\n"), format!("    buf_{name}[i] = v;\n")),
                 }
             }
             BindingPlan::Packed => {
@@ -252,8 +252,8 @@ mod tests {
         assert!(h.contains("fn depth_put(i: u32, v: f32) {\n    if (!is_bound(8u)) { return; }"), "{h}");
         assert!(!h.contains("fn position_put"), "inputs get no writer: {h}");
         let d = binding_header("k", &b, BindingPlan::Direct).unwrap();
-        assert!(d.contains("@group(1) @binding(6) var<storage, read> albedo_data: array<f32>;"), "{d}");
-        assert!(d.contains("return vec3<f32>(albedo_data[b], albedo_data[b + 1u], albedo_data[b + 2u]);"), "{d}");
+        assert!(d.contains("@group(1) @binding(6) var<storage, read> buf_albedo: array<f32>;"), "{d}");
+        assert!(d.contains("return vec3<f32>(buf_albedo[b], buf_albedo[b + 1u], buf_albedo[b + 2u]);"), "{d}");
     }
 
     #[test]
