@@ -21,6 +21,23 @@ if ! has_vulkan; then
     fi
 fi
 
+# The GL backend (`WGPU_BACKEND=gl`, what wgpu uses without Vulkan) runs headless through EGL on
+# Mesa's llvmpipe: tests/parity.rs `parity_on_the_gl_backend` needs libegl1 + libgl1-mesa-dri.
+has_gl() {
+    ldconfig -p 2>/dev/null | grep -q 'libEGL\.so\.1' &&
+        ls /usr/lib/*/dri/swrast_dri.so /usr/lib/dri/swrast_dri.so >/dev/null 2>&1
+}
+if ! has_gl; then
+    if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
+        echo "test.sh: no EGL/GL driver found; installing Mesa's (libegl1 libgl1-mesa-dri)"
+        apt-get update -qq && apt-get install -y -qq libegl1 libgl1-mesa-dri >/dev/null ||
+            echo "test.sh: warning: installing libegl1 libgl1-mesa-dri failed; the GL parity test will be skipped (fails under CI=true)"
+    else
+        echo "test.sh: no EGL/GL driver and no way to install one (needs root and apt-get): the GL parity test" \
+             "will be skipped (fails under CI=true). Install with: apt-get install libegl1 libgl1-mesa-dri"
+    fi
+fi
+
 cargo test --release --workspace --all-targets "$@"
 
 # The user-crate example (examples/custom_kernel: outside the workspace; its own kernel + WGSL + node,

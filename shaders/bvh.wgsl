@@ -66,7 +66,7 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
     let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
     var t_best = tmax;
     let big = inf();
-    if (slab(bvh_nodes[0], o, inv_d, tmin, t_best) == big) {
+    if (slab(bvh_node(0), o, inv_d, tmin, t_best) == big) {
         return best;
     }
     var stack: array<u32, BVH_STACK_SIZE>;
@@ -75,10 +75,10 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
     var sp = 0u;
     var node = 0u;
     loop {
-        let n = bvh_nodes[node];
+        let n = bvh_node(node);
         if (n.count > 0u) {
             for (var i = n.index; i < n.index + n.count; i = i + 1u) {
-                let h = intersect_triangle(triangles[i], o, d, tmin, t_best);
+                let h = intersect_triangle(triangle(i), o, d, tmin, t_best);
                 if (h.w != 0.0) {
                     t_best = h.x;
                     best = Hit(true, h.x, i, h.y, h.z);
@@ -90,8 +90,8 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
         } else {
             let a = n.index;
             let b = n.index + 1u;
-            let ta = slab(bvh_nodes[a], o, inv_d, tmin, t_best);
-            let tb = slab(bvh_nodes[b], o, inv_d, tmin, t_best);
+            let ta = slab(bvh_node(a), o, inv_d, tmin, t_best);
+            let tb = slab(bvh_node(b), o, inv_d, tmin, t_best);
             if (ta != big && tb != big) {
                 // Any-hit takes the children in array order (the order cannot change its answer).
                 var near = a;

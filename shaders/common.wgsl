@@ -2,15 +2,20 @@
 //
 // Bind-group convention (the backend builds the layouts explicitly):
 //   group(0) binding(0)  frame: Frame          (uniform, filled by the backend)
-//   group(0) binding(1)  params: Params        (uniform, declared by the kernel; packed by
-//                                                `WgslSource::uniforms` as 4-byte words in order)
+//   group(0) binding(1)  params: Params        (uniform; struct GENERATED from the fields
+//                                                `WgslSource::uniforms` returns: read `params.NAME`)
 //   group(0) binding(2)  counters              (atomic u32: primary, shadow, secondary, non-finite,
 //                                                loops cut short by the driver; 8 slots)
-//   group(1) binding(k)  the k-th buffer of `Kernel::bindings()`, in declaration order:
-//                        f32 → array<f32>, vec2 → array<vec2<f32>>, vec4 → array<vec4<f32>>,
-//                        u32 → array<u32>, vec3 → array<f32> PACKED (3 floats per pixel, no padding:
-//                        pixel i is [3i, 3i+2]). Unbound optional bindings get a dummy buffer and
-//                        `is_bound(k)` is false.
+//   group(1)             the buffers of `Kernel::bindings()`: GENERATED, never declared by a kernel
+//                        (backends/src/gpu/shaders.rs). Per binding NAME the kernel calls
+//                          NAME_at(i) -> T, NAME_put(i, v: T) (outputs), NAME_bound() -> bool
+//                        with T = f32, vec2<f32>, vec3<f32>, vec4<f32> or u32 and i an element index
+//                        (pixel_index / index_at below). Unbound optional bindings read 0 and ignore
+//                        writes. How they are bound is the backend's plan, invisible here: one
+//                        storage binding each (vec3 as packed array<f32>, 3 floats per pixel, the
+//                        CPU's bytes), or — where the device allows fewer storage buffers per stage —
+//                        all inputs packed in one array<u32> and all outputs in another, each binding
+//                        a region of `frame.packed_pixels` elements.
 //
 // Bands: an image whose per-pixel bindings exceed the device's binding limit is dispatched as bands
 // of rows [frame.row0, frame.row_end); each band binds its buffers from pixel `frame.first` on.
@@ -39,6 +44,10 @@ struct Frame {
     first: u32,       // the pixel (y * width + x) at element 0 of every bound per-pixel buffer
     chunk_begin: u32, // sampling kernels that resume (WgslSource::chunked): this dispatch takes the
     chunk_end: u32,   // pass's sample indices [chunk_begin, chunk_end); unchunked: [0, 2^32 - 1)
+    packed_pixels: u32, // packed binding plan: elements per binding region (the band's end - first)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

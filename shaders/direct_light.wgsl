@@ -5,25 +5,6 @@
 #include "bvh.wgsl"
 #include "sampling.wgsl"
 
-struct Params {
-    light: i32,        // -1 = every light
-    count: u32,
-    stratified: u32,
-    light_centre: u32, // form_factor == "light_centre"
-    stream: u32,
-    extent: f32,       // Scene::extent()
-    light_count: u32,
-    _pad: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> position: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read> rays_per_pixel: array<u32>;
-@group(1) @binding(3) var<storage, read> previous: array<vec4<f32>>;
-@group(1) @binding(4) var<storage, read_write> estimate: array<vec4<f32>>;
-@group(1) @binding(5) var<storage, read_write> occlusion: array<vec4<f32>>;
-
 const RAY_EPSILON: f32 = 1e-4;
 
 struct LightSample {
@@ -91,27 +72,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let want_stats = is_bound(5u);
+    let want_stats = occlusion_bound();
     var prev = vec4<f32>(0.0);
-    if (is_bound(3u)) {
-        prev = previous[i];
+    if (previous_bound()) {
+        prev = previous_at(i);
     }
     let resume = chunk_resumes();
-    if (position[i].w == 0.0) {
+    if (position_at(i).w == 0.0) {
         if (resume) {
             return;
         }
-        estimate[i] = prev;
+        estimate_put(i, prev);
         if (want_stats) {
-            occlusion[i] = vec4<f32>(0.0);
+            occlusion_put(i, vec4<f32>(0.0));
         }
         return;
     }
-    let x = position[i].xyz;
-    let n = normal[i].xyz;
+    let x = position_at(i).xyz;
+    let n = normal_at(i).xyz;
     var target_count = params.count;
-    if (is_bound(2u)) {
-        target_count = rays_per_pixel[i];
+    if (rays_per_pixel_bound()) {
+        target_count = rays_per_pixel_at(i);
     }
     let done = u32(prev.w);
     let extra = select(0u, target_count - done, target_count > done);
@@ -119,7 +100,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // continues earlier chunks, their raw sum, count and occluder statistics (common.wgsl).
     var partial = prev;
     if (resume) {
-        partial = estimate[i];
+        partial = estimate_at(i);
     }
     var run = running_start(partial, extra, resume);
     if (!run.has_work) {
@@ -133,7 +114,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var occluded = 0u;
     if (resume) {
         if (want_stats) {
-            let o = occlusion[i];
+            let o = occlusion_at(i);
             d1 = o.x;
             occluded = u32(o.w);
             if (occluded > 0u) {
@@ -150,7 +131,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n_lights = end - first;
     for (var li = first; li < end; li = li + 1u) {
-        let l = lights[li];
+        let l = area_light(li);
         if (want_stats) {
             d1 = abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
         }
@@ -184,12 +165,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         count_cut_loop(s, run.end);
     }
     // Each light took the same samples: the estimate's count is per light.
-    estimate[i] = running_finish(run, extra, prev, f32(run.valid) / f32(max(n_lights, 1u)), partial);
+    estimate_put(i, running_finish(run, extra, prev, f32(run.valid) / f32(max(n_lights, 1u)), partial));
     if (occluded == 0u) {
         d2_min = 0.0;
     }
     if (want_stats) {
-        occlusion[i] = vec4<f32>(d1, d2_min, d2_max, f32(occluded));
+        occlusion_put(i, vec4<f32>(d1, d2_min, d2_max, f32(occluded)));
     }
     let rays = select(0u, run.end - s_begin, run.end > s_begin) * n_lights;
     if (rays > 0u) {

@@ -2,21 +2,6 @@
 // mirrors backends/src/kernels/filter.rs (filter_pixel) term by term and in the same order.
 #include "common.wgsl"
 
-struct Params {
-    axis: u32,
-    max_radius: i32,
-    normal_cos: f32,
-    _pad: u32,
-    plane_normal: vec4<f32>, // xyz; zero = full 3-D distance
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> value: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> position: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read> bandwidth: array<f32>;
-@group(1) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
-
 const TANGENT_SLOPE: f32 = 0.2;
 
 fn plane_distance2(a: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {
@@ -36,20 +21,20 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let xy = vec2<i32>(pixel_xy(gid));
     let x = xy.x;
     let y = xy.y;
-    let beta = bandwidth[i];
-    let centre = value[i];
-    if (beta <= 0.0 || position[i].w == 0.0 || !is_finite(beta)) {
-        out[i] = centre;
+    let beta = bandwidth_at(i);
+    let centre = value_at(i);
+    if (beta <= 0.0 || position_at(i).w == 0.0 || !is_finite(beta)) {
+        out_put(i, centre);
         return;
     }
-    let d = rmax(normal[i].w, 1e-12);
+    let d = rmax(normal_at(i).w, 1e-12);
     let r = ceil(3.0 * beta / d);
     var radius = params.max_radius;
     if (r < f32(params.max_radius)) {
         radius = max(i32(r), 0);
     }
-    let xi = position[i].xyz;
-    let ni = normal[i].xyz;
+    let xi = position_at(i).xyz;
+    let ni = normal_at(i).xyz;
     let inv = -0.5 / (beta * beta);
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
@@ -64,17 +49,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             continue;
         }
         let j = index_at(jx, jy);
-        if (position[j].w != position[i].w) {
+        if (position_at(j).w != position_at(i).w) {
             continue;
         }
-        if (dot3(ni, normal[j].xyz) < params.normal_cos) {
+        if (dot3(ni, normal_at(j).xyz) < params.normal_cos) {
             continue;
         }
-        let v = value[j];
+        let v = value_at(j);
         if (!is_finite3(v.xyz)) {
             continue;
         }
-        let xj = position[j].xyz;
+        let xj = position_at(j).xyz;
         let delta = xj - xi;
         if (abs(dot3(delta, ni)) > TANGENT_SLOPE * length3(delta) + 0.25 * d) {
             continue;
@@ -84,8 +69,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         wsum = wsum + w;
     }
     if (wsum > 0.0) {
-        out[i] = vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, centre.w);
+        out_put(i, vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, centre.w));
     } else {
-        out[i] = centre;
+        out_put(i, centre);
     }
 }

@@ -3,25 +3,6 @@
 #include "common.wgsl"
 #include "indirect_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    z_fraction: f32,
-    extent: f32,   // Scene::extent()
-    blinn: u32,    // brdf == "blinn_phong"
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> depth: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read> specular: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read_write> beta_diffuse: array<f32>;
-@group(1) @binding(4) var<storage, read_write> beta_glossy: array<f32>;
-@group(1) @binding(5) var<storage, read_write> filter_width: array<f32>;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -30,24 +11,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     // The bandwidth pass reads no rate settings: initial = max = 1 as on the CPU.
     let s = IndirectSettings(params.mu, params.alpha, params.z_fraction, params.extent, 1u, 1u);
-    let dp = depth[i];
-    let d = normal[i].w;
+    let dp = depth_at(i);
+    let d = normal_at(i).w;
     let has_stats = dp.w > 0.0;
     var bd = 0.0;
     if (has_stats) {
         bd = indirect_component(Receiver(RECEIVER_DIFFUSE, 0.0), dp, d, s).beta;
     }
-    beta_diffuse[i] = bd;
-    filter_width[i] = select(0.0, bd / d, bd > 0.0);
-    if (is_bound(4u)) {
+    beta_diffuse_put(i, bd);
+    filter_width_put(i, select(0.0, bd / d, bd > 0.0));
+    if (beta_glossy_bound()) {
         var bg = 0.0;
-        if (has_stats && is_bound(2u)) {
-            let sp = specular[i];
+        if (has_stats && specular_bound()) {
+            let sp = specular_at(i);
             if (indirect_has_glossy(sp)) {
                 let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.blinn != 0u), sp.w);
                 bg = indirect_component(r, dp, d, s).beta;
             }
         }
-        beta_glossy[i] = bg;
+        beta_glossy_put(i, bg);
     }
 }

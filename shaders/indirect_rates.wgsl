@@ -4,25 +4,6 @@
 #include "common.wgsl"
 #include "indirect_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    z_fraction: f32,
-    extent: f32,   // Scene::extent()
-    initial: u32,  // initial_rays.max(1)
-    max_rays: u32, // max_rays.max(1)
-    cap: u32,      // rays_cap.max(1)
-    blinn: u32,    // brdf == "blinn_phong"
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> depth: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read> specular: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read_write> rays_diffuse: array<u32>;
-@group(1) @binding(4) var<storage, read_write> rays_glossy: array<u32>;
-@group(1) @binding(5) var<storage, read_write> rays_per_pixel: array<u32>;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -30,14 +11,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     let s = IndirectSettings(params.mu, params.alpha, params.z_fraction, params.extent, params.initial, params.max_rays);
-    let dp = depth[i];
+    let dp = depth_at(i);
     var nd = 0u;
     var ng = 0u;
     if (dp.w > 0.0) {
-        let d = normal[i].w;
+        let d = normal_at(i).w;
         nd = indirect_component(Receiver(RECEIVER_DIFFUSE, 0.0), dp, d, s).rays;
-        if (is_bound(2u) && is_bound(4u)) {
-            let sp = specular[i];
+        if (specular_bound() && rays_glossy_bound()) {
+            let sp = specular_at(i);
             if (indirect_has_glossy(sp)) {
                 let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.blinn != 0u), sp.w);
                 ng = indirect_component(r, dp, d, s).rays;
@@ -46,9 +27,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         nd = min(nd, params.cap);
         ng = min(ng, params.cap);
     }
-    rays_diffuse[i] = nd;
-    if (is_bound(4u)) {
-        rays_glossy[i] = ng;
+    rays_diffuse_put(i, nd);
+    if (rays_glossy_bound()) {
+        rays_glossy_put(i, ng);
     }
-    rays_per_pixel[i] = nd + ng;
+    rays_per_pixel_put(i, nd + ng);
 }

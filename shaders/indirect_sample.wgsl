@@ -8,34 +8,6 @@
 #include "sampling.wgsl"
 #include "hemisphere.wgsl"
 
-struct Params {
-    camera: vec4<f32>,   // xyz = camera position
-    count: u32,
-    stratified: u32,
-    ao: u32,
-    bounces: u32,        // ≥ 1
-    max_distance: f32,
-    lobe: u32,           // LOBE_PHONG / LOBE_BLINN_PHONG
-    eps: f32,            // RAY_EPSILON · Scene::extent()
-    stream: u32,
-    light_count: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> position: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read> specular: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read> rays_diffuse: array<u32>;
-@group(1) @binding(4) var<storage, read> rays_glossy: array<u32>;
-@group(1) @binding(5) var<storage, read> previous_diffuse: array<vec4<f32>>;
-@group(1) @binding(6) var<storage, read> previous_glossy: array<vec4<f32>>;
-@group(1) @binding(7) var<storage, read_write> diffuse: array<vec4<f32>>;
-@group(1) @binding(8) var<storage, read_write> glossy: array<vec4<f32>>;
-@group(1) @binding(9) var<storage, read_write> depth: array<vec4<f32>>;
-
 // Dimension offset between lights in next-event estimation.
 const LIGHT_DIM_STRIDE: u32 = 65536u;
 // Dimension choosing the lobe at a path vertex.
@@ -65,7 +37,7 @@ fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3
     var sum = vec3<f32>(0.0);
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
     for (var l = 0u; l < params.light_count; l = l + 1u) {
-        let light = lights[l];
+        let light = area_light(l);
         let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
         let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
         let to = target_point - y;
@@ -130,7 +102,7 @@ fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) 
         let y = sp.position;
         let ny = sp.shading_normal;
         let wo = -dir;
-        let mat = materials[sp.material];
+        let mat = material(sp.material);
         let kd = albedo(sp);
         let ks = mat.specular;
         let m = mat.phong_exponent;
@@ -210,14 +182,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let want_glossy = is_bound(8u) && is_bound(2u) && params.ao == 0u;
+    let want_glossy = glossy_bound() && specular_bound() && params.ao == 0u;
     var pd = vec4<f32>(0.0);
-    if (is_bound(5u)) {
-        pd = previous_diffuse[i];
+    if (previous_diffuse_bound()) {
+        pd = previous_diffuse_at(i);
     }
     var pg = vec4<f32>(0.0);
-    if (is_bound(6u)) {
-        pg = previous_glossy[i];
+    if (previous_glossy_bound()) {
+        pg = previous_glossy_at(i);
     }
     var out_d = pd;
     var out_g = pg;
@@ -227,28 +199,28 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // sums, counts and first-hit statistics they left in its outputs (common.wgsl).
     let resume = chunk_resumes();
     if (resume) {
-        if (position[i].w == 0.0) {
+        if (position_at(i).w == 0.0) {
             return;
         }
-        out_d = diffuse[i];
-        if (is_bound(8u)) {
-            out_g = glossy[i];
+        out_d = diffuse_at(i);
+        if (glossy_bound()) {
+            out_g = glossy_at(i);
         }
     }
-    if (position[i].w != 0.0) {
-        let x = position[i].xyz;
-        let n = normal[i].xyz;
+    if (position_at(i).w != 0.0) {
+        let x = position_at(i).xyz;
+        let n = normal_at(i).xyz;
         let wo = normalize_or_zero3(params.camera.xyz - x);
         var ks = vec3<f32>(0.0);
         var m = 0.0;
-        if (is_bound(2u)) {
-            ks = specular[i].xyz;
-            m = specular[i].w;
+        if (specular_bound()) {
+            ks = specular_at(i).xyz;
+            m = specular_at(i).w;
         }
         let is_glossy = want_glossy && m > 0.0 && max_element3(ks) > 0.0;
         z_min = inf();
-        if (resume && is_bound(9u)) {
-            let dp = depth[i];
+        if (resume && depth_bound()) {
+            let dp = depth_at(i);
             hits = u32(dp.z);
             traced = u32(dp.w);
             if (hits > 0u) {
@@ -258,8 +230,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         // Diffuse component.
         var target_d = params.count;
-        if (is_bound(3u)) {
-            target_d = rays_diffuse[i];
+        if (rays_diffuse_bound()) {
+            target_d = rays_diffuse_at(i);
         }
         let done_d = f32_to_u32_sat(pd.w);
         let extra_d = select(0u, target_d - done_d, target_d > done_d);
@@ -283,8 +255,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         // Glossy component.
         if (is_glossy) {
             var target_g = params.count;
-            if (is_bound(4u)) {
-                target_g = rays_glossy[i];
+            if (rays_glossy_bound()) {
+                target_g = rays_glossy_at(i);
             }
             let done_g = f32_to_u32_sat(pg.w);
             let extra_g = select(0u, target_g - done_g, target_g > done_g);
@@ -316,12 +288,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         out_depth = vec4<f32>(zmin_out, z_max, f32(hits), f32(traced));
     }
-    diffuse[i] = out_d;
-    if (is_bound(8u)) {
-        glossy[i] = out_g;
+    diffuse_put(i, out_d);
+    if (glossy_bound()) {
+        glossy_put(i, out_g);
     }
-    if (is_bound(9u)) {
-        depth[i] = out_depth;
+    if (depth_bound()) {
+        depth_put(i, out_depth);
     }
     if (rays_secondary > 0u) {
         atomicAdd(&counters[COUNTER_SECONDARY], rays_secondary);

@@ -2,18 +2,6 @@
 // own; mirrors backends/src/kernels/neighbourhood.rs (same visiting order, so the sums agree).
 #include "common.wgsl"
 
-struct Params {
-    radius: i32,
-    _p0: u32,
-    _p1: u32,
-    _p2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> value: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> position: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -25,13 +13,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let xy = vec2<i32>(pixel_xy(gid));
     let x = xy.x;
     let y = xy.y;
-    let v = value[i];
+    let v = value_at(i);
     if (v.w > 0.0) {
-        out[i] = vec4<f32>(v.xyz, 1.0);
+        out_put(i, vec4<f32>(v.xyz, 1.0));
         return;
     }
-    if (position[i].w == 0.0) {
-        out[i] = vec4<f32>(0.0);
+    if (position_at(i).w == 0.0) {
+        out_put(i, vec4<f32>(0.0));
         return;
     }
     let radius = params.radius;
@@ -48,16 +36,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 continue;
             }
             let j = index_at(nx, ny);
-            let u = value[j];
-            if (u.w > 0.0 && position[j].w == position[i].w) {
+            let u = value_at(j);
+            if (u.w > 0.0 && position_at(j).w == position_at(i).w) {
                 sum = sum + u.xyz;
                 n = n + 1u;
             }
         }
     }
     if (n == 0u) {
-        out[i] = vec4<f32>(0.0);
+        out_put(i, vec4<f32>(0.0));
     } else {
-        out[i] = vec4<f32>(sum / f32(n), 2.0);
+        out_put(i, vec4<f32>(sum / f32(n), 2.0));
     }
 }

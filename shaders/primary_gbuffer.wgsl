@@ -4,20 +4,6 @@
 #include "bvh.wgsl"
 #include "sampling.wgsl"
 
-struct Params {
-    position_tan_half: vec4<f32>,   // camera position, tan(vfov/2)
-    right_pixel_angle: vec4<f32>,   // basis right, pixel angle 2 tan(vfov/2)/h
-    up_aperture: vec4<f32>,         // basis up, aperture radius
-    forward_focus: vec4<f32>,       // basis forward, effective focus distance
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read_write> out_position: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read_write> out_normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> out_albedo: array<f32>;   // vec3, packed
-@group(1) @binding(3) var<storage, read_write> out_emission: array<f32>; // vec3, packed
-@group(1) @binding(4) var<storage, read_write> out_specular: array<vec4<f32>>; // optional: k_s, m
-
 struct Ray {
     o: vec3<f32>,
     d: vec3<f32>,
@@ -25,21 +11,21 @@ struct Ray {
 
 // Camera::generate_ray with lens = (0.5, 0.5).
 fn generate_ray(px: f32, py: f32) -> Ray {
-    let right = params.right_pixel_angle.xyz;
-    let up = params.up_aperture.xyz;
-    let forward = params.forward_focus.xyz;
-    let position = params.position_tan_half.xyz;
-    let tan_half = params.position_tan_half.w;
+    let right = params.right;
+    let up = params.up;
+    let forward = params.forward;
+    let position = params.position;
+    let tan_half = params.tan_half;
     let w = f32(max(frame.width, 1u));
     let h = f32(max(frame.height, 1u));
     let sx = (2.0 * px / w - 1.0) * tan_half * (w / h);
     let sy = (1.0 - 2.0 * py / h) * tan_half;
     let dir = normalize3(forward + sx * right + sy * up);
-    let aperture = params.up_aperture.w;
+    let aperture = params.aperture;
     if (aperture <= 0.0) {
         return Ray(position, dir);
     }
-    let focus = position + dir * (params.forward_focus.w / dot3(dir, forward));
+    let focus = position + dir * (params.focus_distance / dot3(dir, forward));
     let d = concentric_disk(vec2<f32>(0.5)) * aperture;
     let origin = position + d.x * right + d.y * up;
     return Ray(origin, normalize3(focus - origin));
@@ -47,13 +33,9 @@ fn generate_ray(px: f32, py: f32) -> Ray {
 
 fn put3(buf_is_albedo: bool, i: u32, v: vec3<f32>) {
     if (buf_is_albedo) {
-        out_albedo[3u * i] = v.x;
-        out_albedo[3u * i + 1u] = v.y;
-        out_albedo[3u * i + 2u] = v.z;
+        albedo_put(i, v);
     } else {
-        out_emission[3u * i] = v.x;
-        out_emission[3u * i + 1u] = v.y;
-        out_emission[3u * i + 2u] = v.z;
+        emission_put(i, v);
     }
 }
 
@@ -68,25 +50,25 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let ray = generate_ray(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let hit = scene_intersect(ray.o, ray.d, 0.0, inf());
     if (!hit.hit) {
-        out_position[i] = vec4<f32>(0.0);
-        out_normal[i] = vec4<f32>(0.0);
+        position_put(i, vec4<f32>(0.0));
+        normal_put(i, vec4<f32>(0.0));
         put3(true, i, vec3<f32>(0.0));
         put3(false, i, vec3<f32>(0.0));
-        if (is_bound(4u)) {
-            out_specular[i] = vec4<f32>(0.0);
+        if (specular_bound()) {
+            specular_put(i, vec4<f32>(0.0));
         }
         return;
     }
     let sp = surface(hit.triangle, hit.b1, hit.b2, ray.d);
     let n = sp.shading_normal;
     let c = rmax(abs(dot3(n, -ray.d)), 0.05);
-    let footprint = hit.t * params.right_pixel_angle.w / sqrt(c);
-    out_position[i] = vec4<f32>(sp.position, 1.0 + f32(sp.object));
-    out_normal[i] = vec4<f32>(n, footprint);
+    let footprint = hit.t * params.pixel_angle / sqrt(c);
+    position_put(i, vec4<f32>(sp.position, 1.0 + f32(sp.object)));
+    normal_put(i, vec4<f32>(n, footprint));
     put3(true, i, albedo(sp));
     put3(false, i, emission(sp));
-    if (is_bound(4u)) {
-        let m = materials[sp.material];
-        out_specular[i] = vec4<f32>(m.specular, m.phong_exponent);
+    if (specular_bound()) {
+        let m = material(sp.material);
+        specular_put(i, vec4<f32>(m.specular, m.phong_exponent));
     }
 }

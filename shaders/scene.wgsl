@@ -1,6 +1,12 @@
 // scene.wgsl — the scene as uploaded by backends/src/gpu/scene.rs (group 2), and surface
 // interpolation / albedo / emission mirroring wedge_scene::Scene::{surface, albedo, emission}.
 // BvhNode and Triangle are the Rust `repr(C)` structs byte for byte (32 and 48 bytes).
+//
+// All arrays live in ONE storage buffer of 16-byte elements (`scene_data`), one after another;
+// `scene_layout` says at which element each starts. So the scene costs one storage binding
+// (WebGPU's default allows 8 per stage). Read them only through the accessors below
+// (`bvh_node(i)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
+// `area_light(i)`): each rebuilds the struct from its 16-byte elements with bitcasts (bit-exact).
 
 struct BvhNode {
     min: vec3<f32>,
@@ -44,7 +50,7 @@ struct Material {
 }
 
 struct TextureInfo {
-    offset: u32, // first texel in `texels` (in texels, 3 floats each)
+    offset: u32, // first texel (see `texel`)
     width: u32,
     height: u32,
     _pad: u32,
@@ -68,13 +74,79 @@ struct Light {
     _pad1: u32,
 }
 
-@group(2) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(2) @binding(1) var<storage, read> triangles: array<Triangle>;
-@group(2) @binding(2) var<storage, read> shading: array<Shading>;
-@group(2) @binding(3) var<storage, read> materials: array<Material>;
-@group(2) @binding(4) var<storage, read> tex_info: array<TextureInfo>;
-@group(2) @binding(5) var<storage, read> texels: array<f32>;
-@group(2) @binding(6) var<storage, read> lights: array<Light>;
+// First element of each array in `scene_data` (backends/src/gpu/scene.rs `pack`).
+struct SceneLayout {
+    bvh_nodes: u32,
+    triangles: u32,
+    shading: u32,
+    materials: u32,
+    tex_info: u32,
+    texels: u32,
+    lights: u32,
+    _pad: u32,
+}
+
+@group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;
+@group(2) @binding(1) var<uniform> scene_layout: SceneLayout;
+
+fn scene_xyz(v: vec4<u32>) -> vec3<f32> {
+    return bitcast<vec3<f32>>(v.xyz);
+}
+
+fn bvh_node(i: u32) -> BvhNode {
+    let b = scene_layout.bvh_nodes + 2u * i;
+    let a = scene_data[b];
+    let c = scene_data[b + 1u];
+    return BvhNode(scene_xyz(a), a.w, scene_xyz(c), c.w);
+}
+
+fn triangle(i: u32) -> Triangle {
+    let b = scene_layout.triangles + 3u * i;
+    let a = scene_data[b];
+    let c = scene_data[b + 1u];
+    let d = scene_data[b + 2u];
+    return Triangle(scene_xyz(a), a.w, scene_xyz(c), c.w, scene_xyz(d), d.w);
+}
+
+fn shading_of(i: u32) -> Shading {
+    let b = scene_layout.shading + 5u * i;
+    let a = scene_data[b];
+    let c = scene_data[b + 1u];
+    let d = scene_data[b + 2u];
+    let uv01 = bitcast<vec4<f32>>(scene_data[b + 3u]);
+    let uv2 = bitcast<vec4<f32>>(scene_data[b + 4u]);
+    return Shading(scene_xyz(a), a.w, scene_xyz(c), c.w, scene_xyz(d), d.w, uv01.xy, uv01.zw, uv2.xy, uv2.zw);
+}
+
+fn material(i: u32) -> Material {
+    let b = scene_layout.materials + 3u * i;
+    let a = scene_data[b];
+    let c = scene_data[b + 1u];
+    let d = scene_data[b + 2u];
+    return Material(scene_xyz(a), a.w, scene_xyz(c), c.w, scene_xyz(d), bitcast<f32>(d.w));
+}
+
+fn texture_info(i: u32) -> TextureInfo {
+    let a = scene_data[scene_layout.tex_info + i];
+    return TextureInfo(a.x, a.y, a.z, a.w);
+}
+
+// Texel `i` of all textures (one 16-byte element each: rgb, 0).
+fn texel(i: u32) -> vec3<f32> {
+    return scene_xyz(scene_data[scene_layout.texels + i]);
+}
+
+fn area_light(i: u32) -> Light {
+    let b = scene_layout.lights + 7u * i;
+    let f = bitcast<vec4<f32>>(scene_data[b]);
+    let g = bitcast<vec4<f32>>(scene_data[b + 1u]);
+    let h = bitcast<vec4<f32>>(scene_data[b + 2u]);
+    let r = bitcast<vec4<f32>>(scene_data[b + 3u]);
+    let na = bitcast<vec4<f32>>(scene_data[b + 4u]);
+    let cs = bitcast<vec4<f32>>(scene_data[b + 5u]);
+    let k = scene_data[b + 6u];
+    return Light(f, g, h, r, na, cs, k.x, k.y, k.z, k.w);
+}
 
 struct SurfacePoint {
     position: vec3<f32>,
@@ -87,8 +159,8 @@ struct SurfacePoint {
 
 // Scene::surface
 fn surface(tri_index: u32, hb1: f32, hb2: f32, dir: vec3<f32>) -> SurfacePoint {
-    let tri = triangles[tri_index];
-    let sh = shading[tri_index];
+    let tri = triangle(tri_index);
+    let sh = shading_of(tri_index);
     let b0 = 1.0 - hb1 - hb2;
     let b1 = hb1;
     let b2 = hb2;
@@ -130,8 +202,7 @@ fn texel_at(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
     let h = i32(t.height);
     let xi = ((x % w) + w) % w;
     let yi = ((y % h) + h) % h;
-    let k = (t.offset + u32(yi * w + xi)) * 3u;
-    return vec3<f32>(texels[k], texels[k + 1u], texels[k + 2u]);
+    return texel(t.offset + u32(yi * w + xi));
 }
 
 fn lerp3(a: vec3<f32>, b: vec3<f32>, s: f32) -> vec3<f32> {
@@ -140,7 +211,7 @@ fn lerp3(a: vec3<f32>, b: vec3<f32>, s: f32) -> vec3<f32> {
 
 // Texture::sample: bilinear, repeat.
 fn texture_sample(index: u32, uv_in: vec2<f32>) -> vec3<f32> {
-    let t = tex_info[index];
+    let t = texture_info(index);
     if (t.width == 0u || t.height == 0u) {
         return vec3<f32>(1.0);
     }
@@ -163,7 +234,7 @@ fn texture_sample(index: u32, uv_in: vec2<f32>) -> vec3<f32> {
 
 // Scene::albedo
 fn albedo(sp: SurfacePoint) -> vec3<f32> {
-    let m = materials[sp.material];
+    let m = material(sp.material);
     if (m.texture != NO_TEXTURE) {
         return m.base_color * texture_sample(m.texture, sp.uv);
     }
@@ -172,5 +243,5 @@ fn albedo(sp: SurfacePoint) -> vec3<f32> {
 
 // Scene::emission
 fn emission(sp: SurfacePoint) -> vec3<f32> {
-    return materials[sp.material].emission;
+    return material(sp.material).emission;
 }

@@ -2,32 +2,19 @@
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    k: f32,
-    sigma: f32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> occlusion: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> beta: array<f32>;
-@group(1) @binding(3) var<storage, read_write> filter_width: array<f32>;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
         return;
     }
     let i = pixel_index(gid);
-    let occ = occlusion[i];
-    let d = normal[i].w;
+    let occ = occlusion_at(i);
+    let d = normal_at(i).w;
     var b = 0.0;
     if (occ.w > 0.0) {
         let s = shadows_slopes(occ.x, occ.y, occ.z);
         b = shadows_filter_beta(params.sigma, s.x, d, params.mu, params.alpha, params.k);
     }
-    beta[i] = b;
-    filter_width[i] = select(0.0, b / d, b > 0.0);
+    beta_put(i, b);
+    filter_width_put(i, select(0.0, b / d, b > 0.0));
 }

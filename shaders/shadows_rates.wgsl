@@ -3,35 +3,19 @@
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 
-struct Params {
-    mu: f32,
-    alpha: f32,
-    sigma: f32,
-    initial: u32,
-    max_rays: u32,
-    _p0: u32,
-    _p1: u32,
-    _p2: u32,
-}
-@group(0) @binding(1) var<uniform> params: Params;
-
-@group(1) @binding(0) var<storage, read> occlusion: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read> normal: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> rays_per_pixel: array<u32>;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
         return;
     }
     let i = pixel_index(gid);
-    let occ = occlusion[i];
+    let occ = occlusion_at(i);
     if (!(occ.w > 0.0)) {
-        rays_per_pixel[i] = params.initial;
+        rays_per_pixel_put(i, params.initial);
         return;
     }
     let s = shadows_slopes(occ.x, occ.y, occ.z);
-    let n = shadows_samples_per_pixel(s.x, s.y, normal[i].w, params.sigma, params.mu, params.alpha);
+    let n = shadows_samples_per_pixel(s.x, s.y, normal_at(i).w, params.sigma, params.mu, params.alpha);
     if (is_finite(n)) {
         // `as u32` saturates (NaN → 0); n ≥ 0 here.
         let c = ceil(n);
@@ -39,8 +23,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (c < 4294967040.0) {
             v = u32(max(c, 0.0));
         }
-        rays_per_pixel[i] = clamp(v, params.initial, params.max_rays);
+        rays_per_pixel_put(i, clamp(v, params.initial, params.max_rays));
     } else {
-        rays_per_pixel[i] = params.max_rays;
+        rays_per_pixel_put(i, params.max_rays);
     }
 }

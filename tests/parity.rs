@@ -209,29 +209,157 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
     }
 }
 
+/// Outputs and ray counts of two runs of one session must agree bit for bit.
+fn assert_same_bits(path: &Path, what: &str, a: &wedge::backends::RunResult, b: &wedge::backends::RunResult) {
+    for (key, x) in &a.outputs {
+        let y = &b.outputs[key];
+        let differ = (0..x.len())
+            .filter(|&i| (0..x.format().components()).any(|c| x.component(i, c).to_bits() != y.component(i, c).to_bits()))
+            .count();
+        println!("{}: {what}: {key:?}: {differ} of {} pixels differ", path.display(), x.len());
+        assert_eq!(differ, 0, "{}: {key:?} differs ({what})", path.display());
+    }
+    assert_eq!(a.rays, b.rays, "{}: ray counts differ ({what})", path.display());
+}
+
+/// The packed binding plan (what runs where a kernel's buffers exceed the device's storage buffers
+/// per stage, e.g. `indirect.sample` on WebGPU's 8) forced on every pass of every pipeline, alone
+/// and together with bands: the same outputs and ray counts, bit for bit, as one binding per buffer.
+#[test]
+fn packed_bindings_give_the_same_outputs_as_direct_bindings() {
+    use wedge::backends::gpu::shaders::BindingPlan;
+    let Some(mut direct) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else { return };
+    let Some(mut packed) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else { return };
+    let Some(mut packed_bands) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else { return };
+    let (w, h) = (64u32, 48u32);
+    packed.force_packed(true);
+    packed_bands.force_packed(true);
+    // The largest packed buffer (indirect.sample's inputs: 4+4+4+1+1+4+4 floats per pixel) in
+    // bands of about 10 rows.
+    packed_bands.set_binding_limit(10 * w as u64 * 22 * 4);
+    for path in pipelines() {
+        let probe = Session::open(Some(&path), &small(w, h)).unwrap();
+        let mut ov = small(w, h);
+        for node in &probe.pipeline.nodes {
+            if node.params.contains_key("max_radius") {
+                ov.params.push((node.name.clone(), "max_radius".into(), wedge::graph::ParamValue::Int(2)));
+            }
+        }
+        let session = Session::open(Some(&path), &ov).unwrap();
+        let a = session.run(&mut direct, &Silent).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let b = session.run(&mut packed, &Silent).unwrap_or_else(|e| panic!("{}: packed: {e}", path.display()));
+        let c = session.run(&mut packed_bands, &Silent).unwrap_or_else(|e| panic!("{}: packed bands: {e}", path.display()));
+        assert!(direct.last_plans.iter().all(|(_, p)| *p == BindingPlan::Direct), "{:?}", direct.last_plans);
+        assert!(packed.last_plans.iter().all(|(_, p)| *p == BindingPlan::Packed), "{:?}", packed.last_plans);
+        println!("{}: packed bands per pass {:?}", path.display(), packed_bands.last_bands);
+        assert!(packed_bands.last_bands.iter().any(|(_, n)| *n >= 2), "{}: nothing was split", path.display());
+        assert_same_bits(&path, "packed", &a, &b);
+        assert_same_bits(&path, "packed in bands", &a, &c);
+    }
+}
+
+/// A device opened with wgpu's `Limits::default()` (WebGPU: 8 storage buffers per stage, 128 MiB
+/// bindings): every pass of every pipeline agrees with the CPU, end to end too, and kernels over
+/// 8 storage buffers (indirect.sample) run packed.
+#[test]
+fn parity_with_webgpu_default_limits() {
+    use wedge::backends::gpu::{shaders::BindingPlan, LimitsChoice};
+    let mut gpu = match GpuBackend::open(LimitsChoice::WebGpuDefault) {
+        Ok(g) => g,
+        Err(e) => {
+            assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "CI=true and no wgpu device with default limits: {e}");
+            eprintln!("parity_with_webgpu_default_limits: SKIPPED — {e}");
+            return;
+        }
+    };
+    assert_eq!(gpu.limits().max_storage_buffers_per_shader_stage, 8);
+    let mut failures = Vec::new();
+    for path in pipelines() {
+        let session = Session::open(Some(&path), &small(48, 36)).unwrap();
+        match run_parity(&job(&session), &mut gpu) {
+            Ok(report) => {
+                println!("{} (Limits::default)\n{}", path.display(), report.table());
+                if !report.ok() {
+                    failures.push(format!("{}: parity mismatch (table above)", path.display()));
+                }
+            }
+            Err(e) => failures.push(format!("{}: {e}", path.display())),
+        }
+        let cpu = session.run(&mut CpuBackend::new(), &Silent).unwrap();
+        let wgpu = session.run(&mut gpu, &Silent).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        for (key, reference) in &cpu.outputs {
+            let e = rel_mse(&wgpu.outputs[key], reference);
+            println!("{}: {key:?}: relMSE {e:.3e}", path.display());
+            assert!(e <= 1e-4, "{}: {key:?}: relMSE {e} > 1e-4", path.display());
+        }
+        assert_eq!(cpu.rays, wgpu.rays, "{}: ray counters differ", path.display());
+        println!("{}: plans {:?}", path.display(), gpu.last_plans);
+        for (pass, plan) in &gpu.last_plans {
+            let kernel = &session.schedule.passes.iter().find(|p| &p.name == pass).unwrap().kernel;
+            if kernel == "indirect.sample" {
+                assert_eq!(*plan, BindingPlan::Packed, "{pass}");
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The GL backend (what wgpu picks without Vulkan; `WGPU_BACKEND=gl`), headless through EGL on
+/// Mesa's llvmpipe: every pass of every pipeline agrees with the CPU, and its limits are reported.
+/// Skipped with the reason printed when no GL adapter exists, except under CI=true.
+#[test]
+fn parity_on_the_gl_backend() {
+    use wedge::backends::gpu::LimitsChoice;
+    let mut gpu = match GpuBackend::open_on(Some(wedge::backends::gpu::Backends::GL), LimitsChoice::Adapter) {
+        Ok(g) => g,
+        Err(e) => {
+            assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "CI=true and no GL adapter: {e}");
+            eprintln!("parity_on_the_gl_backend: SKIPPED — no GL adapter (install libegl1 libgl1-mesa-dri): {e}");
+            return;
+        }
+    };
+    let l = gpu.limits();
+    println!(
+        "GL adapter {}: storage buffers per stage {}, storage binding {} B, workgroup storage {} B, invocations per workgroup {}",
+        gpu.adapter_description(),
+        l.max_storage_buffers_per_shader_stage,
+        l.max_storage_buffer_binding_size,
+        l.max_compute_workgroup_storage_size,
+        l.max_compute_invocations_per_workgroup
+    );
+    assert!(gpu.adapter_description().contains("Gl"), "{}", gpu.adapter_description());
+    let mut failures = Vec::new();
+    for path in pipelines() {
+        let session = Session::open(Some(&path), &small(32, 24)).unwrap();
+        match run_parity(&job(&session), &mut gpu) {
+            Ok(report) => {
+                println!("{} (GL)\n{}", path.display(), report.table());
+                if !report.ok() {
+                    failures.push(format!("{}: parity mismatch on GL (table above)", path.display()));
+                }
+            }
+            Err(e) => failures.push(format!("{}: {e}", path.display())),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// A test-only kernel whose WGSL writes `hash4`, `uniform`, `cmj` and `permute` outputs for many
 /// inputs (one per pixel); the Rust side recomputes them with `wedge::backends::rng`.
 struct RngProbe;
 
 const RNG_PROBE_WGSL: &str = r#"
 #include "rng.wgsl"
-struct Params { _unused: u32 }
-@group(0) @binding(1) var<uniform> params: Params;
-@group(1) @binding(0) var<storage, read_write> out_hash: array<u32>;
-@group(1) @binding(1) var<storage, read_write> out_uniform: array<f32>;
-@group(1) @binding(2) var<storage, read_write> out_cmj: array<vec2<f32>>;
-@group(1) @binding(3) var<storage, read_write> out_perm: array<u32>;
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) { return; }
     let i = pixel_index(gid);
     let h = hash4(i, i * 2654435761u, frame.seed, i ^ 0xdeadbeefu);
-    out_hash[i] = h;
-    out_uniform[i] = rng_uniform(rng_key(frame.seed, i, 3u), i % 97u, DIM_LIGHT);
+    hash_put(i, h);
+    uniform_put(i, rng_uniform(rng_key(frame.seed, i, 3u), i % 97u, DIM_LIGHT));
     let n = 1u + (i % 401u);
-    out_cmj[i] = cmj(h % n, n, hash4(i, 17u, 0u, 0u));
-    out_perm[i] = permute(i % n, n, h);
+    cmj_put(i, cmj(h % n, n, hash4(i, 17u, 0u, 0u)));
+    perm_put(i, permute(i % n, n, h));
 }
 "#;
 
@@ -271,7 +399,7 @@ impl Kernel for RngProbe {
         ctx.put("perm", perm)
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(RNG_PROBE_WGSL, |_| Ok(Uniforms::new().align16())))
+        Some(WgslSource::new(RNG_PROBE_WGSL, |_| Ok(Uniforms::new())))
     }
 }
 
@@ -352,6 +480,41 @@ fn kernel_without_declared_reach_is_not_split() {
     let e = gpu.run_kernel(Arc::new(RngProbe), &scene, 64, 64, 1, BTreeMap::new(), &BTreeMap::new()).unwrap_err().to_string();
     println!("{e}");
     assert!(e.contains("test.rng_probe") && e.contains("Reach::Image") && e.contains("--backend cpu"), "{e}");
+}
+
+/// The `Params` struct is generated from the fields `WgslSource::uniforms` returns; a kernel whose
+/// fields change with the pass's parameters is refused with a message saying so.
+#[test]
+fn params_fields_must_not_depend_on_parameters() {
+    let Some(mut gpu) = gpu_or_skip("params_fields_must_not_depend_on_parameters") else { return };
+    struct Shifty;
+    impl Kernel for Shifty {
+        fn name(&self) -> &'static str {
+            "test.shifty"
+        }
+        fn class(&self) -> KernelClass {
+            KernelClass::Compose
+        }
+        fn bindings(&self) -> Vec<Binding> {
+            vec![Binding::write("out", Format::F32)]
+        }
+        fn run_cpu(&self, _: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn wgsl(&self) -> Option<WgslSource> {
+            let src = "@compute @workgroup_size(8, 8)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n    if (pixel_of(gid)) { out_put(pixel_index(gid), 1.0); }\n}\n";
+            Some(WgslSource::new(src, |ctx| {
+                Ok(if ctx.params.contains_key("wide") { Uniforms::new().vec3("a", [1.0; 3]) } else { Uniforms::new().f32("a", 1.0) })
+            }))
+        }
+    }
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    let out = gpu.run_kernel(Arc::new(Shifty), &scene, 8, 8, 1, BTreeMap::new(), &BTreeMap::new()).unwrap();
+    assert_eq!(out["out"], BufferData::F32(vec![1.0; 64]));
+    let wide = BTreeMap::from([("wide".to_string(), wedge::graph::ParamValue::Bool(true))]);
+    let e = gpu.run_kernel(Arc::new(Shifty), &scene, 8, 8, 1, wide, &BTreeMap::new()).unwrap_err().to_string();
+    println!("{e}");
+    assert!(e.contains("test.shifty") && e.contains("must not depend on the pass's parameters"), "{e}");
 }
 
 #[test]

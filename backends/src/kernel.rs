@@ -67,14 +67,17 @@ pub trait Kernel: Send + Sync {
     }
 }
 
-/// A kernel's WGSL implementation (see `shaders/common.wgsl` for the binding convention):
+/// A kernel's WGSL implementation (see `shaders/common.wgsl` for the binding convention; the
+/// backend generates the kernel's bindings — `NAME_at`/`NAME_put`/`NAME_bound` per
+/// `Kernel::bindings()` entry — and its `Params` struct, so the WGSL declares neither):
 /// - `source`: the kernel's WGSL with an entry point `main`, `@workgroup_size(8, 8)`, one invocation
 ///   per pixel. Lines `#include "NAME.wgsl"` are replaced by that file — one of wedge's shared files
 ///   in `shaders/` (`common`, `rng`, `sampling`, `scene`, `bvh`) or one of `includes` — each file at
 ///   most once (later includes of the same name are dropped), so shared code is never copied.
-/// - `uniforms`: packs the pass's parameter block into the kernel's `Params` uniform (group 0,
-///   binding 1) as 4-byte words in declaration order — the same parameter parsing the CPU path
-///   uses (`KernelCtx::f32_param` …); it sees size, seed, scene and params, not buffers.
+/// - `uniforms`: the pass's parameter block as named, typed fields ([`Uniforms`]) — the same
+///   parameter parsing the CPU path uses (`KernelCtx::f32_param` …); it sees size, seed, scene and
+///   params, not buffers. The backend generates `struct Params` and `params` (group 0, binding 1)
+///   from it, so the kernel's WGSL only reads `params.NAME`.
 /// - `scene`: whether the kernel reads the scene (group 2: BVH, triangles, materials, lights).
 /// - `reach`: how far from its own pixel the WGSL reads per-pixel buffers, given the pass's
 ///   parameters ([`Reach`]). The backend splits an image whose buffers exceed the device's binding
@@ -146,38 +149,136 @@ impl WgslSource {
     }
 }
 
-/// The words of a kernel's `Params` uniform block, in WGSL declaration order. Only 4-byte scalars
-/// and `vec4`s keep this layout trivial: a `vec3` must be followed by one scalar (use [`Uniforms::vec3`]
-/// with a fourth value). The backend pads the block to 16 bytes.
+/// Type of one field of a kernel's `Params` uniform block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum UniformType {
+    F32,
+    U32,
+    I32,
+    Vec2,
+    Vec3,
+    Vec4,
+}
+
+impl UniformType {
+    pub fn wgsl(self) -> &'static str {
+        match self {
+            UniformType::F32 => "f32",
+            UniformType::U32 => "u32",
+            UniformType::I32 => "i32",
+            UniformType::Vec2 => "vec2<f32>",
+            UniformType::Vec3 => "vec3<f32>",
+            UniformType::Vec4 => "vec4<f32>",
+        }
+    }
+    /// Alignment in 4-byte words under WGSL's uniform layout rules.
+    fn align_words(self) -> usize {
+        match self {
+            UniformType::Vec2 => 2,
+            UniformType::Vec3 | UniformType::Vec4 => 4,
+            _ => 1,
+        }
+    }
+}
+
+/// A kernel's `Params` uniform block as named, typed fields: ONE declaration that yields both the
+/// WGSL struct ([`Uniforms::wgsl_struct`], which the backend prepends to the kernel's WGSL, so
+/// kernels never declare `Params` themselves) and its bytes laid out by WGSL's rules
+/// ([`Uniforms::words`]: a `vec3` takes 16-byte alignment and the scalar after it fills its fourth
+/// word). The fields must not depend on the pass's parameters (only their values may); the
+/// backend checks that every pass of a kernel yields the same field list.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Uniforms(pub Vec<u32>);
+pub struct Uniforms {
+    fields: Vec<(&'static str, UniformType, Vec<u32>)>,
+}
 
 impl Uniforms {
     pub fn new() -> Self {
-        Uniforms(Vec::new())
+        Uniforms::default()
     }
-    pub fn f32(mut self, v: f32) -> Self {
-        self.0.push(v.to_bits());
+    fn field(mut self, name: &'static str, ty: UniformType, words: Vec<u32>) -> Self {
+        self.fields.push((name, ty, words));
         self
     }
-    pub fn u32(mut self, v: u32) -> Self {
-        self.0.push(v);
-        self
+    pub fn f32(self, name: &'static str, v: f32) -> Self {
+        self.field(name, UniformType::F32, vec![v.to_bits()])
     }
-    pub fn i32(mut self, v: i32) -> Self {
-        self.0.push(v as u32);
-        self
+    pub fn u32(self, name: &'static str, v: u32) -> Self {
+        self.field(name, UniformType::U32, vec![v])
     }
-    /// A `vec4<f32>` made of `xyz` and `w`.
-    pub fn vec3(self, xyz: [f32; 3], w: f32) -> Self {
-        self.f32(xyz[0]).f32(xyz[1]).f32(xyz[2]).f32(w)
+    pub fn i32(self, name: &'static str, v: i32) -> Self {
+        self.field(name, UniformType::I32, vec![v as u32])
     }
-    /// Pad with zero words up to a multiple of four (a 16-byte boundary).
-    pub fn align16(mut self) -> Self {
-        while !self.0.len().is_multiple_of(4) {
-            self.0.push(0);
+    /// A flag, as `u32` 0 or 1 (WGSL uniforms cannot hold `bool`).
+    pub fn bool(self, name: &'static str, v: bool) -> Self {
+        self.u32(name, v as u32)
+    }
+    pub fn vec2(self, name: &'static str, v: [f32; 2]) -> Self {
+        self.field(name, UniformType::Vec2, v.iter().map(|x| x.to_bits()).collect())
+    }
+    pub fn vec3(self, name: &'static str, v: [f32; 3]) -> Self {
+        self.field(name, UniformType::Vec3, v.iter().map(|x| x.to_bits()).collect())
+    }
+    pub fn vec4(self, name: &'static str, v: [f32; 4]) -> Self {
+        self.field(name, UniformType::Vec4, v.iter().map(|x| x.to_bits()).collect())
+    }
+    /// Field names and types, in declaration order.
+    pub fn layout(&self) -> Vec<(&'static str, UniformType)> {
+        self.fields.iter().map(|(n, t, _)| (*n, *t)).collect()
+    }
+    /// The block's 4-byte words as WGSL lays out [`Uniforms::wgsl_struct`] (padding as zeros),
+    /// padded to a multiple of 16 bytes (at least 16).
+    pub fn words(&self) -> Vec<u32> {
+        let mut out = Vec::new();
+        for (_, ty, words) in &self.fields {
+            while !out.len().is_multiple_of(ty.align_words()) {
+                out.push(0);
+            }
+            out.extend_from_slice(words);
         }
-        self
+        while out.is_empty() || !out.len().is_multiple_of(4) {
+            out.push(0);
+        }
+        out
+    }
+    /// `struct Params { … }` and its `var<uniform>` (group 0, binding 1). A block without fields
+    /// gets one unused word (WGSL structs cannot be empty). Names must be WGSL identifiers.
+    pub fn wgsl_struct(&self) -> Result<String, String> {
+        let mut s = String::from("struct Params {\n");
+        for (name, ty, _) in &self.fields {
+            let valid = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+                && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !valid {
+                return Err(format!("uniform field `{name}` is not a WGSL identifier (a letter, then letters, digits or `_`)"));
+            }
+            s.push_str(&format!("    {name}: {},\n", ty.wgsl()));
+        }
+        if self.fields.is_empty() {
+            s.push_str("    _unused: u32,\n");
+        }
+        s.push_str("}\n@group(0) @binding(1) var<uniform> params: Params;\n");
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod uniform_tests {
+    use super::*;
+
+    #[test]
+    fn words_follow_wgsl_layout_and_struct_matches() {
+        let u = Uniforms::new().f32("a", 1.0).vec3("c", [2.0, 3.0, 4.0]).u32("n", 7).vec2("uv", [5.0, 6.0]).bool("on", true);
+        let w = u.words();
+        // a @0, pad to 4, c @4..7, n @7 (fills the vec3's fourth word), uv @8..10, on @10, pad to 12.
+        assert_eq!(
+            w,
+            vec![1f32.to_bits(), 0, 0, 0, 2f32.to_bits(), 3f32.to_bits(), 4f32.to_bits(), 7, 5f32.to_bits(), 6f32.to_bits(), 1, 0]
+        );
+        let s = u.wgsl_struct().unwrap();
+        assert!(s.contains("a: f32,\n    c: vec3<f32>,\n    n: u32,\n    uv: vec2<f32>,\n    on: u32,"), "{s}");
+        assert_eq!(Uniforms::new().words(), vec![0; 4]);
+        assert!(Uniforms::new().wgsl_struct().unwrap().contains("_unused: u32"));
+        assert!(Uniforms::new().f32("bad name", 0.0).wgsl_struct().unwrap_err().contains("bad name"));
     }
 }
 

@@ -25,7 +25,7 @@ use std::collections::BTreeMap;
 pub use buffer::{BufferData, Texel};
 pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
-    Uniforms, WgslSource,
+    UniformType, Uniforms, WgslSource,
 };
 use wedge_graph::Schedule;
 use wedge_scene::Scene;

@@ -49,7 +49,7 @@ impl Kernel for ComposeAdd {
     }
     /// WGSL mirror: `shaders/compose_add.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../shaders/compose_add.wgsl"), |_| Ok(Uniforms::new().align16())).per_pixel())
+        Some(WgslSource::new(include_str!("../../shaders/compose_add.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let a = ctx.read::<[f32; 3]>("a")?;

@@ -331,7 +331,7 @@ impl Kernel for Bandwidth {
             WgslSource::new(include_str!("../../shaders/indirect_bandwidth.wgsl"), |ctx| {
                 let (s, blinn) = settings(ctx, false)?;
                 let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
-                Ok(Uniforms::new().f32(s.mu).f32(s.alpha).f32(s.z_fraction).f32(s.extent).u32(blinn as u32).align16())
+                Ok(Uniforms::new().f32("mu", s.mu).f32("alpha", s.alpha).f32("z_fraction", s.z_fraction).f32("extent", s.extent).u32("blinn", blinn as u32))
             })
             .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
             .per_pixel(),
@@ -390,14 +390,14 @@ impl Kernel for Rates {
                 let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
                 let cap = ctx.int_param("rays_cap")?.max(1) as u32;
                 Ok(Uniforms::new()
-                    .f32(s.mu)
-                    .f32(s.alpha)
-                    .f32(s.z_fraction)
-                    .f32(s.extent)
-                    .u32(s.initial)
-                    .u32(s.max)
-                    .u32(cap)
-                    .u32(blinn as u32))
+                    .f32("mu", s.mu)
+                    .f32("alpha", s.alpha)
+                    .f32("z_fraction", s.z_fraction)
+                    .f32("extent", s.extent)
+                    .u32("initial", s.initial)
+                    .u32("max_rays", s.max)
+                    .u32("cap", cap)
+                    .u32("blinn", blinn as u32))
             })
             .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
             .per_pixel(),

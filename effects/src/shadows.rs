@@ -206,7 +206,7 @@ impl Kernel for Bandwidth {
         Some(
             WgslSource::new(include_str!("../../shaders/shadows_bandwidth.wgsl"), |ctx| {
                 let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
-                Ok(Uniforms::new().f32(ctx.f32_param("mu")?).f32(ctx.f32_param("alpha")?).f32(ctx.f32_param("k")?).f32(sigma))
+                Ok(Uniforms::new().f32("mu", ctx.f32_param("mu")?).f32("alpha", ctx.f32_param("alpha")?).f32("k", ctx.f32_param("k")?).f32("sigma", sigma))
             })
             .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl"))
             .per_pixel(),
@@ -258,12 +258,11 @@ impl Kernel for Rates {
                 let max = (ctx.int_param("max_rays")?.max(1) as u32).max(initial);
                 let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
                 Ok(Uniforms::new()
-                    .f32(ctx.f32_param("mu")?)
-                    .f32(ctx.f32_param("alpha")?)
-                    .f32(sigma)
-                    .u32(initial)
-                    .u32(max)
-                    .align16())
+                    .f32("mu", ctx.f32_param("mu")?)
+                    .f32("alpha", ctx.f32_param("alpha")?)
+                    .f32("sigma", sigma)
+                    .u32("initial", initial)
+                    .u32("max_rays", max))
             })
             .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl"))
             .per_pixel(),

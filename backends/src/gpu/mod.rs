@@ -1,9 +1,19 @@
 //! The wgpu backend: every pass runs as a WGSL compute shader (one invocation per pixel, 8×8
 //! workgroups) on whatever adapter wgpu finds — a GPU, or Mesa's software Vulkan (lavapipe).
 //!
-//! - **Device**: the adapter's own limits are requested (more storage buffers per stage, larger
-//!   bindings than wgpu's defaults); `TIMESTAMP_QUERY` is enabled where offered and then each pass
-//!   is timed on the device (on lavapipe these are CPU-emulation times, not GPU times).
+//! - **Device**: the adapter's own limits are requested (larger bindings than wgpu's defaults), or
+//!   wgpu's `Limits::default()` ([`LimitsChoice::WebGpuDefault`], what any WebGPU device offers);
+//!   any wgpu API may be used ([`GpuBackend::open_on`]; the GL backend runs headless through EGL).
+//!   `TIMESTAMP_QUERY` is enabled where offered and then each pass is timed on the device (on
+//!   lavapipe these are CPU-emulation times, not GPU times).
+//! - **Generated WGSL**: a kernel's bindings (group 1) and `Params` struct are generated from its
+//!   Rust declaration ([`shaders::binding_header`], [`crate::kernel::Uniforms`]); the kernel only
+//!   calls `NAME_at`/`NAME_put`/`NAME_bound` and reads `params.NAME`.
+//! - **Binding plans**: per dispatch, one storage binding per declared buffer
+//!   ([`shaders::BindingPlan::Direct`]) when `1 (counters) + scene + bindings` fits the device's
+//!   `max_storage_buffers_per_shader_stage`; else [`shaders::BindingPlan::Packed`]: all inputs in
+//!   one storage buffer, all outputs in another, filled and emptied with `copy_buffer_to_buffer`
+//!   around each band's dispatch. Same bits either way ([`GpuBackend::force_packed`] for tests).
 //! - **Buffers**: per-pixel buffers follow the schedule's pool plan: one `wgpu::Buffer` per
 //!   physical slot (`Schedule::slot_formats`), created on first use, so a run allocates exactly
 //!   `slot_formats.len()` of them ([`RunResult::allocations`]). Layout per format: f32, vec2, vec4
@@ -11,15 +21,16 @@
 //!   pixel)**, the same bytes as the CPU's `Vec<[f32; 3]>`, so upload/readback is a plain copy and
 //!   no 16-byte padding is stored.
 //! - **Bands**: a pass whose per-pixel bindings would exceed the device's storage-binding limit
-//!   (e.g. `vec4` from 4096×2160 on, against 128 MiB) is dispatched as bands of rows, each binding only its rows
-//!   plus the rows its kernel reads around them ([`bands`]); kernels see the band in `Frame` and
+//!   (e.g. `vec4` from 4096×2160 on, against 128 MiB; packed: the packed buffer's bytes per pixel)
+//!   is dispatched as bands of rows, each binding only its rows plus the rows its kernel reads
+//!   around them ([`bands`]); kernels see the band in `Frame` and
 //!   index through `pixel_index`/`index_at` (shaders/common.wgsl), so the result is the same image.
-//! - **Scene**: uploaded once per distinct scene ([`scene`]); kernels that declare `scene` see it in
-//!   bind group 2.
+//! - **Scene**: uploaded once per distinct scene as ONE storage buffer holding all 7 arrays plus a
+//!   uniform of their offsets ([`scene`]); kernels that declare `scene` see it in bind group 2.
 //! - **Errors**: no adapter, WGSL/naga validation, out of memory, a device loss, a buffer over the
-//!   device's `max_buffer_size`, a scene array over its binding limit, a pass too large for the
-//!   limit that cannot be split (a kernel reading the whole image, or a band too narrow for its
-//!   reach), a kernel without WGSL — all become [`BackendError::Gpu`] with what to do; nothing panics
+//!   device's `max_buffer_size`, a scene over the binding limit, a kernel over the storage buffers
+//!   per stage even packed, a pass too large for the limit that cannot be split (a kernel reading
+//!   the whole image, or a band too narrow for its reach), a kernel without WGSL — all become [`BackendError::Gpu`] with what to do; nothing panics
 //!   (wgpu's default panicking error handler is replaced). Shader loops the driver cuts short are
 //!   counted (`RayCounts::cut_loops`), not silent.
 //! - **Chunks**: a sampling kernel that declares `WgslSource::chunked` runs as dispatches of at most
@@ -29,6 +40,9 @@
 pub mod bands;
 pub mod scene;
 pub mod shaders;
+
+/// Which graphics APIs [`GpuBackend::open_on`] may use (wgpu's set: `Backends::GL`, `Backends::VULKAN`, …).
+pub use wgpu::Backends;
 
 use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
@@ -40,7 +54,7 @@ use wedge_graph::{BufferId, Format, Pass};
 
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
-use crate::kernel::{Access, Counters, Kernel, KernelCtx};
+use crate::kernel::{Access, Counters, Kernel, KernelCtx, Reach};
 use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
 use bands::{Band, BindLimits};
 
@@ -72,9 +86,21 @@ struct KernelPipeline {
     g2: Option<wgpu::BindGroupLayout>,
 }
 
+/// The scene as bound in group 2: every array in one storage buffer, their offsets in a uniform.
 struct SceneBuffers {
     hash: u64,
-    buffers: Vec<wgpu::Buffer>,
+    data: wgpu::Buffer,
+    layout: wgpu::Buffer,
+}
+
+/// Which limits to ask the adapter for ([`GpuBackend::open`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitsChoice {
+    /// Everything the adapter offers (the default: larger bindings, more storage buffers).
+    Adapter,
+    /// wgpu's `Limits::default()` (WebGPU's: 8 storage buffers per stage, 4 bind groups, 128 MiB
+    /// bindings), to check that every kernel runs on any WebGPU device.
+    WebGpuDefault,
 }
 
 /// Time of one dispatch: device timestamps where supported, else wall clock around submit + wait.
@@ -104,12 +130,48 @@ pub struct GpuBackend {
     pub last_bands: Vec<(String, usize)>,
     /// Most samples per pixel one dispatch of a chunked sampling kernel takes (`set_samples_per_dispatch`).
     samples_per_dispatch: u32,
+    /// Bind every pass's per-pixel buffers packed, even where they fit one per binding (`force_packed`).
+    force_packed: bool,
+    /// `Params` fields per kernel name, as its first pass gave them.
+    uniform_layouts: HashMap<String, Vec<(&'static str, crate::kernel::UniformType)>>,
+    /// Per-pass binding plan of the last run.
+    pub last_plans: Vec<(String, shaders::BindingPlan)>,
 }
 
 impl GpuBackend {
-    /// Open the default adapter (high performance preference; `WGPU_BACKEND` etc. are honoured).
+    /// Open the default adapter (high performance preference; `WGPU_BACKEND` etc. are honoured)
+    /// with the adapter's own limits, or with wgpu's `Limits::default()` when the environment says
+    /// `WEDGE_WGPU_LIMITS=default` (so `wedge render`/`parity` can check WebGPU portability).
     pub fn new() -> Result<GpuBackend, BackendError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let choice = match std::env::var("WEDGE_WGPU_LIMITS") {
+            Err(_) => LimitsChoice::Adapter,
+            Ok(v) => match v.as_str() {
+                "" | "adapter" => LimitsChoice::Adapter,
+                "default" => LimitsChoice::WebGpuDefault,
+                other => {
+                    return Err(gpu_err(format!(
+                        "environment variable WEDGE_WGPU_LIMITS is `{other}`; use `adapter` (the adapter's own limits, the \
+                         default) or `default` (wgpu's Limits::default(), WebGPU's)"
+                    )))
+                }
+            },
+        };
+        Self::open(choice)
+    }
+
+    /// Open the default adapter with the limits `choice` names.
+    pub fn open(choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
+        Self::open_on(None, choice)
+    }
+
+    /// Open an adapter of one of `backends` (e.g. `wgpu::Backends::GL`; `None`: those
+    /// `WGPU_BACKEND` names, else all) with the limits `choice` names.
+    pub fn open_on(backends: Option<wgpu::Backends>, choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if let Some(b) = backends {
+            desc.backends = b;
+        }
+        let instance = wgpu::Instance::new(desc);
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,
@@ -120,7 +182,10 @@ impl GpuBackend {
         let info = adapter.get_info();
         let samples_per_dispatch =
             if info.device_type == wgpu::DeviceType::Cpu { SOFTWARE_SAMPLES_PER_DISPATCH } else { GPU_SAMPLES_PER_DISPATCH };
-        let limits = adapter.limits();
+        let limits = match choice {
+            LimitsChoice::Adapter => adapter.limits(),
+            LimitsChoice::WebGpuDefault => wgpu::Limits::default(),
+        };
         let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("wedge"),
@@ -128,7 +193,7 @@ impl GpuBackend {
             required_limits: limits.clone(),
             ..Default::default()
         }))
-        .map_err(|e| gpu_err(format!("adapter `{}` refused a device with its own limits: {e}", info.name)))?;
+        .map_err(|e| gpu_err(format!("adapter `{}` refused a device with the requested limits ({choice:?}): {e}", info.name)))?;
         let errors = Arc::new(Mutex::new(Vec::new()));
         {
             let errors = errors.clone();
@@ -174,6 +239,9 @@ impl GpuBackend {
             last_device_times: Vec::new(),
             last_bands: Vec::new(),
             samples_per_dispatch,
+            force_packed: false,
+            uniform_layouts: HashMap::new(),
+            last_plans: Vec::new(),
         })
     }
 
@@ -201,6 +269,33 @@ impl GpuBackend {
     /// at small sizes; the scene is still bound whole under the device's own limit.
     pub fn set_binding_limit(&mut self, bytes: u64) {
         self.max_binding = bytes.min(self.limits.max_storage_buffer_binding_size).max(16);
+    }
+
+    /// Bind every pass's per-pixel buffers packed (two storage buffers) even where one binding per
+    /// buffer fits the device: for tests of the packed plan, which must give the same bits.
+    pub fn force_packed(&mut self, on: bool) {
+        self.force_packed = on;
+    }
+
+    /// The binding plan for a kernel: one storage binding per declared buffer when
+    /// `1 (counters) + scene + bindings` fits `max_storage_buffers_per_shader_stage`, else packed.
+    fn binding_plan(&self, name: &str, bindings: &[crate::kernel::Binding], scene: bool) -> Result<shaders::BindingPlan, BackendError> {
+        use shaders::BindingPlan;
+        let limit = self.limits.max_storage_buffers_per_shader_stage;
+        let fixed = 1 + scene as u32;
+        let needed = |plan| fixed + shaders::storage_bindings(bindings, plan);
+        if !self.force_packed && needed(BindingPlan::Direct) <= limit {
+            return Ok(BindingPlan::Direct);
+        }
+        if needed(BindingPlan::Packed) <= limit {
+            return Ok(BindingPlan::Packed);
+        }
+        Err(gpu_err(format!(
+            "kernel `{name}` needs {} storage buffers in one shader stage even with its buffers packed, over this \
+             device's max_storage_buffers_per_shader_stage ({limit}, adapter `{}`); use --backend cpu",
+            needed(BindingPlan::Packed),
+            self.info.name
+        )))
     }
 
     /// Errors wgpu reported asynchronously (uncaptured or device lost) since the last check.
@@ -325,23 +420,30 @@ impl GpuBackend {
         if self.scene.as_ref().is_some_and(|s| s.hash == hash) {
             return Ok(());
         }
-        let mut buffers = Vec::new();
-        for (name, bytes) in scene::SCENE_ARRAYS.iter().zip(&arrays) {
-            // Scene arrays are bound whole (a ray may touch any node or triangle).
-            let max_binding = self.limits.max_storage_buffer_binding_size;
-            if bytes.len() as u64 > max_binding {
-                return Err(gpu_err(format!(
-                    "scene `{}` array {name} needs {} bytes, over this device's max_storage_buffer_binding_size ({} bytes, \
-                     adapter `{}`); use a smaller scene or --backend cpu",
-                    scene.name,
-                    bytes.len(),
-                    max_binding,
-                    self.info.name
-                )));
-            }
-            buffers.push(self.storage_init(&format!("scene `{}` array {name}", scene.name), bytes)?);
+        let (bytes, offsets) = scene::pack(&arrays);
+        // The scene is bound whole (a ray may touch any node or triangle).
+        let max_binding = self.limits.max_storage_buffer_binding_size;
+        if bytes.len() as u64 > max_binding {
+            let sizes: Vec<String> = scene::SCENE_ARRAYS.iter().zip(&arrays).map(|(n, a)| format!("{n} {}", a.len())).collect();
+            return Err(gpu_err(format!(
+                "scene `{}` needs {} bytes ({}), over this device's max_storage_buffer_binding_size ({} bytes, \
+                 adapter `{}`); use a smaller scene or --backend cpu",
+                scene.name,
+                bytes.len(),
+                sizes.join(", "),
+                max_binding,
+                self.info.name
+            )));
         }
-        self.scene = Some(SceneBuffers { hash, buffers });
+        let data = self.storage_init(&format!("scene `{}`", scene.name), &bytes)?;
+        let layout = self.scoped("uploading the scene layout", || {
+            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("scene layout"),
+                contents: bytemuck::cast_slice(&offsets),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        })?;
+        self.scene = Some(SceneBuffers { hash, data, layout });
         Ok(())
     }
 
@@ -353,31 +455,66 @@ impl GpuBackend {
         Ok(self.dummies[index].clone())
     }
 
-    fn pipeline(&mut self, kernel: &dyn Kernel) -> Result<(Arc<KernelPipeline>, crate::kernel::WgslSource), BackendError> {
-        let name = kernel.name();
-        let src = kernel.wgsl().ok_or_else(|| {
+    fn wgsl_of(kernel: &dyn Kernel) -> Result<crate::kernel::WgslSource, BackendError> {
+        kernel.wgsl().ok_or_else(|| {
             gpu_err(format!(
-                "kernel `{name}` has no WGSL implementation (Kernel::wgsl returns None); run this pipeline with --backend cpu, or give the kernel a WGSL source"
+                "kernel `{}` has no WGSL implementation (Kernel::wgsl returns None); run this pipeline with --backend cpu, or give the kernel a WGSL source",
+                kernel.name()
             ))
-        })?;
-        let text = shaders::compose(name, &src)?;
+        })
+    }
+
+    /// The pass's `Params` block ([`crate::kernel::Uniforms`]), from the same `KernelCtx` accessors
+    /// its CPU path uses.
+    fn uniforms(job: &Job<'_>, pass: &Pass, src: &crate::kernel::WgslSource) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
+        let cpu_counters = Counters::default();
+        let ctx = KernelCtx::new(
+            job.width,
+            job.height,
+            job.seed,
+            job.scene,
+            &pass.name,
+            &pass.params,
+            &cpu_counters,
+            job.progress,
+            BTreeMap::new(),
+            BTreeMap::new(),
+        );
+        Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
+    }
+
+    /// The compiled pipeline of a kernel under the binding plan this device needs for it, with its
+    /// `Params` struct generated from `uniforms` (every pass of a kernel must give the same fields).
+    fn pipeline(
+        &mut self,
+        kernel: &dyn Kernel,
+        uniforms: &crate::kernel::Uniforms,
+    ) -> Result<(Arc<KernelPipeline>, crate::kernel::WgslSource, shaders::BindingPlan), BackendError> {
+        let name = kernel.name();
+        let src = Self::wgsl_of(kernel)?;
         let bindings = kernel.bindings();
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        (name, &text, src.scene).hash(&mut h);
-        for b in &bindings {
-            (b.name, b.access == Access::Read).hash(&mut h);
+        let plan = self.binding_plan(name, &bindings, src.scene)?;
+        let fields = uniforms.layout();
+        match self.uniform_layouts.get(name) {
+            Some(first) if *first != fields => {
+                return Err(gpu_err(format!(
+                    "kernel `{name}`: WgslSource::uniforms gave the fields {fields:?} for one pass and {first:?} for another; \
+                     the Params fields must not depend on the pass's parameters (only their values may)"
+                )))
+            }
+            Some(_) => {}
+            None => {
+                self.uniform_layouts.insert(name.to_string(), fields);
+            }
         }
+        let params = uniforms.wgsl_struct().map_err(|e| gpu_err(format!("kernel `{name}`: {e}")))?;
+        let header = params + &shaders::binding_header(name, &bindings, plan)?;
+        let text = shaders::compose(name, &src, &header)?;
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        (name, &text, src.scene, plan).hash(&mut h);
         let key = h.finish();
         if let Some(p) = self.pipelines.get(&key) {
-            return Ok((p.clone(), src));
-        }
-        let storage_needed = 1 + bindings.len() as u32 + if src.scene { scene::SCENE_ARRAYS.len() as u32 } else { 0 };
-        if storage_needed > self.limits.max_storage_buffers_per_shader_stage {
-            return Err(gpu_err(format!(
-                "kernel `{name}` needs {storage_needed} storage buffers in one shader stage, over this device's \
-                 max_storage_buffers_per_shader_stage ({})",
-                self.limits.max_storage_buffers_per_shader_stage
-            )));
+            return Ok((p.clone(), src, plan));
         }
         let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
             binding,
@@ -409,15 +546,31 @@ impl GpuBackend {
                 label: Some("wedge frame"),
                 entries: &[uniform(0), uniform(1), storage(2, false)],
             });
-            let g1_entries: Vec<_> =
-                bindings.iter().enumerate().map(|(k, b)| storage(k as u32, b.access == Access::Read)).collect();
+            let g1_entries: Vec<_> = match plan {
+                shaders::BindingPlan::Direct => {
+                    bindings.iter().enumerate().map(|(k, b)| storage(k as u32, b.access == Access::Read)).collect()
+                }
+                shaders::BindingPlan::Packed => {
+                    let (_, inputs, outputs) = shaders::packed_layout(&bindings);
+                    let mut e = Vec::new();
+                    if inputs > 0 {
+                        e.push(storage(0, true));
+                    }
+                    if outputs > 0 {
+                        e.push(storage(e.len() as u32, false));
+                    }
+                    e
+                }
+            };
             let g1 = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("wedge buffers"),
                 entries: &g1_entries,
             });
             let g2 = src.scene.then(|| {
-                let e: Vec<_> = (0..scene::SCENE_ARRAYS.len() as u32).map(|k| storage(k, true)).collect();
-                self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("wedge scene"), entries: &e })
+                self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("wedge scene"),
+                    entries: &[storage(0, true), uniform(1)],
+                })
             });
             let mut layouts = vec![Some(&g0), Some(&g1)];
             if let Some(g2) = &g2 {
@@ -440,7 +593,7 @@ impl GpuBackend {
         })?;
         let p = Arc::new(p);
         self.pipelines.insert(key, p.clone());
-        Ok((p, src))
+        Ok((p, src, plan))
     }
 
     /// Run one pass with its declared bindings mapped to device buffers (`None` = unbound optional):
@@ -451,34 +604,26 @@ impl GpuBackend {
         job: &Job<'_>,
         pass: &Pass,
         buffers: &[Option<wgpu::Buffer>],
-    ) -> Result<(DispatchTime, RayCounts, usize), BackendError> {
+    ) -> Result<(DispatchTime, RayCounts, usize, shaders::BindingPlan), BackendError> {
+        use shaders::BindingPlan;
         let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
-        let (p, src) = self.pipeline(kernel.as_ref())?;
+        let src = Self::wgsl_of(kernel.as_ref())?;
+        let (uniforms, reach) = Self::uniforms(job, pass, &src)?;
+        let (p, src, plan) = self.pipeline(kernel.as_ref(), &uniforms)?;
         let what = format!("pass `{}` (kernel `{}`)", pass.name, pass.kernel);
-        // The parameter block, packed by the kernel from the same KernelCtx accessors its CPU path uses.
-        let cpu_counters = Counters::default();
-        let ctx = KernelCtx::new(
-            job.width,
-            job.height,
-            job.seed,
-            job.scene,
-            &pass.name,
-            &pass.params,
-            &cpu_counters,
-            job.progress,
-            BTreeMap::new(),
-            BTreeMap::new(),
-        );
-        let mut words = (src.uniforms)(&ctx)?.align16().0;
-        if words.is_empty() {
-            words = vec![0; 4];
-        }
+        let words = uniforms.words();
         if buffers.len() > 32 {
             return Err(gpu_err(format!("kernel `{}` declares more than 32 bindings", pass.kernel)));
         }
         let bindings = kernel.bindings();
-        let bytes_per_pixel = |k: usize| bindings[k].format.components() as u64 * 4;
-        let widest = (0..buffers.len()).filter(|&k| buffers[k].is_some()).map(bytes_per_pixel).max().unwrap_or(4);
+        let components = |k: usize| bindings[k].format.components() as u64;
+        let bytes_per_pixel = |k: usize| components(k) * 4;
+        let (packed_offsets, packed_in, packed_out) = shaders::packed_layout(&bindings);
+        // What one band binds per pixel: the widest buffer, or (packed) the larger packed buffer.
+        let widest = match plan {
+            BindingPlan::Direct => (0..buffers.len()).filter(|&k| buffers[k].is_some()).map(bytes_per_pixel).max().unwrap_or(4),
+            BindingPlan::Packed => packed_in.max(packed_out).max(1) * 4,
+        };
         let max_groups = self.limits.max_compute_workgroups_per_dimension;
         if job.width.div_ceil(WORKGROUP) > max_groups {
             return Err(gpu_err(format!(
@@ -492,16 +637,33 @@ impl GpuBackend {
             offset_alignment: self.limits.min_storage_buffer_offset_alignment as u64,
             max_rows: max_groups.saturating_mul(WORKGROUP),
         };
-        let reach = (src.reach)(&ctx)?;
         let bands = bands::plan(job.width, job.height, widest, reach, &limits).map_err(|e| gpu_err(format!("{what}: {e}")))?;
         let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
+        // Packed plan: one staging buffer for all inputs and one for all outputs, as large as the
+        // largest band's window; each binding is a region of `window` elements in it.
+        let largest_window = bands.iter().map(|b| b.end - b.first).max().unwrap_or(0);
         let mut bufs = Vec::with_capacity(buffers.len());
-        for (k, b) in buffers.iter().enumerate() {
-            bufs.push(match b {
-                Some(b) => b.clone(),
-                None => self.dummy(k)?,
-            });
+        let mut packed: Vec<wgpu::Buffer> = Vec::new();
+        match plan {
+            BindingPlan::Direct => {
+                for (k, b) in buffers.iter().enumerate() {
+                    bufs.push(match b {
+                        Some(b) => b.clone(),
+                        None => self.dummy(k)?,
+                    });
+                }
+            }
+            BindingPlan::Packed => {
+                if packed_in > 0 {
+                    packed.push(self.storage("packed inputs", largest_window * packed_in * 4)?);
+                }
+                if packed_out > 0 {
+                    packed.push(self.storage("packed outputs", largest_window * packed_out * 4)?);
+                }
+            }
         }
+        let packed_inputs = if packed_in > 0 { packed.first().cloned() } else { None };
+        let packed_outputs = if packed_out > 0 { packed.last().cloned() } else { None };
         // One counter block (8 × u32, see shaders/common.wgsl) per band, each at an aligned offset;
         // summed in 64 bits after each dispatch.
         let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
@@ -519,36 +681,42 @@ impl GpuBackend {
         let (params_buf, scene_group, buffer_groups) = self.scoped(&what, || {
             let params_buf = uniform("params", &words);
             let scene_group = match (&p.g2, &self.scene) {
-                (Some(layout), Some(s)) => {
-                    let e: Vec<_> = s
-                        .buffers
-                        .iter()
-                        .enumerate()
-                        .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
-                        .collect();
-                    Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("scene"), layout, entries: &e }))
-                }
+                (Some(layout), Some(s)) => Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("scene"),
+                    layout,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: s.data.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: s.layout.as_entire_binding() },
+                    ],
+                })),
                 _ => None,
             };
             let buffer_groups: Vec<_> = bands
                 .iter()
                 .map(|&Band { first, end, .. }| {
-                    let e1: Vec<_> = bufs
-                        .iter()
-                        .enumerate()
-                        .map(|(k, b)| {
-                            let resource = match &buffers[k] {
-                                // The whole buffer when one band covers the image.
-                                Some(_) if bands.len() > 1 => wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                    buffer: b,
-                                    offset: first * bytes_per_pixel(k),
-                                    size: wgpu::BufferSize::new((end - first) * bytes_per_pixel(k)),
-                                }),
-                                _ => b.as_entire_binding(),
-                            };
-                            wgpu::BindGroupEntry { binding: k as u32, resource }
-                        })
-                        .collect();
+                    let e1: Vec<_> = match plan {
+                        BindingPlan::Direct => bufs
+                            .iter()
+                            .enumerate()
+                            .map(|(k, b)| {
+                                let resource = match &buffers[k] {
+                                    // The whole buffer when one band covers the image.
+                                    Some(_) if bands.len() > 1 => wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                        buffer: b,
+                                        offset: first * bytes_per_pixel(k),
+                                        size: wgpu::BufferSize::new((end - first) * bytes_per_pixel(k)),
+                                    }),
+                                    _ => b.as_entire_binding(),
+                                };
+                                wgpu::BindGroupEntry { binding: k as u32, resource }
+                            })
+                            .collect(),
+                        BindingPlan::Packed => packed
+                            .iter()
+                            .enumerate()
+                            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+                            .collect(),
+                    };
                     self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 })
                 })
                 .collect();
@@ -564,7 +732,7 @@ impl GpuBackend {
                 let frames: Vec<_> = bands
                     .iter()
                     .enumerate()
-                    .map(|(n, &Band { row0, row_end, first, .. })| {
+                    .map(|(n, &Band { row0, row_end, first, end })| {
                         let frame = [
                             job.width,
                             job.height,
@@ -578,6 +746,10 @@ impl GpuBackend {
                             first as u32,
                             chunk_begin,
                             chunk_end,
+                            (end - first) as u32,
+                            0,
+                            0,
+                            0,
                         ];
                         let frame_buf = uniform("frame", &frame);
                         self.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -600,21 +772,57 @@ impl GpuBackend {
                     .collect();
                 let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
                 enc.clear_buffer(&counters, 0, None);
-                {
-                    let ts = self.timestamps.as_ref().map(|(qs, _)| wgpu::ComputePassTimestampWrites {
-                        query_set: qs,
-                        beginning_of_pass_write_index: Some(0),
-                        end_of_pass_write_index: Some(1),
-                    });
-                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
-                    cp.set_pipeline(&p.pipeline);
-                    if let Some(g2) = &scene_group {
-                        cp.set_bind_group(2, g2, &[]);
+                let last = bands.len() - 1;
+                for (n, ((g0, g1), band)) in frames.iter().zip(&buffer_groups).zip(&bands).enumerate() {
+                    let window = band.end - band.first;
+                    if plan == BindingPlan::Packed {
+                        // Fill every bound binding's region with the band's window: inputs, and
+                        // outputs too (a resuming kernel reads them; unwritten pixels keep their value).
+                        for (k, b) in buffers.iter().enumerate() {
+                            let (Some(b), Some(dst)) =
+                                (b, if bindings[k].access == Access::Read { &packed_inputs } else { &packed_outputs })
+                            else {
+                                continue;
+                            };
+                            let c = components(k);
+                            enc.copy_buffer_to_buffer(b, band.first * c * 4, dst, packed_offsets[k] * window * 4, window * c * 4);
+                        }
                     }
-                    for ((g0, g1), band) in frames.iter().zip(&buffer_groups).zip(&bands) {
+                    {
+                        // The first band's pass starts the timer and the last one stops it.
+                        let ts = self.timestamps.as_ref().filter(|_| n == 0 || n == last).map(|(qs, _)| wgpu::ComputePassTimestampWrites {
+                            query_set: qs,
+                            beginning_of_pass_write_index: (n == 0).then_some(0),
+                            end_of_pass_write_index: (n == last).then_some(1),
+                        });
+                        let mut cp =
+                            enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
+                        cp.set_pipeline(&p.pipeline);
+                        if let Some(g2) = &scene_group {
+                            cp.set_bind_group(2, g2, &[]);
+                        }
                         cp.set_bind_group(0, g0, &[]);
                         cp.set_bind_group(1, g1, &[]);
                         cp.dispatch_workgroups(job.width.div_ceil(WORKGROUP), (band.row_end - band.row0).div_ceil(WORKGROUP), 1);
+                    }
+                    if let (BindingPlan::Packed, Some(src_buf)) = (plan, &packed_outputs) {
+                        // Copy back the rows this band computed (not its halo).
+                        let own = band.row0 as u64 * job.width as u64 - band.first;
+                        let rows = (band.row_end - band.row0) as u64 * job.width as u64;
+                        for (k, b) in buffers.iter().enumerate() {
+                            let Some(b) = b else { continue };
+                            if bindings[k].access != Access::Write {
+                                continue;
+                            }
+                            let c = components(k);
+                            enc.copy_buffer_to_buffer(
+                                src_buf,
+                                (packed_offsets[k] * window + own * c) * 4,
+                                b,
+                                band.row0 as u64 * job.width as u64 * c * 4,
+                                rows * c * 4,
+                            );
+                        }
                     }
                 }
                 if let Some((qs, resolve)) = &self.timestamps {
@@ -646,7 +854,7 @@ impl GpuBackend {
             }
             chunk_begin = chunk_end;
         }
-        Ok((time, rays, bands.len()))
+        Ok((time, rays, bands.len(), plan))
     }
 
     fn kernels_ready(&mut self, job: &Job<'_>, passes: &[&Pass]) -> Result<bool, BackendError> {
@@ -654,7 +862,8 @@ impl GpuBackend {
         for pass in passes {
             check_bindings(job, pass)?;
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
-            let (_, src) = self.pipeline(kernel.as_ref())?;
+            let (uniforms, _) = Self::uniforms(job, pass, &Self::wgsl_of(kernel.as_ref())?)?;
+            let (_, src, _) = self.pipeline(kernel.as_ref(), &uniforms)?;
             scene |= src.scene;
         }
         Ok(scene)
@@ -723,7 +932,7 @@ impl GpuBackend {
             };
             bufs.push(buf);
         }
-        let (time, rays, _) = self.dispatch(job, pass, &bufs)?;
+        let (time, rays, _, _) = self.dispatch(job, pass, &bufs)?;
         let mut out = BTreeMap::new();
         for (name, format, buf) in outs {
             let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, pixels)?;
@@ -827,6 +1036,7 @@ impl Backend for GpuBackend {
         let mut timings = Vec::with_capacity(passes.len());
         self.last_device_times.clear();
         self.last_bands.clear();
+        self.last_plans.clear();
         for pass in &passes {
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
             let mut bufs = Vec::new();
@@ -860,9 +1070,10 @@ impl Backend for GpuBackend {
                 }
                 bufs.push(slots[slot].clone());
             }
-            let (t, counted, bands) = self.dispatch(job, pass, &bufs)?;
+            let (t, counted, bands, plan) = self.dispatch(job, pass, &bufs)?;
             rays.add(&counted);
             self.last_bands.push((pass.name.clone(), bands));
+            self.last_plans.push((pass.name.clone(), plan));
             if t.from_timestamps {
                 self.last_device_times.push((pass.name.clone(), t.seconds));
             }

@@ -1,4 +1,7 @@
-//! Scene upload: the same flat arrays the CPU traverses, in the layouts `shaders/scene.wgsl` declares.
+//! Scene upload: the same flat arrays the CPU traverses, in the layouts `shaders/scene.wgsl` declares,
+//! packed one after another into ONE storage buffer of 16-byte elements ([`pack`]) so a kernel
+//! that reads the scene spends one storage binding on it (WebGPU's default allows 8 per stage);
+//! where each array starts goes in a small uniform (`SceneLayout` in scene.wgsl).
 //! `BvhNode` and `TriangleRecord` are uploaded byte for byte; shading, materials, textures and lights
 //! are repacked into 16-byte-aligned structs. Light quantities the kernels need (normal, area,
 //! centre, σ) are computed here by the same Rust code the CPU uses, so both backends see identical
@@ -56,7 +59,7 @@ pub struct GpuLight {
     _pad: [u32; 2],
 }
 
-/// Names of the scene arrays, in binding order of group 2.
+/// Names of the scene arrays, in the order they are packed (and of `SceneLayout`'s fields).
 pub const SCENE_ARRAYS: [&str; 7] = ["bvh_nodes", "triangles", "shading", "materials", "tex_info", "texels", "lights"];
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
@@ -95,10 +98,11 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 7] {
         .textures
         .iter()
         .map(|t| {
-            let offset = (texels.len() / 3) as u32;
+            let offset = (texels.len() / 4) as u32;
             let ok = !t.texels.is_empty() && t.texels.len() >= (t.width as usize * t.height as usize);
             if ok {
-                texels.extend(t.texels.iter().flatten());
+                // One 16-byte element per texel (rgb, 0) so a texel is one load.
+                texels.extend(t.texels.iter().flat_map(|c| [c[0], c[1], c[2], 0.0]));
             }
             GpuTextureInfo {
                 offset,
@@ -146,4 +150,34 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 7] {
         bytes(&texels),
         bytes(&lights),
     ]
+}
+
+/// All scene arrays in one buffer (each starting on a 16-byte element) and the element index where
+/// each starts, in [`SCENE_ARRAYS`] order (padded to 8 words for the uniform).
+pub fn pack(arrays: &[Vec<u8>; 7]) -> (Vec<u8>, [u32; 8]) {
+    let mut data = Vec::with_capacity(arrays.iter().map(|a| a.len() + 16).sum());
+    let mut offsets = [0u32; 8];
+    for (k, a) in arrays.iter().enumerate() {
+        offsets[k] = (data.len() / 16) as u32;
+        data.extend_from_slice(a);
+        data.resize(data.len().div_ceil(16) * 16, 0);
+    }
+    (data, offsets)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packed_arrays_start_on_16_byte_elements_in_order() {
+        let arrays = [vec![1u8; 32], vec![2; 48], vec![3; 80], vec![4; 48], vec![5; 16], vec![6; 20], vec![7; 112]];
+        let (data, offsets) = pack(&arrays);
+        assert_eq!(offsets, [0, 2, 5, 10, 13, 14, 16, 0]);
+        assert_eq!(data.len(), (16 + 7) * 16);
+        for (k, a) in arrays.iter().enumerate() {
+            let at = offsets[k] as usize * 16;
+            assert_eq!(&data[at..at + a.len()], &a[..], "array {k}");
+        }
+    }
 }

@@ -130,11 +130,10 @@ impl Kernel for GaussianFilter {
                 _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
             };
             Ok(Uniforms::new()
-                .u32(ctx.int_param("axis")?.clamp(0, 1) as u32)
-                .i32(ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
-                .f32(ctx.f32_param("normal_cos")?)
-                .u32(0)
-                .vec3(plane_normal.to_array(), 0.0))
+                .u32("axis", ctx.int_param("axis")?.clamp(0, 1) as u32)
+                .i32("max_radius", ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
+                .f32("normal_cos", ctx.f32_param("normal_cos")?)
+                .vec3("plane_normal", plane_normal.to_array()))
         })
         .with_reach(|ctx| {
             // The x pass stays in its row; the y pass reads up to `max_radius` rows away.

@@ -249,17 +249,16 @@ impl Kernel for IndirectSample {
                     None => return Err(err(format!("unknown brdf `{brdf}`; use phong or blinn_phong"))),
                 };
                 Ok(Uniforms::new()
-                    .vec3(ctx.scene.camera.position.to_array(), 0.0)
-                    .u32(ctx.int_param("count")?.max(0) as u32)
-                    .u32(stratified)
-                    .u32(ao)
-                    .u32(ctx.int_param("bounces")?.max(1) as u32)
-                    .f32(ctx.f32_param("max_distance")?)
-                    .u32(lobe)
-                    .f32(RAY_EPSILON * ctx.scene.extent())
-                    .u32(ctx.int_param("stream")? as u32)
-                    .u32(ctx.scene.lights.len() as u32)
-                    .align16())
+                    .vec3("camera", ctx.scene.camera.position.to_array())
+                    .u32("count", ctx.int_param("count")?.max(0) as u32)
+                    .u32("stratified", stratified)
+                    .u32("ao", ao)
+                    .u32("bounces", ctx.int_param("bounces")?.max(1) as u32)
+                    .f32("max_distance", ctx.f32_param("max_distance")?)
+                    .u32("lobe", lobe)
+                    .f32("eps", RAY_EPSILON * ctx.scene.extent())
+                    .u32("stream", ctx.int_param("stream")? as u32)
+                    .u32("light_count", ctx.scene.lights.len() as u32))
             })
             .with_include("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl"))
             .with_scene()
@@ -410,7 +409,7 @@ impl Kernel for IndirectCompose {
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new().align16())).per_pixel())
+        Some(WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let diffuse = ctx.read::<[f32; 4]>("diffuse")?;

@@ -28,7 +28,7 @@ impl Kernel for FillInvalid {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(WgslSource::new(include_str!("../../../shaders/neighbourhood_fill.wgsl"), |ctx| {
-            Ok(Uniforms::new().i32(ctx.int_param("radius")?.clamp(0, 64) as i32).align16())
+            Ok(Uniforms::new().i32("radius", ctx.int_param("radius")?.clamp(0, 64) as i32))
         })
         .with_reach(|ctx| Ok(Reach::Rows(ctx.int_param("radius")?.clamp(0, 64) as u32))))
     }

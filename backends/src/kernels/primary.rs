@@ -48,10 +48,14 @@ impl Kernel for PrimaryGBuffer {
                 let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
                 let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / ctx.height as f32;
                 Ok(Uniforms::new()
-                    .vec3(cam.position.to_array(), tan_half)
-                    .vec3(right.to_array(), pixel_angle)
-                    .vec3(up.to_array(), cam.aperture_radius)
-                    .vec3(forward.to_array(), cam.effective_focus_distance()))
+                    .vec3("position", cam.position.to_array())
+                    .f32("tan_half", tan_half)
+                    .vec3("right", right.to_array())
+                    .f32("pixel_angle", pixel_angle)
+                    .vec3("up", up.to_array())
+                    .f32("aperture", cam.aperture_radius)
+                    .vec3("forward", forward.to_array())
+                    .f32("focus_distance", cam.effective_focus_distance()))
             })
             .with_scene()
             .per_pixel(),

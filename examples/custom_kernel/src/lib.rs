@@ -30,7 +30,7 @@ impl Kernel for ExposureKernel {
         ctx.put("out", out)
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../exposure.wgsl"), |ctx| Ok(Uniforms::new().f32(scale(ctx)?).align16())).per_pixel())
+        Some(WgslSource::new(include_str!("../exposure.wgsl"), |ctx| Ok(Uniforms::new().f32("scale", scale(ctx)?))).per_pixel())
     }
 }
 
