@@ -401,8 +401,7 @@ pub fn fuzz(target: Target, cfg: &Config) -> Report {
         seen.insert(signature(&outcome))
     };
 
-    for i in 0..initial {
-        let input = corpus[i].clone();
+    for input in corpus.clone() {
         if cfg.skip.contains(&hash(&input)) {
             continue;
         }

@@ -406,7 +406,7 @@ impl Mutator {
                     data.splice(a..b, word.bytes());
                 }
             }
-            103 | 104 | 105 => self.mutate_lines(data),
+            103..=105 => self.mutate_lines(data),
             _ => {
                 // The chosen mutation did not apply (e.g. empty input): insert a word instead.
                 let word = self.dictionary[self.rng.usize(..self.dictionary.len())];

@@ -242,13 +242,9 @@ fn gltf_scenes() -> Vec<String> {
 /// holding [`gltf_buffer`]. A document whose buffer has a URI is not a valid GLB seed.
 fn to_glb(json: &str) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
-    while j.len() % 4 != 0 {
-        j.push(b' ');
-    }
+    j.resize(j.len().next_multiple_of(4), b' ');
     let mut bin = gltf_buffer();
-    while bin.len() % 4 != 0 {
-        bin.push(0);
-    }
+    bin.resize(bin.len().next_multiple_of(4), 0);
     let total = 12 + 8 + j.len() + 8 + bin.len();
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
