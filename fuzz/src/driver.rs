@@ -79,7 +79,7 @@ pub struct Report {
     pub executions: u64,
     pub seconds: f64,
     pub corpus: usize,
-    /// Distinct outcomes seen (the novelty signal).
+    /// Distinct outcome features seen (message line shapes; the novelty signal).
     pub outcomes: usize,
     pub crashers: Vec<Crasher>,
     pub peak_heap_bytes: usize,
@@ -95,7 +95,7 @@ impl std::fmt::Display for Report {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{}: {} executions in {:.1} s = {:.0} exec/s; corpus {}, {} distinct outcomes, peak heap {} MiB; {} crasher(s)",
+            "{}: {} executions in {:.1} s = {:.0} exec/s; corpus {}, {} outcome features, peak heap {} MiB; {} crasher(s)",
             self.target,
             self.executions,
             self.seconds,
@@ -309,25 +309,29 @@ pub fn run_one(target: Target, input: &[u8]) -> Outcome {
     }
 }
 
-/// The novelty signature of an outcome: the message with quoted text (`…`, "…") and digits
-/// removed, so that errors differing only in the user's names or numbers count as one outcome.
-fn signature(o: &Outcome) -> u64 {
+/// The novelty features of an outcome: the *shape* of each line of the message: its lower-case
+/// words before the first quote (`…`, "…"), so lines that differ only in the user's names or
+/// values are one feature. An input is kept when it shows a
+/// feature not seen before; taking lines one by one (not their combination) keeps reports with
+/// several problems from making nearly every input "new" and filling the corpus with noise.
+fn features(o: &Outcome) -> Vec<u64> {
     let text = match o {
-        Outcome::Ok => return 0,
+        Outcome::Ok => return vec![0],
         Outcome::Err(e) | Outcome::Panic(e) => e,
     };
-    let mut kept = String::new();
-    let mut quote: Option<char> = None;
-    for c in text.chars().take(2000) {
-        match (quote, c) {
-            (None, '`' | '"') => quote = Some(c),
-            (Some(q), c) if c == q => quote = None,
-            (Some(_), _) => {}
-            (None, c) if c.is_ascii_digit() => {}
-            (None, c) => kept.push(c),
-        }
+    let mut out = Vec::new();
+    for line in text.lines().take(200) {
+        // Up to the first quote: what follows may be the user's (mutated) text, and quotes inside
+        // it need not pair up.
+        let head = line.split(['`', '"']).next().unwrap_or("");
+        let kept: String = head
+            .split(|c: char| !c.is_ascii_lowercase())
+            .filter(|w| w.len() >= 2)
+            .collect::<Vec<_>>()
+            .join(" ");
+        out.push(hash(kept.as_bytes()));
     }
-    hash(kept.as_bytes())
+    out
 }
 
 /// Files in `dir` (not recursive), in name order; a missing directory is empty.
@@ -398,7 +402,14 @@ pub fn fuzz(target: Target, cfg: &Config) -> Report {
                     hits: 1,
                 });
         }
-        seen.insert(signature(&outcome))
+        let mut new = false;
+        for f in features(&outcome) {
+            new |= seen.insert(f);
+        }
+        if new && std::env::var_os("WEDGE_FUZZ_DEBUG").is_some() {
+            eprintln!("NEW {outcome:?}");
+        }
+        new
     };
 
     for input in corpus.clone() {

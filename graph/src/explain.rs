@@ -196,12 +196,19 @@ fn field_example(field: &str) -> Option<&'static str> {
     })
 }
 
+/// The token as written, shortened to 40 characters (an unterminated string runs to the end of
+/// the file, and the message must stay one readable line).
 fn token_text(t: &Token) -> String {
-    match &t.tok {
+    let full = match &t.tok {
         Tok::Str(s) => format!("{s:?}"),
         Tok::Ident(s) | Tok::Number(s) => s.clone(),
         Tok::Char => "a character literal".into(),
         Tok::Punct(c) => c.to_string(),
+    };
+    if full.chars().count() > 40 {
+        format!("{}…", full.chars().take(40).collect::<String>())
+    } else {
+        full
     }
 }
 

@@ -292,3 +292,14 @@ fn a_badly_broken_pipeline_reports_a_bounded_number_of_problems() {
     // Help lines list at most 20 names.
     assert!(text.contains(", … (980 more)"), "{}", &text[..2000]);
 }
+
+#[test]
+fn a_runaway_string_is_quoted_short() {
+    // An unterminated string where a number goes: the message quotes only its start.
+    let text = pipeline(&[]).replace("height: 32", &format!("height: \"{}", "x".repeat(500)));
+    let Err(GraphError::Parse { message, .. }) = parse_pipeline(Path::new("t.ron"), &text) else {
+        panic!("expected a parse error");
+    };
+    assert!(message.len() < 150, "{message}");
+    assert!(message.contains("`height` expects a whole number") && message.contains('…'), "{message}");
+}
