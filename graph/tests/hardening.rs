@@ -303,3 +303,23 @@ fn a_runaway_string_is_quoted_short() {
     assert!(message.len() < 150, "{message}");
     assert!(message.contains("`height` expects a whole number") && message.contains('…'), "{message}");
 }
+
+#[test]
+fn the_largest_allowed_pipeline_compiles_quickly() {
+    // MAX_NODES nodes in one chain (1 source, blurs, 1 sink): validation, expansion and scheduling
+    // stay fast at the limit.
+    let n = wedge_graph::pipeline::MAX_NODES;
+    let mut nodes = vec![r#"(name: "b0", kind: "Source")"#.to_string()];
+    for i in 1..n - 1 {
+        let from = if i == 1 { "b0.a".to_string() } else { format!("b{}.y", i - 1) };
+        nodes.push(format!(r#"(name: "b{i}", kind: "Blur", inputs: {{"x": "{from}"}})"#));
+    }
+    nodes.push(format!(r#"(name: "out", kind: "Sink", inputs: {{"color": "b{}.y"}})"#, n - 2));
+    let refs: Vec<&str> = nodes.iter().map(String::as_str).collect();
+    let text = pipeline(&refs);
+    let start = std::time::Instant::now();
+    let (v, s) = compile_text(&text);
+    assert_eq!(v.nodes.len(), n);
+    assert_eq!(s.passes.len(), 1 + 2 * (n - 2));
+    assert!(start.elapsed().as_secs_f64() < 3.0, "{:?}", start.elapsed());
+}
