@@ -291,6 +291,8 @@ pub enum DiagnosticKind {
     BadSize,
     /// A camera that cannot render: see [`crate::CameraSpec::problems`] for the rules.
     BadCamera,
+    /// A node name that references cannot name (empty, or with a dot, blank or control character).
+    BadName,
 }
 
 impl DiagnosticKind {
@@ -314,6 +316,7 @@ impl DiagnosticKind {
             DiagnosticKind::NoSink => "no-sink",
             DiagnosticKind::BadSize => "bad-size",
             DiagnosticKind::BadCamera => "bad-camera",
+            DiagnosticKind::BadName => "bad-name",
         }
     }
 }
@@ -464,14 +467,31 @@ impl Reporter<'_> {
         self.list.push(Diagnostic {
             kind,
             location: self.p.loc(pos),
-            message,
-            help,
+            message: printable(message),
+            help: printable(help),
         });
     }
     /// Whether the report is complete; validation stops looking (suggestions are not free).
     fn full(&self) -> bool {
         self.list.len() >= MAX_DIAGNOSTICS
     }
+}
+
+/// `s` with control characters (which a name copied from a broken file may hold) written as
+/// escapes such as `\u{a}`, so that every diagnostic stays two readable lines.
+fn printable(s: String) -> String {
+    if !s.chars().any(char::is_control) {
+        return s;
+    }
+    s.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_unicode().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// The first names of a list for a help line, and how many were left out.
@@ -548,6 +568,21 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             break;
         }
         let src = p.node_src(i);
+        // A reference is `node.port`, so a name with a dot (or blanks, or control characters)
+        // could never be referred to.
+        if n.name.is_empty()
+            || n.name.contains('.')
+            || n.name.chars().any(|c| c.is_whitespace() || c.is_control())
+        {
+            r.add(
+                DiagnosticKind::BadName,
+                src.name.or(src.tuple_pos()),
+                format!("node name `{}` cannot be used in references", n.name),
+                "name nodes with letters, digits, `_` or `-` (no dots, blanks or control characters), \
+                 e.g. `name: \"shadows\"`"
+                    .into(),
+            );
+        }
         if let Some(&first) = index_of.get(n.name.as_str()) {
             let f = p.loc(p.node_src(first).name);
             r.add(

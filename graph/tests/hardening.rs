@@ -301,7 +301,10 @@ fn a_runaway_string_is_quoted_short() {
         panic!("expected a parse error");
     };
     assert!(message.len() < 150, "{message}");
-    assert!(message.contains("`height` expects a whole number") && message.contains('…'), "{message}");
+    assert!(
+        message.contains("`height` expects a whole number") && message.contains('…'),
+        "{message}"
+    );
 }
 
 #[test]
@@ -311,10 +314,19 @@ fn the_largest_allowed_pipeline_compiles_quickly() {
     let n = wedge_graph::pipeline::MAX_NODES;
     let mut nodes = vec![r#"(name: "b0", kind: "Source")"#.to_string()];
     for i in 1..n - 1 {
-        let from = if i == 1 { "b0.a".to_string() } else { format!("b{}.y", i - 1) };
-        nodes.push(format!(r#"(name: "b{i}", kind: "Blur", inputs: {{"x": "{from}"}})"#));
+        let from = if i == 1 {
+            "b0.a".to_string()
+        } else {
+            format!("b{}.y", i - 1)
+        };
+        nodes.push(format!(
+            r#"(name: "b{i}", kind: "Blur", inputs: {{"x": "{from}"}})"#
+        ));
     }
-    nodes.push(format!(r#"(name: "out", kind: "Sink", inputs: {{"color": "b{}.y"}})"#, n - 2));
+    nodes.push(format!(
+        r#"(name: "out", kind: "Sink", inputs: {{"color": "b{}.y"}})"#,
+        n - 2
+    ));
     let refs: Vec<&str> = nodes.iter().map(String::as_str).collect();
     let text = pipeline(&refs);
     let start = std::time::Instant::now();
@@ -322,4 +334,32 @@ fn the_largest_allowed_pipeline_compiles_quickly() {
     assert_eq!(v.nodes.len(), n);
     assert_eq!(s.passes.len(), 1 + 2 * (n - 2));
     assert!(start.elapsed().as_secs_f64() < 3.0, "{:?}", start.elapsed());
+}
+
+#[test]
+fn node_names_must_be_referable_and_messages_stay_printable() {
+    let text = pipeline(&[
+        r#"(name: "a.b", kind: "Source")"#,
+        "(name: \"bad\\nname\", kind: \"Nope\")",
+        r#"(name: "out", kind: "Sink", inputs: {"color": "a.b.a"})"#,
+    ]);
+    let d = diagnostics(&text);
+    let bad: Vec<&Diagnostic> = d
+        .iter()
+        .filter(|d| d.kind == DiagnosticKind::BadName)
+        .collect();
+    assert_eq!(bad.len(), 2, "{d:#?}");
+    assert_eq!((bad[0].location.line, bad[0].location.col), (4, 16));
+    assert!(
+        bad[0]
+            .message
+            .contains("`a.b` cannot be used in references"),
+        "{}",
+        bad[0]
+    );
+    // The newline in the name is shown as an escape, in every diagnostic that prints it.
+    for x in &d {
+        assert!(!x.message.contains('\n') && !x.help.contains('\n'), "{x}");
+    }
+    assert!(bad[1].message.contains(r"bad\u{a}name"), "{}", bad[1]);
 }
