@@ -207,10 +207,26 @@ fn install() {
     });
 }
 
+/// A line on stderr that the test harness's output capture does not swallow (the process is about
+/// to exit, and the captured output would be lost with it).
+fn say(line: String) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
+}
+
 /// Save the input being run as a crasher of `kind` and end the process with `code`.
 fn save_current_and_exit(kind: &'static str, message: &str, code: i32) -> ! {
     // The fuzzed thread never holds this lock while running an input.
     let current = CURRENT.lock().unwrap_or_else(|e| e.into_inner());
+    if current.out.as_os_str().is_empty() {
+        // `run_one` outside `fuzz` (replays, regression tests): the input is a file already.
+        let name = current.target.map_or("?", |t| t.name);
+        say(format!(
+            "wedge-fuzz: {name}: {kind} crasher: {}",
+            message.lines().next().unwrap_or("")
+        ));
+        std::process::exit(code);
+    }
     if let Some(target) = current.target {
         match save(&current.out, target, kind, message, &current.input) {
             Ok(path) => {
@@ -222,17 +238,17 @@ fn save_current_and_exit(kind: &'static str, message: &str, code: i32) -> ! {
                     "wedge-fuzz-stats {} {secs}",
                     EXECUTIONS.load(Ordering::SeqCst)
                 );
-                eprintln!(
+                say(format!(
                     "wedge-fuzz: {}: {kind} crasher ({}) saved to {}",
                     target.name,
                     message.lines().next().unwrap_or(""),
                     path.display()
-                )
+                ))
             }
-            Err(e) => eprintln!(
+            Err(e) => say(format!(
                 "wedge-fuzz: {}: {kind} crasher ({message}); could not save it: {e}",
                 target.name
-            ),
+            )),
         }
     }
     std::process::exit(code)
