@@ -343,6 +343,9 @@ fn features(o: &Outcome) -> Vec<u64> {
         let kept: String = head
             .split(|c: char| !c.is_ascii_lowercase())
             .filter(|w| w.len() >= 2)
+            // Help lines end in lists of the user's names ("nodes in this pipeline: a, b"):
+            // the first words say what the line is.
+            .take(8)
             .collect::<Vec<_>>()
             .join(" ");
         out.push(hash(kept.as_bytes()));
