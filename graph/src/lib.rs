@@ -13,6 +13,7 @@
 
 pub mod decl;
 pub mod expand;
+mod explain;
 pub mod pipeline;
 mod schedule;
 mod source_map;
@@ -20,11 +21,11 @@ mod validate;
 
 pub use decl::{Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
-pub use pipeline::{CameraSpec, Location, NodeSpec, Pipeline, RawParam};
+pub use pipeline::{CameraProblem, CameraSpec, Location, NodeSpec, Pipeline, RawParam};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use validate::{
     expand, load_pipeline, parse_pipeline, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
-    ValidatedNode, ValidatedPipeline, MAX_PIXELS, MAX_SIDE,
+    ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,
 };
 
 /// Everything that can go wrong between a pipeline file and a schedule.
@@ -40,6 +41,14 @@ pub enum GraphError {
         message: String,
         help: String,
     },
+    /// The file is beyond a size limit (bytes, nodes, entries or string length; see
+    /// [`pipeline::MAX_PIPELINE_BYTES`] and its neighbours), refused before it is expanded.
+    #[error("{location}: {message}\n  help: {help}")]
+    TooLarge {
+        location: Location,
+        message: String,
+        help: String,
+    },
     /// Every validation problem found, in file order.
     #[error("{}", format_diagnostics(.0))]
     Invalid(Vec<Diagnostic>),
@@ -49,7 +58,15 @@ pub enum GraphError {
 }
 
 fn format_diagnostics(d: &[Diagnostic]) -> String {
-    let mut s = format!("{} problem(s) in the pipeline:", d.len());
+    let mut s = if d.len() >= validate::MAX_DIAGNOSTICS {
+        format!(
+            "{} problem(s) in the pipeline (the first {}; fix these and run again to see the rest):",
+            d.len(),
+            validate::MAX_DIAGNOSTICS
+        )
+    } else {
+        format!("{} problem(s) in the pipeline:", d.len())
+    };
     for x in d {
         s.push_str(&format!("\n{x}"));
     }

@@ -52,6 +52,144 @@ fn default_up() -> (f32, f32, f32) {
     (0.0, 1.0, 0.0)
 }
 
+/// Largest pipeline file accepted, checked before parsing: real pipelines are a few KiB, and ron
+/// keeps the whole parse tree in memory (a 50 MB file with 1.2M nodes took 3.4 GB).
+pub const MAX_PIPELINE_BYTES: usize = 1 << 20;
+/// Most nodes a pipeline may have, checked right after parsing, before validation and expansion.
+pub const MAX_NODES: usize = 1024;
+/// Most `params` plus `inputs` entries one node may have (real kinds declare fewer than 16).
+pub const MAX_NODE_ENTRIES: usize = 256;
+/// Longest node name, kind, port or parameter name, reference or string value, in characters.
+pub const MAX_NAME_CHARS: usize = 256;
+/// Longest `scene` path, in characters (Linux's PATH_MAX).
+pub const MAX_SCENE_CHARS: usize = 4096;
+
+/// One violated camera rule: the field to point at, what is wrong, and the fix.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraProblem {
+    /// The field of [`CameraSpec`] that is wrong (as written in the file).
+    pub field: &'static str,
+    pub message: String,
+    pub help: String,
+}
+
+impl CameraSpec {
+    /// Check the camera against the rules that make it render something; every broken rule is
+    /// returned. A camera that breaks one renders black (NaN rays) or nonsense without any error.
+    ///
+    /// The rules (kept identical to `wedge_scene::Camera::validate` for scene-file cameras; the two
+    /// crates do not depend on each other, so a change here must be made there too):
+    /// 1. `position`, `look_at` and `up` are finite (no NaN or infinity);
+    /// 2. `look_at - position` is finite and non-zero (there is a view direction);
+    /// 3. `up` is non-zero and not parallel to the view direction: the sine of the angle between
+    ///    them is at least 1e-3 (about 0.06°), so the camera frame is well defined;
+    /// 4. `vfov_deg` is finite with 0 < `vfov_deg` < 180;
+    /// 5. `aperture_radius` is finite and >= 0 (0 is a pinhole);
+    /// 6. `focus_distance`, when given, is finite and > 0.
+    ///
+    /// Arithmetic is in f64 so that large but finite coordinates do not overflow in the checks.
+    pub fn problems(&self) -> Vec<CameraProblem> {
+        let mut out = Vec::new();
+        let mut bad = |field: &'static str, message: String, help: String| {
+            out.push(CameraProblem {
+                field,
+                message,
+                help,
+            })
+        };
+        let v = |t: (f32, f32, f32)| [f64::from(t.0), f64::from(t.1), f64::from(t.2)];
+        let finite = |a: [f64; 3]| a.iter().all(|x| x.is_finite());
+        let (pos, at, up) = (v(self.position), v(self.look_at), v(self.up));
+        for (field, value) in [("position", pos), ("look_at", at), ("up", up)] {
+            if !finite(value) {
+                bad(
+                    field,
+                    format!("camera `{field}` = {value:?} is not finite"),
+                    format!("write three ordinary numbers for `{field}`, e.g. (0.0, 1.0, 4.0)"),
+                );
+            }
+        }
+        let dir = [at[0] - pos[0], at[1] - pos[1], at[2] - pos[2]];
+        let len = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        let dir_ok = finite(pos) && finite(at) && len(dir) > 0.0 && len(dir).is_finite();
+        if finite(pos) && finite(at) && !dir_ok {
+            bad(
+                "look_at",
+                format!(
+                    "camera `look_at` {at:?} {} `position`, so there is no view direction",
+                    if len(dir) == 0.0 {
+                        "equals"
+                    } else {
+                        "is too far from"
+                    }
+                ),
+                "move `look_at` to the point the camera should look at, away from `position`"
+                    .into(),
+            );
+        }
+        if finite(up) {
+            if len(up) == 0.0 {
+                bad(
+                    "up",
+                    "camera `up` is (0, 0, 0), so the image has no up direction".into(),
+                    "set `up` to the world's up direction, usually (0.0, 1.0, 0.0)".into(),
+                );
+            } else if dir_ok {
+                let c = [
+                    dir[1] * up[2] - dir[2] * up[1],
+                    dir[2] * up[0] - dir[0] * up[2],
+                    dir[0] * up[1] - dir[1] * up[0],
+                ];
+                let sine = len(c) / (len(dir) * len(up));
+                if sine < 1e-3 {
+                    bad(
+                        "up",
+                        format!(
+                            "camera `up` {up:?} is parallel to the view direction (look_at - position = {dir:?}), \
+                             so the image's up direction is undefined"
+                        ),
+                        "choose an `up` not along the view direction, e.g. (0.0, 0.0, -1.0) for a camera \
+                         looking straight down"
+                            .into(),
+                    );
+                }
+            }
+        }
+        if !(self.vfov_deg.is_finite() && self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
+            bad(
+                "vfov_deg",
+                format!(
+                    "camera `vfov_deg` = {} is not a field of view in degrees",
+                    self.vfov_deg
+                ),
+                "set `vfov_deg` to a value with 0 < vfov_deg < 180, e.g. 45.0".into(),
+            );
+        }
+        if !(self.aperture_radius.is_finite() && self.aperture_radius >= 0.0) {
+            bad(
+                "aperture_radius",
+                format!(
+                    "camera `aperture_radius` = {} is not a lens radius",
+                    self.aperture_radius
+                ),
+                "set `aperture_radius` to 0.0 (pinhole) or a small positive radius in metres"
+                    .into(),
+            );
+        }
+        if let Some(f) = self.focus_distance {
+            if !(f.is_finite() && f > 0.0) {
+                bad(
+                    "focus_distance",
+                    format!("camera `focus_distance` = {f} is not a distance"),
+                    "write `focus_distance: Some(d)` with d > 0 in metres, or `None` to focus on `look_at`"
+                        .into(),
+                );
+            }
+        }
+        out
+    }
+}
+
 /// A parameter as written; checked against the node kind's [`crate::ParamDecl`] by the validator.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(untagged)]

@@ -58,7 +58,8 @@ pub enum Tok {
     /// A string literal (normal or raw), with its decoded value.
     Str(String),
     Ident(String),
-    Number,
+    /// A number literal, as written (`64`, `-1.5e3`, `0x1F`).
+    Number(String),
     /// A character literal `'x'`.
     Char,
     Punct(char),
@@ -252,6 +253,7 @@ pub fn tokenize(src: &str) -> Vec<Token> {
         } else if c.is_ascii_digit()
             || ((c == '-' || c == '+' || c == '.') && next.is_some_and(|n| n.is_ascii_digit()))
         {
+            let start = i;
             bump!();
             while i < chars.len() {
                 let d = chars[i];
@@ -264,7 +266,7 @@ pub fn tokenize(src: &str) -> Vec<Token> {
                 }
             }
             out.push(Token {
-                tok: Tok::Number,
+                tok: Tok::Number(chars[start..i].iter().collect()),
                 pos,
             });
         } else if c == '\'' {
@@ -327,6 +329,9 @@ pub struct SourceMap {
     /// The values of `width` and `height`.
     pub width: Option<Pos>,
     pub height: Option<Pos>,
+    /// The value of `camera` (`Some(…)`), and each field of the camera struct: (name, value position).
+    pub camera: Option<Pos>,
+    pub camera_fields: Vec<(String, Pos)>,
     pub nodes: Vec<NodeSource>,
 }
 
@@ -350,6 +355,10 @@ impl SourceMap {
                     match field.as_str() {
                         "width" => map.width = value,
                         "height" => map.height = value,
+                        "camera" => {
+                            map.camera = value;
+                            map.camera_fields = camera_fields(&toks, i + 2);
+                        }
                         "nodes" => {
                             map.nodes_key = Some(toks[i].pos);
                             if is_punct(&toks, i + 2, '[') {
@@ -368,6 +377,63 @@ impl SourceMap {
         }
         map
     }
+
+    /// Position of the value written for camera field `name`, else of the camera block.
+    pub fn camera_field(&self, name: &str) -> Option<Pos> {
+        self.camera_fields
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, p)| *p)
+            .or(self.camera)
+    }
+}
+
+/// The innermost bracket still open at the end of `toks` (for "the file ends early" messages).
+pub fn unclosed_bracket(toks: &[Token]) -> Option<&Token> {
+    let mut open: Vec<&Token> = Vec::new();
+    for t in toks {
+        match t.tok {
+            Tok::Punct('(' | '[' | '{') => open.push(t),
+            Tok::Punct(')' | ']' | '}') => {
+                open.pop();
+            }
+            _ => {}
+        }
+    }
+    open.pop()
+}
+
+/// The fields of the camera value starting at `toks[i]`: `Some((…))`, `Some(CameraSpec(…))` or
+/// `(…)`; (field name, value position) in order. Empty for `None` or anything else.
+fn camera_fields(toks: &[Token], mut i: usize) -> Vec<(String, Pos)> {
+    let mut fields = Vec::new();
+    if matches!(&toks.get(i).map(|t| &t.tok), Some(Tok::Ident(s)) if s == "Some") {
+        i += 1;
+        if !is_punct(toks, i, '(') {
+            return fields;
+        }
+        i += 1;
+    }
+    if matches!(toks.get(i).map(|t| &t.tok), Some(Tok::Ident(_))) {
+        i += 1;
+    }
+    if !is_punct(toks, i, '(') {
+        return fields;
+    }
+    i += 1;
+    while i < toks.len() {
+        match &toks[i].tok {
+            Tok::Punct(')') => break,
+            Tok::Ident(field) if is_punct(toks, i + 1, ':') => {
+                if let Some(v) = toks.get(i + 2) {
+                    fields.push((field.clone(), v.pos));
+                }
+                i = skip_value(toks, i + 2);
+            }
+            _ => i += 1,
+        }
+    }
+    fields
 }
 
 fn is_punct(toks: &[Token], i: usize, c: char) -> bool {
@@ -502,7 +568,7 @@ mod tests {
         assert_eq!(t[3].tok, Tok::Str("x\"y".into()));
         assert_eq!(t[3].pos, Pos { line: 2, col: 6 });
         assert_eq!(t[5].tok, Tok::Str("raw".into()));
-        assert_eq!(t[6].tok, Tok::Number);
+        assert_eq!(t[6].tok, Tok::Number("-1.5e-3".into()));
         assert_eq!(t[7].tok, Tok::Punct(')'));
     }
 

@@ -15,7 +15,11 @@ use std::sync::Arc;
 
 use crate::decl::{NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 use crate::expand::{BufferId, ExpandCtx, Expansion};
-use crate::pipeline::{Location, Pipeline};
+use crate::explain::explain;
+use crate::pipeline::{
+    Location, Pipeline, RawParam, MAX_NAME_CHARS, MAX_NODES, MAX_NODE_ENTRIES, MAX_PIPELINE_BYTES,
+    MAX_SCENE_CHARS,
+};
 use crate::source_map::{NodeSource, Pos, SourceMap};
 use crate::GraphError;
 
@@ -55,72 +59,164 @@ impl LoadedPipeline {
 }
 
 /// Parse pipeline text; `path` is only used for messages and relative paths.
+///
+/// A UTF-8 byte-order mark at the start (some Windows editors write one) is skipped. The size
+/// limits ([`crate::pipeline::MAX_PIPELINE_BYTES`], [`MAX_NODES`], [`MAX_NODE_ENTRIES`],
+/// [`MAX_NAME_CHARS`], [`MAX_SCENE_CHARS`]) are checked before parsing (text size) and right after
+/// it (counts and lengths), so no later step sees an unbounded pipeline.
 pub fn parse_pipeline(path: &Path, text: &str) -> Result<LoadedPipeline, GraphError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let at = |pos: Option<Pos>| {
+        let pos = pos.unwrap_or(Pos { line: 1, col: 1 });
+        Location {
+            file: path.to_path_buf(),
+            line: pos.line,
+            col: pos.col,
+        }
+    };
+    if text.len() > MAX_PIPELINE_BYTES {
+        return Err(file_too_large(path, text.len() as u64));
+    }
     match ron::from_str::<Pipeline>(text) {
-        Ok(pipeline) => Ok(LoadedPipeline {
-            pipeline,
-            path: path.to_path_buf(),
-            source: text.to_string(),
-            map: SourceMap::build(text),
-        }),
+        Ok(pipeline) => {
+            let map = SourceMap::build(text);
+            check_limits(&pipeline, &map).map_err(|(pos, message, help)| GraphError::TooLarge {
+                location: at(pos),
+                message,
+                help,
+            })?;
+            Ok(LoadedPipeline {
+                pipeline,
+                path: path.to_path_buf(),
+                source: text.to_string(),
+                map,
+            })
+        }
         Err(e) => {
-            let location = Location {
-                file: path.to_path_buf(),
-                line: e.span.start.line,
-                col: e.span.start.col,
-            };
+            let explained = explain(
+                text,
+                &e.code,
+                Pos {
+                    line: e.span.start.line,
+                    col: e.span.start.col,
+                },
+            );
             Err(GraphError::Parse {
-                location,
-                message: e.code.to_string(),
-                help: parse_help(&e.code),
+                location: at(Some(explained.pos)),
+                message: explained.message,
+                help: explained.help,
             })
         }
     }
 }
 
-/// What to do about a ron error, in words.
-fn parse_help(code: &ron::Error) -> String {
-    use ron::Error as E;
-    match code {
-        E::NoSuchStructField {
-            expected,
-            found,
-            outer,
-        } => {
-            let what = outer.as_deref().unwrap_or("this struct");
-            format!(
-                "`{found}` is not a field of {what}; remove it or use one of: {}",
-                expected.join(", ")
-            )
-        }
-        E::MissingStructField { field, outer } => {
-            let what = outer.as_deref().unwrap_or("this struct");
-            format!("add `{field}: …` to {what}")
-        }
-        E::DuplicateStructField { field, .. } => format!("remove one of the `{field}` fields"),
-        E::ExpectedComma => "separate entries with `,`".into(),
-        E::ExpectedMap | E::ExpectedMapColon | E::ExpectedMapEnd => {
-            "write maps as {\"key\": value, …} (string keys, `:` between key and value)".into()
-        }
-        E::ExpectedString | E::ExpectedStringEnd => {
-            "write this value as a double-quoted string".into()
-        }
-        E::ExpectedArray | E::ExpectedArrayEnd => "write `nodes` as a list `[ (…), (…) ]`".into(),
-        E::Eof => "the file ends early; close every open `(`, `[` and `{`".into(),
-        E::InvalidValueForType { expected, .. } => format!("write {expected} here"),
-        E::IntegerOutOfBounds => "use a smaller, non-negative integer".into(),
-        E::TrailingCharacters => "remove everything after the closing `)` of the pipeline".into(),
-        E::UnclosedBlockComment => "close the comment with `*/`".into(),
-        _ => "see the pipeline format in the wedge documentation (README) and fix the syntax here"
+fn file_too_large(path: &Path, bytes: u64) -> GraphError {
+    GraphError::TooLarge {
+        location: Location {
+            file: path.to_path_buf(),
+            line: 1,
+            col: 1,
+        },
+        message: format!(
+            "the pipeline file is {bytes} bytes, more than the limit of {MAX_PIPELINE_BYTES} bytes (1 MiB)"
+        ),
+        help: "a pipeline is a short text file of nodes (a few KiB); check that this is the right \
+               file, and describe large scenes in a scene file instead"
             .into(),
     }
 }
 
-/// Read and parse a pipeline file.
+/// Counts and string lengths within the limits, else (where, what, fix).
+fn check_limits(pl: &Pipeline, map: &SourceMap) -> Result<(), (Option<Pos>, String, String)> {
+    if pl.nodes.len() > MAX_NODES {
+        return Err((
+            map.nodes_key,
+            format!(
+                "the pipeline has {} nodes, more than the limit of {MAX_NODES}",
+                pl.nodes.len()
+            ),
+            format!("use at most {MAX_NODES} nodes (a render pipeline needs a handful)"),
+        ));
+    }
+    let long = |what: &str, s: &str, limit: usize, pos: Option<Pos>| {
+        let n = s.chars().count();
+        if n > limit {
+            Err((
+                pos,
+                format!("{what} is {n} characters long, more than the limit of {limit}"),
+                format!("shorten {what} to at most {limit} characters"),
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    long("`scene`", &pl.scene, MAX_SCENE_CHARS, None)?;
+    for (i, n) in pl.nodes.iter().enumerate() {
+        let src = map.nodes.get(i).cloned().unwrap_or_default();
+        let tuple = (src.tuple.line > 0).then_some(src.tuple);
+        let entries = n.params.len() + n.inputs.len();
+        if entries > MAX_NODE_ENTRIES {
+            return Err((
+                tuple,
+                format!(
+                    "node {} has {entries} parameters and inputs, more than the limit of {MAX_NODE_ENTRIES}",
+                    i + 1
+                ),
+                "give each parameter and input once; a node kind declares only a few".into(),
+            ));
+        }
+        long("the node name", &n.name, MAX_NAME_CHARS, src.name.or(tuple))?;
+        long("the node kind", &n.kind, MAX_NAME_CHARS, src.kind.or(tuple))?;
+        for (j, (key, value)) in n.params.iter().enumerate() {
+            let pos = src.params.get(j).copied().or(tuple);
+            long("a parameter name", key, MAX_NAME_CHARS, pos)?;
+            if let RawParam::Str(v) = value {
+                long("a parameter value", v, MAX_NAME_CHARS, pos)?;
+            }
+        }
+        for (j, (port, reference)) in n.inputs.iter().enumerate() {
+            let pos = src.inputs.get(j).map(|&(k, _)| k).or(tuple);
+            long("an input name", port, MAX_NAME_CHARS, pos)?;
+            // A reference is `node.port`: two names and a dot.
+            long("an input reference", reference, 2 * MAX_NAME_CHARS + 1, pos)?;
+        }
+    }
+    Ok(())
+}
+
+/// Read and parse a pipeline file. Files larger than [`MAX_PIPELINE_BYTES`] are refused before
+/// reading (and reading stops there even if the file grows or is a device such as `/dev/zero`).
 pub fn load_pipeline(path: &Path) -> Result<LoadedPipeline, GraphError> {
-    let text = std::fs::read_to_string(path).map_err(|e| GraphError::Io {
+    use std::io::Read;
+    let io_err = |e: std::io::Error| GraphError::Io {
         path: path.display().to_string(),
         message: format!("cannot read pipeline file: {e}"),
+    };
+    let file = std::fs::File::open(path).map_err(io_err)?;
+    if let Ok(meta) = file.metadata() {
+        if meta.is_dir() {
+            return Err(GraphError::Io {
+                path: path.display().to_string(),
+                message: "this is a directory, not a pipeline file; name a .ron file".into(),
+            });
+        }
+        if meta.len() > MAX_PIPELINE_BYTES as u64 {
+            return Err(file_too_large(path, meta.len()));
+        }
+    }
+    let mut bytes = Vec::new();
+    file.take(MAX_PIPELINE_BYTES as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io_err)?;
+    if bytes.len() > MAX_PIPELINE_BYTES {
+        return Err(file_too_large(path, bytes.len() as u64));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| GraphError::Io {
+        path: path.display().to_string(),
+        message: format!(
+            "the pipeline file is not UTF-8 text (invalid byte at offset {}); save it as UTF-8",
+            e.utf8_error().valid_up_to()
+        ),
     })?;
     parse_pipeline(path, &text)
 }
@@ -193,6 +289,10 @@ pub enum DiagnosticKind {
     NoSink,
     /// width/height 0 or > 16384, or width*height > 2^26.
     BadSize,
+    /// A camera that cannot render: see [`crate::CameraSpec::problems`] for the rules.
+    BadCamera,
+    /// A node name that references cannot name (empty, or with a dot, blank or control character).
+    BadName,
 }
 
 impl DiagnosticKind {
@@ -215,6 +315,8 @@ impl DiagnosticKind {
             DiagnosticKind::ParamOutOfRange => "param-out-of-range",
             DiagnosticKind::NoSink => "no-sink",
             DiagnosticKind::BadSize => "bad-size",
+            DiagnosticKind::BadCamera => "bad-camera",
+            DiagnosticKind::BadName => "bad-name",
         }
     }
 }
@@ -245,9 +347,12 @@ impl fmt::Display for Diagnostic {
 }
 
 /// Levenshtein distance (case-insensitive), to suggest the closest spelling.
+///
+/// Only the first 64 characters of each word are compared: enough to rank misspellings, and it
+/// keeps the cost bounded for long names (names are capped at [`MAX_NAME_CHARS`]).
 fn edit_distance(a: &str, b: &str) -> usize {
-    let a: Vec<char> = a.to_lowercase().chars().collect();
-    let b: Vec<char> = b.to_lowercase().chars().collect();
+    let a: Vec<char> = a.to_lowercase().chars().take(64).collect();
+    let b: Vec<char> = b.to_lowercase().chars().take(64).collect();
     let mut prev: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.iter().enumerate() {
         let mut cur = vec![i + 1; b.len() + 1];
@@ -263,7 +368,7 @@ fn edit_distance(a: &str, b: &str) -> usize {
 /// `candidates` ordered closest spelling first (stable for ties).
 fn by_closeness<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
     let mut v: Vec<&str> = candidates.into_iter().collect();
-    v.sort_by_key(|c| edit_distance(word, c));
+    v.sort_by_cached_key(|c| edit_distance(word, c));
     v
 }
 
@@ -344,17 +449,72 @@ fn split_reference(r: &str) -> Option<(&str, &str)> {
     (ok(n) && ok(p)).then_some((n, p))
 }
 
+/// At most this many problems are reported (and looked for): with up to [`MAX_NODES`] nodes, each
+/// problem's help may list many names, and a badly broken file would otherwise print megabytes.
+pub const MAX_DIAGNOSTICS: usize = 100;
+
+/// Collects the diagnostics of one validation, up to [`MAX_DIAGNOSTICS`].
+struct Reporter<'a> {
+    p: &'a LoadedPipeline,
+    list: Vec<Diagnostic>,
+}
+
+impl Reporter<'_> {
+    fn add(&mut self, kind: DiagnosticKind, pos: Option<Pos>, message: String, help: String) {
+        if self.full() {
+            return;
+        }
+        self.list.push(Diagnostic {
+            kind,
+            location: self.p.loc(pos),
+            message: printable(message),
+            help: printable(help),
+        });
+    }
+    /// Whether the report is complete; validation stops looking (suggestions are not free).
+    fn full(&self) -> bool {
+        self.list.len() >= MAX_DIAGNOSTICS
+    }
+}
+
+/// `s` with control characters (which a name copied from a broken file may hold) written as
+/// escapes such as `\u{a}`, so that every diagnostic stays two readable lines.
+fn printable(s: String) -> String {
+    if !s.chars().any(char::is_control) {
+        return s;
+    }
+    s.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_unicode().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
+/// The first names of a list for a help line, and how many were left out.
+fn list_some<S: AsRef<str>>(names: &[S]) -> String {
+    const SHOWN: usize = 20;
+    let mut s = names
+        .iter()
+        .take(SHOWN)
+        .map(|n| n.as_ref())
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > SHOWN {
+        s.push_str(&format!(", … ({} more)", names.len() - SHOWN));
+    }
+    s
+}
+
 /// Check `p` against `reg`; all problems are collected before returning.
 pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipeline, GraphError> {
     let pl = &p.pipeline;
-    let mut diags: Vec<Diagnostic> = Vec::new();
-    let mut diag = |kind, pos: Option<Pos>, message: String, help: String| {
-        diags.push(Diagnostic {
-            kind,
-            location: p.loc(pos),
-            message,
-            help,
-        });
+    let mut r = Reporter {
+        p,
+        list: Vec::new(),
     };
 
     // Image size.
@@ -363,7 +523,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         ("height", pl.height, p.map.height),
     ] {
         if v == 0 || v > MAX_SIDE {
-            diag(
+            r.add(
                 DiagnosticKind::BadSize,
                 pos,
                 format!("{what} = {v} is not a usable image size"),
@@ -378,7 +538,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         && pl.height <= MAX_SIDE
         && pixels > MAX_PIXELS
     {
-        diag(
+        r.add(
             DiagnosticKind::BadSize,
             p.map.width,
             format!(
@@ -389,13 +549,43 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         );
     }
 
+    // Camera: a degenerate one renders black or NaN without any other error.
+    if let Some(camera) = &pl.camera {
+        for problem in camera.problems() {
+            r.add(
+                DiagnosticKind::BadCamera,
+                p.map.camera_field(problem.field),
+                problem.message,
+                problem.help,
+            );
+        }
+    }
+
     // Node names: first definition wins for wiring; later ones are reported.
     let mut index_of: HashMap<&str, usize> = HashMap::new();
     for (i, n) in pl.nodes.iter().enumerate() {
+        if r.full() {
+            break;
+        }
         let src = p.node_src(i);
+        // A reference is `node.port`, so a name with a dot (or blanks, or control characters)
+        // could never be referred to.
+        if n.name.is_empty()
+            || n.name.contains('.')
+            || n.name.chars().any(|c| c.is_whitespace() || c.is_control())
+        {
+            r.add(
+                DiagnosticKind::BadName,
+                src.name.or(src.tuple_pos()),
+                format!("node name `{}` cannot be used in references", n.name),
+                "name nodes with letters, digits, `_` or `-` (no dots, blanks or control characters), \
+                 e.g. `name: \"shadows\"`"
+                    .into(),
+            );
+        }
         if let Some(&first) = index_of.get(n.name.as_str()) {
             let f = p.loc(p.node_src(first).name);
-            diag(
+            r.add(
                 DiagnosticKind::DuplicateNode,
                 src.name,
                 format!(
@@ -415,16 +605,19 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     let mut validated_params: Vec<BTreeMap<String, ParamValue>> = Vec::new();
 
     for (i, n) in pl.nodes.iter().enumerate() {
+        if r.full() {
+            break;
+        }
         let src = p.node_src(i);
         let kind = reg.get(&n.kind);
         if kind.is_none() {
             let names = by_closeness(&n.kind, reg.names());
             let closest = did_you_mean(&n.kind, &names);
-            diag(
+            r.add(
                 DiagnosticKind::UnknownNodeKind,
                 src.kind,
                 format!("node `{}` has unknown kind `{}`", n.name, n.kind),
-                format!("{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)", names.join(", ")),
+                format!("{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)", list_some(&names)),
             );
         }
 
@@ -436,9 +629,12 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             .collect();
         let mut seen: HashSet<&str> = HashSet::new();
         for (j, (key, raw)) in n.params.iter().enumerate() {
+            if r.full() {
+                break;
+            }
             let pos = src.params.get(j).copied().or(src.tuple_pos());
             if !seen.insert(key) {
-                diag(
+                r.add(
                     DiagnosticKind::DuplicateParam,
                     pos,
                     format!("parameter `{key}` of node `{}` is given twice", n.name),
@@ -450,7 +646,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             let Some(decl) = decls.iter().find(|d| d.name == key) else {
                 let names = by_closeness(key, decls.iter().map(|d| d.name));
                 let closest = did_you_mean(key, &names);
-                diag(
+                r.add(
                     DiagnosticKind::UnknownParam,
                     pos,
                     format!(
@@ -477,7 +673,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                     } else {
                         DiagnosticKind::ParamType
                     };
-                    diag(
+                    r.add(
                         kind,
                         pos,
                         format!("invalid parameter `{key}` of node `{}`", n.name),
@@ -499,13 +695,16 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         let in_decls = kind.map(|k| k.inputs()).unwrap_or_default();
         let mut seen: HashMap<&str, usize> = HashMap::new();
         for (j, (port, reference)) in n.inputs.iter().enumerate() {
+            if r.full() {
+                break;
+            }
             let (kpos, vpos) = src
                 .inputs
                 .get(j)
                 .map(|&(k, v)| (Some(k), Some(v)))
                 .unwrap_or((src.tuple_pos(), src.tuple_pos()));
             if let Some(&first) = seen.get(port.as_str()) {
-                diag(
+                r.add(
                     DiagnosticKind::TwoProducers,
                     kpos,
                     format!(
@@ -523,7 +722,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                     None => {
                         let names = by_closeness(port, in_decls.iter().map(|d| d.name));
                         let closest = did_you_mean(port, &names);
-                        diag(
+                        r.add(
                             DiagnosticKind::UnknownInputPort,
                             kpos,
                             format!(
@@ -550,7 +749,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                     .filter(|o| !o.is_empty())
                     .map(|o| format!(" (here: {})", o.join(", ")))
                     .unwrap_or_default();
-                diag(
+                r.add(
                     DiagnosticKind::BadReference,
                     vpos,
                     format!("`{reference}` is not a reference to an output"),
@@ -561,11 +760,11 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             let Some(&pi) = index_of.get(pnode) else {
                 let names = by_closeness(pnode, pl.nodes.iter().map(|n| n.name.as_str()));
                 let closest = did_you_mean(pnode, &names);
-                diag(
+                r.add(
                     DiagnosticKind::UnknownNode,
                     vpos,
                     format!("input `{port}` of node `{}` refers to node `{pnode}`, which does not exist", n.name),
-                    format!("{closest}nodes in this pipeline: {}", names.join(", ")),
+                    format!("{closest}nodes in this pipeline: {}", list_some(&names)),
                 );
                 continue;
             };
@@ -577,7 +776,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             let Some(out) = outs.iter().find(|o| o.name == pport) else {
                 let names = by_closeness(pport, outs.iter().map(|o| o.name));
                 let closest = did_you_mean(pport, &names);
-                diag(
+                r.add(
                     DiagnosticKind::UnknownOutputPort,
                     vpos,
                     format!(
@@ -604,7 +803,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                     } else {
                         format!(" ({pnode} has: {})", same.join(", "))
                     };
-                    diag(
+                    r.add(
                         DiagnosticKind::FormatConflict,
                         vpos,
                         format!(
@@ -625,6 +824,9 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 .iter()
                 .filter(|d| !d.optional && !seen.contains_key(d.name))
             {
+                if r.full() {
+                    break;
+                }
                 let candidates: Vec<String> = pl
                     .nodes
                     .iter()
@@ -642,9 +844,9 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 let hint = if candidates.is_empty() {
                     format!("add a node with a {} output", d.format)
                 } else {
-                    format!("candidates: {}", candidates.join(", "))
+                    format!("candidates: {}", list_some(&candidates))
                 };
-                diag(
+                r.add(
                     DiagnosticKind::MissingProducer,
                     src.name.or(src.tuple_pos()),
                     format!(
@@ -674,7 +876,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             .into_iter()
             .filter(|n| reg.get(n).is_some_and(|k| k.is_sink()))
             .collect();
-        diag(
+        r.add(
             DiagnosticKind::NoSink,
             p.map.nodes_key,
             "the pipeline has no sink, so nothing would be computed".into(),
@@ -692,6 +894,9 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         succ[*pidx].push((*c, pport.clone(), cport.clone()));
     }
     for cycle in find_cycles(&succ) {
+        if r.full() {
+            break;
+        }
         let path: Vec<String> = cycle
             .iter()
             .map(|(from, out, to, inp)| {
@@ -702,7 +907,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             })
             .collect();
         let first = cycle[0].0;
-        diag(
+        r.add(
             DiagnosticKind::Cycle,
             p.node_src(first).name.or(p.node_src(first).tuple_pos()),
             format!("the wiring has a cycle: {}", path.join(", ")),
@@ -710,7 +915,8 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         );
     }
 
-    if !diags.is_empty() {
+    if !r.list.is_empty() {
+        let mut diags = r.list;
         // File order; the sort is stable, so problems at one token keep their discovery order.
         diags.sort_by_key(|d| (d.location.line, d.location.col));
         return Err(GraphError::Invalid(diags));

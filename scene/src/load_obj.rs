@@ -81,10 +81,12 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     let material_loader = |mtl: &Path| -> tobj::MTLLoadResult {
         let by = format!("mtllib {}", mtl.display());
         mtl_names.borrow_mut().push(mtl.display().to_string());
+        let mtl_path = crate::resource::parent_dir(path).join(mtl);
         let loaded = res.read_referenced(path, mtl, &by).and_then(|b| {
+            check_mtl_colours(&mtl_path, &b)?;
             tobj::load_mtl_buf(&mut Cursor::new(b)).map_err(|e| {
                 SceneError::invalid(
-                    &crate::resource::parent_dir(path).join(mtl),
+                    &mtl_path,
                     format!(
                         "not a valid MTL material library ({e}; referenced by {} {by})",
                         path.display()
@@ -328,4 +330,22 @@ mod tests {
         assert_eq!(scan.triangles, 4);
         assert_eq!(scan.usemtl, vec![("a".to_string(), 3), ("b".to_string(), 5)]);
     }
+}
+
+/// tobj 4.0 panics (an `unwrap` in its `parse_float3`) on a colour line with fewer than three
+/// numbers, e.g. `Ks 0.2` (found by fuzzing), so such lines are refused here first, by line number.
+fn check_mtl_colours(mtl: &Path, bytes: &[u8]) -> Result<(), SceneError> {
+    for (n, line) in String::from_utf8_lossy(bytes).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() else { continue };
+        let given = words.count();
+        if given < 3 {
+            return Err(SceneError::invalid(
+                mtl,
+                format!("line {}: `{key}` has {given} value(s) but needs three (r g b)", n + 1),
+                format!("write the colour as `{key} r g b`, e.g. `{key} 0.2 0.2 0.2`"),
+            ));
+        }
+    }
+    Ok(())
 }
