@@ -236,6 +236,14 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
     for w in &session.scene.warnings {
         eprintln!("warning: {w}");
     }
+    if session.scene.lights.is_empty() {
+        // Not an error: an AO pipeline needs no light. But direct and indirect light will be black.
+        eprintln!(
+            "warning: scene `{}` has no area light (no emissive triangles): light sampling adds nothing, so only \
+             emission and ambient occlusion show; add an emissive material or use a scene with a light",
+            session.scene.name
+        );
+    }
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
     check_memory(session, mode, common.memory_limit)?;
     let bars = Bars::default();

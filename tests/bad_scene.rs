@@ -98,3 +98,22 @@ fn a_scene_without_lights_says_so() {
     assert!(err.contains("add an emissive material"), "{err}");
     assert!(!err.contains("pick 0.."), "{err}");
 }
+
+/// A command that samples every light (`reference`) renders a light-less scene, but warns that direct
+/// and indirect light are black instead of exiting 0 in silence.
+#[test]
+fn sampling_every_light_of_a_scene_without_lights_warns() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("dark.obj");
+    std::fs::write(&obj, "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
+    let out = dir.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_wedge"))
+        .args(["reference", "--spp", "4", "--width", "16", "--height", "12", "--scene", obj.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap()])
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("has no area light (no emissive triangles): light sampling adds nothing"), "{err}");
+}
