@@ -53,6 +53,11 @@ struct Common {
     /// Let the scene file read buffers, textures and meshes outside its own directory.
     #[arg(long)]
     allow_outside_scene_dir: bool,
+    /// With --backend wgpu: `adapter` (the device's own limits) or `webgpu` (wgpu's
+    /// Limits::default(), 8 storage buffers per stage: checks that every kernel runs on any WebGPU
+    /// device). Default: the WEDGE_WGPU_LIMITS environment variable, else `adapter`.
+    #[arg(long, value_parser = ["adapter", "webgpu"])]
+    gpu_limits: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -127,6 +132,9 @@ enum Command {
         /// As for `render`; parity holds CPU and GPU copies of the buffers.
         #[arg(long, value_name = "SIZE", value_parser = parse_size)]
         memory_limit: Option<u64>,
+        /// As for `render`: `adapter` or `webgpu` (WebGPU's default limits).
+        #[arg(long, value_parser = ["adapter", "webgpu"])]
+        gpu_limits: Option<String>,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes).
     Graph {
@@ -248,7 +256,7 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
     check_memory(session, mode, common.memory_limit)?;
     let bars = Bars::default();
     let (run, note) = match common.backend.as_str() {
-        "wgpu" => run_wgpu(session, &bars)?,
+        "wgpu" => run_wgpu(session, &bars, common.gpu_limits.as_deref())?,
         _ => (with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??, None),
     };
     let written = write_run(&common.out, stem, &run, session.width, session.height)?;
@@ -263,8 +271,23 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
     Ok(text)
 }
 
-fn run_wgpu(session: &Session, bars: &Bars) -> Result<(wedge::backends::RunResult, Option<String>), WedgeError> {
-    let mut gpu = wedge::backends::gpu::GpuBackend::new()?;
+/// The wgpu backend with the limits `--gpu-limits` names (None: the library's default, which reads
+/// `WEDGE_WGPU_LIMITS`).
+fn open_gpu(limits: Option<&str>) -> Result<wedge::backends::gpu::GpuBackend, WedgeError> {
+    use wedge::backends::gpu::{GpuBackend, LimitsChoice};
+    Ok(match limits {
+        None => GpuBackend::new()?,
+        Some("webgpu") => GpuBackend::open(LimitsChoice::WebGpuDefault)?,
+        Some(_) => GpuBackend::open(LimitsChoice::Adapter)?,
+    })
+}
+
+fn run_wgpu(
+    session: &Session,
+    bars: &Bars,
+    limits: Option<&str>,
+) -> Result<(wedge::backends::RunResult, Option<String>), WedgeError> {
+    let mut gpu = open_gpu(limits)?;
     eprintln!("wgpu adapter: {}", gpu.adapter_description());
     let run = session.run(&mut gpu, bars)?;
     let mut note = format!(
@@ -280,14 +303,27 @@ fn run_wgpu(session: &Session, bars: &Bars) -> Result<(wedge::backends::RunResul
             split.join(", ")
         ));
     }
+    let packed: Vec<&str> = gpu
+        .last_plans
+        .iter()
+        .filter(|(_, plan)| *plan == wedge::backends::gpu::shaders::BindingPlan::Packed)
+        .map(|(p, _)| p.as_str())
+        .collect();
+    if !packed.is_empty() {
+        note.push_str(&format!(
+            "passes bound packed (more buffers than the device's {} storage buffers per stage): {}\n",
+            gpu.limits().max_storage_buffers_per_shader_stage,
+            packed.join(", ")
+        ));
+    }
     if gpu.is_software() {
         note.push_str("note: this adapter is a CPU emulation (lavapipe/llvmpipe); its times say nothing about a GPU\n");
     }
     Ok((run, Some(note)))
 }
 
-fn parity(session: &Session) -> Result<(String, bool), WedgeError> {
-    let mut gpu = wedge::backends::gpu::GpuBackend::new()?;
+fn parity(session: &Session, limits: Option<&str>) -> Result<(String, bool), WedgeError> {
+    let mut gpu = open_gpu(limits)?;
     let job = wedge::backends::Job {
         schedule: &session.schedule,
         scene: &session.scene,
@@ -341,7 +377,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             render(&session, &common, "reference")
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
-        Command::Parity { pipeline, scene, width, height, seed, set, memory_limit } => {
+        Command::Parity { pipeline, scene, width, height, seed, set, memory_limit, gpu_limits } => {
             let ov = Overrides {
                 scene,
                 width: Some(width),
@@ -353,7 +389,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             };
             let session = Session::open(pipeline.as_deref(), &ov)?;
             check_memory(&session, RunMode::Parity, memory_limit)?;
-            let (table, ok) = parity(&session)?;
+            let (table, ok) = parity(&session, gpu_limits.as_deref())?;
             if ok {
                 Ok(table)
             } else {

@@ -563,3 +563,34 @@ fn kernel_without_wgsl_is_a_clear_error() {
     println!("{e}");
     assert!(e.to_string().contains("test.broken"), "{e}");
 }
+
+/// `--gpu-limits webgpu` opens the device with WebGPU's default limits from the command line: the
+/// render says which passes were bound packed (indirect.sample needs 12 storage buffers against 8)
+/// and `wedge parity` still passes.
+#[test]
+fn cli_gpu_limits_webgpu_packs_and_keeps_parity() {
+    if gpu_or_skip("cli_gpu_limits_webgpu_packs_and_keeps_parity").is_none() {
+        return;
+    }
+    let out = tempfile::tempdir().unwrap();
+    let wedge = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_wedge"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    };
+    let o = wedge(&[
+        "render", "pipelines/indirect.ron", "--backend", "wgpu", "--gpu-limits", "webgpu", "--width", "16", "--height",
+        "12", "--out", out.path().to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{text}");
+    assert!(
+        text.contains("passes bound packed (more buffers than the device's 8 storage buffers per stage): indirect.sample_initial, indirect.sample_adaptive"),
+        "{text}"
+    );
+    let o = wedge(&["parity", "pipelines/indirect.ron", "--gpu-limits", "webgpu", "--width", "16", "--height", "12"]);
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && text.contains("parity: ok"), "{text}");
+}
