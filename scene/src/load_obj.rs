@@ -319,19 +319,6 @@ fn load_texture_cached(
     Ok(i)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::prescan;
-
-    #[test]
-    fn prescan_bounds_triangles_and_lists_usemtl_lines() {
-        let scan = prescan(b"v 0 0 0\nf 1 2 3\nusemtl a\nf 1 2 3 4 5\r\nusemtl b\nusemtl a\nf 1 2\n");
-        // 1 + 3 (fan of a pentagon) + 0 (a two-vertex face makes none).
-        assert_eq!(scan.triangles, 4);
-        assert_eq!(scan.usemtl, vec![("a".to_string(), 3), ("b".to_string(), 5)]);
-    }
-}
-
 /// tobj 4.0 panics (an `unwrap` in its `parse_float3`) on a colour line with fewer than three
 /// numbers, e.g. `Ks 0.2` (found by fuzzing), so such lines are refused here first, by line number.
 fn check_mtl_colours(mtl: &Path, bytes: &[u8]) -> Result<(), SceneError> {
@@ -348,4 +335,17 @@ fn check_mtl_colours(mtl: &Path, bytes: &[u8]) -> Result<(), SceneError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::prescan;
+
+    #[test]
+    fn prescan_bounds_triangles_and_lists_usemtl_lines() {
+        let scan = prescan(b"v 0 0 0\nf 1 2 3\nusemtl a\nf 1 2 3 4 5\r\nusemtl b\nusemtl a\nf 1 2\n");
+        // 1 + 3 (fan of a pentagon) + 0 (a two-vertex face makes none).
+        assert_eq!(scan.triangles, 4);
+        assert_eq!(scan.usemtl, vec![("a".to_string(), 3), ("b".to_string(), 5)]);
+    }
 }
