@@ -412,9 +412,10 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
         }
         Command::Graph { pipeline, dot } => {
             let loaded = wedge::session::load_pipeline_or_default(pipeline.as_deref())?;
-            let (nodes, _) = wedge::effects::builtin();
+            let (nodes, kernels) = wedge::effects::builtin();
             let validated = wedge::graph::validate(&loaded, &nodes)?;
             let sched = wedge::graph::schedule(wedge::graph::expand(&validated)?)?;
+            kernels.check_schedule(&sched)?;
             Ok(if dot { sched.to_dot() } else { sched.table() + &memory_line(&sched, loaded.pipeline.width, loaded.pipeline.height) })
         }
     }

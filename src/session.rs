@@ -123,6 +123,7 @@ impl Session {
         let mut pipeline = validate(&loaded, &nodes)?;
         apply_param_overrides(&mut pipeline, ov)?;
         let schedule = schedule(expand(&pipeline)?)?;
+        kernels.check_schedule(&schedule)?;
         let source = scene_source(&pipeline, ov.scene.as_deref());
         let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
         let mut scene = wedge_scene::load_with(&source, &scene_opts)?;

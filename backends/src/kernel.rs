@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use rayon::prelude::*;
-use wedge_graph::{Format, ParamValue};
+use wedge_graph::{Format, ParamValue, Pass, Schedule};
 use wedge_scene::Scene;
 
 use crate::buffer::{BufferData, Texel};
@@ -289,6 +289,66 @@ pub struct KernelRegistry {
 }
 
 impl KernelRegistry {
+    /// Check a pass against its kernel's signature (its first problem; see [`Self::pass_problems`]).
+    pub fn check_pass(&self, schedule: &Schedule, pass: &Pass) -> Result<(), BackendError> {
+        self.pass_problems(schedule, pass).into_iter().next().map_or(Ok(()), Err)
+    }
+
+    /// Everything wrong with a pass against its kernel's signature: the kernel is not registered, a
+    /// bound buffer is not declared by the kernel with that access, or has another format, or a
+    /// required binding is not bound.
+    pub fn pass_problems(&self, schedule: &Schedule, pass: &Pass) -> Vec<BackendError> {
+        let Some(kernel) = self.get(&pass.kernel) else {
+            return vec![BackendError::UnknownKernel {
+                pass: pass.name.clone(),
+                kernel: pass.kernel.clone(),
+                known: self.names().collect::<Vec<_>>().join(", "),
+            }];
+        };
+        let decls = kernel.bindings();
+        let berr = |binding: &str, message: String| BackendError::Binding {
+            pass: pass.name.clone(),
+            binding: binding.to_string(),
+            message,
+        };
+        let mut problems = Vec::new();
+        for (list, access) in [(&pass.reads, Access::Read), (&pass.writes, Access::Write)] {
+            for (name, id) in list {
+                match decls.iter().find(|d| d.name == name && d.access == access) {
+                    None => problems.push(berr(name, format!("is not declared by kernel `{}` as a {access:?}", pass.kernel))),
+                    Some(d) => {
+                        let f = schedule.buffers[id.0].format;
+                        if f != d.format {
+                            problems.push(berr(name, format!("is bound to a {f} buffer but the kernel declares {}", d.format)));
+                        }
+                    }
+                }
+            }
+        }
+        for d in decls.iter().filter(|d| !d.optional) {
+            let bound = match d.access {
+                Access::Read => pass.read(d.name).is_some(),
+                Access::Write => pass.write(d.name).is_some(),
+            };
+            if !bound {
+                problems.push(berr(d.name, format!("is required by kernel `{}` but not bound", pass.kernel)));
+            }
+        }
+        problems
+    }
+
+    /// Check every pass of a schedule against its kernel's signature before anything runs, so a
+    /// node that binds a kernel wrongly (a user's node, say) fails at `wedge graph` / session time
+    /// with every problem listed, not at the first pass that reaches the backend.
+    pub fn check_schedule(&self, schedule: &Schedule) -> Result<(), BackendError> {
+        let problems: Vec<String> =
+            schedule.passes.iter().flat_map(|p| self.pass_problems(schedule, p)).map(|e| e.to_string()).collect();
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(BackendError::Signatures { problems })
+        }
+    }
     pub fn new() -> Self {
         Self::default()
     }

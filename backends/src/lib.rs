@@ -38,6 +38,9 @@ pub enum BackendError {
     UnknownKernel { pass: String, kernel: String, known: String },
     #[error("pass `{pass}`: binding `{binding}` {message}")]
     Binding { pass: String, binding: String, message: String },
+    /// Passes that do not match their kernels' declared signatures, all of them.
+    #[error("{} binding problem(s): passes do not match their kernel's bindings:\n  - {}\nfix the node's `expand` (binding names, read/write, formats) or the kernel's `bindings()`", problems.len(), problems.join("\n  - "))]
+    Signatures { problems: Vec<String> },
     #[error("{0}")]
     Other(String),
     /// The wgpu backend failed: no adapter, shader validation, device lost, out of memory, a limit.

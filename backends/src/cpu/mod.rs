@@ -7,7 +7,7 @@ use std::time::Instant;
 use wedge_graph::{BufferId, Pass};
 
 use crate::buffer::BufferData;
-use crate::kernel::{Access, Counters, KernelCtx};
+use crate::kernel::{Counters, KernelCtx};
 use crate::{Backend, BackendError, Job, PassTiming, RunResult};
 
 #[derive(Default)]
@@ -19,42 +19,10 @@ impl CpuBackend {
     }
 }
 
-/// Check a pass's bindings against its kernel's declaration: every required binding is bound, no
-/// undeclared one is, and formats agree. Shared by every backend so they reject the same passes.
+/// Check a pass's bindings against its kernel's declaration (see [`KernelRegistry::check_pass`]);
+/// every backend calls it so they reject the same passes.
 pub fn check_bindings(job: &Job<'_>, pass: &Pass) -> Result<(), BackendError> {
-    let kernel = job.kernels.get(&pass.kernel).ok_or_else(|| BackendError::UnknownKernel {
-        pass: pass.name.clone(),
-        kernel: pass.kernel.clone(),
-        known: job.kernels.names().collect::<Vec<_>>().join(", "),
-    })?;
-    let decls = kernel.bindings();
-    let berr = |binding: &str, message: String| BackendError::Binding {
-        pass: pass.name.clone(),
-        binding: binding.to_string(),
-        message,
-    };
-    for (list, access) in [(&pass.reads, Access::Read), (&pass.writes, Access::Write)] {
-        for (name, id) in list {
-            let d = decls
-                .iter()
-                .find(|d| d.name == name && d.access == access)
-                .ok_or_else(|| berr(name, format!("is not declared by kernel `{}` as a {access:?}", pass.kernel)))?;
-            let f = job.schedule.buffers[id.0].format;
-            if f != d.format {
-                return Err(berr(name, format!("is bound to a {f} buffer but the kernel declares {}", d.format)));
-            }
-        }
-    }
-    for d in decls.iter().filter(|d| !d.optional) {
-        let bound = match d.access {
-            Access::Read => pass.read(d.name).is_some(),
-            Access::Write => pass.write(d.name).is_some(),
-        };
-        if !bound {
-            return Err(berr(d.name, format!("is required by kernel `{}` but not bound", pass.kernel)));
-        }
-    }
-    Ok(())
+    job.kernels.check_pass(job.schedule, pass)
 }
 
 /// Run one pass on the CPU with the given input buffers; returns its outputs by binding name. The

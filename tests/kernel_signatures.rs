@@ -1,0 +1,72 @@
+//! A node's passes are checked against their kernels' declared bindings when the session is built
+//! (before the scene is traced or any buffer allocated), and every mismatch is reported at once.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use wedge::graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl};
+
+/// Runs `compose.modulate` (reads `value: vec4`, optional `albedo`/`emission: vec3`, writes
+/// `out: vec3`) with three mistakes: `value` bound to a vec3 buffer, an undeclared `tint` read, and a
+/// second pass that never binds the required `out`.
+struct Miswired;
+
+impl NodeKind for Miswired {
+    fn kind(&self) -> &'static str {
+        "Miswired"
+    }
+    fn doc(&self) -> &'static str {
+        "a node whose passes do not match compose.modulate's signature"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("albedo", Format::Vec3, "albedo"), PortDecl::new("position", Format::Vec4, "position")]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("color", Format::Vec3, "colour"), PortDecl::new("extra", Format::Vec3, "colour")]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        Vec::new()
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let albedo = ctx.required("albedo")?;
+        let out = ctx.buffer("color", Format::Vec3);
+        ctx.pass("wrong", "compose.modulate").read("value", albedo).read("tint", albedo).write("out", out).finish();
+        let position = ctx.required("position")?;
+        let other = ctx.buffer("extra", Format::Vec3);
+        ctx.pass("fill", "compose.modulate").read("value", position).write("spare", other).finish();
+        ctx.output("color", out);
+        ctx.output("extra", other);
+        Ok(())
+    }
+}
+
+const PIPELINE: &str = r#"Pipeline(
+    scene: "builtin:grids", width: 16, height: 12, seed: 1,
+    nodes: [
+        (name: "primary", kind: "Primary"),
+        (name: "bad", kind: "Miswired", inputs: {"albedo": "primary.albedo", "position": "primary.position"}),
+        (name: "out", kind: "Output", inputs: {"color": "bad.color", "unfiltered": "bad.extra"}),
+    ],
+)"#;
+
+#[test]
+fn every_binding_mismatch_is_reported_before_anything_runs() {
+    let (mut nodes, kernels) = wedge::effects::builtin();
+    nodes.register(Arc::new(Miswired));
+    let loaded = wedge::graph::parse_pipeline(Path::new("miswired.ron"), PIPELINE).unwrap();
+    let err = match wedge::Session::build(loaded, &Default::default(), nodes, kernels) {
+        Ok(_) => panic!("a miswired node built a session"),
+        Err(e) => e.to_string(),
+    };
+    println!("{err}");
+    for line in [
+        "4 binding problem(s): passes do not match their kernel's bindings",
+        "pass `bad.wrong`: binding `value` is bound to a vec3<f32> buffer but the kernel declares vec4<f32>",
+        "pass `bad.wrong`: binding `tint` is not declared by kernel `compose.modulate` as a Read",
+        "pass `bad.fill`: binding `spare` is not declared by kernel `compose.modulate` as a Write",
+        "pass `bad.fill`: binding `out` is required by kernel `compose.modulate` but not bound",
+    ] {
+        assert!(err.contains(line), "missing {line:?} in\n{err}");
+    }
+    assert!(err.contains("fix the node's `expand`"), "{err}");
+}
