@@ -107,27 +107,6 @@ pub fn gltf_buffer() -> Vec<u8> {
     b
 }
 
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in data.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
 const BUFFER_VIEWS: &str = r#"[
     {"buffer": 0, "byteOffset": 0, "byteLength": 72},
     {"buffer": 0, "byteOffset": 72, "byteLength": 48, "byteStride": 12},
@@ -154,7 +133,7 @@ fn gltf_scenes() -> Vec<String> {
     let buffer = gltf_buffer();
     let data_uri = format!(
         r#""uri": "data:application/octet-stream;base64,{}""#,
-        base64(&buffer)
+        base64::encode(&buffer)
     );
     let doc = |uri: &str, body: &str| {
         let comma = if uri.is_empty() { "" } else { ", " };

@@ -473,27 +473,6 @@ fn heavy_build_timing() {
     println!("heavy: 4800 primary rays in {:?} ({n} hits)", t0.elapsed());
 }
 
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in data.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
 #[test]
 fn gltf_two_triangles_emissive_quad_and_camera() {
     let dir = temp_dir("gltf");
@@ -549,7 +528,7 @@ fn gltf_two_triangles_emissive_quad_and_camera() {
   ]
 }}"#,
         len = buf.len(),
-        b64 = base64(&buf)
+        b64 = base64::encode(&buf)
     );
     let path = dir.join("tiny.gltf");
     std::fs::write(&path, json).unwrap();
