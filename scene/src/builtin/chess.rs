@@ -1,33 +1,38 @@
 //! `chess`: a built-in scene in the spirit of the thesis's CHESS (Mehta, Ch. 5, Fig. 5.1), the test
 //! scene for defocus blur combined with soft shadows and indirect light.
 //!
-//! - **Ground**: a checkerboard of [`SQUARE`] = 15 cm squares (dark 0.1, light 0.9, tinted warm) covering
-//!   8 × 11 m, seen at a grazing angle (the camera is 0.9 m up, pitched 16° down) so one high-contrast
-//!   texture spans every depth from the bottom of the frame (≈ 1.3 m) to the back wall (≈ 11 m): in focus
-//!   it shows texture the filters must keep, out of focus it is the detail defocus must blur away.
-//! - **Pieces**: nine turned (lathe) pieces — pawns, rooks, bishops, a queen and kings, 22–44 cm tall —
-//!   on square centres at depths along the camera axis of ≈ 1.6–1.8 m (in front of focus), ≈ 2.5–2.7 m
-//!   (at focus) and ≈ 3.8–6 m (beyond). Ivory pieces are diffuse; ebony pieces are glossy (Phong
-//!   k_s = 0.45, m = 40) and one lacquered ivory queen is mildly glossy (k_s = 0.3, m = 12), so direct and
+//! - **Ground**: a checkerboard of [`SQUARE`] = 20 cm squares (dark 0.1, light 0.9, tinted warm) covering
+//!   12 × 11 m, seen at a grazing angle (the camera is 0.9 m up, pitched 18° down) so one high-contrast
+//!   texture spans every depth from the bottom of the frame (≈ 1.55 m) to the back wall (≈ 10.7 m): in
+//!   focus a square is ≈ 16 px wide at 160×120 and shows texture the filters must keep; out of focus it is
+//!   the detail defocus must blur away.
+//! - **Pieces**: nine turned (lathe) pieces — pawns, rooks, bishops, a queen and kings, 0.28–0.55 m
+//!   tall — on square centres at depths along the camera axis of 1.66–1.82 m (in front of focus),
+//!   2.57–2.61 m (at focus) and 3.75–5.46 m (beyond). Ivory pieces are diffuse; ebony pieces are glossy (Phong
+//!   k_s = 0.45, m = 40) and one lacquered ivory rook is mildly glossy (k_s = 0.3, m = 12), so direct and
 //!   indirect glossy terms both appear (thesis eq. 5.20 folds the Phong factor into k). Materials of
 //!   pieces are named `piece ...`.
-//! - **Light**: one 0.9 × 0.9 m rectangle 2.4 m up, left of and behind the focus group, facing down,
-//!   out of view; its shadows fall forward and to the right, with penumbrae of several centimetres.
+//! - **Light**: one 0.9 × 0.9 m rectangle 1.7 m up, about 2 m left of the focus group at its depth,
+//!   facing down and out of view; it lights the faces the camera sees from the side, and the pieces'
+//!   soft shadows fall sideways across the board.
 //! - **Back wall**: a diffuse grey wall closing the far end, so the top of the frame is lit surface
 //!   rather than black, and indirect light has something to bounce from.
-//! - **Camera**: position (0, 0.9, 3.2), looking down the −z axis pitched 16° down, vertical fov 40°,
-//!   `look_at` on the axis at [`FOCUS_DISTANCE`]. The scene's camera is a pinhole (`aperture_radius` 0, so
-//!   pipelines without a Defocus node render it sharp); its `focus_distance` is [`FOCUS_DISTANCE`].
+//! - **Camera**: [`CAMERA_POSITION`] (0, 0.9, 3.2), looking down the −z axis pitched [`CAMERA_PITCH_DEG`]
+//!   = 18° down, vertical fov [`CAMERA_VFOV_DEG`] = 32°, `look_at` on the axis at [`FOCUS_DISTANCE`]. The
+//!   scene's camera is a pinhole (`aperture_radius` 0, so pipelines without a Defocus node render it
+//!   sharp); its `focus_distance` is [`FOCUS_DISTANCE`].
 //!
 //! **Recommended lens** for defocus pipelines (`pipelines/defocus*.ron`): `focus_distance` =
 //! [`FOCUS_DISTANCE`] = 2.6 m (the focus group: king, queen, rook), `aperture_radius` =
-//! [`APERTURE_RADIUS`] = 0.05 m. The circle of confusion (thesis eq. 5.2, radius in pixels
-//! `r = A·H/(2 f tan(fov/2)) · |f/z − 1|` for aperture radius A, image height H, focus f, depth z) is then
-//! about 0.2 px at the focus group's depths, 6–9 px on the near pieces and 5–9 px on the far pieces and
-//! up to ≈ 9 px on the back of the ground at 640×480 (a quarter of that at 160×120), within the thesis's
-//! range of defocus blur.
+//! [`APERTURE_RADIUS`] = 0.05 m. In a pipeline's camera block:
+//! `camera: Some((position: (0.0, 0.9, 3.2), look_at: (0.0, 0.0966, 0.7273), up: (0.0, 1.0, 0.0), vfov_deg:
+//! 32.0, aperture_radius: 0.05, focus_distance: Some(2.6)))`. The circle of confusion (thesis eq. 5.2, radius in
+//! pixels `r = A·H/(2 f tan(fov/2)) · |f/z − 1|` for aperture radius A, image height H, focus f, axis
+//! depth z; 12.7 px · |f/z − 1| at 640×480) is then below 0.25 px on the focus group, 7–9 px on the near
+//! pieces, about 5–8.5 px on the far pieces and ≈ 12 px at the back of the board (a quarter of that at
+//! 160×120) — `scene/tests/chess.rs` asserts these ranges.
 //!
-//! About 26k triangles (the thesis's CHESS has 21k), so it renders quickly at test sizes.
+//! 17.4k triangles (the thesis's CHESS has 21k), so it renders in about a second at 320×240.
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -168,9 +173,9 @@ pub(crate) fn chess() -> SceneData {
         },
         false,
     );
-    // Ground: x ∈ [−4, 4] m, z ∈ [−8, 3] m; uv = position / (16 squares) so texel (0,0)'s square starts at
+    // Ground: x ∈ [−6, 6] m, z ∈ [−8, 3] m (wide enough to fill the frame at the back wall); uv = position / (16 squares) so texel (0,0)'s square starts at
     // the origin and squares line up with the pieces' grid.
-    let (x0, x1, z0, z1) = (-4.0f32, 4.0f32, -8.0f32, 3.0f32);
+    let (x0, x1, z0, z1) = (-6.0f32, 6.0f32, -8.0f32, 3.0f32);
     let p = [Vec3::new(x0, 0.0, z1), Vec3::new(x1, 0.0, z1), Vec3::new(x1, 0.0, z0), Vec3::new(x0, 0.0, z0)];
     let per_metre = 1.0 / (SQUARES_PER_TEXTURE as f32 * SQUARE);
     add_rect(&mut d, p, Vec3::Y, p.map(|q| Vec2::new(q.x, q.z) * per_metre), board);

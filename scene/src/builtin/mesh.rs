@@ -219,3 +219,69 @@ pub(crate) fn lathe(d: &mut SceneData, xf: Mat4, profile: &[Vec2], slices: u32, 
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Signed volume by the divergence theorem: positive when every triangle winds outward.
+    fn signed_volume(d: &SceneData) -> f32 {
+        d.tris.iter().map(|(a, b, c, _)| a.dot(b.cross(*c)) / 6.0).sum()
+    }
+
+    #[test]
+    fn lathe_of_a_rectangle_is_a_closed_outward_prism_with_creased_caps() {
+        let mut d = SceneData::default();
+        let (r, h, n) = (0.5f32, 2.0f32, 12u32);
+        let profile = [Vec2::new(0.0, 0.0), Vec2::new(r, 0.0), Vec2::new(r, h), Vec2::new(0.0, h)];
+        lathe(&mut d, Mat4::IDENTITY, &profile, n, 0, 0);
+        // Bottom and top: one triangle per slice (the other of each quad has zero area); side: two.
+        assert_eq!(d.tris.len(), 4 * n as usize);
+        // An n-gon prism: (n/2) r² sin(2π/n) · h, positive because every face winds outward.
+        let expect = 0.5 * n as f32 * r * r * (TAU / n as f32).sin() * h;
+        assert!((signed_volume(&d) - expect).abs() < 1e-5 * expect, "{} vs {expect}", signed_volume(&d));
+        for (a, b, c, s) in &d.tris {
+            let g = (*b - *a).cross(*c - *a).normalize();
+            let centre = (*a + *b + *c) / 3.0;
+            let expect_n = if centre.y < 1e-6 {
+                -Vec3::Y
+            } else if centre.y > h - 1e-6 {
+                Vec3::Y
+            } else {
+                Vec3::new(centre.x, 0.0, centre.z).normalize()
+            };
+            // Caps meet the side at 90°: creased, so cap normals are exactly ±y and side normals radial.
+            for v in s.n {
+                assert!(v.dot(g) > 0.0);
+                if expect_n.y != 0.0 {
+                    assert!(v.abs_diff_eq(expect_n, 1e-6), "{v} vs {expect_n}");
+                } else {
+                    // Vertex normals sit on their own slice, within one slice step of the centroid.
+                    assert!(v.y.abs() < 1e-6 && v.dot(expect_n) > (TAU / n as f32).cos(), "{v}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lathe_smooths_gentle_bends_and_scales_with_its_transform() {
+        // A cone frustum on a cylinder: 10° bend, shaded smoothly (shared normal at the joint).
+        let p = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.82, 2.0), Vec2::new(0.0, 2.0)];
+        let mut d = SceneData::default();
+        lathe(&mut d, Mat4::from_scale(Vec3::splat(2.0)), &p, 16, 0, 0);
+        let at_joint: Vec<Vec3> = d
+            .tris
+            .iter()
+            .flat_map(|(a, b, c, s)| [(*a, s.n[0]), (*b, s.n[1]), (*c, s.n[2])])
+            .filter(|(pos, _)| (pos.y - 2.0).abs() < 1e-5 && pos.x > 1.9)
+            .map(|(_, n)| n)
+            .collect();
+        assert!(at_joint.len() >= 2);
+        let bend = ((1.0f32 - 0.82).atan2(1.0) * 0.5).sin(); // half the 10.2° bend
+        for n in &at_joint {
+            assert!(n.abs_diff_eq(at_joint[0], 1e-6), "joint normals differ: {n} vs {}", at_joint[0]);
+            assert!((n.y - bend).abs() < 1e-4, "{n}");
+        }
+        assert!(signed_volume(&d) > 0.0);
+    }
+}
