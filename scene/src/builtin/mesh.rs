@@ -142,7 +142,14 @@ pub(crate) fn add_sphere(
     });
 }
 
-pub(crate) fn add_torus(d: &mut SceneData, xf: Mat4, big_r: f32, small_r: f32, material: u32, object: u32) {
+pub(crate) fn add_torus(
+    d: &mut SceneData,
+    xf: Mat4,
+    big_r: f32,
+    small_r: f32,
+    material: u32,
+    object: u32,
+) {
     let nm = xf.inverse().transpose();
     parametric(d, 96, 32, material, object, |u, v| {
         let (a, b) = (u * TAU, v * TAU);
@@ -153,10 +160,16 @@ pub(crate) fn add_torus(d: &mut SceneData, xf: Mat4, big_r: f32, small_r: f32, m
     });
 }
 
-
 /// A rectangular area light with corner `corner` and edges `eu`, `ev` (two emissive triangles, which the
 /// scene merges into one `Rect` light). It emits on the side of `eu × ev` only.
-pub(crate) fn add_rect_light(d: &mut SceneData, name: &str, radiance: Vec3, corner: Vec3, eu: Vec3, ev: Vec3) {
+pub(crate) fn add_rect_light(
+    d: &mut SceneData,
+    name: &str,
+    radiance: Vec3,
+    corner: Vec3,
+    eu: Vec3,
+    ev: Vec3,
+) {
     let m = d.add_material(Material::emitter(name, radiance), false);
     let o = d.new_object();
     d.quad(corner, corner + eu, corner + eu + ev, corner + ev, m, o);
@@ -173,7 +186,14 @@ const LATHE_SMOOTH_COS: f32 = 0.766; // cos 40°
 /// skipped by [`smooth_tri`]. Each segment is shaded with normals averaged with its neighbours' where
 /// they meet at less than 40°, and creased otherwise. `slices` steps around the axis. uv = (angle/2π,
 /// point index / (points − 1)).
-pub(crate) fn lathe(d: &mut SceneData, xf: Mat4, profile: &[Vec2], slices: u32, material: u32, object: u32) {
+pub(crate) fn lathe(
+    d: &mut SceneData,
+    xf: Mat4,
+    profile: &[Vec2],
+    slices: u32,
+    material: u32,
+    object: u32,
+) {
     let segments = profile.len().saturating_sub(1);
     let slices = slices.max(3);
     let seg_normal: Vec<Vec2> = (0..segments)
@@ -185,9 +205,15 @@ pub(crate) fn lathe(d: &mut SceneData, xf: Mat4, profile: &[Vec2], slices: u32, 
     // Profile normal of segment k at its start (end = false) or end (end = true).
     let normal_at = |k: usize, end: bool| -> Vec2 {
         let own = seg_normal[k];
-        let other = if end { seg_normal.get(k + 1) } else { k.checked_sub(1).map(|j| &seg_normal[j]) };
+        let other = if end {
+            seg_normal.get(k + 1)
+        } else {
+            k.checked_sub(1).map(|j| &seg_normal[j])
+        };
         match other {
-            Some(&o) if o != Vec2::ZERO && own.dot(o) >= LATHE_SMOOTH_COS => (own + o).normalize_or_zero(),
+            Some(&o) if o != Vec2::ZERO && own.dot(o) >= LATHE_SMOOTH_COS => {
+                (own + o).normalize_or_zero()
+            }
             _ => own,
         }
     };
@@ -197,7 +223,10 @@ pub(crate) fn lathe(d: &mut SceneData, xf: Mat4, profile: &[Vec2], slices: u32, 
         let (sin, cos) = a.sin_cos();
         let pos = Vec3::new(p.x * cos, p.y, p.x * sin);
         let nrm = Vec3::new(n.x * cos, n.y, n.x * sin);
-        (xf.transform_point3(pos), nm.transform_vector3(nrm).normalize_or_zero())
+        (
+            xf.transform_point3(pos),
+            nm.transform_vector3(nrm).normalize_or_zero(),
+        )
     };
     let last = segments.max(1) as f32;
     for k in 0..segments {
@@ -207,14 +236,33 @@ pub(crate) fn lathe(d: &mut SceneData, xf: Mat4, profile: &[Vec2], slices: u32, 
         let (n0, n1) = (normal_at(k, false), normal_at(k, true));
         for s in 0..slices {
             let c = [
-                (vertex(profile[k], n0, s), Vec2::new(s as f32 / slices as f32, k as f32 / last)),
-                (vertex(profile[k], n0, s + 1), Vec2::new((s + 1) as f32 / slices as f32, k as f32 / last)),
-                (vertex(profile[k + 1], n1, s + 1), Vec2::new((s + 1) as f32 / slices as f32, (k + 1) as f32 / last)),
-                (vertex(profile[k + 1], n1, s), Vec2::new(s as f32 / slices as f32, (k + 1) as f32 / last)),
+                (
+                    vertex(profile[k], n0, s),
+                    Vec2::new(s as f32 / slices as f32, k as f32 / last),
+                ),
+                (
+                    vertex(profile[k], n0, s + 1),
+                    Vec2::new((s + 1) as f32 / slices as f32, k as f32 / last),
+                ),
+                (
+                    vertex(profile[k + 1], n1, s + 1),
+                    Vec2::new((s + 1) as f32 / slices as f32, (k + 1) as f32 / last),
+                ),
+                (
+                    vertex(profile[k + 1], n1, s),
+                    Vec2::new(s as f32 / slices as f32, (k + 1) as f32 / last),
+                ),
             ];
             for idx in [[0, 1, 2], [0, 2, 3]] {
                 let t = idx.map(|i| c[i]);
-                smooth_tri(d, t.map(|x| x.0 .0), t.map(|x| x.0 .1), t.map(|x| x.1), material, object);
+                smooth_tri(
+                    d,
+                    t.map(|x| x.0 .0),
+                    t.map(|x| x.0 .1),
+                    t.map(|x| x.1),
+                    material,
+                    object,
+                );
             }
         }
     }
@@ -226,20 +274,32 @@ mod tests {
 
     /// Signed volume by the divergence theorem: positive when every triangle winds outward.
     fn signed_volume(d: &SceneData) -> f32 {
-        d.tris.iter().map(|(a, b, c, _)| a.dot(b.cross(*c)) / 6.0).sum()
+        d.tris
+            .iter()
+            .map(|(a, b, c, _)| a.dot(b.cross(*c)) / 6.0)
+            .sum()
     }
 
     #[test]
     fn lathe_of_a_rectangle_is_a_closed_outward_prism_with_creased_caps() {
         let mut d = SceneData::default();
         let (r, h, n) = (0.5f32, 2.0f32, 12u32);
-        let profile = [Vec2::new(0.0, 0.0), Vec2::new(r, 0.0), Vec2::new(r, h), Vec2::new(0.0, h)];
+        let profile = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(r, 0.0),
+            Vec2::new(r, h),
+            Vec2::new(0.0, h),
+        ];
         lathe(&mut d, Mat4::IDENTITY, &profile, n, 0, 0);
         // Bottom and top: one triangle per slice (the other of each quad has zero area); side: two.
         assert_eq!(d.tris.len(), 4 * n as usize);
         // An n-gon prism: (n/2) r² sin(2π/n) · h, positive because every face winds outward.
         let expect = 0.5 * n as f32 * r * r * (TAU / n as f32).sin() * h;
-        assert!((signed_volume(&d) - expect).abs() < 1e-5 * expect, "{} vs {expect}", signed_volume(&d));
+        assert!(
+            (signed_volume(&d) - expect).abs() < 1e-5 * expect,
+            "{} vs {expect}",
+            signed_volume(&d)
+        );
         for (a, b, c, s) in &d.tris {
             let g = (*b - *a).cross(*c - *a).normalize();
             let centre = (*a + *b + *c) / 3.0;
@@ -257,7 +317,10 @@ mod tests {
                     assert!(v.abs_diff_eq(expect_n, 1e-6), "{v} vs {expect_n}");
                 } else {
                     // Vertex normals sit on their own slice, within one slice step of the centroid.
-                    assert!(v.y.abs() < 1e-6 && v.dot(expect_n) > (TAU / n as f32).cos(), "{v}");
+                    assert!(
+                        v.y.abs() < 1e-6 && v.dot(expect_n) > (TAU / n as f32).cos(),
+                        "{v}"
+                    );
                 }
             }
         }
@@ -266,7 +329,13 @@ mod tests {
     #[test]
     fn lathe_smooths_gentle_bends_and_scales_with_its_transform() {
         // A cone frustum on a cylinder: 10° bend, shaded smoothly (shared normal at the joint).
-        let p = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.82, 2.0), Vec2::new(0.0, 2.0)];
+        let p = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.82, 2.0),
+            Vec2::new(0.0, 2.0),
+        ];
         let mut d = SceneData::default();
         lathe(&mut d, Mat4::from_scale(Vec3::splat(2.0)), &p, 16, 0, 0);
         let at_joint: Vec<Vec3> = d
@@ -279,7 +348,11 @@ mod tests {
         assert!(at_joint.len() >= 2);
         let bend = ((1.0f32 - 0.82).atan2(1.0) * 0.5).sin(); // half the 10.2° bend
         for n in &at_joint {
-            assert!(n.abs_diff_eq(at_joint[0], 1e-6), "joint normals differ: {n} vs {}", at_joint[0]);
+            assert!(
+                n.abs_diff_eq(at_joint[0], 1e-6),
+                "joint normals differ: {n} vs {}",
+                at_joint[0]
+            );
             assert!((n.y - bend).abs() < 1e-4, "{n}");
         }
         assert!(signed_volume(&d) > 0.0);
