@@ -355,3 +355,52 @@ fn camera_rays_hit_the_outside_of_the_pieces() {
     }
     assert!(piece_hits > 1500, "{piece_hits} piece pixels at 160x120");
 }
+
+#[test]
+fn the_light_casts_soft_shadows_of_the_pieces_onto_the_board_in_view() {
+    // Fraction of the light visible from each board pixel of an 80×60 image (8×8 stratified points on
+    // the light): the pieces' shadows must show as penumbrae (partial visibility), and most of the board
+    // is fully lit.
+    let s = chess();
+    let l = &s.lights[0];
+    let (w, h) = (80u32, 60u32);
+    let (mut lit, mut penumbra, mut board_pixels) = (0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let Some((hit, sp, d)) = trace_pixel(&s, x, y, w, h) else {
+                continue;
+            };
+            if s.materials[sp.material as usize].name != "board" {
+                continue;
+            }
+            board_pixels += 1;
+            let o = s
+                .camera
+                .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO)
+                .0;
+            let start = s.surface(&hit, o, d).position + sp.geometric_normal * 1e-4;
+            let visible = (0..64)
+                .filter(|k| {
+                    let u = Vec2::new((k % 8) as f32 + 0.5, (k / 8) as f32 + 0.5) / 8.0;
+                    let to = l.sample_point(u) - start;
+                    !s.occluded(start, to.normalize(), 1e-4, to.length() * 0.999)
+                })
+                .count();
+            if visible == 64 {
+                lit += 1;
+            } else if visible > 3 {
+                penumbra += 1;
+            }
+        }
+    }
+    assert!(
+        lit * 10 > board_pixels * 8,
+        "{lit} of {board_pixels} board pixels fully lit"
+    );
+    // Soft: penumbrae (4–63 of 64 points visible) outnumber umbrae (at most 3) several times over.
+    let umbra = board_pixels - lit - penumbra;
+    assert!(
+        penumbra >= 300 && penumbra > 5 * umbra,
+        "{penumbra} penumbra, {umbra} umbra pixels"
+    );
+}
