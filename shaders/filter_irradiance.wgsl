@@ -47,11 +47,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let gi = om / ell;
     let gi2 = gi * gi;
     let xi = position_at(i).xyz;
+    // Visited window: 2-D (axis -1), or one axis of it (0: x, 1: y).
     let radius = window_radius(om, params.max_radius);
+    var rx = radius;
+    var ry = radius;
+    if (params.axis == 0) {
+        ry = 0;
+    } else if (params.axis == 1) {
+        rx = 0;
+    }
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
-    for (var dy = -radius; dy <= radius; dy = dy + 1) {
-        for (var dx = -radius; dx <= radius; dx = dx + 1) {
+    for (var dy = -ry; dy <= ry; dy = dy + 1) {
+        for (var dx = -rx; dx <= rx; dx = dx + 1) {
             let jx = xy.x + dx;
             let jy = xy.y + dy;
             if (jx < 0 || jy < 0 || jx >= width || jy >= height) {

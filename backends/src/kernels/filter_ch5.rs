@@ -1,6 +1,8 @@
-//! The two image filters of thesis Ch. 5 (Sec. 5.8, steps 3–4), 2-D (not separated: the rejection
-//! of neighbour `j` uses `j`'s own width, so no X/Y split is exact; a separable version would have to
-//! be validated against these).
+//! The two image filters of thesis Ch. 5 (Sec. 5.8, steps 3–4). The reference is 2-D (`axis = -1`,
+//! the default): the rejection of neighbour `j` uses `j`'s own width, so no X/Y split is exact. A pass
+//! with `axis = 0` or `1` runs the same weights along one image axis only; an X pass followed by a Y
+//! pass is the separable approximation, O(R) instead of O(R²) taps per pixel, validated against the
+//! 2-D filter in `tests/defocus_filters.rs` (see there for the measured difference).
 //!
 //! - `filter.irradiance` (eq. 5.31) filters factored irradiance `E` with
 //!   `w_i(j) = exp(−16 ‖λ(i) − λ(j)‖² (Ω(i)/ℓ_p(i))²)` on lens-averaged world positions `λ`, with
@@ -18,8 +20,8 @@
 //!
 //! Window: pixel `i` uses the neighbours with `w_i(j) ≥ 0.01` — its Gaussian truncated at the same
 //! threshold as the rejection, i.e. within `0.5365/Ω(i)` pixels — inside a square of half-width
-//! `ceil(0.5365/Ω(i))` capped at `max_radius` (default 16, at most 64: 33×33 = 1089 taps per
-//! pixel, short fixed loops for GL/lavapipe). For the irradiance filter the pixel bound assumes
+//! `ceil(0.5365/Ω(i))` capped at the pass's `max_radius` (at most 64; 16 suggested: 33×33 = 1089
+//! taps per pixel in 2-D, short fixed loops for GL/lavapipe). For the irradiance filter the pixel bound assumes
 //! `‖λ(i) − λ(j)‖ ≥ ℓ_p(i) |i − j|` (true on a surface facing the camera; slanted surfaces are
 //! farther apart). A cap that binds (`Ω < 0.5365/max_radius`: circles of confusion above ~30 px at
 //! the default) truncates the Gaussian there.
@@ -66,11 +68,47 @@ fn valid_width(w: f32) -> bool {
     w > 0.0 && w.is_finite()
 }
 
+/// Which neighbours a pass visits: the 2-D window, or one axis of it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    Both,
+    X,
+    Y,
+}
+
+impl Axis {
+    /// The pass parameter: -1 (or absent) 2-D, 0 along x, 1 along y.
+    pub fn from_param(v: i64) -> Option<Axis> {
+        match v {
+            -1 => Some(Axis::Both),
+            0 => Some(Axis::X),
+            1 => Some(Axis::Y),
+            _ => None,
+        }
+    }
+    pub fn code(self) -> i32 {
+        match self {
+            Axis::Both => -1,
+            Axis::X => 0,
+            Axis::Y => 1,
+        }
+    }
+    /// Half-widths `(rx, ry)` of the visited window for radius `r`.
+    pub fn extent(self, r: i32) -> (i32, i32) {
+        match self {
+            Axis::Both => (r, r),
+            Axis::X => (r, 0),
+            Axis::Y => (0, r),
+        }
+    }
+}
+
 /// Parameters of one irradiance filter pass.
 #[derive(Clone, Copy, Debug)]
 pub struct IrradianceParams {
     pub max_radius: i32,
     pub normal_cos: f32,
+    pub axis: Axis,
 }
 
 /// Eq. 5.31 at pixel `(x, y)`.
@@ -100,11 +138,11 @@ pub fn irradiance_pixel(
     let gi = om / ell;
     let gi2 = gi * gi;
     let xi = v3(position[i]);
-    let radius = window_radius(om, p.max_radius);
+    let (rx, ry) = p.axis.extent(window_radius(om, p.max_radius));
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for dy in -radius..=radius {
-        for dx in -radius..=radius {
+    for dy in -ry..=ry {
+        for dx in -rx..=rx {
             let (jx, jy) = (x + dx, y + dy);
             if jx < 0 || jy < 0 || jx >= width || jy >= height {
                 continue;
@@ -147,7 +185,17 @@ pub fn irradiance_pixel(
 }
 
 /// Eq. 5.33 at pixel `(x, y)`.
-pub fn defocus_pixel(x: i32, y: i32, width: i32, height: i32, max_radius: i32, value: &[[f32; 4]], omega: &[f32]) -> [f32; 4] {
+#[allow(clippy::too_many_arguments)]
+pub fn defocus_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    max_radius: i32,
+    axis: Axis,
+    value: &[[f32; 4]],
+    omega: &[f32],
+) -> [f32; 4] {
     let i = (y * width + x) as usize;
     let centre = value[i];
     let om = omega[i];
@@ -155,11 +203,11 @@ pub fn defocus_pixel(x: i32, y: i32, width: i32, height: i32, max_radius: i32, v
         return centre;
     }
     let gi2 = om * om;
-    let radius = window_radius(om, max_radius);
+    let (rx, ry) = axis.extent(window_radius(om, max_radius));
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for dy in -radius..=radius {
-        for dx in -radius..=radius {
+    for dy in -ry..=ry {
+        for dx in -rx..=rx {
             let (jx, jy) = (x + dx, y + dy);
             if jx < 0 || jy < 0 || jx >= width || jy >= height {
                 continue;
@@ -197,6 +245,26 @@ fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
     Ok(ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32)
 }
 
+/// The `axis` parameter: absent or -1 = 2-D, 0 = x, 1 = y.
+fn axis(ctx: &KernelCtx<'_>) -> Result<Axis, BackendError> {
+    if !ctx.params.contains_key("axis") {
+        return Ok(Axis::Both);
+    }
+    let v = ctx.int_param("axis")?;
+    Axis::from_param(v).ok_or_else(|| BackendError::Kernel {
+        pass: ctx.pass.to_string(),
+        message: format!("`axis` = {v}; use -1 (2-D), 0 (x) or 1 (y)"),
+    })
+}
+
+/// The x pass stays in its row; the 2-D and y passes read `max_radius` rows away.
+fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
+    Ok(match axis(ctx)? {
+        Axis::X => Reach::Pixel,
+        _ => Reach::Rows(max_radius(ctx)? as u32),
+    })
+}
+
 fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 4]]) {
     let n = value.iter().filter(|v| !is_finite3(**v)).count() as u64;
     Counters::add(&ctx.counters.non_finite_samples, n);
@@ -225,9 +293,12 @@ impl Kernel for IrradianceFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_irradiance.wgsl"), |ctx| {
-                Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?).f32("normal_cos", ctx.f32_param("normal_cos")?))
+                Ok(Uniforms::new()
+                    .i32("max_radius", max_radius(ctx)?)
+                    .i32("axis", axis(ctx)?.code())
+                    .f32("normal_cos", ctx.f32_param("normal_cos")?))
             })
-            .with_reach(|ctx| Ok(Reach::Rows(max_radius(ctx)? as u32))),
+            .with_reach(reach),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -236,7 +307,7 @@ impl Kernel for IrradianceFilter {
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let omega = ctx.read::<f32>("omega")?;
         let pixel_length = ctx.read::<f32>("pixel_length")?;
-        let p = IrradianceParams { max_radius: max_radius(ctx)?, normal_cos: ctx.f32_param("normal_cos")? };
+        let p = IrradianceParams { max_radius: max_radius(ctx)?, normal_cos: ctx.f32_param("normal_cos")?, axis: axis(ctx)? };
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
@@ -262,18 +333,18 @@ impl Kernel for DefocusFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_defocus.wgsl"), |ctx| {
-                Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?))
+                Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?).i32("axis", axis(ctx)?.code()))
             })
-            .with_reach(|ctx| Ok(Reach::Rows(max_radius(ctx)? as u32))),
+            .with_reach(reach),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;
         let omega = ctx.read::<f32>("omega")?;
-        let r = max_radius(ctx)?;
+        let (r, a) = (max_radius(ctx)?, axis(ctx)?);
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, value, omega));
+        let out = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, a, value, omega));
         ctx.put("out", out)
     }
 }
