@@ -19,7 +19,11 @@ use wedge::backends::gpu::GpuBackend;
 use wedge::backends::kernels::filter_ch5::{defocus_pixel, window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT};
 use wedge::backends::kernels::neighbourhood3::{max3, median3};
 use wedge::backends::parity::{compare, Tolerance};
-use wedge::backends::{BufferData, Counters, Job, Kernel, KernelRegistry, RayCounts, Silent};
+use wedge::backends::{
+    BackendError, Binding, BufferData, Counters, Job, Kernel, KernelClass, KernelCtx, KernelRegistry, RayCounts, Silent,
+    Uniforms, WgslSource,
+};
+use wedge::graph::Format;
 use wedge::graph::{BufferId, BufferInfo, Lifetime, ParamValue, Pass, Schedule};
 use wedge::scene::Scene;
 
@@ -96,7 +100,18 @@ fn job<'a>(s: &'a Single, scene: &'a Scene, w: u32, h: u32) -> Job<'a> {
 
 /// Run one kernel on the CPU backend: outputs by binding name and the counters.
 fn run_cpu(scene: &Scene, name: &str, w: u32, h: u32, params: &Params, inputs: &Buffers) -> (BTreeMap<String, BufferData>, RayCounts) {
-    let s = single(kernel(name), params.clone(), inputs);
+    run_cpu_with(kernel(name), scene, w, h, params, inputs)
+}
+
+fn run_cpu_with(
+    k: Arc<dyn Kernel>,
+    scene: &Scene,
+    w: u32,
+    h: u32,
+    params: &Params,
+    inputs: &Buffers,
+) -> (BTreeMap<String, BufferData>, RayCounts) {
+    let s = single(k, params.clone(), inputs);
     let counters = Counters::default();
     let out = cpu::run_pass(&job(&s, scene, w, h), &s.pass, &by_id(&s, inputs), &counters).expect("cpu pass runs");
     (out, counters.snapshot())
@@ -112,7 +127,19 @@ fn run_gpu(
     params: &Params,
     inputs: &Buffers,
 ) -> (BTreeMap<String, BufferData>, RayCounts) {
-    let s = single(kernel(name), params.clone(), inputs);
+    run_gpu_with(gpu, kernel(name), scene, w, h, params, inputs)
+}
+
+fn run_gpu_with(
+    gpu: &mut GpuBackend,
+    k: Arc<dyn Kernel>,
+    scene: &Scene,
+    w: u32,
+    h: u32,
+    params: &Params,
+    inputs: &Buffers,
+) -> (BTreeMap<String, BufferData>, RayCounts) {
+    let s = single(k, params.clone(), inputs);
     let (out, _, rays) = gpu.run_pass(&job(&s, scene, w, h), &s.pass, &by_id(&s, inputs)).expect("gpu pass runs");
     (out, rays)
 }
@@ -180,9 +207,22 @@ fn u32_of(b: &BufferData) -> &[u32] {
 
 /// Compare every output of one pass on both backends; returns the mismatches as text.
 fn parity(gpu: &mut GpuBackend, scene: &Scene, name: &str, w: u32, h: u32, p: &Params, inputs: &Buffers) -> Vec<String> {
-    let (cpu_out, cpu_rays) = run_cpu(scene, name, w, h, p, inputs);
-    let (gpu_out, gpu_rays) = run_gpu(gpu, scene, name, w, h, p, inputs);
-    let class = kernel(name).class();
+    parity_with(gpu, kernel(name), scene, w, h, p, inputs)
+}
+
+fn parity_with(
+    gpu: &mut GpuBackend,
+    k: Arc<dyn Kernel>,
+    scene: &Scene,
+    w: u32,
+    h: u32,
+    p: &Params,
+    inputs: &Buffers,
+) -> Vec<String> {
+    let name = k.name();
+    let (cpu_out, cpu_rays) = run_cpu_with(k.clone(), scene, w, h, p, inputs);
+    let (gpu_out, gpu_rays) = run_gpu_with(gpu, k.clone(), scene, w, h, p, inputs);
+    let class = k.class();
     let tol = Tolerance::for_class(class);
     let mut bad = Vec::new();
     assert_eq!(cpu_out.keys().collect::<Vec<_>>(), gpu_out.keys().collect::<Vec<_>>(), "{name}: same outputs");
@@ -730,4 +770,88 @@ fn separable_passes_match_the_2d_filters() {
         let edge: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
         assert_eq!(run_separable(name, &inputs_for(name, edge.clone(), omega)), edge, "{name}");
     }
+}
+
+/// The WGSL formula helpers no kernel of this crate calls but the path sampler may
+/// (`defocus_circle_of_confusion`, `defocus_lens_weight`, `defocus_secondary_per_primary`), through a
+/// probe kernel, against `formulas.rs`.
+struct FormulaProbe;
+
+impl Kernel for FormulaProbe {
+    fn name(&self) -> &'static str {
+        "test.defocus_formula_probe"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("lens", Format::Vec4),
+            Binding::read("u", Format::Vec2),
+            Binding::read("n_p", Format::U32),
+            Binding::read("n", Format::U32),
+            Binding::write("coc", Format::F32),
+            Binding::write("disk", Format::F32),
+            Binding::write("gaussian", Format::F32),
+            Binding::write("per_primary", Format::U32),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        use wedge::effects::defocus::formulas::{secondary_per_primary, LensShape, ThinLens};
+        let lens = ctx.read::<[f32; 4]>("lens")?;
+        let u = ctx.read::<[f32; 2]>("u")?;
+        let (n_p, n) = (ctx.read::<u32>("n_p")?, ctx.read::<u32>("n")?);
+        let coc = lens.iter().map(|l| ThinLens { aperture_radius: l[0], focus_distance: l[1], pixel_scale: l[2] }.circle_of_confusion(l[3])).collect();
+        ctx.put("coc", coc)?;
+        ctx.put("disk", u.iter().map(|u| LensShape::Disk.weight(*u)).collect())?;
+        ctx.put("gaussian", u.iter().map(|u| LensShape::Gaussian.weight(*u)).collect())?;
+        ctx.put("per_primary", n_p.iter().zip(n).map(|(a, b)| secondary_per_primary(*a, *b)).collect())
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        use wedge::effects::defocus::formulas::LensShape;
+        const SOURCE: &str = r#"
+#include "common.wgsl"
+#include "defocus_formulas.wgsl"
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let l = lens_at(i);
+    coc_put(i, defocus_circle_of_confusion(l.x, l.y, l.z, l.w));
+    disk_put(i, defocus_lens_weight(params.disk, u_at(i)));
+    gaussian_put(i, defocus_lens_weight(params.gaussian, u_at(i)));
+    per_primary_put(i, defocus_secondary_per_primary(n_p_at(i), n_at(i)));
+}
+"#;
+        Some(
+            WgslSource::new(SOURCE, |_| Ok(Uniforms::new().u32("disk", LensShape::Disk.code()).u32("gaussian", LensShape::Gaussian.code())))
+                .with_include("defocus_formulas.wgsl", include_str!("../shaders/defocus_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+}
+
+#[test]
+fn parity_wgsl_formula_helpers() {
+    let Some(mut gpu) = gpu_or_skip("parity_wgsl_formula_helpers") else { return };
+    let mut rng = Rng(61);
+    let lens: Vec<[f32; 4]> = (0..N)
+        .map(|i| {
+            let a = if i % 10 == 0 { 0.0 } else { rng.range(0.0, 0.2) };
+            [a, rng.range(0.5, 10.0), rng.range(5e-4, 5e-3), rng.range(0.2, 30.0)]
+        })
+        .collect();
+    let u: Vec<[f32; 2]> = (0..N).map(|_| [rng.range(-1.2, 1.2), rng.range(-1.2, 1.2)]).collect();
+    let n_p: Vec<u32> = (0..N).map(|_| [0u32, 1, 4, 9, 16, 64][(rng.next() % 6) as usize]).collect();
+    let n: Vec<u32> = (0..N).map(|_| (rng.next() % 2000) as u32).collect();
+    let inputs: Buffers = BTreeMap::from([
+        ("lens", vec4s(lens)),
+        ("u", BufferData::Vec2(u)),
+        ("n_p", BufferData::U32(n_p)),
+        ("n", BufferData::U32(n)),
+    ]);
+    let bad = parity_with(&mut gpu, Arc::new(FormulaProbe), &scene(), W, H, &Params::new(), &inputs);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
 }

@@ -70,6 +70,14 @@ impl LensShape {
         }
     }
 
+    /// The value a kernel's uniform block carries (`defocus_lens_weight` in WGSL): 0 disk, 1 gaussian.
+    pub fn code(self) -> u32 {
+        match self {
+            LensShape::Disk => 0,
+            LensShape::Gaussian => 1,
+        }
+    }
+
     /// Unnormalised aperture weight `A(u)` of a lens position `u` (unit-disk coordinates): 0 outside
     /// the disk. The thesis applies it as an explicit weight on uniformly drawn lens samples rather
     /// than importance sampling it (Sec. 5.8, step 2).
