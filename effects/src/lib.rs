@@ -8,6 +8,7 @@
 //! - [`primary`]: `Primary`, the G-buffer every effect reads.
 //! - [`shadows`]: `SoftShadows`, axis-aligned filtering of area-light soft shadows (thesis Ch. 3).
 //! - [`indirect`]: `Indirect`, axis-aligned filtering of diffuse/glossy indirect light and AO (thesis Ch. 4).
+//! - [`defocus`]: the Ch. 5 formulas and kernels (defocus rates, factoring flags; thesis Ch. 5).
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — references and baselines.
 //! - [`output`]: `Output`, the sink whose inputs a run hands back.
@@ -21,6 +22,7 @@ use wedge_backends::KernelRegistry;
 use wedge_graph::NodeRegistry;
 
 pub mod add;
+pub mod defocus;
 pub mod filtering;
 pub mod indirect;
 pub mod montecarlo;
@@ -40,6 +42,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     indirect::register_kernels(kernels);
     nodes.register(Arc::new(add::Add));
     add::register_kernels(kernels);
+    defocus::register_kernels(kernels);
 }
 
 /// The registries with everything wedge ships.

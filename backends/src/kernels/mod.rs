@@ -8,9 +8,11 @@ use crate::kernel::KernelRegistry;
 pub mod compose;
 pub mod direct;
 pub mod filter;
+pub mod filter_ch5;
 pub mod hemisphere;
 pub mod indirect;
 pub mod neighbourhood;
+pub mod neighbourhood3;
 pub mod primary;
 
 pub fn register(reg: &mut KernelRegistry) {
@@ -21,6 +23,10 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(compose::Modulate));
     reg.register(Arc::new(indirect::IndirectSample));
     reg.register(Arc::new(indirect::IndirectCompose));
+    reg.register(Arc::new(neighbourhood3::Max3));
+    reg.register(Arc::new(neighbourhood3::Median3));
+    reg.register(Arc::new(filter_ch5::IrradianceFilter));
+    reg.register(Arc::new(filter_ch5::DefocusFilter));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

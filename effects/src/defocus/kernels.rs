@@ -1,0 +1,171 @@
+//! The defocus kernels: `defocus.rates` and `defocus.flags` (thesis Sec. 5.7–5.8), CPU here and WGSL
+//! in `shaders/defocus_rates.wgsl` / `shaders/defocus_flags.wgsl`, both built on the formulas of
+//! [`super::formulas`] (WGSL mirror: `shaders/defocus_formulas.wgsl`).
+//!
+//! Buffer conventions (per pixel; `w > 0` marks a statistic that exists):
+//! - `lens` (vec4): `r_min`, `r_max` (|circle of confusion| in pixels over the pixel's lens samples,
+//!   eq. 5.2), lens-averaged depth along the optical axis, and `w` = the number of primary rays that
+//!   hit (0: every primary ray missed).
+//! - `occlusion` (vec4, optional): `d1`, `d2_min`, `d2_max` as `shadows.rs` defines them (slopes by
+//!   eq. 5.17 / 3.4), `w > 0` when some shadow sample was occluded. Unbound: no occluders anywhere.
+//! - `reflectors` (vec4, optional): `z_min`, `z_max` (distances to indirect reflectors), `w > 0` when
+//!   some indirect sample hit. Unbound: no reflector terms.
+//! - `radiance`, `texture`, `irradiance` (vec4, rgb in `xyz`): one component's lens-integrated `L`,
+//!   `k`, `E` (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect).
+
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_graph::Format;
+
+use super::formulas::{self, Mode, PixelRates, PixelStats, RateParams};
+use crate::shadows::slopes;
+
+/// Largest `max_primary` / `max_per_primary` a pass may ask for: 64² strata each, so a total
+/// `p² s²` stays far inside `u32`.
+pub const MAX_COUNT_CAP: i64 = 4096;
+
+fn mode_param(ctx: &KernelCtx<'_>) -> Result<Mode, BackendError> {
+    let name = ctx.str_param("mode")?;
+    Mode::parse(name).ok_or_else(|| BackendError::Kernel {
+        pass: ctx.pass.to_string(),
+        message: format!("unknown mode `{name}`; use {}", Mode::NAMES.join(" or ")),
+    })
+}
+
+/// The pass's rate constants from its parameter block.
+pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
+    Ok(RateParams {
+        mu: ctx.f32_param("mu")?,
+        mode: mode_param(ctx)?,
+        omega_pix: ctx.f32_param("omega_pix")?,
+        pixel_scale: ctx.f32_param("pixel_scale")?,
+        light_half_width: ctx.f32_param("light_half_width")?,
+        omega_v: ctx.f32_param("omega_v")?,
+        max_primary: ctx.int_param("max_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
+        max_per_primary: ctx.int_param("max_per_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
+    })
+}
+
+/// One pixel's statistics from the three input buffers.
+pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Option<[f32; 4]>) -> PixelStats {
+    let (s_min, s_max) = match occlusion {
+        Some(o) if o[3] > 0.0 => slopes(o[0], o[1], o[2]),
+        _ => (0.0, 0.0),
+    };
+    let (z_min, z_max) = match reflectors {
+        Some(z) if z[3] > 0.0 => (z[0], z[1]),
+        _ => (0.0, 0.0),
+    };
+    PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max }
+}
+
+/// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
+/// 5.29), `ℓ_p`, and the rounded counts `n_p`, `n_dir^{f|c}`, `n_ind^{f|c}` (eqs. 5.24–5.28). The
+/// direct and indirect outputs are optional (a pipeline without that component leaves them unbound).
+pub struct Rates;
+
+impl Kernel for Rates {
+    fn name(&self) -> &'static str {
+        "defocus.rates"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("lens", Format::Vec4),
+            Binding::read_opt("occlusion", Format::Vec4),
+            Binding::read_opt("reflectors", Format::Vec4),
+            Binding::write("omega_defocus", Format::F32),
+            Binding::write("pixel_length", Format::F32),
+            Binding::write("n_primary", Format::U32),
+            Binding::write_opt("omega_direct", Format::F32),
+            Binding::write_opt("n_direct_factored", Format::U32),
+            Binding::write_opt("n_direct_combined", Format::U32),
+            Binding::write_opt("omega_indirect", Format::F32),
+            Binding::write_opt("n_indirect_factored", Format::U32),
+            Binding::write_opt("n_indirect_combined", Format::U32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/defocus_rates.wgsl"), |ctx| {
+                let k = rate_params(ctx)?;
+                Ok(Uniforms::new()
+                    .f32("mu", k.mu)
+                    .u32("mode", k.mode.code())
+                    .f32("omega_pix", k.omega_pix)
+                    .f32("pixel_scale", k.pixel_scale)
+                    .f32("light_half_width", k.light_half_width)
+                    .f32("omega_v", k.omega_v)
+                    .u32("max_p", formulas::strata_cap(k.max_primary))
+                    .u32("max_s", formulas::strata_cap(k.max_per_primary)))
+            })
+            .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+            .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let k = rate_params(ctx)?;
+        let lens = ctx.read::<[f32; 4]>("lens")?;
+        let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
+        let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
+        let rates: Vec<PixelRates> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            formulas::pixel_rates(&pixel_stats(lens[i], occlusion.map(|o| o[i]), reflectors.map(|z| z[i])), &k)
+        });
+        let column = |f: fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();
+        let count = |f: fn(&PixelRates) -> u32| rates.iter().map(f).collect::<Vec<u32>>();
+        ctx.put("omega_defocus", column(|r| r.omega_defocus))?;
+        ctx.put("pixel_length", column(|r| r.pixel_length))?;
+        ctx.put("n_primary", count(|r| r.n_primary))?;
+        ctx.put_opt("omega_direct", || column(|r| r.omega_direct))?;
+        ctx.put_opt("n_direct_factored", || count(|r| r.n_direct_factored))?;
+        ctx.put_opt("n_direct_combined", || count(|r| r.n_direct_combined))?;
+        ctx.put_opt("omega_indirect", || column(|r| r.omega_indirect))?;
+        ctx.put_opt("n_indirect_factored", || count(|r| r.n_indirect_factored))?;
+        ctx.put_opt("n_indirect_combined", || count(|r| r.n_indirect_combined))
+    }
+}
+
+/// `defocus.flags`: SepDir / SepInd for one component (eq. 5.30), 1 where `‖L − k E‖ < threshold`,
+/// else 0 (also where any input is not finite). The 3×3 median (`neighbourhood.median3`) follows.
+pub struct Flags;
+
+impl Kernel for Flags {
+    fn name(&self) -> &'static str {
+        "defocus.flags"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("radiance", Format::Vec4),
+            Binding::read("texture", Format::Vec4),
+            Binding::read("irradiance", Format::Vec4),
+            Binding::write("flag", Format::U32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/defocus_flags.wgsl"), |ctx| {
+                Ok(Uniforms::new().f32("threshold", ctx.f32_param("threshold")?))
+            })
+            .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let l = ctx.read::<[f32; 4]>("radiance")?;
+        let k = ctx.read::<[f32; 4]>("texture")?;
+        let e = ctx.read::<[f32; 4]>("irradiance")?;
+        let threshold = ctx.f32_param("threshold")?;
+        let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
+        let flag: Vec<u32> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            formulas::separable(rgb(l[i]), rgb(k[i]), rgb(e[i]), threshold) as u32
+        });
+        ctx.put("flag", flag)
+    }
+}

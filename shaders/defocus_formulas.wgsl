@@ -1,0 +1,155 @@
+// defocus_formulas.wgsl — the WGSL mirror of effects/src/defocus/formulas.rs (thesis eqs. 5.2,
+// 5.7, 5.18, 5.22, 5.24–5.30), same operation order. Included by defocus_rates.wgsl and
+// defocus_flags.wgsl; the path sampler may include it for the circle of confusion.
+
+const DEFOCUS_OMEGA_U_MAX: f32 = 1.0;
+const DEFOCUS_ROUNDING_SLACK: f32 = 1e-4;
+
+// Signed circle of confusion in pixels (eq. 5.2): (a/m)(1/z − 1/f); exactly 0 for a pinhole.
+fn defocus_circle_of_confusion(aperture_radius: f32, focus_distance: f32, pixel_scale: f32, z: f32) -> f32 {
+    if (aperture_radius == 0.0) {
+        return 0.0;
+    }
+    return (aperture_radius / pixel_scale) * (1.0 / z - 1.0 / focus_distance);
+}
+
+// Aperture weight A(u) of a lens position on the unit disk (formulas.rs LensShape::weight):
+// shape 0 disk (1), 1 the thesis's Gaussian exp(−|u|²/2); 0 outside the disk.
+fn defocus_lens_weight(shape: u32, u: vec2<f32>) -> f32 {
+    let r2 = u.x * u.x + u.y * u.y;
+    if (!(r2 <= 1.0)) {
+        return 0.0;
+    }
+    if (shape == 0u) {
+        return 1.0;
+    }
+    return exp(-0.5 * r2);
+}
+
+// a / b, or +inf when b ≤ 0 (an absent statistic does not limit the filter).
+fn defocus_ratio_or_inf(a: f32, b: f32) -> f32 {
+    if (b > 0.0) {
+        return a / b;
+    }
+    return inf();
+}
+
+// Ω_x^d (eq. 5.7)
+fn defocus_omega_defocus(r_min: f32, omega_pix: f32) -> f32 {
+    return rmin(omega_pix, defocus_ratio_or_inf(DEFOCUS_OMEGA_U_MAX, abs(r_min)));
+}
+
+// Ω_x^s (eq. 5.18), Ω_y^max = 1/ℓ_I
+fn defocus_omega_direct(r_min: f32, s_min: f32, pixel_length: f32, light_half_width: f32, omega_pix: f32) -> f32 {
+    let light = defocus_ratio_or_inf(pixel_length, light_half_width * rmax(s_min, 0.0));
+    return rmin(defocus_omega_defocus(r_min, omega_pix), light);
+}
+
+// Ω_x^i (eq. 5.22)
+fn defocus_omega_indirect(r_min: f32, z_min: f32, pixel_length: f32, omega_v: f32, omega_pix: f32) -> f32 {
+    let reflector = defocus_ratio_or_inf(pixel_length * omega_v, rmax(z_min, 0.0));
+    return rmin(defocus_omega_defocus(r_min, omega_pix), reflector);
+}
+
+// Ω(μ) (eq. 5.29); mode 0 literal (clamped at Ω_pix^max), 1 consistent (no clamp).
+fn defocus_omega_mu(omega: f32, mu: f32, mode: u32, omega_pix: f32) -> f32 {
+    if (mode == 0u) {
+        return rmin(omega_pix, mu * omega);
+    }
+    return mu * omega;
+}
+
+// n_p (eq. 5.24)
+fn defocus_primary_rate(omega_d: f32, r_max: f32, omega_pix: f32) -> f32 {
+    let spatial = omega_pix + omega_d;
+    let lens = 1.0 + abs(r_max) * omega_d;
+    return spatial * spatial * lens * lens;
+}
+
+// n_dir^f / n_dir^c (eqs. 5.25, 5.27)
+fn defocus_direct_rate(omega: f32, r_max: f32, s_max: f32, pixel_length: f32, light_half_width: f32, omega_pix: f32) -> f32 {
+    let spread = light_half_width * rmax(s_max, 0.0);
+    var light = 1.0;
+    if (spread > 0.0) {
+        light = 1.0 + spread * omega / pixel_length;
+    }
+    return defocus_primary_rate(omega, r_max, omega_pix) * light * light;
+}
+
+// n_ind^f / n_ind^c (eqs. 5.26, 5.28)
+fn defocus_indirect_rate(omega: f32, r_max: f32, z_max: f32, pixel_length: f32, omega_v: f32, omega_pix: f32) -> f32 {
+    let depth = rmax(z_max, 0.0);
+    var angular = omega_v;
+    if (depth > 0.0) {
+        angular = omega_v + depth * omega / pixel_length;
+    }
+    return defocus_primary_rate(omega, r_max, omega_pix) * angular * angular;
+}
+
+// ceil(sqrt(n)) in [1, max] (Sec. 5.8 footnote 6); not finite → max.
+fn defocus_strata(n: f32, max_strata: u32) -> u32 {
+    let m = max(max_strata, 1u);
+    let root = sqrt(n) - DEFOCUS_ROUNDING_SLACK;
+    if (!is_finite(root) || root >= f32(m)) {
+        return m;
+    }
+    return clamp(u32(ceil(root)), 1u, m);
+}
+
+fn defocus_secondary_strata(n: f32, p: u32, max_s: u32) -> u32 {
+    let q = max(p, 1u);
+    let p2 = f32(q * q);
+    return defocus_strata(n / p2, max_s);
+}
+
+// Secondary rays per primary ray after the 3×3 max: smallest s² with n_p s² ≥ n (at least 1).
+fn defocus_secondary_per_primary(n_p: u32, n: u32) -> u32 {
+    let np = max(n_p, 1u);
+    var s = 1u;
+    while (np * s * s < n) {
+        s = s + 1u;
+    }
+    return s * s;
+}
+
+struct DefocusRates {
+    omega_defocus: f32,
+    omega_direct: f32,
+    omega_indirect: f32,
+    pixel_length: f32,
+    n_primary: u32,
+    n_direct_factored: u32,
+    n_direct_combined: u32,
+    n_indirect_factored: u32,
+    n_indirect_combined: u32,
+}
+
+// formulas.rs pixel_rates: widths (μ-scaled) and rounded counts of one pixel.
+fn defocus_pixel_rates(
+    r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32,
+    mu: f32, mode: u32, omega_pix: f32, pixel_scale: f32, light_half_width: f32, omega_v: f32,
+    max_p: u32, max_s: u32,
+) -> DefocusRates {
+    let omega_pix_mu = defocus_omega_mu(omega_pix, mu, mode, omega_pix);
+    if (!hit) {
+        return DefocusRates(omega_pix_mu, omega_pix_mu, omega_pix_mu, 0.0, 1u, 1u, 1u, 1u, 1u);
+    }
+    let l_p = pixel_scale * depth;
+    let d = defocus_omega_mu(defocus_omega_defocus(r_min, omega_pix), mu, mode, omega_pix);
+    let sd = defocus_omega_mu(defocus_omega_direct(r_min, s_min, l_p, light_half_width, omega_pix), mu, mode, omega_pix);
+    let si = defocus_omega_mu(defocus_omega_indirect(r_min, z_min, l_p, omega_v, omega_pix), mu, mode, omega_pix);
+    let p = defocus_strata(defocus_primary_rate(d, r_max, omega_pix), max_p);
+    let pp = p * p;
+    let qdf = defocus_secondary_strata(defocus_direct_rate(sd, r_max, s_max, l_p, light_half_width, omega_pix), p, max_s);
+    let qdc = defocus_secondary_strata(defocus_direct_rate(d, r_max, s_max, l_p, light_half_width, omega_pix), p, max_s);
+    let qif = defocus_secondary_strata(defocus_indirect_rate(si, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
+    let qic = defocus_secondary_strata(defocus_indirect_rate(d, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
+    return DefocusRates(d, sd, si, l_p, pp, pp * qdf * qdf, pp * qdc * qdc, pp * qif * qif, pp * qic * qic);
+}
+
+// SepDir / SepInd (eq. 5.30), compared squared: ‖L − k E‖² < threshold².
+fn defocus_separable(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, threshold: f32) -> bool {
+    let d = vec3<f32>(l.x - k.x * e.x, l.y - k.y * e.y, l.z - k.z * e.z);
+    let err2 = d.x * d.x + d.y * d.y + d.z * d.z;
+    return err2 < threshold * threshold;
+}

@@ -1,0 +1,38 @@
+// defocus.rates — widths (eqs. 5.7, 5.18, 5.22, 5.29) and rounded counts (eqs. 5.24–5.28) per pixel;
+// mirrors effects/src/defocus/kernels.rs `Rates` with the formulas of defocus_formulas.wgsl.
+#include "common.wgsl"
+#include "shadows_formulas.wgsl"
+#include "defocus_formulas.wgsl"
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let lens = lens_at(i);
+    var s = vec2<f32>(0.0);
+    let occ = occlusion_at(i);
+    if (occlusion_bound() && occ.w > 0.0) {
+        s = shadows_slopes(occ.x, occ.y, occ.z);
+    }
+    var z = vec2<f32>(0.0);
+    let refl = reflectors_at(i);
+    if (reflectors_bound() && refl.w > 0.0) {
+        z = refl.xy;
+    }
+    let r = defocus_pixel_rates(
+        lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y,
+        params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
+        params.max_p, params.max_s,
+    );
+    omega_defocus_put(i, r.omega_defocus);
+    pixel_length_put(i, r.pixel_length);
+    n_primary_put(i, r.n_primary);
+    omega_direct_put(i, r.omega_direct);
+    n_direct_factored_put(i, r.n_direct_factored);
+    n_direct_combined_put(i, r.n_direct_combined);
+    omega_indirect_put(i, r.omega_indirect);
+    n_indirect_factored_put(i, r.n_indirect_factored);
+    n_indirect_combined_put(i, r.n_indirect_combined);
+}

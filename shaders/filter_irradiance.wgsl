@@ -1,0 +1,100 @@
+// filter.irradiance — thesis eq. 5.31 on factored irradiance, 2-D, with the 10° normal test and the
+// w_j(i) < 0.01 rejection; mirrors backends/src/kernels/filter_ch5.rs (irradiance_pixel) term by term
+// and in the same order.
+#include "common.wgsl"
+
+const FILTER_SHARPNESS: f32 = 16.0;
+const REJECT_EXPONENT: f32 = 4.6051702;
+const REJECT_RADIUS: f32 = 0.5364915;
+
+fn valid_width(w: f32) -> bool {
+    return w > 0.0 && is_finite(w);
+}
+
+// ceil(0.5365 / Ω), at most the cap (filter_ch5.rs window_radius).
+fn window_radius(omega: f32, cap: i32) -> i32 {
+    let r = REJECT_RADIUS / omega;
+    if (!(r < f32(cap))) {
+        return cap;
+    }
+    return max(i32(ceil(r)), 0);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let width = i32(frame.width);
+    let height = i32(frame.height);
+    let xy = vec2<i32>(pixel_xy(gid));
+    let centre = value_at(i);
+    if (!is_finite3(centre.xyz)) {
+        atomicAdd(&counters[COUNTER_NON_FINITE], 1u);
+    }
+    let om = omega_at(i);
+    let ell = pixel_length_at(i);
+    if (!valid_width(om) || !valid_width(ell) || !(position_at(i).w > 0.0)) {
+        out_put(i, centre);
+        return;
+    }
+    let ni = normalize_or_zero3(normal_at(i).xyz);
+    if (is_zero3(ni)) {
+        out_put(i, centre);
+        return;
+    }
+    let gi = om / ell;
+    let gi2 = gi * gi;
+    let xi = position_at(i).xyz;
+    // Visited window: 2-D (axis -1), or one axis of it (0: x, 1: y).
+    let radius = window_radius(om, params.max_radius);
+    var rx = radius;
+    var ry = radius;
+    if (params.axis == 0) {
+        ry = 0;
+    } else if (params.axis == 1) {
+        rx = 0;
+    }
+    var sum = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var dy = -ry; dy <= ry; dy = dy + 1) {
+        for (var dx = -rx; dx <= rx; dx = dx + 1) {
+            let jx = xy.x + dx;
+            let jy = xy.y + dy;
+            if (jx < 0 || jy < 0 || jx >= width || jy >= height) {
+                continue;
+            }
+            let j = index_at(jx, jy);
+            if (!(position_at(j).w > 0.0)) {
+                continue;
+            }
+            let v = value_at(j);
+            if (!is_finite3(v.xyz)) {
+                continue;
+            }
+            if (dot3(ni, normalize_or_zero3(normal_at(j).xyz)) < params.normal_cos) {
+                continue;
+            }
+            let d = position_at(j).xyz - xi;
+            let dist2 = dot3(d, d);
+            let e_i = FILTER_SHARPNESS * dist2 * gi2;
+            if (e_i > REJECT_EXPONENT) {
+                continue;
+            }
+            let gj = omega_at(j) / pixel_length_at(j);
+            let e_j = FILTER_SHARPNESS * dist2 * (gj * gj);
+            if (!(e_j <= REJECT_EXPONENT)) {
+                continue;
+            }
+            let w = exp(-e_i);
+            sum = sum + w * v.xyz;
+            wsum = wsum + w;
+        }
+    }
+    if (wsum > 0.0) {
+        out_put(i, vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, centre.w));
+    } else {
+        out_put(i, centre);
+    }
+}
