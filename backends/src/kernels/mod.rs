@@ -6,6 +6,7 @@ use std::sync::Arc;
 use crate::kernel::KernelRegistry;
 
 pub mod compose;
+pub mod constant;
 pub mod direct;
 pub mod filter;
 pub mod hemisphere;
@@ -21,6 +22,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(compose::Modulate));
     reg.register(Arc::new(indirect::IndirectSample));
     reg.register(Arc::new(indirect::IndirectCompose));
+    reg.register(Arc::new(constant::FillConstant));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.
