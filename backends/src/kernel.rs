@@ -319,7 +319,12 @@ impl KernelRegistry {
                     Some(d) => {
                         let f = schedule.buffers[id.0].format;
                         if f != d.format {
-                            problems.push(berr(name, format!("is bound to a {f} buffer but the kernel declares {}", d.format)));
+                            // Struct formats are compared by name and fields; say which field differs.
+                            let why = match (f.layout(), d.format.layout()) {
+                                (Some(a), Some(b)) => a.difference(b).map(|w| format!(" ({w})")).unwrap_or_default(),
+                                _ => String::new(),
+                            };
+                            problems.push(berr(name, format!("is bound to a {f} buffer but the kernel declares {}{why}", d.format)));
                         }
                     }
                 }

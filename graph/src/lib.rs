@@ -19,7 +19,7 @@ mod schedule;
 mod source_map;
 mod validate;
 
-pub use decl::{Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
+pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, StructLayout};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
 pub use pipeline::{CameraProblem, CameraSpec, Location, NodeSpec, Pipeline, RawParam};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
