@@ -72,7 +72,7 @@ pub trait Kernel: Send + Sync {
 /// `Kernel::bindings()` entry — and its `Params` struct, so the WGSL declares neither):
 /// - `source`: the kernel's WGSL with an entry point `main`, `@workgroup_size(8, 8)`, one invocation
 ///   per pixel. Lines `#include "NAME.wgsl"` are replaced by that file — one of wedge's shared files
-///   in `shaders/` (`common`, `rng`, `sampling`, `scene`, `bvh`) or one of `includes` — each file at
+///   in `shaders/` (`common`, `rng`, `sampling`, `scene`, `bvh`, `camera`, `sobol`) or one of `includes` — each file at
 ///   most once (later includes of the same name are dropped), so shared code is never copied.
 /// - `uniforms`: the pass's parameter block as named, typed fields ([`Uniforms`]) — the same
 ///   parameter parsing the CPU path uses (`KernelCtx::f32_param` …); it sees size, seed, scene and

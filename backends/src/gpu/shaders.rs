@@ -27,6 +27,8 @@ pub const SHARED: &[(&str, &str)] = &[
     ("scene.wgsl", include_str!("../../../shaders/scene.wgsl")),
     ("bvh.wgsl", include_str!("../../../shaders/bvh.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
+    ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
+    ("sobol.wgsl", include_str!("../../../shaders/sobol.wgsl")),
 ];
 
 /// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see
