@@ -44,6 +44,10 @@ fn sequence_key(seed: u32, pixel: u32, stream: u32, pair: u32) -> u32 {
     return hash4(seed, pixel, stream, pcg_hash(pair ^ 0x5bd1e995u));
 }
 
+fn substream(stream: u32, salt: u32) -> u32 {
+    return hash4(stream, pcg_hash(salt ^ 0x27d4eb2fu), PAIR_PATH, 0x165667b1u);
+}
+
 fn sobol2(key: u32, index: u32) -> vec2<f32> {
     let shuffled = nested_uniform_scramble(index, key);
     let sx = pcg_hash(key ^ 0x68bc21ebu);

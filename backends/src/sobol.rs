@@ -102,6 +102,12 @@ pub fn sequence_key(seed: u32, pixel: u32, stream: u32, pair: u32) -> u32 {
     hash4(seed, pixel, stream, pcg_hash(pair ^ 0x5bd1_e995))
 }
 
+/// A sub-stream of `stream` for independent numbers (`rng::PixelRng`), by hashing with `salt`.
+#[inline]
+pub fn substream(stream: u32, salt: u32) -> u32 {
+    hash4(stream, pcg_hash(salt ^ 0x27d4_eb2f), pair::PATH, 0x1656_67b1)
+}
+
 /// Sample `index` of the shuffled, Owen-scrambled 2-D Sobol' sequence `key` (Burley 2020,
 /// Listing 4 for two dimensions), in [0,1)².
 #[inline]

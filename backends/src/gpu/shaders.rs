@@ -29,6 +29,10 @@ pub const SHARED: &[(&str, &str)] = &[
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
     ("sobol.wgsl", include_str!("../../../shaders/sobol.wgsl")),
+    ("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl")),
+    // The direct and indirect estimators, shared by direct.light / indirect.sample and paths.trace.
+    ("light_sample.wgsl", include_str!("../../../shaders/light_sample.wgsl")),
+    ("indirect_path.wgsl", include_str!("../../../shaders/indirect_path.wgsl")),
 ];
 
 /// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see

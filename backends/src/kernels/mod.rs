@@ -11,6 +11,7 @@ pub mod filter;
 pub mod hemisphere;
 pub mod indirect;
 pub mod neighbourhood;
+pub mod paths;
 pub mod primary;
 
 pub fn register(reg: &mut KernelRegistry) {
@@ -21,6 +22,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(compose::Modulate));
     reg.register(Arc::new(indirect::IndirectSample));
     reg.register(Arc::new(indirect::IndirectCompose));
+    reg.register(Arc::new(paths::PathsTrace));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.
