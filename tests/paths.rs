@@ -211,3 +211,249 @@ fn thin_lens_focuses_and_pinhole_ignores_the_lens() {
     assert!((cam.coc_pixels(2.0, h) - expect).abs() < 1e-4 * expect);
     assert!(cam.coc_pixels(8.0, h) < 0.0);
 }
+
+// ---- paths.trace ----
+
+use wedge::backends::cpu;
+use wedge::backends::kernels::paths::{PathRecord, PathsTrace};
+use wedge::backends::kernels::primary::PrimaryGBuffer;
+use wedge::backends::kernels::direct::DirectLight;
+use wedge::backends::parity::{compare, Tolerance};
+use wedge::backends::{Counters, Job, KernelRegistry, RayCounts, Silent, Texel};
+use wedge::graph::{BufferId, ParamValue, Pass};
+
+/// Run one kernel alone with `params` and named inputs, on the CPU or (with `gpu`) the wgpu backend;
+/// returns its outputs and the ray counters.
+fn run_alone(
+    kernel: Arc<dyn Kernel>,
+    scene: &Scene,
+    (w, h, seed): (u32, u32, u32),
+    params: &[(&str, ParamValue)],
+    inputs: &BTreeMap<&str, BufferData>,
+    gpu: Option<&mut GpuBackend>,
+) -> (BTreeMap<String, BufferData>, RayCounts) {
+    let (mut buffers, mut reads, mut writes, mut data) = (Vec::new(), Vec::new(), Vec::new(), BTreeMap::new());
+    for b in kernel.bindings() {
+        let id = BufferId(buffers.len());
+        match b.access {
+            wedge::backends::Access::Read => match inputs.get(b.name) {
+                Some(d) => {
+                    reads.push((b.name.to_string(), id));
+                    data.insert(id, d);
+                }
+                None => continue,
+            },
+            wedge::backends::Access::Write => writes.push((b.name.to_string(), id)),
+        }
+        buffers.push(wedge::graph::BufferInfo { name: b.name.to_string(), format: b.format });
+    }
+    let n = buffers.len();
+    let params = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+    let pass = Pass { name: kernel.name().to_string(), node: "test".into(), kernel: kernel.name().to_string(), reads, writes, params };
+    let schedule = wedge::graph::Schedule {
+        passes: vec![pass.clone()],
+        buffers,
+        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 0 }); n],
+        slots: (0..n).map(Some).collect(),
+        slot_formats: Vec::new(),
+        sink_inputs: Vec::new(),
+        culled: Vec::new(),
+    };
+    let mut registry = KernelRegistry::new();
+    registry.register(kernel);
+    let job = Job { schedule: &schedule, scene, kernels: &registry, width: w, height: h, seed, progress: &Silent };
+    match gpu {
+        Some(g) => {
+            let (out, _, rays) = g.run_pass(&job, &pass, &data).unwrap();
+            (out, rays)
+        }
+        None => {
+            let counters = Counters::default();
+            let out = cpu::run_pass(&job, &pass, &data, &counters).unwrap();
+            (out, counters.snapshot())
+        }
+    }
+}
+
+fn trace_params(count: i64, jitter: bool, lens: &str) -> Vec<(&'static str, ParamValue)> {
+    vec![
+        ("count", ParamValue::Int(count)),
+        ("jitter", ParamValue::Bool(jitter)),
+        ("lens", ParamValue::Str(lens.into())),
+        ("shadow_per_primary", ParamValue::Int(1)),
+        ("indirect_per_primary", ParamValue::Int(1)),
+        ("light", ParamValue::Int(0)),
+        ("stream", ParamValue::Int(3)),
+        ("brdf", ParamValue::Str("phong".into())),
+        ("bounces", ParamValue::Int(1)),
+    ]
+}
+
+fn set(params: &mut [(&'static str, ParamValue)], name: &str, v: ParamValue) {
+    params.iter_mut().find(|(k, _)| *k == name).unwrap().1 = v;
+}
+
+fn records(b: &BufferData) -> &[PathRecord] {
+    <PathRecord as Texel>::slice(b).expect("a PathRecord buffer")
+}
+
+fn defocused(name: &str, aperture: f32) -> Scene {
+    let mut scene = builtin(name);
+    scene.camera.aperture_radius = aperture;
+    scene.camera.focus_distance = scene.camera.effective_focus_distance() * 0.8;
+    scene
+}
+
+/// CPU vs GPU on built-in scenes, field by field, as the other sampling passes are compared: the
+/// share of pixels over the per-component tolerance must stay small (grazing rays).
+#[test]
+fn paths_trace_cpu_gpu_parity() {
+    let Some(mut gpu) = gpu_or_skip("paths_trace_cpu_gpu_parity") else { return };
+    let size = (40u32, 30u32, 9u32);
+    for (scene_name, lens) in [("grids", "disk"), ("cornell", "gaussian"), ("curved", "disk")] {
+        let scene = defocused(scene_name, 0.08);
+        let mut p = trace_params(6, true, lens);
+        set(&mut p, "shadow_per_primary", ParamValue::Int(2));
+        let (c, c_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
+        let (g, g_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
+        let (c, g) = (&c["record"], &g["record"]);
+        let tol = Tolerance::for_class(KernelClass::Sampling);
+        let pixels = c.len();
+        let mut bad_pixels = vec![false; pixels];
+        for f in wedge::backends::kernels::paths::PATH_RECORD.fields {
+            let (a, b) = (c.field(f.name).unwrap(), g.field(f.name).unwrap());
+            let (max_abs, _, over, boundary) = compare(&a, &b, tol);
+            for i in 0..pixels {
+                let differs = (0..a.format().components()).any(|k| {
+                    let (x, y) = (a.component(i, k), b.component(i, k));
+                    (x - y).abs() > tol.rel * x.abs() + tol.abs
+                });
+                bad_pixels[i] |= differs;
+            }
+            if over + boundary > 0 {
+                println!("{scene_name}: field {} differs in {over} (+{boundary} off by one) pixels, max abs {max_abs:e}", f.name);
+            }
+        }
+        let share = bad_pixels.iter().filter(|&&b| b).count() as f64 / pixels as f64;
+        println!("{scene_name} ({lens}): {:.2}% of pixels differ; rays cpu {c_rays:?} gpu {g_rays:?}", share * 100.0);
+        assert!(share <= 0.02, "{scene_name}: {share}");
+        let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / (a.max(1) as f64);
+        assert_eq!(c_rays.primary_rays, g_rays.primary_rays);
+        assert!(rel(c_rays.shadow_rays, g_rays.shadow_rays) < 0.01 && rel(c_rays.secondary_rays, g_rays.secondary_rays) < 0.01);
+        assert_eq!(g_rays.cut_loops, 0);
+    }
+}
+
+/// With a pinhole and one path through the pixel centre, the primary hits are primary.gbuffer's.
+#[test]
+fn pinhole_single_path_hits_equal_the_gbuffer() {
+    let scene = builtin("cornell");
+    let size = (32u32, 24u32, 5u32);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
+    let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
+    let (BufferData::Vec4(pos), BufferData::Vec4(nrm), BufferData::Vec3(alb)) = (&gb["position"], &gb["normal"], &gb["albedo"]) else {
+        panic!("formats")
+    };
+    let mut hits = 0;
+    for (i, r) in records(&rec["record"]).iter().enumerate() {
+        assert_eq!(r.paths, 1);
+        assert_eq!(r.hits == 1, pos[i][3] != 0.0, "pixel {i}: hit or miss differs");
+        if r.hits == 1 {
+            hits += 1;
+            assert_eq!(r.position, [pos[i][0], pos[i][1], pos[i][2]], "pixel {i}");
+            assert_eq!(r.normal, [nrm[i][0], nrm[i][1], nrm[i][2]], "pixel {i}");
+            assert_eq!(r.object as f32, pos[i][3], "pixel {i}");
+            assert_eq!(r.k_diffuse, alb[i], "pixel {i}");
+            assert_eq!((r.weight, r.r_min, r.r_max), (1.0, 0.0, 0.0));
+        }
+    }
+    assert!(hits > 500, "{hits}");
+}
+
+/// Many pinhole paths through the centre: the mean direct irradiance E is direct.light's estimate
+/// with the centre-of-light form factor at the same point, within noise.
+#[test]
+fn mean_direct_matches_direct_light() {
+    let scene = builtin("grids");
+    let size = (32u32, 24u32, 11u32);
+    let n = 256;
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(n, false, "disk"), &BTreeMap::new(), None);
+    let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("position", gb["position"].clone()), ("normal", gb["normal"].clone())]);
+    let dl_params = [
+        ("light", ParamValue::Int(0)),
+        ("count", ParamValue::Int(n)),
+        ("sampling", ParamValue::Str("stratified".into())),
+        ("form_factor", ParamValue::Str("light_centre".into())),
+        ("stream", ParamValue::Int(0)),
+    ];
+    let (dl, _) = run_alone(Arc::new(DirectLight), &scene, size, &dl_params, &inputs, None);
+    let BufferData::Vec4(est) = &dl["estimate"] else { panic!("format") };
+    let (mut sum_p, mut sum_d, mut sq, mut px) = (0f64, 0f64, 0f64, 0usize);
+    for (i, r) in records(&rec["record"]).iter().enumerate() {
+        if r.hits == 0 {
+            continue;
+        }
+        let (_, k, e) = r.direct();
+        let (a, b) = (e.x as f64, est[i][0] as f64);
+        sum_p += a;
+        sum_d += b;
+        sq += (a - b).powi(2);
+        px += 1;
+        // k = k_d for this diffuse scene, and L = k·E per path with one point: L = k·E exactly.
+        assert!((r.direct().0 - k * e).abs().max_element() <= 1e-5 * (1.0 + (k * e).max_element()));
+    }
+    let rel = (sum_p - sum_d).abs() / sum_d;
+    let rms = (sq / px as f64).sqrt() / (sum_d / px as f64);
+    println!("direct E: paths mean {:.5}, direct.light mean {:.5}, relative difference {rel:.2e}, per-pixel rms/mean {rms:.3}", sum_p / px as f64, sum_d / px as f64);
+    assert!(rel < 0.01 && rms < 0.05, "{rel} {rms}");
+}
+
+/// 16 paths, then 16 more continuing the record, equal 32 in one pass bit for bit (CPU; and GPU,
+/// also in chunks of 5 paths per dispatch). Counters and record counts agree.
+#[test]
+fn progressive_continuation_is_exact_and_counts_match() {
+    let scene = defocused("cornell", 0.1);
+    let size = (24u32, 18u32, 21u32);
+    let mut p16 = trace_params(16, true, "disk");
+    let shadow = BufferData::U32((0..size.0 * size.1).map(|i| 1 + i % 3).collect());
+    let indirect = BufferData::U32((0..size.0 * size.1).map(|i| 1 + i % 2).collect());
+    let per = BTreeMap::from([("shadow_per_primary", shadow.clone()), ("indirect_per_primary", indirect.clone())]);
+    let (first, r1) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, None);
+    let mut cont = per.clone();
+    cont.insert("previous", first["record"].clone());
+    let (second, r2) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &cont, None);
+    set(&mut p16, "count", ParamValue::Int(32));
+    let (whole, rw) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, None);
+    assert_eq!(second["record"], whole["record"], "16 + 16 continued differs from 32");
+    let recs = records(&whole["record"]);
+    let total = |f: fn(&PathRecord) -> u32| recs.iter().map(|r| f(r) as u64).sum::<u64>();
+    let mut sum = r1;
+    sum.add(&r2);
+    assert_eq!(sum, rw, "counters of the two passes add up to the single pass");
+    assert_eq!(rw.primary_rays, total(|r| r.paths));
+    assert_eq!(rw.primary_rays, 32 * (size.0 * size.1) as u64);
+    assert_eq!(rw.shadow_rays, total(|r| r.shadow) + total(|r| r.bounce_shadow));
+    assert_eq!(rw.secondary_rays, total(|r| r.indirect_rays));
+    let (BufferData::U32(s), BufferData::U32(q)) = (&shadow, &indirect) else { unreachable!() };
+    for (i, r) in recs.iter().enumerate() {
+        assert_eq!(r.shadow, r.hits * s[i], "pixel {i}: shadow rays per primary hit");
+        assert_eq!(r.diffuse_samples, r.hits * q[i], "pixel {i}: diffuse samples per primary hit");
+        assert!(r.indirect_rays <= r.diffuse_samples + r.glossy_samples);
+        assert_eq!(r.non_finite, 0);
+    }
+    println!("rays for 32 paths: {rw:?}");
+    let Some(mut gpu) = gpu_or_skip("progressive_continuation_is_exact_and_counts_match") else { return };
+    set(&mut p16, "count", ParamValue::Int(16));
+    let (g1, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    let mut gcont = per.clone();
+    gcont.insert("previous", g1["record"].clone());
+    let (g2, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &gcont, Some(&mut gpu));
+    set(&mut p16, "count", ParamValue::Int(32));
+    let (gw, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    assert_eq!(g2["record"], gw["record"], "GPU: 16 + 16 continued differs from 32");
+    gpu.set_samples_per_dispatch(5);
+    let (gc, gc_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    assert_eq!(gc["record"], gw["record"], "GPU: chunks of 5 paths differ from the default");
+    assert_eq!(gc_rays.primary_rays, rw.primary_rays);
+}
