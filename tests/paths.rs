@@ -457,3 +457,48 @@ fn progressive_continuation_is_exact_and_counts_match() {
     assert_eq!(gc["record"], gw["record"], "GPU: chunks of 5 paths differ from the default");
     assert_eq!(gc_rays.primary_rays, rw.primary_rays);
 }
+
+/// `paths.resolve` agrees on both backends to round-off, and for one pinhole path through the
+/// centre its position and normal (with the footprint) are primary.gbuffer's.
+#[test]
+fn resolve_gives_means_in_gbuffer_conventions() {
+    use wedge::backends::kernels::paths::PathsResolve;
+    let scene = builtin("cornell");
+    let size = (32u32, 24u32, 5u32);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let (res, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
+    let (BufferData::Vec4(p), BufferData::Vec4(n)) = (&res["position"], &res["normal"]) else { panic!("formats") };
+    let (BufferData::Vec4(gp), BufferData::Vec4(gn)) = (&gb["position"], &gb["normal"]) else { panic!("formats") };
+    for i in 0..p.len() {
+        assert_eq!(p[i], gp[i], "pixel {i}: position");
+        for c in 0..4 {
+            assert!((n[i][c] - gn[i][c]).abs() <= 1e-5 * gn[i][c].abs().max(1.0), "pixel {i}: normal {:?} vs {:?}", n[i], gn[i]);
+        }
+    }
+    let Some(mut gpu) = gpu_or_skip("resolve_gives_means_in_gbuffer_conventions") else { return };
+    let scene = defocused("cornell", 0.1);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(8, true, "gaussian"), &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
+    assert_eq!(c.len(), 17);
+    for (name, a) in &c {
+        let (max_abs, max_rel, over, _) = compare(a, &g[name], Tolerance::for_class(KernelClass::Compose));
+        println!("paths.resolve `{name}`: max abs {max_abs:e}, max rel {max_rel:e}, over {over}");
+        assert_eq!(over, 0, "{name}");
+    }
+    // The radiance is the sum of the component means and the emission.
+    let (BufferData::Vec3(rad), BufferData::Vec3(ld), BufferData::Vec3(lf), BufferData::Vec3(lg), BufferData::Vec3(em)) =
+        (&c["radiance"], &c["l_direct"], &c["l_diffuse"], &c["l_glossy"], &c["emission"])
+    else {
+        panic!("formats")
+    };
+    for i in 0..rad.len() {
+        for k in 0..3 {
+            let sum = ld[i][k] + lf[i][k] + lg[i][k] + em[i][k];
+            assert!((rad[i][k] - sum).abs() <= 1e-5 * sum.abs().max(1.0));
+        }
+    }
+}

@@ -23,6 +23,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(indirect::IndirectSample));
     reg.register(Arc::new(indirect::IndirectCompose));
     reg.register(Arc::new(paths::PathsTrace));
+    reg.register(Arc::new(paths::PathsResolve));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

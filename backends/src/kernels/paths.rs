@@ -474,3 +474,135 @@ fn accumulate(l: &mut [f32; 3], k_sum: &mut [f32; 3], e_sum: &mut [f32; 3], k: V
     add(k_sum, k * w);
     add(e_sum, e * w);
 }
+
+/// `paths.resolve`: a [`PathRecord`]'s sums as the means downstream kernels read, in the
+/// conventions of the existing buffers, every output optional:
+/// - `radiance`: mean L of all components plus emission (the Monte Carlo estimate of the pixel);
+/// - `l_direct`, `k_direct`, `e_direct`, and the same for `diffuse` and `glossy`: lens-weighted
+///   means of L, k, E per component (eqs. 5.9–5.14, 5.21; SepDir/SepInd compare L with k·E);
+/// - `emission`: mean emission of the primary hits;
+/// - `position` (λ, w = 1 + object id, 0 where no path hit) and `normal` (unit lens-averaged
+///   normal, w = projected pixel size at λ, as `primary.gbuffer` computes it): what filters read;
+/// - `defocus`: `r_min`, `r_max` (|circle of confusion| in pixels, eq. 5.2), mean depth `z` along
+///   the optical axis, and `ℓ_p = 2 z tan(fov/2)/h` (metres per pixel at that depth, Ch. 5);
+/// - `occlusion`: mean `d1`, `d2_min`, `d2_max`, occluded shadow rays (as `direct.light` writes it);
+/// - `depth`: `z_min`, `z_max`, indirect rays that hit, indirect rays (as `indirect.sample`);
+/// - `counts`: primary rays, shadow rays, indirect samples (diffuse + glossy), non-finite samples.
+pub struct PathsResolve;
+
+const RESOLVE_OUTPUTS: [(&str, Format); 17] = [
+    ("radiance", Format::Vec3),
+    ("l_direct", Format::Vec3),
+    ("k_direct", Format::Vec3),
+    ("e_direct", Format::Vec3),
+    ("l_diffuse", Format::Vec3),
+    ("k_diffuse", Format::Vec3),
+    ("e_diffuse", Format::Vec3),
+    ("l_glossy", Format::Vec3),
+    ("k_glossy", Format::Vec3),
+    ("e_glossy", Format::Vec3),
+    ("emission", Format::Vec3),
+    ("position", Format::Vec4),
+    ("normal", Format::Vec4),
+    ("defocus", Format::Vec4),
+    ("occlusion", Format::Vec4),
+    ("depth", Format::Vec4),
+    ("counts", Format::Vec4),
+];
+
+/// Everything [`PathsResolve`] writes for one pixel.
+struct Resolved {
+    vec3: [[f32; 3]; 11],
+    vec4: [[f32; 4]; 6],
+}
+
+fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height: u32) -> Resolved {
+    let mean = |s: [f32; 3]| r.mean_of(s, r.weight).to_array();
+    let lambda = r.lens_position();
+    let hit_mean = |s: f32| if r.hit_weight > 0.0 { s / r.hit_weight } else { 0.0 };
+    let (position, normal, defocus) = if r.hits > 0 {
+        let n = r.lens_normal().normalize_or_zero();
+        let to = lambda - cam.position;
+        let t = to.length();
+        let d = to / t;
+        let cos = n.dot(-d).abs().max(0.05);
+        let footprint = t * pixel_angle / cos.sqrt();
+        let z = hit_mean(r.depth);
+        (
+            [lambda.x, lambda.y, lambda.z, r.object as f32],
+            [n.x, n.y, n.z, footprint],
+            [r.r_min, r.r_max, z, 2.0 * z * tan_half / height.max(1) as f32],
+        )
+    } else {
+        ([0.0; 4], [0.0; 4], [0.0; 4])
+    };
+    Resolved {
+        vec3: [
+            r.radiance().to_array(),
+            mean(r.l_direct),
+            mean(r.k_direct),
+            mean(r.e_direct),
+            mean(r.l_diffuse),
+            mean(r.k_diffuse),
+            mean(r.e_diffuse),
+            mean(r.l_glossy),
+            mean(r.k_glossy),
+            mean(r.e_glossy),
+            mean(r.emission),
+        ],
+        vec4: [
+            position,
+            normal,
+            defocus,
+            [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
+            [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
+            [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
+        ],
+    }
+}
+
+impl Kernel for PathsResolve {
+    fn name(&self) -> &'static str {
+        "paths.resolve"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        let mut b = vec![Binding::read("record", Format::Struct(&PATH_RECORD))];
+        b.extend(RESOLVE_OUTPUTS.iter().map(|(n, f)| Binding::write_opt(n, *f)));
+        b
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/paths_resolve.wgsl"), |ctx| {
+                let cam = &ctx.scene.camera;
+                let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+                Ok(Uniforms::new()
+                    .vec3("camera", cam.position.to_array())
+                    .f32("pixel_angle", 2.0 * tan_half / ctx.height as f32)
+                    .f32("tan_half", tan_half))
+            })
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let records = ctx.read::<PathRecord>("record")?;
+        let cam = ctx.scene.camera;
+        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+        let pixel_angle = 2.0 * tan_half / ctx.height as f32;
+        let height = ctx.height;
+        let out: Vec<Resolved> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            resolve(&records[i], &cam, pixel_angle, tan_half, height)
+        });
+        for (k, (name, _)) in RESOLVE_OUTPUTS.iter().enumerate() {
+            if k < 11 {
+                ctx.put_opt(name, || out.iter().map(|r| r.vec3[k]).collect::<Vec<_>>())?;
+            } else {
+                ctx.put_opt(name, || out.iter().map(|r| r.vec4[k - 11]).collect::<Vec<_>>())?;
+            }
+        }
+        Ok(())
+    }
+}
