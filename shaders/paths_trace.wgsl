@@ -187,6 +187,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (counts_bound()) {
         count = counts_at(i);
     }
+    count = min(count, 0xffffffffu - prev.paths); // the CPU's saturating first + count
     var n_shadow = params.shadow_per_primary;
     if (shadow_per_primary_bound()) {
         n_shadow = shadow_per_primary_at(i);

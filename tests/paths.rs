@@ -304,6 +304,28 @@ fn defocused(name: &str, aperture: f32) -> Scene {
     scene
 }
 
+/// Share of pixels where some field of two record buffers differs beyond the sampling tolerance
+/// (per component `|a − b| ≤ 1e-5·|a| + 1e-6`); fields that differ anywhere are printed.
+fn share_differing(what: &str, c: &BufferData, g: &BufferData) -> f64 {
+    let tol = Tolerance::for_class(KernelClass::Sampling);
+    let pixels = c.len();
+    let mut bad_pixels = vec![false; pixels];
+    for f in wedge::backends::kernels::paths::PATH_RECORD.fields {
+        let (a, b) = (c.field(f.name).unwrap(), g.field(f.name).unwrap());
+        let (max_abs, _, over, boundary) = compare(&a, &b, tol);
+        for (i, bad) in bad_pixels.iter_mut().enumerate() {
+            *bad |= (0..a.format().components()).any(|k| {
+                let (x, y) = (a.component(i, k), b.component(i, k));
+                (x - y).abs() > tol.rel * x.abs() + tol.abs
+            });
+        }
+        if over + boundary > 0 {
+            println!("{what}: field {} differs in {over} (+{boundary} off by one) pixels, max abs {max_abs:e}", f.name);
+        }
+    }
+    bad_pixels.iter().filter(|&&b| b).count() as f64 / pixels as f64
+}
+
 /// CPU vs GPU on built-in scenes, field by field, as the other sampling passes are compared: the
 /// share of pixels over the per-component tolerance must stay small (grazing rays).
 #[test]
@@ -317,30 +339,51 @@ fn paths_trace_cpu_gpu_parity() {
         let (c, c_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
         let (g, g_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
         let (c, g) = (&c["record"], &g["record"]);
-        let tol = Tolerance::for_class(KernelClass::Sampling);
-        let pixels = c.len();
-        let mut bad_pixels = vec![false; pixels];
-        for f in wedge::backends::kernels::paths::PATH_RECORD.fields {
-            let (a, b) = (c.field(f.name).unwrap(), g.field(f.name).unwrap());
-            let (max_abs, _, over, boundary) = compare(&a, &b, tol);
-            for i in 0..pixels {
-                let differs = (0..a.format().components()).any(|k| {
-                    let (x, y) = (a.component(i, k), b.component(i, k));
-                    (x - y).abs() > tol.rel * x.abs() + tol.abs
-                });
-                bad_pixels[i] |= differs;
-            }
-            if over + boundary > 0 {
-                println!("{scene_name}: field {} differs in {over} (+{boundary} off by one) pixels, max abs {max_abs:e}", f.name);
-            }
-        }
-        let share = bad_pixels.iter().filter(|&&b| b).count() as f64 / pixels as f64;
+        let share = share_differing(scene_name, c, g);
         println!("{scene_name} ({lens}): {:.2}% of pixels differ; rays cpu {c_rays:?} gpu {g_rays:?}", share * 100.0);
         assert!(share <= 0.02, "{scene_name}: {share}");
         let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / (a.max(1) as f64);
         assert_eq!(c_rays.primary_rays, g_rays.primary_rays);
         assert!(rel(c_rays.shadow_rays, g_rays.shadow_rays) < 0.01 && rel(c_rays.secondary_rays, g_rays.secondary_rays) < 0.01);
         assert_eq!(g_rays.cut_loops, 0);
+        if scene_name == "cornell" {
+            let glossy: u64 = records(c).iter().map(|r| r.glossy_samples as u64).sum();
+            assert!(glossy > 100, "the glossy component is exercised: {glossy} samples");
+        }
+    }
+}
+
+/// The same on the GL backend (few storage buffers per stage; naga's GLSL) and under WebGPU's
+/// default limits (8 storage buffers: paths.resolve's 18 bindings run packed).
+#[test]
+fn paths_kernels_run_on_gl_and_webgpu_limits() {
+    use wedge::backends::gpu::{Backends, LimitsChoice};
+    use wedge::backends::kernels::paths::PathsResolve;
+    let scene = defocused("cornell", 0.1);
+    let size = (24u32, 18u32, 2u32);
+    let p = trace_params(4, true, "disk");
+    let (c, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", c["record"].clone())]);
+    let (cr, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let devices = [("GL", Some(Backends::GL), LimitsChoice::Adapter), ("WebGPU limits", None, LimitsChoice::WebGpuDefault)];
+    for (what, backends, limits) in devices {
+        let mut gpu = match GpuBackend::open_on(backends, limits) {
+            Ok(g) => g,
+            Err(e) => {
+                assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "CI=true and no {what} device: {e}");
+                eprintln!("{what}: SKIPPED — no device: {e}");
+                continue;
+            }
+        };
+        let (g, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
+        let share = share_differing(what, &c["record"], &g["record"]);
+        let (gr, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
+        println!("{what} ({}): paths.trace records differing from the CPU's beyond round-off: {:.2}%", gpu.adapter_description(), share * 100.0);
+        assert!(share <= 0.02, "{what}: {share}");
+        for (name, a) in &cr {
+            let (_, _, over, _) = compare(a, &gr[name], Tolerance::for_class(KernelClass::Compose));
+            assert_eq!(over, 0, "{what}: paths.resolve `{name}`");
+        }
     }
 }
 

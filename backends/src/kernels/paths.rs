@@ -32,6 +32,13 @@
 //! a path whose samples of a component are all non-finite contributes `E = 0` there).
 //! A record is only sums, minima, maxima and counts, so resuming (GPU chunks, a second pass) is
 //! exact.
+//!
+//! **Parameters** of `paths.trace`: `count` (paths to add where `counts` is unbound), `jitter`
+//! (bool), `lens` (`"disk"` | `"gaussian"`), `shadow_per_primary` and `indirect_per_primary` (where
+//! the buffers of those names are unbound; at least 1 is used), `light` (the area light of the
+//! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
+//! `stream` (graph-assigned), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
+//! one-bounce indirect sample).
 
 use glam::{Vec2, Vec3};
 use wedge_graph::{Field, FieldType, Format, StructLayout};
