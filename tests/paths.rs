@@ -545,3 +545,37 @@ fn resolve_gives_means_in_gbuffer_conventions() {
         }
     }
 }
+
+/// A pass binding `paths.trace`'s record to a buffer of another layout with the same struct name
+/// is refused before anything runs, naming the field that differs.
+#[test]
+fn struct_layouts_are_checked_by_fields() {
+    use wedge::graph::{Field, FieldType, StructLayout};
+    static IMPOSTOR: StructLayout = StructLayout { name: "PathRecord", fields: &[Field::new("l_direct", FieldType::Vec4)] };
+    let pass = Pass {
+        name: "paths".into(),
+        node: "test".into(),
+        kernel: "paths.trace".into(),
+        reads: vec![],
+        writes: vec![("record".into(), BufferId(0))],
+        params: BTreeMap::new(),
+    };
+    let schedule = wedge::graph::Schedule {
+        passes: vec![pass],
+        buffers: vec![wedge::graph::BufferInfo { name: "paths.record".into(), format: Format::Struct(&IMPOSTOR) }],
+        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 0 })],
+        slots: vec![Some(0)],
+        slot_formats: Vec::new(),
+        sink_inputs: Vec::new(),
+        culled: Vec::new(),
+    };
+    let mut registry = KernelRegistry::new();
+    wedge::backends::register_shared_kernels(&mut registry);
+    let e = registry.check_schedule(&schedule).unwrap_err().to_string();
+    println!("{e}");
+    assert!(
+        e.contains("struct PathRecord (4 words)")
+            && e.contains("field 0 is `l_direct: vec4<f32>` here but `l_direct: vec3<f32>` there"),
+        "{e}"
+    );
+}
