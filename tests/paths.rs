@@ -220,7 +220,7 @@ use wedge::backends::kernels::primary::PrimaryGBuffer;
 use wedge::backends::kernels::direct::DirectLight;
 use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::{Counters, Job, KernelRegistry, RayCounts, Silent, Texel};
-use wedge::graph::{BufferId, ParamValue, Pass};
+use wedge::graph::{BufferId, ParamValue, Pass, Stage};
 
 /// Run one kernel alone with `params` and named inputs, on the CPU or (with `gpu`) the wgpu backend;
 /// returns its outputs and the ray counters.
@@ -249,7 +249,8 @@ fn run_alone(
     }
     let n = buffers.len();
     let params = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
-    let pass = Pass { name: kernel.name().to_string(), node: "test".into(), kernel: kernel.name().to_string(), reads, writes, params };
+    // A lone pass: its stage does not matter to a single-pass schedule; `stream` is set by hand here.
+    let pass = Pass { reads, writes, params, random: true, ..Pass::new(kernel.name(), "test", kernel.name(), Stage::Sample) };
     let schedule = wedge::graph::Schedule {
         passes: vec![pass.clone()],
         buffers,
@@ -552,14 +553,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
 fn struct_layouts_are_checked_by_fields() {
     use wedge::graph::{Field, FieldType, StructLayout};
     static IMPOSTOR: StructLayout = StructLayout { name: "PathRecord", fields: &[Field::new("l_direct", FieldType::Vec4)] };
-    let pass = Pass {
-        name: "paths".into(),
-        node: "test".into(),
-        kernel: "paths.trace".into(),
-        reads: vec![],
-        writes: vec![("record".into(), BufferId(0))],
-        params: BTreeMap::new(),
-    };
+    let pass = Pass { writes: vec![("record".into(), BufferId(0))], ..Pass::new("paths", "test", "paths.trace", Stage::Sample) };
     let schedule = wedge::graph::Schedule {
         passes: vec![pass],
         buffers: vec![wedge::graph::BufferInfo { name: "paths.record".into(), format: Format::Struct(&IMPOSTOR) }],
