@@ -636,3 +636,51 @@ fn stratified_paths_beat_independent_paths() {
     );
     assert!(ratio > 1.1, "stratified {} vs independent {}", rmse["stratified"], rmse["independent"]);
 }
+
+/// The parity harness compares a struct output field by field (one row per field, `record.FIELD`),
+/// on a two-pass job paths.trace → paths.resolve.
+#[test]
+fn parity_harness_compares_struct_fields() {
+    use wedge::backends::kernels::paths::{PathsResolve, PATH_RECORD};
+    use wedge::backends::parity::run_parity;
+    let Some(mut gpu) = gpu_or_skip("parity_harness_compares_struct_fields") else { return };
+    let scene = defocused("cornell", 0.1);
+    let params = trace_params(4, true, "disk").into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+    let trace = Pass {
+        name: "paths".into(),
+        node: "test".into(),
+        kernel: "paths.trace".into(),
+        reads: vec![],
+        writes: vec![("record".into(), BufferId(0))],
+        params,
+    };
+    let resolve = Pass {
+        name: "resolve".into(),
+        node: "test".into(),
+        kernel: "paths.resolve".into(),
+        reads: vec![("record".into(), BufferId(0))],
+        writes: vec![("radiance".into(), BufferId(1))],
+        params: BTreeMap::new(),
+    };
+    let schedule = wedge::graph::Schedule {
+        passes: vec![trace, resolve],
+        buffers: vec![
+            wedge::graph::BufferInfo { name: "paths.record".into(), format: Format::Struct(&PATH_RECORD) },
+            wedge::graph::BufferInfo { name: "resolve.radiance".into(), format: Format::Vec3 },
+        ],
+        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 1 }), Some(wedge::graph::Lifetime { first: 1, last: 1 })],
+        slots: vec![Some(0), Some(1)],
+        slot_formats: Vec::new(),
+        sink_inputs: Vec::new(),
+        culled: Vec::new(),
+    };
+    let mut registry = KernelRegistry::new();
+    registry.register(Arc::new(PathsTrace)).register(Arc::new(PathsResolve));
+    let job = Job { schedule: &schedule, scene: &scene, kernels: &registry, width: 24, height: 18, seed: 3, progress: &Silent };
+    let report = run_parity(&job, &mut gpu).unwrap();
+    println!("{}", report.table());
+    let rows: Vec<&str> = report.rows.iter().map(|r| r.binding.as_str()).collect();
+    assert_eq!(rows.len(), PATH_RECORD.fields.len() + 1, "{rows:?}");
+    assert!(rows.contains(&"record.l_direct") && rows.contains(&"record.non_finite") && rows.contains(&"radiance"), "{rows:?}");
+    assert!(report.ok());
+}
