@@ -13,6 +13,15 @@ const SALT_GLOSSY_PATH: u32 = 2u;
 
 var<private> rec: PathRecord;
 
+// draw: Sobol' (stratified) or independent sample `index` of pair `pair`.
+fn draw(pixel: u32, pair: u32, index: u32) -> vec2<f32> {
+    let key = sequence_key(frame.seed, pixel, params.stream, pair);
+    if (params.stratified != 0u) {
+        return sobol2(key, index);
+    }
+    return independent2(key, index);
+}
+
 fn accumulate_direct(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
     var e = vec3<f32>(0.0);
     if (valid > 0u) {
@@ -111,7 +120,7 @@ fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n
     var e = vec3<f32>(0.0);
     var valid = 0u;
     for (var s = 0u; s < n_shadow; s = s + 1u) {
-        let u = sample2(frame.seed, pixel, params.stream, PAIR_LIGHT, rec.shadow);
+        let u = draw(pixel, PAIR_LIGHT, rec.shadow);
         rec.shadow = rec.shadow + 1u;
         let ls = light_sample(l, x, n, u, true, fc, true);
         if (ls.occluded) {
@@ -139,7 +148,7 @@ fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n
     for (var s = 0u; s < n_indirect; s = s + 1u) {
         let q = rec.diffuse_samples;
         rec.diffuse_samples = rec.diffuse_samples + 1u;
-        let wi = sample_diffuse(n, sample2(frame.seed, pixel, params.stream, PAIR_HEMISPHERE_DIFFUSE, q));
+        let wi = sample_diffuse(n, draw(pixel, PAIR_HEMISPHERE_DIFFUSE, q));
         let v = indirect_ray(x, n, wi, key_d, q);
         if (is_finite3(v)) {
             e = e + v;
@@ -157,7 +166,7 @@ fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n
         for (var s = 0u; s < n_indirect; s = s + 1u) {
             let q = rec.glossy_samples;
             rec.glossy_samples = rec.glossy_samples + 1u;
-            let u = sample2(frame.seed, pixel, params.stream, PAIR_HEMISPHERE_GLOSSY, q);
+            let u = draw(pixel, PAIR_HEMISPHERE_GLOSSY, q);
             let gs = sample_glossy(params.lobe, m, n, wo, u);
             var v = vec3<f32>(0.0);
             if (gs.weight > 0.0) {
@@ -221,9 +230,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let j = first + k;
         var jitter = vec2<f32>(0.5);
         if (params.jitter != 0u) {
-            jitter = sample2(frame.seed, pixel, params.stream, PAIR_PIXEL, j);
+            jitter = draw(pixel, PAIR_PIXEL, j);
         }
-        let lens = sample2(frame.seed, pixel, params.stream, PAIR_LENS, j);
+        let lens = draw(pixel, PAIR_LENS, j);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x), f32(xy.y)) + jitter, lens);
         trace_one(c, ray, pixel, key_d, key_g, n_shadow, n_indirect);
     }

@@ -58,6 +58,10 @@ fn sobol2(key: u32, index: u32) -> vec2<f32> {
     );
 }
 
+fn independent2(key: u32, index: u32) -> vec2<f32> {
+    return vec2<f32>(to_unit(hash4(key, index, 0u, 0x85ebca6bu)), to_unit(hash4(key, index, 1u, 0x85ebca6bu)));
+}
+
 fn sample2(seed: u32, pixel: u32, stream: u32, pair: u32, index: u32) -> vec2<f32> {
     return sobol2(sequence_key(seed, pixel, stream, pair), index);
 }

@@ -17,6 +17,7 @@
 //! - **Integer outputs** (rays per pixel): exact, except a difference of one where `ceil` of a float
 //!   input sits on a rounding boundary; those are counted as `boundary` and allowed up to 0.1% of pixels.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -198,34 +199,36 @@ pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, B
             })?;
             // Struct buffers are compared field by field (one row each, `binding.field`), so float
             // fields get the float tolerance and counts the integer rule.
-            let fields: Vec<(String, BufferData, BufferData)> = match cpu_buf.format().layout() {
+            let fields: Vec<(String, Cow<'_, BufferData>, Cow<'_, BufferData>)> = match cpu_buf.format().layout() {
                 Some(layout) if cpu_buf.format() == gpu_buf.format() => layout
                     .fields
                     .iter()
-                    .filter_map(|f| Some((format!("{binding}.{}", f.name), cpu_buf.field(f.name)?, gpu_buf.field(f.name)?)))
+                    .filter_map(|f| {
+                        Some((format!("{binding}.{}", f.name), Cow::Owned(cpu_buf.field(f.name)?), Cow::Owned(gpu_buf.field(f.name)?)))
+                    })
                     .collect(),
-                _ => vec![(binding.clone(), cpu_buf.clone(), gpu_buf.clone())],
+                _ => vec![(binding.clone(), Cow::Borrowed(cpu_buf), Cow::Borrowed(gpu_buf))],
             };
             for (binding, cpu_buf, gpu_buf) in &fields {
-            let (max_abs, max_rel, over, boundary) = compare(cpu_buf, gpu_buf, tol);
-            let pixels = cpu_buf.len();
-            let allowed = (tol.max_share * pixels as f64).floor() as usize;
-            let is_int = matches!(cpu_buf, BufferData::U32(_));
-            let ok = if is_int { over == 0 && boundary <= allowed } else { over <= allowed };
-            report.rows.push(BufferParity {
-                pass: pass.name.clone(),
-                kernel: pass.kernel.clone(),
-                binding: binding.clone(),
-                class,
-                pixels,
-                max_abs,
-                max_rel,
-                over,
-                boundary,
-                tolerance: tol,
-                gpu_seconds: time.seconds,
-                ok,
-            });
+                let (max_abs, max_rel, over, boundary) = compare(cpu_buf, gpu_buf, tol);
+                let pixels = cpu_buf.len();
+                let allowed = (tol.max_share * pixels as f64).floor() as usize;
+                let is_int = matches!(**cpu_buf, BufferData::U32(_));
+                let ok = if is_int { over == 0 && boundary <= allowed } else { over <= allowed };
+                report.rows.push(BufferParity {
+                    pass: pass.name.clone(),
+                    kernel: pass.kernel.clone(),
+                    binding: binding.clone(),
+                    class,
+                    pixels,
+                    max_abs,
+                    max_rel,
+                    over,
+                    boundary,
+                    tolerance: tol,
+                    gpu_seconds: time.seconds,
+                    ok,
+                });
             }
         }
         for (binding, data) in cpu_out {

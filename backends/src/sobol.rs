@@ -121,6 +121,13 @@ pub fn sobol2(key: u32, index: u32) -> [f32; 2] {
     ]
 }
 
+/// Independent uniform numbers for the same (key, index): the Monte Carlo baseline that samples the
+/// same dimensions without stratification (`sampling: "independent"`).
+#[inline]
+pub fn independent2(key: u32, index: u32) -> [f32; 2] {
+    [to_unit(hash4(key, index, 0, 0x85eb_ca6b)), to_unit(hash4(key, index, 1, 0x85eb_ca6b))]
+}
+
 /// Sample `index` of pair `pair` of pixel `pixel`'s sequence in `stream`.
 #[inline]
 pub fn sample2(seed: u32, pixel: u32, stream: u32, pair: u32, index: u32) -> [f32; 2] {

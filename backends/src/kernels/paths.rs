@@ -37,7 +37,8 @@
 //! (bool), `lens` (`"disk"` | `"gaussian"`), `shadow_per_primary` and `indirect_per_primary` (where
 //! the buffers of those names are unbound; at least 1 is used), `light` (the area light of the
 //! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
-//! `stream` (graph-assigned), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
+//! `stream` (graph-assigned), `sampling` (`"stratified"`: the Sobol' sequences; `"independent"`:
+//! independent numbers for the same dimensions, the Monte Carlo baseline), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
 //! one-bounce indirect sample).
 
 use glam::{Vec2, Vec3};
@@ -50,7 +51,7 @@ use crate::kernels::direct::{light_centre_factor, light_sample, RAY_EPSILON};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::rng::PixelRng;
-use crate::sobol::{pair, sample2, substream};
+use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
 use crate::BackendError;
 
 const fn f(name: &'static str, ty: FieldType) -> Field {
@@ -214,6 +215,9 @@ const SALT_GLOSSY_PATH: u32 = 2;
 
 /// Settings of one `paths.trace` pass.
 struct Settings {
+    /// Owen-scrambled Sobol' (`sampling: "stratified"`) or independent numbers (`"independent"`,
+    /// the plain Monte Carlo baseline over the same dimensions).
+    stratified: bool,
     count: u32,
     jitter: bool,
     lens: LensShape,
@@ -235,6 +239,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         u32::try_from(v).map_err(|_| err(format!("`{name}` = {v} must be between 0 and {}", u32::MAX)))
     };
     Ok(Settings {
+        stratified: ctx.stratified_param()?,
         count: positive("count")?,
         jitter: ctx.bool_param("jitter")?,
         lens,
@@ -250,6 +255,13 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
             eps: RAY_EPSILON * ctx.scene.extent(),
         },
     })
+}
+
+/// Sample `index` of pair `pair` of a pixel's sequences.
+#[inline]
+fn draw(s: &Settings, seed: u32, pixel: u32, pair: u32, index: u32) -> Vec2 {
+    let key = sequence_key(seed, pixel, s.stream, pair);
+    Vec2::from(if s.stratified { sobol2(key, index) } else { independent2(key, index) })
 }
 
 pub struct PathsTrace;
@@ -278,7 +290,8 @@ impl Kernel for PathsTrace {
             WgslSource::new(include_str!("../../../shaders/paths_trace.wgsl"), |ctx| {
                 let s = settings(ctx)?;
                 let u = camera_uniforms(Uniforms::new(), &ctx.scene.camera, s.lens);
-                Ok(u.u32("count", s.count)
+                Ok(u.u32("stratified", s.stratified as u32)
+                    .u32("count", s.count)
                     .u32("jitter", s.jitter as u32)
                     .u32("shadow_per_primary", s.shadow_per_primary)
                     .u32("indirect_per_primary", s.indirect_per_primary)
@@ -319,8 +332,8 @@ impl Kernel for PathsTrace {
             let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
             let first = r.paths;
             for j in first..first.saturating_add(count) {
-                let jitter = if s.jitter { Vec2::from(sample2(seed, pixel, s.stream, pair::PIXEL, j)) } else { Vec2::splat(0.5) };
-                let lens = Vec2::from(sample2(seed, pixel, s.stream, pair::LENS, j));
+                let jitter = if s.jitter { draw(&s, seed, pixel, pair::PIXEL, j) } else { Vec2::splat(0.5) };
+                let lens = draw(&s, seed, pixel, pair::LENS, j);
                 let ray = cam.ray(Vec2::new(px as f32, py as f32) + jitter, lens, width, height, s.lens);
                 trace_one(scene, &s, light, forward, height, &ray, seed, pixel, &rng_d, &rng_g, n_shadow, n_indirect, &mut r);
             }
@@ -397,7 +410,7 @@ fn trace_one(
     r.d1 += w * (light.centre() - x).dot(light.normal()).abs();
     let (mut e, mut valid) = (Vec3::ZERO, 0u32);
     for _ in 0..n_shadow {
-        let u = Vec2::from(sample2(seed, pixel, s.stream, pair::LIGHT, r.shadow));
+        let u = draw(s, seed, pixel, pair::LIGHT, r.shadow);
         r.shadow += 1;
         let (v, occ) = light_sample(scene, light, x, n, u, Some(fc), true);
         if let Some(d2) = occ {
@@ -423,7 +436,7 @@ fn trace_one(
     for _ in 0..n_indirect {
         let q = r.diffuse_samples;
         r.diffuse_samples += 1;
-        let wi = sample_diffuse(n, Vec2::from(sample2(seed, pixel, s.stream, pair::HEMISPHERE_DIFFUSE, q)));
+        let wi = sample_diffuse(n, draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q));
         let v = indirect_ray(scene, &s.path, x, n, wi, rng_d, q, r);
         if v.is_finite() {
             e += v;
@@ -440,7 +453,7 @@ fn trace_one(
         for _ in 0..n_indirect {
             let q = r.glossy_samples;
             r.glossy_samples += 1;
-            let u = Vec2::from(sample2(seed, pixel, s.stream, pair::HEMISPHERE_GLOSSY, q));
+            let u = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
             let (wi, weight) = sample_glossy(s.path.lobe, m, n, wo, u);
             let v = if weight > 0.0 { indirect_ray(scene, &s.path, x, n, wi, rng_g, q, r) * weight } else { Vec3::ZERO };
             if v.is_finite() {
