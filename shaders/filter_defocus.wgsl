@@ -64,7 +64,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let d2 = f32(dx * dx + dy * dy);
             let e_i = FILTER_SHARPNESS * d2 * gi2;
-            if (e_i > REJECT_EXPONENT) {
+            if (!(e_i <= REJECT_EXPONENT)) {
                 continue;
             }
             let oj = omega_at(j);

@@ -79,7 +79,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let d = position_at(j).xyz - xi;
             let dist2 = dot3(d, d);
             let e_i = FILTER_SHARPNESS * dist2 * gi2;
-            if (e_i > REJECT_EXPONENT) {
+            if (!(e_i <= REJECT_EXPONENT)) {
                 continue;
             }
             let gj = omega_at(j) / pixel_length_at(j);

@@ -530,15 +530,13 @@ fn rejection_keeps_sharp_regions_out_of_blurry_ones() {
     // Left half blurry (Ω = 0.05: σ = 3.5 px, reach 10.7 px) and black; right half sharp (Ω = 2) and
     // white. Pixel i in the blurry half next to the edge weighs its sharp neighbours by its own
     // Gaussian at ≈ 0.96, but i lies outside their filters (w_j(i) = e^{−64} < 0.01): rejected.
-    for name in ["filter.defocus"] {
-        let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 32 { 0.05 } else { 2.0 }).collect();
-        let value: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 32 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
-        let (out, _) = run_filter(name, &inputs_for(name, value.clone(), omega));
-        assert_eq!(out, value, "{name}: neither side bleeds into the other");
-        // Without the rejection the blurry pixel next to the edge would be about half white.
-        let own: f32 = (-FILTER_SHARPNESS * 1.0 * 0.05 * 0.05).exp();
-        assert!(own > 0.9);
-    }
+    let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 32 { 0.05 } else { 2.0 }).collect();
+    let value: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 32 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
+    let (out, _) = run_filter("filter.defocus", &defocus_inputs(value.clone(), omega));
+    assert_eq!(out, value, "neither side bleeds into the other");
+    // Without the rejection the blurry pixel next to the edge would be about half white.
+    let own: f32 = (-FILTER_SHARPNESS * 1.0 * 0.05 * 0.05).exp();
+    assert!(own > 0.9);
     // The irradiance filter on the camera-facing plane (x < 24): blurry left part, sharp right part.
     let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 12 { 0.05 } else { 2.0 }).collect();
     let value: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
@@ -590,6 +588,14 @@ fn nan_pixel_is_counted_once_and_not_spread() {
         assert!(out[centre][0].is_nan());
         assert!(out.iter().enumerate().all(|(i, o)| i == centre || o[0] == c[0] || (o[0] - c[0]).abs() <= 1e-6));
     }
+    // A non-finite lens-averaged position is never a neighbour either (its distances are NaN).
+    let value: Vec<[f32; 4]> = (0..N).map(|_| [c[0], c[1], c[2], 1.0]).collect();
+    let mut inputs = irradiance_inputs(value, vec![0.05; N]);
+    if let Some(BufferData::Vec4(p)) = inputs.get_mut("position") {
+        p[20 * W as usize + 10] = [f32::NAN, 0.0, 2.0, 1.0];
+    }
+    let (out, _) = run_filter("filter.irradiance", &inputs);
+    assert!(out.iter().all(|o| (0..3).all(|ch| (o[ch] - c[ch]).abs() <= 1e-6)));
     // The GPU counts it the same way.
     if let Some(mut gpu) = gpu_or_skip("nan_pixel_is_counted_once_and_not_spread") {
         let mut value: Vec<[f32; 4]> = (0..N).map(|_| [c[0], c[1], c[2], 1.0]).collect();
@@ -689,6 +695,14 @@ fn rates_kernel_matches_the_formulas() {
     let s = single(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats);
     let e = cpu::run_pass(&job(&s, &scene, W, H), &s.pass, &by_id(&s, &stats), &Counters::default()).unwrap_err();
     assert!(e.to_string().contains("literal or consistent"), "{e}");
+    // So are non-positive or non-finite constants.
+    for (name, v) in [("mu", 0.0), ("mu", f64::NAN), ("pixel_scale", -1.0), ("light_half_width", -0.1)] {
+        let mut p = rate_params(1.0, "literal", 64, 64);
+        p.insert(name.into(), float(v));
+        let s = single(kernel("defocus.rates"), p, &stats);
+        let e = cpu::run_pass(&job(&s, &scene, W, H), &s.pass, &by_id(&s, &stats), &Counters::default()).unwrap_err();
+        assert!(e.to_string().contains(name) && e.to_string().contains("finite number"), "{e}");
+    }
 }
 
 /// Run `name` as an X pass then a Y pass (the separable approximation).

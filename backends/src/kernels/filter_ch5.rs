@@ -53,11 +53,21 @@ pub const MAX_RADIUS_LIMIT: i64 = 64;
 /// Half-width in pixels of the square window for width `omega`: `ceil(0.5365/Ω)`, at most `cap`.
 pub fn window_radius(omega: f32, cap: i32) -> i32 {
     let r = REJECT_RADIUS / omega;
-    if !(r < cap as f32) {
+    if r.is_nan() || r >= cap as f32 {
         cap
     } else {
         (r.ceil() as i32).max(0)
     }
+}
+
+/// Whether a weight exponent `16 d² (Ω/ℓ)²` keeps the weight at or above 0.01 (false for NaN).
+fn within_filter(exponent: f32) -> bool {
+    exponent <= REJECT_EXPONENT
+}
+
+/// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
+fn is_hit(position: [f32; 4]) -> bool {
+    position[3] > 0.0
 }
 
 fn is_finite3(v: [f32; 4]) -> bool {
@@ -128,7 +138,7 @@ pub fn irradiance_pixel(
     let i = (y * width + x) as usize;
     let centre = value[i];
     let (om, ell) = (omega[i], pixel_length[i]);
-    if !valid_width(om) || !valid_width(ell) || !(position[i][3] > 0.0) {
+    if !valid_width(om) || !valid_width(ell) || !is_hit(position[i]) {
         return centre;
     }
     let ni = v3(normal[i]).normalize_or_zero();
@@ -148,7 +158,7 @@ pub fn irradiance_pixel(
                 continue;
             }
             let j = (jy * width + jx) as usize;
-            if !(position[j][3] > 0.0) {
+            if !is_hit(position[j]) {
                 continue;
             }
             let v = value[j];
@@ -161,13 +171,13 @@ pub fn irradiance_pixel(
             let dist2 = (v3(position[j]) - xi).length_squared();
             // Outside i's truncated Gaussian (w_i(j) < 0.01).
             let e_i = FILTER_SHARPNESS * dist2 * gi2;
-            if e_i > REJECT_EXPONENT {
+            if !within_filter(e_i) {
                 continue;
             }
             // i outside j's filter: w_j(i) < 0.01 rejects j (thesis Sec. 5.8).
             let gj = omega[j] / pixel_length[j];
             let e_j = FILTER_SHARPNESS * dist2 * (gj * gj);
-            if !(e_j <= REJECT_EXPONENT) {
+            if !within_filter(e_j) {
                 continue;
             }
             let w = (-e_i).exp();
@@ -219,12 +229,12 @@ pub fn defocus_pixel(
             }
             let d2 = (dx * dx + dy * dy) as f32;
             let e_i = FILTER_SHARPNESS * d2 * gi2;
-            if e_i > REJECT_EXPONENT {
+            if !within_filter(e_i) {
                 continue;
             }
             let oj = omega[j];
             let e_j = FILTER_SHARPNESS * d2 * (oj * oj);
-            if !(e_j <= REJECT_EXPONENT) {
+            if !within_filter(e_j) {
                 continue;
             }
             let w = (-e_i).exp();

@@ -26,8 +26,8 @@
 //!   limit `Ω_x^s`, and `n_dir` has no light factor: one shadow ray per primary ray suffices for a
 //!   constant visibility); likewise no reflector hit means no `z` term. `s` and `z` are clamped at 0.
 //! - **Rounding for full stratification** (Sec. 5.8 footnote 6): `n_p → p²`, secondary counts →
-//!   `p² s²` with `s ≥ 1` (at least one secondary ray per primary ray). A rate within
-//!   [`ROUNDING_SLACK`] of a square root integer rounds down to it, so float noise in e.g.
+//!   `p² s²` with `s ≥ 1` (at least one secondary ray per primary ray). A rate whose square root
+//!   exceeds an integer `p` by less than [`ROUNDING_SLACK`] takes `p` strata, so float noise in e.g.
 //!   `(0.5 + 0.5)² = 1` never adds a stratum.
 
 use wedge_backends::kernels::filter_ch5;
@@ -83,12 +83,13 @@ impl LensShape {
     /// than importance sampling it (Sec. 5.8, step 2).
     pub fn weight(self, u: [f32; 2]) -> f32 {
         let r2 = u[0] * u[0] + u[1] * u[1];
-        if !(r2 <= 1.0) {
-            return 0.0;
-        }
-        match self {
-            LensShape::Disk => 1.0,
-            LensShape::Gaussian => (-0.5 * r2).exp(),
+        if r2 <= 1.0 {
+            match self {
+                LensShape::Disk => 1.0,
+                LensShape::Gaussian => (-0.5 * r2).exp(),
+            }
+        } else {
+            0.0
         }
     }
 

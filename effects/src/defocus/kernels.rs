@@ -31,15 +31,27 @@ fn mode_param(ctx: &KernelCtx<'_>) -> Result<Mode, BackendError> {
     })
 }
 
+/// A number parameter that must be finite and above (or, with `zero_ok`, at least) 0.
+fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32, BackendError> {
+    let v = ctx.f32_param(name)?;
+    if v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)) {
+        return Ok(v);
+    }
+    Err(BackendError::Kernel {
+        pass: ctx.pass.to_string(),
+        message: format!("parameter `{name}` = {v}; it must be a finite number {}", if zero_ok { ">= 0" } else { "> 0" }),
+    })
+}
+
 /// The pass's rate constants from its parameter block.
 pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     Ok(RateParams {
-        mu: ctx.f32_param("mu")?,
+        mu: positive_param(ctx, "mu", false)?,
         mode: mode_param(ctx)?,
-        omega_pix: ctx.f32_param("omega_pix")?,
-        pixel_scale: ctx.f32_param("pixel_scale")?,
-        light_half_width: ctx.f32_param("light_half_width")?,
-        omega_v: ctx.f32_param("omega_v")?,
+        omega_pix: positive_param(ctx, "omega_pix", false)?,
+        pixel_scale: positive_param(ctx, "pixel_scale", false)?,
+        light_half_width: positive_param(ctx, "light_half_width", true)?,
+        omega_v: positive_param(ctx, "omega_v", false)?,
         max_primary: ctx.int_param("max_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
         max_per_primary: ctx.int_param("max_per_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
     })
@@ -150,7 +162,7 @@ impl Kernel for Flags {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_flags.wgsl"), |ctx| {
-                Ok(Uniforms::new().f32("threshold", ctx.f32_param("threshold")?))
+                Ok(Uniforms::new().f32("threshold", positive_param(ctx, "threshold", true)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .per_pixel(),
@@ -160,7 +172,7 @@ impl Kernel for Flags {
         let l = ctx.read::<[f32; 4]>("radiance")?;
         let k = ctx.read::<[f32; 4]>("texture")?;
         let e = ctx.read::<[f32; 4]>("irradiance")?;
-        let threshold = ctx.f32_param("threshold")?;
+        let threshold = positive_param(ctx, "threshold", true)?;
         let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
         let flag: Vec<u32> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
