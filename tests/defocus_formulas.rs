@@ -5,7 +5,7 @@
 //! consistent mode shrinks every filter to a pixel and grows every count without bound.
 
 use wedge::effects::defocus::formulas::{
-    direct_rate, filter_width_px, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
+    direct_rate, filter_width_px, light_half_width, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
     pixel_scale, primary_rate, primary_strata, secondary_per_primary, secondary_strata, separable, strata_cap, LensShape,
     Mode, PixelStats, RateParams, ThinLens, FILTER_SHARPNESS, OMEGA_PIX_MAX,
 };
@@ -374,4 +374,24 @@ fn factoring_flag_eq_5_30() {
     assert!(!separable([0.406, 0.106, 0.206], k, e, 0.01));
     assert!(!separable([f32::NAN, 0.1, 0.2], k, e, 0.01));
     assert!(!separable([f32::INFINITY, 0.1, 0.2], k, e, 0.01));
+}
+
+#[test]
+fn light_half_width_and_camera_lens() {
+    use wedge::scene::{AreaLight, Camera, LightShape, Vec3};
+    let rect = AreaLight {
+        shape: LightShape::Rect { corner: Vec3::ZERO, edge_u: Vec3::new(0.6, 0.0, 0.0), edge_v: Vec3::new(0.0, 0.0, 0.2) },
+        radiance: Vec3::ONE,
+        two_sided: false,
+    };
+    // ℓ_I = half the longer side (0.3), not Ch. 3's 0.6/√12 = 0.173.
+    assert!(close(light_half_width(&rect), 0.3, 1e-6));
+    let tri = AreaLight {
+        shape: LightShape::Triangle { v0: Vec3::ZERO, v1: Vec3::new(0.3, 0.0, 0.0), v2: Vec3::new(0.0, 0.4, 0.0) },
+        radiance: Vec3::ONE,
+        two_sided: false,
+    };
+    assert!(close(light_half_width(&tri), 0.25, 1e-6)); // hypotenuse 0.5
+    let camera = Camera { aperture_radius: 0.05, focus_distance: 4.0, vfov_deg: 45.0, ..Camera::default() };
+    assert_eq!(ThinLens::from_camera(&camera, 512), ThinLens::new(0.05, 4.0, 45.0, 512));
 }

@@ -31,6 +31,7 @@
 //!   `(0.5 + 0.5)² = 1` never adds a stratum.
 
 use wedge_backends::kernels::filter_ch5;
+use wedge_scene::{AreaLight, Camera, LightShape};
 
 /// `Ω_pix^max`: the pixel bandlimit of one sample per pixel (thesis eq. 5.7).
 pub const OMEGA_PIX_MAX: f32 = 0.5;
@@ -146,6 +147,23 @@ impl ThinLens {
     pub fn surface_offset(&self, x: [f32; 2], u: [f32; 2], z: f32) -> [f32; 2] {
         let (l, r) = (self.pixel_length(z), self.circle_of_confusion(z));
         [l * (x[0] + r * u[0]), l * (x[1] + r * u[1])]
+    }
+}
+
+impl ThinLens {
+    /// The camera's thin lens at an image `height` in pixels.
+    pub fn from_camera(camera: &Camera, height: u32) -> ThinLens {
+        ThinLens::new(camera.aperture_radius, camera.focus_distance, camera.vfov_deg, height)
+    }
+}
+
+/// `ℓ_I`: the light's physical half-width (thesis Sec. 5.5: `I(y)` over `[−ℓ_I, ℓ_I]`,
+/// `Ω_y^max = 1/ℓ_I`), along its longer extent: half the longer side of a rectangle, half the
+/// longest edge of a triangle. Not Ch. 3's `w/√12` std-dev reading (`EQUATIONS.md`).
+pub fn light_half_width(light: &AreaLight) -> f32 {
+    match light.shape {
+        LightShape::Rect { edge_u, edge_v, .. } => 0.5 * edge_u.length().max(edge_v.length()),
+        LightShape::Triangle { v0, v1, v2 } => 0.5 * (v1 - v0).length().max((v2 - v1).length()).max((v0 - v2).length()),
     }
 }
 
