@@ -869,3 +869,67 @@ fn parity_wgsl_formula_helpers() {
     let bad = parity_with(&mut gpu, Arc::new(FormulaProbe), &scene(), W, H, &Params::new(), &inputs);
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// The filters' noise reduction matches their weights: on a flat field with independent noise the
+/// output's standard deviation is σ_in / sqrt(N_eff), with N_eff = (Σw)²/Σw² over the truncated
+/// window (≈ π/(8Ω²) for the untruncated Gaussian exp(−16 d² Ω²), i.e. σ = 0.177/Ω px).
+#[test]
+fn noise_reduction_matches_the_weights() {
+    let (w, h) = (128u32, 128u32);
+    let n = (w * h) as usize;
+    let scene = scene();
+    let mut rng = Rng(71);
+    let value: Vec<[f32; 4]> = (0..n).map(|_| [0.5 + rng.range(-0.2, 0.2), 0.5, 0.5, 1.0]).collect();
+    let sigma_in = 0.4 / 12f64.sqrt();
+    let ell = 0.01f32;
+    let position: Vec<[f32; 4]> = (0..n).map(|i| [(i as u32 % w) as f32 * ell, (i as u32 / w) as f32 * ell, 2.0, 1.0]).collect();
+    let normal = vec![[0.0f32, 0.0, 1.0, ell]; n];
+    for omega in [0.1f32, 0.2] {
+        // N_eff over the window the kernels use (d² with 16 d² Ω² ≤ ln 100).
+        let r = window_radius(omega, 16);
+        let (mut s1, mut s2) = (0f64, 0f64);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let e = FILTER_SHARPNESS * (dx * dx + dy * dy) as f32 * omega * omega;
+                if e <= REJECT_EXPONENT {
+                    let wt = (-e as f64).exp();
+                    s1 += wt;
+                    s2 += wt * wt;
+                }
+            }
+        }
+        let n_eff = s1 * s1 / s2;
+        let untruncated = std::f64::consts::PI / (8.0 * (omega as f64).powi(2));
+        assert!((n_eff / untruncated - 1.0).abs() < 0.1, "Ω = {omega}: N_eff {n_eff} vs π/(8Ω²) {untruncated}");
+        let expect = sigma_in / n_eff.sqrt();
+        let omegas = vec![omega; n];
+        let irr: Buffers = BTreeMap::from([
+            ("value", vec4s(value.clone())),
+            ("position", vec4s(position.clone())),
+            ("normal", vec4s(normal.clone())),
+            ("omega", f32s(omegas.clone())),
+            ("pixel_length", f32s(vec![ell; n])),
+        ]);
+        let def: Buffers = BTreeMap::from([("value", vec4s(value.clone())), ("omega", f32s(omegas))]);
+        for (name, inputs, p) in [
+            ("filter.irradiance", &irr, irradiance_params(16)),
+            ("filter.defocus", &def, params(&[("max_radius", int(16))])),
+        ] {
+            let (out, _) = run_cpu(&scene, name, w, h, &p, inputs);
+            let out = vec4_of(&out["out"]);
+            // Interior pixels only (the window is whole there).
+            let inner: Vec<f64> = (0..n)
+                .filter(|i| {
+                    let (x, y) = ((*i as u32 % w) as i32, (*i as u32 / w) as i32);
+                    x >= r && y >= r && x < w as i32 - r && y < h as i32 - r
+                })
+                .map(|i| out[i][0] as f64)
+                .collect();
+            let mean = inner.iter().sum::<f64>() / inner.len() as f64;
+            let std = (inner.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / inner.len() as f64).sqrt();
+            println!("{name} Ω = {omega}: output std {std:.4}, predicted {expect:.4} (N_eff {n_eff:.1}, input std {sigma_in:.4})");
+            assert!((std / expect - 1.0).abs() < 0.12, "{name} Ω = {omega}: std {std} vs {expect}");
+            assert!((mean - 0.5).abs() < 0.01, "{name}: unbiased mean {mean}");
+        }
+    }
+}
