@@ -135,7 +135,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (want_stats) {
             d1 = abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
         }
-        let key = rng_key(frame.seed, pixel_id(gid), params.stream * 64u + li);
+        let key = rng_key(frame.seed, pixel_id(gid), rng_substream(params.stream, li));
         let use_centre = params.light_centre != 0u;
         var factor = vec3<f32>(0.0);
         if (use_centre) {

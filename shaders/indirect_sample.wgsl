@@ -235,7 +235,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let done_d = f32_to_u32_sat(pd.w);
         let extra_d = select(0u, target_d - done_d, target_d > done_d);
-        let key_d = rng_key(frame.seed, pixel_id(gid), 0x4000u + 2u * params.stream);
+        let key_d = rng_key(frame.seed, pixel_id(gid), rng_substream(params.stream, 0u)); // COMPONENT_DIFFUSE
         var rd = running_start(out_d, extra_d, resume);
         var s = frame.chunk_begin;
         for (; s < rd.end; s = s + 1u) {
@@ -260,7 +260,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let done_g = f32_to_u32_sat(pg.w);
             let extra_g = select(0u, target_g - done_g, target_g > done_g);
-            let key_g = rng_key(frame.seed, pixel_id(gid), 0x4001u + 2u * params.stream);
+            let key_g = rng_key(frame.seed, pixel_id(gid), rng_substream(params.stream, 1u)); // COMPONENT_GLOSSY
             var rg = running_start(out_g, extra_g, resume);
             var sg = frame.chunk_begin;
             for (; sg < rg.end; sg = sg + 1u) {

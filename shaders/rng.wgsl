@@ -28,6 +28,11 @@ fn to_unit(h: u32) -> f32 {
     return f32(h >> 8u) * (1.0 / 16777216.0);
 }
 
+// rng::substream(stream, index): sub-stream of a pass's stream per light / component (hashed, never packed).
+fn rng_substream(stream: u32, index: u32) -> u32 {
+    return hash4(stream, index, 0x27d4eb2fu, 0x165667b1u);
+}
+
 // PixelRng::new(seed, pixel, stream).key
 fn rng_key(seed: u32, pixel: u32, stream: u32) -> u32 {
     return hash4(seed, pixel, stream, 0x9e3779b9u);

@@ -72,42 +72,41 @@ impl Session {
         Session::build(load_pipeline_or_default(path)?, ov, nodes, kernels)
     }
 
-    /// The plain stratified (or independent) Monte Carlo reference for the pipeline at `path`:
-    /// same scene, camera, size and seed; every area light sampled `spp` times per pixel; no filter.
+    /// The plain Monte Carlo reference of the pipeline at `path` (or the default): the pipeline's own
+    /// graph, transformed by [`wedge_graph::reference()`] — filters bypassed, per-pixel counts set to
+    /// `spp`, every sampling pass at `spp` samples (per light, per component) placed by `sampling`
+    /// (`stratified`: jointly stratified; `independent`). Same scene, camera, size, seed and
+    /// `--set` overrides as a render.
     pub fn reference(path: Option<&Path>, spp: u32, sampling: &str, ov: &Overrides) -> Result<Session, WedgeError> {
         let (nodes, kernels) = wedge_effects::builtin();
-        let original = load_pipeline_or_default(path)?;
-        let p = &original.pipeline;
-        // A pipeline with an `Indirect` node gets a reference with the same indirect light: its
-        // bounces, mode (radiance or AO), AO distance and glossy lobe, path-traced at `spp`.
-        let validated = validate(&original, &nodes)?;
-        let indirect = validated.nodes.iter().find(|n| n.kind.kind() == "Indirect").map(|n| IndirectSpec {
-            bounces: match n.params.get("bounces") {
-                Some(ParamValue::Int(b)) => *b,
-                _ => 1,
-            },
-            ao: matches!(n.params.get("mode"), Some(ParamValue::Str(m)) if m == "ao"),
-            max_distance: match n.params.get("max_distance") {
-                Some(ParamValue::Float(d)) => *d,
-                _ => 0.0,
-            },
-            brdf: match n.params.get("brdf") {
-                Some(ParamValue::Str(b)) => b.clone(),
-                _ => "phong".into(),
-            },
-        });
-        let text = reference_pipeline_text(&p.scene, p.width, p.height, p.seed, spp, sampling, indirect.as_ref());
-        let mut loaded = parse_pipeline(&original.path, &text)?;
-        loaded.pipeline.camera = p.camera.clone();
-        Session::build(loaded, ov, nodes, kernels)
+        Session::build_reference(load_pipeline_or_default(path)?, ov, nodes, kernels, spp, sampling)
+    }
+
+    /// [`Session::reference`] with the caller's registries: a user crate's nodes get a reference from
+    /// their declarations alone (stages, `random`, reference roles).
+    pub fn build_reference(
+        loaded: LoadedPipeline,
+        ov: &Overrides,
+        nodes: NodeRegistry,
+        kernels: KernelRegistry,
+        spp: u32,
+        sampling: &str,
+    ) -> Result<Session, WedgeError> {
+        Session::build_with(loaded, ov, nodes, kernels, Some((spp, sampling)))
     }
 
     /// The general constructor: a user crate passes registries extended with its own nodes/kernels.
-    pub fn build(
+    pub fn build(loaded: LoadedPipeline, ov: &Overrides, nodes: NodeRegistry, kernels: KernelRegistry) -> Result<Session, WedgeError> {
+        Session::build_with(loaded, ov, nodes, kernels, None)
+    }
+
+    /// A render, or with `reference = Some((spp, sampling))` the pipeline's reference.
+    fn build_with(
         mut loaded: LoadedPipeline,
         ov: &Overrides,
         nodes: NodeRegistry,
         kernels: KernelRegistry,
+        reference: Option<(u32, &str)>,
     ) -> Result<Session, WedgeError> {
         let p = &mut loaded.pipeline;
         if let Some(w) = ov.width {
@@ -122,7 +121,11 @@ impl Session {
         check_pixel_count(ov, p.width, p.height)?;
         let mut pipeline = validate(&loaded, &nodes)?;
         apply_param_overrides(&mut pipeline, ov)?;
-        let schedule = schedule(expand(&pipeline)?)?;
+        let mut expansion = expand(&pipeline)?;
+        if let Some((spp, sampling)) = reference {
+            expansion = wedge_graph::reference(expansion, spp, sampling)?;
+        }
+        let schedule = schedule(expansion)?;
         kernels.check_schedule(&schedule)?;
         let source = scene_source(&pipeline, ov.scene.as_deref());
         let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
@@ -311,50 +314,6 @@ fn check_pixel_count(ov: &Overrides, width: u32, height: u32) -> Result<(), Wedg
         side("height", ov.height, height),
         wedge_graph::MAX_PIXELS
     )))
-}
-
-/// The indirect light a reference must include (from the pipeline's `Indirect` node).
-struct IndirectSpec {
-    bounces: i64,
-    ao: bool,
-    max_distance: f64,
-    brdf: String,
-}
-
-fn reference_pipeline_text(
-    scene: &str,
-    width: u32,
-    height: u32,
-    seed: u32,
-    spp: u32,
-    sampling: &str,
-    indirect: Option<&IndirectSpec>,
-) -> String {
-    let (extra_params, extra_inputs) = match indirect {
-        None => (String::new(), String::new()),
-        Some(i) => (
-            format!(
-                r#", "bounces": {}, "mode": {:?}, "max_distance": {:?}, "brdf": {:?}"#,
-                i.bounces,
-                if i.ao { "ao" } else { "radiance" },
-                i.max_distance,
-                i.brdf
-            ),
-            r#", "specular": "primary.specular""#.to_string(),
-        ),
-    };
-    format!(
-        r#"Pipeline(
-    scene: {scene:?}, width: {width}, height: {height}, seed: {seed},
-    nodes: [
-        (name: "primary", kind: "Primary"),
-        (name: "reference", kind: "MonteCarlo", params: {{"spp": {spp}, "sampling": {sampling:?}, "light": -1{extra_params}}},
-         inputs: {{"position": "primary.position", "normal": "primary.normal",
-                   "albedo": "primary.albedo", "emission": "primary.emission"{extra_inputs}}}),
-        (name: "out", kind: "Output", inputs: {{"color": "reference.radiance"}}),
-    ],
-)"#
-    )
 }
 
 /// Apply `--mu` and per-node parameter overrides, checked against each node's declarations.

@@ -24,7 +24,7 @@ use wedge::backends::{
     Uniforms, WgslSource,
 };
 use wedge::graph::Format;
-use wedge::graph::{BufferId, BufferInfo, Lifetime, ParamValue, Pass, Schedule};
+use wedge::graph::{BufferId, BufferInfo, Lifetime, ParamValue, Pass, Schedule, Stage};
 use wedge::scene::Scene;
 
 type Params = BTreeMap<String, ParamValue>;
@@ -71,7 +71,8 @@ fn single(kernel: Arc<dyn Kernel>, params: Params, inputs: &Buffers) -> Single {
         buffers.push(BufferInfo { name: b.name.to_string(), format: b.format });
     }
     let n = buffers.len();
-    let pass = Pass { name: kernel.name().to_string(), node: "test".into(), kernel: kernel.name().to_string(), reads, writes, params };
+    // A lone pass outside any pipeline: its stage does not matter to a single-pass schedule.
+    let pass = Pass { reads, writes, params, ..Pass::new(kernel.name(), "test", kernel.name(), Stage::Filter) };
     let schedule = Schedule {
         passes: vec![pass.clone()],
         buffers,

@@ -30,10 +30,10 @@ impl NodeKind for Miswired {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let albedo = ctx.required("albedo")?;
         let out = ctx.buffer("color", Format::Vec3);
-        ctx.pass("wrong", "compose.modulate").read("value", albedo).read("tint", albedo).write("out", out).finish();
+        ctx.pass("wrong", "compose.modulate", wedge::graph::Stage::Compose).read("value", albedo).read("tint", albedo).write("out", out).finish();
         let position = ctx.required("position")?;
         let other = ctx.buffer("extra", Format::Vec3);
-        ctx.pass("fill", "compose.modulate").read("value", position).write("spare", other).finish();
+        ctx.pass("fill", "compose.modulate", wedge::graph::Stage::Compose).read("value", position).write("spare", other).finish();
         ctx.output("color", out);
         ctx.output("extra", other);
         Ok(())

@@ -24,6 +24,16 @@ pub fn hash4(a: u32, b: u32, c: u32, d: u32) -> u32 {
     pcg_hash(h ^ d)
 }
 
+/// The sub-stream `index` (a light, a component) of a pass's `stream`: a hash of both words, so
+/// sub-streams of different passes never meet the way packed integers did (`stream * 64 + light`
+/// gave pass 1's light 0 the numbers of pass 0's light 64). The pass's stream is assigned by the
+/// graph (`wedge_graph::stream_id` of the pass's name); use as `PixelRng::new(seed, pixel,
+/// substream(stream, l))`. Mirrored by `rng_substream` in `shaders/rng.wgsl`.
+#[inline]
+pub fn substream(stream: u32, index: u32) -> u32 {
+    hash4(stream, index, 0x27d4_eb2f, 0x1656_67b1)
+}
+
 /// Uniform float in [0, 1) from the top 24 bits (exactly representable, identical in WGSL).
 #[inline]
 pub fn to_unit(h: u32) -> f32 {
@@ -31,7 +41,7 @@ pub fn to_unit(h: u32) -> f32 {
 }
 
 /// Named sampling dimensions, so different estimators never reuse a dimension by accident.
-/// A `stream` separates passes that sample the same dimension (first pass vs adaptive pass).
+/// A stream (per pass, see [`substream`]) separates passes that sample the same dimension.
 pub mod dim {
     pub const PIXEL: u32 = 0;
     pub const LENS: u32 = 2;
@@ -208,6 +218,29 @@ mod tests {
             let share = *b as f64 / total;
             assert!((share - 1.0 / 6.0).abs() < 0.003, "bin {i}: {share}");
         }
+    }
+
+    #[test]
+    fn sub_streams_of_many_lights_and_passes_are_distinct() {
+        // The streams of SoftShadows' two passes (as the graph hashes them) over 4096 lights, and
+        // Indirect's two components: every key distinct, where `stream * 64 + l` collided at l = 64.
+        let fnv = |s: &str| s.bytes().fold(0x811c_9dc5u32, |h, b| (h ^ u32::from(b)).wrapping_mul(0x0100_0193));
+        let streams = [fnv("shadows.sample_initial"), fnv("shadows.sample_adaptive"), fnv("indirect.sample_initial"), fnv("indirect.sample_adaptive")];
+        let mut keys: Vec<u32> = Vec::new();
+        for s in streams {
+            for l in 0..4096 {
+                keys.push(substream(s, l));
+            }
+        }
+        let n = keys.len();
+        keys.sort_unstable();
+        keys.dedup();
+        assert_eq!(keys.len(), n, "sub-stream keys collide");
+        // And the per-pixel keys built on them stay distinct across pixels for one light.
+        let mut px: Vec<u32> = (0..65_536).map(|p| PixelRng::new(1, p, substream(streams[0], 64)).key).collect();
+        px.sort_unstable();
+        px.dedup();
+        assert!(px.len() > 65_536 - 4, "{} distinct of 65536", px.len());
     }
 
     #[test]

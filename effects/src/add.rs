@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage};
 
 pub struct Add;
 
@@ -28,7 +28,7 @@ impl NodeKind for Add {
         let a = ctx.required("a")?;
         let b = ctx.required("b")?;
         let out = ctx.buffer("radiance", Format::Vec3);
-        ctx.pass("add", "compose.add").read("a", a).read("b", b).write("out", out).finish();
+        ctx.pass("add", "compose.add", Stage::Compose).read("a", a).read("b", b).write("out", out).finish();
         ctx.output("radiance", out);
         Ok(())
     }

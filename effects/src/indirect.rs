@@ -30,7 +30,7 @@ use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 use crate::filtering::{self, Separable};
 
@@ -185,7 +185,7 @@ impl NodeKind for Indirect {
         let init_g = ctx.buffer("initial_glossy", Format::Vec4);
         let depth = ctx.buffer("depth", Format::Vec4);
         let mut pass = ctx
-            .pass("sample_initial", "indirect.sample")
+            .pass("sample_initial", "indirect.sample", Stage::Sample)
             .read("position", position)
             .read("normal", normal)
             .read_opt("specular", specular)
@@ -197,14 +197,15 @@ impl NodeKind for Indirect {
         pass.param("count", initial_rays)
             .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(&SAMPLE_PARAMS)
-            .int("stream", 0)
+            .random()
+            .reference(Reference::Continued)
             .finish();
 
         let beta_d = ctx.buffer("beta_diffuse", Format::F32);
         let beta_g = ctx.buffer("beta_glossy", Format::F32);
         let width_px = ctx.buffer("filter_width", Format::F32);
         let mut pass = ctx
-            .pass("bandwidth", "indirect.bandwidth")
+            .pass("bandwidth", "indirect.bandwidth", Stage::Bandwidth)
             .read("depth", depth)
             .read("normal", normal)
             .read_opt("specular", specular)
@@ -219,7 +220,7 @@ impl NodeKind for Indirect {
         let rays_g = ctx.buffer("rays_glossy", Format::U32);
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
         let mut pass = ctx
-            .pass("rates", "indirect.rates")
+            .pass("rates", "indirect.rates", Stage::Bandwidth)
             .read("depth", depth)
             .read("normal", normal)
             .read_opt("specular", specular)
@@ -228,12 +229,14 @@ impl NodeKind for Indirect {
         if glossy {
             pass = pass.write("rays_glossy", rays_g);
         }
-        pass.node_params(&["mu", "alpha", "brdf", "z_min_fraction", "initial_rays", "max_rays", "rays_cap"]).finish();
+        pass.node_params(&["mu", "alpha", "brdf", "z_min_fraction", "initial_rays", "max_rays", "rays_cap"])
+            .reference(Reference::Count)
+            .finish();
 
         let noisy_d = ctx.buffer("noisy_diffuse", Format::Vec4);
         let noisy_g = ctx.buffer("noisy_glossy", Format::Vec4);
         let mut pass = ctx
-            .pass("sample_adaptive", "indirect.sample")
+            .pass("sample_adaptive", "indirect.sample", Stage::Adaptive)
             .read("position", position)
             .read("normal", normal)
             .read_opt("specular", specular)
@@ -246,7 +249,8 @@ impl NodeKind for Indirect {
         pass.int("count", 0)
             .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(&SAMPLE_PARAMS)
-            .int("stream", 1)
+            .random()
+            .reference(Reference::Sample)
             .finish();
 
         // Full 3-D distances (Ch. 4 has no light plane); each component with its own β.
@@ -261,7 +265,7 @@ impl NodeKind for Indirect {
             ("compose_unfiltered", noisy_d, glossy.then_some(noisy_g), "unfiltered"),
         ] {
             let out = ctx.buffer(port, Format::Vec3);
-            ctx.pass(pass, "indirect.compose")
+            ctx.pass(pass, "indirect.compose", Stage::Compose)
                 .read("diffuse", d)
                 .read_opt("glossy", g)
                 .read_opt("albedo", albedo)

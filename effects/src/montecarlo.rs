@@ -8,7 +8,7 @@
 //! the direct light out (an indirect-only baseline); `mode: "ao"` gives plain Monte Carlo ambient
 //! occlusion instead. `bounces: 0, mode: "radiance"` (the default) is the original direct-only node.
 
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 pub struct MonteCarlo;
 
@@ -68,16 +68,17 @@ impl NodeKind for MonteCarlo {
                 });
             }
             let estimate = ctx.buffer("estimate", Format::Vec4);
-            ctx.pass("sample", "direct.light")
+            ctx.pass("sample", "direct.light", Stage::Sample)
                 .read("position", position)
                 .read("normal", normal)
                 .write("estimate", estimate)
                 .param("count", spp)
                 .node_params(&["sampling", "light", "form_factor"])
-                .int("stream", 0)
+                .random()
+                .reference(Reference::Sample)
                 .finish();
             let radiance = ctx.buffer("radiance", Format::Vec3);
-            ctx.pass("compose", "compose.modulate")
+            ctx.pass("compose", "compose.modulate", Stage::Compose)
                 .read("value", estimate)
                 .read_opt("albedo", albedo)
                 .read_opt("emission", emission)
@@ -88,13 +89,14 @@ impl NodeKind for MonteCarlo {
         }
         let estimate = direct.then(|| {
             let estimate = ctx.buffer("estimate", Format::Vec4);
-            ctx.pass("sample", "direct.light")
+            ctx.pass("sample", "direct.light", Stage::Sample)
                 .read("position", position)
                 .read("normal", normal)
                 .write("estimate", estimate)
                 .param("count", spp.clone())
                 .node_params(&["sampling", "light", "form_factor"])
-                .int("stream", 0)
+                .random()
+                .reference(Reference::Sample)
                 .finish();
             estimate
         });
@@ -102,7 +104,7 @@ impl NodeKind for MonteCarlo {
         let diffuse = ctx.buffer("indirect_diffuse", Format::Vec4);
         let glossy = specular.map(|_| ctx.buffer("indirect_glossy", Format::Vec4));
         let mut pass = ctx
-            .pass("sample_indirect", "indirect.sample")
+            .pass("sample_indirect", "indirect.sample", Stage::Sample)
             .read("position", position)
             .read("normal", normal)
             .read_opt("specular", specular)
@@ -113,12 +115,13 @@ impl NodeKind for MonteCarlo {
         pass.param("count", spp)
             .param("bounces", ParamValue::Int(bounces.max(1)))
             .node_params(&["sampling", "mode", "max_distance", "brdf"])
-            .int("stream", 2)
+            .random()
+            .reference(Reference::Sample)
             .finish();
         let radiance = ctx.buffer("radiance", Format::Vec3);
         // Emission is the zero-bounce part of the direct light: left out with it.
         let (albedo, emission) = if ao { (None, None) } else { (albedo, if direct { emission } else { None }) };
-        ctx.pass("compose", "indirect.compose")
+        ctx.pass("compose", "indirect.compose", Stage::Compose)
             .read("diffuse", diffuse)
             .read_opt("glossy", glossy)
             .read_opt("direct", estimate)

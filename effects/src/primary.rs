@@ -1,6 +1,6 @@
 //! `Primary`: the per-pixel surface every effect shades — one ray through each pixel centre.
 
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage};
 
 pub struct Primary;
 
@@ -32,7 +32,7 @@ impl NodeKind for Primary {
         let albedo = ctx.buffer("albedo", Format::Vec3);
         let emission = ctx.buffer("emission", Format::Vec3);
         let specular = ctx.buffer("specular", Format::Vec4);
-        ctx.pass("gbuffer", "primary.gbuffer")
+        ctx.pass("gbuffer", "primary.gbuffer", Stage::Sample)
             .write("position", position)
             .write("normal", normal)
             .write("albedo", albedo)

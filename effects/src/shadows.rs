@@ -11,7 +11,7 @@
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 use crate::filtering::{self, Separable};
 
@@ -98,7 +98,7 @@ impl NodeKind for SoftShadows {
 
         let initial = ctx.buffer("initial", Format::Vec4);
         let occlusion = ctx.buffer("occlusion", Format::Vec4);
-        ctx.pass("sample_initial", "direct.light")
+        ctx.pass("sample_initial", "direct.light", Stage::Sample)
             .read("position", position)
             .read("normal", normal)
             .write("estimate", initial)
@@ -107,11 +107,12 @@ impl NodeKind for SoftShadows {
             .param("light", light.clone())
             .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(&["form_factor"])
-            .int("stream", 0)
+            .random()
+            .reference(Reference::Continued)
             .finish();
 
         let filled = ctx.buffer("occlusion_filled", Format::Vec4);
-        ctx.pass("fill", "neighbourhood.fill")
+        ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth)
             .read("value", occlusion)
             .read("position", position)
             .write("out", filled)
@@ -120,7 +121,7 @@ impl NodeKind for SoftShadows {
 
         let beta = ctx.buffer("beta", Format::F32);
         let width_px = ctx.buffer("filter_width", Format::F32);
-        ctx.pass("bandwidth", "shadows.bandwidth")
+        ctx.pass("bandwidth", "shadows.bandwidth", Stage::Bandwidth)
             .read("occlusion", filled)
             .read("normal", normal)
             .write("beta", beta)
@@ -129,15 +130,16 @@ impl NodeKind for SoftShadows {
             .finish();
 
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
-        ctx.pass("rates", "shadows.rates")
+        ctx.pass("rates", "shadows.rates", Stage::Bandwidth)
             .read("occlusion", filled)
             .read("normal", normal)
             .write("rays_per_pixel", rays)
             .node_params(&["mu", "alpha", "light", "initial_rays", "max_rays"])
+            .reference(Reference::Count)
             .finish();
 
         let noisy = ctx.buffer("noisy", Format::Vec4);
-        ctx.pass("sample_adaptive", "direct.light")
+        ctx.pass("sample_adaptive", "direct.light", Stage::Adaptive)
             .read("position", position)
             .read("normal", normal)
             .read("rays_per_pixel", rays)
@@ -147,7 +149,8 @@ impl NodeKind for SoftShadows {
             .param("light", light.clone())
             .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(&["form_factor"])
-            .int("stream", 1)
+            .random()
+            .reference(Reference::Sample)
             .finish();
 
         // Distances in the plane parallel to the light (eq. 3.12).
@@ -156,7 +159,7 @@ impl NodeKind for SoftShadows {
 
         for (pass, value, port) in [("compose", filtered, "radiance"), ("compose_unfiltered", noisy, "unfiltered")] {
             let out = ctx.buffer(port, Format::Vec3);
-            ctx.pass(pass, "compose.modulate")
+            ctx.pass(pass, "compose.modulate", Stage::Compose)
                 .read("value", value)
                 .read_opt("albedo", albedo)
                 .read_opt("emission", emission)

@@ -1,5 +1,11 @@
 //! Expansion of validated effect nodes into passes (kajiya-rg style: a small fluent builder).
 //!
+//! A pass is started with its stage, `ctx.pass(name, kernel, Stage::Filter)`, so none is without
+//! one; the builder then takes bindings, parameters, `.random()` (the graph assigns the pass's
+//! `stream`: [`crate::stage::stream_id`] of `<node>.<pass>`; effect files never write a stream
+//! number) and `.reference(role)` (what the pass does in the pipeline's Monte Carlo reference,
+//! [`crate::reference()`]; `Reference::Keep` when not given).
+//!
 //! Every buffer is written by exactly one pass (single assignment), so the pass DAG follows from the
 //! buffers alone: an edge runs from a buffer's writer to each of its readers. A node sees its inputs as
 //! buffer handles resolved from the wiring, creates node-local buffers by writing them, and binds each
@@ -8,6 +14,7 @@
 use std::collections::BTreeMap;
 
 use crate::decl::{Format, ParamValue};
+use crate::stage::{stream_id, Reference, Stage};
 use crate::GraphError;
 
 /// Handle to a buffer in an [`Expansion`].
@@ -33,9 +40,29 @@ pub struct Pass {
     pub reads: Vec<(String, BufferId)>,
     pub writes: Vec<(String, BufferId)>,
     pub params: BTreeMap<String, ParamValue>,
+    /// The stage it runs in; the scheduler orders by stage first.
+    pub stage: Stage,
+    /// Draws random numbers: its `stream` parameter is [`stream_id`] of `name`, set by the graph.
+    pub random: bool,
+    /// What it does in a reference render.
+    pub reference: Reference,
 }
 
 impl Pass {
+    /// A pass with no bindings or parameters (tools and tests; effects use [`ExpandCtx::pass`]).
+    pub fn new(name: &str, node: &str, kernel: &str, stage: Stage) -> Pass {
+        Pass {
+            name: name.to_string(),
+            node: node.to_string(),
+            kernel: kernel.to_string(),
+            reads: Vec::new(),
+            writes: Vec::new(),
+            params: BTreeMap::new(),
+            stage,
+            random: false,
+            reference: Reference::Keep,
+        }
+    }
     pub fn read(&self, binding: &str) -> Option<BufferId> {
         self.reads
             .iter()
@@ -134,18 +161,11 @@ impl<'a> ExpandCtx<'a> {
             .push(BufferInfo { name: full, format });
         BufferId(self.expansion.buffers.len() - 1)
     }
-    /// Start a pass named `<node>.<name>` running `kernel`.
-    pub fn pass(&mut self, name: &str, kernel: &str) -> PassBuilder<'_, 'a> {
+    /// Start a pass named `<node>.<name>` running `kernel` in `stage`.
+    pub fn pass(&mut self, name: &str, kernel: &str, stage: Stage) -> PassBuilder<'_, 'a> {
         PassBuilder {
             ctx: self,
-            pass: Pass {
-                name: String::new(),
-                node: String::new(),
-                kernel: kernel.to_string(),
-                reads: Vec::new(),
-                writes: Vec::new(),
-                params: BTreeMap::new(),
-            },
+            pass: Pass::new("", "", kernel, stage),
             local_name: name.to_string(),
         }
     }
@@ -199,9 +219,23 @@ impl PassBuilder<'_, '_> {
         }
         self
     }
+    /// The pass draws random numbers: the graph sets its `stream` parameter (see [`stream_id`]).
+    pub fn random(mut self) -> Self {
+        self.pass.random = true;
+        self
+    }
+    /// Its role in a reference render (default [`Reference::Keep`]).
+    pub fn reference(mut self, role: Reference) -> Self {
+        self.pass.reference = role;
+        self
+    }
     pub fn finish(mut self) {
         self.pass.name = format!("{}.{}", self.ctx.node, self.local_name);
         self.pass.node = self.ctx.node.to_string();
+        if self.pass.random {
+            let stream = stream_id(&self.pass.name);
+            self.pass.params.insert("stream".into(), ParamValue::Int(i64::from(stream)));
+        }
         self.ctx.expansion.passes.push(self.pass);
     }
 }

@@ -6,8 +6,13 @@
 //!   [`NodeRegistry`] a user crate extends;
 //! - [`validate()`]: checks a parsed pipeline against the declarations and reports *every* problem at
 //!   once, each with file, line and column;
-//! - [`expand()`]: turns validated nodes into passes (kernel + bindings + parameter block);
-//! - [`schedule()`]: culls passes that feed no sink, orders the rest topologically (petgraph), computes
+//! - [`expand()`]: turns validated nodes into passes (kernel + bindings + parameter block), each with
+//!   its [`Stage`], whether it is random (the graph assigns its stream, [`stream_id`]) and its
+//!   [`Reference`] role;
+//! - [`reference()`]: turns an expansion into the pipeline's own plain Monte Carlo reference (filters
+//!   bypassed, counts constant, sampling passes at the reference's count and sampling);
+//! - [`schedule()`]: checks stage order and stream uniqueness, culls passes that feed no sink, orders
+//!   the rest by stage and then topologically (petgraph), computes
 //!   buffer lifetimes and a pool plan that lets buffers with disjoint lifetimes share storage, and
 //!   prints the schedule as a table or Graphviz.
 
@@ -15,14 +20,18 @@ pub mod decl;
 pub mod expand;
 mod explain;
 pub mod pipeline;
+mod reference;
 mod schedule;
 mod source_map;
+pub mod stage;
 mod validate;
 
 pub use decl::{Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
 pub use pipeline::{CameraProblem, CameraSpec, Location, NodeSpec, Pipeline, RawParam};
+pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
+pub use stage::{stream_id, Reference, Stage};
 pub use validate::{
     expand, load_pipeline, parse_pipeline, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
     ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,

@@ -4,8 +4,13 @@
 //! writer to every reader). Scheduling:
 //! 1. **Cull** every pass from which no sink input is reachable: its work would be thrown away. This
 //!    is what lets a pipeline keep a debug node around at no cost.
-//! 2. **Order** the survivors topologically. Among ready passes the one added first during expansion
-//!    runs first, so the schedule is deterministic and follows the pipeline's own order.
+//! 0. **Check** the passes' declarations (before culling, so a debug branch is checked too): a pass
+//!    reading a buffer written by a pass of a *later* [`Stage`] is an error naming both passes, and
+//!    so are two random passes with the same stream (see [`crate::stage::stream_id`]).
+//! 2. **Order** the survivors by stage, then topologically inside a stage. Among ready passes the one
+//!    of the earliest stage, then the one added first during expansion, runs first, so the schedule is
+//!    deterministic and follows the pipeline's own order. (Because no pass reads a later stage, this
+//!    runs every pass of a stage before any pass of the next.)
 //! 3. **Lifetimes**: a buffer lives from the pass that writes it to the last pass that reads it (sink
 //!    inputs to the end, since the run hands them back).
 //! 4. **Pool plan**: buffers of the same format whose lifetimes do not overlap share a physical slot
@@ -24,6 +29,7 @@ use petgraph::visit::{Dfs, Reversed};
 
 use crate::decl::Format;
 use crate::expand::{BufferId, BufferInfo, Expansion, Pass};
+use crate::stage::Stage;
 use crate::GraphError;
 
 /// Indices into [`Schedule::passes`] of a buffer's first write and last use.
@@ -83,6 +89,8 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         }
     }
 
+    check_stages_and_streams(&passes, &buffers, &writer)?;
+
     // Pass DAG: writer → reader, per buffer read.
     let mut g: DiGraph<usize, BufferId> = DiGraph::new();
     let idx: Vec<NodeIndex> = (0..passes.len()).map(|i| g.add_node(i)).collect();
@@ -140,19 +148,20 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             indeg[e.target().index()] += 1;
         }
     }
-    let mut ready: BinaryHeap<Reverse<usize>> = (0..passes.len())
+    let key = |i: usize| Reverse((passes[i].stage, i));
+    let mut ready: BinaryHeap<Reverse<(Stage, usize)>> = (0..passes.len())
         .filter(|&i| live[i] && indeg[i] == 0)
-        .map(Reverse)
+        .map(key)
         .collect();
     let mut order: Vec<usize> = Vec::new();
-    while let Some(Reverse(i)) = ready.pop() {
+    while let Some(Reverse((_, i))) = ready.pop() {
         order.push(i);
         for n in g.neighbors(idx[i]) {
             let t = n.index();
             // `neighbors` yields one entry per edge, matching the per-edge in-degree count.
             indeg[t] -= 1;
             if indeg[t] == 0 {
-                ready.push(Reverse(t));
+                ready.push(key(t));
             }
         }
     }
@@ -227,6 +236,60 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         sink_inputs,
         culled,
     })
+}
+
+/// Stage order and stream uniqueness over every pass (culled or not), all problems in one error.
+fn check_stages_and_streams(
+    passes: &[Pass],
+    buffers: &[BufferInfo],
+    writer: &[Option<usize>],
+) -> Result<(), GraphError> {
+    let mut problems: Vec<(String, String)> = Vec::new();
+    for p in passes {
+        for (binding, id) in &p.reads {
+            let Some(w) = writer.get(id.0).copied().flatten() else {
+                continue; // reported below as "no pass writes"
+            };
+            let w = &passes[w];
+            if w.stage > p.stage {
+                problems.push((
+                    p.node.clone(),
+                    format!(
+                        "pass `{}` (stage {}) reads `{}` (binding `{binding}`), written by pass `{}` of the later \
+                         stage {}; a stage may only read earlier stages (move one of the two passes)",
+                        p.name, p.stage, buffers[id.0].name, w.name, w.stage
+                    ),
+                ));
+            }
+        }
+    }
+    let mut streams: Vec<(u32, &Pass)> = passes
+        .iter()
+        .filter(|p| p.random)
+        .filter_map(|p| match p.params.get("stream") {
+            Some(crate::ParamValue::Int(s)) => Some((*s as u32, p)),
+            _ => None,
+        })
+        .collect();
+    streams.sort_by_key(|(s, p)| (*s, p.name.clone()));
+    for w in streams.windows(2) {
+        if w[0].0 == w[1].0 {
+            problems.push((
+                w[1].1.node.clone(),
+                format!(
+                    "random passes `{}` and `{}` hash to the same stream {:#010x}; rename one of them",
+                    w[0].1.name, w[1].1.name, w[0].0
+                ),
+            ));
+        }
+    }
+    match problems.len() {
+        0 => Ok(()),
+        _ => Err(GraphError::Expand {
+            node: problems[0].0.clone(),
+            message: problems.into_iter().map(|(_, m)| m).collect::<Vec<_>>().join("\n"),
+        }),
+    }
 }
 
 /// Bytes one pixel of `format` takes in a buffer: 4 bytes per component, tightly packed (the CPU
@@ -332,8 +395,8 @@ impl Schedule {
         let _ = writeln!(s, "passes ({}):", self.passes.len());
         let _ = writeln!(
             s,
-            "  {:>3}  {:name_w$}  {:kern_w$}  reads -> writes",
-            "#", "pass", "kernel"
+            "  {:>3}  {:12}  {:name_w$}  {:kern_w$}  reads -> writes",
+            "#", "stage", "pass", "kernel"
         );
         for (i, p) in self.passes.iter().enumerate() {
             let reads: Vec<String> = p
@@ -346,9 +409,11 @@ impl Schedule {
                 .iter()
                 .map(|(b, id)| format!("{b}={}", bname(id)))
                 .collect();
+            let random = if p.random { "  (random)" } else { "" };
             let _ = writeln!(
                 s,
-                "  {i:>3}  {:name_w$}  {:kern_w$}  [{}] -> [{}]",
+                "  {i:>3}  {:12}  {:name_w$}  {:kern_w$}  [{}] -> [{}]{random}",
+                p.stage.name(),
                 p.name,
                 p.kernel,
                 reads.join(", "),
@@ -413,9 +478,10 @@ impl Schedule {
         for (i, p) in self.passes.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "  p{i} [shape=box, label=\"{}\\n{}\"];",
+                "  p{i} [shape=box, label=\"{}\\n{}\\n[{}]\"];",
                 esc(&p.name),
-                esc(&p.kernel)
+                esc(&p.kernel),
+                p.stage
             );
             for (_, id) in p.reads.iter().chain(&p.writes) {
                 shown.insert(id.0);

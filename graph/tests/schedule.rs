@@ -177,7 +177,7 @@ fn table_and_dot_show_every_scheduled_pass() {
     assert!(dot.trim_end().ends_with('}'));
     for p in &s.passes {
         assert!(
-            dot.contains(&format!("label=\"{}\\n{}\"", p.name, p.kernel)),
+            dot.contains(&format!("label=\"{}\\n{}\\n[{}]\"", p.name, p.kernel, p.stage)),
             "{} missing:\n{dot}",
             p.name
         );
@@ -250,6 +250,9 @@ fn reading_an_unwritten_buffer_is_an_error() {
         reads: vec![("x".into(), BufferId(0))],
         writes: vec![("out".into(), BufferId(1))],
         params: Default::default(),
+        stage: Stage::Sample,
+        random: false,
+        reference: Reference::Keep,
     });
     e.sink_inputs
         .push(("out".into(), "color".into(), BufferId(1)));

@@ -9,15 +9,25 @@
 //!   checker-textured back wall, open front), a 0.5 m square ceiling light, a glossy tall box (Phong
 //!   m = 20) and a glossy sphere (m = 12): diffuse and glossy indirect light, colour bleeding, a curved
 //!   receiver.
+//! - `chess`: thesis Fig. 5.1's CHESS in spirit — lathe-turned pieces, diffuse and glossy, near, at and
+//!   beyond the focus distance on a fine checkerboard ground seen at a grazing angle, one rectangular
+//!   light; the defocus test scene. Recommended lens: [`chess::FOCUS_DISTANCE`], [`chess::APERTURE_RADIUS`].
+//!
+//! Mesh generators (boxes, spheres, tori, lathes, rectangular lights) live in `builtin/mesh.rs` so new
+//! built-ins reuse them; each scene larger than a screenful lives in its own file under `builtin/`.
 
-use std::f32::consts::{PI, TAU};
+pub mod chess;
+mod mesh;
+
+use std::f32::consts::TAU;
 
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::data::SceneData;
 use crate::{Camera, Material, Scene, SceneError, Texture};
+use mesh::{add_box, add_rect_light, add_sphere, add_torus, parametric, smooth_tri};
 
-pub const NAMES: &[&str] = &["grids", "curved", "heavy", "cornell"];
+pub const NAMES: &[&str] = &["grids", "curved", "heavy", "cornell", "chess"];
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
     match name {
@@ -25,6 +35,7 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "curved" => Ok(curved()),
         "heavy" => Ok(heavy()),
         "cornell" => Ok(cornell()),
+        "chess" => Ok(chess::chess()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),
@@ -36,157 +47,12 @@ pub(crate) fn builtin(name: &str) -> Result<Scene, SceneError> {
     builtin_data(name)?.into_scene(name)
 }
 
-/// Push a triangle with per-vertex normals/uvs, wound so its geometric normal agrees with the vertex
-/// normals (so one-sided consumers see a consistent front).
-fn smooth_tri(
-    d: &mut SceneData,
-    p: [Vec3; 3],
-    n: [Vec3; 3],
-    uv: [Vec2; 3],
-    material: u32,
-    object: u32,
-) {
-    let g = (p[1] - p[0]).cross(p[2] - p[0]);
-    if g.length_squared() == 0.0 {
-        return; // degenerate (sphere poles): skip rather than store an untraceable triangle
-    }
-    let (p, n, uv) = if g.dot(n[0] + n[1] + n[2]) < 0.0 {
-        (
-            [p[0], p[2], p[1]],
-            [n[0], n[2], n[1]],
-            [uv[0], uv[2], uv[1]],
-        )
-    } else {
-        (p, n, uv)
-    };
-    d.push(p, n, uv, material, object);
-}
-
-/// Tessellate a parametric surface f(u,v) -> (position, normal), u,v in [0,1], into nu×nv cells.
-fn parametric(
-    d: &mut SceneData,
-    nu: u32,
-    nv: u32,
-    material: u32,
-    object: u32,
-    f: impl Fn(f32, f32) -> (Vec3, Vec3),
-) {
-    let at = |i: u32, j: u32| {
-        let (u, v) = (i as f32 / nu as f32, j as f32 / nv as f32);
-        let (p, n) = f(u, v);
-        (p, n, Vec2::new(u, v))
-    };
-    for j in 0..nv {
-        for i in 0..nu {
-            let c = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
-            for idx in [[0, 1, 2], [0, 2, 3]] {
-                let t = idx.map(|k| c[k]);
-                smooth_tri(
-                    d,
-                    t.map(|x| x.0),
-                    t.map(|x| x.1),
-                    t.map(|x| x.2),
-                    material,
-                    object,
-                );
-            }
-        }
-    }
-}
-
-/// An oriented box (12 flat triangles, outward normals).
-fn add_box(d: &mut SceneData, xf: Mat4, half: Vec3, material: u32, object: u32) {
-    let c = |sx: f32, sy: f32, sz: f32| {
-        xf.transform_point3(Vec3::new(sx * half.x, sy * half.y, sz * half.z))
-    };
-    let centre = xf.transform_point3(Vec3::ZERO);
-    let faces = [
-        [
-            c(1., -1., -1.),
-            c(1., 1., -1.),
-            c(1., 1., 1.),
-            c(1., -1., 1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(-1., -1., 1.),
-            c(-1., 1., 1.),
-            c(-1., 1., -1.),
-        ],
-        [
-            c(-1., 1., -1.),
-            c(-1., 1., 1.),
-            c(1., 1., 1.),
-            c(1., 1., -1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(1., -1., -1.),
-            c(1., -1., 1.),
-            c(-1., -1., 1.),
-        ],
-        [
-            c(-1., -1., 1.),
-            c(1., -1., 1.),
-            c(1., 1., 1.),
-            c(-1., 1., 1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(-1., 1., -1.),
-            c(1., 1., -1.),
-            c(1., -1., -1.),
-        ],
-    ];
-    for [a, b, cc, dd] in faces {
-        let fc = (a + b + cc + dd) * 0.25;
-        if (b - a).cross(cc - a).dot(fc - centre) >= 0.0 {
-            d.quad(a, b, cc, dd, material, object);
-        } else {
-            d.quad(a, dd, cc, b, material, object);
-        }
-    }
-}
-
-fn add_sphere(
-    d: &mut SceneData,
-    centre: Vec3,
-    r: f32,
-    stacks: u32,
-    slices: u32,
-    material: u32,
-    object: u32,
-) {
-    parametric(d, slices, stacks, material, object, |u, v| {
-        let (phi, theta) = (u * TAU, v * PI);
-        let n = Vec3::new(
-            theta.sin() * phi.cos(),
-            theta.cos(),
-            theta.sin() * phi.sin(),
-        );
-        (centre + r * n, n)
-    });
-}
-
-fn add_torus(d: &mut SceneData, xf: Mat4, big_r: f32, small_r: f32, material: u32, object: u32) {
-    let nm = xf.inverse().transpose();
-    parametric(d, 96, 32, material, object, |u, v| {
-        let (a, b) = (u * TAU, v * TAU);
-        let ring = Vec3::new(a.cos(), 0.0, a.sin());
-        let n = ring * b.cos() + Vec3::Y * b.sin();
-        let p = ring * big_r + n * small_r;
-        (xf.transform_point3(p), nm.transform_vector3(n).normalize())
-    });
-}
-
 /// A square light of `side` m, `height` m up, centred above (0, height, centre_z), facing down (two emissive
 /// triangles → one Rect light).
 fn add_ceiling_light(d: &mut SceneData, radiance: f32, centre_z: f32, height: f32, side: f32) {
-    let m = d.add_material(Material::emitter("light", Vec3::splat(radiance)), false);
-    let o = d.new_object();
     let corner = Vec3::new(-0.5 * side, height, centre_z - 0.5 * side);
     let (eu, ev) = (Vec3::X * side, Vec3::Z * side); // eu × ev = -Y: emits downward
-    d.quad(corner, corner + eu, corner + eu + ev, corner + ev, m, o);
+    add_rect_light(d, "light", Vec3::splat(radiance), corner, eu, ev);
 }
 
 /// Three layered, mutually rotated grids of 4 cm bars (x bars below z bars, so no coplanar faces).

@@ -370,7 +370,10 @@ fn camera_rays() {
 
 #[test]
 fn builtins_load_and_are_sane() {
-    assert_eq!(builtin_names(), &["grids", "curved", "heavy", "cornell"]);
+    assert_eq!(
+        builtin_names(),
+        &["grids", "curved", "heavy", "cornell", "chess"]
+    );
     for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
         assert_eq!(s.lights.len(), 1, "{name}");

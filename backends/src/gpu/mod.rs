@@ -977,7 +977,8 @@ impl GpuBackend {
             buffers.push(wedge_graph::BufferInfo { name: b.name.to_string(), format: b.format });
         }
         let n = buffers.len();
-        let pass = Pass { name: kernel.name().to_string(), node: "test".into(), kernel: kernel.name().to_string(), reads, writes, params };
+        let mut pass = Pass::new(kernel.name(), "test", kernel.name(), wedge_graph::Stage::Sample);
+        (pass.reads, pass.writes, pass.params) = (reads, writes, params);
         let schedule = wedge_graph::Schedule {
             passes: vec![pass.clone()],
             buffers,

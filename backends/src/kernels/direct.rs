@@ -9,7 +9,8 @@
 //! Counts: a fixed `count`, or per pixel from `rays_per_pixel` (the adaptive second pass), continuing
 //! an earlier estimate `previous` (its `w` = samples already taken) so the first-pass samples are reused.
 //! Samples are stratified per pass with correlated multi-jitter over any count, or independent.
-//! Non-finite sample values are counted and excluded from the mean.
+//! Non-finite sample values are counted and excluded from the mean. Random numbers: the pass's
+//! graph-assigned `stream`, sub-stream per light `substream(stream, light)` (hashed; see `rng.rs`).
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
@@ -17,7 +18,7 @@ use wedge_scene::{AreaLight, Scene};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::v3;
-use crate::rng::{dim, PixelRng};
+use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
 pub struct DirectLight;
@@ -173,7 +174,7 @@ impl Kernel for DirectLight {
                 if want_stats {
                     stats.d1 = (light.centre() - x).dot(light.normal()).abs();
                 }
-                let rng = PixelRng::new(seed, i as u32, stream.wrapping_mul(64).wrapping_add(l as u32));
+                let rng = PixelRng::new(seed, i as u32, substream(stream, l as u32));
                 let factor = centre.then(|| light_centre_factor(light, x, n));
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };

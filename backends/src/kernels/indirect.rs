@@ -34,8 +34,13 @@ use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms,
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::hemisphere::{glossy_brdf, glossy_pdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::v3;
-use crate::rng::{dim, PixelRng};
+use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
+
+/// Sub-streams of a pass's `stream` per component (`rng::substream`), so each component has its
+/// own sequence; mirrored in `shaders/indirect_sample.wgsl`.
+pub const COMPONENT_DIFFUSE: u32 = 0;
+pub const COMPONENT_GLOSSY: u32 = 1;
 
 /// Dimension offset between lights in next-event estimation (far above any bounce's dimensions).
 const LIGHT_DIM_STRIDE: u32 = 1 << 16;
@@ -328,7 +333,7 @@ impl Kernel for IndirectSample {
             };
             // Diffuse component.
             let extra = rays_d.map_or(count, |r| r[i]).saturating_sub(pd[3] as u32);
-            let rng = PixelRng::new(seed, i as u32, 0x4000 + 2 * stream);
+            let rng = PixelRng::new(seed, i as u32, substream(stream, COMPONENT_DIFFUSE));
             let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
             for s in 0..extra {
                 let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };
@@ -346,7 +351,7 @@ impl Kernel for IndirectSample {
             // Glossy component.
             if glossy {
                 let extra = rays_g.map_or(count, |r| r[i]).saturating_sub(pg[3] as u32);
-                let rng = PixelRng::new(seed, i as u32, 0x4001 + 2 * stream);
+                let rng = PixelRng::new(seed, i as u32, substream(stream, COMPONENT_GLOSSY));
                 let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use crate::kernel::KernelRegistry;
 
 pub mod compose;
+pub mod constant;
 pub mod direct;
 pub mod filter;
 pub mod filter_ch5;
@@ -27,6 +28,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(neighbourhood3::Median3));
     reg.register(Arc::new(filter_ch5::IrradianceFilter));
     reg.register(Arc::new(filter_ch5::DefocusFilter));
+    reg.register(Arc::new(constant::FillConstant));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

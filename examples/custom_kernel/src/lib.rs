@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use wedge::backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge::graph::{ExpandCtx, Format, GraphError, NodeKind, NodeRegistry, ParamDecl, PortDecl};
+use wedge::graph::{ExpandCtx, Format, GraphError, NodeKind, NodeRegistry, ParamDecl, PortDecl, Stage};
 
 pub struct ExposureKernel;
 
@@ -56,7 +56,7 @@ impl NodeKind for Exposure {
         let input = ctx.required("color")?;
         let stops = ctx.param("stops").clone();
         let out = ctx.buffer("color", Format::Vec3);
-        ctx.pass("scale", "example.exposure").read("value", input).write("out", out).param("stops", stops).finish();
+        ctx.pass("scale", "example.exposure", Stage::ImageFilter).read("value", input).write("out", out).param("stops", stops).finish();
         ctx.output("color", out);
         Ok(())
     }
@@ -70,10 +70,21 @@ pub fn registries() -> (NodeRegistry, KernelRegistry) {
     (nodes, kernels)
 }
 
+fn pipeline_path() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.ron")
+}
+
 /// The example pipeline, opened with the extended registries.
 pub fn session(ov: &wedge::Overrides) -> Result<wedge::Session, wedge::WedgeError> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.ron");
-    let loaded = wedge::graph::load_pipeline(&path)?;
+    let loaded = wedge::graph::load_pipeline(&pipeline_path())?;
     let (nodes, kernels) = registries();
     wedge::Session::build(loaded, ov, nodes, kernels)
+}
+
+/// The example pipeline's Monte Carlo reference: `Exposure` declares only its stage (an image-space
+/// pass, kept in a reference), so the reference needs no code of this crate's own.
+pub fn reference(ov: &wedge::Overrides, spp: u32, sampling: &str) -> Result<wedge::Session, wedge::WedgeError> {
+    let loaded = wedge::graph::load_pipeline(&pipeline_path())?;
+    let (nodes, kernels) = registries();
+    wedge::Session::build_reference(loaded, ov, nodes, kernels, spp, sampling)
 }

@@ -32,7 +32,7 @@ impl NodeKind for Source {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let a = ctx.buffer("a", Format::F32);
         let b = ctx.buffer("b", Format::Vec3);
-        ctx.pass("gen", "test.gen")
+        ctx.pass("gen", "test.gen", Stage::Sample)
             .write("a", a)
             .write("b", b)
             .finish();
@@ -64,15 +64,17 @@ impl NodeKind for Blur {
         let x = ctx.required("x")?;
         let t = ctx.buffer("tmp", Format::F32);
         let y = ctx.buffer("y", Format::F32);
-        ctx.pass("h", "test.blur_h")
+        ctx.pass("h", "test.blur_h", Stage::Filter)
             .read("x", x)
             .write("out", t)
             .node_params(&["mu"])
+            .reference(Reference::Bypass { input: "x" })
             .finish();
-        ctx.pass("v", "test.blur_v")
+        ctx.pass("v", "test.blur_v", Stage::Filter)
             .read("x", t)
             .write("out", y)
             .node_params(&["mu", "taps"])
+            .reference(Reference::Bypass { input: "x" })
             .finish();
         ctx.output("y", y);
         Ok(())
@@ -121,7 +123,7 @@ impl NodeKind for Lazy {
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let y = ctx.buffer("y", Format::F32);
-        ctx.pass("p", "test.p").write("out", y).finish();
+        ctx.pass("p", "test.p", Stage::Sample).write("out", y).finish();
         Ok(())
     }
 }
@@ -143,8 +145,8 @@ impl NodeKind for Twice {
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let y = ctx.buffer("y", Format::F32);
-        ctx.pass("p1", "test.p").write("out", y).finish();
-        ctx.pass("p2", "test.p").write("out", y).finish();
+        ctx.pass("p1", "test.p", Stage::Sample).write("out", y).finish();
+        ctx.pass("p2", "test.p", Stage::Sample).write("out", y).finish();
         ctx.output("y", y);
         Ok(())
     }
@@ -167,7 +169,7 @@ impl NodeKind for WrongFormat {
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let y = ctx.buffer("y", Format::Vec3);
-        ctx.pass("p", "test.p").write("out", y).finish();
+        ctx.pass("p", "test.p", Stage::Sample).write("out", y).finish();
         ctx.output("y", y);
         Ok(())
     }

@@ -1,0 +1,171 @@
+//! References from the same graph: [`reference()`] turns a pipeline's own expansion into its plain
+//! Monte Carlo reference, driven by each pass's declared [`Reference`] role — so every node
+//! combination, including nodes written outside wedge, gets a reference with no code of its own.
+//!
+//! - **Filters** (`Reference::Bypass { input }`) disappear: whatever read their output reads their
+//!   input instead (a chain of filters collapses to the unfiltered value).
+//! - **Count** passes (`Reference::Count`, per-pixel sample counts) are replaced by the shared kernel
+//!   `fill.constant` writing the reference count `N` into each count buffer.
+//! - **Sample** passes take `count = N` and the reference's `sampling`; a **Continued** first pass
+//!   takes `count = 0`, so the pass that continues it draws all `N` samples as one set: a stratified
+//!   reference is N jointly stratified samples (per light, per component), an independent one N
+//!   independent samples — not the pipeline's first set plus a separately stratified rest.
+//! - Sink inputs written by `Bandwidth`/`Counts` passes (filter widths, ray counts: diagnostics of the
+//!   filtering) are not handed back, so what only the filters needed is culled by the scheduler.
+//!
+//! A random pass without a sampling role, or a `Filter`-stage pass without `Bypass`, is an error: a
+//! reference must never silently keep the pipeline's adaptive counts or its filters.
+
+use std::collections::BTreeMap;
+
+use crate::decl::{Format, ParamValue};
+use crate::expand::{BufferId, Expansion, Pass};
+use crate::stage::{Reference, Stage};
+use crate::GraphError;
+
+/// The kernel that writes a constant into a per-pixel `u32` buffer (binding `out`, parameter `value`).
+pub const FILL_CONSTANT: &str = "fill.constant";
+
+/// Sample placement of a reference.
+pub const REFERENCE_SAMPLING: [&str; 2] = ["stratified", "independent"];
+
+/// The plain Monte Carlo reference of an expansion: `spp` samples per pixel (per light, per
+/// component) placed by `sampling` (`stratified` or `independent`), filters bypassed.
+pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, GraphError> {
+    let err = |node: &str, message: String| GraphError::Expand { node: node.to_string(), message };
+    if !REFERENCE_SAMPLING.contains(&sampling) {
+        return Err(err("reference", format!("sampling `{sampling}` is not stratified or independent")));
+    }
+    if spp == 0 {
+        return Err(err("reference", "a reference needs at least 1 sample per pixel".into()));
+    }
+    let Expansion { buffers, passes, outputs, sink_inputs } = e;
+
+    // Every pass's role must make sense before anything is rewritten; report all problems at once.
+    let mut problems: Vec<(String, String)> = Vec::new();
+    for p in &passes {
+        let role = p.reference;
+        if p.random && !matches!(role, Reference::Sample | Reference::Continued) {
+            problems.push((
+                p.node.clone(),
+                format!(
+                    "pass `{}` draws random numbers but declares no sampling role for references; add \
+                     `.reference(Reference::Sample)` (or `Continued` for a first pass a later pass continues)",
+                    p.name
+                ),
+            ));
+        }
+        if p.stage == Stage::Filter && !matches!(role, Reference::Bypass { .. }) {
+            problems.push((
+                p.node.clone(),
+                format!("filter pass `{}` must declare `.reference(Reference::Bypass {{ input: .. }})`", p.name),
+            ));
+        }
+        if let Reference::Bypass { input } = role {
+            match p.read(input) {
+                None => problems.push((
+                    p.node.clone(),
+                    format!("pass `{}` bypasses to binding `{input}`, which it does not read", p.name),
+                )),
+                Some(from) => {
+                    for (binding, id) in &p.writes {
+                        let (a, b) = (buffers[from.0].format, buffers[id.0].format);
+                        if a != b {
+                            problems.push((
+                                p.node.clone(),
+                                format!(
+                                    "pass `{}` bypasses `{binding}` ({b}) to `{input}` ({a}): the formats differ",
+                                    p.name
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        if role == Reference::Count {
+            for (binding, id) in &p.writes {
+                let f = buffers[id.0].format;
+                if f != Format::U32 {
+                    problems.push((
+                        p.node.clone(),
+                        format!("count pass `{}` writes `{binding}` as {f}; sample counts are u32", p.name),
+                    ));
+                }
+            }
+        }
+    }
+    if !problems.is_empty() {
+        return Err(GraphError::Expand {
+            node: problems[0].0.clone(),
+            message: problems.into_iter().map(|(_, m)| m).collect::<Vec<_>>().join("\n"),
+        });
+    }
+
+    // Buffers written by a bypassed filter → the buffer it reads at `input` (chains resolved later).
+    let mut alias: BTreeMap<BufferId, BufferId> = BTreeMap::new();
+    for p in &passes {
+        if let Reference::Bypass { input } = p.reference {
+            let from = p.read(input).expect("checked above");
+            for (_, id) in &p.writes {
+                alias.insert(*id, from);
+            }
+        }
+    }
+    let resolve = |mut id: BufferId| {
+        // Each step moves to a buffer written earlier in the DAG, so this ends.
+        while let Some(next) = alias.get(&id) {
+            id = *next;
+        }
+        id
+    };
+
+    let count = ParamValue::Int(i64::from(spp));
+    let mut out_passes: Vec<Pass> = Vec::with_capacity(passes.len());
+    let mut writer_stage: BTreeMap<BufferId, Stage> = BTreeMap::new();
+    for p in passes {
+        match p.reference {
+            Reference::Bypass { .. } => continue,
+            Reference::Count => {
+                let many = p.writes.len() > 1;
+                for (binding, id) in &p.writes {
+                    let name = if many { format!("{}[{binding}]", p.name) } else { p.name.clone() };
+                    let mut fill = Pass::new(&name, &p.node, FILL_CONSTANT, p.stage);
+                    fill.writes.push(("out".into(), *id));
+                    fill.params.insert("value".into(), count.clone());
+                    writer_stage.insert(*id, p.stage);
+                    out_passes.push(fill);
+                }
+                continue;
+            }
+            _ => {}
+        }
+        let mut p = p;
+        for (_, id) in p.reads.iter_mut() {
+            *id = resolve(*id);
+        }
+        match p.reference {
+            Reference::Sample => {
+                p.params.insert("count".into(), count.clone());
+                p.params.insert("sampling".into(), ParamValue::Str(sampling.into()));
+            }
+            Reference::Continued => {
+                p.params.insert("count".into(), ParamValue::Int(0));
+                p.params.insert("sampling".into(), ParamValue::Str(sampling.into()));
+            }
+            _ => {}
+        }
+        for (_, id) in &p.writes {
+            writer_stage.insert(*id, p.stage);
+        }
+        out_passes.push(p);
+    }
+
+    let outputs = outputs.into_iter().map(|(k, id)| (k, resolve(id))).collect();
+    let sink_inputs = sink_inputs
+        .into_iter()
+        .map(|(node, port, id)| (node, port, resolve(id)))
+        .filter(|(_, _, id)| !matches!(writer_stage.get(id), Some(Stage::Bandwidth | Stage::Counts)))
+        .collect();
+    Ok(Expansion { buffers, passes: out_passes, outputs, sink_inputs })
+}

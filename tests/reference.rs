@@ -1,0 +1,98 @@
+//! References from the same graph (`wedge_graph::reference`, `Session::reference`): every shipped
+//! pipeline's reference is its own graph with the filters bypassed, the counts constant and every
+//! sampling pass at the reference's count; `--set` overrides reach it; a stratified reference is N
+//! jointly stratified samples drawn by one pass.
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::*;
+use wedge::graph::{ParamValue, Stage, FILL_CONSTANT};
+use wedge::Session;
+
+fn pipelines() -> Vec<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    let mut v: Vec<PathBuf> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "ron")).collect();
+    v.sort();
+    assert!(v.len() >= 4, "{v:?}");
+    v
+}
+
+#[test]
+fn every_pipeline_reference_is_its_graph_without_filters() {
+    for path in pipelines() {
+        let s = Session::reference(Some(&path), 64, "independent", &sized(16, 12, None, &[])).unwrap();
+        let name = path.display();
+        assert!(s.schedule.passes.iter().all(|p| p.stage != Stage::Filter), "{name}: a filter ran\n{}", s.schedule.table());
+        for p in &s.schedule.passes {
+            if p.random {
+                let count = &p.params["count"];
+                assert!(
+                    *count == ParamValue::Int(64) || (*count == ParamValue::Int(0) && p.name.ends_with("sample_initial")),
+                    "{name}: {} count {count:?}",
+                    p.name
+                );
+                assert_eq!(p.params["sampling"], ParamValue::Str("independent".into()), "{name}: {}", p.name);
+            }
+            if p.kernel == FILL_CONSTANT {
+                assert_eq!(p.params["value"], ParamValue::Int(64), "{name}: {}", p.name);
+            }
+        }
+        let adaptive = s.schedule.passes.iter().any(|p| p.stage == Stage::Adaptive);
+        let fills = s.schedule.passes.iter().filter(|p| p.kernel == FILL_CONSTANT).count();
+        assert_eq!(adaptive, fills > 0, "{name}: adaptive passes read constant counts");
+        let ports: Vec<&str> = s.schedule.sink_inputs.iter().map(|(_, p, _)| p.as_str()).collect();
+        assert!(ports.contains(&"color") && !ports.contains(&"filter_width") && !ports.contains(&"rays_per_pixel"), "{name}: {ports:?}");
+        // Nothing only the filters needed is left: no bandwidth kernel runs.
+        assert!(s.schedule.passes.iter().all(|p| !p.kernel.ends_with(".bandwidth")), "{name}\n{}", s.schedule.table());
+    }
+}
+
+#[test]
+fn a_stratified_reference_draws_all_n_samples_in_one_pass() {
+    // grids has one area light: N shadow rays per covered pixel, all from `sample_adaptive` (the
+    // first pass takes none), so the CMJ pattern spans all N (not 9 + a separate N − 9).
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    let ov = sized(32, 24, None, &[]);
+    let rays = |spp: u32| {
+        let s = Session::reference(Some(&path), spp, "stratified", &ov).unwrap();
+        let first = s.schedule.passes.iter().find(|p| p.name == "shadows.sample_initial").unwrap();
+        assert_eq!(first.params["count"], ParamValue::Int(0));
+        run(&s).rays.shadow_rays
+    };
+    let one = rays(1);
+    assert!(one > 0);
+    assert_eq!(rays(37), 37 * one);
+}
+
+#[test]
+fn set_overrides_reach_the_reference() {
+    // `wedge reference --set indirect.bounces=3 pipelines/indirect.ron`: the template could not.
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/indirect.ron");
+    let secondary = |bounces: i64| {
+        let ov = sized(16, 12, None, &[("indirect", "bounces", ParamValue::Int(bounces))]);
+        let s = Session::reference(Some(&path), 4, "stratified", &ov).unwrap();
+        let p = s.schedule.passes.iter().find(|p| p.name == "indirect.sample_adaptive").unwrap();
+        assert_eq!(p.params["bounces"], ParamValue::Int(bounces));
+        run(&s).rays.secondary_rays
+    };
+    let (one, three) = (secondary(1), secondary(3));
+    assert!(three > 2 * one, "3 bounces trace more: {one} vs {three}");
+}
+
+#[test]
+fn stratified_reference_beats_independent_at_equal_samples() {
+    // Same estimator, same count: stratification must lower the error against a converged reference.
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    let ov = sized(48, 36, None, &[]);
+    let image = |spp, sampling: &str, seed| {
+        let s = Session::reference(Some(&path), spp, sampling, &wedge::Overrides { seed: Some(seed), ..ov.clone() }).unwrap();
+        let r = run(&s);
+        color(&s, &r)
+    };
+    let converged = image(2048, "stratified", 7);
+    let (strat, ind) = (rmse(&image(64, "stratified", 1), &converged), rmse(&image(64, "independent", 1), &converged));
+    assert!(strat < 0.7 * ind, "stratified {strat} vs independent {ind}");
+}
