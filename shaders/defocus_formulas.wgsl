@@ -153,3 +153,11 @@ fn defocus_separable(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, threshold: f32) -
     let err2 = d.x * d.x + d.y * d.y + d.z * d.z;
     return err2 < threshold * threshold;
 }
+
+// One component's term of eq. 5.32: k E (filtered E) where factored, else L.
+fn defocus_compose_term(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, factored: bool) -> vec3<f32> {
+    if (factored) {
+        return vec3<f32>(k.x * e.x, k.y * e.y, k.z * e.z);
+    }
+    return l;
+}

@@ -1,5 +1,6 @@
-//! The Ch. 5 kernels one pass at a time: `defocus.rates`, `defocus.flags`, `neighbourhood.max3`,
-//! `neighbourhood.median3`, `filter.irradiance` (eq. 5.31) and `filter.defocus` (eq. 5.33).
+//! The Ch. 5 kernels one pass at a time: `defocus.rates`, `defocus.flags`, `defocus.compose`
+//! (eq. 5.32), `neighbourhood.max3`, `neighbourhood.median3`, `filter.irradiance` (eq. 5.31) and
+//! `filter.defocus` (eq. 5.33).
 //!
 //! - CPU-vs-GPU parity of every kernel on random inputs (the harness's tolerances: float outputs to
 //!   round-off on every pixel, integer outputs exact), including non-finite inputs and unbound optional
@@ -932,5 +933,45 @@ fn noise_reduction_matches_the_weights() {
             assert!((std / expect - 1.0).abs() < 0.12, "{name} Ω = {omega}: std {std} vs {expect}");
             assert!((mean - 0.5).abs() < 0.01, "{name}: unbiased mean {mean}");
         }
+    }
+}
+
+/// Eq. 5.32 chained over two components: parity on random inputs and flags, and the sum by hand.
+#[test]
+fn compose_chains_components_eq_5_32() {
+    let scene = scene();
+    let mut rng = Rng(81);
+    let component = |rng: &mut Rng| -> Buffers {
+        let v = |rng: &mut Rng| -> BufferData { vec4s((0..N).map(|_| [rng.unit(), rng.unit(), rng.unit(), 16.0]).collect()) };
+        BTreeMap::from([
+            ("radiance", v(rng)),
+            ("texture", v(rng)),
+            ("irradiance", v(rng)),
+            ("flag", BufferData::U32((0..N).map(|_| (rng.next() % 2) as u32).collect())),
+        ])
+    };
+    let direct = component(&mut rng);
+    let indirect = component(&mut rng);
+    let (first, _) = run_cpu(&scene, "defocus.compose", W, H, &Params::new(), &direct);
+    let mut second_in = indirect.clone();
+    second_in.insert("previous", first["out"].clone());
+    let (second, _) = run_cpu(&scene, "defocus.compose", W, H, &Params::new(), &second_in);
+    let term = |c: &Buffers, i: usize| -> [f32; 3] {
+        let (l, k, e) = (vec4_of(&c["radiance"])[i], vec4_of(&c["texture"])[i], vec4_of(&c["irradiance"])[i]);
+        if u32_of(&c["flag"])[i] != 0 {
+            [k[0] * e[0], k[1] * e[1], k[2] * e[2]]
+        } else {
+            [l[0], l[1], l[2]]
+        }
+    };
+    for i in 0..N {
+        let (a, b) = (term(&direct, i), term(&indirect, i));
+        let o = vec4_of(&second["out"])[i];
+        assert_eq!([o[0], o[1], o[2], o[3]], [a[0] + b[0], a[1] + b[1], a[2] + b[2], 16.0]);
+    }
+    if let Some(mut gpu) = gpu_or_skip("compose_chains_components_eq_5_32") {
+        let mut bad = parity(&mut gpu, &scene, "defocus.compose", W, H, &Params::new(), &direct);
+        bad.extend(parity(&mut gpu, &scene, "defocus.compose", W, H, &Params::new(), &second_in));
+        assert!(bad.is_empty(), "{}", bad.join("\n"));
     }
 }

@@ -5,7 +5,7 @@
 //! consistent mode shrinks every filter to a pixel and grows every count without bound.
 
 use wedge::effects::defocus::formulas::{
-    direct_rate, filter_width_px, light_half_width, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
+    compose_term, direct_rate, filter_width_px, light_half_width, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
     pixel_scale, primary_rate, primary_strata, secondary_per_primary, secondary_strata, separable, strata_cap, LensShape,
     Mode, PixelStats, RateParams, ThinLens, FILTER_SHARPNESS, OMEGA_PIX_MAX,
 };
@@ -394,4 +394,11 @@ fn light_half_width_and_camera_lens() {
     assert!(close(light_half_width(&tri), 0.25, 1e-6)); // hypotenuse 0.5
     let camera = Camera { aperture_radius: 0.05, focus_distance: 4.0, vfov_deg: 45.0, ..Camera::default() };
     assert_eq!(ThinLens::from_camera(&camera, 512), ThinLens::new(0.05, 4.0, 45.0, 512));
+}
+
+#[test]
+fn compose_term_eq_5_32() {
+    let (l, k, e) = ([0.3, 0.2, 0.1], [0.5, 0.25, 1.0], [0.8, 0.4, 0.2]);
+    assert_eq!(compose_term(l, k, e, true), [0.4, 0.1, 0.2]);
+    assert_eq!(compose_term(l, k, e, false), l);
 }

@@ -426,3 +426,13 @@ pub fn separable(l: [f32; 3], k: [f32; 3], e: [f32; 3], threshold: f32) -> bool 
     let err2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     err2 < threshold * threshold
 }
+
+/// One component's term of the composed radiance (thesis eq. 5.32): the factored product `k E` (with
+/// `E` filtered) where the pixel's flag says the component factors, else its lens-integrated `L`.
+pub fn compose_term(l: [f32; 3], k: [f32; 3], e: [f32; 3], factored: bool) -> [f32; 3] {
+    if factored {
+        [k[0] * e[0], k[1] * e[1], k[2] * e[2]]
+    } else {
+        l
+    }
+}

@@ -1,5 +1,5 @@
-//! The defocus kernels: `defocus.rates` and `defocus.flags` (thesis Sec. 5.7–5.8), CPU here and WGSL
-//! in `shaders/defocus_rates.wgsl` / `shaders/defocus_flags.wgsl`, both built on the formulas of
+//! The defocus kernels: `defocus.rates`, `defocus.flags` and `defocus.compose` (thesis Sec. 5.7–5.8),
+//! CPU here and WGSL in `shaders/defocus_{rates,flags,compose}.wgsl`, all built on the formulas of
 //! [`super::formulas`] (WGSL mirror: `shaders/defocus_formulas.wgsl`).
 //!
 //! Buffer conventions (per pixel; `w > 0` marks a statistic that exists):
@@ -179,5 +179,56 @@ impl Kernel for Flags {
             formulas::separable(rgb(l[i]), rgb(k[i]), rgb(e[i]), threshold) as u32
         });
         ctx.put("flag", flag)
+    }
+}
+
+/// `defocus.compose`: one component of eq. 5.32 added to a running sum,
+/// `out = previous + (flag ? k E : L)` with `E` the filtered irradiance and `flag` the (median-filtered)
+/// SepDir / SepInd. One pass per component (direct; indirect diffuse; indirect glossy), each reading
+/// the previous pass's `out` as `previous` (unbound for the first: the sum starts at 0). `w` comes
+/// from `previous`, or from `radiance` for the first pass. Non-finite values pass through unchanged
+/// to the defocus filter, which counts and excludes them (counting here too would count them twice).
+pub struct Compose;
+
+impl Kernel for Compose {
+    fn name(&self) -> &'static str {
+        "defocus.compose"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("radiance", Format::Vec4),
+            Binding::read("texture", Format::Vec4),
+            Binding::read("irradiance", Format::Vec4),
+            Binding::read("flag", Format::U32),
+            Binding::read_opt("previous", Format::Vec4),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/defocus_compose.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let l = ctx.read::<[f32; 4]>("radiance")?;
+        let k = ctx.read::<[f32; 4]>("texture")?;
+        let e = ctx.read::<[f32; 4]>("irradiance")?;
+        let flag = ctx.read::<u32>("flag")?;
+        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
+        let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
+        let out: Vec<[f32; 4]> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            let t = formulas::compose_term(rgb(l[i]), rgb(k[i]), rgb(e[i]), flag[i] != 0);
+            match previous {
+                Some(p) => [p[i][0] + t[0], p[i][1] + t[1], p[i][2] + t[2], p[i][3]],
+                None => [t[0], t[1], t[2], l[i][3]],
+            }
+        });
+        ctx.put("out", out)
     }
 }
