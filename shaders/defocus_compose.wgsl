@@ -9,12 +9,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let l = radiance_at(i);
-    let term = defocus_compose_term(l.xyz, texture_at(i).xyz, irradiance_at(i).xyz, flag_at(i) != 0u);
+    let term = defocus_compose_term(radiance_at(i), texture_at(i), irradiance_at(i), flag_at(i) != 0u);
     if (previous_bound()) {
         let p = previous_at(i);
-        out_put(i, vec4<f32>(p.x + term.x, p.y + term.y, p.z + term.z, p.w));
+        out_put(i, vec3<f32>(p.x + term.x, p.y + term.y, p.z + term.z));
     } else {
-        out_put(i, vec4<f32>(term, l.w));
+        out_put(i, term);
     }
 }

@@ -30,7 +30,7 @@
 //! `ℓ_p` not finite or ≤ 0, no hit (`position.w ≤ 0`) or a zero normal. Non-finite values are never
 //! used as neighbours; each pixel whose own value is non-finite is counted once in
 //! `non_finite_samples`, and gets its neighbours' average if it has any (else it keeps its value: it is
-//! never spread). `value.w` passes through.
+//! never spread). Values are rgb (`vec3`), as `paths.resolve` writes `E` and compose writes radiance.
 
 use glam::Vec3;
 use wedge_graph::Format;
@@ -70,7 +70,7 @@ fn is_hit(position: [f32; 4]) -> bool {
     position[3] > 0.0
 }
 
-fn is_finite3(v: [f32; 4]) -> bool {
+fn is_finite3(v: [f32; 3]) -> bool {
     v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
 }
 
@@ -129,12 +129,12 @@ pub fn irradiance_pixel(
     width: i32,
     height: i32,
     p: &IrradianceParams,
-    value: &[[f32; 4]],
+    value: &[[f32; 3]],
     position: &[[f32; 4]],
     normal: &[[f32; 4]],
     omega: &[f32],
     pixel_length: &[f32],
-) -> [f32; 4] {
+) -> [f32; 3] {
     let i = (y * width + x) as usize;
     let centre = value[i];
     let (om, ell) = (omega[i], pixel_length[i]);
@@ -188,7 +188,7 @@ pub fn irradiance_pixel(
         }
     }
     if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, centre[3]]
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
     } else {
         centre
     }
@@ -203,9 +203,9 @@ pub fn defocus_pixel(
     height: i32,
     max_radius: i32,
     axis: Axis,
-    value: &[[f32; 4]],
+    value: &[[f32; 3]],
     omega: &[f32],
-) -> [f32; 4] {
+) -> [f32; 3] {
     let i = (y * width + x) as usize;
     let centre = value[i];
     let om = omega[i];
@@ -245,7 +245,7 @@ pub fn defocus_pixel(
         }
     }
     if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, centre[3]]
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
     } else {
         centre
     }
@@ -275,7 +275,7 @@ fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
     })
 }
 
-fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 4]]) {
+fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
     let n = value.iter().filter(|v| !is_finite3(**v)).count() as u64;
     Counters::add(&ctx.counters.non_finite_samples, n);
 }
@@ -292,12 +292,12 @@ impl Kernel for IrradianceFilter {
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
-            Binding::read("value", Format::Vec4),
+            Binding::read("value", Format::Vec3),
             Binding::read("position", Format::Vec4),
             Binding::read("normal", Format::Vec4),
             Binding::read("omega", Format::F32),
             Binding::read("pixel_length", Format::F32),
-            Binding::write("out", Format::Vec4),
+            Binding::write("out", Format::Vec3),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -312,7 +312,7 @@ impl Kernel for IrradianceFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
+        let value = ctx.read::<[f32; 3]>("value")?;
         let position = ctx.read::<[f32; 4]>("position")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let omega = ctx.read::<f32>("omega")?;
@@ -338,7 +338,7 @@ impl Kernel for DefocusFilter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("value", Format::Vec4), Binding::read("omega", Format::F32), Binding::write("out", Format::Vec4)]
+        vec![Binding::read("value", Format::Vec3), Binding::read("omega", Format::F32), Binding::write("out", Format::Vec3)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -349,7 +349,7 @@ impl Kernel for DefocusFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
+        let value = ctx.read::<[f32; 3]>("value")?;
         let omega = ctx.read::<f32>("omega")?;
         let (r, a) = (max_radius(ctx)?, axis(ctx)?);
         count_non_finite(ctx, value);

@@ -4,14 +4,15 @@
 //!
 //! Buffer conventions (per pixel; `w > 0` marks a statistic that exists):
 //! - `lens` (vec4): `r_min`, `r_max` (|circle of confusion| in pixels over the pixel's lens samples,
-//!   eq. 5.2), lens-averaged depth along the optical axis, and `w` = the number of primary rays that
-//!   hit (0: every primary ray missed).
+//!   eq. 5.2), lens-averaged depth along the optical axis, and `w > 0` where some primary ray hit (a
+//!   hit count, or `ℓ_p` as `paths.resolve`'s `defocus` output has it; 0: every primary ray missed).
 //! - `occlusion` (vec4, optional): `d1`, `d2_min`, `d2_max` as `shadows.rs` defines them (slopes by
 //!   eq. 5.17 / 3.4), `w > 0` when some shadow sample was occluded. Unbound: no occluders anywhere.
-//! - `reflectors` (vec4, optional): `z_min`, `z_max` (distances to indirect reflectors), `w > 0` when
-//!   some indirect sample hit. Unbound: no reflector terms.
-//! - `radiance`, `texture`, `irradiance` (vec4, rgb in `xyz`): one component's lens-integrated `L`,
-//!   `k`, `E` (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect).
+//! - `reflectors` (vec4, optional): `z_min`, `z_max` (distances to indirect reflectors), indirect
+//!   samples that hit (`> 0`: the statistic exists), indirect samples — the layout `indirect.sample`
+//!   and `paths.resolve` write as `depth`. Unbound: no reflector terms.
+//! - `radiance`, `texture`, `irradiance` (vec3 rgb): one component's lens-integrated `L`, `k`, `E`
+//!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use wedge_graph::Format;
@@ -64,7 +65,7 @@ pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Opti
         _ => (0.0, 0.0),
     };
     let (z_min, z_max) = match reflectors {
-        Some(z) if z[3] > 0.0 => (z[0], z[1]),
+        Some(z) if z[2] > 0.0 => (z[0], z[1]),
         _ => (0.0, 0.0),
     };
     PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max }
@@ -153,9 +154,9 @@ impl Kernel for Flags {
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
-            Binding::read("radiance", Format::Vec4),
-            Binding::read("texture", Format::Vec4),
-            Binding::read("irradiance", Format::Vec4),
+            Binding::read("radiance", Format::Vec3),
+            Binding::read("texture", Format::Vec3),
+            Binding::read("irradiance", Format::Vec3),
             Binding::write("flag", Format::U32),
         ]
     }
@@ -169,14 +170,13 @@ impl Kernel for Flags {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let l = ctx.read::<[f32; 4]>("radiance")?;
-        let k = ctx.read::<[f32; 4]>("texture")?;
-        let e = ctx.read::<[f32; 4]>("irradiance")?;
+        let l = ctx.read::<[f32; 3]>("radiance")?;
+        let k = ctx.read::<[f32; 3]>("texture")?;
+        let e = ctx.read::<[f32; 3]>("irradiance")?;
         let threshold = positive_param(ctx, "threshold", true)?;
-        let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
         let flag: Vec<u32> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            formulas::separable(rgb(l[i]), rgb(k[i]), rgb(e[i]), threshold) as u32
+            formulas::separable(l[i], k[i], e[i], threshold) as u32
         });
         ctx.put("flag", flag)
     }
@@ -185,8 +185,8 @@ impl Kernel for Flags {
 /// `defocus.compose`: one component of eq. 5.32 added to a running sum,
 /// `out = previous + (flag ? k E : L)` with `E` the filtered irradiance and `flag` the (median-filtered)
 /// SepDir / SepInd. One pass per component (direct; indirect diffuse; indirect glossy), each reading
-/// the previous pass's `out` as `previous` (unbound for the first: the sum starts at 0). `w` comes
-/// from `previous`, or from `radiance` for the first pass. Non-finite values pass through unchanged
+/// the previous pass's `out` as `previous` (unbound for the first: the sum starts at 0). Non-finite
+/// values pass through unchanged
 /// to the defocus filter, which counts and excludes them (counting here too would count them twice).
 pub struct Compose;
 
@@ -199,12 +199,12 @@ impl Kernel for Compose {
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
-            Binding::read("radiance", Format::Vec4),
-            Binding::read("texture", Format::Vec4),
-            Binding::read("irradiance", Format::Vec4),
+            Binding::read("radiance", Format::Vec3),
+            Binding::read("texture", Format::Vec3),
+            Binding::read("irradiance", Format::Vec3),
             Binding::read("flag", Format::U32),
-            Binding::read_opt("previous", Format::Vec4),
-            Binding::write("out", Format::Vec4),
+            Binding::read_opt("previous", Format::Vec3),
+            Binding::write("out", Format::Vec3),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -215,18 +215,17 @@ impl Kernel for Compose {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let l = ctx.read::<[f32; 4]>("radiance")?;
-        let k = ctx.read::<[f32; 4]>("texture")?;
-        let e = ctx.read::<[f32; 4]>("irradiance")?;
+        let l = ctx.read::<[f32; 3]>("radiance")?;
+        let k = ctx.read::<[f32; 3]>("texture")?;
+        let e = ctx.read::<[f32; 3]>("irradiance")?;
         let flag = ctx.read::<u32>("flag")?;
-        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
-        let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
-        let out: Vec<[f32; 4]> = ctx.map_pixels(false, |x, y| {
+        let previous = ctx.read_opt::<[f32; 3]>("previous")?;
+        let out: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            let t = formulas::compose_term(rgb(l[i]), rgb(k[i]), rgb(e[i]), flag[i] != 0);
+            let t = formulas::compose_term(l[i], k[i], e[i], flag[i] != 0);
             match previous {
-                Some(p) => [p[i][0] + t[0], p[i][1] + t[1], p[i][2] + t[2], p[i][3]],
-                None => [t[0], t[1], t[2], l[i][3]],
+                Some(p) => [p[i][0] + t[0], p[i][1] + t[1], p[i][2] + t[2]],
+                None => t,
             }
         });
         ctx.put("out", out)
