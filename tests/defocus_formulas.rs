@@ -394,6 +394,9 @@ fn light_half_width_and_camera_lens() {
     assert!(close(light_half_width(&tri), 0.25, 1e-6)); // hypotenuse 0.5
     let camera = Camera { aperture_radius: 0.05, focus_distance: 4.0, vfov_deg: 45.0, ..Camera::default() };
     assert_eq!(ThinLens::from_camera(&camera, 512), ThinLens::new(0.05, 4.0, 45.0, 512));
+    // Focus distance unset: focus at the look-at point (here 5 units away).
+    let unset = Camera { position: Vec3::new(0.0, 3.0, 4.0), look_at: Vec3::ZERO, focus_distance: 0.0, ..camera };
+    assert_eq!(ThinLens::from_camera(&unset, 512), ThinLens::new(0.05, 5.0, 45.0, 512));
 }
 
 #[test]

@@ -151,9 +151,15 @@ impl ThinLens {
 }
 
 impl ThinLens {
-    /// The camera's thin lens at an image `height` in pixels.
+    /// The camera's thin lens at an image `height` in pixels. A `focus_distance` ≤ 0 (unset) focuses
+    /// at the look-at point, as the path sampler's camera does (`effective_focus_distance` there).
     pub fn from_camera(camera: &Camera, height: u32) -> ThinLens {
-        ThinLens::new(camera.aperture_radius, camera.focus_distance, camera.vfov_deg, height)
+        let focus = if camera.focus_distance > 0.0 {
+            camera.focus_distance
+        } else {
+            (camera.look_at - camera.position).length().max(1e-4)
+        };
+        ThinLens::new(camera.aperture_radius, focus, camera.vfov_deg, height)
     }
 }
 
