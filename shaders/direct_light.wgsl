@@ -5,66 +5,7 @@
 #include "bvh.wgsl"
 #include "sampling.wgsl"
 
-const RAY_EPSILON: f32 = 1e-4;
-
-struct LightSample {
-    value: vec3<f32>,
-    occluded: bool,
-    distance: f32,
-}
-
-fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: bool, factor: vec3<f32>, want_distance: bool) -> LightSample {
-    var r = LightSample(vec3<f32>(0.0), false, 0.0);
-    let y = light_sample_point(l, u);
-    let to = y - x;
-    let r2 = dot3(to, to);
-    let dir = to / sqrt(r2);
-    let cos_x = dot3(n, dir);
-    let ln = l.normal_area.xyz;
-    var cos_y = dot3(ln, -dir);
-    if (l.two_sided != 0u) {
-        cos_y = abs(cos_y);
-    }
-    if (cos_x <= 0.0 || cos_y <= 0.0) {
-        return r;
-    }
-    let origin = x + n * (RAY_EPSILON * params.extent);
-    let seg = y - origin;
-    let seg_len = length3(seg);
-    let ray_dir = seg / seg_len;
-    let tmax = seg_len * bitcast<f32>(0x3f7ff972u); // (1.0 - 1e-4) in f32
-    if (want_distance) {
-        let hit = scene_intersect(origin, ray_dir, 0.0, tmax);
-        if (hit.hit) {
-            let p = origin + ray_dir * hit.t;
-            r.occluded = true;
-            r.distance = abs(dot3(l.centre_sigma.xyz - p, ln));
-            return r;
-        }
-    } else if (scene_occluded(origin, ray_dir, 0.0, tmax)) {
-        return r;
-    }
-    if (use_centre) {
-        r.value = factor;
-    } else {
-        r.value = l.radiance.xyz * (cos_x * cos_y / r2 * l.normal_area.w / PI_F32);
-    }
-    return r;
-}
-
-fn light_centre_factor(l: Light, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let to = l.centre_sigma.xyz - x;
-    let r2 = dot3(to, to);
-    let dir = to / sqrt(r2);
-    let cos_x = rmax(dot3(n, dir), 0.0);
-    var cos_y = dot3(l.normal_area.xyz, -dir);
-    if (l.two_sided != 0u) {
-        cos_y = abs(cos_y);
-    } else {
-        cos_y = rmax(cos_y, 0.0);
-    }
-    return l.radiance.xyz * (cos_x * cos_y / r2 * l.normal_area.w / PI_F32);
-}
+#include "light_sample.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -8,14 +8,7 @@
 #include "sampling.wgsl"
 #include "hemisphere.wgsl"
 
-// Dimension offset between lights in next-event estimation.
-const LIGHT_DIM_STRIDE: u32 = 65536u;
-// Dimension choosing the lobe at a path vertex.
-const LOBE_SELECT: u32 = 14u;
-
-// Rays traced by the current invocation (for the counters).
-var<private> rays_secondary: u32 = 0u;
-var<private> rays_shadow: u32 = 0u;
+#include "indirect_path.wgsl"
 
 // Rust's `x as u32` (saturating; NaN → 0).
 fn f32_to_u32_sat(x: f32) -> u32 {
@@ -26,132 +19,6 @@ fn f32_to_u32_sat(x: f32) -> u32 {
         return 0xffffffffu;
     }
     return u32(x);
-}
-
-fn weight_of(c: vec3<f32>) -> f32 {
-    return (c.x + c.y + c.z) / 3.0;
-}
-
-// next_event: one uniform area sample per light.
-fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> vec3<f32> {
-    var sum = vec3<f32>(0.0);
-    let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
-    for (var l = 0u; l < params.light_count; l = l + 1u) {
-        let light = area_light(l);
-        let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
-        let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
-        let to = target_point - y;
-        let r2 = dot3(to, to);
-        if (r2 <= 0.0) {
-            continue;
-        }
-        let dir = to / sqrt(r2);
-        let cos_y = dot3(n, dir);
-        let ln = light.normal_area.xyz;
-        var cos_l = dot3(ln, -dir);
-        if (light.two_sided != 0u) {
-            cos_l = abs(cos_l);
-        }
-        if (cos_y <= 0.0 || cos_l <= 0.0) {
-            continue;
-        }
-        let origin = y + n * params.eps;
-        let seg = target_point - origin;
-        let seg_len = length3(seg);
-        rays_shadow = rays_shadow + 1u;
-        if (scene_occluded(origin, seg / seg_len, 0.0, seg_len * bitcast<f32>(0x3f7ff972u))) { // (1.0 - 1e-4) in f32
-            continue;
-        }
-        var f = kd * FRAC_1_PI_F32;
-        if (is_glossy) {
-            f = f + ks * glossy_brdf(params.lobe, m, n, wo, dir);
-        }
-        sum = sum + light.radiance.xyz * f * (cos_y * cos_l / r2 * light.normal_area.w);
-    }
-    return sum;
-}
-
-struct PathResult {
-    value: vec3<f32>,
-    hit: bool,   // the first ray hit (AO: a reflector within max_distance)
-    first: f32,  // distance to the first hit
-}
-
-// trace_path: one path leaving `x` (normal `n`) in direction `wi`.
-fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) -> PathResult {
-    let side = select(-1.0, 1.0, dot3(wi, n) >= 0.0);
-    var origin = x + n * (side * params.eps);
-    var dir = wi;
-    rays_secondary = rays_secondary + 1u;
-    var hit = scene_intersect(origin, dir, 0.0, inf());
-    if (!hit.hit) {
-        return PathResult(vec3<f32>(0.0), false, 0.0);
-    }
-    let first = hit.t;
-    if (params.ao != 0u) {
-        let inside = params.max_distance <= 0.0 || first <= params.max_distance;
-        if (inside) {
-            return PathResult(vec3<f32>(1.0), true, first);
-        }
-        return PathResult(vec3<f32>(0.0), false, 0.0);
-    }
-    var radiance = vec3<f32>(0.0);
-    var throughput = vec3<f32>(1.0);
-    for (var bounce = 1u; bounce <= params.bounces; bounce = bounce + 1u) {
-        let sp = surface(hit.triangle, hit.b1, hit.b2, dir);
-        let y = sp.position;
-        let ny = sp.shading_normal;
-        let wo = -dir;
-        let mat = material(sp.material);
-        let kd = albedo(sp);
-        let ks = mat.specular;
-        let m = mat.phong_exponent;
-        radiance = radiance + throughput * next_event(y, ny, wo, kd, ks, m, key, sample, bounce);
-        if (bounce == params.bounces) {
-            break;
-        }
-        // Continue: one-sample mixture of the vertex's lobes.
-        let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
-        let wd = rmax(weight_of(kd), 0.0);
-        var ws = 0.0;
-        if (is_glossy) {
-            ws = rmax(weight_of(ks), 0.0);
-        }
-        if (wd + ws <= 0.0) {
-            break;
-        }
-        let pd = wd / (wd + ws);
-        let d = DIM_BSDF + bounce * DIM_BOUNCE_STRIDE;
-        let u = rng_uniform2(key, sample, d);
-        var next: vec3<f32>;
-        if (rng_uniform(key, sample, LOBE_SELECT + bounce * DIM_BOUNCE_STRIDE) < pd) {
-            next = sample_diffuse(ny, u);
-        } else {
-            next = sample_glossy(params.lobe, m, ny, wo, u).wi;
-        }
-        let cos_i = dot3(next, ny);
-        if (cos_i <= 0.0) {
-            break;
-        }
-        var f = kd * FRAC_1_PI_F32;
-        var pdf = pd * cos_i * FRAC_1_PI_F32;
-        if (is_glossy) {
-            f = f + ks * glossy_brdf(params.lobe, m, ny, wo, next);
-            pdf = pdf + (1.0 - pd) * glossy_pdf(params.lobe, m, ny, wo, next);
-        }
-        if (pdf <= 0.0) {
-            break;
-        }
-        throughput = throughput * (f * (cos_i / pdf));
-        origin = y + ny * params.eps;
-        dir = next;
-        rays_secondary = rays_secondary + 1u;
-        hit = scene_intersect(origin, dir, 0.0, inf());
-        if (!hit.hit) {
-            break;
-        }
-    }
-    return PathResult(radiance, true, first);
 }
 
 // First-hit statistics over the hemisphere rays.

@@ -71,12 +71,13 @@ enum Command {
         #[arg(long, value_parser = parse_mu)]
         mu: Option<f64>,
     },
-    /// Plain Monte Carlo reference (no filtering) of the pipeline's scene and camera.
+    /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
+    /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
     Reference {
         pipeline: Option<PathBuf>,
         #[command(flatten)]
         common: Common,
-        /// Light samples per pixel (per light), 1..=1048576.
+        /// Samples per pixel (per light, per indirect component), 1..=1048576.
         #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
         spp: u32,
         /// `stratified` (default) or `independent`.
@@ -145,7 +146,7 @@ enum Command {
     },
 }
 
-/// Largest `reference --spp` (the `MonteCarlo` node's own limit).
+/// Largest `reference --spp` (the `MonteCarlo` node's `spp` limit, kept for references from the graph).
 const MAX_SPP: i64 = 1 << 20;
 
 /// `--width`/`--height`: clap checks the range and names the flag in its message.

@@ -99,21 +99,33 @@ fn a_scene_without_lights_says_so() {
     assert!(!err.contains("pick 0.."), "{err}");
 }
 
-/// A command that samples every light (`reference`) renders a light-less scene, but warns that direct
-/// and indirect light are black instead of exiting 0 in silence.
+/// A pipeline that samples every light (`MonteCarlo` with `light: -1`, `Indirect`'s next-event
+/// estimation) renders a light-less scene, and its reference too, but both warn that direct and
+/// indirect light are black instead of exiting 0 in silence. A reference is the pipeline's own graph,
+/// so the default pipeline's SoftShadows (`light: 0`) refuses the scene in `reference` exactly as in
+/// `render`.
 #[test]
 fn sampling_every_light_of_a_scene_without_lights_warns() {
     let dir = tempfile::tempdir().unwrap();
     let obj = dir.path().join("dark.obj");
     std::fs::write(&obj, "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
     let out = dir.path().join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_wedge"))
-        .args(["reference", "--spp", "4", "--width", "16", "--height", "12", "--scene", obj.to_str().unwrap()])
-        .args(["--out", out.to_str().unwrap()])
-        .current_dir(repo())
-        .output()
-        .unwrap();
+    let run = |pipeline: Option<&str>| {
+        Command::new(env!("CARGO_BIN_EXE_wedge"))
+            .arg("reference")
+            .args(pipeline)
+            .args(["--spp", "4", "--width", "16", "--height", "12", "--scene", obj.to_str().unwrap()])
+            .args(["--out", out.to_str().unwrap()])
+            .current_dir(repo())
+            .output()
+            .unwrap()
+    };
+    let o = run(Some("pipelines/indirect.ron"));
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("has no area light (no emissive triangles): light sampling adds nothing"), "{err}");
+    let o = run(None);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("`shadows.sample_initial`: `light` = 0") && err.contains("add an emissive material"), "{err}");
 }

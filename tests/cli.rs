@@ -59,9 +59,28 @@ fn graph_prints_schedule_and_dot() {
     for pass in ["primary.gbuffer", "shadows.sample_initial", "shadows.bandwidth", "shadows.rates", "shadows.sample_adaptive", "shadows.filter_x", "shadows.filter_y", "shadows.compose"] {
         assert!(stdout.contains(pass), "{pass} missing from\n{stdout}");
     }
+    // The stage column, and random passes marked.
+    assert!(stdout.contains("stage") && stdout.contains("(random)"), "{stdout}");
+    for (stage, pass) in [("sample", "shadows.sample_initial"), ("bandwidth", "shadows.rates"), ("adaptive", "shadows.sample_adaptive"), ("filter", "shadows.filter_y"), ("compose", "shadows.compose")] {
+        assert!(stdout.lines().any(|l| l.contains(&format!("{stage:12}  {pass} "))), "{stage} {pass} in\n{stdout}");
+    }
     let o = wedge(&["graph", "pipelines/shadows.ron", "--dot"], repo());
     let (stdout, _) = text(&o);
     assert!(stdout.trim_start().starts_with("digraph"), "{stdout}");
+}
+
+#[test]
+fn reference_takes_set_overrides() {
+    // The reference is the pipeline's own graph, so any node parameter can be set (the old
+    // template knew only a fixed list of the Indirect node's).
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let args = ["reference", "pipelines/indirect.ron", "--set", "indirect.bounces=3", "--spp", "2", "--width", "16", "--height", "12"];
+    let o = wedge(&[&args[..], &["--out", out.to_str().unwrap()]].concat(), repo());
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stdout}{stderr}");
+    assert!(out.join("reference.exr").exists());
+    assert!(!stdout.contains("filter.gaussian") && stdout.contains("fill.constant"), "{stdout}");
 }
 
 #[test]

@@ -96,6 +96,29 @@ fn parity_every_pass_of_every_pipeline() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The references of every pipeline (`Session::reference`: constant counts from `fill.constant`,
+/// first passes at zero samples, filters bypassed) agree pass by pass too.
+#[test]
+fn parity_of_every_pipeline_reference() {
+    let Some(mut gpu) = gpu_or_skip("parity_of_every_pipeline_reference") else { return };
+    let mut failures = Vec::new();
+    for path in pipelines() {
+        let session = Session::reference(Some(&path), 8, "stratified", &small(32, 24)).unwrap();
+        // Every shipped pipeline has an adaptive node, so its reference fills constant counts.
+        assert!(session.schedule.passes.iter().any(|p| p.kernel == "fill.constant"), "{}", path.display());
+        match run_parity(&job(&session), &mut gpu) {
+            Ok(report) => {
+                println!("{} (reference)\n{}", path.display(), report.table());
+                if !report.ok() {
+                    failures.push(format!("{}: reference parity mismatch (table above)", path.display()));
+                }
+            }
+            Err(e) => failures.push(format!("{}: {e}", path.display())),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 fn kernels_without_wgsl(s: &Session) -> Vec<String> {
     let mut v: Vec<String> = s
         .schedule

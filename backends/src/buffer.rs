@@ -1,6 +1,11 @@
 //! Per-pixel buffers as the CPU backend holds them, and typed access to them.
+//!
+//! Struct formats ([`Format::Struct`]) are held as their raw words (`BufferData::Words`, the same
+//! bytes the GPU stores) and read either field by field by name ([`BufferData::field`],
+//! [`BufferData::component`]) or as a `#[repr(C)]` Rust struct implementing [`Record`], whose size
+//! is checked against the layout, through the same `KernelCtx::read` / `put` as plain formats.
 
-use wedge_graph::Format;
+use wedge_graph::{FieldType, Format, StructLayout};
 
 /// A per-pixel array in one of the graph's [`Format`]s.
 #[derive(Clone, Debug, PartialEq)]
@@ -10,6 +15,9 @@ pub enum BufferData {
     Vec3(Vec<[f32; 3]>),
     Vec4(Vec<[f32; 4]>),
     U32(Vec<u32>),
+    /// A struct format: `layout.words()` words per pixel, fields in layout order (f32 fields as
+    /// their bits).
+    Words { layout: &'static StructLayout, data: Vec<u32> },
 }
 
 impl BufferData {
@@ -20,6 +28,7 @@ impl BufferData {
             Format::Vec3 => BufferData::Vec3(vec![[0.0; 3]; len]),
             Format::Vec4 => BufferData::Vec4(vec![[0.0; 4]; len]),
             Format::U32 => BufferData::U32(vec![0; len]),
+            Format::Struct(layout) => BufferData::Words { layout, data: vec![0; len * layout.words()] },
         }
     }
     pub fn format(&self) -> Format {
@@ -29,6 +38,7 @@ impl BufferData {
             BufferData::Vec3(_) => Format::Vec3,
             BufferData::Vec4(_) => Format::Vec4,
             BufferData::U32(_) => Format::U32,
+            BufferData::Words { layout, .. } => Format::Struct(layout),
         }
     }
     pub fn len(&self) -> usize {
@@ -38,12 +48,14 @@ impl BufferData {
             BufferData::Vec3(v) => v.len(),
             BufferData::Vec4(v) => v.len(),
             BufferData::U32(v) => v.len(),
+            BufferData::Words { layout, data } => data.len() / layout.words().max(1),
         }
     }
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
-    /// Component `c` of element `i` as f32 (u32 converted), for comparisons and heatmaps.
+    /// Component `c` of element `i` as f32 (u32 converted), for comparisons and heatmaps. For a
+    /// struct, component `c` is word `c` of the record, read as its field's type.
     pub fn component(&self, i: usize, c: usize) -> f32 {
         match self {
             BufferData::F32(v) => v[i],
@@ -51,6 +63,55 @@ impl BufferData {
             BufferData::Vec3(v) => v[i][c],
             BufferData::Vec4(v) => v[i][c],
             BufferData::U32(v) => v[i] as f32,
+            BufferData::Words { layout, data } => {
+                let word = data[i * layout.words() + c];
+                let is_u32 = layout.offsets().any(|(o, f)| o == c && f.ty == FieldType::U32);
+                if is_u32 {
+                    word as f32
+                } else {
+                    f32::from_bits(word)
+                }
+            }
+        }
+    }
+    /// One field of a struct buffer as a plain per-pixel buffer (`F32`, `U32`, `Vec2/3/4`), for
+    /// parity (compared field by field), heatmaps and tests. `None` for a plain buffer or an unknown name.
+    pub fn field(&self, name: &str) -> Option<BufferData> {
+        let BufferData::Words { layout, data } = self else {
+            return None;
+        };
+        let (offset, field) = layout.field(name)?;
+        let stride = layout.words();
+        let words = data.chunks_exact(stride).map(|r| &r[offset..offset + field.ty.words()]);
+        let f = |w: &[u32], k: usize| f32::from_bits(w[k]);
+        Some(match field.ty {
+            FieldType::F32 => BufferData::F32(words.map(|w| f(w, 0)).collect()),
+            FieldType::U32 => BufferData::U32(words.map(|w| w[0]).collect()),
+            FieldType::Vec2 => BufferData::Vec2(words.map(|w| [f(w, 0), f(w, 1)]).collect()),
+            FieldType::Vec3 => BufferData::Vec3(words.map(|w| [f(w, 0), f(w, 1), f(w, 2)]).collect()),
+            FieldType::Vec4 => BufferData::Vec4(words.map(|w| [f(w, 0), f(w, 1), f(w, 2), f(w, 3)]).collect()),
+        })
+    }
+    /// The buffer's bytes as the GPU stores them (vec3 packed, structs as their words).
+    pub fn as_bytes(&self) -> &[u8] {
+        match self {
+            BufferData::F32(v) => bytemuck::cast_slice(v),
+            BufferData::Vec2(v) => bytemuck::cast_slice(v),
+            BufferData::Vec3(v) => bytemuck::cast_slice(v),
+            BufferData::Vec4(v) => bytemuck::cast_slice(v),
+            BufferData::U32(v) => bytemuck::cast_slice(v),
+            BufferData::Words { data, .. } => bytemuck::cast_slice(data),
+        }
+    }
+    /// A buffer of `format` from its bytes (the inverse of [`BufferData::as_bytes`]).
+    pub fn from_bytes(format: Format, bytes: &[u8]) -> BufferData {
+        match format {
+            Format::F32 => BufferData::F32(bytemuck::pod_collect_to_vec(bytes)),
+            Format::Vec2 => BufferData::Vec2(bytemuck::pod_collect_to_vec(bytes)),
+            Format::Vec3 => BufferData::Vec3(bytemuck::pod_collect_to_vec(bytes)),
+            Format::Vec4 => BufferData::Vec4(bytemuck::pod_collect_to_vec(bytes)),
+            Format::U32 => BufferData::U32(bytemuck::pod_collect_to_vec(bytes)),
+            Format::Struct(layout) => BufferData::Words { layout, data: bytemuck::pod_collect_to_vec(bytes) },
         }
     }
     /// The buffer as one f32 per pixel (first component), for heatmaps.
@@ -95,3 +156,91 @@ texel!([f32; 2], Vec2);
 texel!([f32; 3], Vec3);
 texel!([f32; 4], Vec4);
 texel!(u32, U32);
+
+/// A Rust view of a struct format: a `#[repr(C)]`, `Pod` struct whose fields are `f32`, `u32` or
+/// `[f32; N]` in the order and of the types of [`Record::LAYOUT`]. Implementing it makes the type a
+/// [`Texel`], so kernels `ctx.read::<R>(…)` and `ctx.put(…, Vec<R>)` records like any element type.
+/// The size is checked against the layout when a buffer is viewed ([`record_matches`]), so a struct
+/// that drifted from its layout gives an error, not shifted fields; field order and types are the
+/// implementer's promise (keep the layout next to the struct, as `kernels::paths` does).
+pub trait Record: bytemuck::Pod + Default + Send + Sync + 'static {
+    const LAYOUT: &'static StructLayout;
+}
+
+/// Whether `R`'s size is the layout's words.
+pub fn record_matches<R: Record>() -> bool {
+    std::mem::size_of::<R>() == 4 * R::LAYOUT.words() && std::mem::align_of::<R>() <= 4
+}
+
+impl<R: Record> Texel for R {
+    const FORMAT: Format = Format::Struct(R::LAYOUT);
+    fn slice(b: &BufferData) -> Option<&[Self]> {
+        match b {
+            BufferData::Words { layout, data } if *layout == R::LAYOUT && record_matches::<R>() => {
+                Some(bytemuck::cast_slice(data))
+            }
+            _ => None,
+        }
+    }
+    fn wrap(v: Vec<Self>) -> BufferData {
+        BufferData::Words { layout: R::LAYOUT, data: bytemuck::cast_slice(&v).to_vec() }
+    }
+    fn unwrap(b: BufferData) -> Result<Vec<Self>, BufferData> {
+        match b {
+            BufferData::Words { layout, data } if layout == R::LAYOUT && record_matches::<R>() => {
+                Ok(bytemuck::cast_slice(&data).to_vec())
+            }
+            other => Err(other),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wedge_graph::Field;
+
+    static LAYOUT: StructLayout = StructLayout {
+        name: "Sample",
+        fields: &[Field::new("l", FieldType::Vec3), Field::new("count", FieldType::U32), Field::new("r", FieldType::Vec2)],
+    };
+
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+    struct Sample {
+        l: [f32; 3],
+        count: u32,
+        r: [f32; 2],
+    }
+    impl Record for Sample {
+        const LAYOUT: &'static StructLayout = &LAYOUT;
+    }
+
+    #[test]
+    fn records_round_trip_and_fields_read_by_name() {
+        assert!(record_matches::<Sample>());
+        let recs = vec![Sample { l: [1.0, 2.0, 3.0], count: 7, r: [0.5, -0.5] }, Sample { l: [4.0, 5.0, 6.0], count: 9, r: [1.5, 2.5] }];
+        let b = <Sample as Texel>::wrap(recs.clone());
+        assert_eq!(b.format(), Format::Struct(&LAYOUT));
+        assert_eq!(b.len(), 2);
+        assert_eq!(<Sample as Texel>::slice(&b).unwrap(), &recs[..]);
+        assert_eq!(b.field("count"), Some(BufferData::U32(vec![7, 9])));
+        assert_eq!(b.field("l"), Some(BufferData::Vec3(vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])));
+        assert_eq!(b.field("r"), Some(BufferData::Vec2(vec![[0.5, -0.5], [1.5, 2.5]])));
+        assert_eq!(b.field("nope"), None);
+        assert_eq!(b.component(1, 3), 9.0, "u32 field converted");
+        assert_eq!(b.component(1, 5), 2.5, "f32 field from its bits");
+        let back = BufferData::from_bytes(b.format(), b.as_bytes());
+        assert_eq!(back, b);
+        assert_eq!(BufferData::zeroed(Format::Struct(&LAYOUT), 3).len(), 3);
+        assert_eq!(<Sample as Texel>::unwrap(b).unwrap(), recs);
+    }
+
+    #[test]
+    fn a_record_of_another_layout_is_refused() {
+        static OTHER: StructLayout = StructLayout { name: "Sample", fields: &[Field::new("l", FieldType::Vec4), Field::new("r", FieldType::Vec2)] };
+        let b = BufferData::zeroed(Format::Struct(&OTHER), 2);
+        assert!(<Sample as Texel>::slice(&b).is_none());
+        assert!(<[f32; 4] as Texel>::slice(&b).is_none());
+    }
+}

@@ -72,7 +72,7 @@ pub trait Kernel: Send + Sync {
 /// `Kernel::bindings()` entry — and its `Params` struct, so the WGSL declares neither):
 /// - `source`: the kernel's WGSL with an entry point `main`, `@workgroup_size(8, 8)`, one invocation
 ///   per pixel. Lines `#include "NAME.wgsl"` are replaced by that file — one of wedge's shared files
-///   in `shaders/` (`common`, `rng`, `sampling`, `scene`, `bvh`) or one of `includes` — each file at
+///   in `shaders/` (`common`, `rng`, `sampling`, `scene`, `bvh`, `camera`, `sobol`) or one of `includes` — each file at
 ///   most once (later includes of the same name are dropped), so shared code is never copied.
 /// - `uniforms`: the pass's parameter block as named, typed fields ([`Uniforms`]) — the same
 ///   parameter parsing the CPU path uses (`KernelCtx::f32_param` …); it sees size, seed, scene and
@@ -319,7 +319,12 @@ impl KernelRegistry {
                     Some(d) => {
                         let f = schedule.buffers[id.0].format;
                         if f != d.format {
-                            problems.push(berr(name, format!("is bound to a {f} buffer but the kernel declares {}", d.format)));
+                            // Struct formats are compared by name and fields; say which field differs.
+                            let why = match (f.layout(), d.format.layout()) {
+                                (Some(a), Some(b)) => a.difference(b).map(|w| format!(" ({w})")).unwrap_or_default(),
+                                _ => String::new(),
+                            };
+                            problems.push(berr(name, format!("is bound to a {f} buffer but the kernel declares {}{why}", d.format)));
                         }
                     }
                 }

@@ -19,6 +19,7 @@ pub mod kernels;
 #[cfg(feature = "gpu")]
 pub mod parity;
 pub mod rng;
+pub mod sobol;
 
 use std::collections::BTreeMap;
 

@@ -196,6 +196,17 @@ pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, B
                 binding: binding.clone(),
                 message: "the wgpu backend returned no data for it".into(),
             })?;
+            // Struct buffers are compared field by field (one row each, `binding.field`), so float
+            // fields get the float tolerance and counts the integer rule.
+            let fields: Vec<(String, BufferData, BufferData)> = match cpu_buf.format().layout() {
+                Some(layout) if cpu_buf.format() == gpu_buf.format() => layout
+                    .fields
+                    .iter()
+                    .filter_map(|f| Some((format!("{binding}.{}", f.name), cpu_buf.field(f.name)?, gpu_buf.field(f.name)?)))
+                    .collect(),
+                _ => vec![(binding.clone(), cpu_buf.clone(), gpu_buf.clone())],
+            };
+            for (binding, cpu_buf, gpu_buf) in &fields {
             let (max_abs, max_rel, over, boundary) = compare(cpu_buf, gpu_buf, tol);
             let pixels = cpu_buf.len();
             let allowed = (tol.max_share * pixels as f64).floor() as usize;
@@ -215,6 +226,7 @@ pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, B
                 gpu_seconds: time.seconds,
                 ok,
             });
+            }
         }
         for (binding, data) in cpu_out {
             let id = pass.write(&binding).expect("bound");

@@ -10,8 +10,15 @@
 //! - [`indirect`]: `Indirect`, axis-aligned filtering of diffuse/glossy indirect light and AO (thesis Ch. 4).
 //! - [`defocus`]: the Ch. 5 formulas and kernels (defocus rates, factoring flags; thesis Ch. 5).
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
-//! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — references and baselines.
+//! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — a baseline node
+//!   (references come from each pipeline's own graph, `wedge_graph::reference`).
 //! - [`output`]: `Output`, the sink whose inputs a run hands back.
+//!
+//! Every pass an effect adds names its [`wedge_graph::Stage`] (first paths, bandwidths and rates,
+//! adaptive paths, filters, compose, …), says whether it draws random numbers (`.random()`: the
+//! graph assigns its stream from its name; effect files never pick stream numbers) and declares its
+//! [`wedge_graph::Reference`] role (filters `Bypass`, rate passes `Count`, first passes `Continued`,
+//! sampling passes `Sample`), from which `wedge reference` builds the pipeline's Monte Carlo reference.
 //!
 //! A user crate adds its own node the same way: implement [`wedge_graph::NodeKind`] (and any
 //! [`wedge_backends::Kernel`] it needs) and register both next to [`register`]'s.

@@ -1,5 +1,6 @@
-//! `MonteCarlo`: plain Monte Carlo direct lighting with a fixed sample count and no filtering — the
-//! reference renderer (`wedge reference`) and the baselines every effect is measured against:
+//! `MonteCarlo`: plain Monte Carlo direct lighting with a fixed sample count and no filtering — a
+//! baseline node (`wedge reference` no longer uses it: references are each pipeline's own graph
+//! through `wedge_graph::reference`, which gives the same estimator for the shipped pipelines):
 //! `sampling: "independent"` is the thesis's "standard Monte Carlo", `"stratified"` (correlated
 //! multi-jitter over the light) the stronger baseline for soft shadows.
 //!

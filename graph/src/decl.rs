@@ -9,8 +9,14 @@ use crate::expand::ExpandCtx;
 use crate::GraphError;
 
 /// Per-pixel element format of a buffer. Buffers are full-resolution per-pixel arrays; on the CPU a
-/// `Vec` of the element type, on the GPU a storage buffer of the same layout (vec3 padded to 16 bytes
-/// there, which the GPU backend handles).
+/// `Vec` of the element type, on the GPU a storage buffer of the same bytes (vec3 stored as 3 packed
+/// floats on both; the GPU backend's generated accessors rebuild the `vec3<f32>`).
+///
+/// [`Format::Struct`] is a named per-pixel record of 32-bit words with named, typed fields (see
+/// [`StructLayout`]): kernels that keep many statistics per pixel (the path sampler's L, k, E per
+/// component, lens and occluder ranges, counts) declare them as one typed record instead of several
+/// vec4 buffers packed by convention. Two struct formats are equal when their names and field lists
+/// are equal, so the validator and `KernelRegistry::check_schedule` compare layouts, not pointers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Format {
     F32,
@@ -18,29 +24,241 @@ pub enum Format {
     Vec3,
     Vec4,
     U32,
+    Struct(&'static StructLayout),
+}
+
+/// Type of one field of a [`StructLayout`]: 1–4 words, f32 components or one u32.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum FieldType {
+    F32,
+    U32,
+    Vec2,
+    Vec3,
+    Vec4,
+}
+
+impl FieldType {
+    /// Number of 32-bit words the field takes (no padding: vec3 is 3 words).
+    pub const fn words(self) -> usize {
+        match self {
+            FieldType::F32 | FieldType::U32 => 1,
+            FieldType::Vec2 => 2,
+            FieldType::Vec3 => 3,
+            FieldType::Vec4 => 4,
+        }
+    }
+    /// The WGSL type of the field's value.
+    pub const fn wgsl(self) -> &'static str {
+        match self {
+            FieldType::F32 => "f32",
+            FieldType::U32 => "u32",
+            FieldType::Vec2 => "vec2<f32>",
+            FieldType::Vec3 => "vec3<f32>",
+            FieldType::Vec4 => "vec4<f32>",
+        }
+    }
+}
+
+/// One named field of a [`StructLayout`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Field {
+    pub name: &'static str,
+    pub ty: FieldType,
+}
+
+impl Field {
+    pub const fn new(name: &'static str, ty: FieldType) -> Self {
+        Field { name, ty }
+    }
+}
+
+/// A named per-pixel record: fields laid out in order, each at the word offset where the previous
+/// one ended (no alignment padding, so a `vec3` field is 3 words and the field after it starts at
+/// the next word). The same words are the CPU's `Vec<u32>` and the GPU's storage, so the layout is
+/// one declaration for both; a Rust `#[repr(C)]` struct of `f32`/`u32`/`[f32; N]` fields in the same
+/// order has exactly this layout (checked by `wedge_backends::buffer::Record`).
+#[derive(Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct StructLayout {
+    /// The WGSL struct name (a WGSL identifier) and the name shown in errors.
+    pub name: &'static str,
+    pub fields: &'static [Field],
+}
+
+impl StructLayout {
+    /// Words per element.
+    pub const fn words(&self) -> usize {
+        let mut n = 0;
+        let mut k = 0;
+        while k < self.fields.len() {
+            n += self.fields[k].ty.words();
+            k += 1;
+        }
+        n
+    }
+    /// The field called `name`, with its word offset.
+    pub fn field(&self, name: &str) -> Option<(usize, Field)> {
+        let mut offset = 0;
+        for f in self.fields {
+            if f.name == name {
+                return Some((offset, *f));
+            }
+            offset += f.ty.words();
+        }
+        None
+    }
+    /// Every field with its word offset, in order.
+    pub fn offsets(&self) -> impl Iterator<Item = (usize, Field)> + '_ {
+        self.fields.iter().scan(0usize, |at, f| {
+            let o = *at;
+            *at += f.ty.words();
+            Some((o, *f))
+        })
+    }
+    /// Name of word `w` of an element (`field` or `field.x`), for parity tables and heatmaps.
+    pub fn word_name(&self, w: usize) -> Option<String> {
+        for (o, f) in self.offsets() {
+            if (o..o + f.ty.words()).contains(&w) {
+                return Some(if f.ty.words() == 1 { f.name.to_string() } else { format!("{}.{}", f.name, ["x", "y", "z", "w"][w - o]) });
+            }
+        }
+        None
+    }
+    /// What is wrong with the layout, if anything: field and struct names must be WGSL identifiers
+    /// (the GPU backend generates a WGSL struct from it), field names unique, at least one field.
+    pub fn problems(&self) -> Vec<String> {
+        let ident = |s: &str| {
+            s.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+                && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                && !s.contains("__")
+        };
+        let mut out = Vec::new();
+        if !ident(self.name) {
+            out.push(format!("struct name `{}` is not a WGSL identifier", self.name));
+        }
+        if self.fields.is_empty() {
+            out.push(format!("struct `{}` has no fields", self.name));
+        }
+        for (k, f) in self.fields.iter().enumerate() {
+            if !ident(f.name) {
+                out.push(format!("struct `{}`: field `{}` is not a WGSL identifier", self.name, f.name));
+            }
+            if self.fields[..k].iter().any(|g| g.name == f.name) {
+                out.push(format!("struct `{}`: field `{}` appears twice", self.name, f.name));
+            }
+        }
+        out
+    }
+    /// The first difference between two layouts, in words (for error messages).
+    pub fn difference(&self, other: &StructLayout) -> Option<String> {
+        if self.name != other.name {
+            return Some(format!("struct `{}` is not struct `{}`", self.name, other.name));
+        }
+        let n = self.fields.len().max(other.fields.len());
+        for k in 0..n {
+            match (self.fields.get(k), other.fields.get(k)) {
+                (Some(a), Some(b)) if a == b => {}
+                (Some(a), Some(b)) => {
+                    return Some(format!(
+                        "struct `{}` field {k} is `{}: {}` here but `{}: {}` there",
+                        self.name,
+                        a.name,
+                        a.ty.wgsl(),
+                        b.name,
+                        b.ty.wgsl()
+                    ))
+                }
+                (Some(a), None) => return Some(format!("struct `{}` has an extra field `{}` here", self.name, a.name)),
+                (None, Some(b)) => return Some(format!("struct `{}` lacks field `{}` here", self.name, b.name)),
+                (None, None) => {}
+            }
+        }
+        None
+    }
 }
 
 impl Format {
-    /// Number of 32-bit components per element.
+    /// Number of 32-bit components (words) per element.
     pub fn components(self) -> usize {
         match self {
             Format::F32 | Format::U32 => 1,
             Format::Vec2 => 2,
             Format::Vec3 => 3,
             Format::Vec4 => 4,
+            Format::Struct(s) => s.words(),
+        }
+    }
+    /// The record layout of a struct format.
+    pub fn layout(self) -> Option<&'static StructLayout> {
+        match self {
+            Format::Struct(s) => Some(s),
+            _ => None,
         }
     }
 }
 
 impl fmt::Display for Format {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Format::F32 => "f32",
-            Format::Vec2 => "vec2<f32>",
-            Format::Vec3 => "vec3<f32>",
-            Format::Vec4 => "vec4<f32>",
-            Format::U32 => "u32",
-        })
+        match self {
+            Format::F32 => f.write_str("f32"),
+            Format::Vec2 => f.write_str("vec2<f32>"),
+            Format::Vec3 => f.write_str("vec3<f32>"),
+            Format::Vec4 => f.write_str("vec4<f32>"),
+            Format::U32 => f.write_str("u32"),
+            Format::Struct(s) => write!(f, "struct {} ({} words)", s.name, s.words()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod struct_tests {
+    use super::*;
+
+    static A: StructLayout = StructLayout {
+        name: "Rec",
+        fields: &[Field::new("l", FieldType::Vec3), Field::new("n", FieldType::U32), Field::new("uv", FieldType::Vec2)],
+    };
+    static A_COPY: StructLayout = StructLayout {
+        name: "Rec",
+        fields: &[Field::new("l", FieldType::Vec3), Field::new("n", FieldType::U32), Field::new("uv", FieldType::Vec2)],
+    };
+    static B: StructLayout = StructLayout {
+        name: "Rec",
+        fields: &[Field::new("l", FieldType::Vec3), Field::new("n", FieldType::F32), Field::new("uv", FieldType::Vec2)],
+    };
+
+    #[test]
+    fn layout_packs_vec3_without_padding() {
+        assert_eq!(A.words(), 6);
+        assert_eq!(Format::Struct(&A).components(), 6);
+        assert_eq!(A.field("n"), Some((3, Field::new("n", FieldType::U32))));
+        assert_eq!(A.field("uv").unwrap().0, 4);
+        assert_eq!(A.field("missing"), None);
+        assert_eq!(A.word_name(2).as_deref(), Some("l.z"));
+        assert_eq!(A.word_name(3).as_deref(), Some("n"));
+        assert_eq!(A.word_name(5).as_deref(), Some("uv.y"));
+        assert_eq!(A.word_name(6), None);
+        assert!(A.problems().is_empty());
+    }
+
+    #[test]
+    fn struct_formats_compare_by_name_and_fields() {
+        assert_eq!(Format::Struct(&A), Format::Struct(&A_COPY), "equal layouts in two statics are one format");
+        assert_ne!(Format::Struct(&A), Format::Struct(&B));
+        assert_ne!(Format::Struct(&A), Format::Vec4);
+        assert_eq!(A.difference(&A_COPY), None);
+        assert_eq!(A.difference(&B).unwrap(), "struct `Rec` field 1 is `n: u32` here but `n: f32` there");
+        assert_eq!(Format::Struct(&A).to_string(), "struct Rec (6 words)");
+    }
+
+    #[test]
+    fn bad_layouts_are_named() {
+        static BAD: StructLayout = StructLayout {
+            name: "my rec",
+            fields: &[Field::new("a", FieldType::F32), Field::new("a", FieldType::U32), Field::new("b-c", FieldType::F32)],
+        };
+        let p = BAD.problems();
+        assert_eq!(p.len(), 3, "{p:?}");
+        assert!(p[0].contains("`my rec`") && p[1].contains("`a` appears twice") && p[2].contains("`b-c`"), "{p:?}");
     }
 }
 

@@ -26,7 +26,7 @@ mod source_map;
 pub mod stage;
 mod validate;
 
-pub use decl::{Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
+pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, StructLayout};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
 pub use pipeline::{CameraProblem, CameraSpec, Location, NodeSpec, Pipeline, RawParam};
 pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};

@@ -6,7 +6,8 @@
 //!    is what lets a pipeline keep a debug node around at no cost.
 //! 0. **Check** the passes' declarations (before culling, so a debug branch is checked too): a pass
 //!    reading a buffer written by a pass of a *later* [`Stage`] is an error naming both passes, and
-//!    so are two random passes with the same stream (see [`crate::stage::stream_id`]).
+//!    so are two random passes with the same stream (see [`crate::stage::stream_id`]) and a stream
+//!    set by hand on a pass not declared random.
 //! 2. **Order** the survivors by stage, then topologically inside a stage. Among ready passes the one
 //!    of the earliest stage, then the one added first during expansion, runs first, so the schedule is
 //!    deterministic and follows the pipeline's own order. (Because no pass reads a later stage, this
@@ -262,6 +263,15 @@ fn check_stages_and_streams(
                 ));
             }
         }
+    }
+    for p in passes.iter().filter(|p| !p.random && p.params.contains_key("stream")) {
+        problems.push((
+            p.node.clone(),
+            format!(
+                "pass `{}` sets `stream` by hand; declare `.random()` and the graph assigns it from the pass's name",
+                p.name
+            ),
+        ));
     }
     let mut streams: Vec<(u32, &Pass)> = passes
         .iter()

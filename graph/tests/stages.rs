@@ -194,3 +194,15 @@ fn reference_refuses_undeclared_roles_and_bad_settings() {
         assert!(reference(effect_like(), spp, sampling).is_err(), "{spp} {sampling}");
     }
 }
+
+#[test]
+fn a_hand_picked_stream_is_an_error() {
+    let mut b = Build::default();
+    b.buf("a.out", Format::F32);
+    b.pass("a.sample", Stage::Sample, &[], &[("out", "a.out")]).params.insert("stream".into(), ParamValue::Int(1));
+    b.sink("color", "a.out");
+    match schedule(b.e) {
+        Err(GraphError::Expand { message, .. }) => assert!(message.contains("`a.sample` sets `stream` by hand"), "{message}"),
+        other => panic!("expected an error, got {:?}", other.map(|_| ())),
+    }
+}

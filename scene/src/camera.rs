@@ -1,4 +1,12 @@
 //! Thin-lens / pinhole camera.
+//!
+//! [`Camera::ray`] is the one camera model both backends trace (`shaders/camera.wgsl` mirrors it
+//! operation for operation): a point on the image plane in pixels and a lens sample in [0,1)² give
+//! a ray from a point on the aperture through the point of the focal plane (perpendicular to the
+//! view direction at `focus_distance`) that the pinhole ray through the same image point meets. The
+//! aperture is a disk of radius `aperture_radius` (world units); `aperture_radius = 0` is a pinhole.
+//! [`LensShape`] chooses how the lens is weighted (see there), and [`Camera::coc_pixels`] gives the
+//! circle of confusion of a depth in pixels (thesis eq. 5.2).
 
 use glam::{Vec2, Vec3};
 
@@ -133,21 +141,47 @@ impl Camera {
         height: u32,
         lens: Vec2,
     ) -> (Vec3, Vec3) {
+        let r = self.ray(Vec2::new(px, py), lens, width, height, LensShape::Disk);
+        (r.origin, r.dir)
+    }
+
+    /// The thin-lens ray of image point `pixel` (pixels, as [`Camera::generate_ray`]) and lens sample
+    /// `lens_sample` in [0,1)²: the sample goes to the unit disk by the concentric mapping (low
+    /// distortion, so stratified lens samples stay stratified), scaled by `aperture_radius`; the ray
+    /// aims at the focal-plane point of the pinhole ray. A pinhole (`aperture_radius <= 0`) ignores
+    /// the lens sample. See [`LensShape`] for the weight.
+    pub fn ray(&self, pixel: Vec2, lens_sample: Vec2, width: u32, height: u32, shape: LensShape) -> LensRay {
         let (right, up, forward) = self.basis();
         let w = width.max(1) as f32;
         let h = height.max(1) as f32;
         let tan_half = (self.vfov_deg.to_radians() * 0.5).tan();
-        let sx = (2.0 * px / w - 1.0) * tan_half * (w / h);
-        let sy = (1.0 - 2.0 * py / h) * tan_half;
+        let sx = (2.0 * pixel.x / w - 1.0) * tan_half * (w / h);
+        let sy = (1.0 - 2.0 * pixel.y / h) * tan_half;
         let dir = (forward + sx * right + sy * up).normalize();
         if self.aperture_radius <= 0.0 {
-            return (self.position, dir);
+            return LensRay { origin: self.position, dir, weight: 1.0, lens: Vec2::ZERO };
         }
         // Thin lens: every ray through this pixel meets the pinhole ray on the focal plane.
         let focus = self.position + dir * (self.effective_focus_distance() / dir.dot(forward));
-        let d = concentric_disk(lens) * self.aperture_radius;
+        let u = concentric_disk(lens_sample);
+        let d = u * self.aperture_radius;
         let origin = self.position + d.x * right + d.y * up;
-        (origin, (focus - origin).normalize())
+        LensRay { origin, dir: (focus - origin).normalize(), weight: shape.weight(u), lens: u }
+    }
+
+    /// Circle of confusion, in pixels, of a point at `depth` along the optical axis (thesis eq. 5.2,
+    /// `r = (aW/S)(f/z − 1)` with `a` the aperture radius, `f` the focus distance, `W` the half
+    /// image in pixels and `S` the half focal plane in metres: `aW/S = a·h/(2 f tan(fov/2))` with
+    /// the vertical field of view). Signed: positive in front of the focal plane, negative behind;
+    /// 0 for a pinhole. Callers keep `|r|` for `r_min`/`r_max`.
+    pub fn coc_pixels(&self, depth: f32, height: u32) -> f32 {
+        if self.aperture_radius <= 0.0 {
+            return 0.0;
+        }
+        let tan_half = (self.vfov_deg.to_radians() * 0.5).tan();
+        let f = self.effective_focus_distance();
+        let scale = self.aperture_radius * height.max(1) as f32 / (2.0 * f * tan_half);
+        scale * (f / depth - 1.0)
     }
 
     /// A camera that frames an axis-aligned box from the front (+z) and slightly above.
@@ -166,6 +200,49 @@ impl Camera {
             focus_distance: dist,
         }
     }
+}
+
+/// How the aperture weights its points. Both draw lens points uniformly on the disk (stratified
+/// samples stay stratified through the concentric mapping); they differ in the weight the ray
+/// carries, which estimators apply as an explicit weight (`Σ w·L / Σ w`), as the thesis does
+/// ("we apply explicit Gaussian weights to lens and light samples", Sec. 5.8, instead of
+/// importance sampling, which gives noisier rate estimates).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LensShape {
+    /// Uniform disk, weight 1 (pbrt's and Mitsuba's thin lens; the default).
+    #[default]
+    Disk,
+    /// The thesis's Gaussian aperture: weight `exp(−|u|²/2)` for `u` on the unit disk (σ = 1 in lens
+    /// units, Sec. 5.3: "a Gaussian with a 2σ width over u ∈ [−1,1], so σ = 1"), truncated at the rim.
+    Gaussian,
+}
+
+impl LensShape {
+    /// `"disk"` or `"gaussian"`.
+    pub fn parse(s: &str) -> Option<LensShape> {
+        match s {
+            "disk" => Some(LensShape::Disk),
+            "gaussian" => Some(LensShape::Gaussian),
+            _ => None,
+        }
+    }
+    /// Weight of unit-disk lens point `u`.
+    pub fn weight(self, u: Vec2) -> f32 {
+        match self {
+            LensShape::Disk => 1.0,
+            LensShape::Gaussian => (-0.5 * u.length_squared()).exp(),
+        }
+    }
+}
+
+/// A camera ray with its lens weight and its point on the unit lens disk (`u`, before scaling by
+/// the aperture radius; zero for a pinhole).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LensRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub weight: f32,
+    pub lens: Vec2,
 }
 
 /// Shirley–Chiu concentric square-to-disk mapping (low distortion, so stratified lens samples stay stratified).

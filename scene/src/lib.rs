@@ -39,7 +39,7 @@ use std::path::{Path, PathBuf};
 pub use glam::{Vec2, Vec3};
 
 pub use bvh::{BvhNode, Hit, TriangleRecord, NO_LIGHT};
-pub use camera::Camera;
+pub use camera::{Camera, LensRay, LensShape};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
 pub use scene::{Aabb, Material, Scene, SurfacePoint, TriangleShading};

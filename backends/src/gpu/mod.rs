@@ -997,23 +997,11 @@ impl GpuBackend {
 
 /// The bytes of a per-pixel buffer as the GPU stores it (vec3 packed, see the module docs).
 pub fn to_bytes(b: &BufferData) -> Vec<u8> {
-    match b {
-        BufferData::F32(v) => bytemuck::cast_slice(v).to_vec(),
-        BufferData::Vec2(v) => bytemuck::cast_slice(v).to_vec(),
-        BufferData::Vec3(v) => bytemuck::cast_slice(v).to_vec(),
-        BufferData::Vec4(v) => bytemuck::cast_slice(v).to_vec(),
-        BufferData::U32(v) => bytemuck::cast_slice(v).to_vec(),
-    }
+    b.as_bytes().to_vec()
 }
 
 pub fn from_bytes(format: Format, bytes: &[u8]) -> BufferData {
-    match format {
-        Format::F32 => BufferData::F32(bytemuck::pod_collect_to_vec(bytes)),
-        Format::Vec2 => BufferData::Vec2(bytemuck::pod_collect_to_vec(bytes)),
-        Format::Vec3 => BufferData::Vec3(bytemuck::pod_collect_to_vec(bytes)),
-        Format::Vec4 => BufferData::Vec4(bytemuck::pod_collect_to_vec(bytes)),
-        Format::U32 => BufferData::U32(bytemuck::pod_collect_to_vec(bytes)),
-    }
+    BufferData::from_bytes(format, bytes)
 }
 
 impl Backend for GpuBackend {

@@ -15,7 +15,7 @@
 
 use std::collections::HashSet;
 
-use wedge_graph::Format;
+use wedge_graph::{FieldType, Format, StructLayout};
 
 use crate::kernel::{Access, Binding, WgslSource};
 use crate::BackendError;
@@ -27,6 +27,12 @@ pub const SHARED: &[(&str, &str)] = &[
     ("scene.wgsl", include_str!("../../../shaders/scene.wgsl")),
     ("bvh.wgsl", include_str!("../../../shaders/bvh.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
+    ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
+    ("sobol.wgsl", include_str!("../../../shaders/sobol.wgsl")),
+    ("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl")),
+    // The direct and indirect estimators, shared by direct.light / indirect.sample and paths.trace.
+    ("light_sample.wgsl", include_str!("../../../shaders/light_sample.wgsl")),
+    ("indirect_path.wgsl", include_str!("../../../shaders/indirect_path.wgsl")),
 ];
 
 /// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see
@@ -97,7 +103,7 @@ pub enum BindingPlan {
 }
 
 /// WGSL type of one element of a per-pixel buffer of `format` (vec3 is handed out as `vec3<f32>`
-/// even though it is stored as 3 packed floats).
+/// even though it is stored as 3 packed floats; a struct format as its generated WGSL struct).
 fn element_type(format: Format) -> &'static str {
     match format {
         Format::F32 => "f32",
@@ -105,7 +111,55 @@ fn element_type(format: Format) -> &'static str {
         Format::Vec3 => "vec3<f32>",
         Format::Vec4 => "vec4<f32>",
         Format::U32 => "u32",
+        Format::Struct(layout) => layout.name,
     }
+}
+
+/// The WGSL `struct` of a struct format: its fields as values (`vec3<f32>` members and all). The
+/// struct is never a memory layout — storage is `array<u32>` and the generated accessors move each
+/// field word by word ([`struct_load`], [`struct_store`]) — so WGSL's vec3 alignment never applies.
+pub fn struct_declaration(layout: &StructLayout) -> String {
+    let mut s = format!("struct {} {{\n", layout.name);
+    for f in layout.fields {
+        s.push_str(&format!("    {}: {},\n", f.name, f.ty.wgsl()));
+    }
+    s.push_str("}\n");
+    s
+}
+
+/// Body loading a struct element whose first word is `array[b]`.
+fn struct_load(layout: &StructLayout, array: &str) -> String {
+    let word = |k: usize| format!("{array}[b + {k}u]");
+    let fw = |k: usize| format!("bitcast<f32>({})", word(k));
+    let values: Vec<String> = layout
+        .offsets()
+        .map(|(o, f)| match f.ty {
+            FieldType::U32 => word(o),
+            FieldType::F32 => fw(o),
+            ty => {
+                let n = ty.words();
+                format!("vec{n}<f32>({})", (o..o + n).map(fw).collect::<Vec<_>>().join(", "))
+            }
+        })
+        .collect();
+    format!("    return {}({});\n", layout.name, values.join(", "))
+}
+
+/// Body storing struct element `v` from word `array[b]` on.
+fn struct_store(layout: &StructLayout, array: &str) -> String {
+    let mut s = String::new();
+    for (o, f) in layout.offsets() {
+        match f.ty {
+            FieldType::U32 => s.push_str(&format!("    {array}[b + {o}u] = v.{};\n", f.name)),
+            FieldType::F32 => s.push_str(&format!("    {array}[b + {o}u] = bitcast<u32>(v.{});\n", f.name)),
+            ty => {
+                for (c, comp) in ["x", "y", "z", "w"].iter().take(ty.words()).enumerate() {
+                    s.push_str(&format!("    {array}[b + {}u] = bitcast<u32>(v.{}.{comp});\n", o + c, f.name));
+                }
+            }
+        }
+    }
+    s
 }
 
 /// Storage bindings group(1) uses under `plan` (inputs, outputs): for the limit check.
@@ -155,6 +209,24 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
             }
         }
     }
+    // One WGSL struct per struct layout the bindings use (several bindings may share one).
+    let mut declared: Vec<&'static StructLayout> = Vec::new();
+    for b in bindings {
+        if let Format::Struct(layout) = b.format {
+            if let Some(other) = declared.iter().find(|d| d.name == layout.name) {
+                if let Some(diff) = layout.difference(other) {
+                    return Err(BackendError::Gpu(format!("kernel `{kernel}`: two layouts named `{}`: {diff}", layout.name)));
+                }
+                continue;
+            }
+            let problems = layout.problems();
+            if !problems.is_empty() {
+                return Err(BackendError::Gpu(format!("kernel `{kernel}`: {}", problems.join("; "))));
+            }
+            out.push_str(&struct_declaration(layout));
+            declared.push(layout);
+        }
+    }
     for (k, b) in bindings.iter().enumerate() {
         let name = b.name;
         let valid = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
@@ -177,10 +249,18 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
                 let access = if write { "read_write" } else { "read" };
                 let array = match b.format {
                     Format::Vec3 => "array<f32>".to_string(),
+                    Format::Struct(_) => "array<u32>".to_string(),
                     f => format!("array<{}>", element_type(f)),
                 };
                 out.push_str(&format!("@group(1) @binding({k}) var<storage, {access}> buf_{name}: {array};\n"));
                 match b.format {
+                    Format::Struct(layout) => {
+                        let base = format!("    let b = {n}u * i;\n");
+                        (
+                            format!("{base}{}", struct_load(layout, &format!("buf_{name}"))),
+                            format!("{base}{}", struct_store(layout, &format!("buf_{name}"))),
+                        )
+                    }
                     Format::Vec3 => (
                         format!("    let b = 3u * i;\n    return vec3<f32>(buf_{name}[b], buf_{name}[b + 1u], buf_{name}[b + 2u]);\n"),
                         format!("    let b = 3u * i;\n    buf_{name}[b] = v.x;\n    buf_{name}[b + 1u] = v.y;\n    buf_{name}[b + 2u] = v.z;\n"),
@@ -192,6 +272,7 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
                 let array = if write { "packed_outputs" } else { "packed_inputs" };
                 let base = format!("    let b = {}u * frame.packed_pixels + {n}u * i;\n", offsets[k]);
                 let load = match b.format {
+                    Format::Struct(layout) => format!("{base}{}", struct_load(layout, array)),
                     Format::U32 => format!("{base}    return {array}[b];\n"),
                     Format::F32 => format!("{base}    return bitcast<f32>({array}[b]);\n"),
                     _ => {
@@ -200,6 +281,7 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
                     }
                 };
                 let store = match b.format {
+                    Format::Struct(layout) => format!("{base}{}", struct_store(layout, array)),
                     Format::U32 => format!("{base}    {array}[b] = v;\n"),
                     Format::F32 => format!("{base}    {array}[b] = bitcast<u32>(v);\n"),
                     _ => {
@@ -254,6 +336,30 @@ mod tests {
         let d = binding_header("k", &b, BindingPlan::Direct).unwrap();
         assert!(d.contains("@group(1) @binding(6) var<storage, read> buf_albedo: array<f32>;"), "{d}");
         assert!(d.contains("return vec3<f32>(buf_albedo[b], buf_albedo[b + 1u], buf_albedo[b + 2u]);"), "{d}");
+    }
+
+    #[test]
+    fn struct_bindings_get_a_generated_struct_and_word_accessors() {
+        use wedge_graph::Field;
+        static REC: StructLayout = StructLayout {
+            name: "Rec",
+            fields: &[Field::new("l", FieldType::Vec3), Field::new("n", FieldType::U32), Field::new("d", FieldType::F32)],
+        };
+        let b = vec![Binding::read("a", Format::Vec3), Binding::read_opt("prev", Format::Struct(&REC)), Binding::write("rec", Format::Struct(&REC))];
+        let d = binding_header("k", &b, BindingPlan::Direct).unwrap();
+        assert_eq!(d.matches("struct Rec {").count(), 1, "one declaration for two bindings: {d}");
+        assert!(d.contains("struct Rec {\n    l: vec3<f32>,\n    n: u32,\n    d: f32,\n}"), "{d}");
+        assert!(d.contains("var<storage, read_write> buf_rec: array<u32>;"), "{d}");
+        assert!(d.contains("let b = 5u * i;\n    return Rec(vec3<f32>(bitcast<f32>(buf_rec[b + 0u]), bitcast<f32>(buf_rec[b + 1u]), bitcast<f32>(buf_rec[b + 2u])), buf_rec[b + 3u], bitcast<f32>(buf_rec[b + 4u]));"), "{d}");
+        assert!(d.contains("buf_rec[b + 2u] = bitcast<u32>(v.l.z);\n    buf_rec[b + 3u] = v.n;\n    buf_rec[b + 4u] = bitcast<u32>(v.d);"), "{d}");
+        assert!(d.contains("fn prev_at(i: u32) -> Rec {\n    if (!is_bound(1u)) { return Rec(); }"), "{d}");
+        let p = binding_header("k", &b, BindingPlan::Packed).unwrap();
+        let (offsets, inputs, outputs) = packed_layout(&b);
+        assert_eq!((offsets, inputs, outputs), (vec![0, 3, 0], 8, 5));
+        assert!(p.contains("let b = 3u * frame.packed_pixels + 5u * i;\n    return Rec(vec3<f32>(bitcast<f32>(packed_inputs[b + 0u])"), "{p}");
+        static OTHER: StructLayout = StructLayout { name: "Rec", fields: &[Field::new("l", FieldType::Vec4)] };
+        let e = binding_header("k", &[Binding::read("a", Format::Struct(&REC)), Binding::write("b", Format::Struct(&OTHER))], BindingPlan::Direct).unwrap_err();
+        assert!(e.to_string().contains("two layouts named `Rec`"), "{e}");
     }
 
     #[test]

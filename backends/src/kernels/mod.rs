@@ -14,6 +14,7 @@ pub mod hemisphere;
 pub mod indirect;
 pub mod neighbourhood;
 pub mod neighbourhood3;
+pub mod paths;
 pub mod primary;
 
 pub fn register(reg: &mut KernelRegistry) {
@@ -29,6 +30,8 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(filter_ch5::IrradianceFilter));
     reg.register(Arc::new(filter_ch5::DefocusFilter));
     reg.register(Arc::new(constant::FillConstant));
+    reg.register(Arc::new(paths::PathsTrace));
+    reg.register(Arc::new(paths::PathsResolve));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

@@ -1,0 +1,615 @@
+//! `paths.trace`: the path sampler of thesis Ch. 5 (Sec. 5.8) — per pixel, a run of paths, each one
+//! primary lens ray, shadow rays to the area light at its hit and one-bounce indirect samples
+//! (diffuse and, where the surface has a glossy lobe, glossy separately), accumulated into one
+//! typed [`PathRecord`] per pixel. `paths.resolve` turns a record's sums into the means downstream
+//! kernels read.
+//!
+//! **Samples.** Path `j` of a pixel takes sample `j` of that pixel's Owen-scrambled Sobol' sequences
+//! ([`crate::sobol`]) for the image plane (`jitter`; off = the pixel centre, the thesis's one image
+//! sample per pixel) and the lens; the `q`-th shadow ray of the pixel takes light sample `q`, the
+//! `q`-th diffuse / glossy indirect sample hemisphere sample `q` of their own sequences. Indices run
+//! over the pixel's whole history: a pass continuing a `previous` record starts at its counts, so
+//! the second pass continues the first pass's stratification (every power-of-4 prefix is
+//! stratified) and 16 paths then 16 more equal 32 in one pass, bit for bit. Beyond the first
+//! bounce (next-event estimation at the indirect hit, further bounces) numbers are independent
+//! (`rng::PixelRng` on a hashed sub-stream). Sub-streams are derived from the pass's `stream` by
+//! hashing ([`crate::sobol::sequence_key`], [`crate::sobol::substream`]).
+//!
+//! **Estimators** (the existing ones, shared, not copied: `direct::light_sample`,
+//! `direct::light_centre_factor`, `indirect::trace_path`; WGSL `light_sample.wgsl`,
+//! `indirect_path.wgsl`). Per path with lens weight `w` ([`wedge_scene::LensShape`]) and hit `x`:
+//! - direct (one light, `light`): `E = f_c · V̄` over the path's shadow rays with the centre-of-light
+//!   form factor `f_c` (eqs. 5.9–5.14, EQUATIONS.md reading: f_c in L, k and E), `k = k_d + π k_s
+//!   ρ_s(ω_c)` (the glossy lobe toward the light centre folded into k, eq. 5.20), `L = k·E`;
+//! - indirect diffuse: `E` = mean incident radiance of cosine-sampled one-bounce paths, `k = k_d`;
+//! - indirect glossy: `E` = mean of `L_i · f cos/pdf` (k_s left out) over lobe samples, `k = k_s`.
+//!
+//! The record sums `w·L`, `w·k`, `w·E` per component (so SepDir, eq. 5.30, compares `Σ wL/Σ w` with
+//! `(Σ wk/Σ w)(Σ wE/Σ w)`), the lens-averaged position λ and normal, emission, depth along the
+//! optical axis and `|r|` range (circle of confusion per lens sample, eq. 5.2), occluder statistics
+//! `d1, d2_min, d2_max` as `direct.light` defines them, indirect first-hit `z_min, z_max`, and counts
+//! of paths, shadow rays, indirect samples and rays, and non-finite samples (counted, never summed;
+//! a path whose samples of a component are all non-finite contributes `E = 0` there).
+//! A record is only sums, minima, maxima and counts, so resuming (GPU chunks, a second pass) is
+//! exact.
+//!
+//! **Parameters** of `paths.trace`: `count` (paths to add where `counts` is unbound), `jitter`
+//! (bool), `lens` (`"disk"` | `"gaussian"`), `shadow_per_primary` and `indirect_per_primary` (where
+//! the buffers of those names are unbound; at least 1 is used), `light` (the area light of the
+//! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
+//! `stream` (graph-assigned), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
+//! one-bounce indirect sample).
+
+use glam::{Vec2, Vec3};
+use wedge_graph::{Field, FieldType, Format, StructLayout};
+use wedge_scene::{Camera, LensShape};
+
+use crate::buffer::Record;
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernels::direct::{light_centre_factor, light_sample, RAY_EPSILON};
+use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
+use crate::kernels::indirect::{trace_path, PathParams, PathRays};
+use crate::rng::PixelRng;
+use crate::sobol::{pair, sample2, substream};
+use crate::BackendError;
+
+const fn f(name: &'static str, ty: FieldType) -> Field {
+    Field::new(name, ty)
+}
+
+/// Layout of [`PathRecord`] (the WGSL struct `PathRecord` is generated from it).
+pub static PATH_RECORD: StructLayout = StructLayout {
+    name: "PathRecord",
+    fields: &[
+        f("l_direct", FieldType::Vec3),
+        f("k_direct", FieldType::Vec3),
+        f("e_direct", FieldType::Vec3),
+        f("l_diffuse", FieldType::Vec3),
+        f("k_diffuse", FieldType::Vec3),
+        f("e_diffuse", FieldType::Vec3),
+        f("l_glossy", FieldType::Vec3),
+        f("k_glossy", FieldType::Vec3),
+        f("e_glossy", FieldType::Vec3),
+        f("emission", FieldType::Vec3),
+        f("position", FieldType::Vec3),
+        f("normal", FieldType::Vec3),
+        f("weight", FieldType::F32),
+        f("hit_weight", FieldType::F32),
+        f("depth", FieldType::F32),
+        f("r_min", FieldType::F32),
+        f("r_max", FieldType::F32),
+        f("d1", FieldType::F32),
+        f("d2_min", FieldType::F32),
+        f("d2_max", FieldType::F32),
+        f("z_min", FieldType::F32),
+        f("z_max", FieldType::F32),
+        f("object", FieldType::U32),
+        f("paths", FieldType::U32),
+        f("hits", FieldType::U32),
+        f("shadow", FieldType::U32),
+        f("occluded", FieldType::U32),
+        f("diffuse_samples", FieldType::U32),
+        f("glossy_samples", FieldType::U32),
+        f("indirect_rays", FieldType::U32),
+        f("indirect_hits", FieldType::U32),
+        f("bounce_shadow", FieldType::U32),
+        f("non_finite", FieldType::U32),
+    ],
+};
+
+/// One pixel's accumulated paths. Sums are weighted by the lens weight `w`; means are
+/// `sum / weight` (L, k, E, emission: over all paths, a miss counts as black) or `sum / hit_weight`
+/// (position, normal, depth, d1: over paths that hit a surface).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PathRecord {
+    /// Σ w·L, Σ w·k, Σ w·E of the direct component (f_c form factor, glossy folded into k).
+    pub l_direct: [f32; 3],
+    pub k_direct: [f32; 3],
+    pub e_direct: [f32; 3],
+    /// The same for indirect diffuse (k = k_d) and indirect glossy (k = k_s).
+    pub l_diffuse: [f32; 3],
+    pub k_diffuse: [f32; 3],
+    pub e_diffuse: [f32; 3],
+    pub l_glossy: [f32; 3],
+    pub k_glossy: [f32; 3],
+    pub e_glossy: [f32; 3],
+    /// Σ w·emission of the primary hits.
+    pub emission: [f32; 3],
+    /// Σ w·x and Σ w·n over hits: the lens-averaged position λ and normal (eq. 5.31).
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    /// Σ w over all paths and over paths that hit.
+    pub weight: f32,
+    pub hit_weight: f32,
+    /// Σ w·z, z the hit's depth along the optical axis.
+    pub depth: f32,
+    /// Range of |r| (circle of confusion in pixels, eq. 5.2) over hits; 0, 0 without hits.
+    pub r_min: f32,
+    pub r_max: f32,
+    /// Σ w·d1 over hits (light plane → receiver); occluder distances to the light plane over occluded
+    /// shadow rays (0 without any), as `direct.light` defines them.
+    pub d1: f32,
+    pub d2_min: f32,
+    pub d2_max: f32,
+    /// First-hit distances of the indirect samples (0 without hits).
+    pub z_min: f32,
+    pub z_max: f32,
+    /// 1 + object id of the pixel's first path that hit (0: none yet).
+    pub object: u32,
+    /// Primary rays (paths) and those that hit a surface.
+    pub paths: u32,
+    pub hits: u32,
+    /// Shadow rays at primary hits and how many were occluded.
+    pub shadow: u32,
+    pub occluded: u32,
+    /// Indirect samples taken (sequence indices) and hemisphere rays traced (a glossy sample below
+    /// the surface traces none), rays that hit, and next-event shadow rays at the indirect hits.
+    pub diffuse_samples: u32,
+    pub glossy_samples: u32,
+    pub indirect_rays: u32,
+    pub indirect_hits: u32,
+    pub bounce_shadow: u32,
+    /// Samples whose value was NaN or infinite (excluded).
+    pub non_finite: u32,
+}
+
+impl Record for PathRecord {
+    const LAYOUT: &'static StructLayout = &PATH_RECORD;
+}
+
+fn v3(a: [f32; 3]) -> Vec3 {
+    Vec3::from(a)
+}
+
+fn add(a: &mut [f32; 3], b: Vec3) {
+    *a = (v3(*a) + b).to_array();
+}
+
+impl PathRecord {
+    fn mean_of(&self, s: [f32; 3], over: f32) -> Vec3 {
+        if over > 0.0 {
+            v3(s) / over
+        } else {
+            Vec3::ZERO
+        }
+    }
+    /// Mean radiance of the pixel: direct + indirect diffuse + indirect glossy + emission.
+    pub fn radiance(&self) -> Vec3 {
+        self.mean_of(self.l_direct, self.weight)
+            + self.mean_of(self.l_diffuse, self.weight)
+            + self.mean_of(self.l_glossy, self.weight)
+            + self.mean_of(self.emission, self.weight)
+    }
+    /// Mean (L, k, E) of the direct component.
+    pub fn direct(&self) -> (Vec3, Vec3, Vec3) {
+        let w = self.weight;
+        (self.mean_of(self.l_direct, w), self.mean_of(self.k_direct, w), self.mean_of(self.e_direct, w))
+    }
+    /// Lens-averaged position λ and normal (not renormalised).
+    pub fn lens_position(&self) -> Vec3 {
+        self.mean_of(self.position, self.hit_weight)
+    }
+    pub fn lens_normal(&self) -> Vec3 {
+        self.mean_of(self.normal, self.hit_weight)
+    }
+}
+
+/// The camera model's uniform fields (`CameraModel` in `shaders/camera.wgsl`), in its field order.
+pub fn camera_uniforms(u: Uniforms, cam: &Camera, shape: LensShape) -> Uniforms {
+    let (right, up, forward) = cam.basis();
+    u.vec3("cam_position", cam.position.to_array())
+        .vec3("cam_right", right.to_array())
+        .vec3("cam_up", up.to_array())
+        .vec3("cam_forward", forward.to_array())
+        .f32("cam_tan_half", (cam.vfov_deg.to_radians() * 0.5).tan())
+        .f32("cam_aperture", cam.aperture_radius)
+        .f32("cam_focus_distance", cam.effective_focus_distance())
+        .u32("cam_gaussian", (shape == LensShape::Gaussian) as u32)
+}
+
+/// Sub-stream salts of the independent numbers beyond the first bounce.
+const SALT_DIFFUSE_PATH: u32 = 1;
+const SALT_GLOSSY_PATH: u32 = 2;
+
+/// Settings of one `paths.trace` pass.
+struct Settings {
+    count: u32,
+    jitter: bool,
+    lens: LensShape,
+    shadow_per_primary: u32,
+    indirect_per_primary: u32,
+    light: usize,
+    stream: u32,
+    path: PathParams,
+}
+
+fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
+    let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
+    let lens = ctx.str_param("lens")?;
+    let lens = LensShape::parse(lens).ok_or_else(|| err(format!("unknown lens `{lens}`; use disk or gaussian")))?;
+    let brdf = ctx.str_param("brdf")?;
+    let lobe = Lobe::parse(brdf).ok_or_else(|| err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))?;
+    let positive = |name: &str| -> Result<u32, BackendError> {
+        let v = ctx.int_param(name)?;
+        u32::try_from(v).map_err(|_| err(format!("`{name}` = {v} must be between 0 and {}", u32::MAX)))
+    };
+    Ok(Settings {
+        count: positive("count")?,
+        jitter: ctx.bool_param("jitter")?,
+        lens,
+        shadow_per_primary: positive("shadow_per_primary")?,
+        indirect_per_primary: positive("indirect_per_primary")?,
+        light: ctx.light_param("light")?,
+        stream: ctx.int_param("stream")? as u32,
+        path: PathParams {
+            bounces: positive("bounces")?.max(1),
+            ao: false,
+            max_distance: 0.0,
+            lobe,
+            eps: RAY_EPSILON * ctx.scene.extent(),
+        },
+    })
+}
+
+pub struct PathsTrace;
+
+impl Kernel for PathsTrace {
+    fn name(&self) -> &'static str {
+        "paths.trace"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Sampling
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            // The record to continue (its counts give the first sample indices); absent = none.
+            Binding::read_opt("previous", Format::Struct(&PATH_RECORD)),
+            // Paths to add per pixel; else the `count` parameter.
+            Binding::read_opt("counts", Format::U32),
+            // Shadow rays / indirect samples (per component) per path; else the parameters. At least 1.
+            Binding::read_opt("shadow_per_primary", Format::U32),
+            Binding::read_opt("indirect_per_primary", Format::U32),
+            Binding::write("record", Format::Struct(&PATH_RECORD)),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/paths_trace.wgsl"), |ctx| {
+                let s = settings(ctx)?;
+                let u = camera_uniforms(Uniforms::new(), &ctx.scene.camera, s.lens);
+                Ok(u.u32("count", s.count)
+                    .u32("jitter", s.jitter as u32)
+                    .u32("shadow_per_primary", s.shadow_per_primary)
+                    .u32("indirect_per_primary", s.indirect_per_primary)
+                    .u32("light", s.light as u32)
+                    .u32("stream", s.stream)
+                    .f32("extent", ctx.scene.extent())
+                    .f32("eps", s.path.eps)
+                    .u32("lobe", (s.path.lobe == Lobe::BlinnPhong) as u32)
+                    .u32("bounces", s.path.bounces)
+                    .u32("ao", 0)
+                    .f32("max_distance", 0.0)
+                    .u32("light_count", ctx.scene.lights.len() as u32))
+            })
+            .with_scene()
+            .per_pixel()
+            .chunked(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let s = settings(ctx)?;
+        let scene = ctx.scene;
+        let cam = &scene.camera;
+        let forward = cam.basis().2;
+        let previous = ctx.read_opt::<PathRecord>("previous")?;
+        let counts = ctx.read_opt::<u32>("counts")?;
+        let spp_shadow = ctx.read_opt::<u32>("shadow_per_primary")?;
+        let spp_indirect = ctx.read_opt::<u32>("indirect_per_primary")?;
+        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
+        let light = &scene.lights[s.light];
+        let records = ctx.map_pixels(true, |px, py| {
+            let i = (py * width + px) as usize;
+            let pixel = i as u32;
+            let mut r = previous.map_or_else(PathRecord::default, |p| p[i]);
+            let count = counts.map_or(s.count, |c| c[i]);
+            let n_shadow = spp_shadow.map_or(s.shadow_per_primary, |c| c[i]).max(1);
+            let n_indirect = spp_indirect.map_or(s.indirect_per_primary, |c| c[i]).max(1);
+            let rng_d = PixelRng::new(seed, pixel, substream(s.stream, SALT_DIFFUSE_PATH));
+            let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
+            let first = r.paths;
+            for j in first..first.saturating_add(count) {
+                let jitter = if s.jitter { Vec2::from(sample2(seed, pixel, s.stream, pair::PIXEL, j)) } else { Vec2::splat(0.5) };
+                let lens = Vec2::from(sample2(seed, pixel, s.stream, pair::LENS, j));
+                let ray = cam.ray(Vec2::new(px as f32, py as f32) + jitter, lens, width, height, s.lens);
+                trace_one(scene, &s, light, forward, height, &ray, seed, pixel, &rng_d, &rng_g, n_shadow, n_indirect, &mut r);
+            }
+            r
+        });
+        let sum = |f: fn(&PathRecord) -> u32| -> u64 {
+            records.iter().zip(0..).map(|(r, i)| (f(r) - previous.map_or(0, |p| f(&p[i]))) as u64).sum()
+        };
+        Counters::add(&ctx.counters.primary_rays, sum(|r| r.paths));
+        Counters::add(&ctx.counters.shadow_rays, sum(|r| r.shadow) + sum(|r| r.bounce_shadow));
+        Counters::add(&ctx.counters.secondary_rays, sum(|r| r.indirect_rays));
+        Counters::add(&ctx.counters.non_finite_samples, sum(|r| r.non_finite));
+        ctx.put("record", records)
+    }
+}
+
+/// One path: the primary ray `ray`, then the direct and indirect estimators at its hit.
+#[allow(clippy::too_many_arguments)]
+fn trace_one(
+    scene: &wedge_scene::Scene,
+    s: &Settings,
+    light: &wedge_scene::AreaLight,
+    forward: Vec3,
+    height: u32,
+    ray: &wedge_scene::LensRay,
+    seed: u32,
+    pixel: u32,
+    rng_d: &PixelRng,
+    rng_g: &PixelRng,
+    n_shadow: u32,
+    n_indirect: u32,
+    r: &mut PathRecord,
+) {
+    let w = ray.weight;
+    r.paths += 1;
+    r.weight += w;
+    let Some(hit) = scene.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) else {
+        return;
+    };
+    let sp = scene.surface(&hit, ray.origin, ray.dir);
+    let (x, n) = (sp.position, sp.shading_normal);
+    let wo = -ray.dir;
+    r.hits += 1;
+    r.hit_weight += w;
+    add(&mut r.position, x * w);
+    add(&mut r.normal, n * w);
+    add(&mut r.emission, scene.emission(&sp) * w);
+    if r.object == 0 {
+        r.object = 1 + sp.object;
+    }
+    // Depth along the optical axis and the circle of confusion of this lens sample (eq. 5.2).
+    let z = (x - scene.camera.position).dot(forward);
+    r.depth += w * z;
+    let coc = scene.camera.coc_pixels(z, height).abs();
+    if r.hits == 1 {
+        (r.r_min, r.r_max) = (coc, coc);
+    } else {
+        r.r_min = r.r_min.min(coc);
+        r.r_max = r.r_max.max(coc);
+    }
+    let kd = scene.albedo(&sp);
+    let mat = &scene.materials[sp.material as usize];
+    let (ks, m) = (mat.specular, mat.phong_exponent);
+    let glossy = m > 0.0 && ks.max_element() > 0.0;
+
+    // Direct: centre-of-light form factor, visibility sampled (eqs. 5.9–5.14); the glossy lobe
+    // toward the light centre folds into k (eq. 5.20).
+    let fc = light_centre_factor(light, x, n);
+    let mut k = kd;
+    if glossy {
+        let to_centre = (light.centre() - x).normalize_or_zero();
+        k += ks * (std::f32::consts::PI * glossy_brdf(s.path.lobe, m, n, wo, to_centre));
+    }
+    r.d1 += w * (light.centre() - x).dot(light.normal()).abs();
+    let (mut e, mut valid) = (Vec3::ZERO, 0u32);
+    for _ in 0..n_shadow {
+        let u = Vec2::from(sample2(seed, pixel, s.stream, pair::LIGHT, r.shadow));
+        r.shadow += 1;
+        let (v, occ) = light_sample(scene, light, x, n, u, Some(fc), true);
+        if let Some(d2) = occ {
+            r.occluded += 1;
+            if r.occluded == 1 {
+                (r.d2_min, r.d2_max) = (d2, d2);
+            } else {
+                r.d2_min = r.d2_min.min(d2);
+                r.d2_max = r.d2_max.max(d2);
+            }
+        }
+        if v.is_finite() {
+            e += v;
+            valid += 1;
+        } else {
+            r.non_finite += 1;
+        }
+    }
+    accumulate(&mut r.l_direct, &mut r.k_direct, &mut r.e_direct, k, e, valid, w);
+
+    // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d.
+    let (mut e, mut valid) = (Vec3::ZERO, 0u32);
+    for _ in 0..n_indirect {
+        let q = r.diffuse_samples;
+        r.diffuse_samples += 1;
+        let wi = sample_diffuse(n, Vec2::from(sample2(seed, pixel, s.stream, pair::HEMISPHERE_DIFFUSE, q)));
+        let v = indirect_ray(scene, &s.path, x, n, wi, rng_d, q, r);
+        if v.is_finite() {
+            e += v;
+            valid += 1;
+        } else {
+            r.non_finite += 1;
+        }
+    }
+    accumulate(&mut r.l_diffuse, &mut r.k_diffuse, &mut r.e_diffuse, kd, e, valid, w);
+
+    // Indirect glossy: lobe-sampled; E = L_i · f cos/pdf without k_s, k = k_s.
+    if glossy {
+        let (mut e, mut valid) = (Vec3::ZERO, 0u32);
+        for _ in 0..n_indirect {
+            let q = r.glossy_samples;
+            r.glossy_samples += 1;
+            let u = Vec2::from(sample2(seed, pixel, s.stream, pair::HEMISPHERE_GLOSSY, q));
+            let (wi, weight) = sample_glossy(s.path.lobe, m, n, wo, u);
+            let v = if weight > 0.0 { indirect_ray(scene, &s.path, x, n, wi, rng_g, q, r) * weight } else { Vec3::ZERO };
+            if v.is_finite() {
+                e += v;
+                valid += 1;
+            } else {
+                r.non_finite += 1;
+            }
+        }
+        accumulate(&mut r.l_glossy, &mut r.k_glossy, &mut r.e_glossy, ks, e, valid, w);
+    }
+}
+
+/// One indirect path (shared estimator `indirect::trace_path`), with its rays and first hit recorded.
+#[allow(clippy::too_many_arguments)]
+fn indirect_ray(scene: &wedge_scene::Scene, p: &PathParams, x: Vec3, n: Vec3, wi: Vec3, rng: &PixelRng, q: u32, r: &mut PathRecord) -> Vec3 {
+    let mut rays = PathRays::default();
+    let (v, t) = trace_path(scene, p, x, n, wi, rng, q, &mut rays);
+    r.indirect_rays += rays.secondary as u32;
+    r.bounce_shadow += rays.shadow as u32;
+    if let Some(t) = t {
+        r.indirect_hits += 1;
+        if r.indirect_hits == 1 {
+            (r.z_min, r.z_max) = (t, t);
+        } else {
+            r.z_min = r.z_min.min(t);
+            r.z_max = r.z_max.max(t);
+        }
+    }
+    v
+}
+
+/// Add one path's component: `E` the mean of its `valid` samples' sum `e` (0 without any), `k`, and
+/// `L = k·E`, each weighted by the lens weight.
+fn accumulate(l: &mut [f32; 3], k_sum: &mut [f32; 3], e_sum: &mut [f32; 3], k: Vec3, e: Vec3, valid: u32, w: f32) {
+    let e = if valid > 0 { e / valid as f32 } else { Vec3::ZERO };
+    add(l, k * e * w);
+    add(k_sum, k * w);
+    add(e_sum, e * w);
+}
+
+/// `paths.resolve`: a [`PathRecord`]'s sums as the means downstream kernels read, in the
+/// conventions of the existing buffers, every output optional:
+/// - `radiance`: mean L of all components plus emission (the Monte Carlo estimate of the pixel);
+/// - `l_direct`, `k_direct`, `e_direct`, and the same for `diffuse` and `glossy`: lens-weighted
+///   means of L, k, E per component (eqs. 5.9–5.14, 5.21; SepDir/SepInd compare L with k·E);
+/// - `emission`: mean emission of the primary hits;
+/// - `position` (λ, w = 1 + object id, 0 where no path hit) and `normal` (unit lens-averaged
+///   normal, w = projected pixel size at λ, as `primary.gbuffer` computes it): what filters read;
+/// - `defocus`: `r_min`, `r_max` (|circle of confusion| in pixels, eq. 5.2), mean depth `z` along
+///   the optical axis, and `ℓ_p = 2 z tan(fov/2)/h` (metres per pixel at that depth, Ch. 5);
+/// - `occlusion`: mean `d1`, `d2_min`, `d2_max`, occluded shadow rays (as `direct.light` writes it);
+/// - `depth`: `z_min`, `z_max`, indirect rays that hit, indirect rays (as `indirect.sample`);
+/// - `counts`: primary rays, shadow rays, indirect samples (diffuse + glossy), non-finite samples.
+pub struct PathsResolve;
+
+const RESOLVE_OUTPUTS: [(&str, Format); 17] = [
+    ("radiance", Format::Vec3),
+    ("l_direct", Format::Vec3),
+    ("k_direct", Format::Vec3),
+    ("e_direct", Format::Vec3),
+    ("l_diffuse", Format::Vec3),
+    ("k_diffuse", Format::Vec3),
+    ("e_diffuse", Format::Vec3),
+    ("l_glossy", Format::Vec3),
+    ("k_glossy", Format::Vec3),
+    ("e_glossy", Format::Vec3),
+    ("emission", Format::Vec3),
+    ("position", Format::Vec4),
+    ("normal", Format::Vec4),
+    ("defocus", Format::Vec4),
+    ("occlusion", Format::Vec4),
+    ("depth", Format::Vec4),
+    ("counts", Format::Vec4),
+];
+
+/// Everything [`PathsResolve`] writes for one pixel.
+struct Resolved {
+    vec3: [[f32; 3]; 11],
+    vec4: [[f32; 4]; 6],
+}
+
+fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height: u32) -> Resolved {
+    let mean = |s: [f32; 3]| r.mean_of(s, r.weight).to_array();
+    let lambda = r.lens_position();
+    let hit_mean = |s: f32| if r.hit_weight > 0.0 { s / r.hit_weight } else { 0.0 };
+    let (position, normal, defocus) = if r.hits > 0 {
+        let n = r.lens_normal().normalize_or_zero();
+        let to = lambda - cam.position;
+        let t = to.length();
+        let d = to / t;
+        let cos = n.dot(-d).abs().max(0.05);
+        let footprint = t * pixel_angle / cos.sqrt();
+        let z = hit_mean(r.depth);
+        (
+            [lambda.x, lambda.y, lambda.z, r.object as f32],
+            [n.x, n.y, n.z, footprint],
+            [r.r_min, r.r_max, z, 2.0 * z * tan_half / height.max(1) as f32],
+        )
+    } else {
+        ([0.0; 4], [0.0; 4], [0.0; 4])
+    };
+    Resolved {
+        vec3: [
+            r.radiance().to_array(),
+            mean(r.l_direct),
+            mean(r.k_direct),
+            mean(r.e_direct),
+            mean(r.l_diffuse),
+            mean(r.k_diffuse),
+            mean(r.e_diffuse),
+            mean(r.l_glossy),
+            mean(r.k_glossy),
+            mean(r.e_glossy),
+            mean(r.emission),
+        ],
+        vec4: [
+            position,
+            normal,
+            defocus,
+            [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
+            [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
+            [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
+        ],
+    }
+}
+
+impl Kernel for PathsResolve {
+    fn name(&self) -> &'static str {
+        "paths.resolve"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        let mut b = vec![Binding::read("record", Format::Struct(&PATH_RECORD))];
+        b.extend(RESOLVE_OUTPUTS.iter().map(|(n, f)| Binding::write_opt(n, *f)));
+        b
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/paths_resolve.wgsl"), |ctx| {
+                let cam = &ctx.scene.camera;
+                let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+                Ok(Uniforms::new()
+                    .vec3("camera", cam.position.to_array())
+                    .f32("pixel_angle", 2.0 * tan_half / ctx.height as f32)
+                    .f32("tan_half", tan_half))
+            })
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let records = ctx.read::<PathRecord>("record")?;
+        let cam = ctx.scene.camera;
+        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+        let pixel_angle = 2.0 * tan_half / ctx.height as f32;
+        let height = ctx.height;
+        let out: Vec<Resolved> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            resolve(&records[i], &cam, pixel_angle, tan_half, height)
+        });
+        for (k, (name, _)) in RESOLVE_OUTPUTS.iter().enumerate() {
+            if k < 11 {
+                ctx.put_opt(name, || out.iter().map(|r| r.vec3[k]).collect::<Vec<_>>())?;
+            } else {
+                ctx.put_opt(name, || out.iter().map(|r| r.vec4[k - 11]).collect::<Vec<_>>())?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,581 @@
+//! The path sampler (issue 11 §1–2): thin-lens camera and Owen-scrambled Sobol' sequences identical
+//! on both backends, and `paths.trace` (CPU-vs-GPU parity, pinhole equivalence with
+//! `primary.gbuffer`, agreement with `direct.light`, progressive continuation, ray counters).
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use glam::Vec2;
+use wedge::backends::gpu::GpuBackend;
+use wedge::backends::{sobol, BackendError, Binding, BufferData, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge::graph::Format;
+use wedge::scene::{Camera, LensShape, Scene};
+
+/// The GPU backend, or `None` (with the reason printed) when there is no adapter outside CI.
+fn gpu_or_skip(test: &str) -> Option<GpuBackend> {
+    match GpuBackend::new() {
+        Ok(g) => {
+            eprintln!("{test}: wgpu adapter {}", g.adapter_description());
+            Some(g)
+        }
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
+            }
+            eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
+            None
+        }
+    }
+}
+
+fn builtin(name: &str) -> Scene {
+    wedge::scene::load(&wedge::scene::SceneSource::Builtin(name.into())).unwrap()
+}
+
+/// Writes Sobol' samples of several (stream, pair, index) per pixel on both backends.
+struct SobolProbe;
+
+const SOBOL_PROBE_WGSL: &str = r#"
+#include "common.wgsl"
+#include "sobol.wgsl"
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let p = pixel_id(gid);
+    a_put(i, sample2(frame.seed, p, p % 7u, PAIR_LENS, p % 300u));
+    b_put(i, sample2(frame.seed, p / 3u, 1u, p % 6u, p * 2654435761u));
+    key_put(i, sequence_key(frame.seed, p, 5u, PAIR_LIGHT));
+}
+"#;
+
+impl Kernel for SobolProbe {
+    fn name(&self) -> &'static str {
+        "test.sobol_probe"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![Binding::write("a", Format::Vec2), Binding::write("b", Format::Vec2), Binding::write("key", Format::U32)]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let (seed, n) = (ctx.seed, ctx.pixels() as u32);
+        ctx.put("a", (0..n).map(|p| sobol::sample2(seed, p, p % 7, sobol::pair::LENS, p % 300)).collect::<Vec<_>>())?;
+        ctx.put("b", (0..n).map(|p| sobol::sample2(seed, p / 3, 1, p % 6, p.wrapping_mul(2654435761))).collect::<Vec<_>>())?;
+        ctx.put("key", (0..n).map(|p| sobol::sequence_key(seed, p, 5, sobol::pair::LIGHT)).collect::<Vec<_>>())
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(SOBOL_PROBE_WGSL, |_| Ok(Uniforms::new())))
+    }
+}
+
+#[test]
+fn sobol_wgsl_is_bit_exact() {
+    let Some(mut gpu) = gpu_or_skip("sobol_wgsl_is_bit_exact") else { return };
+    let scene = builtin("grids");
+    let (w, h, seed) = (128u32, 96u32, 4242u32);
+    let gpu_out = gpu.run_kernel(Arc::new(SobolProbe), &scene, w, h, seed, BTreeMap::new(), &BTreeMap::new()).unwrap();
+    let (BufferData::Vec2(a), BufferData::Vec2(b), BufferData::U32(k)) = (&gpu_out["a"], &gpu_out["b"], &gpu_out["key"]) else {
+        panic!("formats")
+    };
+    let mut bad = 0;
+    for p in 0..w * h {
+        let i = p as usize;
+        let ea = sobol::sample2(seed, p, p % 7, sobol::pair::LENS, p % 300);
+        let eb = sobol::sample2(seed, p / 3, 1, p % 6, p.wrapping_mul(2654435761));
+        bad += (a[i][0].to_bits() != ea[0].to_bits() || a[i][1].to_bits() != ea[1].to_bits()) as usize;
+        bad += (b[i][0].to_bits() != eb[0].to_bits() || b[i][1].to_bits() != eb[1].to_bits()) as usize;
+        bad += (k[i] != sobol::sequence_key(seed, p, 5, sobol::pair::LIGHT)) as usize;
+    }
+    println!("sobol mismatches: {bad} of {}", 3 * w * h);
+    assert_eq!(bad, 0);
+}
+
+/// Camera rays for a grid of image and lens samples on both backends.
+struct CameraProbe;
+
+const CAMERA_PROBE_WGSL: &str = r#"
+#include "common.wgsl"
+#include "camera.wgsl"
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let xy = pixel_xy(gid);
+    let c = CameraModel(params.position, params.right, params.up, params.forward, params.tan_half, params.aperture,
+        params.focus_distance, params.gaussian);
+    let lens = (vec2<f32>(f32(xy.x % 8u), f32(xy.y % 8u)) + 0.5) / 8.0;
+    let r = camera_ray(c, vec2<f32>(f32(xy.x) + 0.25, f32(xy.y) + 0.75), lens);
+    origin_put(i, r.origin);
+    dir_put(i, r.dir);
+    weight_put(i, vec2<f32>(r.weight, coc_pixels(c, 0.5 + f32(xy.x))));
+}
+"#;
+
+fn camera_uniforms(cam: &Camera, shape: LensShape) -> Uniforms {
+    let (right, up, forward) = cam.basis();
+    Uniforms::new()
+        .vec3("position", cam.position.to_array())
+        .vec3("right", right.to_array())
+        .vec3("up", up.to_array())
+        .vec3("forward", forward.to_array())
+        .f32("tan_half", (cam.vfov_deg.to_radians() * 0.5).tan())
+        .f32("aperture", cam.aperture_radius)
+        .f32("focus_distance", cam.effective_focus_distance())
+        .u32("gaussian", (shape == LensShape::Gaussian) as u32)
+}
+
+impl Kernel for CameraProbe {
+    fn name(&self) -> &'static str {
+        "test.camera_probe"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![Binding::write("origin", Format::Vec3), Binding::write("dir", Format::Vec3), Binding::write("weight", Format::Vec2)]
+    }
+    fn run_cpu(&self, _ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        unreachable!("the test compares against Camera::ray directly")
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(CAMERA_PROBE_WGSL, |ctx| {
+            let shape = LensShape::parse(ctx.str_param("lens")?).unwrap();
+            Ok(camera_uniforms(&ctx.scene.camera, shape))
+        }))
+    }
+}
+
+#[test]
+fn thin_lens_rays_agree_on_both_backends() {
+    let Some(mut gpu) = gpu_or_skip("thin_lens_rays_agree_on_both_backends") else { return };
+    let (w, h) = (48u32, 40u32);
+    for (aperture, shape) in [(0.0, LensShape::Disk), (0.2, LensShape::Disk), (0.35, LensShape::Gaussian)] {
+        let mut scene = builtin("grids");
+        scene.camera.aperture_radius = aperture;
+        scene.camera.focus_distance = 3.5;
+        let name = if shape == LensShape::Gaussian { "gaussian" } else { "disk" };
+        let params = BTreeMap::from([("lens".to_string(), wedge::graph::ParamValue::Str(name.into()))]);
+        let out = gpu.run_kernel(Arc::new(CameraProbe), &scene, w, h, 1, params, &BTreeMap::new()).unwrap();
+        let (BufferData::Vec3(o), BufferData::Vec3(d), BufferData::Vec2(wt)) = (&out["origin"], &out["dir"], &out["weight"]) else {
+            panic!("formats")
+        };
+        let mut worst = 0f32;
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                let lens = (Vec2::new((x % 8) as f32, (y % 8) as f32) + 0.5) / 8.0;
+                let r = scene.camera.ray(Vec2::new(x as f32 + 0.25, y as f32 + 0.75), lens, w, h, shape);
+                let coc = scene.camera.coc_pixels(0.5 + x as f32, h);
+                for c in 0..3 {
+                    worst = worst.max((o[i][c] - r.origin[c]).abs()).max((d[i][c] - r.dir[c]).abs());
+                }
+                worst = worst.max((wt[i][0] - r.weight).abs()).max((wt[i][1] - coc).abs() / coc.abs().max(1.0));
+            }
+        }
+        println!("aperture {aperture} {name}: worst difference {worst:e}");
+        assert!(worst <= 1e-5, "aperture {aperture} {name}: {worst}");
+    }
+}
+
+#[test]
+fn thin_lens_focuses_and_pinhole_ignores_the_lens() {
+    let mut cam = builtin("grids").camera;
+    let (w, h) = (64, 48);
+    let pin = cam.ray(Vec2::new(20.5, 30.5), Vec2::new(0.1, 0.9), w, h, LensShape::Disk);
+    assert_eq!(pin.origin, cam.position);
+    assert_eq!((pin.weight, pin.lens), (1.0, Vec2::ZERO));
+    assert_eq!(cam.coc_pixels(2.0, h), 0.0);
+    cam.aperture_radius = 0.3;
+    cam.focus_distance = 4.0;
+    let forward = cam.basis().2;
+    // Every lens sample's ray passes through the pinhole ray's point on the focal plane.
+    let focal = pin.origin + pin.dir * (4.0 / pin.dir.dot(forward));
+    for k in 0..16 {
+        let u = Vec2::new((k % 4) as f32 + 0.5, (k / 4) as f32 + 0.5) / 4.0;
+        let r = cam.ray(Vec2::new(20.5, 30.5), u, w, h, LensShape::Gaussian);
+        assert!((r.origin - cam.position).length() <= 0.3 + 1e-6);
+        let t = (focal - r.origin).dot(forward) / r.dir.dot(forward);
+        assert!((r.origin + r.dir * t - focal).length() < 1e-5, "lens sample {k}");
+        assert!((r.weight - (-0.5 * r.lens.length_squared()).exp()).abs() < 1e-7 && r.weight <= 1.0 && r.weight > 0.6);
+    }
+    // Eq. 5.2: zero on the focal plane, positive in front, negative behind; a·h/(2 f tan) at z = f/2.
+    assert!(cam.coc_pixels(4.0, h).abs() < 1e-6);
+    let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+    let expect = 0.3 * h as f32 / (2.0 * 4.0 * tan_half);
+    assert!((cam.coc_pixels(2.0, h) - expect).abs() < 1e-4 * expect);
+    assert!(cam.coc_pixels(8.0, h) < 0.0);
+}
+
+// ---- paths.trace ----
+
+use wedge::backends::cpu;
+use wedge::backends::kernels::paths::{PathRecord, PathsTrace};
+use wedge::backends::kernels::primary::PrimaryGBuffer;
+use wedge::backends::kernels::direct::DirectLight;
+use wedge::backends::parity::{compare, Tolerance};
+use wedge::backends::{Counters, Job, KernelRegistry, RayCounts, Silent, Texel};
+use wedge::graph::{BufferId, ParamValue, Pass};
+
+/// Run one kernel alone with `params` and named inputs, on the CPU or (with `gpu`) the wgpu backend;
+/// returns its outputs and the ray counters.
+fn run_alone(
+    kernel: Arc<dyn Kernel>,
+    scene: &Scene,
+    (w, h, seed): (u32, u32, u32),
+    params: &[(&str, ParamValue)],
+    inputs: &BTreeMap<&str, BufferData>,
+    gpu: Option<&mut GpuBackend>,
+) -> (BTreeMap<String, BufferData>, RayCounts) {
+    let (mut buffers, mut reads, mut writes, mut data) = (Vec::new(), Vec::new(), Vec::new(), BTreeMap::new());
+    for b in kernel.bindings() {
+        let id = BufferId(buffers.len());
+        match b.access {
+            wedge::backends::Access::Read => match inputs.get(b.name) {
+                Some(d) => {
+                    reads.push((b.name.to_string(), id));
+                    data.insert(id, d);
+                }
+                None => continue,
+            },
+            wedge::backends::Access::Write => writes.push((b.name.to_string(), id)),
+        }
+        buffers.push(wedge::graph::BufferInfo { name: b.name.to_string(), format: b.format });
+    }
+    let n = buffers.len();
+    let params = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+    let pass = Pass { name: kernel.name().to_string(), node: "test".into(), kernel: kernel.name().to_string(), reads, writes, params };
+    let schedule = wedge::graph::Schedule {
+        passes: vec![pass.clone()],
+        buffers,
+        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 0 }); n],
+        slots: (0..n).map(Some).collect(),
+        slot_formats: Vec::new(),
+        sink_inputs: Vec::new(),
+        culled: Vec::new(),
+    };
+    let mut registry = KernelRegistry::new();
+    registry.register(kernel);
+    let job = Job { schedule: &schedule, scene, kernels: &registry, width: w, height: h, seed, progress: &Silent };
+    match gpu {
+        Some(g) => {
+            let (out, _, rays) = g.run_pass(&job, &pass, &data).unwrap();
+            (out, rays)
+        }
+        None => {
+            let counters = Counters::default();
+            let out = cpu::run_pass(&job, &pass, &data, &counters).unwrap();
+            (out, counters.snapshot())
+        }
+    }
+}
+
+fn trace_params(count: i64, jitter: bool, lens: &str) -> Vec<(&'static str, ParamValue)> {
+    vec![
+        ("count", ParamValue::Int(count)),
+        ("jitter", ParamValue::Bool(jitter)),
+        ("lens", ParamValue::Str(lens.into())),
+        ("shadow_per_primary", ParamValue::Int(1)),
+        ("indirect_per_primary", ParamValue::Int(1)),
+        ("light", ParamValue::Int(0)),
+        ("stream", ParamValue::Int(3)),
+        ("brdf", ParamValue::Str("phong".into())),
+        ("bounces", ParamValue::Int(1)),
+    ]
+}
+
+fn set(params: &mut [(&'static str, ParamValue)], name: &str, v: ParamValue) {
+    params.iter_mut().find(|(k, _)| *k == name).unwrap().1 = v;
+}
+
+fn records(b: &BufferData) -> &[PathRecord] {
+    <PathRecord as Texel>::slice(b).expect("a PathRecord buffer")
+}
+
+fn defocused(name: &str, aperture: f32) -> Scene {
+    let mut scene = builtin(name);
+    scene.camera.aperture_radius = aperture;
+    scene.camera.focus_distance = scene.camera.effective_focus_distance() * 0.8;
+    scene
+}
+
+/// Share of pixels where some field of two record buffers differs beyond the sampling tolerance
+/// (per component `|a − b| ≤ 1e-5·|a| + 1e-6`); fields that differ anywhere are printed.
+fn share_differing(what: &str, c: &BufferData, g: &BufferData) -> f64 {
+    let tol = Tolerance::for_class(KernelClass::Sampling);
+    let pixels = c.len();
+    let mut bad_pixels = vec![false; pixels];
+    for f in wedge::backends::kernels::paths::PATH_RECORD.fields {
+        let (a, b) = (c.field(f.name).unwrap(), g.field(f.name).unwrap());
+        let (max_abs, _, over, boundary) = compare(&a, &b, tol);
+        for (i, bad) in bad_pixels.iter_mut().enumerate() {
+            *bad |= (0..a.format().components()).any(|k| {
+                let (x, y) = (a.component(i, k), b.component(i, k));
+                (x - y).abs() > tol.rel * x.abs() + tol.abs
+            });
+        }
+        if over + boundary > 0 {
+            println!("{what}: field {} differs in {over} (+{boundary} off by one) pixels, max abs {max_abs:e}", f.name);
+        }
+    }
+    bad_pixels.iter().filter(|&&b| b).count() as f64 / pixels as f64
+}
+
+/// CPU vs GPU on built-in scenes, field by field, as the other sampling passes are compared: the
+/// share of pixels over the per-component tolerance must stay small (grazing rays).
+#[test]
+fn paths_trace_cpu_gpu_parity() {
+    let Some(mut gpu) = gpu_or_skip("paths_trace_cpu_gpu_parity") else { return };
+    let size = (40u32, 30u32, 9u32);
+    for (scene_name, lens) in [("grids", "disk"), ("cornell", "gaussian"), ("curved", "disk")] {
+        let scene = defocused(scene_name, 0.08);
+        let mut p = trace_params(6, true, lens);
+        set(&mut p, "shadow_per_primary", ParamValue::Int(2));
+        let (c, c_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
+        let (g, g_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
+        let (c, g) = (&c["record"], &g["record"]);
+        let share = share_differing(scene_name, c, g);
+        println!("{scene_name} ({lens}): {:.2}% of pixels differ; rays cpu {c_rays:?} gpu {g_rays:?}", share * 100.0);
+        assert!(share <= 0.02, "{scene_name}: {share}");
+        let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / (a.max(1) as f64);
+        assert_eq!(c_rays.primary_rays, g_rays.primary_rays);
+        assert!(rel(c_rays.shadow_rays, g_rays.shadow_rays) < 0.01 && rel(c_rays.secondary_rays, g_rays.secondary_rays) < 0.01);
+        assert_eq!(g_rays.cut_loops, 0);
+        if scene_name == "cornell" {
+            let glossy: u64 = records(c).iter().map(|r| r.glossy_samples as u64).sum();
+            assert!(glossy > 100, "the glossy component is exercised: {glossy} samples");
+        }
+    }
+}
+
+/// The same on the GL backend (few storage buffers per stage; naga's GLSL) and under WebGPU's
+/// default limits (8 storage buffers: paths.resolve's 18 bindings run packed).
+#[test]
+fn paths_kernels_run_on_gl_and_webgpu_limits() {
+    use wedge::backends::gpu::{Backends, LimitsChoice};
+    use wedge::backends::kernels::paths::PathsResolve;
+    let scene = defocused("cornell", 0.1);
+    let size = (24u32, 18u32, 2u32);
+    let p = trace_params(4, true, "disk");
+    let (c, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", c["record"].clone())]);
+    let (cr, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let devices = [("GL", Some(Backends::GL), LimitsChoice::Adapter), ("WebGPU limits", None, LimitsChoice::WebGpuDefault)];
+    for (what, backends, limits) in devices {
+        let mut gpu = match GpuBackend::open_on(backends, limits) {
+            Ok(g) => g,
+            Err(e) => {
+                assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "CI=true and no {what} device: {e}");
+                eprintln!("{what}: SKIPPED — no device: {e}");
+                continue;
+            }
+        };
+        let (g, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
+        let share = share_differing(what, &c["record"], &g["record"]);
+        let (gr, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
+        println!("{what} ({}): paths.trace records differing from the CPU's beyond round-off: {:.2}%", gpu.adapter_description(), share * 100.0);
+        assert!(share <= 0.02, "{what}: {share}");
+        for (name, a) in &cr {
+            let (_, _, over, _) = compare(a, &gr[name], Tolerance::for_class(KernelClass::Compose));
+            assert_eq!(over, 0, "{what}: paths.resolve `{name}`");
+        }
+    }
+}
+
+/// With a pinhole and one path through the pixel centre, the primary hits are primary.gbuffer's.
+#[test]
+fn pinhole_single_path_hits_equal_the_gbuffer() {
+    let scene = builtin("cornell");
+    let size = (32u32, 24u32, 5u32);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
+    let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
+    let (BufferData::Vec4(pos), BufferData::Vec4(nrm), BufferData::Vec3(alb)) = (&gb["position"], &gb["normal"], &gb["albedo"]) else {
+        panic!("formats")
+    };
+    let mut hits = 0;
+    for (i, r) in records(&rec["record"]).iter().enumerate() {
+        assert_eq!(r.paths, 1);
+        assert_eq!(r.hits == 1, pos[i][3] != 0.0, "pixel {i}: hit or miss differs");
+        if r.hits == 1 {
+            hits += 1;
+            assert_eq!(r.position, [pos[i][0], pos[i][1], pos[i][2]], "pixel {i}");
+            assert_eq!(r.normal, [nrm[i][0], nrm[i][1], nrm[i][2]], "pixel {i}");
+            assert_eq!(r.object as f32, pos[i][3], "pixel {i}");
+            assert_eq!(r.k_diffuse, alb[i], "pixel {i}");
+            assert_eq!((r.weight, r.r_min, r.r_max), (1.0, 0.0, 0.0));
+        }
+    }
+    assert!(hits > 500, "{hits}");
+}
+
+/// Many pinhole paths through the centre: the mean direct irradiance E is direct.light's estimate
+/// with the centre-of-light form factor at the same point, within noise.
+#[test]
+fn mean_direct_matches_direct_light() {
+    let scene = builtin("grids");
+    let size = (32u32, 24u32, 11u32);
+    let n = 256;
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(n, false, "disk"), &BTreeMap::new(), None);
+    let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("position", gb["position"].clone()), ("normal", gb["normal"].clone())]);
+    let dl_params = [
+        ("light", ParamValue::Int(0)),
+        ("count", ParamValue::Int(n)),
+        ("sampling", ParamValue::Str("stratified".into())),
+        ("form_factor", ParamValue::Str("light_centre".into())),
+        ("stream", ParamValue::Int(0)),
+    ];
+    let (dl, _) = run_alone(Arc::new(DirectLight), &scene, size, &dl_params, &inputs, None);
+    let BufferData::Vec4(est) = &dl["estimate"] else { panic!("format") };
+    let (mut sum_p, mut sum_d, mut sq, mut px) = (0f64, 0f64, 0f64, 0usize);
+    for (i, r) in records(&rec["record"]).iter().enumerate() {
+        if r.hits == 0 {
+            continue;
+        }
+        let (_, k, e) = r.direct();
+        let (a, b) = (e.x as f64, est[i][0] as f64);
+        sum_p += a;
+        sum_d += b;
+        sq += (a - b).powi(2);
+        px += 1;
+        // k = k_d for this diffuse scene, and L = k·E per path with one point: L = k·E exactly.
+        assert!((r.direct().0 - k * e).abs().max_element() <= 1e-5 * (1.0 + (k * e).max_element()));
+    }
+    let rel = (sum_p - sum_d).abs() / sum_d;
+    let rms = (sq / px as f64).sqrt() / (sum_d / px as f64);
+    println!("direct E: paths mean {:.5}, direct.light mean {:.5}, relative difference {rel:.2e}, per-pixel rms/mean {rms:.3}", sum_p / px as f64, sum_d / px as f64);
+    assert!(rel < 0.01 && rms < 0.05, "{rel} {rms}");
+}
+
+/// 16 paths, then 16 more continuing the record, equal 32 in one pass bit for bit (CPU; and GPU,
+/// also in chunks of 5 paths per dispatch). Counters and record counts agree.
+#[test]
+fn progressive_continuation_is_exact_and_counts_match() {
+    let scene = defocused("cornell", 0.1);
+    let size = (24u32, 18u32, 21u32);
+    let mut p16 = trace_params(16, true, "disk");
+    let shadow = BufferData::U32((0..size.0 * size.1).map(|i| 1 + i % 3).collect());
+    let indirect = BufferData::U32((0..size.0 * size.1).map(|i| 1 + i % 2).collect());
+    let per = BTreeMap::from([("shadow_per_primary", shadow.clone()), ("indirect_per_primary", indirect.clone())]);
+    let (first, r1) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, None);
+    let mut cont = per.clone();
+    cont.insert("previous", first["record"].clone());
+    let (second, r2) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &cont, None);
+    set(&mut p16, "count", ParamValue::Int(32));
+    let (whole, rw) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, None);
+    assert_eq!(second["record"], whole["record"], "16 + 16 continued differs from 32");
+    let recs = records(&whole["record"]);
+    let total = |f: fn(&PathRecord) -> u32| recs.iter().map(|r| f(r) as u64).sum::<u64>();
+    let mut sum = r1;
+    sum.add(&r2);
+    assert_eq!(sum, rw, "counters of the two passes add up to the single pass");
+    assert_eq!(rw.primary_rays, total(|r| r.paths));
+    assert_eq!(rw.primary_rays, 32 * (size.0 * size.1) as u64);
+    assert_eq!(rw.shadow_rays, total(|r| r.shadow) + total(|r| r.bounce_shadow));
+    assert_eq!(rw.secondary_rays, total(|r| r.indirect_rays));
+    let (BufferData::U32(s), BufferData::U32(q)) = (&shadow, &indirect) else { unreachable!() };
+    for (i, r) in recs.iter().enumerate() {
+        assert_eq!(r.shadow, r.hits * s[i], "pixel {i}: shadow rays per primary hit");
+        assert_eq!(r.diffuse_samples, r.hits * q[i], "pixel {i}: diffuse samples per primary hit");
+        assert!(r.indirect_rays <= r.diffuse_samples + r.glossy_samples);
+        assert_eq!(r.non_finite, 0);
+    }
+    println!("rays for 32 paths: {rw:?}");
+    let Some(mut gpu) = gpu_or_skip("progressive_continuation_is_exact_and_counts_match") else { return };
+    set(&mut p16, "count", ParamValue::Int(16));
+    let (g1, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    let mut gcont = per.clone();
+    gcont.insert("previous", g1["record"].clone());
+    let (g2, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &gcont, Some(&mut gpu));
+    set(&mut p16, "count", ParamValue::Int(32));
+    let (gw, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    assert_eq!(g2["record"], gw["record"], "GPU: 16 + 16 continued differs from 32");
+    gpu.set_samples_per_dispatch(5);
+    let (gc, gc_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    assert_eq!(gc["record"], gw["record"], "GPU: chunks of 5 paths differ from the default");
+    assert_eq!(gc_rays.primary_rays, rw.primary_rays);
+}
+
+/// `paths.resolve` agrees on both backends to round-off, and for one pinhole path through the
+/// centre its position and normal (with the footprint) are primary.gbuffer's.
+#[test]
+fn resolve_gives_means_in_gbuffer_conventions() {
+    use wedge::backends::kernels::paths::PathsResolve;
+    let scene = builtin("cornell");
+    let size = (32u32, 24u32, 5u32);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let (res, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
+    let (BufferData::Vec4(p), BufferData::Vec4(n)) = (&res["position"], &res["normal"]) else { panic!("formats") };
+    let (BufferData::Vec4(gp), BufferData::Vec4(gn)) = (&gb["position"], &gb["normal"]) else { panic!("formats") };
+    for i in 0..p.len() {
+        assert_eq!(p[i], gp[i], "pixel {i}: position");
+        for c in 0..4 {
+            assert!((n[i][c] - gn[i][c]).abs() <= 1e-5 * gn[i][c].abs().max(1.0), "pixel {i}: normal {:?} vs {:?}", n[i], gn[i]);
+        }
+    }
+    let Some(mut gpu) = gpu_or_skip("resolve_gives_means_in_gbuffer_conventions") else { return };
+    let scene = defocused("cornell", 0.1);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(8, true, "gaussian"), &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
+    assert_eq!(c.len(), 17);
+    for (name, a) in &c {
+        let (max_abs, max_rel, over, _) = compare(a, &g[name], Tolerance::for_class(KernelClass::Compose));
+        println!("paths.resolve `{name}`: max abs {max_abs:e}, max rel {max_rel:e}, over {over}");
+        assert_eq!(over, 0, "{name}");
+    }
+    // The radiance is the sum of the component means and the emission.
+    let (BufferData::Vec3(rad), BufferData::Vec3(ld), BufferData::Vec3(lf), BufferData::Vec3(lg), BufferData::Vec3(em)) =
+        (&c["radiance"], &c["l_direct"], &c["l_diffuse"], &c["l_glossy"], &c["emission"])
+    else {
+        panic!("formats")
+    };
+    for i in 0..rad.len() {
+        for k in 0..3 {
+            let sum = ld[i][k] + lf[i][k] + lg[i][k] + em[i][k];
+            assert!((rad[i][k] - sum).abs() <= 1e-5 * sum.abs().max(1.0));
+        }
+    }
+}
+
+/// A pass binding `paths.trace`'s record to a buffer of another layout with the same struct name
+/// is refused before anything runs, naming the field that differs.
+#[test]
+fn struct_layouts_are_checked_by_fields() {
+    use wedge::graph::{Field, FieldType, StructLayout};
+    static IMPOSTOR: StructLayout = StructLayout { name: "PathRecord", fields: &[Field::new("l_direct", FieldType::Vec4)] };
+    let pass = Pass {
+        name: "paths".into(),
+        node: "test".into(),
+        kernel: "paths.trace".into(),
+        reads: vec![],
+        writes: vec![("record".into(), BufferId(0))],
+        params: BTreeMap::new(),
+    };
+    let schedule = wedge::graph::Schedule {
+        passes: vec![pass],
+        buffers: vec![wedge::graph::BufferInfo { name: "paths.record".into(), format: Format::Struct(&IMPOSTOR) }],
+        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 0 })],
+        slots: vec![Some(0)],
+        slot_formats: Vec::new(),
+        sink_inputs: Vec::new(),
+        culled: Vec::new(),
+    };
+    let mut registry = KernelRegistry::new();
+    wedge::backends::register_shared_kernels(&mut registry);
+    let e = registry.check_schedule(&schedule).unwrap_err().to_string();
+    println!("{e}");
+    assert!(
+        e.contains("struct PathRecord (4 words)")
+            && e.contains("field 0 is `l_direct: vec4<f32>` here but `l_direct: vec3<f32>` there"),
+        "{e}"
+    );
+}
