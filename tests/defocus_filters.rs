@@ -801,7 +801,7 @@ fn separable_passes_match_the_2d_filters() {
 }
 
 /// The WGSL formula helpers no kernel of this crate calls but the path sampler may
-/// (`defocus_circle_of_confusion`, `defocus_lens_weight`, `defocus_secondary_per_primary`), through a
+/// (`defocus_circle_of_confusion`, `defocus_secondary_per_primary`), through a
 /// probe kernel, against `formulas.rs`.
 struct FormulaProbe;
 
@@ -815,28 +815,21 @@ impl Kernel for FormulaProbe {
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("lens", Format::Vec4),
-            Binding::read("u", Format::Vec2),
             Binding::read("n_p", Format::U32),
             Binding::read("n", Format::U32),
             Binding::write("coc", Format::F32),
-            Binding::write("disk", Format::F32),
-            Binding::write("gaussian", Format::F32),
             Binding::write("per_primary", Format::U32),
         ]
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        use wedge::effects::defocus::formulas::{secondary_per_primary, LensShape, ThinLens};
+        use wedge::effects::defocus::formulas::{secondary_per_primary, ThinLens};
         let lens = ctx.read::<[f32; 4]>("lens")?;
-        let u = ctx.read::<[f32; 2]>("u")?;
         let (n_p, n) = (ctx.read::<u32>("n_p")?, ctx.read::<u32>("n")?);
         let coc = lens.iter().map(|l| ThinLens { aperture_radius: l[0], focus_distance: l[1], pixel_scale: l[2] }.circle_of_confusion(l[3])).collect();
         ctx.put("coc", coc)?;
-        ctx.put("disk", u.iter().map(|u| LensShape::Disk.weight(*u)).collect())?;
-        ctx.put("gaussian", u.iter().map(|u| LensShape::Gaussian.weight(*u)).collect())?;
         ctx.put("per_primary", n_p.iter().zip(n).map(|(a, b)| secondary_per_primary(*a, *b)).collect())
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        use wedge::effects::defocus::formulas::LensShape;
         const SOURCE: &str = r#"
 #include "common.wgsl"
 #include "defocus_formulas.wgsl"
@@ -848,13 +841,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let l = lens_at(i);
     coc_put(i, defocus_circle_of_confusion(l.x, l.y, l.z, l.w));
-    disk_put(i, defocus_lens_weight(params.disk, u_at(i)));
-    gaussian_put(i, defocus_lens_weight(params.gaussian, u_at(i)));
     per_primary_put(i, defocus_secondary_per_primary(n_p_at(i), n_at(i)));
 }
 "#;
         Some(
-            WgslSource::new(SOURCE, |_| Ok(Uniforms::new().u32("disk", LensShape::Disk.code()).u32("gaussian", LensShape::Gaussian.code())))
+            WgslSource::new(SOURCE, |_| Ok(Uniforms::new()))
                 .with_include("defocus_formulas.wgsl", include_str!("../shaders/defocus_formulas.wgsl"))
                 .per_pixel(),
         )
@@ -871,12 +862,10 @@ fn parity_wgsl_formula_helpers() {
             [a, rng.range(0.5, 10.0), rng.range(5e-4, 5e-3), rng.range(0.2, 30.0)]
         })
         .collect();
-    let u: Vec<[f32; 2]> = (0..N).map(|_| [rng.range(-1.2, 1.2), rng.range(-1.2, 1.2)]).collect();
     let n_p: Vec<u32> = (0..N).map(|_| [0u32, 1, 4, 9, 16, 64][(rng.next() % 6) as usize]).collect();
     let n: Vec<u32> = (0..N).map(|_| (rng.next() % 2000) as u32).collect();
     let inputs: Buffers = BTreeMap::from([
         ("lens", vec4s(lens)),
-        ("u", BufferData::Vec2(u)),
         ("n_p", BufferData::U32(n_p)),
         ("n", BufferData::U32(n)),
     ]);

@@ -44,70 +44,23 @@ pub const ROUNDING_SLACK: f32 = 1e-4;
 /// Filter constants of eqs. 5.31 and 5.33 (the shared filter kernels own them).
 pub use filter_ch5::{FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_WEIGHT};
 
-/// The aperture's weight over the unit lens disk.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LensShape {
-    /// Uniform over the unit disk (pbrt's and Mitsuba's thin lens): the default.
-    Disk,
-    /// The thesis's Gaussian weight `exp(−|u|²/2)` (σ = 1) truncated to the unit disk (Sec. 5.4).
-    Gaussian,
+/// The aperture's weight over the unit lens disk: the camera's (`wedge_scene::LensShape`, which the
+/// path sampler applies; `disk` uniform, `gaussian` the thesis's `exp(−|u|²/2)`).
+pub use wedge_scene::LensShape;
+
+/// Per-axis standard deviation of the lens position `u` under the shape's weight on the unit disk
+/// (closed forms: the disk's is 1/2; the truncated Gaussian's is `sqrt(E[|u|²]/2)` with
+/// `E[|u|²] = 2(1 − 1.5 e^{−1/2}) / (1 − e^{−1/2}) = 0.45851`).
+pub fn lens_std(shape: LensShape) -> f32 {
+    match shape {
+        LensShape::Disk => 0.5,
+        LensShape::Gaussian => 0.478_803_7,
+    }
 }
 
-impl LensShape {
-    pub const NAMES: [&'static str; 2] = ["disk", "gaussian"];
-
-    pub fn parse(name: &str) -> Option<LensShape> {
-        match name {
-            "disk" => Some(LensShape::Disk),
-            "gaussian" => Some(LensShape::Gaussian),
-            _ => None,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            LensShape::Disk => "disk",
-            LensShape::Gaussian => "gaussian",
-        }
-    }
-
-    /// The value a kernel's uniform block carries (`defocus_lens_weight` in WGSL): 0 disk, 1 gaussian.
-    pub fn code(self) -> u32 {
-        match self {
-            LensShape::Disk => 0,
-            LensShape::Gaussian => 1,
-        }
-    }
-
-    /// Unnormalised aperture weight `A(u)` of a lens position `u` (unit-disk coordinates): 0 outside
-    /// the disk. The thesis applies it as an explicit weight on uniformly drawn lens samples rather
-    /// than importance sampling it (Sec. 5.8, step 2).
-    pub fn weight(self, u: [f32; 2]) -> f32 {
-        let r2 = u[0] * u[0] + u[1] * u[1];
-        if r2 <= 1.0 {
-            match self {
-                LensShape::Disk => 1.0,
-                LensShape::Gaussian => (-0.5 * r2).exp(),
-            }
-        } else {
-            0.0
-        }
-    }
-
-    /// Per-axis standard deviation of `u` under [`LensShape::weight`] (closed forms: the disk's is
-    /// 1/2; the truncated Gaussian's is `sqrt(E[|u|²]/2)` with
-    /// `E[|u|²] = 2(1 − 1.5 e^{−1/2}) / (1 − e^{−1/2}) = 0.45851`).
-    pub fn lens_std(self) -> f32 {
-        match self {
-            LensShape::Disk => 0.5,
-            LensShape::Gaussian => 0.478_803_7,
-        }
-    }
-
-    /// `Ω_u^max` (Sec. 5.4). The same for both shapes (see the module docs).
-    pub fn omega_u_max(self) -> f32 {
-        OMEGA_U_MAX
-    }
+/// `Ω_u^max` (Sec. 5.4): the same for both shapes (see the module docs).
+pub fn omega_u_max(_shape: LensShape) -> f32 {
+    OMEGA_U_MAX
 }
 
 /// A thin-lens camera in the pixel units of Ch. 5.
@@ -151,15 +104,10 @@ impl ThinLens {
 }
 
 impl ThinLens {
-    /// The camera's thin lens at an image `height` in pixels. A `focus_distance` ≤ 0 (unset) focuses
-    /// at the look-at point, as the path sampler's camera does (`effective_focus_distance` there).
+    /// The camera's thin lens at an image `height` in pixels (an unset `focus_distance` focuses at
+    /// the look-at point: `Camera::effective_focus_distance`).
     pub fn from_camera(camera: &Camera, height: u32) -> ThinLens {
-        let focus = if camera.focus_distance > 0.0 {
-            camera.focus_distance
-        } else {
-            (camera.look_at - camera.position).length().max(1e-4)
-        };
-        ThinLens::new(camera.aperture_radius, focus, camera.vfov_deg, height)
+        ThinLens::new(camera.aperture_radius, camera.effective_focus_distance(), camera.vfov_deg, height)
     }
 }
 
