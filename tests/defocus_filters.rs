@@ -975,3 +975,65 @@ fn compose_chains_components_eq_5_32() {
         assert!(bad.is_empty(), "{}", bad.join("\n"));
     }
 }
+
+/// The first pass of `paths.trace` (16 paths) resolved, on a builtin scene with the given lens.
+fn first_pass(name: &str, aperture: f32, jitter: bool, (w, h): (u32, u32)) -> (Scene, BTreeMap<String, BufferData>) {
+    use wedge::backends::kernels::paths::{PathsResolve, PathsTrace};
+    let mut scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin(name.into())).expect("builtin scene");
+    scene.camera.aperture_radius = aperture;
+    let trace = params(&[
+        ("count", int(16)),
+        ("jitter", ParamValue::Bool(jitter)),
+        ("lens", ParamValue::Str("disk".into())),
+        ("shadow_per_primary", int(1)),
+        ("indirect_per_primary", int(1)),
+        ("light", int(0)),
+        ("stream", int(3)),
+        ("brdf", ParamValue::Str("phong".into())),
+        ("bounces", int(1)),
+    ]);
+    let (rec, _) = run_cpu_with(Arc::new(PathsTrace), &scene, w, h, &trace, &Buffers::new());
+    let (res, _) = run_cpu_with(Arc::new(PathsResolve), &scene, w, h, &Params::new(), &BTreeMap::from([("record", rec["record"].clone())]));
+    (scene, res)
+}
+
+fn direct_flags(scene: &Scene, res: &BTreeMap<String, BufferData>, (w, h): (u32, u32)) -> Vec<u32> {
+    let inputs: Buffers =
+        BTreeMap::from([("radiance", res["l_direct"].clone()), ("texture", res["k_direct"].clone()), ("irradiance", res["e_direct"].clone())]);
+    let (out, _) = run_cpu(scene, "defocus.flags", w, h, &params(&[("threshold", float(0.01))]), &inputs);
+    u32_of(&out["flag"]).to_vec()
+}
+
+/// Issue 11 §3: with one primary point per pixel (pinhole, no jitter) `L`, `k` and `E` share the
+/// centre-of-light form factor, so `k·E = L` and SepDir holds everywhere, textured or not; under
+/// strong defocus the flags turn off where the lens footprint mixes texture and irradiance — at
+/// defocused pixels of the textured board, far more than at pixels in focus.
+#[test]
+fn factoring_is_exact_at_a_single_primary_point_and_flagged_off_under_defocus() {
+    let size = (96u32, 72u32);
+    for name in ["curved", "chess"] {
+        let (scene, res) = first_pass(name, 0.0, false, size);
+        let flags = direct_flags(&scene, &res, size);
+        let (l, k, e) = (vec3_of(&res["l_direct"]), vec3_of(&res["k_direct"]), vec3_of(&res["e_direct"]));
+        let worst = (0..flags.len())
+            .map(|i| (0..3).map(|c| (l[i][c] - k[i][c] * e[i][c]).abs()).fold(0f32, f32::max))
+            .fold(0f32, f32::max);
+        println!("{name}, pinhole: SepDir at {} of {} pixels, max |L − kE| {worst:.2e}", flags.iter().sum::<u32>(), flags.len());
+        assert!(flags.iter().all(|f| *f == 1), "{name}: SepDir everywhere at a single primary point");
+        assert!(worst < 1e-5, "{name}: k·E equals L ({worst})");
+    }
+    // chess with twice the recommended aperture (r up to ~4 px at this size), one image point per
+    // pixel (the thesis's first pass: no pixel jitter, so only the lens spreads the hit points).
+    let (scene, res) = first_pass("chess", 0.1, false, size);
+    let flags = direct_flags(&scene, &res, size);
+    let lens = vec4_of(&res["defocus"]);
+    let off_share = |pick: &dyn Fn(f32) -> bool| {
+        let idx: Vec<usize> = (0..flags.len()).filter(|i| lens[*i][3] > 0.0 && pick(lens[*i][1])).collect();
+        (idx.iter().filter(|i| flags[**i] == 0).count() as f64 / idx.len().max(1) as f64, idx.len())
+    };
+    let (sharp, n_sharp) = off_share(&|r_max| r_max < 0.5);
+    let (blurred, n_blurred) = off_share(&|r_max| r_max > 2.0);
+    println!("chess, aperture 0.1: SepDir off at {:.1}% of {n_sharp} sharp pixels, {:.1}% of {n_blurred} defocused pixels", sharp * 100.0, blurred * 100.0);
+    assert!(n_sharp > 50 && n_blurred > 50, "both kinds of pixel present");
+    assert!(blurred > 0.05 && blurred > 3.0 * sharp, "flags turn off under defocus: {blurred} vs {sharp}");
+}
