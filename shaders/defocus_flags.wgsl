@@ -9,6 +9,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let sep = defocus_separable(radiance_at(i).xyz, texture_at(i).xyz, irradiance_at(i).xyz, params.threshold);
+    let sep = defocus_separable(radiance_at(i), texture_at(i), irradiance_at(i), params.threshold);
     flag_put(i, select(0u, 1u, sep));
 }

@@ -13,19 +13,6 @@ fn defocus_circle_of_confusion(aperture_radius: f32, focus_distance: f32, pixel_
     return (aperture_radius / pixel_scale) * (1.0 / z - 1.0 / focus_distance);
 }
 
-// Aperture weight A(u) of a lens position on the unit disk (formulas.rs LensShape::weight):
-// shape 0 disk (1), 1 the thesis's Gaussian exp(−|u|²/2); 0 outside the disk.
-fn defocus_lens_weight(shape: u32, u: vec2<f32>) -> f32 {
-    let r2 = u.x * u.x + u.y * u.y;
-    if (!(r2 <= 1.0)) {
-        return 0.0;
-    }
-    if (shape == 0u) {
-        return 1.0;
-    }
-    return exp(-0.5 * r2);
-}
-
 // a / b, or +inf when b ≤ 0 (an absent statistic does not limit the filter).
 fn defocus_ratio_or_inf(a: f32, b: f32) -> f32 {
     if (b > 0.0) {
@@ -152,4 +139,12 @@ fn defocus_separable(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, threshold: f32) -
     let d = vec3<f32>(l.x - k.x * e.x, l.y - k.y * e.y, l.z - k.z * e.z);
     let err2 = d.x * d.x + d.y * d.y + d.z * d.z;
     return err2 < threshold * threshold;
+}
+
+// One component's term of eq. 5.32: k E (filtered E) where factored, else L.
+fn defocus_compose_term(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, factored: bool) -> vec3<f32> {
+    if (factored) {
+        return vec3<f32>(k.x * e.x, k.y * e.y, k.z * e.z);
+    }
+    return l;
 }

@@ -18,7 +18,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var z = vec2<f32>(0.0);
     let refl = reflectors_at(i);
-    if (reflectors_bound() && refl.w > 0.0) {
+    if (reflectors_bound() && refl.z > 0.0) {
         z = refl.xy;
     }
     let r = defocus_pixel_rates(

@@ -30,7 +30,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let height = i32(frame.height);
     let xy = vec2<i32>(pixel_xy(gid));
     let centre = value_at(i);
-    if (!is_finite3(centre.xyz)) {
+    if (!is_finite3(centre)) {
         atomicAdd(&counters[COUNTER_NON_FINITE], 1u);
     }
     let om = omega_at(i);
@@ -59,12 +59,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let j = index_at(jx, jy);
             let v = value_at(j);
-            if (!is_finite3(v.xyz)) {
+            if (!is_finite3(v)) {
                 continue;
             }
             let d2 = f32(dx * dx + dy * dy);
             let e_i = FILTER_SHARPNESS * d2 * gi2;
-            if (e_i > REJECT_EXPONENT) {
+            if (!(e_i <= REJECT_EXPONENT)) {
                 continue;
             }
             let oj = omega_at(j);
@@ -73,12 +73,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 continue;
             }
             let w = exp(-e_i);
-            sum = sum + w * v.xyz;
+            sum = sum + w * v;
             wsum = wsum + w;
         }
     }
     if (wsum > 0.0) {
-        out_put(i, vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, centre.w));
+        out_put(i, vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum));
     } else {
         out_put(i, centre);
     }

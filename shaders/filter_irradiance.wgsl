@@ -30,7 +30,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let height = i32(frame.height);
     let xy = vec2<i32>(pixel_xy(gid));
     let centre = value_at(i);
-    if (!is_finite3(centre.xyz)) {
+    if (!is_finite3(centre)) {
         atomicAdd(&counters[COUNTER_NON_FINITE], 1u);
     }
     let om = omega_at(i);
@@ -70,7 +70,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 continue;
             }
             let v = value_at(j);
-            if (!is_finite3(v.xyz)) {
+            if (!is_finite3(v)) {
                 continue;
             }
             if (dot3(ni, normalize_or_zero3(normal_at(j).xyz)) < params.normal_cos) {
@@ -79,7 +79,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let d = position_at(j).xyz - xi;
             let dist2 = dot3(d, d);
             let e_i = FILTER_SHARPNESS * dist2 * gi2;
-            if (e_i > REJECT_EXPONENT) {
+            if (!(e_i <= REJECT_EXPONENT)) {
                 continue;
             }
             let gj = omega_at(j) / pixel_length_at(j);
@@ -88,12 +88,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 continue;
             }
             let w = exp(-e_i);
-            sum = sum + w * v.xyz;
+            sum = sum + w * v;
             wsum = wsum + w;
         }
     }
     if (wsum > 0.0) {
-        out_put(i, vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, centre.w));
+        out_put(i, vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum));
     } else {
         out_put(i, centre);
     }

@@ -1,5 +1,6 @@
-//! The Ch. 5 kernels one pass at a time: `defocus.rates`, `defocus.flags`, `neighbourhood.max3`,
-//! `neighbourhood.median3`, `filter.irradiance` (eq. 5.31) and `filter.defocus` (eq. 5.33).
+//! The Ch. 5 kernels one pass at a time: `defocus.rates`, `defocus.flags`, `defocus.compose`
+//! (eq. 5.32), `neighbourhood.max3`, `neighbourhood.median3`, `filter.irradiance` (eq. 5.31) and
+//! `filter.defocus` (eq. 5.33).
 //!
 //! - CPU-vs-GPU parity of every kernel on random inputs (the harness's tolerances: float outputs to
 //!   round-off on every pixel, integer outputs exact), including non-finite inputs and unbound optional
@@ -192,6 +193,17 @@ fn vec4s(v: Vec<[f32; 4]>) -> BufferData {
     BufferData::Vec4(v)
 }
 
+fn vec3s(v: Vec<[f32; 3]>) -> BufferData {
+    BufferData::Vec3(v)
+}
+
+fn vec3_of(b: &BufferData) -> &[[f32; 3]] {
+    match b {
+        BufferData::Vec3(v) => v,
+        other => panic!("expected vec3, got {}", other.format()),
+    }
+}
+
 fn vec4_of(b: &BufferData) -> &[[f32; 4]] {
     match b {
         BufferData::Vec4(v) => v,
@@ -260,7 +272,8 @@ fn random_stats(rng: &mut Rng) -> Buffers {
         let d2_min = rng.range(0.05, d2_max);
         occ.push([d1, d2_min, d2_max, if rng.chance(0.5) { 1.0 } else { 0.0 }]);
         let z_min = rng.range(0.01, 2.0);
-        refl.push([z_min, z_min + rng.range(0.0, 5.0), 0.0, if rng.chance(0.7) { 16.0 } else { 0.0 }]);
+        // As indirect.sample's `depth`: z_min, z_max, samples that hit, samples.
+        refl.push([z_min, z_min + rng.range(0.0, 5.0), if rng.chance(0.7) { rng.range(1.0, 16.0).floor() } else { 0.0 }, 16.0]);
         if i == 17 {
             lens[i] = [f32::NAN, f32::NAN, 2.0, 16.0];
         }
@@ -301,10 +314,10 @@ fn parity_defocus_rates_and_flags() {
     // Flags: L = k E plus noise around the 0.01 threshold, some NaN.
     let (mut l, mut k, mut e) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..N {
-        let kk = [rng.unit(), rng.unit(), rng.unit(), 1.0];
-        let ee = [rng.range(0.0, 2.0), rng.range(0.0, 2.0), rng.range(0.0, 2.0), 16.0];
+        let kk = [rng.unit(), rng.unit(), rng.unit()];
+        let ee = [rng.range(0.0, 2.0), rng.range(0.0, 2.0), rng.range(0.0, 2.0)];
         let noise = rng.range(0.0, 0.02);
-        let mut ll = [kk[0] * ee[0] + noise, kk[1] * ee[1], kk[2] * ee[2], 16.0];
+        let mut ll = [kk[0] * ee[0] + noise, kk[1] * ee[1], kk[2] * ee[2]];
         if i % 97 == 0 {
             ll[1] = f32::NAN;
         }
@@ -312,7 +325,7 @@ fn parity_defocus_rates_and_flags() {
         k.push(kk);
         e.push(ee);
     }
-    let flags_in: Buffers = BTreeMap::from([("radiance", vec4s(l)), ("texture", vec4s(k)), ("irradiance", vec4s(e))]);
+    let flags_in: Buffers = BTreeMap::from([("radiance", vec3s(l)), ("texture", vec3s(k)), ("irradiance", vec3s(e))]);
     bad.extend(parity(&mut gpu, &scene, "defocus.flags", W, H, &params(&[("threshold", float(0.01))]), &flags_in));
     let (out, _) = run_cpu(&scene, "defocus.flags", W, H, &params(&[("threshold", float(0.01))]), &flags_in);
     let ones = u32_of(&out["flag"]).iter().filter(|f| **f == 1).count();
@@ -377,9 +390,9 @@ fn random_widths(rng: &mut Rng) -> Vec<f32> {
         .collect()
 }
 
-fn random_image(rng: &mut Rng, nan_every: usize) -> Vec<[f32; 4]> {
+fn random_image(rng: &mut Rng, nan_every: usize) -> Vec<[f32; 3]> {
     (0..N)
-        .map(|i| if nan_every > 0 && i % nan_every == 5 { [f32::NAN, 0.0, 0.0, 3.0] } else { [rng.unit(), rng.unit(), rng.unit(), i as f32] })
+        .map(|i| if nan_every > 0 && i % nan_every == 5 { [f32::NAN, 0.0, 0.0] } else { [rng.unit(), rng.unit(), rng.unit()] })
         .collect()
 }
 
@@ -398,13 +411,13 @@ fn parity_irradiance_and_defocus_filters() {
         let value = random_image(&mut rng, 211);
         let omega = random_widths(&mut rng);
         let irr: Buffers = BTreeMap::from([
-            ("value", vec4s(value.clone())),
+            ("value", vec3s(value.clone())),
             ("position", vec4s(position.clone())),
             ("normal", vec4s(normal.clone())),
             ("omega", f32s(omega.clone())),
             ("pixel_length", f32s(length.clone())),
         ]);
-        let def: Buffers = BTreeMap::from([("value", vec4s(value)), ("omega", f32s(omega))]);
+        let def: Buffers = BTreeMap::from([("value", vec3s(value)), ("omega", f32s(omega))]);
         for axis in [-1, 0, 1] {
             let mut p = irradiance_params(max_radius);
             p.insert("axis".into(), int(axis));
@@ -444,10 +457,10 @@ fn parity_packed_and_in_bands() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
-fn irradiance_inputs(value: Vec<[f32; 4]>, omega: Vec<f32>) -> Buffers {
+fn irradiance_inputs(value: Vec<[f32; 3]>, omega: Vec<f32>) -> Buffers {
     let (position, normal, length) = planes(0.01);
     BTreeMap::from([
-        ("value", vec4s(value)),
+        ("value", vec3s(value)),
         ("position", vec4s(position)),
         ("normal", vec4s(normal)),
         ("omega", f32s(omega)),
@@ -455,20 +468,20 @@ fn irradiance_inputs(value: Vec<[f32; 4]>, omega: Vec<f32>) -> Buffers {
     ])
 }
 
-fn defocus_inputs(value: Vec<[f32; 4]>, omega: Vec<f32>) -> Buffers {
-    BTreeMap::from([("value", vec4s(value)), ("omega", f32s(omega))])
+fn defocus_inputs(value: Vec<[f32; 3]>, omega: Vec<f32>) -> Buffers {
+    BTreeMap::from([("value", vec3s(value)), ("omega", f32s(omega))])
 }
 
-fn run_filter(name: &str, inputs: &Buffers) -> (Vec<[f32; 4]>, RayCounts) {
+fn run_filter(name: &str, inputs: &Buffers) -> (Vec<[f32; 3]>, RayCounts) {
     let p = match name {
         "filter.irradiance" => irradiance_params(16),
         _ => params(&[("max_radius", int(16))]),
     };
     let (out, rays) = run_cpu(&scene(), name, W, H, &p, inputs);
-    (vec4_of(&out["out"]).to_vec(), rays)
+    (vec3_of(&out["out"]).to_vec(), rays)
 }
 
-fn inputs_for(name: &str, value: Vec<[f32; 4]>, omega: Vec<f32>) -> Buffers {
+fn inputs_for(name: &str, value: Vec<[f32; 3]>, omega: Vec<f32>) -> Buffers {
     match name {
         "filter.irradiance" => irradiance_inputs(value, omega),
         _ => defocus_inputs(value, omega),
@@ -482,20 +495,19 @@ fn constant_image_is_unchanged_by_both_filters() {
     let mut rng = Rng(21);
     let c = [0.3f32, 0.6, 0.9];
     for name in FILTERS {
-        let value: Vec<[f32; 4]> = (0..N).map(|i| [c[0], c[1], c[2], i as f32]).collect();
+        let value: Vec<[f32; 3]> = (0..N).map(|_| c).collect();
         let (out, rays) = run_filter(name, &inputs_for(name, value.clone(), random_widths(&mut rng)));
         for (i, o) in out.iter().enumerate() {
             for ch in 0..3 {
                 assert!((o[ch] - c[ch]).abs() <= 1e-6, "{name} pixel {i}: {o:?}");
             }
-            assert_eq!(o[3], i as f32, "{name}: w passes through");
         }
         assert_eq!(rays.non_finite_samples, 0);
     }
 }
 
-/// Max |out − in| of a filter whose width comes from `defocus.rates` at μ.
-fn filter_change_at(name: &str, mu: f64, mode: &str) -> f32 {
+/// (rms, max) of |out − in| for a filter whose width comes from `defocus.rates` at μ.
+fn filter_change_at(name: &str, mu: f64, mode: &str) -> (f64, f64) {
     let scene = scene();
     let mut rng = Rng(31);
     let stats = random_stats(&mut rng);
@@ -507,22 +519,24 @@ fn filter_change_at(name: &str, mu: f64, mode: &str) -> f32 {
     let BufferData::F32(omega) = omega else { panic!("f32 widths") };
     let value = random_image(&mut rng, 0);
     let (out, _) = run_filter(name, &inputs_for(name, value.clone(), omega));
-    out.iter().zip(&value).map(|(o, v)| (0..3).map(|c| (o[c] - v[c]).abs()).fold(0f32, f32::max)).fold(0f32, f32::max)
+    rms_and_max(&out, &value)
 }
 
 #[test]
 fn consistent_mode_converges_to_the_identity_literal_mode_does_not() {
+    // The rms change falls as μ grows (a single pixel's change need not: its neighbourhood's
+    // rejections change with μ too) and is exactly 0 once every filter is below a pixel.
     for name in FILTERS {
-        let changes: Vec<f32> = [1.0, 4.0, 30.0, 1e3, 1e5].iter().map(|mu| filter_change_at(name, *mu, "consistent")).collect();
-        println!("{name}: consistent max |out − in| at μ = 1, 4, 30, 1e3, 1e5: {changes:?}");
-        assert!(changes[0] > 0.1, "{name}: the filter blurs at μ = 1: {changes:?}");
-        assert!(changes.windows(2).all(|w| w[1] <= w[0]), "{name}: non-increasing in μ: {changes:?}");
-        assert_eq!(changes[3], 0.0, "{name}: a one-pixel filter at μ = 1e3");
-        assert_eq!(changes[4], 0.0, "{name}: and beyond");
+        let changes: Vec<(f64, f64)> = [1.0, 4.0, 30.0, 1e3, 1e5].iter().map(|mu| filter_change_at(name, *mu, "consistent")).collect();
+        println!("{name}: consistent (rms, max) |out − in| at μ = 1, 4, 30, 1e3, 1e5: {changes:?}");
+        assert!(changes[0].0 > 0.05, "{name}: the filter blurs at μ = 1: {changes:?}");
+        assert!(changes.windows(2).all(|w| w[1].0 <= w[0].0), "{name}: rms non-increasing in μ: {changes:?}");
+        assert_eq!(changes[3], (0.0, 0.0), "{name}: a one-pixel filter at μ = 1e3");
+        assert_eq!(changes[4], (0.0, 0.0), "{name}: and beyond");
         // Literal eq. 5.29: widths stop at Ω_pix^max = 0.5, whose neighbours keep weight e⁻⁴.
         let literal = filter_change_at(name, 1e3, "literal");
-        println!("{name}: literal max |out − in| at μ = 1000: {literal}");
-        assert!(literal > 0.01, "{name}: literal mode still filters at μ = 1000: {literal}");
+        println!("{name}: literal (rms, max) |out − in| at μ = 1000: {literal:?}");
+        assert!(literal.1 > 0.01, "{name}: literal mode still filters at μ = 1000: {literal:?}");
     }
 }
 
@@ -531,23 +545,21 @@ fn rejection_keeps_sharp_regions_out_of_blurry_ones() {
     // Left half blurry (Ω = 0.05: σ = 3.5 px, reach 10.7 px) and black; right half sharp (Ω = 2) and
     // white. Pixel i in the blurry half next to the edge weighs its sharp neighbours by its own
     // Gaussian at ≈ 0.96, but i lies outside their filters (w_j(i) = e^{−64} < 0.01): rejected.
-    for name in ["filter.defocus"] {
-        let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 32 { 0.05 } else { 2.0 }).collect();
-        let value: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 32 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
-        let (out, _) = run_filter(name, &inputs_for(name, value.clone(), omega));
-        assert_eq!(out, value, "{name}: neither side bleeds into the other");
-        // Without the rejection the blurry pixel next to the edge would be about half white.
-        let own: f32 = (-FILTER_SHARPNESS * 1.0 * 0.05 * 0.05).exp();
-        assert!(own > 0.9);
-    }
+    let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 32 { 0.05 } else { 2.0 }).collect();
+    let value: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 32 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
+    let (out, _) = run_filter("filter.defocus", &defocus_inputs(value.clone(), omega));
+    assert_eq!(out, value, "neither side bleeds into the other");
+    // Without the rejection the blurry pixel next to the edge would be about half white.
+    let own: f32 = (-FILTER_SHARPNESS * 1.0 * 0.05 * 0.05).exp();
+    assert!(own > 0.9);
     // The irradiance filter on the camera-facing plane (x < 24): blurry left part, sharp right part.
     let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 12 { 0.05 } else { 2.0 }).collect();
-    let value: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
+    let value: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
     let (out, _) = run_filter("filter.irradiance", &irradiance_inputs(value.clone(), omega));
     assert_eq!(out, value);
     // Blurry pixels do mix among themselves: a gradient inside the blurry region is smoothed.
     let omega = vec![0.05f32; N];
-    let value: Vec<[f32; 4]> = (0..N).map(|i| [((i as u32 % W) % 2) as f32, 0.0, 0.0, 1.0]).collect();
+    let value: Vec<[f32; 3]> = (0..N).map(|i| [((i as u32 % W) % 2) as f32, 0.0, 0.0]).collect();
     for name in FILTERS {
         let (out, _) = run_filter(name, &inputs_for(name, value.clone(), omega.clone()));
         let row = 20 * W as usize;
@@ -559,7 +571,7 @@ fn rejection_keeps_sharp_regions_out_of_blurry_ones() {
 fn normal_test_separates_surfaces_more_than_ten_degrees_apart() {
     // planes(): x < 24 faces the camera, 24 ≤ x < 56 is tilted 30°. Values 0 and 1: no mixing across.
     let omega = vec![0.05f32; N];
-    let value: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 24 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
+    let value: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 24 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
     let (out, _) = run_filter("filter.irradiance", &irradiance_inputs(value.clone(), omega.clone()));
     assert_eq!(out, value);
     // With a 40° tolerance the two planes mix at the seam.
@@ -567,16 +579,16 @@ fn normal_test_separates_surfaces_more_than_ten_degrees_apart() {
     let p = params(&[("max_radius", int(16)), ("normal_cos", float(40f64.to_radians().cos()))]);
     let (mixed, _) = run_cpu(&s, "filter.irradiance", W, H, &p, &irradiance_inputs(value, omega));
     let seam = 20 * W as usize + 23;
-    assert!(vec4_of(&mixed["out"])[seam][0] > 0.05, "{:?}", vec4_of(&mixed["out"])[seam]);
+    assert!(vec3_of(&mixed["out"])[seam][0] > 0.05, "{:?}", vec3_of(&mixed["out"])[seam]);
 }
 
 #[test]
 fn nan_pixel_is_counted_once_and_not_spread() {
     let c = [0.25f32, 0.5, 0.75];
     for name in FILTERS {
-        let mut value: Vec<[f32; 4]> = (0..N).map(|_| [c[0], c[1], c[2], 1.0]).collect();
+        let mut value: Vec<[f32; 3]> = (0..N).map(|_| c).collect();
         let centre = 20 * W as usize + 10;
-        value[centre] = [f32::NAN, 0.5, 0.75, 1.0];
+        value[centre] = [f32::NAN, 0.5, 0.75];
         // A wide filter: every neighbour of the NaN pixel reaches it.
         let (out, rays) = run_filter(name, &inputs_for(name, value.clone(), vec![0.05; N]));
         assert_eq!(rays.non_finite_samples, 1, "{name}");
@@ -591,11 +603,19 @@ fn nan_pixel_is_counted_once_and_not_spread() {
         assert!(out[centre][0].is_nan());
         assert!(out.iter().enumerate().all(|(i, o)| i == centre || o[0] == c[0] || (o[0] - c[0]).abs() <= 1e-6));
     }
+    // A non-finite lens-averaged position is never a neighbour either (its distances are NaN).
+    let value: Vec<[f32; 3]> = (0..N).map(|_| c).collect();
+    let mut inputs = irradiance_inputs(value, vec![0.05; N]);
+    if let Some(BufferData::Vec4(p)) = inputs.get_mut("position") {
+        p[20 * W as usize + 10] = [f32::NAN, 0.0, 2.0, 1.0];
+    }
+    let (out, _) = run_filter("filter.irradiance", &inputs);
+    assert!(out.iter().all(|o| (0..3).all(|ch| (o[ch] - c[ch]).abs() <= 1e-6)));
     // The GPU counts it the same way.
     if let Some(mut gpu) = gpu_or_skip("nan_pixel_is_counted_once_and_not_spread") {
-        let mut value: Vec<[f32; 4]> = (0..N).map(|_| [c[0], c[1], c[2], 1.0]).collect();
-        value[100] = [0.0, f32::INFINITY, 0.0, 1.0];
-        value[900] = [f32::NAN, 0.0, 0.0, 1.0];
+        let mut value: Vec<[f32; 3]> = (0..N).map(|_| c).collect();
+        value[100] = [0.0, f32::INFINITY, 0.0];
+        value[900] = [f32::NAN, 0.0, 0.0];
         for name in FILTERS {
             let p = match name {
                 "filter.irradiance" => irradiance_params(16),
@@ -618,16 +638,15 @@ fn defocus_weights_and_window_by_hand() {
     assert_eq!(window_radius(0.0, 16), 16);
     assert_eq!(window_radius(f32::NAN, 16), 16);
     // 3×1 image, Ω = 0.5: the centre weighs 1, each neighbour e⁻⁴ (thesis Sec. 5.8).
-    let value = [[0.0, 0.0, 0.0, 7.0], [1.0, 1.0, 1.0, 8.0], [2.0, 2.0, 2.0, 9.0]];
+    let value = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]];
     let e = (-4.0f32).exp();
     let out = defocus_pixel(1, 0, 3, 1, 16, Axis::Both, &value, &[0.5; 3]);
     assert!((out[0] - (1.0 + 2.0 * e) / (1.0 + 2.0 * e)).abs() < 1e-6, "{out:?}");
-    assert_eq!(out[3], 8.0);
     // A sharp left neighbour (Ω = 2: i outside its filter, e_j = 64 > ln 100) is rejected.
     let out = defocus_pixel(1, 0, 3, 1, 16, Axis::Both, &value, &[2.0, 0.5, 0.5]);
     assert!((out[0] - (1.0 + 2.0 * e) / (1.0 + e)).abs() < 1e-6, "{out:?}");
     // Ω = 0.25 (r_min = 4): neighbours at distance 1 and 2 weigh e^{−1} and e^{−4}.
-    let row: Vec<[f32; 4]> = (0..5).map(|x| [x as f32, 0.0, 0.0, 0.0]).collect();
+    let row: Vec<[f32; 3]> = (0..5).map(|x| [x as f32, 0.0, 0.0]).collect();
     let out = defocus_pixel(2, 0, 5, 1, 16, Axis::Both, &row, &[0.25; 5]);
     let (e1, e4) = ((-1.0f32).exp(), (-4.0f32).exp());
     let expect = (0.0 * e4 + 1.0 * e1 + 2.0 + 3.0 * e1 + 4.0 * e4) / (1.0 + 2.0 * e1 + 2.0 * e4);
@@ -690,10 +709,18 @@ fn rates_kernel_matches_the_formulas() {
     let s = single(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats);
     let e = cpu::run_pass(&job(&s, &scene, W, H), &s.pass, &by_id(&s, &stats), &Counters::default()).unwrap_err();
     assert!(e.to_string().contains("literal or consistent"), "{e}");
+    // So are non-positive or non-finite constants.
+    for (name, v) in [("mu", 0.0), ("mu", f64::NAN), ("pixel_scale", -1.0), ("light_half_width", -0.1)] {
+        let mut p = rate_params(1.0, "literal", 64, 64);
+        p.insert(name.into(), float(v));
+        let s = single(kernel("defocus.rates"), p, &stats);
+        let e = cpu::run_pass(&job(&s, &scene, W, H), &s.pass, &by_id(&s, &stats), &Counters::default()).unwrap_err();
+        assert!(e.to_string().contains(name) && e.to_string().contains("finite number"), "{e}");
+    }
 }
 
 /// Run `name` as an X pass then a Y pass (the separable approximation).
-fn run_separable(name: &str, inputs: &Buffers) -> Vec<[f32; 4]> {
+fn run_separable(name: &str, inputs: &Buffers) -> Vec<[f32; 3]> {
     let scene = scene();
     let mut current = inputs.clone();
     for axis in [0, 1] {
@@ -705,10 +732,10 @@ fn run_separable(name: &str, inputs: &Buffers) -> Vec<[f32; 4]> {
         let (out, _) = run_cpu(&scene, name, W, H, &p, &current);
         current.insert("value", out["out"].clone());
     }
-    vec4_of(&current["value"]).to_vec()
+    vec3_of(&current["value"]).to_vec()
 }
 
-fn rms_and_max(a: &[[f32; 4]], b: &[[f32; 4]]) -> (f64, f64) {
+fn rms_and_max(a: &[[f32; 3]], b: &[[f32; 3]]) -> (f64, f64) {
     let (mut s, mut m) = (0f64, 0f64);
     for (x, y) in a.iter().zip(b) {
         for c in 0..3 {
@@ -768,13 +795,13 @@ fn separable_passes_match_the_2d_filters() {
         assert!(rms < 0.3 * change, "{name}: rms {rms} vs the filter's own change {change}");
         // No bleeding across a sharp/blurry edge either.
         let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 12 { 0.05 } else { 2.0 }).collect();
-        let edge: Vec<[f32; 4]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0, 1.0] } else { [1.0, 1.0, 1.0, 1.0] }).collect();
+        let edge: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
         assert_eq!(run_separable(name, &inputs_for(name, edge.clone(), omega)), edge, "{name}");
     }
 }
 
 /// The WGSL formula helpers no kernel of this crate calls but the path sampler may
-/// (`defocus_circle_of_confusion`, `defocus_lens_weight`, `defocus_secondary_per_primary`), through a
+/// (`defocus_circle_of_confusion`, `defocus_secondary_per_primary`), through a
 /// probe kernel, against `formulas.rs`.
 struct FormulaProbe;
 
@@ -788,28 +815,21 @@ impl Kernel for FormulaProbe {
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("lens", Format::Vec4),
-            Binding::read("u", Format::Vec2),
             Binding::read("n_p", Format::U32),
             Binding::read("n", Format::U32),
             Binding::write("coc", Format::F32),
-            Binding::write("disk", Format::F32),
-            Binding::write("gaussian", Format::F32),
             Binding::write("per_primary", Format::U32),
         ]
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        use wedge::effects::defocus::formulas::{secondary_per_primary, LensShape, ThinLens};
+        use wedge::effects::defocus::formulas::{secondary_per_primary, ThinLens};
         let lens = ctx.read::<[f32; 4]>("lens")?;
-        let u = ctx.read::<[f32; 2]>("u")?;
         let (n_p, n) = (ctx.read::<u32>("n_p")?, ctx.read::<u32>("n")?);
         let coc = lens.iter().map(|l| ThinLens { aperture_radius: l[0], focus_distance: l[1], pixel_scale: l[2] }.circle_of_confusion(l[3])).collect();
         ctx.put("coc", coc)?;
-        ctx.put("disk", u.iter().map(|u| LensShape::Disk.weight(*u)).collect())?;
-        ctx.put("gaussian", u.iter().map(|u| LensShape::Gaussian.weight(*u)).collect())?;
         ctx.put("per_primary", n_p.iter().zip(n).map(|(a, b)| secondary_per_primary(*a, *b)).collect())
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        use wedge::effects::defocus::formulas::LensShape;
         const SOURCE: &str = r#"
 #include "common.wgsl"
 #include "defocus_formulas.wgsl"
@@ -821,13 +841,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let l = lens_at(i);
     coc_put(i, defocus_circle_of_confusion(l.x, l.y, l.z, l.w));
-    disk_put(i, defocus_lens_weight(params.disk, u_at(i)));
-    gaussian_put(i, defocus_lens_weight(params.gaussian, u_at(i)));
     per_primary_put(i, defocus_secondary_per_primary(n_p_at(i), n_at(i)));
 }
 "#;
         Some(
-            WgslSource::new(SOURCE, |_| Ok(Uniforms::new().u32("disk", LensShape::Disk.code()).u32("gaussian", LensShape::Gaussian.code())))
+            WgslSource::new(SOURCE, |_| Ok(Uniforms::new()))
                 .with_include("defocus_formulas.wgsl", include_str!("../shaders/defocus_formulas.wgsl"))
                 .per_pixel(),
         )
@@ -844,15 +862,178 @@ fn parity_wgsl_formula_helpers() {
             [a, rng.range(0.5, 10.0), rng.range(5e-4, 5e-3), rng.range(0.2, 30.0)]
         })
         .collect();
-    let u: Vec<[f32; 2]> = (0..N).map(|_| [rng.range(-1.2, 1.2), rng.range(-1.2, 1.2)]).collect();
     let n_p: Vec<u32> = (0..N).map(|_| [0u32, 1, 4, 9, 16, 64][(rng.next() % 6) as usize]).collect();
     let n: Vec<u32> = (0..N).map(|_| (rng.next() % 2000) as u32).collect();
     let inputs: Buffers = BTreeMap::from([
         ("lens", vec4s(lens)),
-        ("u", BufferData::Vec2(u)),
         ("n_p", BufferData::U32(n_p)),
         ("n", BufferData::U32(n)),
     ]);
     let bad = parity_with(&mut gpu, Arc::new(FormulaProbe), &scene(), W, H, &Params::new(), &inputs);
     assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// The filters' noise reduction matches their weights: on a flat field with independent noise the
+/// output's standard deviation is σ_in / sqrt(N_eff), with N_eff = (Σw)²/Σw² over the truncated
+/// window (≈ π/(8Ω²) for the untruncated Gaussian exp(−16 d² Ω²), i.e. σ = 0.177/Ω px).
+#[test]
+fn noise_reduction_matches_the_weights() {
+    let (w, h) = (128u32, 128u32);
+    let n = (w * h) as usize;
+    let scene = scene();
+    let mut rng = Rng(71);
+    let value: Vec<[f32; 3]> = (0..n).map(|_| [0.5 + rng.range(-0.2, 0.2), 0.5, 0.5]).collect();
+    let sigma_in = 0.4 / 12f64.sqrt();
+    let ell = 0.01f32;
+    let position: Vec<[f32; 4]> = (0..n).map(|i| [(i as u32 % w) as f32 * ell, (i as u32 / w) as f32 * ell, 2.0, 1.0]).collect();
+    let normal = vec![[0.0f32, 0.0, 1.0, ell]; n];
+    for omega in [0.1f32, 0.2] {
+        // N_eff over the window the kernels use (d² with 16 d² Ω² ≤ ln 100).
+        let r = window_radius(omega, 16);
+        let (mut s1, mut s2) = (0f64, 0f64);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let e = FILTER_SHARPNESS * (dx * dx + dy * dy) as f32 * omega * omega;
+                if e <= REJECT_EXPONENT {
+                    let wt = (-e as f64).exp();
+                    s1 += wt;
+                    s2 += wt * wt;
+                }
+            }
+        }
+        let n_eff = s1 * s1 / s2;
+        let untruncated = std::f64::consts::PI / (8.0 * (omega as f64).powi(2));
+        assert!((n_eff / untruncated - 1.0).abs() < 0.1, "Ω = {omega}: N_eff {n_eff} vs π/(8Ω²) {untruncated}");
+        let expect = sigma_in / n_eff.sqrt();
+        let omegas = vec![omega; n];
+        let irr: Buffers = BTreeMap::from([
+            ("value", vec3s(value.clone())),
+            ("position", vec4s(position.clone())),
+            ("normal", vec4s(normal.clone())),
+            ("omega", f32s(omegas.clone())),
+            ("pixel_length", f32s(vec![ell; n])),
+        ]);
+        let def: Buffers = BTreeMap::from([("value", vec3s(value.clone())), ("omega", f32s(omegas))]);
+        for (name, inputs, p) in [
+            ("filter.irradiance", &irr, irradiance_params(16)),
+            ("filter.defocus", &def, params(&[("max_radius", int(16))])),
+        ] {
+            let (out, _) = run_cpu(&scene, name, w, h, &p, inputs);
+            let out = vec3_of(&out["out"]);
+            // Interior pixels only (the window is whole there).
+            let inner: Vec<f64> = (0..n)
+                .filter(|i| {
+                    let (x, y) = ((*i as u32 % w) as i32, (*i as u32 / w) as i32);
+                    x >= r && y >= r && x < w as i32 - r && y < h as i32 - r
+                })
+                .map(|i| out[i][0] as f64)
+                .collect();
+            let mean = inner.iter().sum::<f64>() / inner.len() as f64;
+            let std = (inner.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / inner.len() as f64).sqrt();
+            println!("{name} Ω = {omega}: output std {std:.4}, predicted {expect:.4} (N_eff {n_eff:.1}, input std {sigma_in:.4})");
+            assert!((std / expect - 1.0).abs() < 0.12, "{name} Ω = {omega}: std {std} vs {expect}");
+            assert!((mean - 0.5).abs() < 0.01, "{name}: unbiased mean {mean}");
+        }
+    }
+}
+
+/// Eq. 5.32 chained over two components: parity on random inputs and flags, and the sum by hand.
+#[test]
+fn compose_chains_components_eq_5_32() {
+    let scene = scene();
+    let mut rng = Rng(81);
+    let component = |rng: &mut Rng| -> Buffers {
+        let v = |rng: &mut Rng| -> BufferData { vec3s((0..N).map(|_| [rng.unit(), rng.unit(), rng.unit()]).collect()) };
+        BTreeMap::from([
+            ("radiance", v(rng)),
+            ("texture", v(rng)),
+            ("irradiance", v(rng)),
+            ("flag", BufferData::U32((0..N).map(|_| (rng.next() % 2) as u32).collect())),
+        ])
+    };
+    let direct = component(&mut rng);
+    let indirect = component(&mut rng);
+    let (first, _) = run_cpu(&scene, "defocus.compose", W, H, &Params::new(), &direct);
+    let mut second_in = indirect.clone();
+    second_in.insert("previous", first["out"].clone());
+    let (second, _) = run_cpu(&scene, "defocus.compose", W, H, &Params::new(), &second_in);
+    let term = |c: &Buffers, i: usize| -> [f32; 3] {
+        let (l, k, e) = (vec3_of(&c["radiance"])[i], vec3_of(&c["texture"])[i], vec3_of(&c["irradiance"])[i]);
+        if u32_of(&c["flag"])[i] != 0 {
+            [k[0] * e[0], k[1] * e[1], k[2] * e[2]]
+        } else {
+            [l[0], l[1], l[2]]
+        }
+    };
+    for i in 0..N {
+        let (a, b) = (term(&direct, i), term(&indirect, i));
+        assert_eq!(vec3_of(&second["out"])[i], [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
+    }
+    if let Some(mut gpu) = gpu_or_skip("compose_chains_components_eq_5_32") {
+        let mut bad = parity(&mut gpu, &scene, "defocus.compose", W, H, &Params::new(), &direct);
+        bad.extend(parity(&mut gpu, &scene, "defocus.compose", W, H, &Params::new(), &second_in));
+        assert!(bad.is_empty(), "{}", bad.join("\n"));
+    }
+}
+
+/// The first pass of `paths.trace` (16 paths) resolved, on a builtin scene with the given lens.
+fn first_pass(name: &str, aperture: f32, jitter: bool, (w, h): (u32, u32)) -> (Scene, BTreeMap<String, BufferData>) {
+    use wedge::backends::kernels::paths::{PathsResolve, PathsTrace};
+    let mut scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin(name.into())).expect("builtin scene");
+    scene.camera.aperture_radius = aperture;
+    let trace = params(&[
+        ("count", int(16)),
+        ("jitter", ParamValue::Bool(jitter)),
+        ("lens", ParamValue::Str("disk".into())),
+        ("shadow_per_primary", int(1)),
+        ("indirect_per_primary", int(1)),
+        ("light", int(0)),
+        ("stream", int(3)),
+        ("brdf", ParamValue::Str("phong".into())),
+        ("bounces", int(1)),
+    ]);
+    let (rec, _) = run_cpu_with(Arc::new(PathsTrace), &scene, w, h, &trace, &Buffers::new());
+    let (res, _) = run_cpu_with(Arc::new(PathsResolve), &scene, w, h, &Params::new(), &BTreeMap::from([("record", rec["record"].clone())]));
+    (scene, res)
+}
+
+fn direct_flags(scene: &Scene, res: &BTreeMap<String, BufferData>, (w, h): (u32, u32)) -> Vec<u32> {
+    let inputs: Buffers =
+        BTreeMap::from([("radiance", res["l_direct"].clone()), ("texture", res["k_direct"].clone()), ("irradiance", res["e_direct"].clone())]);
+    let (out, _) = run_cpu(scene, "defocus.flags", w, h, &params(&[("threshold", float(0.01))]), &inputs);
+    u32_of(&out["flag"]).to_vec()
+}
+
+/// Issue 11 §3: with one primary point per pixel (pinhole, no jitter) `L`, `k` and `E` share the
+/// centre-of-light form factor, so `k·E = L` and SepDir holds everywhere, textured or not; under
+/// strong defocus the flags turn off where the lens footprint mixes texture and irradiance — at
+/// defocused pixels of the textured board, far more than at pixels in focus.
+#[test]
+fn factoring_is_exact_at_a_single_primary_point_and_flagged_off_under_defocus() {
+    let size = (96u32, 72u32);
+    for name in ["curved", "chess"] {
+        let (scene, res) = first_pass(name, 0.0, false, size);
+        let flags = direct_flags(&scene, &res, size);
+        let (l, k, e) = (vec3_of(&res["l_direct"]), vec3_of(&res["k_direct"]), vec3_of(&res["e_direct"]));
+        let worst = (0..flags.len())
+            .map(|i| (0..3).map(|c| (l[i][c] - k[i][c] * e[i][c]).abs()).fold(0f32, f32::max))
+            .fold(0f32, f32::max);
+        println!("{name}, pinhole: SepDir at {} of {} pixels, max |L − kE| {worst:.2e}", flags.iter().sum::<u32>(), flags.len());
+        assert!(flags.iter().all(|f| *f == 1), "{name}: SepDir everywhere at a single primary point");
+        assert!(worst < 1e-5, "{name}: k·E equals L ({worst})");
+    }
+    // chess with twice the recommended aperture (r up to ~4 px at this size), one image point per
+    // pixel (the thesis's first pass: no pixel jitter, so only the lens spreads the hit points).
+    let (scene, res) = first_pass("chess", 0.1, false, size);
+    let flags = direct_flags(&scene, &res, size);
+    let lens = vec4_of(&res["defocus"]);
+    let off_share = |pick: &dyn Fn(f32) -> bool| {
+        let idx: Vec<usize> = (0..flags.len()).filter(|i| lens[*i][3] > 0.0 && pick(lens[*i][1])).collect();
+        (idx.iter().filter(|i| flags[**i] == 0).count() as f64 / idx.len().max(1) as f64, idx.len())
+    };
+    let (sharp, n_sharp) = off_share(&|r_max| r_max < 0.5);
+    let (blurred, n_blurred) = off_share(&|r_max| r_max > 2.0);
+    println!("chess, aperture 0.1: SepDir off at {:.1}% of {n_sharp} sharp pixels, {:.1}% of {n_blurred} defocused pixels", sharp * 100.0, blurred * 100.0);
+    assert!(n_sharp > 50 && n_blurred > 50, "both kinds of pixel present");
+    assert!(blurred > 0.05 && blurred > 3.0 * sharp, "flags turn off under defocus: {blurred} vs {sharp}");
 }

@@ -4,9 +4,10 @@
 //! `n_dir^f ≤ n_dir^c`; counts monotone in μ; the literal eq. 5.29 stops at `Ω_pix^max`, the
 //! consistent mode shrinks every filter to a pixel and grows every count without bound.
 
+use wedge::scene::Vec2;
 use wedge::effects::defocus::formulas::{
-    direct_rate, filter_width_px, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
-    pixel_scale, primary_rate, primary_strata, secondary_per_primary, secondary_strata, separable, strata_cap, LensShape,
+    compose_term, direct_rate, filter_width_px, light_half_width, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
+    pixel_scale, primary_rate, primary_strata, secondary_per_primary, secondary_strata, separable, strata_cap, lens_std, omega_u_max, LensShape,
     Mode, PixelStats, RateParams, ThinLens, FILTER_SHARPNESS, OMEGA_PIX_MAX,
 };
 
@@ -55,30 +56,28 @@ fn lens_shapes_weights_and_spread() {
     assert_eq!(LensShape::parse("disk"), Some(LensShape::Disk));
     assert_eq!(LensShape::parse("gaussian"), Some(LensShape::Gaussian));
     assert_eq!(LensShape::parse("box"), None);
-    assert_eq!(LensShape::Disk.weight([0.6, 0.6]), 1.0);
-    assert_eq!(LensShape::Disk.weight([0.8, 0.8]), 0.0);
-    // Gaussian σ = 1 over u ∈ [−1, 1]: exp(−|u|²/2), truncated at the rim.
-    assert!(close(LensShape::Gaussian.weight([1.0, 0.0]), (-0.5f32).exp(), 1e-7));
-    assert!(close(LensShape::Gaussian.weight([0.3, 0.4]), (-0.125f32).exp(), 1e-7));
-    assert_eq!(LensShape::Gaussian.weight([1.0, 0.1]), 0.0);
+    // Gaussian σ = 1 over u ∈ [−1, 1]: exp(−|u|²/2) (the sampler keeps u on the unit disk).
+    assert_eq!(LensShape::Disk.weight(Vec2::new(0.6, 0.6)), 1.0);
+    assert!(close(LensShape::Gaussian.weight(Vec2::new(1.0, 0.0)), (-0.5f32).exp(), 1e-7));
+    assert!(close(LensShape::Gaussian.weight(Vec2::new(0.3, 0.4)), (-0.125f32).exp(), 1e-7));
     // The documented per-axis standard deviations, by midpoint quadrature over the disk.
     for shape in [LensShape::Disk, LensShape::Gaussian] {
         let n = 2000;
         let (mut w_sum, mut x2_sum) = (0f64, 0f64);
         for iy in 0..n {
             for ix in 0..n {
-                let u = [(ix as f32 + 0.5) / n as f32 * 2.0 - 1.0, (iy as f32 + 0.5) / n as f32 * 2.0 - 1.0];
-                let w = shape.weight(u) as f64;
+                let u = Vec2::new((ix as f32 + 0.5) / n as f32 * 2.0 - 1.0, (iy as f32 + 0.5) / n as f32 * 2.0 - 1.0);
+                let w = if u.length_squared() <= 1.0 { shape.weight(u) as f64 } else { 0.0 };
                 w_sum += w;
-                x2_sum += w * (u[0] as f64).powi(2);
+                x2_sum += w * (u.x as f64).powi(2);
             }
         }
         let std = (x2_sum / w_sum).sqrt() as f32;
-        assert!(close(std, shape.lens_std(), 2e-3), "{shape:?}: {std} vs {}", shape.lens_std());
-        assert_eq!(shape.omega_u_max(), 1.0);
+        assert!(close(std, lens_std(shape), 2e-3), "{shape:?}: {std} vs {}", lens_std(shape));
+        assert_eq!(omega_u_max(shape), 1.0);
     }
     // Within 5% of each other: the reason one Ω_u^max serves both.
-    assert!((LensShape::Gaussian.lens_std() / LensShape::Disk.lens_std() - 1.0).abs() < 0.05);
+    assert!((lens_std(LensShape::Gaussian) / lens_std(LensShape::Disk) - 1.0).abs() < 0.05);
 }
 
 #[test]
@@ -374,4 +373,39 @@ fn factoring_flag_eq_5_30() {
     assert!(!separable([0.406, 0.106, 0.206], k, e, 0.01));
     assert!(!separable([f32::NAN, 0.1, 0.2], k, e, 0.01));
     assert!(!separable([f32::INFINITY, 0.1, 0.2], k, e, 0.01));
+}
+
+#[test]
+fn light_half_width_and_camera_lens() {
+    use wedge::scene::{AreaLight, Camera, LightShape, Vec3};
+    let rect = AreaLight {
+        shape: LightShape::Rect { corner: Vec3::ZERO, edge_u: Vec3::new(0.6, 0.0, 0.0), edge_v: Vec3::new(0.0, 0.0, 0.2) },
+        radiance: Vec3::ONE,
+        two_sided: false,
+    };
+    // ℓ_I = half the longer side (0.3), not Ch. 3's 0.6/√12 = 0.173.
+    assert!(close(light_half_width(&rect), 0.3, 1e-6));
+    let tri = AreaLight {
+        shape: LightShape::Triangle { v0: Vec3::ZERO, v1: Vec3::new(0.3, 0.0, 0.0), v2: Vec3::new(0.0, 0.4, 0.0) },
+        radiance: Vec3::ONE,
+        two_sided: false,
+    };
+    assert!(close(light_half_width(&tri), 0.25, 1e-6)); // hypotenuse 0.5
+    let camera = Camera { aperture_radius: 0.05, focus_distance: 4.0, vfov_deg: 45.0, ..Camera::default() };
+    assert_eq!(ThinLens::from_camera(&camera, 512), ThinLens::new(0.05, 4.0, 45.0, 512));
+    // The path sampler's circle of confusion (Camera::coc_pixels) is the same eq. 5.2.
+    for z in [0.5f32, 2.0, 4.0, 9.0] {
+        let (ours, camera_r) = (ThinLens::from_camera(&camera, 512).circle_of_confusion(z), camera.coc_pixels(z, 512));
+        assert!(close(ours, camera_r, 1e-5), "z = {z}: {ours} vs {camera_r}");
+    }
+    // Focus distance unset: focus at the look-at point (here 5 units away).
+    let unset = Camera { position: Vec3::new(0.0, 3.0, 4.0), look_at: Vec3::ZERO, focus_distance: 0.0, ..camera };
+    assert_eq!(ThinLens::from_camera(&unset, 512), ThinLens::new(0.05, 5.0, 45.0, 512));
+}
+
+#[test]
+fn compose_term_eq_5_32() {
+    let (l, k, e) = ([0.3, 0.2, 0.1], [0.5, 0.25, 1.0], [0.8, 0.4, 0.2]);
+    assert_eq!(compose_term(l, k, e, true), [0.4, 0.1, 0.2]);
+    assert_eq!(compose_term(l, k, e, false), l);
 }

@@ -30,7 +30,7 @@
 //! `ℓ_p` not finite or ≤ 0, no hit (`position.w ≤ 0`) or a zero normal. Non-finite values are never
 //! used as neighbours; each pixel whose own value is non-finite is counted once in
 //! `non_finite_samples`, and gets its neighbours' average if it has any (else it keeps its value: it is
-//! never spread). `value.w` passes through.
+//! never spread). Values are rgb (`vec3`), as `paths.resolve` writes `E` and compose writes radiance.
 
 use glam::Vec3;
 use wedge_graph::Format;
@@ -53,14 +53,24 @@ pub const MAX_RADIUS_LIMIT: i64 = 64;
 /// Half-width in pixels of the square window for width `omega`: `ceil(0.5365/Ω)`, at most `cap`.
 pub fn window_radius(omega: f32, cap: i32) -> i32 {
     let r = REJECT_RADIUS / omega;
-    if !(r < cap as f32) {
+    if r.is_nan() || r >= cap as f32 {
         cap
     } else {
         (r.ceil() as i32).max(0)
     }
 }
 
-fn is_finite3(v: [f32; 4]) -> bool {
+/// Whether a weight exponent `16 d² (Ω/ℓ)²` keeps the weight at or above 0.01 (false for NaN).
+fn within_filter(exponent: f32) -> bool {
+    exponent <= REJECT_EXPONENT
+}
+
+/// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
+fn is_hit(position: [f32; 4]) -> bool {
+    position[3] > 0.0
+}
+
+fn is_finite3(v: [f32; 3]) -> bool {
     v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
 }
 
@@ -119,16 +129,16 @@ pub fn irradiance_pixel(
     width: i32,
     height: i32,
     p: &IrradianceParams,
-    value: &[[f32; 4]],
+    value: &[[f32; 3]],
     position: &[[f32; 4]],
     normal: &[[f32; 4]],
     omega: &[f32],
     pixel_length: &[f32],
-) -> [f32; 4] {
+) -> [f32; 3] {
     let i = (y * width + x) as usize;
     let centre = value[i];
     let (om, ell) = (omega[i], pixel_length[i]);
-    if !valid_width(om) || !valid_width(ell) || !(position[i][3] > 0.0) {
+    if !valid_width(om) || !valid_width(ell) || !is_hit(position[i]) {
         return centre;
     }
     let ni = v3(normal[i]).normalize_or_zero();
@@ -148,7 +158,7 @@ pub fn irradiance_pixel(
                 continue;
             }
             let j = (jy * width + jx) as usize;
-            if !(position[j][3] > 0.0) {
+            if !is_hit(position[j]) {
                 continue;
             }
             let v = value[j];
@@ -161,13 +171,13 @@ pub fn irradiance_pixel(
             let dist2 = (v3(position[j]) - xi).length_squared();
             // Outside i's truncated Gaussian (w_i(j) < 0.01).
             let e_i = FILTER_SHARPNESS * dist2 * gi2;
-            if e_i > REJECT_EXPONENT {
+            if !within_filter(e_i) {
                 continue;
             }
             // i outside j's filter: w_j(i) < 0.01 rejects j (thesis Sec. 5.8).
             let gj = omega[j] / pixel_length[j];
             let e_j = FILTER_SHARPNESS * dist2 * (gj * gj);
-            if !(e_j <= REJECT_EXPONENT) {
+            if !within_filter(e_j) {
                 continue;
             }
             let w = (-e_i).exp();
@@ -178,7 +188,7 @@ pub fn irradiance_pixel(
         }
     }
     if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, centre[3]]
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
     } else {
         centre
     }
@@ -193,9 +203,9 @@ pub fn defocus_pixel(
     height: i32,
     max_radius: i32,
     axis: Axis,
-    value: &[[f32; 4]],
+    value: &[[f32; 3]],
     omega: &[f32],
-) -> [f32; 4] {
+) -> [f32; 3] {
     let i = (y * width + x) as usize;
     let centre = value[i];
     let om = omega[i];
@@ -219,12 +229,12 @@ pub fn defocus_pixel(
             }
             let d2 = (dx * dx + dy * dy) as f32;
             let e_i = FILTER_SHARPNESS * d2 * gi2;
-            if e_i > REJECT_EXPONENT {
+            if !within_filter(e_i) {
                 continue;
             }
             let oj = omega[j];
             let e_j = FILTER_SHARPNESS * d2 * (oj * oj);
-            if !(e_j <= REJECT_EXPONENT) {
+            if !within_filter(e_j) {
                 continue;
             }
             let w = (-e_i).exp();
@@ -235,7 +245,7 @@ pub fn defocus_pixel(
         }
     }
     if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, centre[3]]
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
     } else {
         centre
     }
@@ -265,7 +275,7 @@ fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
     })
 }
 
-fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 4]]) {
+fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
     let n = value.iter().filter(|v| !is_finite3(**v)).count() as u64;
     Counters::add(&ctx.counters.non_finite_samples, n);
 }
@@ -282,12 +292,12 @@ impl Kernel for IrradianceFilter {
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
-            Binding::read("value", Format::Vec4),
+            Binding::read("value", Format::Vec3),
             Binding::read("position", Format::Vec4),
             Binding::read("normal", Format::Vec4),
             Binding::read("omega", Format::F32),
             Binding::read("pixel_length", Format::F32),
-            Binding::write("out", Format::Vec4),
+            Binding::write("out", Format::Vec3),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -302,7 +312,7 @@ impl Kernel for IrradianceFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
+        let value = ctx.read::<[f32; 3]>("value")?;
         let position = ctx.read::<[f32; 4]>("position")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let omega = ctx.read::<f32>("omega")?;
@@ -328,7 +338,7 @@ impl Kernel for DefocusFilter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("value", Format::Vec4), Binding::read("omega", Format::F32), Binding::write("out", Format::Vec4)]
+        vec![Binding::read("value", Format::Vec3), Binding::read("omega", Format::F32), Binding::write("out", Format::Vec3)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -339,7 +349,7 @@ impl Kernel for DefocusFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
+        let value = ctx.read::<[f32; 3]>("value")?;
         let omega = ctx.read::<f32>("omega")?;
         let (r, a) = (max_radius(ctx)?, axis(ctx)?);
         count_non_finite(ctx, value);

@@ -26,11 +26,12 @@
 //!   limit `Ω_x^s`, and `n_dir` has no light factor: one shadow ray per primary ray suffices for a
 //!   constant visibility); likewise no reflector hit means no `z` term. `s` and `z` are clamped at 0.
 //! - **Rounding for full stratification** (Sec. 5.8 footnote 6): `n_p → p²`, secondary counts →
-//!   `p² s²` with `s ≥ 1` (at least one secondary ray per primary ray). A rate within
-//!   [`ROUNDING_SLACK`] of a square root integer rounds down to it, so float noise in e.g.
+//!   `p² s²` with `s ≥ 1` (at least one secondary ray per primary ray). A rate whose square root
+//!   exceeds an integer `p` by less than [`ROUNDING_SLACK`] takes `p` strata, so float noise in e.g.
 //!   `(0.5 + 0.5)² = 1` never adds a stratum.
 
 use wedge_backends::kernels::filter_ch5;
+use wedge_scene::{AreaLight, Camera, LightShape};
 
 /// `Ω_pix^max`: the pixel bandlimit of one sample per pixel (thesis eq. 5.7).
 pub const OMEGA_PIX_MAX: f32 = 0.5;
@@ -43,69 +44,23 @@ pub const ROUNDING_SLACK: f32 = 1e-4;
 /// Filter constants of eqs. 5.31 and 5.33 (the shared filter kernels own them).
 pub use filter_ch5::{FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_WEIGHT};
 
-/// The aperture's weight over the unit lens disk.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LensShape {
-    /// Uniform over the unit disk (pbrt's and Mitsuba's thin lens): the default.
-    Disk,
-    /// The thesis's Gaussian weight `exp(−|u|²/2)` (σ = 1) truncated to the unit disk (Sec. 5.4).
-    Gaussian,
+/// The aperture's weight over the unit lens disk: the camera's (`wedge_scene::LensShape`, which the
+/// path sampler applies; `disk` uniform, `gaussian` the thesis's `exp(−|u|²/2)`).
+pub use wedge_scene::LensShape;
+
+/// Per-axis standard deviation of the lens position `u` under the shape's weight on the unit disk
+/// (closed forms: the disk's is 1/2; the truncated Gaussian's is `sqrt(E[|u|²]/2)` with
+/// `E[|u|²] = 2(1 − 1.5 e^{−1/2}) / (1 − e^{−1/2}) = 0.45851`).
+pub fn lens_std(shape: LensShape) -> f32 {
+    match shape {
+        LensShape::Disk => 0.5,
+        LensShape::Gaussian => 0.478_803_7,
+    }
 }
 
-impl LensShape {
-    pub const NAMES: [&'static str; 2] = ["disk", "gaussian"];
-
-    pub fn parse(name: &str) -> Option<LensShape> {
-        match name {
-            "disk" => Some(LensShape::Disk),
-            "gaussian" => Some(LensShape::Gaussian),
-            _ => None,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            LensShape::Disk => "disk",
-            LensShape::Gaussian => "gaussian",
-        }
-    }
-
-    /// The value a kernel's uniform block carries (`defocus_lens_weight` in WGSL): 0 disk, 1 gaussian.
-    pub fn code(self) -> u32 {
-        match self {
-            LensShape::Disk => 0,
-            LensShape::Gaussian => 1,
-        }
-    }
-
-    /// Unnormalised aperture weight `A(u)` of a lens position `u` (unit-disk coordinates): 0 outside
-    /// the disk. The thesis applies it as an explicit weight on uniformly drawn lens samples rather
-    /// than importance sampling it (Sec. 5.8, step 2).
-    pub fn weight(self, u: [f32; 2]) -> f32 {
-        let r2 = u[0] * u[0] + u[1] * u[1];
-        if !(r2 <= 1.0) {
-            return 0.0;
-        }
-        match self {
-            LensShape::Disk => 1.0,
-            LensShape::Gaussian => (-0.5 * r2).exp(),
-        }
-    }
-
-    /// Per-axis standard deviation of `u` under [`LensShape::weight`] (closed forms: the disk's is
-    /// 1/2; the truncated Gaussian's is `sqrt(E[|u|²]/2)` with
-    /// `E[|u|²] = 2(1 − 1.5 e^{−1/2}) / (1 − e^{−1/2}) = 0.45851`).
-    pub fn lens_std(self) -> f32 {
-        match self {
-            LensShape::Disk => 0.5,
-            LensShape::Gaussian => 0.478_803_7,
-        }
-    }
-
-    /// `Ω_u^max` (Sec. 5.4). The same for both shapes (see the module docs).
-    pub fn omega_u_max(self) -> f32 {
-        OMEGA_U_MAX
-    }
+/// `Ω_u^max` (Sec. 5.4): the same for both shapes (see the module docs).
+pub fn omega_u_max(_shape: LensShape) -> f32 {
+    OMEGA_U_MAX
 }
 
 /// A thin-lens camera in the pixel units of Ch. 5.
@@ -145,6 +100,24 @@ impl ThinLens {
     pub fn surface_offset(&self, x: [f32; 2], u: [f32; 2], z: f32) -> [f32; 2] {
         let (l, r) = (self.pixel_length(z), self.circle_of_confusion(z));
         [l * (x[0] + r * u[0]), l * (x[1] + r * u[1])]
+    }
+}
+
+impl ThinLens {
+    /// The camera's thin lens at an image `height` in pixels (an unset `focus_distance` focuses at
+    /// the look-at point: `Camera::effective_focus_distance`).
+    pub fn from_camera(camera: &Camera, height: u32) -> ThinLens {
+        ThinLens::new(camera.aperture_radius, camera.effective_focus_distance(), camera.vfov_deg, height)
+    }
+}
+
+/// `ℓ_I`: the light's physical half-width (thesis Sec. 5.5: `I(y)` over `[−ℓ_I, ℓ_I]`,
+/// `Ω_y^max = 1/ℓ_I`), along its longer extent: half the longer side of a rectangle, half the
+/// longest edge of a triangle. Not Ch. 3's `w/√12` std-dev reading (`EQUATIONS.md`).
+pub fn light_half_width(light: &AreaLight) -> f32 {
+    match light.shape {
+        LightShape::Rect { edge_u, edge_v, .. } => 0.5 * edge_u.length().max(edge_v.length()),
+        LightShape::Triangle { v0, v1, v2 } => 0.5 * (v1 - v0).length().max((v2 - v1).length()).max((v0 - v2).length()),
     }
 }
 
@@ -406,4 +379,14 @@ pub fn separable(l: [f32; 3], k: [f32; 3], e: [f32; 3], threshold: f32) -> bool 
     let d = [l[0] - k[0] * e[0], l[1] - k[1] * e[1], l[2] - k[2] * e[2]];
     let err2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     err2 < threshold * threshold
+}
+
+/// One component's term of the composed radiance (thesis eq. 5.32): the factored product `k E` (with
+/// `E` filtered) where the pixel's flag says the component factors, else its lens-integrated `L`.
+pub fn compose_term(l: [f32; 3], k: [f32; 3], e: [f32; 3], factored: bool) -> [f32; 3] {
+    if factored {
+        [k[0] * e[0], k[1] * e[1], k[2] * e[2]]
+    } else {
+        l
+    }
 }

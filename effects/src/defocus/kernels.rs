@@ -1,17 +1,18 @@
-//! The defocus kernels: `defocus.rates` and `defocus.flags` (thesis Sec. 5.7–5.8), CPU here and WGSL
-//! in `shaders/defocus_rates.wgsl` / `shaders/defocus_flags.wgsl`, both built on the formulas of
+//! The defocus kernels: `defocus.rates`, `defocus.flags` and `defocus.compose` (thesis Sec. 5.7–5.8),
+//! CPU here and WGSL in `shaders/defocus_{rates,flags,compose}.wgsl`, all built on the formulas of
 //! [`super::formulas`] (WGSL mirror: `shaders/defocus_formulas.wgsl`).
 //!
 //! Buffer conventions (per pixel; `w > 0` marks a statistic that exists):
 //! - `lens` (vec4): `r_min`, `r_max` (|circle of confusion| in pixels over the pixel's lens samples,
-//!   eq. 5.2), lens-averaged depth along the optical axis, and `w` = the number of primary rays that
-//!   hit (0: every primary ray missed).
+//!   eq. 5.2), lens-averaged depth along the optical axis, and `w > 0` where some primary ray hit (a
+//!   hit count, or `ℓ_p` as `paths.resolve`'s `defocus` output has it; 0: every primary ray missed).
 //! - `occlusion` (vec4, optional): `d1`, `d2_min`, `d2_max` as `shadows.rs` defines them (slopes by
 //!   eq. 5.17 / 3.4), `w > 0` when some shadow sample was occluded. Unbound: no occluders anywhere.
-//! - `reflectors` (vec4, optional): `z_min`, `z_max` (distances to indirect reflectors), `w > 0` when
-//!   some indirect sample hit. Unbound: no reflector terms.
-//! - `radiance`, `texture`, `irradiance` (vec4, rgb in `xyz`): one component's lens-integrated `L`,
-//!   `k`, `E` (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect).
+//! - `reflectors` (vec4, optional): `z_min`, `z_max` (distances to indirect reflectors), indirect
+//!   samples that hit (`> 0`: the statistic exists), indirect samples — the layout `indirect.sample`
+//!   and `paths.resolve` write as `depth`. Unbound: no reflector terms.
+//! - `radiance`, `texture`, `irradiance` (vec3 rgb): one component's lens-integrated `L`, `k`, `E`
+//!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use wedge_graph::Format;
@@ -31,15 +32,27 @@ fn mode_param(ctx: &KernelCtx<'_>) -> Result<Mode, BackendError> {
     })
 }
 
+/// A number parameter that must be finite and above (or, with `zero_ok`, at least) 0.
+fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32, BackendError> {
+    let v = ctx.f32_param(name)?;
+    if v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)) {
+        return Ok(v);
+    }
+    Err(BackendError::Kernel {
+        pass: ctx.pass.to_string(),
+        message: format!("parameter `{name}` = {v}; it must be a finite number {}", if zero_ok { ">= 0" } else { "> 0" }),
+    })
+}
+
 /// The pass's rate constants from its parameter block.
 pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     Ok(RateParams {
-        mu: ctx.f32_param("mu")?,
+        mu: positive_param(ctx, "mu", false)?,
         mode: mode_param(ctx)?,
-        omega_pix: ctx.f32_param("omega_pix")?,
-        pixel_scale: ctx.f32_param("pixel_scale")?,
-        light_half_width: ctx.f32_param("light_half_width")?,
-        omega_v: ctx.f32_param("omega_v")?,
+        omega_pix: positive_param(ctx, "omega_pix", false)?,
+        pixel_scale: positive_param(ctx, "pixel_scale", false)?,
+        light_half_width: positive_param(ctx, "light_half_width", true)?,
+        omega_v: positive_param(ctx, "omega_v", false)?,
         max_primary: ctx.int_param("max_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
         max_per_primary: ctx.int_param("max_per_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
     })
@@ -52,7 +65,7 @@ pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Opti
         _ => (0.0, 0.0),
     };
     let (z_min, z_max) = match reflectors {
-        Some(z) if z[3] > 0.0 => (z[0], z[1]),
+        Some(z) if z[2] > 0.0 => (z[0], z[1]),
         _ => (0.0, 0.0),
     };
     PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max }
@@ -141,31 +154,80 @@ impl Kernel for Flags {
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
-            Binding::read("radiance", Format::Vec4),
-            Binding::read("texture", Format::Vec4),
-            Binding::read("irradiance", Format::Vec4),
+            Binding::read("radiance", Format::Vec3),
+            Binding::read("texture", Format::Vec3),
+            Binding::read("irradiance", Format::Vec3),
             Binding::write("flag", Format::U32),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_flags.wgsl"), |ctx| {
-                Ok(Uniforms::new().f32("threshold", ctx.f32_param("threshold")?))
+                Ok(Uniforms::new().f32("threshold", positive_param(ctx, "threshold", true)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let l = ctx.read::<[f32; 4]>("radiance")?;
-        let k = ctx.read::<[f32; 4]>("texture")?;
-        let e = ctx.read::<[f32; 4]>("irradiance")?;
-        let threshold = ctx.f32_param("threshold")?;
-        let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
+        let l = ctx.read::<[f32; 3]>("radiance")?;
+        let k = ctx.read::<[f32; 3]>("texture")?;
+        let e = ctx.read::<[f32; 3]>("irradiance")?;
+        let threshold = positive_param(ctx, "threshold", true)?;
         let flag: Vec<u32> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            formulas::separable(rgb(l[i]), rgb(k[i]), rgb(e[i]), threshold) as u32
+            formulas::separable(l[i], k[i], e[i], threshold) as u32
         });
         ctx.put("flag", flag)
+    }
+}
+
+/// `defocus.compose`: one component of eq. 5.32 added to a running sum,
+/// `out = previous + (flag ? k E : L)` with `E` the filtered irradiance and `flag` the (median-filtered)
+/// SepDir / SepInd. One pass per component (direct; indirect diffuse; indirect glossy), each reading
+/// the previous pass's `out` as `previous` (unbound for the first: the sum starts at 0). Non-finite
+/// values pass through unchanged
+/// to the defocus filter, which counts and excludes them (counting here too would count them twice).
+pub struct Compose;
+
+impl Kernel for Compose {
+    fn name(&self) -> &'static str {
+        "defocus.compose"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("radiance", Format::Vec3),
+            Binding::read("texture", Format::Vec3),
+            Binding::read("irradiance", Format::Vec3),
+            Binding::read("flag", Format::U32),
+            Binding::read_opt("previous", Format::Vec3),
+            Binding::write("out", Format::Vec3),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/defocus_compose.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let l = ctx.read::<[f32; 3]>("radiance")?;
+        let k = ctx.read::<[f32; 3]>("texture")?;
+        let e = ctx.read::<[f32; 3]>("irradiance")?;
+        let flag = ctx.read::<u32>("flag")?;
+        let previous = ctx.read_opt::<[f32; 3]>("previous")?;
+        let out: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            let t = formulas::compose_term(l[i], k[i], e[i], flag[i] != 0);
+            match previous {
+                Some(p) => [p[i][0] + t[0], p[i][1] + t[1], p[i][2] + t[2]],
+                None => t,
+            }
+        });
+        ctx.put("out", out)
     }
 }

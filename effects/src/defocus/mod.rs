@@ -6,8 +6,9 @@
 //!   widths `Ω_x^d` (5.7–5.8), `Ω_x^s` (5.18), `Ω_x^i` (5.22), the rates `n_p`, `n_dir^{f|c}`,
 //!   `n_ind^{f|c}` (5.24–5.28) with `Ω(μ)` (5.29) in a `literal` and a `consistent` mode, rounding for
 //!   full stratification, and the factoring test (5.30);
-//! - [`kernels`]: `defocus.rates` (widths and counts per pixel) and `defocus.flags` (SepDir / SepInd),
-//!   each with a CPU implementation and a WGSL one (`shaders/defocus_*.wgsl`).
+//! - [`kernels`]: `defocus.rates` (widths and counts per pixel), `defocus.flags` (SepDir / SepInd,
+//!   5.30) and `defocus.compose` (5.32), each with a CPU implementation and a WGSL one
+//!   (`shaders/defocus_*.wgsl`).
 //!
 //! The shared kernels the Ch. 5 stages also use live in `wedge-backends`: `neighbourhood.max3` (3×3 max
 //! on counts), `neighbourhood.median3` (3×3 median on flags), `filter.irradiance` (5.31) and
@@ -21,8 +22,9 @@ use wedge_backends::KernelRegistry;
 pub mod formulas;
 pub mod kernels;
 
-/// Register the defocus kernels (`defocus.rates`, `defocus.flags`).
+/// Register the defocus kernels (`defocus.rates`, `defocus.flags`, `defocus.compose`).
 pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::Rates));
     reg.register(Arc::new(kernels::Flags));
+    reg.register(Arc::new(kernels::Compose));
 }
