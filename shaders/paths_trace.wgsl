@@ -108,7 +108,17 @@ fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n
     let m = mat.phong_exponent;
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
 
-    // Direct (eqs. 5.9–5.14, glossy folded into k: eq. 5.20).
+    if (params.direct != 0u) {
+        trace_direct(x, n, wo, kd, ks, m, is_glossy, w, pixel, n_shadow);
+    }
+    if (params.indirect != 0u) {
+        trace_indirect(x, n, wo, kd, ks, m, is_glossy, w, pixel, key_d, key_g, n_indirect);
+    }
+}
+
+// Direct (eqs. 5.9–5.14, glossy folded into k: eq. 5.20); `exact`: per-sample geometry term.
+fn trace_direct(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
+        w: f32, pixel: u32, n_shadow: u32) {
     let l = area_light(params.light);
     let fc = light_centre_factor(l, x, n);
     var k = kd;
@@ -122,7 +132,7 @@ fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n
     for (var s = 0u; s < n_shadow; s = s + 1u) {
         let u = draw(pixel, PAIR_LIGHT, rec.shadow);
         rec.shadow = rec.shadow + 1u;
-        let ls = light_sample(l, x, n, u, true, fc, true);
+        let ls = light_sample(l, x, n, u, params.exact == 0u, fc, true);
         if (ls.occluded) {
             rec.occluded = rec.occluded + 1u;
             if (rec.occluded == 1u) {
@@ -141,10 +151,13 @@ fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n
         }
     }
     accumulate_direct(k, e, valid, w);
+}
 
-    // Indirect diffuse.
-    e = vec3<f32>(0.0);
-    valid = 0u;
+// Indirect diffuse, and glossy where the surface has a lobe.
+fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
+        w: f32, pixel: u32, key_d: u32, key_g: u32, n_indirect: u32) {
+    var e = vec3<f32>(0.0);
+    var valid = 0u;
     for (var s = 0u; s < n_indirect; s = s + 1u) {
         let q = rec.diffuse_samples;
         rec.diffuse_samples = rec.diffuse_samples + 1u;

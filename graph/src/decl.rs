@@ -508,6 +508,7 @@ pub trait NodeKind: Send + Sync {
 #[derive(Clone, Default)]
 pub struct NodeRegistry {
     kinds: Vec<Arc<dyn NodeKind>>,
+    sampler: Option<Arc<dyn crate::sampler::SamplerKind>>,
 }
 
 impl NodeRegistry {
@@ -523,6 +524,15 @@ impl NodeRegistry {
     }
     pub fn get(&self, name: &str) -> Option<&Arc<dyn NodeKind>> {
         self.kinds.iter().find(|k| k.kind() == name)
+    }
+    /// Register the shared sampler nodes ask for in `expand` ([`crate::sampler`]); a later one
+    /// replaces an earlier one.
+    pub fn register_sampler(&mut self, sampler: Arc<dyn crate::sampler::SamplerKind>) -> &mut Self {
+        self.sampler = Some(sampler);
+        self
+    }
+    pub fn sampler(&self) -> Option<&Arc<dyn crate::sampler::SamplerKind>> {
+        self.sampler.as_ref()
     }
     pub fn names(&self) -> Vec<&'static str> {
         self.kinds.iter().map(|k| k.kind()).collect()

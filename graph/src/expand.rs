@@ -14,6 +14,7 @@
 use std::collections::BTreeMap;
 
 use crate::decl::{Format, ParamValue};
+use crate::sampler::{CountRequest, SamplerPass, SamplerPlan, SamplerRequest};
 use crate::stage::{stream_id, Reference, Stage};
 use crate::GraphError;
 
@@ -46,6 +47,9 @@ pub struct Pass {
     pub random: bool,
     /// What it does in a reference render.
     pub reference: Reference,
+    /// The full name of the earlier pass whose random sequences this one continues (it takes that
+    /// pass's stream, so the two passes' samples are one progressive set); `None` for its own stream.
+    pub continues: Option<String>,
 }
 
 impl Pass {
@@ -61,6 +65,7 @@ impl Pass {
             stage,
             random: false,
             reference: Reference::Keep,
+            continues: None,
         }
     }
     pub fn read(&self, binding: &str) -> Option<BufferId> {
@@ -108,6 +113,8 @@ pub struct ExpandCtx<'a> {
     pub(crate) params: &'a BTreeMap<String, ParamValue>,
     pub(crate) inputs: &'a BTreeMap<String, BufferId>,
     pub(crate) expansion: &'a mut Expansion,
+    /// The shared sampler's requests so far ([`crate::sampler`]); `None` outside [`crate::expand()`].
+    pub(crate) sampler: Option<&'a mut SamplerPlan>,
 }
 
 impl<'a> ExpandCtx<'a> {
@@ -123,7 +130,45 @@ impl<'a> ExpandCtx<'a> {
             params,
             inputs,
             expansion,
+            sampler: None,
         }
+    }
+    /// A context whose node can ask for the shared sampler ([`ExpandCtx::sampler`]).
+    pub fn with_sampler(mut self, plan: &'a mut SamplerPlan) -> Self {
+        self.sampler = Some(plan);
+        self
+    }
+    fn plan(&mut self) -> Result<&mut SamplerPlan, GraphError> {
+        let node = self.node;
+        self.sampler.as_deref_mut().ok_or_else(|| GraphError::Expand {
+            node: node.to_string(),
+            message: "asks for the shared sampler outside a pipeline expansion".into(),
+        })
+    }
+    /// Ask for the shared sampler with these estimators and settings (merged with other nodes':
+    /// identical settings shared, a conflicting one an error naming both nodes).
+    pub fn sampler(&mut self, request: SamplerRequest) -> Result<(), GraphError> {
+        let node = self.node;
+        self.plan()?.request(node, request)
+    }
+    /// A handle to one of the sampler's resolved outputs after its first or its final pass.
+    pub fn sampler_output(&mut self, pass: SamplerPass, name: &str) -> Result<BufferId, GraphError> {
+        let node = self.node;
+        let plan = self.sampler.as_deref_mut().ok_or_else(|| GraphError::Expand {
+            node: node.to_string(),
+            message: "reads a sampler output outside a pipeline expansion".into(),
+        })?;
+        plan.output(node, self.expansion, pass, name)
+    }
+    /// Submit this node's per-pixel counts for the adaptive pass (buffers it writes in
+    /// `Stage::Bandwidth`).
+    pub fn sampler_counts(&mut self, request: CountRequest) -> Result<(), GraphError> {
+        let node = self.node;
+        let plan = self.sampler.as_deref_mut().ok_or_else(|| GraphError::Expand {
+            node: node.to_string(),
+            message: "submits sampler counts outside a pipeline expansion".into(),
+        })?;
+        plan.counts(node, self.expansion, request)
     }
     pub fn node(&self) -> &str {
         self.node
@@ -224,6 +269,14 @@ impl PassBuilder<'_, '_> {
         self.pass.random = true;
         self
     }
+    /// The pass draws random numbers continuing the sequences of this node's earlier pass `first`
+    /// (local name): it takes `first`'s stream, so its samples extend that pass's progressive set
+    /// (e.g. an adaptive pass continuing a first pass's record).
+    pub fn random_continuing(mut self, first: &str) -> Self {
+        self.pass.random = true;
+        self.pass.continues = Some(format!("{}.{first}", self.ctx.node));
+        self
+    }
     /// Its role in a reference render (default [`Reference::Keep`]).
     pub fn reference(mut self, role: Reference) -> Self {
         self.pass.reference = role;
@@ -233,7 +286,7 @@ impl PassBuilder<'_, '_> {
         self.pass.name = format!("{}.{}", self.ctx.node, self.local_name);
         self.pass.node = self.ctx.node.to_string();
         if self.pass.random {
-            let stream = stream_id(&self.pass.name);
+            let stream = stream_id(self.pass.continues.as_deref().unwrap_or(&self.pass.name));
             self.pass.params.insert("stream".into(), ParamValue::Int(i64::from(stream)));
         }
         self.ctx.expansion.passes.push(self.pass);

@@ -9,6 +9,8 @@
 //! - [`expand()`]: turns validated nodes into passes (kernel + bindings + parameter block), each with
 //!   its [`Stage`], whether it is random (the graph assigns its stream, [`stream_id`]) and its
 //!   [`Reference`] role;
+//! - [`sampler`]: the shared sampler nodes ask for from `expand` (requests, handles, count requests;
+//!   the registered [`SamplerKind`] emits its passes once after every node expanded);
 //! - [`reference()`]: turns an expansion into the pipeline's own plain Monte Carlo reference (filters
 //!   bypassed, counts constant, sampling passes at the reference's count and sampling);
 //! - [`schedule()`]: checks stage order and stream uniqueness, culls passes that feed no sink, orders
@@ -21,6 +23,7 @@ pub mod expand;
 mod explain;
 pub mod pipeline;
 mod reference;
+pub mod sampler;
 mod schedule;
 mod source_map;
 pub mod stage;
@@ -30,6 +33,7 @@ pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, Para
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
 pub use pipeline::{CameraProblem, CameraSpec, Location, NodeSpec, Pipeline, RawParam};
 pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
+pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SAMPLER_NODE};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use stage::{stream_id, Reference, Stage};
 pub use validate::{

@@ -6,6 +6,8 @@
 //!   input instead (a chain of filters collapses to the unfiltered value).
 //! - **Count** passes (`Reference::Count`, per-pixel sample counts) are replaced by the shared kernel
 //!   `fill.constant` writing the reference count `N` into each count buffer.
+//! - **CountPerPrimary** passes (secondary samples per primary path) are replaced the same way by
+//!   `fill.constant` writing 1: each of the reference's N paths takes one secondary sample.
 //! - **Sample** passes take `count = N` and the reference's `sampling`; a **Continued** first pass
 //!   takes `count = 0`, so the pass that continues it draws all `N` samples as one set: a stratified
 //!   reference is N jointly stratified samples (per light, per component), an independent one N
@@ -83,7 +85,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 }
             }
         }
-        if role == Reference::Count {
+        if matches!(role, Reference::Count | Reference::CountPerPrimary) {
             for (binding, id) in &p.writes {
                 let f = buffers[id.0].format;
                 if f != Format::U32 {
@@ -126,13 +128,14 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
     for p in passes {
         match p.reference {
             Reference::Bypass { .. } => continue,
-            Reference::Count => {
+            Reference::Count | Reference::CountPerPrimary => {
+                let value = if p.reference == Reference::Count { count.clone() } else { ParamValue::Int(1) };
                 let many = p.writes.len() > 1;
                 for (binding, id) in &p.writes {
                     let name = if many { format!("{}[{binding}]", p.name) } else { p.name.clone() };
                     let mut fill = Pass::new(&name, &p.node, FILL_CONSTANT, p.stage);
                     fill.writes.push(("out".into(), *id));
-                    fill.params.insert("value".into(), count.clone());
+                    fill.params.insert("value".into(), value.clone());
                     writer_stage.insert(*id, p.stage);
                     out_passes.push(fill);
                 }

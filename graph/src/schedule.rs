@@ -283,7 +283,9 @@ fn check_stages_and_streams(
         .collect();
     streams.sort_by_key(|(s, p)| (*s, p.name.clone()));
     for w in streams.windows(2) {
-        if w[0].0 == w[1].0 {
+        // A pass continuing another's sequences takes its stream on purpose.
+        let continuing = |a: &Pass, b: &Pass| a.continues.as_deref() == Some(b.name.as_str());
+        if w[0].0 == w[1].0 && !continuing(w[0].1, w[1].1) && !continuing(w[1].1, w[0].1) {
             problems.push((
                 w[1].1.node.clone(),
                 format!(

@@ -82,6 +82,11 @@ pub enum Reference {
     /// Writes per-pixel sample counts (`u32` buffers): replaced by the shared kernel `fill.constant`
     /// writing the reference count to each of them.
     Count,
+    /// Writes per-pixel secondary samples per primary path (`u32` buffers, e.g. shadow rays per
+    /// path): replaced by `fill.constant` writing 1, so each of a reference's N paths takes one
+    /// secondary sample per estimator — N jointly stratified samples per pixel, not N × the
+    /// pipeline's per-primary count.
+    CountPerPrimary,
     /// Draws samples: in a reference its `count` parameter becomes the reference count and its
     /// `sampling` the reference's (`stratified` or `independent`). A pass with per-pixel counts reads
     /// them from a [`Reference::Count`] pass, which then writes the reference count.

@@ -251,6 +251,8 @@ pub struct ValidatedPipeline {
     pub pipeline: Pipeline,
     pub path: PathBuf,
     pub nodes: Vec<ValidatedNode>,
+    /// The registry's shared sampler, emitted by [`expand()`] when some node asks for it.
+    pub sampler: Option<Arc<dyn crate::sampler::SamplerKind>>,
 }
 
 impl ValidatedPipeline {
@@ -965,6 +967,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         pipeline: pl.clone(),
         path: p.path.clone(),
         nodes,
+        sampler: reg.sampler().cloned(),
     })
 }
 
@@ -1037,6 +1040,7 @@ fn find_cycles(succ: &[Vec<(usize, String, String)>]) -> Vec<Vec<(usize, String,
 pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
     let mut expansion = Expansion::default();
     let mut written: HashMap<BufferId, String> = HashMap::new(); // buffer → name of the pass writing it
+    let mut plan = crate::sampler::SamplerPlan::new(v.sampler.clone());
     for node in &v.nodes {
         let err = |message: String| GraphError::Expand {
             node: node.name.clone(),
@@ -1053,12 +1057,10 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         }
         let first_pass = expansion.passes.len();
         let first_buffer = expansion.buffers.len();
-        node.kind.expand(&mut ExpandCtx::new(
-            &node.name,
-            &node.params,
-            &inputs,
-            &mut expansion,
-        ))?;
+        node.kind.expand(
+            &mut ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion).with_sampler(&mut plan),
+        )?;
+        let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
 
         // The node kind must keep its declared contract; a violation is a bug in the kind.
         let kind = node.kind.kind();
@@ -1086,7 +1088,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         }
         for pass in &expansion.passes[first_pass..] {
             for (binding, id) in &pass.writes {
-                if id.0 < first_buffer {
+                if id.0 < first_buffer || handles.contains(id) {
                     return Err(err(format!(
                         "pass `{}` writes `{}` (binding `{binding}`), a buffer made by another node; \
                          a node may only write its own buffers",
@@ -1111,5 +1113,53 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
             }
         }
     }
+    if plan.is_used() {
+        emit_sampler(v, &mut expansion, &plan, &mut written)?;
+    }
     Ok(expansion)
+}
+
+/// Emit the shared sampler's passes once, after every node expanded, and check that they write
+/// every handle the nodes were given and nothing a node wrote.
+fn emit_sampler(
+    v: &ValidatedPipeline,
+    expansion: &mut Expansion,
+    plan: &crate::sampler::SamplerPlan,
+    written: &mut HashMap<BufferId, String>,
+) -> Result<(), GraphError> {
+    use crate::sampler::SAMPLER_NODE;
+    let err = |message: String| GraphError::Expand { node: SAMPLER_NODE.into(), message };
+    if let Some(n) = v.nodes.iter().find(|n| n.name == SAMPLER_NODE) {
+        return Err(GraphError::Expand {
+            node: n.name.clone(),
+            message: format!(
+                "`{SAMPLER_NODE}` is the shared sampler's name, and node(s) {} ask for it; rename this node",
+                plan.users.iter().map(|u| format!("`{u}`")).collect::<Vec<_>>().join(", ")
+            ),
+        });
+    }
+    let kind = v.sampler.clone().ok_or_else(|| err("no sampler kind is registered".into()))?;
+    let first_pass = expansion.passes.len();
+    let (params, inputs) = (BTreeMap::new(), BTreeMap::new());
+    kind.emit(&mut ExpandCtx::new(SAMPLER_NODE, &params, &inputs, expansion), plan)?;
+    for pass in &expansion.passes[first_pass..] {
+        for (binding, id) in &pass.writes {
+            if let Some(prev) = written.insert(*id, pass.name.clone()) {
+                return Err(err(format!(
+                    "pass `{}` writes `{}` (binding `{binding}`), already written by `{prev}`",
+                    pass.name, expansion.buffers[id.0].name
+                )));
+            }
+        }
+    }
+    for ((pass, name), id) in &plan.handles {
+        if !written.contains_key(id) {
+            return Err(err(format!(
+                "the `{}` sampler wrote no `{name}` after its {} pass, which a node reads",
+                kind.name(),
+                pass.name()
+            )));
+        }
+    }
+    Ok(())
 }

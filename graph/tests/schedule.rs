@@ -253,6 +253,7 @@ fn reading_an_unwritten_buffer_is_an_error() {
         stage: Stage::Sample,
         random: false,
         reference: Reference::Keep,
+        continues: None,
     });
     e.sink_inputs
         .push(("out".into(), "color".into(), BufferId(1)));

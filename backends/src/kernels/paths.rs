@@ -37,6 +37,10 @@
 //! (bool), `lens` (`"disk"` | `"gaussian"`), `shadow_per_primary` and `indirect_per_primary` (where
 //! the buffers of those names are unbound; at least 1 is used), `light` (the area light of the
 //! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
+//! `form_factor` (optional: `"light_centre"`, the default, is f_c above; `"exact"` evaluates the
+//! geometry term per light sample, the unbiased estimator `direct.light` offers under the same name),
+//! `direct` and `indirect` (optional bools, default true: which estimators run — the shared sampler
+//! turns off the ones no node asked for, so a shadows-only pipeline traces no indirect rays),
 //! `stream` (graph-assigned), `sampling` (`"stratified"`: the Sobol' sequences; `"independent"`:
 //! independent numbers for the same dimensions, the Monte Carlo baseline), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
 //! one-bounce indirect sample).
@@ -226,6 +230,11 @@ struct Settings {
     light: usize,
     stream: u32,
     path: PathParams,
+    /// Per-sample geometry term instead of the light-centre form factor f_c.
+    exact: bool,
+    /// Run the direct (shadow-ray) and the indirect (hemisphere) estimators.
+    direct: bool,
+    indirect: bool,
 }
 
 fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
@@ -238,7 +247,24 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         let v = ctx.int_param(name)?;
         u32::try_from(v).map_err(|_| err(format!("`{name}` = {v} must be between 0 and {}", u32::MAX)))
     };
+    let exact = match ctx.params.get("form_factor") {
+        None => false,
+        Some(_) => match ctx.str_param("form_factor")? {
+            "light_centre" => false,
+            "exact" => true,
+            other => return Err(err(format!("unknown form_factor `{other}`; use light_centre or exact"))),
+        },
+    };
+    let flag = |name: &str| -> Result<bool, BackendError> {
+        match ctx.params.get(name) {
+            None => Ok(true),
+            Some(_) => ctx.bool_param(name),
+        }
+    };
     Ok(Settings {
+        exact,
+        direct: flag("direct")?,
+        indirect: flag("indirect")?,
         stratified: ctx.stratified_param()?,
         count: positive("count")?,
         jitter: ctx.bool_param("jitter")?,
@@ -303,7 +329,10 @@ impl Kernel for PathsTrace {
                     .u32("bounces", s.path.bounces)
                     .u32("ao", 0)
                     .f32("max_distance", 0.0)
-                    .u32("light_count", ctx.scene.lights.len() as u32))
+                    .u32("light_count", ctx.scene.lights.len() as u32)
+                    .u32("exact", s.exact as u32)
+                    .u32("direct", s.direct as u32)
+                    .u32("indirect", s.indirect as u32))
             })
             .with_scene()
             .per_pixel()
@@ -399,8 +428,36 @@ fn trace_one(
     let (ks, m) = (mat.specular, mat.phong_exponent);
     let glossy = m > 0.0 && ks.max_element() > 0.0;
 
-    // Direct: centre-of-light form factor, visibility sampled (eqs. 5.9–5.14); the glossy lobe
-    // toward the light centre folds into k (eq. 5.20).
+    if s.direct {
+        trace_direct(scene, s, light, x, n, wo, kd, ks, m, glossy, w, seed, pixel, n_shadow, r);
+    }
+    if s.indirect {
+        trace_indirect(scene, s, x, n, wo, kd, ks, m, glossy, w, seed, pixel, rng_d, rng_g, n_indirect, r);
+    }
+}
+
+/// The direct estimator at hit `x` (see the module doc).
+#[allow(clippy::too_many_arguments)]
+fn trace_direct(
+    scene: &wedge_scene::Scene,
+    s: &Settings,
+    light: &wedge_scene::AreaLight,
+    x: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    kd: Vec3,
+    ks: Vec3,
+    m: f32,
+    glossy: bool,
+    w: f32,
+    seed: u32,
+    pixel: u32,
+    n_shadow: u32,
+    r: &mut PathRecord,
+) {
+    // Direct: centre-of-light form factor (or, with `exact`, the per-sample geometry term),
+    // visibility sampled (eqs. 5.9–5.14); the glossy lobe toward the light centre folds into k
+    // (eq. 5.20).
     let fc = light_centre_factor(light, x, n);
     let mut k = kd;
     if glossy {
@@ -412,7 +469,7 @@ fn trace_one(
     for _ in 0..n_shadow {
         let u = draw(s, seed, pixel, pair::LIGHT, r.shadow);
         r.shadow += 1;
-        let (v, occ) = light_sample(scene, light, x, n, u, Some(fc), true);
+        let (v, occ) = light_sample(scene, light, x, n, u, if s.exact { None } else { Some(fc) }, true);
         if let Some(d2) = occ {
             r.occluded += 1;
             if r.occluded == 1 {
@@ -430,6 +487,28 @@ fn trace_one(
         }
     }
     accumulate(&mut r.l_direct, &mut r.k_direct, &mut r.e_direct, k, e, valid, w);
+}
+
+/// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
+#[allow(clippy::too_many_arguments)]
+fn trace_indirect(
+    scene: &wedge_scene::Scene,
+    s: &Settings,
+    x: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    kd: Vec3,
+    ks: Vec3,
+    m: f32,
+    glossy: bool,
+    w: f32,
+    seed: u32,
+    pixel: u32,
+    rng_d: &PixelRng,
+    rng_g: &PixelRng,
+    n_indirect: u32,
+    r: &mut PathRecord,
+) {
 
     // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d.
     let (mut e, mut valid) = (Vec3::ZERO, 0u32);

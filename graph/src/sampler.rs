@@ -1,0 +1,270 @@
+//! The shared sampler (thesis Ch. 5, Sec. 5.3–5.4; `docs/SAMPLER-STAGE.md` §4): one first pass of
+//! paths and one adaptive pass serve every effect, instead of each effect sampling on its own.
+//!
+//! From [`crate::NodeKind::expand`] a node
+//! - asks for the sampler with the estimators and settings it needs ([`ExpandCtx::sampler`] with a
+//!   [`SamplerRequest`]): identical settings from two nodes are shared, a conflicting one is a graph
+//!   error naming both nodes;
+//! - gets typed handles to the sampler's resolved buffers ([`ExpandCtx::sampler_output`]): the
+//!   first-pass outputs (written in `Stage::Sample`) and the final ones after the adaptive pass
+//!   (`Stage::Adaptive`), by the names the registered [`SamplerKind`] declares;
+//! - submits per-pixel count requests ([`ExpandCtx::sampler_counts`], a [`CountRequest`]): `u32`
+//!   buffers it writes in `Stage::Bandwidth` — primary paths per pixel and secondary samples per
+//!   primary, per estimator.
+//!
+//! After every node has expanded, [`crate::expand()`] hands the merged [`SamplerPlan`] to the
+//! [`SamplerKind`] registered in the [`crate::NodeRegistry`] (wedge's is `wedge_effects::sampler`),
+//! which emits the passes once under the node name [`SAMPLER_NODE`]: first pass, resolve, the
+//! `Stage::Counts` combination (per-pixel max of the requests, 3×3 max where asked, at least one
+//! secondary per primary), the adaptive pass continuing the first pass's record, resolve. The graph
+//! knows no kernel of it. A pipeline whose nodes never ask for the sampler emits none of it.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
+use std::sync::Arc;
+
+use crate::decl::{Format, ParamValue};
+use crate::expand::{BufferId, ExpandCtx, Expansion};
+use crate::GraphError;
+
+/// The node name the sampler's passes and buffers carry (`sampler.first`, `sampler.adaptive`, …);
+/// a pipeline node of this name cannot share a pipeline with the sampler.
+pub const SAMPLER_NODE: &str = "sampler";
+
+/// Which of the sampler's results a handle names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum SamplerPass {
+    /// After the first pass (`Stage::Sample`): what bandwidths and rates are computed from.
+    First,
+    /// After the adaptive pass (`Stage::Adaptive`), continuing the first: what filters read.
+    Final,
+}
+
+impl SamplerPass {
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerPass::First => "first",
+            SamplerPass::Final => "final",
+        }
+    }
+}
+
+/// What one node asks of the sampler: estimators (e.g. `light`, `hemisphere`) and settings (e.g.
+/// `light` index, first-pass `paths`, `sampling`), as the registered [`SamplerKind`] names them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SamplerRequest {
+    pub estimators: BTreeSet<String>,
+    pub settings: BTreeMap<String, ParamValue>,
+}
+
+impl SamplerRequest {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    pub fn estimator(mut self, name: &str) -> Self {
+        self.estimators.insert(name.to_string());
+        self
+    }
+    pub fn setting(mut self, name: &str, value: ParamValue) -> Self {
+        self.settings.insert(name.to_string(), value);
+        self
+    }
+}
+
+/// Secondary samples per primary path for one estimator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PerPrimary {
+    /// The same everywhere.
+    Constant(u32),
+    /// A per-pixel `u32` buffer the node writes in `Stage::Bandwidth`.
+    Buffer(BufferId),
+}
+
+/// One node's per-pixel counts for the adaptive pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CountRequest {
+    /// Per-pixel `u32` (written by the node in `Stage::Bandwidth`): the pixel's total primary paths
+    /// over both passes, counted in units of `paths_unit` — the sampler takes `ceil(value /
+    /// paths_unit)` paths, so a node whose rate is in secondary samples (eq. 3.21's shadow rays) at
+    /// `paths_unit` samples per path states it directly. 1 when the buffer counts paths.
+    pub paths: BufferId,
+    pub paths_unit: u32,
+    /// Secondary samples per primary path, per estimator the node asked for.
+    pub per_primary: Vec<(String, PerPrimary)>,
+    /// Spread the path count over the 3×3 neighbourhood (thesis Sec. 5.8 step 2) before combining.
+    pub max3: bool,
+}
+
+/// How a sampler is implemented: which estimators and settings it knows, which resolved outputs
+/// nodes may read, and the passes it emits. Registered in the [`crate::NodeRegistry`].
+pub trait SamplerKind: Send + Sync {
+    /// Shown in errors, e.g. `paths`.
+    fn name(&self) -> &'static str;
+    /// Estimators a node may ask for.
+    fn estimators(&self) -> Vec<&'static str>;
+    /// Setting names a node may give.
+    fn settings(&self) -> Vec<&'static str>;
+    /// Resolved outputs a handle may name, with their formats.
+    fn outputs(&self) -> Vec<(&'static str, Format)>;
+    /// Emit the sampler's passes (node [`SAMPLER_NODE`]) writing every handle in `plan`.
+    fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError>;
+}
+
+impl fmt::Debug for dyn SamplerKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "SamplerKind({})", self.name())
+    }
+}
+
+/// Everything the nodes of a pipeline asked of the sampler, merged.
+#[derive(Clone, Debug, Default)]
+pub struct SamplerPlan {
+    /// The nodes that asked, in expansion order.
+    pub users: Vec<String>,
+    pub estimators: BTreeSet<String>,
+    /// Setting → (value, the first node that gave it).
+    pub settings: BTreeMap<String, (ParamValue, String)>,
+    /// Handles handed out: (pass, output name) → buffer. The sampler must write each one.
+    pub handles: BTreeMap<(SamplerPass, String), BufferId>,
+    /// Count requests, with the node that made each.
+    pub requests: Vec<(String, CountRequest)>,
+    pub(crate) kind: Option<Arc<dyn SamplerKind>>,
+}
+
+impl SamplerPlan {
+    pub(crate) fn new(kind: Option<Arc<dyn SamplerKind>>) -> Self {
+        SamplerPlan { kind, ..Default::default() }
+    }
+    /// A setting's value, if some node gave it.
+    pub fn setting(&self, name: &str) -> Option<&ParamValue> {
+        self.settings.get(name).map(|(v, _)| v)
+    }
+    pub fn handle(&self, pass: SamplerPass, name: &str) -> Option<BufferId> {
+        self.handles.get(&(pass, name.to_string())).copied()
+    }
+    pub fn is_used(&self) -> bool {
+        !self.users.is_empty()
+    }
+
+    fn kind_for(&self, node: &str) -> Result<&Arc<dyn SamplerKind>, GraphError> {
+        self.kind.as_ref().ok_or_else(|| GraphError::Expand {
+            node: node.to_string(),
+            message: "asks for the shared sampler, but no sampler kind is registered (register one with \
+                      `NodeRegistry::register_sampler`, as `wedge_effects::register` does)"
+                .into(),
+        })
+    }
+
+    pub(crate) fn request(&mut self, node: &str, r: SamplerRequest) -> Result<(), GraphError> {
+        let kind = self.kind_for(node)?.clone();
+        let err = |message: String| GraphError::Expand { node: node.to_string(), message };
+        let known = kind.estimators();
+        for e in &r.estimators {
+            if !known.contains(&e.as_str()) {
+                return Err(err(format!(
+                    "asks the `{}` sampler for estimator `{e}`, which it does not have (it has: {})",
+                    kind.name(),
+                    known.join(", ")
+                )));
+            }
+        }
+        let known = kind.settings();
+        for (name, value) in &r.settings {
+            if !known.contains(&name.as_str()) {
+                return Err(err(format!(
+                    "gives the `{}` sampler setting `{name}`, which it does not take (it takes: {})",
+                    kind.name(),
+                    known.join(", ")
+                )));
+            }
+            if let Some((other, by)) = self.settings.get(name) {
+                if other != value && by != node {
+                    return Err(err(format!(
+                        "asks for the shared sampler with `{name}` = {} but node `{by}` asked for {}; nodes \
+                         sharing the sampler must agree on its settings",
+                        value, other
+                    )));
+                }
+            }
+        }
+        for (name, value) in r.settings {
+            self.settings.entry(name).or_insert((value, node.to_string()));
+        }
+        self.estimators.extend(r.estimators);
+        if !self.users.iter().any(|u| u == node) {
+            self.users.push(node.to_string());
+        }
+        Ok(())
+    }
+
+    fn require_user(&self, node: &str, what: &str) -> Result<(), GraphError> {
+        if self.users.iter().any(|u| u == node) {
+            Ok(())
+        } else {
+            Err(GraphError::Expand {
+                node: node.to_string(),
+                message: format!("{what} before asking for the sampler (call `ctx.sampler(..)` first)"),
+            })
+        }
+    }
+
+    pub(crate) fn output(
+        &mut self,
+        node: &str,
+        expansion: &mut Expansion,
+        pass: SamplerPass,
+        name: &str,
+    ) -> Result<BufferId, GraphError> {
+        self.require_user(node, &format!("reads sampler output `{name}`"))?;
+        if let Some(id) = self.handle(pass, name) {
+            return Ok(id);
+        }
+        let kind = self.kind_for(node)?;
+        let outputs = kind.outputs();
+        let Some((_, format)) = outputs.iter().find(|(n, _)| *n == name) else {
+            return Err(GraphError::Expand {
+                node: node.to_string(),
+                message: format!(
+                    "reads sampler output `{name}`, which the `{}` sampler does not have (it has: {})",
+                    kind.name(),
+                    outputs.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+                ),
+            });
+        };
+        expansion.buffers.push(crate::expand::BufferInfo {
+            name: format!("{SAMPLER_NODE}.{}_{name}", pass.name()),
+            format: *format,
+        });
+        let id = BufferId(expansion.buffers.len() - 1);
+        self.handles.insert((pass, name.to_string()), id);
+        Ok(id)
+    }
+
+    pub(crate) fn counts(&mut self, node: &str, expansion: &Expansion, r: CountRequest) -> Result<(), GraphError> {
+        self.require_user(node, "submits sampler counts")?;
+        let err = |message: String| GraphError::Expand { node: node.to_string(), message };
+        let u32_buffer = |id: BufferId, what: &str| -> Result<(), GraphError> {
+            match expansion.buffers.get(id.0).map(|b| b.format) {
+                Some(Format::U32) => Ok(()),
+                Some(f) => Err(err(format!("sampler count `{what}` is a {f} buffer; counts are u32"))),
+                None => Err(err(format!("sampler count `{what}` names no buffer"))),
+            }
+        };
+        u32_buffer(r.paths, "paths")?;
+        if r.paths_unit == 0 {
+            return Err(err("sampler count `paths_unit` must be at least 1".into()));
+        }
+        for (estimator, per) in &r.per_primary {
+            if !self.estimators.contains(estimator) {
+                return Err(err(format!(
+                    "submits secondary counts for estimator `{estimator}`, which no node asked the sampler for"
+                )));
+            }
+            if let PerPrimary::Buffer(id) = per {
+                u32_buffer(*id, estimator)?;
+            }
+        }
+        self.requests.push((node.to_string(), r));
+        Ok(())
+    }
+}
