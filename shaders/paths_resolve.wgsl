@@ -58,4 +58,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     occlusion_put(i, vec4<f32>(hit_mean(r, r.d1), r.d2_min, r.d2_max, f32(r.occluded)));
     depth_put(i, vec4<f32>(r.z_min, r.z_max, f32(r.indirect_hits), f32(r.indirect_rays)));
     counts_put(i, vec4<f32>(f32(r.paths), f32(r.shadow), f32(r.diffuse_samples + r.glossy_samples), f32(r.non_finite)));
+    direct_put(i, vec4<f32>(mean_of(r.e_direct, w), f32(r.shadow)));
 }

@@ -127,5 +127,6 @@ fn sampling_every_light_of_a_scene_without_lights_warns() {
     let o = run(None);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("`shadows.sample_initial`: `light` = 0") && err.contains("add an emissive material"), "{err}");
+    // SoftShadows' light is sampled by the shared sampler's first pass (SAMPLER-STAGE.md §4).
+    assert!(err.contains("`sampler.first`: `light` = 0") && err.contains("add an emissive material"), "{err}");
 }

@@ -56,12 +56,13 @@ fn graph_prints_schedule_and_dot() {
     let o = wedge(&["graph", "pipelines/shadows.ron"], repo());
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stderr}");
-    for pass in ["primary.gbuffer", "shadows.sample_initial", "shadows.bandwidth", "shadows.rates", "shadows.sample_adaptive", "shadows.filter_x", "shadows.filter_y", "shadows.compose"] {
+    // SoftShadows samples through the shared sampler (node `sampler`, SAMPLER-STAGE.md §4).
+    for pass in ["primary.gbuffer", "sampler.first", "shadows.bandwidth", "shadows.rates", "sampler.counts_paths", "sampler.adaptive", "shadows.filter_x", "shadows.filter_y", "shadows.compose"] {
         assert!(stdout.contains(pass), "{pass} missing from\n{stdout}");
     }
     // The stage column, and random passes marked.
     assert!(stdout.contains("stage") && stdout.contains("(random)"), "{stdout}");
-    for (stage, pass) in [("sample", "shadows.sample_initial"), ("bandwidth", "shadows.rates"), ("adaptive", "shadows.sample_adaptive"), ("filter", "shadows.filter_y"), ("compose", "shadows.compose")] {
+    for (stage, pass) in [("sample", "sampler.first"), ("bandwidth", "shadows.rates"), ("counts", "sampler.counts_paths"), ("adaptive", "sampler.adaptive"), ("filter", "shadows.filter_y"), ("compose", "shadows.compose")] {
         assert!(stdout.lines().any(|l| l.contains(&format!("{stage:12}  {pass} "))), "{stage} {pass} in\n{stdout}");
     }
     let o = wedge(&["graph", "pipelines/shadows.ron", "--dot"], repo());

@@ -30,14 +30,19 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
             if p.random {
                 let count = &p.params["count"];
                 assert!(
-                    *count == ParamValue::Int(64) || (*count == ParamValue::Int(0) && p.name.ends_with("sample_initial")),
+                    *count == ParamValue::Int(64)
+                        || (*count == ParamValue::Int(0) && (p.name.ends_with("sample_initial") || p.name == "sampler.first")),
                     "{name}: {} count {count:?}",
                     p.name
                 );
                 assert_eq!(p.params["sampling"], ParamValue::Str("independent".into()), "{name}: {}", p.name);
             }
             if p.kernel == FILL_CONSTANT {
-                assert_eq!(p.params["value"], ParamValue::Int(64), "{name}: {}", p.name);
+                // The shared sampler's secondary samples per primary are 1 in a reference: N paths,
+                // one shadow ray / hemisphere sample each (SAMPLER-STAGE.md §4).
+                let per_primary = p.name.starts_with("sampler.counts_") && p.name != "sampler.counts_paths";
+                let want = if per_primary { 1 } else { 64 };
+                assert_eq!(p.params["value"], ParamValue::Int(want), "{name}: {}", p.name);
             }
         }
         let adaptive = s.schedule.passes.iter().any(|p| p.stage == Stage::Adaptive);
@@ -52,13 +57,14 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
 
 #[test]
 fn a_stratified_reference_draws_all_n_samples_in_one_pass() {
-    // grids has one area light: N shadow rays per covered pixel, all from `sample_adaptive` (the
-    // first pass takes none), so the CMJ pattern spans all N (not 9 + a separate N − 9).
+    // grids has one area light: N shadow rays per covered pixel, all from the shared sampler's
+    // adaptive pass (N paths of one shadow ray; the first pass takes none), so the pattern spans
+    // all N (not 9 + a separate N − 9).
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
     let ov = sized(32, 24, None, &[]);
     let rays = |spp: u32| {
         let s = Session::reference(Some(&path), spp, "stratified", &ov).unwrap();
-        let first = s.schedule.passes.iter().find(|p| p.name == "shadows.sample_initial").unwrap();
+        let first = s.schedule.passes.iter().find(|p| p.name == "sampler.first").unwrap();
         assert_eq!(first.params["count"], ParamValue::Int(0));
         run(&s).rays.shadow_rays
     };

@@ -6,6 +6,8 @@
 //! world-space Gaussian, compose — is shared from `wedge-backends`.
 //!
 //! - [`primary`]: `Primary`, the G-buffer every effect reads.
+//! - [`sampler`]: the shared path sampler (first pass, count combination, adaptive pass) nodes ask
+//!   for from `expand` (`wedge_graph::sampler`); registered as the registry's sampler kind.
 //! - [`shadows`]: `SoftShadows`, axis-aligned filtering of area-light soft shadows (thesis Ch. 3).
 //! - [`indirect`]: `Indirect`, axis-aligned filtering of diffuse/glossy indirect light and AO (thesis Ch. 4).
 //! - [`defocus`]: the Ch. 5 formulas and kernels (defocus rates, factoring flags; thesis Ch. 5).
@@ -35,11 +37,14 @@ pub mod indirect;
 pub mod montecarlo;
 pub mod output;
 pub mod primary;
+pub mod sampler;
 pub mod shadows;
 
 /// Register wedge's node kinds and every kernel they use (shared and effect-specific).
 pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     wedge_backends::register_shared_kernels(kernels);
+    nodes.register_sampler(Arc::new(sampler::PathSampler));
+    sampler::register_kernels(kernels);
     nodes.register(Arc::new(primary::Primary));
     nodes.register(Arc::new(output::Output));
     nodes.register(Arc::new(montecarlo::MonteCarlo));

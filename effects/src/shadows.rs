@@ -1,17 +1,26 @@
 //! `SoftShadows`: axis-aligned filtering of area-light soft shadows (Mehta thesis Ch. 3,
 //! `seeds/000_956e982470d7e5bf.txt`; `EQUATIONS.md` "SoftShadows").
 //!
-//! Passes: `sample_initial` (9 stratified light samples: first estimate and `d1, d2_min, d2_max`)
-//! → `fill` (unoccluded pixels take their neighbours' averages within 5 pixels, Sec. 3.6)
-//! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21) → `sample_adaptive` (up to n, reusing the
-//! first 9) → `filter_x` → `filter_y` (separable world-space Gaussian in the light's plane, eq. 3.12,
-//! 10° normal test) → `compose` (albedo after filtering). Pixels with no occluder statistics, own or
-//! neighbours', are not filtered and keep their first-pass samples.
+//! Sampling is the shared sampler's ([`crate::sampler`], `docs/SAMPLER-STAGE.md` §4): the node asks
+//! it for the `light` estimator with the Ch. 3 constants — one primary path per pixel through the
+//! centre (`n_p = 1`), `initial_rays` (9) stratified light samples on it, `light`, `form_factor` —
+//! and reads the first pass's occluder statistics `d1, d2_min, d2_max`. Its own passes:
+//! `fill` (unoccluded pixels take their neighbours' averages within 5 pixels, Sec. 3.6)
+//! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21), submitted to the sampler as `n` shadow rays
+//! at `initial_rays` per path (so every shadow ray weighs the same: the sampler's record averages
+//! per path; the sampler traces `ceil(n / initial_rays)` paths through the pixel centre, continuing
+//! the first pass's stratified light samples) → `filter_x` → `filter_y` on the sampler's final
+//! direct estimate (separable world-space Gaussian in the light's plane, eq. 3.12, 10° normal test)
+//! → `compose` (albedo after filtering). Pixels with no occluder statistics, own or neighbours', are
+//! not filtered.
 
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+use wedge_graph::{
+    CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PerPrimary, PortDecl, Reference,
+    SamplerPass, SamplerRequest, Stage,
+};
 
 use crate::filtering::{self, Separable};
 
@@ -65,7 +74,11 @@ impl NodeKind for SoftShadows {
             PortDecl::new("radiance", Format::Vec3, "filtered direct light × albedo + emission"),
             PortDecl::new("unfiltered", Format::Vec3, "the adaptive-sampled estimate before filtering"),
             PortDecl::new("filter_width", Format::F32, "filter std-dev β in pixels (0 = not filtered)"),
-            PortDecl::new("rays_per_pixel", Format::U32, "shadow rays per pixel, both passes (eq. 3.21)"),
+            PortDecl::new(
+                "rays_per_pixel",
+                Format::U32,
+                "shadow rays per pixel, both passes (eq. 3.21; traced in paths of initial_rays, rounded up)",
+            ),
         ]
     }
     fn params(&self) -> Vec<ParamDecl> {
@@ -96,20 +109,24 @@ impl NodeKind for SoftShadows {
         let initial_rays = ctx.param("initial_rays").clone();
         let fill_radius = ctx.param("fill_radius").clone();
 
-        let initial = ctx.buffer("initial", Format::Vec4);
-        let occlusion = ctx.buffer("occlusion", Format::Vec4);
-        ctx.pass("sample_initial", "direct.light", Stage::Sample)
-            .read("position", position)
-            .read("normal", normal)
-            .write("estimate", initial)
-            .write("occlusion", occlusion)
-            .param("count", initial_rays)
-            .param("light", light.clone())
-            .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&["form_factor"])
-            .random()
-            .reference(Reference::Continued)
-            .finish();
+        let ParamValue::Int(per_path) = initial_rays else {
+            return Err(GraphError::Expand { node: ctx.node().into(), message: "`initial_rays` must be an integer".into() });
+        };
+        let per_path = per_path.clamp(1, i64::from(u32::MAX)) as u32;
+
+        // The shared sampler's first pass: n_p = 1 path through the pixel centre with `initial_rays`
+        // stratified light samples (Ch. 3's first pass); its occluder statistics feed eq. 3.13/3.21.
+        ctx.sampler(
+            SamplerRequest::new()
+                .estimator("light")
+                .setting("light", light.clone())
+                .setting("paths", ParamValue::Int(1))
+                .setting("shadow_per_primary", initial_rays.clone())
+                .setting("jitter", ParamValue::Bool(false))
+                .setting("sampling", ParamValue::Str("stratified".into()))
+                .setting("form_factor", ctx.param("form_factor").clone()),
+        )?;
+        let occlusion = ctx.sampler_output(SamplerPass::First, "occlusion")?;
 
         let filled = ctx.buffer("occlusion_filled", Format::Vec4);
         ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth)
@@ -138,20 +155,16 @@ impl NodeKind for SoftShadows {
             .reference(Reference::Count)
             .finish();
 
-        let noisy = ctx.buffer("noisy", Format::Vec4);
-        ctx.pass("sample_adaptive", "direct.light", Stage::Adaptive)
-            .read("position", position)
-            .read("normal", normal)
-            .read("rays_per_pixel", rays)
-            .read("previous", initial)
-            .write("estimate", noisy)
-            .int("count", 0)
-            .param("light", light.clone())
-            .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&["form_factor"])
-            .random()
-            .reference(Reference::Sample)
-            .finish();
+        // eq. 3.21's n shadow rays per pixel, as paths of `initial_rays` shadow rays each (the first
+        // pass's per-path count, so all of a pixel's shadow rays weigh the same).
+        ctx.sampler_counts(CountRequest {
+            paths: rays,
+            paths_unit: per_path,
+            per_primary: vec![("light".into(), PerPrimary::Constant(per_path))],
+            max3: false,
+        })?;
+        // The sampler's final direct estimate: mean E (unit albedo), w = shadow rays.
+        let noisy = ctx.sampler_output(SamplerPass::Final, "direct")?;
 
         // Distances in the plane parallel to the light (eq. 3.12).
         let filter = Separable { position, normal, bandwidth: beta, plane_light: Some(light.clone()) };

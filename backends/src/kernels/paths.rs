@@ -586,10 +586,13 @@ fn accumulate(l: &mut [f32; 3], k_sum: &mut [f32; 3], e_sum: &mut [f32; 3], k: V
 ///   the optical axis, and `ℓ_p = 2 z tan(fov/2)/h` (metres per pixel at that depth, Ch. 5);
 /// - `occlusion`: mean `d1`, `d2_min`, `d2_max`, occluded shadow rays (as `direct.light` writes it);
 /// - `depth`: `z_min`, `z_max`, indirect rays that hit, indirect rays (as `indirect.sample`);
-/// - `counts`: primary rays, shadow rays, indirect samples (diffuse + glossy), non-finite samples.
+/// - `counts`: primary rays, shadow rays, indirect samples (diffuse + glossy), non-finite samples;
+/// - `direct`: mean direct E (rgb) and w = shadow rays, the value/sample-count convention of
+///   `direct.light`'s `estimate`, which the world-space filters read (Vec4).
 pub struct PathsResolve;
 
-const RESOLVE_OUTPUTS: [(&str, Format); 17] = [
+/// Every output of `paths.resolve`, in binding order (all optional).
+pub const RESOLVE_OUTPUTS: [(&str, Format); 18] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -607,12 +610,13 @@ const RESOLVE_OUTPUTS: [(&str, Format); 17] = [
     ("occlusion", Format::Vec4),
     ("depth", Format::Vec4),
     ("counts", Format::Vec4),
+    ("direct", Format::Vec4),
 ];
 
 /// Everything [`PathsResolve`] writes for one pixel.
 struct Resolved {
     vec3: [[f32; 3]; 11],
-    vec4: [[f32; 4]; 6],
+    vec4: [[f32; 4]; 7],
 }
 
 fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height: u32) -> Resolved {
@@ -656,6 +660,10 @@ fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height
             [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
             [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
             [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
+            {
+                let e = mean(r.e_direct);
+                [e[0], e[1], e[2], r.shadow as f32]
+            },
         ],
     }
 }
