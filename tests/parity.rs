@@ -226,7 +226,9 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
         }
         assert_eq!(a.rays, b.rays, "{}: ray counts differ", path.display());
         assert!(whole.last_bands.iter().all(|(_, n)| *n == 1));
-        let fewest = banded.last_bands.iter().map(|(_, n)| *n).min().unwrap();
+        // The shared sampler's count passes bind only u32 buffers (12 KiB at 64×48), which fit the
+        // 20-row vec4 limit whole.
+        let fewest = banded.last_bands.iter().filter(|(p, _)| !p.starts_with("sampler.counts_")).map(|(_, n)| *n).min().unwrap();
         println!("{}: bands per pass {:?}", path.display(), banded.last_bands);
         assert!(fewest >= 2, "{}: every pass should have been split: {:?}", path.display(), banded.last_bands);
     }
