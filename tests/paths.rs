@@ -547,7 +547,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     let inputs = BTreeMap::from([("record", rec["record"].clone())]);
     let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
-    assert_eq!(c.len(), 17);
+    assert_eq!(c.len(), 18); // every output of paths.resolve, `direct` (the filters' Vec4) included
     for (name, a) in &c {
         let (max_abs, max_rel, over, _) = compare(a, &g[name], Tolerance::for_class(KernelClass::Compose));
         println!("paths.resolve `{name}`: max abs {max_abs:e}, max rel {max_rel:e}, over {over}");
@@ -640,21 +640,11 @@ fn parity_harness_compares_struct_fields() {
     let Some(mut gpu) = gpu_or_skip("parity_harness_compares_struct_fields") else { return };
     let scene = defocused("cornell", 0.1);
     let params = trace_params(4, true, "disk").into_iter().map(|(k, v)| (k.to_string(), v)).collect();
-    let trace = Pass {
-        name: "paths".into(),
-        node: "test".into(),
-        kernel: "paths.trace".into(),
-        reads: vec![],
-        writes: vec![("record".into(), BufferId(0))],
-        params,
-    };
+    let trace = Pass { writes: vec![("record".into(), BufferId(0))], params, random: true, ..Pass::new("paths", "test", "paths.trace", Stage::Sample) };
     let resolve = Pass {
-        name: "resolve".into(),
-        node: "test".into(),
-        kernel: "paths.resolve".into(),
         reads: vec![("record".into(), BufferId(0))],
         writes: vec![("radiance".into(), BufferId(1))],
-        params: BTreeMap::new(),
+        ..Pass::new("resolve", "test", "paths.resolve", Stage::Sample)
     };
     let schedule = wedge::graph::Schedule {
         passes: vec![trace, resolve],
