@@ -25,7 +25,7 @@ pub struct LonePass<'a> {
 impl<'a> LonePass<'a> {
     /// Bind every given input to the kernel's read binding of that name and every write binding to a
     /// fresh buffer. A required input that is not given is an error naming it; optional ones stay
-    /// unbound. The pass counts as random (its `stream` set by hand) when `params` has a `stream`.
+    /// unbound. A random kernel's pass is declared random; its `stream` is then given in `params`.
     pub fn new<K: AsRef<str> + Ord>(
         kernel: Arc<dyn Kernel>,
         params: BTreeMap<String, ParamValue>,
@@ -33,7 +33,7 @@ impl<'a> LonePass<'a> {
     ) -> Result<LonePass<'a>, BackendError> {
         let by_name: BTreeMap<&str, &'a BufferData> = inputs.iter().map(|(k, v)| (k.as_ref(), v)).collect();
         let mut pass = Pass::new(kernel.name(), "lone", kernel.name(), Stage::Sample);
-        pass.random = params.contains_key("stream");
+        pass.random = kernel.draws_random();
         pass.params = params;
         let (mut buffers, mut data) = (Vec::new(), BTreeMap::new());
         for b in kernel.bindings() {
