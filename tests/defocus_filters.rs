@@ -12,92 +12,33 @@
 //!   and never spread.
 //! - Weights and neighbourhood filters against values worked by hand.
 
+mod common;
+use common::gpu_or_skip;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use wedge::backends::cpu;
+use wedge::backends::lone::LonePass;
 use wedge::backends::gpu::GpuBackend;
 use wedge::backends::kernels::filter_ch5::{defocus_pixel, window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT};
 use wedge::backends::kernels::neighbourhood3::{max3, median3};
 use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::{
-    BackendError, Binding, BufferData, Counters, Job, Kernel, KernelClass, KernelCtx, KernelRegistry, RayCounts, Silent,
+    BackendError, Binding, BufferData, Kernel, KernelClass, KernelCtx, RayCounts,
     Uniforms, WgslSource,
 };
 use wedge::graph::Format;
-use wedge::graph::{BufferId, BufferInfo, Lifetime, ParamValue, Pass, Schedule, Stage};
+use wedge::graph::ParamValue;
 use wedge::scene::Scene;
 
 type Params = BTreeMap<String, ParamValue>;
 type Buffers = BTreeMap<&'static str, BufferData>;
 
-fn gpu_or_skip(test: &str) -> Option<GpuBackend> {
-    match GpuBackend::new() {
-        Ok(g) => {
-            eprintln!("{test}: wgpu adapter {}", g.adapter_description());
-            Some(g)
-        }
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
-            }
-            eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
-            None
-        }
-    }
-}
 
-/// A one-pass schedule for `kernel`: every given input bound, every write bound.
-struct Single {
-    schedule: Schedule,
-    pass: Pass,
-    kernels: KernelRegistry,
-}
-
-fn single(kernel: Arc<dyn Kernel>, params: Params, inputs: &Buffers) -> Single {
-    let mut buffers = Vec::new();
-    let (mut reads, mut writes) = (Vec::new(), Vec::new());
-    for b in kernel.bindings() {
-        let id = BufferId(buffers.len());
-        match b.access {
-            wedge::backends::Access::Read => {
-                if !inputs.contains_key(b.name) {
-                    assert!(b.optional, "input `{}` of `{}` not given", b.name, kernel.name());
-                    continue;
-                }
-                reads.push((b.name.to_string(), id));
-            }
-            wedge::backends::Access::Write => writes.push((b.name.to_string(), id)),
-        }
-        buffers.push(BufferInfo { name: b.name.to_string(), format: b.format });
-    }
-    let n = buffers.len();
-    // A lone pass outside any pipeline: its stage does not matter to a single-pass schedule.
-    let pass = Pass { reads, writes, params, ..Pass::new(kernel.name(), "test", kernel.name(), Stage::Filter) };
-    let schedule = Schedule {
-        passes: vec![pass.clone()],
-        buffers,
-        lifetimes: vec![Some(Lifetime { first: 0, last: 0 }); n],
-        slots: (0..n).map(Some).collect(),
-        slot_formats: Vec::new(),
-        sink_inputs: Vec::new(),
-        culled: Vec::new(),
-    };
-    let mut kernels = KernelRegistry::new();
-    kernels.register(kernel);
-    Single { schedule, pass, kernels }
-}
+/// The seed of every lone pass here (these kernels draw no random numbers).
+const SEED: u32 = 7;
 
 fn scene() -> Scene {
     wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).expect("builtin scene")
-}
-
-fn by_id<'a>(s: &Single, inputs: &'a Buffers) -> BTreeMap<BufferId, &'a BufferData> {
-    s.pass.reads.iter().map(|(name, id)| (*id, &inputs[name.as_str()])).collect()
-}
-
-fn job<'a>(s: &'a Single, scene: &'a Scene, w: u32, h: u32) -> Job<'a> {
-    Job { schedule: &s.schedule, scene, kernels: &s.kernels, width: w, height: h, seed: 7, progress: &Silent }
 }
 
 /// Run one kernel on the CPU backend: outputs by binding name and the counters.
@@ -113,10 +54,7 @@ fn run_cpu_with(
     params: &Params,
     inputs: &Buffers,
 ) -> (BTreeMap<String, BufferData>, RayCounts) {
-    let s = single(k, params.clone(), inputs);
-    let counters = Counters::default();
-    let out = cpu::run_pass(&job(&s, scene, w, h), &s.pass, &by_id(&s, inputs), &counters).expect("cpu pass runs");
-    (out, counters.snapshot())
+    LonePass::new(k, params.clone(), inputs).expect("inputs given").run_cpu(scene, w, h, SEED).expect("cpu pass runs")
 }
 
 /// Run one kernel on the wgpu backend.
@@ -141,9 +79,7 @@ fn run_gpu_with(
     params: &Params,
     inputs: &Buffers,
 ) -> (BTreeMap<String, BufferData>, RayCounts) {
-    let s = single(k, params.clone(), inputs);
-    let (out, _, rays) = gpu.run_pass(&job(&s, scene, w, h), &s.pass, &by_id(&s, inputs)).expect("gpu pass runs");
-    (out, rays)
+    LonePass::new(k, params.clone(), inputs).expect("inputs given").run_gpu(gpu, scene, w, h, SEED).expect("gpu pass runs")
 }
 
 fn kernel(name: &str) -> Arc<dyn Kernel> {
@@ -706,15 +642,13 @@ fn rates_kernel_matches_the_formulas() {
         assert_eq!(out["omega_direct"].component(i, 0), r.omega_direct);
     }
     // Unknown modes are an error naming the choices, not a panic.
-    let s = single(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats);
-    let e = cpu::run_pass(&job(&s, &scene, W, H), &s.pass, &by_id(&s, &stats), &Counters::default()).unwrap_err();
+    let e = LonePass::new(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats).unwrap().run_cpu(&scene, W, H, SEED).unwrap_err();
     assert!(e.to_string().contains("literal or consistent"), "{e}");
     // So are non-positive or non-finite constants.
     for (name, v) in [("mu", 0.0), ("mu", f64::NAN), ("pixel_scale", -1.0), ("light_half_width", -0.1)] {
         let mut p = rate_params(1.0, "literal", 64, 64);
         p.insert(name.into(), float(v));
-        let s = single(kernel("defocus.rates"), p, &stats);
-        let e = cpu::run_pass(&job(&s, &scene, W, H), &s.pass, &by_id(&s, &stats), &Counters::default()).unwrap_err();
+        let e = LonePass::new(kernel("defocus.rates"), p, &stats).unwrap().run_cpu(&scene, W, H, SEED).unwrap_err();
         assert!(e.to_string().contains(name) && e.to_string().contains("finite number"), "{e}");
     }
 }
@@ -991,6 +925,7 @@ fn first_pass(name: &str, aperture: f32, jitter: bool, (w, h): (u32, u32)) -> (S
         ("stream", int(3)),
         ("brdf", ParamValue::Str("phong".into())),
         ("bounces", int(1)),
+        ("sampling", ParamValue::Str("stratified".into())),
     ]);
     let (rec, _) = run_cpu_with(Arc::new(PathsTrace), &scene, w, h, &trace, &Buffers::new());
     let (res, _) = run_cpu_with(Arc::new(PathsResolve), &scene, w, h, &Params::new(), &BTreeMap::from([("record", rec["record"].clone())]));

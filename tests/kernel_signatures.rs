@@ -70,3 +70,25 @@ fn every_binding_mismatch_is_reported_before_anything_runs() {
     }
     assert!(err.contains("fix the node's `expand`"), "{err}");
 }
+
+/// A kernel that draws random numbers keys them by the pass's graph-assigned stream: a pass of it
+/// not declared `.random()` is a signature problem, found before it runs.
+#[test]
+fn a_random_kernel_needs_a_pass_declared_random() {
+    let (_, kernels) = wedge::effects::builtin();
+    let schedule = wedge::graph::Schedule {
+        passes: Vec::new(),
+        buffers: Vec::new(),
+        lifetimes: Vec::new(),
+        slots: Vec::new(),
+        slot_formats: Vec::new(),
+        sink_inputs: Vec::new(),
+        culled: Vec::new(),
+    };
+    let mut pass = wedge::graph::Pass::new("shadows.sample", "shadows", "direct.light", wedge::graph::Stage::Sample);
+    let problems: Vec<String> = kernels.pass_problems(&schedule, &pass).iter().map(|e| e.to_string()).collect();
+    assert!(problems.iter().any(|p| p.contains("declare the pass `.random()`")), "{problems:?}");
+    pass.random = true;
+    let problems: Vec<String> = kernels.pass_problems(&schedule, &pass).iter().map(|e| e.to_string()).collect();
+    assert!(!problems.iter().any(|p| p.contains(".random()")), "{problems:?}");
+}

@@ -2,6 +2,8 @@
 //! on both backends, and `paths.trace` (CPU-vs-GPU parity, pinhole equivalence with
 //! `primary.gbuffer`, agreement with `direct.light`, progressive continuation, ray counters).
 
+mod common;
+use common::gpu_or_skip;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -11,22 +13,6 @@ use wedge::backends::{sobol, BackendError, Binding, BufferData, Kernel, KernelCl
 use wedge::graph::Format;
 use wedge::scene::{Camera, LensShape, Scene};
 
-/// The GPU backend, or `None` (with the reason printed) when there is no adapter outside CI.
-fn gpu_or_skip(test: &str) -> Option<GpuBackend> {
-    match GpuBackend::new() {
-        Ok(g) => {
-            eprintln!("{test}: wgpu adapter {}", g.adapter_description());
-            Some(g)
-        }
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true") {
-                panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
-            }
-            eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
-            None
-        }
-    }
-}
 
 fn builtin(name: &str) -> Scene {
     wedge::scene::load(&wedge::scene::SceneSource::Builtin(name.into())).unwrap()
@@ -214,12 +200,13 @@ fn thin_lens_focuses_and_pinhole_ignores_the_lens() {
 
 // ---- paths.trace ----
 
-use wedge::backends::cpu;
+
 use wedge::backends::kernels::paths::{PathRecord, PathsTrace};
 use wedge::backends::kernels::primary::PrimaryGBuffer;
 use wedge::backends::kernels::direct::DirectLight;
 use wedge::backends::parity::{compare, Tolerance};
-use wedge::backends::{Counters, Job, KernelRegistry, RayCounts, Silent, Texel};
+use wedge::backends::lone::LonePass;
+use wedge::backends::{Job, KernelRegistry, RayCounts, Silent, Texel};
 use wedge::graph::{BufferId, ParamValue, Pass, Stage};
 
 /// Run one kernel alone with `params` and named inputs, on the CPU or (with `gpu`) the wgpu backend;
@@ -232,47 +219,11 @@ fn run_alone(
     inputs: &BTreeMap<&str, BufferData>,
     gpu: Option<&mut GpuBackend>,
 ) -> (BTreeMap<String, BufferData>, RayCounts) {
-    let (mut buffers, mut reads, mut writes, mut data) = (Vec::new(), Vec::new(), Vec::new(), BTreeMap::new());
-    for b in kernel.bindings() {
-        let id = BufferId(buffers.len());
-        match b.access {
-            wedge::backends::Access::Read => match inputs.get(b.name) {
-                Some(d) => {
-                    reads.push((b.name.to_string(), id));
-                    data.insert(id, d);
-                }
-                None => continue,
-            },
-            wedge::backends::Access::Write => writes.push((b.name.to_string(), id)),
-        }
-        buffers.push(wedge::graph::BufferInfo { name: b.name.to_string(), format: b.format });
-    }
-    let n = buffers.len();
     let params = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
-    // A lone pass: its stage does not matter to a single-pass schedule; `stream` is set by hand here.
-    let pass = Pass { reads, writes, params, random: true, ..Pass::new(kernel.name(), "test", kernel.name(), Stage::Sample) };
-    let schedule = wedge::graph::Schedule {
-        passes: vec![pass.clone()],
-        buffers,
-        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 0 }); n],
-        slots: (0..n).map(Some).collect(),
-        slot_formats: Vec::new(),
-        sink_inputs: Vec::new(),
-        culled: Vec::new(),
-    };
-    let mut registry = KernelRegistry::new();
-    registry.register(kernel);
-    let job = Job { schedule: &schedule, scene, kernels: &registry, width: w, height: h, seed, progress: &Silent };
+    let lone = LonePass::new(kernel, params, inputs).expect("inputs match the kernel's bindings");
     match gpu {
-        Some(g) => {
-            let (out, _, rays) = g.run_pass(&job, &pass, &data).unwrap();
-            (out, rays)
-        }
-        None => {
-            let counters = Counters::default();
-            let out = cpu::run_pass(&job, &pass, &data, &counters).unwrap();
-            (out, counters.snapshot())
-        }
+        Some(g) => lone.run_gpu(g, scene, w, h, seed).expect("gpu pass runs"),
+        None => lone.run_cpu(scene, w, h, seed).expect("cpu pass runs"),
     }
 }
 
@@ -640,7 +591,12 @@ fn parity_harness_compares_struct_fields() {
     let Some(mut gpu) = gpu_or_skip("parity_harness_compares_struct_fields") else { return };
     let scene = defocused("cornell", 0.1);
     let params = trace_params(4, true, "disk").into_iter().map(|(k, v)| (k.to_string(), v)).collect();
-    let trace = Pass { writes: vec![("record".into(), BufferId(0))], params, random: true, ..Pass::new("paths", "test", "paths.trace", Stage::Sample) };
+    let trace = Pass {
+        writes: vec![("record".into(), BufferId(0))],
+        params,
+        random: true,
+        ..Pass::new("paths", "test", "paths.trace", Stage::Sample)
+    };
     let resolve = Pass {
         reads: vec![("record".into(), BufferId(0))],
         writes: vec![("radiance".into(), BufferId(1))],

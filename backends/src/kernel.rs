@@ -58,6 +58,12 @@ pub trait Kernel: Send + Sync {
     fn name(&self) -> &'static str;
     fn class(&self) -> KernelClass;
     fn bindings(&self) -> Vec<Binding>;
+    /// Whether the kernel draws random numbers. Such a kernel keys them by its pass's `stream`
+    /// parameter, which the graph assigns to passes declared `.random()`; the signature check refuses
+    /// a pass of this kernel that is not so declared (at `wedge graph` time, not when it runs).
+    fn draws_random(&self) -> bool {
+        false
+    }
     /// Run over every pixel. Reads come from `ctx.read`, writes are handed back with `ctx.put`.
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError>;
     /// The WGSL implementation for the wgpu backend; `None` = CPU only (the wgpu backend then
@@ -312,6 +318,12 @@ impl KernelRegistry {
             message,
         };
         let mut problems = Vec::new();
+        if kernel.draws_random() && !pass.random {
+            problems.push(berr(
+                "stream",
+                format!("kernel `{}` draws random numbers: declare the pass `.random()` so the graph assigns its stream", pass.kernel),
+            ));
+        }
         for (list, access) in [(&pass.reads, Access::Read), (&pass.writes, Access::Write)] {
             for (name, id) in list {
                 match decls.iter().find(|d| d.name == name && d.access == access) {

@@ -16,6 +16,7 @@ pub mod cpu;
 pub mod gpu;
 pub mod kernel;
 pub mod kernels;
+pub mod lone;
 #[cfg(feature = "gpu")]
 pub mod parity;
 pub mod rng;

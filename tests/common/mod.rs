@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use wedge::backends::cpu::CpuBackend;
+use wedge::backends::gpu::GpuBackend;
 use wedge::backends::{RunResult, Silent};
 use wedge::graph::{parse_pipeline, ParamValue};
 use wedge::image::Image;
@@ -77,4 +78,22 @@ pub fn rmse(a: &Image, b: &Image) -> f64 {
 /// Mean shadow rays per pixel of a run.
 pub fn shadow_rpp(r: &RunResult, w: u32, h: u32) -> f64 {
     r.rays.shadow_rays as f64 / (w as f64 * h as f64)
+}
+
+/// The GPU backend, or `None` (with the reason printed) when there is no adapter — except under
+/// `CI=true`, where a missing adapter fails the test (parity must run on every CI run).
+pub fn gpu_or_skip(test: &str) -> Option<GpuBackend> {
+    match GpuBackend::new() {
+        Ok(g) => {
+            eprintln!("{test}: wgpu adapter {}", g.adapter_description());
+            Some(g)
+        }
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
+            }
+            eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
+            None
+        }
+    }
 }

@@ -957,41 +957,7 @@ impl GpuBackend {
         params: BTreeMap<String, wedge_graph::ParamValue>,
         inputs: &BTreeMap<String, BufferData>,
     ) -> Result<BTreeMap<String, BufferData>, BackendError> {
-        let mut buffers = Vec::new();
-        let mut reads = Vec::new();
-        let mut writes = Vec::new();
-        let mut data = BTreeMap::new();
-        for b in kernel.bindings() {
-            let id = BufferId(buffers.len());
-            match b.access {
-                Access::Read => match inputs.get(b.name) {
-                    Some(d) => {
-                        reads.push((b.name.to_string(), id));
-                        data.insert(id, d);
-                    }
-                    None if b.optional => continue,
-                    None => return Err(gpu_err(format!("kernel `{}`: input `{}` not given", kernel.name(), b.name))),
-                },
-                Access::Write => writes.push((b.name.to_string(), id)),
-            }
-            buffers.push(wedge_graph::BufferInfo { name: b.name.to_string(), format: b.format });
-        }
-        let n = buffers.len();
-        let mut pass = Pass::new(kernel.name(), "test", kernel.name(), wedge_graph::Stage::Sample);
-        (pass.reads, pass.writes, pass.params) = (reads, writes, params);
-        let schedule = wedge_graph::Schedule {
-            passes: vec![pass.clone()],
-            buffers,
-            lifetimes: vec![Some(wedge_graph::Lifetime { first: 0, last: 0 }); n],
-            slots: (0..n).map(Some).collect(),
-            slot_formats: Vec::new(),
-            sink_inputs: Vec::new(),
-            culled: Vec::new(),
-        };
-        let mut registry = crate::KernelRegistry::new();
-        registry.register(kernel);
-        let job = Job { schedule: &schedule, scene, kernels: &registry, width, height, seed, progress: &crate::Silent };
-        Ok(self.run_pass(&job, &pass, &data)?.0)
+        Ok(crate::lone::LonePass::new(kernel, params, inputs)?.run_gpu(self, scene, width, height, seed)?.0)
     }
 }
 

@@ -99,6 +99,9 @@ impl Kernel for DirectLight {
     fn class(&self) -> KernelClass {
         KernelClass::Sampling
     }
+    fn draws_random(&self) -> bool {
+        true
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("position", Format::Vec4),

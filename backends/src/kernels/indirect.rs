@@ -218,6 +218,9 @@ impl Kernel for IndirectSample {
     fn class(&self) -> KernelClass {
         KernelClass::Sampling
     }
+    fn draws_random(&self) -> bool {
+        true
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("position", Format::Vec4),

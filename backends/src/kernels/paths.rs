@@ -299,6 +299,9 @@ impl Kernel for PathsTrace {
     fn class(&self) -> KernelClass {
         KernelClass::Sampling
     }
+    fn draws_random(&self) -> bool {
+        true
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             // The record to continue (its counts give the first sample indices); absent = none.

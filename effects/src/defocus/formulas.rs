@@ -6,7 +6,7 @@
 //! Units follow the thesis: filter widths `Ω` are spatial bandlimits in pixel⁻¹ (the pixel limit is
 //! `Ω_pix^max = 0.5`), circles of confusion `r` are radii in pixels, `ℓ_p` converts pixels to metres.
 //!
-//! Readings taken (see also `docs/defocus-readings.md`):
+//! Readings taken (see also `docs/DESIGN-NOTES.md`, "Readings taken — Defocus"):
 //! - **Thin lens in pixels.** With `m = 2 tan(vfov/2) / height` (metres per pixel at unit depth), the
 //!   thesis's `W/S = 1/(m f)`, so eq. 5.2 is `r = (a W/S)(f/z − 1) = (a/m)(1/z − 1/f)` and the
 //!   magnification is `ℓ_p = S z/(W f) = m z`, with `z` the depth along the optical axis.
