@@ -56,13 +56,16 @@ fn shadow_rays_are_traced_in_paths_of_initial_rays() {
     let s = Session::open(None, &sized(SW, SH, None, &[])).unwrap();
     let r = run(&s);
     let wedge::backends::BufferData::U32(n) = r.output("rays_per_pixel").unwrap() else { panic!("rays_per_pixel is u32") };
-    // One G-buffer ray per pixel, plus ceil(n / 9) sampler paths (1 in the first pass).
-    let paths: u64 = n.iter().map(|&n| u64::from(n.div_ceil(9).max(1))).sum();
-    assert!(n.iter().all(|&n| (9..=400).contains(&n)));
+    // SoftShadows' default `initial_rays`: the shadow rays of one path.
+    const PER_PATH: u32 = 8;
+    // One G-buffer ray per pixel, plus ceil(n / 8) sampler paths (1 in the first pass).
+    let paths: u64 = n.iter().map(|&n| u64::from(n.div_ceil(PER_PATH).max(1))).sum();
+    assert!(n.iter().all(|&n| (PER_PATH..=400).contains(&n)));
     assert_eq!(r.rays.primary_rays, u64::from(SW * SH) + paths);
-    // Every path that hits carries exactly 9 shadow rays; background paths carry none.
-    assert_eq!(r.rays.shadow_rays % 9, 0);
-    assert!(r.rays.shadow_rays <= 9 * paths && r.rays.shadow_rays >= 9 * paths / 2, "{:?}", r.rays);
+    // Every path that hits carries exactly 8 shadow rays; background paths carry none.
+    let per_path = u64::from(PER_PATH);
+    assert_eq!(r.rays.shadow_rays % per_path, 0);
+    assert!(r.rays.shadow_rays <= per_path * paths && r.rays.shadow_rays >= per_path * paths / 2, "{:?}", r.rays);
     assert_eq!(r.rays.secondary_rays, 0, "no node asked for the hemisphere estimator");
 }
 

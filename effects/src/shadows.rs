@@ -3,7 +3,8 @@
 //!
 //! Sampling is the shared sampler's ([`crate::sampler`], `docs/SAMPLER-STAGE.md` §4): the node asks
 //! it for the `light` estimator with the Ch. 3 constants — one primary path per pixel through the
-//! centre (`n_p = 1`), `initial_rays` (9) stratified light samples on it, `light`, `form_factor` —
+//! centre (`n_p = 1`), `initial_rays` (8; the thesis's 9 = 3×3 is not a stratified prefix of the
+//! sampler's base-2 sequence; measured in docs/SAMPLER-STAGE.md §4) stratified light samples on it, `light`, `form_factor` —
 //! and reads the first pass's occluder statistics `d1, d2_min, d2_max`. Its own passes:
 //! `fill` (unoccluded pixels take their neighbours' averages within 5 pixels, Sec. 3.6)
 //! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21), submitted to the sampler as `n` shadow rays
@@ -87,7 +88,7 @@ impl NodeKind for SoftShadows {
             ParamDecl::positive("alpha", 1.0, 1.0, "α = Ω_g^max/Ω_pix^max ∈ (0, 1] (eq. 3.5); 1 is conservative"),
             ParamDecl::positive("k", 3.0, 100.0, "k: Gaussian spread correction in eq. 3.13"),
             ParamDecl::int("light", 0, 0, 1 << 16, "index of the area light whose shadows this node filters"),
-            ParamDecl::int("initial_rays", 9, 1, 4096, "first-pass light samples (thesis: 9, 3×3 stratified)"),
+            ParamDecl::int("initial_rays", 8, 1, 4096, "first-pass light samples (thesis: 9 = 3×3; 8 is the stratified prefix of the sampler's base-2 sequence nearest it)"),
             ParamDecl::int("max_rays", 400, 1, 1 << 20, "cap on rays per pixel from eq. 3.21"),
             ParamDecl::int("fill_radius", 5, 0, 64, "radius (pixels) for averaging d1, d2 into unoccluded pixels"),
             ParamDecl::choice(
