@@ -426,25 +426,21 @@ fn trace_one(
         r.r_min = r.r_min.min(coc);
         r.r_max = r.r_max.max(coc);
     }
-    let kd = scene.albedo(&sp);
     let mat = &scene.materials[sp.material as usize];
     let (ks, m) = (mat.specular, mat.phong_exponent);
-    let glossy = m > 0.0 && ks.max_element() > 0.0;
-
+    let at = PathHit { x, n, wo, kd: scene.albedo(&sp), ks, m, glossy: m > 0.0 && ks.max_element() > 0.0, w };
     if s.direct {
-        trace_direct(scene, s, light, x, n, wo, kd, ks, m, glossy, w, seed, pixel, n_shadow, r);
+        trace_direct(scene, s, light, &at, seed, pixel, n_shadow, r);
     }
     if s.indirect {
-        trace_indirect(scene, s, x, n, wo, kd, ks, m, glossy, w, seed, pixel, rng_d, rng_g, n_indirect, r);
+        trace_indirect(scene, s, &at, seed, pixel, (rng_d, rng_g), n_indirect, r);
     }
 }
 
-/// The direct estimator at hit `x` (see the module doc).
-#[allow(clippy::too_many_arguments)]
-fn trace_direct(
-    scene: &wedge_scene::Scene,
-    s: &Settings,
-    light: &wedge_scene::AreaLight,
+/// The primary hit a path's estimators shade: position, shading normal, direction to the eye,
+/// diffuse albedo, Phong `k_s` and exponent (a lobe where `glossy`), and the path's lens weight.
+#[derive(Clone, Copy)]
+struct PathHit {
     x: Vec3,
     n: Vec3,
     wo: Vec3,
@@ -453,11 +449,21 @@ fn trace_direct(
     m: f32,
     glossy: bool,
     w: f32,
+}
+
+/// The direct estimator at hit `x` (see the module doc).
+#[allow(clippy::too_many_arguments)]
+fn trace_direct(
+    scene: &wedge_scene::Scene,
+    s: &Settings,
+    light: &wedge_scene::AreaLight,
+    at: &PathHit,
     seed: u32,
     pixel: u32,
     n_shadow: u32,
     r: &mut PathRecord,
 ) {
+    let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
     // Direct: centre-of-light form factor (or, with `exact`, the per-sample geometry term),
     // visibility sampled (eqs. 5.9–5.14); the glossy lobe toward the light centre folds into k
     // (eq. 5.20).
@@ -497,21 +503,14 @@ fn trace_direct(
 fn trace_indirect(
     scene: &wedge_scene::Scene,
     s: &Settings,
-    x: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    kd: Vec3,
-    ks: Vec3,
-    m: f32,
-    glossy: bool,
-    w: f32,
+    at: &PathHit,
     seed: u32,
     pixel: u32,
-    rng_d: &PixelRng,
-    rng_g: &PixelRng,
+    (rng_d, rng_g): (&PixelRng, &PixelRng),
     n_indirect: u32,
     r: &mut PathRecord,
 ) {
+    let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
 
     // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d.
     let (mut e, mut valid) = (Vec3::ZERO, 0u32);
