@@ -72,11 +72,10 @@ fn indirect_ray(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, q: u32) -> 
     return r.value;
 }
 
-fn trace_one(c: CameraModel, ray: LensRay, pixel: u32, key_d: u32, key_g: u32, n_shadow: u32, n_indirect: u32) {
+fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key_g: u32, n_shadow: u32, n_indirect: u32) {
     let w = ray.weight;
     rec.paths = rec.paths + 1u;
     rec.weight = rec.weight + w;
-    let hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
     if (!hit.hit) {
         return;
     }
@@ -238,6 +237,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let key_d = rng_key(frame.seed, pixel, substream(params.stream, SALT_DIFFUSE_PATH));
     let key_g = rng_key(frame.seed, pixel, substream(params.stream, SALT_GLOSSY_PATH));
     let before = rec;
+    // As the CPU: through the pixel centre of a pinhole camera the camera ray is the same for every
+    // path, so it is traced once (per dispatch: a chunked pass re-traces it per chunk, uncounted) and
+    // counted once per pixel and pass.
+    let fixed_primary = params.jitter == 0u && params.cam_aperture == 0.0;
+    var fixed_hit: Hit;
+    var have_hit = false;
     var k = frame.chunk_begin;
     for (; k < end; k = k + 1u) {
         let j = first + k;
@@ -247,11 +252,20 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let lens = draw(pixel, PAIR_LENS, j);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x), f32(xy.y)) + jitter, lens);
-        trace_one(c, ray, pixel, key_d, key_g, n_shadow, n_indirect);
+        if (!fixed_primary || !have_hit) {
+            fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
+            have_hit = true;
+        }
+        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, n_shadow, n_indirect);
     }
     count_cut_loop(k, end);
-    if (rec.paths > before.paths) {
-        atomicAdd(&counters[COUNTER_PRIMARY], rec.paths - before.paths);
+    var primary = rec.paths - before.paths;
+    if (fixed_primary) {
+        // Counted in the chunk that starts the pass, when the pass traces any path here.
+        primary = select(0u, 1u, frame.chunk_begin == 0u && rec.paths > before.paths);
+    }
+    if (primary > 0u) {
+        atomicAdd(&counters[COUNTER_PRIMARY], primary);
     }
     let shadow = (rec.shadow - before.shadow) + (rec.bounce_shadow - before.bounce_shadow);
     if (shadow > 0u) {

@@ -288,6 +288,24 @@ fn share_differing(what: &str, c: &BufferData, g: &BufferData) -> f64 {
 
 /// CPU vs GPU on built-in scenes, field by field, as the other sampling passes are compared: the
 /// share of pixels over the per-component tolerance must stay small (grazing rays).
+/// Through the pixel centre of a pinhole camera the camera ray cannot vary: both backends trace it
+/// once per pixel and pass and count it once, also when the GPU splits the pass into chunks (40 paths
+/// here, chunks of 16 on a software adapter), and the records still agree.
+#[test]
+fn a_fixed_camera_ray_is_traced_and_counted_once_per_pixel() {
+    let Some(mut gpu) = gpu_or_skip("a_fixed_camera_ray_is_traced_and_counted_once_per_pixel") else { return };
+    let size = (24u32, 18u32, 5u32);
+    let scene = defocused("grids", 0.0);
+    let p = trace_params(40, false, "disk");
+    let (c, c_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
+    let (g, g_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
+    let pixels = u64::from(size.0 * size.1);
+    assert_eq!(c_rays.primary_rays, pixels, "one camera ray per pixel on the CPU");
+    assert_eq!(g_rays.primary_rays, pixels, "one camera ray per pixel on the GPU");
+    assert!(records(&c["record"]).iter().all(|r| r.paths == 40), "every pixel still takes 40 paths");
+    assert!(share_differing("grids", &c["record"], &g["record"]) <= 0.02);
+}
+
 #[test]
 fn paths_trace_cpu_gpu_parity() {
     let Some(mut gpu) = gpu_or_skip("paths_trace_cpu_gpu_parity") else { return };

@@ -58,10 +58,13 @@ fn shadow_rays_are_traced_in_paths_of_initial_rays() {
     let wedge::backends::BufferData::U32(n) = r.output("rays_per_pixel").unwrap() else { panic!("rays_per_pixel is u32") };
     // SoftShadows' default `initial_rays`: the shadow rays of one path.
     const PER_PATH: u32 = 8;
-    // One G-buffer ray per pixel, plus ceil(n / 8) sampler paths (1 in the first pass).
+    // ceil(n / 8) sampler paths per pixel (1 in the first pass), all through the pixel centre of a
+    // pinhole camera: the sampler traces that camera ray once per pixel and pass, so the primary
+    // rays are one G-buffer ray, one first-pass ray, and one adaptive-pass ray where it adds paths.
     let paths: u64 = n.iter().map(|&n| u64::from(n.div_ceil(PER_PATH).max(1))).sum();
     assert!(n.iter().all(|&n| (PER_PATH..=400).contains(&n)));
-    assert_eq!(r.rays.primary_rays, u64::from(SW * SH) + paths);
+    let adaptive_pixels = n.iter().filter(|&&n| n.div_ceil(PER_PATH) > 1).count() as u64;
+    assert_eq!(r.rays.primary_rays, 2 * u64::from(SW * SH) + adaptive_pixels);
     // Every path that hits carries exactly 8 shadow rays; background paths carry none.
     let per_path = u64::from(PER_PATH);
     assert_eq!(r.rays.shadow_rays % per_path, 0);

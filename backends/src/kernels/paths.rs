@@ -353,6 +353,10 @@ impl Kernel for PathsTrace {
         let spp_indirect = ctx.read_opt::<u32>("indirect_per_primary")?;
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
         let light = &scene.lights[s.light];
+        // Through the pixel centre of a pinhole camera every path of a pixel has the same camera ray
+        // (the lens sample only changes a Gaussian lens's weight): trace it once per pixel and pass,
+        // and count it once, as plain Monte Carlo with one primary and N shadow rays would.
+        let fixed_primary = !s.jitter && scene.camera.aperture_radius == 0.0;
         let records = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
             let pixel = i as u32;
@@ -363,18 +367,27 @@ impl Kernel for PathsTrace {
             let rng_d = PixelRng::new(seed, pixel, substream(s.stream, SALT_DIFFUSE_PATH));
             let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
             let first = r.paths;
+            let mut fixed_hit = None;
             for j in first..first.saturating_add(count) {
                 let jitter = if s.jitter { draw(&s, seed, pixel, pair::PIXEL, j) } else { Vec2::splat(0.5) };
                 let lens = draw(&s, seed, pixel, pair::LENS, j);
                 let ray = cam.ray(Vec2::new(px as f32, py as f32) + jitter, lens, width, height, s.lens);
-                trace_one(scene, &s, light, forward, height, &ray, seed, pixel, &rng_d, &rng_g, n_shadow, n_indirect, &mut r);
+                let trace = || scene.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
+                let hit = if fixed_primary { *fixed_hit.get_or_insert_with(trace) } else { trace() };
+                trace_one(scene, &s, light, forward, height, &ray, hit, seed, pixel, &rng_d, &rng_g, n_shadow, n_indirect, &mut r);
             }
             r
         });
         let sum = |f: fn(&PathRecord) -> u32| -> u64 {
             records.iter().zip(0..).map(|(r, i)| (f(r) - previous.map_or(0, |p| f(&p[i]))) as u64).sum()
         };
-        Counters::add(&ctx.counters.primary_rays, sum(|r| r.paths));
+        // Primary rays traced: one per path, or one per pixel and pass where the camera ray is fixed.
+        let primary = if fixed_primary {
+            records.iter().zip(0..).filter(|(r, i)| r.paths > previous.map_or(0, |p| p[*i].paths)).count() as u64
+        } else {
+            sum(|r| r.paths)
+        };
+        Counters::add(&ctx.counters.primary_rays, primary);
         Counters::add(&ctx.counters.shadow_rays, sum(|r| r.shadow) + sum(|r| r.bounce_shadow));
         Counters::add(&ctx.counters.secondary_rays, sum(|r| r.indirect_rays));
         Counters::add(&ctx.counters.non_finite_samples, sum(|r| r.non_finite));
@@ -382,7 +395,7 @@ impl Kernel for PathsTrace {
     }
 }
 
-/// One path: the primary ray `ray`, then the direct and indirect estimators at its hit.
+/// One path: the primary ray `ray` with its closest `hit`, then the direct and indirect estimators there.
 #[allow(clippy::too_many_arguments)]
 fn trace_one(
     scene: &wedge_scene::Scene,
@@ -391,6 +404,7 @@ fn trace_one(
     forward: Vec3,
     height: u32,
     ray: &wedge_scene::LensRay,
+    hit: Option<wedge_scene::Hit>,
     seed: u32,
     pixel: u32,
     rng_d: &PixelRng,
@@ -402,7 +416,7 @@ fn trace_one(
     let w = ray.weight;
     r.paths += 1;
     r.weight += w;
-    let Some(hit) = scene.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) else {
+    let Some(hit) = hit else {
         return;
     };
     let sp = scene.surface(&hit, ray.origin, ray.dir);
@@ -588,7 +602,7 @@ fn accumulate(l: &mut [f32; 3], k_sum: &mut [f32; 3], e_sum: &mut [f32; 3], k: V
 ///   the optical axis, and `ℓ_p = 2 z tan(fov/2)/h` (metres per pixel at that depth, Ch. 5);
 /// - `occlusion`: mean `d1`, `d2_min`, `d2_max`, occluded shadow rays (as `direct.light` writes it);
 /// - `depth`: `z_min`, `z_max`, indirect rays that hit, indirect rays (as `indirect.sample`);
-/// - `counts`: primary rays, shadow rays, indirect samples (diffuse + glossy), non-finite samples;
+/// - `counts`: paths (primary samples; a fixed camera ray is traced once for all of them), shadow rays, indirect samples (diffuse + glossy), non-finite samples;
 /// - `direct`: mean direct E (rgb) and w = shadow rays, the value/sample-count convention of
 ///   `direct.light`'s `estimate`, which the world-space filters read (Vec4).
 pub struct PathsResolve;
