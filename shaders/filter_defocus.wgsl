@@ -2,23 +2,7 @@
 // with the w_j(i) < 0.01 rejection; mirrors backends/src/kernels/filter_ch5.rs (defocus_pixel) term
 // by term and in the same order.
 #include "common.wgsl"
-
-const FILTER_SHARPNESS: f32 = 16.0;
-const REJECT_EXPONENT: f32 = 4.6051702;
-const REJECT_RADIUS: f32 = 0.5364915;
-
-fn valid_width(w: f32) -> bool {
-    return w > 0.0 && is_finite(w);
-}
-
-// ceil(0.5365 / Ω), at most the cap (filter_ch5.rs window_radius).
-fn window_radius(omega: f32, cap: i32) -> i32 {
-    let r = REJECT_RADIUS / omega;
-    if (!(r < f32(cap))) {
-        return cap;
-    }
-    return max(i32(ceil(r)), 0);
-}
+#include "filter_ch5_window.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

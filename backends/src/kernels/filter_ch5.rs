@@ -308,6 +308,7 @@ impl Kernel for IrradianceFilter {
                     .i32("axis", axis(ctx)?.code())
                     .f32("normal_cos", ctx.f32_param("normal_cos")?))
             })
+            .with_include("filter_ch5_window.wgsl", include_str!("../../../shaders/filter_ch5_window.wgsl"))
             .with_reach(reach),
         )
     }
@@ -345,6 +346,7 @@ impl Kernel for DefocusFilter {
             WgslSource::new(include_str!("../../../shaders/filter_defocus.wgsl"), |ctx| {
                 Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?).i32("axis", axis(ctx)?.code()))
             })
+            .with_include("filter_ch5_window.wgsl", include_str!("../../../shaders/filter_ch5_window.wgsl"))
             .with_reach(reach),
         )
     }
