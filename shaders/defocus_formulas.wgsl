@@ -148,3 +148,8 @@ fn defocus_compose_term(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, factored: bool
     }
     return l;
 }
+
+// A width Ω as the Ch. 5 filters' Gaussian standard deviation in pixels, 1/(√32 Ω) (kernels.rs `sigma_px`).
+fn defocus_sigma_px(omega: f32) -> f32 {
+    return 1.0 / (5.656854 * omega);
+}

@@ -35,4 +35,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     omega_indirect_put(i, r.omega_indirect);
     n_indirect_factored_put(i, r.n_indirect_factored);
     n_indirect_combined_put(i, r.n_indirect_combined);
+    // The count the pixel takes: factored where its (median-filtered) flag is set, else combined.
+    n_direct_put(i, select(r.n_direct_combined, r.n_direct_factored, flag_direct_bound() && flag_direct_at(i) != 0u));
+    n_indirect_put(i, select(r.n_indirect_combined, r.n_indirect_factored,
+        flag_indirect_bound() && flag_indirect_at(i) != 0u));
+    sigma_defocus_put(i, defocus_sigma_px(r.omega_defocus));
+    sigma_direct_put(i, defocus_sigma_px(r.omega_direct));
+    sigma_indirect_put(i, defocus_sigma_px(r.omega_indirect));
 }

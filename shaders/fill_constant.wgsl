@@ -1,4 +1,4 @@
-// fill.constant — out = value at every pixel (a reference's sample count); mirrors
+// fill.constant (u32) and fill.constant_f32 — out = value at every pixel (a reference's sample count, a zero width); mirrors
 // backends/src/kernels/constant.rs.
 #include "common.wgsl"
 

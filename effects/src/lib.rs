@@ -54,6 +54,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     indirect::register_kernels(kernels);
     nodes.register(Arc::new(add::Add));
     add::register_kernels(kernels);
+    nodes.register(Arc::new(defocus::Defocus));
     defocus::register_kernels(kernels);
 }
 

@@ -53,6 +53,10 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
     ]
 }
 
+/// Settings without a default: passed to `paths.trace` only where a node sets them (the thin lens a
+/// Defocus node asks for; otherwise the scene camera's).
+const OPTIONAL_SETTINGS: [&str; 2] = ["aperture_radius", "focus_distance"];
+
 /// The `paths.trace` sampler.
 pub struct PathSampler;
 
@@ -87,13 +91,12 @@ impl PathSampler {
         b.finish();
     }
 
-    /// Chain `sampler.combine` over `sources` (buffer, unit), the last pass written with `role`;
-    /// with no source, `fill.constant` of `at_least`.
+    /// Chain `sampler.combine` over `sources` (buffer, unit, minus), the last pass written with
+    /// `role`; with no source, `fill.constant` of `at_least`.
     fn combine(
         ctx: &mut ExpandCtx<'_>,
         name: &str,
-        sources: &[(BufferId, u32)],
-        minus: u32,
+        sources: &[(BufferId, u32, u32)],
         at_least: u32,
         role: Reference,
     ) -> BufferId {
@@ -107,7 +110,7 @@ impl PathSampler {
             return out;
         }
         let mut running: Option<BufferId> = None;
-        for (k, (value, unit)) in sources.iter().enumerate() {
+        for (k, (value, unit, minus)) in sources.iter().enumerate() {
             let last = k + 1 == sources.len();
             let local = if last { name.to_string() } else { format!("{name}_{k}") };
             let out = ctx.buffer(&local, Format::U32);
@@ -116,7 +119,7 @@ impl PathSampler {
                 .read_opt("other", running)
                 .write("out", out)
                 .int("unit", i64::from(*unit))
-                .int("minus", i64::from(minus))
+                .int("minus", i64::from(*minus))
                 .int("at_least", i64::from(at_least))
                 .reference(if last { role } else { Reference::Keep })
                 .finish();
@@ -134,7 +137,7 @@ impl SamplerKind for PathSampler {
         ESTIMATORS.iter().map(|(e, _, _)| *e).collect()
     }
     fn settings(&self) -> Vec<&'static str> {
-        defaults().into_iter().map(|(n, _)| n).collect()
+        defaults().into_iter().map(|(n, _)| n).chain(OPTIONAL_SETTINGS).collect()
     }
     fn outputs(&self) -> Vec<(&'static str, Format)> {
         let mut o = vec![("record", Format::Struct(&PATH_RECORD))];
@@ -147,6 +150,11 @@ impl SamplerKind for PathSampler {
             .into_iter()
             .map(|n| (n, Self::setting(plan, n)))
             .collect();
+        for n in OPTIONAL_SETTINGS {
+            if let Some(v) = plan.setting(n) {
+                trace_params.push((n, v.clone()));
+            }
+        }
         for (estimator, switch, per_primary) in ESTIMATORS {
             trace_params.push((switch, ParamValue::Bool(plan.estimators.contains(estimator))));
             trace_params.push((per_primary, ParamValue::Int(i64::from(Self::count_setting(plan, per_primary)?))));
@@ -162,38 +170,50 @@ impl SamplerKind for PathSampler {
         Self::resolve(ctx, plan, SamplerPass::First, first, Stage::Sample);
 
         // 3. Counts: paths per pixel, then secondary samples per primary per asked estimator.
-        let mut path_sources: Vec<(BufferId, u32)> = Vec::new();
+        let spread = |ctx: &mut ExpandCtx<'_>, name: String, value: BufferId, max3: bool| {
+            if !max3 {
+                return value;
+            }
+            let out = ctx.buffer(&name, Format::U32);
+            ctx.pass(&name, "neighbourhood.max3", Stage::Counts).read("value", value).write("out", out).finish();
+            out
+        };
+        let mut path_sources: Vec<(BufferId, u32, u32)> = Vec::new();
         for (k, (_, r)) in plan.requests.iter().enumerate() {
-            let value = if r.max3 {
-                let spread = ctx.buffer(&format!("counts_max3_{k}"), Format::U32);
-                ctx.pass(&format!("counts_max3_{k}"), "neighbourhood.max3", Stage::Counts)
-                    .read("value", r.paths)
-                    .write("out", spread)
-                    .finish();
-                spread
-            } else {
-                r.paths
-            };
-            path_sources.push((value, r.paths_unit));
+            let value = spread(ctx, format!("counts_max3_{k}"), r.paths, r.max3);
+            // A total over both passes includes the first pass's paths; a request beyond it does not.
+            path_sources.push((value, r.paths_unit, if r.beyond_first { 0 } else { first_paths }));
         }
-        let paths = Self::combine(ctx, "counts_paths", &path_sources, first_paths, 0, Reference::Count);
+        let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
         let mut per_primary: Vec<(&str, BufferId)> = Vec::new();
         for (estimator, _, binding) in ESTIMATORS {
             if !plan.estimators.contains(estimator) {
                 continue;
             }
             let mut at_least = 1u32;
-            let mut sources: Vec<(BufferId, u32)> = Vec::new();
-            for (_, r) in &plan.requests {
+            let mut sources: Vec<(BufferId, u32, u32)> = Vec::new();
+            for (k, (_, r)) in plan.requests.iter().enumerate() {
                 for (e, per) in &r.per_primary {
                     match (e.as_str() == estimator, per) {
                         (true, PerPrimary::Constant(c)) => at_least = at_least.max(*c),
-                        (true, PerPrimary::Buffer(id)) => sources.push((*id, 1)),
+                        (true, PerPrimary::Buffer(id)) => sources.push((*id, 1, 0)),
+                        (true, PerPrimary::Total(id)) => {
+                            // The total spread over the adaptive pass's paths as s² per path.
+                            let total = spread(ctx, format!("counts_{estimator}_max3_{k}"), *id, r.max3);
+                            let name = format!("counts_{estimator}_per_path_{k}");
+                            let out = ctx.buffer(&name, Format::U32);
+                            ctx.pass(&name, "sampler.per_primary", Stage::Counts)
+                                .read("total", total)
+                                .read("paths", paths)
+                                .write("out", out)
+                                .finish();
+                            sources.push((out, 1, 0));
+                        }
                         _ => {}
                     }
                 }
             }
-            let id = Self::combine(ctx, &format!("counts_{estimator}"), &sources, 0, at_least, Reference::CountPerPrimary);
+            let id = Self::combine(ctx, &format!("counts_{estimator}"), &sources, at_least, Reference::CountPerPrimary);
             per_primary.push((binding, id));
         }
 
@@ -268,8 +288,54 @@ impl Kernel for CombineCounts {
     }
 }
 
+/// `sampler.per_primary`: secondary samples per path from an estimator's total over the adaptive
+/// pass (`PerPrimary::Total`): the smallest square `s²` with `paths · s² ≥ total`, `s` in `[1, 64]`
+/// (so at most 4096 per path, the Ch. 5 rates' cap). Integer-only; WGSL mirror
+/// `shaders/sampler_per_primary.wgsl`.
+pub struct PerPrimaryCounts;
+
+/// Largest strata per secondary axis `sampler.per_primary` gives (64² = 4096 samples per path).
+pub const MAX_PER_PRIMARY_STRATA: u32 = 64;
+
+/// One pixel of [`PerPrimaryCounts`].
+pub fn per_primary_pixel(paths: u32, total: u32) -> u32 {
+    let p = paths.max(1);
+    let q = total.div_ceil(p);
+    let mut s = ((q as f32).sqrt() as u32).min(MAX_PER_PRIMARY_STRATA);
+    while s > 1 && s * s > q {
+        s -= 1;
+    }
+    while s < MAX_PER_PRIMARY_STRATA && s * s < q {
+        s += 1;
+    }
+    let s = s.max(1);
+    s * s
+}
+
+impl Kernel for PerPrimaryCounts {
+    fn name(&self) -> &'static str {
+        "sampler.per_primary"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![Binding::read("total", Format::U32), Binding::read("paths", Format::U32), Binding::write("out", Format::U32)]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../shaders/sampler_per_primary.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let total = ctx.read::<u32>("total")?;
+        let paths = ctx.read::<u32>("paths")?;
+        let out: Vec<u32> = (0..ctx.pixels()).map(|i| per_primary_pixel(paths[i], total[i])).collect();
+        ctx.put("out", out)
+    }
+}
+
 pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(CombineCounts));
+    reg.register(Arc::new(PerPrimaryCounts));
 }
 
 #[cfg(test)]
@@ -287,5 +353,19 @@ mod tests {
         assert_eq!(combine_pixel(0, 0, 1, 0, 1), 1);
         assert_eq!(combine_pixel(4, 2, 1, 0, 9), 9);
         assert_eq!(combine_pixel(u32::MAX, 0, 1, 0, 0), u32::MAX);
+    }
+
+    #[test]
+    fn per_primary_is_the_smallest_square_covering_the_total() {
+        assert_eq!(per_primary_pixel(4, 36), 9);
+        assert_eq!(per_primary_pixel(4, 37), 16);
+        assert_eq!(per_primary_pixel(9, 1), 1);
+        assert_eq!(per_primary_pixel(0, 5), 9);
+        assert_eq!(per_primary_pixel(1, 0), 1);
+        assert_eq!(per_primary_pixel(1, u32::MAX), 4096);
+        // Matches the Ch. 5 formula the rates use.
+        for (p, n) in [(1, 400), (16, 143), (25, 2500), (3, 10)] {
+            assert_eq!(per_primary_pixel(p, n), crate::defocus::formulas::secondary_per_primary(p, n));
+        }
     }
 }

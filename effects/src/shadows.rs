@@ -103,6 +103,9 @@ impl NodeKind for SoftShadows {
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        if let Some(f) = ctx.factoring() {
+            return expand_factored(ctx, f);
+        }
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;
         let (albedo, emission) = (ctx.input("albedo"), ctx.input("emission"));
@@ -163,6 +166,7 @@ impl NodeKind for SoftShadows {
             paths_unit: per_path,
             per_primary: vec![("light".into(), PerPrimary::Constant(per_path))],
             max3: false,
+            beyond_first: false,
         })?;
         // The sampler's final direct estimate: mean E (unit albedo), w = shadow rays.
         let noisy = ctx.sampler_output(SamplerPass::Final, "direct")?;
@@ -185,6 +189,35 @@ impl NodeKind for SoftShadows {
         ctx.output("rays_per_pixel", rays);
         Ok(())
     }
+}
+
+/// Under a factoring node (thesis Ch. 5, [`wedge_graph::factoring`]): the direct light of area light
+/// `light` as one factored component ([`crate::defocus::component`]) — SepDir flags, `Ω_x^s` (5.18),
+/// `n_dir^{f|c}` (5.25, 5.27), the irradiance filter (5.31) and the composed term (5.32), which
+/// `radiance` carries to the factoring node (albedo is the factored `k`; emission is added there).
+/// The Ch. 3 parameters (`mu`, `alpha`, `k`, `initial_rays`, `max_rays`, `fill_radius`,
+/// `form_factor`) do not apply: the factoring node's settings do; `position`, `normal`, `albedo` and
+/// `emission` inputs are not read (the sampler's lens-averaged values are).
+fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Result<(), GraphError> {
+    use crate::defocus::component::{self, Component, Part};
+    let light = ctx.param("light").clone();
+    ctx.sampler(SamplerRequest::new().estimator("light").setting("light", light.clone()))?;
+    let out = component::expand(
+        ctx,
+        f,
+        &Component {
+            name: "direct",
+            estimator: "light",
+            statistic: ("occlusion", "occlusion"),
+            rate_params: vec![("light", light)],
+            parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
+        },
+    )?;
+    ctx.output("radiance", out.radiance);
+    ctx.output("unfiltered", out.unfiltered);
+    ctx.output("filter_width", out.sigma);
+    ctx.output("rays_per_pixel", out.count);
+    Ok(())
 }
 
 /// Per-pixel inputs of the formulas, read from the filled occluder statistics.

@@ -342,6 +342,10 @@ pub struct ParamDecl {
     pub name: &'static str,
     pub kind: ParamKind,
     pub doc: &'static str,
+    /// Optional: absent unless the pipeline writes it (no default is filled in; the node reads it with
+    /// [`ExpandCtx::param_opt`] and decides, e.g. a Defocus node's `aperture_radius` falls back to the
+    /// pipeline's camera block). See [`ParamDecl::optional`].
+    pub optional: bool,
 }
 
 impl ParamDecl {
@@ -361,6 +365,7 @@ impl ParamDecl {
                 min_exclusive: false,
             },
             doc,
+            optional: false,
         }
     }
     /// A float that must be strictly greater than `min` (e.g. `mu`, where 0 means an infinitely wide filter).
@@ -374,6 +379,7 @@ impl ParamDecl {
                 min_exclusive: true,
             },
             doc,
+            optional: false,
         }
     }
     pub const fn int(
@@ -387,6 +393,7 @@ impl ParamDecl {
             name,
             kind: ParamKind::Int { default, min, max },
             doc,
+            optional: false,
         }
     }
     pub const fn boolean(name: &'static str, default: bool, doc: &'static str) -> Self {
@@ -394,6 +401,7 @@ impl ParamDecl {
             name,
             kind: ParamKind::Bool { default },
             doc,
+            optional: false,
         }
     }
     pub const fn choice(
@@ -406,7 +414,15 @@ impl ParamDecl {
             name,
             kind: ParamKind::Choice { default, options },
             doc,
+            optional: false,
         }
+    }
+
+    /// The same declaration, but optional: no default is filled in when the pipeline leaves it out
+    /// (the declared default is only what documentation shows as the typical value).
+    pub const fn optional(mut self) -> Self {
+        self.optional = true;
+        self
     }
 
     pub fn default_value(&self) -> ParamValue {
@@ -499,6 +515,19 @@ pub trait NodeKind: Send + Sync {
     /// Sinks are the roots of culling: a pass survives only if some sink input depends on it.
     fn is_sink(&self) -> bool {
         false
+    }
+    /// Whether this node, with these (validated) parameters and the pipeline's camera block, is the
+    /// pipeline's **factoring node** ([`crate::factoring`]): it takes over the filtering of every
+    /// lighting component the other nodes sample (thesis Ch. 5's Defocus; App. B's Motion), and
+    /// the settings it returns are what those nodes read through [`ExpandCtx::factoring`].
+    /// `Ok(None)` (the default): not a factoring node. `Err`: the configuration cannot work; the
+    /// validator reports it at the node's position with the refusal's fix.
+    fn factoring(
+        &self,
+        _params: &std::collections::BTreeMap<String, ParamValue>,
+        _camera: Option<&crate::pipeline::CameraSpec>,
+    ) -> Result<Option<crate::factoring::Settings>, crate::factoring::Refusal> {
+        Ok(None)
     }
     /// Turn one validated node instance into passes, binding every declared output port.
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError>;

@@ -14,6 +14,7 @@
 use std::collections::BTreeMap;
 
 use crate::decl::{Format, ParamValue};
+use crate::factoring::Factoring;
 use crate::sampler::{CountRequest, SamplerPass, SamplerPlan, SamplerRequest};
 use crate::stage::{stream_id, Reference, Stage};
 use crate::GraphError;
@@ -115,6 +116,8 @@ pub struct ExpandCtx<'a> {
     pub(crate) expansion: &'a mut Expansion,
     /// The shared sampler's requests so far ([`crate::sampler`]); `None` outside [`crate::expand()`].
     pub(crate) sampler: Option<&'a mut SamplerPlan>,
+    /// The pipeline's factoring node ([`crate::factoring`]), if any.
+    pub(crate) factoring: Option<&'a Factoring>,
 }
 
 impl<'a> ExpandCtx<'a> {
@@ -131,7 +134,18 @@ impl<'a> ExpandCtx<'a> {
             inputs,
             expansion,
             sampler: None,
+            factoring: None,
         }
+    }
+    /// A context that sees the pipeline's factoring node (tests, tools; [`crate::expand()`] sets it).
+    pub fn with_factoring(mut self, factoring: Option<&'a Factoring>) -> Self {
+        self.factoring = factoring;
+        self
+    }
+    /// The pipeline's factoring node and its settings ([`crate::factoring`]): a component node
+    /// that sees one renders its component for it instead of filtering on its own.
+    pub fn factoring(&self) -> Option<&'a Factoring> {
+        self.factoring
     }
     /// A context whose node can ask for the shared sampler ([`ExpandCtx::sampler`]).
     pub fn with_sampler(mut self, plan: &'a mut SamplerPlan) -> Self {
@@ -191,6 +205,10 @@ impl<'a> ExpandCtx<'a> {
                 self.node
             )
         })
+    }
+    /// An optional parameter ([`crate::ParamDecl::optional`]): `None` where the pipeline leaves it out.
+    pub fn param_opt(&self, name: &str) -> Option<&ParamValue> {
+        self.params.get(name)
     }
     pub fn params(&self) -> &BTreeMap<String, ParamValue> {
         self.params

@@ -20,6 +20,7 @@
 
 pub mod decl;
 pub mod expand;
+pub mod factoring;
 mod explain;
 pub mod pipeline;
 mod reference;
@@ -31,6 +32,7 @@ mod validate;
 
 pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, StructLayout};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
+pub use factoring::Factoring;
 pub use pipeline::{CameraProblem, CameraSpec, Location, NodeSpec, Pipeline, RawParam};
 pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
 pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SAMPLER_NODE};

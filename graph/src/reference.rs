@@ -8,6 +8,9 @@
 //!   `fill.constant` writing the reference count `N` into each count buffer.
 //! - **CountPerPrimary** passes (secondary samples per primary path) are replaced the same way by
 //!   `fill.constant` writing 1: each of the reference's N paths takes one secondary sample.
+//! - **Fill** passes (`Reference::Fill(v)`, a `u32` per-pixel decision such as a factoring flag) are
+//!   replaced the same way by `fill.constant` writing `v` (a Ch. 5 reference composes every
+//!   component's `L`: its flags are 0).
 //! - **Sample** passes take `count = N` and the reference's `sampling`; a **Continued** first pass
 //!   takes `count = 0`, so the pass that continues it draws all `N` samples as one set: a stratified
 //!   reference is N jointly stratified samples (per light, per component), an independent one N
@@ -57,7 +60,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 ),
             ));
         }
-        if p.stage == Stage::Filter && !matches!(role, Reference::Bypass { .. }) {
+        if matches!(p.stage, Stage::Filter | Stage::ImageFilter) && !matches!(role, Reference::Bypass { .. }) {
             problems.push((
                 p.node.clone(),
                 format!("filter pass `{}` must declare `.reference(Reference::Bypass {{ input: .. }})`", p.name),
@@ -85,13 +88,13 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 }
             }
         }
-        if matches!(role, Reference::Count | Reference::CountPerPrimary) {
+        if matches!(role, Reference::Count | Reference::CountPerPrimary | Reference::Fill(_)) {
             for (binding, id) in &p.writes {
                 let f = buffers[id.0].format;
                 if f != Format::U32 {
                     problems.push((
                         p.node.clone(),
-                        format!("count pass `{}` writes `{binding}` as {f}; sample counts are u32", p.name),
+                        format!("count or fill pass `{}` writes `{binding}` as {f}; it must be u32", p.name),
                     ));
                 }
             }
@@ -128,8 +131,12 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
     for p in passes {
         match p.reference {
             Reference::Bypass { .. } => continue,
-            Reference::Count | Reference::CountPerPrimary => {
-                let value = if p.reference == Reference::Count { count.clone() } else { ParamValue::Int(1) };
+            Reference::Count | Reference::CountPerPrimary | Reference::Fill(_) => {
+                let value = match p.reference {
+                    Reference::Count => count.clone(),
+                    Reference::Fill(v) => ParamValue::Int(i64::from(v)),
+                    _ => ParamValue::Int(1),
+                };
                 let many = p.writes.len() > 1;
                 for (binding, id) in &p.writes {
                     let name = if many { format!("{}[{binding}]", p.name) } else { p.name.clone() };

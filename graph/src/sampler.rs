@@ -78,6 +78,10 @@ pub enum PerPrimary {
     Constant(u32),
     /// A per-pixel `u32` buffer the node writes in `Stage::Bandwidth`.
     Buffer(BufferId),
+    /// A per-pixel `u32` buffer of the estimator's secondary samples over all of the adaptive pass's
+    /// paths (Ch. 5's `n_dir`, `n_ind`): the sampler spreads them as `s²` per path, the smallest
+    /// square with `paths · s² ≥ total` (full stratification, Sec. 5.8 footnote 6), at least 1.
+    Total(BufferId),
 }
 
 /// One node's per-pixel counts for the adaptive pass.
@@ -91,8 +95,13 @@ pub struct CountRequest {
     pub paths_unit: u32,
     /// Secondary samples per primary path, per estimator the node asked for.
     pub per_primary: Vec<(String, PerPrimary)>,
-    /// Spread the path count over the 3×3 neighbourhood (thesis Sec. 5.8 step 2) before combining.
+    /// Spread the path count (and `PerPrimary::Total` counts) over the 3×3 neighbourhood (thesis
+    /// Sec. 5.8 step 2) before combining.
     pub max3: bool,
+    /// `paths` counts the adaptive pass alone (Ch. 5: the second pass traces `n_p` paths after the
+    /// first pass's), not a total over both passes that includes the first pass's paths (Ch. 3's
+    /// eq. 3.21 counts the initial samples).
+    pub beyond_first: bool,
 }
 
 /// How a sampler is implemented: which estimators and settings it knows, which resolved outputs
@@ -260,7 +269,7 @@ impl SamplerPlan {
                     "submits secondary counts for estimator `{estimator}`, which no node asked the sampler for"
                 )));
             }
-            if let PerPrimary::Buffer(id) = per {
+            if let PerPrimary::Buffer(id) | PerPrimary::Total(id) = per {
                 u32_buffer(*id, estimator)?;
             }
         }

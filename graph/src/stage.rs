@@ -87,6 +87,10 @@ pub enum Reference {
     /// secondary sample per estimator — N jointly stratified samples per pixel, not N × the
     /// pipeline's per-primary count.
     CountPerPrimary,
+    /// Writes a per-pixel `u32` decision the reference must take one way (e.g. Ch. 5's factoring
+    /// flags, eq. 5.30: a reference composes `L`, never the factored `k·E`): replaced by
+    /// `fill.constant` writing this value.
+    Fill(u32),
     /// Draws samples: in a reference its `count` parameter becomes the reference count and its
     /// `sampling` the reference's (`stratified` or `independent`). A pass with per-pixel counts reads
     /// them from a [`Reference::Count`] pass, which then writes the reference count.

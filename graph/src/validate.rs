@@ -253,6 +253,8 @@ pub struct ValidatedPipeline {
     pub nodes: Vec<ValidatedNode>,
     /// The registry's shared sampler, emitted by [`expand()`] when some node asks for it.
     pub sampler: Option<Arc<dyn crate::sampler::SamplerKind>>,
+    /// The pipeline's factoring node, if one factors ([`crate::factoring`]).
+    pub factoring: Option<crate::Factoring>,
 }
 
 impl ValidatedPipeline {
@@ -295,6 +297,11 @@ pub enum DiagnosticKind {
     BadCamera,
     /// A node name that references cannot name (empty, or with a dot, blank or control character).
     BadName,
+    /// A node's parameters, each valid on its own, do not work together (its kind's refusal, e.g.
+    /// a Defocus node with no lens anywhere).
+    BadNodeConfig,
+    /// Two nodes both factor the pipeline's components ([`crate::factoring`]).
+    TwoFactoringNodes,
 }
 
 impl DiagnosticKind {
@@ -319,6 +326,8 @@ impl DiagnosticKind {
             DiagnosticKind::BadSize => "bad-size",
             DiagnosticKind::BadCamera => "bad-camera",
             DiagnosticKind::BadName => "bad-name",
+            DiagnosticKind::BadNodeConfig => "bad-node-config",
+            DiagnosticKind::TwoFactoringNodes => "two-factoring-nodes",
         }
     }
 }
@@ -473,6 +482,9 @@ impl Reporter<'_> {
             help: printable(help),
         });
     }
+    fn len(&self) -> usize {
+        self.list.len()
+    }
     /// Whether the report is complete; validation stops looking (suggestions are not free).
     fn full(&self) -> bool {
         self.list.len() >= MAX_DIAGNOSTICS
@@ -605,6 +617,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     // Resolved wiring for nodes without problems in their inputs: (consumer, port, producer, port).
     let mut edges: Vec<(usize, String, usize, String)> = Vec::new();
     let mut validated_params: Vec<BTreeMap<String, ParamValue>> = Vec::new();
+    let mut factoring: Option<crate::Factoring> = None;
 
     for (i, n) in pl.nodes.iter().enumerate() {
         if r.full() {
@@ -627,8 +640,10 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         let decls = kind.map(|k| k.params()).unwrap_or_default();
         let mut params: BTreeMap<String, ParamValue> = decls
             .iter()
+            .filter(|d| !d.optional)
             .map(|d| (d.name.to_string(), d.default_value()))
             .collect();
+        let problems_before = r.len();
         let mut seen: HashSet<&str> = HashSet::new();
         for (j, (key, raw)) in n.params.iter().enumerate() {
             if r.full() {
@@ -689,6 +704,38 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                         ),
                     );
                 }
+            }
+        }
+        // A kind that factors decides it from its whole, valid parameter block and the camera.
+        if let (Some(k), true) = (kind, r.len() == problems_before) {
+            match k.factoring(&params, pl.camera.as_ref()) {
+                Ok(None) => {}
+                Ok(Some(settings)) => match &factoring {
+                    None => {
+                        factoring = Some(crate::Factoring { node: n.name.clone(), kind: k.kind().to_string(), settings });
+                    }
+                    Some(first) => r.add(
+                        DiagnosticKind::TwoFactoringNodes,
+                        src.kind.or(src.tuple_pos()),
+                        format!(
+                            "nodes `{}` ({}) and `{}` ({}) both filter the pipeline's lighting components; a pipeline \
+                             has one factoring node",
+                            first.node,
+                            first.kind,
+                            n.name,
+                            k.kind()
+                        ),
+                        "remove one of them (combining their filters is not supported; see docs/DESIGN-NOTES.md \
+                         \"Factoring nodes\")"
+                            .into(),
+                    ),
+                },
+                Err(refusal) => r.add(
+                    DiagnosticKind::BadNodeConfig,
+                    src.kind.or(src.tuple_pos()),
+                    format!("node `{}` of kind `{}`: {}", n.name, k.kind(), refusal.message),
+                    refusal.help,
+                ),
             }
         }
         validated_params.push(params);
@@ -968,6 +1015,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         path: p.path.clone(),
         nodes,
         sampler: reg.sampler().cloned(),
+        factoring,
     })
 }
 
@@ -1058,7 +1106,9 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         let first_pass = expansion.passes.len();
         let first_buffer = expansion.buffers.len();
         node.kind.expand(
-            &mut ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion).with_sampler(&mut plan),
+            &mut ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
+                .with_sampler(&mut plan)
+                .with_factoring(v.factoring.as_ref()),
         )?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
 

@@ -101,6 +101,7 @@ impl NodeKind for Shadowy {
             paths_unit: 9,
             per_primary: vec![(estimator.clone(), PerPrimary::Constant(9))],
             max3: false,
+            beyond_first: false,
         })?;
         let estimate = ctx.sampler_output(SamplerPass::Final, "estimate")?;
         let y = ctx.buffer("y", Format::F32);

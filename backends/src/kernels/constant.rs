@@ -37,3 +37,35 @@ impl Kernel for FillConstant {
         ctx.put("out", vec![v; ctx.pixels()])
     }
 }
+
+/// `fill.constant_f32`: every pixel of an `f32` buffer gets parameter `value` (a finite number) —
+/// e.g. a zero filter width where a node filters nothing. Same WGSL as `fill.constant`: the
+/// generated bindings make `value` and `out` `f32`.
+pub struct FillConstantF32;
+
+fn value_f32(ctx: &KernelCtx<'_>) -> Result<f32, BackendError> {
+    let v = ctx.f32_param("value")?;
+    if !v.is_finite() {
+        return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("`value` {v} is not finite") });
+    }
+    Ok(v)
+}
+
+impl Kernel for FillConstantF32 {
+    fn name(&self) -> &'static str {
+        "fill.constant_f32"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![Binding::write("out", Format::F32)]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| Ok(Uniforms::new().f32("value", value_f32(ctx)?))).per_pixel())
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let v = value_f32(ctx)?;
+        ctx.put("out", vec![v; ctx.pixels()])
+    }
+}

@@ -30,6 +30,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(filter_ch5::IrradianceFilter));
     reg.register(Arc::new(filter_ch5::DefocusFilter));
     reg.register(Arc::new(constant::FillConstant));
+    reg.register(Arc::new(constant::FillConstantF32));
     reg.register(Arc::new(paths::PathsTrace));
     reg.register(Arc::new(paths::PathsResolve));
 }

@@ -39,7 +39,8 @@
 //! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
 //! `form_factor` (optional: `"light_centre"`, the default, is f_c above; `"exact"` evaluates the
 //! geometry term per light sample, the unbiased estimator `direct.light` offers under the same name),
-//! `direct` and `indirect` (optional bools, default true: which estimators run — the shared sampler
+//! `aperture_radius` and `focus_distance` (optional, world units: the thin lens, replacing the scene
+//! camera's; a Defocus node sets them through the shared sampler), `direct` and `indirect` (optional bools, default true: which estimators run — the shared sampler
 //! turns off the ones no node asked for, so a shadows-only pipeline traces no indirect rays),
 //! `stream` (graph-assigned), `sampling` (`"stratified"`: the Sobol' sequences; `"independent"`:
 //! independent numbers for the same dimensions, the Monte Carlo baseline), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
@@ -235,6 +236,8 @@ struct Settings {
     /// Run the direct (shadow-ray) and the indirect (hemisphere) estimators.
     direct: bool,
     indirect: bool,
+    /// The scene's camera with the pass's thin lens (`aperture_radius`, `focus_distance`, where given).
+    camera: Camera,
 }
 
 fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
@@ -261,7 +264,25 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
             Some(_) => ctx.bool_param(name),
         }
     };
+    // The thin lens: the pass's optional `aperture_radius` / `focus_distance` (a Defocus node's, through
+    // the shared sampler) replace the scene camera's.
+    let mut camera = ctx.scene.camera;
+    if ctx.params.contains_key("aperture_radius") {
+        let a = ctx.f32_param("aperture_radius")?;
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(err(format!("`aperture_radius` = {a} must be a finite number >= 0")));
+        }
+        camera.aperture_radius = a;
+    }
+    if ctx.params.contains_key("focus_distance") {
+        let f = ctx.f32_param("focus_distance")?;
+        if !(f.is_finite() && f > 0.0) {
+            return Err(err(format!("`focus_distance` = {f} must be a finite number > 0")));
+        }
+        camera.focus_distance = f;
+    }
     Ok(Settings {
+        camera,
         exact,
         direct: flag("direct")?,
         indirect: flag("indirect")?,
@@ -318,7 +339,7 @@ impl Kernel for PathsTrace {
         Some(
             WgslSource::new(include_str!("../../../shaders/paths_trace.wgsl"), |ctx| {
                 let s = settings(ctx)?;
-                let u = camera_uniforms(Uniforms::new(), &ctx.scene.camera, s.lens);
+                let u = camera_uniforms(Uniforms::new(), &s.camera, s.lens);
                 Ok(u.u32("stratified", s.stratified as u32)
                     .u32("count", s.count)
                     .u32("jitter", s.jitter as u32)
@@ -345,7 +366,7 @@ impl Kernel for PathsTrace {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = settings(ctx)?;
         let scene = ctx.scene;
-        let cam = &scene.camera;
+        let cam = &s.camera;
         let forward = cam.basis().2;
         let previous = ctx.read_opt::<PathRecord>("previous")?;
         let counts = ctx.read_opt::<u32>("counts")?;
@@ -356,7 +377,7 @@ impl Kernel for PathsTrace {
         // Through the pixel centre of a pinhole camera every path of a pixel has the same camera ray
         // (the lens sample only changes a Gaussian lens's weight): trace it once per pixel and pass,
         // and count it once, as plain Monte Carlo with one primary and N shadow rays would.
-        let fixed_primary = !s.jitter && scene.camera.aperture_radius == 0.0;
+        let fixed_primary = !s.jitter && cam.aperture_radius == 0.0;
         let records = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
             let pixel = i as u32;
@@ -431,9 +452,9 @@ fn trace_one(
         r.object = 1 + sp.object;
     }
     // Depth along the optical axis and the circle of confusion of this lens sample (eq. 5.2).
-    let z = (x - scene.camera.position).dot(forward);
+    let z = (x - s.camera.position).dot(forward);
     r.depth += w * z;
-    let coc = scene.camera.coc_pixels(z, height).abs();
+    let coc = s.camera.coc_pixels(z, height).abs();
     if r.hits == 1 {
         (r.r_min, r.r_max) = (coc, coc);
     } else {

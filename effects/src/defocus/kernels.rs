@@ -44,14 +44,28 @@ fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32,
     })
 }
 
-/// The pass's rate constants from its parameter block.
+/// The pass's rate constants from its parameter block. `pixel_scale` (m) defaults to the scene
+/// camera's at the image height; `light_half_width` (ℓ_I) to the half-width of area light `light`
+/// where that is given, else 0 (no light term: no area light, or a point light).
 pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
+    let pixel_scale = if ctx.params.contains_key("pixel_scale") {
+        positive_param(ctx, "pixel_scale", false)?
+    } else {
+        formulas::pixel_scale(ctx.scene.camera.vfov_deg, ctx.height)
+    };
+    let light_half_width = if ctx.params.contains_key("light_half_width") {
+        positive_param(ctx, "light_half_width", true)?
+    } else if ctx.params.contains_key("light") {
+        formulas::light_half_width(&ctx.scene.lights[ctx.light_param("light")?])
+    } else {
+        0.0
+    };
     Ok(RateParams {
         mu: positive_param(ctx, "mu", false)?,
         mode: mode_param(ctx)?,
         omega_pix: positive_param(ctx, "omega_pix", false)?,
-        pixel_scale: positive_param(ctx, "pixel_scale", false)?,
-        light_half_width: positive_param(ctx, "light_half_width", true)?,
+        pixel_scale,
+        light_half_width,
         omega_v: positive_param(ctx, "omega_v", false)?,
         max_primary: ctx.int_param("max_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
         max_per_primary: ctx.int_param("max_per_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
@@ -74,7 +88,19 @@ pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Opti
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
 /// 5.29), `ℓ_p`, and the rounded counts `n_p`, `n_dir^{f|c}`, `n_ind^{f|c}` (eqs. 5.24–5.28). The
 /// direct and indirect outputs are optional (a pipeline without that component leaves them unbound).
+/// With a (median-filtered) factoring flag bound (`flag_direct`, `flag_indirect`; eq. 5.30),
+/// `n_direct` / `n_indirect` is the count the pixel takes: `^f` where the flag is set, else `^c`
+/// (Sec. 5.7); unbound, the pixel is combined (`^c`). `sigma_*` are the widths as the filters'
+/// Gaussian standard deviation in pixels, `1/(√32 Ω)` (eqs. 5.31, 5.33), for heatmaps.
 pub struct Rates;
+
+/// A width `Ω` (pixel⁻¹) as the standard deviation in pixels of the Ch. 5 filters' Gaussian
+/// `exp(−16 d² Ω²)`: `σ = 1/(√32 Ω)`.
+/// (`√32` written out, as `shaders/defocus_formulas.wgsl` does, so both backends divide by the same
+/// number.)
+pub fn sigma_px(omega: f32) -> f32 {
+    1.0 / (5.656_854 * omega)
+}
 
 impl Kernel for Rates {
     fn name(&self) -> &'static str {
@@ -88,6 +114,8 @@ impl Kernel for Rates {
             Binding::read("lens", Format::Vec4),
             Binding::read_opt("occlusion", Format::Vec4),
             Binding::read_opt("reflectors", Format::Vec4),
+            Binding::read_opt("flag_direct", Format::U32),
+            Binding::read_opt("flag_indirect", Format::U32),
             Binding::write("omega_defocus", Format::F32),
             Binding::write("pixel_length", Format::F32),
             Binding::write("n_primary", Format::U32),
@@ -97,6 +125,11 @@ impl Kernel for Rates {
             Binding::write_opt("omega_indirect", Format::F32),
             Binding::write_opt("n_indirect_factored", Format::U32),
             Binding::write_opt("n_indirect_combined", Format::U32),
+            Binding::write_opt("n_direct", Format::U32),
+            Binding::write_opt("n_indirect", Format::U32),
+            Binding::write_opt("sigma_defocus", Format::F32),
+            Binding::write_opt("sigma_direct", Format::F32),
+            Binding::write_opt("sigma_indirect", Format::F32),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -123,6 +156,8 @@ impl Kernel for Rates {
         let lens = ctx.read::<[f32; 4]>("lens")?;
         let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
         let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
+        let flag_direct = ctx.read_opt::<u32>("flag_direct")?;
+        let flag_indirect = ctx.read_opt::<u32>("flag_indirect")?;
         let rates: Vec<PixelRates> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             formulas::pixel_rates(&pixel_stats(lens[i], occlusion.map(|o| o[i]), reflectors.map(|z| z[i])), &k)
@@ -137,7 +172,15 @@ impl Kernel for Rates {
         ctx.put_opt("n_direct_combined", || count(|r| r.n_direct_combined))?;
         ctx.put_opt("omega_indirect", || column(|r| r.omega_indirect))?;
         ctx.put_opt("n_indirect_factored", || count(|r| r.n_indirect_factored))?;
-        ctx.put_opt("n_indirect_combined", || count(|r| r.n_indirect_combined))
+        ctx.put_opt("n_indirect_combined", || count(|r| r.n_indirect_combined))?;
+        let pick = |flag: Option<&[u32]>, f: fn(&PixelRates) -> u32, c: fn(&PixelRates) -> u32| {
+            rates.iter().enumerate().map(|(i, r)| if flag.is_some_and(|g| g[i] != 0) { f(r) } else { c(r) }).collect::<Vec<u32>>()
+        };
+        ctx.put_opt("n_direct", || pick(flag_direct, |r| r.n_direct_factored, |r| r.n_direct_combined))?;
+        ctx.put_opt("n_indirect", || pick(flag_indirect, |r| r.n_indirect_factored, |r| r.n_indirect_combined))?;
+        ctx.put_opt("sigma_defocus", || column(|r| sigma_px(r.omega_defocus)))?;
+        ctx.put_opt("sigma_direct", || column(|r| sigma_px(r.omega_direct)))?;
+        ctx.put_opt("sigma_indirect", || column(|r| sigma_px(r.omega_indirect)))
     }
 }
 

@@ -12,15 +12,20 @@
 //!
 //! The shared kernels the Ch. 5 stages also use live in `wedge-backends`: `neighbourhood.max3` (3×3 max
 //! on counts), `neighbourhood.median3` (3×3 median on flags), `filter.irradiance` (5.31) and
-//! `filter.defocus` (5.33). The Defocus node that wires them into the graph's stages comes with the
-//! staged graph.
+//! `filter.defocus` (5.33).
+//! - [`node`]: the `Defocus` node, the pipeline's factoring node ([`wedge_graph::factoring`]);
+//! - [`component`]: the passes a component node (SoftShadows, Indirect) adds under it.
 
 use std::sync::Arc;
 
 use wedge_backends::KernelRegistry;
 
+pub mod component;
 pub mod formulas;
 pub mod kernels;
+pub mod node;
+
+pub use node::Defocus;
 
 /// Register the defocus kernels (`defocus.rates`, `defocus.flags`, `defocus.compose`).
 pub fn register_kernels(reg: &mut KernelRegistry) {

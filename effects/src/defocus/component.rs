@@ -1,0 +1,195 @@
+//! One lighting component under a factoring Defocus node (thesis Sec. 5.5–5.8): the passes a
+//! component node (SoftShadows: direct; Indirect: diffuse and glossy) adds when the pipeline has a
+//! factoring node ([`wedge_graph::factoring`]), shared so that each node's file only names its
+//! component.
+//!
+//! Per component, on the shared sampler's records:
+//! 1. `Stage::Bandwidth`: SepDir / SepInd on the first pass's `L, k, E` (eq. 5.30, `defocus.flags`),
+//!    3×3 median (`neighbourhood.median3`), then `defocus.rates` for this component's width
+//!    (5.18 / 5.22) and count — `n^f` where the flag is set, else `n^c` (5.25–5.28) — submitted to the
+//!    sampler as a total over the adaptive pass's `n_p` paths (`PerPrimary::Total`, 3×3 max).
+//!    Without factoring (the ablation, `factor: false`) the flag is 0 everywhere: `n^c`.
+//! 2. `Stage::Factor`: the flags again on the final `L, k, E`, median (a reference fills 0: it
+//!    composes `L`).
+//! 3. `Stage::Filter`: `filter.irradiance` (5.31) on each part's `E` with this component's width.
+//! 4. `Stage::Compose`: `defocus.compose` (5.32) per part, summed: the component's term, which the
+//!    node outputs for the Defocus node to sum and blur (5.33).
+
+use wedge_graph::{
+    BufferId, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
+    Stage, FILL_CONSTANT,
+};
+
+use super::formulas::{FACTORING_THRESHOLD, OMEGA_PIX_MAX};
+
+/// One factored part of a component: the sampler's resolved names of its `L`, `k`, `E`.
+pub struct Part {
+    pub name: &'static str,
+    pub radiance: &'static str,
+    pub texture: &'static str,
+    pub irradiance: &'static str,
+}
+
+/// A component as a node declares it.
+pub struct Component {
+    /// `direct` or `indirect`: selects `defocus.rates`' outputs (`omega_<c>`, `n_<c>`, `sigma_<c>`)
+    /// and flag input (`flag_<c>`).
+    pub name: &'static str,
+    /// The sampler estimator its secondary samples come from (`light`, `hemisphere`).
+    pub estimator: &'static str,
+    /// The first-pass statistic `defocus.rates` reads for it: (`occlusion`, sampler output
+    /// `occlusion`) or (`reflectors`, `depth`).
+    pub statistic: (&'static str, &'static str),
+    /// Extra `defocus.rates` parameters (`light` for ℓ_I; `omega_v` for the transfer bandlimit).
+    pub rate_params: Vec<(&'static str, ParamValue)>,
+    /// Its parts; the first one's flag selects the count.
+    pub parts: Vec<Part>,
+}
+
+/// What the component hands back: its composed term and diagnostics.
+pub struct ComponentOutputs {
+    /// Σ over parts of eq. 5.32's term (`k·E_filtered` where factored, else `L`).
+    pub radiance: BufferId,
+    /// Σ over parts of `L` (the unfiltered estimate).
+    pub unfiltered: BufferId,
+    /// The irradiance filter's standard deviation in pixels.
+    pub sigma: BufferId,
+    /// The component's secondary samples per pixel as the rates ask (before the 3×3 max).
+    pub count: BufferId,
+}
+
+/// The factoring node's rate settings forwarded into `defocus.rates`.
+pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
+    ["mu", "mode", "max_primary", "max_per_primary"]
+        .into_iter()
+        .filter_map(|n| f.setting(n).map(|v| (n, v.clone())))
+        .chain([("omega_pix", ParamValue::Float(f64::from(OMEGA_PIX_MAX))), ("omega_v", ParamValue::Float(2.8))])
+        .collect()
+}
+
+fn flags(ctx: &mut ExpandCtx<'_>, name: &str, part: &Part, pass: SamplerPass, stage: Stage, factor: bool, role: Reference) -> Result<BufferId, GraphError> {
+    let out = ctx.buffer(name, Format::U32);
+    if !factor {
+        ctx.pass(name, FILL_CONSTANT, stage).write("out", out).int("value", 0).reference(role).finish();
+        return Ok(out);
+    }
+    let (l, k, e) = (
+        ctx.sampler_output(pass, part.radiance)?,
+        ctx.sampler_output(pass, part.texture)?,
+        ctx.sampler_output(pass, part.irradiance)?,
+    );
+    let raw = ctx.buffer(&format!("{name}_raw"), Format::U32);
+    ctx.pass(&format!("{name}_raw"), "defocus.flags", stage)
+        .read("radiance", l)
+        .read("texture", k)
+        .read("irradiance", e)
+        .write("flag", raw)
+        .float("threshold", f64::from(FACTORING_THRESHOLD))
+        .finish();
+    ctx.pass(name, "neighbourhood.median3", stage).read("value", raw).write("out", out).reference(role).finish();
+    Ok(out)
+}
+
+/// Add the component's passes (see the module doc).
+pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<ComponentOutputs, GraphError> {
+    let factor = f.bool("factor").unwrap_or(true);
+    let radius = f.setting("filter_radius").cloned().unwrap_or(ParamValue::Int(16));
+    let separable = f.bool("separable").unwrap_or(true);
+    let first = &c.parts[0];
+
+    // 1. Counts from the first pass.
+    let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
+    let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
+    let flag_first = flags(ctx, &format!("{}_flag_first", c.name), first, SamplerPass::First, Stage::Bandwidth, factor, Reference::Keep)?;
+    let (omega, pixel_length, n_primary, omega_d) = (
+        ctx.buffer(&format!("{}_omega", c.name), Format::F32),
+        ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32),
+        ctx.buffer(&format!("{}_n_primary", c.name), Format::U32),
+        ctx.buffer(&format!("{}_omega_defocus", c.name), Format::F32),
+    );
+    let (count, sigma) =
+        (ctx.buffer(&format!("{}_rays_per_pixel", c.name), Format::U32), ctx.buffer(&format!("{}_sigma", c.name), Format::F32));
+    let mut b = ctx
+        .pass(&format!("{}_rates", c.name), "defocus.rates", Stage::Bandwidth)
+        .read("lens", lens)
+        .read(c.statistic.0, statistic)
+        .read(&format!("flag_{}", c.name), flag_first)
+        .write("omega_defocus", omega_d)
+        .write("pixel_length", pixel_length)
+        .write("n_primary", n_primary)
+        .write(&format!("omega_{}", c.name), omega)
+        .write(&format!("n_{}", c.name), count)
+        .write(&format!("sigma_{}", c.name), sigma)
+        .reference(Reference::Keep);
+    for (n, v) in rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()) {
+        b = b.param(n, v);
+    }
+    b.finish();
+    ctx.sampler_counts(CountRequest {
+        paths: n_primary,
+        paths_unit: 1,
+        per_primary: vec![(c.estimator.into(), PerPrimary::Total(count))],
+        max3: true,
+        beyond_first: true,
+    })?;
+
+    // 2–4. Per part: final flags, irradiance filter, compose; summed over parts.
+    let position = ctx.sampler_output(SamplerPass::Final, "position")?;
+    let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
+    let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (None, None);
+    for part in &c.parts {
+        let flag = flags(ctx, &format!("{}_flag", part.name), part, SamplerPass::Final, Stage::Factor, factor, Reference::Fill(0))?;
+        let mut e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+        let axes: &[i64] = if separable { &[0, 1] } else { &[-1] };
+        for axis in axes {
+            let suffix = match axis {
+                0 => "_x",
+                1 => "_y",
+                _ => "",
+            };
+            let name = format!("{}_filter{suffix}", part.name);
+            let out = ctx.buffer(&name, Format::Vec3);
+            ctx.pass(&name, "filter.irradiance", Stage::Filter)
+                .read("value", e)
+                .read("position", position)
+                .read("normal", normal)
+                .read("omega", omega)
+                .read("pixel_length", pixel_length)
+                .write("out", out)
+                .param("max_radius", radius.clone())
+                .int("axis", *axis)
+                .float("normal_cos", 10f64.to_radians().cos())
+                .reference(Reference::Bypass { input: "value" })
+                .finish();
+            e = out;
+        }
+        let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
+        let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
+        let name = format!("{}_compose", part.name);
+        let out = ctx.buffer(&name, Format::Vec3);
+        ctx.pass(&name, "defocus.compose", Stage::Compose)
+            .read("radiance", l)
+            .read("texture", k)
+            .read("irradiance", e)
+            .read("flag", flag)
+            .read_opt("previous", radiance)
+            .write("out", out)
+            .finish();
+        radiance = Some(out);
+        unfiltered = Some(match unfiltered {
+            None => l,
+            Some(prev) => {
+                let name = format!("{}_unfiltered", part.name);
+                let sum = ctx.buffer(&name, Format::Vec3);
+                ctx.pass(&name, "compose.add", Stage::Compose).read("a", prev).read("b", l).write("out", sum).finish();
+                sum
+            }
+        });
+    }
+    Ok(ComponentOutputs {
+        radiance: radiance.expect("a component has parts"),
+        unfiltered: unfiltered.expect("a component has parts"),
+        sigma,
+        count,
+    })
+}

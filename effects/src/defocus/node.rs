@@ -1,0 +1,242 @@
+//! `Defocus`: thin-lens depth of field with factored axis-aligned filtering and two-level sampling
+//! (thesis Ch. 5, `seeds/000_956e982470d7e5bf.txt` Sec. 5.2–5.8; `EQUATIONS.md` "Defocus + factoring").
+//!
+//! The pipeline's factoring node ([`wedge_graph::factoring`]): with an aperture, every lighting
+//! component node of the pipeline (SoftShadows: direct; Indirect: indirect) renders its component
+//! for it ([`super::component`]) and this node
+//! 1. asks the shared sampler for the thin lens (`aperture_radius`, `focus_distance`, `lens`) and
+//!    the thesis's first pass: `initial_paths` (16) paths through the pixel centre, one lens sample,
+//!    one shadow ray and one indirect sample each, the centre-of-light form factor (so `k·E = L` where
+//!    the scene factors; EQUATIONS.md reading);
+//! 2. computes `Ω_x^d` (5.7, 5.29) and `n_p` (5.24) from the first pass's circles of confusion
+//!    (`defocus.rates`) and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
+//! 3. sums its `direct` and `indirect` inputs (each a component's eq. 5.32 term) and the emission of
+//!    the primary hits, and filters the sum in screen space (eq. 5.33, `filter.defocus`).
+//!
+//! **Lens.** `aperture_radius` and `focus_distance` (world units; focus along the optical axis)
+//! come from the node's parameters, else from the pipeline's `camera:` block (its `aperture_radius`,
+//! and its `focus_distance` or the distance to `look_at`). A scene file's camera aperture is not
+//! read: a pipeline states its lens. Neither given: a validation error at the node.
+//! `aperture_radius = 0` is a pinhole: the node does not factor, the component nodes render as
+//! without it (Ch. 3/4 constants, which differ from Ch. 5's), and it only sums its inputs.
+//!
+//! **Settings for the components** (what [`wedge_graph::NodeKind::factoring`] returns): `mu`,
+//! `mode` (`literal` eq. 5.29 as printed, or `consistent`: no clamp, converges to Monte Carlo as
+//! μ → ∞), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
+//! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `filter_radius`,
+//! `separable`.
+
+use std::collections::BTreeMap;
+
+use wedge_graph::factoring::{Refusal, Settings};
+use wedge_graph::{
+    BufferId, CameraSpec, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl,
+    Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+};
+
+use super::component::rate_settings;
+use super::formulas::Mode;
+
+pub struct Defocus;
+
+/// The thin lens a Defocus node uses: its parameters, else the pipeline's camera block.
+fn lens(params: &BTreeMap<String, ParamValue>, camera: Option<&CameraSpec>) -> Result<(f64, f64), Refusal> {
+    let number = |name: &str| match params.get(name) {
+        Some(ParamValue::Float(v)) => Some(*v),
+        Some(ParamValue::Int(v)) => Some(*v as f64),
+        _ => None,
+    };
+    let aperture = number("aperture_radius").or_else(|| camera.map(|c| f64::from(c.aperture_radius)));
+    let Some(aperture) = aperture else {
+        return Err(Refusal {
+            message: "has no lens: neither its parameters nor the pipeline's `camera:` block give an aperture".into(),
+            help: "add `\"aperture_radius\": 0.05, \"focus_distance\": 2.6` (world units) to its params, or a \
+                   `camera: Some((position: .., look_at: .., vfov_deg: .., aperture_radius: 0.05, focus_distance: \
+                   Some(2.6)))` block to the pipeline"
+                .into(),
+        });
+    };
+    let focus = number("focus_distance").or_else(|| {
+        camera.map(|c| match c.focus_distance {
+            Some(f) => f64::from(f),
+            None => {
+                let d = [c.look_at.0 - c.position.0, c.look_at.1 - c.position.1, c.look_at.2 - c.position.2];
+                f64::from((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+            }
+        })
+    });
+    let Some(focus) = focus else {
+        return Err(Refusal {
+            message: "has an aperture but no focus distance".into(),
+            help: "add `\"focus_distance\": 2.6` (world units, along the view direction) to its params".into(),
+        });
+    };
+    if !(aperture.is_finite() && aperture >= 0.0) {
+        return Err(Refusal {
+            message: format!("aperture_radius = {aperture} (from the camera block) is not a finite number >= 0"),
+            help: "give the camera block an aperture_radius >= 0 (0 = pinhole)".into(),
+        });
+    }
+    if !(focus.is_finite() && focus > 0.0) {
+        return Err(Refusal {
+            message: format!("focus_distance = {focus} (from the camera block) is not a finite number > 0"),
+            help: "give the camera block a focus_distance > 0, or move look_at away from position".into(),
+        });
+    }
+    Ok((aperture, focus))
+}
+
+impl NodeKind for Defocus {
+    fn kind(&self) -> &'static str {
+        "Defocus"
+    }
+    fn doc(&self) -> &'static str {
+        "Thin-lens depth of field with factored irradiance filtering and two-level sampling (Mehta thesis Ch. 5)"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)"),
+            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)"),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "Σ components + emission, defocus-filtered (eq. 5.33)"),
+            PortDecl::new("unfiltered", Format::Vec3, "the same sum before the defocus filter (components filtered)"),
+            PortDecl::new("filter_width", Format::F32, "defocus filter std-dev in pixels, 1/(√32 Ω_x^d) (0 = pinhole)"),
+            PortDecl::new("rays_per_pixel", Format::U32, "primary rays per pixel asked for the second pass, n_p (eq. 5.24)"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::float("aperture_radius", 0.05, 0.0, 1e6, "thin-lens aperture radius, world units (0 = pinhole); default: the camera block's").optional(),
+            ParamDecl::positive("focus_distance", 2.6, 1e9, "distance of the plane in focus along the view direction, world units; default: the camera block's").optional(),
+            ParamDecl::choice("lens", "disk", &["disk", "gaussian"], "aperture weight: uniform disk (pbrt, Mitsuba) or the thesis's Gaussian exp(-|u|²/2)"),
+            ParamDecl::positive("mu", 1.0, 1e6, "μ: scales every Ch. 5 bandwidth (eq. 5.29); larger = narrower filters, more rays"),
+            ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
+            ParamDecl::boolean("factor", true, "factor L into texture × irradiance (eq. 5.30); false = the thesis's no-factoring ablation"),
+            ParamDecl::int("initial_paths", 16, 1, 4096, "first-pass paths per pixel (thesis: 16, one lens, shadow and indirect sample each)"),
+            ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
+            ParamDecl::int("max_per_primary", 64, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square)"),
+            ParamDecl::int("filter_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),
+            ParamDecl::boolean("separable", true, "x then y filter passes (O(R) taps) instead of the 2-D reference (O(R²))"),
+        ]
+    }
+    fn factoring(&self, params: &BTreeMap<String, ParamValue>, camera: Option<&CameraSpec>) -> Result<Option<Settings>, Refusal> {
+        let (aperture, focus) = lens(params, camera)?;
+        if aperture == 0.0 {
+            return Ok(None);
+        }
+        let mut s: Settings = ["mu", "mode", "factor", "max_primary", "max_per_primary", "filter_radius", "separable", "lens", "initial_paths"]
+            .into_iter()
+            .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
+            .collect();
+        s.insert("aperture_radius".into(), ParamValue::Float(aperture));
+        s.insert("focus_distance".into(), ParamValue::Float(focus));
+        Ok(Some(s))
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let components: Vec<BufferId> = ["direct", "indirect"].into_iter().filter_map(|p| ctx.input(p)).collect();
+        if components.is_empty() {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: "has no component to blur: wire `direct` (from a SoftShadows node's radiance) and/or `indirect` \
+                          (from an Indirect node's radiance)"
+                    .into(),
+            });
+        }
+        let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {
+            // A pinhole: the components rendered as without a Defocus node; only their sum here.
+            let radiance = sum(ctx, "sum", &components, None);
+            let width = ctx.buffer("filter_width", Format::F32);
+            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose).write("out", width).float("value", 0.0).finish();
+            let rays = ctx.buffer("rays_per_pixel", Format::U32);
+            ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
+            for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
+                ctx.output(port, id);
+            }
+            ctx.output("filter_width", width);
+            ctx.output("rays_per_pixel", rays);
+            return Ok(());
+        };
+
+        // 1. The thin lens and the thesis's first pass (Sec. 5.8 step 1).
+        let mut request = SamplerRequest::new()
+            .setting("paths", ctx.param("initial_paths").clone())
+            .setting("shadow_per_primary", ParamValue::Int(1))
+            .setting("indirect_per_primary", ParamValue::Int(1))
+            .setting("jitter", ParamValue::Bool(false))
+            .setting("sampling", ParamValue::Str("stratified".into()))
+            .setting("form_factor", ParamValue::Str("light_centre".into()))
+            .setting("lens", ctx.param("lens").clone());
+        for n in ["aperture_radius", "focus_distance"] {
+            request = request.setting(n, f.setting(n).expect("a factoring Defocus has a lens").clone());
+        }
+        ctx.sampler(request)?;
+
+        // 2. Ω_x^d and n_p (eqs. 5.7, 5.24, 5.29).
+        let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
+        let (omega, pixel_length, n_primary, sigma) = (
+            ctx.buffer("omega_defocus", Format::F32),
+            ctx.buffer("pixel_length", Format::F32),
+            ctx.buffer("rays_per_pixel", Format::U32),
+            ctx.buffer("filter_width", Format::F32),
+        );
+        let mut b = ctx
+            .pass("rates", "defocus.rates", Stage::Bandwidth)
+            .read("lens", lens)
+            .write("omega_defocus", omega)
+            .write("pixel_length", pixel_length)
+            .write("n_primary", n_primary)
+            .write("sigma_defocus", sigma);
+        for (n, v) in rate_settings(f) {
+            b = b.param(n, v);
+        }
+        b.finish();
+        ctx.sampler_counts(CountRequest { paths: n_primary, paths_unit: 1, per_primary: vec![], max3: true, beyond_first: true })?;
+
+        // 3. Σ components + emission (eq. 5.32), then the screen-space defocus filter (eq. 5.33).
+        let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;
+        let composed = sum(ctx, "compose", &components, Some(emission));
+        let separable = ctx.param("separable") == &ParamValue::Bool(true);
+        let axes: &[i64] = if separable { &[0, 1] } else { &[-1] };
+        let radius = ctx.param("filter_radius").clone();
+        let mut value = composed;
+        for axis in axes {
+            let name = match axis {
+                0 => "filter_x",
+                1 => "filter_y",
+                _ => "filter",
+            };
+            let out = ctx.buffer(name, Format::Vec3);
+            ctx.pass(name, "filter.defocus", Stage::ImageFilter)
+                .read("value", value)
+                .read("omega", omega)
+                .write("out", out)
+                .param("max_radius", radius.clone())
+                .int("axis", *axis)
+                .reference(Reference::Bypass { input: "value" })
+                .finish();
+            value = out;
+        }
+        ctx.output("radiance", value);
+        ctx.output("unfiltered", composed);
+        ctx.output("filter_width", sigma);
+        ctx.output("rays_per_pixel", n_primary);
+        Ok(())
+    }
+}
+
+/// `a + b + …` by a chain of `compose.add` passes named `<name>`, `<name>_1`, …; a single buffer is
+/// returned as it is.
+fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Option<BufferId>) -> BufferId {
+    let all: Vec<BufferId> = terms.iter().copied().chain(extra).collect();
+    let mut acc = all[0];
+    for (k, b) in all[1..].iter().enumerate() {
+        let local = if k + 2 == all.len() { name.to_string() } else { format!("{name}_{}", k + 1) };
+        let out = ctx.buffer(&local, Format::Vec3);
+        ctx.pass(&local, "compose.add", Stage::Compose).read("a", acc).read("b", *b).write("out", out).finish();
+        acc = out;
+    }
+    acc
+}
