@@ -121,6 +121,7 @@ impl Session {
         check_pixel_count(ov, p.width, p.height)?;
         let mut pipeline = validate(&loaded, &nodes)?;
         apply_param_overrides(&mut pipeline, ov)?;
+        pipeline.update_factoring()?;
         let mut expansion = expand(&pipeline)?;
         if let Some((spp, sampling)) = reference {
             expansion = wedge_graph::reference(expansion, spp, sampling)?;

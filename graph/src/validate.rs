@@ -268,6 +268,37 @@ impl ValidatedPipeline {
     pub fn node(&self, name: &str) -> Option<&ValidatedNode> {
         self.nodes.iter().find(|n| n.name == name)
     }
+    /// Decide the factoring node again from the nodes' current parameters (after parameter
+    /// overrides such as `--set defocus.aperture_radius=0`), with the validator's diagnostics.
+    pub fn update_factoring(&mut self) -> Result<(), GraphError> {
+        let mut found: Option<crate::Factoring> = None;
+        let mut problems = Vec::new();
+        for n in &self.nodes {
+            match n.kind.factoring(&n.params, self.pipeline.camera.as_ref()) {
+                Ok(None) => {}
+                Ok(Some(settings)) => match &found {
+                    None => found = Some(crate::Factoring { node: n.name.clone(), kind: n.kind.kind().into(), settings }),
+                    Some(first) => problems.push(Diagnostic {
+                        kind: DiagnosticKind::TwoFactoringNodes,
+                        location: n.location.clone(),
+                        message: format!("nodes `{}` and `{}` both filter the pipeline's lighting components", first.node, n.name),
+                        help: "remove one of them; a pipeline has one factoring node".into(),
+                    }),
+                },
+                Err(refusal) => problems.push(Diagnostic {
+                    kind: DiagnosticKind::BadNodeConfig,
+                    location: n.location.clone(),
+                    message: format!("node `{}` of kind `{}`: {}", n.name, n.kind.kind(), refusal.message),
+                    help: refusal.help,
+                }),
+            }
+        }
+        if !problems.is_empty() {
+            return Err(GraphError::Invalid(problems));
+        }
+        self.factoring = found;
+        Ok(())
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -482,9 +513,6 @@ impl Reporter<'_> {
             help: printable(help),
         });
     }
-    fn len(&self) -> usize {
-        self.list.len()
-    }
     /// Whether the report is complete; validation stops looking (suggestions are not free).
     fn full(&self) -> bool {
         self.list.len() >= MAX_DIAGNOSTICS
@@ -617,7 +645,6 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     // Resolved wiring for nodes without problems in their inputs: (consumer, port, producer, port).
     let mut edges: Vec<(usize, String, usize, String)> = Vec::new();
     let mut validated_params: Vec<BTreeMap<String, ParamValue>> = Vec::new();
-    let mut factoring: Option<crate::Factoring> = None;
 
     for (i, n) in pl.nodes.iter().enumerate() {
         if r.full() {
@@ -643,7 +670,6 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             .filter(|d| !d.optional)
             .map(|d| (d.name.to_string(), d.default_value()))
             .collect();
-        let problems_before = r.len();
         let mut seen: HashSet<&str> = HashSet::new();
         for (j, (key, raw)) in n.params.iter().enumerate() {
             if r.full() {
@@ -704,38 +730,6 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                         ),
                     );
                 }
-            }
-        }
-        // A kind that factors decides it from its whole, valid parameter block and the camera.
-        if let (Some(k), true) = (kind, r.len() == problems_before) {
-            match k.factoring(&params, pl.camera.as_ref()) {
-                Ok(None) => {}
-                Ok(Some(settings)) => match &factoring {
-                    None => {
-                        factoring = Some(crate::Factoring { node: n.name.clone(), kind: k.kind().to_string(), settings });
-                    }
-                    Some(first) => r.add(
-                        DiagnosticKind::TwoFactoringNodes,
-                        src.kind.or(src.tuple_pos()),
-                        format!(
-                            "nodes `{}` ({}) and `{}` ({}) both filter the pipeline's lighting components; a pipeline \
-                             has one factoring node",
-                            first.node,
-                            first.kind,
-                            n.name,
-                            k.kind()
-                        ),
-                        "remove one of them (combining their filters is not supported; see docs/DESIGN-NOTES.md \
-                         \"Factoring nodes\")"
-                            .into(),
-                    ),
-                },
-                Err(refusal) => r.add(
-                    DiagnosticKind::BadNodeConfig,
-                    src.kind.or(src.tuple_pos()),
-                    format!("node `{}` of kind `{}`: {}", n.name, k.kind(), refusal.message),
-                    refusal.help,
-                ),
             }
         }
         validated_params.push(params);
@@ -1010,13 +1004,16 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             }
         })
         .collect();
-    Ok(ValidatedPipeline {
+    let mut validated = ValidatedPipeline {
         pipeline: pl.clone(),
         path: p.path.clone(),
         nodes,
         sampler: reg.sampler().cloned(),
-        factoring,
-    })
+        factoring: None,
+    };
+    // Which node factors follows from each node's whole, valid parameter block and the camera.
+    validated.update_factoring()?;
+    Ok(validated)
 }
 
 impl NodeSource {
