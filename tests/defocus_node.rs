@@ -1,0 +1,208 @@
+//! The `Defocus` node end to end (thesis Ch. 5; `effects/src/defocus/node.rs`,
+//! `docs/DESIGN-NOTES.md` "Factoring nodes"): the pinhole fallback, located errors for bad lenses,
+//! the limits of the rates, exact factoring on an untextured diffuse scene, and convergence.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use common::*;
+use wedge::backends::kernels::paths::{PathRecord, PathsTrace};
+use wedge::backends::lone::LonePass;
+use wedge::backends::{BufferData, Texel};
+use wedge::effects::defocus::formulas::{separable, FACTORING_THRESHOLD};
+use wedge::graph::{parse_pipeline, ParamValue};
+use wedge::{Overrides, Session};
+
+const DW: u32 = 48;
+const DH: u32 = 36;
+
+/// `pipelines/defocus.ron`'s graph on `scene`, with Defocus parameters `lens` (RON map entries) and
+/// the Output fed by `color` (`defocus.radiance` or `shadows.radiance`).
+fn pipeline(scene: &str, lens: &str, color: &str, camera: &str) -> String {
+    format!(
+        r#"Pipeline(scene: "{scene}", width: {DW}, height: {DH}, seed: 3, camera: {camera}, nodes: [
+            (name: "primary", kind: "Primary"),
+            (name: "shadows", kind: "SoftShadows", params: {{"light": 0}},
+             inputs: {{"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "emission": "primary.emission"}}),
+            (name: "defocus", kind: "Defocus", params: {{{lens}}}, inputs: {{"direct": "shadows.radiance"}}),
+            (name: "out", kind: "Output", inputs: {{"color": "{color}", "rays_per_pixel": "defocus.rays_per_pixel"}}),
+        ])"#
+    )
+}
+
+const CHESS_LENS: &str = r#""aperture_radius": 0.05, "focus_distance": 2.6"#;
+
+fn render(text: &str, ov: &Overrides) -> (wedge::image::Image, wedge::backends::RunResult) {
+    let s = session_from_text(text, ov);
+    let r = run(&s);
+    (color(&s, &r), r)
+}
+
+fn build_error(text: &str) -> String {
+    let loaded = parse_pipeline(Path::new("lens.ron"), text).expect("pipeline parses");
+    let (nodes, kernels) = wedge::effects::builtin();
+    match Session::build(loaded, &Overrides::default(), nodes, kernels) {
+        Ok(_) => panic!("a bad lens must be refused:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn a_pinhole_renders_as_without_the_defocus_node() {
+    // aperture 0: the Defocus node does not factor, SoftShadows renders Ch. 3 and Defocus passes its
+    // one component through — the image equals the pipeline that reads SoftShadows directly.
+    let with = render(&pipeline("builtin:chess", r#""aperture_radius": 0.0, "focus_distance": 2.6"#, "defocus.radiance", "None"), &Overrides::default());
+    let without = render(&pipeline("builtin:chess", r#""aperture_radius": 0.0, "focus_distance": 2.6"#, "shadows.radiance", "None"), &Overrides::default());
+    assert_eq!(rmse(&with.0, &without.0), 0.0);
+    assert_eq!(with.1.rays, without.1.rays);
+    // The same through `--set` on a defocused pipeline.
+    let ov = Overrides { params: vec![("defocus".into(), "aperture_radius".into(), ParamValue::Float(0.0))], ..Default::default() };
+    let set = render(&pipeline("builtin:chess", CHESS_LENS, "defocus.radiance", "None"), &ov);
+    assert_eq!(rmse(&set.0, &without.0), 0.0);
+}
+
+#[test]
+fn bad_lenses_are_refused_with_their_position_and_fix() {
+    for (lens, camera, needle) in [
+        (r#""aperture_radius": -0.1, "focus_distance": 2.6"#, "None", "aperture_radius"),
+        (r#""aperture_radius": 0.05, "focus_distance": 0.0"#, "None", "focus_distance"),
+        (r#""aperture_radius": NaN, "focus_distance": 2.6"#, "None", "aperture_radius"),
+        ("", "None", "has no lens"),
+        (
+            "",
+            "Some((position: (0.0, 0.9, 3.2), look_at: (0.0, 0.1, 0.7), vfov_deg: 32.0, aperture_radius: -1.0))",
+            "aperture_radius",
+        ),
+    ] {
+        let e = build_error(&pipeline("builtin:chess", lens, "defocus.radiance", camera));
+        assert!(e.contains("lens.ron:"), "no file position in: {e}");
+        assert!(e.contains(needle), "`{needle}` not named in: {e}");
+        assert!(e.contains("help"), "no fix in: {e}");
+    }
+}
+
+#[test]
+fn the_lens_can_come_from_the_camera_block() {
+    // No lens parameters: the camera block's aperture and focus (scene/src/builtin/chess.rs's).
+    let camera = "Some((position: (0.0, 0.9, 3.2), look_at: (0.0, 0.0966, 0.7273), vfov_deg: 32.0, \
+                  aperture_radius: 0.05, focus_distance: Some(2.6)))";
+    let from_camera = render(&pipeline("builtin:chess", "", "defocus.radiance", camera), &Overrides::default());
+    let from_params = render(&pipeline("builtin:chess", CHESS_LENS, "defocus.radiance", camera), &Overrides::default());
+    assert_eq!(rmse(&from_camera.0, &from_params.0), 0.0);
+    assert!(from_camera.1.rays.primary_rays > 16 * u64::from(DW * DH), "{:?}", from_camera.1.rays);
+}
+
+#[test]
+fn in_focus_pixels_take_one_primary_ray_in_the_second_pass() {
+    // A vanishing aperture: every circle of confusion is ~0, so n_p = 1 everywhere (eq. 5.24 with
+    // Ω_d = Ω_pix^max: (0.5 + 0.5)²(1 + 0)² = 1); a wide one asks for more where out of focus.
+    let counts = |lens: &str| {
+        let (_, r) = render(&pipeline("builtin:chess", lens, "defocus.radiance", "None"), &Overrides::default());
+        let BufferData::U32(n) = r.output("rays_per_pixel").unwrap().clone() else { panic!("u32") };
+        n
+    };
+    assert!(counts(r#""aperture_radius": 1e-7, "focus_distance": 2.6"#).iter().all(|&n| n == 1));
+    let wide = counts(r#""aperture_radius": 0.1, "focus_distance": 2.6, "mu": 2.0"#);
+    assert!(wide.iter().any(|&n| n > 1) && wide.iter().all(|&n| n >= 1 && (n as f64).sqrt().fract() == 0.0), "{wide:?}");
+}
+
+/// Records of `paths.trace` (16 paths, one lens, shadow and indirect sample each, light-centre form
+/// factor) on `scene` through a thin lens.
+fn records(scene: &wedge::scene::Scene, aperture: f64, focus: f64) -> Vec<PathRecord> {
+    let params: Vec<(&str, ParamValue)> = vec![
+        ("count", ParamValue::Int(16)),
+        ("jitter", ParamValue::Bool(false)),
+        ("lens", ParamValue::Str("disk".into())),
+        ("shadow_per_primary", ParamValue::Int(1)),
+        ("indirect_per_primary", ParamValue::Int(1)),
+        ("light", ParamValue::Int(0)),
+        ("stream", ParamValue::Int(7)),
+        ("sampling", ParamValue::Str("stratified".into())),
+        ("brdf", ParamValue::Str("phong".into())),
+        ("bounces", ParamValue::Int(1)),
+        ("indirect", ParamValue::Bool(false)),
+        ("form_factor", ParamValue::Str("light_centre".into())),
+        ("aperture_radius", ParamValue::Float(aperture)),
+        ("focus_distance", ParamValue::Float(focus)),
+    ];
+    let params = params.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+    let none = BTreeMap::<&str, BufferData>::new();
+    let lone = LonePass::new(Arc::new(PathsTrace), params, &none).unwrap();
+    let (out, _) = lone.run_cpu(scene, DW, DH, 5).unwrap();
+    <PathRecord as Texel>::slice(&out["record"]).expect("a PathRecord buffer").to_vec()
+}
+
+/// Pixels whose direct component is not separable (eq. 5.30 without the median), among those whose
+/// paths all hit a surface. (Where some paths miss, the background is a texture of 0 that `k` and
+/// `E` both average in: `k̄ Ē = f² k E ≠ f k E = L̄` for a hit fraction `f`, so such silhouettes are
+/// correctly not factored.)
+fn not_separable(recs: &[PathRecord]) -> (usize, usize) {
+    let hit: Vec<&PathRecord> = recs.iter().filter(|r| r.hits > 0 && r.hits == r.paths).collect();
+    let bad = hit
+        .iter()
+        .filter(|r| {
+            let (l, k, e) = r.direct();
+            !separable(l.to_array(), k.to_array(), e.to_array(), FACTORING_THRESHOLD)
+        })
+        .count();
+    (bad, hit.len())
+}
+
+#[test]
+fn factoring_is_exact_on_an_untextured_diffuse_scene_and_off_at_blurred_texture_edges() {
+    // One diffuse material everywhere (an OBJ without materials), the light-centre form factor in L, k
+    // and E: k is the same for every lens sample, so k·E = L at every pixel, however defocused.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("plain.obj"),
+        "v -3 0 -3\nv 3 0 -3\nv 3 0 3\nv -3 0 3\nv -0.5 0.8 -0.5\nv 0.5 0.8 -0.5\nv 0.5 0.8 0.5\nv -0.5 0.8 0.5\n\
+         f 1 3 2\nf 1 4 3\nf 5 7 6\nf 5 8 7\nf 5 6 7\nf 5 7 8\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("plain.ron"),
+        r#"Scene(meshes: [(path: "plain.obj")],
+                lights: [Rect(corner: (-0.4, 2.5, -0.4), edge_u: (0.8, 0, 0), edge_v: (0, 0, 0.8), radiance: (8, 8, 8))],
+                camera: Some((position: (0, 2.2, 4.5), look_at: (0, 0.3, 0), vfov_deg: 40)))"#,
+    )
+    .unwrap();
+    let plain = wedge::scene::load(&wedge::scene::SceneSource::File(dir.path().join("plain.ron"))).unwrap();
+    let (bad, hit) = not_separable(&records(&plain, 0.15, 3.0));
+    assert!(hit > 1000, "{hit}");
+    assert_eq!(bad, 0, "{bad} of {hit} pixels not separable on an untextured scene");
+
+    // The chess board's checker under a wide aperture: pixels whose lens samples see both colours
+    // are flagged off (k·E ≠ L there).
+    let chess = wedge::scene::load(&wedge::scene::SceneSource::Builtin("chess".into())).unwrap();
+    let (bad, hit) = not_separable(&records(&chess, 0.15, 2.6));
+    assert!(bad * 20 > hit, "only {bad} of {hit} blurred checker pixels flagged off");
+}
+
+/// RMSE of `pipelines/defocus.ron` at 64×48 with `sets` against its own 1024-path reference.
+fn defocus_error(sets: &[(&str, ParamValue)], reference: &wedge::image::Image) -> (f64, f64) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
+    let ov = sized(64, 48, None, &sets.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect::<Vec<_>>());
+    let s = Session::open(Some(&path), &ov).unwrap();
+    let r = run(&s);
+    (rmse(&color(&s, &r), reference), r.rays.total_rays() as f64 / (64.0 * 48.0))
+}
+
+#[test]
+fn the_consistent_mode_converges_and_the_literal_one_stops() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
+    let s = Session::reference(Some(&path), 1024, "stratified", &Overrides { seed: Some(99), ..sized(64, 48, None, &[]) }).unwrap();
+    let reference = color(&s, &run(&s));
+    let at = |mode: &str, mu: f64| defocus_error(&[("mode", ParamValue::Str(mode.into())), ("mu", ParamValue::Float(mu))], &reference);
+    let consistent: Vec<(f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at("consistent", mu)).collect();
+    let literal: Vec<(f64, f64)> = [2.0, 8.0].iter().map(|&mu| at("literal", mu)).collect();
+    eprintln!("consistent (RMSE, rays/px) at mu 1, 2, 4: {consistent:?}; literal at mu 2, 8: {literal:?}");
+    // Eq. 5.29 without the clamp: narrower filters and more rays as μ grows, so the error falls.
+    assert!(consistent[1].0 < 0.9 * consistent[0].0 && consistent[2].0 < 0.9 * consistent[1].0, "{consistent:?}");
+    assert!(consistent[2].1 > 4.0 * consistent[0].1, "{consistent:?}");
+    // As printed, the clamp at Ω_pix^max holds the filters and counts: μ 2 → 8 changes little.
+    assert!((literal[1].0 - literal[0].0).abs() < 0.05 * literal[0].0, "{literal:?}");
+    assert!(literal[1].1 < 1.2 * literal[0].1, "{literal:?}");
+}
