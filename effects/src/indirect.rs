@@ -30,7 +30,7 @@ use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SamplerRequest, Stage};
 
 use crate::filtering::{self, Separable};
 
@@ -131,6 +131,50 @@ pub fn component(r: Receiver, depth: [f32; 4], d: f32, s: &Settings) -> Componen
 
 pub struct Indirect;
 
+/// Under a factoring node (thesis Ch. 5, [`wedge_graph::factoring`]): indirect light as one factored
+/// component with two parts ([`crate::defocus::component`]) — diffuse (`k = k_d`) and glossy
+/// (`k = k_s`, E the lobe-weighted incident radiance; eq. 5.21 keeps them apart) — with `Ω_x^i`
+/// (5.22), `n_ind^{f|c}` (5.26, 5.28; the diffuse part's SepInd flag picks the count), the
+/// irradiance filter (5.31) per part and the composed term (5.32). `Ω_v^max` is the diffuse
+/// receiver's 2.8 (Ch. 4, eq. 4.18) for both parts: a reading — the thesis gives one `Ω_v^max` per
+/// pixel and glossy receivers would take `4.27 + 0.15 m`, which the per-pixel rate kernel does not
+/// see. The Ch. 4 parameters (`mu`, `alpha`, rays and filter settings) do not apply; `bounces` and
+/// `brdf` set the sampler's hemisphere estimator. AO is not a factored component: refused.
+fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Result<(), GraphError> {
+    use crate::defocus::component::{self, Component, Part};
+    if matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao") {
+        return Err(GraphError::Expand {
+            node: ctx.node().into(),
+            message: format!(
+                "ambient occlusion (`mode: \"ao\"`) is not a lighting component `{}` ({}) can factor; use `mode: \"radiance\"` \
+                 or a pipeline without {}",
+                f.node, f.kind, f.kind
+            ),
+        });
+    }
+    let (bounces, brdf) = (ctx.param("bounces").clone(), ctx.param("brdf").clone());
+    ctx.sampler(SamplerRequest::new().estimator("hemisphere").setting("bounces", bounces).setting("brdf", brdf))?;
+    let out = component::expand(
+        ctx,
+        f,
+        &Component {
+            name: "indirect",
+            estimator: "hemisphere",
+            statistic: ("reflectors", "depth"),
+            rate_params: vec![],
+            parts: vec![
+                Part { name: "diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
+                Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
+            ],
+        },
+    )?;
+    ctx.output("radiance", out.radiance);
+    ctx.output("unfiltered", out.unfiltered);
+    ctx.output("filter_width", out.sigma);
+    ctx.output("rays_per_pixel", out.count);
+    Ok(())
+}
+
 impl NodeKind for Indirect {
     fn kind(&self) -> &'static str {
         "Indirect"
@@ -172,6 +216,9 @@ impl NodeKind for Indirect {
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        if let Some(f) = ctx.factoring() {
+            return expand_factored(ctx, f);
+        }
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;
         let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");

@@ -63,7 +63,7 @@ pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
     ["mu", "mode", "max_primary", "max_per_primary"]
         .into_iter()
         .filter_map(|n| f.setting(n).map(|v| (n, v.clone())))
-        .chain([("omega_pix", ParamValue::Float(f64::from(OMEGA_PIX_MAX))), ("omega_v", ParamValue::Float(2.8))])
+        .chain([("omega_pix", ParamValue::Float(f64::from(OMEGA_PIX_MAX))), ("omega_v", ParamValue::Float(f64::from(crate::indirect::transfer_bandlimit(crate::indirect::Receiver::Diffuse)))),])
         .collect()
 }
 
@@ -93,7 +93,7 @@ fn flags(ctx: &mut ExpandCtx<'_>, name: &str, part: &Part, pass: SamplerPass, st
 /// Add the component's passes (see the module doc).
 pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<ComponentOutputs, GraphError> {
     let factor = f.bool("factor").unwrap_or(true);
-    let radius = f.setting("filter_radius").cloned().unwrap_or(ParamValue::Int(16));
+    let radius = f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16));
     let separable = f.bool("separable").unwrap_or(true);
     let first = &c.parts[0];
 

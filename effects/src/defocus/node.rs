@@ -23,7 +23,7 @@
 //! **Settings for the components** (what [`wedge_graph::NodeKind::factoring`] returns): `mu`,
 //! `mode` (`literal` eq. 5.29 as printed, or `consistent`: no clamp, converges to Monte Carlo as
 //! μ → ∞), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
-//! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `filter_radius`,
+//! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
 //! `separable`.
 
 use std::collections::BTreeMap;
@@ -118,7 +118,7 @@ impl NodeKind for Defocus {
             ParamDecl::int("initial_paths", 16, 1, 4096, "first-pass paths per pixel (thesis: 16, one lens, shadow and indirect sample each)"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
             ParamDecl::int("max_per_primary", 64, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square)"),
-            ParamDecl::int("filter_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),
+            ParamDecl::int("max_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),
             ParamDecl::boolean("separable", true, "x then y filter passes (O(R) taps) instead of the 2-D reference (O(R²))"),
         ]
     }
@@ -127,7 +127,7 @@ impl NodeKind for Defocus {
         if aperture == 0.0 {
             return Ok(None);
         }
-        let mut s: Settings = ["mu", "mode", "factor", "max_primary", "max_per_primary", "filter_radius", "separable", "lens", "initial_paths"]
+        let mut s: Settings = ["mu", "mode", "factor", "max_primary", "max_per_primary", "max_radius", "separable", "lens", "initial_paths"]
             .into_iter()
             .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
             .collect();
@@ -200,7 +200,7 @@ impl NodeKind for Defocus {
         let composed = sum(ctx, "compose", &components, Some(emission));
         let separable = ctx.param("separable") == &ParamValue::Bool(true);
         let axes: &[i64] = if separable { &[0, 1] } else { &[-1] };
-        let radius = ctx.param("filter_radius").clone();
+        let radius = ctx.param("max_radius").clone();
         let mut value = composed;
         for axis in axes {
             let name = match axis {
