@@ -195,6 +195,23 @@ fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: 
     }
 }
 
+fn ceil_div(a: u32, b: u32) -> u32 {
+    return a / b + select(0u, 1u, a % b != 0u);
+}
+
+// Work units of one path for chunking: its rays (the camera ray, the shadow rays, and per indirect
+// sample of each part a ray and a next-event shadow ray per bounce) in eighths, at least 1.
+fn path_units(n_shadow: u32, n_indirect: u32) -> u32 {
+    var rays = 1u;
+    if (params.direct != 0u) {
+        rays = rays + min(n_shadow, 0x100000u);
+    }
+    if (params.indirect != 0u) {
+        rays = rays + 4u * min(n_indirect, 0x100000u) * min(params.bounces, 64u);
+    }
+    return max(1u, ceil_div(rays, 8u));
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -219,11 +236,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         n_indirect = indirect_per_primary_at(i);
     }
     n_indirect = max(n_indirect, 1u);
-    // Paths [chunk_begin, end) of this pass in this dispatch; a resuming dispatch continues the
-    // record the earlier chunks left (sums, extrema and counts: exact in any chunking).
+    // Chunks are counted in work units of about 8 rays (path_units): path k of this pass runs in the
+    // dispatch whose unit range [chunk_begin, chunk_end) holds k·units, so a dispatch traces at most
+    // ~8 × chunk rays per pixel however many secondary samples a path carries (lavapipe cuts a loop
+    // after 65,535 iterations over a whole invocation: 16 paths × 64 indirect samples were cut). A
+    // resuming dispatch continues the record the earlier chunks left (sums, extrema and counts: exact
+    // in any chunking).
     let resume = chunk_resumes();
-    let end = chunk_end_of(count);
-    if (resume && end <= frame.chunk_begin) {
+    let units = path_units(n_shadow, n_indirect);
+    var total = 0xffffffffu;
+    if (count <= 0xffffffffu / units) {
+        total = count * units;
+    }
+    let k_begin = ceil_div(frame.chunk_begin, units);
+    let end = min(count, ceil_div(chunk_end_of(total), units));
+    if (resume && end <= k_begin) {
         return;
     }
     if (resume) {
@@ -243,7 +270,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let fixed_primary = params.jitter == 0u && params.cam_aperture == 0.0;
     var fixed_hit: Hit;
     var have_hit = false;
-    var k = frame.chunk_begin;
+    var k = k_begin;
     for (; k < end; k = k + 1u) {
         let j = first + k;
         var jitter = vec2<f32>(0.5);
