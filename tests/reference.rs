@@ -40,8 +40,15 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
             if p.kernel == FILL_CONSTANT {
                 // The shared sampler's secondary samples per primary are 1 in a reference: N paths,
                 // one shadow ray / hemisphere sample each (SAMPLER-STAGE.md §4).
+                // Ch. 5's factoring flags are 0 (`Reference::Fill(0)`): a reference composes L.
                 let per_primary = p.name.starts_with("sampler.counts_") && p.name != "sampler.counts_paths";
-                let want = if per_primary { 1 } else { 64 };
+                let want = if per_primary {
+                    1
+                } else if p.name.ends_with("_flag") {
+                    0
+                } else {
+                    64
+                };
                 assert_eq!(p.params["value"], ParamValue::Int(want), "{name}: {}", p.name);
             }
         }
