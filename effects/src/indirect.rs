@@ -30,7 +30,7 @@ use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SamplerRequest, Stage};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 use crate::filtering::{self, Separable};
 
@@ -152,14 +152,14 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Resul
             ),
         });
     }
-    let (bounces, brdf) = (ctx.param("bounces").clone(), ctx.param("brdf").clone());
-    ctx.sampler(SamplerRequest::new().estimator("hemisphere").setting("bounces", bounces).setting("brdf", brdf))?;
-    let out = component::expand(
+    let settings = vec![("bounces", ctx.param("bounces").clone()), ("brdf", ctx.param("brdf").clone())];
+    component::expand(
         ctx,
         f,
         &Component {
             name: "indirect",
             estimator: "hemisphere",
+            settings,
             statistic: ("reflectors", "depth"),
             rate_params: vec![],
             parts: vec![
@@ -167,12 +167,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Resul
                 Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
             ],
         },
-    )?;
-    ctx.output("radiance", out.radiance);
-    ctx.output("unfiltered", out.unfiltered);
-    ctx.output("filter_width", out.sigma);
-    ctx.output("rays_per_pixel", out.count);
-    Ok(())
+    )
 }
 
 impl NodeKind for Indirect {

@@ -201,23 +201,18 @@ impl NodeKind for SoftShadows {
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Result<(), GraphError> {
     use crate::defocus::component::{self, Component, Part};
     let light = ctx.param("light").clone();
-    ctx.sampler(SamplerRequest::new().estimator("light").setting("light", light.clone()))?;
-    let out = component::expand(
+    component::expand(
         ctx,
         f,
         &Component {
             name: "direct",
             estimator: "light",
+            settings: vec![("light", light.clone())],
             statistic: ("occlusion", "occlusion"),
             rate_params: vec![("light", light)],
             parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
         },
-    )?;
-    ctx.output("radiance", out.radiance);
-    ctx.output("unfiltered", out.unfiltered);
-    ctx.output("filter_width", out.sigma);
-    ctx.output("rays_per_pixel", out.count);
-    Ok(())
+    )
 }
 
 /// Per-pixel inputs of the formulas, read from the filled occluder statistics.

@@ -17,7 +17,7 @@
 
 use wedge_graph::{
     BufferId, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
-    Stage, FILL_CONSTANT,
+    SamplerRequest, Stage, FILL_CONSTANT,
 };
 
 use super::formulas::{FACTORING_THRESHOLD, OMEGA_PIX_MAX};
@@ -35,8 +35,10 @@ pub struct Component {
     /// `direct` or `indirect`: selects `defocus.rates`' outputs (`omega_<c>`, `n_<c>`, `sigma_<c>`)
     /// and flag input (`flag_<c>`).
     pub name: &'static str,
-    /// The sampler estimator its secondary samples come from (`light`, `hemisphere`).
+    /// The sampler estimator its secondary samples come from (`light`, `hemisphere`), and the
+    /// sampler settings that define it (`light`; `bounces`, `brdf`).
     pub estimator: &'static str,
+    pub settings: Vec<(&'static str, ParamValue)>,
     /// The first-pass statistic `defocus.rates` reads for it: (`occlusion`, sampler output
     /// `occlusion`) or (`reflectors`, `depth`).
     pub statistic: (&'static str, &'static str),
@@ -44,18 +46,6 @@ pub struct Component {
     pub rate_params: Vec<(&'static str, ParamValue)>,
     /// Its parts; the first one's flag selects the count.
     pub parts: Vec<Part>,
-}
-
-/// What the component hands back: its composed term and diagnostics.
-pub struct ComponentOutputs {
-    /// Σ over parts of eq. 5.32's term (`k·E_filtered` where factored, else `L`).
-    pub radiance: BufferId,
-    /// Σ over parts of `L` (the unfiltered estimate).
-    pub unfiltered: BufferId,
-    /// The irradiance filter's standard deviation in pixels.
-    pub sigma: BufferId,
-    /// The component's secondary samples per pixel as the rates ask (before the 3×3 max).
-    pub count: BufferId,
 }
 
 /// The factoring node's rate settings forwarded into `defocus.rates`.
@@ -90,8 +80,47 @@ fn flags(ctx: &mut ExpandCtx<'_>, name: &str, part: &Part, pass: SamplerPass, st
     Ok(out)
 }
 
-/// Add the component's passes (see the module doc).
-pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<ComponentOutputs, GraphError> {
+/// A Ch. 5 filter (`filter.irradiance` or `filter.defocus`) on `value`: the x then the y pass
+/// (`<name>_x`, `<name>_y`) when `separable`, else the 2-D reference (`<name>`); a reference
+/// bypasses them.
+#[allow(clippy::too_many_arguments)]
+pub fn filter_chain(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    kernel: &str,
+    stage: Stage,
+    value: BufferId,
+    reads: &[(&str, BufferId)],
+    params: &[(&str, ParamValue)],
+    separable: bool,
+) -> BufferId {
+    let axes: &[(i64, &str)] = if separable { &[(0, "_x"), (1, "_y")] } else { &[(-1, "")] };
+    let mut value = value;
+    for (axis, suffix) in axes {
+        let local = format!("{name}{suffix}");
+        let out = ctx.buffer(&local, Format::Vec3);
+        let mut b = ctx.pass(&local, kernel, stage).read("value", value);
+        for (binding, id) in reads {
+            b = b.read(binding, *id);
+        }
+        for (n, v) in params {
+            b = b.param(n, v.clone());
+        }
+        b.write("out", out).int("axis", *axis).reference(Reference::Bypass { input: "value" }).finish();
+        value = out;
+    }
+    value
+}
+
+/// Add the component's passes (see the module doc) and bind the node's ports `radiance` (the
+/// composed term), `unfiltered` (Σ L), `filter_width` (the irradiance filter's σ in pixels) and
+/// `rays_per_pixel` (the component's secondary samples per pixel as the rates ask).
+pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(), GraphError> {
+    let mut request = SamplerRequest::new().estimator(c.estimator);
+    for (n, v) in &c.settings {
+        request = request.setting(n, v.clone());
+    }
+    ctx.sampler(request)?;
     let factor = f.bool("factor").unwrap_or(true);
     let radius = f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16));
     let separable = f.bool("separable").unwrap_or(true);
@@ -139,30 +168,17 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<C
     let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (None, None);
     for part in &c.parts {
         let flag = flags(ctx, &format!("{}_flag", part.name), part, SamplerPass::Final, Stage::Factor, factor, Reference::Fill(0))?;
-        let mut e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
-        let axes: &[i64] = if separable { &[0, 1] } else { &[-1] };
-        for axis in axes {
-            let suffix = match axis {
-                0 => "_x",
-                1 => "_y",
-                _ => "",
-            };
-            let name = format!("{}_filter{suffix}", part.name);
-            let out = ctx.buffer(&name, Format::Vec3);
-            ctx.pass(&name, "filter.irradiance", Stage::Filter)
-                .read("value", e)
-                .read("position", position)
-                .read("normal", normal)
-                .read("omega", omega)
-                .read("pixel_length", pixel_length)
-                .write("out", out)
-                .param("max_radius", radius.clone())
-                .int("axis", *axis)
-                .float("normal_cos", 10f64.to_radians().cos())
-                .reference(Reference::Bypass { input: "value" })
-                .finish();
-            e = out;
-        }
+        let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+        let e = filter_chain(
+            ctx,
+            &format!("{}_filter", part.name),
+            "filter.irradiance",
+            Stage::Filter,
+            e,
+            &[("position", position), ("normal", normal), ("omega", omega), ("pixel_length", pixel_length)],
+            &[("max_radius", radius.clone()), ("normal_cos", ParamValue::Float(10f64.to_radians().cos()))],
+            separable,
+        );
         let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
         let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
         let name = format!("{}_compose", part.name);
@@ -186,10 +202,9 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<C
             }
         });
     }
-    Ok(ComponentOutputs {
-        radiance: radiance.expect("a component has parts"),
-        unfiltered: unfiltered.expect("a component has parts"),
-        sigma,
-        count,
-    })
+    ctx.output("radiance", radiance.expect("a component has parts"));
+    ctx.output("unfiltered", unfiltered.expect("a component has parts"));
+    ctx.output("filter_width", sigma);
+    ctx.output("rays_per_pixel", count);
+    Ok(())
 }

@@ -31,10 +31,10 @@ use std::collections::BTreeMap;
 use wedge_graph::factoring::{Refusal, Settings};
 use wedge_graph::{
     BufferId, CameraSpec, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl,
-    Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+    SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
-use super::component::rate_settings;
+use super::component::{filter_chain, rate_settings};
 use super::formulas::Mode;
 
 pub struct Defocus;
@@ -199,26 +199,17 @@ impl NodeKind for Defocus {
         let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;
         let composed = sum(ctx, "compose", &components, Some(emission));
         let separable = ctx.param("separable") == &ParamValue::Bool(true);
-        let axes: &[i64] = if separable { &[0, 1] } else { &[-1] };
         let radius = ctx.param("max_radius").clone();
-        let mut value = composed;
-        for axis in axes {
-            let name = match axis {
-                0 => "filter_x",
-                1 => "filter_y",
-                _ => "filter",
-            };
-            let out = ctx.buffer(name, Format::Vec3);
-            ctx.pass(name, "filter.defocus", Stage::ImageFilter)
-                .read("value", value)
-                .read("omega", omega)
-                .write("out", out)
-                .param("max_radius", radius.clone())
-                .int("axis", *axis)
-                .reference(Reference::Bypass { input: "value" })
-                .finish();
-            value = out;
-        }
+        let value = filter_chain(
+            ctx,
+            "filter",
+            "filter.defocus",
+            Stage::ImageFilter,
+            composed,
+            &[("omega", omega)],
+            &[("max_radius", radius)],
+            separable,
+        );
         ctx.output("radiance", value);
         ctx.output("unfiltered", composed);
         ctx.output("filter_width", sigma);
