@@ -449,7 +449,10 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
             _ => None,
         })
         .collect();
-    let default_mu = mu_nodes.first().copied();
+    // Under a factoring node (Ch. 5's Defocus) its μ is the one that acts (the component nodes
+    // read the factoring node's settings), so it is the pipeline's own.
+    let factoring_mu = session.pipeline.factoring.as_ref().and_then(|f| f.float("mu"));
+    let default_mu = factoring_mu.or(mu_nodes.first().copied());
     let scene_bytes = match crate::session::scene_source(&session.pipeline, opts.scene.as_deref()) {
         SceneSource::File(p) => std::fs::read(p).ok(),
         _ => None,
