@@ -102,7 +102,9 @@ fn exported_obj_loads_back_as_the_same_scene_and_image() {
 /// pixel through the pixel centre (jitter off, disk lens, one stratified shadow ray each, exact
 /// form factor, direct only), written as the mean of `L = k·E` per path (`PathRecord::radiance`)
 /// to `LENS_OUT`. With `LENS_DIFFUSE=1` the Phong lobes are dropped (k = k_d), as in the Mitsuba
-/// scene. Run by scripts/thin_lens_check/run.sh; ignored otherwise.
+/// scene; `LENS_WHITE=1` sets every k_d to 1; `LENS_FLAT=1` replaces the shading normals by the
+/// triangles' geometric normals (the diagnosis of the residual on the pieces, DESIGN-NOTES). Run by
+/// scripts/thin_lens_check/run.sh; ignored otherwise.
 #[test]
 #[ignore]
 fn thin_lens_check_sampler_image() {
@@ -135,6 +137,18 @@ fn thin_lens_check_sampler_image() {
     .into_iter()
     .map(|(k, v)| (k.to_string(), v))
     .collect();
+    if std::env::var("LENS_FLAT").is_ok_and(|v| v == "1") {
+        for (t, sh) in scene.triangles.iter().zip(scene.shading.iter_mut()) {
+            let n = glam::Vec3::from(t.e1).cross(glam::Vec3::from(t.e2)).normalize_or_zero();
+            sh.n = [n; 3];
+        }
+    }
+    if std::env::var("LENS_WHITE").is_ok_and(|v| v == "1") {
+        for m in &mut scene.materials {
+            m.base_color = glam::Vec3::ONE;
+            m.base_color_texture = None;
+        }
+    }
     let none: BTreeMap<&str, BufferData> = BTreeMap::new();
     let (outputs, _) = LonePass::new(Arc::new(PathsTrace), params, &none).unwrap().run_cpu(&scene, s.width, s.height, s.seed).unwrap();
     let rec = <PathRecord as Texel>::slice(&outputs["record"]).unwrap();

@@ -31,6 +31,8 @@ def main():
     ap.add_argument("--aux", required=True)
     ap.add_argument("--noise", help="a second Mitsuba render (other seed): RMSE between the two = its noise")
     ap.add_argument("--error-image", help="write |wedge - mitsuba| luminance (linear EXR) and a PNG")
+    ap.add_argument("--figure", help="write wedge | Mitsuba | error side by side (sRGB PNG, exposure --exposure)")
+    ap.add_argument("--exposure", type=float, default=1.0)
     ap.add_argument("--tolerance", type=float, default=0.01)
     ap.add_argument("--label", default="")
     a = ap.parse_args()
@@ -83,6 +85,15 @@ def main():
         img = np.clip(err / peak, 0, 1)
         mi.Bitmap((np.stack([img, img * 0.4, 1 - img], axis=2) * 255).astype(np.uint8)).write(png)
         print(f"wrote {a.error_image} and {png} (|Δ luminance|, blue 0 .. red {peak:.4f}, the 99.5th percentile)")
+    if a.figure:
+        srgb = lambda x: np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.clip(x, 0.0031308, None), 1 / 2.4) - 0.055)
+        show = lambda img: srgb(np.clip(img * a.exposure, 0, 1))
+        err = np.abs(lw - lm)
+        peak = max(float(np.percentile(err, 99.5)), 1e-6)
+        e = np.clip(err / peak, 0, 1)
+        panel = np.concatenate([show(w), show(m), np.stack([e, e * 0.4, 1 - e], axis=2)], axis=1)
+        mi.Bitmap((panel * 255 + 0.5).astype(np.uint8)).write(a.figure)
+        print(f"wrote {a.figure} (wedge | Mitsuba | |Δ luminance| blue 0 .. red {peak:.4f})")
     print("image means within {:.0%}: {}".format(a.tolerance, "yes" if ok else "NO"))
     return 0 if ok else 1
 

@@ -26,6 +26,7 @@ wedge, and why (docs/DESIGN-NOTES.md "Independent thin-lens check"):
   emitting side).
 
 Writes a linear RGB EXR (`--out`), and with `--aux` a depth/material EXR for region masks.
+`--face-normals` drops the exported shading normals (the residual's diagnosis in DESIGN-NOTES).
 """
 
 import argparse
@@ -102,6 +103,7 @@ def main():
     ap.add_argument("--albedo", choices=["white", "textured"], default="textured")
     ap.add_argument("--pixel", choices=["centre", "box"], default="centre")
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--face-normals", action="store_true", help="drop the vertex normals (flat shading; see DESIGN-NOTES)")
     ap.add_argument("--chunk", type=int, default=16, help="paths per pixel per launch (memory)")
     ap.add_argument("--aux", help="also write depth along the optical axis (R), material index + 1 (G) at pixel centres")
     a = ap.parse_args()
@@ -150,7 +152,7 @@ def main():
         else:
             refl = {"type": "rgb", "value": m["base_color"]}
         bsdf = mi.load_dict({"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": refl}})
-        scene_dict[f"mesh{k}"] = build_mesh(mi, name, g, bsdf)
+        scene_dict[f"mesh{k}"] = build_mesh(mi, name, g, bsdf, normals=not a.face_normals)
     for light in meta["lights"]:
         assert not light["two_sided"], "a two-sided light needs two emitters here"
 
