@@ -12,6 +12,7 @@ pub use wedge_graph as graph;
 pub use wedge_scene as scene;
 
 pub mod bench;
+pub mod export;
 pub mod heatmap;
 pub mod image;
 pub mod metrics;

@@ -1,4 +1,4 @@
-//! The `wedge` command line: render, reference, compare, graph.
+//! The `wedge` command line: render, reference, compare, bench, parity, graph, export-scene.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -136,6 +136,24 @@ enum Command {
         /// As for `render`: `adapter` or `webgpu` (WebGPU's default limits).
         #[arg(long, value_parser = ["adapter", "webgpu"])]
         gpu_limits: Option<String>,
+    },
+    /// Write the pipeline's scene, seen by its camera, for other renderers: scene.obj/.mtl, textures
+    /// (EXR + PNG) and scene.json (camera with thin-lens conventions, exact materials, area lights).
+    ExportScene {
+        pipeline: Option<PathBuf>,
+        /// Scene override, as for `render`.
+        #[arg(long)]
+        scene: Option<String>,
+        #[arg(long, default_value = "out/scene")]
+        out: PathBuf,
+        /// Image size recorded in scene.json (default: the pipeline's).
+        #[arg(long, value_parser = side_parser())]
+        width: Option<u32>,
+        #[arg(long, value_parser = side_parser())]
+        height: Option<u32>,
+        /// As for `render`.
+        #[arg(long)]
+        allow_outside_scene_dir: bool,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes).
     Graph {
@@ -410,6 +428,24 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             };
             let r = wedge::bench::run(&opts)?;
             Ok(format!("{}\n", wedge::bench::report::summary(&r)))
+        }
+        Command::ExportScene { pipeline, scene, out, width, height, allow_outside_scene_dir } => {
+            let ov = Overrides { scene, width, height, allow_outside_scene_dir, ..Overrides::default() };
+            let s = Session::open(pipeline.as_deref(), &ov)?;
+            let files = wedge::export::export_scene(&s.scene, &s.scene.camera, s.width, s.height, &out)?;
+            let mut text = format!(
+                "exported scene `{}` ({} triangles, {} lights, {} textures), camera for {}x{}\n",
+                s.scene.name,
+                s.scene.triangle_count(),
+                s.scene.lights.len(),
+                s.scene.textures.len(),
+                s.width,
+                s.height
+            );
+            for f in files {
+                text.push_str(&format!("wrote {}\n", f.display()));
+            }
+            Ok(text)
         }
         Command::Graph { pipeline, dot } => {
             let loaded = wedge::session::load_pipeline_or_default(pipeline.as_deref())?;
