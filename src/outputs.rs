@@ -80,6 +80,14 @@ pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u3
         let spec = HeatmapSpec { title: "rays per pixel", unit: "rays", scale: Scale::Log, range: None };
         write_heatmap_png(&set.file("rays_per_pixel.png")?, width, height, &values, None, &spec)?;
     }
+    // `Heatmap` sinks (wedge_effects::heatmap): one `<node>.png` each, a width (0 masked) or a count.
+    for ((node, port), b) in &run.outputs {
+        let Some((_, unit)) = wedge_effects::heatmap::PORTS.iter().find(|(p, _)| p == port) else { continue };
+        let values = b.to_scalar();
+        let mask: Option<Vec<bool>> = (*port == "width").then(|| values.iter().map(|v| *v <= 0.0).collect());
+        let spec = HeatmapSpec { title: node, unit, scale: Scale::Log, range: None };
+        write_heatmap_png(&set.file(&format!("{node}.png"))?, width, height, &values, mask.as_deref(), &spec)?;
+    }
     Ok(WrittenRun { files: set.commit()?, non_finite })
 }
 

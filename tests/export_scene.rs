@@ -36,7 +36,7 @@ fn area_by_material(s: &Scene, names: &dyn Fn(usize) -> String) -> BTreeMap<Stri
 #[test]
 fn exported_obj_loads_back_as_the_same_scene_and_image() {
     let dir = tempfile::tempdir().unwrap();
-    let pipeline = check_pipeline("chess_defocus_direct_white.ron");
+    let pipeline = check_pipeline("chess_defocus_direct.ron");
     let ov = sized(48, 36, None, &[]);
     let s = Session::open(Some(&pipeline), &ov).unwrap();
     let files = wedge::export::export_scene(&s.scene, &s.scene.camera, s.width, s.height, dir.path()).unwrap();

@@ -14,7 +14,8 @@
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — a baseline node
 //!   (references come from each pipeline's own graph, `wedge_graph::reference`).
-//! - [`output`]: `Output`, the sink whose inputs a run hands back.
+//! - [`output`]: `Output`, the sink whose inputs a run hands back; [`heatmap`]: `Heatmap`, a sink for
+//!   one more filter width or ray count, written as its own heatmap.
 //!
 //! Every pass an effect adds names its [`wedge_graph::Stage`] (first paths, bandwidths and rates,
 //! adaptive paths, filters, compose, …), says whether it draws random numbers (`.random()`: the
@@ -33,6 +34,7 @@ use wedge_graph::NodeRegistry;
 pub mod add;
 pub mod defocus;
 pub mod filtering;
+pub mod heatmap;
 pub mod indirect;
 pub mod montecarlo;
 pub mod output;
@@ -47,6 +49,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     sampler::register_kernels(kernels);
     nodes.register(Arc::new(primary::Primary));
     nodes.register(Arc::new(output::Output));
+    nodes.register(Arc::new(heatmap::Heatmap));
     nodes.register(Arc::new(montecarlo::MonteCarlo));
     nodes.register(Arc::new(shadows::SoftShadows));
     shadows::register_kernels(kernels);

@@ -50,12 +50,17 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
         ("form_factor", ParamValue::Str("light_centre".into())),
         ("brdf", ParamValue::Str("phong".into())),
         ("bounces", ParamValue::Int(1)),
+        // A pinhole unless a node asks for a lens (a Defocus node): a camera block's aperture alone
+        // does not make the sampler's rays defocused while `Primary` and the Ch. 3/4 nodes' texture
+        // and emission come from one pinhole ray per pixel (SoftShadows composed a sharp albedo with
+        // lens-averaged irradiance that way: docs/DESIGN-NOTES.md "Independent thin-lens check").
+        ("aperture_radius", ParamValue::Float(0.0)),
     ]
 }
 
-/// Settings without a default: passed to `paths.trace` only where a node sets them (the thin lens a
-/// Defocus node asks for; otherwise the scene camera's).
-const OPTIONAL_SETTINGS: [&str; 2] = ["aperture_radius", "focus_distance"];
+/// Settings without a default: passed to `paths.trace` only where a node sets them (a Defocus node's
+/// focus distance).
+const OPTIONAL_SETTINGS: [&str; 1] = ["focus_distance"];
 
 /// The `paths.trace` sampler.
 pub struct PathSampler;
@@ -146,7 +151,7 @@ impl SamplerKind for PathSampler {
     }
     fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError> {
         let first_paths = Self::count_setting(plan, "paths")?;
-        let mut trace_params: Vec<(&str, ParamValue)> = ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces"]
+        let mut trace_params: Vec<(&str, ParamValue)> = ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces", "aperture_radius"]
             .into_iter()
             .map(|n| (n, Self::setting(plan, n)))
             .collect();

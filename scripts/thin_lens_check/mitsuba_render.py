@@ -16,7 +16,7 @@ wedge, and why (docs/DESIGN-NOTES.md "Independent thin-lens check"):
   sample per path) and calls the integrator on them. `--pixel box` renders with `mi.render` and a
   box reconstruction filter instead (the jittered, box-filtered image) to show what the difference is.
 - materials: every surface Lambertian, two-sided (wedge shades either side of a triangle).
-  `--albedo white`: k_d = 1 everywhere (wedge pipeline chess_defocus_direct_white.ron).
+  `--albedo white`: k_d = 1 everywhere (wedge: the path sampler with LENS_WHITE=1, run.sh step 2).
   `--albedo textured`: k_d = base_color x texture, the board texture as exported (linear EXR,
   bilinear, repeat, v = 0 the top row — the same as wedge's lookup, asserted below); the Phong
   lobes of the glossy pieces are left out (SoftShadows composes E x albedo: its direct light has no

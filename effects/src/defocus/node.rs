@@ -7,7 +7,7 @@
 //! 1. asks the shared sampler for the thin lens (`aperture_radius`, `focus_distance`, `lens`) and
 //!    the thesis's first pass: `initial_paths` (16) paths through the pixel centre, one lens sample,
 //!    one shadow ray and one indirect sample each, the centre-of-light form factor (so `k·E = L` where
-//!    the scene factors; EQUATIONS.md reading);
+//!    the scene factors; EQUATIONS.md reading; `form_factor: "exact"` for an unbiased reference);
 //! 2. computes `Ω_x^d` (5.7, 5.29) and `n_p` (5.24) from the first pass's circles of confusion
 //!    (`defocus.rates`) and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
 //! 3. sums its `direct` and `indirect` inputs (each a component's eq. 5.32 term) and the emission of
@@ -114,6 +114,7 @@ impl NodeKind for Defocus {
             ParamDecl::choice("lens", "disk", &["disk", "gaussian"], "aperture weight: uniform disk (pbrt, Mitsuba) or the thesis's Gaussian exp(-|u|²/2)"),
             ParamDecl::positive("mu", 1.0, 1e6, "μ: scales every Ch. 5 bandwidth (eq. 5.29); larger = narrower filters, more rays"),
             ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
+            ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (the thesis's reading: k·E = L where the scene factors), or the per-sample geometry term (unbiased; for comparisons with other renderers)"),
             ParamDecl::boolean("factor", true, "factor L into texture × irradiance (eq. 5.30); false = the thesis's no-factoring ablation"),
             ParamDecl::int("initial_paths", 16, 1, 4096, "first-pass paths per pixel (thesis: 16, one lens, shadow and indirect sample each)"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
@@ -167,7 +168,7 @@ impl NodeKind for Defocus {
             .setting("indirect_per_primary", ParamValue::Int(1))
             .setting("jitter", ParamValue::Bool(false))
             .setting("sampling", ParamValue::Str("stratified".into()))
-            .setting("form_factor", ParamValue::Str("light_centre".into()))
+            .setting("form_factor", ctx.param("form_factor").clone())
             .setting("lens", ctx.param("lens").clone());
         for n in ["aperture_radius", "focus_distance"] {
             request = request.setting(n, f.setting(n).expect("a factoring Defocus has a lens").clone());
