@@ -98,10 +98,12 @@ pub fn summary(run: &RunResult, width: u32, height: u32) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "rays per pixel: {:.2} shadow + {:.2} secondary + {:.2} primary = {:.2} total",
+        // As the thesis counts rays (Ch. 5: a sample is 1 primary + 1 shadow + 1 indirect ray + the
+        // next-event shadow ray at the indirect hit, which is counted with the shadow rays here).
+        "rays per pixel: {:.2} primary + {:.2} shadow + {:.2} indirect = {:.2} total",
+        r.primary_rays as f64 / px,
         r.shadow_rays as f64 / px,
         r.secondary_rays as f64 / px,
-        r.primary_rays as f64 / px,
         r.total_rays() as f64 / px
     );
     if r.non_finite_samples > 0 {

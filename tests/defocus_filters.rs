@@ -623,6 +623,7 @@ fn rates_kernel_matches_the_formulas() {
     let scene = scene();
     let stats = random_stats(&mut Rng(41));
     let (out, _) = run_cpu(&scene, "defocus.rates", W, H, &rate_params(2.0, "consistent", 64, 256), &stats);
+    // Consistent mode scales the caps by max(μ, 1)² (kernels::scaled_cap): 64·4, 256·4.
     let k = RateParams {
         mu: 2.0,
         mode: Mode::Consistent,
@@ -630,8 +631,8 @@ fn rates_kernel_matches_the_formulas() {
         pixel_scale: 0.0025,
         light_half_width: 0.25,
         omega_v: 2.8,
-        max_primary: 64,
-        max_per_primary: 256,
+        max_primary: 256,
+        max_per_primary: 1024,
     };
     let (lens, occ, refl) = (vec4_of(&stats["lens"]), vec4_of(&stats["occlusion"]), vec4_of(&stats["reflectors"]));
     for i in 0..N {

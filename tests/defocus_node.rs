@@ -206,3 +206,29 @@ fn the_consistent_mode_converges_and_the_literal_one_stops() {
     assert!((literal[1].0 - literal[0].0).abs() < 0.05 * literal[0].0, "{literal:?}");
     assert!(literal[1].1 < 1.2 * literal[0].1, "{literal:?}");
 }
+
+#[test]
+fn heatmap_sinks_write_one_png_each_and_need_exactly_one_input() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus_shadows_indirect.ron");
+    let s = Session::open(Some(&path), &sized(40, 30, None, &[])).unwrap();
+    let r = run(&s);
+    let dir = tempfile::tempdir().unwrap();
+    let written = wedge::outputs::write_run(dir.path(), "render", &r, s.width, s.height).unwrap();
+    let names: Vec<String> = written.files.iter().map(|f| f.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    let maps = ["width_defocus", "width_direct", "width_indirect", "rays_primary", "rays_shadow", "samples_indirect"];
+    for m in maps {
+        assert!(names.contains(&format!("{m}.png")), "{m}.png not in {names:?}");
+    }
+    // Different diagnostics, different pictures.
+    let bytes: Vec<Vec<u8>> = maps.iter().map(|m| std::fs::read(dir.path().join(format!("{m}.png"))).unwrap()).collect();
+    assert!(bytes.windows(2).all(|w| w[0] != w[1]));
+
+    for inputs in ["{}", r#"{"width": "defocus.filter_width", "count": "defocus.rays_per_pixel"}"#] {
+        let text = pipeline("builtin:chess", CHESS_LENS, "defocus.radiance", "None")
+            .replace("    ])", &format!("    (name: \"map\", kind: \"Heatmap\", inputs: {inputs}),\n    ])"));
+        let loaded = parse_pipeline(Path::new("maps.ron"), &text).expect("pipeline parses");
+        let (nodes, kernels) = wedge::effects::builtin();
+        let e = Session::build(loaded, &Overrides::default(), nodes, kernels).err().expect("refused").to_string();
+        assert!(e.contains("map") && e.contains("exactly one"), "{e}");
+    }
+}

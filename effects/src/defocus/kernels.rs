@@ -44,6 +44,19 @@ fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32,
     })
 }
 
+/// A count cap as the pass applies it: as given in `literal` mode; in `consistent` mode scaled by
+/// `max(μ, 1)²` (counts grow about as μ² per factor), so the caps do not stop the convergence to
+/// Monte Carlo that the mode is for (up to [`MAX_COUNT_CAP`]). Ch. 4 scales its cap the same way
+/// (100μ rays).
+pub fn scaled_cap(cap: i64, mu: f32, mode: Mode) -> u32 {
+    let cap = cap.clamp(1, MAX_COUNT_CAP);
+    let scaled = match mode {
+        Mode::Literal => cap as f64,
+        Mode::Consistent => cap as f64 * f64::from(mu.max(1.0)).powi(2),
+    };
+    scaled.min(MAX_COUNT_CAP as f64) as u32
+}
+
 /// The pass's rate constants from its parameter block. `pixel_scale` (m) defaults to the scene
 /// camera's at the image height; `light_half_width` (ℓ_I) to the half-width of area light `light`
 /// where that is given, else 0 (no light term: no area light, or a point light).
@@ -60,15 +73,16 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     } else {
         0.0
     };
+    let (mu, mode) = (positive_param(ctx, "mu", false)?, mode_param(ctx)?);
     Ok(RateParams {
-        mu: positive_param(ctx, "mu", false)?,
-        mode: mode_param(ctx)?,
+        mu,
+        mode,
         omega_pix: positive_param(ctx, "omega_pix", false)?,
         pixel_scale,
         light_half_width,
         omega_v: positive_param(ctx, "omega_v", false)?,
-        max_primary: ctx.int_param("max_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
-        max_per_primary: ctx.int_param("max_per_primary")?.clamp(1, MAX_COUNT_CAP) as u32,
+        max_primary: scaled_cap(ctx.int_param("max_primary")?, mu, mode),
+        max_per_primary: scaled_cap(ctx.int_param("max_per_primary")?, mu, mode),
     })
 }
 
