@@ -1,6 +1,6 @@
 // The window and rejection constants both Ch. 5 filters share (filter.irradiance, eq. 5.31;
-// filter.defocus, eq. 5.33); mirrors the constants and `window_radius` of
-// backends/src/kernels/filter_ch5.rs.
+// filter.defocus, eq. 5.33), their window and their weighted mean; mirrors the constants,
+// `window_radius`, `Axis::extent` and `gather` of backends/src/kernels/filter_ch5.rs.
 
 const FILTER_SHARPNESS: f32 = 16.0;
 const REJECT_EXPONENT: f32 = 4.6051702;
@@ -17,4 +17,25 @@ fn window_radius(omega: f32, cap: i32) -> i32 {
         return cap;
     }
     return max(i32(ceil(r)), 0);
+}
+
+// Half-extents (x, y) of the visited window: 2-D (axis -1), or one axis of it (0: x, 1: y)
+// (filter_ch5.rs Axis::extent).
+fn window_extent(omega: f32, cap: i32, axis: i32) -> vec2<i32> {
+    let r = window_radius(omega, cap);
+    if (axis == 0) {
+        return vec2<i32>(r, 0);
+    }
+    if (axis == 1) {
+        return vec2<i32>(0, r);
+    }
+    return vec2<i32>(r, r);
+}
+
+// The weighted mean, or the centre value where no neighbour had a weight (filter_ch5.rs gather).
+fn weighted_mean(sum: vec3<f32>, wsum: f32, centre: vec3<f32>) -> vec3<f32> {
+    if (wsum > 0.0) {
+        return vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum);
+    }
+    return centre;
 }

@@ -23,15 +23,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let gi2 = om * om;
-    // Visited window: 2-D (axis -1), or one axis of it (0: x, 1: y).
-    let radius = window_radius(om, params.max_radius);
-    var rx = radius;
-    var ry = radius;
-    if (params.axis == 0) {
-        ry = 0;
-    } else if (params.axis == 1) {
-        rx = 0;
-    }
+    let extent = window_extent(om, params.max_radius, params.axis);
+    let rx = extent.x;
+    let ry = extent.y;
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
     for (var dy = -ry; dy <= ry; dy = dy + 1) {
@@ -61,9 +55,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             wsum = wsum + w;
         }
     }
-    if (wsum > 0.0) {
-        out_put(i, vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum));
-    } else {
-        out_put(i, centre);
-    }
+    out_put(i, weighted_mean(sum, wsum, centre));
 }

@@ -148,7 +148,33 @@ pub fn irradiance_pixel(
     let gi = om / ell;
     let gi2 = gi * gi;
     let xi = v3(position[i]);
-    let (rx, ry) = p.axis.extent(window_radius(om, p.max_radius));
+    let extent = p.axis.extent(window_radius(om, p.max_radius));
+    gather(x, y, width, height, extent, value, |j, _| {
+        if !is_hit(position[j]) || ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
+            return None;
+        }
+        let dist2 = (v3(position[j]) - xi).length_squared();
+        // Outside i's truncated Gaussian (w_i(j) < 0.01).
+        let e_i = FILTER_SHARPNESS * dist2 * gi2;
+        // i outside j's filter: w_j(i) < 0.01 rejects j (thesis Sec. 5.8).
+        let gj = omega[j] / pixel_length[j];
+        let e_j = FILTER_SHARPNESS * dist2 * (gj * gj);
+        (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())
+    })
+}
+
+/// The weighted mean over the window of half-extents `(rx, ry)` around `(x, y)` of the finite
+/// values whose neighbour test `weight(j, (dx, dy))` gives a weight; the centre value where none
+/// does. Both Ch. 5 filters are this loop with their own weights (WGSL: the same order of terms).
+fn gather(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    (rx, ry): (i32, i32),
+    value: &[[f32; 3]],
+    weight: impl Fn(usize, (i32, i32)) -> Option<f32>,
+) -> [f32; 3] {
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
     for dy in -ry..=ry {
@@ -158,29 +184,11 @@ pub fn irradiance_pixel(
                 continue;
             }
             let j = (jy * width + jx) as usize;
-            if !is_hit(position[j]) {
-                continue;
-            }
             let v = value[j];
             if !is_finite3(v) {
                 continue;
             }
-            if ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
-                continue;
-            }
-            let dist2 = (v3(position[j]) - xi).length_squared();
-            // Outside i's truncated Gaussian (w_i(j) < 0.01).
-            let e_i = FILTER_SHARPNESS * dist2 * gi2;
-            if !within_filter(e_i) {
-                continue;
-            }
-            // i outside j's filter: w_j(i) < 0.01 rejects j (thesis Sec. 5.8).
-            let gj = omega[j] / pixel_length[j];
-            let e_j = FILTER_SHARPNESS * dist2 * (gj * gj);
-            if !within_filter(e_j) {
-                continue;
-            }
-            let w = (-e_i).exp();
+            let Some(w) = weight(j, (dx, dy)) else { continue };
             for c in 0..3 {
                 sum[c] += w * v[c];
             }
@@ -190,7 +198,7 @@ pub fn irradiance_pixel(
     if wsum > 0.0 {
         [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
     } else {
-        centre
+        value[(y * width + x) as usize]
     }
 }
 
@@ -213,42 +221,13 @@ pub fn defocus_pixel(
         return centre;
     }
     let gi2 = om * om;
-    let (rx, ry) = axis.extent(window_radius(om, max_radius));
-    let mut sum = [0.0f32; 3];
-    let mut wsum = 0.0f32;
-    for dy in -ry..=ry {
-        for dx in -rx..=rx {
-            let (jx, jy) = (x + dx, y + dy);
-            if jx < 0 || jy < 0 || jx >= width || jy >= height {
-                continue;
-            }
-            let j = (jy * width + jx) as usize;
-            let v = value[j];
-            if !is_finite3(v) {
-                continue;
-            }
-            let d2 = (dx * dx + dy * dy) as f32;
-            let e_i = FILTER_SHARPNESS * d2 * gi2;
-            if !within_filter(e_i) {
-                continue;
-            }
-            let oj = omega[j];
-            let e_j = FILTER_SHARPNESS * d2 * (oj * oj);
-            if !within_filter(e_j) {
-                continue;
-            }
-            let w = (-e_i).exp();
-            for c in 0..3 {
-                sum[c] += w * v[c];
-            }
-            wsum += w;
-        }
-    }
-    if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
-    } else {
-        centre
-    }
+    gather(x, y, width, height, axis.extent(window_radius(om, max_radius)), value, |j, (dx, dy)| {
+        let d2 = (dx * dx + dy * dy) as f32;
+        let e_i = FILTER_SHARPNESS * d2 * gi2;
+        let oj = omega[j];
+        let e_j = FILTER_SHARPNESS * d2 * (oj * oj);
+        (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())
+    })
 }
 
 fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
