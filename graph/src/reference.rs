@@ -60,7 +60,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 ),
             ));
         }
-        if matches!(p.stage, Stage::Filter | Stage::ImageFilter) && !matches!(role, Reference::Bypass { .. }) {
+        if p.stage == Stage::Filter && !matches!(role, Reference::Bypass { .. }) {
             problems.push((
                 p.node.clone(),
                 format!("filter pass `{}` must declare `.reference(Reference::Bypass {{ input: .. }})`", p.name),
