@@ -185,7 +185,8 @@ impl SamplerKind for PathSampler {
         };
         let mut path_sources: Vec<(BufferId, u32, u32)> = Vec::new();
         for (k, (_, r)) in plan.requests.iter().enumerate() {
-            let value = spread(ctx, format!("counts_max3_{k}"), r.paths, r.max3);
+            let Some(paths) = r.paths else { continue };
+            let value = spread(ctx, format!("counts_max3_{k}"), paths, r.max3);
             // A total over both passes includes the first pass's paths; a request beyond it does not.
             path_sources.push((value, r.paths_unit, if r.beyond_first { 0 } else { first_paths }));
         }

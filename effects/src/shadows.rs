@@ -162,7 +162,7 @@ impl NodeKind for SoftShadows {
         // eq. 3.21's n shadow rays per pixel, as paths of `initial_rays` shadow rays each (the first
         // pass's per-path count, so all of a pixel's shadow rays weigh the same).
         ctx.sampler_counts(CountRequest {
-            paths: rays,
+            paths: Some(rays),
             paths_unit: per_path,
             per_primary: vec![("light".into(), PerPrimary::Constant(per_path))],
             max3: false,

@@ -90,8 +90,10 @@ pub struct CountRequest {
     /// Per-pixel `u32` (written by the node in `Stage::Bandwidth`): the pixel's total primary paths
     /// over both passes, counted in units of `paths_unit` — the sampler takes `ceil(value /
     /// paths_unit)` paths, so a node whose rate is in secondary samples (eq. 3.21's shadow rays) at
-    /// `paths_unit` samples per path states it directly. 1 when the buffer counts paths.
-    pub paths: BufferId,
+    /// `paths_unit` samples per path states it directly. 1 when the buffer counts paths. `None`: the
+    /// node asks for no paths of its own, only secondary samples on the paths others ask for (a
+    /// Ch. 5 component: the Defocus node asks for `n_p`).
+    pub paths: Option<BufferId>,
     pub paths_unit: u32,
     /// Secondary samples per primary path, per estimator the node asked for.
     pub per_primary: Vec<(String, PerPrimary)>,
@@ -259,7 +261,9 @@ impl SamplerPlan {
                 None => Err(err(format!("sampler count `{what}` names no buffer"))),
             }
         };
-        u32_buffer(r.paths, "paths")?;
+        if let Some(paths) = r.paths {
+            u32_buffer(paths, "paths")?;
+        }
         if r.paths_unit == 0 {
             return Err(err("sampler count `paths_unit` must be at least 1".into()));
         }

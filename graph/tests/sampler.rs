@@ -40,7 +40,7 @@ impl SamplerKind for TestSampler {
         let counts = ctx.buffer("counts", Format::U32);
         let mut b = ctx.pass("counts", "test.max", Stage::Counts).write("out", counts).reference(Reference::Count);
         for (k, (_, r)) in plan.requests.iter().enumerate() {
-            b = b.read(&format!("request{k}"), r.paths).int(&format!("unit{k}"), i64::from(r.paths_unit));
+            b = b.read_opt(&format!("request{k}"), r.paths).int(&format!("unit{k}"), i64::from(r.paths_unit));
         }
         b.finish();
         let mut per: Vec<(String, BufferId)> = Vec::new();
@@ -97,7 +97,7 @@ impl NodeKind for Shadowy {
         let rays = ctx.buffer("rays", Format::U32);
         ctx.pass("rates", "test.rates", Stage::Bandwidth).read("stats", stats).write("rays", rays).finish();
         ctx.sampler_counts(CountRequest {
-            paths: rays,
+            paths: Some(rays),
             paths_unit: 9,
             per_primary: vec![(estimator.clone(), PerPrimary::Constant(9))],
             max3: false,

@@ -7,7 +7,8 @@
 //! 1. `Stage::Bandwidth`: SepDir / SepInd on the first pass's `L, k, E` (eq. 5.30, `defocus.flags`),
 //!    3×3 median (`neighbourhood.median3`), then `defocus.rates` for this component's width
 //!    (5.18 / 5.22) and count — `n^f` where the flag is set, else `n^c` (5.25–5.28) — submitted to the
-//!    sampler as a total over the adaptive pass's `n_p` paths (`PerPrimary::Total`, 3×3 max).
+//!    sampler as a total over the adaptive pass's `n_p` paths (`PerPrimary::Total`, 3×3 max; the
+//!    factoring node asks for the paths).
 //!    Without factoring (the ablation, `factor: false`) the flag is 0 everywhere: `n^c`.
 //! 2. `Stage::Factor`: the flags again on the final `L, k, E`, median (a reference fills 0: it
 //!    composes `L`).
@@ -48,16 +49,30 @@ pub struct Component {
     pub parts: Vec<Part>,
 }
 
-/// The factoring node's rate settings forwarded into `defocus.rates`.
+/// The factoring node's rate settings forwarded into `defocus.rates`, with `Ω_pix^max` and the
+/// diffuse receiver's `Ω_v^max` (a component may override it in its `rate_params`).
 pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
+    let omega_v = crate::indirect::transfer_bandlimit(crate::indirect::Receiver::Diffuse);
     ["mu", "mode", "max_primary", "max_per_primary"]
         .into_iter()
         .filter_map(|n| f.setting(n).map(|v| (n, v.clone())))
-        .chain([("omega_pix", ParamValue::Float(f64::from(OMEGA_PIX_MAX))), ("omega_v", ParamValue::Float(f64::from(crate::indirect::transfer_bandlimit(crate::indirect::Receiver::Diffuse)))),])
+        .chain([
+            ("omega_pix", ParamValue::Float(f64::from(OMEGA_PIX_MAX))),
+            ("omega_v", ParamValue::Float(f64::from(omega_v))),
+        ])
         .collect()
 }
 
-fn flags(ctx: &mut ExpandCtx<'_>, name: &str, part: &Part, pass: SamplerPass, stage: Stage, factor: bool, role: Reference) -> Result<BufferId, GraphError> {
+/// SepDir / SepInd of `part` on the `pass` record (eq. 5.30) with the 3×3 median, in a buffer
+/// `<name>`; all 0 without factoring (the ablation). `role` is the median's part in a reference.
+fn flags(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    part: &Part,
+    (pass, stage): (SamplerPass, Stage),
+    factor: bool,
+    role: Reference,
+) -> Result<BufferId, GraphError> {
     let out = ctx.buffer(name, Format::U32);
     if !factor {
         ctx.pass(name, FILL_CONSTANT, stage).write("out", out).int("value", 0).reference(role).finish();
@@ -129,13 +144,10 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     // 1. Counts from the first pass.
     let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
     let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
-    let flag_first = flags(ctx, &format!("{}_flag_first", c.name), first, SamplerPass::First, Stage::Bandwidth, factor, Reference::Keep)?;
-    let (omega, pixel_length, n_primary, omega_d) = (
-        ctx.buffer(&format!("{}_omega", c.name), Format::F32),
-        ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32),
-        ctx.buffer(&format!("{}_n_primary", c.name), Format::U32),
-        ctx.buffer(&format!("{}_omega_defocus", c.name), Format::F32),
-    );
+    let flag_first =
+        flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, Reference::Keep)?;
+    let (omega, pixel_length) =
+        (ctx.buffer(&format!("{}_omega", c.name), Format::F32), ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32));
     let (count, sigma) =
         (ctx.buffer(&format!("{}_rays_per_pixel", c.name), Format::U32), ctx.buffer(&format!("{}_sigma", c.name), Format::F32));
     let mut b = ctx
@@ -143,9 +155,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         .read("lens", lens)
         .read(c.statistic.0, statistic)
         .read(&format!("flag_{}", c.name), flag_first)
-        .write("omega_defocus", omega_d)
         .write("pixel_length", pixel_length)
-        .write("n_primary", n_primary)
         .write(&format!("omega_{}", c.name), omega)
         .write(&format!("n_{}", c.name), count)
         .write(&format!("sigma_{}", c.name), sigma)
@@ -154,8 +164,9 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         b = b.param(n, v);
     }
     b.finish();
+    // Secondary samples only: the factoring node asks for the n_p paths they are spread over.
     ctx.sampler_counts(CountRequest {
-        paths: n_primary,
+        paths: None,
         paths_unit: 1,
         per_primary: vec![(c.estimator.into(), PerPrimary::Total(count))],
         max3: true,
@@ -167,7 +178,8 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
     let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (None, None);
     for part in &c.parts {
-        let flag = flags(ctx, &format!("{}_flag", part.name), part, SamplerPass::Final, Stage::Factor, factor, Reference::Fill(0))?;
+        let flag =
+            flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, Reference::Fill(0))?;
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let e = filter_chain(
             ctx,

@@ -101,7 +101,8 @@ pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Opti
 
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
 /// 5.29), `ℓ_p`, and the rounded counts `n_p`, `n_dir^{f|c}`, `n_ind^{f|c}` (eqs. 5.24–5.28). The
-/// direct and indirect outputs are optional (a pipeline without that component leaves them unbound).
+/// defocus, direct and indirect outputs are optional (a component node binds only its own; the
+/// Defocus node only the defocus ones).
 /// With a (median-filtered) factoring flag bound (`flag_direct`, `flag_indirect`; eq. 5.30),
 /// `n_direct` / `n_indirect` is the count the pixel takes: `^f` where the flag is set, else `^c`
 /// (Sec. 5.7); unbound, the pixel is combined (`^c`). `sigma_*` are the widths as the filters'
@@ -130,9 +131,9 @@ impl Kernel for Rates {
             Binding::read_opt("reflectors", Format::Vec4),
             Binding::read_opt("flag_direct", Format::U32),
             Binding::read_opt("flag_indirect", Format::U32),
-            Binding::write("omega_defocus", Format::F32),
+            Binding::write_opt("omega_defocus", Format::F32),
             Binding::write("pixel_length", Format::F32),
-            Binding::write("n_primary", Format::U32),
+            Binding::write_opt("n_primary", Format::U32),
             Binding::write_opt("omega_direct", Format::F32),
             Binding::write_opt("n_direct_factored", Format::U32),
             Binding::write_opt("n_direct_combined", Format::U32),
@@ -178,9 +179,9 @@ impl Kernel for Rates {
         });
         let column = |f: fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();
         let count = |f: fn(&PixelRates) -> u32| rates.iter().map(f).collect::<Vec<u32>>();
-        ctx.put("omega_defocus", column(|r| r.omega_defocus))?;
+        ctx.put_opt("omega_defocus", || column(|r| r.omega_defocus))?;
         ctx.put("pixel_length", column(|r| r.pixel_length))?;
-        ctx.put("n_primary", count(|r| r.n_primary))?;
+        ctx.put_opt("n_primary", || count(|r| r.n_primary))?;
         ctx.put_opt("omega_direct", || column(|r| r.omega_direct))?;
         ctx.put_opt("n_direct_factored", || count(|r| r.n_direct_factored))?;
         ctx.put_opt("n_direct_combined", || count(|r| r.n_direct_combined))?;

@@ -194,7 +194,7 @@ impl NodeKind for Defocus {
             b = b.param(n, v);
         }
         b.finish();
-        ctx.sampler_counts(CountRequest { paths: n_primary, paths_unit: 1, per_primary: vec![], max3: true, beyond_first: true })?;
+        ctx.sampler_counts(CountRequest { paths: Some(n_primary), paths_unit: 1, per_primary: vec![], max3: true, beyond_first: true })?;
 
         // 3. Σ components + emission (eq. 5.32), then the screen-space defocus filter (eq. 5.33).
         let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;
