@@ -159,6 +159,9 @@ pub enum ImageError {
         expected: usize,
         actual: usize,
     },
+    /// Two outputs of one run would be written to the same file (a `Heatmap` node named like an image).
+    #[error("cannot write {} for {second}: {first} already writes it; rename the Heatmap node (its file is `<node name>.png`)", path.display())]
+    Clash { path: PathBuf, first: String, second: String },
     /// A zero-width or zero-height image cannot be stored in PNG/EXR.
     #[error("cannot write {}: the image is {width}x{height}, which has no pixels; render at least one pixel", path.display())]
     Empty {

@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use wedge_backends::{BufferData, KernelClass, RunResult};
+use wedge_effects::heatmap;
 
 use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
 use crate::image::{write_exr, write_png_srgb, Image, ImageError};
@@ -57,38 +58,65 @@ fn stage_image_pair(set: &mut Staging, stem: &str, img: &Image) -> Result<usize,
 }
 
 /// Write everything a run produced into `dir` (created if missing), all-or-nothing (see
-/// [`crate::staging`]); `stem` names the final image.
+/// [`crate::staging`]); `stem` names the final image. Besides `Output`'s image, unfiltered image and
+/// two heatmaps, every `Heatmap` sink (`wedge_effects::heatmap`) becomes `<node name>.png`, drawn as
+/// its parameters say (the run carries each sink's kind and parameters, [`RunResult::sinks`]).
 pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
     let mut set = Staging::new(dir)?;
     let mut non_finite = Vec::new();
+    // File name → which output writes it, so a Heatmap named like another output is an error, not a
+    // silently lost file.
+    let mut claimed: Vec<(String, String)> = Vec::new();
+    let mut claim = |file: String, what: String| -> Result<String, ImageError> {
+        if let Some((_, first)) = claimed.iter().find(|(f, _)| *f == file) {
+            return Err(ImageError::Clash { path: dir.join(&file), first: first.clone(), second: what });
+        }
+        claimed.push((file.clone(), what));
+        Ok(file)
+    };
     for (port, name) in [("color", stem), ("unfiltered", "unfiltered")] {
         if let Some(b) = run.output(port) {
+            for ext in ["exr", "png"] {
+                claim(format!("{name}.{ext}"), format!("the `{port}` image"))?;
+            }
             let bad = stage_image_pair(&mut set, name, &buffer_to_image(b, width, height))?;
             if bad > 0 {
                 non_finite.push((name.to_string(), bad));
             }
         }
     }
-    if let Some(f) = run.output("filter_width") {
-        let values = f.to_scalar();
-        let mask: Vec<bool> = values.iter().map(|v| *v <= 0.0).collect();
-        let spec = HeatmapSpec { title: "filter width (beta)", unit: "px", scale: Scale::Log, range: None };
-        write_heatmap_png(&set.file("filter_width.png")?, width, height, &values, Some(&mask), &spec)?;
+    let output_maps = [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
+    for (port, title, unit, mask_zero) in output_maps {
+        if let Some(b) = run.output(port) {
+            let file = claim(format!("{port}.png"), format!("the `{port}` heatmap"))?;
+            let spec = HeatmapSpec { title, unit, scale: Scale::Log, range: None };
+            stage_heatmap(&mut set, &file, b, mask_zero, &spec, width, height)?;
+        }
     }
-    if let Some(r) = run.output("rays_per_pixel") {
-        let values = r.to_scalar();
-        let spec = HeatmapSpec { title: "rays per pixel", unit: "rays", scale: Scale::Log, range: None };
-        write_heatmap_png(&set.file("rays_per_pixel.png")?, width, height, &values, None, &spec)?;
-    }
-    // `Heatmap` sinks (wedge_effects::heatmap): one `<node>.png` each, a width (0 masked) or a count.
     for ((node, port), b) in &run.outputs {
-        let Some((_, unit)) = wedge_effects::heatmap::PORTS.iter().find(|(p, _)| p == port) else { continue };
-        let values = b.to_scalar();
-        let mask: Option<Vec<bool>> = (*port == "width").then(|| values.iter().map(|v| *v <= 0.0).collect());
-        let spec = HeatmapSpec { title: node, unit, scale: Scale::Log, range: None };
-        write_heatmap_png(&set.file(&format!("{node}.png"))?, width, height, &values, mask.as_deref(), &spec)?;
+        let Some(sink) = run.sinks.get(node).filter(|s| s.kind == heatmap::KIND) else { continue };
+        let Some(d) = heatmap::describe(node, &sink.params, port) else { continue };
+        let file = claim(format!("{node}.png"), format!("Heatmap node `{node}`"))?;
+        let scale = if d.log { Scale::Log } else { Scale::Linear };
+        let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None };
+        stage_heatmap(&mut set, &file, b, d.mask_zero, &spec, width, height)?;
     }
     Ok(WrittenRun { files: set.commit()?, non_finite })
+}
+
+/// Stage `file`, a heatmap of the scalar buffer `b`; `mask_zero` draws values ≤ 0 black.
+fn stage_heatmap(
+    set: &mut Staging,
+    file: &str,
+    b: &BufferData,
+    mask_zero: bool,
+    spec: &HeatmapSpec,
+    width: u32,
+    height: u32,
+) -> Result<(), ImageError> {
+    let values = b.to_scalar();
+    let mask: Option<Vec<bool>> = mask_zero.then(|| values.iter().map(|v| *v <= 0.0).collect());
+    write_heatmap_png(&set.file(file)?, width, height, &values, mask.as_deref(), spec)
 }
 
 /// Average rays per pixel of each kind, and the per-pass time table.
@@ -158,7 +186,7 @@ mod tests {
     fn run_with_color(color: Vec<[f32; 3]>) -> RunResult {
         let mut outputs = BTreeMap::new();
         outputs.insert(("out".to_string(), "color".to_string()), BufferData::Vec3(color));
-        RunResult { outputs, timings: Vec::new(), rays: RayCounts::default(), allocations: 0 }
+        RunResult { outputs, sinks: BTreeMap::new(), timings: Vec::new(), rays: RayCounts::default(), allocations: 0 }
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use wedge_backends::{Backend, BackendError, Job, KernelRegistry, Progress, RunResult};
+use wedge_backends::{Backend, BackendError, Job, KernelRegistry, Progress, RunResult, SinkNode};
 use wedge_graph::{
     expand, parse_pipeline, schedule, validate, BufferBytes, GraphError, LoadedPipeline, NodeRegistry, ParamValue, Schedule,
     ValidatedPipeline,
@@ -148,7 +148,16 @@ impl Session {
             seed: self.seed,
             progress,
         };
-        Ok(backend.run(&job)?)
+        let mut run = backend.run(&job)?;
+        // The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
+        run.sinks = self
+            .pipeline
+            .nodes
+            .iter()
+            .filter(|n| n.kind.is_sink())
+            .map(|n| (n.name.clone(), SinkNode { kind: n.kind.kind().to_string(), params: n.params.clone() }))
+            .collect();
+        Ok(run)
     }
 
     /// Peak memory of running this session in `mode` (see [`MemoryEstimate`]).

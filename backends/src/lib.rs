@@ -29,7 +29,7 @@ pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
     UniformType, Uniforms, WgslSource,
 };
-use wedge_graph::Schedule;
+use wedge_graph::{ParamValue, Schedule};
 use wedge_scene::Scene;
 
 #[derive(Debug, thiserror::Error)]
@@ -72,11 +72,22 @@ pub struct PassTiming {
     pub counts: RayCounts,
 }
 
+/// A sink node of a run: its kind and its (validated) parameters, which say how its inputs are to be
+/// written (a `Heatmap`'s scale and unit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SinkNode {
+    pub kind: String,
+    pub params: BTreeMap<String, ParamValue>,
+}
+
 /// What a run hands back: the buffers bound to sink inputs, per-pass times and counters.
 #[derive(Debug)]
 pub struct RunResult {
     /// `(sink node, input port)` → contents.
     pub outputs: BTreeMap<(String, String), BufferData>,
+    /// Sink node name → its kind and parameters. A backend runs a schedule, which has no node
+    /// parameters, and leaves this empty; `wedge::Session::run`, which holds the pipeline, fills it.
+    pub sinks: BTreeMap<String, SinkNode>,
     pub timings: Vec<PassTiming>,
     pub rays: RayCounts,
     /// Physical buffers allocated (after pooling by lifetime).

@@ -1051,6 +1051,6 @@ impl Backend for GpuBackend {
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
             }
         }
-        Ok(RunResult { outputs, timings, rays, allocations })
+        Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations })
     }
 }
