@@ -1,6 +1,7 @@
 // The window and rejection constants both Ch. 5 filters share (filter.irradiance, eq. 5.31;
-// filter.defocus, eq. 5.33), their window and their weighted mean; mirrors the constants,
-// `window_radius`, `Axis::extent` and `gather` of backends/src/kernels/filter_ch5.rs.
+// filter.defocus, eq. 5.33), their window, neighbour weight and weighted mean; mirrors the constants,
+// `window_radius`, `Axis::extent`, `pair_weight` and `gather` of backends/src/kernels/filter_ch5.rs.
+// Needs common.wgsl (`frame`), which both filters include first.
 
 const FILTER_SHARPNESS: f32 = 16.0;
 const REJECT_EXPONENT: f32 = 4.6051702;
@@ -30,6 +31,24 @@ fn window_extent(omega: f32, cap: i32, axis: i32) -> vec2<i32> {
         return vec2<i32>(0, r);
     }
     return vec2<i32>(r, r);
+}
+
+// Whether window pixel `p` lies in the frame (filter_ch5.rs gather).
+fn in_frame(p: vec2<i32>) -> bool {
+    return p.x >= 0 && p.y >= 0 && p.x < i32(frame.width) && p.y < i32(frame.height);
+}
+
+// The weight w_i(j) = exp(-16 d² g_i²) of neighbour j at squared distance `d2` (eqs. 5.31, 5.33;
+// g = Ω, or Ω/ℓ_p for the irradiance filter), or 0 where j is rejected: outside i's truncated
+// Gaussian (w_i(j) < 0.01) or i outside j's filter (w_j(i) < 0.01, thesis Sec. 5.8). Accepted
+// weights are >= 0.01, so 0 marks a rejection (filter_ch5.rs pair_weight).
+fn pair_weight(d2: f32, gi2: f32, gj2: f32) -> f32 {
+    let e_i = FILTER_SHARPNESS * d2 * gi2;
+    let e_j = FILTER_SHARPNESS * d2 * gj2;
+    if (!(e_i <= REJECT_EXPONENT) || !(e_j <= REJECT_EXPONENT)) {
+        return 0.0;
+    }
+    return exp(-e_i);
 }
 
 // The weighted mean, or the centre value where no neighbour had a weight (filter_ch5.rs gather).

@@ -10,8 +10,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let width = i32(frame.width);
-    let height = i32(frame.height);
     let xy = vec2<i32>(pixel_xy(gid));
     let centre = value_at(i);
     if (!is_finite3(centre)) {
@@ -23,36 +21,26 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let gi2 = om * om;
-    let extent = window_extent(om, params.max_radius, params.axis);
-    let rx = extent.x;
-    let ry = extent.y;
+    let r = window_extent(om, params.max_radius, params.axis);
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
-    for (var dy = -ry; dy <= ry; dy = dy + 1) {
-        for (var dx = -rx; dx <= rx; dx = dx + 1) {
-            let jx = xy.x + dx;
-            let jy = xy.y + dy;
-            if (jx < 0 || jy < 0 || jx >= width || jy >= height) {
+    for (var dy = -r.y; dy <= r.y; dy = dy + 1) {
+        for (var dx = -r.x; dx <= r.x; dx = dx + 1) {
+            let p = xy + vec2<i32>(dx, dy);
+            if (!in_frame(p)) {
                 continue;
             }
-            let j = index_at(jx, jy);
+            let j = index_at(p.x, p.y);
             let v = value_at(j);
             if (!is_finite3(v)) {
                 continue;
             }
-            let d2 = f32(dx * dx + dy * dy);
-            let e_i = FILTER_SHARPNESS * d2 * gi2;
-            if (!(e_i <= REJECT_EXPONENT)) {
-                continue;
-            }
             let oj = omega_at(j);
-            let e_j = FILTER_SHARPNESS * d2 * (oj * oj);
-            if (!(e_j <= REJECT_EXPONENT)) {
-                continue;
+            let w = pair_weight(f32(dx * dx + dy * dy), gi2, oj * oj);
+            if (w > 0.0) {
+                sum = sum + w * v;
+                wsum = wsum + w;
             }
-            let w = exp(-e_i);
-            sum = sum + w * v;
-            wsum = wsum + w;
         }
     }
     out_put(i, weighted_mean(sum, wsum, centre));

@@ -65,6 +65,16 @@ fn within_filter(exponent: f32) -> bool {
     exponent <= REJECT_EXPONENT
 }
 
+/// The weight `w_i(j) = exp(−16 d² g_i²)` of neighbour `j` at squared distance `d2` (eqs. 5.31,
+/// 5.33; `g = Ω`, or `Ω/ℓ_p` for the irradiance filter), or `None` where `j` is rejected: outside
+/// `i`'s truncated Gaussian (`w_i(j) < 0.01`) or `i` outside `j`'s filter (`w_j(i) < 0.01`, thesis
+/// Sec. 5.8). WGSL: `pair_weight` in filter_ch5_window.wgsl (0 for a rejection).
+fn pair_weight(d2: f32, gi2: f32, gj2: f32) -> Option<f32> {
+    let e_i = FILTER_SHARPNESS * d2 * gi2;
+    let e_j = FILTER_SHARPNESS * d2 * gj2;
+    (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())
+}
+
 /// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
 fn is_hit(position: [f32; 4]) -> bool {
     position[3] > 0.0
@@ -153,13 +163,8 @@ pub fn irradiance_pixel(
         if !is_hit(position[j]) || ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
             return None;
         }
-        let dist2 = (v3(position[j]) - xi).length_squared();
-        // Outside i's truncated Gaussian (w_i(j) < 0.01).
-        let e_i = FILTER_SHARPNESS * dist2 * gi2;
-        // i outside j's filter: w_j(i) < 0.01 rejects j (thesis Sec. 5.8).
         let gj = omega[j] / pixel_length[j];
-        let e_j = FILTER_SHARPNESS * dist2 * (gj * gj);
-        (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())
+        pair_weight((v3(position[j]) - xi).length_squared(), gi2, gj * gj)
     })
 }
 
@@ -222,11 +227,7 @@ pub fn defocus_pixel(
     }
     let gi2 = om * om;
     gather(x, y, width, height, axis.extent(window_radius(om, max_radius)), value, |j, (dx, dy)| {
-        let d2 = (dx * dx + dy * dy) as f32;
-        let e_i = FILTER_SHARPNESS * d2 * gi2;
-        let oj = omega[j];
-        let e_j = FILTER_SHARPNESS * d2 * (oj * oj);
-        (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())
+        pair_weight((dx * dx + dy * dy) as f32, gi2, omega[j] * omega[j])
     })
 }
 
