@@ -300,6 +300,23 @@ pub enum ParamValue {
     Str(String),
 }
 
+impl ParamValue {
+    /// The number it holds (an integer is accepted where a number is), else `None`.
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            ParamValue::Float(v) => Some(*v),
+            ParamValue::Int(v) => Some(*v as f64),
+            _ => None,
+        }
+    }
+    pub fn as_bool(&self) -> Option<bool> {
+        match self {
+            ParamValue::Bool(v) => Some(*v),
+            _ => None,
+        }
+    }
+}
+
 impl fmt::Display for ParamValue {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -342,8 +359,8 @@ pub struct ParamDecl {
     pub name: &'static str,
     pub kind: ParamKind,
     pub doc: &'static str,
-    /// Optional: absent unless the pipeline writes it (no default is filled in; the node reads it with
-    /// [`ExpandCtx::param_opt`] and decides, e.g. a Defocus node's `aperture_radius` falls back to the
+    /// Optional: absent unless the pipeline writes it (no default is filled in; the node finds it, or
+    /// not, in its parameter map and decides, e.g. a Defocus node's `aperture_radius` falls back to the
     /// pipeline's camera block). See [`ParamDecl::optional`].
     pub optional: bool,
 }

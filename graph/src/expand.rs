@@ -206,10 +206,6 @@ impl<'a> ExpandCtx<'a> {
             )
         })
     }
-    /// An optional parameter ([`crate::ParamDecl::optional`]): `None` where the pipeline leaves it out.
-    pub fn param_opt(&self, name: &str) -> Option<&ParamValue> {
-        self.params.get(name)
-    }
     pub fn params(&self) -> &BTreeMap<String, ParamValue> {
         self.params
     }

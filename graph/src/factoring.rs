@@ -45,17 +45,10 @@ impl Factoring {
     }
     /// A number setting (an integer is accepted).
     pub fn float(&self, name: &str) -> Option<f64> {
-        match self.settings.get(name)? {
-            ParamValue::Float(v) => Some(*v),
-            ParamValue::Int(v) => Some(*v as f64),
-            _ => None,
-        }
+        self.settings.get(name)?.as_f64()
     }
     pub fn bool(&self, name: &str) -> Option<bool> {
-        match self.settings.get(name)? {
-            ParamValue::Bool(v) => Some(*v),
-            _ => None,
-        }
+        self.settings.get(name)?.as_bool()
     }
 }
 

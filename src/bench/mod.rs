@@ -443,11 +443,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         .nodes
         .iter()
         .filter(|n| n.kind.params().iter().any(|d| d.name == "mu"))
-        .filter_map(|n| match n.params.get("mu") {
-            Some(crate::graph::ParamValue::Float(f)) => Some(*f),
-            Some(crate::graph::ParamValue::Int(i)) => Some(*i as f64),
-            _ => None,
-        })
+        .filter_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64))
         .collect();
     // Under a factoring node (Ch. 5's Defocus) its μ is the one that acts (the component nodes
     // read the factoring node's settings), so it is the pipeline's own.

@@ -41,11 +41,7 @@ pub struct Defocus;
 
 /// The thin lens a Defocus node uses: its parameters, else the pipeline's camera block.
 fn lens(params: &BTreeMap<String, ParamValue>, camera: Option<&CameraSpec>) -> Result<(f64, f64), Refusal> {
-    let number = |name: &str| match params.get(name) {
-        Some(ParamValue::Float(v)) => Some(*v),
-        Some(ParamValue::Int(v)) => Some(*v as f64),
-        _ => None,
-    };
+    let number = |name: &str| params.get(name).and_then(ParamValue::as_f64);
     let aperture = number("aperture_radius").or_else(|| camera.map(|c| f64::from(c.aperture_radius)));
     let Some(aperture) = aperture else {
         return Err(Refusal {
