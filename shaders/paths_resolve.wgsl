@@ -24,17 +24,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let r = record_at(i);
     let w = r.weight;
-    let radiance = mean_of(r.l_direct, w) + mean_of(r.l_diffuse, w) + mean_of(r.l_glossy, w) + mean_of(r.emission, w);
+    let radiance = mean_of(r.l_direct, r.w_direct) + mean_of(r.l_diffuse, r.w_diffuse) + mean_of(r.l_glossy, r.w_glossy)
+        + mean_of(r.emission, w);
     radiance_put(i, radiance);
-    l_direct_put(i, mean_of(r.l_direct, w));
-    k_direct_put(i, mean_of(r.k_direct, w));
-    e_direct_put(i, mean_of(r.e_direct, w));
-    l_diffuse_put(i, mean_of(r.l_diffuse, w));
-    k_diffuse_put(i, mean_of(r.k_diffuse, w));
-    e_diffuse_put(i, mean_of(r.e_diffuse, w));
-    l_glossy_put(i, mean_of(r.l_glossy, w));
-    k_glossy_put(i, mean_of(r.k_glossy, w));
-    e_glossy_put(i, mean_of(r.e_glossy, w));
+    l_direct_put(i, mean_of(r.l_direct, r.w_direct));
+    k_direct_put(i, mean_of(r.k_direct, r.w_direct));
+    e_direct_put(i, mean_of(r.e_direct, r.w_direct));
+    l_diffuse_put(i, mean_of(r.l_diffuse, r.w_diffuse));
+    k_diffuse_put(i, mean_of(r.k_diffuse, r.w_diffuse));
+    e_diffuse_put(i, mean_of(r.e_diffuse, r.w_diffuse));
+    l_glossy_put(i, mean_of(r.l_glossy, r.w_glossy));
+    k_glossy_put(i, mean_of(r.k_glossy, r.w_glossy));
+    e_glossy_put(i, mean_of(r.e_glossy, r.w_glossy));
     emission_put(i, mean_of(r.emission, w));
     var position = vec4<f32>(0.0);
     var normal = vec4<f32>(0.0);
@@ -58,5 +59,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     occlusion_put(i, vec4<f32>(hit_mean(r, r.d1), r.d2_min, r.d2_max, f32(r.occluded)));
     depth_put(i, vec4<f32>(r.z_min, r.z_max, f32(r.indirect_hits), f32(r.indirect_rays)));
     counts_put(i, vec4<f32>(f32(r.paths), f32(r.shadow), f32(r.diffuse_samples + r.glossy_samples), f32(r.non_finite)));
-    direct_put(i, vec4<f32>(mean_of(r.e_direct, w), f32(r.shadow)));
+    direct_put(i, vec4<f32>(mean_of(r.e_direct, r.w_direct), f32(r.shadow)));
+    diffuse_put(i, vec4<f32>(mean_of(r.e_diffuse, r.w_diffuse), f32(r.diffuse_samples)));
+    glossy_put(i, vec4<f32>(mean_of(r.e_glossy, r.w_glossy), f32(r.glossy_samples)));
 }

@@ -22,34 +22,50 @@ fn draw(pixel: u32, pair: u32, index: u32) -> vec2<f32> {
     return independent2(key, index);
 }
 
-fn accumulate_direct(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
+// One path's additions to a component's sums (PathsTrace's `accumulate`): path weights (E = the mean
+// of the `valid` finite samples summing to `e_sum`) or, where the camera ray is fixed, sample weights
+// (the sums themselves, and w·valid to the component weight).
+struct Added {
+    l: vec3<f32>,
+    k: vec3<f32>,
+    e: vec3<f32>,
+    w: f32,
+}
+
+fn added(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) -> Added {
+    if (params.fixed_primary != 0u) {
+        let n = f32(valid);
+        return Added(k * e_sum * w, k * (n * w), e_sum * w, n * w);
+    }
     var e = vec3<f32>(0.0);
     if (valid > 0u) {
         e = e_sum / f32(valid);
     }
-    rec.l_direct = rec.l_direct + k * e * w;
-    rec.k_direct = rec.k_direct + k * w;
-    rec.e_direct = rec.e_direct + e * w;
+    return Added(k * e * w, k * w, e * w, 0.0);
+}
+
+fn accumulate_direct(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
+    let a = added(k, e_sum, valid, w);
+    rec.l_direct = rec.l_direct + a.l;
+    rec.k_direct = rec.k_direct + a.k;
+    rec.e_direct = rec.e_direct + a.e;
+    rec.w_direct = rec.w_direct + a.w;
 }
 
 fn accumulate_diffuse(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
-    var e = vec3<f32>(0.0);
-    if (valid > 0u) {
-        e = e_sum / f32(valid);
-    }
-    rec.l_diffuse = rec.l_diffuse + k * e * w;
-    rec.k_diffuse = rec.k_diffuse + k * w;
-    rec.e_diffuse = rec.e_diffuse + e * w;
+    let a = added(k, e_sum, valid, w);
+    rec.l_diffuse = rec.l_diffuse + a.l;
+    rec.k_diffuse = rec.k_diffuse + a.k;
+    rec.e_diffuse = rec.e_diffuse + a.e;
+    rec.w_diffuse = rec.w_diffuse + a.w;
 }
 
 fn accumulate_glossy(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
-    var e = vec3<f32>(0.0);
-    if (valid > 0u) {
-        e = e_sum / f32(valid);
-    }
-    rec.l_glossy = rec.l_glossy + k * e * w;
-    rec.k_glossy = rec.k_glossy + k * w;
-    rec.e_glossy = rec.e_glossy + e * w;
+    let a = added(k, e_sum, valid, w);
+    rec.l_glossy = rec.l_glossy + a.l;
+    rec.k_glossy = rec.k_glossy + a.k;
+    rec.e_glossy = rec.e_glossy + a.e;
+    rec.w_glossy = rec.w_glossy + a.w;
 }
 
 // indirect_ray: one shared-estimator path with its rays and first hit recorded.
@@ -72,10 +88,27 @@ fn indirect_ray(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, q: u32) -> 
     return r.value;
 }
 
-fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key_g: u32, n_shadow: u32, n_indirect: u32) {
+// Secondary samples one path carries per component (0: not sampled on it).
+struct Secondary {
+    shadow: u32,
+    diffuse: u32,
+    glossy: u32,
+}
+
+fn carries(on: u32, count: u32, w: f32) -> f32 {
+    return select(0.0, w, on != 0u && count > 0u);
+}
+
+fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key_g: u32, count: Secondary) {
     let w = ray.weight;
     rec.paths = rec.paths + 1u;
     rec.weight = rec.weight + w;
+    if (params.fixed_primary == 0u) {
+        // Path weights: every path that carries a component counts for it, a miss as black.
+        rec.w_direct = rec.w_direct + carries(params.direct, count.shadow, w);
+        rec.w_diffuse = rec.w_diffuse + carries(params.indirect, count.diffuse, w);
+        rec.w_glossy = rec.w_glossy + carries(params.indirect * params.glossy, count.glossy, w);
+    }
     if (!hit.hit) {
         return;
     }
@@ -107,11 +140,11 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     let m = mat.phong_exponent;
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
 
-    if (params.direct != 0u) {
-        trace_direct(x, n, wo, kd, ks, m, is_glossy, w, pixel, n_shadow);
+    if (params.direct != 0u && count.shadow > 0u) {
+        trace_direct(x, n, wo, kd, ks, m, is_glossy, w, pixel, count.shadow);
     }
     if (params.indirect != 0u) {
-        trace_indirect(x, n, wo, kd, ks, m, is_glossy, w, pixel, key_d, key_g, n_indirect);
+        trace_indirect(x, n, wo, kd, ks, m, is_glossy, w, pixel, key_d, key_g, count);
     }
 }
 
@@ -154,10 +187,11 @@ fn trace_direct(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: ve
 
 // Indirect diffuse, and glossy where the surface has a lobe.
 fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
-        w: f32, pixel: u32, key_d: u32, key_g: u32, n_indirect: u32) {
+        w: f32, pixel: u32, key_d: u32, key_g: u32, count: Secondary) {
     var e = vec3<f32>(0.0);
     var valid = 0u;
-    for (var s = 0u; s < n_indirect; s = s + 1u) {
+    if (count.diffuse > 0u) {
+    for (var s = 0u; s < count.diffuse; s = s + 1u) {
         let q = rec.diffuse_samples;
         rec.diffuse_samples = rec.diffuse_samples + 1u;
         let wi = sample_diffuse(n, draw(pixel, PAIR_HEMISPHERE_DIFFUSE, q));
@@ -170,12 +204,13 @@ fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: 
         }
     }
     accumulate_diffuse(kd, e, valid, w);
+    }
 
-    // Indirect glossy.
-    if (is_glossy) {
+    // Indirect glossy (`glossy` is off under ambient occlusion).
+    if (is_glossy && params.glossy != 0u && count.glossy > 0u) {
         e = vec3<f32>(0.0);
         valid = 0u;
-        for (var s = 0u; s < n_indirect; s = s + 1u) {
+        for (var s = 0u; s < count.glossy; s = s + 1u) {
             let q = rec.glossy_samples;
             rec.glossy_samples = rec.glossy_samples + 1u;
             let u = draw(pixel, PAIR_HEMISPHERE_GLOSSY, q);
@@ -201,13 +236,13 @@ fn ceil_div(a: u32, b: u32) -> u32 {
 
 // Work units of one path for chunking: its rays (the camera ray, the shadow rays, and per indirect
 // sample of each part a ray and a next-event shadow ray per bounce) in eighths, at least 1.
-fn path_units(n_shadow: u32, n_indirect: u32) -> u32 {
+fn path_units(count: Secondary) -> u32 {
     var rays = 1u;
     if (params.direct != 0u) {
-        rays = rays + min(n_shadow, 0x100000u);
+        rays = rays + min(count.shadow, 0x100000u);
     }
     if (params.indirect != 0u) {
-        rays = rays + 4u * min(n_indirect, 0x100000u) * min(params.bounces, 64u);
+        rays = rays + 2u * (min(count.diffuse, 0x100000u) + min(count.glossy, 0x100000u)) * min(params.bounces, 64u);
     }
     return max(1u, ceil_div(rays, 8u));
 }
@@ -226,16 +261,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         count = counts_at(i);
     }
     count = min(count, 0xffffffffu - prev.paths); // the CPU's saturating first + count
-    var n_shadow = params.shadow_per_primary;
-    if (shadow_per_primary_bound()) {
-        n_shadow = shadow_per_primary_at(i);
+    // Per component: q samples per path and one more on the first r paths (PathsTrace's `Split`).
+    let p = max(count, 1u);
+    var q = Secondary(params.shadow_per_primary, params.indirect_per_primary, 0u);
+    var r = Secondary(0u, 0u, 0u);
+    if (shadow_total_bound()) {
+        q.shadow = shadow_total_at(i) / p;
+        r.shadow = shadow_total_at(i) % p;
     }
-    n_shadow = max(n_shadow, 1u);
-    var n_indirect = params.indirect_per_primary;
-    if (indirect_per_primary_bound()) {
-        n_indirect = indirect_per_primary_at(i);
+    if (diffuse_total_bound()) {
+        q.diffuse = diffuse_total_at(i) / p;
+        r.diffuse = diffuse_total_at(i) % p;
     }
-    n_indirect = max(n_indirect, 1u);
+    q.glossy = q.diffuse;
+    r.glossy = r.diffuse;
+    if (glossy_total_bound()) {
+        q.glossy = glossy_total_at(i) / p;
+        r.glossy = glossy_total_at(i) % p;
+    }
+    // The largest path's counts size the chunks' work units.
+    let n = Secondary(q.shadow + select(0u, 1u, r.shadow > 0u), q.diffuse + select(0u, 1u, r.diffuse > 0u),
+        q.glossy + select(0u, 1u, r.glossy > 0u));
     // Chunks are counted in work units of about 8 rays (path_units): path k of this pass runs in the
     // dispatch whose unit range [chunk_begin, chunk_end) holds k·units, so a dispatch traces at most
     // ~8 × chunk rays per pixel however many secondary samples a path carries (lavapipe cuts a loop
@@ -243,7 +289,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // resuming dispatch continues the record the earlier chunks left (sums, extrema and counts: exact
     // in any chunking).
     let resume = chunk_resumes();
-    let units = path_units(n_shadow, n_indirect);
+    let units = path_units(n);
     var total = 0xffffffffu;
     if (count <= 0xffffffffu / units) {
         total = count * units;
@@ -267,7 +313,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // As the CPU: through the pixel centre of a pinhole camera the camera ray is the same for every
     // path, so it is traced once (per dispatch: a chunked pass re-traces it per chunk, uncounted) and
     // counted once per pixel and pass.
-    let fixed_primary = params.jitter == 0u && params.cam_aperture == 0.0;
+    let fixed_primary = params.fixed_primary != 0u;
     var fixed_hit: Hit;
     var have_hit = false;
     var k = k_begin;
@@ -283,7 +329,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
             have_hit = true;
         }
-        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, n_shadow, n_indirect);
+        let on = Secondary(q.shadow + select(0u, 1u, k < r.shadow), q.diffuse + select(0u, 1u, k < r.diffuse),
+            q.glossy + select(0u, 1u, k < r.glossy));
+        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, on);
     }
     count_cut_loop(k, end);
     var primary = rec.paths - before.paths;

@@ -1,7 +1,16 @@
-// shadows.rates — total shadow rays per pixel (eq. 3.21) clamped to [initial, max];
-// mirrors effects/src/shadows.rs `Rates`.
+// shadows.rates — total shadow rays per pixel (eq. 3.21) clamped to [initial, max], rounded up to a
+// multiple of initial; mirrors effects/src/shadows.rs `Rates` and `whole_multiples`.
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
+
+// n rounded up to a multiple of `initial` (saturating).
+fn whole_multiples(n: u32) -> u32 {
+    let k = n / params.initial + select(0u, 1u, n % params.initial != 0u);
+    if (k > 0xffffffffu / params.initial) {
+        return 0xffffffffu;
+    }
+    return k * params.initial;
+}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -11,7 +20,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let occ = occlusion_at(i);
     if (!(occ.w > 0.0)) {
-        rays_per_pixel_put(i, params.initial);
+        rays_per_pixel_put(i, whole_multiples(params.initial));
         return;
     }
     let s = shadows_slopes(occ.x, occ.y, occ.z);
@@ -23,8 +32,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (c < 4294967040.0) {
             v = u32(max(c, 0.0));
         }
-        rays_per_pixel_put(i, clamp(v, params.initial, params.max_rays));
+        rays_per_pixel_put(i, whole_multiples(clamp(v, params.initial, params.max_rays)));
     } else {
-        rays_per_pixel_put(i, params.max_rays);
+        rays_per_pixel_put(i, whole_multiples(params.max_rays));
     }
 }

@@ -394,25 +394,25 @@ mod tests {
         let ov = Overrides { width: Some(640), height: Some(480), ..Overrides::default() };
         let s = Session::open(None, &ov).unwrap();
         let px = 640 * 480u64;
-        // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler): 16 slots =
-        // 5 vec4 (16 B) + 4 vec3 (12 B) + 5 scalar (4 B) + 2 PathRecord (57 words, 228 B) = 604 B/px;
-        // the largest pass output is one record (228 B/px); sinks filter_width, rays_per_pixel (4 B)
-        // + radiance, unfiltered (12 B) = 32 B/px; all 19 buffers unpooled = 652 B/px; the widest
-        // pass binds two records and two u32 counts (sampler.adaptive) = 464 B/px.
+        // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler): 17 slots =
+        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (60 words, 240 B) = 632 B/px;
+        // the largest pass output is one record (240 B/px); sinks filter_width, rays_per_pixel (4 B)
+        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 680 B/px; the widest
+        // pass binds two records and two u32 counts (sampler.adaptive) = 488 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 604 * px, pass_outputs: 228 * px, sinks: 32 * px, unpooled: 652 * px, pass_bindings: 464 * px }
+            BufferBytes { pool: 632 * px, pass_outputs: 240 * px, sinks: 32 * px, unpooled: 680 * px, pass_bindings: 488 * px }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 864 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 265_420_800);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 904 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 277_708_800);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 864 * px);
+        assert_eq!(cpu.buffers, 904 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (652 + 228 + 464) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (680 + 240 + 488) * px);
     }
 
     #[test]

@@ -258,8 +258,30 @@ fn ao_is_a_fraction_and_reference_follows_the_node() {
     let un = buffer_to_image(r.output("unfiltered").unwrap(), s.width, s.height);
     let (e, e_un) = (rmse(&ao, &reference), rmse(&un, &reference));
     eprintln!("AO mean {a:.4} (unfiltered {:.4}), reference {b:.4}, RMSE {e:.4} (unfiltered {e_un:.4})", mean(&un));
-    // The estimator is unbiased: the unfiltered AO matches the reference's mean.
-    assert!((mean(&un) - b).abs() < 0.02 * b, "unfiltered {} vs {b}", mean(&un));
+    // The unfiltered estimate's mean over seeds matches the reference's. The fixed-count estimator
+    // is unbiased; the adaptive one (Ch. 4: the first pass's 16 samples are kept and decide the
+    // count) is low by ~1.5% here: a pixel whose 16 rays all missed keeps its 0 at ~16 samples,
+    // while one that hit gets many more that dilute its hits (measured with both the old
+    // `indirect.sample` and the shared sampler, seeds 1–5 at 160×120: −1.5% / −1.6%; fixed
+    // count +0.1% / +0.3%; docs/SAMPLER-STAGE.md "Samples, not paths"). One seed's mean also
+    // carries ~0.6% of noise, so the mean is taken over four seeds.
+    let unfiltered_mean = |extra: &[(&str, &str, wedge::graph::ParamValue)]| {
+        let runs: Vec<f64> = (1..=4)
+            .map(|seed| {
+                let mut ov = sized(160, 120, None, extra);
+                ov.seed = Some(seed);
+                let s = Session::open(Some(&path), &ov).unwrap();
+                let r = run(&s);
+                mean(&buffer_to_image(r.output("unfiltered").unwrap(), s.width, s.height))
+            })
+            .collect();
+        runs.iter().sum::<f64>() / runs.len() as f64
+    };
+    let (adaptive, fixed) =
+        (unfiltered_mean(&[]), unfiltered_mean(&[("ao", "rays_cap", wedge::graph::ParamValue::Int(16))]));
+    eprintln!("unfiltered mean over seeds 1-4: adaptive {adaptive:.5}, fixed count {fixed:.5}, reference {b:.5}");
+    assert!((fixed - b).abs() < 0.01 * b, "fixed-count unfiltered {fixed} vs {b}");
+    assert!((adaptive - b).abs() < 0.02 * b, "adaptive unfiltered {adaptive} vs {b}");
     // Filtering must help: measured RMSE 0.0286 vs 0.0469 unfiltered at 160×120.
     assert!(e < 0.75 * e_un, "filtered RMSE {e} vs unfiltered {e_un}");
     // Known bias (reported in issue 5): on this open scene most ground pixels see reflectors only

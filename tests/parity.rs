@@ -611,7 +611,7 @@ fn kernel_without_wgsl_is_a_clear_error() {
 }
 
 /// `--gpu-limits webgpu` opens the device with WebGPU's default limits from the command line: the
-/// render says which passes were bound packed (indirect.sample needs 12 storage buffers against 8)
+/// render says which passes were bound packed (paths.resolve declares 21 buffers against 8)
 /// and `wedge parity` still passes.
 #[test]
 fn cli_gpu_limits_webgpu_packs_and_keeps_parity() {
@@ -633,7 +633,7 @@ fn cli_gpu_limits_webgpu_packs_and_keeps_parity() {
     let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{text}");
     assert!(
-        text.contains("passes bound packed (more buffers than the device's 8 storage buffers per stage): indirect.sample_initial, indirect.sample_adaptive"),
+        text.contains("passes bound packed (more buffers than the device's 8 storage buffers per stage): sampler.resolve_first, sampler.resolve_final"),
         "{text}"
     );
     let o = wedge(&["parity", "pipelines/indirect.ron", "--gpu-limits", "webgpu", "--width", "16", "--height", "12"]);

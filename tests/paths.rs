@@ -433,6 +433,16 @@ fn mean_direct_matches_direct_light() {
     assert!(rel < 0.01 && rms < 0.05, "{rel} {rms}");
 }
 
+/// Per-pass totals of `n` samples per path for every pixel: `shadow_total` = paths × (1 + i mod 3),
+/// `diffuse_total` = paths × (1 + i mod 2).
+fn per_path_totals(size: (u32, u32, u32), paths: u32) -> BTreeMap<&'static str, BufferData> {
+    let pixels = size.0 * size.1;
+    BTreeMap::from([
+        ("shadow_total", BufferData::U32((0..pixels).map(|i| paths * (1 + i % 3)).collect())),
+        ("diffuse_total", BufferData::U32((0..pixels).map(|i| paths * (1 + i % 2)).collect())),
+    ])
+}
+
 /// 16 paths, then 16 more continuing the record, equal 32 in one pass bit for bit (CPU; and GPU,
 /// also in chunks of 5 paths per dispatch). Counters and record counts agree.
 #[test]
@@ -440,15 +450,15 @@ fn progressive_continuation_is_exact_and_counts_match() {
     let scene = defocused("cornell", 0.1);
     let size = (24u32, 18u32, 21u32);
     let mut p16 = trace_params(16, true, "disk");
-    let shadow = BufferData::U32((0..size.0 * size.1).map(|i| 1 + i % 3).collect());
-    let indirect = BufferData::U32((0..size.0 * size.1).map(|i| 1 + i % 2).collect());
-    let per = BTreeMap::from([("shadow_per_primary", shadow.clone()), ("indirect_per_primary", indirect.clone())]);
+    let shadow: Vec<u32> = (0..size.0 * size.1).map(|i| 1 + i % 3).collect();
+    let indirect: Vec<u32> = (0..size.0 * size.1).map(|i| 1 + i % 2).collect();
+    let (per, per32) = (per_path_totals(size, 16), per_path_totals(size, 32));
     let (first, r1) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, None);
     let mut cont = per.clone();
     cont.insert("previous", first["record"].clone());
     let (second, r2) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &cont, None);
     set(&mut p16, "count", ParamValue::Int(32));
-    let (whole, rw) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, None);
+    let (whole, rw) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per32, None);
     assert_eq!(differing(&second["record"], &whole["record"]), 0, "16 + 16 continued differs from 32");
     let recs = records(&whole["record"]);
     let total = |f: fn(&PathRecord) -> u32| recs.iter().map(|r| f(r) as u64).sum::<u64>();
@@ -459,7 +469,7 @@ fn progressive_continuation_is_exact_and_counts_match() {
     assert_eq!(rw.primary_rays, 32 * (size.0 * size.1) as u64);
     assert_eq!(rw.shadow_rays, total(|r| r.shadow) + total(|r| r.bounce_shadow));
     assert_eq!(rw.secondary_rays, total(|r| r.indirect_rays));
-    let (BufferData::U32(s), BufferData::U32(q)) = (&shadow, &indirect) else { unreachable!() };
+    let (s, q) = (&shadow, &indirect);
     for (i, r) in recs.iter().enumerate() {
         assert_eq!(r.shadow, r.hits * s[i], "pixel {i}: shadow rays per primary hit");
         assert_eq!(r.diffuse_samples, r.hits * q[i], "pixel {i}: diffuse samples per primary hit");
@@ -474,21 +484,79 @@ fn progressive_continuation_is_exact_and_counts_match() {
     gcont.insert("previous", g1["record"].clone());
     let (g2, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &gcont, Some(&mut gpu));
     set(&mut p16, "count", ParamValue::Int(32));
-    let (gw, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    let (gw, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per32, Some(&mut gpu));
     assert_eq!(differing(&g2["record"], &gw["record"]), 0, "GPU: 16 + 16 continued differs from 32");
     gpu.set_samples_per_dispatch(5);
-    let (gc, gc_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    let (gc, gc_rays) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per32, Some(&mut gpu));
     assert_eq!(differing(&gc["record"], &gw["record"]), 0, "GPU: chunks of 5 paths differ from the default");
     assert_eq!(gc_rays.primary_rays, rw.primary_rays);
     // The struct binding packed into one array<u32> with the others, and the image in bands of
     // 5 rows (records continue by absolute pixel id): the same bits.
     gpu.force_packed(true);
-    let (gp, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    let (gp, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per32, Some(&mut gpu));
     assert_eq!(differing(&gp["record"], &gw["record"]), 0, "GPU: packed bindings differ from direct ones");
     gpu.force_packed(false);
     gpu.set_binding_limit(5 * size.0 as u64 * 4 * wedge::backends::kernels::paths::PATH_RECORD.words() as u64);
-    let (gb, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per, Some(&mut gpu));
+    let (gb, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p16, &per32, Some(&mut gpu));
     assert_eq!(differing(&gb["record"], &gw["record"]), 0, "GPU: bands of 5 rows differ from one dispatch");
+}
+
+/// A pass total that does not divide by the paths is split as evenly as it can be (the first
+/// `total mod paths` paths carry one more), a total of 0 traces none of that component, and a glossy
+/// total apart from the diffuse one is honoured: exact counts on both backends, in GPU chunks too.
+/// Through a fixed pinhole ray the record weighs samples, so the means do not depend on the split.
+#[test]
+fn uneven_totals_are_split_exactly_over_the_paths() {
+    let scene = builtin("cornell");
+    let size = (20u32, 15u32, 9u32);
+    let pixels = size.0 * size.1;
+    let params = trace_params(5, false, "disk");
+    let totals = |k: u32| -> BTreeMap<&'static str, BufferData> {
+        BTreeMap::from([
+            ("shadow_total", BufferData::U32((0..pixels).map(|i| (i * k) % 13).collect())),
+            ("diffuse_total", BufferData::U32((0..pixels).map(|i| 7 + i % 5).collect())),
+            ("glossy_total", BufferData::U32((0..pixels).map(|i| i % 4).collect())),
+        ])
+    };
+    let (out, rays) = run_alone(Arc::new(PathsTrace), &scene, size, &params, &totals(3), None);
+    let recs = records(&out["record"]);
+    let mut glossy_pixels = 0;
+    for (i, r) in recs.iter().enumerate() {
+        let i = i as u32;
+        if r.hits == 0 {
+            continue;
+        }
+        assert_eq!(r.paths, 5);
+        assert_eq!(r.shadow, (i * 3) % 13, "pixel {i}: shadow rays");
+        assert_eq!(r.diffuse_samples, 7 + i % 5, "pixel {i}: diffuse samples");
+        if r.glossy_samples > 0 {
+            glossy_pixels += 1;
+            assert_eq!(r.glossy_samples, i % 4, "pixel {i}: glossy samples");
+        }
+        // Sample weights: each component's weight is its finite samples.
+        assert_eq!(r.w_direct, r.shadow as f32);
+        assert_eq!(r.w_diffuse, r.diffuse_samples as f32);
+        assert_eq!(r.w_glossy, r.glossy_samples as f32);
+    }
+    assert!(glossy_pixels > 0, "cornell has glossy surfaces in view");
+    // The same samples split over 1 path instead of 5: the same sums up to float regrouping.
+    let one = trace_params(1, false, "disk");
+    let (single, _) = run_alone(Arc::new(PathsTrace), &scene, size, &one, &totals(3), None);
+    for (a, b) in recs.iter().zip(records(&single["record"])) {
+        assert_eq!((a.shadow, a.diffuse_samples, a.glossy_samples), (b.shadow, b.diffuse_samples, b.glossy_samples));
+        let (ea, eb) = (a.direct().2, b.direct().2);
+        assert!((ea - eb).abs().max_element() <= 1e-5 * (1.0 + eb.max_element()), "{ea} vs {eb}");
+    }
+    println!("uneven totals: {rays:?}");
+    let Some(mut gpu) = gpu_or_skip("uneven_totals_are_split_exactly_over_the_paths") else { return };
+    let (g, grays) = run_alone(Arc::new(PathsTrace), &scene, size, &params, &totals(3), Some(&mut gpu));
+    let counts = |r: &PathRecord| (r.paths, r.shadow, r.diffuse_samples, r.glossy_samples);
+    let cpu_counts: Vec<_> = recs.iter().map(counts).collect();
+    assert_eq!(records(&g["record"]).iter().map(counts).collect::<Vec<_>>(), cpu_counts, "GPU counts");
+    assert_eq!(grays.shadow_rays, rays.shadow_rays);
+    gpu.set_samples_per_dispatch(2);
+    let (gc, _) = run_alone(Arc::new(PathsTrace), &scene, size, &params, &totals(3), Some(&mut gpu));
+    assert_eq!(differing(&gc["record"], &g["record"]), 0, "GPU: chunks of 2 paths differ from one dispatch");
 }
 
 /// `paths.resolve` agrees on both backends to round-off, and for one pinhole path through the
@@ -516,7 +584,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     let inputs = BTreeMap::from([("record", rec["record"].clone())]);
     let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
-    assert_eq!(c.len(), 18); // every output of paths.resolve, `direct` (the filters' Vec4) included
+    assert_eq!(c.len(), 20); // every output of paths.resolve, `direct`, `diffuse`, `glossy` (the filters' Vec4) included
     for (name, a) in &c {
         let (max_abs, max_rel, over, _) = compare(a, &g[name], Tolerance::for_class(KernelClass::Compose));
         println!("paths.resolve `{name}`: max abs {max_abs:e}, max rel {max_rel:e}, over {over}");

@@ -38,17 +38,10 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
                 assert_eq!(p.params["sampling"], ParamValue::Str("independent".into()), "{name}: {}", p.name);
             }
             if p.kernel == FILL_CONSTANT {
-                // The shared sampler's secondary samples per primary are 1 in a reference: N paths,
-                // one shadow ray / hemisphere sample each (SAMPLER-STAGE.md §4).
+                // The shared sampler's paths and every channel's samples over them are N in a
+                // reference: N paths, one shadow ray / hemisphere sample each (SAMPLER-STAGE.md §4).
                 // Ch. 5's factoring flags are 0 (`Reference::Fill(0)`): a reference composes L.
-                let per_primary = p.name.starts_with("sampler.counts_") && p.name != "sampler.counts_paths";
-                let want = if per_primary {
-                    1
-                } else if p.name.ends_with("_flag") {
-                    0
-                } else {
-                    64
-                };
+                let want = if p.name.ends_with("_flag") { 0 } else { 64 };
                 assert_eq!(p.params["value"], ParamValue::Int(want), "{name}: {}", p.name);
             }
         }
@@ -87,7 +80,7 @@ fn set_overrides_reach_the_reference() {
     let secondary = |bounces: i64| {
         let ov = sized(16, 12, None, &[("indirect", "bounces", ParamValue::Int(bounces))]);
         let s = Session::reference(Some(&path), 4, "stratified", &ov).unwrap();
-        let p = s.schedule.passes.iter().find(|p| p.name == "indirect.sample_adaptive").unwrap();
+        let p = s.schedule.passes.iter().find(|p| p.name == "sampler.adaptive").unwrap();
         assert_eq!(p.params["bounces"], ParamValue::Int(bounces));
         run(&s).rays.secondary_rays
     };

@@ -13,13 +13,18 @@
 //! - **Sampling passes** (rays): the same tolerance per pixel, with two allowances, counted and
 //!   printed apart. (1) Up to 0.1% of pixels may differ by any amount (`over`): a ray that grazes a
 //!   triangle edge or a BVH box may hit on one backend and miss on the other after a one-ulp
-//!   difference, changing that pixel's estimate by a whole sample. (2) Up to 1% of pixels may differ
+//!   difference, changing that pixel's estimate by a whole sample. (2) Up to 2% of pixels may differ
 //!   by more than round-off but less than 1% relative (`perturbed`): a secondary ray at a grazing
 //!   angle to a large plane moves its hit point by far more than the ulp that started it, so its
 //!   depth, and the texel and Phong lobe it lands on, shift slightly (measured on the built-in `chess`
 //!   board at 160×120: 0.23% of `indirect.sample` depth pixels at ≤ 1.3e-3 relative, 0.46% of glossy
-//!   pixels at ≤ 6.2e-3; with the checker texture removed the radiance rows agree). A wrong kernel
-//!   changes most pixels or changes them by more than 1%, which neither allowance admits.
+//!   pixels at ≤ 6.2e-3; with the checker texture removed the radiance rows agree). `paths.trace`
+//!   computes its primary hit on each backend (a kernel fed the CPU's G-buffer starts its secondary
+//!   rays from the same bits), so its ulp differences start one vertex earlier: 0.99% of glossy pixels
+//!   at ≤ 4.3e-3 on `shadows_indirect.ron` at 160×120, 1.2% at 96×72, and the Defocus pipeline 1.24%
+//!   at 96×72 before Ch. 4 moved onto the sampler (docs/DESIGN-NOTES.md "Parity tolerances"); 2% is
+//!   that with headroom. A wrong kernel changes most pixels or changes them by more than 1%, which
+//!   neither allowance admits.
 //! - **Integer outputs** (rays per pixel): exact, except a difference of one where `ceil` of a float
 //!   input sits on a rounding boundary; those are counted as `boundary` and allowed up to 0.1% of
 //!   pixels in every class (a rate computed from the same inputs may round differently after a few ulp).
@@ -56,7 +61,7 @@ pub const BOUNDARY_SHARE: f64 = 1e-3;
 impl Tolerance {
     pub fn for_class(class: KernelClass) -> Tolerance {
         match class {
-            KernelClass::Sampling => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 1e-3, perturbed_rel: 1e-2, perturbed_share: 1e-2 },
+            KernelClass::Sampling => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 1e-3, perturbed_rel: 1e-2, perturbed_share: 2e-2 },
             _ => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 0.0, perturbed_rel: 0.0, perturbed_share: 0.0 },
         }
     }
@@ -137,12 +142,18 @@ impl ParityReport {
                 if r.ok { "ok" } else { "MISMATCH" }
             );
         }
+        let t = Tolerance::for_class(KernelClass::Sampling);
         let _ = writeln!(
             s,
-            "tolerance per pixel: |gpu-cpu| <= 1e-5*|cpu| + 1e-6 on every component; sampling passes may exceed it on \
-             <= 0.1% of pixels by any amount (over: rays that graze an edge) and on <= 1% by under 1% relative (perturbed: \
+            "tolerance per pixel: |gpu-cpu| <= {:e}*|cpu| + {:e} on every component; sampling passes may exceed it on \
+             <= {}% of pixels by any amount (over: rays that graze an edge) and on <= {}% by under {}% relative (perturbed: \
              grazing secondary rays); allowed = over/perturbed pixels; integers exact except off-by-one at rounding \
-             boundaries (<= 0.1%)"
+             boundaries (<= 0.1%)",
+            t.rel,
+            t.abs,
+            t.max_share * 100.0,
+            t.perturbed_share * 100.0,
+            t.perturbed_rel * 100.0
         );
         for (pass, n) in &self.cut_loops {
             let _ = writeln!(

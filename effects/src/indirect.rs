@@ -1,11 +1,16 @@
 //! `Indirect`: axis-aligned filtering of diffuse and glossy indirect light, multi-bounce, and the
 //! ambient-occlusion variant (Mehta thesis Ch. 4, eqs. 4.15–4.21, App. A; `EQUATIONS.md` "Indirect").
 //!
-//! Passes: `sample_initial` (16 stratified hemisphere rays per component: first estimate and the
-//! first-hit distances `z_min, z_max`) → `bandwidth` (β per component, eqs. 4.15–4.16, 4.18, A.3,
-//! A.5) → `rates` (n per component, eq. 4.21) → `sample_adaptive` (up to n, reusing the first 16) →
-//! `filter_x`/`filter_y` per component (the shared separable world-space Gaussian, full 3-D distance,
-//! 10° normal test) → `compose` (k_d and k_s multiply after filtering).
+//! Sampling is the shared sampler's ([`crate::sampler`], `docs/SAMPLER-STAGE.md` §4): the node asks
+//! it for the `hemisphere` estimator with the Ch. 4 constants — one path through the pixel centre,
+//! `initial_rays` (16) stratified hemisphere samples per component on it, `bounces`, `brdf`, and the
+//! AO mode — and reads the first pass's first-hit distances `z_min, z_max` (`depth`). Its own passes:
+//! `bandwidth` (β per component, eqs. 4.15–4.16, 4.18, A.3, A.5) → `rates` (n per component,
+//! eq. 4.21), submitted as each component's samples over both passes (`PerPrimary::Spread` on the
+//! sampler's `diffuse` and `glossy` channels: up to n, reusing the first 16, each component with its
+//! own count, every sample weighing the same) → `filter_x`/`filter_y` per component on the sampler's
+//! final `diffuse` / `glossy` estimates (the shared separable world-space Gaussian, full 3-D
+//! distance, 10° normal test) → `compose` (k_d and k_s multiply after filtering).
 //!
 //! Readings taken (documented in the report and `EQUATIONS.md`'s map):
 //! - **Components**: the diffuse component (cosine sampling) and, on pixels whose `specular` input has
@@ -30,7 +35,10 @@ use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+use wedge_graph::{
+    CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PerPrimary, PortDecl, Reference,
+    SamplerPass, SamplerRequest, Stage,
+};
 
 use crate::filtering::{self, Separable};
 
@@ -221,27 +229,28 @@ impl NodeKind for Indirect {
         let specular = if ao { None } else { ctx.input("specular") };
         let glossy = specular.is_some();
         let initial_rays = ctx.param("initial_rays").clone();
-        const SAMPLE_PARAMS: [&str; 4] = ["bounces", "mode", "max_distance", "brdf"];
+        let ParamValue::Int(per_path) = initial_rays else {
+            return Err(GraphError::Expand { node: ctx.node().into(), message: "`initial_rays` must be an integer".into() });
+        };
+        let per_path = per_path.clamp(1, i64::from(u32::MAX)) as u32;
 
-        let init_d = ctx.buffer("initial_diffuse", Format::Vec4);
-        let init_g = ctx.buffer("initial_glossy", Format::Vec4);
-        let depth = ctx.buffer("depth", Format::Vec4);
-        let mut pass = ctx
-            .pass("sample_initial", "indirect.sample", Stage::Sample)
-            .read("position", position)
-            .read("normal", normal)
-            .read_opt("specular", specular)
-            .write("diffuse", init_d)
-            .write("depth", depth);
-        if glossy {
-            pass = pass.write("glossy", init_g);
-        }
-        pass.param("count", initial_rays)
-            .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&SAMPLE_PARAMS)
-            .random()
-            .reference(Reference::Continued)
-            .finish();
+        // The shared sampler's first pass: one path through the pixel centre with `initial_rays`
+        // stratified hemisphere samples per part (Ch. 4's first pass); its first-hit distances
+        // `z_min, z_max` feed eqs. 4.15–4.21.
+        ctx.sampler(
+            SamplerRequest::new()
+                .estimator("hemisphere")
+                .setting("paths", ParamValue::Int(1))
+                .setting("indirect_per_primary", initial_rays)
+                .setting("jitter", ParamValue::Bool(false))
+                .setting("sampling", ParamValue::Str("stratified".into()))
+                .setting("bounces", ctx.param("bounces").clone())
+                .setting("brdf", ctx.param("brdf").clone())
+                .setting("ao", ParamValue::Bool(ao))
+                .setting("glossy", ParamValue::Bool(glossy))
+                .setting("max_distance", ctx.param("max_distance").clone()),
+        )?;
+        let depth = ctx.sampler_output(SamplerPass::First, "depth")?;
 
         let beta_d = ctx.buffer("beta_diffuse", Format::F32);
         let beta_g = ctx.buffer("beta_glossy", Format::F32);
@@ -275,25 +284,16 @@ impl NodeKind for Indirect {
             .reference(Reference::Count)
             .finish();
 
-        let noisy_d = ctx.buffer("noisy_diffuse", Format::Vec4);
-        let noisy_g = ctx.buffer("noisy_glossy", Format::Vec4);
-        let mut pass = ctx
-            .pass("sample_adaptive", "indirect.sample", Stage::Adaptive)
-            .read("position", position)
-            .read("normal", normal)
-            .read_opt("specular", specular)
-            .read("rays_diffuse", rays_d)
-            .read("previous_diffuse", init_d)
-            .write("diffuse", noisy_d);
+        // eq. 4.21's n per part over both passes, exactly: the sampler traces the rest on paths of
+        // about `initial_rays` (the camera ray is fixed, so every sample of a part weighs the same).
+        let mut per_primary = vec![("diffuse".to_string(), PerPrimary::Spread { total: rays_d, unit: per_path })];
         if glossy {
-            pass = pass.read("rays_glossy", rays_g).read("previous_glossy", init_g).write("glossy", noisy_g);
+            per_primary.push(("glossy".to_string(), PerPrimary::Spread { total: rays_g, unit: per_path }));
         }
-        pass.int("count", 0)
-            .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&SAMPLE_PARAMS)
-            .random()
-            .reference(Reference::Sample)
-            .finish();
+        ctx.sampler_counts(CountRequest { paths: None, paths_unit: 1, per_primary, max3: false, beyond_first: false })?;
+        // The sampler's final estimates per part: mean E (k_d, k_s left out), w = samples.
+        let noisy_d = ctx.sampler_output(SamplerPass::Final, "diffuse")?;
+        let noisy_g = if glossy { ctx.sampler_output(SamplerPass::Final, "glossy")? } else { noisy_d };
 
         // Full 3-D distances (Ch. 4 has no light plane); each component with its own β.
         let filter = |ctx: &mut ExpandCtx<'_>, prefix: &str, value, bandwidth| {

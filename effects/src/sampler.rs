@@ -9,20 +9,27 @@
 //! 2. `resolve_first` (`paths.resolve`): the first-pass outputs nodes hold handles to.
 //! 3. `Stage::Counts` (thesis Sec. 5.4): the adaptive pass's paths per pixel are the per-pixel max
 //!    over the count requests of `ceil(request / paths_unit)` (each request first spread by
-//!    `neighbourhood.max3` where it asks, Sec. 5.8 step 2), less the first pass's paths
-//!    (`counts_paths`, role `Count`); secondary samples per primary are the per-pixel max over the
-//!    requests, at least 1 (`counts_<estimator>`, role `CountPerPrimary`). The combining kernel is
-//!    [`CombineCounts`] (`sampler.combine`), chained over the requests.
+//!    `neighbourhood.max3` where it asks, Sec. 5.8 step 2), less the first pass's paths, and of
+//!    `ceil(rest / unit)` for each `PerPrimary::Spread` (`counts_paths`, role `Count`). Then per count
+//!    *channel* (`light`; the hemisphere estimator's `diffuse` and `glossy`): its samples over the
+//!    adaptive pass (`counts_<channel>`, [`PassTotal`], role `Count`) = `paths ×` the per-path max
+//!    of its `Constant` / `Buffer` / `Total` (as s², [`PerPrimaryCounts`]) requests, at least 1 —
+//!    or the spreads' rest beyond the first pass where larger (`rest` = total − first-pass samples;
+//!    a channel counted only by spreads has no minimum). [`CombineCounts`] (`sampler.combine`) takes
+//!    the per-pixel maxima, chained over the requests.
 //! 4. `adaptive` (`Stage::Adaptive`, `paths.trace`): continues `first`'s record and its random
 //!    sequences (same stream: the union of both passes is one progressive Sobol' set), role `Sample`.
+//!    It splits each channel's total evenly over the pixel's paths, so two nodes' counts do not
+//!    multiply: Ch. 3's shadow rays and Ch. 4's hemisphere samples each come out as asked.
 //! 5. `resolve_final` (`paths.resolve`): the final outputs.
 //!
-//! So `wedge reference` of a sampler pipeline is `first` with no paths, the counts at N paths per
-//! pixel with one secondary sample per estimator each: N jointly stratified paths per pixel.
+//! So `wedge reference` of a sampler pipeline is `first` with no paths and every count at N: N
+//! jointly stratified paths per pixel with one secondary sample of each channel.
 //!
-//! Every path of a pixel carries the same number of secondary samples in each pass (the record
-//! averages per path), so an effect keeps equal weight per sample by asking for the first pass's
-//! per-primary count and stating its rate in samples (`paths_unit`), as `SoftShadows` does.
+//! Weights: under a lens (moving camera ray) the record averages per path, so an effect whose
+//! samples should weigh the same asks for the same count per path (Ch. 5's `s²`); through a fixed
+//! pinhole ray it weighs samples (`docs/SAMPLER-STAGE.md` "Samples, not paths"), so Ch. 3/4 nodes
+//! state exact totals with `PerPrimary::Spread`.
 
 use std::sync::Arc;
 
@@ -33,9 +40,19 @@ use wedge_graph::{
     Stage,
 };
 
-/// Estimator → (`paths.trace` switch, per-primary parameter and binding).
-const ESTIMATORS: [(&str, &str, &str); 2] =
-    [("light", "direct", "shadow_per_primary"), ("hemisphere", "indirect", "indirect_per_primary")];
+/// Estimator → `paths.trace` switch.
+const ESTIMATORS: [(&str, &str); 2] = [("light", "direct"), ("hemisphere", "indirect")];
+
+/// Count channels: (channel, estimator, `paths.trace` binding of its samples over the adaptive pass,
+/// the setting giving its first-pass count per path). An estimator's first channel is always bound
+/// in the adaptive pass; a later one only where a count request names it — unbound, `paths.trace`
+/// gives it the first channel's counts (the glossy part follows the diffuse one unless Ch. 4 counts
+/// it apart).
+const CHANNELS: [(&str, &str, &str, &str); 3] = [
+    ("light", "light", "shadow_total", "shadow_per_primary"),
+    ("diffuse", "hemisphere", "diffuse_total", "indirect_per_primary"),
+    ("glossy", "hemisphere", "glossy_total", "indirect_per_primary"),
+];
 
 /// Settings and their defaults (thesis Ch. 3/4: one primary path through the pixel centre).
 fn defaults() -> Vec<(&'static str, ParamValue)> {
@@ -50,6 +67,11 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
         ("form_factor", ParamValue::Str("light_centre".into())),
         ("brdf", ParamValue::Str("phong".into())),
         ("bounces", ParamValue::Int(1)),
+        // Ambient occlusion instead of radiance for the hemisphere estimator (Ch. 4 Sec. 4.6).
+        ("ao", ParamValue::Bool(false)),
+        // The hemisphere estimator's glossy part (off: a node that composes no glossy light).
+        ("glossy", ParamValue::Bool(true)),
+        ("max_distance", ParamValue::Float(0.0)),
         // A pinhole unless a node asks for a lens (a Defocus node): a camera block's aperture alone
         // does not make the sampler's rays defocused while `Primary` and the Ch. 3/4 nodes' texture
         // and emission come from one pinhole ray per pixel (SoftShadows composed a sharp albedo with
@@ -96,6 +118,16 @@ impl PathSampler {
         b.finish();
     }
 
+    /// The per-pixel max of `sources` (buffers of unit 1): none, the one buffer itself, or a
+    /// `sampler.combine` chain named `name`.
+    fn max_of(ctx: &mut ExpandCtx<'_>, name: &str, sources: &[(BufferId, u32, u32)]) -> Option<BufferId> {
+        match sources {
+            [] => None,
+            [(one, 1, 0)] => Some(*one),
+            _ => Some(Self::combine(ctx, name, sources, 0, Reference::Keep)),
+        }
+    }
+
     /// Chain `sampler.combine` over `sources` (buffer, unit, minus), the last pass written with
     /// `role`; with no source, `fill.constant` of `at_least`.
     fn combine(
@@ -139,7 +171,10 @@ impl SamplerKind for PathSampler {
         "paths"
     }
     fn estimators(&self) -> Vec<&'static str> {
-        ESTIMATORS.iter().map(|(e, _, _)| *e).collect()
+        ESTIMATORS.iter().map(|(e, _)| *e).collect()
+    }
+    fn channels(&self) -> Vec<(&'static str, &'static str)> {
+        CHANNELS.iter().map(|(c, e, _, _)| (*c, *e)).collect()
     }
     fn settings(&self) -> Vec<&'static str> {
         defaults().into_iter().map(|(n, _)| n).chain(OPTIONAL_SETTINGS).collect()
@@ -151,7 +186,8 @@ impl SamplerKind for PathSampler {
     }
     fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError> {
         let first_paths = Self::count_setting(plan, "paths")?;
-        let mut trace_params: Vec<(&str, ParamValue)> = ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces", "aperture_radius"]
+        let mut trace_params: Vec<(&str, ParamValue)> =
+            ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces", "ao", "max_distance", "glossy", "aperture_radius"]
             .into_iter()
             .map(|n| (n, Self::setting(plan, n)))
             .collect();
@@ -160,8 +196,10 @@ impl SamplerKind for PathSampler {
                 trace_params.push((n, v.clone()));
             }
         }
-        for (estimator, switch, per_primary) in ESTIMATORS {
+        for (estimator, switch) in ESTIMATORS {
             trace_params.push((switch, ParamValue::Bool(plan.estimators.contains(estimator))));
+        }
+        for per_primary in ["shadow_per_primary", "indirect_per_primary"] {
             trace_params.push((per_primary, ParamValue::Int(i64::from(Self::count_setting(plan, per_primary)?))));
         }
 
@@ -190,37 +228,93 @@ impl SamplerKind for PathSampler {
             // A total over both passes includes the first pass's paths; a request beyond it does not.
             path_sources.push((value, r.paths_unit, if r.beyond_first { 0 } else { first_paths }));
         }
-        let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
-        let mut per_primary: Vec<(&str, BufferId)> = Vec::new();
-        for (estimator, _, binding) in ESTIMATORS {
-            if !plan.estimators.contains(estimator) {
-                continue;
-            }
-            let mut at_least = 1u32;
-            let mut sources: Vec<(BufferId, u32, u32)> = Vec::new();
+        // Which requests set a channel: by its own name or its estimator's.
+        let sets = |key: &str, channel: &str, estimator: &str| key == channel || key == estimator;
+        // The channels bound in the adaptive pass: the first of each estimator in use, and a later one
+        // where a request names it.
+        let channels: Vec<_> = CHANNELS
+            .into_iter()
+            .enumerate()
+            .filter(|(index, (channel, estimator, _, _))| {
+                let named = plan.requests.iter().any(|(_, r)| r.per_primary.iter().any(|(key, _)| key == channel));
+                let first_of_estimator = CHANNELS[..*index].iter().all(|(_, e, _, _)| e != estimator);
+                plan.estimators.contains(*estimator) && (first_of_estimator || named)
+            })
+            .map(|(_, c)| c)
+            .collect();
+        // `PerPrimary::Spread`: the samples left after the first pass's, per channel and request; each
+        // asks for paths of about `unit` samples.
+        let mut rests: Vec<(usize, &str, BufferId)> = Vec::new();
+        for &(channel, estimator, _, first_setting) in &channels {
+            let first = first_paths.saturating_mul(Self::count_setting(plan, first_setting)?);
             for (k, (_, r)) in plan.requests.iter().enumerate() {
-                for (e, per) in &r.per_primary {
-                    match (e.as_str() == estimator, per) {
-                        (true, PerPrimary::Constant(c)) => at_least = at_least.max(*c),
-                        (true, PerPrimary::Buffer(id)) => sources.push((*id, 1, 0)),
-                        (true, PerPrimary::Total(id)) => {
-                            // The total spread over the adaptive pass's paths as s² per path.
-                            let total = spread(ctx, format!("counts_{estimator}_max3_{k}"), *id, r.max3);
-                            let name = format!("counts_{estimator}_per_path_{k}");
+                for (key, per) in &r.per_primary {
+                    let PerPrimary::Spread { total, unit } = *per else { continue };
+                    if !sets(key, channel, estimator) {
+                        continue;
+                    }
+                    let total = spread(ctx, format!("counts_{channel}_max3_{k}"), total, r.max3);
+                    let rest = Self::combine(ctx, &format!("counts_{channel}_rest_{k}"), &[(total, 1, first)], 0, Reference::Keep);
+                    // Paths of about `unit` samples each.
+                    path_sources.push((rest, unit, 0));
+                    rests.push((k, channel, rest));
+                }
+            }
+        }
+        let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
+        let mut totals: Vec<(&str, BufferId)> = Vec::new();
+        for &(channel, estimator, binding, _) in &channels {
+            // Per path: at least one secondary sample (Ch. 5), except for a channel counted only by
+            // spreads, whose paths may carry none of it.
+            let mut at_least = 1u32;
+            let mut spread_only = None;
+            let mut per_path: Vec<(BufferId, u32, u32)> = Vec::new();
+            for (k, (_, r)) in plan.requests.iter().enumerate() {
+                for (key, per) in &r.per_primary {
+                    if !sets(key, channel, estimator) {
+                        continue;
+                    }
+                    spread_only = Some(spread_only.unwrap_or(true) && matches!(per, PerPrimary::Spread { .. }));
+                    match per {
+                        PerPrimary::Constant(c) => at_least = at_least.max(*c),
+                        PerPrimary::Buffer(id) => per_path.push((*id, 1, 0)),
+                        PerPrimary::Total(id) => {
+                            // The total over the adaptive pass as s² per path.
+                            let total = spread(ctx, format!("counts_{channel}_max3_{k}"), *id, r.max3);
+                            let name = format!("counts_{channel}_per_path_{k}");
                             let out = ctx.buffer(&name, Format::U32);
                             ctx.pass(&name, "sampler.per_primary", Stage::Counts)
                                 .read("total", total)
                                 .read("paths", paths)
                                 .write("out", out)
                                 .finish();
-                            sources.push((out, 1, 0));
+                            per_path.push((out, 1, 0));
                         }
-                        _ => {}
+                        PerPrimary::Spread { .. } => {}
                     }
                 }
             }
-            let id = Self::combine(ctx, &format!("counts_{estimator}"), &sources, at_least, Reference::CountPerPrimary);
-            per_primary.push((binding, id));
+            if spread_only == Some(true) {
+                at_least = 0;
+            }
+            let per_path = Self::max_of(ctx, &format!("counts_{channel}_per_path"), &per_path);
+            let channel_rests: Vec<(BufferId, u32, u32)> =
+                rests.iter().filter(|(_, c, _)| *c == channel).map(|(_, _, id)| (*id, 1, 0)).collect();
+            let rest = Self::max_of(ctx, &format!("counts_{channel}_rest"), &channel_rests);
+            // The channel's samples over the adaptive pass: `paths × per path`, or the spreads' rest
+            // where larger; `paths.trace` splits it evenly over the paths. A reference's count (N
+            // paths) makes it N: one sample per path.
+            let name = format!("counts_{channel}");
+            let total = ctx.buffer(&name, Format::U32);
+            ctx.pass(&name, "sampler.pass_total", Stage::Counts)
+                .read("paths", paths)
+                .read_opt("per_path", per_path)
+                .read_opt("rest", rest)
+                .write("out", total)
+                .int("at_least", i64::from(at_least))
+                .reference(Reference::Count)
+                .finish();
+            totals.push((binding, total));
         }
 
         // 4–5. Adaptive pass continuing the first pass's record and sequences, and its resolve.
@@ -231,7 +325,7 @@ impl SamplerKind for PathSampler {
             .read("counts", paths)
             .write("record", last)
             .int("count", 0);
-        for (binding, id) in per_primary {
+        for (binding, id) in totals {
             b = b.read(binding, id);
         }
         for (n, v) in &trace_params {
@@ -318,6 +412,57 @@ pub fn per_primary_pixel(paths: u32, total: u32) -> u32 {
     s * s
 }
 
+/// `sampler.pass_total`: a channel's secondary samples over the adaptive pass,
+/// `out = max(paths × max(per_path, at_least), rest)` (saturating; `per_path`, `rest` optional, 0
+/// when unbound), which `paths.trace` splits evenly over the pixel's paths. Integer-only; WGSL
+/// mirror `shaders/sampler_pass_total.wgsl`.
+pub struct PassTotal;
+
+/// One pixel of [`PassTotal`].
+pub fn pass_total_pixel(paths: u32, per_path: u32, rest: u32, at_least: u32) -> u32 {
+    paths.saturating_mul(per_path.max(at_least)).max(rest)
+}
+
+fn at_least_param(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
+    let v = ctx.int_param("at_least")?;
+    u32::try_from(v).map_err(|_| BackendError::Kernel { pass: ctx.pass.into(), message: format!("`at_least` = {v} is out of range") })
+}
+
+impl Kernel for PassTotal {
+    fn name(&self) -> &'static str {
+        "sampler.pass_total"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("paths", Format::U32),
+            Binding::read_opt("per_path", Format::U32),
+            Binding::read_opt("rest", Format::U32),
+            Binding::write("out", Format::U32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../shaders/sampler_pass_total.wgsl"), |ctx| {
+                Ok(Uniforms::new().u32("at_least", at_least_param(ctx)?))
+            })
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let at_least = at_least_param(ctx)?;
+        let paths = ctx.read::<u32>("paths")?;
+        let per_path = ctx.read_opt::<u32>("per_path")?;
+        let rest = ctx.read_opt::<u32>("rest")?;
+        let at = |b: Option<&[u32]>, i: usize| b.map_or(0, |b| b[i]);
+        let out: Vec<u32> =
+            (0..ctx.pixels()).map(|i| pass_total_pixel(paths[i], at(per_path, i), at(rest, i), at_least)).collect();
+        ctx.put("out", out)
+    }
+}
+
 impl Kernel for PerPrimaryCounts {
     fn name(&self) -> &'static str {
         "sampler.per_primary"
@@ -342,6 +487,7 @@ impl Kernel for PerPrimaryCounts {
 pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(CombineCounts));
     reg.register(Arc::new(PerPrimaryCounts));
+    reg.register(Arc::new(PassTotal));
 }
 
 #[cfg(test)]
@@ -373,5 +519,17 @@ mod tests {
         for (p, n) in [(1, 400), (16, 143), (25, 2500), (3, 10)] {
             assert_eq!(per_primary_pixel(p, n), crate::defocus::formulas::secondary_per_primary(p, n));
         }
+    }
+
+    #[test]
+    fn a_pass_total_is_paths_times_per_path_or_the_spread_rest() {
+        // Ch. 5: 4 paths of 9 (s²); at least one per path.
+        assert_eq!(pass_total_pixel(4, 9, 0, 1), 36);
+        assert_eq!(pass_total_pixel(4, 0, 0, 1), 4);
+        // A spread's rest alone: exactly it, also on paths another channel asked for.
+        assert_eq!(pass_total_pixel(12, 0, 30, 0), 30);
+        assert_eq!(pass_total_pixel(12, 0, 0, 0), 0);
+        assert_eq!(pass_total_pixel(3, 2, 5, 1), 6);
+        assert_eq!(pass_total_pixel(u32::MAX, 2, 0, 1), u32::MAX);
     }
 }

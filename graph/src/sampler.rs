@@ -82,6 +82,24 @@ pub enum PerPrimary {
     /// paths (Ch. 5's `n_dir`, `n_ind`): the sampler spreads them as `s²` per path, the smallest
     /// square with `paths · s² ≥ total` (full stratification, Sec. 5.8 footnote 6), at least 1.
     Total(BufferId),
+    /// A per-pixel `u32` buffer of the estimator's secondary samples over **both** passes, the first
+    /// pass's included (Ch. 3's eq. 3.21, Ch. 4's eq. 4.21: samples at one primary hit). The sampler
+    /// traces the rest on adaptive paths of about `unit` samples each (`ceil(rest / unit)` paths, or
+    /// more where another request asks for more) and spreads it evenly over them, each path's count
+    /// rounded up. Paths that need none of this estimator's samples trace none (no minimum of 1). Each
+    /// sample weighs the same where the camera ray is fixed (a pinhole through the pixel centre): the
+    /// record then weighs samples, not paths (`docs/SAMPLER-STAGE.md` "Samples, not paths").
+    Spread { total: BufferId, unit: u32 },
+}
+
+impl PerPrimary {
+    /// The per-pixel buffer it reads, if any.
+    pub fn buffer(&self) -> Option<BufferId> {
+        match *self {
+            PerPrimary::Constant(_) => None,
+            PerPrimary::Buffer(id) | PerPrimary::Total(id) | PerPrimary::Spread { total: id, .. } => Some(id),
+        }
+    }
 }
 
 /// One node's per-pixel counts for the adaptive pass.
@@ -95,7 +113,9 @@ pub struct CountRequest {
     /// Ch. 5 component: the Defocus node asks for `n_p`).
     pub paths: Option<BufferId>,
     pub paths_unit: u32,
-    /// Secondary samples per primary path, per estimator the node asked for.
+    /// Secondary samples per primary path, per estimator the node asked for — or per *channel* of
+    /// one ([`SamplerKind::channels`]: an estimator whose parts take their own counts, like the
+    /// hemisphere estimator's diffuse and glossy samples); an estimator's name sets all its channels.
     pub per_primary: Vec<(String, PerPrimary)>,
     /// Spread the path count (and `PerPrimary::Total` counts) over the 3×3 neighbourhood (thesis
     /// Sec. 5.8 step 2) before combining.
@@ -113,6 +133,11 @@ pub trait SamplerKind: Send + Sync {
     fn name(&self) -> &'static str;
     /// Estimators a node may ask for.
     fn estimators(&self) -> Vec<&'static str>;
+    /// Secondary-sample count channels as (channel, estimator): parts of an estimator whose per-primary
+    /// counts a [`CountRequest`] may set apart. Default: one channel per estimator, named like it.
+    fn channels(&self) -> Vec<(&'static str, &'static str)> {
+        self.estimators().into_iter().map(|e| (e, e)).collect()
+    }
     /// Setting names a node may give.
     fn settings(&self) -> Vec<&'static str>;
     /// Resolved outputs a handle may name, with their formats.
@@ -267,14 +292,20 @@ impl SamplerPlan {
         if r.paths_unit == 0 {
             return Err(err("sampler count `paths_unit` must be at least 1".into()));
         }
-        for (estimator, per) in &r.per_primary {
+        let channels = self.kind_for(node)?.channels();
+        for (name, per) in &r.per_primary {
+            // An estimator's name, or one of its channels.
+            let estimator = channels.iter().find(|(c, _)| c == name).map_or(name.as_str(), |(_, e)| *e);
             if !self.estimators.contains(estimator) {
                 return Err(err(format!(
                     "submits secondary counts for estimator `{estimator}`, which no node asked the sampler for"
                 )));
             }
-            if let PerPrimary::Buffer(id) | PerPrimary::Total(id) = per {
-                u32_buffer(*id, estimator)?;
+            if let Some(id) = per.buffer() {
+                u32_buffer(id, name)?;
+            }
+            if matches!(per, PerPrimary::Spread { unit: 0, .. }) {
+                return Err(err(format!("sampler count `{name}`: a spread's `unit` must be at least 1")));
             }
         }
         self.requests.push((node.to_string(), r));

@@ -24,8 +24,18 @@
 //! - indirect diffuse: `E` = mean incident radiance of cosine-sampled one-bounce paths, `k = k_d`;
 //! - indirect glossy: `E` = mean of `L_i · f cos/pdf` (k_s left out) over lobe samples, `k = k_s`.
 //!
-//! The record sums `w·L`, `w·k`, `w·E` per component (so SepDir, eq. 5.30, compares `Σ wL/Σ w` with
-//! `(Σ wk/Σ w)(Σ wE/Σ w)`), the lens-averaged position λ and normal, emission, depth along the
+//! **Weights.** Where the camera ray moves between a pixel's paths (a lens, jitter), each path weighs
+//! its lens weight `w` whatever its secondary count: the record sums `w·L`, `w·k`, `w·E` per component
+//! (`E` the path's mean over its samples) and `w` per component (so SepDir, eq. 5.30, compares
+//! `Σ wL/Σ w` with `(Σ wk/Σ w)(Σ wE/Σ w)`; per-sample weights were measured worse under a lens,
+//! `docs/DESIGN-NOTES.md` "Path weights, not sample weights"). Where the camera ray is fixed (a
+//! pinhole through the pixel centre, thesis Ch. 3/4) every path has the same primary hit, and each
+//! *sample* weighs the same: the record sums `w·k·Σe`, `w·k·v`, `w·Σe` and `w·v` (`v` the path's
+//! finite samples), so a pixel's samples average exactly as one path's would however they are split
+//! into paths, and an estimator whose count is 0 on a path adds nothing (Ch. 3 and Ch. 4 counts then
+//! stop multiplying: `docs/SAMPLER-STAGE.md` "Samples, not paths").
+//!
+//! Besides, the record keeps the lens-averaged position λ and normal, emission, depth along the
 //! optical axis and `|r|` range (circle of confusion per lens sample, eq. 5.2), occluder statistics
 //! `d1, d2_min, d2_max` as `direct.light` defines them, indirect first-hit `z_min, z_max`, and counts
 //! of paths, shadow rays, indirect samples and rays, and non-finite samples (counted, never summed;
@@ -34,8 +44,12 @@
 //! exact.
 //!
 //! **Parameters** of `paths.trace`: `count` (paths to add where `counts` is unbound), `jitter`
-//! (bool), `lens` (`"disk"` | `"gaussian"`), `shadow_per_primary` and `indirect_per_primary` (where
-//! the buffers of those names are unbound; at least 1 is used), `light` (the area light of the
+//! (bool), `lens` (`"disk"` | `"gaussian"`), `shadow_per_primary` and `indirect_per_primary`
+//! (secondary samples per path where the buffers `shadow_total` / `diffuse_total` are unbound; 0 =
+//! none), `ao` (optional bool:
+//! a hemisphere sample's value is 1 where it hits a reflector within `max_distance`, optional, 0 =
+//! no limit — `indirect.sample`'s ambient-occlusion mode; no glossy part), `glossy` (optional bool,
+//! default true: the glossy part where a surface has a lobe), `light` (the area light of the
 //! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
 //! `form_factor` (optional: `"light_centre"`, the default, is f_c above; `"exact"` evaluates the
 //! geometry term per light sample, the unbiased estimator `direct.light` offers under the same name),
@@ -81,6 +95,9 @@ pub static PATH_RECORD: StructLayout = StructLayout {
         f("normal", FieldType::Vec3),
         f("weight", FieldType::F32),
         f("hit_weight", FieldType::F32),
+        f("w_direct", FieldType::F32),
+        f("w_diffuse", FieldType::F32),
+        f("w_glossy", FieldType::F32),
         f("depth", FieldType::F32),
         f("r_min", FieldType::F32),
         f("r_max", FieldType::F32),
@@ -104,8 +121,9 @@ pub static PATH_RECORD: StructLayout = StructLayout {
 };
 
 /// One pixel's accumulated paths. Sums are weighted by the lens weight `w`; means are
-/// `sum / weight` (L, k, E, emission: over all paths, a miss counts as black) or `sum / hit_weight`
-/// (position, normal, depth, d1: over paths that hit a surface).
+/// `sum / weight` (emission: over all paths, a miss counts as black), `sum / w_<component>` (L, k, E
+/// of a component: see [`PathRecord::w_direct`]) or `sum / hit_weight` (position, normal, depth, d1:
+/// over paths that hit a surface).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PathRecord {
@@ -128,6 +146,15 @@ pub struct PathRecord {
     /// Σ w over all paths and over paths that hit.
     pub weight: f32,
     pub hit_weight: f32,
+    /// What a component's L, k, E sums are divided by. Where the camera ray moves between paths (a
+    /// lens, jitter) each path weighs `w`, whatever its secondary count: Σ w over the paths that
+    /// carried the component, misses included (a miss is black). Where it is fixed (a pinhole
+    /// through the pixel centre: every path has the same primary hit) each *sample* weighs the same:
+    /// Σ w·(finite samples), so paths of unequal counts average exactly as one path would (module
+    /// doc, "Weights").
+    pub w_direct: f32,
+    pub w_diffuse: f32,
+    pub w_glossy: f32,
     /// Σ w·z, z the hit's depth along the optical axis.
     pub depth: f32,
     /// Range of |r| (circle of confusion in pixels, eq. 5.2) over hits; 0, 0 without hits.
@@ -182,14 +209,14 @@ impl PathRecord {
     }
     /// Mean radiance of the pixel: direct + indirect diffuse + indirect glossy + emission.
     pub fn radiance(&self) -> Vec3 {
-        self.mean_of(self.l_direct, self.weight)
-            + self.mean_of(self.l_diffuse, self.weight)
-            + self.mean_of(self.l_glossy, self.weight)
+        self.mean_of(self.l_direct, self.w_direct)
+            + self.mean_of(self.l_diffuse, self.w_diffuse)
+            + self.mean_of(self.l_glossy, self.w_glossy)
             + self.mean_of(self.emission, self.weight)
     }
     /// Mean (L, k, E) of the direct component.
     pub fn direct(&self) -> (Vec3, Vec3, Vec3) {
-        let w = self.weight;
+        let w = self.w_direct;
         (self.mean_of(self.l_direct, w), self.mean_of(self.k_direct, w), self.mean_of(self.e_direct, w))
     }
     /// Lens-averaged position λ and normal (not renormalised).
@@ -228,14 +255,21 @@ struct Settings {
     lens: LensShape,
     shadow_per_primary: u32,
     indirect_per_primary: u32,
+    /// The direct estimator's area light (read only where `direct` is on: an ambient-occlusion or
+    /// indirect-only pipeline may have no light).
     light: usize,
+    /// The camera ray is the same for every path of a pixel (pinhole through the pixel centre):
+    /// samples, not paths, are weighted (module doc, "Weights").
+    fixed_primary: bool,
     stream: u32,
     path: PathParams,
     /// Per-sample geometry term instead of the light-centre form factor f_c.
     exact: bool,
-    /// Run the direct (shadow-ray) and the indirect (hemisphere) estimators.
+    /// Run the direct (shadow-ray) and the indirect (hemisphere) estimators, and the indirect
+    /// estimator's glossy part (where the surface has a lobe, and not under ambient occlusion).
     direct: bool,
     indirect: bool,
+    glossy: bool,
     /// The scene's camera with the pass's thin lens (`aperture_radius`, `focus_distance`, where given).
     camera: Camera,
 }
@@ -281,23 +315,38 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         }
         camera.focus_distance = f;
     }
+    let ao = match ctx.params.get("ao") {
+        None => false,
+        Some(_) => ctx.bool_param("ao")?,
+    };
+    let max_distance = match ctx.params.get("max_distance") {
+        None => 0.0,
+        Some(_) => ctx.f32_param("max_distance")?,
+    };
+    if !(max_distance.is_finite() && max_distance >= 0.0) {
+        return Err(err(format!("`max_distance` = {max_distance} must be a finite number >= 0")));
+    }
+    let jitter = ctx.bool_param("jitter")?;
+    let direct = flag("direct")?;
     Ok(Settings {
+        fixed_primary: !jitter && camera.aperture_radius == 0.0,
         camera,
         exact,
-        direct: flag("direct")?,
+        direct,
         indirect: flag("indirect")?,
+        glossy: flag("glossy")? && !ao,
         stratified: ctx.stratified_param()?,
         count: positive("count")?,
-        jitter: ctx.bool_param("jitter")?,
+        jitter,
         lens,
         shadow_per_primary: positive("shadow_per_primary")?,
         indirect_per_primary: positive("indirect_per_primary")?,
-        light: ctx.light_param("light")?,
+        light: if direct { ctx.light_param("light")? } else { 0 },
         stream: ctx.int_param("stream")? as u32,
         path: PathParams {
             bounces: positive("bounces")?.max(1),
-            ao: false,
-            max_distance: 0.0,
+            ao,
+            max_distance,
             lobe,
             eps: RAY_EPSILON * ctx.scene.extent(),
         },
@@ -329,9 +378,11 @@ impl Kernel for PathsTrace {
             Binding::read_opt("previous", Format::Struct(&PATH_RECORD)),
             // Paths to add per pixel; else the `count` parameter.
             Binding::read_opt("counts", Format::U32),
-            // Shadow rays / indirect samples (per component) per path; else the parameters. At least 1.
-            Binding::read_opt("shadow_per_primary", Format::U32),
-            Binding::read_opt("indirect_per_primary", Format::U32),
+            // Shadow rays and indirect samples per part over this pass's paths, split evenly
+            // ([`Split`]); unbound: the per-path parameters (glossy: the diffuse part's counts).
+            Binding::read_opt("shadow_total", Format::U32),
+            Binding::read_opt("diffuse_total", Format::U32),
+            Binding::read_opt("glossy_total", Format::U32),
             Binding::write("record", Format::Struct(&PATH_RECORD)),
         ]
     }
@@ -351,12 +402,14 @@ impl Kernel for PathsTrace {
                     .f32("eps", s.path.eps)
                     .u32("lobe", (s.path.lobe == Lobe::BlinnPhong) as u32)
                     .u32("bounces", s.path.bounces)
-                    .u32("ao", 0)
-                    .f32("max_distance", 0.0)
+                    .u32("ao", s.path.ao as u32)
+                    .f32("max_distance", s.path.max_distance)
+                    .u32("fixed_primary", s.fixed_primary as u32)
                     .u32("light_count", ctx.scene.lights.len() as u32)
                     .u32("exact", s.exact as u32)
                     .u32("direct", s.direct as u32)
-                    .u32("indirect", s.indirect as u32))
+                    .u32("indirect", s.indirect as u32)
+                    .u32("glossy", s.glossy as u32))
             })
             .with_scene()
             .per_pixel()
@@ -370,32 +423,36 @@ impl Kernel for PathsTrace {
         let forward = cam.basis().2;
         let previous = ctx.read_opt::<PathRecord>("previous")?;
         let counts = ctx.read_opt::<u32>("counts")?;
-        let spp_shadow = ctx.read_opt::<u32>("shadow_per_primary")?;
-        let spp_indirect = ctx.read_opt::<u32>("indirect_per_primary")?;
+        let shadow_total = ctx.read_opt::<u32>("shadow_total")?;
+        let diffuse_total = ctx.read_opt::<u32>("diffuse_total")?;
+        let glossy_total = ctx.read_opt::<u32>("glossy_total")?;
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
-        let light = &scene.lights[s.light];
+        let light = scene.lights.get(s.light);
         // Through the pixel centre of a pinhole camera every path of a pixel has the same camera ray
         // (the lens sample only changes a Gaussian lens's weight): trace it once per pixel and pass,
         // and count it once, as plain Monte Carlo with one primary and N shadow rays would.
-        let fixed_primary = !s.jitter && cam.aperture_radius == 0.0;
+        let fixed_primary = s.fixed_primary;
         let records = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
             let pixel = i as u32;
             let mut r = previous.map_or_else(PathRecord::default, |p| p[i]);
-            let count = counts.map_or(s.count, |c| c[i]);
-            let n_shadow = spp_shadow.map_or(s.shadow_per_primary, |c| c[i]).max(1);
-            let n_indirect = spp_indirect.map_or(s.indirect_per_primary, |c| c[i]).max(1);
+            let first = r.paths;
+            let count = counts.map_or(s.count, |c| c[i]).min(u32::MAX - first);
+            let split = |total: Option<&[u32]>, per_path: u32| total.map_or(Split::per_path(per_path), |t| Split::new(t[i], count));
+            let diffuse = split(diffuse_total, s.indirect_per_primary);
+            let (shadow, glossy) = (split(shadow_total, s.shadow_per_primary), glossy_total.map_or(diffuse, |t| Split::new(t[i], count)));
             let rng_d = PixelRng::new(seed, pixel, substream(s.stream, SALT_DIFFUSE_PATH));
             let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
-            let first = r.paths;
             let mut fixed_hit = None;
-            for j in first..first.saturating_add(count) {
+            for j in first..first + count {
                 let jitter = if s.jitter { draw(&s, seed, pixel, pair::PIXEL, j) } else { Vec2::splat(0.5) };
                 let lens = draw(&s, seed, pixel, pair::LENS, j);
                 let ray = cam.ray(Vec2::new(px as f32, py as f32) + jitter, lens, width, height, s.lens);
                 let trace = || scene.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
                 let hit = if fixed_primary { *fixed_hit.get_or_insert_with(trace) } else { trace() };
-                trace_one(scene, &s, light, forward, height, &ray, hit, seed, pixel, &rng_d, &rng_g, n_shadow, n_indirect, &mut r);
+                let t = j - first;
+                let n = Secondary { shadow: shadow.at(t), diffuse: diffuse.at(t), glossy: glossy.at(t) };
+                trace_one(scene, &s, light, forward, height, &ray, hit, seed, pixel, &rng_d, &rng_g, n, &mut r);
             }
             r
         });
@@ -416,12 +473,43 @@ impl Kernel for PathsTrace {
     }
 }
 
+/// A component's secondary samples over a pass's paths: `q` per path, and one more on each of the
+/// first `r` (so a total `T` over `P` paths is `q = T / P`, `r = T mod P`: exact, as even as it can
+/// be). A node's counts stop multiplying with another's: each total is split over the same paths.
+#[derive(Clone, Copy)]
+struct Split {
+    q: u32,
+    r: u32,
+}
+
+impl Split {
+    fn new(total: u32, paths: u32) -> Split {
+        let p = paths.max(1);
+        Split { q: total / p, r: total % p }
+    }
+    fn per_path(n: u32) -> Split {
+        Split { q: n, r: 0 }
+    }
+    /// Samples on path `t` of the pass.
+    fn at(self, t: u32) -> u32 {
+        self.q + u32::from(t < self.r)
+    }
+}
+
+/// Secondary samples one path carries per component (0: that component is not sampled on it).
+#[derive(Clone, Copy)]
+struct Secondary {
+    shadow: u32,
+    diffuse: u32,
+    glossy: u32,
+}
+
 /// One path: the primary ray `ray` with its closest `hit`, then the direct and indirect estimators there.
 #[allow(clippy::too_many_arguments)]
 fn trace_one(
     scene: &wedge_scene::Scene,
     s: &Settings,
-    light: &wedge_scene::AreaLight,
+    light: Option<&wedge_scene::AreaLight>,
     forward: Vec3,
     height: u32,
     ray: &wedge_scene::LensRay,
@@ -430,13 +518,19 @@ fn trace_one(
     pixel: u32,
     rng_d: &PixelRng,
     rng_g: &PixelRng,
-    n_shadow: u32,
-    n_indirect: u32,
+    count: Secondary,
     r: &mut PathRecord,
 ) {
     let w = ray.weight;
     r.paths += 1;
     r.weight += w;
+    if !s.fixed_primary {
+        // Path weights: every path that carries a component counts for it, a miss as black.
+        let carries = |on: bool, count: u32| if on && count > 0 { w } else { 0.0 };
+        r.w_direct += carries(s.direct, count.shadow);
+        r.w_diffuse += carries(s.indirect, count.diffuse);
+        r.w_glossy += carries(s.indirect && s.glossy, count.glossy);
+    }
     let Some(hit) = hit else {
         return;
     };
@@ -463,12 +557,13 @@ fn trace_one(
     }
     let mat = &scene.materials[sp.material as usize];
     let (ks, m) = (mat.specular, mat.phong_exponent);
-    let at = PathHit { x, n, wo, kd: scene.albedo(&sp), ks, m, glossy: m > 0.0 && ks.max_element() > 0.0, w };
-    if s.direct {
-        trace_direct(scene, s, light, &at, seed, pixel, n_shadow, r);
+    let glossy = m > 0.0 && ks.max_element() > 0.0;
+    let at = PathHit { x, n, wo, kd: scene.albedo(&sp), ks, m, glossy, w };
+    if let Some(light) = light.filter(|_| s.direct && count.shadow > 0) {
+        trace_direct(scene, s, light, &at, seed, pixel, count.shadow, r);
     }
     if s.indirect {
-        trace_indirect(scene, s, &at, seed, pixel, (rng_d, rng_g), n_indirect, r);
+        trace_indirect(scene, s, &at, seed, pixel, (rng_d, rng_g), count, r);
     }
 }
 
@@ -530,7 +625,8 @@ fn trace_direct(
             r.non_finite += 1;
         }
     }
-    accumulate(&mut r.l_direct, &mut r.k_direct, &mut r.e_direct, k, e, valid, w);
+    let sums = Sums { l: &mut r.l_direct, k: &mut r.k_direct, e: &mut r.e_direct, w: &mut r.w_direct };
+    accumulate(sums, k, e, valid, w, s.fixed_primary);
 }
 
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
@@ -542,14 +638,15 @@ fn trace_indirect(
     seed: u32,
     pixel: u32,
     (rng_d, rng_g): (&PixelRng, &PixelRng),
-    n_indirect: u32,
+    count: Secondary,
     r: &mut PathRecord,
 ) {
     let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
 
     // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d.
+    if count.diffuse > 0 {
     let (mut e, mut valid) = (Vec3::ZERO, 0u32);
-    for _ in 0..n_indirect {
+    for _ in 0..count.diffuse {
         let q = r.diffuse_samples;
         r.diffuse_samples += 1;
         let wi = sample_diffuse(n, draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q));
@@ -561,12 +658,15 @@ fn trace_indirect(
             r.non_finite += 1;
         }
     }
-    accumulate(&mut r.l_diffuse, &mut r.k_diffuse, &mut r.e_diffuse, kd, e, valid, w);
+    let sums = Sums { l: &mut r.l_diffuse, k: &mut r.k_diffuse, e: &mut r.e_diffuse, w: &mut r.w_diffuse };
+    accumulate(sums, kd, e, valid, w, s.fixed_primary);
+    }
 
-    // Indirect glossy: lobe-sampled; E = L_i · f cos/pdf without k_s, k = k_s.
-    if glossy {
+    // Indirect glossy: lobe-sampled; E = L_i · f cos/pdf without k_s, k = k_s. Ambient occlusion
+    // has no glossy part.
+    if glossy && s.glossy && count.glossy > 0 {
         let (mut e, mut valid) = (Vec3::ZERO, 0u32);
-        for _ in 0..n_indirect {
+        for _ in 0..count.glossy {
             let q = r.glossy_samples;
             r.glossy_samples += 1;
             let u = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
@@ -579,7 +679,8 @@ fn trace_indirect(
                 r.non_finite += 1;
             }
         }
-        accumulate(&mut r.l_glossy, &mut r.k_glossy, &mut r.e_glossy, ks, e, valid, w);
+        let sums = Sums { l: &mut r.l_glossy, k: &mut r.k_glossy, e: &mut r.e_glossy, w: &mut r.w_glossy };
+        accumulate(sums, ks, e, valid, w, s.fixed_primary);
     }
 }
 
@@ -602,13 +703,30 @@ fn indirect_ray(scene: &wedge_scene::Scene, p: &PathParams, x: Vec3, n: Vec3, wi
     v
 }
 
-/// Add one path's component: `E` the mean of its `valid` samples' sum `e` (0 without any), `k`, and
-/// `L = k·E`, each weighted by the lens weight.
-fn accumulate(l: &mut [f32; 3], k_sum: &mut [f32; 3], e_sum: &mut [f32; 3], k: Vec3, e: Vec3, valid: u32, w: f32) {
-    let e = if valid > 0 { e / valid as f32 } else { Vec3::ZERO };
-    add(l, k * e * w);
-    add(k_sum, k * w);
-    add(e_sum, e * w);
+/// One component's sums in a record.
+struct Sums<'a> {
+    l: &'a mut [f32; 3],
+    k: &'a mut [f32; 3],
+    e: &'a mut [f32; 3],
+    w: &'a mut f32,
+}
+
+/// Add one path's component from its `valid` finite samples summing to `e` and texture `k`
+/// (module doc, "Weights"): with path weights, `E` = their mean (0 without any), `k` and `L = k·E`,
+/// each times the lens weight (the component weight was added with the path); with sample weights
+/// (`fixed_primary`), the sums themselves, `k` times `valid`, and `w·valid` to the component weight.
+fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primary: bool) {
+    let (e, n) = if fixed_primary {
+        (e, valid as f32)
+    } else {
+        (if valid > 0 { e / valid as f32 } else { Vec3::ZERO }, 1.0)
+    };
+    add(sums.l, k * e * w);
+    add(sums.k, k * (n * w));
+    add(sums.e, e * w);
+    if fixed_primary {
+        *sums.w += n * w;
+    }
 }
 
 /// `paths.resolve`: a [`PathRecord`]'s sums as the means downstream kernels read, in the
@@ -625,11 +743,13 @@ fn accumulate(l: &mut [f32; 3], k_sum: &mut [f32; 3], e_sum: &mut [f32; 3], k: V
 /// - `depth`: `z_min`, `z_max`, indirect rays that hit, indirect rays (as `indirect.sample`);
 /// - `counts`: paths (primary samples; a fixed camera ray is traced once for all of them), shadow rays, indirect samples (diffuse + glossy), non-finite samples;
 /// - `direct`: mean direct E (rgb) and w = shadow rays, the value/sample-count convention of
-///   `direct.light`'s `estimate`, which the world-space filters read (Vec4).
+///   `direct.light`'s `estimate`, which the world-space filters read (Vec4);
+/// - `diffuse`, `glossy`: the same for the indirect parts (mean E, w = their samples), the convention
+///   of `indirect.sample`'s estimates (Ch. 4 filters them, then multiplies k_d and k_s back in).
 pub struct PathsResolve;
 
 /// Every output of `paths.resolve`, in binding order (all optional).
-pub const RESOLVE_OUTPUTS: [(&str, Format); 18] = [
+pub const RESOLVE_OUTPUTS: [(&str, Format); 20] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -648,16 +768,26 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 18] = [
     ("depth", Format::Vec4),
     ("counts", Format::Vec4),
     ("direct", Format::Vec4),
+    ("diffuse", Format::Vec4),
+    ("glossy", Format::Vec4),
 ];
+
+/// How many of [`RESOLVE_OUTPUTS`] are Vec3 (they come first).
+const RESOLVE_VEC3: usize = 11;
 
 /// Everything [`PathsResolve`] writes for one pixel.
 struct Resolved {
-    vec3: [[f32; 3]; 11],
-    vec4: [[f32; 4]; 7],
+    vec3: [[f32; 3]; RESOLVE_VEC3],
+    vec4: [[f32; 4]; RESOLVE_OUTPUTS.len() - RESOLVE_VEC3],
+}
+
+/// A mean and its sample count: the estimate convention the world-space filters read.
+fn estimate(e: [f32; 3], samples: u32) -> [f32; 4] {
+    [e[0], e[1], e[2], samples as f32]
 }
 
 fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height: u32) -> Resolved {
-    let mean = |s: [f32; 3]| r.mean_of(s, r.weight).to_array();
+    let mean = |s: [f32; 3], over: f32| r.mean_of(s, over).to_array();
     let lambda = r.lens_position();
     let hit_mean = |s: f32| if r.hit_weight > 0.0 { s / r.hit_weight } else { 0.0 };
     let (position, normal, defocus) = if r.hits > 0 {
@@ -679,16 +809,16 @@ fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height
     Resolved {
         vec3: [
             r.radiance().to_array(),
-            mean(r.l_direct),
-            mean(r.k_direct),
-            mean(r.e_direct),
-            mean(r.l_diffuse),
-            mean(r.k_diffuse),
-            mean(r.e_diffuse),
-            mean(r.l_glossy),
-            mean(r.k_glossy),
-            mean(r.e_glossy),
-            mean(r.emission),
+            mean(r.l_direct, r.w_direct),
+            mean(r.k_direct, r.w_direct),
+            mean(r.e_direct, r.w_direct),
+            mean(r.l_diffuse, r.w_diffuse),
+            mean(r.k_diffuse, r.w_diffuse),
+            mean(r.e_diffuse, r.w_diffuse),
+            mean(r.l_glossy, r.w_glossy),
+            mean(r.k_glossy, r.w_glossy),
+            mean(r.e_glossy, r.w_glossy),
+            mean(r.emission, r.weight),
         ],
         vec4: [
             position,
@@ -697,10 +827,9 @@ fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height
             [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
             [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
             [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
-            {
-                let e = mean(r.e_direct);
-                [e[0], e[1], e[2], r.shadow as f32]
-            },
+            estimate(mean(r.e_direct, r.w_direct), r.shadow),
+            estimate(mean(r.e_diffuse, r.w_diffuse), r.diffuse_samples),
+            estimate(mean(r.e_glossy, r.w_glossy), r.glossy_samples),
         ],
     }
 }
@@ -741,10 +870,10 @@ impl Kernel for PathsResolve {
             resolve(&records[i], &cam, pixel_angle, tan_half, height)
         });
         for (k, (name, _)) in RESOLVE_OUTPUTS.iter().enumerate() {
-            if k < 11 {
+            if k < RESOLVE_VEC3 {
                 ctx.put_opt(name, || out.iter().map(|r| r.vec3[k]).collect::<Vec<_>>())?;
             } else {
-                ctx.put_opt(name, || out.iter().map(|r| r.vec4[k - 11]).collect::<Vec<_>>())?;
+                ctx.put_opt(name, || out.iter().map(|r| r.vec4[k - RESOLVE_VEC3]).collect::<Vec<_>>())?;
             }
         }
         Ok(())
