@@ -191,19 +191,19 @@ fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: 
     var e = vec3<f32>(0.0);
     var valid = 0u;
     if (count.diffuse > 0u) {
-    for (var s = 0u; s < count.diffuse; s = s + 1u) {
-        let q = rec.diffuse_samples;
-        rec.diffuse_samples = rec.diffuse_samples + 1u;
-        let wi = sample_diffuse(n, draw(pixel, PAIR_HEMISPHERE_DIFFUSE, q));
-        let v = indirect_ray(x, n, wi, key_d, q);
-        if (is_finite3(v)) {
-            e = e + v;
-            valid = valid + 1u;
-        } else {
-            rec.non_finite = rec.non_finite + 1u;
+        for (var s = 0u; s < count.diffuse; s = s + 1u) {
+            let q = rec.diffuse_samples;
+            rec.diffuse_samples = rec.diffuse_samples + 1u;
+            let wi = sample_diffuse(n, draw(pixel, PAIR_HEMISPHERE_DIFFUSE, q));
+            let v = indirect_ray(x, n, wi, key_d, q);
+            if (is_finite3(v)) {
+                e = e + v;
+                valid = valid + 1u;
+            } else {
+                rec.non_finite = rec.non_finite + 1u;
+            }
         }
-    }
-    accumulate_diffuse(kd, e, valid, w);
+        accumulate_diffuse(kd, e, valid, w);
     }
 
     // Indirect glossy (`glossy` is off under ambient occlusion).

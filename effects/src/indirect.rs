@@ -37,10 +37,11 @@ use std::sync::Arc;
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
     CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PerPrimary, PortDecl, Reference,
-    SamplerPass, SamplerRequest, Stage,
+    SamplerPass, Stage,
 };
 
 use crate::filtering::{self, Separable};
+use crate::sampler::centre_path;
 
 /// Receiver BRDF for the transfer-function bandlimit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -228,22 +229,12 @@ impl NodeKind for Indirect {
         let albedo = if ao { None } else { ctx.input("albedo") };
         let specular = if ao { None } else { ctx.input("specular") };
         let glossy = specular.is_some();
-        let initial_rays = ctx.param("initial_rays").clone();
-        let ParamValue::Int(per_path) = initial_rays else {
-            return Err(GraphError::Expand { node: ctx.node().into(), message: "`initial_rays` must be an integer".into() });
-        };
-        let per_path = per_path.clamp(1, i64::from(u32::MAX)) as u32;
-
         // The shared sampler's first pass: one path through the pixel centre with `initial_rays`
         // stratified hemisphere samples per part (Ch. 4's first pass); its first-hit distances
         // `z_min, z_max` feed eqs. 4.15–4.21.
+        let (first, per_path) = centre_path(ctx.node(), "hemisphere", "indirect_per_primary", ctx.param("initial_rays"))?;
         ctx.sampler(
-            SamplerRequest::new()
-                .estimator("hemisphere")
-                .setting("paths", ParamValue::Int(1))
-                .setting("indirect_per_primary", initial_rays)
-                .setting("jitter", ParamValue::Bool(false))
-                .setting("sampling", ParamValue::Str("stratified".into()))
+            first
                 .setting("bounces", ctx.param("bounces").clone())
                 .setting("brdf", ctx.param("brdf").clone())
                 .setting("ao", ParamValue::Bool(ao))

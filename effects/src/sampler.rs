@@ -37,8 +37,31 @@ use wedge_backends::kernels::paths::{PATH_RECORD, RESOLVE_OUTPUTS};
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerKind, SamplerPass, SamplerPlan,
-    Stage,
+    SamplerRequest, Stage,
 };
+
+/// Thesis Ch. 3/4's first pass for `estimator`: one path per pixel through its centre (a fixed pinhole
+/// ray, so the record weighs samples), with the count parameter `count` of `node` (an integer ≥ 1)
+/// as the per-path samples of setting `per_path_setting`, stratified. Returns the request and that
+/// count, the `unit` of the node's `PerPrimary::Spread`.
+pub fn centre_path(
+    node: &str,
+    estimator: &str,
+    per_path_setting: &str,
+    count: &ParamValue,
+) -> Result<(SamplerRequest, u32), GraphError> {
+    let per_path = count.as_count().ok_or_else(|| GraphError::Expand {
+        node: node.into(),
+        message: format!("the count for sampler setting `{per_path_setting}` must be an integer, not {count}"),
+    })?;
+    let request = SamplerRequest::new()
+        .estimator(estimator)
+        .setting("paths", ParamValue::Int(1))
+        .setting(per_path_setting, ParamValue::Int(i64::from(per_path)))
+        .setting("jitter", ParamValue::Bool(false))
+        .setting("sampling", ParamValue::Str("stratified".into()));
+    Ok((request, per_path))
+}
 
 /// Estimator → `paths.trace` switch.
 const ESTIMATORS: [(&str, &str); 2] = [("light", "direct"), ("hemisphere", "indirect")];

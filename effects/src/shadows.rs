@@ -20,11 +20,12 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PerPrimary, PortDecl, Reference,
-    SamplerPass, SamplerRequest, Stage,
+    CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PerPrimary, PortDecl, Reference,
+    SamplerPass, Stage,
 };
 
 use crate::filtering::{self, Separable};
+use crate::sampler::centre_path;
 
 /// Slopes of the occlusion spectrum's double wedge (thesis eq. 3.4):
 /// `s_min = d1/d2_max − 1`, `s_max = d1/d2_min − 1`.
@@ -111,26 +112,12 @@ impl NodeKind for SoftShadows {
         let normal = ctx.required("normal")?;
         let (albedo, emission) = (ctx.input("albedo"), ctx.input("emission"));
         let light = ctx.param("light").clone();
-        let initial_rays = ctx.param("initial_rays").clone();
         let fill_radius = ctx.param("fill_radius").clone();
-
-        let ParamValue::Int(per_path) = initial_rays else {
-            return Err(GraphError::Expand { node: ctx.node().into(), message: "`initial_rays` must be an integer".into() });
-        };
-        let per_path = per_path.clamp(1, i64::from(u32::MAX)) as u32;
 
         // The shared sampler's first pass: n_p = 1 path through the pixel centre with `initial_rays`
         // stratified light samples (Ch. 3's first pass); its occluder statistics feed eq. 3.13/3.21.
-        ctx.sampler(
-            SamplerRequest::new()
-                .estimator("light")
-                .setting("light", light.clone())
-                .setting("paths", ParamValue::Int(1))
-                .setting("shadow_per_primary", initial_rays.clone())
-                .setting("jitter", ParamValue::Bool(false))
-                .setting("sampling", ParamValue::Str("stratified".into()))
-                .setting("form_factor", ctx.param("form_factor").clone()),
-        )?;
+        let (first, per_path) = centre_path(ctx.node(), "light", "shadow_per_primary", ctx.param("initial_rays"))?;
+        ctx.sampler(first.setting("light", light.clone()).setting("form_factor", ctx.param("form_factor").clone()))?;
         let occlusion = ctx.sampler_output(SamplerPass::First, "occlusion")?;
 
         let filled = ctx.buffer("occlusion_filled", Format::Vec4);

@@ -315,6 +315,14 @@ impl ParamValue {
             _ => None,
         }
     }
+    /// An integer as a count, clamped to `[1, u32::MAX]` (a validated parameter's range is inside
+    /// it), else `None`.
+    pub fn as_count(&self) -> Option<u32> {
+        match self {
+            ParamValue::Int(v) => Some((*v).clamp(1, i64::from(u32::MAX)) as u32),
+            _ => None,
+        }
+    }
 }
 
 impl fmt::Display for ParamValue {

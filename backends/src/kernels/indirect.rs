@@ -58,6 +58,31 @@ pub struct PathParams {
     pub eps: f32,
 }
 
+impl PathParams {
+    /// The estimator settings of a pass: `bounces` (at least 1) and `brdf` (`phong` |
+    /// `blinn_phong`) from its parameters, the ray offset from the scene's extent; `ao` and
+    /// `max_distance` as the kernel reads them (`indirect.sample`'s `mode`, `paths.trace`'s
+    /// optional `ao`). One reading for every kernel that traces indirect paths.
+    pub fn from_params(ctx: &KernelCtx<'_>, ao: bool, max_distance: f32) -> Result<PathParams, BackendError> {
+        let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
+        let brdf = ctx.str_param("brdf")?;
+        let lobe = Lobe::parse(brdf).ok_or_else(|| err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))?;
+        let bounces = ctx.int_param("bounces")?;
+        let bounces =
+            u32::try_from(bounces).map_err(|_| err(format!("`bounces` = {bounces} must be between 1 and {}", u32::MAX)))?;
+        Ok(PathParams { bounces: bounces.max(1), ao, max_distance, lobe, eps: RAY_EPSILON * ctx.scene.extent() })
+    }
+}
+
+/// `indirect.sample`'s `mode`: `"ao"` (ambient occlusion) or `"radiance"`.
+fn ao_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
+    match ctx.str_param("mode")? {
+        "radiance" => Ok(false),
+        "ao" => Ok(true),
+        other => Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("unknown mode `{other}`; use radiance or ao") }),
+    }
+}
+
 /// Rays traced by one path, for the counters.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathRays {
@@ -243,28 +268,17 @@ impl Kernel for IndirectSample {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/indirect_sample.wgsl"), |ctx| {
-                let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
                 let stratified = ctx.stratified_param()? as u32;
-                let ao = match ctx.str_param("mode")? {
-                    "radiance" => 0,
-                    "ao" => 1,
-                    other => return Err(err(format!("unknown mode `{other}`; use radiance or ao"))),
-                };
-                let brdf = ctx.str_param("brdf")?;
-                let lobe = match Lobe::parse(brdf) {
-                    Some(Lobe::Phong) => 0,
-                    Some(Lobe::BlinnPhong) => 1,
-                    None => return Err(err(format!("unknown brdf `{brdf}`; use phong or blinn_phong"))),
-                };
+                let p = PathParams::from_params(ctx, ao_mode(ctx)?, ctx.f32_param("max_distance")?)?;
                 Ok(Uniforms::new()
                     .vec3("camera", ctx.scene.camera.position.to_array())
                     .u32("count", ctx.int_param("count")?.max(0) as u32)
                     .u32("stratified", stratified)
-                    .u32("ao", ao)
-                    .u32("bounces", ctx.int_param("bounces")?.max(1) as u32)
-                    .f32("max_distance", ctx.f32_param("max_distance")?)
-                    .u32("lobe", lobe)
-                    .f32("eps", RAY_EPSILON * ctx.scene.extent())
+                    .u32("ao", p.ao as u32)
+                    .u32("bounces", p.bounces)
+                    .f32("max_distance", p.max_distance)
+                    .u32("lobe", (p.lobe == Lobe::BlinnPhong) as u32)
+                    .f32("eps", p.eps)
                     .u32("stream", ctx.int_param("stream")? as u32)
                     .u32("light_count", ctx.scene.lights.len() as u32))
             })
@@ -283,23 +297,10 @@ impl Kernel for IndirectSample {
         let rays_g = ctx.read_opt::<u32>("rays_glossy")?;
         let prev_d = ctx.read_opt::<[f32; 4]>("previous_diffuse")?;
         let prev_g = ctx.read_opt::<[f32; 4]>("previous_glossy")?;
-        let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
         let count = ctx.int_param("count")?.max(0) as u32;
         let stratified = ctx.stratified_param()?;
-        let ao = match ctx.str_param("mode")? {
-            "radiance" => false,
-            "ao" => true,
-            other => return Err(err(format!("unknown mode `{other}`; use radiance or ao"))),
-        };
-        let brdf = ctx.str_param("brdf")?;
-        let lobe = Lobe::parse(brdf).ok_or_else(|| err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))?;
-        let p = PathParams {
-            bounces: ctx.int_param("bounces")?.max(1) as u32,
-            ao,
-            max_distance: ctx.f32_param("max_distance")?,
-            lobe,
-            eps: RAY_EPSILON * scene.extent(),
-        };
+        let ao = ao_mode(ctx)?;
+        let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
         let stream = ctx.int_param("stream")? as u32;
         let want_glossy = ctx.is_bound("glossy") && specular.is_some() && !ao;
         let (seed, width) = (ctx.seed, ctx.width);

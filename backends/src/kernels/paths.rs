@@ -66,7 +66,7 @@ use wedge_scene::{Camera, LensShape};
 
 use crate::buffer::Record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
-use crate::kernels::direct::{light_centre_factor, light_sample, RAY_EPSILON};
+use crate::kernels::direct::{light_centre_factor, light_sample};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::rng::PixelRng;
@@ -278,8 +278,6 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
     let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
     let lens = ctx.str_param("lens")?;
     let lens = LensShape::parse(lens).ok_or_else(|| err(format!("unknown lens `{lens}`; use disk or gaussian")))?;
-    let brdf = ctx.str_param("brdf")?;
-    let lobe = Lobe::parse(brdf).ok_or_else(|| err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))?;
     let positive = |name: &str| -> Result<u32, BackendError> {
         let v = ctx.int_param(name)?;
         u32::try_from(v).map_err(|_| err(format!("`{name}` = {v} must be between 0 and {}", u32::MAX)))
@@ -343,13 +341,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         indirect_per_primary: positive("indirect_per_primary")?,
         light: if direct { ctx.light_param("light")? } else { 0 },
         stream: ctx.int_param("stream")? as u32,
-        path: PathParams {
-            bounces: positive("bounces")?.max(1),
-            ao,
-            max_distance,
-            lobe,
-            eps: RAY_EPSILON * ctx.scene.extent(),
-        },
+        path: PathParams::from_params(ctx, ao, max_distance)?,
     })
 }
 
@@ -645,21 +637,21 @@ fn trace_indirect(
 
     // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d.
     if count.diffuse > 0 {
-    let (mut e, mut valid) = (Vec3::ZERO, 0u32);
-    for _ in 0..count.diffuse {
-        let q = r.diffuse_samples;
-        r.diffuse_samples += 1;
-        let wi = sample_diffuse(n, draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q));
-        let v = indirect_ray(scene, &s.path, x, n, wi, rng_d, q, r);
-        if v.is_finite() {
-            e += v;
-            valid += 1;
-        } else {
-            r.non_finite += 1;
+        let (mut e, mut valid) = (Vec3::ZERO, 0u32);
+        for _ in 0..count.diffuse {
+            let q = r.diffuse_samples;
+            r.diffuse_samples += 1;
+            let wi = sample_diffuse(n, draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q));
+            let v = indirect_ray(scene, &s.path, x, n, wi, rng_d, q, r);
+            if v.is_finite() {
+                e += v;
+                valid += 1;
+            } else {
+                r.non_finite += 1;
+            }
         }
-    }
-    let sums = Sums { l: &mut r.l_diffuse, k: &mut r.k_diffuse, e: &mut r.e_diffuse, w: &mut r.w_diffuse };
-    accumulate(sums, kd, e, valid, w, s.fixed_primary);
+        let sums = Sums { l: &mut r.l_diffuse, k: &mut r.k_diffuse, e: &mut r.e_diffuse, w: &mut r.w_diffuse };
+        accumulate(sums, kd, e, valid, w, s.fixed_primary);
     }
 
     // Indirect glossy: lobe-sampled; E = L_i · f cos/pdf without k_s, k = k_s. Ambient occlusion
