@@ -10,14 +10,16 @@
 //!   (`Stage::Adaptive`), by the names the registered [`SamplerKind`] declares;
 //! - submits per-pixel count requests ([`ExpandCtx::sampler_counts`], a [`CountRequest`]): `u32`
 //!   buffers it writes in `Stage::Bandwidth` — primary paths per pixel and secondary samples per
-//!   primary, per estimator.
+//!   estimator or per *channel* of one ([`SamplerKind::channels`]): per primary path, a total over
+//!   the adaptive pass ([`PerPrimary::Total`]), or a total over both passes spread over whatever
+//!   paths the pixel gets ([`PerPrimary::Spread`], Ch. 3/4's counts at one primary hit).
 //!
 //! After every node has expanded, [`crate::expand()`] hands the merged [`SamplerPlan`] to the
 //! [`SamplerKind`] registered in the [`crate::NodeRegistry`] (wedge's is `wedge_effects::sampler`),
 //! which emits the passes once under the node name [`SAMPLER_NODE`]: first pass, resolve, the
 //! `Stage::Counts` combination (per-pixel max of the requests, 3×3 max where asked, at least one
-//! secondary per primary), the adaptive pass continuing the first pass's record, resolve. The graph
-//! knows no kernel of it. A pipeline whose nodes never ask for the sampler emits none of it.
+//! secondary per primary except for channels counted only by spreads), the adaptive pass continuing
+//! the first pass's record, resolve. The graph knows no kernel of it. A pipeline whose nodes never ask for the sampler emits none of it.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;

@@ -20,6 +20,9 @@ impl SamplerKind for TestSampler {
     fn estimators(&self) -> Vec<&'static str> {
         vec!["light", "hemisphere"]
     }
+    fn channels(&self) -> Vec<(&'static str, &'static str)> {
+        vec![("light", "light"), ("hemisphere", "hemisphere"), ("glossy", "hemisphere")]
+    }
     fn settings(&self) -> Vec<&'static str> {
         vec!["light", "paths"]
     }
@@ -87,6 +90,8 @@ impl NodeKind for Shadowy {
         vec![
             ParamDecl::int("light", 0, 0, 8, "light"),
             ParamDecl::choice("estimator", "light", &["light", "hemisphere", "lens"], "estimator to ask for"),
+            ParamDecl::choice("counts", "constant", &["constant", "spread", "spread0"], "9 per path, or a spread of `rays` (unit 9, or 0)"),
+            ParamDecl::choice("key", "estimator", &["estimator", "glossy"], "the count request names the estimator, or channel `glossy`"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
@@ -96,13 +101,16 @@ impl NodeKind for Shadowy {
         let stats = ctx.sampler_output(SamplerPass::First, "stats")?;
         let rays = ctx.buffer("rays", Format::U32);
         ctx.pass("rates", "test.rates", Stage::Bandwidth).read("stats", stats).write("rays", rays).finish();
-        ctx.sampler_counts(CountRequest {
-            paths: Some(rays),
-            paths_unit: 9,
-            per_primary: vec![(estimator.clone(), PerPrimary::Constant(9))],
-            max3: false,
-            beyond_first: false,
-        })?;
+        let key = match ctx.param("key") {
+            ParamValue::Str(k) if k == "glossy" => "glossy".to_string(),
+            _ => estimator.clone(),
+        };
+        let per = match ctx.param("counts") {
+            ParamValue::Str(c) if c == "spread" => PerPrimary::Spread { total: rays, unit: 9 },
+            ParamValue::Str(c) if c == "spread0" => PerPrimary::Spread { total: rays, unit: 0 },
+            _ => PerPrimary::Constant(9),
+        };
+        ctx.sampler_counts(CountRequest { paths: Some(rays), paths_unit: 9, per_primary: vec![(key, per)], max3: false, beyond_first: false })?;
         let estimate = ctx.sampler_output(SamplerPass::Final, "estimate")?;
         let y = ctx.buffer("y", Format::F32);
         ctx.pass("compose", "test.compose", Stage::Compose).read("x", estimate).write("y", y).finish();
@@ -236,4 +244,20 @@ fn reference_is_n_jointly_stratified_paths_of_one_secondary_each() {
     let s = schedule(r).unwrap();
     let names: Vec<&str> = s.passes.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(names, ["sampler.first", "sampler.counts", "sampler.per_light", "sampler.adaptive", "a.compose"]);
+}
+
+#[test]
+fn count_requests_may_name_a_channel_of_an_asked_estimator_and_a_spread_needs_a_unit() {
+    // `glossy` is a channel of `hemisphere`: fine where a node asked for `hemisphere`, an error naming
+    // the estimator where none did.
+    let ok = [r#"(name: "a", kind: "Shadowy", params: {"estimator": "hemisphere", "key": "glossy", "counts": "spread"})"#, TWO_LIGHTS_SINK];
+    expansion(&ok, true).unwrap();
+    let err = expansion(&[r#"(name: "a", kind: "Shadowy", params: {"key": "glossy"})"#, TWO_LIGHTS_SINK], true)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("node `a`") && err.contains("estimator `hemisphere`") && err.contains("no node asked"), "{err}");
+    let err = expansion(&[r#"(name: "a", kind: "Shadowy", params: {"counts": "spread0"})"#, TWO_LIGHTS_SINK], true)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("node `a`") && err.contains("`light`") && err.contains("`unit` must be at least 1"), "{err}");
 }
