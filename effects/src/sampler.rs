@@ -235,7 +235,7 @@ impl SamplerKind for PathSampler {
         b.random().reference(Reference::Continued).finish();
         Self::resolve(ctx, plan, SamplerPass::First, first, Stage::Sample);
 
-        // 3. Counts: paths per pixel, then secondary samples per primary per asked estimator.
+        // 3. Counts: paths per pixel, then each bound channel's samples over the adaptive pass.
         let spread = |ctx: &mut ExpandCtx<'_>, name: String, value: BufferId, max3: bool| {
             if !max3 {
                 return value;
