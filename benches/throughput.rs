@@ -9,7 +9,8 @@
 //!   surface or the light are skipped like the kernel skips them;
 //! - shadow closest: the same rays through `Scene::intersect` (the first pass needs occluder distances).
 //!
-//! - paths: the `indirect.sample` kernel itself (what `Indirect` and `MonteCarlo` run) on `cornell`
+//! - paths: the `indirect.sample` kernel itself (what `MonteCarlo` runs; `Indirect` runs `paths.trace`,
+//!   whose hemisphere estimator is the same `trace_path`) on `cornell`
 //!   with 1, 2 and 3 bounces: hemisphere/bounce rays plus next-event shadow rays per second, and
 //!   paths per second (kernel time from the run's pass timings).
 //!
