@@ -230,6 +230,18 @@ fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: 
     }
 }
 
+// PathsTrace's `Split`: a total over `paths` paths as (quotient, remainder); path t carries the quotient
+// and one more where t < remainder.
+fn split_total(total: u32, paths: u32) -> vec2<u32> {
+    let p = max(paths, 1u);
+    return vec2<u32>(total / p, total % p);
+}
+
+fn secondary_on(shadow: vec2<u32>, diffuse: vec2<u32>, glossy: vec2<u32>, t: u32) -> Secondary {
+    return Secondary(shadow.x + select(0u, 1u, t < shadow.y), diffuse.x + select(0u, 1u, t < diffuse.y),
+        glossy.x + select(0u, 1u, t < glossy.y));
+}
+
 fn ceil_div(a: u32, b: u32) -> u32 {
     return a / b + select(0u, 1u, a % b != 0u);
 }
@@ -262,26 +274,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     count = min(count, 0xffffffffu - prev.paths); // the CPU's saturating first + count
     // Per component: q samples per path and one more on the first r paths (PathsTrace's `Split`).
-    let p = max(count, 1u);
-    var q = Secondary(params.shadow_per_primary, params.indirect_per_primary, 0u);
-    var r = Secondary(0u, 0u, 0u);
+    // A total over the pass: its quotient and remainder per path; unbound, the per-path parameter.
+    var shadow_split = vec2<u32>(params.shadow_per_primary, 0u);
+    var diffuse_split = vec2<u32>(params.indirect_per_primary, 0u);
     if (shadow_total_bound()) {
-        q.shadow = shadow_total_at(i) / p;
-        r.shadow = shadow_total_at(i) % p;
+        shadow_split = split_total(shadow_total_at(i), count);
     }
     if (diffuse_total_bound()) {
-        q.diffuse = diffuse_total_at(i) / p;
-        r.diffuse = diffuse_total_at(i) % p;
+        diffuse_split = split_total(diffuse_total_at(i), count);
     }
-    q.glossy = q.diffuse;
-    r.glossy = r.diffuse;
+    var glossy_split = diffuse_split;
     if (glossy_total_bound()) {
-        q.glossy = glossy_total_at(i) / p;
-        r.glossy = glossy_total_at(i) % p;
+        glossy_split = split_total(glossy_total_at(i), count);
     }
-    // The largest path's counts size the chunks' work units.
-    let n = Secondary(q.shadow + select(0u, 1u, r.shadow > 0u), q.diffuse + select(0u, 1u, r.diffuse > 0u),
-        q.glossy + select(0u, 1u, r.glossy > 0u));
+    // Path 0 carries the most of each: its counts size the chunks' work units.
+    let n = secondary_on(shadow_split, diffuse_split, glossy_split, 0u);
     // Chunks are counted in work units of about 8 rays (path_units): path k of this pass runs in the
     // dispatch whose unit range [chunk_begin, chunk_end) holds k·units, so a dispatch traces at most
     // ~8 × chunk rays per pixel however many secondary samples a path carries (lavapipe cuts a loop
@@ -329,9 +336,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
             have_hit = true;
         }
-        let on = Secondary(q.shadow + select(0u, 1u, k < r.shadow), q.diffuse + select(0u, 1u, k < r.diffuse),
-            q.glossy + select(0u, 1u, k < r.glossy));
-        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, on);
+        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, secondary_on(shadow_split, diffuse_split, glossy_split, k));
     }
     count_cut_loop(k, end);
     var primary = rec.paths - before.paths;

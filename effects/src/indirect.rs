@@ -284,18 +284,18 @@ impl NodeKind for Indirect {
         ctx.sampler_counts(CountRequest { paths: None, paths_unit: 1, per_primary, max3: false, beyond_first: false })?;
         // The sampler's final estimates per part: mean E (k_d, k_s left out), w = samples.
         let noisy_d = ctx.sampler_output(SamplerPass::Final, "diffuse")?;
-        let noisy_g = if glossy { ctx.sampler_output(SamplerPass::Final, "glossy")? } else { noisy_d };
+        let noisy_g = if glossy { Some(ctx.sampler_output(SamplerPass::Final, "glossy")?) } else { None };
 
         // Full 3-D distances (Ch. 4 has no light plane); each component with its own β.
         let filter = |ctx: &mut ExpandCtx<'_>, prefix: &str, value, bandwidth| {
             filtering::separable(ctx, prefix, value, &Separable { position, normal, bandwidth, plane_light: None })
         };
         let filtered_d = filter(ctx, "diffuse_", noisy_d, beta_d);
-        let filtered_g = glossy.then(|| filter(ctx, "glossy_", noisy_g, beta_g));
+        let filtered_g = noisy_g.map(|g| filter(ctx, "glossy_", g, beta_g));
 
         for (pass, d, g, port) in [
             ("compose", filtered_d, filtered_g, "radiance"),
-            ("compose_unfiltered", noisy_d, glossy.then_some(noisy_g), "unfiltered"),
+            ("compose_unfiltered", noisy_d, noisy_g, "unfiltered"),
         ] {
             let out = ctx.buffer(port, Format::Vec3);
             ctx.pass(pass, "indirect.compose", Stage::Compose)

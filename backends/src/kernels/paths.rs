@@ -290,9 +290,10 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
             other => return Err(err(format!("unknown form_factor `{other}`; use light_centre or exact"))),
         },
     };
-    let flag = |name: &str| -> Result<bool, BackendError> {
+    // An optional bool parameter with its default.
+    let flag = |name: &str, default: bool| -> Result<bool, BackendError> {
         match ctx.params.get(name) {
-            None => Ok(true),
+            None => Ok(default),
             Some(_) => ctx.bool_param(name),
         }
     };
@@ -313,10 +314,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         }
         camera.focus_distance = f;
     }
-    let ao = match ctx.params.get("ao") {
-        None => false,
-        Some(_) => ctx.bool_param("ao")?,
-    };
+    let ao = flag("ao", false)?;
     let max_distance = match ctx.params.get("max_distance") {
         None => 0.0,
         Some(_) => ctx.f32_param("max_distance")?,
@@ -325,14 +323,14 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         return Err(err(format!("`max_distance` = {max_distance} must be a finite number >= 0")));
     }
     let jitter = ctx.bool_param("jitter")?;
-    let direct = flag("direct")?;
+    let direct = flag("direct", true)?;
     Ok(Settings {
         fixed_primary: !jitter && camera.aperture_radius == 0.0,
         camera,
         exact,
         direct,
-        indirect: flag("indirect")?,
-        glossy: flag("glossy")? && !ao,
+        indirect: flag("indirect", true)?,
+        glossy: flag("glossy", true)? && !ao,
         stratified: ctx.stratified_param()?,
         count: positive("count")?,
         jitter,
