@@ -1,9 +1,15 @@
-// bvh.wgsl — mirror of wedge_scene::bvh::{intersect_triangle, slab, traverse} over the SAME flat
-// node and triangle arrays the CPU builds (uploaded unchanged). Fixed 64-entry stack, near child
-// first, slab test with the exit widened by 3 ulps, Möller–Trumbore in f32.
+// bvh.wgsl — the GPU traversal of wedge_scene::bvh (scene/src/bvh/) over the SAME 4-wide nodes and
+// triangle packs the CPU builds (uploaded unchanged): four child boxes per node as vec4 lanes (slab
+// test with the near/far plane chosen by the direction's sign, exit widened by 3 ulps, NaN lanes no
+// constraint), hit children nearest first from a 64-entry stack, leaves tested four triangles at a
+// time with the same Möller–Trumbore operation order as the CPU (bit-identical t and barycentrics).
+// The closest hit is the smallest t, ties to the lower triangle index (`closer`): an order-free rule,
+// so the two backends agree without visiting nodes in the same order.
 #include "scene.wgsl"
 
 const BVH_STACK_SIZE: u32 = 64u;
+const LEAF_BIT: u32 = 0x80000000u;
+const LEAF_FIRST_MASK: u32 = 0x0fffffffu;
 
 struct Hit {
     hit: bool,
@@ -17,45 +23,71 @@ fn no_hit() -> Hit {
     return Hit(false, 0.0, 0u, 0.0, 0.0);
 }
 
-fn intersect_triangle(tri: Triangle, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> vec4<f32> {
-    // Returns (t, b1, b2, 1) on a hit, w = 0 otherwise.
-    let e1 = tri.e1;
-    let e2 = tri.e2;
-    let p = cross3(d, e2);
-    let det = dot3(e1, p);
-    if (det == 0.0 || !is_finite(det)) {
-        return vec4<f32>(0.0);
-    }
-    let inv_det = 1.0 / det;
-    let s = o - tri.v0;
-    let b1 = dot3(s, p) * inv_det;
-    if (!(b1 >= 0.0 && b1 <= 1.0)) {
-        return vec4<f32>(0.0);
-    }
-    let q = cross3(s, e1);
-    let b2 = dot3(d, q) * inv_det;
-    if (b2 < 0.0 || b1 + b2 > 1.0) {
-        return vec4<f32>(0.0);
-    }
-    let t = dot3(e2, q) * inv_det;
-    if (t > tmin && t < tmax) {
-        return vec4<f32>(t, b1, b2, 1.0);
-    }
-    return vec4<f32>(0.0);
+fn is_nan4(v: vec4<f32>) -> vec4<bool> {
+    return (bitcast<vec4<u32>>(v) & vec4<u32>(0x7fffffffu)) > vec4<u32>(0x7f800000u);
 }
 
-fn slab(node: BvhNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> f32 {
-    let t0 = (node.min - o) * inv_d;
-    let t1 = (node.max - o) * inv_d;
-    let near = gmin(t0, t1);
-    let far = gmax(t0, t1);
-    let t_enter = rmax(rmax(rmax(near.x, near.y), near.z), tmin);
-    // 1.000_000_4_f32 = 0x3f800003
-    let t_exit = rmin(rmin(rmin(far.x, far.y), far.z), tmax) * bitcast<f32>(0x3f800003u);
-    if (t_enter <= t_exit) {
-        return t_enter;
+fn is_finite4(v: vec4<f32>) -> vec4<bool> {
+    return (bitcast<vec4<u32>>(v) & vec4<u32>(0x7f800000u)) != vec4<u32>(0x7f800000u);
+}
+
+// wedge_scene::bvh::closer: nearer, or equally near with a lower triangle index.
+fn closer(t: f32, triangle: u32, t_best: f32, best_triangle: u32) -> bool {
+    return t < t_best || (t == t_best && triangle < best_triangle);
+}
+
+struct PackHits {
+    t: vec4<f32>,
+    b1: vec4<f32>,
+    b2: vec4<f32>,
+    ok: vec4<bool>,
+}
+
+// TrianglePack::intersect: Möller–Trumbore on four lanes, tmin < t <= tmax (inclusive for the tie rule).
+fn pack_intersect(p: TrianglePack, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> PackHits {
+    let dx = vec4<f32>(d.x);
+    let dy = vec4<f32>(d.y);
+    let dz = vec4<f32>(d.z);
+    let px = dy * p.e2[2] - dz * p.e2[1];
+    let py = dz * p.e2[0] - dx * p.e2[2];
+    let pz = dx * p.e2[1] - dy * p.e2[0];
+    let det = (p.e1[0] * px + p.e1[1] * py) + p.e1[2] * pz;
+    let inv_det = vec4<f32>(1.0) / det;
+    let sx = vec4<f32>(o.x) - p.v0[0];
+    let sy = vec4<f32>(o.y) - p.v0[1];
+    let sz = vec4<f32>(o.z) - p.v0[2];
+    let b1 = ((sx * px + sy * py) + sz * pz) * inv_det;
+    let qx = sy * p.e1[2] - sz * p.e1[1];
+    let qy = sz * p.e1[0] - sx * p.e1[2];
+    let qz = sx * p.e1[1] - sy * p.e1[0];
+    let b2 = ((dx * qx + dy * qy) + dz * qz) * inv_det;
+    let t = ((p.e2[0] * qx + p.e2[1] * qy) + p.e2[2] * qz) * inv_det;
+    // The scalar test's conditions lane by lane: a NaN b1 fails, a NaN b2 reaches the t test.
+    let zero = vec4<f32>(0.0);
+    let one = vec4<f32>(1.0);
+    let ok = (det != zero) & is_finite4(det) & (b1 >= zero) & (b1 <= one)
+        & !((b2 < zero) | (b1 + b2 > one)) & (t > vec4<f32>(tmin)) & (t <= vec4<f32>(tmax));
+    return PackHits(t, b1, b2, ok);
+}
+
+// Entry distances of a node's four children, +inf where the child is missed (WideRay::slab).
+fn wide_slab(n: WideNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> vec4<f32> {
+    var t_enter = vec4<f32>(tmin);
+    var t_exit = vec4<f32>(tmax);
+    let neg = inv_d < vec3<f32>(0.0);
+    var rows = array<vec4<f32>, 6>(
+        select(n.bounds[0], n.bounds[1], neg.x), select(n.bounds[1], n.bounds[0], neg.x),
+        select(n.bounds[2], n.bounds[3], neg.y), select(n.bounds[3], n.bounds[2], neg.y),
+        select(n.bounds[4], n.bounds[5], neg.z), select(n.bounds[5], n.bounds[4], neg.z));
+    for (var axis = 0u; axis < 3u; axis = axis + 1u) {
+        let near = (rows[2u * axis] - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
+        let far = (rows[2u * axis + 1u] - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
+        t_enter = select(max(near, t_enter), t_enter, is_nan4(near));
+        t_exit = select(min(far, t_exit), t_exit, is_nan4(far));
     }
-    return inf();
+    // 1.000_000_4_f32 = 0x3f800003 (bvh::traverse::WIDEN)
+    let hit = t_enter <= t_exit * vec4<f32>(bitcast<f32>(0x3f800003u));
+    return select(vec4<f32>(inf()), t_enter, hit);
 }
 
 fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> Hit {
@@ -64,55 +96,71 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
         return best;
     }
     let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
-    var t_best = tmax;
     let big = inf();
-    if (slab(bvh_node(0), o, inv_d, tmin, t_best) == big) {
-        return best;
-    }
+    let widen = bitcast<f32>(0x3f800003u);
+    var t_best = tmax;
+    var best_triangle = 0u;
     var stack: array<u32, BVH_STACK_SIZE>;
     var stack_t: array<f32, BVH_STACK_SIZE>;
-    let widen = bitcast<f32>(0x3f800003u);
     var sp = 0u;
-    var node = 0u;
+    var current = 0u; // the root, as a node reference
     loop {
-        let n = bvh_node(node);
-        if (n.count > 0u) {
-            for (var i = n.index; i < n.index + n.count; i = i + 1u) {
-                let h = intersect_triangle(triangle(i), o, d, tmin, t_best);
-                if (h.w != 0.0) {
-                    t_best = h.x;
-                    best = Hit(true, h.x, i, h.y, h.z);
-                    if (any_hit) {
-                        return best;
+        if ((current & LEAF_BIT) == 0u) {
+            let n = wide_node(current);
+            let te = wide_slab(n, o, inv_d, tmin, t_best);
+            // The hit children, sorted near to far (ties and any-hit: lane order). Each child's rank
+            // is counted rather than found by insertion: the insertion loop (`while j > 0 && …`)
+            // ran wrong on llvmpipe's GL (5 of 1728 primary hits differed on `grids`), this form
+            // agrees on GL and Vulkan.
+            var order = array<u32, 4>(0u, 0u, 0u, 0u);
+            var k = 0u;
+            for (var lane = 0u; lane < 4u; lane = lane + 1u) {
+                let t = te[lane];
+                if (t == big) {
+                    continue;
+                }
+                var rank = 0u;
+                for (var other = 0u; other < 4u; other = other + 1u) {
+                    let u = te[other];
+                    let earlier = select(u < t || (u == t && other < lane), other < lane, any_hit);
+                    if (u != big && earlier) {
+                        rank = rank + 1u;
                     }
                 }
+                order[rank] = lane;
+                k = k + 1u;
+            }
+            if (k > 0u) {
+                // Continue with the nearest, push the rest farthest first.
+                for (var i = k - 1u; i > 0u; i = i - 1u) {
+                    stack[sp] = n.child[order[i]];
+                    stack_t[sp] = te[order[i]];
+                    sp = sp + 1u;
+                }
+                current = n.child[order[0]];
+                continue;
             }
         } else {
-            let a = n.index;
-            let b = n.index + 1u;
-            let ta = slab(bvh_node(a), o, inv_d, tmin, t_best);
-            let tb = slab(bvh_node(b), o, inv_d, tmin, t_best);
-            if (ta != big && tb != big) {
-                // Any-hit takes the children in array order (the order cannot change its answer).
-                var near = a;
-                var far = b;
-                var t_far = tb;
-                if (!any_hit && !(ta <= tb)) {
-                    near = b;
-                    far = a;
-                    t_far = ta;
+            let first = current & LEAF_FIRST_MASK;
+            let count = ((current >> 28u) & 7u) + 1u;
+            for (var pi = first; pi < first + count; pi = pi + 1u) {
+                let p = triangle_pack(pi);
+                let h = pack_intersect(p, o, d, tmin, t_best);
+                for (var lane = 0u; lane < 4u; lane = lane + 1u) {
+                    if (!h.ok[lane]) {
+                        continue;
+                    }
+                    if (any_hit) {
+                        // Any hit strictly inside the ray's interval answers the query.
+                        if (h.t[lane] < t_best) {
+                            return Hit(true, h.t[lane], p.index[lane], h.b1[lane], h.b2[lane]);
+                        }
+                    } else if (closer(h.t[lane], p.index[lane], t_best, best_triangle)) {
+                        t_best = h.t[lane];
+                        best_triangle = p.index[lane];
+                        best = Hit(true, h.t[lane], p.index[lane], h.b1[lane], h.b2[lane]);
+                    }
                 }
-                stack[sp] = far;
-                stack_t[sp] = t_far;
-                sp = sp + 1u;
-                node = near;
-                continue;
-            } else if (ta != big) {
-                node = a;
-                continue;
-            } else if (tb != big) {
-                node = b;
-                continue;
             }
         }
         // Pop, dropping entries a closer hit has since made unreachable (closest hit only).
@@ -125,7 +173,7 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
                 break;
             }
         }
-        node = stack[sp];
+        current = stack[sp];
     }
     // Unreachable unless the driver cut the loop short (the loop only exits by `return`).
     atomicAdd(&counters[COUNTER_CUT_LOOPS], 1u);

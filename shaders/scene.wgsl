@@ -1,18 +1,27 @@
 // scene.wgsl — the scene as uploaded by backends/src/gpu/scene.rs (group 2), and surface
 // interpolation / albedo / emission mirroring wedge_scene::Scene::{surface, albedo, emission}.
-// BvhNode and Triangle are the Rust `repr(C)` structs byte for byte (32 and 48 bytes).
+// WideNode, TrianglePack and Triangle are the Rust `repr(C)` structs byte for byte (112, 160 and
+// 48 bytes).
 //
 // All arrays live in ONE storage buffer of 16-byte elements (`scene_data`), one after another;
 // `scene_layout` says at which element each starts. So the scene costs one storage binding
 // (WebGPU's default allows 8 per stage). Read them only through the accessors below
-// (`bvh_node(i)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
+// (`wide_node(i)`, `triangle_pack(i)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
 // `area_light(i)`): each rebuilds the struct from its 16-byte elements with bitcasts (bit-exact).
 
-struct BvhNode {
-    min: vec3<f32>,
-    index: u32,
-    max: vec3<f32>,
-    count: u32,
+// wedge_scene::bvh::WideNode: four child boxes as rows (bounds[2·axis] minima, bounds[2·axis + 1]
+// maxima, one lane per child) and four child references (see bvh.wgsl).
+struct WideNode {
+    bounds: array<vec4<f32>, 6>,
+    child: vec4<u32>,
+}
+
+// wedge_scene::bvh::TrianglePack: four triangles' v0, e1, e2 as x/y/z rows, lane = triangle.
+struct TrianglePack {
+    v0: array<vec4<f32>, 3>,
+    e1: array<vec4<f32>, 3>,
+    e2: array<vec4<f32>, 3>,
+    index: vec4<u32>,
 }
 
 struct Triangle {
@@ -77,13 +86,13 @@ struct Light {
 // First element of each array in `scene_data` (backends/src/gpu/scene.rs `pack`).
 struct SceneLayout {
     bvh_nodes: u32,
+    triangle_packs: u32,
     triangles: u32,
     shading: u32,
     materials: u32,
     tex_info: u32,
     texels: u32,
     lights: u32,
-    _pad: u32,
 }
 
 @group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;
@@ -93,11 +102,26 @@ fn scene_xyz(v: vec4<u32>) -> vec3<f32> {
     return bitcast<vec3<f32>>(v.xyz);
 }
 
-fn bvh_node(i: u32) -> BvhNode {
-    let b = scene_layout.bvh_nodes + 2u * i;
-    let a = scene_data[b];
-    let c = scene_data[b + 1u];
-    return BvhNode(scene_xyz(a), a.w, scene_xyz(c), c.w);
+fn wide_node(i: u32) -> WideNode {
+    let b = scene_layout.bvh_nodes + 7u * i;
+    var n: WideNode;
+    for (var k = 0u; k < 6u; k = k + 1u) {
+        n.bounds[k] = bitcast<vec4<f32>>(scene_data[b + k]);
+    }
+    n.child = scene_data[b + 6u];
+    return n;
+}
+
+fn triangle_pack(i: u32) -> TrianglePack {
+    let b = scene_layout.triangle_packs + 10u * i;
+    var p: TrianglePack;
+    for (var k = 0u; k < 3u; k = k + 1u) {
+        p.v0[k] = bitcast<vec4<f32>>(scene_data[b + k]);
+        p.e1[k] = bitcast<vec4<f32>>(scene_data[b + 3u + k]);
+        p.e2[k] = bitcast<vec4<f32>>(scene_data[b + 6u + k]);
+    }
+    p.index = scene_data[b + 9u];
+    return p;
 }
 
 fn triangle(i: u32) -> Triangle {

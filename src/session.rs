@@ -249,7 +249,7 @@ pub fn scene_bytes(scene: &Scene) -> u64 {
         std::mem::size_of_val(v) as u64
     }
     let texels: u64 = scene.textures.iter().map(|t| of(&t.texels)).sum();
-    of(&scene.triangles) + of(&scene.shading) + of(&scene.bvh) + of(&scene.materials) + of(&scene.lights) + texels
+    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels
 }
 
 /// The default memory limit: 3/4 of the memory the kernel reports available (`MemAvailable` of

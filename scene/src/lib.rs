@@ -5,9 +5,10 @@
 //!
 //! - **Geometry**: world-space triangles ([`TriangleRecord`]: `v0, e1, e2` for Möller–Trumbore) in BVH
 //!   leaf order, plus per-triangle shading data ([`TriangleShading`]) in the same order.
-//! - **BVH**: built once per scene with obvhs (PLOC, `medium_build`), flattened to 32-byte [`BvhNode`]s.
-//!   [`Scene::intersect`] / [`Scene::occluded`] traverse it with a plain fixed-stack loop ([`bvh`]) that
-//!   the WGSL kernel mirrors, so CPU and GPU results agree; obvhs's own traversal is not used.
+//! - **BVH**: built once per scene with obvhs (PLOC, `medium_build`), collapsed to 4-wide 112-byte
+//!   [`WideNode`]s. [`Scene::intersect`] / [`Scene::occluded`] traverse it with a SIMD slab test per node
+//!   ([`bvh`]); the WGSL kernel traverses the same nodes, and the closest hit is defined so that any
+//!   traversal order gives the same one (CPU and GPU agree); obvhs's own traversal is not used.
 //! - **Lights**: emissive triangles become [`AreaLight`]s; a pair forming a parallelogram merges into one
 //!   rectangle (the thesis's soft-shadow case). Each light provides uniform sampling, its footprint σ for
 //!   the filter bandwidth, and exact unoccluded irradiance (useful for shadow-ratio shading and tests).
@@ -38,7 +39,7 @@ use std::path::{Path, PathBuf};
 
 pub use glam::{Vec2, Vec3};
 
-pub use bvh::{BvhNode, Hit, TriangleRecord, NO_LIGHT};
+pub use bvh::{Hit, TriangleRecord, WideNode, NO_LIGHT};
 pub use camera::{Camera, LensRay, LensShape};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};

@@ -4,7 +4,7 @@ use std::collections::HashMap;
 
 use glam::{Vec2, Vec3};
 
-use crate::bvh::{self, BvhNode, Hit, TriangleRecord, NO_LIGHT, STACK_SIZE};
+use crate::bvh::{self, Bvh, Hit, TriangleRecord, MAX_REFERENCES, NO_LIGHT, STACK_SIZE};
 use crate::limits::{MAX_COORDINATE, MAX_RADIANCE, MAX_TRIANGLES};
 use crate::{AreaLight, Camera, LightShape, SceneError, Texture};
 
@@ -99,7 +99,8 @@ pub struct Scene {
     pub name: String,
     pub triangles: Vec<TriangleRecord>,
     pub shading: Vec<TriangleShading>,
-    pub bvh: Vec<BvhNode>,
+    /// The BVH over `triangles` (wide nodes and the triangle packs their leaves hold).
+    pub bvh: Bvh,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<AreaLight>,
@@ -201,12 +202,13 @@ impl Scene {
 
         let positions: Vec<[Vec3; 3]> = tris.iter().map(|t| [t.0, t.1, t.2]).collect();
         let built = bvh::build(&positions);
-        if built.depth > STACK_SIZE {
+        if built.stack_need > STACK_SIZE || built.order.len() > MAX_REFERENCES {
             return Err(SceneError::invalid(
                 &path,
                 format!(
-                    "BVH depth {} exceeds the traversal stack ({STACK_SIZE})",
-                    built.depth
+                    "the BVH needs {} traversal stack entries (the traversal has {STACK_SIZE}) for {} triangle references",
+                    built.stack_need,
+                    built.order.len()
                 ),
                 "this geometry is pathological for the builder; simplify or split it",
             ));
@@ -229,11 +231,12 @@ impl Scene {
             triangles.push(rec);
             shading.push(s);
         }
+        let bvh = Bvh::pack(built.nodes, &triangles);
         Ok(Scene {
             name: name.to_string(),
             triangles,
             shading,
-            bvh: built.nodes,
+            bvh,
             materials,
             textures,
             lights,
@@ -243,14 +246,15 @@ impl Scene {
         })
     }
 
-    /// Closest hit with tmin < t < tmax (own traversal over `self.bvh`, see [`crate::bvh::traverse`]).
+    /// Closest hit with tmin < t < tmax, ties to the lower triangle index (own traversal over `self.bvh`,
+    /// see [`crate::bvh::traverse`]).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        bvh::traverse(&self.bvh, &self.triangles, origin, dir, tmin, tmax, false)
+        bvh::traverse(&self.bvh, origin, dir, tmin, tmax, false)
     }
 
     /// Whether anything is hit with tmin < t < tmax (shadow rays; stops at the first hit).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        bvh::traverse(&self.bvh, &self.triangles, origin, dir, tmin, tmax, true).is_some()
+        bvh::traverse(&self.bvh, origin, dir, tmin, tmax, true).is_some()
     }
 
     /// Interpolated attributes at a hit. The position is interpolated from the vertices (more precise

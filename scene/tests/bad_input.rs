@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use wedge_scene::bvh::{intersect_triangle, tree_depth, STACK_SIZE};
+use wedge_scene::bvh::{intersect_triangle, stack_need, tree_depth, STACK_SIZE};
 use wedge_scene::*;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -827,9 +827,9 @@ fn identical_centres_build_in_bounded_time() {
         let s = s.unwrap();
         assert_eq!(s.triangle_count(), 200_000);
         assert!(
-            tree_depth(&s.bvh) <= STACK_SIZE,
+            stack_need(&s.bvh.nodes) <= STACK_SIZE,
             "{kind}: depth {}",
-            tree_depth(&s.bvh)
+            tree_depth(&s.bvh.nodes)
         );
         assert!(t < Duration::from_secs(20), "{kind}: {t:?}");
         // Still a correct BVH: closest hits agree with testing every triangle.
@@ -850,7 +850,7 @@ fn identical_centres_build_in_bounded_time() {
         }
         println!(
             "{kind}: 200k triangles with degenerate centres built in {t:?}, depth {}",
-            tree_depth(&s.bvh)
+            tree_depth(&s.bvh.nodes)
         );
     }
 }
@@ -863,9 +863,9 @@ fn identical_centres_one_million() {
     for kind in ["box", "fan"] {
         let (s, t) = build(kind, degenerate_centres(1_000_000, kind));
         let s = s.unwrap();
-        let depth = tree_depth(&s.bvh);
-        println!("{kind}: 1M triangles built in {t:?}, depth {depth}");
-        assert!(depth <= wedge_scene::bvh::STACK_SIZE, "{kind}: depth {depth}");
+        let (depth, need) = (tree_depth(&s.bvh.nodes), stack_need(&s.bvh.nodes));
+        println!("{kind}: 1M triangles built in {t:?}, depth {depth}, stack need {need}");
+        assert!(need <= STACK_SIZE, "{kind}: stack need {need}");
         assert_eq!(s.triangle_count(), 1_000_000);
     }
     let (s, t) = build("copies", vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 1_000_000]);

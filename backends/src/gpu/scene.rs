@@ -2,7 +2,7 @@
 //! packed one after another into ONE storage buffer of 16-byte elements ([`pack`]) so a kernel
 //! that reads the scene spends one storage binding on it (WebGPU's default allows 8 per stage);
 //! where each array starts goes in a small uniform (`SceneLayout` in scene.wgsl).
-//! `BvhNode` and `TriangleRecord` are uploaded byte for byte; shading, materials, textures and lights
+//! `WideNode`, `TrianglePack` and `TriangleRecord` are uploaded byte for byte; shading, materials, textures and lights
 //! are repacked into 16-byte-aligned structs. Light quantities the kernels need (normal, area,
 //! centre, σ) are computed here by the same Rust code the CPU uses, so both backends see identical
 //! values.
@@ -60,11 +60,12 @@ pub struct GpuLight {
 }
 
 /// Names of the scene arrays, in the order they are packed (and of `SceneLayout`'s fields).
-pub const SCENE_ARRAYS: [&str; 7] = ["bvh_nodes", "triangles", "shading", "materials", "tex_info", "texels", "lights"];
+pub const SCENE_ARRAYS: [&str; 8] =
+    ["bvh_nodes", "triangle_packs", "triangles", "shading", "materials", "tex_info", "texels", "lights"];
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
 /// WGSL storage buffers cannot be zero-sized).
-pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 7] {
+pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 8] {
     let shading: Vec<GpuShading> = scene
         .shading
         .iter()
@@ -142,7 +143,8 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 7] {
         }
     }
     [
-        bytes(&scene.bvh),
+        bytes(&scene.bvh.nodes),
+        bytes(&scene.bvh.packs),
         bytes(&scene.triangles),
         bytes(&shading),
         bytes(&materials),
@@ -153,8 +155,8 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 7] {
 }
 
 /// All scene arrays in one buffer (each starting on a 16-byte element) and the element index where
-/// each starts, in [`SCENE_ARRAYS`] order (padded to 8 words for the uniform).
-pub fn pack(arrays: &[Vec<u8>; 7]) -> (Vec<u8>, [u32; 8]) {
+/// each starts, in [`SCENE_ARRAYS`] order (8 words: the uniform `SceneLayout`).
+pub fn pack(arrays: &[Vec<u8>; 8]) -> (Vec<u8>, [u32; 8]) {
     let mut data = Vec::with_capacity(arrays.iter().map(|a| a.len() + 16).sum());
     let mut offsets = [0u32; 8];
     for (k, a) in arrays.iter().enumerate() {
@@ -171,10 +173,10 @@ mod tests {
 
     #[test]
     fn packed_arrays_start_on_16_byte_elements_in_order() {
-        let arrays = [vec![1u8; 32], vec![2; 48], vec![3; 80], vec![4; 48], vec![5; 16], vec![6; 20], vec![7; 112]];
+        let arrays = [vec![1u8; 32], vec![2; 48], vec![3; 80], vec![4; 48], vec![5; 16], vec![6; 20], vec![7; 112], vec![8; 4]];
         let (data, offsets) = pack(&arrays);
-        assert_eq!(offsets, [0, 2, 5, 10, 13, 14, 16, 0]);
-        assert_eq!(data.len(), (16 + 7) * 16);
+        assert_eq!(offsets, [0, 2, 5, 10, 13, 14, 16, 23]);
+        assert_eq!(data.len(), 24 * 16);
         for (k, a) in arrays.iter().enumerate() {
             let at = offsets[k] as usize * 16;
             assert_eq!(&data[at..at + a.len()], &a[..], "array {k}");

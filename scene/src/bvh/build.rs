@@ -1,0 +1,314 @@
+//! Building the wide BVH: obvhs (or a median split) builds a binary tree, which [`collapse`] turns
+//! into 4-wide nodes.
+//!
+//! PLOC pairs mutual nearest neighbours along the Morton order; when many primitives share one Morton
+//! code (identical bounding-box centres, e.g. a million triangles rotated about one point) the merge
+//! costs tie, only one pair merges per pass and the build turns quadratic with a chain-shaped tree (1M
+//! such triangles did not finish in minutes). [`build`] detects that input and uses a plain
+//! median-split builder instead ([`build_median`]: O(n log n), depth ≤ log2(n) + 1), and also falls
+//! back to it when the collapsed tree could overflow the traversal stack.
+
+use bytemuck::Zeroable;
+use glam::Vec3;
+
+use super::{leaf_ref, Child, WideNode, MAX_LEAF, STACK_SIZE, WIDTH};
+
+/// A binary node as the builders produce it (the layout the traversal used before it went 4-wide).
+/// Inner node: `count == 0`, children at `index` and `index + 1`. Leaf: `count > 0` primitives from
+/// `order[index]`. Node 0 is the root.
+#[derive(Clone, Copy, Debug, PartialEq, Zeroable)]
+pub struct BinaryNode {
+    pub min: [f32; 3],
+    pub index: u32,
+    pub max: [f32; 3],
+    pub count: u32,
+}
+
+/// The result of building: wide nodes plus the input-triangle order the leaves expect.
+pub struct BuiltBvh {
+    pub nodes: Vec<WideNode>,
+    /// `order[k]` = input index of the triangle that must be stored at position k.
+    pub order: Vec<u32>,
+    /// Levels of wide nodes (root alone = 1).
+    pub depth: usize,
+    /// Stack entries a traversal of this tree can need ([`stack_need`]); at most [`STACK_SIZE`] from
+    /// [`build`].
+    pub stack_need: usize,
+}
+
+/// A binary tree from one of the builders, before [`collapse`].
+pub struct BinaryTree {
+    pub nodes: Vec<BinaryNode>,
+    pub order: Vec<u32>,
+}
+
+/// Build with obvhs and collapse to 4-wide nodes. With a preset that pre-splits (spatial splits) a
+/// triangle is referenced from several leaves, so `order` may repeat input indices; the scene stores
+/// one copy per reference. `medium_build` (no splits) measured as fast as `slow_build` on `grids` and
+/// `heavy` (slow/very_slow visit 2–11% fewer nodes but the difference was within noise, at 2–6× the
+/// build time).
+pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
+    if largest_morton_cell(tris) > MAX_SHARED_MORTON_CELL {
+        return build_median(tris);
+    }
+    // Heavily nested boxes (e.g. a million triangles rotated about one axis, all centres on a line) make
+    // PLOC pair poorly too, without any tie. A PLOC build of an evenly strided sample is cheap and shows
+    // it: ordinary scenes' samples are 18–23 deep (built-ins), such inputs' 130+.
+    if tris.len() > PROBE_SIZE {
+        let sample: Vec<[Vec3; 3]> = tris
+            .iter()
+            .step_by(tris.len() / PROBE_SIZE)
+            .copied()
+            .collect();
+        let probe = binary_obvhs(&sample, obvhs::BvhBuildParams::medium_build());
+        if binary_depth(&probe.nodes) > MAX_PROBE_DEPTH {
+            return build_median(tris);
+        }
+    }
+    let built = build_with(tris, obvhs::BvhBuildParams::medium_build());
+    if built.stack_need > STACK_SIZE {
+        return build_median(tris);
+    }
+    built
+}
+
+/// Sample size of [`build`]'s PLOC probe on large inputs.
+pub const PROBE_SIZE: usize = 16384;
+/// Deepest sample tree [`build`] accepts before using [`build_median`] for the whole input.
+pub const MAX_PROBE_DEPTH: usize = 48;
+
+/// Most primitives allowed to share one Morton cell before [`build`] avoids PLOC. PLOC needs about
+/// one pass over all nodes per primitive in the largest tied group, so this bounds its extra passes.
+pub const MAX_SHARED_MORTON_CELL: usize = 256;
+
+/// The largest number of triangles whose bounding-box centres fall into the same cell of a 2^21-per-axis
+/// grid over the centres' bounds (the resolution of obvhs's 64-bit Morton codes).
+pub fn largest_morton_cell(tris: &[[Vec3; 3]]) -> usize {
+    let centre = |t: &[Vec3; 3]| (t[0].min(t[1]).min(t[2]) + t[0].max(t[1]).max(t[2])) * 0.5;
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in tris {
+        let c = centre(t);
+        lo = lo.min(c);
+        hi = hi.max(c);
+    }
+    let scale = ((1u32 << 21) - 1) as f32 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+    let mut cells: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
+    let mut largest = 0;
+    for t in tris {
+        let q = ((centre(t) - lo) * scale).to_array().map(|x| x as u64); // NaN/inf saturate, never panic
+        let n = cells.entry(q[0] << 42 | q[1] << 21 | q[2]).or_insert(0);
+        *n += 1;
+        largest = largest.max(*n);
+    }
+    largest
+}
+
+/// Top-down median split on the longest axis of the centres' bounds (ties split by position in the
+/// list, so identical centres still halve): O(n log n) and depth ≤ ⌈log2(n / 4)⌉ + 1 on any input.
+/// Slower to trace than obvhs's trees on ordinary scenes, so only [`build`]'s fallback.
+pub fn build_median(tris: &[[Vec3; 3]]) -> BuiltBvh {
+    collapse(&binary_median(tris))
+}
+
+/// [`build_median`]'s binary tree.
+pub fn binary_median(tris: &[[Vec3; 3]]) -> BinaryTree {
+    const LEAF: usize = 4;
+    let boxes: Vec<(Vec3, Vec3)> = tris
+        .iter()
+        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+        .collect();
+    let centres: Vec<Vec3> = boxes.iter().map(|(a, b)| (*a + *b) * 0.5).collect();
+    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+    let mut nodes = vec![BinaryNode::zeroed()];
+    let mut todo = vec![(0usize, 0usize, tris.len())];
+    while let Some((node, start, end)) = todo.pop() {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let (mut clo, mut chi) = (lo, hi);
+        for &i in &order[start..end] {
+            lo = lo.min(boxes[i as usize].0);
+            hi = hi.max(boxes[i as usize].1);
+            clo = clo.min(centres[i as usize]);
+            chi = chi.max(centres[i as usize]);
+        }
+        if end - start <= LEAF {
+            nodes[node] = BinaryNode {
+                min: lo.to_array(),
+                index: start as u32,
+                max: hi.to_array(),
+                count: (end - start) as u32,
+            };
+            continue;
+        }
+        let axis = (chi - clo).max_position();
+        let mid = (end - start) / 2;
+        order[start..end].select_nth_unstable_by(mid, |&a, &b| {
+            centres[a as usize][axis].total_cmp(&centres[b as usize][axis])
+        });
+        let first_child = nodes.len();
+        nodes.push(BinaryNode::zeroed());
+        nodes.push(BinaryNode::zeroed());
+        nodes[node] = BinaryNode {
+            min: lo.to_array(),
+            index: first_child as u32,
+            max: hi.to_array(),
+            count: 0,
+        };
+        todo.push((first_child, start, start + mid));
+        todo.push((first_child + 1, start + mid, end));
+    }
+    BinaryTree { nodes, order }
+}
+
+/// [`build`] with explicit obvhs parameters (for experiments and benchmarks).
+pub fn build_with(tris: &[[Vec3; 3]], params: obvhs::BvhBuildParams) -> BuiltBvh {
+    collapse(&binary_obvhs(tris, params))
+}
+
+/// obvhs's binary tree in [`BinaryNode`]s.
+pub fn binary_obvhs(tris: &[[Vec3; 3]], params: obvhs::BvhBuildParams) -> BinaryTree {
+    use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle};
+    let input: Vec<Triangle> = tris
+        .iter()
+        .map(|t| Triangle {
+            v0: t[0].into(),
+            v1: t[1].into(),
+            v2: t[2].into(),
+        })
+        .collect();
+    let mut core_time = std::time::Duration::ZERO;
+    let bvh = build_bvh2_from_tris(&input, params, &mut core_time);
+    let nodes: Vec<BinaryNode> = bvh
+        .nodes
+        .iter()
+        .map(|n| BinaryNode {
+            min: Vec3::from(n.aabb.min).to_array(),
+            index: n.first_index,
+            max: Vec3::from(n.aabb.max).to_array(),
+            count: n.prim_count,
+        })
+        .collect();
+    BinaryTree {
+        nodes,
+        order: bvh.primitive_indices,
+    }
+}
+
+/// Depth of the tree (root alone = 1), iteratively so deep trees cannot blow the Rust stack.
+pub fn binary_depth(nodes: &[BinaryNode]) -> usize {
+    if nodes.is_empty() {
+        return 0;
+    }
+    let mut max_depth = 0;
+    let mut todo = vec![(0u32, 1usize)];
+    while let Some((i, d)) = todo.pop() {
+        max_depth = max_depth.max(d);
+        let n = &nodes[i as usize];
+        if n.count == 0 {
+            todo.push((n.index, d + 1));
+            todo.push((n.index + 1, d + 1));
+        }
+    }
+    max_depth
+}
+
+/// Collapse a binary tree into 4-wide nodes, top down: each wide node takes its binary node's two
+/// children and keeps opening the inner child with the largest surface area (the one rays most
+/// likely enter) until it holds [`WIDTH`] children or only leaves — the usual greedy SAH collapse
+/// (Wald et al. 2008, "Getting rid of packets"). Leaves keep their triangle ranges; a leaf larger than
+/// [`MAX_LEAF`] is split into chunks under an extra node with the same box.
+pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
+    let bin = &tree.nodes;
+    let mut nodes = Vec::new();
+    if !bin.is_empty() {
+        nodes.push(WideNode::empty());
+        // (wide node to fill, binary node whose subtree it covers)
+        let mut todo = vec![(0usize, 0u32)];
+        while let Some((w, b)) = todo.pop() {
+            let n = bin[b as usize];
+            let mut open: Vec<u32> = if n.count > 0 { vec![b] } else { vec![n.index, n.index + 1] };
+            while open.len() < WIDTH {
+                let widest = open
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &i)| bin[i as usize].count == 0)
+                    .max_by(|x, y| area(&bin[*x.1 as usize]).total_cmp(&area(&bin[*y.1 as usize])));
+                let Some((k, &i)) = widest else { break };
+                let first = bin[i as usize].index;
+                open.splice(k..=k, [first, first + 1]);
+            }
+            for (slot, &i) in open.iter().enumerate() {
+                let c = bin[i as usize];
+                let r = if c.count == 0 {
+                    nodes.push(WideNode::empty());
+                    todo.push((nodes.len() - 1, i));
+                    (nodes.len() - 1) as u32
+                } else {
+                    leaf_slot(&mut nodes, c.index, c.count, c.min, c.max)
+                };
+                nodes[w].set(slot, c.min, c.max, r);
+            }
+        }
+    }
+    let (depth, stack_need) = (tree_depth(&nodes), stack_need(&nodes));
+    BuiltBvh {
+        nodes,
+        order: tree.order.clone(),
+        depth,
+        stack_need,
+    }
+}
+
+/// A reference to `count` triangles from `first`: a leaf, or for more than [`MAX_LEAF`] a new node
+/// over up to four chunks (recursively), each with the whole leaf's box.
+fn leaf_slot(nodes: &mut Vec<WideNode>, first: u32, count: u32, min: [f32; 3], max: [f32; 3]) -> u32 {
+    if count <= MAX_LEAF {
+        return leaf_ref(first, count);
+    }
+    let w = nodes.len();
+    nodes.push(WideNode::empty());
+    let chunk = count.div_ceil(WIDTH as u32);
+    for (slot, start) in (first..first + count).step_by(chunk as usize).enumerate() {
+        let r = leaf_slot(nodes, start, chunk.min(first + count - start), min, max);
+        nodes[w].set(slot, min, max, r);
+    }
+    w as u32
+}
+
+fn area(n: &BinaryNode) -> f32 {
+    let e = Vec3::from(n.max) - Vec3::from(n.min);
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
+/// Children of node `i` that are nodes (not leaves), with the number of used slots.
+fn inner_children(nodes: &[WideNode], i: usize) -> (usize, impl Iterator<Item = usize> + '_) {
+    let n = &nodes[i];
+    let used = (0..WIDTH).filter(|&s| n.used(s)).count();
+    let inner = n.children().filter_map(|c| match c {
+        Child::Node(j) => Some(j as usize),
+        Child::Leaf { .. } => None,
+    });
+    (used, inner)
+}
+
+/// Levels of wide nodes (root alone = 1; 0 for an empty tree). Children always follow their parent
+/// in the array, so one backward pass computes it without recursion.
+pub fn tree_depth(nodes: &[WideNode]) -> usize {
+    let mut depth = vec![1usize; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let (_, inner) = inner_children(nodes, i);
+        depth[i] = 1 + inner.map(|j| depth[j]).max().unwrap_or(0);
+    }
+    depth.first().copied().unwrap_or(0)
+}
+
+/// Most stack entries a traversal can hold: a node whose `k` children are all hit pushes `k − 1` and
+/// continues into one of them, so a subtree needs `(k − 1) + max over its inner children`. The
+/// traversals (CPU and WGSL) have [`STACK_SIZE`] entries; [`build`] keeps every tree within it.
+pub fn stack_need(nodes: &[WideNode]) -> usize {
+    let mut need = vec![0usize; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let (used, inner) = inner_children(nodes, i);
+        need[i] = used.saturating_sub(1) + inner.map(|j| need[j]).max().unwrap_or(0);
+    }
+    need.first().copied().unwrap_or(0)
+}

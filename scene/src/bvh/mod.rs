@@ -1,0 +1,156 @@
+//! The flat 4-wide BVH the CPU and the GPU both traverse, and the triangle layout they test against.
+//!
+//! - [`triangle`]: the one definition of a traced triangle, of a hit, and of the closest-hit tie rule.
+//! - [`build`]: obvhs builds a binary tree (PLOC + reinsertion, `medium_build`, in parallel); we
+//!   collapse it into [`WideNode`]s (surface-area greedy), with a median-split fallback for inputs that
+//!   make PLOC quadratic or too deep.
+//! - [`traverse`]: the CPU traversal — four child boxes per SSE slab test, children visited nearest
+//!   first, any-hit for shadow rays. `shaders/bvh.wgsl` traverses the same nodes (uploaded unchanged)
+//!   with `vec4` lanes; the two need not visit nodes in the same order, since the closest hit is
+//!   defined by [`triangle::closer`] (smallest `t`, then smallest triangle index) and both box tests
+//!   are conservative (never cull a triangle Möller–Trumbore would hit).
+//!
+//! Why 4-wide: measured against the binary tree it replaced on the built-in scenes (DESIGN-NOTES
+//! "Ray tracing core"): fewer, larger node visits that one SIMD slab test covers.
+
+pub mod build;
+pub mod traverse;
+pub mod triangle;
+
+use bytemuck::{Pod, Zeroable};
+
+pub use build::{build, build_median, build_with, largest_morton_cell, BuiltBvh};
+pub use traverse::traverse;
+pub use triangle::{closer, intersect_triangle, Hit, TriangleRecord, TrianglePack, NO_LIGHT, NO_TRIANGLE};
+
+/// Children per node.
+pub const WIDTH: usize = 4;
+
+/// Entries in the traversal stack (CPU and WGSL). The builder bounds the stack a tree can need
+/// ([`build::stack_need`]) and rejects trees that need more, so it never overflows.
+pub const STACK_SIZE: usize = 64;
+
+/// Most triangles in one leaf of a [`BuiltBvh`] (obvhs's `max_prims_per_leaf` is 8; larger leaves are
+/// split), and so at most two [`TrianglePack`]s per leaf of a [`Bvh`]. The reference has room for 8.
+pub const MAX_LEAF: u32 = 8;
+
+/// Set in a child reference that names a leaf (see [`WideNode::child`]).
+pub const LEAF_BIT: u32 = 1 << 31;
+/// A leaf's first triangle sits in the low 28 bits of its reference.
+pub const LEAF_FIRST_BITS: u32 = 28;
+/// Most triangle references a tree can address ([`LEAF_FIRST_BITS`]; scenes are limited to 2^26
+/// triangles before that, `crate::limits::MAX_TRIANGLES`).
+pub const MAX_REFERENCES: usize = 1 << LEAF_FIRST_BITS;
+
+/// A 4-wide BVH node (112 bytes, `repr(C)`, Pod; uploaded to the GPU byte for byte). Node 0 is the root.
+///
+/// `bounds` holds the four child boxes as structure of arrays, so one SIMD lane is one child:
+/// `bounds[2·axis]` the minima along `axis`, `bounds[2·axis + 1]` the maxima. An unused slot has the
+/// inverted infinite box (min +∞, max −∞), which the slab test (near/far plane chosen by the ray's
+/// direction sign) always culls: its entry is +∞ and its exit −∞ on every axis.
+///
+/// `child[i]` is a reference: an inner child is its node index (top bit clear); a leaf is
+/// `LEAF_BIT | (count − 1) << 28 | first`. In a [`Bvh`] (what scenes trace) that is `count` triangle
+/// packs from `Bvh::packs[first]`; in a [`BuiltBvh`] straight from the builder, `count`
+/// (1..=[`MAX_LEAF`]) triangles from position `first` of its `order`. [`child_ref`] / [`leaf_ref`]
+/// decode and encode it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct WideNode {
+    pub bounds: [[f32; 4]; 6],
+    pub child: [u32; 4],
+}
+
+/// A decoded child reference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Child {
+    Node(u32),
+    Leaf { first: u32, count: u32 },
+}
+
+/// Encode a leaf reference (`first < 2^28`, `1 <= count <= MAX_LEAF`).
+pub fn leaf_ref(first: u32, count: u32) -> u32 {
+    debug_assert!(first < (1 << LEAF_FIRST_BITS) && (1..=MAX_LEAF).contains(&count));
+    LEAF_BIT | (count - 1) << LEAF_FIRST_BITS | first
+}
+
+/// Decode a child reference.
+#[inline(always)]
+pub fn child_ref(r: u32) -> Child {
+    if r & LEAF_BIT == 0 {
+        Child::Node(r)
+    } else {
+        Child::Leaf {
+            first: r & ((1 << LEAF_FIRST_BITS) - 1),
+            count: ((r >> LEAF_FIRST_BITS) & 7) + 1,
+        }
+    }
+}
+
+impl WideNode {
+    /// A node with every slot unused.
+    pub fn empty() -> Self {
+        let (lo, hi) = ([f32::INFINITY; 4], [f32::NEG_INFINITY; 4]);
+        WideNode {
+            bounds: [lo, hi, lo, hi, lo, hi],
+            child: [u32::MAX; 4],
+        }
+    }
+
+    /// Put a child with box `(min, max)` in slot `i`.
+    pub fn set(&mut self, i: usize, min: [f32; 3], max: [f32; 3], child: u32) {
+        for axis in 0..3 {
+            self.bounds[2 * axis][i] = min[axis];
+            self.bounds[2 * axis + 1][i] = max[axis];
+        }
+        self.child[i] = child;
+    }
+
+    /// Whether slot `i` holds a child (unused slots carry the inverted box).
+    pub fn used(&self, i: usize) -> bool {
+        self.bounds[0][i] <= self.bounds[1][i]
+    }
+
+    /// The used slots' decoded references.
+    pub fn children(&self) -> impl Iterator<Item = Child> + '_ {
+        (0..WIDTH).filter(|&i| self.used(i)).map(|i| child_ref(self.child[i]))
+    }
+}
+
+pub use build::{stack_need, tree_depth};
+
+/// What scenes trace: the wide nodes and the triangle packs their leaves reference (CPU and GPU alike).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bvh {
+    pub nodes: Vec<WideNode>,
+    pub packs: Vec<TrianglePack>,
+}
+
+impl Bvh {
+    /// Pack a built tree's leaves: each leaf's triangle range (positions in `tris`, the triangles in
+    /// BVH order) becomes consecutive [`TrianglePack`]s of four, and its reference points at them.
+    pub fn pack(mut nodes: Vec<WideNode>, tris: &[TriangleRecord]) -> Bvh {
+        let mut packs = Vec::with_capacity(tris.len() / 2);
+        for node in &mut nodes {
+            for slot in 0..WIDTH {
+                if !node.used(slot) {
+                    continue;
+                }
+                if let Child::Leaf { first, count } = child_ref(node.child[slot]) {
+                    let start = packs.len() as u32;
+                    let end = first + count;
+                    for c in (first..end).step_by(4) {
+                        packs.push(TrianglePack::new(&tris[c as usize..end as usize], c));
+                    }
+                    node.child[slot] = leaf_ref(start, packs.len() as u32 - start);
+                }
+            }
+        }
+        Bvh { nodes, packs }
+    }
+
+    /// Bytes the structure occupies (nodes and packs).
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.packs.as_slice())
+    }
+}

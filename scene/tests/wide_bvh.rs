@@ -1,0 +1,226 @@
+//! The 4-wide BVH on raw triangle soups (no scene loader in between, so duplicates and coplanar
+//! overlaps survive): the collapsed tree covers every triangle reference exactly once with boxes that
+//! contain their subtrees, oversized leaves are split, the stack bound holds, and traversal returns
+//! exactly the brute-force answer under the closest-hit rule (smallest t, then lowest index) —
+//! including ties between coincident triangles.
+
+use glam::Vec3;
+use wedge_scene::bvh::{
+    self, build::BinaryNode, build::BinaryTree, child_ref, closer, intersect_triangle, stack_need,
+    Bvh, Child, TriangleRecord, WideNode, MAX_LEAF, STACK_SIZE,
+};
+
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn v(&mut self) -> Vec3 {
+        Vec3::new(self.f(), self.f(), self.f())
+    }
+}
+
+/// Triangles stored in the BVH's order, as `Scene::from_triangles` does.
+fn records(input: &[[Vec3; 3]], built: &bvh::BuiltBvh) -> Vec<TriangleRecord> {
+    built
+        .order
+        .iter()
+        .map(|&i| {
+            let t = input[i as usize];
+            TriangleRecord::new(t[0], t[1], t[2], 0, i)
+        })
+        .collect()
+}
+
+fn brute(tris: &[TriangleRecord], o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(u32, f32)> {
+    let mut best: Option<(u32, f32)> = None;
+    for (i, t) in tris.iter().enumerate() {
+        if let Some((t, _, _)) = intersect_triangle(t, o, d, tmin, f32::INFINITY) {
+            let (tb, ib) = best.map_or((tmax, 0), |b| (b.1, b.0));
+            if t < tmax && closer(t, i as u32, tb, ib) {
+                best = Some((i as u32, t));
+            }
+        }
+    }
+    best
+}
+
+/// Every reference appears once; boxes contain their children's; leaves are small; stack bound holds.
+fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
+    let mut seen = vec![0u32; tris.len()];
+    let mut todo = vec![0usize];
+    while let Some(i) = todo.pop() {
+        let n = &nodes[i];
+        for s in 0..4 {
+            if !n.used(s) {
+                continue;
+            }
+            let lo = Vec3::new(n.bounds[0][s], n.bounds[2][s], n.bounds[4][s]);
+            let hi = Vec3::new(n.bounds[1][s], n.bounds[3][s], n.bounds[5][s]);
+            match child_ref(n.child[s]) {
+                Child::Node(j) => {
+                    assert!(j as usize > i, "children follow their parent");
+                    let c = &nodes[j as usize];
+                    for cs in (0..4).filter(|&cs| c.used(cs)) {
+                        let clo = Vec3::new(c.bounds[0][cs], c.bounds[2][cs], c.bounds[4][cs]);
+                        let chi = Vec3::new(c.bounds[1][cs], c.bounds[3][cs], c.bounds[5][cs]);
+                        assert!(clo.cmpge(lo).all() && chi.cmple(hi).all(), "node {j} slot {cs} outside its parent");
+                    }
+                    todo.push(j as usize);
+                }
+                Child::Leaf { first, count } => {
+                    assert!((1..=MAX_LEAF).contains(&count));
+                    for k in first..first + count {
+                        seen[k as usize] += 1;
+                        for v in tris[k as usize].vertices() {
+                            assert!(v.cmpge(lo).all() && v.cmple(hi).all(), "triangle {k} outside its leaf box");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(seen.iter().all(|&c| c == 1), "every triangle reference in exactly one leaf");
+    assert!(stack_need(nodes) <= STACK_SIZE);
+}
+
+/// The packed leaves hold exactly the triangles (same bits) the unpacked leaves referenced.
+fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
+    let mut seen = vec![0u32; tris.len()];
+    for n in &bvh.nodes {
+        for c in n.children() {
+            if let Child::Leaf { first, count } = c {
+                assert!(count <= 2, "a leaf of at most 8 triangles takes at most two packs");
+                for p in &bvh.packs[first as usize..(first + count) as usize] {
+                    for lane in 0..4 {
+                        let i = p.index[lane];
+                        if i == wedge_scene::bvh::NO_TRIANGLE {
+                            assert_eq!([p.e1[0][lane], p.e2[0][lane], p.e1[1][lane], p.e2[2][lane]], [0.0; 4]);
+                            continue;
+                        }
+                        seen[i as usize] += 1;
+                        let t = &tris[i as usize];
+                        for axis in 0..3 {
+                            assert_eq!(
+                                [p.v0[axis][lane], p.e1[axis][lane], p.e2[axis][lane]].map(f32::to_bits),
+                                [t.v0[axis], t.e1[axis], t.e2[axis]].map(f32::to_bits)
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(seen.iter().all(|&c| c == 1), "every triangle in exactly one pack lane");
+}
+
+fn check_rays(name: &str, tris: &[TriangleRecord], nodes: &[WideNode], rng: &mut Rng, rays: usize) -> (u32, u32) {
+    let bvh = Bvh::pack(nodes.to_vec(), tris);
+    check_packs(&bvh, tris);
+    let (mut hits, mut ties) = (0, 0);
+    for k in 0..rays {
+        let o = rng.v() * 3.0 - Vec3::splat(1.0);
+        let target = rng.v();
+        // Some rays axis-parallel (zero direction components: the 0 · ∞ slab case).
+        let mut d = target - o;
+        if k % 7 == 0 {
+            d.x = 0.0;
+        }
+        if k % 11 == 0 {
+            d.y = 0.0;
+            d.z = 0.0;
+        }
+        if d == Vec3::ZERO {
+            continue;
+        }
+        let tmax = if k % 3 == 0 { 0.5 + rng.f() } else { f32::INFINITY };
+        let want = brute(tris, o, d, 1e-5, tmax);
+        let got = bvh::traverse(&bvh, o, d, 1e-5, tmax, false);
+        assert_eq!(got.map(|h| (h.triangle, h.t.to_bits())), want.map(|(i, t)| (i, t.to_bits())), "{name} ray {k}");
+        let occluded = bvh::traverse(&bvh, o, d, 1e-5, tmax, true).is_some();
+        assert_eq!(occluded, want.is_some(), "{name} ray {k}: any-hit");
+        if let Some((i, t)) = want {
+            hits += 1;
+            ties += tris.iter().enumerate().any(|(j, tr)| {
+                j as u32 != i && intersect_triangle(tr, o, d, 1e-5, f32::INFINITY).is_some_and(|h| h.0 == t)
+            }) as u32;
+        }
+    }
+    (hits, ties)
+}
+
+#[test]
+fn random_soup_with_coincident_copies_matches_brute_force_exactly() {
+    let mut rng = Rng(7);
+    let mut input: Vec<[Vec3; 3]> = (0..3000)
+        .map(|_| {
+            let c = rng.v();
+            let s = 0.02 + 0.1 * rng.f();
+            [c, c + (rng.v() - 0.5) * s, c + (rng.v() - 0.5) * s]
+        })
+        .collect();
+    // Coincident copies (the same triangle twice, and with its vertices rotated) force ties.
+    for i in 0..300 {
+        let t = input[i * 7];
+        input.push(t);
+        input.push([t[1], t[2], t[0]]);
+    }
+    let built = bvh::build(&input);
+    let tris = records(&input, &built);
+    check_structure(&built.nodes, &tris);
+    let (hits, ties) = check_rays("soup", &tris, &built.nodes, &mut rng, 4000);
+    println!("soup: {} triangles, {} nodes, depth {}, stack need {}; {hits} hits, {ties} ties", tris.len(), built.nodes.len(), built.depth, built.stack_need);
+    assert!(hits > 1000 && ties > 20, "{hits} hits, {ties} ties: the test must exercise ties");
+}
+
+#[test]
+fn median_fallback_tree_traces_the_same() {
+    let mut rng = Rng(11);
+    let input: Vec<[Vec3; 3]> = (0..2000)
+        .map(|_| {
+            let c = rng.v();
+            [c, c + (rng.v() - 0.5) * 0.1, c + (rng.v() - 0.5) * 0.1]
+        })
+        .collect();
+    let built = bvh::build_median(&input);
+    let tris = records(&input, &built);
+    check_structure(&built.nodes, &tris);
+    check_rays("median", &tris, &built.nodes, &mut rng, 2000);
+}
+
+/// A binary leaf larger than a wide leaf holds (a builder preset with big leaves) is split into chunks.
+#[test]
+fn oversized_leaves_are_split() {
+    let mut rng = Rng(3);
+    let input: Vec<[Vec3; 3]> = (0..45)
+        .map(|_| {
+            let c = rng.v();
+            [c, c + rng.v() * 0.2, c + rng.v() * 0.2]
+        })
+        .collect();
+    // Root with two leaves of 40 and 5 triangles.
+    let boxed = |r: std::ops::Range<usize>| {
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for t in &input[r] {
+            for v in t {
+                lo = lo.min(*v);
+                hi = hi.max(*v);
+            }
+        }
+        (lo.to_array(), hi.to_array())
+    };
+    let (a, b, all) = (boxed(0..40), boxed(40..45), boxed(0..45));
+    let tree = BinaryTree {
+        nodes: vec![
+            BinaryNode { min: all.0, index: 1, max: all.1, count: 0 },
+            BinaryNode { min: a.0, index: 0, max: a.1, count: 40 },
+            BinaryNode { min: b.0, index: 40, max: b.1, count: 5 },
+        ],
+        order: (0..45).collect(),
+    };
+    let built = bvh::build::collapse(&tree);
+    let tris = records(&input, &built);
+    check_structure(&built.nodes, &tris);
+    check_rays("split leaves", &tris, &built.nodes, &mut rng, 1000);
+}
