@@ -1,6 +1,8 @@
-//! Ray-traversal throughput report (`cargo bench --bench throughput`): a Markdown table of primary,
-//! shadow (any-hit) and closest-hit shadow rays per second on the built-in `grids` and `heavy` scenes,
-//! at 1 and 2 rayon threads. Not a pass/fail test: it prints numbers for humans to compare.
+//! Ray-traversal throughput report (`cargo bench --bench throughput`): Markdown tables of primary,
+//! shadow (any-hit), closest-hit shadow and diffuse-bounce rays per second on the built-in `grids`,
+//! `heavy` and `spheres` (issue 12's 409,604-triangle scene) at 1 and 2 rayon threads, BVH build time
+//! and memory per obvhs preset, and, when a Python with `embreex` is present, the same rays traced by
+//! Embree on one thread. Not a pass/fail test: it prints numbers for humans to compare.
 //!
 //! - primary: one camera ray through every pixel centre of a 640×480 image, `Scene::intersect`,
 //!   repeated until ≥1 s has passed;
@@ -8,31 +10,51 @@
 //!   `direct.light` does) toward 16 uniform points on light 0, `Scene::occluded`; samples behind the
 //!   surface or the light are skipped like the kernel skips them;
 //! - shadow closest: the same rays through `Scene::intersect` (the first pass needs occluder distances).
+//! - diffuse: from each primary hit (same offset origin), 4 cosine-weighted directions about the
+//!   shading normal, `Scene::intersect` with tmax = ∞ — the incoherent bounce rays of a path tracer.
+//!
+//! - build: `bvh::build` (what scenes use) and `bvh::build_with` for obvhs's `fastest_build`,
+//!   `very_fast_build`, `fast_build` and `medium_build` on each scene's triangles: build time (best of
+//!   the runs in ≥1 s; obvhs's `parallel` feature uses every rayon thread), node and triangle-reference
+//!   memory. Traversal speed per preset is not measured: that needs the preset's tree inside a `Scene`,
+//!   which only `bvh::build` produces.
 //!
 //! - paths: the `indirect.sample` kernel itself (what `MonteCarlo` runs; `Indirect` runs `paths.trace`,
 //!   whose hemisphere estimator is the same `trace_path`) on `cornell`
 //!   with 1, 2 and 3 bounces: hemisphere/bounce rays plus next-event shadow rays per second, and
 //!   paths per second (kernel time from the run's pass timings).
 //!
-//! Shadow rays are generated once up front so only traversal is timed. Each row also prints a
+//! - Embree (issue 12's yardstick): each scene's triangles and rays are written to a temporary file
+//!   (format in `benches/embree_compare.py`) and `embree_compare.py` traces them with Embree 4 through
+//!   `embreex` (`rtcIntersect1`/`rtcOccluded1`, one thread), repeated for ≥1 s; the table sets its
+//!   Mrays/s beside wedge's 1-thread figure, with both hit counts and the number of rays whose results
+//!   agree (same triangle, or both miss), so the ratio is known to compare the same work. Skipped with
+//!   one line when Python or `embreex` is missing, and in the smoke run.
+//!
+//! Shadow and bounce rays are generated once up front so only traversal is timed. Each row also prints a
 //! checksum (hit count and a hash of the hit triangles' input indices) so runs before and after a
 //! traversal change can be compared for identical results.
 //!
-//! Environment: `WEDGE_BENCH_SCENES=grids,heavy` picks scenes, `WEDGE_BENCH_MIN_SECS=1` the minimum
-//! timed duration per cell.
+//! Environment: `WEDGE_BENCH_SCENES=grids,heavy,spheres` picks scenes, `WEDGE_BENCH_MIN_SECS=1` the
+//! minimum timed duration per cell, `WEDGE_BENCH_PYTHON=python3` the interpreter for the Embree side.
 
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use wedge::backends::rng::PixelRng;
 use wedge::backends::cpu::CpuBackend;
+use wedge::backends::kernels::hemisphere::{cosine_hemisphere, Frame};
+use wedge::backends::rng::PixelRng;
 use wedge::backends::Silent;
 use wedge::scene::{Scene, SceneSource};
 
 const W: u32 = 640;
 const H: u32 = 480;
 const SHADOW_SAMPLES: u32 = 16;
+const DIFFUSE_SAMPLES: u32 = 4;
 const SEED: u32 = 0x5eed;
 const CHUNK: usize = 1024;
 
@@ -69,39 +91,69 @@ fn primary_rays(scene: &Scene) -> Vec<Ray> {
     rays
 }
 
-/// Shadow rays exactly as `backends::kernels::direct::light_sample` casts them.
-fn shadow_rays(scene: &Scene, primary: &[Ray]) -> Vec<Ray> {
-    let light = &scene.lights[0];
-    let ln = light.normal();
-    let eps = 1e-4 * scene.extent();
-    let per_pixel: Vec<Vec<Ray>> = primary
+/// Each primary ray's hit point and shading normal (None for a miss): the start of shadow and bounce rays.
+fn hit_points(scene: &Scene, primary: &[Ray]) -> Vec<Option<(Vec3, Vec3)>> {
+    primary
+        .par_iter()
+        .map(|r| {
+            let hit = scene.intersect(r.o, r.d, 0.0, f32::INFINITY)?;
+            let sp = scene.surface(&hit, r.o, r.d);
+            Some((sp.position, sp.shading_normal))
+        })
+        .collect()
+}
+
+/// Rays from every hit point, `make(pixel, x, n, out)` pushing that pixel's rays; pixel order is kept.
+fn rays_from_hits(points: &[Option<(Vec3, Vec3)>], make: impl Fn(u32, Vec3, Vec3, &mut Vec<Ray>) + Sync) -> Vec<Ray> {
+    let per_pixel: Vec<Vec<Ray>> = points
         .par_iter()
         .enumerate()
-        .map(|(pixel, r)| {
+        .map(|(pixel, p)| {
             let mut out = Vec::new();
-            let Some(hit) = scene.intersect(r.o, r.d, 0.0, f32::INFINITY) else {
-                return out;
-            };
-            let sp = scene.surface(&hit, r.o, r.d);
-            let (x, n) = (sp.position, sp.shading_normal);
-            let rng = PixelRng::new(SEED, pixel as u32, 0);
-            for s in 0..SHADOW_SAMPLES {
-                let y = light.sample_point(Vec2::from(rng.uniform2(s, 8)));
-                let to = y - x;
-                let dir = to.normalize();
-                let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
-                if n.dot(dir) <= 0.0 || cos_y <= 0.0 {
-                    continue;
-                }
-                let origin = x + n * eps;
-                let seg = y - origin;
-                let dist = seg.length();
-                out.push(Ray { o: origin, d: seg / dist, tmax: dist * (1.0 - 1e-4) });
+            if let Some((x, n)) = *p {
+                make(pixel as u32, x, n, &mut out);
             }
             out
         })
         .collect();
     per_pixel.into_iter().flatten().collect()
+}
+
+/// Shadow rays exactly as `backends::kernels::direct::light_sample` casts them.
+fn shadow_rays(scene: &Scene, points: &[Option<(Vec3, Vec3)>]) -> Vec<Ray> {
+    let light = &scene.lights[0];
+    let ln = light.normal();
+    let eps = 1e-4 * scene.extent();
+    rays_from_hits(points, |pixel, x, n, out| {
+        let rng = PixelRng::new(SEED, pixel, 0);
+        for s in 0..SHADOW_SAMPLES {
+            let y = light.sample_point(Vec2::from(rng.uniform2(s, 8)));
+            let to = y - x;
+            let dir = to.normalize();
+            let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
+            if n.dot(dir) <= 0.0 || cos_y <= 0.0 {
+                continue;
+            }
+            let origin = x + n * eps;
+            let seg = y - origin;
+            let dist = seg.length();
+            out.push(Ray { o: origin, d: seg / dist, tmax: dist * (1.0 - 1e-4) });
+        }
+    })
+}
+
+/// Diffuse-bounce rays: cosine-weighted about the shading normal from the same offset origin as the
+/// shadow rays, unbounded. Stream 1 keeps them independent of the shadow rays' stream 0.
+fn diffuse_rays(scene: &Scene, points: &[Option<(Vec3, Vec3)>]) -> Vec<Ray> {
+    let eps = 1e-4 * scene.extent();
+    rays_from_hits(points, |pixel, x, n, out| {
+        let rng = PixelRng::new(SEED, pixel, 1);
+        let frame = Frame::new(n);
+        for s in 0..DIFFUSE_SAMPLES {
+            let d = frame.to_world(cosine_hemisphere(Vec2::from(rng.uniform2(s, 0))));
+            out.push(Ray { o: x + n * eps, d, tmax: f32::INFINITY });
+        }
+    })
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -110,21 +162,29 @@ enum Mode {
     AnyHit,
 }
 
-/// (hits, order-independent hash of the hit triangles' input indices).
+/// One ray's result in `embree_compare.py`'s convention: closest hit → the input index (`source`) of
+/// the hit triangle, any hit → 0 when occluded; −1 for a miss.
+#[inline]
+fn query(scene: &Scene, r: &Ray, mode: Mode) -> i32 {
+    match mode {
+        Mode::Closest => scene
+            .intersect(r.o, r.d, 0.0, r.tmax)
+            .map_or(-1, |h| scene.triangles[h.triangle as usize].source as i32),
+        Mode::AnyHit => -(!scene.occluded(r.o, r.d, 0.0, r.tmax) as i32),
+    }
+}
+
+/// (hits, order-independent hash of the hit triangles' input indices; 0 for any-hit rays).
 fn trace(scene: &Scene, rays: &[Ray], mode: Mode) -> (u64, u64) {
     rays.par_chunks(CHUNK)
         .map(|chunk| {
             let (mut hits, mut hash) = (0u64, 0u64);
             for r in chunk {
-                match mode {
-                    Mode::Closest => {
-                        if let Some(h) = scene.intersect(r.o, r.d, 0.0, r.tmax) {
-                            hits += 1;
-                            let src = scene.triangles[h.triangle as usize].source as u64;
-                            hash = hash.wrapping_add(src.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ (src >> 3));
-                        }
-                    }
-                    Mode::AnyHit => hits += scene.occluded(r.o, r.d, 0.0, r.tmax) as u64,
+                let q = query(scene, r, mode);
+                if q >= 0 {
+                    hits += 1;
+                    let src = q as u64;
+                    hash = hash.wrapping_add(src.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ (src >> 3));
                 }
             }
             (hits, hash)
@@ -187,13 +247,145 @@ fn paths(threads: usize, bounces: u32, size: (u32, u32), spp: u32, min: Duration
     (rays as f64 / secs / 1e6, paths / secs / 1e6, rays as f64 / paths)
 }
 
+/// One row of the build table.
+struct BuildRow {
+    builder: &'static str,
+    best: Duration,
+    runs: u32,
+    nodes: usize,
+    node_bytes: usize,
+    refs: usize,
+    depth: usize,
+}
+
+/// Time `bvh::build` and obvhs presets on `input`: best of the runs in ≥ `min` (at least one), since
+/// other work on the machine only ever makes a build slower.
+fn build_table(input: &[[Vec3; 3]], min: Duration) -> Vec<BuildRow> {
+    use obvhs::BvhBuildParams as P;
+    use wedge::scene::bvh::{build, build_with};
+    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 5] = [
+        ("fastest_build", &|| build_with(input, P::fastest_build())),
+        ("very_fast_build", &|| build_with(input, P::very_fast_build())),
+        ("fast_build", &|| build_with(input, P::fast_build())),
+        ("medium_build", &|| build_with(input, P::medium_build())),
+        ("bvh::build (scenes)", &|| build(input)),
+    ];
+    builders
+        .iter()
+        .map(|(builder, run)| {
+            let (start, mut runs, mut best) = (Instant::now(), 0, Duration::MAX);
+            let mut built = None;
+            while runs == 0 || start.elapsed() < min {
+                let t = Instant::now();
+                built = Some(run());
+                best = best.min(t.elapsed());
+                runs += 1;
+            }
+            let built = built.unwrap();
+            BuildRow {
+                builder,
+                best,
+                runs,
+                nodes: built.nodes.len(),
+                node_bytes: std::mem::size_of_val(built.nodes.as_slice()),
+                refs: built.order.len(),
+                depth: built.depth,
+            }
+        })
+        .collect()
+}
+
+/// The interpreter for the Embree side, or why the comparison is skipped.
+fn embree_python() -> Result<String, String> {
+    let python = std::env::var("WEDGE_BENCH_PYTHON").unwrap_or_else(|_| "python3".into());
+    match Command::new(&python).args(["-c", "import embreex"]).output() {
+        Err(e) => Err(format!("cannot run `{python}`: {e}")),
+        Ok(out) if !out.status.success() => {
+            let err = String::from_utf8_lossy(&out.stderr);
+            let last = err.lines().last().unwrap_or("no message").trim().to_string();
+            Err(format!("`{python} -c 'import embreex'` failed: {last} (`pip install embreex` enables it)"))
+        }
+        Ok(_) => Ok(python),
+    }
+}
+
+/// One ray set for the Embree side: rays plus wedge's per-ray result for each query run on them.
+struct RaySet<'a> {
+    name: &'static str,
+    rays: &'a [Ray],
+    queries: Vec<(Mode, Vec<i32>)>,
+}
+
+/// Write the file `benches/embree_compare.py` documents (little-endian, no padding).
+fn write_rays(path: &Path, input: &[[Vec3; 3]], sets: &[RaySet]) -> std::io::Result<()> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let u32s = |w: &mut dyn Write, v: u32| w.write_all(&v.to_le_bytes());
+    let f32s = |w: &mut dyn Write, vs: &[f32]| vs.iter().try_for_each(|v| w.write_all(&v.to_le_bytes()));
+    w.write_all(b"WEDGERAY")?;
+    u32s(&mut w, 1)?;
+    u32s(&mut w, input.len() as u32)?;
+    for t in input {
+        for v in t {
+            f32s(&mut w, &v.to_array())?;
+        }
+    }
+    u32s(&mut w, sets.len() as u32)?;
+    for set in sets {
+        let mut name = [0u8; 16];
+        name[..set.name.len()].copy_from_slice(set.name.as_bytes());
+        w.write_all(&name)?;
+        u32s(&mut w, set.rays.len() as u32)?;
+        for r in set.rays {
+            f32s(&mut w, &r.o.to_array())?;
+        }
+        for r in set.rays {
+            f32s(&mut w, &r.d.to_array())?;
+        }
+        for r in set.rays {
+            f32s(&mut w, &[r.tmax])?;
+        }
+        u32s(&mut w, set.queries.len() as u32)?;
+        for (mode, results) in &set.queries {
+            u32s(&mut w, (*mode == Mode::AnyHit) as u32)?;
+            results.iter().try_for_each(|q| w.write_all(&q.to_le_bytes()))?;
+        }
+    }
+    w.flush()
+}
+
+/// Trace `sets` with Embree through `embree_compare.py`; its parsed JSON output.
+fn embree_compare(python: &str, scene: &str, input: &[[Vec3; 3]], sets: &[RaySet], min: Duration) -> Result<serde_json::Value, String> {
+    let path: PathBuf = std::env::temp_dir().join(format!("wedge-embree-{}-{scene}.bin", std::process::id()));
+    let written = write_rays(&path, input, sets).map_err(|e| format!("writing {}: {e}", path.display()));
+    let out = written.and_then(|()| {
+        Command::new(python)
+            .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/benches/embree_compare.py"))
+            .arg(&path)
+            .arg(min.as_secs_f64().to_string())
+            .output()
+            .map_err(|e| format!("running {python}: {e}"))
+    });
+    let _ = std::fs::remove_file(&path);
+    let out = out?;
+    if !out.status.success() {
+        return Err(format!("embree_compare.py failed: {}", String::from_utf8_lossy(&out.stderr).trim()));
+    }
+    serde_json::from_slice(&out.stdout).map_err(|e| format!("embree_compare.py printed no JSON: {e}"))
+}
+
+/// Per-ray results of `rays` under `mode` (for the Embree side's agreement count).
+fn results(scene: &Scene, rays: &[Ray], mode: Mode) -> Vec<i32> {
+    rays.par_iter().map(|r| query(scene, r, mode)).collect()
+}
+
 fn main() {
     // `cargo bench` passes `--bench`; accept and ignore libtest-style arguments.
     // `cargo test --all-targets` runs this binary without `--bench`: then only a quick smoke run
-    // (grids, one pass per cell) so the test suite checks it works without paying for the numbers.
+    // (grids, one pass per cell, no Embree) so the test suite checks it works without paying for the
+    // numbers or needing Python.
     let smoke = !std::env::args().any(|a| a == "--bench");
     let scenes: Vec<String> = std::env::var("WEDGE_BENCH_SCENES")
-        .unwrap_or_else(|_| if smoke { "grids".into() } else { "grids,heavy".into() })
+        .unwrap_or_else(|_| if smoke { "grids".into() } else { "grids,heavy,spheres".into() })
         .split(',')
         .map(|s| s.trim().to_string())
         .filter(|s| !s.is_empty())
@@ -204,9 +396,19 @@ fn main() {
     let (nproc, model) = machine_info();
     println!("# wedge ray throughput\n");
     println!("- machine: {model}, nproc = {nproc}");
-    println!("- image {W}×{H}, {SHADOW_SAMPLES} shadow rays per primary hit toward light 0, ≥{:.1} s per cell\n", min.as_secs_f64());
+    println!(
+        "- image {W}×{H}, {SHADOW_SAMPLES} shadow rays toward light 0 and {DIFFUSE_SAMPLES} diffuse-bounce rays per primary hit, ≥{:.1} s per cell",
+        min.as_secs_f64()
+    );
+    let python = if smoke { Err("smoke run (no `--bench`)".to_string()) } else { embree_python() };
+    match &python {
+        Ok(p) => println!("- Embree side: `{p}` with embreex (benches/embree_compare.py)\n"),
+        Err(why) => println!("- Embree comparison skipped: {why}\n"),
+    }
 
     let mut rows = Vec::new();
+    let mut builds = Vec::new();
+    let mut embree = Vec::new();
     for name in &scenes {
         let t = Instant::now();
         let scene = match wedge::scene::load(&SceneSource::Builtin(name.clone())) {
@@ -217,33 +419,56 @@ fn main() {
             }
         };
         let load = t.elapsed();
-        // Rebuild the BVH alone (input order recovered from `source`) to time just the builder.
+        // The builder's input order recovered from `source`, to time just the builder (and to hand
+        // Embree the same triangles in the same order, so its primID is wedge's `source`).
         let n_input = scene.triangles.iter().map(|t| t.source as usize + 1).max().unwrap_or(0);
         let mut input = vec![[Vec3::ZERO; 3]; n_input];
         for t in &scene.triangles {
             input[t.source as usize] = t.vertices();
         }
-        let t = Instant::now();
-        let built = wedge::scene::bvh::build(&input);
-        let build = t.elapsed();
         println!(
-            "- `{name}`: {} input triangles, {} triangle references, {} BVH nodes (depth {}); load {:.0} ms, BVH build {:.0} ms",
-            n_input,
-            built.order.len(),
-            built.nodes.len(),
-            built.depth,
-            load.as_secs_f64() * 1e3,
-            build.as_secs_f64() * 1e3
+            "- `{name}`: {n_input} input triangles, {} triangle references in the scene; load {:.0} ms",
+            scene.triangles.len(),
+            load.as_secs_f64() * 1e3
         );
-        drop(built);
+        let record_bytes = std::mem::size_of_val(&scene.triangles[0]);
+        builds.push((name.clone(), record_bytes, build_table(&input, min)));
         let primary = primary_rays(&scene);
-        let shadow = shadow_rays(&scene, &primary);
+        let points = hit_points(&scene, &primary);
+        let shadow = shadow_rays(&scene, &points);
+        let diffuse = diffuse_rays(&scene, &points);
+        drop(points);
+        let mut cells = Vec::new();
         for threads in [1usize, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             let p = measure(&pool, &scene, &primary, Mode::Closest, min);
             let s = measure(&pool, &scene, &shadow, Mode::AnyHit, min);
             let c = measure(&pool, &scene, &shadow, Mode::Closest, min);
-            rows.push((name.clone(), threads, primary.len(), shadow.len(), p, s, c));
+            let d = measure(&pool, &scene, &diffuse, Mode::Closest, min);
+            cells.push((threads, p, s, c, d));
+        }
+        if let Ok(py) = &python {
+            let sets = [
+                RaySet { name: "primary", rays: &primary, queries: vec![(Mode::Closest, results(&scene, &primary, Mode::Closest))] },
+                RaySet {
+                    name: "shadow",
+                    rays: &shadow,
+                    queries: vec![
+                        (Mode::AnyHit, results(&scene, &shadow, Mode::AnyHit)),
+                        (Mode::Closest, results(&scene, &shadow, Mode::Closest)),
+                    ],
+                },
+                RaySet { name: "diffuse", rays: &diffuse, queries: vec![(Mode::Closest, results(&scene, &diffuse, Mode::Closest))] },
+            ];
+            let one = &cells[0];
+            let wedge_1t = [("primary", "closest", &one.1), ("shadow", "any", &one.2), ("shadow", "closest", &one.3), ("diffuse", "closest", &one.4)];
+            match embree_compare(py, name, &input, &sets, min) {
+                Ok(json) => embree.push((name.clone(), json, wedge_1t.map(|(s, q, c)| (s, q, c.mrays, c.check.0)))),
+                Err(e) => println!("- `{name}`: Embree comparison failed: {e}"),
+            }
+        }
+        for (threads, p, s, c, d) in cells {
+            rows.push((name.clone(), threads, [primary.len(), shadow.len(), diffuse.len()], p, s, c, d));
         }
     }
     // Multi-bounce paths (Indirect's sampler) on `cornell`.
@@ -255,13 +480,78 @@ fn main() {
         }
     }
     println!();
-    println!("| scene | threads | primary Mrays/s | shadow (any-hit) Mrays/s | shadow (closest) Mrays/s | rays (primary / shadow) | passes | checksum |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---|");
-    for (name, threads, np, ns, p, s, c) in rows {
+    println!("| scene | threads | primary Mrays/s | shadow (any-hit) Mrays/s | shadow (closest) Mrays/s | diffuse Mrays/s | rays (primary / shadow / diffuse) | passes | checksum |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    for (name, threads, [np, ns, nd], p, s, c, d) in rows {
         println!(
-            "| {name} | {threads} | {:.2} | {:.2} | {:.2} | {np} / {ns} | {}/{}/{} | p {}:{:x} s {} c {}:{:x} |",
-            p.mrays, s.mrays, c.mrays, p.passes, s.passes, c.passes, p.check.0, p.check.1, s.check.0, c.check.0, c.check.1
+            "| {name} | {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {np} / {ns} / {nd} | {}/{}/{}/{} | p {}:{:x} s {} c {}:{:x} d {}:{:x} |",
+            p.mrays,
+            s.mrays,
+            c.mrays,
+            d.mrays,
+            p.passes,
+            s.passes,
+            c.passes,
+            d.passes,
+            p.check.0,
+            p.check.1,
+            s.check.0,
+            c.check.0,
+            c.check.1,
+            d.check.0,
+            d.check.1
         );
+    }
+    println!();
+    println!("BVH builds ({nproc} threads; best of the runs in ≥{:.1} s). Memory: nodes + one triangle record per reference:\n", min.as_secs_f64());
+    println!("| scene | builder | build ms | runs | nodes | depth | node MiB | references | total MiB |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, record_bytes, table) in builds {
+        for b in table {
+            let mib = |bytes: usize| bytes as f64 / (1 << 20) as f64;
+            println!(
+                "| {name} | {} | {:.1} | {} | {} | {} | {:.2} | {} | {:.2} |",
+                b.builder,
+                b.best.as_secs_f64() * 1e3,
+                b.runs,
+                b.nodes,
+                b.depth,
+                mib(b.node_bytes),
+                b.refs,
+                mib(b.node_bytes + b.refs * record_bytes)
+            );
+        }
+    }
+    if !embree.is_empty() {
+        println!();
+        println!("Against Embree 4 (embreex `rtcIntersect1`/`rtcOccluded1`, one thread; Embree's build uses every core):\n");
+        println!("| scene | rays | query | Embree Mrays/s | wedge 1-thread Mrays/s | wedge/Embree | hits Embree | hits wedge | rays agreeing | Embree CPU/wall |");
+        println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+        for (name, json, wedge_1t) in &embree {
+            for (set, q, mrays, hits) in wedge_1t {
+                let Some(r) = json["results"].as_array().into_iter().flatten().find(|r| r["set"] == *set && r["query"] == *q) else {
+                    continue;
+                };
+                let e = r["mrays"].as_f64().unwrap_or(f64::NAN);
+                println!(
+                    "| {name} | {set} | {q} | {e:.2} | {mrays:.2} | {:.2} | {} | {hits} | {} / {} | {:.2} |",
+                    mrays / e,
+                    r["hits"],
+                    r["agree"],
+                    r["rays"],
+                    r["cpu_per_wall"].as_f64().unwrap_or(f64::NAN)
+                );
+            }
+        }
+        println!();
+        for (name, json, _) in &embree {
+            println!(
+                "- `{name}`: Embree build (rtcCommitScene, quality high, {} threads) {:.0} ms; embreex {}",
+                json["embree"]["cpus"],
+                json["build_seconds"].as_f64().unwrap_or(f64::NAN) * 1e3,
+                json["embree"]["embreex"].as_str().unwrap_or("?")
+            );
+        }
     }
     println!();
     println!("Paths on `cornell` ({}×{}, {spp} paths per pixel and component; `indirect.sample`, next-event estimation at every vertex):\n", size.0, size.1);

@@ -13,7 +13,7 @@
 //!   rectangle (the thesis's soft-shadow case). Each light provides uniform sampling, its footprint σ for
 //!   the filter bandwidth, and exact unoccluded irradiance (useful for shadow-ratio shading and tests).
 //! - **Materials/textures**: Lambertian base colour (optionally textured, linear RGB), Phong k_s/m, emission.
-//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, see [`builtin`]), glTF, OBJ/MTL, and a
+//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, see [`builtin`]), glTF, OBJ/MTL, and a
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
 //!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an
 //!   unbounded allocation: inputs are validated before use and sizes are capped ([`limits`]). Files a

@@ -362,7 +362,7 @@ fn camera_rays() {
 fn builtins_load_and_are_sane() {
     assert_eq!(
         builtin_names(),
-        &["grids", "curved", "heavy", "cornell", "chess"]
+        &["grids", "curved", "heavy", "cornell", "chess", "spheres"]
     );
     for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
@@ -464,6 +464,46 @@ fn heavy_build_timing() {
         }
     }
     println!("heavy: 4800 primary rays in {:?} ({n} hits)", t0.elapsed());
+}
+
+/// `spheres` is issue 12's benchmark scene: its triangle count is the issue's, it has one rectangular
+/// light out of view, and the camera sees spheres, ground and sky (so primary rays exercise hits on
+/// both and misses) — the properties the Embree comparison in `benches/throughput.rs` relies on.
+#[test]
+fn spheres_scene_matches_issue_12() {
+    let t0 = Instant::now();
+    let s = load(&SceneSource::Builtin("spheres".into())).unwrap();
+    println!("spheres: {} triangles, load+build {:?}", s.triangle_count(), t0.elapsed());
+    // No spatial splits in the default build, so one record per input triangle.
+    assert_eq!(s.triangle_count(), 409_604);
+    assert_eq!(s.lights.len(), 1);
+    let l = &s.lights[0];
+    assert!(matches!(l.shape, LightShape::Rect { .. }), "{:?}", l.shape);
+    assert!((l.area() - 9.0).abs() < 1e-4 && l.normal().abs_diff_eq(Vec3::NEG_Y, 1e-6));
+    let ground = s.materials.iter().position(|m| m.name == "ground").unwrap() as u32;
+    let (w, h) = (80, 60);
+    let (mut sphere, mut floor, mut sky) = (0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let (o, d) = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+            match s.intersect(o, d, 0.0, f32::INFINITY) {
+                None => sky += 1,
+                Some(hit) => {
+                    assert!(s.light_of_triangle(hit.triangle).is_none(), "light visible at ({x},{y})");
+                    if s.triangles[hit.triangle as usize].material == ground {
+                        floor += 1
+                    } else {
+                        sphere += 1
+                    }
+                }
+            }
+        }
+    }
+    println!("spheres: {sphere} sphere, {floor} ground, {sky} sky of {} camera rays", w * h);
+    let n = (w * h) as f32;
+    for (what, k) in [("sphere", sphere), ("ground", floor), ("sky", sky)] {
+        assert!(k as f32 > 0.1 * n, "only {k} {what} pixels");
+    }
 }
 
 #[test]

@@ -132,14 +132,22 @@ pub(crate) fn add_sphere(
     object: u32,
 ) {
     parametric(d, slices, stacks, material, object, |u, v| {
-        let (phi, theta) = (u * TAU, v * PI);
-        let n = Vec3::new(
-            theta.sin() * phi.cos(),
-            theta.cos(),
-            theta.sin() * phi.sin(),
-        );
+        let n = sphere_normal(u, v);
         (centre + r * n, n)
     });
+}
+
+/// The unit-sphere point (= outward normal) at longitude `u`·2π and colatitude `v`·π. In f32, sin π is
+/// −8.7e-8, not 0, so the v = 1 ring is not exactly one point: added to a sphere centre it can survive
+/// rounding and leave sliver triangles at the bottom pole instead of zero-area ones that
+/// [`smooth_tri`] drops.
+pub(crate) fn sphere_normal(u: f32, v: f32) -> Vec3 {
+    let (phi, theta) = (u * TAU, v * PI);
+    Vec3::new(
+        theta.sin() * phi.cos(),
+        theta.cos(),
+        theta.sin() * phi.sin(),
+    )
 }
 
 pub(crate) fn add_torus(
