@@ -266,11 +266,12 @@ struct BuildRow {
 fn build_table(input: &[[Vec3; 3]], primary: &[Ray], min: Duration) -> Vec<BuildRow> {
     use obvhs::BvhBuildParams as P;
     use wedge::scene::bvh::{build, build_with, traverse, Bvh, TriangleRecord};
-    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 5] = [
+    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 6] = [
         ("fastest_build", &|| build_with(input, P::fastest_build())),
         ("very_fast_build", &|| build_with(input, P::very_fast_build())),
         ("fast_build", &|| build_with(input, P::fast_build())),
         ("medium_build", &|| build_with(input, P::medium_build())),
+        ("slow_build (spatial splits)", &|| build_with(input, P::slow_build())),
         ("bvh::build (scenes)", &|| build(input)),
     ];
     builders
@@ -409,6 +410,7 @@ fn main() {
     let (nproc, model) = machine_info();
     println!("# wedge ray throughput\n");
     println!("- machine: {model}, nproc = {nproc}");
+
     println!(
         "- image {W}×{H}, {SHADOW_SAMPLES} shadow rays toward light 0 and {DIFFUSE_SAMPLES} diffuse-bounce rays per primary hit, ≥{:.1} s per cell",
         min.as_secs_f64()

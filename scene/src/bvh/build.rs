@@ -42,11 +42,9 @@ pub struct BinaryTree {
     pub order: Vec<u32>,
 }
 
-/// Build with obvhs and collapse to 4-wide nodes. With a preset that pre-splits (spatial splits) a
-/// triangle is referenced from several leaves, so `order` may repeat input indices; the scene stores
-/// one copy per reference. `medium_build` (no splits) measured as fast as `slow_build` on `grids` and
-/// `heavy` (slow/very_slow visit 2–11% fewer nodes but the difference was within noise, at 2–6× the
-/// build time).
+/// Build with obvhs (`fast_build`: [`PRESET`]) and collapse to 4-wide nodes. With a preset that
+/// pre-splits (spatial splits) a triangle is referenced from several leaves, so `order` may repeat
+/// input indices; the scene stores one copy per reference.
 pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
     if largest_morton_cell(tris) > MAX_SHARED_MORTON_CELL {
         return build_median(tris);
@@ -60,17 +58,23 @@ pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
             .step_by(tris.len() / PROBE_SIZE)
             .copied()
             .collect();
-        let probe = binary_obvhs(&sample, obvhs::BvhBuildParams::medium_build());
+        let probe = binary_obvhs(&sample, PRESET);
         if binary_depth(&probe.nodes) > MAX_PROBE_DEPTH {
             return build_median(tris);
         }
     }
-    let built = build_with(tris, obvhs::BvhBuildParams::medium_build());
+    let built = build_with(tris, PRESET);
     if built.stack_need > STACK_SIZE {
         return build_median(tris);
     }
     built
 }
+
+/// The obvhs preset scenes are built with. Once collapsed to 4-wide nodes and packed, `fast_build`'s
+/// trees trace as fast as `medium_build`'s and `slow_build`'s (spatial splits) on `grids` and `heavy`
+/// and 5% faster on `spheres`, in 60–80% of `medium_build`'s time (`cargo bench --bench throughput`,
+/// build table; DESIGN-NOTES "Ray tracing core").
+pub const PRESET: obvhs::BvhBuildParams = obvhs::BvhBuildParams::fast_build();
 
 /// Sample size of [`build`]'s PLOC probe on large inputs.
 pub const PROBE_SIZE: usize = 16384;

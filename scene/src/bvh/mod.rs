@@ -1,7 +1,7 @@
 //! The flat 4-wide BVH the CPU and the GPU both traverse, and the triangle layout they test against.
 //!
 //! - [`triangle`]: the one definition of a traced triangle, of a hit, and of the closest-hit tie rule.
-//! - [`build`]: obvhs builds a binary tree (PLOC + reinsertion, `medium_build`, in parallel); we
+//! - [`build`]: obvhs builds a binary tree (PLOC + reinsertion, `fast_build`, in parallel); we
 //!   collapse it into [`WideNode`]s (surface-area greedy), with a median-split fallback for inputs that
 //!   make PLOC quadratic or too deep.
 //! - [`traverse`]: the CPU traversal — four child boxes per SSE slab test, children visited nearest
@@ -19,7 +19,7 @@ pub mod triangle;
 
 use bytemuck::{Pod, Zeroable};
 
-pub use build::{build, build_median, build_with, largest_morton_cell, BuiltBvh};
+pub use build::{build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh};
 pub use traverse::traverse;
 pub use triangle::{closer, intersect_triangle, Hit, TriangleRecord, TrianglePack, NO_LIGHT, NO_TRIANGLE};
 
@@ -117,7 +117,6 @@ impl WideNode {
     }
 }
 
-pub use build::{stack_need, tree_depth};
 
 /// What scenes trace: the wide nodes and the triangle packs their leaves reference (CPU and GPU alike).
 #[derive(Clone, Debug, Default, PartialEq)]
