@@ -324,6 +324,17 @@ fn embree_python() -> Result<String, String> {
 }
 
 /// One ray set for the Embree side: rays plus wedge's per-ray result for each query run on them.
+/// Traversal work per ray: (wide nodes, triangle packs) tested, averaged over `rays`.
+fn traversal_work(scene: &Scene, rays: &[Ray], mode: Mode) -> (f64, f64) {
+    use wedge::scene::bvh::traverse::{traverse_counted, TraversalStats};
+    let mut stats = TraversalStats::default();
+    for r in rays {
+        traverse_counted(&scene.bvh, r.o, r.d, 0.0, r.tmax, mode == Mode::AnyHit, &mut stats);
+    }
+    let n = rays.len().max(1) as f64;
+    (stats.nodes as f64 / n, stats.packs as f64 / n)
+}
+
 struct RaySet<'a> {
     name: &'static str,
     rays: &'a [Ray],
@@ -424,6 +435,7 @@ fn main() {
     let mut rows = Vec::new();
     let mut builds = Vec::new();
     let mut embree = Vec::new();
+    let mut work = Vec::new();
     for name in &scenes {
         let t = Instant::now();
         let scene = match wedge::scene::load(&SceneSource::Builtin(name.clone())) {
@@ -462,6 +474,16 @@ fn main() {
             let d = measure(&pool, &scene, &diffuse, Mode::Closest, min);
             cells.push((threads, p, s, c, d));
         }
+        let per_ray = |rays: &[Ray], mode| traversal_work(&scene, rays, mode);
+        work.push((
+            name.clone(),
+            [
+                ("primary", "closest", per_ray(&primary, Mode::Closest)),
+                ("shadow", "any", per_ray(&shadow, Mode::AnyHit)),
+                ("shadow", "closest", per_ray(&shadow, Mode::Closest)),
+                ("diffuse", "closest", per_ray(&diffuse, Mode::Closest)),
+            ],
+        ));
         if let Ok(py) = &python {
             let sets = [
                 RaySet { name: "primary", rays: &primary, queries: vec![(Mode::Closest, results(&scene, &primary, Mode::Closest))] },
@@ -516,6 +538,15 @@ fn main() {
             d.check.0,
             d.check.1
         );
+    }
+    println!();
+    println!("Traversal work per ray (4-wide nodes whose boxes were tested, 4-triangle packs tested):\n");
+    println!("| scene | rays | query | nodes / ray | packs / ray |");
+    println!("|---|---|---|---:|---:|");
+    for (name, kinds) in &work {
+        for (rays, query, (nodes, packs)) in kinds {
+            println!("| {name} | {rays} | {query} | {nodes:.1} | {packs:.1} |");
+        }
     }
     println!();
     println!("BVH builds ({nproc} threads; best of the runs in ≥{:.1} s). Memory: BVH = wide nodes + triangle packs; total adds one triangle record per reference. Primary: closest-hit Mrays/s through that tree, 1 thread:\n", min.as_secs_f64());

@@ -20,7 +20,7 @@ pub mod triangle;
 use bytemuck::{Pod, Zeroable};
 
 pub use build::{build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh};
-pub use traverse::traverse;
+pub use traverse::{traverse, traverse_counted, TraversalStats};
 pub use triangle::{closer, intersect_triangle, Hit, TriangleRecord, TrianglePack, NO_LIGHT, NO_TRIANGLE};
 
 /// Children per node.
