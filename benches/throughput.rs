@@ -13,11 +13,13 @@
 //! - diffuse: from each primary hit (same offset origin), 4 cosine-weighted directions about the
 //!   shading normal, `Scene::intersect` with tmax = ∞ — the incoherent bounce rays of a path tracer.
 //!
+//! - work: wide nodes and triangle packs tested per ray (`bvh::traverse_counted`), per ray kind — the
+//!   first thing to look at when a ratio against Embree moves.
 //! - build: `bvh::build` (what scenes use) and `bvh::build_with` for obvhs's `fastest_build`,
-//!   `very_fast_build`, `fast_build` and `medium_build` on each scene's triangles: build time (best of
-//!   the runs in ≥1 s; obvhs's `parallel` feature uses every rayon thread), node and triangle-reference
-//!   memory. Traversal speed per preset is not measured: that needs the preset's tree inside a `Scene`,
-//!   which only `bvh::build` produces.
+//!   `very_fast_build`, `fast_build`, `medium_build` and `slow_build` (spatial splits) on each scene's
+//!   triangles: build time (best of the runs in ≥1 s; obvhs's `parallel` feature uses every rayon
+//!   thread), BVH memory (wide nodes + triangle packs) and total with the triangle records, and the
+//!   primary-ray speed of that tree (one thread, `bvh::traverse` over a `Bvh::pack` of it).
 //!
 //! - paths: the `indirect.sample` kernel itself (what `MonteCarlo` runs; `Indirect` runs `paths.trace`,
 //!   whose hemisphere estimator is the same `trace_path`) on `cornell`
