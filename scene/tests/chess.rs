@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use wedge_scene::builtin::chess::{
     APERTURE_RADIUS, CAMERA_POSITION, CAMERA_VFOV_DEG, FOCUS_DISTANCE, SQUARE, TEXELS_PER_SQUARE,
 };
-use wedge_scene::bvh::{intersect_triangle, stack_need, tree_depth, STACK_SIZE};
+use wedge_scene::bvh::{intersect_triangle, stack_need, STACK_SIZE};
 use wedge_scene::*;
 
 fn chess() -> Scene {

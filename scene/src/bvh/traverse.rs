@@ -75,19 +75,8 @@ fn nan_free(near: Vec4, far: Vec4) -> (Vec4, Vec4) {
 
 /// Closest hit (smallest `t`, ties to the lower triangle index: [`super::closer`]) with
 /// `tmin < t < tmax`, or with `any_hit` the first hit found (shadow rays only ask whether there is one).
-pub fn traverse(
-    bvh: &Bvh,
-    o: Vec3,
-    d: Vec3,
-    tmin: f32,
-    tmax: f32,
-    any_hit: bool,
-) -> Option<Hit> {
-    if any_hit {
-        traverse_impl::<true, ()>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, &mut ())
-    } else {
-        traverse_impl::<false, ()>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, &mut ())
-    }
+pub fn traverse(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any_hit: bool) -> Option<Hit> {
+    traverse_with(bvh, o, d, tmin, tmax, any_hit, &mut ())
 }
 
 /// Work a traversal did: wide nodes whose four boxes were tested, and triangle packs tested.
@@ -107,10 +96,23 @@ pub fn traverse_counted(
     any_hit: bool,
     stats: &mut TraversalStats,
 ) -> Option<Hit> {
+    traverse_with(bvh, o, d, tmin, tmax, any_hit, stats)
+}
+
+#[inline(always)]
+fn traverse_with<C: Counter>(
+    bvh: &Bvh,
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    tmax: f32,
+    any_hit: bool,
+    counter: &mut C,
+) -> Option<Hit> {
     if any_hit {
-        traverse_impl::<true, _>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, stats)
+        traverse_impl::<true, C>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, counter)
     } else {
-        traverse_impl::<false, _>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, stats)
+        traverse_impl::<false, C>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, counter)
     }
 }
 
