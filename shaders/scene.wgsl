@@ -1,6 +1,6 @@
 // scene.wgsl — the scene as uploaded by backends/src/gpu/scene.rs (group 2), and surface
 // interpolation / albedo / emission mirroring wedge_scene::Scene::{surface, albedo, emission}.
-// WideNode, TrianglePack and Triangle are the Rust `repr(C)` structs byte for byte (112, 160 and
+// WideNode, TrianglePack and Triangle are the Rust `repr(C)` structs byte for byte (128, 160 and
 // 48 bytes).
 //
 // All arrays live in ONE storage buffer of 16-byte elements (`scene_data`), one after another;
@@ -10,7 +10,8 @@
 // `area_light(i)`): each rebuilds the struct from its 16-byte elements with bitcasts (bit-exact).
 
 // wedge_scene::bvh::WideNode: four child boxes as rows (bounds[2·axis] minima, bounds[2·axis + 1]
-// maxima, one lane per child) and four child references (see bvh.wgsl).
+// maxima, one lane per child) and four child references (see bvh.wgsl); the Rust node's 16-byte pad
+// (element 7 of each node in `scene_data`) is not read.
 struct WideNode {
     bounds: array<vec4<f32>, 6>,
     child: vec4<u32>,
@@ -103,7 +104,7 @@ fn scene_xyz(v: vec4<u32>) -> vec3<f32> {
 }
 
 fn wide_node(i: u32) -> WideNode {
-    let b = scene_layout.bvh_nodes + 7u * i;
+    let b = scene_layout.bvh_nodes + 8u * i;
     var n: WideNode;
     for (var k = 0u; k < 6u; k = k + 1u) {
         n.bounds[k] = bitcast<vec4<f32>>(scene_data[b + k]);

@@ -5,7 +5,7 @@
 //!
 //! - **Geometry**: world-space triangles ([`TriangleRecord`]: `v0, e1, e2` for Möller–Trumbore) in BVH
 //!   leaf order, plus per-triangle shading data ([`TriangleShading`]) in the same order.
-//! - **BVH**: built once per scene with obvhs (PLOC, `fast_build`), collapsed to 4-wide 112-byte
+//! - **BVH**: built once per scene with obvhs (PLOC, `fast_build`), collapsed to 4-wide 128-byte
 //!   [`WideNode`]s. [`Scene::intersect`] / [`Scene::occluded`] traverse it with a SIMD slab test per node
 //!   ([`bvh`]); the WGSL kernel traverses the same nodes, and the closest hit is defined so that any
 //!   traversal order gives the same one (CPU and GPU agree); obvhs's own traversal is not used.
