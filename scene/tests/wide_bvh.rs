@@ -13,7 +13,10 @@ use wedge_scene::bvh::{
 struct Rng(u64);
 impl Rng {
     fn f(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
     }
     fn v(&mut self) -> Vec3 {
@@ -65,7 +68,10 @@ fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
                     for cs in (0..4).filter(|&cs| c.used(cs)) {
                         let clo = Vec3::new(c.bounds[0][cs], c.bounds[2][cs], c.bounds[4][cs]);
                         let chi = Vec3::new(c.bounds[1][cs], c.bounds[3][cs], c.bounds[5][cs]);
-                        assert!(clo.cmpge(lo).all() && chi.cmple(hi).all(), "node {j} slot {cs} outside its parent");
+                        assert!(
+                            clo.cmpge(lo).all() && chi.cmple(hi).all(),
+                            "node {j} slot {cs} outside its parent"
+                        );
                     }
                     todo.push(j as usize);
                 }
@@ -74,14 +80,20 @@ fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
                     for k in first..first + count {
                         seen[k as usize] += 1;
                         for v in tris[k as usize].vertices() {
-                            assert!(v.cmpge(lo).all() && v.cmple(hi).all(), "triangle {k} outside its leaf box");
+                            assert!(
+                                v.cmpge(lo).all() && v.cmple(hi).all(),
+                                "triangle {k} outside its leaf box"
+                            );
                         }
                     }
                 }
             }
         }
     }
-    assert!(seen.iter().all(|&c| c == 1), "every triangle reference in exactly one leaf");
+    assert!(
+        seen.iter().all(|&c| c == 1),
+        "every triangle reference in exactly one leaf"
+    );
     assert!(stack_need(nodes) <= STACK_SIZE);
 }
 
@@ -91,19 +103,26 @@ fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
     for n in &bvh.nodes {
         for c in n.children() {
             if let Child::Leaf { first, count } = c {
-                assert!(count <= 2, "a leaf of at most 8 triangles takes at most two packs");
+                assert!(
+                    count <= 2,
+                    "a leaf of at most 8 triangles takes at most two packs"
+                );
                 for p in &bvh.packs[first as usize..(first + count) as usize] {
                     for lane in 0..4 {
                         let i = p.index[lane];
                         if i == wedge_scene::bvh::NO_TRIANGLE {
-                            assert_eq!([p.e1[0][lane], p.e2[0][lane], p.e1[1][lane], p.e2[2][lane]], [0.0; 4]);
+                            assert_eq!(
+                                [p.e1[0][lane], p.e2[0][lane], p.e1[1][lane], p.e2[2][lane]],
+                                [0.0; 4]
+                            );
                             continue;
                         }
                         seen[i as usize] += 1;
                         let t = &tris[i as usize];
                         for axis in 0..3 {
                             assert_eq!(
-                                [p.v0[axis][lane], p.e1[axis][lane], p.e2[axis][lane]].map(f32::to_bits),
+                                [p.v0[axis][lane], p.e1[axis][lane], p.e2[axis][lane]]
+                                    .map(f32::to_bits),
                                 [t.v0[axis], t.e1[axis], t.e2[axis]].map(f32::to_bits)
                             );
                         }
@@ -112,10 +131,19 @@ fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
             }
         }
     }
-    assert!(seen.iter().all(|&c| c == 1), "every triangle in exactly one pack lane");
+    assert!(
+        seen.iter().all(|&c| c == 1),
+        "every triangle in exactly one pack lane"
+    );
 }
 
-fn check_rays(name: &str, tris: &[TriangleRecord], nodes: &[WideNode], rng: &mut Rng, rays: usize) -> (u32, u32) {
+fn check_rays(
+    name: &str,
+    tris: &[TriangleRecord],
+    nodes: &[WideNode],
+    rng: &mut Rng,
+    rays: usize,
+) -> (u32, u32) {
     let bvh = Bvh::pack(nodes.to_vec(), tris);
     check_packs(&bvh, tris);
     let (mut hits, mut ties) = (0, 0);
@@ -134,16 +162,25 @@ fn check_rays(name: &str, tris: &[TriangleRecord], nodes: &[WideNode], rng: &mut
         if d == Vec3::ZERO {
             continue;
         }
-        let tmax = if k % 3 == 0 { 0.5 + rng.f() } else { f32::INFINITY };
+        let tmax = if k % 3 == 0 {
+            0.5 + rng.f()
+        } else {
+            f32::INFINITY
+        };
         let want = brute(tris, o, d, 1e-5, tmax);
         let got = bvh::traverse(&bvh, o, d, 1e-5, tmax, false);
-        assert_eq!(got.map(|h| (h.triangle, h.t.to_bits())), want.map(|(i, t)| (i, t.to_bits())), "{name} ray {k}");
+        assert_eq!(
+            got.map(|h| (h.triangle, h.t.to_bits())),
+            want.map(|(i, t)| (i, t.to_bits())),
+            "{name} ray {k}"
+        );
         let occluded = bvh::traverse(&bvh, o, d, 1e-5, tmax, true).is_some();
         assert_eq!(occluded, want.is_some(), "{name} ray {k}: any-hit");
         if let Some((i, t)) = want {
             hits += 1;
             ties += tris.iter().enumerate().any(|(j, tr)| {
-                j as u32 != i && intersect_triangle(tr, o, d, 1e-5, f32::INFINITY).is_some_and(|h| h.0 == t)
+                j as u32 != i
+                    && intersect_triangle(tr, o, d, 1e-5, f32::INFINITY).is_some_and(|h| h.0 == t)
             }) as u32;
         }
     }
@@ -170,8 +207,17 @@ fn random_soup_with_coincident_copies_matches_brute_force_exactly() {
     let tris = records(&input, &built);
     check_structure(&built.nodes, &tris);
     let (hits, ties) = check_rays("soup", &tris, &built.nodes, &mut rng, 4000);
-    println!("soup: {} triangles, {} nodes, depth {}, stack need {}; {hits} hits, {ties} ties", tris.len(), built.nodes.len(), built.depth, built.stack_need);
-    assert!(hits > 1000 && ties > 20, "{hits} hits, {ties} ties: the test must exercise ties");
+    println!(
+        "soup: {} triangles, {} nodes, depth {}, stack need {}; {hits} hits, {ties} ties",
+        tris.len(),
+        built.nodes.len(),
+        built.depth,
+        built.stack_need
+    );
+    assert!(
+        hits > 1000 && ties > 20,
+        "{hits} hits, {ties} ties: the test must exercise ties"
+    );
 }
 
 #[test]
@@ -213,9 +259,24 @@ fn oversized_leaves_are_split() {
     let (a, b, all) = (boxed(0..40), boxed(40..45), boxed(0..45));
     let tree = BinaryTree {
         nodes: vec![
-            BinaryNode { min: all.0, index: 1, max: all.1, count: 0 },
-            BinaryNode { min: a.0, index: 0, max: a.1, count: 40 },
-            BinaryNode { min: b.0, index: 40, max: b.1, count: 5 },
+            BinaryNode {
+                min: all.0,
+                index: 1,
+                max: all.1,
+                count: 0,
+            },
+            BinaryNode {
+                min: a.0,
+                index: 0,
+                max: a.1,
+                count: 40,
+            },
+            BinaryNode {
+                min: b.0,
+                index: 40,
+                max: b.1,
+                count: 5,
+            },
         ],
         order: (0..45).collect(),
     };

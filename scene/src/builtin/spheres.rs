@@ -55,7 +55,10 @@ pub(crate) fn spheres() -> SceneData {
         .map(|k| {
             let t = k as f32 / 7.0;
             d.add_material(
-                Material::diffuse(&format!("sphere{k}"), Vec3::new(0.25 + 0.5 * t, 0.45, 0.75 - 0.5 * t)),
+                Material::diffuse(
+                    &format!("sphere{k}"),
+                    Vec3::new(0.25 + 0.5 * t, 0.45, 0.75 - 0.5 * t),
+                ),
                 false,
             )
         })
@@ -63,7 +66,11 @@ pub(crate) fn spheres() -> SceneData {
     let half = (GRID - 1) as f32 * 0.5;
     for j in 0..GRID {
         for i in 0..GRID {
-            let centre = Vec3::new((i as f32 - half) * SPACING, RADIUS, (j as f32 - half) * SPACING);
+            let centre = Vec3::new(
+                (i as f32 - half) * SPACING,
+                RADIUS,
+                (j as f32 - half) * SPACING,
+            );
             let m = materials[((i + 3 * j) % 8) as usize];
             let o = d.new_object();
             // `add_sphere` with the bottom pole snapped to exactly −y: its sin π ≠ 0 left 312
@@ -71,7 +78,11 @@ pub(crate) fn spheres() -> SceneData {
             // have zero area and are dropped, so every sphere has exactly 1,024 (the count).
             // The other built-ins keep `add_sphere` unchanged so their images do not move.
             parametric(&mut d, SLICES, STACKS, m, o, |u, v| {
-                let n = if v == 1.0 { Vec3::NEG_Y } else { sphere_normal(u, v) };
+                let n = if v == 1.0 {
+                    Vec3::NEG_Y
+                } else {
+                    sphere_normal(u, v)
+                };
                 (centre + RADIUS * n, n)
             });
         }

@@ -229,7 +229,11 @@ pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
         let mut todo = vec![(0usize, 0u32)];
         while let Some((w, b)) = todo.pop() {
             let n = bin[b as usize];
-            let mut open: Vec<u32> = if n.count > 0 { vec![b] } else { vec![n.index, n.index + 1] };
+            let mut open: Vec<u32> = if n.count > 0 {
+                vec![b]
+            } else {
+                vec![n.index, n.index + 1]
+            };
             while open.len() < WIDTH {
                 let widest = open
                     .iter()
@@ -264,7 +268,13 @@ pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
 
 /// A reference to `count` triangles from `first`: a leaf, or for more than [`MAX_LEAF`] a new node
 /// over up to four chunks (recursively), each with the whole leaf's box.
-fn leaf_slot(nodes: &mut Vec<WideNode>, first: u32, count: u32, min: [f32; 3], max: [f32; 3]) -> u32 {
+fn leaf_slot(
+    nodes: &mut Vec<WideNode>,
+    first: u32,
+    count: u32,
+    min: [f32; 3],
+    max: [f32; 3],
+) -> u32 {
     if count <= MAX_LEAF {
         return leaf_ref(first, count);
     }

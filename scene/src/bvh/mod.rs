@@ -19,9 +19,13 @@ pub mod triangle;
 
 use bytemuck::{Pod, Zeroable};
 
-pub use build::{build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh};
+pub use build::{
+    build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh,
+};
 pub use traverse::{traverse, traverse_counted, TraversalStats};
-pub use triangle::{closer, intersect_triangle, Hit, TriangleRecord, TrianglePack, NO_LIGHT, NO_TRIANGLE};
+pub use triangle::{
+    closer, intersect_triangle, Hit, TrianglePack, TriangleRecord, NO_LIGHT, NO_TRIANGLE,
+};
 
 /// Children per node.
 pub const WIDTH: usize = 4;
@@ -119,10 +123,11 @@ impl WideNode {
 
     /// The used slots' decoded references.
     pub fn children(&self) -> impl Iterator<Item = Child> + '_ {
-        (0..WIDTH).filter(|&i| self.used(i)).map(|i| child_ref(self.child[i]))
+        (0..WIDTH)
+            .filter(|&i| self.used(i))
+            .map(|i| child_ref(self.child[i]))
     }
 }
-
 
 /// What scenes trace: the wide nodes and the triangle packs their leaves reference (CPU and GPU alike).
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -161,7 +161,12 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter>(
     let pack_ray = PackRay::new(o, d);
     let tmin_v = Vec4::splat(tmin);
     let mut t_best = tmax;
-    let mut best = Hit { t: tmax, triangle: 0, b1: 0.0, b2: 0.0 };
+    let mut best = Hit {
+        t: tmax,
+        triangle: 0,
+        b1: 0.0,
+        b2: 0.0,
+    };
     let mut found = false;
     // Not zeroed: clearing 512 bytes was 9% of a primary ray's instructions (callgrind, `spheres`).
     // Entries below `sp` are always written by a push before a pop reads them.
@@ -222,14 +227,24 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter>(
                     }
                     let lane = mask.trailing_zeros() as usize;
                     let triangle = pack.index[lane];
-                    return Some(Hit { t: t[lane], triangle, b1: b1[lane], b2: b2[lane] });
+                    return Some(Hit {
+                        t: t[lane],
+                        triangle,
+                        b1: b1[lane],
+                        b2: b2[lane],
+                    });
                 }
                 while mask != 0 {
                     let lane = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     if closer(t[lane], pack.index[lane], t_best, best.triangle) {
                         t_best = t[lane];
-                        best = Hit { t: t_best, triangle: pack.index[lane], b1: b1[lane], b2: b2[lane] };
+                        best = Hit {
+                            t: t_best,
+                            triangle: pack.index[lane],
+                            b1: b1[lane],
+                            b2: b2[lane],
+                        };
                         found = true;
                     }
                 }

@@ -76,7 +76,11 @@ pub fn intersect_triangle(
 #[inline(always)]
 pub(crate) fn triangle_hit(tri: &TriangleRecord, o: Vec3A, d: Vec3A) -> Option<(f32, f32, f32)> {
     let (e1, e2, v0) = (tri.e1, tri.e2, tri.v0);
-    let p = [d.y * e2[2] - d.z * e2[1], d.z * e2[0] - d.x * e2[2], d.x * e2[1] - d.y * e2[0]];
+    let p = [
+        d.y * e2[2] - d.z * e2[1],
+        d.z * e2[0] - d.x * e2[2],
+        d.x * e2[1] - d.y * e2[0],
+    ];
     let det = (e1[0] * p[0] + e1[1] * p[1]) + e1[2] * p[2];
     if det == 0.0 || !det.is_finite() {
         return None; // ray parallel to the plane (or degenerate triangle)
@@ -87,12 +91,20 @@ pub(crate) fn triangle_hit(tri: &TriangleRecord, o: Vec3A, d: Vec3A) -> Option<(
     if !(0.0..=1.0).contains(&b1) {
         return None;
     }
-    let q = [s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]];
+    let q = [
+        s[1] * e1[2] - s[2] * e1[1],
+        s[2] * e1[0] - s[0] * e1[2],
+        s[0] * e1[1] - s[1] * e1[0],
+    ];
     let b2 = ((d.x * q[0] + d.y * q[1]) + d.z * q[2]) * inv_det;
     if b2 < 0.0 || b1 + b2 > 1.0 {
         return None;
     }
-    Some((((e2[0] * q[0] + e2[1] * q[1]) + e2[2] * q[2]) * inv_det, b1, b2))
+    Some((
+        ((e2[0] * q[0] + e2[1] * q[1]) + e2[2] * q[2]) * inv_det,
+        b1,
+        b2,
+    ))
 }
 
 /// Four triangles as structure of arrays (160 bytes, Pod; uploaded to the GPU byte for byte): the leaf
@@ -151,12 +163,20 @@ impl TrianglePack {
         let v = |a: &[[f32; 4]; 3]| [Vec4::from(a[0]), Vec4::from(a[1]), Vec4::from(a[2])];
         let (e1, e2, v0) = (v(&self.e1), v(&self.e2), v(&self.v0));
         let d = &r.d;
-        let p = [d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]];
+        let p = [
+            d[1] * e2[2] - d[2] * e2[1],
+            d[2] * e2[0] - d[0] * e2[2],
+            d[0] * e2[1] - d[1] * e2[0],
+        ];
         let det = (e1[0] * p[0] + e1[1] * p[1]) + e1[2] * p[2];
         let inv_det = Vec4::ONE / det;
         let s = [r.o[0] - v0[0], r.o[1] - v0[1], r.o[2] - v0[2]];
         let b1 = ((s[0] * p[0] + s[1] * p[1]) + s[2] * p[2]) * inv_det;
-        let q = [s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]];
+        let q = [
+            s[1] * e1[2] - s[2] * e1[1],
+            s[2] * e1[0] - s[0] * e1[2],
+            s[0] * e1[1] - s[1] * e1[0],
+        ];
         let b2 = ((d[0] * q[0] + d[1] * q[1]) + d[2] * q[2]) * inv_det;
         let t = ((e2[0] * q[0] + e2[1] * q[1]) + e2[2] * q[2]) * inv_det;
         // The scalar test's conditions lane by lane, NaN cases included (its `contains` rejects a NaN
