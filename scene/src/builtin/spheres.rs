@@ -4,15 +4,16 @@
 //!
 //! - **Spheres**: [`GRID`]² = 400 UV spheres of radius [`RADIUS`] = 0.4 m resting on the ground, centres
 //!   [`SPACING`] = 1 m apart on a square grid centred on the origin (x, z ∈ ±9.5 m). Each has
-//!   [`STACKS`] = 17 stacks × [`SLICES`] = 32 slices: 2·32·17 cells' triangles less the 2·32 zero-area
-//!   ones at the poles (dropped by the mesh generator; the bottom pole is snapped to exactly −y so they are) = 1,024 triangles, 409,600 in all. Eight diffuse
-//!   albedos alternate so images show the field's structure; every sphere is its own object.
+//!   [`STACKS`] = 17 stacks × [`SLICES`] = 32 slices: 2·32·17 cells' triangles less the 2·32
+//!   zero-area ones at the poles (dropped by the mesh generator; the bottom pole is snapped to exactly
+//!   −y so they are) = 1,024 triangles, 409,600 in all. Eight diffuse albedos alternate so images show
+//!   the field's structure; every sphere is its own object.
 //! - **Ground**: a diffuse 40 × 40 m square (two triangles) at y = 0, large enough that the camera sees
 //!   ground past the field and then sky.
 //! - **Light**: one 3 × 3 m rectangle 13 m above the centre of the field, facing down (two emissive
 //!   triangles → one `Rect` light), just out of view.
 //! - **Camera**: at (0, 14, 22) looking at (0, 0, −1) with a 50° vertical fov: the whole field at a
-//!   moderate angle (≈ 28° down), ground around it and some sky above the far ground edge, so primary
+//!   moderate angle (≈ 31° down), ground around it and some sky above the far ground edge, so primary
 //!   rays hit spheres, ground and nothing.
 //!
 //! Total: 409,600 + 2 + 2 = 409,604 triangles, as in the issue (asserted by `scene/tests/scene_tests.rs`).
