@@ -121,19 +121,21 @@ impl Session {
         check_pixel_count(ov, p.width, p.height)?;
         let mut pipeline = validate(&loaded, &nodes)?;
         apply_param_overrides(&mut pipeline, ov)?;
-        pipeline.update_factoring()?;
-        let mut expansion = expand(&pipeline)?;
-        if let Some((spp, sampling)) = reference {
-            expansion = wedge_graph::reference(expansion, spp, sampling)?;
-        }
-        let schedule = schedule(expansion)?;
-        kernels.check_schedule(&schedule)?;
+        // The scene before the graph: which node factors may depend on it (a Motion node on a static
+        // scene does not).
         let source = scene_source(&pipeline, ov.scene.as_deref());
         let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
         let mut scene = wedge_scene::load_with(&source, &scene_opts)?;
         if let Some(c) = &pipeline.pipeline.camera {
             scene.camera = camera_from_spec(c);
         }
+        pipeline.update_factoring(Some(scene_facts(&scene)))?;
+        let mut expansion = expand(&pipeline)?;
+        if let Some((spp, sampling)) = reference {
+            expansion = wedge_graph::reference(expansion, spp, sampling)?;
+        }
+        let schedule = schedule(expansion)?;
+        kernels.check_schedule(&schedule)?;
         let (width, height, seed) = (pipeline.pipeline.width, pipeline.pipeline.height, pipeline.pipeline.seed);
         Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed })
     }
@@ -241,6 +243,11 @@ impl MemoryEstimate {
             format_bytes(limit)
         )))
     }
+}
+
+/// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]).
+pub fn scene_facts(_scene: &Scene) -> wedge_graph::SceneFacts {
+    wedge_graph::SceneFacts { motion: false }
 }
 
 /// Bytes the loaded scene's arrays take.

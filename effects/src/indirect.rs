@@ -36,7 +36,7 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PerPrimary, PortDecl, Reference,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference,
     SamplerPass, Stage,
 };
 
@@ -140,17 +140,16 @@ pub fn component(r: Receiver, depth: [f32; 4], d: f32, s: &Settings) -> Componen
 
 pub struct Indirect;
 
-/// Under a factoring node (thesis Ch. 5, [`wedge_graph::factoring`]): indirect light as one factored
-/// component with two parts ([`crate::defocus::component`]) — diffuse (`k = k_d`) and glossy
-/// (`k = k_s`, E the lobe-weighted incident radiance; eq. 5.21 keeps them apart) — with `Ω_x^i`
-/// (5.22), `n_ind^{f|c}` (5.26, 5.28; the diffuse part's SepInd flag picks the count), the
-/// irradiance filter (5.31) per part and the composed term (5.32). `Ω_v^max` is the diffuse
-/// receiver's 2.8 (Ch. 4, eq. 4.18) for both parts: a reading — the thesis gives one `Ω_v^max` per
-/// pixel and glossy receivers would take `4.27 + 0.15 m`, which the per-pixel rate kernel does not
-/// see. The Ch. 4 parameters (`mu`, `alpha`, rays and filter settings) do not apply; `bounces` and
-/// `brdf` set the sampler's hemisphere estimator. AO is not a factored component: refused.
+/// Under a factoring node (thesis Ch. 5, App. B; [`wedge_graph::factoring`]): indirect light as one
+/// factored component with two parts — diffuse (`k = k_d`) and glossy (`k = k_s`, E the lobe-weighted
+/// incident radiance; eq. 5.21 keeps them apart) — which the factoring node renders
+/// ([`wedge_graph::NodeKind::expand_component`]). Its rates read the first pass's reflector depths;
+/// `Ω_v^max` is the diffuse receiver's 2.8 (Ch. 4, eq. 4.18) for both parts: a reading — the thesis
+/// gives one `Ω_v^max` per pixel and glossy receivers would take `4.27 + 0.15 m`, which the per-pixel
+/// rate kernels do not see. The Ch. 4 parameters (`mu`, `alpha`, rays and filter settings) do not
+/// apply; `bounces` and `brdf` set the sampler's hemisphere estimator. AO is not a factored
+/// component: refused.
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Result<(), GraphError> {
-    use crate::defocus::component::{self, Component, Part};
     if matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao") {
         return Err(GraphError::Expand {
             node: ctx.node().into(),
@@ -162,21 +161,17 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Resul
         });
     }
     let settings = vec![("bounces", ctx.param("bounces").clone()), ("brdf", ctx.param("brdf").clone())];
-    component::expand(
-        ctx,
-        f,
-        &Component {
-            name: "indirect",
-            estimator: "hemisphere",
-            settings,
-            statistic: ("reflectors", "depth"),
-            rate_params: vec![],
-            parts: vec![
-                Part { name: "diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
-                Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
-            ],
-        },
-    )
+    ctx.component(&Component {
+        name: "indirect",
+        estimator: "hemisphere",
+        settings,
+        statistic: ("reflectors", "depth"),
+        rate_params: vec![],
+        parts: vec![
+            Part { name: "diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
+            Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
+        ],
+    })
 }
 
 impl NodeKind for Indirect {

@@ -20,7 +20,7 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PerPrimary, PortDecl, Reference,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, Part, PerPrimary, PortDecl, Reference,
     SamplerPass, Stage,
 };
 
@@ -105,8 +105,8 @@ impl NodeKind for SoftShadows {
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        if let Some(f) = ctx.factoring() {
-            return expand_factored(ctx, f);
+        if ctx.factoring().is_some() {
+            return expand_factored(ctx);
         }
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;
@@ -179,28 +179,23 @@ impl NodeKind for SoftShadows {
     }
 }
 
-/// Under a factoring node (thesis Ch. 5, [`wedge_graph::factoring`]): the direct light of area light
-/// `light` as one factored component ([`crate::defocus::component`]) — SepDir flags, `Ω_x^s` (5.18),
-/// `n_dir^{f|c}` (5.25, 5.27), the irradiance filter (5.31) and the composed term (5.32), which
-/// `radiance` carries to the factoring node (albedo is the factored `k`; emission is added there).
-/// The Ch. 3 parameters (`mu`, `alpha`, `k`, `initial_rays`, `max_rays`, `fill_radius`,
+/// Under a factoring node (thesis Ch. 5, App. B; [`wedge_graph::factoring`]): the direct light of
+/// area light `light` as one factored component, which the factoring node renders
+/// ([`wedge_graph::NodeKind::expand_component`]: SepDir flags, the irradiance filter width and counts
+/// of its chapter, the composed term `radiance` carries to it; albedo is the factored `k`, emission is
+/// added there). The Ch. 3 parameters (`mu`, `alpha`, `k`, `initial_rays`, `max_rays`, `fill_radius`,
 /// `form_factor`) do not apply: the factoring node's settings do; `position`, `normal`, `albedo` and
-/// `emission` inputs are not read (the sampler's lens-averaged values are).
-fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Result<(), GraphError> {
-    use crate::defocus::component::{self, Component, Part};
+/// `emission` inputs are not read (the sampler's path-averaged values are).
+fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
     let light = ctx.param("light").clone();
-    component::expand(
-        ctx,
-        f,
-        &Component {
-            name: "direct",
-            estimator: "light",
-            settings: vec![("light", light.clone())],
-            statistic: ("occlusion", "occlusion"),
-            rate_params: vec![("light", light)],
-            parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
-        },
-    )
+    ctx.component(&Component {
+        name: "direct",
+        estimator: "light",
+        settings: vec![("light", light.clone())],
+        statistic: ("occlusion", "occlusion"),
+        rate_params: vec![("light", light)],
+        parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
+    })
 }
 
 /// Per-pixel inputs of the formulas, read from the filled occluder statistics.

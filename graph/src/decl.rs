@@ -546,13 +546,34 @@ pub trait NodeKind: Send + Sync {
     /// lighting component the other nodes sample (thesis Ch. 5's Defocus; App. B's Motion), and
     /// the settings it returns are what those nodes read through [`ExpandCtx::factoring`].
     /// `Ok(None)` (the default): not a factoring node. `Err`: the configuration cannot work; the
-    /// validator reports it at the node's position with the refusal's fix.
+    /// validator reports it at the node's position with the refusal's fix. `inputs` carries the
+    /// pipeline's camera block and, once a scene is loaded, facts about it.
     fn factoring(
         &self,
         _params: &std::collections::BTreeMap<String, ParamValue>,
-        _camera: Option<&crate::pipeline::CameraSpec>,
+        _inputs: &crate::factoring::FactoringInputs<'_>,
     ) -> Result<Option<crate::factoring::Settings>, crate::factoring::Refusal> {
         Ok(None)
+    }
+    /// As the pipeline's factoring node: add the passes that render lighting component `component`
+    /// for it, in the expansion of the component's node (`ctx.node()`), and bind that node's ports
+    /// (`radiance`: the composed component, `unfiltered`, `filter_width`, `rays_per_pixel`).
+    /// Component nodes reach it through [`ExpandCtx::component`]. The default refuses: a kind that
+    /// returns settings from [`NodeKind::factoring`] implements this.
+    fn expand_component(
+        &self,
+        ctx: &mut ExpandCtx<'_>,
+        factoring: &crate::factoring::Factoring,
+        component: &crate::factoring::Component,
+    ) -> Result<(), GraphError> {
+        Err(GraphError::Expand {
+            node: ctx.node().to_string(),
+            message: format!(
+                "the factoring node `{}` ({}) does not render lighting components (its kind implements no \
+                 expand_component), so component `{}` cannot be rendered for it",
+                factoring.node, factoring.kind, component.name
+            ),
+        })
     }
     /// Turn one validated node instance into passes, binding every declared output port.
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError>;

@@ -116,8 +116,8 @@ pub struct ExpandCtx<'a> {
     pub(crate) expansion: &'a mut Expansion,
     /// The shared sampler's requests so far ([`crate::sampler`]); `None` outside [`crate::expand()`].
     pub(crate) sampler: Option<&'a mut SamplerPlan>,
-    /// The pipeline's factoring node ([`crate::factoring`]), if any.
-    pub(crate) factoring: Option<&'a Factoring>,
+    /// The pipeline's factoring node ([`crate::factoring`]), if any, and its kind.
+    pub(crate) factoring: Option<(&'a Factoring, &'a dyn crate::NodeKind)>,
 }
 
 impl<'a> ExpandCtx<'a> {
@@ -137,15 +137,27 @@ impl<'a> ExpandCtx<'a> {
             factoring: None,
         }
     }
-    /// A context that sees the pipeline's factoring node (tests, tools; [`crate::expand()`] sets it).
-    pub fn with_factoring(mut self, factoring: Option<&'a Factoring>) -> Self {
+    /// A context that sees the pipeline's factoring node and its kind (tests, tools;
+    /// [`crate::expand()`] sets it).
+    pub fn with_factoring(mut self, factoring: Option<(&'a Factoring, &'a dyn crate::NodeKind)>) -> Self {
         self.factoring = factoring;
         self
     }
     /// The pipeline's factoring node and its settings ([`crate::factoring`]): a component node
     /// that sees one renders its component for it instead of filtering on its own.
     pub fn factoring(&self) -> Option<&'a Factoring> {
-        self.factoring
+        self.factoring.map(|(f, _)| f)
+    }
+    /// Render lighting component `component` of this node for the pipeline's factoring node: its
+    /// kind's [`crate::NodeKind::expand_component`] adds the passes and binds this node's ports.
+    pub fn component(&mut self, component: &crate::factoring::Component) -> Result<(), GraphError> {
+        let Some((f, kind)) = self.factoring else {
+            return Err(GraphError::Expand {
+                node: self.node.to_string(),
+                message: format!("declares lighting component `{}` but the pipeline has no factoring node", component.name),
+            });
+        };
+        kind.expand_component(self, f, component)
     }
     /// A context whose node can ask for the shared sampler ([`ExpandCtx::sampler`]).
     pub fn with_sampler(mut self, plan: &'a mut SamplerPlan) -> Self {

@@ -16,14 +16,68 @@
 //!   the validator reports at the node's position (e.g. no lens given anywhere).
 //! - The validator allows one factoring node per pipeline (two are reported at the second, naming the
 //!   first) and hands it to every node's expansion: [`crate::ExpandCtx::factoring`].
-//! - A component node that sees a factoring node samples through the shared sampler with the factoring
-//!   node's settings and outputs its composed component (thesis eq. 5.32's term); the factoring node
-//!   reads the components through the pipeline's wiring and filters the sum. The pipeline file states
-//!   that wiring, so `wedge graph` shows it.
+//! - A component node that sees a factoring node declares its lighting [`Component`] (estimator,
+//!   statistics, factored parts) and hands it to [`crate::ExpandCtx::component`], which calls the
+//!   factoring node's [`crate::NodeKind::expand_component`]: the factoring node's own file decides
+//!   which passes render the component (Ch. 5's lens terms for Defocus, App. B's velocity terms for
+//!   Motion), so a component node names no factoring kind. The component's node outputs the composed
+//!   component (eq. 5.32's term); the factoring node reads the components through the pipeline's
+//!   wiring and filters the sum. The pipeline file states that wiring, so `wedge graph` shows it.
+//! - A kind's decision may depend on the scene ([`FactoringInputs::scene`]): a Motion node on a
+//!   static scene does not factor, so the pipeline renders as without it.
 
 use std::collections::BTreeMap;
 
 use crate::decl::ParamValue;
+
+/// What a factoring decision may know besides the node's own parameters: the pipeline's camera
+/// block, and — once a session has loaded it — facts about the scene (`None` where no scene is loaded,
+/// e.g. `wedge graph`: a node then decides as if the scene could need it).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FactoringInputs<'a> {
+    pub camera: Option<&'a crate::pipeline::CameraSpec>,
+    pub scene: Option<SceneFacts>,
+}
+
+/// The facts about a loaded scene that factoring decisions read (graph knows no scenes: the session
+/// fills these in).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneFacts {
+    /// Some object or light moves over the shutter (a non-empty shutter and a motion that is not
+    /// the identity).
+    pub motion: bool,
+}
+
+/// One factored part of a lighting component: the names of its `L`, `k`, `E` among the shared
+/// sampler's resolved outputs (thesis eqs. 5.9–5.14 direct, 5.21 indirect).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    pub name: &'static str,
+    pub radiance: &'static str,
+    pub texture: &'static str,
+    pub irradiance: &'static str,
+}
+
+/// A lighting component as a component node declares it to the factoring node
+/// ([`crate::ExpandCtx::component`]): the factoring node (Defocus, Motion, …) decides which passes
+/// render it — the component node only says what it samples and which statistics describe it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Component {
+    /// `direct` or `indirect`: which of the factoring node's widths and counts apply (the light's
+    /// occluder term, or the reflector-depth term).
+    pub name: &'static str,
+    /// The sampler estimator its secondary samples come from (`light`, `hemisphere`), and the
+    /// sampler settings that define it (`light`; `bounces`, `brdf`).
+    pub estimator: &'static str,
+    pub settings: Vec<(&'static str, ParamValue)>,
+    /// The first-pass statistic its rates read: (binding name, sampler output), e.g. (`occlusion`,
+    /// `occlusion`) or (`reflectors`, `depth`).
+    pub statistic: (&'static str, &'static str),
+    /// Extra rate parameters (`light` for the light's half-width; `omega_v` for a transfer bandlimit).
+    pub rate_params: Vec<(&'static str, ParamValue)>,
+    /// Its parts; the first one's factoring flag selects the count.
+    pub parts: Vec<Part>,
+}
 
 /// Settings a factoring node hands to the component nodes (names are the factoring node's contract:
 /// its module documents them).

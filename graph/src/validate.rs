@@ -269,20 +269,30 @@ impl ValidatedPipeline {
         self.nodes.iter().find(|n| n.name == name)
     }
     /// Decide the factoring node again from the nodes' current parameters (after parameter
-    /// overrides such as `--set defocus.aperture_radius=0`), with the validator's diagnostics.
-    pub fn update_factoring(&mut self) -> Result<(), GraphError> {
+    /// overrides such as `--set defocus.aperture_radius=0`) and, where a scene is loaded, its facts
+    /// (`None`: no scene yet), with the validator's diagnostics.
+    pub fn update_factoring(&mut self, scene: Option<crate::factoring::SceneFacts>) -> Result<(), GraphError> {
         let mut found: Option<crate::Factoring> = None;
         let mut problems = Vec::new();
+        let inputs = crate::factoring::FactoringInputs { camera: self.pipeline.camera.as_ref(), scene };
         for n in &self.nodes {
-            match n.kind.factoring(&n.params, self.pipeline.camera.as_ref()) {
+            match n.kind.factoring(&n.params, &inputs) {
                 Ok(None) => {}
                 Ok(Some(settings)) => match &found {
                     None => found = Some(crate::Factoring { node: n.name.clone(), kind: n.kind.kind().into(), settings }),
                     Some(first) => problems.push(Diagnostic {
                         kind: DiagnosticKind::TwoFactoringNodes,
                         location: n.location.clone(),
-                        message: format!("nodes `{}` and `{}` both filter the pipeline's lighting components", first.node, n.name),
-                        help: "remove one of them; a pipeline has one factoring node".into(),
+                        message: format!(
+                            "nodes `{}` ({}) and `{}` ({}) both factor and filter the pipeline's lighting components; \
+                             each factoring node's analysis assumes it is the only blur of the camera path (the thesis \
+                             derives defocus in Ch. 5 and motion in App. B separately: \"We assume no defocus blur; the \
+                             combined analysis is left for future work\")",
+                            first.node, first.kind, n.name, n.kind.kind()
+                        ),
+                        help: "remove one of them, or make one of them a no-op (a Defocus node with `aperture_radius: 0`; \
+                               a Motion node on a static scene or with a zero-length shutter)"
+                            .into(),
                     }),
                 },
                 Err(refusal) => problems.push(Diagnostic {
@@ -1011,8 +1021,9 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         sampler: reg.sampler().cloned(),
         factoring: None,
     };
-    // Which node factors follows from each node's whole, valid parameter block and the camera.
-    validated.update_factoring()?;
+    // Which node factors follows from each node's whole, valid parameter block and the camera (the
+    // scene is not loaded yet: a session decides again with its facts).
+    validated.update_factoring(None)?;
     Ok(validated)
 }
 
@@ -1105,7 +1116,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         node.kind.expand(
             &mut ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
                 .with_sampler(&mut plan)
-                .with_factoring(v.factoring.as_ref()),
+                .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref())))),
         )?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
 

@@ -1,7 +1,7 @@
 //! One lighting component under a factoring Defocus node (thesis Sec. 5.5–5.8): the passes a
-//! component node (SoftShadows: direct; Indirect: diffuse and glossy) adds when the pipeline has a
-//! factoring node ([`wedge_graph::factoring`]), shared so that each node's file only names its
-//! component.
+//! component node (SoftShadows: direct; Indirect: diffuse and glossy) gets when the pipeline's
+//! factoring node ([`wedge_graph::factoring`]) is a Defocus node — [`super::Defocus`]'s
+//! `NodeKind::expand_component` calls [`expand`] with the [`Component`] the node declared.
 //!
 //! Per component, on the shared sampler's records:
 //! 1. `Stage::Bandwidth`: SepDir / SepInd on the first pass's `L, k, E` (eq. 5.30, `defocus.flags`),
@@ -17,37 +17,11 @@
 //!    node outputs for the Defocus node to sum and blur (5.33).
 
 use wedge_graph::{
-    BufferId, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
-    SamplerRequest, Stage, FILL_CONSTANT,
+    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, Part, PerPrimary, Reference,
+    SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
 use super::formulas::{FACTORING_THRESHOLD, OMEGA_PIX_MAX};
-
-/// One factored part of a component: the sampler's resolved names of its `L`, `k`, `E`.
-pub struct Part {
-    pub name: &'static str,
-    pub radiance: &'static str,
-    pub texture: &'static str,
-    pub irradiance: &'static str,
-}
-
-/// A component as a node declares it.
-pub struct Component {
-    /// `direct` or `indirect`: selects `defocus.rates`' outputs (`omega_<c>`, `n_<c>`, `sigma_<c>`)
-    /// and flag input (`flag_<c>`).
-    pub name: &'static str,
-    /// The sampler estimator its secondary samples come from (`light`, `hemisphere`), and the
-    /// sampler settings that define it (`light`; `bounces`, `brdf`).
-    pub estimator: &'static str,
-    pub settings: Vec<(&'static str, ParamValue)>,
-    /// The first-pass statistic `defocus.rates` reads for it: (`occlusion`, sampler output
-    /// `occlusion`) or (`reflectors`, `depth`).
-    pub statistic: (&'static str, &'static str),
-    /// Extra `defocus.rates` parameters (`light` for ℓ_I; `omega_v` for the transfer bandlimit).
-    pub rate_params: Vec<(&'static str, ParamValue)>,
-    /// Its parts; the first one's flag selects the count.
-    pub parts: Vec<Part>,
-}
 
 /// The factoring node's rate settings forwarded into `defocus.rates`, with `Ω_pix^max` and the
 /// diffuse receiver's `Ω_v^max` (a component may override it in its `rate_params`).

@@ -28,10 +28,10 @@
 
 use std::collections::BTreeMap;
 
-use wedge_graph::factoring::{Refusal, Settings};
+use wedge_graph::factoring::{FactoringInputs, Refusal, Settings};
 use wedge_graph::{
-    BufferId, CameraSpec, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl,
-    SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+    BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
+    ParamValue, PortDecl, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
 use super::component::{filter_chain, rate_settings};
@@ -119,8 +119,8 @@ impl NodeKind for Defocus {
             ParamDecl::boolean("separable", true, "x then y filter passes (O(R) taps) instead of the 2-D reference (O(R²))"),
         ]
     }
-    fn factoring(&self, params: &BTreeMap<String, ParamValue>, camera: Option<&CameraSpec>) -> Result<Option<Settings>, Refusal> {
-        let (aperture, focus) = lens(params, camera)?;
+    fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
+        let (aperture, focus) = lens(params, inputs.camera)?;
         if aperture == 0.0 {
             return Ok(None);
         }
@@ -131,6 +131,9 @@ impl NodeKind for Defocus {
         s.insert("aperture_radius".into(), ParamValue::Float(aperture));
         s.insert("focus_distance".into(), ParamValue::Float(focus));
         Ok(Some(s))
+    }
+    fn expand_component(&self, ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(), GraphError> {
+        super::component::expand(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let components: Vec<BufferId> = ["direct", "indirect"].into_iter().filter_map(|p| ctx.input(p)).collect();
