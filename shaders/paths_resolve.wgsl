@@ -9,6 +9,15 @@ fn mean_of(s: vec3<f32>, over: f32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// paths.rs velocity_stats: mean (0 where `over` is 0) and per-axis range.
+fn velocity_stats(sum: vec2<f32>, over: f32, vmin: vec2<f32>, vmax: vec2<f32>) -> vec4<f32> {
+    var mean = vec2<f32>(0.0);
+    if (over > 0.0) {
+        mean = vec2<f32>(sum.x / over, sum.y / over);
+    }
+    return vec4<f32>(mean.x, mean.y, vmax.x - vmin.x, vmax.y - vmin.y);
+}
+
 fn hit_mean(r: PathRecord, s: f32) -> f32 {
     if (r.hit_weight > 0.0) {
         return s / r.hit_weight;
@@ -62,4 +71,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     direct_put(i, vec4<f32>(mean_of(r.e_direct, r.w_direct), f32(r.shadow)));
     diffuse_put(i, vec4<f32>(mean_of(r.e_diffuse, r.w_diffuse), f32(r.diffuse_samples)));
     glossy_put(i, vec4<f32>(mean_of(r.e_glossy, r.w_glossy), f32(r.glossy_samples)));
+    velocity_put(i, velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max));
+    shadow_velocity_put(i, velocity_stats(r.vs_sum, f32(r.occluded), r.vs_min, r.vs_max));
 }

@@ -41,6 +41,8 @@ pub mod pair {
     /// Independent numbers for everything beyond the first bounce (next-event and continuation at
     /// the indirect path's vertices) — keyed like `rng::PixelRng`, with this as its stream salt.
     pub const PATH: u32 = 5;
+    /// Shutter time of the path (its first coordinate; thesis App. B: time as a sample dimension).
+    pub const TIME: u32 = 6;
 }
 
 /// Sobol' direction-number generator matrix of dimension 1 (dimension 0 is bit reversal):

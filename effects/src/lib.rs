@@ -10,7 +10,10 @@
 //!   for from `expand` (`wedge_graph::sampler`); registered as the registry's sampler kind.
 //! - [`shadows`]: `SoftShadows`, axis-aligned filtering of area-light soft shadows (thesis Ch. 3).
 //! - [`indirect`]: `Indirect`, axis-aligned filtering of diffuse/glossy indirect light and AO (thesis Ch. 4).
-//! - [`defocus`]: the Ch. 5 formulas and kernels (defocus rates, factoring flags; thesis Ch. 5).
+//! - [`defocus`]: `Defocus`, thin-lens depth of field with factoring and two-level sampling (thesis Ch. 5).
+//! - [`motion`]: `Motion`, motion blur with factoring and two-level sampling (thesis App. B).
+//! - [`factored`]: the passes both factoring nodes build alike (filter chains, the compose of a
+//!   component's factored parts).
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — a baseline node
 //!   (references come from each pipeline's own graph, `wedge_graph::reference`).
@@ -33,10 +36,12 @@ use wedge_graph::NodeRegistry;
 
 pub mod add;
 pub mod defocus;
+pub mod factored;
 pub mod filtering;
 pub mod heatmap;
 pub mod indirect;
 pub mod montecarlo;
+pub mod motion;
 pub mod output;
 pub mod primary;
 pub mod sampler;
@@ -59,6 +64,8 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     add::register_kernels(kernels);
     nodes.register(Arc::new(defocus::Defocus));
     defocus::register_kernels(kernels);
+    nodes.register(Arc::new(motion::Motion));
+    motion::register_kernels(kernels);
 }
 
 /// The registries with everything wedge ships.

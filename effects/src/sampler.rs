@@ -63,8 +63,9 @@ pub fn centre_path(
     Ok((request, per_path))
 }
 
-/// Estimator → `paths.trace` switch.
-const ESTIMATORS: [(&str, &str); 2] = [("light", "direct"), ("hemisphere", "indirect")];
+/// Estimator → `paths.trace` switch. `time` is not a secondary estimator: it gives each path its own
+/// shutter time (thesis App. B), so the scene's motion blurs every estimate of the path.
+const ESTIMATORS: [(&str, &str); 3] = [("light", "direct"), ("hemisphere", "indirect"), ("time", "time")];
 
 /// Count channels: (channel, estimator, `paths.trace` binding of its samples over the adaptive pass,
 /// the setting giving its first-pass count per path). An estimator's first channel is always bound

@@ -332,6 +332,9 @@ pub struct SourceMap {
     /// The value of `camera` (`Some(…)`), and each field of the camera struct: (name, value position).
     pub camera: Option<Pos>,
     pub camera_fields: Vec<(String, Pos)>,
+    /// The value of `motion` (its `[`), and each entry's fields: (name, value position) per entry.
+    pub motion: Option<Pos>,
+    pub motion_entries: Vec<(Pos, Vec<(String, Pos)>)>,
     pub nodes: Vec<NodeSource>,
 }
 
@@ -359,6 +362,10 @@ impl SourceMap {
                             map.camera = value;
                             map.camera_fields = camera_fields(&toks, i + 2);
                         }
+                        "motion" => {
+                            map.motion = value;
+                            map.motion_entries = array_of_structs(&toks, i + 2);
+                        }
                         "nodes" => {
                             map.nodes_key = Some(toks[i].pos);
                             if is_punct(&toks, i + 2, '[') {
@@ -376,6 +383,15 @@ impl SourceMap {
             i += 1;
         }
         map
+    }
+
+    /// Position of the value written for field `name` of motion entry `k`, else of the entry, else of
+    /// the `motion` array.
+    pub fn motion_field(&self, k: usize, name: &str) -> Option<Pos> {
+        match self.motion_entries.get(k) {
+            Some((entry, fields)) => Some(fields.iter().find(|(n, _)| n == name).map_or(*entry, |(_, p)| *p)),
+            None => self.motion,
+        }
     }
 
     /// Position of the value written for camera field `name`, else of the camera block.
@@ -434,6 +450,27 @@ fn camera_fields(toks: &[Token], mut i: usize) -> Vec<(String, Pos)> {
         }
     }
     fields
+}
+
+/// The elements of the array starting at `toks[i]` (`[ (…), (…) ]`), each a struct: its position and
+/// its fields (name, value position) as [`camera_fields`] reads them.
+fn array_of_structs(toks: &[Token], mut i: usize) -> Vec<(Pos, Vec<(String, Pos)>)> {
+    let mut out = Vec::new();
+    if !is_punct(toks, i, '[') {
+        return out;
+    }
+    i += 1;
+    while i < toks.len() {
+        match &toks[i].tok {
+            Tok::Punct(']') => break,
+            Tok::Punct(',') => i += 1,
+            _ => {
+                out.push((toks[i].pos, camera_fields(toks, i)));
+                i = skip_value(toks, i);
+            }
+        }
+    }
+    out
 }
 
 fn is_punct(toks: &[Token], i: usize, c: char) -> bool {

@@ -336,6 +336,8 @@ pub enum DiagnosticKind {
     BadSize,
     /// A camera that cannot render: see [`crate::CameraSpec::problems`] for the rules.
     BadCamera,
+    /// A `motion` entry the scene's rigid motion cannot hold ([`crate::pipeline::MotionSpec::problems`]).
+    BadMotion,
     /// A node name that references cannot name (empty, or with a dot, blank or control character).
     BadName,
     /// A node's parameters, each valid on its own, do not work together (its kind's refusal, e.g.
@@ -366,6 +368,7 @@ impl DiagnosticKind {
             DiagnosticKind::NoSink => "no-sink",
             DiagnosticKind::BadSize => "bad-size",
             DiagnosticKind::BadCamera => "bad-camera",
+            DiagnosticKind::BadMotion => "bad-motion",
             DiagnosticKind::BadName => "bad-name",
             DiagnosticKind::BadNodeConfig => "bad-node-config",
             DiagnosticKind::TwoFactoringNodes => "two-factoring-nodes",
@@ -609,6 +612,22 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 p.map.camera_field(problem.field),
                 problem.message,
                 problem.help,
+            );
+        }
+    }
+
+    // Motion entries: numbers the scene's rigid motion can hold, each object named once.
+    let mut moved: HashMap<&str, usize> = HashMap::new();
+    for (k, m) in pl.motion.iter().enumerate() {
+        for (field, message, help) in m.problems() {
+            r.add(DiagnosticKind::BadMotion, p.map.motion_field(k, field), message, help);
+        }
+        if let Some(first) = moved.insert(m.object.as_str(), k) {
+            r.add(
+                DiagnosticKind::BadMotion,
+                p.map.motion_field(k, "object"),
+                format!("object `{}` has two motion entries (entries {} and {})", m.object, first + 1, k + 1),
+                "give each object one entry (its translation and rotation together)".into(),
             );
         }
     }

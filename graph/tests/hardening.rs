@@ -185,6 +185,7 @@ fn camera_rules_accept_ordinary_cameras() {
         vfov_deg,
         aperture_radius: 0.0,
         focus_distance: None,
+        shutter: None,
     };
     assert!(cam((0.0, 1.0, 4.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 45.0)
         .problems()
@@ -362,4 +363,32 @@ fn node_names_must_be_referable_and_messages_stay_printable() {
         assert!(!x.message.contains('\n') && !x.help.contains('\n'), "{x}");
     }
     assert!(bad[1].message.contains(r"bad\u{a}name"), "{}", bad[1]);
+}
+
+#[test]
+fn motion_entries_are_checked_at_their_fields() {
+    // Line 3: two entries for one object, the second rotating half a turn; line 5: a bad shutter.
+    let text = pipeline(&[]).replace(
+        "    nodes:",
+        "    motion: [(object: \"ball\", translate: (0.3, 0, 0)),\n        (object: \"ball\", rotate_deg: 200.0, axis: (0, 0, 0))],\n    \
+         camera: Some((position: (0, 1, 4), look_at: (0, 0, 0), vfov_deg: 45, shutter: Some((1.0, 0.5)))),\n    nodes:",
+    );
+    let d = diagnostics(&text);
+    let at = |kind: DiagnosticKind| -> Vec<(usize, usize, String)> {
+        d.iter().filter(|x| x.kind == kind).map(|x| (x.location.line, x.location.col, x.message.clone())).collect()
+    };
+    let motion = at(DiagnosticKind::BadMotion);
+    assert_eq!(motion.len(), 3, "{motion:#?}");
+    assert!(motion.iter().any(|(l, c, m)| (*l, *c) == (4, 38) && m.contains("not an angle below 180")), "{motion:#?}");
+    assert!(motion.iter().any(|(l, c, m)| (*l, *c) == (4, 51) && m.contains("not a direction")), "{motion:#?}");
+    assert!(motion.iter().any(|(l, c, m)| (*l, *c) == (4, 18) && m.contains("two motion entries")), "{motion:#?}");
+    let camera = at(DiagnosticKind::BadCamera);
+    assert_eq!(camera.len(), 1, "{camera:#?}");
+    assert!(camera[0].2.contains("not an interval"), "{camera:#?}");
+    // A well-formed block validates.
+    let nodes = [r#"(name: "src", kind: "Source")"#, r#"(name: "out", kind: "Sink", inputs: {"color": "src.a"})"#];
+    let ok = pipeline(&nodes).replace("    nodes:", "    motion: [(object: \"ball\", translate: (0.3, 0, 0), rotate_deg: 30)],\n    nodes:");
+    if let Err(e) = validate(&parse(&ok), &registry()) {
+        panic!("{e}");
+    }
 }

@@ -69,3 +69,29 @@ impl Kernel for FillConstantF32 {
         ctx.put("out", vec![v; ctx.pixels()])
     }
 }
+
+/// `fill.constant_vec4`: every component of every pixel of a `vec4` buffer gets parameter `value`
+/// (a finite number) — e.g. a zero velocity where a Motion node sees no motion.
+pub struct FillConstantVec4;
+
+impl Kernel for FillConstantVec4 {
+    fn name(&self) -> &'static str {
+        "fill.constant_vec4"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![Binding::write("out", Format::Vec4)]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/fill_constant_vec4.wgsl"), |ctx| Ok(Uniforms::new().f32("value", value_f32(ctx)?)))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let v = value_f32(ctx)?;
+        ctx.put("out", vec![[v; 4]; ctx.pixels()])
+    }
+}

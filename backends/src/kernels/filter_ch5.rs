@@ -69,7 +69,7 @@ fn within_filter(exponent: f32) -> bool {
 /// 5.33; `g = Ω`, or `Ω/ℓ_p` for the irradiance filter), or `None` where `j` is rejected: outside
 /// `i`'s truncated Gaussian (`w_i(j) < 0.01`) or `i` outside `j`'s filter (`w_j(i) < 0.01`, thesis
 /// Sec. 5.8). WGSL: `pair_weight` in filter_ch5_window.wgsl (0 for a rejection).
-fn pair_weight(d2: f32, gi2: f32, gj2: f32) -> Option<f32> {
+pub(crate) fn pair_weight(d2: f32, gi2: f32, gj2: f32) -> Option<f32> {
     let e_i = FILTER_SHARPNESS * d2 * gi2;
     let e_j = FILTER_SHARPNESS * d2 * gj2;
     (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())

@@ -117,6 +117,12 @@ pub static PATH_RECORD: StructLayout = StructLayout {
         f("indirect_hits", FieldType::U32),
         f("bounce_shadow", FieldType::U32),
         f("non_finite", FieldType::U32),
+        f("vp_sum", FieldType::Vec2),
+        f("vp_min", FieldType::Vec2),
+        f("vp_max", FieldType::Vec2),
+        f("vs_sum", FieldType::Vec2),
+        f("vs_min", FieldType::Vec2),
+        f("vs_max", FieldType::Vec2),
     ],
 };
 
@@ -185,6 +191,17 @@ pub struct PathRecord {
     pub bounce_shadow: u32,
     /// Samples whose value was NaN or infinite (excluded).
     pub non_finite: u32,
+    /// Image-space velocity of the primary hits (pixels per half shutter; 0 without `time`): Σ w·v over
+    /// hits, and its per-axis range over every path (a miss counts as 0: the background is still), so
+    /// a pixel that saw two velocities shows a wide range (thesis App. B).
+    pub vp_sum: [f32; 2],
+    pub vp_min: [f32; 2],
+    pub vp_max: [f32; 2],
+    /// Image-space velocity of the shadow of each occluded shadow sample (see [`shadow_velocity`]):
+    /// Σ v over those samples, and its per-axis range.
+    pub vs_sum: [f32; 2],
+    pub vs_min: [f32; 2],
+    pub vs_max: [f32; 2],
 }
 
 impl Record for PathRecord {
@@ -735,11 +752,14 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 /// - `direct`: mean direct E (rgb) and w = shadow rays, the value/sample-count convention of
 ///   `direct.light`'s `estimate`, which the world-space filters read (Vec4);
 /// - `diffuse`, `glossy`: the same for the indirect parts (mean E, w = their samples), the convention
-///   of `indirect.sample`'s estimates (Ch. 4 filters them, then multiplies k_d and k_s back in).
+///   of `indirect.sample`'s estimates (Ch. 4 filters them, then multiplies k_d and k_s back in);
+/// - `velocity`: mean image-space velocity of the primary hits (px per half shutter) and its per-axis
+///   range over the paths (misses as 0); `shadow_velocity`: the same over the occluded shadow samples
+///   (thesis App. B's `v_p`, `v_s` and "distinct velocities").
 pub struct PathsResolve;
 
 /// Every output of `paths.resolve`, in binding order (all optional).
-pub const RESOLVE_OUTPUTS: [(&str, Format); 20] = [
+pub const RESOLVE_OUTPUTS: [(&str, Format); 22] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -760,6 +780,8 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 20] = [
     ("direct", Format::Vec4),
     ("diffuse", Format::Vec4),
     ("glossy", Format::Vec4),
+    ("velocity", Format::Vec4),
+    ("shadow_velocity", Format::Vec4),
 ];
 
 /// How many of [`RESOLVE_OUTPUTS`] are Vec3 (they come first).
@@ -820,8 +842,16 @@ fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height
             estimate(mean(r.e_direct, r.w_direct), r.shadow),
             estimate(mean(r.e_diffuse, r.w_diffuse), r.diffuse_samples),
             estimate(mean(r.e_glossy, r.w_glossy), r.glossy_samples),
+            velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max),
+            velocity_stats(r.vs_sum, r.occluded as f32, r.vs_min, r.vs_max),
         ],
     }
+}
+
+/// A velocity's mean (`sum / over`, 0 where `over` is 0) and its per-axis range `max − min`.
+fn velocity_stats(sum: [f32; 2], over: f32, min: [f32; 2], max: [f32; 2]) -> [f32; 4] {
+    let mean = |s: f32| if over > 0.0 { s / over } else { 0.0 };
+    [mean(sum[0]), mean(sum[1]), max[0] - min[0], max[1] - min[1]]
 }
 
 impl Kernel for PathsResolve {

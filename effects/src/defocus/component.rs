@@ -14,12 +14,15 @@
 //!    composes `L`).
 //! 3. `Stage::Filter`: `filter.irradiance` (5.31) on each part's `E` with this component's width.
 //! 4. `Stage::Compose`: `defocus.compose` (5.32) per part, summed: the component's term, which the
-//!    node outputs for the Defocus node to sum and blur (5.33).
+//!    node outputs for the Defocus node to sum and blur (5.33) ([`crate::factored`], shared with
+//!    the Motion node).
 
 use wedge_graph::{
     BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, Part, PerPrimary, Reference,
     SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
+
+use crate::factored::{compose_component, IrradianceFilter, PartTerms};
 
 use super::formulas::{FACTORING_THRESHOLD, OMEGA_PIX_MAX};
 
@@ -69,38 +72,6 @@ fn flags(
     Ok(out)
 }
 
-/// A Ch. 5 filter (`filter.irradiance` or `filter.defocus`) on `value`: the x then the y pass
-/// (`<name>_x`, `<name>_y`) when `separable`, else the 2-D reference (`<name>`); a reference
-/// bypasses them.
-#[allow(clippy::too_many_arguments)]
-pub fn filter_chain(
-    ctx: &mut ExpandCtx<'_>,
-    name: &str,
-    kernel: &str,
-    stage: Stage,
-    value: BufferId,
-    reads: &[(&str, BufferId)],
-    params: &[(&str, ParamValue)],
-    separable: bool,
-) -> BufferId {
-    let axes: &[(i64, &str)] = if separable { &[(0, "_x"), (1, "_y")] } else { &[(-1, "")] };
-    let mut value = value;
-    for (axis, suffix) in axes {
-        let local = format!("{name}{suffix}");
-        let out = ctx.buffer(&local, Format::Vec3);
-        let mut b = ctx.pass(&local, kernel, stage).read("value", value);
-        for (binding, id) in reads {
-            b = b.read(binding, *id);
-        }
-        for (n, v) in params {
-            b = b.param(n, v.clone());
-        }
-        b.write("out", out).int("axis", *axis).reference(Reference::Bypass { input: "value" }).finish();
-        value = out;
-    }
-    value
-}
-
 /// Add the component's passes (see the module doc) and bind the node's ports `radiance` (the
 /// composed term), `unfiltered` (Σ L), `filter_width` (the irradiance filter's σ in pixels) and
 /// `rays_per_pixel` (the component's secondary samples per pixel as the rates ask).
@@ -147,50 +118,19 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         beyond_first: true,
     })?;
 
-    // 2–4. Per part: final flags, irradiance filter, compose; summed over parts.
+    // 2–4. Per part: final flags, irradiance filter; composed and summed over parts.
     let position = ctx.sampler_output(SamplerPass::Final, "position")?;
     let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
-    let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (None, None);
+    let mut terms = Vec::new();
     for part in &c.parts {
         let flag =
             flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, Reference::Fill(0))?;
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
-        let e = filter_chain(
-            ctx,
-            &format!("{}_filter", part.name),
-            "filter.irradiance",
-            Stage::Filter,
-            e,
-            &[("position", position), ("normal", normal), ("omega", omega), ("pixel_length", pixel_length)],
-            &[("max_radius", radius.clone()), ("normal_cos", ParamValue::Float(10f64.to_radians().cos()))],
-            separable,
-        );
-        let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
-        let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
-        let name = format!("{}_compose", part.name);
-        let out = ctx.buffer(&name, Format::Vec3);
-        ctx.pass(&name, "defocus.compose", Stage::Compose)
-            .read("radiance", l)
-            .read("texture", k)
-            .read("irradiance", e)
-            .read("flag", flag)
-            .read_opt("previous", radiance)
-            .write("out", out)
-            .finish();
-        radiance = Some(out);
-        unfiltered = Some(match unfiltered {
-            None => l,
-            Some(prev) => {
-                let name = format!("{}_unfiltered", part.name);
-                let sum = ctx.buffer(&name, Format::Vec3);
-                ctx.pass(&name, "compose.add", Stage::Compose).read("a", prev).read("b", l).write("out", sum).finish();
-                sum
-            }
-        });
+        let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
+        let e = filter.apply(ctx, &format!("{}_filter", part.name), e);
+        let (l, k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
+        terms.push((part, PartTerms { l, k, e, flag }));
     }
-    ctx.output("radiance", radiance.expect("a component has parts"));
-    ctx.output("unfiltered", unfiltered.expect("a component has parts"));
-    ctx.output("filter_width", sigma);
-    ctx.output("rays_per_pixel", count);
+    compose_component(ctx, &terms, sigma, count);
     Ok(())
 }

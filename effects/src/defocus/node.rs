@@ -34,7 +34,8 @@ use wedge_graph::{
     ParamValue, PortDecl, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
-use super::component::{filter_chain, rate_settings};
+use super::component::rate_settings;
+use crate::factored::{filter_chain, sum};
 use super::formulas::Mode;
 
 pub struct Defocus;
@@ -216,18 +217,4 @@ impl NodeKind for Defocus {
         ctx.output("rays_per_pixel", n_primary);
         Ok(())
     }
-}
-
-/// `a + b + …` by a chain of `compose.add` passes named `<name>`, `<name>_1`, …; a single buffer is
-/// returned as it is.
-fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Option<BufferId>) -> BufferId {
-    let all: Vec<BufferId> = terms.iter().copied().chain(extra).collect();
-    let mut acc = all[0];
-    for (k, b) in all[1..].iter().enumerate() {
-        let local = if k + 2 == all.len() { name.to_string() } else { format!("{name}_{}", k + 1) };
-        let out = ctx.buffer(&local, Format::Vec3);
-        ctx.pass(&local, "compose.add", Stage::Compose).read("a", acc).read("b", *b).write("out", out).finish();
-        acc = out;
-    }
-    acc
 }

@@ -1,0 +1,122 @@
+//! Passes every factoring node (thesis Ch. 5's Defocus, App. B's Motion) builds the same way: the
+//! irradiance and screen-space filter chains, the compose of a component's factored parts (eq. 5.32:
+//! `k̃ Ẽ` where a part factors, else `L`, summed over parts) with the component node's ports, and the
+//! sum of components the factoring node blurs.
+
+use wedge_graph::{BufferId, ExpandCtx, Format, ParamValue, Part, Reference, Stage};
+
+/// A Ch. 5 filter (`filter.irradiance` or `filter.defocus`) on `value`: the x then the y pass
+/// (`<name>_x`, `<name>_y`) when `separable`, else the 2-D reference (`<name>`); a reference
+/// bypasses them.
+#[allow(clippy::too_many_arguments)]
+pub fn filter_chain(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    kernel: &str,
+    stage: Stage,
+    value: BufferId,
+    reads: &[(&str, BufferId)],
+    params: &[(&str, ParamValue)],
+    separable: bool,
+) -> BufferId {
+    let axes: &[(i64, &str)] = if separable { &[(0, "_x"), (1, "_y")] } else { &[(-1, "")] };
+    let mut value = value;
+    for (axis, suffix) in axes {
+        let local = format!("{name}{suffix}");
+        let out = ctx.buffer(&local, Format::Vec3);
+        let mut b = ctx.pass(&local, kernel, stage).read("value", value);
+        for (binding, id) in reads {
+            b = b.read(binding, *id);
+        }
+        for (n, v) in params {
+            b = b.param(n, v.clone());
+        }
+        b.write("out", out).int("axis", *axis).reference(Reference::Bypass { input: "value" }).finish();
+        value = out;
+    }
+    value
+}
+
+/// `filter.irradiance` (eq. 5.31) as a component's parts run it: world-space distances between the
+/// final pass's path-averaged positions, the 10° normal test, the width `omega` (pixel⁻¹) converted
+/// to metres by `pixel_length`.
+pub struct IrradianceFilter {
+    pub position: BufferId,
+    pub normal: BufferId,
+    pub omega: BufferId,
+    pub pixel_length: BufferId,
+    pub max_radius: ParamValue,
+    pub separable: bool,
+}
+
+impl IrradianceFilter {
+    /// The filter on `e`, passes named `<name>` (`_x`, `_y` when separable).
+    pub fn apply(&self, ctx: &mut ExpandCtx<'_>, name: &str, e: BufferId) -> BufferId {
+        filter_chain(
+            ctx,
+            name,
+            "filter.irradiance",
+            Stage::Filter,
+            e,
+            &[("position", self.position), ("normal", self.normal), ("omega", self.omega), ("pixel_length", self.pixel_length)],
+            &[("max_radius", self.max_radius.clone()), ("normal_cos", ParamValue::Float(10f64.to_radians().cos()))],
+            self.separable,
+        )
+    }
+}
+
+/// One factored part's buffers for the compose: its `L`, its (filtered) `k` and `E`, and the flag
+/// that says where it factors.
+pub struct PartTerms {
+    pub l: BufferId,
+    pub k: BufferId,
+    pub e: BufferId,
+    pub flag: BufferId,
+}
+
+/// Eq. 5.32 for a component: `defocus.compose` per part (`<part>_compose`, each adding to the
+/// previous part's sum) and Σ L (`<part>_unfiltered`), bound to the component node's ports
+/// `radiance` and `unfiltered`, with `filter_width` and `rays_per_pixel`.
+pub fn compose_component(ctx: &mut ExpandCtx<'_>, parts: &[(&Part, PartTerms)], filter_width: BufferId, rays: BufferId) {
+    let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (None, None);
+    for (part, t) in parts {
+        let name = format!("{}_compose", part.name);
+        let out = ctx.buffer(&name, Format::Vec3);
+        ctx.pass(&name, "defocus.compose", Stage::Compose)
+            .read("radiance", t.l)
+            .read("texture", t.k)
+            .read("irradiance", t.e)
+            .read("flag", t.flag)
+            .read_opt("previous", radiance)
+            .write("out", out)
+            .finish();
+        radiance = Some(out);
+        unfiltered = Some(match unfiltered {
+            None => t.l,
+            Some(prev) => {
+                let name = format!("{}_unfiltered", part.name);
+                let sum = ctx.buffer(&name, Format::Vec3);
+                ctx.pass(&name, "compose.add", Stage::Compose).read("a", prev).read("b", t.l).write("out", sum).finish();
+                sum
+            }
+        });
+    }
+    ctx.output("radiance", radiance.expect("a component has parts"));
+    ctx.output("unfiltered", unfiltered.expect("a component has parts"));
+    ctx.output("filter_width", filter_width);
+    ctx.output("rays_per_pixel", rays);
+}
+
+/// `a + b + …` by a chain of `compose.add` passes named `<name>`, `<name>_1`, …; a single buffer is
+/// returned as it is.
+pub fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Option<BufferId>) -> BufferId {
+    let all: Vec<BufferId> = terms.iter().copied().chain(extra).collect();
+    let mut acc = all[0];
+    for (k, b) in all[1..].iter().enumerate() {
+        let local = if k + 2 == all.len() { name.to_string() } else { format!("{name}_{}", k + 1) };
+        let out = ctx.buffer(&local, Format::Vec3);
+        ctx.pass(&local, "compose.add", Stage::Compose).read("a", acc).read("b", *b).write("out", out).finish();
+        acc = out;
+    }
+    acc
+}

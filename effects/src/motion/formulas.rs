@@ -1,0 +1,235 @@
+//! The per-pixel formulas of thesis App. B (motion blur with secondary effects,
+//! `seeds/000_956e982470d7e5bf.txt` Appendix B; `EQUATIONS.md` "Motion"), as pure functions.
+//! `shaders/motion_formulas.wgsl` mirrors them expression for expression, on top of the Ch. 5 rate
+//! formulas it shares (`shaders/defocus_formulas.wgsl`).
+//!
+//! Units are Ch. 5's: widths `Ω` in pixel⁻¹ (`Ω_pix^max = 0.5`), velocities `v` in pixels per
+//! **half** shutter (time `t ∈ [−1, 1]` over the shutter, `Ω_t^max = 1`: EQUATIONS.md reading), so a
+//! point moving at `v` sweeps `2|v|` pixels while the shutter is open.
+//!
+//! - Texture width (B.1) `Ω_{x,p}^m = min(Ω_pix^max, Ω_t^max/|v_p|)`, irradiance width (B.2)
+//!   `Ω_{x,s}^m = min(Ω_pix^max, Ω_t^max/|v_s|)`, each μ-scaled by eq. 5.29 (literal or consistent,
+//!   as Ch. 5). Where `|v|` is within the velocity tolerance of a still point the pixel is static: no
+//!   filter (width 0; eq. B.1 alone would still blur a static surface at `Ω_pix^max`) and `v = 0` in
+//!   the counts.
+//! - The direct irradiance also takes the area-light width of eq. 5.18 without the lens term,
+//!   `min(Ω_pix^max, ℓ_p Ω_y^max/s_min)`; indirect takes only eq. 5.22's reflector-depth width
+//!   (App. B: "we only apply the standard irradiance filter based on minimum reflector depth").
+//! - Primary rays (B.3) `n_p = (Ω_pix^max + Ω_x^t)² (1 + |v_p| Ω_x^t)²` with `Ω_x^t = Ω_{x,p}^m`
+//!   (EQUATIONS.md: "(B.3)'s Ω_x^t means Ω_{x,p}^m") — eq. 5.24 with `|v_p|` for `r_max`. A pixel
+//!   that sees two or more velocities (primary hit or shadow) takes `multi_paths` primary rays (64).
+//! - Shadow rays "similar to eq. 5.25": `(Ω_pix+Ω)²(1 + |v_s| Ω)²(1 + ℓ_I s_max Ω/ℓ_p)²` with
+//!   `Ω = min(area-light width, Ω_{x,s}^m)` — the time factor from the shadow's own velocity (a static
+//!   shadow on a moving receiver is constant over the shutter at a pixel). Indirect: eq. 5.26 without
+//!   the time factor (App. B: "the (Ω_t^*)² term can be ignored"). Rounded to `p² s²` as Ch. 5.
+//!   Multi-velocity pixels take one secondary ray per primary ray (Ch. 5's minimum): they are not
+//!   filtered, only averaged over 3×3.
+//! - **Single velocity** (factoring is "enforced at all pixels with a single primary hit velocity"):
+//!   the spread of the velocities a pixel's paths saw (misses count as 0: the background is static)
+//!   is within the tolerance of [`wedge_backends::kernels::filter_motion::velocity_tolerance`], for the
+//!   primary hits and for the occluded shadow samples alike.
+
+use glam::Vec2;
+use wedge_backends::kernels::filter_motion::velocity_tolerance;
+
+use crate::defocus::formulas::{
+    direct_rate, indirect_rate, omega_direct, omega_indirect, omega_mu, pixel_length, primary_rate, primary_strata,
+    secondary_strata, strata_cap, Mode,
+};
+
+/// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (EQUATIONS.md "Motion").
+pub const OMEGA_T_MAX: f32 = 1.0;
+
+/// Primary rays per pixel at a pixel that sees two or more velocities (App. B: "a large constant
+/// primary sampling rate (64 rays)").
+pub const MULTI_VELOCITY_PATHS: i64 = 64;
+
+/// `min(Ω_pix^max, Ω_t^max/|v|)` (eqs. B.1, B.2), before μ.
+pub fn omega_motion(speed: f32, omega_pix: f32) -> f32 {
+    if speed > 0.0 {
+        omega_pix.min(OMEGA_T_MAX / speed)
+    } else {
+        omega_pix
+    }
+}
+
+/// Whether a velocity is a motion to filter along: faster than the tolerance of a still point.
+pub fn moving(v: [f32; 2]) -> bool {
+    Vec2::from(v).length() > velocity_tolerance(0.0)
+}
+
+/// Whether velocities of mean `mean` and per-axis range `spread` (max − min over the samples) are one
+/// motion: the range is within the tolerance of the fastest sample (≈ |mean| + |spread|/2).
+pub fn single_velocity(mean: [f32; 2], spread: [f32; 2]) -> bool {
+    let s = Vec2::from(spread).length();
+    s <= velocity_tolerance(Vec2::from(mean).length() + 0.5 * s)
+}
+
+/// One pixel's first-pass statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MotionStats {
+    /// Mean image-space velocity of the primary hits and its per-axis range over all paths.
+    pub v_p: [f32; 2],
+    pub v_p_spread: [f32; 2],
+    /// The same for the shadows (occluded shadow samples); meaningful where `occluded`.
+    pub v_s: [f32; 2],
+    pub v_s_spread: [f32; 2],
+    pub occluded: bool,
+    /// Some primary ray hit geometry; `depth` along the optical axis (for ℓ_p).
+    pub hit: bool,
+    pub depth: f32,
+    /// Shadow slopes (eq. 5.17) and reflector distances, 0 where absent.
+    pub s_min: f32,
+    pub s_max: f32,
+    pub z_min: f32,
+    pub z_max: f32,
+}
+
+impl MotionStats {
+    /// One velocity for the primary hits and for the shadows (factoring applies, App. B).
+    pub fn single(&self) -> bool {
+        single_velocity(self.v_p, self.v_p_spread) && (!self.occluded || single_velocity(self.v_s, self.v_s_spread))
+    }
+}
+
+/// Constants of one rates evaluation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionParams {
+    pub mu: f32,
+    pub mode: Mode,
+    pub omega_pix: f32,
+    /// `m`: metres per pixel at unit depth.
+    pub pixel_scale: f32,
+    /// `ℓ_I`: the area light's physical half-width (0: no light term).
+    pub light_half_width: f32,
+    /// `Ω_v^max` of the receiver's transfer function (Ch. 4: 2.8 diffuse).
+    pub omega_v: f32,
+    pub max_primary: u32,
+    pub max_per_primary: u32,
+    /// Primary rays at multi-velocity pixels (capped by `max_primary`).
+    pub multi_paths: u32,
+}
+
+/// One pixel's widths (μ-scaled; 0 = no such filter) and rounded counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MotionRates {
+    pub single: bool,
+    /// Texture filter along `v_p` (B.1).
+    pub omega_texture: f32,
+    /// Direct irradiance: area-light width (5.18 without the lens term) and the filter along `v_s` (B.2).
+    pub omega_direct: f32,
+    pub omega_shadow: f32,
+    /// Indirect irradiance: reflector-depth width (5.22 without the lens term).
+    pub omega_indirect: f32,
+    pub pixel_length: f32,
+    pub n_primary: u32,
+    pub n_direct: u32,
+    pub n_indirect: u32,
+}
+
+/// All of App. B's sampling for one pixel (see the module doc).
+pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
+    let max_p = strata_cap(k.max_primary);
+    let max_s = strata_cap(k.max_per_primary);
+    let single = s.single();
+    let mu = |omega: f32| omega_mu(omega, k.mu, k.mode, k.omega_pix);
+    if !s.hit {
+        return MotionRates { single, n_primary: 1, n_direct: 1, n_indirect: 1, ..MotionRates::default() };
+    }
+    let l_p = pixel_length(k.pixel_scale, s.depth);
+    // A velocity within the tolerance of a still point is no motion: neither filtered nor counted.
+    let speed = |v: [f32; 2]| if moving(v) { Vec2::from(v).length() } else { 0.0 };
+    let speed_p = speed(s.v_p);
+    let speed_s = if s.occluded { speed(s.v_s) } else { 0.0 };
+    let texture = mu(omega_motion(speed_p, k.omega_pix));
+    let shadow = mu(omega_motion(speed_s, k.omega_pix));
+    let direct = mu(omega_direct(0.0, s.s_min, l_p, k.light_half_width, k.omega_pix));
+    let indirect = mu(omega_indirect(0.0, s.z_min, l_p, k.omega_v, k.omega_pix));
+    let p = if single {
+        primary_strata(primary_rate(texture, speed_p, k.omega_pix), max_p)
+    } else {
+        primary_strata(k.multi_paths as f32, max_p)
+    };
+    let total = |n: f32| {
+        let q = if single { secondary_strata(n, p, max_s) } else { 1 };
+        p * p * q * q
+    };
+    let omega_d = direct.min(shadow);
+    MotionRates {
+        single,
+        omega_texture: if single && speed_p > 0.0 { texture } else { 0.0 },
+        omega_direct: direct,
+        omega_shadow: if single && speed_s > 0.0 { shadow } else { 0.0 },
+        omega_indirect: indirect,
+        pixel_length: l_p,
+        n_primary: p * p,
+        n_direct: total(direct_rate(omega_d, speed_s, s.s_max, l_p, k.light_half_width, k.omega_pix)),
+        n_indirect: total(indirect_rate(indirect, 0.0, s.z_max, l_p, k.omega_v, k.omega_pix)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> MotionParams {
+        MotionParams {
+            mu: 1.0,
+            mode: Mode::Literal,
+            omega_pix: 0.5,
+            pixel_scale: 0.002,
+            light_half_width: 0.25,
+            omega_v: 2.8,
+            max_primary: 256,
+            max_per_primary: 4,
+            multi_paths: 64,
+        }
+    }
+
+    #[test]
+    fn widths_follow_b1_and_skip_static_pixels() {
+        assert_eq!(omega_motion(0.0, 0.5), 0.5);
+        assert_eq!(omega_motion(1.0, 0.5), 0.5);
+        assert_eq!(omega_motion(10.0, 0.5), 0.1);
+        let s = MotionStats { v_p: [10.0, 0.0], hit: true, depth: 2.0, ..Default::default() };
+        let r = pixel_rates(&s, &params());
+        assert!(r.single);
+        assert_eq!(r.omega_texture, 0.1);
+        // B.3: (0.5 + 0.1)²(1 + 10·0.1)² = 1.44 → 2² primary rays.
+        assert_eq!(r.n_primary, 4);
+        let still = pixel_rates(&MotionStats { v_p: [0.3, 0.0], ..s }, &params());
+        assert_eq!(still.omega_texture, 0.0, "no filter below the velocity tolerance");
+        assert_eq!(still.n_primary, 1);
+    }
+
+    #[test]
+    fn two_velocities_take_sixty_four_paths_and_no_filter() {
+        // Half the paths hit an object moving at 12 px, half the static background.
+        let s = MotionStats { v_p: [12.0, 0.0], v_p_spread: [12.0, 0.0], hit: true, depth: 2.0, ..Default::default() };
+        let r = pixel_rates(&s, &params());
+        assert!(!r.single);
+        assert_eq!((r.n_primary, r.omega_texture, r.n_direct), (64, 0.0, 64));
+        // A rotating object: spread within a quarter of the speed is one motion.
+        assert!(single_velocity([12.0, 0.0], [2.0, 1.0]));
+    }
+
+    #[test]
+    fn a_moving_shadow_adds_the_time_factor_and_its_own_filter() {
+        let base = MotionStats { hit: true, depth: 2.0, occluded: true, s_min: 0.5, s_max: 1.0, ..Default::default() };
+        let still = pixel_rates(&base, &params());
+        let moving = pixel_rates(&MotionStats { v_s: [0.0, 8.0], ..base }, &params());
+        assert_eq!(still.omega_shadow, 0.0);
+        assert_eq!(moving.omega_shadow, 0.125);
+        assert!(moving.n_direct >= still.n_direct);
+    }
+
+    #[test]
+    fn consistent_mode_grows_counts_without_bound() {
+        let s = MotionStats { v_p: [10.0, 0.0], hit: true, depth: 2.0, ..Default::default() };
+        let mut k = params();
+        k.mode = Mode::Consistent;
+        k.max_primary = 1 << 20;
+        let counts: Vec<u32> = [1.0, 4.0, 16.0].iter().map(|&mu| pixel_rates(&s, &MotionParams { mu, ..k }).n_primary).collect();
+        assert!(counts[0] < counts[1] && counts[1] < counts[2], "{counts:?}");
+    }
+}

@@ -1,0 +1,223 @@
+//! The motion kernels: `motion.rates` (App. B widths and counts per pixel) and `motion.flags` (one
+//! velocity or several), CPU here and WGSL in `shaders/motion_{rates,flags}.wgsl`, both on the
+//! formulas of [`super::formulas`] (WGSL mirror `shaders/motion_formulas.wgsl`).
+//!
+//! Buffer conventions (per pixel):
+//! - `velocity` (vec4): mean image-space velocity of the primary hits (pixels per half shutter) and its
+//!   per-axis range over the pixel's paths (misses count as 0) — the path sampler's `velocity`.
+//! - `shadow_velocity` (vec4, optional): the same for the shadows of the occluded shadow samples.
+//! - `depth` (vec4): the sampler's `defocus` output; `z` the mean depth along the optical axis, `w > 0`
+//!   where some primary ray hit.
+//! - `occlusion`, `reflectors` (vec4, optional): as `defocus.rates` reads them.
+//! - Filter inputs written for `filter.motion`: `texture_motion`, `shadow_motion` (vec4: the velocity
+//!   to filter along, its μ-scaled width Ω — 0 where the pixel is not filtered — and σ in pixels).
+
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_graph::Format;
+
+use super::formulas::{self, MotionParams, MotionRates, MotionStats};
+use crate::defocus::kernels::{rate_params, sigma_px};
+use crate::shadows::slopes;
+
+/// The filter's σ in pixels (`1/(√32 Ω)`, Ch. 5's Gaussian), 0 where it does not filter (Ω = 0).
+pub fn sigma_or_zero(omega: f32) -> f32 {
+    if omega > 0.0 {
+        sigma_px(omega)
+    } else {
+        0.0
+    }
+}
+
+fn motion_params(ctx: &KernelCtx<'_>) -> Result<MotionParams, BackendError> {
+    let k = rate_params(ctx)?;
+    let multi = ctx.int_param("multi_paths")?;
+    let multi_paths = u32::try_from(multi).ok().filter(|&m| m >= 1).ok_or_else(|| BackendError::Kernel {
+        pass: ctx.pass.to_string(),
+        message: format!("`multi_paths` = {multi}; it must be a count >= 1"),
+    })?;
+    Ok(MotionParams {
+        mu: k.mu,
+        mode: k.mode,
+        omega_pix: k.omega_pix,
+        pixel_scale: k.pixel_scale,
+        light_half_width: k.light_half_width,
+        omega_v: k.omega_v,
+        max_primary: k.max_primary,
+        max_per_primary: k.max_per_primary,
+        multi_paths,
+    })
+}
+
+/// One pixel's statistics from the input buffers (an unbound `shadow_velocity` means no shadow motion
+/// statistics: the shadow is not tested for a second velocity).
+pub fn motion_stats(
+    velocity: [f32; 4],
+    shadow_velocity: Option<[f32; 4]>,
+    depth: [f32; 4],
+    occlusion: Option<[f32; 4]>,
+    reflectors: Option<[f32; 4]>,
+) -> MotionStats {
+    let occluded_any = occlusion.is_some_and(|o| o[3] > 0.0);
+    let (s_min, s_max) = match occlusion {
+        Some(o) if occluded_any => slopes(o[0], o[1], o[2]),
+        _ => (0.0, 0.0),
+    };
+    let (z_min, z_max) = match reflectors {
+        Some(z) if z[2] > 0.0 => (z[0], z[1]),
+        _ => (0.0, 0.0),
+    };
+    let sv = shadow_velocity.unwrap_or_default();
+    MotionStats {
+        v_p: [velocity[0], velocity[1]],
+        v_p_spread: [velocity[2], velocity[3]],
+        v_s: [sv[0], sv[1]],
+        v_s_spread: [sv[2], sv[3]],
+        occluded: occluded_any && shadow_velocity.is_some(),
+        hit: depth[3] > 0.0,
+        depth: depth[2],
+        s_min,
+        s_max,
+        z_min,
+        z_max,
+    }
+}
+
+/// `motion.rates`: per pixel the App. B widths and rounded counts ([`formulas::pixel_rates`]); every
+/// output is optional (the Motion node binds the primary ones, each component its own).
+pub struct Rates;
+
+impl Kernel for Rates {
+    fn name(&self) -> &'static str {
+        "motion.rates"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("velocity", Format::Vec4),
+            Binding::read_opt("shadow_velocity", Format::Vec4),
+            Binding::read("depth", Format::Vec4),
+            Binding::read_opt("occlusion", Format::Vec4),
+            Binding::read_opt("reflectors", Format::Vec4),
+            Binding::write_opt("single", Format::U32),
+            Binding::write_opt("texture_motion", Format::Vec4),
+            Binding::write_opt("shadow_motion", Format::Vec4),
+            Binding::write_opt("n_primary", Format::U32),
+            Binding::write_opt("pixel_length", Format::F32),
+            Binding::write_opt("omega_direct", Format::F32),
+            Binding::write_opt("n_direct", Format::U32),
+            Binding::write_opt("omega_indirect", Format::F32),
+            Binding::write_opt("n_indirect", Format::U32),
+            Binding::write_opt("sigma_texture", Format::F32),
+            Binding::write_opt("sigma_direct", Format::F32),
+            Binding::write_opt("sigma_indirect", Format::F32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/motion_rates.wgsl"), |ctx| {
+                let k = motion_params(ctx)?;
+                use crate::defocus::formulas::strata_cap;
+                Ok(Uniforms::new()
+                    .f32("mu", k.mu)
+                    .u32("mode", k.mode.code())
+                    .f32("omega_pix", k.omega_pix)
+                    .f32("pixel_scale", k.pixel_scale)
+                    .f32("light_half_width", k.light_half_width)
+                    .f32("omega_v", k.omega_v)
+                    .u32("max_p", strata_cap(k.max_primary))
+                    .u32("max_s", strata_cap(k.max_per_primary))
+                    .u32("multi_paths", k.multi_paths))
+            })
+            .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
+            .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+            .with_include("velocity.wgsl", include_str!("../../../shaders/velocity.wgsl"))
+            .with_include("motion_formulas.wgsl", include_str!("../../../shaders/motion_formulas.wgsl"))
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let k = motion_params(ctx)?;
+        let velocity = ctx.read::<[f32; 4]>("velocity")?;
+        let shadow = ctx.read_opt::<[f32; 4]>("shadow_velocity")?;
+        let depth = ctx.read::<[f32; 4]>("depth")?;
+        let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
+        let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
+        let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
+        let rates: Vec<(MotionStats, MotionRates)> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            let s = motion_stats(velocity[i], at(shadow, i), depth[i], at(occlusion, i), at(reflectors, i));
+            (s, formulas::pixel_rates(&s, &k))
+        });
+        let column = |f: fn(&MotionRates) -> f32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<f32>>();
+        let count = |f: fn(&MotionRates) -> u32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<u32>>();
+        let motion = |v: fn(&MotionStats) -> [f32; 2], w: fn(&MotionRates) -> f32| {
+            rates.iter().map(|(s, r)| [v(s)[0], v(s)[1], w(r), sigma_or_zero(w(r))]).collect::<Vec<[f32; 4]>>()
+        };
+        ctx.put_opt("single", || count(|r| r.single as u32))?;
+        ctx.put_opt("texture_motion", || motion(|s| s.v_p, |r| r.omega_texture))?;
+        // The shadow's mean velocity as the sampler gave it (zero where unbound).
+        ctx.put_opt("shadow_motion", || {
+            rates
+                .iter()
+                .enumerate()
+                .map(|(i, (_, r))| {
+                    let v = shadow.map_or([0.0; 4], |s| s[i]);
+                    [v[0], v[1], r.omega_shadow, sigma_or_zero(r.omega_shadow)]
+                })
+                .collect::<Vec<[f32; 4]>>()
+        })?;
+        ctx.put_opt("n_primary", || count(|r| r.n_primary))?;
+        ctx.put_opt("pixel_length", || column(|r| r.pixel_length))?;
+        ctx.put_opt("omega_direct", || column(|r| r.omega_direct))?;
+        ctx.put_opt("n_direct", || count(|r| r.n_direct))?;
+        ctx.put_opt("omega_indirect", || column(|r| r.omega_indirect))?;
+        ctx.put_opt("n_indirect", || count(|r| r.n_indirect))?;
+        ctx.put_opt("sigma_texture", || column(|r| sigma_or_zero(r.omega_texture)))?;
+        ctx.put_opt("sigma_direct", || column(|r| sigma_or_zero(r.omega_direct)))?;
+        ctx.put_opt("sigma_indirect", || column(|r| sigma_or_zero(r.omega_indirect)))
+    }
+}
+
+/// `motion.flags`: `flag` 1 where the pixel's paths saw one velocity (App. B factors it), else 0;
+/// `multi` the opposite (the pixels App. B filters over 3×3). Both optional.
+pub struct Flags;
+
+impl Kernel for Flags {
+    fn name(&self) -> &'static str {
+        "motion.flags"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("velocity", Format::Vec4),
+            Binding::read_opt("shadow_velocity", Format::Vec4),
+            Binding::read_opt("occlusion", Format::Vec4),
+            Binding::write_opt("flag", Format::U32),
+            Binding::write_opt("multi", Format::U32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/motion_flags.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+                .with_include("velocity.wgsl", include_str!("../../../shaders/velocity.wgsl"))
+                .with_include("motion_formulas.wgsl", include_str!("../../../shaders/motion_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let velocity = ctx.read::<[f32; 4]>("velocity")?;
+        let shadow = ctx.read_opt::<[f32; 4]>("shadow_velocity")?;
+        let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
+        let single: Vec<bool> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            motion_stats(velocity[i], shadow.map(|s| s[i]), [0.0; 4], occlusion.map(|o| o[i]), None).single()
+        });
+        ctx.put_opt("flag", || single.iter().map(|&s| s as u32).collect::<Vec<u32>>())?;
+        ctx.put_opt("multi", || single.iter().map(|&s| !s as u32).collect::<Vec<u32>>())
+    }
+}

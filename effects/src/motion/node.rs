@@ -1,0 +1,296 @@
+//! `Motion`: motion blur with factored axis-aligned filtering and two-level sampling (thesis App. B,
+//! `seeds/000_956e982470d7e5bf.txt` Appendix B; `EQUATIONS.md` "Motion").
+//!
+//! The pipeline's factoring node ([`wedge_graph::factoring`]) when the scene moves over the shutter
+//! (a static scene, or a zero-length shutter: the node does not factor, the component nodes render
+//! as without it — Ch. 3/4 — and it only sums its inputs, so the image is the same as without it).
+//! Factoring, it
+//! 1. asks the shared sampler for shutter times (estimator `time`) and App. B's first pass:
+//!    `initial_paths` (9) paths through the pixel centre, each at its own time with one shadow ray and
+//!    one indirect sample, the centre-of-light form factor (so `k·E = L` where the scene factors);
+//! 2. from the first pass's velocities (`velocity`, `shadow_velocity`) computes the texture width
+//!    `Ω_{x,p}^m` (B.1) and `n_p` (B.3; 64 where the pixel sees two or more velocities) with
+//!    `motion.rates`, and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
+//! 3. sums its `direct` and `indirect` inputs (each a component's factored term) and the emission of
+//!    the primary hits, and averages the sum over 3×3 (`filter.radiance3`) at the pixels whose final
+//!    paths saw two or more velocities (`motion.flags`).
+//!
+//! **Components** ([`Motion::expand_component`]): each lighting component node (SoftShadows, Indirect)
+//! renders for it: `motion.rates` gives its irradiance width (direct: eq. 5.18 without the lens term,
+//! and B.2 along the shadow's velocity; indirect: eq. 5.22 without the lens term) and its count (5.25
+//! with the shadow's velocity; 5.26 without the time factor); per part the irradiance `E` is filtered
+//! (`filter.irradiance`, then for direct light `filter.motion` along `v_s`), the texture `k` is filtered
+//! along `v_p` (`filter.motion`, B.1: App. B filters texture and irradiance independently, "since a
+//! moving surface may receive shadows that are not motion-blurred"), and the term is `k̃ Ẽ` where the
+//! pixel has one velocity, else the path-averaged `L`.
+//!
+//! **Time** is a sample dimension of the shared sampler: `t ∈ [−1, 1]` over the shutter, stratified
+//! (progressive Owen-scrambled Sobol', paired with the light and hemisphere samples by their own
+//! scrambles). The scene's motion (per object, rigid) comes from the scene (glTF animations, a RON scene
+//! file's `motion`, the built-in `motion` scene) or the pipeline's `motion` block; the shutter from the
+//! camera.
+//!
+//! Settings for the components (the factoring contract): `mu`, `mode` (`literal` eq. 5.29 as printed,
+//! or `consistent`: converges to Monte Carlo as μ → ∞), `max_primary`, `max_per_primary`,
+//! `max_radius`, `multi_paths`.
+
+use std::collections::BTreeMap;
+
+use wedge_graph::factoring::{FactoringInputs, Refusal, Settings};
+use wedge_graph::{
+    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue,
+    PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+};
+
+use super::formulas::MULTI_VELOCITY_PATHS;
+use crate::defocus::component::rate_settings;
+use crate::defocus::formulas::Mode;
+use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
+
+pub struct Motion;
+
+/// The settings `motion.rates` takes from the factoring node.
+fn motion_rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
+    let mut s = rate_settings(f);
+    s.push(("multi_paths", f.setting("multi_paths").cloned().unwrap_or(ParamValue::Int(MULTI_VELOCITY_PATHS))));
+    s
+}
+
+/// `filter.motion` on `value` along `motion` (a `motion.rates` velocity/width buffer), named `name`;
+/// a reference bypasses it.
+fn motion_filter(ctx: &mut ExpandCtx<'_>, name: &str, value: BufferId, motion: BufferId, radius: &ParamValue) -> BufferId {
+    let out = ctx.buffer(name, Format::Vec3);
+    ctx.pass(name, "filter.motion", Stage::Filter)
+        .read("value", value)
+        .read("motion", motion)
+        .write("out", out)
+        .param("max_radius", radius.clone())
+        .reference(Reference::Bypass { input: "value" })
+        .finish();
+    out
+}
+
+impl NodeKind for Motion {
+    fn kind(&self) -> &'static str {
+        "Motion"
+    }
+    fn doc(&self) -> &'static str {
+        "Motion blur with factored texture/irradiance filters along the velocity and two-level sampling (Mehta thesis App. B)"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)"),
+            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)"),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "Σ components + emission, 3×3-filtered where a pixel sees two or more velocities"),
+            PortDecl::new("unfiltered", Format::Vec3, "the same sum before the 3×3 filter (components filtered)"),
+            PortDecl::new("filter_width", Format::F32, "texture filter std-dev in pixels along the velocity, 1/(√32 Ω_{x,p}^m) (0 = not filtered)"),
+            PortDecl::new("rays_per_pixel", Format::U32, "primary rays per pixel asked for the second pass, n_p (eq. B.3; 64 at multi-velocity pixels)"),
+            PortDecl::new("velocity", Format::Vec4, "image-space velocity of the primary hits (px per half shutter), its texture width Ω and σ"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::positive("mu", 1.0, 1e6, "μ: scales every App. B bandwidth (eq. 5.29); larger = narrower filters, more rays"),
+            ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
+            ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
+            ParamDecl::int("initial_paths", 9, 1, 4096, "first-pass paths per pixel (thesis App. B: 9, one time, shadow and indirect sample each)"),
+            ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
+            ParamDecl::int("max_per_primary", 4, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square)"),
+            ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64)"),
+            ParamDecl::int("max_radius", 32, 1, 64, "largest filter half-width in pixels (filter.motion, filter.irradiance)"),
+        ]
+    }
+    fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
+        if inputs.scene.is_some_and(|s| !s.motion) {
+            return Ok(None);
+        }
+        Ok(Some(
+            ["mu", "mode", "max_primary", "max_per_primary", "max_radius", "multi_paths", "initial_paths", "form_factor"]
+                .into_iter()
+                .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
+                .collect(),
+        ))
+    }
+    fn expand_component(&self, ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(), GraphError> {
+        expand_component(ctx, f, c)
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let components: Vec<BufferId> = ["direct", "indirect"].into_iter().filter_map(|p| ctx.input(p)).collect();
+        if components.is_empty() {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: "has no component to blur: wire `direct` (from a SoftShadows node's radiance) and/or `indirect` \
+                          (from an Indirect node's radiance)"
+                    .into(),
+            });
+        }
+        let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {
+            // A static scene: the components rendered as without a Motion node; only their sum here.
+            let radiance = sum(ctx, "sum", &components, None);
+            let width = ctx.buffer("filter_width", Format::F32);
+            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose).write("out", width).float("value", 0.0).finish();
+            let rays = ctx.buffer("rays_per_pixel", Format::U32);
+            ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
+            let velocity = ctx.buffer("velocity", Format::Vec4);
+            ctx.pass("velocity", "fill.constant_vec4", Stage::Compose).write("out", velocity).float("value", 0.0).finish();
+            for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
+                ctx.output(port, id);
+            }
+            ctx.output("filter_width", width);
+            ctx.output("rays_per_pixel", rays);
+            ctx.output("velocity", velocity);
+            return Ok(());
+        };
+
+        // 1. Shutter times and App. B's first pass.
+        ctx.sampler(
+            SamplerRequest::new()
+                .estimator("time")
+                .setting("paths", ctx.param("initial_paths").clone())
+                .setting("shadow_per_primary", ParamValue::Int(1))
+                .setting("indirect_per_primary", ParamValue::Int(1))
+                .setting("jitter", ParamValue::Bool(false))
+                .setting("sampling", ParamValue::Str("stratified".into()))
+                .setting("form_factor", ctx.param("form_factor").clone()),
+        )?;
+
+        // 2. Ω_{x,p}^m and n_p (eqs. B.1, B.3).
+        let velocity = ctx.sampler_output(SamplerPass::First, "velocity")?;
+        let depth = ctx.sampler_output(SamplerPass::First, "defocus")?;
+        let (texture_motion, n_primary, sigma) = (
+            ctx.buffer("velocity", Format::Vec4),
+            ctx.buffer("rays_per_pixel", Format::U32),
+            ctx.buffer("filter_width", Format::F32),
+        );
+        let mut b = ctx
+            .pass("rates", "motion.rates", Stage::Bandwidth)
+            .read("velocity", velocity)
+            .read("depth", depth)
+            .write("texture_motion", texture_motion)
+            .write("n_primary", n_primary)
+            .write("sigma_texture", sigma);
+        for (n, v) in motion_rate_settings(f) {
+            b = b.param(n, v);
+        }
+        b.finish();
+        ctx.sampler_counts(CountRequest { paths: Some(n_primary), paths_unit: 1, per_primary: vec![], max3: true, beyond_first: true })?;
+
+        // 3. Σ components + emission, then the 3×3 filter at multi-velocity pixels (App. B).
+        let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;
+        let composed = sum(ctx, "compose", &components, Some(emission));
+        let final_velocity = ctx.sampler_output(SamplerPass::Final, "velocity")?;
+        let multi = ctx.buffer("multi", Format::U32);
+        ctx.pass("multi", "motion.flags", Stage::Factor)
+            .read("velocity", final_velocity)
+            .write("multi", multi)
+            .reference(Reference::Fill(0))
+            .finish();
+        let radiance = ctx.buffer("radiance", Format::Vec3);
+        ctx.pass("filter", "filter.radiance3", Stage::ImageFilter)
+            .read("value", composed)
+            .read("mask", multi)
+            .write("out", radiance)
+            .reference(Reference::Bypass { input: "value" })
+            .finish();
+        ctx.output("radiance", radiance);
+        ctx.output("unfiltered", composed);
+        ctx.output("filter_width", sigma);
+        ctx.output("rays_per_pixel", n_primary);
+        ctx.output("velocity", texture_motion);
+        Ok(())
+    }
+}
+
+/// The passes of one lighting component under a factoring Motion node (see the module doc).
+fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(), GraphError> {
+    let mut request = SamplerRequest::new().estimator(c.estimator);
+    for (n, v) in &c.settings {
+        request = request.setting(n, v.clone());
+    }
+    ctx.sampler(request)?;
+    let radius = f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(32));
+    let direct = c.name == "direct";
+
+    // 1. Widths and counts from the first pass (the shadow's velocity only for direct light).
+    let velocity = ctx.sampler_output(SamplerPass::First, "velocity")?;
+    let depth = ctx.sampler_output(SamplerPass::First, "defocus")?;
+    let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
+    let shadow_velocity = if direct { Some(ctx.sampler_output(SamplerPass::First, "shadow_velocity")?) } else { None };
+    let name = c.name;
+    let (omega, pixel_length, count, sigma, texture_motion) = (
+        ctx.buffer(&format!("{name}_omega"), Format::F32),
+        ctx.buffer(&format!("{name}_pixel_length"), Format::F32),
+        ctx.buffer(&format!("{name}_rays_per_pixel"), Format::U32),
+        ctx.buffer(&format!("{name}_sigma"), Format::F32),
+        ctx.buffer(&format!("{name}_texture_motion"), Format::Vec4),
+    );
+    let shadow_motion = direct.then(|| ctx.buffer(&format!("{name}_shadow_motion"), Format::Vec4));
+    let mut b = ctx
+        .pass(&format!("{name}_rates"), "motion.rates", Stage::Bandwidth)
+        .read("velocity", velocity)
+        .read("depth", depth)
+        .read_opt("shadow_velocity", shadow_velocity)
+        .read(c.statistic.0, statistic)
+        .write("pixel_length", pixel_length)
+        .write(&format!("omega_{name}"), omega)
+        .write(&format!("n_{name}"), count)
+        .write(&format!("sigma_{name}"), sigma)
+        .write("texture_motion", texture_motion);
+    if let Some(s) = shadow_motion {
+        b = b.write("shadow_motion", s);
+    }
+    for (n, v) in motion_rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()) {
+        b = b.param(n, v);
+    }
+    b.finish();
+    ctx.sampler_counts(CountRequest {
+        paths: None,
+        paths_unit: 1,
+        per_primary: vec![(c.estimator.into(), PerPrimary::Total(count))],
+        max3: true,
+        beyond_first: true,
+    })?;
+
+    // 2. One velocity or several, on the final paths (a reference composes L everywhere).
+    let final_velocity = ctx.sampler_output(SamplerPass::Final, "velocity")?;
+    let (final_shadow, final_occlusion) = if direct {
+        (
+            Some(ctx.sampler_output(SamplerPass::Final, "shadow_velocity")?),
+            Some(ctx.sampler_output(SamplerPass::Final, "occlusion")?),
+        )
+    } else {
+        (None, None)
+    };
+    let flag = ctx.buffer(&format!("{name}_flag"), Format::U32);
+    ctx.pass(&format!("{name}_flag"), "motion.flags", Stage::Factor)
+        .read("velocity", final_velocity)
+        .read_opt("shadow_velocity", final_shadow)
+        .read_opt("occlusion", final_occlusion)
+        .write("flag", flag)
+        .reference(Reference::Fill(0))
+        .finish();
+
+    // 3–4. Per part: E filtered (5.18/5.22, then B.2 along the shadow), k filtered along v_p (B.1);
+    // composed and summed over parts.
+    let position = ctx.sampler_output(SamplerPass::Final, "position")?;
+    let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
+    let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable: true };
+    let mut terms = Vec::new();
+    for part in &c.parts {
+        let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+        let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e);
+        if let Some(s) = shadow_motion {
+            e = motion_filter(ctx, &format!("{}_filter_shadow", part.name), e, s, &radius);
+        }
+        let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
+        let k = motion_filter(ctx, &format!("{}_filter_texture", part.name), k, texture_motion, &radius);
+        let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
+        terms.push((part, PartTerms { l, k, e, flag }));
+    }
+    compose_component(ctx, &terms, sigma, count);
+    Ok(())
+}

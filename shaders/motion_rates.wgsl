@@ -1,0 +1,46 @@
+// motion.rates — App. B widths and counts per pixel (eqs. B.1–B.3, 5.18, 5.22, 5.25, 5.26 as read in
+// effects/src/motion/formulas.rs); mirrors effects/src/motion/kernels.rs `Rates`.
+#include "common.wgsl"
+#include "shadows_formulas.wgsl"
+#include "defocus_formulas.wgsl"
+#include "velocity.wgsl"
+#include "motion_formulas.wgsl"
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let velocity = velocity_at(i);
+    let shadow = shadow_velocity_at(i);
+    let occ = occlusion_at(i);
+    let occluded = occlusion_bound() && occ.w > 0.0;
+    var s = vec2<f32>(0.0);
+    if (occluded) {
+        s = shadows_slopes(occ.x, occ.y, occ.z);
+    }
+    var z = vec2<f32>(0.0);
+    let refl = reflectors_at(i);
+    if (reflectors_bound() && refl.z > 0.0) {
+        z = refl.xy;
+    }
+    let depth = depth_at(i);
+    let k = MotionConstants(
+        params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
+        params.max_p, params.max_s, params.multi_paths,
+    );
+    let r = motion_pixel_rates(velocity, shadow, occluded && shadow_velocity_bound(), depth.w > 0.0, depth.z, s.x, s.y, z.x, z.y, k);
+    single_put(i, select(0u, 1u, r.single));
+    texture_motion_put(i, vec4<f32>(velocity.x, velocity.y, r.omega_texture, motion_sigma(r.omega_texture)));
+    shadow_motion_put(i, vec4<f32>(shadow.x, shadow.y, r.omega_shadow, motion_sigma(r.omega_shadow)));
+    n_primary_put(i, r.n_primary);
+    pixel_length_put(i, r.pixel_length);
+    omega_direct_put(i, r.omega_direct);
+    n_direct_put(i, r.n_direct);
+    omega_indirect_put(i, r.omega_indirect);
+    n_indirect_put(i, r.n_indirect);
+    sigma_texture_put(i, motion_sigma(r.omega_texture));
+    sigma_direct_put(i, motion_sigma(r.omega_direct));
+    sigma_indirect_put(i, motion_sigma(r.omega_indirect));
+}
