@@ -65,7 +65,15 @@ pub struct HeatmapSpec<'a> {
     /// (as if `None`); for `Log` a lower end ≤ 0 is replaced by the smallest
     /// positive value in the data.
     pub range: Option<(f32, f32)>,
+    /// Per-pixel image-space vectors (e.g. velocities) drawn as white strokes over the map, one per
+    /// [`ARROW_SPACING`]-pixel cell, through the cell's centre along the vector, as long as the
+    /// vector (both ways: a point moving at `v` per half shutter sweeps `2v`) up to the cell; none
+    /// where the vector is shorter than half a pixel. `None`: no strokes.
+    pub arrows: Option<&'a [[f32; 2]]>,
 }
+
+/// Cell size, in pixels, of the strokes of [`HeatmapSpec::arrows`].
+pub const ARROW_SPACING: u32 = 16;
 
 /// Images narrower than this get the colour bar below instead of on the right.
 pub const NARROW_WIDTH: u32 = 32;
@@ -245,6 +253,34 @@ impl Canvas<'_> {
 
     /// Text with its top edge at `y`; `x` is the left, centre or right end
     /// depending on `align`.
+    /// [`HeatmapSpec::arrows`]: a white stroke per cell of the `width × height` map drawn at
+    /// (`x0`, `y0`), clipped to the map.
+    fn strokes(&mut self, v: &[[f32; 2]], width: u32, height: u32, x0: i32, y0: i32) {
+        let half = (ARROW_SPACING / 2) as f32;
+        for cy in (ARROW_SPACING / 2..height).step_by(ARROW_SPACING as usize) {
+            for cx in (ARROW_SPACING / 2..width).step_by(ARROW_SPACING as usize) {
+                let Some(&[vx, vy]) = v.get((cy * width + cx) as usize) else {
+                    continue;
+                };
+                let len = (vx * vx + vy * vy).sqrt();
+                if !(len >= 0.5 && len.is_finite()) {
+                    continue;
+                }
+                let reach = len.min(half - 1.0) / len;
+                let (dx, dy) = (vx * reach, vy * reach);
+                let steps = (dx.abs().max(dy.abs()).ceil() as i32).max(1);
+                for k in -steps..=steps {
+                    let f = k as f32 / steps as f32;
+                    let px = (cx as f32 + 0.5 + f * dx).floor() as i32;
+                    let py = (cy as f32 + 0.5 + f * dy).floor() as i32;
+                    if px >= 0 && py >= 0 && px < width as i32 && py < height as i32 {
+                        self.put(x0 + px, y0 + py, [255, 255, 255]);
+                    }
+                }
+            }
+        }
+    }
+
     fn text(&mut self, s: &str, x: i32, y: i32, align: Alignment) {
         let style = MonoTextStyle::new(&FONT_6X10, TEXT);
         let text_style = TextStyleBuilder::new()
@@ -388,6 +424,9 @@ pub fn render_heatmap(
         height: out_h,
         buf: &mut buf,
     };
+    if let Some(arrows) = spec.arrows {
+        canvas.strokes(arrows, width, height, lay.map_x, lay.map_y);
+    }
     canvas.text(spec.title, lay.out_w / 2, PAD, Alignment::Center);
     let (w, h) = (width as i32, height as i32);
     if lay.below {
@@ -495,6 +534,7 @@ mod tests {
             unit: "relMSE",
             scale,
             range: None,
+            arrows: None,
         }
     }
 
@@ -513,6 +553,29 @@ mod tests {
             labels = [labels[0].clone(), String::new(), String::new()];
         }
         layout(w, h, &labels, s)
+    }
+
+    #[test]
+    fn strokes_follow_the_vectors_of_each_cell() {
+        // 32×32: cell centres at 8 and 24. One cell moves along +x by 3 px, one along −y by 20 px (capped
+        // at the cell), the others are still.
+        let (w, h) = (32u32, 32u32);
+        let values = vec![1.0f32; (w * h) as usize];
+        let mut v = vec![[0.0f32; 2]; (w * h) as usize];
+        v[(8 * w + 8) as usize] = [3.0, 0.0];
+        v[(8 * w + 24) as usize] = [0.0, -20.0];
+        let s = HeatmapSpec { arrows: Some(&v), ..spec(Scale::Linear) };
+        let out = render_heatmap(w, h, &values, None, &s);
+        let lay = layout_of(w, h, &values, None, &s);
+        let white = |x, y| map_pixel(&out, &lay, x, y) == [255, 255, 255];
+        // ±3 px along the row through the centre, nothing beyond.
+        assert!((5..=11).all(|x| white(x, 8)));
+        assert!(!white(4, 8) && !white(12, 8) && !white(8, 7));
+        // A long vector is capped at the cell: ±7 px.
+        assert!((1..=15).all(|y| white(24, y)));
+        assert!(!white(24, 0) && !white(24, 16));
+        // Still cells draw nothing.
+        assert!(!white(8, 24) && !white(24, 24));
     }
 
     #[test]
@@ -579,6 +642,7 @@ mod tests {
     fn explicit_range_clamps_and_log_maps_decades_evenly() {
         let s = HeatmapSpec {
             range: Some((10.0, 1000.0)),
+            arrows: None,
             ..spec(Scale::Log)
         };
         let m = Mapping::new(&[], None, &s);
@@ -593,6 +657,7 @@ mod tests {
             None,
             &HeatmapSpec {
                 range: Some((2.0, 0.0)),
+                arrows: None,
                 ..spec(Scale::Linear)
             },
         );

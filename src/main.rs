@@ -378,6 +378,7 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
         unit: "",
         scale: wedge::heatmap::Scale::Log,
         range: None,
+        arrows: None,
     };
     wedge::heatmap::write_heatmap_png(heatmap, a.width, a.height, &err, None, &spec)?;
     text.push_str(&format!("wrote {}\n", heatmap.display()));

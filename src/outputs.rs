@@ -89,7 +89,7 @@ pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u3
     for (port, title, unit, mask_zero) in output_maps {
         if let Some(b) = run.output(port) {
             let file = claim(format!("{port}.png"), format!("the `{port}` heatmap"))?;
-            let spec = HeatmapSpec { title, unit, scale: Scale::Log, range: None };
+            let spec = HeatmapSpec { title, unit, scale: Scale::Log, range: None, arrows: None };
             stage_heatmap(&mut set, &file, b, mask_zero, &spec, width, height)?;
         }
     }
@@ -98,8 +98,12 @@ pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u3
         let Some(d) = heatmap::describe(node, &sink.params, port) else { continue };
         let file = claim(format!("{node}.png"), format!("Heatmap node `{node}`"))?;
         let scale = if d.log { Scale::Log } else { Scale::Linear };
-        let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None };
-        stage_heatmap(&mut set, &file, b, d.mask_zero, &spec, width, height)?;
+        // A `motion` input (v_x, v_y, Ω, σ): σ with strokes along v.
+        let arrows: Option<Vec<[f32; 2]>> =
+            d.velocity.then(|| (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1)]).collect());
+        let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None, arrows: arrows.as_deref() };
+        let values = if d.velocity { (0..b.len()).map(|i| b.component(i, 3)).collect() } else { b.to_scalar() };
+        stage_values(&mut set, &file, &values, d.mask_zero, &spec, width, height)?;
     }
     Ok(WrittenRun { files: set.commit()?, non_finite })
 }
@@ -114,9 +118,21 @@ fn stage_heatmap(
     width: u32,
     height: u32,
 ) -> Result<(), ImageError> {
-    let values = b.to_scalar();
+    stage_values(set, file, &b.to_scalar(), mask_zero, spec, width, height)
+}
+
+/// Stage `file`, a heatmap of `values`; `mask_zero` draws values ≤ 0 black.
+fn stage_values(
+    set: &mut Staging,
+    file: &str,
+    values: &[f32],
+    mask_zero: bool,
+    spec: &HeatmapSpec,
+    width: u32,
+    height: u32,
+) -> Result<(), ImageError> {
     let mask: Option<Vec<bool>> = mask_zero.then(|| values.iter().map(|v| *v <= 0.0).collect());
-    write_heatmap_png(&set.file(file)?, width, height, &values, mask.as_deref(), spec)
+    write_heatmap_png(&set.file(file)?, width, height, values, mask.as_deref(), spec)
 }
 
 /// Average rays per pixel of each kind, and the per-pass time table.

@@ -72,7 +72,7 @@ fn each_heatmap_node_writes_its_png_as_its_parameters_say() {
     // Each file is exactly the map its parameters describe: title = node name, the port's or the
     // parameter's unit, the scale, the mask.
     let expect = |values: &[f32], mask: Option<&[bool]>, title: &str, unit: &str, scale: Scale| {
-        render_heatmap(s.width, s.height, values, mask, &HeatmapSpec { title, unit, scale, range: None })
+        render_heatmap(s.width, s.height, values, mask, &HeatmapSpec { title, unit, scale, range: None, arrows: None })
     };
     let cases = [
         ("beta", expect(&width, Some(&zero), "beta", "px", Scale::Log)),

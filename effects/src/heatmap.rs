@@ -3,7 +3,10 @@
 //! and the primary, shadow and indirect counts) without a port per effect on `Output`.
 //!
 //! Wire exactly one input: `width` (`f32`, a filter width in pixels; 0 = not filtered, masked black),
-//! `count` (`u32`, rays or samples per pixel) or `value` (any other `f32`). `wedge render` writes it
+//! `count` (`u32`, rays or samples per pixel), `value` (any other `f32`) or `motion` (`vec4`: an
+//! image-space velocity and a filter along it, as the Motion node's `velocity` port and `motion.rates`
+//! write them — drawn as the filter's σ in pixels with a stroke along the velocity every 16 pixels,
+//! like the oriented weights of thesis Fig. B.1(f)). `wedge render` writes it
 //! next to the image as `<node name>.png` with a colour bar, titled with the node's name (so the name
 //! must be a plain file name). Parameters: `scale` (`log`, the default, or `linear`), `unit` (the
 //! colour bar's unit; default `px` for a width, `rays` for a count, none for a value) and `mask_zero`
@@ -23,7 +26,8 @@ use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue
 pub const KIND: &str = "Heatmap";
 
 /// The input ports, each with its colour-bar unit and whether values ≤ 0 are masked by default.
-pub const PORTS: [(&str, &str, bool); 3] = [("width", "px", true), ("count", "rays", false), ("value", "", false)];
+pub const PORTS: [(&str, &str, bool); 4] =
+    [("width", "px", true), ("count", "rays", false), ("value", "", false), ("motion", "px", true)];
 
 /// Units a `unit` parameter may name (`none`: no unit drawn). A closed list because pipeline
 /// parameters have no free-text kind; the node's name is the free-text title.
@@ -40,6 +44,8 @@ pub struct HeatmapDesc {
     pub log: bool,
     /// Values ≤ 0 drawn black, left out of the colour range.
     pub mask_zero: bool,
+    /// The input is a `motion` vec4 (`v_x, v_y, Ω, σ`): draw `σ`, with strokes along `v`.
+    pub velocity: bool,
 }
 
 /// How to draw input `port` of the `Heatmap` node `node` with (validated) parameters `params`;
@@ -56,7 +62,7 @@ pub fn describe(node: &str, params: &BTreeMap<String, ParamValue>, port: &str) -
         Some(ParamValue::Bool(b)) => *b,
         _ => mask,
     };
-    Some(HeatmapDesc { title: node.to_string(), unit, log, mask_zero })
+    Some(HeatmapDesc { title: node.to_string(), unit, log, mask_zero, velocity: port == "motion" })
 }
 
 /// Whether `name` can be a file name in the output directory as it is: ASCII letters, digits, `_`
@@ -80,6 +86,7 @@ impl NodeKind for Heatmap {
             PortDecl::optional("width", Format::F32, "a filter width in pixels (0 = not filtered)"),
             PortDecl::optional("count", Format::U32, "rays or samples per pixel"),
             PortDecl::optional("value", Format::F32, "any other per-pixel scalar"),
+            PortDecl::optional("motion", Format::Vec4, "a velocity (px per half shutter) and its filter (Ω, σ px): σ with strokes along v"),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -109,8 +116,8 @@ impl NodeKind for Heatmap {
         if wired.len() != 1 {
             let which = if wired.is_empty() { "none is".to_string() } else { format!("`{}` are", wired.join("` and `")) };
             return Err(err(format!(
-                "wire exactly one of `width` (a filter width, f32), `count` (a ray count, u32) and `value` (another \
-                 f32); {which} wired"
+                "wire exactly one of `width` (a filter width, f32), `count` (a ray count, u32), `value` (another \
+                 f32) and `motion` (a velocity and its filter, vec4); {which} wired"
             )));
         }
         Ok(())
@@ -129,7 +136,8 @@ mod tests {
     fn defaults_follow_the_port_and_parameters_override_them() {
         let none = params(&[("scale", ParamValue::Str("log".into()))]);
         let d = describe("w", &none, "width").unwrap();
-        assert_eq!(d, HeatmapDesc { title: "w".into(), unit: "px".into(), log: true, mask_zero: true });
+        assert_eq!(d, HeatmapDesc { title: "w".into(), unit: "px".into(), log: true, mask_zero: true, velocity: false });
+        assert!(describe("m", &none, "motion").unwrap().velocity);
         let c = describe("n", &none, "count").unwrap();
         assert_eq!((c.unit.as_str(), c.mask_zero), ("rays", false));
         assert_eq!(describe("v", &none, "value").unwrap().unit, "");
@@ -141,7 +149,7 @@ mod tests {
             ("mask_zero", ParamValue::Bool(true)),
         ]);
         let c = describe("n", &set, "count").unwrap();
-        assert_eq!(c, HeatmapDesc { title: "n".into(), unit: "samples".into(), log: false, mask_zero: true });
+        assert_eq!(c, HeatmapDesc { title: "n".into(), unit: "samples".into(), log: false, mask_zero: true, velocity: false });
         let no_unit = params(&[("unit", ParamValue::Str("none".into())), ("mask_zero", ParamValue::Bool(false))]);
         let w = describe("w", &no_unit, "width").unwrap();
         assert_eq!((w.unit.as_str(), w.mask_zero), ("", false));
