@@ -31,18 +31,20 @@ pub mod error;
 pub mod light;
 pub mod load_gltf;
 pub mod load_obj;
+pub mod motion;
 mod resource;
 pub mod scene;
 pub mod texture;
 
 use std::path::{Path, PathBuf};
 
-pub use glam::{Vec2, Vec3};
+pub use glam::{Quat, Vec2, Vec3};
 
 pub use bvh::{Hit, TriangleRecord, WideNode, NO_LIGHT};
 pub use camera::{Camera, LensRay, LensShape};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
+pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
 pub use scene::{Aabb, Material, Scene, SurfacePoint, TriangleShading};
 pub use texture::Texture;
 
