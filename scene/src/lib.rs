@@ -45,7 +45,9 @@ pub use camera::{Camera, LensRay, LensShape};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
 pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
-pub use scene::{Aabb, Material, Scene, SurfacePoint, TriangleShading};
+pub use scene::{
+    Aabb, Instance, Material, Scene, SceneAt, SceneObject, SurfacePoint, TriangleShading,
+};
 pub use texture::Texture;
 
 /// Where to get a scene: a built-in by name, or a file (format chosen by extension).
