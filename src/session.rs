@@ -389,6 +389,8 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec) -> Camera {
         vfov_deg: c.vfov_deg,
         aperture_radius: c.aperture_radius,
         focus_distance: c.focus_distance.unwrap_or((look_at - position).length()),
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     }
 }
 

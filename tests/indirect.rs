@@ -111,6 +111,8 @@ fn furnace_scene(le: f32, rho: f32) -> Scene {
         vfov_deg: 70.0,
         aperture_radius: 0.0,
         focus_distance: 1.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     };
     Scene::from_triangles("furnace", tris, vec![m], vec![], camera).expect("furnace scene")
 }

@@ -142,6 +142,8 @@ fn grids() -> SceneData {
         vfov_deg: 45.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     });
     d
 }
@@ -182,6 +184,8 @@ fn curved() -> SceneData {
         vfov_deg: 45.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     });
     d
 }
@@ -234,6 +238,8 @@ fn heavy() -> SceneData {
         vfov_deg: 50.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     });
     d
 }
@@ -302,6 +308,8 @@ fn cornell() -> SceneData {
         vfov_deg: 38.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     });
     d
 }

@@ -13,6 +13,11 @@ use glam::{Vec2, Vec3};
 /// A look-at camera. `aperture_radius == 0` is a pinhole. `focus_distance` is measured along the view
 /// direction (the focal plane is perpendicular to `look_at - position`); a value `<= 0` means
 /// "focus on `look_at`".
+///
+/// `shutter_open` ≤ `shutter_close` is the exposure interval in the scene's time unit (seconds, or
+/// the glTF animations' unit): glTF animations are sampled at these two times, which become the
+/// shutter's `t = −1` and `t = +1` (see [`crate::motion`]). Default 0, 0: an instant, nothing in a
+/// file's animations moves.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,
@@ -21,6 +26,8 @@ pub struct Camera {
     pub vfov_deg: f32,
     pub aperture_radius: f32,
     pub focus_distance: f32,
+    pub shutter_open: f32,
+    pub shutter_close: f32,
 }
 
 impl Default for Camera {
@@ -32,6 +39,8 @@ impl Default for Camera {
             vfov_deg: 45.0,
             aperture_radius: 0.0,
             focus_distance: 0.0,
+            shutter_open: 0.0,
+            shutter_close: 0.0,
         }
     }
 }
@@ -39,7 +48,8 @@ impl Default for Camera {
 impl Camera {
     /// What [`Camera::validate`] requires, phrased as the fix for a message.
     pub const VALID_RULES: &'static str = "use finite numbers, 0 < vfov_deg < 180, look_at different from \
-        position, an up vector that is not zero or parallel to look_at - position, and aperture_radius >= 0";
+        position, an up vector that is not zero or parallel to look_at - position, aperture_radius >= 0 \
+        and shutter_open <= shutter_close";
 
     /// Smallest sine of the angle between `up` and the view direction accepted by [`Camera::validate`]
     /// (about 0.06°); below it the image's roll is decided by rounding.
@@ -49,7 +59,8 @@ impl Camera {
     /// camera use it): every field finite; 0 < `vfov_deg` < 180; `look_at - position` normalisable
     /// (not zero, not overflowing); `up` non-zero and at least [`Camera::MIN_UP_VIEW_SINE`] away from
     /// parallel to the view direction; `aperture_radius >= 0` (`focus_distance` <= 0 means "focus on
-    /// look_at", so any finite value is fine). Returns what is wrong, without the file name.
+    /// look_at", so any finite value is fine); `shutter_open <= shutter_close`. Returns what is wrong,
+    /// without the file name.
     pub fn validate(&self) -> Result<(), String> {
         let vectors = [
             ("position", self.position),
@@ -65,6 +76,8 @@ impl Camera {
             ("vfov_deg", self.vfov_deg),
             ("aperture_radius", self.aperture_radius),
             ("focus_distance", self.focus_distance),
+            ("shutter_open", self.shutter_open),
+            ("shutter_close", self.shutter_close),
         ];
         for (name, x) in scalars {
             if !x.is_finite() {
@@ -96,6 +109,12 @@ impl Camera {
             return Err(format!(
                 "aperture_radius {} is negative",
                 self.aperture_radius
+            ));
+        }
+        if self.shutter_open > self.shutter_close {
+            return Err(format!(
+                "shutter_open {} is after shutter_close {}",
+                self.shutter_open, self.shutter_close
             ));
         }
         Ok(())
@@ -150,7 +169,14 @@ impl Camera {
     /// distortion, so stratified lens samples stay stratified), scaled by `aperture_radius`; the ray
     /// aims at the focal-plane point of the pinhole ray. A pinhole (`aperture_radius <= 0`) ignores
     /// the lens sample. See [`LensShape`] for the weight.
-    pub fn ray(&self, pixel: Vec2, lens_sample: Vec2, width: u32, height: u32, shape: LensShape) -> LensRay {
+    pub fn ray(
+        &self,
+        pixel: Vec2,
+        lens_sample: Vec2,
+        width: u32,
+        height: u32,
+        shape: LensShape,
+    ) -> LensRay {
         let (right, up, forward) = self.basis();
         let w = width.max(1) as f32;
         let h = height.max(1) as f32;
@@ -159,14 +185,24 @@ impl Camera {
         let sy = (1.0 - 2.0 * pixel.y / h) * tan_half;
         let dir = (forward + sx * right + sy * up).normalize();
         if self.aperture_radius <= 0.0 {
-            return LensRay { origin: self.position, dir, weight: 1.0, lens: Vec2::ZERO };
+            return LensRay {
+                origin: self.position,
+                dir,
+                weight: 1.0,
+                lens: Vec2::ZERO,
+            };
         }
         // Thin lens: every ray through this pixel meets the pinhole ray on the focal plane.
         let focus = self.position + dir * (self.effective_focus_distance() / dir.dot(forward));
         let u = concentric_disk(lens_sample);
         let d = u * self.aperture_radius;
         let origin = self.position + d.x * right + d.y * up;
-        LensRay { origin, dir: (focus - origin).normalize(), weight: shape.weight(u), lens: u }
+        LensRay {
+            origin,
+            dir: (focus - origin).normalize(),
+            weight: shape.weight(u),
+            lens: u,
+        }
     }
 
     /// Circle of confusion, in pixels, of a point at `depth` along the optical axis (thesis eq. 5.2,
@@ -198,6 +234,8 @@ impl Camera {
             vfov_deg,
             aperture_radius: 0.0,
             focus_distance: dist,
+            shutter_open: 0.0,
+            shutter_close: 0.0,
         }
     }
 }

@@ -210,6 +210,8 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
             vfov_deg: c.vfov_deg,
             aperture_radius: c.aperture_radius,
             focus_distance: c.focus_distance,
+            shutter_open: 0.0,
+            shutter_close: 0.0,
         };
         camera.validate().map_err(|what| {
             SceneError::invalid(path, format!("camera: {what}"), Camera::VALID_RULES)

@@ -1,9 +1,10 @@
 //! Loader-side scene description: loose triangles plus what `Scene::from_triangles` needs. Loaders and
 //! built-ins produce this so the RON composer can merge several sources before one BVH build.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 
-use crate::{Camera, Material, Scene, SceneError, Texture, TriangleShading};
+use crate::motion::RigidMotion;
+use crate::{Camera, Material, Scene, SceneError, SceneObject, Texture, TriangleShading};
 
 #[derive(Clone, Debug, Default)]
 pub(crate) struct SceneData {
@@ -13,8 +14,8 @@ pub(crate) struct SceneData {
     pub two_sided: Vec<bool>,
     pub textures: Vec<Texture>,
     pub camera: Option<Camera>,
-    /// Next free object id.
-    pub next_object: u32,
+    /// Per object id: its name and motion (`Scene::objects`); the next free id is its length.
+    pub objects: Vec<SceneObject>,
     /// Things the loader accepted but the user should know about (become `Scene::warnings`).
     pub warnings: Vec<String>,
 }
@@ -28,12 +29,41 @@ impl SceneData {
 
     /// One triangle with per-vertex normals and uvs (every loader's common path).
     pub fn push(&mut self, p: [Vec3; 3], n: [Vec3; 3], uv: [Vec2; 3], material: u32, object: u32) {
-        self.tris.push((p[0], p[1], p[2], TriangleShading { n, uv, material, object }));
+        self.tris.push((
+            p[0],
+            p[1],
+            p[2],
+            TriangleShading {
+                n,
+                uv,
+                material,
+                object,
+            },
+        ));
     }
 
+    /// A new object at rest named `object<id>`.
     pub fn new_object(&mut self) -> u32 {
-        self.next_object += 1;
-        self.next_object - 1
+        let id = self.objects.len();
+        self.new_named_object(format!("object{id}"))
+    }
+
+    /// A new object at rest called `name`.
+    pub fn new_named_object(&mut self, name: impl Into<String>) -> u32 {
+        self.objects.push(SceneObject::named(name));
+        (self.objects.len() - 1) as u32
+    }
+
+    /// Give object `object` a motion over the shutter (its triangles are stored in the rest pose).
+    pub fn set_motion(&mut self, object: u32, motion: RigidMotion) {
+        if let Some(o) = self.objects.get_mut(object as usize) {
+            o.motion = Some(motion);
+        }
+    }
+
+    /// Whether any object has a motion.
+    pub fn has_motion(&self) -> bool {
+        self.objects.iter().any(|o| o.motion.is_some())
     }
 
     /// A triangle with flat normals and zero uvs.
@@ -59,10 +89,13 @@ impl SceneData {
     }
 
     /// Append another description (materials/textures/objects renumbered); its camera is ignored.
+    /// `transform` must be a similarity (uniform scale, rotation, translation: what `.ron` placement
+    /// makes) when `other` has motion: its motions are carried into the new frame
+    /// ([`similarity_motion`]).
     pub fn append(&mut self, other: SceneData, transform: Mat4, material_override: Option<u32>) {
         let mat_off = self.materials.len() as u32;
         let tex_off = self.textures.len() as u32;
-        let obj_off = self.next_object;
+        let obj_off = self.objects.len() as u32;
         let normal_m = transform.inverse().transpose();
         for (a, b, c, mut s) in other.tris {
             s.material = material_override.unwrap_or(s.material + mat_off);
@@ -82,7 +115,11 @@ impl SceneData {
         }
         self.two_sided.extend(other.two_sided);
         self.textures.extend(other.textures);
-        self.next_object += other.next_object;
+        let objects = other.objects.into_iter().map(|mut o| {
+            o.motion = o.motion.map(|m| similarity_motion(&m, transform));
+            o
+        });
+        self.objects.extend(objects);
         self.warnings.extend(other.warnings);
     }
 
@@ -103,13 +140,38 @@ impl SceneData {
             }
         });
         let two_sided = self.two_sided;
-        let mut scene =
-            Scene::from_triangles(name, self.tris, self.materials, self.textures, camera)?;
+        let mut scene = Scene::from_objects(
+            name,
+            self.tris,
+            self.materials,
+            self.textures,
+            camera,
+            self.objects,
+        )?;
         scene.set_two_sided_by_material(&two_sided);
         // Loader warnings first (they are about the files), then the builder's (dropped triangles).
         let mut warnings = self.warnings;
         warnings.append(&mut scene.warnings);
         scene.warnings = warnings;
         Ok(scene)
+    }
+}
+
+/// A motion of points in some frame carried into the frame `x' = X·x` of a similarity `X` (uniform
+/// scale `s`, possibly negative, rotation `Q`, translation): `X(p + T + R(x − p)) = X(p) + sQT +
+/// (QRQ⁻¹)(X(x) − X(p))`, so the pivot maps through `X`, translations scale and rotate, and rotations
+/// are conjugated by `Q`.
+pub(crate) fn similarity_motion(m: &RigidMotion, transform: Mat4) -> RigidMotion {
+    let linear = Mat3::from_mat4(transform);
+    let scale = linear.determinant().cbrt();
+    let q = if scale != 0.0 && scale.is_finite() {
+        Quat::from_mat3(&(linear * (1.0 / scale))).normalize()
+    } else {
+        Quat::IDENTITY
+    };
+    RigidMotion {
+        pivot: transform.transform_point3(m.pivot),
+        translation: m.translation.map(|t| linear * t),
+        rotation: m.rotation.map(|r| (q * r * q.conjugate()).normalize()),
     }
 }

@@ -31,19 +31,23 @@ pub mod error;
 pub mod light;
 pub mod load_gltf;
 pub mod load_obj;
+pub mod motion;
 mod resource;
 pub mod scene;
 pub mod texture;
 
 use std::path::{Path, PathBuf};
 
-pub use glam::{Vec2, Vec3};
+pub use glam::{Quat, Vec2, Vec3};
 
 pub use bvh::{Hit, TriangleRecord, WideNode, NO_LIGHT};
 pub use camera::{Camera, LensRay, LensShape};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
-pub use scene::{Aabb, Material, Scene, SurfacePoint, TriangleShading};
+pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
+pub use scene::{
+    Aabb, Instance, Material, Scene, SceneAt, SceneObject, SurfacePoint, TriangleShading,
+};
 pub use texture::Texture;
 
 /// Where to get a scene: a built-in by name, or a file (format chosen by extension).

@@ -1018,6 +1018,8 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             vfov_deg: yfov.to_degrees(),
             aperture_radius: 0.0,
             focus_distance: dist,
+            shutter_open: 0.0,
+            shutter_close: 0.0,
         };
         cam.validate().map_err(|what| {
             bad(

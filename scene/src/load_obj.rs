@@ -185,7 +185,13 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
 
     for model in &models {
         let mesh = &model.mesh;
-        let object = d.new_object();
+        // Named after its `o`/`g` line, so `Scene::set_motion` can name it (tobj's "unnamed_object"
+        // when there is none).
+        let object = if model.name.is_empty() {
+            d.new_object()
+        } else {
+            d.new_named_object(model.name.clone())
+        };
         let material = match mesh.material_id {
             Some(id) if id < mats.len() => id as u32,
             Some(id) => {

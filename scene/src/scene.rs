@@ -1,11 +1,28 @@
-//! The `Scene` type: flat triangle + BVH arrays, materials, textures, lights and camera.
+//! The `Scene` type: flat triangle + BVH arrays, materials, textures, lights, camera, and the named
+//! objects whose motion over the shutter the scene traces ([`Scene::at`]).
+//!
+//! **Motion (issue 13): two levels.** Triangles of objects at rest keep the one static tree they had
+//! before motion existed (node 0 on: static scenes trace bit for bit as before). Each group of moving
+//! objects that share one [`RigidMotion`] is an [`Instance`]: its own 4-wide tree over its triangles
+//! *as stored* (the rest pose), in the same `bvh.nodes`/`bvh.packs` arrays after the static tree
+//! (child references absolute, [`Bvh::pack_into`]), its triangles after the static ones in
+//! `triangles`. A ray at time `t` is traced through the static tree, then through every instance
+//! whose swept box (its bounds over the whole shutter) it enters, moved into the instance's rest
+//! space by the inverse rigid transform at `t`. A rigid map keeps the ray parameter (the direction
+//! keeps its length), and triangle indices are global, so [`bvh::closer`]'s rule still picks the one
+//! closest hit over all trees ([`bvh::traverse_from`] starts from the best hit so far).
+//!
+//! Why not one motion BVH that interpolates vertices: rotation is not linear in vertex positions, so
+//! a tree over interpolated boxes would need the rotation's swept boxes at every node anyway. Cost and
+//! limits (a linear loop over instances) are measured in DESIGN-NOTES "Scene motion".
 
 use std::collections::HashMap;
 
 use glam::{Vec2, Vec3};
 
-use crate::bvh::{self, Bvh, Hit, TriangleRecord, MAX_REFERENCES, NO_LIGHT, STACK_SIZE};
+use crate::bvh::{self, Bvh, Hit, TriangleRecord, WideNode, MAX_REFERENCES, NO_LIGHT, STACK_SIZE};
 use crate::limits::{MAX_COORDINATE, MAX_RADIANCE, MAX_TRIANGLES};
+use crate::motion::{PreparedMotion, RigidMotion};
 use crate::{AreaLight, Camera, LightShape, SceneError, Texture};
 
 /// A surface material: Lambertian `base_color` (times the optional texture) is k_d; a Phong lobe
@@ -91,6 +108,17 @@ impl Aabb {
     pub fn size(&self) -> Vec3 {
         self.max - self.min
     }
+    /// The smallest box holding both.
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+    /// Whether `p` lies inside (boundary included).
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
 }
 
 /// A ready-to-render scene. `triangles`, `shading` share the BVH's leaf order; `bvh[0]` is the root.
@@ -105,10 +133,60 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub lights: Vec<AreaLight>,
     pub camera: Camera,
+    /// Bounds of the triangles at rest and of every instance over the whole shutter.
     pub bounds: Aabb,
     /// Problems the loader worked around (unknown `usemtl`, dropped zero-area or duplicate triangles…);
     /// the CLI prints them after the scene line.
     pub warnings: Vec<String>,
+    /// Named groups of triangles, indexed by [`TriangleShading::object`] (one per mesh primitive, OBJ
+    /// object or built-in part), with their motion.
+    pub objects: Vec<SceneObject>,
+    /// Moving groups of triangles, each with its own tree (see the module doc). Empty for a static scene.
+    pub instances: Vec<Instance>,
+    /// Per light (index into `lights`): the object whose triangles form it; the light moves with it
+    /// ([`SceneAt::light`]).
+    pub light_object: Vec<u32>,
+}
+
+/// A named group of triangles (`TriangleShading::object` is its index in `Scene::objects`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneObject {
+    /// From the file where it has one (glTF node or mesh name, OBJ `o`/`g`), else `object<i>`; not
+    /// necessarily unique ([`Scene::set_motion`] moves every object of a name).
+    pub name: String,
+    /// Its motion over the shutter; `None` = at rest. A motion that moves nothing
+    /// ([`RigidMotion::is_static`]) is stored as `None`.
+    pub motion: Option<RigidMotion>,
+    /// The instance that holds its triangles while it moves (set by the scene; `None` at rest).
+    pub instance: Option<u32>,
+}
+
+impl SceneObject {
+    /// An object at rest.
+    pub fn named(name: impl Into<String>) -> SceneObject {
+        SceneObject {
+            name: name.into(),
+            motion: None,
+            instance: None,
+        }
+    }
+}
+
+/// A moving group of triangles: the objects that share one motion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// Root of its tree in `Scene::bvh.nodes`.
+    pub root: u32,
+    /// Its triangles are `Scene::triangles[first..first + count]`, stored in the rest pose.
+    pub first: u32,
+    pub count: u32,
+    pub motion: RigidMotion,
+    /// `motion`, ready to evaluate (what the GPU receives too).
+    pub prepared: PreparedMotion,
+    /// Bounds of its triangles as stored.
+    pub rest_bounds: Aabb,
+    /// Conservative bounds over the whole shutter ([`RigidMotion::swept_bounds`]).
+    pub swept_bounds: Aabb,
 }
 
 /// Where a scene came from, for error messages of `from_triangles` (built-ins have no file).
@@ -122,13 +200,29 @@ impl Scene {
     /// triangles of the same material that share an edge and together form a planar parallelogram are
     /// merged into one `Rect` light; the rest become `Triangle` lights. Lights are one-sided, emitting
     /// toward the triangle's winding normal ((v1-v0)×(v2-v0)); loaders set `two_sided` afterwards
-    /// where the file says so (glTF `doubleSided`, RON `two_sided`).
+    /// where the file says so (glTF `doubleSided`, RON `two_sided`). Every object is at rest and
+    /// named `object<i>`; [`Scene::from_objects`] names them and gives them motion.
     pub fn from_triangles(
         name: &str,
         tris: Vec<(Vec3, Vec3, Vec3, TriangleShading)>,
         materials: Vec<Material>,
         textures: Vec<Texture>,
         camera: Camera,
+    ) -> Result<Scene, SceneError> {
+        Scene::from_objects(name, tris, materials, textures, camera, Vec::new())
+    }
+
+    /// [`Scene::from_triangles`] with the objects' names and motions (`objects[i]` describes the
+    /// triangles whose `TriangleShading::object` is `i`; objects beyond the list are at rest and
+    /// named `object<i>`). Triangles are given in their rest pose. Two emissive triangles merge into
+    /// one light only if their objects move alike.
+    pub fn from_objects(
+        name: &str,
+        tris: Vec<(Vec3, Vec3, Vec3, TriangleShading)>,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        camera: Camera,
+        objects: Vec<SceneObject>,
     ) -> Result<Scene, SceneError> {
         let path = origin_path(name);
         if tris.is_empty() {
@@ -151,7 +245,12 @@ impl Scene {
         for (i, m) in materials.iter().enumerate() {
             check_material(&path, i, m, textures.len())?;
         }
+        let objects = complete_objects(&path, objects, &tris)?;
+        let moves = |o: u32| objects[o as usize].motion.is_some();
+        // The bounds of what is at rest (moving objects add their swept boxes once built), and of
+        // everything as given (the scale of the light-merging tolerance).
         let mut bounds = Aabb::empty();
+        let mut given = Aabb::empty();
         for (i, (a, b, c, s)) in tris.iter().enumerate() {
             if !(a.is_finite() && b.is_finite() && c.is_finite()) {
                 return Err(SceneError::invalid(
@@ -179,9 +278,12 @@ impl Scene {
                     "give every triangle a valid material index",
                 ));
             }
-            bounds.grow(*a);
-            bounds.grow(*b);
-            bounds.grow(*c);
+            for v in [a, b, c] {
+                given.grow(*v);
+                if !moves(s.object) {
+                    bounds.grow(*v);
+                }
+            }
         }
 
         // Zero-area triangles can never be hit and exact duplicates add nothing but BVH work (and a
@@ -198,69 +300,145 @@ impl Scene {
         let tris: Vec<_> = kept.iter().map(|&i| tris[i as usize]).collect();
 
         // Lights first, in input order (so light indices do not depend on the BVH).
-        let (lights, input_light) = extract_lights(&tris, &materials, bounds.size().max_element());
+        let (lights, input_light, light_object) =
+            extract_lights(&tris, &materials, given.size().max_element(), &objects);
 
-        let positions: Vec<[Vec3; 3]> = tris.iter().map(|t| [t.0, t.1, t.2]).collect();
-        let built = bvh::build(&positions);
-        if built.stack_need > STACK_SIZE || built.order.len() > MAX_REFERENCES {
-            return Err(SceneError::invalid(
-                &path,
-                format!(
-                    "the BVH needs {} traversal stack entries (the traversal has {STACK_SIZE}) for {} triangle references",
-                    built.stack_need,
-                    built.order.len()
-                ),
-                "this geometry is pathological for the builder; simplify or split it",
-            ));
-        }
-        // Spatial pre-splits reference a triangle from several leaves, so the order may be longer than
-        // the input (each reference gets its own full copy of the triangle); never shorter.
-        if built.order.len() < tris.len() {
-            return Err(SceneError::invalid(
-                &path,
-                "BVH builder returned a different primitive count",
-                "report this as a bug",
-            ));
-        }
-        let mut triangles = Vec::with_capacity(tris.len());
+        let mut records = Vec::with_capacity(tris.len());
         let mut shading = Vec::with_capacity(tris.len());
-        for &src in &built.order {
-            let (a, b, c, s) = tris[src as usize];
-            let mut rec = TriangleRecord::new(a, b, c, s.material, kept[src as usize]);
-            rec.light = input_light[src as usize];
-            triangles.push(rec);
+        let mut positions = Vec::with_capacity(tris.len());
+        for (k, &(a, b, c, s)) in tris.iter().enumerate() {
+            let mut rec = TriangleRecord::new(a, b, c, s.material, kept[k]);
+            rec.light = input_light[k];
+            records.push(rec);
             shading.push(s);
+            positions.push([a, b, c]);
         }
-        let bvh = Bvh::pack(built.nodes, &triangles);
+        drop(tris);
+        let built = assemble(&path, &records, &shading, &positions, objects)?;
+        bounds = built.bounds.union(&bounds);
         Ok(Scene {
             name: name.to_string(),
-            triangles,
-            shading,
-            bvh,
+            triangles: built.triangles,
+            shading: built.shading,
+            bvh: built.bvh,
             materials,
             textures,
             lights,
             camera,
             bounds,
             warnings,
+            objects: built.objects,
+            instances: built.instances,
+            light_object,
         })
     }
 
+    /// The scene at time `t ∈ [−1, 1]` of the shutter (−1 open, +1 close, 0 its centre): rays,
+    /// surfaces, lights and velocities with every object where it is at `t`.
+    pub fn at(&self, t: f32) -> SceneAt<'_> {
+        SceneAt { scene: self, t }
+    }
+
+    /// Whether anything moves (some object has a motion, so the scene has instances).
+    pub fn has_motion(&self) -> bool {
+        !self.instances.is_empty()
+    }
+
+    /// Give every object called `object` the motion `motion` (a motion that moves nothing puts them
+    /// back at rest) and rebuild the trees; lights on them follow. For motion a scene file cannot
+    /// carry (OBJ), e.g. from a pipeline file. Errors: no object of that name (the message lists the
+    /// names there are), an invalid motion, or a light whose two triangles belong to objects that
+    /// would then move differently.
+    pub fn set_motion(&mut self, object: &str, motion: RigidMotion) -> Result<(), SceneError> {
+        let path = origin_path(&self.name);
+        let ids: Vec<usize> = (0..self.objects.len())
+            .filter(|&k| self.objects[k].name == object)
+            .collect();
+        if ids.is_empty() {
+            let mut names: Vec<&str> = self.objects.iter().map(|o| o.name.as_str()).collect();
+            names.dedup();
+            let shown = names.len().min(20);
+            return Err(SceneError::invalid(
+                &path,
+                format!("no object is called '{object}'"),
+                format!(
+                    "name one of the scene's objects: {}{}",
+                    names[..shown].join(", "),
+                    if names.len() > shown { ", …" } else { "" }
+                ),
+            ));
+        }
+        motion.validate().map_err(|what| {
+            SceneError::invalid(
+                &path,
+                format!("the motion given to object '{object}': {what}"),
+                "use finite numbers and unit rotation quaternions",
+            )
+        })?;
+        let mut objects = self.objects.clone();
+        for &k in &ids {
+            objects[k].motion = (!motion.is_static()).then_some(motion);
+        }
+        for (i, t) in self.triangles.iter().enumerate() {
+            if t.light == NO_LIGHT {
+                continue;
+            }
+            let (of_light, of_triangle) =
+                (self.light_object[t.light as usize], self.shading[i].object);
+            if objects[of_light as usize].motion != objects[of_triangle as usize].motion {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!(
+                        "light {} is made of triangles of objects '{}' and '{}', which would move differently",
+                        t.light, objects[of_light as usize].name, objects[of_triangle as usize].name
+                    ),
+                    "give both objects the same motion",
+                ));
+            }
+        }
+        // The triangles in their input order (`source`; spatial splits may store copies).
+        let mut order: Vec<u32> = (0..self.triangles.len() as u32).collect();
+        order.sort_by_key(|&i| self.triangles[i as usize].source);
+        order.dedup_by_key(|i| self.triangles[*i as usize].source);
+        let records: Vec<TriangleRecord> =
+            order.iter().map(|&i| self.triangles[i as usize]).collect();
+        let shading: Vec<TriangleShading> =
+            order.iter().map(|&i| self.shading[i as usize]).collect();
+        let positions: Vec<[Vec3; 3]> = records.iter().map(|r| r.vertices()).collect();
+        let mut bounds = Aabb::empty();
+        for (p, s) in positions.iter().zip(&shading) {
+            if objects[s.object as usize].motion.is_none() {
+                p.iter().for_each(|&v| bounds.grow(v));
+            }
+        }
+        let built = assemble(&path, &records, &shading, &positions, objects)?;
+        self.triangles = built.triangles;
+        self.shading = built.shading;
+        self.bvh = built.bvh;
+        self.objects = built.objects;
+        self.instances = built.instances;
+        self.bounds = built.bounds.union(&bounds);
+        Ok(())
+    }
+
     /// Closest hit with tmin < t < tmax, ties to the lower triangle index (own traversal over `self.bvh`,
-    /// see [`crate::bvh::traverse`]).
+    /// see [`crate::bvh::traverse`]), at the shutter's centre (`t = 0`, [`Scene::at`]).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        bvh::traverse(&self.bvh, origin, dir, tmin, tmax, false)
+        self.at(0.0).intersect(origin, dir, tmin, tmax)
     }
 
-    /// Whether anything is hit with tmin < t < tmax (shadow rays; stops at the first hit).
+    /// Whether anything is hit with tmin < t < tmax (shadow rays; stops at the first hit), at `t = 0`.
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        bvh::traverse(&self.bvh, origin, dir, tmin, tmax, true).is_some()
+        self.at(0.0).occluded(origin, dir, tmin, tmax)
     }
 
-    /// Interpolated attributes at a hit. The position is interpolated from the vertices (more precise
-    /// than origin + t·dir). Shading normals that are missing/degenerate fall back to the geometric one.
+    /// Interpolated attributes at a hit, at `t = 0` (see [`SceneAt::surface`]).
     pub fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
-        let _ = origin;
+        self.at(0.0).surface(hit, origin, dir)
+    }
+
+    /// [`Scene::surface`] of a triangle as stored (rest pose), `dir` given in the same space.
+    fn surface_stored(&self, hit: &Hit, dir: Vec3) -> SurfacePoint {
         let tri = &self.triangles[hit.triangle as usize];
         let sh = &self.shading[hit.triangle as usize];
         let (b0, b1, b2) = (1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
@@ -289,6 +467,16 @@ impl Scene {
             material: sh.material,
             object: sh.object,
         }
+    }
+
+    /// The instance that moves `object`, if it moves.
+    #[inline]
+    pub fn instance_of(&self, object: u32) -> Option<&Instance> {
+        if self.instances.is_empty() {
+            return None;
+        }
+        let k = self.objects.get(object as usize)?.instance?;
+        self.instances.get(k as usize)
     }
 
     /// k_d = base_color × texture(uv).
@@ -332,6 +520,327 @@ impl Scene {
             }
         }
     }
+}
+
+/// A [`Scene`] at one time of the shutter (`Scene::at`): the queries every kernel needs, with each
+/// object where it is at that time. Cheap to copy; compute it once per time, not per ray.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneAt<'a> {
+    scene: &'a Scene,
+    t: f32,
+}
+
+impl<'a> SceneAt<'a> {
+    /// The time, in [−1, 1].
+    pub fn time(&self) -> f32 {
+        self.t
+    }
+
+    pub fn scene(&self) -> &'a Scene {
+        self.scene
+    }
+
+    /// Closest hit with tmin < t < tmax (ties to the lower triangle index, across all trees): the
+    /// static tree, then every instance whose swept box the ray enters before the best hit so far,
+    /// in its rest space (the ray moved by the inverse transform at this time; same ray parameter).
+    #[inline]
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let s = self.scene;
+        let mut best = bvh::traverse(&s.bvh, origin, dir, tmin, tmax, false);
+        if s.instances.is_empty() {
+            return best;
+        }
+        let inv_d = dir.recip();
+        for inst in &s.instances {
+            let limit = best.map_or(tmax, |h| h.t);
+            if !box_entered(&inst.swept_bounds, origin, inv_d, tmin, limit) {
+                continue;
+            }
+            let xf = inst.prepared.at(self.t);
+            let (o, d) = (xf.inverse_point(origin), xf.inverse_vector(dir));
+            if let Some(h) =
+                bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, false, best.as_ref())
+            {
+                best = Some(h);
+            }
+        }
+        best
+    }
+
+    /// Whether anything is hit with tmin < t < tmax at this time (stops at the first hit).
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let s = self.scene;
+        if bvh::traverse(&s.bvh, origin, dir, tmin, tmax, true).is_some() {
+            return true;
+        }
+        if s.instances.is_empty() {
+            return false;
+        }
+        let inv_d = dir.recip();
+        s.instances.iter().any(|inst| {
+            if !box_entered(&inst.swept_bounds, origin, inv_d, tmin, tmax) {
+                return false;
+            }
+            let xf = inst.prepared.at(self.t);
+            let (o, d) = (xf.inverse_point(origin), xf.inverse_vector(dir));
+            bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, true, None).is_some()
+        })
+    }
+
+    /// Interpolated attributes at a hit of this time's ray (`dir` in world space), in world space at
+    /// this time: a moving triangle's point and normals are computed as stored (rest pose, with `dir`
+    /// moved there) and moved by the transform at this time (normals rotated). The position is
+    /// interpolated from the vertices (more precise than origin + t·dir). Both normals face the
+    /// incoming ray; shading normals that are missing/degenerate fall back to the geometric one.
+    pub fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
+        let _ = origin;
+        let s = self.scene;
+        let object = s.shading[hit.triangle as usize].object;
+        let Some(inst) = s.instance_of(object) else {
+            return s.surface_stored(hit, dir);
+        };
+        let xf = inst.prepared.at(self.t);
+        let mut sp = s.surface_stored(hit, xf.inverse_vector(dir));
+        sp.position = xf.point(sp.position);
+        sp.geometric_normal = xf.vector(sp.geometric_normal);
+        sp.shading_normal = xf.vector(sp.shading_normal);
+        sp
+    }
+
+    /// Light `i` where it is at this time (a light on a moving object moves with it; `Scene::lights`
+    /// keeps the rest pose).
+    pub fn light(&self, i: usize) -> AreaLight {
+        let s = self.scene;
+        let light = s.lights[i];
+        let Some(inst) = s.light_object.get(i).and_then(|&o| s.instance_of(o)) else {
+            return light;
+        };
+        let xf = inst.prepared.at(self.t);
+        let shape = match light.shape {
+            LightShape::Rect {
+                corner,
+                edge_u,
+                edge_v,
+            } => LightShape::Rect {
+                corner: xf.point(corner),
+                edge_u: xf.vector(edge_u),
+                edge_v: xf.vector(edge_v),
+            },
+            LightShape::Triangle { v0, v1, v2 } => LightShape::Triangle {
+                v0: xf.point(v0),
+                v1: xf.point(v1),
+                v2: xf.point(v2),
+            },
+        };
+        AreaLight { shape, ..light }
+    }
+
+    /// World velocity `dx/dt` per unit `t` (per half shutter) of the surface point `sp` of this time
+    /// (its object's motion at `sp.position`); zero at rest.
+    pub fn velocity(&self, sp: &SurfacePoint) -> Vec3 {
+        match self.scene.instance_of(sp.object) {
+            Some(inst) => inst.prepared.velocity(self.t, sp.position),
+            None => Vec3::ZERO,
+        }
+    }
+}
+
+/// Whether the ray `origin + t·dir` (`inv_d` = 1/dir) enters `b` with `tmin < t < tmax`: the slab test
+/// of the BVH's nodes on one box, as conservative (exit widened by [`bvh::traverse::WIDEN`]; a NaN
+/// from 0·∞ constrains nothing, as `f32::max`/`min` ignore it).
+#[inline]
+fn box_entered(b: &Aabb, origin: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> bool {
+    let (mut enter, mut exit) = (tmin, tmax);
+    for axis in 0..3 {
+        let (near, far) = if inv_d[axis].is_sign_negative() {
+            (b.max[axis], b.min[axis])
+        } else {
+            (b.min[axis], b.max[axis])
+        };
+        enter = ((near - origin[axis]) * inv_d[axis]).max(enter);
+        exit = ((far - origin[axis]) * inv_d[axis]).min(exit);
+    }
+    enter <= exit * bvh::traverse::WIDEN
+}
+
+/// `objects` extended to every object id the triangles use (`object<i>` at rest), motions checked,
+/// motions that move nothing stored as `None`, instances cleared (the build sets them).
+fn complete_objects(
+    path: &std::path::Path,
+    mut objects: Vec<SceneObject>,
+    tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
+) -> Result<Vec<SceneObject>, SceneError> {
+    let used = tris
+        .iter()
+        .map(|t| t.3.object as usize + 1)
+        .max()
+        .unwrap_or(0);
+    if used > objects.len() {
+        let from = objects.len();
+        objects.extend((from..used).map(|i| SceneObject::named(format!("object{i}"))));
+    }
+    for o in &mut objects {
+        o.instance = None;
+        if let Some(m) = &o.motion {
+            m.validate().map_err(|what| {
+                SceneError::invalid(
+                    path,
+                    format!("the motion of object '{}': {what}", o.name),
+                    "use finite numbers and unit rotation quaternions",
+                )
+            })?;
+            if m.is_static() {
+                o.motion = None;
+            }
+        }
+    }
+    Ok(objects)
+}
+
+/// What [`assemble`] builds.
+struct Assembled {
+    triangles: Vec<TriangleRecord>,
+    shading: Vec<TriangleShading>,
+    bvh: Bvh,
+    objects: Vec<SceneObject>,
+    instances: Vec<Instance>,
+    /// The union of the instances' swept bounds.
+    bounds: Aabb,
+}
+
+/// Build the trees over triangles given in input order (`records`, `shading` and the `positions` the
+/// builder sees, index-aligned): one static tree over the objects at rest (node 0; an empty node if
+/// none), then one per group of moving objects sharing a motion. Triangles are reordered to the
+/// trees' leaf order, static ones first. With nothing moving this is exactly the single-tree build.
+fn assemble(
+    path: &std::path::Path,
+    records: &[TriangleRecord],
+    shading: &[TriangleShading],
+    positions: &[[Vec3; 3]],
+    mut objects: Vec<SceneObject>,
+) -> Result<Assembled, SceneError> {
+    // Groups of moving objects: one per distinct motion (objects moving alike share one tree).
+    let mut motions: Vec<RigidMotion> = Vec::new();
+    let mut group = vec![u32::MAX; objects.len()];
+    for (k, o) in objects.iter().enumerate() {
+        if let Some(m) = o.motion {
+            group[k] = match motions.iter().position(|x| *x == m) {
+                Some(g) => g as u32,
+                None => {
+                    motions.push(m);
+                    (motions.len() - 1) as u32
+                }
+            };
+        }
+    }
+    let group_of = |i: usize| group[shading[i].object as usize];
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); motions.len() + 1];
+    if motions.is_empty() {
+        members[0] = (0..records.len() as u32).collect();
+    } else {
+        for i in 0..records.len() {
+            let g = group_of(i);
+            members[if g == u32::MAX { 0 } else { g as usize + 1 }].push(i as u32);
+        }
+    }
+
+    let mut triangles = Vec::with_capacity(records.len());
+    let mut shading_out = Vec::with_capacity(records.len());
+    let mut bvh = Bvh {
+        nodes: Vec::new(),
+        packs: Vec::with_capacity(records.len() / 2),
+    };
+    let mut instances = Vec::with_capacity(motions.len());
+    let mut bounds = Aabb::empty();
+    for (g, idx) in members.iter().enumerate() {
+        if idx.is_empty() {
+            if g == 0 {
+                // Nothing at rest: an empty root (every slot culled) keeps node 0 the static tree.
+                bvh.nodes.push(WideNode::empty());
+            }
+            continue;
+        }
+        let subset: Vec<[Vec3; 3]>;
+        let input: &[[Vec3; 3]] = if idx.len() == records.len() {
+            positions
+        } else {
+            subset = idx.iter().map(|&i| positions[i as usize]).collect();
+            &subset
+        };
+        let built = bvh::build(input);
+        if built.stack_need > STACK_SIZE || built.order.len() > MAX_REFERENCES {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "the BVH needs {} traversal stack entries (the traversal has {STACK_SIZE}) for {} triangle references",
+                    built.stack_need,
+                    built.order.len()
+                ),
+                "this geometry is pathological for the builder; simplify or split it",
+            ));
+        }
+        // Spatial pre-splits reference a triangle from several leaves, so the order may be longer than
+        // the input (each reference gets its own full copy of the triangle); never shorter.
+        if built.order.len() < input.len() {
+            return Err(SceneError::invalid(
+                path,
+                "BVH builder returned a different primitive count",
+                "report this as a bug",
+            ));
+        }
+        let first = triangles.len();
+        for &src in &built.order {
+            let i = idx[src as usize] as usize;
+            triangles.push(records[i]);
+            shading_out.push(shading[i]);
+        }
+        if triangles.len() > MAX_REFERENCES {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "{} triangle references, more than the BVH can address ({MAX_REFERENCES})",
+                    triangles.len()
+                ),
+                "decimate the meshes or split the scene",
+            ));
+        }
+        let root = bvh.pack_into(built.nodes, &triangles[first..], first as u32);
+        if g == 0 {
+            continue;
+        }
+        let motion = motions[g - 1];
+        let mut rest_bounds = Aabb::empty();
+        let mut points = Vec::with_capacity(3 * input.len());
+        for p in input {
+            for &v in p {
+                rest_bounds.grow(v);
+                points.push(v);
+            }
+        }
+        let swept_bounds = motion.swept_bounds(&points);
+        bounds = bounds.union(&swept_bounds);
+        instances.push(Instance {
+            root,
+            first: first as u32,
+            count: (triangles.len() - first) as u32,
+            motion,
+            prepared: motion.prepare(),
+            rest_bounds,
+            swept_bounds,
+        });
+    }
+    for (k, o) in objects.iter_mut().enumerate() {
+        o.instance = (group[k] != u32::MAX).then_some(group[k]);
+    }
+    Ok(Assembled {
+        triangles,
+        shading: shading_out,
+        bvh,
+        objects,
+        instances,
+        bounds,
+    })
 }
 
 /// Whether a material's numbers are usable: finite, non-negative colours, emission at most
@@ -433,13 +942,17 @@ fn drop_degenerate_and_duplicates(
     (kept, warnings)
 }
 
-/// Turn emissive triangles into lights. Returns the lights and, per input triangle, its light index.
+/// Turn emissive triangles into lights. Returns the lights, per input triangle its light index, and
+/// per light the object of its (first) triangle. Two triangles merge only if their objects move
+/// alike (a light moves with its object).
 fn extract_lights(
     tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
     materials: &[Material],
     extent: f32,
-) -> (Vec<AreaLight>, Vec<u32>) {
+    objects: &[SceneObject],
+) -> (Vec<AreaLight>, Vec<u32>, Vec<u32>) {
     let mut light_of = vec![NO_LIGHT; tris.len()];
+    let mut light_object = Vec::new();
     let emissive: Vec<usize> = (0..tris.len())
         .filter(|&i| materials[tris[i].3.material as usize].is_emissive())
         .filter(|&i| {
@@ -450,8 +963,9 @@ fn extract_lights(
         })
         .collect();
     if emissive.is_empty() {
-        return (Vec::new(), light_of);
+        return (Vec::new(), light_of, light_object);
     }
+    let motion = |i: usize| &objects[tris[i].3.object as usize].motion;
     // Find edge-sharing pairs through a map keyed by the edge's two vertices (exact bits: vertices of a
     // shared edge are normally bit-identical copies; near-misses just stay two triangle lights).
     let key = |v: Vec3| v.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() });
@@ -476,7 +990,7 @@ fn extract_lights(
             let (a, b) = (key(v[k]), key(v[(k + 1) % 3]));
             let e = if a <= b { (a, b) } else { (b, a) };
             for &j in edges.get(&e).map(|v| v.as_slice()).unwrap_or(&[]) {
-                if j == i || light_of[j] != NO_LIGHT {
+                if j == i || light_of[j] != NO_LIGHT || motion(i) != motion(j) {
                     continue;
                 }
                 if let Some(rect) = parallelogram(&tris[i], &tris[j], materials, tol) {
@@ -504,8 +1018,9 @@ fn extract_lights(
             radiance,
             two_sided: false,
         });
+        light_object.push(tris[i].3.object);
     }
-    (lights, light_of)
+    (lights, light_of, light_object)
 }
 
 /// If triangles `t` and `u` have the same material, the same facing, share an edge and their union is a

@@ -329,6 +329,8 @@ fn camera_rays() {
         vfov_deg: 90.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     };
     let (o, d) = cam.generate_ray(50.0, 25.0, 100, 50, Vec2::ZERO);
     assert_eq!(o, cam.position);

@@ -337,6 +337,8 @@ pub(crate) fn chess() -> SceneData {
         vfov_deg: CAMERA_VFOV_DEG,
         aperture_radius: 0.0,
         focus_distance: FOCUS_DISTANCE,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     });
     d
 }

@@ -98,6 +98,8 @@ pub(crate) fn spheres() -> SceneData {
         vfov_deg: 50.0,
         aperture_radius: 0.0,
         focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
     });
     d
 }

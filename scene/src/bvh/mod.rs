@@ -22,7 +22,7 @@ use bytemuck::{Pod, Zeroable};
 pub use build::{
     build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh,
 };
-pub use traverse::{traverse, traverse_counted, TraversalStats};
+pub use traverse::{traverse, traverse_counted, traverse_from, TraversalStats};
 pub use triangle::{
     closer, intersect_triangle, Hit, TrianglePack, TriangleRecord, NO_LIGHT, NO_TRIANGLE,
 };
@@ -47,7 +47,8 @@ pub const LEAF_FIRST_BITS: u32 = 28;
 pub const MAX_REFERENCES: usize = 1 << LEAF_FIRST_BITS;
 
 /// A 4-wide BVH node (128 bytes, 64-byte aligned so a node is exactly two cache lines; `repr(C)`, Pod;
-/// uploaded to the GPU byte for byte). Node 0 is the root.
+/// uploaded to the GPU byte for byte). Node 0 is the root of a scene's static tree; each moving
+/// instance's tree follows it in the same array ([`Bvh::pack_into`]), with its own root.
 ///
 /// `bounds` holds the four child boxes as structure of arrays, so one SIMD lane is one child:
 /// `bounds[2·axis]` the minima along `axis`, `bounds[2·axis + 1]` the maxima. An unused slot has the
@@ -139,24 +140,51 @@ pub struct Bvh {
 impl Bvh {
     /// Pack a built tree's leaves: each leaf's triangle range (positions in `tris`, the triangles in
     /// BVH order) becomes consecutive [`TrianglePack`]s of four, and its reference points at them.
-    pub fn pack(mut nodes: Vec<WideNode>, tris: &[TriangleRecord]) -> Bvh {
-        let mut packs = Vec::with_capacity(tris.len() / 2);
-        for node in &mut nodes {
+    pub fn pack(nodes: Vec<WideNode>, tris: &[TriangleRecord]) -> Bvh {
+        let mut bvh = Bvh {
+            nodes: Vec::with_capacity(nodes.len()),
+            packs: Vec::with_capacity(tris.len() / 2),
+        };
+        bvh.pack_into(nodes, tris, 0);
+        bvh
+    }
+
+    /// Append a built tree (its nodes numbered from 0, its leaves naming positions in `tris`) after the
+    /// trees already here, as [`Bvh::pack`] does for the first: inner references are shifted by the
+    /// node count so far, leaves point at new packs, and each pack's `index` is `first_triangle` plus
+    /// the position in `tris` (so `tris` are the scene's triangles from `first_triangle` on). Returns
+    /// the new tree's root. Scenes keep one tree per moving instance this way (`Scene::instances`),
+    /// all traversed by the same code from their own root ([`traverse_from`]).
+    pub fn pack_into(
+        &mut self,
+        nodes: Vec<WideNode>,
+        tris: &[TriangleRecord],
+        first_triangle: u32,
+    ) -> u32 {
+        let root = self.nodes.len() as u32;
+        for mut node in nodes {
             for slot in 0..WIDTH {
                 if !node.used(slot) {
                     continue;
                 }
-                if let Child::Leaf { first, count } = child_ref(node.child[slot]) {
-                    let start = packs.len() as u32;
-                    let end = first + count;
-                    for c in (first..end).step_by(4) {
-                        packs.push(TrianglePack::new(&tris[c as usize..end as usize], c));
+                match child_ref(node.child[slot]) {
+                    Child::Node(j) => node.child[slot] = j + root,
+                    Child::Leaf { first, count } => {
+                        let start = self.packs.len() as u32;
+                        let end = first + count;
+                        for c in (first..end).step_by(4) {
+                            self.packs.push(TrianglePack::new(
+                                &tris[c as usize..end as usize],
+                                first_triangle + c,
+                            ));
+                        }
+                        node.child[slot] = leaf_ref(start, self.packs.len() as u32 - start);
                     }
-                    node.child[slot] = leaf_ref(start, packs.len() as u32 - start);
                 }
             }
+            self.nodes.push(node);
         }
-        Bvh { nodes, packs }
+        root
     }
 
     /// Bytes the structure occupies (nodes and packs).

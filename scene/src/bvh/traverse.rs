@@ -76,7 +76,51 @@ fn nan_free(near: Vec4, far: Vec4) -> (Vec4, Vec4) {
 /// Closest hit (smallest `t`, ties to the lower triangle index: [`super::closer`]) with
 /// `tmin < t < tmax`, or with `any_hit` the first hit found (shadow rays only ask whether there is one).
 pub fn traverse(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any_hit: bool) -> Option<Hit> {
-    traverse_with(bvh, o, d, tmin, tmax, any_hit, &mut ())
+    traverse_with(bvh, Start::root(tmax), o, d, tmin, any_hit, &mut ())
+}
+
+/// [`traverse`] of the tree whose root is node `root` (scenes store one tree per moving instance in
+/// the same arrays, `Scene::instances`), for a query that already holds a best hit `best` from
+/// another tree: only a hit [`closer`] than it is returned (`None` otherwise), so traversing the
+/// trees one after another gives the same answer as one tree over all their triangles.
+#[allow(clippy::too_many_arguments)]
+pub fn traverse_from(
+    bvh: &Bvh,
+    root: u32,
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    tmax: f32,
+    any_hit: bool,
+    best: Option<&Hit>,
+) -> Option<Hit> {
+    let start = Start {
+        root,
+        t_best: best.map_or(tmax, |h| h.t),
+        best_triangle: best.map_or(0, |h| h.triangle),
+    };
+    traverse_with(bvh, start, o, d, tmin, any_hit, &mut ())
+}
+
+/// Where a traversal starts: its root node, and the best hit so far (`t_best` = the ray's `tmax`
+/// and triangle 0 when there is none; see [`closer`]).
+#[derive(Clone, Copy)]
+struct Start {
+    root: u32,
+    t_best: f32,
+    best_triangle: u32,
+}
+
+impl Start {
+    /// Node 0 with nothing hit yet.
+    #[inline(always)]
+    fn root(tmax: f32) -> Start {
+        Start {
+            root: 0,
+            t_best: tmax,
+            best_triangle: 0,
+        }
+    }
 }
 
 /// Work a traversal did: wide nodes whose four boxes were tested, and triangle packs tested.
@@ -96,23 +140,24 @@ pub fn traverse_counted(
     any_hit: bool,
     stats: &mut TraversalStats,
 ) -> Option<Hit> {
-    traverse_with(bvh, o, d, tmin, tmax, any_hit, stats)
+    traverse_with(bvh, Start::root(tmax), o, d, tmin, any_hit, stats)
 }
 
+/// The query `(tmin, start.t_best)` from `start.root`.
 #[inline(always)]
 fn traverse_with<C: Counter>(
     bvh: &Bvh,
+    start: Start,
     o: Vec3,
     d: Vec3,
     tmin: f32,
-    tmax: f32,
     any_hit: bool,
     counter: &mut C,
 ) -> Option<Hit> {
     if any_hit {
-        traverse_impl::<true, C>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, counter)
+        traverse_impl::<true, C>(&bvh.nodes, &bvh.packs, start, o, d, tmin, counter)
     } else {
-        traverse_impl::<false, C>(&bvh.nodes, &bvh.packs, o, d, tmin, tmax, counter)
+        traverse_impl::<false, C>(&bvh.nodes, &bvh.packs, start, o, d, tmin, counter)
     }
 }
 
@@ -147,23 +192,23 @@ impl Counter for TraversalStats {
 fn traverse_impl<const ANY_HIT: bool, C: Counter>(
     nodes: &[WideNode],
     packs: &[TrianglePack],
+    start: Start,
     o: Vec3,
     d: Vec3,
     tmin: f32,
-    tmax: f32,
     counter: &mut C,
 ) -> Option<Hit> {
-    if nodes.is_empty() || !(o.is_finite() && d.is_finite()) {
+    if (start.root as usize) >= nodes.len() || !(o.is_finite() && d.is_finite()) {
         return None;
     }
     let (o, d) = (Vec3A::from(o), Vec3A::from(d));
     let ray = WideRay::new(o, d);
     let pack_ray = PackRay::new(o, d);
     let tmin_v = Vec4::splat(tmin);
-    let mut t_best = tmax;
+    let mut t_best = start.t_best;
     let mut best = Hit {
-        t: tmax,
-        triangle: 0,
+        t: t_best,
+        triangle: start.best_triangle,
         b1: 0.0,
         b2: 0.0,
     };
@@ -173,7 +218,7 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter>(
     let mut stack = [MaybeUninit::<u32>::uninit(); STACK_SIZE];
     let mut stack_t = [MaybeUninit::<f32>::uninit(); STACK_SIZE];
     let mut sp = 0usize;
-    let mut current = 0u32; // the root, as a node reference
+    let mut current = start.root; // a node reference
     loop {
         if current & LEAF_BIT == 0 {
             let n = &nodes[current as usize];
