@@ -8,6 +8,8 @@ use wedge_graph::{
     expand, parse_pipeline, schedule, validate, BufferBytes, GraphError, LoadedPipeline, NodeRegistry, ParamValue, Schedule,
     ValidatedPipeline,
 };
+use glam::{Quat, Vec3};
+use wedge_scene::motion::RigidMotion;
 use wedge_scene::{Camera, Scene, SceneError, SceneSource};
 
 /// The default pipeline, compiled in so `wedge render` works from any directory.
@@ -127,8 +129,9 @@ impl Session {
         let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
         let mut scene = wedge_scene::load_with(&source, &scene_opts)?;
         if let Some(c) = &pipeline.pipeline.camera {
-            scene.camera = camera_from_spec(c);
+            scene.camera = camera_from_spec(c, &scene.camera);
         }
+        apply_motion(&mut scene, &pipeline)?;
         pipeline.update_factoring(Some(scene_facts(&scene)))?;
         let mut expansion = expand(&pipeline)?;
         if let Some((spp, sampling)) = reference {
@@ -246,8 +249,43 @@ impl MemoryEstimate {
 }
 
 /// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]).
-pub fn scene_facts(_scene: &Scene) -> wedge_graph::SceneFacts {
-    wedge_graph::SceneFacts { motion: false }
+pub fn scene_facts(scene: &Scene) -> wedge_graph::SceneFacts {
+    wedge_graph::SceneFacts { motion: scene.has_motion() }
+}
+
+/// The rigid motion a pipeline's `motion` entry gives its object ([`wedge_graph::MotionSpec`]: the
+/// displacement and rotation over the whole shutter, centred on the pose in the scene file): keys at
+/// `∓translate/2` and `∓rotate_deg/2` about `pivot` (default: the centre of the object's bounding box).
+pub fn motion_from_spec(scene: &Scene, m: &wedge_graph::MotionSpec) -> RigidMotion {
+    let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
+    let pivot = m.pivot.map(v).unwrap_or_else(|| {
+        let mut b = wedge_scene::Aabb::empty();
+        for (tri, sh) in scene.triangles.iter().zip(&scene.shading) {
+            if scene.objects.get(sh.object as usize).is_some_and(|o| o.name == m.object) {
+                tri.vertices().into_iter().for_each(|p| b.grow(p));
+            }
+        }
+        if b.min.x <= b.max.x {
+            b.centre()
+        } else {
+            Vec3::ZERO
+        }
+    });
+    let (axis, half) = (v(m.axis).normalize_or_zero(), 0.5 * m.rotate_deg.to_radians());
+    let half_turn = |a: f32| if axis == Vec3::ZERO { Quat::IDENTITY } else { Quat::from_axis_angle(axis, a) };
+    RigidMotion { pivot, translation: [v(m.translate) * -0.5, v(m.translate) * 0.5], rotation: [half_turn(-half), half_turn(half)] }
+}
+
+/// Apply the pipeline's `motion` entries to the loaded scene; an entry the scene cannot take (no such
+/// object, a light split between objects) is an error naming the pipeline file and the entry.
+fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), WedgeError> {
+    for m in &pipeline.pipeline.motion {
+        let motion = motion_from_spec(scene, m);
+        scene.set_motion(&m.object, motion).map_err(|e| {
+            WedgeError::Usage(format!("{}: the `motion` entry for `{}`: {e}", pipeline.path.display(), m.object))
+        })?;
+    }
+    Ok(())
 }
 
 /// Bytes the loaded scene's arrays take.
@@ -378,7 +416,9 @@ pub fn scene_source(p: &ValidatedPipeline, cli: Option<&str>) -> SceneSource {
     SceneSource::File(base.join(spec))
 }
 
-pub fn camera_from_spec(c: &wedge_graph::CameraSpec) -> Camera {
+/// The pipeline's camera block over the scene's camera `scene` (which keeps its shutter where the
+/// block gives none).
+pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
     let v = |t: (f32, f32, f32)| glam::Vec3::new(t.0, t.1, t.2);
     let position = v(c.position);
     let look_at = v(c.look_at);
@@ -389,8 +429,8 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec) -> Camera {
         vfov_deg: c.vfov_deg,
         aperture_radius: c.aperture_radius,
         focus_distance: c.focus_distance.unwrap_or((look_at - position).length()),
-        shutter_open: 0.0,
-        shutter_close: 0.0,
+        shutter_open: c.shutter.map_or(scene.shutter_open, |s| s.0),
+        shutter_close: c.shutter.map_or(scene.shutter_close, |s| s.1),
     }
 }
 

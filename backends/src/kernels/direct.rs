@@ -14,7 +14,7 @@
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
-use wedge_scene::{AreaLight, Scene};
+use wedge_scene::{AreaLight, Hit, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::v3;
@@ -36,18 +36,29 @@ pub struct OccluderStats {
     pub occluded: u32,
 }
 
-/// One sample of direct light toward `light` from point `x` with normal `n`: returns the value
-/// (before albedo) and, when occluded, the occluder's distance to the light plane.
+/// Where a shadow ray was blocked (closest occluder from the receiver): its distance to the light
+/// plane (thesis Sec. 3.3's `d2`), and the hit on the ray `origin + t·dir` (for its velocity under
+/// motion blur).
+#[derive(Clone, Copy, Debug)]
+pub struct Occluder {
+    pub distance: f32,
+    pub hit: Hit,
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+/// One sample of direct light toward `light` (as it is at the scene's time) from point `x` with
+/// normal `n`: returns the value (before albedo) and, when occluded and `want_distance`, the occluder.
 #[inline]
 pub fn light_sample(
-    scene: &Scene,
+    scene: &SceneAt<'_>,
     light: &AreaLight,
     x: Vec3,
     n: Vec3,
     u: Vec2,
     centre_factor: Option<Vec3>,
     want_distance: bool,
-) -> (Vec3, Option<f32>) {
+) -> (Vec3, Option<Occluder>) {
     let y = light.sample_point(u);
     let to = y - x;
     let r2 = to.length_squared();
@@ -60,7 +71,7 @@ pub fn light_sample(
     }
     // The shadow ray starts off the surface and aims at `y` from there, stopping just short of the
     // light so the light's own triangles never count as occluders.
-    let origin = x + n * (RAY_EPSILON * scene.extent());
+    let origin = x + n * (RAY_EPSILON * scene.scene().extent());
     let seg = y - origin;
     let seg_len = seg.length();
     let ray_dir = seg / seg_len;
@@ -68,7 +79,8 @@ pub fn light_sample(
     if want_distance {
         if let Some(hit) = scene.intersect(origin, ray_dir, 0.0, tmax) {
             let p = origin + ray_dir * hit.t;
-            return (Vec3::ZERO, Some((light.centre() - p).dot(ln).abs()));
+            let distance = (light.centre() - p).dot(ln).abs();
+            return (Vec3::ZERO, Some(Occluder { distance, hit, origin, dir: ray_dir }));
         }
     } else if scene.occluded(origin, ray_dir, 0.0, tmax) {
         return (Vec3::ZERO, None);
@@ -156,6 +168,8 @@ impl Kernel for DirectLight {
         let seed = ctx.seed;
         let width = ctx.width;
         let counters = ctx.counters;
+        // A Ch. 3 kernel: the scene at the shutter's centre.
+        let at = scene.at(0.0);
 
         let results = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
@@ -173,7 +187,7 @@ impl Kernel for DirectLight {
             let mut bad = 0u64;
             let mut stats = OccluderStats { d2_min: f32::INFINITY, ..Default::default() };
             for &l in &lights {
-                let light = &scene.lights[l];
+                let light = &at.light(l);
                 if want_stats {
                     stats.d1 = (light.centre() - x).dot(light.normal()).abs();
                 }
@@ -181,8 +195,8 @@ impl Kernel for DirectLight {
                 let factor = centre.then(|| light_centre_factor(light, x, n));
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };
-                    let (v, occ) = light_sample(scene, light, x, n, Vec2::from(u), factor, want_stats);
-                    if let Some(d2) = occ {
+                    let (v, occ) = light_sample(&at, light, x, n, Vec2::from(u), factor, want_stats);
+                    if let Some(d2) = occ.map(|o| o.distance) {
                         stats.occluded += 1;
                         stats.d2_min = stats.d2_min.min(d2);
                         stats.d2_max = stats.d2_max.max(d2);

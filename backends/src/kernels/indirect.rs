@@ -28,7 +28,7 @@
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
-use wedge_scene::Scene;
+use wedge_scene::SceneAt;
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
@@ -100,7 +100,7 @@ fn weight_of(c: Vec3) -> f32 {
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn next_event(
-    scene: &Scene,
+    scene: &SceneAt<'_>,
     p: &PathParams,
     y: Vec3,
     n: Vec3,
@@ -115,7 +115,8 @@ pub fn next_event(
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
     let glossy = m > 0.0 && ks.max_element() > 0.0;
-    for (l, light) in scene.lights.iter().enumerate() {
+    for l in 0..scene.scene().lights.len() {
+        let light = scene.light(l);
         let d = dim::LIGHT + bounce * dim::BOUNCE_STRIDE + l as u32 * LIGHT_DIM_STRIDE;
         let target = light.sample_point(Vec2::from(rng.uniform2(sample, d)));
         let to = target - y;
@@ -152,7 +153,7 @@ pub fn next_event(
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn trace_path(
-    scene: &Scene,
+    scene: &SceneAt<'_>,
     p: &PathParams,
     x: Vec3,
     n: Vec3,
@@ -181,8 +182,8 @@ pub fn trace_path(
         let y = sp.position;
         let ny = sp.shading_normal;
         let wo = -dir;
-        let mat = &scene.materials[sp.material as usize];
-        let kd = scene.albedo(&sp);
+        let mat = &scene.scene().materials[sp.material as usize];
+        let kd = scene.scene().albedo(&sp);
         let (ks, m) = (mat.specular, mat.phong_exponent);
         radiance += throughput * next_event(scene, p, y, ny, wo, kd, ks, m, rng, sample, bounce, rays);
         if bounce == p.bounces {
@@ -305,6 +306,8 @@ impl Kernel for IndirectSample {
         let want_glossy = ctx.is_bound("glossy") && specular.is_some() && !ao;
         let (seed, width) = (ctx.seed, ctx.width);
         let camera = scene.camera.position;
+        // A Ch. 4 kernel: the scene at the shutter's centre.
+        let at = scene.at(0.0);
 
         struct Px {
             d: [f32; 4],
@@ -342,7 +345,7 @@ impl Kernel for IndirectSample {
             for s in 0..extra {
                 let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };
                 let wi = sample_diffuse(n, Vec2::from(u));
-                let (v, t) = trace_path(scene, &p, x, n, wi, &rng, s, &mut out.rays);
+                let (v, t) = trace_path(&at, &p, x, n, wi, &rng, s, &mut out.rays);
                 record(t);
                 if v.is_finite() {
                     sum += v;
@@ -361,7 +364,7 @@ impl Kernel for IndirectSample {
                     let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };
                     let (wi, w) = sample_glossy(p.lobe, m, n, wo, Vec2::from(u));
                     let v = if w > 0.0 {
-                        let (v, t) = trace_path(scene, &p, x, n, wi, &rng, s, &mut out.rays);
+                        let (v, t) = trace_path(&at, &p, x, n, wi, &rng, s, &mut out.rays);
                         record(t);
                         v * w
                     } else {

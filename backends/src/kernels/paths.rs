@@ -62,7 +62,7 @@
 
 use glam::{Vec2, Vec3};
 use wedge_graph::{Field, FieldType, Format, StructLayout};
-use wedge_scene::{Camera, LensShape};
+use wedge_scene::{Camera, LensShape, SceneAt};
 
 use crate::buffer::Record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
@@ -289,6 +289,9 @@ struct Settings {
     glossy: bool,
     /// The scene's camera with the pass's thin lens (`aperture_radius`, `focus_distance`, where given).
     camera: Camera,
+    /// Each path at its own shutter time `t ∈ [−1, 1]` (thesis App. B), else every path at the
+    /// shutter's centre `t = 0`.
+    time: bool,
 }
 
 fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
@@ -341,8 +344,11 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
     }
     let jitter = ctx.bool_param("jitter")?;
     let direct = flag("direct", true)?;
+    let time = flag("time", false)?;
     Ok(Settings {
-        fixed_primary: !jitter && camera.aperture_radius == 0.0,
+        // Under motion the same camera ray meets a different surface at each time.
+        fixed_primary: !jitter && camera.aperture_radius == 0.0 && !time,
+        time,
         camera,
         exact,
         direct,
@@ -434,7 +440,8 @@ impl Kernel for PathsTrace {
         let diffuse_total = ctx.read_opt::<u32>("diffuse_total")?;
         let glossy_total = ctx.read_opt::<u32>("glossy_total")?;
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
-        let light = scene.lights.get(s.light);
+        let has_light = s.light < scene.lights.len();
+        let projection = Projection::new(cam, height);
         // Through the pixel centre of a pinhole camera every path of a pixel has the same camera ray
         // (the lens sample only changes a Gaussian lens's weight): trace it once per pixel and pass,
         // and count it once, as plain Monte Carlo with one primary and N shadow rays would.
@@ -455,11 +462,15 @@ impl Kernel for PathsTrace {
                 let jitter = if s.jitter { draw(&s, seed, pixel, pair::PIXEL, j) } else { Vec2::splat(0.5) };
                 let lens = draw(&s, seed, pixel, pair::LENS, j);
                 let ray = cam.ray(Vec2::new(px as f32, py as f32) + jitter, lens, width, height, s.lens);
-                let trace = || scene.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
+                // The path's shutter time (App. B), its own stratified dimension.
+                let at = scene.at(if s.time { 2.0 * draw(&s, seed, pixel, pair::TIME, j).x - 1.0 } else { 0.0 });
+                let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
                 let hit = if fixed_primary { *fixed_hit.get_or_insert_with(trace) } else { trace() };
                 let t = j - first;
                 let n = Secondary { shadow: shadow.at(t), diffuse: diffuse.at(t), glossy: glossy.at(t) };
-                trace_one(scene, &s, light, forward, height, &ray, hit, seed, pixel, &rng_d, &rng_g, n, &mut r);
+                let light = has_light.then(|| at.light(s.light));
+                let view = View { forward, height, projection: &projection };
+                trace_one(&at, &s, light.as_ref(), &view, &ray, hit, seed, pixel, &rng_d, &rng_g, n, &mut r);
             }
             r
         });
@@ -511,14 +522,79 @@ struct Secondary {
     glossy: u32,
 }
 
+/// World velocities (per unit shutter time) as image-space velocities in pixels: the derivative of the
+/// pinhole projection of [`Camera::ray`] at a point (`shaders/paths_trace.wgsl` `image_velocity`).
+pub struct Projection {
+    position: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    /// Pixels per unit of `x/z` on the image plane: `h / (2 tan(fov/2))`.
+    scale: f32,
+}
+
+impl Projection {
+    pub fn new(cam: &Camera, height: u32) -> Projection {
+        let (right, up, forward) = cam.basis();
+        let scale = height.max(1) as f32 / (2.0 * (cam.vfov_deg.to_radians() * 0.5).tan());
+        Projection { position: cam.position, right, up, forward, scale }
+    }
+
+    /// The image velocity (pixels per unit t, x right, y down) of a point at `x` moving at `v`; zero
+    /// behind the camera.
+    pub fn image_velocity(&self, x: Vec3, v: Vec3) -> Vec2 {
+        let d = x - self.position;
+        let z = d.dot(self.forward);
+        if !(z > 0.0) {
+            return Vec2::ZERO;
+        }
+        let vz = v.dot(self.forward);
+        let zz = z * z;
+        let vx = self.scale * (v.dot(self.right) * z - d.dot(self.right) * vz) / zz;
+        let vy = -self.scale * (v.dot(self.up) * z - d.dot(self.up) * vz) / zz;
+        Vec2::new(vx, vy)
+    }
+}
+
+/// The camera quantities a path's statistics need: the optical axis, the image height (for the
+/// circle of confusion) and the projection (for velocities).
+struct View<'a> {
+    forward: Vec3,
+    height: u32,
+    projection: &'a Projection,
+}
+
+/// The image-space velocity of the shadow an occluder casts on a receiver (thesis App. B's `v_s`):
+/// in the parallel-plane geometry of Sec. 3.3, the shadow of an occluder point at distance `d2` from
+/// the light plane, seen from a light point, falls on the receiver at distance `d1` at
+/// `y + (o − y) d1/d2`, so it moves at `(d1/d2) V_o + (1 − d1/d2) V_y` for occluder and light-point
+/// velocities `V_o`, `V_y` (in-plane components; the receiver's own motion does not move it). Its image
+/// velocity is that motion's at the receiver point `x`. Light points are taken at rest (`V_y = 0`: a
+/// reading — the light's motion is sampled by the shadow rays, only not in `v_s`).
+fn shadow_velocity(projection: &Projection, x: Vec3, d1: f32, d2: f32, occluder_velocity: Vec3) -> Vec2 {
+    if !(d2 > 0.0) {
+        return Vec2::ZERO;
+    }
+    projection.image_velocity(x, occluder_velocity * (d1 / d2))
+}
+
+/// Fold velocity `v` into a running range; the first sample starts it.
+fn extend_range(min: &mut [f32; 2], max: &mut [f32; 2], v: Vec2, first: bool) {
+    if first {
+        (*min, *max) = (v.to_array(), v.to_array());
+    } else {
+        *min = Vec2::from(*min).min(v).to_array();
+        *max = Vec2::from(*max).max(v).to_array();
+    }
+}
+
 /// One path: the primary ray `ray` with its closest `hit`, then the direct and indirect estimators there.
 #[allow(clippy::too_many_arguments)]
 fn trace_one(
-    scene: &wedge_scene::Scene,
+    scene: &SceneAt<'_>,
     s: &Settings,
     light: Option<&wedge_scene::AreaLight>,
-    forward: Vec3,
-    height: u32,
+    view: &View<'_>,
     ray: &wedge_scene::LensRay,
     hit: Option<wedge_scene::Hit>,
     seed: u32,
@@ -538,36 +614,43 @@ fn trace_one(
         r.w_diffuse += carries(s.indirect, count.diffuse);
         r.w_glossy += carries(s.indirect && s.glossy, count.glossy);
     }
-    let Some(hit) = hit else {
+    let sp = hit.map(|h| scene.surface(&h, ray.origin, ray.dir));
+    // Image velocity of the primary hit (App. B's v_p); a miss sees the still background.
+    let velocity = match sp {
+        Some(sp) if s.time => view.projection.image_velocity(sp.position, scene.velocity(&sp)),
+        _ => Vec2::ZERO,
+    };
+    extend_range(&mut r.vp_min, &mut r.vp_max, velocity, r.paths == 1);
+    let Some(sp) = sp else {
         return;
     };
-    let sp = scene.surface(&hit, ray.origin, ray.dir);
     let (x, n) = (sp.position, sp.shading_normal);
     let wo = -ray.dir;
     r.hits += 1;
     r.hit_weight += w;
     add(&mut r.position, x * w);
     add(&mut r.normal, n * w);
-    add(&mut r.emission, scene.emission(&sp) * w);
+    add(&mut r.emission, scene.scene().emission(&sp) * w);
+    r.vp_sum = (Vec2::from(r.vp_sum) + velocity * w).to_array();
     if r.object == 0 {
         r.object = 1 + sp.object;
     }
     // Depth along the optical axis and the circle of confusion of this lens sample (eq. 5.2).
-    let z = (x - s.camera.position).dot(forward);
+    let z = (x - s.camera.position).dot(view.forward);
     r.depth += w * z;
-    let coc = s.camera.coc_pixels(z, height).abs();
+    let coc = s.camera.coc_pixels(z, view.height).abs();
     if r.hits == 1 {
         (r.r_min, r.r_max) = (coc, coc);
     } else {
         r.r_min = r.r_min.min(coc);
         r.r_max = r.r_max.max(coc);
     }
-    let mat = &scene.materials[sp.material as usize];
+    let mat = &scene.scene().materials[sp.material as usize];
     let (ks, m) = (mat.specular, mat.phong_exponent);
     let glossy = m > 0.0 && ks.max_element() > 0.0;
-    let at = PathHit { x, n, wo, kd: scene.albedo(&sp), ks, m, glossy, w };
+    let at = PathHit { x, n, wo, kd: scene.scene().albedo(&sp), ks, m, glossy, w };
     if let Some(light) = light.filter(|_| s.direct && count.shadow > 0) {
-        trace_direct(scene, s, light, &at, seed, pixel, count.shadow, r);
+        trace_direct(scene, s, light, view.projection, &at, seed, pixel, count.shadow, r);
     }
     if s.indirect {
         trace_indirect(scene, s, &at, seed, pixel, (rng_d, rng_g), count, r);
@@ -591,9 +674,10 @@ struct PathHit {
 /// The direct estimator at hit `x` (see the module doc).
 #[allow(clippy::too_many_arguments)]
 fn trace_direct(
-    scene: &wedge_scene::Scene,
+    scene: &SceneAt<'_>,
     s: &Settings,
     light: &wedge_scene::AreaLight,
+    projection: &Projection,
     at: &PathHit,
     seed: u32,
     pixel: u32,
@@ -610,13 +694,15 @@ fn trace_direct(
         let to_centre = (light.centre() - x).normalize_or_zero();
         k += ks * (std::f32::consts::PI * glossy_brdf(s.path.lobe, m, n, wo, to_centre));
     }
-    r.d1 += w * (light.centre() - x).dot(light.normal()).abs();
+    let d1 = (light.centre() - x).dot(light.normal()).abs();
+    r.d1 += w * d1;
     let (mut e, mut valid) = (Vec3::ZERO, 0u32);
     for _ in 0..n_shadow {
         let u = draw(s, seed, pixel, pair::LIGHT, r.shadow);
         r.shadow += 1;
         let (v, occ) = light_sample(scene, light, x, n, u, if s.exact { None } else { Some(fc) }, true);
-        if let Some(d2) = occ {
+        if let Some(o) = occ {
+            let d2 = o.distance;
             r.occluded += 1;
             if r.occluded == 1 {
                 (r.d2_min, r.d2_max) = (d2, d2);
@@ -624,6 +710,14 @@ fn trace_direct(
                 r.d2_min = r.d2_min.min(d2);
                 r.d2_max = r.d2_max.max(d2);
             }
+            let vs = if s.time {
+                let occluder = scene.surface(&o.hit, o.origin, o.dir);
+                shadow_velocity(projection, x, d1, d2, scene.velocity(&occluder))
+            } else {
+                Vec2::ZERO
+            };
+            r.vs_sum = (Vec2::from(r.vs_sum) + vs).to_array();
+            extend_range(&mut r.vs_min, &mut r.vs_max, vs, r.occluded == 1);
         }
         if v.is_finite() {
             e += v;
@@ -639,7 +733,7 @@ fn trace_direct(
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
 #[allow(clippy::too_many_arguments)]
 fn trace_indirect(
-    scene: &wedge_scene::Scene,
+    scene: &SceneAt<'_>,
     s: &Settings,
     at: &PathHit,
     seed: u32,
@@ -693,7 +787,7 @@ fn trace_indirect(
 
 /// One indirect path (shared estimator `indirect::trace_path`), with its rays and first hit recorded.
 #[allow(clippy::too_many_arguments)]
-fn indirect_ray(scene: &wedge_scene::Scene, p: &PathParams, x: Vec3, n: Vec3, wi: Vec3, rng: &PixelRng, q: u32, r: &mut PathRecord) -> Vec3 {
+fn indirect_ray(scene: &SceneAt<'_>, p: &PathParams, x: Vec3, n: Vec3, wi: Vec3, rng: &PixelRng, q: u32, r: &mut PathRecord) -> Vec3 {
     let mut rays = PathRays::default();
     let (v, t) = trace_path(scene, p, x, n, wi, rng, q, &mut rays);
     r.indirect_rays += rays.secondary as u32;

@@ -90,6 +90,7 @@ impl NodeKind for Motion {
             PortDecl::new("filter_width", Format::F32, "texture filter std-dev in pixels along the velocity, 1/(√32 Ω_{x,p}^m) (0 = not filtered)"),
             PortDecl::new("rays_per_pixel", Format::U32, "primary rays per pixel asked for the second pass, n_p (eq. B.3; 64 at multi-velocity pixels)"),
             PortDecl::new("velocity", Format::Vec4, "image-space velocity of the primary hits (px per half shutter), its texture width Ω and σ"),
+            PortDecl::new("shadow_velocity", Format::Vec4, "image-space velocity of the shadows (px per half shutter), the width Ω of the filter along it (eq. B.2) and σ"),
         ]
     }
     fn params(&self) -> Vec<ParamDecl> {
@@ -135,14 +136,15 @@ impl NodeKind for Motion {
             ctx.pass("filter_width", "fill.constant_f32", Stage::Compose).write("out", width).float("value", 0.0).finish();
             let rays = ctx.buffer("rays_per_pixel", Format::U32);
             ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
-            let velocity = ctx.buffer("velocity", Format::Vec4);
-            ctx.pass("velocity", "fill.constant_vec4", Stage::Compose).write("out", velocity).float("value", 0.0).finish();
+            let still = ctx.buffer("velocity", Format::Vec4);
+            ctx.pass("velocity", "fill.constant_vec4", Stage::Compose).write("out", still).float("value", 0.0).finish();
             for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
                 ctx.output(port, id);
             }
             ctx.output("filter_width", width);
             ctx.output("rays_per_pixel", rays);
-            ctx.output("velocity", velocity);
+            ctx.output("velocity", still);
+            ctx.output("shadow_velocity", still);
             return Ok(());
         };
 
@@ -158,11 +160,14 @@ impl NodeKind for Motion {
                 .setting("form_factor", ctx.param("form_factor").clone()),
         )?;
 
-        // 2. Ω_{x,p}^m and n_p (eqs. B.1, B.3).
+        // 2. Ω_{x,p}^m and n_p (eqs. B.1, B.3); the shadows' filter (B.2) for the heatmap.
         let velocity = ctx.sampler_output(SamplerPass::First, "velocity")?;
         let depth = ctx.sampler_output(SamplerPass::First, "defocus")?;
-        let (texture_motion, n_primary, sigma) = (
+        let shadow_velocity = ctx.sampler_output(SamplerPass::First, "shadow_velocity")?;
+        let occlusion = ctx.sampler_output(SamplerPass::First, "occlusion")?;
+        let (texture_motion, shadow_motion, n_primary, sigma) = (
             ctx.buffer("velocity", Format::Vec4),
+            ctx.buffer("shadow_velocity", Format::Vec4),
             ctx.buffer("rays_per_pixel", Format::U32),
             ctx.buffer("filter_width", Format::F32),
         );
@@ -170,7 +175,10 @@ impl NodeKind for Motion {
             .pass("rates", "motion.rates", Stage::Bandwidth)
             .read("velocity", velocity)
             .read("depth", depth)
+            .read("shadow_velocity", shadow_velocity)
+            .read("occlusion", occlusion)
             .write("texture_motion", texture_motion)
+            .write("shadow_motion", shadow_motion)
             .write("n_primary", n_primary)
             .write("sigma_texture", sigma);
         for (n, v) in motion_rate_settings(f) {
@@ -201,6 +209,7 @@ impl NodeKind for Motion {
         ctx.output("filter_width", sigma);
         ctx.output("rays_per_pixel", n_primary);
         ctx.output("velocity", texture_motion);
+        ctx.output("shadow_velocity", shadow_motion);
         Ok(())
     }
 }
