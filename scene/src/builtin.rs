@@ -14,12 +14,16 @@
 //!   light; the defocus test scene. Recommended lens: [`chess::FOCUS_DISTANCE`], [`chess::APERTURE_RADIUS`].
 //! - `spheres`: issue 12's ray-tracing benchmark scene — a 20×20 field of UV spheres on a ground under one
 //!   area light, 409,604 triangles, for traversal throughput against Embree (see `builtin/spheres.rs`).
+//! - `motion`: thesis Fig. B.1 in spirit — a translating multi-frequency textured plate, a moving ball
+//!   shadowing it, a static bridge shadowing it, a rotating textured cube, a static floor, one area
+//!   light; the motion-blur test scene (see `builtin/motion.rs`).
 //!
 //! Mesh generators (boxes, spheres, tori, lathes, rectangular lights) live in `builtin/mesh.rs` so new
 //! built-ins reuse them; each scene larger than a screenful lives in its own file under `builtin/`.
 
 pub mod chess;
 mod mesh;
+pub mod motion;
 pub mod spheres;
 
 use std::f32::consts::TAU;
@@ -30,7 +34,9 @@ use crate::data::SceneData;
 use crate::{Camera, Material, Scene, SceneError, Texture};
 use mesh::{add_box, add_rect_light, add_sphere, add_torus, parametric, smooth_tri};
 
-pub const NAMES: &[&str] = &["grids", "curved", "heavy", "cornell", "chess", "spheres"];
+pub const NAMES: &[&str] = &[
+    "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion",
+];
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
     match name {
@@ -40,6 +46,7 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "cornell" => Ok(cornell()),
         "chess" => Ok(chess::chess()),
         "spheres" => Ok(spheres::spheres()),
+        "motion" => Ok(motion::motion()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),

@@ -1,13 +1,15 @@
-//! `.ron` scene composition: meshes from files (placed with translate/scale/rotate_y), an optional
-//! built-in to start from, explicit lights and an optional camera. Unknown fields are rejected so typos
-//! fail loudly; errors carry ron's line:col. Paths are relative to the .ron file.
+//! `.ron` scene composition: meshes from files (placed with translate/scale/rotate_y, optionally
+//! moving over the shutter), an optional built-in to start from, explicit lights and an optional
+//! camera with a shutter. Unknown fields are rejected so typos fail loudly; errors carry ron's
+//! line:col. Paths are relative to the .ron file.
 //!
 //! ```ron
 //! Scene(
-//!   meshes: [ (path: "bunny.obj", translate: (0,0,0), scale: 1.0, rotate_y_deg: 0.0, material: None) ],
+//!   meshes: [ (path: "bunny.obj", translate: (0,0,0), scale: 1.0, rotate_y_deg: 0.0, material: None,
+//!              motion: Some((translation: ((0,0,0), (0.2,0,0)), axis: (0,1,0), rotate_deg: (0, 15)))) ],
 //!   builtin: None, // or Some("grids")
 //!   lights: [ Rect(corner: (-0.5, 2, -0.5), edge_u: (1,0,0), edge_v: (0,0,1), radiance: (10,10,10)) ],
-//!   camera: Some((position: (0,1,3), look_at: (0,0,0), up: (0,1,0), vfov_deg: 40)),
+//!   camera: Some((position: (0,1,3), look_at: (0,0,0), up: (0,1,0), vfov_deg: 40, shutter: (0, 0.02))),
 //! )
 //! ```
 //! Every field except `path`, the light geometry/radiance and the camera's position/look_at/vfov_deg
@@ -15,6 +17,14 @@
 //! `Scene::from_triangles` merges back into one Rect `AreaLight`. Lights may set `two_sided: true`.
 //! Mesh paths must stay under the scene file's directory (see [`crate::LoadOptions`]); the camera must
 //! pass [`Camera::validate`].
+//!
+//! **Motion.** A mesh's `motion` moves it rigidly over the shutter, in world space after its
+//! placement: `translation: (at open, at close)` (default none), a rotation about `axis` (default y)
+//! through `pivot` (default: the mesh's `translate`) from `rotate_deg.0` to `rotate_deg.1` degrees
+//! (at most 180 apart; default no rotation) — see [`crate::motion`]. The camera's `shutter: (open,
+//! close)` (default (0, 0)) is the time interval glTF meshes' animations are sampled at (a mesh may
+//! have animations or a `motion` block, not both); a shutter given by the caller
+//! ([`crate::load_with_shutter`], e.g. a pipeline's camera) replaces it.
 
 use std::path::Path;
 
@@ -22,6 +32,7 @@ use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
 
 use crate::data::SceneData;
+use crate::motion::RigidMotion;
 use crate::resource::{read_capped, Resources};
 use crate::{builtin, Camera, Material, Scene, SceneError};
 
@@ -64,6 +75,25 @@ struct MeshEntry {
     /// then in everything loaded before it).
     #[serde(default)]
     material: Option<String>,
+    /// Rigid motion over the shutter (see the module doc).
+    #[serde(default)]
+    motion: Option<MotionEntry>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct MotionEntry {
+    /// World translation at shutter open and close.
+    #[serde(default)]
+    translation: (V3, V3),
+    #[serde(default = "y_up")]
+    axis: V3,
+    /// Rotation about `axis` through `pivot` at shutter open and close, in degrees.
+    #[serde(default)]
+    rotate_deg: (f32, f32),
+    /// Default: the mesh's `translate`.
+    #[serde(default)]
+    pivot: Option<V3>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -100,6 +130,9 @@ struct CameraEntry {
     /// 0 (default) = focus on look_at.
     #[serde(default)]
     focus_distance: f32,
+    /// (open, close) in the scene's time unit; glTF animations are sampled at both.
+    #[serde(default)]
+    shutter: (f32, f32),
 }
 
 pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError> {
@@ -122,6 +155,31 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
             "fix the scene file (see wedge-scene's compose module for the fields)",
         )
     })?;
+    // The camera first: its shutter is when glTF meshes' animations are sampled.
+    let camera = match &file.camera {
+        None => None,
+        Some(c) => {
+            let camera = Camera {
+                position: v(c.position),
+                look_at: v(c.look_at),
+                up: v(c.up),
+                vfov_deg: c.vfov_deg,
+                aperture_radius: c.aperture_radius,
+                focus_distance: c.focus_distance,
+                shutter_open: c.shutter.0,
+                shutter_close: c.shutter.1,
+            };
+            camera.validate().map_err(|what| {
+                SceneError::invalid(path, format!("camera: {what}"), Camera::VALID_RULES)
+            })?;
+            Some(camera)
+        }
+    };
+    let mut res = res.clone();
+    res.shutter = res
+        .shutter
+        .or(camera.map(|c| (c.shutter_open, c.shutter_close)));
+    let res = &res;
     let mut d = match &file.builtin {
         Some(name) => builtin::builtin_data(name)
             .map_err(|e| SceneError::invalid(path, format!("{e}"), "use a known built-in name"))?,
@@ -147,6 +205,20 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
             Quat::from_rotation_y(m.rotate_y_deg.to_radians()),
             v(m.translate),
         );
+        let motion = match &m.motion {
+            None => None,
+            Some(entry) => {
+                if mesh.has_motion() {
+                    return Err(SceneError::invalid(
+                        path,
+                        format!("mesh {i} ('{}') has a motion block, and its file has animations that move it", m.path),
+                        "use one of the two: remove the motion block, or the file's animations",
+                    ));
+                }
+                Some(mesh_motion(path, i, m, entry)?)
+            }
+        };
+        let first_object = d.objects.len();
         let over = match &m.material {
             None => None,
             Some(name) => {
@@ -167,6 +239,12 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
             }
         };
         d.append(mesh, xf, over);
+        if let Some(motion) = motion {
+            // World space, so set after placement.
+            for o in &mut d.objects[first_object..] {
+                o.motion = Some(motion);
+            }
+        }
     }
     for (i, l) in file.lights.iter().enumerate() {
         let o = d.new_object();
@@ -202,21 +280,8 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
             }
         }
     }
-    if let Some(c) = &file.camera {
-        let camera = Camera {
-            position: v(c.position),
-            look_at: v(c.look_at),
-            up: v(c.up),
-            vfov_deg: c.vfov_deg,
-            aperture_radius: c.aperture_radius,
-            focus_distance: c.focus_distance,
-            shutter_open: 0.0,
-            shutter_close: 0.0,
-        };
-        camera.validate().map_err(|what| {
-            SceneError::invalid(path, format!("camera: {what}"), Camera::VALID_RULES)
-        })?;
-        d.camera = Some(camera);
+    if camera.is_some() {
+        d.camera = camera;
     }
     let name = path.display().to_string();
     d.into_scene(&name)
@@ -238,4 +303,40 @@ fn check_light(path: &Path, i: usize, cross: Vec3, radiance: Vec3) -> Result<(),
         ));
     }
     Ok(())
+}
+
+/// A mesh's `motion` block as a [`RigidMotion`] in world space, checked.
+fn mesh_motion(
+    path: &Path,
+    i: usize,
+    m: &MeshEntry,
+    e: &MotionEntry,
+) -> Result<RigidMotion, SceneError> {
+    let what = |w: String| {
+        SceneError::invalid(
+            path,
+            format!("mesh {i} ('{}') motion: {w}", m.path),
+            "use finite numbers, a non-zero axis and rotate_deg values at most 180 apart",
+        )
+    };
+    let (r0, r1) = e.rotate_deg;
+    if !(r0.is_finite() && r1.is_finite()) {
+        return Err(what(format!("rotate_deg ({r0}, {r1}) is not finite")));
+    }
+    if (r1 - r0).abs() > 180.0 {
+        return Err(what(format!(
+            "rotate_deg ({r0}, {r1}) turns by more than 180° (rotation over the shutter takes the short way)"
+        )));
+    }
+    let axis = v(e.axis);
+    if r0 != r1 && axis.try_normalize().is_none() {
+        return Err(what(format!("axis {axis} has no direction")));
+    }
+    let motion = RigidMotion {
+        pivot: v(e.pivot.unwrap_or(m.translate)),
+        translation: [v(e.translation.0), v(e.translation.1)],
+        ..RigidMotion::rotation_about(Vec3::ZERO, axis, r0.to_radians(), r1.to_radians())
+    };
+    motion.validate().map_err(what)?;
+    Ok(motion)
 }

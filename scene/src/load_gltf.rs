@@ -23,7 +23,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{Mat4, Quat, Vec2, Vec3};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use gltf::json;
 use json::accessor::{ComponentType, GenericComponentType, Type};
 use json::mesh::{Mode, Semantic};
@@ -31,6 +31,7 @@ use json::validation::Checked;
 
 use crate::data::SceneData;
 use crate::limits::{MAX_ACCESSOR_ELEMENTS, MAX_COORDINATE, MAX_RADIANCE, MAX_TRIANGLES};
+use crate::motion::RigidMotion;
 use crate::resource::{read_capped, Resources};
 use crate::texture::decode_texture;
 use crate::{Camera, Material, SceneError, Texture};
@@ -541,6 +542,17 @@ fn read_primitive(
 
 /// A node's local transform (matrix, or translation·rotation·scale), refusing non-finite values.
 fn local_transform(path: &Path, node: &json::Node, n: usize) -> Result<Mat4, SceneError> {
+    local_transform_at(path, node, n, [None, None, None])
+}
+
+/// [`local_transform`] with animated values (`[translation, rotation, scale]`, each `None` where no
+/// channel targets it) in place of the node's own.
+fn local_transform_at(
+    path: &Path,
+    node: &json::Node,
+    n: usize,
+    animated: [Option<[f32; 4]>; 3],
+) -> Result<Mat4, SceneError> {
     let finite = |what: &str, v: &[f32]| {
         if v.iter().all(|x| x.is_finite()) {
             Ok(())
@@ -556,13 +568,19 @@ fn local_transform(path: &Path, node: &json::Node, n: usize) -> Result<Mat4, Sce
         finite("matrix", m)?;
         return Ok(Mat4::from_cols_array(m));
     }
-    let t = node.translation.unwrap_or([0.0; 3]);
-    let r = node
-        .rotation
-        .as_ref()
-        .map(|q| q.0)
-        .unwrap_or([0.0, 0.0, 0.0, 1.0]);
-    let s = node.scale.unwrap_or([1.0; 3]);
+    let xyz = |v: [f32; 4]| [v[0], v[1], v[2]];
+    let t = animated[0]
+        .map(xyz)
+        .unwrap_or(node.translation.unwrap_or([0.0; 3]));
+    let r = animated[1].unwrap_or(
+        node.rotation
+            .as_ref()
+            .map(|q| q.0)
+            .unwrap_or([0.0, 0.0, 0.0, 1.0]),
+    );
+    let s = animated[2]
+        .map(xyz)
+        .unwrap_or(node.scale.unwrap_or([1.0; 3]));
     finite("translation", &t)?;
     finite("rotation", &r)?;
     finite("scale", &s)?;
@@ -587,7 +605,12 @@ fn local_transform(path: &Path, node: &json::Node, n: usize) -> Result<Mat4, Sce
 struct Instance {
     node: usize,
     mesh: usize,
+    /// World transform at shutter open (the triangles' rest pose).
     world: Mat4,
+    /// World transform at shutter close, and the pivot of its motion: the origin (at open) of the
+    /// nearest animated node at or above it. Equal to `world` when nothing above it moves.
+    world_close: Mat4,
+    pivot: Vec3,
 }
 
 /// A material's values, with glTF JSON paths on the refusals.
@@ -773,8 +796,21 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         ));
     }
     let scene = get(path, &root.scenes, scene_index, "scenes", &scene_at)?;
+    // Animations are sampled at the shutter's two ends (the camera's `shutter_open`/`shutter_close`;
+    // 0 and 0 unless the caller gives a shutter): each node's world transform at both times.
+    let shutter = res.shutter.unwrap_or((0.0, 0.0));
+    let animations = read_animations(path, &root, &mut buffers, &mut d.warnings)?;
+    if animations.channels > 0 && shutter.0 == shutter.1 {
+        d.warnings.push(format!(
+            "{}: {} animation channel(s) are sampled at time {} only (the shutter is empty), so nothing moves — give the camera a shutter (RON scene file `shutter`, or the pipeline's camera) to render motion blur",
+            path.display(),
+            animations.channels,
+            shutter.0
+        ));
+    }
     let mut visited = vec![false; root.nodes.len()];
-    let mut todo: Vec<(usize, Mat4, String)> = scene
+    // (node, parent's world at open and at close, the pivot of the nearest animated ancestor, path)
+    let mut todo: Vec<(usize, Mat4, Mat4, Option<Vec3>, String)> = scene
         .nodes
         .iter()
         .enumerate()
@@ -783,6 +819,8 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             (
                 n.value(),
                 Mat4::IDENTITY,
+                Mat4::IDENTITY,
+                None,
                 format!("scenes[{scene_index}].nodes[{k}]"),
             )
         })
@@ -791,7 +829,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
     let mut camera: Option<(usize, Mat4, f32)> = None;
     let mut triangles: u64 = 0;
     let mut warned_modes = false;
-    while let Some((n, parent, at)) = todo.pop() {
+    while let Some((n, parent, parent_close, pivot, at)) = todo.pop() {
         let node = get(path, &root.nodes, n, "nodes", &at)?;
         if visited[n] {
             return Err(bad(
@@ -801,8 +839,20 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             ));
         }
         visited[n] = true;
-        let world = parent * local_transform(path, node, n)?;
-        if !world.is_finite() {
+        let (world, world_close, pivot) = match animations.of_node(n) {
+            None => {
+                let local = local_transform(path, node, n)?;
+                (parent * local, parent_close * local, pivot)
+            }
+            Some(tracks) => {
+                let open = local_transform_at(path, node, n, animations.sample(tracks, shutter.0))?;
+                let close =
+                    local_transform_at(path, node, n, animations.sample(tracks, shutter.1))?;
+                let world = parent * open;
+                (world, parent_close * close, Some(world.w_axis.truncate()))
+            }
+        };
+        if !(world.is_finite() && world_close.is_finite()) {
             return Err(bad(
                 path,
                 format!("nodes[{n}]: its transform combined with its parents' overflows"),
@@ -834,6 +884,12 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                             "use a finite aspect ratio > 0 or leave it out",
                         ));
                     }
+                }
+                if world_close != world {
+                    d.warnings.push(format!(
+                        "{}: the camera of nodes[{n}] moves over the shutter; wedge blurs object motion only, so the camera stays where it is at shutter open",
+                        path.display()
+                    ));
                 }
                 camera = Some((n, world, p.yfov));
             }
@@ -908,11 +964,19 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                 node: n,
                 mesh: mesh_index,
                 world,
+                world_close,
+                pivot: pivot.unwrap_or(Vec3::ZERO),
             });
         }
         if let Some(children) = &node.children {
             for (k, c) in children.iter().enumerate().rev() {
-                todo.push((c.value(), world, format!("nodes[{n}].children[{k}]")));
+                todo.push((
+                    c.value(),
+                    world,
+                    world_close,
+                    pivot,
+                    format!("nodes[{n}].children[{k}]"),
+                ));
             }
         }
     }
@@ -922,6 +986,16 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
     let mut default_material: Option<u32> = None;
     for inst in &instances {
         let normal_m = inst.world.inverse().transpose();
+        let motion = if inst.world_close == inst.world {
+            None
+        } else {
+            Some(node_motion(path, inst)?)
+        };
+        let name = root.nodes[inst.node]
+            .name
+            .clone()
+            .or_else(|| root.meshes[inst.mesh].name.clone())
+            .unwrap_or_else(|| format!("nodes[{}]", inst.node));
         for (p, prim) in root.meshes[inst.mesh].primitives.iter().enumerate() {
             if prim.mode != Checked::Valid(Mode::Triangles) {
                 continue;
@@ -939,20 +1013,25 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             };
             let material = match data.material {
                 Some(i) if i < d.materials.len() => i as u32,
-                Some(i) => return Err(bad(
-                    path,
-                    format!(
+                Some(i) => {
+                    return Err(bad(
+                        path,
+                        format!(
                         "meshes[{}].primitives[{p}].material = {i} but the file has {} materials",
                         inst.mesh,
                         d.materials.len()
                     ),
-                    "point the primitive at an existing material",
-                )),
+                        "point the primitive at an existing material",
+                    ))
+                }
                 None => *default_material.get_or_insert_with(|| {
                     d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)
                 }),
             };
-            let object = d.new_object();
+            let object = d.new_named_object(name.clone());
+            if let Some(m) = motion {
+                d.set_motion(object, m);
+            }
             for tri in data.indices.chunks_exact(3) {
                 let tri = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 let p = tri.map(|i| inst.world.transform_point3(data.positions[i]));
@@ -1018,8 +1097,8 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             vfov_deg: yfov.to_degrees(),
             aperture_radius: 0.0,
             focus_distance: dist,
-            shutter_open: 0.0,
-            shutter_close: 0.0,
+            shutter_open: shutter.0,
+            shutter_close: shutter.1,
         };
         cam.validate().map_err(|what| {
             bad(
@@ -1031,4 +1110,305 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         d.camera = Some(cam);
     }
     Ok(d)
+}
+
+/// The motion of a mesh instance over the shutter, from its world transforms at open (`W_o`, where its
+/// triangles are stored) and close (`W_c`): `D = W_c·W_o⁻¹` must be rigid (a rotation `R` and a
+/// translation); it becomes a [`RigidMotion`] about the instance's pivot `p` (the origin of the
+/// nearest animated node at or above it, so every mesh under one animated node shares one motion)
+/// from the identity to `(T = D(p) − p, R)`. In between, the pivot moves on the straight line and the
+/// rotation is slerped: a child of a rotating parent follows the chord of its arc, not the arc.
+fn node_motion(path: &Path, inst: &Instance) -> Result<RigidMotion, SceneError> {
+    let open = Mat3::from_mat4(inst.world);
+    let close = Mat3::from_mat4(inst.world_close);
+    let (n, mesh) = (inst.node, inst.mesh);
+    let det = open.determinant();
+    if !(det.is_finite() && det.abs() > 1e-12) {
+        return Err(bad(
+            path,
+            format!("nodes[{n}] (meshes[{mesh}]) is animated but has zero scale at shutter open"),
+            "give the node and its parents a non-zero scale",
+        ));
+    }
+    let r = close * open.inverse();
+    let err = (r * r.transpose() - Mat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f32, |m, x| m.max(x.abs()));
+    if !(err <= 1e-3 && r.determinant() > 0.0) {
+        return Err(bad(
+            path,
+            format!(
+                "nodes[{n}] (meshes[{mesh}]): its transform at shutter close is not a rigid motion of the one at shutter open (a scale changes over the shutter, or a rotation is animated under a non-uniformly scaled parent; deviation from a rotation {err:.3})"
+            ),
+            "animate only translation and rotation over the shutter (constant scale), with uniform scales above animated rotations",
+        ));
+    }
+    let q = Quat::from_mat3(&r).normalize();
+    let p = inst.pivot;
+    let moved = inst
+        .world_close
+        .transform_point3(inst.world.inverse().transform_point3(p));
+    let motion = RigidMotion {
+        pivot: p,
+        translation: [Vec3::ZERO, moved - p],
+        rotation: [Quat::IDENTITY, q],
+    };
+    motion.validate().map_err(|what| {
+        bad(
+            path,
+            format!("nodes[{n}] (meshes[{mesh}]): its motion over the shutter: {what}"),
+            "check the node's animation values",
+        )
+    })?;
+    Ok(motion)
+}
+
+/// Keyframe times: SCALAR FLOAT.
+const ANIM_TIMES: Layout = Layout {
+    ty: Type::Scalar,
+    components: &[(ComponentType::F32, false)],
+};
+/// Translation and scale keyframes: VEC3 FLOAT.
+const ANIM_VEC3: Layout = POSITION;
+/// Rotation keyframes: VEC4 FLOAT (the normalized-integer forms of the spec are refused).
+const ANIM_VEC4: Layout = Layout {
+    ty: Type::Vec4,
+    components: &[(ComponentType::F32, false)],
+};
+
+/// One checked animation channel (its sampler's keyframes).
+struct Track {
+    times: Vec<f32>,
+    /// Per keyframe its value (VEC3 padded with 0); CUBICSPLINE: in-tangent, value, out-tangent.
+    values: Vec<[f32; 4]>,
+    interpolation: json::animation::Interpolation,
+    rotation: bool,
+}
+
+impl Track {
+    /// The value at time `tau`: held before the first and after the last keyframe, STEP holds each
+    /// keyframe, LINEAR lerps (slerps rotations, short arc), CUBICSPLINE is the spec's Hermite spline
+    /// (rotations renormalised).
+    fn sample(&self, tau: f32) -> [f32; 4] {
+        use json::animation::Interpolation::*;
+        let cubic = self.interpolation == CubicSpline;
+        let value = |k: usize| {
+            if cubic {
+                self.values[3 * k + 1]
+            } else {
+                self.values[k]
+            }
+        };
+        let last = self.times.len() - 1;
+        // NaN (not reachable: shutters are checked) holds the first keyframe.
+        if !(tau > self.times[0]) {
+            return value(0);
+        }
+        if tau >= self.times[last] {
+            return value(last);
+        }
+        let k = self.times.partition_point(|&x| x <= tau) - 1;
+        let (t0, t1) = (self.times[k], self.times[k + 1]);
+        let u = (tau - t0) / (t1 - t0);
+        let v4 = |a: [f32; 4]| glam::Vec4::from_array(a);
+        match self.interpolation {
+            Step => value(k),
+            Linear if self.rotation => Quat::from_array(value(k))
+                .normalize()
+                .slerp(Quat::from_array(value(k + 1)).normalize(), u)
+                .to_array(),
+            Linear => v4(value(k)).lerp(v4(value(k + 1)), u).to_array(),
+            CubicSpline => {
+                let td = t1 - t0;
+                let (p0, m0) = (v4(self.values[3 * k + 1]), v4(self.values[3 * k + 2]) * td);
+                let (p1, m1) = (v4(self.values[3 * k + 4]), v4(self.values[3 * k + 3]) * td);
+                let (u2, u3) = (u * u, u * u * u);
+                let v = p0 * (2.0 * u3 - 3.0 * u2 + 1.0)
+                    + m0 * (u3 - 2.0 * u2 + u)
+                    + p1 * (-2.0 * u3 + 3.0 * u2)
+                    + m1 * (u3 - u2);
+                if self.rotation {
+                    v.normalize_or_zero().to_array()
+                } else {
+                    v.to_array()
+                }
+            }
+        }
+    }
+}
+
+/// Every animation's channels, checked; per node the tracks of its translation, rotation and scale.
+struct Animations {
+    tracks: Vec<Track>,
+    per_node: HashMap<usize, [Option<usize>; 3]>,
+    /// Channels read (weights channels excluded).
+    channels: usize,
+}
+
+impl Animations {
+    fn of_node(&self, n: usize) -> Option<&[Option<usize>; 3]> {
+        self.per_node.get(&n)
+    }
+
+    /// Translation, rotation and scale of a node's tracks at `tau` (`None` where not animated).
+    fn sample(&self, tracks: &[Option<usize>; 3], tau: f32) -> [Option<[f32; 4]>; 3] {
+        tracks.map(|t| t.map(|i| self.tracks[i].sample(tau)))
+    }
+}
+
+/// Read and check every channel of every animation (all of them play at once). Each problem is an
+/// error naming its JSON path: an out-of-range sampler, node or accessor index, an unknown target
+/// path or interpolation, a node with a `matrix` (glTF forbids animating it), two channels on one
+/// node property, keyframe times that are not finite and strictly increasing, an output count that
+/// does not match the times (LINEAR/STEP one value per keyframe, CUBICSPLINE three), non-finite
+/// values, rotations that are not unit quaternions. Morph-target weights are skipped with a warning.
+fn read_animations(
+    path: &Path,
+    root: &json::Root,
+    buffers: &mut Buffers,
+    warnings: &mut Vec<String>,
+) -> Result<Animations, SceneError> {
+    use json::animation::{Interpolation, Property};
+    let mut out = Animations {
+        tracks: Vec::new(),
+        per_node: HashMap::new(),
+        channels: 0,
+    };
+    let mut owner: HashMap<(usize, usize), String> = HashMap::new();
+    let mut warned_weights = false;
+    for (a, anim) in root.animations.iter().enumerate() {
+        for (c, channel) in anim.channels.iter().enumerate() {
+            let at = format!("animations[{a}].channels[{c}]");
+            let slot = match channel.target.path {
+                Checked::Valid(Property::Translation) => 0,
+                Checked::Valid(Property::Rotation) => 1,
+                Checked::Valid(Property::Scale) => 2,
+                Checked::Valid(Property::MorphTargetWeights) => {
+                    if !warned_weights {
+                        warnings.push(format!("{}: {at} animates morph-target weights, which wedge does not support; such channels are skipped", path.display()));
+                        warned_weights = true;
+                    }
+                    continue;
+                }
+                Checked::Invalid => {
+                    return Err(bad(
+                        path,
+                        format!("{at}.target.path is not \"translation\", \"rotation\", \"scale\" or \"weights\""),
+                        "target one of the node properties glTF animates",
+                    ))
+                }
+            };
+            let property = ["translation", "rotation", "scale"][slot];
+            let n = channel.target.node.value();
+            let node = get(path, &root.nodes, n, "nodes", &format!("{at}.target.node"))?;
+            if node.matrix.is_some() {
+                return Err(bad(
+                    path,
+                    format!("{at} animates nodes[{n}].{property}, but nodes[{n}] has a matrix"),
+                    "give the node translation/rotation/scale instead of a matrix (glTF does not allow animating a node with a matrix)",
+                ));
+            }
+            if let Some(first) = owner.insert((n, slot), at.clone()) {
+                return Err(bad(
+                    path,
+                    format!("{at} animates nodes[{n}].{property}, which {first} animates already"),
+                    "keep one channel per node property (wedge plays every animation at once)",
+                ));
+            }
+            let s = channel.sampler.value();
+            let sampler = get(
+                path,
+                &anim.samplers,
+                s,
+                &format!("samplers in animations[{a}]"),
+                &format!("{at}.sampler"),
+            )?;
+            let sat = format!("animations[{a}].samplers[{s}]");
+            let Checked::Valid(interpolation) = sampler.interpolation else {
+                return Err(bad(
+                    path,
+                    format!("{sat}.interpolation is not LINEAR, STEP or CUBICSPLINE"),
+                    "use one of the glTF interpolations",
+                ));
+            };
+            let input = sampler.input.value();
+            let times = read_floats(
+                path,
+                root,
+                buffers,
+                input,
+                &format!("{sat}.input"),
+                &ANIM_TIMES,
+            )?;
+            if let Some(k) = (1..times.len()).find(|&k| !(times[k] > times[k - 1])) {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{sat}.input (accessors[{input}]): keyframe time {k} ({}) is not after time {} ({})",
+                        times[k],
+                        k - 1,
+                        times[k - 1]
+                    ),
+                    "keyframe times must increase strictly (re-export the animation)",
+                ));
+            }
+            let rotation = slot == 1;
+            let (layout, comps) = if rotation {
+                (&ANIM_VEC4, 4)
+            } else {
+                (&ANIM_VEC3, 3)
+            };
+            let output = sampler.output.value();
+            let oat = format!("{sat}.output");
+            let raw = read_floats(path, root, buffers, output, &oat, layout)?;
+            let cubic = interpolation == Interpolation::CubicSpline;
+            let per_key = if cubic { 3 } else { 1 };
+            let count = raw.len() / comps;
+            if count != per_key * times.len() {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{oat} (accessors[{output}]) has {count} values but {sat}.input has {} keyframes ({} needs {})",
+                        times.len(),
+                        if cubic { "CUBICSPLINE" } else { "LINEAR/STEP" },
+                        per_key * times.len()
+                    ),
+                    if cubic {
+                        "give CUBICSPLINE three values per keyframe (in-tangent, value, out-tangent)"
+                    } else {
+                        "give one value per keyframe time"
+                    },
+                ));
+            }
+            let values: Vec<[f32; 4]> = raw
+                .chunks_exact(comps)
+                .map(|v| [v[0], v[1], v[2], if comps == 4 { v[3] } else { 0.0 }])
+                .collect();
+            if rotation {
+                for (k, q) in values.iter().enumerate().skip(per_key / 2).step_by(per_key) {
+                    let len = Quat::from_array(*q).length();
+                    if !((len - 1.0).abs() <= 1e-3) {
+                        return Err(bad(
+                            path,
+                            format!(
+                                "{oat} (accessors[{output}]): keyframe {} rotation {q:?} has length {len}, not a unit quaternion",
+                                k / per_key
+                            ),
+                            "normalise the rotation keyframes (re-export the animation)",
+                        ));
+                    }
+                }
+            }
+            out.tracks.push(Track {
+                times,
+                values,
+                interpolation,
+                rotation,
+            });
+            out.per_node.entry(n).or_insert([None; 3])[slot] = Some(out.tracks.len() - 1);
+            out.channels += 1;
+        }
+    }
+    Ok(out)
 }

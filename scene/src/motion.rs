@@ -245,10 +245,10 @@ pub struct PreparedMotion {
 
 impl PreparedMotion {
     fn new(m: &RigidMotion) -> PreparedMotion {
-        // A quaternion already unit in f32 keeps its bits (so the ends are exactly the given
+        // A quaternion unit to f32 precision keeps its bits (so the ends are exactly the given
         // rotations); others are renormalised in f64.
         let unit = |q: Quat| {
-            if q.length_squared() == 1.0 {
+            if (q.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
                 return q.as_dquat();
             }
             let d = q.as_dquat();
@@ -295,7 +295,8 @@ impl PreparedMotion {
         self.inv_sin_theta == 0.0
     }
 
-    /// The transform at time `t` (clamped to [−1, 1]); the ends are exact (`T_open`, `q_open` at −1).
+    /// The transform at time `t` (clamped to [−1, 1]); the ends are exact (`T_open`, `q_open` at −1),
+    /// and so is a rotation that does not change (`q[0] == q[1]`).
     ///
     /// Mirrored by `instance_transform` in `shaders/motion.wgsl`, operation for operation.
     #[inline]
@@ -305,6 +306,10 @@ impl PreparedMotion {
             (self.t[0], self.q[0])
         } else if s >= 1.0 {
             (self.t[1], self.q[1])
+        } else if self.q[0] == self.q[1] {
+            // No rotation (or none that changes): the rotation stays exactly the given one, so a
+            // pure translation rotates nothing, not even by rounding.
+            (self.t[0] * (1.0 - s) + self.t[1] * s, self.q[0])
         } else {
             let (w0, w1) = if self.nlerp() {
                 (1.0 - s, s)

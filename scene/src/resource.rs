@@ -18,6 +18,9 @@ pub(crate) struct Resources {
     /// Canonical directory of the scene file the user named.
     root: PathBuf,
     allow_outside: bool,
+    /// The shutter (`Camera::shutter_open`, `shutter_close`) the caller asked for, which glTF
+    /// animations are sampled at; `None`: the scene file's own (RON `shutter`), else 0, 0.
+    pub shutter: Option<(f32, f32)>,
 }
 
 impl Resources {
@@ -28,6 +31,7 @@ impl Resources {
         Ok(Resources {
             root,
             allow_outside: opts.allow_outside_scene_dir,
+            shutter: None,
         })
     }
 

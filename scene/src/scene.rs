@@ -810,10 +810,11 @@ fn assemble(
             continue;
         }
         let motion = motions[g - 1];
+        // The vertices as traced (`v0 + e1`, `v0 + e2`: within rounding of the given ones).
         let mut rest_bounds = Aabb::empty();
-        let mut points = Vec::with_capacity(3 * input.len());
-        for p in input {
-            for &v in p {
+        let mut points = Vec::with_capacity(3 * (triangles.len() - first));
+        for r in &triangles[first..] {
+            for v in r.vertices() {
                 rest_bounds.grow(v);
                 points.push(v);
             }

@@ -873,3 +873,229 @@ fn identical_centres_one_million() {
     println!("copies: 1M copies built in {t:?}: {:?}", s.warnings);
     assert_eq!(s.triangle_count(), 1);
 }
+
+/// The base triangle animated: node 0 (with the mesh) under node 1; buffer = triangle (36 bytes),
+/// times (8), translations (24), rotations (32), three scales (36). Accessors: 0 positions, 1 times,
+/// 2 translations (VEC3), 3 rotations (VEC4), 4 scales (VEC3 ×3).
+fn animated_json(times: [f32; 2], rotations: [[f32; 4]; 2], scales: [[f32; 3]; 3]) -> String {
+    let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let mut buf = f(&TRI);
+    buf.extend(f(&times));
+    buf.extend(f(&[0., 0., 0., 1., 0., 0.]));
+    buf.extend(f(&rotations.concat()));
+    buf.extend(f(&scales.concat()));
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":8}},
+ {{"buffer":0,"byteOffset":44,"byteLength":24}},{{"buffer":0,"byteOffset":68,"byteLength":32}},{{"buffer":0,"byteOffset":100,"byteLength":36}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}},{{"bufferView":1,"componentType":5126,"count":2,"type":"SCALAR"}},
+ {{"bufferView":2,"componentType":5126,"count":2,"type":"VEC3"}},{{"bufferView":3,"componentType":5126,"count":2,"type":"VEC4"}},
+ {{"bufferView":4,"componentType":5126,"count":3,"type":"VEC3"}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"nodes":[{{"mesh":0}},{{"children":[0]}}],
+"scenes":[{{"nodes":[1]}}],"scene":0,
+"animations":[{{"channels":[{{"sampler":0,"target":{{"node":1,"path":"translation"}}}},{{"sampler":1,"target":{{"node":0,"path":"rotation"}}}}],
+ "samplers":[{{"input":1,"output":2,"interpolation":"LINEAR"}},{{"input":1,"output":3,"interpolation":"STEP"}}]}}]}}"#,
+        buf.len(),
+        base64::encode(&buf)
+    )
+}
+
+const UNIT_Q: [[f32; 4]; 2] = [[0., 0., 0., 1.], [0., 0.70710677, 0., 0.70710677]];
+const ONES: [[f32; 3]; 3] = [[1., 1., 1.]; 3];
+
+/// Write the animated glTF with `edits` applied (each must apply) and load it at shutter (0.2, 0.8).
+fn animated(
+    dir: &Path,
+    name: &str,
+    json: String,
+    edits: &[(&str, &str)],
+) -> (PathBuf, Result<Scene, SceneError>) {
+    let mut json = json;
+    for (from, to) in edits {
+        assert!(json.contains(from), "edit {from:?} does not apply");
+        json = json.replacen(from, to, 1);
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, json).unwrap();
+    let r = load_with_shutter(
+        &SceneSource::File(path.clone()),
+        &LoadOptions::default(),
+        Some((0.2, 0.8)),
+    );
+    (path, r)
+}
+
+/// Load must fail with a message naming the file and holding every fragment.
+fn animated_fails(
+    dir: &Path,
+    name: &str,
+    json: String,
+    edits: &[(&str, &str)],
+    fragments: &[&str],
+) {
+    let (path, r) = animated(dir, name, json, edits);
+    let msg = match r {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("{name} should fail"),
+    };
+    assert!(
+        msg.contains(path.file_name().unwrap().to_str().unwrap()),
+        "{msg}"
+    );
+    for f in fragments {
+        assert!(
+            msg.contains(f),
+            "{name}: message should contain {f:?}: {msg}"
+        );
+    }
+}
+
+#[test]
+fn gltf_animations_load_and_malformed_ones_are_located_errors() {
+    let dir = temp_dir("animations");
+    let ok = || animated_json([0.0, 1.0], UNIT_Q, ONES);
+    let (_, r) = animated(&dir, "ok.gltf", ok(), &[]);
+    let s = r.unwrap();
+    assert!(s.has_motion() && s.warnings.is_empty(), "{:?}", s.warnings);
+
+    let nan = |v: [f32; 2]| animated_json(v, UNIT_Q, ONES);
+    animated_fails(&dir, "times.gltf", nan([0.5, 0.5]), &[], &[
+        "animations[0].samplers[0].input (accessors[1]): keyframe time 1 (0.5) is not after time 0 (0.5)",
+        "increase strictly",
+    ]);
+    animated_fails(
+        &dir,
+        "times_nan.gltf",
+        nan([0.0, f32::NAN]),
+        &[],
+        &["animations[0].samplers[0].input: element 1 (accessors[1]) is NaN or infinite"],
+    );
+    let q = |a: [f32; 4]| animated_json([0.0, 1.0], [UNIT_Q[0], a], ONES);
+    animated_fails(
+        &dir,
+        "nonunit.gltf",
+        q([0., 0., 0., 2.]),
+        &[],
+        &[
+            "animations[0].samplers[1].output (accessors[3]): keyframe 1 rotation",
+            "not a unit quaternion",
+            "normalise",
+        ],
+    );
+    animated_fails(
+        &dir,
+        "qnan.gltf",
+        q([0., f32::NAN, 0., 1.]),
+        &[],
+        &["animations[0].samplers[1].output: element 1 (accessors[3]) is NaN or infinite"],
+    );
+    let cases: &[(&str, &[(&str, &str)], &[&str])] = &[
+        ("count.gltf", &[(r#""count":2,"type":"VEC3""#, r#""count":1,"type":"VEC3""#)],
+         &["animations[0].samplers[0].output (accessors[2]) has 1 values but animations[0].samplers[0].input has 2 keyframes", "one value per keyframe"]),
+        ("cubic.gltf", &[(r#""interpolation":"LINEAR""#, r#""interpolation":"CUBICSPLINE""#)],
+         &["has 2 values", "CUBICSPLINE needs 6", "in-tangent, value, out-tangent"]),
+        ("node.gltf", &[(r#""node":1,"path":"translation""#, r#""node":7,"path":"translation""#)],
+         &["animations[0].channels[0].target.node = 7 but the file has 2 nodes"]),
+        ("sampler.gltf", &[(r#"{"sampler":1,"#, r#"{"sampler":5,"#)],
+         &["animations[0].channels[1].sampler = 5 but the file has 2 samplers in animations[0]"]),
+        ("accessor.gltf", &[(r#""input":1,"output":2"#, r#""input":9,"output":2"#)],
+         &["animations[0].samplers[0].input = 9 but the file has 5 accessors"]),
+        ("type.gltf", &[(r#""input":1,"output":2"#, r#""input":1,"output":3"#)],
+         &["accessors[3] (used as animations[0].samplers[0].output) is VEC4 FLOAT", "must be VEC3"]),
+        ("interp.gltf", &[(r#""interpolation":"STEP""#, r#""interpolation":"BOUNCY""#)],
+         &["animations[0].samplers[1].interpolation is not LINEAR, STEP or CUBICSPLINE"]),
+        ("path.gltf", &[(r#""path":"rotation""#, r#""path":"size""#)],
+         &["animations[0].channels[1].target.path is not"]),
+        ("matrix.gltf", &[(r#"{"children":[0]}"#, r#"{"children":[0],"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}"#)],
+         &["animations[0].channels[0] animates nodes[1].translation, but nodes[1] has a matrix"]),
+        ("twice.gltf", &[(r#"{"sampler":1,"target":{"node":0,"path":"rotation"}}"#, r#"{"sampler":0,"target":{"node":1,"path":"translation"}}"#)],
+         &["animations[0].channels[1] animates nodes[1].translation, which animations[0].channels[0] animates already"]),
+    ];
+    for (name, edits, fragments) in cases {
+        animated_fails(&dir, name, ok(), edits, fragments);
+    }
+    // A scale that changes over the shutter (1 → 2 between 0 and 1 s, shutter 0.2–0.8).
+    let growing = animated_json(
+        [0.0, 1.0],
+        UNIT_Q,
+        [[1., 1., 1.], [2., 2., 2.], [1., 1., 1.]],
+    );
+    animated_fails(
+        &dir,
+        "scale.gltf",
+        growing,
+        &[
+            (
+                r#"{"sampler":1,"target":{"node":0,"path":"rotation"}}"#,
+                r#"{"sampler":2,"target":{"node":0,"path":"scale"}}"#,
+            ),
+            (
+                r#""interpolation":"STEP"}"#,
+                r#""interpolation":"STEP"},{"input":1,"output":4,"interpolation":"LINEAR"}"#,
+            ),
+            (
+                r#""count":3,"type":"VEC3"}],"#,
+                r#""count":2,"type":"VEC3"}],"#,
+            ),
+        ],
+        &[
+            "nodes[0] (meshes[0]): its transform at shutter close is not a rigid motion",
+            "constant scale",
+        ],
+    );
+    // Morph-target weights are skipped with a warning, not an error.
+    let (_, r) = animated(
+        &dir,
+        "weights.gltf",
+        ok(),
+        &[(r#""path":"rotation""#, r#""path":"weights""#)],
+    );
+    let s = r.unwrap();
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("morph-target weights")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn ron_motion_and_shutter_errors_are_located() {
+    let dir = temp_dir("ron_motion");
+    std::fs::write(dir.join("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let cases = [
+        (
+            "turn.ron",
+            r#"Scene(meshes: [(path: "t.obj", motion: Some((rotate_deg: (0, 200))))])"#,
+            "turns by more than 180°",
+        ),
+        (
+            "axis.ron",
+            r#"Scene(meshes: [(path: "t.obj", motion: Some((axis: (0, 0, 0), rotate_deg: (0, 20))))])"#,
+            "axis [0, 0, 0] has no direction",
+        ),
+        (
+            "nan.ron",
+            r#"Scene(meshes: [(path: "t.obj", motion: Some((translation: ((0, 0, 0), (NaN, 0, 0)))))])"#,
+            "is not finite",
+        ),
+        (
+            "field.ron",
+            r#"Scene(meshes: [(path: "t.obj", motion: Some((spin: 3)))])"#,
+            "spin",
+        ),
+        (
+            "shutter.ron",
+            r#"Scene(meshes: [(path: "t.obj")], camera: Some((position: (0, 1, 3), look_at: (0, 0, 0), vfov_deg: 40, shutter: (1, 0))))"#,
+            "shutter_open 1 is after shutter_close 0",
+        ),
+    ];
+    for (name, text, fragment) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        fails(&p, &[fragment]);
+    }
+}
