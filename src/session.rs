@@ -127,11 +127,16 @@ impl Session {
         // scene does not).
         let source = scene_source(&pipeline, ov.scene.as_deref());
         let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
-        let mut scene = wedge_scene::load_with(&source, &scene_opts)?;
+        // The pipeline's shutter (if it gives one) is when a scene file's animations are sampled.
+        let shutter = pipeline.pipeline.camera.as_ref().and_then(|c| c.shutter);
+        let mut scene = wedge_scene::load_with_shutter(&source, &scene_opts, shutter)?;
         if let Some(c) = &pipeline.pipeline.camera {
             scene.camera = camera_from_spec(c, &scene.camera);
         }
         apply_motion(&mut scene, &pipeline)?;
+        if shutter.is_some_and(|(open, close)| open == close) {
+            freeze_motion(&mut scene)?;
+        }
         pipeline.update_factoring(Some(scene_facts(&scene)))?;
         let mut expansion = expand(&pipeline)?;
         if let Some((spp, sampling)) = reference {
@@ -248,9 +253,26 @@ impl MemoryEstimate {
     }
 }
 
-/// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]).
+/// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]): something moves
+/// over the shutter (an object whose motion has different poses at its two ends).
 pub fn scene_facts(scene: &Scene) -> wedge_graph::SceneFacts {
-    wedge_graph::SceneFacts { motion: scene.has_motion() }
+    let moves = scene.objects.iter().any(|o| o.motion.is_some_and(|m| !m.is_still()));
+    wedge_graph::SceneFacts { motion: moves }
+}
+
+/// A zero-length shutter sees one instant: every moving object is held where it is at the shutter's
+/// centre (`t = 0`, where renders without motion blur see it), so nothing blurs whatever the scene's
+/// motion is given as — a glTF animation is sampled at the one time anyway; motion given over the
+/// shutter (built-ins, `.ron` scenes, a pipeline's `motion` block) would otherwise still move.
+fn freeze_motion(scene: &mut Scene) -> Result<(), WedgeError> {
+    let moving: Vec<(String, RigidMotion)> =
+        scene.objects.iter().filter_map(|o| o.motion.filter(|m| !m.is_still()).map(|m| (o.name.clone(), m))).collect();
+    for (name, m) in moving {
+        let mid = m.translation[0].lerp(m.translation[1], 0.5);
+        let q = m.rotation[0].slerp(m.rotation[1], 0.5);
+        scene.set_motion(&name, RigidMotion { pivot: m.pivot, translation: [mid; 2], rotation: [q; 2] })?;
+    }
+    Ok(())
 }
 
 /// The rigid motion a pipeline's `motion` entry gives its object ([`wedge_graph::MotionSpec`]: the
