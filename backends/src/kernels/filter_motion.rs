@@ -12,8 +12,12 @@
 //!   none where `v = 0`, since eq. B.1 alone would still blur at `Ω_pix^max` (EQUATIONS.md reading).
 //!   The thesis applies it to texture (`v_p`, B.1) and to direct irradiance (`v_s`, B.2) separately.
 //! - `filter.radiance3`: the "small 3×3 pixel-wide filter" App. B applies to the radiance of pixels
-//!   that see two or more velocities (not factored): a 1-2-1 tent over the 3×3 neighbourhood of the
-//!   finite values, at pixels whose `mask` is set; elsewhere the value passes through.
+//!   that see two or more velocities (not factored), at pixels whose `mask` is set (elsewhere the
+//!   value passes through): a 1-2-1 tent over the 3×3 neighbourhood of the finite values (the thesis),
+//!   or, with `velocity` bound, a 1-2-1 filter over the pixel and its two neighbours along its mean
+//!   velocity that are masked too. Why the second: such pixels sit on motion-blurred silhouettes,
+//!   smooth along the motion but sharp across it (a static edge behind a moving object), and the 3×3
+//!   tent mixes across those edges; measured on `motion` in DESIGN-NOTES, section Motion.
 //!
 //! Window: `R = ⌈0.5365/Ω_i⌉` (where the weight reaches 0.01), capped at `max_radius` (≤ 64). Non-finite
 //! values are never used as neighbours; each pixel whose own value is non-finite is counted once in
@@ -103,29 +107,52 @@ pub fn motion_pixel(x: i32, y: i32, width: i32, height: i32, max_radius: i32, va
     }
 }
 
-/// `filter.radiance3` at pixel `(x, y)`.
-pub fn radiance3_pixel(x: i32, y: i32, width: i32, height: i32, value: &[[f32; 3]], mask: &[u32]) -> [f32; 3] {
+/// `filter.radiance3` at pixel `(x, y)`: the 3×3 tent, or with `velocity` the 1-2-1 filter along it.
+pub fn radiance3_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    value: &[[f32; 3]],
+    mask: &[u32],
+    velocity: Option<&[[f32; 4]]>,
+) -> [f32; 3] {
     let i = (y * width + x) as usize;
     if mask[i] == 0 {
         return value[i];
     }
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for dy in -1..=1i32 {
-        for dx in -1..=1i32 {
-            let (jx, jy) = (x + dx, y + dy);
-            if jx < 0 || jy < 0 || jx >= width || jy >= height {
-                continue;
+    let mut tap = |jx: i32, jy: i32, w: f32, masked_only: bool| {
+        if jx < 0 || jy < 0 || jx >= width || jy >= height {
+            return;
+        }
+        let j = (jy * width + jx) as usize;
+        let v = value[j];
+        if !is_finite3(v) || (masked_only && mask[j] == 0) {
+            return;
+        }
+        for c in 0..3 {
+            sum[c] += w * v[c];
+        }
+        wsum += w;
+    };
+    match velocity {
+        None => {
+            for dy in -1..=1i32 {
+                for dx in -1..=1i32 {
+                    tap(x + dx, y + dy, ((2 - dx.abs()) * (2 - dy.abs())) as f32, false);
+                }
             }
-            let v = value[(jy * width + jx) as usize];
-            if !is_finite3(v) {
-                continue;
+        }
+        Some(v) => {
+            tap(x, y, 2.0, false);
+            if let Some(d) = direction([v[i][0], v[i][1]]) {
+                for k in [-1, 1] {
+                    let (jx, jy) = step(x, y, k, d);
+                    tap(jx, jy, 1.0, true);
+                }
             }
-            let w = ((2 - dx.abs()) * (2 - dy.abs())) as f32;
-            for c in 0..3 {
-                sum[c] += w * v[c];
-            }
-            wsum += w;
         }
     }
     if wsum > 0.0 {
@@ -189,20 +216,28 @@ impl Kernel for Radiance3Filter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("value", Format::Vec3), Binding::read("mask", Format::U32), Binding::write("out", Format::Vec3)]
+        vec![
+            Binding::read("value", Format::Vec3),
+            Binding::read("mask", Format::U32),
+            // A velocity per pixel (x, y used): filter along it instead of over 3×3.
+            Binding::read_opt("velocity", Format::Vec4),
+            Binding::write("out", Format::Vec3),
+        ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_radiance3.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("velocity.wgsl", include_str!("../../../shaders/velocity.wgsl"))
                 .with_reach(|_| Ok(Reach::Rows(1))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 3]>("value")?;
         let mask = ctx.read::<u32>("mask")?;
+        let velocity = ctx.read_opt::<[f32; 4]>("velocity")?;
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| radiance3_pixel(x as i32, y as i32, w, h, value, mask));
+        let out = ctx.map_pixels(false, |x, y| radiance3_pixel(x as i32, y as i32, w, h, value, mask, velocity));
         ctx.put("out", out)
     }
 }
@@ -242,7 +277,11 @@ mod tests {
         let value: Vec<[f32; 3]> = (0..9).map(|i| [i as f32; 3]).collect();
         let mut mask = vec![0u32; 9];
         mask[4] = 1;
-        assert_eq!(radiance3_pixel(0, 0, 3, 3, &value, &mask), value[0]);
-        assert_eq!(radiance3_pixel(1, 1, 3, 3, &value, &mask), [4.0; 3]);
+        assert_eq!(radiance3_pixel(0, 0, 3, 3, &value, &mask, None), value[0]);
+        assert_eq!(radiance3_pixel(1, 1, 3, 3, &value, &mask, None), [4.0; 3]);
+        // Along a horizontal velocity, only masked neighbours: pixel 3 is not masked, 5 is.
+        mask[5] = 1;
+        let v = vec![[2.0f32, 0.0, 0.0, 0.0]; 9];
+        assert_eq!(radiance3_pixel(1, 1, 3, 3, &value, &mask, Some(&v)), [(2.0 * 4.0 + 5.0) / 3.0; 3]);
     }
 }

@@ -12,8 +12,11 @@
 //!    `Ω_{x,p}^m` (B.1) and `n_p` (B.3; 64 where the pixel sees two or more velocities) with
 //!    `motion.rates`, and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
 //! 3. sums its `direct` and `indirect` inputs (each a component's factored term) and the emission of
-//!    the primary hits, and averages the sum over 3×3 (`filter.radiance3`) at the pixels whose final
-//!    paths saw two or more velocities (`motion.flags`).
+//!    the primary hits, and filters the sum at the pixels whose final paths saw two or more
+//!    velocities (`motion.flags`, `filter.radiance3`): `multi_filter` `velocity` (default) averages
+//!    such a pixel with its two neighbours along its velocity that see several velocities too;
+//!    `tent` is the thesis's 3×3 filter, which mixes across the sharp edges of blurred silhouettes
+//!    (measured: DESIGN-NOTES "Motion"); `none` keeps the 64-path estimate.
 //!
 //! **Components** ([`Motion::expand_component`]): each lighting component node (SoftShadows, Indirect)
 //! renders for it: `motion.rates` gives its irradiance width (direct: eq. 5.18 without the lens term,
@@ -103,6 +106,12 @@ impl NodeKind for Motion {
             ParamDecl::int("max_per_primary", 4, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square)"),
             ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64)"),
             ParamDecl::int("max_radius", 32, 1, 64, "largest filter half-width in pixels (filter.motion, filter.irradiance)"),
+            ParamDecl::choice(
+                "multi_filter",
+                "velocity",
+                &["velocity", "tent", "none"],
+                "radiance filter at multi-velocity pixels: 1-2-1 along the velocity over such pixels, the thesis's 3×3 tent, or none",
+            ),
         ]
     }
     fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
@@ -197,13 +206,21 @@ impl NodeKind for Motion {
             .write("multi", multi)
             .reference(Reference::Fill(0))
             .finish();
-        let radiance = ctx.buffer("radiance", Format::Vec3);
-        ctx.pass("filter", "filter.radiance3", Stage::ImageFilter)
-            .read("value", composed)
-            .read("mask", multi)
-            .write("out", radiance)
-            .reference(Reference::Bypass { input: "value" })
-            .finish();
+        let radiance = match ctx.param("multi_filter").clone() {
+            ParamValue::Str(f) if f == "none" => composed,
+            f => {
+                let along = (f == ParamValue::Str("velocity".into())).then_some(final_velocity);
+                let out = ctx.buffer("radiance", Format::Vec3);
+                ctx.pass("filter", "filter.radiance3", Stage::ImageFilter)
+                    .read("value", composed)
+                    .read("mask", multi)
+                    .read_opt("velocity", along)
+                    .write("out", out)
+                    .reference(Reference::Bypass { input: "value" })
+                    .finish();
+                out
+            }
+        };
         ctx.output("radiance", radiance);
         ctx.output("unfiltered", composed);
         ctx.output("filter_width", sigma);
