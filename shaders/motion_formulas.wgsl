@@ -2,12 +2,10 @@
 // B.1–B.3 with the Ch. 5 rates of defocus_formulas.wgsl), same operation order. Included by
 // motion_rates.wgsl and motion_flags.wgsl after common.wgsl, defocus_formulas.wgsl and velocity.wgsl.
 
-const MOTION_OMEGA_T_MAX: f32 = 1.0;
-
 // min(Ω_pix^max, Ω_t^max/|v|) (eqs. B.1, B.2), before μ.
-fn motion_omega(speed: f32, omega_pix: f32) -> f32 {
+fn motion_omega(speed: f32, omega_t: f32, omega_pix: f32) -> f32 {
     if (speed > 0.0) {
-        return rmin(omega_pix, MOTION_OMEGA_T_MAX / speed);
+        return rmin(omega_pix, omega_t / speed);
     }
     return omega_pix;
 }
@@ -51,6 +49,7 @@ struct MotionConstants {
     mu: f32,
     mode: u32,
     omega_pix: f32,
+    omega_t: f32,
     pixel_scale: f32,
     light_half_width: f32,
     omega_v: f32,
@@ -83,8 +82,8 @@ fn motion_pixel_rates(
     if (occluded) {
         speed_s = motion_speed(shadow.xy);
     }
-    let texture = defocus_omega_mu(motion_omega(speed_p, op), k.mu, k.mode, op);
-    let shadow_w = defocus_omega_mu(motion_omega(speed_s, op), k.mu, k.mode, op);
+    let texture = defocus_omega_mu(motion_omega(speed_p, k.omega_t, op), k.mu, k.mode, op);
+    let shadow_w = defocus_omega_mu(motion_omega(speed_s, k.omega_t, op), k.mu, k.mode, op);
     let direct = defocus_omega_mu(defocus_omega_direct(0.0, s_min, l_p, k.light_half_width, op), k.mu, k.mode, op);
     let indirect = defocus_omega_mu(defocus_omega_indirect(0.0, z_min, l_p, k.omega_v, op), k.mu, k.mode, op);
     var p = defocus_strata(f32(k.multi_paths), k.max_p);

@@ -27,7 +27,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let depth = depth_at(i);
     let k = MotionConstants(
-        params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
+        params.mu, params.mode, params.omega_pix, params.omega_t, params.pixel_scale, params.light_half_width, params.omega_v,
         params.max_p, params.max_s, params.multi_paths,
     );
     let r = motion_pixel_rates(velocity, shadow, occluded && shadow_velocity_bound(), depth.w > 0.0, depth.z, s.x, s.y, z.x, z.y, k);

@@ -37,7 +37,8 @@ use crate::defocus::formulas::{
     secondary_strata, strata_cap, Mode,
 };
 
-/// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (EQUATIONS.md "Motion").
+/// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (EQUATIONS.md "Motion"), the Motion node's
+/// default (`omega_t`).
 pub const OMEGA_T_MAX: f32 = 1.0;
 
 /// Primary rays per pixel at a pixel that sees two or more velocities (App. B: "a large constant
@@ -45,9 +46,9 @@ pub const OMEGA_T_MAX: f32 = 1.0;
 pub const MULTI_VELOCITY_PATHS: i64 = 64;
 
 /// `min(Ω_pix^max, Ω_t^max/|v|)` (eqs. B.1, B.2), before μ.
-pub fn omega_motion(speed: f32, omega_pix: f32) -> f32 {
+pub fn omega_motion(speed: f32, omega_t: f32, omega_pix: f32) -> f32 {
     if speed > 0.0 {
-        omega_pix.min(OMEGA_T_MAX / speed)
+        omega_pix.min(omega_t / speed)
     } else {
         omega_pix
     }
@@ -98,6 +99,8 @@ pub struct MotionParams {
     pub mu: f32,
     pub mode: Mode,
     pub omega_pix: f32,
+    /// `Ω_t^max`, the shutter's bandlimit ([`OMEGA_T_MAX`] by default).
+    pub omega_t: f32,
     /// `m`: metres per pixel at unit depth.
     pub pixel_scale: f32,
     /// `ℓ_I`: the area light's physical half-width (0: no light term).
@@ -141,8 +144,8 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     let speed = |v: [f32; 2]| if moving(v) { Vec2::from(v).length() } else { 0.0 };
     let speed_p = speed(s.v_p);
     let speed_s = if s.occluded { speed(s.v_s) } else { 0.0 };
-    let texture = mu(omega_motion(speed_p, k.omega_pix));
-    let shadow = mu(omega_motion(speed_s, k.omega_pix));
+    let texture = mu(omega_motion(speed_p, k.omega_t, k.omega_pix));
+    let shadow = mu(omega_motion(speed_s, k.omega_t, k.omega_pix));
     let direct = mu(omega_direct(0.0, s.s_min, l_p, k.light_half_width, k.omega_pix));
     let indirect = mu(omega_indirect(0.0, s.z_min, l_p, k.omega_v, k.omega_pix));
     let p = if single {
@@ -177,6 +180,7 @@ mod tests {
             mu: 1.0,
             mode: Mode::Literal,
             omega_pix: 0.5,
+            omega_t: OMEGA_T_MAX,
             pixel_scale: 0.002,
             light_half_width: 0.25,
             omega_v: 2.8,
@@ -188,9 +192,9 @@ mod tests {
 
     #[test]
     fn widths_follow_b1_and_skip_static_pixels() {
-        assert_eq!(omega_motion(0.0, 0.5), 0.5);
-        assert_eq!(omega_motion(1.0, 0.5), 0.5);
-        assert_eq!(omega_motion(10.0, 0.5), 0.1);
+        assert_eq!(omega_motion(0.0, OMEGA_T_MAX, 0.5), 0.5);
+        assert_eq!(omega_motion(1.0, OMEGA_T_MAX, 0.5), 0.5);
+        assert_eq!(omega_motion(10.0, OMEGA_T_MAX, 0.5), 0.1);
         let s = MotionStats { v_p: [10.0, 0.0], hit: true, depth: 2.0, ..Default::default() };
         let r = pixel_rates(&s, &params());
         assert!(r.single);

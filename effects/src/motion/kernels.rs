@@ -35,10 +35,15 @@ fn motion_params(ctx: &KernelCtx<'_>) -> Result<MotionParams, BackendError> {
         pass: ctx.pass.to_string(),
         message: format!("`multi_paths` = {multi}; it must be a count >= 1"),
     })?;
+    let omega_t = ctx.f32_param("omega_t")?;
+    if !(omega_t.is_finite() && omega_t > 0.0) {
+        return Err(BackendError::Kernel { pass: ctx.pass.to_string(), message: format!("`omega_t` = {omega_t}; it must be a finite number > 0") });
+    }
     Ok(MotionParams {
         mu: k.mu,
         mode: k.mode,
         omega_pix: k.omega_pix,
+        omega_t,
         pixel_scale: k.pixel_scale,
         light_half_width: k.light_half_width,
         omega_v: k.omega_v,
@@ -123,6 +128,7 @@ impl Kernel for Rates {
                     .f32("mu", k.mu)
                     .u32("mode", k.mode.code())
                     .f32("omega_pix", k.omega_pix)
+                    .f32("omega_t", k.omega_t)
                     .f32("pixel_scale", k.pixel_scale)
                     .f32("light_half_width", k.light_half_width)
                     .f32("omega_v", k.omega_v)

@@ -45,7 +45,7 @@ use wedge_graph::{
     PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
-use super::formulas::MULTI_VELOCITY_PATHS;
+use super::formulas::{MULTI_VELOCITY_PATHS, OMEGA_T_MAX};
 use crate::defocus::component::rate_settings;
 use crate::defocus::formulas::Mode;
 use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
@@ -56,6 +56,7 @@ pub struct Motion;
 fn motion_rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
     let mut s = rate_settings(f);
     s.push(("multi_paths", f.setting("multi_paths").cloned().unwrap_or(ParamValue::Int(MULTI_VELOCITY_PATHS))));
+    s.push(("omega_t", f.setting("omega_t").cloned().unwrap_or(ParamValue::Float(f64::from(OMEGA_T_MAX)))));
     s
 }
 
@@ -99,6 +100,7 @@ impl NodeKind for Motion {
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::positive("mu", 1.0, 1e6, "μ: scales every App. B bandwidth (eq. 5.29); larger = narrower filters, more rays"),
+            ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = EQUATIONS.md's reading)"),
             ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
             ParamDecl::int("initial_paths", 9, 1, 4096, "first-pass paths per pixel (thesis App. B: 9, one time, shadow and indirect sample each)"),
@@ -119,7 +121,7 @@ impl NodeKind for Motion {
             return Ok(None);
         }
         Ok(Some(
-            ["mu", "mode", "max_primary", "max_per_primary", "max_radius", "multi_paths", "initial_paths", "form_factor"]
+            ["mu", "mode", "omega_t", "max_primary", "max_per_primary", "max_radius", "multi_paths", "initial_paths", "form_factor"]
                 .into_iter()
                 .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
                 .collect(),
