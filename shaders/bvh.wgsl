@@ -5,6 +5,11 @@
 // time with the same Möller–Trumbore operation order as the CPU (bit-identical t and barycentrics).
 // The closest hit is the smallest t, ties to the lower triangle index (`closer`): an order-free rule,
 // so the two backends agree without visiting nodes in the same order.
+//
+// Motion (wedge_scene::SceneAt::intersect): the static tree from node 0, then every instance whose
+// swept box the ray enters before the best hit so far, through its own tree from its root with the
+// ray moved into its rest pose at `scene_time` (same ray parameter; `traverse_tree` continues from
+// the best hit, so the closest-hit rule holds across trees).
 #include "scene.wgsl"
 
 const BVH_STACK_SIZE: u32 = 64u;
@@ -90,7 +95,9 @@ fn wide_slab(n: WideNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) 
     return select(vec4<f32>(inf()), t_enter, hit);
 }
 
-fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> Hit {
+// bvh::traverse_from: the tree rooted at node `root`, for hits closer (`closer`) than the best so far
+// (`t_best_in`, `best_triangle_in`; the ray's tmax and 0 when there is none). No hit: `hit` false.
+fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f32, best_triangle_in: u32, any_hit: bool) -> Hit {
     var best = no_hit();
     if (!(is_finite3(o) && is_finite3(d))) {
         return best;
@@ -98,12 +105,12 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
     let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
     let big = inf();
     let widen = bitcast<f32>(0x3f800003u);
-    var t_best = tmax;
-    var best_triangle = 0u;
+    var t_best = t_best_in;
+    var best_triangle = best_triangle_in;
     var stack: array<u32, BVH_STACK_SIZE>;
     var stack_t: array<f32, BVH_STACK_SIZE>;
     var sp = 0u;
-    var current = 0u; // the root, as a node reference
+    var current = root; // a node reference
     loop {
         if ((current & LEAF_BIT) == 0u) {
             let n = wide_node(current);
@@ -180,10 +187,72 @@ fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> 
     return best;
 }
 
-fn scene_intersect(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> Hit {
-    return traverse(o, d, tmin, tmax, false);
+// bvh::traverse: the static tree (node 0) alone.
+fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> Hit {
+    return traverse_tree(0u, o, d, tmin, tmax, 0u, any_hit);
 }
 
+// scene.rs `box_entered`: whether the ray enters the box with tmin < t < tmax (the nodes' slab test
+// on one box: exit widened, NaN no constraint).
+fn box_entered(bmin: vec3<f32>, bmax: vec3<f32>, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
+    var t_enter = tmin;
+    var t_exit = tmax;
+    let neg = inv_d < vec3<f32>(0.0);
+    let lo = select(bmin, bmax, neg);
+    let hi = select(bmax, bmin, neg);
+    for (var axis = 0u; axis < 3u; axis = axis + 1u) {
+        let near = (lo[axis] - o[axis]) * inv_d[axis];
+        let far = (hi[axis] - o[axis]) * inv_d[axis];
+        t_enter = select(max(near, t_enter), t_enter, is_nan(near));
+        t_exit = select(min(far, t_exit), t_exit, is_nan(far));
+    }
+    return t_enter <= t_exit * bitcast<f32>(0x3f800003u);
+}
+
+// SceneAt::intersect at `scene_time`.
+fn scene_intersect(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> Hit {
+    var best = traverse(o, d, tmin, tmax, false);
+    let n = scene_layout.instance_count;
+    if (n == 0u) {
+        return best;
+    }
+    let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
+    for (var i = 0u; i < n; i = i + 1u) {
+        let inst = scene_instance(i);
+        var limit = tmax;
+        var tri = 0u;
+        if (best.hit) {
+            limit = best.t;
+            tri = best.triangle;
+        }
+        if (!box_entered(inst.swept_min, inst.swept_max, o, inv_d, tmin, limit)) {
+            continue;
+        }
+        let xf = instance_transform(inst, scene_time);
+        let h = traverse_tree(inst.root, xf_inverse_point(xf, o), xf_inverse_vector(xf, d), tmin, limit, tri, false);
+        if (h.hit) {
+            best = h;
+        }
+    }
+    return best;
+}
+
+// SceneAt::occluded at `scene_time`.
 fn scene_occluded(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
-    return traverse(o, d, tmin, tmax, true).hit;
+    if (traverse(o, d, tmin, tmax, true).hit) {
+        return true;
+    }
+    let n = scene_layout.instance_count;
+    let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
+    for (var i = 0u; i < n; i = i + 1u) {
+        let inst = scene_instance(i);
+        if (!box_entered(inst.swept_min, inst.swept_max, o, inv_d, tmin, tmax)) {
+            continue;
+        }
+        let xf = instance_transform(inst, scene_time);
+        if (traverse_tree(inst.root, xf_inverse_point(xf, o), xf_inverse_vector(xf, d), tmin, tmax, 0u, true).hit) {
+            return true;
+        }
+    }
+    return false;
 }

@@ -7,7 +7,19 @@
 // `scene_layout` says at which element each starts. So the scene costs one storage binding
 // (WebGPU's default allows 8 per stage). Read them only through the accessors below
 // (`wide_node(i)`, `triangle_pack(i)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
-// `area_light(i)`): each rebuilds the struct from its 16-byte elements with bitcasts (bit-exact).
+// `area_light(i)`, `scene_instance(i)`, `object_instance(i)`): each rebuilds the struct from its
+// 16-byte elements with bitcasts (bit-exact).
+//
+// Motion (wedge_scene::SceneAt): objects that move over the shutter are instances (motion.wgsl), each
+// with its own tree after the static one (bvh.wgsl traverses both). `scene_time` is the time the
+// scene is seen at — `scene_intersect`, `scene_occluded`, `surface`, `scene_light_at` and
+// `object_velocity` read it; it is 0 (the shutter's centre, what `Scene::intersect` etc. mean on the
+// CPU) unless a kernel sets it. `area_light(i)` is the light as stored (rest pose, `Scene::lights`);
+// `scene_light_at(i)` is where it is at `scene_time` (`SceneAt::light`).
+#include "motion.wgsl"
+
+// The time of the shutter (t ∈ [−1, 1]) the scene is traced at; see above.
+var<private> scene_time: f32 = 0.0;
 
 // wedge_scene::bvh::WideNode: four child boxes as rows (bounds[2·axis] minima, bounds[2·axis + 1]
 // maxima, one lane per child) and four child references (see bvh.wgsl); the Rust node's 16-byte pad
@@ -80,7 +92,7 @@ struct Light {
     centre_sigma: vec4<f32>, // xyz = centre(), w = sigma()
     kind: u32,
     two_sided: u32,
-    _pad0: u32,
+    instance: u32, // the instance it moves with (Scene::light_object's), or NO_INSTANCE
     _pad1: u32,
 }
 
@@ -94,6 +106,10 @@ struct SceneLayout {
     tex_info: u32,
     texels: u32,
     lights: u32,
+    instances: u32,
+    object_instances: u32,
+    instance_count: u32,
+    _pad: u32,
 }
 
 @group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;
@@ -173,6 +189,75 @@ fn area_light(i: u32) -> Light {
     return Light(f, g, h, r, na, cs, k.x, k.y, k.z, k.w);
 }
 
+// Instance `i` (wedge_scene::Scene::instances[i] with its PreparedMotion; 8 elements).
+fn scene_instance(i: u32) -> Instance {
+    let b = scene_layout.instances + 8u * i;
+    let a = scene_data[b];
+    let c = scene_data[b + 1u];
+    let p = bitcast<vec4<f32>>(scene_data[b + 2u]);
+    let t0 = bitcast<vec4<f32>>(scene_data[b + 3u]);
+    let t1 = bitcast<vec4<f32>>(scene_data[b + 4u]);
+    let q0 = bitcast<vec4<f32>>(scene_data[b + 5u]);
+    let q1 = bitcast<vec4<f32>>(scene_data[b + 6u]);
+    let w = bitcast<vec4<f32>>(scene_data[b + 7u]);
+    return Instance(scene_xyz(a), a.w, scene_xyz(c), p.xyz, p.w, t0.xyz, t0.w, t1.xyz, q0, q1, w.xyz);
+}
+
+// The instance moving object `object` (Scene::objects[object].instance), or NO_INSTANCE.
+fn object_instance(object: u32) -> u32 {
+    return scene_data[scene_layout.object_instances + object / 4u][object % 4u];
+}
+
+// SceneAt::velocity: the world velocity per unit t (per half shutter) of the point `x` (at
+// `scene_time`) of object `object`; zero at rest.
+fn object_velocity(object: u32, x: vec3<f32>) -> vec3<f32> {
+    if (scene_layout.instance_count == 0u) {
+        return vec3<f32>(0.0);
+    }
+    let k = object_instance(object);
+    if (k == NO_INSTANCE) {
+        return vec3<f32>(0.0);
+    }
+    return instance_velocity(scene_instance(k), scene_time, x);
+}
+
+// SceneAt::light: light `i` where it is at `scene_time` (its shape moved with its object; normal,
+// area and centre recomputed as AreaLight's methods do; σ kept: a rigid motion does not change it).
+fn scene_light_at(i: u32) -> Light {
+    var l = area_light(i);
+    if (l.instance == NO_INSTANCE) {
+        return l;
+    }
+    let xf = instance_transform(scene_instance(l.instance), scene_time);
+    var c: vec3<f32>;
+    var area: f32;
+    var centre: vec3<f32>;
+    if (l.kind == LIGHT_RECT) {
+        let corner = xf_point(xf, l.p0.xyz);
+        let eu = xf_vector(xf, l.p1.xyz);
+        let ev = xf_vector(xf, l.p2.xyz);
+        l.p0 = vec4<f32>(corner, 0.0);
+        l.p1 = vec4<f32>(eu, 0.0);
+        l.p2 = vec4<f32>(ev, 0.0);
+        c = cross3(eu, ev);
+        area = length3(c);
+        centre = corner + 0.5 * (eu + ev);
+    } else {
+        let v0 = xf_point(xf, l.p0.xyz);
+        let v1 = xf_point(xf, l.p1.xyz);
+        let v2 = xf_point(xf, l.p2.xyz);
+        l.p0 = vec4<f32>(v0, 0.0);
+        l.p1 = vec4<f32>(v1, 0.0);
+        l.p2 = vec4<f32>(v2, 0.0);
+        c = cross3(v1 - v0, v2 - v0);
+        area = 0.5 * length3(c);
+        centre = (v0 + v1 + v2) / 3.0;
+    }
+    l.normal_area = vec4<f32>(normalize_or_zero3(c), area);
+    l.centre_sigma = vec4<f32>(centre, l.centre_sigma.w);
+    return l;
+}
+
 struct SurfacePoint {
     position: vec3<f32>,
     geometric_normal: vec3<f32>,
@@ -182,8 +267,26 @@ struct SurfacePoint {
     object: u32,
 }
 
-// Scene::surface
+// SceneAt::surface at `scene_time`: a moving triangle's point and normals as stored (with `dir` moved
+// into its rest pose), then moved by its instance's transform (normals rotated).
 fn surface(tri_index: u32, hb1: f32, hb2: f32, dir: vec3<f32>) -> SurfacePoint {
+    if (scene_layout.instance_count == 0u) {
+        return surface_stored(tri_index, hb1, hb2, dir);
+    }
+    let k = object_instance(shading_of(tri_index).object);
+    if (k == NO_INSTANCE) {
+        return surface_stored(tri_index, hb1, hb2, dir);
+    }
+    let xf = instance_transform(scene_instance(k), scene_time);
+    var sp = surface_stored(tri_index, hb1, hb2, xf_inverse_vector(xf, dir));
+    sp.position = xf_point(xf, sp.position);
+    sp.geometric_normal = xf_vector(xf, sp.geometric_normal);
+    sp.shading_normal = xf_vector(xf, sp.shading_normal);
+    return sp;
+}
+
+// Scene::surface_stored: a triangle as stored, `dir` in the same space.
+fn surface_stored(tri_index: u32, hb1: f32, hb2: f32, dir: vec3<f32>) -> SurfacePoint {
     let tri = triangle(tri_index);
     let sh = shading_of(tri_index);
     let b0 = 1.0 - hb1 - hb2;

@@ -316,7 +316,10 @@ pub fn scene_bytes(scene: &Scene) -> u64 {
         std::mem::size_of_val(v) as u64
     }
     let texels: u64 = scene.textures.iter().map(|t| of(&t.texels)).sum();
-    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels
+    // Moving instances (their trees are in `bvh`), objects (one instance index each on the GPU) and
+    // the lights' objects.
+    let motion = of(&scene.instances) + of(&scene.objects) + of(&scene.light_object);
+    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels + motion
 }
 
 /// The default memory limit: 3/4 of the memory the kernel reports available (`MemAvailable` of

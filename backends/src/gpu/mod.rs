@@ -25,8 +25,9 @@
 //!   is dispatched as bands of rows, each binding only its rows plus the rows its kernel reads
 //!   around them ([`bands`]); kernels see the band in `Frame` and
 //!   index through `pixel_index`/`index_at` (shaders/common.wgsl), so the result is the same image.
-//! - **Scene**: uploaded once per distinct scene as ONE storage buffer holding all 7 arrays plus a
-//!   uniform of their offsets ([`scene`]); kernels that declare `scene` see it in bind group 2.
+//! - **Scene**: uploaded once per distinct scene as ONE storage buffer holding all its arrays plus a
+//!   uniform of their offsets and the instance count ([`scene`]); kernels that declare `scene` see it
+//!   in bind group 2.
 //! - **Errors**: no adapter, WGSL/naga validation, out of memory, a device loss, a buffer over the
 //!   device's `max_buffer_size`, a scene over the binding limit, a kernel over the storage buffers
 //!   per stage even packed, a pass too large for the limit that cannot be split (a kernel reading
@@ -439,7 +440,7 @@ impl GpuBackend {
         let layout = self.scoped("uploading the scene layout", || {
             self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("scene layout"),
-                contents: bytemuck::cast_slice(&offsets),
+                contents: bytemuck::cast_slice(&scene::layout(&offsets, scene.instances.len())),
                 usage: wgpu::BufferUsages::UNIFORM,
             })
         })?;

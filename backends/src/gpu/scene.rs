@@ -5,7 +5,9 @@
 //! `WideNode`, `TrianglePack` and `TriangleRecord` are uploaded byte for byte; shading, materials, textures and lights
 //! are repacked into 16-byte-aligned structs. Light quantities the kernels need (normal, area,
 //! centre, σ) are computed here by the same Rust code the CPU uses, so both backends see identical
-//! values.
+//! values. Moving instances (`Scene::instances`) go up with their `PreparedMotion` (θ, 1/sin θ, the
+//! short-arc quaternions, ω as the CPU computed them), plus one u32 per object naming its instance
+//! and one per light in `GpuLight::instance` (`shaders/motion.wgsl`, `scene.wgsl`).
 
 use bytemuck::{Pod, Zeroable};
 use wedge_scene::{LightShape, Scene};
@@ -56,16 +58,54 @@ pub struct GpuLight {
     centre_sigma: [f32; 4],
     kind: u32,
     two_sided: u32,
-    _pad: [u32; 2],
+    /// The instance the light moves with, or [`NO_INSTANCE`].
+    instance: u32,
+    _pad: u32,
 }
 
-/// Names of the scene arrays, in the order they are packed (and of `SceneLayout`'s fields).
-pub const SCENE_ARRAYS: [&str; 8] =
-    ["bvh_nodes", "triangle_packs", "triangles", "shading", "materials", "tex_info", "texels", "lights"];
+/// `GpuLight::instance` / an object's entry of an object at rest (`NO_INSTANCE` in motion.wgsl).
+pub const NO_INSTANCE: u32 = u32::MAX;
+
+/// A moving instance (`Instance` in motion.wgsl, 128 bytes): its tree's root, swept box and motion.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct GpuInstance {
+    swept_min: [f32; 3],
+    root: u32,
+    swept_max: [f32; 3],
+    _pad0: u32,
+    pivot: [f32; 3],
+    theta: f32,
+    t0: [f32; 3],
+    inv_sin_theta: f32,
+    t1: [f32; 3],
+    _pad1: u32,
+    q0: [f32; 4],
+    q1: [f32; 4],
+    omega: [f32; 3],
+    _pad2: u32,
+}
+
+/// Names of the scene arrays, in the order they are packed (and of `SceneLayout`'s first fields).
+pub const SCENE_ARRAYS: [&str; 10] = [
+    "bvh_nodes",
+    "triangle_packs",
+    "triangles",
+    "shading",
+    "materials",
+    "tex_info",
+    "texels",
+    "lights",
+    "instances",
+    "object_instances",
+];
+
+/// Words of the uniform `SceneLayout`: each array's first element, the instance count, padding.
+pub const LAYOUT_WORDS: usize = 12;
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
 /// WGSL storage buffers cannot be zero-sized).
-pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 8] {
+pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 10] {
     let shading: Vec<GpuShading> = scene
         .shading
         .iter()
@@ -116,7 +156,8 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 8] {
     let lights: Vec<GpuLight> = scene
         .lights
         .iter()
-        .map(|l| {
+        .enumerate()
+        .map(|(i, l)| {
             let (kind, p) = match l.shape {
                 LightShape::Rect { corner, edge_u, edge_v } => (0u32, [corner, edge_u, edge_v]),
                 LightShape::Triangle { v0, v1, v2 } => (1u32, [v0, v1, v2]),
@@ -131,10 +172,35 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 8] {
                 centre_sigma: v4(l.centre(), l.sigma()),
                 kind,
                 two_sided: l.two_sided as u32,
-                _pad: [0; 2],
+                instance: light_instance(scene, i),
+                _pad: 0,
             }
         })
         .collect();
+    let instances: Vec<GpuInstance> = scene
+        .instances
+        .iter()
+        .map(|inst| {
+            let m = &inst.prepared;
+            GpuInstance {
+                swept_min: inst.swept_bounds.min.to_array(),
+                root: inst.root,
+                swept_max: inst.swept_bounds.max.to_array(),
+                _pad0: 0,
+                pivot: m.pivot.to_array(),
+                theta: m.theta,
+                t0: m.t[0].to_array(),
+                inv_sin_theta: m.inv_sin_theta,
+                t1: m.t[1].to_array(),
+                _pad1: 0,
+                q0: m.q[0].to_array(),
+                q1: m.q[1].to_array(),
+                omega: m.omega.to_array(),
+                _pad2: 0,
+            }
+        })
+        .collect();
+    let object_instances: Vec<u32> = scene.objects.iter().map(|o| o.instance.unwrap_or(NO_INSTANCE)).collect();
     fn bytes<T: Pod + Zeroable>(v: &[T]) -> Vec<u8> {
         if v.is_empty() {
             vec![0u8; std::mem::size_of::<T>().max(16)]
@@ -151,14 +217,34 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 8] {
         bytes(&tex_info),
         bytes(&texels),
         bytes(&lights),
+        bytes(&instances),
+        bytes(&object_instances),
     ]
 }
 
+/// The instance light `i` moves with (`Scene::light_object`'s), or [`NO_INSTANCE`].
+fn light_instance(scene: &Scene, i: usize) -> u32 {
+    scene
+        .light_object
+        .get(i)
+        .and_then(|&o| scene.objects.get(o as usize))
+        .and_then(|o| o.instance)
+        .unwrap_or(NO_INSTANCE)
+}
+
+/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count.
+pub fn layout(offsets: &[u32; 10], instance_count: usize) -> [u32; LAYOUT_WORDS] {
+    let mut words = [0u32; LAYOUT_WORDS];
+    words[..10].copy_from_slice(offsets);
+    words[10] = instance_count as u32;
+    words
+}
+
 /// All scene arrays in one buffer (each starting on a 16-byte element) and the element index where
-/// each starts, in [`SCENE_ARRAYS`] order (8 words: the uniform `SceneLayout`).
-pub fn pack(arrays: &[Vec<u8>; 8]) -> (Vec<u8>, [u32; 8]) {
+/// each starts, in [`SCENE_ARRAYS`] order (the first words of the uniform `SceneLayout`, [`layout`]).
+pub fn pack<const N: usize>(arrays: &[Vec<u8>; N]) -> (Vec<u8>, [u32; N]) {
     let mut data = Vec::with_capacity(arrays.iter().map(|a| a.len() + 16).sum());
-    let mut offsets = [0u32; 8];
+    let mut offsets = [0u32; N];
     for (k, a) in arrays.iter().enumerate() {
         offsets[k] = (data.len() / 16) as u32;
         data.extend_from_slice(a);

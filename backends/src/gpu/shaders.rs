@@ -25,6 +25,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
     ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
     ("scene.wgsl", include_str!("../../../shaders/scene.wgsl")),
+    ("motion.wgsl", include_str!("../../../shaders/motion.wgsl")),
     ("bvh.wgsl", include_str!("../../../shaders/bvh.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
