@@ -72,7 +72,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n_lights = end - first;
     for (var li = first; li < end; li = li + 1u) {
-        let l = area_light(li);
+        let l = scene_light_at(li);
         if (want_stats) {
             d1 = abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
         }

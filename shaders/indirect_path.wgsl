@@ -27,7 +27,7 @@ fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3
     var sum = vec3<f32>(0.0);
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
     for (var l = 0u; l < params.light_count; l = l + 1u) {
-        let light = area_light(l);
+        let light = scene_light_at(l);
         let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
         let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
         let to = target_point - y;

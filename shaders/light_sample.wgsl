@@ -8,14 +8,19 @@
 
 const RAY_EPSILON: f32 = 1e-4;
 
+// direct.rs `light_sample`'s value and `Occluder`: where occluded (and the distance wanted), the
+// occluder's distance to the light plane and its hit on the ray `origin + t·dir`.
 struct LightSample {
     value: vec3<f32>,
     occluded: bool,
     distance: f32,
+    hit: Hit,
+    origin: vec3<f32>,
+    dir: vec3<f32>,
 }
 
 fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: bool, factor: vec3<f32>, want_distance: bool) -> LightSample {
-    var r = LightSample(vec3<f32>(0.0), false, 0.0);
+    var r = LightSample(vec3<f32>(0.0), false, 0.0, no_hit(), vec3<f32>(0.0), vec3<f32>(0.0));
     let y = light_sample_point(l, u);
     let to = y - x;
     let r2 = dot3(to, to);
@@ -40,6 +45,9 @@ fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: 
             let p = origin + ray_dir * hit.t;
             r.occluded = true;
             r.distance = abs(dot3(l.centre_sigma.xyz - p, ln));
+            r.hit = hit;
+            r.origin = origin;
+            r.dir = ray_dir;
             return r;
         }
     } else if (scene_occluded(origin, ray_dir, 0.0, tmax)) {

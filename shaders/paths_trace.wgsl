@@ -88,6 +88,53 @@ fn indirect_ray(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, q: u32) -> 
     return r.value;
 }
 
+// paths.rs `Projection::image_velocity`: the image velocity (pixels per unit t, y down) of a point at
+// `x` moving at `v`; zero behind the camera.
+fn image_velocity(c: CameraModel, x: vec3<f32>, v: vec3<f32>) -> vec2<f32> {
+    let d = x - c.position;
+    let z = dot3(d, c.forward);
+    if (!(z > 0.0)) {
+        return vec2<f32>(0.0);
+    }
+    let scale = f32(max(frame.height, 1u)) / (2.0 * c.tan_half);
+    let vz = dot3(v, c.forward);
+    let zz = z * z;
+    let vx = scale * (dot3(v, c.right) * z - dot3(d, c.right) * vz) / zz;
+    let vy = -scale * (dot3(v, c.up) * z - dot3(d, c.up) * vz) / zz;
+    return vec2<f32>(vx, vy);
+}
+
+// paths.rs `shadow_velocity`: the shadow's image velocity, the occluder's world velocity times d1/d2
+// (parallel-plane model, light points at rest), projected at the receiver.
+fn shadow_velocity(c: CameraModel, x: vec3<f32>, d1: f32, d2: f32, occluder_velocity: vec3<f32>) -> vec2<f32> {
+    if (!(d2 > 0.0)) {
+        return vec2<f32>(0.0);
+    }
+    return image_velocity(c, x, occluder_velocity * (d1 / d2));
+}
+
+// The primary-hit velocity range (paths.rs `extend_range` on vp_min/vp_max).
+fn extend_vp(v: vec2<f32>, first: bool) {
+    if (first) {
+        rec.vp_min = v;
+        rec.vp_max = v;
+    } else {
+        rec.vp_min = min(rec.vp_min, v);
+        rec.vp_max = max(rec.vp_max, v);
+    }
+}
+
+// The shadow velocity range (vs_min/vs_max).
+fn extend_vs(v: vec2<f32>, first: bool) {
+    if (first) {
+        rec.vs_min = v;
+        rec.vs_max = v;
+    } else {
+        rec.vs_min = min(rec.vs_min, v);
+        rec.vs_max = max(rec.vs_max, v);
+    }
+}
+
 // Secondary samples one path carries per component (0: not sampled on it).
 struct Secondary {
     shadow: u32,
@@ -110,17 +157,25 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
         rec.w_glossy = rec.w_glossy + carries(params.indirect * params.glossy, count.glossy, w);
     }
     if (!hit.hit) {
+        // A miss sees the still background (App. B's velocity range).
+        extend_vp(vec2<f32>(0.0), rec.paths == 1u);
         return;
     }
     let sp = surface(hit.triangle, hit.b1, hit.b2, ray.dir);
     let x = sp.position;
     let n = sp.shading_normal;
     let wo = -ray.dir;
+    var velocity = vec2<f32>(0.0);
+    if (params.time != 0u) {
+        velocity = image_velocity(c, x, object_velocity(sp.object, x));
+    }
+    extend_vp(velocity, rec.paths == 1u);
     rec.hits = rec.hits + 1u;
     rec.hit_weight = rec.hit_weight + w;
     rec.position = rec.position + x * w;
     rec.normal = rec.normal + n * w;
     rec.emission = rec.emission + emission(sp) * w;
+    rec.vp_sum = rec.vp_sum + velocity * w;
     if (rec.object == 0u) {
         rec.object = 1u + sp.object;
     }
@@ -141,7 +196,7 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
 
     if (params.direct != 0u && count.shadow > 0u) {
-        trace_direct(x, n, wo, kd, ks, m, is_glossy, w, pixel, count.shadow);
+        trace_direct(c, x, n, wo, kd, ks, m, is_glossy, w, pixel, count.shadow);
     }
     if (params.indirect != 0u) {
         trace_indirect(x, n, wo, kd, ks, m, is_glossy, w, pixel, key_d, key_g, count);
@@ -149,16 +204,17 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
 }
 
 // Direct (eqs. 5.9–5.14, glossy folded into k: eq. 5.20); `exact`: per-sample geometry term.
-fn trace_direct(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
-        w: f32, pixel: u32, n_shadow: u32) {
-    let l = area_light(params.light);
+fn trace_direct(c: CameraModel, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32,
+        is_glossy: bool, w: f32, pixel: u32, n_shadow: u32) {
+    let l = scene_light_at(params.light);
     let fc = light_centre_factor(l, x, n);
     var k = kd;
     if (is_glossy) {
         let to_centre = normalize_or_zero3(l.centre_sigma.xyz - x);
         k = k + ks * (PI_F32 * glossy_brdf(params.lobe, m, n, wo, to_centre));
     }
-    rec.d1 = rec.d1 + w * abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
+    let d1 = abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
+    rec.d1 = rec.d1 + w * d1;
     var e = vec3<f32>(0.0);
     var valid = 0u;
     for (var s = 0u; s < n_shadow; s = s + 1u) {
@@ -174,6 +230,13 @@ fn trace_direct(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: ve
                 rec.d2_min = rmin(rec.d2_min, ls.distance);
                 rec.d2_max = rmax(rec.d2_max, ls.distance);
             }
+            var vs = vec2<f32>(0.0);
+            if (params.time != 0u) {
+                let occluder = surface(ls.hit.triangle, ls.hit.b1, ls.hit.b2, ls.dir);
+                vs = shadow_velocity(c, x, d1, ls.distance, object_velocity(occluder.object, occluder.position));
+            }
+            rec.vs_sum = rec.vs_sum + vs;
+            extend_vs(vs, rec.occluded == 1u);
         }
         if (is_finite3(ls.value)) {
             e = e + ls.value;
@@ -332,6 +395,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let lens = draw(pixel, PAIR_LENS, j);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x), f32(xy.y)) + jitter, lens);
+        // The path's shutter time (App. B), its own stratified dimension; 0 = the shutter's centre.
+        scene_time = 0.0;
+        if (params.time != 0u) {
+            scene_time = 2.0 * draw(pixel, PAIR_TIME, j).x - 1.0;
+        }
         if (!fixed_primary || !have_hit) {
             fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
             have_hit = true;

@@ -469,24 +469,24 @@ mod tests {
         let s = Session::open(None, &ov).unwrap();
         let px = 640 * 480u64;
         // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler): 17 slots =
-        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (60 words, 240 B) = 632 B/px;
-        // the largest pass output is one record (240 B/px); sinks filter_width, rays_per_pixel (4 B)
-        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 680 B/px; the widest
-        // pass binds two records and two u32 counts (sampler.adaptive) = 488 B/px.
+        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (72 words, 288 B) = 728 B/px;
+        // the largest pass output is one record (288 B/px); sinks filter_width, rays_per_pixel (4 B)
+        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 776 B/px; the widest
+        // pass binds two records and two u32 counts (sampler.adaptive) = 584 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 632 * px, pass_outputs: 240 * px, sinks: 32 * px, unpooled: 680 * px, pass_bindings: 488 * px }
+            BufferBytes { pool: 728 * px, pass_outputs: 288 * px, sinks: 32 * px, unpooled: 776 * px, pass_bindings: 584 * px }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 904 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 277_708_800);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 1048 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 321_945_600);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 904 * px);
+        assert_eq!(cpu.buffers, 1048 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (680 + 240 + 488) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (776 + 288 + 584) * px);
     }
 
     #[test]
