@@ -17,7 +17,8 @@
 //!   (App. B: "we only apply the standard irradiance filter based on minimum reflector depth").
 //! - Primary rays (B.3) `n_p = (Ω_pix^max + Ω_x^t)² (1 + |v_p| Ω_x^t)²` with `Ω_x^t = Ω_{x,p}^m`
 //!   (EQUATIONS.md: "(B.3)'s Ω_x^t means Ω_{x,p}^m") — eq. 5.24 with `|v_p|` for `r_max`. A pixel
-//!   that sees two or more velocities (primary hit or shadow) takes `multi_paths` primary rays (64).
+//!   that sees two or more velocities (primary hit or shadow) takes `multi_paths` primary rays (the
+//!   thesis: 64).
 //! - Shadow rays "similar to eq. 5.25": `(Ω_pix+Ω)²(1 + |v_s| Ω)²(1 + ℓ_I s_max Ω/ℓ_p)²` with
 //!   `Ω = min(area-light width, Ω_{x,s}^m)` — the time factor from the shadow's own velocity (a static
 //!   shadow on a moving receiver is constant over the shutter at a pixel). Indirect: eq. 5.26 without
@@ -41,9 +42,13 @@ use crate::defocus::formulas::{
 /// default (`omega_t`).
 pub const OMEGA_T_MAX: f32 = 1.0;
 
-/// Primary rays per pixel at a pixel that sees two or more velocities (App. B: "a large constant
-/// primary sampling rate (64 rays)").
-pub const MULTI_VELOCITY_PATHS: i64 = 64;
+/// Primary rays per pixel at a pixel that sees two or more velocities: the Motion node's default. The
+/// thesis (App. B: "a large constant primary sampling rate (64 rays)") is [`THESIS_MULTI_VELOCITY_PATHS`];
+/// 16 jointly stratified paths filtered along the velocity measured better per ray (DESIGN-NOTES
+/// "Motion").
+pub const MULTI_VELOCITY_PATHS: i64 = 16;
+/// App. B's primary rays at multi-velocity pixels.
+pub const THESIS_MULTI_VELOCITY_PATHS: i64 = 64;
 
 /// `min(Ω_pix^max, Ω_t^max/|v|)` (eqs. B.1, B.2), before μ.
 pub fn omega_motion(speed: f32, omega_t: f32, omega_pix: f32) -> f32 {
@@ -186,7 +191,7 @@ mod tests {
             omega_v: 2.8,
             max_primary: 256,
             max_per_primary: 4,
-            multi_paths: 64,
+            multi_paths: THESIS_MULTI_VELOCITY_PATHS as u32,
         }
     }
 

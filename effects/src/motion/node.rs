@@ -6,11 +6,13 @@
 //! as without it — Ch. 3/4 — and it only sums its inputs, so the image is the same as without it).
 //! Factoring, it
 //! 1. asks the shared sampler for shutter times (estimator `time`) and App. B's first pass:
-//!    `initial_paths` (9) paths through the pixel centre, each at its own time with one shadow ray and
-//!    one indirect sample, the centre-of-light form factor (so `k·E = L` where the scene factors);
+//!    `initial_paths` paths through the pixel centre (the thesis: 9; default 4, measured), each at its
+//!    own time with one shadow ray and one indirect sample, the centre-of-light form factor (so
+//!    `k·E = L` where the scene factors);
 //! 2. from the first pass's velocities (`velocity`, `shadow_velocity`) computes the texture width
-//!    `Ω_{x,p}^m` (B.1) and `n_p` (B.3; 64 where the pixel sees two or more velocities) with
-//!    `motion.rates`, and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
+//!    `Ω_{x,p}^m` (B.1) and `n_p` (B.3; `multi_paths` where the pixel sees two or more velocities —
+//!    the thesis: 64, default 16, measured) with `motion.rates`, and submits `n_p` paths for the
+//!    second pass (3×3 max, `p²` rounding);
 //! 3. sums its `direct` and `indirect` inputs (each a component's factored term) and the emission of
 //!    the primary hits, and filters the sum at the pixels whose final paths saw two or more
 //!    velocities (`motion.flags`, `filter.radiance3`): `multi_filter` `velocity` (default) averages
@@ -103,10 +105,10 @@ impl NodeKind for Motion {
             ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = EQUATIONS.md's reading)"),
             ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
-            ParamDecl::int("initial_paths", 9, 1, 4096, "first-pass paths per pixel (thesis App. B: 9, one time, shadow and indirect sample each)"),
+            ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one time, shadow and indirect sample each (thesis App. B: 9; 4 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
             ParamDecl::int("max_per_primary", 4, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square)"),
-            ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64)"),
+            ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64; 16 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_radius", 32, 1, 64, "largest filter half-width in pixels (filter.motion, filter.irradiance)"),
             ParamDecl::choice(
                 "multi_filter",
