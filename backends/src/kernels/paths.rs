@@ -879,67 +879,71 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 22] = [
     ("shadow_velocity", Format::Vec4),
 ];
 
-/// How many of [`RESOLVE_OUTPUTS`] are Vec3 (they come first).
-const RESOLVE_VEC3: usize = 11;
-
-/// Everything [`PathsResolve`] writes for one pixel.
-struct Resolved {
-    vec3: [[f32; 3]; RESOLVE_VEC3],
-    vec4: [[f32; 4]; RESOLVE_OUTPUTS.len() - RESOLVE_VEC3],
-}
-
 /// A mean and its sample count: the estimate convention the world-space filters read.
 fn estimate(e: [f32; 3], samples: u32) -> [f32; 4] {
     [e[0], e[1], e[2], samples as f32]
 }
 
-fn resolve(r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height: u32) -> Resolved {
-    let mean = |s: [f32; 3], over: f32| r.mean_of(s, over).to_array();
-    let lambda = r.lens_position();
+/// Output `k` of [`RESOLVE_OUTPUTS`] for one pixel (a Vec3 output in the first three components).
+/// One output at a time, so a pass computes and stores only what it binds (resolving every output of
+/// every pixel into one intermediate array took 150 ms per pass at 640×480, most of it the array).
+fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_half: f32, height: u32) -> [f32; 4] {
+    let mean = |s: [f32; 3], over: f32| {
+        let m = r.mean_of(s, over);
+        [m.x, m.y, m.z, 0.0]
+    };
     let hit_mean = |s: f32| if r.hit_weight > 0.0 { s / r.hit_weight } else { 0.0 };
-    let (position, normal, defocus) = if r.hits > 0 {
+    // Position (λ, 1 + object), normal (w = footprint) and defocus (r range, depth, ℓ_p) of a hit pixel.
+    let surface = |which: usize| -> [f32; 4] {
+        if r.hits == 0 {
+            return [0.0; 4];
+        }
+        let lambda = r.lens_position();
+        if which == 0 {
+            return [lambda.x, lambda.y, lambda.z, r.object as f32];
+        }
+        if which == 2 {
+            let z = hit_mean(r.depth);
+            return [r.r_min, r.r_max, z, 2.0 * z * tan_half / height.max(1) as f32];
+        }
         let n = r.lens_normal().normalize_or_zero();
         let to = lambda - cam.position;
         let t = to.length();
         let d = to / t;
         let cos = n.dot(-d).abs().max(0.05);
-        let footprint = t * pixel_angle / cos.sqrt();
-        let z = hit_mean(r.depth);
-        (
-            [lambda.x, lambda.y, lambda.z, r.object as f32],
-            [n.x, n.y, n.z, footprint],
-            [r.r_min, r.r_max, z, 2.0 * z * tan_half / height.max(1) as f32],
-        )
-    } else {
-        ([0.0; 4], [0.0; 4], [0.0; 4])
+        [n.x, n.y, n.z, t * pixel_angle / cos.sqrt()]
     };
-    Resolved {
-        vec3: [
-            r.radiance().to_array(),
-            mean(r.l_direct, r.w_direct),
-            mean(r.k_direct, r.w_direct),
-            mean(r.e_direct, r.w_direct),
-            mean(r.l_diffuse, r.w_diffuse),
-            mean(r.k_diffuse, r.w_diffuse),
-            mean(r.e_diffuse, r.w_diffuse),
-            mean(r.l_glossy, r.w_glossy),
-            mean(r.k_glossy, r.w_glossy),
-            mean(r.e_glossy, r.w_glossy),
-            mean(r.emission, r.weight),
-        ],
-        vec4: [
-            position,
-            normal,
-            defocus,
-            [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
-            [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
-            [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
-            estimate(mean(r.e_direct, r.w_direct), r.shadow),
-            estimate(mean(r.e_diffuse, r.w_diffuse), r.diffuse_samples),
-            estimate(mean(r.e_glossy, r.w_glossy), r.glossy_samples),
-            velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max),
-            velocity_stats(r.vs_sum, r.occluded as f32, r.vs_min, r.vs_max),
-        ],
+    let e = |s: [f32; 3], over: f32| {
+        let m = mean(s, over);
+        [m[0], m[1], m[2]]
+    };
+    match RESOLVE_OUTPUTS[k].0 {
+        "radiance" => {
+            let m = r.radiance();
+            [m.x, m.y, m.z, 0.0]
+        }
+        "l_direct" => mean(r.l_direct, r.w_direct),
+        "k_direct" => mean(r.k_direct, r.w_direct),
+        "e_direct" => mean(r.e_direct, r.w_direct),
+        "l_diffuse" => mean(r.l_diffuse, r.w_diffuse),
+        "k_diffuse" => mean(r.k_diffuse, r.w_diffuse),
+        "e_diffuse" => mean(r.e_diffuse, r.w_diffuse),
+        "l_glossy" => mean(r.l_glossy, r.w_glossy),
+        "k_glossy" => mean(r.k_glossy, r.w_glossy),
+        "e_glossy" => mean(r.e_glossy, r.w_glossy),
+        "emission" => mean(r.emission, r.weight),
+        "position" => surface(0),
+        "normal" => surface(1),
+        "defocus" => surface(2),
+        "occlusion" => [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
+        "depth" => [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
+        "counts" => [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
+        "direct" => estimate(e(r.e_direct, r.w_direct), r.shadow),
+        "diffuse" => estimate(e(r.e_diffuse, r.w_diffuse), r.diffuse_samples),
+        "glossy" => estimate(e(r.e_glossy, r.w_glossy), r.glossy_samples),
+        "velocity" => velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max),
+        "shadow_velocity" => velocity_stats(r.vs_sum, r.occluded as f32, r.vs_min, r.vs_max),
+        other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }
 }
 
@@ -980,15 +984,19 @@ impl Kernel for PathsResolve {
         let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
         let pixel_angle = 2.0 * tan_half / ctx.height as f32;
         let height = ctx.height;
-        let out: Vec<Resolved> = ctx.map_pixels(false, |x, y| {
-            let i = (y * ctx.width + x) as usize;
-            resolve(&records[i], &cam, pixel_angle, tan_half, height)
-        });
-        for (k, (name, _)) in RESOLVE_OUTPUTS.iter().enumerate() {
-            if k < RESOLVE_VEC3 {
-                ctx.put_opt(name, || out.iter().map(|r| r.vec3[k]).collect::<Vec<_>>())?;
+        let width = ctx.width;
+        for (k, (name, format)) in RESOLVE_OUTPUTS.iter().enumerate() {
+            let column = |ctx: &KernelCtx<'_>| {
+                ctx.map_pixels(false, |x, y| resolve_output(k, &records[(y * width + x) as usize], &cam, pixel_angle, tan_half, height))
+            };
+            if !ctx.is_bound(name) {
+                continue;
+            }
+            let values = column(ctx);
+            if *format == Format::Vec3 {
+                ctx.put(name, values.into_iter().map(|v| [v[0], v[1], v[2]]).collect::<Vec<_>>())?;
             } else {
-                ctx.put_opt(name, || out.iter().map(|r| r.vec4[k - RESOLVE_VEC3]).collect::<Vec<_>>())?;
+                ctx.put(name, values)?;
             }
         }
         Ok(())
