@@ -546,10 +546,41 @@ impl<'a> SceneAt<'a> {
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let s = self.scene;
-        let mut best = bvh::traverse(&s.bvh, origin, dir, tmin, tmax, false);
         if s.instances.is_empty() {
-            return best;
+            return bvh::traverse::closest(&s.bvh, origin, dir, tmin, tmax);
         }
+        let best = bvh::traverse::closest(&s.bvh, origin, dir, tmin, tmax);
+        self.intersect_instances(best, origin, dir, tmin, tmax)
+    }
+
+    /// Whether anything is hit with tmin < t < tmax at this time (stops at the first hit).
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let s = self.scene;
+        if s.instances.is_empty() {
+            return bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax);
+        }
+        bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax)
+            || self.occluded_instances(origin, dir, tmin, tmax)
+    }
+
+    // Measured: with the `instances.is_empty()` test *after* the static traversal, the scene
+    // pointer stayed live across the traversal loop and static scenes traced 13% slower (`grids`
+    // primary rays, one thread, 15.4 → 13.4 Mrays/s); tested first, as above, they trace as fast
+    // as before motion existed. The instance loops stay out of line so the static path's code
+    // does not depend on them.
+
+    /// [`SceneAt::intersect`]'s instances, after the static tree gave `best`.
+    #[inline(never)]
+    fn intersect_instances(
+        &self,
+        mut best: Option<Hit>,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let s = self.scene;
         let inv_d = dir.recip();
         for inst in &s.instances {
             let limit = best.map_or(tmax, |h| h.t);
@@ -567,16 +598,10 @@ impl<'a> SceneAt<'a> {
         best
     }
 
-    /// Whether anything is hit with tmin < t < tmax at this time (stops at the first hit).
-    #[inline]
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+    /// [`SceneAt::occluded`]'s instances.
+    #[inline(never)]
+    fn occluded_instances(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
         let s = self.scene;
-        if bvh::traverse(&s.bvh, origin, dir, tmin, tmax, true).is_some() {
-            return true;
-        }
-        if s.instances.is_empty() {
-            return false;
-        }
         let inv_d = dir.recip();
         s.instances.iter().any(|inst| {
             if !box_entered(&inst.swept_bounds, origin, inv_d, tmin, tmax) {
