@@ -1123,7 +1123,7 @@ fn node_motion(path: &Path, inst: &Instance) -> Result<RigidMotion, SceneError> 
     let close = Mat3::from_mat4(inst.world_close);
     let (n, mesh) = (inst.node, inst.mesh);
     let det = open.determinant();
-    if !(det.is_finite() && det.abs() > 1e-12) {
+    if !(det.is_finite() && det != 0.0 && open.inverse().is_finite()) {
         return Err(bad(
             path,
             format!("nodes[{n}] (meshes[{mesh}]) is animated but has zero scale at shutter open"),
