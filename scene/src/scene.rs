@@ -523,7 +523,8 @@ impl Scene {
 }
 
 /// A [`Scene`] at one time of the shutter (`Scene::at`): the queries every kernel needs, with each
-/// object where it is at that time. Cheap to copy; compute it once per time, not per ray.
+/// object where it is at that time. Just the scene and the time (make one per sample freely); an
+/// instance's transform at that time is computed when a ray enters its swept box.
 #[derive(Clone, Copy, Debug)]
 pub struct SceneAt<'a> {
     scene: &'a Scene,

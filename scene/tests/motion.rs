@@ -63,7 +63,7 @@ fn slerp_ends_are_exact_and_zero_motion_is_the_identity() {
         );
         // The short arc may store −q, the same rotation.
         assert!(close.rotation == m.rotation[1] || close.rotation == -m.rotation[1]);
-        assert_eq!(p.q[0].dot(p.q[1]) >= 0.0, true);
+        assert!(p.q[0].dot(p.q[1]) >= 0.0);
         // A point at the ends is where the end rotation puts it (to f32 rounding of the matrix).
         let x = rng.v(-3.0, 3.0);
         let want = m.pivot + m.translation[1] + m.rotation[1] * (x - m.pivot);
