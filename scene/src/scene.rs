@@ -724,6 +724,23 @@ fn complete_objects(
     Ok(objects)
 }
 
+/// A motion's numbers as bits (a hash key: equal bits, same motion).
+fn motion_bits(m: &RigidMotion) -> [u32; 17] {
+    let mut k = [0u32; 17];
+    let v = m
+        .pivot
+        .to_array()
+        .into_iter()
+        .chain(m.translation[0].to_array())
+        .chain(m.translation[1].to_array())
+        .chain(m.rotation[0].to_array())
+        .chain(m.rotation[1].to_array());
+    for (slot, x) in k.iter_mut().zip(v) {
+        *slot = x.to_bits();
+    }
+    k
+}
+
 /// What [`assemble`] builds.
 struct Assembled {
     triangles: Vec<TriangleRecord>,
@@ -746,18 +763,17 @@ fn assemble(
     positions: &[[Vec3; 3]],
     mut objects: Vec<SceneObject>,
 ) -> Result<Assembled, SceneError> {
-    // Groups of moving objects: one per distinct motion (objects moving alike share one tree).
+    // Groups of moving objects: one per distinct motion (objects moving alike share one tree),
+    // found by the motion's bits so that many objects stay linear.
     let mut motions: Vec<RigidMotion> = Vec::new();
+    let mut by_bits: HashMap<[u32; 17], u32> = HashMap::new();
     let mut group = vec![u32::MAX; objects.len()];
     for (k, o) in objects.iter().enumerate() {
         if let Some(m) = o.motion {
-            group[k] = match motions.iter().position(|x| *x == m) {
-                Some(g) => g as u32,
-                None => {
-                    motions.push(m);
-                    (motions.len() - 1) as u32
-                }
-            };
+            group[k] = *by_bits.entry(motion_bits(&m)).or_insert_with(|| {
+                motions.push(m);
+                (motions.len() - 1) as u32
+            });
         }
     }
     let group_of = |i: usize| group[shading[i].object as usize];
