@@ -33,12 +33,21 @@
 //!   agree (same triangle, or both miss), so the ratio is known to compare the same work. Skipped with
 //!   one line when Python or `embreex` is missing, and in the smoke run.
 //!
+//! - motion (issue 13): on the built-in `motion`, rays per second through its moving instances (a static
+//!   tree plus one tree per moving object, `Scene::at`) against the same scene frozen into one static
+//!   tree (every object where it is at `t = 0`): primary rays (the camera's, 640×480) and shadow rays
+//!   (16 toward light 0 from each primary hit of the frozen scene, any-hit), each traced at `t = 0`
+//!   and at a random time per ray (the frozen scene ignores it). And how the linear loop over
+//!   instances scales: primary rays on `spheres` with N of its 400 spheres moving (each its own
+//!   instance, a 1 cm translation) at random times, against N = 0 (skipped in the smoke run).
+//!
 //! Shadow and bounce rays are generated once up front so only traversal is timed. Each row also prints a
 //! checksum (hit count and a hash of the hit triangles' input indices) so runs before and after a
 //! traversal change can be compared for identical results.
 //!
 //! Environment: `WEDGE_BENCH_SCENES=grids,heavy,spheres` picks scenes, `WEDGE_BENCH_MIN_SECS=1` the
-//! minimum timed duration per cell, `WEDGE_BENCH_PYTHON=python3` the interpreter for the Embree side.
+//! minimum timed duration per cell, `WEDGE_BENCH_PYTHON=python3` the interpreter for the Embree side,
+//! `WEDGE_BENCH_MOTION=0` skips the motion tables.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -51,7 +60,7 @@ use wedge::backends::cpu::CpuBackend;
 use wedge::backends::kernels::hemisphere::{cosine_hemisphere, Frame};
 use wedge::backends::rng::PixelRng;
 use wedge::backends::Silent;
-use wedge::scene::{Scene, SceneSource};
+use wedge::scene::{RigidMotion, Scene, SceneObject, SceneSource};
 
 const W: u32 = 640;
 const H: u32 = 480;
@@ -405,6 +414,127 @@ fn results(scene: &Scene, rays: &[Ray], mode: Mode) -> Vec<i32> {
     rays.par_iter().map(|r| query(scene, r, mode)).collect()
 }
 
+/// `scene`'s triangles in their input order (`source`) where they are at time `t`.
+fn loose(scene: &Scene, t: f32) -> Vec<(Vec3, Vec3, Vec3, wedge::scene::TriangleShading)> {
+    let mut order: Vec<usize> = (0..scene.triangles.len()).collect();
+    order.sort_by_key(|&i| scene.triangles[i].source);
+    order.dedup_by_key(|i| scene.triangles[*i].source);
+    order
+        .iter()
+        .map(|&i| {
+            let (r, s) = (&scene.triangles[i], scene.shading[i]);
+            let v = match scene.instance_of(s.object) {
+                Some(inst) => {
+                    let xf = inst.prepared.at(t);
+                    r.vertices().map(|p| xf.point(p))
+                }
+                None => r.vertices(),
+            };
+            (v[0], v[1], v[2], s)
+        })
+        .collect()
+}
+
+/// `scene` with every object where it is at time `t`, all at rest: the same triangles in one static
+/// tree (what tracing would cost without motion support).
+fn frozen(scene: &Scene, t: f32) -> Scene {
+    let objects = scene.objects.iter().map(|o| SceneObject::named(o.name.clone())).collect();
+    let name = format!("{} frozen", scene.name);
+    Scene::from_objects(&name, loose(scene, t), scene.materials.clone(), scene.textures.clone(), scene.camera, objects)
+        .expect("frozen scene")
+}
+
+/// `scene` (all at rest) with objects 1..=n each moving by its own 1 cm translation (n instances).
+fn with_moving(scene: &Scene, n: usize) -> Scene {
+    let objects = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(k, o)| SceneObject {
+            motion: (1..=n).contains(&k).then(|| RigidMotion::translation(Vec3::ZERO, Vec3::new(0.01, 0.0, 0.01 * (k as f32 / n as f32)))),
+            ..SceneObject::named(o.name.clone())
+        })
+        .collect();
+    Scene::from_objects(&scene.name, loose(scene, 0.0), scene.materials.clone(), scene.textures.clone(), scene.camera, objects)
+        .expect("moving scene")
+}
+
+/// Per ray a time in [−1, 1) (stream 2 of the bench's per-pixel RNG, keyed by the ray's index).
+fn ray_times(n: usize) -> Vec<f32> {
+    (0..n).map(|i| -1.0 + 2.0 * PixelRng::new(SEED, i as u32, 2).uniform(0, 0)).collect()
+}
+
+/// Rays per second of `trace(ray index)` over `rays` (≥ `min`, at least one pass), and the hits.
+fn measure_timed(pool: &rayon::ThreadPool, n: usize, min: Duration, trace: &(dyn Fn(usize) -> bool + Sync)) -> (f64, u64) {
+    pool.install(|| {
+        let start = Instant::now();
+        let (mut passes, mut hits) = (0u64, 0u64);
+        while passes == 0 || start.elapsed() < min {
+            hits = (0..n).into_par_iter().with_min_len(CHUNK).filter(|&i| trace(i)).count() as u64;
+            passes += 1;
+        }
+        (n as f64 * passes as f64 / start.elapsed().as_secs_f64() / 1e6, hits)
+    })
+}
+
+/// One row of the motion table: (rays, query, times, threads, Mrays/s with motion, frozen, hits each).
+type MotionRow = (&'static str, &'static str, &'static str, usize, f64, f64, u64, u64);
+
+/// The motion tables (see the module doc): `motion` vs frozen, and instance-count scaling on `spheres`.
+fn motion_tables(min: Duration, smoke: bool) -> (Vec<MotionRow>, Vec<(usize, f64, u64)>, String) {
+    let scene = wedge::scene::load(&SceneSource::Builtin("motion".into())).expect("motion scene");
+    let still = frozen(&scene, 0.0);
+    let info = format!(
+        "`motion`: {} triangles, {} moving instances ({} of {} triangles move); frozen: one static tree",
+        scene.triangle_count(),
+        scene.instances.len(),
+        scene.instances.iter().map(|i| i.count).sum::<u32>(),
+        scene.triangle_count()
+    );
+    let primary = primary_rays(&still);
+    let points = hit_points(&still, &primary);
+    let shadow = shadow_rays(&still, &points);
+    let mut rows = Vec::new();
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        for (name, rays, any) in [("primary", &primary, false), ("shadow", &shadow, true)] {
+            let times = ray_times(rays.len());
+            let query = |s: &Scene, i: usize, t: f32| {
+                let (r, at) = (&rays[i], s.at(t));
+                if any {
+                    at.occluded(r.o, r.d, 0.0, r.tmax)
+                } else {
+                    at.intersect(r.o, r.d, 0.0, r.tmax).is_some()
+                }
+            };
+            let q = if any { "any" } else { "closest" };
+            let (m0, h0) = measure_timed(&pool, rays.len(), min, &|i| query(&scene, i, 0.0));
+            let (f0, g0) = measure_timed(&pool, rays.len(), min, &|i| query(&still, i, 0.0));
+            rows.push((name, q, "t = 0", threads, m0, f0, h0, g0));
+            let (mt, ht) = measure_timed(&pool, rays.len(), min, &|i| query(&scene, i, times[i]));
+            let (ft, gt) = measure_timed(&pool, rays.len(), min, &|i| query(&still, i, times[i]));
+            rows.push((name, q, "random t", threads, mt, ft, ht, gt));
+        }
+    }
+    let mut scaling = Vec::new();
+    if !smoke {
+        let spheres = wedge::scene::load(&SceneSource::Builtin("spheres".into())).expect("spheres scene");
+        let primary = primary_rays(&spheres);
+        let times = ray_times(primary.len());
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        for n in [0usize, 1, 10, 100, 400] {
+            let s = with_moving(&spheres, n);
+            assert_eq!(s.instances.len(), n);
+            let (m, h) = measure_timed(&pool, primary.len(), min, &|i| {
+                let r = &primary[i];
+                s.at(times[i]).intersect(r.o, r.d, 0.0, r.tmax).is_some()
+            });
+            scaling.push((n, m, h));
+        }
+    }
+    (rows, scaling, info)
+}
+
 fn main() {
     // `cargo bench` passes `--bench`; accept and ignore libtest-style arguments.
     // `cargo test --all-targets` runs this binary without `--bench`: then only a quick smoke run
@@ -510,6 +640,7 @@ fn main() {
             rows.push((name.clone(), threads, [primary.len(), shadow.len(), diffuse.len()], p, s, c, d));
         }
     }
+    let motion = (std::env::var("WEDGE_BENCH_MOTION").as_deref() != Ok("0")).then(|| motion_tables(min, smoke));
     // Multi-bounce paths (Indirect's sampler) on `cornell`.
     let (size, spp) = if smoke { ((32, 24), 1) } else { ((320, 240), 16) };
     let mut path_rows = Vec::new();
@@ -600,6 +731,25 @@ fn main() {
                 json["build_seconds"].as_f64().unwrap_or(f64::NAN) * 1e3,
                 json["embree"]["embreex"].as_str().unwrap_or("?")
             );
+        }
+    }
+    if let Some((rows, scaling, info)) = motion {
+        println!();
+        println!("Motion: rays through moving instances (`Scene::at(t)`) vs the same scene frozen at t = 0 into one static tree — {info}:\n");
+        println!("| rays | query | time | threads | motion Mrays/s | frozen Mrays/s | motion / frozen | hits (motion / frozen) |");
+        println!("|---|---|---|---:|---:|---:|---:|---:|");
+        for (rays, q, time, threads, m, f, hm, hf) in rows {
+            println!("| {rays} | {q} | {time} | {threads} | {m:.2} | {f:.2} | {:.2} | {hm} / {hf} |", m / f);
+        }
+        if !scaling.is_empty() {
+            println!();
+            println!("Instances: primary rays on `spheres` (640×480, random time per ray, 1 thread) with N of its 400 spheres moving, each its own instance (the loop over instances is linear):\n");
+            println!("| moving instances N | Mrays/s | vs N = 0 | hits |");
+            println!("|---:|---:|---:|---:|");
+            let base = scaling[0].1;
+            for (n, m, h) in scaling {
+                println!("| {n} | {m:.2} | {:.2} | {h} |", m / base);
+            }
         }
     }
     println!();

@@ -1,7 +1,8 @@
 //! Seed inputs, generated in code so that no binary corpus needs to be committed: the shipped
 //! pipelines; small glTF/GLB scenes covering the features the loader reads (indexed and
 //! non-indexed meshes, u8/u16/u32 indices, normals, texture coordinates, an external buffer and
-//! texture, node hierarchy with transforms, cameras, emissive strength, punctual lights); OBJ + MTL
+//! texture, node hierarchy with transforms, cameras, emissive strength, punctual lights, translation
+//! and rotation animations); OBJ + MTL
 //! variants; EXR images in every compression the `exr` crate writes, in f32 and f16, as scanlines
 //! and tiles. `--corpus DIR` adds files on top of these.
 
@@ -67,7 +68,8 @@ pub fn tiny_png() -> Vec<u8> {
 /// The binary buffer of the glTF seeds (also written as the companion file `buffer.bin`):
 /// offset 0 ground positions (6 × vec3), 72 light positions (4 × vec3), 120 u16 indices (6),
 /// 132 ground uv (6 × vec2), 180 ground normals (6 × vec3), 252 u32 indices (6), 276 u8 indices
-/// (6), padded to 284 bytes.
+/// (6), padded to 284 bytes; then animation keyframes: 284 times (2 × f32: 0, 1), 292 translations
+/// (2 × vec3), 316 rotations (2 × vec4: identity, 90° about y); 348 bytes.
 pub fn gltf_buffer() -> Vec<u8> {
     let ground: [[f32; 3]; 6] = [
         [-1., 0., 1.],
@@ -104,6 +106,16 @@ pub fn gltf_buffer() -> Vec<u8> {
     }
     b.extend_from_slice(&[0, 1, 2, 0, 2, 3, 0, 0]);
     debug_assert_eq!(b.len(), 284);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    for v in [0f32, 1.] // times
+        .iter()
+        .chain(&[0., 0., 0., 1., 0., 0.5]) // translations
+        .chain(&[0., 0., 0., 1., 0., h, 0., h])
+    // rotations
+    {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    debug_assert_eq!(b.len(), 348);
     b
 }
 
@@ -114,7 +126,10 @@ const BUFFER_VIEWS: &str = r#"[
     {"buffer": 0, "byteOffset": 132, "byteLength": 48},
     {"buffer": 0, "byteOffset": 180, "byteLength": 72},
     {"buffer": 0, "byteOffset": 252, "byteLength": 24},
-    {"buffer": 0, "byteOffset": 276, "byteLength": 6}
+    {"buffer": 0, "byteOffset": 276, "byteLength": 6},
+    {"buffer": 0, "byteOffset": 284, "byteLength": 8},
+    {"buffer": 0, "byteOffset": 292, "byteLength": 24},
+    {"buffer": 0, "byteOffset": 316, "byteLength": 32}
   ]"#;
 
 const ACCESSORS: &str = r#"[
@@ -124,7 +139,10 @@ const ACCESSORS: &str = r#"[
     {"bufferView": 3, "componentType": 5126, "count": 6, "type": "VEC2"},
     {"bufferView": 4, "componentType": 5126, "count": 6, "type": "VEC3"},
     {"bufferView": 5, "componentType": 5125, "count": 6, "type": "SCALAR"},
-    {"bufferView": 6, "componentType": 5121, "count": 6, "type": "SCALAR"}
+    {"bufferView": 6, "componentType": 5121, "count": 6, "type": "SCALAR"},
+    {"bufferView": 7, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
+    {"bufferView": 8, "componentType": 5126, "count": 2, "type": "VEC3"},
+    {"bufferView": 9, "componentType": 5126, "count": 2, "type": "VEC4"}
   ]"#;
 
 /// glTF JSON documents: each body with its buffer as a data URI, as the external `buffer.bin`, and
@@ -203,14 +221,41 @@ fn gltf_scenes() -> Vec<String> {
     {"name": "grey", "doubleSided": true},
     {"name": "lamp", "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}}
   ]"#;
+    // An animated parent (LINEAR translation) over a child (STEP rotation), and the light at rest;
+    // the fuzz target loads at a shutter, so this reaches the motion code.
+    let animated = r#"  "scene": 0,
+  "scenes": [{"nodes": [0, 2, 3]}],
+  "nodes": [
+    {"name": "carrier", "children": [1]},
+    {"name": "spinner", "mesh": 0, "translation": [0, 0.2, 0]},
+    {"mesh": 1},
+    {"camera": 0, "translation": [0, 1, 5]}
+  ],
+  "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}}],
+  "meshes": [
+    {"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]},
+    {"primitives": [{"attributes": {"POSITION": 1}, "indices": 2, "material": 1}]}
+  ],
+  "materials": [
+    {"name": "grey", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}},
+    {"name": "lamp", "emissiveFactor": [1, 1, 1]}
+  ],
+  "animations": [{"name": "move", "channels": [
+      {"sampler": 0, "target": {"node": 0, "path": "translation"}},
+      {"sampler": 1, "target": {"node": 1, "path": "rotation"}}
+    ],
+    "samplers": [
+      {"input": 7, "output": 8, "interpolation": "LINEAR"},
+      {"input": 7, "output": 9, "interpolation": "STEP"}
+    ]}]"#;
     let mut v = Vec::new();
-    for body in [basic, textured, hierarchy] {
+    for body in [basic, textured, hierarchy, animated] {
         v.push(doc(&data_uri, body));
         v.push(doc(r#""uri": "buffer.bin""#, body));
     }
     // Without a URI, for GLB: the buffer is the BIN chunk; images still refer to tex.png.
     v.extend(
-        [basic, textured, hierarchy]
+        [basic, textured, hierarchy, animated]
             .iter()
             .map(|body| doc("", body)),
     );

@@ -120,11 +120,20 @@ pub fn exr(data: &[u8]) -> Result<(), String> {
         .map_err(|e| e.to_string())
 }
 
+/// The shutter scene files are loaded at (as a pipeline camera with a shutter would), so glTF
+/// animations become motion and reach the motion code (rigidity checks, instances, swept bounds).
+pub const SHUTTER: (f32, f32) = (0.25, 0.75);
+
 fn load_scene(name: &str, data: &[u8]) -> Result<(), String> {
     let path = write_file(name, data);
-    wedge_scene::load(&SceneSource::File(path))
+    let opts = wedge_scene::LoadOptions::default();
+    wedge_scene::load_with_shutter(&SceneSource::File(path), &opts, Some(SHUTTER))
         .map(|scene| {
             std::hint::black_box(scene.triangle_count());
+            // Trace one ray at a time of the shutter through any moving instance.
+            let c = scene.bounds.centre();
+            let hit = scene.at(0.3).intersect(c + wedge_scene::Vec3::Y, -wedge_scene::Vec3::Y, 0.0, f32::INFINITY);
+            std::hint::black_box(hit);
         })
         .map_err(|e| e.to_string())
 }

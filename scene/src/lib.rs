@@ -13,6 +13,11 @@
 //!   rectangle (the thesis's soft-shadow case). Each light provides uniform sampling, its footprint σ for
 //!   the filter bandwidth, and exact unoccluded irradiance (useful for shadow-ratio shading and tests).
 //! - **Materials/textures**: Lambertian base colour (optionally textured, linear RGB), Phong k_s/m, emission.
+//! - **Motion** ([`motion`], issue 13): named objects ([`Scene::objects`]) may move rigidly over the
+//!   shutter ([`RigidMotion`], `t ∈ [−1, 1]`); moving groups are instances with their own trees after the
+//!   static one, and [`Scene::at`] gives rays, surfaces, lights and velocities at any time ([`SceneAt`];
+//!   the time-less queries mean `t = 0`). glTF animations are sampled at the camera's shutter, `.ron`
+//!   meshes take a `motion` block, [`Scene::set_motion`] moves any object by name.
 //! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, see [`builtin`]), glTF, OBJ/MTL, and a
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
 //!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an

@@ -1123,7 +1123,7 @@ fn node_motion(path: &Path, inst: &Instance) -> Result<RigidMotion, SceneError> 
     let close = Mat3::from_mat4(inst.world_close);
     let (n, mesh) = (inst.node, inst.mesh);
     let det = open.determinant();
-    if !(det.is_finite() && det.abs() > 1e-12) {
+    if !(det.is_finite() && det != 0.0 && open.inverse().is_finite()) {
         return Err(bad(
             path,
             format!("nodes[{n}] (meshes[{mesh}]) is animated but has zero scale at shutter open"),
@@ -1201,8 +1201,9 @@ impl Track {
             }
         };
         let last = self.times.len() - 1;
-        // NaN (not reachable: shutters are checked) holds the first keyframe.
-        if !(tau > self.times[0]) {
+        // NaN (not reachable: shutters are checked) holds the first keyframe. Times are finite
+        // (checked when read), so the comparisons below are total.
+        if tau.is_nan() || tau <= self.times[0] {
             return value(0);
         }
         if tau >= self.times[last] {
@@ -1341,7 +1342,7 @@ fn read_animations(
                 &format!("{sat}.input"),
                 &ANIM_TIMES,
             )?;
-            if let Some(k) = (1..times.len()).find(|&k| !(times[k] > times[k - 1])) {
+            if let Some(k) = (1..times.len()).find(|&k| times[k] <= times[k - 1]) {
                 return Err(bad(
                     path,
                     format!(
@@ -1388,7 +1389,7 @@ fn read_animations(
             if rotation {
                 for (k, q) in values.iter().enumerate().skip(per_key / 2).step_by(per_key) {
                     let len = Quat::from_array(*q).length();
-                    if !((len - 1.0).abs() <= 1e-3) {
+                    if (len - 1.0).abs() > 1e-3 {
                         return Err(bad(
                             path,
                             format!(

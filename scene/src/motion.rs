@@ -302,7 +302,8 @@ impl PreparedMotion {
     #[inline]
     pub fn at(&self, t: f32) -> RigidTransform {
         let s = (t + 1.0) * 0.5;
-        let (translation, q) = if !(s > 0.0) {
+        // `s.is_nan() || s <= 0.0` is `!(s > 0.0)`, as the WGSL writes it: a NaN time holds the open pose.
+        let (translation, q) = if s.is_nan() || s <= 0.0 {
             (self.t[0], self.q[0])
         } else if s >= 1.0 {
             (self.t[1], self.q[1])
@@ -357,7 +358,7 @@ pub fn sin_poly(x: f32) -> f32 {
     p = p * x2 - 2.505_210_8e-8; // 1/11!
     p = p * x2 + 2.755_731_9e-6; // 1/9!
     p = p * x2 - 1.984_127e-4; // 1/7!
-    p = p * x2 + 8.333_333_5e-3; // 1/5!
+    p = p * x2 + 8.333_334e-3; // 1/5!
     p = p * x2 - 1.666_666_7e-1; // 1/3!
     (x * x2) * p + x
 }

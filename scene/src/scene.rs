@@ -523,7 +523,8 @@ impl Scene {
 }
 
 /// A [`Scene`] at one time of the shutter (`Scene::at`): the queries every kernel needs, with each
-/// object where it is at that time. Cheap to copy; compute it once per time, not per ray.
+/// object where it is at that time. Just the scene and the time (make one per sample freely); an
+/// instance's transform at that time is computed when a ray enters its swept box.
 #[derive(Clone, Copy, Debug)]
 pub struct SceneAt<'a> {
     scene: &'a Scene,
@@ -546,10 +547,41 @@ impl<'a> SceneAt<'a> {
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let s = self.scene;
-        let mut best = bvh::traverse(&s.bvh, origin, dir, tmin, tmax, false);
         if s.instances.is_empty() {
-            return best;
+            return bvh::traverse::closest(&s.bvh, origin, dir, tmin, tmax);
         }
+        let best = bvh::traverse::closest(&s.bvh, origin, dir, tmin, tmax);
+        self.intersect_instances(best, origin, dir, tmin, tmax)
+    }
+
+    /// Whether anything is hit with tmin < t < tmax at this time (stops at the first hit).
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let s = self.scene;
+        if s.instances.is_empty() {
+            return bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax);
+        }
+        bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax)
+            || self.occluded_instances(origin, dir, tmin, tmax)
+    }
+
+    // Measured: with the `instances.is_empty()` test *after* the static traversal, the scene
+    // pointer stayed live across the traversal loop and static scenes traced 13% slower (`grids`
+    // primary rays, one thread, 15.4 → 13.4 Mrays/s); tested first, as above, they trace as fast
+    // as before motion existed. The instance loops stay out of line so the static path's code
+    // does not depend on them.
+
+    /// [`SceneAt::intersect`]'s instances, after the static tree gave `best`.
+    #[inline(never)]
+    fn intersect_instances(
+        &self,
+        mut best: Option<Hit>,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let s = self.scene;
         let inv_d = dir.recip();
         for inst in &s.instances {
             let limit = best.map_or(tmax, |h| h.t);
@@ -567,16 +599,10 @@ impl<'a> SceneAt<'a> {
         best
     }
 
-    /// Whether anything is hit with tmin < t < tmax at this time (stops at the first hit).
-    #[inline]
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+    /// [`SceneAt::occluded`]'s instances.
+    #[inline(never)]
+    fn occluded_instances(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
         let s = self.scene;
-        if bvh::traverse(&s.bvh, origin, dir, tmin, tmax, true).is_some() {
-            return true;
-        }
-        if s.instances.is_empty() {
-            return false;
-        }
         let inv_d = dir.recip();
         s.instances.iter().any(|inst| {
             if !box_entered(&inst.swept_bounds, origin, inv_d, tmin, tmax) {
@@ -698,6 +724,23 @@ fn complete_objects(
     Ok(objects)
 }
 
+/// A motion's numbers as bits (a hash key: equal bits, same motion).
+fn motion_bits(m: &RigidMotion) -> [u32; 17] {
+    let mut k = [0u32; 17];
+    let v = m
+        .pivot
+        .to_array()
+        .into_iter()
+        .chain(m.translation[0].to_array())
+        .chain(m.translation[1].to_array())
+        .chain(m.rotation[0].to_array())
+        .chain(m.rotation[1].to_array());
+    for (slot, x) in k.iter_mut().zip(v) {
+        *slot = x.to_bits();
+    }
+    k
+}
+
 /// What [`assemble`] builds.
 struct Assembled {
     triangles: Vec<TriangleRecord>,
@@ -720,18 +763,17 @@ fn assemble(
     positions: &[[Vec3; 3]],
     mut objects: Vec<SceneObject>,
 ) -> Result<Assembled, SceneError> {
-    // Groups of moving objects: one per distinct motion (objects moving alike share one tree).
+    // Groups of moving objects: one per distinct motion (objects moving alike share one tree),
+    // found by the motion's bits so that many objects stay linear.
     let mut motions: Vec<RigidMotion> = Vec::new();
+    let mut by_bits: HashMap<[u32; 17], u32> = HashMap::new();
     let mut group = vec![u32::MAX; objects.len()];
     for (k, o) in objects.iter().enumerate() {
         if let Some(m) = o.motion {
-            group[k] = match motions.iter().position(|x| *x == m) {
-                Some(g) => g as u32,
-                None => {
-                    motions.push(m);
-                    (motions.len() - 1) as u32
-                }
-            };
+            group[k] = *by_bits.entry(motion_bits(&m)).or_insert_with(|| {
+                motions.push(m);
+                (motions.len() - 1) as u32
+            });
         }
     }
     let group_of = |i: usize| group[shading[i].object as usize];

@@ -991,7 +991,8 @@ fn gltf_animations_load_and_malformed_ones_are_located_errors() {
         &[],
         &["animations[0].samplers[1].output: element 1 (accessors[3]) is NaN or infinite"],
     );
-    let cases: &[(&str, &[(&str, &str)], &[&str])] = &[
+    type Case<'a> = (&'a str, &'a [(&'a str, &'a str)], &'a [&'a str]);
+    let cases: &[Case] = &[
         ("count.gltf", &[(r#""count":2,"type":"VEC3""#, r#""count":1,"type":"VEC3""#)],
          &["animations[0].samplers[0].output (accessors[2]) has 1 values but animations[0].samplers[0].input has 2 keyframes", "one value per keyframe"]),
         ("cubic.gltf", &[(r#""interpolation":"LINEAR""#, r#""interpolation":"CUBICSPLINE""#)],

@@ -63,7 +63,7 @@ fn slerp_ends_are_exact_and_zero_motion_is_the_identity() {
         );
         // The short arc may store −q, the same rotation.
         assert!(close.rotation == m.rotation[1] || close.rotation == -m.rotation[1]);
-        assert_eq!(p.q[0].dot(p.q[1]) >= 0.0, true);
+        assert!(p.q[0].dot(p.q[1]) >= 0.0);
         // A point at the ends is where the end rotation puts it (to f32 rounding of the matrix).
         let x = rng.v(-3.0, 3.0);
         let want = m.pivot + m.translation[1] + m.rotation[1] * (x - m.pivot);
@@ -845,6 +845,33 @@ fn ron_motion_blocks_and_camera_shutters() {
     // The glTF's animation sampled at the RON camera's shutter: carrier from x = 0 to 2.
     let open: Vec<Vec3> = tri.to_vec();
     assert!(close_to(&vertices_at(&scene, 1, -1.0), &open));
+    // An animated glTF placed by a similarity (scale 2, 90° about y, moved): its motion is carried
+    // along, so at both ends the triangles are the placement of the file's own poses.
+    let placed = write(
+        &dir,
+        "placed.ron",
+        r#"Scene(meshes: [(path: "anim.gltf", translate: (1, 0, -1), scale: 2.0, rotate_y_deg: 90)],
+  camera: Some((position: (0, 1, 4), look_at: (0, 0, 0), vfov_deg: 40, shutter: (0.0, 1.0))))"#,
+    );
+    let s3 = load(&SceneSource::File(placed)).unwrap();
+    let place = |p: Vec3| {
+        Quat::from_rotation_y(std::f32::consts::FRAC_PI_2) * (p * 2.0) + Vec3::new(1.0, 0.0, -1.0)
+    };
+    let pose_close: Vec<Vec3> = tri
+        .iter()
+        .map(|&p| place(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2) * p + Vec3::X * 2.0))
+        .collect();
+    let pose_open: Vec<Vec3> = tri.iter().map(|&p| place(p)).collect();
+    assert!(
+        close_to(&vertices_at(&s3, 0, -1.0), &pose_open),
+        "{:?}",
+        vertices_at(&s3, 0, -1.0)
+    );
+    assert!(
+        close_to(&vertices_at(&s3, 0, 1.0), &pose_close),
+        "{:?}",
+        vertices_at(&s3, 0, 1.0)
+    );
     // A shutter from the caller (a pipeline camera) wins over the file's.
     let s2 = load_with_shutter(
         &SceneSource::File(scene_file),

@@ -79,6 +79,33 @@ pub fn traverse(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any_hit: bool
     traverse_with(bvh, Start::root(tmax), o, d, tmin, any_hit, &mut ())
 }
 
+/// [`traverse`]'s closest hit, the query fixed at compile time (what `Scene`/`SceneAt` call).
+pub fn closest(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+    traverse_impl::<false, ()>(
+        &bvh.nodes,
+        &bvh.packs,
+        Start::root(tmax),
+        o,
+        d,
+        tmin,
+        &mut (),
+    )
+}
+
+/// [`traverse`]'s any-hit query: whether anything is hit with `tmin < t < tmax`.
+pub fn occluded(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+    traverse_impl::<true, ()>(
+        &bvh.nodes,
+        &bvh.packs,
+        Start::root(tmax),
+        o,
+        d,
+        tmin,
+        &mut (),
+    )
+    .is_some()
+}
+
 /// [`traverse`] of the tree whose root is node `root` (scenes store one tree per moving instance in
 /// the same arrays, `Scene::instances`), for a query that already holds a best hit `best` from
 /// another tree: only a hit [`closer`] than it is returned (`None` otherwise), so traversing the
