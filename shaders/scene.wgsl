@@ -269,19 +269,24 @@ struct SurfacePoint {
 
 // SceneAt::surface at `scene_time`: a moving triangle's point and normals as stored (with `dir` moved
 // into its rest pose), then moved by its instance's transform (normals rotated).
+// (One call of `surface_stored`, so it is inlined once.)
 fn surface(tri_index: u32, hb1: f32, hb2: f32, dir: vec3<f32>) -> SurfacePoint {
-    if (scene_layout.instance_count == 0u) {
-        return surface_stored(tri_index, hb1, hb2, dir);
+    var k = NO_INSTANCE;
+    if (scene_layout.instance_count > 0u) {
+        k = object_instance(shading_of(tri_index).object);
     }
-    let k = object_instance(shading_of(tri_index).object);
-    if (k == NO_INSTANCE) {
-        return surface_stored(tri_index, hb1, hb2, dir);
+    var xf: RigidTransform;
+    var d = dir;
+    if (k != NO_INSTANCE) {
+        xf = instance_transform(scene_instance(k), scene_time);
+        d = xf_inverse_vector(xf, dir);
     }
-    let xf = instance_transform(scene_instance(k), scene_time);
-    var sp = surface_stored(tri_index, hb1, hb2, xf_inverse_vector(xf, dir));
-    sp.position = xf_point(xf, sp.position);
-    sp.geometric_normal = xf_vector(xf, sp.geometric_normal);
-    sp.shading_normal = xf_vector(xf, sp.shading_normal);
+    var sp = surface_stored(tri_index, hb1, hb2, d);
+    if (k != NO_INSTANCE) {
+        sp.position = xf_point(xf, sp.position);
+        sp.geometric_normal = xf_vector(xf, sp.geometric_normal);
+        sp.shading_normal = xf_vector(xf, sp.shading_normal);
+    }
     return sp;
 }
 
