@@ -83,6 +83,7 @@ fn a_random_kernel_needs_a_pass_declared_random() {
         slots: Vec::new(),
         slot_formats: Vec::new(),
         sink_inputs: Vec::new(),
+        history: Vec::new(),
         culled: Vec::new(),
     };
     let mut pass = wedge::graph::Pass::new("shadows.sample", "shadows", "direct.light", wedge::graph::Stage::Sample);

@@ -618,6 +618,7 @@ fn struct_layouts_are_checked_by_fields() {
         slots: vec![Some(0)],
         slot_formats: Vec::new(),
         sink_inputs: Vec::new(),
+        history: Vec::new(),
         culled: Vec::new(),
     };
     let mut registry = KernelRegistry::new();
@@ -698,6 +699,7 @@ fn parity_harness_compares_struct_fields() {
         slots: vec![Some(0), Some(1)],
         slot_formats: Vec::new(),
         sink_inputs: Vec::new(),
+        history: Vec::new(),
         culled: Vec::new(),
     };
     let mut registry = KernelRegistry::new();

@@ -29,7 +29,7 @@ pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
     UniformType, Uniforms, WgslSource,
 };
-use wedge_graph::{ParamValue, Schedule};
+use wedge_graph::{BufferId, ParamValue, Schedule};
 use wedge_scene::Scene;
 
 #[derive(Debug, thiserror::Error)]
@@ -92,6 +92,9 @@ pub struct RunResult {
     pub rays: RayCounts,
     /// Physical buffers allocated (after pooling by lifetime).
     pub allocations: usize,
+    /// For each previous-frame buffer of the schedule, its source's contents at the end of this run:
+    /// what the next frame's [`Backend::run_frame`] takes as `history`.
+    pub history: BTreeMap<BufferId, BufferData>,
 }
 
 impl RunResult {
@@ -110,7 +113,25 @@ impl RunResult {
 
 pub trait Backend {
     fn name(&self) -> &'static str;
-    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError>;
+    /// Run one frame of a sequence: `history` fills the schedule's previous-frame buffers
+    /// ([`wedge_graph::Schedule::history`], keyed by those buffers; a missing one is all zeros, as in
+    /// a first frame), and the result hands back each one's source for the next frame
+    /// ([`RunResult::history`]).
+    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>) -> Result<RunResult, BackendError>;
+    /// Run one image (a first frame: every previous-frame buffer is zeros).
+    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
+        self.run_frame(job, &BTreeMap::new())
+    }
+}
+
+/// The contents of a schedule's previous-frame buffer `h` for a run: given in `history`, else zeros.
+pub fn history_input(job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>, h: &wedge_graph::History) -> BufferData {
+    let pixels = job.width as usize * job.height as usize;
+    let format = job.schedule.buffers[h.buffer.0].format;
+    match history.get(&h.buffer) {
+        Some(d) if d.len() == pixels && d.format() == format => d.clone(),
+        _ => BufferData::zeroed(format, pixels),
+    }
 }
 
 /// wedge's own shared kernels.

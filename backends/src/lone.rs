@@ -65,6 +65,7 @@ impl<'a> LonePass<'a> {
             slots: (0..n).map(Some).collect(),
             slot_formats: Vec::new(),
             sink_inputs: Vec::new(),
+            history: Vec::new(),
             culled: Vec::new(),
         };
         let mut kernels = KernelRegistry::new();

@@ -221,6 +221,10 @@ pub fn compare(cpu: &BufferData, gpu: &BufferData, tol: Tolerance) -> (f64, f64,
 pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, BackendError> {
     let counters = Counters::default();
     let mut held: BTreeMap<BufferId, BufferData> = BTreeMap::new();
+    // Previous-frame buffers as in a first frame (zeros): both backends get the same inputs.
+    for h in &job.schedule.history {
+        held.insert(h.buffer, crate::history_input(job, &BTreeMap::new(), h));
+    }
     let mut report = ParityReport { adapter: gpu.adapter_description(), ..Default::default() };
     for pass in &job.schedule.passes {
         let kernel = job.kernels.get(&pass.kernel).ok_or_else(|| BackendError::UnknownKernel {

@@ -83,6 +83,15 @@ impl Pass {
     }
 }
 
+/// A buffer that holds, in a sequence of frames, another buffer's contents from the previous frame
+/// ([`ExpandCtx::previous_frame`]): no pass writes it; whoever runs the frames fills it before the run
+/// (zeros for the first frame) from what the previous run handed back for `source`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct History {
+    pub buffer: BufferId,
+    pub source: BufferId,
+}
+
 /// All passes and buffers of a pipeline, before culling and scheduling.
 #[derive(Clone, Debug, Default)]
 pub struct Expansion {
@@ -93,6 +102,8 @@ pub struct Expansion {
     /// Sink inputs: `(sink node, input port)` → buffer. These are the roots of culling and what a
     /// run hands back.
     pub sink_inputs: Vec<(String, String, BufferId)>,
+    /// Previous-frame buffers and the buffers they are copied from between frames.
+    pub history: Vec<History>,
 }
 
 impl Expansion {
@@ -239,6 +250,22 @@ impl<'a> ExpandCtx<'a> {
             pass: Pass::new("", "", kernel, stage),
             local_name: name.to_string(),
         }
+    }
+    /// A buffer holding `source`'s contents from the previous frame of a sequence (all zeros in the
+    /// first frame and in single images: a kernel reading it must treat zeros as "no history", e.g.
+    /// through a position whose `w` marks no hit). No pass writes it; the runner fills it between
+    /// frames, so the pass writing `source` is kept (not culled) while this buffer is read. Asking
+    /// twice for the same source gives the same buffer.
+    pub fn previous_frame(&mut self, source: BufferId) -> BufferId {
+        if let Some(h) = self.expansion.history.iter().find(|h| h.source == source) {
+            return h.buffer;
+        }
+        let format = self.expansion.buffers[source.0].format;
+        let name = format!("{}@previous_frame", self.expansion.buffers[source.0].name);
+        self.expansion.buffers.push(BufferInfo { name, format });
+        let buffer = BufferId(self.expansion.buffers.len() - 1);
+        self.expansion.history.push(History { buffer, source });
+        buffer
     }
     /// Bind a declared output port to a buffer.
     pub fn output(&mut self, port: &str, id: BufferId) {

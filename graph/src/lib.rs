@@ -31,9 +31,9 @@ pub mod stage;
 mod validate;
 
 pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, StructLayout};
-pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, Pass, PassBuilder};
+pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, PassBuilder};
 pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts};
-pub use pipeline::{CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
+pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
 pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
 pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SAMPLER_NODE};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};

@@ -53,6 +53,39 @@ pub struct CameraSpec {
     pub shutter: Option<(f32, f32)>,
 }
 
+/// One key of a camera path (`camera_path` in a pipeline): where the camera is at frame `frame`.
+/// Between keys position and look-at move linearly; before the first and after the last key the
+/// camera stays at that key. The rest of the camera (field of view, lens, shutter) is the pipeline's
+/// `camera` block or the scene's.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraKey {
+    pub frame: u32,
+    pub position: (f32, f32, f32),
+    pub look_at: (f32, f32, f32),
+}
+
+impl CameraKey {
+    /// Every rule the key breaks: (field, message, help). Order of keys is checked by the validator.
+    pub fn problems(&self) -> Vec<(&'static str, String, String)> {
+        let mut out = Vec::new();
+        let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
+        for (field, v) in [("position", self.position), ("look_at", self.look_at)] {
+            if !finite3(v) {
+                out.push((field, format!("camera key at frame {}: `{field}` {v:?} is not finite", self.frame), "write three ordinary numbers".to_string()));
+            }
+        }
+        if finite3(self.position) && self.position == self.look_at {
+            out.push((
+                "look_at",
+                format!("camera key at frame {}: `look_at` equals `position`, so there is no view direction", self.frame),
+                "move `look_at` to the point the camera looks at".to_string(),
+            ));
+        }
+        out
+    }
+}
+
 /// Motion of one scene object over the shutter, given in the pipeline (for scene formats without
 /// animation, such as OBJ): a rigid translation and rotation **over the whole shutter, centred on the
 /// pose the scene file has** — the object is at `−translate/2` (rotated by `−rotate_deg/2`) when the
@@ -312,5 +345,9 @@ pub struct Pipeline {
     /// Motion of scene objects over the shutter, for scenes that carry none ([`MotionSpec`]).
     #[serde(default)]
     pub motion: Vec<MotionSpec>,
+    /// Keys of a camera path over the frames of a sequence (`wedge render --frames A..B`), in
+    /// increasing frame order ([`CameraKey`]).
+    #[serde(default)]
+    pub camera_path: Vec<CameraKey>,
     pub nodes: Vec<NodeSpec>,
 }

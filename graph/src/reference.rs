@@ -44,7 +44,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
     if spp == 0 {
         return Err(err("reference", "a reference needs at least 1 sample per pixel".into()));
     }
-    let Expansion { buffers, passes, outputs, sink_inputs } = e;
+    let Expansion { buffers, passes, outputs, sink_inputs, history } = e;
 
     // Every pass's role must make sense before anything is rewritten; report all problems at once.
     let mut problems: Vec<(String, String)> = Vec::new();
@@ -177,5 +177,5 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
         .map(|(node, port, id)| (node, port, resolve(id)))
         .filter(|(_, _, id)| !matches!(writer_stage.get(id), Some(Stage::Bandwidth | Stage::Counts)))
         .collect();
-    Ok(Expansion { buffers, passes: out_passes, outputs, sink_inputs })
+    Ok(Expansion { buffers, passes: out_passes, outputs, sink_inputs, history })
 }

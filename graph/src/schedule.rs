@@ -59,6 +59,10 @@ pub struct Schedule {
     /// Format of each physical slot.
     pub slot_formats: Vec<Format>,
     pub sink_inputs: Vec<(String, String, BufferId)>,
+    /// Previous-frame buffers read by a scheduled pass, with their sources ([`crate::History`]): the
+    /// runner fills each before the run (from the previous frame's run, else zeros), and a run hands
+    /// every source back.
+    pub history: Vec<crate::History>,
     /// Names of the culled passes, in expansion order.
     pub culled: Vec<String>,
 }
@@ -69,9 +73,11 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         buffers,
         passes,
         sink_inputs,
+        history,
         ..
     } = e;
     let nb = buffers.len();
+    let is_history = |id: BufferId| history.iter().any(|h| h.buffer == id);
 
     // Writer of every buffer (expansion guarantees at most one).
     let mut writer: Vec<Option<usize>> = vec![None; nb];
@@ -97,6 +103,9 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     let idx: Vec<NodeIndex> = (0..passes.len()).map(|i| g.add_node(i)).collect();
     for (pi, p) in passes.iter().enumerate() {
         for (binding, id) in &p.reads {
+            if is_history(*id) {
+                continue; // filled by the runner before the first pass
+            }
             let w =
                 (id.0 < nb)
                     .then(|| writer[id.0])
@@ -133,6 +142,33 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         let mut dfs = Dfs::new(rev, idx[w]);
         while let Some(n) = dfs.next(rev) {
             live[n.index()] = true;
+        }
+    }
+    // A previous-frame buffer read by a live pass keeps its source's writer (and what it needs) live,
+    // which may make more previous-frame buffers read: repeat until nothing changes.
+    loop {
+        let mut changed = false;
+        for h in &history {
+            let read = passes.iter().enumerate().any(|(i, p)| live[i] && p.reads.iter().any(|(_, id)| *id == h.buffer));
+            let Some(w) = writer.get(h.source.0).copied().flatten() else {
+                if read {
+                    return Err(GraphError::Expand {
+                        node: buffers[h.buffer.0].name.clone(),
+                        message: format!("asks for the previous frame of `{}`, which no pass writes", buffers[h.source.0].name),
+                    });
+                }
+                continue;
+            };
+            if read && !live[w] {
+                let mut dfs = Dfs::new(rev, idx[w]);
+                while let Some(n) = dfs.next(rev) {
+                    live[n.index()] = true;
+                }
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
         }
     }
     let culled: Vec<String> = passes
@@ -206,6 +242,20 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             l.last = end;
         }
     }
+    // Previous-frame buffers exist from the start (filled before pass 0) to their last reader; their
+    // sources to the end (a run hands them back for the next frame).
+    let live_history: Vec<crate::History> = history
+        .iter()
+        .copied()
+        .filter(|h| order.iter().any(|&pi| passes[pi].reads.iter().any(|(_, id)| *id == h.buffer)))
+        .collect();
+    for h in &live_history {
+        let last = order.iter().rposition(|&pi| passes[pi].reads.iter().any(|(_, id)| *id == h.buffer)).unwrap_or(0);
+        lifetimes[h.buffer.0] = Some(Lifetime { first: 0, last });
+        if let Some(l) = lifetimes[h.source.0].as_mut() {
+            l.last = end;
+        }
+    }
 
     // Pool plan: greedy interval colouring per format, buffers in order of first write.
     let mut by_first: Vec<usize> = (0..nb).filter(|&b| lifetimes[b].is_some()).collect();
@@ -235,6 +285,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         slots,
         slot_formats,
         sink_inputs,
+        history: live_history,
         culled,
     })
 }

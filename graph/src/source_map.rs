@@ -335,6 +335,9 @@ pub struct SourceMap {
     /// The value of `motion` (its `[`), and each entry's fields: (name, value position) per entry.
     pub motion: Option<Pos>,
     pub motion_entries: Vec<(Pos, Vec<(String, Pos)>)>,
+    /// The same for `camera_path`.
+    pub camera_path: Option<Pos>,
+    pub camera_path_entries: Vec<(Pos, Vec<(String, Pos)>)>,
     pub nodes: Vec<NodeSource>,
 }
 
@@ -366,6 +369,10 @@ impl SourceMap {
                             map.motion = value;
                             map.motion_entries = array_of_structs(&toks, i + 2);
                         }
+                        "camera_path" => {
+                            map.camera_path = value;
+                            map.camera_path_entries = array_of_structs(&toks, i + 2);
+                        }
                         "nodes" => {
                             map.nodes_key = Some(toks[i].pos);
                             if is_punct(&toks, i + 2, '[') {
@@ -388,10 +395,12 @@ impl SourceMap {
     /// Position of the value written for field `name` of motion entry `k`, else of the entry, else of
     /// the `motion` array.
     pub fn motion_field(&self, k: usize, name: &str) -> Option<Pos> {
-        match self.motion_entries.get(k) {
-            Some((entry, fields)) => Some(fields.iter().find(|(n, _)| n == name).map_or(*entry, |(_, p)| *p)),
-            None => self.motion,
-        }
+        entry_field(&self.motion_entries, self.motion, k, name)
+    }
+
+    /// The same for entry `k` of `camera_path`.
+    pub fn camera_path_field(&self, k: usize, name: &str) -> Option<Pos> {
+        entry_field(&self.camera_path_entries, self.camera_path, k, name)
     }
 
     /// Position of the value written for camera field `name`, else of the camera block.
@@ -450,6 +459,14 @@ fn camera_fields(toks: &[Token], mut i: usize) -> Vec<(String, Pos)> {
         }
     }
     fields
+}
+
+/// Position of field `name` of entry `k` of an array of structs, else of the entry, else of the array.
+fn entry_field(entries: &[(Pos, Vec<(String, Pos)>)], array: Option<Pos>, k: usize, name: &str) -> Option<Pos> {
+    match entries.get(k) {
+        Some((entry, fields)) => Some(fields.iter().find(|(n, _)| n == name).map_or(*entry, |(_, p)| *p)),
+        None => array,
+    }
 }
 
 /// The elements of the array starting at `toks[i]` (`[ (…), (…) ]`), each a struct: its position and

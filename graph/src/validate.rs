@@ -632,6 +632,21 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         }
     }
 
+    // Camera path: usable keys in strictly increasing frame order.
+    for (k, key) in pl.camera_path.iter().enumerate() {
+        for (field, message, help) in key.problems() {
+            r.add(DiagnosticKind::BadCamera, p.map.camera_path_field(k, field), message, help);
+        }
+        if k > 0 && key.frame <= pl.camera_path[k - 1].frame {
+            r.add(
+                DiagnosticKind::BadCamera,
+                p.map.camera_path_field(k, "frame"),
+                format!("camera key {} is at frame {}, not after the key before it (frame {})", k + 1, key.frame, pl.camera_path[k - 1].frame),
+                "list the keys of `camera_path` in increasing frame order, each frame once".into(),
+            );
+        }
+    }
+
     // Node names: first definition wins for wiring; later ones are reported.
     let mut index_of: HashMap<&str, usize> = HashMap::new();
     for (i, n) in pl.nodes.iter().enumerate() {

@@ -265,3 +265,56 @@ fn reading_an_unwritten_buffer_is_an_error() {
         other => panic!("expected an error, got {:?}", other.map(|_| ())),
     }
 }
+
+/// A node that averages its input with that buffer's previous frame: `x` and `x@previous_frame` →
+/// `y`, plus an unread side buffer whose previous frame it asks for but never reads.
+struct Temporal;
+impl NodeKind for Temporal {
+    fn kind(&self) -> &'static str {
+        "Temporal"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("x", Format::F32, "")]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("y", Format::F32, "")]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let x = ctx.required("x")?;
+        let side = ctx.buffer("side", Format::F32);
+        ctx.pass("side", "side", Stage::Sample).write("out", side).finish();
+        let _unused = ctx.previous_frame(side);
+        let prev = ctx.previous_frame(x);
+        assert_eq!(ctx.previous_frame(x), prev, "one buffer per source");
+        let y = ctx.buffer("y", Format::F32);
+        ctx.pass("mix", "mix", Stage::Filter).read("a", x).read("b", prev).write("out", y).finish();
+        ctx.output("y", y);
+        Ok(())
+    }
+}
+
+#[test]
+fn previous_frame_buffers_are_inputs_that_keep_their_sources() {
+    let mut reg = registry();
+    reg.register(std::sync::Arc::new(Temporal));
+    let text = pipeline(&[SRC, r#"(name: "t", kind: "Temporal", inputs: {"x": "src.a"})"#, &sink("t.y")]);
+    let v = validate(&parse(&text), &reg).unwrap_or_else(|e| panic!("{e}"));
+    let s = schedule(expand(&v).unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    // Only the read one is scheduled; the side pass that feeds nothing is culled.
+    assert_eq!(s.history.len(), 1, "{:?}", s.history);
+    let h = s.history[0];
+    assert_eq!(s.buffers[h.buffer.0].name, "src.a@previous_frame");
+    assert_eq!(h.source, buffer(&s, "src.a"));
+    assert!(s.culled.contains(&"t.side".to_string()), "{:?}", s.culled);
+    // It exists from before the first pass to its reader; its source lives to the end of the run.
+    let end = s.passes.len() - 1;
+    let mix = s.passes.iter().position(|p| p.name == "t.mix").unwrap();
+    assert_eq!(s.lifetimes[h.buffer.0], Some(Lifetime { first: 0, last: mix }));
+    assert_eq!(s.lifetimes[h.source.0].unwrap().last, end);
+    // It has storage of its own.
+    let slot = s.slots[h.buffer.0].unwrap();
+    assert!(s.slots.iter().enumerate().all(|(b, sl)| b == h.buffer.0 || *sl != Some(slot) || s.lifetimes[b].unwrap().first > mix));
+}

@@ -75,12 +75,18 @@ impl Backend for CpuBackend {
         "cpu"
     }
 
-    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
+    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>) -> Result<RunResult, BackendError> {
         let sched = job.schedule;
         let mut rays = crate::RayCounts::default();
         // Physical storage, indexed by pool slot; a slot holds the buffer currently living in it.
         let mut slots: Vec<Option<(BufferId, BufferData)>> = vec![None; sched.slot_formats.len()];
         let mut allocations = 0usize;
+        // Previous-frame buffers are there before the first pass.
+        for h in &sched.history {
+            let slot = sched.slots[h.buffer.0].expect("a scheduled previous-frame buffer has a slot");
+            slots[slot] = Some((h.buffer, crate::history_input(job, history, h)));
+            allocations += 1;
+        }
         let mut timings = Vec::with_capacity(sched.passes.len());
         for pass in &sched.passes {
             let start = Instant::now();
@@ -135,6 +141,16 @@ impl Backend for CpuBackend {
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
             }
         }
-        Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations })
+        let mut next = BTreeMap::new();
+        for h in &sched.history {
+            let slot = sched.slots[h.source.0].expect("a previous-frame source has a slot");
+            match &slots[slot] {
+                Some((held, data)) if *held == h.source => {
+                    next.insert(h.buffer, data.clone());
+                }
+                _ => return Err(BackendError::Other(format!("`{}` was overwritten before the run ended", sched.buffers[h.source.0].name))),
+            }
+        }
+        Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })
     }
 }

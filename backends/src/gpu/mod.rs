@@ -976,7 +976,7 @@ impl Backend for GpuBackend {
         "wgpu"
     }
 
-    fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
+    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>) -> Result<RunResult, BackendError> {
         let sched = job.schedule;
         let passes: Vec<&Pass> = sched.passes.iter().collect();
         // Fail before any work if a pass cannot run here (bindings, missing WGSL, shader errors).
@@ -993,6 +993,14 @@ impl Backend for GpuBackend {
         self.last_device_times.clear();
         self.last_bands.clear();
         self.last_plans.clear();
+        // Previous-frame buffers are uploaded before the first pass.
+        for h in &sched.history {
+            let slot = sched.slots[h.buffer.0].ok_or_else(|| gpu_err("a previous-frame buffer has no pool slot"))?;
+            let data = crate::history_input(job, history, h);
+            slots[slot] = Some(self.storage_init(&sched.buffers[h.buffer.0].name, &to_bytes(&data))?);
+            holder[slot] = Some(h.buffer);
+            allocations += 1;
+        }
         for pass in &passes {
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
             let mut bufs = Vec::new();
@@ -1052,6 +1060,17 @@ impl Backend for GpuBackend {
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
             }
         }
-        Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations })
+        let mut next = BTreeMap::new();
+        for h in &sched.history {
+            let slot = sched.slots[h.source.0].ok_or_else(|| gpu_err("a previous-frame source has no slot"))?;
+            match (&slots[slot], holder[slot]) {
+                (Some(buf), Some(held)) if held == h.source => {
+                    let name = &sched.buffers[h.source.0].name;
+                    next.insert(h.buffer, self.read_buffer(&format!("reading `{name}`"), buf, sched.buffers[h.source.0].format, pixels)?);
+                }
+                _ => return Err(BackendError::Other(format!("`{}` was overwritten before the run ended", sched.buffers[h.source.0].name))),
+            }
+        }
+        Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })
     }
 }
