@@ -70,6 +70,11 @@ enum Command {
         /// Scale every node's bandwidth parameter `mu` (a finite number > 0).
         #[arg(long, value_parser = parse_mu)]
         mu: Option<f64>,
+        /// Render frames A to B (both included) of a sequence: the camera follows the pipeline's
+        /// `camera_path`, each frame has its own noise, temporal filters see the frame before.
+        /// Writes frame_NNNN.exr/png per frame, preview.gif, and the last frame's outputs.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
     },
     /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
     /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
@@ -290,6 +295,65 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
     Ok(text)
 }
 
+/// Most frames one `--frames` range may hold.
+const MAX_FRAMES: u32 = 100_000;
+
+/// `A..B` (both included, A ≤ B) or a single frame `A`.
+fn parse_frames(s: &str) -> Result<(u32, u32), String> {
+    let number = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("`{t}` is not a frame number (0..=4294967295)"));
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (number(a)?, number(b.trim_start_matches('='))?),
+        None => (number(s)?, number(s)?),
+    };
+    if a > b {
+        return Err(format!("{a}..{b} ends before it starts; write the first frame first, e.g. 0..23"));
+    }
+    if b - a >= MAX_FRAMES {
+        return Err(format!("{a}..{b} is {} frames, more than {MAX_FRAMES}; render it in parts", u64::from(b - a) + 1));
+    }
+    Ok((a, b))
+}
+
+/// `render --frames A..B`: every frame in order on one backend, each with the previous frame's
+/// history; the images go out together with the last frame's full outputs (see
+/// [`wedge::outputs::write_sequence`]).
+fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32)) -> Result<String, WedgeError> {
+    eprintln!(
+        "{} on scene `{}`, {}x{}, frames {first}..{last}, seed {} (+ frame)",
+        session.pipeline.path.display(),
+        session.scene.name,
+        session.width,
+        session.height,
+        session.seed
+    );
+    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    check_memory(session, mode, common.memory_limit)?;
+    let bars = Bars::default();
+    let mut backend: Box<dyn wedge::backends::Backend + Send> = match common.backend.as_str() {
+        "wgpu" => Box::new(open_gpu(common.gpu_limits.as_deref())?),
+        _ => Box::new(CpuBackend::new()),
+    };
+    let (mut images, mut previous, mut seconds) = (Vec::new(), None, 0.0f64);
+    for frame in first..=last {
+        let run = with_threads(common.threads, || session.run_frame(backend.as_mut(), &bars, frame, first, previous.as_ref()))??;
+        seconds += run.total_seconds();
+        if let Some(b) = run.output("color") {
+            images.push((frame, wedge::outputs::buffer_to_image(b, session.width, session.height)));
+        }
+        previous = Some(run);
+    }
+    let run = previous.expect("a frame range holds at least one frame");
+    let written = wedge::outputs::write_sequence(&common.out, "render", &run, &images, session.width, session.height)?;
+    let n = last - first + 1;
+    let mut text = summary(&run, session.width, session.height);
+    text.push_str(&format!("{n} frames in {seconds:.2} s of passes: {:.2} frames per second ({})\n", f64::from(n) / seconds.max(1e-9), backend.name()));
+    text.push_str(&written.warnings());
+    for f in &written.files {
+        text.push_str(&format!("wrote {}\n", f.display()));
+    }
+    Ok(text)
+}
+
 /// The wgpu backend with the limits `--gpu-limits` names (None: the library's default, which reads
 /// `WEDGE_WGPU_LIMITS`).
 fn open_gpu(limits: Option<&str>) -> Result<wedge::backends::gpu::GpuBackend, WedgeError> {
@@ -388,9 +452,12 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu } => {
-            let session = Session::open(pipeline.as_deref(), &overrides(&common, mu)?)?;
-            render(&session, &common, "render")
+        Command::Render { pipeline, common, mu, frames } => {
+            let mut session = Session::open(pipeline.as_deref(), &overrides(&common, mu)?)?;
+            match frames {
+                Some(frames) => render_frames(&mut session, &common, frames),
+                None => render(&session, &common, "render"),
+            }
         }
         Command::Reference { pipeline, common, spp, sampling } => {
             let session = Session::reference(pipeline.as_deref(), spp, &sampling, &overrides(&common, None)?)?;

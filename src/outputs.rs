@@ -10,7 +10,7 @@ use wedge_backends::{BufferData, KernelClass, RunResult};
 use wedge_effects::heatmap;
 
 use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
-use crate::image::{write_exr, write_png_srgb, Image, ImageError};
+use crate::image::{write_exr, write_gif, write_png_srgb, Image, ImageError};
 use crate::staging::Staging;
 
 /// A vec3/vec4 buffer as an image (first three components).
@@ -62,6 +62,20 @@ fn stage_image_pair(set: &mut Staging, stem: &str, img: &Image) -> Result<usize,
 /// two heatmaps, every `Heatmap` sink (`wedge_effects::heatmap`) becomes `<node name>.png`, drawn as
 /// its parameters say (the run carries each sink's kind and parameters, [`RunResult::sinks`]).
 pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
+    write_sequence(dir, stem, run, &[], width, height)
+}
+
+/// [`write_run`] for the last frame of a sequence, with every frame's image beside it in the same
+/// all-or-nothing set: `frame_NNNN.exr` / `.png` per `(frame, image)` of `frames` and `preview.gif`,
+/// an animated preview of them (sRGB, 8 bits, 24 frames per second, looping).
+pub fn write_sequence(
+    dir: &Path,
+    stem: &str,
+    run: &RunResult,
+    frames: &[(u32, Image)],
+    width: u32,
+    height: u32,
+) -> Result<WrittenRun, ImageError> {
     let mut set = Staging::new(dir)?;
     let mut non_finite = Vec::new();
     // File name → which output writes it, so a Heatmap named like another output is an error, not a
@@ -104,6 +118,21 @@ pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u3
         let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None, arrows: arrows.as_deref() };
         let values = if d.velocity { (0..b.len()).map(|i| b.component(i, 3)).collect() } else { b.to_scalar() };
         stage_values(&mut set, &file, &values, d.mask_zero, &spec, width, height)?;
+    }
+    for (frame, img) in frames {
+        let name = format!("frame_{frame:04}");
+        for ext in ["exr", "png"] {
+            claim(format!("{name}.{ext}"), format!("frame {frame}"))?;
+        }
+        let bad = stage_image_pair(&mut set, &name, img)?;
+        if bad > 0 {
+            non_finite.push((name, bad));
+        }
+    }
+    if !frames.is_empty() {
+        claim("preview.gif".into(), "the animated preview".into())?;
+        let images: Vec<&Image> = frames.iter().map(|(_, img)| img).collect();
+        write_gif(&set.file("preview.gif")?, &images, 24)?;
     }
     Ok(WrittenRun { files: set.commit()?, non_finite })
 }
@@ -202,7 +231,7 @@ mod tests {
     fn run_with_color(color: Vec<[f32; 3]>) -> RunResult {
         let mut outputs = BTreeMap::new();
         outputs.insert(("out".to_string(), "color".to_string()), BufferData::Vec3(color));
-        RunResult { outputs, sinks: BTreeMap::new(), timings: Vec::new(), rays: RayCounts::default(), allocations: 0 }
+        RunResult { outputs, sinks: BTreeMap::new(), timings: Vec::new(), rays: RayCounts::default(), allocations: 0, history: BTreeMap::new() }
     }
 
     #[test]

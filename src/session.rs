@@ -1,6 +1,7 @@
 //! A session: a validated pipeline, its schedule and its loaded scene, with the command-line
 //! overrides applied — everything `wedge render`, `reference`, `graph` and the tests share.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use wedge_backends::{Backend, BackendError, Job, KernelRegistry, Progress, RunResult, SinkNode};
@@ -134,6 +135,11 @@ impl Session {
             scene.camera = camera_from_spec(c, &scene.camera);
         }
         apply_motion(&mut scene, &pipeline)?;
+        // A pipeline with a camera path renders its frame 0 as a single image.
+        if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, 0) {
+            scene.camera.position = position;
+            scene.camera.look_at = look_at;
+        }
         if shutter.is_some_and(|(open, close)| open == close) {
             freeze_motion(&mut scene)?;
         }
@@ -149,16 +155,64 @@ impl Session {
     }
 
     pub fn run(&self, backend: &mut dyn Backend, progress: &dyn Progress) -> Result<RunResult, WedgeError> {
+        self.run_with(backend, progress, self.seed, &BTreeMap::new())
+    }
+
+    /// The camera of frame `frame` of a sequence: the pipeline's `camera_path` (position and look-at
+    /// interpolated linearly between its keys, held before the first and after the last) over the
+    /// session's camera (field of view, lens, shutter, up); without a path, the session's camera.
+    pub fn camera_at(&self, frame: u32) -> Camera {
+        let mut cam = self.scene.camera;
+        if let Some((position, look_at)) = path_at(&self.pipeline.pipeline.camera_path, frame) {
+            cam.position = position;
+            cam.look_at = look_at;
+        }
+        cam
+    }
+
+    /// Run frame `frame` of a sequence that started at `first`: the scene seen by
+    /// [`Session::camera_at`]`(frame)`, the camera of frame − 1 as the scene's previous camera (none
+    /// for the first frame), the seed offset by the frame (each frame's noise is its own), and the
+    /// previous-frame buffers ([`wedge_graph::Schedule::history`]) from `previous`, the run of the frame
+    /// before (zeros without one). The session's camera is restored afterwards.
+    pub fn run_frame(
+        &mut self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        frame: u32,
+        first: u32,
+        previous: Option<&RunResult>,
+    ) -> Result<RunResult, WedgeError> {
+        let base = self.scene.camera;
+        let camera = self.camera_at(frame);
+        let previous_camera = (frame > first).then(|| self.camera_at(frame - 1));
+        self.scene.camera = camera;
+        self.scene.previous_camera = previous_camera;
+        let empty = BTreeMap::new();
+        let history = previous.map_or(&empty, |r| &r.history);
+        let run = self.run_with(backend, progress, self.seed.wrapping_add(frame), history);
+        self.scene.camera = base;
+        self.scene.previous_camera = None;
+        run
+    }
+
+    fn run_with(
+        &self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        seed: u32,
+        history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
+    ) -> Result<RunResult, WedgeError> {
         let job = Job {
             schedule: &self.schedule,
             scene: &self.scene,
             kernels: &self.kernels,
             width: self.width,
             height: self.height,
-            seed: self.seed,
+            seed,
             progress,
         };
-        let mut run = backend.run(&job)?;
+        let mut run = backend.run_frame(&job, history)?;
         // The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
         run.sinks = self
             .pipeline
@@ -251,6 +305,25 @@ impl MemoryEstimate {
             format_bytes(limit)
         )))
     }
+}
+
+/// Position and look-at of a camera path at `frame` (see [`Session::camera_at`]); `None` without keys.
+pub fn path_at(keys: &[wedge_graph::CameraKey], frame: u32) -> Option<(Vec3, Vec3)> {
+    let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
+    let at = |k: &wedge_graph::CameraKey| (v(k.position), v(k.look_at));
+    let first = keys.first()?;
+    if frame <= first.frame {
+        return Some(at(first));
+    }
+    for pair in keys.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        if frame <= b.frame {
+            let s = (frame - a.frame) as f32 / (b.frame - a.frame) as f32;
+            let ((pa, la), (pb, lb)) = (at(a), at(b));
+            return Some((pa.lerp(pb, s), la.lerp(lb, s)));
+        }
+    }
+    keys.last().map(at)
 }
 
 /// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]): something moves

@@ -133,6 +133,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub lights: Vec<AreaLight>,
     pub camera: Camera,
+    /// In a sequence of frames, the camera of the frame before this one (a temporal filter
+    /// reprojects into it); `None` for a single image and the first frame.
+    pub previous_camera: Option<Camera>,
     /// Bounds of the triangles at rest and of every instance over the whole shutter.
     pub bounds: Aabb,
     /// Problems the loader worked around (unknown `usemtl`, dropped zero-area or duplicate triangles…);
@@ -325,6 +328,7 @@ impl Scene {
             textures,
             lights,
             camera,
+            previous_camera: None,
             bounds,
             warnings,
             objects: built.objects,
