@@ -10,6 +10,7 @@ pub mod constant;
 pub mod direct;
 pub mod filter;
 pub mod filter_ch5;
+pub mod filter_ch6;
 pub mod filter_motion;
 pub mod hemisphere;
 pub mod indirect;
@@ -31,6 +32,8 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(filter_ch5::IrradianceFilter));
     reg.register(Arc::new(filter_ch5::DefocusFilter));
     reg.register(Arc::new(filter_motion::MotionFilter));
+    reg.register(Arc::new(filter_ch6::EnvironmentFilter));
+    reg.register(Arc::new(filter_ch6::EnvironmentHistory));
     reg.register(Arc::new(filter_motion::Radiance3Filter));
     reg.register(Arc::new(constant::FillConstant));
     reg.register(Arc::new(constant::FillConstantF32));

@@ -1,0 +1,335 @@
+//! The separable filter of thesis Ch. 6 (Sec. 6.7, eqs. 6.21–6.26) on one irradiance, with temporal
+//! filtering across the frames of a sequence.
+//!
+//! - `filter.environment` (eqs. 6.21–6.23): one image axis (`axis` 0 = x, 1 = y) of the Gaussian
+//!   `w = exp(−2 B̄² ‖p − p'‖²)` on world positions, `B̄² = ½(B²(i) + B²(j))` the mean of the two
+//!   pixels' squared bandwidths along that axis (`bandwidth` holds `(B_X, B_Y)` in 1/m: "since the
+//!   bandwidth estimates are also noisy"), over `|k| ≤ max_radius` pixels (the thesis: a 30 × 30
+//!   window). Neighbours on another object or the background, whose normals differ by more than the
+//!   normal test allows (10°, wedge's convention for every world-space filter), or whose values are not
+//!   finite are not used. A pixel with no hit or no positive bandwidth passes through.
+//! - `filter.environment_history` (eqs. 6.24–6.25): the previous frame's unfiltered irradiance,
+//!   reprojected: for pixel `(x, y)` with world position `p`, `(x', y')` is the previous frame's pixel
+//!   whose position is closest to `p` (searched over the 3 × 3 pixels around `p`'s projection by the
+//!   previous camera, `Scene::previous_camera`), and the output is the x filter of the previous raw
+//!   irradiance around `(x', y')` with weights `exp(−2 B̄² ‖p − p'(x' + i, y')‖²)` measured from the
+//!   *current* `p` (eq. 6.25: "the center of the kernel is offset to (x', y')"), `w` = 1 where any
+//!   previous neighbour had a weight, else 0 (no previous frame, off screen, disoccluded).
+//! - The y pass of `filter.environment` with `previous` bound joins it (eq. 6.26, whose printed form
+//!   is garbled — EQUATIONS.md: the previous-frame term uses w′): reading taken, the previous frame's
+//!   x-filtered value at each `(x, y + j)` enters the y sum with the same spatial weight as the current
+//!   one, `Ē = Σ_j w_j (E_X + v'_j E'_X)(x, y+j) / Σ_j w_j (1 + v'_j)`, `v'_j` its validity. Both sit at
+//!   the current pixels' positions by construction, so the spatial weight is theirs.
+//!
+//! WGSL mirror: `shaders/filter_environment.wgsl` (both kernels), term by term in the same order.
+//! Non-finite values are never used as neighbours; each pixel whose own value is non-finite is
+//! counted once in `non_finite_samples` (in the x and history passes; the y pass sees x outputs).
+
+use glam::{Vec2, Vec3};
+use wedge_graph::Format;
+use wedge_scene::Camera;
+
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernels::paths::camera_uniforms;
+use crate::kernels::v3;
+use crate::BackendError;
+
+/// Largest `max_radius` a pass may ask for.
+pub const MAX_RADIUS_LIMIT: i64 = 64;
+
+fn is_finite3(v: [f32; 3]) -> bool {
+    v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
+}
+
+/// The filter's parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct Ch6Params {
+    pub axis: usize,
+    pub max_radius: i32,
+    pub normal_cos: f32,
+}
+
+/// Whether neighbour `j` (position `pj`, normal `nj`) may be averaged into pixel `i`.
+fn compatible(pi: [f32; 4], ni: Vec3, pj: [f32; 4], nj: [f32; 4], normal_cos: f32) -> bool {
+    pj[3] == pi[3] && ni.dot(v3(nj).normalize_or_zero()) >= normal_cos
+}
+
+/// The mean squared bandwidth `B̄²` of two pixels along `axis`.
+fn mean_b2(bi: [f32; 2], bj: [f32; 2], axis: usize) -> f32 {
+    0.5 * (bi[axis] * bi[axis] + bj[axis] * bj[axis])
+}
+
+/// Eqs. 6.21–6.23 (and 6.26 with `previous`) at pixel `(x, y)`.
+#[allow(clippy::too_many_arguments)]
+pub fn filter_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    p: &Ch6Params,
+    value: &[[f32; 3]],
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    bandwidth: &[[f32; 2]],
+    previous: Option<&[[f32; 4]]>,
+) -> [f32; 3] {
+    let i = (y * width + x) as usize;
+    let centre = value[i];
+    let bi = bandwidth[i];
+    if !(position[i][3] > 0.0 && bi[p.axis] > 0.0 && bi[p.axis].is_finite()) {
+        return centre;
+    }
+    let ni = v3(normal[i]).normalize_or_zero();
+    let xi = v3(position[i]);
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for k in -p.max_radius..=p.max_radius {
+        let (jx, jy) = if p.axis == 0 { (x + k, y) } else { (x, y + k) };
+        if jx < 0 || jy < 0 || jx >= width || jy >= height {
+            continue;
+        }
+        let j = (jy * width + jx) as usize;
+        let v = value[j];
+        if !is_finite3(v) || !compatible(position[i], ni, position[j], normal[j], p.normal_cos) {
+            continue;
+        }
+        let d2 = (v3(position[j]) - xi).length_squared();
+        let w = (-2.0 * mean_b2(bi, bandwidth[j], p.axis) * d2).exp();
+        for c in 0..3 {
+            sum[c] += w * v[c];
+        }
+        wsum += w;
+        if let Some(prev) = previous {
+            let e = prev[j];
+            if e[3] > 0.0 && is_finite3([e[0], e[1], e[2]]) {
+                for c in 0..3 {
+                    sum[c] += w * e[c];
+                }
+                wsum += w;
+            }
+        }
+    }
+    if wsum > 0.0 {
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
+    } else {
+        centre
+    }
+}
+
+/// A camera's projection of a world point to pixel coordinates (continuous, (0,0) the top-left
+/// corner), or `None` behind it: the inverse of [`Camera::ray`]'s pinhole mapping.
+pub fn project(cam: &Camera, p: Vec3, width: u32, height: u32) -> Option<Vec2> {
+    let (right, up, forward) = cam.basis();
+    let d = p - cam.position;
+    let z = d.dot(forward);
+    if !(z > 0.0) {
+        return None;
+    }
+    let (w, h) = (width.max(1) as f32, height.max(1) as f32);
+    let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+    let sx = d.dot(right) / z;
+    let sy = d.dot(up) / z;
+    Some(Vec2::new((sx / (tan_half * (w / h)) + 1.0) * 0.5 * w, (1.0 - sy / tan_half) * 0.5 * h))
+}
+
+/// Eqs. 6.24–6.25 at pixel `(x, y)`: the previous frame's raw irradiance x-filtered around the
+/// previous pixel closest to this pixel's position, weights from this pixel's position (rgb, valid).
+#[allow(clippy::too_many_arguments)]
+pub fn history_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    p: &Ch6Params,
+    previous_camera: Option<&Camera>,
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    bandwidth: &[[f32; 2]],
+    prev_value: &[[f32; 3]],
+    prev_position: &[[f32; 4]],
+    prev_normal: &[[f32; 4]],
+    prev_bandwidth: &[[f32; 2]],
+) -> [f32; 4] {
+    let i = (y * width + x) as usize;
+    let none = [0.0; 4];
+    let Some(cam) = previous_camera else { return none };
+    if !(position[i][3] > 0.0) {
+        return none;
+    }
+    let xi = v3(position[i]);
+    let ni = v3(normal[i]).normalize_or_zero();
+    let Some(q) = project(cam, xi, width as u32, height as u32) else { return none };
+    // Off the previous frame (or not a number): that frame did not see this point, and the nearest
+    // edge pixel is another point of the surface.
+    if !(q.x >= 0.0 && q.x < width as f32 && q.y >= 0.0 && q.y < height as f32) {
+        return none;
+    }
+    let (qx, qy) = (q.x.floor() as i64, q.y.floor() as i64);
+    // The previous pixel with the closest world position (same object), around the projection.
+    let mut best: Option<(f32, i32, i32)> = None;
+    for dy in -1..=1i64 {
+        for dx in -1..=1i64 {
+            let (sx, sy) = (qx + dx, qy + dy);
+            if sx < 0 || sy < 0 || sx >= width as i64 || sy >= height as i64 {
+                continue;
+            }
+            let j = (sy * width as i64 + sx) as usize;
+            if prev_position[j][3] != position[i][3] {
+                continue;
+            }
+            let d2 = (v3(prev_position[j]) - xi).length_squared();
+            if best.is_none_or(|(b, _, _)| d2 < b) {
+                best = Some((d2, sx as i32, sy as i32));
+            }
+        }
+    }
+    let Some((_, px, py)) = best else { return none };
+    let bi = bandwidth[i];
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for k in -p.max_radius..=p.max_radius {
+        let jx = px + k;
+        if jx < 0 || jx >= width {
+            continue;
+        }
+        let j = (py * width + jx) as usize;
+        let v = prev_value[j];
+        if !is_finite3(v) || !compatible(position[i], ni, prev_position[j], prev_normal[j], p.normal_cos) {
+            continue;
+        }
+        let d2 = (v3(prev_position[j]) - xi).length_squared();
+        let w = (-2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2).exp();
+        for c in 0..3 {
+            sum[c] += w * v[c];
+        }
+        wsum += w;
+    }
+    if wsum > 0.0 {
+        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, 1.0]
+    } else {
+        none
+    }
+}
+
+fn params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
+    let axis = ctx.int_param("axis")?;
+    if !(0..=1).contains(&axis) {
+        return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("`axis` = {axis}; use 0 (x) or 1 (y)") });
+    }
+    Ok(Ch6Params {
+        axis: axis as usize,
+        max_radius: ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32,
+        normal_cos: ctx.f32_param("normal_cos")?,
+    })
+}
+
+fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
+    Counters::add(&ctx.counters.non_finite_samples, value.iter().filter(|v| !is_finite3(**v)).count() as u64);
+}
+
+/// `filter.environment`: one axis of eqs. 6.21–6.23 (and 6.26 with `previous`).
+pub struct EnvironmentFilter;
+
+impl Kernel for EnvironmentFilter {
+    fn name(&self) -> &'static str {
+        "filter.environment"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("value", Format::Vec3),
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read("bandwidth", Format::Vec2),
+            // The previous frame's x-filtered irradiance at each pixel (`filter.environment_history`):
+            // joins the y pass (eq. 6.26).
+            Binding::read_opt("previous", Format::Vec4),
+            Binding::write("out", Format::Vec3),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/filter_environment.wgsl"), |ctx| {
+                let p = params(ctx)?;
+                Ok(Uniforms::new().u32("axis", p.axis as u32).i32("max_radius", p.max_radius).f32("normal_cos", p.normal_cos))
+            })
+            .with_reach(|ctx| {
+                let p = params(ctx)?;
+                Ok(if p.axis == 0 { Reach::Pixel } else { Reach::Rows(p.max_radius as u32) })
+            }),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let p = params(ctx)?;
+        let value = ctx.read::<[f32; 3]>("value")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let bandwidth = ctx.read::<[f32; 2]>("bandwidth")?;
+        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
+        if p.axis == 0 {
+            count_non_finite(ctx, value);
+        }
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| {
+            filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth, previous)
+        });
+        ctx.put("out", out)
+    }
+}
+
+/// `filter.environment_history`: eqs. 6.24–6.25 (see the module doc).
+pub struct EnvironmentHistory;
+
+impl Kernel for EnvironmentHistory {
+    fn name(&self) -> &'static str {
+        "filter.environment_history"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read("bandwidth", Format::Vec2),
+            Binding::read("previous_value", Format::Vec3),
+            Binding::read("previous_position", Format::Vec4),
+            Binding::read("previous_normal", Format::Vec4),
+            Binding::read("previous_bandwidth", Format::Vec2),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/filter_environment_history.wgsl"), |ctx| {
+                let p = params(ctx)?;
+                let (cam, present) = match ctx.scene.previous_camera {
+                    Some(c) => (c, 1u32),
+                    None => (ctx.scene.camera, 0u32),
+                };
+                let u = Uniforms::new().i32("max_radius", p.max_radius).f32("normal_cos", p.normal_cos).u32("history", present);
+                Ok(camera_uniforms(u, &cam, wedge_scene::LensShape::Disk))
+            })
+            .with_include("camera.wgsl", include_str!("../../../shaders/camera.wgsl"))
+            .with_reach(|_| Ok(Reach::Image)),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let p = params(ctx)?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let bandwidth = ctx.read::<[f32; 2]>("bandwidth")?;
+        let pv = ctx.read::<[f32; 3]>("previous_value")?;
+        let pp = ctx.read::<[f32; 4]>("previous_position")?;
+        let pn = ctx.read::<[f32; 4]>("previous_normal")?;
+        let pb = ctx.read::<[f32; 2]>("previous_bandwidth")?;
+        let cam = ctx.scene.previous_camera;
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| {
+            history_pixel(x as i32, y as i32, w, h, &p, cam.as_ref(), position, normal, bandwidth, pv, pp, pn, pb)
+        });
+        ctx.put("out", out)
+    }
+}
