@@ -17,11 +17,15 @@
 //! - `motion`: thesis Fig. B.1 in spirit — a translating multi-frequency textured plate, a moving ball
 //!   shadowing it, a static bridge shadowing it, a rotating textured cube, a static floor, one area
 //!   light; the motion-blur test scene (see `builtin/motion.rs`).
+//! - `envmap`: thesis Fig. 6.7 in spirit — a diffuse sphere and a Phong-64 torus on a large diffuse
+//!   plane lit only by the procedural `builtin:sky` environment map (sun, sky, clouds, windows); the
+//!   environment-lighting test scene (see `builtin/envmap.rs`). `envmap_light` adds one area light.
 //!
 //! Mesh generators (boxes, spheres, tori, lathes, rectangular lights) live in `builtin/mesh.rs` so new
 //! built-ins reuse them; each scene larger than a screenful lives in its own file under `builtin/`.
 
 pub mod chess;
+pub mod envmap;
 mod mesh;
 pub mod motion;
 pub mod spheres;
@@ -35,7 +39,7 @@ use crate::{Camera, Material, Scene, SceneError, Texture};
 use mesh::{add_box, add_rect_light, add_sphere, add_torus, parametric, smooth_tri};
 
 pub const NAMES: &[&str] = &[
-    "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion",
+    "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
 ];
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
@@ -47,6 +51,8 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "chess" => Ok(chess::chess()),
         "spheres" => Ok(spheres::spheres()),
         "motion" => Ok(motion::motion()),
+        "envmap" => Ok(envmap::envmap(false)),
+        "envmap_light" => Ok(envmap::envmap(true)),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),
@@ -55,7 +61,11 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
 }
 
 pub(crate) fn builtin(name: &str) -> Result<Scene, SceneError> {
-    builtin_data(name)?.into_scene(name)
+    let mut scene = builtin_data(name)?.into_scene(name)?;
+    if name.starts_with("envmap") {
+        scene.set_environment(Some(crate::EnvironmentMap::open(envmap::MAP)?));
+    }
+    Ok(scene)
 }
 
 /// A square light of `side` m, `height` m up, centred above (0, height, centre_z), facing down (two emissive

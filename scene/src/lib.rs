@@ -18,7 +18,11 @@
 //!   static one, and [`Scene::at`] gives rays, surfaces, lights and velocities at any time ([`SceneAt`];
 //!   the time-less queries mean `t = 0`). glTF animations are sampled at the camera's shutter, `.ron`
 //!   meshes take a `motion` block, [`Scene::set_motion`] moves any object by name.
-//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, see [`builtin`]), glTF, OBJ/MTL, and a
+//! - **Environment** ([`environment`], issue 14): a lat-long [`EnvironmentMap`] (EXR, HDR, or the
+//!   procedural `builtin:sky`/`builtin:studio`) lights the scene from infinity
+//!   ([`Scene::set_environment`], [`Scene::background`] for rays that miss): piecewise-constant radiance,
+//!   importance sampling with its pdf, the thesis's 4096-sample table, and its bandwidth `B_e`.
+//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, see [`builtin`]), glTF, OBJ/MTL, and a
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
 //!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an
 //!   unbounded allocation: inputs are validated before use and sizes are capped ([`limits`]). Files a
@@ -32,6 +36,7 @@ pub mod bvh;
 pub mod camera;
 pub mod compose;
 mod data;
+pub mod environment;
 pub mod error;
 pub mod light;
 pub mod load_gltf;
@@ -47,6 +52,7 @@ pub use glam::{Quat, Vec2, Vec3};
 
 pub use bvh::{Hit, TriangleRecord, WideNode, NO_LIGHT};
 pub use camera::{Camera, LensRay, LensShape};
+pub use environment::{EnvSample, EnvironmentMap};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
 pub use motion::{PreparedMotion, RigidMotion, RigidTransform};

@@ -23,7 +23,7 @@ use glam::{Vec2, Vec3};
 use crate::bvh::{self, Bvh, Hit, TriangleRecord, WideNode, MAX_REFERENCES, NO_LIGHT, STACK_SIZE};
 use crate::limits::{MAX_COORDINATE, MAX_RADIANCE, MAX_TRIANGLES};
 use crate::motion::{PreparedMotion, RigidMotion};
-use crate::{AreaLight, Camera, LightShape, SceneError, Texture};
+use crate::{AreaLight, Camera, EnvironmentMap, LightShape, SceneError, Texture};
 
 /// A surface material: Lambertian `base_color` (times the optional texture) is k_d; a Phong lobe
 /// `specular` (k_s) with exponent `phong_exponent` (m; 0 means no glossy lobe); `emission` is emitted
@@ -149,6 +149,10 @@ pub struct Scene {
     /// Per light (index into `lights`): the object whose triangles form it; the light moves with it
     /// ([`SceneAt::light`]).
     pub light_object: Vec<u32>,
+    /// Distant lighting from every direction (thesis Ch. 6), or none. Not part of `bounds`: it is at
+    /// infinity. Set with [`Scene::set_environment`]; camera rays that miss see it
+    /// ([`Scene::background`]).
+    pub environment: Option<EnvironmentMap>,
 }
 
 /// A named group of triangles (`TriangleShading::object` is its index in `Scene::objects`).
@@ -334,7 +338,23 @@ impl Scene {
             objects: built.objects,
             instances: built.instances,
             light_object,
+            environment: None,
         })
+    }
+
+    /// Light the scene with `map` from infinity (or remove it with `None`). The bounds, the trees and
+    /// the area lights do not change.
+    pub fn set_environment(&mut self, map: Option<EnvironmentMap>) {
+        self.environment = map;
+    }
+
+    /// What a ray leaving the scene in direction `dir` sees: the environment's radiance
+    /// ([`EnvironmentMap::radiance`]), black without one. WGSL `scene_background` is the same.
+    pub fn background(&self, dir: Vec3) -> Vec3 {
+        match &self.environment {
+            Some(env) => env.radiance(dir),
+            None => Vec3::ZERO,
+        }
     }
 
     /// The scene at time `t ∈ [−1, 1]` of the shutter (−1 open, +1 close, 0 its centre): rays,

@@ -1100,3 +1100,89 @@ fn ron_motion_and_shutter_errors_are_located() {
         fails(&p, &[fragment]);
     }
 }
+
+/// Environment maps (issue 14): every broken map is a `SceneError` naming the file and the fix;
+/// non-finite and negative texels are counted by kind and the map refused, never clamped.
+#[test]
+fn bad_environment_maps_are_refused_with_counts() {
+    let dir = temp_dir("envmaps");
+    let env_fails = |path: &Path, fragments: &[&str]| {
+        let e = match EnvironmentMap::open(&path.display().to_string()) {
+            Err(e) => e.to_string(),
+            Ok(m) => panic!("{} should fail, loaded {}x{}", path.display(), m.width(), m.height()),
+        };
+        let name = path.file_name().unwrap().to_string_lossy();
+        assert!(e.contains(&*name), "message should name {name}: {e}");
+        for f in fragments {
+            assert!(e.contains(f), "{name}: expected {f:?} in: {e}");
+        }
+        println!("{name}: {e}");
+    };
+    let write_exr = |name: &str, w: usize, h: usize, f: &(dyn Fn(usize, usize) -> [f32; 3] + Sync)| {
+        let p = dir.join(name);
+        exr::prelude::write_rgb_file(&p, w, h, |x, y| {
+            let c = f(x, y);
+            (c[0], c[1], c[2])
+        })
+        .unwrap();
+        p
+    };
+    // A good one loads (EXR and HDR), in the documented orientation: row 0 is the zenith.
+    let good = write_exr("good.exr", 16, 8, &|_, y| if y == 0 { [5.0; 3] } else { [0.5; 3] });
+    let m = EnvironmentMap::open(&good.display().to_string()).unwrap();
+    assert_eq!((m.width(), m.height()), (16, 8));
+    assert_eq!(m.radiance(Vec3::Y), Vec3::splat(5.0));
+    let hdr = dir.join("good.hdr");
+    {
+        let f = std::io::BufWriter::new(std::fs::File::create(&hdr).unwrap());
+        let px: Vec<image::Rgb<f32>> = (0..32 * 16).map(|k| image::Rgb([if k < 32 { 4.0 } else { 0.25 }, 0.25, 0.25])).collect();
+        image::codecs::hdr::HdrEncoder::new(f).encode(&px, 32, 16).unwrap();
+    }
+    let m = EnvironmentMap::open(&hdr.display().to_string()).unwrap();
+    assert_eq!((m.width(), m.height()), (32, 16));
+    assert_eq!(m.radiance(Vec3::Y).x, 4.0);
+
+    // NaN / infinite / negative texels, counted.
+    let bad = write_exr("nan.exr", 16, 8, &|x, y| match (x, y) {
+        (0..=11, 0) => [f32::NAN, 1.0, 1.0],
+        (0..=2, 1) => [1.0, f32::INFINITY, 1.0],
+        (5, 5) => [1.0, 1.0, -0.5],
+        _ => [1.0; 3],
+    });
+    env_fails(&bad, &["12 NaN, 3 infinite, 1 negative texels", "first NaN at column 0, row 0", "first negative at column 5, row 5", "refused rather than clamped"]);
+    let neg = write_exr("negative.exr", 8, 4, &|x, _| if x == 3 { [-1.0, 0.0, 0.0] } else { [0.2; 3] });
+    env_fails(&neg, &["0 NaN, 0 infinite, 4 negative texels"]);
+    let huge = write_exr("huge.exr", 8, 4, &|x, _| if x == 1 { [1e30, 1.0, 1.0] } else { [0.2; 3] });
+    env_fails(&huge, &["4 over the radiance limit"]);
+    // Not 2:1.
+    let square = write_exr("square.exr", 8, 8, &|_, _| [1.0; 3]);
+    env_fails(&square, &["8x8", "not 2:1", "twice its height"]);
+    let wide = write_exr("wide.exr", 24, 8, &|_, _| [1.0; 3]);
+    env_fails(&wide, &["24x8", "not 2:1"]);
+    // Not an image / unreadable / unsupported.
+    let text = dir.join("text.exr");
+    std::fs::write(&text, "this is not an image").unwrap();
+    env_fails(&text, &["not a readable OpenEXR image", "magic number"]);
+    let truncated = dir.join("truncated.exr");
+    std::fs::write(&truncated, &std::fs::read(&good).unwrap()[..60]).unwrap();
+    env_fails(&truncated, &["not a readable OpenEXR image"]);
+    let text_hdr = dir.join("text.hdr");
+    std::fs::write(&text_hdr, "#?RADIANCE\nnonsense").unwrap();
+    env_fails(&text_hdr, &["not a readable Radiance HDR image"]);
+    let png = dir.join("map.png");
+    std::fs::write(&png, [0x89u8, b'P', b'N', b'G']).unwrap();
+    env_fails(&png, &["not an environment map format", ".exr", ".hdr"]);
+    env_fails(&dir.join("missing.exr"), &["cannot read", "does not exist"]);
+    let folder = dir.join("folder.exr");
+    std::fs::create_dir_all(&folder).unwrap();
+    env_fails(&folder, &["cannot read", "directory"]);
+    // Size caps before any texel is read or allocated.
+    let e = EnvironmentMap::from_texels("big", 20_000, 10_000, Vec::new()).unwrap_err().to_string();
+    assert!(e.contains("20000x10000") && e.contains("limit"), "{e}");
+    let e = EnvironmentMap::from_texels("empty", 0, 0, Vec::new()).unwrap_err().to_string();
+    assert!(e.contains("empty"), "{e}");
+    let e = EnvironmentMap::from_texels("short", 4, 2, vec![[0.0; 3]; 7]).unwrap_err().to_string();
+    assert!(e.contains("7 texels"), "{e}");
+    let e = EnvironmentMap::open("builtin:moon").unwrap_err().to_string();
+    assert!(e.contains("builtin:moon") && e.contains("builtin:sky"), "{e}");
+}

@@ -1,0 +1,113 @@
+//! `envmap` (and `envmap_light`): the environment-lighting test scene of issue 14, in the spirit of
+//! thesis Fig. 6.7 ("a diffuse and a phong (exponent 64) object on a diffuse plane" under an outdoor
+//! environment map, direct light only). Every part tests one term of the Ch. 6 analysis:
+//!
+//! - **`sky`**: lit only by `builtin:sky` (no area light): its sun (1.5° radius, 4000× the sky) casts
+//!   sharp shadows whose bandwidth is bounded by `B_e` and the occluder distance (eq. 6.13, the
+//!   `cos²θ_occ/z · B_e` term); the sky, clouds and two bright "windows" give soft, low-frequency light
+//!   from every side, and the dark ground lights the undersides.
+//! - **`ground`**: a 40 × 40 m diffuse plane (albedo 0.6): flat, so the curvature term κ of eq. 6.13 is
+//!   zero and only occlusion sets the bandwidth; it receives both objects' shadows and contact shadows
+//!   where they touch it (z → 0). It ends 20 m behind the objects, so camera rays above its far edge
+//!   (about the top 13% of the image) miss everything and show the map (`Scene::background`).
+//! - **`sphere`** (diffuse, 0.5 m radius, resting on the plane): constant positive curvature (κ = 2/m,
+//!   eq. 6.20) and an attached shadow line (terminator) from the sun.
+//! - **`torus`** (Phong k_s 0.5, m = 64, k_d 0.2; tilted 25° about x, resting on the plane): glossy
+//!   reflections of the sun and windows (the `B_ρ` terms of eq. 6.17, B_ρ(64) ≈ 10), curvature varying
+//!   in sign across the surface (inner side saddle-shaped), and self-shadowing through the hole.
+//! - **camera**: at (0, 1.6, 3.4) looking at (0, 0.45, 0), 40° vertical field of view: both objects, their
+//!   shadows toward the camera (the sun is behind them, a little left, 35° up), and a strip of the map
+//!   above the plane's far edge.
+//!
+//! `envmap_light` adds one 0.5 × 0.5 m rectangular area light 2.5 m up (radiance 20), for pipelines that
+//! compose area-light SoftShadows with the environment.
+//!
+//! The map is attached to the scene (`Scene::environment`), `scale` 1, `rotation_deg` 0.
+
+use glam::{Mat4, Quat, Vec2, Vec3};
+
+use super::mesh::{add_rect_light, add_sphere, add_torus, smooth_tri};
+use crate::data::SceneData;
+use crate::{Camera, Material};
+
+/// Where the sphere and torus rest, and their sizes.
+pub const SPHERE_CENTRE: Vec3 = Vec3::new(-0.65, 0.5, 0.0);
+pub const SPHERE_RADIUS: f32 = 0.5;
+pub const TORUS_CENTRE: Vec3 = Vec3::new(0.75, 0.0, 0.15);
+pub const TORUS_MAJOR: f32 = 0.42;
+pub const TORUS_MINOR: f32 = 0.16;
+/// The torus's tilt about x (radians).
+pub const TORUS_TILT: f32 = 25.0 * std::f32::consts::PI / 180.0;
+/// The environment the built-in carries.
+pub const MAP: &str = "builtin:sky";
+
+/// The scene's geometry and camera; `with_light` adds the area light (`envmap_light`).
+pub(crate) fn envmap(with_light: bool) -> SceneData {
+    let mut d = SceneData::default();
+    let ground = d.add_material(Material::diffuse("ground", Vec3::splat(0.6)), false);
+    let o = d.new_named_object("ground");
+    let (x0, x1, z0, z1) = (-20.0f32, 20.0f32, -20.0f32, 20.0f32);
+    let p = [
+        Vec3::new(x0, 0.0, z1),
+        Vec3::new(x1, 0.0, z1),
+        Vec3::new(x1, 0.0, z0),
+        Vec3::new(x0, 0.0, z0),
+    ];
+    let uv = p.map(|p| Vec2::new(p.x, p.z) * 0.5);
+    for idx in [[0, 1, 2], [0, 2, 3]] {
+        smooth_tri(
+            &mut d,
+            idx.map(|k| p[k]),
+            [Vec3::Y; 3],
+            idx.map(|k| uv[k]),
+            ground,
+            o,
+        );
+    }
+    let diffuse = d.add_material(
+        Material::diffuse("sphere", Vec3::new(0.7, 0.62, 0.5)),
+        false,
+    );
+    let o = d.new_named_object("sphere");
+    add_sphere(&mut d, SPHERE_CENTRE, SPHERE_RADIUS, 64, 128, diffuse, o);
+    let glossy = d.add_material(
+        Material {
+            specular: Vec3::splat(0.5),
+            phong_exponent: 64.0,
+            ..Material::diffuse("torus", Vec3::new(0.12, 0.18, 0.35))
+        },
+        false,
+    );
+    let o = d.new_named_object("torus");
+    // Tilted about x, then lifted so its lowest point touches the plane: the lowest point of a torus
+    // tilted by t is (R sin t + r) below its centre.
+    let lift = TORUS_MAJOR * TORUS_TILT.sin() + TORUS_MINOR;
+    let xf = Mat4::from_rotation_translation(
+        Quat::from_rotation_x(TORUS_TILT),
+        TORUS_CENTRE + Vec3::Y * lift,
+    );
+    add_torus(&mut d, xf, TORUS_MAJOR, TORUS_MINOR, glossy, o);
+    if with_light {
+        let side = 0.5;
+        let corner = Vec3::new(-0.5 * side, 2.5, -0.5 * side);
+        add_rect_light(
+            &mut d,
+            "light",
+            Vec3::splat(20.0),
+            corner,
+            Vec3::X * side,
+            Vec3::Z * side,
+        );
+    }
+    d.camera = Some(Camera {
+        position: Vec3::new(0.0, 1.6, 3.4),
+        look_at: Vec3::new(0.0, 0.45, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 40.0,
+        aperture_radius: 0.0,
+        focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
+    });
+    d
+}
