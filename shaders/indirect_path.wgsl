@@ -8,6 +8,7 @@
 #include "bvh.wgsl"
 #include "sampling.wgsl"
 #include "hemisphere.wgsl"
+#include "environment_light.wgsl"
 
 // Dimension offset between lights in next-event estimation.
 const LIGHT_DIM_STRIDE: u32 = 65536u;
@@ -22,7 +23,7 @@ fn weight_of(c: vec3<f32>) -> f32 {
     return (c.x + c.y + c.z) / 3.0;
 }
 
-// next_event: one uniform area sample per light.
+// next_event: one uniform area sample per light, and one environment look-up where the scene has a map.
 fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
@@ -58,7 +59,8 @@ fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3
         }
         sum = sum + light.radiance.xyz * f * (cos_y * cos_l / r2 * light.normal_area.w);
     }
-    return sum;
+    // The environment is a light too (indirect.rs next_event).
+    return sum + environment_event(y, n, wo, kd, ks, m, key, sample, bounce);
 }
 
 struct PathResult {

@@ -34,7 +34,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let r = record_at(i);
     let w = r.weight;
     let radiance = mean_of(r.l_direct, r.w_direct) + mean_of(r.l_diffuse, r.w_diffuse) + mean_of(r.l_glossy, r.w_glossy)
-        + mean_of(r.emission, w);
+        + mean_of(r.l_env_diffuse, r.w_env_diffuse) + mean_of(r.l_env_glossy, r.w_env_glossy) + mean_of(r.emission, w);
     radiance_put(i, radiance);
     l_direct_put(i, mean_of(r.l_direct, r.w_direct));
     k_direct_put(i, mean_of(r.k_direct, r.w_direct));
@@ -73,4 +73,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     glossy_put(i, vec4<f32>(mean_of(r.e_glossy, r.w_glossy), f32(r.glossy_samples)));
     velocity_put(i, velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max));
     shadow_velocity_put(i, velocity_stats(r.vs_sum, f32(r.occluded), r.vs_min, r.vs_max));
+    l_env_diffuse_put(i, mean_of(r.l_env_diffuse, r.w_env_diffuse));
+    k_env_diffuse_put(i, mean_of(r.k_env_diffuse, r.w_env_diffuse));
+    e_env_diffuse_put(i, mean_of(r.e_env_diffuse, r.w_env_diffuse));
+    l_env_glossy_put(i, mean_of(r.l_env_glossy, r.w_env_glossy));
+    k_env_glossy_put(i, mean_of(r.k_env_glossy, r.w_env_glossy));
+    e_env_glossy_put(i, mean_of(r.e_env_glossy, r.w_env_glossy));
+    environment_put(i, vec4<f32>(r.env_occluder, hit_mean(r, r.exponent), f32(r.env_samples), f32(r.env_occluded)));
 }

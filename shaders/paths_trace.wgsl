@@ -7,6 +7,7 @@
 #include "camera.wgsl"
 #include "light_sample.wgsl"
 #include "indirect_path.wgsl"
+#include "environment_light.wgsl"
 
 const SALT_DIFFUSE_PATH: u32 = 1u;
 const SALT_GLOSSY_PATH: u32 = 2u;
@@ -58,6 +59,22 @@ fn accumulate_diffuse(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
     rec.k_diffuse = rec.k_diffuse + a.k;
     rec.e_diffuse = rec.e_diffuse + a.e;
     rec.w_diffuse = rec.w_diffuse + a.w;
+}
+
+fn accumulate_env_diffuse(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
+    let a = added(k, e_sum, valid, w);
+    rec.l_env_diffuse = rec.l_env_diffuse + a.l;
+    rec.k_env_diffuse = rec.k_env_diffuse + a.k;
+    rec.e_env_diffuse = rec.e_env_diffuse + a.e;
+    rec.w_env_diffuse = rec.w_env_diffuse + a.w;
+}
+
+fn accumulate_env_glossy(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
+    let a = added(k, e_sum, valid, w);
+    rec.l_env_glossy = rec.l_env_glossy + a.l;
+    rec.k_env_glossy = rec.k_env_glossy + a.k;
+    rec.e_env_glossy = rec.e_env_glossy + a.e;
+    rec.w_env_glossy = rec.w_env_glossy + a.w;
 }
 
 fn accumulate_glossy(k: vec3<f32>, e_sum: vec3<f32>, valid: u32, w: f32) {
@@ -140,6 +157,7 @@ struct Secondary {
     shadow: u32,
     diffuse: u32,
     glossy: u32,
+    environment: u32,
 }
 
 fn carries(on: u32, count: u32, w: f32) -> f32 {
@@ -155,10 +173,13 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
         rec.w_direct = rec.w_direct + carries(params.direct, count.shadow, w);
         rec.w_diffuse = rec.w_diffuse + carries(params.indirect, count.diffuse, w);
         rec.w_glossy = rec.w_glossy + carries(params.indirect * params.glossy, count.glossy, w);
+        rec.w_env_diffuse = rec.w_env_diffuse + carries(params.environment, count.environment, w);
+        rec.w_env_glossy = rec.w_env_glossy + carries(params.environment, count.environment, w);
     }
     if (!hit.hit) {
-        // A miss sees the still background (App. B's velocity range).
+        // A miss sees the still background (App. B's velocity range), and the environment.
         extend_vp(vec2<f32>(0.0), rec.paths == 1u);
+        rec.emission = rec.emission + scene_background(ray.dir) * w;
         return;
     }
     let sp = surface(hit.triangle, hit.b1, hit.b2, ray.dir);
@@ -194,7 +215,10 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     let ks = mat.specular;
     let m = mat.phong_exponent;
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
-
+    rec.exponent = rec.exponent + w * select(0.0, m, is_glossy);
+    if (params.environment != 0u && count.environment > 0u) {
+        trace_environment(x, n, wo, kd, ks, m, is_glossy, w, pixel, count.environment);
+    }
     if (params.direct != 0u && count.shadow > 0u) {
         trace_direct(c, x, n, wo, kd, ks, m, is_glossy, w, pixel, count.shadow);
     }
@@ -246,6 +270,83 @@ fn trace_direct(c: CameraModel, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: v
         }
     }
     accumulate_direct(k, e, valid, w);
+}
+
+// paths.rs `occluder_term`: cos²θ_occ / z = cos θ / t for a look-up blocked at distance t.
+fn occluder_term(c: f32, t: f32) -> f32 {
+    if (t > 0.0) {
+        return c / t;
+    }
+    return 0.0;
+}
+
+// The environment estimator (paths.rs `trace_environment`, thesis Ch. 6).
+fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
+        w: f32, pixel: u32, count: u32) {
+    var shift = 0u;
+    if (params.stratified != 0u) {
+        shift = env_uniform_entry(draw(pixel, PAIR_ENVIRONMENT, 0u).x);
+    }
+    let origin = x + n * params.eps;
+    var ed = vec3<f32>(0.0);
+    var eg = vec3<f32>(0.0);
+    var valid_d = 0u;
+    var valid_g = 0u;
+    for (var s = 0u; s < count; s = s + 1u) {
+        let q = rec.env_samples;
+        rec.env_samples = rec.env_samples + 1u;
+        var entry: u32;
+        if (params.stratified != 0u) {
+            entry = env_stratified_entry(shift, q);
+        } else {
+            entry = env_uniform_entry(draw(pixel, PAIR_ENVIRONMENT, q).x);
+        }
+        let e = env_table(entry);
+        let c = dot3(n, e.dir);
+        var vd = vec3<f32>(0.0);
+        var vg = vec3<f32>(0.0);
+        if (c > 0.0 && e.pdf > 0.0) {
+            rec.env_rays = rec.env_rays + 1u;
+            var occluded = false;
+            if (luminance3(e.radiance) >= params.occluder_luminance) {
+                let h = scene_intersect(origin, e.dir, 0.0, inf());
+                if (h.hit) {
+                    rec.env_occluder = rmax(rec.env_occluder, occluder_term(c, h.t));
+                    occluded = true;
+                }
+            } else {
+                occluded = scene_occluded(origin, e.dir, 0.0, inf());
+            }
+            if (occluded) {
+                rec.env_occluded = rec.env_occluded + 1u;
+            } else {
+                let l = e.radiance * (c / e.pdf);
+                vd = l * FRAC_1_PI_F32;
+                if (is_glossy) {
+                    vg = l * glossy_brdf(params.lobe, m, n, wo, e.dir);
+                }
+            }
+        }
+        if (is_finite3(vd)) {
+            ed = ed + vd;
+            valid_d = valid_d + 1u;
+        } else {
+            rec.non_finite = rec.non_finite + 1u;
+        }
+        if (is_finite3(vg)) {
+            eg = eg + vg;
+            valid_g = valid_g + 1u;
+        } else {
+            rec.non_finite = rec.non_finite + 1u;
+        }
+    }
+    accumulate_env_diffuse(kd, ed, valid_d, w);
+    accumulate_env_glossy(select(vec3<f32>(0.0), ks, is_glossy), eg, valid_g, w);
+}
+
+// Rec. 709 luminance (paths.rs `luminance`).
+fn luminance3(c: vec3<f32>) -> f32 {
+    return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }
 
 // Indirect diffuse, and glossy where the surface has a lobe.
@@ -300,9 +401,9 @@ fn split_total(total: u32, paths: u32) -> vec2<u32> {
     return vec2<u32>(total / p, total % p);
 }
 
-fn secondary_on(shadow: vec2<u32>, diffuse: vec2<u32>, glossy: vec2<u32>, t: u32) -> Secondary {
+fn secondary_on(shadow: vec2<u32>, diffuse: vec2<u32>, glossy: vec2<u32>, environment: vec2<u32>, t: u32) -> Secondary {
     return Secondary(shadow.x + select(0u, 1u, t < shadow.y), diffuse.x + select(0u, 1u, t < diffuse.y),
-        glossy.x + select(0u, 1u, t < glossy.y));
+        glossy.x + select(0u, 1u, t < glossy.y), environment.x + select(0u, 1u, t < environment.y));
 }
 
 fn ceil_div(a: u32, b: u32) -> u32 {
@@ -318,6 +419,9 @@ fn path_units(count: Secondary) -> u32 {
     }
     if (params.indirect != 0u) {
         rays = rays + 2u * (min(count.diffuse, 0x100000u) + min(count.glossy, 0x100000u)) * min(params.bounces, 64u);
+    }
+    if (params.environment != 0u) {
+        rays = rays + min(count.environment, 0x100000u);
     }
     return max(1u, ceil_div(rays, 8u));
 }
@@ -350,8 +454,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (glossy_total_bound()) {
         glossy_split = split_total(glossy_total_at(i), count);
     }
+    var environment_split = vec2<u32>(params.environment_per_primary, 0u);
+    if (environment_total_bound()) {
+        environment_split = split_total(environment_total_at(i), count);
+    }
     // Path 0 carries the most of each: its counts size the chunks' work units.
-    let n = secondary_on(shadow_split, diffuse_split, glossy_split, 0u);
+    let n = secondary_on(shadow_split, diffuse_split, glossy_split, environment_split, 0u);
     // Chunks are counted in work units of about 8 rays (path_units): path k of this pass runs in the
     // dispatch whose unit range [chunk_begin, chunk_end) holds k·units, so a dispatch traces at most
     // ~8 × chunk rays per pixel however many secondary samples a path carries (lavapipe cuts a loop
@@ -404,7 +512,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
             have_hit = true;
         }
-        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, secondary_on(shadow_split, diffuse_split, glossy_split, k));
+        trace_one(c, ray, fixed_hit, pixel, key_d, key_g, secondary_on(shadow_split, diffuse_split, glossy_split, environment_split, k));
     }
     count_cut_loop(k, end);
     var primary = rec.paths - before.paths;
@@ -415,7 +523,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (primary > 0u) {
         atomicAdd(&counters[COUNTER_PRIMARY], primary);
     }
-    let shadow = (rec.shadow - before.shadow) + (rec.bounce_shadow - before.bounce_shadow);
+    let shadow = (rec.shadow - before.shadow) + (rec.bounce_shadow - before.bounce_shadow) + (rec.env_rays - before.env_rays);
     if (shadow > 0u) {
         atomicAdd(&counters[COUNTER_SHADOW], shadow);
     }

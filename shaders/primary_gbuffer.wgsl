@@ -53,7 +53,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         position_put(i, vec4<f32>(0.0));
         normal_put(i, vec4<f32>(0.0));
         put3(true, i, vec3<f32>(0.0));
-        put3(false, i, vec3<f32>(0.0));
+        // A camera ray that leaves the scene sees the environment (black without a map).
+        put3(false, i, scene_background(ray.d));
         if (specular_bound()) {
             specular_put(i, vec4<f32>(0.0));
         }

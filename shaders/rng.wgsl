@@ -6,6 +6,7 @@
 const DIM_PIXEL: u32 = 0u;
 const DIM_LENS: u32 = 2u;
 const DIM_TIME: u32 = 4u;
+const DIM_ENVIRONMENT: u32 = 6u;
 const DIM_LIGHT: u32 = 8u;
 const DIM_LIGHT_SELECT: u32 = 10u;
 const DIM_BSDF: u32 = 12u;

@@ -46,6 +46,8 @@ pub mod dim {
     pub const PIXEL: u32 = 0;
     pub const LENS: u32 = 2;
     pub const TIME: u32 = 4;
+    /// The environment table look-up of next-event estimation at a path vertex (one number).
+    pub const ENVIRONMENT: u32 = 6;
     pub const LIGHT: u32 = 8;
     pub const LIGHT_SELECT: u32 = 10;
     pub const BSDF: u32 = 12;

@@ -43,6 +43,9 @@ pub mod pair {
     pub const PATH: u32 = 5;
     /// Shutter time of the path (its first coordinate; thesis App. B: time as a sample dimension).
     pub const TIME: u32 = 6;
+    /// The environment table: the first coordinate of sample 0 is the pixel's table shift
+    /// (`kernels::environment::stratified_entry`); under independent sampling sample `q` picks look-up `q`.
+    pub const ENVIRONMENT: u32 = 7;
 }
 
 /// Sobol' direction-number generator matrix of dimension 1 (dimension 0 is bit reversal):

@@ -65,17 +65,20 @@ pub fn centre_path(
 
 /// Estimator → `paths.trace` switch. `time` is not a secondary estimator: it gives each path its own
 /// shutter time (thesis App. B), so the scene's motion blurs every estimate of the path.
-const ESTIMATORS: [(&str, &str); 3] = [("light", "direct"), ("hemisphere", "indirect"), ("time", "time")];
+/// `environment`: look-ups into the scene's environment map (thesis Ch. 6).
+const ESTIMATORS: [(&str, &str); 4] =
+    [("light", "direct"), ("hemisphere", "indirect"), ("time", "time"), ("environment", "environment")];
 
 /// Count channels: (channel, estimator, `paths.trace` binding of its samples over the adaptive pass,
 /// the setting giving its first-pass count per path). An estimator's first channel is always bound
 /// in the adaptive pass; a later one only where a count request names it — unbound, `paths.trace`
 /// gives it the first channel's counts (the glossy part follows the diffuse one unless Ch. 4 counts
 /// it apart).
-const CHANNELS: [(&str, &str, &str, &str); 3] = [
+const CHANNELS: [(&str, &str, &str, &str); 4] = [
     ("light", "light", "shadow_total", "shadow_per_primary"),
     ("diffuse", "hemisphere", "diffuse_total", "indirect_per_primary"),
     ("glossy", "hemisphere", "glossy_total", "indirect_per_primary"),
+    ("environment", "environment", "environment_total", "environment_per_primary"),
 ];
 
 /// Settings and their defaults (thesis Ch. 3/4: one primary path through the pixel centre).
@@ -85,6 +88,10 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
         ("paths", ParamValue::Int(1)),
         ("shadow_per_primary", ParamValue::Int(1)),
         ("indirect_per_primary", ParamValue::Int(1)),
+        ("environment_per_primary", ParamValue::Int(1)),
+        // Relative luminance below which an occluded environment look-up does not set the occluder
+        // term (thesis Sec. 6.7's 0.1, read against the map's mean radiance).
+        ("occluder_threshold", ParamValue::Float(0.1)),
         ("jitter", ParamValue::Bool(false)),
         ("lens", ParamValue::Str("disk".into())),
         ("sampling", ParamValue::Str("stratified".into())),
@@ -211,7 +218,7 @@ impl SamplerKind for PathSampler {
     fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError> {
         let first_paths = Self::count_setting(plan, "paths")?;
         let mut trace_params: Vec<(&str, ParamValue)> =
-            ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces", "ao", "max_distance", "glossy", "aperture_radius"]
+            ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces", "ao", "max_distance", "glossy", "aperture_radius", "occluder_threshold"]
             .into_iter()
             .map(|n| (n, Self::setting(plan, n)))
             .collect();
@@ -223,7 +230,7 @@ impl SamplerKind for PathSampler {
         for (estimator, switch) in ESTIMATORS {
             trace_params.push((switch, ParamValue::Bool(plan.estimators.contains(estimator))));
         }
-        for per_primary in ["shadow_per_primary", "indirect_per_primary"] {
+        for per_primary in ["shadow_per_primary", "indirect_per_primary", "environment_per_primary"] {
             trace_params.push((per_primary, ParamValue::Int(i64::from(Self::count_setting(plan, per_primary)?))));
         }
 

@@ -34,6 +34,8 @@ pub const SHARED: &[(&str, &str)] = &[
     // The direct and indirect estimators, shared by direct.light / indirect.sample and paths.trace.
     ("light_sample.wgsl", include_str!("../../../shaders/light_sample.wgsl")),
     ("indirect_path.wgsl", include_str!("../../../shaders/indirect_path.wgsl")),
+    // Environment look-ups and next-event estimation of the environment (kernels/environment.rs).
+    ("environment_light.wgsl", include_str!("../../../shaders/environment_light.wgsl")),
 ];
 
 /// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see

@@ -32,6 +32,7 @@ use wedge_scene::SceneAt;
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
+use crate::kernels::environment::environment_event;
 use crate::kernels::hemisphere::{glossy_brdf, glossy_pdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::v3;
 use crate::rng::{dim, substream, PixelRng};
@@ -96,7 +97,8 @@ fn weight_of(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
-/// Next-event estimation at a path vertex: one uniform area sample per light.
+/// Next-event estimation at a path vertex: one uniform area sample per light, and one environment
+/// table look-up where the scene has a map ([`environment_event`]).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn next_event(
@@ -144,7 +146,8 @@ pub fn next_event(
         }
         sum += light.radiance * f * (cos_y * cos_l / r2 * light.area());
     }
-    sum
+    // The environment is a light too (thesis Ch. 6: it lights the reflectors of E^ind).
+    sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow)
 }
 
 /// Trace one path leaving `x` (normal `n`) in direction `wi`. Returns the incident indirect radiance

@@ -8,6 +8,7 @@ use crate::kernel::KernelRegistry;
 pub mod compose;
 pub mod constant;
 pub mod direct;
+pub mod environment;
 pub mod filter;
 pub mod filter_ch5;
 pub mod filter_ch6;

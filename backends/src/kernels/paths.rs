@@ -67,6 +67,7 @@ use wedge_scene::{Camera, LensShape, SceneAt};
 use crate::buffer::Record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::{light_centre_factor, light_sample};
+use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::rng::PixelRng;
@@ -123,6 +124,19 @@ pub static PATH_RECORD: StructLayout = StructLayout {
         f("vs_sum", FieldType::Vec2),
         f("vs_min", FieldType::Vec2),
         f("vs_max", FieldType::Vec2),
+        f("l_env_diffuse", FieldType::Vec3),
+        f("k_env_diffuse", FieldType::Vec3),
+        f("e_env_diffuse", FieldType::Vec3),
+        f("l_env_glossy", FieldType::Vec3),
+        f("k_env_glossy", FieldType::Vec3),
+        f("e_env_glossy", FieldType::Vec3),
+        f("w_env_diffuse", FieldType::F32),
+        f("w_env_glossy", FieldType::F32),
+        f("env_occluder", FieldType::F32),
+        f("exponent", FieldType::F32),
+        f("env_samples", FieldType::U32),
+        f("env_occluded", FieldType::U32),
+        f("env_rays", FieldType::U32),
     ],
 };
 
@@ -202,6 +216,27 @@ pub struct PathRecord {
     pub vs_sum: [f32; 2],
     pub vs_min: [f32; 2],
     pub vs_max: [f32; 2],
+    /// Σ w·L, Σ w·k, Σ w·E of the environment's direct light (thesis Ch. 6), diffuse part (`k = k_d`,
+    /// `E = L_e cos/(π pdf)`) and glossy part (`k = k_s`, `E = L_e ρ_s cos/pdf`), and their weights as
+    /// [`PathRecord::w_direct`]'s.
+    pub l_env_diffuse: [f32; 3],
+    pub k_env_diffuse: [f32; 3],
+    pub e_env_diffuse: [f32; 3],
+    pub l_env_glossy: [f32; 3],
+    pub k_env_glossy: [f32; 3],
+    pub e_env_glossy: [f32; 3],
+    pub w_env_diffuse: f32,
+    pub w_env_glossy: f32,
+    /// The occluder term `cos²θ_occ / z` of eq. 6.13/6.17: its largest value over the occluded
+    /// environment samples bright enough to count (0 without any; see [`occluder_term`]).
+    pub env_occluder: f32,
+    /// Σ w·m over hits: the Phong exponent the glossy part's `B_ρ` comes from (0: no lobe).
+    pub exponent: f32,
+    /// Environment look-ups (sequence indices), those occluded, and shadow rays traced for them (a
+    /// look-up below the surface traces none).
+    pub env_samples: u32,
+    pub env_occluded: u32,
+    pub env_rays: u32,
 }
 
 impl Record for PathRecord {
@@ -224,11 +259,14 @@ impl PathRecord {
             Vec3::ZERO
         }
     }
-    /// Mean radiance of the pixel: direct + indirect diffuse + indirect glossy + emission.
+    /// Mean radiance of the pixel: direct + indirect diffuse + indirect glossy + environment diffuse
+    /// and glossy + emission (and the environment where camera rays missed).
     pub fn radiance(&self) -> Vec3 {
         self.mean_of(self.l_direct, self.w_direct)
             + self.mean_of(self.l_diffuse, self.w_diffuse)
             + self.mean_of(self.l_glossy, self.w_glossy)
+            + self.mean_of(self.l_env_diffuse, self.w_env_diffuse)
+            + self.mean_of(self.l_env_glossy, self.w_env_glossy)
             + self.mean_of(self.emission, self.weight)
     }
     /// Mean (L, k, E) of the direct component.
@@ -292,6 +330,14 @@ struct Settings {
     /// Each path at its own shutter time `t ∈ [−1, 1]` (thesis App. B), else every path at the
     /// shutter's centre `t = 0`.
     time: bool,
+    /// The environment estimator (thesis Ch. 6) and its look-ups per path where `environment_total`
+    /// is unbound.
+    environment: bool,
+    environment_per_primary: u32,
+    /// Luminance below which an occluded environment sample does not count for the occluder term
+    /// (thesis Sec. 6.7: "occluders which block samples with intensity below a threshold of 0.1"):
+    /// `occluder_threshold` × the map's mean radiance luminance.
+    occluder_luminance: f32,
 }
 
 fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
@@ -345,6 +391,27 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
     let jitter = ctx.bool_param("jitter")?;
     let direct = flag("direct", true)?;
     let time = flag("time", false)?;
+    let environment = flag("environment", false)?;
+    let env = ctx.scene.environment.as_ref();
+    if environment && env.is_none() {
+        return Err(err(format!(
+            "the environment estimator is on but scene `{}` has no environment map — give the Environment node a \
+             `map` (an EXR or .hdr file, or builtin:sky) or use a scene with one, e.g. --scene envmap",
+            ctx.scene.name
+        )));
+    }
+    let occluder_threshold = match ctx.params.get("occluder_threshold") {
+        None => 0.1,
+        Some(_) => ctx.f32_param("occluder_threshold")?,
+    };
+    if !(occluder_threshold.is_finite() && occluder_threshold >= 0.0) {
+        return Err(err(format!("`occluder_threshold` = {occluder_threshold} must be a finite number >= 0")));
+    }
+    let mean_luminance = env.map_or(0.0, |e| (e.total_luminance() / (4.0 * std::f64::consts::PI)) as f32);
+    let environment_per_primary = match ctx.params.get("environment_per_primary") {
+        None => 0,
+        Some(_) => positive("environment_per_primary")?,
+    };
     Ok(Settings {
         // Under motion the same camera ray meets a different surface at each time.
         fixed_primary: !jitter && camera.aperture_radius == 0.0 && !time,
@@ -363,6 +430,9 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         light: if direct { ctx.light_param("light")? } else { 0 },
         stream: ctx.int_param("stream")? as u32,
         path: PathParams::from_params(ctx, ao, max_distance)?,
+        environment,
+        environment_per_primary,
+        occluder_luminance: occluder_threshold * mean_luminance,
     })
 }
 
@@ -396,6 +466,7 @@ impl Kernel for PathsTrace {
             Binding::read_opt("shadow_total", Format::U32),
             Binding::read_opt("diffuse_total", Format::U32),
             Binding::read_opt("glossy_total", Format::U32),
+            Binding::read_opt("environment_total", Format::U32),
             Binding::write("record", Format::Struct(&PATH_RECORD)),
         ]
     }
@@ -423,7 +494,10 @@ impl Kernel for PathsTrace {
                     .u32("direct", s.direct as u32)
                     .u32("indirect", s.indirect as u32)
                     .u32("glossy", s.glossy as u32)
-                    .u32("time", s.time as u32))
+                    .u32("time", s.time as u32)
+                    .u32("environment", s.environment as u32)
+                    .u32("environment_per_primary", s.environment_per_primary)
+                    .f32("occluder_luminance", s.occluder_luminance))
             })
             .with_scene()
             .per_pixel()
@@ -440,6 +514,7 @@ impl Kernel for PathsTrace {
         let shadow_total = ctx.read_opt::<u32>("shadow_total")?;
         let diffuse_total = ctx.read_opt::<u32>("diffuse_total")?;
         let glossy_total = ctx.read_opt::<u32>("glossy_total")?;
+        let environment_total = ctx.read_opt::<u32>("environment_total")?;
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
         let has_light = s.light < scene.lights.len();
         let projection = Projection::new(cam, height);
@@ -456,6 +531,7 @@ impl Kernel for PathsTrace {
             let split = |total: Option<&[u32]>, per_path: u32| total.map_or(Split::per_path(per_path), |t| Split::new(t[i], count));
             let diffuse = split(diffuse_total, s.indirect_per_primary);
             let (shadow, glossy) = (split(shadow_total, s.shadow_per_primary), glossy_total.map_or(diffuse, |t| Split::new(t[i], count)));
+            let environment = split(environment_total, s.environment_per_primary);
             let rng_d = PixelRng::new(seed, pixel, substream(s.stream, SALT_DIFFUSE_PATH));
             let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
             let mut fixed_hit = None;
@@ -468,7 +544,7 @@ impl Kernel for PathsTrace {
                 let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
                 let hit = if fixed_primary { *fixed_hit.get_or_insert_with(trace) } else { trace() };
                 let t = j - first;
-                let n = Secondary { shadow: shadow.at(t), diffuse: diffuse.at(t), glossy: glossy.at(t) };
+                let n = Secondary { shadow: shadow.at(t), diffuse: diffuse.at(t), glossy: glossy.at(t), environment: environment.at(t) };
                 let light = has_light.then(|| at.light(s.light));
                 let view = View { forward, height, projection: &projection };
                 trace_one(&at, &s, light.as_ref(), &view, &ray, hit, seed, pixel, &rng_d, &rng_g, n, &mut r);
@@ -485,7 +561,7 @@ impl Kernel for PathsTrace {
             sum(|r| r.paths)
         };
         Counters::add(&ctx.counters.primary_rays, primary);
-        Counters::add(&ctx.counters.shadow_rays, sum(|r| r.shadow) + sum(|r| r.bounce_shadow));
+        Counters::add(&ctx.counters.shadow_rays, sum(|r| r.shadow) + sum(|r| r.bounce_shadow) + sum(|r| r.env_rays));
         Counters::add(&ctx.counters.secondary_rays, sum(|r| r.indirect_rays));
         Counters::add(&ctx.counters.non_finite_samples, sum(|r| r.non_finite));
         ctx.put("record", records)
@@ -521,6 +597,7 @@ struct Secondary {
     shadow: u32,
     diffuse: u32,
     glossy: u32,
+    environment: u32,
 }
 
 /// World velocities (per unit shutter time) as image-space velocities in pixels: the derivative of the
@@ -614,6 +691,8 @@ fn trace_one(
         r.w_direct += carries(s.direct, count.shadow);
         r.w_diffuse += carries(s.indirect, count.diffuse);
         r.w_glossy += carries(s.indirect && s.glossy, count.glossy);
+        r.w_env_diffuse += carries(s.environment, count.environment);
+        r.w_env_glossy += carries(s.environment, count.environment);
     }
     let sp = hit.map(|h| scene.surface(&h, ray.origin, ray.dir));
     // Image velocity of the primary hit (App. B's v_p); a miss sees the still background.
@@ -623,6 +702,8 @@ fn trace_one(
     };
     extend_range(&mut r.vp_min, &mut r.vp_max, velocity, r.paths == 1);
     let Some(sp) = sp else {
+        // A camera ray that leaves the scene sees the environment (black without a map).
+        add(&mut r.emission, scene.scene().background(ray.dir) * w);
         return;
     };
     let (x, n) = (sp.position, sp.shading_normal);
@@ -649,7 +730,11 @@ fn trace_one(
     let mat = &scene.scene().materials[sp.material as usize];
     let (ks, m) = (mat.specular, mat.phong_exponent);
     let glossy = m > 0.0 && ks.max_element() > 0.0;
+    r.exponent += w * if glossy { m } else { 0.0 };
     let at = PathHit { x, n, wo, kd: scene.scene().albedo(&sp), ks, m, glossy, w };
+    if s.environment && count.environment > 0 {
+        trace_environment(scene, s, &at, seed, pixel, count.environment, r);
+    }
     if let Some(light) = light.filter(|_| s.direct && count.shadow > 0) {
         trace_direct(scene, s, light, view.projection, &at, seed, pixel, count.shadow, r);
     }
@@ -729,6 +814,84 @@ fn trace_direct(
     }
     let sums = Sums { l: &mut r.l_direct, k: &mut r.k_direct, e: &mut r.e_direct, w: &mut r.w_direct };
     accumulate(sums, k, e, valid, w, s.fixed_primary);
+}
+
+/// The occluder term `cos²θ_occ / z` of eqs. 6.13 and 6.17 for an environment sample along a direction
+/// at `cos θ` to the normal, blocked at distance `t` along it. The thesis's flatland occluder is a
+/// half-plane at height `z` above the receiver whose edge is seen at `θ_occ` (Fig. 6.4(c), eq. 6.8);
+/// the edge lies at distance `t = z / cos θ_occ` along the blocked direction, so the term is
+/// `cos θ / t` (EQUATIONS.md "Environment"; docs/DESIGN-NOTES.md "The Environment node").
+#[inline]
+pub fn occluder_term(cos: f32, t: f32) -> f32 {
+    if t > 0.0 {
+        cos / t
+    } else {
+        0.0
+    }
+}
+
+/// The environment estimator at hit `x` (thesis Ch. 6, Sec. 6.5.2): `count` look-ups into the map's
+/// table (stratified: [`crate::kernels::environment::stratified_entry`]), each with a shadow ray to
+/// infinity; `E_d = L cos/(π pdf)` with `k = k_d` and, where the surface has a lobe, `E_s = L ρ_s
+/// cos/pdf` with `k = k_s` (Phong receivers, eq. 6.14). Occluded samples at least
+/// `occluder_luminance` bright keep the largest [`occluder_term`].
+#[allow(clippy::too_many_arguments)]
+fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, seed: u32, pixel: u32, count: u32, r: &mut PathRecord) {
+    let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
+    let Some(env) = scene.scene().environment.as_ref() else { return };
+    let shift = if s.stratified { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, 0).x) } else { 0 };
+    let origin = x + n * s.path.eps;
+    let (mut ed, mut eg, mut valid_d, mut valid_g) = (Vec3::ZERO, Vec3::ZERO, 0u32, 0u32);
+    for _ in 0..count {
+        let q = r.env_samples;
+        r.env_samples += 1;
+        let entry = if s.stratified { stratified_entry(shift, q) } else { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x) };
+        let e = env.table(entry as usize);
+        let cos = n.dot(e.dir);
+        let (mut vd, mut vg) = (Vec3::ZERO, Vec3::ZERO);
+        if cos > 0.0 && e.pdf > 0.0 {
+            r.env_rays += 1;
+            // The occluder's distance only where the sample is bright enough to count (any-hit otherwise).
+            let occluded = if luminance(e.radiance) >= s.occluder_luminance {
+                match scene.intersect(origin, e.dir, 0.0, f32::INFINITY) {
+                    Some(h) => {
+                        r.env_occluder = r.env_occluder.max(occluder_term(cos, h.t));
+                        true
+                    }
+                    None => false,
+                }
+            } else {
+                scene.occluded(origin, e.dir, 0.0, f32::INFINITY)
+            };
+            if occluded {
+                r.env_occluded += 1;
+            } else {
+                let l = e.radiance * (cos / e.pdf);
+                vd = l * std::f32::consts::FRAC_1_PI;
+                if glossy {
+                    vg = l * glossy_brdf(s.path.lobe, m, n, wo, e.dir);
+                }
+            }
+        }
+        for (v, e, valid) in [(vd, &mut ed, &mut valid_d), (vg, &mut eg, &mut valid_g)] {
+            if v.is_finite() {
+                *e += v;
+                *valid += 1;
+            } else {
+                r.non_finite += 1;
+            }
+        }
+    }
+    let sums = Sums { l: &mut r.l_env_diffuse, k: &mut r.k_env_diffuse, e: &mut r.e_env_diffuse, w: &mut r.w_env_diffuse };
+    accumulate(sums, kd, ed, valid_d, w, s.fixed_primary);
+    let sums = Sums { l: &mut r.l_env_glossy, k: &mut r.k_env_glossy, e: &mut r.e_env_glossy, w: &mut r.w_env_glossy };
+    accumulate(sums, if glossy { ks } else { Vec3::ZERO }, eg, valid_g, w, s.fixed_primary);
+}
+
+/// Rec. 709 luminance (`wedge_scene::environment::luminance`, in f32).
+#[inline]
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
@@ -850,11 +1013,14 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 ///   of `indirect.sample`'s estimates (Ch. 4 filters them, then multiplies k_d and k_s back in);
 /// - `velocity`: mean image-space velocity of the primary hits (px per half shutter) and its per-axis
 ///   range over the paths (misses as 0); `shadow_velocity`: the same over the occluded shadow samples
-///   (thesis App. B's `v_p`, `v_s` and "distinct velocities").
+///   (thesis App. B's `v_p`, `v_s` and "distinct velocities");
+/// - `l_env_diffuse`, …, `e_env_glossy`: L, k, E of the environment's diffuse and glossy parts;
+///   `environment`: the occluder term `cos²θ_occ/z` (largest over the bright occluded look-ups, 0
+///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups.
 pub struct PathsResolve;
 
 /// Every output of `paths.resolve`, in binding order (all optional).
-pub const RESOLVE_OUTPUTS: [(&str, Format); 22] = [
+pub const RESOLVE_OUTPUTS: [(&str, Format); 29] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -877,6 +1043,13 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 22] = [
     ("glossy", Format::Vec4),
     ("velocity", Format::Vec4),
     ("shadow_velocity", Format::Vec4),
+    ("l_env_diffuse", Format::Vec3),
+    ("k_env_diffuse", Format::Vec3),
+    ("e_env_diffuse", Format::Vec3),
+    ("l_env_glossy", Format::Vec3),
+    ("k_env_glossy", Format::Vec3),
+    ("e_env_glossy", Format::Vec3),
+    ("environment", Format::Vec4),
 ];
 
 /// A mean and its sample count: the estimate convention the world-space filters read.
@@ -943,6 +1116,13 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "glossy" => estimate(e(r.e_glossy, r.w_glossy), r.glossy_samples),
         "velocity" => velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max),
         "shadow_velocity" => velocity_stats(r.vs_sum, r.occluded as f32, r.vs_min, r.vs_max),
+        "l_env_diffuse" => mean(r.l_env_diffuse, r.w_env_diffuse),
+        "k_env_diffuse" => mean(r.k_env_diffuse, r.w_env_diffuse),
+        "e_env_diffuse" => mean(r.e_env_diffuse, r.w_env_diffuse),
+        "l_env_glossy" => mean(r.l_env_glossy, r.w_env_glossy),
+        "k_env_glossy" => mean(r.k_env_glossy, r.w_env_glossy),
+        "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy),
+        "environment" => [r.env_occluder, hit_mean(r.exponent), r.env_samples as f32, r.env_occluded as f32],
         other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }
 }

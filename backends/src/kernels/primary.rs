@@ -70,7 +70,8 @@ impl Kernel for PrimaryGBuffer {
         let texels = ctx.map_pixels(false, |x, y| {
             let (o, d) = cam.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, glam::Vec2::splat(0.5));
             let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) else {
-                return Texel::default();
+                // A camera ray that leaves the scene sees the environment (black without a map).
+                return Texel { emission: scene.background(d).to_array(), ..Texel::default() };
             };
             let sp = scene.surface(&hit, o, d);
             let n = sp.shading_normal;
