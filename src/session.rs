@@ -11,6 +11,7 @@ use wedge_graph::{
 };
 use glam::{Quat, Vec3};
 use wedge_scene::motion::RigidMotion;
+use wedge_graph::SceneRequest;
 use wedge_scene::{Camera, Scene, SceneError, SceneSource};
 
 /// The default pipeline, compiled in so `wedge render` works from any directory.
@@ -135,6 +136,7 @@ impl Session {
             scene.camera = camera_from_spec(c, &scene.camera);
         }
         apply_motion(&mut scene, &pipeline)?;
+        apply_scene_requests(&mut scene, &pipeline)?;
         // A pipeline with a camera path renders its frame 0 as a single image.
         if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, 0) {
             scene.camera.position = position;
@@ -380,6 +382,49 @@ fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), W
             WedgeError::Usage(format!("{}: the `motion` entry for `{}`: {e}", pipeline.path.display(), m.object))
         })?;
     }
+    Ok(())
+}
+
+/// Apply what the pipeline's nodes ask of the scene ([`SceneRequest`]): an environment map, read
+/// relative to the pipeline file. Two nodes asking for different maps, a map that cannot be read, or
+/// a request for the scene's own map where it has none, is an error naming the node and its position.
+fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), WedgeError> {
+    let mut environment: Option<(&wedge_graph::ValidatedNode, SceneRequest)> = None;
+    for node in &pipeline.nodes {
+        for request in node.kind.scene_requests(&node.params) {
+            match &environment {
+                Some((first, wanted)) if *wanted != request => {
+                    return Err(WedgeError::Usage(format!(
+                        "{}: node `{}` lights the scene with {request:?}, but node `{}` (at {}) with {wanted:?}; one \
+                         scene has one environment: give both nodes the same map, scale and rotation_deg",
+                        node.location, node.name, first.name, first.location
+                    )));
+                }
+                Some(_) => {}
+                None => environment = Some((node, request)),
+            }
+        }
+    }
+    let Some((node, SceneRequest::Environment { map, scale, rotation_deg, param })) = environment else {
+        return Ok(());
+    };
+    let at = |e: String| WedgeError::Usage(format!("{}: node `{}`, parameter `{param}`: {e}", node.location, node.name));
+    let (base, scale, rotation_deg) = if map.is_empty() {
+        // The scene's own map, with the node's scale and rotation on top of its own.
+        let own = scene.environment.clone().ok_or_else(|| {
+            at(format!(
+                "no map given and scene `{}` has none — give `{param}` an EXR or .hdr file (relative to the pipeline \
+                 file) or builtin:sky, or use a scene with a map (e.g. --scene envmap)",
+                scene.name
+            ))
+        })?;
+        let (s, r) = (own.scale() as f64 * scale, own.rotation_deg() as f64 + rotation_deg);
+        (own, s, r)
+    } else {
+        let spec = if map.starts_with("builtin:") { map.clone() } else { pipeline.base_dir().join(&map).display().to_string() };
+        (wedge_scene::EnvironmentMap::open(&spec).map_err(|e| at(e.to_string()))?, scale, rotation_deg)
+    };
+    scene.set_environment(Some(base.with_params(scale as f32, rotation_deg as f32).map_err(|e| at(e.to_string()))?));
     Ok(())
 }
 

@@ -360,6 +360,12 @@ pub enum ParamKind {
         default: &'static str,
         options: &'static [&'static str],
     },
+    /// A file, relative to the pipeline file (or `builtin:NAME` for a resource generated in code);
+    /// `""` = none. The node passes it on in a [`SceneRequest`]; whoever loads the scene resolves and
+    /// reads it, and reports a file it cannot read at the parameter's position.
+    Path {
+        default: &'static str,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -443,6 +449,16 @@ impl ParamDecl {
         }
     }
 
+    /// A file path (see [`ParamKind::Path`]).
+    pub const fn path(name: &'static str, default: &'static str, doc: &'static str) -> Self {
+        ParamDecl {
+            name,
+            kind: ParamKind::Path { default },
+            doc,
+            optional: false,
+        }
+    }
+
     /// The same declaration, but optional: no default is filled in when the pipeline leaves it out
     /// (the declared default is only what documentation shows as the typical value).
     pub const fn optional(mut self) -> Self {
@@ -455,7 +471,7 @@ impl ParamDecl {
             ParamKind::Float { default, .. } => ParamValue::Float(*default),
             ParamKind::Int { default, .. } => ParamValue::Int(*default),
             ParamKind::Bool { default } => ParamValue::Bool(*default),
-            ParamKind::Choice { default, .. } => ParamValue::Str((*default).to_string()),
+            ParamKind::Choice { default, .. } | ParamKind::Path { default } => ParamValue::Str((*default).to_string()),
         }
     }
 
@@ -508,6 +524,13 @@ impl ParamDecl {
                     Err(format!("{} = {s:?} is not one of {options:?}", self.name))
                 }
             }
+            (ParamKind::Path { .. }, ParamValue::Str(s)) => {
+                if s.contains('\0') {
+                    Err(format!("{} contains a NUL character, which no file name can", self.name))
+                } else {
+                    Ok(ParamValue::Str(s.clone()))
+                }
+            }
             (kind, v) => Err(format!(
                 "{} = {v} has the wrong type; expected {}",
                 self.name,
@@ -523,7 +546,18 @@ fn kind_name(kind: &ParamKind) -> &'static str {
         ParamKind::Int { .. } => "an integer",
         ParamKind::Bool { .. } => "true or false",
         ParamKind::Choice { .. } => "a string",
+        ParamKind::Path { .. } => "a file path string",
     }
+}
+
+/// What a node asks of the scene before the graph is built (graph knows no scenes: the session loads
+/// and applies it, and refuses two nodes that ask for different things).
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneRequest {
+    /// Light the scene with an environment map (thesis Ch. 6): `map` a file relative to the pipeline
+    /// file or `builtin:NAME` (`""`: the scene's own map), its radiance times `scale`, turned by
+    /// `rotation_deg` about +Y. `param` names the parameter that gave `map`, for error positions.
+    Environment { map: String, scale: f64, rotation_deg: f64, param: &'static str },
 }
 
 /// A node kind: an effect (SoftShadows, Indirect, …), a producer of per-pixel surface data (Primary),
@@ -537,6 +571,11 @@ pub trait NodeKind: Send + Sync {
     fn inputs(&self) -> Vec<PortDecl>;
     fn outputs(&self) -> Vec<PortDecl>;
     fn params(&self) -> Vec<ParamDecl>;
+    /// What this node (with these validated parameters) asks of the scene before the graph is built
+    /// — e.g. an environment map to light it ([`SceneRequest`]). Default: nothing.
+    fn scene_requests(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Vec<SceneRequest> {
+        Vec::new()
+    }
     /// Sinks are the roots of culling: a pass survives only if some sink input depends on it.
     fn is_sink(&self) -> bool {
         false

@@ -30,7 +30,7 @@ mod source_map;
 pub mod stage;
 mod validate;
 
-pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, StructLayout};
+pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, SceneRequest, StructLayout};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, PassBuilder};
 pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts};
 pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};

@@ -479,6 +479,7 @@ fn params_list(params: &[ParamDecl]) -> String {
             ParamKind::Int { min, max, .. } => format!("{}: integer in [{min}, {max}]", p.name),
             ParamKind::Bool { .. } => format!("{}: bool", p.name),
             ParamKind::Choice { options, .. } => format!("{}: one of {options:?}", p.name),
+            ParamKind::Path { .. } => format!("{}: file path", p.name),
         })
         .collect::<Vec<_>>()
         .join(", ")
@@ -493,7 +494,7 @@ fn type_matches(kind: &ParamKind, v: &ParamValue) -> bool {
             ParamValue::Float(_) | ParamValue::Int(_)
         ) | (ParamKind::Int { .. }, ParamValue::Int(_))
             | (ParamKind::Bool { .. }, ParamValue::Bool(_))
-            | (ParamKind::Choice { .. }, ParamValue::Str(_))
+            | (ParamKind::Choice { .. } | ParamKind::Path { .. }, ParamValue::Str(_))
     )
 }
 
