@@ -22,7 +22,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let bi = bandwidth_at(i);
     let pi = position_at(i);
-    if (!(pi.w > 0.0 && bi[params.axis] > 0.0 && is_finite(bi[params.axis]))) {
+    if (!(pi.w > 0.0 && bi[params.axis] >= 0.0 && is_finite(bi[params.axis]))) {
         out_put(i, centre);
         return;
     }
@@ -41,12 +41,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let j = index_at(p.x, p.y);
         let v = value_at(j);
         let pj = position_at(j);
-        if (!is_finite3(v) || !(pj.w == pi.w) || !(dot3(ni, normalize_or_zero3(normal_at(j).xyz)) >= params.normal_cos)) {
+        let bj = bandwidth_at(j);
+        if (!is_finite3(v) || !(bj[params.axis] >= 0.0) || !(pj.w == pi.w)
+            || !(dot3(ni, normalize_or_zero3(normal_at(j).xyz)) >= params.normal_cos)) {
             continue;
         }
         let d = pj.xyz - xi;
         let d2 = dot3(d, d);
-        let w = exp(-2.0 * mean_b2(bi, bandwidth_at(j), params.axis) * d2);
+        let w = exp(-2.0 * mean_b2(bi, bj, params.axis) * d2);
         sum = sum + w * v;
         wsum = wsum + w;
         if (previous_bound()) {

@@ -3,7 +3,42 @@
 //! `k̃ Ẽ` where a part factors, else `L`, summed over parts) with the component node's ports, and the
 //! sum of components the factoring node blurs.
 
-use wedge_graph::{BufferId, ExpandCtx, Format, ParamValue, Part, Reference, Stage};
+use wedge_graph::{BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, Reference, SamplerPass, Stage, FILL_CONSTANT};
+
+use crate::defocus::formulas::FACTORING_THRESHOLD;
+
+/// SepDir / SepInd of `part` on the `pass` record (eq. 5.30: `‖L − k E‖` below a threshold, so `k E`
+/// may stand for the pixel's `L`) with the 3×3 median, in a buffer `<name>`; all 0 without
+/// factoring (Ch. 5's ablation). `role` is the median's part in a reference.
+pub fn factor_flags(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    part: &Part,
+    (pass, stage): (SamplerPass, Stage),
+    factor: bool,
+    role: Reference,
+) -> Result<BufferId, GraphError> {
+    let out = ctx.buffer(name, Format::U32);
+    if !factor {
+        ctx.pass(name, FILL_CONSTANT, stage).write("out", out).int("value", 0).reference(role).finish();
+        return Ok(out);
+    }
+    let (l, k, e) = (
+        ctx.sampler_output(pass, part.radiance)?,
+        ctx.sampler_output(pass, part.texture)?,
+        ctx.sampler_output(pass, part.irradiance)?,
+    );
+    let raw = ctx.buffer(&format!("{name}_raw"), Format::U32);
+    ctx.pass(&format!("{name}_raw"), "defocus.flags", stage)
+        .read("radiance", l)
+        .read("texture", k)
+        .read("irradiance", e)
+        .write("flag", raw)
+        .float("threshold", f64::from(FACTORING_THRESHOLD))
+        .finish();
+    ctx.pass(name, "neighbourhood.median3", stage).read("value", raw).write("out", out).reference(role).finish();
+    Ok(out)
+}
 
 /// A Ch. 5 filter (`filter.irradiance` or `filter.defocus`) on `value`: the x then the y pass
 /// (`<name>_x`, `<name>_y`) when `separable`, else the 2-D reference (`<name>`); a reference
@@ -75,10 +110,17 @@ pub struct PartTerms {
 }
 
 /// Eq. 5.32 for a component: `defocus.compose` per part (`<part>_compose`, each adding to the
-/// previous part's sum) and Σ L (`<part>_unfiltered`), bound to the component node's ports
-/// `radiance` and `unfiltered`, with `filter_width` and `rays_per_pixel`.
-pub fn compose_component(ctx: &mut ExpandCtx<'_>, parts: &[(&Part, PartTerms)], filter_width: BufferId, rays: BufferId) {
-    let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (None, None);
+/// previous part's sum) and Σ L (`<part>_unfiltered`), plus `extra` in both (e.g. emission) where
+/// given, bound to the component node's ports `radiance` and `unfiltered`, with `filter_width` and
+/// `rays_per_pixel`.
+pub fn compose_component(
+    ctx: &mut ExpandCtx<'_>,
+    parts: &[(&Part, PartTerms)],
+    extra: Option<BufferId>,
+    filter_width: BufferId,
+    rays: BufferId,
+) {
+    let (mut radiance, mut unfiltered): (Option<BufferId>, Option<BufferId>) = (extra, extra);
     for (part, t) in parts {
         let name = format!("{}_compose", part.name);
         let out = ctx.buffer(&name, Format::Vec3);

@@ -12,6 +12,8 @@
 //! - [`indirect`]: `Indirect`, axis-aligned filtering of diffuse/glossy indirect light and AO (thesis Ch. 4).
 //! - [`defocus`]: `Defocus`, thin-lens depth of field with factoring and two-level sampling (thesis Ch. 5).
 //! - [`motion`]: `Motion`, motion blur with factoring and two-level sampling (thesis App. B).
+//! - [`environment`]: `Environment`, environment-map lighting with axis-aligned and temporal
+//!   filtering (thesis Ch. 6).
 //! - [`factored`]: the passes both factoring nodes build alike (filter chains, the compose of a
 //!   component's factored parts).
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
@@ -36,6 +38,7 @@ use wedge_graph::NodeRegistry;
 
 pub mod add;
 pub mod defocus;
+pub mod environment;
 pub mod factored;
 pub mod filtering;
 pub mod heatmap;
@@ -66,6 +69,8 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     defocus::register_kernels(kernels);
     nodes.register(Arc::new(motion::Motion));
     motion::register_kernels(kernels);
+    nodes.register(Arc::new(environment::Environment));
+    environment::register_kernels(kernels);
 }
 
 /// The registries with everything wedge ships.

@@ -7,7 +7,9 @@
 //!   bandwidth estimates are also noisy"), over `|k| ≤ max_radius` pixels (the thesis: a 30 × 30
 //!   window). Neighbours on another object or the background, whose normals differ by more than the
 //!   normal test allows (10°, wedge's convention for every world-space filter), or whose values are not
-//!   finite are not used. A pixel with no hit or no positive bandwidth passes through.
+//!   finite are not used. A pixel with no hit, or whose bandwidth is negative or not finite (a node's
+//!   "do not filter"), passes through, and is no neighbour of another. A bandwidth of 0 (a flat, unoccluded receiver: eq. 6.13 gives
+//!   `B_x = 0`) is the widest filter the window allows, not none.
 //! - `filter.environment_history` (eqs. 6.24–6.25): the previous frame's unfiltered irradiance,
 //!   reprojected: for pixel `(x, y)` with world position `p`, `(x', y')` is the previous frame's pixel
 //!   whose position is closest to `p` (searched over the 3 × 3 pixels around `p`'s projection by the
@@ -76,7 +78,7 @@ pub fn filter_pixel(
     let i = (y * width + x) as usize;
     let centre = value[i];
     let bi = bandwidth[i];
-    if !(position[i][3] > 0.0 && bi[p.axis] > 0.0 && bi[p.axis].is_finite()) {
+    if !(position[i][3] > 0.0 && bi[p.axis] >= 0.0 && bi[p.axis].is_finite()) {
         return centre;
     }
     let ni = v3(normal[i]).normalize_or_zero();
@@ -90,11 +92,12 @@ pub fn filter_pixel(
         }
         let j = (jy * width + jx) as usize;
         let v = value[j];
-        if !is_finite3(v) || !compatible(position[i], ni, position[j], normal[j], p.normal_cos) {
+        let bj = bandwidth[j];
+        if !is_finite3(v) || !(bj[p.axis] >= 0.0) || !compatible(position[i], ni, position[j], normal[j], p.normal_cos) {
             continue;
         }
         let d2 = (v3(position[j]) - xi).length_squared();
-        let w = (-2.0 * mean_b2(bi, bandwidth[j], p.axis) * d2).exp();
+        let w = (-2.0 * mean_b2(bi, bj, p.axis) * d2).exp();
         for c in 0..3 {
             sum[c] += w * v[c];
         }

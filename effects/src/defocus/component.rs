@@ -18,13 +18,13 @@
 //!    the Motion node).
 
 use wedge_graph::{
-    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, Part, PerPrimary, Reference,
-    SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+    Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
+    SamplerRequest, Stage,
 };
 
-use crate::factored::{compose_component, IrradianceFilter, PartTerms};
+use crate::factored::{compose_component, factor_flags, IrradianceFilter, PartTerms};
 
-use super::formulas::{FACTORING_THRESHOLD, OMEGA_PIX_MAX};
+use super::formulas::OMEGA_PIX_MAX;
 
 /// The factoring node's rate settings forwarded into `defocus.rates`, with `Ω_pix^max` and the
 /// diffuse receiver's `Ω_v^max` (a component may override it in its `rate_params`).
@@ -38,38 +38,6 @@ pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
             ("omega_v", ParamValue::Float(f64::from(omega_v))),
         ])
         .collect()
-}
-
-/// SepDir / SepInd of `part` on the `pass` record (eq. 5.30) with the 3×3 median, in a buffer
-/// `<name>`; all 0 without factoring (the ablation). `role` is the median's part in a reference.
-fn flags(
-    ctx: &mut ExpandCtx<'_>,
-    name: &str,
-    part: &Part,
-    (pass, stage): (SamplerPass, Stage),
-    factor: bool,
-    role: Reference,
-) -> Result<BufferId, GraphError> {
-    let out = ctx.buffer(name, Format::U32);
-    if !factor {
-        ctx.pass(name, FILL_CONSTANT, stage).write("out", out).int("value", 0).reference(role).finish();
-        return Ok(out);
-    }
-    let (l, k, e) = (
-        ctx.sampler_output(pass, part.radiance)?,
-        ctx.sampler_output(pass, part.texture)?,
-        ctx.sampler_output(pass, part.irradiance)?,
-    );
-    let raw = ctx.buffer(&format!("{name}_raw"), Format::U32);
-    ctx.pass(&format!("{name}_raw"), "defocus.flags", stage)
-        .read("radiance", l)
-        .read("texture", k)
-        .read("irradiance", e)
-        .write("flag", raw)
-        .float("threshold", f64::from(FACTORING_THRESHOLD))
-        .finish();
-    ctx.pass(name, "neighbourhood.median3", stage).read("value", raw).write("out", out).reference(role).finish();
-    Ok(out)
 }
 
 /// Add the component's passes (see the module doc) and bind the node's ports `radiance` (the
@@ -90,7 +58,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
     let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
     let flag_first =
-        flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, Reference::Keep)?;
+        factor_flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, Reference::Keep)?;
     let (omega, pixel_length) =
         (ctx.buffer(&format!("{}_omega", c.name), Format::F32), ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32));
     let (count, sigma) =
@@ -124,13 +92,13 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let mut terms = Vec::new();
     for part in &c.parts {
         let flag =
-            flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, Reference::Fill(0))?;
+            factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, Reference::Fill(0))?;
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
         let e = filter.apply(ctx, &format!("{}_filter", part.name), e);
         let (l, k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
         terms.push((part, PartTerms { l, k, e, flag }));
     }
-    compose_component(ctx, &terms, sigma, count);
+    compose_component(ctx, &terms, None, sigma, count);
     Ok(())
 }

@@ -321,6 +321,6 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
         let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
         terms.push((part, PartTerms { l, k, e, flag }));
     }
-    compose_component(ctx, &terms, sigma, count);
+    compose_component(ctx, &terms, None, sigma, count);
     Ok(())
 }

@@ -1,0 +1,230 @@
+//! The environment kernels: `environment.curvature` (eq. 6.20) and `environment.bandwidth` (eqs.
+//! 6.13, 6.17, 6.18 per pixel, the filter widths for the heatmaps and the adaptive look-ups), CPU
+//! here and WGSL in `shaders/environment_{curvature,bandwidth}.wgsl`, both on the formulas of
+//! [`super::formulas`] (WGSL mirror `shaders/environment_formulas.wgsl`).
+//!
+//! Buffer conventions (per pixel):
+//! - `position` (vec4): world position, `w` = 1 + object id (0: no hit) — the sampler's `position`;
+//!   `normal` (vec4): unit normal, `w` = the pixel's footprint in metres — the sampler's `normal`.
+//! - `curvature` (vec2): `(|κ_X|, |κ_Y|)` in rad/m.
+//! - `environment` (vec4): the sampler's `environment` — occluder term `cos²θ_occ/z`, mean Phong
+//!   exponent, look-ups, occluded look-ups.
+//! - `depth` (vec4, optional): the sampler's `depth` — `z_min`, `z_max`, indirect hits, rays.
+//! - Bandwidths written (vec2 each, `(B_X, B_Y)` in 1/m, μ included): `direct_diffuse`,
+//!   `direct_glossy`, `indirect_diffuse`, `indirect_glossy`; for the heatmaps (f32) `bandwidth` and
+//!   `filter_width` (the mean over both axes of the direct light's `B` and its σ in pixels — glossy
+//!   where the surface has a lobe, else diffuse), and `rays` (u32) the adaptive look-ups.
+
+use glam::Vec3;
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_graph::Format;
+
+use super::formulas::{self, PixelStats};
+
+fn v3(a: [f32; 4]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// `|κ|` along `axis` at pixel `(x, y)` (eq. 6.20): against the next pixel along the axis where it
+/// shows the same object, else the previous one, else 0.
+pub fn curvature_at(x: i32, y: i32, width: i32, height: i32, axis: usize, position: &[[f32; 4]], normal: &[[f32; 4]]) -> f32 {
+    let i = (y * width + x) as usize;
+    if !(position[i][3] > 0.0) {
+        return 0.0;
+    }
+    for step in [1, -1] {
+        let (jx, jy) = if axis == 0 { (x + step, y) } else { (x, y + step) };
+        if jx < 0 || jy < 0 || jx >= width || jy >= height {
+            continue;
+        }
+        let j = (jy * width + jx) as usize;
+        if position[j][3] == position[i][3] {
+            return formulas::curvature(v3(normal[i]), v3(normal[j]), v3(position[i]), v3(position[j]));
+        }
+    }
+    0.0
+}
+
+/// `environment.curvature`: `(|κ_X|, |κ_Y|)` per pixel, and optionally their mean (`magnitude`, for a
+/// heatmap).
+pub struct Curvature;
+
+impl Kernel for Curvature {
+    fn name(&self) -> &'static str {
+        "environment.curvature"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::write("curvature", Format::Vec2),
+            Binding::write_opt("magnitude", Format::F32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/environment_curvature.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("environment_formulas.wgsl", include_str!("../../../shaders/environment_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let kappa: Vec<[f32; 2]> = ctx.map_pixels(false, |x, y| {
+            let (x, y) = (x as i32, y as i32);
+            [0, 1].map(|axis| curvature_at(x, y, w, h, axis, position, normal))
+        });
+        ctx.put_opt("magnitude", || kappa.iter().map(|k| 0.5 * (k[0] + k[1])).collect::<Vec<f32>>())?;
+        ctx.put("curvature", kappa)
+    }
+}
+
+/// The parameters of `environment.bandwidth`.
+#[derive(Clone, Copy, Debug)]
+pub struct BandwidthParams {
+    pub mu: f32,
+    /// `B_e` in cycles per radian: the node's value, or the scene map's (Sec. 6.7: 99% energy).
+    pub b_e: f32,
+    pub max_radius: f32,
+    /// Adaptive look-ups: `base` (the fixed count), `sigma_ref`, `max` ([`formulas::look_ups`]).
+    pub base: u32,
+    pub sigma_ref: f32,
+    pub max_rays: u32,
+}
+
+fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError> {
+    let err = |message: String| BackendError::Kernel { pass: ctx.pass.to_string(), message };
+    let finite = |name: &str, min: f32| -> Result<f32, BackendError> {
+        let v = ctx.f32_param(name)?;
+        if v.is_finite() && v >= min {
+            Ok(v)
+        } else {
+            Err(err(format!("`{name}` = {v}; it must be a finite number >= {min}")))
+        }
+    };
+    let count = |name: &str| -> Result<u32, BackendError> {
+        let v = ctx.int_param(name)?;
+        u32::try_from(v).ok().filter(|&c| c >= 1).ok_or_else(|| err(format!("`{name}` = {v}; it must be a count >= 1")))
+    };
+    let mu = finite("mu", 0.0)?;
+    if mu <= 0.0 {
+        return Err(err(format!("`mu` = {mu}; it must be > 0")));
+    }
+    // `b_e` < 0: the scene map's B_e.
+    let b_e = match ctx.f32_param("b_e")? {
+        v if v >= 0.0 && v.is_finite() => v,
+        _ => ctx.scene.environment.as_ref().map(|e| e.bandwidth()).ok_or_else(|| {
+            err(format!("B_e comes from the scene's environment map, but scene `{}` has none", ctx.scene.name))
+        })?,
+    };
+    Ok(BandwidthParams {
+        mu,
+        b_e,
+        max_radius: finite("max_radius", 0.0)?,
+        base: count("base")?,
+        sigma_ref: finite("sigma_ref", 0.0)?,
+        max_rays: count("max_rays")?,
+    })
+}
+
+/// One pixel's statistics from the input buffers.
+pub fn pixel_stats(curvature: [f32; 2], environment: [f32; 4], depth: Option<[f32; 4]>) -> PixelStats {
+    let z_min = match depth {
+        Some(d) if d[2] > 0.0 => d[0],
+        _ => 0.0,
+    };
+    PixelStats { kappa: curvature, occluder: environment[0], exponent: environment[1], z_min }
+}
+
+/// What `environment.bandwidth` writes for one pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelBandwidths {
+    pub b: formulas::Bandwidths,
+    /// Mean of the shown direct part's `(B_X, B_Y)` and of its σ in pixels.
+    pub bandwidth: f32,
+    pub filter_width: f32,
+    pub rays: u32,
+}
+
+/// [`formulas::pixel_bandwidths`] with the heatmap values and the adaptive count, for a pixel of
+/// footprint `footprint` (0: no surface).
+pub fn pixel_outputs(s: &PixelStats, footprint: f32, k: &BandwidthParams) -> PixelBandwidths {
+    let b = formulas::pixel_bandwidths(s, k.b_e, k.mu);
+    let shown = if s.exponent > 0.0 { b.direct_glossy } else { b.direct_diffuse };
+    let sigma = shown.map(|bx| formulas::sigma_pixels(bx, footprint, k.max_radius));
+    PixelBandwidths {
+        b,
+        bandwidth: 0.5 * (shown[0] + shown[1]),
+        filter_width: 0.5 * (sigma[0] + sigma[1]),
+        rays: formulas::look_ups(k.base, sigma, k.sigma_ref, k.max_rays),
+    }
+}
+
+/// `environment.bandwidth`: the bandwidths of eqs. 6.13, 6.17 and 6.18 per pixel (every output
+/// optional; see the module doc).
+pub struct Bandwidth;
+
+impl Kernel for Bandwidth {
+    fn name(&self) -> &'static str {
+        "environment.bandwidth"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("curvature", Format::Vec2),
+            Binding::read("environment", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read_opt("depth", Format::Vec4),
+            Binding::write_opt("direct_diffuse", Format::Vec2),
+            Binding::write_opt("direct_glossy", Format::Vec2),
+            Binding::write_opt("indirect_diffuse", Format::Vec2),
+            Binding::write_opt("indirect_glossy", Format::Vec2),
+            Binding::write_opt("bandwidth", Format::F32),
+            Binding::write_opt("filter_width", Format::F32),
+            Binding::write_opt("rays", Format::U32),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/environment_bandwidth.wgsl"), |ctx| {
+                let k = bandwidth_params(ctx)?;
+                Ok(Uniforms::new()
+                    .f32("mu", k.mu)
+                    .f32("b_e", k.b_e)
+                    .f32("max_radius", k.max_radius)
+                    .u32("base", k.base)
+                    .f32("sigma_ref", k.sigma_ref)
+                    .u32("max_rays", k.max_rays))
+            })
+            .with_include("environment_formulas.wgsl", include_str!("../../../shaders/environment_formulas.wgsl"))
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let k = bandwidth_params(ctx)?;
+        let curvature = ctx.read::<[f32; 2]>("curvature")?;
+        let environment = ctx.read::<[f32; 4]>("environment")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let depth = ctx.read_opt::<[f32; 4]>("depth")?;
+        let out: Vec<PixelBandwidths> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            let s = pixel_stats(curvature[i], environment[i], depth.map(|d| d[i]));
+            pixel_outputs(&s, normal[i][3], &k)
+        });
+        let vec2 = |f: fn(&formulas::Bandwidths) -> [f32; 2]| out.iter().map(|o| f(&o.b)).collect::<Vec<[f32; 2]>>();
+        ctx.put_opt("direct_diffuse", || vec2(|b| b.direct_diffuse))?;
+        ctx.put_opt("direct_glossy", || vec2(|b| b.direct_glossy))?;
+        ctx.put_opt("indirect_diffuse", || vec2(|b| b.indirect_diffuse))?;
+        ctx.put_opt("indirect_glossy", || vec2(|b| b.indirect_glossy))?;
+        ctx.put_opt("bandwidth", || out.iter().map(|o| o.bandwidth).collect::<Vec<f32>>())?;
+        ctx.put_opt("filter_width", || out.iter().map(|o| o.filter_width).collect::<Vec<f32>>())?;
+        ctx.put_opt("rays", || out.iter().map(|o| o.rays).collect::<Vec<u32>>())
+    }
+}

@@ -1,0 +1,263 @@
+//! `Environment`: image-based lighting with axis-aligned filtering, and filtering across frames
+//! (thesis Ch. 6, `seeds/000_956e982470d7e5bf.txt` Sec. 6.5–6.7; `EQUATIONS.md` "Environment").
+//!
+//! The node
+//! 1. asks the scene for its environment map ([`SceneRequest::Environment`]: `map`, `scale`,
+//!    `rotation_deg`; no `map` = the scene's own) and the shared sampler for the `environment`
+//!    estimator: `primary` paths per pixel (jittered where more than one) with `per_primary` table
+//!    look-ups each — Algorithm 1's 4 × 4 = 16 by default — and, with `indirect`, the `hemisphere`
+//!    estimator (`indirect_per_primary` one-bounce samples per path, whose reflectors the environment
+//!    lights by next-event estimation);
+//! 2. computes the screen-space curvature (eq. 6.20, `environment.curvature`) and per pixel the
+//!    bandwidths of the environment's direct light (eq. 6.13 diffuse, 6.17 Phong with `B_ρ(m)`) and of
+//!    the indirect light (6.18), times μ (`environment.bandwidth`); with `adaptive`, submits the
+//!    look-ups its filters need ([`super::formulas::look_ups`], an extension);
+//! 3. filters each irradiance — environment diffuse and glossy, indirect diffuse and glossy — with
+//!    the separable Gaussian of eqs. 6.21–6.23 (`filter.environment`); with `temporal`, the previous
+//!    frame's unfiltered irradiance, reprojected (`filter.environment_history`, eqs. 6.24–6.25), joins
+//!    the y pass (6.26) through the frame history (`ExpandCtx::previous_frame`);
+//! 4. composes `Σ k Ē` (+ the primary hits' emission and the environment seen where camera rays miss,
+//!    with `emission`), each part's `k Ē` where eq. 5.30's test says the pixel's primary rays factor
+//!    (a pixel whose jittered rays see two textures keeps its Monte Carlo `L`), as Ch. 5 composes.
+//!
+//! Ch. 6 has no μ and no adaptive rates; both are documented extensions here (μ = 1 and
+//! `adaptive: false` are the thesis). With a factoring node (Defocus, Motion) in the pipeline the
+//! node refuses: it is not a factored component.
+
+use std::collections::BTreeMap;
+
+use wedge_graph::{
+    BufferId, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl,
+    Reference, SamplerPass, SamplerRequest, SceneRequest, Stage,
+};
+
+use crate::factored::{compose_component, factor_flags, PartTerms};
+
+pub struct Environment;
+
+/// The filtered parts: the sampler's `L, k, E` names and the bandwidth output of
+/// `environment.bandwidth` filtering them.
+const DIRECT_PARTS: [(Part, &str); 2] = [
+    (Part { name: "env_diffuse", radiance: "l_env_diffuse", texture: "k_env_diffuse", irradiance: "e_env_diffuse" }, "direct_diffuse"),
+    (Part { name: "env_glossy", radiance: "l_env_glossy", texture: "k_env_glossy", irradiance: "e_env_glossy" }, "direct_glossy"),
+];
+const INDIRECT_PARTS: [(Part, &str); 2] = [
+    (Part { name: "indirect_diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" }, "indirect_diffuse"),
+    (Part { name: "indirect_glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" }, "indirect_glossy"),
+];
+
+/// The normal test of the filters: neighbours whose normals differ by more are not averaged.
+const NORMAL_DEG: f64 = 10.0;
+
+fn count(ctx: &ExpandCtx<'_>, name: &str) -> i64 {
+    match ctx.param(name) {
+        ParamValue::Int(v) => *v,
+        other => unreachable!("`{name}` is declared an integer, found {other}"),
+    }
+}
+
+impl NodeKind for Environment {
+    fn kind(&self) -> &'static str {
+        "Environment"
+    }
+    fn doc(&self) -> &'static str {
+        "Environment-map lighting with axis-aligned filtering and optional temporal filtering (Mehta thesis Ch. 6)"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        Vec::new()
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "Σ k·Ē over the filtered parts (+ emission and the visible environment, with `emission`)"),
+            PortDecl::new("unfiltered", Format::Vec3, "the same sum of the parts' Monte Carlo L"),
+            PortDecl::new("filter_width", Format::F32, "σ of the direct light's filter in pixels, mean of x and y (thesis Fig. 6.7(b))"),
+            PortDecl::new("bandwidth", Format::F32, "B_x of the direct light (eq. 6.13/6.17, μ included), mean of x and y, 1/m"),
+            PortDecl::new("curvature", Format::F32, "screen-space curvature |κ| (eq. 6.20), mean of x and y, rad/m"),
+            PortDecl::new("rays_per_pixel", Format::U32, "environment look-ups per pixel asked for (16 without `adaptive`)"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::path("map", "", "lat-long environment map: .exr or .hdr, relative to the pipeline file, or builtin:sky / builtin:studio; empty = the scene's own"),
+            ParamDecl::positive("scale", 1.0, 1e9, "multiplies the map's radiance"),
+            ParamDecl::float("rotation_deg", 0.0, -3600.0, 3600.0, "turns the map about +Y (right-hand rule, degrees)"),
+            ParamDecl::float("b_e", -1.0, -1.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth (Sec. 6.7)"),
+            ParamDecl::positive("mu", 1.0, 1e6, "μ (an extension; the thesis has none): scales every bandwidth; larger = narrower filters"),
+            ParamDecl::int("primary", 4, 1, 256, "primary rays per pixel, jittered where more than one (Algorithm 1: 4)"),
+            ParamDecl::int("per_primary", 4, 1, 4096, "environment look-ups per primary ray (Algorithm 1: 4)"),
+            ParamDecl::boolean("indirect", false, "also sample and filter one-bounce indirect light (eq. 6.18)"),
+            ParamDecl::int("indirect_per_primary", 4, 1, 4096, "one-bounce indirect samples per primary ray, with `indirect`"),
+            ParamDecl::boolean("temporal", false, "join the previous frame's reprojected irradiance in the y pass (eqs. 6.24-6.26)"),
+            ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
+            ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "occluded look-ups dimmer than this × the map's mean radiance do not set the occluder term (Sec. 6.7: 0.1)"),
+            ParamDecl::boolean("adaptive", false, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension)"),
+            ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
+            ParamDecl::int("max_rays", 256, 1, 1 << 20, "with `adaptive`: the most look-ups per pixel"),
+            ParamDecl::boolean("emission", true, "add the primary hits' emission and the environment where camera rays miss (false where another node adds it)"),
+        ]
+    }
+    fn scene_requests(&self, params: &BTreeMap<String, ParamValue>) -> Vec<SceneRequest> {
+        let f = |n: &str| params.get(n).and_then(ParamValue::as_f64).unwrap_or(0.0);
+        let map = match params.get("map") {
+            Some(ParamValue::Str(s)) => s.clone(),
+            _ => String::new(),
+        };
+        vec![SceneRequest::Environment { map, scale: f("scale"), rotation_deg: f("rotation_deg"), param: "map" }]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        if let Some(f) = ctx.factoring() {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: format!(
+                    "cannot render under the factoring node `{}`: Environment is not a factored component (thesis Ch. 6 \
+                     filters the environment on its own) — render it in a pipeline without Defocus or Motion",
+                    f.node
+                ),
+            });
+        }
+        let (primary, per_primary) = (count(ctx, "primary"), count(ctx, "per_primary"));
+        let indirect = ctx.param("indirect").as_bool() == Some(true);
+        let temporal = ctx.param("temporal").as_bool() == Some(true);
+        let adaptive = ctx.param("adaptive").as_bool() == Some(true);
+
+        // 1. The sampler: Algorithm 1's primary rays and look-ups (and one-bounce indirect samples).
+        let mut request = SamplerRequest::new()
+            .estimator("environment")
+            .setting("paths", ParamValue::Int(primary))
+            .setting("environment_per_primary", ParamValue::Int(per_primary))
+            .setting("jitter", ParamValue::Bool(primary > 1))
+            .setting("sampling", ParamValue::Str("stratified".into()))
+            .setting("occluder_threshold", ctx.param("occluder_threshold").clone());
+        if indirect {
+            request = request.estimator("hemisphere").setting("indirect_per_primary", ctx.param("indirect_per_primary").clone());
+        }
+        ctx.sampler(request)?;
+
+        // 2. Curvature (6.20) and bandwidths (6.13, 6.17, 6.18) from the first pass.
+        let position = ctx.sampler_output(SamplerPass::First, "position")?;
+        let normal = ctx.sampler_output(SamplerPass::First, "normal")?;
+        let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
+        let depth = if indirect { Some(ctx.sampler_output(SamplerPass::First, "depth")?) } else { None };
+        let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
+        ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
+            .read("position", position)
+            .read("normal", normal)
+            .write("curvature", curvature)
+            .write("magnitude", magnitude)
+            .finish();
+        let parts: Vec<&(Part, &str)> = DIRECT_PARTS.iter().chain(if indirect { &INDIRECT_PARTS[..] } else { &[] }).collect();
+        let bandwidths: Vec<BufferId> = parts.iter().map(|(_, b)| ctx.buffer(&format!("bandwidth_{b}"), Format::Vec2)).collect();
+        let (bandwidth, width, rays) =
+            (ctx.buffer("bandwidth", Format::F32), ctx.buffer("filter_width", Format::F32), ctx.buffer("rays_per_pixel", Format::U32));
+        let mut b = ctx
+            .pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
+            .read("curvature", curvature)
+            .read("environment", stats)
+            .read("normal", normal)
+            .read_opt("depth", depth)
+            .write("bandwidth", bandwidth)
+            .write("filter_width", width)
+            .write("rays", rays)
+            .node_params(&["b_e", "mu", "max_radius", "sigma_ref", "max_rays"])
+            .int("base", primary * per_primary)
+            .reference(if adaptive { Reference::Count } else { Reference::Keep });
+        for ((_, binding), id) in parts.iter().zip(&bandwidths) {
+            b = b.write(binding, *id);
+        }
+        b.finish();
+        if adaptive {
+            // Look-ups over both passes, `per_primary` per path: the sampler adds paths.
+            let mut per_path = vec![("environment".to_string(), PerPrimary::Constant(per_primary as u32))];
+            if indirect {
+                per_path.push(("hemisphere".into(), PerPrimary::Constant(count(ctx, "indirect_per_primary") as u32)));
+            }
+            ctx.sampler_counts(CountRequest {
+                paths: Some(rays),
+                paths_unit: per_primary as u32,
+                per_primary: per_path,
+                max3: false,
+                beyond_first: false,
+            })?;
+        }
+
+        // 3. Per part: the separable filter (6.21–6.23), the previous frame joining its y pass
+        // (6.24–6.26) with `temporal`; 4. composed k·Ē where the pixel factors (eq. 5.30).
+        let position = ctx.sampler_output(SamplerPass::Final, "position")?;
+        let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
+        let filter = PartFilter {
+            position,
+            normal,
+            max_radius: ctx.param("max_radius").clone(),
+            normal_cos: ParamValue::Float(NORMAL_DEG.to_radians().cos()),
+            temporal,
+        };
+        let mut terms = Vec::new();
+        for ((part, _), bw) in parts.iter().zip(&bandwidths) {
+            let flag = factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), true, Reference::Fill(0))?;
+            let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+            let e = filter.apply(ctx, part.name, e, *bw);
+            let (l, k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
+            terms.push((part, PartTerms { l, k, e, flag }));
+        }
+        let emission =
+            if ctx.param("emission").as_bool() == Some(true) { Some(ctx.sampler_output(SamplerPass::Final, "emission")?) } else { None };
+        compose_component(ctx, &terms, emission, width, rays);
+        ctx.output("bandwidth", bandwidth);
+        ctx.output("curvature", magnitude);
+        Ok(())
+    }
+}
+
+/// The Ch. 6 filter of one irradiance as the node runs it.
+struct PartFilter {
+    position: BufferId,
+    normal: BufferId,
+    max_radius: ParamValue,
+    normal_cos: ParamValue,
+    temporal: bool,
+}
+
+impl PartFilter {
+    /// `filter.environment` along x then y on `e` with `bandwidth`, passes `<name>_x`, `<name>_y`;
+    /// with `temporal`, `filter.environment_history` (`<name>_history`) on the previous frame's `e`,
+    /// positions, normals and bandwidths joins the y pass. A reference bypasses the filters (and the
+    /// history pass, which then feeds nothing, is culled).
+    fn apply(&self, ctx: &mut ExpandCtx<'_>, name: &str, e: BufferId, bandwidth: BufferId) -> BufferId {
+        let history = self.temporal.then(|| {
+            let out = ctx.buffer(&format!("{name}_history"), Format::Vec4);
+            let previous = [e, self.position, self.normal, bandwidth].map(|b| ctx.previous_frame(b));
+            ctx.pass(&format!("{name}_history"), "filter.environment_history", Stage::Factor)
+                .read("position", self.position)
+                .read("normal", self.normal)
+                .read("bandwidth", bandwidth)
+                .read("previous_value", previous[0])
+                .read("previous_position", previous[1])
+                .read("previous_normal", previous[2])
+                .read("previous_bandwidth", previous[3])
+                .write("out", out)
+                .param("max_radius", self.max_radius.clone())
+                .param("normal_cos", self.normal_cos.clone())
+                .finish();
+            out
+        });
+        let mut value = e;
+        for (axis, suffix) in [(0, "x"), (1, "y")] {
+            let local = format!("{name}_{suffix}");
+            let out = ctx.buffer(&local, Format::Vec3);
+            ctx.pass(&local, "filter.environment", Stage::Filter)
+                .read("value", value)
+                .read("position", self.position)
+                .read("normal", self.normal)
+                .read("bandwidth", bandwidth)
+                .read_opt("previous", if axis == 1 { history } else { None })
+                .write("out", out)
+                .int("axis", axis)
+                .param("max_radius", self.max_radius.clone())
+                .param("normal_cos", self.normal_cos.clone())
+                .reference(Reference::Bypass { input: "value" })
+                .finish();
+            value = out;
+        }
+        value
+    }
+}
