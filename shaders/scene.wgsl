@@ -16,7 +16,11 @@
 // `object_velocity` read it; it is 0 (the shutter's centre, what `Scene::intersect` etc. mean on the
 // CPU) unless a kernel sets it. `area_light(i)` is the light as stored (rest pose, `Scene::lights`);
 // `scene_light_at(i)` is where it is at `scene_time` (`SceneAt::light`).
+//
+// Environment (wedge_scene::EnvironmentMap, environment.wgsl): `env_present()`, `env_radiance(dir)`,
+// `env_pdf(dir)`, `env_table(i)` and `scene_background(dir)`, reading the four env_* arrays.
 #include "motion.wgsl"
+#include "environment.wgsl"
 
 // The time of the shutter (t ∈ [−1, 1]) the scene is traced at; see above.
 var<private> scene_time: f32 = 0.0;
@@ -108,8 +112,16 @@ struct SceneLayout {
     lights: u32,
     instances: u32,
     object_instances: u32,
+    env_texels: u32,
+    env_rows: u32,
+    env_columns: u32,
+    env_table: u32,
     instance_count: u32,
-    _pad: u32,
+    env_width: u32,   // 0: no environment map
+    env_height: u32,
+    env_first: u32,   // the map column the first sorted column boundary starts
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;

@@ -437,7 +437,10 @@ pub fn scene_bytes(scene: &Scene) -> u64 {
     // Moving instances (their trees are in `bvh`), objects (one instance index each on the GPU) and
     // the lights' objects.
     let motion = of(&scene.instances) + of(&scene.objects) + of(&scene.light_object);
-    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels + motion
+    // The environment map: texels, CDFs, boundary tables and the 4096-sample table (about 20 bytes
+    // per texel on the CPU; the GPU copy, 16 per texel, is covered by the estimate's doubling).
+    let environment = scene.environment.as_ref().map_or(0, |e| e.bytes());
+    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels + motion + environment
 }
 
 /// The default memory limit: 3/4 of the memory the kernel reports available (`MemAvailable` of
@@ -605,6 +608,18 @@ mod tests {
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (776 + 288 + 584) * px);
+    }
+
+    /// The environment map's arrays count: `envmap` carries `builtin:sky` (512 × 256 texels, ≥ 20 bytes
+    /// each on the CPU: RGB and a CDF entry).
+    #[test]
+    fn scene_bytes_count_the_environment_map() {
+        let mut scene = wedge_scene::load(&SceneSource::Builtin("envmap".into())).unwrap();
+        let env = scene.environment.clone().unwrap();
+        let with = scene_bytes(&scene);
+        scene.set_environment(None);
+        assert_eq!(with - scene_bytes(&scene), env.bytes());
+        assert!(env.bytes() >= 20 * 512 * 256, "{}", env.bytes());
     }
 
     #[test]

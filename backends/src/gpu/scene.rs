@@ -8,6 +8,14 @@
 //! values. Moving instances (`Scene::instances`) go up with their `PreparedMotion` (θ, 1/sin θ, the
 //! short-arc quaternions, ω as the CPU computed them), plus one u32 per object naming its instance
 //! and one per light in `GpuLight::instance` (`shaders/motion.wgsl`, `scene.wgsl`).
+//!
+//! The environment map (`Scene::environment`, `shaders/environment.wgsl`) goes up as four arrays:
+//! its texels (one element each: radiance × scale as the CPU computes it, and the texel's sampling pdf
+//! per solid angle, `EnvironmentMap::texel_pdf`), the row-boundary values `cot²θ_k` (four per element),
+//! the column boundaries sorted by world pseudo-angle as (quadrant, fraction) pairs (two per
+//! element), and the 4096-entry sample table (two elements per entry: direction and pdf, radiance and
+//! texel). The GPU does not invert CDFs: renderers sample through the table (thesis Sec. 6.5.2), so
+//! the CDFs stay on the CPU. Without a map each array is one zeroed element and `env_width` is 0.
 
 use bytemuck::{Pod, Zeroable};
 use wedge_scene::{LightShape, Scene};
@@ -86,8 +94,11 @@ pub struct GpuInstance {
     _pad2: u32,
 }
 
+/// How many arrays the scene buffer holds.
+pub const ARRAY_COUNT: usize = 14;
+
 /// Names of the scene arrays, in the order they are packed (and of `SceneLayout`'s first fields).
-pub const SCENE_ARRAYS: [&str; 10] = [
+pub const SCENE_ARRAYS: [&str; ARRAY_COUNT] = [
     "bvh_nodes",
     "triangle_packs",
     "triangles",
@@ -98,14 +109,19 @@ pub const SCENE_ARRAYS: [&str; 10] = [
     "lights",
     "instances",
     "object_instances",
+    "env_texels",
+    "env_rows",
+    "env_columns",
+    "env_table",
 ];
 
-/// Words of the uniform `SceneLayout`: each array's first element, the instance count, padding.
-pub const LAYOUT_WORDS: usize = 12;
+/// Words of the uniform `SceneLayout`: each array's first element, the instance count, the
+/// environment's width, height and first column, padding to 16 bytes.
+pub const LAYOUT_WORDS: usize = 20;
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
 /// WGSL storage buffers cannot be zero-sized).
-pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 10] {
+pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; ARRAY_COUNT] {
     let shading: Vec<GpuShading> = scene
         .shading
         .iter()
@@ -201,6 +217,7 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 10] {
         })
         .collect();
     let object_instances: Vec<u32> = scene.objects.iter().map(|o| o.instance.unwrap_or(NO_INSTANCE)).collect();
+    let env = environment_arrays(scene);
     fn bytes<T: Pod + Zeroable>(v: &[T]) -> Vec<u8> {
         if v.is_empty() {
             vec![0u8; std::mem::size_of::<T>().max(16)]
@@ -219,7 +236,45 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; 10] {
         bytes(&lights),
         bytes(&instances),
         bytes(&object_instances),
+        bytes(&env.texels),
+        bytes(&env.rows),
+        bytes(&env.columns),
+        bytes(&env.table),
     ]
+}
+
+/// The environment map's GPU arrays (empty without a map).
+#[derive(Default)]
+struct EnvArrays {
+    texels: Vec<[f32; 4]>,
+    rows: Vec<f32>,
+    columns: Vec<[u32; 2]>,
+    table: Vec<[u32; 8]>,
+}
+
+fn environment_arrays(scene: &Scene) -> EnvArrays {
+    let Some(env) = &scene.environment else {
+        return EnvArrays::default();
+    };
+    let n = env.width() as usize * env.height() as usize;
+    // Radiance and pdf from the very functions the CPU's `radiance`/`pdf` use, so both are bit-equal.
+    let texels = (0..n)
+        .map(|k| {
+            let l = env.texel_radiance(k);
+            [l.x, l.y, l.z, env.texel_pdf(k)]
+        })
+        .collect();
+    let (q, f, _) = env.gpu_columns();
+    let columns = q.iter().zip(f).map(|(&q, &f)| [q, f.to_bits()]).collect();
+    let table = env
+        .table_entries()
+        .iter()
+        .map(|s| {
+            let b = |v: f32| v.to_bits();
+            [b(s.dir.x), b(s.dir.y), b(s.dir.z), b(s.pdf), b(s.radiance.x), b(s.radiance.y), b(s.radiance.z), s.texel]
+        })
+        .collect();
+    EnvArrays { texels, rows: env.gpu_rows().to_vec(), columns, table }
 }
 
 /// The instance light `i` moves with (`Scene::light_object`'s), or [`NO_INSTANCE`].
@@ -232,11 +287,18 @@ fn light_instance(scene: &Scene, i: usize) -> u32 {
         .unwrap_or(NO_INSTANCE)
 }
 
-/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count.
-pub fn layout(offsets: &[u32; 10], instance_count: usize) -> [u32; LAYOUT_WORDS] {
+/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count and the
+/// environment's width, height (0, 0 without a map) and the map column its first sorted column
+/// boundary starts.
+pub fn layout(offsets: &[u32; ARRAY_COUNT], scene: &Scene) -> [u32; LAYOUT_WORDS] {
     let mut words = [0u32; LAYOUT_WORDS];
-    words[..10].copy_from_slice(offsets);
-    words[10] = instance_count as u32;
+    words[..ARRAY_COUNT].copy_from_slice(offsets);
+    words[ARRAY_COUNT] = scene.instances.len() as u32;
+    if let Some(env) = &scene.environment {
+        words[ARRAY_COUNT + 1] = env.width();
+        words[ARRAY_COUNT + 2] = env.height();
+        words[ARRAY_COUNT + 3] = env.gpu_columns().2;
+    }
     words
 }
 

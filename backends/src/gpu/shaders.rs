@@ -26,6 +26,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
     ("scene.wgsl", include_str!("../../../shaders/scene.wgsl")),
     ("motion.wgsl", include_str!("../../../shaders/motion.wgsl")),
+    ("environment.wgsl", include_str!("../../../shaders/environment.wgsl")),
     ("bvh.wgsl", include_str!("../../../shaders/bvh.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
