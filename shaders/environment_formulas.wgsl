@@ -13,7 +13,28 @@ fn env_curvature(n0: vec3<f32>, n1: vec3<f32>, p0: vec3<f32>, p1: vec3<f32>) -> 
         return 0.0;
     }
     let chord = length3(n0 - n1);
-    return 2.0 * asin(rmin(0.5 * chord, 1.0)) / d;
+    return 2.0 * env_asin(rmin(0.5 * chord, 1.0)) / d;
+}
+
+// formulas.rs `asin_series`: Taylor series to s^15 on [0, 1/2], π/2 − 2 asin(√((1 − s)/2)) above.
+fn env_asin_series(x: f32) -> f32 {
+    let x2 = x * x;
+    var acc = 143.0 / 10240.0;
+    acc = acc * x2 + 231.0 / 13312.0;
+    acc = acc * x2 + 63.0 / 2816.0;
+    acc = acc * x2 + 35.0 / 1152.0;
+    acc = acc * x2 + 5.0 / 112.0;
+    acc = acc * x2 + 3.0 / 40.0;
+    acc = acc * x2 + 1.0 / 6.0;
+    acc = acc * x2 + 1.0;
+    return x * acc;
+}
+
+fn env_asin(s: f32) -> f32 {
+    if (s <= 0.5) {
+        return env_asin_series(s);
+    }
+    return 1.5707963267948966 - 2.0 * env_asin_series(sqrt((1.0 - s) * 0.5));
 }
 
 fn env_sigma_pixels(b: f32, footprint: f32, max_radius: f32) -> f32 {
