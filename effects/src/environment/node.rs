@@ -235,6 +235,8 @@ impl PartFilter {
                 .read("previous_normal", previous[2])
                 .read("previous_bandwidth", previous[3])
                 .write("out", out)
+                // Eq. 6.24 filters the previous frame along x.
+                .int("axis", 0)
                 .param("max_radius", self.max_radius.clone())
                 .param("normal_cos", self.normal_cos.clone())
                 .finish();
