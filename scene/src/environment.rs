@@ -237,25 +237,24 @@ impl EnvironmentMap {
     pub fn builtin(name: &str) -> Result<EnvironmentMap, SceneError> {
         static SKY: OnceLock<EnvironmentMap> = OnceLock::new();
         static STUDIO: OnceLock<EnvironmentMap> = OnceLock::new();
-        let (cell, make): (&OnceLock<EnvironmentMap>, fn() -> Texels) =
-            match name {
-                "sky" => (&SKY, procedural::sky),
-                "studio" => (&STUDIO, procedural::studio),
-                _ => {
-                    return Err(SceneError::invalid(
-                        Path::new(&format!("builtin:{name}")),
-                        "no such built-in environment map",
-                        format!(
-                            "use one of {}, or a .exr/.hdr file",
-                            BUILTIN_NAMES
-                                .iter()
-                                .map(|n| format!("builtin:{n}"))
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
-                    ))
-                }
-            };
+        let (cell, make): (&OnceLock<EnvironmentMap>, fn() -> Texels) = match name {
+            "sky" => (&SKY, procedural::sky),
+            "studio" => (&STUDIO, procedural::studio),
+            _ => {
+                return Err(SceneError::invalid(
+                    Path::new(&format!("builtin:{name}")),
+                    "no such built-in environment map",
+                    format!(
+                        "use one of {}, or a .exr/.hdr file",
+                        BUILTIN_NAMES
+                            .iter()
+                            .map(|n| format!("builtin:{n}"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ))
+            }
+        };
         if let Some(map) = cell.get() {
             return Ok(map.clone());
         }

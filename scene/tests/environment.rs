@@ -541,6 +541,18 @@ fn scene_background_is_the_map_and_bounds_ignore_it() {
 /// Timings of building the distribution, table and B_e (printed; `--nocapture`).
 #[test]
 fn build_timings() {
+    // Generation + distribution + table + B_e of the built-ins (first use in this process only when
+    // this test runs alone: `cargo test --release -p wedge-scene --test environment build_timings`).
+    for name in ["sky", "studio"] {
+        let t = std::time::Instant::now();
+        let env = EnvironmentMap::builtin(name).unwrap();
+        println!(
+            "builtin:{name} ({}x{}): {:?}",
+            env.width(),
+            env.height(),
+            t.elapsed()
+        );
+    }
     for (w, h) in [(512u32, 256u32), (2048, 1024)] {
         let texels: Vec<[f32; 3]> = (0..w * h)
             .map(|k| [1.0 + (k % 7) as f32, 1.0, 0.5])
