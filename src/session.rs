@@ -590,14 +590,14 @@ mod tests {
         let s = Session::open(None, &ov).unwrap();
         let px = 640 * 480u64;
         // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler): 17 slots =
-        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (72 words, 288 B) = 728 B/px;
-        // the largest pass output is one record (288 B/px); sinks filter_width, rays_per_pixel (4 B)
-        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 776 B/px; the widest
-        // pass binds two records and two u32 counts (sampler.adaptive) = 584 B/px.
+        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (97 words, 388 B) = 928 B/px;
+        // the largest pass output is one record (388 B/px); sinks filter_width, rays_per_pixel (4 B)
+        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 976 B/px; the widest
+        // pass binds two records and two u32 counts (sampler.adaptive) = 784 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 728 * px, pass_outputs: 288 * px, sinks: 32 * px, unpooled: 776 * px, pass_bindings: 584 * px }
+            BufferBytes { pool: 928 * px, pass_outputs: 388 * px, sinks: 32 * px, unpooled: 976 * px, pass_bindings: 784 * px }
         );
         assert_eq!(s.schedule.peak_bytes(640, 480), 1048 * px);
         assert_eq!(s.schedule.peak_bytes(640, 480), 321_945_600);
