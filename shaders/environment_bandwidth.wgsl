@@ -17,12 +17,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             z_min = d.x;
         }
     }
-    let b = env_pixel_bandwidths(curvature_at(i), env.x, env.y, z_min, params.b_e, params.mu);
+    let footprint = normal_at(i).w;
+    let b = env_pixel_bandwidths(curvature_at(i), env.x, env.y, z_min, params.b_e, params.mu,
+        env_window_bandwidth(footprint, params.max_radius));
     var shown = b.direct_diffuse;
     if (env.y > 0.0) {
         shown = b.direct_glossy;
     }
-    let footprint = normal_at(i).w;
     let sigma = vec2<f32>(env_sigma_pixels(shown.x, footprint, params.max_radius), env_sigma_pixels(shown.y, footprint, params.max_radius));
     direct_diffuse_put(i, b.direct_diffuse);
     direct_glossy_put(i, b.direct_glossy);

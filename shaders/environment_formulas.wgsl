@@ -82,12 +82,22 @@ struct EnvBandwidths {
     indirect_glossy: vec2<f32>,
 }
 
-fn env_pixel_bandwidths(kappa: vec2<f32>, occluder: f32, exponent: f32, z_min: f32, b_e: f32, mu: f32) -> EnvBandwidths {
+// formulas.rs `window_bandwidth`: 1/(2 R ℓ), 0 without a surface.
+fn env_window_bandwidth(footprint: f32, max_radius: f32) -> f32 {
+    if (footprint > 0.0 && max_radius > 0.0) {
+        return 0.5 / (max_radius * footprint);
+    }
+    return 0.0;
+}
+
+fn env_pixel_bandwidths(kappa: vec2<f32>, occluder: f32, exponent: f32, z_min: f32, b_e: f32, mu: f32, floor: f32) -> EnvBandwidths {
     let b_rho = env_phong_bandwidth(exponent);
-    let dd = vec2<f32>(mu * env_direct_bandwidth(kappa.x, occluder, 0.0, b_e), mu * env_direct_bandwidth(kappa.y, occluder, 0.0, b_e));
-    let dg = vec2<f32>(mu * env_direct_bandwidth(kappa.x, occluder, b_rho, b_e), mu * env_direct_bandwidth(kappa.y, occluder, b_rho, b_e));
-    let id = mu * env_indirect_bandwidth(ENV_B_H_DIFFUSE, z_min);
-    let ig = mu * env_indirect_bandwidth(env_transfer_bandwidth(exponent), z_min);
+    let dd = vec2<f32>(mu * rmax(env_direct_bandwidth(kappa.x, occluder, 0.0, b_e), floor),
+        mu * rmax(env_direct_bandwidth(kappa.y, occluder, 0.0, b_e), floor));
+    let dg = vec2<f32>(mu * rmax(env_direct_bandwidth(kappa.x, occluder, b_rho, b_e), floor),
+        mu * rmax(env_direct_bandwidth(kappa.y, occluder, b_rho, b_e), floor));
+    let id = mu * rmax(env_indirect_bandwidth(ENV_B_H_DIFFUSE, z_min), floor);
+    let ig = mu * rmax(env_indirect_bandwidth(env_transfer_bandwidth(exponent), z_min), floor);
     if (!(exponent > 0.0)) {
         // No lobe: the glossy parts pass through the filter (ENV_NOT_FILTERED).
         return EnvBandwidths(dd, vec2<f32>(ENV_NOT_FILTERED), vec2<f32>(id), vec2<f32>(ENV_NOT_FILTERED));

@@ -75,9 +75,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     shadow_velocity_put(i, velocity_stats(r.vs_sum, f32(r.occluded), r.vs_min, r.vs_max));
     l_env_diffuse_put(i, mean_of(r.l_env_diffuse, r.w_env_diffuse));
     k_env_diffuse_put(i, mean_of(r.k_env_diffuse, r.w_env_diffuse));
-    e_env_diffuse_put(i, mean_of(r.e_env_diffuse, r.w_env_diffuse));
+    e_env_diffuse_put(i, mean_of(r.e_env_diffuse, r.w_env_diffuse - r.w_env_missed));
     l_env_glossy_put(i, mean_of(r.l_env_glossy, r.w_env_glossy));
     k_env_glossy_put(i, mean_of(r.k_env_glossy, r.w_env_glossy));
-    e_env_glossy_put(i, mean_of(r.e_env_glossy, r.w_env_glossy));
+    e_env_glossy_put(i, mean_of(r.e_env_glossy, r.w_env_glossy - r.w_env_missed));
     environment_put(i, vec4<f32>(r.env_occluder, hit_mean(r, r.exponent), f32(r.env_samples), f32(r.env_occluded)));
 }

@@ -175,6 +175,9 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
         rec.w_glossy = rec.w_glossy + carries(params.indirect * params.glossy, count.glossy, w);
         rec.w_env_diffuse = rec.w_env_diffuse + carries(params.environment, count.environment, w);
         rec.w_env_glossy = rec.w_env_glossy + carries(params.environment, count.environment, w);
+        if (!hit.hit) {
+            rec.w_env_missed = rec.w_env_missed + carries(params.environment, count.environment, w);
+        }
     }
     if (!hit.hit) {
         // A miss sees the still background (App. B's velocity range), and the environment.

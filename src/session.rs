@@ -599,15 +599,15 @@ mod tests {
             b,
             BufferBytes { pool: 928 * px, pass_outputs: 388 * px, sinks: 32 * px, unpooled: 976 * px, pass_bindings: 784 * px }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 1048 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 321_945_600);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 1348 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 414_105_600);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 1048 * px);
+        assert_eq!(cpu.buffers, 1348 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (776 + 288 + 584) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (976 + 388 + 784) * px);
     }
 
     /// The environment map's arrays count: `envmap` carries `builtin:sky` (512 × 256 texels, ≥ 20 bytes

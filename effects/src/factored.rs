@@ -8,14 +8,17 @@ use wedge_graph::{BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, Ref
 use crate::defocus::formulas::FACTORING_THRESHOLD;
 
 /// SepDir / SepInd of `part` on the `pass` record (eq. 5.30: `‖L − k E‖` below a threshold, so `k E`
-/// may stand for the pixel's `L`) with the 3×3 median, in a buffer `<name>`; all 0 without
-/// factoring (Ch. 5's ablation). `role` is the median's part in a reference.
+/// may stand for the pixel's `L`), with the 3×3 median where `median` (Ch. 5: its flags come from
+/// noisy first-pass estimates), in a buffer `<name>`; all 0 without factoring (Ch. 5's ablation).
+/// `role` is the last pass's part in a reference.
+#[allow(clippy::too_many_arguments)]
 pub fn factor_flags(
     ctx: &mut ExpandCtx<'_>,
     name: &str,
     part: &Part,
     (pass, stage): (SamplerPass, Stage),
     factor: bool,
+    median: bool,
     role: Reference,
 ) -> Result<BufferId, GraphError> {
     let out = ctx.buffer(name, Format::U32);
@@ -28,15 +31,19 @@ pub fn factor_flags(
         ctx.sampler_output(pass, part.texture)?,
         ctx.sampler_output(pass, part.irradiance)?,
     );
-    let raw = ctx.buffer(&format!("{name}_raw"), Format::U32);
-    ctx.pass(&format!("{name}_raw"), "defocus.flags", stage)
+    let raw = if median { ctx.buffer(&format!("{name}_raw"), Format::U32) } else { out };
+    let raw_name = if median { format!("{name}_raw") } else { name.to_string() };
+    ctx.pass(&raw_name, "defocus.flags", stage)
         .read("radiance", l)
         .read("texture", k)
         .read("irradiance", e)
         .write("flag", raw)
         .float("threshold", f64::from(FACTORING_THRESHOLD))
+        .reference(if median { Reference::Keep } else { role })
         .finish();
-    ctx.pass(name, "neighbourhood.median3", stage).read("value", raw).write("out", out).reference(role).finish();
+    if median {
+        ctx.pass(name, "neighbourhood.median3", stage).read("value", raw).write("out", out).reference(role).finish();
+    }
     Ok(out)
 }
 

@@ -132,6 +132,7 @@ pub static PATH_RECORD: StructLayout = StructLayout {
         f("e_env_glossy", FieldType::Vec3),
         f("w_env_diffuse", FieldType::F32),
         f("w_env_glossy", FieldType::F32),
+        f("w_env_missed", FieldType::F32),
         f("env_occluder", FieldType::F32),
         f("exponent", FieldType::F32),
         f("env_samples", FieldType::U32),
@@ -227,6 +228,12 @@ pub struct PathRecord {
     pub e_env_glossy: [f32; 3],
     pub w_env_diffuse: f32,
     pub w_env_glossy: f32,
+    /// Σ w of the paths that carried look-ups and missed every surface (path weights only): the
+    /// environment's `E` is the irradiance *at the surface*, so it is averaged over the paths that
+    /// hit (`w_env_* − w_env_missed`), while `k` and `L` count a miss as black. A pixel that a
+    /// silhouette crosses then factors exactly — `k E = c k_hit E_hit = L` for coverage `c` — and
+    /// its `E` is not diluted into its neighbours' filters.
+    pub w_env_missed: f32,
     /// The occluder term `cos²θ_occ / z` of eq. 6.13/6.17: its largest value over the occluded
     /// environment samples bright enough to count (0 without any; see [`occluder_term`]).
     pub env_occluder: f32,
@@ -693,6 +700,9 @@ fn trace_one(
         r.w_glossy += carries(s.indirect && s.glossy, count.glossy);
         r.w_env_diffuse += carries(s.environment, count.environment);
         r.w_env_glossy += carries(s.environment, count.environment);
+        if hit.is_none() {
+            r.w_env_missed += carries(s.environment, count.environment);
+        }
     }
     let sp = hit.map(|h| scene.surface(&h, ray.origin, ray.dir));
     // Image velocity of the primary hit (App. B's v_p); a miss sees the still background.
@@ -1014,7 +1024,8 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 /// - `velocity`: mean image-space velocity of the primary hits (px per half shutter) and its per-axis
 ///   range over the paths (misses as 0); `shadow_velocity`: the same over the occluded shadow samples
 ///   (thesis App. B's `v_p`, `v_s` and "distinct velocities");
-/// - `l_env_diffuse`, …, `e_env_glossy`: L, k, E of the environment's diffuse and glossy parts;
+/// - `l_env_diffuse`, …, `e_env_glossy`: L, k, E of the environment's diffuse and glossy parts (E
+///   over the paths that hit a surface: [`PathRecord::w_env_missed`]);
 ///   `environment`: the occluder term `cos²θ_occ/z` (largest over the bright occluded look-ups, 0
 ///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups.
 pub struct PathsResolve;
@@ -1118,10 +1129,10 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "shadow_velocity" => velocity_stats(r.vs_sum, r.occluded as f32, r.vs_min, r.vs_max),
         "l_env_diffuse" => mean(r.l_env_diffuse, r.w_env_diffuse),
         "k_env_diffuse" => mean(r.k_env_diffuse, r.w_env_diffuse),
-        "e_env_diffuse" => mean(r.e_env_diffuse, r.w_env_diffuse),
+        "e_env_diffuse" => mean(r.e_env_diffuse, r.w_env_diffuse - r.w_env_missed),
         "l_env_glossy" => mean(r.l_env_glossy, r.w_env_glossy),
         "k_env_glossy" => mean(r.k_env_glossy, r.w_env_glossy),
-        "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy),
+        "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy - r.w_env_missed),
         "environment" => [r.env_occluder, hit_mean(r.exponent), r.env_samples as f32, r.env_occluded as f32],
         other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }

@@ -58,7 +58,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
     let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
     let flag_first =
-        factor_flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, Reference::Keep)?;
+        factor_flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, true, Reference::Keep)?;
     let (omega, pixel_length) =
         (ctx.buffer(&format!("{}_omega", c.name), Format::F32), ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32));
     let (count, sigma) =
@@ -92,7 +92,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let mut terms = Vec::new();
     for part in &c.parts {
         let flag =
-            factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, Reference::Fill(0))?;
+            factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, true, Reference::Fill(0))?;
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
         let e = filter.apply(ctx, &format!("{}_filter", part.name), e);

@@ -18,9 +18,11 @@
 //! - Screen-space curvature (eq. 6.20): `κ_X = angle(n(x,y), n(x+1,y)) / ‖p(x,y) − p(x+1,y)‖`, the
 //!   magnitude (EQUATIONS.md: |κ| by default); the backward neighbour where the forward one is not on
 //!   the same object, 0 where neither is.
-//! - μ (an extension: Ch. 6 has none): every bandwidth is multiplied by μ, so the filters shrink
-//!   below a pixel as μ grows (Monte Carlo in the limit), and adaptive look-ups ([`look_ups`]) hold the
-//!   filtered variance where filters are narrow.
+//! - μ (an extension: Ch. 6 has none): every bandwidth, at least the window's ([`window_bandwidth`]:
+//!   a zero bandwidth is the widest filter the 30 × 30 window holds, which a Gaussian of σ = 15 px
+//!   stands for), is multiplied by μ, so the filters shrink below a pixel as μ grows (Monte Carlo in
+//!   the limit), and adaptive look-ups ([`look_ups`]) hold the filtered variance where filters are
+//!   narrow.
 
 use glam::Vec3;
 
@@ -155,11 +157,25 @@ pub struct PixelStats {
     pub z_min: f32,
 }
 
-/// All four bandwidths of a pixel, each multiplied by `mu` (the extension; 1 = the thesis).
-pub fn pixel_bandwidths(s: &PixelStats, b_e: f32, mu: f32) -> Bandwidths {
+/// The smallest bandwidth a filter of `max_radius` pixels can show, for a pixel footprint of
+/// `footprint` metres: the Gaussian of σ = `max_radius` pixels, `1/(2 R ℓ)` (0 without a surface). A
+/// smaller bandwidth (eq. 6.13 gives 0 on a flat, unoccluded receiver) is the same filter once the
+/// window truncates it.
+pub fn window_bandwidth(footprint: f32, max_radius: f32) -> f32 {
+    if footprint > 0.0 && max_radius > 0.0 {
+        0.5 / (max_radius * footprint)
+    } else {
+        0.0
+    }
+}
+
+/// All four bandwidths of a pixel: the formula's, at least the window's ([`window_bandwidth`]
+/// `floor`), times `mu` (the extension; 1 = the thesis up to the floor). The floor is what makes μ
+/// consistent: a zero bandwidth times μ would stay the widest filter however large μ grows.
+pub fn pixel_bandwidths(s: &PixelStats, b_e: f32, mu: f32, floor: f32) -> Bandwidths {
     let b_rho = phong_bandwidth(s.exponent);
-    let axis = |b_rho: f32| [0, 1].map(|a| mu * direct_bandwidth(s.kappa[a], s.occluder, b_rho, b_e));
-    let indirect = |b_h: f32| [mu * indirect_bandwidth(b_h, s.z_min); 2];
+    let axis = |b_rho: f32| [0, 1].map(|a| mu * direct_bandwidth(s.kappa[a], s.occluder, b_rho, b_e).max(floor));
+    let indirect = |b_h: f32| [mu * indirect_bandwidth(b_h, s.z_min).max(floor); 2];
     // A receiver without a lobe has no glossy irradiance to filter: -1, "pass through" to the filter,
     // which then skips the pixel (the glossy parts are 0 there).
     let glossy = s.exponent > 0.0;
@@ -227,15 +243,21 @@ mod tests {
     #[test]
     fn bandwidths_scale_with_mu_and_sigma_is_half_the_inverse() {
         let s = PixelStats { kappa: [0.5, 0.0], occluder: 0.5, exponent: 64.0, z_min: 0.5 };
-        let b = pixel_bandwidths(&s, 3.0, 1.0);
+        let b = pixel_bandwidths(&s, 3.0, 1.0, 0.0);
         assert_eq!(b.direct_diffuse, [2.5, 2.0]);
-        let diffuse = pixel_bandwidths(&PixelStats { exponent: 0.0, ..s }, 3.0, 1.0);
+        let diffuse = pixel_bandwidths(&PixelStats { exponent: 0.0, ..s }, 3.0, 1.0, 0.0);
         assert_eq!((diffuse.direct_glossy, diffuse.indirect_glossy), ([NOT_FILTERED; 2], [NOT_FILTERED; 2]));
         // B_ρ(64) = 10: κ(1 + 20) + 0.5 (1 + 20 + 3).
         assert_eq!(b.direct_glossy, [0.5 * 21.0 + 0.5 * 24.0, 0.5 * 24.0]);
         assert_eq!(b.indirect_diffuse, [5.6, 5.6]);
-        let b2 = pixel_bandwidths(&s, 3.0, 2.0);
+        let b2 = pixel_bandwidths(&s, 3.0, 2.0, 0.0);
         assert_eq!(b2.direct_diffuse, [5.0, 4.0]);
+        // A flat, unoccluded receiver: eq. 6.13 gives 0; the window's floor, then μ.
+        let flat = PixelStats { kappa: [0.0; 2], occluder: 0.0, exponent: 0.0, z_min: 0.0 };
+        let floor = window_bandwidth(0.01, 15.0);
+        assert!((floor - 0.5 / 0.15).abs() < 1e-5);
+        assert_eq!(pixel_bandwidths(&flat, 3.0, 1.0, floor).direct_diffuse, [floor; 2]);
+        assert_eq!(pixel_bandwidths(&flat, 3.0, 8.0, floor).direct_diffuse, [8.0 * floor; 2]);
         assert_eq!(sigma_metres(2.0), 0.25);
         assert_eq!(sigma_pixels(2.0, 0.05, 30.0), 5.0);
         assert_eq!(sigma_pixels(0.0, 0.05, 15.0), 15.0);

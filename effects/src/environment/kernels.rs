@@ -154,7 +154,7 @@ pub struct PixelBandwidths {
 /// [`formulas::pixel_bandwidths`] with the heatmap values and the adaptive count, for a pixel of
 /// footprint `footprint` (0: no surface).
 pub fn pixel_outputs(s: &PixelStats, footprint: f32, k: &BandwidthParams) -> PixelBandwidths {
-    let b = formulas::pixel_bandwidths(s, k.b_e, k.mu);
+    let b = formulas::pixel_bandwidths(s, k.b_e, k.mu, formulas::window_bandwidth(footprint, k.max_radius));
     let shown = if s.exponent > 0.0 { b.direct_glossy } else { b.direct_diffuse };
     let sigma = shown.map(|bx| formulas::sigma_pixels(bx, footprint, k.max_radius));
     PixelBandwidths {

@@ -193,7 +193,18 @@ impl NodeKind for Environment {
         };
         let mut terms = Vec::new();
         for ((part, _), bw) in parts.iter().zip(&bandwidths) {
-            let flag = factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), true, Reference::Fill(0))?;
+            // Eq. 5.30 without Ch. 5's median: a pixel whose rays all see one surface factors exactly
+            // (E is averaged over the hits: `PathRecord::w_env_missed`), so the raw test is not noisy
+            // and a median would only turn pixels that see two surfaces to k·Ē.
+            let flag = factor_flags(
+                ctx,
+                &format!("{}_flag", part.name),
+                part,
+                (SamplerPass::Final, Stage::Factor),
+                true,
+                false,
+                Reference::Fill(0),
+            )?;
             let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
             let e = filter.apply(ctx, part.name, e, *bw);
             let (l, k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
