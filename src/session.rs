@@ -590,24 +590,24 @@ mod tests {
         let s = Session::open(None, &ov).unwrap();
         let px = 640 * 480u64;
         // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler): 17 slots =
-        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (97 words, 388 B) = 928 B/px;
-        // the largest pass output is one record (388 B/px); sinks filter_width, rays_per_pixel (4 B)
-        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 976 B/px; the widest
-        // pass binds two records and two u32 counts (sampler.adaptive) = 784 B/px.
+        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (98 words, 392 B) = 936 B/px;
+        // the largest pass output is one record (392 B/px); sinks filter_width, rays_per_pixel (4 B)
+        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 984 B/px; the widest
+        // pass binds two records and two u32 counts (sampler.adaptive) = 792 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 928 * px, pass_outputs: 388 * px, sinks: 32 * px, unpooled: 976 * px, pass_bindings: 784 * px }
+            BufferBytes { pool: 936 * px, pass_outputs: 392 * px, sinks: 32 * px, unpooled: 984 * px, pass_bindings: 792 * px }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 1348 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 414_105_600);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 1360 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 417_792_000);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 1348 * px);
+        assert_eq!(cpu.buffers, 1360 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (976 + 388 + 784) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (984 + 392 + 792) * px);
     }
 
     /// The environment map's arrays count: `envmap` carries `builtin:sky` (512 × 256 texels, ≥ 20 bytes

@@ -584,7 +584,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     let inputs = BTreeMap::from([("record", rec["record"].clone())]);
     let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
-    assert_eq!(c.len(), 22); // every output of paths.resolve, `direct`, `diffuse`, `glossy` (the filters' Vec4) and the velocities included
+    assert_eq!(c.len(), 29); // every output of paths.resolve, `direct`, `diffuse`, `glossy` (the filters' Vec4), the velocities and the environment's included
     for (name, a) in &c {
         let (max_abs, max_rel, over, _) = compare(a, &g[name], Tolerance::for_class(KernelClass::Compose));
         println!("paths.resolve `{name}`: max abs {max_abs:e}, max rel {max_rel:e}, over {over}");

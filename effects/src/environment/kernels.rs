@@ -16,7 +16,7 @@
 //!   where the surface has a lobe, else diffuse), and `rays` (u32) the adaptive look-ups.
 
 use glam::Vec3;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use wedge_graph::Format;
 
 use super::formulas::{self, PixelStats};
@@ -68,7 +68,8 @@ impl Kernel for Curvature {
         Some(
             WgslSource::new(include_str!("../../../shaders/environment_curvature.wgsl"), |_| Ok(Uniforms::new()))
                 .with_include("environment_formulas.wgsl", include_str!("../../../shaders/environment_formulas.wgsl"))
-                .per_pixel(),
+                // The pixels next to it, above and below included: bands carry one row either side.
+                .with_reach(|_| Ok(Reach::Rows(1))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
