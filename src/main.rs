@@ -22,7 +22,7 @@ struct Cli {
 /// Options every rendering command shares.
 #[derive(Args, Clone)]
 struct Common {
-    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
     #[arg(long)]
     scene: Option<String>,
     /// Output directory.
@@ -254,6 +254,34 @@ where
     }
 }
 
+/// The scene's warnings, its environment map (with the `B_e` the Environment node's filters use
+/// unless its `b_e` is set), and a warning where nothing lights it.
+fn scene_notes(session: &Session) {
+    for w in &session.scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(env) = &session.scene.environment {
+        eprintln!(
+            "environment: {} ({}x{}, scale {}, rotation {}°), B_e = {:.2} cycles/rad (99% of the spectrum's energy; \
+             an Environment node's `b_e` overrides it)",
+            env.name(),
+            env.width(),
+            env.height(),
+            env.scale(),
+            env.rotation_deg(),
+            env.bandwidth()
+        );
+    }
+    if session.scene.lights.is_empty() && session.scene.environment.is_none() {
+        // Not an error: an AO pipeline needs no light. But direct and indirect light will be black.
+        eprintln!(
+            "warning: scene `{}` has no area light (no emissive triangles) and no environment map: light sampling adds \
+             nothing, so only emission and ambient occlusion show; add an emissive material or use a scene with a light",
+            session.scene.name
+        );
+    }
+}
+
 fn render(session: &Session, common: &Common, stem: &str) -> Result<String, WedgeError> {
     eprintln!(
         "{} on scene `{}` ({} triangles, {} lights), {}x{}, seed {}",
@@ -265,17 +293,7 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
         session.height,
         session.seed
     );
-    for w in &session.scene.warnings {
-        eprintln!("warning: {w}");
-    }
-    if session.scene.lights.is_empty() {
-        // Not an error: an AO pipeline needs no light. But direct and indirect light will be black.
-        eprintln!(
-            "warning: scene `{}` has no area light (no emissive triangles): light sampling adds nothing, so only \
-             emission and ambient occlusion show; add an emissive material or use a scene with a light",
-            session.scene.name
-        );
-    }
+    scene_notes(session);
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
     check_memory(session, mode, common.memory_limit)?;
     let bars = Bars::default();
@@ -326,6 +344,7 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
         session.height,
         session.seed
     );
+    scene_notes(session);
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
     check_memory(session, mode, common.memory_limit)?;
     let bars = Bars::default();

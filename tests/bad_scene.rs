@@ -123,7 +123,7 @@ fn sampling_every_light_of_a_scene_without_lights_warns() {
     let o = run(Some("pipelines/indirect.ron"));
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(err.contains("has no area light (no emissive triangles): light sampling adds nothing"), "{err}");
+    assert!(err.contains("has no area light (no emissive triangles) and no environment map: light sampling adds nothing"), "{err}");
     let o = run(None);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
