@@ -41,6 +41,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let fx = i32(floor(qx));
     let fy = i32(floor(qy));
+    // Moved farther than max_motion pixels: no history (filter_ch6.rs Ch6Params::max_motion).
+    if (abs(fx - xy.x) > params.max_motion || abs(fy - xy.y) > params.max_motion) {
+        out_put(i, none);
+        return;
+    }
     var found = false;
     var best_d2 = 0.0;
     var bx = 0;

@@ -121,7 +121,7 @@ fn a_still_camera_reprojects_onto_itself_and_joins_the_y_pass() {
     hist_in.insert("previous_position", BufferData::Vec4(position.clone()));
     hist_in.insert("previous_normal", BufferData::Vec4(normal.clone()));
     hist_in.insert("previous_bandwidth", BufferData::Vec2(bandwidth.clone()));
-    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98))];
+    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98)), ("max_motion", ParamValue::Int(32))];
     let hist = run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, None);
     let (xs, hs) = (<[f32; 3] as Texel>::slice(&x).unwrap(), <[f32; 4] as Texel>::slice(&hist).unwrap());
     for i in 0..(W * H) as usize {
@@ -171,7 +171,7 @@ fn a_moving_camera_reprojects_to_the_same_world_points() {
     ]
     .into_iter()
     .collect();
-    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98))];
+    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98)), ("max_motion", ParamValue::Int(32))];
     let hist = run(Arc::new(EnvironmentHistory), &scene, &hp, &inputs, None);
     let hs = <[f32; 4] as Texel>::slice(&hist).unwrap();
     let mut valid = 0;
@@ -210,7 +210,7 @@ fn both_kernels_agree_with_the_gpu() {
     .into_iter()
     .collect();
     let tol = Tolerance::for_class(KernelClass::Filter);
-    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98))];
+    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98)), ("max_motion", ParamValue::Int(32))];
     let only = |names: &[&str]| -> BTreeMap<&str, BufferData> { inputs.iter().filter(|(k, _)| names.contains(k)).map(|(k, v)| (*k, v.clone())).collect() };
     let hist_in = only(&["position", "normal", "bandwidth", "previous_value", "previous_position", "previous_normal", "previous_bandwidth"]);
     let (hc, hg) = (run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, None), run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, Some(&mut gpu)));

@@ -218,6 +218,10 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
             if node.params.contains_key("max_radius") {
                 ov.params.push((node.name.clone(), "max_radius".into(), wedge::graph::ParamValue::Int(4)));
             }
+            // The history pass reads max_motion + 1 rows either side.
+            if node.params.contains_key("max_motion") {
+                ov.params.push((node.name.clone(), "max_motion".into(), wedge::graph::ParamValue::Int(4)));
+            }
         }
         let session = Session::open(Some(&path), &ov).unwrap();
         let a = session.run(&mut whole, &Silent).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -281,6 +285,10 @@ fn packed_bindings_give_the_same_outputs_as_direct_bindings() {
         for node in &probe.pipeline.nodes {
             if node.params.contains_key("max_radius") {
                 ov.params.push((node.name.clone(), "max_radius".into(), wedge::graph::ParamValue::Int(2)));
+            }
+            // The history pass reads max_motion + 1 rows either side.
+            if node.params.contains_key("max_motion") {
+                ov.params.push((node.name.clone(), "max_motion".into(), wedge::graph::ParamValue::Int(2)));
             }
         }
         let session = Session::open(Some(&path), &ov).unwrap();

@@ -16,7 +16,9 @@
 //!   previous camera, `Scene::previous_camera`), and the output is the x filter of the previous raw
 //!   irradiance around `(x', y')` with weights `exp(−2 B̄² ‖p − p'(x' + i, y')‖²)` measured from the
 //!   *current* `p` (eq. 6.25: "the center of the kernel is offset to (x', y')"), `w` = 1 where any
-//!   previous neighbour had a weight, else 0 (no previous frame, off screen, disoccluded).
+//!   previous neighbour had a weight, else 0 (no previous frame, off screen, disoccluded, or moved
+//!   more than `max_motion` pixels: a bound the thesis does not have, which keeps the rows the pass
+//!   reads local so it splits into bands like every other filter).
 //! - The y pass of `filter.environment` with `previous` bound joins it (eq. 6.26, whose printed form
 //!   is garbled — EQUATIONS.md: the previous-frame term uses w′): reading taken, the previous frame's
 //!   x-filtered value at each `(x, y + j)` enters the y sum with the same spatial weight as the current
@@ -38,6 +40,8 @@ use crate::BackendError;
 
 /// Largest `max_radius` a pass may ask for.
 pub const MAX_RADIUS_LIMIT: i64 = 64;
+/// Largest `max_motion` a history pass may ask for.
+pub const MAX_MOTION_LIMIT: i64 = 4096;
 
 fn is_finite3(v: [f32; 3]) -> bool {
     v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
@@ -49,6 +53,11 @@ pub struct Ch6Params {
     pub axis: usize,
     pub max_radius: i32,
     pub normal_cos: f32,
+    /// History pass only: the most pixels (along either axis) a point may have moved since the
+    /// previous frame and still find its history; farther is "no history", as for a disocclusion.
+    /// It bounds the rows the pass reads (`Reach::Rows(max_motion + 1)`), so the pass splits into
+    /// bands of rows on devices with small bindings.
+    pub max_motion: i32,
 }
 
 /// Whether neighbour `j` (position `pj`, normal `nj`) may be averaged into pixel `i`.
@@ -168,6 +177,10 @@ pub fn history_pixel(
         return none;
     }
     let (qx, qy) = (q.x.floor() as i64, q.y.floor() as i64);
+    // Moved farther than `max_motion` pixels: no history (see [`Ch6Params::max_motion`]).
+    if (qx - x as i64).abs() > p.max_motion as i64 || (qy - y as i64).abs() > p.max_motion as i64 {
+        return none;
+    }
     // The previous pixel with the closest world position (same object), around the projection.
     let mut best: Option<(f32, i32, i32)> = None;
     for dy in -1..=1i64 {
@@ -223,7 +236,13 @@ fn params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
         axis: axis as usize,
         max_radius: ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32,
         normal_cos: ctx.f32_param("normal_cos")?,
+        max_motion: 0,
     })
+}
+
+/// [`params`] and the history pass's `max_motion`.
+fn history_params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
+    Ok(Ch6Params { max_motion: ctx.int_param("max_motion")?.clamp(0, MAX_MOTION_LIMIT) as i32, ..params(ctx)? })
 }
 
 fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
@@ -307,20 +326,24 @@ impl Kernel for EnvironmentHistory {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_environment_history.wgsl"), |ctx| {
-                let p = params(ctx)?;
+                let p = history_params(ctx)?;
                 let (cam, present) = match ctx.scene.previous_camera {
                     Some(c) => (c, 1u32),
                     None => (ctx.scene.camera, 0u32),
                 };
-                let u = Uniforms::new().i32("max_radius", p.max_radius).f32("normal_cos", p.normal_cos).u32("history", present);
+                let u = Uniforms::new()
+                    .i32("max_radius", p.max_radius)
+                    .f32("normal_cos", p.normal_cos)
+                    .u32("history", present)
+                    .i32("max_motion", p.max_motion);
                 Ok(camera_uniforms(u, &cam, wedge_scene::LensShape::Disk))
             })
             .with_include("camera.wgsl", include_str!("../../../shaders/camera.wgsl"))
-            .with_reach(|_| Ok(Reach::Image)),
+            .with_reach(|ctx| Ok(Reach::Rows(history_params(ctx)?.max_motion as u32 + 1))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let p = params(ctx)?;
+        let p = history_params(ctx)?;
         let position = ctx.read::<[f32; 4]>("position")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let bandwidth = ctx.read::<[f32; 2]>("bandwidth")?;

@@ -89,6 +89,7 @@ impl NodeKind for Environment {
             ParamDecl::int("indirect_per_primary", 4, 1, 4096, "one-bounce indirect samples per primary ray, with `indirect`"),
             ParamDecl::boolean("temporal", false, "join the previous frame's reprojected irradiance in the y pass (eqs. 6.24-6.26)"),
             ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
+            ParamDecl::int("max_motion", 32, 0, 4096, "with `temporal`: pixels a point may move between frames and keep its history (bounds the rows the history pass reads)"),
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "occluded look-ups dimmer than this × the map's mean radiance do not set the occluder term (Sec. 6.7: 0.1)"),
             ParamDecl::boolean("adaptive", false, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension)"),
             ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
@@ -188,6 +189,7 @@ impl NodeKind for Environment {
             position,
             normal,
             max_radius: ctx.param("max_radius").clone(),
+            max_motion: ctx.param("max_motion").clone(),
             normal_cos: ParamValue::Float(NORMAL_DEG.to_radians().cos()),
             temporal,
         };
@@ -224,6 +226,7 @@ struct PartFilter {
     position: BufferId,
     normal: BufferId,
     max_radius: ParamValue,
+    max_motion: ParamValue,
     normal_cos: ParamValue,
     temporal: bool,
 }
@@ -249,6 +252,7 @@ impl PartFilter {
                 // Eq. 6.24 filters the previous frame along x.
                 .int("axis", 0)
                 .param("max_radius", self.max_radius.clone())
+                .param("max_motion", self.max_motion.clone())
                 .param("normal_cos", self.normal_cos.clone())
                 .finish();
             out
