@@ -15,7 +15,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let xy = vec2<i32>(pixel_xy(gid));
     let none = vec4<f32>(0.0);
     let pi = position_at(i);
-    if (params.history == 0u || !(pi.w > 0.0)) {
+    // A pixel the y pass lets through (no hit, "do not filter") never reads its history.
+    let b0 = bandwidth_at(i).x;
+    if (params.history == 0u || !(pi.w > 0.0) || !(b0 >= 0.0 && is_finite(b0))) {
         out_put(i, none);
         return;
     }

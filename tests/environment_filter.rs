@@ -185,13 +185,26 @@ fn a_moving_camera_reprojects_to_the_same_world_points() {
     }
     // The strip the previous frame did not see (on the right) has no history.
     assert!(valid > (W * H) as usize * 3 / 4 && valid < (W * H) as usize, "{valid}");
+    // The points moved 0.3 m × 30 px / (2 · 3 m · tan 20°) ≈ 4.1 px: under `max_motion` 3 no pixel
+    // keeps its history, under 5 the same pixels as under 32.
+    let count_valid = |max_motion: i64| {
+        let mut hp = hp.clone();
+        hp.retain(|(k, _)| *k != "max_motion");
+        hp.push(("max_motion", ParamValue::Int(max_motion)));
+        let h = run(Arc::new(EnvironmentHistory), &scene, &hp, &inputs, None);
+        <[f32; 4] as Texel>::slice(&h).unwrap().iter().filter(|h| h[3] > 0.0).count()
+    };
+    assert_eq!(count_valid(3), 0);
+    assert_eq!(count_valid(5), valid);
 }
 
 #[test]
 fn both_kernels_agree_with_the_gpu() {
     let Some(mut gpu) = gpu_or_skip("both_kernels_agree_with_the_gpu") else { return };
     let (mut scene, cam) = plane_scene();
-    let prev = Camera { position: cam.position + glam::Vec3::new(0.1, 0.05, 0.0), ..cam };
+    // The previous camera 0.1 m right and 0.05 m up (about 1.4 px and 0.7 px at the plane).
+    let shift = glam::Vec3::new(0.1, 0.05, 0.0);
+    let prev = Camera { position: cam.position + shift, look_at: cam.look_at + shift, ..cam };
     scene.previous_camera = Some(prev);
     let (position, normal) = gbuffer(&cam);
     let (prev_position, prev_normal) = gbuffer(&prev);
@@ -215,6 +228,16 @@ fn both_kernels_agree_with_the_gpu() {
     let hist_in = only(&["position", "normal", "bandwidth", "previous_value", "previous_position", "previous_normal", "previous_bandwidth"]);
     let (hc, hg) = (run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, None), run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, Some(&mut gpu)));
     assert_eq!(compare(&hc, &hg, tol).2, 0, "history pass");
+    // Every point moved one pixel to the left (1.4 px from the pixel centre): a motion bound of 0 px
+    // cuts all history, on both backends.
+    let mut hp1 = hp.clone();
+    hp1.retain(|(k, _)| *k != "max_motion");
+    hp1.push(("max_motion", ParamValue::Int(0)));
+    let (c1, g1) = (run(Arc::new(EnvironmentHistory), &scene, &hp1, &hist_in, None), run(Arc::new(EnvironmentHistory), &scene, &hp1, &hist_in, Some(&mut gpu)));
+    assert_eq!(compare(&c1, &g1, tol).2, 0, "history pass, max_motion 0");
+    let valid = |b: &BufferData| <[f32; 4] as Texel>::slice(b).unwrap().iter().filter(|h| h[3] > 0.0).count();
+    println!("history pixels: {} under max_motion 32, {} on the GPU under 0", valid(&hc), valid(&g1));
+    assert!(valid(&hc) > 0 && valid(&g1) == 0, "{} vs {}", valid(&hc), valid(&g1));
     for axis in [0, 1] {
         let mut f_in = only(&["value", "position", "normal", "bandwidth"]);
         if axis == 1 {

@@ -165,7 +165,8 @@ pub fn history_pixel(
     let i = (y * width + x) as usize;
     let none = [0.0; 4];
     let Some(cam) = previous_camera else { return none };
-    if !(position[i][3] > 0.0) {
+    // A pixel the y pass lets through (no hit, "do not filter") never reads its history.
+    if !(position[i][3] > 0.0 && bandwidth[i][0] >= 0.0 && bandwidth[i][0].is_finite()) {
         return none;
     }
     let xi = v3(position[i]);
