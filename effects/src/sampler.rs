@@ -5,7 +5,8 @@
 //! 1. `first` (`Stage::Sample`, `paths.trace`): `paths` primary paths per pixel (setting; thesis
 //!    Ch. 3/4: `n_p = 1` through the pixel centre), `shadow_per_primary` / `indirect_per_primary`
 //!    secondary samples each, only the estimators some node asked for (`light`: shadow rays to area
-//!    light `light`; `hemisphere`: one-bounce indirect). Reference role `Continued`.
+//!    light `light`; `hemisphere`: one-bounce indirect; `environment`: look-ups into the environment
+//!    map's table, `environment_per_primary` per path). Reference role `Continued`.
 //! 2. `resolve_first` (`paths.resolve`): the first-pass outputs nodes hold handles to.
 //! 3. `Stage::Counts` (thesis Sec. 5.4): the adaptive pass's paths per pixel are the per-pixel max
 //!    over the count requests of `ceil(request / paths_unit)` (each request first spread by

@@ -23,6 +23,11 @@
 //!   ρ_s(ω_c)` (the glossy lobe toward the light centre folded into k, eq. 5.20), `L = k·E`;
 //! - indirect diffuse: `E` = mean incident radiance of cosine-sampled one-bounce paths, `k = k_d`;
 //! - indirect glossy: `E` = mean of `L_i · f cos/pdf` (k_s left out) over lobe samples, `k = k_s`.
+//! - environment (thesis Ch. 6, [`crate::kernels::environment`]): look-ups into the map's
+//!   4096-entry table, stratified per pixel; diffuse `E = L cos/(π pdf)`, glossy `E = L ρ cos/pdf`,
+//!   the largest occluder term `cos θ / t` over bright blocked look-ups, and `w_env_missed` (paths
+//!   whose camera ray saw the sky: `E` averages over the paths that hit). Camera rays that miss add
+//!   the map (`Scene::background`) to emission.
 //!
 //! **Weights.** Where the camera ray moves between a pixel's paths (a lens, jitter), each path weighs
 //! its lens weight `w` whatever its secondary count: the record sums `w·L`, `w·k`, `w·E` per component
