@@ -109,7 +109,7 @@ struct SceneLayout {
     instances: u32,
     object_instances: u32,
     instance_count: u32,
-    _pad: u32,
+    instance_root: u32, // the top-level tree over the instances (Scene::instance_root)
 }
 
 @group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;

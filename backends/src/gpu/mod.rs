@@ -440,7 +440,7 @@ impl GpuBackend {
         let layout = self.scoped("uploading the scene layout", || {
             self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("scene layout"),
-                contents: bytemuck::cast_slice(&scene::layout(&offsets, scene.instances.len())),
+                contents: bytemuck::cast_slice(&scene::layout(&offsets, scene)),
                 usage: wgpu::BufferUsages::UNIFORM,
             })
         })?;

@@ -100,7 +100,8 @@ pub const SCENE_ARRAYS: [&str; 10] = [
     "object_instances",
 ];
 
-/// Words of the uniform `SceneLayout`: each array's first element, the instance count, padding.
+/// Words of the uniform `SceneLayout`: each array's first element, the instance count, the root of
+/// the top-level tree over the instances (`Scene::instance_root`).
 pub const LAYOUT_WORDS: usize = 12;
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
@@ -232,11 +233,13 @@ fn light_instance(scene: &Scene, i: usize) -> u32 {
         .unwrap_or(NO_INSTANCE)
 }
 
-/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count.
-pub fn layout(offsets: &[u32; 10], instance_count: usize) -> [u32; LAYOUT_WORDS] {
+/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count and
+/// the top-level tree's root.
+pub fn layout(offsets: &[u32; 10], scene: &Scene) -> [u32; LAYOUT_WORDS] {
     let mut words = [0u32; LAYOUT_WORDS];
     words[..10].copy_from_slice(offsets);
-    words[10] = instance_count as u32;
+    words[10] = scene.instances.len() as u32;
+    words[11] = scene.instance_root;
     words
 }
 
@@ -256,6 +259,18 @@ pub fn pack<const N: usize>(arrays: &[Vec<u8>; N]) -> (Vec<u8>, [u32; N]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The WGSL traversal's stacks are as large as the CPU's, which the scene build keeps trees within.
+    #[test]
+    fn wgsl_stack_sizes_are_the_cpus() {
+        let bvh = include_str!("../../../shaders/bvh.wgsl");
+        for line in [
+            format!("const BVH_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::STACK_SIZE),
+            format!("const TOP_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::build::TOP_STACK_SIZE),
+        ] {
+            assert!(bvh.contains(&line), "shaders/bvh.wgsl lacks `{line}`");
+        }
+    }
 
     #[test]
     fn packed_arrays_start_on_16_byte_elements_in_order() {

@@ -257,11 +257,17 @@ pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
 /// chunks under an extra node with the same box, as [`collapse_greedy`] does. Triangles are stored in
 /// the order the leaves are made (`BuiltBvh::order`).
 pub fn collapse_with(tree: &BinaryTree, cost: CollapseCost) -> BuiltBvh {
+    collapse_leaves(tree, cost, MAX_LEAF)
+}
+
+/// [`collapse_with`] making leaves of at most `max_leaf` (≤ [`MAX_LEAF`]) primitives out of inner
+/// binary nodes (the binary tree's own leaves stay as they are).
+fn collapse_leaves(tree: &BinaryTree, cost: CollapseCost, max_leaf: u32) -> BuiltBvh {
     let bin = &tree.nodes;
     let mut nodes = Vec::new();
     let mut order = Vec::with_capacity(tree.order.len());
     if !bin.is_empty() {
-        let plan = CollapsePlan::new(bin, cost);
+        let plan = CollapsePlan::new(bin, cost, max_leaf);
         nodes.push(WideNode::empty());
         // (wide node to fill, binary node whose subtree it covers)
         let mut todo = vec![(0usize, 0u32)];
@@ -312,7 +318,7 @@ struct CollapsePlan {
 }
 
 impl CollapsePlan {
-    fn new(bin: &[BinaryNode], cost: CollapseCost) -> CollapsePlan {
+    fn new(bin: &[BinaryNode], cost: CollapseCost, max_leaf: u32) -> CollapsePlan {
         let n = bin.len();
         // Children before parents: reverse of a pre-order walk (no recursion: trees can be deep).
         let mut pre = Vec::with_capacity(n);
@@ -361,7 +367,7 @@ impl CollapsePlan {
             let internal = a * cost.node + d[WIDTH].0;
             plan.split4[i] = d[WIDTH].1;
             let mut best = internal;
-            if count[i] <= MAX_LEAF {
+            if count[i] <= max_leaf {
                 let leaf = a * packs(count[i]) * cost.pack;
                 if leaf <= internal {
                     best = leaf;
@@ -470,6 +476,135 @@ pub fn collapse_greedy(tree: &BinaryTree) -> BuiltBvh {
         depth,
         stack_need,
     }
+}
+
+/// A 4-wide tree over boxes, one box per leaf: each leaf reference is `leaf_ref(box index, 1)` (no
+/// `order`). Scenes build their top-level tree over moving instances' swept boxes with it
+/// ([`crate::Scene::instance_root`]). Top-down, each binary split at the least
+/// `A(left)·|left| + A(right)·|right|` over the boxes sorted by centre along each axis, except that
+/// below depth [`BOX_SAH_DEPTH`] (nested or coincident boxes can make SAH peel one box at a time)
+/// and whenever the collapsed tree would need more than [`TOP_STACK_SIZE`] stack entries, it splits
+/// at the median: the tree's depth stays within `BOX_SAH_DEPTH + log2(n) + 1`.
+pub fn build_boxes(boxes: &[([f32; 3], [f32; 3])]) -> BuiltBvh {
+    let cost = CollapseCost {
+        node: 1.0,
+        pack: 1.0,
+    };
+    let built = collapse_leaves(&binary_boxes(boxes, BOX_SAH_DEPTH), cost, 1);
+    let built = if built.stack_need + 1 > TOP_STACK_SIZE {
+        collapse_leaves(&binary_boxes(boxes, 0), cost, 1)
+    } else {
+        built
+    };
+    // Leaves name positions in `order`; name the boxes instead.
+    let mut nodes = built.nodes;
+    for n in &mut nodes {
+        for slot in 0..WIDTH {
+            if let (true, Child::Leaf { first, count }) =
+                (n.used(slot), super::child_ref(n.child[slot]))
+            {
+                debug_assert_eq!(count, 1);
+                n.child[slot] = leaf_ref(built.order[first as usize], 1);
+            }
+        }
+    }
+    BuiltBvh {
+        nodes,
+        order: built.order,
+        depth: built.depth,
+        stack_need: built.stack_need,
+    }
+}
+
+/// Binary levels [`build_boxes`] splits by surface area before it splits at the median.
+pub const BOX_SAH_DEPTH: usize = 24;
+
+/// Stack entries of a top-level walk over a [`build_boxes`] tree (CPU `traverse::walk_leaves`, WGSL
+/// `scene_trace`): it pushes every entered child of a node, so it needs `stack_need + 1`.
+pub const TOP_STACK_SIZE: usize = 32;
+
+/// [`build_boxes`]'s binary tree: one box per leaf, surface-area splits above depth `sah_depth`.
+fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree {
+    let centre = |i: u32| {
+        let (lo, hi) = boxes[i as usize];
+        Vec3::from(lo) + Vec3::from(hi)
+    };
+    let union = |ids: &[u32]| {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &i in ids {
+            lo = lo.min(Vec3::from(boxes[i as usize].0));
+            hi = hi.max(Vec3::from(boxes[i as usize].1));
+        }
+        (lo, hi)
+    };
+    let half_area = |(lo, hi): (Vec3, Vec3)| {
+        let e = (hi - lo).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    };
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    let mut nodes = Vec::with_capacity(2 * boxes.len());
+    if boxes.is_empty() {
+        return BinaryTree { nodes, order };
+    }
+    nodes.push(BinaryNode::zeroed());
+    let mut todo = vec![(0usize, 0usize, boxes.len(), 0usize)];
+    let mut right_area = Vec::new();
+    while let Some((node, start, end, depth)) = todo.pop() {
+        let (lo, hi) = union(&order[start..end]);
+        if end - start == 1 {
+            nodes[node] = BinaryNode {
+                min: lo.to_array(),
+                index: start as u32,
+                max: hi.to_array(),
+                count: 1,
+            };
+            continue;
+        }
+        let ids = &mut order[start..end];
+        let n = ids.len();
+        // (cost, axis, boxes on the left)
+        let mut best = (f32::INFINITY, 0usize, n / 2);
+        if depth < sah_depth {
+            for axis in 0..3 {
+                ids.sort_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
+                right_area.clear();
+                right_area.resize(n, 0.0);
+                let (mut rlo, mut rhi) =
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for k in (1..n).rev() {
+                    rlo = rlo.min(Vec3::from(boxes[ids[k] as usize].0));
+                    rhi = rhi.max(Vec3::from(boxes[ids[k] as usize].1));
+                    right_area[k] = half_area((rlo, rhi));
+                }
+                let (mut llo, mut lhi) =
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for k in 1..n {
+                    llo = llo.min(Vec3::from(boxes[ids[k - 1] as usize].0));
+                    lhi = lhi.max(Vec3::from(boxes[ids[k - 1] as usize].1));
+                    let c = half_area((llo, lhi)) * k as f32 + right_area[k] * (n - k) as f32;
+                    if c < best.0 {
+                        best = (c, axis, k);
+                    }
+                }
+            }
+        } else {
+            best.1 = (hi - lo).max_position();
+        }
+        let (axis, mid) = (best.1, best.2);
+        ids.sort_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
+        let first_child = nodes.len();
+        nodes.push(BinaryNode::zeroed());
+        nodes.push(BinaryNode::zeroed());
+        nodes[node] = BinaryNode {
+            min: lo.to_array(),
+            index: first_child as u32,
+            max: hi.to_array(),
+            count: 0,
+        };
+        todo.push((first_child, start, start + mid, depth + 1));
+        todo.push((first_child + 1, start + mid, end, depth + 1));
+    }
+    BinaryTree { nodes, order }
 }
 
 /// A reference to `count` triangles from `first`: a leaf, or for more than [`MAX_LEAF`] a new node
