@@ -15,9 +15,10 @@
 //!
 //! - work: wide nodes and triangle packs tested per ray (`bvh::traverse_counted`), per ray kind — the
 //!   first thing to look at when a ratio against Embree moves.
-//! - build: `bvh::build` (what scenes use) and `bvh::build_with` for obvhs's `fastest_build`,
-//!   `very_fast_build`, `fast_build`, `medium_build` and `slow_build` (spatial splits) on each scene's
-//!   triangles: build time (best of the runs in ≥1 s; obvhs's `parallel` feature uses every rayon
+//! - build: `bvh::build` (what scenes use: `fast_build` with one triangle per leaf, SAH-optimal
+//!   collapse), `bvh::build_with` for obvhs's `fastest_build`, `very_fast_build`, `fast_build`,
+//!   `medium_build` and `slow_build` (spatial splits; their own 8-triangle leaves, SAH-optimal
+//!   collapse), and `fast_build` with the greedy collapse used before, on each scene's triangles: build time (best of the runs in ≥1 s; obvhs's `parallel` feature uses every rayon
 //!   thread), BVH memory (wide nodes + triangle packs) and total with the triangle records, and the
 //!   primary-ray speed of that tree (one thread, `bvh::traverse` over a `Bvh::pack` of it).
 //!
@@ -276,8 +277,10 @@ struct BuildRow {
 /// other work on the machine only ever makes a build slower.
 fn build_table(input: &[[Vec3; 3]], primary: &[Ray], min: Duration) -> Vec<BuildRow> {
     use obvhs::BvhBuildParams as P;
+    use wedge::scene::bvh::build::{binary_obvhs, collapse_greedy};
     use wedge::scene::bvh::{build, build_with, traverse, Bvh, TriangleRecord};
-    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 6] = [
+    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 7] = [
+        ("fast_build, greedy collapse (before)", &|| collapse_greedy(&binary_obvhs(input, P::fast_build()))),
         ("fastest_build", &|| build_with(input, P::fastest_build())),
         ("very_fast_build", &|| build_with(input, P::very_fast_build())),
         ("fast_build", &|| build_with(input, P::fast_build())),

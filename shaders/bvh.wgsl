@@ -7,9 +7,10 @@
 // so the two backends agree without visiting nodes in the same order.
 //
 // Motion (wedge_scene::SceneAt::intersect): the static tree from node 0, then every instance whose
-// swept box the ray enters before the best hit so far, through its own tree from its root with the
-// ray moved into its rest pose at `scene_time` (same ray parameter; `traverse_tree` continues from
-// the best hit, so the closest-hit rule holds across trees).
+// swept box the ray enters before the best hit so far (found through the top-level tree over the
+// swept boxes), through its own tree from its root with the ray moved into its rest pose at
+// `scene_time` (same ray parameter; `traverse_tree` continues from the best hit, so the closest-hit
+// rule holds across trees).
 #include "scene.wgsl"
 
 const BVH_STACK_SIZE: u32 = 64u;
@@ -209,35 +210,37 @@ fn box_entered(bmin: vec3<f32>, bmax: vec3<f32>, o: vec3<f32>, inv_d: vec3<f32>,
     return t_enter <= t_exit * bitcast<f32>(0x3f800003u);
 }
 
-// SceneAt::intersect / SceneAt::occluded at `scene_time`: tree 0 is the static tree (node 0); tree
-// k > 0 is instance k − 1, skipped unless the ray enters its swept box before the best hit so far,
-// traversed from its root with the ray moved into its rest pose. One call of `traverse_tree` in one
-// loop over the trees, so the traversal is inlined once per call site as before motion. Measured on
-// lavapipe (`wedge render pipelines/shadows.ron --backend wgpu`, 96×72, static `grids`, sampling
-// time): a static traversal followed by a loop of instance traversals (inlined twice) ran 2.3×
-// slower than before motion, a static fast path before this loop 1.3×, this loop 1.11× (1.55 →
-// 1.73 s), and switching trees inside one traversal loop where the stack runs empty 1.15×. Images
-// are bit-identical either way; real GPUs are not measured here.
+// Entries of the top-level walk's stack in `scene_trace` (bvh::build::TOP_STACK_SIZE; the scene
+// build keeps the top-level tree within it).
+const TOP_STACK_SIZE: u32 = 32u;
+
+// SceneAt::intersect / SceneAt::occluded at `scene_time`: the static tree (node 0), then every
+// instance whose swept box the ray enters before the best hit so far, traversed from its root with
+// the ray moved into its rest pose. The instances are found by walking the top-level tree over their
+// swept boxes (bvh::traverse::walk_leaves; from `scene_layout.instance_root`, its leaves name
+// instances) between traversals: one call of `traverse_tree` in one loop, so the traversal is
+// inlined once per call site as before motion. Measured on lavapipe (`wedge render
+// pipelines/shadows.ron --backend wgpu`, 96×72, static `grids`, sampling time) before the top-level
+// tree: a static traversal followed by a loop of instance traversals (inlined twice) ran 2.3× slower
+// than before motion, a static fast path before the loop 1.3×, one loop over all instances 1.11×
+// (1.55 → 1.73 s), and switching trees inside one traversal loop where the stack runs empty 1.15×.
+// Images are bit-identical either way; real GPUs are not measured here.
 fn scene_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> Hit {
     var best = no_hit();
     var limit = tmax;
     var tri = 0u;
-    let n = scene_layout.instance_count;
     let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
-    for (var k = 0u; k <= n; k = k + 1u) {
-        var ro = o;
-        var rd = d;
-        var root = 0u;
-        if (k > 0u) {
-            let inst = scene_instance(k - 1u);
-            if (!box_entered(inst.swept_min, inst.swept_max, o, inv_d, tmin, limit)) {
-                continue;
-            }
-            let xf = instance_transform(inst, scene_time);
-            ro = xf_inverse_point(xf, o);
-            rd = xf_inverse_vector(xf, d);
-            root = inst.root;
-        }
+    let big = inf();
+    var top: array<u32, TOP_STACK_SIZE>;
+    var top_sp = 0u;
+    if (scene_layout.instance_count > 0u) {
+        top[0] = scene_layout.instance_root;
+        top_sp = 1u;
+    }
+    var root = 0u;
+    var ro = o;
+    var rd = d;
+    loop {
         let h = traverse_tree(root, ro, rd, tmin, limit, tri, any_hit);
         if (h.hit) {
             best = h;
@@ -247,7 +250,42 @@ fn scene_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) 
             limit = h.t;
             tri = h.triangle;
         }
+        // The next instance whose swept box the ray enters before `limit` (children pushed in lane
+        // order: the hit rule does not depend on the order instances are traced in).
+        var found = false;
+        var inst: Instance;
+        loop {
+            if (top_sp == 0u) {
+                break;
+            }
+            top_sp = top_sp - 1u;
+            let r = top[top_sp];
+            if ((r & LEAF_BIT) != 0u) {
+                inst = scene_instance(r & LEAF_FIRST_MASK);
+                if (box_entered(inst.swept_min, inst.swept_max, o, inv_d, tmin, limit)) {
+                    found = true;
+                    break;
+                }
+                continue;
+            }
+            let n = wide_node(r);
+            let te = wide_slab(n, o, inv_d, tmin, limit);
+            for (var lane = 0u; lane < 4u; lane = lane + 1u) {
+                if (te[lane] != big) {
+                    top[top_sp] = n.child[lane];
+                    top_sp = top_sp + 1u;
+                }
+            }
+        }
+        if (!found) {
+            return best;
+        }
+        let xf = instance_transform(inst, scene_time);
+        ro = xf_inverse_point(xf, o);
+        rd = xf_inverse_vector(xf, d);
+        root = inst.root;
     }
+    // Unreachable unless the driver cut the loop short (the loop only exits by `return`).
     return best;
 }
 

@@ -117,11 +117,11 @@ struct SceneLayout {
     env_columns: u32,
     env_table: u32,
     instance_count: u32,
+    instance_root: u32, // the top-level tree over the instances (Scene::instance_root)
     env_width: u32,   // 0: no environment map
     env_height: u32,
     env_first: u32,   // the map column the first sorted column boundary starts
     _pad0: u32,
-    _pad1: u32,
 }
 
 @group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;

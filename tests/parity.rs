@@ -786,6 +786,42 @@ fn scene_motion_wgsl_matches_scene_at() {
         rotation: [glam::Quat::from_rotation_z(-0.3), glam::Quat::from_rotation_z(0.2)],
     };
     scene.set_motion("light", swing).unwrap();
+    motion_probe_matches("scene_motion_wgsl_matches_scene_at", &scene);
+}
+
+/// The same probe on `spheres` with 120 of its spheres moving (a translation and a turn each, their
+/// own instances): the top-level tree over the instances' swept boxes (several levels deep) is walked
+/// the same way on both backends.
+#[test]
+fn many_moving_instances_wgsl_match_scene_at() {
+    use wedge::scene::{RigidMotion, Scene, SceneObject};
+    let still = wedge::scene::load(&wedge::scene::SceneSource::Builtin("spheres".into())).unwrap();
+    let tris: Vec<_> = (0..still.triangles.len())
+        .map(|i| {
+            let v = still.triangles[i].vertices();
+            (v[0], v[1], v[2], still.shading[i])
+        })
+        .collect();
+    let objects: Vec<SceneObject> = still
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(k, o)| SceneObject {
+            motion: (k % 3 == 1 && k <= 360).then(|| RigidMotion {
+                pivot: glam::Vec3::ZERO,
+                translation: [glam::Vec3::ZERO, glam::Vec3::new(0.05, 0.02 * (k % 5) as f32, -0.03)],
+                rotation: [glam::Quat::IDENTITY, glam::Quat::from_rotation_y(0.002 * k as f32)],
+            }),
+            ..SceneObject::named(o.name.clone())
+        })
+        .collect();
+    let scene = Scene::from_objects("spheres, 120 moving", tris, still.materials.clone(), still.textures.clone(), still.camera, objects).unwrap();
+    assert_eq!(scene.instances.len(), 120);
+    motion_probe_matches("many_moving_instances_wgsl_match_scene_at", &scene);
+}
+
+/// [`MotionProbe`] on the CPU and every GPU backend here, at per-pixel times over the shutter.
+fn motion_probe_matches(test: &str, scene: &wedge::scene::Scene) {
     let (w, h) = (96u32, 72u32);
     let (mut origin, mut dir, mut time) = (Vec::new(), Vec::new(), Vec::new());
     for y in 0..h {
@@ -809,13 +845,13 @@ fn scene_motion_wgsl_matches_scene_at() {
     let BufferData::U32(ct) = &cpu["triangle"] else { panic!() };
     assert!(ct.iter().filter(|&&t| t != u32::MAX).count() > (w * h / 2) as usize);
     let mut backends = Vec::new();
-    if let Some(gpu) = gpu_or_skip("scene_motion_wgsl_matches_scene_at") {
+    if let Some(gpu) = gpu_or_skip(test) {
         backends.push(gpu);
     }
     use wedge::backends::gpu::LimitsChoice;
     match GpuBackend::open_on(Some(wedge::backends::gpu::Backends::GL), LimitsChoice::Adapter) {
         Ok(g) => backends.push(g),
-        Err(e) => eprintln!("scene_motion_wgsl_matches_scene_at: GL SKIPPED — {e}"),
+        Err(e) => eprintln!("{test}: GL SKIPPED — {e}"),
     }
     for mut gpu in backends {
         let gpu_out = gpu.run_kernel(Arc::new(MotionProbe), &scene, w, h, 1, BTreeMap::new(), &inputs).unwrap();

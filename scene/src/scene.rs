@@ -8,13 +8,15 @@
 //! (child references absolute, [`Bvh::pack_into`]), its triangles after the static ones in
 //! `triangles`. A ray at time `t` is traced through the static tree, then through every instance
 //! whose swept box (its bounds over the whole shutter) it enters, moved into the instance's rest
-//! space by the inverse rigid transform at `t`. A rigid map keeps the ray parameter (the direction
+//! space by the inverse rigid transform at `t`; the instances it enters are found through a
+//! top-level 4-wide tree over their swept boxes ([`Scene::instance_root`], nearest box first, boxes
+//! beyond the best hit so far skipped). A rigid map keeps the ray parameter (the direction
 //! keeps its length), and triangle indices are global, so [`bvh::closer`]'s rule still picks the one
 //! closest hit over all trees ([`bvh::traverse_from`] starts from the best hit so far).
 //!
 //! Why not one motion BVH that interpolates vertices: rotation is not linear in vertex positions, so
 //! a tree over interpolated boxes would need the rotation's swept boxes at every node anyway. Cost and
-//! limits (a linear loop over instances) are measured in DESIGN-NOTES "Scene motion".
+//! limits are measured in DESIGN-NOTES "Scene motion".
 
 use std::collections::HashMap;
 
@@ -146,6 +148,10 @@ pub struct Scene {
     pub objects: Vec<SceneObject>,
     /// Moving groups of triangles, each with its own tree (see the module doc). Empty for a static scene.
     pub instances: Vec<Instance>,
+    /// Root (in `bvh.nodes`, after the instances' trees) of the top-level tree over the instances'
+    /// swept boxes ([`bvh::build::build_boxes`]: its leaves name instances, `leaf_ref(k, 1)` for
+    /// `instances[k]`); 0 and unused when there are no instances.
+    pub instance_root: u32,
     /// Per light (index into `lights`): the object whose triangles form it; the light moves with it
     /// ([`SceneAt::light`]).
     pub light_object: Vec<u32>,
@@ -337,6 +343,7 @@ impl Scene {
             warnings,
             objects: built.objects,
             instances: built.instances,
+            instance_root: built.instance_root,
             light_object,
             environment: None,
         })
@@ -441,6 +448,7 @@ impl Scene {
         self.bvh = built.bvh;
         self.objects = built.objects;
         self.instances = built.instances;
+        self.instance_root = built.instance_root;
         self.bounds = built.bounds.union(&bounds);
         Ok(())
     }
@@ -595,7 +603,8 @@ impl<'a> SceneAt<'a> {
     // as before motion existed. The instance loops stay out of line so the static path's code
     // does not depend on them.
 
-    /// [`SceneAt::intersect`]'s instances, after the static tree gave `best`.
+    /// [`SceneAt::intersect`]'s instances, after the static tree gave `best`: those whose swept box
+    /// the ray enters before the best hit so far, found by walking the top-level tree.
     #[inline(never)]
     fn intersect_instances(
         &self,
@@ -606,12 +615,9 @@ impl<'a> SceneAt<'a> {
         tmax: f32,
     ) -> Option<Hit> {
         let s = self.scene;
-        let inv_d = dir.recip();
-        for inst in &s.instances {
-            let limit = best.map_or(tmax, |h| h.t);
-            if !box_entered(&inst.swept_bounds, origin, inv_d, tmin, limit) {
-                continue;
-            }
+        let limit = best.map_or(tmax, |h| h.t);
+        bvh::traverse::walk_leaves(&s.bvh, s.instance_root, origin, dir, tmin, limit, |k| {
+            let inst = &s.instances[k as usize];
             let xf = inst.prepared.at(self.t);
             let (o, d) = (xf.inverse_point(origin), xf.inverse_vector(dir));
             if let Some(h) =
@@ -619,7 +625,8 @@ impl<'a> SceneAt<'a> {
             {
                 best = Some(h);
             }
-        }
+            Some(best.map_or(tmax, |h| h.t))
+        });
         best
     }
 
@@ -627,15 +634,16 @@ impl<'a> SceneAt<'a> {
     #[inline(never)]
     fn occluded_instances(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
         let s = self.scene;
-        let inv_d = dir.recip();
-        s.instances.iter().any(|inst| {
-            if !box_entered(&inst.swept_bounds, origin, inv_d, tmin, tmax) {
-                return false;
-            }
+        let mut occluded = false;
+        bvh::traverse::walk_leaves(&s.bvh, s.instance_root, origin, dir, tmin, tmax, |k| {
+            let inst = &s.instances[k as usize];
             let xf = inst.prepared.at(self.t);
             let (o, d) = (xf.inverse_point(origin), xf.inverse_vector(dir));
-            bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, true, None).is_some()
-        })
+            occluded =
+                bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, true, None).is_some();
+            (!occluded).then_some(tmax)
+        });
+        occluded
     }
 
     /// Interpolated attributes at a hit of this time's ray (`dir` in world space), in world space at
@@ -696,24 +704,6 @@ impl<'a> SceneAt<'a> {
     }
 }
 
-/// Whether the ray `origin + t·dir` (`inv_d` = 1/dir) enters `b` with `tmin < t < tmax`: the slab test
-/// of the BVH's nodes on one box, as conservative (exit widened by [`bvh::traverse::WIDEN`]; a NaN
-/// from 0·∞ constrains nothing, as `f32::max`/`min` ignore it).
-#[inline]
-fn box_entered(b: &Aabb, origin: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> bool {
-    let (mut enter, mut exit) = (tmin, tmax);
-    for axis in 0..3 {
-        let (near, far) = if inv_d[axis].is_sign_negative() {
-            (b.max[axis], b.min[axis])
-        } else {
-            (b.min[axis], b.max[axis])
-        };
-        enter = ((near - origin[axis]) * inv_d[axis]).max(enter);
-        exit = ((far - origin[axis]) * inv_d[axis]).min(exit);
-    }
-    enter <= exit * bvh::traverse::WIDEN
-}
-
 /// `objects` extended to every object id the triangles use (`object<i>` at rest), motions checked,
 /// motions that move nothing stored as `None`, instances cleared (the build sets them).
 fn complete_objects(
@@ -772,6 +762,8 @@ struct Assembled {
     bvh: Bvh,
     objects: Vec<SceneObject>,
     instances: Vec<Instance>,
+    /// See [`Scene::instance_root`].
+    instance_root: u32,
     /// The union of the instances' swept bounds.
     bounds: Aabb,
 }
@@ -900,12 +892,43 @@ fn assemble(
     for (k, o) in objects.iter_mut().enumerate() {
         o.instance = (group[k] != u32::MAX).then_some(group[k]);
     }
+    let mut instance_root = 0;
+    if !instances.is_empty() {
+        let boxes: Vec<([f32; 3], [f32; 3])> = instances
+            .iter()
+            .map(|i| (i.swept_bounds.min.to_array(), i.swept_bounds.max.to_array()))
+            .collect();
+        let top = bvh::build::build_boxes(&boxes);
+        if top.stack_need + 1 > bvh::build::TOP_STACK_SIZE {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "the tree over the {} moving instances needs {} stack entries (the walk has {})",
+                    instances.len(),
+                    top.stack_need + 1,
+                    bvh::build::TOP_STACK_SIZE
+                ),
+                "give fewer groups of objects their own motion",
+            ));
+        }
+        // Appended after the instances' trees: inner references shifted, leaves name instances.
+        instance_root = bvh.nodes.len() as u32;
+        for mut node in top.nodes {
+            for slot in 0..bvh::WIDTH {
+                if node.used(slot) && node.child[slot] & bvh::LEAF_BIT == 0 {
+                    node.child[slot] += instance_root;
+                }
+            }
+            bvh.nodes.push(node);
+        }
+    }
     Ok(Assembled {
         triangles,
         shading: shading_out,
         bvh,
         objects,
         instances,
+        instance_root,
         bounds,
     })
 }

@@ -313,6 +313,91 @@ fn moving_instances_trace_like_brute_force_over_moved_triangles() {
     assert!(disagree * 500 <= rays, "{disagree} of {rays} rays disagree");
 }
 
+/// Many instances: the top-level tree over their swept boxes names every instance once, inside its
+/// boxes, and tracing through it gives bit for bit what testing every instance's swept box in turn
+/// gives (the linear loop it replaced: `traverse_from` over all of them after the static tree).
+#[test]
+fn the_top_level_tree_finds_what_a_loop_over_all_instances_finds() {
+    use wedge_scene::bvh::{self, child_ref, Child};
+    let mut rng = Rng(14);
+    let scene = soup(&mut rng, 300, 6);
+    assert_eq!(scene.instances.len(), 300);
+    let mut seen = vec![0; scene.instances.len()];
+    let mut todo = vec![(scene.instance_root, None::<Aabb>)];
+    while let Some((node, parent)) = todo.pop() {
+        let n = &scene.bvh.nodes[node as usize];
+        for slot in (0..4).filter(|&s| n.used(s)) {
+            let b = Aabb {
+                min: Vec3::new(n.bounds[0][slot], n.bounds[2][slot], n.bounds[4][slot]),
+                max: Vec3::new(n.bounds[1][slot], n.bounds[3][slot], n.bounds[5][slot]),
+            };
+            if let Some(p) = parent {
+                assert!(p.contains(b.min) && p.contains(b.max));
+            }
+            match child_ref(n.child[slot]) {
+                Child::Node(j) => todo.push((j, Some(b))),
+                Child::Leaf { first, count } => {
+                    assert_eq!(count, 1);
+                    let inst = &scene.instances[first as usize];
+                    assert_eq!(
+                        (inst.swept_bounds.min, inst.swept_bounds.max),
+                        (b.min, b.max)
+                    );
+                    seen[first as usize] += 1;
+                }
+            }
+        }
+    }
+    assert!(seen.iter().all(|&c| c == 1), "every instance in one leaf");
+    let (mut rays, mut hits) = (0, 0);
+    for _ in 0..20 {
+        let t = rng.r(-1.0, 1.0);
+        let at = scene.at(t);
+        for _ in 0..200 {
+            let o = rng.v(-4.0, 4.0) + Vec3::new(0.0, 6.0, 0.0);
+            let d = (rng.v(-3.0, 3.0) + Vec3::Y * 2.5 - o).normalize();
+            let tmax = if rays % 3 == 0 {
+                rng.r(2.0, 8.0)
+            } else {
+                f32::INFINITY
+            };
+            let mut want = bvh::traverse(&scene.bvh, o, d, 0.0, tmax, false);
+            let mut occluded = want.is_some();
+            for inst in &scene.instances {
+                let xf = inst.prepared.at(t);
+                let (ro, rd) = (xf.inverse_point(o), xf.inverse_vector(d));
+                let root = inst.root;
+                if let Some(h) =
+                    bvh::traverse_from(&scene.bvh, root, ro, rd, 0.0, tmax, false, want.as_ref())
+                {
+                    want = Some(h);
+                }
+                occluded |=
+                    bvh::traverse_from(&scene.bvh, root, ro, rd, 0.0, tmax, true, None).is_some();
+            }
+            let got = at.intersect(o, d, 0.0, tmax);
+            assert_eq!(
+                got.map(|h| (h.triangle, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits())),
+                want.map(|h| (h.triangle, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits())),
+                "ray {rays} at t = {t}"
+            );
+            assert_eq!(
+                at.occluded(o, d, 0.0, tmax),
+                occluded,
+                "ray {rays}: any-hit"
+            );
+            rays += 1;
+            hits += got.is_some_and(|h| {
+                scene
+                    .instance_of(scene.shading[h.triangle as usize].object)
+                    .is_some()
+            }) as usize;
+        }
+    }
+    println!("{rays} rays, {hits} hit a moving instance");
+    assert!(hits > rays / 4, "{hits} of {rays} rays hit an instance");
+}
+
 #[test]
 fn instances_swept_boxes_hold_their_triangles_at_every_time() {
     let mut rng = Rng(5);

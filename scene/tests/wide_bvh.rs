@@ -285,3 +285,89 @@ fn oversized_leaves_are_split() {
     check_structure(&built.nodes, &tris);
     check_rays("split leaves", &tris, &built.nodes, &mut rng, 1000);
 }
+
+/// The surface-area cost [`bvh::build::collapse_with`] minimises, evaluated on a collapsed tree: the
+/// root's box and every inner slot's box cost `node`, every leaf slot's box `pack` per pack.
+fn sah_cost(nodes: &[WideNode], cost: bvh::build::CollapseCost) -> f64 {
+    let area = |lo: Vec3, hi: Vec3| {
+        let e = hi - lo;
+        (e.x * e.y + e.y * e.z + e.z * e.x) as f64
+    };
+    let slot_box = |n: &WideNode, s: usize| {
+        (
+            Vec3::new(n.bounds[0][s], n.bounds[2][s], n.bounds[4][s]),
+            Vec3::new(n.bounds[1][s], n.bounds[3][s], n.bounds[5][s]),
+        )
+    };
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for s in (0..4).filter(|&s| nodes[0].used(s)) {
+        let (a, b) = slot_box(&nodes[0], s);
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    let mut total = area(lo, hi) * cost.node as f64;
+    for n in nodes {
+        for s in (0..4).filter(|&s| n.used(s)) {
+            let (a, b) = slot_box(n, s);
+            total += area(a, b)
+                * match child_ref(n.child[s]) {
+                    Child::Node(_) => cost.node as f64,
+                    Child::Leaf { count, .. } => count.div_ceil(4) as f64 * cost.pack as f64,
+                };
+        }
+    }
+    total
+}
+
+/// The dynamic-programming collapse finds the least-cost 4-wide tree over a binary tree's nodes, so
+/// it never costs more than the greedy collapse of the same binary tree (one of the trees it
+/// considers), on obvhs's 8-triangle leaves and on one-triangle leaves; and its trees trace exactly.
+#[test]
+fn optimal_collapse_costs_no_more_than_greedy() {
+    use bvh::build::{binary_obvhs, collapse_greedy, collapse_with, CollapseCost};
+    let mut rng = Rng(5);
+    let input: Vec<[Vec3; 3]> = (0..4000)
+        .map(|_| {
+            let c = rng.v();
+            let s = 0.01 + 0.15 * rng.f() * rng.f();
+            [c, c + (rng.v() - 0.5) * s, c + (rng.v() - 0.5) * s]
+        })
+        .collect();
+    for leaf in [8, 1] {
+        let params = obvhs::BvhBuildParams {
+            max_prims_per_leaf: leaf,
+            ..obvhs::BvhBuildParams::fast_build()
+        };
+        let tree = binary_obvhs(&input, params);
+        let greedy = collapse_greedy(&tree);
+        for cost in [
+            bvh::build::COLLAPSE_COST,
+            CollapseCost {
+                node: 1.0,
+                pack: 0.5,
+            },
+            CollapseCost {
+                node: 1.0,
+                pack: 4.0,
+            },
+        ] {
+            let optimal = collapse_with(&tree, cost);
+            let (g, o) = (
+                sah_cost(&greedy.nodes, cost),
+                sah_cost(&optimal.nodes, cost),
+            );
+            println!(
+                "leaf {leaf}, {cost:?}: greedy {g:.1}, optimal {o:.1} ({} / {} nodes)",
+                greedy.nodes.len(),
+                optimal.nodes.len()
+            );
+            assert!(
+                o <= g * (1.0 + 1e-5),
+                "leaf {leaf}, {cost:?}: optimal {o} > greedy {g}"
+            );
+            let tris = records(&input, &optimal);
+            check_structure(&optimal.nodes, &tris);
+            check_rays("optimal collapse", &tris, &optimal.nodes, &mut rng, 300);
+        }
+    }
+}

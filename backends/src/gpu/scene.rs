@@ -115,8 +115,9 @@ pub const SCENE_ARRAYS: [&str; ARRAY_COUNT] = [
     "env_table",
 ];
 
-/// Words of the uniform `SceneLayout`: each array's first element, the instance count, the
-/// environment's width, height and first column, padding to 16 bytes.
+/// Words of the uniform `SceneLayout`: each array's first element, the instance count, the root of
+/// the top-level tree over the instances (`Scene::instance_root`), the environment's width, height
+/// and first column, padding to 16 bytes.
 pub const LAYOUT_WORDS: usize = 20;
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
@@ -287,17 +288,18 @@ fn light_instance(scene: &Scene, i: usize) -> u32 {
         .unwrap_or(NO_INSTANCE)
 }
 
-/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count and the
-/// environment's width, height (0, 0 without a map) and the map column its first sorted column
-/// boundary starts.
+/// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count, the
+/// top-level tree's root, and the environment's width, height (0, 0 without a map) and the map column
+/// its first sorted column boundary starts.
 pub fn layout(offsets: &[u32; ARRAY_COUNT], scene: &Scene) -> [u32; LAYOUT_WORDS] {
     let mut words = [0u32; LAYOUT_WORDS];
     words[..ARRAY_COUNT].copy_from_slice(offsets);
     words[ARRAY_COUNT] = scene.instances.len() as u32;
+    words[ARRAY_COUNT + 1] = scene.instance_root;
     if let Some(env) = &scene.environment {
-        words[ARRAY_COUNT + 1] = env.width();
-        words[ARRAY_COUNT + 2] = env.height();
-        words[ARRAY_COUNT + 3] = env.gpu_columns().2;
+        words[ARRAY_COUNT + 2] = env.width();
+        words[ARRAY_COUNT + 3] = env.height();
+        words[ARRAY_COUNT + 4] = env.gpu_columns().2;
     }
     words
 }
@@ -318,6 +320,18 @@ pub fn pack<const N: usize>(arrays: &[Vec<u8>; N]) -> (Vec<u8>, [u32; N]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The WGSL traversal's stacks are as large as the CPU's, which the scene build keeps trees within.
+    #[test]
+    fn wgsl_stack_sizes_are_the_cpus() {
+        let bvh = include_str!("../../../shaders/bvh.wgsl");
+        for line in [
+            format!("const BVH_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::STACK_SIZE),
+            format!("const TOP_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::build::TOP_STACK_SIZE),
+        ] {
+            assert!(bvh.contains(&line), "shaders/bvh.wgsl lacks `{line}`");
+        }
+    }
 
     #[test]
     fn packed_arrays_start_on_16_byte_elements_in_order() {

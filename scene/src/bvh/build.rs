@@ -1,5 +1,5 @@
 //! Building the wide BVH: obvhs (or a median split) builds a binary tree, which [`collapse`] turns
-//! into 4-wide nodes.
+//! into the 4-wide nodes and leaves of least surface-area cost.
 //!
 //! PLOC pairs mutual nearest neighbours along the Morton order; when many primitives share one Morton
 //! code (identical bounding-box centres, e.g. a million triangles rotated about one point) the merge
@@ -70,11 +70,16 @@ pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
     built
 }
 
-/// The obvhs preset scenes are built with. Once collapsed to 4-wide nodes and packed, `fast_build`'s
-/// trees trace as fast as `medium_build`'s and `slow_build`'s (spatial splits) on `grids` and `heavy`
-/// and 5% faster on `spheres`, in 60–80% of `medium_build`'s time (`cargo bench --bench throughput`,
-/// build table; DESIGN-NOTES "Ray tracing core").
-pub const PRESET: obvhs::BvhBuildParams = obvhs::BvhBuildParams::fast_build();
+/// The obvhs preset scenes are built with: `fast_build` (PLOC, a little reinsertion) with one
+/// triangle per leaf, so that [`collapse`] forms the leaves itself. Measured on the built-in scenes
+/// (DESIGN-NOTES "Ray tracing core"): with the greedy collapse of earlier versions, `fast_build`'s
+/// trees traced as fast as `medium_build`'s and `slow_build`'s (spatial splits) in 60–80% of
+/// `medium_build`'s time; with the SAH-optimal collapse, one-triangle leaves take 3–6% fewer
+/// instructions per ray than obvhs's own 8-triangle leaves.
+pub const PRESET: obvhs::BvhBuildParams = obvhs::BvhBuildParams {
+    max_prims_per_leaf: 1,
+    ..obvhs::BvhBuildParams::fast_build()
+};
 
 /// Sample size of [`build`]'s PLOC probe on large inputs.
 pub const PROBE_SIZE: usize = 16384;
@@ -215,12 +220,219 @@ pub fn binary_depth(nodes: &[BinaryNode]) -> usize {
     max_depth
 }
 
-/// Collapse a binary tree into 4-wide nodes, top down: each wide node takes its binary node's two
+/// Relative costs of the work a ray does, for [`collapse`]'s surface-area cost: testing one wide
+/// node's four boxes, and testing one [`super::TrianglePack`] (four triangles).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CollapseCost {
+    pub node: f32,
+    pub pack: f32,
+}
+
+/// The costs scenes' trees are collapsed with. Chosen by callgrind instructions per ray on `heavy` and
+/// `spheres` (primary, shadow, diffuse rays; one-triangle `fast_build` leaves): pack cost 1.5 took
+/// 0.3–0.6% fewer than 1.0 and 1–2% fewer than 0.7, and 2.0 made the same trees as 1.5.
+pub const COLLAPSE_COST: CollapseCost = CollapseCost {
+    node: 1.0,
+    pack: 1.5,
+};
+
+/// Collapse a binary tree into 4-wide nodes with the least surface-area cost ([`collapse_with`] at
+/// [`COLLAPSE_COST`]).
+pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
+    collapse_with(tree, COLLAPSE_COST)
+}
+
+/// Collapse a binary tree into the 4-wide tree of least expected cost under the surface-area model:
+/// a ray entering a wide node's box pays `cost.node` (its four child boxes), a ray entering a leaf's
+/// box pays `cost.pack` per [`super::TrianglePack`] (⌈triangles / 4⌉). Dynamic programming over the
+/// binary tree, bottom up, as Ylitie et al. 2017 ("Efficient incoherent ray traversal on GPUs through
+/// compressed wide BVHs", §4) do for 8-wide nodes: `C(n, i)`, the least cost of n's subtree spread
+/// over at most `i` slots of its parent, is
+/// - `i = 1`: a leaf of all its triangles (if at most [`MAX_LEAF`]), or a wide node over it:
+///   `A(n)·cost.node + D(n, 4)`;
+/// - `i > 1`: `min(C(n, i − 1), D(n, i))`, with `D(n, j) = min over 0 < k < j of C(l, k) + C(r, j − k)`
+///   (l, r its children): some slots go to the left subtree, the rest to the right.
+///
+/// Leaves of the binary tree may hold several triangles; one with more than [`MAX_LEAF`] is split into
+/// chunks under an extra node with the same box, as [`collapse_greedy`] does. Triangles are stored in
+/// the order the leaves are made (`BuiltBvh::order`).
+pub fn collapse_with(tree: &BinaryTree, cost: CollapseCost) -> BuiltBvh {
+    collapse_leaves(tree, cost, MAX_LEAF)
+}
+
+/// [`collapse_with`] making leaves of at most `max_leaf` (≤ [`MAX_LEAF`]) primitives out of inner
+/// binary nodes (the binary tree's own leaves stay as they are).
+fn collapse_leaves(tree: &BinaryTree, cost: CollapseCost, max_leaf: u32) -> BuiltBvh {
+    let bin = &tree.nodes;
+    let mut nodes = Vec::new();
+    let mut order = Vec::with_capacity(tree.order.len());
+    if !bin.is_empty() {
+        let plan = CollapsePlan::new(bin, cost, max_leaf);
+        nodes.push(WideNode::empty());
+        // (wide node to fill, binary node whose subtree it covers)
+        let mut todo = vec![(0usize, 0u32)];
+        let mut slots = Vec::with_capacity(WIDTH);
+        let mut prims = Vec::new();
+        while let Some((w, b)) = todo.pop() {
+            slots.clear();
+            if bin[b as usize].count > 0 || plan.leaf[b as usize] {
+                slots.push(b);
+            } else {
+                plan.expand_children(bin, b, WIDTH, &mut slots);
+            }
+            for (slot, &i) in slots.iter().enumerate() {
+                let c = bin[i as usize];
+                let r = if c.count == 0 && !plan.leaf[i as usize] {
+                    nodes.push(WideNode::empty());
+                    todo.push((nodes.len() - 1, i));
+                    (nodes.len() - 1) as u32
+                } else {
+                    prims.clear();
+                    subtree_prims(bin, &tree.order, i, &mut prims);
+                    let first = order.len() as u32;
+                    order.extend_from_slice(&prims);
+                    leaf_slot(&mut nodes, first, prims.len() as u32, c.min, c.max)
+                };
+                nodes[w].set(slot, c.min, c.max, r);
+            }
+        }
+    }
+    let (depth, stack_need) = (tree_depth(&nodes), stack_need(&nodes));
+    BuiltBvh {
+        nodes,
+        order,
+        depth,
+        stack_need,
+    }
+}
+
+/// [`collapse_with`]'s decisions per binary node.
+struct CollapsePlan {
+    /// Whether the node, given one slot, becomes a leaf (else a wide node over its subtree).
+    leaf: Vec<bool>,
+    /// For `i` = 2..=4 slots (index `i − 2`): 0 if `C(n, i) = C(n, i − 1)`, else the slots `k` given
+    /// to the left child (`D(n, i)`'s best split).
+    split: Vec<[u8; 3]>,
+    /// `D(n, 4)`'s best split (a wide node over n distributes its four slots this way).
+    split4: Vec<u8>,
+}
+
+impl CollapsePlan {
+    fn new(bin: &[BinaryNode], cost: CollapseCost, max_leaf: u32) -> CollapsePlan {
+        let n = bin.len();
+        // Children before parents: reverse of a pre-order walk (no recursion: trees can be deep).
+        let mut pre = Vec::with_capacity(n);
+        let mut todo = vec![0u32];
+        while let Some(i) = todo.pop() {
+            pre.push(i);
+            let b = &bin[i as usize];
+            if b.count == 0 {
+                todo.push(b.index);
+                todo.push(b.index + 1);
+            }
+        }
+        let mut count = vec![0u32; n];
+        let mut c = vec![[0f32; WIDTH]; n]; // c[n][i − 1] = C(n, i)
+        let mut plan = CollapsePlan {
+            leaf: vec![false; n],
+            split: vec![[0; 3]; n],
+            split4: vec![0; n],
+        };
+        let packs = |count: u32| count.div_ceil(4) as f32;
+        for &i in pre.iter().rev() {
+            let (i, b) = (i as usize, &bin[i as usize]);
+            let a = area(b);
+            if b.count > 0 {
+                count[i] = b.count;
+                let mut leaf = a * packs(b.count) * cost.pack;
+                if b.count > MAX_LEAF {
+                    leaf += a * cost.node; // `leaf_slot`'s extra node
+                }
+                c[i] = [leaf; WIDTH];
+                plan.leaf[i] = true;
+                continue;
+            }
+            let (l, r) = (b.index as usize, b.index as usize + 1);
+            count[i] = count[l] + count[r];
+            // D(n, j) for j = 2..=4 and its best split.
+            let mut d = [(f32::INFINITY, 0u8); WIDTH + 1];
+            for (j, dj) in d.iter_mut().enumerate().skip(2) {
+                for k in 1..j {
+                    let v = c[l][k - 1] + c[r][j - k - 1];
+                    if v < dj.0 {
+                        *dj = (v, k as u8);
+                    }
+                }
+            }
+            let internal = a * cost.node + d[WIDTH].0;
+            plan.split4[i] = d[WIDTH].1;
+            let mut best = internal;
+            if count[i] <= max_leaf {
+                let leaf = a * packs(count[i]) * cost.pack;
+                if leaf <= internal {
+                    best = leaf;
+                    plan.leaf[i] = true;
+                }
+            }
+            c[i][0] = best;
+            for j in 2..=WIDTH {
+                if d[j].0 < c[i][j - 2] {
+                    c[i][j - 1] = d[j].0;
+                    plan.split[i][j - 2] = d[j].1;
+                } else {
+                    c[i][j - 1] = c[i][j - 2];
+                }
+            }
+        }
+        plan
+    }
+
+    /// The slots of a wide node over inner node `b`: `D(b, width)`'s split, expanded.
+    fn expand_children(&self, bin: &[BinaryNode], b: u32, width: usize, out: &mut Vec<u32>) {
+        let k = self.split4[b as usize] as usize;
+        debug_assert!(width == WIDTH && k > 0);
+        let first = bin[b as usize].index;
+        self.expand(bin, first, k, out);
+        self.expand(bin, first + 1, width - k, out);
+    }
+
+    /// The binary nodes that fill at most `i` slots for node `b`'s subtree (`C(b, i)`'s choice).
+    fn expand(&self, bin: &[BinaryNode], b: u32, mut i: usize, out: &mut Vec<u32>) {
+        let node = &bin[b as usize];
+        while i > 1 && node.count == 0 && self.split[b as usize][i - 2] == 0 {
+            i -= 1;
+        }
+        if i == 1 || node.count > 0 {
+            out.push(b);
+            return;
+        }
+        let k = self.split[b as usize][i - 2] as usize;
+        self.expand(bin, node.index, k, out);
+        self.expand(bin, node.index + 1, i - k, out);
+    }
+}
+
+/// The primitives under binary node `b`, in tree order.
+fn subtree_prims(bin: &[BinaryNode], order: &[u32], b: u32, out: &mut Vec<u32>) {
+    let mut todo = vec![b];
+    while let Some(i) = todo.pop() {
+        let n = &bin[i as usize];
+        if n.count > 0 {
+            out.extend_from_slice(&order[n.index as usize..(n.index + n.count) as usize]);
+        } else {
+            todo.push(n.index + 1);
+            todo.push(n.index);
+        }
+    }
+}
+
+/// The collapse used before [`collapse`] (kept for comparison: the bench's build table). Collapse a
+/// binary tree into 4-wide nodes, top down: each wide node takes its binary node's two
 /// children and keeps opening the inner child with the largest surface area (the one rays most
 /// likely enter) until it holds [`WIDTH`] children or only leaves — the usual greedy SAH collapse
 /// (Wald et al. 2008, "Getting rid of packets"). Leaves keep their triangle ranges; a leaf larger than
 /// [`MAX_LEAF`] is split into chunks under an extra node with the same box.
-pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
+pub fn collapse_greedy(tree: &BinaryTree) -> BuiltBvh {
     let bin = &tree.nodes;
     let mut nodes = Vec::new();
     if !bin.is_empty() {
@@ -264,6 +476,135 @@ pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
         depth,
         stack_need,
     }
+}
+
+/// A 4-wide tree over boxes, one box per leaf: each leaf reference is `leaf_ref(box index, 1)` (no
+/// `order`). Scenes build their top-level tree over moving instances' swept boxes with it
+/// ([`crate::Scene::instance_root`]). Top-down, each binary split at the least
+/// `A(left)·|left| + A(right)·|right|` over the boxes sorted by centre along each axis, except that
+/// below depth [`BOX_SAH_DEPTH`] (nested or coincident boxes can make SAH peel one box at a time)
+/// and whenever the collapsed tree would need more than [`TOP_STACK_SIZE`] stack entries, it splits
+/// at the median: the tree's depth stays within `BOX_SAH_DEPTH + log2(n) + 1`.
+pub fn build_boxes(boxes: &[([f32; 3], [f32; 3])]) -> BuiltBvh {
+    let cost = CollapseCost {
+        node: 1.0,
+        pack: 1.0,
+    };
+    let built = collapse_leaves(&binary_boxes(boxes, BOX_SAH_DEPTH), cost, 1);
+    let built = if built.stack_need + 1 > TOP_STACK_SIZE {
+        collapse_leaves(&binary_boxes(boxes, 0), cost, 1)
+    } else {
+        built
+    };
+    // Leaves name positions in `order`; name the boxes instead.
+    let mut nodes = built.nodes;
+    for n in &mut nodes {
+        for slot in 0..WIDTH {
+            if let (true, Child::Leaf { first, count }) =
+                (n.used(slot), super::child_ref(n.child[slot]))
+            {
+                debug_assert_eq!(count, 1);
+                n.child[slot] = leaf_ref(built.order[first as usize], 1);
+            }
+        }
+    }
+    BuiltBvh {
+        nodes,
+        order: built.order,
+        depth: built.depth,
+        stack_need: built.stack_need,
+    }
+}
+
+/// Binary levels [`build_boxes`] splits by surface area before it splits at the median.
+pub const BOX_SAH_DEPTH: usize = 24;
+
+/// Stack entries of a top-level walk over a [`build_boxes`] tree (CPU `traverse::walk_leaves`, WGSL
+/// `scene_trace`): it pushes every entered child of a node, so it needs `stack_need + 1`.
+pub const TOP_STACK_SIZE: usize = 32;
+
+/// [`build_boxes`]'s binary tree: one box per leaf, surface-area splits above depth `sah_depth`.
+fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree {
+    let centre = |i: u32| {
+        let (lo, hi) = boxes[i as usize];
+        Vec3::from(lo) + Vec3::from(hi)
+    };
+    let union = |ids: &[u32]| {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &i in ids {
+            lo = lo.min(Vec3::from(boxes[i as usize].0));
+            hi = hi.max(Vec3::from(boxes[i as usize].1));
+        }
+        (lo, hi)
+    };
+    let half_area = |(lo, hi): (Vec3, Vec3)| {
+        let e = (hi - lo).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    };
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    let mut nodes = Vec::with_capacity(2 * boxes.len());
+    if boxes.is_empty() {
+        return BinaryTree { nodes, order };
+    }
+    nodes.push(BinaryNode::zeroed());
+    let mut todo = vec![(0usize, 0usize, boxes.len(), 0usize)];
+    let mut right_area = Vec::new();
+    while let Some((node, start, end, depth)) = todo.pop() {
+        let (lo, hi) = union(&order[start..end]);
+        if end - start == 1 {
+            nodes[node] = BinaryNode {
+                min: lo.to_array(),
+                index: start as u32,
+                max: hi.to_array(),
+                count: 1,
+            };
+            continue;
+        }
+        let ids = &mut order[start..end];
+        let n = ids.len();
+        // (cost, axis, boxes on the left)
+        let mut best = (f32::INFINITY, 0usize, n / 2);
+        if depth < sah_depth {
+            for axis in 0..3 {
+                ids.sort_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
+                right_area.clear();
+                right_area.resize(n, 0.0);
+                let (mut rlo, mut rhi) =
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for k in (1..n).rev() {
+                    rlo = rlo.min(Vec3::from(boxes[ids[k] as usize].0));
+                    rhi = rhi.max(Vec3::from(boxes[ids[k] as usize].1));
+                    right_area[k] = half_area((rlo, rhi));
+                }
+                let (mut llo, mut lhi) =
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for k in 1..n {
+                    llo = llo.min(Vec3::from(boxes[ids[k - 1] as usize].0));
+                    lhi = lhi.max(Vec3::from(boxes[ids[k - 1] as usize].1));
+                    let c = half_area((llo, lhi)) * k as f32 + right_area[k] * (n - k) as f32;
+                    if c < best.0 {
+                        best = (c, axis, k);
+                    }
+                }
+            }
+        } else {
+            best.1 = (hi - lo).max_position();
+        }
+        let (axis, mid) = (best.1, best.2);
+        ids.sort_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
+        let first_child = nodes.len();
+        nodes.push(BinaryNode::zeroed());
+        nodes.push(BinaryNode::zeroed());
+        nodes[node] = BinaryNode {
+            min: lo.to_array(),
+            index: first_child as u32,
+            max: hi.to_array(),
+            count: 0,
+        };
+        todo.push((first_child, start, start + mid, depth + 1));
+        todo.push((first_child + 1, start + mid, end, depth + 1));
+    }
+    BinaryTree { nodes, order }
 }
 
 /// A reference to `count` triangles from `first`: a leaf, or for more than [`MAX_LEAF`] a new node

@@ -1,9 +1,10 @@
 //! The flat 4-wide BVH the CPU and the GPU both traverse, and the triangle layout they test against.
 //!
 //! - [`triangle`]: the one definition of a traced triangle, of a hit, and of the closest-hit tie rule.
-//! - [`build`]: obvhs builds a binary tree (PLOC + reinsertion, `fast_build`, in parallel); we
-//!   collapse it into [`WideNode`]s (surface-area greedy), with a median-split fallback for inputs that
-//!   make PLOC quadratic or too deep.
+//! - [`build`]: obvhs builds a binary tree (PLOC + reinsertion, `fast_build` with one triangle per
+//!   leaf, in parallel); we collapse it into the [`WideNode`]s and leaves of least surface-area cost
+//!   (dynamic programming over the binary tree), with a median-split fallback for inputs that make
+//!   PLOC quadratic or too deep.
 //! - [`traverse`]: the CPU traversal — four child boxes per SSE slab test, children visited nearest
 //!   first, any-hit for shadow rays. `shaders/bvh.wgsl` traverses the same nodes (uploaded unchanged)
 //!   with `vec4` lanes; the two need not visit nodes in the same order, since the closest hit is

@@ -337,3 +337,64 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter>(
         current = unsafe { stack[sp].assume_init() };
     }
 }
+
+/// Walk a tree whose leaves name items rather than triangle packs (a top-level tree from
+/// [`super::build::build_boxes`]: leaf `first..first + count` are item indices) from node `root`:
+/// `visit(item)` is called for every leaf whose box the ray enters with `tmin < t` and `t` up to the
+/// limit (the slab test of [`traverse`], exit widened), nearest box first. `visit` returns the limit
+/// from then on (the best hit distance so far, which culls boxes beyond it), or `None` to stop.
+/// Scenes walk their moving instances this way (`SceneAt::intersect`); the stack has
+/// [`super::build::TOP_STACK_SIZE`] entries, which `build_boxes` keeps the tree within.
+pub fn walk_leaves(
+    bvh: &Bvh,
+    root: u32,
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    mut limit: f32,
+    mut visit: impl FnMut(u32) -> Option<f32>,
+) {
+    use super::build::TOP_STACK_SIZE;
+    if (root as usize) >= bvh.nodes.len() {
+        return;
+    }
+    let ray = WideRay::new(Vec3A::from(o), Vec3A::from(d));
+    let tmin_v = Vec4::splat(tmin);
+    let mut stack = [(0u32, 0f32); TOP_STACK_SIZE];
+    stack[0] = (root, tmin);
+    let mut sp = 1usize;
+    while sp > 0 {
+        sp -= 1;
+        let (r, t_enter) = stack[sp];
+        // NaN entry distances (0·∞) never cull, as in the slab test.
+        if t_enter > limit * WIDEN {
+            continue;
+        }
+        if r & LEAF_BIT != 0 {
+            let first = r & ((1 << LEAF_FIRST_BITS) - 1);
+            let count = ((r >> LEAF_FIRST_BITS) & 7) + 1;
+            for item in first..first + count {
+                match visit(item) {
+                    Some(l) => limit = l,
+                    None => return,
+                }
+            }
+            continue;
+        }
+        let n = &bvh.nodes[r as usize];
+        let (t, mut mask) = ray.slab(n, tmin_v, Vec4::splat(limit));
+        let t = t.to_array();
+        // Push the entered children farthest first, so the nearest pops first.
+        let mut hit = [(0u32, 0f32); 4];
+        let mut k = 0;
+        while mask != 0 {
+            let c = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            hit[k] = (n.child[c], t[c]);
+            k += 1;
+        }
+        hit[..k].sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
+        stack[sp..sp + k].copy_from_slice(&hit[..k]);
+        sp += k;
+    }
+}
