@@ -20,6 +20,9 @@
 //! - `envmap`: thesis Fig. 6.7 in spirit — a diffuse sphere and a Phong-64 torus on a large diffuse
 //!   plane lit only by the procedural `builtin:sky` environment map (sun, sky, clouds, windows); the
 //!   environment-lighting test scene (see `builtin/envmap.rs`). `envmap_light` adds one area light.
+//! - `envmap_real` / `envmap_virtual`: `envmap` split for the mixed-reality round trip (issue 15) — the
+//!   ground and sphere (rendered with their AOVs, they stand in for a captured real world), and the
+//!   torus alone (the virtual object inserted into it); same camera and map.
 //!
 //! Mesh generators (boxes, spheres, tori, lathes, rectangular lights) live in `builtin/mesh.rs` so new
 //! built-ins reuse them; each scene larger than a screenful lives in its own file under `builtin/`.
@@ -40,6 +43,7 @@ use mesh::{add_box, add_rect_light, add_sphere, add_torus, parametric, smooth_tr
 
 pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
+    "envmap_real", "envmap_virtual",
 ];
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
@@ -53,6 +57,8 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "motion" => Ok(motion::motion()),
         "envmap" => Ok(envmap::envmap(false)),
         "envmap_light" => Ok(envmap::envmap(true)),
+        "envmap_real" => Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false })),
+        "envmap_virtual" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false })),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),

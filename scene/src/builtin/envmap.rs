@@ -22,6 +22,11 @@
 //! `envmap_light` adds one 0.5 × 0.5 m rectangular area light 2.5 m up (radiance 20), for pipelines that
 //! compose area-light SoftShadows with the environment.
 //!
+//! `envmap_real` and `envmap_virtual` split `envmap` for the mixed-reality round trip (issue 15):
+//! `envmap_real` is the ground and the sphere (the "real" world whose render and position, normal and
+//! albedo AOVs stand in for a capture), `envmap_virtual` the torus alone (the object inserted into
+//! it). Same camera, same map; their union is exactly `envmap`'s triangles and materials.
+//!
 //! The map is attached to the scene (`Scene::environment`), `scale` 1, `rotation_deg` 0.
 
 use glam::{Mat4, Quat, Vec2, Vec3};
@@ -41,53 +46,32 @@ pub const TORUS_TILT: f32 = 25.0 * std::f32::consts::PI / 180.0;
 /// The environment the built-in carries.
 pub const MAP: &str = "builtin:sky";
 
+/// Which parts of the scene to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Parts {
+    /// The ground and the sphere (`envmap_real`).
+    pub real: bool,
+    /// The torus (`envmap_virtual`).
+    pub virtual_objects: bool,
+    /// The area light (`envmap_light`).
+    pub light: bool,
+}
+
 /// The scene's geometry and camera; `with_light` adds the area light (`envmap_light`).
 pub(crate) fn envmap(with_light: bool) -> SceneData {
+    envmap_parts(Parts { real: true, virtual_objects: true, light: with_light })
+}
+
+/// `envmap`'s parts (in `envmap`'s order, so the parts' triangles and materials are `envmap`'s).
+pub(crate) fn envmap_parts(parts: Parts) -> SceneData {
     let mut d = SceneData::default();
-    let ground = d.add_material(Material::diffuse("ground", Vec3::splat(0.6)), false);
-    let o = d.new_named_object("ground");
-    let (x0, x1, z0, z1) = (-20.0f32, 20.0f32, -20.0f32, 20.0f32);
-    let p = [
-        Vec3::new(x0, 0.0, z1),
-        Vec3::new(x1, 0.0, z1),
-        Vec3::new(x1, 0.0, z0),
-        Vec3::new(x0, 0.0, z0),
-    ];
-    let uv = p.map(|p| Vec2::new(p.x, p.z) * 0.5);
-    for idx in [[0, 1, 2], [0, 2, 3]] {
-        smooth_tri(
-            &mut d,
-            idx.map(|k| p[k]),
-            [Vec3::Y; 3],
-            idx.map(|k| uv[k]),
-            ground,
-            o,
-        );
+    if parts.real {
+        add_real(&mut d);
     }
-    let diffuse = d.add_material(
-        Material::diffuse("sphere", Vec3::new(0.7, 0.62, 0.5)),
-        false,
-    );
-    let o = d.new_named_object("sphere");
-    add_sphere(&mut d, SPHERE_CENTRE, SPHERE_RADIUS, 64, 128, diffuse, o);
-    let glossy = d.add_material(
-        Material {
-            specular: Vec3::splat(0.5),
-            phong_exponent: 64.0,
-            ..Material::diffuse("torus", Vec3::new(0.12, 0.18, 0.35))
-        },
-        false,
-    );
-    let o = d.new_named_object("torus");
-    // Tilted about x, then lifted so its lowest point touches the plane: the lowest point of a torus
-    // tilted by t is (R sin t + r) below its centre.
-    let lift = TORUS_MAJOR * TORUS_TILT.sin() + TORUS_MINOR;
-    let xf = Mat4::from_rotation_translation(
-        Quat::from_rotation_x(TORUS_TILT),
-        TORUS_CENTRE + Vec3::Y * lift,
-    );
-    add_torus(&mut d, xf, TORUS_MAJOR, TORUS_MINOR, glossy, o);
-    if with_light {
+    if parts.virtual_objects {
+        add_torus_part(&mut d);
+    }
+    if parts.light {
         let side = 0.5;
         let corner = Vec3::new(-0.5 * side, 2.5, -0.5 * side);
         add_rect_light(
@@ -110,4 +94,55 @@ pub(crate) fn envmap(with_light: bool) -> SceneData {
         shutter_close: 0.0,
     });
     d
+}
+
+/// The ground plane and the sphere.
+fn add_real(d: &mut SceneData) {
+    let ground = d.add_material(Material::diffuse("ground", Vec3::splat(0.6)), false);
+    let o = d.new_named_object("ground");
+    let (x0, x1, z0, z1) = (-20.0f32, 20.0f32, -20.0f32, 20.0f32);
+    let p = [
+        Vec3::new(x0, 0.0, z1),
+        Vec3::new(x1, 0.0, z1),
+        Vec3::new(x1, 0.0, z0),
+        Vec3::new(x0, 0.0, z0),
+    ];
+    let uv = p.map(|p| Vec2::new(p.x, p.z) * 0.5);
+    for idx in [[0, 1, 2], [0, 2, 3]] {
+        smooth_tri(
+            d,
+            idx.map(|k| p[k]),
+            [Vec3::Y; 3],
+            idx.map(|k| uv[k]),
+            ground,
+            o,
+        );
+    }
+    let diffuse = d.add_material(
+        Material::diffuse("sphere", Vec3::new(0.7, 0.62, 0.5)),
+        false,
+    );
+    let o = d.new_named_object("sphere");
+    add_sphere(d, SPHERE_CENTRE, SPHERE_RADIUS, 64, 128, diffuse, o);
+}
+
+/// The tilted Phong torus.
+fn add_torus_part(d: &mut SceneData) {
+    let glossy = d.add_material(
+        Material {
+            specular: Vec3::splat(0.5),
+            phong_exponent: 64.0,
+            ..Material::diffuse("torus", Vec3::new(0.12, 0.18, 0.35))
+        },
+        false,
+    );
+    let o = d.new_named_object("torus");
+    // Tilted about x, then lifted so its lowest point touches the plane: the lowest point of a torus
+    // tilted by t is (R sin t + r) below its centre.
+    let lift = TORUS_MAJOR * TORUS_TILT.sin() + TORUS_MINOR;
+    let xf = Mat4::from_rotation_translation(
+        Quat::from_rotation_x(TORUS_TILT),
+        TORUS_CENTRE + Vec3::Y * lift,
+    );
+    add_torus(d, xf, TORUS_MAJOR, TORUS_MINOR, glossy, o);
 }
