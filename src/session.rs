@@ -440,7 +440,9 @@ pub fn scene_bytes(scene: &Scene) -> u64 {
     // The environment map: texels, CDFs, boundary tables and the 4096-sample table (about 20 bytes
     // per texel on the CPU; the GPU copy, 16 per texel, is covered by the estimate's doubling).
     let environment = scene.environment.as_ref().map_or(0, |e| e.bytes());
-    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels + motion + environment
+    // A mixed-reality real layer: 52 bytes per camera pixel on the CPU (the GPU's 64, as above).
+    let real = scene.real.as_ref().map_or(0, |r| r.bytes());
+    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels + motion + environment + real
 }
 
 /// The default memory limit: 3/4 of the memory the kernel reports available (`MemAvailable` of

@@ -22,7 +22,10 @@
 //!   procedural `builtin:sky`/`builtin:studio`) lights the scene from infinity
 //!   ([`Scene::set_environment`], [`Scene::background`] for rays that miss): piecewise-constant radiance,
 //!   importance sampling with its pdf, the thesis's 4096-sample table, and its bandwidth `B_e`.
-//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, see [`builtin`]), glTF, OBJ/MTL, and a
+//! - **Real layer** ([`real_layer`], issue 15): for mixed reality, the captured real world per pixel of
+//!   a camera image — the image `L_cam`, world position with coverage, normal, diffuse albedo
+//!   ([`RealLayer`], [`Scene::set_real`]), from EXR/PNG files or a wedge render's AOVs.
+//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_real`, `envmap_virtual`, see [`builtin`]), glTF, OBJ/MTL, and a
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
 //!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an
 //!   unbounded allocation: inputs are validated before use and sizes are capped ([`limits`]). Files a
@@ -42,6 +45,7 @@ pub mod light;
 pub mod load_gltf;
 pub mod load_obj;
 pub mod motion;
+pub mod real_layer;
 mod resource;
 pub mod scene;
 pub mod texture;
@@ -56,6 +60,7 @@ pub use environment::{EnvSample, EnvironmentMap};
 pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
 pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
+pub use real_layer::{RealAlbedo, RealLayer};
 pub use scene::{
     Aabb, Instance, Material, Scene, SceneAt, SceneObject, SurfacePoint, TriangleShading,
 };

@@ -25,7 +25,7 @@ use glam::{Vec2, Vec3};
 use crate::bvh::{self, Bvh, Hit, TriangleRecord, WideNode, MAX_REFERENCES, NO_LIGHT, STACK_SIZE};
 use crate::limits::{MAX_COORDINATE, MAX_RADIANCE, MAX_TRIANGLES};
 use crate::motion::{PreparedMotion, RigidMotion};
-use crate::{AreaLight, Camera, EnvironmentMap, LightShape, SceneError, Texture};
+use crate::{AreaLight, Camera, EnvironmentMap, LightShape, RealLayer, SceneError, Texture};
 
 /// A surface material: Lambertian `base_color` (times the optional texture) is k_d; a Phong lobe
 /// `specular` (k_s) with exponent `phong_exponent` (m; 0 means no glossy lobe); `emission` is emitted
@@ -159,6 +159,10 @@ pub struct Scene {
     /// infinity. Set with [`Scene::set_environment`]; camera rays that miss see it
     /// ([`Scene::background`]).
     pub environment: Option<EnvironmentMap>,
+    /// The captured real world of a mixed-reality render (thesis Ch. 6.1–6.5, issue 15): per pixel of
+    /// the camera image `L_cam`, world position and coverage, normal and albedo. Not geometry: no ray
+    /// the BVH traces hits it (screen-space rays march it). Set with [`Scene::set_real`].
+    pub real: Option<RealLayer>,
 }
 
 /// A named group of triangles (`TriangleShading::object` is its index in `Scene::objects`).
@@ -346,6 +350,7 @@ impl Scene {
             instance_root: built.instance_root,
             light_object,
             environment: None,
+            real: None,
         })
     }
 
@@ -353,6 +358,12 @@ impl Scene {
     /// the area lights do not change.
     pub fn set_environment(&mut self, map: Option<EnvironmentMap>) {
         self.environment = map;
+    }
+
+    /// Give the scene a captured real world (or remove it with `None`) for mixed reality. The triangles,
+    /// bounds, lights and environment do not change.
+    pub fn set_real(&mut self, layer: Option<RealLayer>) {
+        self.real = layer;
     }
 
     /// What a ray leaving the scene in direction `dir` sees: the environment's radiance
