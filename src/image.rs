@@ -331,6 +331,28 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
     })
 }
 
+/// Writes `pixels` (`width × height`, row-major, top row first) as a single-layer, 32-bit float RGBA
+/// EXR, like [`write_exr`] (lossless ZIP, scanlines, atomic). For maps whose fourth channel carries
+/// data, e.g. `aov_position.exr`'s coverage in A.
+pub fn write_exr_rgba(path: &Path, width: u32, height: u32, pixels: &[[f32; 4]]) -> Result<(), ImageError> {
+    use exr::prelude::{Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage};
+
+    check_buffer(path, width, height, pixels.len(), width as usize * height as usize)?;
+    let w = width as usize;
+    let channels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
+        let p = pixels[y * w + x];
+        (p[0], p[1], p[2], p[3])
+    });
+    let encoding = Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
+    let exr_image = exr::image::Image::from_encoded_channels((w, height as usize), encoding, channels);
+    write_atomically(path, |out| {
+        exr_image.write().to_buffered(out).map_err(|e| match e {
+            exr::error::Error::Io(source) => ImageError::Write { path: path.to_path_buf(), source },
+            other => ImageError::Encode { path: path.to_path_buf(), reason: other.to_string() },
+        })
+    })
+}
+
 fn check_buffer(
     path: &Path,
     width: u32,

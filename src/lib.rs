@@ -11,6 +11,7 @@ pub use wedge_effects as effects;
 pub use wedge_graph as graph;
 pub use wedge_scene as scene;
 
+pub mod aov;
 pub mod bench;
 pub mod export;
 pub mod heatmap;

@@ -7,7 +7,7 @@ use clap::{Args, Parser, Subcommand};
 use wedge::backends::cpu::CpuBackend;
 use wedge::graph::ParamValue;
 use wedge::image::read_exr;
-use wedge::outputs::{summary, write_run};
+use wedge::outputs::summary;
 use wedge::progress::Bars;
 use wedge::session::RunMode;
 use wedge::{Overrides, Session, WedgeError};
@@ -22,7 +22,7 @@ struct Cli {
 /// Options every rendering command shares.
 #[derive(Args, Clone)]
 struct Common {
-    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
     #[arg(long)]
     scene: Option<String>,
     /// Output directory.
@@ -75,6 +75,13 @@ enum Command {
         /// Writes frame_NNNN.exr/png per frame, preview.gif, and the last frame's outputs.
         #[arg(long, value_name = "A..B", value_parser = parse_frames)]
         frames: Option<(u32, u32)>,
+        /// Also write per-pixel surface data of the scene seen by the camera at the render's size,
+        /// comma-separated: `position` (aov_position.exr, RGBA: world xyz, A = 1 where the ray through
+        /// the pixel centre hits geometry, 0 where it misses), `normal` (aov_normal.exr: unit shading
+        /// normal), `albedo` (aov_albedo.exr: diffuse k_d with textures) — the maps a mixed-reality
+        /// real layer reads. With --frames: for the last frame's camera.
+        #[arg(long, value_name = "NAMES", value_delimiter = ',', value_parser = wedge::aov::AOV_NAMES)]
+        aov: Vec<String>,
     },
     /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
     /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
@@ -282,7 +289,21 @@ fn scene_notes(session: &Session) {
     }
 }
 
-fn render(session: &Session, common: &Common, stem: &str) -> Result<String, WedgeError> {
+/// `--aov`'s maps for `scene` at the session's size (none when `names` is empty), and a line saying
+/// what they took.
+fn aov_images(scene: &wedge::scene::Scene, session: &Session, names: &[String]) -> Result<(Vec<wedge::outputs::ExtraExr>, String), WedgeError> {
+    if names.is_empty() {
+        return Ok((Vec::new(), String::new()));
+    }
+    let start = std::time::Instant::now();
+    let aovs = wedge::aov::Aovs::render(scene, session.width, session.height)?;
+    let images = aovs.images(names);
+    let stems: Vec<&str> = images.iter().map(|e| e.stem.as_str()).collect();
+    let line = format!("AOVs {} in {:.1} ms (primary.gbuffer on the CPU)\n", stems.join(", "), start.elapsed().as_secs_f64() * 1e3);
+    Ok((images, line))
+}
+
+fn render(session: &Session, common: &Common, stem: &str, aov: &[String]) -> Result<String, WedgeError> {
     eprintln!(
         "{} on scene `{}` ({} triangles, {} lights), {}x{}, seed {}",
         session.pipeline.path.display(),
@@ -301,12 +322,14 @@ fn render(session: &Session, common: &Common, stem: &str) -> Result<String, Wedg
         "wgpu" => run_wgpu(session, &bars, common.gpu_limits.as_deref())?,
         _ => (with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??, None),
     };
-    let written = write_run(&common.out, stem, &run, session.width, session.height)?;
+    let (extra, aov_line) = with_threads(common.threads, || aov_images(&session.scene, session, aov))??;
+    let written = wedge::outputs::write_run_with(&common.out, stem, &run, &[], &extra, session.width, session.height)?;
     let mut text = summary(&run, session.width, session.height);
     text.push_str(&written.warnings());
     if let Some(note) = note {
         text.push_str(&note);
     }
+    text.push_str(&aov_line);
     for f in &written.files {
         text.push_str(&format!("wrote {}\n", f.display()));
     }
@@ -335,7 +358,7 @@ fn parse_frames(s: &str) -> Result<(u32, u32), String> {
 /// `render --frames A..B`: every frame in order on one backend, each with the previous frame's
 /// history; the images go out together with the last frame's full outputs (see
 /// [`wedge::outputs::write_sequence`]).
-fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32)) -> Result<String, WedgeError> {
+fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
     eprintln!(
         "{} on scene `{}`, {}x{}, frames {first}..{last}, seed {} (+ frame)",
         session.pipeline.path.display(),
@@ -362,10 +385,17 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
         previous = Some(run);
     }
     let run = previous.expect("a frame range holds at least one frame");
-    let written = wedge::outputs::write_sequence(&common.out, "render", &run, &images, session.width, session.height)?;
+    // The AOVs belong to the last frame, like the full outputs written beside the frames.
+    let base = session.scene.camera;
+    session.scene.camera = session.camera_at(last);
+    let aovs = with_threads(common.threads, || aov_images(&session.scene, session, aov));
+    session.scene.camera = base;
+    let (extra, aov_line) = aovs??;
+    let written = wedge::outputs::write_run_with(&common.out, "render", &run, &images, &extra, session.width, session.height)?;
     let n = last - first + 1;
     let mut text = summary(&run, session.width, session.height);
     text.push_str(&format!("{n} frames in {seconds:.2} s of passes: {:.2} frames per second ({})\n", f64::from(n) / seconds.max(1e-9), backend.name()));
+    text.push_str(&aov_line);
     text.push_str(&written.warnings());
     for f in &written.files {
         text.push_str(&format!("wrote {}\n", f.display()));
@@ -471,16 +501,16 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu, frames } => {
+        Command::Render { pipeline, common, mu, frames, aov } => {
             let mut session = Session::open(pipeline.as_deref(), &overrides(&common, mu)?)?;
             match frames {
-                Some(frames) => render_frames(&mut session, &common, frames),
-                None => render(&session, &common, "render"),
+                Some(frames) => render_frames(&mut session, &common, frames, &aov),
+                None => render(&session, &common, "render", &aov),
             }
         }
         Command::Reference { pipeline, common, spp, sampling } => {
             let session = Session::reference(pipeline.as_deref(), spp, &sampling, &overrides(&common, None)?)?;
-            render(&session, &common, "reference")
+            render(&session, &common, "reference", &[])
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
         Command::Parity { pipeline, scene, width, height, seed, set, memory_limit, gpu_limits } => {

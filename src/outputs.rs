@@ -10,7 +10,7 @@ use wedge_backends::{BufferData, KernelClass, RunResult};
 use wedge_effects::heatmap;
 
 use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
-use crate::image::{write_exr, write_gif, write_png_srgb, Image, ImageError};
+use crate::image::{write_exr, write_exr_rgba, write_gif, write_png_srgb, Image, ImageError};
 use crate::staging::Staging;
 
 /// A vec3/vec4 buffer as an image (first three components).
@@ -57,12 +57,39 @@ fn stage_image_pair(set: &mut Staging, stem: &str, img: &Image) -> Result<usize,
     Ok(non_finite_pixels(img))
 }
 
+/// A float image written beside a run's outputs as `<stem>.exr` in the same all-or-nothing set, e.g.
+/// the `--aov` maps ([`crate::aov`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtraExr {
+    pub stem: String,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first.
+    pub pixels: Vec<[f32; 4]>,
+    /// RGBA (A holds data, e.g. coverage) or RGB (A ignored).
+    pub alpha: bool,
+}
+
 /// Write everything a run produced into `dir` (created if missing), all-or-nothing (see
 /// [`crate::staging`]); `stem` names the final image. Besides `Output`'s image, unfiltered image and
 /// two heatmaps, every `Heatmap` sink (`wedge_effects::heatmap`) becomes `<node name>.png`, drawn as
 /// its parameters say (the run carries each sink's kind and parameters, [`RunResult::sinks`]).
 pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
     write_sequence(dir, stem, run, &[], width, height)
+}
+
+/// [`write_sequence`] (frames may be empty: [`write_run`]) with `extra` EXRs in the same
+/// all-or-nothing set; a stem clashing with another output is an error, as for heatmaps.
+pub fn write_run_with(
+    dir: &Path,
+    stem: &str,
+    run: &RunResult,
+    frames: &[(u32, Image)],
+    extra: &[ExtraExr],
+    width: u32,
+    height: u32,
+) -> Result<WrittenRun, ImageError> {
+    write_all(dir, stem, run, frames, extra, width, height)
 }
 
 /// [`write_run`] for the last frame of a sequence, with every frame's image beside it in the same
@@ -73,6 +100,18 @@ pub fn write_sequence(
     stem: &str,
     run: &RunResult,
     frames: &[(u32, Image)],
+    width: u32,
+    height: u32,
+) -> Result<WrittenRun, ImageError> {
+    write_all(dir, stem, run, frames, &[], width, height)
+}
+
+fn write_all(
+    dir: &Path,
+    stem: &str,
+    run: &RunResult,
+    frames: &[(u32, Image)],
+    extra: &[ExtraExr],
     width: u32,
     height: u32,
 ) -> Result<WrittenRun, ImageError> {
@@ -127,6 +166,16 @@ pub fn write_sequence(
         let bad = stage_image_pair(&mut set, &name, img)?;
         if bad > 0 {
             non_finite.push((name, bad));
+        }
+    }
+    for e in extra {
+        let file = claim(format!("{}.exr", e.stem), format!("the extra image `{}`", e.stem))?;
+        let path = set.file(&file)?;
+        if e.alpha {
+            write_exr_rgba(&path, e.width, e.height, &e.pixels)?;
+        } else {
+            let img = Image { width: e.width, height: e.height, pixels: e.pixels.iter().map(|p| [p[0], p[1], p[2]]).collect() };
+            write_exr(&path, &img)?;
         }
     }
     if !frames.is_empty() {
@@ -249,6 +298,33 @@ mod tests {
         assert!(back.pixels[1][0].is_nan(), "the EXR keeps the value as it is");
         let clean = write_run(dir.path(), "render", &run_with_color(vec![[0.5; 3]; 6]), 3, 2).unwrap();
         assert!(clean.non_finite.is_empty() && clean.warnings().is_empty());
+    }
+
+    /// `--aov`'s maps go into the run's set: RGBA kept bit for bit (coverage in A), RGB as RGB, and a
+    /// stem that clashes with another output is refused with nothing written.
+    #[test]
+    fn extra_exrs_join_the_set_alpha_kept_and_clashes_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let pixels: Vec<[f32; 4]> = (0..6).map(|i| [i as f32, -1.5, 1e-20, (i % 2) as f32]).collect();
+        let position = ExtraExr { stem: "aov_position".into(), width: 3, height: 2, pixels: pixels.clone(), alpha: true };
+        let normal = ExtraExr { stem: "aov_normal".into(), alpha: false, ..position.clone() };
+        let run = run_with_color(vec![[0.5; 3]; 6]);
+        let w = write_run_with(dir.path(), "render", &run, &[], &[position.clone(), normal], 3, 2).unwrap();
+        assert!(w.files.contains(&dir.path().join("aov_position.exr")) && w.files.contains(&dir.path().join("aov_normal.exr")));
+        let back = exr::prelude::read_first_rgba_layer_from_file(
+            dir.path().join("aov_position.exr"),
+            |res, _| vec![[0.0f32; 4]; res.width() * res.height()],
+            |v: &mut Vec<[f32; 4]>, pos, (r, g, b, a): (f32, f32, f32, f32)| v[pos.y() * 3 + pos.x()] = [r, g, b, a],
+        )
+        .unwrap();
+        assert_eq!(back.layer_data.channel_data.pixels, pixels);
+        let rgb = crate::image::read_exr(&dir.path().join("aov_normal.exr")).unwrap();
+        assert_eq!(rgb.pixels[5], [5.0, -1.5, 1e-20]);
+        let other = tempfile::tempdir().unwrap();
+        let clash = ExtraExr { stem: "render".into(), ..position };
+        let err = write_run_with(other.path(), "render", &run, &[], &[clash], 3, 2).unwrap_err().to_string();
+        assert!(err.contains("render.exr"), "{err}");
+        assert_eq!(std::fs::read_dir(other.path()).unwrap().count(), 0, "nothing written: {err}");
     }
 
     #[test]

@@ -68,6 +68,15 @@ fn size_and_parameter_flags_are_blamed_on_the_flag_with_the_range() {
     assert!(!d.join("out").exists(), "nothing written by refused runs");
 }
 
+/// An unknown `--aov` name is a usage error (exit 2) listing the valid ones, before anything renders.
+#[test]
+fn unknown_aov_names_list_the_valid_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = wedge(&["render", "--width", "8", "--height", "8", "--out", dir.path().to_str().unwrap(), "--aov", "position,depth"], repo());
+    fails_with(&o, 2, &["invalid value 'depth' for '--aov <NAMES>'", "position, normal, albedo"]);
+    assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0, "nothing written");
+}
+
 #[test]
 fn threads_are_capped_at_four_times_the_cores() {
     let dir = tempfile::tempdir().unwrap();

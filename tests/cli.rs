@@ -112,3 +112,50 @@ fn bad_inputs_fail_with_clear_errors() {
     // Nothing was written by the failed runs.
     assert!(!d.join("out").exists());
 }
+
+/// `render --aov position,normal,albedo` writes the maps a mixed-reality real layer reads, and they
+/// load as one with the render as its camera image: the AOVs are the G-buffer's (bit for bit against
+/// `wedge::aov::Aovs::render` in-process), misses are uncovered with zeros, normals unit, the ground's
+/// albedo its material's. `--aov albedo` writes only that map; with `--frames` the last frame's.
+#[test]
+fn render_aov_maps_load_as_a_real_layer() {
+    use wedge::scene::{RealAlbedo, RealLayer};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let (w, h) = (64u32, 48u32);
+    let o = wedge(
+        &["render", "pipelines/environment.ron", "--scene", "envmap_real", "--width", "64", "--height", "48", "--out", out.to_str().unwrap(), "--aov", "position,normal,albedo"],
+        repo(),
+    );
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("AOVs aov_position, aov_normal, aov_albedo in"), "{stdout}");
+    let layer = RealLayer::open(&out.join("render.exr"), &out.join("aov_position.exr"), &out.join("aov_normal.exr"), RealAlbedo::Map(out.join("aov_albedo.exr"))).unwrap();
+    assert_eq!((layer.width(), layer.height()), (w, h));
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("envmap_real".into())).unwrap();
+    let aovs = wedge::aov::Aovs::render(&scene, w, h).unwrap();
+    assert_eq!(layer.position_map(), &aovs.position[..]);
+    assert_eq!(layer.albedo_map(), &aovs.albedo[..]);
+    for (k, (n, p)) in layer.normal_map().iter().zip(layer.position_map()).enumerate() {
+        let len = wedge::scene::Vec3::from(*n).length();
+        if p[3] == 1.0 {
+            assert!((len - 1.0).abs() < 1e-5, "pixel {k}: |n| = {len}");
+            assert!(n.iter().zip(&aovs.normal[k]).all(|(a, b)| (a - b).abs() < 1e-6), "pixel {k}: renormalised only");
+        } else {
+            assert_eq!((*n, *p, layer.albedo_map()[k]), ([0.0; 3], [0.0; 4], [0.0; 3]));
+        }
+    }
+    // The top row sees the sky above the ground's far edge; the bottom row's centre sees the ground.
+    assert!(!layer.covered(w / 2, 0));
+    assert!(layer.covered(w / 2, h - 1));
+    assert_eq!(layer.albedo(w / 2, h - 1).to_array(), [0.6; 3]);
+    assert_eq!(layer.normal(w / 2, h - 1).to_array(), [0.0, 1.0, 0.0]);
+
+    let only = dir.path().join("only");
+    let o = wedge(&["render", "--width", "32", "--height", "24", "--frames", "0..1", "--out", only.to_str().unwrap(), "--aov", "albedo"], repo());
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(only.join("aov_albedo.exr").is_file());
+    assert!(!only.join("aov_position.exr").exists() && !only.join("aov_normal.exr").exists());
+    let img = wedge::image::read_exr(&only.join("aov_albedo.exr")).unwrap();
+    assert_eq!((img.width, img.height), (32, 24));
+}
