@@ -19,8 +19,12 @@
 //
 // Environment (wedge_scene::EnvironmentMap, environment.wgsl): `env_present()`, `env_radiance(dir)`,
 // `env_pdf(dir)`, `env_table(i)` and `scene_background(dir)`, reading the four env_* arrays.
+//
+// Real layer (wedge_scene::RealLayer, real_layer.wgsl; mixed reality): `real_present()`,
+// `real_camera(x, y)`, `real_position(x, y)`, `real_normal(x, y)`, `real_albedo(x, y)`.
 #include "motion.wgsl"
 #include "environment.wgsl"
+#include "real_layer.wgsl"
 
 // The time of the shutter (t ∈ [−1, 1]) the scene is traced at; see above.
 var<private> scene_time: f32 = 0.0;
@@ -116,12 +120,16 @@ struct SceneLayout {
     env_rows: u32,
     env_columns: u32,
     env_table: u32,
+    real_maps: u32,
     instance_count: u32,
     instance_root: u32, // the top-level tree over the instances (Scene::instance_root)
     env_width: u32,   // 0: no environment map
     env_height: u32,
     env_first: u32,   // the map column the first sorted column boundary starts
+    real_width: u32,  // 0: no real layer (real_layer.wgsl)
+    real_height: u32,
     _pad0: u32,
+    _pad1: u32,
 }
 
 @group(2) @binding(0) var<storage, read> scene_data: array<vec4<u32>>;

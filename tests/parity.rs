@@ -1044,3 +1044,94 @@ fn environment_wgsl_matches_cpu() {
         }
     }
 }
+
+/// The real layer's WGSL accessors (`shaders/real_layer.wgsl`): per probe pixel `(x, y)` the layer's
+/// pixel `(x − 8, y − 8)`, so a border of the probe reads outside the layer (zeros, not covered), and
+/// `real_camera`, `real_position`, `real_normal`, `real_albedo`, `real_present` out — on the CPU
+/// `RealLayer::index_of` and the maps.
+struct RealProbe;
+
+const REAL_PROBE_WGSL: &str = r#"
+#include "scene.wgsl"
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) { return; }
+    let i = pixel_index(gid);
+    let p = vec2<i32>(pixel_xy(gid)) - vec2<i32>(8, 8);
+    camera_put(i, real_camera(p.x, p.y));
+    position_put(i, real_position(p.x, p.y));
+    normal_put(i, real_normal(p.x, p.y));
+    albedo_put(i, real_albedo(p.x, p.y));
+    present_put(i, select(0u, 1u, real_present()));
+}
+"#;
+
+impl Kernel for RealProbe {
+    fn name(&self) -> &'static str {
+        "test.real_probe"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Sampling
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::write("camera", Format::Vec3),
+            Binding::write("position", Format::Vec4),
+            Binding::write("normal", Format::Vec3),
+            Binding::write("albedo", Format::Vec3),
+            Binding::write("present", Format::U32),
+        ]
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let (w, n) = (ctx.width as i32, ctx.pixels());
+        let real = ctx.scene.real.as_ref();
+        let (mut camera, mut position, mut normal, mut albedo) = (vec![[0.0f32; 3]; n], vec![[0.0f32; 4]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]);
+        for i in 0..n {
+            let (x, y) = (i as i32 % w - 8, i as i32 / w - 8);
+            let Some(k) = real.and_then(|r| r.index_of(x, y)) else { continue };
+            let r = real.unwrap();
+            (camera[i], position[i], normal[i], albedo[i]) = (r.camera_map()[k], r.position_map()[k], r.normal_map()[k], r.albedo_map()[k]);
+        }
+        ctx.put("camera", camera)?;
+        ctx.put("position", position)?;
+        ctx.put("normal", normal)?;
+        ctx.put("albedo", albedo)?;
+        ctx.put("present", vec![real.is_some() as u32; n])
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(REAL_PROBE_WGSL, |_| Ok(Uniforms::new())).with_scene())
+    }
+}
+
+/// The real layer reads the same bits on both backends: `envmap_real`'s own AOVs (`wedge render
+/// --aov`) with a synthetic camera image as the layer, probed inside and 8 pixels beyond every edge,
+/// and `grids` without a layer (zeros, `real_present()` false). Also the layer's GPU size in bytes.
+#[test]
+fn real_layer_wgsl_matches_cpu() {
+    let mut scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("envmap_real".into())).unwrap();
+    let (lw, lh) = (64u32, 48u32);
+    let aovs = wedge::aov::Aovs::render(&scene, lw, lh).unwrap();
+    let camera: Vec<[f32; 3]> = (0..lw * lh).map(|k| [k as f32 * 0.001, 1.0 / (1.0 + k as f32), 0.25]).collect();
+    let layer = wedge::scene::RealLayer::from_maps(lw, lh, camera, aovs.position.clone(), aovs.normal.clone(), aovs.albedo.clone()).unwrap();
+    assert!(layer.covered_count() > 0 && layer.covered_count() < (lw * lh) as usize, "the sky shows above the ground");
+    assert_eq!(layer.position_map(), &aovs.position[..], "AOV positions load unchanged");
+    scene.set_real(Some(layer));
+    let plain = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    let Some(mut gpu) = gpu_or_skip("real_layer_wgsl_matches_cpu") else { return };
+    let (w, h) = (lw + 16, lh + 16);
+    let inputs: BTreeMap<String, BufferData> = BTreeMap::new();
+    let lone = wedge::backends::lone::LonePass::new(Arc::new(RealProbe), BTreeMap::new(), &inputs).unwrap();
+    for s in [&scene, &plain] {
+        let (cpu, _) = lone.run_cpu(s, w, h, 1).unwrap();
+        let out = gpu.run_kernel(Arc::new(RealProbe), s, w, h, 1, BTreeMap::new(), &inputs).unwrap();
+        let n = (w * h) as usize;
+        for name in ["camera", "position", "normal", "albedo", "present"] {
+            let comps = cpu[name].format().components();
+            let bad = (0..n).filter(|&i| (0..comps).any(|c| cpu[name].component(i, c).to_bits() != out[name].component(i, c).to_bits())).count();
+            assert_eq!(bad, 0, "`{name}` differs in {bad} of {n} pixels on `{}`", s.name);
+        }
+        let covered = (0..n).filter(|&i| out["position"].component(i, 3) == 1.0).count();
+        println!("{} on `{}`: {n} probes bit for bit, {covered} covered", gpu.adapter_description(), s.name);
+        assert_eq!(covered, s.real.as_ref().map_or(0, |r| r.covered_count()));
+    }
+}

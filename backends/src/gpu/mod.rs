@@ -417,6 +417,8 @@ impl GpuBackend {
         let arrays = scene::scene_bytes(scene);
         let mut h = std::collections::hash_map::DefaultHasher::new();
         arrays.hash(&mut h);
+        // The layout's other words too: a 640x480 and a 480x640 real layer can hold the same bytes.
+        scene::layout(&[0; scene::ARRAY_COUNT], scene).hash(&mut h);
         let hash = h.finish();
         if self.scene.as_ref().is_some_and(|s| s.hash == hash) {
             return Ok(());

@@ -16,6 +16,11 @@
 //! element), and the 4096-entry sample table (two elements per entry: direction and pdf, radiance and
 //! texel). The GPU does not invert CDFs: renderers sample through the table (thesis Sec. 6.5.2), so
 //! the CDFs stay on the CPU. Without a map each array is one zeroed element and `env_width` is 0.
+//!
+//! The mixed-reality real layer (`Scene::real`, `shaders/real_layer.wgsl`) goes up as one array of
+//! four elements per camera pixel, row-major, interleaved so one pixel is four consecutive loads:
+//! camera rgb + coverage, position xyzw, normal xyz 0, albedo rgb 0 (the CPU's values bit for bit);
+//! `real_width`/`real_height` in the layout, 0 without a layer (then the array is one zeroed element).
 
 use bytemuck::{Pod, Zeroable};
 use wedge_scene::{LightShape, Scene};
@@ -95,7 +100,7 @@ pub struct GpuInstance {
 }
 
 /// How many arrays the scene buffer holds.
-pub const ARRAY_COUNT: usize = 14;
+pub const ARRAY_COUNT: usize = 15;
 
 /// Names of the scene arrays, in the order they are packed (and of `SceneLayout`'s first fields).
 pub const SCENE_ARRAYS: [&str; ARRAY_COUNT] = [
@@ -113,12 +118,19 @@ pub const SCENE_ARRAYS: [&str; ARRAY_COUNT] = [
     "env_rows",
     "env_columns",
     "env_table",
+    "real_maps",
 ];
 
 /// Words of the uniform `SceneLayout`: each array's first element, the instance count, the root of
 /// the top-level tree over the instances (`Scene::instance_root`), the environment's width, height
-/// and first column, padding to 16 bytes.
-pub const LAYOUT_WORDS: usize = 20;
+/// and first column, the real layer's width and height, padding to 16 bytes (a uniform struct's size
+/// is a multiple of 16).
+pub const LAYOUT_WORDS: usize = 24;
+
+/// The words of `SceneLayout` after the arrays' offsets, in order (`_pad` words included), as
+/// `shaders/scene.wgsl` names them.
+pub const LAYOUT_TAIL: [&str; LAYOUT_WORDS - ARRAY_COUNT] =
+    ["instance_count", "instance_root", "env_width", "env_height", "env_first", "real_width", "real_height", "_pad0", "_pad1"];
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
 /// WGSL storage buffers cannot be zero-sized).
@@ -219,6 +231,7 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; ARRAY_COUNT] {
         .collect();
     let object_instances: Vec<u32> = scene.objects.iter().map(|o| o.instance.unwrap_or(NO_INSTANCE)).collect();
     let env = environment_arrays(scene);
+    let real = real_array(scene);
     fn bytes<T: Pod + Zeroable>(v: &[T]) -> Vec<u8> {
         if v.is_empty() {
             vec![0u8; std::mem::size_of::<T>().max(16)]
@@ -241,6 +254,7 @@ pub fn scene_bytes(scene: &Scene) -> [Vec<u8>; ARRAY_COUNT] {
         bytes(&env.rows),
         bytes(&env.columns),
         bytes(&env.table),
+        bytes(&real),
     ]
 }
 
@@ -278,6 +292,23 @@ fn environment_arrays(scene: &Scene) -> EnvArrays {
     EnvArrays { texels, rows: env.gpu_rows().to_vec(), columns, table }
 }
 
+/// The real layer's array: per pixel camera rgb + coverage, position xyzw, normal xyz 0, albedo rgb 0
+/// (empty without a layer).
+fn real_array(scene: &Scene) -> Vec<[f32; 4]> {
+    let Some(real) = &scene.real else {
+        return Vec::new();
+    };
+    let (cam, pos, nor, alb) = (real.camera_map(), real.position_map(), real.normal_map(), real.albedo_map());
+    let mut v = Vec::with_capacity(cam.len() * 4);
+    for k in 0..cam.len() {
+        let c = cam[k];
+        let n = nor[k];
+        let a = alb[k];
+        v.extend([[c[0], c[1], c[2], pos[k][3]], pos[k], [n[0], n[1], n[2], 0.0], [a[0], a[1], a[2], 0.0]]);
+    }
+    v
+}
+
 /// The instance light `i` moves with (`Scene::light_object`'s), or [`NO_INSTANCE`].
 fn light_instance(scene: &Scene, i: usize) -> u32 {
     scene
@@ -289,8 +320,9 @@ fn light_instance(scene: &Scene, i: usize) -> u32 {
 }
 
 /// The uniform `SceneLayout`: the arrays' first elements ([`pack`]), then the instance count, the
-/// top-level tree's root, and the environment's width, height (0, 0 without a map) and the map column
-/// its first sorted column boundary starts.
+/// top-level tree's root, the environment's width, height (0, 0 without a map) and the map column
+/// its first sorted column boundary starts, and the real layer's width and height (0, 0 without one);
+/// see [`LAYOUT_TAIL`].
 pub fn layout(offsets: &[u32; ARRAY_COUNT], scene: &Scene) -> [u32; LAYOUT_WORDS] {
     let mut words = [0u32; LAYOUT_WORDS];
     words[..ARRAY_COUNT].copy_from_slice(offsets);
@@ -300,6 +332,10 @@ pub fn layout(offsets: &[u32; ARRAY_COUNT], scene: &Scene) -> [u32; LAYOUT_WORDS
         words[ARRAY_COUNT + 2] = env.width();
         words[ARRAY_COUNT + 3] = env.height();
         words[ARRAY_COUNT + 4] = env.gpu_columns().2;
+    }
+    if let Some(real) = &scene.real {
+        words[ARRAY_COUNT + 5] = real.width();
+        words[ARRAY_COUNT + 6] = real.height();
     }
     words
 }
@@ -331,6 +367,28 @@ mod tests {
         ] {
             assert!(bvh.contains(&line), "shaders/bvh.wgsl lacks `{line}`");
         }
+    }
+
+    /// `struct SceneLayout` in scene.wgsl has exactly the words [`layout`] writes, in order: the
+    /// arrays of [`SCENE_ARRAYS`], then [`LAYOUT_TAIL`] (a field added on one side only would shift
+    /// every later one and read garbage offsets).
+    #[test]
+    fn wgsl_scene_layout_matches_the_words_written() {
+        let wgsl = include_str!("../../../shaders/scene.wgsl");
+        let start = wgsl.find("struct SceneLayout {").expect("scene.wgsl declares SceneLayout");
+        let body = &wgsl[start..start + wgsl[start..].find('}').unwrap()];
+        let fields: Vec<&str> = body
+            .lines()
+            .skip(1)
+            .filter_map(|l| l.split("//").next()?.trim().split_once(':'))
+            .map(|(name, ty)| {
+                assert_eq!(ty.trim().trim_end_matches(','), "u32", "SceneLayout.{name} must be u32");
+                name.trim()
+            })
+            .collect();
+        let expected: Vec<&str> = SCENE_ARRAYS.iter().chain(LAYOUT_TAIL.iter()).copied().collect();
+        assert_eq!(fields, expected);
+        assert_eq!(fields.len() % 4, 0, "a uniform struct's size is a multiple of 16 bytes");
     }
 
     #[test]

@@ -27,6 +27,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("scene.wgsl", include_str!("../../../shaders/scene.wgsl")),
     ("motion.wgsl", include_str!("../../../shaders/motion.wgsl")),
     ("environment.wgsl", include_str!("../../../shaders/environment.wgsl")),
+    ("real_layer.wgsl", include_str!("../../../shaders/real_layer.wgsl")),
     ("bvh.wgsl", include_str!("../../../shaders/bvh.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
