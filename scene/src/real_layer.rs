@@ -547,7 +547,7 @@ fn read_exr(path: &Path, which: Which) -> Result<Decoded, SceneError> {
         let side = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
         check_size(path, side(h.layer_size.0).max(1), side(h.layer_size.1).max(1))?;
     }
-    let has_rgb = |h: &exr::meta::header::Header| ["R", "G", "B"].iter().all(|c| h.channels.list.iter().any(|ch| ch.name.eq(*c)));
+    let has_rgb = |h: &exr::meta::header::Header| ["R", "G", "B"].iter().all(|c| h.channels.list.iter().any(|ch| ch.name.eq(c)));
     if !meta.headers.iter().any(has_rgb) {
         let found: Vec<String> = meta.headers.iter().flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string())).collect();
         return Err(SceneError::invalid(

@@ -13,8 +13,11 @@ fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
-/// A 4 × 3 layer: a plane y = 0 seen from above, the last column uncovered.
-fn maps(w: u32, h: u32) -> (Vec<[f32; 3]>, Vec<[f32; 4]>, Vec<[f32; 3]>, Vec<[f32; 3]>) {
+/// Camera, position, normal and albedo maps.
+type Maps = (Vec<[f32; 3]>, Vec<[f32; 4]>, Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+/// A `w × h` layer: a plane y = 0 seen from above, the last column uncovered.
+fn maps(w: u32, h: u32) -> Maps {
     let n = (w * h) as usize;
     let mut camera = Vec::with_capacity(n);
     let mut position = Vec::with_capacity(n);
