@@ -13,6 +13,7 @@ pub use wedge_scene as scene;
 
 pub mod aov;
 pub mod bench;
+pub mod capture;
 pub mod export;
 pub mod heatmap;
 pub mod image;

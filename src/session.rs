@@ -386,28 +386,47 @@ fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), W
 }
 
 /// Apply what the pipeline's nodes ask of the scene ([`SceneRequest`]): an environment map, read
-/// relative to the pipeline file. Two nodes asking for different maps, a map that cannot be read, or
-/// a request for the scene's own map where it has none, is an error naming the node and its position.
+/// relative to the pipeline file (or the scene's own, scaled and turned), and a mixed-reality real
+/// layer. One of each kind per scene: nodes that ask for different ones are refused, naming both.
 fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), WedgeError> {
-    let mut environment: Option<(&wedge_graph::ValidatedNode, SceneRequest)> = None;
+    type Asked<'p> = Option<(&'p wedge_graph::ValidatedNode, SceneRequest)>;
+    let (mut environment, mut real): (Asked<'_>, Asked<'_>) = (None, None);
     for node in &pipeline.nodes {
         for request in node.kind.scene_requests(&node.params) {
-            match &environment {
+            let (slot, what) = match request {
+                SceneRequest::Environment { .. } => (&mut environment, "one scene has one environment: give both nodes the same map, scale and rotation_deg"),
+                SceneRequest::RealLayer { .. } => (&mut real, "one scene has one real layer: give both nodes the same inputs"),
+            };
+            match slot {
                 Some((first, wanted)) if *wanted != request => {
                     return Err(WedgeError::Usage(format!(
-                        "{}: node `{}` lights the scene with {request:?}, but node `{}` (at {}) with {wanted:?}; one \
-                         scene has one environment: give both nodes the same map, scale and rotation_deg",
+                        "{}: node `{}` asks the scene for {request:?}, but node `{}` (at {}) for {wanted:?}; {what}",
                         node.location, node.name, first.name, first.location
                     )));
                 }
                 Some(_) => {}
-                None => environment = Some((node, request)),
+                None => *slot = Some((node, request)),
             }
         }
     }
-    let Some((node, SceneRequest::Environment { map, scale, rotation_deg, param })) = environment else {
-        return Ok(());
-    };
+    if let Some((node, SceneRequest::Environment { map, scale, rotation_deg, param })) = environment {
+        apply_environment(scene, pipeline, node, &map, scale, rotation_deg, param)?;
+    }
+    if let Some((node, request)) = real {
+        apply_real_layer(scene, pipeline, node, request)?;
+    }
+    Ok(())
+}
+
+fn apply_environment(
+    scene: &mut Scene,
+    pipeline: &ValidatedPipeline,
+    node: &wedge_graph::ValidatedNode,
+    map: &str,
+    scale: f64,
+    rotation_deg: f64,
+    param: &str,
+) -> Result<(), WedgeError> {
     let at = |e: String| WedgeError::Usage(format!("{}: node `{}`, parameter `{param}`: {e}", node.location, node.name));
     let (base, scale, rotation_deg) = if map.is_empty() {
         // The scene's own map, with the node's scale and rotation on top of its own.
@@ -421,10 +440,67 @@ fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Resu
         let (s, r) = (own.scale() as f64 * scale, own.rotation_deg() as f64 + rotation_deg);
         (own, s, r)
     } else {
-        let spec = if map.starts_with("builtin:") { map.clone() } else { pipeline.base_dir().join(&map).display().to_string() };
+        let spec = if map.starts_with("builtin:") { map.to_string() } else { pipeline.base_dir().join(map).display().to_string() };
         (wedge_scene::EnvironmentMap::open(&spec).map_err(|e| at(e.to_string()))?, scale, rotation_deg)
     };
     scene.set_environment(Some(base.with_params(scale as f32, rotation_deg as f32).map_err(|e| at(e.to_string()))?));
+    Ok(())
+}
+
+/// The mixed-reality real layer a node asks for: its maps read relative to the pipeline file, or a
+/// scene captured by wedge ([`crate::capture`]); it must have the image's size.
+fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedge_graph::ValidatedNode, request: SceneRequest) -> Result<(), WedgeError> {
+    let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, albedo, capture, capture_spp } = request else {
+        return Ok(());
+    };
+    let at = |e: String| WedgeError::Usage(format!("{}: node `{}`: {e}", node.location, node.name));
+    let (width, height) = (pipeline.pipeline.width, pipeline.pipeline.height);
+    let maps = [("camera_image", &camera_image), ("position_map", &position_map), ("normal_map", &normal_map)];
+    let layer = if !capture.is_empty() {
+        let given: Vec<&str> = maps.iter().chain([&("albedo_map", &albedo_map)]).filter(|(_, v)| !v.is_empty()).map(|(n, _)| *n).collect();
+        if !given.is_empty() {
+            return Err(at(format!("give either `capture` or the maps, not both (also given: {})", given.join(", "))));
+        }
+        eprintln!("capturing the real layer from `{capture}` at {capture_spp} samples per pixel ({width}x{height})");
+        crate::capture::capture_real_layer(&crate::capture::Capture {
+            spec: &capture,
+            base_dir: &pipeline.base_dir(),
+            camera: scene.camera,
+            environment: scene.environment.clone(),
+            width,
+            height,
+            spp: capture_spp.clamp(1, u32::MAX as i64) as u32,
+            seed: pipeline.pipeline.seed ^ 0x5eed_ca97,
+        })
+        .map_err(|e| at(format!("parameter `capture`: {e}")))?
+    } else {
+        let missing: Vec<&str> = maps.iter().filter(|(_, v)| v.is_empty()).map(|(n, _)| *n).collect();
+        if !missing.is_empty() {
+            return Err(at(format!(
+                "the real world is missing: set {} (EXR/PNG files relative to the pipeline file; `wedge render --aov \
+                 position,normal,albedo` writes them for any scene), or `capture` a scene instead",
+                missing.join(", ")
+            )));
+        }
+        let base = pipeline.base_dir();
+        let albedo = if albedo_map.is_empty() {
+            wedge_scene::RealAlbedo::Constant([albedo as f32; 3])
+        } else {
+            wedge_scene::RealAlbedo::Map(base.join(&albedo_map))
+        };
+        wedge_scene::RealLayer::open(&base.join(&camera_image), &base.join(&position_map), &base.join(&normal_map), albedo).map_err(|e| at(e.to_string()))?
+    };
+    if (layer.width(), layer.height()) != (width, height) {
+        return Err(at(format!(
+            "the real layer is {}x{} but the pipeline renders {width}x{height}: set `width: {}, height: {}` (or --width/--height) \
+             to the capture's size",
+            layer.width(),
+            layer.height(),
+            layer.width(),
+            layer.height()
+        )));
+    }
+    scene.set_real(Some(layer));
     Ok(())
 }
 

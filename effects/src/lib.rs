@@ -14,6 +14,8 @@
 //! - [`motion`]: `Motion`, motion blur with factoring and two-level sampling (thesis App. B).
 //! - [`environment`]: `Environment`, environment-map lighting with axis-aligned and temporal
 //!   filtering (thesis Ch. 6).
+//! - [`mixed_reality`]: `MixedReality`, virtual objects in a photograph: two-mode sampling,
+//!   Ch. 6 filtering and differential compositing (thesis Ch. 6).
 //! - [`factored`]: the passes both factoring nodes build alike (filter chains, the compose of a
 //!   component's factored parts).
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
@@ -43,6 +45,7 @@ pub mod factored;
 pub mod filtering;
 pub mod heatmap;
 pub mod indirect;
+pub mod mixed_reality;
 pub mod montecarlo;
 pub mod motion;
 pub mod output;
@@ -71,6 +74,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     motion::register_kernels(kernels);
     nodes.register(Arc::new(environment::Environment));
     environment::register_kernels(kernels);
+    nodes.register(Arc::new(mixed_reality::MixedReality));
 }
 
 /// The registries with everything wedge ships.

@@ -558,6 +558,21 @@ pub enum SceneRequest {
     /// file or `builtin:NAME` (`""`: the scene's own map), its radiance times `scale`, turned by
     /// `rotation_deg` about +Y. `param` names the parameter that gave `map`, for error positions.
     Environment { map: String, scale: f64, rotation_deg: f64, param: &'static str },
+    /// Attach a captured real world for mixed reality (thesis Ch. 6.3–6.5): the camera image, world
+    /// position and normal maps and the diffuse albedo (`albedo_map`, or the grey `albedo` where
+    /// that is `""`), files relative to the pipeline file — or, where `capture` names a scene
+    /// (`builtin:NAME` or a file), maps rendered from that scene by the pipeline's camera, its camera
+    /// image plain Monte Carlo at `capture_spp` samples per pixel (an example whose "real" input is
+    /// itself rendered).
+    RealLayer {
+        camera_image: String,
+        position_map: String,
+        normal_map: String,
+        albedo_map: String,
+        albedo: f64,
+        capture: String,
+        capture_spp: i64,
+    },
 }
 
 /// A node kind: an effect (SoftShadows, Indirect, …), a producer of per-pixel surface data (Primary),

@@ -20,6 +20,8 @@
 //! - `envmap`: thesis Fig. 6.7 in spirit — a diffuse sphere and a Phong-64 torus on a large diffuse
 //!   plane lit only by the procedural `builtin:sky` environment map (sun, sky, clouds, windows); the
 //!   environment-lighting test scene (see `builtin/envmap.rs`). `envmap_light` adds one area light.
+//! - `envmap_far`: `envmap_virtual` with the torus 1 km below the ground (mixed reality's no-influence
+//!   test).
 //! - `envmap_real` / `envmap_virtual`: `envmap` split for the mixed-reality round trip (issue 15) — the
 //!   ground and sphere (rendered with their AOVs, they stand in for a captured real world), and the
 //!   torus alone (the virtual object inserted into it); same camera and map.
@@ -43,7 +45,7 @@ use mesh::{add_box, add_rect_light, add_sphere, add_torus, parametric, smooth_tr
 
 pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
-    "envmap_real", "envmap_virtual",
+    "envmap_real", "envmap_virtual", "envmap_far",
 ];
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
@@ -57,8 +59,9 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "motion" => Ok(motion::motion()),
         "envmap" => Ok(envmap::envmap(false)),
         "envmap_light" => Ok(envmap::envmap(true)),
-        "envmap_real" => Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false })),
-        "envmap_virtual" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false })),
+        "envmap_real" => Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false, far: false })),
+        "envmap_virtual" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: false })),
+        "envmap_far" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: true })),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),

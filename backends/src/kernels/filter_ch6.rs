@@ -360,3 +360,41 @@ impl Kernel for EnvironmentHistory {
         ctx.put("out", out)
     }
 }
+
+/// `bandwidth.max`: per pixel and axis the larger of two Ch. 6 bandwidths `a`, `b` (vec2, 1/m), a
+/// negative one ("do not filter" for that part) counting as absent; negative where both are. For an
+/// irradiance that mixes two parts (a surface's diffuse and glossy light in one value): the larger
+/// bandwidth is the narrower filter, which keeps both parts' detail.
+pub struct BandwidthMax;
+
+/// The larger of two bandwidths (see [`BandwidthMax`]).
+pub fn bandwidth_max(a: [f32; 2], b: [f32; 2]) -> [f32; 2] {
+    let one = |x: f32, y: f32| match (x >= 0.0, y >= 0.0) {
+        (true, true) => x.max(y),
+        (true, false) => x,
+        (false, true) => y,
+        (false, false) => x.min(y),
+    };
+    [one(a[0], b[0]), one(a[1], b[1])]
+}
+
+impl Kernel for BandwidthMax {
+    fn name(&self) -> &'static str {
+        "bandwidth.max"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![Binding::read("a", Format::Vec2), Binding::read("b", Format::Vec2), Binding::write("out", Format::Vec2)]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../../shaders/bandwidth_max.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let a = ctx.read::<[f32; 2]>("a")?;
+        let b = ctx.read::<[f32; 2]>("b")?;
+        let out: Vec<[f32; 2]> = a.iter().zip(b).map(|(a, b)| bandwidth_max(*a, *b)).collect();
+        ctx.put("out", out)
+    }
+}

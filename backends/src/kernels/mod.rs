@@ -15,10 +15,12 @@ pub mod filter_ch6;
 pub mod filter_motion;
 pub mod hemisphere;
 pub mod indirect;
+pub mod mixed_reality;
 pub mod neighbourhood;
 pub mod neighbourhood3;
 pub mod paths;
 pub mod primary;
+pub mod screen_trace;
 
 pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(primary::PrimaryGBuffer));
@@ -35,6 +37,9 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(filter_motion::MotionFilter));
     reg.register(Arc::new(filter_ch6::EnvironmentFilter));
     reg.register(Arc::new(filter_ch6::EnvironmentHistory));
+    reg.register(Arc::new(filter_ch6::BandwidthMax));
+    reg.register(Arc::new(mixed_reality::MrSample));
+    reg.register(Arc::new(mixed_reality::MrComposite));
     reg.register(Arc::new(filter_motion::Radiance3Filter));
     reg.register(Arc::new(constant::FillConstant));
     reg.register(Arc::new(constant::FillConstantF32));

@@ -47,7 +47,7 @@ const INDIRECT_PARTS: [(Part, &str); 2] = [
 ];
 
 /// The normal test of the filters: neighbours whose normals differ by more are not averaged.
-const NORMAL_DEG: f64 = 10.0;
+pub(crate) const NORMAL_DEG: f64 = 10.0;
 
 fn count(ctx: &ExpandCtx<'_>, name: &str) -> i64 {
     match ctx.param(name) {
@@ -221,14 +221,15 @@ impl NodeKind for Environment {
     }
 }
 
-/// The Ch. 6 filter of one irradiance as the node runs it.
-struct PartFilter {
-    position: BufferId,
-    normal: BufferId,
-    max_radius: ParamValue,
-    max_motion: ParamValue,
-    normal_cos: ParamValue,
-    temporal: bool,
+/// The Ch. 6 filter of one irradiance as the node runs it (the MixedReality node filters its
+/// irradiances with it too).
+pub(crate) struct PartFilter {
+    pub position: BufferId,
+    pub normal: BufferId,
+    pub max_radius: ParamValue,
+    pub max_motion: ParamValue,
+    pub normal_cos: ParamValue,
+    pub temporal: bool,
 }
 
 impl PartFilter {
@@ -236,7 +237,7 @@ impl PartFilter {
     /// with `temporal`, `filter.environment_history` (`<name>_history`) on the previous frame's `e`,
     /// positions, normals and bandwidths joins the y pass. A reference bypasses the filters (and the
     /// history pass, which then feeds nothing, is culled).
-    fn apply(&self, ctx: &mut ExpandCtx<'_>, name: &str, e: BufferId, bandwidth: BufferId) -> BufferId {
+    pub fn apply(&self, ctx: &mut ExpandCtx<'_>, name: &str, e: BufferId, bandwidth: BufferId) -> BufferId {
         let history = self.temporal.then(|| {
             let out = ctx.buffer(&format!("{name}_history"), Format::Vec4);
             let previous = [e, self.position, self.normal, bandwidth].map(|b| ctx.previous_frame(b));

@@ -22,6 +22,9 @@
 //! `envmap_light` adds one 0.5 × 0.5 m rectangular area light 2.5 m up (radiance 20), for pipelines that
 //! compose area-light SoftShadows with the environment.
 //!
+//! `envmap_far` is `envmap_virtual` with the torus 1 km below the ground (a virtual object without
+//! influence: the mixed-reality composite must equal the photograph bit for bit).
+//!
 //! `envmap_real` and `envmap_virtual` split `envmap` for the mixed-reality round trip (issue 15):
 //! `envmap_real` is the ground and the sphere (the "real" world whose render and position, normal and
 //! albedo AOVs stand in for a capture), `envmap_virtual` the torus alone (the object inserted into
@@ -55,11 +58,14 @@ pub(crate) struct Parts {
     pub virtual_objects: bool,
     /// The area light (`envmap_light`).
     pub light: bool,
+    /// The torus moved 1 km below the ground (`envmap_far`): a virtual object no camera ray, shadow
+    /// ray or reflection of the real scene reaches — mixed reality must leave the photograph as it is.
+    pub far: bool,
 }
 
 /// The scene's geometry and camera; `with_light` adds the area light (`envmap_light`).
 pub(crate) fn envmap(with_light: bool) -> SceneData {
-    envmap_parts(Parts { real: true, virtual_objects: true, light: with_light })
+    envmap_parts(Parts { real: true, virtual_objects: true, light: with_light, far: false })
 }
 
 /// `envmap`'s parts (in `envmap`'s order, so the parts' triangles and materials are `envmap`'s).
@@ -69,7 +75,7 @@ pub(crate) fn envmap_parts(parts: Parts) -> SceneData {
         add_real(&mut d);
     }
     if parts.virtual_objects {
-        add_torus_part(&mut d);
+        add_torus_part(&mut d, if parts.far { Vec3::new(0.0, -1000.0, 0.0) } else { Vec3::ZERO });
     }
     if parts.light {
         let side = 0.5;
@@ -126,8 +132,8 @@ fn add_real(d: &mut SceneData) {
     add_sphere(d, SPHERE_CENTRE, SPHERE_RADIUS, 64, 128, diffuse, o);
 }
 
-/// The tilted Phong torus.
-fn add_torus_part(d: &mut SceneData) {
+/// The tilted Phong torus, moved by `offset`.
+fn add_torus_part(d: &mut SceneData, offset: Vec3) {
     let glossy = d.add_material(
         Material {
             specular: Vec3::splat(0.5),
@@ -142,7 +148,7 @@ fn add_torus_part(d: &mut SceneData) {
     let lift = TORUS_MAJOR * TORUS_TILT.sin() + TORUS_MINOR;
     let xf = Mat4::from_rotation_translation(
         Quat::from_rotation_x(TORUS_TILT),
-        TORUS_CENTRE + Vec3::Y * lift,
+        TORUS_CENTRE + Vec3::Y * lift + offset,
     );
     add_torus(d, xf, TORUS_MAJOR, TORUS_MINOR, glossy, o);
 }

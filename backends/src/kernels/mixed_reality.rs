@@ -1,0 +1,598 @@
+//! Mixed reality (thesis Ch. 6, Sec. 6.3–6.5; supplemental seed 003, Algorithm 1): two-mode
+//! sampling of the real and the virtual world, and differential compositing. WGSL mirrors:
+//! `shaders/mr_sample.wgsl`, `shaders/mr_composite.wgsl`.
+//!
+//! **Two modes.** Virtual geometry is the scene's triangles (the BVH: only virtual objects); real
+//! geometry is the captured real layer (`wedge_scene::RealLayer`: per-pixel position, normal, albedo
+//! and the camera image `L_cam`), intersected by screen-space rays ([`super::screen_trace`]).
+//!
+//! `mr.sample` (Algorithm 1): per pixel `count` primary samples (jittered in the pixel, Sobol' pair
+//! `PIXEL`); a sample is *real* where no virtual surface is hit or the pixel's real surface is nearer
+//! (line 7; the real layer is one surface per pixel, so every sample of a pixel sees the same real
+//! point), else *virtual*; `M` = the real fraction. Each sample takes `per_primary` secondary samples:
+//! - direct light: a look-up into the environment's table (stratified per pixel as the sampler does,
+//!   `environment::stratified_entry`), tested against both worlds — a virtual shadow ray (BVH,
+//!   any-hit unless the look-up is bright enough to set the occluder term) and a screen-space one. At a
+//!   real sample, `E_R^dir` counts it when no real surface blocks it, `E_RV^dir` when nothing blocks it
+//!   (lines 20–25). At a virtual sample, `E_V^dir` counts it when nothing blocks it.
+//! - indirect light: a cosine-hemisphere direction (real surfaces are diffuse), or at a virtual
+//!   sample one of the surface's lobes picked by reflectance (diffuse or Phong, the mixture pdf), traced
+//!   in both modes. A real hit returns `L_cam` at the hit's pixel (line 28); a virtual hit returns its
+//!   radiance from one environment look-up with shadow rays in both modes (line 29: "tracing a secondary
+//!   shadow ray to an environment map sample"). `E_R^ind` takes the real hit only (virtual objects do
+//!   not exist there), `E_RV^ind` and `E_V^ind` the nearer of the two (lines 30–40). A ray that hits
+//!   nothing adds 0: the environment is the direct term's.
+//!
+//! **Readings taken** (docs/DESIGN-NOTES.md "Mixed reality"): irradiances are wedge's `E` (a diffuse
+//! surface's outgoing radiance is `k E`: `E = L cos / (π pdf)`), each sum divided by its own sample
+//! count (EQUATIONS.md); the real irradiances average over the pixel's real samples and the virtual
+//! ones over its virtual samples (Algorithm 1 divides everything by 16, which at a silhouette mixes
+//! the two kinds into one ratio), so that eq. 6.2 composes `(1 − M) k_V E_V + M (E_RV / E_R) L_cam`
+//! exactly at partly covered pixels; at a virtual sample `E_V` is its outgoing radiance divided by
+//! `k_V = k_d + k_s` (the thesis: "we may represent this outgoing radiance with the same symbol E_RV"),
+//! so `k̄_V Ē_V` restores it after filtering. Samples where neither world has a surface (the sky seen
+//! through the pixel) are real with no irradiance: `E_R = E_RV = 0`, and the composite keeps `L_cam`.
+//!
+//! Outputs per pixel: the six irradiances (vec3), `texture` (`k_V`, `M`), the filter's `position`
+//! (`w` = 1 + object id; real surfaces [`REAL_OBJECT`]) and `normal` (`w` the footprint) of the pixel's
+//! majority kind, `environment` and `depth` in the sampler's conventions (occluder term `cos θ / t` over
+//! bright blocked look-ups of either world, mean Phong exponent, look-ups, blocked look-ups; indirect
+//! `z_min`, `z_max`, hits, rays) so the Environment node's bandwidth kernels apply unchanged, and
+//! `screen` (screen-space rays, those that left the image, hits). Ray counts: camera rays as
+//! primary, rays toward the environment as shadow, indirect rays as secondary — a BVH ray and a
+//! screen-space ray one each, since both are traced for every direction.
+
+use glam::{Vec2, Vec3};
+use wedge_graph::Format;
+use wedge_scene::{Camera, Scene, SceneAt};
+
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernels::environment::{brdf, stratified_entry, uniform_entry};
+use crate::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
+use crate::kernels::paths::camera_uniforms;
+use crate::kernels::screen_trace::{ScreenHit, ScreenTracer};
+use crate::sobol::{independent2, pair, sequence_key, sobol2};
+use crate::BackendError;
+
+/// The object id (`position.w − 1`) of the real layer's surfaces: one "object" for the filters'
+/// same-object test, far above any scene's object count (`1 + REAL_OBJECT` is exact in f32).
+pub const REAL_OBJECT: u32 = 1 << 22;
+
+/// Offset of secondary ray origins along the normal, relative to the scene's extent.
+const EPS_RELATIVE: f32 = 1e-4;
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// `mr.sample`'s settings.
+#[derive(Clone, Copy, Debug)]
+pub struct MrSettings {
+    pub count: u32,
+    pub per_primary: u32,
+    pub stratified: bool,
+    pub stream: u32,
+    pub occluder_luminance: f32,
+    pub thickness: f32,
+    pub max_steps: u32,
+    pub eps: f32,
+}
+
+fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
+    let err = |m: String| BackendError::Kernel { pass: ctx.pass.into(), message: m };
+    let scene = ctx.scene;
+    let layer = scene.real.as_ref().ok_or_else(|| err("the scene has no real layer (camera image, position and normal maps): the MixedReality node loads one".into()))?;
+    if layer.width() != ctx.width || layer.height() != ctx.height {
+        return Err(err(format!(
+            "the real layer is {}x{} but the image is {}x{}: render at the capture's size",
+            layer.width(),
+            layer.height(),
+            ctx.width,
+            ctx.height
+        )));
+    }
+    let env = scene.environment.as_ref().ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
+    let threshold = ctx.f32_param("occluder_threshold")?;
+    let thickness = ctx.f32_param("thickness")?;
+    if !(threshold.is_finite() && threshold >= 0.0) || !(thickness.is_finite() && thickness > 0.0) {
+        return Err(err(format!("occluder_threshold {threshold} must be >= 0 and thickness {thickness} > 0")));
+    }
+    let max_steps = ctx.int_param("max_steps")?;
+    let diagonal = (ctx.width as f32).hypot(ctx.height as f32).ceil() as u32 + 1;
+    Ok(MrSettings {
+        count: ctx.int_param("count")?.clamp(0, 1 << 16) as u32,
+        per_primary: ctx.int_param("per_primary")?.clamp(1, 1 << 12) as u32,
+        stratified: ctx.stratified_param()?,
+        stream: ctx.int_param("stream")? as u32,
+        occluder_luminance: threshold * (env.total_luminance() / (4.0 * std::f64::consts::PI)) as f32,
+        thickness,
+        max_steps: if max_steps <= 0 { diagonal } else { (max_steps as u32).min(diagonal) },
+        eps: EPS_RELATIVE * scene.extent().max(1e-3),
+    })
+}
+
+/// Sample `index` of pair `pair` of pixel `pixel`'s sequence.
+#[inline]
+fn draw(s: &MrSettings, seed: u32, pixel: u32, pair: u32, index: u32) -> Vec2 {
+    let key = sequence_key(seed, pixel, s.stream, pair);
+    Vec2::from(if s.stratified { sobol2(key, index) } else { independent2(key, index) })
+}
+
+/// A surface a secondary sample starts from.
+#[derive(Clone, Copy, Debug)]
+struct Receiver {
+    x: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    /// Virtual surfaces: `k_d`, `k_s`, `m`; real ones `(1, 0, 0)` (diffuse; albedo divided out).
+    kd: Vec3,
+    ks: Vec3,
+    m: f32,
+    real: bool,
+}
+
+/// Per-pixel sums of `mr.sample`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Sums {
+    e_r_dir: Vec3,
+    e_r_ind: Vec3,
+    e_rv_dir: Vec3,
+    e_rv_ind: Vec3,
+    e_v_dir: Vec3,
+    e_v_ind: Vec3,
+    /// Secondary samples at real surfaces and at virtual ones (each sum's divisor).
+    real_samples: u32,
+    virtual_samples: u32,
+    real_primary: u32,
+    virtual_primary: u32,
+    k_v: Vec3,
+    virtual_position: Vec3,
+    virtual_normal: Vec3,
+    virtual_object: u32,
+    occluder: f32,
+    exponent: f32,
+    look_ups: u32,
+    blocked: u32,
+    z_min: f32,
+    z_max: f32,
+    ind_hits: u32,
+    ind_rays: u32,
+    screen_rays: u32,
+    offscreen: u32,
+    screen_hits: u32,
+    /// Rays traced, BVH and screen-space alike: camera rays, rays toward the environment (shadow
+    /// rays, at the receivers and at virtual indirect hits), indirect rays.
+    primary_rays: u32,
+    shadow_rays: u32,
+    indirect_rays: u32,
+    non_finite: u32,
+}
+
+/// What the pixel's outputs are, in buffer order.
+pub struct MrPixel {
+    pub e: [[f32; 3]; 6],
+    pub texture: [f32; 4],
+    pub position: [f32; 4],
+    pub normal: [f32; 4],
+    pub environment: [f32; 4],
+    pub depth: [f32; 4],
+    pub screen: [f32; 4],
+    /// Rays per kind (camera, toward the environment, indirect), BVH and screen-space rays alike.
+    pub rays: [u64; 3],
+    pub non_finite: u64,
+}
+
+/// The world as the two modes see it at one pixel.
+struct World<'a> {
+    scene: SceneAt<'a>,
+    screen: ScreenTracer<'a>,
+}
+
+impl World<'_> {
+    /// A screen-space ray, counted.
+    fn screen(&self, sums: &mut Sums, o: Vec3, d: Vec3) -> ScreenHit {
+        sums.screen_rays += 1;
+        let h = self.screen.trace(o, d);
+        match h {
+            ScreenHit::Offscreen => sums.offscreen += 1,
+            ScreenHit::Hit { .. } => sums.screen_hits += 1,
+            ScreenHit::Miss => {}
+        }
+        h
+    }
+}
+
+/// Radiance leaving a virtual hit `y` toward `-d`: one environment look-up `u` with shadow rays in
+/// both worlds (Algorithm 1, line 29).
+fn virtual_hit_radiance(world: &World<'_>, s: &MrSettings, sums: &mut Sums, y: Vec3, n: Vec3, wo: Vec3, (kd, ks, m): (Vec3, Vec3, f32), u: f32) -> Vec3 {
+    let env = world.scene.scene().environment.as_ref().expect("checked in settings");
+    let e = env.table(uniform_entry(u) as usize);
+    let cos = n.dot(e.dir);
+    if !(cos > 0.0 && e.pdf > 0.0) {
+        return Vec3::ZERO;
+    }
+    let origin = y + n * s.eps;
+    sums.shadow_rays += 1;
+    if world.scene.occluded(origin, e.dir, 0.0, f32::INFINITY) {
+        return Vec3::ZERO;
+    }
+    sums.shadow_rays += 1;
+    if matches!(world.screen(sums, origin, e.dir), ScreenHit::Hit { .. }) {
+        return Vec3::ZERO;
+    }
+    e.radiance * brdf(Lobe::Phong, kd, ks, m, n, wo, e.dir) * (cos / e.pdf)
+}
+
+/// One primary sample's `per_primary` secondary samples at receiver `r` (the module doc).
+#[allow(clippy::too_many_arguments)]
+fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u32, first: u32, r: &Receiver, sums: &mut Sums) {
+    let env = world.scene.scene().environment.as_ref().expect("checked in settings");
+    let origin = r.x + r.n * s.eps;
+    // k_V for dividing a virtual sample's outgoing radiance (0 channels stay 0).
+    let k_v = r.kd + r.ks;
+    let per_k = |l: Vec3| Vec3::new(
+        if k_v.x > 0.0 { l.x / k_v.x } else { 0.0 },
+        if k_v.y > 0.0 { l.y / k_v.y } else { 0.0 },
+        if k_v.z > 0.0 { l.z / k_v.z } else { 0.0 },
+    );
+    let glossy = !r.real && r.m > 0.0 && r.ks.max_element() > 0.0;
+    let (lum_d, lum_s) = (luminance(r.kd), if glossy { luminance(r.ks) } else { 0.0 });
+    let p_glossy = if lum_d + lum_s > 0.0 { lum_s / (lum_d + lum_s) } else { 0.0 };
+    for j in 0..s.per_primary {
+        let q = first + j;
+        if r.real {
+            sums.real_samples += 1;
+        } else {
+            sums.virtual_samples += 1;
+        }
+        // Direct light: look-up q of the table.
+        sums.look_ups += 1;
+        let entry = if s.stratified { stratified_entry(shift, q) } else { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x) };
+        let e = env.table(entry as usize);
+        let cos = r.n.dot(e.dir);
+        let (mut dir_r, mut dir_rv) = (Vec3::ZERO, Vec3::ZERO);
+        if cos > 0.0 && e.pdf > 0.0 {
+            // One BVH and one screen-space shadow ray.
+            sums.shadow_rays += 2;
+            let bright = luminance(e.radiance) >= s.occluder_luminance;
+            let t_v = if bright {
+                world.scene.intersect(origin, e.dir, 0.0, f32::INFINITY).map(|h| h.t)
+            } else {
+                world.scene.occluded(origin, e.dir, 0.0, f32::INFINITY).then_some(f32::INFINITY)
+            };
+            let t_r = match world.screen(sums, origin, e.dir) {
+                ScreenHit::Hit { t, .. } => Some(t),
+                _ => None,
+            };
+            if t_v.is_some() || t_r.is_some() {
+                sums.blocked += 1;
+                let t = t_v.unwrap_or(f32::INFINITY).min(t_r.unwrap_or(f32::INFINITY));
+                if bright && t.is_finite() && t > 0.0 {
+                    sums.occluder = sums.occluder.max(cos / t);
+                }
+            }
+            let l = e.radiance * (cos / e.pdf);
+            if r.real {
+                let lit = l * std::f32::consts::FRAC_1_PI;
+                if t_r.is_none() {
+                    dir_r = lit;
+                    if t_v.is_none() {
+                        dir_rv = lit;
+                    }
+                }
+            } else if t_r.is_none() && t_v.is_none() {
+                dir_rv = per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, e.dir));
+            }
+        }
+        // Indirect light: one direction from the receiver's BRDF.
+        let u = draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q);
+        let pick = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
+        let wi = if glossy && pick.x < p_glossy { sample_glossy(Lobe::Phong, r.m, r.n, r.wo, u).0 } else { sample_diffuse(r.n, u) };
+        let cos_i = r.n.dot(wi);
+        let (mut ind_r, mut ind_rv) = (Vec3::ZERO, Vec3::ZERO);
+        if cos_i > 0.0 && wi.is_finite() {
+            // The mixture pdf of the two lobes (diffuse alone: cos/π).
+            let pdf_d = cos_i * std::f32::consts::FRAC_1_PI;
+            let pdf = if glossy { (1.0 - p_glossy) * pdf_d + p_glossy * glossy_pdf(Lobe::Phong, r.m, r.n, r.wo, wi) } else { pdf_d };
+            sums.ind_rays += 1;
+            // One BVH and one screen-space ray.
+            sums.indirect_rays += 2;
+            let hit_v = world.scene.intersect(origin, wi, 0.0, f32::INFINITY);
+            let hit_r = world.screen(sums, origin, wi);
+            let l_r = match hit_r {
+                ScreenHit::Hit { t, x, y } => Some((t, world.screen.layer.camera(x, y))),
+                _ => None,
+            };
+            let l_v = hit_v.map(|h| {
+                let sp = world.scene.surface(&h, origin, wi);
+                let mat = &world.scene.scene().materials[sp.material as usize];
+                let kd = world.scene.scene().albedo(&sp);
+                let u_env = draw(s, seed, pixel, pair::PATH, q).x;
+                let l = virtual_hit_radiance(world, s, sums, sp.position, sp.shading_normal, -wi, (kd, mat.specular, mat.phong_exponent), u_env);
+                (h.t, l)
+            });
+            let nearest = match (l_r, l_v) {
+                (Some(a), Some(b)) => Some(if a.0 < b.0 { a } else { b }),
+                (a, b) => a.or(b),
+            };
+            if let Some((t, _)) = nearest {
+                sums.ind_hits += 1;
+                if sums.ind_hits == 1 {
+                    (sums.z_min, sums.z_max) = (t, t);
+                } else {
+                    sums.z_min = sums.z_min.min(t);
+                    sums.z_max = sums.z_max.max(t);
+                }
+            }
+            if pdf > 0.0 {
+                let weight = |l: Vec3| {
+                    if r.real {
+                        l * (cos_i * std::f32::consts::FRAC_1_PI / pdf)
+                    } else {
+                        per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, wi) * (cos_i / pdf))
+                    }
+                };
+                if let Some((_, l)) = l_r {
+                    ind_r = weight(l);
+                }
+                if let Some((_, l)) = nearest {
+                    ind_rv = weight(l);
+                }
+            }
+        }
+        for v in [dir_r, dir_rv, ind_r, ind_rv] {
+            if !v.is_finite() {
+                sums.non_finite += 1;
+            }
+        }
+        let f = |v: Vec3| if v.is_finite() { v } else { Vec3::ZERO };
+        if r.real {
+            sums.e_r_dir += f(dir_r);
+            sums.e_rv_dir += f(dir_rv);
+            sums.e_r_ind += f(ind_r);
+            sums.e_rv_ind += f(ind_rv);
+        } else {
+            sums.e_v_dir += f(dir_rv);
+            sums.e_v_ind += f(ind_rv);
+        }
+    }
+}
+
+/// `mr.sample` at pixel `(px, py)`.
+pub fn sample_pixel(scene: &Scene, camera: &Camera, s: &MrSettings, seed: u32, px: u32, py: u32, width: u32, height: u32) -> MrPixel {
+    let layer = scene.real.as_ref().expect("checked in settings");
+    let world = World { scene: scene.at(0.0), screen: ScreenTracer::new(layer, camera, s.thickness, s.max_steps) };
+    let pixel = py * width + px;
+    let mut sums = Sums::default();
+    let shift = if s.stratified { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, 0).x) } else { 0 };
+    let real_point = layer.position(px, py);
+    let h = height.max(1) as f32;
+    let tan_half = (camera.vfov_deg.to_radians() * 0.5).tan();
+    let pixel_angle = 2.0 * tan_half / h;
+    let mut footprint = 0.0f32;
+    for i in 0..s.count {
+        let jitter = if s.count > 1 { draw(s, seed, pixel, pair::PIXEL, i) } else { Vec2::splat(0.5) };
+        let (o, d) = camera.generate_ray(px as f32 + jitter.x, py as f32 + jitter.y, width, height, Vec2::splat(0.5));
+        sums.primary_rays += 1;
+        let hit = world.scene.intersect(o, d, 0.0, f32::INFINITY);
+        let depth_r = real_point.map(|p| (p - o).length());
+        let real = match (hit.as_ref(), depth_r) {
+            (None, _) => true,
+            (Some(h), Some(dr)) => dr < h.t,
+            (Some(_), None) => false,
+        };
+        let first = i * s.per_primary;
+        if real {
+            sums.real_primary += 1;
+            let Some(p) = real_point else {
+                // Neither world has a surface here: the camera image shows the environment.
+                continue;
+            };
+            let n = layer.normal(px, py);
+            let r = Receiver { x: p, n, wo: -d, kd: Vec3::ONE, ks: Vec3::ZERO, m: 0.0, real: true };
+            secondary(&world, s, seed, pixel, shift, first, &r, &mut sums);
+        } else {
+            let h = hit.expect("a virtual sample has a hit");
+            let sp = world.scene.surface(&h, o, d);
+            let mat = &scene.materials[sp.material as usize];
+            let (kd, ks, m) = (scene.albedo(&sp), mat.specular, mat.phong_exponent);
+            sums.virtual_primary += 1;
+            sums.k_v += kd + ks;
+            sums.virtual_position += sp.position;
+            sums.virtual_normal += sp.shading_normal;
+            if sums.virtual_object == 0 {
+                sums.virtual_object = 1 + sp.object;
+            }
+            let glossy = m > 0.0 && ks.max_element() > 0.0;
+            sums.exponent += if glossy { m } else { 0.0 };
+            let c = sp.shading_normal.dot(-d).abs().max(0.05);
+            footprint += h.t * pixel_angle / c.sqrt();
+            let r = Receiver { x: sp.position, n: sp.shading_normal, wo: -d, kd, ks, m, real: false };
+            secondary(&world, s, seed, pixel, shift, first, &r, &mut sums);
+        }
+    }
+    let mean = |v: Vec3, n: u32| if n > 0 { (v / n as f32).to_array() } else { [0.0; 3] };
+    let (nr, nv) = (sums.real_samples, sums.virtual_samples);
+    let total = sums.real_primary + sums.virtual_primary;
+    let m_real = if total > 0 { sums.real_primary as f32 / total as f32 } else { 1.0 };
+    let k_v = mean(sums.k_v, sums.virtual_primary);
+    // The filter's surface: the pixel's majority kind (real on a tie); none where neither has one.
+    let real_surfaces = sums.real_samples / s.per_primary.max(1);
+    let (position, normal) = if real_surfaces > 0 && real_surfaces >= sums.virtual_primary {
+        let p = real_point.expect("real samples have the pixel's real point");
+        let n = layer.normal(px, py);
+        let z = (p - camera.position).length();
+        let c = n.dot((camera.position - p).normalize_or_zero()).abs().max(0.05);
+        ([p.x, p.y, p.z, 1.0 + REAL_OBJECT as f32], [n.x, n.y, n.z, z * pixel_angle / c.sqrt()])
+    } else if sums.virtual_primary > 0 {
+        let k = sums.virtual_primary as f32;
+        let p = sums.virtual_position / k;
+        let n = (sums.virtual_normal / k).normalize_or_zero();
+        ([p.x, p.y, p.z, sums.virtual_object as f32], [n.x, n.y, n.z, footprint / k])
+    } else {
+        ([0.0; 4], [0.0; 4])
+    };
+    let exponent = if sums.virtual_primary > 0 { sums.exponent / sums.virtual_primary as f32 } else { 0.0 };
+    MrPixel {
+        e: [
+            mean(sums.e_r_dir, nr),
+            mean(sums.e_r_ind, nr),
+            mean(sums.e_rv_dir, nr),
+            mean(sums.e_rv_ind, nr),
+            mean(sums.e_v_dir, nv),
+            mean(sums.e_v_ind, nv),
+        ],
+        texture: [k_v[0], k_v[1], k_v[2], m_real],
+        position,
+        normal,
+        environment: [sums.occluder, exponent, sums.look_ups as f32, sums.blocked as f32],
+        depth: [if sums.ind_hits > 0 { sums.z_min } else { 0.0 }, sums.z_max, sums.ind_hits as f32, sums.ind_rays as f32],
+        screen: [sums.screen_rays as f32, sums.offscreen as f32, sums.screen_hits as f32, 0.0],
+        rays: [sums.primary_rays as u64, sums.shadow_rays as u64, sums.indirect_rays as u64],
+        non_finite: sums.non_finite as u64,
+    }
+}
+
+/// The buffers `mr.sample` writes, in [`MrPixel::e`] order and then the rest.
+pub const IRRADIANCES: [&str; 6] = ["e_r_dir", "e_r_ind", "e_rv_dir", "e_rv_ind", "e_v_dir", "e_v_ind"];
+
+/// `mr.sample`: the two-mode sampler (module doc).
+pub struct MrSample;
+
+impl Kernel for MrSample {
+    fn name(&self) -> &'static str {
+        "mr.sample"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Sampling
+    }
+    fn draws_random(&self) -> bool {
+        true
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::write(n, Format::Vec3)).collect();
+        b.extend([
+            Binding::write("texture", Format::Vec4),
+            Binding::write("position", Format::Vec4),
+            Binding::write("normal", Format::Vec4),
+            Binding::write("environment", Format::Vec4),
+            Binding::write("depth", Format::Vec4),
+            Binding::write_opt("screen", Format::Vec4),
+        ]);
+        b
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/mr_sample.wgsl"), |ctx| {
+                let s = settings(ctx)?;
+                let u = Uniforms::new()
+                    .u32("count", s.count)
+                    .u32("per_primary", s.per_primary)
+                    .u32("stratified", s.stratified as u32)
+                    .u32("stream", s.stream)
+                    .f32("occluder_luminance", s.occluder_luminance)
+                    .f32("thickness", s.thickness)
+                    .u32("max_steps", s.max_steps)
+                    .f32("eps", s.eps)
+                    // surface_brdf (environment_light.wgsl) reads the lobe: Phong, as the CPU's brdf.
+                    .u32("lobe", 0);
+                Ok(camera_uniforms(u, &ctx.scene.camera, wedge_scene::LensShape::Disk))
+            })
+            .with_include("screen_trace.wgsl", include_str!("../../../shaders/screen_trace.wgsl"))
+            .with_scene()
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let s = settings(ctx)?;
+        let (scene, seed, width, height) = (ctx.scene, ctx.seed, ctx.width, ctx.height);
+        let camera = scene.camera;
+        let px = ctx.map_pixels(true, |x, y| sample_pixel(scene, &camera, &s, seed, x, y, width, height));
+        let total = |k: usize| px.iter().map(|p| p.rays[k]).sum::<u64>();
+        Counters::add(&ctx.counters.primary_rays, total(0));
+        Counters::add(&ctx.counters.shadow_rays, total(1));
+        Counters::add(&ctx.counters.secondary_rays, total(2));
+        Counters::add(&ctx.counters.non_finite_samples, px.iter().map(|p| p.non_finite).sum());
+        for (k, name) in IRRADIANCES.iter().enumerate() {
+            ctx.put(name, px.iter().map(|p| p.e[k]).collect::<Vec<_>>())?;
+        }
+        ctx.put("texture", px.iter().map(|p| p.texture).collect::<Vec<_>>())?;
+        ctx.put("position", px.iter().map(|p| p.position).collect::<Vec<_>>())?;
+        ctx.put("normal", px.iter().map(|p| p.normal).collect::<Vec<_>>())?;
+        ctx.put("environment", px.iter().map(|p| p.environment).collect::<Vec<_>>())?;
+        ctx.put("depth", px.iter().map(|p| p.depth).collect::<Vec<_>>())?;
+        ctx.put_opt("screen", || px.iter().map(|p| p.screen).collect::<Vec<_>>())
+    }
+}
+
+/// Eq. 6.2 at one pixel: `(1 − M) k_V (E_V^dir + E_V^ind) + M (E_RV / E_R) L_cam`, the ratio per
+/// channel and 1 where `E_R` is not positive (a real point the real light does not reach: `L_cam`
+/// holds no light to scale, so it is kept). `M = 1` gives exactly `ratio · L_cam` and `M = 0` exactly
+/// the virtual radiance (nothing of the other term is evaluated).
+pub fn composite(e: [[f32; 3]; 6], texture: [f32; 4], l_cam: Vec3) -> [f32; 3] {
+    let v = |k: usize| Vec3::from(e[k]);
+    let m = texture[3];
+    let e_r = v(0) + v(1);
+    let e_rv = v(2) + v(3);
+    let ratio = |a: f32, b: f32| if b > 0.0 && (a / b).is_finite() { a / b } else { 1.0 };
+    let real = l_cam * Vec3::new(ratio(e_rv.x, e_r.x), ratio(e_rv.y, e_r.y), ratio(e_rv.z, e_r.z));
+    let virt = Vec3::new(texture[0], texture[1], texture[2]) * (v(4) + v(5));
+    let out = if m >= 1.0 {
+        real
+    } else if m <= 0.0 {
+        virt
+    } else {
+        virt * (1.0 - m) + real * m
+    };
+    out.to_array()
+}
+
+/// `mr.composite`: eq. 6.2 per pixel from the six (filtered) irradiances, `texture` and the real
+/// layer's `L_cam`; optionally `reconstruction` = `k_R E_R` (the real albedo times the real
+/// irradiance), which should reproduce `L_cam` on real surfaces when the inputs agree with each other
+/// (map scale, registration): a check of the capture, not part of eq. 6.2.
+pub struct MrComposite;
+
+impl Kernel for MrComposite {
+    fn name(&self) -> &'static str {
+        "mr.composite"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::read(n, Format::Vec3)).collect();
+        b.extend([
+            Binding::read("texture", Format::Vec4),
+            Binding::write("out", Format::Vec3),
+            Binding::write_opt("reconstruction", Format::Vec3),
+            // M on its own, for a heatmap.
+            Binding::write_opt("mask", Format::F32),
+        ]);
+        b
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../../shaders/mr_composite.wgsl"), |_| Ok(Uniforms::new())).with_scene().per_pixel())
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let layer = ctx.scene.real.as_ref().ok_or_else(|| BackendError::Kernel { pass: ctx.pass.into(), message: "the scene has no real layer".into() })?;
+        let width = ctx.width;
+        let e: Vec<&[[f32; 3]]> = IRRADIANCES.iter().map(|n| ctx.read::<[f32; 3]>(n)).collect::<Result<_, _>>()?;
+        let texture = ctx.read::<[f32; 4]>("texture")?;
+        let out = ctx.map_pixels(false, |x, y| {
+            let i = (y * width + x) as usize;
+            composite([e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i]], texture[i], layer.camera(x, y))
+        });
+        ctx.put_opt("reconstruction", || {
+            (0..out.len())
+                .map(|i| {
+                    let (x, y) = (i as u32 % width, i as u32 / width);
+                    let e_r = Vec3::from(e[0][i]) + Vec3::from(e[1][i]);
+                    (layer.albedo(x, y) * e_r).to_array()
+                })
+                .collect::<Vec<_>>()
+        })?;
+        ctx.put_opt("mask", || texture.iter().map(|t| t[3]).collect::<Vec<f32>>())?;
+        ctx.put("out", out)
+    }
+}

@@ -1,0 +1,247 @@
+//! `MixedReality`: virtual objects inserted into a photograph of a real scene, with the real
+//! scene's environment light, shadows and interreflections in both directions (thesis Ch. 6,
+//! Sec. 6.3–6.5, `seeds/000_956e982470d7e5bf.txt`; supplemental `seeds/003_73c0b487982c85a7.txt`,
+//! Algorithm 1; `EQUATIONS.md` "Environment", mixed reality 6.1–6.2).
+//!
+//! The node
+//! 1. asks the scene for the captured real world ([`SceneRequest::RealLayer`]: the camera image
+//!    `L_cam`, world position and normal maps, the diffuse albedo — files, or a scene `capture`d by
+//!    wedge itself) and for the environment map that lit it ([`SceneRequest::Environment`], as the
+//!    `Environment` node does); the pipeline's scene holds only the virtual objects;
+//! 2. samples both worlds with `mr.sample` (two-mode sampling: BVH rays for the virtual objects,
+//!    screen-space rays over the position map for the real ones; `primary` × `per_primary` = 4 × 4 per
+//!    pixel as Algorithm 1), giving `E_R^dir, E_R^ind, E_RV^dir, E_RV^ind` at real surfaces, the virtual
+//!    surfaces' `E_V^dir, E_V^ind` and texture `k_V`, the mask `M`, and the occluder and indirect hit
+//!    distances;
+//! 3. sizes the filters with the `Environment` node's own kernels (curvature 6.20, bandwidths 6.13,
+//!    6.17, 6.18, times μ) and filters each irradiance with its separable filter (6.21–6.23) — one
+//!    bandwidth per pixel for `E_R` and `E_RV`, so where no virtual object changes the light the two
+//!    filter to the same value and their ratio is exactly 1;
+//! 4. composes eq. 6.2, `L = (1 − M) k_V E_V + M (E_RV / E_R) L_cam` (`mr.composite`).
+//!
+//! Readings and measurements: `docs/DESIGN-NOTES.md` "Mixed reality"; the sampler's rules:
+//! `wedge_backends::kernels::mixed_reality`, the screen-space tracer's:
+//! `wedge_backends::kernels::screen_trace`.
+
+use std::collections::BTreeMap;
+
+use wedge_graph::{BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SceneRequest, Stage};
+
+use crate::environment::node::{PartFilter, NORMAL_DEG};
+
+pub struct MixedReality;
+
+/// The six irradiances `mr.sample` writes, each with the bandwidth that filters it.
+const IRRADIANCES: [(&str, Bandwidth); 6] = [
+    ("e_r_dir", Bandwidth::DirectReal),
+    ("e_r_ind", Bandwidth::IndirectReal),
+    ("e_rv_dir", Bandwidth::DirectReal),
+    ("e_rv_ind", Bandwidth::IndirectReal),
+    ("e_v_dir", Bandwidth::DirectVirtual),
+    ("e_v_ind", Bandwidth::IndirectVirtual),
+];
+
+/// Real surfaces are diffuse: their light takes the diffuse bandwidths; virtual ones the larger of
+/// the diffuse and the glossy one (the glossy where the surface has a lobe).
+#[derive(Clone, Copy, PartialEq)]
+enum Bandwidth {
+    DirectReal,
+    IndirectReal,
+    DirectVirtual,
+    IndirectVirtual,
+}
+
+fn str_param(params: &BTreeMap<String, ParamValue>, name: &str) -> String {
+    match params.get(name) {
+        Some(ParamValue::Str(s)) => s.clone(),
+        _ => String::new(),
+    }
+}
+
+impl NodeKind for MixedReality {
+    fn kind(&self) -> &'static str {
+        "MixedReality"
+    }
+    fn doc(&self) -> &'static str {
+        "Virtual objects in a photograph: two-mode sampling, Ch. 6 filtering, differential compositing (thesis Ch. 6)"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        Vec::new()
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "the composite (eq. 6.2)"),
+            PortDecl::new("unfiltered", Format::Vec3, "the composite of the unfiltered irradiances"),
+            PortDecl::new("reconstruction", Format::Vec3, "k_R·E_R: should match the camera image on real surfaces (a check of the inputs)"),
+            PortDecl::new("filter_width", Format::F32, "the direct light's filter width σ (pixels)"),
+            PortDecl::new("bandwidth", Format::F32, "the direct light's bandwidth B_x"),
+            PortDecl::new("mask", Format::F32, "M, the fraction of the pixel the real world covers"),
+            PortDecl::new("screen", Format::Vec4, "screen-space rays per pixel, those that left the image, hits"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::path("camera_image", "", "the photograph L_cam: EXR (linear) or PNG/JPEG (sRGB), relative to the pipeline file"),
+            ParamDecl::path("position_map", "", "world position per pixel: EXR, RGB = xyz, A = 1 where a real surface covers the pixel"),
+            ParamDecl::path("normal_map", "", "world normal per pixel: EXR, RGB = unit xyz"),
+            ParamDecl::path("albedo_map", "", "the real surfaces' diffuse albedo (EXR or PNG); empty = the constant `albedo`"),
+            ParamDecl::float("albedo", 0.5, 0.0, 1.0, "grey diffuse albedo of the real surfaces where no albedo_map is given"),
+            ParamDecl::path("capture", "", "instead of the maps: a scene (builtin:NAME or a file) wedge renders from the pipeline's camera as the real input"),
+            ParamDecl::int("capture_spp", 256, 1, 1 << 16, "with `capture`: samples per pixel of its camera image"),
+            ParamDecl::path("map", "", "the environment map that lights the real scene (.exr, .hdr, builtin:sky…); empty = the scene's own"),
+            ParamDecl::positive("scale", 1.0, 1e9, "multiplies the map's radiance"),
+            ParamDecl::float("rotation_deg", 0.0, -3600.0, 3600.0, "turns the map about +Y (degrees)"),
+            ParamDecl::int("primary", 4, 1, 256, "primary samples per pixel (Algorithm 1: 4)"),
+            ParamDecl::int("per_primary", 4, 1, 4096, "direct and indirect samples per primary sample (Algorithm 1: 4)"),
+            ParamDecl::float("b_e", -1.0, -1.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth"),
+            ParamDecl::positive("mu", 1.0, 1e6, "μ (an extension): scales every bandwidth; larger = narrower filters"),
+            ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
+            ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
+            ParamDecl::positive("thickness", 0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),
+            ParamDecl::int("max_steps", 0, 0, 1 << 16, "screen-space rays: the most pixels one ray marches; 0 = the image diagonal"),
+        ]
+    }
+    fn scene_requests(&self, params: &BTreeMap<String, ParamValue>) -> Vec<SceneRequest> {
+        let f = |n: &str| params.get(n).and_then(ParamValue::as_f64).unwrap_or(0.0);
+        vec![
+            SceneRequest::Environment { map: str_param(params, "map"), scale: f("scale"), rotation_deg: f("rotation_deg"), param: "map" },
+            SceneRequest::RealLayer {
+                camera_image: str_param(params, "camera_image"),
+                position_map: str_param(params, "position_map"),
+                normal_map: str_param(params, "normal_map"),
+                albedo_map: str_param(params, "albedo_map"),
+                albedo: f("albedo"),
+                capture: str_param(params, "capture"),
+                capture_spp: match params.get("capture_spp") {
+                    Some(ParamValue::Int(n)) => *n,
+                    _ => 256,
+                },
+            },
+        ]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        if let Some(f) = ctx.factoring() {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: format!(
+                    "cannot render under the factoring node `{}`: the real layer is one still photograph (no lens or shutter \
+                     samples) — render mixed reality in a pipeline without Defocus or Motion",
+                    f.node
+                ),
+            });
+        }
+        let int = |name: &str| match ctx.param(name) {
+            ParamValue::Int(v) => *v,
+            other => unreachable!("`{name}` is declared an integer, found {other}"),
+        };
+        let (primary, per_primary) = (int("primary"), int("per_primary"));
+
+        // 1. Two-mode sampling (Algorithm 1).
+        let e: Vec<_> = IRRADIANCES.iter().map(|(n, _)| ctx.buffer(n, Format::Vec3)).collect();
+        let [texture, position, normal, stats, depth, screen] =
+            [("texture", Format::Vec4), ("position", Format::Vec4), ("normal", Format::Vec4), ("environment", Format::Vec4), ("depth", Format::Vec4), ("screen", Format::Vec4)]
+                .map(|(n, f)| ctx.buffer(n, f));
+        let mut pass = ctx.pass("sample", "mr.sample", Stage::Sample);
+        for ((name, _), id) in IRRADIANCES.iter().zip(&e) {
+            pass = pass.write(name, *id);
+        }
+        pass.write("texture", texture)
+            .write("position", position)
+            .write("normal", normal)
+            .write("environment", stats)
+            .write("depth", depth)
+            .write("screen", screen)
+            .param("count", ParamValue::Int(primary))
+            .param("per_primary", ParamValue::Int(per_primary))
+            .param("sampling", ParamValue::Str("stratified".into()))
+            .node_params(&["occluder_threshold", "thickness", "max_steps"])
+            .random()
+            .reference(Reference::Sample)
+            .finish();
+
+        // 2. Curvature (6.20) and bandwidths (6.13, 6.17, 6.18): the Environment node's kernels on
+        // the sampler's conventions.
+        let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
+        ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
+            .read("position", position)
+            .read("normal", normal)
+            .write("curvature", curvature)
+            .write("magnitude", magnitude)
+            .finish();
+        let [direct_diffuse, direct_glossy, indirect_diffuse, indirect_glossy] =
+            ["direct_diffuse", "direct_glossy", "indirect_diffuse", "indirect_glossy"].map(|n| ctx.buffer(&format!("bandwidth_{n}"), Format::Vec2));
+        let (bandwidth, width) = (ctx.buffer("bandwidth", Format::F32), ctx.buffer("filter_width", Format::F32));
+        ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
+            .read("curvature", curvature)
+            .read("environment", stats)
+            .read("normal", normal)
+            .read("depth", depth)
+            .write("direct_diffuse", direct_diffuse)
+            .write("direct_glossy", direct_glossy)
+            .write("indirect_diffuse", indirect_diffuse)
+            .write("indirect_glossy", indirect_glossy)
+            .write("bandwidth", bandwidth)
+            .write("filter_width", width)
+            .node_params(&["b_e", "mu", "max_radius"])
+            .float("sigma_ref", 1.0)
+            .int("max_rays", 1)
+            .int("base", primary * per_primary)
+            .finish();
+        let mut larger = |name: &str, a, b| {
+            let out = ctx.buffer(name, Format::Vec2);
+            ctx.pass(name, "bandwidth.max", Stage::Bandwidth).read("a", a).read("b", b).write("out", out).finish();
+            out
+        };
+        let direct_virtual = larger("bandwidth_direct_virtual", direct_diffuse, direct_glossy);
+        let indirect_virtual = larger("bandwidth_indirect_virtual", indirect_diffuse, indirect_glossy);
+
+        // 3. The separable filter of each irradiance (6.21–6.23).
+        let filter = PartFilter {
+            position,
+            normal,
+            max_radius: ctx.param("max_radius").clone(),
+            max_motion: ParamValue::Int(0),
+            normal_cos: ParamValue::Float(NORMAL_DEG.to_radians().cos()),
+            temporal: false,
+        };
+        let filtered: Vec<_> = IRRADIANCES
+            .iter()
+            .zip(&e)
+            .map(|((name, which), id)| {
+                let bw = match which {
+                    Bandwidth::DirectReal => direct_diffuse,
+                    Bandwidth::IndirectReal => indirect_diffuse,
+                    Bandwidth::DirectVirtual => direct_virtual,
+                    Bandwidth::IndirectVirtual => indirect_virtual,
+                };
+                filter.apply(ctx, name, *id, bw)
+            })
+            .collect();
+
+        // 4. Differential compositing (6.2), of the filtered and of the raw irradiances.
+        let composite = |ctx: &mut ExpandCtx<'_>, name: &str, e: &[BufferId], extra: &[(&str, BufferId)]| {
+            let out = ctx.buffer(name, Format::Vec3);
+            let mut pass = ctx.pass(name, "mr.composite", Stage::Compose);
+            for ((n, _), id) in IRRADIANCES.iter().zip(e) {
+                pass = pass.read(n, *id);
+            }
+            pass = pass.read("texture", texture).write("out", out);
+            for (binding, id) in extra {
+                pass = pass.write(binding, *id);
+            }
+            pass.finish();
+            out
+        };
+        let (reconstruction, mask) = (ctx.buffer("reconstruction", Format::Vec3), ctx.buffer("mask", Format::F32));
+        let radiance = composite(ctx, "composite", &filtered, &[("reconstruction", reconstruction), ("mask", mask)]);
+        let unfiltered = composite(ctx, "composite_unfiltered", &e, &[]);
+        ctx.output("radiance", radiance);
+        ctx.output("unfiltered", unfiltered);
+        ctx.output("reconstruction", reconstruction);
+        ctx.output("filter_width", width);
+        ctx.output("bandwidth", bandwidth);
+        ctx.output("mask", mask);
+        ctx.output("screen", screen);
+        Ok(())
+    }
+}
