@@ -5,8 +5,14 @@
 //! pixel: `wedge reference` of an Environment pipeline) and the position, normal and albedo maps
 //! (`crate::aov`, the same maps `wedge render --aov` writes). So a shipped example needs no files, and
 //! a round-trip test can compare the composite with a full render of real + virtual scenes.
+//!
+//! Captures are kept for the life of the process, keyed by everything that makes them (scene, camera,
+//! map, size, samples, seed): a bench or a test suite that opens the same pipeline many times renders
+//! its real layer once.
 
+use std::collections::HashMap;
 use std::path::Path;
+use std::sync::{Mutex, OnceLock};
 
 use wedge_backends::cpu::CpuBackend;
 use wedge_backends::{BufferData, Silent};
@@ -29,8 +35,27 @@ pub struct Capture<'a> {
     pub seed: u32,
 }
 
-/// Render the real layer of [`Capture`] (module doc).
+/// The key of a capture in the process-wide cache: every input, printed.
+fn key(c: &Capture<'_>) -> String {
+    let env = c.environment.as_ref().map(|e| format!("{}|{}|{}", e.name(), e.scale().to_bits(), e.rotation_deg().to_bits()));
+    format!("{}|{}|{:?}|{env:?}|{}x{}|{}|{}", c.spec, c.base_dir.display(), c.camera, c.width, c.height, c.spp, c.seed)
+}
+
+/// Render the real layer of [`Capture`] (module doc), or return the process's earlier render of it.
 pub fn capture_real_layer(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
+    static CACHE: OnceLock<Mutex<HashMap<String, RealLayer>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    let k = key(c);
+    if let Some(layer) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&k) {
+        return Ok(layer.clone());
+    }
+    let layer = render(c)?;
+    cache.lock().unwrap_or_else(|p| p.into_inner()).insert(k, layer.clone());
+    Ok(layer)
+}
+
+fn render(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
+    eprintln!("capturing the real layer from `{}` at {} samples per pixel ({}x{})", c.spec, c.spp, c.width, c.height);
     let scene = if c.spec.starts_with("builtin:") { c.spec.to_string() } else { c.base_dir.join(c.spec).display().to_string() };
     // `{:?}` quotes and escapes the string as RON reads it.
     let text = format!(

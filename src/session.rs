@@ -461,7 +461,6 @@ fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedg
         if !given.is_empty() {
             return Err(at(format!("give either `capture` or the maps, not both (also given: {})", given.join(", "))));
         }
-        eprintln!("capturing the real layer from `{capture}` at {capture_spp} samples per pixel ({width}x{height})");
         crate::capture::capture_real_layer(&crate::capture::Capture {
             spec: &capture,
             base_dir: &pipeline.base_dir(),
