@@ -462,6 +462,32 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
     })
 }
 
+/// Writes `frames` (same size, linear RGB) as a looping animated GIF at `fps` frames per second: each
+/// frame as [`to_srgb8`] encodes it for a PNG, quantised to GIF's 256-colour palette by the `image`
+/// crate's encoder. Used for the preview of a frame sequence.
+pub fn write_gif(path: &Path, frames: &[&Image], fps: u32) -> Result<(), ImageError> {
+    use ::image::codecs::gif::{GifEncoder, Repeat};
+    use ::image::{Delay, Frame, RgbaImage};
+
+    for img in frames {
+        check_buffer(path, img.width, img.height, img.pixels.len(), img.pixel_count())?;
+    }
+    let encode_err = |e: ::image::ImageError| ImageError::Encode { path: path.to_path_buf(), reason: e.to_string() };
+    write_atomically(path, |out| {
+        let mut enc = GifEncoder::new_with_speed(out, 10);
+        enc.set_repeat(Repeat::Infinite).map_err(encode_err)?;
+        for img in frames {
+            let rgb = to_srgb8(img, 1.0);
+            let rgba: Vec<u8> = rgb.chunks(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+            let buffer = RgbaImage::from_raw(img.width, img.height, rgba)
+                .ok_or_else(|| ImageError::Encode { path: path.to_path_buf(), reason: "frame buffer size".into() })?;
+            let frame = Frame::from_parts(buffer, 0, 0, Delay::from_numer_denom_ms(1000, fps.max(1)));
+            enc.encode_frame(frame).map_err(encode_err)?;
+        }
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -747,30 +773,4 @@ mod tests {
         ));
         assert!(dir_entries(dir.path()).is_empty());
     }
-}
-
-/// Writes `frames` (same size, linear RGB) as a looping animated GIF at `fps` frames per second: each
-/// frame as [`to_srgb8`] encodes it for a PNG, quantised to GIF's 256-colour palette by the `image`
-/// crate's encoder. Used for the preview of a frame sequence.
-pub fn write_gif(path: &Path, frames: &[&Image], fps: u32) -> Result<(), ImageError> {
-    use ::image::codecs::gif::{GifEncoder, Repeat};
-    use ::image::{Delay, Frame, RgbaImage};
-
-    for img in frames {
-        check_buffer(path, img.width, img.height, img.pixels.len(), img.pixel_count())?;
-    }
-    let encode_err = |e: ::image::ImageError| ImageError::Encode { path: path.to_path_buf(), reason: e.to_string() };
-    write_atomically(path, |out| {
-        let mut enc = GifEncoder::new_with_speed(out, 10);
-        enc.set_repeat(Repeat::Infinite).map_err(encode_err)?;
-        for img in frames {
-            let rgb = to_srgb8(img, 1.0);
-            let rgba: Vec<u8> = rgb.chunks(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
-            let buffer = RgbaImage::from_raw(img.width, img.height, rgba)
-                .ok_or_else(|| ImageError::Encode { path: path.to_path_buf(), reason: "frame buffer size".into() })?;
-            let frame = Frame::from_parts(buffer, 0, 0, Delay::from_numer_denom_ms(1000, fps.max(1)));
-            enc.encode_frame(frame).map_err(encode_err)?;
-        }
-        Ok(())
-    })
 }

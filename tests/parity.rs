@@ -847,7 +847,7 @@ fn motion_probe_matches(test: &str, scene: &wedge::scene::Scene) {
     .into_iter()
     .collect();
     let lone = wedge::backends::lone::LonePass::new(Arc::new(MotionProbe), BTreeMap::new(), &inputs).unwrap();
-    let (cpu, _) = lone.run_cpu(&scene, w, h, 1).unwrap();
+    let (cpu, _) = lone.run_cpu(scene, w, h, 1).unwrap();
     let BufferData::U32(ct) = &cpu["triangle"] else { panic!() };
     assert!(ct.iter().filter(|&&t| t != u32::MAX).count() > (w * h / 2) as usize);
     let mut backends = Vec::new();
@@ -860,7 +860,7 @@ fn motion_probe_matches(test: &str, scene: &wedge::scene::Scene) {
         Err(e) => eprintln!("{test}: GL SKIPPED — {e}"),
     }
     for mut gpu in backends {
-        let gpu_out = gpu.run_kernel(Arc::new(MotionProbe), &scene, w, h, 1, BTreeMap::new(), &inputs).unwrap();
+        let gpu_out = gpu.run_kernel(Arc::new(MotionProbe), scene, w, h, 1, BTreeMap::new(), &inputs).unwrap();
         let BufferData::U32(gt) = &gpu_out["triangle"] else { panic!() };
         let n = (w * h) as usize;
         let (mut same_hit, mut bits, mut worst) = (0usize, 0usize, 0.0f32);

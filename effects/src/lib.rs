@@ -33,6 +33,10 @@
 //! A user crate adds its own node the same way: implement [`wedge_graph::NodeKind`] (and any
 //! [`wedge_backends::Kernel`] it needs) and register both next to [`register`]'s.
 
+// `!(x > 0.0)` is how the kernels reject NaN along with the values they exclude (a NaN compares
+// false); clippy's `partial_cmp` rewrite would hide that.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::sync::Arc;
 
 use wedge_backends::KernelRegistry;

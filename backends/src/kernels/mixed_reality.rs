@@ -94,7 +94,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
     let env = scene.environment.as_ref().ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
     let threshold = ctx.f32_param("occluder_threshold")?;
     let thickness = ctx.f32_param("thickness")?;
-    if !(threshold.is_finite() && threshold >= 0.0) || !(thickness.is_finite() && thickness > 0.0) {
+    if !(threshold.is_finite() && threshold >= 0.0 && thickness.is_finite() && thickness > 0.0) {
         return Err(err(format!("occluder_threshold {threshold} must be >= 0 and thickness {thickness} > 0")));
     }
     let max_steps = ctx.int_param("max_steps")?;
@@ -204,6 +204,7 @@ impl World<'_> {
 
 /// Radiance leaving a virtual hit `y` toward `-d`: one environment look-up `u` with shadow rays in
 /// both worlds (Algorithm 1, line 29).
+#[allow(clippy::too_many_arguments)]
 fn virtual_hit_radiance(world: &World<'_>, s: &MrSettings, sums: &mut Sums, y: Vec3, n: Vec3, wo: Vec3, (kd, ks, m): (Vec3, Vec3, f32), u: f32) -> Vec3 {
     let env = world.scene.scene().environment.as_ref().expect("checked in settings");
     let e = env.table(uniform_entry(u) as usize);
@@ -359,6 +360,7 @@ fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u3
 }
 
 /// `mr.sample` at pixel `(px, py)`.
+#[allow(clippy::too_many_arguments)]
 pub fn sample_pixel(scene: &Scene, camera: &Camera, s: &MrSettings, seed: u32, px: u32, py: u32, width: u32, height: u32) -> MrPixel {
     let layer = scene.real.as_ref().expect("checked in settings");
     let world = World { scene: scene.at(0.0), screen: ScreenTracer::new(layer, camera, s.thickness, s.max_steps) };
