@@ -27,7 +27,7 @@ use std::collections::BTreeMap;
 
 use wedge_graph::{BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SceneRequest, Stage};
 
-use crate::environment::node::{PartFilter, NORMAL_DEG};
+use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
 pub struct MixedReality;
 
@@ -49,13 +49,6 @@ enum Bandwidth {
     IndirectReal,
     DirectVirtual,
     IndirectVirtual,
-}
-
-fn str_param(params: &BTreeMap<String, ParamValue>, name: &str) -> String {
-    match params.get(name) {
-        Some(ParamValue::Str(s)) => s.clone(),
-        _ => String::new(),
-    }
 }
 
 impl NodeKind for MixedReality {
@@ -80,7 +73,9 @@ impl NodeKind for MixedReality {
         ]
     }
     fn params(&self) -> Vec<ParamDecl> {
-        vec![
+        // The environment that lit the real scene: `map`, `scale`, `rotation_deg` as `Environment`.
+        let mut params = map_params().to_vec();
+        params.extend([
             ParamDecl::path("camera_image", "", "the photograph L_cam: EXR (linear) or PNG/JPEG (sRGB), relative to the pipeline file"),
             ParamDecl::path("position_map", "", "world position per pixel: EXR, RGB = xyz, A = 1 where a real surface covers the pixel"),
             ParamDecl::path("normal_map", "", "world normal per pixel: EXR, RGB = unit xyz"),
@@ -88,9 +83,6 @@ impl NodeKind for MixedReality {
             ParamDecl::float("albedo", 0.5, 0.0, 1.0, "grey diffuse albedo of the real surfaces where no albedo_map is given"),
             ParamDecl::path("capture", "", "instead of the maps: a scene (builtin:NAME or a file) wedge renders from the pipeline's camera as the real input"),
             ParamDecl::int("capture_spp", 256, 1, 1 << 16, "with `capture`: samples per pixel of its camera image"),
-            ParamDecl::path("map", "", "the environment map that lights the real scene (.exr, .hdr, builtin:sky…); empty = the scene's own"),
-            ParamDecl::positive("scale", 1.0, 1e9, "multiplies the map's radiance"),
-            ParamDecl::float("rotation_deg", 0.0, -3600.0, 3600.0, "turns the map about +Y (degrees)"),
             ParamDecl::int("primary", 4, 1, 256, "primary samples per pixel (Algorithm 1: 4)"),
             ParamDecl::int("per_primary", 4, 1, 4096, "direct and indirect samples per primary sample (Algorithm 1: 4)"),
             ParamDecl::float("b_e", -1.0, -1.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth"),
@@ -99,18 +91,18 @@ impl NodeKind for MixedReality {
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
             ParamDecl::positive("thickness", 0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),
             ParamDecl::int("max_steps", 0, 0, 1 << 16, "screen-space rays: the most pixels one ray marches; 0 = the image diagonal"),
-        ]
+        ]);
+        params
     }
     fn scene_requests(&self, params: &BTreeMap<String, ParamValue>) -> Vec<SceneRequest> {
-        let f = |n: &str| params.get(n).and_then(ParamValue::as_f64).unwrap_or(0.0);
         vec![
-            SceneRequest::Environment { map: str_param(params, "map"), scale: f("scale"), rotation_deg: f("rotation_deg"), param: "map" },
+            environment_request(params),
             SceneRequest::RealLayer {
                 camera_image: str_param(params, "camera_image"),
                 position_map: str_param(params, "position_map"),
                 normal_map: str_param(params, "normal_map"),
                 albedo_map: str_param(params, "albedo_map"),
-                albedo: f("albedo"),
+                albedo: params.get("albedo").and_then(ParamValue::as_f64).unwrap_or(0.5),
                 capture: str_param(params, "capture"),
                 capture_spp: match params.get("capture_spp") {
                     Some(ParamValue::Int(n)) => *n,

@@ -49,6 +49,30 @@ const INDIRECT_PARTS: [(Part, &str); 2] = [
 /// The normal test of the filters: neighbours whose normals differ by more are not averaged.
 pub(crate) const NORMAL_DEG: f64 = 10.0;
 
+/// The map a node lit by an environment declares (`map`, `scale`, `rotation_deg`), shared by every
+/// such node so that the same names mean the same thing; [`environment_request`] asks the scene for it.
+pub(crate) fn map_params() -> [ParamDecl; 3] {
+    [
+        ParamDecl::path("map", "", "lat-long environment map: .exr or .hdr, relative to the pipeline file, or builtin:sky / builtin:studio; empty = the scene's own"),
+        ParamDecl::positive("scale", 1.0, 1e9, "multiplies the map's radiance"),
+        ParamDecl::float("rotation_deg", 0.0, -3600.0, 3600.0, "turns the map about +Y (right-hand rule, degrees)"),
+    ]
+}
+
+/// A string parameter's value (`""` where absent).
+pub(crate) fn str_param(params: &BTreeMap<String, ParamValue>, name: &str) -> String {
+    match params.get(name) {
+        Some(ParamValue::Str(s)) => s.clone(),
+        _ => String::new(),
+    }
+}
+
+/// The environment [`map_params`] describe, as a scene request.
+pub(crate) fn environment_request(params: &BTreeMap<String, ParamValue>) -> SceneRequest {
+    let f = |n: &str| params.get(n).and_then(ParamValue::as_f64).unwrap_or(0.0);
+    SceneRequest::Environment { map: str_param(params, "map"), scale: f("scale"), rotation_deg: f("rotation_deg"), param: "map" }
+}
+
 fn count(ctx: &ExpandCtx<'_>, name: &str) -> i64 {
     match ctx.param(name) {
         ParamValue::Int(v) => *v,
@@ -77,10 +101,8 @@ impl NodeKind for Environment {
         ]
     }
     fn params(&self) -> Vec<ParamDecl> {
-        vec![
-            ParamDecl::path("map", "", "lat-long environment map: .exr or .hdr, relative to the pipeline file, or builtin:sky / builtin:studio; empty = the scene's own"),
-            ParamDecl::positive("scale", 1.0, 1e9, "multiplies the map's radiance"),
-            ParamDecl::float("rotation_deg", 0.0, -3600.0, 3600.0, "turns the map about +Y (right-hand rule, degrees)"),
+        let mut params = map_params().to_vec();
+        params.extend([
             ParamDecl::float("b_e", -1.0, -1.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth (Sec. 6.7)"),
             ParamDecl::positive("mu", 1.0, 1e6, "μ (an extension; the thesis has none): scales every bandwidth; larger = narrower filters"),
             ParamDecl::int("primary", 4, 1, 256, "primary rays per pixel, jittered where more than one (Algorithm 1: 4)"),
@@ -95,15 +117,11 @@ impl NodeKind for Environment {
             ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
             ParamDecl::int("max_rays", 256, 1, 1 << 20, "with `adaptive`: the most look-ups per pixel"),
             ParamDecl::boolean("emission", true, "add the primary hits' emission and the environment where camera rays miss (false where another node adds it)"),
-        ]
+        ]);
+        params
     }
     fn scene_requests(&self, params: &BTreeMap<String, ParamValue>) -> Vec<SceneRequest> {
-        let f = |n: &str| params.get(n).and_then(ParamValue::as_f64).unwrap_or(0.0);
-        let map = match params.get("map") {
-            Some(ParamValue::Str(s)) => s.clone(),
-            _ => String::new(),
-        };
-        vec![SceneRequest::Environment { map, scale: f("scale"), rotation_deg: f("rotation_deg"), param: "map" }]
+        vec![environment_request(params)]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         if let Some(f) = ctx.factoring() {
