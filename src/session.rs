@@ -447,6 +447,9 @@ fn apply_environment(
     Ok(())
 }
 
+/// The seed of every `capture`.
+const CAPTURE_SEED: u32 = 0x5eed_ca97;
+
 /// The mixed-reality real layer a node asks for: its maps read relative to the pipeline file, or a
 /// scene captured by wedge ([`crate::capture`]); it must have the image's size.
 fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedge_graph::ValidatedNode, request: SceneRequest) -> Result<(), WedgeError> {
@@ -469,7 +472,9 @@ fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedg
             width,
             height,
             spp: capture_spp.clamp(1, u32::MAX as i64) as u32,
-            seed: pipeline.pipeline.seed ^ 0x5eed_ca97,
+            // A photograph is an input, the same whatever seed renders the virtual objects into it
+            // (a bench averaging seeds must not average photographs).
+            seed: CAPTURE_SEED,
         })
         .map_err(|e| at(format!("parameter `capture`: {e}")))?
     } else {
