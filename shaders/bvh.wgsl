@@ -2,7 +2,8 @@
 // triangle packs the CPU builds (uploaded unchanged): four child boxes per node as vec4 lanes (slab
 // test with the near/far plane chosen by the direction's sign, exit widened by 3 ulps, NaN lanes no
 // constraint), hit children nearest first from a 64-entry stack, leaves tested four triangles at a
-// time with the same Möller–Trumbore operation order as the CPU (bit-identical t and barycentrics).
+// time with the same watertight test, in the same operation order, as the CPU (bit-identical t and
+// barycentrics).
 // The closest hit is the smallest t, ties to the lower triangle index (`closer`): an order-free rule,
 // so the two backends agree without visiting nodes in the same order.
 //
@@ -49,31 +50,91 @@ struct PackHits {
     ok: vec4<bool>,
 }
 
-// TrianglePack::intersect: Möller–Trumbore on four lanes, tmin < t <= tmax (inclusive for the tie rule).
-fn pack_intersect(p: TrianglePack, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> PackHits {
-    let dx = vec4<f32>(d.x);
-    let dy = vec4<f32>(d.y);
-    let dz = vec4<f32>(d.z);
-    let px = dy * p.e2[2] - dz * p.e2[1];
-    let py = dz * p.e2[0] - dx * p.e2[2];
-    let pz = dx * p.e2[1] - dy * p.e2[0];
-    let det = (p.e1[0] * px + p.e1[1] * py) + p.e1[2] * pz;
-    let inv_det = vec4<f32>(1.0) / det;
-    let sx = vec4<f32>(o.x) - p.v0[0];
-    let sy = vec4<f32>(o.y) - p.v0[1];
-    let sz = vec4<f32>(o.z) - p.v0[2];
-    let b1 = ((sx * px + sy * py) + sz * pz) * inv_det;
-    let qx = sy * p.e1[2] - sz * p.e1[1];
-    let qy = sz * p.e1[0] - sx * p.e1[2];
-    let qz = sx * p.e1[1] - sy * p.e1[0];
-    let b2 = ((dx * qx + dy * qy) + dz * qz) * inv_det;
-    let t = ((p.e2[0] * qx + p.e2[1] * qy) + p.e2[2] * qz) * inv_det;
-    // The scalar test's conditions lane by lane: a NaN b1 fails, a NaN b2 reaches the t test.
+// bvh::triangle::Shear: the axes permuted so that k.z is the direction's largest component (the first
+// of equal ones; x and y swapped where it is negative), the origin's components in that order, and
+// the shear (d_kx · s_z, d_ky · s_z, s_z) with s_z = 1 / d_kz.
+struct PackRay {
+    k: vec3<u32>,
+    o: vec3<f32>,
+    s: vec3<f32>,
+}
+
+fn pack_ray(o: vec3<f32>, d: vec3<f32>) -> PackRay {
+    let a = abs(d);
+    var kz = select(0u, 1u, a.y > a.x);
+    if (a.z > max(a.x, a.y)) {
+        kz = 2u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kz + 2u) % 3u;
+    if (d[kz] < 0.0) {
+        let swap = kx;
+        kx = ky;
+        ky = swap;
+    }
+    let sz = 1.0 / d[kz];
+    return PackRay(vec3<u32>(kx, ky, kz), vec3<f32>(o[kx], o[ky], o[kz]), vec3<f32>(d[kx] * sz, d[ky] * sz, sz));
+}
+
+// TrianglePack::intersect: the watertight test (Woop, Benthin, Wald 2013; bvh/triangle.rs) on the
+// four lanes of pack `pi`, tmin < t <= tmax (inclusive for the tie rule), the same operations in the
+// same order as the CPU (bit-identical t and barycentrics where nothing fuses multiply-adds).
+fn pack_intersect(pi: u32, r: PackRay, tmin: f32, tmax: f32) -> PackHits {
+    let ax = triangle_pack_row(pi, 0u, r.k.x) - vec4<f32>(r.o.x);
+    let ay = triangle_pack_row(pi, 0u, r.k.y) - vec4<f32>(r.o.y);
+    let az = triangle_pack_row(pi, 0u, r.k.z) - vec4<f32>(r.o.z);
+    let bx = triangle_pack_row(pi, 1u, r.k.x) - vec4<f32>(r.o.x);
+    let by = triangle_pack_row(pi, 1u, r.k.y) - vec4<f32>(r.o.y);
+    let bz = triangle_pack_row(pi, 1u, r.k.z) - vec4<f32>(r.o.z);
+    let cx = triangle_pack_row(pi, 2u, r.k.x) - vec4<f32>(r.o.x);
+    let cy = triangle_pack_row(pi, 2u, r.k.y) - vec4<f32>(r.o.y);
+    let cz = triangle_pack_row(pi, 2u, r.k.z) - vec4<f32>(r.o.z);
+    let sx = vec4<f32>(r.s.x);
+    let sy = vec4<f32>(r.s.y);
+    let sz = vec4<f32>(r.s.z);
+    let ax2 = ax - sx * az;
+    let ay2 = ay - sy * az;
+    let bx2 = bx - sx * bz;
+    let by2 = by - sy * bz;
+    let cx2 = cx - sx * cz;
+    let cy2 = cy - sy * cz;
+    let u = cx2 * by2 - cy2 * bx2;
+    let v = ax2 * cy2 - ay2 * cx2;
+    let w = bx2 * ay2 - by2 * ax2;
     let zero = vec4<f32>(0.0);
-    let one = vec4<f32>(1.0);
-    let ok = (det != zero) & is_finite4(det) & (b1 >= zero) & (b1 <= one)
-        & !((b2 < zero) | (b1 + b2 > one)) & (t > vec4<f32>(tmin)) & (t <= vec4<f32>(tmax));
-    return PackHits(t, b1, b2, ok);
+    let neg = (u < zero) | (v < zero) | (w < zero);
+    let pos = (u > zero) | (v > zero) | (w > zero);
+    let det = (u + v) + w;
+    let azs = sz * az;
+    let bzs = sz * bz;
+    let czs = sz * cz;
+    let inv_det = vec4<f32>(1.0) / det;
+    let t = ((u * azs + v * bzs) + w * czs) * inv_det;
+    let bound = t_error_bound(max3_abs(ax2, bx2, cx2), max3_abs(ay2, by2, cy2), max3_abs(azs, bzs, czs),
+        max3_abs(u, v, w), abs(inv_det));
+    let ok = !(neg & pos) & (det != zero) & (t > bound) & (t > vec4<f32>(tmin)) & (t <= vec4<f32>(tmax));
+    return PackHits(t, v * inv_det, w * inv_det, ok);
+}
+
+fn max3_abs(p: vec4<f32>, q: vec4<f32>, r: vec4<f32>) -> vec4<f32> {
+    return max(max(abs(p), abs(q)), abs(r));
+}
+
+// bvh::triangle::GAMMA: γ(2), γ(3), γ(5) for f32.
+const GAMMA_2: u32 = 0x34000001u;
+const GAMMA_3: u32 = 0x34400002u;
+const GAMMA_5: u32 = 0x34a00003u;
+
+// bvh::triangle::t_error_bound: the rounding error bound a hit's t must exceed (PBRT-v3 §3.9.6).
+fn t_error_bound(max_x: vec4<f32>, max_y: vec4<f32>, max_z: vec4<f32>, max_e: vec4<f32>, abs_inv_det: vec4<f32>) -> vec4<f32> {
+    let g2 = vec4<f32>(bitcast<f32>(GAMMA_2));
+    let g3 = vec4<f32>(bitcast<f32>(GAMMA_3));
+    let g5 = vec4<f32>(bitcast<f32>(GAMMA_5));
+    let delta_z = g3 * max_z;
+    let delta_x = g5 * (max_x + max_z);
+    let delta_y = g5 * (max_y + max_z);
+    let delta_e = vec4<f32>(2.0) * ((g2 * max_x * max_y + delta_y * max_x) + delta_x * max_y);
+    return vec4<f32>(3.0) * ((g3 * max_e * max_z + delta_e * max_z) + delta_z * max_e) * abs_inv_det;
 }
 
 // Entry distances of a node's four children, +inf where the child is missed (WideRay::slab).
@@ -104,6 +165,7 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
         return best;
     }
     let inv_d = vec3<f32>(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
+    let pr = pack_ray(o, d);
     let big = inf();
     let widen = bitcast<f32>(0x3f800003u);
     var t_best = t_best_in;
@@ -152,8 +214,8 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
             let first = current & LEAF_FIRST_MASK;
             let count = ((current >> 28u) & 7u) + 1u;
             for (var pi = first; pi < first + count; pi = pi + 1u) {
-                let p = triangle_pack(pi);
-                let h = pack_intersect(p, o, d, tmin, t_best);
+                let index = triangle_pack_index(pi);
+                let h = pack_intersect(pi, pr, tmin, t_best);
                 for (var lane = 0u; lane < 4u; lane = lane + 1u) {
                     if (!h.ok[lane]) {
                         continue;
@@ -161,12 +223,12 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
                     if (any_hit) {
                         // Any hit strictly inside the ray's interval answers the query.
                         if (h.t[lane] < t_best) {
-                            return Hit(true, h.t[lane], p.index[lane], h.b1[lane], h.b2[lane]);
+                            return Hit(true, h.t[lane], index[lane], h.b1[lane], h.b2[lane]);
                         }
-                    } else if (closer(h.t[lane], p.index[lane], t_best, best_triangle)) {
+                    } else if (closer(h.t[lane], index[lane], t_best, best_triangle)) {
                         t_best = h.t[lane];
-                        best_triangle = p.index[lane];
-                        best = Hit(true, h.t[lane], p.index[lane], h.b1[lane], h.b2[lane]);
+                        best_triangle = index[lane];
+                        best = Hit(true, h.t[lane], index[lane], h.b1[lane], h.b2[lane]);
                     }
                 }
             }

@@ -6,7 +6,7 @@
 // All arrays live in ONE storage buffer of 16-byte elements (`scene_data`), one after another;
 // `scene_layout` says at which element each starts. So the scene costs one storage binding
 // (WebGPU's default allows 8 per stage). Read them only through the accessors below
-// (`wide_node(i)`, `triangle_pack(i)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
+// (`wide_node(i)`, `triangle_pack_row(i, v, a)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
 // `area_light(i)`, `scene_instance(i)`, `object_instance(i)`): each rebuilds the struct from its
 // 16-byte elements with bitcasts (bit-exact).
 //
@@ -37,20 +37,16 @@ struct WideNode {
     child: vec4<u32>,
 }
 
-// wedge_scene::bvh::TrianglePack: four triangles' v0, e1, e2 as x/y/z rows, lane = triangle.
-struct TrianglePack {
-    v0: array<vec4<f32>, 3>,
-    e1: array<vec4<f32>, 3>,
-    e2: array<vec4<f32>, 3>,
-    index: vec4<u32>,
-}
+// wedge_scene::bvh::TrianglePack (10 elements): four triangles' v0, v1, v2 as x/y/z rows (elements
+// 0–2, 3–5, 6–8; lane = triangle), then their indices (element 9). Read row by row
+// (`triangle_pack_row`, `triangle_pack_index`): the watertight test picks rows by the ray's axes.
 
 struct Triangle {
     v0: vec3<f32>,
     material: u32,
-    e1: vec3<f32>,
+    v1: vec3<f32>,
     light: u32,
-    e2: vec3<f32>,
+    v2: vec3<f32>,
     source: u32,
 }
 
@@ -149,16 +145,13 @@ fn wide_node(i: u32) -> WideNode {
     return n;
 }
 
-fn triangle_pack(i: u32) -> TrianglePack {
-    let b = scene_layout.triangle_packs + 10u * i;
-    var p: TrianglePack;
-    for (var k = 0u; k < 3u; k = k + 1u) {
-        p.v0[k] = bitcast<vec4<f32>>(scene_data[b + k]);
-        p.e1[k] = bitcast<vec4<f32>>(scene_data[b + 3u + k]);
-        p.e2[k] = bitcast<vec4<f32>>(scene_data[b + 6u + k]);
-    }
-    p.index = scene_data[b + 9u];
-    return p;
+// Axis `axis` of vertex `vertex` of the four triangles of pack `i`.
+fn triangle_pack_row(i: u32, vertex: u32, axis: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(scene_data[scene_layout.triangle_packs + 10u * i + 3u * vertex + axis]);
+}
+
+fn triangle_pack_index(i: u32) -> vec4<u32> {
+    return scene_data[scene_layout.triangle_packs + 10u * i + 9u];
 }
 
 fn triangle(i: u32) -> Triangle {
@@ -317,8 +310,8 @@ fn surface_stored(tri_index: u32, hb1: f32, hb2: f32, dir: vec3<f32>) -> Surface
     let b0 = 1.0 - hb1 - hb2;
     let b1 = hb1;
     let b2 = hb2;
-    let e1 = tri.e1;
-    let e2 = tri.e2;
+    let e1 = tri.v1 - tri.v0;
+    let e2 = tri.v2 - tri.v0;
     let position = tri.v0 + b1 * e1 + b2 * e2;
     var ng = normalize_or_zero3(cross3(e1, e2));
     if (is_zero3(ng)) {

@@ -84,8 +84,7 @@ fn obj_text(scene: &Scene) -> String {
             let _ = writeln!(s, "o obj{}_m{m}", sh.object);
             let _ = writeln!(s, "usemtl {}", mtl_name(m, &scene.materials[m].name));
         }
-        let v0 = glam::Vec3::from(t.v0);
-        for p in [v0, v0 + glam::Vec3::from(t.e1), v0 + glam::Vec3::from(t.e2)] {
+        for p in t.vertices() {
             let _ = writeln!(s, "v {} {} {}", num(p.x), num(p.y), num(p.z));
         }
         for uv in sh.uv {

@@ -27,7 +27,7 @@ fn check_pipeline(name: &str) -> PathBuf {
 fn area_by_material(s: &Scene, names: &dyn Fn(usize) -> String) -> BTreeMap<String, f64> {
     let mut m = BTreeMap::new();
     for t in &s.triangles {
-        let a = 0.5 * glam::Vec3::from(t.e1).cross(glam::Vec3::from(t.e2)).length() as f64;
+        let a = 0.5 * t.e1().cross(t.e2()).length() as f64;
         *m.entry(names(t.material as usize)).or_insert(0.0) += a;
     }
     m
@@ -139,7 +139,7 @@ fn thin_lens_check_sampler_image() {
     .collect();
     if std::env::var("LENS_FLAT").is_ok_and(|v| v == "1") {
         for (t, sh) in scene.triangles.iter().zip(scene.shading.iter_mut()) {
-            let n = glam::Vec3::from(t.e1).cross(glam::Vec3::from(t.e2)).normalize_or_zero();
+            let n = t.e1().cross(t.e2()).normalize_or_zero();
             sh.n = [n; 3];
         }
     }

@@ -3,8 +3,9 @@
 //! Scenes for wedge's sample-and-filter renderer: everything a pass needs to trace rays and shade hits,
 //! laid out so the CPU reference and the GPU kernels read the same arrays.
 //!
-//! - **Geometry**: world-space triangles ([`TriangleRecord`]: `v0, e1, e2` for Möller–Trumbore) in BVH
-//!   leaf order, plus per-triangle shading data ([`TriangleShading`]) in the same order.
+//! - **Geometry**: world-space triangles ([`TriangleRecord`]: `v0, v1, v2` for the watertight test of
+//!   Woop, Benthin and Wald 2013) in BVH leaf order, plus per-triangle shading data
+//!   ([`TriangleShading`]) in the same order.
 //! - **BVH**: built once per scene with obvhs (PLOC, `fast_build`), collapsed to 4-wide 128-byte
 //!   [`WideNode`]s. [`Scene::intersect`] / [`Scene::occluded`] traverse it with a SIMD slab test per node
 //!   ([`bvh`]); the WGSL kernel traverses the same nodes, and the closest hit is defined so that any

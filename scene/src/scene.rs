@@ -485,8 +485,7 @@ impl Scene {
         let tri = &self.triangles[hit.triangle as usize];
         let sh = &self.shading[hit.triangle as usize];
         let (b0, b1, b2) = (1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
-        let e1 = Vec3::from(tri.e1);
-        let e2 = Vec3::from(tri.e2);
+        let (e1, e2) = (tri.e1(), tri.e2());
         let position = Vec3::from(tri.v0) + b1 * e1 + b2 * e2;
         let mut ng = e1.cross(e2).normalize_or_zero();
         if ng == Vec3::ZERO {
@@ -879,7 +878,7 @@ fn assemble(
             continue;
         }
         let motion = motions[g - 1];
-        // The vertices as traced (`v0 + e1`, `v0 + e2`: within rounding of the given ones).
+        // The vertices as traced (the given ones, bit for bit).
         let mut rest_bounds = Aabb::empty();
         let mut points = Vec::with_capacity(3 * (triangles.len() - first));
         for r in &triangles[first..] {

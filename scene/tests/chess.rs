@@ -39,7 +39,7 @@ fn pieces(s: &Scene) -> BTreeMap<u32, (Vec3, u32)> {
             continue;
         }
         let v0 = Vec3::from(t.v0);
-        let c = (3.0 * v0 + Vec3::from(t.e1) + Vec3::from(t.e2)) / 3.0;
+        let c = (3.0 * v0 + t.e1() + t.e2()) / 3.0;
         let e = acc.entry(sh.object).or_insert((Vec3::ZERO, 0, sh.material));
         e.0 += c;
         e.1 += 1;
@@ -343,7 +343,7 @@ fn camera_rays_hit_the_outside_of_the_pieces() {
             }
             piece_hits += 1;
             let t = &s.triangles[hit.triangle as usize];
-            let g = Vec3::from(t.e1).cross(Vec3::from(t.e2));
+            let g = t.e1().cross(t.e2());
             assert!(g.dot(d) < 0.0, "pixel ({x},{y}) hit a back face");
             let sh = &s.shading[hit.triangle as usize];
             let n = (1.0 - hit.b1 - hit.b2) * sh.n[0] + hit.b1 * sh.n[1] + hit.b2 * sh.n[2];

@@ -587,7 +587,7 @@ fn envmap_builtin_scene() {
             .iter()
             .zip(&scene.shading)
             .filter(|(_, s)| s.object == obj)
-            .flat_map(|(t, _)| [t.v0[1], t.v0[1] + t.e1[1], t.v0[1] + t.e2[1]])
+            .flat_map(|(t, _)| [t.v0[1], t.v1[1], t.v2[1]])
             .fold(f32::INFINITY, f32::min);
         assert!(low.abs() < 0.01, "object {obj}: lowest y {low}");
     }

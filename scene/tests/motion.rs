@@ -260,7 +260,7 @@ fn brute(tris: &[TriangleRecord], o: Vec3, d: Vec3, tmax: f32) -> Option<(u32, f
 }
 
 /// Moving instances at random times: the traced hit is brute force's over the triangles moved to world
-/// space at that time. The two compute Möller–Trumbore in different frames (rest space with a moved
+/// space at that time. The two compute the triangle test in different frames (rest space with a moved
 /// ray vs world space with moved vertices), so they agree to rounding, not bit for bit: the same
 /// triangle with `t` within 2e-5 relative plus 1e-5 absolute (moving a ray's origin rounds it by a
 /// few ulps of the coordinates, ~1e-6 m here, which dominates for hits close to the origin), except

@@ -112,7 +112,7 @@ fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
                         let i = p.index[lane];
                         if i == wedge_scene::bvh::NO_TRIANGLE {
                             assert_eq!(
-                                [p.e1[0][lane], p.e2[0][lane], p.e1[1][lane], p.e2[2][lane]],
+                                [p.v1[0][lane], p.v2[0][lane], p.v1[1][lane], p.v2[2][lane]],
                                 [0.0; 4]
                             );
                             continue;
@@ -121,9 +121,9 @@ fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
                         let t = &tris[i as usize];
                         for axis in 0..3 {
                             assert_eq!(
-                                [p.v0[axis][lane], p.e1[axis][lane], p.e2[axis][lane]]
+                                [p.v0[axis][lane], p.v1[axis][lane], p.v2[axis][lane]]
                                     .map(f32::to_bits),
-                                [t.v0[axis], t.e1[axis], t.e2[axis]].map(f32::to_bits)
+                                [t.v0[axis], t.v1[axis], t.v2[axis]].map(f32::to_bits)
                             );
                         }
                     }
@@ -369,5 +369,200 @@ fn optimal_collapse_costs_no_more_than_greedy() {
             check_structure(&optimal.nodes, &tris);
             check_rays("optimal collapse", &tris, &optimal.nodes, &mut rng, 300);
         }
+    }
+}
+
+/// Möller–Trumbore exactly as wedge traced triangles before the watertight test (the old
+/// `triangle_hit`: edge vectors `e1 = v1 − v0`, `e2 = v2 − v0`, written out per component), hits with
+/// t > 0, for the leak comparison below.
+fn moller_trumbore(t: &TriangleRecord, o: Vec3, d: Vec3) -> Option<f32> {
+    let (e1, e2, v0) = (t.e1().to_array(), t.e2().to_array(), t.v0);
+    let p = [
+        d.y * e2[2] - d.z * e2[1],
+        d.z * e2[0] - d.x * e2[2],
+        d.x * e2[1] - d.y * e2[0],
+    ];
+    let det = (e1[0] * p[0] + e1[1] * p[1]) + e1[2] * p[2];
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let s = [o.x - v0[0], o.y - v0[1], o.z - v0[2]];
+    let b1 = ((s[0] * p[0] + s[1] * p[1]) + s[2] * p[2]) * inv_det;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let q = [
+        s[1] * e1[2] - s[2] * e1[1],
+        s[2] * e1[0] - s[0] * e1[2],
+        s[0] * e1[1] - s[1] * e1[0],
+    ];
+    let b2 = ((d.x * q[0] + d.y * q[1]) + d.z * q[2]) * inv_det;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return None;
+    }
+    Some(((e2[0] * q[0] + e2[1] * q[1]) + e2[2] * q[2]) * inv_det).filter(|&t| t > 0.0)
+}
+
+/// A closed mesh: a UV sphere of radius `r` about `c` with jittered vertices, each vertex stored once
+/// and shared by the triangles around it (so neighbours see bit-identical corners).
+fn closed_sphere(
+    rng: &mut Rng,
+    c: Vec3,
+    r: f32,
+    slices: usize,
+    stacks: usize,
+) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let mut v = vec![c + Vec3::Y * r];
+    for i in 1..stacks {
+        for j in 0..slices {
+            let (th, ph) = (
+                std::f32::consts::PI * i as f32 / stacks as f32,
+                std::f32::consts::TAU * j as f32 / slices as f32,
+            );
+            let jitter = 1.0 + 0.05 * (rng.f() - 0.5);
+            v.push(
+                c + Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * (r * jitter),
+            );
+        }
+    }
+    v.push(c - Vec3::Y * r);
+    let at = |i: usize, j: usize| 1 + (i - 1) * slices + j % slices;
+    let mut f = Vec::new();
+    for j in 0..slices {
+        f.push([0, at(1, j + 1), at(1, j)]);
+        f.push([v.len() - 1, at(stacks - 1, j), at(stacks - 1, j + 1)]);
+        for i in 1..stacks - 1 {
+            f.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
+            f.push([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
+        }
+    }
+    (v, f)
+}
+
+/// A fan: `n` triangles around the vertex `c` (vertex 0), their rim jittered in radius and height,
+/// every spoke shared by two triangles.
+fn fan(rng: &mut Rng, c: Vec3, r: f32, n: usize) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let mut v = vec![c];
+    for j in 0..n {
+        let ph = std::f32::consts::TAU * j as f32 / n as f32;
+        let (rr, h) = (r * (1.0 + 0.3 * (rng.f() - 0.5)), r * 0.2 * (rng.f() - 0.5));
+        v.push(c + Vec3::new(ph.cos() * rr, h, ph.sin() * rr));
+    }
+    let f = (0..n).map(|j| [0, 1 + j, 1 + (j + 1) % n]).collect();
+    (v, f)
+}
+
+/// Rays that cannot miss: aimed exactly at shared vertices and at points of shared edges, from inside
+/// a closed mesh or from either side of a fan (the cases where a test can let a ray slip between two
+/// triangles). Rays, then misses of the watertight test through the BVH (= brute force, asserted;
+/// any-hit too) and of Möller–Trumbore by brute force, for vertex-aimed and edge-aimed rays.
+#[derive(Default, Debug)]
+struct Leaks {
+    rays: [usize; 2],
+    watertight: [usize; 2],
+    moller_trumbore: [usize; 2],
+}
+
+fn count_leaks(
+    rng: &mut Rng,
+    v: &[Vec3],
+    f: &[[usize; 3]],
+    shared_vertices: &[usize],
+    origin: &mut dyn FnMut(&mut Rng) -> Vec3,
+) -> Leaks {
+    let input: Vec<[Vec3; 3]> = f.iter().map(|t| t.map(|i| v[i])).collect();
+    let built = bvh::build(&input);
+    let tris = records(&input, &built);
+    let b = Bvh::pack(built.nodes, &tris);
+    // Shared edges: those of two faces.
+    let mut edges = std::collections::BTreeMap::new();
+    for t in f {
+        for e in 0..3 {
+            let (p, q) = (t[e], t[(e + 1) % 3]);
+            *edges.entry((p.min(q), p.max(q))).or_insert(0) += 1;
+        }
+    }
+    let mut targets: Vec<(usize, Vec3)> = shared_vertices.iter().map(|&i| (0, v[i])).collect();
+    for (&(p, q), _) in edges.iter().filter(|(_, &n)| n == 2) {
+        for _ in 0..6 {
+            targets.push((1, v[p] + (v[q] - v[p]) * rng.f()));
+        }
+    }
+    let mut l = Leaks::default();
+    for &(kind, target) in &targets {
+        for _ in 0..4 {
+            let o = origin(rng);
+            let d = (target - o) * (0.5 + rng.f());
+            let hit = bvh::traverse(&b, o, d, 0.0, f32::INFINITY, false);
+            let any = bvh::traverse(&b, o, d, 0.0, f32::INFINITY, true);
+            let brute = tris
+                .iter()
+                .any(|t| intersect_triangle(t, o, d, 0.0, f32::INFINITY).is_some());
+            assert_eq!(hit.is_some(), brute, "traversal = brute force");
+            assert_eq!(any.is_some(), brute, "any-hit = brute force");
+            l.rays[kind] += 1;
+            l.watertight[kind] += hit.is_none() as usize;
+            l.moller_trumbore[kind] +=
+                tris.iter().all(|t| moller_trumbore(t, o, d).is_none()) as usize;
+        }
+    }
+    l
+}
+
+/// Rays aimed exactly at the shared vertices and edges of closed meshes (jittered UV spheres: 24 × 12,
+/// 528 triangles, from random points inside) and of fans (16 triangles round a vertex, from random
+/// points above and below) must hit them. The watertight test never misses, through the BVH or by
+/// brute force; Möller–Trumbore, which wedge used before, does (printed; DESIGN-NOTES "Ray tracing
+/// core" has the counts).
+#[test]
+fn rays_through_shared_edges_and_vertices_never_leak() {
+    let mut rng = Rng(21);
+    let mut total = Leaks::default();
+    let mut add = |what: String, l: Leaks| {
+        println!(
+            "{what}: {} + {} rays at vertices + edges, misses: watertight {} + {}, Möller–Trumbore {} + {}",
+            l.rays[0], l.rays[1], l.watertight[0], l.watertight[1], l.moller_trumbore[0], l.moller_trumbore[1]
+        );
+        for k in 0..2 {
+            total.rays[k] += l.rays[k];
+            total.watertight[k] += l.watertight[k];
+            total.moller_trumbore[k] += l.moller_trumbore[k];
+        }
+    };
+    for (c, r) in [
+        (Vec3::ZERO, 1.0),
+        (Vec3::new(1000.0, 37.0, -500.0), 1.0),
+        (Vec3::new(3.0, -2.0, 1.0), 0.01),
+    ] {
+        let (v, f) = closed_sphere(&mut rng, c, r, 24, 12);
+        let all: Vec<usize> = (0..v.len()).collect();
+        let mut inside = |rng: &mut Rng| c + (rng.v() - Vec3::splat(0.5)) * r;
+        let l = count_leaks(&mut rng, &v, &f, &all, &mut inside);
+        add(format!("sphere at {c} radius {r}"), l);
+    }
+    for (c, r) in [(Vec3::new(0.3, 0.7, -0.2), 1.0), (Vec3::new(-40.0, 3.0, 25.0), 2.0)] {
+        let (v, f) = fan(&mut rng, c, r, 16);
+        let mut around = |rng: &mut Rng| {
+            let side = if rng.f() < 0.5 { -1.0 } else { 1.0 };
+            c + Vec3::new(rng.f() - 0.5, side * (0.5 + rng.f()), rng.f() - 0.5) * (2.0 * r)
+        };
+        // The centre vertex 250 times over (from 1000 origins).
+        let l = count_leaks(&mut rng, &v, &f, &[0; 250], &mut around);
+        add(format!("fan at {c} radius {r}"), l);
+    }
+    println!("total: {total:?}");
+    assert_eq!(total.watertight, [0, 0], "the watertight test leaked");
+    assert!(
+        total.moller_trumbore[0] > 0 && total.moller_trumbore[1] > 0,
+        "the rays should be hard enough to make Möller–Trumbore leak"
+    );
+}
+
+#[test]
+fn gamma_constants_are_n_u_over_1_minus_n_u() {
+    let u = f32::EPSILON * 0.5;
+    for (k, n) in [2.0f32, 3.0, 5.0].into_iter().enumerate() {
+        assert_eq!(bvh::triangle::GAMMA[k], n * u / (1.0 - n * u));
     }
 }

@@ -357,13 +357,17 @@ pub fn pack<const N: usize>(arrays: &[Vec<u8>; N]) -> (Vec<u8>, [u32; N]) {
 mod tests {
     use super::*;
 
-    /// The WGSL traversal's stacks are as large as the CPU's, which the scene build keeps trees within.
+    /// The WGSL traversal's stacks are as large as the CPU's (which the scene build keeps trees within),
+    /// and its triangle test's error-bound constants have the CPU's bits.
     #[test]
-    fn wgsl_stack_sizes_are_the_cpus() {
+    fn wgsl_constants_are_the_cpus() {
         let bvh = include_str!("../../../shaders/bvh.wgsl");
         for line in [
             format!("const BVH_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::STACK_SIZE),
             format!("const TOP_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::build::TOP_STACK_SIZE),
+            format!("const GAMMA_2: u32 = {:#x}u;", wedge_scene::bvh::triangle::GAMMA[0].to_bits()),
+            format!("const GAMMA_3: u32 = {:#x}u;", wedge_scene::bvh::triangle::GAMMA[1].to_bits()),
+            format!("const GAMMA_5: u32 = {:#x}u;", wedge_scene::bvh::triangle::GAMMA[2].to_bits()),
         ] {
             assert!(bvh.contains(&line), "shaders/bvh.wgsl lacks `{line}`");
         }

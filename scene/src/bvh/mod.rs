@@ -9,7 +9,7 @@
 //!   first, any-hit for shadow rays. `shaders/bvh.wgsl` traverses the same nodes (uploaded unchanged)
 //!   with `vec4` lanes; the two need not visit nodes in the same order, since the closest hit is
 //!   defined by [`triangle::closer`] (smallest `t`, then smallest triangle index) and both box tests
-//!   are conservative (never cull a triangle Möller–Trumbore would hit).
+//!   are conservative (never cull a triangle the triangle test would hit).
 //!
 //! Why 4-wide: measured against the binary tree it replaced on the built-in scenes (DESIGN-NOTES
 //! "Ray tracing core"): fewer, larger node visits that one SIMD slab test covers.

@@ -1,12 +1,12 @@
 //! CPU traversal of the 4-wide BVH: one ray at a time, the four child boxes of a node in one SIMD slab
 //! test (glam `Vec4`: SSE on x86-64, NEON on aarch64, scalar elsewhere), hit children visited nearest
 //! first (closest hit) from a fixed stack, leaves tested four triangles at a time
-//! ([`TrianglePack::intersect`], the shared Möller–Trumbore of [`super::triangle`] in lanes).
+//! ([`TrianglePack::intersect`], the shared watertight test of [`super::triangle`] in lanes).
 //! `shaders/bvh.wgsl` is the GPU mirror.
 //!
 //! The slab test picks each axis's near and far plane by the sign of the ray direction (Williams et
 //! al. 2005), so it needs no per-axis min/max; the exit distance is widened by a few ulps (PBRT's
-//! 1 + 2γ₃) so rounding never culls a triangle Möller–Trumbore would hit (thin boxes: a flat ground
+//! 1 + 2γ₃) so rounding never culls a triangle the triangle test would hit (thin boxes: a flat ground
 //! has zero height). A NaN distance (origin on a slab plane of a ray parallel to it: 0 · ∞) must not
 //! cull either: the reductions put the running value second, and SSE `maxps`/`minps` return their
 //! second operand when either is NaN, as glam's scalar fallback does; NEON's `fmax`/`fmin` would
