@@ -235,7 +235,7 @@ fn triangle_set(s: &Scene) -> Vec<String> {
             let bits = |a: &[f32]| a.iter().map(|f| format!("{:08x}", f.to_bits())).collect::<String>();
             let n: Vec<f32> = sh.n.iter().flat_map(|n| n.to_array()).collect();
             let uv: Vec<f32> = sh.uv.iter().flat_map(|u| u.to_array()).collect();
-            format!("{}{}{} {} {} {:?}", bits(&t.v0), bits(&t.e1), bits(&t.e2), bits(&n), bits(&uv), s.materials[t.material as usize])
+            format!("{}{}{} {} {} {:?}", bits(&t.v0), bits(&t.v1), bits(&t.v2), bits(&n), bits(&uv), s.materials[t.material as usize])
         })
         .collect();
     v.sort();
