@@ -364,7 +364,7 @@ fn camera_rays() {
 fn builtins_load_and_are_sane() {
     assert_eq!(
         builtin_names(),
-        &["grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real", "envmap_virtual"]
+        &["grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real", "envmap_virtual", "envmap_far"]
     );
     for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
