@@ -79,7 +79,8 @@ enum Command {
         /// comma-separated: `position` (aov_position.exr, RGBA: world xyz, A = 1 where the ray through
         /// the pixel centre hits geometry, 0 where it misses), `normal` (aov_normal.exr: unit shading
         /// normal), `albedo` (aov_albedo.exr: diffuse k_d with textures) — the maps a mixed-reality
-        /// real layer reads. With --frames: for the last frame's camera.
+        /// real layer reads. With --frames: one per frame (aov_NAME_NNNN.exr, for `{frame:04}` in a
+        /// mixed-reality pipeline's file names) and the last frame's unnumbered.
         #[arg(long, value_name = "NAMES", value_delimiter = ',', value_parser = wedge::aov::AOV_NAMES)]
         aov: Vec<String>,
     },
@@ -242,6 +243,7 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         mu,
         params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
         allow_outside_scene_dir: c.allow_outside_scene_dir,
+        frame: None,
     })
 }
 
@@ -376,6 +378,7 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
         _ => Box::new(CpuBackend::new()),
     };
     let (mut images, mut previous, mut seconds) = (Vec::new(), None, 0.0f64);
+    let (mut extra, mut aov_line) = (Vec::new(), String::new());
     for frame in first..=last {
         let run = with_threads(common.threads, || session.run_frame(backend.as_mut(), &bars, frame, first, previous.as_ref()))??;
         seconds += run.total_seconds();
@@ -383,14 +386,25 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
             images.push((frame, wedge::outputs::buffer_to_image(b, session.width, session.height)));
         }
         previous = Some(run);
+        // The AOVs of every frame's camera, `aov_NAME_NNNN.exr` beside `frame_NNNN.exr` (the inputs of
+        // a mixed-reality sequence, `{frame:04}` in its file names); the last frame's also unnumbered,
+        // like the full outputs.
+        if !aov.is_empty() {
+            let base = session.scene.camera;
+            session.scene.camera = session.camera_at(frame);
+            let aovs = with_threads(common.threads, || aov_images(&session.scene, session, aov));
+            session.scene.camera = base;
+            let (maps, line) = aovs??;
+            for map in &maps {
+                extra.push(wedge::outputs::ExtraExr { stem: format!("{}_{frame:04}", map.stem), ..map.clone() });
+            }
+            if frame == last {
+                extra.extend(maps);
+                aov_line = line;
+            }
+        }
     }
     let run = previous.expect("a frame range holds at least one frame");
-    // The AOVs belong to the last frame, like the full outputs written beside the frames.
-    let base = session.scene.camera;
-    session.scene.camera = session.camera_at(last);
-    let aovs = with_threads(common.threads, || aov_images(&session.scene, session, aov));
-    session.scene.camera = base;
-    let (extra, aov_line) = aovs??;
     let written = wedge::outputs::write_run_with(&common.out, "render", &run, &images, &extra, session.width, session.height)?;
     let n = last - first + 1;
     let mut text = summary(&run, session.width, session.height);
@@ -502,7 +516,9 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
         Command::Render { pipeline, common, mu, frames, aov } => {
-            let mut session = Session::open(pipeline.as_deref(), &overrides(&common, mu)?)?;
+            // A sequence opens at its first frame (its camera, and a real layer read per frame).
+            let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
+            let mut session = Session::open(pipeline.as_deref(), &ov)?;
             match frames {
                 Some(frames) => render_frames(&mut session, &common, frames, &aov),
                 None => render(&session, &common, "render", &aov),

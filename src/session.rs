@@ -48,6 +48,9 @@ pub struct Overrides {
     pub params: Vec<(String, String, ParamValue)>,
     /// Let the scene file read buffers/textures/meshes outside its own directory.
     pub allow_outside_scene_dir: bool,
+    /// The frame the session opens at (the first of `render --frames`; default 0): the camera path's
+    /// position there, and the mixed-reality real layer of that frame.
+    pub frame: Option<u32>,
 }
 
 pub struct Session {
@@ -136,12 +139,14 @@ impl Session {
             scene.camera = camera_from_spec(c, &scene.camera);
         }
         apply_motion(&mut scene, &pipeline)?;
-        apply_scene_requests(&mut scene, &pipeline)?;
-        // A pipeline with a camera path renders its frame 0 as a single image.
-        if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, 0) {
+        // A pipeline with a camera path renders its frame 0 (or `ov.frame`) as a single image; before
+        // the scene requests, so a real layer is captured from that frame's camera.
+        let frame = ov.frame.unwrap_or(0);
+        if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, frame) {
             scene.camera.position = position;
             scene.camera.look_at = look_at;
         }
+        apply_scene_requests(&mut scene, &pipeline, frame)?;
         if shutter.is_some_and(|(open, close)| open == close) {
             freeze_motion(&mut scene)?;
         }
@@ -188,6 +193,8 @@ impl Session {
         let base = self.scene.camera;
         let camera = self.camera_at(frame);
         let previous_camera = (frame > first).then(|| self.camera_at(frame - 1));
+        // A mixed-reality real layer belongs to one camera: each frame's own (module `RealFrames`).
+        let real = self.frame_real_layer(frame, &camera)?.map(|layer| self.scene.real.replace(layer));
         self.scene.camera = camera;
         self.scene.previous_camera = previous_camera;
         let empty = BTreeMap::new();
@@ -195,7 +202,40 @@ impl Session {
         let run = self.run_with(backend, progress, self.seed.wrapping_add(frame), history);
         self.scene.camera = base;
         self.scene.previous_camera = None;
+        if let Some(layer) = real {
+            self.scene.real = layer;
+        }
         run
+    }
+
+    /// The real layer of frame `frame` seen by `camera`, where it is not the session's own: a
+    /// `capture` is rendered from the frame's camera (cached per camera, see [`crate::capture`]); maps
+    /// whose file names hold `{frame}` are read for the frame; one photograph (no `{frame}`) serves
+    /// only the camera it was taken from — a camera path that moves away from it is an error, not a
+    /// composite of the wrong view. `None`: the session's layer is the frame's (or there is none).
+    fn frame_real_layer(&self, frame: u32, camera: &Camera) -> Result<Option<wedge_scene::RealLayer>, WedgeError> {
+        let Some((node, request)) = real_layer_request(&self.pipeline) else {
+            return Ok(None);
+        };
+        let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, capture, .. } = &request else {
+            return Ok(None);
+        };
+        let per_frame = [camera_image, position_map, normal_map, albedo_map].iter().any(|p| p.contains("{frame"));
+        if capture.is_empty() && !per_frame {
+            if *camera != self.scene.camera {
+                return Err(WedgeError::Usage(format!(
+                    "{}: node `{}`: frame {frame}'s camera differs from the one the real maps were taken with, and the \
+                     maps are one photograph: give one set of maps per frame with `{{frame}}` in the file names (e.g. \
+                     \"camera_image\": \"cam_{{frame:04}}.exr\"), or drop the camera path",
+                    node.location, node.name
+                )));
+            }
+            return Ok(None);
+        }
+        if capture.is_empty() || *camera != self.scene.camera {
+            return load_real_layer(&self.pipeline, node, request, camera, self.scene.environment.as_ref(), frame).map(Some);
+        }
+        Ok(None)
     }
 
     fn run_with(
@@ -388,7 +428,7 @@ fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), W
 /// Apply what the pipeline's nodes ask of the scene ([`SceneRequest`]): an environment map, read
 /// relative to the pipeline file (or the scene's own, scaled and turned), and a mixed-reality real
 /// layer. One of each kind per scene: nodes that ask for different ones are refused, naming both.
-fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), WedgeError> {
+fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: u32) -> Result<(), WedgeError> {
     type Asked<'p> = Option<(&'p wedge_graph::ValidatedNode, SceneRequest)>;
     let (mut environment, mut real): (Asked<'_>, Asked<'_>) = (None, None);
     for node in &pipeline.nodes {
@@ -413,9 +453,18 @@ fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Resu
         apply_environment(scene, pipeline, node, &map, scale, rotation_deg, param)?;
     }
     if let Some((node, request)) = real {
-        apply_real_layer(scene, pipeline, node, request)?;
+        let layer = load_real_layer(pipeline, node, request, &scene.camera, scene.environment.as_ref(), frame)?;
+        scene.set_real(Some(layer));
     }
     Ok(())
+}
+
+/// The node that asks for the real layer, and its request (the first: [`apply_scene_requests`] has
+/// checked that every node asks for the same one).
+fn real_layer_request(pipeline: &ValidatedPipeline) -> Option<(&wedge_graph::ValidatedNode, SceneRequest)> {
+    pipeline.nodes.iter().find_map(|node| {
+        node.kind.scene_requests(&node.params).into_iter().find(|r| matches!(r, SceneRequest::RealLayer { .. })).map(|r| (node, r))
+    })
 }
 
 fn apply_environment(
@@ -450,11 +499,20 @@ fn apply_environment(
 /// The seed of every `capture`.
 const CAPTURE_SEED: u32 = 0x5eed_ca97;
 
-/// The mixed-reality real layer a node asks for: its maps read relative to the pipeline file, or a
-/// scene captured by wedge ([`crate::capture`]); it must have the image's size.
-fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedge_graph::ValidatedNode, request: SceneRequest) -> Result<(), WedgeError> {
+/// The mixed-reality real layer a node asks for, for frame `frame` seen by `camera`: its maps read
+/// relative to the pipeline file (`{frame}` in a file name replaced by the frame number, see
+/// [`frame_path`]), or a scene captured by wedge from `camera` under `environment`
+/// ([`crate::capture`]); it must have the image's size.
+fn load_real_layer(
+    pipeline: &ValidatedPipeline,
+    node: &wedge_graph::ValidatedNode,
+    request: SceneRequest,
+    camera: &Camera,
+    environment: Option<&wedge_scene::EnvironmentMap>,
+    frame: u32,
+) -> Result<wedge_scene::RealLayer, WedgeError> {
     let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, albedo, capture, capture_spp } = request else {
-        return Ok(());
+        unreachable!("load_real_layer is given RealLayer requests only");
     };
     let at = |e: String| WedgeError::Usage(format!("{}: node `{}`: {e}", node.location, node.name));
     let (width, height) = (pipeline.pipeline.width, pipeline.pipeline.height);
@@ -467,8 +525,8 @@ fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedg
         crate::capture::capture_real_layer(&crate::capture::Capture {
             spec: &capture,
             base_dir: &pipeline.base_dir(),
-            camera: scene.camera,
-            environment: scene.environment.clone(),
+            camera: *camera,
+            environment: environment.cloned(),
             width,
             height,
             spp: capture_spp.clamp(1, u32::MAX as i64) as u32,
@@ -487,12 +545,14 @@ fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedg
             )));
         }
         let base = pipeline.base_dir();
+        let file = |param: &str, template: &str| frame_path(template, frame).map(|p| base.join(p)).map_err(|e| at(format!("parameter `{param}`: {e}")));
         let albedo = if albedo_map.is_empty() {
             wedge_scene::RealAlbedo::Constant([albedo as f32; 3])
         } else {
-            wedge_scene::RealAlbedo::Map(base.join(&albedo_map))
+            wedge_scene::RealAlbedo::Map(file("albedo_map", &albedo_map)?)
         };
-        wedge_scene::RealLayer::open(&base.join(&camera_image), &base.join(&position_map), &base.join(&normal_map), albedo).map_err(|e| at(e.to_string()))?
+        let (image, position, normal) = (file("camera_image", &camera_image)?, file("position_map", &position_map)?, file("normal_map", &normal_map)?);
+        wedge_scene::RealLayer::open(&image, &position, &normal, albedo).map_err(|e| at(e.to_string()))?
     };
     if (layer.width(), layer.height()) != (width, height) {
         return Err(at(format!(
@@ -504,8 +564,32 @@ fn apply_real_layer(scene: &mut Scene, pipeline: &ValidatedPipeline, node: &wedg
             layer.height()
         )));
     }
-    scene.set_real(Some(layer));
-    Ok(())
+    Ok(layer)
+}
+
+/// A file name of a frame sequence: `{frame}` replaced by the frame number, `{frame:0N}` by the
+/// number zero-padded to N digits (as `wedge render --frames` names its `frame_NNNN` outputs); a
+/// name without either is returned as it is. A malformed placeholder is an error naming the fix.
+pub fn frame_path(template: &str, frame: u32) -> Result<String, String> {
+    let mut out = String::with_capacity(template.len());
+    let mut rest = template;
+    while let Some(start) = rest.find("{frame") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + "{frame".len()..];
+        let end = after.find('}').ok_or_else(|| format!("`{template}`: `{{frame` is not closed; write `{{frame}}` or `{{frame:04}}`"))?;
+        let spec = &after[..end];
+        let digits = match spec.strip_prefix(":0") {
+            None if spec.is_empty() => 0,
+            Some(n) => n.parse::<usize>().ok().filter(|n| (1..=9).contains(n)).ok_or_else(|| {
+                format!("`{template}`: `{{frame{spec}}}` is not a frame placeholder; write `{{frame}}` or `{{frame:0N}}` with N from 1 to 9")
+            })?,
+            None => return Err(format!("`{template}`: `{{frame{spec}}}` is not a frame placeholder; write `{{frame}}` or `{{frame:0N}}`, e.g. `{{frame:04}}`")),
+        };
+        out.push_str(&format!("{frame:0digits$}"));
+        rest = &after[end + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
 }
 
 /// Bytes the loaded scene's arrays take.
@@ -665,6 +749,17 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frame_placeholders_are_replaced_and_malformed_ones_named() {
+        assert_eq!(frame_path("cam_{frame:04}.exr", 7).unwrap(), "cam_0007.exr");
+        assert_eq!(frame_path("f{frame}/p_{frame:02}.exr", 123).unwrap(), "f123/p_123.exr");
+        assert_eq!(frame_path("still.exr", 9).unwrap(), "still.exr");
+        for bad in ["cam_{frame.exr", "cam_{frame:4}.exr", "cam_{frame:0}.exr", "cam_{frame:0x}.exr", "cam_{frames}.exr"] {
+            let e = frame_path(bad, 1).unwrap_err();
+            assert!(e.contains(bad) && e.contains("{frame:0"), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn shadows_estimate_at_640x480_equals_the_hand_count() {

@@ -116,7 +116,8 @@ fn bad_inputs_fail_with_clear_errors() {
 /// `render --aov position,normal,albedo` writes the maps a mixed-reality real layer reads, and they
 /// load as one with the render as its camera image: the AOVs are the G-buffer's (bit for bit against
 /// `wedge::aov::Aovs::render` in-process), misses are uncovered with zeros, normals unit, the ground's
-/// albedo its material's. `--aov albedo` writes only that map; with `--frames` the last frame's.
+/// albedo its material's. `--aov albedo` writes only that map; with `--frames` one per frame
+/// (`aov_albedo_NNNN.exr`, a photographed sequence's maps) and the last frame's unnumbered.
 #[test]
 fn render_aov_maps_load_as_a_real_layer() {
     use wedge::scene::{RealAlbedo, RealLayer};
@@ -155,7 +156,9 @@ fn render_aov_maps_load_as_a_real_layer() {
     let o = wedge(&["render", "--width", "32", "--height", "24", "--frames", "0..1", "--out", only.to_str().unwrap(), "--aov", "albedo"], repo());
     assert!(o.status.success(), "{:?}", text(&o));
     assert!(only.join("aov_albedo.exr").is_file());
+    assert!(only.join("aov_albedo_0000.exr").is_file() && only.join("aov_albedo_0001.exr").is_file());
     assert!(!only.join("aov_position.exr").exists() && !only.join("aov_normal.exr").exists());
+    assert!(!only.join("aov_position_0000.exr").exists());
     let img = wedge::image::read_exr(&only.join("aov_albedo.exr")).unwrap();
     assert_eq!((img.width, img.height), (32, 24));
 }

@@ -1,8 +1,8 @@
 //! The `MixedReality` node end to end (thesis Ch. 6.3–6.5, Algorithm 1; `effects/src/mixed_reality.rs`,
 //! `docs/DESIGN-NOTES.md` "Mixed reality"): without virtual influence the composite is the camera image
 //! bit for bit; the round trip against a full render of real + virtual scenes; convergence of the
-//! filtered composite to the unfiltered one as μ grows; the screen-space tracer against the BVH; and
-//! bad input.
+//! filtered composite to the unfiltered one as μ grows; sequences (a real layer per frame, captured or
+//! read from `{frame}` files, and temporal filtering); and bad input.
 
 mod common;
 
@@ -10,6 +10,7 @@ use std::path::Path;
 
 use common::*;
 use wedge::backends::cpu::CpuBackend;
+use wedge::scene::RealLayer;
 use wedge::backends::{RunResult, Silent};
 use wedge::graph::parse_pipeline;
 use wedge::image::Image;
@@ -127,4 +128,149 @@ fn bad_inputs_are_clear_errors() {
     let e = build(missing).err().expect("refused");
     println!("{e}");
     assert!(e.contains("nope.exr"), "{e}");
+}
+
+/// A camera path for the 64×48 envmap scenes: frame 0 left of the default view, frame 1 at it.
+const PATH: &str = "camera_path: [(frame: 0, position: (-0.3, 1.6, 3.4), look_at: (-0.3, 0.45, 0)), \
+                    (frame: 1, position: (0, 1.6, 3.4), look_at: (0, 0.45, 0))],";
+
+/// [`mr`] with extra top-level pipeline fields (a camera path).
+fn mr_with(scene: &str, real_params: &str, params: &str, extra: &str) -> String {
+    format!(
+        r#"Pipeline(scene: "{scene}", width: {W}, height: {H}, seed: 3, {extra} nodes: [
+            (name: "mr", kind: "MixedReality", params: {{{real_params}, {params}}}),
+            (name: "out", kind: "Output", inputs: {{"color": "mr.radiance", "unfiltered": "mr.unfiltered"}}),
+        ])"#
+    )
+}
+
+/// Frames `first..=last` on the CPU, each with the previous frame's history; their composites.
+fn frames(s: &mut Session, first: u32, last: u32) -> Result<Vec<Image>, String> {
+    let (mut out, mut previous): (Vec<Image>, Option<RunResult>) = (Vec::new(), None);
+    for f in first..=last {
+        let r = s.run_frame(&mut CpuBackend::new(), &Silent, f, first, previous.as_ref()).map_err(|e| e.to_string())?;
+        out.push(output(s, &r, "color"));
+        previous = Some(r);
+    }
+    Ok(out)
+}
+
+fn differing_pixels(a: &Image, b: &Image) -> usize {
+    a.pixels.iter().zip(&b.pixels).filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.to_bits() != y.to_bits())).count()
+}
+
+/// The real layer wedge captures of `envmap_real` from `camera` (a session of the still camera).
+fn capture_from(camera: &str) -> (Session, Image) {
+    let s = build(&mr_with("builtin:envmap_far", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, "\"mu\": 1", camera)).unwrap();
+    let cam = camera_image(&s);
+    (s, cam)
+}
+
+#[test]
+fn temporal_filtering_damps_the_flicker_of_a_still_camera() {
+    // The same camera and photograph every frame, each frame with its own noise: the frame-to-frame
+    // difference of the composite is the flicker of the virtual torus and its shadow.
+    let flicker = |temporal: bool| {
+        let mut s = build(&mr("builtin:envmap_virtual", "builtin:envmap_real", 16, &format!("\"temporal\": {temporal}"))).unwrap();
+        let f = frames(&mut s, 0, 4).unwrap();
+        f.windows(2).map(|w| rmse(&w[0], &w[1])).sum::<f64>() / 4.0
+    };
+    let (off, on) = (flicker(false), flicker(true));
+    println!("frame-to-frame RMSE of the composite: spatial only {off:.4e}, temporal {on:.4e} ({:.2}x)", off / on);
+    assert!(on < 0.85 * off, "{on} vs {off}");
+}
+
+#[test]
+fn each_frame_of_a_moving_camera_composites_into_its_own_capture() {
+    // With no virtual influence (`envmap_far`) the composite is the camera image bit for bit — so
+    // frame by frame it shows which real layer the frame used: the capture from that frame's camera,
+    // with temporal filtering on (E_R and E_RV take the same history, their ratio stays 1).
+    let mut s = build(&mr_with("builtin:envmap_far", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, "\"mu\": 1, \"temporal\": true", PATH)).unwrap();
+    let out = frames(&mut s, 0, 1).unwrap();
+    let (_, cam0) = capture_from("camera: Some((position: (-0.3, 1.6, 3.4), look_at: (-0.3, 0.45, 0), vfov_deg: 40)),");
+    let (_, cam1) = capture_from("camera: Some((position: (0, 1.6, 3.4), look_at: (0, 0.45, 0), vfov_deg: 40)),");
+    let (d0, d1, moved) = (differing_pixels(&out[0], &cam0), differing_pixels(&out[1], &cam1), differing_pixels(&cam0, &cam1));
+    println!("pixels differing from the frame's own capture: frame 0 {d0}, frame 1 {d1} (the two captures differ in {moved})");
+    assert_eq!((d0, d1), (0, 0));
+    // The camera translates (same direction): the sky, at infinity, is the same in both; the ground
+    // and sphere move.
+    assert!(moved > (W * H / 4) as usize, "{moved}");
+    // The session's own layer is back after the frames (a later `run` renders the opened frame).
+    assert_eq!(differing_pixels(&camera_image(&s), &cam0), 0);
+}
+
+#[test]
+fn per_frame_maps_are_read_from_frame_numbered_files() {
+    // A "photographed" sequence: the two frames' captures written as EXR files named with the frame
+    // number, read back by `{frame:04}` in the node's file names.
+    let dir = tempfile::tempdir().unwrap();
+    let cameras = [
+        "camera: Some((position: (-0.3, 1.6, 3.4), look_at: (-0.3, 0.45, 0), vfov_deg: 40)),",
+        "camera: Some((position: (0, 1.6, 3.4), look_at: (0, 0.45, 0), vfov_deg: 40)),",
+    ];
+    let mut expected = Vec::new();
+    for (frame, camera) in cameras.iter().enumerate() {
+        let (s, cam) = capture_from(camera);
+        let layer: &RealLayer = s.scene.real.as_ref().unwrap();
+        let rgb = |m: &[[f32; 3]]| Image { width: W, height: H, pixels: m.to_vec() };
+        let name = |what: &str| dir.path().join(format!("{what}_{frame:04}.exr"));
+        wedge::image::write_exr(&name("camera"), &rgb(layer.camera_map())).unwrap();
+        wedge::image::write_exr_rgba(&name("position"), W, H, layer.position_map()).unwrap();
+        wedge::image::write_exr(&name("normal"), &rgb(layer.normal_map())).unwrap();
+        wedge::image::write_exr(&name("albedo"), &rgb(layer.albedo_map())).unwrap();
+        expected.push(cam);
+    }
+    let maps = r#""camera_image": "camera_{frame:04}.exr", "position_map": "position_{frame:04}.exr", "normal_map": "normal_{frame:04}.exr", "albedo_map": "albedo_{frame:04}.exr""#;
+    let text = mr_with("builtin:envmap_far", maps, "\"mu\": 1, \"temporal\": true", PATH);
+    let loaded = parse_pipeline(&dir.path().join("seq.ron"), &text).unwrap();
+    let (nodes, kernels) = wedge::effects::builtin();
+    let mut s = Session::build(loaded, &Overrides::default(), nodes, kernels).unwrap();
+    let out = frames(&mut s, 0, 1).unwrap();
+    let (d0, d1) = (differing_pixels(&out[0], &expected[0]), differing_pixels(&out[1], &expected[1]));
+    println!("pixels differing from the frame's file: frame 0 {d0}, frame 1 {d1}");
+    assert_eq!((d0, d1), (0, 0));
+    // A sequence that opens at frame 1 reads frame 1's files first; frame 2 has none: the error names it.
+    let loaded = parse_pipeline(&dir.path().join("seq.ron"), &text).unwrap();
+    let (nodes, kernels) = wedge::effects::builtin();
+    let mut s = Session::build(loaded, &Overrides { frame: Some(1), ..Overrides::default() }, nodes, kernels).unwrap();
+    assert_eq!(differing_pixels(&camera_image(&s), &expected[1]), 0);
+    let e = frames(&mut s, 1, 2).err().expect("frame 2 has no files");
+    println!("{e}");
+    assert!(e.contains("camera_0002.exr"), "{e}");
+}
+
+#[test]
+fn one_photograph_refuses_a_moving_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, cam) = capture_from("camera: Some((position: (-0.3, 1.6, 3.4), look_at: (-0.3, 0.45, 0), vfov_deg: 40)),");
+    let layer = s.scene.real.as_ref().unwrap();
+    let rgb = |m: &[[f32; 3]]| Image { width: W, height: H, pixels: m.to_vec() };
+    wedge::image::write_exr(&dir.path().join("c.exr"), &cam).unwrap();
+    wedge::image::write_exr_rgba(&dir.path().join("p.exr"), W, H, layer.position_map()).unwrap();
+    wedge::image::write_exr(&dir.path().join("n.exr"), &rgb(layer.normal_map())).unwrap();
+    let text = mr_with("builtin:envmap_far", r#""camera_image": "c.exr", "position_map": "p.exr", "normal_map": "n.exr""#, "\"mu\": 1", PATH);
+    let loaded = parse_pipeline(&dir.path().join("one.ron"), &text).unwrap();
+    let (nodes, kernels) = wedge::effects::builtin();
+    let mut s = Session::build(loaded, &Overrides::default(), nodes, kernels).unwrap();
+    let e = frames(&mut s, 0, 1).err().expect("frame 1 moved away from the photograph");
+    println!("{e}");
+    assert!(e.contains("frame 1") && e.contains("{frame:04}"), "{e}");
+}
+
+#[test]
+fn a_moving_camera_leaves_no_ghost_of_the_virtual_object() {
+    // The torus moves across the image between frames 0 and 1 (the camera moves 0.3 m): the history
+    // pass must find the same world points, so frame 1 with temporal filtering is no further from the
+    // converged composite than frame 1 without it.
+    let run = |temporal: bool| {
+        let text = mr_with("builtin:envmap_virtual", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, &format!("\"temporal\": {temporal}"), PATH);
+        frames(&mut build(&text).unwrap(), 0, 1).unwrap().pop().unwrap()
+    };
+    let (temporal, spatial) = (run(true), run(false));
+    let still = "camera: Some((position: (0, 1.6, 3.4), look_at: (0, 0.45, 0), vfov_deg: 40)),";
+    let converged = build(&mr_with("builtin:envmap_virtual", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, "\"per_primary\": 256", still)).unwrap();
+    let truth = output(&converged, &run_cpu(&converged), "unfiltered");
+    let (et, es) = (rmse(&temporal, &truth), rmse(&spatial, &truth));
+    println!("frame 1 RMSE against the converged composite: temporal {et:.4e}, spatial {es:.4e}");
+    assert!(et <= 1.05 * es, "temporal {et} vs spatial {es}");
 }

@@ -19,6 +19,11 @@
 //!    filter to the same value and their ratio is exactly 1;
 //! 4. composes eq. 6.2, `L = (1 − M) k_V E_V + M (E_RV / E_R) L_cam` (`mr.composite`).
 //!
+//! In a sequence (`wedge render --frames`) each frame has the real layer of its own camera (a
+//! `capture` per frame, or maps named with `{frame}`: the `wedge` crate's `Session::run_frame`), and with
+//! `temporal` every irradiance's y pass joins its previous frame, reprojected (eqs. 6.24–6.26), as the
+//! `Environment` node's does (Sec. 6.7).
+//!
 //! Readings and measurements: `docs/DESIGN-NOTES.md` "Mixed reality"; the sampler's rules:
 //! `wedge_backends::kernels::mixed_reality`, the screen-space tracer's:
 //! `wedge_backends::kernels::screen_trace`.
@@ -91,6 +96,8 @@ impl NodeKind for MixedReality {
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
             ParamDecl::positive("thickness", 0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),
             ParamDecl::int("max_steps", 0, 0, 1 << 16, "screen-space rays: the most pixels one ray marches; 0 = the image diagonal"),
+            ParamDecl::boolean("temporal", false, "in a sequence: join each irradiance's previous frame, reprojected, in its y pass (eqs. 6.24-6.26, as Environment)"),
+            ParamDecl::int("max_motion", 32, 0, 4096, "with `temporal`: pixels a point may move between frames and keep its history"),
         ]);
         params
     }
@@ -192,9 +199,11 @@ impl NodeKind for MixedReality {
             position,
             normal,
             max_radius: ctx.param("max_radius").clone(),
-            max_motion: ParamValue::Int(0),
+            max_motion: ctx.param("max_motion").clone(),
             normal_cos: ParamValue::Float(NORMAL_DEG.to_radians().cos()),
-            temporal: false,
+            // E_R and E_RV take the same history as they take the same filter, so where no virtual
+            // object changes the light their ratio stays exactly 1 over a sequence too.
+            temporal: ctx.param("temporal").as_bool() == Some(true),
         };
         let filtered: Vec<_> = IRRADIANCES
             .iter()
