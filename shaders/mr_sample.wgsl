@@ -307,7 +307,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let h = f32(max(frame.height, 1u));
     let pixel_angle = 2.0 * params.cam_tan_half / h;
     var footprint = 0.0;
-    for (var s = 0u; s < params.count; s = s + 1u) {
+    // Chunks (WgslSource::chunked): this dispatch takes primary samples [chunk_begin, end); a pixel
+    // finished by an earlier chunk keeps its outputs; one that resumes restores its running sums.
+    let resume = chunk_resumes();
+    let end = chunk_end_of(params.count);
+    if (resume && end <= frame.chunk_begin) {
+        return;
+    }
+    if (resume) {
+        footprint = restore_sums(i, has_real);
+    }
+    var s = frame.chunk_begin;
+    for (; s < end; s = s + 1u) {
         var jitter = vec2<f32>(0.5);
         if (params.count > 1u) {
             jitter = mr_draw(pixel, PAIR_PIXEL, s);
@@ -357,6 +368,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             secondary(pixel, shift, first, sp.position, sp.shading_normal, -d, kd, ks, m, false);
         }
     }
+    count_cut_loop(s, end);
+    if (end < params.count) {
+        save_sums(i, footprint);
+        add_counters();
+        return;
+    }
     let nr = sums.real_samples;
     let nv = sums.virtual_samples;
     let total = sums.real_primary + sums.virtual_primary;
@@ -404,8 +421,74 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (screen_bound()) {
         screen_put(i, vec4<f32>(f32(sums.screen_rays), f32(sums.offscreen), f32(sums.screen_hits), 0.0));
     }
+    add_counters();
+}
+
+fn add_counters() {
     atomicAdd(&counters[COUNTER_PRIMARY], sums.primary_rays);
     atomicAdd(&counters[COUNTER_SHADOW], sums.shadow_rays);
     atomicAdd(&counters[COUNTER_SECONDARY], sums.indirect_rays);
     atomicAdd(&counters[COUNTER_NON_FINITE], sums.non_finite);
+}
+
+// Between chunks a pixel's outputs hold its raw running sums (the final means are taken once, from
+// the same sums in the same order as one dispatch: the image does not depend on chunking). Counts
+// are stored as f32, exact below 2^24. Not kept: the ray counters (added per dispatch) and the
+// sample counts, which follow from the primaries taken (`chunk_begin`): `real_primary` is stored,
+// the rest are virtual, and each primary with a surface takes `per_primary` samples.
+fn save_sums(i: u32, footprint: f32) {
+    e_r_dir_put(i, sums.e_r_dir);
+    e_r_ind_put(i, sums.e_r_ind);
+    e_rv_dir_put(i, sums.e_rv_dir);
+    e_rv_ind_put(i, sums.e_rv_ind);
+    e_v_dir_put(i, sums.e_v_dir);
+    e_v_ind_put(i, sums.e_v_ind);
+    texture_put(i, vec4<f32>(sums.k_v, f32(sums.real_primary)));
+    position_put(i, vec4<f32>(sums.virtual_position, f32(sums.virtual_object)));
+    normal_put(i, vec4<f32>(sums.virtual_normal, footprint));
+    environment_put(i, vec4<f32>(sums.occluder, sums.exponent, f32(sums.look_ups), f32(sums.blocked)));
+    depth_put(i, vec4<f32>(sums.z_min, sums.z_max, f32(sums.ind_hits), f32(sums.ind_rays)));
+    if (screen_bound()) {
+        screen_put(i, vec4<f32>(f32(sums.screen_rays), f32(sums.offscreen), f32(sums.screen_hits), 0.0));
+    }
+}
+
+// The sums `save_sums` left in the outputs; returns the footprint sum.
+fn restore_sums(i: u32, has_real: bool) -> f32 {
+    sums.e_r_dir = e_r_dir_at(i);
+    sums.e_r_ind = e_r_ind_at(i);
+    sums.e_rv_dir = e_rv_dir_at(i);
+    sums.e_rv_ind = e_rv_ind_at(i);
+    sums.e_v_dir = e_v_dir_at(i);
+    sums.e_v_ind = e_v_ind_at(i);
+    let t = texture_at(i);
+    sums.k_v = t.xyz;
+    sums.real_primary = u32(t.w);
+    sums.virtual_primary = frame.chunk_begin - sums.real_primary;
+    if (has_real) {
+        sums.real_samples = sums.real_primary * params.per_primary;
+    }
+    sums.virtual_samples = sums.virtual_primary * params.per_primary;
+    let p = position_at(i);
+    sums.virtual_position = p.xyz;
+    sums.virtual_object = u32(p.w);
+    let n = normal_at(i);
+    sums.virtual_normal = n.xyz;
+    let e = environment_at(i);
+    sums.occluder = e.x;
+    sums.exponent = e.y;
+    sums.look_ups = u32(e.z);
+    sums.blocked = u32(e.w);
+    let z = depth_at(i);
+    sums.z_min = z.x;
+    sums.z_max = z.y;
+    sums.ind_hits = u32(z.z);
+    sums.ind_rays = u32(z.w);
+    if (screen_bound()) {
+        let c = screen_at(i);
+        sums.screen_rays = u32(c.x);
+        sums.offscreen = u32(c.y);
+        sums.screen_hits = u32(c.z);
+    }
+    return n.w;
 }

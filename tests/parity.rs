@@ -535,6 +535,53 @@ fn heavy_sampling_is_chunked_and_cut_loops_are_counted() {
     }
 }
 
+/// `mr.sample` (mixed reality) is chunked by primary sample: a pixel resumes from the raw sums its
+/// outputs hold between chunks, so any chunk size gives the same image bit for bit, no loop is cut,
+/// and the counts are the CPU's.
+#[test]
+fn mixed_reality_sampling_is_chunked_bit_for_bit() {
+    let Some(mut gpu) = gpu_or_skip("mixed_reality_sampling_is_chunked_bit_for_bit") else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/mixed_reality.ron");
+    let params = vec![
+        ("mr".to_string(), "primary".to_string(), wedge::graph::ParamValue::Int(40)),
+        ("mr".to_string(), "capture_spp".to_string(), wedge::graph::ParamValue::Int(16)),
+    ];
+    let session = Session::open(Some(&path), &Overrides { params, ..small(16, 12) }).unwrap();
+    let cpu = session.run(&mut CpuBackend::new(), &Silent).unwrap();
+    let chunked = session.run(&mut gpu, &Silent).unwrap();
+    println!("default chunking: cut loops {}", chunked.rays.cut_loops);
+    assert_eq!(chunked.rays.cut_loops, 0);
+    assert_eq!(cpu.rays, chunked.rays, "ray counters differ");
+    for (key, reference) in &cpu.outputs {
+        let e = rel_mse(&chunked.outputs[key], reference);
+        println!("{key:?}: relMSE vs CPU {e:.3e}");
+        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
+    }
+    gpu.set_samples_per_dispatch(3);
+    let small_chunks = session.run(&mut gpu, &Silent).unwrap();
+    gpu.set_samples_per_dispatch(u32::MAX);
+    let one = session.run(&mut gpu, &Silent).unwrap();
+    println!("one dispatch per pass: cut loops {} ({})", one.rays.cut_loops, gpu.adapter_description());
+    // Where the driver cuts the single dispatch's loops (lavapipe) the cut is counted, not silent;
+    // elsewhere one dispatch is the same image.
+    let mut compared = vec![("3 samples per dispatch", &small_chunks)];
+    if gpu.is_software() {
+        assert!(one.rays.cut_loops > 0, "lavapipe's loop limit should have been hit and counted");
+    } else {
+        compared.push(("one dispatch", &one));
+    }
+    for (key, a) in &chunked.outputs {
+        for (what, run) in &compared {
+            let b = &run.outputs[key];
+            let differ = (0..a.len())
+                .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
+                .count();
+            assert_eq!(differ, 0, "{key:?}: {what} differs from the default chunks in {differ} pixels");
+        }
+    }
+    assert_eq!(small_chunks.rays, chunked.rays);
+}
+
 /// A kernel that does not declare how far it reads (the RNG probe keeps the default `Reach::Image`)
 /// is never split: over the binding limit it is an error that says why and what to do.
 #[test]
