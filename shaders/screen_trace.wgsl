@@ -79,12 +79,16 @@ struct ScreenSegment {
     clipped: bool,
     origin: vec2<i32>,
     z0: f32,
+    // For guessing where a run of steps leaves a cell: u_first / du, and per axis the steps per
+    // pixel 1 / (delta · du) (0 where the segment does not move along the axis).
+    k_first: f32,
+    inv_step: vec2<f32>,
     end: u32,
 }
 
 fn screen_no_segment(end: u32) -> ScreenSegment {
     return ScreenSegment(vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), 0.0, 0.0, 0.0, 0.0, 0.0, false,
-        vec2<i32>(0), 0.0, end);
+        vec2<i32>(0), 0.0, 0.0, vec2<f32>(0.0), end);
 }
 
 // Where step k is along the segment.
@@ -160,7 +164,15 @@ fn screen_segment(o: vec3<f32>, d: vec3<f32>) -> ScreenSegment {
     }
     let du = 1.0 / length;
     let origin = vec2<i32>(i32(floor(s0.x)), i32(floor(s0.y)));
-    return ScreenSegment(o, e, s0, delta, k0, k1, rmax(u_in, du), du, u_out, clipped, origin, z0, SCREEN_MARCH);
+    let u_first = rmax(u_in, du);
+    var inv_step = vec2<f32>(0.0);
+    if (delta.x != 0.0) {
+        inv_step.x = 1.0 / (delta.x * du);
+    }
+    if (delta.y != 0.0) {
+        inv_step.y = 1.0 / (delta.y * du);
+    }
+    return ScreenSegment(o, e, s0, delta, k0, k1, u_first, du, u_out, clipped, origin, z0, u_first / du, inv_step, SCREEN_MARCH);
 }
 
 // The exact test of step k (depth z_ray, the step before at z_prev): a SCREEN_HIT, or SCREEN_MISS
@@ -258,17 +270,17 @@ fn screen_first_out(g: ScreenSegment, lo: u32, hi: u32, guess: u32, mode: u32, l
 }
 
 // The step index where the segment crosses a cell's far side along one axis (screen_trace.rs
-// cell_end's `cross`).
-fn screen_cross(g: ScreenSegment, s0: f32, d: f32, c: i32, l: u32) -> f32 {
+// cell_end's `cross`; only a guess: screen_first_out settles it).
+fn screen_cross(g: ScreenSegment, s0: f32, inv: f32, c: i32, l: u32) -> f32 {
     var side = 0.0;
-    if (d > 0.0) {
+    if (inv > 0.0) {
         side = f32((c + 1) << l);
-    } else if (d < 0.0) {
+    } else if (inv < 0.0) {
         side = f32(c << l);
     } else {
         return 3.0e38;
     }
-    return ((side - s0) / d - g.u_first) / g.du;
+    return (side - s0) * inv - g.k_first;
 }
 
 // The first step after k (at most n) whose pixel is outside cell `cell` of level l.
@@ -276,7 +288,8 @@ fn screen_cell_end(g: ScreenSegment, k: u32, n: u32, l: u32, cell: vec2<i32>) ->
     if (k + 1u >= n) {
         return n;
     }
-    let at = ceil(rmin(screen_cross(g, g.s0.x, g.delta.x, cell.x, l), screen_cross(g, g.s0.y, g.delta.y, cell.y, l)));
+    // Rounded up (an integer-valued guess one high costs one more look).
+    let at = trunc(rmin(screen_cross(g, g.s0.x, g.inv_step.x, cell.x, l), screen_cross(g, g.s0.y, g.inv_step.y, cell.y, l))) + 1.0;
     var guess = n;
     if (at < f32(n)) {
         guess = u32(rmax(at, f32(k + 1u)));

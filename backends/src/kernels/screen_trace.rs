@@ -38,9 +38,10 @@
 //!   the smaller of that (the corners' largest `v·n` of the plane's sign, widened by the rounding of
 //!   `v·n`, and none where no sight line passes the grazing test) and the pixel's own depth `z_p`
 //!   (the grazing and behind-the-camera fallback), lowered by a relative 2⁻¹⁶ against the GPU's
-//!   rounding; [`NO_SURFACE`] where the pixel is not covered. Level `l` holds the minimum over `2^l × 2^l`
-//!   pixels (a min-pyramid of 2 × 2 minima, down to one cell). It depends on the camera, so it is
-//!   built with the tracer ([`ScreenTracer::new`]) and uploaded with the layer (`real_layer.wgsl`).
+//!   rounding; [`NO_SURFACE`] where the pixel is not covered. Level `l` holds the minimum over
+//!   `2^l × 2^l` pixels (a min-pyramid of 2 × 2 minima, down to one cell). It depends on the camera,
+//!   so it is built with the tracer ([`ScreenTracer::new`]) and uploaded with the layer
+//!   (`real_layer.wgsl`).
 //! - The ray's depth `z_k = 1 / (k0 + (k1 − k0) u_k)` is monotone in `k`, in floating point too
 //!   (each operation rounds monotonically), and a step's pixel is monotone in `k` along each axis,
 //!   so the steps inside a pyramid cell are one run of `k`, and their largest depth is at one end of
@@ -744,7 +745,9 @@ mod tests {
     fn measure_steps_per_ray() {
         let (layer, camera) = captured("envmap_real", 640, 480);
         let diagonal = 640f32.hypot(480.0).ceil() as u32 + 1;
+        let start = std::time::Instant::now();
         let t = ScreenTracer::new(&layer, &camera, 0.05, diagonal);
+        println!("tracer and pyramid ({} levels) built in {:.1} ms", t.pyramid.levels(), start.elapsed().as_secs_f64() * 1e3);
         let eps = 1e-4 * wedge_scene::load(&SceneSource::Builtin("envmap_real".into())).unwrap().extent();
         let mut r = Draw(3, 0);
         let mut rays = Vec::new();
