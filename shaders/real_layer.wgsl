@@ -8,6 +8,11 @@
 //   2: unit world normal xyz, 0 (0 where not covered)
 //   3: diffuse albedo rgb, 0 (0 where not covered)
 // The values are the CPU's bit for bit (RealLayer::camera_map, position_map, normal_map, albedo_map).
+// After the last pixel's elements, in the same array: the depth pyramid of the layer seen by the
+// scene's camera (backends/src/kernels/screen_trace.rs DepthPyramid::gpu_elements, bit for bit) —
+// REAL_PYRAMID_HEADER elements, element l = level l's first value, width, height, the level count
+// (u32), then the values (lower bounds of the real surface's depth; NO_SURFACE where none), four per
+// element.
 // Coordinates outside the image (a screen-space march leaving the screen) read zeros — not covered —
 // exactly as RealLayer::index_of returns None there; without a layer every pixel is outside.
 
@@ -52,4 +57,27 @@ fn real_normal(x: i32, y: i32) -> vec3<f32> {
 // Diffuse albedo k_d, linear RGB in [0, 1] (0 where not covered).
 fn real_albedo(x: i32, y: i32) -> vec3<f32> {
     return real_load(x, y, 3u).xyz;
+}
+
+// Elements before the pyramid's values (screen_trace.rs PYRAMID_HEADER).
+const REAL_PYRAMID_HEADER: u32 = 16u;
+
+fn real_pyramid_start() -> u32 {
+    return scene_layout.real_maps + 4u * scene_layout.real_width * scene_layout.real_height;
+}
+
+// Level l of the depth pyramid: first value, width, height, level count.
+fn real_pyramid_level(l: u32) -> vec4<u32> {
+    return scene_data[real_pyramid_start() + l];
+}
+
+// The bound of cell (x, y) of a level (`level` its real_pyramid_level); NO_SURFACE (f32::MAX)
+// outside the level, as DepthPyramid::get.
+fn real_pyramid_get(level: vec4<u32>, x: i32, y: i32) -> f32 {
+    if (x < 0 || y < 0 || x >= i32(level.y) || y >= i32(level.z)) {
+        return bitcast<f32>(0x7f7fffffu);
+    }
+    let i = level.x + u32(y) * level.y + u32(x);
+    let e = bitcast<vec4<f32>>(scene_data[real_pyramid_start() + REAL_PYRAMID_HEADER + i / 4u]);
+    return e[i % 4u];
 }

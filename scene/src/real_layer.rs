@@ -48,7 +48,8 @@
 //! holds there (renderers often write 0, NaN or infinity for "no hit") is ignored and stored as 0.
 //!
 //! The GPU receives the layer as one scene array of four `vec4<f32>` per pixel
-//! (`backends/src/gpu/scene.rs`, `shaders/real_layer.wgsl`).
+//! (`backends/src/gpu/scene.rs`, `shaders/real_layer.wgsl`), followed by the depth pyramid the
+//! screen-space tracer skips by (`wedge_backends::kernels::screen_trace::DepthPyramid`).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

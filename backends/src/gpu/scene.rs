@@ -19,7 +19,9 @@
 //!
 //! The mixed-reality real layer (`Scene::real`, `shaders/real_layer.wgsl`) goes up as one array of
 //! four elements per camera pixel, row-major, interleaved so one pixel is four consecutive loads:
-//! camera rgb + coverage, position xyzw, normal xyz 0, albedo rgb 0 (the CPU's values bit for bit);
+//! camera rgb + coverage, position xyzw, normal xyz 0, albedo rgb 0 (the CPU's values bit for bit),
+//! followed in the same array by the layer's depth pyramid for the scene's camera (the CPU's
+//! `screen_trace::DepthPyramid`, bit for bit: a header of 16 elements, then four values per element);
 //! `real_width`/`real_height` in the layout, 0 without a layer (then the array is one zeroed element).
 
 use bytemuck::{Pod, Zeroable};
@@ -292,8 +294,9 @@ fn environment_arrays(scene: &Scene) -> EnvArrays {
     EnvArrays { texels, rows: env.gpu_rows().to_vec(), columns, table }
 }
 
-/// The real layer's array: per pixel camera rgb + coverage, position xyzw, normal xyz 0, albedo rgb 0
-/// (empty without a layer).
+/// The real layer's array: per pixel camera rgb + coverage, position xyzw, normal xyz 0, albedo rgb 0,
+/// then the depth pyramid of the layer seen by the scene's camera
+/// ([`crate::kernels::screen_trace::DepthPyramid::gpu_elements`]; empty without a layer).
 fn real_array(scene: &Scene) -> Vec<[f32; 4]> {
     let Some(real) = &scene.real else {
         return Vec::new();
@@ -306,6 +309,9 @@ fn real_array(scene: &Scene) -> Vec<[f32; 4]> {
         let a = alb[k];
         v.extend([[c[0], c[1], c[2], pos[k][3]], pos[k], [n[0], n[1], n[2], 0.0], [a[0], a[1], a[2], 0.0]]);
     }
+    // The pyramid depends on the camera, and so does this array's hash: a new camera uploads anew.
+    let pyramid = crate::kernels::screen_trace::DepthPyramid::of(real, &scene.camera);
+    v.extend(pyramid.gpu_elements().iter().map(|e| e.map(f32::from_bits)));
     v
 }
 

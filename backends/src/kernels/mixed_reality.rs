@@ -185,7 +185,7 @@ pub struct MrPixel {
 /// The world as the two modes see it at one pixel.
 struct World<'a> {
     scene: SceneAt<'a>,
-    screen: ScreenTracer<'a>,
+    screen: &'a ScreenTracer<'a>,
 }
 
 impl World<'_> {
@@ -359,11 +359,12 @@ fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u3
     }
 }
 
-/// `mr.sample` at pixel `(px, py)`.
+/// `mr.sample` at pixel `(px, py)`; `screen` is the real layer's tracer for `camera` (built once per
+/// image: it holds the layer's depth pyramid).
 #[allow(clippy::too_many_arguments)]
-pub fn sample_pixel(scene: &Scene, camera: &Camera, s: &MrSettings, seed: u32, px: u32, py: u32, width: u32, height: u32) -> MrPixel {
-    let layer = scene.real.as_ref().expect("checked in settings");
-    let world = World { scene: scene.at(0.0), screen: ScreenTracer::new(layer, camera, s.thickness, s.max_steps) };
+pub fn sample_pixel(scene: &Scene, camera: &Camera, screen: &ScreenTracer<'_>, s: &MrSettings, seed: u32, px: u32, py: u32, width: u32, height: u32) -> MrPixel {
+    let layer = screen.layer;
+    let world = World { scene: scene.at(0.0), screen };
     let pixel = py * width + px;
     let mut sums = Sums::default();
     let shift = if s.stratified { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, 0).x) } else { 0 };
@@ -513,7 +514,9 @@ impl Kernel for MrSample {
         let s = settings(ctx)?;
         let (scene, seed, width, height) = (ctx.scene, ctx.seed, ctx.width, ctx.height);
         let camera = scene.camera;
-        let px = ctx.map_pixels(true, |x, y| sample_pixel(scene, &camera, &s, seed, x, y, width, height));
+        let layer = scene.real.as_ref().expect("checked in settings");
+        let screen = ScreenTracer::new(layer, &camera, s.thickness, s.max_steps);
+        let px = ctx.map_pixels(true, |x, y| sample_pixel(scene, &camera, &screen, &s, seed, x, y, width, height));
         let total = |k: usize| px.iter().map(|p| p.rays[k]).sum::<u64>();
         Counters::add(&ctx.counters.primary_rays, total(0));
         Counters::add(&ctx.counters.shadow_rays, total(1));
