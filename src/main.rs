@@ -22,7 +22,7 @@ struct Cli {
 /// Options every rendering command shares.
 #[derive(Args, Clone)]
 struct Common {
-    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
     #[arg(long)]
     scene: Option<String>,
     /// Output directory.
