@@ -17,16 +17,25 @@ use super::pinhole;
 use crate::data::SceneData;
 use crate::Material;
 
-/// A square grid of bars of `bar` m side, `count` per direction at `pitch`, centred at `centre`
-/// (x bars at the centre's height, z bars one bar higher) and turned by `yaw` about y.
-fn add_grid(d: &mut SceneData, centre: Vec3, yaw: f32, count: i32, pitch: f32, bar: f32, material: u32, object: u32) {
-    let rot = Quat::from_rotation_y(yaw);
-    let half_len = 0.5 * pitch * (count - 1) as f32 + bar;
-    for k in 0..count {
-        let off = (k as f32 - 0.5 * (count - 1) as f32) * pitch;
-        let xbar = Mat4::from_rotation_translation(rot, centre + rot * Vec3::new(0.0, 0.5 * bar, off));
+/// A square grid of bars of `bar` m side, `count` per direction at `pitch`, centred at `centre` (x bars
+/// at the centre's height, z bars one bar higher) and turned by `yaw` radians about y.
+struct Grid {
+    centre: Vec3,
+    yaw: f32,
+    count: i32,
+    pitch: f32,
+    bar: f32,
+}
+
+fn add_grid(d: &mut SceneData, g: Grid, material: u32, object: u32) {
+    let rot = Quat::from_rotation_y(g.yaw);
+    let half_len = 0.5 * g.pitch * (g.count - 1) as f32 + g.bar;
+    let bar = g.bar;
+    for k in 0..g.count {
+        let off = (k as f32 - 0.5 * (g.count - 1) as f32) * g.pitch;
+        let xbar = Mat4::from_rotation_translation(rot, g.centre + rot * Vec3::new(0.0, 0.5 * bar, off));
         add_bar(d, xbar, Vec3::new(half_len, 0.5 * bar, 0.5 * bar), 0.15, material, object);
-        let zbar = Mat4::from_rotation_translation(rot, centre + rot * Vec3::new(off, 1.5 * bar, 0.0));
+        let zbar = Mat4::from_rotation_translation(rot, g.centre + rot * Vec3::new(off, 1.5 * bar, 0.0));
         add_bar(d, zbar, Vec3::new(0.5 * bar, 0.5 * bar, half_len), 0.15, material, object);
     }
 }
@@ -38,13 +47,13 @@ pub(crate) fn grate() -> SceneData {
     add_ground(&mut d, (-8.0, 8.0, -16.0, 3.0), 0.5, ground, o);
     let metal = d.add_material(Material::diffuse("grate", Vec3::new(0.35, 0.37, 0.4)), false);
     let o = d.new_named_object("fine grate");
-    add_grid(&mut d, Vec3::new(0.0, 0.25, 0.0), 0.0, 21, 0.06, 0.012, metal, o);
+    add_grid(&mut d, Grid { centre: Vec3::new(0.0, 0.25, 0.0), yaw: 0.0, count: 21, pitch: 0.06, bar: 0.012 }, metal, o);
     for (x, z) in [(-0.6f32, -0.6f32), (0.6, -0.6), (0.6, 0.6), (-0.6, 0.6)] {
         add_box(&mut d, Mat4::from_translation(Vec3::new(x, 0.125, z)), Vec3::new(0.01, 0.125, 0.01), metal, o);
     }
     let paint = d.add_material(Material::diffuse("coarse grate", Vec3::new(0.6, 0.5, 0.3)), false);
     let o = d.new_named_object("coarse grate");
-    add_grid(&mut d, Vec3::new(0.1, 0.8, -0.1), 30f32.to_radians(), 8, 0.15, 0.02, paint, o);
+    add_grid(&mut d, Grid { centre: Vec3::new(0.1, 0.8, -0.1), yaw: 30f32.to_radians(), count: 8, pitch: 0.15, bar: 0.02 }, paint, o);
     let side = 0.15;
     add_rect_light(
         &mut d,
