@@ -233,6 +233,10 @@ pub fn render_bar_chart(chart: &BarChart, width: u32, height: u32) -> Result<Vec
             .filter(usable)
             .map(|p| p.0);
         let (x0, x1) = log_range(xs);
+        // A third more on the right (in log space) keeps the legend clear of the longest bars, a
+        // little more on the left the value labels of bars below `base` clear of the names.
+        let span = x1 / x0;
+        let (x0, x1) = (x0 / span.powf(0.08), x1 * span.powf(0.35));
         let label_px = chart.categories.iter().map(|c| c.chars().count()).max().unwrap_or(4) as u32 * 7 + 16;
         let mut ch = ChartBuilder::on(&root)
             .caption(chart.title.as_str(), ("sans-serif", 20))
@@ -292,7 +296,7 @@ pub fn render_bar_chart(chart: &BarChart, width: u32, height: u32) -> Result<Vec
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(1)));
         }
         ch.configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
+            .position(SeriesLabelPosition::UpperRight)
             .label_font(("sans-serif", 13))
             .background_style(WHITE.mix(0.9))
             .border_style(BLACK)
