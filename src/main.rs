@@ -22,7 +22,7 @@ struct Cli {
 /// Options every rendering command shares.
 #[derive(Args, Clone)]
 struct Common {
-    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
     #[arg(long)]
     scene: Option<String>,
     /// Output directory.
@@ -105,12 +105,26 @@ enum Command {
         #[arg(long, default_value = "out/error.png")]
         heatmap: PathBuf,
     },
-    /// Benchmark a pipeline: equal-error speedup vs Monte Carlo, convergence plots, report.md.
+    /// Benchmark a pipeline: equal-error speedup vs Monte Carlo, convergence plots, report.md; on its
+    /// own scene, on any scene (--scene) or over the built-in scene suite (--suite).
     Bench {
         pipeline: PathBuf,
         /// Small and fast (CI smoke test): 128x96, reference 512 spp, 2 mu values, 3 spp per baseline.
         #[arg(long)]
         quick: bool,
+        /// Bench this scene instead of the pipeline's: a built-in name, `builtin:NAME`, or a
+        /// .gltf/.glb/.obj/.ron file (as for `render`).
+        #[arg(long, conflicts_with_all = ["suite", "suite_scenes"])]
+        scene: Option<String>,
+        /// Run the bench over the built-in scene suite (issue 16: grids, suite_slats, suite_grate,
+        /// suite_contact, suite_near_light, curved, suite_textured, suite_glossy, cornell, suite_room),
+        /// each into OUT/SCENE/, and write OUT/suite.md (+ .csv, .json, suite_speedup.png): per scene
+        /// rays/px, equal-RMSE speedups, bias/variance, filter overhead; the median and the worst.
+        #[arg(long)]
+        suite: bool,
+        /// With --suite: only these built-ins, comma-separated (e.g. grids,suite_grate).
+        #[arg(long, value_name = "NAMES", value_delimiter = ',', requires = "suite")]
+        suite_scenes: Vec<String>,
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
         #[arg(long, value_parser = side_parser())]
@@ -512,6 +526,29 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
     Ok(text)
 }
 
+/// `--suite-scenes`' names as scene specs (every one a built-in), or the whole suite when empty.
+fn suite_scene_specs(names: &[String]) -> Result<Vec<String>, WedgeError> {
+    if names.is_empty() {
+        return Ok(wedge::bench::suite::default_scenes());
+    }
+    names
+        .iter()
+        .map(|n| {
+            let name = n.trim().strip_prefix("builtin:").unwrap_or(n.trim());
+            if wedge::scene::builtin_names().contains(&name) {
+                Ok(format!("builtin:{name}"))
+            } else {
+                let suite: Vec<&str> = wedge::scene::builtin::suite_names().collect();
+                Err(WedgeError::Usage(format!(
+                    "--suite-scenes: `{n}` is not a built-in scene; the suite's are {} (other built-ins: {})",
+                    suite.join(", "),
+                    wedge::scene::builtin_names().iter().filter(|b| !suite.contains(b)).copied().collect::<Vec<_>>().join(", ")
+                )))
+            }
+        })
+        .collect()
+}
+
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
@@ -548,9 +585,10 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
             }
         }
-        Command::Bench { pipeline, quick, out, width, height, seed, reference_spp, memory_limit } => {
+        Command::Bench { pipeline, quick, scene, suite, suite_scenes, out, width, height, seed, reference_spp, memory_limit } => {
             let opts = wedge::bench::BenchOptions {
                 quick,
+                scene,
                 width,
                 height,
                 seed,
@@ -559,6 +597,11 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 verbose: true,
                 ..wedge::bench::BenchOptions::new(pipeline, out)
             };
+            if suite {
+                let scenes = suite_scene_specs(&suite_scenes)?;
+                let r = wedge::bench::suite::run_suite(&opts, &scenes)?;
+                return Ok(format!("{}\n", wedge::bench::suite::summary(&r)));
+            }
             let r = wedge::bench::run(&opts)?;
             Ok(format!("{}\n", wedge::bench::report::summary(&r)))
         }

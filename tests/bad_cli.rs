@@ -68,6 +68,23 @@ fn size_and_parameter_flags_are_blamed_on_the_flag_with_the_range() {
     assert!(!d.join("out").exists(), "nothing written by refused runs");
 }
 
+/// `bench --suite` and `--scene` exclude each other, `--suite-scenes` needs `--suite` and names
+/// built-ins only: usage errors before anything runs or is written.
+#[test]
+fn bench_suite_and_scene_flags_are_checked_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let shadows = repo().join("pipelines/shadows.ron");
+    let p = shadows.to_str().unwrap();
+    let out = d.join("suite");
+    let o = out.to_str().unwrap();
+    fails_with(&wedge(&["bench", p, "--suite", "--scene", "builtin:grids", "--out", o], d), 2, &["--scene", "--suite", "cannot be used"]);
+    fails_with(&wedge(&["bench", p, "--suite-scenes", "grids", "--out", o], d), 2, &["--suite"]);
+    fails_with(&wedge(&["bench", p, "--suite", "--suite-scenes", "grids,nope", "--out", o], d), 1, &["`nope` is not a built-in scene", "suite_grate"]);
+    fails_with(&wedge(&["bench", p, "--scene", "no_such_file.gltf", "--quick", "--out", o], d), 1, &["no_such_file.gltf"]);
+    assert!(!out.join("suite.md").exists(), "nothing written by refused runs");
+}
+
 /// An unknown `--aov` name is a usage error (exit 2) listing the valid ones, before anything renders.
 #[test]
 fn unknown_aov_names_list_the_valid_ones() {

@@ -151,3 +151,94 @@ fn quick_bench_writes_everything_and_caches_the_reference() {
     let report = std::fs::read_to_string(&second.report).unwrap();
     assert!(report.contains("loaded from the cache"));
 }
+
+/// `wedge bench --suite` in small: two suite scenes at 48×36, few samples. Every scene gets its own
+/// bench directory; the table has one row per scene with finite numbers, the median and the worst
+/// follow from the rows; CSV, JSON and chart are written; `--scene` with `--suite` is refused.
+#[test]
+fn suite_smoke_two_scenes() {
+    use wedge::bench::suite::{column_medians, median, run_suite, worst_row, SUITE_COLUMNS};
+    let dir = tempfile::tempdir().unwrap();
+    let opts = BenchOptions {
+        width: Some(48),
+        height: Some(36),
+        reference_spp: Some(64),
+        mu_values: Some(vec![2.0]),
+        baseline_spp: Some(vec![2, 8, 32]),
+        ..options(dir.path())
+    };
+    let scenes = ["builtin:suite_contact".to_string(), "builtin:suite_slats".to_string()];
+    let r = run_suite(&opts, &scenes).expect("suite runs");
+    assert_eq!(r.rows.len(), 2);
+    assert_eq!((r.width, r.height), (48, 36));
+    for (row, name) in r.rows.iter().zip(["suite_contact", "suite_slats"]) {
+        assert_eq!(row.scene, name);
+        assert_eq!(row.description, wedge::scene::builtin::describe(name).unwrap());
+        assert_eq!(row.mu, Some(2.0));
+        for (what, v) in [
+            ("rays", row.rays_per_pixel),
+            ("rmse", row.rmse),
+            ("vs independent", row.speedup_vs_independent),
+            ("vs stratified", row.speedup_vs_stratified),
+            ("variance", row.variance),
+            ("bias2", row.bias2),
+            ("overhead", row.filter_overhead),
+            ("mean offset", row.mean_offset),
+        ] {
+            assert!(v.is_finite(), "{name}: {what} = {v}");
+        }
+        assert!(row.rays_per_pixel >= 1.0 && row.rmse > 0.0 && row.speedup_vs_stratified > 0.0);
+        assert!(row.mean_offset.abs() < 0.5, "{name}: mean offset {}", row.mean_offset);
+        let scene_dir = dir.path().join(name);
+        for f in ["report.md", "bench.csv", "error_vs_rays.png", "pipeline/filter_width.png"] {
+            assert!(scene_dir.join(f).exists(), "{name}/{f}");
+        }
+    }
+    // One reference cache for the whole suite, one entry per scene.
+    assert!(dir.path().join(".cache").is_dir());
+    // Median and worst as defined.
+    let m = median(r.rows.iter().map(|x| x.speedup_vs_stratified));
+    assert_eq!(r.median.speedup_vs_stratified, m);
+    assert_eq!(m, 0.5 * (r.rows[0].speedup_vs_stratified + r.rows[1].speedup_vs_stratified));
+    assert_eq!(column_medians(&r.rows).rays_per_pixel, 0.5 * (r.rows[0].rays_per_pixel + r.rows[1].rays_per_pixel));
+    let worst = worst_row(&r.rows).unwrap();
+    assert_eq!(r.worst, Some(worst));
+    assert!(r.rows.iter().all(|x| x.speedup_vs_stratified >= r.rows[worst].speedup_vs_stratified));
+    // Files: table with both rows, median and worst; CSV; JSON; chart.
+    let md = std::fs::read_to_string(&r.table).unwrap();
+    for needle in ["[suite_contact](suite_contact/report.md)", "[suite_slats](suite_slats/report.md)", "| **median** |", "| **worst: ", "suite_speedup.png"] {
+        assert!(md.contains(needle), "suite.md lacks {needle:?}:\n{md}");
+    }
+    let csv = std::fs::read_to_string(&r.csv).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap().split(',').collect::<Vec<_>>(), SUITE_COLUMNS);
+    assert_eq!(lines.count(), 2);
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&r.json).unwrap()).unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), 2);
+    assert_eq!(json["rows"][1]["scene"], "suite_slats");
+    let (w, h) = decode_png(&r.plot);
+    assert_eq!(w, wedge::bench::plots::PLOT_WIDTH);
+    assert!(h >= wedge::bench::plots::PLOT_HEIGHT);
+
+    let refused = run_suite(&BenchOptions { scene: Some("builtin:grids".into()), ..opts.clone() }, &scenes).unwrap_err();
+    assert!(refused.to_string().contains("--scene"), "{refused}");
+}
+
+/// `BenchOptions.scene` (`wedge bench --scene`) benches another scene than the pipeline's.
+#[test]
+fn bench_on_another_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = BenchOptions {
+        scene: Some("builtin:suite_grate".into()),
+        width: Some(40),
+        height: Some(30),
+        reference_spp: Some(32),
+        mu_values: Some(vec![2.0]),
+        baseline_spp: Some(vec![2, 8]),
+        ..options(dir.path())
+    };
+    let r = run(&opts).expect("bench on suite_grate");
+    assert_eq!(r.scene, "suite_grate");
+    let report = std::fs::read_to_string(&r.report).unwrap();
+    assert!(report.contains("Scene `suite_grate`"), "{report}");
+}

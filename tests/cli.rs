@@ -162,3 +162,34 @@ fn render_aov_maps_load_as_a_real_layer() {
     let img = wedge::image::read_exr(&only.join("aov_albedo.exr")).unwrap();
     assert_eq!((img.width, img.height), (32, 24));
 }
+
+/// `wedge bench --suite --quick` restricted to two scenes at a tiny size (the CI smoke of issue 16's
+/// suite through the command line): a directory per scene, the table with both rows, the median and
+/// the worst; and `--scene` benches another scene than the pipeline's.
+#[test]
+fn bench_suite_quick_and_bench_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("suite");
+    let pipeline = repo().join("pipelines/shadows.ron");
+    let common = ["--quick", "--width", "32", "--height", "24", "--reference-spp", "32"];
+    let mut args = vec!["bench", pipeline.to_str().unwrap(), "--suite", "--suite-scenes", "suite_grate,builtin:curved", "--out", out.to_str().unwrap()];
+    args.extend(common);
+    let o = wedge(&args, dir.path());
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("suite of 2 scenes: median") && stdout.contains("worst: `"), "{stdout}");
+    let md = std::fs::read_to_string(out.join("suite.md")).unwrap();
+    for needle in ["[suite_grate](suite_grate/report.md)", "[curved](curved/report.md)", "| **median** |", "| **worst: ", "quick mode"] {
+        assert!(md.contains(needle), "suite.md lacks {needle:?}:\n{md}");
+    }
+    for f in ["suite.csv", "suite.json", "suite_speedup.png", "suite_grate/report.md", "curved/bench.csv"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let one = dir.path().join("one");
+    let mut args = vec!["bench", pipeline.to_str().unwrap(), "--scene", "suite_contact", "--out", one.to_str().unwrap()];
+    args.extend(common);
+    let o = wedge(&args, dir.path());
+    assert!(o.status.success(), "{:?}", text(&o));
+    let report = std::fs::read_to_string(one.join("report.md")).unwrap();
+    assert!(report.contains("Scene `suite_contact`"), "{report}");
+}

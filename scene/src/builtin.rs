@@ -26,14 +26,51 @@
 //!   ground and sphere (rendered with their AOVs, they stand in for a captured real world), and the
 //!   torus alone (the virtual object inserted into it); same camera and map.
 //!
-//! Mesh generators (boxes, spheres, tori, lathes, rectangular lights) live in `builtin/mesh.rs` so new
-//! built-ins reuse them; each scene larger than a screenful lives in its own file under `builtin/`.
+//!
+//! **The scene suite** ([`SUITE`], issue 16; `wedge bench --suite` runs a pipeline over it): ten small
+//! scenes (a few thousand triangles each, one `Rect` area light out of view, a camera), each stressing
+//! one part of the analysis, so a filter tuned on one scene is measured on the others:
+//!
+//! - `grids`: thin occluders at several heights — three rotated grids of bars whose penumbrae
+//!   overlap; a mildly textured ground.
+//! - `suite_slats`: thin occluders at several heights in an open scene — parallel slats at 0.3, 0.65
+//!   and 1.1 m (crisp to washed-out penumbrae over the same pixels) and a sphere (see
+//!   `builtin/slats.rs`).
+//! - `suite_grate`: a small light and fine, regular occluders — a 6 cm-pitch grate 0.25 m up casts a
+//!   sharp, high-frequency shadow grid, under a coarser turned grate (see `builtin/grate.rs`).
+//! - `suite_contact`: contact shadows under a large light — a cube, a sphere, a lying cylinder, a
+//!   leaning plank and tiny cubes on the ground, where the occluder distance goes to 0 (see
+//!   `builtin/contact.rs`).
+//! - `suite_near_light`: occluders close to the light — a louvre 0.2 m under the light (tiny
+//!   `s_min`: the rate and width formulas at their extreme) over a table whose shadow mixes
+//!   occluder depths (see `builtin/near_light.rs`).
+//! - `curved`: curved receivers and occluders — a wavy, smooth-shaded ground under a sphere and a
+//!   torus.
+//! - `suite_textured`: textured receivers — a high-contrast 6 cm checker floor and a checkered wall
+//!   under bar and torus shadows: the albedo multiplies after filtering and must stay sharp (see
+//!   `builtin/textured.rs`).
+//! - `suite_glossy`: glossy receivers — a Phong floor seen at a low angle, Phong sphere and box, a
+//!   bright box it reflects (see `builtin/glossy.rs`).
+//! - `cornell`: the thesis's indirect-light box — colour bleeding, glossy objects, open front.
+//! - `suite_room`: a closed room seen from inside — table, cabinet, bench, one small ceiling light;
+//!   no path escapes, so indirect light matters everywhere (see `builtin/room.rs`).
+//!
+//! Mesh generators (ground planes, panels, boxes, bars, cylinders, spheres, tori, lathes, rectangular
+//! lights) live in `builtin/mesh.rs` so new built-ins reuse them; each scene larger than a screenful
+//! lives in its own file under `builtin/`.
 
 pub mod chess;
+mod contact;
 pub mod envmap;
+mod glossy;
+mod grate;
 mod mesh;
 pub mod motion;
+mod near_light;
+mod room;
+mod slats;
 pub mod spheres;
+mod textured;
 
 use std::f32::consts::TAU;
 
@@ -41,12 +78,79 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::data::SceneData;
 use crate::{Camera, Material, Scene, SceneError, Texture};
-use mesh::{add_box, add_rect_light, add_sphere, add_torus, parametric, smooth_tri};
+use mesh::{add_box, add_ground, add_rect_light, add_sphere, add_torus, parametric, smooth_tri};
 
 pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
-    "envmap_real", "envmap_virtual", "envmap_far",
+    "envmap_real", "envmap_virtual", "envmap_far", "suite_slats", "suite_grate", "suite_contact",
+    "suite_near_light", "suite_textured", "suite_glossy", "suite_room",
 ];
+
+/// The scene suite of issue 16, in the order `wedge bench --suite` runs it: each built-in's name and
+/// what it tests (one or two sentences, for reports). Every name is in [`NAMES`].
+pub const SUITE: &[(&str, &str)] = &[
+    (
+        "grids",
+        "Thin occluders at several heights: three rotated grids of 3 cm bars at 0.6-1.05 m under a 0.6 m light, \
+         overlapping penumbrae over a mildly checkered ground (thesis Fig. 3.6).",
+    ),
+    (
+        "suite_slats",
+        "Thin occluders at three heights in an open scene: parallel slats at 0.3, 0.65 and 1.1 m (penumbrae 9-60 cm, \
+         crisp and washed out over the same pixels) and a sphere under a 0.6 m light 2.2 m up.",
+    ),
+    (
+        "suite_grate",
+        "A small (0.15 m) light and fine occluders: a 6 cm-pitch grate 0.25 m up casts a sharp, high-frequency \
+         shadow grid, overlapped by a coarser turned grate at 0.8 m.",
+    ),
+    (
+        "suite_contact",
+        "Contact shadows under a large (1.6 m) light: a cube, a sphere, a lying cylinder, a leaning plank and tiny \
+         cubes on the ground, where the occluder distance (and the penumbra) goes to zero.",
+    ),
+    (
+        "suite_near_light",
+        "Occluders close to the light: a louvre 0.2 m under a 0.8 m light (s = d1/d2 - 1 ~ 0.08, the rate and width \
+         formulas at their extreme) over a table whose shadow mixes occluder depths.",
+    ),
+    (
+        "curved",
+        "Curved receivers and occluders: a wavy, smooth-shaded ground under a sphere and a torus (thesis Fig. 3.8), \
+         open to the sky.",
+    ),
+    (
+        "suite_textured",
+        "Textured receivers: a high-contrast 6 cm checker floor and a checkered wall under bar and torus shadows; \
+         the albedo multiplies after filtering and must stay as sharp as in the reference.",
+    ),
+    (
+        "suite_glossy",
+        "Glossy receivers: a Phong (m = 40) floor seen at a low angle, a Phong sphere and box, a bright box it \
+         reflects (glossy indirect light; for SoftShadows, diffuse-only, a dark receiver).",
+    ),
+    (
+        "cornell",
+        "The thesis's indirect-light box (Figs. 4.7-4.11): colour bleeding from red and green walls, a glossy box \
+         and sphere, a checkered back wall, open front.",
+    ),
+    (
+        "suite_room",
+        "A closed room seen from inside: table, cabinet, bench and a small ceiling light; no path escapes, so \
+         indirect light matters everywhere (the floor under the table is lit only by bounces).",
+    ),
+];
+
+/// What the suite scene `name` tests ([`SUITE`]); `None` for a built-in outside the suite or an
+/// unknown name.
+pub fn describe(name: &str) -> Option<&'static str> {
+    SUITE.iter().find(|(n, _)| *n == name).map(|(_, d)| *d)
+}
+
+/// The names of the suite's scenes, in order.
+pub fn suite_names() -> impl Iterator<Item = &'static str> {
+    SUITE.iter().map(|(n, _)| *n)
+}
 
 pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
     match name {
@@ -62,6 +166,13 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "envmap_real" => Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false, far: false })),
         "envmap_virtual" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: false })),
         "envmap_far" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: true })),
+        "suite_slats" => Ok(slats::slats()),
+        "suite_grate" => Ok(grate::grate()),
+        "suite_contact" => Ok(contact::contact()),
+        "suite_near_light" => Ok(near_light::near_light()),
+        "suite_textured" => Ok(textured::textured()),
+        "suite_glossy" => Ok(glossy::glossy()),
+        "suite_room" => Ok(room::room()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),
@@ -75,6 +186,20 @@ pub(crate) fn builtin(name: &str) -> Result<Scene, SceneError> {
         scene.set_environment(Some(crate::EnvironmentMap::open(envmap::MAP)?));
     }
     Ok(scene)
+}
+
+/// A pinhole camera at `position` looking at `look_at` (+y up) with a `vfov_deg` vertical field of view.
+fn pinhole(position: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
+    Camera {
+        position,
+        look_at,
+        up: Vec3::Y,
+        vfov_deg,
+        aperture_radius: 0.0,
+        focus_distance: 0.0,
+        shutter_open: 0.0,
+        shutter_close: 0.0,
+    }
 }
 
 /// A square light of `side` m, `height` m up, centred above (0, height, centre_z), facing down (two emissive
@@ -139,24 +264,7 @@ fn grids() -> SceneData {
     let o = d.new_object();
     // 14 m × 12 m so the ground fills the whole frame from the default camera (a 6 m square would leave
     // the top ~17% of the image empty); uv = position/2 m with 8 checks per uv unit → 25 cm squares.
-    let (x0, x1, z0, z1) = (-7.0f32, 7.0f32, -7.0f32, 5.0f32);
-    let p = [
-        Vec3::new(x0, 0.0, z1),
-        Vec3::new(x1, 0.0, z1),
-        Vec3::new(x1, 0.0, z0),
-        Vec3::new(x0, 0.0, z0),
-    ];
-    let uv = p.map(|p| Vec2::new(p.x, p.z) * 0.5);
-    for idx in [[0, 1, 2], [0, 2, 3]] {
-        smooth_tri(
-            &mut d,
-            idx.map(|k| p[k]),
-            [Vec3::Y; 3],
-            idx.map(|k| uv[k]),
-            ground,
-            o,
-        );
-    }
+    add_ground(&mut d, (-7.0, 7.0, -7.0, 5.0), 0.5, ground, o);
     add_grids(&mut d);
     // The light sits 1 m behind the grids (seen from the camera) so their shadows fall toward the
     // camera, in front of the grids rather than hidden under them.

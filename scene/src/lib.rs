@@ -26,7 +26,7 @@
 //! - **Real layer** ([`real_layer`], issue 15): for mixed reality, the captured real world per pixel of
 //!   a camera image — the image `L_cam`, world position with coverage, normal, diffuse albedo
 //!   ([`RealLayer`], [`Scene::set_real`]), from EXR/PNG files or a wedge render's AOVs.
-//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_real`, `envmap_virtual`, see [`builtin`]), glTF, OBJ/MTL, and a
+//! - **Sources** ([`load`]): built-ins (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_real`, `envmap_virtual`, `envmap_far`, the scene suite `suite_*`, see [`builtin`]), glTF, OBJ/MTL, and a
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
 //!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an
 //!   unbounded allocation: inputs are validated before use and sizes are capped ([`limits`]). Files a

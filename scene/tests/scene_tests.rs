@@ -364,7 +364,11 @@ fn camera_rays() {
 fn builtins_load_and_are_sane() {
     assert_eq!(
         builtin_names(),
-        &["grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real", "envmap_virtual", "envmap_far"]
+        &[
+            "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real",
+            "envmap_virtual", "envmap_far", "suite_slats", "suite_grate", "suite_contact", "suite_near_light",
+            "suite_textured", "suite_glossy", "suite_room"
+        ]
     );
     for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
@@ -418,6 +422,71 @@ fn builtins_load_and_are_sane() {
         load(&SceneSource::Builtin("nope".into())),
         Err(SceneError::UnknownBuiltin { .. })
     ));
+}
+
+/// The scene suite (issue 16): every member is a built-in with a description, loads, is small, has
+/// one rectangular light out of view (but in `cornell`) and a camera that sees geometry in nearly every pixel, and shows
+/// mostly lit surfaces with penumbrae in view (pixels that see part of the light).
+#[test]
+fn suite_scenes_load_and_are_sane() {
+    use wedge_scene::builtin::{describe, suite_names, SUITE};
+    assert!(SUITE.len() >= 8, "issue 16 asks for at least eight scenes");
+    let mut names: Vec<&str> = suite_names().collect();
+    names.sort_unstable();
+    names.dedup();
+    assert_eq!(names.len(), SUITE.len(), "suite names are unique");
+    for (name, text) in SUITE {
+        assert!(builtin_names().contains(name), "{name} is a built-in");
+        assert_eq!(describe(name), Some(*text));
+        assert!(text.len() > 40 && text.ends_with('.'), "{name}: a sentence or two: {text:?}");
+        let s = load(&SceneSource::Builtin(name.to_string())).unwrap();
+        // New suite scenes: a few thousand triangles; `curved` (a finely tessellated ground) has 59k.
+        let cap = if name.starts_with("suite_") { 10_000 } else { 60_000 };
+        assert!(s.triangle_count() < cap, "{name}: {} triangles; keep suite scenes small", s.triangle_count());
+        assert_eq!(s.lights.len(), 1, "{name}");
+        let l = &s.lights[0];
+        assert!(matches!(l.shape, LightShape::Rect { .. }), "{name}: {:?}", l.shape);
+        assert!(l.normal().y < -0.99, "{name}: the light faces down");
+        let (w, h) = (64u32, 48u32);
+        let (mut hit, mut lit, mut penumbra, mut umbra) = (0u32, 0u32, 0u32, 0u32);
+        for y in 0..h {
+            for x in 0..w {
+                let (o, d) = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+                let Some(hh) = s.intersect(o, d, 0.0, f32::INFINITY) else { continue };
+                hit += 1;
+                if s.light_of_triangle(hh.triangle).is_some() {
+                    // Only the thesis's Cornell box shows its light (as in its figures).
+                    assert_eq!(*name, "cornell", "{name}: light visible at ({x},{y})");
+                    continue;
+                }
+                let sp = s.surface(&hh, o, d);
+                let a = s.albedo(&sp);
+                assert!(a.min_element() >= 0.0 && a.max_element() <= 1.0, "{name}: albedo {a}");
+                let p = sp.position + sp.geometric_normal * 1e-3;
+                // 4×4 stratified points on the light: how many does this point see?
+                let seen = (0..16)
+                    .filter(|k| {
+                        let u = Vec2::new((k % 4) as f32 + 0.5, (k / 4) as f32 + 0.5) / 4.0;
+                        let q = l.sample_point(u);
+                        let to = q - p;
+                        to.dot(sp.geometric_normal) > 0.0 && !s.occluded(p, to.normalize(), 0.0, to.length() * (1.0 - 1e-4))
+                    })
+                    .count();
+                match seen {
+                    16 => lit += 1,
+                    0 => umbra += 1,
+                    _ => penumbra += 1,
+                }
+            }
+        }
+        let px = (w * h) as f32;
+        // The new scenes fill the frame; `cornell` is a box in the dark (75% of the frame).
+        let min_hit = if name.starts_with("suite_") { 0.97 } else { 0.7 };
+        assert!(hit as f32 >= min_hit * px, "{name}: only {hit} of {px} camera rays hit geometry");
+        assert!((lit + penumbra) as f32 > 0.5 * px, "{name}: only {} pixels see the light", lit + penumbra);
+        assert!(penumbra as f32 > 0.03 * px, "{name}: only {penumbra} penumbra pixels (shadows in view?)");
+        println!("{name}: {} triangles, hit {hit}, lit {lit}, penumbra {penumbra}, umbra {umbra} of {px}", s.triangle_count());
+    }
 }
 
 #[test]

@@ -27,6 +27,7 @@ pub mod plots;
 pub mod reference_cache;
 pub mod report;
 pub mod stats;
+pub mod suite;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -88,6 +89,9 @@ pub struct BenchOptions {
     pub goals: Goals,
     /// Progress lines on stderr.
     pub verbose: bool,
+    /// With `verbose`: a progress bar (the suite's) that the progress lines go above and whose
+    /// message shows the current step; `None`: plain lines on stderr.
+    pub progress: Option<indicatif::ProgressBar>,
 }
 
 impl BenchOptions {
@@ -107,6 +111,7 @@ impl BenchOptions {
             cache_dir: None,
             goals: Goals::default(),
             verbose: false,
+            progress: None,
         }
     }
 }
@@ -315,6 +320,9 @@ pub struct BenchResult {
     pub goals: Vec<GoalOutcome>,
     /// Least-squares log-log fits of the baselines' RMSE against rays per pixel.
     pub fits: Vec<(Method, Option<curves::LogLogFit>)>,
+    /// The primary run's mean over the reference's mean, minus 1 (all pixels and channels): the
+    /// image-wide bias in brightness (issue 16's AO goal: within ±2%).
+    pub mean_offset: f64,
     pub seconds: f64,
 }
 
@@ -342,7 +350,14 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     fn log(&self, msg: impl AsRef<str>) {
         if self.opts.verbose {
-            eprintln!("bench: {}", msg.as_ref());
+            let line = format!("bench: {}", msg.as_ref());
+            match &self.opts.progress {
+                Some(bar) if !bar.is_hidden() => {
+                    bar.set_message(msg.as_ref().to_string());
+                    bar.println(line);
+                }
+                _ => eprintln!("{line}"),
+            }
         }
     }
 
@@ -592,6 +607,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
 
     let goals = report::check_goals(&runs, &opts.goals);
     let (ours, unfiltered) = kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
+    let mean_offset = mean_of(&ours) / mean_of(&ctx.reference) - 1.0;
     let kept = KeptImages { reference: ctx.reference, ours, unfiltered, equal_time };
     let mut result = BenchResult {
         pipeline_name,
@@ -609,10 +625,21 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         runs,
         goals,
         fits,
+        mean_offset,
         seconds: 0.0,
     };
     report::write_all(&mut result, &kept, &pipeline_dir, t0)?;
     Ok(result)
+}
+
+/// Mean of every finite channel value of `img` (NaN when there is none).
+fn mean_of(img: &Image) -> f64 {
+    let (sum, n) = img.pixels.iter().flatten().filter(|c| c.is_finite()).fold((0.0f64, 0u64), |(s, n), &c| (s + f64::from(c), n + 1));
+    if n > 0 {
+        sum / n as f64
+    } else {
+        f64::NAN
+    }
 }
 
 fn io_err(path: &Path, source: std::io::Error) -> WedgeError {

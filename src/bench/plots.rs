@@ -7,6 +7,7 @@
 use std::path::Path;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 pub use super::mono_text::MonoText;
 
@@ -193,6 +194,137 @@ pub fn write_plot(path: &Path, plot: &Plot) -> Result<(), ImageError> {
     write_png_rgb8(path, PLOT_WIDTH, PLOT_HEIGHT, &rgb)
 }
 
+/// One series of a [`BarChart`]: a value per category.
+#[derive(Clone, Debug)]
+pub struct BarSeries {
+    pub label: String,
+    pub color: [u8; 3],
+    /// One per category; unusable values (NaN, ≤ 0, see [`usable`]) draw no bar.
+    pub values: Vec<f64>,
+}
+
+/// Horizontal grouped bars on a log x axis, one group per category (top to bottom in order), each
+/// bar drawn from `base` to its value (so values below `base` extend left), with dashed vertical
+/// reference lines (`label`, x, colour).
+#[derive(Clone, Debug)]
+pub struct BarChart {
+    pub title: String,
+    pub x_label: String,
+    pub categories: Vec<String>,
+    pub series: Vec<BarSeries>,
+    pub base: f64,
+    pub lines: Vec<(String, f64, [u8; 3])>,
+}
+
+/// Draw `chart` into an RGB8 buffer of `width × height`.
+pub fn render_bar_chart(chart: &BarChart, width: u32, height: u32) -> Result<Vec<u8>, String> {
+    let mut buf = vec![255u8; width as usize * height as usize * 3];
+    {
+        let root = MonoText::new(&mut buf, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let n = chart.categories.len().max(1);
+        let xs = chart
+            .series
+            .iter()
+            .flat_map(|s| s.values.iter().copied())
+            .chain(chart.lines.iter().map(|l| l.1))
+            .chain([chart.base])
+            .map(|v| (v, 1.0))
+            .filter(usable)
+            .map(|p| p.0);
+        let (x0, x1) = log_range(xs);
+        // A third more on the right (in log space) keeps the legend clear of the longest bars, a
+        // little more on the left the value labels of bars below `base` clear of the names.
+        let span = x1 / x0;
+        let (x0, x1) = (x0 / span.powf(0.08), x1 * span.powf(0.35));
+        let label_px = chart.categories.iter().map(|c| c.chars().count()).max().unwrap_or(4) as u32 * 7 + 16;
+        let mut ch = ChartBuilder::on(&root)
+            .caption(chart.title.as_str(), ("sans-serif", 20))
+            .margin(14)
+            .x_label_area_size(44)
+            .y_label_area_size(label_px.min(width / 3))
+            .build_cartesian_2d((x0..x1).log_scale(), 0f64..n as f64)
+            .map_err(|e| e.to_string())?;
+        ch.configure_mesh()
+            .x_desc(chart.x_label.as_str())
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", 15))
+            .x_label_formatter(&|v| format!("{}x", fmt_tick(*v)))
+            .y_labels(0)
+            .disable_y_mesh()
+            .light_line_style(RGBColor(238, 238, 238))
+            .x_max_light_lines(2)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        // Category k occupies y ∈ [n − 1 − k, n − k] (the first at the top); its bars share 80% of it.
+        let groups = chart.series.len().max(1) as f64;
+        for (si, s) in chart.series.iter().enumerate() {
+            let color = rgb(s.color);
+            let bars: Vec<Rectangle<(f64, f64)>> = s
+                .values
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| usable(&(**v, 1.0)))
+                .map(|(k, &v)| {
+                    let top = (n - k) as f64 - 0.1 - 0.8 * si as f64 / groups;
+                    let bottom = top - 0.8 / groups;
+                    Rectangle::new([(chart.base.min(v), bottom), (chart.base.max(v), top)], color.filled())
+                })
+                .collect();
+            let legend_color = color;
+            ch.draw_series(bars)
+                .map_err(|e| e.to_string())?
+                .label(s.label.as_str())
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], legend_color.filled()));
+            // The value at the bar's far end (right of bars above `base`, left of those below).
+            let values = s.values.iter().enumerate().filter(|(_, v)| usable(&(**v, 1.0))).map(|(k, &v)| {
+                let centre = (n - k) as f64 - 0.1 - 0.8 * (si as f64 + 0.5) / groups;
+                let h = if v >= chart.base { HPos::Left } else { HPos::Right };
+                let style = TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(h, VPos::Center)).color(&BLACK);
+                Text::new(format!(" {v:.2}x "), (v, centre), style)
+            });
+            ch.draw_series(values).map_err(|e| e.to_string())?;
+        }
+        for (label, x, c) in &chart.lines {
+            if !usable(&(*x, 1.0)) {
+                continue;
+            }
+            let color = rgb(*c);
+            ch.draw_series(DashedLineSeries::new(vec![(*x, 0.0), (*x, n as f64)], 6, 5, color.stroke_width(1)))
+                .map_err(|e| e.to_string())?
+                .label(label.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(1)));
+        }
+        ch.configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font(("sans-serif", 13))
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        // Category names left of the plotting area, centred on their group.
+        let style = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Right, VPos::Center)).color(&BLACK);
+        for (k, name) in chart.categories.iter().enumerate() {
+            let (px, py) = ch.backend_coord(&(x0, (n - k) as f64 - 0.5));
+            root.draw(&Text::new(name.as_str(), (px - 6, py), style.clone())).map_err(|e| e.to_string())?;
+        }
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok(buf)
+}
+
+/// Height of a bar chart of `categories` rows (at least the default plot height).
+pub fn bar_chart_height(categories: usize) -> u32 {
+    (160 + 44 * categories as u32).max(PLOT_HEIGHT)
+}
+
+/// Render and write `chart` as a PNG ([`PLOT_WIDTH`] wide, [`bar_chart_height`] high).
+pub fn write_bar_chart(path: &Path, chart: &BarChart) -> Result<(), ImageError> {
+    let height = bar_chart_height(chart.categories.len());
+    let rgb = render_bar_chart(chart, PLOT_WIDTH, height).map_err(|reason| ImageError::Encode { path: path.to_path_buf(), reason })?;
+    write_png_rgb8(path, PLOT_WIDTH, height, &rgb)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -220,6 +352,29 @@ mod tests {
         assert!(count(GREEN) > 10, "green markers drawn");
         // Dark text pixels (title, ticks, labels) exist beyond the axis lines.
         assert!(count([0, 0, 0]) > 500);
+    }
+
+    #[test]
+    fn bar_chart_draws_bars_lines_and_names() {
+        let chart = BarChart {
+            title: "speedup".into(),
+            x_label: "x".into(),
+            categories: vec!["one".into(), "two".into(), "three".into()],
+            series: vec![
+                BarSeries { label: "a".into(), color: BLUE, values: vec![2.0, 0.5, f64::NAN] },
+                BarSeries { label: "b".into(), color: RED, values: vec![10.0, 3.0, 1.5] },
+            ],
+            base: 1.0,
+            lines: vec![("2x".into(), 2.0, GREY)],
+        };
+        let buf = render_bar_chart(&chart, 600, 400).unwrap();
+        let count = |c: [u8; 3]| buf.chunks(3).filter(|p| *p == c).count();
+        assert!(count(BLUE) > 300, "blue bars drawn");
+        assert!(count(RED) > 600, "red bars drawn");
+        assert!(count(GREY) > 20, "the 2x line drawn");
+        assert!(count([0, 0, 0]) > 300, "text and axes drawn");
+        assert_eq!(bar_chart_height(3), PLOT_HEIGHT);
+        assert!(bar_chart_height(20) > PLOT_HEIGHT);
     }
 
     #[test]

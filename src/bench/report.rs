@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use super::plots::{write_plot, Plot, Series, SeriesStyle, BLUE, GREEN, GREY, RED};
 use super::{BenchResult, GoalOutcome, Goals, KeptImages, Method, Role, RunRecord};
+use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
 use crate::image::{write_png_srgb, Image, ImageError};
 use crate::staging::Staging;
 use crate::WedgeError;
@@ -59,7 +60,7 @@ fn opt<T: ToString>(v: Option<T>) -> String {
     v.map(|v| v.to_string()).unwrap_or_default()
 }
 
-fn csv_field(s: &str) -> String {
+pub(crate) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
@@ -269,7 +270,20 @@ pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_di
     add(&mut set, "reference", format!("reference ({} spp)", result.reference.spp), &kept.reference)?;
     let full_ref = img_dir.join("reference.png");
     write_png_srgb(&set.file(rel(&full_ref))?, &kept.reference, 1.0)?;
-    result.images = crops.iter().map(|c| c.1.clone()).chain([full_ref]).collect();
+    // Where the error is: squared error per pixel of ours and of equal-time stratified MC, on one
+    // log colour range so the two maps compare.
+    let ours_err = squared_error_map(&kept.ours, &kept.reference);
+    let range = error_range(&ours_err);
+    let mut errors = vec![(img_dir.join("error_ours.png"), format!("squared error: {} (pipeline's mu)", Method::Pipeline.name()), ours_err)];
+    if let Some((img, n)) = &kept.equal_time {
+        let e = squared_error_map(img, &kept.reference);
+        errors.push((img_dir.join("error_equal_time_mc.png"), format!("squared error: equal-time {} ({n} spp)", Method::Stratified.name()), e));
+    }
+    for (path, title, values) in &errors {
+        let spec = HeatmapSpec { title, unit: "", scale: Scale::Log, range, arrows: None };
+        write_heatmap_png(&set.file(rel(path))?, kept.reference.width, kept.reference.height, values, None, &spec)?;
+    }
+    result.images = crops.iter().map(|c| c.1.clone()).chain([full_ref]).chain(errors.iter().map(|e| e.0.clone())).collect();
 
     result.seconds = t0.elapsed().as_secs_f64();
     let md = markdown(result, &crops, pipeline_dir);
@@ -277,6 +291,33 @@ pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_di
     write_text(&mut set, &report, md)?;
     set.commit()?;
     Ok(())
+}
+
+/// Per pixel, the mean over channels of `(ours − reference)²` (the RMSE's own terms; NaN where either
+/// is not finite or the sizes differ).
+pub fn squared_error_map(test: &Image, reference: &Image) -> Vec<f32> {
+    let same = test.width == reference.width && test.height == reference.height;
+    test.pixels
+        .iter()
+        .enumerate()
+        .map(|(i, t)| match reference.pixels.get(i).filter(|_| same) {
+            Some(r) if t.iter().chain(r).all(|v| v.is_finite()) => (0..3).map(|c| (t[c] - r[c]) * (t[c] - r[c])).sum::<f32>() / 3.0,
+            _ => f32::NAN,
+        })
+        .collect()
+}
+
+/// A log colour range for squared-error maps: from the 1st to the 99.9th percentile of the positive
+/// finite values (a few outliers do not wash out the rest); `None` without such values.
+pub fn error_range(values: &[f32]) -> Option<(f32, f32)> {
+    let mut v: Vec<f32> = values.iter().copied().filter(|x| x.is_finite() && *x > 0.0).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f32::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    let (lo, hi) = (at(0.01), at(0.999));
+    Some(if hi > lo { (lo, hi) } else { (lo, lo * 10.0) })
 }
 
 /// A few lines for the terminal: goals and where the files are.
@@ -437,6 +478,13 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     let _ = writeln!(w, "| {} |", crops.iter().map(|c| c.0.clone()).collect::<Vec<_>>().join(" | "));
     let _ = writeln!(w, "|{}", "---|".repeat(crops.len()));
     let _ = writeln!(w, "| {} |", crops.iter().map(|c| format!("![{}]({})", c.0, rel(&c.1, out))).collect::<Vec<_>>().join(" | "));
+    let errors: Vec<&PathBuf> = r.images.iter().filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("error_"))).collect();
+    if !errors.is_empty() {
+        let _ = writeln!(w, "\n## Where the error is (squared error per pixel against the reference, one log scale)\n");
+        for e in errors {
+            let _ = writeln!(w, "![{}]({})", rel(e, out), rel(e, out));
+        }
+    }
     let heat: Vec<PathBuf> =
         ["filter_width.png", "rays_per_pixel.png"].iter().map(|n| pipeline_dir.join(n)).filter(|p| p.exists()).collect();
     if !heat.is_empty() {
@@ -473,6 +521,17 @@ mod tests {
         assert_eq!((c.width, c.height), (256, 128));
         assert_eq!(c.get(0, 0), [2.0, 1.0, 0.0]);
         assert_eq!(c.get(255, 127), [5.0, 2.0, 0.0]);
+    }
+
+    #[test]
+    fn squared_error_map_and_its_range() {
+        let a = Image::from_fn(2, 1, |x, _| [x as f32, 0.0, 0.0]);
+        let b = Image::from_fn(2, 1, |_, _| [0.0, 0.0, 0.0]);
+        assert_eq!(squared_error_map(&a, &b), vec![0.0, 1.0 / 3.0]);
+        assert!(squared_error_map(&a, &Image::from_fn(1, 1, |_, _| [0.0; 3])).iter().all(|v| v.is_nan()));
+        let v: Vec<f32> = (1..=1000).map(|k| k as f32).chain([0.0, f32::NAN]).collect();
+        assert_eq!(error_range(&v), Some((11.0, 999.0)));
+        assert_eq!(error_range(&[0.0, f32::NAN]), None);
     }
 
     #[test]

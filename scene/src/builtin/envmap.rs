@@ -32,9 +32,9 @@
 //!
 //! The map is attached to the scene (`Scene::environment`), `scale` 1, `rotation_deg` 0.
 
-use glam::{Mat4, Quat, Vec2, Vec3};
+use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_rect_light, add_sphere, add_torus, smooth_tri};
+use super::mesh::{add_ground, add_rect_light, add_sphere, add_torus};
 use crate::data::SceneData;
 use crate::{Camera, Material};
 
@@ -106,24 +106,7 @@ pub(crate) fn envmap_parts(parts: Parts) -> SceneData {
 fn add_real(d: &mut SceneData) {
     let ground = d.add_material(Material::diffuse("ground", Vec3::splat(0.6)), false);
     let o = d.new_named_object("ground");
-    let (x0, x1, z0, z1) = (-20.0f32, 20.0f32, -20.0f32, 20.0f32);
-    let p = [
-        Vec3::new(x0, 0.0, z1),
-        Vec3::new(x1, 0.0, z1),
-        Vec3::new(x1, 0.0, z0),
-        Vec3::new(x0, 0.0, z0),
-    ];
-    let uv = p.map(|p| Vec2::new(p.x, p.z) * 0.5);
-    for idx in [[0, 1, 2], [0, 2, 3]] {
-        smooth_tri(
-            d,
-            idx.map(|k| p[k]),
-            [Vec3::Y; 3],
-            idx.map(|k| uv[k]),
-            ground,
-            o,
-        );
-    }
+    add_ground(d, (-20.0, 20.0, -20.0, 20.0), 0.5, ground, o);
     let diffuse = d.add_material(
         Material::diffuse("sphere", Vec3::new(0.7, 0.62, 0.5)),
         false,

@@ -68,6 +68,60 @@ pub(crate) fn parametric(
     }
 }
 
+/// A horizontal ground rectangle at y = 0, x in `x0..x1`, z in `z0..z1`, facing up (+y), as two
+/// smooth triangles with uv = (x, z) · `uv_per_metre` (for checker textures). Shared by `grids`,
+/// `envmap` and the scene suite; the vertex order and arithmetic are fixed (the `envmap` triangles
+/// are compared bit for bit by the real-layer tests).
+pub(crate) fn add_ground(d: &mut SceneData, (x0, x1, z0, z1): (f32, f32, f32, f32), uv_per_metre: f32, material: u32, object: u32) {
+    let p = [Vec3::new(x0, 0.0, z1), Vec3::new(x1, 0.0, z1), Vec3::new(x1, 0.0, z0), Vec3::new(x0, 0.0, z0)];
+    let uv = p.map(|p| Vec2::new(p.x, p.z) * uv_per_metre);
+    for idx in [[0, 1, 2], [0, 2, 3]] {
+        smooth_tri(d, idx.map(|k| p[k]), [Vec3::Y; 3], idx.map(|k| uv[k]), material, object);
+    }
+}
+
+/// A flat quad `p[0..4]` (a parallelogram or any planar convex quad, corners in order) facing
+/// `normal`, with uv = distance along the edges p0→p1 and p0→p3 · `uv_per_metre`: walls, table tops
+/// and panels that carry a texture.
+pub(crate) fn add_panel(d: &mut SceneData, p: [Vec3; 4], normal: Vec3, uv_per_metre: f32, material: u32, object: u32) {
+    let (eu, ev) = ((p[1] - p[0]).normalize_or_zero(), (p[3] - p[0]).normalize_or_zero());
+    let uv = p.map(|q| Vec2::new((q - p[0]).dot(eu), (q - p[0]).dot(ev)) * uv_per_metre);
+    for idx in [[0, 1, 2], [0, 2, 3]] {
+        smooth_tri(d, idx.map(|k| p[k]), [normal; 3], idx.map(|k| uv[k]), material, object);
+    }
+}
+
+/// A box that may be long and thin (a bar, slat or plank): split along its longest local axis into
+/// pieces at most `segment` m long, so each BVH box stays tight even when the bar is rotated (one
+/// long rotated bar has a huge axis-aligned box; see `add_grids`). `xf` places the box's centre and
+/// orientation, `half` its half-extents.
+pub(crate) fn add_bar(d: &mut SceneData, xf: Mat4, half: Vec3, segment: f32, material: u32, object: u32) {
+    let axis = if half.x >= half.y && half.x >= half.z {
+        0
+    } else if half.y >= half.z {
+        1
+    } else {
+        2
+    };
+    let len = 2.0 * half[axis];
+    let pieces = ((len / segment.max(1e-3)).ceil() as i32).max(1);
+    let mut piece_half = half;
+    piece_half[axis] = half[axis] / pieces as f32;
+    for k in 0..pieces {
+        let mut offset = Vec3::ZERO;
+        offset[axis] = -half[axis] + (2 * k + 1) as f32 * piece_half[axis];
+        add_box(d, xf * Mat4::from_translation(offset), piece_half, material, object);
+    }
+}
+
+/// A closed cylinder of `radius` and `length` along the y axis of `xf`, centred on its origin (a lathe
+/// with flat, creased caps).
+pub(crate) fn add_cylinder(d: &mut SceneData, xf: Mat4, radius: f32, length: f32, slices: u32, material: u32, object: u32) {
+    let h = 0.5 * length;
+    let profile = [Vec2::new(0.0, -h), Vec2::new(radius, -h), Vec2::new(radius, h), Vec2::new(0.0, h)];
+    lathe(d, xf, &profile, slices, material, object);
+}
+
 /// An oriented box (12 flat triangles, outward normals).
 pub(crate) fn add_box(d: &mut SceneData, xf: Mat4, half: Vec3, material: u32, object: u32) {
     let c = |sx: f32, sy: f32, sz: f32| {

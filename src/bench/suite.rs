@@ -1,0 +1,661 @@
+//! `wedge bench --suite`: one pipeline over the built-in scene suite ([`wedge_scene::builtin::SUITE`],
+//! issue 16), so a filter is measured on scenes nobody tuned it for.
+//!
+//! Every scene gets a whole [`super::run`] into `<out>/<scene>/` (its own `report.md`, `bench.csv`,
+//! convergence plots, crops and heatmaps), with one reference cache for all of them
+//! (`<out>/.cache` unless `cache_dir` is set). From each scene's **primary run** (the pipeline file's
+//! own μ) the suite keeps one row: rays per pixel, RMSE, equal-RMSE speedups in rays against
+//! independent and stratified Monte Carlo (with their extrapolation flags), bias² / variance, the
+//! mean offset against the reference and the filter overhead. It then writes
+//!
+//! - `suite.md`: the table, a **median** row (per column, over the scenes with a finite value) and
+//!   the **worst** row (the scene with the lowest speedup against stratified MC, the goal of issue 16),
+//!   each scene's description, links to its report and convergence plots, and the speedup chart;
+//! - `suite.csv` and `suite.json`: the same rows for scripts;
+//! - `suite_speedup.png`: a bar chart of both speedups per scene (log axis, bars from 1×: slower
+//!   than the baseline goes left), with the 1.5× and 2× lines of issue 16's goals.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use super::plots::{write_bar_chart, BarChart, BarSeries, BLUE, GREY, RED};
+use super::{BenchOptions, BenchResult, Method};
+use crate::image::ImageError;
+use crate::staging::Staging;
+use crate::WedgeError;
+
+/// The default suite: every scene of [`wedge_scene::builtin::SUITE`], as `builtin:NAME` specs.
+pub fn default_scenes() -> Vec<String> {
+    wedge_scene::builtin::suite_names().map(|n| format!("builtin:{n}")).collect()
+}
+
+/// The name a scene spec gets in the suite (its directory under `<out>`): a built-in's name, or a
+/// file's stem.
+pub fn scene_key(spec: &str) -> String {
+    if let Some(name) = spec.strip_prefix("builtin:") {
+        return name.to_string();
+    }
+    if wedge_scene::builtin_names().contains(&spec) {
+        return spec.to_string();
+    }
+    Path::new(spec).file_stem().map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned())
+}
+
+/// One scene's primary run.
+#[derive(Clone, Debug, Serialize)]
+pub struct SuiteRow {
+    /// The scene's key (built-in name or file stem) and directory name under the suite's `out`.
+    pub scene: String,
+    /// What the scene tests ([`wedge_scene::builtin::describe`]; empty for a scene outside the suite).
+    pub description: String,
+    /// The pipeline's μ for this row (`None` when no node has one).
+    pub mu: Option<f64>,
+    pub rays_per_pixel: f64,
+    pub rmse: f64,
+    /// Equal-RMSE speedup in rays against independent Monte Carlo (NaN: no estimate).
+    pub speedup_vs_independent: f64,
+    pub extrapolated_vs_independent: bool,
+    /// Equal-RMSE speedup in rays against stratified Monte Carlo (NaN: no estimate).
+    pub speedup_vs_stratified: f64,
+    pub extrapolated_vs_stratified: bool,
+    pub bias2: f64,
+    pub variance: f64,
+    /// bias² / (bias² + variance).
+    pub bias_fraction: f64,
+    /// mean(ours) / mean(reference) − 1 over all pixels and channels.
+    pub mean_offset: f64,
+    /// (bandwidth + filter time) / sampling time.
+    pub filter_overhead: f64,
+    /// The reference's own estimated RMSE.
+    pub reference_noise_rmse: f64,
+    /// The scene's whole bench, seconds.
+    pub seconds: f64,
+}
+
+impl SuiteRow {
+    /// The row of `r`'s primary run (`scene` and `description` as given).
+    pub fn from_result(scene: &str, description: &str, r: &BenchResult) -> SuiteRow {
+        let p = r.primary();
+        let speed = |m: Method| p.and_then(|p| p.speedup(m));
+        let bv = p.and_then(|p| p.bias_variance);
+        SuiteRow {
+            scene: scene.to_string(),
+            description: description.to_string(),
+            mu: p.and_then(|p| p.mu),
+            rays_per_pixel: p.map_or(f64::NAN, |p| p.rays.total),
+            rmse: p.map_or(f64::NAN, |p| p.metrics.rmse),
+            speedup_vs_independent: speed(Method::Independent).map_or(f64::NAN, |s| s.rays),
+            extrapolated_vs_independent: speed(Method::Independent).is_some_and(|s| s.extrapolated()),
+            speedup_vs_stratified: speed(Method::Stratified).map_or(f64::NAN, |s| s.rays),
+            extrapolated_vs_stratified: speed(Method::Stratified).is_some_and(|s| s.extrapolated()),
+            bias2: bv.map_or(f64::NAN, |b| b.bias2),
+            variance: bv.map_or(f64::NAN, |b| b.variance),
+            bias_fraction: bv.map_or(f64::NAN, |b| b.bias_fraction()),
+            mean_offset: r.mean_offset,
+            filter_overhead: p.map_or(f64::NAN, |p| p.time.filter_overhead()),
+            reference_noise_rmse: r.reference.noise_rmse,
+            seconds: r.seconds,
+        }
+    }
+
+    /// The numeric columns, in [`SUITE_COLUMNS`] order after `scene` and `mu`.
+    fn numbers(&self) -> [f64; 12] {
+        [
+            self.rays_per_pixel,
+            self.rmse,
+            self.speedup_vs_independent,
+            self.speedup_vs_stratified,
+            self.bias2,
+            self.variance,
+            self.bias_fraction,
+            self.mean_offset,
+            self.filter_overhead,
+            self.reference_noise_rmse,
+            self.seconds,
+            self.mu.unwrap_or(f64::NAN),
+        ]
+    }
+}
+
+/// Column names of `suite.csv`, in order.
+pub const SUITE_COLUMNS: &[&str] = &[
+    "scene",
+    "mu",
+    "rays_per_pixel",
+    "rmse",
+    "speedup_rays_vs_independent",
+    "extrapolated_vs_independent",
+    "speedup_rays_vs_stratified",
+    "extrapolated_vs_stratified",
+    "bias2",
+    "variance",
+    "bias_fraction",
+    "mean_offset",
+    "filter_overhead",
+    "reference_noise_rmse",
+    "seconds",
+];
+
+/// Per-column medians over the rows (each over the rows where that column is finite; NaN where none).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct SuiteMedian {
+    pub rays_per_pixel: f64,
+    pub rmse: f64,
+    pub speedup_vs_independent: f64,
+    pub speedup_vs_stratified: f64,
+    pub bias2: f64,
+    pub variance: f64,
+    pub bias_fraction: f64,
+    pub mean_offset: f64,
+    pub filter_overhead: f64,
+    pub reference_noise_rmse: f64,
+    pub seconds: f64,
+}
+
+/// The median of the finite values (the mean of the two middle ones for an even count); NaN when
+/// there is none.
+pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Medians of every numeric column of `rows`.
+pub fn column_medians(rows: &[SuiteRow]) -> SuiteMedian {
+    let col = |k: usize| median(rows.iter().map(|r| r.numbers()[k]));
+    SuiteMedian {
+        rays_per_pixel: col(0),
+        rmse: col(1),
+        speedup_vs_independent: col(2),
+        speedup_vs_stratified: col(3),
+        bias2: col(4),
+        variance: col(5),
+        bias_fraction: col(6),
+        mean_offset: col(7),
+        filter_overhead: col(8),
+        reference_noise_rmse: col(9),
+        seconds: col(10),
+    }
+}
+
+/// Index of the worst row: the lowest finite speedup against stratified Monte Carlo (ties: the
+/// first). A row without an estimate (NaN) is never the worst; `None` when no row has one.
+pub fn worst_row(rows: &[SuiteRow]) -> Option<usize> {
+    rows.iter()
+        .enumerate()
+        .filter(|(_, r)| r.speedup_vs_stratified.is_finite())
+        .min_by(|a, b| a.1.speedup_vs_stratified.total_cmp(&b.1.speedup_vs_stratified))
+        .map(|(i, _)| i)
+}
+
+/// What `wedge bench --suite` measured and wrote.
+#[derive(Clone, Debug, Serialize)]
+pub struct SuiteResult {
+    pub pipeline_name: String,
+    pub width: u32,
+    pub height: u32,
+    pub quick: bool,
+    pub reference_spp: u32,
+    pub rows: Vec<SuiteRow>,
+    pub median: SuiteMedian,
+    /// Index into `rows` of the worst scene ([`worst_row`]).
+    pub worst: Option<usize>,
+    pub out: PathBuf,
+    /// `suite.md`, `suite.csv`, `suite.json`, `suite_speedup.png`.
+    pub table: PathBuf,
+    pub csv: PathBuf,
+    pub json: PathBuf,
+    pub plot: PathBuf,
+    pub seconds: f64,
+}
+
+impl SuiteResult {
+    pub fn worst_row(&self) -> Option<&SuiteRow> {
+        self.worst.map(|i| &self.rows[i])
+    }
+}
+
+/// A bar over the scenes (indicatif, on a terminal only).
+fn scene_bar(len: u64) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("suite [{bar:30}] {pos}/{len} scenes {elapsed_precise} {wide_msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// Run `opts`' pipeline over `scenes` (scene specs: `builtin:NAME`, a built-in name or a file; the
+/// default suite is [`default_scenes`]), each into `<opts.out>/<key>/`, then write the suite's
+/// table, CSV, JSON and chart into `opts.out`. `opts.scene` must be `None` (the suite chooses the
+/// scenes).
+pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, WedgeError> {
+    if opts.scene.is_some() {
+        return Err(WedgeError::Usage("--suite runs the suite's scenes; it cannot be combined with --scene".into()));
+    }
+    if scenes.is_empty() {
+        return Err(WedgeError::Usage("the scene suite is empty".into()));
+    }
+    let keys: Vec<String> = scenes.iter().map(|s| scene_key(s)).collect();
+    for (i, k) in keys.iter().enumerate() {
+        if keys[..i].contains(k) {
+            return Err(WedgeError::Usage(format!("scene `{k}` appears twice in the suite")));
+        }
+    }
+    let t0 = Instant::now();
+    std::fs::create_dir_all(&opts.out).map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
+    let cache = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
+    let bar = opts.verbose.then(|| scene_bar(scenes.len() as u64));
+    let say = |line: String| match &bar {
+        Some(b) if !b.is_hidden() => b.println(line),
+        Some(_) => eprintln!("{line}"),
+        None => {}
+    };
+    let mut rows = Vec::new();
+    let (mut size, mut reference_spp) = ((0, 0), 0);
+    for (spec, key) in scenes.iter().zip(&keys) {
+        if let Some(b) = &bar {
+            b.set_message(format!("{key}: starting"));
+        }
+        say(format!("suite: scene `{key}` ({}/{})", rows.len() + 1, scenes.len()));
+        let scene_opts = BenchOptions {
+            scene: Some(spec.clone()),
+            out: opts.out.join(key),
+            cache_dir: Some(cache.clone()),
+            progress: bar.clone(),
+            ..opts.clone()
+        };
+        let r = super::run(&scene_opts)?;
+        let description = wedge_scene::builtin::describe(key).unwrap_or("");
+        let row = SuiteRow::from_result(key, description, &r);
+        say(format!(
+            "suite: `{key}`: {:.1} rays/px, {}x vs independent, {}x vs stratified, {:.0}% bias, {:.1} s",
+            row.rays_per_pixel,
+            f2(row.speedup_vs_independent),
+            f2(row.speedup_vs_stratified),
+            100.0 * row.bias_fraction,
+            row.seconds
+        ));
+        size = (r.width, r.height);
+        reference_spp = r.reference.spp;
+        rows.push(row);
+        if let Some(b) = &bar {
+            b.inc(1);
+        }
+    }
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let pipeline_name = opts.pipeline.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().into_owned());
+    let median = column_medians(&rows);
+    let worst = worst_row(&rows);
+    let out = opts.out.clone();
+    let mut result = SuiteResult {
+        pipeline_name,
+        width: size.0,
+        height: size.1,
+        quick: opts.quick,
+        reference_spp,
+        rows,
+        median,
+        worst,
+        table: out.join("suite.md"),
+        csv: out.join("suite.csv"),
+        json: out.join("suite.json"),
+        plot: out.join("suite_speedup.png"),
+        out,
+        seconds: 0.0,
+    };
+    result.seconds = t0.elapsed().as_secs_f64();
+    write_files(&result)?;
+    Ok(result)
+}
+
+/// Write `suite.md`, `suite.csv`, `suite.json` and `suite_speedup.png` as one set ([`Staging`]).
+fn write_files(r: &SuiteResult) -> Result<(), WedgeError> {
+    let mut set = Staging::new(&r.out)?;
+    let text = |set: &mut Staging, path: &Path, body: String| -> Result<(), WedgeError> {
+        let name = path.file_name().map(PathBuf::from).unwrap_or_default();
+        std::fs::write(set.file(name)?, body).map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
+    };
+    text(&mut set, &r.csv, csv(&r.rows))?;
+    let json = serde_json::to_string_pretty(r).map_err(|e| WedgeError::Usage(format!("suite.json: {e}")))?;
+    text(&mut set, &r.json, json + "\n")?;
+    write_bar_chart(&set.file("suite_speedup.png")?, &chart(r))?;
+    text(&mut set, &r.table, markdown(r))?;
+    set.commit()?;
+    Ok(())
+}
+
+fn num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else {
+        String::new()
+    }
+}
+
+/// The CSV text: a header ([`SUITE_COLUMNS`]) and one row per scene.
+pub fn csv(rows: &[SuiteRow]) -> String {
+    let mut s = SUITE_COLUMNS.join(",");
+    s.push('\n');
+    for r in rows {
+        let fields = [
+            r.scene.clone(),
+            r.mu.map_or(String::new(), |m| m.to_string()),
+            num(r.rays_per_pixel),
+            num(r.rmse),
+            num(r.speedup_vs_independent),
+            r.extrapolated_vs_independent.to_string(),
+            num(r.speedup_vs_stratified),
+            r.extrapolated_vs_stratified.to_string(),
+            num(r.bias2),
+            num(r.variance),
+            num(r.bias_fraction),
+            num(r.mean_offset),
+            num(r.filter_overhead),
+            num(r.reference_noise_rmse),
+            num(r.seconds),
+        ];
+        s.push_str(&fields.map(|f| super::report::csv_field(&f)).join(","));
+        s.push('\n');
+    }
+    s
+}
+
+fn f2(v: f64) -> String {
+    if !v.is_finite() {
+        "n/a".into()
+    } else if v.abs() >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+fn e3(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if v.is_finite() {
+        format!("{v:.2e}")
+    } else {
+        "n/a".into()
+    }
+}
+
+fn pct(v: f64, digits: usize) -> String {
+    if v.is_finite() {
+        format!("{:.*}%", digits, 100.0 * v)
+    } else {
+        "n/a".into()
+    }
+}
+
+fn signed_pct(v: f64) -> String {
+    if v.is_finite() {
+        format!("{:+.1}%", 100.0 * v)
+    } else {
+        "n/a".into()
+    }
+}
+
+fn chart(r: &SuiteResult) -> BarChart {
+    BarChart {
+        title: format!("{}: equal-RMSE speedup in rays per scene (pipeline's mu)", r.pipeline_name),
+        x_label: "speedup (baseline rays / ours at equal RMSE), log scale; bars start at 1x".into(),
+        categories: r.rows.iter().map(|x| x.scene.clone()).collect(),
+        series: vec![
+            BarSeries {
+                label: "vs stratified MC".into(),
+                color: BLUE,
+                values: r.rows.iter().map(|x| x.speedup_vs_stratified).collect(),
+            },
+            BarSeries {
+                label: "vs independent MC".into(),
+                color: RED,
+                values: r.rows.iter().map(|x| x.speedup_vs_independent).collect(),
+            },
+        ],
+        base: 1.0,
+        lines: vec![("1.5x".into(), 1.5, GREY), ("2x".into(), 2.0, [0, 0, 0])],
+    }
+}
+
+/// A terminal summary: median, worst, where the files are.
+pub fn summary(r: &SuiteResult) -> String {
+    let mut s = String::new();
+    let m = &r.median;
+    let _ = writeln!(
+        s,
+        "suite of {} scenes: median {} rays/px, {}x vs independent, {}x vs stratified, {} bias, filter overhead {}",
+        r.rows.len(),
+        f2(m.rays_per_pixel),
+        f2(m.speedup_vs_independent),
+        f2(m.speedup_vs_stratified),
+        pct(m.bias_fraction, 0),
+        pct(m.filter_overhead, 1)
+    );
+    if let Some(w) = r.worst_row() {
+        let _ = writeln!(
+            s,
+            "worst: `{}` {}x vs stratified ({}x vs independent, {} bias)",
+            w.scene,
+            f2(w.speedup_vs_stratified),
+            f2(w.speedup_vs_independent),
+            pct(w.bias_fraction, 0)
+        );
+    }
+    let _ = write!(s, "{:.1} s; wrote {}, {}, {}, {}", r.seconds, r.table.display(), r.csv.display(), r.json.display(), r.plot.display());
+    s
+}
+
+fn flag(extrapolated: bool) -> &'static str {
+    if extrapolated {
+        " ⚠"
+    } else {
+        ""
+    }
+}
+
+/// `suite.md`.
+pub fn markdown(r: &SuiteResult) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    let _ = writeln!(w, "# wedge bench --suite: `{}`\n", r.pipeline_name);
+    let _ = writeln!(
+        w,
+        "{} scenes at {}×{}{}, reference {} spp per scene; {:.0} s in all. Each row is the pipeline's own μ \
+         (the file's); each scene's full report (μ sweep, baselines, crops, heatmaps) is linked.\n",
+        r.rows.len(),
+        r.width,
+        r.height,
+        if r.quick { " (**quick mode**: smoke numbers, not the method's quality)" } else { "" },
+        r.reference_spp,
+        r.seconds
+    );
+    let _ = writeln!(
+        w,
+        "| scene | μ | rays/px | RMSE | vs independent | vs stratified | bias² | variance | bias share | mean offset | filter overhead |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    let row_cells = |x: &SuiteRow| {
+        format!(
+            "{} | {} | {} | {}x{} | {}x{} | {} | {} | {} | {} | {}",
+            x.mu.map_or("-".into(), |m| m.to_string()),
+            f2(x.rays_per_pixel),
+            e3(x.rmse),
+            f2(x.speedup_vs_independent),
+            flag(x.extrapolated_vs_independent),
+            f2(x.speedup_vs_stratified),
+            flag(x.extrapolated_vs_stratified),
+            e3(x.bias2),
+            e3(x.variance),
+            pct(x.bias_fraction, 0),
+            signed_pct(x.mean_offset),
+            pct(x.filter_overhead, 1)
+        )
+    };
+    for x in &r.rows {
+        let _ = writeln!(w, "| [{}]({}/report.md) | {} |", x.scene, x.scene, row_cells(x));
+    }
+    let m = &r.median;
+    let _ = writeln!(
+        w,
+        "| **median** | | {} | {} | **{}x** | **{}x** | {} | {} | {} | {} | {} |",
+        f2(m.rays_per_pixel),
+        e3(m.rmse),
+        f2(m.speedup_vs_independent),
+        f2(m.speedup_vs_stratified),
+        e3(m.bias2),
+        e3(m.variance),
+        pct(m.bias_fraction, 0),
+        signed_pct(m.mean_offset),
+        pct(m.filter_overhead, 1)
+    );
+    if let Some(x) = r.worst_row() {
+        let _ = writeln!(w, "| **worst: {}** | {} |", x.scene, row_cells(x));
+    }
+    let _ = writeln!(
+        w,
+        "\nThe median is per column (over the scenes with a value); the worst row is the scene with the lowest speedup \
+         against stratified MC. ⚠ = the baseline's rays were extrapolated beyond its measured curve (see that scene's report).\n"
+    );
+    let below = |t: f64| r.rows.iter().filter(|x| x.speedup_vs_stratified.is_finite() && x.speedup_vs_stratified < t).count();
+    let _ = writeln!(
+        w,
+        "Issue 16's goals against stratified MC (SoftShadows: median ≥ 2×, worst ≥ 1.5×, ≥ 10× against independent; \
+         Indirect: median ≥ 1.5×; AO: mean within 2%): median **{}x**, worst **{}x**; {} of {} scenes below 1.5×, {} below 2×; \
+         median against independent {}x; median |mean offset| {}.\n",
+        f2(m.speedup_vs_stratified),
+        r.worst_row().map_or("n/a".into(), |x| f2(x.speedup_vs_stratified)),
+        below(1.5),
+        r.rows.len(),
+        below(2.0),
+        f2(m.speedup_vs_independent),
+        pct(median(r.rows.iter().map(|x| x.mean_offset.abs())), 1)
+    );
+    let _ = writeln!(w, "![speedup per scene](suite_speedup.png)\n");
+    let _ = writeln!(w, "## Scenes\n");
+    for x in &r.rows {
+        let _ = writeln!(
+            w,
+            "- **{}**: {}[report]({}/report.md), [error vs rays]({}/error_vs_rays.png), [error vs time]({}/error_vs_time.png), \
+             [filter width]({}/pipeline/filter_width.png), [rays per pixel]({}/pipeline/rays_per_pixel.png).",
+            x.scene,
+            if x.description.is_empty() { String::new() } else { format!("{} — ", x.description) },
+            x.scene,
+            x.scene,
+            x.scene,
+            x.scene,
+            x.scene
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\n## Definitions\n\n\
+         - **rays/px**: total rays per pixel (primary + shadow + secondary) of the pipeline's run.\n\
+         - **vs independent / vs stratified**: equal-RMSE speedup in rays, the baseline's rays for ours' RMSE (read off its \
+         measured log-log curve) over ours'.\n\
+         - **bias², variance**: the MSE split from two seeds with the reference's noise removed; **bias share** = bias² / \
+         (bias² + variance).\n\
+         - **mean offset**: mean(ours) / mean(reference) − 1 over all pixels and channels (issue 16's AO goal: within ±2%).\n\
+         - **filter overhead**: (bandwidth + filter time) / sampling time."
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(scene: &str, strat: f64, indep: f64) -> SuiteRow {
+        SuiteRow {
+            scene: scene.into(),
+            description: String::new(),
+            mu: Some(2.0),
+            rays_per_pixel: 10.0,
+            rmse: 0.01,
+            speedup_vs_independent: indep,
+            extrapolated_vs_independent: false,
+            speedup_vs_stratified: strat,
+            extrapolated_vs_stratified: false,
+            bias2: 1e-5,
+            variance: 1e-5,
+            bias_fraction: 0.5,
+            mean_offset: 0.0,
+            filter_overhead: 0.01,
+            reference_noise_rmse: 1e-4,
+            seconds: 1.0,
+        }
+    }
+
+    #[test]
+    fn median_of_odd_even_and_non_finite() {
+        assert_eq!(median([3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median([4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median([f64::NAN, 5.0, f64::INFINITY, 1.0]), 3.0);
+        assert!(median([f64::NAN]).is_nan());
+        assert!(median(std::iter::empty()).is_nan());
+    }
+
+    #[test]
+    fn worst_is_the_lowest_finite_speedup_vs_stratified() {
+        let rows = [row("a", 2.5, 20.0), row("b", 1.2, 30.0), row("c", f64::NAN, 1.0), row("d", 1.9, 5.0)];
+        assert_eq!(worst_row(&rows), Some(1));
+        assert_eq!(worst_row(&rows[2..3]), None);
+        let m = column_medians(&rows);
+        assert_eq!(m.speedup_vs_stratified, 1.9, "median of 1.2, 1.9, 2.5 (NaN left out)");
+        assert_eq!(m.speedup_vs_independent, 12.5, "median of 1, 5, 20, 30");
+        assert_eq!(m.rays_per_pixel, 10.0);
+    }
+
+    #[test]
+    fn scene_keys_and_the_default_suite() {
+        assert_eq!(scene_key("builtin:suite_grate"), "suite_grate");
+        assert_eq!(scene_key("cornell"), "cornell");
+        assert_eq!(scene_key("scenes/my room.gltf"), "my room");
+        let d = default_scenes();
+        assert!(d.len() >= 8 && d.iter().all(|s| s.starts_with("builtin:")));
+    }
+
+    #[test]
+    fn csv_and_markdown_have_every_row_median_and_worst() {
+        let rows = vec![row("a", 2.5, 20.0), row("b", 1.2, 30.0)];
+        let r = SuiteResult {
+            pipeline_name: "shadows".into(),
+            width: 8,
+            height: 6,
+            quick: true,
+            reference_spp: 64,
+            median: column_medians(&rows),
+            worst: worst_row(&rows),
+            rows,
+            out: PathBuf::from("o"),
+            table: PathBuf::from("o/suite.md"),
+            csv: PathBuf::from("o/suite.csv"),
+            json: PathBuf::from("o/suite.json"),
+            plot: PathBuf::from("o/suite_speedup.png"),
+            seconds: 1.0,
+        };
+        let c = csv(&r.rows);
+        assert_eq!(c.lines().count(), 3);
+        assert_eq!(c.lines().next().unwrap().split(',').count(), SUITE_COLUMNS.len());
+        let md = markdown(&r);
+        assert!(md.contains("| **median** |") && md.contains("**1.85x**"), "{md}");
+        assert!(md.contains("| **worst: b** |"), "{md}");
+        assert!(md.contains("[a](a/report.md)") && md.contains("suite_speedup.png"));
+    }
+}
