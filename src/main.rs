@@ -477,6 +477,7 @@ fn parity(session: &Session, limits: Option<&str>) -> Result<(String, bool), Wed
         width: session.width,
         height: session.height,
         seed: session.seed,
+        frame: 0,
         progress: &wedge::backends::Silent,
     };
     let report = wedge::backends::parity::run_parity(&job, &mut gpu)?;

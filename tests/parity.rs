@@ -44,6 +44,7 @@ fn job(s: &Session) -> Job<'_> {
         width: s.width,
         height: s.height,
         seed: s.seed,
+        frame: 0,
         progress: &Silent,
     }
 }
