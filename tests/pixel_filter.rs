@@ -325,3 +325,77 @@ fn gpu_parity_at_a_filter_frame_with_history() {
         }
     }
 }
+
+/// Measurement for docs/DESIGN-NOTES.md (not run by default: minutes on 2 cores):
+/// `cargo test --release --test pixel_filter -- --ignored measure_error_vs_time --nocapture`.
+/// Cornell at `WEDGE_PF_SIZE` (default 160x120) against the pipeline's own reference at
+/// `WEDGE_PF_REF_SPP` (4096) paths per pixel; `WEDGE_PF_FRAMES` (256) frames of each pipeline. Plain
+/// progressive accumulation is the same run's `unfiltered` output, timed by its `sample` and
+/// `accumulate` passes only; the filtered image is timed by every pass. At the plain run's time after
+/// 4, 16, 64, … frames, the filtered image is the last one finished by then.
+#[test]
+#[ignore]
+fn measure_error_vs_time() {
+    let env = |k: &str, d: u32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+    let (w, h) = std::env::var("WEDGE_PF_SIZE")
+        .ok()
+        .and_then(|v| v.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))))
+        .unwrap_or((160, 120));
+    let (spp, frames) = (env("WEDGE_PF_REF_SPP", 4096), env("WEDGE_PF_FRAMES", 256));
+    let ov = sized(w, h, None, &[]);
+    let start = std::time::Instant::now();
+    let reference = Session::reference(Some(&pipeline("progressive_pixel.ron")), spp, "independent", &ov).unwrap();
+    let r = reference.run(&mut CpuBackend::new(), &Silent).unwrap();
+    let rc = r.output("color").unwrap().clone();
+    println!("reference: {spp} paths per pixel at {w}x{h} in {:.1} s", start.elapsed().as_secs_f64());
+    for name in ["progressive_pixel.ron", "progressive_pixel_fast.ron"] {
+        let s = Session::open(Some(&pipeline(name)), &ov).unwrap();
+        let mut previous: Option<RunResult> = None;
+        // Per frame: (plain time, filtered time, plain rmse, plain relmse, filtered rmse, filtered relmse).
+        let mut rows: Vec<(f64, f64, f64, f64, f64, f64)> = Vec::new();
+        let (mut tp, mut tf, mut tfilter, mut nfilter, mut tfilter_all) = (0.0f64, 0.0f64, 0.0f64, 0u32, 0.0f64);
+        for frame in 0..frames {
+            let run = s.run_progressive_frame(&mut CpuBackend::new(), &Silent, frame, previous.as_ref()).unwrap();
+            tp += run.timings.iter().filter(|t| t.pass == "pf.sample" || t.pass == "pf.accumulate").map(|t| t.seconds).sum::<f64>();
+            tf += run.total_seconds();
+            let filt = run.seconds(wedge::backends::KernelClass::Filter);
+            tfilter_all += filt;
+            if wedge::backends::kernels::pixel_filter::is_filter_frame(frame, 4, true) {
+                tfilter += filt;
+                nfilter += 1;
+            }
+            let (c, u) = (run.output("color").unwrap(), run.output("unfiltered").unwrap());
+            rows.push((tp, tf, rmse(u, &rc), rel_mse(u, &rc), rmse(c, &rc), rel_mse(c, &rc)));
+            previous = Some(run);
+        }
+        let (tp_all, tf_all) = (rows.last().unwrap().0, rows.last().unwrap().1);
+        println!(
+            "\n{name} at {w}x{h}, {frames} frames: {:.1} ms per filter pass ({nfilter} filter frames); filter passes {:.1}% of the \
+             pass time; everything beyond plain accumulation (range, filter, blend) {:.1}%; {:.2} s in all",
+            tfilter / f64::from(nfilter.max(1)) * 1e3,
+            100.0 * tfilter_all / tf_all,
+            100.0 * (tf_all - tp_all) / tf_all,
+            tf_all
+        );
+        println!("| plain frames | time (s) | plain RMSE | plain relMSE | filtered frames by then | filtered RMSE | filtered relMSE | relMSE plain/filtered |");
+        println!("|---|---|---|---|---|---|---|---|");
+        let mut n = 1usize;
+        while n <= rows.len() {
+            let t = rows[n - 1].0;
+            if let Some(k) = rows.iter().rposition(|r| r.1 <= t) {
+                let (p, f) = (rows[n - 1], rows[k]);
+                println!("| {n} | {t:.3} | {:.4} | {:.5} | {} | {:.4} | {:.5} | {:.2} |", p.2, p.3, k + 1, f.4, f.5, p.3 / f.5);
+            } else {
+                println!("| {n} | {t:.3} | {:.4} | {:.5} | none yet | | | |", rows[n - 1].2, rows[n - 1].3);
+            }
+            n *= 4;
+        }
+        println!("equal frames: | frames | plain relMSE | filtered relMSE | plain RMSE | filtered RMSE |");
+        let mut n = 1usize;
+        while n <= rows.len() {
+            let r = rows[n - 1];
+            println!("| {n} | {:.5} | {:.5} | {:.4} | {:.4} |", r.3, r.5, r.2, r.4);
+            n *= 2;
+        }
+    }
+}
