@@ -27,6 +27,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let radius = min(pf_radius(params.truncate, sg), i32(params.radius));
     let inv_s = pf_inv_two_sigma2(sg);
     let rj = range_at(j);
+    let spread = lv_at(j).w < 2.0;
     var sums = pf_sums();
     for (var y = max(xy.y - radius, 0); y <= min(xy.y + radius, h - 1); y = y + 1) {
         for (var x = max(xy.x - radius, 0); x <= min(xy.x + radius, w - 1); x = x + 1) {
@@ -38,7 +39,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let i = index_at(x, y);
             pf_add_tap(&sums, range_at(i), rj.xyz, rj.w, ds2, inv_s, params.inv_c, params.inv_d, lv_at(i).w, hv_at(i), 1.0,
-                0.0, false, true);
+                0.0, false, true, spread);
         }
     }
     let o = pf_filter_outputs(pf_finish(sums), lv_at(j).w);

@@ -82,8 +82,14 @@ fn pf_range_colour(kd: vec3<f32>, ks: vec3<f32>, c: f32) -> vec3<f32> {
     return (kd + ks) * (0.5 + 0.5 * c);
 }
 
+const PF_WEIGHT_CUTOFF: f32 = 80.0; // weights below e^-80 are 0 (pixel_filter.rs WEIGHT_CUTOFF)
+
 fn pf_bilateral_weight(ds2: f32, dc2: f32, dd: f32, inv_s: f32, inv_c: f32, inv_d: f32) -> f32 {
-    return exp(-(ds2 * inv_s + dc2 * inv_c + dd * dd * inv_d));
+    let x = ds2 * inv_s + dc2 * inv_c + dd * dd * inv_d;
+    if (!(x < PF_WEIGHT_CUTOFF)) {
+        return 0.0;
+    }
+    return exp(-x);
 }
 
 fn pf_inv_two_sigma2(sigma: f32) -> f32 {
@@ -116,7 +122,7 @@ fn pf_sums() -> PfSums {
 
 // add_tap: one neighbour of the cross-bilateral filter.
 fn pf_add_tap(s: ptr<function, PfSums>, range_i: vec4<f32>, cj: vec3<f32>, dj: f32, ds2: f32, inv_s: f32, inv_c: f32,
-        inv_d: f32, n: f32, hv: vec4<f32>, r_in: f32, var_in: f32, has_var_in: bool, first: bool) {
+        inv_d: f32, n: f32, hv: vec4<f32>, r_in: f32, var_in: f32, has_var_in: bool, first: bool, spread: bool) {
     if (!(n > 0.0)) {
         return;
     }
@@ -134,11 +140,13 @@ fn pf_add_tap(s: ptr<function, PfSums>, range_i: vec4<f32>, cj: vec3<f32>, dj: f
             (*s).var_sum = (*s).var_sum + a * (hv.w / (n - 1.0));
             (*s).var_w = (*s).var_w + a;
         }
-        let y = pf_luminance(value);
-        (*s).spread_w = (*s).spread_w + a;
-        let d = y - (*s).spread_mean;
-        (*s).spread_mean = (*s).spread_mean + d * a / (*s).spread_w;
-        (*s).spread_s = (*s).spread_s + a * d * (y - (*s).spread_mean);
+        if (spread) {
+            let y = pf_luminance(value);
+            (*s).spread_w = (*s).spread_w + a;
+            let d = y - (*s).spread_mean;
+            (*s).spread_mean = (*s).spread_mean + d * a / (*s).spread_w;
+            (*s).spread_s = (*s).spread_s + a * d * (y - (*s).spread_mean);
+        }
     } else if (has_var_in) {
         (*s).var_sum = (*s).var_sum + a * var_in;
         (*s).var_w = (*s).var_w + a;

@@ -62,7 +62,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let value = value_in_at(i);
         if (first) {
             pf_add_tap(&sums, range_at(i), rj.xyz, rj.w, ds2, inv_s, params.inv_c, params.inv_d, lv_at(i).w, value, 1.0, 0.0,
-                false, true);
+                false, true, lv_at(j).w < 2.0);
         } else {
             let v = variance_in_at(i);
             var n = 0.0;
@@ -70,7 +70,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 n = 1.0;
             }
             pf_add_tap(&sums, range_at(i), rj.xyz, rj.w, ds2, inv_s, params.inv_c, params.inv_d, n, value, value.w, v.x,
-                true, false);
+                true, false, false);
         }
     }
     let f = pf_finish(sums);

@@ -121,6 +121,7 @@ impl Stats {
 ///   (eq. 3.9 with the covariance of eq. 3.8 set to zero, as the thesis does).
 ///
 /// `u = +∞` (a black background, eq. 3.10, under noise) gives 0, the limit of `s'`.
+#[allow(clippy::manual_clamp)]
 pub fn blend_factor(u: f32, f: f32, t: f32) -> f32 {
     if !(u > t) {
         return 1.0;
@@ -136,6 +137,7 @@ pub fn blend_factor(u: f32, f: f32, t: f32) -> f32 {
         return 0.0;
     }
     let s = (f + d.sqrt()) / (u + f);
+    // max/min rather than clamp: NaN would become 0, as WGSL's rmax/rmin make it.
     s.max(0.0).min(1.0)
 }
 
@@ -216,11 +218,20 @@ pub fn range_colour(kd: Vec3, ks: Vec3, cos: f32) -> Vec3 {
 }
 
 /// The cross-bilateral weight `a_i` of eq. 3.6 as one exponential: spatial distance² `ds2` (pixels²),
-/// colour distance² `dc2` and depth difference `dd`, with `inv_*` = 1/(2σ²) of each kernel.
+/// colour distance² `dc2` and depth difference `dd`, with `inv_*` = 1/(2σ²) of each kernel. Weights
+/// below `e^-80` (1.8e-35) are 0 — on both backends alike (a GPU may flush what the CPU keeps as a
+/// denormal), and most taps of a brute-force window on another surface skip the `exp`.
 #[inline]
 pub fn bilateral_weight(ds2: f32, dc2: f32, dd: f32, inv_s: f32, inv_c: f32, inv_d: f32) -> f32 {
-    (-(ds2 * inv_s + dc2 * inv_c + dd * dd * inv_d)).exp()
+    let x = ds2 * inv_s + dc2 * inv_c + dd * dd * inv_d;
+    if !(x < WEIGHT_CUTOFF) {
+        return 0.0;
+    }
+    (-x).exp()
 }
+
+/// Exponent beyond which a bilateral weight is 0 ([`bilateral_weight`]).
+pub const WEIGHT_CUTOFF: f32 = 80.0;
 
 /// `1 / (2σ²)`, 0 for σ = ∞ or a non-positive σ (that kernel off).
 #[inline]
@@ -831,6 +842,7 @@ impl Kernel for Bilateral {
             let radius = (p.radius(sg) as i32).min(max_radius);
             let inv_s = inv_two_sigma2(sg);
             let (cj, dj) = (Vec3::new(range[j][0], range[j][1], range[j][2]), range[j][3]);
+            let spread = lv[j][3] < 2.0;
             let mut sums = Sums::default();
             for y in (py as i32 - radius).max(0)..=(py as i32 + radius).min(h - 1) {
                 for x in (px as i32 - radius).max(0)..=(px as i32 + radius).min(w - 1) {
@@ -840,7 +852,7 @@ impl Kernel for Bilateral {
                         continue;
                     }
                     let i = (y * w + x) as usize;
-                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv[i][3], hv[i], 1.0, None, true);
+                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv[i][3], hv[i], 1.0, None, true, spread);
                 }
             }
             let (value, r, sigma2) = sums.finish();
@@ -853,7 +865,9 @@ impl Kernel for Bilateral {
 
 /// One tap of the cross-bilateral filter at neighbour `i`: its range entry, its path count `n` and
 /// value `hv` (`hv.w` = M2 on the first pass, where `first`; later passes carry the value's `r` in
-/// `r_in` and the filtered σ² in `var_in`).
+/// `r_in` and the filtered σ² in `var_in`). `spread`: keep the one-path spread, needed only where the
+/// centre pixel has fewer than two paths (otherwise its own tap, weight 1, makes the variance sum
+/// non-empty and the spread unused).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_tap(
@@ -870,6 +884,7 @@ fn add_tap(
     r_in: f32,
     var_in: Option<f32>,
     first: bool,
+    spread: bool,
 ) {
     if !(n > 0.0) {
         return;
@@ -889,7 +904,9 @@ fn add_tap(
             sums.var += a * (hv[3] / (n - 1.0));
             sums.var_w += a;
         }
-        sums.spread.add(luminance(value), a);
+        if spread {
+            sums.spread.add(luminance(value), a);
+        }
     } else if let Some(v) = var_in {
         sums.var += a * v;
         sums.var_w += a;
@@ -1028,12 +1045,13 @@ impl Kernel for Separable {
                 }
                 let i = (y * w + x) as usize;
                 if s.first {
-                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv.unwrap()[i][3], value[i], 1.0, None, true);
+                    let spread = lv.unwrap()[j][3] < 2.0;
+                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv.unwrap()[i][3], value[i], 1.0, None, true, spread);
                 } else {
                     let v = var.unwrap()[i];
                     // A pixel without paths is not in the chain (valid flag 0).
                     let n = if v[1] > 0.0 { 1.0 } else { 0.0 };
-                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, n, value[i], value[i][3], Some(v[0]), false);
+                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, n, value[i], value[i][3], Some(v[0]), false, false);
                 }
             }
             let (val, r, sigma2) = sums.finish();
