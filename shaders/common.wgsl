@@ -45,7 +45,7 @@ struct Frame {
     chunk_begin: u32, // sampling kernels that resume (WgslSource::chunked): this dispatch takes the
     chunk_end: u32,   // pass's sample indices [chunk_begin, chunk_end); unchunked: [0, 2^32 - 1)
     packed_pixels: u32, // packed binding plan: elements per binding region (the band's end - first)
-    _pad0: u32,
+    frame_index: u32, // frames run before this one in its sequence (Job::frame; 0 for a single image)
     _pad1: u32,
     _pad2: u32,
 }

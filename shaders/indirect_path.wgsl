@@ -25,7 +25,17 @@ fn weight_of(c: vec3<f32>) -> f32 {
 
 // next_event: one uniform area sample per light, and one environment look-up where the scene has a map.
 fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> vec3<f32> {
+    return next_event_parts(y, n, wo, kd, ks, m, key, sample, bounce).total;
+}
+
+struct NextEvent {
+    total: vec3<f32>,
+    glossy: vec3<f32>, // the area lights' part through the glossy lobe (indirect.rs next_event_parts)
+}
+
+fn next_event_parts(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
     var sum = vec3<f32>(0.0);
+    var glossy_sum = vec3<f32>(0.0);
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
     for (var l = 0u; l < params.light_count; l = l + 1u) {
         let light = scene_light_at(l);
@@ -54,13 +64,16 @@ fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3
             continue;
         }
         var f = kd * FRAC_1_PI_F32;
+        let geometry = cos_y * cos_l / r2 * light.normal_area.w;
         if (is_glossy) {
-            f = f + ks * glossy_brdf(params.lobe, m, n, wo, dir);
+            let g = ks * glossy_brdf(params.lobe, m, n, wo, dir);
+            f = f + g;
+            glossy_sum = glossy_sum + light.radiance.xyz * g * geometry;
         }
-        sum = sum + light.radiance.xyz * f * (cos_y * cos_l / r2 * light.normal_area.w);
+        sum = sum + light.radiance.xyz * f * geometry;
     }
     // The environment is a light too (indirect.rs next_event).
-    return sum + environment_event(y, n, wo, kd, ks, m, key, sample, bounce);
+    return NextEvent(sum + environment_event(y, n, wo, kd, ks, m, key, sample, bounce), glossy_sum);
 }
 
 struct PathResult {
@@ -71,24 +84,38 @@ struct PathResult {
 
 // trace_path: one path leaving `x` (normal `n`) in direction `wi`.
 fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) -> PathResult {
+    let r = trace_path_split(x, n, wi, key, sample);
+    return PathResult(r.value, r.hit, r.first);
+}
+
+struct PathSplit {
+    value: vec3<f32>,
+    caustic: vec3<f32>, // the light that reached x through glossy scattering only (indirect.rs trace_path_split)
+    hit: bool,
+    first: f32,
+}
+
+fn trace_path_split(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) -> PathSplit {
     let side = select(-1.0, 1.0, dot3(wi, n) >= 0.0);
     var origin = x + n * (side * params.eps);
     var dir = wi;
     rays_secondary = rays_secondary + 1u;
     var hit = scene_intersect(origin, dir, 0.0, inf());
     if (!hit.hit) {
-        return PathResult(vec3<f32>(0.0), false, 0.0);
+        return PathSplit(vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
     }
     let first = hit.t;
     if (params.ao != 0u) {
         let inside = params.max_distance <= 0.0 || first <= params.max_distance;
         if (inside) {
-            return PathResult(vec3<f32>(1.0), true, first);
+            return PathSplit(vec3<f32>(1.0), vec3<f32>(0.0), true, first);
         }
-        return PathResult(vec3<f32>(0.0), false, 0.0);
+        return PathSplit(vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
     }
     var radiance = vec3<f32>(0.0);
     var throughput = vec3<f32>(1.0);
+    var caustic = vec3<f32>(0.0);
+    var caustic_throughput = vec3<f32>(1.0);
     for (var bounce = 1u; bounce <= params.bounces; bounce = bounce + 1u) {
         let sp = surface(hit.triangle, hit.b1, hit.b2, dir);
         let y = sp.position;
@@ -98,7 +125,9 @@ fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) 
         let kd = albedo(sp);
         let ks = mat.specular;
         let m = mat.phong_exponent;
-        radiance = radiance + throughput * next_event(y, ny, wo, kd, ks, m, key, sample, bounce);
+        let event = next_event_parts(y, ny, wo, kd, ks, m, key, sample, bounce);
+        radiance = radiance + throughput * event.total;
+        caustic = caustic + caustic_throughput * event.glossy;
         if (bounce == params.bounces) {
             break;
         }
@@ -126,15 +155,18 @@ fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) 
             break;
         }
         var f = kd * FRAC_1_PI_F32;
+        var g = vec3<f32>(0.0);
         var pdf = pd * cos_i * FRAC_1_PI_F32;
         if (is_glossy) {
-            f = f + ks * glossy_brdf(params.lobe, m, ny, wo, next);
+            g = ks * glossy_brdf(params.lobe, m, ny, wo, next);
+            f = f + g;
             pdf = pdf + (1.0 - pd) * glossy_pdf(params.lobe, m, ny, wo, next);
         }
         if (pdf <= 0.0) {
             break;
         }
         throughput = throughput * (f * (cos_i / pdf));
+        caustic_throughput = caustic_throughput * (g * (cos_i / pdf));
         origin = y + ny * params.eps;
         dir = next;
         rays_secondary = rays_secondary + 1u;
@@ -143,6 +175,5 @@ fn trace_path(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) 
             break;
         }
     }
-    return PathResult(radiance, true, first);
+    return PathSplit(radiance, caustic, true, first);
 }
-

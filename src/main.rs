@@ -83,6 +83,12 @@ enum Command {
         /// mixed-reality pipeline's file names) and the last frame's unnumbered.
         #[arg(long, value_name = "NAMES", value_delimiter = ',', value_parser = wedge::aov::AOV_NAMES)]
         aov: Vec<String>,
+        /// Progressive rendering: N frames (1..=1000000) with the camera held still, each adding its
+        /// paths to what nodes accumulate over frames (PixelFilter); writes progressive_NNNN.exr/png
+        /// after 1, 2, 4, 8, … frames and the last, each with that frame's full outputs (an
+        /// interrupted render keeps the last complete snapshot), and prints the time per frame.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_PROGRESSIVE), conflicts_with = "frames")]
+        progressive: Option<u32>,
     },
     /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
     /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
@@ -431,6 +437,124 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
     Ok(text)
 }
 
+/// Most frames `render --progressive` takes.
+const MAX_PROGRESSIVE: i64 = 1_000_000;
+
+/// `render --progressive N`: frames 0..N−1 with a still camera, each continuing the previous frame's
+/// history (`Session::run_progressive_frame`); after 1, 2, 4, 8, … frames and the last, one
+/// all-or-nothing set of files: `progressive_NNNN.exr/png` (NNNN = frames so far) and that frame's
+/// full outputs. Shows a bar over the frames and prints the time per frame and per pass class.
+fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[String]) -> Result<String, WedgeError> {
+    use wedge::backends::KernelClass;
+    if session.schedule.history.is_empty() {
+        return Err(WedgeError::Usage(format!(
+            "--progressive: {} has no node that accumulates over frames, so every frame would be a new image, not a \
+             better one; use a PixelFilter pipeline (e.g. pipelines/progressive_pixel.ron), or --frames for a sequence",
+            session.pipeline.path.display()
+        )));
+    }
+    eprintln!(
+        "{} on scene `{}`, {}x{}, progressive: {frames} frames, seed {} (+ frame)",
+        session.pipeline.path.display(),
+        session.scene.name,
+        session.width,
+        session.height,
+        session.seed
+    );
+    scene_notes(session);
+    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    check_memory(session, mode, common.memory_limit)?;
+    let mut backend: Box<dyn wedge::backends::Backend + Send> = match common.backend.as_str() {
+        "wgpu" => Box::new(open_gpu(common.gpu_limits.as_deref())?),
+        _ => Box::new(CpuBackend::new()),
+    };
+    let (extra, aov_line) = with_threads(common.threads, || aov_images(&session.scene, session, aov))??;
+    // Which frames run a scheduled filter (a pass with the PixelFilter schedule's parameters).
+    let schedule = session.schedule.passes.iter().find_map(|p| {
+        match (p.params.get("first_filter"), p.params.get("filter_first_frame")) {
+            (Some(ParamValue::Int(first)), Some(ParamValue::Bool(ff))) => Some((*first as u32, *ff)),
+            _ => None,
+        }
+    });
+    let filters = |frame: u32| schedule.is_some_and(|(first, ff)| wedge::backends::kernels::pixel_filter::is_filter_frame(frame, first, ff));
+    let bar = indicatif::ProgressBar::new(u64::from(frames));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_prefix("progressive");
+    let classes = [KernelClass::Sampling, KernelClass::Bandwidth, KernelClass::Filter, KernelClass::Compose];
+    let looped = with_threads(common.threads, || -> Result<_, WedgeError> {
+        let mut previous: Option<wedge::backends::RunResult> = None;
+        let mut files: Vec<std::path::PathBuf> = Vec::new();
+        let mut warnings = String::new();
+        let (mut per_class, mut total, mut filter_frames, mut filter_seconds) = ([0.0f64; 4], 0.0f64, 0u32, 0.0f64);
+        let mut frame_seconds: Vec<f64> = Vec::with_capacity(frames as usize);
+        for frame in 0..frames {
+            let run = session.run_progressive_frame(backend.as_mut(), &wedge::backends::Silent, frame, previous.as_ref())?;
+            let seconds = run.total_seconds();
+            total += seconds;
+            frame_seconds.push(seconds);
+            for (k, c) in classes.iter().enumerate() {
+                per_class[k] += run.seconds(*c);
+            }
+            if filters(frame) {
+                filter_frames += 1;
+                filter_seconds += run.seconds(KernelClass::Filter);
+            }
+            let n = frame + 1;
+            if n.is_power_of_two() || n == frames {
+                if let Some(color) = run.output("color") {
+                    let image = wedge::outputs::buffer_to_image(color, session.width, session.height);
+                    let name = format!("progressive_{n:04}");
+                    let written = wedge::outputs::write_snapshot(&common.out, "render", &run, (&name, &image), &extra, session.width, session.height)?;
+                    if n == frames {
+                        // The last set in full, after the earlier snapshots' own images.
+                        files.extend(written.files.iter().cloned());
+                        warnings = written.warnings();
+                    } else {
+                        files.extend(written.files.iter().filter(|f| f.file_name().is_some_and(|s| s.to_string_lossy().starts_with(&name))).cloned());
+                    }
+                }
+            }
+            bar.set_message(format!("{n} paths/px, {:.1} ms", seconds * 1e3));
+            bar.inc(1);
+            previous = Some(run);
+        }
+        Ok((previous, files, warnings, per_class, total, filter_frames, filter_seconds, frame_seconds))
+    })?;
+    bar.finish_and_clear();
+    let (last, files, warnings, per_class, total, filter_frames, filter_seconds, frame_seconds) = looped?;
+    let run = last.expect("at least one frame");
+    let n = f64::from(frames);
+    let mut text = summary(&run, session.width, session.height);
+    text.push_str(&format!(
+        "progressive: {frames} frames in {total:.2} s of passes ({}): {:.2} ms per frame (first {:.2}, last {:.2}), {:.2} frames per second\n",
+        backend.name(),
+        total / n * 1e3,
+        frame_seconds.first().copied().unwrap_or(0.0) * 1e3,
+        frame_seconds.last().copied().unwrap_or(0.0) * 1e3,
+        n / total.max(1e-9)
+    ));
+    let names = ["sampling", "bandwidth", "filter", "compose"];
+    let parts: Vec<String> = names.iter().zip(per_class).map(|(name, s)| format!("{name} {:.2} ms ({:.1}%)", s / n * 1e3, 100.0 * s / total.max(1e-12))).collect();
+    text.push_str(&format!("per frame by pass class: {}\n", parts.join(", ")));
+    if schedule.is_some() {
+        text.push_str(&format!(
+            "filter frames: {filter_frames} of {frames}, {:.2} ms per filter frame's filter passes; filtering took {:.1}% of all pass time\n",
+            if filter_frames > 0 { filter_seconds / f64::from(filter_frames) * 1e3 } else { 0.0 },
+            100.0 * per_class[2] / total.max(1e-12)
+        ));
+    }
+    text.push_str(&aov_line);
+    text.push_str(&warnings);
+    for f in &files {
+        text.push_str(&format!("wrote {}\n", f.display()));
+    }
+    Ok(text)
+}
+
 /// The wgpu backend with the limits `--gpu-limits` names (None: the library's default, which reads
 /// `WEDGE_WGPU_LIMITS`).
 fn open_gpu(limits: Option<&str>) -> Result<wedge::backends::gpu::GpuBackend, WedgeError> {
@@ -491,6 +615,7 @@ fn parity(session: &Session, limits: Option<&str>) -> Result<(String, bool), Wed
         width: session.width,
         height: session.height,
         seed: session.seed,
+        frame: 0,
         progress: &wedge::backends::Silent,
     };
     let report = wedge::backends::parity::run_parity(&job, &mut gpu)?;
@@ -552,13 +677,14 @@ fn suite_scene_specs(names: &[String]) -> Result<Vec<String>, WedgeError> {
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu, frames, aov } => {
+        Command::Render { pipeline, common, mu, frames, aov, progressive } => {
             // A sequence opens at its first frame (its camera, and a real layer read per frame).
             let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
             let mut session = Session::open(pipeline.as_deref(), &ov)?;
-            match frames {
-                Some(frames) => render_frames(&mut session, &common, frames, &aov),
-                None => render(&session, &common, "render", &aov),
+            match (frames, progressive) {
+                (_, Some(n)) => render_progressive(&session, &common, n, &aov),
+                (Some(frames), None) => render_frames(&mut session, &common, frames, &aov),
+                (None, None) => render(&session, &common, "render", &aov),
             }
         }
         Command::Reference { pipeline, common, spp, sampling } => {

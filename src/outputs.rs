@@ -78,6 +78,21 @@ pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u3
     write_sequence(dir, stem, run, &[], width, height)
 }
 
+/// [`write_run_with`] for one snapshot of a progressive render (`render --progressive`): the run's
+/// outputs, `extra` EXRs and `<name>.exr` / `<name>.png` of `image` (e.g. `progressive_0016`), all in
+/// one all-or-nothing set, so an interrupted render keeps the last complete snapshot.
+pub fn write_snapshot(
+    dir: &Path,
+    stem: &str,
+    run: &RunResult,
+    (name, image): (&str, &Image),
+    extra: &[ExtraExr],
+    width: u32,
+    height: u32,
+) -> Result<WrittenRun, ImageError> {
+    write_all(dir, stem, run, &[], &[(name.to_string(), image)], extra, width, height)
+}
+
 /// [`write_sequence`] (frames may be empty: [`write_run`]) with `extra` EXRs in the same
 /// all-or-nothing set; a stem clashing with another output is an error, as for heatmaps.
 pub fn write_run_with(
@@ -89,7 +104,7 @@ pub fn write_run_with(
     width: u32,
     height: u32,
 ) -> Result<WrittenRun, ImageError> {
-    write_all(dir, stem, run, frames, extra, width, height)
+    write_all(dir, stem, run, frames, &[], extra, width, height)
 }
 
 /// [`write_run`] for the last frame of a sequence, with every frame's image beside it in the same
@@ -103,14 +118,16 @@ pub fn write_sequence(
     width: u32,
     height: u32,
 ) -> Result<WrittenRun, ImageError> {
-    write_all(dir, stem, run, frames, &[], width, height)
+    write_all(dir, stem, run, frames, &[], &[], width, height)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn write_all(
     dir: &Path,
     stem: &str,
     run: &RunResult,
     frames: &[(u32, Image)],
+    named: &[(String, &Image)],
     extra: &[ExtraExr],
     width: u32,
     height: u32,
@@ -166,6 +183,15 @@ fn write_all(
         let bad = stage_image_pair(&mut set, &name, img)?;
         if bad > 0 {
             non_finite.push((name, bad));
+        }
+    }
+    for (name, img) in named {
+        for ext in ["exr", "png"] {
+            claim(format!("{name}.{ext}"), format!("the image `{name}`"))?;
+        }
+        let bad = stage_image_pair(&mut set, name, img)?;
+        if bad > 0 {
+            non_finite.push((name.clone(), bad));
         }
     }
     for e in extra {

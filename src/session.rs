@@ -162,7 +162,7 @@ impl Session {
     }
 
     pub fn run(&self, backend: &mut dyn Backend, progress: &dyn Progress) -> Result<RunResult, WedgeError> {
-        self.run_with(backend, progress, self.seed, &BTreeMap::new())
+        self.run_with(backend, progress, self.seed, 0, &BTreeMap::new())
     }
 
     /// The camera of frame `frame` of a sequence: the pipeline's `camera_path` (position and look-at
@@ -181,7 +181,8 @@ impl Session {
     /// [`Session::camera_at`]`(frame)`, the camera of frame − 1 as the scene's previous camera (none
     /// for the first frame), the seed offset by the frame (each frame's noise is its own), and the
     /// previous-frame buffers ([`wedge_graph::Schedule::history`]) from `previous`, the run of the frame
-    /// before (zeros without one). The session's camera is restored afterwards.
+    /// before (zeros without one), with `Job::frame` = `frame − first`. The session's camera is
+    /// restored afterwards.
     pub fn run_frame(
         &mut self,
         backend: &mut dyn Backend,
@@ -199,7 +200,7 @@ impl Session {
         self.scene.previous_camera = previous_camera;
         let empty = BTreeMap::new();
         let history = previous.map_or(&empty, |r| &r.history);
-        let run = self.run_with(backend, progress, self.seed.wrapping_add(frame), history);
+        let run = self.run_with(backend, progress, self.seed.wrapping_add(frame), frame.saturating_sub(first), history);
         self.scene.camera = base;
         self.scene.previous_camera = None;
         if let Some(layer) = real {
@@ -238,11 +239,29 @@ impl Session {
         Ok(None)
     }
 
+    /// Run frame `frame` (0, 1, 2, …) of a progressive render (`render --progressive`): the session's
+    /// camera held still, the seed offset by the frame (each frame adds new samples), and the
+    /// previous-frame buffers from `previous`, the run of frame − 1 (zeros without one), so a node
+    /// that accumulates over frames (PixelFilter) continues its statistics. Frame 0 with no
+    /// `previous` is the single image [`Session::run`] renders.
+    pub fn run_progressive_frame(
+        &self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        frame: u32,
+        previous: Option<&RunResult>,
+    ) -> Result<RunResult, WedgeError> {
+        let empty = BTreeMap::new();
+        let history = previous.map_or(&empty, |r| &r.history);
+        self.run_with(backend, progress, self.seed.wrapping_add(frame), frame, history)
+    }
+
     fn run_with(
         &self,
         backend: &mut dyn Backend,
         progress: &dyn Progress,
         seed: u32,
+        frame: u32,
         history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
     ) -> Result<RunResult, WedgeError> {
         let job = Job {
@@ -252,6 +271,7 @@ impl Session {
             width: self.width,
             height: self.height,
             seed,
+            frame,
             progress,
         };
         let mut run = backend.run_frame(&job, history)?;

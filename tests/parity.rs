@@ -46,6 +46,7 @@ fn job(s: &Session) -> Job<'_> {
         width: s.width,
         height: s.height,
         seed: s.seed,
+        frame: 0,
         progress: &Silent,
     }
 }
@@ -230,6 +231,10 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
             if node.params.contains_key("max_motion") {
                 ov.params.push((node.name.clone(), "max_motion".into(), wedge::graph::ParamValue::Int(4)));
             }
+            // PixelFilter's window reaches ceil(3 sigma_s) rows either side.
+            if node.params.contains_key("sigma_s") {
+                ov.params.push((node.name.clone(), "sigma_s".into(), wedge::graph::ParamValue::Float(1.3)));
+            }
         }
         let session = Session::open(Some(&path), &ov).unwrap();
         let a = session.run(&mut whole, &Silent).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -299,6 +304,10 @@ fn packed_bindings_give_the_same_outputs_as_direct_bindings() {
             // The history pass reads max_motion + 1 rows either side.
             if node.params.contains_key("max_motion") {
                 ov.params.push((node.name.clone(), "max_motion".into(), wedge::graph::ParamValue::Int(2)));
+            }
+            // PixelFilter's window reaches ceil(3 sigma_s) rows either side.
+            if node.params.contains_key("sigma_s") {
+                ov.params.push((node.name.clone(), "sigma_s".into(), wedge::graph::ParamValue::Float(0.6)));
             }
         }
         let session = Session::open(Some(&path), &ov).unwrap();

@@ -451,6 +451,8 @@ pub struct KernelCtx<'a> {
     pub width: u32,
     pub height: u32,
     pub seed: u32,
+    /// The job's frame index in its sequence ([`crate::Job::frame`]; 0 for a single image).
+    pub frame: u32,
     pub scene: &'a Scene,
     pub pass: &'a str,
     pub params: &'a BTreeMap<String, ParamValue>,
@@ -474,7 +476,13 @@ impl<'a> KernelCtx<'a> {
         reads: BTreeMap<String, &'a BufferData>,
         writes: BTreeMap<String, Option<BufferData>>,
     ) -> Self {
-        KernelCtx { width, height, seed, scene, pass, params, counters, progress, reads, writes }
+        KernelCtx { width, height, seed, frame: 0, scene, pass, params, counters, progress, reads, writes }
+    }
+
+    /// The same context at frame `frame` of a sequence ([`crate::Job::frame`]).
+    pub fn with_frame(mut self, frame: u32) -> Self {
+        self.frame = frame;
+        self
     }
 
     pub fn pixels(&self) -> usize {

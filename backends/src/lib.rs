@@ -62,6 +62,12 @@ pub struct Job<'a> {
     pub width: u32,
     pub height: u32,
     pub seed: u32,
+    /// Frames run before this one in its sequence (0 for a single image and for the first frame of
+    /// `render --frames` or `render --progressive`): the previous-frame buffers hold frame − 1's
+    /// results when it is > 0. Kernels read it as `KernelCtx::frame` (CPU) and `frame.frame_index`
+    /// (WGSL), e.g. a progressive filter that runs on a schedule of frames (PixelFilter, thesis
+    /// seed 002 Sec. 3.3.3: frames 4, 8, 16, …).
+    pub frame: u32,
     pub progress: &'a dyn Progress,
 }
 

@@ -219,11 +219,22 @@ pub fn compare(cpu: &BufferData, gpu: &BufferData, tol: Tolerance) -> (f64, f64,
 /// Run every pass of `job` on the CPU, then each pass alone on the GPU with the CPU's inputs, and
 /// compare every output.
 pub fn run_parity(job: &Job<'_>, gpu: &mut GpuBackend) -> Result<ParityReport, BackendError> {
+    run_parity_with_history(job, gpu, &BTreeMap::new())
+}
+
+/// [`run_parity`] for a later frame of a sequence: the previous-frame buffers hold `history` (a
+/// CPU run's [`crate::RunResult::history`]; missing ones are zeros) on both backends, and `job.frame`
+/// says which frame it is (kernels on a schedule of frames, e.g. a progressive filter).
+pub fn run_parity_with_history(
+    job: &Job<'_>,
+    gpu: &mut GpuBackend,
+    history: &BTreeMap<BufferId, BufferData>,
+) -> Result<ParityReport, BackendError> {
     let counters = Counters::default();
     let mut held: BTreeMap<BufferId, BufferData> = BTreeMap::new();
-    // Previous-frame buffers as in a first frame (zeros): both backends get the same inputs.
+    // Previous-frame buffers (zeros in a first frame): both backends get the same inputs.
     for h in &job.schedule.history {
-        held.insert(h.buffer, crate::history_input(job, &BTreeMap::new(), h));
+        held.insert(h.buffer, crate::history_input(job, history, h));
     }
     let mut report = ParityReport { adapter: gpu.adapter_description(), ..Default::default() };
     for pass in &job.schedule.passes {

@@ -18,6 +18,8 @@
 //!   Ch. 6 filtering and differential compositing (thesis Ch. 6).
 //! - [`factored`]: the passes both factoring nodes build alike (filter chains, the compose of a
 //!   component's factored parts).
+//! - [`pixel_filter`]: `PixelFilter`, progressive path tracing with pixel filtering (Schwenk's
+//!   thesis, seed 002 Ch. 3): accumulation over frames, cross-bilateral filter, perceptual blend.
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — a baseline node
 //!   (references come from each pipeline's own graph, `wedge_graph::reference`).
@@ -53,6 +55,7 @@ pub mod mixed_reality;
 pub mod montecarlo;
 pub mod motion;
 pub mod output;
+pub mod pixel_filter;
 pub mod primary;
 pub mod sampler;
 pub mod shadows;
@@ -79,6 +82,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     nodes.register(Arc::new(environment::Environment));
     environment::register_kernels(kernels);
     nodes.register(Arc::new(mixed_reality::MixedReality));
+    nodes.register(Arc::new(pixel_filter::PixelFilter));
 }
 
 /// The registries with everything wedge ships.

@@ -56,7 +56,8 @@ pub fn run_pass(
         job.progress,
         reads,
         writes,
-    );
+    )
+    .with_frame(job.frame);
     kernel.run_cpu(&mut ctx)?;
     let mut out = BTreeMap::new();
     for (name, data) in ctx.writes {

@@ -482,7 +482,8 @@ impl GpuBackend {
             job.progress,
             BTreeMap::new(),
             BTreeMap::new(),
-        );
+        )
+        .with_frame(job.frame);
         Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
     }
 
@@ -750,7 +751,7 @@ impl GpuBackend {
                             chunk_begin,
                             chunk_end,
                             (end - first) as u32,
-                            0,
+                            job.frame,
                             0,
                             0,
                         ];

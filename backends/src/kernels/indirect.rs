@@ -46,7 +46,7 @@ pub const COMPONENT_GLOSSY: u32 = 1;
 /// Dimension offset between lights in next-event estimation (far above any bounce's dimensions).
 const LIGHT_DIM_STRIDE: u32 = 1 << 16;
 /// Dimension choosing the lobe at a path vertex (within a bounce's stride, unused by `dim`).
-const LOBE_SELECT: u32 = 14;
+pub(crate) const LOBE_SELECT: u32 = 14;
 
 /// Estimator settings shared by every sample of a pass.
 #[derive(Clone, Copy, Debug)]
@@ -93,7 +93,7 @@ pub struct PathRays {
 
 /// Relative weight of a lobe for lobe selection (mean of the rgb coefficients).
 #[inline]
-fn weight_of(c: Vec3) -> f32 {
+pub(crate) fn weight_of(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
@@ -115,7 +115,30 @@ pub fn next_event(
     bounce: u32,
     rays: &mut PathRays,
 ) -> Vec3 {
+    next_event_parts(scene, p, y, n, wo, kd, ks, m, rng, sample, bounce, rays).0
+}
+
+/// [`next_event`] (its value, bit for bit) and the part of it the area lights send through the
+/// vertex's glossy lobe (`k_s ρ_s`), which the caustic paths of `pixel_filter.sample` follow
+/// (environment light is left out of that part).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn next_event_parts(
+    scene: &SceneAt<'_>,
+    p: &PathParams,
+    y: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    kd: Vec3,
+    ks: Vec3,
+    m: f32,
+    rng: &PixelRng,
+    sample: u32,
+    bounce: u32,
+    rays: &mut PathRays,
+) -> (Vec3, Vec3) {
     let mut sum = Vec3::ZERO;
+    let mut glossy_sum = Vec3::ZERO;
     let glossy = m > 0.0 && ks.max_element() > 0.0;
     for l in 0..scene.scene().lights.len() {
         let light = scene.light(l);
@@ -141,13 +164,17 @@ pub fn next_event(
             continue;
         }
         let mut f = kd * std::f32::consts::FRAC_1_PI;
+        let geometry = cos_y * cos_l / r2 * light.area();
         if glossy {
-            f += ks * glossy_brdf(p.lobe, m, n, wo, dir);
+            let g = ks * glossy_brdf(p.lobe, m, n, wo, dir);
+            f += g;
+            glossy_sum += light.radiance * g * geometry;
         }
-        sum += light.radiance * f * (cos_y * cos_l / r2 * light.area());
+        sum += light.radiance * f * geometry;
     }
     // The environment is a light too (thesis Ch. 6: it lights the reflectors of E^ind).
-    sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow)
+    let total = sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow);
+    (total, glossy_sum)
 }
 
 /// Trace one path leaving `x` (normal `n`) in direction `wi`. Returns the incident indirect radiance
@@ -165,21 +192,44 @@ pub fn trace_path(
     sample: u32,
     rays: &mut PathRays,
 ) -> (Vec3, Option<f32>) {
+    let (radiance, _, first) = trace_path_split(scene, p, x, n, wi, rng, sample, rays);
+    (radiance, first)
+}
+
+/// [`trace_path`] (its radiance, bit for bit) and the part of it that reached `x` through glossy
+/// scattering only: at every vertex the area lights' glossy part of next-event estimation
+/// ([`next_event_parts`]) times the product of the earlier vertices' glossy parts `k_s ρ_s cos/pdf`
+/// (the light of `L S+` paths; seed 002 Sec. 3.3's "caustic paths" for Phong surfaces, see
+/// docs/DESIGN-NOTES.md). AO: no caustic part.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn trace_path_split(
+    scene: &SceneAt<'_>,
+    p: &PathParams,
+    x: Vec3,
+    n: Vec3,
+    wi: Vec3,
+    rng: &PixelRng,
+    sample: u32,
+    rays: &mut PathRays,
+) -> (Vec3, Vec3, Option<f32>) {
     let side = if wi.dot(n) >= 0.0 { 1.0 } else { -1.0 };
     let mut origin = x + n * (side * p.eps);
     let mut dir = wi;
     rays.secondary += 1;
     let Some(mut hit) = scene.intersect(origin, dir, 0.0, f32::INFINITY) else {
-        return (Vec3::ZERO, None);
+        return (Vec3::ZERO, Vec3::ZERO, None);
     };
     let first = hit.t;
     if p.ao {
         // Reflectors beyond `max_distance` return 0: for AO they are not reflectors (nor in z stats).
         let inside = p.max_distance <= 0.0 || first <= p.max_distance;
-        return if inside { (Vec3::ONE, Some(first)) } else { (Vec3::ZERO, None) };
+        return if inside { (Vec3::ONE, Vec3::ZERO, Some(first)) } else { (Vec3::ZERO, Vec3::ZERO, None) };
     }
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
+    let mut caustic = Vec3::ZERO;
+    let mut caustic_throughput = Vec3::ONE;
     for bounce in 1..=p.bounces {
         let sp = scene.surface(&hit, origin, dir);
         let y = sp.position;
@@ -188,7 +238,9 @@ pub fn trace_path(
         let mat = &scene.scene().materials[sp.material as usize];
         let kd = scene.scene().albedo(&sp);
         let (ks, m) = (mat.specular, mat.phong_exponent);
-        radiance += throughput * next_event(scene, p, y, ny, wo, kd, ks, m, rng, sample, bounce, rays);
+        let (event, glossy_event) = next_event_parts(scene, p, y, ny, wo, kd, ks, m, rng, sample, bounce, rays);
+        radiance += throughput * event;
+        caustic += caustic_throughput * glossy_event;
         if bounce == p.bounces {
             break;
         }
@@ -211,15 +263,18 @@ pub fn trace_path(
             break;
         }
         let mut f = kd * std::f32::consts::FRAC_1_PI;
+        let mut g = Vec3::ZERO;
         let mut pdf = pd * cos_i * std::f32::consts::FRAC_1_PI;
         if glossy {
-            f += ks * glossy_brdf(p.lobe, m, ny, wo, next);
+            g = ks * glossy_brdf(p.lobe, m, ny, wo, next);
+            f += g;
             pdf += (1.0 - pd) * glossy_pdf(p.lobe, m, ny, wo, next);
         }
         if pdf <= 0.0 {
             break;
         }
         throughput *= f * (cos_i / pdf);
+        caustic_throughput *= g * (cos_i / pdf);
         origin = y + ny * p.eps;
         dir = next;
         rays.secondary += 1;
@@ -228,7 +283,7 @@ pub fn trace_path(
             None => break,
         }
     }
-    (radiance, Some(first))
+    (radiance, caustic, Some(first))
 }
 
 pub struct IndirectSample;

@@ -19,6 +19,7 @@ pub mod mixed_reality;
 pub mod neighbourhood;
 pub mod neighbourhood3;
 pub mod paths;
+pub mod pixel_filter;
 pub mod primary;
 pub mod screen_trace;
 
@@ -46,6 +47,14 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(constant::FillConstantVec4));
     reg.register(Arc::new(paths::PathsTrace));
     reg.register(Arc::new(paths::PathsResolve));
+    // Pixel filtering for progressive rendering (issue 18, seed 002 Ch. 3).
+    reg.register(Arc::new(pixel_filter::PixelSample));
+    reg.register(Arc::new(pixel_filter::Accumulate));
+    reg.register(Arc::new(pixel_filter::RangeBuffer));
+    reg.register(Arc::new(pixel_filter::AdaptiveWidth));
+    reg.register(Arc::new(pixel_filter::Bilateral));
+    reg.register(Arc::new(pixel_filter::Separable));
+    reg.register(Arc::new(pixel_filter::Blend));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

@@ -14,6 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 width: session.width,
                 height: session.height,
                 seed: session.seed,
+                frame: 0,
                 progress: &Silent,
             };
             let report = run_parity(&job, &mut gpu)?;

@@ -20,6 +20,7 @@ fn custom_kernel_parity() {
         width: session.width,
         height: session.height,
         seed: session.seed,
+        frame: 0,
         progress: &Silent,
     };
     let report = run_parity(&job, &mut gpu).unwrap();
