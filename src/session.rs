@@ -194,7 +194,7 @@ impl Session {
         let base = self.scene.camera;
         let camera = self.camera_at(frame);
         let previous_camera = (frame > first).then(|| self.camera_at(frame - 1));
-        // A mixed-reality real layer belongs to one camera: each frame's own (module `RealFrames`).
+        // A mixed-reality real layer belongs to one camera: each frame gets its own (`frame_real_layer`).
         let real = self.frame_real_layer(frame, &camera)?.map(|layer| self.scene.real.replace(layer));
         self.scene.camera = camera;
         self.scene.previous_camera = previous_camera;

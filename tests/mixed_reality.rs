@@ -234,7 +234,7 @@ fn per_frame_maps_are_read_from_frame_numbered_files() {
     let (nodes, kernels) = wedge::effects::builtin();
     let mut s = Session::build(loaded, &Overrides { frame: Some(1), ..Overrides::default() }, nodes, kernels).unwrap();
     assert_eq!(differing_pixels(&camera_image(&s), &expected[1]), 0);
-    let e = frames(&mut s, 1, 2).err().expect("frame 2 has no files");
+    let e = frames(&mut s, 1, 2).expect_err("frame 2 has no files");
     println!("{e}");
     assert!(e.contains("camera_0002.exr"), "{e}");
 }
@@ -252,7 +252,7 @@ fn one_photograph_refuses_a_moving_camera() {
     let loaded = parse_pipeline(&dir.path().join("one.ron"), &text).unwrap();
     let (nodes, kernels) = wedge::effects::builtin();
     let mut s = Session::build(loaded, &Overrides::default(), nodes, kernels).unwrap();
-    let e = frames(&mut s, 0, 1).err().expect("frame 1 moved away from the photograph");
+    let e = frames(&mut s, 0, 1).expect_err("frame 1 moved away from the photograph");
     println!("{e}");
     assert!(e.contains("frame 1") && e.contains("{frame:04}"), "{e}");
 }
