@@ -78,7 +78,7 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::data::SceneData;
 use crate::{Camera, Material, Scene, SceneError, Texture};
-use mesh::{add_box, add_ground, add_rect_light, add_sphere, add_torus, parametric, smooth_tri};
+use mesh::{add_box, add_ground, add_sphere, add_square_light, add_torus, parametric, smooth_tri};
 
 pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
@@ -202,13 +202,6 @@ fn pinhole(position: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
     }
 }
 
-/// A square light of `side` m, `height` m up, centred above (0, height, centre_z), facing down (two emissive
-/// triangles → one Rect light).
-fn add_ceiling_light(d: &mut SceneData, radiance: f32, centre_z: f32, height: f32, side: f32) {
-    let corner = Vec3::new(-0.5 * side, height, centre_z - 0.5 * side);
-    let (eu, ev) = (Vec3::X * side, Vec3::Z * side); // eu × ev = -Y: emits downward
-    add_rect_light(d, "light", Vec3::splat(radiance), corner, eu, ev);
-}
 
 /// Three layered, mutually rotated grids of 4 cm bars (x bars below z bars, so no coplanar faces).
 fn add_grids(d: &mut SceneData) {
@@ -268,7 +261,7 @@ fn grids() -> SceneData {
     add_grids(&mut d);
     // The light sits 1 m behind the grids (seen from the camera) so their shadows fall toward the
     // camera, in front of the grids rather than hidden under them.
-    add_ceiling_light(&mut d, 60.0, -1.0, 3.0, 0.6);
+    add_square_light(&mut d, 60.0, Vec3::new(0.0, 3.0, -1.0), 0.6);
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 2.3, 3.4),
         look_at: Vec3::new(0.0, 0.0, 0.5),
@@ -310,7 +303,7 @@ fn curved() -> SceneData {
     let o = d.new_object();
     let xf = Mat4::from_rotation_translation(Quat::from_rotation_x(0.5), Vec3::new(0.7, 0.7, -0.1));
     add_torus(&mut d, xf, 0.4, 0.1, blue, o);
-    add_ceiling_light(&mut d, 10.0, 0.0, 3.0, 1.0);
+    add_square_light(&mut d, 10.0, Vec3::new(0.0, 3.0, 0.0), 1.0);
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 3.4, 3.2),
         look_at: Vec3::new(0.0, 0.2, 0.0),
@@ -343,7 +336,7 @@ fn heavy() -> SceneData {
         (Vec3::new(x, h(x, z), z), n.normalize())
     });
     add_grids(&mut d);
-    add_ceiling_light(&mut d, 10.0, 0.0, 3.0, 1.0);
+    add_square_light(&mut d, 10.0, Vec3::new(0.0, 3.0, 0.0), 1.0);
     // 12 spheres × ~7.7k triangles, on a ring outside the light's footprint.
     for k in 0..12 {
         let m = d.add_material(
@@ -434,7 +427,7 @@ fn cornell() -> SceneData {
     );
     let o = d.new_object();
     add_sphere(&mut d, Vec3::new(0.45, 0.35, 0.25), 0.35, 24, 48, sphere_mat, o);
-    add_ceiling_light(&mut d, 25.0, 0.0, 1.98, 0.5);
+    add_square_light(&mut d, 25.0, Vec3::new(0.0, 1.98, 0.0), 0.5);
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 1.0, 3.9),
         look_at: Vec3::new(0.0, 1.0, 0.0),

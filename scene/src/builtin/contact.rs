@@ -13,7 +13,7 @@
 
 use glam::{Mat3, Mat4, Quat, Vec3};
 
-use super::mesh::{add_box, add_cylinder, add_ground, add_rect_light, add_sphere};
+use super::mesh::{add_box, add_cylinder, add_ground, add_sphere, add_square_light};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::Material;
@@ -56,14 +56,7 @@ pub(crate) fn contact() -> SceneData {
         add_box(&mut d, xf, Vec3::splat(0.03), grey, o);
     }
     let side = 1.6;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(5.0),
-        Vec3::new(-0.5 * side, 2.0, -0.5 - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 5.0, Vec3::new(0.0, 2.0, -0.5), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 1.5, 2.6), Vec3::new(0.0, 0.15, 0.0), 45.0));
     d
 }

@@ -34,7 +34,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_ground, add_rect_light, add_sphere, add_torus};
+use super::mesh::{add_ground, add_sphere, add_square_light, add_torus};
 use crate::data::SceneData;
 use crate::{Camera, Material};
 
@@ -78,16 +78,7 @@ pub(crate) fn envmap_parts(parts: Parts) -> SceneData {
         add_torus_part(&mut d, if parts.far { Vec3::new(0.0, -1000.0, 0.0) } else { Vec3::ZERO });
     }
     if parts.light {
-        let side = 0.5;
-        let corner = Vec3::new(-0.5 * side, 2.5, -0.5 * side);
-        add_rect_light(
-            &mut d,
-            "light",
-            Vec3::splat(20.0),
-            corner,
-            Vec3::X * side,
-            Vec3::Z * side,
-        );
+        add_square_light(&mut d, 20.0, Vec3::new(0.0, 2.5, 0.0), 0.5);
     }
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 1.6, 3.4),

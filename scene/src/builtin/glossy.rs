@@ -13,7 +13,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_box, add_ground, add_panel, add_rect_light, add_sphere};
+use super::mesh::{add_box, add_ground, add_panel, add_sphere, add_square_light};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::Material;
@@ -50,14 +50,7 @@ pub(crate) fn glossy() -> SceneData {
     let xf = Mat4::from_rotation_translation(Quat::from_rotation_y(-0.3), Vec3::new(1.0, 0.25, -0.7));
     add_box(&mut d, xf, Vec3::new(0.3, 0.25, 0.2), white, o);
     let side = 0.9;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(16.0),
-        Vec3::new(-0.5 * side, 2.2, -0.3 - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 16.0, Vec3::new(0.0, 2.2, -0.3), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 0.35, -0.3), 45.0));
     d
 }

@@ -12,7 +12,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_bar, add_box, add_ground, add_rect_light};
+use super::mesh::{add_bar, add_box, add_ground, add_square_light};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::Material;
@@ -55,14 +55,7 @@ pub(crate) fn grate() -> SceneData {
     let o = d.new_named_object("coarse grate");
     add_grid(&mut d, Grid { centre: Vec3::new(0.1, 0.8, -0.1), yaw: 30f32.to_radians(), count: 8, pitch: 0.15, bar: 0.02 }, paint, o);
     let side = 0.15;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(640.0),
-        Vec3::new(-0.5 * side, 2.4, -0.4 - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 640.0, Vec3::new(0.0, 2.4, -0.4), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 1.7, 2.4), Vec3::new(0.0, 0.0, -0.05), 45.0));
     d
 }

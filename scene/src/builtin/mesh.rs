@@ -237,6 +237,13 @@ pub(crate) fn add_rect_light(
     d.quad(corner, corner + eu, corner + eu + ev, corner + ev, m, o);
 }
 
+/// A square light of `side` m centred at `centre`, facing down (`eu × ev = −Y`), of grey radiance
+/// `radiance`: the ceiling light of most built-ins.
+pub(crate) fn add_square_light(d: &mut SceneData, radiance: f32, centre: Vec3, side: f32) {
+    let corner = Vec3::new(centre.x - 0.5 * side, centre.y, centre.z - 0.5 * side);
+    add_rect_light(d, "light", Vec3::splat(radiance), corner, Vec3::X * side, Vec3::Z * side);
+}
+
 /// Cosine of the largest angle between the normals of two profile segments that a lathe still shades
 /// smoothly across; sharper corners (a rook's crown, a base's rim) keep a crease, as turned wood does.
 const LATHE_SMOOTH_COS: f32 = 0.766; // cos 40°

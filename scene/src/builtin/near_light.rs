@@ -13,7 +13,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_bar, add_box, add_ground, add_rect_light};
+use super::mesh::{add_bar, add_box, add_ground, add_square_light};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::Material;
@@ -43,14 +43,7 @@ pub(crate) fn near_light() -> SceneData {
     let xf = Mat4::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(1.0, 0.175, 0.45));
     add_box(&mut d, xf, Vec3::splat(0.175), grey, o);
     let side = 0.8;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(30.0),
-        Vec3::new(-0.5 * side, 2.6, -0.3 - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 30.0, Vec3::new(0.0, 2.6, -0.3), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 1.7, 3.0), Vec3::new(0.0, 0.15, 0.0), 45.0));
     d
 }

@@ -12,7 +12,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_box, add_panel, add_rect_light, add_sphere};
+use super::mesh::{add_box, add_panel, add_sphere, add_square_light};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::{Material, Texture};
@@ -58,14 +58,7 @@ pub(crate) fn room() -> SceneData {
     let xf = Mat4::from_rotation_translation(Quat::from_rotation_y(0.15), v(-1.3, 0.22, 0.2));
     add_box(&mut d, xf, v(0.2, 0.22, 0.55), wood, o);
     let side = 0.5;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(40.0),
-        v(tx - 0.5 * side, y1 - 0.01, tz - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 40.0, Vec3::new(tx, y1 - 0.01, tz), side);
     d.camera = Some(pinhole(v(0.3, 1.6, 1.6), v(-0.2, 0.55, -1.0), 55.0));
     d
 }

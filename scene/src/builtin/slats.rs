@@ -15,7 +15,7 @@
 
 use glam::{Mat4, Vec3};
 
-use super::mesh::{add_bar, add_ground, add_rect_light, add_sphere};
+use super::mesh::{add_bar, add_ground, add_sphere, add_square_light};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::Material;
@@ -41,14 +41,7 @@ pub(crate) fn slats() -> SceneData {
     let o = d.new_named_object("sphere");
     add_sphere(&mut d, Vec3::new(1.05, 0.35, 0.55), 0.35, 24, 48, red, o);
     let side = 0.6;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(35.0),
-        Vec3::new(-0.3 - 0.5 * side, 2.2, -0.6 - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 35.0, Vec3::new(-0.3, 2.2, -0.6), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 2.0, 3.2), Vec3::new(0.0, 0.2, 0.3), 45.0));
     d
 }

@@ -20,7 +20,7 @@
 
 use glam::Vec3;
 
-use super::add_ceiling_light;
+use super::mesh::add_square_light;
 use super::mesh::{parametric, sphere_normal};
 use crate::data::SceneData;
 use crate::{Camera, Material};
@@ -90,7 +90,7 @@ pub(crate) fn spheres() -> SceneData {
     }
     // 13 m up keeps it just above the top of the frame (the camera is 14 m up, pitched ≈ 31°);
     // radiance 25 gives ≈ 1.3 irradiance at the field's centre (L·A/h²).
-    add_ceiling_light(&mut d, 25.0, 0.0, 13.0, 3.0);
+    add_square_light(&mut d, 25.0, Vec3::new(0.0, 13.0, 0.0), 3.0);
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 14.0, 22.0),
         look_at: Vec3::new(0.0, 0.0, -1.0),

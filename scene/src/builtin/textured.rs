@@ -14,7 +14,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::mesh::{add_bar, add_ground, add_panel, add_rect_light, add_torus};
+use super::mesh::{add_bar, add_ground, add_panel, add_square_light, add_torus};
 use super::pinhole;
 use crate::data::SceneData;
 use crate::{Material, Texture};
@@ -69,14 +69,7 @@ pub(crate) fn textured() -> SceneData {
         add_panel(&mut d, p, normal, 0.5, fine, o);
     }
     let side = 0.6;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(45.0),
-        Vec3::new(-0.5 * side, 2.5, -0.4 - 0.5 * side),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_square_light(&mut d, 45.0, Vec3::new(0.0, 2.5, -0.4), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 1.8, 3.0), Vec3::new(0.0, 0.35, -0.2), 45.0));
     d
 }
