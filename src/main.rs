@@ -377,12 +377,11 @@ fn parse_frames(s: &str) -> Result<(u32, u32), String> {
     Ok((a, b))
 }
 
-/// `render --frames A..B`: every frame in order on one backend, each with the previous frame's
-/// history; the images go out together with the last frame's full outputs (see
-/// [`wedge::outputs::write_sequence`]).
-fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
+/// The one backend a run of several frames (`--frames`, `--progressive`) keeps: announces the run
+/// (`what`: which frames), prints the scene notes and checks the memory estimate first.
+fn sequence_backend(session: &Session, common: &Common, what: &str) -> Result<Box<dyn wedge::backends::Backend + Send>, WedgeError> {
     eprintln!(
-        "{} on scene `{}`, {}x{}, frames {first}..{last}, seed {} (+ frame)",
+        "{} on scene `{}`, {}x{}, {what}, seed {} (+ frame)",
         session.pipeline.path.display(),
         session.scene.name,
         session.width,
@@ -392,11 +391,18 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
     scene_notes(session);
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
     check_memory(session, mode, common.memory_limit)?;
-    let bars = Bars::default();
-    let mut backend: Box<dyn wedge::backends::Backend + Send> = match common.backend.as_str() {
+    Ok(match common.backend.as_str() {
         "wgpu" => Box::new(open_gpu(common.gpu_limits.as_deref())?),
         _ => Box::new(CpuBackend::new()),
-    };
+    })
+}
+
+/// `render --frames A..B`: every frame in order on one backend, each with the previous frame's
+/// history; the images go out together with the last frame's full outputs (see
+/// [`wedge::outputs::write_sequence`]).
+fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
+    let mut backend = sequence_backend(session, common, &format!("frames {first}..{last}"))?;
+    let bars = Bars::default();
     let (mut images, mut previous, mut seconds) = (Vec::new(), None, 0.0f64);
     let (mut extra, mut aov_line) = (Vec::new(), String::new());
     for frame in first..=last {
@@ -453,21 +459,7 @@ fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[St
             session.pipeline.path.display()
         )));
     }
-    eprintln!(
-        "{} on scene `{}`, {}x{}, progressive: {frames} frames, seed {} (+ frame)",
-        session.pipeline.path.display(),
-        session.scene.name,
-        session.width,
-        session.height,
-        session.seed
-    );
-    scene_notes(session);
-    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
-    check_memory(session, mode, common.memory_limit)?;
-    let mut backend: Box<dyn wedge::backends::Backend + Send> = match common.backend.as_str() {
-        "wgpu" => Box::new(open_gpu(common.gpu_limits.as_deref())?),
-        _ => Box::new(CpuBackend::new()),
-    };
+    let mut backend = sequence_backend(session, common, &format!("progressive: {frames} frames"))?;
     let (extra, aov_line) = with_threads(common.threads, || aov_images(&session.scene, session, aov))??;
     // Which frames run a scheduled filter (a pass with the PixelFilter schedule's parameters).
     let schedule = session.schedule.passes.iter().find_map(|p| {
