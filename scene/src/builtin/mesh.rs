@@ -1,7 +1,7 @@
 //! Mesh generators shared by the built-in scenes: everything here writes loose triangles into a
 //! [`SceneData`] with outward, consistently wound normals, so any built-in (and later ones) can build
-//! boxes, spheres, tori, surfaces of revolution (lathes: cylinders, cones, chess pieces) and rectangular
-//! area lights from a few numbers instead of files.
+//! ground planes, textured panels, boxes and long bars, spheres, tori, surfaces of revolution (lathes:
+//! cylinders, cones, chess pieces) and rectangular area lights from a few numbers instead of files.
 
 use std::f32::consts::{PI, TAU};
 
