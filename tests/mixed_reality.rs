@@ -1,6 +1,6 @@
 //! The `MixedReality` node end to end (thesis Ch. 6.3–6.5, Algorithm 1; `effects/src/mixed_reality.rs`,
-//! `docs/DESIGN-NOTES.md` "Mixed reality"): without virtual influence the composite is the camera image
-//! bit for bit; the round trip against a full render of real + virtual scenes; convergence of the
+//! `docs/DESIGN-NOTES.md` "Mixed reality"): with no virtual triangles, or none with influence, the
+//! composite is the camera image bit for bit; the round trip against a full render of real + virtual scenes; convergence of the
 //! filtered composite to the unfiltered one as μ grows; sequences (a real layer per frame, captured or
 //! read from `{frame}` files, and temporal filtering); and bad input.
 
@@ -65,6 +65,27 @@ fn a_virtual_object_without_influence_leaves_the_camera_image_exact() {
     let differ = out.pixels.iter().zip(&cam.pixels).filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| x.to_bits() != y.to_bits())).count();
     println!("pixels that differ from L_cam: {differ} of {}", out.pixels.len());
     assert_eq!(differ, 0);
+}
+
+#[test]
+fn an_empty_virtual_world_leaves_the_camera_image_exact_on_both_backends() {
+    // No virtual triangles at all (`envmap_empty`: the camera and map, an empty BVH): every BVH ray
+    // misses, E_RV = E_R sample by sample, and the composite is L_cam bit for bit — on the CPU and
+    // on the wgpu backend (whose scene upload and traversal must accept zero triangles).
+    let s = build(&mr("builtin:envmap_empty", "builtin:envmap_real", 16, "\"mu\": 1")).unwrap();
+    assert_eq!(s.scene.triangle_count(), 0);
+    let cam = camera_image(&s);
+    let mut results = vec![("cpu", run_cpu(&s))];
+    if let Some(mut gpu) = gpu_or_skip("an_empty_virtual_world_leaves_the_camera_image_exact_on_both_backends") {
+        results.push(("wgpu", s.run(&mut gpu, &Silent).expect("wgpu run")));
+    }
+    for (backend, r) in &results {
+        for name in ["color", "unfiltered"] {
+            let differ = differing_pixels(&output(&s, r, name), &cam);
+            println!("{backend} {name}: {differ} of {} pixels differ from L_cam", cam.pixels.len());
+            assert_eq!(differ, 0, "{backend} {name}");
+        }
+    }
 }
 
 #[test]

@@ -22,6 +22,8 @@
 //!   environment-lighting test scene (see `builtin/envmap.rs`). `envmap_light` adds one area light.
 //! - `envmap_far`: `envmap_virtual` with the torus 1 km below the ground (mixed reality's no-influence
 //!   test).
+//! - `envmap_empty`: `envmap`'s camera and map with no triangles at all — mixed reality's empty
+//!   virtual world (its composite is the camera image exactly); any other pipeline renders the sky.
 //! - `envmap_real` / `envmap_virtual`: `envmap` split for the mixed-reality round trip (issue 15) — the
 //!   ground and sphere (rendered with their AOVs, they stand in for a captured real world), and the
 //!   torus alone (the virtual object inserted into it); same camera and map.
@@ -82,7 +84,7 @@ use mesh::{add_box, add_ground, add_sphere, add_square_light, add_torus, paramet
 
 pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
-    "envmap_real", "envmap_virtual", "envmap_far", "suite_slats", "suite_grate", "suite_contact",
+    "envmap_real", "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact",
     "suite_near_light", "suite_textured", "suite_glossy", "suite_room",
 ];
 
@@ -166,6 +168,7 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "envmap_real" => Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false, far: false })),
         "envmap_virtual" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: false })),
         "envmap_far" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: true })),
+        "envmap_empty" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: false, light: false, far: false })),
         "suite_slats" => Ok(slats::slats()),
         "suite_grate" => Ok(grate::grate()),
         "suite_contact" => Ok(contact::contact()),

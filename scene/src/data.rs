@@ -124,6 +124,15 @@ impl SceneData {
     }
 
     pub fn into_scene(self, name: &str) -> Result<Scene, SceneError> {
+        // An empty world is a scene (mixed reality with no virtual objects), but only with a camera:
+        // there is nothing to frame one around, and an empty file without one is a mistake.
+        if self.tris.is_empty() && self.camera.is_none() {
+            return Err(SceneError::invalid(
+                std::path::Path::new(name),
+                "the scene has no triangles and no camera",
+                "add meshes, a built-in or lights; an intentionally empty world (e.g. mixed reality with no virtual objects) needs a `camera`",
+            ));
+        }
         let mut bounds = crate::Aabb::empty();
         for t in &self.tris {
             for p in [t.0, t.1, t.2] {

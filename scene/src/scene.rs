@@ -241,14 +241,11 @@ impl Scene {
         camera: Camera,
         objects: Vec<SceneObject>,
     ) -> Result<Scene, SceneError> {
+        // A scene may have no triangles at all: mixed reality's empty virtual world (issue 15), or
+        // a scene lit and seen only through its environment map. Its trees are one empty root that
+        // every ray misses. (The mesh loaders still refuse a *file* without faces: that is an export
+        // mistake, not an empty world.)
         let path = origin_path(name);
-        if tris.is_empty() {
-            return Err(SceneError::invalid(
-                &path,
-                "the scene has no triangles",
-                "add geometry (meshes or a built-in)",
-            ));
-        }
         if tris.len() > MAX_TRIANGLES {
             return Err(SceneError::invalid(
                 &path,
@@ -307,7 +304,7 @@ impl Scene {
         // million copies of one triangle is a pathological builder input), so both are dropped here,
         // counted into a warning. `kept[k]` is the input index of the k-th kept triangle.
         let (kept, warnings) = drop_degenerate_and_duplicates(name, &tris);
-        if kept.is_empty() {
+        if kept.is_empty() && !tris.is_empty() {
             return Err(SceneError::invalid(
                 &path,
                 format!("all {} triangles have zero area", tris.len()),
@@ -548,9 +545,10 @@ impl Scene {
         self.triangles.len()
     }
 
-    /// Largest dimension of `bounds`.
+    /// Largest dimension of `bounds`; 0 for a scene with no triangles (whose bounds are empty), so
+    /// ray offsets scaled by it stay finite.
     pub fn extent(&self) -> f32 {
-        self.bounds.size().max_element()
+        self.bounds.size().max_element().max(0.0)
     }
 
     /// Mark every light made of triangles with one of the given materials as two-sided (loaders use this

@@ -366,7 +366,7 @@ fn builtins_load_and_are_sane() {
         builtin_names(),
         &[
             "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real",
-            "envmap_virtual", "envmap_far", "suite_slats", "suite_grate", "suite_contact", "suite_near_light",
+            "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact", "suite_near_light",
             "suite_textured", "suite_glossy", "suite_room"
         ]
     );
@@ -810,10 +810,16 @@ fn errors_name_the_file_and_never_panic() {
         .contains("x.fbx"));
     let empty = dir.join("empty.ron");
     std::fs::write(&empty, "Scene()").unwrap();
-    assert!(load(&SceneSource::File(empty))
-        .unwrap_err()
-        .to_string()
-        .contains("empty.ron"));
+    let e = load(&SceneSource::File(empty)).unwrap_err().to_string();
+    assert!(e.contains("empty.ron") && e.contains("no triangles and no camera"), "{e}");
+    // With a camera an empty world is a scene (mixed reality with no virtual objects): every ray
+    // misses its empty tree.
+    let world = dir.join("world.ron");
+    std::fs::write(&world, "Scene(camera: Some((position: (0, 1, 3), look_at: (0, 0, 0), vfov_deg: 40)))").unwrap();
+    let s = load(&SceneSource::File(world)).unwrap();
+    assert_eq!((s.triangle_count(), s.lights.len(), s.extent()), (0, 0, 0.0));
+    assert!(s.intersect(Vec3::new(0.0, 1.0, 3.0), Vec3::NEG_Z, 0.0, f32::INFINITY).is_none());
+    assert!(!s.occluded(Vec3::ZERO, Vec3::Y, 0.0, 1e30));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
