@@ -12,6 +12,7 @@ const RAY_EPSILON: f32 = 1e-4;
 // occluder's distance to the light plane and its hit on the ray `origin + t·dir`.
 struct LightSample {
     value: vec3<f32>,
+    unshadowed: vec3<f32>, // the value were the light visible (direct.rs LightSample::unshadowed)
     occluded: bool,
     distance: f32,
     hit: Hit,
@@ -20,7 +21,7 @@ struct LightSample {
 }
 
 fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: bool, factor: vec3<f32>, want_distance: bool) -> LightSample {
-    var r = LightSample(vec3<f32>(0.0), false, 0.0, no_hit(), vec3<f32>(0.0), vec3<f32>(0.0));
+    var r = LightSample(vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0, no_hit(), vec3<f32>(0.0), vec3<f32>(0.0));
     let y = light_sample_point(l, u);
     let to = y - x;
     let r2 = dot3(to, to);
@@ -33,6 +34,11 @@ fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: 
     }
     if (cos_x <= 0.0 || cos_y <= 0.0) {
         return r;
+    }
+    if (use_centre) {
+        r.unshadowed = factor;
+    } else {
+        r.unshadowed = l.radiance.xyz * (cos_x * cos_y / r2 * l.normal_area.w / PI_F32);
     }
     let origin = x + n * (RAY_EPSILON * params.extent);
     let seg = y - origin;
@@ -53,11 +59,7 @@ fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: 
     } else if (scene_occluded(origin, ray_dir, 0.0, tmax)) {
         return r;
     }
-    if (use_centre) {
-        r.value = factor;
-    } else {
-        r.value = l.radiance.xyz * (cos_x * cos_y / r2 * l.normal_area.w / PI_F32);
-    }
+    r.value = r.unshadowed;
     return r;
 }
 

@@ -243,6 +243,7 @@ fn trace_direct(c: CameraModel, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: v
     let d1 = abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
     rec.d1 = rec.d1 + w * d1;
     var e = vec3<f32>(0.0);
+    var unshadowed = vec3<f32>(0.0);
     var valid = 0u;
     for (var s = 0u; s < n_shadow; s = s + 1u) {
         let u = draw(pixel, PAIR_LIGHT, rec.shadow);
@@ -265,13 +266,23 @@ fn trace_direct(c: CameraModel, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: v
             rec.vs_sum = rec.vs_sum + vs;
             extend_vs(vs, rec.occluded == 1u);
         }
-        if (is_finite3(ls.value)) {
+        if (is_finite3(ls.value) && is_finite3(ls.unshadowed)) {
             e = e + ls.value;
+            unshadowed = unshadowed + ls.unshadowed;
             valid = valid + 1u;
         } else {
             rec.non_finite = rec.non_finite + 1u;
         }
     }
+    // U takes E's weights (paths.rs trace_direct).
+    var per = 1.0;
+    if (params.fixed_primary == 0u) {
+        per = 0.0;
+        if (valid > 0u) {
+            per = 1.0 / f32(valid);
+        }
+    }
+    rec.u_direct = rec.u_direct + unshadowed * (per * w);
     accumulate_direct(k, e, valid, w);
 }
 

@@ -68,10 +68,56 @@ fn same_image_for_one_and_two_threads() {
 
 #[test]
 fn huge_mu_gives_the_unfiltered_image() {
-    // μ → ∞ shrinks every filter to one pixel: the output equals the adaptive-sampled input.
-    let s = wedge::Session::open(None, &overrides(Some(1e6), &[("shadows", "max_rays", ParamValue::Int(16))])).unwrap();
+    // μ → ∞ shrinks every filter to one pixel: with the sampled irradiance the output equals the
+    // adaptive-sampled input bit for bit. (The analytic default then gives each pixel its own ratio
+    // estimate r(x)·E/U, consistent as the samples grow: `error_falls_as_mu_grows`.)
+    let sampled = ("shadows", "irradiance", ParamValue::Str("sampled".into()));
+    let s = wedge::Session::open(None, &overrides(Some(1e6), &[("shadows", "max_rays", ParamValue::Int(16)), sampled])).unwrap();
     let r = run(&s);
     let out = color(&s, &r);
     let unfiltered = wedge::outputs::buffer_to_image(r.output("unfiltered").unwrap(), W, H);
     assert_eq!(out, unfiltered);
+}
+
+#[test]
+fn analytic_irradiance_is_exact_where_nothing_occludes() {
+    // A ground lit by a 1 m light 2 m up, nothing in between: every shadow ray is unblocked, so the
+    // ratio E/U is exactly 1 and each pixel is albedo · r(x) with r the closed-form irradiance — no
+    // noise at 8 rays per pixel, where stratified Monte Carlo still has the geometry term's variance
+    // (the unoccluded error that dominated `suite_contact`, `suite_glossy`, `cornell`, `suite_room`).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("ground.obj"), "v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 3 2\nf 1 4 3\n").unwrap();
+    let scene = dir.path().join("lit.ron");
+    std::fs::write(
+        &scene,
+        r#"Scene(meshes: [(path: "ground.obj")],
+            lights: [Rect(corner: (-0.5, 2, -0.5), edge_u: (1, 0, 0), edge_v: (0, 0, 1), radiance: (10, 10, 10))],
+            camera: Some((position: (0, 1.5, 3), look_at: (0, 0, 0), vfov_deg: 40)))"#,
+    )
+    .unwrap();
+    let ov = || wedge::Overrides { scene: Some(scene.display().to_string()), ..sized(64, 48, None, &[]) };
+    let s = wedge::Session::open(None, &ov()).unwrap();
+    let r = run(&s);
+    let out = color(&s, &r);
+    let light = s.scene.lights[0];
+    let (mut worst, mut lit) = (0.0f64, 0);
+    for y in 0..48 {
+        for x in 0..64 {
+            let (o, d) = s.scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, 64, 48, glam::Vec2::splat(0.5));
+            let Some(hit) = s.scene.intersect(o, d, 0.0, f32::INFINITY) else { continue };
+            let p = o + d * hit.t;
+            let expected = 0.8 * light.irradiance_unoccluded(p, glam::Vec3::Y).x as f64 / std::f64::consts::PI;
+            let got = out.pixels[(y * 64 + x) as usize][0] as f64;
+            worst = worst.max((got - expected).abs() / expected);
+            lit += 1;
+        }
+    }
+    let rays = shadow_rpp(&r, 64, 48);
+    let mc = wedge::Session::reference(None, rays.round() as u32, "stratified", &ov()).unwrap();
+    let mc_img = color(&mc, &run(&mc));
+    let mc_err = rmse(&mc_img, &out) / (out.luminance().iter().map(|&v| v as f64).sum::<f64>() / out.pixels.len() as f64);
+    println!("{lit} lit pixels at {rays:.1} rays/px: largest relative error {worst:.2e}; stratified MC at equal rays {mc_err:.2e} (relative RMSE)");
+    assert!(lit > 64 * 48 / 2);
+    assert!(worst < 1e-4, "{worst}");
+    assert!(mc_err > 100.0 * worst, "{mc_err} vs {worst}");
 }

@@ -20,7 +20,7 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, Part, PerPrimary, PortDecl, Reference,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference,
     SamplerPass, Stage,
 };
 
@@ -99,6 +99,12 @@ impl NodeKind for SoftShadows {
                 &["exact", "light_centre"],
                 "per-sample geometry term (unbiased), or the thesis's light-centre approximation r(x)",
             ),
+            ParamDecl::choice(
+                "irradiance",
+                "analytic",
+                &["analytic", "sampled"],
+                "filter the visibility E/U and multiply by the closed-form unoccluded irradiance (eq. 3.1's r(x) exact), or filter the sampled E itself",
+            ),
         ]
         .into_iter()
         .chain(filtering::params())
@@ -161,7 +167,35 @@ impl NodeKind for SoftShadows {
 
         // Distances in the plane parallel to the light (eq. 3.12).
         let filter = Separable { position, normal, bandwidth: beta, plane_light: Some(light.clone()) };
-        let filtered = filtering::separable(ctx, "", noisy, &filter);
+        let filtered = if matches!(ctx.param("irradiance"), ParamValue::Str(m) if m == "analytic") {
+            // Eq. 3.1/3.10: h(x) = r(x) · (filtered visibility). The visibility is the ratio
+            // estimate E/U over the same samples (U: each counted as unblocked), filtered as the
+            // pair (ΣE, ΣU) so a neighbour weighs by its unshadowed light; r(x) is the closed-form
+            // unoccluded irradiance. Both passes are reconstruction (`Bypass` to E): a reference
+            // stays plain Monte Carlo.
+            let unshadowed = ctx.sampler_output(SamplerPass::Final, "direct_unshadowed")?;
+            let pair = ctx.buffer("visibility", Format::Vec4);
+            ctx.pass("visibility", "shadows.visibility", Stage::Filter)
+                .read("direct", noisy)
+                .read("unshadowed", unshadowed)
+                .write("out", pair)
+                .reference(Reference::Bypass { input: "direct" })
+                .finish();
+            let pair = filtering::separable(ctx, "", pair, &filter);
+            let shaded = ctx.buffer("shaded", Format::Vec4);
+            ctx.pass("shade", "shadows.shade", Stage::Filter)
+                .read("direct", noisy)
+                .read("visibility", pair)
+                .read("position", position)
+                .read("normal", normal)
+                .write("out", shaded)
+                .param("light", light.clone())
+                .reference(Reference::Bypass { input: "direct" })
+                .finish();
+            shaded
+        } else {
+            filtering::separable(ctx, "", noisy, &filter)
+        };
 
         for (pass, value, port) in [("compose", filtered, "radiance"), ("compose_unfiltered", noisy, "unfiltered")] {
             let out = ctx.buffer(port, Format::Vec3);
@@ -327,9 +361,108 @@ impl Kernel for Rates {
     }
 }
 
+/// `shadows.visibility`: the pair the filter averages for the ratio estimate of visibility —
+/// `(ΣE, ΣU)` over the colour channels (one light: E and U share its colour, so any positive
+/// channel weighting gives the same ratio), `w` = the estimate's samples.
+pub struct Visibility;
+
+impl Kernel for Visibility {
+    fn name(&self) -> &'static str {
+        "shadows.visibility"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("direct", Format::Vec4),
+            Binding::read("unshadowed", Format::Vec4),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    /// WGSL mirror: `shaders/shadows_visibility.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(WgslSource::new(include_str!("../../shaders/shadows_visibility.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let e = ctx.read::<[f32; 4]>("direct")?;
+        let u = ctx.read::<[f32; 4]>("unshadowed")?;
+        let out: Vec<[f32; 4]> = e.iter().zip(u).map(|(e, u)| [e[0] + e[1] + e[2], u[0] + u[1] + u[2], 0.0, e[3]]).collect();
+        ctx.put("out", out)
+    }
+}
+
+/// `shadows.shade`: `r(x) · V`, the closed-form unoccluded irradiance of light `light` at the pixel
+/// ([`wedge_scene::AreaLight::irradiance_unoccluded`], over π: unit-albedo radiance) times the
+/// filtered visibility `ΣE/ΣU` (1 where no sample saw the light: nothing says it is blocked);
+/// background pixels keep `direct`. `w` = the estimate's samples.
+pub struct Shade;
+
+impl Kernel for Shade {
+    fn name(&self) -> &'static str {
+        "shadows.shade"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("direct", Format::Vec4),
+            Binding::read("visibility", Format::Vec4),
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    /// WGSL mirror: `shaders/shadows_shade.wgsl` (the polygon formula term by term).
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../shaders/shadows_shade.wgsl"), |ctx| {
+                let light = ctx.scene.at(0.0).light(ctx.light_param("light")?);
+                let (v, count) = light.corners();
+                // Only the sign of (p − v0)·cross matters: the unit normal has it.
+                let cross = light.normal();
+                let four = |p: glam::Vec3| [p.x, p.y, p.z, 0.0];
+                Ok(Uniforms::new()
+                    .vec4("v0", four(v[0]))
+                    .vec4("v1", four(v[1]))
+                    .vec4("v2", four(v[2]))
+                    .vec4("v3", four(v[3]))
+                    .vec4("radiance", four(light.radiance))
+                    .vec4("cross", four(cross))
+                    .u32("count", count as u32)
+                    .u32("two_sided", light.two_sided as u32))
+            })
+            .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let direct = ctx.read::<[f32; 4]>("direct")?;
+        let vis = ctx.read::<[f32; 4]>("visibility")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        // A Ch. 3 kernel: the light at the shutter's centre, as the sampler's shadow rays see it.
+        let light = ctx.scene.at(0.0).light(ctx.light_param("light")?);
+        let out: Vec<[f32; 4]> = (0..ctx.pixels())
+            .map(|i| {
+                if position[i][3] == 0.0 {
+                    return direct[i];
+                }
+                let (x, n) = (glam::Vec3::from_slice(&position[i][..3]), glam::Vec3::from_slice(&normal[i][..3]));
+                let v = if vis[i][1] > 0.0 { vis[i][0] / vis[i][1] } else { 1.0 };
+                let e = light.irradiance_unoccluded(x, n) / std::f32::consts::PI * v;
+                [e.x, e.y, e.z, direct[i][3]]
+            })
+            .collect();
+        ctx.put("out", out)
+    }
+}
+
 pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(Bandwidth));
     reg.register(Arc::new(Rates));
+    reg.register(Arc::new(Visibility));
+    reg.register(Arc::new(Shade));
 }
 
 #[cfg(test)]

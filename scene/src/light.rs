@@ -121,35 +121,91 @@ impl AreaLight {
         }
     }
 
+    /// The polygon's vertices (as [`AreaLight::vertices`]) in a fixed array, and how many there are.
+    pub fn corners(&self) -> ([Vec3; 4], usize) {
+        match self.shape {
+            LightShape::Rect { corner, edge_u, edge_v } => {
+                ([corner, corner + edge_u, corner + edge_u + edge_v, corner + edge_v], 4)
+            }
+            LightShape::Triangle { v0, v1, v2 } => ([v0, v1, v2, v2], 3),
+        }
+    }
+
     /// Exact irradiance at `p` (unit normal `n`) from this light, ignoring occlusion, by Lambert's
     /// closed-form polygon formula E = L_e/2 · Σ_i θ_i (n · Γ_i), with v_i = vertex_i − p,
-    /// θ_i = angle(v_i, v_{i+1}) and Γ_i = normalize(v_i × v_{i+1}).
+    /// θ_i = angle(v_i, v_{i+1}) and Γ_i = normalize(v_i × v_{i+1}), over the part of the polygon
+    /// above p's tangent plane (clipped to it, Sutherland–Hodgman: a light straddling the plane, e.g.
+    /// a ceiling light seen from the side of a box under it, gives its visible part's irradiance).
     ///
     /// Sign: with vertices counter-clockwise around `normal()` and `p` on the emitting side, the raw sum
-    /// is negative for a light above the tangent plane, so we negate it; seen from the back the order flips.
-    /// A one-sided light seen from behind gives 0. Nothing is clipped: the formula assumes the polygon is
-    /// entirely above p's tangent plane; a polygon entirely below gives a negative sum which is clamped
-    /// to 0, and one straddling the plane gives an inexact value (callers that need that case must clip).
+    /// is negative, so we negate it; seen from the back the order flips. A one-sided light seen from
+    /// behind gives 0.
+    ///
+    /// f32, term by term as `shaders/shadows_shade.wgsl` (`polygon_irradiance`) computes it, with
+    /// its own [`angle`] (a GPU's `atan2` may be 4096 ulp off, and the sum cancels by about
+    /// distance/size), so the two backends agree to round-off (docs/DESIGN-NOTES.md "Analytic
+    /// unoccluded irradiance").
     pub fn irradiance_unoccluded(&self, p: Vec3, n: Vec3) -> Vec3 {
-        let verts = self.vertices();
+        let (verts, count) = self.corners();
         let side = (p - verts[0]).dot(self.cross());
         if side == 0.0 || (side < 0.0 && !self.two_sided) {
             return Vec3::ZERO;
         }
-        let mut sum = 0.0f64;
-        for i in 0..verts.len() {
-            // f64 keeps the small-angle terms accurate for distant or tiny lights.
-            let a = (verts[i] - p).as_dvec3();
-            let b = (verts[(i + 1) % verts.len()] - p).as_dvec3();
+        // Clip the polygon (relative to p) to the half-space n·v ≥ 0: at most one more vertex.
+        let mut poly = [Vec3::ZERO; 5];
+        let mut m = 0;
+        for i in 0..count {
+            let a = verts[i] - p;
+            let b = verts[(i + 1) % count] - p;
+            let (da, db) = (n.dot(a), n.dot(b));
+            if da >= 0.0 {
+                poly[m] = a;
+                m += 1;
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                poly[m] = a + (b - a) * (da / (da - db));
+                m += 1;
+            }
+        }
+        let mut sum = 0.0f32;
+        for i in 0..m {
+            let (a, b) = (poly[i], poly[(i + 1) % m]);
             let c = a.cross(b);
             let cl = c.length();
             if cl == 0.0 {
                 continue;
             }
-            let theta = cl.atan2(a.dot(b));
-            sum += theta * n.as_dvec3().dot(c / cl);
+            let theta = angle(cl, a.dot(b));
+            sum += theta * (n.dot(c) / cl);
         }
         let oriented = if side > 0.0 { -sum } else { sum };
-        self.radiance * (0.5 * oriented.max(0.0)) as f32
+        self.radiance * (0.5 * oriented.max(0.0))
     }
+}
+
+/// `atan2(y, x)` for `y ≥ 0` (an angle in [0, π]) from + − × ÷ only, so the WGSL mirror
+/// (`shaders/shadows_shade.wgsl` `angle`) rounds alike: Vulkan allows `atan2` 4096 ulp. Octant
+/// reduction to `t ∈ [0, 1]`, then `atan t = π/6 + atan((t − 1/√3)/(1 + t/√3))` above tan(π/12),
+/// and the odd Taylor series to t¹³ on |t| ≤ tan(π/12) (truncation < 1e-8; measured against
+/// `f64::atan2` in `scene/tests/scene_tests.rs`).
+pub fn angle(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (num, den) = if ay <= ax { (ay, ax) } else { (ax, ay) };
+    if den == 0.0 {
+        return 0.0;
+    }
+    let t = num / den;
+    const TAN_PI_12: f32 = 0.267_949_2;
+    const INV_SQRT3: f32 = 0.577_350_26;
+    let (t, base) = if t > TAN_PI_12 { ((t - INV_SQRT3) / (1.0 + t * INV_SQRT3), std::f32::consts::FRAC_PI_6) } else { (t, 0.0) };
+    let t2 = t * t;
+    let series = t * (1.0 + t2 * (-1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (-1.0 / 7.0 + t2 * (1.0 / 9.0 + t2 * (-1.0 / 11.0 + t2 * (1.0 / 13.0)))))));
+    let mut a = base + series;
+    if ay > ax {
+        a = std::f32::consts::FRAC_PI_2 - a;
+    }
+    if x < 0.0 {
+        a = std::f32::consts::PI - a;
+    }
+    a
 }

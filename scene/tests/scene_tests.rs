@@ -182,6 +182,10 @@ fn irradiance_matches_monte_carlo() {
             Vec3::new(1.2, 0.5, 0.0),
             Vec3::new(-0.6, 1.0, 0.0).normalize(),
         ),
+        // Lights straddling the tangent plane (a vertical face under the light, a face tilted past
+        // the light's edge): the closed form clips the polygon to the part above the horizon.
+        (Vec3::new(0.1, 1.0, 0.0), Vec3::X),
+        (Vec3::new(0.0, 1.2, 0.1), Vec3::new(1.0, 0.3, -0.4).normalize()),
     ];
     for (li, l) in [rect, tri].iter().enumerate() {
         for (pi, (p, n)) in points.iter().enumerate() {
@@ -877,4 +881,30 @@ fn preview_direct_lighting() {
         img.save(out.join(format!("{name}.png"))).unwrap();
     }
     println!("previews in {}", out.display());
+}
+
+#[test]
+fn polygon_angle_matches_atan2() {
+    // `light::angle` (the closed form's atan2 from + − × ÷, mirrored in WGSL) against f64 atan2 over
+    // the upper half-plane, including tiny angles (distant lights) and the axes.
+    let mut worst = 0.0f64;
+    let mut rng = Rng(11);
+    for k in 0..200_000 {
+        let (y, x) = match k {
+            0 => (0.0, 1.0),
+            1 => (1.0, 0.0),
+            2 => (0.0, -1.0),
+            3 => (1e-8, 1.0),
+            _ => {
+                let u = rng.v2();
+                let scale = 10f32.powf(u.x * 8.0 - 4.0);
+                (u.y * scale, (rng.v2().x * 2.0 - 1.0) * 10f32.powf(rng.v2().y * 8.0 - 4.0))
+            }
+        };
+        let exact = (y as f64).atan2(x as f64);
+        let got = wedge_scene::light::angle(y, x) as f64;
+        worst = worst.max((got - exact).abs() / exact.abs().max(1e-30));
+    }
+    println!("largest relative error of angle(): {worst:.2e}");
+    assert!(worst < 1e-6, "{worst}");
 }

@@ -47,8 +47,22 @@ pub struct Occluder {
     pub dir: Vec3,
 }
 
+/// One sample of direct light (see [`light_sample`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// The sample's value before albedo: `unshadowed` where the light is visible, else 0.
+    pub value: Vec3,
+    /// The same sample without its shadow ray's verdict (0 where the light faces away or lies
+    /// below the horizon): the denominator of the ratio estimator of visibility SoftShadows
+    /// filters (`docs/DESIGN-NOTES.md` "Analytic unoccluded irradiance").
+    pub unshadowed: Vec3,
+    /// Where occluded and the distance was wanted: the occluder.
+    pub occluder: Option<Occluder>,
+}
+
 /// One sample of direct light toward `light` (as it is at the scene's time) from point `x` with
-/// normal `n`: returns the value (before albedo) and, when occluded and `want_distance`, the occluder.
+/// normal `n`: the value (before albedo), the same without visibility, and, when occluded and
+/// `want_distance`, the occluder.
 #[inline]
 pub fn light_sample(
     scene: &SceneAt<'_>,
@@ -58,7 +72,8 @@ pub fn light_sample(
     u: Vec2,
     centre_factor: Option<Vec3>,
     want_distance: bool,
-) -> (Vec3, Option<Occluder>) {
+) -> LightSample {
+    let mut out = LightSample { value: Vec3::ZERO, unshadowed: Vec3::ZERO, occluder: None };
     let y = light.sample_point(u);
     let to = y - x;
     let r2 = to.length_squared();
@@ -67,8 +82,12 @@ pub fn light_sample(
     let ln = light.normal();
     let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
     if cos_x <= 0.0 || cos_y <= 0.0 {
-        return (Vec3::ZERO, None);
+        return out;
     }
+    out.unshadowed = match centre_factor {
+        Some(f) => f,
+        None => light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI),
+    };
     // The shadow ray starts off the surface and aims at `y` from there, stopping just short of the
     // light so the light's own triangles never count as occluders.
     let origin = x + n * (RAY_EPSILON * scene.scene().extent());
@@ -80,16 +99,14 @@ pub fn light_sample(
         if let Some(hit) = scene.intersect(origin, ray_dir, 0.0, tmax) {
             let p = origin + ray_dir * hit.t;
             let distance = (light.centre() - p).dot(ln).abs();
-            return (Vec3::ZERO, Some(Occluder { distance, hit, origin, dir: ray_dir }));
+            out.occluder = Some(Occluder { distance, hit, origin, dir: ray_dir });
+            return out;
         }
     } else if scene.occluded(origin, ray_dir, 0.0, tmax) {
-        return (Vec3::ZERO, None);
+        return out;
     }
-    let value = match centre_factor {
-        Some(f) => f,
-        None => light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI),
-    };
-    (value, None)
+    out.value = out.unshadowed;
+    out
 }
 
 /// Unoccluded diffuse radiance (unit albedo) with the geometry evaluated at the light centre: the
@@ -195,8 +212,9 @@ impl Kernel for DirectLight {
                 let factor = centre.then(|| light_centre_factor(light, x, n));
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };
-                    let (v, occ) = light_sample(&at, light, x, n, Vec2::from(u), factor, want_stats);
-                    if let Some(d2) = occ.map(|o| o.distance) {
+                    let ls = light_sample(&at, light, x, n, Vec2::from(u), factor, want_stats);
+                    let v = ls.value;
+                    if let Some(d2) = ls.occluder.map(|o| o.distance) {
                         stats.occluded += 1;
                         stats.d2_min = stats.d2_min.min(d2);
                         stats.d2_max = stats.d2_max.max(d2);

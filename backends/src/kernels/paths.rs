@@ -90,6 +90,7 @@ pub static PATH_RECORD: StructLayout = StructLayout {
         f("l_direct", FieldType::Vec3),
         f("k_direct", FieldType::Vec3),
         f("e_direct", FieldType::Vec3),
+        f("u_direct", FieldType::Vec3),
         f("l_diffuse", FieldType::Vec3),
         f("k_diffuse", FieldType::Vec3),
         f("e_diffuse", FieldType::Vec3),
@@ -157,6 +158,9 @@ pub struct PathRecord {
     pub l_direct: [f32; 3],
     pub k_direct: [f32; 3],
     pub e_direct: [f32; 3],
+    /// Σ w·U: `e_direct`'s sum with every sample counted as visible (the same samples, the same
+    /// weights): SoftShadows' ratio estimator of visibility `E/U` (module doc of `effects::shadows`).
+    pub u_direct: [f32; 3],
     /// The same for indirect diffuse (k = k_d) and indirect glossy (k = k_s).
     pub l_diffuse: [f32; 3],
     pub k_diffuse: [f32; 3],
@@ -797,12 +801,13 @@ fn trace_direct(
     }
     let d1 = (light.centre() - x).dot(light.normal()).abs();
     r.d1 += w * d1;
-    let (mut e, mut valid) = (Vec3::ZERO, 0u32);
+    let (mut e, mut unshadowed, mut valid) = (Vec3::ZERO, Vec3::ZERO, 0u32);
     for _ in 0..n_shadow {
         let u = draw(s, seed, pixel, pair::LIGHT, r.shadow);
         r.shadow += 1;
-        let (v, occ) = light_sample(scene, light, x, n, u, if s.exact { None } else { Some(fc) }, true);
-        if let Some(o) = occ {
+        let ls = light_sample(scene, light, x, n, u, if s.exact { None } else { Some(fc) }, true);
+        let v = ls.value;
+        if let Some(o) = ls.occluder {
             let d2 = o.distance;
             r.occluded += 1;
             if r.occluded == 1 {
@@ -820,13 +825,17 @@ fn trace_direct(
             r.vs_sum = (Vec2::from(r.vs_sum) + vs).to_array();
             extend_range(&mut r.vs_min, &mut r.vs_max, vs, r.occluded == 1);
         }
-        if v.is_finite() {
+        if v.is_finite() && ls.unshadowed.is_finite() {
             e += v;
+            unshadowed += ls.unshadowed;
             valid += 1;
         } else {
             r.non_finite += 1;
         }
     }
+    // U takes E's weights (a path's mean, or the sample sum with a fixed camera ray).
+    let per = if s.fixed_primary { 1.0 } else if valid > 0 { 1.0 / valid as f32 } else { 0.0 };
+    add(&mut r.u_direct, unshadowed * (per * w));
     let sums = Sums { l: &mut r.l_direct, k: &mut r.k_direct, e: &mut r.e_direct, w: &mut r.w_direct };
     accumulate(sums, k, e, valid, w, s.fixed_primary);
 }
@@ -1023,7 +1032,9 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 /// - `depth`: `z_min`, `z_max`, indirect rays that hit, indirect rays (as `indirect.sample`);
 /// - `counts`: paths (primary samples; a fixed camera ray is traced once for all of them), shadow rays, indirect samples (diffuse + glossy), non-finite samples;
 /// - `direct`: mean direct E (rgb) and w = shadow rays, the value/sample-count convention of
-///   `direct.light`'s `estimate`, which the world-space filters read (Vec4);
+///   `direct.light`'s `estimate`, which the world-space filters read (Vec4); `direct_unshadowed`:
+///   the same samples' mean with every shadow ray counted as unblocked (U; `E/U` is the ratio
+///   estimate of visibility SoftShadows filters);
 /// - `diffuse`, `glossy`: the same for the indirect parts (mean E, w = their samples), the convention
 ///   of `indirect.sample`'s estimates (Ch. 4 filters them, then multiplies k_d and k_s back in);
 /// - `velocity`: mean image-space velocity of the primary hits (px per half shutter) and its per-axis
@@ -1036,7 +1047,7 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 pub struct PathsResolve;
 
 /// Every output of `paths.resolve`, in binding order (all optional).
-pub const RESOLVE_OUTPUTS: [(&str, Format); 29] = [
+pub const RESOLVE_OUTPUTS: [(&str, Format); 30] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -1066,6 +1077,7 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 29] = [
     ("k_env_glossy", Format::Vec3),
     ("e_env_glossy", Format::Vec3),
     ("environment", Format::Vec4),
+    ("direct_unshadowed", Format::Vec4),
 ];
 
 /// A mean and its sample count: the estimate convention the world-space filters read.
@@ -1139,6 +1151,7 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "k_env_glossy" => mean(r.k_env_glossy, r.w_env_glossy),
         "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy - r.w_env_missed),
         "environment" => [r.env_occluder, hit_mean(r.exponent), r.env_samples as f32, r.env_occluded as f32],
+        "direct_unshadowed" => estimate(e(r.u_direct, r.w_direct), r.shadow),
         other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }
 }
