@@ -64,7 +64,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (abs(dot3(delta, ni)) > TANGENT_SLOPE * length3(delta) + 0.25 * d) {
             continue;
         }
-        let w = exp(plane_distance2(xi, xj, params.plane_normal.xyz) * inv);
+        let bj = bandwidth_at(j);
+        var inv_j = inv;
+        if (params.mutual != 0u && bj > 0.0 && bj < beta) {
+            inv_j = -0.5 / (bj * bj);
+        }
+        let w = exp(plane_distance2(xi, xj, params.plane_normal.xyz) * inv_j);
         sum = sum + w * v.xyz;
         wsum = wsum + w;
     }

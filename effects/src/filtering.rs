@@ -4,11 +4,19 @@
 
 use wedge_graph::{BufferId, ExpandCtx, Format, ParamDecl, ParamValue, Reference, Stage};
 
-/// The parameters every filtering node declares (window cap and normal test).
-pub fn params() -> [ParamDecl; 2] {
+/// The parameters every filtering node declares (window cap, normal test, and the reach rule with
+/// this node's default: `own` is the thesis's — each pixel's β alone — and `mutual` weighs a
+/// neighbour with a narrower filter by its own width, `backends::kernels::filter::FilterParams::mutual`).
+pub fn params(reach: &'static str) -> [ParamDecl; 3] {
     [
         ParamDecl::int("max_radius", 64, 0, 1024, "cap on the filter half-width in pixels"),
         ParamDecl::float("normal_angle_deg", 10.0, 0.0, 180.0, "neighbours whose normals differ by more are not used"),
+        ParamDecl::choice(
+            "reach",
+            reach,
+            &["own", "mutual"],
+            "weigh neighbours by this pixel's filter width (thesis), or by the narrower of its and theirs",
+        ),
     ]
 }
 
@@ -30,6 +38,7 @@ pub fn separable(ctx: &mut ExpandCtx<'_>, prefix: &str, value: BufferId, f: &Sep
         _ => 10f64.to_radians().cos(),
     };
     let plane_light = f.plane_light.clone().unwrap_or(ParamValue::Int(-1));
+    let reach = ctx.param("reach").clone();
     let mut v = value;
     for (axis, name) in [(0, "filter_x"), (1, "filter_y")] {
         let local = format!("{prefix}{name}");
@@ -44,6 +53,7 @@ pub fn separable(ctx: &mut ExpandCtx<'_>, prefix: &str, value: BufferId, f: &Sep
             .param("plane_light", plane_light.clone())
             .param("max_radius", max_radius.clone())
             .float("normal_cos", normal_cos)
+            .param("reach", reach.clone())
             .reference(Reference::Bypass { input: "value" })
             .finish();
         v = out;

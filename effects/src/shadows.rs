@@ -107,7 +107,7 @@ impl NodeKind for SoftShadows {
             ),
         ]
         .into_iter()
-        .chain(filtering::params())
+        .chain(filtering::params("mutual"))
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {

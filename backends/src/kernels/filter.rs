@@ -30,6 +30,12 @@ pub struct FilterParams {
     pub plane_normal: Vec3,
     pub max_radius: i32,
     pub normal_cos: f32,
+    /// Mutual reach: a neighbour with a narrower filter of its own weighs by that width
+    /// (`exp(−‖x_i − x_j‖²/(2 min(β_i, β_j)²))`; a neighbour without one, β_j = 0, by β_i), so a
+    /// wide filter does not gather a sharper shadow its own first pass never saw (the dark halo
+    /// of `suite_near_light`, docs/DESIGN-NOTES.md "Mutual filter reach"). Consistent: as μ → ∞
+    /// every β → 0 either way.
+    pub mutual: bool,
 }
 
 /// Squared distance in the plane with unit normal `n` (eq. 3.12); `n = 0` gives the 3-D distance.
@@ -94,7 +100,9 @@ pub fn filter_pixel(
         if delta.dot(ni).abs() > TANGENT_SLOPE * delta.length() + 0.25 * d {
             continue;
         }
-        let w = (plane_distance2(xi, xj, p.plane_normal) * inv).exp();
+        let bj = bandwidth[j];
+        let inv_j = if p.mutual && bj > 0.0 && bj < beta { -0.5 / (bj * bj) } else { inv };
+        let w = (plane_distance2(xi, xj, p.plane_normal) * inv_j).exp();
         for c in 0..3 {
             sum[c] += w * v[c];
         }
@@ -133,6 +141,7 @@ impl Kernel for GaussianFilter {
                 .u32("axis", ctx.int_param("axis")?.clamp(0, 1) as u32)
                 .i32("max_radius", ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
                 .f32("normal_cos", ctx.f32_param("normal_cos")?)
+                .u32("mutual", (ctx.str_param("reach")? == "mutual") as u32)
                 .vec3("plane_normal", plane_normal.to_array()))
         })
         .with_reach(|ctx| {
@@ -157,6 +166,7 @@ impl Kernel for GaussianFilter {
             },
             max_radius: ctx.int_param("max_radius")?.clamp(0, 1024) as i32,
             normal_cos: ctx.f32_param("normal_cos")?,
+            mutual: ctx.str_param("reach")? == "mutual",
         };
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
