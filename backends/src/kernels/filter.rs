@@ -175,3 +175,38 @@ impl Kernel for GaussianFilter {
         ctx.put("out", out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row of 21 pixels on one flat object, 1 cm apart: pixel 10 has a wide filter (β = 5 cm);
+    /// pixels 14–20 hold a sharp shadow (value 0) with narrow filters of their own (β = 1 cm), the
+    /// rest is lit (value 1) with no filter (β = 0).
+    fn row(mutual: bool) -> [f32; 4] {
+        let n = 21;
+        let position: Vec<[f32; 4]> = (0..n).map(|i| [i as f32 * 0.01, 0.0, 0.0, 1.0]).collect();
+        let normal = vec![[0.0, 1.0, 0.0, 0.01]; n];
+        let value: Vec<[f32; 4]> = (0..n).map(|i| if i >= 14 { [0.0, 0.0, 0.0, 8.0] } else { [1.0, 1.0, 1.0, 8.0] }).collect();
+        let bandwidth: Vec<f32> = (0..n).map(|i| if i == 10 { 0.05 } else if i >= 14 { 0.01 } else { 0.0 }).collect();
+        let p = FilterParams { axis: 0, plane_normal: Vec3::ZERO, max_radius: 64, normal_cos: 0.98, mutual };
+        filter_pixel(10, 0, n as i32, 1, &p, &value, &position, &normal, &bandwidth)
+    }
+
+    #[test]
+    fn mutual_reach_keeps_a_wide_filter_out_of_a_sharp_shadow() {
+        // Own reach (the thesis): pixel 10 gathers the shadow 4–10 cm away with its own 5 cm width.
+        let own = row(false)[0];
+        // Mutual: those neighbours weigh by their 1 cm width, exp(−(4 cm)²/(2 (1 cm)²)) ≈ 3e-4 at most.
+        let mutual = row(true)[0];
+        let w = |d: f32, b: f32| (-(d * d) / (2.0 * b * b)).exp();
+        let lit: f32 = (-10..=3).map(|k| w(k as f32 * 0.01, 0.05)).sum();
+        let dark_own: f32 = (4..=10).map(|k| w(k as f32 * 0.01, 0.05)).sum();
+        let dark_mutual: f32 = (4..=10).map(|k| w(k as f32 * 0.01, 0.01)).sum();
+        assert!((own - lit / (lit + dark_own)).abs() < 1e-6, "{own}");
+        assert!((mutual - lit / (lit + dark_mutual)).abs() < 1e-6, "{mutual}");
+        assert!(own < 0.8 && mutual > 0.9999, "own {own}, mutual {mutual}");
+        // The value's w passes through.
+        assert_eq!(row(true)[3], 8.0);
+    }
+}
