@@ -584,7 +584,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     let inputs = BTreeMap::from([("record", rec["record"].clone())]);
     let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
-    assert_eq!(c.len(), 29); // every output of paths.resolve, `direct`, `diffuse`, `glossy` (the filters' Vec4), the velocities and the environment's included
+    assert_eq!(c.len(), 30); // every output of paths.resolve, `direct`, `direct_unshadowed`, `diffuse`, `glossy` (the filters' Vec4), the velocities and the environment's included
     for (name, a) in &c {
         let (max_abs, max_rel, over, _) = compare(a, &g[name], Tolerance::for_class(KernelClass::Compose));
         println!("paths.resolve `{name}`: max abs {max_abs:e}, max rel {max_rel:e}, over {over}");
@@ -711,4 +711,36 @@ fn parity_harness_compares_struct_fields() {
     assert_eq!(rows.len(), PATH_RECORD.fields.len() + 1, "{rows:?}");
     assert!(rows.contains(&"record.l_direct") && rows.contains(&"record.non_finite") && rows.contains(&"radiance"), "{rows:?}");
     assert!(report.ok());
+}
+
+/// `direct_unshadowed` (U, SoftShadows' ratio-estimator denominator) is `direct` (E) with every
+/// shadow ray counted as unblocked: U ≥ E everywhere, equal bit for bit where no ray was blocked,
+/// and larger where some were.
+#[test]
+fn unshadowed_direct_is_the_same_samples_without_visibility() {
+    use wedge::backends::kernels::paths::PathsResolve;
+    let scene = builtin("grids");
+    let size = (48u32, 36u32, 5u32);
+    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(4, true, "disk"), &BTreeMap::new(), None);
+    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let (res, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
+    let (BufferData::Vec4(e), BufferData::Vec4(u), BufferData::Vec4(occ)) = (&res["direct"], &res["direct_unshadowed"], &res["occlusion"]) else {
+        panic!("formats")
+    };
+    let (mut equal, mut shadowed) = (0, 0);
+    for i in 0..e.len() {
+        assert_eq!(e[i][3], u[i][3], "pixel {i}: the same samples");
+        for c in 0..3 {
+            assert!(e[i][c] <= u[i][c], "pixel {i}: E {:?} > U {:?}", e[i], u[i]);
+        }
+        if occ[i][3] == 0.0 {
+            assert_eq!(e[i], u[i], "pixel {i}: nothing blocked");
+            equal += 1;
+        } else {
+            assert!(e[i][0] < u[i][0], "pixel {i}: {} rays blocked but E = U", occ[i][3]);
+            shadowed += 1;
+        }
+    }
+    println!("{equal} pixels with E = U, {shadowed} with blocked rays and E < U");
+    assert!(equal > 100 && shadowed > 100);
 }

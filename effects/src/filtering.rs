@@ -4,16 +4,17 @@
 
 use wedge_graph::{BufferId, ExpandCtx, Format, ParamDecl, ParamValue, Reference, Stage};
 
-/// The parameters every filtering node declares (window cap, normal test, and the reach rule with
-/// this node's default: `own` is the thesis's — each pixel's β alone — and `mutual` weighs a
-/// neighbour with a narrower filter by its own width, `backends::kernels::filter::FilterParams::mutual`).
-pub fn params(reach: &'static str) -> [ParamDecl; 3] {
+/// The parameters every filtering node declares (window cap, normal test, and the reach rule:
+/// `mutual`, the default, weighs a neighbour with a narrower filter by its own width
+/// (`backends::kernels::filter::FilterParams::mutual`); `own` is the thesis's, each pixel's β alone —
+/// measured over the scene suite in docs/DESIGN-NOTES.md "SoftShadows after the suite").
+pub fn params() -> [ParamDecl; 3] {
     [
         ParamDecl::int("max_radius", 64, 0, 1024, "cap on the filter half-width in pixels"),
         ParamDecl::float("normal_angle_deg", 10.0, 0.0, 180.0, "neighbours whose normals differ by more are not used"),
         ParamDecl::choice(
             "reach",
-            reach,
+            "mutual",
             &["own", "mutual"],
             "weigh neighbours by this pixel's filter width (thesis), or by the narrower of its and theirs",
         ),

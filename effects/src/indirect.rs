@@ -211,7 +211,7 @@ impl NodeKind for Indirect {
             ParamDecl::float("z_min_fraction", 0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
         ]
         .into_iter()
-        .chain(filtering::params("own"))
+        .chain(filtering::params())
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {

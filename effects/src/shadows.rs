@@ -107,7 +107,7 @@ impl NodeKind for SoftShadows {
             ),
         ]
         .into_iter()
-        .chain(filtering::params("mutual"))
+        .chain(filtering::params())
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
