@@ -786,25 +786,26 @@ mod tests {
         let ov = Overrides { width: Some(640), height: Some(480), ..Overrides::default() };
         let s = Session::open(None, &ov).unwrap();
         let px = 640 * 480u64;
-        // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler): 17 slots =
-        // 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord (98 words, 392 B) = 936 B/px;
-        // the largest pass output is one record (392 B/px); sinks filter_width, rays_per_pixel (4 B)
-        // + radiance, unfiltered (12 B) = 32 B/px; all 20 buffers unpooled = 984 B/px; the widest
-        // pass binds two records and two u32 counts (sampler.adaptive) = 792 B/px.
+        // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler, analytic
+        // irradiance): 17 slots = 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord
+        // (101 words, 404 B) = 960 B/px; the largest pass output is one record (404 B/px); sinks
+        // filter_width, rays_per_pixel (4 B) + radiance, unfiltered (12 B) = 32 B/px; all 23 buffers
+        // unpooled (11 vec4, 4 vec3, 6 scalar, 2 records) = 1056 B/px; the widest pass binds two
+        // records and two u32 counts (sampler.adaptive) = 816 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 936 * px, pass_outputs: 392 * px, sinks: 32 * px, unpooled: 984 * px, pass_bindings: 792 * px }
+            BufferBytes { pool: 960 * px, pass_outputs: 404 * px, sinks: 32 * px, unpooled: 1056 * px, pass_bindings: 816 * px }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 1360 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 417_792_000);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 1396 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 428_851_200);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 1360 * px);
+        assert_eq!(cpu.buffers, 1396 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (984 + 392 + 792) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (1056 + 404 + 816) * px);
     }
 
     /// The environment map's arrays count: `envmap` carries `builtin:sky` (512 × 256 texels, ≥ 20 bytes
