@@ -10,11 +10,14 @@
 //! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21), submitted to the sampler as `n` shadow rays
 //! over both passes (`PerPrimary::Spread`: the sampler traces the `n − initial_rays` left on paths of
 //! about `initial_rays` through the pixel centre, continuing the first pass's stratified light
-//! samples; with a fixed camera ray its record weighs every shadow ray the same) → `filter_x` →
-//! `filter_y` on the sampler's final
-//! direct estimate (separable world-space Gaussian in the light's plane, eq. 3.12, 10° normal test)
-//! → `compose` (albedo after filtering). Pixels with no occluder statistics, own or neighbours', are
-//! not filtered.
+//! samples; with a fixed camera ray its record weighs every shadow ray the same) → `visibility`
+//! (the pair ΣE, ΣU: the sampler's final direct estimate and the same samples unshadowed) →
+//! `filter_x` → `filter_y` (separable world-space Gaussian in the light's plane, eq. 3.12, 10° normal
+//! test, mutual reach) → `shade` (eq. 3.1's `r(x)` — the closed-form unoccluded irradiance — times
+//! the filtered ratio ΣE/ΣU) → `compose` (albedo after filtering). With `irradiance: "sampled"` the
+//! filters take E itself and there is no `visibility`/`shade`. Pixels with no occluder statistics,
+//! own or neighbours', are not filtered (analytic: their own E/U, exactly 1 where no ray was
+//! blocked). docs/DESIGN-NOTES.md "SoftShadows after the suite".
 
 use std::sync::Arc;
 
@@ -420,7 +423,7 @@ impl Kernel for Shade {
             WgslSource::new(include_str!("../../shaders/shadows_shade.wgsl"), |ctx| {
                 let light = ctx.scene.at(0.0).light(ctx.light_param("light")?);
                 let (v, count) = light.corners();
-                // Only the sign of (p − v0)·cross matters: the unit normal has it.
+                // The side test's vector, as `irradiance_unoccluded` takes it.
                 let cross = light.normal();
                 let four = |p: glam::Vec3| [p.x, p.y, p.z, 0.0];
                 Ok(Uniforms::new()

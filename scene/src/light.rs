@@ -144,10 +144,11 @@ impl AreaLight {
     /// f32, term by term as `shaders/shadows_shade.wgsl` (`polygon_irradiance`) computes it, with
     /// its own [`angle`] (a GPU's `atan2` may be 4096 ulp off, and the sum cancels by about
     /// distance/size), so the two backends agree to round-off (docs/DESIGN-NOTES.md "Analytic
-    /// unoccluded irradiance").
+    /// unoccluded irradiance" under "SoftShadows after the suite").
     pub fn irradiance_unoccluded(&self, p: Vec3, n: Vec3) -> Vec3 {
         let (verts, count) = self.corners();
-        let side = (p - verts[0]).dot(self.cross());
+        // Which side p is on, from the unit normal (the WGSL mirror gets the same vector).
+        let side = (p - verts[0]).dot(self.normal());
         if side == 0.0 || (side < 0.0 && !self.two_sided) {
             return Vec3::ZERO;
         }

@@ -54,7 +54,7 @@ pub struct LightSample {
     pub value: Vec3,
     /// The same sample without its shadow ray's verdict (0 where the light faces away or lies
     /// below the horizon): the denominator of the ratio estimator of visibility SoftShadows
-    /// filters (`docs/DESIGN-NOTES.md` "Analytic unoccluded irradiance").
+    /// filters (`docs/DESIGN-NOTES.md` "SoftShadows after the suite").
     pub unshadowed: Vec3,
     /// Where occluded and the distance was wanted: the occluder.
     pub occluder: Option<Occluder>,

@@ -33,7 +33,7 @@ pub struct FilterParams {
     /// Mutual reach: a neighbour with a narrower filter of its own weighs by that width
     /// (`exp(−‖x_i − x_j‖²/(2 min(β_i, β_j)²))`; a neighbour without one, β_j = 0, by β_i), so a
     /// wide filter does not gather a sharper shadow its own first pass never saw (the dark halo
-    /// of `suite_near_light`, docs/DESIGN-NOTES.md "Mutual filter reach"). Consistent: as μ → ∞
+    /// of `suite_near_light`, docs/DESIGN-NOTES.md "SoftShadows after the suite"). Consistent: as μ → ∞
     /// every β → 0 either way.
     pub mutual: bool,
 }
