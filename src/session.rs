@@ -62,6 +62,9 @@ pub struct Session {
     pub width: u32,
     pub height: u32,
     pub seed: u32,
+    /// The frame the session opened at (`Overrides::frame`, default 0): its camera and real layer
+    /// are that frame's.
+    pub frame: u32,
 }
 
 /// Read a pipeline file, or the built-in default when `path` is `None`.
@@ -158,7 +161,7 @@ impl Session {
         let schedule = schedule(expansion)?;
         kernels.check_schedule(&schedule)?;
         let (width, height, seed) = (pipeline.pipeline.width, pipeline.pipeline.height, pipeline.pipeline.seed);
-        Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed })
+        Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed, frame })
     }
 
     pub fn run(&self, backend: &mut dyn Backend, progress: &dyn Progress) -> Result<RunResult, WedgeError> {
@@ -221,6 +224,10 @@ impl Session {
         let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, capture, .. } = &request else {
             return Ok(None);
         };
+        // The frame the session opened at already has its layer (read or captured at build).
+        if frame == self.frame && *camera == self.scene.camera {
+            return Ok(None);
+        }
         let per_frame = [camera_image, position_map, normal_map, albedo_map].iter().any(|p| p.contains("{frame"));
         if capture.is_empty() && !per_frame {
             if *camera != self.scene.camera {
