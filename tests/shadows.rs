@@ -24,7 +24,7 @@ fn error_falls_as_mu_grows() {
     let mut last = f64::INFINITY;
     let mut errors = Vec::new();
     for mu in [1.0, 2.0, 4.0, 8.0] {
-        let (img, run) = shadows(mu, &[("shadows", "max_rays", ParamValue::Int(4096))]);
+        let (img, run) = shadows(mu, &[]);
         let e = rmse(&img, reference);
         errors.push((mu, e, shadow_rpp(&run, W, H)));
         assert!(e < last, "RMSE must fall as mu grows: {errors:?}");
@@ -72,7 +72,7 @@ fn huge_mu_gives_the_unfiltered_image() {
     // adaptive-sampled input bit for bit. (The analytic default then gives each pixel its own ratio
     // estimate r(x)·E/U, consistent as the samples grow: `error_falls_as_mu_grows`.)
     let sampled = ("shadows", "irradiance", ParamValue::Str("sampled".into()));
-    let s = wedge::Session::open(None, &overrides(Some(1e6), &[("shadows", "max_rays", ParamValue::Int(16)), sampled])).unwrap();
+    let s = wedge::Session::open(None, &overrides(Some(1e6), &[("shadows", "rays_cap", ParamValue::Int(16)), sampled])).unwrap();
     let r = run(&s);
     let out = color(&s, &r);
     let unfiltered = wedge::outputs::buffer_to_image(r.output("unfiltered").unwrap(), W, H);
