@@ -30,6 +30,13 @@
 //!   selection bias: on the open `curved` AO scene the image mean was 27% low. (`z_min = ∞`, i.e.
 //!   `β = ∞`, removes that bias too but never converges as μ grows.)
 //! - Rates are clamped to `[initial_rays, max_rays · max(μ, 1)]` (thesis: 16 and 100μ).
+//! - **Whose statistics** (`statistics`): the thesis's `z_min, z_max` are the pixel's own first
+//!   pass's, whose samples its estimate then reuses, so a pixel's count and width correlate with
+//!   its own value (AO on `curved`: unfiltered mean −1.1%, filtered −3.3%). `"neighbours"` runs
+//!   `neighbourhood.others` first (pass `statistics`): the means of the eight neighbours' `z_min`,
+//!   `z_max` on the same object, the pixel's own left out (AO: −1.1% → +0.0% and −3.3% → −0.4%;
+//!   `pipelines/ao.ron` uses it; docs/DESIGN-NOTES.md "AO: the mean and the pixel's own
+//!   statistics"). Not used under a factoring node.
 
 use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
@@ -209,6 +216,12 @@ impl NodeKind for Indirect {
             ParamDecl::int("max_rays", 100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
             ParamDecl::int("rays_cap", 1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
             ParamDecl::float("z_min_fraction", 0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
+            ParamDecl::choice(
+                "statistics",
+                "own",
+                &["own", "neighbours"],
+                "z_min, z_max for eqs. 4.15–4.21 from the pixel's own first pass (thesis), or from its eight neighbours' (leaves its own samples out: no correlation between a pixel's estimate and its count or width; not with factoring)",
+            ),
         ]
         .into_iter()
         .chain(filtering::params())
@@ -236,7 +249,20 @@ impl NodeKind for Indirect {
                 .setting("glossy", ParamValue::Bool(glossy))
                 .setting("max_distance", ctx.param("max_distance").clone()),
         )?;
-        let depth = ctx.sampler_output(SamplerPass::First, "depth")?;
+        let own_depth = ctx.sampler_output(SamplerPass::First, "depth")?;
+        // `statistics: "neighbours"`: each pixel's z_min, z_max from its eight neighbours' first
+        // passes, so its count and width do not depend on the samples its estimate reuses.
+        let depth = if matches!(ctx.param("statistics"), ParamValue::Str(m) if m == "neighbours") {
+            let others = ctx.buffer("depth_neighbours", Format::Vec4);
+            ctx.pass("statistics", "neighbourhood.others", Stage::Bandwidth)
+                .read("value", own_depth)
+                .read("position", position)
+                .write("out", others)
+                .finish();
+            others
+        } else {
+            own_depth
+        };
 
         let beta_d = ctx.buffer("beta_diffuse", Format::F32);
         let beta_g = ctx.buffer("beta_glossy", Format::F32);

@@ -18,6 +18,7 @@ pub mod indirect;
 pub mod mixed_reality;
 pub mod neighbourhood;
 pub mod neighbourhood3;
+pub mod neighbourhood_others;
 pub mod paths;
 pub mod pixel_filter;
 pub mod primary;
@@ -32,6 +33,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(indirect::IndirectSample));
     reg.register(Arc::new(indirect::IndirectCompose));
     reg.register(Arc::new(neighbourhood3::Max3));
+    reg.register(Arc::new(neighbourhood_others::Others));
     reg.register(Arc::new(neighbourhood3::Median3));
     reg.register(Arc::new(filter_ch5::IrradianceFilter));
     reg.register(Arc::new(filter_ch5::DefocusFilter));

@@ -1,0 +1,123 @@
+//! `neighbourhood.others`: a pixel's first-pass distance statistics taken from its eight
+//! neighbours on the same object, leaving its own samples out.
+//!
+//! Why: a node whose rates and filter width come from a pixel's own first-pass samples, and whose
+//! estimate reuses those samples, correlates the estimate with its own weight. For ambient
+//! occlusion (Ch. 4's `z_min`, `z_max`) a first pass that happened to hit something near gives the
+//! pixel a higher value, a narrower filter and more rays, which dilute the lucky value: the
+//! unfiltered image is biased low (−1.1% on `curved`), and a filter that weighs neighbours by their
+//! own width carries that correlation into the mean (docs/DESIGN-NOTES.md "AO: the mean"). With the
+//! statistics from the neighbours only, a pixel's count and width are independent of its own samples.
+//!
+//! Layout (the Indirect first pass's `depth`): `x` a minimum, `y` a maximum (both valid where
+//! `z > 0`), `z` a count (hits), `w > 0` marks a pixel with samples. Output: `x`, `y` = the means of
+//! the neighbours' `x`, `y` over those with `z > 0` (each neighbour's is the same statistic of as
+//! many rays as the pixel's own, so the rates keep their scale; the min over all eight would be
+//! the statistic of 8× the rays, measured: +50% rays on `curved`), `z` = the sum of their `z`, `w` =
+//! the pixel's own. Only neighbours with `w > 0` on the pixel's object (position `w`) count; a pixel
+//! with none keeps its own statistics. Sums in a fixed order: both backends agree bit for bit.
+//! WGSL: `shaders/neighbourhood_others.wgsl`.
+
+use wedge_graph::Format;
+
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::BackendError;
+
+pub struct Others;
+
+/// The statistics of pixel `(x, y)` from its neighbours (module doc).
+pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32, y: i32) -> [f32; 4] {
+    let i = (y * w + x) as usize;
+    let own = value[i];
+    if !(own[3] > 0.0) {
+        return own;
+    }
+    let (mut lo, mut hi, mut hits, mut n, mut with_hits) = (0.0f32, 0.0f32, 0.0f32, 0u32, 0u32);
+    for dy in -1..=1 {
+        for dx in -1..=1 {
+            let (nx, ny) = (x + dx, y + dy);
+            if (dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h {
+                continue;
+            }
+            let j = (ny * w + nx) as usize;
+            let v = value[j];
+            if !(v[3] > 0.0) || position[j][3] != position[i][3] {
+                continue;
+            }
+            n += 1;
+            if v[2] > 0.0 {
+                lo += v[0];
+                hi += v[1];
+                hits += v[2];
+                with_hits += 1;
+            }
+        }
+    }
+    if n == 0 {
+        own
+    } else if hits > 0.0 {
+        [lo / with_hits as f32, hi / with_hits as f32, hits, own[3]]
+    } else {
+        [0.0, 0.0, 0.0, own[3]]
+    }
+}
+
+impl Kernel for Others {
+    fn name(&self) -> &'static str {
+        "neighbourhood.others"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("value", Format::Vec4),
+            Binding::read("position", Format::Vec4),
+            Binding::write("out", Format::Vec4),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/neighbourhood_others.wgsl"), |_| Ok(Uniforms::new()))
+                .with_reach(|_| Ok(Reach::Rows(1))),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let value = ctx.read::<[f32; 4]>("value")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| others(value, position, w, h, x as i32, y as i32));
+        ctx.put("out", out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pixel_takes_its_neighbours_statistics_not_its_own() {
+        // 3×3 image on one object; the centre saw a near hit (0.1) that no neighbour saw.
+        let mut value = vec![[1.0, 2.0, 4.0, 16.0]; 9];
+        value[4] = [0.1, 3.0, 9.0, 16.0];
+        value[0] = [0.5, 1.0, 2.0, 16.0];
+        value[8] = [0.0, 0.0, 0.0, 16.0]; // no hits: does not enter min/max
+        let position = vec![[0.0, 0.0, 0.0, 1.0]; 9];
+        // Seven neighbours with hits: means (0.5 + 6·1)/7, (1 + 6·2)/7; hits 2 + 6·4.
+        let c = others(&value, &position, 3, 3, 1, 1);
+        assert_eq!(c[2..], [26.0, 16.0]);
+        assert!((c[0] - 6.5 / 7.0).abs() < 1e-6 && (c[1] - 13.0 / 7.0).abs() < 1e-6, "{c:?}");
+        // A corner pixel sees the centre's near hit among its three neighbours: (0.1 + 1 + 1)/3.
+        assert!((others(&value, &position, 3, 3, 0, 0)[0] - 2.1 / 3.0).abs() < 1e-6);
+        // Another object's pixels do not count; with no neighbour left the pixel keeps its own.
+        let mut position = position;
+        for (k, p) in position.iter_mut().enumerate() {
+            p[3] = if k == 4 { 2.0 } else { 1.0 };
+        }
+        assert_eq!(others(&value, &position, 3, 3, 1, 1), value[4]);
+        // Neighbours with samples but no hits: no hits.
+        let value = vec![[0.0, 0.0, 0.0, 16.0]; 9];
+        let position = vec![[0.0, 0.0, 0.0, 1.0]; 9];
+        assert_eq!(others(&value, &position, 3, 3, 1, 1), [0.0, 0.0, 0.0, 16.0]);
+    }
+}

@@ -1,0 +1,52 @@
+// neighbourhood.others — a pixel's first-pass statistics from its eight neighbours on the same
+// object, its own samples left out; mirrors backends/src/kernels/neighbourhood_others.rs.
+#include "common.wgsl"
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let w = i32(frame.width);
+    let h = i32(frame.height);
+    let xy = vec2<i32>(pixel_xy(gid));
+    let own = value_at(i);
+    if (!(own.w > 0.0)) {
+        out_put(i, own);
+        return;
+    }
+    var lo = 0.0;
+    var hi = 0.0;
+    var hits = 0.0;
+    var n = 0u;
+    var with_hits = 0u;
+    for (var dy = -1; dy <= 1; dy = dy + 1) {
+        for (var dx = -1; dx <= 1; dx = dx + 1) {
+            let nx = xy.x + dx;
+            let ny = xy.y + dy;
+            if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h) {
+                continue;
+            }
+            let j = index_at(nx, ny);
+            let v = value_at(j);
+            if (!(v.w > 0.0) || position_at(j).w != position_at(i).w) {
+                continue;
+            }
+            n = n + 1u;
+            if (v.z > 0.0) {
+                lo = lo + v.x;
+                hi = hi + v.y;
+                hits = hits + v.z;
+                with_hits = with_hits + 1u;
+            }
+        }
+    }
+    if (n == 0u) {
+        out_put(i, own);
+    } else if (hits > 0.0) {
+        out_put(i, vec4<f32>(lo / f32(with_hits), hi / f32(with_hits), hits, own.w));
+    } else {
+        out_put(i, vec4<f32>(0.0, 0.0, 0.0, own.w));
+    }
+}
