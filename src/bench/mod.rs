@@ -22,6 +22,7 @@
 
 pub mod curves;
 pub mod flip;
+pub mod format;
 pub mod mono_text;
 pub mod plots;
 pub mod reference_cache;

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::format::{ratio, sci};
 use super::plots::{write_plot, Plot, Series, SeriesStyle, BLUE, GREEN, GREY, RED};
 use super::{BenchResult, GoalOutcome, Goals, KeptImages, Method, Role, RunRecord};
 use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
@@ -210,24 +211,6 @@ fn plot_for(result: &BenchResult, x_of: impl Fn(&RunRecord) -> f64, x_label: &st
     Plot { title: title.into(), x_label: x_label.into(), y_label: "RMSE".into(), series: s }
 }
 
-fn f3(v: f64) -> String {
-    if v.is_nan() {
-        "n/a".into()
-    } else if v.abs() >= 100.0 {
-        format!("{v:.0}")
-    } else {
-        format!("{v:.2}")
-    }
-}
-
-fn e3(v: f64) -> String {
-    if v.is_nan() {
-        "n/a".into()
-    } else {
-        format!("{v:.3e}")
-    }
-}
-
 fn rel(path: &Path, base: &Path) -> String {
     path.strip_prefix(base).unwrap_or(path).to_string_lossy().replace('\\', "/")
 }
@@ -324,7 +307,7 @@ pub fn error_range(values: &[f32]) -> Option<(f32, f32)> {
 pub fn summary(r: &BenchResult) -> String {
     let mut s = String::new();
     for g in &r.goals {
-        let measured = if g.name.starts_with("filter overhead") { format!("{:.2}%", 100.0 * g.measured) } else { format!("{}x", f3(g.measured)) };
+        let measured = if g.name.starts_with("filter overhead") { format!("{:.2}%", 100.0 * g.measured) } else { format!("{}x", ratio(g.measured)) };
         let _ = writeln!(s, "{:<5} {} {} (target {}){}", if g.pass { "PASS" } else { "MISS" }, g.name, measured, g.target, if g.note.is_empty() { String::new() } else { format!(": {}", g.note) });
     }
     let _ = writeln!(
@@ -332,7 +315,7 @@ pub fn summary(r: &BenchResult) -> String {
         "reference {} spp ({}), noise RMSE {}; {} runs in {:.1} s",
         r.reference.spp,
         if r.reference.from_cache { "cached" } else { "rendered" },
-        e3(r.reference.noise_rmse),
+        sci(r.reference.noise_rmse, 3),
         r.runs.len(),
         r.seconds
     );
@@ -374,9 +357,9 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     let _ = writeln!(
         w,
         "Its own estimated noise: RMSE **{}** = RMSE(half A, half B) / 2 ({:.1}% of ours' RMSE {}).{}\n",
-        e3(rf.noise_rmse),
+        sci(rf.noise_rmse, 3),
         100.0 * rf.noise_rmse / ours_rmse,
-        e3(ours_rmse),
+        sci(ours_rmse, 3),
         if rf.noise_rmse > 0.5 * ours_rmse {
             " **Warning:** the reference is not much better than the method measured; raise its spp."
         } else {
@@ -388,7 +371,7 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     let _ = writeln!(w, "Checked on {} (the pipeline file's own configuration).\n", r.primary().map_or("-".into(), |p| format!("`{}`", p.label)));
     let _ = writeln!(w, "| goal | target | measured | result | cause / note |\n|---|---|---|---|---|");
     for g in &r.goals {
-        let measured = if g.name.starts_with("filter overhead") { format!("{:.2}%", 100.0 * g.measured) } else { format!("{}x", f3(g.measured)) };
+        let measured = if g.name.starts_with("filter overhead") { format!("{:.2}%", 100.0 * g.measured) } else { format!("{}x", ratio(g.measured)) };
         let _ = writeln!(w, "| {} | {} | {} | **{}** | {} |", g.name, g.target, measured, if g.pass { "PASS" } else { "MISS" }, g.note);
     }
 
@@ -414,8 +397,8 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             x.time.sampling * 1e3,
             x.time.bandwidth * 1e3,
             x.time.filter * 1e3,
-            e3(x.metrics.rmse),
-            e3(x.metrics.rel_mse),
+            sci(x.metrics.rmse, 3),
+            sci(x.metrics.rel_mse, 3),
             x.metrics.psnr,
             x.metrics.smape,
             x.flip
@@ -434,7 +417,7 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
                 let flag = if s.extrapolated() { format!(" ⚠ {}", s.flag()) } else { String::new() };
                 (
                     format!("{}{}", s.rays_needed.map_or("n/a".into(), |e| format!("{:.1}", e.cost)), flag),
-                    format!("{}x ({}x)", f3(s.rays), f3(s.time)),
+                    format!("{}x ({}x)", ratio(s.rays), ratio(s.time)),
                 )
             }
             None => ("n/a".into(), "n/a".into()),
@@ -446,10 +429,10 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             "| mu {}{} | {} | {}{} | {} | {} | {} | {} | {} | {:.2}% |",
             x.mu.map_or("-".into(), |m| m.to_string()),
             if x.primary { " (pipeline's)" } else { "" },
-            e3(x.metrics.rmse),
-            bv.map_or("n/a".into(), |b| e3(b.bias2)),
+            sci(x.metrics.rmse, 3),
+            bv.map_or("n/a".into(), |b| sci(b.bias2, 3)),
             if bv.is_some_and(|b| b.clamped) { " (clamped at 0)" } else { "" },
-            bv.map_or("n/a".into(), |b| e3(b.variance)),
+            bv.map_or("n/a".into(), |b| sci(b.variance, 3)),
             ni,
             si,
             ns,

@@ -23,6 +23,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use super::plots::{write_bar_chart, BarChart, BarSeries, BLUE, GREY, RED};
+use super::format::{ratio, sci};
 use super::{BenchOptions, BenchResult, Method};
 use crate::image::ImageError;
 use crate::staging::Staging;
@@ -284,8 +285,8 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
         say(format!(
             "suite: `{key}`: {:.1} rays/px, {}x vs independent, {}x vs stratified, {:.0}% bias, {:.1} s",
             row.rays_per_pixel,
-            f2(row.speedup_vs_independent),
-            f2(row.speedup_vs_stratified),
+            ratio(row.speedup_vs_independent),
+            ratio(row.speedup_vs_stratified),
             100.0 * row.bias_fraction,
             row.seconds
         ));
@@ -376,26 +377,6 @@ pub fn csv(rows: &[SuiteRow]) -> String {
     s
 }
 
-fn f2(v: f64) -> String {
-    if !v.is_finite() {
-        "n/a".into()
-    } else if v.abs() >= 100.0 {
-        format!("{v:.0}")
-    } else {
-        format!("{v:.2}")
-    }
-}
-
-fn e3(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else if v.is_finite() {
-        format!("{v:.2e}")
-    } else {
-        "n/a".into()
-    }
-}
-
 fn pct(v: f64, digits: usize) -> String {
     if v.is_finite() {
         format!("{:.*}%", digits, 100.0 * v)
@@ -442,9 +423,9 @@ pub fn summary(r: &SuiteResult) -> String {
         s,
         "suite of {} scenes: median {} rays/px, {}x vs independent, {}x vs stratified, {} bias, filter overhead {}",
         r.rows.len(),
-        f2(m.rays_per_pixel),
-        f2(m.speedup_vs_independent),
-        f2(m.speedup_vs_stratified),
+        ratio(m.rays_per_pixel),
+        ratio(m.speedup_vs_independent),
+        ratio(m.speedup_vs_stratified),
         pct(m.bias_fraction, 0),
         pct(m.filter_overhead, 1)
     );
@@ -453,8 +434,8 @@ pub fn summary(r: &SuiteResult) -> String {
             s,
             "worst: `{}` {}x vs stratified ({}x vs independent, {} bias)",
             w.scene,
-            f2(w.speedup_vs_stratified),
-            f2(w.speedup_vs_independent),
+            ratio(w.speedup_vs_stratified),
+            ratio(w.speedup_vs_independent),
             pct(w.bias_fraction, 0)
         );
     }
@@ -495,14 +476,14 @@ pub fn markdown(r: &SuiteResult) -> String {
         format!(
             "{} | {} | {} | {}x{} | {}x{} | {} | {} | {} | {} | {}",
             x.mu.map_or("-".into(), |m| m.to_string()),
-            f2(x.rays_per_pixel),
-            e3(x.rmse),
-            f2(x.speedup_vs_independent),
+            ratio(x.rays_per_pixel),
+            sci(x.rmse, 2),
+            ratio(x.speedup_vs_independent),
             flag(x.extrapolated_vs_independent),
-            f2(x.speedup_vs_stratified),
+            ratio(x.speedup_vs_stratified),
             flag(x.extrapolated_vs_stratified),
-            e3(x.bias2),
-            e3(x.variance),
+            sci(x.bias2, 2),
+            sci(x.variance, 2),
             pct(x.bias_fraction, 0),
             signed_pct(x.mean_offset),
             pct(x.filter_overhead, 1)
@@ -515,12 +496,12 @@ pub fn markdown(r: &SuiteResult) -> String {
     let _ = writeln!(
         w,
         "| **median** | | {} | {} | **{}x** | **{}x** | {} | {} | {} | {} | {} |",
-        f2(m.rays_per_pixel),
-        e3(m.rmse),
-        f2(m.speedup_vs_independent),
-        f2(m.speedup_vs_stratified),
-        e3(m.bias2),
-        e3(m.variance),
+        ratio(m.rays_per_pixel),
+        sci(m.rmse, 2),
+        ratio(m.speedup_vs_independent),
+        ratio(m.speedup_vs_stratified),
+        sci(m.bias2, 2),
+        sci(m.variance, 2),
         pct(m.bias_fraction, 0),
         signed_pct(m.mean_offset),
         pct(m.filter_overhead, 1)
@@ -539,12 +520,12 @@ pub fn markdown(r: &SuiteResult) -> String {
         "Issue 16's goals against stratified MC (SoftShadows: median ≥ 2×, worst ≥ 1.5×, ≥ 10× against independent; \
          Indirect: median ≥ 1.5×; AO: mean within 2%): median **{}x**, worst **{}x**; {} of {} scenes below 1.5×, {} below 2×; \
          median against independent {}x; median |mean offset| {}.\n",
-        f2(m.speedup_vs_stratified),
-        r.worst_row().map_or("n/a".into(), |x| f2(x.speedup_vs_stratified)),
+        ratio(m.speedup_vs_stratified),
+        r.worst_row().map_or("n/a".into(), |x| ratio(x.speedup_vs_stratified)),
         below(1.5),
         r.rows.len(),
         below(2.0),
-        f2(m.speedup_vs_independent),
+        ratio(m.speedup_vs_independent),
         pct(median(r.rows.iter().map(|x| x.mean_offset.abs())), 1)
     );
     let _ = writeln!(w, "![speedup per scene](suite_speedup.png)\n");
