@@ -265,9 +265,9 @@ fn ao_is_a_fraction_and_reference_follows_the_node() {
     // 16 samples are kept and decide the count) is low by ~1.5% here: a pixel whose 16 rays all
     // missed keeps its 0 at ~16 samples, while one that hit gets many more that dilute its hits
     // (seeds 1–5 at 160×120: −1.5% / −1.6%; fixed count +0.1% / +0.3%; docs/SAMPLER-STAGE.md
-    // "Samples, not paths"). `ao.ron` takes each pixel's z_min, z_max from its neighbours
-    // (`statistics: "neighbours"`), so its count no longer depends on its own samples and the
-    // adaptive estimate is unbiased too. One seed's mean carries ~0.6% of noise, so the mean is
+    // "Samples, not paths"). The node's default takes each pixel's z_min, z_max from its
+    // neighbours (`statistics: "neighbours"`), so its count no longer depends on its own samples
+    // and the adaptive estimate is unbiased too. One seed's mean carries ~0.6% of noise, so the mean is
     // taken over four seeds.
     let unfiltered_mean = |extra: &[(&str, &str, wedge::graph::ParamValue)]| {
         let runs: Vec<f64> = (1..=4)

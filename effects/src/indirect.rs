@@ -35,8 +35,8 @@
 //!   its own value (AO on `curved`: unfiltered mean −1.1%, filtered −3.3%). `"neighbours"` runs
 //!   `neighbourhood.others` first (pass `statistics`): the means of the eight neighbours' `z_min`,
 //!   `z_max` on the same object, the pixel's own left out (AO: −1.1% → +0.0% and −3.3% → −0.4%;
-//!   `pipelines/ao.ron` uses it; docs/DESIGN-NOTES.md "AO: the mean and the pixel's own
-//!   statistics"). Not used under a factoring node.
+//!   indirect light: the same speedups; the default; `"own"` keeps the thesis's; docs/DESIGN-NOTES.md
+//!   "AO: the mean and the pixel's own statistics"). Not used under a factoring node.
 
 use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
@@ -218,7 +218,7 @@ impl NodeKind for Indirect {
             ParamDecl::float("z_min_fraction", 0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
             ParamDecl::choice(
                 "statistics",
-                "own",
+                "neighbours",
                 &["own", "neighbours"],
                 "z_min, z_max for eqs. 4.15–4.21 from the pixel's own first pass (thesis), or from its eight neighbours' (leaves its own samples out: no correlation between a pixel's estimate and its count or width; not with factoring)",
             ),
