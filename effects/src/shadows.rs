@@ -7,7 +7,8 @@
 //! sampler's base-2 sequence; measured in docs/SAMPLER-STAGE.md §4) stratified light samples on it, `light`, `form_factor` —
 //! and reads the first pass's occluder statistics `d1, d2_min, d2_max`. Its own passes:
 //! `fill` (unoccluded pixels take their neighbours' averages within 5 pixels, Sec. 3.6)
-//! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21), submitted to the sampler as `n` shadow rays
+//! → `bandwidth` (β, eq. 3.13) → `rates` (n, eq. 3.21, capped at `max_rays · max(μ, 1)²`: 64 at
+//! μ = 2, see [`rays_cap`]), submitted to the sampler as `n` shadow rays
 //! over both passes (`PerPrimary::Spread`: the sampler traces the `n − initial_rays` left on paths of
 //! about `initial_rays` through the pixel centre, continuing the first pass's stratified light
 //! samples; with a fixed camera ray its record weighs every shadow ray the same) → `visibility`
@@ -556,7 +557,6 @@ mod tests {
 
     #[test]
     fn rays_cap_scales_with_mu_squared() {
-        // Default 16 → 64 at μ = 2; below μ = 1 it stays 16; never under the first pass; saturates.
         // Default 16 → 64 at μ = 2; below μ = 1 it stays 16; never under the first pass; the
         // absolute cap wins last.
         let no_ceiling = i64::MAX;
@@ -567,7 +567,7 @@ mod tests {
         assert_eq!(rays_cap(16, 1e6, no_ceiling, 8), u32::MAX);
         assert_eq!(rays_cap(16, 1e6, 100, 8), 100);
         assert_eq!(rays_cap(16, 1e6, 1, 8), 8);
-        // μ → ∞ lifts the cap past any count eq. 3.21 gives at finite μ (the consistency argument).
+        // The cap binds eq. 3.21's count at μ = 64 but recedes past it as μ grows (consistency).
         let n = samples_per_pixel(0.5, 2.0, 0.01, 0.1, 64.0, 1.0);
         assert!(f64::from(rays_cap(16, 64.0, no_ceiling, 8)) < f64::from(n));
         assert!(f64::from(rays_cap(16, 1e4, no_ceiling, 8)) > f64::from(n));
