@@ -16,8 +16,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         out_put(i, own);
         return;
     }
-    var lo = 0.0;
-    var hi = 0.0;
+    var min_sum = 0.0;
+    var max_sum = 0.0;
     var hits = 0.0;
     var n = 0u;
     var with_hits = 0u;
@@ -35,8 +35,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             n = n + 1u;
             if (v.z > 0.0) {
-                lo = lo + v.x;
-                hi = hi + v.y;
+                min_sum = min_sum + v.x;
+                max_sum = max_sum + v.y;
                 hits = hits + v.z;
                 with_hits = with_hits + 1u;
             }
@@ -45,7 +45,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (n == 0u) {
         out_put(i, own);
     } else if (hits > 0.0) {
-        out_put(i, vec4<f32>(lo / f32(with_hits), hi / f32(with_hits), hits, own.w));
+        out_put(i, vec4<f32>(min_sum / f32(with_hits), max_sum / f32(with_hits), hits, own.w));
     } else {
         out_put(i, vec4<f32>(0.0, 0.0, 0.0, own.w));
     }

@@ -23,6 +23,7 @@ use wedge_graph::Format;
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
+/// `neighbourhood.others` (module doc).
 pub struct Others;
 
 /// The statistics of pixel `(x, y)` from its neighbours (module doc).
@@ -32,7 +33,7 @@ pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32,
     if !(own[3] > 0.0) {
         return own;
     }
-    let (mut lo, mut hi, mut hits, mut n, mut with_hits) = (0.0f32, 0.0f32, 0.0f32, 0u32, 0u32);
+    let (mut min_sum, mut max_sum, mut hits, mut n, mut with_hits) = (0.0f32, 0.0f32, 0.0f32, 0u32, 0u32);
     for dy in -1..=1 {
         for dx in -1..=1 {
             let (nx, ny) = (x + dx, y + dy);
@@ -46,8 +47,8 @@ pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32,
             }
             n += 1;
             if v[2] > 0.0 {
-                lo += v[0];
-                hi += v[1];
+                min_sum += v[0];
+                max_sum += v[1];
                 hits += v[2];
                 with_hits += 1;
             }
@@ -56,7 +57,7 @@ pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32,
     if n == 0 {
         own
     } else if hits > 0.0 {
-        [lo / with_hits as f32, hi / with_hits as f32, hits, own[3]]
+        [min_sum / with_hits as f32, max_sum / with_hits as f32, hits, own[3]]
     } else {
         [0.0, 0.0, 0.0, own[3]]
     }
