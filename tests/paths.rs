@@ -227,6 +227,12 @@ fn run_alone(
     }
 }
 
+/// `paths.trace` on the CPU with `params`, its record as `paths.resolve`'s input.
+fn traced_record(scene: &Scene, size: (u32, u32, u32), params: &[(&str, ParamValue)]) -> BTreeMap<&'static str, BufferData> {
+    let (rec, _) = run_alone(Arc::new(PathsTrace), scene, size, params, &BTreeMap::new(), None);
+    BTreeMap::from([("record", rec["record"].clone())])
+}
+
 fn trace_params(count: i64, jitter: bool, lens: &str) -> Vec<(&'static str, ParamValue)> {
     vec![
         ("count", ParamValue::Int(count)),
@@ -566,8 +572,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     use wedge::backends::kernels::paths::PathsResolve;
     let scene = builtin("cornell");
     let size = (32u32, 24u32, 5u32);
-    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
-    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let inputs = traced_record(&scene, size, &trace_params(1, false, "disk"));
     let (res, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
     let (BufferData::Vec4(p), BufferData::Vec4(n)) = (&res["position"], &res["normal"]) else { panic!("formats") };
@@ -580,8 +585,7 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     }
     let Some(mut gpu) = gpu_or_skip("resolve_gives_means_in_gbuffer_conventions") else { return };
     let scene = defocused("cornell", 0.1);
-    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(8, true, "gaussian"), &BTreeMap::new(), None);
-    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let inputs = traced_record(&scene, size, &trace_params(8, true, "gaussian"));
     let (c, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (g, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
     assert_eq!(c.len(), 30); // every output of paths.resolve, `direct`, `direct_unshadowed`, `diffuse`, `glossy` (the filters' Vec4), the velocities and the environment's included
@@ -721,8 +725,7 @@ fn unshadowed_direct_is_the_same_samples_without_visibility() {
     use wedge::backends::kernels::paths::PathsResolve;
     let scene = builtin("grids");
     let size = (48u32, 36u32, 5u32);
-    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(4, true, "disk"), &BTreeMap::new(), None);
-    let inputs = BTreeMap::from([("record", rec["record"].clone())]);
+    let inputs = traced_record(&scene, size, &trace_params(4, true, "disk"));
     let (res, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
     let (BufferData::Vec4(e), BufferData::Vec4(u), BufferData::Vec4(occ)) = (&res["direct"], &res["direct_unshadowed"], &res["occlusion"]) else {
         panic!("formats")
