@@ -9,6 +9,7 @@
 #include "sampling.wgsl"
 #include "hemisphere.wgsl"
 #include "environment_light.wgsl"
+#include "lobe_mixture.wgsl"
 
 // Dimension offset between lights in next-event estimation.
 const LIGHT_DIM_STRIDE: u32 = 65536u;
@@ -18,10 +19,6 @@ const LOBE_SELECT: u32 = 14u;
 // Rays traced by the current invocation (for the counters).
 var<private> rays_secondary: u32 = 0u;
 var<private> rays_shadow: u32 = 0u;
-
-fn weight_of(c: vec3<f32>) -> f32 {
-    return (c.x + c.y + c.z) / 3.0;
-}
 
 // next_event: one uniform area sample per light, and one environment look-up where the scene has a map.
 fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> vec3<f32> {

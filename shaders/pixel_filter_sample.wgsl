@@ -1,7 +1,7 @@
 // pixel_filter.sample — `count` jittered pinhole paths per pixel (one per frame in progressive mode),
 // split into L_lv and L_u (seed 002 Sec. 3.3, Fig. 3.1), accumulated with Stats::combine; mirrors
 // backends/src/kernels/pixel_filter.rs (PixelSample::run_cpu, path_sample) with the same RNG calls
-// and dimensions, on the shared estimators of indirect_path.wgsl (next_event, trace_path_split).
+// and dimensions, on the shared first_vertex.wgsl (next_event, trace_path_split of indirect_path.wgsl).
 // Chunked (WgslSource::chunked): a resuming dispatch continues the running statistics it left.
 #include "common.wgsl"
 #include "rng.wgsl"
@@ -10,6 +10,7 @@
 #include "camera.wgsl"
 #include "hemisphere.wgsl"
 #include "indirect_path.wgsl"
+#include "first_vertex.wgsl"
 #include "pixel_filter_formulas.wgsl"
 
 const SPLIT_INDIRECT: u32 = 0u;
@@ -22,64 +23,20 @@ struct SplitSample {
 }
 
 fn path_sample(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> SplitSample {
-    let hit = scene_intersect(origin, dir, 0.0, inf());
-    if (!hit.hit) {
-        let bg = scene_background(dir);
+    let v = first_vertex(origin, dir, key, j);
+    if (!v.hit) {
         if (params.split == SPLIT_ALL) {
-            return SplitSample(vec3<f32>(0.0), bg);
+            return SplitSample(vec3<f32>(0.0), v.direct);
         }
-        return SplitSample(bg, vec3<f32>(0.0));
-    }
-    let sp = surface(hit.triangle, hit.b1, hit.b2, dir);
-    let x = sp.position;
-    let n = sp.shading_normal;
-    let wo = -dir;
-    let mat = material(sp.material);
-    let kd = albedo(sp);
-    let ks = mat.specular;
-    let m = mat.phong_exponent;
-    let emitted = emission(sp);
-    let direct = next_event(x, n, wo, kd, ks, m, key, j, 0u);
-    let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
-    let wd = rmax(weight_of(kd), 0.0);
-    var ws = 0.0;
-    if (is_glossy) {
-        ws = rmax(weight_of(ks), 0.0);
-    }
-    var indirect = vec3<f32>(0.0);
-    var caustic = vec3<f32>(0.0);
-    if (wd + ws > 0.0) {
-        let pd = wd / (wd + ws);
-        let u = rng_uniform2(key, j, DIM_BSDF);
-        var wi: vec3<f32>;
-        if (rng_uniform(key, j, LOBE_SELECT) < pd) {
-            wi = sample_diffuse(n, u);
-        } else {
-            wi = sample_glossy(params.lobe, m, n, wo, u).wi;
-        }
-        let cos_i = dot3(wi, n);
-        if (cos_i > 0.0) {
-            let fd = kd * FRAC_1_PI_F32;
-            var f = fd;
-            var pdf = pd * cos_i * FRAC_1_PI_F32;
-            if (is_glossy) {
-                f = f + ks * glossy_brdf(params.lobe, m, n, wo, wi);
-                pdf = pdf + (1.0 - pd) * glossy_pdf(params.lobe, m, n, wo, wi);
-            }
-            if (pdf > 0.0) {
-                let r = trace_path_split(x, n, wi, key, j);
-                indirect = r.value * (f * (cos_i / pdf));
-                caustic = r.caustic * (fd * (cos_i / pdf));
-            }
-        }
+        return SplitSample(v.direct, vec3<f32>(0.0));
     }
     if (params.split == SPLIT_ALL) {
-        return SplitSample(vec3<f32>(0.0), emitted + direct + indirect);
+        return SplitSample(vec3<f32>(0.0), v.direct + v.indirect);
     }
     if (params.split == SPLIT_CAUSTICS) {
-        return SplitSample(emitted + direct + (indirect - caustic), caustic);
+        return SplitSample(v.direct + (v.indirect - v.caustic), v.caustic);
     }
-    return SplitSample(emitted + direct, indirect);
+    return SplitSample(v.direct, v.indirect);
 }
 
 @compute @workgroup_size(8, 8)

@@ -34,8 +34,13 @@ pub const SHARED: &[(&str, &str)] = &[
     ("sobol.wgsl", include_str!("../../../shaders/sobol.wgsl")),
     ("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl")),
     // The direct and indirect estimators, shared by direct.light / indirect.sample and paths.trace.
+    // The diffuse + glossy lobe mixture (weight_of, lobe_mixture, lobe_eval).
+    ("lobe_mixture.wgsl", include_str!("../../../shaders/lobe_mixture.wgsl")),
     ("light_sample.wgsl", include_str!("../../../shaders/light_sample.wgsl")),
     ("indirect_path.wgsl", include_str!("../../../shaders/indirect_path.wgsl")),
+    // A camera path's first vertex and radiance sample, shared by pixel_filter.sample and
+    // radiance_filter.sample (kernels/pixel_filter.rs first_vertex).
+    ("first_vertex.wgsl", include_str!("../../../shaders/first_vertex.wgsl")),
     // Environment look-ups and next-event estimation of the environment (kernels/environment.rs).
     ("environment_light.wgsl", include_str!("../../../shaders/environment_light.wgsl")),
 ];

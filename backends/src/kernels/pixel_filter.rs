@@ -374,10 +374,101 @@ fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> 
     })
 }
 
-/// One path through the camera ray `(origin, dir)`: `(L_lv, L_u)` under `split`. Next-event
+/// The lobe mixture of a surface with diffuse `kd` and glossy `ks`, `m` (the one-sample mixture
+/// `trace_path` continues with): the probability of the diffuse lobe and whether there is a glossy
+/// one; `None` for a black surface, which scatters nothing.
+pub fn lobe_mixture(kd: Vec3, ks: Vec3, m: f32) -> Option<(f32, bool)> {
+    let glossy = m > 0.0 && ks.max_element() > 0.0;
+    let (wd, ws) = (weight_of(kd).max(0.0), if glossy { weight_of(ks).max(0.0) } else { 0.0 });
+    (wd + ws > 0.0).then(|| (wd / (wd + ws), glossy))
+}
+
+/// The mixture's BRDF `f`, its diffuse part `f_d` and its solid-angle pdf at direction `wi` with
+/// `cos_i = n·wi > 0` ([`lobe_mixture`]'s `pd`, `glossy`). Used where a direction is drawn
+/// ([`first_vertex`]) and where another pixel's direction is re-weighted (radiance filtering's
+/// eq. 4.10 evaluates the current pixel's BRDF and pdf at its neighbours' directions).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn lobe_eval(lobe: Lobe, kd: Vec3, ks: Vec3, m: f32, pd: f32, glossy: bool, n: Vec3, wo: Vec3, wi: Vec3, cos_i: f32) -> (Vec3, Vec3, f32) {
+    let fd = kd * std::f32::consts::FRAC_1_PI;
+    let mut f = fd;
+    let mut pdf = pd * cos_i * std::f32::consts::FRAC_1_PI;
+    if glossy {
+        f += ks * glossy_brdf(lobe, m, n, wo, wi);
+        pdf += (1.0 - pd) * glossy_pdf(lobe, m, n, wo, wi);
+    }
+    (f, fd, pdf)
+}
+
+/// The surface a camera path's first vertex lies on.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstSurface {
+    pub position: Vec3,
+    pub normal: Vec3,
+    /// Ray distance from the camera.
+    pub distance: f32,
+    pub albedo: Vec3,
+    pub material: u32,
+}
+
+/// One camera path's first vertex: what the path tracer estimates there, and the radiance sample
+/// radiance filtering stores (seed 002 Sec. 4.3.1, steps 1–2).
+#[derive(Clone, Copy, Debug)]
+pub struct FirstVertex {
+    /// Emission + next-event estimation at the first vertex; the background on a miss.
+    pub direct: Vec3,
+    /// The indirect estimate `f L̆ cos/pdf` and its caustic part `f_d L̆_c cos/pdf`.
+    pub indirect: Vec3,
+    pub caustic: Vec3,
+    pub surface: Option<FirstSurface>,
+    /// The continuation direction drawn from the lobe mixture (`None`: black surface or a miss) and
+    /// the incident radiance `L̆` along it (0 where it fell below the surface or had pdf 0).
+    pub wi: Option<Vec3>,
+    pub incident: Vec3,
+}
+
+/// One path through the camera ray `(origin, dir)` up to its first vertex and beyond. Next-event
 /// estimation at the first vertex gives the direct light; the indirect light continues with one
 /// sample of the vertex's lobe mixture (as [`trace_path_split`] continues at later vertices, on the
 /// first vertex's dimensions, which the later vertices do not use).
+#[allow(clippy::too_many_arguments)]
+pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, rng: &PixelRng, j: u32, rays: &mut PathRays) -> FirstVertex {
+    let scene = at.scene();
+    let Some(hit) = at.intersect(origin, dir, 0.0, f32::INFINITY) else {
+        // The environment seen directly (black without a map).
+        let bg = scene.background(dir);
+        return FirstVertex { direct: bg, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface: None, wi: None, incident: Vec3::ZERO };
+    };
+    let sp = at.surface(&hit, origin, dir);
+    let (x, n, wo) = (sp.position, sp.shading_normal, -dir);
+    let mat = &scene.materials[sp.material as usize];
+    let kd = scene.albedo(&sp);
+    let (ks, m) = (mat.specular, mat.phong_exponent);
+    let emitted = scene.emission(&sp);
+    let direct = next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays);
+    let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
+    let mut v = FirstVertex { direct: emitted + direct, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface, wi: None, incident: Vec3::ZERO };
+    // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
+    if let Some((pd, glossy)) = lobe_mixture(kd, ks, m) {
+        let u = Vec2::from(rng.uniform2(j, dim::BSDF));
+        let wi = if rng.uniform(j, LOBE_SELECT) < pd { sample_diffuse(n, u) } else { sample_glossy(p.lobe, m, n, wo, u).0 };
+        v.wi = Some(wi);
+        let cos_i = wi.dot(n);
+        if cos_i > 0.0 {
+            let (f, fd, pdf) = lobe_eval(p.lobe, kd, ks, m, pd, glossy, n, wo, wi, cos_i);
+            if pdf > 0.0 {
+                let (li, lc, _) = trace_path_split(at, p, x, n, wi, rng, j, rays);
+                v.incident = li;
+                v.indirect = li * (f * (cos_i / pdf));
+                // Caustic paths leave the first vertex by its diffuse part.
+                v.caustic = lc * (fd * (cos_i / pdf));
+            }
+        }
+    }
+    v
+}
+
+/// One path through the camera ray `(origin, dir)`: `(L_lv, L_u)` under `split` ([`first_vertex`]).
 #[allow(clippy::too_many_arguments)]
 pub fn path_sample(
     at: &SceneAt<'_>,
@@ -389,48 +480,14 @@ pub fn path_sample(
     split: Split,
     rays: &mut PathRays,
 ) -> (Vec3, Vec3) {
-    let scene = at.scene();
-    let Some(hit) = at.intersect(origin, dir, 0.0, f32::INFINITY) else {
-        // The environment seen directly (black without a map).
-        let bg = scene.background(dir);
-        return if split == Split::All { (Vec3::ZERO, bg) } else { (bg, Vec3::ZERO) };
-    };
-    let sp = at.surface(&hit, origin, dir);
-    let (x, n, wo) = (sp.position, sp.shading_normal, -dir);
-    let mat = &scene.materials[sp.material as usize];
-    let kd = scene.albedo(&sp);
-    let (ks, m) = (mat.specular, mat.phong_exponent);
-    let emitted = scene.emission(&sp);
-    let direct = next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays);
-    // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
-    let glossy = m > 0.0 && ks.max_element() > 0.0;
-    let (wd, ws) = (weight_of(kd).max(0.0), if glossy { weight_of(ks).max(0.0) } else { 0.0 });
-    let (mut indirect, mut caustic) = (Vec3::ZERO, Vec3::ZERO);
-    if wd + ws > 0.0 {
-        let pd = wd / (wd + ws);
-        let u = Vec2::from(rng.uniform2(j, dim::BSDF));
-        let wi = if rng.uniform(j, LOBE_SELECT) < pd { sample_diffuse(n, u) } else { sample_glossy(p.lobe, m, n, wo, u).0 };
-        let cos_i = wi.dot(n);
-        if cos_i > 0.0 {
-            let fd = kd * std::f32::consts::FRAC_1_PI;
-            let mut f = fd;
-            let mut pdf = pd * cos_i * std::f32::consts::FRAC_1_PI;
-            if glossy {
-                f += ks * glossy_brdf(p.lobe, m, n, wo, wi);
-                pdf += (1.0 - pd) * glossy_pdf(p.lobe, m, n, wo, wi);
-            }
-            if pdf > 0.0 {
-                let (li, lc, _) = trace_path_split(at, p, x, n, wi, rng, j, rays);
-                indirect = li * (f * (cos_i / pdf));
-                // Caustic paths leave the first vertex by its diffuse part.
-                caustic = lc * (fd * (cos_i / pdf));
-            }
-        }
+    let v = first_vertex(at, p, origin, dir, rng, j, rays);
+    if v.surface.is_none() {
+        return if split == Split::All { (Vec3::ZERO, v.direct) } else { (v.direct, Vec3::ZERO) };
     }
     match split {
-        Split::Indirect => (emitted + direct, indirect),
-        Split::Caustics => (emitted + direct + (indirect - caustic), caustic),
-        Split::All => (Vec3::ZERO, emitted + direct + indirect),
+        Split::Indirect => (v.direct, v.indirect),
+        Split::Caustics => (v.direct + (v.indirect - v.caustic), v.caustic),
+        Split::All => (Vec3::ZERO, v.direct + v.indirect),
     }
 }
 

@@ -1,0 +1,49 @@
+// lobe_mixture.wgsl — the one-sample lobe mixture of a diffuse + glossy surface; mirrors
+// backends/src/kernels/indirect.rs (weight_of) and pixel_filter.rs (lobe_mixture, lobe_eval).
+// Shared by indirect_path.wgsl, first_vertex.wgsl and radiance_filter.filter (which re-weights
+// neighbours' directions under a pixel's own BRDF and pdf, seed 002 eq. 4.10).
+#include "common.wgsl"
+#include "hemisphere.wgsl"
+
+// Relative weight of a lobe for lobe selection (mean of the rgb coefficients).
+fn weight_of(c: vec3<f32>) -> f32 {
+    return (c.x + c.y + c.z) / 3.0;
+}
+
+struct LobeMixture {
+    some: bool,
+    pd: f32,
+    glossy: bool,
+}
+
+fn lobe_mixture(kd: vec3<f32>, ks: vec3<f32>, m: f32) -> LobeMixture {
+    let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
+    let wd = rmax(weight_of(kd), 0.0);
+    var ws = 0.0;
+    if (is_glossy) {
+        ws = rmax(weight_of(ks), 0.0);
+    }
+    if (!(wd + ws > 0.0)) {
+        return LobeMixture(false, 0.0, false);
+    }
+    return LobeMixture(true, wd / (wd + ws), is_glossy);
+}
+
+struct LobeValue {
+    f: vec3<f32>,
+    fd: vec3<f32>,
+    pdf: f32,
+}
+
+fn lobe_eval(lobe: u32, kd: vec3<f32>, ks: vec3<f32>, m: f32, mix: LobeMixture, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>,
+    cos_i: f32) -> LobeValue {
+    let fd = kd * FRAC_1_PI_F32;
+    var f = fd;
+    var pdf = mix.pd * cos_i * FRAC_1_PI_F32;
+    if (mix.glossy) {
+        f = f + ks * glossy_brdf(lobe, m, n, wo, wi);
+        pdf = pdf + (1.0 - mix.pd) * glossy_pdf(lobe, m, n, wo, wi);
+    }
+    return LobeValue(f, fd, pdf);
+}
+
