@@ -84,7 +84,7 @@ enum Command {
         #[arg(long, value_name = "NAMES", value_delimiter = ',', value_parser = wedge::aov::AOV_NAMES)]
         aov: Vec<String>,
         /// Progressive rendering: N frames (1..=1000000) with the camera held still, each adding its
-        /// paths to what nodes accumulate over frames (PixelFilter); writes progressive_NNNN.exr/png
+        /// paths to what nodes accumulate over frames (PixelFilter, RadianceFilter); writes progressive_NNNN.exr/png
         /// after 1, 2, 4, 8, … frames and the last, each with that frame's full outputs (an
         /// interrupted render keeps the last complete snapshot), and prints the time per frame.
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_PROGRESSIVE), conflicts_with = "frames")]
@@ -455,7 +455,8 @@ fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[St
     if session.schedule.history.is_empty() {
         return Err(WedgeError::Usage(format!(
             "--progressive: {} has no node that accumulates over frames, so every frame would be a new image, not a \
-             better one; use a PixelFilter pipeline (e.g. pipelines/progressive_pixel.ron), or --frames for a sequence",
+             better one; use a PixelFilter or RadianceFilter pipeline (e.g. pipelines/progressive_pixel.ron or \
+             progressive_radiance.ron), or --frames for a sequence",
             session.pipeline.path.display()
         )));
     }

@@ -9,6 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::progressive::{measure_curve, plot_curves, print_curve, progressive, rel_mse, rmse, vec3s};
 use common::{gpu_or_skip, sized};
 use wedge::backends::cpu::CpuBackend;
 use wedge::backends::kernels::pixel_filter::Stats;
@@ -24,16 +25,6 @@ fn open(name: &str, w: u32, h: u32, params: &[(&str, &str, ParamValue)]) -> Sess
     Session::open(Some(&pipeline(name)), &sized(w, h, None, params)).expect("session")
 }
 
-/// Frames 0..n of a progressive render on the CPU, every frame's run kept.
-fn progressive(s: &Session, n: u32) -> Vec<RunResult> {
-    let mut runs: Vec<RunResult> = Vec::new();
-    for frame in 0..n {
-        let run = s.run_progressive_frame(&mut CpuBackend::new(), &Silent, frame, runs.last()).expect("frame");
-        runs.push(run);
-    }
-    runs
-}
-
 /// The contents of `<buffer>@previous_frame` a run hands to the next frame (the accumulation).
 fn handed_on<'a>(s: &Session, run: &'a RunResult, buffer: &str) -> &'a [[f32; 4]] {
     let name = format!("{buffer}@previous_frame");
@@ -42,16 +33,6 @@ fn handed_on<'a>(s: &Session, run: &'a RunResult, buffer: &str) -> &'a [[f32; 4]
         BufferData::Vec4(v) => v,
         other => panic!("{name} is {}", other.format()),
     }
-}
-
-fn vec3s(b: &BufferData) -> Vec<[f32; 3]> {
-    (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1), b.component(i, 2)]).collect()
-}
-
-fn rmse(a: &BufferData, b: &BufferData) -> f64 {
-    let (a, b) = (vec3s(a), vec3s(b));
-    let sum: f64 = a.iter().zip(&b).map(|(x, y)| (0..3).map(|c| (x[c] as f64 - y[c] as f64).powi(2)).sum::<f64>()).sum();
-    (sum / (3 * a.len()) as f64).sqrt()
 }
 
 /// After N frames the accumulated mean is the mean of the N frames rendered alone (one path each):
@@ -157,16 +138,6 @@ fn blend_factor_goes_to_one_and_the_output_becomes_plain_accumulation() {
 
 /// Relative MSE, `mean((a − b)² / (b² + 0.01))` per channel (`wedge compare`'s relMSE): robust to the
 /// few pixels that see the light, whose jittered edges dominate an RMSE.
-fn rel_mse(a: &BufferData, b: &BufferData) -> f64 {
-    let (a, b) = (vec3s(a), vec3s(b));
-    let sum: f64 = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (0..3).map(|c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + 0.01)).sum::<f64>())
-        .sum();
-    sum / (3 * a.len()) as f64
-}
-
 /// Consistency: against the pipeline's own reference (`wedge reference`: the same paths, filters
 /// bypassed) at 1024 paths per pixel, the blended image's RMSE and relMSE fall from 4 to 16 to 64
 /// frames on cornell at 64×48, and filtering beats plain accumulation early on.
@@ -328,11 +299,14 @@ fn gpu_parity_at_a_filter_frame_with_history() {
 
 /// Measurement for docs/DESIGN-NOTES.md (not run by default: minutes on 2 cores):
 /// `cargo test --release --test pixel_filter -- --ignored measure_error_vs_time --nocapture`.
-/// Cornell at `WEDGE_PF_SIZE` (default 160x120) against the pipeline's own reference at
-/// `WEDGE_PF_REF_SPP` (4096) paths per pixel; `WEDGE_PF_FRAMES` (256) frames of each pipeline. Plain
-/// progressive accumulation is the same run's `unfiltered` output, timed by its `sample` and
-/// `accumulate` passes only; the filtered image is timed by every pass. At the plain run's time after
-/// 1, 2, 4, … frames, the filtered image is the last one finished by then.
+/// Cornell at `WEDGE_PF_SIZE` (default 160x120) against the pixel-filter pipeline's own reference at
+/// `WEDGE_PF_REF_SPP` (4096) paths per pixel — the radiance-filter pipeline's reference is the same
+/// estimator (`first_vertex`, next-event estimation at every vertex, 3 bounces) — and
+/// `WEDGE_PF_FRAMES` (256) frames of each progressive pipeline (pixel filter brute force and fast,
+/// radiance filter). Plain progressive accumulation is the same run's `unfiltered` output, timed by
+/// its `sample` and `accumulate` passes only; the filtered image is timed by every pass. At the plain
+/// run's time after 1, 2, 4, … frames, the filtered image is the last one finished by then. The
+/// relMSE-against-time plot goes to `WEDGE_PF_PLOT` (default target/progressive_error_vs_time.png).
 #[test]
 #[ignore]
 fn measure_error_vs_time() {
@@ -348,54 +322,15 @@ fn measure_error_vs_time() {
     let r = reference.run(&mut CpuBackend::new(), &Silent).unwrap();
     let rc = r.output("color").unwrap().clone();
     println!("reference: {spp} paths per pixel at {w}x{h} in {:.1} s", start.elapsed().as_secs_f64());
-    for name in ["progressive_pixel.ron", "progressive_pixel_fast.ron"] {
+    let mut curves = Vec::new();
+    for name in ["progressive_pixel.ron", "progressive_pixel_fast.ron", "progressive_radiance.ron"] {
         let s = Session::open(Some(&pipeline(name)), &ov).unwrap();
-        let mut previous: Option<RunResult> = None;
-        // Per frame: (plain time, filtered time, plain rmse, plain relmse, filtered rmse, filtered relmse).
-        let mut rows: Vec<(f64, f64, f64, f64, f64, f64)> = Vec::new();
-        let (mut tp, mut tf, mut tfilter, mut nfilter, mut tfilter_all) = (0.0f64, 0.0f64, 0.0f64, 0u32, 0.0f64);
-        for frame in 0..frames {
-            let run = s.run_progressive_frame(&mut CpuBackend::new(), &Silent, frame, previous.as_ref()).unwrap();
-            tp += run.timings.iter().filter(|t| t.pass == "pf.sample" || t.pass == "pf.accumulate").map(|t| t.seconds).sum::<f64>();
-            tf += run.total_seconds();
-            let filt = run.seconds(wedge::backends::KernelClass::Filter);
-            tfilter_all += filt;
-            if wedge::backends::kernels::pixel_filter::is_filter_frame(frame, 4, true) {
-                tfilter += filt;
-                nfilter += 1;
-            }
-            let (c, u) = (run.output("color").unwrap(), run.output("unfiltered").unwrap());
-            rows.push((tp, tf, rmse(u, &rc), rel_mse(u, &rc), rmse(c, &rc), rel_mse(c, &rc)));
-            previous = Some(run);
-        }
-        let (tp_all, tf_all) = (rows.last().unwrap().0, rows.last().unwrap().1);
-        println!(
-            "\n{name} at {w}x{h}, {frames} frames: {:.1} ms per filter pass ({nfilter} filter frames); filter passes {:.1}% of the \
-             pass time; everything beyond plain accumulation (range, filter, blend) {:.1}%; {:.2} s in all",
-            tfilter / f64::from(nfilter.max(1)) * 1e3,
-            100.0 * tfilter_all / tf_all,
-            100.0 * (tf_all - tp_all) / tf_all,
-            tf_all
-        );
-        println!("| plain frames | time (s) | plain RMSE | plain relMSE | filtered frames by then | filtered RMSE | filtered relMSE | relMSE plain/filtered |");
-        println!("|---|---|---|---|---|---|---|---|");
-        let mut n = 1usize;
-        while n <= rows.len() {
-            let t = rows[n - 1].0;
-            if let Some(k) = rows.iter().rposition(|r| r.1 <= t) {
-                let (p, f) = (rows[n - 1], rows[k]);
-                println!("| {n} | {t:.3} | {:.4} | {:.5} | {} | {:.4} | {:.5} | {:.2} |", p.2, p.3, k + 1, f.4, f.5, p.3 / f.5);
-            } else {
-                println!("| {n} | {t:.3} | {:.4} | {:.5} | none yet | | | |", rows[n - 1].2, rows[n - 1].3);
-            }
-            n *= 2;
-        }
-        println!("equal frames: | frames | plain relMSE | filtered relMSE | plain RMSE | filtered RMSE |");
-        let mut n = 1usize;
-        while n <= rows.len() {
-            let r = rows[n - 1];
-            println!("| {n} | {:.5} | {:.5} | {:.4} | {:.4} |", r.3, r.5, r.2, r.4);
-            n *= 2;
-        }
+        let node = &s.pipeline.nodes[0].name;
+        let radiance = name == "progressive_radiance.ron";
+        let c = measure_curve(&s, name, node, frames, &rc, |f| radiance || wedge::backends::kernels::pixel_filter::is_filter_frame(f, 4, true));
+        print_curve(&c);
+        curves.push(c);
     }
+    let out = std::env::var("WEDGE_PF_PLOT").unwrap_or_else(|_| "target/progressive_error_vs_time.png".into());
+    plot_curves(Path::new(&out), &format!("cornell {w}x{h}: relMSE vs time (reference {spp} paths/px)"), &curves);
 }

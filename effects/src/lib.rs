@@ -20,6 +20,8 @@
 //!   component's factored parts).
 //! - [`pixel_filter`]: `PixelFilter`, progressive path tracing with pixel filtering (Schwenk's
 //!   thesis, seed 002 Ch. 3): accumulation over frames, cross-bilateral filter, perceptual blend.
+//! - [`radiance_filter`]: `RadianceFilter`, progressive path tracing with radiance filtering (seed 002
+//!   Ch. 4): neighbours' incident radiance under each pixel's BRDF, kernels shrinking as `k^-1/2`.
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — a baseline node
 //!   (references come from each pipeline's own graph, `wedge_graph::reference`).
@@ -57,6 +59,7 @@ pub mod motion;
 pub mod output;
 pub mod pixel_filter;
 pub mod primary;
+pub mod radiance_filter;
 pub mod sampler;
 pub mod shadows;
 
@@ -83,6 +86,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     environment::register_kernels(kernels);
     nodes.register(Arc::new(mixed_reality::MixedReality));
     nodes.register(Arc::new(pixel_filter::PixelFilter));
+    nodes.register(Arc::new(radiance_filter::RadianceFilter));
 }
 
 /// The registries with everything wedge ships.

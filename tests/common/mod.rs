@@ -1,6 +1,8 @@
 //! Shared helpers for wedge's integration tests: run pipelines at small sizes, compare images.
 #![allow(dead_code)]
 
+pub mod progressive;
+
 use std::path::Path;
 
 use wedge::backends::cpu::CpuBackend;

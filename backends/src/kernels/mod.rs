@@ -22,6 +22,7 @@ pub mod neighbourhood_others;
 pub mod paths;
 pub mod pixel_filter;
 pub mod primary;
+pub mod radiance_filter;
 pub mod screen_trace;
 
 pub fn register(reg: &mut KernelRegistry) {
@@ -57,6 +58,10 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(pixel_filter::Bilateral));
     reg.register(Arc::new(pixel_filter::Separable));
     reg.register(Arc::new(pixel_filter::Blend));
+    reg.register(Arc::new(radiance_filter::RadianceSample));
+    reg.register(Arc::new(radiance_filter::Radius));
+    reg.register(Arc::new(radiance_filter::Filter));
+    reg.register(Arc::new(radiance_filter::Compose));
 }
 
 /// Small vector helpers on the plain arrays buffers hold.

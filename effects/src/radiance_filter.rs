@@ -1,0 +1,152 @@
+//! `RadianceFilter`: radiance filtering for progressive rendering (issue 18; Schwenk's thesis,
+//! `seeds/002_34c8a733cb47f3c2.txt` Ch. 4 "Filtering Incident Radiance", Sec. 4.3). One path per
+//! pixel per frame (`wedge render --progressive N`); each pixel's indirect light is estimated from
+//! its neighbours' incident-radiance samples under its own BRDF (eq. 4.10), so texture and geometry
+//! stay sharp; the kernel shrinks so the accumulated image keeps the target variance `T_u` while the
+//! radius falls as `k^-1/2` (eqs. 4.13–4.15) until each pixel is plain path tracing (the correction
+//! phase, Sec. 4.4).
+//!
+//! Passes (kernels in `wedge_backends::kernels::radiance_filter`, formulas unit-tested there):
+//! 1. `sample` (random, reference role `Sample`): paths and the radiance samples (position, normal,
+//!    albedo, direction, incident radiance `L̆` at the first vertex);
+//! 2. `accumulate` (`pixel_filter.accumulate`, shared with `PixelFilter`): the running statistics of
+//!    direct light and of the pixel's own indirect estimate (Welford/Chan `M2`);
+//! 3. `radius` (Bandwidth): this frame's image-space radius per pixel (warm-up, then target variance);
+//! 4. `filter` (role `Bypass`: a reference is plain path tracing): eqs. 4.10–4.12 with the
+//!    Epanechnikov kernel on the tangent plane (eqs. 4.19–4.22) and the normal heuristic (eq. 4.9);
+//! 5. `compose`: the running mean of direct + filtered indirect light (or the plain accumulation
+//!    once a pixel is in the correction phase, `correction: "switch"`).
+//!
+//! Outputs: `radiance`, `unfiltered` (the plain progressive accumulation), `radius` (pixels, the
+//! thesis's Fig. 4.2 bottom row) and `phase` (1 = the pixel's own sample only: correction phase).
+
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Reference, Stage};
+
+pub struct RadianceFilter;
+
+/// Defaults (readings in docs/DESIGN-NOTES.md "Radiance filtering"): the same perceived-variance
+/// threshold as `PixelFilter`'s `t` (Sec. 3.5.2), the thesis's 4–8 warm-up frames (Sec. 4.3.4).
+pub const DEFAULT_T_U: f64 = 0.01;
+pub const DEFAULT_WARMUP: i64 = 4;
+pub const DEFAULT_WARMUP_RADIUS: f64 = 8.0;
+pub const DEFAULT_MAX_RADIUS: i64 = 16;
+
+impl NodeKind for RadianceFilter {
+    fn kind(&self) -> &'static str {
+        "RadianceFilter"
+    }
+    fn doc(&self) -> &'static str {
+        "Progressive path tracing with radiance filtering (Schwenk Ch. 4): neighbours' incident radiance re-used under each pixel's BRDF, kernels shrinking to keep a target variance"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "the accumulated image: direct + filtered indirect light (eqs. 4.10, 4.13)"),
+            PortDecl::new("unfiltered", Format::Vec3, "the plain progressive accumulation (path tracing)"),
+            PortDecl::new("radius", Format::F32, "the image-space kernel radius of this frame (pixels)"),
+            PortDecl::new("phase", Format::F32, "1 where the pixel used only its own sample (correction phase), else 0"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::positive("t_u", DEFAULT_T_U, 1e6, "threshold T_u on the accumulated image's perceived variance (eq. 4.13)"),
+            ParamDecl::int("warmup", DEFAULT_WARMUP, 1, 1 << 20, "frames that use the warm-up radius r_w1 k^-1/2 (eq. 4.15) before the variance estimate"),
+            ParamDecl::float("warmup_radius", DEFAULT_WARMUP_RADIUS, 0.0, 1024.0, "warm-up radius r_w1 of the first frame (pixels)"),
+            ParamDecl::int("max_radius", DEFAULT_MAX_RADIUS, 0, 1024, "largest image-space kernel radius (pixels)"),
+            ParamDecl::positive("thickness", 0.2, 1e3, "half-height of the kernel's prism along the normal, in units of its tangent radius (eq. 4.18)"),
+            ParamDecl::choice(
+                "correction",
+                "accumulate",
+                &["accumulate", "switch"],
+                "correction phase: keep accumulating (thesis, bias falls as O(1/N)) or switch to the plain accumulation (Sec. 4.4.1)",
+            ),
+            ParamDecl::int("bounces", 3, 1, 64, "path vertices after the first, each with next-event estimation"),
+            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m"),
+        ]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        // 1–2. This frame's paths and radiance samples; the running statistics.
+        let sample_lv = ctx.buffer("sample_lv", Format::Vec4);
+        let own = ctx.buffer("own", Format::Vec4);
+        let [point, normal, albedo, direction, incident] = ["point", "normal", "albedo", "direction", "incident"].map(|n| ctx.buffer(n, Format::Vec4));
+        ctx.pass("sample", "radiance_filter.sample", Stage::Sample)
+            .write("lv", sample_lv)
+            .write("hv", own)
+            .write("point", point)
+            .write("normal", normal)
+            .write("albedo", albedo)
+            .write("direction", direction)
+            .write("incident", incident)
+            .int("count", 1)
+            .node_params(&["bounces", "brdf"])
+            .random()
+            .reference(Reference::Sample)
+            .finish();
+        let (lv, hv) = (ctx.buffer("lv", Format::Vec4), ctx.buffer("hv", Format::Vec4));
+        let (previous_lv, previous_hv) = (ctx.previous_frame(lv), ctx.previous_frame(hv));
+        ctx.pass("accumulate", "pixel_filter.accumulate", Stage::Sample)
+            .read("sample_lv", sample_lv)
+            .read("sample_hv", own)
+            .read("previous_lv", previous_lv)
+            .read("previous_hv", previous_hv)
+            .write("lv", lv)
+            .write("hv", hv)
+            .finish();
+
+        // 3. The radius, from the previous frame's filtered variance and image.
+        let (variance, accumulated) = (ctx.buffer("variance", Format::Vec4), ctx.buffer("accumulated", Format::Vec4));
+        let (previous_variance, previous_accumulated) = (ctx.previous_frame(variance), ctx.previous_frame(accumulated));
+        let radius = ctx.buffer("radius", Format::F32);
+        ctx.pass("radius", "radiance_filter.radius", Stage::Bandwidth)
+            .read("previous_variance", previous_variance)
+            .read("previous_accumulated", previous_accumulated)
+            .write("radius", radius)
+            .node_params(&["t_u", "warmup", "warmup_radius", "max_radius"])
+            .finish();
+
+        // 4. The filter.
+        let filtered = ctx.buffer("filtered", Format::Vec4);
+        ctx.pass("filter", "radiance_filter.filter", Stage::Filter)
+            .read("radius", radius)
+            .read("point", point)
+            .read("normal", normal)
+            .read("albedo", albedo)
+            .read("direction", direction)
+            .read("incident", incident)
+            .read("own", own)
+            .read("lv", lv)
+            .read("hv", hv)
+            .write("filtered", filtered)
+            .write("variance", variance)
+            .node_params(&["thickness", "max_radius", "brdf"])
+            .reference(Reference::Bypass { input: "own" })
+            .finish();
+
+        // 5. The image.
+        let radiance = ctx.buffer("radiance", Format::Vec3);
+        let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
+        let phase = ctx.buffer("phase", Format::F32);
+        let previous_phase = ctx.previous_frame(phase);
+        ctx.pass("compose", "radiance_filter.compose", Stage::Compose)
+            .read("sample_lv", sample_lv)
+            .read("own", own)
+            .read("filtered", filtered)
+            .read("lv", lv)
+            .read("hv", hv)
+            .read("previous_accumulated", previous_accumulated)
+            .read("previous_phase", previous_phase)
+            .write("accumulated", accumulated)
+            .write("radiance", radiance)
+            .write("unfiltered", unfiltered)
+            .write("phase", phase)
+            .node_params(&["correction"])
+            .finish();
+        ctx.output("radiance", radiance);
+        ctx.output("unfiltered", unfiltered);
+        ctx.output("radius", radius);
+        ctx.output("phase", phase);
+        Ok(())
+    }
+}

@@ -1,0 +1,23 @@
+// radiance_filter.radius — this frame's image-space kernel radius per pixel (seed 002 eqs. 4.1, 4.2,
+// 4.14, 4.15); mirrors backends/src/kernels/radiance_filter.rs (Radius::run_cpu, kernel_radius).
+#include "common.wgsl"
+#include "radiance_filter_formulas.wgsl"
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!pixel_of(gid)) {
+        return;
+    }
+    let i = pixel_index(gid);
+    let k = frame.frame_index + 1u;
+    var sigma2 = -1.0;
+    var lb = 0.0;
+    if (previous_variance_bound() && previous_accumulated_bound()) {
+        let a = previous_accumulated_at(i);
+        if (a.w > 0.0) {
+            sigma2 = previous_variance_at(i).x;
+            lb = rf_luminance(a.xyz);
+        }
+    }
+    radius_put(i, rf_kernel_radius(params.t_u, params.warmup, params.warmup_radius, params.max_radius, k, sigma2, lb));
+}
