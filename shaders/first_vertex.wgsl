@@ -19,11 +19,13 @@ struct FirstVertex {
     sampled: bool,
     wi: vec3<f32>,
     incident: vec3<f32>,
+    bounce_hit: bool,
+    bounce_distance: f32,
 }
 
 fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVertex {
     var v = FirstVertex(false, vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), 0.0,
-        vec3<f32>(0.0), 0u, false, vec3<f32>(0.0), vec3<f32>(0.0));
+        vec3<f32>(0.0), 0u, false, vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
     let hit = scene_intersect(origin, dir, 0.0, inf());
     if (!hit.hit) {
         v.direct = scene_background(dir);
@@ -63,6 +65,8 @@ fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVer
             if (lv.pdf > 0.0) {
                 let r = trace_path_split(x, n, wi, key, j);
                 v.incident = r.value;
+                v.bounce_hit = r.hit;
+                v.bounce_distance = r.first;
                 v.indirect = r.value * (lv.f * (cos_i / lv.pdf));
                 // Caustic paths leave the first vertex by its diffuse part.
                 v.caustic = r.caustic * (lv.fd * (cos_i / lv.pdf));

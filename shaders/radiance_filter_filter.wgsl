@@ -39,6 +39,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var sum = vec3<f32>(0.0);
     var var_w = 0.0;
     var var_sum = 0.0;
+    var open_w = 0.0;
     for (var y = max(xy.y - half, 0); y <= min(xy.y + half, h - 1); y = y + 1) {
         for (var xx = max(xy.x - half, 0); xx <= min(xy.x + half, w - 1); xx = xx + 1) {
             let j = index_at(xx, y);
@@ -65,6 +66,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             sum_w = sum_w + wk;
             sum = sum + term * wk;
+            if (rf_unoccluded(incident_at(j).w, kernel.rs)) {
+                open_w = open_w + wk;
+            }
             let lj = lv_at(j).w;
             if (lj >= 2.0) {
                 var_w = var_w + wk;
@@ -85,5 +89,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         code = RF_FILTERED;
     }
     filtered_put(c, vec4<f32>(value, code));
-    variance_put(c, vec4<f32>(sigma2, sum_w, r, 0.0));
+    variance_put(c, vec4<f32>(sigma2, sum_w, r, rf_occlusion_factor(open_w, sum_w)));
 }

@@ -9,6 +9,7 @@ const RF_OWN: f32 = -2.0;        // filtered.w of a pixel that keeps its own est
 const RF_EPANECHNIKOV_EFFICIENCY: f32 = 0.75;
 const RF_MIN_COS: f32 = 0.2;
 const RF_PI: f32 = 3.14159265358979323846;
+const RF_NO_BOUNCE_HIT: f32 = -1.0; // incident.w of a continuation ray that left the scene
 
 fn rf_luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
@@ -65,6 +66,7 @@ struct TangentKernel {
     normal: vec3<f32>,
     axis_s: vec3<f32>,
     axis_d: vec3<f32>,
+    rs: f32,
     inv_rs: f32,
     inv_rd: f32,
     delta: f32,
@@ -89,7 +91,7 @@ fn rf_tangent_kernel(x: vec3<f32>, n: vec3<f32>, eye: vec3<f32>, distance: f32, 
     let a_s = cross3(a_d, n);
     let rs = r * pixel_angle * distance;
     let rd = rs / rmax(abs(dn), RF_MIN_COS);
-    return TangentKernel(x, n, a_s, a_d, 1.0 / rs, 1.0 / rd, thickness * rs);
+    return TangentKernel(x, n, a_s, a_d, rs, 1.0 / rs, 1.0 / rd, thickness * rs);
 }
 
 fn rf_kernel_weight(k: TangentKernel, xj: vec3<f32>) -> f32 {
@@ -104,6 +106,18 @@ fn rf_kernel_weight(k: TangentKernel, xj: vec3<f32>) -> f32 {
         return 1.0 - u;
     }
     return 0.0;
+}
+
+// Screen-space ambient occlusion (Sec. 4.3.1 step 3): unoccluded, and the factor alpha.
+fn rf_unoccluded(distance: f32, rs: f32) -> bool {
+    return distance == RF_NO_BOUNCE_HIT || distance > rs;
+}
+
+fn rf_occlusion_factor(unoccluded_weight: f32, weight: f32) -> f32 {
+    if (weight > 0.0) {
+        return rmin(unoccluded_weight / weight, 1.0);
+    }
+    return 1.0;
 }
 
 fn rf_window(r: f32, max_radius: u32) -> i32 {

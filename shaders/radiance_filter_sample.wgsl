@@ -13,6 +13,7 @@
 #include "indirect_path.wgsl"
 #include "first_vertex.wgsl"
 #include "pixel_filter_formulas.wgsl"
+#include "radiance_filter_formulas.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -54,7 +55,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             albedo_put(i, vec4<f32>(v.albedo, 0.0));
             if (v.sampled && finite && is_finite3(v.incident)) {
                 direction_put(i, vec4<f32>(v.wi, 1.0));
-                incident_put(i, vec4<f32>(v.incident, 0.0));
+                var bounce = RF_NO_BOUNCE_HIT;
+                if (v.bounce_hit) {
+                    bounce = v.bounce_distance;
+                }
+                incident_put(i, vec4<f32>(v.incident, bounce));
             }
         }
     }

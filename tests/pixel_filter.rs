@@ -323,11 +323,18 @@ fn measure_error_vs_time() {
     let rc = r.output("color").unwrap().clone();
     println!("reference: {spp} paths per pixel at {w}x{h} in {:.1} s", start.elapsed().as_secs_f64());
     let mut curves = Vec::new();
-    for name in ["progressive_pixel.ron", "progressive_pixel_fast.ron", "progressive_radiance.ron"] {
-        let s = Session::open(Some(&pipeline(name)), &ov).unwrap();
+    let occlusion_off = [("rf", "occlusion", ParamValue::Bool(false))];
+    let runs: [(&str, &str, &[(&str, &str, ParamValue)]); 4] = [
+        ("progressive_pixel.ron", "progressive_pixel.ron", &[]),
+        ("progressive_pixel_fast.ron", "progressive_pixel_fast.ron", &[]),
+        ("progressive_radiance.ron", "progressive_radiance.ron", &[]),
+        ("progressive_radiance.ron, occlusion off", "progressive_radiance.ron", &occlusion_off),
+    ];
+    for (label, name, params) in runs {
+        let s = Session::open(Some(&pipeline(name)), &sized(w, h, None, params)).unwrap();
         let node = &s.pipeline.nodes[0].name;
         let radiance = name == "progressive_radiance.ron";
-        let c = measure_curve(&s, name, node, frames, &rc, |f| radiance || wedge::backends::kernels::pixel_filter::is_filter_frame(f, 4, true));
+        let c = measure_curve(&s, label, node, frames, &rc, |f| radiance || wedge::backends::kernels::pixel_filter::is_filter_frame(f, 4, true));
         print_curve(&c);
         curves.push(c);
     }

@@ -61,7 +61,8 @@ fn a_reference_is_plain_path_tracing() {
     assert!(!r.schedule.passes.iter().any(|p| p.kernel == "radiance_filter.filter"), "the filter is bypassed");
 }
 
-/// Eq. 4.15 during warm-up — the radius is exactly `r_w1 / √k` on every pixel — and after it the
+/// Without the occlusion factor: eq. 4.15 during warm-up — the radius is exactly `r_w1 / √k` on every
+/// pixel — and after it the
 /// target-variance radius falls as `k^-1/2` (eq. 4.14: `T_k = (2k − 1) T_u`): once the per-pixel
 /// variance estimates have settled, the median radius over the surfaces halves from frame 32 to
 /// frame 128 (ideal `√(255/63)` = 2.01; measured 1.86 at 64×48, the variance estimates still
@@ -70,7 +71,7 @@ fn a_reference_is_plain_path_tracing() {
 /// high-variance neighbours.
 #[test]
 fn the_radius_follows_the_warm_up_then_falls_as_one_over_root_k() {
-    let s = open(64, 48, &[("rf", "max_radius", ParamValue::Int(64)), ("rf", "t_u", ParamValue::Float(0.002))]);
+    let s = open(64, 48, &[("rf", "max_radius", ParamValue::Int(64)), ("rf", "t_u", ParamValue::Float(0.002)), ("rf", "occlusion", ParamValue::Bool(false))]);
     let runs = progressive(&s, 128);
     for k in 1..=4u32 {
         let r = heatmap(&runs[k as usize - 1], "radius");
@@ -87,6 +88,23 @@ fn the_radius_follows_the_warm_up_then_falls_as_one_over_root_k() {
     println!("median radius over surfaces at frames 8, 16, 32, 64, 128: {r:?}; r32/r128 {:.3} (ideal {ideal:.3})", r[2] / r[4]);
     assert!(r.windows(2).all(|p| p[0] > p[1]), "the radius shrinks");
     assert!((r[2] / r[4] - ideal).abs() < 0.1 * ideal, "r32/r128 = {} ≈ {ideal}", r[2] / r[4]);
+}
+
+/// The occlusion factor (Sec. 4.3.1, step 3) only shrinks kernels, and shrinks them where the
+/// continuation rays hit something within the kernel's radius: in frame 2, near cornell's edges and
+/// the boxes' contacts, not on the open middle of the walls.
+#[test]
+fn the_occlusion_factor_shrinks_kernels_near_occluders() {
+    let runs_with = progressive(&open(64, 48, &[]), 2);
+    let runs_without = progressive(&open(64, 48, &[("rf", "occlusion", ParamValue::Bool(false))]), 2);
+    let (a, b) = (heatmap(&runs_with[1], "radius"), heatmap(&runs_without[1], "radius"));
+    assert!(a.iter().zip(&b).all(|(x, y)| x <= y), "α ≤ 1");
+    let full = 8.0 / 2f32.sqrt();
+    assert!(b.iter().all(|&r| r == full));
+    let shrunk = a.iter().filter(|&&r| r > 0.0 && r < 0.9 * full).count();
+    let kept = a.iter().filter(|&&r| r > 0.99 * full).count();
+    println!("frame 2 with occlusion: {shrunk} pixels shrunk below 90%, {kept} kept, mean radius {:.3} (without {full:.3})", a.iter().sum::<f32>() / a.len() as f32);
+    assert!(shrunk > a.len() / 20 && kept > a.len() / 20, "{shrunk} shrunk, {kept} kept of {}", a.len());
 }
 
 /// A textured diffuse surface keeps its texture: the filter re-uses only incident radiance, under

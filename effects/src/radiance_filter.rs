@@ -11,7 +11,8 @@
 //!    albedo, direction, incident radiance `L̆` at the first vertex);
 //! 2. `accumulate` (`pixel_filter.accumulate`, shared with `PixelFilter`): the running statistics of
 //!    direct light and of the pixel's own indirect estimate (Welford/Chan `M2`);
-//! 3. `radius` (Bandwidth): this frame's image-space radius per pixel (warm-up, then target variance);
+//! 3. `radius` (Bandwidth): this frame's image-space radius per pixel (warm-up, then target variance),
+//!    scaled by the screen-space ambient-occlusion factor of the previous frame's filter (`occlusion`);
 //! 4. `filter` (role `Bypass`: a reference is plain path tracing): eqs. 4.10–4.12 with the
 //!    Epanechnikov kernel on the tangent plane (eqs. 4.19–4.22) and the normal heuristic (eq. 4.9);
 //! 5. `compose`: the running mean of direct + filtered indirect light (or the plain accumulation
@@ -55,6 +56,7 @@ impl NodeKind for RadianceFilter {
             ParamDecl::int("warmup", DEFAULT_WARMUP, 1, 1 << 20, "frames that use the warm-up radius r_w1 k^-1/2 (eq. 4.15) before the variance estimate"),
             ParamDecl::float("warmup_radius", DEFAULT_WARMUP_RADIUS, 0.0, 1024.0, "warm-up radius r_w1 of the first frame (pixels)"),
             ParamDecl::int("max_radius", DEFAULT_MAX_RADIUS, 0, 1024, "largest image-space kernel radius (pixels)"),
+            ParamDecl::boolean("occlusion", true, "scale the radius by a screen-space ambient-occlusion factor (Sec. 4.3.1, step 3) against light leaks"),
             ParamDecl::positive("thickness", 0.2, 1e3, "half-height of the kernel's prism along the normal, in units of its tangent radius (eq. 4.18)"),
             ParamDecl::choice(
                 "correction",
@@ -103,7 +105,7 @@ impl NodeKind for RadianceFilter {
             .read("previous_variance", previous_variance)
             .read("previous_accumulated", previous_accumulated)
             .write("radius", radius)
-            .node_params(&["t_u", "warmup", "warmup_radius", "max_radius"])
+            .node_params(&["t_u", "warmup", "warmup_radius", "max_radius", "occlusion"])
             .finish();
 
         // 4. The filter.

@@ -110,7 +110,7 @@ pub fn print_curve(c: &Curve) {
 /// relMSE against seconds, log-log: plain accumulation (from the first curve) and each filtered
 /// pipeline, written as a PNG.
 pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve]) {
-    let colours = [RED, GREEN, BLUE];
+    let colours = [RED, GREEN, BLUE, [148, 103, 189]];
     let mut series = vec![Series {
         label: "plain progressive accumulation".into(),
         color: GREY,

@@ -425,6 +425,9 @@ pub struct FirstVertex {
     /// the incident radiance `L̆` along it (0 where it fell below the surface or had pdf 0).
     pub wi: Option<Vec3>,
     pub incident: Vec3,
+    /// How far the continuation ray went before it hit a surface (`None`: it left the scene, or was
+    /// not traced).
+    pub bounce_distance: Option<f32>,
 }
 
 /// One path through the camera ray `(origin, dir)` up to its first vertex and beyond. Next-event
@@ -437,7 +440,7 @@ pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, r
     let Some(hit) = at.intersect(origin, dir, 0.0, f32::INFINITY) else {
         // The environment seen directly (black without a map).
         let bg = scene.background(dir);
-        return FirstVertex { direct: bg, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface: None, wi: None, incident: Vec3::ZERO };
+        return FirstVertex { direct: bg, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface: None, wi: None, incident: Vec3::ZERO, bounce_distance: None };
     };
     let sp = at.surface(&hit, origin, dir);
     let (x, n, wo) = (sp.position, sp.shading_normal, -dir);
@@ -447,7 +450,7 @@ pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, r
     let emitted = scene.emission(&sp);
     let direct = next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays);
     let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
-    let mut v = FirstVertex { direct: emitted + direct, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface, wi: None, incident: Vec3::ZERO };
+    let mut v = FirstVertex { direct: emitted + direct, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface, wi: None, incident: Vec3::ZERO, bounce_distance: None };
     // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
     if let Some((pd, glossy)) = lobe_mixture(kd, ks, m) {
         let u = Vec2::from(rng.uniform2(j, dim::BSDF));
@@ -457,8 +460,9 @@ pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, r
         if cos_i > 0.0 {
             let (f, fd, pdf) = lobe_eval(p.lobe, kd, ks, m, pd, glossy, n, wo, wi, cos_i);
             if pdf > 0.0 {
-                let (li, lc, _) = trace_path_split(at, p, x, n, wi, rng, j, rays);
+                let (li, lc, first) = trace_path_split(at, p, x, n, wi, rng, j, rays);
                 v.incident = li;
+                v.bounce_distance = first;
                 v.indirect = li * (f * (cos_i / pdf));
                 // Caustic paths leave the first vertex by its diffuse part.
                 v.caustic = lc * (fd * (cos_i / pdf));

@@ -16,20 +16,24 @@
 //! - `radiance_filter.radius`: the image-space kernel radius of this frame per pixel: the warm-up
 //!   radius `r_w1 k^-1/2` (eq. 4.15) for the first `warmup` frames, then the radius whose
 //!   Epanechnikov kernel averages enough samples to reach the target variance `T_k = (2k−1)T_u`
-//!   (eqs. 4.1, 4.2, 4.14) for the pixel's filtered perceived variance ([`kernel_radius`]).
+//!   (eqs. 4.1, 4.2, 4.14) for the pixel's filtered perceived variance ([`kernel_radius`]), scaled
+//!   by the previous frame's screen-space ambient-occlusion factor α (Sec. 4.3.1, step 3;
+//!   [`occlusion_factor`]) unless `occlusion` is off.
 //! - `radiance_filter.filter`: eq. 4.10–4.12 over the neighbours inside the kernel projected to the
 //!   tangent plane (eqs. 4.19–4.22, [`TangentKernel`]), weighted by Epanechnikov (Sec. 4.3.6) and the
 //!   normal heuristic `ν` (eq. 4.9); the per-path variance is filtered with the same weights
-//!   (Sec. 4.3.4). A radius under one pixel is the correction phase: the pixel's own estimate, exactly.
+//!   (Sec. 4.3.4), and α gathered from the same samples. A radius under one pixel is the correction
+//!   phase: the pixel's own estimate, exactly.
 //! - `radiance_filter.compose`: this frame's direct + filtered indirect light accumulated over frames
 //!   (the running mean of eq. 4.13), or — `correction: "switch"` — the plain accumulation once a pixel
 //!   has entered the correction phase (Sec. 4.4.1's "little trick").
 //!
 //! Buffer conventions (all `vec4` unless said): `lv`/`hv` as in `pixel_filter.rs` ([`Stats`]);
 //! `point` = (x, ray distance; 0 = the camera ray left the scene), `normal` = (n, material index),
-//! `albedo` = (k_d, 0), `direction` = (ω_i, 1 = a sample to re-use), `incident` = (L̆, 0);
-//! `filtered` = (this frame's indirect light, [`FILTERED`] or [`OWN`]); `variance` = (σ² filtered,
-//! or −1 where no neighbour had two paths, Σw, radius, 0); `accumulated` = (mean, frames);
+//! `albedo` = (k_d, 0), `direction` = (ω_i, 1 = a sample to re-use), `incident` = (L̆, distance to
+//! the surface the continuation ray hit, [`NO_BOUNCE_HIT`] if it left the scene); `filtered` =
+//! (this frame's indirect light, [`FILTERED`] or [`OWN`]); `variance` = (σ² filtered, or −1 where no
+//! neighbour had two paths, Σw, radius, occlusion factor α); `accumulated` = (mean, frames);
 //! `radius` and `phase` are `f32`.
 
 use glam::{Vec2, Vec3};
@@ -58,6 +62,10 @@ pub const OWN: f32 = -2.0;
 /// = 3/4: with one sample per pixel, a kernel of image radius `r` averages `¾πr²` samples' worth
 /// (reading: Sec. 4.3.5 says the radius must be adjusted for a non-uniform kernel, not how).
 pub const EPANECHNIKOV_EFFICIENCY: f32 = 0.75;
+
+/// `incident.w` of a radiance sample whose continuation ray left the scene (no occluder at any
+/// distance).
+pub const NO_BOUNCE_HIT: f32 = -1.0;
 
 /// The smallest `|D·N|` eq. 4.21 divides by: the kernel is elongated at most 5× along the surface
 /// at grazing angles (the thesis's "small ε … in practice, excessive elongation").
@@ -89,6 +97,8 @@ pub fn variance_radius(v: f32, t_u: f32, k: u32) -> f32 {
 /// The settings of the kernel-radius rule.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RadiusRule {
+    /// Scale the radius by the previous frame's occlusion factor α (the radius pass).
+    pub occlusion: bool,
     pub t_u: f32,
     pub warmup: u32,
     pub warmup_radius: f32,
@@ -113,6 +123,27 @@ pub fn kernel_radius(rule: &RadiusRule, k: u32, sigma2: f32, lb: f32) -> f32 {
         0.0
     } else {
         r.min(rule.max_radius)
+    }
+}
+
+/// Whether a sample's continuation ray, which hit a surface at `distance` ([`NO_BOUNCE_HIT`]: none),
+/// was unoccluded within the kernel's tangent radius `rs`: the screen-space ambient occlusion of
+/// Sec. 4.3.1 (step 3) with the kernel's own radius as the occlusion distance (reading: the thesis
+/// names the factor and its effect — like the harmonic mean distance of irradiance caching, it
+/// shrinks kernels near occluders against light leaks — not its formula).
+#[inline]
+pub fn unoccluded(distance: f32, rs: f32) -> bool {
+    distance == NO_BOUNCE_HIT || distance > rs
+}
+
+/// The occlusion factor α ∈ [0, 1]: the kernel-weighted fraction of its samples whose continuation
+/// rays were [`unoccluded`]; 1 without samples.
+#[inline]
+pub fn occlusion_factor(unoccluded_weight: f32, weight: f32) -> f32 {
+    if weight > 0.0 {
+        (unoccluded_weight / weight).min(1.0)
+    } else {
+        1.0
     }
 }
 
@@ -144,6 +175,8 @@ pub struct TangentKernel {
     pub normal: Vec3,
     pub axis_s: Vec3,
     pub axis_d: Vec3,
+    /// The tangent radius `r_S` (world units) and the reciprocals of both semi-axes.
+    pub rs: f32,
     pub inv_rs: f32,
     pub inv_rd: f32,
     pub delta: f32,
@@ -170,7 +203,7 @@ impl TangentKernel {
         let a_s = a_d.cross(n);
         let rs = r * pixel_angle * distance;
         let rd = rs / dn.abs().max(MIN_COS);
-        TangentKernel { centre: x, normal: n, axis_s: a_s, axis_d: a_d, inv_rs: 1.0 / rs, inv_rd: 1.0 / rd, delta: thickness * rs }
+        TangentKernel { centre: x, normal: n, axis_s: a_s, axis_d: a_d, rs, inv_rs: 1.0 / rs, inv_rd: 1.0 / rd, delta: thickness * rs }
     }
 
     /// The Epanechnikov weight of a sample at `xj`.
@@ -314,6 +347,7 @@ impl Kernel for RadianceSample {
                     .u32("light_count", ctx.scene.lights.len() as u32))
             })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../shaders/pixel_filter_formulas.wgsl"))
+            .with_include("radiance_filter_formulas.wgsl", include_str!("../../../shaders/radiance_filter_formulas.wgsl"))
             .with_scene()
             .per_pixel()
             .chunked(),
@@ -345,7 +379,7 @@ impl Kernel for RadianceSample {
                         o.albedo = [sf.albedo.x, sf.albedo.y, sf.albedo.z, 0.0];
                         if let (Some(wi), true) = (v.wi, finite && v.incident.is_finite()) {
                             o.direction = [wi.x, wi.y, wi.z, 1.0];
-                            o.incident = [v.incident.x, v.incident.y, v.incident.z, 0.0];
+                            o.incident = [v.incident.x, v.incident.y, v.incident.z, v.bounce_distance.unwrap_or(NO_BOUNCE_HIT)];
                         }
                     }
                 }
@@ -381,6 +415,7 @@ fn radius_rule(ctx: &KernelCtx<'_>) -> Result<RadiusRule, BackendError> {
         return Err(kerr(ctx, format!("`warmup` = {warmup} must be between 1 and {}", 1 << 20)));
     }
     Ok(RadiusRule {
+        occlusion: ctx.bool_param("occlusion")?,
         t_u: finite_positive(ctx, "t_u")?,
         warmup: warmup as u32,
         warmup_radius: ctx.f32_param("warmup_radius")?.max(0.0),
@@ -409,6 +444,7 @@ impl Kernel for Radius {
             WgslSource::new(include_str!("../../../shaders/radiance_filter_radius.wgsl"), |ctx| {
                 let r = radius_rule(ctx)?;
                 Ok(Uniforms::new()
+                    .u32("occlusion", r.occlusion as u32)
                     .f32("t_u", r.t_u)
                     .u32("warmup", r.warmup)
                     .f32("warmup_radius", r.warmup_radius)
@@ -425,12 +461,17 @@ impl Kernel for Radius {
         let pa = ctx.read_opt::<[f32; 4]>("previous_accumulated")?;
         let out: Vec<f32> = (0..ctx.pixels())
             .map(|i| {
-                let (sigma2, lb) = match (pv, pa) {
+                let (sigma2, lb, alpha) = match (pv, pa) {
                     // A first frame's history is zeros: w = 0 frames accumulated, no variance.
-                    (Some(v), Some(a)) if a[i][3] > 0.0 => (v[i][0], luminance(Vec3::new(a[i][0], a[i][1], a[i][2]))),
-                    _ => (-1.0, 0.0),
+                    (Some(v), Some(a)) if a[i][3] > 0.0 => (v[i][0], luminance(Vec3::new(a[i][0], a[i][1], a[i][2])), v[i][3]),
+                    _ => (-1.0, 0.0, 1.0),
                 };
-                kernel_radius(&rule, k, sigma2, lb)
+                let r = kernel_radius(&rule, k, sigma2, lb);
+                if rule.occlusion {
+                    r * alpha
+                } else {
+                    r
+                }
             })
             .collect();
         ctx.put("radius", out)
@@ -547,6 +588,7 @@ impl Kernel for Filter {
             let kernel = TangentKernel::new(x, n, s.eye, point[c][3], r.max(1.0), s.pixel_angle, s.thickness);
             let (mut sum_w, mut sum) = (0.0f32, Vec3::ZERO);
             let (mut var_w, mut var) = (0.0f32, 0.0f32);
+            let mut open_w = 0.0f32;
             for y in (py as i32 - half).max(0)..=(py as i32 + half).min(h - 1) {
                 for xx in (px as i32 - half).max(0)..=(px as i32 + half).min(w - 1) {
                     let j = (y * w + xx) as usize;
@@ -569,6 +611,9 @@ impl Kernel for Filter {
                     }
                     sum_w += wk;
                     sum += term * wk;
+                    if unoccluded(incident[j][3], kernel.rs) {
+                        open_w += wk;
+                    }
                     // Sec. 4.3.4: the per-path variance filtered with the same weights.
                     if lv[j][3] >= 2.0 {
                         var_w += wk;
@@ -579,7 +624,7 @@ impl Kernel for Filter {
             let value = if sum_w > 0.0 { sum / sum_w } else { Vec3::ZERO };
             let sigma2 = if var_w > 0.0 { var / var_w } else { -1.0 };
             let code = if half > 0 { FILTERED } else { OWN };
-            ([value.x, value.y, value.z, code], [sigma2, sum_w, r, 0.0])
+            ([value.x, value.y, value.z, code], [sigma2, sum_w, r, occlusion_factor(open_w, sum_w)])
         });
         ctx.put("filtered", out.iter().map(|o| o.0).collect::<Vec<_>>())?;
         ctx.put("variance", out.iter().map(|o| o.1).collect::<Vec<_>>())
@@ -692,7 +737,7 @@ mod tests {
 
     #[test]
     fn radius_falls_as_one_over_root_k() {
-        let rule = RadiusRule { t_u: 0.01, warmup: 4, warmup_radius: 8.0, max_radius: 1e9 };
+        let rule = RadiusRule { occlusion: false, t_u: 0.01, warmup: 4, warmup_radius: 8.0, max_radius: 1e9 };
         // Warm-up (eq. 4.15): r_w1 k^-1/2.
         assert_eq!(kernel_radius(&rule, 1, -1.0, 1.0), 8.0);
         assert!((kernel_radius(&rule, 4, 0.5, 1.0) - 4.0).abs() < 1e-6);
@@ -710,7 +755,7 @@ mod tests {
 
     #[test]
     fn radius_edge_cases() {
-        let rule = RadiusRule { t_u: 0.01, warmup: 2, warmup_radius: 6.0, max_radius: 16.0 };
+        let rule = RadiusRule { occlusion: false, t_u: 0.01, warmup: 2, warmup_radius: 6.0, max_radius: 16.0 };
         // Unknown variance after warm-up: warm-up radius; zero variance: no filter; black
         // background under noise: the cap; NaN: no filter.
         assert!((kernel_radius(&rule, 9, -1.0, 1.0) - 2.0).abs() < 1e-6);
@@ -742,6 +787,14 @@ mod tests {
         // Head-on: a circle.
         let k = TangentKernel::new(x, n, Vec3::new(0.0, 10.0, 0.0), 10.0, 4.0, 0.01, 0.1);
         assert!((k.weight(Vec3::new(0.5 * rs, 0.0, 0.0)) - k.weight(Vec3::new(0.0, 0.0, 0.5 * rs))).abs() < 1e-5);
+    }
+
+    #[test]
+    fn occlusion_factor_is_the_weighted_unoccluded_fraction() {
+        assert!(unoccluded(NO_BOUNCE_HIT, 0.1) && unoccluded(0.2, 0.1) && !unoccluded(0.05, 0.1));
+        assert_eq!(occlusion_factor(0.0, 0.0), 1.0);
+        assert_eq!(occlusion_factor(0.75, 3.0), 0.25);
+        assert_eq!(occlusion_factor(3.0000002, 3.0), 1.0);
     }
 
     #[test]
