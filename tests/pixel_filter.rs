@@ -324,7 +324,9 @@ fn measure_error_vs_time() {
     println!("reference: {spp} paths per pixel at {w}x{h} in {:.1} s", start.elapsed().as_secs_f64());
     let mut curves = Vec::new();
     let occlusion_off = [("rf", "occlusion", ParamValue::Bool(false))];
-    let runs: [(&str, &str, &[(&str, &str, ParamValue)]); 4] = [
+    // (label, pipeline, parameter overrides)
+    type Run<'a> = (&'a str, &'a str, &'a [(&'a str, &'a str, ParamValue)]);
+    let runs: [Run; 4] = [
         ("progressive_pixel.ron", "progressive_pixel.ron", &[]),
         ("progressive_pixel_fast.ron", "progressive_pixel_fast.ron", &[]),
         ("progressive_radiance.ron", "progressive_radiance.ron", &[]),
