@@ -306,7 +306,9 @@ fn gpu_parity_at_a_filter_frame_with_history() {
 /// radiance filter). Plain progressive accumulation is the same run's `unfiltered` output, timed by
 /// its `sample` and `accumulate` passes only; the filtered image is timed by every pass. At the plain
 /// run's time after 1, 2, 4, … frames, the filtered image is the last one finished by then. The
-/// relMSE-against-time plot goes to `WEDGE_PF_PLOT` (default target/progressive_error_vs_time.png).
+/// AAF pipeline `shadows_indirect.ron` on the same scene is measured too (one image per μ = 0.5, 1,
+/// 2, 4, against its own reference). The relMSE-against-time plot goes to `WEDGE_PF_PLOT` (default
+/// target/progressive_error_vs_time.png).
 #[test]
 #[ignore]
 fn measure_error_vs_time() {
@@ -340,6 +342,28 @@ fn measure_error_vs_time() {
         print_curve(&c);
         curves.push(c);
     }
+    // The AAF pipeline on the same scene (a single image per μ, not progressive), against its own
+    // reference at the same sample count: its converged image differs (diffuse-only direct light,
+    // two indirect bounces), so each method is measured against what it converges to.
+    let aaf = pipeline("shadows_indirect.ron");
+    let aaf_ref = Session::reference(Some(&aaf), spp.min(2048), "stratified", &ov).unwrap();
+    let ra = aaf_ref.run(&mut CpuBackend::new(), &Silent).unwrap().output("color").unwrap().clone();
+    let mut points = Vec::new();
+    println!("\nAAF shadows_indirect.ron (SoftShadows + Indirect), against its own {}-spp reference:", spp.min(2048));
+    println!("| mu | time (s) | RMSE | relMSE |\n|---|---|---|---|");
+    for mu in [0.5, 1.0, 2.0, 4.0] {
+        let s = Session::open(Some(&aaf), &sized(w, h, Some(mu), &[])).unwrap();
+        let run = s.run(&mut CpuBackend::new(), &Silent).unwrap();
+        let (t, c) = (run.total_seconds(), run.output("color").unwrap());
+        println!("| {mu} | {t:.3} | {:.4} | {:.5} |", rmse(c, &ra), rel_mse(c, &ra));
+        points.push((t, rel_mse(c, &ra)));
+    }
+    let aaf_series = wedge::bench::plots::Series {
+        label: "AAF shadows_indirect.ron, mu 0.5-4".into(),
+        color: [0, 0, 0],
+        style: wedge::bench::plots::SeriesStyle::LinePoints,
+        points,
+    };
     let out = std::env::var("WEDGE_PF_PLOT").unwrap_or_else(|_| "target/progressive_error_vs_time.png".into());
-    plot_curves(Path::new(&out), &format!("cornell {w}x{h}: relMSE vs time (reference {spp} paths/px)"), &curves);
+    plot_curves(Path::new(&out), &format!("cornell {w}x{h}: relMSE vs time (reference {spp} paths/px)"), &curves, vec![aaf_series]);
 }

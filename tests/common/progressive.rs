@@ -107,9 +107,9 @@ pub fn print_curve(c: &Curve) {
     }
 }
 
-/// relMSE against seconds, log-log: plain accumulation (from the first curve) and each filtered
-/// pipeline, written as a PNG.
-pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve]) {
+/// relMSE against seconds, log-log: plain accumulation (from the first curve), each filtered
+/// pipeline, and `extra` series (e.g. single-image pipelines' points), written as a PNG.
+pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve], extra: Vec<Series>) {
     let colours = [RED, GREEN, BLUE, [148, 103, 189]];
     let mut series = vec![Series {
         label: "plain progressive accumulation".into(),
@@ -125,6 +125,7 @@ pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve]) {
             points: c.rows.iter().map(|r| (r.1, r.5)).collect(),
         });
     }
+    series.extend(extra);
     let plot = Plot { title: title.into(), x_label: "seconds (CPU, passes)".into(), y_label: "relMSE vs reference".into(), series };
     write_plot(path, &plot).expect("plot written");
     println!("wrote {}", path.display());
