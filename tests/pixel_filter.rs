@@ -9,11 +9,11 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::progressive::{measure_curve, plot_curves, print_curve, progressive, rel_mse, rmse, vec3s};
+use common::progressive::{gpu_parity_with_history, measure_curve, plot_curves, print_curve, progressive, rel_mse, rmse, vec3s};
 use common::{gpu_or_skip, sized};
 use wedge::backends::cpu::CpuBackend;
 use wedge::backends::kernels::pixel_filter::Stats;
-use wedge::backends::{BufferData, Job, RunResult, Silent};
+use wedge::backends::{BufferData, RunResult, Silent};
 use wedge::graph::ParamValue;
 use wedge::Session;
 
@@ -264,36 +264,8 @@ fn cli_progressive_writes_snapshots_and_refuses_bad_values() {
 fn gpu_parity_at_a_filter_frame_with_history() {
     let Some(mut gpu) = gpu_or_skip("gpu_parity_at_a_filter_frame_with_history") else { return };
     for name in ["progressive_pixel.ron", "progressive_pixel_fast.ron"] {
-        let s = open(name, 48, 36, &[]);
-        let runs = progressive(&s, 3);
-        let job = Job {
-            schedule: &s.schedule,
-            scene: &s.scene,
-            kernels: &s.kernels,
-            width: s.width,
-            height: s.height,
-            seed: s.seed.wrapping_add(3),
-            frame: 3,
-            progress: &Silent,
-        };
-        let report = wedge::backends::parity::run_parity_with_history(&job, &mut gpu, &runs[2].history).expect("parity runs");
-        println!("{name} frame 3\n{}", report.table());
-        assert!(report.ok(), "{name}: parity at frame 3 (table above)");
+        let report = gpu_parity_with_history(&open(name, 48, 36, &[]), &mut gpu, 3, 6);
         assert!(report.rows.iter().any(|r| r.kernel.starts_with("pixel_filter.") && r.class == wedge::backends::KernelClass::Filter));
-        // Whole runs: 6 frames on each backend.
-        let mut previous: Option<RunResult> = None;
-        for frame in 0..6 {
-            previous = Some(s.run_progressive_frame(&mut gpu, &Silent, frame, previous.as_ref()).expect("gpu frame"));
-        }
-        let g = previous.unwrap();
-        let c = progressive(&s, 6).pop().unwrap();
-        for port in ["color", "unfiltered"] {
-            let (a, b) = (vec3s(c.output(port).unwrap()), vec3s(g.output(port).unwrap()));
-            let num: f64 = a.iter().zip(&b).map(|(x, y)| (0..3).map(|k| (x[k] as f64 - y[k] as f64).powi(2)).sum::<f64>()).sum();
-            let den: f64 = a.iter().map(|x| (0..3).map(|k| (x[k] as f64).powi(2)).sum::<f64>()).sum();
-            println!("{name} {port}: relative MSE gpu vs cpu after 6 frames {:.2e}", num / den.max(1e-30));
-            assert!(num / den.max(1e-30) < 1e-4, "{name} {port}");
-        }
     }
 }
 

@@ -10,10 +10,10 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::progressive::{progressive, rel_mse, vec3s};
+use common::progressive::{gpu_parity_with_history, progressive, rel_mse, vec3s};
 use common::{gpu_or_skip, sized};
 use wedge::backends::cpu::CpuBackend;
-use wedge::backends::{Job, RunResult, Silent};
+use wedge::backends::{RunResult, Silent};
 use wedge::graph::ParamValue;
 use wedge::scene::LensShape;
 use wedge::Session;
@@ -246,32 +246,6 @@ fn frames_do_not_depend_on_the_thread_count() {
 #[test]
 fn gpu_parity_after_the_warm_up_with_history() {
     let Some(mut gpu) = gpu_or_skip("gpu_parity_after_the_warm_up_with_history") else { return };
-    let s = open(48, 36, &[]);
-    let runs = progressive(&s, 5);
-    let job = Job {
-        schedule: &s.schedule,
-        scene: &s.scene,
-        kernels: &s.kernels,
-        width: s.width,
-        height: s.height,
-        seed: s.seed.wrapping_add(5),
-        frame: 5,
-        progress: &Silent,
-    };
-    let report = wedge::backends::parity::run_parity_with_history(&job, &mut gpu, &runs[4].history).expect("parity runs");
-    println!("frame 5\n{}", report.table());
-    assert!(report.ok(), "parity at frame 5 (table above)");
-    let mut previous: Option<RunResult> = None;
-    for frame in 0..8 {
-        previous = Some(s.run_progressive_frame(&mut gpu, &Silent, frame, previous.as_ref()).expect("gpu frame"));
-    }
-    let g = previous.unwrap();
-    let c = progressive(&s, 8).pop().unwrap();
-    for port in ["color", "unfiltered"] {
-        let (a, b) = (vec3s(c.output(port).unwrap()), vec3s(g.output(port).unwrap()));
-        let num: f64 = a.iter().zip(&b).map(|(x, y)| (0..3).map(|k| (x[k] as f64 - y[k] as f64).powi(2)).sum::<f64>()).sum();
-        let den: f64 = a.iter().map(|x| (0..3).map(|k| (x[k] as f64).powi(2)).sum::<f64>()).sum();
-        println!("{port}: relative MSE gpu vs cpu after 8 frames {:.2e}", num / den.max(1e-30));
-        assert!(num / den.max(1e-30) < 1e-4, "{port}");
-    }
+    let report = gpu_parity_with_history(&open(48, 36, &[]), &mut gpu, 5, 8);
+    assert!(report.rows.iter().any(|r| r.kernel == "radiance_filter.filter"));
 }

@@ -130,3 +130,39 @@ pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve], extra:
     write_plot(path, &plot).expect("plot written");
     println!("wrote {}", path.display());
 }
+
+/// GPU parity of a progressive pipeline: frames `0..frame` on the CPU, then frame `frame` pass by
+/// pass on `gpu` from the CPU's history (asserted ok; the report is returned for more checks); then
+/// `whole` frames end to end on each backend, whose `color` and `unfiltered` must agree to a relative
+/// MSE below 1e-4 (a wrong kernel is far above; float round-off compounds to ~1e-16).
+pub fn gpu_parity_with_history(s: &Session, gpu: &mut wedge::backends::gpu::GpuBackend, frame: u32, whole: u32) -> wedge::backends::parity::ParityReport {
+    let runs = progressive(s, frame);
+    let job = wedge::backends::Job {
+        schedule: &s.schedule,
+        scene: &s.scene,
+        kernels: &s.kernels,
+        width: s.width,
+        height: s.height,
+        seed: s.seed.wrapping_add(frame),
+        frame,
+        progress: &Silent,
+    };
+    let name = s.pipeline.path.display();
+    let report = wedge::backends::parity::run_parity_with_history(&job, gpu, &runs[frame as usize - 1].history).expect("parity runs");
+    println!("{name} frame {frame}\n{}", report.table());
+    assert!(report.ok(), "{name}: parity at frame {frame} (table above)");
+    let mut previous: Option<RunResult> = None;
+    for f in 0..whole {
+        previous = Some(s.run_progressive_frame(gpu, &Silent, f, previous.as_ref()).expect("gpu frame"));
+    }
+    let g = previous.unwrap();
+    let c = progressive(s, whole).pop().unwrap();
+    for port in ["color", "unfiltered"] {
+        let (a, b) = (vec3s(c.output(port).unwrap()), vec3s(g.output(port).unwrap()));
+        let num: f64 = a.iter().zip(&b).map(|(x, y)| (0..3).map(|k| (x[k] as f64 - y[k] as f64).powi(2)).sum::<f64>()).sum();
+        let den: f64 = a.iter().map(|x| (0..3).map(|k| (x[k] as f64).powi(2)).sum::<f64>()).sum();
+        println!("{name} {port}: relative MSE gpu vs cpu after {whole} frames {:.2e}", num / den.max(1e-30));
+        assert!(num / den.max(1e-30) < 1e-4, "{name} {port}");
+    }
+    report
+}

@@ -73,6 +73,16 @@ impl PathParams {
             u32::try_from(bounces).map_err(|_| err(format!("`bounces` = {bounces} must be between 1 and {}", u32::MAX)))?;
         Ok(PathParams { bounces: bounces.max(1), ao, max_distance, lobe, eps: RAY_EPSILON * ctx.scene.extent() })
     }
+    /// The fields `shaders/indirect_path.wgsl` reads from the including kernel's `Params`: `eps`,
+    /// `lobe`, `bounces`, `ao`, `max_distance` and the scene's `light_count`.
+    pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
+        u.f32("eps", self.eps)
+            .u32("lobe", (self.lobe == Lobe::BlinnPhong) as u32)
+            .u32("bounces", self.bounces)
+            .u32("ao", self.ao as u32)
+            .f32("max_distance", self.max_distance)
+            .u32("light_count", ctx.scene.lights.len() as u32)
+    }
 }
 
 /// `indirect.sample`'s `mode`: `"ao"` (ambient occlusion) or `"radiance"`.
@@ -329,17 +339,12 @@ impl Kernel for IndirectSample {
             WgslSource::new(include_str!("../../../shaders/indirect_sample.wgsl"), |ctx| {
                 let stratified = ctx.stratified_param()? as u32;
                 let p = PathParams::from_params(ctx, ao_mode(ctx)?, ctx.f32_param("max_distance")?)?;
-                Ok(Uniforms::new()
+                let u = Uniforms::new()
                     .vec3("camera", ctx.scene.camera.position.to_array())
                     .u32("count", ctx.int_param("count")?.max(0) as u32)
                     .u32("stratified", stratified)
-                    .u32("ao", p.ao as u32)
-                    .u32("bounces", p.bounces)
-                    .f32("max_distance", p.max_distance)
-                    .u32("lobe", (p.lobe == Lobe::BlinnPhong) as u32)
-                    .f32("eps", p.eps)
-                    .u32("stream", ctx.int_param("stream")? as u32)
-                    .u32("light_count", ctx.scene.lights.len() as u32))
+                    .u32("stream", ctx.int_param("stream")? as u32);
+                Ok(p.uniforms(u, ctx))
             })
             .with_include("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl"))
             .with_scene()

@@ -73,7 +73,7 @@ use crate::buffer::Record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::{light_centre_factor, light_sample};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
-use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
+use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::rng::PixelRng;
 use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
@@ -490,8 +490,8 @@ impl Kernel for PathsTrace {
         Some(
             WgslSource::new(include_str!("../../../shaders/paths_trace.wgsl"), |ctx| {
                 let s = settings(ctx)?;
-                let u = camera_uniforms(Uniforms::new(), &s.camera, s.lens);
-                Ok(u.u32("stratified", s.stratified as u32)
+                let u = camera_uniforms(Uniforms::new(), &s.camera, s.lens)
+                    .u32("stratified", s.stratified as u32)
                     .u32("count", s.count)
                     .u32("jitter", s.jitter as u32)
                     .u32("shadow_per_primary", s.shadow_per_primary)
@@ -499,13 +499,7 @@ impl Kernel for PathsTrace {
                     .u32("light", s.light as u32)
                     .u32("stream", s.stream)
                     .f32("extent", ctx.scene.extent())
-                    .f32("eps", s.path.eps)
-                    .u32("lobe", (s.path.lobe == Lobe::BlinnPhong) as u32)
-                    .u32("bounces", s.path.bounces)
-                    .u32("ao", s.path.ao as u32)
-                    .f32("max_distance", s.path.max_distance)
                     .u32("fixed_primary", s.fixed_primary as u32)
-                    .u32("light_count", ctx.scene.lights.len() as u32)
                     .u32("exact", s.exact as u32)
                     .u32("direct", s.direct as u32)
                     .u32("indirect", s.indirect as u32)
@@ -513,7 +507,8 @@ impl Kernel for PathsTrace {
                     .u32("time", s.time as u32)
                     .u32("environment", s.environment as u32)
                     .u32("environment_per_primary", s.environment_per_primary)
-                    .f32("occluder_luminance", s.occluder_luminance))
+                    .f32("occluder_luminance", s.occluder_luminance);
+                Ok(s.path.uniforms(u, ctx))
             })
             .with_scene()
             .per_pixel()

@@ -355,23 +355,65 @@ impl FilterParams {
 pub struct PixelSample;
 
 struct SampleSettings {
-    count: u32,
+    paths: CameraPaths,
     split: Split,
-    path: PathParams,
-    stream: u32,
-    camera: Camera,
 }
 
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> {
     let split = ctx.str_param("split")?;
     let split = Split::parse(split).ok_or_else(|| kerr(ctx, format!("unknown split `{split}`; use indirect, caustics or all")))?;
-    Ok(SampleSettings {
-        count: count_param(ctx, "count", i64::from(u32::MAX))?,
-        split,
-        path: PathParams::from_params(ctx, false, 0.0)?,
-        stream: ctx.int_param("stream")? as u32,
-        camera: pinhole(ctx),
-    })
+    Ok(SampleSettings { paths: CameraPaths::read(ctx)?, split })
+}
+
+/// The camera paths of a progressive sampling pass (`pixel_filter.sample`,
+/// `radiance_filter.sample`): `count` jittered pinhole paths per pixel, each shaded by
+/// [`first_vertex`] on the stream `stream`.
+pub struct CameraPaths {
+    pub count: u32,
+    pub path: PathParams,
+    pub stream: u32,
+    pub camera: Camera,
+}
+
+impl CameraPaths {
+    /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera as a pinhole.
+    pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
+        Ok(CameraPaths {
+            count: count_param(ctx, "count", i64::from(u32::MAX))?,
+            path: PathParams::from_params(ctx, false, 0.0)?,
+            stream: ctx.int_param("stream")? as u32,
+            camera: pinhole(ctx),
+        })
+    }
+    /// The WGSL's `Params` fields for them: the camera, `count`, `stream` and `indirect_path.wgsl`'s.
+    pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
+        let u = camera_uniforms(u, &self.camera).u32("count", self.count).u32("stream", self.stream);
+        self.path.uniforms(u, ctx)
+    }
+    /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
+    /// was finite (the others are counted as non-finite samples); rays are counted too.
+    pub fn run<T: Default + Send>(&self, ctx: &KernelCtx<'_>, fold: impl Fn(&mut T, u32, &FirstVertex) -> bool + Sync) -> Vec<T> {
+        let at = ctx.scene.at(0.0);
+        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
+        let out = ctx.map_pixels(true, |px, py| {
+            let rng = PixelRng::new(seed, py * width + px, self.stream);
+            let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
+            for j in 0..self.count {
+                let jit = rng.uniform2(j, dim::PIXEL);
+                let ray = self.camera.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), Vec2::splat(0.5), width, height, LensShape::Disk);
+                let v = first_vertex(&at, &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
+                if !fold(&mut state, j, &v) {
+                    bad += 1;
+                }
+            }
+            (state, rays, bad)
+        });
+        Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64 * u64::from(self.count));
+        Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.1.shadow).sum());
+        Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.1.secondary).sum());
+        Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.2).sum());
+        out.into_iter().map(|o| o.0).collect()
+    }
 }
 
 /// The lobe mixture of a surface with diffuse `kd` and glossy `ks`, `m` (the one-sample mixture
@@ -472,19 +514,8 @@ pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, r
     v
 }
 
-/// One path through the camera ray `(origin, dir)`: `(L_lv, L_u)` under `split` ([`first_vertex`]).
-#[allow(clippy::too_many_arguments)]
-pub fn path_sample(
-    at: &SceneAt<'_>,
-    p: &PathParams,
-    origin: Vec3,
-    dir: Vec3,
-    rng: &PixelRng,
-    j: u32,
-    split: Split,
-    rays: &mut PathRays,
-) -> (Vec3, Vec3) {
-    let v = first_vertex(at, p, origin, dir, rng, j, rays);
+/// One camera path's `(L_lv, L_u)` under `split` (Sec. 3.3, Fig. 3.1).
+pub fn split_path(v: &FirstVertex, split: Split) -> (Vec3, Vec3) {
     if v.surface.is_none() {
         return if split == Split::All { (Vec3::ZERO, v.direct) } else { (v.direct, Vec3::ZERO) };
     }
@@ -522,16 +553,7 @@ impl Kernel for PixelSample {
         Some(
             WgslSource::new(include_str!("../../../shaders/pixel_filter_sample.wgsl"), |ctx| {
                 let s = sample_settings(ctx)?;
-                let u = camera_uniforms(Uniforms::new(), &s.camera);
-                Ok(u.u32("count", s.count)
-                    .u32("split", s.split.code())
-                    .u32("stream", s.stream)
-                    .f32("eps", s.path.eps)
-                    .u32("lobe", (s.path.lobe == Lobe::BlinnPhong) as u32)
-                    .u32("bounces", s.path.bounces)
-                    .u32("ao", 0)
-                    .f32("max_distance", 0.0)
-                    .u32("light_count", ctx.scene.lights.len() as u32))
+                Ok(s.paths.uniforms(Uniforms::new(), ctx).u32("split", s.split.code()))
             })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../shaders/pixel_filter_formulas.wgsl"))
             .with_scene()
@@ -541,32 +563,16 @@ impl Kernel for PixelSample {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = sample_settings(ctx)?;
-        let at = ctx.scene.at(0.0);
-        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
-        let out = ctx.map_pixels(true, |px, py| {
-            let pixel = py * width + px;
-            let rng = PixelRng::new(seed, pixel, s.stream);
-            let mut st = Stats::default();
-            let (mut rays, mut bad) = (PathRays::default(), 0u64);
-            for j in 0..s.count {
-                let jit = rng.uniform2(j, dim::PIXEL);
-                let ray = s.camera.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), Vec2::splat(0.5), width, height, LensShape::Disk);
-                let (lv, hv) = path_sample(&at, &s.path, ray.origin, ray.dir, &rng, j, s.split, &mut rays);
-                if finite3(lv) && finite3(hv) {
-                    st = Stats::combine(st, Stats::one(lv, hv));
-                } else {
-                    bad += 1;
-                }
+        let out: Vec<Stats> = s.paths.run(ctx, |st: &mut Stats, _, v| {
+            let (lv, hv) = split_path(v, s.split);
+            let finite = finite3(lv) && finite3(hv);
+            if finite {
+                *st = Stats::combine(*st, Stats::one(lv, hv));
             }
-            (st, rays, bad)
+            finite
         });
-        let pixels = ctx.pixels() as u64;
-        Counters::add(&ctx.counters.primary_rays, pixels * u64::from(s.count));
-        Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.1.shadow).sum());
-        Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.1.secondary).sum());
-        Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.2).sum());
-        ctx.put("lv", out.iter().map(|o| o.0.lv_buffer()).collect::<Vec<_>>())?;
-        ctx.put("hv", out.iter().map(|o| o.0.u_buffer()).collect::<Vec<_>>())
+        ctx.put("lv", out.iter().map(Stats::lv_buffer).collect::<Vec<_>>())?;
+        ctx.put("hv", out.iter().map(Stats::u_buffer).collect::<Vec<_>>())
     }
 }
 

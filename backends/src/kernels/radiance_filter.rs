@@ -36,15 +36,12 @@
 //! neighbour had two paths, Σw, radius, occlusion factor α); `accumulated` = (mean, frames);
 //! `radius` and `phase` are `f32`.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use wedge_graph::Format;
-use wedge_scene::{Camera, LensShape};
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::hemisphere::Lobe;
-use crate::kernels::indirect::{PathParams, PathRays};
-use crate::kernels::pixel_filter::{first_vertex, lobe_eval, lobe_mixture, luminance, Stats};
-use crate::rng::{dim, PixelRng};
+use crate::kernels::pixel_filter::{lobe_eval, lobe_mixture, luminance, CameraPaths, Stats};
 use crate::BackendError;
 
 // ---------------------------------------------------------------------------------------------
@@ -232,18 +229,6 @@ fn kerr(ctx: &KernelCtx<'_>, message: String) -> BackendError {
     BackendError::Kernel { pass: ctx.pass.into(), message }
 }
 
-/// The scene's camera as a pinhole (radiance filtering's image-space kernel assumes one; Sec. 4.5's
-/// depth of field is not built).
-fn pinhole(ctx: &KernelCtx<'_>) -> Camera {
-    let mut cam = ctx.scene.camera;
-    cam.aperture_radius = 0.0;
-    cam
-}
-
-fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
-    crate::kernels::paths::camera_uniforms(u, cam, LensShape::Disk)
-}
-
 /// The angle one pixel subtends at the image centre, `2 tan(fov/2) / height`.
 fn pixel_angle(ctx: &KernelCtx<'_>) -> f32 {
     2.0 * (ctx.scene.camera.vfov_deg.to_radians() * 0.5).tan() / ctx.height as f32
@@ -276,26 +261,6 @@ fn lobe(ctx: &KernelCtx<'_>) -> Result<Lobe, BackendError> {
 
 /// `radiance_filter.sample` (see the module doc).
 pub struct RadianceSample;
-
-struct SampleSettings {
-    count: u32,
-    path: PathParams,
-    stream: u32,
-    camera: Camera,
-}
-
-fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> {
-    let count = ctx.int_param("count")?;
-    if !(0..=i64::from(u32::MAX)).contains(&count) {
-        return Err(kerr(ctx, format!("`count` = {count} must be between 0 and {}", u32::MAX)));
-    }
-    Ok(SampleSettings {
-        count: count as u32,
-        path: PathParams::from_params(ctx, false, 0.0)?,
-        stream: ctx.int_param("stream")? as u32,
-        camera: pinhole(ctx),
-    })
-}
 
 /// One pixel's outputs of `radiance_filter.sample`.
 #[derive(Clone, Copy, Default)]
@@ -334,18 +299,7 @@ impl Kernel for RadianceSample {
     /// WGSL mirror: `shaders/radiance_filter_sample.wgsl` (on the shared `first_vertex.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/radiance_filter_sample.wgsl"), |ctx| {
-                let s = sample_settings(ctx)?;
-                let u = camera_uniforms(Uniforms::new(), &s.camera);
-                Ok(u.u32("count", s.count)
-                    .u32("stream", s.stream)
-                    .f32("eps", s.path.eps)
-                    .u32("lobe", (s.path.lobe == Lobe::BlinnPhong) as u32)
-                    .u32("bounces", s.path.bounces)
-                    .u32("ao", 0)
-                    .f32("max_distance", 0.0)
-                    .u32("light_count", ctx.scene.lights.len() as u32))
-            })
+            WgslSource::new(include_str!("../../../shaders/radiance_filter_sample.wgsl"), |ctx| Ok(CameraPaths::read(ctx)?.uniforms(Uniforms::new(), ctx)))
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../shaders/pixel_filter_formulas.wgsl"))
             .with_include("radiance_filter_formulas.wgsl", include_str!("../../../shaders/radiance_filter_formulas.wgsl"))
             .with_scene()
@@ -354,50 +308,30 @@ impl Kernel for RadianceSample {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let s = sample_settings(ctx)?;
-        let at = ctx.scene.at(0.0);
-        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
-        let out = ctx.map_pixels(true, |px, py| {
-            let pixel = py * width + px;
-            let rng = PixelRng::new(seed, pixel, s.stream);
-            let mut o = PixelSamples::default();
-            let (mut rays, mut bad) = (PathRays::default(), 0u64);
-            for j in 0..s.count {
-                let jit = rng.uniform2(j, dim::PIXEL);
-                let ray = s.camera.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), Vec2::splat(0.5), width, height, LensShape::Disk);
-                let v = first_vertex(&at, &s.path, ray.origin, ray.dir, &rng, j, &mut rays);
-                let finite = v.direct.is_finite() && v.indirect.is_finite();
-                if finite {
-                    o.stats = Stats::combine(o.stats, Stats::one(v.direct, v.indirect));
-                } else {
-                    bad += 1;
-                }
-                if j == 0 {
-                    if let Some(sf) = v.surface {
-                        o.point = [sf.position.x, sf.position.y, sf.position.z, sf.distance];
-                        o.normal = [sf.normal.x, sf.normal.y, sf.normal.z, sf.material as f32];
-                        o.albedo = [sf.albedo.x, sf.albedo.y, sf.albedo.z, 0.0];
-                        if let (Some(wi), true) = (v.wi, finite && v.incident.is_finite()) {
-                            o.direction = [wi.x, wi.y, wi.z, 1.0];
-                            o.incident = [v.incident.x, v.incident.y, v.incident.z, v.bounce_distance.unwrap_or(NO_BOUNCE_HIT)];
-                        }
-                    }
+        let out: Vec<PixelSamples> = CameraPaths::read(ctx)?.run(ctx, |o: &mut PixelSamples, j, v| {
+            let finite = v.direct.is_finite() && v.indirect.is_finite();
+            if finite {
+                o.stats = Stats::combine(o.stats, Stats::one(v.direct, v.indirect));
+            }
+            // Path 0's radiance sample (a reference draws more paths, and bypasses the filter).
+            if let (0, Some(sf)) = (j, v.surface) {
+                o.point = [sf.position.x, sf.position.y, sf.position.z, sf.distance];
+                o.normal = [sf.normal.x, sf.normal.y, sf.normal.z, sf.material as f32];
+                o.albedo = [sf.albedo.x, sf.albedo.y, sf.albedo.z, 0.0];
+                if let (Some(wi), true) = (v.wi, finite && v.incident.is_finite()) {
+                    o.direction = [wi.x, wi.y, wi.z, 1.0];
+                    o.incident = [v.incident.x, v.incident.y, v.incident.z, v.bounce_distance.unwrap_or(NO_BOUNCE_HIT)];
                 }
             }
-            (o, rays, bad)
+            finite
         });
-        let pixels = ctx.pixels() as u64;
-        Counters::add(&ctx.counters.primary_rays, pixels * u64::from(s.count));
-        Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.1.shadow).sum());
-        Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.1.secondary).sum());
-        Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.2).sum());
-        ctx.put("lv", out.iter().map(|o| o.0.stats.lv_buffer()).collect::<Vec<_>>())?;
-        ctx.put("hv", out.iter().map(|o| o.0.stats.u_buffer()).collect::<Vec<_>>())?;
-        ctx.put("point", out.iter().map(|o| o.0.point).collect::<Vec<_>>())?;
-        ctx.put("normal", out.iter().map(|o| o.0.normal).collect::<Vec<_>>())?;
-        ctx.put("albedo", out.iter().map(|o| o.0.albedo).collect::<Vec<_>>())?;
-        ctx.put("direction", out.iter().map(|o| o.0.direction).collect::<Vec<_>>())?;
-        ctx.put("incident", out.iter().map(|o| o.0.incident).collect::<Vec<_>>())
+        ctx.put("lv", out.iter().map(|o| o.stats.lv_buffer()).collect::<Vec<_>>())?;
+        ctx.put("hv", out.iter().map(|o| o.stats.u_buffer()).collect::<Vec<_>>())?;
+        ctx.put("point", out.iter().map(|o| o.point).collect::<Vec<_>>())?;
+        ctx.put("normal", out.iter().map(|o| o.normal).collect::<Vec<_>>())?;
+        ctx.put("albedo", out.iter().map(|o| o.albedo).collect::<Vec<_>>())?;
+        ctx.put("direction", out.iter().map(|o| o.direction).collect::<Vec<_>>())?;
+        ctx.put("incident", out.iter().map(|o| o.incident).collect::<Vec<_>>())
     }
 }
 
@@ -500,7 +434,8 @@ fn filter_settings(ctx: &KernelCtx<'_>) -> Result<FilterSettings, BackendError> 
         thickness: finite_positive(ctx, "thickness")?,
         max_radius: max_radius(ctx)?,
         pixel_angle: pixel_angle(ctx),
-        eye: pinhole(ctx).position,
+        // The pinhole the camera paths start from (CameraPaths: the aperture is ignored).
+        eye: ctx.scene.camera.position,
     })
 }
 
