@@ -9,7 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::progressive::{gpu_parity_with_history, measure_curve, plot_curves, print_curve, progressive, rel_mse, rmse, vec3s};
+use common::progressive::{gpu_parity_with_history, progressive, rel_mse, rmse, vec3s};
 use common::{gpu_or_skip, sized};
 use wedge::backends::cpu::CpuBackend;
 use wedge::backends::kernels::pixel_filter::Stats;
@@ -267,75 +267,4 @@ fn gpu_parity_at_a_filter_frame_with_history() {
         let report = gpu_parity_with_history(&open(name, 48, 36, &[]), &mut gpu, 3, 6);
         assert!(report.rows.iter().any(|r| r.kernel.starts_with("pixel_filter.") && r.class == wedge::backends::KernelClass::Filter));
     }
-}
-
-/// Measurement for docs/DESIGN-NOTES.md (not run by default: minutes on 2 cores):
-/// `cargo test --release --test pixel_filter -- --ignored measure_error_vs_time --nocapture`.
-/// Cornell at `WEDGE_PF_SIZE` (default 160x120) against the pixel-filter pipeline's own reference at
-/// `WEDGE_PF_REF_SPP` (4096) paths per pixel — the radiance-filter pipeline's reference is the same
-/// estimator (`first_vertex`, next-event estimation at every vertex, 3 bounces) — and
-/// `WEDGE_PF_FRAMES` (256) frames of each progressive pipeline (pixel filter brute force and fast,
-/// radiance filter). Plain progressive accumulation is the same run's `unfiltered` output, timed by
-/// its `sample` and `accumulate` passes only; the filtered image is timed by every pass. At the plain
-/// run's time after 1, 2, 4, … frames, the filtered image is the last one finished by then. The
-/// AAF pipeline `shadows_indirect.ron` on the same scene is measured too (one image per μ = 0.5, 1,
-/// 2, 4, against its own reference). The relMSE-against-time plot goes to `WEDGE_PF_PLOT` (default
-/// target/progressive_error_vs_time.png).
-#[test]
-#[ignore]
-fn measure_error_vs_time() {
-    let env = |k: &str, d: u32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
-    let (w, h) = std::env::var("WEDGE_PF_SIZE")
-        .ok()
-        .and_then(|v| v.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))))
-        .unwrap_or((160, 120));
-    let (spp, frames) = (env("WEDGE_PF_REF_SPP", 4096), env("WEDGE_PF_FRAMES", 256));
-    let ov = sized(w, h, None, &[]);
-    let start = std::time::Instant::now();
-    let reference = Session::reference(Some(&pipeline("progressive_pixel.ron")), spp, "independent", &ov).unwrap();
-    let r = reference.run(&mut CpuBackend::new(), &Silent).unwrap();
-    let rc = r.output("color").unwrap().clone();
-    println!("reference: {spp} paths per pixel at {w}x{h} in {:.1} s", start.elapsed().as_secs_f64());
-    let mut curves = Vec::new();
-    let occlusion_off = [("rf", "occlusion", ParamValue::Bool(false))];
-    // (label, pipeline, parameter overrides)
-    type Run<'a> = (&'a str, &'a str, &'a [(&'a str, &'a str, ParamValue)]);
-    let runs: [Run; 4] = [
-        ("progressive_pixel.ron", "progressive_pixel.ron", &[]),
-        ("progressive_pixel_fast.ron", "progressive_pixel_fast.ron", &[]),
-        ("progressive_radiance.ron", "progressive_radiance.ron", &[]),
-        ("progressive_radiance.ron, occlusion off", "progressive_radiance.ron", &occlusion_off),
-    ];
-    for (label, name, params) in runs {
-        let s = Session::open(Some(&pipeline(name)), &sized(w, h, None, params)).unwrap();
-        let node = &s.pipeline.nodes[0].name;
-        let radiance = name == "progressive_radiance.ron";
-        let c = measure_curve(&s, label, node, frames, &rc, |f| radiance || wedge::backends::kernels::pixel_filter::is_filter_frame(f, 4, true));
-        print_curve(&c);
-        curves.push(c);
-    }
-    // The AAF pipeline on the same scene (a single image per μ, not progressive), against its own
-    // reference at the same sample count: its converged image differs (diffuse-only direct light,
-    // two indirect bounces), so each method is measured against what it converges to.
-    let aaf = pipeline("shadows_indirect.ron");
-    let aaf_ref = Session::reference(Some(&aaf), spp.min(2048), "stratified", &ov).unwrap();
-    let ra = aaf_ref.run(&mut CpuBackend::new(), &Silent).unwrap().output("color").unwrap().clone();
-    let mut points = Vec::new();
-    println!("\nAAF shadows_indirect.ron (SoftShadows + Indirect), against its own {}-spp reference:", spp.min(2048));
-    println!("| mu | time (s) | RMSE | relMSE |\n|---|---|---|---|");
-    for mu in [0.5, 1.0, 2.0, 4.0] {
-        let s = Session::open(Some(&aaf), &sized(w, h, Some(mu), &[])).unwrap();
-        let run = s.run(&mut CpuBackend::new(), &Silent).unwrap();
-        let (t, c) = (run.total_seconds(), run.output("color").unwrap());
-        println!("| {mu} | {t:.3} | {:.4} | {:.5} |", rmse(c, &ra), rel_mse(c, &ra));
-        points.push((t, rel_mse(c, &ra)));
-    }
-    let aaf_series = wedge::bench::plots::Series {
-        label: "AAF shadows_indirect.ron, mu 0.5-4".into(),
-        color: [0, 0, 0],
-        style: wedge::bench::plots::SeriesStyle::LinePoints,
-        points,
-    };
-    let out = std::env::var("WEDGE_PF_PLOT").unwrap_or_else(|_| "target/progressive_error_vs_time.png".into());
-    plot_curves(Path::new(&out), &format!("cornell {w}x{h}: relMSE vs time (reference {spp} paths/px)"), &curves, vec![aaf_series]);
 }
