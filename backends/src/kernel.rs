@@ -489,7 +489,8 @@ impl<'a> KernelCtx<'a> {
         self.width as usize * self.height as usize
     }
 
-    fn err(&self, message: String) -> BackendError {
+    /// An error of this pass (`BackendError::Kernel` naming it), for a kernel's own checks.
+    pub fn err(&self, message: String) -> BackendError {
         BackendError::Kernel { pass: self.pass.to_string(), message }
     }
 
@@ -538,6 +539,14 @@ impl<'a> KernelCtx<'a> {
             Some(ParamValue::Int(v)) => Ok(*v as f32),
             other => Err(self.err(format!("parameter `{name}` must be a number, found {other:?}"))),
         }
+    }
+    /// A number parameter that must be finite and > 0 (a width, a threshold).
+    pub fn positive_f32_param(&self, name: &str) -> Result<f32, BackendError> {
+        let v = self.f32_param(name)?;
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(self.err(format!("`{name}` = {v} must be a finite number > 0")));
+        }
+        Ok(v)
     }
     pub fn int_param(&self, name: &str) -> Result<i64, BackendError> {
         match self.params.get(name) {

@@ -247,10 +247,6 @@ fn inv_two_sigma2(sigma: f32) -> f32 {
 // Shared settings
 // ---------------------------------------------------------------------------------------------
 
-fn kerr(ctx: &KernelCtx<'_>, message: String) -> BackendError {
-    BackendError::Kernel { pass: ctx.pass.into(), message }
-}
-
 /// How paths are split into low- and high-variance buffers (Sec. 3.3, Fig. 3.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Split {
@@ -296,7 +292,7 @@ fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
 fn count_param(ctx: &KernelCtx<'_>, name: &str, max: i64) -> Result<u32, BackendError> {
     let v = ctx.int_param(name)?;
     if !(0..=max).contains(&v) {
-        return Err(kerr(ctx, format!("`{name}` = {v} must be between 0 and {max}")));
+        return Err(ctx.err(format!("`{name}` = {v} must be between 0 and {max}")));
     }
     Ok(v as u32)
 }
@@ -306,14 +302,6 @@ fn schedule(ctx: &KernelCtx<'_>) -> Result<(bool, u32), BackendError> {
     let first = count_param(ctx, "first_filter", 1 << 20)?.max(1);
     let first_frame = ctx.bool_param("filter_first_frame")?;
     Ok((is_filter_frame(ctx.frame, first, first_frame), filter_passes_through(ctx.frame, first, first_frame)))
-}
-
-fn positive_param(ctx: &KernelCtx<'_>, name: &str) -> Result<f32, BackendError> {
-    let v = ctx.f32_param(name)?;
-    if !(v > 0.0 && v.is_finite()) {
-        return Err(kerr(ctx, format!("`{name}` = {v} must be a finite number > 0")));
-    }
-    Ok(v)
 }
 
 /// The filter's kernel widths: spatial σ_s (pixels), colour σ_c, depth σ_d (metres), the truncation
@@ -329,10 +317,10 @@ struct FilterParams {
 impl FilterParams {
     fn read(ctx: &KernelCtx<'_>) -> Result<FilterParams, BackendError> {
         Ok(FilterParams {
-            sigma_s: positive_param(ctx, "sigma_s")?,
-            sigma_c: positive_param(ctx, "sigma_c")?,
-            sigma_d: positive_param(ctx, "sigma_d")?,
-            truncate: positive_param(ctx, "truncate")?,
+            sigma_s: ctx.positive_f32_param("sigma_s")?,
+            sigma_c: ctx.positive_f32_param("sigma_c")?,
+            sigma_d: ctx.positive_f32_param("sigma_d")?,
+            truncate: ctx.positive_f32_param("truncate")?,
         })
     }
     /// Window radius (pixels) for spatial σ `sigma`, capped at 1024.
@@ -361,7 +349,7 @@ struct SampleSettings {
 
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> {
     let split = ctx.str_param("split")?;
-    let split = Split::parse(split).ok_or_else(|| kerr(ctx, format!("unknown split `{split}`; use indirect, caustics or all")))?;
+    let split = Split::parse(split).ok_or_else(|| ctx.err(format!("unknown split `{split}`; use indirect, caustics or all")))?;
     Ok(SampleSettings { paths: CameraPaths::read(ctx)?, split })
 }
 
@@ -725,9 +713,9 @@ pub struct AdaptiveWidth;
 fn width_params(ctx: &KernelCtx<'_>) -> Result<(f32, f32, f32), BackendError> {
     let t = ctx.f32_param("t")?;
     if !(t >= 0.0 && t.is_finite()) {
-        return Err(kerr(ctx, format!("`t` = {t} must be a finite number >= 0")));
+        return Err(ctx.err(format!("`t` = {t} must be a finite number >= 0")));
     }
-    Ok((positive_param(ctx, "sigma_s")?, positive_param(ctx, "adaptive_c")?, t))
+    Ok((ctx.positive_f32_param("sigma_s")?, ctx.positive_f32_param("adaptive_c")?, t))
 }
 
 /// One pixel of [`AdaptiveWidth`].
@@ -1082,10 +1070,10 @@ impl Kernel for Separable {
         let lv = ctx.read_opt::<[f32; 4]>("lv")?;
         let sigma = ctx.read_opt::<f32>("sigma")?;
         if (s.first || s.last) && lv.is_none() {
-            return Err(kerr(ctx, "the first and last passes read `lv` (the path counts)".into()));
+            return Err(ctx.err("the first and last passes read `lv` (the path counts)".into()));
         }
         if !s.first && var.is_none() {
-            return Err(kerr(ctx, "a pass after the first reads `variance_in`".into()));
+            return Err(ctx.err("a pass after the first reads `variance_in`".into()));
         }
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let max_radius = s.radius() as i32;
@@ -1152,9 +1140,9 @@ pub struct BlendParams {
 fn blend_params(ctx: &KernelCtx<'_>) -> Result<BlendParams, BackendError> {
     let t = ctx.f32_param("t")?;
     if !(t >= 0.0 && t.is_finite()) {
-        return Err(kerr(ctx, format!("`t` = {t} must be a finite number >= 0")));
+        return Err(ctx.err(format!("`t` = {t} must be a finite number >= 0")));
     }
-    let spike_c = if ctx.bool_param("spike_clamp")? { positive_param(ctx, "spike_c")? } else { 0.0 };
+    let spike_c = if ctx.bool_param("spike_clamp")? { ctx.positive_f32_param("spike_c")? } else { 0.0 };
     Ok(BlendParams { t, spike_c })
 }
 

@@ -225,34 +225,22 @@ impl TangentKernel {
 // Shared settings
 // ---------------------------------------------------------------------------------------------
 
-fn kerr(ctx: &KernelCtx<'_>, message: String) -> BackendError {
-    BackendError::Kernel { pass: ctx.pass.into(), message }
-}
-
 /// The angle one pixel subtends at the image centre, `2 tan(fov/2) / height`.
 fn pixel_angle(ctx: &KernelCtx<'_>) -> f32 {
     2.0 * (ctx.scene.camera.vfov_deg.to_radians() * 0.5).tan() / ctx.height as f32
 }
 
-fn finite_positive(ctx: &KernelCtx<'_>, name: &str) -> Result<f32, BackendError> {
-    let v = ctx.f32_param(name)?;
-    if !(v > 0.0 && v.is_finite()) {
-        return Err(kerr(ctx, format!("`{name}` = {v} must be a finite number > 0")));
-    }
-    Ok(v)
-}
-
 fn max_radius(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
     let v = ctx.int_param("max_radius")?;
     if !(0..=1024).contains(&v) {
-        return Err(kerr(ctx, format!("`max_radius` = {v} must be between 0 and 1024 pixels")));
+        return Err(ctx.err(format!("`max_radius` = {v} must be between 0 and 1024 pixels")));
     }
     Ok(v as u32)
 }
 
 fn lobe(ctx: &KernelCtx<'_>) -> Result<Lobe, BackendError> {
     let brdf = ctx.str_param("brdf")?;
-    Lobe::parse(brdf).ok_or_else(|| kerr(ctx, format!("unknown brdf `{brdf}`; use phong or blinn_phong")))
+    Lobe::parse(brdf).ok_or_else(|| ctx.err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -346,11 +334,11 @@ pub struct Radius;
 fn radius_rule(ctx: &KernelCtx<'_>) -> Result<RadiusRule, BackendError> {
     let warmup = ctx.int_param("warmup")?;
     if !(1..=1 << 20).contains(&warmup) {
-        return Err(kerr(ctx, format!("`warmup` = {warmup} must be between 1 and {}", 1 << 20)));
+        return Err(ctx.err(format!("`warmup` = {warmup} must be between 1 and {}", 1 << 20)));
     }
     Ok(RadiusRule {
         occlusion: ctx.bool_param("occlusion")?,
-        t_u: finite_positive(ctx, "t_u")?,
+        t_u: ctx.positive_f32_param("t_u")?,
         warmup: warmup as u32,
         warmup_radius: ctx.f32_param("warmup_radius")?.max(0.0),
         max_radius: max_radius(ctx)? as f32,
@@ -431,7 +419,7 @@ struct FilterSettings {
 fn filter_settings(ctx: &KernelCtx<'_>) -> Result<FilterSettings, BackendError> {
     Ok(FilterSettings {
         lobe: lobe(ctx)?,
-        thickness: finite_positive(ctx, "thickness")?,
+        thickness: ctx.positive_f32_param("thickness")?,
         max_radius: max_radius(ctx)?,
         pixel_angle: pixel_angle(ctx),
         // The pinhole the camera paths start from (CameraPaths: the aperture is ignored).
@@ -598,7 +586,7 @@ fn switch_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
     match ctx.str_param("correction")? {
         "accumulate" => Ok(false),
         "switch" => Ok(true),
-        other => Err(kerr(ctx, format!("unknown correction `{other}`; use accumulate or switch"))),
+        other => Err(ctx.err(format!("unknown correction `{other}`; use accumulate or switch"))),
     }
 }
 
