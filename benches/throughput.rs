@@ -20,7 +20,8 @@
 //!   `medium_build` and `slow_build` (spatial splits; their own 8-triangle leaves, SAH-optimal
 //!   collapse), and `fast_build` with the greedy collapse used before, on each scene's triangles: build time (best of the runs in ≥1 s; obvhs's `parallel` feature uses every rayon
 //!   thread), BVH memory (wide nodes + triangle packs) and total with the triangle records, and the
-//!   primary-ray speed of that tree (one thread, `bvh::traverse` over a `Bvh::pack` of it).
+//!   primary- and diffuse-ray speed of that tree (one thread, `bvh::traverse` over a `Bvh::pack` of
+//!   it; medians of `WEDGE_BENCH_REPEATS` runs round-robin over the trees).
 //!
 //! - paths: the `indirect.sample` kernel itself (what `MonteCarlo` runs; `Indirect` runs `paths.trace`,
 //!   whose hemisphere estimator is the same `trace_path`) on `cornell`
@@ -42,9 +43,11 @@
 //!   instances scales: primary rays on `spheres` with N of its 400 spheres moving (each its own
 //!   instance, a 1 cm translation) at random times, against N = 0 (skipped in the smoke run).
 //!
-//! Shadow and bounce rays are generated once up front so only traversal is timed. Each row also prints a
-//! checksum (hit count and a hash of the hit triangles' input indices) so runs before and after a
-//! traversal change can be compared for identical results.
+//! Shadow and bounce rays are generated once up front so only traversal is timed: the timed loop keeps
+//! each hit as the tracer returns it (`Hit::triangle`, as Embree returns its `primID`). Each row also
+//! prints a checksum, computed untimed (hit count and a hash of the hit triangles' input indices, the
+//! same for any tree over the same triangles), so runs before and after a traversal change can be
+//! compared for identical results.
 //!
 //! Environment: `WEDGE_BENCH_SCENES=grids,heavy,spheres` picks scenes, `WEDGE_BENCH_MIN_SECS=1` the
 //! minimum timed duration per cell, `WEDGE_BENCH_PYTHON=python3` the interpreter for the Embree side,
@@ -189,22 +192,33 @@ fn query(scene: &Scene, r: &Ray, mode: Mode) -> i32 {
     }
 }
 
-/// (hits, order-independent hash of the hit triangles' input indices; 0 for any-hit rays).
-fn trace(scene: &Scene, rays: &[Ray], mode: Mode) -> (u64, u64) {
+/// The timed loop: each ray's hit as the tracer returns it (`Hit::triangle`, the scene's own index,
+/// as Embree returns its own `primID`), folded into a hash so no query is optimised away. Mapping a
+/// hit to its input index (`query`) loads the hit's triangle record — a cache miss per hit on big
+/// scenes that Embree's side does not pay — so it is left to the untimed [`checksum`].
+fn trace(scene: &Scene, rays: &[Ray], mode: Mode) -> u64 {
     rays.par_chunks(CHUNK)
         .map(|chunk| {
-            let (mut hits, mut hash) = (0u64, 0u64);
+            let mut hash = 0u64;
             for r in chunk {
-                let q = query(scene, r, mode);
-                if q >= 0 {
-                    hits += 1;
-                    let src = q as u64;
-                    hash = hash.wrapping_add(src.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ (src >> 3));
-                }
+                let q = match mode {
+                    Mode::Closest => scene.intersect(r.o, r.d, 0.0, r.tmax).map_or(u64::MAX, |h| u64::from(h.triangle)),
+                    Mode::AnyHit => scene.occluded(r.o, r.d, 0.0, r.tmax) as u64,
+                };
+                hash = hash.wrapping_add(q);
             }
-            (hits, hash)
+            hash
         })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1.wrapping_add(b.1)))
+        .reduce(|| 0, u64::wrapping_add)
+}
+
+/// (hits, order-independent hash of the hit triangles' input indices; 0 for any-hit rays): the
+/// table's checksum, the same for every tree over the same triangles.
+fn checksum(scene: &Scene, rays: &[Ray], mode: Mode) -> (u64, u64) {
+    results(scene, rays, mode).iter().filter(|&&q| q >= 0).fold((0, 0), |(hits, hash), &q| {
+        let src = q as u64;
+        (hits + 1, hash.wrapping_add(src.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ (src >> 3)))
+    })
 }
 
 /// Median of `v` (sorted in place; NaN last); NaN for an empty slice.
@@ -227,13 +241,12 @@ fn measure(pool: &rayon::ThreadPool, scene: &Scene, rays: &[Ray], mode: Mode, mi
     pool.install(|| {
         let start = Instant::now();
         let mut passes = 0u32;
-        let mut check = (0, 0);
         while passes == 0 || start.elapsed() < min {
-            check = trace(scene, rays, mode);
+            std::hint::black_box(trace(scene, rays, mode));
             passes += 1;
         }
         let secs = start.elapsed().as_secs_f64();
-        Cell { mrays: rays.len() as f64 * passes as f64 / secs / 1e6, passes, check }
+        Cell { mrays: rays.len() as f64 * passes as f64 / secs / 1e6, passes, check: checksum(scene, rays, mode) }
     })
 }
 
@@ -282,16 +295,30 @@ struct BuildRow {
     node_bytes: usize,
     refs: usize,
     depth: usize,
-    /// Closest-hit primary rays per second through this tree, one thread.
+    /// Closest-hit primary and diffuse-bounce rays per second through this tree, one thread: medians
+    /// of `repeats` measurements interleaved over the builders (a single run moved by up to 45%).
     primary_mrays: f64,
+    diffuse_mrays: f64,
+}
+
+/// Closest-hit rays per second through `bvh` on this thread, over ≥ `min`.
+fn trace_rate(bvh: &wedge::scene::bvh::Bvh, rays: &[Ray], min: Duration) -> f64 {
+    let (start, mut passes) = (Instant::now(), 0u64);
+    while passes == 0 || start.elapsed() < min {
+        let hits = rays.iter().filter(|r| wedge::scene::bvh::traverse(bvh, r.o, r.d, 0.0, r.tmax, false).is_some()).count();
+        std::hint::black_box(hits);
+        passes += 1;
+    }
+    (rays.len() as u64 * passes) as f64 / start.elapsed().as_secs_f64() / 1e6
 }
 
 /// Time `bvh::build` and obvhs presets on `input`: best of the runs in ≥ `min` (at least one), since
-/// other work on the machine only ever makes a build slower.
-fn build_table(input: &[[Vec3; 3]], primary: &[Ray], min: Duration) -> Vec<BuildRow> {
+/// other work on the machine only ever makes a build slower; then trace `primary` and `diffuse` through
+/// every tree, `repeats` times round-robin, so a slow moment of the machine hits all trees alike.
+fn build_table(input: &[[Vec3; 3]], primary: &[Ray], diffuse: &[Ray], min: Duration, repeats: usize) -> Vec<BuildRow> {
     use obvhs::BvhBuildParams as P;
     use wedge::scene::bvh::build::{binary_obvhs, collapse_greedy};
-    use wedge::scene::bvh::{build, build_with, traverse, Bvh, TriangleRecord};
+    use wedge::scene::bvh::{build, build_with, Bvh, TriangleRecord};
     let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 7] = [
         ("fast_build, greedy collapse (before)", &|| collapse_greedy(&binary_obvhs(input, P::fast_build()))),
         ("fastest_build", &|| build_with(input, P::fastest_build())),
@@ -301,7 +328,7 @@ fn build_table(input: &[[Vec3; 3]], primary: &[Ray], min: Duration) -> Vec<Build
         ("slow_build (spatial splits)", &|| build_with(input, P::slow_build())),
         ("bvh::build (scenes)", &|| build(input)),
     ];
-    builders
+    let trees: Vec<(BuildRow, Bvh)> = builders
         .iter()
         .map(|(builder, run)| {
             let (start, mut runs, mut best) = (Instant::now(), 0, Duration::MAX);
@@ -324,15 +351,21 @@ fn build_table(input: &[[Vec3; 3]], primary: &[Ray], min: Duration) -> Vec<Build
                 .collect();
             let (nodes, depth, refs) = (built.nodes.len(), built.depth, built.order.len());
             let bvh = Bvh::pack(built.nodes, &records);
-            let (start, mut passes) = (Instant::now(), 0u64);
-            while passes == 0 || start.elapsed() < min {
-                let hits = primary.iter().filter(|r| traverse(&bvh, r.o, r.d, 0.0, r.tmax, false).is_some()).count();
-                std::hint::black_box(hits);
-                passes += 1;
-            }
-            let primary_mrays = (primary.len() as u64 * passes) as f64 / start.elapsed().as_secs_f64() / 1e6;
-            BuildRow { builder, best, runs, nodes, node_bytes: bvh.bytes(), refs, depth, primary_mrays }
+            let row = BuildRow { builder, best, runs, nodes, node_bytes: bvh.bytes(), refs, depth, primary_mrays: 0.0, diffuse_mrays: 0.0 };
+            (row, bvh)
         })
+        .collect();
+    let mut rates = vec![(Vec::new(), Vec::new()); trees.len()];
+    for _ in 0..repeats {
+        for (k, (_, bvh)) in trees.iter().enumerate() {
+            rates[k].0.push(trace_rate(bvh, primary, min));
+            rates[k].1.push(trace_rate(bvh, diffuse, min));
+        }
+    }
+    trees
+        .into_iter()
+        .zip(rates)
+        .map(|((row, _), (mut p, mut d))| BuildRow { primary_mrays: median(&mut p), diffuse_mrays: median(&mut d), ..row })
         .collect()
 }
 
@@ -609,11 +642,11 @@ fn main() {
         );
         let record_bytes = std::mem::size_of_val(&scene.triangles[0]);
         let primary = primary_rays(&scene);
-        builds.push((name.clone(), record_bytes, build_table(&input, &primary, min)));
         let points = hit_points(&scene, &primary);
         let shadow = shadow_rays(&scene, &points);
         let diffuse = diffuse_rays(&scene, &points);
         drop(points);
+        builds.push((name.clone(), record_bytes, build_table(&input, &primary, &diffuse, min, repeats)));
         let mut cells = Vec::new();
         for threads in [1usize, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
@@ -714,14 +747,14 @@ fn main() {
         }
     }
     println!();
-    println!("BVH builds ({nproc} threads; best of the runs in ≥{:.1} s). Memory: BVH = wide nodes + triangle packs; total adds one triangle record per reference. Primary: closest-hit Mrays/s through that tree, 1 thread:\n", min.as_secs_f64());
-    println!("| scene | builder | build ms | runs | nodes | depth | BVH MiB | references | total MiB | primary Mrays/s |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("BVH builds ({nproc} threads; best of the runs in ≥{:.1} s). Memory: BVH = wide nodes + triangle packs; total adds one triangle record per reference. Primary, diffuse: closest-hit Mrays/s through that tree, 1 thread, a tight loop without the main table's harness (medians of {repeats} measurements interleaved over the trees):\n", min.as_secs_f64());
+    println!("| scene | builder | build ms | runs | nodes | depth | BVH MiB | references | total MiB | primary Mrays/s | diffuse Mrays/s |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (name, record_bytes, table) in builds {
         for b in table {
             let mib = |bytes: usize| bytes as f64 / (1 << 20) as f64;
             println!(
-                "| {name} | {} | {:.1} | {} | {} | {} | {:.2} | {} | {:.2} | {:.2} |",
+                "| {name} | {} | {:.1} | {} | {} | {} | {:.2} | {} | {:.2} | {:.2} | {:.2} |",
                 b.builder,
                 b.best.as_secs_f64() * 1e3,
                 b.runs,
@@ -730,7 +763,8 @@ fn main() {
                 mib(b.node_bytes),
                 b.refs,
                 mib(b.node_bytes + b.refs * record_bytes),
-                b.primary_mrays
+                b.primary_mrays,
+                b.diffuse_mrays
             );
         }
     }
