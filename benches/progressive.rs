@@ -16,6 +16,7 @@
 //!   bounces), so each method is measured against what it converges to.
 //! - `WEDGE_BENCH_SCENE` (default: the pipelines' `cornell`), `WEDGE_BENCH_SIZE` (160x120),
 //!   `WEDGE_BENCH_PLOT` (target/progressive_error_vs_time.png).
+//! - Without `--bench` (`cargo test --all-targets`): a smoke run at 32×24, 8 frames.
 
 // Shared with tests/pixel_filter.rs and tests/radiance_filter.rs (which use the rest of it).
 #[allow(dead_code)]
@@ -41,11 +42,19 @@ fn env_u32(k: &str, d: u32) -> u32 {
 }
 
 fn main() {
+    // `cargo bench` passes `--bench`; `cargo test --all-targets` runs this binary without it: then a
+    // smoke run (32×24, a 64-path reference, 8 frames, the plot under target/) checks that it works
+    // without paying for the numbers.
+    let smoke = !std::env::args().any(|a| a == "--bench");
     let (w, h) = std::env::var("WEDGE_BENCH_SIZE")
         .ok()
         .and_then(|v| v.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))))
-        .unwrap_or((160, 120));
-    let (spp, frames) = (env_u32("WEDGE_BENCH_REF_SPP", 4096), env_u32("WEDGE_BENCH_FRAMES", 256));
+        .unwrap_or(if smoke { (32, 24) } else { (160, 120) });
+    let (spp, frames) = if smoke {
+        (64, 8)
+    } else {
+        (env_u32("WEDGE_BENCH_REF_SPP", 4096), env_u32("WEDGE_BENCH_FRAMES", 256))
+    };
     let scene = std::env::var("WEDGE_BENCH_SCENE").ok();
     let ov = |mu: Option<f64>, params: &[(&str, &str, ParamValue)]| Overrides {
         scene: scene.clone(),
