@@ -242,10 +242,21 @@ fn frames_do_not_depend_on_the_thread_count() {
 }
 
 /// GPU parity (lavapipe, or any adapter): frame 5 (the first after warm-up, radius from the
-/// variance) pass by pass from the CPU's history; then 8 whole frames on each backend.
+/// variance) pass by pass from the CPU's history; then 8 whole frames on each backend. Also with the
+/// other branches of the WGSL: `correction: "switch"` (with a threshold that switches pixels within
+/// the 8 frames) and `occlusion: false`.
 #[test]
 fn gpu_parity_after_the_warm_up_with_history() {
     let Some(mut gpu) = gpu_or_skip("gpu_parity_after_the_warm_up_with_history") else { return };
     let report = gpu_parity_with_history(&open(48, 36, &[]), &mut gpu, 5, 8);
     assert!(report.rows.iter().any(|r| r.kernel == "radiance_filter.filter"));
+    let other = [
+        ("rf", "correction", ParamValue::Str("switch".into())),
+        ("rf", "occlusion", ParamValue::Bool(false)),
+        ("rf", "t_u", ParamValue::Float(0.05)),
+    ];
+    let s = open(48, 36, &other);
+    gpu_parity_with_history(&s, &mut gpu, 5, 8);
+    let phase = heatmap(progressive(&s, 8).last().unwrap(), "phase");
+    assert!(phase.iter().any(|&p| p >= 1.0) && phase.iter().any(|&p| p < 1.0), "both phases present in the switch run");
 }
