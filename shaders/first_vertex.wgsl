@@ -50,13 +50,8 @@ fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVer
     v.material = sp.material;
     let mix = lobe_mixture(kd, ks, m);
     if (mix.some) {
-        let u = rng_uniform2(key, j, DIM_BSDF);
-        var wi: vec3<f32>;
-        if (rng_uniform(key, j, LOBE_SELECT) < mix.pd) {
-            wi = sample_diffuse(n, u);
-        } else {
-            wi = sample_glossy(params.lobe, m, n, wo, u).wi;
-        }
+        // trace_path_split's continuation numbers at bounce 0 (indirect.rs continuation_numbers).
+        let wi = lobe_sample(params.lobe, m, n, wo, mix, rng_uniform2(key, j, DIM_BSDF), rng_uniform(key, j, LOBE_SELECT));
         v.sampled = true;
         v.wi = wi;
         let cos_i = dot3(wi, n);

@@ -129,41 +129,22 @@ fn trace_path_split(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample:
             break;
         }
         // Continue: one-sample mixture of the vertex's lobes.
-        let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
-        let wd = rmax(weight_of(kd), 0.0);
-        var ws = 0.0;
-        if (is_glossy) {
-            ws = rmax(weight_of(ks), 0.0);
-        }
-        if (wd + ws <= 0.0) {
+        let mix = lobe_mixture(kd, ks, m);
+        if (!mix.some) {
             break;
         }
-        let pd = wd / (wd + ws);
-        let d = DIM_BSDF + bounce * DIM_BOUNCE_STRIDE;
-        let u = rng_uniform2(key, sample, d);
-        var next: vec3<f32>;
-        if (rng_uniform(key, sample, LOBE_SELECT + bounce * DIM_BOUNCE_STRIDE) < pd) {
-            next = sample_diffuse(ny, u);
-        } else {
-            next = sample_glossy(params.lobe, m, ny, wo, u).wi;
-        }
+        let u = rng_uniform2(key, sample, DIM_BSDF + bounce * DIM_BOUNCE_STRIDE);
+        let next = lobe_sample(params.lobe, m, ny, wo, mix, u, rng_uniform(key, sample, LOBE_SELECT + bounce * DIM_BOUNCE_STRIDE));
         let cos_i = dot3(next, ny);
         if (cos_i <= 0.0) {
             break;
         }
-        var f = kd * FRAC_1_PI_F32;
-        var g = vec3<f32>(0.0);
-        var pdf = pd * cos_i * FRAC_1_PI_F32;
-        if (is_glossy) {
-            g = ks * glossy_brdf(params.lobe, m, ny, wo, next);
-            f = f + g;
-            pdf = pdf + (1.0 - pd) * glossy_pdf(params.lobe, m, ny, wo, next);
-        }
-        if (pdf <= 0.0) {
+        let v = lobe_eval(params.lobe, kd, ks, m, mix, ny, wo, next, cos_i);
+        if (v.pdf <= 0.0) {
             break;
         }
-        throughput = throughput * (f * (cos_i / pdf));
-        caustic_throughput = caustic_throughput * (g * (cos_i / pdf));
+        throughput = throughput * (v.f * (cos_i / v.pdf));
+        caustic_throughput = caustic_throughput * (v.g * (cos_i / v.pdf));
         origin = y + ny * params.eps;
         dir = next;
         rays_secondary = rays_secondary + 1u;

@@ -34,7 +34,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("sobol.wgsl", include_str!("../../../shaders/sobol.wgsl")),
     ("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl")),
     // The direct and indirect estimators, shared by direct.light / indirect.sample and paths.trace.
-    // The diffuse + glossy lobe mixture (weight_of, lobe_mixture, lobe_eval).
+    // The diffuse + glossy lobe mixture (weight_of, lobe_mixture, lobe_sample, lobe_eval).
     ("lobe_mixture.wgsl", include_str!("../../../shaders/lobe_mixture.wgsl")),
     ("light_sample.wgsl", include_str!("../../../shaders/light_sample.wgsl")),
     ("indirect_path.wgsl", include_str!("../../../shaders/indirect_path.wgsl")),

@@ -107,6 +107,68 @@ pub(crate) fn weight_of(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
+/// The one-sample mixture of a surface's lobes (diffuse `k_d`, glossy `k_s`, `m`) a path continues
+/// with: the probability `pd` of drawing the diffuse lobe, and whether there is a glossy one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LobeMixture {
+    pub pd: f32,
+    pub glossy: bool,
+}
+
+/// The mixture's BRDF `f = f_d + g` (diffuse and glossy parts) and solid-angle pdf at one direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LobeValue {
+    pub f: Vec3,
+    pub fd: Vec3,
+    pub g: Vec3,
+    pub pdf: f32,
+}
+
+/// The lobe mixture of a surface, lobes weighted by [`weight_of`]; `None` for a black surface, which
+/// scatters nothing. WGSL mirror: `shaders/lobe_mixture.wgsl`.
+pub fn lobe_mixture(kd: Vec3, ks: Vec3, m: f32) -> Option<LobeMixture> {
+    let glossy = m > 0.0 && ks.max_element() > 0.0;
+    let (wd, ws) = (weight_of(kd).max(0.0), if glossy { weight_of(ks).max(0.0) } else { 0.0 });
+    (wd + ws > 0.0).then(|| LobeMixture { pd: wd / (wd + ws), glossy })
+}
+
+impl LobeMixture {
+    /// A direction drawn from the mixture: the diffuse lobe when `select < pd`, else the glossy one,
+    /// each from the 2-D number `u`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn sample(&self, lobe: Lobe, m: f32, n: Vec3, wo: Vec3, u: Vec2, select: f32) -> Vec3 {
+        if select < self.pd {
+            sample_diffuse(n, u)
+        } else {
+            sample_glossy(lobe, m, n, wo, u).0
+        }
+    }
+    /// The mixture at direction `wi` with `cos_i = n·wi > 0`: where a direction was drawn, and where
+    /// another pixel's direction is re-weighted (radiance filtering's eq. 4.10, seed 002).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn eval(&self, lobe: Lobe, kd: Vec3, ks: Vec3, m: f32, n: Vec3, wo: Vec3, wi: Vec3, cos_i: f32) -> LobeValue {
+        let fd = kd * std::f32::consts::FRAC_1_PI;
+        let (mut f, mut g) = (fd, Vec3::ZERO);
+        let mut pdf = self.pd * cos_i * std::f32::consts::FRAC_1_PI;
+        if self.glossy {
+            g = ks * glossy_brdf(lobe, m, n, wo, wi);
+            f += g;
+            pdf += (1.0 - self.pd) * glossy_pdf(lobe, m, n, wo, wi);
+        }
+        LobeValue { f, fd, g, pdf }
+    }
+}
+
+/// The random numbers of a path's continuation at vertex `bounce` (0 = the first vertex): the 2-D
+/// direction sample and the lobe choice.
+#[inline]
+pub fn continuation_numbers(rng: &PixelRng, sample: u32, bounce: u32) -> (Vec2, f32) {
+    let u = Vec2::from(rng.uniform2(sample, dim::BSDF + bounce * dim::BOUNCE_STRIDE));
+    (u, rng.uniform(sample, LOBE_SELECT + bounce * dim::BOUNCE_STRIDE))
+}
+
 /// Next-event estimation at a path vertex: one uniform area sample per light, and one environment
 /// table look-up where the scene has a map ([`environment_event`]).
 #[allow(clippy::too_many_arguments)]
@@ -255,36 +317,21 @@ pub fn trace_path_split(
             break;
         }
         // Continue: one-sample mixture of the vertex's lobes.
-        let glossy = m > 0.0 && ks.max_element() > 0.0;
-        let (wd, ws) = (weight_of(kd).max(0.0), if glossy { weight_of(ks).max(0.0) } else { 0.0 });
-        if wd + ws <= 0.0 {
+        let Some(mix) = lobe_mixture(kd, ks, m) else {
             break;
-        }
-        let pd = wd / (wd + ws);
-        let d = dim::BSDF + bounce * dim::BOUNCE_STRIDE;
-        let u = Vec2::from(rng.uniform2(sample, d));
-        let next = if rng.uniform(sample, LOBE_SELECT + bounce * dim::BOUNCE_STRIDE) < pd {
-            sample_diffuse(ny, u)
-        } else {
-            sample_glossy(p.lobe, m, ny, wo, u).0
         };
+        let (u, select) = continuation_numbers(rng, sample, bounce);
+        let next = mix.sample(p.lobe, m, ny, wo, u, select);
         let cos_i = next.dot(ny);
         if cos_i <= 0.0 {
             break;
         }
-        let mut f = kd * std::f32::consts::FRAC_1_PI;
-        let mut g = Vec3::ZERO;
-        let mut pdf = pd * cos_i * std::f32::consts::FRAC_1_PI;
-        if glossy {
-            g = ks * glossy_brdf(p.lobe, m, ny, wo, next);
-            f += g;
-            pdf += (1.0 - pd) * glossy_pdf(p.lobe, m, ny, wo, next);
-        }
-        if pdf <= 0.0 {
+        let v = mix.eval(p.lobe, kd, ks, m, ny, wo, next, cos_i);
+        if v.pdf <= 0.0 {
             break;
         }
-        throughput *= f * (cos_i / pdf);
-        caustic_throughput *= g * (cos_i / pdf);
+        throughput *= v.f * (cos_i / v.pdf);
+        caustic_throughput *= v.g * (cos_i / v.pdf);
         origin = y + ny * p.eps;
         dir = next;
         rays.secondary += 1;

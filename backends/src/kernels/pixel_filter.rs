@@ -38,8 +38,7 @@ use wedge_graph::Format;
 use wedge_scene::{Camera, LensShape, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::hemisphere::{glossy_brdf, glossy_pdf, sample_diffuse, sample_glossy, Lobe};
-use crate::kernels::indirect::{next_event, trace_path_split, weight_of, PathParams, PathRays, LOBE_SELECT};
+use crate::kernels::indirect::{continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays};
 use crate::rng::{dim, PixelRng};
 use crate::BackendError;
 
@@ -404,32 +403,6 @@ impl CameraPaths {
     }
 }
 
-/// The lobe mixture of a surface with diffuse `kd` and glossy `ks`, `m` (the one-sample mixture
-/// `trace_path` continues with): the probability of the diffuse lobe and whether there is a glossy
-/// one; `None` for a black surface, which scatters nothing.
-pub fn lobe_mixture(kd: Vec3, ks: Vec3, m: f32) -> Option<(f32, bool)> {
-    let glossy = m > 0.0 && ks.max_element() > 0.0;
-    let (wd, ws) = (weight_of(kd).max(0.0), if glossy { weight_of(ks).max(0.0) } else { 0.0 });
-    (wd + ws > 0.0).then(|| (wd / (wd + ws), glossy))
-}
-
-/// The mixture's BRDF `f`, its diffuse part `f_d` and its solid-angle pdf at direction `wi` with
-/// `cos_i = n·wi > 0` ([`lobe_mixture`]'s `pd`, `glossy`). Used where a direction is drawn
-/// ([`first_vertex`]) and where another pixel's direction is re-weighted (radiance filtering's
-/// eq. 4.10 evaluates the current pixel's BRDF and pdf at its neighbours' directions).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-pub fn lobe_eval(lobe: Lobe, kd: Vec3, ks: Vec3, m: f32, pd: f32, glossy: bool, n: Vec3, wo: Vec3, wi: Vec3, cos_i: f32) -> (Vec3, Vec3, f32) {
-    let fd = kd * std::f32::consts::FRAC_1_PI;
-    let mut f = fd;
-    let mut pdf = pd * cos_i * std::f32::consts::FRAC_1_PI;
-    if glossy {
-        f += ks * glossy_brdf(lobe, m, n, wo, wi);
-        pdf += (1.0 - pd) * glossy_pdf(lobe, m, n, wo, wi);
-    }
-    (f, fd, pdf)
-}
-
 /// The surface a camera path's first vertex lies on.
 #[derive(Clone, Copy, Debug)]
 pub struct FirstSurface {
@@ -482,13 +455,13 @@ pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, r
     let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
     let mut v = FirstVertex { direct: emitted + direct, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface, wi: None, incident: Vec3::ZERO, bounce_distance: None };
     // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
-    if let Some((pd, glossy)) = lobe_mixture(kd, ks, m) {
-        let u = Vec2::from(rng.uniform2(j, dim::BSDF));
-        let wi = if rng.uniform(j, LOBE_SELECT) < pd { sample_diffuse(n, u) } else { sample_glossy(p.lobe, m, n, wo, u).0 };
+    if let Some(mix) = lobe_mixture(kd, ks, m) {
+        let (u, select) = continuation_numbers(rng, j, 0);
+        let wi = mix.sample(p.lobe, m, n, wo, u, select);
         v.wi = Some(wi);
         let cos_i = wi.dot(n);
         if cos_i > 0.0 {
-            let (f, fd, pdf) = lobe_eval(p.lobe, kd, ks, m, pd, glossy, n, wo, wi, cos_i);
+            let LobeValue { f, fd, pdf, .. } = mix.eval(p.lobe, kd, ks, m, n, wo, wi, cos_i);
             if pdf > 0.0 {
                 let (li, lc, first) = trace_path_split(at, p, x, n, wi, rng, j, rays);
                 v.incident = li;

@@ -41,7 +41,8 @@ use wedge_graph::Format;
 
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::hemisphere::Lobe;
-use crate::kernels::pixel_filter::{lobe_eval, lobe_mixture, luminance, CameraPaths, Stats};
+use crate::kernels::indirect::lobe_mixture;
+use crate::kernels::pixel_filter::{luminance, CameraPaths, Stats};
 use crate::BackendError;
 
 // ---------------------------------------------------------------------------------------------
@@ -526,10 +527,10 @@ impl Kernel for Filter {
                     let wi = v3(direction[j]);
                     let cos_i = wi.dot(n);
                     let mut term = Vec3::ZERO;
-                    if let (Some((pd, glossy)), true) = (mix, cos_i > 0.0) {
-                        let (f, _, pdf) = lobe_eval(s.lobe, kd, ks, m, pd, glossy, n, wo, wi, cos_i);
-                        if pdf > 0.0 {
-                            term = v3(incident[j]) * (f * (cos_i / pdf));
+                    if let (Some(mix), true) = (mix, cos_i > 0.0) {
+                        let v = mix.eval(s.lobe, kd, ks, m, n, wo, wi, cos_i);
+                        if v.pdf > 0.0 {
+                            term = v3(incident[j]) * (v.f * (cos_i / v.pdf));
                         }
                     }
                     sum_w += wk;
