@@ -13,8 +13,6 @@
 
 // Dimension offset between lights in next-event estimation.
 const LIGHT_DIM_STRIDE: u32 = 65536u;
-// Dimension choosing the lobe at a path vertex.
-const LOBE_SELECT: u32 = 14u;
 
 // Rays traced by the current invocation (for the counters).
 var<private> rays_secondary: u32 = 0u;
@@ -94,10 +92,10 @@ struct PathSplit {
 
 fn trace_path_split(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample: u32) -> PathSplit {
     let side = select(-1.0, 1.0, dot3(wi, n) >= 0.0);
-    var origin = x + n * (side * params.eps);
-    var dir = wi;
+    let origin = x + n * (side * params.eps);
+    let dir = wi;
     rays_secondary = rays_secondary + 1u;
-    var hit = scene_intersect(origin, dir, 0.0, inf());
+    let hit = scene_intersect(origin, dir, 0.0, inf());
     if (!hit.hit) {
         return PathSplit(vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
     }
@@ -109,6 +107,21 @@ fn trace_path_split(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample:
         }
         return PathSplit(vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
     }
+    let r = path_from_hit(hit, origin, dir, key, sample);
+    return PathSplit(r.value, r.caustic, true, first);
+}
+
+struct FromHit {
+    value: vec3<f32>,
+    caustic: vec3<f32>,
+}
+
+// path_from_hit: what a path brings back from its first hit `hit_in` of the ray origin_in + t dir_in
+// (indirect.rs path_from_hit; the light-field sampler traces the first ray itself).
+fn path_from_hit(hit_in: Hit, origin_in: vec3<f32>, dir_in: vec3<f32>, key: u32, sample: u32) -> FromHit {
+    var hit = hit_in;
+    var origin = origin_in;
+    var dir = dir_in;
     var radiance = vec3<f32>(0.0);
     var throughput = vec3<f32>(1.0);
     var caustic = vec3<f32>(0.0);
@@ -153,5 +166,5 @@ fn trace_path_split(x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, key: u32, sample:
             break;
         }
     }
-    return PathSplit(radiance, caustic, true, first);
+    return FromHit(radiance, caustic);
 }

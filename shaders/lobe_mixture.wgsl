@@ -5,6 +5,9 @@
 #include "common.wgsl"
 #include "hemisphere.wgsl"
 
+// Dimension choosing the lobe at a path vertex (indirect.rs LOBE_SELECT).
+const LOBE_SELECT: u32 = 14u;
+
 // Relative weight of a lobe for lobe selection (mean of the rgb coefficients).
 fn weight_of(c: vec3<f32>) -> f32 {
     return (c.x + c.y + c.z) / 3.0;

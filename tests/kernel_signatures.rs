@@ -82,6 +82,7 @@ fn a_random_kernel_needs_a_pass_declared_random() {
         lifetimes: Vec::new(),
         slots: Vec::new(),
         slot_formats: Vec::new(),
+            slot_layers: Vec::new(),
         sink_inputs: Vec::new(),
         history: Vec::new(),
         culled: Vec::new(),

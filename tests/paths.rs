@@ -617,10 +617,11 @@ fn struct_layouts_are_checked_by_fields() {
     let pass = Pass { writes: vec![("record".into(), BufferId(0))], ..Pass::new("paths", "test", "paths.trace", Stage::Sample) };
     let schedule = wedge::graph::Schedule {
         passes: vec![pass],
-        buffers: vec![wedge::graph::BufferInfo { name: "paths.record".into(), format: Format::Struct(&IMPOSTOR) }],
+        buffers: vec![wedge::graph::BufferInfo::new("paths.record", Format::Struct(&IMPOSTOR))],
         lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 0 })],
         slots: vec![Some(0)],
         slot_formats: Vec::new(),
+        slot_layers: Vec::new(),
         sink_inputs: Vec::new(),
         history: Vec::new(),
         culled: Vec::new(),
@@ -696,12 +697,13 @@ fn parity_harness_compares_struct_fields() {
     let schedule = wedge::graph::Schedule {
         passes: vec![trace, resolve],
         buffers: vec![
-            wedge::graph::BufferInfo { name: "paths.record".into(), format: Format::Struct(&PATH_RECORD) },
-            wedge::graph::BufferInfo { name: "resolve.radiance".into(), format: Format::Vec3 },
+            wedge::graph::BufferInfo::new("paths.record", Format::Struct(&PATH_RECORD)),
+            wedge::graph::BufferInfo::new("resolve.radiance", Format::Vec3),
         ],
         lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 1 }), Some(wedge::graph::Lifetime { first: 1, last: 1 })],
         slots: vec![Some(0), Some(1)],
         slot_formats: Vec::new(),
+        slot_layers: Vec::new(),
         sink_inputs: Vec::new(),
         history: Vec::new(),
         culled: Vec::new(),

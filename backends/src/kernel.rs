@@ -67,9 +67,17 @@ pub trait Kernel: Send + Sync {
     /// Run over every pixel. Reads come from `ctx.read`, writes are handed back with `ctx.put`.
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError>;
     /// The WGSL implementation for the wgpu backend; `None` = CPU only (the wgpu backend then
-    /// refuses the pass with a clear error).
+    /// refuses the pass with a clear error), unless the kernel is a [`Kernel::host`] kernel.
     fn wgsl(&self) -> Option<WgslSource> {
         None
+    }
+    /// A host kernel runs its CPU implementation on every backend: structure builds over a pass's
+    /// data (a tree over a node's stored samples), which GPU renderers build on the host as wedge
+    /// builds the scene's BVH. The wgpu backend reads the pass's inputs back, runs [`Kernel::run_cpu`]
+    /// and uploads its outputs; its time counts as the pass's. Parity is exact by construction, so
+    /// what a host kernel builds must be what the GPU kernels downstream read.
+    fn host(&self) -> bool {
+        false
     }
 }
 
@@ -102,6 +110,9 @@ pub struct WgslSource {
     pub scene: bool,
     pub reach: fn(&KernelCtx<'_>) -> Result<Reach, BackendError>,
     pub chunked: bool,
+    /// With `chunked`: the most samples per pixel one dispatch may take, below the backend's own
+    /// bound (a kernel whose every sample runs long inner loops, e.g. a tree walk per ray).
+    pub max_chunk: u32,
 }
 
 /// How far from its own pixel a kernel reads per-pixel buffers (see [`WgslSource::reach`]).
@@ -124,6 +135,7 @@ impl WgslSource {
             scene: false,
             reach: |_| Ok(Reach::Image),
             chunked: false,
+            max_chunk: u32::MAX,
         }
     }
     /// The kernel reads only its own pixel of every per-pixel buffer.
@@ -136,6 +148,14 @@ impl WgslSource {
     /// invocation short (drivers that cap loop iterations, like lavapipe, or GPU watchdogs).
     pub fn chunked(mut self) -> Self {
         self.chunked = true;
+        self
+    }
+    /// [`WgslSource::chunked`] with at most `n` samples per pixel per dispatch: drivers that cap a
+    /// loop's iterations (lavapipe) count an inner loop's iterations over the whole invocation, so
+    /// a kernel that walks a tree per sample keeps its chunks short.
+    pub fn chunked_by(mut self, n: u32) -> Self {
+        self.chunked = true;
+        self.max_chunk = n.max(1);
         self
     }
     /// How far the kernel reads, from the pass's parameters (e.g. a filter's radius and axis).
@@ -460,6 +480,9 @@ pub struct KernelCtx<'a> {
     pub progress: &'a dyn Progress,
     pub(crate) reads: BTreeMap<String, &'a BufferData>,
     pub(crate) writes: BTreeMap<String, Option<BufferData>>,
+    /// Elements per pixel of each bound binding that is not an image ([`wedge_graph::BufferInfo::layers`]);
+    /// absent = 1.
+    pub(crate) layers: BTreeMap<String, u32>,
 }
 
 impl<'a> KernelCtx<'a> {
@@ -476,7 +499,24 @@ impl<'a> KernelCtx<'a> {
         reads: BTreeMap<String, &'a BufferData>,
         writes: BTreeMap<String, Option<BufferData>>,
     ) -> Self {
-        KernelCtx { width, height, seed, frame: 0, scene, pass, params, counters, progress, reads, writes }
+        KernelCtx { width, height, seed, frame: 0, scene, pass, params, counters, progress, reads, writes, layers: BTreeMap::new() }
+    }
+
+    /// The same context with the pass's bindings' elements per pixel (from the schedule's buffers);
+    /// every backend sets it, so `put` checks lengths and kernels read [`KernelCtx::layers`].
+    pub fn with_layers(mut self, pass: &Pass, buffers: &[wedge_graph::BufferInfo]) -> Self {
+        for (name, id) in pass.reads.iter().chain(&pass.writes) {
+            if let Some(b) = buffers.get(id.0).filter(|b| b.layers != 1) {
+                self.layers.insert(name.clone(), b.layers);
+            }
+        }
+        self
+    }
+
+    /// Elements per pixel of a bound binding (1 for an image): a per-sample buffer holds pixel `p`'s
+    /// records at `p·layers .. (p + 1)·layers`.
+    pub fn layers(&self, binding: &str) -> u32 {
+        self.layers.get(binding).copied().unwrap_or(1)
     }
 
     /// The same context at frame `frame` of a sequence ([`crate::Job::frame`]).
@@ -514,8 +554,9 @@ impl<'a> KernelCtx<'a> {
     /// (a pass can only touch what it declared); an unbound *optional* write is skipped silently by
     /// checking [`KernelCtx::is_bound`] first.
     pub fn put<T: Texel>(&mut self, binding: &str, data: Vec<T>) -> Result<(), BackendError> {
-        if data.len() != self.pixels() {
-            return Err(self.err(format!("wrote {} elements to `{binding}`, expected {}", data.len(), self.pixels())));
+        let expected = self.pixels() * self.layers(binding) as usize;
+        if data.len() != expected {
+            return Err(self.err(format!("wrote {} elements to `{binding}`, expected {expected}", data.len())));
         }
         match self.writes.get_mut(binding) {
             Some(slot) => {

@@ -136,11 +136,11 @@ pub trait Backend {
 
 /// The contents of a schedule's previous-frame buffer `h` for a run: given in `history`, else zeros.
 pub fn history_input(job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>, h: &wedge_graph::History) -> BufferData {
-    let pixels = job.width as usize * job.height as usize;
-    let format = job.schedule.buffers[h.buffer.0].format;
+    let info = &job.schedule.buffers[h.buffer.0];
+    let elements = job.width as usize * job.height as usize * info.layers as usize;
     match history.get(&h.buffer) {
-        Some(d) if d.len() == pixels && d.format() == format => d.clone(),
-        _ => BufferData::zeroed(format, pixels),
+        Some(d) if d.len() == elements && d.format() == info.format => d.clone(),
+        _ => BufferData::zeroed(info.format, elements),
     }
 }
 

@@ -55,7 +55,7 @@ impl<'a> LonePass<'a> {
                 },
                 Access::Write => pass.writes.push((b.name.to_string(), id)),
             }
-            buffers.push(BufferInfo { name: b.name.to_string(), format: b.format });
+            buffers.push(BufferInfo::new(b.name, b.format));
         }
         let n = buffers.len();
         let schedule = Schedule {
@@ -64,6 +64,7 @@ impl<'a> LonePass<'a> {
             lifetimes: vec![Some(Lifetime { first: 0, last: 0 }); n],
             slots: (0..n).map(Some).collect(),
             slot_formats: Vec::new(),
+            slot_layers: Vec::new(),
             sink_inputs: Vec::new(),
             history: Vec::new(),
             culled: Vec::new(),
@@ -71,6 +72,17 @@ impl<'a> LonePass<'a> {
         let mut kernels = KernelRegistry::new();
         kernels.register(kernel);
         Ok(LonePass { schedule, pass, kernels, inputs: data })
+    }
+
+    /// Declare binding `binding` a per-sample buffer of `layers` elements per pixel
+    /// ([`wedge_graph::BufferInfo::layers`]); bindings are images otherwise.
+    pub fn with_layers(mut self, binding: &str, layers: u32) -> Self {
+        for (name, id) in self.pass.reads.iter().chain(&self.pass.writes) {
+            if name == binding {
+                self.schedule.buffers[id.0].layers = layers.max(1);
+            }
+        }
+        self
     }
 
     /// The job the pass runs in: `scene`, image size and seed.

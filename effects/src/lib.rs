@@ -22,6 +22,8 @@
 //!   thesis, seed 002 Ch. 3): accumulation over frames, cross-bilateral filter, perceptual blend.
 //! - [`radiance_filter`]: `RadianceFilter`, progressive path tracing with radiance filtering (seed 002
 //!   Ch. 4): neighbours' incident radiance under each pixel's BRDF, kernels shrinking as `k^-1/2`.
+//! - [`light_field`]: `LightField`, visibility-aware reconstruction of the indirect light field
+//!   (Lehtinen et al. 2012, seed 001): secondary rays as splats, many reconstruction rays per pixel.
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
 //! - [`montecarlo`]: `MonteCarlo`, plain (stratified or independent) Monte Carlo — a baseline node
 //!   (references come from each pipeline's own graph, `wedge_graph::reference`).
@@ -59,6 +61,7 @@ pub mod motion;
 pub mod output;
 pub mod pixel_filter;
 pub mod primary;
+pub mod light_field;
 pub mod radiance_filter;
 pub mod sampler;
 pub mod shadows;
@@ -87,6 +90,7 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     nodes.register(Arc::new(mixed_reality::MixedReality));
     nodes.register(Arc::new(pixel_filter::PixelFilter));
     nodes.register(Arc::new(radiance_filter::RadianceFilter));
+    nodes.register(Arc::new(light_field::LightField));
 }
 
 /// The registries with everything wedge ships.

@@ -28,6 +28,21 @@ pub struct BufferInfo {
     /// `<node>.<name>`, unique in the pipeline.
     pub name: String,
     pub format: Format,
+    /// Elements per pixel: 1 for an image; `n` for a per-sample buffer (`n` records per pixel, pixel
+    /// `p`'s at `p·n .. p·n + n`, e.g. a node's stored samples) or a structure sized by the image
+    /// (a tree over those samples). See [`ExpandCtx::layered_buffer`].
+    pub layers: u32,
+}
+
+impl BufferInfo {
+    /// An image buffer (one element per pixel).
+    pub fn new(name: impl Into<String>, format: Format) -> BufferInfo {
+        BufferInfo {
+            name: name.into(),
+            format,
+            layers: 1,
+        }
+    }
 }
 
 /// One kernel invocation with its bindings and parameter block.
@@ -237,11 +252,24 @@ impl<'a> ExpandCtx<'a> {
     }
     /// A node-local buffer, named `<node>.<name>`.
     pub fn buffer(&mut self, name: &str, format: Format) -> BufferId {
+        self.layered_buffer(name, format, 1)
+    }
+    /// A node-local buffer of `layers` elements per pixel (at least 1): per-sample records (`n`
+    /// samples per pixel) or a structure over them (a tree of at most `2n` nodes per pixel). Kernels
+    /// index element `s` of pixel `p` as `p·layers + s`. Such a buffer stays inside its node: an
+    /// output port or a sink input must be an image (the scheduler refuses a layered one).
+    pub fn layered_buffer(&mut self, name: &str, format: Format, layers: u32) -> BufferId {
         let full = format!("{}.{name}", self.node);
-        self.expansion
-            .buffers
-            .push(BufferInfo { name: full, format });
+        self.expansion.buffers.push(BufferInfo {
+            name: full,
+            format,
+            layers: layers.max(1),
+        });
         BufferId(self.expansion.buffers.len() - 1)
+    }
+    /// Elements per pixel of a buffer ([`BufferInfo::layers`]).
+    pub fn layers_of(&self, id: BufferId) -> u32 {
+        self.expansion.buffers[id.0].layers
     }
     /// Start a pass named `<node>.<name>` running `kernel` in `stage`.
     pub fn pass(&mut self, name: &str, kernel: &str, stage: Stage) -> PassBuilder<'_, 'a> {
@@ -260,9 +288,12 @@ impl<'a> ExpandCtx<'a> {
         if let Some(h) = self.expansion.history.iter().find(|h| h.source == source) {
             return h.buffer;
         }
-        let format = self.expansion.buffers[source.0].format;
-        let name = format!("{}@previous_frame", self.expansion.buffers[source.0].name);
-        self.expansion.buffers.push(BufferInfo { name, format });
+        let BufferInfo { name, format, layers } = self.expansion.buffers[source.0].clone();
+        self.expansion.buffers.push(BufferInfo {
+            name: format!("{name}@previous_frame"),
+            format,
+            layers,
+        });
         let buffer = BufferId(self.expansion.buffers.len() - 1);
         self.expansion.history.push(History { buffer, source });
         buffer

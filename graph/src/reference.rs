@@ -18,8 +18,9 @@
 //! - Sink inputs written by `Bandwidth`/`Counts` passes (filter widths, ray counts: diagnostics of the
 //!   filtering) are not handed back, so what only the filters needed is culled by the scheduler.
 //!
-//! A random pass without a sampling role, or a `Filter`-stage pass without `Bypass`, is an error: a
-//! reference must never silently keep the pipeline's adaptive counts or its filters.
+//! A random pass without a sampling role (or `Bypass`: a filter drawing its own numbers), or a
+//! `Filter`-stage pass without `Bypass`, is an error: a reference must never silently keep the
+//! pipeline's adaptive counts or its filters.
 
 use std::collections::BTreeMap;
 
@@ -50,7 +51,9 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
     let mut problems: Vec<(String, String)> = Vec::new();
     for p in &passes {
         let role = p.reference;
-        if p.random && !matches!(role, Reference::Sample | Reference::Continued) {
+        // A filter that draws its own numbers (light-field reconstruction rays) is bypassed in a
+        // reference, so its numbers never reach one: `Bypass` is a role for a random pass too.
+        if p.random && !matches!(role, Reference::Sample | Reference::Continued | Reference::Bypass { .. }) {
             problems.push((
                 p.node.clone(),
                 format!(
@@ -75,7 +78,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 Some(from) => {
                     for (binding, id) in &p.writes {
                         let (a, b) = (buffers[from.0].format, buffers[id.0].format);
-                        if a != b {
+                        if a != b || buffers[from.0].layers != buffers[id.0].layers {
                             problems.push((
                                 p.node.clone(),
                                 format!(

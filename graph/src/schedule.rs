@@ -58,6 +58,9 @@ pub struct Schedule {
     pub slots: Vec<Option<usize>>,
     /// Format of each physical slot.
     pub slot_formats: Vec<Format>,
+    /// Elements per pixel of each physical slot ([`BufferInfo::layers`]): a slot is shared only by
+    /// buffers of the same format and layers.
+    pub slot_layers: Vec<u32>,
     pub sink_inputs: Vec<(String, String, BufferId)>,
     /// Previous-frame buffers read by a scheduled pass, with their sources ([`crate::History`]): the
     /// runner fills each before the run (from the previous frame's run, else zeros), and a run hands
@@ -136,6 +139,16 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
                 node: node.clone(),
                 message: format!("sink input `{port}` is a buffer that no pass writes"),
             })?;
+        if buffers[id.0].layers != 1 {
+            return Err(GraphError::Expand {
+                node: node.clone(),
+                message: format!(
+                    "sink input `{port}` is `{}`, a per-sample buffer ({} elements per pixel), not an image; \
+                     connect an image output of its node instead",
+                    buffers[id.0].name, buffers[id.0].layers
+                ),
+            });
+        }
         if live[w] {
             continue;
         }
@@ -262,14 +275,16 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     by_first.sort_by_key(|&b| (lifetimes[b].unwrap().first, b));
     let mut slots: Vec<Option<usize>> = vec![None; nb];
     let mut slot_formats: Vec<Format> = Vec::new();
+    let mut slot_layers: Vec<u32> = Vec::new();
     let mut slot_last: Vec<usize> = Vec::new(); // last use of the slot's current occupant
     for b in by_first {
         let l = lifetimes[b].unwrap();
-        let f = buffers[b].format;
-        let free =
-            (0..slot_formats.len()).find(|&s| slot_formats[s] == f && slot_last[s] < l.first);
+        let (f, n) = (buffers[b].format, buffers[b].layers);
+        let free = (0..slot_formats.len())
+            .find(|&s| slot_formats[s] == f && slot_layers[s] == n && slot_last[s] < l.first);
         let s = free.unwrap_or_else(|| {
             slot_formats.push(f);
+            slot_layers.push(n);
             slot_last.push(0);
             slot_formats.len() - 1
         });
@@ -284,6 +299,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         lifetimes,
         slots,
         slot_formats,
+        slot_layers,
         sink_inputs,
         history: live_history,
         culled,
@@ -382,11 +398,20 @@ impl Schedule {
     /// The buffer memory of this schedule at `width × height` (saturating, never overflowing).
     pub fn buffer_bytes(&self, width: u32, height: u32) -> BufferBytes {
         let pixels = u64::from(width) * u64::from(height);
-        let of = |f: Format| pixels.saturating_mul(bytes_per_pixel(f));
-        let of_buffer = |id: &BufferId| self.buffers.get(id.0).map_or(0, |b| of(b.format));
+        let of = |f: Format, layers: u32| {
+            pixels
+                .saturating_mul(u64::from(layers))
+                .saturating_mul(bytes_per_pixel(f))
+        };
+        let of_buffer =
+            |id: &BufferId| self.buffers.get(id.0).map_or(0, |b| of(b.format, b.layers));
         let sum = |it: &mut dyn Iterator<Item = u64>| it.fold(0u64, u64::saturating_add);
         BufferBytes {
-            pool: sum(&mut self.slot_formats.iter().map(|f| of(*f))),
+            pool: sum(&mut self
+                .slot_formats
+                .iter()
+                .zip(&self.slot_layers)
+                .map(|(f, n)| of(*f, *n))),
             pass_outputs: self
                 .passes
                 .iter()

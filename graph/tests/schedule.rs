@@ -235,14 +235,8 @@ fn broken_node_kinds_are_caught_at_expansion() {
 #[test]
 fn reading_an_unwritten_buffer_is_an_error() {
     let mut e = Expansion::default();
-    e.buffers.push(BufferInfo {
-        name: "n.orphan".into(),
-        format: Format::F32,
-    });
-    e.buffers.push(BufferInfo {
-        name: "n.y".into(),
-        format: Format::F32,
-    });
+    e.buffers.push(BufferInfo::new("n.orphan", Format::F32));
+    e.buffers.push(BufferInfo::new("n.y", Format::F32));
     e.passes.push(Pass {
         name: "n.p".into(),
         node: "n".into(),

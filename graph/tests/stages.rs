@@ -13,7 +13,7 @@ struct Build {
 
 impl Build {
     fn buf(&mut self, name: &str, format: Format) -> BufferId {
-        self.e.buffers.push(BufferInfo { name: name.into(), format });
+        self.e.buffers.push(BufferInfo::new(name, format));
         BufferId(self.e.buffers.len() - 1)
     }
     fn id(&self, name: &str) -> BufferId {

@@ -57,7 +57,8 @@ pub fn run_pass(
         reads,
         writes,
     )
-    .with_frame(job.frame);
+    .with_frame(job.frame)
+    .with_layers(pass, &job.schedule.buffers);
     kernel.run_cpu(&mut ctx)?;
     let mut out = BTreeMap::new();
     for (name, data) in ctx.writes {

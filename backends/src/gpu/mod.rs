@@ -483,7 +483,8 @@ impl GpuBackend {
             BTreeMap::new(),
             BTreeMap::new(),
         )
-        .with_frame(job.frame);
+        .with_frame(job.frame)
+        .with_layers(pass, &job.schedule.buffers);
         Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
     }
 
@@ -622,10 +623,26 @@ impl GpuBackend {
         let bindings = kernel.bindings();
         let components = |k: usize| bindings[k].format.components() as u64;
         let bytes_per_pixel = |k: usize| components(k) * 4;
+        // Elements per pixel of each bound binding (per-sample buffers, `BufferInfo::layers`).
+        let layers = |k: usize| {
+            let id = match bindings[k].access {
+                Access::Read => pass.read(bindings[k].name),
+                Access::Write => pass.write(bindings[k].name),
+            };
+            id.and_then(|id| job.schedule.buffers.get(id.0)).map_or(1, |b| u64::from(b.layers))
+        };
+        let layered: Vec<&str> = (0..buffers.len()).filter(|&k| buffers[k].is_some() && layers(k) > 1).map(|k| bindings[k].name).collect();
+        if !layered.is_empty() && plan == BindingPlan::Packed {
+            return Err(gpu_err(format!(
+                "{what}: binds per-sample buffers ({}), which the packed binding plan this device needs (too few storage \
+                 buffers per shader stage) does not support; run it with --backend cpu or on a device with more storage bindings",
+                layered.join(", ")
+            )));
+        }
         let (packed_offsets, packed_in, packed_out) = shaders::packed_layout(&bindings);
         // What one band binds per pixel: the widest buffer, or (packed) the larger packed buffer.
         let widest = match plan {
-            BindingPlan::Direct => (0..buffers.len()).filter(|&k| buffers[k].is_some()).map(bytes_per_pixel).max().unwrap_or(4),
+            BindingPlan::Direct => (0..buffers.len()).filter(|&k| buffers[k].is_some()).map(|k| bytes_per_pixel(k) * layers(k)).max().unwrap_or(4),
             BindingPlan::Packed => packed_in.max(packed_out).max(1) * 4,
         };
         let max_groups = self.limits.max_compute_workgroups_per_dimension;
@@ -642,6 +659,11 @@ impl GpuBackend {
             max_rows: max_groups.saturating_mul(WORKGROUP),
         };
         let bands = bands::plan(job.width, job.height, widest, reach, &limits).map_err(|e| gpu_err(format!("{what}: {e}")))?;
+        if !layered.is_empty() && bands.len() > 1 {
+            // Bands are offsets of whole pixels into image buffers; a kernel reading per-sample
+            // buffers declares `Reach::Image` (its samples are read from anywhere).
+            return Err(gpu_err(format!("{what}: binds per-sample buffers ({}) and would be split into bands of rows; declare Reach::Image", layered.join(", "))));
+        }
         let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
         // Packed plan: one staging buffer for all inputs and one for all outputs, as large as the
         // largest band's window; each binding is a region of `window` elements in it.
@@ -674,7 +696,7 @@ impl GpuBackend {
         let counters = self.storage("counters", stride * bands.len() as u64)?;
         // A chunked sampling kernel takes at most `samples_per_dispatch` samples per pixel per
         // dispatch; the next chunk runs while some pixel still has samples left.
-        let chunk = if src.chunked { self.samples_per_dispatch } else { u32::MAX };
+        let chunk = if src.chunked { self.samples_per_dispatch.min(src.max_chunk) } else { u32::MAX };
         let uniform = |label: &str, data: &[u32]| {
             self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -866,6 +888,9 @@ impl GpuBackend {
         for pass in passes {
             check_bindings(job, pass)?;
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+            if kernel.host() {
+                continue;
+            }
             let (uniforms, _) = Self::uniforms(job, pass, &Self::wgsl_of(kernel.as_ref())?)?;
             let (_, src, _) = self.pipeline(kernel.as_ref(), &uniforms)?;
             scene |= src.scene;
@@ -902,13 +927,20 @@ impl GpuBackend {
             self.scene_buffers(job.scene)?;
         }
         let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+        if kernel.host() {
+            let (counters, start) = (Counters::default(), Instant::now());
+            let out = crate::cpu::run_pass(job, pass, inputs, &counters)?;
+            return Ok((out, DispatchTime { seconds: start.elapsed().as_secs_f64(), from_timestamps: false }, counters.snapshot()));
+        }
         let pixels = job.width as usize * job.height as usize;
+        let elements = |id: BufferId| pixels * job.schedule.buffers.get(id.0).map_or(1, |b| b.layers as usize);
         let mut bufs = Vec::new();
         let mut outs = Vec::new();
         for b in kernel.bindings() {
             let buf = match b.access {
                 Access::Read => match pass.read(b.name) {
                     Some(id) => {
+                        let pixels = elements(id);
                         let data = inputs.get(&id).ok_or_else(|| BackendError::Binding {
                             pass: pass.name.clone(),
                             binding: b.name.to_string(),
@@ -926,9 +958,9 @@ impl GpuBackend {
                     None => None,
                 },
                 Access::Write => match pass.write(b.name) {
-                    Some(_) => {
-                        let buf = self.storage(b.name, (pixels * b.format.components() * 4) as u64)?;
-                        outs.push((b.name.to_string(), b.format, buf.clone()));
+                    Some(id) => {
+                        let buf = self.storage(b.name, (elements(id) * b.format.components() * 4) as u64)?;
+                        outs.push((b.name.to_string(), b.format, buf.clone(), elements(id)));
                         Some(buf)
                     }
                     None => None,
@@ -938,8 +970,8 @@ impl GpuBackend {
         }
         let (time, rays, _, _) = self.dispatch(job, pass, &bufs)?;
         let mut out = BTreeMap::new();
-        for (name, format, buf) in outs {
-            let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, pixels)?;
+        for (name, format, buf, elements) in outs {
+            let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, elements)?;
             out.insert(name, data);
         }
         Ok((out, time, rays))
@@ -947,6 +979,48 @@ impl GpuBackend {
 }
 
 impl GpuBackend {
+    /// A [`Kernel::host`] pass inside a run: its inputs read back from their pool slots, the CPU
+    /// implementation run, its outputs written into their slots.
+    fn run_host_pass(
+        &mut self,
+        job: &Job<'_>,
+        pass: &Pass,
+        slots: &mut [Option<wgpu::Buffer>],
+        holder: &mut [Option<BufferId>],
+        allocations: &mut usize,
+    ) -> Result<PassTiming, BackendError> {
+        let (sched, start) = (job.schedule, Instant::now());
+        let pixels = job.width as usize * job.height as usize;
+        let slot_of = |id: BufferId| sched.slots[id.0].ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)));
+        let mut data = BTreeMap::new();
+        for (_, id) in &pass.reads {
+            let slot = slot_of(*id)?;
+            let (Some(buf), true) = (&slots[slot], holder[slot] == Some(*id)) else {
+                return Err(BackendError::Other(format!("pass `{}` reads `{}` after its storage was reused (pool plan bug)", pass.name, sched.buffers[id.0].name)));
+            };
+            let info = &sched.buffers[id.0];
+            data.insert(*id, self.read_buffer(&format!("reading `{}` for host pass `{}`", info.name, pass.name), buf, info.format, pixels * info.layers as usize)?);
+        }
+        let inputs: BTreeMap<BufferId, &BufferData> = data.iter().map(|(k, v)| (*k, v)).collect();
+        let counters = Counters::default();
+        let out = crate::cpu::run_pass(job, pass, &inputs, &counters)?;
+        for (binding, d) in out {
+            let id = pass.write(&binding).expect("bound");
+            let slot = slot_of(id)?;
+            let bytes = to_bytes(&d);
+            match &slots[slot] {
+                Some(buf) => self.queue.write_buffer(buf, 0, &bytes),
+                None => {
+                    slots[slot] = Some(self.storage_init(&sched.buffers[id.0].name, &bytes)?);
+                    *allocations += 1;
+                }
+            }
+            holder[slot] = Some(id);
+        }
+        let kernel = job.kernels.get(&pass.kernel).expect("checked");
+        Ok(PassTiming { pass: pass.name.clone(), kernel: pass.kernel.clone(), class: kernel.class(), seconds: start.elapsed().as_secs_f64(), counts: counters.snapshot() })
+    }
+
     /// Run one kernel outside any pipeline: `inputs` by binding name, `params` as its parameter block.
     /// Returns every bound write binding. For tests and user crates trying out a kernel's WGSL
     /// (e.g. the RNG bit-exactness test runs a tiny WGSL kernel through this).
@@ -1006,6 +1080,12 @@ impl Backend for GpuBackend {
         }
         for pass in &passes {
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
+            if kernel.host() {
+                let t = self.run_host_pass(job, pass, &mut slots, &mut holder, &mut allocations)?;
+                rays.add(&t.counts);
+                timings.push(t);
+                continue;
+            }
             let mut bufs = Vec::new();
             for b in kernel.bindings() {
                 let id = match b.access {
@@ -1028,8 +1108,8 @@ impl Backend for GpuBackend {
                     }
                     Access::Write => {
                         if slots[slot].is_none() {
-                            let f = sched.slot_formats[slot];
-                            slots[slot] = Some(self.storage(&format!("pool slot {slot} ({f})"), (pixels * f.components() * 4) as u64)?);
+                            let (f, n) = (sched.slot_formats[slot], sched.slot_layers[slot] as usize);
+                            slots[slot] = Some(self.storage(&format!("pool slot {slot} ({f})"), (pixels * n * f.components() * 4) as u64)?);
                             allocations += 1;
                         }
                         holder[slot] = Some(id);
@@ -1057,7 +1137,7 @@ impl Backend for GpuBackend {
             let slot = sched.slots[id.0].ok_or_else(|| gpu_err("sink buffer has no slot"))?;
             match (&slots[slot], holder[slot]) {
                 (Some(buf), Some(h)) if h == *id => {
-                    let data = self.read_buffer(&format!("reading `{node}.{port}`"), buf, sched.buffers[id.0].format, pixels)?;
+                    let data = self.read_buffer(&format!("reading `{node}.{port}`"), buf, sched.buffers[id.0].format, pixels * sched.buffers[id.0].layers as usize)?;
                     outputs.insert((node.clone(), port.clone()), data);
                 }
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
@@ -1069,7 +1149,8 @@ impl Backend for GpuBackend {
             match (&slots[slot], holder[slot]) {
                 (Some(buf), Some(held)) if held == h.source => {
                     let name = &sched.buffers[h.source.0].name;
-                    next.insert(h.buffer, self.read_buffer(&format!("reading `{name}`"), buf, sched.buffers[h.source.0].format, pixels)?);
+                    let info = &sched.buffers[h.source.0];
+                    next.insert(h.buffer, self.read_buffer(&format!("reading `{name}`"), buf, info.format, pixels * info.layers as usize)?);
                 }
                 _ => return Err(BackendError::Other(format!("`{}` was overwritten before the run ended", sched.buffers[h.source.0].name))),
             }

@@ -286,10 +286,10 @@ pub fn trace_path_split(
     rays: &mut PathRays,
 ) -> (Vec3, Vec3, Option<f32>) {
     let side = if wi.dot(n) >= 0.0 { 1.0 } else { -1.0 };
-    let mut origin = x + n * (side * p.eps);
-    let mut dir = wi;
+    let origin = x + n * (side * p.eps);
+    let dir = wi;
     rays.secondary += 1;
-    let Some(mut hit) = scene.intersect(origin, dir, 0.0, f32::INFINITY) else {
+    let Some(hit) = scene.intersect(origin, dir, 0.0, f32::INFINITY) else {
         return (Vec3::ZERO, Vec3::ZERO, None);
     };
     let first = hit.t;
@@ -298,6 +298,26 @@ pub fn trace_path_split(
         let inside = p.max_distance <= 0.0 || first <= p.max_distance;
         return if inside { (Vec3::ONE, Vec3::ZERO, Some(first)) } else { (Vec3::ZERO, Vec3::ZERO, None) };
     }
+    let (radiance, caustic) = path_from_hit(scene, p, hit, origin, dir, rng, sample, rays);
+    (radiance, caustic, Some(first))
+}
+
+/// The radiance a path brings back from its first hit `hit` (of the ray `origin + t·dir`) toward
+/// the ray's origin: next-event estimation at each of `p.bounces` vertices, continued by the
+/// vertex's lobe mixture — [`trace_path_split`]'s radiance and caustic part after its first ray
+/// (which the light-field sampler traces itself, to keep the hit as a sample).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn path_from_hit(
+    scene: &SceneAt<'_>,
+    p: &PathParams,
+    mut hit: wedge_scene::Hit,
+    mut origin: Vec3,
+    mut dir: Vec3,
+    rng: &PixelRng,
+    sample: u32,
+    rays: &mut PathRays,
+) -> (Vec3, Vec3) {
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
     let mut caustic = Vec3::ZERO;
@@ -340,7 +360,7 @@ pub fn trace_path_split(
             None => break,
         }
     }
-    (radiance, caustic, Some(first))
+    (radiance, caustic)
 }
 
 pub struct IndirectSample;

@@ -1,0 +1,134 @@
+//! `LightField`: visibility-aware reconstruction of the indirect light field (issue 17; Lehtinen,
+//! Aila, Laine, Durand 2012, `seeds/001_2d3ed232e6777e89.txt`; EQUATIONS.md "Light-field
+//! reconstruction"). Where `Indirect` blurs each pixel's estimate with an axis-aligned filter, this
+//! node keeps every secondary ray as a sample of the incident light field, turns the samples into
+//! splats sized by a bandwidth-aware k-NN and shrunk against the input rays, and integrates each
+//! pixel's BRDF with many reconstruction rays through that point-sampled scene (eq. 3). Direct
+//! light is not included (Sec. 2): pair it with a direct-light node and an `Add`, as `Indirect`.
+//!
+//! Passes (kernels in `wedge_backends::kernels::light_field`):
+//! 1. `sample` (random, reference role `Sample`): `spp` secondary rays per primary hit, kept as
+//!    per-sample records (a buffer of `spp` layers), and their plain Monte Carlo estimate;
+//! 2. `splats` (Bandwidth, a host kernel on every backend): k-NN radii (Sec. 2.2), the splat BVH,
+//!    consistency shrinking (Sec. 2.3.1);
+//! 3. `reconstruct` (Filter, random, bypassed to the plain estimate in references): `rays`
+//!    reconstruction rays per pixel (Secs. 2.3.2–2.5).
+//!
+//! `mode: "ao"` is the ambient-occlusion variant (Sec. 3.3): the radiance filter is bypassed and a
+//! reconstruction ray is occluded where its nearest apparent surface lies within `max_distance`;
+//! the image is the occluded fraction, as `Indirect`'s AO mode (bright = occluded).
+
+use wedge_backends::kernels::light_field::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+
+pub struct LightField;
+
+/// Paper defaults (Secs. 2.2, 2.5): `k = 12`, `α = 3`; 8 input samples per pixel (Figs. 1, 7, 9).
+pub const DEFAULT_SPP: i64 = 8;
+pub const DEFAULT_K: i64 = 12;
+pub const DEFAULT_ALPHA: f64 = 3.0;
+/// Reconstruction rays per pixel: the paper uses 256–512; 64 keeps a 320×240 preview fast.
+pub const DEFAULT_RAYS: i64 = 64;
+
+impl NodeKind for LightField {
+    fn kind(&self) -> &'static str {
+        "LightField"
+    }
+    fn doc(&self) -> &'static str {
+        "Visibility-aware reconstruction of the indirect light field (Lehtinen et al. 2012): secondary rays as splats, many reconstruction rays per pixel; indirect light or ambient occlusion"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("position", Format::Vec4, "from Primary"),
+            PortDecl::new("normal", Format::Vec4, "from Primary"),
+            PortDecl::optional("albedo", Format::Vec3, "k_d of the primary hit (eq. 3's BRDF); white if absent"),
+            PortDecl::optional("specular", Format::Vec4, "k_s and Phong exponent (w) of the primary hit; no glossy lobe if absent"),
+        ]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![
+            PortDecl::new("radiance", Format::Vec3, "reconstructed indirect light (eq. 3); AO mode: the occluded fraction"),
+            PortDecl::new("unfiltered", Format::Vec3, "the plain Monte Carlo estimate of the same input rays"),
+            PortDecl::new("splat_radius", Format::F32, "mean splat radius (world units) of the pixel's input samples, after shrinking"),
+            PortDecl::new("rays_per_pixel", Format::U32, "input secondary rays (paths) per pixel"),
+        ]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![
+            ParamDecl::int("spp", DEFAULT_SPP, 1, 16, "input secondary rays per pixel, each kept as a sample (paper: 1-16)"),
+            ParamDecl::int("rays", DEFAULT_RAYS, 1, 1 << 14, "reconstruction rays per pixel, N of eq. 3 (paper: 256-512)"),
+            ParamDecl::int("k", DEFAULT_K, 1, 256, "the k of the splat-radius k-NN search (Sec. 2.2)"),
+            ParamDecl::float("alpha", DEFAULT_ALPHA, 1.0, 1e3, "k-NN metric: offsets along the normal count alpha times (Sec. 2.2)"),
+            ParamDecl::boolean("angular", true, "use each sample's angular bandwidth kappa (eq. 2); false treats every surface as diffuse (Fig. 10's ablation)"),
+            ParamDecl::boolean("shrink", true, "shrink splats that block input rays (Sec. 2.3.1)"),
+            ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
+            ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),
+            ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
+            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m"),
+        ]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let position = ctx.required("position")?;
+        let normal = ctx.required("normal")?;
+        let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
+        let (albedo, specular) = if ao { (None, None) } else { (ctx.input("albedo"), ctx.input("specular")) };
+        let spp = ctx.param("spp").as_count().unwrap_or(1);
+
+        // 1. The input samples.
+        let samples = ctx.layered_buffer("samples", Format::Struct(&LIGHT_SAMPLE), spp);
+        let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
+        ctx.pass("sample", "light_field.sample", Stage::Sample)
+            .read("position", position)
+            .read("normal", normal)
+            .read_opt("albedo", albedo)
+            .read_opt("specular", specular)
+            .write("samples", samples)
+            .write("unfiltered", unfiltered)
+            .int("count", i64::from(spp))
+            .node_params(&["mode", "max_distance", "bounces", "brdf", "angular"])
+            .random()
+            .reference(Reference::Sample)
+            .finish();
+
+        // Input rays per pixel: spp (a reference's N).
+        let rays = ctx.buffer("rays_per_pixel", Format::U32);
+        ctx.pass("rays", "fill.constant", Stage::Bandwidth).write("out", rays).int("value", i64::from(spp)).reference(Reference::Count).finish();
+
+        // 2. Splats and their tree (a BVH2 over n splats has at most 2n − 1 nodes).
+        let splats = ctx.layered_buffer("splats", Format::Struct(&SPLAT), spp);
+        let nodes = ctx.layered_buffer("nodes", Format::Struct(&SPLAT_NODE), 2 * spp);
+        let splat_radius = ctx.buffer("splat_radius", Format::F32);
+        let primary = ctx.buffer("primary", Format::Struct(&LIGHT_PRIMARY));
+        ctx.pass("splats", "light_field.splats", Stage::Bandwidth)
+            .read("samples", samples)
+            .read("position", position)
+            .read("normal", normal)
+            .read_opt("albedo", albedo)
+            .read_opt("specular", specular)
+            .write("primary", primary)
+            .write("splats", splats)
+            .write("nodes", nodes)
+            .write("splat_radius", splat_radius)
+            .node_params(&["k", "alpha", "shrink"])
+            .finish();
+
+        // 3. Reconstruction rays.
+        let radiance = ctx.buffer("radiance", Format::Vec3);
+        ctx.pass("reconstruct", "light_field.reconstruct", Stage::Filter)
+            .read("primary", primary)
+            .read("splats", splats)
+            .read("nodes", nodes)
+            .read("unfiltered", unfiltered)
+            .write("radiance", radiance)
+            .node_params(&["rays", "mode", "max_distance", "bounces", "brdf"])
+            .random()
+            .reference(Reference::Bypass { input: "unfiltered" })
+            .finish();
+
+        ctx.output("radiance", radiance);
+        ctx.output("unfiltered", unfiltered);
+        ctx.output("splat_radius", splat_radius);
+        ctx.output("rays_per_pixel", rays);
+        Ok(())
+    }
+}
