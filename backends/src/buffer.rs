@@ -167,6 +167,54 @@ pub trait Record: bytemuck::Pod + Default + Send + Sync + 'static {
     const LAYOUT: &'static StructLayout;
 }
 
+/// Declare a record struct and its [`StructLayout`] from one field list, so the Rust view and the
+/// layout the GPU and parity read can never drift apart:
+///
+/// ```ignore
+/// wedge_backends::record! {
+///     /// Doc of the struct.
+///     pub struct LightSplat / LIGHT_SPLAT {
+///         centre: vec3,
+///         radius: f32,
+///         flags: u32,
+///     }
+/// }
+/// ```
+///
+/// makes `#[repr(C)] pub struct LightSplat { pub centre: [f32; 3], pub radius: f32, pub flags: u32 }`
+/// (`Pod`, `Default`, …; a user crate needs `bytemuck` with `derive`), `pub static LIGHT_SPLAT:
+/// StructLayout` named `"LightSplat"` with the same fields, and `impl Record for LightSplat`. Field
+/// types: `f32`, `u32`, `vec2`, `vec3`, `vec4`.
+#[macro_export]
+macro_rules! record {
+    ($(#[$meta:meta])* pub struct $name:ident / $layout:ident { $($(#[$fmeta:meta])* $field:ident : $ty:ident),* $(,)? }) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name {
+            $($(#[$fmeta])* pub $field: $crate::record!(@rust $ty)),*
+        }
+        #[doc = concat!("The layout of [`", stringify!($name), "`].")]
+        pub static $layout: $crate::__graph::StructLayout = $crate::__graph::StructLayout {
+            name: stringify!($name),
+            fields: &[$($crate::__graph::Field::new(stringify!($field), $crate::record!(@field $ty))),*],
+        };
+        impl $crate::buffer::Record for $name {
+            const LAYOUT: &'static $crate::__graph::StructLayout = &$layout;
+        }
+    };
+    (@rust f32) => { f32 };
+    (@rust u32) => { u32 };
+    (@rust vec2) => { [f32; 2] };
+    (@rust vec3) => { [f32; 3] };
+    (@rust vec4) => { [f32; 4] };
+    (@field f32) => { $crate::__graph::FieldType::F32 };
+    (@field u32) => { $crate::__graph::FieldType::U32 };
+    (@field vec2) => { $crate::__graph::FieldType::Vec2 };
+    (@field vec3) => { $crate::__graph::FieldType::Vec3 };
+    (@field vec4) => { $crate::__graph::FieldType::Vec4 };
+}
+
 /// Whether `R`'s size is the layout's words.
 pub fn record_matches<R: Record>() -> bool {
     std::mem::size_of::<R>() == 4 * R::LAYOUT.words() && std::mem::align_of::<R>() <= 4

@@ -29,6 +29,9 @@ pub mod sobol;
 use std::collections::BTreeMap;
 
 pub use buffer::{BufferData, Texel};
+// For `record!` expansions in other crates.
+#[doc(hidden)]
+pub use wedge_graph as __graph;
 pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
     UniformType, Uniforms, WgslSource,

@@ -27,6 +27,9 @@ pub struct LightField;
 pub const DEFAULT_SPP: i64 = 8;
 pub const DEFAULT_K: i64 = 12;
 pub const DEFAULT_ALPHA: f64 = 3.0;
+/// A glossy splat's radius cap, in units of its spatial-only k-NN radius (docs/DESIGN-NOTES.md
+/// "Light-field reconstruction": measured on `cornell` and `suite_glossy`).
+pub const DEFAULT_GLOSSY_CAP: f64 = 4.0;
 /// Reconstruction rays per pixel: the paper uses 256–512; 64 keeps a 320×240 preview fast.
 pub const DEFAULT_RAYS: i64 = 64;
 
@@ -59,6 +62,7 @@ impl NodeKind for LightField {
             ParamDecl::int("rays", DEFAULT_RAYS, 1, 1 << 14, "reconstruction rays per pixel, N of eq. 3 (paper: 256-512)"),
             ParamDecl::int("k", DEFAULT_K, 1, 256, "the k of the splat-radius k-NN search (Sec. 2.2)"),
             ParamDecl::float("alpha", DEFAULT_ALPHA, 1.0, 1e3, "k-NN metric: offsets along the normal count alpha times (Sec. 2.2)"),
+            ParamDecl::float("glossy_cap", DEFAULT_GLOSSY_CAP, 1.0, f64::from(f32::MAX), "a glossy splat's radius is at most this many times its spatial-only k-NN radius (a large number: the paper's unbounded search)"),
             ParamDecl::boolean("angular", true, "use each sample's angular bandwidth kappa (eq. 2); false treats every surface as diffuse (Fig. 10's ablation)"),
             ParamDecl::boolean("shrink", true, "shrink splats that block input rays (Sec. 2.3.1)"),
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
@@ -92,7 +96,7 @@ impl NodeKind for LightField {
 
         // Input rays per pixel: spp (a reference's N).
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
-        ctx.pass("rays", "fill.constant", Stage::Bandwidth).write("out", rays).int("value", i64::from(spp)).reference(Reference::Count).finish();
+        ctx.pass("rays", "fill.constant", Stage::Sample).write("out", rays).int("value", i64::from(spp)).reference(Reference::Count).finish();
 
         // 2. Splats and their tree (a BVH2 over n splats has at most 2n − 1 nodes).
         let splats = ctx.layered_buffer("splats", Format::Struct(&SPLAT), spp);
@@ -109,7 +113,7 @@ impl NodeKind for LightField {
             .write("splats", splats)
             .write("nodes", nodes)
             .write("splat_radius", splat_radius)
-            .node_params(&["k", "alpha", "shrink"])
+            .node_params(&["k", "alpha", "glossy_cap", "shrink"])
             .finish();
 
         // 3. Reconstruction rays.

@@ -28,9 +28,9 @@
 //! per pixel, `nodes` `2·spp` (a BVH2 over `n` splats has at most `2n − 1` nodes).
 
 use glam::{Vec2, Vec3};
-use wedge_graph::{Field, FieldType, Format, StructLayout};
+use wedge_graph::Format;
 
-use crate::buffer::Record;
+use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::hemisphere::{sample_diffuse, Lobe};
@@ -44,10 +44,6 @@ pub mod splats;
 
 pub use reconstruct::STACK_SIZE;
 
-const fn f(name: &'static str, ty: FieldType) -> Field {
-    Field::new(name, ty)
-}
-
 /// `flags` of a [`LightSample`]: no sample (the camera ray left the scene, or past `count`).
 pub const SAMPLE_NONE: u32 = 0;
 /// A secondary ray that hit a surface: a splat.
@@ -55,127 +51,62 @@ pub const SAMPLE_HIT: u32 = 1;
 /// A secondary ray that left the scene: no splat, but shrinking retraces it to infinity.
 pub const SAMPLE_ESCAPED: u32 = 2;
 
-/// One stored input sample (18 words; Sec. 2.1's tuple without lens, time and motion vectors,
-/// which wedge's pinhole G-buffer does not have).
-pub static LIGHT_SAMPLE: StructLayout = StructLayout {
-    name: "LightSample",
-    fields: &[
-        f("origin", FieldType::Vec3),
-        f("flags", FieldType::U32),
-        f("hit", FieldType::Vec3),
-        f("distance", FieldType::F32),
-        f("normal", FieldType::Vec3),
-        f("kappa", FieldType::F32),
-        f("direction", FieldType::Vec3),
-        f("radiance", FieldType::Vec3),
-    ],
-};
-
-/// [`LIGHT_SAMPLE`] in Rust: `origin` is where the ray started (the primary hit, offset along its
-/// normal), `distance` the ray parameter of `hit` (unit `direction`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LightSample {
-    pub origin: [f32; 3],
-    pub flags: u32,
-    pub hit: [f32; 3],
-    pub distance: f32,
-    pub normal: [f32; 3],
-    pub kappa: f32,
-    pub direction: [f32; 3],
-    pub radiance: [f32; 3],
+record! {
+    /// One stored input sample (18 words; Sec. 2.1's tuple without lens, time and motion vectors,
+    /// which wedge's pinhole G-buffer does not have): `origin` is where the ray started (the primary
+    /// hit, offset along its normal), `distance` the ray parameter of `hit` (unit `direction`).
+    pub struct LightSample / LIGHT_SAMPLE {
+        origin: vec3,
+        flags: u32,
+        hit: vec3,
+        distance: f32,
+        normal: vec3,
+        kappa: f32,
+        direction: vec3,
+        radiance: vec3,
+    }
 }
 
-impl Record for LightSample {
-    const LAYOUT: &'static StructLayout = &LIGHT_SAMPLE;
+record! {
+    /// One splat (16 words): a disk of `radius` at `centre` (a hit point) on the plane of `normal`,
+    /// with its sample's `κ`, direction and radiance; `sample` = its input sample's index
+    /// (`pixel·spp + s`), `flags` = 1 for a splat, 0 for an unused slot.
+    pub struct Splat / SPLAT {
+        centre: vec3,
+        radius: f32,
+        normal: vec3,
+        kappa: f32,
+        direction: vec3,
+        sample: u32,
+        radiance: vec3,
+        flags: u32,
+    }
 }
 
-/// One splat (16 words): a disk of `radius` at `centre` (a hit point) on the plane of `normal`,
-/// with its sample's `κ`, direction and radiance; `sample` = its input sample's index
-/// (`pixel·spp + s`), `flags` = 1 for a splat, 0 for an unused slot.
-pub static SPLAT: StructLayout = StructLayout {
-    name: "Splat",
-    fields: &[
-        f("centre", FieldType::Vec3),
-        f("radius", FieldType::F32),
-        f("normal", FieldType::Vec3),
-        f("kappa", FieldType::F32),
-        f("direction", FieldType::Vec3),
-        f("sample", FieldType::U32),
-        f("radiance", FieldType::Vec3),
-        f("flags", FieldType::U32),
-    ],
-};
-
-/// [`SPLAT`] in Rust.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Splat {
-    pub centre: [f32; 3],
-    pub radius: f32,
-    pub normal: [f32; 3],
-    pub kappa: f32,
-    pub direction: [f32; 3],
-    pub sample: u32,
-    pub radiance: [f32; 3],
-    pub flags: u32,
+record! {
+    /// One node of the splat BVH2 (8 words, obvhs's `Bvh2Node` layout): `count == 0` = inner node
+    /// with children at `index` and `index + 1`; else a leaf of splats `index..index + count`. Node 0
+    /// is the root.
+    pub struct SplatNode / SPLAT_NODE {
+        min: vec3,
+        count: u32,
+        max: vec3,
+        index: u32,
+    }
 }
 
-impl Record for Splat {
-    const LAYOUT: &'static StructLayout = &SPLAT;
-}
-
-/// One node of the splat BVH2 (8 words, obvhs's `Bvh2Node` layout): `count == 0` = inner node
-/// with children at `index` and `index + 1`; else a leaf of splats `index..index + count`. Node 0 is
-/// the root.
-pub static SPLAT_NODE: StructLayout = StructLayout {
-    name: "SplatNode",
-    fields: &[f("min", FieldType::Vec3), f("count", FieldType::U32), f("max", FieldType::Vec3), f("index", FieldType::U32)],
-};
-
-/// [`SPLAT_NODE`] in Rust.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct SplatNode {
-    pub min: [f32; 3],
-    pub count: u32,
-    pub max: [f32; 3],
-    pub index: u32,
-}
-
-impl Record for SplatNode {
-    const LAYOUT: &'static StructLayout = &SPLAT_NODE;
-}
-
-/// A pixel's primary hit as the reconstruction reads it (14 words; `valid` = 0: no surface),
-/// written by the host pass from the G-buffer so `light_field.reconstruct` binds one buffer for it
-/// (WebGPU's 8 storage buffers per stage).
-pub static LIGHT_PRIMARY: StructLayout = StructLayout {
-    name: "LightPrimary",
-    fields: &[
-        f("position", FieldType::Vec3),
-        f("valid", FieldType::U32),
-        f("normal", FieldType::Vec3),
-        f("m", FieldType::F32),
-        f("kd", FieldType::Vec3),
-        f("ks", FieldType::Vec3),
-    ],
-};
-
-/// [`LIGHT_PRIMARY`] in Rust.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LightPrimary {
-    pub position: [f32; 3],
-    pub valid: u32,
-    pub normal: [f32; 3],
-    pub m: f32,
-    pub kd: [f32; 3],
-    pub ks: [f32; 3],
-}
-
-impl Record for LightPrimary {
-    const LAYOUT: &'static StructLayout = &LIGHT_PRIMARY;
+record! {
+    /// A pixel's primary hit as the reconstruction reads it (14 words; `valid` = 0: no surface),
+    /// written by the host pass from the G-buffer so `light_field.reconstruct` binds one buffer for
+    /// it (WebGPU's 8 storage buffers per stage).
+    pub struct LightPrimary / LIGHT_PRIMARY {
+        position: vec3,
+        valid: u32,
+        normal: vec3,
+        m: f32,
+        kd: vec3,
+        ks: vec3,
+    }
 }
 
 impl LightPrimary {
@@ -458,7 +389,11 @@ fn knn_settings(ctx: &KernelCtx<'_>) -> Result<splats::KnnSettings, BackendError
     if !(alpha >= 1.0 && alpha.is_finite()) {
         return Err(ctx.err(format!("`alpha` = {alpha} must be a finite number ≥ 1")));
     }
-    Ok(splats::KnnSettings { k: k as u32, alpha })
+    let glossy_cap = ctx.f32_param("glossy_cap")?;
+    if !(glossy_cap >= 1.0) {
+        return Err(ctx.err(format!("`glossy_cap` = {glossy_cap} must be ≥ 1 (0 or less: no cap is written as a large number)")));
+    }
+    Ok(splats::KnnSettings { k: k as u32, alpha, glossy_cap })
 }
 
 impl Kernel for LightFieldSplats {

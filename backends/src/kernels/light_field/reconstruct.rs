@@ -91,7 +91,7 @@ pub fn disk_hit(s: &Splat, o: Vec3, d: Vec3, t_min: f32, t_max: f32, scale: f32)
 
 /// The slab test of a node's box: whether the ray enters it before `t_max` (and after `t_min`).
 #[inline]
-fn box_entered(n: &SplatNode, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
+pub(crate) fn box_entered(n: &SplatNode, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
     let t0 = (Vec3::from(n.min) - o) * inv_d;
     let t1 = (Vec3::from(n.max) - o) * inv_d;
     let near = t0.min(t1).max_element().max(t_min);

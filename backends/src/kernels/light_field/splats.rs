@@ -23,7 +23,7 @@ use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
-use super::reconstruct::disk_hit;
+use super::reconstruct::{box_entered, disk_hit};
 use super::{Splat, SplatNode, STACK_SIZE};
 
 /// The k-NN settings (Sec. 2.2; paper: `k = 12`, `α = 3`).
@@ -31,6 +31,9 @@ use super::{Splat, SplatNode, STACK_SIZE};
 pub struct KnnSettings {
     pub k: u32,
     pub alpha: f32,
+    /// A glossy sample's radius is at most this many times its spatial-only k-NN radius (∞: the
+    /// paper's unbounded search; see [`knn_radii`]).
+    pub glossy_cap: f32,
 }
 
 /// A shrunk splat's radius is this fraction of the distance to the crossing it must avoid.
@@ -70,7 +73,13 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
         return vec![0.0; n];
     };
     let spatial = |i: usize| {
-        knn_search(splats, i, splats[i].kappa, s, n, 0.0, |want| {
+        knn_search(splats, i, splats[i].kappa, s, n, 0.0, f32::INFINITY, |want| {
+            tree3.query(&splats[i].centre).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
+        })
+    };
+    // The same search without the angular test (a glossy sample's cap).
+    let spatial_only = |i: usize| {
+        knn_search(splats, i, 0.0, s, n, 0.0, f32::INFINITY, |want| {
             tree3.query(&splats[i].centre).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
         })
     };
@@ -91,9 +100,7 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
         v.get(v.len() / 2).copied().unwrap_or(0.0)
     };
     let typical = if diffuse.is_empty() {
-        median(glossy.iter().step_by((glossy.len() / 64).max(1)).map(|&i| knn_search(splats, i, 0.0, s, n, 0.0, |want| {
-            tree3.query(&splats[i].centre).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
-        })).collect())
+        median(glossy.iter().step_by((glossy.len() / 64).max(1)).map(|&i| spatial_only(i)).collect())
     } else {
         median(diffuse.iter().map(|&i| radii[i]).collect())
     };
@@ -112,7 +119,8 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
             // Not retrieved ⇒ 6-D distance² ≥ reach² ⇒ if it qualifies (|Δω|² ≤ 2 ln2/κ), its
             // spatial distance² ≥ reach² − s²·2 ln2/κ.
             let slack = scale * scale * 2.0 * std::f32::consts::LN_2 / splats[i].kappa;
-            knn_search(splats, i, splats[i].kappa, s, n, slack, |want| {
+            let cap = if s.glossy_cap.is_finite() { s.glossy_cap * spatial_only(i) } else { f32::INFINITY };
+            knn_search(splats, i, splats[i].kappa, s, n, slack, cap, |want| {
                 tree6.query(&points6[i]).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
             })
         })
@@ -129,7 +137,7 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
 /// `slack`; `kappa` is the `κ` of its angular test (0: none). Widens (×4) until the `k`-th qualifying metric distance is within the spatial reach of
 /// what was returned — exact, as the metric is never shorter than the spatial distance.
 #[allow(clippy::too_many_arguments)]
-fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, slack: f32, nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>) -> f32 {
+fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, slack: f32, cap: f32, nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>) -> f32 {
     let k = s.k as usize;
     let p = &splats[i];
     let (hi, ni, wi) = (Vec3::from(p.centre), Vec3::from(p.normal), Vec3::from(p.direction));
@@ -146,10 +154,13 @@ fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, 
         dist.sort_by(f32::total_cmp);
         let everything = want >= n;
         if dist.len() >= k && (dist[k - 1] <= reach || everything) {
-            return dist[k - 1];
+            return dist[k - 1].min(cap);
         }
         if everything {
-            return dist.last().copied().unwrap_or(0.0);
+            return dist.last().copied().unwrap_or(0.0).min(cap);
+        }
+        if reach >= cap {
+            return cap;
         }
         want = (want * 4).min(n);
     }
@@ -176,30 +187,33 @@ pub fn empty_node() -> SplatNode {
     SplatNode { min: [f32::MAX; 3], count: 0, max: [f32::MIN; 3], index: 0 }
 }
 
-/// Build the splat tree (obvhs BVH2, at most [`LEAF_SIZE`] splats per leaf) and reorder `splats`
-/// into leaf order. Deterministic (obvhs builds the same tree for the same boxes).
+/// Build the splat tree and reorder `splats` into leaf order: obvhs's BVH2 (PLOC, at most
+/// [`LEAF_SIZE`] splats per leaf); where that tree is too deep for the traversal stack (PLOC's
+/// depth is unbounded: overlapping wide glossy splats reached 74 levels on `suite_glossy`), a
+/// median-split tree (`wedge_scene::bvh::build::binary_median_boxes`, ≤ ⌈log2 n⌉ + 1 levels).
+/// Deterministic (both builders build the same tree for the same boxes).
 pub fn tree(splats: &mut Vec<Splat>) -> Vec<SplatNode> {
     if splats.is_empty() {
         return vec![empty_node()];
     }
-    let boxes: Vec<SplatBox> = splats
-        .iter()
-        .map(|s| {
-            let (lo, hi) = disk_box(s);
-            SplatBox(obvhs::aabb::Aabb::new(Vec3::from(lo).into(), Vec3::from(hi).into()))
-        })
-        .collect();
+    let boxes: Vec<([f32; 3], [f32; 3])> = splats.iter().map(disk_box).collect();
     let mut params = obvhs::BvhBuildParams::medium_build();
     params.max_prims_per_leaf = LEAF_SIZE;
     let mut core = std::time::Duration::ZERO;
-    let bvh = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut core);
-    let order: Vec<Splat> = bvh.primitive_indices.iter().map(|&i| splats[i as usize]).collect();
-    *splats = order;
+    let prims: Vec<SplatBox> = boxes.iter().map(|(lo, hi)| SplatBox(obvhs::aabb::Aabb::new(Vec3::from(*lo).into(), Vec3::from(*hi).into()))).collect();
+    let bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
     let mut nodes: Vec<SplatNode> = bvh
         .nodes
         .iter()
         .map(|n| SplatNode { min: Vec3::from(n.aabb.min).to_array(), count: n.prim_count, max: Vec3::from(n.aabb.max).to_array(), index: n.first_index })
         .collect();
+    let mut order = bvh.primitive_indices;
+    if depth(&nodes) >= STACK_SIZE {
+        let median = wedge_scene::bvh::build::binary_median_boxes(&boxes);
+        nodes = median.nodes.iter().map(|n| SplatNode { min: n.min, count: n.count, max: n.max, index: n.index }).collect();
+        order = median.order;
+    }
+    *splats = order.iter().map(|&i| splats[i as usize]).collect();
     refit(&mut nodes, splats);
     nodes
 }
@@ -285,9 +299,7 @@ pub fn blockers(nodes: &[SplatNode], splats: &[Splat], ray: &InputRay, t_min: f3
     while sp > 0 {
         sp -= 1;
         let node = &nodes[stack[sp] as usize];
-        let t0 = (Vec3::from(node.min) - ray.origin) * inv_d;
-        let t1 = (Vec3::from(node.max) - ray.origin) * inv_d;
-        if t0.min(t1).max_element().max(t_min) > t0.max(t1).min_element().min(t_max) {
+        if box_entered(node, ray.origin, inv_d, t_min, t_max).is_none() {
             continue;
         }
         if node.count == 0 {
@@ -368,7 +380,7 @@ mod tests {
                 v.push(sample(c, Vec3::new(0.1 * rnd(), 1.0, 0.0).normalize(), w, kappa));
             }
         }
-        let s = KnnSettings { k: 12, alpha: 3.0 };
+        let s = KnnSettings { k: 12, alpha: 3.0, glossy_cap: f32::INFINITY };
         let radii = knn_radii(&v, s);
         for i in (0..v.len()).step_by(7) {
             let p = &v[i];
@@ -406,7 +418,7 @@ mod tests {
                 v.push(sample(h, n, dir, 0.0));
             }
         }
-        let radii = knn_radii(&v, KnnSettings { k: 12, alpha: 3.0 });
+        let radii = knn_radii(&v, KnnSettings { k: 12, alpha: 3.0, glossy_cap: f32::INFINITY });
         for (s, r) in v.iter_mut().zip(&radii) {
             s.radius = *r;
         }
