@@ -16,9 +16,13 @@ struct Leave {
     weight: vec3<f32>, // f cos/pdf (1 for AO; 0 below the surface or for a black one)
 }
 
-// Sample `s` of `count` leaving the primary hit x (normal n, k_d, k_s, m, toward the eye wo).
-fn lf_leave(n: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, wo: vec3<f32>, key: u32, s: u32, count: u32) -> Leave {
-    let u = rng_stratified2(key, s, max(count, 1u), DIM_BSDF);
+// Sample `s` of `count` leaving the primary hit x (normal n, k_d, k_s, m, toward the eye wo), its
+// 2-D number stratified over the samples or independent.
+fn lf_leave(n: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, wo: vec3<f32>, key: u32, s: u32, count: u32, stratified: bool) -> Leave {
+    var u = rng_uniform2(key, s, DIM_BSDF);
+    if (stratified) {
+        u = rng_stratified2(key, s, max(count, 1u), DIM_BSDF);
+    }
     let choice = rng_uniform(key, s, LOBE_SELECT);
     let ao = params.ao != 0u;
     var mix = LobeMixture(false, 0.0, false);

@@ -271,7 +271,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let key = rng_key(frame.seed, pixel_id(gid), params.stream);
     var r = frame.chunk_begin;
     for (; r < end; r = r + 1u) {
-        let l = lf_leave(n, prim.kd, prim.ks, prim.m, wo, key, r, params.rays);
+        let l = lf_leave(n, prim.kd, prim.ks, prim.m, wo, key, r, params.rays, true);
         if (all(l.weight == vec3<f32>(0.0))) {
             continue;
         }

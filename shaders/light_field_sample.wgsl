@@ -56,7 +56,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var bad = 0u;
     var s = 0u;
     for (; s < params.count; s = s + 1u) {
-        let l = lf_leave(n, kd, spec.xyz, spec.w, wo, key, s, params.count);
+        let l = lf_leave(n, kd, spec.xyz, spec.w, wo, key, s, params.count, params.stratified != 0u);
         let side = select(-1.0, 1.0, dot3(l.wi, n) >= 0.0);
         let origin = x + n * (side * params.eps);
         rays_secondary = rays_secondary + 1u;

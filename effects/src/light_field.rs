@@ -89,14 +89,16 @@ impl NodeKind for LightField {
             .write("samples", samples)
             .write("unfiltered", unfiltered)
             .int("count", i64::from(spp))
+            .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(&["mode", "max_distance", "bounces", "brdf", "angular"])
             .random()
             .reference(Reference::Sample)
             .finish();
 
-        // Input rays per pixel: spp (a reference's N).
+        // Input rays per pixel: the constant spp (a diagnostic, like other nodes' ray counts: a
+        // reference does not hand it back).
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
-        ctx.pass("rays", "fill.constant", Stage::Sample).write("out", rays).int("value", i64::from(spp)).reference(Reference::Count).finish();
+        ctx.pass("rays", "fill.constant", Stage::Bandwidth).write("out", rays).int("value", i64::from(spp)).finish();
 
         // 2. Splats and their tree (a BVH2 over n splats has at most 2n − 1 nodes).
         let splats = ctx.layered_buffer("splats", Format::Struct(&SPLAT), spp);

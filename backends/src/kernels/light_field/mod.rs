@@ -177,11 +177,13 @@ impl<'a> GBuffer<'a> {
 }
 
 /// A direction leaving a primary hit (sample `s` of `count`): from its lobe mixture (cosine for AO
-/// or a black surface), the first direction stratified over the pass's samples, and the weight
-/// `f cos/pdf` of eq. 3 (1 for AO; 0 for a direction below the surface).
+/// or a black surface), its 2-D number stratified over the pass's samples (or independent: a
+/// reference's `sampling`), and the weight `f cos/pdf` of eq. 3 (1 for AO; 0 for a direction below
+/// the surface).
+#[allow(clippy::too_many_arguments)]
 #[inline]
-fn leave(p: &Primary, wo: Vec3, lobe: Lobe, ao: bool, rng: &PixelRng, s: u32, count: u32) -> (Vec3, Vec3) {
-    let u = Vec2::from(rng.stratified2(s, count.max(1), dim::BSDF));
+fn leave(p: &Primary, wo: Vec3, lobe: Lobe, ao: bool, rng: &PixelRng, s: u32, count: u32, stratified: bool) -> (Vec3, Vec3) {
+    let u = Vec2::from(if stratified { rng.stratified2(s, count.max(1), dim::BSDF) } else { rng.uniform2(s, dim::BSDF) });
     let (_, select) = continuation_numbers(rng, s, 0);
     let mix = if ao { None } else { lobe_mixture(p.kd, p.ks, p.m) };
     let Some(mix) = mix else {
@@ -239,6 +241,7 @@ impl Kernel for LightFieldSample {
                     .u32("count", ctx.int_param("count")?.max(0) as u32)
                     .u32("layers", ctx.layers("samples"))
                     .u32("angular", ctx.bool_param("angular")? as u32)
+                    .u32("stratified", ctx.stratified_param()? as u32)
                     .u32("stream", ctx.int_param("stream")? as u32)
                     .vec3("camera", ctx.scene.camera.position.to_array()))
             })
@@ -256,6 +259,7 @@ impl Kernel for LightFieldSample {
         let count = ctx.int_param("count")?.max(0) as u32;
         let layers = ctx.layers("samples");
         let angular = ctx.bool_param("angular")?;
+        let stratified = ctx.stratified_param()?;
         let stream = ctx.int_param("stream")? as u32;
         let (seed, width, camera) = (ctx.seed, ctx.width, ctx.scene.camera.position);
         let at = ctx.scene.at(0.0);
@@ -275,7 +279,7 @@ impl Kernel for LightFieldSample {
             let rng = PixelRng::new(seed, i as u32, stream);
             let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
             for s in 0..count {
-                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, s, count);
+                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, s, count, stratified);
                 let side = if wi.dot(prim.n) >= 0.0 { 1.0 } else { -1.0 };
                 let origin = prim.x + prim.n * (side * p.eps);
                 o.rays.secondary += 1;
@@ -526,7 +530,7 @@ impl Kernel for LightFieldReconstruct {
             let rng = PixelRng::new(seed, i as u32, stream);
             let mut sum = Vec3::ZERO;
             for r in 0..rays {
-                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, r, rays);
+                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, r, rays, true);
                 if weight == Vec3::ZERO {
                     continue;
                 }
