@@ -11,12 +11,13 @@
 //!   estimate of the very rays the reconstruction used), so the two differ only in reconstruction.
 //! - **Plain Monte Carlo at equal time**: the node's reference (`Session::reference`, stratified) at
 //!   1, 2, 4, … paths per pixel, its log-log error-vs-time curve interpolated at each LightField
-//!   time (the honest baseline: stratified, as `wedge bench`).
+//!   time (the honest baseline: stratified, as `wedge bench`); and **at equal error**: the paths per
+//!   pixel (and time) it needs for LightField's error (the paper: 8 input spp ≈ 512 spp, 18× faster).
 //! - **AAF**: the `Indirect` node (Mehta Ch. 4) at μ = 0.5, 1, 2, 4 on the same scene.
 //! - Memory per input sample (the stored record, its splat, its share of the tree).
 //!
 //! `WEDGE_BENCH_SIZE` (160x120), `WEDGE_BENCH_REF_SPP` (4096), `WEDGE_BENCH_RAYS` (64),
-//! `WEDGE_BENCH_PLOT_DIR` (target/). Without `--bench` (`cargo test --all-targets`): a smoke run at
+//! `WEDGE_BENCH_SCENE` (both cases on this scene instead), `WEDGE_BENCH_PLOT_DIR` (target/). Without `--bench` (`cargo test --all-targets`): a smoke run at
 //! 32×24 that checks it works without paying for the numbers.
 
 use std::path::{Path, PathBuf};
@@ -58,6 +59,12 @@ const CASES: [Case; 2] = [
     },
 ];
 
+/// The case's scene, or `WEDGE_BENCH_SCENE` (e.g. `builtin:heavy`, whose 409,604 triangles make
+/// paths expensive while the reconstruction's cost does not depend on the scene: the paper's point).
+fn scene(case: &Case) -> String {
+    std::env::var("WEDGE_BENCH_SCENE").unwrap_or_else(|_| case.scene.to_string())
+}
+
 fn text(case: &Case, kind: &str, params: &str) -> String {
     format!(
         r#"Pipeline(scene: "{}", width: 32, height: 24, seed: 1, nodes: [
@@ -65,7 +72,8 @@ fn text(case: &Case, kind: &str, params: &str) -> String {
     (name: "x", kind: "{kind}", params: {params}, inputs: {}),
     (name: "out", kind: "Output", inputs: {{"color": "x.radiance", "unfiltered": "x.unfiltered"}}),
 ])"#,
-        case.scene, case.inputs
+        scene(case),
+        case.inputs
     )
 }
 
@@ -94,12 +102,18 @@ fn pass_seconds(run: &RunResult, pass: &str) -> f64 {
     run.timings.iter().filter(|t| t.pass == pass).map(|t| t.seconds).sum()
 }
 
-/// relMSE of a log-log curve (time, error), sorted by time, interpolated at `t` (None outside it).
-fn at_time(curve: &[(f64, f64)], t: f64) -> Option<f64> {
-    curve.windows(2).find(|w| w[0].0 <= t && t <= w[1].0).map(|w| {
-        let f = (t.ln() - w[0].0.ln()) / (w[1].0.ln() - w[0].0.ln()).max(1e-12);
+/// A log-log curve of points `(x, y)` (sorted by `x`) interpolated at `x` (None outside it).
+fn at_time(curve: &[(f64, f64)], x: f64) -> Option<f64> {
+    curve.windows(2).find(|w| w[0].0 <= x && x <= w[1].0).map(|w| {
+        let f = (x.ln() - w[0].0.ln()) / (w[1].0.ln() - w[0].0.ln()).max(1e-12);
         (w[0].1.ln() + f * (w[1].1.ln() - w[0].1.ln())).exp()
     })
+}
+
+/// Where a decreasing log-log curve `(x, error)` reaches `error`: its `x` (None outside it).
+fn for_error(curve: &[(f64, f64)], error: f64) -> Option<f64> {
+    let flipped: Vec<(f64, f64)> = curve.iter().rev().map(|&(x, e)| (e, x)).collect();
+    at_time(&flipped, error)
 }
 
 fn main() {
@@ -122,10 +136,10 @@ fn main() {
         let start = std::time::Instant::now();
         let reference = session(&lf(1), &ov, Some(ref_spp)).run(&mut CpuBackend::new(), &Silent).expect("reference runs");
         let r = reference.output("color").expect("color").clone();
-        println!("\n## {} on {} {w}x{h} (reference: {ref_spp} paths/px, {:.1} s)\n", case.name, case.scene, start.elapsed().as_secs_f64());
+        println!("\n## {} on {} {w}x{h} (reference: {ref_spp} paths/px, {:.1} s)\n", case.name, scene(case), start.elapsed().as_secs_f64());
 
         // Plain Monte Carlo: the same estimator at 1, 2, 4, … paths per pixel.
-        let mut mc = Vec::new();
+        let (mut mc, mut mc_spp, mut mc_time_of_spp) = (Vec::new(), Vec::new(), Vec::new());
         let mut n = 1u32;
         println!("| plain MC paths/px | time (s) | relMSE |\n|---|---|---|");
         while n <= ref_spp / 4 {
@@ -133,14 +147,16 @@ fn main() {
             let (t, e) = (run.total_seconds(), rel_mse(run.output("color").expect("color"), &r));
             println!("| {n} | {t:.3} | {e:.5} |");
             mc.push((t, e));
+            mc_spp.push((f64::from(n), e));
+            mc_time_of_spp.push((f64::from(n), t));
             if smoke && n >= 4 {
                 break;
             }
             n *= 2;
         }
 
-        println!("\n| LightField spp | time (s) | sample | splats | reconstruct | relMSE | MC relMSE, equal rays | gain | MC relMSE, equal time | gain |");
-        println!("|---|---|---|---|---|---|---|---|---|---|");
+        println!("\n| LightField spp | time (s) | sample | splats | reconstruct | relMSE | MC relMSE, equal rays | gain | MC relMSE, equal time | gain | MC paths/px, equal error | MC time / LightField time, equal error |");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
         let mut points = Vec::new();
         for &spp in lf_spp {
             let run = session(&lf(spp), &ov, None).run(&mut CpuBackend::new(), &Silent).expect("LightField runs");
@@ -148,14 +164,18 @@ fn main() {
             let e = rel_mse(run.output("color").expect("color"), &r);
             let e_rays = rel_mse(run.output("unfiltered").expect("unfiltered"), &r);
             let e_time = at_time(&mc, t);
+            let spp_equal = for_error(&mc_spp, e);
+            let time_equal = spp_equal.and_then(|n| at_time(&mc_time_of_spp, n));
             println!(
-                "| {spp} | {t:.3} | {:.3} | {:.3} | {:.3} | {e:.5} | {e_rays:.5} | {:.1}× | {} | {} |",
+                "| {spp} | {t:.3} | {:.3} | {:.3} | {:.3} | {e:.5} | {e_rays:.5} | {:.1}× | {} | {} | {} | {} |",
                 pass_seconds(&run, "x.sample"),
                 pass_seconds(&run, "x.splats"),
                 pass_seconds(&run, "x.reconstruct"),
                 e_rays / e,
                 e_time.map_or("—".into(), |m| format!("{m:.5}")),
                 e_time.map_or("—".into(), |m| format!("{:.2}×", m / e)),
+                spp_equal.map_or("beyond the curve".into(), |n| format!("{n:.0}")),
+                time_equal.map_or("—".into(), |m| format!("{:.2}×", m / t)),
             );
             points.push((t, e));
         }
@@ -180,8 +200,9 @@ fn main() {
             Series { label: format!("LightField, {rays} reconstruction rays, spp 1-16"), color: [214, 39, 40], style: SeriesStyle::LinePoints, points },
             Series { label: "AAF (Indirect), mu 0.5-4".into(), color: [31, 119, 180], style: SeriesStyle::LinePoints, points: aaf_points },
         ];
-        let file = plot_dir.join(format!("light_field_{}.png", case.name.replace(' ', "_")));
-        let plot = Plot { title: format!("{} on {} {w}x{h}: relMSE vs time", case.name, case.scene), x_label: "seconds (CPU, passes)".into(), y_label: "relMSE vs reference".into(), series };
+        let scene_name = scene(case).trim_start_matches("builtin:").to_string();
+        let file = plot_dir.join(format!("light_field_{}_{scene_name}.png", case.name.replace(' ', "_")));
+        let plot = Plot { title: format!("{} on {} {w}x{h}: relMSE vs time", case.name, scene(case)), x_label: "seconds (CPU, passes)".into(), y_label: "relMSE vs reference".into(), series };
         write_plot(&file, &plot).expect("plot written");
         println!("\nwrote {}", file.display());
     }
