@@ -131,6 +131,11 @@ enum Command {
         /// With --suite: only these built-ins, comma-separated (e.g. grids,suite_grate).
         #[arg(long, value_name = "NAMES", value_delimiter = ',', requires = "suite")]
         suite_scenes: Vec<String>,
+        /// Measure another pipeline beside it (repeatable): on the bench's scene, size, seeds and
+        /// reference, in the same tables and plots (e.g. pipelines/lightfield_indirect.ron beside
+        /// pipelines/indirect.ron).
+        #[arg(long, value_name = "PIPELINE", conflicts_with = "suite")]
+        compare: Vec<PathBuf>,
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
         #[arg(long, value_parser = side_parser())]
@@ -704,9 +709,10 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
             }
         }
-        Command::Bench { pipeline, quick, scene, suite, suite_scenes, out, width, height, seed, reference_spp, memory_limit } => {
+        Command::Bench { pipeline, quick, scene, suite, suite_scenes, compare, out, width, height, seed, reference_spp, memory_limit } => {
             let opts = wedge::bench::BenchOptions {
                 quick,
+                compare,
                 scene,
                 width,
                 height,

@@ -242,3 +242,31 @@ fn bench_on_another_scene() {
     let report = std::fs::read_to_string(&r.report).unwrap();
     assert!(report.contains("Scene `suite_grate`"), "{report}");
 }
+
+/// `--compare`: a second pipeline for the same effect (LightField beside Indirect) is measured on
+/// the bench's scene and reference, with its own speedups, rows and plot series.
+#[test]
+fn compared_pipelines_share_the_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let opts = BenchOptions {
+        width: Some(32),
+        height: Some(24),
+        reference_spp: Some(32),
+        mu_values: Some(vec![1.0]),
+        baseline_spp: Some(vec![2, 8]),
+        compare: vec![root.join("pipelines/lightfield_indirect.ron")],
+        ..BenchOptions::new(root.join("pipelines/indirect.ron"), dir.path())
+    };
+    let r = run(&opts).expect("bench with a compared pipeline");
+    let compared: Vec<_> = r.runs.iter().filter(|x| x.method == Method::Compared).collect();
+    assert_eq!(compared.len(), 2, "one sweep run and its second seed");
+    let sweep = compared.iter().find(|x| x.role == Role::Sweep).unwrap();
+    assert_eq!(sweep.compared.as_deref(), Some("lightfield_indirect"));
+    assert_eq!(sweep.speedups.len(), 2, "against both baselines");
+    assert!(sweep.metrics.rmse.is_finite() && sweep.bias_variance.is_some());
+    let report = std::fs::read_to_string(&r.report).unwrap();
+    assert!(report.contains("| lightfield_indirect |"), "{report}");
+    let csv = std::fs::read_to_string(&r.csv).unwrap();
+    assert!(csv.lines().any(|l| l.starts_with("compared,sweep,lightfield_indirect")), "{csv}");
+}

@@ -13,6 +13,9 @@
 //! 5. files: `bench.csv`, `error_vs_rays.png`, `error_vs_time.png`, `report.md`, image crops and
 //!    the pipeline run's own outputs (heatmaps) under `pipeline/` ([`report`]).
 //!
+//! `--compare OTHER.ron` ([`BenchOptions::compare`]) adds another pipeline's sweep ([`Method::Compared`])
+//! on the same scene, size, seeds and reference, with its own speedups, in the same tables and plots.
+//!
 //! Everything comes from the pipeline file through [`Session`], so any effect pipeline whose
 //! scene the `MonteCarlo` node can render is benchmarked unchanged.
 //!
@@ -77,6 +80,9 @@ pub struct BenchOptions {
     pub scene: Option<String>,
     /// `mu` values of the sweep (default 0.5, 1, 2, 4; quick 1, 2). Ignored when no node declares `mu`.
     pub mu_values: Option<Vec<f64>>,
+    /// Other pipelines to measure beside it (`--compare`): each on the bench's scene, size and
+    /// reference, with its own `mu` sweep where a node declares `mu`, in the same tables and plots.
+    pub compare: Vec<PathBuf>,
     /// Fixed baseline sample counts; default: quick 4, 16, 64; full: 1, 2, 4, … until the baseline
     /// is below the pipeline's smallest RMSE (at least 4 counts, at most reference spp / 4).
     pub baseline_spp: Option<Vec<u32>>,
@@ -106,6 +112,7 @@ impl BenchOptions {
             seed: None,
             scene: None,
             mu_values: None,
+            compare: Vec::new(),
             baseline_spp: None,
             reference_spp: None,
             memory_limit: None,
@@ -121,6 +128,10 @@ impl BenchOptions {
 pub enum Method {
     /// The pipeline under test ("ours").
     Pipeline,
+    /// Another pipeline measured beside it (`--compare`), on the same scene and reference: a second
+    /// method for the same effect (e.g. `LightField` beside `Indirect`). Its runs carry the
+    /// pipeline's name in [`RunRecord::compared`].
+    Compared,
     /// Independent ("standard") Monte Carlo.
     Independent,
     /// Stratified Monte Carlo.
@@ -132,6 +143,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Method::Pipeline => "ours",
+            Method::Compared => "compared",
             Method::Independent => "independent MC",
             Method::Stratified => "stratified MC",
         }
@@ -140,13 +152,14 @@ impl Method {
     pub fn key(self) -> &'static str {
         match self {
             Method::Pipeline => "pipeline",
+            Method::Compared => "compared",
             Method::Independent => "independent",
             Method::Stratified => "stratified",
         }
     }
     pub fn sampling(self) -> Option<&'static str> {
         match self {
-            Method::Pipeline => None,
+            Method::Pipeline | Method::Compared => None,
             Method::Independent => Some("independent"),
             Method::Stratified => Some("stratified"),
         }
@@ -266,6 +279,8 @@ pub struct RunRecord {
     pub speedups: Vec<Speedup>,
     /// The pipeline's own configuration (its file's `mu`): the run the goals are checked on.
     pub primary: bool,
+    /// [`Method::Compared`] runs: the compared pipeline's file name.
+    pub compared: Option<String>,
 }
 
 impl RunRecord {
@@ -411,6 +426,7 @@ impl RunRecordParts {
             bias_variance: None,
             speedups: Vec::new(),
             primary: false,
+            compared: None,
         }
     }
 }
@@ -533,6 +549,42 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         }
         runs.push(rec);
         runs.push(parts2.record(Method::Pipeline, Role::SecondSeed, format!("{label} seed {seed2}"), shown_mu, None, seed2));
+    }
+    // 2b. Compared pipelines: the same sweep, on this bench's scene, size, seeds and reference.
+    for other in &opts.compare {
+        let name = other.file_stem().map_or("compared".into(), |s| s.to_string_lossy().into_owned());
+        let on_scene = |seed: u32, mu: Option<f64>| Overrides { scene: Some(scene_spec.clone()), ..ctx.ov(seed, mu) };
+        let probe = Session::open(Some(other), &on_scene(seed, None))?;
+        let own_mu = probe
+            .pipeline
+            .factoring
+            .as_ref()
+            .and_then(|f| f.float("mu"))
+            .or_else(|| probe.pipeline.nodes.iter().filter(|n| n.kind.params().iter().any(|d| d.name == "mu")).find_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64)));
+        drop(probe);
+        let sweep: Vec<Option<f64>> = match own_mu {
+            None => vec![None],
+            Some(_) => opts.mu_values.clone().unwrap_or_else(|| if opts.quick { vec![1.0, 2.0] } else { vec![0.5, 1.0, 2.0, 4.0] }).into_iter().map(Some).collect(),
+        };
+        for mu in sweep {
+            let shown = mu.or(own_mu);
+            let label = match shown {
+                Some(m) => format!("{name} (mu={})", fmt_mu(m)),
+                None => name.clone(),
+            };
+            let (_, img1, parts1) = ctx.measure(&Session::open(Some(other), &on_scene(seed, mu))?)?;
+            let (_, img2, parts2) = ctx.measure(&Session::open(Some(other), &on_scene(seed2, mu))?)?;
+            let mut rec = parts1.record(Method::Compared, Role::Sweep, label.clone(), shown, None, seed);
+            let msd = stats::mean_squared_difference(&img1, &img2)?;
+            let mse = rec.metrics.rmse * rec.metrics.rmse;
+            rec.bias_variance = Some(split_bias_variance(mse, msd, reference.noise_rmse * reference.noise_rmse));
+            rec.compared = Some(name.clone());
+            ctx.log(format!("{label}: {:.1} rays/px, {:.2} s, RMSE {:.3e}", rec.rays.total, rec.time.total, rec.metrics.rmse));
+            runs.push(rec);
+            let mut second = parts2.record(Method::Compared, Role::SecondSeed, format!("{label} seed {seed2}"), shown, None, seed2);
+            second.compared = Some(name.clone());
+            runs.push(second);
+        }
     }
     let min_pipeline_rmse = runs
         .iter()
@@ -750,6 +802,7 @@ mod tests {
             bias_variance: None,
             speedups: Vec::new(),
             primary: false,
+            compared: None,
         }
     }
 

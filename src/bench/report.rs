@@ -202,6 +202,15 @@ fn plot_for(result: &BenchResult, x_of: impl Fn(&RunRecord) -> f64, x_label: &st
     if let Some(p) = result.primary() {
         s.push(series(format!("{} (pipeline's mu)", Method::Pipeline.name()), [0, 90, 0], SeriesStyle::Points, vec![(x_of(p), p.metrics.rmse)]));
     }
+    // Compared pipelines (`--compare`): one series each.
+    let mut names: Vec<&str> = result.runs.iter().filter_map(|r| r.compared.as_deref()).collect();
+    names.dedup();
+    for (k, name) in names.into_iter().enumerate() {
+        let pts: Vec<(f64, f64)> =
+            result.runs.iter().filter(|r| r.compared.as_deref() == Some(name) && r.role == Role::Sweep).map(|r| (x_of(r), r.metrics.rmse)).collect();
+        let colours = [[148, 103, 189], [255, 127, 14], [140, 86, 75]];
+        s.push(series(name.to_string(), colours[k % colours.len()], SeriesStyle::LinePoints, pts));
+    }
     let xs: Vec<f64> = result.runs.iter().map(&x_of).filter(|x| x.is_finite() && *x > 0.0).collect();
     let (lo, hi) = xs.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
     if lo.is_finite() && result.reference.noise_rmse > 0.0 {
@@ -389,7 +398,7 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
         let _ = writeln!(
             w,
             "| {} | {} | {:.1} | {:.1} | {:.0} ({:.0} / {:.1} / {:.1}) | {} | {} | {:.2} | {:.4} | {:.4} |",
-            x.method.name(),
+            x.compared.as_deref().unwrap_or(x.method.name()),
             setting,
             x.rays.total,
             x.rays.shadow,
@@ -426,8 +435,12 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
         let (ns, ss) = cell(Method::Stratified);
         let _ = writeln!(
             w,
-            "| mu {}{} | {} | {}{} | {} | {} | {} | {} | {} | {:.2}% |",
-            x.mu.map_or("-".into(), |m| m.to_string()),
+            "| {}{} | {} | {}{} | {} | {} | {} | {} | {} | {:.2}% |",
+            match (&x.compared, x.mu) {
+                (Some(c), Some(m)) => format!("{c}: mu {m}"),
+                (Some(c), None) => c.clone(),
+                (None, m) => format!("mu {}", m.map_or("-".into(), |m| m.to_string())),
+            },
             if x.primary { " (pipeline's)" } else { "" },
             sci(x.metrics.rmse, 3),
             bv.map_or("n/a".into(), |b| sci(b.bias2, 3)),
