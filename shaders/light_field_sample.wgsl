@@ -69,7 +69,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             var radiance = vec3<f32>(0.0);
             if (params.ao != 0u) {
                 radiance = vec3<f32>(select(0.0, 1.0, lf_ao_occluded(hit.t)));
-            } else if (!all(l.weight == vec3<f32>(0.0))) {
+            } else {
                 radiance = path_from_hit(hit, origin, l.wi, key, s).value;
             }
             value = radiance;

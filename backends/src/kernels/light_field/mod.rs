@@ -34,7 +34,7 @@ use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::hemisphere::{sample_diffuse, Lobe};
-use crate::kernels::indirect::{continuation_numbers, lobe_mixture, path_from_hit, PathParams, PathRays};
+use crate::kernels::indirect::{lobe_mixture, path_from_hit, PathParams, PathRays, LOBE_SELECT};
 use crate::kernels::v3;
 use crate::rng::{dim, PixelRng};
 use crate::BackendError;
@@ -184,7 +184,7 @@ impl<'a> GBuffer<'a> {
 #[inline]
 fn leave(p: &Primary, wo: Vec3, lobe: Lobe, ao: bool, rng: &PixelRng, s: u32, count: u32, stratified: bool) -> (Vec3, Vec3) {
     let u = Vec2::from(if stratified { rng.stratified2(s, count.max(1), dim::BSDF) } else { rng.uniform2(s, dim::BSDF) });
-    let (_, select) = continuation_numbers(rng, s, 0);
+    let select = rng.uniform(s, LOBE_SELECT);
     let mix = if ao { None } else { lobe_mixture(p.kd, p.ks, p.m) };
     let Some(mix) = mix else {
         return (sample_diffuse(p.n, u), if ao { Vec3::ONE } else { Vec3::ZERO });
@@ -289,10 +289,10 @@ impl Kernel for LightFieldSample {
                 if let Some(hit) = hit {
                     let sp = at.surface(&hit, origin, wi);
                     let mat = &ctx.scene.materials[sp.material as usize];
+                    // Every hit is a sample of the light field, whatever this pixel's BRDF makes of
+                    // it (a black or below-surface direction still gives other pixels a splat).
                     let radiance = if ao {
                         Vec3::splat(ao_occluded(hit.t, max_distance) as u32 as f32)
-                    } else if weight == Vec3::ZERO {
-                        Vec3::ZERO
                     } else {
                         path_from_hit(&at, &p, hit, origin, wi, &rng, s, &mut o.rays).0
                     };
