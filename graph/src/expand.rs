@@ -35,6 +35,14 @@ pub struct BufferInfo {
 }
 
 impl BufferInfo {
+    /// The element format, with ` × N per pixel` for a per-sample buffer (schedule tables, DOT).
+    pub fn shape(&self) -> String {
+        if self.layers == 1 {
+            self.format.to_string()
+        } else {
+            format!("{} × {} per pixel", self.format, self.layers)
+        }
+    }
     /// An image buffer (one element per pixel).
     pub fn new(name: impl Into<String>, format: Format) -> BufferInfo {
         BufferInfo {

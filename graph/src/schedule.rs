@@ -540,7 +540,7 @@ impl Schedule {
                 s,
                 "  {:buf_w$}  {:9}  {:9}  {slot}{sink}",
                 info.name,
-                info.format.to_string(),
+                info.shape(),
                 life
             );
         }
@@ -592,7 +592,7 @@ impl Schedule {
                     "ellipse"
                 },
                 esc(&info.name),
-                info.format
+                info.shape()
             );
         }
         for (i, p) in self.passes.iter().enumerate() {

@@ -312,3 +312,51 @@ fn previous_frame_buffers_are_inputs_that_keep_their_sources() {
     let slot = s.slots[h.buffer.0].unwrap();
     assert!(s.slots.iter().enumerate().all(|(b, sl)| b == h.buffer.0 || *sl != Some(slot) || s.lifetimes[b].unwrap().first > mix));
 }
+
+fn pass(name: &str, reads: &[(&str, usize)], writes: &[(&str, usize)]) -> Pass {
+    Pass {
+        name: name.into(),
+        node: "n".into(),
+        kernel: "k".into(),
+        reads: reads.iter().map(|(b, i)| (b.to_string(), BufferId(*i))).collect(),
+        writes: writes.iter().map(|(b, i)| (b.to_string(), BufferId(*i))).collect(),
+        params: Default::default(),
+        stage: Stage::Sample,
+        random: false,
+        reference: Reference::Keep,
+        continues: None,
+    }
+}
+
+/// Per-sample buffers (`layers` elements per pixel): the pool shares a slot only between buffers of
+/// the same format *and* layers, the memory estimate counts every layer, and a sink refuses one.
+#[test]
+fn per_sample_buffers_pool_by_layers_and_are_never_sinks() {
+    let mut e = Expansion::default();
+    e.buffers.push(BufferInfo { layers: 8, ..BufferInfo::new("n.samples", Format::Vec4) });
+    e.buffers.push(BufferInfo::new("n.a", Format::Vec4));
+    e.buffers.push(BufferInfo { layers: 4, ..BufferInfo::new("n.more", Format::Vec4) });
+    e.buffers.push(BufferInfo::new("n.out", Format::Vec4));
+    // samples → a; (samples dead) more → out: `more` may not take the 8-layer slot.
+    e.passes.push(pass("n.p1", &[], &[("s", 0)]));
+    e.passes.push(pass("n.p2", &[("s", 0)], &[("a", 1)]));
+    e.passes.push(pass("n.p3", &[("a", 1)], &[("m", 2)]));
+    e.passes.push(pass("n.p4", &[("m", 2)], &[("o", 3)]));
+    e.sink_inputs.push(("out".into(), "color".into(), BufferId(3)));
+    let s = schedule(e.clone()).unwrap();
+    let slot = |b: usize| s.slots[b].unwrap();
+    assert_ne!(slot(0), slot(2), "8 and 4 layers never share");
+    assert_eq!(s.slot_layers[slot(0)], 8);
+    assert_eq!(s.slot_layers[slot(2)], 4);
+    // 8 + 4 layers and two images of vec4 at 2×2 pixels: 16 bytes each.
+    let pooled: u64 = (0..s.slot_formats.len()).map(|k| 4 * 16 * u64::from(s.slot_layers[k])).sum();
+    assert_eq!(s.buffer_bytes(2, 2).pool, pooled);
+    assert!(s.table().contains("vec4<f32> × 8 per pixel"), "{}", s.table());
+
+    e.sink_inputs[0].2 = BufferId(2);
+    e.passes.pop();
+    match schedule(e) {
+        Err(GraphError::Expand { message, .. }) => assert!(message.contains("per-sample buffer"), "{message}"),
+        other => panic!("expected an error, got {:?}", other.map(|_| ())),
+    }
+}
