@@ -66,10 +66,10 @@
 //! one-bounce indirect sample).
 
 use glam::{Vec2, Vec3};
-use wedge_graph::{Field, FieldType, Format, StructLayout};
+use wedge_graph::Format;
 use wedge_scene::{Camera, LensShape, SceneAt};
 
-use crate::buffer::Record;
+use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::{light_centre_factor, light_sample};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
@@ -79,184 +79,113 @@ use crate::rng::PixelRng;
 use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
 use crate::BackendError;
 
-const fn f(name: &'static str, ty: FieldType) -> Field {
-    Field::new(name, ty)
-}
-
-/// Layout of [`PathRecord`] (the WGSL struct `PathRecord` is generated from it).
-pub static PATH_RECORD: StructLayout = StructLayout {
-    name: "PathRecord",
-    fields: &[
-        f("l_direct", FieldType::Vec3),
-        f("k_direct", FieldType::Vec3),
-        f("e_direct", FieldType::Vec3),
-        f("u_direct", FieldType::Vec3),
-        f("l_diffuse", FieldType::Vec3),
-        f("k_diffuse", FieldType::Vec3),
-        f("e_diffuse", FieldType::Vec3),
-        f("l_glossy", FieldType::Vec3),
-        f("k_glossy", FieldType::Vec3),
-        f("e_glossy", FieldType::Vec3),
-        f("emission", FieldType::Vec3),
-        f("position", FieldType::Vec3),
-        f("normal", FieldType::Vec3),
-        f("weight", FieldType::F32),
-        f("hit_weight", FieldType::F32),
-        f("w_direct", FieldType::F32),
-        f("w_diffuse", FieldType::F32),
-        f("w_glossy", FieldType::F32),
-        f("depth", FieldType::F32),
-        f("r_min", FieldType::F32),
-        f("r_max", FieldType::F32),
-        f("d1", FieldType::F32),
-        f("d2_min", FieldType::F32),
-        f("d2_max", FieldType::F32),
-        f("z_min", FieldType::F32),
-        f("z_max", FieldType::F32),
-        f("object", FieldType::U32),
-        f("paths", FieldType::U32),
-        f("hits", FieldType::U32),
-        f("shadow", FieldType::U32),
-        f("occluded", FieldType::U32),
-        f("diffuse_samples", FieldType::U32),
-        f("glossy_samples", FieldType::U32),
-        f("indirect_rays", FieldType::U32),
-        f("indirect_hits", FieldType::U32),
-        f("bounce_shadow", FieldType::U32),
-        f("non_finite", FieldType::U32),
-        f("vp_sum", FieldType::Vec2),
-        f("vp_min", FieldType::Vec2),
-        f("vp_max", FieldType::Vec2),
-        f("vs_sum", FieldType::Vec2),
-        f("vs_min", FieldType::Vec2),
-        f("vs_max", FieldType::Vec2),
-        f("l_env_diffuse", FieldType::Vec3),
-        f("k_env_diffuse", FieldType::Vec3),
-        f("e_env_diffuse", FieldType::Vec3),
-        f("l_env_glossy", FieldType::Vec3),
-        f("k_env_glossy", FieldType::Vec3),
-        f("e_env_glossy", FieldType::Vec3),
-        f("w_env_diffuse", FieldType::F32),
-        f("w_env_glossy", FieldType::F32),
-        f("w_env_missed", FieldType::F32),
-        f("env_occluder", FieldType::F32),
-        f("exponent", FieldType::F32),
-        f("env_samples", FieldType::U32),
-        f("env_occluded", FieldType::U32),
-        f("env_rays", FieldType::U32),
-    ],
-};
-
-/// One pixel's accumulated paths. Sums are weighted by the lens weight `w`; means are
-/// `sum / weight` (emission: over all paths, a miss counts as black), `sum / w_<component>` (L, k, E
-/// of a component: see [`PathRecord::w_direct`]) or `sum / hit_weight` (position, normal, depth, d1:
-/// over paths that hit a surface).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct PathRecord {
-    /// Σ w·L, Σ w·k, Σ w·E of the direct component (f_c form factor, glossy folded into k).
-    pub l_direct: [f32; 3],
-    pub k_direct: [f32; 3],
-    pub e_direct: [f32; 3],
-    /// Σ w·U: `e_direct`'s sum with every sample counted as visible (the same samples, the same
-    /// weights): SoftShadows' ratio estimator of visibility `E/U` (module doc of `effects::shadows`).
-    pub u_direct: [f32; 3],
-    /// The same for indirect diffuse (k = k_d) and indirect glossy (k = k_s).
-    pub l_diffuse: [f32; 3],
-    pub k_diffuse: [f32; 3],
-    pub e_diffuse: [f32; 3],
-    pub l_glossy: [f32; 3],
-    pub k_glossy: [f32; 3],
-    pub e_glossy: [f32; 3],
-    /// Σ w·emission of the primary hits.
-    pub emission: [f32; 3],
-    /// Σ w·x and Σ w·n over hits: the lens-averaged position λ and normal (eq. 5.31).
-    pub position: [f32; 3],
-    pub normal: [f32; 3],
-    /// Σ w over all paths and over paths that hit.
-    pub weight: f32,
-    pub hit_weight: f32,
-    /// What a component's L, k, E sums are divided by. Where the camera ray moves between paths (a
-    /// lens, jitter) each path weighs `w`, whatever its secondary count: Σ w over the paths that
-    /// carried the component, misses included (a miss is black). Where it is fixed (a pinhole
-    /// through the pixel centre: every path has the same primary hit) each *sample* weighs the same:
-    /// Σ w·(finite samples), so paths of unequal counts average exactly as one path would (module
-    /// doc, "Weights").
-    pub w_direct: f32,
-    pub w_diffuse: f32,
-    pub w_glossy: f32,
-    /// Σ w·z, z the hit's depth along the optical axis.
-    pub depth: f32,
-    /// Range of |r| (circle of confusion in pixels, eq. 5.2) over hits; 0, 0 without hits.
-    pub r_min: f32,
-    pub r_max: f32,
-    /// Σ w·d1 over hits (light plane → receiver); occluder distances to the light plane over occluded
-    /// shadow rays (0 without any), as `direct.light` defines them.
-    pub d1: f32,
-    pub d2_min: f32,
-    pub d2_max: f32,
-    /// First-hit distances of the indirect samples (0 without hits).
-    pub z_min: f32,
-    pub z_max: f32,
-    /// 1 + object id of the pixel's first path that hit (0: none yet).
-    pub object: u32,
-    /// Primary rays (paths) and those that hit a surface.
-    pub paths: u32,
-    pub hits: u32,
-    /// Shadow rays at primary hits and how many were occluded.
-    pub shadow: u32,
-    pub occluded: u32,
-    /// Indirect samples taken (sequence indices) and hemisphere rays traced (a glossy sample below
-    /// the surface traces none), rays that hit, and next-event shadow rays at the indirect hits.
-    pub diffuse_samples: u32,
-    pub glossy_samples: u32,
-    pub indirect_rays: u32,
-    pub indirect_hits: u32,
-    pub bounce_shadow: u32,
-    /// Samples whose value was NaN or infinite (excluded).
-    pub non_finite: u32,
-    /// Image-space velocity of the primary hits (pixels per half shutter; 0 without `time`): Σ w·v over
-    /// hits, and its per-axis range over every path (a miss counts as 0: the background is still), so
-    /// a pixel that saw two velocities shows a wide range (thesis App. B).
-    pub vp_sum: [f32; 2],
-    pub vp_min: [f32; 2],
-    pub vp_max: [f32; 2],
-    /// Image-space velocity of the shadow of each occluded shadow sample (see [`shadow_velocity`]):
-    /// Σ v over those samples, and its per-axis range.
-    pub vs_sum: [f32; 2],
-    pub vs_min: [f32; 2],
-    pub vs_max: [f32; 2],
-    /// Σ w·L, Σ w·k, Σ w·E of the environment's direct light (thesis Ch. 6), diffuse part (`k = k_d`,
-    /// `E = L_e cos/(π pdf)`) and glossy part (`k = k_s`, `E = L_e ρ_s cos/pdf`), and their weights as
-    /// [`PathRecord::w_direct`]'s.
-    pub l_env_diffuse: [f32; 3],
-    pub k_env_diffuse: [f32; 3],
-    pub e_env_diffuse: [f32; 3],
-    pub l_env_glossy: [f32; 3],
-    pub k_env_glossy: [f32; 3],
-    pub e_env_glossy: [f32; 3],
-    pub w_env_diffuse: f32,
-    pub w_env_glossy: f32,
-    /// Σ w of the paths that carried look-ups and missed every surface (path weights only): the
-    /// environment's `E` is the irradiance *at the surface*, so it is averaged over the paths that
-    /// hit (`w_env_* − w_env_missed`), while `k` and `L` count a miss as black. A pixel that a
-    /// silhouette crosses then factors exactly — `k E = c k_hit E_hit = L` for coverage `c` — and
-    /// its `E` is not diluted into its neighbours' filters.
-    pub w_env_missed: f32,
-    /// The occluder term `cos²θ_occ / z` of eq. 6.13/6.17: its largest value over the occluded
-    /// environment samples bright enough to count (0 without any; see [`occluder_term`]).
-    pub env_occluder: f32,
-    /// Σ w·m over hits: the Phong exponent the glossy part's `B_ρ` comes from (0: no lobe).
-    pub exponent: f32,
-    /// Environment look-ups (sequence indices), those occluded, and shadow rays traced for them (a
-    /// look-up below the surface traces none).
-    pub env_samples: u32,
-    pub env_occluded: u32,
-    pub env_rays: u32,
-}
-
-impl Record for PathRecord {
-    const LAYOUT: &'static StructLayout = &PATH_RECORD;
+record! {
+    /// One pixel's accumulated paths. Sums are weighted by the lens weight `w`; means are
+    /// `sum / weight` (emission: over all paths, a miss counts as black), `sum / w_<component>` (L, k, E
+    /// of a component: see [`PathRecord::w_direct`]) or `sum / hit_weight` (position, normal, depth, d1:
+    /// over paths that hit a surface).
+    /// (The WGSL struct `PathRecord` is generated from the same list.)
+    pub struct PathRecord / PATH_RECORD {
+        /// Σ w·L, Σ w·k, Σ w·E of the direct component (f_c form factor, glossy folded into k).
+        l_direct: vec3,
+        k_direct: vec3,
+        e_direct: vec3,
+        /// Σ w·U: `e_direct`'s sum with every sample counted as visible (the same samples, the same
+        /// weights): SoftShadows' ratio estimator of visibility `E/U` (module doc of `effects::shadows`).
+        u_direct: vec3,
+        /// The same for indirect diffuse (k = k_d) and indirect glossy (k = k_s).
+        l_diffuse: vec3,
+        k_diffuse: vec3,
+        e_diffuse: vec3,
+        l_glossy: vec3,
+        k_glossy: vec3,
+        e_glossy: vec3,
+        /// Σ w·emission of the primary hits.
+        emission: vec3,
+        /// Σ w·x and Σ w·n over hits: the lens-averaged position λ and normal (eq. 5.31).
+        position: vec3,
+        normal: vec3,
+        /// Σ w over all paths and over paths that hit.
+        weight: f32,
+        hit_weight: f32,
+        /// What a component's L, k, E sums are divided by. Where the camera ray moves between paths (a
+        /// lens, jitter) each path weighs `w`, whatever its secondary count: Σ w over the paths that
+        /// carried the component, misses included (a miss is black). Where it is fixed (a pinhole
+        /// through the pixel centre: every path has the same primary hit) each *sample* weighs the same:
+        /// Σ w·(finite samples), so paths of unequal counts average exactly as one path would (module
+        /// doc, "Weights").
+        w_direct: f32,
+        w_diffuse: f32,
+        w_glossy: f32,
+        /// Σ w·z, z the hit's depth along the optical axis.
+        depth: f32,
+        /// Range of |r| (circle of confusion in pixels, eq. 5.2) over hits; 0, 0 without hits.
+        r_min: f32,
+        r_max: f32,
+        /// Σ w·d1 over hits (light plane → receiver); occluder distances to the light plane over occluded
+        /// shadow rays (0 without any), as `direct.light` defines them.
+        d1: f32,
+        d2_min: f32,
+        d2_max: f32,
+        /// First-hit distances of the indirect samples (0 without hits).
+        z_min: f32,
+        z_max: f32,
+        /// 1 + object id of the pixel's first path that hit (0: none yet).
+        object: u32,
+        /// Primary rays (paths) and those that hit a surface.
+        paths: u32,
+        hits: u32,
+        /// Shadow rays at primary hits and how many were occluded.
+        shadow: u32,
+        occluded: u32,
+        /// Indirect samples taken (sequence indices) and hemisphere rays traced (a glossy sample below
+        /// the surface traces none), rays that hit, and next-event shadow rays at the indirect hits.
+        diffuse_samples: u32,
+        glossy_samples: u32,
+        indirect_rays: u32,
+        indirect_hits: u32,
+        bounce_shadow: u32,
+        /// Samples whose value was NaN or infinite (excluded).
+        non_finite: u32,
+        /// Image-space velocity of the primary hits (pixels per half shutter; 0 without `time`): Σ w·v over
+        /// hits, and its per-axis range over every path (a miss counts as 0: the background is still), so
+        /// a pixel that saw two velocities shows a wide range (thesis App. B).
+        vp_sum: vec2,
+        vp_min: vec2,
+        vp_max: vec2,
+        /// Image-space velocity of the shadow of each occluded shadow sample (see [`shadow_velocity`]):
+        /// Σ v over those samples, and its per-axis range.
+        vs_sum: vec2,
+        vs_min: vec2,
+        vs_max: vec2,
+        /// Σ w·L, Σ w·k, Σ w·E of the environment's direct light (thesis Ch. 6), diffuse part (`k = k_d`,
+        /// `E = L_e cos/(π pdf)`) and glossy part (`k = k_s`, `E = L_e ρ_s cos/pdf`), and their weights as
+        /// [`PathRecord::w_direct`]'s.
+        l_env_diffuse: vec3,
+        k_env_diffuse: vec3,
+        e_env_diffuse: vec3,
+        l_env_glossy: vec3,
+        k_env_glossy: vec3,
+        e_env_glossy: vec3,
+        w_env_diffuse: f32,
+        w_env_glossy: f32,
+        /// Σ w of the paths that carried look-ups and missed every surface (path weights only): the
+        /// environment's `E` is the irradiance *at the surface*, so it is averaged over the paths that
+        /// hit (`w_env_* − w_env_missed`), while `k` and `L` count a miss as black. A pixel that a
+        /// silhouette crosses then factors exactly — `k E = c k_hit E_hit = L` for coverage `c` — and
+        /// its `E` is not diluted into its neighbours' filters.
+        w_env_missed: f32,
+        /// The occluder term `cos²θ_occ / z` of eq. 6.13/6.17: its largest value over the occluded
+        /// environment samples bright enough to count (0 without any; see [`occluder_term`]).
+        env_occluder: f32,
+        /// Σ w·m over hits: the Phong exponent the glossy part's `B_ρ` comes from (0: no lobe).
+        exponent: f32,
+        /// Environment look-ups (sequence indices), those occluded, and shadow rays traced for them (a
+        /// look-up below the surface traces none).
+        env_samples: u32,
+        env_occluded: u32,
+        env_rays: u32,
+    }
 }
 
 fn v3(a: [f32; 3]) -> Vec3 {
