@@ -20,11 +20,18 @@
 //! `WEDGE_BENCH_SCENE` (both cases on this scene instead), `WEDGE_BENCH_PLOT_DIR` (target/). Without `--bench` (`cargo test --all-targets`): a smoke run at
 //! 32×24 that checks it works without paying for the numbers.
 
+// The relMSE every progressive test and bench uses (tests/common/progressive.rs).
+#[allow(dead_code)]
+#[path = "../tests/common/progressive.rs"]
+mod progressive;
+
 use std::path::{Path, PathBuf};
+
+use progressive::rel_mse;
 
 use wedge::backends::cpu::CpuBackend;
 use wedge::backends::kernels::light_field::{LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
-use wedge::backends::{BufferData, RunResult, Silent};
+use wedge::backends::{RunResult, Silent};
 use wedge::bench::plots::{write_plot, Plot, Series, SeriesStyle};
 use wedge::graph::parse_pipeline;
 use wedge::{Overrides, Session};
@@ -84,18 +91,6 @@ fn session(text: &str, ov: &Overrides, reference: Option<u32>) -> Session {
         Some(spp) => Session::build_reference(loaded, ov, nodes, kernels, spp, "stratified").expect("reference builds"),
         None => Session::build(loaded, ov, nodes, kernels).expect("session builds"),
     }
-}
-
-fn rel_mse(a: &BufferData, r: &BufferData) -> f64 {
-    let n = r.len();
-    let mut sum = 0.0f64;
-    for i in 0..n {
-        for c in 0..3 {
-            let (x, y) = (f64::from(a.component(i, c)), f64::from(r.component(i, c)));
-            sum += (x - y) * (x - y) / (y * y + 0.01);
-        }
-    }
-    sum / (3 * n) as f64
 }
 
 fn pass_seconds(run: &RunResult, pass: &str) -> f64 {

@@ -72,13 +72,8 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
     let Ok(tree3) = ImmutableKdTree::<f32, 3>::new_from_slice(&points) else {
         return vec![0.0; n];
     };
+    // The search without the angular test: a diffuse sample's radius, and a glossy sample's cap.
     let spatial = |i: usize| {
-        knn_search(splats, i, splats[i].kappa, s, n, 0.0, f32::INFINITY, |want| {
-            tree3.query(&splats[i].centre).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
-        })
-    };
-    // The same search without the angular test (a glossy sample's cap).
-    let spatial_only = |i: usize| {
         knn_search(splats, i, 0.0, s, n, 0.0, f32::INFINITY, |want| {
             tree3.query(&splats[i].centre).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
         })
@@ -100,7 +95,7 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
         v.get(v.len() / 2).copied().unwrap_or(0.0)
     };
     let typical = if diffuse.is_empty() {
-        median(glossy.iter().step_by((glossy.len() / 64).max(1)).map(|&i| spatial_only(i)).collect())
+        median(glossy.iter().step_by((glossy.len() / 64).max(1)).map(|&i| spatial(i)).collect())
     } else {
         median(diffuse.iter().map(|&i| radii[i]).collect())
     };
@@ -119,7 +114,7 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
             // Not retrieved ⇒ 6-D distance² ≥ reach² ⇒ if it qualifies (|Δω|² ≤ 2 ln2/κ), its
             // spatial distance² ≥ reach² − s²·2 ln2/κ.
             let slack = scale * scale * 2.0 * std::f32::consts::LN_2 / splats[i].kappa;
-            let cap = if s.glossy_cap.is_finite() { s.glossy_cap * spatial_only(i) } else { f32::INFINITY };
+            let cap = if s.glossy_cap.is_finite() { s.glossy_cap * spatial(i) } else { f32::INFINITY };
             knn_search(splats, i, splats[i].kappa, s, n, slack, cap, |want| {
                 tree6.query(&points6[i]).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
             })
@@ -134,8 +129,10 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
 /// The k-NN search of sample `i`: `nearest(m)` returns the `m` nearest `(item, squared distance)`
 /// in some space where every sample not returned lies at squared distance ≥ the last returned one,
 /// and a qualifying sample's squared spatial distance is at least its squared distance there minus
-/// `slack`; `kappa` is the `κ` of its angular test (0: none). Widens (×4) until the `k`-th qualifying metric distance is within the spatial reach of
-/// what was returned — exact, as the metric is never shorter than the spatial distance.
+/// `slack`; `kappa` is the `κ` of its angular test (0: none). Widens (×4) until the `k`-th
+/// qualifying metric distance is within the spatial reach of what was returned — exact, as the
+/// metric is never shorter than the spatial distance — or the reach passes `cap`, which the `k`-th
+/// distance then exceeds too: the result is `min(k-th distance, cap)`.
 #[allow(clippy::too_many_arguments)]
 fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, slack: f32, cap: f32, nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>) -> f32 {
     let k = s.k as usize;
