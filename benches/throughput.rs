@@ -20,8 +20,10 @@
 //!   `medium_build` and `slow_build` (spatial splits; their own 8-triangle leaves, SAH-optimal
 //!   collapse), and `fast_build` with the greedy collapse used before, on each scene's triangles: build time (best of the runs in ≥1 s; obvhs's `parallel` feature uses every rayon
 //!   thread), BVH memory (wide nodes + triangle packs) and total with the triangle records, and the
-//!   primary- and diffuse-ray speed of that tree (one thread, `bvh::traverse` over a `Bvh::pack` of
-//!   it; medians of `WEDGE_BENCH_REPEATS` runs round-robin over the trees).
+//!   primary- and diffuse-ray speed of that tree (one thread, `bvh::traverse_simd` with the CPU's best
+//!   slab test over a `Bvh::pack` of it; medians of `WEDGE_BENCH_REPEATS` runs round-robin over the
+//!   trees). A last row traces the scenes' tree with the portable slab test (two 4-lane groups per
+//!   node instead of one AVX test): what a CPU without AVX gets, and the AVX path's share.
 //!
 //! - paths: the `indirect.sample` kernel itself (what `MonteCarlo` runs; `Indirect` runs `paths.trace`,
 //!   whose hemisphere estimator is the same `trace_path`) on `cornell`
@@ -68,6 +70,7 @@ use wedge::backends::kernels::hemisphere::{cosine_hemisphere, Frame};
 use wedge::backends::rng::PixelRng;
 use wedge::backends::Silent;
 use wedge::scene::{RigidMotion, Scene, SceneObject, SceneSource};
+use wedge::scene::bvh::Simd;
 
 const W: u32 = 640;
 const H: u32 = 480;
@@ -301,11 +304,11 @@ struct BuildRow {
     diffuse_mrays: f64,
 }
 
-/// Closest-hit rays per second through `bvh` on this thread, over ≥ `min`.
-fn trace_rate(bvh: &wedge::scene::bvh::Bvh, rays: &[Ray], min: Duration) -> f64 {
+/// Closest-hit rays per second through `bvh` with slab test `simd` on this thread, over ≥ `min`.
+fn trace_rate(bvh: &wedge::scene::bvh::Bvh, simd: Simd, rays: &[Ray], min: Duration) -> f64 {
     let (start, mut passes) = (Instant::now(), 0u64);
     while passes == 0 || start.elapsed() < min {
-        let hits = rays.iter().filter(|r| wedge::scene::bvh::traverse(bvh, r.o, r.d, 0.0, r.tmax, false).is_some()).count();
+        let hits = rays.iter().filter(|r| wedge::scene::bvh::traverse_simd(bvh, simd, r.o, r.d, 0.0, r.tmax, false).is_some()).count();
         std::hint::black_box(hits);
         passes += 1;
     }
@@ -319,18 +322,20 @@ fn build_table(input: &[[Vec3; 3]], primary: &[Ray], diffuse: &[Ray], min: Durat
     use obvhs::BvhBuildParams as P;
     use wedge::scene::bvh::build::{binary_obvhs, collapse_greedy};
     use wedge::scene::bvh::{build, build_with, Bvh, TriangleRecord};
-    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh); 7] = [
-        ("fast_build, greedy collapse (before)", &|| collapse_greedy(&binary_obvhs(input, P::fast_build()))),
-        ("fastest_build", &|| build_with(input, P::fastest_build())),
-        ("very_fast_build", &|| build_with(input, P::very_fast_build())),
-        ("fast_build", &|| build_with(input, P::fast_build())),
-        ("medium_build", &|| build_with(input, P::medium_build())),
-        ("slow_build (spatial splits)", &|| build_with(input, P::slow_build())),
-        ("bvh::build (scenes)", &|| build(input)),
+    let best = Simd::best();
+    let builders: [(&'static str, &dyn Fn() -> wedge::scene::bvh::BuiltBvh, Simd); 8] = [
+        ("fast_build, greedy collapse (before)", &|| collapse_greedy(&binary_obvhs(input, P::fast_build())), best),
+        ("fastest_build", &|| build_with(input, P::fastest_build()), best),
+        ("very_fast_build", &|| build_with(input, P::very_fast_build()), best),
+        ("fast_build", &|| build_with(input, P::fast_build()), best),
+        ("medium_build", &|| build_with(input, P::medium_build()), best),
+        ("slow_build (spatial splits)", &|| build_with(input, P::slow_build()), best),
+        ("bvh::build (scenes)", &|| build(input), best),
+        ("bvh::build (scenes), portable slab test", &|| build(input), Simd::Portable),
     ];
-    let trees: Vec<(BuildRow, Bvh)> = builders
+    let trees: Vec<(BuildRow, Bvh, Simd)> = builders
         .iter()
-        .map(|(builder, run)| {
+        .map(|&(builder, run, simd)| {
             let (start, mut runs, mut best) = (Instant::now(), 0, Duration::MAX);
             let mut built = None;
             while runs == 0 || start.elapsed() < min {
@@ -352,20 +357,20 @@ fn build_table(input: &[[Vec3; 3]], primary: &[Ray], diffuse: &[Ray], min: Durat
             let (nodes, depth, refs) = (built.nodes.len(), built.depth, built.order.len());
             let bvh = Bvh::pack(built.nodes, &records);
             let row = BuildRow { builder, best, runs, nodes, node_bytes: bvh.bytes(), refs, depth, primary_mrays: 0.0, diffuse_mrays: 0.0 };
-            (row, bvh)
+            (row, bvh, simd)
         })
         .collect();
     let mut rates = vec![(Vec::new(), Vec::new()); trees.len()];
     for _ in 0..repeats {
-        for (k, (_, bvh)) in trees.iter().enumerate() {
-            rates[k].0.push(trace_rate(bvh, primary, min));
-            rates[k].1.push(trace_rate(bvh, diffuse, min));
+        for (k, (_, bvh, simd)) in trees.iter().enumerate() {
+            rates[k].0.push(trace_rate(bvh, *simd, primary, min));
+            rates[k].1.push(trace_rate(bvh, *simd, diffuse, min));
         }
     }
     trees
         .into_iter()
         .zip(rates)
-        .map(|((row, _), (mut p, mut d))| BuildRow { primary_mrays: median(&mut p), diffuse_mrays: median(&mut d), ..row })
+        .map(|((row, _, _), (mut p, mut d))| BuildRow { primary_mrays: median(&mut p), diffuse_mrays: median(&mut d), ..row })
         .collect()
 }
 
@@ -738,7 +743,7 @@ fn main() {
         );
     }
     println!();
-    println!("Traversal work per ray (4-wide nodes whose boxes were tested, 4-triangle packs tested):\n");
+    println!("Traversal work per ray (8-wide nodes whose boxes were tested, 4-triangle packs tested):\n");
     println!("| scene | rays | query | nodes / ray | packs / ray |");
     println!("|---|---|---|---:|---:|");
     for (name, kinds) in &work {

@@ -1,9 +1,9 @@
-// bvh.wgsl — the GPU traversal of wedge_scene::bvh (scene/src/bvh/) over the SAME 4-wide nodes and
-// triangle packs the CPU builds (uploaded unchanged): four child boxes per node as vec4 lanes (slab
-// test with the near/far plane chosen by the direction's sign, exit widened by 3 ulps, NaN lanes no
-// constraint), hit children nearest first from a 64-entry stack, leaves tested four triangles at a
-// time with the same watertight test, in the same operation order, as the CPU (bit-identical t and
-// barycentrics).
+// bvh.wgsl — the GPU traversal of wedge_scene::bvh (scene/src/bvh/) over the SAME 8-wide nodes and
+// triangle packs the CPU builds (uploaded unchanged): a node's eight child boxes as two groups of vec4
+// lanes (slab test with the near/far plane chosen by the direction's sign, exit widened by 3 ulps, NaN
+// lanes no constraint), hit children nearest first from a 128-entry stack, leaves tested four
+// triangles at a time with the same watertight test, in the same operation order, as the CPU
+// (bit-identical t and barycentrics).
 // The closest hit is the smallest t, ties to the lower triangle index (`closer`): an order-free rule,
 // so the two backends agree without visiting nodes in the same order.
 //
@@ -14,7 +14,7 @@
 // rule holds across trees).
 #include "scene.wgsl"
 
-const BVH_STACK_SIZE: u32 = 64u;
+const BVH_STACK_SIZE: u32 = 128u;
 const LEAF_BIT: u32 = 0x80000000u;
 const LEAF_FIRST_MASK: u32 = 0x0fffffffu;
 
@@ -137,15 +137,19 @@ fn t_error_bound(max_x: vec4<f32>, max_y: vec4<f32>, max_z: vec4<f32>, max_e: ve
     return vec4<f32>(3.0) * ((g3 * max_e * max_z + delta_e * max_z) + delta_z * max_e) * abs_inv_det;
 }
 
-// Entry distances of a node's four children, +inf where the child is missed (WideRay::slab).
-fn wide_slab(n: WideNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> vec4<f32> {
+// Entry distances of children 4g .. 4g + 3 of a node, +inf where the child is missed (the CPU's
+// `SlabTest::slab`, one lane group).
+fn wide_slab(n: WideNode, g: u32, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> vec4<f32> {
     var t_enter = vec4<f32>(tmin);
     var t_exit = vec4<f32>(tmax);
     let neg = inv_d < vec3<f32>(0.0);
+    let b = array<vec4<f32>, 6>(
+        n.bounds[g], n.bounds[BVH_GROUPS + g], n.bounds[2u * BVH_GROUPS + g],
+        n.bounds[3u * BVH_GROUPS + g], n.bounds[4u * BVH_GROUPS + g], n.bounds[5u * BVH_GROUPS + g]);
     var rows = array<vec4<f32>, 6>(
-        select(n.bounds[0], n.bounds[1], neg.x), select(n.bounds[1], n.bounds[0], neg.x),
-        select(n.bounds[2], n.bounds[3], neg.y), select(n.bounds[3], n.bounds[2], neg.y),
-        select(n.bounds[4], n.bounds[5], neg.z), select(n.bounds[5], n.bounds[4], neg.z));
+        select(b[0], b[1], neg.x), select(b[1], b[0], neg.x),
+        select(b[2], b[3], neg.y), select(b[3], b[2], neg.y),
+        select(b[4], b[5], neg.z), select(b[5], b[4], neg.z));
     for (var axis = 0u; axis < 3u; axis = axis + 1u) {
         let near = (rows[2u * axis] - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
         let far = (rows[2u * axis + 1u] - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
@@ -155,6 +159,15 @@ fn wide_slab(n: WideNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) 
     // 1.000_000_4_f32 = 0x3f800003 (bvh::traverse::WIDEN)
     let hit = t_enter <= t_exit * vec4<f32>(bitcast<f32>(0x3f800003u));
     return select(vec4<f32>(inf()), t_enter, hit);
+}
+
+// Entry distances of all BVH_WIDTH children, one lane group per vec4.
+fn wide_slab_all(n: WideNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> array<vec4<f32>, BVH_GROUPS> {
+    var te: array<vec4<f32>, BVH_GROUPS>;
+    for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
+        te[g] = wide_slab(n, g, o, inv_d, tmin, tmax);
+    }
+    return te;
 }
 
 // bvh::traverse_from: the tree rooted at node `root`, for hits closer (`closer`) than the best so far
@@ -177,25 +190,26 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
     loop {
         if ((current & LEAF_BIT) == 0u) {
             let n = wide_node(current);
-            let te = wide_slab(n, o, inv_d, tmin, t_best);
+            let te = wide_slab_all(n, o, inv_d, tmin, t_best);
             // The hit children, sorted near to far (ties and any-hit: lane order). Each child's rank
             // is counted rather than found by insertion: the insertion loop (`while j > 0 && …`)
             // ran wrong on llvmpipe's GL (5 of 1728 primary hits differed on `grids`), this form
-            // agrees on GL and Vulkan.
-            var order = array<u32, 4>(0u, 0u, 0u, 0u);
+            // agrees on GL and Vulkan. The count compares a whole lane group at once: lavapipe cuts
+            // an invocation's loops after 65,535 iterations, so inner loops stay short.
+            var order: array<u32, BVH_WIDTH>;
             var k = 0u;
-            for (var lane = 0u; lane < 4u; lane = lane + 1u) {
-                let t = te[lane];
+            for (var lane = 0u; lane < BVH_WIDTH; lane = lane + 1u) {
+                let t = te[lane / 4u][lane % 4u];
                 if (t == big) {
                     continue;
                 }
                 var rank = 0u;
-                for (var other = 0u; other < 4u; other = other + 1u) {
-                    let u = te[other];
-                    let earlier = select(u < t || (u == t && other < lane), other < lane, any_hit);
-                    if (u != big && earlier) {
-                        rank = rank + 1u;
-                    }
+                for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
+                    let u = te[g];
+                    let other = vec4<u32>(0u, 1u, 2u, 3u) + vec4<u32>(4u * g);
+                    let before = other < vec4<u32>(lane);
+                    let earlier = select((u < vec4<f32>(t)) | ((u == vec4<f32>(t)) & before), before, any_hit);
+                    rank = rank + dot(select(vec4<u32>(0u), vec4<u32>(1u), (u != vec4<f32>(big)) & earlier), vec4<u32>(1u));
                 }
                 order[rank] = lane;
                 k = k + 1u;
@@ -203,11 +217,13 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
             if (k > 0u) {
                 // Continue with the nearest, push the rest farthest first.
                 for (var i = k - 1u; i > 0u; i = i - 1u) {
-                    stack[sp] = n.child[order[i]];
-                    stack_t[sp] = te[order[i]];
+                    let c = order[i];
+                    stack[sp] = n.child[c / 4u][c % 4u];
+                    stack_t[sp] = te[c / 4u][c % 4u];
                     sp = sp + 1u;
                 }
-                current = n.child[order[0]];
+                let c = order[0];
+                current = n.child[c / 4u][c % 4u];
                 continue;
             }
         } else {
@@ -331,10 +347,10 @@ fn scene_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) 
                 continue;
             }
             let n = wide_node(r);
-            let te = wide_slab(n, o, inv_d, tmin, limit);
-            for (var lane = 0u; lane < 4u; lane = lane + 1u) {
-                if (te[lane] != big) {
-                    top[top_sp] = n.child[lane];
+            let te = wide_slab_all(n, o, inv_d, tmin, limit);
+            for (var lane = 0u; lane < BVH_WIDTH; lane = lane + 1u) {
+                if (te[lane / 4u][lane % 4u] != big) {
+                    top[top_sp] = n.child[lane / 4u][lane % 4u];
                     top_sp = top_sp + 1u;
                 }
             }

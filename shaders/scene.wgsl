@@ -29,12 +29,16 @@
 // The time of the shutter (t ∈ [−1, 1]) the scene is traced at; see above.
 var<private> scene_time: f32 = 0.0;
 
-// wedge_scene::bvh::WideNode: four child boxes as rows (bounds[2·axis] minima, bounds[2·axis + 1]
-// maxima, one lane per child) and four child references (see bvh.wgsl); the Rust node's 16-byte pad
-// (element 7 of each node in `scene_data`) is not read.
+// wedge_scene::bvh::WideNode (8 · BVH_GROUPS elements): BVH_WIDTH child boxes as six rows (row
+// 2·axis the minima, 2·axis + 1 the maxima, one lane per child), each row BVH_GROUPS elements (element
+// row · BVH_GROUPS + g holds children 4g .. 4g + 3), then the child references (BVH_GROUPS elements,
+// see bvh.wgsl); the Rust node's pad (its last BVH_GROUPS elements) is not read.
+// wedge_scene::bvh::WIDTH children per node, in BVH_GROUPS groups of four lanes.
+const BVH_WIDTH: u32 = 8u;
+const BVH_GROUPS: u32 = 2u;
 struct WideNode {
-    bounds: array<vec4<f32>, 6>,
-    child: vec4<u32>,
+    bounds: array<vec4<f32>, 12>,
+    child: array<vec4<u32>, BVH_GROUPS>,
 }
 
 // wedge_scene::bvh::TrianglePack (10 elements): four triangles' v0, v1, v2 as x/y/z rows (elements
@@ -136,12 +140,14 @@ fn scene_xyz(v: vec4<u32>) -> vec3<f32> {
 }
 
 fn wide_node(i: u32) -> WideNode {
-    let b = scene_layout.bvh_nodes + 8u * i;
+    let b = scene_layout.bvh_nodes + 8u * BVH_GROUPS * i;
     var n: WideNode;
-    for (var k = 0u; k < 6u; k = k + 1u) {
+    for (var k = 0u; k < 6u * BVH_GROUPS; k = k + 1u) {
         n.bounds[k] = bitcast<vec4<f32>>(scene_data[b + k]);
     }
-    n.child = scene_data[b + 6u];
+    for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
+        n.child[g] = scene_data[b + 6u * BVH_GROUPS + g];
+    }
     return n;
 }
 

@@ -6,7 +6,7 @@
 //! - **Geometry**: world-space triangles ([`TriangleRecord`]: `v0, v1, v2` for the watertight test of
 //!   Woop, Benthin and Wald 2013) in BVH leaf order, plus per-triangle shading data
 //!   ([`TriangleShading`]) in the same order.
-//! - **BVH**: built once per scene with obvhs (PLOC, `fast_build`), collapsed to 4-wide 128-byte
+//! - **BVH**: built once per scene with obvhs (PLOC, `fast_build`), collapsed to 8-wide 256-byte
 //!   [`WideNode`]s. [`Scene::intersect`] / [`Scene::occluded`] traverse it with a SIMD slab test per node
 //!   ([`bvh`]); the WGSL kernel traverses the same nodes, and the closest hit is defined so that any
 //!   traversal order gives the same one (CPU and GPU agree); obvhs's own traversal is not used.

@@ -3,13 +3,13 @@
 //!
 //! **Motion (issue 13): two levels.** Triangles of objects at rest keep the one static tree they had
 //! before motion existed (node 0 on: static scenes trace bit for bit as before). Each group of moving
-//! objects that share one [`RigidMotion`] is an [`Instance`]: its own 4-wide tree over its triangles
+//! objects that share one [`RigidMotion`] is an [`Instance`]: its own wide tree over its triangles
 //! *as stored* (the rest pose), in the same `bvh.nodes`/`bvh.packs` arrays after the static tree
 //! (child references absolute, [`Bvh::pack_into`]), its triangles after the static ones in
 //! `triangles`. A ray at time `t` is traced through the static tree, then through every instance
 //! whose swept box (its bounds over the whole shutter) it enters, moved into the instance's rest
 //! space by the inverse rigid transform at `t`; the instances it enters are found through a
-//! top-level 4-wide tree over their swept boxes ([`Scene::instance_root`], nearest box first, boxes
+//! top-level wide tree over their swept boxes ([`Scene::instance_root`], nearest box first, boxes
 //! beyond the best hit so far skipped). A rigid map keeps the ray parameter (the direction
 //! keeps its length), and triangle indices are global, so [`bvh::closer`]'s rule still picks the one
 //! closest hit over all trees ([`bvh::traverse_from`] starts from the best hit so far).

@@ -326,7 +326,7 @@ fn the_top_level_tree_finds_what_a_loop_over_all_instances_finds() {
     let mut todo = vec![(scene.instance_root, None::<Aabb>)];
     while let Some((node, parent)) = todo.pop() {
         let n = &scene.bvh.nodes[node as usize];
-        for slot in (0..4).filter(|&s| n.used(s)) {
+        for slot in (0..bvh::WIDTH).filter(|&s| n.used(s)) {
             let b = Aabb {
                 min: Vec3::new(n.bounds[0][slot], n.bounds[2][slot], n.bounds[4][slot]),
                 max: Vec3::new(n.bounds[1][slot], n.bounds[3][slot], n.bounds[5][slot]),

@@ -7,7 +7,7 @@
 use glam::Vec3;
 use wedge_scene::bvh::{
     self, build::BinaryNode, build::BinaryTree, child_ref, closer, intersect_triangle, stack_need,
-    Bvh, Child, TriangleRecord, WideNode, MAX_LEAF, STACK_SIZE,
+    Bvh, Child, Simd, TriangleRecord, WideNode, MAX_LEAF, STACK_SIZE,
 };
 
 struct Rng(u64);
@@ -55,7 +55,7 @@ fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
     let mut todo = vec![0usize];
     while let Some(i) = todo.pop() {
         let n = &nodes[i];
-        for s in 0..4 {
+        for s in 0..bvh::WIDTH {
             if !n.used(s) {
                 continue;
             }
@@ -65,7 +65,7 @@ fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
                 Child::Node(j) => {
                     assert!(j as usize > i, "children follow their parent");
                     let c = &nodes[j as usize];
-                    for cs in (0..4).filter(|&cs| c.used(cs)) {
+                    for cs in (0..bvh::WIDTH).filter(|&cs| c.used(cs)) {
                         let clo = Vec3::new(c.bounds[0][cs], c.bounds[2][cs], c.bounds[4][cs]);
                         let chi = Vec3::new(c.bounds[1][cs], c.bounds[3][cs], c.bounds[5][cs]);
                         assert!(
@@ -176,6 +176,13 @@ fn check_rays(
         );
         let occluded = bvh::traverse(&bvh, o, d, 1e-5, tmax, true).is_some();
         assert_eq!(occluded, want.is_some(), "{name} ray {k}: any-hit");
+        // Every slab test this CPU runs (portable 4-lane groups, AVX) gives the same hit, bits and all.
+        for simd in [Simd::Portable, Simd::Avx].into_iter().filter(|s| s.available()) {
+            let hit = bvh::traverse_simd(&bvh, simd, o, d, 1e-5, tmax, false);
+            assert_eq!(hit, got, "{name} ray {k}: {simd:?}");
+            let any = bvh::traverse_simd(&bvh, simd, o, d, 1e-5, tmax, true).is_some();
+            assert_eq!(any, occluded, "{name} ray {k}: {simd:?} any-hit");
+        }
         if let Some((i, t)) = want {
             hits += 1;
             ties += tris.iter().enumerate().any(|(j, tr)| {
@@ -300,14 +307,14 @@ fn sah_cost(nodes: &[WideNode], cost: bvh::build::CollapseCost) -> f64 {
         )
     };
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for s in (0..4).filter(|&s| nodes[0].used(s)) {
+    for s in (0..bvh::WIDTH).filter(|&s| nodes[0].used(s)) {
         let (a, b) = slot_box(&nodes[0], s);
         lo = lo.min(a);
         hi = hi.max(b);
     }
     let mut total = area(lo, hi) * cost.node as f64;
     for n in nodes {
-        for s in (0..4).filter(|&s| n.used(s)) {
+        for s in (0..bvh::WIDTH).filter(|&s| n.used(s)) {
             let (a, b) = slot_box(n, s);
             total += area(a, b)
                 * match child_ref(n.child[s]) {

@@ -364,7 +364,7 @@ mod tests {
     use super::*;
 
     /// The WGSL traversal's stacks are as large as the CPU's (which the scene build keeps trees within),
-    /// and its triangle test's error-bound constants have the CPU's bits.
+    /// its nodes as wide, and its triangle test's error-bound constants have the CPU's bits.
     #[test]
     fn wgsl_constants_are_the_cpus() {
         let bvh = include_str!("../../../shaders/bvh.wgsl");
@@ -376,6 +376,17 @@ mod tests {
             format!("const GAMMA_5: u32 = {:#x}u;", wedge_scene::bvh::triangle::GAMMA[2].to_bits()),
         ] {
             assert!(bvh.contains(&line), "shaders/bvh.wgsl lacks `{line}`");
+        }
+        // scene.wgsl reads a node as 8 · BVH_GROUPS 16-byte elements, six rows of bounds first.
+        let width = wedge_scene::bvh::WIDTH;
+        assert_eq!(std::mem::size_of::<wedge_scene::WideNode>(), 8 * (width / 4) * 16);
+        let scene = include_str!("../../../shaders/scene.wgsl");
+        for line in [
+            format!("const BVH_WIDTH: u32 = {width}u;"),
+            format!("const BVH_GROUPS: u32 = {}u;", width / 4),
+            format!("bounds: array<vec4<f32>, {}>,", 6 * width / 4),
+        ] {
+            assert!(scene.contains(&line), "shaders/scene.wgsl lacks `{line}`");
         }
     }
 

@@ -1,5 +1,5 @@
 //! Building the wide BVH: obvhs (or a median split) builds a binary tree, which [`collapse`] turns
-//! into the 4-wide nodes and leaves of least surface-area cost.
+//! into the wide nodes ([`WIDTH`] children) and leaves of least surface-area cost.
 //!
 //! PLOC pairs mutual nearest neighbours along the Morton order; when many primitives share one Morton
 //! code (identical bounding-box centres, e.g. a million triangles rotated about one point) the merge
@@ -42,7 +42,7 @@ pub struct BinaryTree {
     pub order: Vec<u32>,
 }
 
-/// Build with obvhs (`fast_build`: [`PRESET`]) and collapse to 4-wide nodes. With a preset that
+/// Build with obvhs (`fast_build`: [`PRESET`]) and collapse to wide nodes. With a preset that
 /// pre-splits (spatial splits) a triangle is referenced from several leaves, so `order` may repeat
 /// input indices; the scene stores one copy per reference.
 pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
@@ -236,20 +236,20 @@ pub const COLLAPSE_COST: CollapseCost = CollapseCost {
     pack: 1.5,
 };
 
-/// Collapse a binary tree into 4-wide nodes with the least surface-area cost ([`collapse_with`] at
+/// Collapse a binary tree into wide nodes with the least surface-area cost ([`collapse_with`] at
 /// [`COLLAPSE_COST`]).
 pub fn collapse(tree: &BinaryTree) -> BuiltBvh {
     collapse_with(tree, COLLAPSE_COST)
 }
 
-/// Collapse a binary tree into the 4-wide tree of least expected cost under the surface-area model:
-/// a ray entering a wide node's box pays `cost.node` (its four child boxes), a ray entering a leaf's
+/// Collapse a binary tree into the wide tree of least expected cost under the surface-area model:
+/// a ray entering a wide node's box pays `cost.node` (its [`WIDTH`] child boxes), a ray entering a leaf's
 /// box pays `cost.pack` per [`super::TrianglePack`] (⌈triangles / 4⌉). Dynamic programming over the
 /// binary tree, bottom up, as Ylitie et al. 2017 ("Efficient incoherent ray traversal on GPUs through
 /// compressed wide BVHs", §4) do for 8-wide nodes: `C(n, i)`, the least cost of n's subtree spread
 /// over at most `i` slots of its parent, is
 /// - `i = 1`: a leaf of all its triangles (if at most [`MAX_LEAF`]), or a wide node over it:
-///   `A(n)·cost.node + D(n, 4)`;
+///   `A(n)·cost.node + D(n, WIDTH)`;
 /// - `i > 1`: `min(C(n, i − 1), D(n, i))`, with `D(n, j) = min over 0 < k < j of C(l, k) + C(r, j − k)`
 ///   (l, r its children): some slots go to the left subtree, the rest to the right.
 ///
@@ -310,10 +310,10 @@ fn collapse_leaves(tree: &BinaryTree, cost: CollapseCost, max_leaf: u32) -> Buil
 struct CollapsePlan {
     /// Whether the node, given one slot, becomes a leaf (else a wide node over its subtree).
     leaf: Vec<bool>,
-    /// For `i` = 2..=4 slots (index `i − 2`): 0 if `C(n, i) = C(n, i − 1)`, else the slots `k` given
+    /// For `i` = 2..=WIDTH slots (index `i − 2`): 0 if `C(n, i) = C(n, i − 1)`, else the slots `k` given
     /// to the left child (`D(n, i)`'s best split).
-    split: Vec<[u8; 3]>,
-    /// `D(n, 4)`'s best split (a wide node over n distributes its four slots this way).
+    split: Vec<[u8; WIDTH - 1]>,
+    /// `D(n, WIDTH)`'s best split (a wide node over n distributes its slots this way).
     split4: Vec<u8>,
 }
 
@@ -335,7 +335,7 @@ impl CollapsePlan {
         let mut c = vec![[0f32; WIDTH]; n]; // c[n][i − 1] = C(n, i)
         let mut plan = CollapsePlan {
             leaf: vec![false; n],
-            split: vec![[0; 3]; n],
+            split: vec![[0; WIDTH - 1]; n],
             split4: vec![0; n],
         };
         let packs = |count: u32| count.div_ceil(4) as f32;
@@ -354,7 +354,7 @@ impl CollapsePlan {
             }
             let (l, r) = (b.index as usize, b.index as usize + 1);
             count[i] = count[l] + count[r];
-            // D(n, j) for j = 2..=4 and its best split.
+            // D(n, j) for j = 2..=WIDTH and its best split.
             let mut d = [(f32::INFINITY, 0u8); WIDTH + 1];
             for (j, dj) in d.iter_mut().enumerate().skip(2) {
                 for k in 1..j {
@@ -427,7 +427,7 @@ fn subtree_prims(bin: &[BinaryNode], order: &[u32], b: u32, out: &mut Vec<u32>) 
 }
 
 /// The collapse used before [`collapse`] (kept for comparison: the bench's build table). Collapse a
-/// binary tree into 4-wide nodes, top down: each wide node takes its binary node's two
+/// binary tree into wide nodes, top down: each wide node takes its binary node's two
 /// children and keeps opening the inner child with the largest surface area (the one rays most
 /// likely enter) until it holds [`WIDTH`] children or only leaves — the usual greedy SAH collapse
 /// (Wald et al. 2008, "Getting rid of packets"). Leaves keep their triangle ranges; a leaf larger than
@@ -478,7 +478,7 @@ pub fn collapse_greedy(tree: &BinaryTree) -> BuiltBvh {
     }
 }
 
-/// A 4-wide tree over boxes, one box per leaf: each leaf reference is `leaf_ref(box index, 1)` (no
+/// A wide tree over boxes, one box per leaf: each leaf reference is `leaf_ref(box index, 1)` (no
 /// `order`). Scenes build their top-level tree over moving instances' swept boxes with it
 /// ([`crate::Scene::instance_root`]). Top-down, each binary split at the least
 /// `A(left)·|left| + A(right)·|right|` over the boxes sorted by centre along each axis, except that
@@ -616,7 +616,7 @@ fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree 
 }
 
 /// A reference to `count` triangles from `first`: a leaf, or for more than [`MAX_LEAF`] a new node
-/// over up to four chunks (recursively), each with the whole leaf's box.
+/// over up to [`WIDTH`] chunks (recursively), each with the whole leaf's box.
 fn leaf_slot(
     nodes: &mut Vec<WideNode>,
     first: u32,

@@ -1,18 +1,22 @@
-//! The flat 4-wide BVH the CPU and the GPU both traverse, and the triangle layout they test against.
+//! The flat 8-wide BVH the CPU and the GPU both traverse, and the triangle layout they test against.
 //!
 //! - [`triangle`]: the one definition of a traced triangle, of a hit, and of the closest-hit tie rule.
 //! - [`build`]: obvhs builds a binary tree (PLOC + reinsertion, `fast_build` with one triangle per
 //!   leaf, in parallel); we collapse it into the [`WideNode`]s and leaves of least surface-area cost
 //!   (dynamic programming over the binary tree), with a median-split fallback for inputs that make
 //!   PLOC quadratic or too deep.
-//! - [`traverse`]: the CPU traversal — four child boxes per SSE slab test, children visited nearest
+//! - [`traverse`]: the CPU traversal — a node's eight child boxes in one AVX slab test where the CPU
+//!   has AVX (checked at run time: [`Simd`]), else as two 4-lane groups; children visited nearest
 //!   first, any-hit for shadow rays. `shaders/bvh.wgsl` traverses the same nodes (uploaded unchanged)
-//!   with `vec4` lanes; the two need not visit nodes in the same order, since the closest hit is
+//!   with `vec4` lane groups; the two need not visit nodes in the same order, since the closest hit is
 //!   defined by [`triangle::closer`] (smallest `t`, then smallest triangle index) and both box tests
 //!   are conservative (never cull a triangle the triangle test would hit).
 //!
-//! Why 4-wide: measured against the binary tree it replaced on the built-in scenes (DESIGN-NOTES
-//! "Ray tracing core"): fewer, larger node visits that one SIMD slab test covers.
+//! Why 8-wide: measured against the 4-wide tree it replaced (and that against the binary tree before
+//! it), DESIGN-NOTES "Ray tracing core": 30–40% fewer node visits per ray on the large scenes, and
+//! one AVX instruction tests eight boxes as SSE tests four — camera rays 0.78–0.81× → 0.98–1.01×
+//! Embree's single-ray speed on `heavy`/`spheres`, one thread. Triangles stay in 4-wide packs (a leaf
+//! has at most two).
 
 pub mod build;
 pub mod traverse;
@@ -23,17 +27,20 @@ use bytemuck::{Pod, Zeroable};
 pub use build::{
     build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh,
 };
-pub use traverse::{traverse, traverse_counted, traverse_from, TraversalStats};
+pub use traverse::{traverse, traverse_counted, traverse_from, traverse_simd, Simd, TraversalStats};
 pub use triangle::{
     closer, intersect_triangle, Hit, TrianglePack, TriangleRecord, NO_LIGHT, NO_TRIANGLE,
 };
 
-/// Children per node.
-pub const WIDTH: usize = 4;
+/// Children per node (a multiple of 4: the portable slab test and the WGSL take four lanes at a time;
+/// the AVX test eight).
+pub const WIDTH: usize = 8;
 
 /// Entries in the traversal stack (CPU and WGSL). The builder bounds the stack a tree can need
-/// ([`build::stack_need`]) and rejects trees that need more, so it never overflows.
-pub const STACK_SIZE: usize = 64;
+/// ([`build::stack_need`]) and rejects trees that need more, so it never overflows. A node whose
+/// children are all hit pushes `WIDTH − 1` of them: 64 entries, enough for 4-wide trees, made the SAH
+/// tree of `heavy` fall back to the median split at 8-wide (traced 2× the triangle packs per ray).
+pub const STACK_SIZE: usize = 128;
 
 /// Most triangles in one leaf of a [`BuiltBvh`] (obvhs's `max_prims_per_leaf` is 8; larger leaves are
 /// split), and so at most two [`TrianglePack`]s per leaf of a [`Bvh`]. The reference has room for 8.
@@ -47,11 +54,11 @@ pub const LEAF_FIRST_BITS: u32 = 28;
 /// triangles before that, `crate::limits::MAX_TRIANGLES`).
 pub const MAX_REFERENCES: usize = 1 << LEAF_FIRST_BITS;
 
-/// A 4-wide BVH node (128 bytes, 64-byte aligned so a node is exactly two cache lines; `repr(C)`, Pod;
-/// uploaded to the GPU byte for byte). Node 0 is the root of a scene's static tree; each moving
+/// An 8-wide BVH node (256 bytes, 64-byte aligned so a node is exactly four cache lines; `repr(C)`,
+/// Pod; uploaded to the GPU byte for byte). Node 0 is the root of a scene's static tree; each moving
 /// instance's tree follows it in the same array ([`Bvh::pack_into`]), with its own root.
 ///
-/// `bounds` holds the four child boxes as structure of arrays, so one SIMD lane is one child:
+/// `bounds` holds the [`WIDTH`] child boxes as structure of arrays, so one SIMD lane is one child:
 /// `bounds[2·axis]` the minima along `axis`, `bounds[2·axis + 1]` the maxima. An unused slot has the
 /// inverted infinite box (min +∞, max −∞), which the slab test (near/far plane chosen by the ray's
 /// direction sign) always culls: its entry is +∞ and its exit −∞ on every axis.
@@ -64,12 +71,13 @@ pub const MAX_REFERENCES: usize = 1 << LEAF_FIRST_BITS;
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct WideNode {
-    pub bounds: [[f32; 4]; 6],
-    pub child: [u32; 4],
-    /// Unused: pads the node to 128 bytes. 112-byte nodes straddle 2.75 cache lines on average; padded,
-    /// rays traced 2–5% faster on `heavy` and `spheres` (three alternating runs of the two bench
-    /// binaries, DESIGN-NOTES "Ray tracing core") for 14% more node memory.
-    pub pad: [u32; 4],
+    pub bounds: [[f32; WIDTH]; 6],
+    pub child: [u32; WIDTH],
+    /// Unused: pads the node to a whole number of cache lines. 112-byte 4-wide nodes straddle 2.75
+    /// cache lines on average; padded, rays traced 2–5% faster on `heavy` and `spheres` (three
+    /// alternating runs of the two bench binaries, DESIGN-NOTES "Ray tracing core") for 14% more node
+    /// memory.
+    pub pad: [u32; WIDTH],
 }
 
 /// A decoded child reference.
@@ -101,11 +109,11 @@ pub fn child_ref(r: u32) -> Child {
 impl WideNode {
     /// A node with every slot unused.
     pub fn empty() -> Self {
-        let (lo, hi) = ([f32::INFINITY; 4], [f32::NEG_INFINITY; 4]);
+        let (lo, hi) = ([f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]);
         WideNode {
             bounds: [lo, hi, lo, hi, lo, hi],
-            child: [u32::MAX; 4],
-            pad: [0; 4],
+            child: [u32::MAX; WIDTH],
+            pad: [0; WIDTH],
         }
     }
 

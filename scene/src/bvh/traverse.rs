@@ -1,6 +1,7 @@
-//! CPU traversal of the 4-wide BVH: one ray at a time, the four child boxes of a node in one SIMD slab
-//! test (glam `Vec4`: SSE on x86-64, NEON on aarch64, scalar elsewhere), hit children visited nearest
-//! first (closest hit) from a fixed stack, leaves tested four triangles at a time
+//! CPU traversal of the 8-wide BVH: one ray at a time, the eight child boxes of a node in one AVX slab
+//! test where the CPU has AVX (run-time check, [`Simd`]), else in two 4-lane groups (glam `Vec4`: SSE
+//! on x86-64, NEON on aarch64, scalar elsewhere); hit children visited nearest first (closest hit)
+//! from a fixed stack, leaves tested four triangles at a time
 //! ([`TrianglePack::intersect`], the shared watertight test of [`super::triangle`] in lanes).
 //! `shaders/bvh.wgsl` is the GPU mirror.
 //!
@@ -8,7 +9,7 @@
 //! al. 2005), so it needs no per-axis min/max; the exit distance is widened by a few ulps (PBRT's
 //! 1 + 2γ₃) so rounding never culls a triangle the triangle test would hit (thin boxes: a flat ground
 //! has zero height). A NaN distance (origin on a slab plane of a ray parallel to it: 0 · ∞) must not
-//! cull either: the reductions put the running value second, and SSE `maxps`/`minps` return their
+//! cull either: the reductions put the running value second, and SSE/AVX `maxps`/`minps` return their
 //! second operand when either is NaN, as glam's scalar fallback does; NEON's `fmax`/`fmin` would
 //! propagate the NaN, so there (and only there) NaN lanes are cleared first.
 
@@ -17,22 +18,73 @@ use std::mem::MaybeUninit;
 use glam::{Vec3, Vec3A, Vec4};
 
 use super::triangle::{closer, PackRay, TrianglePack};
-use super::{Bvh, Hit, WideNode, LEAF_BIT, LEAF_FIRST_BITS, STACK_SIZE};
+use super::{Bvh, Hit, WideNode, LEAF_BIT, LEAF_FIRST_BITS, STACK_SIZE, WIDTH};
 
 /// 1 + 2γ₃ rounded up (0x3f800003): the exit-distance widening of the slab test.
 pub const WIDEN: f32 = 1.000_000_4;
 
-/// A ray prepared for slab tests: origin and reciprocal direction splatted across the four lanes,
-/// and per axis which `bounds` row holds the near plane (`2·axis` for a non-negative direction sign,
-/// else `2·axis + 1`).
+/// How a node's [`WIDTH`] child boxes are tested against a ray: entry distances and the mask (bit i:
+/// child i overlaps `(tmin, tmax)`). Every implementation does the same IEEE operations per lane in the
+/// same order (subtract, multiply, max/min with the running value second, widened compare), so they
+/// agree bit for bit and the choice is only a matter of speed ([`Simd`]).
+trait SlabTest {
+    type Ray;
+    fn prepare(o: Vec3A, d: Vec3A) -> Self::Ray;
+    fn slab(ray: &Self::Ray, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32);
+}
+
+/// Which slab test a traversal runs. [`Simd::best`] is what scenes use: AVX where the CPU has it,
+/// checked at run time (the binary stays portable), else four lanes at a time through glam (SSE on
+/// x86-64, NEON on aarch64, scalar elsewhere).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Simd {
+    /// Two 4-lane groups per 8-wide node (glam `Vec4`).
+    Portable,
+    /// One 8-lane AVX test per node (x86-64 with AVX only).
+    Avx,
+}
+
+impl Simd {
+    /// The fastest test this CPU runs.
+    #[inline(always)]
+    pub fn best() -> Simd {
+        if Simd::Avx.available() {
+            Simd::Avx
+        } else {
+            Simd::Portable
+        }
+    }
+
+    /// Whether this CPU can run it.
+    #[inline(always)]
+    pub fn available(self) -> bool {
+        match self {
+            Simd::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx => std::arch::is_x86_feature_detected!("avx"),
+            #[cfg(not(target_arch = "x86_64"))]
+            Simd::Avx => false,
+        }
+    }
+}
+
+/// A ray prepared for the portable slab test: origin and reciprocal direction splatted across four
+/// lanes, and per axis which `bounds` row holds the near plane (`2·axis` for a non-negative direction
+/// sign, else `2·axis + 1`).
 struct WideRay {
     o: [Vec4; 3],
     inv_d: [Vec4; 3],
     near: [usize; 3],
 }
 
-impl WideRay {
-    fn new(o: Vec3A, d: Vec3A) -> Self {
+/// The slab test four lanes at a time (glam).
+struct Portable;
+
+impl SlabTest for Portable {
+    type Ray = WideRay;
+
+    #[inline(always)]
+    fn prepare(o: Vec3A, d: Vec3A) -> WideRay {
         let inv = d.recip();
         let row = |axis: usize| 2 * axis + inv[axis].is_sign_negative() as usize;
         WideRay {
@@ -42,19 +94,106 @@ impl WideRay {
         }
     }
 
-    /// Entry distances of the four children and the mask (bit i: child i overlaps `(tmin, tmax)`).
     #[inline(always)]
-    fn slab(&self, n: &WideNode, tmin: Vec4, tmax: Vec4) -> (Vec4, u32) {
-        let mut t_enter = tmin;
-        let mut t_exit = tmax;
-        for axis in 0..3 {
-            let near = (Vec4::from(n.bounds[self.near[axis]]) - self.o[axis]) * self.inv_d[axis];
-            let far = (Vec4::from(n.bounds[self.near[axis] ^ 1]) - self.o[axis]) * self.inv_d[axis];
-            let (near, far) = nan_free(near, far);
-            t_enter = near.max(t_enter);
-            t_exit = far.min(t_exit);
+    fn slab(ray: &WideRay, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
+        let mut t_out = [0.0; WIDTH];
+        let mut mask = 0u32;
+        for g in 0..WIDTH / 4 {
+            let row = |r: usize| Vec4::from_slice(&n.bounds[r][4 * g..4 * g + 4]);
+            let mut t_enter = Vec4::splat(tmin);
+            let mut t_exit = Vec4::splat(tmax);
+            for axis in 0..3 {
+                let near = (row(ray.near[axis]) - ray.o[axis]) * ray.inv_d[axis];
+                let far = (row(ray.near[axis] ^ 1) - ray.o[axis]) * ray.inv_d[axis];
+                let (near, far) = nan_free(near, far);
+                t_enter = near.max(t_enter);
+                t_exit = far.min(t_exit);
+            }
+            t_out[4 * g..4 * g + 4].copy_from_slice(&t_enter.to_array());
+            mask |= t_enter.cmple(t_exit * WIDEN).bitmask() << (4 * g);
         }
-        (t_enter, t_enter.cmple(t_exit * WIDEN).bitmask())
+        (t_out, mask)
+    }
+}
+
+/// The slab test eight lanes at a time with AVX, and the traversal compiled with AVX enabled so the
+/// intrinsics inline into it (the rest of the loop, glam's SSE, is then VEX-encoded too).
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use std::arch::x86_64::*;
+
+    use glam::{Vec3, Vec3A};
+
+    use super::super::triangle::TrianglePack;
+    use super::super::{Hit, WideNode, WIDTH};
+    use super::{Counter, SlabTest, Start, WIDEN};
+
+    const _: () = assert!(WIDTH == 8, "the AVX slab test is one 8-lane register per row");
+
+    pub(super) struct Avx;
+
+    pub(super) struct AvxRay {
+        o: [__m256; 3],
+        inv_d: [__m256; 3],
+        near: [usize; 3],
+    }
+
+    impl SlabTest for Avx {
+        type Ray = AvxRay;
+
+        #[inline(always)]
+        fn prepare(o: Vec3A, d: Vec3A) -> AvxRay {
+            let inv = d.recip();
+            let row = |axis: usize| 2 * axis + inv[axis].is_sign_negative() as usize;
+            // SAFETY: only reached through `traverse`, which runs where the CPU has AVX.
+            unsafe {
+                AvxRay {
+                    o: [_mm256_set1_ps(o.x), _mm256_set1_ps(o.y), _mm256_set1_ps(o.z)],
+                    inv_d: [_mm256_set1_ps(inv.x), _mm256_set1_ps(inv.y), _mm256_set1_ps(inv.z)],
+                    near: [row(0), row(1), row(2)],
+                }
+            }
+        }
+
+        #[inline(always)]
+        fn slab(ray: &AvxRay, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
+            // SAFETY: AVX as above; each `bounds` row is 32 bytes at a 32-byte offset of a 64-byte
+            // aligned node, so the aligned loads are in bounds and aligned.
+            unsafe {
+                let row = |r: usize| _mm256_load_ps(n.bounds[r].as_ptr());
+                let mut t_enter = _mm256_set1_ps(tmin);
+                let mut t_exit = _mm256_set1_ps(tmax);
+                for axis in 0..3 {
+                    let near = _mm256_mul_ps(_mm256_sub_ps(row(ray.near[axis]), ray.o[axis]), ray.inv_d[axis]);
+                    let far = _mm256_mul_ps(_mm256_sub_ps(row(ray.near[axis] ^ 1), ray.o[axis]), ray.inv_d[axis]);
+                    // `maxps`/`minps` return the second operand when either is NaN, as the
+                    // portable test's SSE does: a NaN distance never culls.
+                    t_enter = _mm256_max_ps(near, t_enter);
+                    t_exit = _mm256_min_ps(far, t_exit);
+                }
+                let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(t_enter, _mm256_mul_ps(t_exit, _mm256_set1_ps(WIDEN)));
+                let mut t = [0.0f32; WIDTH];
+                _mm256_storeu_ps(t.as_mut_ptr(), t_enter);
+                (t, _mm256_movemask_ps(hit) as u32)
+            }
+        }
+    }
+
+    /// [`super::traverse_impl`] with the AVX slab test.
+    ///
+    /// # Safety
+    /// The CPU must have AVX ([`super::Simd::Avx`]`.available()`).
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn traverse<const ANY_HIT: bool, C: Counter>(
+        nodes: &[WideNode],
+        packs: &[TrianglePack],
+        start: Start,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        counter: &mut C,
+    ) -> Option<Hit> {
+        super::traverse_impl::<ANY_HIT, C, Avx>(nodes, packs, start, o, d, tmin, counter)
     }
 }
 
@@ -81,29 +220,42 @@ pub fn traverse(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any_hit: bool
 
 /// [`traverse`]'s closest hit, the query fixed at compile time (what `Scene`/`SceneAt` call).
 pub fn closest(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-    traverse_impl::<false, ()>(
-        &bvh.nodes,
-        &bvh.packs,
-        Start::root(tmax),
-        o,
-        d,
-        tmin,
-        &mut (),
-    )
+    dispatch::<false, ()>(bvh, Simd::best(), Start::root(tmax), o, d, tmin, &mut ())
 }
 
 /// [`traverse`]'s any-hit query: whether anything is hit with `tmin < t < tmax`.
 pub fn occluded(bvh: &Bvh, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
-    traverse_impl::<true, ()>(
-        &bvh.nodes,
-        &bvh.packs,
-        Start::root(tmax),
-        o,
-        d,
-        tmin,
-        &mut (),
-    )
-    .is_some()
+    dispatch::<true, ()>(bvh, Simd::best(), Start::root(tmax), o, d, tmin, &mut ()).is_some()
+}
+
+/// [`traverse`] with a chosen slab test (`Portable` wherever `simd` is not available), for tests
+/// that compare the implementations and for benchmarks that measure them.
+pub fn traverse_simd(bvh: &Bvh, simd: Simd, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any_hit: bool) -> Option<Hit> {
+    if any_hit {
+        dispatch::<true, ()>(bvh, simd, Start::root(tmax), o, d, tmin, &mut ())
+    } else {
+        dispatch::<false, ()>(bvh, simd, Start::root(tmax), o, d, tmin, &mut ())
+    }
+}
+
+/// The traversal with `simd`'s slab test where the CPU has it, else the portable one.
+#[inline(always)]
+fn dispatch<const ANY_HIT: bool, C: Counter>(
+    bvh: &Bvh,
+    simd: Simd,
+    start: Start,
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    counter: &mut C,
+) -> Option<Hit> {
+    #[cfg(target_arch = "x86_64")]
+    if simd == Simd::Avx && simd.available() {
+        // SAFETY: the CPU has AVX (checked at run time just above).
+        return unsafe { avx::traverse::<ANY_HIT, C>(&bvh.nodes, &bvh.packs, start, o, d, tmin, counter) };
+    }
+    let _ = simd;
+    traverse_impl::<ANY_HIT, C, Portable>(&bvh.nodes, &bvh.packs, start, o, d, tmin, counter)
 }
 
 /// [`traverse`] of the tree whose root is node `root` (scenes store one tree per moving instance in
@@ -150,7 +302,7 @@ impl Start {
     }
 }
 
-/// Work a traversal did: wide nodes whose four boxes were tested, and triangle packs tested.
+/// Work a traversal did: wide nodes whose boxes were tested, and triangle packs tested.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraversalStats {
     pub nodes: u64,
@@ -182,9 +334,9 @@ fn traverse_with<C: Counter>(
     counter: &mut C,
 ) -> Option<Hit> {
     if any_hit {
-        traverse_impl::<true, C>(&bvh.nodes, &bvh.packs, start, o, d, tmin, counter)
+        dispatch::<true, C>(bvh, Simd::best(), start, o, d, tmin, counter)
     } else {
-        traverse_impl::<false, C>(&bvh.nodes, &bvh.packs, start, o, d, tmin, counter)
+        dispatch::<false, C>(bvh, Simd::best(), start, o, d, tmin, counter)
     }
 }
 
@@ -216,7 +368,7 @@ impl Counter for TraversalStats {
 /// starts beyond the (widened) best distance without touching it; any-hit never shrinks its interval
 /// before it returns, so it skips that and the sort.
 #[inline(always)]
-fn traverse_impl<const ANY_HIT: bool, C: Counter>(
+fn traverse_impl<const ANY_HIT: bool, C: Counter, S: SlabTest>(
     nodes: &[WideNode],
     packs: &[TrianglePack],
     start: Start,
@@ -229,9 +381,8 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter>(
         return None;
     }
     let (o, d) = (Vec3A::from(o), Vec3A::from(d));
-    let ray = WideRay::new(o, d);
+    let ray = S::prepare(o, d);
     let pack_ray = PackRay::new(o, d);
-    let tmin_v = Vec4::splat(tmin);
     let mut t_best = start.t_best;
     let mut best = Hit {
         t: t_best,
@@ -250,18 +401,17 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter>(
         if current & LEAF_BIT == 0 {
             let n = &nodes[current as usize];
             counter.node();
-            let (t_enter, mut mask) = ray.slab(n, tmin_v, Vec4::splat(t_best));
+            let (t, mut mask) = S::slab(&ray, n, tmin, t_best);
             if mask != 0 {
-                let t = t_enter.to_array();
                 let first = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 if mask == 0 {
                     current = n.child[first];
                     continue;
                 }
-                // Two to four children: continue with the nearest, push the rest farthest first so
+                // Two or more children: continue with the nearest, push the rest farthest first so
                 // they pop in near-to-far order.
-                let mut order = [first, 0, 0, 0];
+                let mut order = [first; WIDTH];
                 let mut k = 1;
                 while mask != 0 {
                     order[k] = mask.trailing_zeros() as usize;
@@ -358,8 +508,7 @@ pub fn walk_leaves(
     if (root as usize) >= bvh.nodes.len() {
         return;
     }
-    let ray = WideRay::new(Vec3A::from(o), Vec3A::from(d));
-    let tmin_v = Vec4::splat(tmin);
+    let ray = Portable::prepare(Vec3A::from(o), Vec3A::from(d));
     let mut stack = [(0u32, 0f32); TOP_STACK_SIZE];
     stack[0] = (root, tmin);
     let mut sp = 1usize;
@@ -382,10 +531,9 @@ pub fn walk_leaves(
             continue;
         }
         let n = &bvh.nodes[r as usize];
-        let (t, mut mask) = ray.slab(n, tmin_v, Vec4::splat(limit));
-        let t = t.to_array();
+        let (t, mut mask) = Portable::slab(&ray, n, tmin, limit);
         // Push the entered children farthest first, so the nearest pops first.
-        let mut hit = [(0u32, 0f32); 4];
+        let mut hit = [(0u32, 0f32); WIDTH];
         let mut k = 0;
         while mask != 0 {
             let c = mask.trailing_zeros() as usize;
