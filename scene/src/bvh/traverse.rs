@@ -28,9 +28,10 @@ pub const WIDEN: f32 = 1.000_000_4;
 /// same order (subtract, multiply, max/min with the running value second, widened compare), so they
 /// agree bit for bit and the choice is only a matter of speed ([`Simd`]).
 trait SlabTest {
-    type Ray;
-    fn prepare(o: Vec3A, d: Vec3A) -> Self::Ray;
-    fn slab(ray: &Self::Ray, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32);
+    /// A value splatted across the test's lanes.
+    type Lanes;
+    fn prepare(o: Vec3A, d: Vec3A) -> SlabRay<Self::Lanes>;
+    fn slab(ray: &SlabRay<Self::Lanes>, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32);
 }
 
 /// Which slab test a traversal runs. [`Simd::best`] is what scenes use: AVX where the CPU has it,
@@ -68,34 +69,41 @@ impl Simd {
     }
 }
 
-/// A ray prepared for the portable slab test: origin and reciprocal direction splatted across four
-/// lanes, and per axis which `bounds` row holds the near plane (`2·axis` for a non-negative direction
-/// sign, else `2·axis + 1`).
-struct WideRay {
-    o: [Vec4; 3],
-    inv_d: [Vec4; 3],
+/// A ray prepared for a slab test: origin and reciprocal direction splatted across the lanes `L`,
+/// and per axis which `bounds` row holds the near plane (`2·axis` for a non-negative direction sign,
+/// else `2·axis + 1`).
+struct SlabRay<L> {
+    o: [L; 3],
+    inv_d: [L; 3],
     near: [usize; 3],
+}
+
+impl<L> SlabRay<L> {
+    #[inline(always)]
+    fn new(o: Vec3A, d: Vec3A, splat: impl Fn(f32) -> L) -> Self {
+        let inv = d.recip();
+        let row = |axis: usize| 2 * axis + inv[axis].is_sign_negative() as usize;
+        SlabRay {
+            o: [splat(o.x), splat(o.y), splat(o.z)],
+            inv_d: [splat(inv.x), splat(inv.y), splat(inv.z)],
+            near: [row(0), row(1), row(2)],
+        }
+    }
 }
 
 /// The slab test four lanes at a time (glam).
 struct Portable;
 
 impl SlabTest for Portable {
-    type Ray = WideRay;
+    type Lanes = Vec4;
 
     #[inline(always)]
-    fn prepare(o: Vec3A, d: Vec3A) -> WideRay {
-        let inv = d.recip();
-        let row = |axis: usize| 2 * axis + inv[axis].is_sign_negative() as usize;
-        WideRay {
-            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            inv_d: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
-            near: [row(0), row(1), row(2)],
-        }
+    fn prepare(o: Vec3A, d: Vec3A) -> SlabRay<Vec4> {
+        SlabRay::new(o, d, Vec4::splat)
     }
 
     #[inline(always)]
-    fn slab(ray: &WideRay, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
+    fn slab(ray: &SlabRay<Vec4>, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
         let mut t_out = [0.0; WIDTH];
         let mut mask = 0u32;
         for g in 0..WIDTH / 4 {
@@ -126,37 +134,23 @@ mod avx {
 
     use super::super::triangle::TrianglePack;
     use super::super::{Hit, WideNode, WIDTH};
-    use super::{Counter, SlabTest, Start, WIDEN};
+    use super::{Counter, SlabRay, SlabTest, Start, WIDEN};
 
     const _: () = assert!(WIDTH == 8, "the AVX slab test is one 8-lane register per row");
 
     pub(super) struct Avx;
 
-    pub(super) struct AvxRay {
-        o: [__m256; 3],
-        inv_d: [__m256; 3],
-        near: [usize; 3],
-    }
-
     impl SlabTest for Avx {
-        type Ray = AvxRay;
+        type Lanes = __m256;
 
         #[inline(always)]
-        fn prepare(o: Vec3A, d: Vec3A) -> AvxRay {
-            let inv = d.recip();
-            let row = |axis: usize| 2 * axis + inv[axis].is_sign_negative() as usize;
+        fn prepare(o: Vec3A, d: Vec3A) -> SlabRay<__m256> {
             // SAFETY: only reached through `traverse`, which runs where the CPU has AVX.
-            unsafe {
-                AvxRay {
-                    o: [_mm256_set1_ps(o.x), _mm256_set1_ps(o.y), _mm256_set1_ps(o.z)],
-                    inv_d: [_mm256_set1_ps(inv.x), _mm256_set1_ps(inv.y), _mm256_set1_ps(inv.z)],
-                    near: [row(0), row(1), row(2)],
-                }
-            }
+            SlabRay::new(o, d, |x| unsafe { _mm256_set1_ps(x) })
         }
 
         #[inline(always)]
-        fn slab(ray: &AvxRay, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
+        fn slab(ray: &SlabRay<__m256>, n: &WideNode, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
             // SAFETY: AVX as above; each `bounds` row is 32 bytes at a 32-byte offset of a 64-byte
             // aligned node, so the aligned loads are in bounds and aligned.
             unsafe {
