@@ -113,10 +113,7 @@ fn for_error(curve: &[(f64, f64)], error: f64) -> Option<f64> {
 
 fn main() {
     let smoke = !std::env::args().any(|a| a == "--bench");
-    let (w, h) = std::env::var("WEDGE_BENCH_SIZE")
-        .ok()
-        .and_then(|v| v.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))))
-        .unwrap_or(if smoke { (32, 24) } else { (160, 120) });
+    let (w, h) = progressive::bench_size(smoke);
     let ref_spp = if smoke { 64 } else { env_u32("WEDGE_BENCH_REF_SPP", 4096) };
     let rays = if smoke { 8 } else { env_u32("WEDGE_BENCH_RAYS", 64) };
     let lf_spp: &[u32] = if smoke { &[2] } else { &[1, 2, 4, 8, 16] };

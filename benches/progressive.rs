@@ -46,10 +46,7 @@ fn main() {
     // smoke run (32×24, a 64-path reference, 8 frames, the plot under target/) checks that it works
     // without paying for the numbers.
     let smoke = !std::env::args().any(|a| a == "--bench");
-    let (w, h) = std::env::var("WEDGE_BENCH_SIZE")
-        .ok()
-        .and_then(|v| v.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))))
-        .unwrap_or(if smoke { (32, 24) } else { (160, 120) });
+    let (w, h) = progressive::bench_size(smoke);
     let (spp, frames) = if smoke {
         (64, 8)
     } else {

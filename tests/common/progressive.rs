@@ -166,3 +166,21 @@ pub fn gpu_parity_with_history(s: &Session, gpu: &mut wedge::backends::gpu::GpuB
     }
     report
 }
+
+/// The image size a bench renders at: `WEDGE_BENCH_SIZE` (`WIDTHxHEIGHT`, e.g. `320x240`), else
+/// 32×24 for the smoke run `cargo test --all-targets` makes and 160×120 for `cargo bench`. A value
+/// that is not two positive integers stops the bench with a message rather than running at a size
+/// nobody asked for.
+pub fn bench_size(smoke: bool) -> (u32, u32) {
+    let Ok(v) = std::env::var("WEDGE_BENCH_SIZE") else {
+        return if smoke { (32, 24) } else { (160, 120) };
+    };
+    let parsed = v.split_once('x').and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((w, h)) if w > 0 && h > 0 => (w, h),
+        _ => {
+            eprintln!("WEDGE_BENCH_SIZE={v:?}: expected WIDTHxHEIGHT with two positive integers, e.g. 320x240");
+            std::process::exit(2);
+        }
+    }
+}
