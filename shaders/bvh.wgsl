@@ -1,7 +1,8 @@
 // bvh.wgsl — the GPU traversal of wedge_scene::bvh (scene/src/bvh/) over the SAME 8-wide nodes and
 // triangle packs the CPU builds (uploaded unchanged): a node's eight child boxes as two groups of vec4
 // lanes (slab test with the near/far plane chosen by the direction's sign, exit widened by 3 ulps, NaN
-// lanes no constraint), hit children nearest first from a 128-entry stack, leaves tested four
+// lanes no constraint), the nearest hit child next and the others on a 128-entry stack (the CPU
+// sorts them all: both orders give the same hit), leaves tested four
 // triangles at a time with the same watertight test, in the same operation order, as the CPU
 // (bit-identical t and barycentrics).
 // The closest hit is the smallest t, ties to the lower triangle index (`closer`): an order-free rule,
@@ -137,22 +138,19 @@ fn t_error_bound(max_x: vec4<f32>, max_y: vec4<f32>, max_z: vec4<f32>, max_e: ve
     return vec4<f32>(3.0) * ((g3 * max_e * max_z + delta_e * max_z) + delta_z * max_e) * abs_inv_det;
 }
 
-// Entry distances of children 4g .. 4g + 3 of a node, +inf where the child is missed (the CPU's
-// `SlabTest::slab`, one lane group).
-fn wide_slab(n: WideNode, g: u32, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> vec4<f32> {
+// Entry distances of children 4g .. 4g + 3 of the node whose first element in `scene_data` is `base`,
+// +inf where the child is missed (the CPU's `SlabTest::slab`, one lane group). The rows are read
+// straight from the scene array: copying the whole 256-byte node into a local struct and indexing it
+// by lane made lavapipe spill it.
+fn node_slab(base: u32, g: u32, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> vec4<f32> {
     var t_enter = vec4<f32>(tmin);
     var t_exit = vec4<f32>(tmax);
     let neg = inv_d < vec3<f32>(0.0);
-    let b = array<vec4<f32>, 6>(
-        n.bounds[g], n.bounds[BVH_GROUPS + g], n.bounds[2u * BVH_GROUPS + g],
-        n.bounds[3u * BVH_GROUPS + g], n.bounds[4u * BVH_GROUPS + g], n.bounds[5u * BVH_GROUPS + g]);
-    var rows = array<vec4<f32>, 6>(
-        select(b[0], b[1], neg.x), select(b[1], b[0], neg.x),
-        select(b[2], b[3], neg.y), select(b[3], b[2], neg.y),
-        select(b[4], b[5], neg.z), select(b[5], b[4], neg.z));
     for (var axis = 0u; axis < 3u; axis = axis + 1u) {
-        let near = (rows[2u * axis] - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
-        let far = (rows[2u * axis + 1u] - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
+        let lo = bitcast<vec4<f32>>(scene_data[base + (2u * axis) * BVH_GROUPS + g]);
+        let hi = bitcast<vec4<f32>>(scene_data[base + (2u * axis + 1u) * BVH_GROUPS + g]);
+        let near = (select(lo, hi, neg[axis]) - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
+        let far = (select(hi, lo, neg[axis]) - vec4<f32>(o[axis])) * vec4<f32>(inv_d[axis]);
         t_enter = select(max(near, t_enter), t_enter, is_nan4(near));
         t_exit = select(min(far, t_exit), t_exit, is_nan4(far));
     }
@@ -161,13 +159,9 @@ fn wide_slab(n: WideNode, g: u32, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tma
     return select(vec4<f32>(inf()), t_enter, hit);
 }
 
-// Entry distances of all BVH_WIDTH children, one lane group per vec4.
-fn wide_slab_all(n: WideNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> array<vec4<f32>, BVH_GROUPS> {
-    var te: array<vec4<f32>, BVH_GROUPS>;
-    for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
-        te[g] = wide_slab(n, g, o, inv_d, tmin, tmax);
-    }
-    return te;
+// Child `lane`'s reference of the node at `base` (after its six rows of bounds).
+fn node_child(base: u32, lane: u32) -> u32 {
+    return scene_data[base + 6u * BVH_GROUPS + lane / 4u][lane % 4u];
 }
 
 // bvh::traverse_from: the tree rooted at node `root`, for hits closer (`closer`) than the best so far
@@ -189,41 +183,43 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
     var current = root; // a node reference
     loop {
         if ((current & LEAF_BIT) == 0u) {
-            let n = wide_node(current);
-            let te = wide_slab_all(n, o, inv_d, tmin, t_best);
-            // The hit children, sorted near to far (ties and any-hit: lane order). Each child's rank
-            // is counted rather than found by insertion: the insertion loop (`while j > 0 && …`)
-            // ran wrong on llvmpipe's GL (5 of 1728 primary hits differed on `grids`), this form
-            // agrees on GL and Vulkan. The count compares a whole lane group at once: lavapipe cuts
-            // an invocation's loops after 65,535 iterations, so inner loops stay short.
-            var order: array<u32, BVH_WIDTH>;
-            var k = 0u;
-            for (var lane = 0u; lane < BVH_WIDTH; lane = lane + 1u) {
-                let t = te[lane / 4u][lane % 4u];
-                if (t == big) {
-                    continue;
-                }
-                var rank = 0u;
-                for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
-                    let u = te[g];
-                    let other = vec4<u32>(0u, 1u, 2u, 3u) + vec4<u32>(4u * g);
-                    let before = other < vec4<u32>(lane);
-                    let earlier = select((u < vec4<f32>(t)) | ((u == vec4<f32>(t)) & before), before, any_hit);
-                    rank = rank + dot(select(vec4<u32>(0u), vec4<u32>(1u), (u != vec4<f32>(big)) & earlier), vec4<u32>(1u));
-                }
-                order[rank] = lane;
-                k = k + 1u;
-            }
-            if (k > 0u) {
-                // Continue with the nearest, push the rest farthest first.
-                for (var i = k - 1u; i > 0u; i = i - 1u) {
-                    let c = order[i];
-                    stack[sp] = n.child[c / 4u][c % 4u];
-                    stack_t[sp] = te[c / 4u][c % 4u];
+            let base = wide_node_base(current);
+            // Continue with the nearest hit child (ties and any-hit: the lowest lane) and push the
+            // others with their entry distances, which the pop still culls against the best hit.
+            // The CPU sorts them all; the hit rule does not depend on the order, and here one pass
+            // over the lane groups (one `node_slab` call site) keeps lavapipe's compile and run time
+            // down (DESIGN-NOTES "8-wide nodes").
+            var next = 0u;
+            var next_t = big;
+            var found = false;
+            for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
+                let te = node_slab(base, g, o, inv_d, tmin, t_best);
+                for (var l = 0u; l < 4u; l = l + 1u) {
+                    let t = te[l];
+                    if (t == big) {
+                        continue;
+                    }
+                    let child = node_child(base, 4u * g + l);
+                    if (!found) {
+                        found = true;
+                        next = child;
+                        next_t = t;
+                        continue;
+                    }
+                    if (!any_hit && t < next_t) {
+                        stack[sp] = next;
+                        stack_t[sp] = next_t;
+                        next = child;
+                        next_t = t;
+                    } else {
+                        stack[sp] = child;
+                        stack_t[sp] = t;
+                    }
                     sp = sp + 1u;
                 }
-                let c = order[0];
-                current = n.child[c / 4u][c % 4u];
+            }
+            if (found) {
+                current = next;
                 continue;
             }
         } else {
@@ -346,12 +342,14 @@ fn scene_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) 
                 }
                 continue;
             }
-            let n = wide_node(r);
-            let te = wide_slab_all(n, o, inv_d, tmin, limit);
-            for (var lane = 0u; lane < BVH_WIDTH; lane = lane + 1u) {
-                if (te[lane / 4u][lane % 4u] != big) {
-                    top[top_sp] = n.child[lane / 4u][lane % 4u];
-                    top_sp = top_sp + 1u;
+            let base = wide_node_base(r);
+            for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
+                let te = node_slab(base, g, o, inv_d, tmin, limit);
+                for (var l = 0u; l < 4u; l = l + 1u) {
+                    if (te[l] != big) {
+                        top[top_sp] = node_child(base, 4u * g + l);
+                        top_sp = top_sp + 1u;
+                    }
                 }
             }
         }

@@ -1,12 +1,12 @@
 // scene.wgsl — the scene as uploaded by backends/src/gpu/scene.rs (group 2), and surface
 // interpolation / albedo / emission mirroring wedge_scene::Scene::{surface, albedo, emission}.
-// WideNode, TrianglePack and Triangle are the Rust `repr(C)` structs byte for byte (128, 160 and
+// WideNode, TrianglePack and Triangle are the Rust `repr(C)` structs byte for byte (256, 160 and
 // 48 bytes).
 //
 // All arrays live in ONE storage buffer of 16-byte elements (`scene_data`), one after another;
 // `scene_layout` says at which element each starts. So the scene costs one storage binding
 // (WebGPU's default allows 8 per stage). Read them only through the accessors below
-// (`wide_node(i)`, `triangle_pack_row(i, v, a)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
+// (`wide_node_base(i)` with bvh.wgsl's `node_slab`/`node_child`, `triangle_pack_row(i, v, a)`, `triangle(i)`, `shading_of(i)`, `material(i)`, `texture_info(i)`, `texel(i)`,
 // `area_light(i)`, `scene_instance(i)`, `object_instance(i)`): each rebuilds the struct from its
 // 16-byte elements with bitcasts (bit-exact).
 //
@@ -29,17 +29,15 @@
 // The time of the shutter (t ∈ [−1, 1]) the scene is traced at; see above.
 var<private> scene_time: f32 = 0.0;
 
-// wedge_scene::bvh::WideNode (8 · BVH_GROUPS elements): BVH_WIDTH child boxes as six rows (row
-// 2·axis the minima, 2·axis + 1 the maxima, one lane per child), each row BVH_GROUPS elements (element
-// row · BVH_GROUPS + g holds children 4g .. 4g + 3), then the child references (BVH_GROUPS elements,
-// see bvh.wgsl); the Rust node's pad (its last BVH_GROUPS elements) is not read.
+// wedge_scene::bvh::WideNode (8 · BVH_GROUPS elements of `scene_data`, read in place by bvh.wgsl's
+// `node_slab` / `node_child`): BVH_WIDTH child boxes as six rows (row 2·axis the minima, 2·axis + 1
+// the maxima, one lane per child), each row BVH_GROUPS elements (element row · BVH_GROUPS + g holds
+// children 4g .. 4g + 3), then the child references (BVH_GROUPS elements); the Rust node's pad (its
+// last BVH_GROUPS elements) is not read.
 // wedge_scene::bvh::WIDTH children per node, in BVH_GROUPS groups of four lanes.
 const BVH_WIDTH: u32 = 8u;
 const BVH_GROUPS: u32 = 2u;
-struct WideNode {
-    bounds: array<vec4<f32>, 12>,
-    child: array<vec4<u32>, BVH_GROUPS>,
-}
+const BVH_NODE_ELEMENTS: u32 = 16u;
 
 // wedge_scene::bvh::TrianglePack (10 elements): four triangles' v0, v1, v2 as x/y/z rows (elements
 // 0–2, 3–5, 6–8; lane = triangle), then their indices (element 9). Read row by row
@@ -139,16 +137,9 @@ fn scene_xyz(v: vec4<u32>) -> vec3<f32> {
     return bitcast<vec3<f32>>(v.xyz);
 }
 
-fn wide_node(i: u32) -> WideNode {
-    let b = scene_layout.bvh_nodes + 8u * BVH_GROUPS * i;
-    var n: WideNode;
-    for (var k = 0u; k < 6u * BVH_GROUPS; k = k + 1u) {
-        n.bounds[k] = bitcast<vec4<f32>>(scene_data[b + k]);
-    }
-    for (var g = 0u; g < BVH_GROUPS; g = g + 1u) {
-        n.child[g] = scene_data[b + 6u * BVH_GROUPS + g];
-    }
-    return n;
+// The first element of node `i` in `scene_data`.
+fn wide_node_base(i: u32) -> u32 {
+    return scene_layout.bvh_nodes + BVH_NODE_ELEMENTS * i;
 }
 
 // Axis `axis` of vertex `vertex` of the four triangles of pack `i`.

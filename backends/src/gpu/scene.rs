@@ -384,7 +384,7 @@ mod tests {
         for line in [
             format!("const BVH_WIDTH: u32 = {width}u;"),
             format!("const BVH_GROUPS: u32 = {}u;", width / 4),
-            format!("bounds: array<vec4<f32>, {}>,", 6 * width / 4),
+            format!("const BVH_NODE_ELEMENTS: u32 = {}u;", 8 * width / 4),
         ] {
             assert!(scene.contains(&line), "shaders/scene.wgsl lacks `{line}`");
         }
