@@ -186,9 +186,8 @@ fn traverse_tree(root: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, t_best_in: f3
             let base = wide_node_base(current);
             // Continue with the nearest hit child (ties and any-hit: the lowest lane) and push the
             // others with their entry distances, which the pop still culls against the best hit.
-            // The CPU sorts them all; the hit rule does not depend on the order, and here one pass
-            // over the lane groups (one `node_slab` call site) keeps lavapipe's compile and run time
-            // down (DESIGN-NOTES "8-wide nodes").
+            // The CPU sorts them all; the hit rule does not depend on the order, and here a rank sort
+            // over eight lanes cost lavapipe more than it saved (DESIGN-NOTES "8-wide nodes").
             var next = 0u;
             var next_t = big;
             var found = false;
