@@ -40,7 +40,8 @@ fn env_u32(k: &str, d: u32) -> u32 {
     std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
 }
 
-/// One effect on one scene: the pipeline text of each method's node (`NODE` and `PARAMS` filled in).
+/// One effect on one scene: the pipeline text of each method's node (`NODE` and `PARAMS` filled in);
+/// `inputs`: the AAF node's G-buffer inputs (LightField traces its own camera rays).
 struct Case {
     name: &'static str,
     scene: &'static str,
@@ -72,7 +73,7 @@ fn scene(case: &Case) -> String {
     std::env::var("WEDGE_BENCH_SCENE").unwrap_or_else(|_| case.scene.to_string())
 }
 
-fn text(case: &Case, kind: &str, params: &str) -> String {
+fn text(case: &Case, kind: &str, params: &str, inputs: &str) -> String {
     format!(
         r#"Pipeline(scene: "{}", width: 32, height: 24, seed: 1, nodes: [
     (name: "primary", kind: "Primary"),
@@ -80,7 +81,7 @@ fn text(case: &Case, kind: &str, params: &str) -> String {
     (name: "out", kind: "Output", inputs: {{"color": "x.radiance", "unfiltered": "x.unfiltered"}}),
 ])"#,
         scene(case),
-        case.inputs
+        inputs
     )
 }
 
@@ -124,7 +125,7 @@ fn main() {
     println!("memory per input sample: at most {per_sample} floats ({} B): the record, its splat, two tree nodes", 4 * per_sample);
 
     for case in &CASES {
-        let lf = |spp: u32| text(case, "LightField", &case.lightfield.replacen('{', &format!("{{\"spp\": {spp}, \"rays\": {rays}, "), 1));
+        let lf = |spp: u32| text(case, "LightField", &case.lightfield.replacen('{', &format!("{{\"spp\": {spp}, \"rays\": {rays}, "), 1), "{}");
         let start = std::time::Instant::now();
         let reference = session(&lf(1), &ov, Some(ref_spp)).run(&mut CpuBackend::new(), &Silent).expect("reference runs");
         let r = reference.output("color").expect("color").clone();
@@ -176,7 +177,7 @@ fn main() {
         let mut aaf_points = Vec::new();
         for &mu in mus {
             let params = case.aaf.replacen('{', &format!("{{\"mu\": {mu}, "), 1);
-            let run = session(&text(case, "Indirect", &params), &ov, None).run(&mut CpuBackend::new(), &Silent).expect("AAF runs");
+            let run = session(&text(case, "Indirect", &params, case.inputs), &ov, None).run(&mut CpuBackend::new(), &Silent).expect("AAF runs");
             let (t, e) = (run.total_seconds(), rel_mse(run.output("color").expect("color"), &r));
             let e_time = at_time(&mc, t);
             println!(

@@ -1,8 +1,9 @@
-// light_field.reconstruct — eq. 3 of seed 001: `rays` reconstruction rays per primary hit, each
-// resolved by RECONSTRUCT through the splat BVH the host pass built (Secs. 2.3.2-2.5); mirrors
+// light_field.reconstruct — eq. 3 of seed 001: `rays` reconstruction rays per pixel shared among its
+// `primaries` primary hits (RayShare), each at its hit's shutter time and resolved by RECONSTRUCT
+// through the splat BVH the host pass built, the splats moved to that time (Secs. 2.3.2-2.5); mirrors
 // backends/src/kernels/light_field/reconstruct.rs (collect, conflict, resolve, filter) and mod.rs
-// (LightFieldReconstruct::run_cpu): the same nodes visited in the same order, the same total order
-// of hits, the same RNG calls and dimensions. Chunked over rays, the sum kept in the same order.
+// (LightFieldReconstruct::run_cpu, RayShare): the same nodes visited in the same order, the same total
+// order of hits, the same RNG calls and dimensions. Chunked over rays, the sum kept in the same order.
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "hemisphere.wgsl"
@@ -20,18 +21,28 @@ var<private> hit_splat: array<u32, 32>;
 var<private> hit_count: u32;
 var<private> stack: array<u32, 64>;
 
-// disk_hit: the crossing of o + t d with splat s's disk (radius × scale) in (t_min, t_max), or -1.
+// The shutter time of the current ray (Splat::centre_at reads it).
+var<private> ray_time: f32;
+
+// Splat::centre_at: where the splat's centre is at `ray_time`.
+fn lf_centre(s: Splat) -> vec3<f32> {
+    return s.centre + s.velocity * (ray_time - s.time);
+}
+
+// disk_hit: the crossing of o + t d with splat s's disk (radius × scale) at `ray_time` in
+// (t_min, t_max), or -1.
 fn lf_disk_hit(s: Splat, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, scale: f32) -> f32 {
     let denom = dot3(d, s.normal);
     if (abs(denom) < LF_PARALLEL) {
         return -1.0;
     }
-    let t = dot3(s.centre - o, s.normal) / denom;
+    let c = lf_centre(s);
+    let t = dot3(c - o, s.normal) / denom;
     if (!(t > t_min && t < t_max)) {
         return -1.0;
     }
     let r = s.radius * scale;
-    let q = o + d * t - s.centre;
+    let q = o + d * t - c;
     if (dot3(q, q) <= r * r) {
         return t;
     }
@@ -136,7 +147,7 @@ fn lf_conflict(o: vec3<f32>, d: vec3<f32>, hi: vec3<f32>, ni: vec3<f32>, hj: vec
 
 fn lf_tent(s: Splat, q: vec3<f32>) -> f32 {
     if (s.radius > 0.0) {
-        return max(1.0 - length3(q - s.centre) / s.radius, 0.0);
+        return max(1.0 - length3(q - lf_centre(s)) / s.radius, 0.0);
     }
     return 0.0;
 }
@@ -212,7 +223,7 @@ fn lf_resolve(o: vec3<f32>, d: vec3<f32>, t_min: f32) -> Seen {
             var clash = false;
             for (var m = start; m < end; m = m + 1u) {
                 let q = splats_at(hit_splat[m]);
-                if (lf_conflict(o, d, q.centre, q.normal, s.centre, s.normal)) {
+                if (lf_conflict(o, d, lf_centre(q), q.normal, lf_centre(s), s.normal)) {
                     clash = true;
                     break;
                 }
@@ -248,33 +259,43 @@ fn lf_resolve(o: vec3<f32>, d: vec3<f32>, t_min: f32) -> Seen {
     return Seen(vec3<f32>(0.0), false, 0.0);
 }
 
+// mod.rs RayShare: hit j of P takes rays r = k·P + j, ⌊N/P⌋ + [j < N mod P] of them.
+fn lf_rays_of(j: u32) -> u32 {
+    let p = max(params.primaries, 1u);
+    return params.rays / p + select(0u, 1u, j < params.rays % p);
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
         return;
     }
     let i = pixel_index(gid);
-    let prim = primary_at(i);
-    if (prim.valid == 0u) {
-        radiance_put(i, vec3<f32>(0.0));
-        return;
-    }
+    let hits = max(params.primaries, 1u);
     // Chunked (WgslSource::chunked_by): between dispatches `radiance` holds the running sum.
     var sum = vec3<f32>(0.0);
     if (chunk_resumes()) {
         sum = radiance_at(i);
     }
     let end = chunk_end_of(params.rays);
-    let x = prim.position;
-    let n = prim.normal;
-    let wo = normalize_or_zero3(params.camera - x);
-    let key = rng_key(frame.seed, pixel_id(gid), params.stream);
     var r = frame.chunk_begin;
     for (; r < end; r = r + 1u) {
-        let l = lf_leave(n, prim.kd, prim.ks, prim.m, wo, key, r, params.rays, true);
+        let j = r % hits;
+        let k = r / hits;
+        let prim = primary_at(i * params.primaries + j);
+        if (prim.valid == 0u) {
+            continue;
+        }
+        let n_j = lf_rays_of(j);
+        let key = rng_key(frame.seed, pixel_id(gid), rng_substream(params.stream, j));
+        let x = prim.position;
+        let n = prim.normal;
+        let wo = normalize_or_zero3(prim.eye - x);
+        let l = lf_leave(n, prim.kd, prim.ks, prim.m, wo, key, k, n_j, true);
         if (all(l.weight == vec3<f32>(0.0))) {
             continue;
         }
+        ray_time = prim.time;
         let side = select(-1.0, 1.0, dot3(l.wi, n) >= 0.0);
         let origin = x + n * (side * params.eps);
         lf_collect(origin, l.wi, params.eps);
@@ -283,12 +304,22 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (params.ao != 0u) {
             value = vec3<f32>(select(0.0, 1.0, seen.found && lf_ao_occluded(seen.distance)));
         }
-        sum = sum + value * l.weight;
+        sum = sum + value * l.weight * (prim.weight / f32(max(n_j, 1u)));
     }
     count_cut_loop(r, end);
     if (end < params.rays) {
         radiance_put(i, sum);
     } else {
-        radiance_put(i, sum / f32(params.rays));
+        // RayShare::total_weight: Σ w_j over the hits that have rays (1 where that is 0).
+        var total = 0.0;
+        for (var j = 0u; j < hits; j = j + 1u) {
+            if (lf_rays_of(j) > 0u) {
+                total = total + primary_at(i * params.primaries + j).weight;
+            }
+        }
+        if (!(total > 0.0)) {
+            total = 1.0;
+        }
+        radiance_put(i, sum / total);
     }
 }

@@ -1,12 +1,16 @@
-// light_field.sample — `count` secondary rays per primary hit, each a path (next-event estimation
-// at `bounces` vertices), the first `layers` kept as LightSample records, and their plain Monte
-// Carlo estimate; mirrors backends/src/kernels/light_field/mod.rs (LightFieldSample::run_cpu) with
-// the same RNG calls and dimensions. Not chunked: the unfiltered mean has no room for a running
-// count, and `count` (spp, or a reference's N) stays far below a driver's loop cap.
+// light_field.sample — per pixel `count` camera paths (through the pixel centre, each from its own
+// lens point and at its own shutter time where the pass has a lens / `time`; else one pinhole ray at
+// the shutter's centre, traced once), one secondary ray each traced as a path (next-event estimation
+// at `bounces` vertices) at the path's time; the first `layers` kept as LightSample records, the
+// first `primaries` primary hits as LightPrimary records, and their plain Monte Carlo estimate;
+// mirrors backends/src/kernels/light_field/mod.rs (LightFieldSample::run_cpu, camera_sample) with the
+// same RNG calls and dimensions. Not chunked: the unfiltered mean has no room for a running count,
+// and `count` (spp, or a reference's N) stays far below a driver's loop cap.
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "bvh.wgsl"
 #include "sampling.wgsl"
+#include "camera.wgsl"
 #include "hemisphere.wgsl"
 #include "indirect_path.wgsl"
 #include "light_field_common.wgsl"
@@ -23,6 +27,14 @@ fn lf_kappa(ks: vec3<f32>, m: f32) -> f32 {
     return 0.0;
 }
 
+// mod.rs camera_sample: a stratified (or independent) 2-D number of dimension `dimension`.
+fn lf_camera_draw(key: u32, s: u32, dimension: u32) -> vec2<f32> {
+    if (params.stratified != 0u) {
+        return rng_stratified2(key, s, max(params.count, 1u), dimension);
+    }
+    return rng_uniform2(key, s, dimension);
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -30,38 +42,70 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     let layers = params.layers;
-    let none = LightSample(vec3<f32>(0.0), SAMPLE_NONE, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0));
+    let none = LightSample(vec3<f32>(0.0), SAMPLE_NONE, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0,
+        vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(0.0));
     for (var s = 0u; s < layers; s = s + 1u) {
         samples_put(i * layers + s, none);
     }
-    let pos = position_at(i);
-    if (pos.w == 0.0) {
-        unfiltered_put(i, vec3<f32>(0.0));
-        return;
-    }
-    let x = pos.xyz;
-    let n = normal_at(i).xyz;
-    var kd = vec3<f32>(1.0);
-    if (albedo_bound()) {
-        kd = albedo_at(i);
-    }
-    var spec = vec4<f32>(0.0);
-    if (specular_bound()) {
-        spec = specular_at(i);
-    }
-    let wo = normalize_or_zero3(params.camera - x);
+    let c = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
+        params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
+    // A pinhole at the shutter's centre: one camera ray for every path of the pixel.
+    let fixed = params.cam_aperture == 0.0 && params.time == 0u;
+    let xy = pixel_xy(gid);
+    let centre = vec2<f32>(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let key = rng_key(frame.seed, pixel_id(gid), params.stream);
     var sum = vec3<f32>(0.0);
-    var valid = 0u;
+    var sum_w = 0.0;
     var bad = 0u;
+    var rays_primary = 0u;
+    var fixed_hit: Hit;
+    var have_hit = false;
     var s = 0u;
     for (; s < params.count; s = s + 1u) {
-        let l = lf_leave(n, kd, spec.xyz, spec.w, wo, key, s, params.count, params.stratified != 0u);
+        var lens = vec2<f32>(0.5);
+        if (params.cam_aperture > 0.0) {
+            lens = lf_camera_draw(key, s, DIM_LENS);
+        }
+        scene_time = 0.0;
+        if (params.time != 0u) {
+            scene_time = 2.0 * lf_camera_draw(key, s, DIM_TIME).x - 1.0;
+        }
+        let ray = camera_ray(c, centre, lens);
+        if (!fixed || !have_hit) {
+            fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
+            have_hit = true;
+            rays_primary = rays_primary + 1u;
+        }
+        let camera_hit = fixed_hit;
+        var prim = LightPrimary(vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), scene_time, vec3<f32>(0.0), ray.weight, ray.origin);
+        if (camera_hit.hit) {
+            let sp = surface(camera_hit.triangle, camera_hit.b1, camera_hit.b2, ray.dir);
+            let mat = material(sp.material);
+            prim.position = sp.position;
+            prim.valid = 1u;
+            prim.normal = sp.shading_normal;
+            prim.m = mat.phong_exponent;
+            prim.kd = albedo(sp);
+            prim.ks = mat.specular;
+        }
+        if (s < params.primaries) {
+            primary_put(i * params.primaries + s, prim);
+        }
+        if (!camera_hit.hit) {
+            // The camera ray left the scene: no indirect light along it.
+            sum_w = sum_w + ray.weight;
+            continue;
+        }
+        let x = prim.position;
+        let n = prim.normal;
+        let wo = normalize_or_zero3(ray.origin - x);
+        let l = lf_leave(n, prim.kd, prim.ks, prim.m, wo, key, s, params.count, params.stratified != 0u);
         let side = select(-1.0, 1.0, dot3(l.wi, n) >= 0.0);
         let origin = x + n * (side * params.eps);
         rays_secondary = rays_secondary + 1u;
         let hit = scene_intersect(origin, l.wi, 0.0, inf());
-        var rec = LightSample(origin, SAMPLE_ESCAPED, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, l.wi, vec3<f32>(0.0));
+        var rec = LightSample(origin, SAMPLE_ESCAPED, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, l.wi, scene_time,
+            vec3<f32>(0.0), vec3<f32>(0.0), ray.lens);
         var value = vec3<f32>(0.0);
         if (hit.hit) {
             let sp = surface(hit.triangle, hit.b1, hit.b2, l.wi);
@@ -81,11 +125,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 rec.kappa = lf_kappa(mat.specular, mat.phong_exponent);
             }
             rec.radiance = radiance;
+            rec.velocity = object_velocity(sp.object, sp.position);
         }
         let contribution = value * l.weight;
         if (is_finite3(contribution)) {
-            sum = sum + contribution;
-            valid = valid + 1u;
+            sum = sum + contribution * ray.weight;
+            sum_w = sum_w + ray.weight;
         } else {
             bad = bad + 1u;
             rec.radiance = vec3<f32>(0.0);
@@ -96,10 +141,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     count_cut_loop(s, params.count);
     var mean = vec3<f32>(0.0);
-    if (valid > 0u) {
-        mean = sum / f32(valid);
+    if (sum_w > 0.0) {
+        mean = sum / sum_w;
     }
     unfiltered_put(i, mean);
+    atomicAdd(&counters[COUNTER_PRIMARY], rays_primary);
     atomicAdd(&counters[COUNTER_SHADOW], rays_shadow);
     atomicAdd(&counters[COUNTER_SECONDARY], rays_secondary);
     atomicAdd(&counters[COUNTER_NON_FINITE], bad);

@@ -7,18 +7,31 @@
 //! light is not included (Sec. 2): pair it with a direct-light node and an `Add`, as `Indirect`.
 //!
 //! Passes (kernels in `wedge_backends::kernels::light_field`):
-//! 1. `sample` (random, reference role `Sample`): `spp` secondary rays per primary hit, kept as
-//!    per-sample records (a buffer of `spp` layers), and their plain Monte Carlo estimate;
+//! 1. `sample` (random, reference role `Sample`): `spp` camera paths per pixel of one secondary ray
+//!    each, kept as per-sample records (a buffer of `spp` layers) with their primary hits, and their
+//!    plain Monte Carlo estimate;
 //! 2. `splats` (Bandwidth, a host kernel on every backend): k-NN radii (Sec. 2.2), the splat BVH,
 //!    consistency shrinking (Sec. 2.3.1);
 //! 3. `reconstruct` (Filter, random, bypassed to the plain estimate in references): `rays`
 //!    reconstruction rays per pixel (Secs. 2.3.2–2.5).
+//!
+//! **Camera.** The node traces its own camera rays through the pixel centres (Sec. 2.1: the input is
+//! the renderer's paths, and eq. 3 reconstructs at each of their primary hits). Under a factoring
+//! node that samples the lens or the shutter ([`wedge_graph::factoring`]'s camera settings:
+//! `aperture_radius`, `focus_distance`, `lens`; `time`) the paths take the same thin lens and each
+//! its own lens point and shutter time, and the samples carry them (and the hits' motion vectors):
+//! wire `radiance` to the factoring node's `indirect` input (e.g. `Defocus`, `Motion`), which adds it
+//! to its other components and filters the sum in screen space. Then every input path has its own
+//! primary hit (`primary` holds `spp` layers) and the reconstruction rays are shared among them;
+//! otherwise the camera ray is the pinhole through the pixel centre at the shutter's centre — the
+//! `Primary` G-buffer's hit, traced once per pixel.
 //!
 //! `mode: "ao"` is the ambient-occlusion variant (Sec. 3.3): the radiance filter is bypassed and a
 //! reconstruction ray is occluded where its nearest apparent surface lies within `max_distance`;
 //! the image is the occluded fraction, as `Indirect`'s AO mode (bright = occluded).
 
 use wedge_backends::kernels::light_field::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
+use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 pub struct LightField;
@@ -40,13 +53,9 @@ impl NodeKind for LightField {
     fn doc(&self) -> &'static str {
         "Visibility-aware reconstruction of the indirect light field (Lehtinen et al. 2012): secondary rays as splats, many reconstruction rays per pixel; indirect light or ambient occlusion"
     }
+    /// None: the node traces its own camera paths (see the module doc).
     fn inputs(&self) -> Vec<PortDecl> {
-        vec![
-            PortDecl::new("position", Format::Vec4, "from Primary"),
-            PortDecl::new("normal", Format::Vec4, "from Primary"),
-            PortDecl::optional("albedo", Format::Vec3, "k_d of the primary hit (eq. 3's BRDF); white if absent"),
-            PortDecl::optional("specular", Format::Vec4, "k_s and Phong exponent (w) of the primary hit; no glossy lobe if absent"),
-        ]
+        vec![]
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
@@ -72,28 +81,26 @@ impl NodeKind for LightField {
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let position = ctx.required("position")?;
-        let normal = ctx.required("normal")?;
-        let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
-        let (albedo, specular) = if ao { (None, None) } else { (ctx.input("albedo"), ctx.input("specular")) };
         let spp = ctx.param("spp").as_count().unwrap_or(1);
+        let camera = CameraSettings::of(ctx.factoring());
 
-        // 1. The input samples.
+        // 1. The input samples and their primary hits (one per pixel where every path has the same
+        // camera ray).
         let samples = ctx.layered_buffer("samples", Format::Struct(&LIGHT_SAMPLE), spp);
+        let primary = ctx.layered_buffer("primary", Format::Struct(&LIGHT_PRIMARY), if camera.fixed() { 1 } else { spp });
         let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
-        ctx.pass("sample", "light_field.sample", Stage::Sample)
-            .read("position", position)
-            .read("normal", normal)
-            .read_opt("albedo", albedo)
-            .read_opt("specular", specular)
+        let mut b = ctx
+            .pass("sample", "light_field.sample", Stage::Sample)
             .write("samples", samples)
+            .write("primary", primary)
             .write("unfiltered", unfiltered)
             .int("count", i64::from(spp))
             .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&["mode", "max_distance", "bounces", "brdf", "angular"])
-            .random()
-            .reference(Reference::Sample)
-            .finish();
+            .node_params(&["mode", "max_distance", "bounces", "brdf", "angular"]);
+        for (name, value) in camera.params() {
+            b = b.param(name, value);
+        }
+        b.random().reference(Reference::Sample).finish();
 
         // Input rays per pixel: the constant spp (a diagnostic, like other nodes' ray counts: a
         // reference does not hand it back).
@@ -104,14 +111,8 @@ impl NodeKind for LightField {
         let splats = ctx.layered_buffer("splats", Format::Struct(&SPLAT), spp);
         let nodes = ctx.layered_buffer("nodes", Format::Struct(&SPLAT_NODE), 2 * spp);
         let splat_radius = ctx.buffer("splat_radius", Format::F32);
-        let primary = ctx.buffer("primary", Format::Struct(&LIGHT_PRIMARY));
         ctx.pass("splats", "light_field.splats", Stage::Bandwidth)
             .read("samples", samples)
-            .read("position", position)
-            .read("normal", normal)
-            .read_opt("albedo", albedo)
-            .read_opt("specular", specular)
-            .write("primary", primary)
             .write("splats", splats)
             .write("nodes", nodes)
             .write("splat_radius", splat_radius)

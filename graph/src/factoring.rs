@@ -23,6 +23,11 @@
 //!   Motion), so a component node names no factoring kind. The component's node outputs the composed
 //!   component (eq. 5.32's term); the factoring node reads the components through the pipeline's
 //!   wiring and filters the sum. The pipeline file states that wiring, so `wedge graph` shows it.
+//! - **Camera settings.** A factoring node whose paths sample the lens states it as the settings
+//!   `aperture_radius`, `focus_distance` (world units) and `lens` (`disk` | `gaussian`); one whose
+//!   paths sample the shutter states `time = true`. A node that traces its own camera rays instead of
+//!   reading the shared sampler (LightField) reads them through [`CameraSettings`], so every
+//!   component of a pipeline sees one lens and one shutter, without naming the factoring kind.
 //! - A kind's decision may depend on the scene ([`FactoringInputs::scene`]): a Motion node on a
 //!   static scene does not factor, so the pipeline renders as without it.
 
@@ -111,4 +116,49 @@ impl Factoring {
 pub struct Refusal {
     pub message: String,
     pub help: String,
+}
+
+/// The camera a pipeline's paths sample, from its factoring node's camera settings (module doc): a
+/// thin lens where it states an aperture, each path at its own shutter time where it states `time`.
+/// No factoring node, or one that states neither: a pinhole at the shutter's centre.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CameraSettings {
+    /// `aperture_radius`, `focus_distance`, `lens` as the factoring node states them.
+    pub lens: Vec<(&'static str, ParamValue)>,
+    /// Paths sample the shutter.
+    pub time: bool,
+}
+
+impl CameraSettings {
+    /// The lens settings' names.
+    pub const LENS: [&'static str; 3] = ["aperture_radius", "focus_distance", "lens"];
+    /// The shutter setting's name.
+    pub const TIME: &'static str = "time";
+
+    pub fn of(factoring: Option<&Factoring>) -> CameraSettings {
+        let Some(f) = factoring else {
+            return CameraSettings::default();
+        };
+        CameraSettings {
+            lens: Self::LENS.into_iter().filter_map(|n| f.setting(n).map(|v| (n, v.clone()))).collect(),
+            time: f.bool(Self::TIME).unwrap_or(false),
+        }
+    }
+
+    /// Every path of a pixel has the same camera ray: no aperture (or a zero one) and no time.
+    pub fn fixed(&self) -> bool {
+        let aperture = self.lens.iter().find(|(n, _)| *n == "aperture_radius").and_then(|(_, v)| v.as_f64());
+        !self.time && aperture.is_none_or(|a| a == 0.0)
+    }
+
+    /// As pass parameters: the lens settings, `aperture_radius` 0 where none is stated (a pinhole,
+    /// whatever the scene camera's aperture: a pipeline states its lens), and `time`.
+    pub fn params(&self) -> Vec<(&'static str, ParamValue)> {
+        let mut p = self.lens.clone();
+        if !p.iter().any(|(n, _)| *n == "aperture_radius") {
+            p.push(("aperture_radius", ParamValue::Float(0.0)));
+        }
+        p.push((Self::TIME, ParamValue::Bool(self.time)));
+        p
+    }
 }

@@ -241,6 +241,37 @@ pub fn camera_uniforms(u: Uniforms, cam: &Camera, shape: LensShape) -> Uniforms 
         .u32("cam_gaussian", (shape == LensShape::Gaussian) as u32)
 }
 
+/// The camera a pass traces its camera rays with: the scene's, with the pass's thin lens where it
+/// gives one — optional `aperture_radius` / `focus_distance` (world units; a Defocus node's, through
+/// the shared sampler or the factoring settings) — and its `lens` shape (optional, default disk).
+/// Shared by every kernel that traces its own camera rays (`paths.trace`, `light_field.sample`), so
+/// they see one lens.
+pub fn pass_camera(ctx: &KernelCtx<'_>) -> Result<(Camera, LensShape), BackendError> {
+    let lens = match ctx.params.get("lens") {
+        None => LensShape::Disk,
+        Some(_) => {
+            let name = ctx.str_param("lens")?;
+            LensShape::parse(name).ok_or_else(|| ctx.err(format!("unknown lens `{name}`; use disk or gaussian")))?
+        }
+    };
+    let mut camera = ctx.scene.camera;
+    if ctx.params.contains_key("aperture_radius") {
+        let a = ctx.f32_param("aperture_radius")?;
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(ctx.err(format!("`aperture_radius` = {a} must be a finite number >= 0")));
+        }
+        camera.aperture_radius = a;
+    }
+    if ctx.params.contains_key("focus_distance") {
+        let f = ctx.f32_param("focus_distance")?;
+        if !(f.is_finite() && f > 0.0) {
+            return Err(ctx.err(format!("`focus_distance` = {f} must be a finite number > 0")));
+        }
+        camera.focus_distance = f;
+    }
+    Ok((camera, lens))
+}
+
 /// Sub-stream salts of the independent numbers beyond the first bounce.
 const SALT_DIFFUSE_PATH: u32 = 1;
 const SALT_GLOSSY_PATH: u32 = 2;
@@ -287,8 +318,6 @@ struct Settings {
 
 fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
     let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
-    let lens = ctx.str_param("lens")?;
-    let lens = LensShape::parse(lens).ok_or_else(|| err(format!("unknown lens `{lens}`; use disk or gaussian")))?;
     let positive = |name: &str| -> Result<u32, BackendError> {
         let v = ctx.int_param(name)?;
         u32::try_from(v).map_err(|_| err(format!("`{name}` = {v} must be between 0 and {}", u32::MAX)))
@@ -308,23 +337,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
             Some(_) => ctx.bool_param(name),
         }
     };
-    // The thin lens: the pass's optional `aperture_radius` / `focus_distance` (a Defocus node's, through
-    // the shared sampler) replace the scene camera's.
-    let mut camera = ctx.scene.camera;
-    if ctx.params.contains_key("aperture_radius") {
-        let a = ctx.f32_param("aperture_radius")?;
-        if !(a.is_finite() && a >= 0.0) {
-            return Err(err(format!("`aperture_radius` = {a} must be a finite number >= 0")));
-        }
-        camera.aperture_radius = a;
-    }
-    if ctx.params.contains_key("focus_distance") {
-        let f = ctx.f32_param("focus_distance")?;
-        if !(f.is_finite() && f > 0.0) {
-            return Err(err(format!("`focus_distance` = {f} must be a finite number > 0")));
-        }
-        camera.focus_distance = f;
-    }
+    let (camera, lens) = pass_camera(ctx)?;
     let ao = flag("ao", false)?;
     let max_distance = match ctx.params.get("max_distance") {
         None => 0.0,

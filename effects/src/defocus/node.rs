@@ -24,7 +24,8 @@
 //! `mode` (`literal` eq. 5.29 as printed, or `consistent`: no clamp, converges to Monte Carlo as
 //! μ → ∞), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
-//! `separable`.
+//! `separable`, and the camera settings `aperture_radius`, `focus_distance`, `lens` (a node tracing
+//! its own camera rays, LightField, takes the same lens).
 
 use std::collections::BTreeMap;
 

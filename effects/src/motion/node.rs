@@ -37,11 +37,12 @@
 //!
 //! Settings for the components (the factoring contract): `mu`, `mode` (`literal` eq. 5.29 as printed,
 //! or `consistent`: converges to Monte Carlo as μ → ∞), `max_primary`, `max_per_primary`,
-//! `max_radius`, `multi_paths`.
+//! `max_radius`, `multi_paths`, and the camera setting `time = true` (its paths sample the shutter:
+//! a node tracing its own camera rays, LightField, samples it too).
 
 use std::collections::BTreeMap;
 
-use wedge_graph::factoring::{FactoringInputs, Refusal, Settings};
+use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue,
     PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
@@ -122,12 +123,14 @@ impl NodeKind for Motion {
         if inputs.scene.is_some_and(|s| !s.motion) {
             return Ok(None);
         }
-        Ok(Some(
+        let mut s: Settings =
             ["mu", "mode", "omega_t", "max_primary", "max_per_primary", "max_radius", "multi_paths", "initial_paths", "form_factor"]
                 .into_iter()
                 .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
-                .collect(),
-        ))
+                .collect();
+        // The camera setting of a factoring node whose paths sample the shutter.
+        s.insert(CameraSettings::TIME.into(), ParamValue::Bool(true));
+        Ok(Some(s))
     }
     fn expand_component(&self, ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(), GraphError> {
         expand_component(ctx, f, c)

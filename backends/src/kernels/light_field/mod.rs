@@ -3,21 +3,36 @@
 //! (`wedge_effects::light_field`). A very different reconstruction from the axis-aligned filters:
 //! the input rays themselves become a point-sampled scene that many reconstruction rays query.
 //!
-//! - `light_field.sample` (random, reference role `Sample`): at each pixel's primary hit (the
-//!   `Primary` G-buffer, one primary hit per pixel as the `Indirect` node uses), `count` secondary
-//!   rays drawn from the surface's lobe mixture (cosine for AO), each traced as a path
-//!   (`indirect::path_from_hit`: next-event estimation at `bounces` vertices). The first `layers`
-//!   of them are kept as [`LightSample`] records (Sec. 2.1's tuple: origin, hit, normal at the hit,
-//!   `κ`, direction, radiance `L`); `unfiltered` is their plain Monte Carlo estimate
-//!   `mean(L f cos/pdf)` (AO: the fraction of rays that hit within `max_distance`).
+//! - `light_field.sample` (random, reference role `Sample`): per pixel `count` camera paths of one
+//!   secondary ray each (Sec. 2.1: each input sample is one secondary ray of a path). Each path's
+//!   camera ray goes through the pixel centre, through its own lens point (`aperture_radius`,
+//!   `focus_distance`, `lens`: the pass's thin lens, [`pass_camera`]) at its own shutter time where
+//!   `time` is set — else every path has the same camera ray, traced once per pixel (a pinhole at
+//!   the shutter's centre: the `Primary` G-buffer's hit). At the primary hit a direction from the
+//!   surface's lobe mixture (cosine for AO) is traced as a path (`indirect::path_from_hit`: next-event
+//!   estimation at `bounces` vertices) at the path's time. The first `layers` are kept as
+//!   [`LightSample`] records (Sec. 2.1's tuple: origin, hit, normal at the hit, `κ`, direction,
+//!   radiance `L`, and the time, lens point and motion vector of the hit), the first
+//!   `layers("primary")` primary hits as [`LightPrimary`] records (one layer where the camera ray is
+//!   fixed); `unfiltered` is their plain Monte Carlo estimate `Σ w·L f cos/pdf / Σ w` (`w` the lens
+//!   weight; AO: the fraction of rays that hit within `max_distance`).
 //! - `light_field.splats` (a host kernel: [`splats`]): splat radii by the bandwidth-aware k-NN, the
-//!   splat BVH, consistency shrinking; writes the splats in leaf order and the tree's nodes, the
-//!   mean final radius per pixel (`splat_radius`, a heatmap), and each pixel's primary hit as one
-//!   [`LightPrimary`] record (so the reconstruction fits WebGPU's 8 storage buffers per stage).
+//!   splat BVH (a motion BVH: each box bounds its splat over the shutter), consistency shrinking;
+//!   writes the splats in leaf order, the tree's nodes and the mean final radius per pixel
+//!   (`splat_radius`, a heatmap).
 //! - `light_field.reconstruct` (random, a filter bypassed to `unfiltered` in references): eq. 3,
-//!   `rays` reconstruction rays per pixel from the same lobe mixture, each resolved by
-//!   RECONSTRUCT ([`reconstruct`]): `mean(RECONSTRUCT(p, ω) f cos/pdf)`; AO: the fraction of rays
-//!   whose nearest apparent surface lies within `max_distance`.
+//!   `rays` reconstruction rays per pixel spread over its primary hits (ray `r` to hit `r mod P`,
+//!   so `N × n` of the paper is `rays` in all), each from the hit's lobe mixture at the hit's time
+//!   and resolved by RECONSTRUCT ([`reconstruct`]) through the splats moved to that time: per hit
+//!   `mean(RECONSTRUCT(p, ω) f cos/pdf)`, per pixel the lens-weighted mean over its hits; AO: the
+//!   fraction of rays whose nearest apparent surface lies within `max_distance`.
+//!
+//! **Motion** (Sec. 2.1's motion vectors): a sample stores its time `t_i` and the world velocity
+//! `v_h` of its hit (per unit `t`, `SceneAt::velocity`); its splat is at `h + v_h (t − t_i)` at time
+//! `t` ([`Splat::centre_at`]) — exact for translating objects, first order for rotating ones. The
+//! origin's motion vector `v_o` of the paper is not stored: every reconstruction ray starts at a
+//! primary hit of its own time, and shrinking retraces each input ray at its own time, so it never
+//! enters.
 //!
 //! `κ` (eq. 2) of a sample is `4 √e` for a surface with a glossy lobe of Blinn exponent `e`
 //! (Sec. 2.5's `4 √(1/r)` with PBRT's Blinn roughness `r = 1/e`; a Phong exponent `m` is taken as
@@ -25,18 +40,20 @@
 //! ablation of Fig. 10).
 //!
 //! Per-sample buffers (`BufferInfo::layers`): `samples` and `splats` hold `layers` = `spp` records
-//! per pixel, `nodes` `2·spp` (a BVH2 over `n` splats has at most `2n − 1` nodes).
+//! per pixel, `nodes` `2·spp` (a BVH2 over `n` splats has at most `2n − 1` nodes), `primary` one
+//! (fixed camera ray) or `spp`.
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
+use wedge_scene::{Camera, LensRay, LensShape};
 
 use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::hemisphere::{sample_diffuse, Lobe};
 use crate::kernels::indirect::{lobe_mixture, path_from_hit, PathParams, PathRays, LOBE_SELECT};
-use crate::kernels::v3;
-use crate::rng::{dim, PixelRng};
+use crate::kernels::paths::{camera_uniforms, pass_camera};
+use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
 pub mod reconstruct;
@@ -52,9 +69,11 @@ pub const SAMPLE_HIT: u32 = 1;
 pub const SAMPLE_ESCAPED: u32 = 2;
 
 record! {
-    /// One stored input sample (18 words; Sec. 2.1's tuple without lens, time and motion vectors,
-    /// which wedge's pinhole G-buffer does not have): `origin` is where the ray started (the primary
-    /// hit, offset along its normal), `distance` the ray parameter of `hit` (unit `direction`).
+    /// One stored input sample (24 words; Sec. 2.1's tuple without the origin's motion vector, see
+    /// the module doc): `origin` is where the ray started (the primary hit, offset along its
+    /// normal), `distance` the ray parameter of `hit` (unit `direction`), `time` the path's shutter
+    /// time in [−1, 1] (0 without motion), `velocity` the hit's world velocity per unit time, `lens`
+    /// the camera ray's point on the unit lens disk (0 for a pinhole).
     pub struct LightSample / LIGHT_SAMPLE {
         origin: vec3,
         flags: u32,
@@ -63,14 +82,18 @@ record! {
         normal: vec3,
         kappa: f32,
         direction: vec3,
+        time: f32,
         radiance: vec3,
+        velocity: vec3,
+        lens: vec2,
     }
 }
 
 record! {
-    /// One splat (16 words): a disk of `radius` at `centre` (a hit point) on the plane of `normal`,
-    /// with its sample's `κ`, direction and radiance; `sample` = its input sample's index
-    /// (`pixel·spp + s`), `flags` = 1 for a splat, 0 for an unused slot.
+    /// One splat (20 words): a disk of `radius` at `centre` (a hit point, where it is at `time`) on
+    /// the plane of `normal`, moving with `velocity` (world units per unit time), with its sample's
+    /// `κ`, direction and radiance; `sample` = its input sample's index (`pixel·spp + s`), `flags` = 1
+    /// for a splat, 0 for an unused slot.
     pub struct Splat / SPLAT {
         centre: vec3,
         radius: f32,
@@ -80,13 +103,23 @@ record! {
         sample: u32,
         radiance: vec3,
         flags: u32,
+        velocity: vec3,
+        time: f32,
+    }
+}
+
+impl Splat {
+    /// Where the splat's centre is at time `t`: `h + v_h (t − t_i)` (exactly `h` for a still one).
+    #[inline]
+    pub fn centre_at(&self, t: f32) -> Vec3 {
+        Vec3::from(self.centre) + Vec3::from(self.velocity) * (t - self.time)
     }
 }
 
 record! {
     /// One node of the splat BVH2 (8 words, obvhs's `Bvh2Node` layout): `count == 0` = inner node
     /// with children at `index` and `index + 1`; else a leaf of splats `index..index + count`. Node 0
-    /// is the root.
+    /// is the root. The boxes bound the splats over the whole shutter.
     pub struct SplatNode / SPLAT_NODE {
         min: vec3,
         count: u32,
@@ -96,16 +129,19 @@ record! {
 }
 
 record! {
-    /// A pixel's primary hit as the reconstruction reads it (14 words; `valid` = 0: no surface),
-    /// written by the host pass from the G-buffer so `light_field.reconstruct` binds one buffer for
-    /// it (WebGPU's 8 storage buffers per stage).
+    /// A primary hit as the reconstruction reads it (19 words; `valid` = 0: the camera ray left the
+    /// scene): the point, its shading normal, `k_d`, `k_s`, Phong exponent `m`, the camera ray's
+    /// origin `eye` (the lens point), its shutter `time` and lens `weight`.
     pub struct LightPrimary / LIGHT_PRIMARY {
         position: vec3,
         valid: u32,
         normal: vec3,
         m: f32,
         kd: vec3,
+        time: f32,
         ks: vec3,
+        weight: f32,
+        eye: vec3,
     }
 }
 
@@ -136,7 +172,7 @@ fn ao_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
     }
 }
 
-/// The primary hit of pixel `i` from the G-buffer: point, normal, `k_d`, `k_s`, `m`.
+/// A primary hit: point, shading normal (facing the camera ray), `k_d`, `k_s`, `m`.
 struct Primary {
     x: Vec3,
     n: Vec3,
@@ -145,35 +181,16 @@ struct Primary {
     m: f32,
 }
 
-struct GBuffer<'a> {
-    position: &'a [[f32; 4]],
-    normal: &'a [[f32; 4]],
-    albedo: Option<&'a [[f32; 3]]>,
-    specular: Option<&'a [[f32; 4]]>,
-}
-
-impl<'a> GBuffer<'a> {
-    fn read(ctx: &KernelCtx<'a>) -> Result<GBuffer<'a>, BackendError> {
-        Ok(GBuffer {
-            position: ctx.read("position")?,
-            normal: ctx.read("normal")?,
-            albedo: ctx.read_opt("albedo")?,
-            specular: ctx.read_opt("specular")?,
-        })
-    }
-    fn record(&self, i: usize) -> LightPrimary {
-        match self.at(i) {
-            Some(p) => LightPrimary { position: p.x.to_array(), valid: 1, normal: p.n.to_array(), m: p.m, kd: p.kd.to_array(), ks: p.ks.to_array() },
-            None => LightPrimary::default(),
-        }
-    }
-    fn at(&self, i: usize) -> Option<Primary> {
-        if self.position[i][3] == 0.0 {
-            return None;
-        }
-        let (ks, m) = self.specular.map_or((Vec3::ZERO, 0.0), |s| (v3(s[i]), s[i][3]));
-        Some(Primary { x: v3(self.position[i]), n: v3(self.normal[i]), kd: self.albedo.map_or(Vec3::ONE, |a| Vec3::from(a[i])), ks, m })
-    }
+/// The camera ray of sample `s` of `count` and its time: through the pixel centre, from its lens
+/// point and at its shutter time (each its own dimension, stratified over the pixel's samples, or
+/// independent), or — `fixed` — the pinhole ray at the shutter's centre.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn camera_sample(camera: &Camera, shape: LensShape, pixel: Vec2, size: (u32, u32), rng: &PixelRng, s: u32, count: u32, stratified: bool, time: bool) -> (LensRay, f32) {
+    let draw = |dimension: u32| Vec2::from(if stratified { rng.stratified2(s, count.max(1), dimension) } else { rng.uniform2(s, dimension) });
+    let lens = if camera.aperture_radius > 0.0 { draw(dim::LENS) } else { Vec2::splat(0.5) };
+    let t = if time { 2.0 * draw(dim::TIME).x - 1.0 } else { 0.0 };
+    (camera.ray(pixel, lens, size.0, size.1, shape), t)
 }
 
 /// A direction leaving a primary hit (sample `s` of `count`): from its lobe mixture (cosine for AO
@@ -211,6 +228,15 @@ fn ao_occluded(t: f32, max_distance: f32) -> bool {
 /// `light_field.sample` (see the module doc).
 pub struct LightFieldSample;
 
+/// `time`: each path at its own shutter time (optional, default off).
+fn time_param(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
+    if ctx.params.contains_key("time") {
+        ctx.bool_param("time")
+    } else {
+        Ok(false)
+    }
+}
+
 impl Kernel for LightFieldSample {
     fn name(&self) -> &'static str {
         "light_field.sample"
@@ -223,12 +249,10 @@ impl Kernel for LightFieldSample {
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("albedo", Format::Vec3),
-            Binding::read_opt("specular", Format::Vec4),
             // `layers` records per pixel.
             Binding::write("samples", Format::Struct(&LIGHT_SAMPLE)),
+            // `layers("primary")` records per pixel: the first paths' primary hits.
+            Binding::write("primary", Format::Struct(&LIGHT_PRIMARY)),
             Binding::write("unfiltered", Format::Vec3),
         ]
     }
@@ -237,14 +261,18 @@ impl Kernel for LightFieldSample {
             WgslSource::new(include_str!("../../../../shaders/light_field_sample.wgsl"), |ctx| {
                 let ao = ao_mode(ctx)?;
                 let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
-                Ok(p.uniforms(Uniforms::new(), ctx)
+                let (camera, shape) = pass_camera(ctx)?;
+                let u = camera_uniforms(Uniforms::new(), &camera, shape)
                     .u32("count", ctx.int_param("count")?.max(0) as u32)
                     .u32("layers", ctx.layers("samples"))
+                    .u32("primaries", ctx.layers("primary"))
+                    .u32("time", time_param(ctx)? as u32)
                     .u32("angular", ctx.bool_param("angular")? as u32)
                     .u32("stratified", ctx.stratified_param()? as u32)
-                    .u32("stream", ctx.int_param("stream")? as u32)
-                    .vec3("camera", ctx.scene.camera.position.to_array()))
+                    .u32("stream", ctx.int_param("stream")? as u32);
+                Ok(p.uniforms(u, ctx))
             })
+            .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
             .with_include("indirect_path.wgsl", include_str!("../../../../shaders/indirect_path.wgsl"))
             .with_include("light_field_common.wgsl", include_str!("../../../../shaders/light_field_common.wgsl"))
@@ -252,43 +280,99 @@ impl Kernel for LightFieldSample {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let g = GBuffer::read(ctx)?;
         let ao = ao_mode(ctx)?;
         let max_distance = ctx.f32_param("max_distance")?;
         let p = PathParams::from_params(ctx, ao, max_distance)?;
         let count = ctx.int_param("count")?.max(0) as u32;
-        let layers = ctx.layers("samples");
+        let (layers, primaries) = (ctx.layers("samples"), ctx.layers("primary"));
         let angular = ctx.bool_param("angular")?;
         let stratified = ctx.stratified_param()?;
         let stream = ctx.int_param("stream")? as u32;
-        let (seed, width, camera) = (ctx.seed, ctx.width, ctx.scene.camera.position);
-        let at = ctx.scene.at(0.0);
+        let (camera, shape) = pass_camera(ctx)?;
+        let time = time_param(ctx)?;
+        // A pinhole at the shutter's centre: one camera ray for every path of a pixel.
+        let fixed = camera.aperture_radius == 0.0 && !time;
+        let scene = ctx.scene;
+        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
         struct Px {
             samples: Vec<LightSample>,
+            primary: Vec<LightPrimary>,
             unfiltered: Vec3,
             rays: PathRays,
+            primary_rays: u64,
             bad: u64,
         }
         let out = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
-            let mut o = Px { samples: vec![LightSample::default(); layers as usize], unfiltered: Vec3::ZERO, rays: PathRays::default(), bad: 0 };
-            let Some(prim) = g.at(i) else {
-                return o;
+            let mut o = Px {
+                samples: vec![LightSample::default(); layers as usize],
+                primary: vec![LightPrimary::default(); primaries as usize],
+                unfiltered: Vec3::ZERO,
+                rays: PathRays::default(),
+                primary_rays: 0,
+                bad: 0,
             };
-            let wo = (camera - prim.x).normalize_or_zero();
             let rng = PixelRng::new(seed, i as u32, stream);
-            let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
+            let centre = Vec2::new(px as f32 + 0.5, py as f32 + 0.5);
+            let (mut sum, mut sum_w) = (Vec3::ZERO, 0.0f32);
+            let mut fixed_hit = None;
             for s in 0..count {
+                let (ray, t) = camera_sample(&camera, shape, centre, (width, height), &rng, s, count, stratified, time);
+                let at = scene.at(t);
+                let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
+                let camera_hit = if fixed {
+                    *fixed_hit.get_or_insert_with(|| {
+                        o.primary_rays += 1;
+                        trace()
+                    })
+                } else {
+                    o.primary_rays += 1;
+                    trace()
+                };
+                let prim = camera_hit.map(|hit| {
+                    let sp = at.surface(&hit, ray.origin, ray.dir);
+                    let mat = &scene.materials[sp.material as usize];
+                    Primary { x: sp.position, n: sp.shading_normal, kd: scene.albedo(&sp), ks: mat.specular, m: mat.phong_exponent }
+                });
+                if s < primaries {
+                    o.primary[s as usize] = match &prim {
+                        Some(q) => LightPrimary {
+                            position: q.x.to_array(),
+                            valid: 1,
+                            normal: q.n.to_array(),
+                            m: q.m,
+                            kd: q.kd.to_array(),
+                            time: t,
+                            ks: q.ks.to_array(),
+                            weight: ray.weight,
+                            eye: ray.origin.to_array(),
+                        },
+                        None => LightPrimary { time: t, weight: ray.weight, eye: ray.origin.to_array(), ..Default::default() },
+                    };
+                }
+                let Some(prim) = prim else {
+                    // The camera ray left the scene: no indirect light along it.
+                    sum_w += ray.weight;
+                    continue;
+                };
+                let wo = (ray.origin - prim.x).normalize_or_zero();
                 let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, s, count, stratified);
                 let side = if wi.dot(prim.n) >= 0.0 { 1.0 } else { -1.0 };
                 let origin = prim.x + prim.n * (side * p.eps);
                 o.rays.secondary += 1;
                 let hit = at.intersect(origin, wi, 0.0, f32::INFINITY);
-                let mut rec = LightSample { origin: origin.to_array(), flags: SAMPLE_ESCAPED, direction: wi.to_array(), ..Default::default() };
+                let mut rec = LightSample {
+                    origin: origin.to_array(),
+                    flags: SAMPLE_ESCAPED,
+                    direction: wi.to_array(),
+                    time: t,
+                    lens: ray.lens.to_array(),
+                    ..Default::default()
+                };
                 let mut value = Vec3::ZERO;
                 if let Some(hit) = hit {
                     let sp = at.surface(&hit, origin, wi);
-                    let mat = &ctx.scene.materials[sp.material as usize];
+                    let mat = &scene.materials[sp.material as usize];
                     // Every hit is a sample of the light field, whatever this pixel's BRDF makes of
                     // it (a black or below-surface direction still gives other pixels a splat).
                     let radiance = if ao {
@@ -303,11 +387,12 @@ impl Kernel for LightFieldSample {
                     rec.normal = sp.shading_normal.to_array();
                     rec.kappa = if angular { kappa(mat.specular, mat.phong_exponent, p.lobe) } else { 0.0 };
                     rec.radiance = radiance.to_array();
+                    rec.velocity = at.velocity(&sp).to_array();
                 }
                 let contribution = value * weight;
                 if contribution.is_finite() {
-                    sum += contribution;
-                    valid += 1;
+                    sum += contribution * ray.weight;
+                    sum_w += ray.weight;
                 } else {
                     // Counted, never spread: the sample is kept without radiance.
                     o.bad += 1;
@@ -317,13 +402,15 @@ impl Kernel for LightFieldSample {
                     o.samples[s as usize] = rec;
                 }
             }
-            o.unfiltered = if valid > 0 { sum / valid as f32 } else { Vec3::ZERO };
+            o.unfiltered = if sum_w > 0.0 { sum / sum_w } else { Vec3::ZERO };
             o
         });
+        Counters::add(&ctx.counters.primary_rays, out.iter().map(|o| o.primary_rays).sum());
         Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.rays.secondary).sum());
         Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.rays.shadow).sum());
         Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.bad).sum());
         ctx.put("unfiltered", out.iter().map(|o| o.unfiltered.to_array()).collect::<Vec<_>>())?;
+        ctx.put("primary", out.iter().flat_map(|o| o.primary.iter().copied()).collect::<Vec<_>>())?;
         ctx.put("samples", out.into_iter().flat_map(|o| o.samples).collect::<Vec<_>>())
     }
 }
@@ -350,7 +437,18 @@ pub fn build(samples: &[LightSample], knn: splats::KnnSettings, shrink: bool, t_
         .iter()
         .enumerate()
         .filter(|(_, s)| s.flags == SAMPLE_HIT && Vec3::from(s.hit).is_finite())
-        .map(|(k, s)| Splat { centre: s.hit, radius: 0.0, normal: s.normal, kappa: s.kappa, direction: s.direction, sample: k as u32, radiance: s.radiance, flags: 1 })
+        .map(|(k, s)| Splat {
+            centre: s.hit,
+            radius: 0.0,
+            normal: s.normal,
+            kappa: s.kappa,
+            direction: s.direction,
+            sample: k as u32,
+            radiance: s.radiance,
+            flags: 1,
+            velocity: s.velocity,
+            time: s.time,
+        })
         .collect();
     let radii = splats::knn_radii(&list, knn);
     for (s, r) in list.iter_mut().zip(radii) {
@@ -377,6 +475,7 @@ pub fn build(samples: &[LightSample], knn: splats::KnnSettings, shrink: bool, t_
                 direction: Vec3::from(s.direction),
                 distance: if s.flags == SAMPLE_HIT { s.distance } else { f32::INFINITY },
                 own: position[k],
+                time: s.time,
             })
             .collect();
         shrunk = splats::shrink(&mut nodes, &mut list, &rays, t_min);
@@ -413,11 +512,6 @@ impl Kernel for LightFieldSplats {
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("samples", Format::Struct(&LIGHT_SAMPLE)),
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("albedo", Format::Vec3),
-            Binding::read_opt("specular", Format::Vec4),
-            Binding::write("primary", Format::Struct(&LIGHT_PRIMARY)),
             Binding::write("splats", Format::Struct(&SPLAT)),
             Binding::write("nodes", Format::Struct(&SPLAT_NODE)),
             Binding::write_opt("splat_radius", Format::F32),
@@ -448,8 +542,6 @@ impl Kernel for LightFieldSplats {
             }
             ctx.put("splat_radius", sum.iter().zip(&n).map(|(s, &n)| if n > 0 { s / n as f32 } else { 0.0 }).collect::<Vec<_>>())?;
         }
-        let g = GBuffer::read(ctx)?;
-        ctx.put("primary", (0..pixels).map(|i| g.record(i)).collect::<Vec<_>>())?;
         let mut splats = built.splats;
         splats.resize(splat_slots, Splat::default());
         let mut nodes = built.nodes;
@@ -500,8 +592,8 @@ impl Kernel for LightFieldReconstruct {
                     .u32("ao", ao as u32)
                     .f32("max_distance", p.max_distance)
                     .u32("rays", reconstruction_rays(ctx)?)
-                    .u32("stream", ctx.int_param("stream")? as u32)
-                    .vec3("camera", ctx.scene.camera.position.to_array()))
+                    .u32("primaries", ctx.layers("primary"))
+                    .u32("stream", ctx.int_param("stream")? as u32))
             })
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
             .with_include("light_field_common.wgsl", include_str!("../../../../shaders/light_field_common.wgsl"))
@@ -513,6 +605,7 @@ impl Kernel for LightFieldReconstruct {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let primary = ctx.read::<LightPrimary>("primary")?;
+        let hits_per_pixel = ctx.layers("primary") as usize;
         let ao = ao_mode(ctx)?;
         let max_distance = ctx.f32_param("max_distance")?;
         let p = PathParams::from_params(ctx, ao, max_distance)?;
@@ -520,30 +613,79 @@ impl Kernel for LightFieldReconstruct {
         let stream = ctx.int_param("stream")? as u32;
         let splats = ctx.read::<Splat>("splats")?;
         let nodes = ctx.read::<SplatNode>("nodes")?;
-        let (seed, width, camera) = (ctx.seed, ctx.width, ctx.scene.camera.position);
+        let (seed, width) = (ctx.seed, ctx.width);
         let out = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
-            let Some(prim) = primary[i].at() else {
-                return Vec3::ZERO;
-            };
-            let wo = (camera - prim.x).normalize_or_zero();
-            let rng = PixelRng::new(seed, i as u32, stream);
+            let hits = &primary[i * hits_per_pixel..(i + 1) * hits_per_pixel];
+            let share = RayShare::new(hits, rays);
             let mut sum = Vec3::ZERO;
             for r in 0..rays {
-                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, r, rays, true);
+                let (j, k) = share.ray(r);
+                let hit = &hits[j as usize];
+                let Some(prim) = hit.at() else {
+                    continue;
+                };
+                let rng = hit_rng(seed, i as u32, stream, j);
+                let wo = (Vec3::from(hit.eye) - prim.x).normalize_or_zero();
+                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, k, share.rays_of(j), true);
                 if weight == Vec3::ZERO {
                     continue;
                 }
                 let side = if wi.dot(prim.n) >= 0.0 { 1.0 } else { -1.0 };
                 let origin = prim.x + prim.n * (side * p.eps);
-                let seen = reconstruct::reconstruct(nodes, splats, origin, wi, p.eps);
+                let seen = reconstruct::reconstruct(nodes, splats, origin, wi, p.eps, hit.time);
                 let value = if ao { Vec3::splat(seen.distance.is_some_and(|t| ao_occluded(t, max_distance)) as u32 as f32) } else { seen.radiance };
-                sum += value * weight;
+                sum += value * weight * share.scale(j);
             }
-            sum / rays as f32
+            sum / share.total_weight()
         });
         ctx.put("radiance", out.into_iter().map(|o| o.to_array()).collect::<Vec<_>>())
     }
+}
+
+/// How a pixel's `rays` reconstruction rays are shared among its `P` primary hits (eq. 3 per hit,
+/// the pixel the lens-weighted mean over hits): ray `r` goes to hit `r mod P` as its `r / P`-th, so
+/// hit `j` takes `⌊N/P⌋ + [j < N mod P]` rays; a ray's value is weighted `w_j / n_j` and the pixel
+/// divided by `Σ w_j` over the hits that have rays. Mirrored in `light_field_reconstruct.wgsl`.
+pub struct RayShare<'a> {
+    hits: &'a [LightPrimary],
+    rays: u32,
+}
+
+impl<'a> RayShare<'a> {
+    pub fn new(hits: &'a [LightPrimary], rays: u32) -> Self {
+        RayShare { hits, rays }
+    }
+    fn count(&self) -> u32 {
+        self.hits.len().max(1) as u32
+    }
+    /// Ray `r`'s hit and its index among that hit's rays.
+    #[inline]
+    pub fn ray(&self, r: u32) -> (u32, u32) {
+        (r % self.count(), r / self.count())
+    }
+    /// Rays of hit `j`.
+    #[inline]
+    pub fn rays_of(&self, j: u32) -> u32 {
+        self.rays / self.count() + u32::from(j < self.rays % self.count())
+    }
+    /// The weight of one of hit `j`'s rays, `w_j / n_j`.
+    #[inline]
+    pub fn scale(&self, j: u32) -> f32 {
+        self.hits[j as usize].weight / self.rays_of(j).max(1) as f32
+    }
+    /// `Σ w_j` over the hits that have rays (1 where that is 0, so an empty pixel is 0).
+    pub fn total_weight(&self) -> f32 {
+        let w: f32 = (0..self.hits.len() as u32).filter(|&j| self.rays_of(j) > 0).map(|j| self.hits[j as usize].weight).sum();
+        if w > 0.0 { w } else { 1.0 }
+    }
+}
+
+/// The random sequence of the reconstruction rays of a pixel's primary hit `j` (its own
+/// sub-stream, so each hit's rays are stratified among themselves).
+#[inline]
+fn hit_rng(seed: u32, pixel: u32, stream: u32, j: u32) -> PixelRng {
+    PixelRng::new(seed, pixel, substream(stream, j))
 }
 
 /// The most reconstruction rays per pixel.

@@ -71,16 +71,16 @@ impl RayHit {
     }
 }
 
-/// The ray parameter where `o + t·d` crosses the disk of `s` with its radius scaled by `scale`, if it
-/// does with `t_min < t < t_max`.
+/// The ray parameter where `o + t·d` crosses the disk of `s` at shutter time `time` with its radius
+/// scaled by `scale`, if it does with `t_min < t < t_max`.
 #[inline]
-pub fn disk_hit(s: &Splat, o: Vec3, d: Vec3, t_min: f32, t_max: f32, scale: f32) -> Option<f32> {
+pub fn disk_hit(s: &Splat, o: Vec3, d: Vec3, t_min: f32, t_max: f32, scale: f32, time: f32) -> Option<f32> {
     let n = Vec3::from(s.normal);
     let denom = d.dot(n);
     if denom.abs() < PARALLEL {
         return None;
     }
-    let c = Vec3::from(s.centre);
+    let c = s.centre_at(time);
     let t = (c - o).dot(n) / denom;
     if !(t > t_min && t < t_max) {
         return None;
@@ -99,11 +99,12 @@ pub(crate) fn box_entered(n: &SplatNode, o: Vec3, inv_d: Vec3, t_min: f32, t_max
     (near <= far).then_some(near)
 }
 
-/// Step 1: the [`MAX_HITS`] nearest splats `o + t·d` crosses with `t_min < t < t_max`, sorted.
+/// Step 1: the [`MAX_HITS`] nearest splats `o + t·d` crosses at shutter time `time` with
+/// `t_min < t < t_max`, sorted (the nodes bound the splats over the whole shutter).
 /// Depth-first, left child first; a subtree is skipped once the list is full and the box starts
 /// beyond its farthest entry (never one that could hold a nearer splat).
 /// The tree's depth is at most [`STACK_SIZE`] (checked where it is built).
-pub fn collect(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Vec<RayHit> {
+pub fn collect(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, t_max: f32, time: f32) -> Vec<RayHit> {
     let mut hits = Vec::with_capacity(MAX_HITS);
     if nodes.is_empty() {
         return hits;
@@ -125,7 +126,7 @@ pub fn collect(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f
             continue;
         }
         for k in node.index..node.index + node.count {
-            let Some(t) = disk_hit(&splats[k as usize], o, d, t_min, t_max, 1.0) else {
+            let Some(t) = disk_hit(&splats[k as usize], o, d, t_min, t_max, 1.0, time) else {
                 continue;
             };
             insert(&mut hits, RayHit { t, splat: k });
@@ -173,11 +174,11 @@ pub fn angular_filter(kappa: f32, wi: Vec3, w: Vec3) -> f32 {
     (kappa * (wi.dot(w) - 1.0)).exp()
 }
 
-/// The spatial tent of a splat at the ray's crossing `q`: `1 − |q − c|/r` (Sec. 2.4).
+/// The spatial tent of a splat at the ray's crossing `q` at time `time`: `1 − |q − c|/r` (Sec. 2.4).
 #[inline]
-pub fn tent(s: &Splat, q: Vec3) -> f32 {
+pub fn tent(s: &Splat, q: Vec3, time: f32) -> f32 {
     if s.radius > 0.0 {
-        (1.0 - (q - Vec3::from(s.centre)).length() / s.radius).max(0.0)
+        (1.0 - (q - s.centre_at(time)).length() / s.radius).max(0.0)
     } else {
         0.0
     }
@@ -194,8 +195,8 @@ pub struct Seen {
     pub splats: u32,
 }
 
-/// Steps 2–4 on the sorted hits of one ray.
-pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Seen {
+/// Steps 2–4 on the sorted hits of one ray at shutter time `time`.
+pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, t_max: f32, time: f32) -> Seen {
     let mut start = 0usize;
     while start < hits.len() {
         // Step 2: the open surface grows until a conflict.
@@ -204,7 +205,7 @@ pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, 
             let s = &splats[hits[end].splat as usize];
             for m in &hits[start..end] {
                 let q = &splats[m.splat as usize];
-                if conflict(o, d, Vec3::from(q.centre), Vec3::from(q.normal), Vec3::from(s.centre), Vec3::from(s.normal)) {
+                if conflict(o, d, q.centre_at(time), Vec3::from(q.normal), s.centre_at(time), Vec3::from(s.normal)) {
                     break 'grow;
                 }
             }
@@ -217,19 +218,19 @@ pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, 
             2 => 2.0 / 3.0,
             _ => 1.0,
         };
-        let kept = |h: &&RayHit| scale == 1.0 || disk_hit(&splats[h.splat as usize], o, d, t_min, t_max, scale).is_some();
+        let kept = |h: &&RayHit| scale == 1.0 || disk_hit(&splats[h.splat as usize], o, d, t_min, t_max, scale, time).is_some();
         let surface: Vec<RayHit> = members.iter().filter(kept).copied().collect();
         if surface.is_empty() {
             start = end;
             continue;
         }
-        return Seen { radiance: filter(splats, &surface, o, d), distance: Some(surface[0].t), splats: surface.len() as u32 };
+        return Seen { radiance: filter(splats, &surface, o, d, time), distance: Some(surface[0].t), splats: surface.len() as u32 };
     }
     Seen::default()
 }
 
-/// Step 4 on the nearest surface's splats (non-empty).
-pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3) -> Vec3 {
+/// Step 4 on the nearest surface's splats (non-empty) at time `time`.
+pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3, time: f32) -> Vec3 {
     let front = |h: &RayHit| d.dot(Vec3::from(splats[h.splat as usize].normal)) < 0.0;
     let any_front = surface.iter().any(front);
     let glossy = surface.iter().any(|h| splats[h.splat as usize].kappa > 0.0);
@@ -239,7 +240,7 @@ pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3) -> Vec3 {
     for h in surface.iter().filter(|h| !any_front || front(h)) {
         let s = &splats[h.splat as usize];
         let l = Vec3::from(s.radiance);
-        let w = tent(s, o + d * h.t);
+        let w = tent(s, o + d * h.t, time);
         mean = (mean.0 + l, mean.1 + 1);
         if glossy {
             let wg = w * angular_filter(s.kappa, Vec3::from(s.direction), d);
@@ -261,10 +262,11 @@ pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3) -> Vec3 {
     }
 }
 
-/// RECONSTRUCT(p, ω): collect, then resolve.
-pub fn reconstruct(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32) -> Seen {
-    let hits = collect(nodes, splats, o, d, t_min, f32::INFINITY);
-    resolve(splats, &hits, o, d, t_min, f32::INFINITY)
+/// RECONSTRUCT(p, ω) at shutter time `time` (the splats where they are then): collect, then
+/// resolve.
+pub fn reconstruct(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, time: f32) -> Seen {
+    let hits = collect(nodes, splats, o, d, t_min, f32::INFINITY, time);
+    resolve(splats, &hits, o, d, t_min, f32::INFINITY, time)
 }
 
 #[cfg(test)]
@@ -272,20 +274,20 @@ mod tests {
     use super::*;
 
     fn splat(c: Vec3, n: Vec3, r: f32, l: f32) -> Splat {
-        Splat { centre: c.to_array(), radius: r, normal: n.to_array(), kappa: 0.0, direction: (-n).to_array(), sample: 0, radiance: [l; 3], flags: 1 }
+        Splat { centre: c.to_array(), radius: r, normal: n.to_array(), kappa: 0.0, direction: (-n).to_array(), sample: 0, radiance: [l; 3], flags: 1, ..Default::default() }
     }
 
     #[test]
     fn disks_are_hit_inside_their_radius() {
         let s = splat(Vec3::ZERO, Vec3::Y, 1.0, 1.0);
-        assert_eq!(disk_hit(&s, Vec3::new(0.5, 2.0, 0.0), -Vec3::Y, 0.0, 10.0, 1.0), Some(2.0));
-        assert_eq!(disk_hit(&s, Vec3::new(1.5, 2.0, 0.0), -Vec3::Y, 0.0, 10.0, 1.0), None);
-        assert_eq!(disk_hit(&s, Vec3::new(0.6, 2.0, 0.0), -Vec3::Y, 0.0, 10.0, 0.5), None);
+        assert_eq!(disk_hit(&s, Vec3::new(0.5, 2.0, 0.0), -Vec3::Y, 0.0, 10.0, 1.0, 0.0), Some(2.0));
+        assert_eq!(disk_hit(&s, Vec3::new(1.5, 2.0, 0.0), -Vec3::Y, 0.0, 10.0, 1.0, 0.0), None);
+        assert_eq!(disk_hit(&s, Vec3::new(0.6, 2.0, 0.0), -Vec3::Y, 0.0, 10.0, 0.5, 0.0), None);
         // Two-sided, and only within (t_min, t_max).
-        assert_eq!(disk_hit(&s, Vec3::new(0.0, -2.0, 0.0), Vec3::Y, 0.0, 10.0, 1.0), Some(2.0));
-        assert_eq!(disk_hit(&s, Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, 0.0, 1.5, 1.0), None);
+        assert_eq!(disk_hit(&s, Vec3::new(0.0, -2.0, 0.0), Vec3::Y, 0.0, 10.0, 1.0, 0.0), Some(2.0));
+        assert_eq!(disk_hit(&s, Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, 0.0, 1.5, 1.0, 0.0), None);
         // Parallel rays never hit.
-        assert_eq!(disk_hit(&s, Vec3::new(-2.0, 0.0, 0.0), Vec3::X, 0.0, 10.0, 1.0), None);
+        assert_eq!(disk_hit(&s, Vec3::new(-2.0, 0.0, 0.0), Vec3::X, 0.0, 10.0, 1.0, 0.0), None);
     }
 
     #[test]
@@ -314,7 +316,7 @@ mod tests {
         }
         let nodes = super::super::splats::tree(&mut splats);
         for (k, d) in [Vec3::new(0.1, -1.0, 0.2), Vec3::new(-0.3, -1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)].into_iter().enumerate() {
-            let seen = reconstruct(&nodes, &splats, Vec3::new(0.45, 1.0, 0.45), d.normalize(), 1e-4);
+            let seen = reconstruct(&nodes, &splats, Vec3::new(0.45, 1.0, 0.45), d.normalize(), 1e-4, 0.0);
             assert!(seen.splats >= 3, "ray {k}: {seen:?}");
             assert!((seen.radiance - Vec3::splat(0.7)).abs().max_element() < 1e-6, "ray {k}: {seen:?}");
         }
@@ -332,7 +334,7 @@ mod tests {
             }
         }
         let nodes = super::super::splats::tree(&mut splats);
-        let seen = reconstruct(&nodes, &splats, Vec3::new(0.25, 2.0, 0.25), -Vec3::Y, 1e-4);
+        let seen = reconstruct(&nodes, &splats, Vec3::new(0.25, 2.0, 0.25), -Vec3::Y, 1e-4, 0.0);
         assert_eq!(seen.radiance, Vec3::ONE);
         assert!((seen.distance.unwrap() - 1.5).abs() < 1e-5);
     }
@@ -350,7 +352,7 @@ mod tests {
         }
         let nodes = super::super::splats::tree(&mut splats);
         let d = Vec3::new(0.55, -0.8, 0.0).normalize();
-        let seen = reconstruct(&nodes, &splats, Vec3::ZERO - d * 2.0, d, 1e-4);
+        let seen = reconstruct(&nodes, &splats, Vec3::ZERO - d * 2.0, d, 1e-4, 0.0);
         assert_eq!(seen.radiance, Vec3::splat(2.0));
     }
 
@@ -358,9 +360,43 @@ mod tests {
     fn a_lone_splat_is_tested_at_half_its_radius() {
         let mut splats = vec![splat(Vec3::ZERO, Vec3::Y, 1.0, 1.0)];
         let nodes = super::super::splats::tree(&mut splats);
-        let near_rim = reconstruct(&nodes, &splats, Vec3::new(0.7, 1.0, 0.0), -Vec3::Y, 1e-4);
+        let near_rim = reconstruct(&nodes, &splats, Vec3::new(0.7, 1.0, 0.0), -Vec3::Y, 1e-4, 0.0);
         assert_eq!(near_rim.distance, None);
-        let centre = reconstruct(&nodes, &splats, Vec3::new(0.3, 1.0, 0.0), -Vec3::Y, 1e-4);
+        let centre = reconstruct(&nodes, &splats, Vec3::new(0.3, 1.0, 0.0), -Vec3::Y, 1e-4, 0.0);
         assert_eq!(centre.distance, Some(1.0));
+    }
+
+    #[test]
+    fn a_moving_plane_is_where_it_is_at_the_rays_time() {
+        // A strip of constant radiance x ∈ [0, 1] at the shutter's centre, moving +x by 0.5 per unit
+        // time, sampled at times spread over the shutter (each splat stored where its sample saw it).
+        // A ray at x = 1.3 sees it at t = 1 (strip at [0.5, 1.5]) and not at t = −1 ([−0.5, 0.5]);
+        // at any time where it sees it, the value is exact.
+        let v = Vec3::new(0.5, 0.0, 0.0);
+        let mut splats = Vec::new();
+        for i in 0..=20 {
+            for j in 0..6 {
+                let t = -1.0 + 2.0 * ((i * 6 + j) % 9) as f32 / 8.0;
+                let rest = Vec3::new(i as f32 * 0.05, 0.0, j as f32 * 0.1);
+                let mut s = splat(rest + v * t, Vec3::Y, 0.15, 0.7);
+                (s.velocity, s.time) = (v.to_array(), t);
+                splats.push(s);
+            }
+        }
+        let nodes = super::super::splats::tree(&mut splats);
+        let at = |x: f32, time: f32| reconstruct(&nodes, &splats, Vec3::new(x, 1.0, 0.25), -Vec3::Y, 1e-4, time);
+        let late = at(1.3, 1.0);
+        assert_eq!(late.distance, Some(1.0), "{late:?}");
+        assert!((late.radiance - Vec3::splat(0.7)).abs().max_element() < 1e-6, "{late:?}");
+        assert_eq!(at(1.3, -1.0).distance, None);
+        assert_eq!(at(-0.3, -1.0).distance, Some(1.0));
+        assert_eq!(at(-0.3, 1.0).distance, None);
+        // The tree's boxes bound every splat over the whole shutter.
+        for s in &splats {
+            for t in [-1.0, -0.3, 0.0, 0.8, 1.0] {
+                let c = s.centre_at(t);
+                assert!(Vec3::from(nodes[0].min).cmple(c).all() && c.cmple(Vec3::from(nodes[0].max)).all());
+            }
+        }
     }
 }

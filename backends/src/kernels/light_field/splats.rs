@@ -11,7 +11,13 @@
 //!   candidates and widens until the `k`-th metric distance is within the candidates' Euclidean
 //!   reach — exact, since the metric is never shorter than the Euclidean distance.
 //! - **Tree**: obvhs's BVH2 (PLOC) over the splats' boxes, flattened to [`SplatNode`]s with the
-//!   splats stored in leaf order, so a leaf's `index..index + count` are splat indices.
+//!   splats stored in leaf order, so a leaf's `index..index + count` are splat indices. A moving
+//!   splat's box bounds its disk over the whole shutter (a motion BVH, Sec. 2.3: the disk's box at
+//!   `t = −1` and `t = 1`, exact for its linear motion), so a ray of any time finds it.
+//! - **Motion**: the k-NN measures distances between the splats where they are at the shutter's
+//!   centre (`t = 0`: a moving surface's samples of different times are neighbours on the
+//!   surface, as in its own frame); shrinking retraces each input ray at its own time against the
+//!   splats where they are then.
 //! - **Shrinking** (Sec. 2.3.1): every input ray (the ones that left the scene too, to infinity) is
 //!   retraced through the tree; a splat it crosses before its own hit (by more than
 //!   [`SHRINK_TOLERANCE`]) shrinks to just short of the crossing. Each splat takes the smallest
@@ -68,14 +74,16 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
     if n < 2 || s.k == 0 {
         return vec![0.0; n];
     }
-    let points: Vec<[f32; 3]> = splats.iter().map(|p| p.centre).collect();
+    // Every splat where it is at the shutter's centre (its stored hit point if it does not move).
+    let centres: Vec<Vec3> = splats.iter().map(|p| p.centre_at(0.0)).collect();
+    let points: Vec<[f32; 3]> = centres.iter().map(|c| c.to_array()).collect();
     let Ok(tree3) = ImmutableKdTree::<f32, 3>::new_from_slice(&points) else {
         return vec![0.0; n];
     };
     // The search without the angular test: a diffuse sample's radius, and a glossy sample's cap.
     let spatial = |i: usize| {
-        knn_search(splats, i, 0.0, s, n, 0.0, f32::INFINITY, |want| {
-            tree3.query(&splats[i].centre).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
+        knn_search(splats, &centres, i, 0.0, s, n, 0.0, f32::INFINITY, |want| {
+            tree3.query(&points[i]).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
         })
     };
     let diffuse: Vec<usize> = (0..n).filter(|&i| !(splats[i].kappa > 0.0)).collect();
@@ -103,7 +111,8 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
     let scale = if reach > 0.0 && typical > 0.0 { 4.0 * typical / reach } else { 1.0 };
     let points6: Vec<[f32; 6]> = splats
         .iter()
-        .map(|p| [p.centre[0], p.centre[1], p.centre[2], scale * p.direction[0], scale * p.direction[1], scale * p.direction[2]])
+        .zip(&centres)
+        .map(|(p, c)| [c.x, c.y, c.z, scale * p.direction[0], scale * p.direction[1], scale * p.direction[2]])
         .collect();
     let Ok(tree6) = ImmutableKdTree::<f32, 6>::new_from_slice(&points6) else {
         return radii;
@@ -115,7 +124,7 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
             // spatial distance² ≥ reach² − s²·2 ln2/κ.
             let slack = scale * scale * 2.0 * std::f32::consts::LN_2 / splats[i].kappa;
             let cap = if s.glossy_cap.is_finite() { s.glossy_cap * spatial(i) } else { f32::INFINITY };
-            knn_search(splats, i, splats[i].kappa, s, n, slack, cap, |want| {
+            knn_search(splats, &centres, i, splats[i].kappa, s, n, slack, cap, |want| {
                 tree6.query(&points6[i]).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
             })
         })
@@ -126,7 +135,8 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
     radii
 }
 
-/// The k-NN search of sample `i`: `nearest(m)` returns the `m` nearest `(item, squared distance)`
+/// The k-NN search of sample `i` (`centres`: every splat's centre at the search's time):
+/// `nearest(m)` returns the `m` nearest `(item, squared distance)`
 /// in some space where every sample not returned lies at squared distance ≥ the last returned one,
 /// and a qualifying sample's squared spatial distance is at least its squared distance there minus
 /// `slack`; `kappa` is the `κ` of its angular test (0: none). Widens (×4) until the `k`-th
@@ -134,10 +144,10 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
 /// metric is never shorter than the spatial distance — or the reach passes `cap`, which the `k`-th
 /// distance then exceeds too: the result is `min(k-th distance, cap)`.
 #[allow(clippy::too_many_arguments)]
-fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, slack: f32, cap: f32, nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>) -> f32 {
+fn knn_search(splats: &[Splat], centres: &[Vec3], i: usize, kappa: f32, s: KnnSettings, n: usize, slack: f32, cap: f32, nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>) -> f32 {
     let k = s.k as usize;
     let p = &splats[i];
-    let (hi, ni, wi) = (Vec3::from(p.centre), Vec3::from(p.normal), Vec3::from(p.direction));
+    let (hi, ni, wi) = (centres[i], Vec3::from(p.normal), Vec3::from(p.direction));
     let mut want = (4 * k + 1).min(n);
     loop {
         let found = nearest(NonZeroUsize::new(want).expect("n ≥ 2"));
@@ -146,7 +156,7 @@ fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, 
             .iter()
             .filter(|f| f.0 as usize != i)
             .filter(|f| angular_match(kappa, wi, Vec3::from(splats[f.0 as usize].direction)))
-            .map(|f| metric_distance(Vec3::from(splats[f.0 as usize].centre) - hi, ni, s.alpha))
+            .map(|f| metric_distance(centres[f.0 as usize] - hi, ni, s.alpha))
             .collect();
         dist.sort_by(f32::total_cmp);
         let everything = want >= n;
@@ -163,12 +173,14 @@ fn knn_search(splats: &[Splat], i: usize, kappa: f32, s: KnnSettings, n: usize, 
     }
 }
 
-/// The box of a splat's disk: `c ± r·sqrt(1 − n_a²)` per axis.
+/// The box of a splat's disk over the whole shutter: `c(t) ± r·sqrt(1 − n_a²)` per axis, for `c(t)`
+/// at `t = −1` and `t = 1` (the centre moves linearly between them); a still splat's disk box.
 #[inline]
 pub fn disk_box(s: &Splat) -> ([f32; 3], [f32; 3]) {
-    let (c, n) = (Vec3::from(s.centre), Vec3::from(s.normal));
+    let n = Vec3::from(s.normal);
     let e = (Vec3::ONE - n * n).max(Vec3::ZERO).powf(0.5) * s.radius.max(0.0);
-    ((c - e).to_array(), (c + e).to_array())
+    let (open, close) = (s.centre_at(-1.0), s.centre_at(1.0));
+    ((open.min(close) - e).to_array(), (open.max(close) + e).to_array())
 }
 
 struct SplatBox(obvhs::aabb::Aabb);
@@ -273,17 +285,18 @@ pub fn refit(nodes: &mut [SplatNode], splats: &[Splat]) {
 }
 
 /// One input ray for shrinking: from `origin` along unit `direction` to its own hit at `distance`
-/// (∞ for a ray that left the scene), and its own splat (`u32::MAX`: none).
+/// (∞ for a ray that left the scene), its own splat (`u32::MAX`: none), and its shutter time.
 #[derive(Clone, Copy, Debug)]
 pub struct InputRay {
     pub origin: Vec3,
     pub direction: Vec3,
     pub distance: f32,
     pub own: u32,
+    pub time: f32,
 }
 
-/// Every crossing of `ray` with a splat other than its own, before its own hit: `(splat, the radius
-/// that avoids it)`.
+/// Every crossing of `ray` (at its time) with a splat other than its own, before its own hit:
+/// `(splat, the radius that avoids it)`.
 pub fn blockers(nodes: &[SplatNode], splats: &[Splat], ray: &InputRay, t_min: f32) -> Vec<(u32, f32)> {
     let t_max = if ray.distance.is_finite() { ray.distance * (1.0 - SHRINK_TOLERANCE) } else { f32::INFINITY };
     let mut out = Vec::new();
@@ -310,9 +323,9 @@ pub fn blockers(nodes: &[SplatNode], splats: &[Splat], ray: &InputRay, t_min: f3
                 continue;
             }
             let s = &splats[k as usize];
-            if let Some(t) = disk_hit(s, ray.origin, ray.direction, t_min, t_max, 1.0) {
+            if let Some(t) = disk_hit(s, ray.origin, ray.direction, t_min, t_max, 1.0, ray.time) {
                 let q = ray.origin + ray.direction * t;
-                out.push((k, (q - Vec3::from(s.centre)).length() * SHRINK_MARGIN));
+                out.push((k, (q - s.centre_at(ray.time)).length() * SHRINK_MARGIN));
             }
         }
     }
@@ -345,7 +358,7 @@ mod tests {
     use super::*;
 
     fn sample(c: Vec3, n: Vec3, w: Vec3, kappa: f32) -> Splat {
-        Splat { centre: c.to_array(), radius: 0.0, normal: n.to_array(), kappa, direction: w.to_array(), sample: 0, radiance: [0.0; 3], flags: 1 }
+        Splat { centre: c.to_array(), radius: 0.0, normal: n.to_array(), kappa, direction: w.to_array(), sample: 0, radiance: [0.0; 3], flags: 1, ..Default::default() }
     }
 
     #[test]
@@ -411,7 +424,7 @@ mod tests {
                 let tw = (0.5 - eye.z) / dir.z;
                 let pw = eye + dir * tw;
                 let (h, n) = if pw.x.abs() < 0.1 && pw.y < 1.2 { (pw, -Vec3::Z) } else { (target, Vec3::Y) };
-                rays.push(InputRay { origin: eye, direction: dir, distance: (h - eye).length(), own: v.len() as u32 });
+                rays.push(InputRay { origin: eye, direction: dir, distance: (h - eye).length(), own: v.len() as u32, time: 0.0 });
                 v.push(sample(h, n, dir, 0.0));
             }
         }
