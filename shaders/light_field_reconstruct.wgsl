@@ -242,15 +242,19 @@ fn lf_resolve(o: vec3<f32>, d: vec3<f32>, t_min: f32) -> Seen {
         }
         var kept = 0u;
         var first = -1.0;
+        var any_front = false;
         for (var j = start; j < end; j = j + 1u) {
-            if (scale == 1.0 || lf_disk_hit(splats_at(hit_splat[j]), o, d, t_min, inf(), scale) >= 0.0) {
+            let sj = splats_at(hit_splat[j]);
+            if (scale == 1.0 || lf_disk_hit(sj, o, d, t_min, inf(), scale) >= 0.0) {
                 kept = kept | (1u << (j - start));
+                any_front = any_front || dot3(d, sj.normal) < 0.0;
                 if (first < 0.0) {
                     first = hit_t[j];
                 }
             }
         }
-        if (kept == 0u) {
+        // resolve's `two_sided`: a surface seen only from behind is passed through where it is off.
+        if (kept == 0u || (params.two_sided == 0u && !any_front)) {
             start = end;
             continue;
         }

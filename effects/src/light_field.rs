@@ -74,6 +74,12 @@ impl NodeKind for LightField {
             ParamDecl::float("glossy_cap", DEFAULT_GLOSSY_CAP, 1.0, f64::from(f32::MAX), "a glossy splat's radius is at most this many times its spatial-only k-NN radius (a large number: the paper's unbounded search)"),
             ParamDecl::boolean("angular", true, "use each sample's angular bandwidth kappa (eq. 2); false treats every surface as diffuse (Fig. 10's ablation)"),
             ParamDecl::boolean("shrink", true, "shrink splats that block input rays (Sec. 2.3.1)"),
+            ParamDecl::choice(
+                "back_faces",
+                "auto",
+                &["auto", "two_sided", "pass"],
+                "a surface a reconstruction ray sees only from behind: its splats' radiance (two_sided, the paper's Sec. 2.5), or passed through to the next surface (pass: no input ray saw that side, e.g. splats overhanging a convex edge); auto = two_sided for AO, pass for radiance",
+            ),
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),
             ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
@@ -127,7 +133,7 @@ impl NodeKind for LightField {
             .read("nodes", nodes)
             .read("unfiltered", unfiltered)
             .write("radiance", radiance)
-            .node_params(&["rays", "mode", "max_distance", "bounces", "brdf"])
+            .node_params(&["rays", "mode", "max_distance", "bounces", "brdf", "back_faces"])
             .random()
             .reference(Reference::Bypass { input: "unfiltered" })
             .finish();

@@ -593,6 +593,7 @@ impl Kernel for LightFieldReconstruct {
                     .f32("max_distance", p.max_distance)
                     .u32("rays", reconstruction_rays(ctx)?)
                     .u32("primaries", ctx.layers("primary"))
+                    .u32("two_sided", two_sided(ctx, ao)? as u32)
                     .u32("stream", ctx.int_param("stream")? as u32))
             })
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
@@ -610,6 +611,7 @@ impl Kernel for LightFieldReconstruct {
         let max_distance = ctx.f32_param("max_distance")?;
         let p = PathParams::from_params(ctx, ao, max_distance)?;
         let rays = reconstruction_rays(ctx)?;
+        let two_sided = two_sided(ctx, ao)?;
         let stream = ctx.int_param("stream")? as u32;
         let splats = ctx.read::<Splat>("splats")?;
         let nodes = ctx.read::<SplatNode>("nodes")?;
@@ -633,7 +635,7 @@ impl Kernel for LightFieldReconstruct {
                 }
                 let side = if wi.dot(prim.n) >= 0.0 { 1.0 } else { -1.0 };
                 let origin = prim.x + prim.n * (side * p.eps);
-                let seen = reconstruct::reconstruct(nodes, splats, origin, wi, p.eps, hit.time);
+                let seen = reconstruct::reconstruct(nodes, splats, origin, wi, p.eps, hit.time, two_sided);
                 let value = if ao { Vec3::splat(seen.distance.is_some_and(|t| ao_occluded(t, max_distance)) as u32 as f32) } else { seen.radiance };
                 sum += value * weight * share.scale(j);
             }
@@ -686,6 +688,23 @@ impl<'a> RayShare<'a> {
 #[inline]
 fn hit_rng(seed: u32, pixel: u32, stream: u32, j: u32) -> PixelRng {
     PixelRng::new(seed, pixel, substream(stream, j))
+}
+
+/// `back_faces`: whether a surface a reconstruction ray sees only from behind gives its splats'
+/// radiance (`two_sided`, the paper's Sec. 2.5) or is passed through (`pass`: no input ray saw that
+/// side); `auto` (the default) is `two_sided` for ambient occlusion (a surface occludes from either
+/// side) and `pass` for radiance (its value on that side was never measured). Measured in
+/// docs/DESIGN-NOTES.md "Light-field reconstruction".
+fn two_sided(ctx: &KernelCtx<'_>, ao: bool) -> Result<bool, BackendError> {
+    if !ctx.params.contains_key("back_faces") {
+        return Ok(true);
+    }
+    match ctx.str_param("back_faces")? {
+        "auto" => Ok(ao),
+        "two_sided" => Ok(true),
+        "pass" => Ok(false),
+        other => Err(ctx.err(format!("unknown back_faces `{other}`; use auto, two_sided or pass"))),
+    }
 }
 
 /// The most reconstruction rays per pixel.

@@ -13,7 +13,9 @@
 //!    splats' radii scaled by 1/2 and 2/3 (EQUATIONS.md reading); if the ray misses them all, the
 //!    next surface is the nearest.
 //! 4. **Filter** (Sec. 2.4): front-facing splats only, unless all of the surface's splats face away
-//!    (two-sided surfaces, Sec. 2.5); a diffuse surface (every `κ = 0`) averages its splats'
+//!    (two-sided surfaces, Sec. 2.5) — or, with `two_sided` off, such a surface is passed through
+//!    (no input ray saw its side the ray comes from: the leak over convex edges, DESIGN-NOTES
+//!    "Light-field reconstruction"), and the next surface is the nearest; a diffuse surface (every `κ = 0`) averages its splats'
 //!    radiance with a spatial tent at the ray's crossing; otherwise the splat whose tent × vMF
 //!    filter (eq. 2) is largest gives its radiance (an anisotropic nearest neighbour).
 //!
@@ -195,8 +197,16 @@ pub struct Seen {
     pub splats: u32,
 }
 
-/// Steps 2–4 on the sorted hits of one ray at shutter time `time`.
-pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, t_max: f32, time: f32) -> Seen {
+/// Whether a ray along `d` meets splat `s` from its front (the side its input ray came from).
+#[inline]
+fn front(s: &Splat, d: Vec3) -> bool {
+    d.dot(Vec3::from(s.normal)) < 0.0
+}
+
+/// Steps 2–4 on the sorted hits of one ray at shutter time `time`; `two_sided`: a surface seen only
+/// from behind gives its splats' radiance (the paper's Sec. 2.5), else it is passed through.
+#[allow(clippy::too_many_arguments)]
+pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, t_max: f32, time: f32, two_sided: bool) -> Seen {
     let mut start = 0usize;
     while start < hits.len() {
         // Step 2: the open surface grows until a conflict.
@@ -220,7 +230,7 @@ pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, 
         };
         let kept = |h: &&RayHit| scale == 1.0 || disk_hit(&splats[h.splat as usize], o, d, t_min, t_max, scale, time).is_some();
         let surface: Vec<RayHit> = members.iter().filter(kept).copied().collect();
-        if surface.is_empty() {
+        if surface.is_empty() || (!two_sided && !surface.iter().any(|h| front(&splats[h.splat as usize], d))) {
             start = end;
             continue;
         }
@@ -231,7 +241,7 @@ pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, 
 
 /// Step 4 on the nearest surface's splats (non-empty) at time `time`.
 pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3, time: f32) -> Vec3 {
-    let front = |h: &RayHit| d.dot(Vec3::from(splats[h.splat as usize].normal)) < 0.0;
+    let front = |h: &RayHit| front(&splats[h.splat as usize], d);
     let any_front = surface.iter().any(front);
     let glossy = surface.iter().any(|h| splats[h.splat as usize].kappa > 0.0);
     let (mut sum, mut sum_w) = (Vec3::ZERO, 0.0f32);
@@ -263,10 +273,10 @@ pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3, time: f32)
 }
 
 /// RECONSTRUCT(p, ω) at shutter time `time` (the splats where they are then): collect, then
-/// resolve.
-pub fn reconstruct(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, time: f32) -> Seen {
+/// resolve ([`resolve`]'s `two_sided`).
+pub fn reconstruct(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, time: f32, two_sided: bool) -> Seen {
     let hits = collect(nodes, splats, o, d, t_min, f32::INFINITY, time);
-    resolve(splats, &hits, o, d, t_min, f32::INFINITY, time)
+    resolve(splats, &hits, o, d, t_min, f32::INFINITY, time, two_sided)
 }
 
 #[cfg(test)]
@@ -316,7 +326,7 @@ mod tests {
         }
         let nodes = super::super::splats::tree(&mut splats);
         for (k, d) in [Vec3::new(0.1, -1.0, 0.2), Vec3::new(-0.3, -1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)].into_iter().enumerate() {
-            let seen = reconstruct(&nodes, &splats, Vec3::new(0.45, 1.0, 0.45), d.normalize(), 1e-4, 0.0);
+            let seen = reconstruct(&nodes, &splats, Vec3::new(0.45, 1.0, 0.45), d.normalize(), 1e-4, 0.0, true);
             assert!(seen.splats >= 3, "ray {k}: {seen:?}");
             assert!((seen.radiance - Vec3::splat(0.7)).abs().max_element() < 1e-6, "ray {k}: {seen:?}");
         }
@@ -334,7 +344,7 @@ mod tests {
             }
         }
         let nodes = super::super::splats::tree(&mut splats);
-        let seen = reconstruct(&nodes, &splats, Vec3::new(0.25, 2.0, 0.25), -Vec3::Y, 1e-4, 0.0);
+        let seen = reconstruct(&nodes, &splats, Vec3::new(0.25, 2.0, 0.25), -Vec3::Y, 1e-4, 0.0, true);
         assert_eq!(seen.radiance, Vec3::ONE);
         assert!((seen.distance.unwrap() - 1.5).abs() < 1e-5);
     }
@@ -352,7 +362,7 @@ mod tests {
         }
         let nodes = super::super::splats::tree(&mut splats);
         let d = Vec3::new(0.55, -0.8, 0.0).normalize();
-        let seen = reconstruct(&nodes, &splats, Vec3::ZERO - d * 2.0, d, 1e-4, 0.0);
+        let seen = reconstruct(&nodes, &splats, Vec3::ZERO - d * 2.0, d, 1e-4, 0.0, true);
         assert_eq!(seen.radiance, Vec3::splat(2.0));
     }
 
@@ -360,9 +370,9 @@ mod tests {
     fn a_lone_splat_is_tested_at_half_its_radius() {
         let mut splats = vec![splat(Vec3::ZERO, Vec3::Y, 1.0, 1.0)];
         let nodes = super::super::splats::tree(&mut splats);
-        let near_rim = reconstruct(&nodes, &splats, Vec3::new(0.7, 1.0, 0.0), -Vec3::Y, 1e-4, 0.0);
+        let near_rim = reconstruct(&nodes, &splats, Vec3::new(0.7, 1.0, 0.0), -Vec3::Y, 1e-4, 0.0, true);
         assert_eq!(near_rim.distance, None);
-        let centre = reconstruct(&nodes, &splats, Vec3::new(0.3, 1.0, 0.0), -Vec3::Y, 1e-4, 0.0);
+        let centre = reconstruct(&nodes, &splats, Vec3::new(0.3, 1.0, 0.0), -Vec3::Y, 1e-4, 0.0, true);
         assert_eq!(centre.distance, Some(1.0));
     }
 
@@ -384,7 +394,7 @@ mod tests {
             }
         }
         let nodes = super::super::splats::tree(&mut splats);
-        let at = |x: f32, time: f32| reconstruct(&nodes, &splats, Vec3::new(x, 1.0, 0.25), -Vec3::Y, 1e-4, time);
+        let at = |x: f32, time: f32| reconstruct(&nodes, &splats, Vec3::new(x, 1.0, 0.25), -Vec3::Y, 1e-4, time, true);
         let late = at(1.3, 1.0);
         assert_eq!(late.distance, Some(1.0), "{late:?}");
         assert!((late.radiance - Vec3::splat(0.7)).abs().max_element() < 1e-6, "{late:?}");
@@ -398,5 +408,26 @@ mod tests {
                 assert!(Vec3::from(nodes[0].min).cmple(c).all() && c.cmple(Vec3::from(nodes[0].max)).all());
             }
         }
+    }
+
+    #[test]
+    fn a_surface_seen_only_from_behind_is_two_sided_or_passed() {
+        // A floor sampled from above (normals +y). From above both rules see it; from below, two-sided
+        // it gives its radiance, passed the ray sees nothing.
+        let mut splats = Vec::new();
+        for i in 0..6 {
+            for j in 0..6 {
+                splats.push(splat(Vec3::new(i as f32 * 0.1, 0.0, j as f32 * 0.1), Vec3::Y, 0.2, 1.0));
+            }
+        }
+        let nodes = super::super::splats::tree(&mut splats);
+        let (above, below) = (Vec3::new(0.25, 1.0, 0.25), Vec3::new(0.25, -1.0, 0.25));
+        for two_sided in [true, false] {
+            let seen = reconstruct(&nodes, &splats, above, -Vec3::Y, 1e-4, 0.0, two_sided);
+            assert_eq!((seen.radiance, seen.distance), (Vec3::ONE, Some(1.0)));
+        }
+        let two_sided = reconstruct(&nodes, &splats, below, Vec3::Y, 1e-4, 0.0, true);
+        assert_eq!((two_sided.radiance, two_sided.distance), (Vec3::ONE, Some(1.0)));
+        assert_eq!(reconstruct(&nodes, &splats, below, Vec3::Y, 1e-4, 0.0, false), Seen::default());
     }
 }
