@@ -4,8 +4,8 @@
 // at `bounces` vertices) at the path's time; the first `layers` kept as LightSample records, the
 // first `primaries` primary hits as LightPrimary records, and their plain Monte Carlo estimate;
 // mirrors backends/src/kernels/light_field/mod.rs (LightFieldSample::run_cpu, camera_sample) with the
-// same RNG calls and dimensions. Not chunked: the unfiltered mean has no room for a running count,
-// and `count` (spp, or a reference's N) stays far below a driver's loop cap.
+// same RNG calls and dimensions. Chunked over the paths (a reference's N): between dispatches
+// `estimate` holds the running sums (Σ w·L f cos/pdf, Σ w), the last one their mean.
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "bvh.wgsl"
@@ -42,10 +42,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     let layers = params.layers;
-    let none = LightSample(vec3<f32>(0.0), SAMPLE_NONE, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0,
-        vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(0.0));
-    for (var s = 0u; s < layers; s = s + 1u) {
-        samples_put(i * layers + s, none);
+    var sum = vec3<f32>(0.0);
+    var sum_w = 0.0;
+    if (chunk_resumes()) {
+        let running = estimate_at(i);
+        sum = running.xyz;
+        sum_w = running.w;
+    } else {
+        let none = LightSample(vec3<f32>(0.0), SAMPLE_NONE, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0,
+            vec3<f32>(0.0), vec3<f32>(0.0), vec2<f32>(0.0));
+        for (var s = 0u; s < layers; s = s + 1u) {
+            samples_put(i * layers + s, none);
+        }
     }
     let c = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
         params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
@@ -54,14 +62,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let xy = pixel_xy(gid);
     let centre = vec2<f32>(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let key = rng_key(frame.seed, pixel_id(gid), params.stream);
-    var sum = vec3<f32>(0.0);
-    var sum_w = 0.0;
     var bad = 0u;
     var rays_primary = 0u;
+    // As the CPU: a fixed camera ray is traced once (per dispatch: a later chunk re-traces it,
+    // uncounted).
     var fixed_hit: Hit;
     var have_hit = false;
-    var s = 0u;
-    for (; s < params.count; s = s + 1u) {
+    let end = chunk_end_of(params.count);
+    var s = frame.chunk_begin;
+    for (; s < end; s = s + 1u) {
         var lens = vec2<f32>(0.5);
         if (params.cam_aperture > 0.0) {
             lens = lf_camera_draw(key, s, DIM_LENS);
@@ -74,7 +83,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (!fixed || !have_hit) {
             fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
             have_hit = true;
-            rays_primary = rays_primary + 1u;
+            if (!fixed || frame.chunk_begin == 0u) {
+                rays_primary = rays_primary + 1u;
+            }
         }
         let camera_hit = fixed_hit;
         var prim = LightPrimary(vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), scene_time, vec3<f32>(0.0), ray.weight, ray.origin);
@@ -139,12 +150,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             samples_put(i * layers + s, rec);
         }
     }
-    count_cut_loop(s, params.count);
-    var mean = vec3<f32>(0.0);
-    if (sum_w > 0.0) {
-        mean = sum / sum_w;
+    count_cut_loop(s, end);
+    if (end < params.count) {
+        estimate_put(i, vec4<f32>(sum, sum_w));
+    } else {
+        var mean = vec3<f32>(0.0);
+        if (sum_w > 0.0) {
+            mean = sum / sum_w;
+        }
+        estimate_put(i, vec4<f32>(mean, sum_w));
     }
-    unfiltered_put(i, mean);
     atomicAdd(&counters[COUNTER_PRIMARY], rays_primary);
     atomicAdd(&counters[COUNTER_SHADOW], rays_shadow);
     atomicAdd(&counters[COUNTER_SECONDARY], rays_secondary);

@@ -608,6 +608,42 @@ fn mixed_reality_sampling_is_chunked_bit_for_bit() {
     assert_eq!(small_chunks.rays, chunked.rays);
 }
 
+/// `light_field.sample` is chunked over its paths (a reference traces thousands per pixel: unchunked,
+/// lavapipe cut 656 loops of a 1024-path reference of `lightfield_indirect.ron` at 32×24): any chunk
+/// size gives the same samples, primary hits and estimate bit for bit (`lightfield_motion.ron`, 8
+/// timed paths per pixel, in chunks of 3), and a 1024-path reference is the CPU's with no loop cut.
+#[test]
+fn light_field_sampling_is_chunked_bit_for_bit() {
+    let Some(mut gpu) = gpu_or_skip("light_field_sampling_is_chunked_bit_for_bit") else { return };
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
+    let session = Session::open(Some(&dir.join("lightfield_motion.ron")), &small(16, 12)).unwrap();
+    gpu.set_samples_per_dispatch(3);
+    let three = session.run(&mut gpu, &Silent).unwrap();
+    gpu.set_samples_per_dispatch(u32::MAX);
+    let one = session.run(&mut gpu, &Silent).unwrap();
+    assert_eq!(one.rays.cut_loops, 0);
+    for (key, a) in &one.outputs {
+        let b = &three.outputs[key];
+        let differ = (0..a.len())
+            .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
+            .count();
+        assert_eq!(differ, 0, "{key:?}: 3 paths per dispatch differs from one dispatch in {differ} pixels");
+    }
+    assert_eq!(three.rays, one.rays);
+    gpu.set_samples_per_dispatch(16);
+    let reference = Session::reference(Some(&dir.join("lightfield_indirect.ron")), 1024, "stratified", &small(16, 12)).unwrap();
+    let cpu = reference.run(&mut CpuBackend::new(), &Silent).unwrap();
+    let chunked = reference.run(&mut gpu, &Silent).unwrap();
+    println!("1024-path reference: cut loops {}", chunked.rays.cut_loops);
+    assert_eq!(chunked.rays.cut_loops, 0);
+    assert_eq!(cpu.rays, chunked.rays, "ray counters differ");
+    for (key, r) in &cpu.outputs {
+        let e = rel_mse(&chunked.outputs[key], r);
+        println!("{key:?}: relMSE vs CPU {e:.3e}");
+        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
+    }
+}
+
 /// A kernel that does not declare how far it reads (the RNG probe keeps the default `Reach::Image`)
 /// is never split: over the binding limit it is an error that says why and what to do.
 #[test]

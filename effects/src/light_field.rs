@@ -94,12 +94,12 @@ impl NodeKind for LightField {
         // camera ray).
         let samples = ctx.layered_buffer("samples", Format::Struct(&LIGHT_SAMPLE), spp);
         let primary = ctx.layered_buffer("primary", Format::Struct(&LIGHT_PRIMARY), if camera.fixed() { 1 } else { spp });
-        let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
+        let estimate = ctx.buffer("estimate", Format::Vec4);
         let mut b = ctx
             .pass("sample", "light_field.sample", Stage::Sample)
             .write("samples", samples)
             .write("primary", primary)
-            .write("unfiltered", unfiltered)
+            .write("estimate", estimate)
             .int("count", i64::from(spp))
             .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(&["mode", "max_distance", "bounces", "brdf", "angular"]);
@@ -107,6 +107,9 @@ impl NodeKind for LightField {
             b = b.param(name, value);
         }
         b.random().reference(Reference::Sample).finish();
+        // The plain estimate's rgb (the Vec4 estimate convention's mean).
+        let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
+        ctx.pass("unfiltered", "compose.modulate", Stage::Sample).read("value", estimate).write("out", unfiltered).finish();
 
         // Input rays per pixel: the constant spp (a diagnostic, like other nodes' ray counts: a
         // reference does not hand it back).

@@ -14,8 +14,10 @@
 //!   [`LightSample`] records (Sec. 2.1's tuple: origin, hit, normal at the hit, `κ`, direction,
 //!   radiance `L`, and the time, lens point and motion vector of the hit), the first
 //!   `layers("primary")` primary hits as [`LightPrimary`] records (one layer where the camera ray is
-//!   fixed); `unfiltered` is their plain Monte Carlo estimate `Σ w·L f cos/pdf / Σ w` (`w` the lens
-//!   weight; AO: the fraction of rays that hit within `max_distance`).
+//!   fixed); `estimate` is their plain Monte Carlo estimate `Σ w·L f cos/pdf / Σ w` (`w` the lens
+//!   weight; AO: the fraction of rays that hit within `max_distance`) with `Σ w` in `w` (the Vec4
+//!   estimate convention: the node's `unfiltered` is its `rgb`). Chunked on the GPU (a reference's
+//!   thousands of paths per pixel): between dispatches `estimate` holds the running sums.
 //! - `light_field.splats` (a host kernel: [`splats`]): splat radii by the bandwidth-aware k-NN, the
 //!   splat BVH (a motion BVH: each box bounds its splat over the shutter), consistency shrinking;
 //!   writes the splats in leaf order, the tree's nodes and the mean final radius per pixel
@@ -253,7 +255,8 @@ impl Kernel for LightFieldSample {
             Binding::write("samples", Format::Struct(&LIGHT_SAMPLE)),
             // `layers("primary")` records per pixel: the first paths' primary hits.
             Binding::write("primary", Format::Struct(&LIGHT_PRIMARY)),
-            Binding::write("unfiltered", Format::Vec3),
+            // rgb: Σ w·L f cos/pdf / Σ w over the finite samples; w: Σ w.
+            Binding::write("estimate", Format::Vec4),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -276,7 +279,11 @@ impl Kernel for LightFieldSample {
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
             .with_include("indirect_path.wgsl", include_str!("../../../../shaders/indirect_path.wgsl"))
             .with_include("light_field_common.wgsl", include_str!("../../../../shaders/light_field_common.wgsl"))
-            .with_scene(),
+            .with_scene()
+            // A reference traces thousands of paths per pixel: lavapipe stops a loop after 65,535
+            // iterations (measured: a 1024-path reference of lightfield_indirect.ron at 32×24 cut
+            // 656 loops unchunked).
+            .chunked(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -297,7 +304,7 @@ impl Kernel for LightFieldSample {
         struct Px {
             samples: Vec<LightSample>,
             primary: Vec<LightPrimary>,
-            unfiltered: Vec3,
+            estimate: [f32; 4],
             rays: PathRays,
             primary_rays: u64,
             bad: u64,
@@ -307,7 +314,7 @@ impl Kernel for LightFieldSample {
             let mut o = Px {
                 samples: vec![LightSample::default(); layers as usize],
                 primary: vec![LightPrimary::default(); primaries as usize],
-                unfiltered: Vec3::ZERO,
+                estimate: [0.0; 4],
                 rays: PathRays::default(),
                 primary_rays: 0,
                 bad: 0,
@@ -402,14 +409,15 @@ impl Kernel for LightFieldSample {
                     o.samples[s as usize] = rec;
                 }
             }
-            o.unfiltered = if sum_w > 0.0 { sum / sum_w } else { Vec3::ZERO };
+            let mean = if sum_w > 0.0 { sum / sum_w } else { Vec3::ZERO };
+            o.estimate = [mean.x, mean.y, mean.z, sum_w];
             o
         });
         Counters::add(&ctx.counters.primary_rays, out.iter().map(|o| o.primary_rays).sum());
         Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.rays.secondary).sum());
         Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.rays.shadow).sum());
         Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.bad).sum());
-        ctx.put("unfiltered", out.iter().map(|o| o.unfiltered.to_array()).collect::<Vec<_>>())?;
+        ctx.put("estimate", out.iter().map(|o| o.estimate).collect::<Vec<_>>())?;
         ctx.put("primary", out.iter().flat_map(|o| o.primary.iter().copied()).collect::<Vec<_>>())?;
         ctx.put("samples", out.into_iter().flat_map(|o| o.samples).collect::<Vec<_>>())
     }
