@@ -126,6 +126,27 @@ fn cornell_reference() -> &'static BufferData {
     REF.get_or_init(|| indirect(&run(&parts(None, 64, 48, None, &[], Some(1024)))))
 }
 
+/// Every input ray of `samples` (escaped ones to infinity, each at its own time), naming its own
+/// splat among `splats` (which `build` reordered).
+fn input_rays(samples: &[LightSample], splats: &[Splat]) -> Vec<InputRay> {
+    let mut position = vec![u32::MAX; samples.len()];
+    for (k, sp) in splats.iter().enumerate() {
+        position[sp.sample as usize] = k as u32;
+    }
+    samples
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| x.flags != SAMPLE_NONE)
+        .map(|(k, x)| InputRay {
+            origin: Vec3::from(x.origin),
+            direction: Vec3::from(x.direction),
+            distance: if x.flags == SAMPLE_HIT { x.distance } else { f32::INFINITY },
+            own: position[k],
+            time: x.time,
+        })
+        .collect()
+}
+
 /// Sec. 2.3.1's invariant on real input: every input ray (escaped ones to infinity) is retraced
 /// through the built tree and crosses no splat but its own before its own hit. Measured at
 /// 48×36: `cornell` (8 spp) 10368 input rays, 7611 splats; unshrunk 10032 rays blocked
@@ -142,19 +163,8 @@ fn shrinking_leaves_no_input_ray_blocked() {
         let mut blocked_rays = [0usize; 2];
         for (pass, shrink) in [false, true].into_iter().enumerate() {
             let built = build(samples, knn, shrink, t_min).expect("tree within the stack");
-            let mut position = vec![u32::MAX; samples.len()];
-            for (k, sp) in built.splats.iter().enumerate() {
-                position[sp.sample as usize] = k as u32;
-            }
             let (mut rays, mut crossings) = (0usize, 0usize);
-            for (k, x) in samples.iter().enumerate().filter(|(_, x)| x.flags != SAMPLE_NONE) {
-                let ray = InputRay {
-                    origin: Vec3::from(x.origin),
-                    direction: Vec3::from(x.direction),
-                    distance: if x.flags == SAMPLE_HIT { x.distance } else { f32::INFINITY },
-                    own: position[k],
-                    time: x.time,
-                };
+            for ray in input_rays(samples, &built.splats) {
                 let b = blockers(&built.nodes, &built.splats, &ray, t_min);
                 rays += 1;
                 blocked_rays[pass] += !b.is_empty() as usize;
@@ -357,8 +367,9 @@ const MOTION: &str = "lightfield_motion.ron";
 /// carry their lens points, times and motion vectors (Sec. 2.1's tuple) and every path has its own
 /// primary hit: on `lightfield_defocus.ron` each primary hit's camera ray starts at its sample's
 /// lens point on the Defocus node's aperture (0.05); on `lightfield_motion.ron` each pixel's 8 times
-/// are stratified over the shutter (each in its own ninth, toroidally shifted) and hits on the moving panel and ball carry
-/// their velocity; and the shrinking invariant holds with every input ray retraced at its own time.
+/// are stratified over the shutter (each in its own ninth, toroidally shifted) and hits on the
+/// moving panel and ball carry their velocity; and the shrinking invariant holds with every input
+/// ray retraced at its own time.
 #[test]
 fn samples_carry_lens_points_times_and_motion_vectors() {
     // Lens.
@@ -407,25 +418,7 @@ fn samples_carry_lens_points_times_and_motion_vectors() {
     let t_min = RAY_EPSILON * s.scene.extent();
     let knn = KnnSettings { k: 12, alpha: 3.0, glossy_cap: wedge::effects::light_field::DEFAULT_GLOSSY_CAP as f32 };
     let built = build(samples, knn, true, t_min).expect("tree within the stack");
-    let mut position = vec![u32::MAX; samples.len()];
-    for (k, sp) in built.splats.iter().enumerate() {
-        position[sp.sample as usize] = k as u32;
-    }
-    let blocked = samples
-        .iter()
-        .enumerate()
-        .filter(|(_, x)| x.flags != SAMPLE_NONE)
-        .filter(|(k, x)| {
-            let ray = InputRay {
-                origin: Vec3::from(x.origin),
-                direction: Vec3::from(x.direction),
-                distance: if x.flags == SAMPLE_HIT { x.distance } else { f32::INFINITY },
-                own: position[*k],
-                time: x.time,
-            };
-            !blockers(&built.nodes, &built.splats, &ray, t_min).is_empty()
-        })
-        .count();
+    let blocked = input_rays(samples, &built.splats).iter().filter(|ray| !blockers(&built.nodes, &built.splats, ray, t_min).is_empty()).count();
     println!("motion: {} splats, {} shrunk, {blocked} input rays blocked after shrinking", built.splats.len(), built.shrunk);
     assert!(built.shrunk > 0);
     assert_eq!(blocked, 0, "no input ray blocked at its own time after shrinking");

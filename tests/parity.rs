@@ -520,6 +520,20 @@ fn rng_wgsl_is_bit_exact() {
     assert_eq!((hash, uniform, cmj, perm, sub), (0, 0, 0, 0, 0));
 }
 
+/// Pixels where `a` and `b` differ in any component's bits.
+fn differing_pixels(a: &BufferData, b: &BufferData) -> usize {
+    (0..a.len()).filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits())).count()
+}
+
+/// Every output of a GPU run within relMSE 1e-4 of the CPU run's (printed).
+fn assert_outputs_match(cpu: &wedge::backends::RunResult, gpu: &wedge::backends::RunResult) {
+    for (key, reference) in &cpu.outputs {
+        let e = rel_mse(&gpu.outputs[key], reference);
+        println!("{key:?}: relMSE vs CPU {e:.3e}");
+        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
+    }
+}
+
 /// Heavy sampling on lavapipe, which ends a shader loop after 65,535 iterations (`indirect.ron` at
 /// μ 4 with 4 bounces, 16×12): sampling passes run in chunks of samples per dispatch, so
 /// - by default no loop is cut and the render equals the CPU's (relMSE ≤ 1e-4, same ray counts);
@@ -539,18 +553,12 @@ fn heavy_sampling_is_chunked_and_cut_loops_are_counted() {
     println!("default chunking: cut loops {}", chunked.rays.cut_loops);
     assert_eq!(chunked.rays.cut_loops, 0);
     assert_eq!(cpu.rays, chunked.rays, "ray counters differ");
-    for (key, reference) in &cpu.outputs {
-        let e = rel_mse(&chunked.outputs[key], reference);
-        println!("{key:?}: relMSE vs CPU {e:.3e}");
-        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
-    }
+    assert_outputs_match(&cpu, &chunked);
     gpu.set_samples_per_dispatch(5);
     let small_chunks = session.run(&mut gpu, &Silent).unwrap();
     for (key, a) in &chunked.outputs {
         let b = &small_chunks.outputs[key];
-        let differ = (0..a.len())
-            .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
-            .count();
+        let differ = differing_pixels(a, b);
         assert_eq!(differ, 0, "{key:?}: 5 samples per dispatch differs from the default in {differ} pixels");
     }
     gpu.set_samples_per_dispatch(u32::MAX);
@@ -578,11 +586,7 @@ fn mixed_reality_sampling_is_chunked_bit_for_bit() {
     println!("default chunking: cut loops {}", chunked.rays.cut_loops);
     assert_eq!(chunked.rays.cut_loops, 0);
     assert_eq!(cpu.rays, chunked.rays, "ray counters differ");
-    for (key, reference) in &cpu.outputs {
-        let e = rel_mse(&chunked.outputs[key], reference);
-        println!("{key:?}: relMSE vs CPU {e:.3e}");
-        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
-    }
+    assert_outputs_match(&cpu, &chunked);
     gpu.set_samples_per_dispatch(3);
     let small_chunks = session.run(&mut gpu, &Silent).unwrap();
     gpu.set_samples_per_dispatch(u32::MAX);
@@ -599,9 +603,7 @@ fn mixed_reality_sampling_is_chunked_bit_for_bit() {
     for (key, a) in &chunked.outputs {
         for (what, run) in &compared {
             let b = &run.outputs[key];
-            let differ = (0..a.len())
-                .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
-                .count();
+            let differ = differing_pixels(a, b);
             assert_eq!(differ, 0, "{key:?}: {what} differs from the default chunks in {differ} pixels");
         }
     }
@@ -624,9 +626,7 @@ fn light_field_sampling_is_chunked_bit_for_bit() {
     assert_eq!(one.rays.cut_loops, 0);
     for (key, a) in &one.outputs {
         let b = &three.outputs[key];
-        let differ = (0..a.len())
-            .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
-            .count();
+        let differ = differing_pixels(a, b);
         assert_eq!(differ, 0, "{key:?}: 3 paths per dispatch differs from one dispatch in {differ} pixels");
     }
     assert_eq!(three.rays, one.rays);
@@ -637,11 +637,7 @@ fn light_field_sampling_is_chunked_bit_for_bit() {
     println!("1024-path reference: cut loops {}", chunked.rays.cut_loops);
     assert_eq!(chunked.rays.cut_loops, 0);
     assert_eq!(cpu.rays, chunked.rays, "ray counters differ");
-    for (key, r) in &cpu.outputs {
-        let e = rel_mse(&chunked.outputs[key], r);
-        println!("{key:?}: relMSE vs CPU {e:.3e}");
-        assert!(e <= 1e-4, "{key:?}: relMSE {e} > 1e-4");
-    }
+    assert_outputs_match(&cpu, &chunked);
 }
 
 /// A kernel that does not declare how far it reads (the RNG probe keeps the default `Reach::Image`)
