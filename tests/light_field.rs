@@ -36,8 +36,8 @@ use wedge::backends::cpu::run_pass;
 use wedge::backends::kernel::Counters;
 use wedge::backends::kernels::direct::RAY_EPSILON;
 use wedge::backends::kernels::light_field::reconstruct::{collect, resolve};
-use wedge::backends::kernels::light_field::splats::{blockers, InputRay, KnnSettings};
-use wedge::backends::kernels::light_field::{build, LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE};
+use wedge::backends::kernels::light_field::splats::{blockers, KnnSettings};
+use wedge::backends::kernels::light_field::{build, input_rays, LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE};
 use wedge::backends::{BufferData, Job, RunResult, Silent, Texel};
 use wedge::graph::{parse_pipeline, BufferId, ParamValue};
 use wedge::Session;
@@ -124,27 +124,6 @@ fn records<R: Texel>(b: &BufferData) -> &[R] {
 fn cornell_reference() -> &'static BufferData {
     static REF: OnceLock<BufferData> = OnceLock::new();
     REF.get_or_init(|| indirect(&run(&parts(None, 64, 48, None, &[], Some(1024)))))
-}
-
-/// Every input ray of `samples` (escaped ones to infinity, each at its own time), naming its own
-/// splat among `splats` (which `build` reordered).
-fn input_rays(samples: &[LightSample], splats: &[Splat]) -> Vec<InputRay> {
-    let mut position = vec![u32::MAX; samples.len()];
-    for (k, sp) in splats.iter().enumerate() {
-        position[sp.sample as usize] = k as u32;
-    }
-    samples
-        .iter()
-        .enumerate()
-        .filter(|(_, x)| x.flags != SAMPLE_NONE)
-        .map(|(k, x)| InputRay {
-            origin: Vec3::from(x.origin),
-            direction: Vec3::from(x.direction),
-            distance: if x.flags == SAMPLE_HIT { x.distance } else { f32::INFINITY },
-            own: position[k],
-            time: x.time,
-        })
-        .collect()
 }
 
 /// Sec. 2.3.1's invariant on real input: every input ray (escaped ones to infinity) is retraced

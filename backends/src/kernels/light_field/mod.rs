@@ -469,26 +469,31 @@ pub fn build(samples: &[LightSample], knn: splats::KnnSettings, shrink: bool, t_
     }
     let mut shrunk = 0;
     if shrink {
-        // Where each input sample's splat now is (leaf order), for "its own" splat.
-        let mut position = vec![u32::MAX; samples.len()];
-        for (k, s) in list.iter().enumerate() {
-            position[s.sample as usize] = k as u32;
-        }
-        let rays: Vec<splats::InputRay> = samples
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.flags != SAMPLE_NONE)
-            .map(|(k, s)| splats::InputRay {
-                origin: Vec3::from(s.origin),
-                direction: Vec3::from(s.direction),
-                distance: if s.flags == SAMPLE_HIT { s.distance } else { f32::INFINITY },
-                own: position[k],
-                time: s.time,
-            })
-            .collect();
+        let rays = input_rays(samples, &list);
         shrunk = splats::shrink(&mut nodes, &mut list, &rays, t_min);
     }
     Ok(Built { splats: list, nodes, shrunk })
+}
+
+/// Every input ray of `samples` (Sec. 2.3.1: escaped ones to infinity, each at its own time), naming
+/// its own splat among `splats` (in leaf order, as [`build`] stores them; `u32::MAX`: none).
+pub fn input_rays(samples: &[LightSample], splats: &[Splat]) -> Vec<splats::InputRay> {
+    let mut position = vec![u32::MAX; samples.len()];
+    for (k, s) in splats.iter().enumerate() {
+        position[s.sample as usize] = k as u32;
+    }
+    samples
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.flags != SAMPLE_NONE)
+        .map(|(k, s)| splats::InputRay {
+            origin: Vec3::from(s.origin),
+            direction: Vec3::from(s.direction),
+            distance: if s.flags == SAMPLE_HIT { s.distance } else { f32::INFINITY },
+            own: position[k],
+            time: s.time,
+        })
+        .collect()
 }
 
 fn knn_settings(ctx: &KernelCtx<'_>) -> Result<splats::KnnSettings, BackendError> {
