@@ -345,10 +345,10 @@ const MOTION: &str = "lightfield_motion.ron";
 /// Under a factoring node that samples the lens (`Defocus`) or the shutter (`Motion`), the samples
 /// carry their lens points, times and motion vectors (Sec. 2.1's tuple) and every path has its own
 /// primary hit: on `lightfield_defocus.ron` each primary hit's camera ray starts at its sample's
-/// lens point on the Defocus node's aperture (0.05); on `lightfield_motion.ron` each pixel's 8 times
-/// are stratified over the shutter (each in its own ninth, toroidally shifted) and hits on the
-/// moving panel and ball carry their velocity; and the shrinking invariant holds with every input
-/// ray retraced at its own time.
+/// lens point on the Defocus node's aperture (0.05), weighted 1 (a Gaussian lens: `exp(−|u|²/2)`);
+/// on `lightfield_motion.ron` each pixel's 8 times are stratified over the shutter (each in its own
+/// ninth, toroidally shifted) and hits on the moving panel and ball carry their velocity; and the
+/// shrinking invariant holds with every input ray retraced at its own time.
 #[test]
 fn samples_carry_lens_points_times_and_motion_vectors() {
     // Lens.
@@ -366,11 +366,21 @@ fn samples_carry_lens_points_times_and_motion_vectors() {
         let eye = cam.position + 0.05 * (lens.x * right + lens.y * up);
         assert!((Vec3::from(p.eye) - eye).length() < 1e-5, "the camera ray starts at the lens point: {:?} vs {eye}", p.eye);
         assert_eq!(x.time, 0.0);
+        assert_eq!(p.weight, 1.0, "a disk lens weighs every path 1");
         checked += 1;
         off_centre += (lens.length() > 0.5) as usize;
     }
     println!("defocus 32×24: {checked} samples, {off_centre} with |lens| > 0.5");
     assert!(checked > samples.len() / 2 && off_centre > checked / 8);
+    // The thesis's Gaussian lens (the Defocus node's `lens`): each path weighs exp(−|u|²/2).
+    let s = open(DEFOCUS, 8, 6, &[("defocus", "lens", ParamValue::Str("gaussian".into()))]);
+    let held = every_buffer(&s);
+    let samples: &[LightSample] = records(written(&s, &held, "light_field.sample", "samples"));
+    let primary: &[LightPrimary] = records(written(&s, &held, "light_field.sample", "primary"));
+    for (x, p) in samples.iter().zip(primary).filter(|(x, _)| x.flags != SAMPLE_NONE) {
+        let u = glam::Vec2::from(x.lens);
+        assert!((p.weight - (-0.5 * u.length_squared()).exp()).abs() < 1e-6, "Gaussian lens weight {} at {u}", p.weight);
+    }
 
     // Time and motion vectors.
     let s = open(MOTION, 32, 24, &[]);
