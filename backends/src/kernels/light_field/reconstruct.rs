@@ -241,13 +241,13 @@ pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, 
 
 /// Step 4 on the nearest surface's splats (non-empty) at time `time`.
 pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3, time: f32) -> Vec3 {
-    let front = |h: &RayHit| front(&splats[h.splat as usize], d);
-    let any_front = surface.iter().any(front);
+    let faces_ray = |h: &RayHit| front(&splats[h.splat as usize], d);
+    let any_front = surface.iter().any(faces_ray);
     let glossy = surface.iter().any(|h| splats[h.splat as usize].kappa > 0.0);
     let (mut sum, mut sum_w) = (Vec3::ZERO, 0.0f32);
     let (mut best, mut best_w) = (Vec3::ZERO, -1.0f32);
     let mut mean = (Vec3::ZERO, 0u32);
-    for h in surface.iter().filter(|h| !any_front || front(h)) {
+    for h in surface.iter().filter(|h| !any_front || faces_ray(h)) {
         let s = &splats[h.splat as usize];
         let l = Vec3::from(s.radiance);
         let w = tent(s, o + d * h.t, time);
