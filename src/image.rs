@@ -462,30 +462,66 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
     })
 }
 
-/// Writes `frames` (same size, linear RGB) as a looping animated GIF at `fps` frames per second: each
-/// frame as [`to_srgb8`] encodes it for a PNG, quantised to GIF's 256-colour palette by the `image`
-/// crate's encoder. Used for the preview of a frame sequence.
-pub fn write_gif(path: &Path, frames: &[&Image], fps: u32) -> Result<(), ImageError> {
-    use ::image::codecs::gif::{GifEncoder, Repeat};
-    use ::image::{Delay, Frame, RgbaImage};
+/// A looping animated GIF written one frame at a time, so a sequence of any length holds one
+/// frame in memory (`render --frames` streams its preview through it). Each frame is encoded as
+/// [`to_srgb8`] encodes it for a PNG, quantised to GIF's 256-colour palette (NeuQuant, `gif`'s
+/// speed 10). The file is complete only after [`GifStream::finish`] wrote the trailer and synced it;
+/// it is meant to be written inside a [`crate::staging::Staging`] set, whose commit makes it visible.
+pub struct GifStream {
+    path: PathBuf,
+    encoder: gif::Encoder<BufWriter<File>>,
+    width: u32,
+    height: u32,
+    /// Display time of each frame in centiseconds (GIF's unit).
+    delay: u16,
+}
 
-    for img in frames {
-        check_buffer(path, img.width, img.height, img.pixels.len(), img.pixel_count())?;
+impl GifStream {
+    /// Start `path` (created or truncated) for `width × height` frames shown at `fps` frames per second.
+    pub fn create(path: &Path, width: u32, height: u32, fps: u32) -> Result<GifStream, ImageError> {
+        let too_big = || ImageError::Encode {
+            path: path.to_path_buf(),
+            reason: format!("{width}x{height} is larger than a GIF can hold (65535 pixels a side)"),
+        };
+        let (w, h) = (u16::try_from(width).map_err(|_| too_big())?, u16::try_from(height).map_err(|_| too_big())?);
+        let file = File::create(path).map_err(|source| ImageError::Write { path: path.to_path_buf(), source })?;
+        let mut encoder = gif::Encoder::new(BufWriter::new(file), w, h, &[]).map_err(|e| gif_error(path, e))?;
+        encoder.set_repeat(gif::Repeat::Infinite).map_err(|e| gif_error(path, e))?;
+        let delay = u16::try_from((100 / fps.max(1)).max(1)).unwrap_or(u16::MAX);
+        Ok(GifStream { path: path.to_path_buf(), encoder, width, height, delay })
     }
-    let encode_err = |e: ::image::ImageError| ImageError::Encode { path: path.to_path_buf(), reason: e.to_string() };
-    write_atomically(path, |out| {
-        let mut enc = GifEncoder::new_with_speed(out, 10);
-        enc.set_repeat(Repeat::Infinite).map_err(encode_err)?;
-        for img in frames {
-            let rgb = to_srgb8(img, 1.0);
-            let rgba: Vec<u8> = rgb.chunks(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
-            let buffer = RgbaImage::from_raw(img.width, img.height, rgba)
-                .ok_or_else(|| ImageError::Encode { path: path.to_path_buf(), reason: "frame buffer size".into() })?;
-            let frame = Frame::from_parts(buffer, 0, 0, Delay::from_numer_denom_ms(1000, fps.max(1)));
-            enc.encode_frame(frame).map_err(encode_err)?;
+
+    /// Append one frame (the size given to [`GifStream::create`]).
+    pub fn push(&mut self, img: &Image) -> Result<(), ImageError> {
+        check_buffer(&self.path, img.width, img.height, img.pixels.len(), img.pixel_count())?;
+        if (img.width, img.height) != (self.width, self.height) {
+            return Err(ImageError::Encode {
+                path: self.path.clone(),
+                reason: format!("a {}x{} frame in a {}x{} animation", img.width, img.height, self.width, self.height),
+            });
         }
-        Ok(())
-    })
+        let rgb = to_srgb8(img, 1.0);
+        let mut frame = gif::Frame::from_rgb_speed(self.width as u16, self.height as u16, &rgb, 10);
+        frame.delay = self.delay;
+        self.encoder.write_frame(&frame).map_err(|e| gif_error(&self.path, e))
+    }
+
+    /// Write the trailer, flush and sync: after this the file is a complete GIF.
+    pub fn finish(self) -> Result<(), ImageError> {
+        let path = self.path;
+        let out = self.encoder.into_inner().map_err(|e| gif_error(&path, e))?;
+        let file = out.into_inner().map_err(|e| ImageError::Write { path: path.clone(), source: e.into_error() })?;
+        file.sync_all().map_err(|source| ImageError::Write { path, source })
+    }
+}
+
+/// A `gif` encoding error as an [`ImageError`] naming `path` (I/O errors keep their cause: a full
+/// disk must say so).
+fn gif_error(path: &Path, e: gif::EncodingError) -> ImageError {
+    match e {
+        gif::EncodingError::Io(source) => ImageError::Write { path: path.to_path_buf(), source },
+        other => ImageError::Encode { path: path.to_path_buf(), reason: other.to_string() },
+    }
 }
 
 #[cfg(test)]

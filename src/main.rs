@@ -350,7 +350,7 @@ fn render(session: &Session, common: &Common, stem: &str, aov: &[String]) -> Res
         _ => (with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??, None),
     };
     let (extra, aov_line) = with_threads(common.threads, || aov_images(&session.scene, session, aov))??;
-    let written = wedge::outputs::write_run_with(&common.out, stem, &run, &[], &extra, session.width, session.height)?;
+    let written = wedge::outputs::write_run_with(&common.out, stem, &run, &extra, session.width, session.height)?;
     let mut text = summary(&run, session.width, session.height);
     text.push_str(&written.warnings());
     if let Some(note) = note {
@@ -395,7 +395,9 @@ fn sequence_backend(session: &Session, common: &Common, what: &str) -> Result<Bo
     );
     scene_notes(session);
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
-    check_memory(session, mode, common.memory_limit)?;
+    if let Some((limit, source)) = wedge::session::memory_budget(common.memory_limit) {
+        session.sequence_memory_estimate(mode).check(limit, &source)?;
+    }
     Ok(match common.backend.as_str() {
         "wgpu" => Box::new(open_gpu(common.gpu_limits.as_deref())?),
         _ => Box::new(CpuBackend::new()),
@@ -403,18 +405,20 @@ fn sequence_backend(session: &Session, common: &Common, what: &str) -> Result<Bo
 }
 
 /// `render --frames A..B`: every frame in order on one backend, each with the previous frame's
-/// history; the images go out together with the last frame's full outputs (see
-/// [`wedge::outputs::write_sequence`]).
+/// history. Each frame's image (and AOVs) is written as soon as it is rendered, into one
+/// all-or-nothing set committed with the last frame's full outputs ([`wedge::outputs::SequenceWriter`]):
+/// the memory held is one frame's, however many frames the range has.
 fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
     let mut backend = sequence_backend(session, common, &format!("frames {first}..{last}"))?;
     let bars = Bars::default();
-    let (mut images, mut previous, mut seconds) = (Vec::new(), None, 0.0f64);
-    let (mut extra, mut aov_line) = (Vec::new(), String::new());
+    let mut out = wedge::outputs::SequenceWriter::new(&common.out)?;
+    let (mut previous, mut seconds) = (None, 0.0f64);
+    let (mut last_aovs, mut aov_line) = (Vec::new(), String::new());
     for frame in first..=last {
         let run = with_threads(common.threads, || session.run_frame(backend.as_mut(), &bars, frame, first, previous.as_ref()))??;
         seconds += run.total_seconds();
         if let Some(b) = run.output("color") {
-            images.push((frame, wedge::outputs::buffer_to_image(b, session.width, session.height)));
+            out.frame(frame, &wedge::outputs::buffer_to_image(b, session.width, session.height))?;
         }
         previous = Some(run);
         // The AOVs of every frame's camera, `aov_NAME_NNNN.exr` beside `frame_NNNN.exr` (the inputs of
@@ -426,17 +430,15 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
             let aovs = with_threads(common.threads, || aov_images(&session.scene, session, aov));
             session.scene.camera = base;
             let (maps, line) = aovs??;
-            for map in &maps {
-                extra.push(wedge::outputs::ExtraExr { stem: format!("{}_{frame:04}", map.stem), ..map.clone() });
-            }
+            let numbered: Vec<_> = maps.iter().map(|m| wedge::outputs::ExtraExr { stem: format!("{}_{frame:04}", m.stem), ..m.clone() }).collect();
+            out.extra(&numbered)?;
             if frame == last {
-                extra.extend(maps);
-                aov_line = line;
+                (last_aovs, aov_line) = (maps, line);
             }
         }
     }
     let run = previous.expect("a frame range holds at least one frame");
-    let written = wedge::outputs::write_run_with(&common.out, "render", &run, &images, &extra, session.width, session.height)?;
+    let written = out.finish("render", &run, &last_aovs, session.width, session.height)?;
     let n = last - first + 1;
     let mut text = summary(&run, session.width, session.height);
     text.push_str(&format!("{n} frames in {seconds:.2} s of passes: {:.2} frames per second ({})\n", f64::from(n) / seconds.max(1e-9), backend.name()));

@@ -10,7 +10,7 @@ use wedge_backends::{BufferData, KernelClass, RunResult};
 use wedge_effects::heatmap;
 
 use crate::heatmap::{write_heatmap_png, HeatmapSpec, Scale};
-use crate::image::{write_exr, write_exr_rgba, write_gif, write_png_srgb, Image, ImageError};
+use crate::image::{write_exr, write_exr_rgba, write_png_srgb, GifStream, Image, ImageError};
 use crate::staging::Staging;
 
 /// A vec3/vec4 buffer as an image (first three components).
@@ -50,13 +50,6 @@ impl WrittenRun {
     }
 }
 
-/// Stage `stem.exr` and `stem.png` of `img` into `set`; returns the number of non-finite pixels.
-fn stage_image_pair(set: &mut Staging, stem: &str, img: &Image) -> Result<usize, ImageError> {
-    write_exr(&set.file(format!("{stem}.exr"))?, img)?;
-    write_png_srgb(&set.file(format!("{stem}.png"))?, img, 1.0)?;
-    Ok(non_finite_pixels(img))
-}
-
 /// A float image written beside a run's outputs as `<stem>.exr` in the same all-or-nothing set, e.g.
 /// the `--aov` maps ([`crate::aov`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -75,7 +68,7 @@ pub struct ExtraExr {
 /// two heatmaps, every `Heatmap` sink (`wedge_effects::heatmap`) becomes `<node name>.png`, drawn as
 /// its parameters say (the run carries each sink's kind and parameters, [`RunResult::sinks`]).
 pub fn write_run(dir: &Path, stem: &str, run: &RunResult, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
-    write_sequence(dir, stem, run, &[], width, height)
+    write_run_with(dir, stem, run, &[], width, height)
 }
 
 /// [`write_run_with`] for one snapshot of a progressive render (`render --progressive`): the run's
@@ -90,153 +83,163 @@ pub fn write_snapshot(
     width: u32,
     height: u32,
 ) -> Result<WrittenRun, ImageError> {
-    write_all(dir, stem, run, &[], &[(name.to_string(), image)], extra, width, height)
+    let mut set = OutputSet::new(dir)?;
+    set.image(name, image, &format!("the image `{name}`"))?;
+    set.run(stem, run, extra, width, height)?;
+    set.commit()
 }
 
-/// [`write_sequence`] (frames may be empty: [`write_run`]) with `extra` EXRs in the same
-/// all-or-nothing set; a stem clashing with another output is an error, as for heatmaps.
+/// [`write_run`] with `extra` EXRs in the same all-or-nothing set; a stem clashing with another
+/// output is an error, as for heatmaps.
 pub fn write_run_with(
     dir: &Path,
     stem: &str,
     run: &RunResult,
-    frames: &[(u32, Image)],
     extra: &[ExtraExr],
     width: u32,
     height: u32,
 ) -> Result<WrittenRun, ImageError> {
-    write_all(dir, stem, run, frames, &[], extra, width, height)
+    let mut set = OutputSet::new(dir)?;
+    set.run(stem, run, extra, width, height)?;
+    set.commit()
 }
 
-/// [`write_run`] for the last frame of a sequence, with every frame's image beside it in the same
-/// all-or-nothing set: `frame_NNNN.exr` / `.png` per `(frame, image)` of `frames` and `preview.gif`,
-/// an animated preview of them (sRGB, 8 bits, 24 frames per second, looping).
-pub fn write_sequence(
-    dir: &Path,
-    stem: &str,
-    run: &RunResult,
-    frames: &[(u32, Image)],
-    width: u32,
-    height: u32,
-) -> Result<WrittenRun, ImageError> {
-    write_all(dir, stem, run, frames, &[], &[], width, height)
+/// The files of `render --frames`, written as the frames come so that a sequence of any length holds
+/// one frame in memory: `frame_NNNN.exr` / `.png` and `extra` EXRs of each frame are staged on disk
+/// at once, `preview.gif` (sRGB, 8 bits, 24 frames per second, looping) is encoded frame by frame
+/// ([`GifStream`]), and [`SequenceWriter::finish`] adds the last frame's full outputs and commits
+/// everything as one all-or-nothing set (an interrupted sequence leaves no files).
+pub struct SequenceWriter {
+    set: OutputSet,
+    /// The preview, started with the first frame (a run without an image writes none).
+    gif: Option<GifStream>,
 }
 
-#[allow(clippy::too_many_arguments)]
-fn write_all(
-    dir: &Path,
-    stem: &str,
-    run: &RunResult,
-    frames: &[(u32, Image)],
-    named: &[(String, &Image)],
-    extra: &[ExtraExr],
-    width: u32,
-    height: u32,
-) -> Result<WrittenRun, ImageError> {
-    let mut set = Staging::new(dir)?;
-    let mut non_finite = Vec::new();
-    // File name → which output writes it, so a Heatmap named like another output is an error, not a
-    // silently lost file.
-    let mut claimed: Vec<(String, String)> = Vec::new();
-    let mut claim = |file: String, what: String| -> Result<String, ImageError> {
-        if let Some((_, first)) = claimed.iter().find(|(f, _)| *f == file) {
-            return Err(ImageError::Clash { path: dir.join(&file), first: first.clone(), second: what });
+/// Frames per second of a sequence's `preview.gif`.
+const PREVIEW_FPS: u32 = 24;
+
+impl SequenceWriter {
+    /// Start a sequence in `dir` (created if missing).
+    pub fn new(dir: &Path) -> Result<SequenceWriter, ImageError> {
+        Ok(SequenceWriter { set: OutputSet::new(dir)?, gif: None })
+    }
+
+    /// Stage frame `frame`'s image and append it to the preview.
+    pub fn frame(&mut self, frame: u32, image: &Image) -> Result<(), ImageError> {
+        self.set.image(&format!("frame_{frame:04}"), image, &format!("frame {frame}"))?;
+        if self.gif.is_none() {
+            let path = self.set.file("preview.gif", "the animated preview")?;
+            self.gif = Some(GifStream::create(&path, image.width, image.height, PREVIEW_FPS)?);
         }
-        claimed.push((file.clone(), what));
-        Ok(file)
-    };
-    for (port, name) in [("color", stem), ("unfiltered", "unfiltered")] {
-        if let Some(b) = run.output(port) {
-            for ext in ["exr", "png"] {
-                claim(format!("{name}.{ext}"), format!("the `{port}` image"))?;
-            }
-            let bad = stage_image_pair(&mut set, name, &buffer_to_image(b, width, height))?;
-            if bad > 0 {
-                non_finite.push((name.to_string(), bad));
-            }
+        match self.gif.as_mut() {
+            Some(gif) => gif.push(image),
+            None => Ok(()),
         }
     }
-    let output_maps = [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
-    for (port, title, unit, mask_zero) in output_maps {
-        if let Some(b) = run.output(port) {
-            let file = claim(format!("{port}.png"), format!("the `{port}` heatmap"))?;
-            let spec = HeatmapSpec { title, unit, scale: Scale::Log, range: None, arrows: None };
-            stage_heatmap(&mut set, &file, b, mask_zero, &spec, width, height)?;
-        }
+
+    /// Stage EXRs that belong to one frame (its `--aov` maps).
+    pub fn extra(&mut self, extra: &[ExtraExr]) -> Result<(), ImageError> {
+        extra.iter().try_for_each(|e| self.set.extra(e))
     }
-    for ((node, port), b) in &run.outputs {
-        let Some(sink) = run.sinks.get(node).filter(|s| s.kind == heatmap::KIND) else { continue };
-        let Some(d) = heatmap::describe(node, &sink.params, port) else { continue };
-        let file = claim(format!("{node}.png"), format!("Heatmap node `{node}`"))?;
-        let scale = if d.log { Scale::Log } else { Scale::Linear };
-        // A `motion` input (v_x, v_y, Ω, σ): σ with strokes along v.
-        let arrows: Option<Vec<[f32; 2]>> =
-            d.velocity.then(|| (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1)]).collect());
-        let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None, arrows: arrows.as_deref() };
-        let values = if d.velocity { (0..b.len()).map(|i| b.component(i, 3)).collect() } else { b.to_scalar() };
-        stage_values(&mut set, &file, &values, d.mask_zero, &spec, width, height)?;
-    }
-    for (frame, img) in frames {
-        let name = format!("frame_{frame:04}");
-        for ext in ["exr", "png"] {
-            claim(format!("{name}.{ext}"), format!("frame {frame}"))?;
+
+    /// Finish the preview, stage the last frame's outputs (`run`, `extra`) and commit the set.
+    pub fn finish(mut self, stem: &str, run: &RunResult, extra: &[ExtraExr], width: u32, height: u32) -> Result<WrittenRun, ImageError> {
+        if let Some(gif) = self.gif.take() {
+            gif.finish()?;
         }
-        let bad = stage_image_pair(&mut set, &name, img)?;
+        self.set.run(stem, run, extra, width, height)?;
+        self.set.commit()
+    }
+}
+
+/// One all-or-nothing set of output files being staged ([`Staging`]), with the name of each file's
+/// producer, so that two outputs claiming one file name (a `Heatmap` node named like another
+/// output) are an error instead of a silently lost file; and the images with non-finite pixels.
+struct OutputSet {
+    dir: PathBuf,
+    staging: Staging,
+    /// File name → which output writes it.
+    claimed: Vec<(String, String)>,
+    non_finite: Vec<(String, usize)>,
+}
+
+impl OutputSet {
+    fn new(dir: &Path) -> Result<OutputSet, ImageError> {
+        Ok(OutputSet { dir: dir.to_path_buf(), staging: Staging::new(dir)?, claimed: Vec::new(), non_finite: Vec::new() })
+    }
+
+    /// Where to write `file` (claimed for `what`), or the clash with its first claimant.
+    fn file(&mut self, file: &str, what: &str) -> Result<PathBuf, ImageError> {
+        if let Some((_, first)) = self.claimed.iter().find(|(f, _)| f == file) {
+            return Err(ImageError::Clash { path: self.dir.join(file), first: first.clone(), second: what.to_string() });
+        }
+        self.claimed.push((file.to_string(), what.to_string()));
+        self.staging.file(file)
+    }
+
+    /// Stage `name.exr` and `name.png` of `img`, counting its non-finite pixels.
+    fn image(&mut self, name: &str, img: &Image, what: &str) -> Result<(), ImageError> {
+        write_exr(&self.file(&format!("{name}.exr"), what)?, img)?;
+        write_png_srgb(&self.file(&format!("{name}.png"), what)?, img, 1.0)?;
+        let bad = non_finite_pixels(img);
         if bad > 0 {
-            non_finite.push((name, bad));
+            self.non_finite.push((name.to_string(), bad));
         }
+        Ok(())
     }
-    for (name, img) in named {
-        for ext in ["exr", "png"] {
-            claim(format!("{name}.{ext}"), format!("the image `{name}`"))?;
-        }
-        let bad = stage_image_pair(&mut set, name, img)?;
-        if bad > 0 {
-            non_finite.push((name.clone(), bad));
-        }
-    }
-    for e in extra {
-        let file = claim(format!("{}.exr", e.stem), format!("the extra image `{}`", e.stem))?;
-        let path = set.file(&file)?;
+
+    /// Stage `<stem>.exr` of an extra image.
+    fn extra(&mut self, e: &ExtraExr) -> Result<(), ImageError> {
+        let path = self.file(&format!("{}.exr", e.stem), &format!("the extra image `{}`", e.stem))?;
         if e.alpha {
             write_exr_rgba(&path, e.width, e.height, &e.pixels)?;
         } else {
             let img = Image { width: e.width, height: e.height, pixels: e.pixels.iter().map(|p| [p[0], p[1], p[2]]).collect() };
             write_exr(&path, &img)?;
         }
+        Ok(())
     }
-    if !frames.is_empty() {
-        claim("preview.gif".into(), "the animated preview".into())?;
-        let images: Vec<&Image> = frames.iter().map(|(_, img)| img).collect();
-        write_gif(&set.file("preview.gif")?, &images, 24)?;
+
+    /// Stage everything `run` produced (see [`write_run`]) and `extra`.
+    fn run(&mut self, stem: &str, run: &RunResult, extra: &[ExtraExr], width: u32, height: u32) -> Result<(), ImageError> {
+        for (port, name) in [("color", stem), ("unfiltered", "unfiltered")] {
+            if let Some(b) = run.output(port) {
+                self.image(name, &buffer_to_image(b, width, height), &format!("the `{port}` image"))?;
+            }
+        }
+        let output_maps = [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
+        for (port, title, unit, mask_zero) in output_maps {
+            if let Some(b) = run.output(port) {
+                let path = self.file(&format!("{port}.png"), &format!("the `{port}` heatmap"))?;
+                let spec = HeatmapSpec { title, unit, scale: Scale::Log, range: None, arrows: None };
+                write_values(&path, &b.to_scalar(), mask_zero, &spec, width, height)?;
+            }
+        }
+        for ((node, port), b) in &run.outputs {
+            let Some(sink) = run.sinks.get(node).filter(|s| s.kind == heatmap::KIND) else { continue };
+            let Some(d) = heatmap::describe(node, &sink.params, port) else { continue };
+            let path = self.file(&format!("{node}.png"), &format!("Heatmap node `{node}`"))?;
+            let scale = if d.log { Scale::Log } else { Scale::Linear };
+            // A `motion` input (v_x, v_y, Ω, σ): σ with strokes along v.
+            let arrows: Option<Vec<[f32; 2]>> =
+                d.velocity.then(|| (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1)]).collect());
+            let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None, arrows: arrows.as_deref() };
+            let values = if d.velocity { (0..b.len()).map(|i| b.component(i, 3)).collect() } else { b.to_scalar() };
+            write_values(&path, &values, d.mask_zero, &spec, width, height)?;
+        }
+        extra.iter().try_for_each(|e| self.extra(e))
     }
-    Ok(WrittenRun { files: set.commit()?, non_finite })
+
+    /// Move every staged file into place, or none.
+    fn commit(self) -> Result<WrittenRun, ImageError> {
+        Ok(WrittenRun { files: self.staging.commit()?, non_finite: self.non_finite })
+    }
 }
 
-/// Stage `file`, a heatmap of the scalar buffer `b`; `mask_zero` draws values ≤ 0 black.
-fn stage_heatmap(
-    set: &mut Staging,
-    file: &str,
-    b: &BufferData,
-    mask_zero: bool,
-    spec: &HeatmapSpec,
-    width: u32,
-    height: u32,
-) -> Result<(), ImageError> {
-    stage_values(set, file, &b.to_scalar(), mask_zero, spec, width, height)
-}
-
-/// Stage `file`, a heatmap of `values`; `mask_zero` draws values ≤ 0 black.
-fn stage_values(
-    set: &mut Staging,
-    file: &str,
-    values: &[f32],
-    mask_zero: bool,
-    spec: &HeatmapSpec,
-    width: u32,
-    height: u32,
-) -> Result<(), ImageError> {
+/// Write `path`, a heatmap of `values`; `mask_zero` draws values ≤ 0 black.
+fn write_values(path: &Path, values: &[f32], mask_zero: bool, spec: &HeatmapSpec, width: u32, height: u32) -> Result<(), ImageError> {
     let mask: Option<Vec<bool>> = mask_zero.then(|| values.iter().map(|v| *v <= 0.0).collect());
-    write_heatmap_png(&set.file(file)?, width, height, values, mask.as_deref(), spec)
+    write_heatmap_png(path, width, height, values, mask.as_deref(), spec)
 }
 
 /// Average rays per pixel of each kind, and the per-pass time table.
@@ -335,7 +338,7 @@ mod tests {
         let position = ExtraExr { stem: "aov_position".into(), width: 3, height: 2, pixels: pixels.clone(), alpha: true };
         let normal = ExtraExr { stem: "aov_normal".into(), alpha: false, ..position.clone() };
         let run = run_with_color(vec![[0.5; 3]; 6]);
-        let w = write_run_with(dir.path(), "render", &run, &[], &[position.clone(), normal], 3, 2).unwrap();
+        let w = write_run_with(dir.path(), "render", &run, &[position.clone(), normal], 3, 2).unwrap();
         assert!(w.files.contains(&dir.path().join("aov_position.exr")) && w.files.contains(&dir.path().join("aov_normal.exr")));
         let back = exr::prelude::read_first_rgba_layer_from_file(
             dir.path().join("aov_position.exr"),
@@ -348,7 +351,7 @@ mod tests {
         assert_eq!(rgb.pixels[5], [5.0, -1.5, 1e-20]);
         let other = tempfile::tempdir().unwrap();
         let clash = ExtraExr { stem: "render".into(), ..position };
-        let err = write_run_with(other.path(), "render", &run, &[], &[clash], 3, 2).unwrap_err().to_string();
+        let err = write_run_with(other.path(), "render", &run, &[clash], 3, 2).unwrap_err().to_string();
         assert!(err.contains("render.exr"), "{err}");
         assert_eq!(std::fs::read_dir(other.path()).unwrap().count(), 0, "nothing written: {err}");
     }
@@ -368,5 +371,40 @@ mod tests {
             std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         names.sort();
         assert_eq!(names, ["render.exr", "render.png"]);
+    }
+
+    /// `--frames` streams: each frame is on disk (staged, not in memory) as soon as it is pushed, a
+    /// sequence dropped before `finish` leaves nothing behind, and a finished one has every frame and a
+    /// GIF with one image per frame.
+    #[test]
+    fn a_sequence_is_staged_frame_by_frame_and_committed_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let frame = |v: f32| Image { width: 3, height: 2, pixels: vec![[v; 3]; 6] };
+        let staged_files = |d: &Path| -> usize {
+            std::fs::read_dir(d).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).map(|p| std::fs::read_dir(p).unwrap().count()).sum()
+        };
+        let mut dropped = SequenceWriter::new(dir.path()).unwrap();
+        dropped.frame(0, &frame(0.1)).unwrap();
+        dropped.frame(1, &frame(0.2)).unwrap();
+        assert_eq!(staged_files(dir.path()), 5, "two frames' EXR+PNG and the GIF are staged on disk");
+        drop(dropped);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "an unfinished sequence leaves nothing");
+
+        let mut seq = SequenceWriter::new(dir.path()).unwrap();
+        for f in 0..3 {
+            seq.frame(f, &frame(0.1 * (f + 1) as f32)).unwrap();
+        }
+        let written = seq.finish("render", &run_with_color(vec![[0.3; 3]; 6]), &[], 3, 2).unwrap();
+        for name in ["frame_0000.exr", "frame_0002.png", "render.exr", "preview.gif"] {
+            assert!(written.files.contains(&dir.path().join(name)), "{name}: {:?}", written.files);
+        }
+        let mut decoder = gif::DecodeOptions::new().read_info(std::fs::File::open(dir.path().join("preview.gif")).unwrap()).unwrap();
+        let mut frames = 0;
+        while decoder.read_next_frame().unwrap().is_some() {
+            frames += 1;
+        }
+        assert_eq!(frames, 3);
+        let back = crate::image::read_exr(&dir.path().join("frame_0001.exr")).unwrap();
+        assert_eq!(back.pixels[0], [0.2; 3]);
     }
 }

@@ -320,6 +320,28 @@ impl Session {
     }
 }
 
+impl Session {
+    /// Peak memory of a sequence (`render --frames`, `--progressive`) in `mode`: one frame's run as
+    /// [`Session::memory_estimate`], plus the previous frame's run that the next frame reads its history
+    /// from (its sink copies and previous-frame buffers), plus the frame being streamed out (its image,
+    /// sRGB bytes and GIF frame). Frames are written as they come (`crate::outputs::SequenceWriter`), so
+    /// this does not grow with the number of frames.
+    pub fn sequence_memory_estimate(&self, mode: RunMode) -> MemoryEstimate {
+        let single = self.memory_estimate(mode);
+        let b = self.schedule.buffer_bytes(self.width, self.height);
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        MemoryEstimate {
+            buffers: single.buffers.saturating_add(b.sinks).saturating_add(b.history),
+            scene: single.scene,
+            images: single.images.saturating_add(pixels.saturating_mul(SEQUENCE_FRAME_BYTES_PER_PIXEL)),
+        }
+    }
+}
+
+/// Bytes per pixel a sequence holds for the frame being written besides [`OUTPUT_BYTES_PER_PIXEL`]:
+/// the frame's `[f32; 3]` image and the GIF encoder's RGB copy and palette indices.
+const SEQUENCE_FRAME_BYTES_PER_PIXEL: u64 = 12 + 3 + 1;
+
 /// Buffer bytes of `wedge parity`: every CPU buffer kept (no pooling), plus one pass's bindings on
 /// the device and the read-back copies of its outputs on the host.
 pub fn parity_buffer_bytes(b: &BufferBytes) -> u64 {
@@ -802,7 +824,7 @@ mod tests {
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 960 * px, pass_outputs: 404 * px, sinks: 32 * px, unpooled: 1056 * px, pass_bindings: 816 * px }
+            BufferBytes { pool: 960 * px, pass_outputs: 404 * px, sinks: 32 * px, unpooled: 1056 * px, pass_bindings: 816 * px, history: 0 }
         );
         assert_eq!(s.schedule.peak_bytes(640, 480), 1396 * px);
         assert_eq!(s.schedule.peak_bytes(640, 480), 428_851_200);
@@ -813,6 +835,21 @@ mod tests {
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (1056 + 404 + 816) * px);
+    }
+
+    /// A sequence holds one frame's run, the previous run (sinks + history) and the frame being
+    /// written: environment_temporal.ron has history, and its estimate does not depend on a frame count.
+    #[test]
+    fn sequence_estimate_adds_the_previous_run_and_one_streamed_frame() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/environment_temporal.ron");
+        let ov = Overrides { width: Some(64), height: Some(48), ..Overrides::default() };
+        let s = Session::open(Some(&path), &ov).unwrap();
+        let b = s.schedule.buffer_bytes(64, 48);
+        assert!(b.history > 0, "environment_temporal.ron keeps previous-frame buffers");
+        let (one, seq) = (s.memory_estimate(RunMode::Cpu), s.sequence_memory_estimate(RunMode::Cpu));
+        assert_eq!(seq.buffers, one.buffers + b.sinks + b.history);
+        assert_eq!(seq.images, one.images + 16 * 64 * 48);
+        assert_eq!(seq.scene, one.scene);
     }
 
     /// The environment map's arrays count: `envmap` carries `builtin:sky` (512 × 256 texels, ≥ 20 bytes

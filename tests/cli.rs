@@ -193,3 +193,37 @@ fn bench_suite_quick_and_bench_scene() {
     let report = std::fs::read_to_string(one.join("report.md")).unwrap();
     assert!(report.contains("Scene `suite_contact`"), "{report}");
 }
+
+/// `--frames` is bounded (issue 33): a sequence is estimated as one frame's run plus the previous
+/// frame's history and the frame being streamed out, whatever its length, so a limit a single frame
+/// fits in but a sequence does not refuses the sequence up front, writing nothing; and a long
+/// sequence's files are all there, with a preview of every frame.
+#[test]
+fn a_sequence_the_memory_limit_cannot_hold_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let pipeline = repo().join("pipelines/environment_temporal.ron");
+    let size = ["--width", "320", "--height", "240"];
+    let out = dir.path().join("seq");
+    let mut args = vec!["render", pipeline.to_str().unwrap(), "--frames", "0..99999", "--memory-limit", "124M", "--out", out.to_str().unwrap()];
+    args.extend(size);
+    let o = wedge(&args, dir.path());
+    fails_cleanly(&o, &["more than the memory limit of 124.0 MiB (--memory-limit)", "estimated 128.0 MiB"]);
+    assert!(!out.exists(), "nothing written for a refused sequence");
+    // The single-frame estimate of the same size is below the limit: the sequence's share is what refused it.
+    let single = wedge::session::Session::open(Some(&pipeline), &wedge::session::Overrides { width: Some(320), height: Some(240), ..Default::default() })
+        .unwrap()
+        .memory_estimate(wedge::session::RunMode::Cpu);
+    assert!(single.total() < 124 << 20, "{single:?}");
+
+    let many = dir.path().join("many");
+    let o = wedge(&["render", "--width", "8", "--height", "6", "--frames", "0..39", "--out", many.to_str().unwrap()], repo());
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!((0..40).all(|f| many.join(format!("frame_{f:04}.exr")).is_file() && many.join(format!("frame_{f:04}.png")).is_file()));
+    let file = std::fs::File::open(many.join("preview.gif")).unwrap();
+    let mut gif = gif::DecodeOptions::new().read_info(file).unwrap();
+    let mut frames = 0;
+    while gif.read_next_frame().unwrap().is_some() {
+        frames += 1;
+    }
+    assert_eq!(frames, 40);
+}

@@ -392,6 +392,9 @@ pub struct BufferBytes {
     pub unpooled: u64,
     /// The most one pass binds (reads + writes): what running a single pass on a device holds.
     pub pass_bindings: u64,
+    /// The previous-frame copies a run hands back for the next frame ([`Schedule::history`]'s sources):
+    /// what a sequence keeps between two frames besides the sink copies.
+    pub history: u64,
 }
 
 impl Schedule {
@@ -426,6 +429,7 @@ impl Schedule {
                 .map(|p| sum(&mut p.reads.iter().chain(&p.writes).map(|(_, id)| of_buffer(id))))
                 .max()
                 .unwrap_or(0),
+            history: sum(&mut self.history.iter().map(|h| of_buffer(&h.source))),
         }
     }
 
