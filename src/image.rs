@@ -15,7 +15,8 @@
 //! temporary file with a unique name next to the destination
 //! (`.<name>.<pid>.<random>.tmp`) and renames it over the destination only
 //! once everything has been written and flushed (see [`crate::staging`],
-//! which also refuses destinations that are symbolic links).
+//! which also refuses destinations that are not regular files: links,
+//! directories, devices, FIFOs, sockets).
 //! A rename within one directory is atomic, so an interrupted or failed write
 //! leaves either the old file or no file, never a truncated image that a later
 //! comparison would silently read as garbage.
@@ -144,9 +145,17 @@ pub enum ImageError {
         #[source]
         source: io::Error,
     },
-    /// The destination is a symbolic link: wedge neither replaces the link nor writes through it.
-    #[error("refusing to write {}: it is a symbolic link; remove the link or choose another output path", path.display())]
-    Symlink { path: PathBuf },
+    /// The destination exists and is not a regular file (a symbolic link, a directory, a device, a
+    /// FIFO, a socket): wedge neither replaces it nor writes through it.
+    #[error("refusing to write {}: it is a {kind}, not a regular file, and wedge replaces only regular files; choose another output path", path.display())]
+    NotRegularFile { path: PathBuf, kind: &'static str },
+    /// The output is one of the command's inputs under another name.
+    #[error("refusing to write {}: it is the input {} (the same file), which would be lost; choose another output path", path.display(), input.display())]
+    OverwritesInput { path: PathBuf, input: PathBuf },
+    /// An output directory (`--out`) exists as something else, or lies under something that is not a
+    /// directory.
+    #[error("cannot write into {}: it is a {kind}, not a directory; outputs go into a directory (`--out` names one), so choose a path that is a directory or does not exist yet", path.display())]
+    NotADirectory { path: PathBuf, kind: &'static str },
     /// The encoder refused the data (should not happen with valid input).
     #[error("cannot encode {}: {reason}; this is likely a bug in wedge, please report it", path.display())]
     Encode { path: PathBuf, reason: String },

@@ -272,19 +272,45 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
     })
 }
 
+/// `--threads N`: every rayon pool of the process runs N threads from here on — the global pool
+/// (opening the session: the scene's BVH, a mixed-reality capture; the passes; the AOVs) and the
+/// pools other crates build at rayon's default size, which reads `RAYON_NUM_THREADS` (the exr crate
+/// compresses EXR blocks in a pool of its own). Called first in `main`: setting an environment
+/// variable is only sound while no other thread may read the environment.
+fn set_threads(threads: Option<usize>) -> Result<(), WedgeError> {
+    let Some(n) = threads else { return Ok(()) };
+    std::env::set_var("RAYON_NUM_THREADS", n.to_string());
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| WedgeError::Usage(format!("--threads {n}: {e}")))
+}
+
+/// Runs `f` in a pool of `threads`; a pass-through where the current pool already has that many
+/// (always, after [`set_threads`] in `main`).
 fn with_threads<T>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T, WedgeError>
 where
     T: Send,
 {
     match threads {
-        None => Ok(f()),
-        Some(n) => {
+        Some(n) if n != rayon::current_num_threads() => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
                 .map_err(|e| WedgeError::Usage(format!("--threads {n}: {e}")))?;
             Ok(pool.install(f))
         }
+        _ => Ok(f()),
+    }
+}
+
+/// Flags that the chosen backend does not use: a warning, not a refusal ([`start_rendering_command`]).
+fn warn_unused_flags(common: &Common) {
+    if let (Some(limits), "cpu") = (&common.gpu_limits, common.backend.as_str()) {
+        eprintln!(
+            "warning: --gpu-limits {limits} has no effect with --backend cpu (device limits apply to the wgpu backend \
+             only); add --backend wgpu to run under them"
+        );
     }
 }
 
@@ -623,6 +649,9 @@ fn parity(session: &Session, limits: Option<&str>) -> Result<(String, bool), Wed
 }
 
 fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, WedgeError> {
+    for input in [test, reference] {
+        wedge::staging::refuse_input_as_output(heatmap, input)?;
+    }
     let a = read_exr(test)?;
     let b = read_exr(reference)?;
     let m = wedge::metrics::compare(&a, &b)?;
@@ -674,10 +703,33 @@ fn suite_scene_specs(names: &[String]) -> Result<Vec<String>, WedgeError> {
         .collect()
 }
 
+/// What `render` and `reference` do before anything else: refuse an `--out` that cannot be a
+/// directory (before rendering, not after) and warn about flags the backend ignores.
+///
+/// `--gpu-limits` with `--backend cpu` is a warning rather than a refusal: the image does not
+/// depend on it, and a script that passes the same flags to both backends keeps working, while
+/// the line tells someone who forgot `--backend wgpu` that no limit was checked.
+fn start_rendering_command(common: &Common) -> Result<(), WedgeError> {
+    wedge::staging::check_output_dir(&common.out)?;
+    warn_unused_flags(common);
+    Ok(())
+}
+
+impl Command {
+    /// `--threads`, for the commands that take it.
+    fn threads(&self) -> Option<usize> {
+        match self {
+            Command::Render { common, .. } | Command::Reference { common, .. } => common.threads,
+            _ => None,
+        }
+    }
+}
+
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
         Command::Render { pipeline, common, mu, frames, aov, progressive } => {
+            start_rendering_command(&common)?;
             // A sequence opens at its first frame (its camera, and a real layer read per frame).
             let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
             let mut session = Session::open(pipeline.as_deref(), &ov)?;
@@ -688,6 +740,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             }
         }
         Command::Reference { pipeline, common, spp, sampling } => {
+            start_rendering_command(&common)?;
             let session = Session::reference(pipeline.as_deref(), spp, &sampling, &overrides(&common, None)?)?;
             render(&session, &common, "reference", &[])
         }
@@ -712,6 +765,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             }
         }
         Command::Bench { pipeline, quick, scene, suite, suite_scenes, compare, out, width, height, seed, reference_spp, memory_limit } => {
+            wedge::staging::check_output_dir(&out)?;
             let opts = wedge::bench::BenchOptions {
                 quick,
                 compare,
@@ -733,6 +787,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             Ok(format!("{}\n", wedge::bench::report::summary(&r)))
         }
         Command::ExportScene { pipeline, scene, out, width, height, allow_outside_scene_dir } => {
+            wedge::staging::check_output_dir(&out)?;
             let ov = Overrides { scene, width, height, allow_outside_scene_dir, ..Overrides::default() };
             let s = Session::open(pipeline.as_deref(), &ov)?;
             let files = wedge::export::export_scene(&s.scene, &s.scene.camera, s.width, s.height, &out)?;
@@ -788,10 +843,16 @@ fn print_stdout(text: &str) -> std::io::Result<()> {
 }
 
 fn main() -> ExitCode {
+    let cli = Cli::parse();
+    // Before the signal thread starts (see `set_threads`).
+    if let Err(e) = set_threads(cli.command.threads()) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
     if let Err(e) = wedge::staging::install_signal_handler() {
         eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}); an interrupted run may leave temporary files");
     }
-    match run(Cli::parse()) {
+    match run(cli) {
         Ok(text) => match print_stdout(&text) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {

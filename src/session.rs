@@ -679,6 +679,9 @@ pub fn memory_budget(flag: Option<u64>) -> Option<(u64, String)> {
 /// (optionally followed by `B` or `iB`; `1.5G` allowed). For `--memory-limit`.
 pub fn parse_size(s: &str) -> Result<u64, String> {
     let t = s.trim();
+    if t.starts_with('-') {
+        return Err(format!("`{s}` is negative; a size must be positive, e.g. 512M, 8G or 1073741824"));
+    }
     let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
     let (number, unit) = t.split_at(split);
     let shift = match unit.trim().to_ascii_uppercase().trim_end_matches("IB").trim_end_matches('B') {
@@ -742,23 +745,56 @@ fn apply_param_overrides(p: &mut ValidatedPipeline, ov: &Overrides) -> Result<()
         sets.push((Some(node.as_str()), name.as_str(), v.clone()));
     }
     for (node, name, value) in sets {
+        // The flag as the user wrote it, to blame it in a message.
+        let flag = node.map_or_else(|| "--mu".to_string(), |n| format!("--set {n}.{name}"));
+        if let Some(want) = node.filter(|want| p.node(want).is_none()) {
+            return Err(unknown_node(p, &flag, want));
+        }
         let mut applied = false;
         for n in p.nodes.iter_mut().filter(|n| node.is_none_or(|want| n.name == want)) {
             if let Some(decl) = n.kind.params().into_iter().find(|d| d.name == name) {
-                let v = decl.check(&value).map_err(|e| WedgeError::Usage(format!("--{name} for node `{}`: {e}", n.name)))?;
+                // `--set` names its node; `--mu` reaches every node with a `mu`, so say which one.
+                let whose = if node.is_some() { String::new() } else { format!(" for node `{}`", n.name) };
+                let v = decl.check(&value).map_err(|e| WedgeError::Usage(format!("{flag}{whose}: {e}")))?;
                 n.params.insert(name.to_string(), v);
                 applied = true;
             }
         }
         if !applied {
-            return Err(WedgeError::Usage(format!(
-                "no node in {} declares parameter `{name}`{}",
-                p.path.display(),
-                node.map(|n| format!(" (looked in `{n}`)")).unwrap_or_default()
-            )));
+            return Err(unknown_param(p, &flag, node, name));
         }
     }
     Ok(())
+}
+
+/// `--set NODE.…` naming no node of `p`: the closest name and the list.
+fn unknown_node(p: &ValidatedPipeline, flag: &str, want: &str) -> WedgeError {
+    let names: Vec<&str> = p.nodes.iter().map(|n| n.name.as_str()).collect();
+    WedgeError::Usage(format!(
+        "{flag}: node `{want}` does not exist in {}; {}its nodes are: {}",
+        p.path.display(),
+        wedge_graph::suggestion(want, names.iter().copied()),
+        names.join(", ")
+    ))
+}
+
+/// A parameter that `node` (or, for `--mu`, every node) does not declare: the closest name and the
+/// node's parameters.
+fn unknown_param(p: &ValidatedPipeline, flag: &str, node: Option<&str>, name: &str) -> WedgeError {
+    WedgeError::Usage(match node.and_then(|want| p.node(want)) {
+        Some(n) => {
+            let params = n.kind.params();
+            let names: Vec<&str> = params.iter().map(|d| d.name).collect();
+            format!(
+                "{flag}: node `{}` (kind {}) has no parameter `{name}`; {}its parameters are: {}",
+                n.name,
+                n.kind.kind(),
+                wedge_graph::suggestion(name, names.iter().copied()),
+                names.join(", ")
+            )
+        }
+        None => format!("{flag}: no node in {} declares parameter `{name}`", p.path.display()),
+    })
 }
 
 /// `builtin:NAME` or a built-in's bare name → built-in; anything else is a file path. Pipeline scene
@@ -884,6 +920,10 @@ mod tests {
         assert_eq!(parse_size("2TB"), Ok(2 << 40));
         for bad in ["", "G", "-1", "0", "8X", "1e3", "nan", "99999999999T"] {
             assert!(parse_size(bad).is_err(), "{bad:?}");
+        }
+        for negative in ["-5M", " -1", "-0.5G"] {
+            let e = parse_size(negative).unwrap_err();
+            assert!(e.contains("is negative; a size must be positive") && !e.contains("unit"), "{negative:?}: {e}");
         }
         assert_eq!(format_bytes(512), "512 B");
         assert_eq!(format_bytes(1536), "1.5 KiB");

@@ -1,5 +1,5 @@
-//! Safe output files: unique temporary names, all-or-nothing sets of files, refusal to write through
-//! symbolic links, and removal of temporaries on SIGINT/SIGTERM.
+//! Safe output files: unique temporary names, all-or-nothing sets of files, refusal to replace
+//! anything that is not a regular file, and removal of temporaries on SIGINT/SIGTERM.
 //!
 //! * **One file** ([`crate::image`]'s writers go through [`write_file_atomically`]): the data goes to
 //!   a temporary sibling with a unique name (`.<name>.<pid>.<random>.tmp`, made by `tempfile`), is
@@ -14,9 +14,14 @@
 //!   *Residual window*: the N renames are N atomic steps, not one, so a reader looking at the
 //!   directory during the (microseconds long) commit, or a `kill -9`/power cut in that instant,
 //!   can still see a mix of old and new files; every single file is complete at all times.
-//! * **Symbolic links** at a destination are refused with an error naming the path (renaming over
-//!   a link would silently replace the link, writing through it would change a file elsewhere);
-//!   the output *directory* may be a link.
+//! * **Only regular files are replaced.** A destination that exists and is anything else — a
+//!   symbolic link, a directory, a character or block device, a FIFO, a socket — is refused with an
+//!   error naming the path and its kind, before anything of the set is moved into place (renaming
+//!   over a link would silently replace the link and writing through it would change a file
+//!   elsewhere; renaming over `/dev/null` or a FIFO would replace the node a system or another
+//!   program relies on by a regular file). The output *directory* may be a link. An output
+//!   directory that exists as something other than a directory is named the same way
+//!   ([`check_output_dir`]), so `--out render.png` is not answered with "File exists".
 //! * **Signals**: [`install_signal_handler`] starts a thread that, on SIGINT or SIGTERM, removes
 //!   every temporary registered here, prints one line and exits 130 (SIGINT) or 143 (SIGTERM). A
 //!   commit in progress finishes first (it holds the registry's lock), so a signal never splits a
@@ -84,12 +89,85 @@ pub fn install_signal_handler() -> io::Result<()> {
     Ok(())
 }
 
-/// Refuse a destination that is a symbolic link (see the module doc).
-fn refuse_symlink(dest: &Path) -> Result<(), ImageError> {
+/// What a file system object that is not a regular file is, in words, for messages.
+fn kind_name(t: fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "character device";
+        } else if t.is_block_device() {
+            return "block device";
+        } else if t.is_fifo() {
+            return "FIFO (named pipe)";
+        } else if t.is_socket() {
+            return "socket";
+        }
+    }
+    if t.is_symlink() {
+        "symbolic link"
+    } else if t.is_dir() {
+        "directory"
+    } else if t.is_file() {
+        "regular file"
+    } else {
+        "special file"
+    }
+}
+
+/// Refuse a destination that exists and is not a regular file (see the module doc). The link
+/// itself is looked at, not what it points to.
+fn refuse_non_regular(dest: &Path) -> Result<(), ImageError> {
     match fs::symlink_metadata(dest) {
-        Ok(m) if m.file_type().is_symlink() => Err(ImageError::Symlink { path: dest.to_path_buf() }),
+        Ok(m) if !m.file_type().is_file() => Err(ImageError::NotRegularFile { path: dest.to_path_buf(), kind: kind_name(m.file_type()) }),
         _ => Ok(()),
     }
+}
+
+/// Refuse an output directory `dir` that exists as something other than a directory, or lies
+/// under such a thing (`--out render.png/x`): the nearest of `dir` and its ancestors that exists
+/// decides. Cheap and writes nothing, so a command can call it before it renders.
+pub fn check_output_dir(dir: &Path) -> Result<(), ImageError> {
+    for a in dir.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        // Following links: an output directory that is a link to a directory is fine.
+        if let Ok(m) = fs::metadata(a) {
+            return match m.is_dir() {
+                true => Ok(()),
+                false => Err(ImageError::NotADirectory { path: a.to_path_buf(), kind: kind_name(m.file_type()) }),
+            };
+        }
+    }
+    Ok(())
+}
+
+/// Refuse writing `dest` when it is the file `input` under another name (`./a.exr`, a hard link, a
+/// link to it): `compare a.exr b.exr --heatmap a.exr` must not replace what it reads. Compared by
+/// device and inode, so only where both exist.
+pub fn refuse_input_as_output(dest: &Path, input: &Path) -> Result<(), ImageError> {
+    match same_file(dest, input) {
+        true => Err(ImageError::OverwritesInput { path: dest.to_path_buf(), input: input.to_path_buf() }),
+        false => Ok(()),
+    }
+}
+
+#[cfg(unix)]
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (fs::metadata(a), fs::metadata(b)) {
+        (Ok(x), Ok(y)) => (x.dev(), x.ino()) == (y.dev(), y.ino()),
+        _ => false,
+    }
+}
+
+#[cfg(not(unix))]
+fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((fs::canonicalize(a), fs::canonicalize(b)), (Ok(x), Ok(y)) if x == y)
+}
+
+/// [`check_output_dir`], then create `dir` and its missing parents.
+pub fn create_output_dir(dir: &Path) -> Result<(), ImageError> {
+    check_output_dir(dir)?;
+    fs::create_dir_all(dir).map_err(|source| ImageError::Write { path: dir.to_path_buf(), source })
 }
 
 /// The directory part of `path` (`.` for a bare file name).
@@ -102,7 +180,8 @@ fn parent_dir(path: &Path) -> &Path {
 
 /// Runs `write` against a buffered temporary file with a unique name next to `path`, flushes it
 /// to disk and renames it over `path`; on any error the temporary is removed and `path` is
-/// untouched. Refuses a `path` that is a symbolic link.
+/// untouched. Refuses a `path` that exists and is not a regular file, before writing and again
+/// just before the rename.
 pub(crate) fn write_file_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), ImageError>,
@@ -111,7 +190,7 @@ pub(crate) fn write_file_atomically(
     let name = path.file_name().ok_or_else(|| {
         io_err(io::Error::new(io::ErrorKind::InvalidInput, "the path does not end in a file name"))
     })?;
-    refuse_symlink(path)?;
+    refuse_non_regular(path)?;
     let prefix = format!(".{}.{}.", name.to_string_lossy(), std::process::id());
     let tmp = {
         let mut list = temporaries();
@@ -134,7 +213,7 @@ pub(crate) fn write_file_atomically(
         file.sync_all().map_err(io_err)?;
         drop(file);
         let _list = temporaries();
-        refuse_symlink(path)?;
+        refuse_non_regular(path)?;
         tmp_path_guard.persist(path).map_err(|e| io_err(e.error))
     })();
     // On error the `TempPath` guard has already removed the file when it was dropped.
@@ -156,7 +235,7 @@ impl Staging {
     /// Create `dir` if needed and a fresh temporary directory inside it.
     pub fn new(dir: &Path) -> Result<Staging, ImageError> {
         let io_err = |source: io::Error| ImageError::Write { path: dir.to_path_buf(), source };
-        fs::create_dir_all(dir).map_err(io_err)?;
+        create_output_dir(dir)?;
         let mut list = temporaries();
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".wedge-{}-", std::process::id()))
@@ -192,8 +271,9 @@ impl Staging {
 
     fn commit_locked(&self) -> Result<Vec<PathBuf>, ImageError> {
         let dests: Vec<PathBuf> = self.files.iter().map(|r| self.dir.join(r)).collect();
+        // Every destination before the first rename: a set with one bad destination moves nothing.
         for d in &dests {
-            refuse_symlink(d)?;
+            refuse_non_regular(d)?;
         }
         // Hard-link backups of the files about to be replaced, so a failed rename can restore them.
         let backup_dir = self.tmp.join(".previous");
@@ -278,16 +358,59 @@ mod tests {
     fn a_failed_rename_rolls_back_the_files_already_moved() {
         let d = tempfile::tempdir().unwrap();
         fs::write(d.path().join("a.txt"), "old a").unwrap();
-        // `b.txt` is a non-empty directory: renaming a file over it fails after a.txt moved.
-        fs::create_dir(d.path().join("b.txt")).unwrap();
-        fs::write(d.path().join("b.txt/x"), "x").unwrap();
+        // `sub` is a regular file: every destination passes the check (`sub/b.txt` does not
+        // exist), a.txt moves, then `sub/` cannot be created.
+        fs::write(d.path().join("sub"), "a file").unwrap();
         let mut s = Staging::new(d.path()).unwrap();
         fs::write(s.file("a.txt").unwrap(), "new a").unwrap();
-        fs::write(s.file("b.txt").unwrap(), "new b").unwrap();
+        fs::write(s.file("sub/b.txt").unwrap(), "new b").unwrap();
         let err = s.commit().unwrap_err().to_string();
         assert!(err.contains("b.txt"), "{err}");
         assert_eq!(fs::read_to_string(d.path().join("a.txt")).unwrap(), "old a", "rolled back");
-        assert_eq!(entries(d.path()), ["a.txt", "b.txt"]);
+        assert_eq!(fs::read_to_string(d.path().join("sub")).unwrap(), "a file");
+        assert_eq!(entries(d.path()), ["a.txt", "sub"]);
+    }
+
+    /// Every kind that is not a regular file, refused with its kind named, by the set (before any
+    /// file moved: a.txt keeps its old bytes) and by the single-file writer.
+    #[cfg(unix)]
+    #[test]
+    fn a_destination_that_is_not_a_regular_file_is_refused_with_its_kind() {
+        let d = tempfile::tempdir().unwrap();
+        let fifo = d.path().join("pipe.exr");
+        let c = std::ffi::CString::new(fifo.as_os_str().as_encoded_bytes()).unwrap();
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0, "mkfifo");
+        fs::create_dir(d.path().join("dir.png")).unwrap();
+        let _socket = std::os::unix::net::UnixListener::bind(d.path().join("sock.png")).unwrap();
+        fs::write(d.path().join("a.txt"), "old a").unwrap();
+        for (name, kind) in [("pipe.exr", "FIFO (named pipe)"), ("dir.png", "directory"), ("sock.png", "socket")] {
+            let mut s = Staging::new(d.path()).unwrap();
+            fs::write(s.file("a.txt").unwrap(), "new a").unwrap();
+            fs::write(s.file(name).unwrap(), "new").unwrap();
+            let err = s.commit().unwrap_err().to_string();
+            assert!(err.contains(&format!("refusing to write {}: it is a {kind}, not a regular file", d.path().join(name).display())), "{err}");
+            assert_eq!(fs::read_to_string(d.path().join("a.txt")).unwrap(), "old a", "{name}: nothing moved");
+            let err = write_file_atomically(&d.path().join(name), |_| Ok(())).unwrap_err().to_string();
+            assert!(err.contains(kind), "{err}");
+        }
+        let m = fs::symlink_metadata(&fifo).unwrap();
+        assert!(std::os::unix::fs::FileTypeExt::is_fifo(&m.file_type()), "still a FIFO");
+        assert!(d.path().join("dir.png").is_dir());
+        assert_eq!(entries(d.path()), ["a.txt", "dir.png", "pipe.exr", "sock.png"]);
+    }
+
+    #[test]
+    fn an_output_directory_that_is_a_file_is_named_with_its_kind() {
+        let d = tempfile::tempdir().unwrap();
+        let file = d.path().join("render.png");
+        fs::write(&file, "png").unwrap();
+        for dir in [file.clone(), file.join("deeper/still")] {
+            let err = Staging::new(&dir).err().expect("refused").to_string();
+            assert!(err.contains(&format!("cannot write into {}: it is a regular file, not a directory", file.display())), "{err}");
+        }
+        assert!(check_output_dir(&d.path().join("new/dir")).is_ok());
+        assert_eq!(fs::read_to_string(&file).unwrap(), "png");
+        assert_eq!(entries(d.path()), ["render.png"]);
     }
 
     #[cfg(unix)]

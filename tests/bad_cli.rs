@@ -1,6 +1,9 @@
 //! Regression tests of issue 10 for the command line: values blamed on their flag, `--threads` and
 //! `--memory-limit` limits, stdout to a full device, outputs that are never corrupt or mixed (two
-//! writers at once, symbolic links, SIGINT/SIGTERM while rendering or writing).
+//! writers at once, symbolic links, SIGINT/SIGTERM while rendering or writing). Issue 33: outputs
+//! never replace a device node, a FIFO, a directory or an input of the command; `--out` naming a
+//! file or a device; a negative `--memory-limit`; `--set` naming a missing node or an integer out of
+//! range; `--gpu-limits` with the CPU backend; `--threads` during a mixed-reality capture.
 //!
 //! Each test spawns the `wedge` binary and asserts the exit code and a fragment of the message.
 
@@ -315,4 +318,256 @@ fn sigterm_while_writing_exits_143_and_removes_the_staging_directory() {
     } else {
         assert_eq!(fs::read_to_string(out.join("reference.png")).unwrap(), "old", "old output untouched");
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 33: destinations that are not regular files, inputs as outputs, misleading messages.
+// ---------------------------------------------------------------------------------------------
+
+#[cfg(unix)]
+fn c_path(path: &Path) -> std::ffi::CString {
+    std::ffi::CString::new(std::os::unix::ffi::OsStrExt::as_bytes(path.as_os_str())).unwrap()
+}
+
+/// A character device like /dev/full (1, 7) at `path`, made by `mknod` in the test's own directory;
+/// false (with a line saying the case is skipped) where mknod is not permitted (no CAP_MKNOD).
+#[cfg(unix)]
+fn char_device(path: &Path) -> bool {
+    let mode = libc::S_IFCHR | 0o666;
+    if unsafe { libc::mknod(c_path(path).as_ptr(), mode, libc::makedev(1, 7)) } == 0 {
+        return true;
+    }
+    eprintln!("skipped: mknod {} is not permitted here ({})", path.display(), std::io::Error::last_os_error());
+    false
+}
+
+#[cfg(unix)]
+fn fifo(path: &Path) {
+    assert_eq!(unsafe { libc::mkfifo(c_path(path).as_ptr(), 0o644) }, 0, "mkfifo {}: {}", path.display(), std::io::Error::last_os_error());
+}
+
+#[cfg(unix)]
+fn is_char_device(path: &Path) -> bool {
+    fs::symlink_metadata(path).is_ok_and(|m| std::os::unix::fs::FileTypeExt::is_char_device(&m.file_type()))
+}
+
+#[cfg(unix)]
+fn is_fifo(path: &Path) -> bool {
+    fs::symlink_metadata(path).is_ok_and(|m| std::os::unix::fs::FileTypeExt::is_fifo(&m.file_type()))
+}
+
+/// Names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+/// Two small EXRs `a.exr`, `b.exr` in `d` (no render needed).
+fn two_exrs(d: &Path) -> (PathBuf, PathBuf) {
+    let (a, b) = (d.join("a.exr"), d.join("b.exr"));
+    let mut img = wedge::image::Image::new(4, 3);
+    img.pixels.iter_mut().enumerate().for_each(|(i, p)| *p = [i as f32 * 0.1, 0.5, 1.0]);
+    wedge::image::write_exr(&a, &img).unwrap();
+    img.pixels[5] = [2.0, 0.0, 0.0];
+    wedge::image::write_exr(&b, &img).unwrap();
+    (a, b)
+}
+
+#[cfg(unix)]
+#[test]
+fn compare_refuses_a_heatmap_over_a_device_a_fifo_a_directory_or_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (a, b) = two_exrs(d);
+    let before = (fs::read(&a).unwrap(), fs::read(&b).unwrap());
+    let compare = |heatmap: &str| wedge(&["compare", "a.exr", "b.exr", "--heatmap", heatmap], d);
+    if char_device(&d.join("full")) {
+        let err = fails_with(&compare("full"), 1, &["refusing to write full: it is a character device, not a regular file"]);
+        assert!(!err.contains("wrote"), "{err}");
+        assert!(is_char_device(&d.join("full")), "still a device");
+    }
+    fifo(&d.join("pipe.png"));
+    fails_with(&compare("pipe.png"), 1, &["refusing to write pipe.png: it is a FIFO (named pipe), not a regular file"]);
+    assert!(is_fifo(&d.join("pipe.png")));
+    fs::create_dir(d.join("dir.png")).unwrap();
+    fails_with(&compare("dir.png"), 1, &["refusing to write dir.png: it is a directory"]);
+    // An input under its own name, another spelling of it, and a hard link to it.
+    fs::hard_link(&b, d.join("same_as_b.png")).unwrap();
+    for (heatmap, input) in [("a.exr", "a.exr"), ("./a.exr", "a.exr"), (a.to_str().unwrap(), "a.exr"), ("same_as_b.png", "b.exr")] {
+        let o = compare(heatmap);
+        fails_with(&o, 1, &[&format!("refusing to write {heatmap}: it is the input {input} (the same file)")]);
+        assert!(o.stdout.is_empty(), "nothing printed: the metrics are not even computed");
+    }
+    assert_eq!((fs::read(&a).unwrap(), fs::read(&b).unwrap()), before, "inputs unchanged");
+    let mut expected = vec!["a.exr", "b.exr", "dir.png", "pipe.png", "same_as_b.png"];
+    if d.join("full").exists() {
+        expected.insert(3, "full");
+    }
+    assert_eq!(names(d), expected, "no temporaries, no new file");
+    // The control: a regular file is replaced.
+    assert!(compare("heat.png").status.success());
+}
+
+/// A render's set of six files whose 5th (filter_width.png) is a FIFO or whose 2nd
+/// (render.png) is a device: refused with the kind named, and none of the set is written.
+#[cfg(unix)]
+#[test]
+fn a_render_whose_set_meets_a_fifo_or_a_device_writes_none_of_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    fs::create_dir(&out).unwrap();
+    let o = out.to_str().unwrap();
+    fs::write(out.join("render.exr"), "old render").unwrap();
+    fifo(&out.join("filter_width.png"));
+    let render = || wedge(&["render", "--width", "16", "--height", "12", "--out", o], dir.path());
+    let err = fails_with(&render(), 1, &["filter_width.png: it is a FIFO (named pipe), not a regular file"]);
+    assert!(!err.contains("wrote"), "{err}");
+    assert!(is_fifo(&out.join("filter_width.png")));
+    assert_eq!(fs::read_to_string(out.join("render.exr")).unwrap(), "old render", "the set's 1st file is not replaced");
+    assert_eq!(names(&out), ["filter_width.png", "render.exr"], "nothing new, no temporaries");
+    fs::remove_file(out.join("filter_width.png")).unwrap();
+    if char_device(&out.join("render.png")) {
+        fails_with(&render(), 1, &["render.png: it is a character device, not a regular file"]);
+        assert!(is_char_device(&out.join("render.png")));
+        assert_eq!(fs::read_to_string(out.join("render.exr")).unwrap(), "old render");
+        assert_eq!(names(&out), ["render.exr", "render.png"]);
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn export_scene_refuses_a_device_node_in_its_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene");
+    fs::create_dir(&out).unwrap();
+    let node = out.join("scene.json");
+    let kind = if char_device(&node) {
+        "character device"
+    } else {
+        fifo(&node);
+        "FIFO (named pipe)"
+    };
+    fails_with(&wedge(&["export-scene", "--out", out.to_str().unwrap()], repo()), 1, &[&format!("scene.json: it is a {kind}, not a regular file")]);
+    assert!(is_char_device(&node) || is_fifo(&node), "still a {kind}");
+    assert_eq!(names(&out), ["scene.json"], "scene.obj, scene.mtl not written either");
+}
+
+/// `--out` names a directory: a regular file, a device, or a path under a file is refused at once
+/// (before rendering), naming the path and what it is, for every command that takes `--out`.
+#[test]
+fn out_naming_a_file_or_a_device_says_it_is_not_a_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fs::write(d.join("taken.png"), "keep").unwrap();
+    let shadows = repo().join("pipelines/shadows.ron");
+    let p = shadows.to_str().unwrap();
+    let file = "cannot write into taken.png: it is a regular file, not a directory; outputs go into a directory (`--out` names one)";
+    for out in ["taken.png", "taken.png/sub"] {
+        for args in [
+            &["render", "--width", "16", "--height", "12", "--out", out][..],
+            &["reference", "--spp", "4", "--width", "16", "--height", "12", "--out", out],
+            &["bench", p, "--quick", "--out", out],
+            &["export-scene", p, "--out", out],
+        ] {
+            let t = Instant::now();
+            let err = fails_with(&wedge(args, d), 1, &[file]);
+            assert!(!err.contains("File exists") && !err.contains("os error"), "{args:?}: {err}");
+            assert!(t.elapsed() < Duration::from_secs(20), "{args:?}: refused before running, took {:?}", t.elapsed());
+        }
+    }
+    assert_eq!(fs::read_to_string(d.join("taken.png")).unwrap(), "keep");
+    assert_eq!(names(d), ["taken.png"]);
+    #[cfg(unix)]
+    if char_device(&d.join("full")) {
+        fails_with(&wedge(&["render", "--out", "full"], d), 1, &["cannot write into full: it is a character device, not a directory"]);
+        assert!(is_char_device(&d.join("full")));
+    }
+}
+
+#[test]
+fn negative_sizes_and_bad_set_targets_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fails_with(&wedge(&["render", "--memory-limit=-5M"], d), 2, &["'--memory-limit <SIZE>'", "`-5M` is negative"]);
+    // A node that does not exist: the closest name and the pipeline's nodes.
+    let err = fails_with(
+        &wedge(&["render", "--set", "shadowz.mu=2"], d),
+        1,
+        &["--set shadowz.mu: node `shadowz` does not exist in", "did you mean `shadows`?", "its nodes are: primary, shadows, out"],
+    );
+    assert!(!err.contains("declares parameter"), "{err}");
+    fails_with(
+        &wedge(&["parity", "--set", "shadows.muu=2"], d),
+        1,
+        &["--set shadows.muu: node `shadows` (kind SoftShadows) has no parameter `muu`; did you mean `mu`?", "max_rays"],
+    );
+    // An integer beyond i64 is out of the parameter's range, not of the wrong type.
+    let err = fails_with(
+        &wedge(&["render", "--set", "shadows.max_rays=99999999999999999999999"], d),
+        1,
+        &["--set shadows.max_rays: max_rays = 1e23 is out of range; it must satisfy 1 <= max_rays <= 1048576"],
+    );
+    assert!(!err.contains("wrong type"), "{err}");
+    fails_with(&wedge(&["render", "--set", "shadows.max_rays=-99999999999999999999999"], d), 1, &["max_rays = -1e23 is out of range"]);
+    fails_with(&wedge(&["render", "--set", "shadows.max_rays=2000000"], d), 1, &["max_rays = 2000000 is out of range; it must satisfy 1 <= max_rays <= 1048576"]);
+    // The same integer written in a pipeline file (RON reads it as a float too).
+    let text = fs::read_to_string(repo().join("pipelines/shadows.ron")).unwrap().replace(r#""max_rays": 16"#, r#""max_rays": 99999999999999999999999"#);
+    let big = d.join("big.ron");
+    fs::write(&big, text).unwrap();
+    let err = fails_with(&wedge(&["graph", "big.ron"], d), 1, &["big.ron:14:", "max_rays = 1e23 is out of range; it must satisfy 1 <= max_rays <= 1048576"]);
+    assert!(!err.contains("wrong type"), "{err}");
+    fs::remove_file(big).unwrap();
+    assert_eq!(names(d), Vec::<String>::new(), "nothing written");
+}
+
+#[test]
+fn gpu_limits_with_the_cpu_backend_is_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = wedge(&["render", "--gpu-limits", "webgpu", "--width", "16", "--height", "12", "--out", "o"], dir.path());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("warning: --gpu-limits webgpu has no effect with --backend cpu"), "{err}");
+}
+
+/// `--threads 1` holds in every phase, the mixed-reality capture (run while the session opens)
+/// and the EXR compression included: sampled every millisecond, the process never has more than
+/// two threads besides its main thread and the signal thread `wedge-signals`: the one rayon worker
+/// and, while an EXR is written, the exr crate's one compressor (named only once it runs, so it is
+/// counted as any thread). Before, the capture and the passes ran in rayon's global pool, one
+/// thread per core, beside the `--threads` pool. On one core the two cannot be told apart.
+#[cfg(target_os = "linux")]
+#[test]
+fn threads_one_holds_while_the_mixed_reality_capture_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mr");
+    let pipeline = repo().join("pipelines/mixed_reality.ron");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wedge"))
+        .args(["render", pipeline.to_str().unwrap(), "--threads", "1", "--width", "64", "--height", "48", "--out", out.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let tasks = PathBuf::from(format!("/proc/{}/task", child.id()));
+    let mut most: Vec<String> = Vec::new();
+    while child.try_wait().unwrap().is_none() {
+        let others: Vec<String> = fs::read_dir(&tasks)
+            .map(|rd| {
+                rd.filter_map(|t| t.ok())
+                    .filter(|t| t.file_name().to_string_lossy() != child.id().to_string())
+                    .filter_map(|t| fs::read_to_string(t.path().join("comm")).ok())
+                    .map(|c| c.trim().to_string())
+                    .filter(|c| c != "wedge-signals")
+                    .collect()
+            })
+            .unwrap_or_default();
+        if others.len() > most.len() {
+            most = others;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("capturing the real layer"));
+    assert!(most.len() <= 2, "one rayon worker and one EXR compressor expected besides the main thread, saw {most:?}");
 }

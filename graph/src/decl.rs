@@ -516,6 +516,12 @@ impl ParamDecl {
                 }
                 Ok(ParamValue::Int(*v))
             }
+            // A whole number beyond i64 (`--set n=99999999999999999999999` is read as a float) is
+            // out of every integer range, not of the wrong type.
+            (ParamKind::Int { min, max, .. }, ParamValue::Float(v)) if v.fract() == 0.0 && v.abs() >= 2f64.powi(63) => Err(format!(
+                "{} = {v:e} is out of range; it must satisfy {min} <= {} <= {max}",
+                self.name, self.name
+            )),
             (ParamKind::Bool { .. }, ParamValue::Bool(v)) => Ok(ParamValue::Bool(*v)),
             (ParamKind::Choice { options, .. }, ParamValue::Str(s)) => {
                 if options.contains(&s.as_str()) {

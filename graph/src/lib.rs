@@ -39,7 +39,7 @@ pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPla
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use stage::{stream_id, Reference, Stage};
 pub use validate::{
-    expand, load_pipeline, parse_pipeline, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
+    expand, load_pipeline, parse_pipeline, suggestion, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
     ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,
 };
 

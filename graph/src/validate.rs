@@ -439,6 +439,12 @@ fn did_you_mean(word: &str, sorted: &[&str]) -> String {
     }
 }
 
+/// [`did_you_mean`] for callers outside the validator (`--set NODE.PARAM=…` in src/session.rs):
+/// "did you mean `x`? " when one of `candidates` is a plausible misspelling of `word`, else "".
+pub fn suggestion<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> String {
+    did_you_mean(word, &by_closeness(word, candidates))
+}
+
 fn ports_list(ports: &[PortDecl]) -> String {
     if ports.is_empty() {
         return "(none)".into();
