@@ -6,6 +6,28 @@
 #include "common.wgsl"
 #include "camera.wgsl"
 
+// An exponent no used neighbour has: never the smallest, always past max_weight_exponent. (Not
+// 1.0 / 0.0: a constant division by zero is a shader-creation error in WGSL.)
+const NOT_USED: f32 = 3.0e38;
+
+// filter_ch6.rs history_pixel's `term`: the previous pixel (jx, row)'s weight exponent 2 B̄² d²
+// measured from this pixel's position, NOT_USED where it is off the image, not finite or on
+// another surface.
+fn previous_exponent(jx: i32, row: i32, pi: vec4<f32>, ni: vec3<f32>, bi: vec2<f32>) -> f32 {
+    if (jx < 0 || jx >= i32(frame.width)) {
+        return NOT_USED;
+    }
+    let j = index_at(jx, row);
+    let pj = previous_position_at(j);
+    if (!is_finite3(previous_value_at(j)) || !(pj.w == pi.w)
+        || !(dot3(ni, normalize_or_zero3(previous_normal_at(j).xyz)) >= params.normal_cos)) {
+        return NOT_USED;
+    }
+    let dd = pj.xyz - pi.xyz;
+    let bj = previous_bandwidth_at(j);
+    return 2.0 * (0.5 * (bi.x * bi.x + bj.x * bj.x)) * dot3(dd, dd);
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -78,29 +100,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let bi = bandwidth_at(i);
+    // filter_ch6.rs RelativeWeights: weights relative to the nearest neighbour's, cut at
+    // params.max_weight_exponent, so no weight is subnormal (flushed here, kept on the CPU) and
+    // whether a pixel has history is decided alike on both backends.
+    var a_min = NOT_USED;
+    for (var k = -params.max_radius; k <= params.max_radius; k = k + 1) {
+        let a = previous_exponent(bx + k, by, pi, ni, bi);
+        if (a < a_min) {
+            a_min = a;
+        }
+    }
+    if (!(a_min <= params.max_weight_exponent)) {
+        out_put(i, none);
+        return;
+    }
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
     for (var k = -params.max_radius; k <= params.max_radius; k = k + 1) {
-        let jx = bx + k;
-        if (jx < 0 || jx >= i32(frame.width)) {
+        let relative = previous_exponent(bx + k, by, pi, ni, bi) - a_min;
+        if (!(relative <= params.max_weight_exponent)) {
             continue;
         }
-        let j = index_at(jx, by);
-        let v = previous_value_at(j);
-        let pj = previous_position_at(j);
-        if (!is_finite3(v) || !(pj.w == pi.w) || !(dot3(ni, normalize_or_zero3(previous_normal_at(j).xyz)) >= params.normal_cos)) {
-            continue;
-        }
-        let dd = pj.xyz - xi;
-        let d2 = dot3(dd, dd);
-        let bj = previous_bandwidth_at(j);
-        let wt = exp(-2.0 * (0.5 * (bi.x * bi.x + bj.x * bj.x)) * d2);
-        sum = sum + wt * v;
+        let wt = exp(-relative);
+        sum = sum + wt * previous_value_at(index_at(bx + k, by));
         wsum = wsum + wt;
     }
-    if (wsum > 0.0) {
-        out_put(i, vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, 1.0));
-    } else {
-        out_put(i, none);
-    }
+    out_put(i, vec4<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum, 1.0));
 }

@@ -174,6 +174,10 @@ enum Command {
         /// As for `render`: `adapter` or `webgpu` (WebGPU's default limits).
         #[arg(long, value_parser = ["adapter", "webgpu"])]
         gpu_limits: Option<String>,
+        /// Check frames A to B (both included) of a sequence, as `render --frames` renders them: each
+        /// frame's passes with the previous frame's history (the CPU's) on both backends.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
     },
     /// Write the pipeline's scene, seen by its camera, for other renderers: scene.obj/.mtl, textures
     /// (EXR + PNG) and scene.json (camera with thin-lens conventions, exact materials, area lights).
@@ -632,20 +636,24 @@ fn run_wgpu(
     Ok((run, Some(note)))
 }
 
-fn parity(session: &Session, limits: Option<&str>) -> Result<(String, bool), WedgeError> {
+/// `wedge parity`: every pass on both backends with the same inputs, at the first frame or, with
+/// `frames`, at each frame of the sequence with the previous frame's history (the CPU's run of it).
+fn parity(session: &mut Session, limits: Option<&str>, frames: Option<(u32, u32)>) -> Result<(String, bool), WedgeError> {
     let mut gpu = open_gpu(limits)?;
-    let job = wedge::backends::Job {
-        schedule: &session.schedule,
-        scene: &session.scene,
-        kernels: &session.kernels,
-        width: session.width,
-        height: session.height,
-        seed: session.seed,
-        frame: 0,
-        progress: &wedge::backends::Silent,
+    let Some((first, last)) = frames else {
+        let report = wedge::backends::parity::run_parity(&session.job(session.seed, 0, &wedge::backends::Silent), &mut gpu)?;
+        return Ok((report.table(), report.ok()));
     };
-    let report = wedge::backends::parity::run_parity(&job, &mut gpu)?;
-    Ok((report.table(), report.ok()))
+    let (mut text, mut ok, mut previous) = (String::new(), true, None);
+    for frame in first..=last {
+        let report = session.parity_frame(&mut gpu, frame, first, previous.as_ref())?;
+        text.push_str(&format!("frame {frame}\n{}", report.table()));
+        ok &= report.ok();
+        if frame < last {
+            previous = Some(session.run_frame(&mut CpuBackend::new(), &wedge::backends::Silent, frame, first, previous.as_ref())?);
+        }
+    }
+    Ok((text, ok))
 }
 
 fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, WedgeError> {
@@ -745,7 +753,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             render(&session, &common, "reference", &[])
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
-        Command::Parity { pipeline, scene, width, height, seed, set, memory_limit, gpu_limits } => {
+        Command::Parity { pipeline, scene, width, height, seed, set, memory_limit, gpu_limits, frames } => {
             let ov = Overrides {
                 scene,
                 width: Some(width),
@@ -755,9 +763,9 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
                 ..Overrides::default()
             };
-            let session = Session::open(pipeline.as_deref(), &ov)?;
+            let mut session = Session::open(pipeline.as_deref(), &Overrides { frame: frames.map(|(first, _)| first), ..ov })?;
             check_memory(&session, RunMode::Parity, memory_limit)?;
-            let (table, ok) = parity(&session, gpu_limits.as_deref())?;
+            let (table, ok) = parity(&mut session, gpu_limits.as_deref(), frames)?;
             if ok {
                 Ok(table)
             } else {

@@ -194,6 +194,38 @@ impl Session {
         first: u32,
         previous: Option<&RunResult>,
     ) -> Result<RunResult, WedgeError> {
+        let empty = BTreeMap::new();
+        let history = previous.map_or(&empty, |r| &r.history);
+        self.at_frame(frame, first, |s, seed, index| s.run_with(backend, progress, seed, index, history))
+    }
+
+    /// `wedge parity --frames`: frame `frame` of a sequence that started at `first`, set up as
+    /// [`Session::run_frame`] sets it up, each pass run on the CPU and alone on the GPU with the same
+    /// inputs, the previous-frame buffers from `previous` (the CPU's run of the frame before) on both.
+    pub fn parity_frame(
+        &mut self,
+        gpu: &mut wedge_backends::gpu::GpuBackend,
+        frame: u32,
+        first: u32,
+        previous: Option<&RunResult>,
+    ) -> Result<wedge_backends::parity::ParityReport, WedgeError> {
+        let empty = BTreeMap::new();
+        let history = previous.map_or(&empty, |r| &r.history);
+        self.at_frame(frame, first, |s, seed, index| {
+            let job = s.job(seed, index, &wedge_backends::Silent);
+            Ok(wedge_backends::parity::run_parity_with_history(&job, gpu, history)?)
+        })
+    }
+
+    /// Run `f` on the scene of frame `frame` of a sequence that started at `first` (its camera, the
+    /// camera before it as the previous camera, its real layer) with the frame's seed and index (see
+    /// [`Session::run_frame`]); the session's camera and real layer are restored afterwards.
+    fn at_frame<T>(
+        &mut self,
+        frame: u32,
+        first: u32,
+        f: impl FnOnce(&Session, u32, u32) -> Result<T, WedgeError>,
+    ) -> Result<T, WedgeError> {
         let base = self.scene.camera;
         let camera = self.camera_at(frame);
         let previous_camera = (frame > first).then(|| self.camera_at(frame - 1));
@@ -201,15 +233,13 @@ impl Session {
         let real = self.frame_real_layer(frame, &camera)?.map(|layer| self.scene.real.replace(layer));
         self.scene.camera = camera;
         self.scene.previous_camera = previous_camera;
-        let empty = BTreeMap::new();
-        let history = previous.map_or(&empty, |r| &r.history);
-        let run = self.run_with(backend, progress, self.seed.wrapping_add(frame), frame.saturating_sub(first), history);
+        let result = f(self, self.seed.wrapping_add(frame), frame.saturating_sub(first));
         self.scene.camera = base;
         self.scene.previous_camera = None;
         if let Some(layer) = real {
             self.scene.real = layer;
         }
-        run
+        result
     }
 
     /// The real layer of frame `frame` seen by `camera`, where it is not the session's own: a
@@ -263,15 +293,9 @@ impl Session {
         self.run_with(backend, progress, self.seed.wrapping_add(frame), frame, history)
     }
 
-    fn run_with(
-        &self,
-        backend: &mut dyn Backend,
-        progress: &dyn Progress,
-        seed: u32,
-        frame: u32,
-        history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
-    ) -> Result<RunResult, WedgeError> {
-        let job = Job {
+    /// The job of this session's schedule on its scene, with `seed` and frame index `frame`.
+    pub fn job<'a>(&'a self, seed: u32, frame: u32, progress: &'a dyn Progress) -> Job<'a> {
+        Job {
             schedule: &self.schedule,
             scene: &self.scene,
             kernels: &self.kernels,
@@ -280,8 +304,18 @@ impl Session {
             seed,
             frame,
             progress,
-        };
-        let mut run = backend.run_frame(&job, history)?;
+        }
+    }
+
+    fn run_with(
+        &self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        seed: u32,
+        frame: u32,
+        history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
+    ) -> Result<RunResult, WedgeError> {
+        let mut run = backend.run_frame(&self.job(seed, frame, progress), history)?;
         // The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
         run.sinks = self
             .pipeline

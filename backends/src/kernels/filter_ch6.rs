@@ -15,8 +15,9 @@
 //!   whose position is closest to `p` (searched over the 3 × 3 pixels around `p`'s projection by the
 //!   previous camera, `Scene::previous_camera`), and the output is the x filter of the previous raw
 //!   irradiance around `(x', y')` with weights `exp(−2 B̄² ‖p − p'(x' + i, y')‖²)` measured from the
-//!   *current* `p` (eq. 6.25: "the center of the kernel is offset to (x', y')"), `w` = 1 where any
-//!   previous neighbour had a weight, else 0 (no previous frame, off screen, disoccluded, or moved
+//!   *current* `p` (eq. 6.25: "the center of the kernel is offset to (x', y')"), `w` = 1 where the
+//!   nearest previous neighbour weighs (exponent ≤ [`MAX_WEIGHT_EXPONENT`]), else 0 (no previous
+//!   frame, off screen, disoccluded, too far from every neighbour to weigh, or moved
 //!   more than `max_motion` pixels: a bound the thesis does not have, which keeps the rows the pass
 //!   reads local so it splits into bands like every other filter).
 //! - The y pass of `filter.environment` with `previous` bound joins it (eq. 6.26, whose printed form
@@ -25,7 +26,12 @@
 //!   one, `Ē = Σ_j w_j (E_X + v'_j E'_X)(x, y+j) / Σ_j w_j (1 + v'_j)`, `v'_j` its validity. Both sit at
 //!   the current pixels' positions by construction, so the spatial weight is theirs.
 //!
-//! WGSL mirror: `shaders/filter_environment.wgsl` (both kernels), term by term in the same order.
+//! - Weights of both kernels are taken relative to the nearest used neighbour's ([`RelativeWeights`]):
+//!   the same normalised average, with no weight left to underflow into the subnormals on which the
+//!   CPU (keeps them) and GPUs (flush them) disagree.
+//!
+//! WGSL mirrors: `shaders/filter_environment.wgsl` and `shaders/filter_environment_history.wgsl`,
+//! term by term in the same order.
 //! Non-finite values are never used as neighbours; each pixel whose own value is non-finite is
 //! counted once in `non_finite_samples` (in the x and history passes; the y pass sees x outputs).
 
@@ -70,6 +76,38 @@ fn mean_b2(bi: [f32; 2], bj: [f32; 2], axis: usize) -> f32 {
     0.5 * (bi[axis] * bi[axis] + bj[axis] * bj[axis])
 }
 
+/// The largest weight exponent `a` (weight `exp(−a)`) that still weighs: `exp(−87) ≈ 1.6e−38` is just
+/// above f32's smallest normal number (1.2e−38). Past it a weight would be subnormal or 0, and
+/// subnormals are where backends part: the CPU keeps them, GPUs (lavapipe among them) flush them to
+/// 0 — which decided whether a pixel had any history at all (issue 33: GPU and CPU temporal frames
+/// differing by up to 0.26 at a few pixels). Passed to the WGSL mirrors as the uniform
+/// `max_weight_exponent`, so both sides cut at this one value.
+pub const MAX_WEIGHT_EXPONENT: f32 = 87.0;
+
+/// Gaussian weights `exp(−a)` of a normalised average, taken relative to the nearest neighbour's
+/// (`exp(−(a − a_min))`, the same average since the scale cancels): the nearest neighbour weighs 1
+/// and no weight underflows because the pixel is far from all of them. A neighbour whose relative
+/// exponent exceeds [`MAX_WEIGHT_EXPONENT`], or is not a number, gets no weight on any backend.
+struct RelativeWeights {
+    a_min: f32,
+}
+
+impl RelativeWeights {
+    /// From every used neighbour's exponent; `None` when there is none, or the nearest is so far that
+    /// its absolute weight would be below [`MAX_WEIGHT_EXPONENT`]'s (the pixel has no neighbour).
+    fn new(exponents: impl Iterator<Item = f32>) -> Option<RelativeWeights> {
+        // `a < a_min` rather than `f32::min`: NaN never becomes the minimum, as in the WGSL mirror.
+        let a_min = exponents.fold(f32::INFINITY, |m, a| if a < m { a } else { m });
+        (a_min <= MAX_WEIGHT_EXPONENT).then_some(RelativeWeights { a_min })
+    }
+
+    /// The weight of exponent `a`, or `None` for no weight.
+    fn weight(&self, a: f32) -> Option<f32> {
+        let relative = a - self.a_min;
+        (relative <= MAX_WEIGHT_EXPONENT).then(|| (-relative).exp())
+    }
+}
+
 /// Eqs. 6.21–6.23 (and 6.26 with `previous`) at pixel `(x, y)`.
 #[allow(clippy::too_many_arguments)]
 pub fn filter_pixel(
@@ -92,21 +130,28 @@ pub fn filter_pixel(
     }
     let ni = v3(normal[i]).normalize_or_zero();
     let xi = v3(position[i]);
-    let mut sum = [0.0f32; 3];
-    let mut wsum = 0.0f32;
-    for k in -p.max_radius..=p.max_radius {
+    // Neighbour `k`'s index and weight exponent `2 B̄² d²`, or `None` where it is not used.
+    let term = |k: i32| -> Option<(usize, f32)> {
         let (jx, jy) = if p.axis == 0 { (x + k, y) } else { (x, y + k) };
         if jx < 0 || jy < 0 || jx >= width || jy >= height {
-            continue;
+            return None;
         }
         let j = (jy * width + jx) as usize;
-        let v = value[j];
         let bj = bandwidth[j];
-        if !is_finite3(v) || !(bj[p.axis] >= 0.0) || !compatible(position[i], ni, position[j], normal[j], p.normal_cos) {
-            continue;
+        if !is_finite3(value[j]) || !(bj[p.axis] >= 0.0) || !compatible(position[i], ni, position[j], normal[j], p.normal_cos) {
+            return None;
         }
         let d2 = (v3(position[j]) - xi).length_squared();
-        let w = (-2.0 * mean_b2(bi, bj, p.axis) * d2).exp();
+        Some((j, 2.0 * mean_b2(bi, bj, p.axis) * d2))
+    };
+    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1))) else {
+        return centre;
+    };
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for (j, a) in (-p.max_radius..=p.max_radius).filter_map(term) {
+        let Some(w) = weights.weight(a) else { continue };
+        let v = value[j];
         for c in 0..3 {
             sum[c] += w * v[c];
         }
@@ -121,11 +166,8 @@ pub fn filter_pixel(
             }
         }
     }
-    if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
-    } else {
-        centre
-    }
+    // The nearest neighbour's weight is 1: `wsum ≥ 1`.
+    [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
 }
 
 /// A camera's projection of a world point to pixel coordinates (continuous, (0,0) the top-left
@@ -202,30 +244,34 @@ pub fn history_pixel(
     }
     let Some((_, px, py)) = best else { return none };
     let bi = bandwidth[i];
-    let mut sum = [0.0f32; 3];
-    let mut wsum = 0.0f32;
-    for k in -p.max_radius..=p.max_radius {
+    // Previous neighbour `k`'s index and weight exponent `2 B̄² d²`, or `None` where it is not used.
+    let term = |k: i32| -> Option<(usize, f32)> {
         let jx = px + k;
         if jx < 0 || jx >= width {
-            continue;
+            return None;
         }
         let j = (py * width + jx) as usize;
-        let v = prev_value[j];
-        if !is_finite3(v) || !compatible(position[i], ni, prev_position[j], prev_normal[j], p.normal_cos) {
-            continue;
+        if !is_finite3(prev_value[j]) || !compatible(position[i], ni, prev_position[j], prev_normal[j], p.normal_cos) {
+            return None;
         }
         let d2 = (v3(prev_position[j]) - xi).length_squared();
-        let w = (-2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2).exp();
+        Some((j, 2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2))
+    };
+    // No neighbour near enough to weigh anything: no history (as when there is no neighbour).
+    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1))) else {
+        return none;
+    };
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for (j, a) in (-p.max_radius..=p.max_radius).filter_map(term) {
+        let Some(w) = weights.weight(a) else { continue };
+        let v = prev_value[j];
         for c in 0..3 {
             sum[c] += w * v[c];
         }
         wsum += w;
     }
-    if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, 1.0]
-    } else {
-        none
-    }
+    [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, 1.0]
 }
 
 fn params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
@@ -276,7 +322,11 @@ impl Kernel for EnvironmentFilter {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_environment.wgsl"), |ctx| {
                 let p = params(ctx)?;
-                Ok(Uniforms::new().u32("axis", p.axis as u32).i32("max_radius", p.max_radius).f32("normal_cos", p.normal_cos))
+                Ok(Uniforms::new()
+                    .u32("axis", p.axis as u32)
+                    .i32("max_radius", p.max_radius)
+                    .f32("normal_cos", p.normal_cos)
+                    .f32("max_weight_exponent", MAX_WEIGHT_EXPONENT))
             })
             .with_reach(|ctx| {
                 let p = params(ctx)?;
@@ -336,7 +386,8 @@ impl Kernel for EnvironmentHistory {
                     .i32("max_radius", p.max_radius)
                     .f32("normal_cos", p.normal_cos)
                     .u32("history", present)
-                    .i32("max_motion", p.max_motion);
+                    .i32("max_motion", p.max_motion)
+                    .f32("max_weight_exponent", MAX_WEIGHT_EXPONENT);
                 Ok(camera_uniforms(u, &cam, wedge_scene::LensShape::Disk))
             })
             .with_include("camera.wgsl", include_str!("../../../shaders/camera.wgsl"))
@@ -396,5 +447,25 @@ impl Kernel for BandwidthMax {
         let b = ctx.read::<[f32; 2]>("b")?;
         let out: Vec<[f32; 2]> = a.iter().zip(b).map(|(a, b)| bandwidth_max(*a, *b)).collect();
         ctx.put("out", out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Far neighbours keep their relative weights (the old `exp(−a)` would have been subnormal or 0,
+    /// backend-dependent), a pixel whose nearest neighbour is past the cut has none, and NaN weighs
+    /// nothing.
+    #[test]
+    fn weights_are_relative_to_the_nearest_neighbour_and_cut_alike() {
+        let w = RelativeWeights::new([95.0f32, 90.0, f32::NAN].into_iter());
+        assert!(w.is_none(), "nearest exponent 90 > {MAX_WEIGHT_EXPONENT}: no neighbour weighs");
+        let w = RelativeWeights::new([86.0f32, 100.0, f32::NAN, 200.0].into_iter()).unwrap();
+        assert_eq!(w.weight(86.0), Some(1.0));
+        assert_eq!(w.weight(100.0), Some((-14.0f32).exp()));
+        assert_eq!(w.weight(f32::NAN), None);
+        assert_eq!(w.weight(200.0), None, "114 past the nearest: cut on every backend, not left to flush");
+        assert!(RelativeWeights::new(std::iter::empty()).is_none());
     }
 }
