@@ -1,7 +1,7 @@
 // bvh.wgsl — the GPU traversal of wedge_scene::bvh (scene/src/bvh/) over the SAME 8-wide nodes and
 // triangle packs the CPU builds (uploaded unchanged): a node's eight child boxes as two groups of vec4
 // lanes (slab test with the near/far plane chosen by the direction's sign, exit widened by 3 ulps, NaN
-// lanes no constraint), the nearest hit child next and the others on a 128-entry stack (the CPU
+// lanes no constraint), the nearest hit child next and the others on a stack sized to the scene's trees (the CPU
 // sorts them all: both orders give the same hit), leaves tested four
 // triangles at a time with the same watertight test, in the same operation order, as the CPU
 // (bit-identical t and barycentrics).
@@ -15,7 +15,9 @@
 // rule holds across trees).
 #include "scene.wgsl"
 
-const BVH_STACK_SIZE: u32 = 128u;
+// BVH_STACK_SIZE (entries of the traversal stack) is generated per scene by the backend
+// (backends/src/gpu/mod.rs `traversal_stack_entries`: the scene's trees' need, at most
+// bvh::STACK_SIZE), so a small scene's kernels compile with a small stack.
 const LEAF_BIT: u32 = 0x80000000u;
 const LEAF_FIRST_MASK: u32 = 0x0fffffffu;
 

@@ -454,11 +454,18 @@ impl RayCounts {
     }
 }
 
-/// Progress of long passes (rows done), shown by the CLI as a progress bar.
+/// Progress of long passes (rows done) and of compiling GPU kernels (kernels done), shown by the
+/// CLI as a progress bar.
 pub trait Progress: Send + Sync {
     fn begin(&self, _pass: &str, _rows: u64) {}
     fn advance(&self, _rows: u64) {}
     fn end(&self) {}
+    /// The GPU backend is about to compile `kernels` pipelines, before a run's first pass
+    /// (`software`: on a CPU emulation such as lavapipe, where a cold shader cache takes minutes);
+    /// then [`Progress::compiling`] and `advance(1)` per kernel, and [`Progress::end`].
+    fn begin_compile(&self, _kernels: u64, _software: bool) {}
+    /// The kernel now being compiled.
+    fn compiling(&self, _kernel: &str) {}
 }
 
 /// No progress display.

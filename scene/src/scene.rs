@@ -351,6 +351,15 @@ impl Scene {
         })
     }
 
+    /// Stack entries a traversal of this scene's trees can need: the most of the static tree's
+    /// (node 0) and every instance tree's ([`bvh::build::stack_need`]); at most [`STACK_SIZE`], which
+    /// the build keeps every tree within. The GPU traversal sizes its private stack by it.
+    pub fn traversal_stack_need(&self) -> usize {
+        let need = bvh::build::stack_needs(&self.bvh.nodes);
+        let roots = std::iter::once(0).chain(self.instances.iter().map(|i| i.root as usize));
+        roots.filter_map(|r| need.get(r).copied()).max().unwrap_or(0)
+    }
+
     /// Light the scene with `map` from infinity (or remove it with `None`). The bounds, the trees and
     /// the area lights do not change.
     pub fn set_environment(&mut self, map: Option<EnvironmentMap>) {

@@ -55,7 +55,7 @@ use wedge_graph::{BufferId, Format, Pass};
 
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
-use crate::kernel::{Access, Counters, Kernel, KernelCtx, Reach};
+use crate::kernel::{Access, Binding, Counters, Kernel, KernelCtx, Progress, Reach};
 use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
 use bands::{Band, BindLimits};
 
@@ -85,6 +85,27 @@ struct KernelPipeline {
     g0: wgpu::BindGroupLayout,
     g1: wgpu::BindGroupLayout,
     g2: Option<wgpu::BindGroupLayout>,
+}
+
+/// Entries of the GPU traversal's private stack for `scene`: its trees' need
+/// ([`wedge_scene::Scene::traversal_stack_need`]) rounded up to a power of two, at least 16 and at
+/// most the builder's bound [`wedge_scene::bvh::STACK_SIZE`]. The stack arrays are most of what
+/// lavapipe's LLVM spends compiling the path tracer (issue 33: 128 entries where typical scenes need
+/// 20–40); powers of two keep the number of shader variants, each compiled and cached once, small.
+pub fn traversal_stack_entries(scene: &wedge_scene::Scene) -> u32 {
+    let bound = wedge_scene::bvh::STACK_SIZE;
+    scene.traversal_stack_need().next_power_of_two().clamp(16, bound) as u32
+}
+
+/// A kernel's shader text as this device builds it (generated header included), its binding plan,
+/// and the key its compiled pipeline is cached under.
+struct PipelineSource {
+    key: u64,
+    name: &'static str,
+    text: String,
+    src: crate::kernel::WgslSource,
+    plan: shaders::BindingPlan,
+    bindings: Vec<Binding>,
 }
 
 /// The scene as bound in group 2: every array in one storage buffer, their offsets in a uniform.
@@ -122,6 +143,9 @@ pub struct GpuBackend {
     /// Errors wgpu reported outside an error scope, and device-lost reports.
     errors: Arc<Mutex<Vec<String>>>,
     pipelines: HashMap<u64, Arc<KernelPipeline>>,
+    /// Entries of the BVH traversal's private stack in the scene kernels being built
+    /// ([`traversal_stack_entries`] of the job's scene; set before a run's pipelines are built).
+    stack_entries: u32,
     scene: Option<SceneBuffers>,
     /// Stand-ins for unbound optional bindings, one per binding index (never shared within a dispatch).
     dummies: Vec<wgpu::Buffer>,
@@ -235,6 +259,7 @@ impl GpuBackend {
             timestamps,
             errors,
             pipelines: HashMap::new(),
+            stack_entries: wedge_scene::bvh::STACK_SIZE as u32,
             scene: None,
             dummies: Vec::new(),
             last_device_times: Vec::new(),
@@ -495,6 +520,16 @@ impl GpuBackend {
         kernel: &dyn Kernel,
         uniforms: &crate::kernel::Uniforms,
     ) -> Result<(Arc<KernelPipeline>, crate::kernel::WgslSource, shaders::BindingPlan), BackendError> {
+        let source = self.pipeline_source(kernel, uniforms)?;
+        let p = match self.pipelines.get(&source.key) {
+            Some(p) => p.clone(),
+            None => self.compile(&source)?,
+        };
+        Ok((p, source.src, source.plan))
+    }
+
+    /// Everything a kernel's pipeline is built from, and the key it is cached under.
+    fn pipeline_source(&mut self, kernel: &dyn Kernel, uniforms: &crate::kernel::Uniforms) -> Result<PipelineSource, BackendError> {
         let name = kernel.name();
         let src = Self::wgsl_of(kernel)?;
         let bindings = kernel.bindings();
@@ -513,14 +548,21 @@ impl GpuBackend {
             }
         }
         let params = uniforms.wgsl_struct().map_err(|e| gpu_err(format!("kernel `{name}`: {e}")))?;
-        let header = params + &shaders::binding_header(name, &bindings, plan)?;
+        let mut header = params + &shaders::binding_header(name, &bindings, plan)?;
+        if src.scene {
+            header.push_str(&format!("const BVH_STACK_SIZE: u32 = {}u;\n", self.stack_entries));
+        }
         let text = shaders::compose(name, &src, &header)?;
         let mut h = std::collections::hash_map::DefaultHasher::new();
         (name, &text, src.scene, plan).hash(&mut h);
-        let key = h.finish();
-        if let Some(p) = self.pipelines.get(&key) {
-            return Ok((p.clone(), src, plan));
-        }
+        Ok(PipelineSource { key: h.finish(), name, text, src, plan, bindings })
+    }
+
+    /// Compile `source` into a pipeline (the expensive step: on a CPU emulation with a cold shader
+    /// cache, minutes for the path tracer) and cache it under its key.
+    fn compile(&mut self, source: &PipelineSource) -> Result<Arc<KernelPipeline>, BackendError> {
+        let PipelineSource { key, name, text, src, plan, bindings } = source;
+        let (key, name, plan) = (*key, *name, *plan);
         let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -598,7 +640,7 @@ impl GpuBackend {
         })?;
         let p = Arc::new(p);
         self.pipelines.insert(key, p.clone());
-        Ok((p, src, plan))
+        Ok(p)
     }
 
     /// Run one pass with its declared bindings mapped to device buffers (`None` = unbound optional):
@@ -885,6 +927,8 @@ impl GpuBackend {
 
     fn kernels_ready(&mut self, job: &Job<'_>, passes: &[&Pass]) -> Result<bool, BackendError> {
         let mut scene = false;
+        let mut missing: Vec<PipelineSource> = Vec::new();
+        self.stack_entries = traversal_stack_entries(job.scene);
         for pass in passes {
             check_bindings(job, pass)?;
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
@@ -892,10 +936,35 @@ impl GpuBackend {
                 continue;
             }
             let (uniforms, _) = Self::uniforms(job, pass, &Self::wgsl_of(kernel.as_ref())?)?;
-            let (_, src, _) = self.pipeline(kernel.as_ref(), &uniforms)?;
-            scene |= src.scene;
+            let source = self.pipeline_source(kernel.as_ref(), &uniforms)?;
+            scene |= source.src.scene;
+            if !self.pipelines.contains_key(&source.key) && !missing.iter().any(|m| m.key == source.key) {
+                missing.push(source);
+            }
         }
+        self.compile_all(&missing, job.progress)?;
         Ok(scene)
+    }
+
+    /// Compile the pipelines a run lacks, before its first pass, saying so: with a cold shader cache a
+    /// CPU emulation (lavapipe) takes minutes for the big kernels, which would otherwise look like a
+    /// frozen terminal (issue 33).
+    fn compile_all(&mut self, missing: &[PipelineSource], progress: &dyn Progress) -> Result<(), BackendError> {
+        if missing.is_empty() {
+            return Ok(());
+        }
+        progress.begin_compile(missing.len() as u64, self.is_software());
+        for source in missing {
+            progress.compiling(source.name);
+            let compiled = self.compile(source);
+            if compiled.is_err() {
+                progress.end();
+            }
+            compiled?;
+            progress.advance(1);
+        }
+        progress.end();
+        Ok(())
     }
 
     /// Sum the per-band counter blocks of one dispatch in 64 bits; also returns the pixels that

@@ -363,13 +363,12 @@ pub fn pack<const N: usize>(arrays: &[Vec<u8>; N]) -> (Vec<u8>, [u32; N]) {
 mod tests {
     use super::*;
 
-    /// The WGSL traversal's stacks are as large as the CPU's (which the scene build keeps trees within),
-    /// its nodes as wide, and its triangle test's error-bound constants have the CPU's bits.
+    /// The WGSL top-level walk's stack is as large as the CPU's (which the scene build keeps trees
+    /// within; the per-tree stack is generated per scene, see `traversal_stack_entries`), its nodes as wide, and its triangle test's error-bound constants have the CPU's bits.
     #[test]
     fn wgsl_constants_are_the_cpus() {
         let bvh = include_str!("../../../shaders/bvh.wgsl");
         for line in [
-            format!("const BVH_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::STACK_SIZE),
             format!("const TOP_STACK_SIZE: u32 = {}u;", wedge_scene::bvh::build::TOP_STACK_SIZE),
             format!("const GAMMA_2: u32 = {:#x}u;", wedge_scene::bvh::triangle::GAMMA[0].to_bits()),
             format!("const GAMMA_3: u32 = {:#x}u;", wedge_scene::bvh::triangle::GAMMA[1].to_bits()),
@@ -421,6 +420,18 @@ mod tests {
         for (k, a) in arrays.iter().enumerate() {
             let at = offsets[k] as usize * 16;
             assert_eq!(&data[at..at + a.len()], &a[..], "array {k}");
+        }
+    }
+
+    /// The GPU stack holds every tree of each built-in scene (its need, not the 128-entry bound),
+    /// as a power of two between 16 and the bound.
+    #[test]
+    fn traversal_stacks_fit_each_scene() {
+        for name in wedge_scene::builtin_names() {
+            let scene = wedge_scene::load(&wedge_scene::SceneSource::Builtin(name.to_string())).unwrap();
+            let (need, entries) = (scene.traversal_stack_need(), crate::gpu::traversal_stack_entries(&scene) as usize);
+            println!("{name}: the trees need {need} stack entries, the kernels get {entries}");
+            assert!(need <= entries && entries.is_power_of_two() && (16..=wedge_scene::bvh::STACK_SIZE).contains(&entries), "{name}");
         }
     }
 }

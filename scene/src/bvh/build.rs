@@ -668,10 +668,16 @@ pub fn tree_depth(nodes: &[WideNode]) -> usize {
 /// continues into one of them, so a subtree needs `(k − 1) + max over its inner children`. The
 /// traversals (CPU and WGSL) have [`STACK_SIZE`] entries; [`build`] keeps every tree within it.
 pub fn stack_need(nodes: &[WideNode]) -> usize {
+    stack_needs(nodes).first().copied().unwrap_or(0)
+}
+
+/// [`stack_need`] of the subtree at every node of `nodes` (a scene's node array holds several trees:
+/// the need of one is the entry at its root).
+pub fn stack_needs(nodes: &[WideNode]) -> Vec<usize> {
     let mut need = vec![0usize; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let (used, inner) = inner_children(nodes, i);
         need[i] = used.saturating_sub(1) + inner.map(|j| need[j]).max().unwrap_or(0);
     }
-    need.first().copied().unwrap_or(0)
+    need
 }

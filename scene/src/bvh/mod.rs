@@ -25,7 +25,7 @@ pub mod triangle;
 use bytemuck::{Pod, Zeroable};
 
 pub use build::{
-    build, build_median, build_with, largest_morton_cell, stack_need, tree_depth, BuiltBvh,
+    build, build_median, build_with, largest_morton_cell, stack_need, stack_needs, tree_depth, BuiltBvh,
 };
 pub use traverse::{traverse, traverse_counted, traverse_from, traverse_simd, Simd, TraversalStats};
 pub use triangle::{
