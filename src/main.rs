@@ -270,6 +270,7 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         mu,
         params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
         allow_outside_dir: c.allow_outside_dir,
+        without_real_layer: false,
         frame: None,
     })
 }
@@ -734,8 +735,8 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
         }
         Command::ExportScene { pipeline, scene, out, width, height, allow_outside_dir } => {
             let ov = Overrides { scene, width, height, allow_outside_dir, ..Overrides::default() };
-            let s = Session::open(pipeline.as_deref(), &ov)?;
-            let files = wedge::export::export_scene(&s.scene, &s.scene.camera, s.width, s.height, &out)?;
+            let s = wedge::export::open(pipeline.as_deref(), &ov)?;
+            let exported = wedge::export::export_session(&s, &out)?;
             let mut text = format!(
                 "exported scene `{}` ({} triangles, {} lights, {} textures), camera for {}x{}\n",
                 s.scene.name,
@@ -745,8 +746,11 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 s.width,
                 s.height
             );
-            for f in files {
+            for f in exported.files {
                 text.push_str(&format!("wrote {}\n", f.display()));
+            }
+            for lost in exported.not_exported {
+                text.push_str(&format!("not exported: {lost}\n"));
             }
             Ok(text)
         }

@@ -50,6 +50,10 @@ pub struct Overrides {
     /// maps, captured scene: [`pipeline_file`]) and the scene file read buffers, textures and meshes
     /// outside its own (`--allow-outside-dir`).
     pub allow_outside_dir: bool,
+    /// Open the scene without a mixed-reality real layer: neither its maps are read nor its
+    /// `capture` rendered. For `wedge export-scene` ([`crate::export`]), which does not export it; a
+    /// session opened so cannot run a MixedReality node.
+    pub without_real_layer: bool,
     /// The frame the session opens at (the first of `render --frames`; default 0): the camera path's
     /// position there, and the mixed-reality real layer of that frame.
     pub frame: Option<u32>,
@@ -468,7 +472,7 @@ fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), W
 
 /// Apply what the pipeline's nodes ask of the scene ([`SceneRequest`]): an environment map, read
 /// relative to the pipeline file (or the scene's own, scaled and turned), and a mixed-reality real
-/// layer. One of each kind per scene: nodes that ask for different
+/// layer (unless `ov.without_real_layer`). One of each kind per scene: nodes that ask for different
 /// ones are refused, naming both. Files are confined to the pipeline's directory ([`pipeline_file`]).
 fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: u32, ov: &Overrides) -> Result<(), WedgeError> {
     type Asked<'p> = Option<(&'p wedge_graph::ValidatedNode, SceneRequest)>;
@@ -495,7 +499,7 @@ fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: 
         let requested = EnvironmentRequest { map: &map, scale, rotation_deg, param };
         apply_environment(scene, pipeline, node, &requested, ov.allow_outside_dir)?;
     }
-    if let Some((node, request)) = real {
+    if let Some((node, request)) = real.filter(|_| !ov.without_real_layer) {
         let at = RealLayerAt { camera: &scene.camera, environment: scene.environment.as_ref(), frame, allow_outside_dir: ov.allow_outside_dir };
         let layer = load_real_layer(pipeline, node, request, &at)?;
         scene.set_real(Some(layer));
