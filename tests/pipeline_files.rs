@@ -128,4 +128,9 @@ fn the_pipeline_scene_is_confined_but_a_command_line_scene_is_not() {
         assert!(String::from_utf8_lossy(&o.stdout).contains("(1 triangles, 0 lights, 0 textures)"), "{args:?}");
         std::fs::remove_dir_all(&out).unwrap();
     }
+    // A scene that is not there is named with the pipeline line that names it.
+    let p = pipeline(&root, "missing.ron", "nope.obj", "Environment", "\"map\": \"builtin:sky\"");
+    let o = wedge(&["export-scene", p.to_str().unwrap(), "--out", out.to_str().unwrap()], &root);
+    refused(&o, &[&format!("cannot read the file referenced by {} line 1: scene = \"nope.obj\" (it does not exist)", p.display())]);
+    assert!(!out.exists());
 }
