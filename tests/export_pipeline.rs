@@ -62,6 +62,18 @@ fn the_environment_node_s_map_is_exported_exactly_with_scale_and_rotation() {
     let m = &env["mitsuba"];
     assert_eq!((m["type"].as_str(), m["filename"].as_str(), f(&m["scale"])), (Some("envmap"), Some("environment.exr"), 2.5));
     assert_eq!((v3(&m["to_world"]["rotate"]["axis"]), f(&m["to_world"]["rotate"]["angle"])), (Vec3::Y, 210.0));
+    // Mitsuba 3's envmap looks a world direction d up at u = atan2(x, -z)/(2 pi), v = acos(y)/pi of
+    // d in its local frame (to_world^-1 d): with the exported angle that is wedge's texel for d.
+    let map = wedge::scene::EnvironmentMap::open(dir.path().join("sky.exr").to_str().unwrap()).unwrap().with_params(2.5, 30.0).unwrap();
+    let to_local = glam::Quat::from_rotation_y(-f(&m["to_world"]["rotate"]["angle"]).to_radians());
+    for k in 0..64 {
+        let d = Vec3::new((k as f32 * 0.7).sin(), (k as f32 * 0.31).cos(), (k as f32 * 1.3).cos()).normalize();
+        let l = to_local * d;
+        let (u, v) = ((l.x.atan2(-l.z) / std::f32::consts::TAU).rem_euclid(1.0), l.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
+        let want = map.uv_of(d);
+        let du = (u - want.x).abs();
+        assert!(du.min(1.0 - du) < 1e-5 && (v - want.y).abs() < 1e-5, "{d}: mitsuba ({u}, {v}), wedge {want}");
+    }
     // The texels as given (unscaled), bit for bit.
     let back = read_exr(&dir.path().join("out/environment.exr")).unwrap();
     assert_eq!((back.width, back.height), (8, 4));
