@@ -23,9 +23,12 @@ use crate::session::{Session, WedgeError};
 
 /// What to capture and how.
 pub struct Capture<'a> {
-    /// `builtin:NAME` or a scene file (relative to `base_dir`).
+    /// `builtin:NAME` or a scene file (relative to `base_dir`), already checked against the
+    /// pipeline's directory (`crate::session::pipeline_file`).
     pub spec: &'a str,
     pub base_dir: &'a Path,
+    /// Let the captured scene file read files outside its directory (`--allow-outside-dir`).
+    pub allow_outside_dir: bool,
     pub camera: Camera,
     /// The environment that lights it (the pipeline's); `None`: the captured scene's own.
     pub environment: Option<EnvironmentMap>,
@@ -38,7 +41,7 @@ pub struct Capture<'a> {
 /// The key of a capture in the process-wide cache: every input, printed.
 fn key(c: &Capture<'_>) -> String {
     let env = c.environment.as_ref().map(|e| format!("{}|{}|{}", e.name(), e.scale().to_bits(), e.rotation_deg().to_bits()));
-    format!("{}|{}|{:?}|{env:?}|{}x{}|{}|{}", c.spec, c.base_dir.display(), c.camera, c.width, c.height, c.spp, c.seed)
+    format!("{}|{}|{}|{:?}|{env:?}|{}x{}|{}|{}", c.spec, c.base_dir.display(), c.allow_outside_dir, c.camera, c.width, c.height, c.spp, c.seed)
 }
 
 /// Render the real layer of [`Capture`] (module doc), or return the process's earlier render of it.
@@ -67,7 +70,10 @@ fn render(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
     );
     let loaded = wedge_graph::parse_pipeline(Path::new("<capture>"), &text)?;
     let (nodes, kernels) = wedge_effects::builtin();
-    let mut session = Session::build_reference(loaded, &Default::default(), nodes, kernels, c.spp, "stratified")
+    // The scene goes in as an override: as this generated pipeline's `scene:` it would be confined
+    // to the directory of `<capture>` (the working directory), while the user's pipeline named it.
+    let ov = crate::session::Overrides { scene: Some(scene.clone()), allow_outside_dir: c.allow_outside_dir, ..Default::default() };
+    let mut session = Session::build_reference(loaded, &ov, nodes, kernels, c.spp, "stratified")
         .map_err(|e| WedgeError::Usage(format!("capture of `{}`: {e}", c.spec)))?;
     session.scene.camera = c.camera;
     if let Some(env) = &c.environment {

@@ -50,9 +50,11 @@ struct Common {
     /// Where passes run: `cpu` (rayon) or `wgpu` (WGSL compute on a GPU, or Mesa's software Vulkan).
     #[arg(long, default_value = "cpu", value_parser = ["cpu", "wgpu"])]
     backend: String,
-    /// Let the scene file read buffers, textures and meshes outside its own directory.
-    #[arg(long)]
-    allow_outside_scene_dir: bool,
+    /// Let the pipeline name files outside its own directory (its scene, environment map, real-layer
+    /// maps) and the scene file read buffers, textures and meshes outside its own (symlinks are
+    /// followed before the check). `--scene PATH` is never confined.
+    #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
+    allow_outside_dir: bool,
     /// With --backend wgpu: `adapter` (the device's own limits) or `webgpu` (wgpu's
     /// Limits::default(), 8 storage buffers per stage: checks that every kernel runs on any WebGPU
     /// device). Default: the WEDGE_WGPU_LIMITS environment variable, else `adapter`.
@@ -194,8 +196,8 @@ enum Command {
         #[arg(long, value_parser = side_parser())]
         height: Option<u32>,
         /// As for `render`.
-        #[arg(long)]
-        allow_outside_scene_dir: bool,
+        #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
+        allow_outside_dir: bool,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes).
     Graph {
@@ -271,7 +273,8 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         seed: c.seed,
         mu,
         params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
-        allow_outside_scene_dir: c.allow_outside_scene_dir,
+        allow_outside_dir: c.allow_outside_dir,
+        without_real_layer: false,
         frame: None,
     })
 }
@@ -794,11 +797,11 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             let r = wedge::bench::run(&opts)?;
             Ok(format!("{}\n", wedge::bench::report::summary(&r)))
         }
-        Command::ExportScene { pipeline, scene, out, width, height, allow_outside_scene_dir } => {
+        Command::ExportScene { pipeline, scene, out, width, height, allow_outside_dir } => {
             wedge::staging::check_output_dir(&out)?;
-            let ov = Overrides { scene, width, height, allow_outside_scene_dir, ..Overrides::default() };
-            let s = Session::open(pipeline.as_deref(), &ov)?;
-            let files = wedge::export::export_scene(&s.scene, &s.scene.camera, s.width, s.height, &out)?;
+            let ov = Overrides { scene, width, height, allow_outside_dir, ..Overrides::default() };
+            let s = wedge::export::open(pipeline.as_deref(), &ov)?;
+            let exported = wedge::export::export_session(&s, &out)?;
             let mut text = format!(
                 "exported scene `{}` ({} triangles, {} lights, {} textures), camera for {}x{}\n",
                 s.scene.name,
@@ -808,8 +811,11 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 s.width,
                 s.height
             );
-            for f in files {
+            for f in exported.files {
                 text.push_str(&format!("wrote {}\n", f.display()));
+            }
+            for lost in exported.not_exported {
+                text.push_str(&format!("not exported: {lost}\n"));
             }
             Ok(text)
         }

@@ -12,7 +12,7 @@ use wedge_graph::{
 use glam::{Quat, Vec3};
 use wedge_scene::motion::RigidMotion;
 use wedge_graph::SceneRequest;
-use wedge_scene::{Camera, Scene, SceneError, SceneSource};
+use wedge_scene::{Camera, ConfinedTo, Confinement, Scene, SceneError, SceneSource};
 
 /// The default pipeline, compiled in so `wedge render` works from any directory.
 pub const DEFAULT_PIPELINE: &str = include_str!("../pipelines/shadows.ron");
@@ -46,8 +46,14 @@ pub struct Overrides {
     pub mu: Option<f64>,
     /// `(node, parameter, value)`: set one node's parameter (checked against its declaration).
     pub params: Vec<(String, String, ParamValue)>,
-    /// Let the scene file read buffers/textures/meshes outside its own directory.
-    pub allow_outside_scene_dir: bool,
+    /// Let the pipeline name files outside its own directory (its scene, environment map, real-layer
+    /// maps, captured scene: [`pipeline_file`]) and the scene file read buffers, textures and meshes
+    /// outside its own (`--allow-outside-dir`).
+    pub allow_outside_dir: bool,
+    /// Open the scene without a mixed-reality real layer: neither its maps are read nor its
+    /// `capture` rendered. For `wedge export-scene` ([`crate::export`]), which does not export it; a
+    /// session opened so cannot run a MixedReality node.
+    pub without_real_layer: bool,
     /// The frame the session opens at (the first of `render --frames`; default 0): the camera path's
     /// position there, and the mixed-reality real layer of that frame.
     pub frame: Option<u32>,
@@ -65,6 +71,8 @@ pub struct Session {
     /// The frame the session opened at (`Overrides::frame`, default 0): its camera and real layer
     /// are that frame's.
     pub frame: u32,
+    /// `Overrides::allow_outside_dir`: the files of later frames' real layers follow it too.
+    pub allow_outside_dir: bool,
 }
 
 /// Read a pipeline file, or the built-in default when `path` is `None`.
@@ -134,7 +142,15 @@ impl Session {
         // The scene before the graph: which node factors may depend on it (a Motion node on a static
         // scene does not).
         let source = scene_source(&pipeline, ov.scene.as_deref());
-        let scene_opts = wedge_scene::LoadOptions { allow_outside_scene_dir: ov.allow_outside_scene_dir };
+        // A scene file the pipeline names is confined to the pipeline's directory; one given on the
+        // command line (`--scene PATH`) is not: the user chose it, as they chose the pipeline file, and
+        // it is relative to the working directory, not to the pipeline.
+        if let (SceneSource::File(_), None) = (&source, &ov.scene) {
+            let at = loaded.scene_location();
+            let entry = format!("line {}: scene = {:?}", at.line, pipeline.pipeline.scene);
+            pipeline_file(&pipeline.path, &pipeline.pipeline.scene, &entry, ov.allow_outside_dir)?;
+        }
+        let scene_opts = wedge_scene::LoadOptions { allow_outside_dir: ov.allow_outside_dir };
         // The pipeline's shutter (if it gives one) is when a scene file's animations are sampled.
         let shutter = pipeline.pipeline.camera.as_ref().and_then(|c| c.shutter);
         let mut scene = wedge_scene::load_with_shutter(&source, &scene_opts, shutter)?;
@@ -149,7 +165,7 @@ impl Session {
             scene.camera.position = position;
             scene.camera.look_at = look_at;
         }
-        apply_scene_requests(&mut scene, &pipeline, frame)?;
+        apply_scene_requests(&mut scene, &pipeline, frame, ov)?;
         if shutter.is_some_and(|(open, close)| open == close) {
             freeze_motion(&mut scene)?;
         }
@@ -161,7 +177,8 @@ impl Session {
         let schedule = schedule(expansion)?;
         kernels.check_schedule(&schedule)?;
         let (width, height, seed) = (pipeline.pipeline.width, pipeline.pipeline.height, pipeline.pipeline.seed);
-        Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed, frame })
+        let allow_outside_dir = ov.allow_outside_dir;
+        Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed, frame, allow_outside_dir })
     }
 
     pub fn run(&self, backend: &mut dyn Backend, progress: &dyn Progress) -> Result<RunResult, WedgeError> {
@@ -271,7 +288,8 @@ impl Session {
             return Ok(None);
         }
         if capture.is_empty() || *camera != self.scene.camera {
-            return load_real_layer(&self.pipeline, node, request, camera, self.scene.environment.as_ref(), frame).map(Some);
+            let at = RealLayerAt { camera, environment: self.scene.environment.as_ref(), frame, allow_outside_dir: self.allow_outside_dir };
+            return load_real_layer(&self.pipeline, node, request, &at).map(Some);
         }
         Ok(None)
     }
@@ -510,8 +528,9 @@ fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), W
 
 /// Apply what the pipeline's nodes ask of the scene ([`SceneRequest`]): an environment map, read
 /// relative to the pipeline file (or the scene's own, scaled and turned), and a mixed-reality real
-/// layer. One of each kind per scene: nodes that ask for different ones are refused, naming both.
-fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: u32) -> Result<(), WedgeError> {
+/// layer (unless `ov.without_real_layer`). One of each kind per scene: nodes that ask for different
+/// ones are refused, naming both. Files are confined to the pipeline's directory ([`pipeline_file`]).
+fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: u32, ov: &Overrides) -> Result<(), WedgeError> {
     type Asked<'p> = Option<(&'p wedge_graph::ValidatedNode, SceneRequest)>;
     let (mut environment, mut real): (Asked<'_>, Asked<'_>) = (None, None);
     for node in &pipeline.nodes {
@@ -533,10 +552,12 @@ fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: 
         }
     }
     if let Some((node, SceneRequest::Environment { map, scale, rotation_deg, param })) = environment {
-        apply_environment(scene, pipeline, node, &map, scale, rotation_deg, param)?;
+        let requested = EnvironmentRequest { map: &map, scale, rotation_deg, param };
+        apply_environment(scene, pipeline, node, &requested, ov.allow_outside_dir)?;
     }
-    if let Some((node, request)) = real {
-        let layer = load_real_layer(pipeline, node, request, &scene.camera, scene.environment.as_ref(), frame)?;
+    if let Some((node, request)) = real.filter(|_| !ov.without_real_layer) {
+        let at = RealLayerAt { camera: &scene.camera, environment: scene.environment.as_ref(), frame, allow_outside_dir: ov.allow_outside_dir };
+        let layer = load_real_layer(pipeline, node, request, &at)?;
         scene.set_real(Some(layer));
     }
     Ok(())
@@ -550,15 +571,24 @@ fn real_layer_request(pipeline: &ValidatedPipeline) -> Option<(&wedge_graph::Val
     })
 }
 
+/// What a node's [`SceneRequest::Environment`] asks for.
+struct EnvironmentRequest<'a> {
+    /// A file relative to the pipeline, `builtin:NAME`, or empty: the scene's own map.
+    map: &'a str,
+    scale: f64,
+    rotation_deg: f64,
+    /// The node's parameter that names the map, for messages.
+    param: &'a str,
+}
+
 fn apply_environment(
     scene: &mut Scene,
     pipeline: &ValidatedPipeline,
     node: &wedge_graph::ValidatedNode,
-    map: &str,
-    scale: f64,
-    rotation_deg: f64,
-    param: &str,
+    request: &EnvironmentRequest<'_>,
+    allow_outside_dir: bool,
 ) -> Result<(), WedgeError> {
+    let EnvironmentRequest { map, scale, rotation_deg, param } = *request;
     let at = |e: String| WedgeError::Usage(format!("{}: node `{}`, parameter `{param}`: {e}", node.location, node.name));
     let (base, scale, rotation_deg) = if map.is_empty() {
         // The scene's own map, with the node's scale and rotation on top of its own.
@@ -572,7 +602,11 @@ fn apply_environment(
         let (s, r) = (own.scale() as f64 * scale, own.rotation_deg() as f64 + rotation_deg);
         (own, s, r)
     } else {
-        let spec = if map.starts_with("builtin:") { map.to_string() } else { pipeline.base_dir().join(map).display().to_string() };
+        let spec = if map.starts_with("builtin:") {
+            map.to_string()
+        } else {
+            pipeline_file(&pipeline.path, map, &node_entry(node, param, map), allow_outside_dir)?.display().to_string()
+        };
         (wedge_scene::EnvironmentMap::open(&spec).map_err(|e| at(e.to_string()))?, scale, rotation_deg)
     };
     scene.set_environment(Some(base.with_params(scale as f32, rotation_deg as f32).map_err(|e| at(e.to_string()))?));
@@ -582,18 +616,42 @@ fn apply_environment(
 /// The seed of every `capture`.
 const CAPTURE_SEED: u32 = 0x5eed_ca97;
 
-/// The mixed-reality real layer a node asks for, for frame `frame` seen by `camera`: its maps read
-/// relative to the pipeline file (`{frame}` in a file name replaced by the frame number, see
-/// [`frame_path`]), or a scene captured by wedge from `camera` under `environment`
-/// ([`crate::capture`]); it must have the image's size.
+/// A file the pipeline at `pipeline_path` names (its scene, an environment map, a real-layer map, a
+/// captured scene), resolved relative to the pipeline file's directory and confined to it unless
+/// `allow_outside` (`--allow-outside-dir`), by the rule a scene's own files follow
+/// ([`wedge_scene::Confinement`], symlinks followed): the canonical path. `entry` says where in the
+/// pipeline it is named (`line 12: node `env`, parameter `map` = "../sky.exr"`), for the refusal.
+/// `builtin:` names are not files: the callers keep them away from here.
+pub fn pipeline_file(pipeline_path: &Path, reference: &str, entry: &str, allow_outside: bool) -> Result<PathBuf, SceneError> {
+    let confinement = Confinement::of_file(pipeline_path, ConfinedTo::Pipeline, allow_outside)?;
+    confinement.resolve(pipeline_path, Path::new(reference), entry)
+}
+
+/// Where a node names a file, for [`pipeline_file`]: `line N: node `NAME`, parameter `PARAM` = "VALUE"`.
+fn node_entry(node: &wedge_graph::ValidatedNode, param: &str, value: &str) -> String {
+    format!("line {}: node `{}`, parameter `{param}` = {value:?}", node.location.line, node.name)
+}
+
+/// Whose real layer [`load_real_layer`] reads or captures: frame `frame` seen by `camera` under
+/// `environment`, its files confined to the pipeline's directory unless `allow_outside_dir`.
+struct RealLayerAt<'a> {
+    camera: &'a Camera,
+    environment: Option<&'a wedge_scene::EnvironmentMap>,
+    frame: u32,
+    allow_outside_dir: bool,
+}
+
+/// The mixed-reality real layer a node asks for, for frame `at.frame` seen by `at.camera`: its maps
+/// read relative to the pipeline file (`{frame}` in a file name replaced by the frame number, see
+/// [`frame_path`]), or a scene captured by wedge from the camera under `at.environment`
+/// ([`crate::capture`]); files confined as [`pipeline_file`] says; it must have the image's size.
 fn load_real_layer(
     pipeline: &ValidatedPipeline,
     node: &wedge_graph::ValidatedNode,
     request: SceneRequest,
-    camera: &Camera,
-    environment: Option<&wedge_scene::EnvironmentMap>,
-    frame: u32,
+    at_frame: &RealLayerAt<'_>,
 ) -> Result<wedge_scene::RealLayer, WedgeError> {
+    let &RealLayerAt { camera, environment, frame, allow_outside_dir } = at_frame;
     let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, albedo, capture, capture_spp } = request else {
         unreachable!("load_real_layer is given RealLayer requests only");
     };
@@ -605,9 +663,15 @@ fn load_real_layer(
         if !given.is_empty() {
             return Err(at(format!("give either `capture` or the maps, not both (also given: {})", given.join(", "))));
         }
+        let scene = if capture.starts_with("builtin:") {
+            capture.clone()
+        } else {
+            pipeline_file(&pipeline.path, &capture, &node_entry(node, "capture", &capture), allow_outside_dir)?.display().to_string()
+        };
         crate::capture::capture_real_layer(&crate::capture::Capture {
-            spec: &capture,
+            spec: &scene,
             base_dir: &pipeline.base_dir(),
+            allow_outside_dir,
             camera: *camera,
             environment: environment.cloned(),
             width,
@@ -627,14 +691,18 @@ fn load_real_layer(
                 missing.join(", ")
             )));
         }
-        let base = pipeline.base_dir();
-        let file = |param: &str, template: &str| frame_path(template, frame).map(|p| base.join(p)).map_err(|e| at(format!("parameter `{param}`: {e}")));
+        let file = |param: &str, template: &str| -> Result<PathBuf, WedgeError> {
+            let name = frame_path(template, frame).map_err(|e| at(format!("parameter `{param}`: {e}")))?;
+            let entry = if name == template { node_entry(node, param, template) } else { format!("{} (frame {frame}: {name:?})", node_entry(node, param, template)) };
+            Ok(pipeline_file(&pipeline.path, &name, &entry, allow_outside_dir)?)
+        };
+        // The camera image first: a missing frame is named by it.
+        let (image, position, normal) = (file("camera_image", &camera_image)?, file("position_map", &position_map)?, file("normal_map", &normal_map)?);
         let albedo = if albedo_map.is_empty() {
             wedge_scene::RealAlbedo::Constant([albedo as f32; 3])
         } else {
             wedge_scene::RealAlbedo::Map(file("albedo_map", &albedo_map)?)
         };
-        let (image, position, normal) = (file("camera_image", &camera_image)?, file("position_map", &position_map)?, file("normal_map", &normal_map)?);
         wedge_scene::RealLayer::open(&image, &position, &normal, albedo).map_err(|e| at(e.to_string()))?
     };
     if (layer.width(), layer.height()) != (width, height) {

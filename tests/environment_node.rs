@@ -65,10 +65,16 @@ fn furnace(scene: &Path, map: &Path, params: &str) -> String {
     )
 }
 
+/// Overrides for the pipelines given as text: their scene and map files lie in a temp dir, outside
+/// the directory of the text's nominal path `test.ron`, which confines a pipeline's files.
+fn text_overrides() -> Overrides {
+    Overrides { allow_outside_dir: true, ..Overrides::default() }
+}
+
 fn reference(text: &str, spp: u32) -> Image {
     let loaded = parse_pipeline(Path::new("test.ron"), text).expect("pipeline parses");
     let (nodes, kernels) = wedge::effects::builtin();
-    let s = Session::build_reference(loaded, &Overrides::default(), nodes, kernels, spp, "stratified").expect("reference builds");
+    let s = Session::build_reference(loaded, &text_overrides(), nodes, kernels, spp, "stratified").expect("reference builds");
     color(&s, &run(&s))
 }
 
@@ -124,7 +130,7 @@ fn a_constant_environment_lights_a_diffuse_sphere_analytically() {
     // Monte Carlo reference must both give 1.
     let dir = tempfile::tempdir().unwrap();
     let text = furnace(&sphere_obj(dir.path(), 0.5), &constant_map(dir.path(), 2.0), r#""per_primary": 16"#);
-    let s = session_from_text(&text, &Overrides::default());
+    let s = session_from_text(&text, &text_overrides());
     let r = run(&s);
     let inside = sphere_pixels(0.05);
     assert!(inside.len() > 500, "{}", inside.len());
@@ -149,7 +155,7 @@ fn a_white_furnace_converges_to_the_map() {
     // object has no reflector, so its indirect light is 0) the sum is still 1.
     let dir = tempfile::tempdir().unwrap();
     let text = furnace(&sphere_obj(dir.path(), 1.0), &constant_map(dir.path(), 1.0), r#""per_primary": 16, "indirect": true"#);
-    let s = session_from_text(&text, &Overrides::default());
+    let s = session_from_text(&text, &text_overrides());
     let r = run(&s);
     let inside = sphere_pixels(0.05);
     let (mean, worst) = deviation(&output(&s, &r, "color"), &inside, 1.0);
@@ -266,7 +272,7 @@ fn an_area_light_and_the_environment_compose() {
 fn build_error(text: &str) -> String {
     let loaded = parse_pipeline(Path::new("test.ron"), text).expect("pipeline parses");
     let (nodes, kernels) = wedge::effects::builtin();
-    match Session::build(loaded, &Overrides::default(), nodes, kernels) {
+    match Session::build(loaded, &text_overrides(), nodes, kernels) {
         Ok(_) => panic!("session builds"),
         Err(e) => e.to_string(),
     }

@@ -324,6 +324,8 @@ pub struct NodeSource {
 /// Positions of the top-level fields that validation points at.
 #[derive(Clone, Debug, Default)]
 pub struct SourceMap {
+    /// The value of `scene`.
+    pub scene: Option<Pos>,
     /// The `nodes` key.
     pub nodes_key: Option<Pos>,
     /// The values of `width` and `height`.
@@ -359,6 +361,7 @@ impl SourceMap {
                 Tok::Ident(field) if depth == 1 && is_punct(&toks, i + 1, ':') => {
                     let value = toks.get(i + 2).map(|t| t.pos);
                     match field.as_str() {
+                        "scene" => map.scene = value,
                         "width" => map.width = value,
                         "height" => map.height = value,
                         "camera" => {

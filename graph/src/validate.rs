@@ -44,6 +44,11 @@ impl LoadedPipeline {
         self.loc(self.map.nodes.get(index).map(|n| n.tuple))
     }
 
+    /// Location of the `scene` value (the file's start where the field is left out).
+    pub fn scene_location(&self) -> Location {
+        self.loc(self.map.scene)
+    }
+
     fn loc(&self, pos: Option<Pos>) -> Location {
         let pos = pos.unwrap_or(Pos { line: 1, col: 1 });
         Location {

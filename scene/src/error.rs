@@ -24,20 +24,25 @@ pub enum SceneError {
         what: String,
         fix: String,
     },
-    /// A scene file references a resource outside the scene file's directory (refused by default so a
-    /// scene cannot read arbitrary files such as `/etc/passwd`).
+    /// A scene file or a pipeline references a file outside the directory of the scene file or the
+    /// pipeline file (refused by default so neither can read arbitrary files such as `/etc/passwd`;
+    /// see `scene/src/resource.rs`).
     #[error(
-        "{}: {referenced_by} points to {} which is outside the scene directory {} — move the file under \
-         that directory, or allow it with --allow-outside-scene-dir (LoadOptions::allow_outside_scene_dir)",
-        scene.display(), resolved.display(), root.display()
+        "{}: {referenced_by} points to {}, which is outside the {dir_of} directory {} — move the file under \
+         that directory, or allow it with --allow-outside-dir (LoadOptions::allow_outside_dir)",
+        file.display(), resolved.display(), root.display()
     )]
-    OutsideSceneDir {
-        /// The file holding the reference.
-        scene: PathBuf,
+    OutsideDir {
+        /// The file holding the reference (a scene file or a pipeline file).
+        file: PathBuf,
         /// Where in it, e.g. `buffers[0].uri = "/etc/passwd"`.
         referenced_by: String,
+        /// The referenced file, canonical (symlinks followed).
         resolved: PathBuf,
+        /// The directory it had to lie under, canonical.
         root: PathBuf,
+        /// Whose directory that is: `scene` or `pipeline`.
+        dir_of: &'static str,
     },
     /// The file extension is not one we load.
     #[error("{}: unsupported scene format — use .gltf, .glb, .obj or .ron", path.display())]

@@ -30,7 +30,8 @@
 //!   `.ron` composition file ([`compose`]). Bad input yields a [`SceneError`] naming the file, the problem
 //!   (with the glTF JSON path or OBJ line where there is one) and the fix — never a panic, a hang or an
 //!   unbounded allocation: inputs are validated before use and sizes are capped ([`limits`]). Files a
-//!   scene references must lie under the scene file's directory unless [`LoadOptions`] allows more.
+//!   scene references must lie under the scene file's directory unless [`LoadOptions`] allows more
+//!   ([`Confinement`]: the rule a pipeline's files follow too).
 //!   Recoverable oddities (unknown `usemtl`, dropped degenerate triangles) become [`Scene::warnings`].
 //!
 //! Conventions: right-handed, y up, metres; image y points down; textures have v = 0 at the top row.
@@ -62,6 +63,7 @@ pub use error::SceneError;
 pub use light::{AreaLight, LightShape};
 pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
 pub use real_layer::{RealAlbedo, RealLayer};
+pub use resource::{ConfinedTo, Confinement};
 pub use scene::{
     Aabb, Instance, Material, Scene, SceneAt, SceneObject, SurfacePoint, TriangleShading,
 };
@@ -97,8 +99,10 @@ pub mod limits {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Allow buffers, images, material libraries, textures and meshes outside the directory of the
-    /// scene file (after following symlinks). Off by default: a scene must not read arbitrary files.
-    pub allow_outside_scene_dir: bool,
+    /// scene file (after following symlinks; `--allow-outside-dir`, which lifts a pipeline's
+    /// confinement to its directory too, see [`Confinement`]). Off by default: a scene must not read
+    /// arbitrary files.
+    pub allow_outside_dir: bool,
 }
 
 /// Load a scene with default [`LoadOptions`]: built-in by name, or `.gltf`/`.glb`, `.obj` (+MTL) or

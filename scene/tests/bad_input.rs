@@ -457,12 +457,12 @@ fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
         &[
             "buffers[0].uri = \"../outside.bin\"",
             "outside the scene directory",
-            "--allow-outside-scene-dir",
+            "--allow-outside-dir",
         ],
     );
-    assert!(matches!(e, SceneError::OutsideSceneDir { .. }), "{e:?}");
+    assert!(matches!(e, SceneError::OutsideDir { .. }), "{e:?}");
     let allow = LoadOptions {
-        allow_outside_scene_dir: true,
+        allow_outside_dir: true,
     };
     let s = load_with(&SceneSource::File(p), &allow).unwrap();
     assert_eq!((s.triangle_count(), s.lights.len()), (2, 1));
@@ -488,7 +488,7 @@ fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
             .replace(&base64::encode(&buf), &uri);
         std::fs::write(&p, json).unwrap();
         let e = fails(&p, &["outside the scene directory"]);
-        assert!(matches!(e, SceneError::OutsideSceneDir { .. }));
+        assert!(matches!(e, SceneError::OutsideDir { .. }));
     }
     #[cfg(unix)]
     {
@@ -513,7 +513,7 @@ fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
         let s = load_with(
             &SceneSource::File(p),
             &LoadOptions {
-                allow_outside_scene_dir: true,
+                allow_outside_dir: true,
             },
         )
         .unwrap();
