@@ -142,6 +142,12 @@ impl Session {
             scene.camera = camera_from_spec(c, &scene.camera);
         }
         apply_motion(&mut scene, &pipeline)?;
+        // Without a camera block the scene's camera gives the path its `up`: check the path's view
+        // against it now (validation checked it against the block's).
+        if pipeline.pipeline.camera.is_none() {
+            let up = scene.camera.up;
+            wedge_graph::check_camera_path(&loaded, (up.x, up.y, up.z))?;
+        }
         // A pipeline with a camera path renders its frame 0 (or `ov.frame`) as a single image; before
         // the scene requests, so a real layer is captured from that frame's camera.
         let frame = ov.frame.unwrap_or(0);
@@ -377,22 +383,10 @@ impl MemoryEstimate {
 }
 
 /// Position and look-at of a camera path at `frame` (see [`Session::camera_at`]); `None` without keys.
+/// The interpolation is the graph's ([`wedge_graph::camera_path_at`]), the one its validation checks.
 pub fn path_at(keys: &[wedge_graph::CameraKey], frame: u32) -> Option<(Vec3, Vec3)> {
     let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
-    let at = |k: &wedge_graph::CameraKey| (v(k.position), v(k.look_at));
-    let first = keys.first()?;
-    if frame <= first.frame {
-        return Some(at(first));
-    }
-    for pair in keys.windows(2) {
-        let (a, b) = (&pair[0], &pair[1]);
-        if frame <= b.frame {
-            let s = (frame - a.frame) as f32 / (b.frame - a.frame) as f32;
-            let ((pa, la), (pb, lb)) = (at(a), at(b));
-            return Some((pa.lerp(pb, s), la.lerp(lb, s)));
-        }
-    }
-    keys.last().map(at)
+    wedge_graph::camera_path_at(keys, frame).map(|(position, look_at)| (v(position), v(look_at)))
 }
 
 /// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]): something moves

@@ -16,8 +16,9 @@ use std::sync::Arc;
 use crate::decl::{NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 use crate::expand::{BufferId, ExpandCtx, Expansion};
 use crate::explain::explain;
+use crate::camera_path::{camera_path_problems, PathProblem};
 use crate::pipeline::{
-    Location, Pipeline, RawParam, MAX_NAME_CHARS, MAX_NODES, MAX_NODE_ENTRIES, MAX_PIPELINE_BYTES,
+    CameraSpec, Location, Pipeline, RawParam, MAX_NAME_CHARS, MAX_NODES, MAX_NODE_ENTRIES, MAX_PIPELINE_BYTES,
     MAX_SCENE_CHARS,
 };
 use crate::source_map::{NodeSource, Pos, SourceMap};
@@ -464,17 +465,9 @@ fn params_list(params: &[ParamDecl]) -> String {
     params
         .iter()
         .map(|p| match &p.kind {
-            ParamKind::Float {
-                min,
-                max,
-                min_exclusive,
-                ..
-            } => {
-                format!(
-                    "{}: number in {}{min}, {max}]",
-                    p.name,
-                    if *min_exclusive { "(" } else { "[" }
-                )
+            ParamKind::Float { min, max, min_exclusive, special, .. } => {
+                let or = special.map_or(String::new(), |s| format!(" or {} ({})", s.value, s.meaning));
+                format!("{}: number in {}{min}, {max}]{or}", p.name, if *min_exclusive { "(" } else { "[" })
             }
             ParamKind::Int { min, max, .. } => format!("{}: integer in [{min}, {max}]", p.name),
             ParamKind::Bool { .. } => format!("{}: bool", p.name),
@@ -645,6 +638,21 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 format!("camera key {} is at frame {}, not after the key before it (frame {})", k + 1, key.frame, pl.camera_path[k - 1].frame),
                 "list the keys of `camera_path` in increasing frame order, each frame once".into(),
             );
+        }
+    }
+
+    // Every camera along the path, once its keys are usable: the view it gets between keys. Without
+    // a camera block the scene's camera decides `up`, so only the view direction is checked here
+    // (a session checks `up` with the scene loaded, [`check_camera_path`]).
+    let keys_ok = pl.camera_path.iter().all(|k| k.problems().is_empty()) && pl.camera_path.windows(2).all(|w| w[0].frame < w[1].frame);
+    if keys_ok {
+        let (camera, check_up) = match &pl.camera {
+            Some(c) => (c.clone(), true),
+            None => (CameraSpec { up: (0.0, 1.0, 0.0), ..path_template() }, false),
+        };
+        for problem in camera_path_problems(&pl.camera_path, &camera, check_up) {
+            let (pos, message, help) = path_diagnostic(p, &problem);
+            r.add(DiagnosticKind::BadCamera, pos, message, help);
         }
     }
 
@@ -1060,6 +1068,69 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     // scene is not loaded yet: a session decides again with its facts).
     validated.update_factoring(None)?;
     Ok(validated)
+}
+
+/// A camera for checking a path where the pipeline has no camera block: only its `up` matters.
+fn path_template() -> CameraSpec {
+    CameraSpec {
+        position: (0.0, 0.0, 1.0),
+        look_at: (0.0, 0.0, 0.0),
+        up: (0.0, 1.0, 0.0),
+        vfov_deg: 45.0,
+        aperture_radius: 0.0,
+        focus_distance: None,
+        shutter: None,
+    }
+}
+
+/// Check a pipeline's camera path against the `up` of the camera it renders with, once that is known
+/// (the scene's, where the pipeline has no camera block): every camera along the path must pass the
+/// camera rules. Errors point at the segment's keys, with the frame.
+pub fn check_camera_path(p: &LoadedPipeline, up: (f32, f32, f32)) -> Result<(), GraphError> {
+    let camera = CameraSpec { up, ..p.pipeline.camera.clone().unwrap_or_else(path_template) };
+    let list: Vec<Diagnostic> = camera_path_problems(&p.pipeline.camera_path, &camera, true)
+        .iter()
+        .map(|problem| {
+            let (pos, message, help) = path_diagnostic(p, problem);
+            Diagnostic { kind: DiagnosticKind::BadCamera, location: p.loc(pos), message: printable(message), help: printable(help) }
+        })
+        .collect();
+    if list.is_empty() {
+        Ok(())
+    } else {
+        Err(GraphError::Invalid(list))
+    }
+}
+
+/// Where, what and the fix for a camera along a path that breaks a camera rule: at the segment's
+/// first key, naming both keys (with their lines) and the frame.
+fn path_diagnostic(p: &LoadedPipeline, problem: &PathProblem) -> (Option<Pos>, String, String) {
+    let keys = &p.pipeline.camera_path;
+    let (k, a, b) = (problem.key, &keys[problem.key], &keys[problem.key + 1]);
+    let line = |i: usize| p.map.camera_path_field(i, "frame").map_or(String::new(), |pos| format!(", line {}", pos.line));
+    let when = if problem.frame.fract() == 0.0 {
+        format!("at frame {}", problem.frame)
+    } else {
+        format!("at frame {} (between frames {} and {})", problem.frame, problem.frame.floor(), problem.frame.ceil())
+    };
+    let message = format!(
+        "camera path between key {} (frame {}{}) and key {} (frame {}{}): the camera {when} breaks a camera rule: {}",
+        k + 1,
+        a.frame,
+        line(k),
+        k + 2,
+        b.frame,
+        line(k + 1),
+        problem.problem.message
+    );
+    let help = match problem.problem.field {
+        "look_at" => "position and look_at move through each other between these keys (e.g. the two keys swap them): change one key's `look_at` so the camera never reaches the point it looks at"
+            .to_string(),
+        "up" => "the view turns along `up` between these keys: add a key in between that keeps the view off `up`, or give the `camera` block an `up` the path never looks along"
+            .to_string(),
+        _ => problem.problem.help.clone(),
+    };
+    (p.map.camera_path_field(k, "frame").or(p.map.camera_path), message, help)
 }
 
 impl NodeSource {
