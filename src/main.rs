@@ -407,6 +407,9 @@ fn sequence_backend(session: &Session, common: &Common, what: &str) -> Result<Bo
 /// [`wedge::outputs::write_sequence`]).
 fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
     let mut backend = sequence_backend(session, common, &format!("frames {first}..{last}"))?;
+    for w in session.pipeline.sequence_warnings(first, last) {
+        eprintln!("warning: {w}");
+    }
     let bars = Bars::default();
     let (mut images, mut previous, mut seconds) = (Vec::new(), None, 0.0f64);
     let (mut extra, mut aov_line) = (Vec::new(), String::new());

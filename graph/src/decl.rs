@@ -679,6 +679,14 @@ pub trait NodeKind: Send + Sync {
             ),
         })
     }
+    /// Where this node, with these parameters, averages its own earlier frames pixel by pixel
+    /// (through [`ExpandCtx::previous_frame`], without following the camera): what it accumulates,
+    /// in words. Such an average over a camera that moves mixes different views, so a sequence over
+    /// a moving `camera_path` is warned about ([`crate::ValidatedPipeline::sequence_warnings`]).
+    /// Default: `None` (no history, or one reprojected to the current view).
+    fn accumulates_frames(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Option<&'static str> {
+        None
+    }
     /// Turn one validated node instance into passes, binding every declared output port.
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError>;
 }

@@ -269,6 +269,31 @@ impl ValidatedPipeline {
     pub fn node(&self, name: &str) -> Option<&ValidatedNode> {
         self.nodes.iter().find(|n| n.name == name)
     }
+    /// Warnings for rendering frames `first..=last` as a sequence: each node that accumulates its
+    /// frames pixel by pixel ([`NodeKind::accumulates_frames`]) while the camera path moves over
+    /// those frames averages different views (smeared light), which nothing else would report.
+    pub fn sequence_warnings(&self, first: u32, last: u32) -> Vec<String> {
+        let keys = &self.pipeline.camera_path;
+        let mut frames: Vec<u32> = keys.iter().map(|k| k.frame).filter(|f| (first..=last).contains(f)).collect();
+        frames.extend([first, last]);
+        let views: Vec<_> = frames.iter().filter_map(|&f| crate::camera_path_at(keys, f)).collect();
+        if views.windows(2).all(|w| w[0] == w[1]) {
+            return Vec::new();
+        }
+        let (from, to) = (keys[0].frame, keys[keys.len() - 1].frame);
+        self.nodes
+            .iter()
+            .filter_map(|n| n.kind.accumulates_frames(&n.params).map(|what| (n, what)))
+            .map(|(n, what)| {
+                format!(
+                    "{}: node `{}` ({}) averages {what} over frames {first}..{last} pixel by pixel, but the camera moves along the pipeline's `camera_path` (keys at frames {from}..{to}) over them: each pixel mixes different views (smeared light); render one view with `--frame N` or `--progressive N`, or a range where the path holds still",
+                    n.location,
+                    n.name,
+                    n.kind.kind()
+                )
+            })
+            .collect()
+    }
     /// Decide the factoring node again from the nodes' current parameters (after parameter
     /// overrides such as `--set defocus.aperture_radius=0`) and, where a scene is loaded, its facts
     /// (`None`: no scene yet), with the validator's diagnostics.
@@ -346,6 +371,9 @@ pub enum DiagnosticKind {
     BadNodeConfig,
     /// Two nodes both factor the pipeline's components ([`crate::factoring`]).
     TwoFactoringNodes,
+    /// A node takes an output that its producer finishes in a later stage than the node runs in
+    /// (e.g. an `Add` after a Defocus node's image-space filter).
+    StageOrder,
 }
 
 impl DiagnosticKind {
@@ -373,6 +401,7 @@ impl DiagnosticKind {
             DiagnosticKind::BadName => "bad-name",
             DiagnosticKind::BadNodeConfig => "bad-node-config",
             DiagnosticKind::TwoFactoringNodes => "two-factoring-nodes",
+            DiagnosticKind::StageOrder => "stage-order",
         }
     }
 }
@@ -1225,6 +1254,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
                 .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref())))),
         )?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
+        check_input_stages(v, node, &expansion, first_pass)?;
 
         // The node kind must keep its declared contract; a violation is a bug in the kind.
         let kind = node.kind.kind();
@@ -1281,6 +1311,39 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         emit_sampler(v, &mut expansion, &plan, &mut written)?;
     }
     Ok(expansion)
+}
+
+/// A node's passes may only read what earlier stages finished (the scheduler orders by stage). An
+/// input whose producer writes it in a later stage is the user's wiring, not a node kind's bug, so
+/// it is reported at the node with the ports as the pipeline file names them, and what to wire
+/// instead; the scheduler's own stage check stays for node kinds that break the rule inside.
+fn check_input_stages(v: &ValidatedPipeline, node: &ValidatedNode, expansion: &Expansion, first_pass: usize) -> Result<(), GraphError> {
+    let (earlier, own) = expansion.passes.split_at(first_pass);
+    for (port, (pnode, pport)) in &node.inputs {
+        let Some(id) = expansion.outputs.get(&(pnode.clone(), pport.clone())) else { continue };
+        let Some(writer) = earlier.iter().find(|p| p.writes.iter().any(|(_, b)| b == id)) else { continue };
+        let Some(reader) = own.iter().find(|p| p.stage < writer.stage && p.reads.iter().any(|(_, b)| b == id)) else { continue };
+        let producer = v.node(pnode);
+        let kind = |n: Option<&ValidatedNode>| n.map_or_else(String::new, |n| format!(" ({})", n.kind.kind()));
+        let upstream: Vec<String> = producer.map_or_else(Vec::new, |p| p.inputs.values().map(|(n, o)| format!("`{n}.{o}`")).collect());
+        let own_out = node.kind.outputs().first().map_or_else(|| node.name.clone(), |o| format!("{}.{}", node.name, o.name));
+        let combine = if upstream.is_empty() {
+            String::new()
+        } else {
+            format!("combine before `{pnode}` instead: wire `{}` from what `{pnode}` reads ({}) and give `{own_out}` to `{pnode}`; or ", node.name, upstream.join(", "))
+        };
+        let message = format!(
+            "node `{}`{} runs in stage {}, but its input `{port}` is `{pnode}.{pport}`, which `{pnode}`{} finishes only in the later stage {}: a node can only take outputs finished in its own or an earlier stage",
+            node.name,
+            kind(Some(node)),
+            reader.stage,
+            kind(producer),
+            writer.stage
+        );
+        let help = format!("{combine}take `{pnode}.{pport}` straight to the Output");
+        return Err(GraphError::Invalid(vec![Diagnostic { kind: DiagnosticKind::StageOrder, location: node.location.clone(), message: printable(message), help: printable(help) }]));
+    }
+    Ok(())
 }
 
 /// Emit the shared sampler's passes once, after every node expanded, and check that they write
