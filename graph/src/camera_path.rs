@@ -16,7 +16,7 @@
 //! around between two frames, and whether a frame lands on that point is an accident of the keys'
 //! frame numbers.
 
-use crate::pipeline::{CameraKey, CameraProblem, CameraSpec};
+use crate::pipeline::{CameraKey, CameraProblem, CameraSpec, MIN_UP_SINE};
 
 type V3 = (f32, f32, f32);
 
@@ -90,12 +90,20 @@ pub fn camera_path_problems(keys: &[CameraKey], camera: &CameraSpec, check_up: b
         if out.last().is_some_and(|p| p.key == k) {
             continue;
         }
-        if let Some((frame, problem)) = frames.into_iter().find_map(|f| at_frame(f).map(|p| (f, p))) {
+        let found = frames.iter().find_map(|&f| at_frame(f).map(|p| (f, p)));
+        let found = found.or_else(|| segment.too_close_for_f32((a.frame, b.frame), &frames, check_up));
+        if let Some((frame, problem)) = found {
             out.push(PathProblem { key: k, frame: f64::from(frame), problem });
         }
     }
     out
 }
+
+/// A bound on how far [`camera_path_at`]'s f32 arithmetic (and the renderer's `look_at − position`)
+/// moves the view direction from its exact value, relative to the largest coordinate of the
+/// segment: a few roundings of each coordinate (the fraction, `1 − s`, two products, a sum, the
+/// difference), each at most half an f32 ulp of that coordinate, with room to spare, times √3.
+const F32_DRIFT: f64 = 16.0 * 1.7320508 * f32::EPSILON as f64;
 
 /// One segment's view direction `d(s) = d_a + s e` in f64 (exact for the keys' f32 values), with
 /// `û`'s cross products for the up rule.
@@ -150,6 +158,44 @@ impl Segment {
         }
         out.retain(|s| s.is_finite() && *s > 0.0 && *s < 1.0);
         out
+    }
+
+    /// Between the frames checked, a measure is monotone in exact arithmetic, but the frames render
+    /// with f32 interpolation, which moves the view direction by up to [`F32_DRIFT`] × the largest
+    /// coordinate. Where the exact measures at the checked `frames` (which hold the smallest
+    /// `|d|` and sine of every whole frame) come within that drift of a rule, a frame between them
+    /// may break it in f32 although none checked does (e.g. a camera 0.06 from its target at
+    /// x = 10⁶, where f32 steps are 0.06): refused as too close to call, at the closest frame.
+    fn too_close_for_f32(&self, (first, last): (u32, u32), frames: &[u32], check_up: bool) -> Option<(u32, CameraProblem)> {
+        let coords = [self.pos.0, self.pos.1, self.at.0, self.at.1];
+        let largest = coords.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+        let drift = F32_DRIFT * largest;
+        let at = |f: u32| {
+            let s = f64::from(f - first) / f64::from(last - first);
+            sub(lerp(self.at.0, self.at.1, s), lerp(self.pos.0, self.pos.1, s))
+        };
+        let (near, d) = frames.iter().map(|&f| (f, at(f))).min_by(|x, y| dot(x.1, x.1).total_cmp(&dot(y.1, y.1)))?;
+        let length = dot(d, d).sqrt();
+        if length <= 2.0 * drift {
+            let message = format!(
+                "camera `look_at` comes within {length:.3e} of `position` at frame {near}, closer than single precision (what frames are rendered in) resolves at coordinates of magnitude {largest:.3e}: some frame could have no view direction"
+            );
+            return Some((near, CameraProblem { field: "look_at", message, help: String::new() }));
+        }
+        if !check_up {
+            return None;
+        }
+        let up_len = dot(self.up, self.up).sqrt();
+        let sine = |d: [f64; 3]| (dot(cross(d, self.up), cross(d, self.up)).sqrt() / (dot(d, d).sqrt() * up_len));
+        let (near, d) = frames.iter().map(|&f| (f, at(f))).min_by(|x, y| sine(x.1).total_cmp(&sine(y.1)))?;
+        let margin = 2.0 * drift / length;
+        (sine(d) < MIN_UP_SINE + margin).then(|| {
+            let message = format!(
+                "the view comes within sine {:.3e} of `up` at frame {near}, too close to the camera rule's {MIN_UP_SINE} for single precision (what frames are rendered in) at coordinates of magnitude {largest:.3e}: some frame could look along `up`",
+                sine(d)
+            );
+            (near, CameraProblem { field: "up", message, help: String::new() })
+        })
     }
 
     /// The camera rules at `s` between whole frames (f64 interpolation), the view direction taken as
@@ -235,6 +281,22 @@ mod tests {
         // A path that stays well away from both is fine, however long.
         let keys = [key(0, (0.0, 1.0, 4.0), (0.0, 0.0, 0.0)), key(4_000_000_000, (4.0, 1.0, 0.0), (0.0, 0.0, 0.0))];
         assert!(camera_path_problems(&keys, &camera(), true).is_empty());
+    }
+
+    #[test]
+    fn a_view_single_precision_cannot_hold_between_keys_is_refused() {
+        // At x = 10^6 f32 steps are 0.0625: a camera one step from its target is a valid block, but
+        // interpolated frames between two such keys round position and look_at onto each other.
+        let (p, l) = ((1e6, 0.0, 0.0), (1_000_000.0625, 0.0, 0.0));
+        let keys = [key(0, p, l), key(7, p, l)];
+        let collapsed = (1..7).filter(|&f| camera_path_at(&keys, f).is_some_and(|(p, l)| p == l)).count();
+        assert!(collapsed > 0, "the case no longer shows the rounding");
+        let found = camera_path_problems(&keys, &camera(), false);
+        assert_eq!((found.len(), found[0].problem.field), (1, "look_at"), "{found:?}");
+        assert!(found[0].problem.message.contains("closer than single precision"), "{}", found[0].problem.message);
+        // The same view near the origin is fine.
+        let keys = [key(0, (1.0, 0.0, 0.0), (1.0625, 0.0, 0.0)), key(7, (1.0, 0.0, 0.0), (1.0625, 0.0, 0.0))];
+        assert!(camera_path_problems(&keys, &camera(), false).is_empty());
     }
 
     #[test]

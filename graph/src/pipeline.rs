@@ -169,6 +169,9 @@ pub struct CameraProblem {
     pub help: String,
 }
 
+/// Camera rule 3 ([`CameraSpec::problems`]): the least sine of the angle between `up` and the view.
+pub(crate) const MIN_UP_SINE: f64 = 1e-3;
+
 impl CameraSpec {
     /// Rules 1–3 of [`CameraSpec::problems`] (the view: finite points, a view direction, an `up` off
     /// it) for a camera at `pos` looking at `at`, in f64: also what a camera path is checked with
@@ -224,7 +227,7 @@ impl CameraSpec {
                     dir[0] * up[1] - dir[1] * up[0],
                 ];
                 let sine = len(c) / (len(dir) * len(up));
-                if sine < 1e-3 {
+                if sine < MIN_UP_SINE {
                     bad(
                         "up",
                         format!(
