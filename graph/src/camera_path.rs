@@ -186,7 +186,7 @@ impl Segment {
             return None;
         }
         let up_len = dot(self.up, self.up).sqrt();
-        let sine = |d: [f64; 3]| (dot(cross(d, self.up), cross(d, self.up)).sqrt() / (dot(d, d).sqrt() * up_len));
+        let sine = |d: [f64; 3]| dot(cross(d, self.up), cross(d, self.up)).sqrt() / (dot(d, d).sqrt() * up_len);
         let (near, d) = frames.iter().map(|&f| (f, at(f))).min_by(|x, y| sine(x.1).total_cmp(&sine(y.1)))?;
         let margin = 2.0 * drift / length;
         (sine(d) < MIN_UP_SINE + margin).then(|| {
