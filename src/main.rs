@@ -243,22 +243,6 @@ fn check_memory(session: &Session, mode: RunMode, flag: Option<u64>) -> Result<(
     }
 }
 
-fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
-    let usage = || WedgeError::Usage(format!("--set {s:?}: expected NODE.PARAM=VALUE, e.g. shadows.mu=4"));
-    let (lhs, value) = s.split_once('=').ok_or_else(usage)?;
-    let (node, param) = lhs.split_once('.').ok_or_else(usage)?;
-    let v = if let Ok(i) = value.parse::<i64>() {
-        ParamValue::Int(i)
-    } else if let Ok(f) = value.parse::<f64>() {
-        ParamValue::Float(f)
-    } else if let Ok(b) = value.parse::<bool>() {
-        ParamValue::Bool(b)
-    } else {
-        ParamValue::Str(value.to_string())
-    };
-    Ok((node.to_string(), param.to_string(), v))
-}
-
 fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
     Ok(Overrides {
         scene: c.scene.clone(),
@@ -266,7 +250,7 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         height: c.height,
         seed: c.seed,
         mu,
-        params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+        params: c.set.iter().map(|s| wedge::session::parse_set(s)).collect::<Result<_, _>>()?,
         allow_outside_scene_dir: c.allow_outside_scene_dir,
         frame: None,
     })
@@ -700,7 +684,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 height: Some(height),
                 seed,
                 mu: None,
-                params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+                params: set.iter().map(|s| wedge::session::parse_set(s)).collect::<Result<_, _>>()?,
                 ..Overrides::default()
             };
             let session = Session::open(pipeline.as_deref(), &ov)?;

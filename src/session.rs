@@ -53,6 +53,25 @@ pub struct Overrides {
     pub frame: Option<u32>,
 }
 
+/// One `--set NODE.PARAM=VALUE` as an override of [`Overrides::params`]: the value is an integer,
+/// a number, a bool or else a string, as written (checked against the parameter's declaration when
+/// a session applies it). Public so that the fuzz target `set` parses exactly what the CLI does.
+pub fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
+    let usage = || WedgeError::Usage(format!("--set {s:?}: expected NODE.PARAM=VALUE, e.g. shadows.mu=4"));
+    let (lhs, value) = s.split_once('=').ok_or_else(usage)?;
+    let (node, param) = lhs.split_once('.').ok_or_else(usage)?;
+    let v = if let Ok(i) = value.parse::<i64>() {
+        ParamValue::Int(i)
+    } else if let Ok(f) = value.parse::<f64>() {
+        ParamValue::Float(f)
+    } else if let Ok(b) = value.parse::<bool>() {
+        ParamValue::Bool(b)
+    } else {
+        ParamValue::Str(value.to_string())
+    };
+    Ok((node.to_string(), param.to_string(), v))
+}
+
 pub struct Session {
     pub pipeline: ValidatedPipeline,
     pub schedule: Schedule,
