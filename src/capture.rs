@@ -60,10 +60,15 @@ pub fn capture_real_layer(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
 fn render(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
     eprintln!("capturing the real layer from `{}` at {} samples per pixel ({}x{})", c.spec, c.spp, c.width, c.height);
     let scene = if c.spec.starts_with("builtin:") { c.spec.to_string() } else { c.base_dir.join(c.spec).display().to_string() };
+    // The captured scene is lit by the pipeline's map, set on its scene below, not by a map of its own
+    // (which it may not have, e.g. `builtin:cornell`): its Environment node names a built-in map only
+    // so that building the session does not ask the captured scene for one; it is replaced before
+    // anything runs. Without a pipeline map the captured scene's own lights it.
+    let map = if c.environment.is_some() { r#""map": "builtin:sky", "# } else { "" };
     // `{:?}` quotes and escapes the string as RON reads it.
     let text = format!(
         r#"Pipeline(scene: {scene:?}, width: {}, height: {}, seed: {}, nodes: [
-            (name: "env", kind: "Environment", params: {{"indirect": true}}),
+            (name: "env", kind: "Environment", params: {{{map}"indirect": true}}),
             (name: "out", kind: "Output", inputs: {{"color": "env.radiance"}}),
         ])"#,
         c.width, c.height, c.seed

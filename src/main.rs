@@ -249,22 +249,6 @@ fn check_memory(session: &Session, mode: RunMode, flag: Option<u64>) -> Result<(
     }
 }
 
-fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
-    let usage = || WedgeError::Usage(format!("--set {s:?}: expected NODE.PARAM=VALUE, e.g. shadows.mu=4"));
-    let (lhs, value) = s.split_once('=').ok_or_else(usage)?;
-    let (node, param) = lhs.split_once('.').ok_or_else(usage)?;
-    let v = if let Ok(i) = value.parse::<i64>() {
-        ParamValue::Int(i)
-    } else if let Ok(f) = value.parse::<f64>() {
-        ParamValue::Float(f)
-    } else if let Ok(b) = value.parse::<bool>() {
-        ParamValue::Bool(b)
-    } else {
-        ParamValue::Str(value.to_string())
-    };
-    Ok((node.to_string(), param.to_string(), v))
-}
-
 fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
     Ok(Overrides {
         scene: c.scene.clone(),
@@ -272,7 +256,7 @@ fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
         height: c.height,
         seed: c.seed,
         mu,
-        params: c.set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+        params: c.set.iter().map(|s| wedge::session::parse_set(s)).collect::<Result<_, _>>()?,
         allow_outside_dir: c.allow_outside_dir,
         without_real_layer: false,
         frame: None,
@@ -443,6 +427,9 @@ fn sequence_backend(session: &Session, common: &Common, what: &str) -> Result<Bo
 /// the memory held is one frame's, however many frames the range has.
 fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
     let mut backend = sequence_backend(session, common, &format!("frames {first}..{last}"))?;
+    for w in session.pipeline.sequence_warnings(first, last) {
+        eprintln!("warning: {w}");
+    }
     let bars = Bars::default();
     let mut out = wedge::outputs::SequenceWriter::new(&common.out)?;
     let (mut previous, mut seconds) = (None, 0.0f64);
@@ -763,7 +750,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 height: Some(height),
                 seed,
                 mu: None,
-                params: set.iter().map(|s| parse_set(s)).collect::<Result<_, _>>()?,
+                params: set.iter().map(|s| wedge::session::parse_set(s)).collect::<Result<_, _>>()?,
                 ..Overrides::default()
             };
             let mut session = Session::open(pipeline.as_deref(), &Overrides { frame: frames.map(|(first, _)| first), ..ov })?;

@@ -59,6 +59,25 @@ pub struct Overrides {
     pub frame: Option<u32>,
 }
 
+/// One `--set NODE.PARAM=VALUE` as an override of [`Overrides::params`]: the value is an integer,
+/// a number, a bool or else a string, as written (checked against the parameter's declaration when
+/// a session applies it). Public so that the fuzz target `set` parses exactly what the CLI does.
+pub fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
+    let usage = || WedgeError::Usage(format!("--set {s:?}: expected NODE.PARAM=VALUE, e.g. shadows.mu=4"));
+    let (lhs, value) = s.split_once('=').ok_or_else(usage)?;
+    let (node, param) = lhs.split_once('.').ok_or_else(usage)?;
+    let v = if let Ok(i) = value.parse::<i64>() {
+        ParamValue::Int(i)
+    } else if let Ok(f) = value.parse::<f64>() {
+        ParamValue::Float(f)
+    } else if let Ok(b) = value.parse::<bool>() {
+        ParamValue::Bool(b)
+    } else {
+        ParamValue::Str(value.to_string())
+    };
+    Ok((node.to_string(), param.to_string(), v))
+}
+
 pub struct Session {
     pub pipeline: ValidatedPipeline,
     pub schedule: Schedule,
@@ -158,6 +177,12 @@ impl Session {
             scene.camera = camera_from_spec(c, &scene.camera);
         }
         apply_motion(&mut scene, &pipeline)?;
+        // Without a camera block the scene's camera gives the path its `up`: check the path's view
+        // against it now (validation checked it against the block's).
+        if pipeline.pipeline.camera.is_none() {
+            let up = scene.camera.up;
+            wedge_graph::check_camera_path(&loaded, (up.x, up.y, up.z))?;
+        }
         // A pipeline with a camera path renders its frame 0 (or `ov.frame`) as a single image; before
         // the scene requests, so a real layer is captured from that frame's camera.
         let frame = ov.frame.unwrap_or(0);
@@ -451,22 +476,10 @@ impl MemoryEstimate {
 }
 
 /// Position and look-at of a camera path at `frame` (see [`Session::camera_at`]); `None` without keys.
+/// The interpolation is the graph's ([`wedge_graph::camera_path_at`]), the one its validation checks.
 pub fn path_at(keys: &[wedge_graph::CameraKey], frame: u32) -> Option<(Vec3, Vec3)> {
     let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
-    let at = |k: &wedge_graph::CameraKey| (v(k.position), v(k.look_at));
-    let first = keys.first()?;
-    if frame <= first.frame {
-        return Some(at(first));
-    }
-    for pair in keys.windows(2) {
-        let (a, b) = (&pair[0], &pair[1]);
-        if frame <= b.frame {
-            let s = (frame - a.frame) as f32 / (b.frame - a.frame) as f32;
-            let ((pa, la), (pb, lb)) = (at(a), at(b));
-            return Some((pa.lerp(pb, s), la.lerp(lb, s)));
-        }
-    }
-    keys.last().map(at)
+    wedge_graph::camera_path_at(keys, frame).map(|(position, look_at)| (v(position), v(look_at)))
 }
 
 /// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]): something moves

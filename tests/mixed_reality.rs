@@ -300,3 +300,12 @@ fn a_moving_camera_leaves_no_ghost_of_the_virtual_object() {
     println!("frame 1 RMSE against the converged composite: temporal {et:.4e}, spatial {es:.4e}");
     assert!(et <= 1.05 * es, "temporal {et} vs spatial {es}");
 }
+
+#[test]
+fn a_captured_scene_without_a_map_of_its_own_is_lit_by_the_nodes_map() {
+    // Issue 33: `builtin:cornell` has no environment map; the node's `map` lights the capture, as the
+    // README says capture accepts any scene (this failed with "scene `cornell` has none").
+    let s = build(&mr("builtin:envmap_virtual", "builtin:cornell", 4, r#""map": "builtin:sky""#)).unwrap_or_else(|e| panic!("{e}"));
+    let lit = mean(&camera_image(&s));
+    assert!(lit.is_finite() && lit > 0.0, "the capture under builtin:sky is black: {lit}");
+}

@@ -55,6 +55,11 @@ impl NodeKind for PixelFilter {
             PortDecl::new("sigma", Format::F32, "the spatial sigma of the filter per pixel (pixels)"),
         ]
     }
+    /// Its `accumulate` pass keeps a running mean per pixel of every frame so far, with no
+    /// reprojection: over a moving camera that mixes views.
+    fn accumulates_frames(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Option<&'static str> {
+        Some("its progressive path-traced radiance (a running mean of every frame so far)")
+    }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::choice(

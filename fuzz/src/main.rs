@@ -19,7 +19,7 @@ static ALLOC: wedge_fuzz::alloc::CountingAlloc = wedge_fuzz::alloc::CountingAllo
     about = "Mutation fuzzing of wedge's input readers"
 )]
 struct Cli {
-    /// pipeline, gltf, glb, obj, exr, or all
+    /// pipeline, gltf, glb, obj, exr, camera_path, set, or all
     target: String,
     /// How long to fuzz each target
     #[arg(long, default_value_t = 60.0)]

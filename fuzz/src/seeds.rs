@@ -22,6 +22,8 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             .collect(),
         "obj" => obj_scenes(),
         "exr" => exr_images(),
+        "camera_path" => camera_paths(),
+        "set" => sets(),
         _ => Vec::new(),
     }
 }
@@ -48,6 +50,33 @@ fn pipelines() -> Vec<Vec<u8>> {
             .into_bytes(),
     );
     v
+}
+
+/// Pipelines with camera paths: the shipped temporal ones, with a camera block, a three-key path
+/// that turns, a held path, and a long one (the shapes the validator's analysis distinguishes).
+fn camera_paths() -> Vec<Vec<u8>> {
+    let temporal = include_str!("../../pipelines/environment_temporal.ron");
+    let with_camera = temporal.replacen("seed: 1,", "seed: 1,\n    camera: Some((position: (0, 1.6, 3.3), look_at: (0, 0.45, 0), up: (0, 1, 0), vfov_deg: 40)),", 1);
+    let keys = |k: &str| temporal.replacen("(frame: 23, position: (0.8, 1.6, 3.3), look_at: (0, 0.45, 0)),", k, 1);
+    [
+        temporal.to_string(),
+        include_str!("../../pipelines/mixed_reality_temporal.ron").to_string(),
+        with_camera.clone(),
+        keys("(frame: 10, position: (0, 1.6, -3.3), look_at: (0, 0.45, 0)),\n        (frame: 20, position: (3.3, 0.2, 0), look_at: (0, 0.45, 0.5)),"),
+        keys("(frame: 5, position: (-0.8, 1.6, 3.3), look_at: (0, 0.45, 0)),"),
+        keys("(frame: 4000000000, position: (0.8, 1.6, 3.3), look_at: (0.1, 0.45, 0)),"),
+    ]
+    .into_iter()
+    .map(String::into_bytes)
+    .collect()
+}
+
+/// `--set` lines for the `set` target's pipeline: every value type, and several at once.
+fn sets() -> Vec<Vec<u8>> {
+    ["shadows.mu=2", "shadows.light=0\nshadows.max_rays=64", "shadows.mu=0.5\nshadows.fill_radius=4", "shadows.form_factor=light_centre\nshadows.alpha=0.5"]
+        .iter()
+        .map(|s| s.as_bytes().to_vec())
+        .collect()
 }
 
 /// A 2×2 RGB PNG (the texture companion file `tex.png`).

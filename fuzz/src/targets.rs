@@ -57,6 +57,18 @@ pub const TARGETS: &[Target] = &[
         ext: "exr",
         text: false,
     },
+    Target {
+        name: "camera_path",
+        run: camera_path,
+        ext: "ron",
+        text: true,
+    },
+    Target {
+        name: "set",
+        run: set,
+        ext: "txt",
+        text: true,
+    },
 ];
 
 /// The target called `name`.
@@ -88,6 +100,70 @@ pub fn pipeline(data: &[u8]) -> Result<(), String> {
         Ok(())
     };
     run().map_err(|e| e.to_string())
+}
+
+/// Pipeline text with a `camera_path` → parse → validate. Where validation accepts the path, every
+/// camera along it must pass the camera rules the validator holds a `camera:` block to (the view
+/// rules; `up` only where a camera block gives it, as validation does) at a sampled set of frames —
+/// the keys, their neighbours, the midpoints and fractions between them, and the far ends — each
+/// camera interpolated by [`wedge_graph::camera_path_at`], the renderer's function. A violation
+/// panics: the validator let a path through that renders a degenerate camera.
+pub fn camera_path(data: &[u8]) -> Result<(), String> {
+    let text = String::from_utf8_lossy(data);
+    let loaded = wedge_graph::parse_pipeline(Path::new("fuzz.ron"), &text).map_err(|e| e.to_string())?;
+    let validated = wedge_graph::validate(&loaded, registry()).map_err(|e| e.to_string())?;
+    let keys = &validated.pipeline.camera_path;
+    let (camera, check_up) = match &validated.pipeline.camera {
+        Some(c) => (c.clone(), true),
+        None => (
+            wedge_graph::CameraSpec { position: (0.0, 0.0, 1.0), look_at: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), vfov_deg: 45.0, aperture_radius: 0.0, focus_distance: None, shutter: None },
+            false,
+        ),
+    };
+    for frame in sampled_frames(keys) {
+        let Some((position, look_at)) = wedge_graph::camera_path_at(keys, frame) else { continue };
+        let cam = wedge_graph::CameraSpec { position, look_at, ..camera.clone() };
+        let broken: Vec<_> = cam.problems().into_iter().filter(|p| matches!(p.field, "position" | "look_at") || (check_up && p.field == "up")).collect();
+        assert!(broken.is_empty(), "validation accepted a camera path whose frame {frame} breaks a camera rule: {}", broken[0].message);
+    }
+    Ok(())
+}
+
+/// Frames to check along a path: each key and its neighbours, and 1/8 steps between two keys.
+fn sampled_frames(keys: &[wedge_graph::CameraKey]) -> Vec<u32> {
+    let mut frames = vec![0, u32::MAX];
+    for k in keys {
+        frames.extend([k.frame.saturating_sub(1), k.frame, k.frame.saturating_add(1)]);
+    }
+    for w in keys.windows(2) {
+        let (a, b) = (u64::from(w[0].frame), u64::from(w[1].frame));
+        frames.extend((1..8u64).map(|i| (a + (b.saturating_sub(a)) * i / 8) as u32));
+    }
+    frames
+}
+
+/// Lines of `--set NODE.PARAM=VALUE` (at most 8) parsed as the CLI does ([`wedge::session::parse_set`])
+/// and applied to a small pipeline (a SoftShadows node on `builtin:cornell`) by building its session.
+/// Each must give an error or a value its parameter's declaration accepts.
+pub fn set(data: &[u8]) -> Result<(), String> {
+    const PIPELINE: &str = r#"Pipeline(scene: "builtin:cornell", width: 8, height: 6, nodes: [
+        (name: "primary", kind: "Primary"),
+        (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "emission": "primary.emission"}),
+        (name: "out", kind: "Output", inputs: {"color": "shadows.radiance"}),
+    ])"#;
+    let text = String::from_utf8_lossy(data);
+    let params = text.lines().take(8).map(wedge::session::parse_set).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
+    let loaded = wedge_graph::parse_pipeline(Path::new("fuzz.ron"), PIPELINE).map_err(|e| e.to_string())?;
+    let (nodes, kernels) = wedge_effects::builtin();
+    let ov = wedge::Overrides { params: params.clone(), ..Default::default() };
+    let session = wedge::Session::build(loaded, &ov, nodes, kernels).map_err(|e| e.to_string())?;
+    for (node, name, _) in &params {
+        let n = session.pipeline.node(node).unwrap_or_else(|| panic!("--set {node}.{name} was accepted but there is no node `{node}`"));
+        let decl = n.kind.params().into_iter().find(|d| d.name == name).unwrap_or_else(|| panic!("--set {node}.{name} was accepted but `{node}` declares no `{name}`"));
+        let value = n.params.get(name).unwrap_or_else(|| panic!("--set {node}.{name} was accepted but the node has no value for it"));
+        assert!(decl.check(value).is_ok(), "--set {node}.{name} left the value {value}, which its declaration refuses");
+    }
+    Ok(())
 }
 
 /// A `.gltf` scene file.

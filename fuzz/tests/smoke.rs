@@ -91,3 +91,13 @@ fn same_seed_same_run() {
     assert_eq!(a.executions, 3000);
     assert_eq!((a.corpus, a.outcomes), (b.corpus, b.outcomes));
 }
+
+#[test]
+fn camera_path() {
+    smoke("camera_path");
+}
+
+#[test]
+fn set() {
+    smoke("set");
+}

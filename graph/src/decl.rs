@@ -339,12 +339,15 @@ impl fmt::Display for ParamValue {
 /// The type and admissible range of a parameter.
 #[derive(Clone, Debug)]
 pub enum ParamKind {
-    /// A real number in `min..=max`, or `min < x` when `min_exclusive` (e.g. `mu > 0`).
+    /// A real number in `min..=max`, or `min < x` when `min_exclusive` (e.g. `mu > 0`); or, where
+    /// `special` is given, exactly that value, which means something other than a number of the range
+    /// (e.g. `b_e = -1`: "the map's own bandwidth"), see [`ParamDecl::or_special`].
     Float {
         default: f64,
         min: f64,
         max: f64,
         min_exclusive: bool,
+        special: Option<Special>,
     },
     /// An integer in `min..=max`.
     Int {
@@ -366,6 +369,14 @@ pub enum ParamKind {
     Path {
         default: &'static str,
     },
+}
+
+/// A value outside a float parameter's range that the parameter accepts with a meaning of its own
+/// (a sentinel such as `-1` = automatic), and that meaning, for messages and documentation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Special {
+    pub value: f64,
+    pub meaning: &'static str,
 }
 
 #[derive(Clone, Debug)]
@@ -394,6 +405,7 @@ impl ParamDecl {
                 min,
                 max,
                 min_exclusive: false,
+                special: None,
             },
             doc,
             optional: false,
@@ -408,6 +420,7 @@ impl ParamDecl {
                 min: 0.0,
                 max,
                 min_exclusive: true,
+                special: None,
             },
             doc,
             optional: false,
@@ -459,6 +472,16 @@ impl ParamDecl {
         }
     }
 
+    /// The same float declaration, also accepting exactly `value` (outside the range) with the meaning
+    /// `meaning`: e.g. `ParamDecl::float("b_e", -1.0, 0.0, 1e4, …).or_special(-1.0, "the map's own
+    /// bandwidth")` accepts -1 and 0 ≤ b_e ≤ 1e4, and refuses -0.5 saying so. (Other kinds: unchanged.)
+    pub const fn or_special(mut self, value: f64, meaning: &'static str) -> Self {
+        if let ParamKind::Float { special, .. } = &mut self.kind {
+            *special = Some(Special { value, meaning });
+        }
+        self
+    }
+
     /// The same declaration, but optional: no default is filled in when the pipeline leaves it out
     /// (the declared default is only what documentation shows as the typical value).
     pub const fn optional(mut self) -> Self {
@@ -479,32 +502,22 @@ impl ParamDecl {
     /// The error string says what is allowed, so it can be shown to the user as the fix.
     pub fn check(&self, value: &ParamValue) -> Result<ParamValue, String> {
         match (&self.kind, value) {
-            (
-                ParamKind::Float {
-                    min,
-                    max,
-                    min_exclusive,
-                    ..
-                },
-                ParamValue::Float(_) | ParamValue::Int(_),
-            ) => {
+            (ParamKind::Float { min, max, min_exclusive, special, .. }, ParamValue::Float(_) | ParamValue::Int(_)) => {
                 let v = match value {
                     ParamValue::Float(v) => *v,
                     ParamValue::Int(v) => *v as f64,
                     _ => unreachable!(),
                 };
+                if special.is_some_and(|s| s.value == v) {
+                    return Ok(ParamValue::Float(v));
+                }
                 let low_ok = if *min_exclusive { v > *min } else { v >= *min };
                 if !v.is_finite() || !low_ok || v > *max {
-                    let lo = if *min_exclusive {
-                        format!("{min} < {}", self.name)
-                    } else {
-                        format!("{min} <= {}", self.name)
-                    };
-                    return Err(format!(
-                        "{} = {v} is out of range; it must satisfy {lo} <= {max}",
-                        self.name
-                    ));
+                    let lo = if *min_exclusive { format!("{min} < {}", self.name) } else { format!("{min} <= {}", self.name) };
+                    let or = special.map_or(String::new(), |s| format!("be {} ({}) or ", s.value, s.meaning));
+                    return Err(format!("{} = {} is out of range; it must {or}satisfy {lo} <= {max}", self.name, as_written(v)));
                 }
+                check_single_precision(self.name, v, *min, *min_exclusive, *max)?;
                 Ok(ParamValue::Float(v))
             }
             (ParamKind::Int { min, max, .. }, ParamValue::Int(v)) => {
@@ -543,6 +556,43 @@ impl ParamDecl {
                 kind_name(kind)
             )),
         }
+    }
+}
+
+/// Kernels compute in single precision (f32, on the CPU and the GPU alike), so a value that is
+/// fine as written (f64) must also survive the conversion: one that becomes infinite, 0 or subnormal
+/// (GPUs flush subnormals to 0) would fail at run time as "= 0", or silently mean something else
+/// (`max_distance` 1e-300 would become 0 = "no limit"). Refused here, where the message can point
+/// at the parameter.
+fn check_single_precision(name: &str, v: f64, min: f64, min_exclusive: bool, max: f64) -> Result<(), String> {
+    let single = v as f32;
+    if single.is_infinite() {
+        return Err(format!(
+            "{name} = {} is beyond single precision (|x| <= {:e}), which the kernels compute in",
+            as_written(v),
+            f32::MAX
+        ));
+    }
+    if v != 0.0 && !single.is_normal() {
+        let zero_allowed = (if min_exclusive { min < 0.0 } else { min <= 0.0 }) && max >= 0.0;
+        let fix = if zero_allowed { "write 0, or a value" } else { "write a value" };
+        return Err(format!(
+            "{name} = {} is {} in single precision (f32), which the kernels compute in; {fix} of magnitude at least {:e}",
+            as_written(v),
+            if single == 0.0 { "0" } else { "subnormal (flushed to 0 on GPUs)" },
+            f32::MIN_POSITIVE
+        ));
+    }
+    Ok(())
+}
+
+/// A number as a user would write it: plain where that is short, else in exponent form (`1e-300`,
+/// not three hundred zeros).
+fn as_written(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e15).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 
@@ -635,6 +685,14 @@ pub trait NodeKind: Send + Sync {
             ),
         })
     }
+    /// Where this node, with these parameters, averages its own earlier frames pixel by pixel
+    /// (through [`ExpandCtx::previous_frame`], without following the camera): what it accumulates,
+    /// in words. Such an average over a camera that moves mixes different views, so a sequence over
+    /// a moving `camera_path` is warned about ([`crate::ValidatedPipeline::sequence_warnings`]).
+    /// Default: `None` (no history, or one reprojected to the current view).
+    fn accumulates_frames(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Option<&'static str> {
+        None
+    }
     /// Turn one validated node instance into passes, binding every declared output port.
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError>;
 }
@@ -671,5 +729,38 @@ impl NodeRegistry {
     }
     pub fn names(&self) -> Vec<&'static str> {
         self.kinds.iter().map(|k| k.kind()).collect()
+    }
+}
+
+#[cfg(test)]
+mod param_tests {
+    use super::*;
+
+    #[test]
+    fn a_special_value_is_the_only_one_outside_the_range() {
+        let b_e = ParamDecl::float("b_e", -1.0, 0.0, 1e4, "bandwidth").or_special(-1.0, "automatic");
+        assert!(matches!(b_e.check(&ParamValue::Float(-1.0)), Ok(ParamValue::Float(v)) if v == -1.0));
+        assert!(matches!(b_e.check(&ParamValue::Int(-1)), Ok(ParamValue::Float(v)) if v == -1.0));
+        assert!(b_e.check(&ParamValue::Float(0.0)).is_ok());
+        assert_eq!(
+            b_e.check(&ParamValue::Float(-0.5)).unwrap_err(),
+            "b_e = -0.5 is out of range; it must be -1 (automatic) or satisfy 0 <= b_e <= 10000"
+        );
+    }
+
+    #[test]
+    fn values_single_precision_cannot_hold_are_refused_as_written() {
+        let scale = ParamDecl::positive("scale", 1.0, 1e9, "radiance scale");
+        assert_eq!(
+            scale.check(&ParamValue::Float(1e-300)).unwrap_err(),
+            "scale = 1e-300 is 0 in single precision (f32), which the kernels compute in; write a value of magnitude at least 1.1754944e-38"
+        );
+        assert!(scale.check(&ParamValue::Float(1e-39)).unwrap_err().starts_with("scale = 1e-39 is subnormal (flushed to 0 on GPUs)"));
+        assert!(scale.check(&ParamValue::Float(1e-30)).is_ok());
+        // Where 0 is in the range, writing 0 is offered as the fix.
+        let dist = ParamDecl::float("max_distance", 0.0, 0.0, 1e300, "0 = no limit");
+        assert!(dist.check(&ParamValue::Float(1e-300)).unwrap_err().contains("write 0, or a value of magnitude"));
+        assert_eq!(dist.check(&ParamValue::Float(1e39)).unwrap_err(), "max_distance = 1e39 is beyond single precision (|x| <= 3.4028235e38), which the kernels compute in");
+        assert!(dist.check(&ParamValue::Float(0.0)).is_ok());
     }
 }

@@ -2,6 +2,7 @@
 //!
 //! The render graph of wedge, independent of scenes and GPUs:
 //! - [`pipeline`]: the RON pipeline schema (unknown fields rejected) with source locations;
+//! - [`camera_path`]: a pipeline's camera path, interpolated, and checked camera by camera;
 //! - [`decl`]: what a node kind declares (ports with formats, typed parameters with ranges) and the
 //!   [`NodeRegistry`] a user crate extends;
 //! - [`validate()`]: checks a parsed pipeline against the declarations and reports *every* problem at
@@ -18,6 +19,7 @@
 //!   buffer lifetimes and a pool plan that lets buffers with disjoint lifetimes share storage, and
 //!   prints the schedule as a table or Graphviz.
 
+pub mod camera_path;
 pub mod decl;
 pub mod expand;
 pub mod factoring;
@@ -30,7 +32,8 @@ mod source_map;
 pub mod stage;
 mod validate;
 
-pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, SceneRequest, StructLayout};
+pub use camera_path::{camera_path_at, camera_path_problems, PathProblem};
+pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, SceneRequest, Special, StructLayout};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, PassBuilder};
 pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts};
 pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
@@ -39,7 +42,7 @@ pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPla
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use stage::{stream_id, Reference, Stage};
 pub use validate::{
-    expand, load_pipeline, parse_pipeline, suggestion, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
+    check_camera_path, expand, load_pipeline, parse_pipeline, suggestion, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
     ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,
 };
 

@@ -169,23 +169,14 @@ pub struct CameraProblem {
     pub help: String,
 }
 
+/// Camera rule 3 ([`CameraSpec::problems`]): the least sine of the angle between `up` and the view.
+pub(crate) const MIN_UP_SINE: f64 = 1e-3;
+
 impl CameraSpec {
-    /// Check the camera against the rules that make it render something; every broken rule is
-    /// returned. A camera that breaks one renders black (NaN rays) or nonsense without any error.
-    ///
-    /// The rules (kept identical to `wedge_scene::Camera::validate` for scene-file cameras; the two
-    /// crates do not depend on each other, so a change here must be made there too):
-    /// 1. `position`, `look_at` and `up` are finite (no NaN or infinity);
-    /// 2. `look_at - position` is finite and non-zero (there is a view direction);
-    /// 3. `up` is non-zero and not parallel to the view direction: the sine of the angle between
-    ///    them is at least 1e-3 (about 0.06°), so the camera frame is well defined;
-    /// 4. `vfov_deg` is finite with 0 < `vfov_deg` < 180;
-    /// 5. `aperture_radius` is finite and >= 0 (0 is a pinhole);
-    /// 6. `focus_distance`, when given, is finite and > 0;
-    /// 7. `shutter`, when given, is two finite times with open <= close.
-    ///
-    /// Arithmetic is in f64 so that large but finite coordinates do not overflow in the checks.
-    pub fn problems(&self) -> Vec<CameraProblem> {
+    /// Rules 1–3 of [`CameraSpec::problems`] (the view: finite points, a view direction, an `up` off
+    /// it) for a camera at `pos` looking at `at`, in f64: also what a camera path is checked with
+    /// between its keys ([`crate::camera_path`]).
+    pub fn view_problems(pos: [f64; 3], at: [f64; 3], up: [f64; 3]) -> Vec<CameraProblem> {
         let mut out = Vec::new();
         let mut bad = |field: &'static str, message: String, help: String| {
             out.push(CameraProblem {
@@ -194,9 +185,7 @@ impl CameraSpec {
                 help,
             })
         };
-        let v = |t: (f32, f32, f32)| [f64::from(t.0), f64::from(t.1), f64::from(t.2)];
         let finite = |a: [f64; 3]| a.iter().all(|x| x.is_finite());
-        let (pos, at, up) = (v(self.position), v(self.look_at), v(self.up));
         for (field, value) in [("position", pos), ("look_at", at), ("up", up)] {
             if !finite(value) {
                 bad(
@@ -238,7 +227,7 @@ impl CameraSpec {
                     dir[0] * up[1] - dir[1] * up[0],
                 ];
                 let sine = len(c) / (len(dir) * len(up));
-                if sine < 1e-3 {
+                if sine < MIN_UP_SINE {
                     bad(
                         "up",
                         format!(
@@ -252,6 +241,34 @@ impl CameraSpec {
                 }
             }
         }
+        out
+    }
+
+    /// Check the camera against the rules that make it render something; every broken rule is
+    /// returned. A camera that breaks one renders black (NaN rays) or nonsense without any error.
+    ///
+    /// The rules (kept identical to `wedge_scene::Camera::validate` for scene-file cameras; the two
+    /// crates do not depend on each other, so a change here must be made there too):
+    /// 1. `position`, `look_at` and `up` are finite (no NaN or infinity);
+    /// 2. `look_at - position` is finite and non-zero (there is a view direction);
+    /// 3. `up` is non-zero and not parallel to the view direction: the sine of the angle between
+    ///    them is at least 1e-3 (about 0.06°), so the camera frame is well defined;
+    /// 4. `vfov_deg` is finite with 0 < `vfov_deg` < 180;
+    /// 5. `aperture_radius` is finite and >= 0 (0 is a pinhole);
+    /// 6. `focus_distance`, when given, is finite and > 0;
+    /// 7. `shutter`, when given, is two finite times with open <= close.
+    ///
+    /// Arithmetic is in f64 so that large but finite coordinates do not overflow in the checks.
+    pub fn problems(&self) -> Vec<CameraProblem> {
+        let v = |t: (f32, f32, f32)| [f64::from(t.0), f64::from(t.1), f64::from(t.2)];
+        let mut out = Self::view_problems(v(self.position), v(self.look_at), v(self.up));
+        let mut bad = |field: &'static str, message: String, help: String| {
+            out.push(CameraProblem {
+                field,
+                message,
+                help,
+            })
+        };
         if !(self.vfov_deg.is_finite() && self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
             bad(
                 "vfov_deg",

@@ -16,8 +16,9 @@ use std::sync::Arc;
 use crate::decl::{NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 use crate::expand::{BufferId, ExpandCtx, Expansion};
 use crate::explain::explain;
+use crate::camera_path::{camera_path_problems, PathProblem};
 use crate::pipeline::{
-    Location, Pipeline, RawParam, MAX_NAME_CHARS, MAX_NODES, MAX_NODE_ENTRIES, MAX_PIPELINE_BYTES,
+    CameraSpec, Location, Pipeline, RawParam, MAX_NAME_CHARS, MAX_NODES, MAX_NODE_ENTRIES, MAX_PIPELINE_BYTES,
     MAX_SCENE_CHARS,
 };
 use crate::source_map::{NodeSource, Pos, SourceMap};
@@ -273,6 +274,31 @@ impl ValidatedPipeline {
     pub fn node(&self, name: &str) -> Option<&ValidatedNode> {
         self.nodes.iter().find(|n| n.name == name)
     }
+    /// Warnings for rendering frames `first..=last` as a sequence: each node that accumulates its
+    /// frames pixel by pixel ([`NodeKind::accumulates_frames`]) while the camera path moves over
+    /// those frames averages different views (smeared light), which nothing else would report.
+    pub fn sequence_warnings(&self, first: u32, last: u32) -> Vec<String> {
+        let keys = &self.pipeline.camera_path;
+        let mut frames: Vec<u32> = keys.iter().map(|k| k.frame).filter(|f| (first..=last).contains(f)).collect();
+        frames.extend([first, last]);
+        let views: Vec<_> = frames.iter().filter_map(|&f| crate::camera_path_at(keys, f)).collect();
+        if views.windows(2).all(|w| w[0] == w[1]) {
+            return Vec::new();
+        }
+        let (from, to) = (keys[0].frame, keys[keys.len() - 1].frame);
+        self.nodes
+            .iter()
+            .filter_map(|n| n.kind.accumulates_frames(&n.params).map(|what| (n, what)))
+            .map(|(n, what)| {
+                format!(
+                    "{}: node `{}` ({}) averages {what} over frames {first}..{last} pixel by pixel, but the camera moves along the pipeline's `camera_path` (keys at frames {from}..{to}) over them: each pixel mixes different views (smeared light); render one view with `--frame N` or `--progressive N`, or a range where the path holds still",
+                    n.location,
+                    n.name,
+                    n.kind.kind()
+                )
+            })
+            .collect()
+    }
     /// Decide the factoring node again from the nodes' current parameters (after parameter
     /// overrides such as `--set defocus.aperture_radius=0`) and, where a scene is loaded, its facts
     /// (`None`: no scene yet), with the validator's diagnostics.
@@ -350,6 +376,9 @@ pub enum DiagnosticKind {
     BadNodeConfig,
     /// Two nodes both factor the pipeline's components ([`crate::factoring`]).
     TwoFactoringNodes,
+    /// A node takes an output that its producer finishes in a later stage than the node runs in
+    /// (e.g. an `Add` after a Defocus node's image-space filter).
+    StageOrder,
 }
 
 impl DiagnosticKind {
@@ -377,6 +406,7 @@ impl DiagnosticKind {
             DiagnosticKind::BadName => "bad-name",
             DiagnosticKind::BadNodeConfig => "bad-node-config",
             DiagnosticKind::TwoFactoringNodes => "two-factoring-nodes",
+            DiagnosticKind::StageOrder => "stage-order",
         }
     }
 }
@@ -475,17 +505,9 @@ fn params_list(params: &[ParamDecl]) -> String {
     params
         .iter()
         .map(|p| match &p.kind {
-            ParamKind::Float {
-                min,
-                max,
-                min_exclusive,
-                ..
-            } => {
-                format!(
-                    "{}: number in {}{min}, {max}]",
-                    p.name,
-                    if *min_exclusive { "(" } else { "[" }
-                )
+            ParamKind::Float { min, max, min_exclusive, special, .. } => {
+                let or = special.map_or(String::new(), |s| format!(" or {} ({})", s.value, s.meaning));
+                format!("{}: number in {}{min}, {max}]{or}", p.name, if *min_exclusive { "(" } else { "[" })
             }
             ParamKind::Int { min, max, .. } => format!("{}: integer in [{min}, {max}]", p.name),
             ParamKind::Bool { .. } => format!("{}: bool", p.name),
@@ -656,6 +678,21 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 format!("camera key {} is at frame {}, not after the key before it (frame {})", k + 1, key.frame, pl.camera_path[k - 1].frame),
                 "list the keys of `camera_path` in increasing frame order, each frame once".into(),
             );
+        }
+    }
+
+    // Every camera along the path, once its keys are usable: the view it gets between keys. Without
+    // a camera block the scene's camera decides `up`, so only the view direction is checked here
+    // (a session checks `up` with the scene loaded, [`check_camera_path`]).
+    let keys_ok = pl.camera_path.iter().all(|k| k.problems().is_empty()) && pl.camera_path.windows(2).all(|w| w[0].frame < w[1].frame);
+    if keys_ok {
+        let (camera, check_up) = match &pl.camera {
+            Some(c) => (c.clone(), true),
+            None => (CameraSpec { up: (0.0, 1.0, 0.0), ..path_template() }, false),
+        };
+        for problem in camera_path_problems(&pl.camera_path, &camera, check_up) {
+            let (pos, message, help) = path_diagnostic(p, &problem);
+            r.add(DiagnosticKind::BadCamera, pos, message, help);
         }
     }
 
@@ -1073,6 +1110,69 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     Ok(validated)
 }
 
+/// A camera for checking a path where the pipeline has no camera block: only its `up` matters.
+fn path_template() -> CameraSpec {
+    CameraSpec {
+        position: (0.0, 0.0, 1.0),
+        look_at: (0.0, 0.0, 0.0),
+        up: (0.0, 1.0, 0.0),
+        vfov_deg: 45.0,
+        aperture_radius: 0.0,
+        focus_distance: None,
+        shutter: None,
+    }
+}
+
+/// Check a pipeline's camera path against the `up` of the camera it renders with, once that is known
+/// (the scene's, where the pipeline has no camera block): every camera along the path must pass the
+/// camera rules. Errors point at the segment's keys, with the frame.
+pub fn check_camera_path(p: &LoadedPipeline, up: (f32, f32, f32)) -> Result<(), GraphError> {
+    let camera = CameraSpec { up, ..p.pipeline.camera.clone().unwrap_or_else(path_template) };
+    let list: Vec<Diagnostic> = camera_path_problems(&p.pipeline.camera_path, &camera, true)
+        .iter()
+        .map(|problem| {
+            let (pos, message, help) = path_diagnostic(p, problem);
+            Diagnostic { kind: DiagnosticKind::BadCamera, location: p.loc(pos), message: printable(message), help: printable(help) }
+        })
+        .collect();
+    if list.is_empty() {
+        Ok(())
+    } else {
+        Err(GraphError::Invalid(list))
+    }
+}
+
+/// Where, what and the fix for a camera along a path that breaks a camera rule: at the segment's
+/// first key, naming both keys (with their lines) and the frame.
+fn path_diagnostic(p: &LoadedPipeline, problem: &PathProblem) -> (Option<Pos>, String, String) {
+    let keys = &p.pipeline.camera_path;
+    let (k, a, b) = (problem.key, &keys[problem.key], &keys[problem.key + 1]);
+    let line = |i: usize| p.map.camera_path_field(i, "frame").map_or(String::new(), |pos| format!(", line {}", pos.line));
+    let when = if problem.frame.fract() == 0.0 {
+        format!("at frame {}", problem.frame)
+    } else {
+        format!("at frame {} (between frames {} and {})", problem.frame, problem.frame.floor(), problem.frame.ceil())
+    };
+    let message = format!(
+        "camera path between key {} (frame {}{}) and key {} (frame {}{}): the camera {when} breaks a camera rule: {}",
+        k + 1,
+        a.frame,
+        line(k),
+        k + 2,
+        b.frame,
+        line(k + 1),
+        problem.problem.message
+    );
+    let help = match problem.problem.field {
+        "look_at" => "position and look_at move through each other between these keys (e.g. the two keys swap them): change one key's `look_at` so the camera never reaches the point it looks at"
+            .to_string(),
+        "up" => "the view turns along `up` between these keys: add a key in between that keeps the view off `up`, or give the `camera` block an `up` the path never looks along"
+            .to_string(),
+        _ => problem.problem.help.clone(),
+    };
+    (p.map.camera_path_field(k, "frame").or(p.map.camera_path), message, help)
+}
+
 impl NodeSource {
     fn tuple_pos(&self) -> Option<Pos> {
         (self.tuple.line > 0).then_some(self.tuple)
@@ -1165,6 +1265,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
                 .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref())))),
         )?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
+        check_input_stages(v, node, &expansion, first_pass)?;
 
         // The node kind must keep its declared contract; a violation is a bug in the kind.
         let kind = node.kind.kind();
@@ -1221,6 +1322,39 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         emit_sampler(v, &mut expansion, &plan, &mut written)?;
     }
     Ok(expansion)
+}
+
+/// A node's passes may only read what earlier stages finished (the scheduler orders by stage). An
+/// input whose producer writes it in a later stage is the user's wiring, not a node kind's bug, so
+/// it is reported at the node with the ports as the pipeline file names them, and what to wire
+/// instead; the scheduler's own stage check stays for node kinds that break the rule inside.
+fn check_input_stages(v: &ValidatedPipeline, node: &ValidatedNode, expansion: &Expansion, first_pass: usize) -> Result<(), GraphError> {
+    let (earlier, own) = expansion.passes.split_at(first_pass);
+    for (port, (pnode, pport)) in &node.inputs {
+        let Some(id) = expansion.outputs.get(&(pnode.clone(), pport.clone())) else { continue };
+        let Some(writer) = earlier.iter().find(|p| p.writes.iter().any(|(_, b)| b == id)) else { continue };
+        let Some(reader) = own.iter().find(|p| p.stage < writer.stage && p.reads.iter().any(|(_, b)| b == id)) else { continue };
+        let producer = v.node(pnode);
+        let kind = |n: Option<&ValidatedNode>| n.map_or_else(String::new, |n| format!(" ({})", n.kind.kind()));
+        let upstream: Vec<String> = producer.map_or_else(Vec::new, |p| p.inputs.values().map(|(n, o)| format!("`{n}.{o}`")).collect());
+        let own_out = node.kind.outputs().first().map_or_else(|| node.name.clone(), |o| format!("{}.{}", node.name, o.name));
+        let combine = if upstream.is_empty() {
+            String::new()
+        } else {
+            format!("combine before `{pnode}` instead: wire `{}` from what `{pnode}` reads ({}) and give `{own_out}` to `{pnode}`; or ", node.name, upstream.join(", "))
+        };
+        let message = format!(
+            "node `{}`{} runs in stage {}, but its input `{port}` is `{pnode}.{pport}`, which `{pnode}`{} finishes only in the later stage {}: a node can only take outputs finished in its own or an earlier stage",
+            node.name,
+            kind(Some(node)),
+            reader.stage,
+            kind(producer),
+            writer.stage
+        );
+        let help = format!("{combine}take `{pnode}.{pport}` straight to the Output");
+        return Err(GraphError::Invalid(vec![Diagnostic { kind: DiagnosticKind::StageOrder, location: node.location.clone(), message: printable(message), help: printable(help) }]));
+    }
+    Ok(())
 }
 
 /// Emit the shared sampler's passes once, after every node expanded, and check that they write

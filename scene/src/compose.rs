@@ -41,7 +41,7 @@ type V3 = (f32, f32, f32);
 fn v(t: V3) -> Vec3 {
     Vec3::new(t.0, t.1, t.2)
 }
-fn one() -> f32 {
+fn one() -> f64 {
     1.0
 }
 fn y_up() -> V3 {
@@ -67,8 +67,9 @@ struct MeshEntry {
     path: String,
     #[serde(default)]
     translate: V3,
+    /// Read as f64 so that a value f32 cannot hold (1e-300, 1e39) is reported as written.
     #[serde(default = "one")]
-    scale: f32,
+    scale: f64,
     #[serde(default)]
     rotate_y_deg: f32,
     /// Override every triangle's material with the named one (looked up in this mesh's materials first,
@@ -188,20 +189,32 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
     for (i, m) in file.meshes.iter().enumerate() {
         let by = format!("meshes[{i}].path = \"{}\"", m.path);
         let mesh_path = res.resolve(path, Path::new(&m.path), &by)?;
+        check_mesh_format(path, i, &m.path, &mesh_path)?;
         let mesh = crate::load_data(&mesh_path, res)?;
-        if !(m.scale.is_finite()
-            && m.scale != 0.0
-            && m.rotate_y_deg.is_finite()
-            && v(m.translate).is_finite())
-        {
+        let scale = m.scale as f32;
+        if !scale.is_normal() {
+            // Positions are f32: a scale that is 0, subnormal or infinite there collapses or blows
+            // up the mesh, whatever the file wrote.
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "mesh {i} ('{}') has scale = {:e}, which is {} in single precision (f32, what positions are stored in)",
+                    m.path,
+                    m.scale,
+                    if scale == 0.0 { "0" } else if scale.is_finite() { "subnormal" } else { "not a finite number" }
+                ),
+                format!("use a non-zero scale of magnitude between {:e} and {:e}", f32::MIN_POSITIVE, f32::MAX),
+            ));
+        }
+        if !(m.rotate_y_deg.is_finite() && v(m.translate).is_finite()) {
             return Err(SceneError::invalid(
                 path,
                 format!("mesh {i} ('{}') has an invalid transform", m.path),
-                "use finite values and a non-zero scale",
+                "use finite values",
             ));
         }
         let xf = Mat4::from_scale_rotation_translation(
-            Vec3::splat(m.scale),
+            Vec3::splat(scale),
             Quat::from_rotation_y(m.rotate_y_deg.to_radians()),
             v(m.translate),
         );
@@ -285,6 +298,33 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
     }
     let name = path.display().to_string();
     d.into_scene(&name)
+}
+
+/// A mesh must be a file of triangles (.gltf, .glb, .obj). A `.ron` scene is not one: scenes do not
+/// nest (and one naming itself would recurse), so it is refused here with what it is, rather than as
+/// an "unsupported format" whose list of formats includes `.ron`.
+fn check_mesh_format(path: &Path, i: usize, written: &str, resolved: &Path) -> Result<(), SceneError> {
+    let ext = crate::ext(resolved);
+    if matches!(ext.as_deref(), Some("gltf" | "glb" | "obj")) {
+        return Ok(());
+    }
+    let name = |p: &Path| p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let what = if ext.as_deref() != Some("ron") {
+        format!("meshes[{i}].path = \"{written}\" is not a mesh file")
+    } else if std::fs::canonicalize(path).is_ok_and(|p| p == resolved) {
+        format!("meshes[{i}].path = \"{written}\" includes this scene file itself ({} → {0}), an include cycle that would never end", name(path))
+    } else {
+        format!(
+            "meshes[{i}].path = \"{written}\" includes another .ron scene ({} → {}); .ron scenes do not nest (so two that include each other cannot loop), and one cannot be a mesh of another",
+            name(path),
+            name(resolved)
+        )
+    };
+    Err(SceneError::invalid(
+        path,
+        what,
+        "name a .gltf, .glb or .obj file as the mesh (copy the other scene's `meshes` and `lights` into this file to combine them)",
+    ))
 }
 
 fn check_light(path: &Path, i: usize, cross: Vec3, radiance: Vec3) -> Result<(), SceneError> {

@@ -845,9 +845,9 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                 (parent * local, parent_close * local, pivot)
             }
             Some(tracks) => {
-                let open = local_transform_at(path, node, n, animations.sample(tracks, shutter.0))?;
+                let open = local_transform_at(path, node, n, animations.sample(path, tracks, shutter.0)?)?;
                 let close =
-                    local_transform_at(path, node, n, animations.sample(tracks, shutter.1))?;
+                    local_transform_at(path, node, n, animations.sample(path, tracks, shutter.1)?)?;
                 let world = parent * open;
                 (world, parent_close * close, Some(world.w_axis.truncate()))
             }
@@ -1184,6 +1184,8 @@ struct Track {
     values: Vec<[f32; 4]>,
     interpolation: json::animation::Interpolation,
     rotation: bool,
+    /// The channel's JSON path (`animations[a].channels[c]`), for errors found when it is sampled.
+    at: String,
 }
 
 impl Track {
@@ -1252,9 +1254,31 @@ impl Animations {
         self.per_node.get(&n)
     }
 
-    /// Translation, rotation and scale of a node's tracks at `tau` (`None` where not animated).
-    fn sample(&self, tracks: &[Option<usize>; 3], tau: f32) -> [Option<[f32; 4]>; 3] {
-        tracks.map(|t| t.map(|i| self.tracks[i].sample(tau)))
+    /// Translation, rotation and scale of a node's tracks at `tau` (`None` where not animated). A
+    /// rotation that is no rotation there — a CUBICSPLINE through unit keys may pass through the zero
+    /// quaternion, which [`Track::sample`] cannot normalise — is refused naming the channel and time
+    /// (the node's own `rotation` is not what is wrong).
+    fn sample(&self, path: &Path, tracks: &[Option<usize>; 3], tau: f32) -> Result<[Option<[f32; 4]>; 3], SceneError> {
+        let mut out = [None; 3];
+        for (slot, t) in tracks.iter().enumerate() {
+            let Some(track) = t.map(|i| &self.tracks[i]) else { continue };
+            let value = track.sample(tau);
+            if track.rotation && value == [0.0; 4] {
+                let k = track.times.partition_point(|&x| x <= tau).saturating_sub(1);
+                return Err(bad(
+                    path,
+                    format!(
+                        "{}: the CUBICSPLINE rotation at time {tau} (between keyframes {k} and {}) is the zero \
+                         quaternion, which is no rotation: the spline through the unit keyframes passes through 0 there",
+                        track.at,
+                        k + 1
+                    ),
+                    "change the keyframes' tangents so the spline stays away from zero (or use LINEAR, which slerps)",
+                ));
+            }
+            out[slot] = Some(value);
+        }
+        Ok(out)
     }
 }
 
@@ -1406,6 +1430,7 @@ fn read_animations(
                 values,
                 interpolation,
                 rotation,
+                at: at.clone(),
             });
             out.per_node.entry(n).or_insert([None; 3])[slot] = Some(out.tracks.len() - 1);
             out.channels += 1;

@@ -1186,3 +1186,52 @@ fn bad_environment_maps_are_refused_with_counts() {
     let e = EnvironmentMap::open("builtin:moon").unwrap_err().to_string();
     assert!(e.contains("builtin:moon") && e.contains("builtin:sky"), "{e}");
 }
+
+#[test]
+fn a_cubic_rotation_through_zero_names_the_channel_and_time() {
+    // Keys q and -q (the same rotation) with zero tangents: the Hermite spline is (h00 - h01) q, the
+    // zero quaternion at the segment's middle, which the shutter opens at (0.2 of 0..0.4).
+    let dir = temp_dir("cubic_zero");
+    let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let mut buf = f(&TRI);
+    buf.extend(f(&[0.0, 0.4]));
+    buf.extend(f(&[0., 0., 0., 0., 0., 0., 0., 1., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., -1., 0., 0., 0., 0.]));
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":8}},{{"buffer":0,"byteOffset":44,"byteLength":96}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}},{{"bufferView":1,"componentType":5126,"count":2,"type":"SCALAR"}},
+ {{"bufferView":2,"componentType":5126,"count":6,"type":"VEC4"}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0,
+"animations":[{{"channels":[{{"sampler":0,"target":{{"node":0,"path":"rotation"}}}}],
+ "samplers":[{{"input":1,"output":2,"interpolation":"CUBICSPLINE"}}]}}]}}"#,
+        buf.len(),
+        base64::encode(&buf)
+    );
+    animated_fails(&dir, "through_zero.gltf", json, &[], &[
+        "animations[0].channels[0]: the CUBICSPLINE rotation at time 0.2 (between keyframes 0 and 1) is the zero quaternion",
+        "change the keyframes' tangents",
+    ]);
+}
+
+#[test]
+fn ron_scenes_that_include_scenes_and_unusable_scales_are_named() {
+    let dir = temp_dir("ron_include");
+    std::fs::write(dir.join("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let me = write("self.ron", r#"Scene(meshes: [(path: "self.ron")])"#);
+    let e = fails(&me, &[r#"meshes[0].path = "self.ron" includes this scene file itself (self.ron → self.ron), an include cycle"#, "name a .gltf, .glb or .obj file"]);
+    assert!(!e.to_string().contains("unsupported scene format"), "{e}");
+    let a = write("a.ron", r#"Scene(meshes: [(path: "t.obj"), (path: "b.ron")])"#);
+    write("b.ron", r#"Scene(meshes: [(path: "a.ron")])"#);
+    fails(&a, &[r#"meshes[1].path = "b.ron" includes another .ron scene (a.ron → b.ron); .ron scenes do not nest"#]);
+    let tiny = write("tiny.ron", r#"Scene(meshes: [(path: "t.obj", scale: 1e-300)])"#);
+    fails(&tiny, &["mesh 0 ('t.obj') has scale = 1e-300, which is 0 in single precision", "use a non-zero scale of magnitude between"]);
+    let sub = write("sub.ron", r#"Scene(meshes: [(path: "t.obj", scale: -1e-40)])"#);
+    fails(&sub, &["scale = -1e-40, which is subnormal"]);
+}

@@ -116,7 +116,7 @@ fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError
     if mu <= 0.0 {
         return Err(err(format!("`mu` = {mu}; it must be > 0")));
     }
-    // `b_e` < 0: the scene map's B_e.
+    // `b_e` = -1 (its declaration's special value; validation admits no other negative): the scene map's B_e.
     let b_e = match ctx.f32_param("b_e")? {
         v if v >= 0.0 && v.is_finite() => v,
         _ => ctx.scene.environment.as_ref().map(|e| e.bandwidth()).ok_or_else(|| {
