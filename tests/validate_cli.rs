@@ -79,7 +79,7 @@ fn parameter_values_mean_what_they_say() {
     // The same through `--set`, blamed on the value.
     fs::write(dir.join("ok.ron"), env_path("", still, "")).unwrap();
     stderr_of(&wedge(&["render", "ok.ron", "--out", "o", "--set", "env.mu=1e-300"], &dir), 1, &[
-        "--mu for node `env`: mu = 1e-300 is 0 in single precision (f32)",
+        "--set env.mu: mu = 1e-300 is 0 in single precision (f32)",
     ]);
     assert!(!dir.join("o").exists(), "nothing rendered");
     let pf = "Pipeline(scene: \"builtin:cornell\", width: 16, height: 12, nodes: [\n    (name: \"pf\", kind: \"PixelFilter\", params: {\"sigma_c\": 1e-300}),\n    (name: \"out\", kind: \"Output\", inputs: {\"color\": \"pf.radiance\"}),\n])\n";
