@@ -287,7 +287,7 @@ mod tests {
     fn a_view_single_precision_cannot_hold_between_keys_is_refused() {
         // At x = 10^6 f32 steps are 0.0625: a camera one step from its target is a valid block, but
         // interpolated frames between two such keys round position and look_at onto each other.
-        let (p, l) = ((1e6, 0.0, 0.0), (1_000_000.0625, 0.0, 0.0));
+        let (p, l) = ((1e6, 0.0, 0.0), (1e6 + 0.0625, 0.0, 0.0));
         let keys = [key(0, p, l), key(7, p, l)];
         let collapsed = (1..7).filter(|&f| camera_path_at(&keys, f).is_some_and(|(p, l)| p == l)).count();
         assert!(collapsed > 0, "the case no longer shows the rounding");

@@ -598,7 +598,7 @@ impl GpuBackend {
                     bindings.iter().enumerate().map(|(k, b)| storage(k as u32, b.access == Access::Read)).collect()
                 }
                 shaders::BindingPlan::Packed => {
-                    let (_, inputs, outputs) = shaders::packed_layout(&bindings);
+                    let (_, inputs, outputs) = shaders::packed_layout(bindings);
                     let mut e = Vec::new();
                     if inputs > 0 {
                         e.push(storage(0, true));
