@@ -238,15 +238,7 @@ mod tests {
         CameraKey { frame, position, look_at }
     }
     fn camera() -> CameraSpec {
-        CameraSpec {
-            position: (0.0, 0.0, 1.0),
-            look_at: (0.0, 0.0, 0.0),
-            up: (0.0, 1.0, 0.0),
-            vfov_deg: 45.0,
-            aperture_radius: 0.0,
-            focus_distance: None,
-            shutter: None,
-        }
+        crate::validate::path_template()
     }
 
     #[test]

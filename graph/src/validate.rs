@@ -1111,7 +1111,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
 }
 
 /// A camera for checking a path where the pipeline has no camera block: only its `up` matters.
-fn path_template() -> CameraSpec {
+pub(crate) fn path_template() -> CameraSpec {
     CameraSpec {
         position: (0.0, 0.0, 1.0),
         look_at: (0.0, 0.0, 0.0),
