@@ -277,24 +277,6 @@ fn set_threads(threads: Option<usize>) -> Result<(), WedgeError> {
         .map_err(|e| WedgeError::Usage(format!("--threads {n}: {e}")))
 }
 
-/// Runs `f` in a pool of `threads`; a pass-through where the current pool already has that many
-/// (always, after [`set_threads`] in `main`).
-fn with_threads<T>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T, WedgeError>
-where
-    T: Send,
-{
-    match threads {
-        Some(n) if n != rayon::current_num_threads() => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| WedgeError::Usage(format!("--threads {n}: {e}")))?;
-            Ok(pool.install(f))
-        }
-        _ => Ok(f()),
-    }
-}
-
 /// Flags that the chosen backend does not use: a warning, not a refusal ([`start_rendering_command`]).
 fn warn_unused_flags(common: &Common) {
     if let (Some(limits), "cpu") = (&common.gpu_limits, common.backend.as_str()) {
@@ -364,9 +346,9 @@ fn render(session: &Session, common: &Common, stem: &str, aov: &[String]) -> Res
     let bars = Bars::default();
     let (run, note) = match common.backend.as_str() {
         "wgpu" => run_wgpu(session, &bars, common.gpu_limits.as_deref())?,
-        _ => (with_threads(common.threads, || session.run(&mut CpuBackend::new(), &bars))??, None),
+        _ => (session.run(&mut CpuBackend::new(), &bars)?, None),
     };
-    let (extra, aov_line) = with_threads(common.threads, || aov_images(&session.scene, session, aov))??;
+    let (extra, aov_line) = aov_images(&session.scene, session, aov)?;
     let written = wedge::outputs::write_run_with(&common.out, stem, &run, &extra, session.width, session.height)?;
     let mut text = summary(&run, session.width, session.height);
     text.push_str(&written.warnings());
@@ -435,7 +417,7 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
     let (mut previous, mut seconds) = (None, 0.0f64);
     let (mut last_aovs, mut aov_line) = (Vec::new(), String::new());
     for frame in first..=last {
-        let run = with_threads(common.threads, || session.run_frame(backend.as_mut(), &bars, frame, first, previous.as_ref()))??;
+        let run = session.run_frame(backend.as_mut(), &bars, frame, first, previous.as_ref())?;
         seconds += run.total_seconds();
         if let Some(b) = run.output("color") {
             out.frame(frame, &wedge::outputs::buffer_to_image(b, session.width, session.height))?;
@@ -447,9 +429,9 @@ fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u3
         if !aov.is_empty() {
             let base = session.scene.camera;
             session.scene.camera = session.camera_at(frame);
-            let aovs = with_threads(common.threads, || aov_images(&session.scene, session, aov));
+            let aovs = aov_images(&session.scene, session, aov);
             session.scene.camera = base;
-            let (maps, line) = aovs??;
+            let (maps, line) = aovs?;
             let numbered: Vec<_> = maps.iter().map(|m| wedge::outputs::ExtraExr { stem: format!("{}_{frame:04}", m.stem), ..m.clone() }).collect();
             out.extra(&numbered)?;
             if frame == last {
@@ -488,7 +470,7 @@ fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[St
         )));
     }
     let mut backend = sequence_backend(session, common, &format!("progressive: {frames} frames"))?;
-    let (extra, aov_line) = with_threads(common.threads, || aov_images(&session.scene, session, aov))??;
+    let (extra, aov_line) = aov_images(&session.scene, session, aov)?;
     // Which frames run a scheduled filter (a pass with the PixelFilter schedule's parameters).
     let schedule = session.schedule.passes.iter().find_map(|p| {
         match (p.params.get("first_filter"), p.params.get("filter_first_frame")) {
@@ -505,7 +487,8 @@ fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[St
     );
     bar.set_prefix("progressive");
     let classes = [KernelClass::Sampling, KernelClass::Bandwidth, KernelClass::Filter, KernelClass::Compose];
-    let looped = with_threads(common.threads, || -> Result<_, WedgeError> {
+    // One closure, so that the bar is cleared before an error returns.
+    let looped = (|| -> Result<_, WedgeError> {
         let mut previous: Option<wedge::backends::RunResult> = None;
         let mut files: Vec<std::path::PathBuf> = Vec::new();
         let mut warnings = String::new();
@@ -543,7 +526,7 @@ fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[St
             previous = Some(run);
         }
         Ok((previous, files, warnings, per_class, total, filter_frames, filter_seconds, frame_seconds))
-    })?;
+    })();
     bar.finish_and_clear();
     let (last, files, warnings, per_class, total, filter_frames, filter_seconds, frame_seconds) = looped?;
     let run = last.expect("at least one frame");
