@@ -293,6 +293,9 @@ fn scene_notes(session: &Session) {
     for w in &session.scene.warnings {
         eprintln!("warning: {w}");
     }
+    for w in session.pipeline.light_warnings(Some(&wedge::session::scene_facts(&session.scene))) {
+        eprintln!("warning: {w}");
+    }
     if let Some(env) = &session.scene.environment {
         eprintln!(
             "environment: {} ({}x{}, scale {}, rotation {}°), B_e = {:.2} cycles/rad (99% of the spectrum's energy; \
@@ -795,7 +798,15 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             let validated = wedge::graph::validate(&loaded, &nodes)?;
             let sched = wedge::graph::schedule(wedge::graph::expand(&validated)?)?;
             kernels.check_schedule(&sched)?;
-            Ok(if dot { sched.to_dot() } else { sched.table() + &memory_line(&sched, loaded.pipeline.width, loaded.pipeline.height) })
+            if dot {
+                return Ok(sched.to_dot());
+            }
+            let mut text = sched.table() + &memory_line(&sched, loaded.pipeline.width, loaded.pipeline.height);
+            text.push_str(&validated.light_summary());
+            for w in validated.light_warnings(None) {
+                text.push_str(&format!("warning: {w}\n"));
+            }
+            Ok(text)
         }
     }
 }

@@ -482,11 +482,16 @@ pub fn path_at(keys: &[wedge_graph::CameraKey], frame: u32) -> Option<(Vec3, Vec
     wedge_graph::camera_path_at(keys, frame).map(|(position, look_at)| (v(position), v(look_at)))
 }
 
-/// What factoring decisions may know of a loaded scene ([`wedge_graph::SceneFacts`]): something moves
-/// over the shutter (an object whose motion has different poses at its two ends).
+/// What factoring decisions and the light-term warnings may know of a loaded scene
+/// ([`wedge_graph::SceneFacts`]): something moves over the shutter (an object whose motion has
+/// different poses at its two ends), its area lights, its environment map.
 pub fn scene_facts(scene: &Scene) -> wedge_graph::SceneFacts {
     let moves = scene.objects.iter().any(|o| o.motion.is_some_and(|m| !m.is_still()));
-    wedge_graph::SceneFacts { motion: moves }
+    wedge_graph::SceneFacts {
+        motion: moves,
+        area_lights: u32::try_from(scene.lights.len()).unwrap_or(u32::MAX),
+        environment: scene.environment.is_some(),
+    }
 }
 
 /// A zero-length shutter sees one instant: every moving object is held where it is at the shutter's

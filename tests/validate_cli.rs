@@ -94,7 +94,8 @@ fn an_add_after_an_image_space_filter_is_named_at_its_node_with_a_wiring_that_wo
     (name: "primary", kind: "Primary"),
     (name: "shadows", kind: "SoftShadows", params: {"light": 0}, inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "emission": "primary.emission"}),
     (name: "defocus", kind: "Defocus", params: {"aperture_radius": 0.05, "focus_distance": 2.6}, inputs: {"direct": "shadows.radiance"}),
-    (name: "sum", kind: "Add", inputs: {"a": "defocus.radiance", "b": "shadows.radiance"}),
+    (name: "sum", kind: "Add", inputs: {"a": "defocus.radiance", "b": "lf.radiance"}),
+    (name: "lf", kind: "LightField", params: {"spp": 1, "rays": 4}),
     (name: "out", kind: "Output", inputs: {"color": "sum.radiance"}),
 ])
 "#;

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage};
+use wedge_graph::{Accepts, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage, TermQuery, Terms};
 
 pub struct Add;
 
@@ -16,13 +16,20 @@ impl NodeKind for Add {
         "Sum of two radiance images (a + b)"
     }
     fn inputs(&self) -> Vec<PortDecl> {
-        vec![PortDecl::new("a", Format::Vec3, "first radiance"), PortDecl::new("b", Format::Vec3, "second radiance")]
+        vec![
+            PortDecl::new("a", Format::Vec3, "first radiance").accepts(Accepts::ANY),
+            PortDecl::new("b", Format::Vec3, "second radiance").accepts(Accepts::ANY),
+        ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![PortDecl::new("radiance", Format::Vec3, "a + b")]
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![]
+    }
+    /// The union of its operands' terms: a term in both is a double count, refused by the validator.
+    fn terms(&self, _port: &str, q: &TermQuery<'_>) -> Option<Terms> {
+        Some(q.sum(&["a", "b"]))
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let a = ctx.required("a")?;

@@ -204,6 +204,12 @@ impl NodeKind for Indirect {
             PortDecl::new("rays_per_pixel", Format::U32, "hemisphere samples (paths) per pixel, both components and passes (eq. 4.21)"),
         ]
     }
+    /// Indirect light (diffuse, and glossy where `specular` is wired) or ambient occlusion, through
+    /// the shared sampler's camera.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        let lobes = if q.is_connected("specular") { "diffuse+glossy" } else { "diffuse" };
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::indirect_or_ao(q, q.sampler_view(), lobes))
+    }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::positive("mu", 0.9, 1e6, "μ: scales the filter bandwidth (eq. 4.15); larger = narrower filter, more rays (eq. 4.21)"),

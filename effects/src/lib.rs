@@ -55,6 +55,7 @@ pub mod factored;
 pub mod filtering;
 pub mod heatmap;
 pub mod indirect;
+mod light_terms;
 pub mod mixed_reality;
 pub mod montecarlo;
 pub mod motion;

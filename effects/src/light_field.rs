@@ -65,6 +65,11 @@ impl NodeKind for LightField {
             PortDecl::new("rays_per_pixel", Format::U32, "input secondary rays (paths) per pixel"),
         ]
     }
+    /// Indirect light or ambient occlusion, through the camera of the pipeline's factoring node
+    /// (whose lens and shutter its own camera rays sample).
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::indirect_or_ao(q, q.sampler_view(), ""))
+    }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::int("spp", DEFAULT_SPP, 1, 16, "input secondary rays per pixel, each kept as a sample (paper: 1-16)"),

@@ -77,6 +77,18 @@ impl NodeKind for MixedReality {
             PortDecl::new("screen", Format::Vec4, "screen-space rays per pixel, those that left the image, hits"),
         ]
     }
+    /// The composite (eq. 6.2): the real layer, and the virtual objects' direct and one-bounce
+    /// environment light, from its own pinhole camera paths.
+    fn terms(&self, port: &str, _q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        use wedge_graph::{Term, TermKind, Terms, View};
+        let v = View::PINHOLE;
+        matches!(port, "radiance" | "unfiltered").then(|| {
+            Terms::new()
+                .with(Term::new(TermKind::RealLayer, v))
+                .with(Term::new(TermKind::DirectEnvironment, v))
+                .with(Term::new(TermKind::Indirect, v).detail("1 bounce"))
+        })
+    }
     fn params(&self) -> Vec<ParamDecl> {
         // The environment that lit the real scene: `map`, `scale`, `rotation_deg` as `Environment`.
         let mut params = map_params().to_vec();

@@ -25,12 +25,34 @@ impl NodeKind for MonteCarlo {
             PortDecl::new("position", Format::Vec4, "from Primary"),
             PortDecl::new("normal", Format::Vec4, "from Primary"),
             PortDecl::optional("albedo", Format::Vec3, "multiplied after integration; white if absent"),
-            PortDecl::optional("emission", Format::Vec3, "added to the result"),
+            PortDecl::optional("emission", Format::Vec3, "added to the result").accepts(crate::light_terms::EMISSION_INPUT),
             PortDecl::optional("specular", Format::Vec4, "k_s, m from Primary: glossy indirect component (bounces > 0)"),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![PortDecl::new("radiance", Format::Vec3, "the Monte Carlo estimate")]
+    }
+    /// Its own paths from the Primary G-buffer (a pinhole): direct light of one or every area light
+    /// with the wired `emission`, indirect light of `bounces`, or ambient occlusion.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        use wedge_graph::{Term, TermKind, Terms, View};
+        if port != "radiance" {
+            return None;
+        }
+        if q.choice("mode") == Some("ao") {
+            return Some(Terms::new().with(Term::new(TermKind::AmbientOcclusion, View::PINHOLE)));
+        }
+        let bounces = q.int("bounces").unwrap_or(0);
+        let direct = q.flag("direct") || bounces == 0;
+        let mut t = Terms::new();
+        if direct {
+            let light = Term::new(TermKind::DirectArea, View::PINHOLE);
+            t = t.with(match u32::try_from(q.int("light").unwrap_or(-1)) { Ok(i) => light.light(i), Err(_) => light }).plus(q.input("emission"));
+        }
+        if bounces > 0 {
+            t = t.plus(Some(&crate::light_terms::indirect_or_ao(q, View::PINHOLE, "")));
+        }
+        Some(t)
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![

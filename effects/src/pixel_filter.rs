@@ -60,6 +60,10 @@ impl NodeKind for PixelFilter {
     fn accumulates_frames(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Option<&'static str> {
         Some("its progressive path-traced radiance (a running mean of every frame so far)")
     }
+    /// A whole path-traced image from its own pinhole camera paths.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, wedge_graph::View::PINHOLE))
+    }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::choice(

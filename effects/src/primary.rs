@@ -1,6 +1,6 @@
 //! `Primary`: the per-pixel surface every effect shades — one ray through each pixel centre.
 
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage};
+use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage, TermQuery, Terms, View};
 
 pub struct Primary;
 
@@ -25,6 +25,10 @@ impl NodeKind for Primary {
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![]
+    }
+    /// `emission` is what the pixel-centre rays see directly (the environment where they miss).
+    fn terms(&self, port: &str, _q: &TermQuery<'_>) -> Option<Terms> {
+        (port == "emission").then(|| crate::light_terms::seen_directly(View::PINHOLE))
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let position = ctx.buffer("position", Format::Vec4);

@@ -50,6 +50,10 @@ impl NodeKind for RadianceFilter {
             PortDecl::new("phase", Format::F32, "1 where the pixel used only its own sample (correction phase), else 0"),
         ]
     }
+    /// A whole path-traced image from its own pinhole camera paths.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, wedge_graph::View::PINHOLE))
+    }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::positive("t_u", DEFAULT_T_U, 1e6, "threshold T_u on the accumulated image's perceived variance (eq. 4.13)"),

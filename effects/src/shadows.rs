@@ -73,7 +73,7 @@ impl NodeKind for SoftShadows {
             PortDecl::new("position", Format::Vec4, "from Primary"),
             PortDecl::new("normal", Format::Vec4, "from Primary (w = pixel footprint d)"),
             PortDecl::optional("albedo", Format::Vec3, "texture, multiplied after filtering; white if absent"),
-            PortDecl::optional("emission", Format::Vec3, "added after filtering"),
+            PortDecl::optional("emission", Format::Vec3, "added after filtering").accepts(crate::light_terms::EMISSION_INPUT),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -87,6 +87,13 @@ impl NodeKind for SoftShadows {
                 "shadow rays per pixel, both passes (eq. 3.21; traced in paths of initial_rays, rounded up)",
             ),
         ]
+    }
+    /// Direct light of its one area light, through the shared sampler's camera; without a factoring
+    /// node also the wired `emission` (a factoring node adds emission once itself).
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        let light = u32::try_from(q.int("light")?).ok()?;
+        let direct = wedge_graph::Terms::new().with(wedge_graph::Term::new(wedge_graph::TermKind::DirectArea, q.sampler_view()).light(light));
+        matches!(port, "radiance" | "unfiltered").then(|| if q.factored() { direct } else { direct.plus(q.input("emission")) })
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![

@@ -270,6 +270,8 @@ pub struct PortDecl {
     /// An input that may be left unconnected (outputs ignore this).
     pub optional: bool,
     pub doc: &'static str,
+    /// For a radiance input: the light terms it takes ([`crate::terms`]); `None`: not checked.
+    pub accepts: Option<crate::terms::Accepts>,
 }
 
 impl PortDecl {
@@ -279,6 +281,7 @@ impl PortDecl {
             format,
             optional: false,
             doc,
+            accepts: None,
         }
     }
     pub const fn optional(name: &'static str, format: Format, doc: &'static str) -> Self {
@@ -287,7 +290,13 @@ impl PortDecl {
             format,
             optional: true,
             doc,
+            accepts: None,
         }
+    }
+    /// The same input, taking only radiance of these terms ([`crate::terms::Accepts`]).
+    pub const fn accepts(mut self, accepts: crate::terms::Accepts) -> Self {
+        self.accepts = Some(accepts);
+        self
     }
 }
 
@@ -646,6 +655,12 @@ pub trait NodeKind: Send + Sync {
     /// — e.g. an environment map to light it ([`SceneRequest`]). Default: nothing.
     fn scene_requests(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Vec<SceneRequest> {
         Vec::new()
+    }
+    /// The light terms output `port` holds ([`crate::terms`]), given this node's parameters, the
+    /// terms of its wired inputs and the pipeline's factoring node; `None`: not a radiance output
+    /// (the default for every port: a kind that declares nothing is carried as "undeclared terms").
+    fn terms(&self, _port: &str, _q: &crate::terms::TermQuery<'_>) -> Option<crate::terms::Terms> {
+        None
     }
     /// Sinks are the roots of culling: a pass survives only if some sink input depends on it.
     fn is_sink(&self) -> bool {

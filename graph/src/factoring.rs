@@ -51,6 +51,10 @@ pub struct SceneFacts {
     /// Some object or light moves over the shutter (a non-empty shutter and a motion that is not
     /// the identity).
     pub motion: bool,
+    /// Its area lights (emissive triangle groups), by index.
+    pub area_lights: u32,
+    /// It is lit by an environment map.
+    pub environment: bool,
 }
 
 /// One factored part of a lighting component: the names of its `L`, `k`, `E` among the shared

@@ -10,6 +10,8 @@
 //! - [`expand()`]: turns validated nodes into passes (kernel + bindings + parameter block), each with
 //!   its [`Stage`], whether it is random (the graph assigns its stream, [`stream_id`]) and its
 //!   [`Reference`] role;
+//! - [`terms`]: the light terms of radiance ports (a double count or a wrong component is a
+//!   validation error);
 //! - [`sampler`]: the shared sampler nodes ask for from `expand` (requests, handles, count requests;
 //!   the registered [`SamplerKind`] emits its passes once after every node expanded);
 //! - [`reference()`]: turns an expansion into the pipeline's own plain Monte Carlo reference (filters
@@ -30,6 +32,7 @@ pub mod sampler;
 mod schedule;
 mod source_map;
 pub mod stage;
+pub mod terms;
 mod validate;
 
 pub use camera_path::{camera_path_at, camera_path_problems, PathProblem};
@@ -41,6 +44,7 @@ pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
 pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SAMPLER_NODE};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use stage::{stream_id, Reference, Stage};
+pub use terms::{AcceptView, Accepts, Term, TermKind, TermQuery, TermReport, Terms, View};
 pub use validate::{
     check_camera_path, expand, load_pipeline, parse_pipeline, suggestion, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
     ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,

@@ -261,6 +261,9 @@ pub struct ValidatedPipeline {
     pub sampler: Option<Arc<dyn crate::sampler::SamplerKind>>,
     /// The pipeline's factoring node, if one factors ([`crate::factoring`]).
     pub factoring: Option<crate::Factoring>,
+    /// The light terms of every radiance output and of each sink's image ([`crate::terms`]), for
+    /// the factoring decision above.
+    pub terms: crate::terms::TermReport,
 }
 
 impl ValidatedPipeline {
@@ -338,6 +341,12 @@ impl ValidatedPipeline {
             return Err(GraphError::Invalid(problems));
         }
         self.factoring = found;
+        // Which light each output holds depends on who factors: checked again with every decision.
+        let (terms, problems) = crate::terms::check(self);
+        if !problems.is_empty() {
+            return Err(GraphError::Invalid(problems));
+        }
+        self.terms = terms;
         Ok(())
     }
 }
@@ -379,6 +388,10 @@ pub enum DiagnosticKind {
     /// A node takes an output that its producer finishes in a later stage than the node runs in
     /// (e.g. an `Add` after a Defocus node's image-space filter).
     StageOrder,
+    /// A sum that counts one light term twice, or adds images of different cameras ([`crate::terms`]).
+    TermOverlap,
+    /// An input wired to radiance holding terms (or a camera) it does not take ([`crate::terms::Accepts`]).
+    TermNotAccepted,
 }
 
 impl DiagnosticKind {
@@ -407,6 +420,8 @@ impl DiagnosticKind {
             DiagnosticKind::BadNodeConfig => "bad-node-config",
             DiagnosticKind::TwoFactoringNodes => "two-factoring-nodes",
             DiagnosticKind::StageOrder => "stage-order",
+            DiagnosticKind::TermOverlap => "term-overlap",
+            DiagnosticKind::TermNotAccepted => "term-not-accepted",
         }
     }
 }
@@ -1103,6 +1118,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         nodes,
         sampler: reg.sampler().cloned(),
         factoring: None,
+        terms: Default::default(),
     };
     // Which node factors follows from each node's whole, valid parameter block and the camera (the
     // scene is not loaded yet: a session decides again with its facts).

@@ -93,8 +93,8 @@ impl NodeKind for Defocus {
     }
     fn inputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)"),
-            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)"),
+            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)").accepts(crate::light_terms::COMPONENT_DIRECT),
+            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)").accepts(crate::light_terms::COMPONENT_INDIRECT),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -104,6 +104,10 @@ impl NodeKind for Defocus {
             PortDecl::new("filter_width", Format::F32, "defocus filter std-dev in pixels, 1/(√32 Ω_x^d) (0 = pinhole)"),
             PortDecl::new("rays_per_pixel", Format::U32, "primary rays per pixel asked for the second pass, n_p (eq. 5.24)"),
         ]
+    }
+    /// Its components, and (where it factors) what its camera rays see directly, added once here.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::factoring_sum(q))
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![

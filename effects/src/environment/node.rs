@@ -100,6 +100,20 @@ impl NodeKind for Environment {
             PortDecl::new("rays_per_pixel", Format::U32, "environment look-ups per pixel asked for (16 without `adaptive`)"),
         ]
     }
+    /// Direct environment light (and one-bounce indirect with `indirect`; what camera rays see
+    /// directly with `emission`), through the shared sampler's camera.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        use wedge_graph::{Term, TermKind, Terms};
+        let v = q.sampler_view();
+        let mut t = Terms::new().with(Term::new(TermKind::DirectEnvironment, v));
+        if q.flag("indirect") {
+            t = t.with(Term::new(TermKind::Indirect, v).detail("1 bounce"));
+        }
+        if q.flag("emission") {
+            t = t.plus(Some(&crate::light_terms::seen_directly(v)));
+        }
+        matches!(port, "radiance" | "unfiltered").then_some(t)
+    }
     fn params(&self) -> Vec<ParamDecl> {
         let mut params = map_params().to_vec();
         params.extend([

@@ -86,8 +86,8 @@ impl NodeKind for Motion {
     }
     fn inputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)"),
-            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)"),
+            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)").accepts(crate::light_terms::COMPONENT_DIRECT),
+            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)").accepts(crate::light_terms::COMPONENT_INDIRECT),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -99,6 +99,10 @@ impl NodeKind for Motion {
             PortDecl::new("velocity", Format::Vec4, "image-space velocity of the primary hits (px per half shutter), its texture width Ω and σ"),
             PortDecl::new("shadow_velocity", Format::Vec4, "image-space velocity of the shadows (px per half shutter), the width Ω of the filter along it (eq. B.2) and σ"),
         ]
+    }
+    /// Its components, and (where it factors) what its camera rays see directly, added once here.
+    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::factoring_sum(q))
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![

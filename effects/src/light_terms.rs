@@ -1,0 +1,65 @@
+//! The light terms the built-in nodes declare ([`wedge_graph::terms`]), shared where several nodes
+//! hold the same ones: a whole path-traced image, what camera rays see directly, indirect light or
+//! ambient occlusion, and what a factoring node's component inputs take.
+
+use wedge_graph::{AcceptView, Accepts, Term, TermKind, TermQuery, Terms, View};
+
+/// What camera rays see directly: emitters, and the environment where they miss.
+pub(crate) fn seen_directly(view: View) -> Terms {
+    Terms::new().with(Term::new(TermKind::Emission, view)).with(Term::new(TermKind::Background, view))
+}
+
+/// A whole path-traced image with next-event estimation at every vertex (area lights and the
+/// environment), `bounces` from the integer parameter of that name.
+pub(crate) fn path_traced(q: &TermQuery<'_>, view: View) -> Terms {
+    seen_directly(view)
+        .with(Term::new(TermKind::DirectArea, view))
+        .with(Term::new(TermKind::DirectEnvironment, view))
+        .with(Term::new(TermKind::Indirect, view).detail(q.bounces("bounces")))
+}
+
+/// `mode: "ao"`: ambient occlusion; else indirect light of `bounces` bounces, its lobes named by
+/// `lobes` where the node knows them (`""`: not said).
+pub(crate) fn indirect_or_ao(q: &TermQuery<'_>, view: View, lobes: &str) -> Terms {
+    if q.choice("mode") == Some("ao") {
+        return Terms::new().with(Term::new(TermKind::AmbientOcclusion, view));
+    }
+    let detail = if lobes.is_empty() { q.bounces("bounces") } else { format!("{}, {lobes}", q.bounces("bounces")) };
+    Terms::new().with(Term::new(TermKind::Indirect, view).detail(detail))
+}
+
+/// What an `emission` input takes: what camera rays see directly (`Primary.emission`).
+pub(crate) const EMISSION_INPUT: Accepts = Accepts {
+    kinds: &[TermKind::Emission, TermKind::Background],
+    view: AcceptView::Any,
+    fix: "wire `primary.emission` (what camera rays see directly)",
+};
+
+/// A factoring node's `direct` input: direct light from area lights (and, from a component rendered
+/// without factoring — a pinhole Defocus — the emission it adds), through the sampler's camera.
+pub(crate) const COMPONENT_DIRECT: Accepts = Accepts {
+    kinds: &[TermKind::DirectArea, TermKind::Emission, TermKind::Background],
+    view: AcceptView::Sampler,
+    fix: "wire the `radiance` of a SoftShadows node: it renders the direct component on the shared sampler, \
+          through the factoring node's lens and shutter; a node that traces its own pinhole paths (PixelFilter, \
+          RadianceFilter, MonteCarlo) or one that holds indirect light cannot be factored",
+};
+
+/// A factoring node's `indirect` input: indirect light or ambient occlusion, through the sampler's camera.
+pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
+    kinds: &[TermKind::Indirect, TermKind::AmbientOcclusion],
+    view: AcceptView::Sampler,
+    fix: "wire the `radiance` of an Indirect (or LightField) node: it renders the indirect component through the \
+          factoring node's lens and shutter; direct light goes to `direct`",
+};
+
+/// The terms of a factoring node's output: its components, plus — where it factors — what the
+/// shared sampler's camera rays see directly (it adds that once itself).
+pub(crate) fn factoring_sum(q: &TermQuery<'_>) -> Terms {
+    let components = q.sum(&["direct", "indirect"]);
+    if q.is_factoring_node() {
+        seen_directly(q.sampler_view()).plus(Some(&components))
+    } else {
+        components
+    }
+}
