@@ -151,8 +151,12 @@ impl CameraSettings {
 
     /// Every path of a pixel has the same camera ray: no aperture (or a zero one) and no time.
     pub fn fixed(&self) -> bool {
-        let aperture = self.lens.iter().find(|(n, _)| *n == "aperture_radius").and_then(|(_, v)| v.as_f64());
-        !self.time && aperture.is_none_or(|a| a == 0.0)
+        !self.time && self.aperture().is_none_or(|a| a == 0.0)
+    }
+
+    /// The stated `aperture_radius`, if any.
+    pub fn aperture(&self) -> Option<f64> {
+        self.lens.iter().find(|(n, _)| *n == "aperture_radius").and_then(|(_, v)| v.as_f64())
     }
 
     /// As pass parameters: the lens settings, `aperture_radius` 0 where none is stated (a pinhole,

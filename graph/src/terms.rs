@@ -95,8 +95,7 @@ impl View {
     pub const PINHOLE: View = View { lens: false, shutter: false };
     /// The view of paths sampled with these camera settings.
     pub fn of(settings: &CameraSettings) -> View {
-        let aperture = settings.lens.iter().find(|(n, _)| *n == "aperture_radius").and_then(|(_, v)| v.as_f64());
-        View { lens: aperture.is_some_and(|a| a > 0.0), shutter: settings.time }
+        View { lens: settings.aperture().is_some_and(|a| a > 0.0), shutter: settings.time }
     }
 }
 
@@ -363,10 +362,10 @@ pub(crate) fn check(v: &ValidatedPipeline) -> (TermReport, Vec<Diagnostic>) {
                 own.push((port.name, t));
             }
         }
-        let mut found = refused;
-        if let (Some((_, first)), true) = (own.first(), found.is_empty() && !upstream_reported) {
-            found = check_sum(node, first);
-        }
+        let found = match own.first() {
+            Some((_, first)) if refused.is_empty() && !upstream_reported => check_sum(node, first),
+            _ => refused,
+        };
         if upstream_reported || !found.is_empty() {
             reported.push(&node.name);
         }
