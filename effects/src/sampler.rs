@@ -38,7 +38,7 @@ use wedge_backends::kernels::paths::{PATH_RECORD, RESOLVE_OUTPUTS};
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerKind, SamplerPass, SamplerPlan,
-    SamplerRequest, Stage,
+    SamplerRequest, SettingMerge, Stage,
 };
 
 /// Thesis Ch. 3/4's first pass for `estimator`: one path per pixel through its centre (a fixed pinhole
@@ -115,6 +115,32 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
 /// Settings without a default: passed to `paths.trace` only where a node sets them (a Defocus node's
 /// focus distance).
 const OPTIONAL_SETTINGS: [&str; 1] = ["focus_distance"];
+
+/// How two nodes' values of a setting are negotiated (issue 34 §4). Counts take the larger: each
+/// node's statistics only gain from more first-pass samples, and the count stage reads the merged
+/// plan, so every `PerPrimary::Spread` subtracts the first-pass samples actually traced. Jitter is
+/// on where any node asks: a centre ray is one sample of the pixel, and with jittered paths the
+/// record weighs paths (`paths.rs` "Weights"), which is unbiased for a pinhole node too. What a
+/// setting selects — a light, a lobe, a camera — is one per pipeline.
+fn merge_rule(setting: &str) -> SettingMerge {
+    let why = match setting {
+        "paths" | "shadow_per_primary" | "indirect_per_primary" | "environment_per_primary" => return SettingMerge::Max,
+        "jitter" => return SettingMerge::Any,
+        "light" => {
+            "the shared sampler traces shadow rays to one area light per pipeline: filter one light's shadows with \
+             SoftShadows and add each other light with a MonteCarlo node (`light`: its index, no `emission` input)"
+        }
+        "lens" | "aperture_radius" | "focus_distance" => "a pipeline has one camera, and the sampler traces through it",
+        "form_factor" => "the shadow estimator weighs every node's light samples one way",
+        "brdf" | "bounces" | "ao" | "glossy" | "max_distance" => {
+            "the hemisphere estimator traces one kind of indirect light per pipeline (give the nodes the same \
+             `brdf`, `bounces`, `mode` and `max_distance`)"
+        }
+        "sampling" => "stratified or independent applies to every sequence of the record",
+        _ => "the sampler takes one value of it per pipeline",
+    };
+    SettingMerge::Equal { why }
+}
 
 /// The `paths.trace` sampler.
 pub struct PathSampler;
@@ -210,6 +236,9 @@ impl SamplerKind for PathSampler {
     }
     fn settings(&self) -> Vec<&'static str> {
         defaults().into_iter().map(|(n, _)| n).chain(OPTIONAL_SETTINGS).collect()
+    }
+    fn merge(&self, setting: &str) -> SettingMerge {
+        merge_rule(setting)
     }
     fn outputs(&self) -> Vec<(&'static str, Format)> {
         let mut o = vec![("record", Format::Struct(&PATH_RECORD))];

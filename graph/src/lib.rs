@@ -41,7 +41,9 @@ pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, Pass
 pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts};
 pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
 pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
-pub use sampler::{CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SAMPLER_NODE};
+pub use sampler::{
+    CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SettingMerge, SAMPLER_NODE,
+};
 pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use stage::{stream_id, Reference, Stage};
 pub use terms::{AcceptView, Accepts, Term, TermKind, TermQuery, TermReport, Terms, View};

@@ -3,8 +3,10 @@
 //!
 //! From [`crate::NodeKind::expand`] a node
 //! - asks for the sampler with the estimators and settings it needs ([`ExpandCtx::sampler`] with a
-//!   [`SamplerRequest`]): identical settings from two nodes are shared, a conflicting one is a graph
-//!   error naming both nodes;
+//!   [`SamplerRequest`]): two nodes' values of one setting are negotiated by the rule the
+//!   [`SamplerKind`] declares for it ([`SettingMerge`]: the larger count, jitter where any node
+//!   jitters); only a setting the kind declares [`SettingMerge::Equal`] can conflict, and that is a
+//!   graph error naming both nodes, the setting and why it cannot be shared;
 //! - gets typed handles to the sampler's resolved buffers ([`ExpandCtx::sampler_output`]): the
 //!   first-pass outputs (written in `Stage::Sample`) and the final ones after the adaptive pass
 //!   (`Stage::Adaptive`), by the names the registered [`SamplerKind`] declares;
@@ -70,6 +72,36 @@ impl SamplerRequest {
     pub fn setting(mut self, name: &str, value: ParamValue) -> Self {
         self.settings.insert(name.to_string(), value);
         self
+    }
+}
+
+/// How the sampler combines two nodes' values of one setting (issue 34 §4: settings are negotiated,
+/// never a conflict the user resolves by an internal name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SettingMerge {
+    /// One value serves every node; a different one is refused with `why` (what the setting selects
+    /// and what the user can do instead).
+    Equal { why: &'static str },
+    /// The larger number serves both (a count: more first-pass samples only refine each node's
+    /// statistics, and every node reads the counts the merged plan gives).
+    Max,
+    /// On where any node asks (a switch whose `true` contains `false` as a special case, e.g.
+    /// jittered primary paths: a ray through the pixel centre is one sample of the pixel).
+    Any,
+}
+
+impl SettingMerge {
+    /// The negotiated value, or `None` where the two cannot be shared.
+    pub fn merge(self, a: &ParamValue, b: &ParamValue) -> Option<ParamValue> {
+        if a == b {
+            return Some(a.clone());
+        }
+        match (self, a, b) {
+            (SettingMerge::Max, ParamValue::Int(x), ParamValue::Int(y)) => Some(ParamValue::Int(*x.max(y))),
+            (SettingMerge::Max, ParamValue::Float(x), ParamValue::Float(y)) => Some(ParamValue::Float(x.max(*y))),
+            (SettingMerge::Any, ParamValue::Bool(x), ParamValue::Bool(y)) => Some(ParamValue::Bool(*x || *y)),
+            _ => None,
+        }
     }
 }
 
@@ -142,6 +174,10 @@ pub trait SamplerKind: Send + Sync {
     }
     /// Setting names a node may give.
     fn settings(&self) -> Vec<&'static str>;
+    /// How two nodes' values of `setting` combine. Default: they must be equal.
+    fn merge(&self, _setting: &str) -> SettingMerge {
+        SettingMerge::Equal { why: "the sampler takes one value of it per pipeline" }
+    }
     /// Resolved outputs a handle may name, with their formats.
     fn outputs(&self) -> Vec<(&'static str, Format)>;
     /// Emit the sampler's passes (node [`SAMPLER_NODE`]) writing every handle in `plan`.
@@ -160,7 +196,7 @@ pub struct SamplerPlan {
     /// The nodes that asked, in expansion order.
     pub users: Vec<String>,
     pub estimators: BTreeSet<String>,
-    /// Setting → (value, the first node that gave it).
+    /// Setting → (negotiated value, the node whose value it is).
     pub settings: BTreeMap<String, (ParamValue, String)>,
     /// Handles handed out: (pass, output name) → buffer. The sampler must write each one.
     pub handles: BTreeMap<(SamplerPass, String), BufferId>,
@@ -216,17 +252,30 @@ impl SamplerPlan {
                 )));
             }
             if let Some((other, by)) = self.settings.get(name) {
-                if other != value && by != node {
+                let rule = kind.merge(name);
+                if rule.merge(other, value).is_none() {
+                    let why = match rule {
+                        SettingMerge::Equal { why } => why,
+                        _ => "values of different kinds cannot be combined",
+                    };
                     return Err(err(format!(
-                        "asks for the shared sampler with `{name}` = {} but node `{by}` asked for {}; nodes \
-                         sharing the sampler must agree on its settings",
-                        value, other
+                        "needs the shared sampler's `{name}` = {value}, but node `{by}` needs {other}: {why}"
                     )));
                 }
             }
         }
         for (name, value) in r.settings {
-            self.settings.entry(name).or_insert((value, node.to_string()));
+            match self.settings.get(&name) {
+                None => {
+                    self.settings.insert(name, (value, node.to_string()));
+                }
+                Some((other, _)) => {
+                    let merged = kind.merge(&name).merge(other, &value).unwrap_or_else(|| other.clone());
+                    if merged != *other {
+                        self.settings.insert(name, (merged, node.to_string()));
+                    }
+                }
+            }
         }
         self.estimators.extend(r.estimators);
         if !self.users.iter().any(|u| u == node) {

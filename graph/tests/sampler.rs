@@ -26,6 +26,12 @@ impl SamplerKind for TestSampler {
     fn settings(&self) -> Vec<&'static str> {
         vec!["light", "paths"]
     }
+    fn merge(&self, setting: &str) -> SettingMerge {
+        match setting {
+            "paths" => SettingMerge::Max,
+            _ => SettingMerge::Equal { why: "shadow rays go to one light" },
+        }
+    }
     fn outputs(&self) -> Vec<(&'static str, Format)> {
         vec![("estimate", Format::F32), ("stats", Format::Vec4)]
     }
@@ -89,6 +95,7 @@ impl NodeKind for Shadowy {
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::int("light", 0, 0, 8, "light"),
+            ParamDecl::int("paths", 1, 1, 16, "first-pass paths"),
             ParamDecl::choice("estimator", "light", &["light", "hemisphere", "lens"], "estimator to ask for"),
             ParamDecl::choice("counts", "constant", &["constant", "spread", "spread0"], "9 per path, or a spread of `rays` (unit 9, or 0)"),
             ParamDecl::choice("key", "estimator", &["estimator", "glossy"], "the count request names the estimator, or channel `glossy`"),
@@ -97,7 +104,7 @@ impl NodeKind for Shadowy {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let ParamValue::Str(estimator) = ctx.param("estimator").clone() else { unreachable!() };
         let light = ctx.param("light").clone();
-        ctx.sampler(SamplerRequest::new().estimator(&estimator).setting("light", light).setting("paths", ParamValue::Int(1)))?;
+        ctx.sampler(SamplerRequest::new().estimator(&estimator).setting("light", light).setting("paths", ctx.param("paths").clone()))?;
         let stats = ctx.sampler_output(SamplerPass::First, "stats")?;
         let rays = ctx.buffer("rays", Format::U32);
         ctx.pass("rates", "test.rates", Stage::Bandwidth).read("stats", stats).write("rays", rays).finish();
@@ -184,7 +191,31 @@ fn conflicting_settings_are_an_error_naming_both_nodes() {
     )
     .unwrap_err()
     .to_string();
-    assert!(err.contains("node `b`") && err.contains("`light` = 2") && err.contains("node `a` asked for 1"), "{err}");
+    assert!(
+        err.contains("node `b`") && err.contains("needs the shared sampler's `light` = 2, but node `a` needs 1: shadow rays go to one light"),
+        "{err}"
+    );
+}
+
+/// Issue 34 §4: settings the sampler kind declares negotiable are merged by its rule, in either
+/// order, never refused.
+#[test]
+fn negotiable_settings_take_the_kinds_rule() {
+    for (a, b) in [(1, 4), (4, 1)] {
+        let e = expansion(
+            &[
+                &format!(r#"(name: "a", kind: "Shadowy", params: {{"paths": {a}}})"#),
+                &format!(r#"(name: "b", kind: "Shadowy", params: {{"paths": {b}}})"#),
+                TWO_LIGHTS_SINK,
+            ],
+            true,
+        )
+        .unwrap();
+        assert_eq!(pass(&e, "sampler.first").params["count"], ParamValue::Int(4), "paths {a} and {b}");
+    }
+    assert_eq!(SettingMerge::Any.merge(&ParamValue::Bool(false), &ParamValue::Bool(true)), Some(ParamValue::Bool(true)));
+    assert_eq!(SettingMerge::Max.merge(&ParamValue::Int(2), &ParamValue::Float(3.0)), None, "kinds differ");
+    assert_eq!(SettingMerge::Equal { why: "" }.merge(&ParamValue::Int(2), &ParamValue::Int(3)), None);
 }
 
 #[test]
