@@ -22,6 +22,7 @@ use crate::pipeline::{
     MAX_SCENE_CHARS,
 };
 use crate::source_map::{NodeSource, Pos, SourceMap};
+use crate::stage::Stage;
 use crate::GraphError;
 
 /// Largest admissible image side, and largest pixel count (2^26 = 64 Mpixel): buffers are
@@ -1281,6 +1282,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
                 .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref())))),
         )?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
+        follow_data_stages(&mut expansion, first_pass);
         check_input_stages(v, node, &expansion, first_pass)?;
 
         // The node kind must keep its declared contract; a violation is a bug in the kind.
@@ -1338,6 +1340,25 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         emit_sampler(v, &mut expansion, &plan, &mut written)?;
     }
     Ok(expansion)
+}
+
+/// After composition the stage order follows the data (issue 34 §4): a pass of stage `Compose` or
+/// later that reads an image finished in a later stage (an `Add` of a Defocus node's output) runs in
+/// that stage, and so do the passes of the node that read it. Passes before `Compose` — sampling,
+/// bandwidths, counts, factoring, world-space filters — keep their stage: the sampler's counts and
+/// the reference transform rely on it, and reading a later stage there is the error below.
+fn follow_data_stages(expansion: &mut Expansion, first_pass: usize) {
+    for i in first_pass..expansion.passes.len() {
+        let (earlier, rest) = expansion.passes.split_at_mut(i);
+        let pass = &mut rest[0];
+        if pass.stage < Stage::Compose {
+            continue;
+        }
+        let writer_stage = |id: &BufferId| earlier.iter().rev().find(|p| p.writes.iter().any(|(_, b)| b == id)).map(|p| p.stage);
+        if let Some(latest) = pass.reads.iter().filter_map(|(_, id)| writer_stage(id)).max() {
+            pass.stage = pass.stage.max(latest);
+        }
+    }
 }
 
 /// A node's passes may only read what earlier stages finished (the scheduler orders by stage). An

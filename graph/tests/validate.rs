@@ -467,3 +467,35 @@ fn load_pipeline_reads_files_and_names_missing_ones() {
         other => panic!("expected Io error, got {:?}", other.map(|_| ())),
     }
 }
+
+/// Issue 34 §4: stage order follows the data after composition. A composition that reads an
+/// image-space filter's output runs after it (in its stage), and so does what reads the composition.
+#[test]
+fn a_composition_after_an_image_space_filter_runs_after_it() {
+    let grade = r#"(name: "grade", kind: "Grade", inputs: {"x": "src.a"})"#;
+    let mix = r#"(name: "mix", kind: "Mix", inputs: {"x": "grade.y"})"#;
+    let again = r#"(name: "again", kind: "Mix", inputs: {"x": "mix.y"})"#;
+    let out = r#"(name: "out", kind: "Sink", inputs: {"color": "again.y"})"#;
+    let (_, s) = compile_text(&pipeline(&[SRC, mix, grade, again, out]));
+    let order: Vec<(&str, Stage)> = s.passes.iter().map(|p| (p.name.as_str(), p.stage)).collect();
+    assert_eq!(
+        order,
+        [("src.gen", Stage::Sample), ("grade.p", Stage::ImageFilter), ("mix.p", Stage::ImageFilter), ("again.p", Stage::ImageFilter)]
+    );
+}
+
+/// Before composition a stage keeps its place (the sampler's counts and the reference transform rely
+/// on it): a world-space filter reading an image-space output is named at its node, with a fix.
+#[test]
+fn a_filter_reading_an_image_space_output_is_a_stage_order_error() {
+    let grade = r#"(name: "grade", kind: "Grade", inputs: {"x": "src.a"})"#;
+    let blur = r#"(name: "blur", kind: "Blur", inputs: {"x": "grade.y"})"#;
+    let text = pipeline(&[SRC, grade, blur, OUT]);
+    let v = validate(&parse(&text), &registry()).unwrap();
+    let Err(GraphError::Invalid(d)) = expand(&v) else { panic!("expected a stage-order error") };
+    assert_eq!(d.len(), 1, "{d:#?}");
+    assert_eq!(d[0].kind, DiagnosticKind::StageOrder);
+    assert_eq!((d[0].location.line, d[0].location.col), (6, 16), "{}", d[0]);
+    assert!(d[0].message.contains("node `blur` (Blur) runs in stage filter, but its input `x` is `grade.y`"), "{}", d[0]);
+    assert!(d[0].help.contains("combine before `grade` instead"), "{}", d[0]);
+}

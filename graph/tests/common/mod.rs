@@ -4,6 +4,8 @@
 //! - `Blur`: input `x: f32`, output `y: f32`, params `mu` (> 0) and `taps` (int 1..=16); two passes
 //!   (`h` writes a temporary, `v` reads it and writes `y`).
 //! - `Sink` (a sink): inputs `color: f32`, optional `aux: vec3`; no passes of its own.
+//! - `Grade` / `Mix`: input `x: f32`, output `y: f32`, one pass in stage `ImageFilter` / `Compose`
+//!   (an image-space filter, and a composition that may follow one).
 //! - `Lazy` / `Twice` / `WrongFormat`: broken kinds, to test that `expand` catches contract violations.
 #![allow(dead_code)]
 
@@ -106,6 +108,40 @@ impl NodeKind for Sink {
     }
 }
 
+/// One pass of `stage` reading input `x` into output `y`.
+fn one_pass(ctx: &mut ExpandCtx<'_>, stage: Stage) -> Result<(), GraphError> {
+    let x = ctx.required("x")?;
+    let y = ctx.buffer("y", Format::F32);
+    ctx.pass("p", "test.p", stage).read("x", x).write("out", y).finish();
+    ctx.output("y", y);
+    Ok(())
+}
+
+macro_rules! one_pass_kind {
+    ($name:ident, $stage:expr) => {
+        pub struct $name;
+        impl NodeKind for $name {
+            fn kind(&self) -> &'static str {
+                stringify!($name)
+            }
+            fn inputs(&self) -> Vec<PortDecl> {
+                vec![PortDecl::new("x", Format::F32, "input")]
+            }
+            fn outputs(&self) -> Vec<PortDecl> {
+                vec![PortDecl::new("y", Format::F32, "output")]
+            }
+            fn params(&self) -> Vec<ParamDecl> {
+                vec![]
+            }
+            fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+                one_pass(ctx, $stage)
+            }
+        }
+    };
+}
+one_pass_kind!(Grade, Stage::ImageFilter);
+one_pass_kind!(Mix, Stage::Compose);
+
 /// Declares output `y` but never binds it.
 pub struct Lazy;
 impl NodeKind for Lazy {
@@ -180,6 +216,8 @@ pub fn registry() -> NodeRegistry {
     r.register(Arc::new(Source))
         .register(Arc::new(Blur))
         .register(Arc::new(Sink))
+        .register(Arc::new(Grade))
+        .register(Arc::new(Mix))
         .register(Arc::new(Lazy))
         .register(Arc::new(Twice))
         .register(Arc::new(WrongFormat));
