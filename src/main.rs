@@ -199,12 +199,20 @@ enum Command {
         #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
         allow_outside_dir: bool,
     },
-    /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes).
+    /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes). Refusals that
+    /// need no scene come first; then the scene is loaded as `render` loads it (no environment map
+    /// read, no real layer captured), so the schedule is the one `render` runs.
     Graph {
         pipeline: Option<PathBuf>,
         /// Print Graphviz DOT instead of the table.
         #[arg(long)]
         dot: bool,
+        /// Scene override, as for `render`.
+        #[arg(long)]
+        scene: Option<String>,
+        /// As for `render`.
+        #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
+        allow_outside_dir: bool,
     },
 }
 
@@ -792,10 +800,13 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             }
             Ok(text)
         }
-        Command::Graph { pipeline, dot } => {
+        Command::Graph { pipeline, dot, scene, allow_outside_dir } => {
             let loaded = wedge::session::load_pipeline_or_default(pipeline.as_deref())?;
             let (nodes, kernels) = wedge::effects::builtin();
-            let validated = wedge::graph::validate(&loaded, &nodes)?;
+            let mut validated = wedge::graph::validate(&loaded, &nodes)?;
+            let ov = Overrides { scene, allow_outside_dir, ..Default::default() };
+            let facts = wedge::session::graph_scene_facts(&loaded, &validated, &ov)?;
+            validated.update_factoring(Some(facts))?;
             let sched = wedge::graph::schedule(wedge::graph::expand(&validated)?)?;
             kernels.check_schedule(&sched)?;
             if dot {
@@ -803,7 +814,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             }
             let mut text = sched.table() + &memory_line(&sched, loaded.pipeline.width, loaded.pipeline.height);
             text.push_str(&validated.light_summary());
-            for w in validated.light_warnings(None) {
+            for w in validated.light_warnings(Some(&facts)) {
                 text.push_str(&format!("warning: {w}\n"));
             }
             Ok(text)
@@ -811,7 +822,8 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
     }
 }
 
-/// `wedge graph`'s memory line: the schedule's buffers at the pipeline's size (no scene is loaded).
+/// `wedge graph`'s memory line: the schedule's buffers at the pipeline's size (the scene's own memory
+/// is not counted).
 fn memory_line(sched: &wedge::graph::Schedule, width: u32, height: u32) -> String {
     use wedge::session::format_bytes;
     let b = sched.buffer_bytes(width, height);

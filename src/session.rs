@@ -160,42 +160,13 @@ impl Session {
         apply_param_overrides(&mut pipeline, ov)?;
         // The scene before the graph: which node factors may depend on it (a Motion node on a static
         // scene does not).
-        let source = scene_source(&pipeline, ov.scene.as_deref());
-        // A scene file the pipeline names is confined to the pipeline's directory; one given on the
-        // command line (`--scene PATH`) is not: the user chose it, as they chose the pipeline file, and
-        // it is relative to the working directory, not to the pipeline.
-        if let (SceneSource::File(_), None) = (&source, &ov.scene) {
-            let at = loaded.scene_location();
-            let entry = format!("line {}: scene = {:?}", at.line, pipeline.pipeline.scene);
-            pipeline_file(&pipeline.path, &pipeline.pipeline.scene, &entry, ov.allow_outside_dir)?;
-        }
-        let scene_opts = wedge_scene::LoadOptions { allow_outside_dir: ov.allow_outside_dir };
-        // The pipeline's shutter (if it gives one) is when a scene file's animations are sampled.
-        let shutter = pipeline.pipeline.camera.as_ref().and_then(|c| c.shutter);
-        let mut scene = wedge_scene::load_with_shutter(&source, &scene_opts, shutter)?;
-        if let Some(c) = &pipeline.pipeline.camera {
-            scene.camera = camera_from_spec(c, &scene.camera);
-        }
-        apply_motion(&mut scene, &pipeline)?;
-        // Without a camera block the scene's camera gives the path its `up`: check the path's view
-        // against it now (validation checked it against the block's).
-        if pipeline.pipeline.camera.is_none() {
-            let up = scene.camera.up;
-            wedge_graph::check_camera_path(&loaded, (up.x, up.y, up.z))?;
-        }
-        // A pipeline with a camera path renders its frame 0 (or `ov.frame`) as a single image; before
-        // the scene requests, so a real layer is captured from that frame's camera.
+        // Every refusal comes before a node's scene request is served (an environment map read, a real
+        // layer captured at `capture_spp`), from the facts `wedge graph` decides with.
         let frame = ov.frame.unwrap_or(0);
-        if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, frame) {
-            scene.camera.position = position;
-            scene.camera.look_at = look_at;
-        }
-        apply_scene_requests(&mut scene, &pipeline, frame, ov)?;
-        if shutter.is_some_and(|(open, close)| open == close) {
-            freeze_motion(&mut scene)?;
-        }
-        pipeline.update_factoring(Some(scene_facts(&scene)))?;
+        let mut scene = load_scene_at(&loaded, &pipeline, ov, frame)?;
+        pipeline.update_factoring(Some(decision_facts(&scene, &pipeline)))?;
         let mut expansion = expand(&pipeline)?;
+        apply_scene_requests(&mut scene, &pipeline, frame, ov)?;
         if let Some((spp, sampling)) = reference {
             expansion = wedge_graph::reference(expansion, spp, sampling)?;
         }
@@ -480,6 +451,63 @@ impl MemoryEstimate {
 pub fn path_at(keys: &[wedge_graph::CameraKey], frame: u32) -> Option<(Vec3, Vec3)> {
     let v = |t: (f32, f32, f32)| Vec3::new(t.0, t.1, t.2);
     wedge_graph::camera_path_at(keys, frame).map(|(position, look_at)| (v(position), v(look_at)))
+}
+
+/// The scene a render of `pipeline` sees at `frame`, before the nodes' scene requests (environment
+/// map, real layer): its geometry and lights, the pipeline's camera block and motion, the frame's
+/// camera on the path, motion held still under a zero-length shutter.
+fn load_scene_at(loaded: &LoadedPipeline, pipeline: &ValidatedPipeline, ov: &Overrides, frame: u32) -> Result<Scene, WedgeError> {
+    let source = scene_source(pipeline, ov.scene.as_deref());
+    // A scene file the pipeline names is confined to the pipeline's directory; one given on the
+    // command line (`--scene PATH`) is not: the user chose it, as they chose the pipeline file, and
+    // it is relative to the working directory, not to the pipeline.
+    if let (SceneSource::File(_), None) = (&source, &ov.scene) {
+        let at = loaded.scene_location();
+        let entry = format!("line {}: scene = {:?}", at.line, pipeline.pipeline.scene);
+        pipeline_file(&pipeline.path, &pipeline.pipeline.scene, &entry, ov.allow_outside_dir)?;
+    }
+    let scene_opts = wedge_scene::LoadOptions { allow_outside_dir: ov.allow_outside_dir };
+    // The pipeline's shutter (if it gives one) is when a scene file's animations are sampled.
+    let shutter = pipeline.pipeline.camera.as_ref().and_then(|c| c.shutter);
+    let mut scene = wedge_scene::load_with_shutter(&source, &scene_opts, shutter)?;
+    if let Some(c) = &pipeline.pipeline.camera {
+        scene.camera = camera_from_spec(c, &scene.camera);
+    }
+    apply_motion(&mut scene, pipeline)?;
+    // Without a camera block the scene's camera gives the path its `up`: check the path's view
+    // against it now (validation checked it against the block's).
+    if pipeline.pipeline.camera.is_none() {
+        let up = scene.camera.up;
+        wedge_graph::check_camera_path(loaded, (up.x, up.y, up.z))?;
+    }
+    // A pipeline with a camera path renders its frame 0 (or `ov.frame`) as a single image; before
+    // the scene requests, so a real layer is captured from that frame's camera.
+    if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, frame) {
+        scene.camera.position = position;
+        scene.camera.look_at = look_at;
+    }
+    if shutter.is_some_and(|(open, close)| open == close) {
+        freeze_motion(&mut scene)?;
+    }
+    Ok(scene)
+}
+
+/// The scene facts a render of `loaded` decides with, for `wedge graph` (issue 34 §4: `graph` and
+/// `render` make the same decision): the scene loaded as a render loads it, before any environment
+/// map is read or real layer captured. Refusals that need no scene come first, from [`validate`].
+pub fn graph_scene_facts(loaded: &LoadedPipeline, pipeline: &ValidatedPipeline, ov: &Overrides) -> Result<wedge_graph::SceneFacts, WedgeError> {
+    let scene = load_scene_at(loaded, pipeline, ov, ov.frame.unwrap_or(0))?;
+    Ok(decision_facts(&scene, pipeline))
+}
+
+/// [`scene_facts`] of the scene before the nodes' scene requests are served, a node's request for an
+/// environment map counting as the environment it will light the scene with.
+fn decision_facts(scene: &Scene, pipeline: &ValidatedPipeline) -> wedge_graph::SceneFacts {
+    let mut facts = scene_facts(scene);
+    facts.environment |= pipeline.nodes.iter().any(|n| {
+        n.kind.scene_requests(&n.params).iter().any(|r| matches!(r, SceneRequest::Environment { map, .. } if !map.is_empty()))
+    });
+    facts
 }
 
 /// What factoring decisions and the light-term warnings may know of a loaded scene

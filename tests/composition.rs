@@ -119,3 +119,43 @@ fn an_add_after_defocus_runs_after_it_and_converges() {
     let (m_render, m_reference) = (mean(&image), mean(&reference(&text, 256)));
     assert!((m_render / m_reference - 1.0).abs() < 0.03, "render {m_render} vs reference {m_reference}");
 }
+
+/// `wedge graph` decides with the scene `wedge render` loads (issue 34 §4): Environment beside a
+/// Motion node is accepted by both on a static scene (Motion then factors nothing) and refused by
+/// both, with the same message, where the scene moves.
+#[test]
+fn graph_and_render_make_the_same_decision() {
+    let dir = common::cli::temp_dir("composition", "graph-render");
+    let nodes = r#"
+    (name: "primary", kind: "Primary"),
+    (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}),
+    (name: "motion", kind: "Motion", inputs: {"direct": "shadows.radiance"}),
+    (name: "env", kind: "Environment", params: {"map": "builtin:sky", "emission": false}),
+    (name: "sum", kind: "Add", inputs: {"a": "env.radiance", "b": "motion.radiance"}),
+    (name: "out", kind: "Output", inputs: {"color": "sum.radiance"}),"#;
+    std::fs::write(dir.join("p.ron"), pipeline("builtin:cornell", nodes)).unwrap();
+    let run = |args: &[&str]| common::cli::wedge(args, &dir);
+    for (what, o) in [("graph", run(&["graph", "p.ron"])), ("render", run(&["render", "p.ron", "--out", "still"]))] {
+        assert!(o.status.success(), "{what} on a static scene: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    let graph = common::cli::refused(&run(&["graph", "p.ron", "--scene", "motion"]), &["node `env`: cannot render under the factoring node `motion`"]);
+    let render = common::cli::refused(&run(&["render", "p.ron", "--scene", "motion", "--out", "moving"]), &[]);
+    assert_eq!(graph.lines().next(), render.lines().next(), "the same refusal");
+    assert!(!dir.join("moving").exists(), "nothing written");
+}
+
+/// Every refusal comes before a scene request is served (issue 34 §5): MixedReality beside a Defocus
+/// node is refused for what it is, not after its real layer was captured — here the capture names a
+/// file that does not exist, which would be the error were it captured first.
+#[test]
+fn a_refused_combination_captures_no_real_layer_first() {
+    let nodes = r#"
+    (name: "primary", kind: "Primary"),
+    (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}),
+    (name: "defocus", kind: "Defocus", params: {"aperture_radius": 0.05, "focus_distance": 2.6}, inputs: {"direct": "shadows.radiance"}),
+    (name: "mr", kind: "MixedReality", params: {"capture": "no_such_capture.ron"}),
+    (name: "out", kind: "Output", inputs: {"color": "defocus.radiance", "unfiltered": "mr.radiance"}),"#;
+    let err = refusal(&pipeline("builtin:chess", nodes));
+    assert!(err.contains("cannot render under the factoring node `defocus`") && err.contains("one still photograph"), "{err}");
+    assert!(!err.contains("no_such_capture"), "refused after trying to capture: {err}");
+}

@@ -4,19 +4,16 @@
 //! the term, the producers and the fix; light the camera or scene has that no term covers is warned
 //! about. Pipelines are written by each test to a temporary directory.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+
+use common::cli::{refused, wedge};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("wedge-light-terms-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn wedge(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).current_dir(cwd).output().expect("wedge runs")
+    common::cli::temp_dir("light-terms", name)
 }
 
 /// `wedge graph` on a pipeline of `nodes` (RON node tuples) over `scene`, written to `dir/name.ron`.
@@ -24,16 +21,6 @@ fn graph(dir: &Path, name: &str, scene: &str, camera: &str, nodes: &str) -> Outp
     let text = format!("Pipeline(scene: \"{scene}\", width: 16, height: 12, seed: 1, {camera}\n nodes: [\n{nodes}\n])\n");
     fs::write(dir.join(format!("{name}.ron")), text).unwrap();
     wedge(&["graph", &format!("{name}.ron")], dir)
-}
-
-fn refused(o: &Output, needles: &[&str]) -> String {
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert_ne!(o.status.code(), Some(0), "must be refused; stderr: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "stderr should mention {n:?}: {err}");
-    }
-    err
 }
 
 const PRIMARY: &str = "(name: \"primary\", kind: \"Primary\"),";

@@ -4,19 +4,16 @@
 //! `graph/tests/validate.rs`; an `Add` after Defocus, which now runs after it:
 //! `tests/composition.rs`). Inputs are written by each test to a temporary directory.
 
+mod common;
+
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::PathBuf;
+use std::process::Output;
+
+use common::cli::wedge;
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("wedge-validate-cli-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn wedge(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).current_dir(cwd).output().expect("wedge runs")
+    common::cli::temp_dir("validate-cli", name)
 }
 
 /// Assert exit `code`, no panic, and every fragment in stderr; returns stderr.

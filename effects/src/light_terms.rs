@@ -42,7 +42,8 @@ pub(crate) const COMPONENT_DIRECT: Accepts = Accepts {
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of a SoftShadows node: it renders the direct component on the shared sampler, \
           through the factoring node's lens and shutter; a node that traces its own pinhole paths (PixelFilter, \
-          RadianceFilter, MonteCarlo) or one that holds indirect light cannot be factored",
+          RadianceFilter, MonteCarlo) or one that holds indirect light cannot be factored, and the environment's \
+          direct light and the real layer are not factored components yet (README \"Composing effects\": what is refused)",
 };
 
 /// A factoring node's `indirect` input: indirect light or ambient occlusion, through the sampler's camera.
@@ -50,7 +51,7 @@ pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
     kinds: &[TermKind::Indirect, TermKind::AmbientOcclusion],
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of an Indirect (or LightField) node: it renders the indirect component through the \
-          factoring node's lens and shutter; direct light goes to `direct`",
+          factoring node's lens and shutter; direct light goes to `direct` (README \"Composing effects\": what is refused)",
 };
 
 /// The terms of a factoring node's output: its components, plus — where it factors — what the

@@ -1,6 +1,7 @@
 //! Shared helpers for wedge's integration tests: run pipelines at small sizes, compare images.
 #![allow(dead_code)]
 
+pub mod cli;
 pub mod progressive;
 
 use std::path::Path;

@@ -143,7 +143,8 @@ impl NodeKind for Environment {
                 node: ctx.node().into(),
                 message: format!(
                     "cannot render under the factoring node `{}`: Environment is not a factored component (thesis Ch. 6 \
-                     filters the environment on its own) — render it in a pipeline without Defocus or Motion",
+                     filters the environment on its own; README \"Composing effects\": what is refused) — render it in a \
+                     pipeline without Defocus or Motion",
                     f.node
                 ),
             });
