@@ -1,0 +1,257 @@
+//! Issue 34's combination matrix: every single effect, every pair and the useful triples of
+//! {SoftShadows, Indirect, AO, Environment, LightField, MixedReality, PixelFilter, RadianceFilter,
+//! MonteCarlo} × {no factoring node, Defocus, Motion, Defocus + Motion}, wired as a user would (a
+//! factoring node takes the direct and indirect components, everything else is added beside it,
+//! emission wired once). Each entry is either refused before anything runs with a reason from the
+//! README's "Composing effects" table, or renders on the CPU to finite pixels whose mean agrees with
+//! the pipeline's own converged reference (within 5% or 0.005: a dim indirect-only image's mean
+//! carries ~6% of sampling noise at this size, measured over seeds; a term counted twice or missed
+//! moves it by tens of percent). An internal error, a panic or an unlisted refusal fails. One bias is
+//! known and held to its measured size, not hidden: [`KNOWN_BIAS`]. 48×36 pixels, so the whole
+//! matrix stays cheap (~15 s); `--nocapture` prints it.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use wedge::graph::parse_pipeline;
+use wedge::image::Image;
+use wedge::Session;
+
+const SIZE: (u32, u32) = (48, 36);
+const P: &str = r#""position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo""#;
+
+/// Where an effect's image goes under a factoring node.
+#[derive(Clone, Copy, PartialEq)]
+enum Role {
+    Direct,
+    Indirect,
+    /// A whole image of its own, added beside the factoring node.
+    Whole,
+}
+
+/// How an effect's image comes to hold the emission seen directly.
+#[derive(Clone, Copy, PartialEq)]
+enum Emission {
+    /// Through a wired `emission` input.
+    Input,
+    /// Through its `emission` parameter.
+    Param,
+    Always,
+    Never,
+}
+
+struct Effect {
+    key: &'static str,
+    role: Role,
+    emission: Emission,
+    /// The node, with `{E}` where the emission wiring goes.
+    node: &'static str,
+}
+
+const EFFECTS: [Effect; 9] = [
+    Effect { key: "shadows", role: Role::Direct, emission: Emission::Input, node: r#"(name: "shadows", kind: "SoftShadows", inputs: {P{E}})"# },
+    Effect { key: "indirect", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "indirect", kind: "Indirect", inputs: {P, "specular": "primary.specular"})"# },
+    Effect { key: "ao", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "ao", kind: "Indirect", params: {"mode": "ao"}, inputs: {P})"# },
+    Effect { key: "env", role: Role::Whole, emission: Emission::Param, node: r#"(name: "env", kind: "Environment", params: {"map": "builtin:sky"{E}})"# },
+    Effect { key: "lf", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "lf", kind: "LightField", params: {"spp": 2, "rays": 8})"# },
+    Effect { key: "mr", role: Role::Whole, emission: Emission::Always, node: r#"(name: "mr", kind: "MixedReality", params: {"capture": "builtin:envmap_real", "capture_spp": 4})"# },
+    Effect { key: "pf", role: Role::Whole, emission: Emission::Always, node: r#"(name: "pf", kind: "PixelFilter")"# },
+    Effect { key: "rf", role: Role::Whole, emission: Emission::Always, node: r#"(name: "rf", kind: "RadianceFilter")"# },
+    Effect { key: "mc", role: Role::Whole, emission: Emission::Input, node: r#"(name: "mc", kind: "MonteCarlo", params: {"spp": 4}, inputs: {P{E}})"# },
+];
+
+impl Effect {
+    fn ron(&self, emits: bool) -> String {
+        let e = match (self.emission, emits) {
+            (Emission::Input, true) => r#", "emission": "primary.emission""#,
+            (Emission::Param, on) => if on { r#", "emission": true"# } else { r#", "emission": false"# },
+            _ => "",
+        };
+        self.node.replace("{P", &format!("{{{P}")).replace("{E}", e)
+    }
+    fn radiance(&self) -> String {
+        let name = self.node.split('"').nth(1).unwrap();
+        format!("{name}.radiance")
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Camera {
+    Pinhole,
+    Defocus,
+    Motion,
+    DefocusMotion,
+}
+
+impl Camera {
+    fn factoring(self) -> &'static [&'static str] {
+        match self {
+            Camera::Pinhole => &[],
+            Camera::Defocus => &["Defocus"],
+            Camera::Motion => &["Motion"],
+            Camera::DefocusMotion => &["Defocus", "Motion"],
+        }
+    }
+    /// A scene with an area light and an environment map, or one that moves.
+    fn scene(self) -> &'static str {
+        match self {
+            Camera::Pinhole | Camera::Defocus => "builtin:envmap_light",
+            Camera::Motion | Camera::DefocusMotion => "builtin:motion",
+        }
+    }
+}
+
+/// `Add` nodes summing `images`; returns the node text and the sum's port.
+fn sum(images: &[String], name: &str, nodes: &mut Vec<String>) -> Option<String> {
+    let mut acc = images.first()?.clone();
+    for (k, image) in images.iter().enumerate().skip(1) {
+        nodes.push(format!(r#"(name: "{name}{k}", kind: "Add", inputs: {{"a": "{acc}", "b": "{image}"}})"#));
+        acc = format!("{name}{k}.radiance");
+    }
+    Some(acc)
+}
+
+/// The pipeline a user would write for `effects` under `camera`.
+fn pipeline(effects: &[&Effect], camera: Camera) -> String {
+    let factored = !camera.factoring().is_empty();
+    // Emission once: a factoring node adds it; else an effect that always holds it; else the first
+    // that can be asked to.
+    let always = effects.iter().any(|e| e.emission == Emission::Always);
+    let owner = (!factored && !always).then(|| effects.iter().position(|e| matches!(e.emission, Emission::Input | Emission::Param))).flatten();
+    let mut nodes = vec![r#"(name: "primary", kind: "Primary")"#.to_string()];
+    nodes.extend(effects.iter().enumerate().map(|(k, e)| e.ron(owner == Some(k))));
+    let of = |role: Role| effects.iter().filter(|e| e.role == role).map(|e| e.radiance()).collect::<Vec<_>>();
+    let mut images = if factored { of(Role::Whole) } else { effects.iter().map(|e| e.radiance()).collect() };
+    if factored {
+        let mut direct = sum(&of(Role::Direct), "direct_sum", &mut nodes);
+        let indirect = sum(&of(Role::Indirect), "indirect_sum", &mut nodes);
+        if direct.is_none() && indirect.is_none() {
+            direct = Some(images.remove(0));
+        }
+        let inputs: Vec<String> = [("direct", direct), ("indirect", indirect)]
+            .into_iter()
+            .filter_map(|(port, image)| Some(format!(r#""{port}": "{}""#, image?)))
+            .collect();
+        for kind in camera.factoring() {
+            let name = kind.to_lowercase();
+            let params = if *kind == "Defocus" { r#"params: {"aperture_radius": 0.05, "focus_distance": 2.6}, "# } else { "" };
+            nodes.push(format!(r#"(name: "{name}", kind: "{kind}", {params}inputs: {{{}}})"#, inputs.join(", ")));
+            images.insert(0, format!("{name}.radiance"));
+        }
+    }
+    let color = sum(&images, "sum", &mut nodes).expect("an image");
+    nodes.push(format!(r#"(name: "out", kind: "Output", inputs: {{"color": "{color}"}})"#));
+    format!("Pipeline(scene: \"{}\", width: {}, height: {}, seed: 3, nodes: [\n    {}\n])\n", camera.scene(), SIZE.0, SIZE.1, nodes.join(",\n    "))
+}
+
+/// The refusals README "Composing effects" lists, by the words their messages carry.
+const TABLE: [&str; 7] = [
+    "error[two-factoring-nodes]",
+    "cannot render under the factoring node",
+    "is not a lighting component",
+    "error[term-not-accepted]",
+    "error[term-overlap]",
+    "needs the shared sampler's",
+    "error[stage-order]",
+];
+
+/// A bias found by this matrix and not yet fixed: (effect, the largest relative deficit measured
+/// here, the cause). The test fails if it grows, if its sign changes, or if it is gone (then remove
+/// it from here and from README "Composing effects").
+const KNOWN_BIAS: [(&str, f64, &str); 1] = [(
+    "lf",
+    0.30,
+    "LightField: a reconstruction ray that crosses no splat returns 0, so surfaces the input rays reached \
+     sparsely read dark — on the open envmap_light scene the indirect light is 15-25% low (closed cornell: \
+     within 1%)",
+)];
+
+enum Outcome {
+    Refused(&'static str),
+    Rendered { render: f64, reference: f64 },
+}
+
+fn build(text: &str, reference: Option<u32>) -> Result<Session, String> {
+    let loaded = parse_pipeline(Path::new("matrix.ron"), text).map_err(|e| e.to_string())?;
+    let (nodes, kernels) = wedge::effects::builtin();
+    let ov = sized(SIZE.0, SIZE.1, None, &[]);
+    match reference {
+        None => Session::build(loaded, &ov, nodes, kernels),
+        Some(spp) => Session::build_reference(loaded, &ov, nodes, kernels, spp, "stratified"),
+    }
+    .map_err(|e| e.to_string())
+}
+
+fn mean(image: &Image) -> f64 {
+    let px = &image.pixels;
+    assert!(px.iter().flatten().all(|v| v.is_finite()), "non-finite pixels");
+    px.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / px.len() as f64
+}
+
+fn outcome(text: &str) -> Outcome {
+    let session = match build(text, None) {
+        Ok(s) => s,
+        Err(e) => {
+            let reason = TABLE.iter().find(|t| e.contains(**t)).unwrap_or_else(|| panic!("a refusal not in the table:\n{e}\n{text}"));
+            return Outcome::Refused(reason);
+        }
+    };
+    let render = mean(&color(&session, &run(&session)));
+    let reference = build(text, Some(256)).unwrap_or_else(|e| panic!("a rendered pipeline's reference is refused: {e}\n{text}"));
+    Outcome::Rendered { render, reference: mean(&color(&reference, &run(&reference))) }
+}
+
+/// Singles, pairs, and the useful triples (direct + indirect + one more).
+fn combinations() -> Vec<Vec<&'static Effect>> {
+    let e: Vec<&Effect> = EFFECTS.iter().collect();
+    let mut out: Vec<Vec<&Effect>> = e.iter().map(|x| vec![*x]).collect();
+    for i in 0..e.len() {
+        for j in i + 1..e.len() {
+            out.push(vec![e[i], e[j]]);
+        }
+    }
+    for third in ["env", "lf", "mc", "ao"] {
+        let pick = |k: &str| *e.iter().find(|x| x.key == k).unwrap();
+        out.push(vec![pick("shadows"), pick("indirect"), pick(third)]);
+    }
+    out
+}
+
+#[test]
+fn every_combination_is_refused_for_a_listed_reason_or_renders_what_its_reference_converges_to() {
+    let mut rendered = 0;
+    let mut failures = Vec::new();
+    let mut biased = std::collections::BTreeSet::new();
+    for camera in [Camera::Pinhole, Camera::Defocus, Camera::Motion, Camera::DefocusMotion] {
+        for effects in combinations() {
+            let keys: Vec<&str> = effects.iter().map(|e| e.key).collect();
+            let text = pipeline(&effects, camera);
+            match outcome(&text) {
+                Outcome::Refused(reason) => println!("{camera:?} {keys:?}: refused, {reason}"),
+                Outcome::Rendered { render, reference } => {
+                    rendered += 1;
+                    let ratio = render / reference;
+                    println!("{camera:?} {keys:?}: renders, mean {render:.4} vs reference {reference:.4} ({ratio:.3})");
+                    if (render - reference).abs() <= 0.05 * reference + 0.005 {
+                        continue;
+                    }
+                    let known = KNOWN_BIAS.iter().find(|(k, deficit, _)| keys.contains(k) && ratio < 1.0 && ratio > 1.0 - deficit);
+                    match known {
+                        Some((k, _, cause)) => {
+                            println!("    known bias: {cause}");
+                            biased.insert(*k);
+                        }
+                        None => failures.push(format!("{camera:?} {keys:?}: mean {render} vs reference {reference}\n{text}")),
+                    }
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{} combination(s) render away from their reference:\n{}", failures.len(), failures.join("\n"));
+    assert!(rendered >= 20, "only {rendered} combinations render");
+    for (k, _, cause) in KNOWN_BIAS {
+        assert!(biased.contains(k), "the known bias of `{k}` is gone: remove it from KNOWN_BIAS and the README ({cause})");
+    }
+}
