@@ -1,4 +1,4 @@
-// pixel_filter.range — the range buffer (seed 002 Sec. 3.3.3): `count` jittered pinhole rays per pixel
+// pixel_filter.range — the range buffer (seed 002 Sec. 3.3.3): `count` jittered camera rays per pixel
 // on filter frames, albedo under ambient + head light (pf_range_colour) averaged with the earlier
 // passes', nearest depth; other frames keep the previous buffer. Mirrors
 // backends/src/kernels/pixel_filter.rs (RangeBuffer, range_update).
@@ -32,7 +32,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var depth = PF_MISS_DEPTH;
     for (var s = 0u; s < params.count; s = s + 1u) {
         let jit = rng_uniform2(key, s, DIM_PIXEL);
-        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), vec2<f32>(0.5));
+        // Through the lens where the camera has an aperture (pixel_filter.rs `camera_ray`).
+        let lens = select(vec2<f32>(0.5), rng_uniform2(key, s, DIM_LENS), c.aperture > 0.0);
+        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
         let hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
         if (hit.hit) {
             let sp = surface(hit.triangle, hit.b1, hit.b2, ray.dir);

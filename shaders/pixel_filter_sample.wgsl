@@ -1,4 +1,4 @@
-// pixel_filter.sample — `count` jittered pinhole paths per pixel (one per frame in progressive mode),
+// pixel_filter.sample — `count` jittered paths per pixel (through the lens where the camera has one) (one per frame in progressive mode),
 // split into L_lv and L_u (seed 002 Sec. 3.3, Fig. 3.1), accumulated with Stats::combine; mirrors
 // backends/src/kernels/pixel_filter.rs (PixelSample::run_cpu, path_sample) with the same RNG calls
 // and dimensions, on the shared first_vertex.wgsl (next_event, trace_path_split of indirect_path.wgsl).
@@ -59,7 +59,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var j = frame.chunk_begin;
     for (; j < end; j = j + 1u) {
         let jit = rng_uniform2(key, j, DIM_PIXEL);
-        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), vec2<f32>(0.5));
+        // Through the lens where the camera has an aperture (pixel_filter.rs `camera_ray`).
+        let lens = select(vec2<f32>(0.5), rng_uniform2(key, j, DIM_LENS), c.aperture > 0.0);
+        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
         let s = path_sample(ray.origin, ray.dir, key, j);
         if (is_finite3(s.lv) && is_finite3(s.hv)) {
             st = pf_combine(st, PfStats(s.lv, s.hv, 1.0, 0.0));

@@ -1,4 +1,4 @@
-// radiance_filter.sample — `count` jittered pinhole paths per pixel (one per frame), their Stats of
+// radiance_filter.sample — `count` jittered paths per pixel (one per frame; through the camera's lens), their Stats of
 // direct light and own indirect estimate, and path 0's radiance sample at the first vertex (seed 002
 // Sec. 4.3.1, steps 1-2); mirrors backends/src/kernels/radiance_filter.rs (RadianceSample::run_cpu)
 // with the same RNG calls and dimensions, on the shared first_vertex.wgsl.
@@ -41,7 +41,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var j = frame.chunk_begin;
     for (; j < end; j = j + 1u) {
         let jit = rng_uniform2(key, j, DIM_PIXEL);
-        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), vec2<f32>(0.5));
+        // Through the lens where the camera has an aperture (pixel_filter.rs `camera_ray`).
+        let lens = select(vec2<f32>(0.5), rng_uniform2(key, j, DIM_LENS), c.aperture > 0.0);
+        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
         let v = first_vertex(ray.origin, ray.dir, key, j);
         let finite = is_finite3(v.direct) && is_finite3(v.indirect);
         if (finite) {

@@ -1,8 +1,10 @@
-//! Issue 34 §4–5, combinations that compose: sampler settings are negotiated (Environment next to
-//! Indirect at defaults), only a real conflict is refused with what to do instead, and a node may
-//! read a factoring node's output (stage order follows the data). Each accepted combination is held
-//! to numbers: its converged reference equals the same terms rendered by one node, and its render
-//! agrees with that reference. Small images, CPU only.
+//! Issue 34 §2 and §4–5, combinations that compose: sampler settings are negotiated (Environment next
+//! to Indirect at defaults), only a real conflict is refused with what to do instead, a node may read
+//! a factoring node's output (stage order follows the data), `graph` and `render` decide alike and
+//! refuse before serving scene requests, and the progressive nodes trace the camera block's lens.
+//! Each accepted combination is held to numbers: its converged reference equals the same terms
+//! rendered by one node, and its render agrees with that reference. Small images; the CPU, and the
+//! GPU (lavapipe) for the lens's parity.
 
 mod common;
 
@@ -158,4 +160,67 @@ fn a_refused_combination_captures_no_real_layer_first() {
     let err = refusal(&pipeline("builtin:chess", nodes));
     assert!(err.contains("cannot render under the factoring node `defocus`") && err.contains("one still photograph"), "{err}");
     assert!(!err.contains("no_such_capture"), "refused after trying to capture: {err}");
+}
+
+const PROGRESSIVE: [&str; 2] = ["PixelFilter", "RadianceFilter"];
+const LENS: &str = "aperture_radius: 0.15, focus_distance: Some(2.0)";
+
+/// A progressive node's pipeline on `cornell` with a camera block of `aperture`.
+fn progressive_pipeline(kind: &str, aperture: &str) -> String {
+    format!(
+        "Pipeline(scene: \"builtin:cornell\", width: 32, height: 24, seed: 1,\n camera: Some((position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, {aperture})),\n nodes: [\n (name: \"p\", kind: \"{kind}\", params: {{\"bounces\": 1}}),\n (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"p.radiance\"}}),\n])\n"
+    )
+}
+
+/// Issue 34 §2, the camera as a graph-level model, for the nodes that trace their own camera paths:
+/// a `camera:` block with an aperture and no Defocus node makes PixelFilter and RadianceFilter
+/// trace through the lens, so their progressive accumulation converges to the image through the
+/// lens (their reference), not to the pinhole image; `wedge graph` says "through the lens" and no
+/// longer warns that the aperture is not sampled.
+#[test]
+fn the_progressive_nodes_render_through_the_camera_blocks_lens() {
+    use common::progressive::{progressive, rmse};
+    for kind in PROGRESSIVE {
+        let (lens, pinhole) = (progressive_pipeline(kind, LENS), progressive_pipeline(kind, "aperture_radius: 0.0"));
+        let session = session_from_text(&lens, &sized(32, 24, None, &[]));
+        let last = progressive(&session, 128).pop().unwrap();
+        let color = last.output("color").unwrap();
+        let reference_of = |t: &str| {
+            let loaded = parse_pipeline(Path::new("test.ron"), t).unwrap();
+            let (nodes, kernels) = wedge::effects::builtin();
+            let s = Session::build_reference(loaded, &sized(32, 24, None, &[]), nodes, kernels, 1024, "stratified").unwrap();
+            run(&s).output("color").unwrap().clone()
+        };
+        let (through_lens, through_pinhole) = (rmse(color, &reference_of(&lens)), rmse(color, &reference_of(&pinhole)));
+        println!("{kind}: RMSE after 128 frames {through_lens:.4} to the lens reference, {through_pinhole:.4} to the pinhole one");
+        assert!(through_lens < 0.5 * through_pinhole, "{kind}: RMSE {through_lens} to the lens reference, {through_pinhole} to the pinhole one");
+
+        let dir = common::cli::temp_dir("composition", &format!("lens-{kind}"));
+        std::fs::write(dir.join("p.ron"), &lens).unwrap();
+        let o = common::cli::wedge(&["graph", "p.ron"], &dir);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("out.color = p.radiance: ") && out.contains(", through the lens"), "{kind}: {out}");
+        assert!(!out.contains("is not sampled"), "{kind}: {out}");
+    }
+}
+
+/// The lens sample of the progressive nodes' camera paths is the same on both backends.
+#[test]
+fn the_progressive_nodes_lens_passes_parity() {
+    let Some(mut gpu) = gpu_or_skip("the_progressive_nodes_lens_passes_parity") else { return };
+    for kind in PROGRESSIVE {
+        let s = session_from_text(&progressive_pipeline(kind, LENS), &sized(16, 12, None, &[]));
+        let job = wedge::backends::Job {
+            schedule: &s.schedule,
+            scene: &s.scene,
+            kernels: &s.kernels,
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+            frame: 0,
+            progress: &wedge::backends::Silent,
+        };
+        let report = wedge::backends::parity::run_parity(&job, &mut gpu).expect("parity runs");
+        assert!(report.ok(), "{kind} through the lens:\n{}", report.table());
+    }
 }

@@ -6,8 +6,8 @@
 //! image converges to plain progressive accumulation (`s → 1`).
 //!
 //! Passes (kernels in `wedge_backends::kernels::pixel_filter`, formulas unit-tested there):
-//! 1. `sample` (`pixel_filter.sample`, random, reference role `Sample`): `paths` jittered pinhole paths
-//!    per pixel on the shared estimators (next-event estimation at every vertex, the indirect path of
+//! 1. `sample` (`pixel_filter.sample`, random, reference role `Sample`): `paths` jittered paths
+//!    per pixel (through the camera block's lens where it has an aperture) on the shared estimators (next-event estimation at every vertex, the indirect path of
 //!    `indirect.rs`), split into `L_lv` and `L_u` by `split` (`indirect`: direct vs indirect light,
 //!    the thesis's usual split; `caustics`: light reaching the first diffuse vertex through glossy
 //!    scattering only; `all`: everything filtered, Fig. 3.7);
@@ -60,9 +60,10 @@ impl NodeKind for PixelFilter {
     fn accumulates_frames(&self, _params: &std::collections::BTreeMap<String, ParamValue>) -> Option<&'static str> {
         Some("its progressive path-traced radiance (a running mean of every frame so far)")
     }
-    /// A whole path-traced image from its own pinhole camera paths.
+    /// A whole path-traced image from its own camera paths: through the camera block's lens where it
+    /// has an aperture, at the shutter's centre.
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
-        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, wedge_graph::View::PINHOLE))
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![

@@ -50,9 +50,10 @@ impl NodeKind for RadianceFilter {
             PortDecl::new("phase", Format::F32, "1 where the pixel used only its own sample (correction phase), else 0"),
         ]
     }
-    /// A whole path-traced image from its own pinhole camera paths.
+    /// A whole path-traced image from its own camera paths: through the camera block's lens where it
+    /// has an aperture, at the shutter's centre.
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
-        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, wedge_graph::View::PINHOLE))
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![

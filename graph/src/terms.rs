@@ -272,12 +272,19 @@ pub struct TermQuery<'a> {
     /// Every connected input port, radiance or not.
     pub connected: Vec<&'a str>,
     pub factoring: Option<&'a Factoring>,
+    /// The pipeline's `camera:` block, if it has one.
+    pub camera: Option<&'a crate::pipeline::CameraSpec>,
 }
 
 impl TermQuery<'_> {
     /// The view of the shared sampler's paths (the factoring node's camera, else a pinhole).
     pub fn sampler_view(&self) -> View {
         View::of(&CameraSettings::of(self.factoring))
+    }
+    /// The view of a node that traces its own camera paths through the pipeline's camera block: its
+    /// lens where the block gives an aperture (the shutter is not sampled by such nodes yet).
+    pub fn camera_view(&self) -> View {
+        View { lens: self.camera.is_some_and(|c| c.aperture_radius > 0.0), shutter: false }
     }
     /// Some node factors the pipeline: the shared sampler's components are rendered for it.
     pub fn factored(&self) -> bool {
@@ -355,7 +362,8 @@ pub(crate) fn check(v: &ValidatedPipeline) -> (TermReport, Vec<Diagnostic>) {
         let upstream_reported = node.inputs.values().any(|(n, _)| reported.contains(&n.as_str()));
         let refused = if upstream_reported { Vec::new() } else { check_accepted(v, node, &inputs) };
         let connected = node.inputs.keys().map(String::as_str).collect();
-        let q = TermQuery { node: &node.name, params: &node.params, inputs: &inputs, connected, factoring: v.factoring.as_ref() };
+        let (factoring, camera) = (v.factoring.as_ref(), v.pipeline.camera.as_ref());
+        let q = TermQuery { node: &node.name, params: &node.params, inputs: &inputs, connected, factoring, camera };
         let mut own: Vec<(&'static str, Terms)> = Vec::new();
         for port in node.kind.outputs() {
             if let Some(t) = node.kind.terms(port.name, &q) {

@@ -9,7 +9,8 @@
 //! (`KernelCtx::frame`, WGSL `frame.frame_index`).
 //!
 //! - `pixel_filter.sample`: `count` paths per pixel (one per frame in progressive mode), each a
-//!   jittered pinhole camera ray (thesis Sec. 3.3: pinhole, box pixel filter) shaded with the shared
+//!   jittered camera ray (thesis Sec. 3.3: pinhole, box pixel filter; through the lens where the
+//!   camera has an aperture, [`camera_ray`]) shaded with the shared
 //!   estimators of `indirect.rs` — next-event estimation at every vertex ([`next_event`]) and the
 //!   one-sample lobe mixture continued by [`trace_path_split`] — split into the low-variance paths
 //!   `L_lv` and the high-variance paths `L_u` by [`Split`] (Sec. 3.3, Fig. 3.1). Writes the batch's
@@ -35,7 +36,7 @@
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
-use wedge_scene::{Camera, LensShape, SceneAt};
+use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::indirect::{continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays};
@@ -277,11 +278,14 @@ impl Split {
     }
 }
 
-/// The scene's camera as a pinhole (pixel filtering assumes one, Sec. 3.3).
-fn pinhole(ctx: &KernelCtx<'_>) -> Camera {
-    let mut cam = ctx.scene.camera;
-    cam.aperture_radius = 0.0;
-    cam
+/// The camera ray of path `j` through pixel (`px`, `py`): jittered over the pixel and, where the
+/// camera has an aperture, over its lens (a dimension of its own), so the accumulation over frames
+/// converges to the image through the lens (issue 34 §2; seed 002 assumes a pinhole, and where the
+/// camera is one the rays are as before, bit for bit). `shaders/camera.wgsl`'s `path_camera_ray`.
+fn camera_ray(cam: &Camera, rng: &PixelRng, j: u32, (px, py): (u32, u32), (width, height): (u32, u32)) -> LensRay {
+    let jit = rng.uniform2(j, dim::PIXEL);
+    let lens = if cam.aperture_radius > 0.0 { Vec2::from(rng.uniform2(j, dim::LENS)) } else { Vec2::splat(0.5) };
+    cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), lens, width, height, LensShape::Disk)
 }
 
 fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
@@ -353,7 +357,7 @@ fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> 
 }
 
 /// The camera paths of a progressive sampling pass (`pixel_filter.sample`,
-/// `radiance_filter.sample`): `count` jittered pinhole paths per pixel, each shaded by
+/// `radiance_filter.sample`): `count` jittered paths per pixel ([`camera_ray`]), each shaded by
 /// [`first_vertex`] on the stream `stream`.
 pub struct CameraPaths {
     pub count: u32,
@@ -363,13 +367,13 @@ pub struct CameraPaths {
 }
 
 impl CameraPaths {
-    /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera as a pinhole.
+    /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera.
     pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
         Ok(CameraPaths {
             count: count_param(ctx, "count", i64::from(u32::MAX))?,
             path: PathParams::from_params(ctx, false, 0.0)?,
             stream: ctx.int_param("stream")? as u32,
-            camera: pinhole(ctx),
+            camera: ctx.scene.camera,
         })
     }
     /// The WGSL's `Params` fields for them: the camera, `count`, `stream` and `indirect_path.wgsl`'s.
@@ -386,8 +390,7 @@ impl CameraPaths {
             let rng = PixelRng::new(seed, py * width + px, self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             for j in 0..self.count {
-                let jit = rng.uniform2(j, dim::PIXEL);
-                let ray = self.camera.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), Vec2::splat(0.5), width, height, LensShape::Disk);
+                let ray = camera_ray(&self.camera, &rng, j, (px, py), (width, height));
                 let v = first_vertex(&at, &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {
                     bad += 1;
@@ -615,7 +618,7 @@ impl Kernel for RangeBuffer {
         Some(
             WgslSource::new(include_str!("../../../shaders/pixel_filter_range.wgsl"), |ctx| {
                 let (update, pass) = schedule(ctx)?;
-                let u = camera_uniforms(Uniforms::new(), &pinhole(ctx));
+                let u = camera_uniforms(Uniforms::new(), &ctx.scene.camera);
                 Ok(u.u32("count", count_param(ctx, "count", 4096)?)
                     .u32("stream", ctx.int_param("stream")? as u32)
                     .u32("update", update as u32)
@@ -635,7 +638,7 @@ impl Kernel for RangeBuffer {
             return ctx.put("range", out);
         }
         let stream = ctx.int_param("stream")? as u32;
-        let cam = pinhole(ctx);
+        let cam = ctx.scene.camera;
         let at = ctx.scene.at(0.0);
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
         let k = pass.max(1) as f32;
@@ -644,8 +647,7 @@ impl Kernel for RangeBuffer {
             let rng = PixelRng::new(seed, pixel, stream);
             let (mut sum, mut depth) = (Vec3::ZERO, MISS_DEPTH);
             for s in 0..count {
-                let jit = rng.uniform2(s, dim::PIXEL);
-                let ray = cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), Vec2::splat(0.5), width, height, LensShape::Disk);
+                let ray = camera_ray(&cam, &rng, s, (px, py), (width, height));
                 if let Some(hit) = at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) {
                     let sp = at.surface(&hit, ray.origin, ray.dir);
                     let mat = &at.scene().materials[sp.material as usize];

@@ -8,7 +8,7 @@
 //! geometry stay sharp; the kernel shrinks frame by frame so that the accumulated image keeps a
 //! target variance and converges to plain path tracing (Sec. 4.3.3, the correction phase).
 //!
-//! - `radiance_filter.sample`: `count` jittered pinhole paths per pixel (one per frame), the same
+//! - `radiance_filter.sample`: `count` jittered paths per pixel (one per frame), the same
 //!   estimators as `pixel_filter.sample` ([`first_vertex`]): the batch's [`Stats`] of direct light
 //!   (`lv`) and of the pixel's own indirect estimate (`hv`, with `M2` of its luminance), and the
 //!   radiance sample of path 0 at the first non-specular vertex (Sec. 4.3.1, steps 1–2; wedge has no
@@ -423,7 +423,10 @@ fn filter_settings(ctx: &KernelCtx<'_>) -> Result<FilterSettings, BackendError> 
         thickness: ctx.positive_f32_param("thickness")?,
         max_radius: max_radius(ctx)?,
         pixel_angle: pixel_angle(ctx),
-        // The pinhole the camera paths start from (CameraPaths: the aperture is ignored).
+        // The lens centre: the kernel's view direction and the stored vertex's outgoing direction.
+        // Under an aperture each path starts elsewhere on the lens, within `aperture_radius` of it;
+        // the filter's glossy weight reads the centre's direction (an approximation that fades with
+        // the filter as frames accumulate).
         eye: ctx.scene.camera.position,
     })
 }
