@@ -32,8 +32,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var depth = PF_MISS_DEPTH;
     for (var s = 0u; s < params.count; s = s + 1u) {
         let jit = rng_uniform2(key, s, DIM_PIXEL);
-        // Through the lens where the camera has an aperture (pixel_filter.rs `camera_ray`).
+        // Through the lens where the camera has an aperture, at the path's own time where the shutter
+        // is open over an interval (pixel_filter.rs `camera_ray`).
         let lens = select(vec2<f32>(0.5), rng_uniform2(key, s, DIM_LENS), c.aperture > 0.0);
+        scene_time = select(0.0, 2.0 * rng_uniform2(key, s, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
         let hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
         if (hit.hit) {

@@ -1,9 +1,10 @@
 //! Issue 34 §2 and §4–5, combinations that compose: sampler settings are negotiated (Environment next
 //! to Indirect at defaults), only a real conflict is refused with what to do instead, a node may read
 //! a factoring node's output (stage order follows the data), `graph` and `render` decide alike and
-//! refuse before serving scene requests, and the progressive nodes trace the camera block's lens.
-//! Each accepted combination is held to numbers: its converged reference equals the same terms
-//! rendered by one node, and its render agrees with that reference. Small images; the CPU, and the
+//! refuse before serving scene requests, and the progressive nodes trace the camera block's lens and
+//! shutter. Each accepted combination is held to numbers: its converged reference equals the same
+//! terms rendered by one node (and a factored Defocus image an independent tracer through the same
+//! lens), and its render agrees with that reference. Small images; the CPU, and the
 //! GPU (lavapipe) for the lens's parity.
 
 mod common;
@@ -163,53 +164,87 @@ fn a_refused_combination_captures_no_real_layer_first() {
 }
 
 const PROGRESSIVE: [&str; 2] = ["PixelFilter", "RadianceFilter"];
-const LENS: &str = "aperture_radius: 0.15, focus_distance: Some(2.0)";
 
-/// A progressive node's pipeline on `cornell` with a camera block of `aperture`.
-fn progressive_pipeline(kind: &str, aperture: &str) -> String {
+/// A camera the progressive nodes sample without a Defocus or Motion node: its scene, size, and the
+/// camera block that opens it and the one that does not.
+struct OpenCamera {
+    what: &'static str,
+    scene: &'static str,
+    size: (u32, u32),
+    open: &'static str,
+    closed: &'static str,
+    /// How `wedge graph` says the image is seen.
+    view: &'static str,
+}
+
+const CAMERAS: [OpenCamera; 2] = [
+    OpenCamera {
+        what: "lens",
+        scene: "cornell",
+        size: (32, 24),
+        open: "position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.15, focus_distance: Some(2.0)",
+        closed: "position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.0",
+        view: ", through the lens",
+    },
+    OpenCamera {
+        what: "shutter",
+        scene: "motion",
+        size: (96, 72),
+        open: "position: (0, 2.2, 4.2), look_at: (0, 0.35, 0), vfov_deg: 45, shutter: Some((0.0, 1.0))",
+        closed: "position: (0, 2.2, 4.2), look_at: (0, 0.35, 0), vfov_deg: 45, shutter: Some((0.5, 0.5))",
+        view: ", over the shutter",
+    },
+];
+
+/// A progressive node's pipeline on `c`'s scene with camera block `camera`.
+fn progressive_pipeline(kind: &str, c: &OpenCamera, camera: &str) -> String {
     format!(
-        "Pipeline(scene: \"builtin:cornell\", width: 32, height: 24, seed: 1,\n camera: Some((position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, {aperture})),\n nodes: [\n (name: \"p\", kind: \"{kind}\", params: {{\"bounces\": 1}}),\n (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"p.radiance\"}}),\n])\n"
+        "Pipeline(scene: \"builtin:{}\", width: {}, height: {}, seed: 1,\n camera: Some(({camera})),\n nodes: [\n (name: \"p\", kind: \"{kind}\", params: {{\"bounces\": 1}}),\n (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"p.radiance\"}}),\n])\n",
+        c.scene, c.size.0, c.size.1
     )
 }
 
 /// Issue 34 §2, the camera as a graph-level model, for the nodes that trace their own camera paths:
-/// a `camera:` block with an aperture and no Defocus node makes PixelFilter and RadianceFilter
-/// trace through the lens, so their progressive accumulation converges to the image through the
-/// lens (their reference), not to the pinhole image; `wedge graph` says "through the lens" and no
-/// longer warns that the aperture is not sampled.
+/// a `camera:` block with an aperture (or a shutter open over an interval, on a moving scene) and no
+/// Defocus (Motion) node makes PixelFilter and RadianceFilter trace through the lens (over the
+/// shutter), so their progressive accumulation converges to the image through the lens (over the
+/// shutter: their reference), not to the pinhole one at the shutter's centre; `wedge graph` says so
+/// and no longer warns that the camera is not sampled.
 #[test]
-fn the_progressive_nodes_render_through_the_camera_blocks_lens() {
+fn the_progressive_nodes_render_through_the_camera_blocks_lens_and_shutter() {
     use common::progressive::{progressive, rmse};
-    for kind in PROGRESSIVE {
-        let (lens, pinhole) = (progressive_pipeline(kind, LENS), progressive_pipeline(kind, "aperture_radius: 0.0"));
-        let session = session_from_text(&lens, &sized(32, 24, None, &[]));
-        let last = progressive(&session, 128).pop().unwrap();
-        let color = last.output("color").unwrap();
-        let reference_of = |t: &str| {
-            let loaded = parse_pipeline(Path::new("test.ron"), t).unwrap();
-            let (nodes, kernels) = wedge::effects::builtin();
-            let s = Session::build_reference(loaded, &sized(32, 24, None, &[]), nodes, kernels, 1024, "stratified").unwrap();
-            run(&s).output("color").unwrap().clone()
-        };
-        let (through_lens, through_pinhole) = (rmse(color, &reference_of(&lens)), rmse(color, &reference_of(&pinhole)));
-        println!("{kind}: RMSE after 128 frames {through_lens:.4} to the lens reference, {through_pinhole:.4} to the pinhole one");
-        assert!(through_lens < 0.5 * through_pinhole, "{kind}: RMSE {through_lens} to the lens reference, {through_pinhole} to the pinhole one");
+    for c in &CAMERAS {
+        for kind in PROGRESSIVE {
+            let (open, closed) = (progressive_pipeline(kind, c, c.open), progressive_pipeline(kind, c, c.closed));
+            let size = sized(c.size.0, c.size.1, None, &[]);
+            let last = progressive(&session_from_text(&open, &size), 128).pop().unwrap();
+            let color = last.output("color").unwrap();
+            let reference_of = |t: &str| {
+                let loaded = parse_pipeline(Path::new("test.ron"), t).unwrap();
+                let (nodes, kernels) = wedge::effects::builtin();
+                let s = Session::build_reference(loaded, &size, nodes, kernels, 1024, "stratified").unwrap();
+                run(&s).output("color").unwrap().clone()
+            };
+            let (to_open, to_closed) = (rmse(color, &reference_of(&open)), rmse(color, &reference_of(&closed)));
+            println!("{kind}, {}: RMSE after 128 frames {to_open:.4} to the reference through it, {to_closed:.4} without", c.what);
+            assert!(to_open < 0.6 * to_closed, "{kind}, {}: RMSE {to_open} to the open camera's reference, {to_closed} to the closed one's", c.what);
 
-        let dir = common::cli::temp_dir("composition", &format!("lens-{kind}"));
-        std::fs::write(dir.join("p.ron"), &lens).unwrap();
-        let o = common::cli::wedge(&["graph", "p.ron"], &dir);
-        let out = String::from_utf8_lossy(&o.stdout);
-        assert!(out.contains("out.color = p.radiance: ") && out.contains(", through the lens"), "{kind}: {out}");
-        assert!(!out.contains("is not sampled"), "{kind}: {out}");
+            let dir = common::cli::temp_dir("composition", &format!("{}-{kind}", c.what));
+            std::fs::write(dir.join("p.ron"), &open).unwrap();
+            let o = common::cli::wedge(&["graph", "p.ron"], &dir);
+            let out = String::from_utf8_lossy(&o.stdout);
+            assert!(out.contains("out.color = p.radiance: ") && out.contains(c.view), "{kind}: {out}");
+            assert!(!out.contains("is not sampled") && !out.contains("rendered at the shutter's centre"), "{kind}: {out}");
+        }
     }
 }
 
-/// The lens sample of the progressive nodes' camera paths is the same on both backends.
+/// The lens and time samples of the progressive nodes' camera paths are the same on both backends.
 #[test]
-fn the_progressive_nodes_lens_passes_parity() {
-    let Some(mut gpu) = gpu_or_skip("the_progressive_nodes_lens_passes_parity") else { return };
-    for kind in PROGRESSIVE {
-        let s = session_from_text(&progressive_pipeline(kind, LENS), &sized(16, 12, None, &[]));
+fn the_progressive_nodes_lens_and_shutter_pass_parity() {
+    let Some(mut gpu) = gpu_or_skip("the_progressive_nodes_lens_and_shutter_pass_parity") else { return };
+    for (kind, c) in PROGRESSIVE.iter().flat_map(|k| CAMERAS.iter().map(move |c| (*k, c))) {
+        let s = session_from_text(&progressive_pipeline(kind, c, c.open), &sized(16, 12, None, &[]));
         let job = wedge::backends::Job {
             schedule: &s.schedule,
             scene: &s.scene,
@@ -221,6 +256,40 @@ fn the_progressive_nodes_lens_passes_parity() {
             progress: &wedge::backends::Silent,
         };
         let report = wedge::backends::parity::run_parity(&job, &mut gpu).expect("parity runs");
-        assert!(report.ok(), "{kind} through the lens:\n{}", report.table());
+        assert!(report.ok(), "{kind}, {}:\n{}", c.what, report.table());
     }
+}
+
+/// A converged Defocus image matches an independent tracer through the same lens: SoftShadows +
+/// Indirect under Defocus (the shared sampler's lens paths, factored and composed; `wedge
+/// reference`, filters bypassed) against PixelFilter's own path tracer (next-event estimation at
+/// both vertices, pixel-jittered) through the camera block's lens, on the diffuse `curved` scene —
+/// pixel by pixel within the references' noise, while the pinhole image is far from both.
+#[test]
+fn defocus_from_parts_converges_to_a_path_tracer_through_the_same_lens() {
+    use common::progressive::rmse;
+    let camera = |lens: &str| format!("camera: Some((position: (0.0, 3.4, 3.2), look_at: (0.0, 0.2, 0.0), vfov_deg: 45.0, {lens})),");
+    let lens = camera("aperture_radius: 0.5, focus_distance: Some(2.5)");
+    let with = |camera: &str, nodes: &str| format!("Pipeline(scene: \"builtin:curved\", width: 48, height: 36, seed: 1, {camera} nodes: [\n{nodes}\n])\n");
+    let parts = with(&lens, r#"
+    (name: "primary", kind: "Primary"),
+    (name: "shadows", kind: "SoftShadows", params: {"form_factor": "exact"}, inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "emission": "primary.emission"}),
+    (name: "indirect", kind: "Indirect", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "specular": "primary.specular"}),
+    (name: "defocus", kind: "Defocus", params: {"form_factor": "exact"}, inputs: {"direct": "shadows.radiance", "indirect": "indirect.radiance"}),
+    (name: "out", kind: "Output", inputs: {"color": "defocus.radiance"}),"#);
+    let tracer = r#"
+    (name: "p", kind: "PixelFilter", params: {"bounces": 1}),
+    (name: "out", kind: "Output", inputs: {"color": "p.radiance"}),"#;
+    let ov = sized(48, 36, None, &[]);
+    let reference_of = |text: &str| {
+        let loaded = parse_pipeline(Path::new("test.ron"), text).unwrap();
+        let (nodes, kernels) = wedge::effects::builtin();
+        let s = Session::build_reference(loaded, &ov, nodes, kernels, 1024, "stratified").unwrap();
+        run(&s).output("color").unwrap().clone()
+    };
+    let (factored, traced) = (reference_of(&parts), reference_of(&with(&lens, tracer)));
+    let pinhole = reference_of(&with(&camera("aperture_radius: 0.0"), tracer));
+    let (agree, blur) = (rmse(&factored, &traced), rmse(&traced, &pinhole));
+    println!("Defocus parts vs a path tracer through the same lens: RMSE {agree:.5}; lens vs pinhole {blur:.5}");
+    assert!(agree < 0.15 * blur, "RMSE {agree} between the two through the lens, {blur} between lens and pinhole");
 }

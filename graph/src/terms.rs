@@ -274,6 +274,8 @@ pub struct TermQuery<'a> {
     pub factoring: Option<&'a Factoring>,
     /// The pipeline's `camera:` block, if it has one.
     pub camera: Option<&'a crate::pipeline::CameraSpec>,
+    /// The loaded scene's facts (`None`: decided without a scene).
+    pub scene: Option<&'a crate::SceneFacts>,
 }
 
 impl TermQuery<'_> {
@@ -282,9 +284,12 @@ impl TermQuery<'_> {
         View::of(&CameraSettings::of(self.factoring))
     }
     /// The view of a node that traces its own camera paths through the pipeline's camera block: its
-    /// lens where the block gives an aperture (the shutter is not sampled by such nodes yet).
+    /// lens where the block gives an aperture, its shutter where the block opens it over an interval
+    /// and the scene moves (or is not loaded yet: a static scene looks the same at every time).
     pub fn camera_view(&self) -> View {
-        View { lens: self.camera.is_some_and(|c| c.aperture_radius > 0.0), shutter: false }
+        let lens = self.camera.is_some_and(|c| c.aperture_radius > 0.0);
+        let open = self.camera.and_then(|c| c.shutter).is_some_and(|(open, close)| open < close);
+        View { lens, shutter: open && self.scene.is_none_or(|f| f.motion) }
     }
     /// Some node factors the pipeline: the shared sampler's components are rendered for it.
     pub fn factored(&self) -> bool {
@@ -362,8 +367,8 @@ pub(crate) fn check(v: &ValidatedPipeline) -> (TermReport, Vec<Diagnostic>) {
         let upstream_reported = node.inputs.values().any(|(n, _)| reported.contains(&n.as_str()));
         let refused = if upstream_reported { Vec::new() } else { check_accepted(v, node, &inputs) };
         let connected = node.inputs.keys().map(String::as_str).collect();
-        let (factoring, camera) = (v.factoring.as_ref(), v.pipeline.camera.as_ref());
-        let q = TermQuery { node: &node.name, params: &node.params, inputs: &inputs, connected, factoring, camera };
+        let (factoring, camera, scene) = (v.factoring.as_ref(), v.pipeline.camera.as_ref(), v.scene_facts.as_ref());
+        let q = TermQuery { node: &node.name, params: &node.params, inputs: &inputs, connected, factoring, camera, scene };
         let mut own: Vec<(&'static str, Terms)> = Vec::new();
         for port in node.kind.outputs() {
             if let Some(t) = node.kind.terms(port.name, &q) {

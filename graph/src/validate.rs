@@ -265,6 +265,8 @@ pub struct ValidatedPipeline {
     /// The light terms of every radiance output and of each sink's image ([`crate::terms`]), for
     /// the factoring decision above.
     pub terms: crate::terms::TermReport,
+    /// The scene facts of the last decision (`None`: decided without a scene).
+    pub scene_facts: Option<crate::factoring::SceneFacts>,
 }
 
 impl ValidatedPipeline {
@@ -342,6 +344,7 @@ impl ValidatedPipeline {
             return Err(GraphError::Invalid(problems));
         }
         self.factoring = found;
+        self.scene_facts = scene;
         // Which light each output holds depends on who factors: checked again with every decision.
         let (terms, problems) = crate::terms::check(self);
         if !problems.is_empty() {
@@ -1120,6 +1123,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         sampler: reg.sampler().cloned(),
         factoring: None,
         terms: Default::default(),
+        scene_facts: None,
     };
     // Which node factors follows from each node's whole, valid parameter block and the camera (the
     // scene is not loaded yet: a session decides again with its facts).

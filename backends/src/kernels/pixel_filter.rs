@@ -278,18 +278,26 @@ impl Split {
     }
 }
 
-/// The camera ray of path `j` through pixel (`px`, `py`): jittered over the pixel and, where the
-/// camera has an aperture, over its lens (a dimension of its own), so the accumulation over frames
-/// converges to the image through the lens (issue 34 §2; seed 002 assumes a pinhole, and where the
-/// camera is one the rays are as before, bit for bit). `shaders/camera.wgsl`'s `path_camera_ray`.
-fn camera_ray(cam: &Camera, rng: &PixelRng, j: u32, (px, py): (u32, u32), (width, height): (u32, u32)) -> LensRay {
+/// The camera ray of path `j` through pixel (`px`, `py`) and its time: jittered over the pixel, over
+/// the lens where the camera has an aperture and over the shutter where it is open over an interval
+/// (`t` in [−1, 1], the scene's motion parameter; each a dimension of its own), so the accumulation
+/// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed 002
+/// assumes a pinhole at one instant, and for such a camera the rays are as before, bit for bit). The
+/// WGSL draws the same numbers in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`.
+fn camera_ray(cam: &Camera, rng: &PixelRng, j: u32, (px, py): (u32, u32), (width, height): (u32, u32)) -> (LensRay, f32) {
     let jit = rng.uniform2(j, dim::PIXEL);
     let lens = if cam.aperture_radius > 0.0 { Vec2::from(rng.uniform2(j, dim::LENS)) } else { Vec2::splat(0.5) };
-    cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), lens, width, height, LensShape::Disk)
+    let t = if shutter_is_open(cam) { 2.0 * rng.uniform2(j, dim::TIME)[0] - 1.0 } else { 0.0 };
+    (cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), lens, width, height, LensShape::Disk), t)
+}
+
+/// The camera's shutter is open over an interval: each path takes its own time.
+fn shutter_is_open(cam: &Camera) -> bool {
+    cam.shutter_open < cam.shutter_close
 }
 
 fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
-    crate::kernels::paths::camera_uniforms(u, cam, LensShape::Disk)
+    crate::kernels::paths::camera_uniforms(u, cam, LensShape::Disk).u32("cam_shutter", shutter_is_open(cam) as u32)
 }
 
 fn count_param(ctx: &KernelCtx<'_>, name: &str, max: i64) -> Result<u32, BackendError> {
@@ -384,14 +392,13 @@ impl CameraPaths {
     /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
     /// was finite (the others are counted as non-finite samples); rays are counted too.
     pub fn run<T: Default + Send>(&self, ctx: &KernelCtx<'_>, fold: impl Fn(&mut T, u32, &FirstVertex) -> bool + Sync) -> Vec<T> {
-        let at = ctx.scene.at(0.0);
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
         let out = ctx.map_pixels(true, |px, py| {
             let rng = PixelRng::new(seed, py * width + px, self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             for j in 0..self.count {
-                let ray = camera_ray(&self.camera, &rng, j, (px, py), (width, height));
-                let v = first_vertex(&at, &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
+                let (ray, t) = camera_ray(&self.camera, &rng, j, (px, py), (width, height));
+                let v = first_vertex(&ctx.scene.at(t), &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {
                     bad += 1;
                 }
@@ -639,7 +646,6 @@ impl Kernel for RangeBuffer {
         }
         let stream = ctx.int_param("stream")? as u32;
         let cam = ctx.scene.camera;
-        let at = ctx.scene.at(0.0);
         let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
         let k = pass.max(1) as f32;
         let out = ctx.map_pixels(false, |px, py| {
@@ -647,7 +653,8 @@ impl Kernel for RangeBuffer {
             let rng = PixelRng::new(seed, pixel, stream);
             let (mut sum, mut depth) = (Vec3::ZERO, MISS_DEPTH);
             for s in 0..count {
-                let ray = camera_ray(&cam, &rng, s, (px, py), (width, height));
+                let (ray, t) = camera_ray(&cam, &rng, s, (px, py), (width, height));
+                let at = ctx.scene.at(t);
                 if let Some(hit) = at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) {
                     let sp = at.surface(&hit, ray.origin, ray.dir);
                     let mat = &at.scene().materials[sp.material as usize];
