@@ -124,3 +124,21 @@ fn light_the_scene_has_and_no_term_covers_is_warned_about_at_render() {
     assert!(o.status.success(), "{err}");
     assert!(err.contains("warning: the scene has light that `out.color` (= `shadows.radiance`) does not hold: the emission of its lights seen directly (they show black); the image holds direct(area light 0)"), "{err}");
 }
+
+/// The "an unused Defocus node gets no warning": a factoring node whose outputs no node reads
+/// still makes the components render through its lens, while its own image is culled.
+#[test]
+fn a_factoring_node_nothing_reads_is_warned_about() {
+    let d = temp_dir("unread");
+    let nodes = format!("{PRIMARY}\n{SHADOWS}\n{LENS}, inputs: {{\"direct\": \"shadows.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"shadows.radiance\"}}),");
+    let o = graph(&d, "unread", "builtin:chess", "", &nodes);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("warning: unread.ron:5:8: ") && out.contains("node `defocus` (Defocus) factors the pipeline but no node reads its outputs")
+            && out.contains("take `defocus.radiance` to the Output"),
+        "{out}"
+    );
+    let read = graph(&d, "read", "builtin:chess", "", &nodes.replace("\"color\": \"shadows.radiance\"", "\"color\": \"defocus.radiance\""));
+    assert!(!String::from_utf8_lossy(&read.stdout).contains("no node reads its outputs"));
+}

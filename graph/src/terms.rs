@@ -564,7 +564,26 @@ impl ValidatedPipeline {
                 out.extend(uncovered_light(&image, terms, facts));
             }
         }
+        out.extend(self.unread_factoring_node());
         out
+    }
+
+    /// A factoring node no other node reads: its components still render through its camera on the
+    /// shared sampler, but its own image (their blurred sum, with the emission seen directly) is
+    /// culled, so what reaches the sinks is components that are neither blurred nor complete.
+    fn unread_factoring_node(&self) -> Option<String> {
+        let f = self.factoring.as_ref()?;
+        let read = self.nodes.iter().any(|n| n.inputs.values().any(|(from, _)| *from == f.node));
+        let node = self.node(&f.node)?;
+        let image = node.kind.outputs().first().map_or_else(|| "its image".to_string(), |o| format!("`{}.{}`", f.node, o.name));
+        (!read).then(|| {
+            format!(
+                "{}: node `{}` ({}) factors the pipeline but no node reads its outputs: its components render through \
+                 its camera, while its image (their blurred sum with the emission seen directly) is culled — take \
+                 {image} to the Output",
+                node.location, f.node, f.kind
+            )
+        })
     }
 
     fn camera_warnings(&self, image: &str, terms: &Terms, scene: Option<&crate::SceneFacts>) -> Vec<String> {
