@@ -55,6 +55,13 @@ fn refusal(text: &str) -> String {
     }
 }
 
+/// SoftShadows' direct light under a Defocus node (`chess`'s lens), for the tests that add to it.
+const SHADOWS_UNDER_DEFOCUS: &str = r#"
+    (name: "primary", kind: "Primary"),
+    (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}),
+    (name: "defocus", kind: "Defocus", params: {"aperture_radius": 0.05, "focus_distance": 2.6}, inputs: {"direct": "shadows.radiance"}),
+"#;
+
 const ENV_AND_INDIRECT: &str = r#"
     (name: "primary", kind: "Primary"),
     (name: "env", kind: "Environment"),
@@ -105,14 +112,11 @@ fn two_lights_on_one_sampler_are_refused_with_the_fix() {
 /// image-space filter, and the render agrees with the pipeline's own reference.
 #[test]
 fn an_add_after_defocus_runs_after_it_and_converges() {
-    let nodes = r#"
-    (name: "primary", kind: "Primary"),
-    (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}),
-    (name: "defocus", kind: "Defocus", params: {"aperture_radius": 0.05, "focus_distance": 2.6}, inputs: {"direct": "shadows.radiance"}),
+    let nodes = SHADOWS_UNDER_DEFOCUS.to_string() + r#"
     (name: "sum", kind: "Add", inputs: {"a": "defocus.radiance", "b": "lf.radiance"}),
     (name: "lf", kind: "LightField", params: {"spp": 1, "rays": 4}),
     (name: "out", kind: "Output", inputs: {"color": "sum.radiance"}),"#;
-    let text = pipeline("builtin:chess", nodes);
+    let text = pipeline("builtin:chess", &nodes);
     let (session, image) = render(&text);
     let passes = &session.schedule.passes;
     let at = |name: &str| passes.iter().position(|p| p.name == name).unwrap_or_else(|| panic!("no pass {name}\n{}", session.schedule.table()));
@@ -152,13 +156,10 @@ fn graph_and_render_make_the_same_decision() {
 /// file that does not exist, which would be the error were it captured first.
 #[test]
 fn a_refused_combination_captures_no_real_layer_first() {
-    let nodes = r#"
-    (name: "primary", kind: "Primary"),
-    (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}),
-    (name: "defocus", kind: "Defocus", params: {"aperture_radius": 0.05, "focus_distance": 2.6}, inputs: {"direct": "shadows.radiance"}),
+    let nodes = SHADOWS_UNDER_DEFOCUS.to_string() + r#"
     (name: "mr", kind: "MixedReality", params: {"capture": "no_such_capture.ron"}),
     (name: "out", kind: "Output", inputs: {"color": "defocus.radiance", "unfiltered": "mr.radiance"}),"#;
-    let err = refusal(&pipeline("builtin:chess", nodes));
+    let err = refusal(&pipeline("builtin:chess", &nodes));
     assert!(err.contains("cannot render under the factoring node `defocus`") && err.contains("one still photograph"), "{err}");
     assert!(!err.contains("no_such_capture"), "refused after trying to capture: {err}");
 }
@@ -245,17 +246,7 @@ fn the_progressive_nodes_lens_and_shutter_pass_parity() {
     let Some(mut gpu) = gpu_or_skip("the_progressive_nodes_lens_and_shutter_pass_parity") else { return };
     for (kind, c) in PROGRESSIVE.iter().flat_map(|k| CAMERAS.iter().map(move |c| (*k, c))) {
         let s = session_from_text(&progressive_pipeline(kind, c, c.open), &sized(16, 12, None, &[]));
-        let job = wedge::backends::Job {
-            schedule: &s.schedule,
-            scene: &s.scene,
-            kernels: &s.kernels,
-            width: s.width,
-            height: s.height,
-            seed: s.seed,
-            frame: 0,
-            progress: &wedge::backends::Silent,
-        };
-        let report = wedge::backends::parity::run_parity(&job, &mut gpu).expect("parity runs");
+        let report = wedge::backends::parity::run_parity(&s.job(s.seed, 0, &wedge::backends::Silent), &mut gpu).expect("parity runs");
         assert!(report.ok(), "{kind}, {}:\n{}", c.what, report.table());
     }
 }

@@ -38,7 +38,7 @@ use wedge::backends::kernels::direct::RAY_EPSILON;
 use wedge::backends::kernels::light_field::reconstruct::{collect, resolve};
 use wedge::backends::kernels::light_field::splats::{blockers, KnnSettings};
 use wedge::backends::kernels::light_field::{build, input_rays, LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE};
-use wedge::backends::{BufferData, Job, RunResult, Silent, Texel};
+use wedge::backends::{BufferData, RunResult, Silent, Texel};
 use wedge::graph::{parse_pipeline, BufferId, ParamValue};
 use wedge::Session;
 
@@ -99,7 +99,7 @@ fn indirect(run: &RunResult) -> BufferData {
 
 /// Every buffer of a CPU run of `s` by id, none pooled (pass by pass, as the parity harness runs).
 fn every_buffer(s: &Session) -> BTreeMap<BufferId, BufferData> {
-    let job = Job { schedule: &s.schedule, scene: &s.scene, kernels: &s.kernels, width: s.width, height: s.height, seed: s.seed, frame: 0, progress: &Silent };
+    let job = s.job(s.seed, 0, &Silent);
     let mut held = BTreeMap::new();
     for pass in &s.schedule.passes {
         let inputs: BTreeMap<BufferId, &BufferData> = pass.reads.iter().filter_map(|(_, id)| held.get(id).map(|b| (*id, b))).collect();

@@ -39,16 +39,7 @@ fn small(w: u32, h: u32) -> Overrides {
 }
 
 fn job(s: &Session) -> Job<'_> {
-    Job {
-        schedule: &s.schedule,
-        scene: &s.scene,
-        kernels: &s.kernels,
-        width: s.width,
-        height: s.height,
-        seed: s.seed,
-        frame: 0,
-        progress: &Silent,
-    }
+    s.job(s.seed, 0, &Silent)
 }
 
 fn pipelines() -> Vec<PathBuf> {

@@ -137,16 +137,7 @@ pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve], extra:
 /// MSE below 1e-4 (a wrong kernel is far above; float round-off compounds to ~1e-16).
 pub fn gpu_parity_with_history(s: &Session, gpu: &mut wedge::backends::gpu::GpuBackend, frame: u32, whole: u32) -> wedge::backends::parity::ParityReport {
     let runs = progressive(s, frame);
-    let job = wedge::backends::Job {
-        schedule: &s.schedule,
-        scene: &s.scene,
-        kernels: &s.kernels,
-        width: s.width,
-        height: s.height,
-        seed: s.seed.wrapping_add(frame),
-        frame,
-        progress: &Silent,
-    };
+    let job = s.job(s.seed.wrapping_add(frame), frame, &Silent);
     let name = s.pipeline.path.display();
     let report = wedge::backends::parity::run_parity_with_history(&job, gpu, &runs[frame as usize - 1].history).expect("parity runs");
     println!("{name} frame {frame}\n{}", report.table());
