@@ -46,7 +46,7 @@ fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
     let o = wedge(&["graph", "pipelines/defocus_shadows_indirect.ron"], root);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
-        out.contains("out.color = defocus.radiance: emission + background + direct(area light 0) + indirect(1 bounce, diffuse+glossy), through the lens"),
+        out.contains("out.color = defocus.radiance: emission + background + direct(area light 0, diffuse+glossy toward the light centre) + indirect(1 bounce, diffuse+glossy), through the lens"),
         "{out}"
     );
     // The component's `emission` wire is read only without factoring: said, not silent.
@@ -73,14 +73,14 @@ fn swapped_components_are_refused() {
     let nodes = format!(
         "{PRIMARY}\n(name: \"shadows\", kind: \"SoftShadows\", inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\"}}),\n(name: \"indirect\", kind: \"Indirect\", inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\"}}),\n{LENS}, inputs: {{\"direct\": \"indirect.radiance\", \"indirect\": \"shadows.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"defocus.radiance\"}}),"
     );
-    refused(&graph(&d, "swap", "builtin:chess", "", &nodes), &["input `direct` of node `defocus` (Defocus) takes direct(area)", "`indirect.radiance` holds indirect(1 bounce, diffuse)", "input `indirect` of node `defocus`", "`shadows.radiance` holds direct(area light 0)"]);
+    refused(&graph(&d, "swap", "builtin:chess", "", &nodes), &["input `direct` of node `defocus` (Defocus) takes direct(area)", "`indirect.radiance` holds indirect(1 bounce, diffuse)", "input `indirect` of node `defocus`", "`shadows.radiance` holds direct(area light 0, diffuse+glossy toward the light centre)"]);
 }
 
 #[test]
 fn sums_that_count_light_twice_are_refused_naming_both_producers() {
     let d = temp_dir("twice");
     let rf = format!("{PRIMARY}\n(name: \"rf\", kind: \"RadianceFilter\"),\n{SHADOWS}\n(name: \"sum\", kind: \"Add\", inputs: {{\"a\": \"rf.radiance\", \"b\": \"shadows.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"sum.radiance\"}}),");
-    refused(&graph(&d, "rf", "builtin:cornell", "", &rf), &["error[term-overlap]", "node `sum` (Add) counts light twice", "emission: input `a` = `rf.radiance` holds emission and input `b` = `shadows.radiance` holds emission", "direct(area): input `a` = `rf.radiance` holds direct(area, every light) and input `b` = `shadows.radiance` holds direct(area light 0)", "help: each light must be counted once"]);
+    refused(&graph(&d, "rf", "builtin:cornell", "", &rf), &["error[term-overlap]", "node `sum` (Add) counts light twice", "emission: input `a` = `rf.radiance` holds emission and input `b` = `shadows.radiance` holds emission", "direct(area): input `a` = `rf.radiance` holds direct(area, every light, diffuse+glossy) and input `b` = `shadows.radiance` holds direct(area light 0, diffuse)", "help: each light must be counted once"]);
     let sky = "(name: \"pf\", kind: \"PixelFilter\"),\n(name: \"env\", kind: \"Environment\"),\n(name: \"sum\", kind: \"Add\", inputs: {\"a\": \"pf.radiance\", \"b\": \"env.radiance\"}),\n(name: \"out\", kind: \"Output\", inputs: {\"color\": \"sum.radiance\"}),";
     refused(&graph(&d, "sky", "builtin:envmap", "", sky), &["counts light twice", "background: input `a` = `pf.radiance` holds background and input `b` = `env.radiance` holds background", "direct(environment)"]);
     // Two SoftShadows nodes of the same light hold its direct light twice. (Of different lights they
@@ -89,7 +89,7 @@ fn sums_that_count_light_twice_are_refused_naming_both_producers() {
     let two = |l0: u32, l1: u32| {
         format!("{PRIMARY}\n(name: \"s0\", kind: \"SoftShadows\", params: {{\"light\": {l0}}}, inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\", \"emission\": \"primary.emission\"}}),\n(name: \"s1\", kind: \"SoftShadows\", params: {{\"light\": {l1}}}, inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\"}}),\n(name: \"sum\", kind: \"Add\", inputs: {{\"a\": \"s0.radiance\", \"b\": \"s1.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"sum.radiance\"}}),")
     };
-    refused(&graph(&d, "same_light", "builtin:cornell", "", &two(0, 0)), &["direct(area): input `a` = `s0.radiance` holds direct(area light 0) and input `b` = `s1.radiance` holds direct(area light 0)"]);
+    refused(&graph(&d, "same_light", "builtin:cornell", "", &two(0, 0)), &["direct(area): input `a` = `s0.radiance` holds direct(area light 0, diffuse) and input `b` = `s1.radiance` holds direct(area light 0, diffuse)"]);
 }
 
 #[test]
@@ -122,7 +122,7 @@ fn light_the_scene_has_and_no_term_covers_is_warned_about_at_render() {
     let o = wedge(&["render", "dark.ron", "--backend", "cpu", "--out", "o"], &d);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("warning: the scene has light that `out.color` (= `shadows.radiance`) does not hold: the emission of its lights seen directly (they show black); the image holds direct(area light 0)"), "{err}");
+    assert!(err.contains("warning: the scene has light that `out.color` (= `shadows.radiance`) does not hold: the emission of its lights seen directly (they show black); the image holds direct(area light 0, diffuse)"), "{err}");
 }
 
 /// The "an unused Defocus node gets no warning": a factoring node whose outputs no node reads

@@ -46,7 +46,7 @@ impl NodeKind for MonteCarlo {
         let direct = q.flag("direct") || bounces == 0;
         let mut t = Terms::new();
         if direct {
-            let light = Term::new(TermKind::DirectArea, View::PINHOLE);
+            let light = Term::new(TermKind::DirectArea, View::PINHOLE).detail(crate::light_terms::lobes::DIFFUSE);
             t = t.with(match u32::try_from(q.int("light").unwrap_or(-1)) { Ok(i) => light.light(i), Err(_) => light }).plus(q.input("emission"));
         }
         if bounces > 0 {

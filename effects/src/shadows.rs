@@ -88,11 +88,16 @@ impl NodeKind for SoftShadows {
             ),
         ]
     }
-    /// Direct light of its one area light, through the shared sampler's camera; without a factoring
-    /// node also the wired `emission` (a factoring node adds emission once itself).
+    /// Direct light of its one area light, through the shared sampler's camera (times the albedo:
+    /// the diffuse lobe; as a factoring node's component the glossy lobe toward the light centre
+    /// too, eq. 5.20); without a factoring node also the wired `emission` (a factoring node adds
+    /// emission once itself).
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        use crate::light_terms::lobes;
         let light = u32::try_from(q.int("light")?).ok()?;
-        let direct = wedge_graph::Terms::new().with(wedge_graph::Term::new(wedge_graph::TermKind::DirectArea, q.sampler_view()).light(light));
+        let lobes = if q.factored() { lobes::TOWARD_LIGHT_CENTRE } else { lobes::DIFFUSE };
+        let term = wedge_graph::Term::new(wedge_graph::TermKind::DirectArea, q.sampler_view()).light(light).detail(lobes);
+        let direct = wedge_graph::Terms::new().with(term);
         matches!(port, "radiance" | "unfiltered").then(|| if q.factored() { direct } else { direct.plus(q.input("emission")) })
     }
     fn params(&self) -> Vec<ParamDecl> {

@@ -141,11 +141,13 @@ impl Term {
     pub fn overlaps(&self, other: &Term) -> bool {
         self.kind == other.kind && (self.light.is_none() || other.light.is_none() || self.light == other.light)
     }
-    /// `direct(area light 0)`, `indirect(1 bounce, diffuse+glossy)`, `emission`.
+    /// `direct(area light 0, diffuse)`, `indirect(1 bounce, diffuse+glossy)`, `emission`.
     pub fn label(&self) -> String {
         match (self.kind, self.light, self.detail.is_empty()) {
-            (TermKind::DirectArea, Some(i), _) => format!("direct(area light {i})"),
-            (TermKind::DirectArea, None, _) => "direct(area, every light)".into(),
+            (TermKind::DirectArea, Some(i), true) => format!("direct(area light {i})"),
+            (TermKind::DirectArea, None, true) => "direct(area, every light)".into(),
+            (TermKind::DirectArea, Some(i), false) => format!("direct(area light {i}, {})", self.detail),
+            (TermKind::DirectArea, None, false) => format!("direct(area, every light, {})", self.detail),
             (k, _, true) => k.name().into(),
             (k, _, false) => format!("{}({})", k.name(), self.detail),
         }
