@@ -7,10 +7,11 @@
 //!
 //! Passes (kernels in `wedge_backends::kernels::pixel_filter`, formulas unit-tested there):
 //! 1. `sample` (`pixel_filter.sample`, random, reference role `Sample`): `paths` jittered paths
-//!    per pixel (through the camera block's lens where it has an aperture) on the shared estimators (next-event estimation at every vertex, the indirect path of
-//!    `indirect.rs`), split into `L_lv` and `L_u` by `split` (`indirect`: direct vs indirect light,
-//!    the thesis's usual split; `caustics`: light reaching the first diffuse vertex through glossy
-//!    scattering only; `all`: everything filtered, Fig. 3.7);
+//!    per pixel (through the camera's lens and over its shutter where they open) on the shared
+//!    estimators (next-event estimation at every vertex, the indirect path of `indirect.rs`), split
+//!    into `L_lv` and `L_u` by `split` (`indirect`: direct vs indirect light, the thesis's usual split;
+//!    `caustics`: light reaching the first diffuse vertex through glossy scattering only; `all`:
+//!    everything filtered, Fig. 3.7);
 //! 2. `accumulate`: the running mean of both and `M2` of `Y(L_u)` (Welford/Chan), continuing the
 //!    previous frame's (`ExpandCtx::previous_frame`);
 //! 3. `range` (random): the range buffer of Sec. 3.3.3 — albedo lit by ambient light and a head light,
@@ -61,7 +62,7 @@ impl NodeKind for PixelFilter {
         Some("its progressive path-traced radiance (a running mean of every frame so far)")
     }
     /// A whole path-traced image from its own camera paths: through the camera block's lens where it
-    /// has an aperture, at the shutter's centre.
+    /// has an aperture, over its shutter where it opens over an interval (`TermQuery::camera_view`).
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
         matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }

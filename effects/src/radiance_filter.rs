@@ -51,7 +51,7 @@ impl NodeKind for RadianceFilter {
         ]
     }
     /// A whole path-traced image from its own camera paths: through the camera block's lens where it
-    /// has an aperture, at the shutter's centre.
+    /// has an aperture, over its shutter where it opens over an interval (`TermQuery::camera_view`).
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
         matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }
