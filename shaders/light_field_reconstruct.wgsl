@@ -6,8 +6,11 @@
 // order of hits, the same RNG calls and dimensions. Chunked over rays, the sum kept in the same order.
 #include "common.wgsl"
 #include "rng.wgsl"
+#include "bvh.wgsl"
+#include "sampling.wgsl"
 #include "hemisphere.wgsl"
 #include "lobe_mixture.wgsl"
+#include "indirect_path.wgsl"
 #include "light_field_common.wgsl"
 
 const LF_MAX_HITS: u32 = 32u;     // reconstruct.rs MAX_HITS
@@ -269,6 +272,21 @@ fn lf_rays_of(j: u32) -> u32 {
     return params.rays / p + select(0u, 1u, j < params.rays % p);
 }
 
+// mod.rs trace_gap (`gaps: trace`): a ray no splat answers, traced into the scene at `time` and its hit
+// path-traced as an input ray's; 0 where it leaves the scene; for AO, occluded within max_distance.
+fn lf_trace_gap(origin: vec3<f32>, dir: vec3<f32>, time: f32, key: u32, sample: u32) -> vec3<f32> {
+    rays_secondary = rays_secondary + 1u;
+    scene_time = time;
+    let hit = scene_intersect(origin, dir, 0.0, inf());
+    if (!hit.hit) {
+        return vec3<f32>(0.0);
+    }
+    if (params.ao != 0u) {
+        return vec3<f32>(select(0.0, 1.0, lf_ao_occluded(hit.t)));
+    }
+    return path_from_hit(hit, origin, dir, key, sample).value;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!pixel_of(gid)) {
@@ -305,12 +323,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         lf_collect(origin, l.wi, params.eps);
         let seen = lf_resolve(origin, l.wi, params.eps);
         var value = seen.radiance;
-        if (params.ao != 0u) {
+        if (!seen.found && params.trace_gaps != 0u) {
+            value = lf_trace_gap(origin, l.wi, prim.time, key, k);
+        } else if (params.ao != 0u) {
             value = vec3<f32>(select(0.0, 1.0, seen.found && lf_ao_occluded(seen.distance)));
         }
         sum = sum + value * l.weight * (prim.weight / f32(max(n_j, 1u)));
     }
     count_cut_loop(r, end);
+    atomicAdd(&counters[COUNTER_SHADOW], rays_shadow);
+    atomicAdd(&counters[COUNTER_SECONDARY], rays_secondary);
     if (end < params.rays) {
         radiance_put(i, sum);
     } else {

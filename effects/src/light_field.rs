@@ -13,7 +13,8 @@
 //! 2. `splats` (Bandwidth, a host kernel on every backend): k-NN radii (Sec. 2.2), the splat BVH,
 //!    consistency shrinking (Sec. 2.3.1);
 //! 3. `reconstruct` (Filter, random, bypassed to the plain estimate in references): `rays`
-//!    reconstruction rays per pixel (Secs. 2.3.2–2.5).
+//!    reconstruction rays per pixel (Secs. 2.3.2–2.5); a ray that crosses no splat is traced into the
+//!    scene and its hit path-traced (`gaps: "trace"`; the paper's `"black"` read open scenes dark).
 //!
 //! **Camera.** The node traces its own camera rays through the pixel centres (Sec. 2.1: the input is
 //! the renderer's paths, and eq. 3 reconstructs at each of their primary hits). Under a factoring
@@ -85,6 +86,12 @@ impl NodeKind for LightField {
                 &["auto", "two_sided", "pass"],
                 "a surface a reconstruction ray sees only from behind: its splats' radiance (two_sided, the paper's Sec. 2.5), or passed through to the next surface (pass: no input ray saw that side, e.g. splats overhanging a convex edge); auto = two_sided for AO, pass for radiance",
             ),
+            ParamDecl::choice(
+                "gaps",
+                "trace",
+                &["trace", "black"],
+                "a reconstruction ray that crosses no splat: traced into the scene and its hit path-traced like an input ray (trace; where the input rays reached a surface too sparsely to cover it with splats), or black (the paper's rule, which reads open scenes 15-25% dark; README \"Composing effects\")",
+            ),
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),
             ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
@@ -141,7 +148,7 @@ impl NodeKind for LightField {
             .read("nodes", nodes)
             .read("unfiltered", unfiltered)
             .write("radiance", radiance)
-            .node_params(&["rays", "mode", "max_distance", "bounces", "brdf", "back_faces"])
+            .node_params(&["rays", "mode", "max_distance", "bounces", "brdf", "back_faces", "gaps"])
             .random()
             .reference(Reference::Bypass { input: "unfiltered" })
             .finish();

@@ -47,7 +47,7 @@
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
-use wedge_scene::{Camera, LensRay, LensShape};
+use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
 use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
@@ -599,18 +599,18 @@ impl Kernel for LightFieldReconstruct {
             WgslSource::new(include_str!("../../../../shaders/light_field_reconstruct.wgsl"), |ctx| {
                 let ao = ao_mode(ctx)?;
                 let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
-                Ok(Uniforms::new()
-                    .f32("eps", p.eps)
-                    .u32("lobe", (p.lobe == Lobe::BlinnPhong) as u32)
-                    .u32("ao", ao as u32)
-                    .f32("max_distance", p.max_distance)
+                let u = Uniforms::new()
                     .u32("rays", reconstruction_rays(ctx)?)
                     .u32("primaries", ctx.layers("primary"))
                     .u32("two_sided", two_sided(ctx, ao)? as u32)
-                    .u32("stream", ctx.int_param("stream")? as u32))
+                    .u32("trace_gaps", trace_gaps(ctx)? as u32)
+                    .u32("stream", ctx.int_param("stream")? as u32);
+                Ok(p.uniforms(u, ctx))
             })
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
+            .with_include("indirect_path.wgsl", include_str!("../../../../shaders/indirect_path.wgsl"))
             .with_include("light_field_common.wgsl", include_str!("../../../../shaders/light_field_common.wgsl"))
+            .with_scene()
             .with_reach(|_| Ok(Reach::Image))
             // Each ray walks the splat tree (hundreds of nodes and splats where glossy splats are
             // wide): 4 rays per dispatch keep lavapipe's per-invocation loop count far below its cap.
@@ -625,6 +625,7 @@ impl Kernel for LightFieldReconstruct {
         let p = PathParams::from_params(ctx, ao, max_distance)?;
         let rays = reconstruction_rays(ctx)?;
         let two_sided = two_sided(ctx, ao)?;
+        let trace_gaps = trace_gaps(ctx)?;
         let stream = ctx.int_param("stream")? as u32;
         let splats = ctx.read::<Splat>("splats")?;
         let nodes = ctx.read::<SplatNode>("nodes")?;
@@ -633,7 +634,7 @@ impl Kernel for LightFieldReconstruct {
             let i = (py * width + px) as usize;
             let hits = &primary[i * hits_per_pixel..(i + 1) * hits_per_pixel];
             let share = RayShare::new(hits, rays);
-            let mut sum = Vec3::ZERO;
+            let (mut sum, mut traced) = (Vec3::ZERO, PathRays::default());
             for r in 0..rays {
                 let (j, k) = share.ray(r);
                 let hit = &hits[j as usize];
@@ -649,13 +650,46 @@ impl Kernel for LightFieldReconstruct {
                 let side = if wi.dot(prim.n) >= 0.0 { 1.0 } else { -1.0 };
                 let origin = prim.x + prim.n * (side * p.eps);
                 let seen = reconstruct::reconstruct(nodes, splats, origin, wi, p.eps, hit.time, two_sided);
-                let value = if ao { Vec3::splat(seen.distance.is_some_and(|t| ao_occluded(t, max_distance)) as u32 as f32) } else { seen.radiance };
+                let value = match seen.distance {
+                    None if trace_gaps => trace_gap(&ctx.scene.at(hit.time), &p, origin, wi, &rng, k, &mut traced),
+                    distance if ao => Vec3::splat(distance.is_some_and(|t| ao_occluded(t, max_distance)) as u32 as f32),
+                    _ => seen.radiance,
+                };
                 sum += value * weight * share.scale(j);
             }
-            sum / share.total_weight()
+            (sum / share.total_weight(), traced)
         });
-        ctx.put("radiance", out.into_iter().map(|o| o.to_array()).collect::<Vec<_>>())
+        Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.1.shadow).sum());
+        Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.1.secondary).sum());
+        ctx.put("radiance", out.into_iter().map(|o| o.0.to_array()).collect::<Vec<_>>())
     }
+}
+
+/// `gaps`: whether a reconstruction ray that crosses no splat is traced into the scene (`trace`) or
+/// black (`black`, the paper's rule).
+fn trace_gaps(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
+    match ctx.str_param("gaps")? {
+        "trace" => Ok(true),
+        "black" => Ok(false),
+        other => Err(ctx.err(format!("unknown gaps `{other}`; use trace or black"))),
+    }
+}
+
+/// A reconstruction ray the splats do not answer (`gaps: trace`): where the input rays reached a
+/// surface too sparsely for splats to cover it, the ray is traced into the scene and its hit
+/// path-traced as an input ray's would be (`path_from_hit`, continuing the ray's own sequence past
+/// the direction it was drawn with) — for AO, occluded where that hit is within `max_distance`. A
+/// ray that leaves the scene is 0, as an input ray that escapes. The estimate stays eq. 3's mean
+/// over the pixel's rays; it no longer counts unresolved rays as black.
+fn trace_gap(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, wi: Vec3, rng: &PixelRng, k: u32, rays: &mut PathRays) -> Vec3 {
+    rays.secondary += 1;
+    let Some(hit) = at.intersect(origin, wi, 0.0, f32::INFINITY) else {
+        return Vec3::ZERO;
+    };
+    if p.ao {
+        return Vec3::splat(ao_occluded(hit.t, p.max_distance) as u32 as f32);
+    }
+    path_from_hit(at, p, hit, origin, wi, rng, k, rays).0
 }
 
 /// How a pixel's `rays` reconstruction rays are shared among its `P` primary hits (eq. 3 per hit,
