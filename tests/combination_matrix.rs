@@ -7,7 +7,7 @@
 //! the pipeline's own converged reference (within 5% or 0.005: a dim indirect-only image's mean
 //! carries ~6% of sampling noise at this size, measured over seeds; a term counted twice or missed
 //! moves it by tens of percent). An internal error, a panic or an unlisted refusal fails. It found
-//! LightField reading an open scene 15–25% dark (reconstruction rays that crossed no splat were
+//! LightField reading an open scene 14–23% dark (reconstruction rays that crossed no splat were
 //! black; now traced, `gaps: "trace"`). 48×36 pixels, so the whole matrix stays cheap (~15 s);
 //! `--nocapture` prints it.
 
