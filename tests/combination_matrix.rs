@@ -13,10 +13,8 @@
 
 mod common;
 
-use std::path::Path;
 
 use common::*;
-use wedge::graph::parse_pipeline;
 use wedge::image::Image;
 use wedge::Session;
 
@@ -164,20 +162,13 @@ enum Outcome {
 }
 
 fn build(text: &str, reference: Option<u32>) -> Result<Session, String> {
-    let loaded = parse_pipeline(Path::new("matrix.ron"), text).map_err(|e| e.to_string())?;
-    let (nodes, kernels) = wedge::effects::builtin();
-    let ov = sized(SIZE.0, SIZE.1, None, &[]);
-    match reference {
-        None => Session::build(loaded, &ov, nodes, kernels),
-        Some(spp) => Session::build_reference(loaded, &ov, nodes, kernels, spp, "stratified"),
-    }
-    .map_err(|e| e.to_string())
+    build_text(text, &sized(SIZE.0, SIZE.1, None, &[]), reference)
 }
 
+/// The image's mean, after checking that every pixel is finite.
 fn mean(image: &Image) -> f64 {
-    let px = &image.pixels;
-    assert!(px.iter().flatten().all(|v| v.is_finite()), "non-finite pixels");
-    px.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / px.len() as f64
+    assert!(image.pixels.iter().flatten().all(|v| v.is_finite()), "non-finite pixels");
+    image_mean(image)
 }
 
 fn outcome(text: &str) -> Outcome {

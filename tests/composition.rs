@@ -9,10 +9,9 @@
 
 mod common;
 
-use std::path::Path;
 
 use common::*;
-use wedge::graph::{parse_pipeline, ParamValue, Stage};
+use wedge::graph::{ParamValue, Stage};
 use wedge::image::Image;
 use wedge::{Overrides, Session};
 
@@ -34,24 +33,21 @@ fn render(text: &str) -> (Session, Image) {
 }
 
 fn reference(text: &str, spp: u32) -> Image {
-    let loaded = parse_pipeline(Path::new("test.ron"), text).expect("pipeline parses");
-    let (nodes, kernels) = wedge::effects::builtin();
-    let s = Session::build_reference(loaded, &ov(), nodes, kernels, spp, "stratified").expect("reference builds");
+    let s = build_text(text, &ov(), Some(spp)).expect("reference builds");
     let r = run(&s);
     color(&s, &r)
 }
 
-fn mean(image: &Image) -> f64 {
-    let px = &image.pixels;
-    px.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / px.len() as f64
+/// The `color` output of the stratified reference of `text` at `ov` and `spp`.
+fn reference_color(text: &str, ov: &Overrides, spp: u32) -> wedge::backends::BufferData {
+    let s = build_text(text, ov, Some(spp)).expect("reference builds");
+    run(&s).output("color").expect("color output").clone()
 }
 
 fn refusal(text: &str) -> String {
-    let loaded = parse_pipeline(Path::new("test.ron"), text).expect("pipeline parses");
-    let (nodes, kernels) = wedge::effects::builtin();
-    match Session::build(loaded, &ov(), nodes, kernels) {
+    match build_text(text, &ov(), None) {
         Ok(_) => panic!("must be refused:\n{text}"),
-        Err(e) => e.to_string(),
+        Err(e) => e,
     }
 }
 
@@ -84,7 +80,7 @@ fn environment_next_to_indirect_negotiates_the_sampler_and_sums_to_one_node() {
     assert_eq!(first.params["jitter"], ParamValue::Bool(true));
     assert_eq!(first.params["count"], ParamValue::Int(4));
     let (of_parts, of_one) = (reference(&parts, 256), reference(&pipeline("builtin:envmap", ENV_ALONE), 256));
-    let (m_parts, m_one, m_render) = (mean(&of_parts), mean(&of_one), mean(&image));
+    let (m_parts, m_one, m_render) = (image_mean(&of_parts), image_mean(&of_one), image_mean(&image));
     assert!((m_parts / m_one - 1.0).abs() < 0.01, "parts {m_parts} vs one node {m_one}: a term counted twice or missed");
     assert!((m_render / m_parts - 1.0).abs() < 0.03, "render {m_render} vs its reference {m_parts}");
 }
@@ -123,7 +119,7 @@ fn an_add_after_defocus_runs_after_it_and_converges() {
     let last_defocus = passes.iter().rposition(|p| p.node == "defocus").unwrap();
     assert!(at("sum.add") > last_defocus, "{}", session.schedule.table());
     assert_eq!(passes[at("sum.add")].stage, Stage::ImageFilter);
-    let (m_render, m_reference) = (mean(&image), mean(&reference(&text, 256)));
+    let (m_render, m_reference) = (image_mean(&image), image_mean(&reference(&text, 256)));
     assert!((m_render / m_reference - 1.0).abs() < 0.03, "render {m_render} vs reference {m_reference}");
 }
 
@@ -220,12 +216,7 @@ fn the_progressive_nodes_render_through_the_camera_blocks_lens_and_shutter() {
             let size = sized(c.size.0, c.size.1, None, &[]);
             let last = progressive(&session_from_text(&open, &size), 128).pop().unwrap();
             let color = last.output("color").unwrap();
-            let reference_of = |t: &str| {
-                let loaded = parse_pipeline(Path::new("test.ron"), t).unwrap();
-                let (nodes, kernels) = wedge::effects::builtin();
-                let s = Session::build_reference(loaded, &size, nodes, kernels, 1024, "stratified").unwrap();
-                run(&s).output("color").unwrap().clone()
-            };
+            let reference_of = |t: &str| reference_color(t, &size, 1024);
             let (to_open, to_closed) = (rmse(color, &reference_of(&open)), rmse(color, &reference_of(&closed)));
             println!("{kind}, {}: RMSE after 128 frames {to_open:.4} to the reference through it, {to_closed:.4} without", c.what);
             assert!(to_open < 0.6 * to_closed, "{kind}, {}: RMSE {to_open} to the open camera's reference, {to_closed} to the closed one's", c.what);
@@ -272,12 +263,7 @@ fn defocus_from_parts_converges_to_a_path_tracer_through_the_same_lens() {
     (name: "p", kind: "PixelFilter", params: {"bounces": 1}),
     (name: "out", kind: "Output", inputs: {"color": "p.radiance"}),"#;
     let ov = sized(48, 36, None, &[]);
-    let reference_of = |text: &str| {
-        let loaded = parse_pipeline(Path::new("test.ron"), text).unwrap();
-        let (nodes, kernels) = wedge::effects::builtin();
-        let s = Session::build_reference(loaded, &ov, nodes, kernels, 1024, "stratified").unwrap();
-        run(&s).output("color").unwrap().clone()
-    };
+    let reference_of = |text: &str| reference_color(text, &ov, 1024);
     let (factored, traced) = (reference_of(&parts), reference_of(&with(&lens, tracer)));
     let pinhole = reference_of(&with(&camera("aperture_radius: 0.0"), tracer));
     let (agree, blur) = (rmse(&factored, &traced), rmse(&traced, &pinhole));

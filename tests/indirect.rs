@@ -64,9 +64,6 @@ fn cached_reference() -> &'static Image {
 const QW_I: u32 = 96;
 const QH_I: u32 = 72;
 
-fn mean(img: &Image) -> f64 {
-    img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).sum::<f64>() / img.pixels.len() as f64
-}
 
 /// Paths per pixel: hemisphere rays of the primary hit, i.e. secondary rays with one bounce.
 fn paths_per_pixel(r: &RunResult, w: u32, h: u32) -> f64 {
@@ -122,7 +119,7 @@ fn furnace_mean(text: &str, scene: &Scene) -> f64 {
     s.scene = scene.clone();
     let r = run(&s);
     assert_eq!(r.rays.non_finite_samples, 0);
-    mean(&color(&s, &r))
+    image_mean(&color(&s, &r))
 }
 
 fn furnace_mc(spp: u32, bounces: u32, direct: bool) -> String {
@@ -256,10 +253,10 @@ fn ao_is_a_fraction_and_reference_follows_the_node() {
     let r_ref = run(&s_ref);
     let reference = color(&s_ref, &r_ref);
     assert!(ao.pixels.iter().all(|p| p.iter().all(|c| (0.0..=1.0).contains(c))));
-    let (a, b) = (mean(&ao), mean(&reference));
+    let (a, b) = (image_mean(&ao), image_mean(&reference));
     let un = buffer_to_image(r.output("unfiltered").unwrap(), s.width, s.height);
     let (e, e_un) = (rmse(&ao, &reference), rmse(&un, &reference));
-    eprintln!("AO mean {a:.4} (unfiltered {:.4}), reference {b:.4}, RMSE {e:.4} (unfiltered {e_un:.4})", mean(&un));
+    eprintln!("AO mean {a:.4} (unfiltered {:.4}), reference {b:.4}, RMSE {e:.4} (unfiltered {e_un:.4})", image_mean(&un));
     // The unfiltered estimate's mean over seeds matches the reference's. The fixed-count estimator
     // is unbiased. The adaptive one with the thesis's own-pixel statistics (Ch. 4: the first pass's
     // 16 samples are kept and decide the count) is low by ~1.5% here: a pixel whose 16 rays all
@@ -276,7 +273,7 @@ fn ao_is_a_fraction_and_reference_follows_the_node() {
                 ov.seed = Some(seed);
                 let s = Session::open(Some(&path), &ov).unwrap();
                 let r = run(&s);
-                mean(&buffer_to_image(r.output("unfiltered").unwrap(), s.width, s.height))
+                image_mean(&buffer_to_image(r.output("unfiltered").unwrap(), s.width, s.height))
             })
             .collect();
         runs.iter().sum::<f64>() / runs.len() as f64

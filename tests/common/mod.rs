@@ -44,6 +44,23 @@ pub fn session_from_text(text: &str, ov: &Overrides) -> Session {
     Session::build(loaded, ov, nodes, kernels).expect("session builds")
 }
 
+/// The session of pipeline `text` at `ov` — with `reference = Some(spp)` its stratified reference
+/// at `spp` samples — or the error that refused it, as the user reads it.
+pub fn build_text(text: &str, ov: &Overrides, reference: Option<u32>) -> Result<Session, String> {
+    let loaded = parse_pipeline(Path::new("test.ron"), text).map_err(|e| e.to_string())?;
+    let (nodes, kernels) = wedge::effects::builtin();
+    match reference {
+        None => Session::build(loaded, ov, nodes, kernels),
+        Some(spp) => Session::build_reference(loaded, ov, nodes, kernels, spp, "stratified"),
+    }
+    .map_err(|e| e.to_string())
+}
+
+/// The mean over pixels of the mean of an image's three channels.
+pub fn image_mean(image: &Image) -> f64 {
+    image.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / image.pixels.len() as f64
+}
+
 pub fn run(session: &Session) -> RunResult {
     session.run(&mut CpuBackend::new(), &Silent).expect("run succeeds")
 }

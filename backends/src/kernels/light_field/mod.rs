@@ -223,6 +223,11 @@ fn ao_occluded(t: f32, max_distance: f32) -> bool {
     max_distance <= 0.0 || t <= max_distance
 }
 
+/// An AO reconstruction ray's value: 1 where what it sees at distance `t` occludes, else 0.
+fn occlusion(t: Option<f32>, max_distance: f32) -> Vec3 {
+    Vec3::splat(t.is_some_and(|t| ao_occluded(t, max_distance)) as u32 as f32)
+}
+
 // ---------------------------------------------------------------------------------------------
 // light_field.sample
 // ---------------------------------------------------------------------------------------------
@@ -383,7 +388,7 @@ impl Kernel for LightFieldSample {
                     // Every hit is a sample of the light field, whatever this pixel's BRDF makes of
                     // it (a black or below-surface direction still gives other pixels a splat).
                     let radiance = if ao {
-                        Vec3::splat(ao_occluded(hit.t, max_distance) as u32 as f32)
+                        occlusion(Some(hit.t), max_distance)
                     } else {
                         path_from_hit(&at, &p, hit, origin, wi, &rng, s, &mut o.rays).0
                     };
@@ -652,7 +657,7 @@ impl Kernel for LightFieldReconstruct {
                 let seen = reconstruct::reconstruct(nodes, splats, origin, wi, p.eps, hit.time, two_sided);
                 let value = match seen.distance {
                     None if trace_gaps => trace_gap(&ctx.scene.at(hit.time), &p, origin, wi, &rng, k, &mut traced),
-                    distance if ao => Vec3::splat(distance.is_some_and(|t| ao_occluded(t, max_distance)) as u32 as f32),
+                    distance if ao => occlusion(distance, max_distance),
                     _ => seen.radiance,
                 };
                 sum += value * weight * share.scale(j);
@@ -687,7 +692,7 @@ fn trace_gap(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, wi: Vec3, rng: &Pix
         return Vec3::ZERO;
     };
     if p.ao {
-        return Vec3::splat(ao_occluded(hit.t, p.max_distance) as u32 as f32);
+        return occlusion(Some(hit.t), p.max_distance);
     }
     path_from_hit(at, p, hit, origin, wi, rng, k, rays).0
 }
