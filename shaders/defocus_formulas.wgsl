@@ -32,6 +32,16 @@ fn defocus_omega_direct(r_min: f32, s_min: f32, pixel_length: f32, light_half_wi
     return rmin(defocus_omega_defocus(r_min, omega_pix), light);
 }
 
+// Ω_x^e: eq. 5.18's form with the environment's Ch. 6 bandwidth B (1/m) as its own term (formulas.rs
+// omega_environment; 0.3535534 = 2/√32, OMEGA_PER_ENVIRONMENT_BANDWIDTH).
+fn defocus_omega_environment(r_min: f32, bandlimit: f32, pixel_length: f32, omega_pix: f32) -> f32 {
+    var own = inf();
+    if (bandlimit > 0.0) {
+        own = 0.3535534 * bandlimit * pixel_length;
+    }
+    return rmin(defocus_omega_defocus(r_min, omega_pix), own);
+}
+
 // Ω_x^i (eq. 5.22)
 fn defocus_omega_indirect(r_min: f32, z_min: f32, pixel_length: f32, omega_v: f32, omega_pix: f32) -> f32 {
     let reflector = defocus_ratio_or_inf(pixel_length * omega_v, rmax(z_min, 0.0));
@@ -99,6 +109,11 @@ fn defocus_secondary_per_primary(n_p: u32, n: u32) -> u32 {
     return s * s;
 }
 
+// formulas.rs environment_rate: eq. 5.24's factors times the look-ups per primary ray.
+fn defocus_environment_rate(omega: f32, r_max: f32, per_primary: f32, omega_pix: f32) -> f32 {
+    return defocus_primary_rate(omega, r_max, omega_pix) * rmax(per_primary, 1.0);
+}
+
 struct DefocusRates {
     omega_defocus: f32,
     omega_direct: f32,
@@ -109,17 +124,20 @@ struct DefocusRates {
     n_direct_combined: u32,
     n_indirect_factored: u32,
     n_indirect_combined: u32,
+    omega_environment: f32,
+    n_environment_factored: u32,
+    n_environment_combined: u32,
 }
 
 // formulas.rs pixel_rates: widths (μ-scaled) and rounded counts of one pixel.
 fn defocus_pixel_rates(
-    r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32,
+    r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32, bandlimit: f32,
     mu: f32, mode: u32, omega_pix: f32, pixel_scale: f32, light_half_width: f32, omega_v: f32,
-    max_p: u32, max_s: u32,
+    max_p: u32, max_s: u32, environment_per_primary: f32,
 ) -> DefocusRates {
     let omega_pix_mu = defocus_omega_mu(omega_pix, mu, mode, omega_pix);
     if (!hit) {
-        return DefocusRates(omega_pix_mu, omega_pix_mu, omega_pix_mu, 0.0, 1u, 1u, 1u, 1u, 1u);
+        return DefocusRates(omega_pix_mu, omega_pix_mu, omega_pix_mu, 0.0, 1u, 1u, 1u, 1u, 1u, omega_pix_mu, 1u, 1u);
     }
     let l_p = pixel_scale * depth;
     let d = defocus_omega_mu(defocus_omega_defocus(r_min, omega_pix), mu, mode, omega_pix);
@@ -131,7 +149,12 @@ fn defocus_pixel_rates(
     let qdc = defocus_secondary_strata(defocus_direct_rate(d, r_max, s_max, l_p, light_half_width, omega_pix), p, max_s);
     let qif = defocus_secondary_strata(defocus_indirect_rate(si, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
     let qic = defocus_secondary_strata(defocus_indirect_rate(d, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
-    return DefocusRates(d, sd, si, l_p, pp, pp * qdf * qdf, pp * qdc * qdc, pp * qif * qif, pp * qic * qic);
+    let se = defocus_omega_mu(defocus_omega_environment(r_min, bandlimit, l_p, omega_pix), mu, mode, omega_pix);
+    let qef = defocus_secondary_strata(defocus_environment_rate(se, r_max, environment_per_primary, omega_pix), p, max_s);
+    let qec = defocus_secondary_strata(defocus_environment_rate(d, r_max, environment_per_primary, omega_pix), p, max_s);
+    return DefocusRates(
+        d, sd, si, l_p, pp, pp * qdf * qdf, pp * qdc * qdc, pp * qif * qif, pp * qic * qic, se, pp * qef * qef, pp * qec * qec,
+    );
 }
 
 // SepDir / SepInd (eq. 5.30), compared squared: ‖L − k E‖² < threshold².

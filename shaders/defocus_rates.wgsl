@@ -21,10 +21,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (reflectors_bound() && refl.z > 0.0) {
         z = refl.xy;
     }
+    // The environment's Ch. 6 bandwidth (kernels.rs pixel_stats: not finite or below 0 reads 0).
+    var bandlimit = 0.0;
+    if (bandlimit_bound()) {
+        let b = bandlimit_at(i);
+        if (is_finite(b)) {
+            bandlimit = rmax(b, 0.0);
+        }
+    }
     let r = defocus_pixel_rates(
-        lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y,
+        lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y, bandlimit,
         params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
-        params.max_p, params.max_s,
+        params.max_p, params.max_s, params.environment_per_primary,
     );
     omega_defocus_put(i, r.omega_defocus);
     pixel_length_put(i, r.pixel_length);
@@ -42,4 +50,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     sigma_defocus_put(i, defocus_sigma_px(r.omega_defocus));
     sigma_direct_put(i, defocus_sigma_px(r.omega_direct));
     sigma_indirect_put(i, defocus_sigma_px(r.omega_indirect));
+    omega_environment_put(i, r.omega_environment);
+    n_environment_put(i, select(r.n_environment_combined, r.n_environment_factored,
+        flag_environment_bound() && flag_environment_at(i) != 0u));
+    sigma_environment_put(i, defocus_sigma_px(r.omega_environment));
 }

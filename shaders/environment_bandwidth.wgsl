@@ -30,6 +30,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     indirect_diffuse_put(i, b.indirect_diffuse);
     indirect_glossy_put(i, b.indirect_glossy);
     bandwidth_put(i, 0.5 * (shown.x + shown.y));
+    bandlimit_put(i, rmax(shown.x, shown.y));
     filter_width_put(i, 0.5 * (sigma.x + sigma.y));
     rays_put(i, env_look_ups(params.base, sigma, params.sigma_ref, params.max_rays));
 }

@@ -38,10 +38,12 @@ struct MotionRates {
     omega_direct: f32,
     omega_shadow: f32,
     omega_indirect: f32,
+    omega_environment: f32,
     pixel_length: f32,
     n_primary: u32,
     n_direct: u32,
     n_indirect: u32,
+    n_environment: u32,
 }
 
 // The constants of formulas.rs MotionParams (max_p, max_s: strata caps).
@@ -56,6 +58,7 @@ struct MotionConstants {
     max_p: u32,
     max_s: u32,
     multi_paths: u32,
+    environment_per_primary: f32,
 }
 
 fn motion_total(n: f32, p: u32, single: bool, max_s: u32) -> u32 {
@@ -69,11 +72,11 @@ fn motion_total(n: f32, p: u32, single: bool, max_s: u32) -> u32 {
 // formulas.rs pixel_rates.
 fn motion_pixel_rates(
     velocity: vec4<f32>, shadow: vec4<f32>, occluded: bool, hit: bool, depth: f32,
-    s_min: f32, s_max: f32, z_min: f32, z_max: f32, k: MotionConstants,
+    s_min: f32, s_max: f32, z_min: f32, z_max: f32, bandlimit: f32, k: MotionConstants,
 ) -> MotionRates {
     let single = motion_single(velocity, shadow, occluded);
     if (!hit) {
-        return MotionRates(single, 0.0, 0.0, 0.0, 0.0, 0.0, 1u, 1u, 1u);
+        return MotionRates(single, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1u, 1u, 1u, 1u);
     }
     let op = k.omega_pix;
     let l_p = k.pixel_scale * depth;
@@ -86,6 +89,7 @@ fn motion_pixel_rates(
     let shadow_w = defocus_omega_mu(motion_omega(speed_s, k.omega_t, op), k.mu, k.mode, op);
     let direct = defocus_omega_mu(defocus_omega_direct(0.0, s_min, l_p, k.light_half_width, op), k.mu, k.mode, op);
     let indirect = defocus_omega_mu(defocus_omega_indirect(0.0, z_min, l_p, k.omega_v, op), k.mu, k.mode, op);
+    let environment = defocus_omega_mu(defocus_omega_environment(0.0, bandlimit, l_p, op), k.mu, k.mode, op);
     var p = defocus_strata(f32(k.multi_paths), k.max_p);
     if (single) {
         p = defocus_strata(defocus_primary_rate(texture, speed_p, op), k.max_p);
@@ -100,9 +104,10 @@ fn motion_pixel_rates(
         omega_shadow = shadow_w;
     }
     return MotionRates(
-        single, omega_texture, direct, omega_shadow, indirect, l_p, p * p,
+        single, omega_texture, direct, omega_shadow, indirect, environment, l_p, p * p,
         motion_total(defocus_direct_rate(omega_d, speed_s, s_max, l_p, k.light_half_width, op), p, single, k.max_s),
         motion_total(defocus_indirect_rate(indirect, 0.0, z_max, l_p, k.omega_v, op), p, single, k.max_s),
+        motion_total(defocus_environment_rate(environment, 0.0, k.environment_per_primary, op), p, single, k.max_s),
     );
 }
 

@@ -28,9 +28,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let depth = depth_at(i);
     let k = MotionConstants(
         params.mu, params.mode, params.omega_pix, params.omega_t, params.pixel_scale, params.light_half_width, params.omega_v,
-        params.max_p, params.max_s, params.multi_paths,
+        params.max_p, params.max_s, params.multi_paths, params.environment_per_primary,
     );
-    let r = motion_pixel_rates(velocity, shadow, occluded && shadow_velocity_bound(), depth.w > 0.0, depth.z, s.x, s.y, z.x, z.y, k);
+    // The environment's Ch. 6 bandwidth (kernels.rs motion_stats: not finite or below 0 reads 0).
+    var bandlimit = 0.0;
+    if (bandlimit_bound()) {
+        let b = bandlimit_at(i);
+        if (is_finite(b)) {
+            bandlimit = rmax(b, 0.0);
+        }
+    }
+    let r = motion_pixel_rates(
+        velocity, shadow, occluded && shadow_velocity_bound(), depth.w > 0.0, depth.z, s.x, s.y, z.x, z.y, bandlimit, k,
+    );
     single_put(i, select(0u, 1u, r.single));
     texture_motion_put(i, vec4<f32>(velocity.x, velocity.y, r.omega_texture, motion_sigma(r.omega_texture)));
     shadow_motion_put(i, vec4<f32>(shadow.x, shadow.y, r.omega_shadow, motion_sigma(r.omega_shadow)));
@@ -40,7 +50,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     n_direct_put(i, r.n_direct);
     omega_indirect_put(i, r.omega_indirect);
     n_indirect_put(i, r.n_indirect);
+    omega_environment_put(i, r.omega_environment);
+    n_environment_put(i, r.n_environment);
     sigma_texture_put(i, motion_sigma(r.omega_texture));
     sigma_direct_put(i, motion_sigma(r.omega_direct));
     sigma_indirect_put(i, motion_sigma(r.omega_indirect));
+    sigma_environment_put(i, motion_sigma(r.omega_environment));
 }

@@ -1,8 +1,8 @@
 //! Issue 34's combination matrix: every single effect, every pair and the useful triples of
 //! {SoftShadows, Indirect, AO, Environment, LightField, MixedReality, PixelFilter, RadianceFilter,
 //! MonteCarlo} × {no factoring node, Defocus, Motion, Defocus + Motion}, wired as a user would (a
-//! factoring node takes the direct and indirect components, everything else is added beside it,
-//! emission wired once). Each entry is either refused before anything runs with a reason from the
+//! factoring node takes the direct, indirect and environment components, everything else is added
+//! beside it, emission wired once). Each entry is either refused before anything runs with a reason from the
 //! README's "Composing effects" table, or renders on the CPU to finite pixels whose mean agrees with
 //! the pipeline's own converged reference (within 5% or 0.005: a dim indirect-only image's mean
 //! carries ~6% of sampling noise at this size, measured over seeds; a term counted twice or missed
@@ -26,6 +26,8 @@ const P: &str = r#""position": "primary.position", "normal": "primary.normal", "
 enum Role {
     Direct,
     Indirect,
+    /// The environment's direct light (the factoring node's `environment` input).
+    Environment,
     /// A whole image of its own, added beside the factoring node.
     Whole,
 }
@@ -53,7 +55,7 @@ const EFFECTS: [Effect; 9] = [
     Effect { key: "shadows", role: Role::Direct, emission: Emission::Input, node: r#"(name: "shadows", kind: "SoftShadows", inputs: {P{E}})"# },
     Effect { key: "indirect", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "indirect", kind: "Indirect", inputs: {P, "specular": "primary.specular"})"# },
     Effect { key: "ao", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "ao", kind: "Indirect", params: {"mode": "ao"}, inputs: {P})"# },
-    Effect { key: "env", role: Role::Whole, emission: Emission::Param, node: r#"(name: "env", kind: "Environment", params: {"map": "builtin:sky"{E}})"# },
+    Effect { key: "env", role: Role::Environment, emission: Emission::Param, node: r#"(name: "env", kind: "Environment", params: {"map": "builtin:sky"{E}})"# },
     Effect { key: "lf", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "lf", kind: "LightField", params: {"spp": 2, "rays": 8})"# },
     Effect { key: "mr", role: Role::Whole, emission: Emission::Always, node: r#"(name: "mr", kind: "MixedReality", params: {"capture": "builtin:envmap_real", "capture_spp": 4})"# },
     Effect { key: "pf", role: Role::Whole, emission: Emission::Always, node: r#"(name: "pf", kind: "PixelFilter")"# },
@@ -126,10 +128,11 @@ fn pipeline(effects: &[&Effect], camera: Camera) -> String {
     if factored {
         let mut direct = sum(&of(Role::Direct), "direct_sum", &mut nodes);
         let indirect = sum(&of(Role::Indirect), "indirect_sum", &mut nodes);
-        if direct.is_none() && indirect.is_none() {
+        let environment = sum(&of(Role::Environment), "environment_sum", &mut nodes);
+        if direct.is_none() && indirect.is_none() && environment.is_none() {
             direct = Some(images.remove(0));
         }
-        let inputs: Vec<String> = [("direct", direct), ("indirect", indirect)]
+        let inputs: Vec<String> = [("direct", direct), ("indirect", indirect), ("environment", environment)]
             .into_iter()
             .filter_map(|(port, image)| Some(format!(r#""{port}": "{}""#, image?)))
             .collect();

@@ -198,6 +198,7 @@ fn random_stats(rng: &mut Rng) -> Buffers {
     let mut lens = Vec::with_capacity(N);
     let mut occ = Vec::with_capacity(N);
     let mut refl = Vec::with_capacity(N);
+    let mut bandlimit = Vec::with_capacity(N);
     for i in 0..N {
         let r_min = if rng.chance(0.2) { 0.0 } else { rng.range(0.0, 12.0) };
         let r_max = r_min + if rng.chance(0.2) { 0.0 } else { rng.range(0.0, 30.0) };
@@ -210,6 +211,8 @@ fn random_stats(rng: &mut Rng) -> Buffers {
         let z_min = rng.range(0.01, 2.0);
         // As indirect.sample's `depth`: z_min, z_max, samples that hit, samples.
         refl.push([z_min, z_min + rng.range(0.0, 5.0), if rng.chance(0.7) { rng.range(1.0, 16.0).floor() } else { 0.0 }, 16.0]);
+        // The environment's Ch. 6 bandwidth (1/m), absent (0) at some pixels.
+        bandlimit.push(if rng.chance(0.2) { 0.0 } else { rng.range(0.1, 60.0) });
         if i == 17 {
             lens[i] = [f32::NAN, f32::NAN, 2.0, 16.0];
         }
@@ -217,7 +220,7 @@ fn random_stats(rng: &mut Rng) -> Buffers {
             lens[i] = [0.0, f32::INFINITY, 2.0, 16.0];
         }
     }
-    BTreeMap::from([("lens", vec4s(lens)), ("occlusion", vec4s(occ)), ("reflectors", vec4s(refl))])
+    BTreeMap::from([("lens", vec4s(lens)), ("occlusion", vec4s(occ)), ("reflectors", vec4s(refl)), ("bandlimit", f32s(bandlimit))])
 }
 
 fn rate_params(mu: f64, mode: &str, max_primary: i64, max_per_primary: i64) -> Params {
@@ -230,6 +233,7 @@ fn rate_params(mu: f64, mode: &str, max_primary: i64, max_per_primary: i64) -> P
         ("omega_v", float(2.8)),
         ("max_primary", int(max_primary)),
         ("max_per_primary", int(max_per_primary)),
+        ("environment_per_primary", int(4)),
     ])
 }
 
@@ -633,10 +637,14 @@ fn rates_kernel_matches_the_formulas() {
         omega_v: 2.8,
         max_primary: 256,
         max_per_primary: 1024,
+        environment_per_primary: 4.0,
     };
     let (lens, occ, refl) = (vec4_of(&stats["lens"]), vec4_of(&stats["occlusion"]), vec4_of(&stats["reflectors"]));
+    let BufferData::F32(bandlimit) = &stats["bandlimit"] else { panic!("f32 bandwidths") };
     for i in 0..N {
-        let r = pixel_rates(&pixel_stats(lens[i], Some(occ[i]), Some(refl[i])), &k);
+        let r = pixel_rates(&pixel_stats(lens[i], Some(occ[i]), Some(refl[i]), Some(bandlimit[i])), &k);
+        assert_eq!(u32_of(&out["n_environment"])[i], r.n_environment_combined, "no flag bound: combined");
+        assert_eq!(out["omega_environment"].component(i, 0), r.omega_environment);
         assert_eq!(u32_of(&out["n_primary"])[i], r.n_primary);
         assert_eq!(u32_of(&out["n_direct_factored"])[i], r.n_direct_factored);
         assert_eq!(u32_of(&out["n_indirect_combined"])[i], r.n_indirect_combined);

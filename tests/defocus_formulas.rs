@@ -146,11 +146,12 @@ fn params(mu: f32, mode: Mode) -> RateParams {
         omega_v: 2.8,
         max_primary: 4096,
         max_per_primary: 4096,
+        environment_per_primary: 4.0,
     }
 }
 
 fn stats(r_min: f32, r_max: f32) -> PixelStats {
-    PixelStats { r_min, r_max, depth: 2.0, hit: true, s_min: 0.5, s_max: 2.0, z_min: 0.1, z_max: 0.5 }
+    PixelStats { r_min, r_max, depth: 2.0, hit: true, s_min: 0.5, s_max: 2.0, z_min: 0.1, z_max: 0.5, bandlimit: 0.0 }
 }
 
 #[test]
@@ -224,7 +225,9 @@ fn stat_grid() -> Vec<PixelStats> {
         for (s_min, s_max) in [(0.0, 0.0), (0.05, 0.5), (0.5, 4.0)] {
             for (z_min, z_max) in [(0.0, 0.0), (0.05, 0.3), (1.0, 5.0)] {
                 for depth in [0.5f32, 2.0, 10.0] {
-                    v.push(PixelStats { r_min, r_max, depth, hit: true, s_min, s_max, z_min, z_max });
+                    for bandlimit in [0.0f32, 0.5, 20.0] {
+                        v.push(PixelStats { r_min, r_max, depth, hit: true, s_min, s_max, z_min, z_max, bandlimit });
+                    }
                 }
             }
         }
@@ -240,9 +243,18 @@ fn factored_never_needs_more_rays_than_combined() {
                 let r = pixel_rates(&s, &params(mu, mode));
                 assert!(r.n_direct_factored <= r.n_direct_combined, "{s:?} {mode:?} μ = {mu}: {r:?}");
                 assert!(r.n_indirect_factored <= r.n_indirect_combined, "{s:?} {mode:?} μ = {mu}: {r:?}");
+                assert!(r.n_environment_factored <= r.n_environment_combined, "{s:?} {mode:?} μ = {mu}: {r:?}");
                 assert!(r.omega_direct <= r.omega_defocus && r.omega_indirect <= r.omega_defocus);
+                assert!(r.omega_environment <= r.omega_defocus);
                 // At least one secondary ray per primary ray, and whole strata (p² s²).
-                for n in [r.n_direct_factored, r.n_direct_combined, r.n_indirect_factored, r.n_indirect_combined] {
+                for n in [
+                    r.n_direct_factored,
+                    r.n_direct_combined,
+                    r.n_indirect_factored,
+                    r.n_indirect_combined,
+                    r.n_environment_factored,
+                    r.n_environment_combined,
+                ] {
                     assert!(n >= r.n_primary && n % r.n_primary == 0);
                     let q = n / r.n_primary;
                     assert_eq!(((q as f64).sqrt().round() as u32).pow(2), q, "{q} is not a square");

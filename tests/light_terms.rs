@@ -49,6 +49,15 @@ fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
         out.contains("out.color = defocus.radiance: emission + background + direct(area light 0, diffuse+glossy toward the light centre) + indirect(1 bounce, diffuse+glossy), through the lens"),
         "{out}"
     );
+    // The environment's direct light as a factored component: the sky and emitters once, by the factoring node.
+    for (file, image) in [
+        ("defocus_environment.ron", "out.color = defocus.radiance: emission + background + direct(environment), through the lens"),
+        ("motion_environment.ron", "out.color = motion.radiance: emission + background + direct(environment), over the shutter"),
+    ] {
+        let o = wedge(&["graph", &format!("pipelines/{file}")], root);
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains(image), "{file}: {text}");
+    }
     // The component's `emission` wire is read only without factoring: said, not silent.
     assert!(out.contains("note: ") && out.contains("input `emission` of node `shadows`") && out.contains("adds the emission seen directly once itself"), "{out}");
 }

@@ -43,7 +43,7 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference, Statistic,
     SamplerPass, Stage,
 };
 
@@ -172,7 +172,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Resul
         name: "indirect",
         estimator: "hemisphere",
         settings,
-        statistic: ("reflectors", "depth"),
+        statistic: ("reflectors", Statistic::Sampler("depth")),
         rate_params: vec![],
         parts: vec![
             Part { name: "diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },

@@ -2,7 +2,7 @@
 //! hold the same ones: a whole path-traced image, what camera rays see directly, indirect light or
 //! ambient occlusion, and what a factoring node's component inputs take.
 
-use wedge_graph::{AcceptView, Accepts, Term, TermKind, TermQuery, Terms, View};
+use wedge_graph::{AcceptView, Accepts, Format, PortDecl, Term, TermKind, TermQuery, Terms, View};
 
 /// What camera rays see directly: emitters, and the environment where they miss.
 pub(crate) fn seen_directly(view: View) -> Terms {
@@ -55,8 +55,9 @@ pub(crate) const COMPONENT_DIRECT: Accepts = Accepts {
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of a SoftShadows node: it renders the direct component on the shared sampler, \
           through the factoring node's lens and shutter; a node that traces its own pinhole paths (PixelFilter, \
-          RadianceFilter, MonteCarlo) or one that holds indirect light cannot be factored, and the environment's \
-          direct light and the real layer are not factored components yet (README \"Composing effects\": what is refused)",
+          RadianceFilter, MonteCarlo) or one that holds indirect light cannot be factored, the environment's direct \
+          light goes to `environment`, and the real layer is not a factored component yet (README \"Composing effects\": \
+          what is refused)",
 };
 
 /// A factoring node's `indirect` input: indirect light or ambient occlusion, through the sampler's camera.
@@ -67,10 +68,36 @@ pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
           factoring node's lens and shutter; direct light goes to `direct` (README \"Composing effects\": what is refused)",
 };
 
+/// A factoring node's `environment` input: the environment's direct light, through the sampler's camera.
+pub(crate) const COMPONENT_ENVIRONMENT: Accepts = Accepts {
+    kinds: &[TermKind::DirectEnvironment],
+    view: AcceptView::Sampler,
+    fix: "wire the `radiance` of an Environment node (without `indirect`): it renders the environment's direct light \
+          through the factoring node's lens and shutter; indirect light goes to `indirect` (README \"Composing effects\")",
+};
+
+/// A factoring node's component inputs (Defocus and Motion take the same): each a component node's
+/// composed term (eq. 5.32), summed with the emission of the sampler's camera rays.
+pub(crate) const COMPONENT_PORTS: [&str; 3] = ["direct", "indirect", "environment"];
+
+/// The declarations of [`COMPONENT_PORTS`].
+pub(crate) fn component_inputs() -> Vec<PortDecl> {
+    vec![
+        PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)").accepts(COMPONENT_DIRECT),
+        PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)").accepts(COMPONENT_INDIRECT),
+        PortDecl::optional("environment", Format::Vec3, "the environment's direct light (Environment.radiance)")
+            .accepts(COMPONENT_ENVIRONMENT),
+    ]
+}
+
+/// What a factoring node without any component input is told.
+pub(crate) const NO_COMPONENT: &str = "has no component to blur: wire `direct` (from a SoftShadows node's radiance), \
+    `indirect` (from an Indirect node's radiance) and/or `environment` (from an Environment node's radiance)";
+
 /// The terms of a factoring node's output: its components, plus — where it factors — what the
 /// shared sampler's camera rays see directly (it adds that once itself).
 pub(crate) fn factoring_sum(q: &TermQuery<'_>) -> Terms {
-    let components = q.sum(&["direct", "indirect"]);
+    let components = q.sum(&COMPONENT_PORTS);
     if q.is_factoring_node() {
         seen_directly(q.sampler_view()).plus(Some(&components))
     } else {

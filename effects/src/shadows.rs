@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference, Statistic,
     SamplerPass, Stage,
 };
 
@@ -249,7 +249,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         name: "direct",
         estimator: "light",
         settings: vec![("light", light.clone())],
-        statistic: ("occlusion", "occlusion"),
+        statistic: ("occlusion", Statistic::Sampler("occlusion")),
         rate_params: vec![("light", light)],
         parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
     })

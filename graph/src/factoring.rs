@@ -79,13 +79,34 @@ pub struct Component {
     /// sampler settings that define it (`light`; `bounces`, `brdf`).
     pub estimator: &'static str,
     pub settings: Vec<(&'static str, ParamValue)>,
-    /// The first-pass statistic its rates read: (binding name, sampler output), e.g. (`occlusion`,
-    /// `occlusion`) or (`reflectors`, `depth`).
-    pub statistic: (&'static str, &'static str),
+    /// The first-pass statistic its rates read: (binding name, where it comes from), e.g.
+    /// (`occlusion`, the sampler's `occlusion`), (`reflectors`, the sampler's `depth`) or
+    /// (`bandlimit`, a buffer the component node computed from the first pass: Environment's Ch. 6
+    /// bandwidth).
+    pub statistic: (&'static str, Statistic),
     /// Extra rate parameters (`light` for the light's half-width; `omega_v` for a transfer bandlimit).
     pub rate_params: Vec<(&'static str, ParamValue)>,
     /// Its parts; the first one's factoring flag selects the count.
     pub parts: Vec<Part>,
+}
+
+/// Where a component's first-pass statistic comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Statistic {
+    /// A first-pass output of the shared sampler, by name.
+    Sampler(&'static str),
+    /// A buffer the component node's own passes computed (from first-pass outputs).
+    Buffer(crate::BufferId),
+}
+
+impl Component {
+    /// The buffer holding the component's first-pass statistic.
+    pub fn statistic(&self, ctx: &mut crate::ExpandCtx<'_>) -> Result<crate::BufferId, crate::GraphError> {
+        match &self.statistic.1 {
+            Statistic::Sampler(output) => ctx.sampler_output(crate::SamplerPass::First, output),
+            Statistic::Buffer(id) => Ok(*id),
+        }
+    }
 }
 
 /// Settings a factoring node hands to the component nodes (names are the factoring node's contract:

@@ -38,7 +38,7 @@ mod validate;
 pub use camera_path::{camera_path_at, camera_path_problems, PathProblem};
 pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, SceneRequest, Special, StructLayout};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, PassBuilder};
-pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts};
+pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts, Statistic};
 pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
 pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
 pub use sampler::{

@@ -1,14 +1,16 @@
 //! One lighting component under a factoring Defocus node (thesis Sec. 5.5–5.8): the passes a
-//! component node (SoftShadows: direct; Indirect: diffuse and glossy) gets when the pipeline's
+//! component node (SoftShadows: direct; Indirect: diffuse and glossy; Environment: the map's diffuse
+//! and glossy direct light) gets when the pipeline's
 //! factoring node ([`wedge_graph::factoring`]) is a Defocus node — [`super::Defocus`]'s
 //! `NodeKind::expand_component` calls [`expand`] with the [`Component`] the node declared.
 //!
 //! Per component, on the shared sampler's records:
 //! 1. `Stage::Bandwidth`: SepDir / SepInd on the first pass's `L, k, E` (eq. 5.30, `defocus.flags`),
 //!    3×3 median (`neighbourhood.median3`), then `defocus.rates` for this component's width
-//!    (5.18 / 5.22) and count — `n^f` where the flag is set, else `n^c` (5.25–5.28) — submitted to the
-//!    sampler as a total over the adaptive pass's `n_p` paths (`PerPrimary::Total`, 3×3 max; the
-//!    factoring node asks for the paths).
+//!    (5.18 / 5.22 / `formulas::omega_environment`) and count — `n^f` where the flag is set, else
+//!    `n^c` (5.25–5.28, `formulas::environment_rate`) — submitted to the sampler as a total over
+//!    the adaptive pass's `n_p` paths (`PerPrimary::Total`, 3×3 max; the factoring node asks for
+//!    the paths).
 //!    Without factoring (the ablation, `factor: false`) the flag is 0 everywhere: `n^c`.
 //! 2. `Stage::Factor`: the flags again on the final `L, k, E`, median (a reference fills 0: it
 //!    composes `L`).
@@ -56,7 +58,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
 
     // 1. Counts from the first pass.
     let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
-    let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
+    let statistic = c.statistic(ctx)?;
     let flag_first =
         factor_flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, true, Reference::Keep)?;
     let (omega, pixel_length) =

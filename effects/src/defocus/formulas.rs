@@ -162,6 +162,28 @@ pub fn omega_indirect(r_min: f32, z_min: f32, pixel_length: f32, omega_v: f32, o
     omega_defocus(r_min, omega_pix).min(reflector)
 }
 
+/// Ch. 6's spatial bandwidth `B` (1/m; its filter `exp(−2B²d²)`, d in metres, has σ = 1/(2B) m) as
+/// Ch. 5's width `Ω` (pixel⁻¹; `exp(−16 Ω² d²)`, d in pixels, σ = 1/(√32 Ω) px) of the same Gaussian
+/// on a surface of `ℓ_p` metres per pixel: `Ω = 2 B ℓ_p / √32`.
+pub const OMEGA_PER_ENVIRONMENT_BANDWIDTH: f32 = 0.353_553_4;
+
+/// Environment-irradiance filter width `Ω_x^e = min(Ω_pix^max, c B ℓ_p, Ω_u^max / r_min)`: eq.
+/// 5.18's form with the environment's own bandlimit — Ch. 6's `B` of the direct light (eqs. 6.13,
+/// 6.17; curvature, occluders, `B_e`, the lobe) in place of the area light's term, converted by
+/// [`OMEGA_PER_ENVIRONMENT_BANDWIDTH`] = c. A pixel without a bandwidth (`B ≤ 0`) drops the term.
+pub fn omega_environment(r_min: f32, bandlimit: f32, pixel_length: f32, omega_pix: f32) -> f32 {
+    let own = if bandlimit > 0.0 { OMEGA_PER_ENVIRONMENT_BANDWIDTH * bandlimit * pixel_length } else { f32::INFINITY };
+    omega_defocus(r_min, omega_pix).min(own)
+}
+
+/// Environment look-ups per pixel: eq. 5.24's spatial and lens factors at the component's width
+/// times `per_primary`, the look-ups per primary ray Ch. 6 takes (Algorithm 1: 4) — Ch. 6 gives no
+/// rate formula, and its importance-sampled look-ups need no angular factor grown from the map.
+/// `Ω = Ω_x^e` for factored pixels, `Ω_x^d` for combined ones, μ-scaled. Unrounded.
+pub fn environment_rate(omega: f32, r_max: f32, per_primary: f32, omega_pix: f32) -> f32 {
+    primary_rate(omega, r_max, omega_pix) * per_primary.max(1.0)
+}
+
 /// How μ scales a bandwidth (eq. 5.29).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -295,6 +317,8 @@ pub struct PixelStats {
     /// Reflector distances for indirect light, 0 where no indirect sample hit.
     pub z_min: f32,
     pub z_max: f32,
+    /// The environment's own spatial bandwidth `B` (1/m, Ch. 6), 0 where none is known.
+    pub bandlimit: f32,
 }
 
 /// Constants of one rates evaluation.
@@ -313,6 +337,8 @@ pub struct RateParams {
     pub max_primary: u32,
     /// Cap on secondary rays per primary ray (rounded down to a square).
     pub max_per_primary: u32,
+    /// Environment look-ups per primary ray at the pixel limit ([`environment_rate`]).
+    pub environment_per_primary: f32,
 }
 
 /// Widths (μ-scaled) and rounded counts of one pixel.
@@ -327,6 +353,9 @@ pub struct PixelRates {
     pub n_direct_combined: u32,
     pub n_indirect_factored: u32,
     pub n_indirect_combined: u32,
+    pub omega_environment: f32,
+    pub n_environment_factored: u32,
+    pub n_environment_combined: u32,
 }
 
 /// All of Sec. 5.7 for one pixel: the widths of eqs. 5.7, 5.18, 5.22 scaled by μ (eq. 5.29), the
@@ -347,12 +376,16 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
             n_direct_combined: 1,
             n_indirect_factored: 1,
             n_indirect_combined: 1,
+            omega_environment: omega_pix_mu,
+            n_environment_factored: 1,
+            n_environment_combined: 1,
         };
     }
     let l_p = pixel_length(k.pixel_scale, s.depth);
     let d = omega_mu(omega_defocus(s.r_min, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let sd = omega_mu(omega_direct(s.r_min, s.s_min, l_p, k.light_half_width, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let si = omega_mu(omega_indirect(s.r_min, s.z_min, l_p, k.omega_v, k.omega_pix), k.mu, k.mode, k.omega_pix);
+    let se = omega_mu(omega_environment(s.r_min, s.bandlimit, l_p, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let p = primary_strata(primary_rate(d, s.r_max, k.omega_pix), max_p);
     let total = |n: f32| {
         let q = secondary_strata(n, p, max_s);
@@ -368,6 +401,9 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
         n_direct_combined: total(direct_rate(d, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix)),
         n_indirect_factored: total(indirect_rate(si, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix)),
         n_indirect_combined: total(indirect_rate(d, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix)),
+        omega_environment: se,
+        n_environment_factored: total(environment_rate(se, s.r_max, k.environment_per_primary, k.omega_pix)),
+        n_environment_combined: total(environment_rate(d, s.r_max, k.environment_per_primary, k.omega_pix)),
     }
 }
 

@@ -11,6 +11,8 @@
 //! - `reflectors` (vec4, optional): `z_min`, `z_max` (distances to indirect reflectors), indirect
 //!   samples that hit (`> 0`: the statistic exists), indirect samples — the layout `indirect.sample`
 //!   and `paths.resolve` write as `depth`. Unbound: no reflector terms.
+//! - `bandlimit` (f32, optional): the environment component's own spatial bandwidth `B` (1/m, Ch. 6's
+//!   eqs. 6.13/6.17, as `environment.bandwidth` writes it), 0 where none. Unbound: no environment terms.
 //! - `radiance`, `texture`, `irradiance` (vec3 rgb): one component's lens-integrated `L`, `k`, `E`
 //!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
@@ -74,6 +76,9 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
         0.0
     };
     let (mu, mode) = (positive_param(ctx, "mu", false)?, mode_param(ctx)?);
+    // Look-ups per primary ray of an environment component (absent: 1, no environment component).
+    let environment_per_primary =
+        if ctx.params.contains_key("environment_per_primary") { positive_param(ctx, "environment_per_primary", false)? } else { 1.0 };
     Ok(RateParams {
         mu,
         mode,
@@ -83,11 +88,12 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
         omega_v: positive_param(ctx, "omega_v", false)?,
         max_primary: scaled_cap(ctx.int_param("max_primary")?, mu, mode),
         max_per_primary: scaled_cap(ctx.int_param("max_per_primary")?, mu, mode),
+        environment_per_primary,
     })
 }
 
-/// One pixel's statistics from the three input buffers.
-pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Option<[f32; 4]>) -> PixelStats {
+/// One pixel's statistics from the input buffers.
+pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Option<[f32; 4]>, bandlimit: Option<f32>) -> PixelStats {
     let (s_min, s_max) = match occlusion {
         Some(o) if o[3] > 0.0 => slopes(o[0], o[1], o[2]),
         _ => (0.0, 0.0),
@@ -96,7 +102,8 @@ pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Opti
         Some(z) if z[2] > 0.0 => (z[0], z[1]),
         _ => (0.0, 0.0),
     };
-    PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max }
+    let bandlimit = bandlimit.filter(|b| b.is_finite()).unwrap_or(0.0).max(0.0);
+    PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max, bandlimit }
 }
 
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
@@ -131,6 +138,8 @@ impl Kernel for Rates {
             Binding::read_opt("reflectors", Format::Vec4),
             Binding::read_opt("flag_direct", Format::U32),
             Binding::read_opt("flag_indirect", Format::U32),
+            Binding::read_opt("bandlimit", Format::F32),
+            Binding::read_opt("flag_environment", Format::U32),
             Binding::write_opt("omega_defocus", Format::F32),
             Binding::write("pixel_length", Format::F32),
             Binding::write_opt("n_primary", Format::U32),
@@ -142,9 +151,12 @@ impl Kernel for Rates {
             Binding::write_opt("n_indirect_combined", Format::U32),
             Binding::write_opt("n_direct", Format::U32),
             Binding::write_opt("n_indirect", Format::U32),
+            Binding::write_opt("omega_environment", Format::F32),
+            Binding::write_opt("n_environment", Format::U32),
             Binding::write_opt("sigma_defocus", Format::F32),
             Binding::write_opt("sigma_direct", Format::F32),
             Binding::write_opt("sigma_indirect", Format::F32),
+            Binding::write_opt("sigma_environment", Format::F32),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -159,7 +171,8 @@ impl Kernel for Rates {
                     .f32("light_half_width", k.light_half_width)
                     .f32("omega_v", k.omega_v)
                     .u32("max_p", formulas::strata_cap(k.max_primary))
-                    .u32("max_s", formulas::strata_cap(k.max_per_primary)))
+                    .u32("max_s", formulas::strata_cap(k.max_per_primary))
+                    .f32("environment_per_primary", k.environment_per_primary))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
@@ -173,9 +186,12 @@ impl Kernel for Rates {
         let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
         let flag_direct = ctx.read_opt::<u32>("flag_direct")?;
         let flag_indirect = ctx.read_opt::<u32>("flag_indirect")?;
+        let bandlimit = ctx.read_opt::<f32>("bandlimit")?;
+        let flag_environment = ctx.read_opt::<u32>("flag_environment")?;
         let rates: Vec<PixelRates> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            formulas::pixel_rates(&pixel_stats(lens[i], occlusion.map(|o| o[i]), reflectors.map(|z| z[i])), &k)
+            let s = pixel_stats(lens[i], occlusion.map(|o| o[i]), reflectors.map(|z| z[i]), bandlimit.map(|b| b[i]));
+            formulas::pixel_rates(&s, &k)
         });
         let column = |f: fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();
         let count = |f: fn(&PixelRates) -> u32| rates.iter().map(f).collect::<Vec<u32>>();
@@ -193,9 +209,12 @@ impl Kernel for Rates {
         };
         ctx.put_opt("n_direct", || pick(flag_direct, |r| r.n_direct_factored, |r| r.n_direct_combined))?;
         ctx.put_opt("n_indirect", || pick(flag_indirect, |r| r.n_indirect_factored, |r| r.n_indirect_combined))?;
+        ctx.put_opt("omega_environment", || column(|r| r.omega_environment))?;
+        ctx.put_opt("n_environment", || pick(flag_environment, |r| r.n_environment_factored, |r| r.n_environment_combined))?;
         ctx.put_opt("sigma_defocus", || column(|r| sigma_px(r.omega_defocus)))?;
         ctx.put_opt("sigma_direct", || column(|r| sigma_px(r.omega_direct)))?;
-        ctx.put_opt("sigma_indirect", || column(|r| sigma_px(r.omega_indirect)))
+        ctx.put_opt("sigma_indirect", || column(|r| sigma_px(r.omega_indirect)))?;
+        ctx.put_opt("sigma_environment", || column(|r| sigma_px(r.omega_environment)))
     }
 }
 

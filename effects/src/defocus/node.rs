@@ -2,16 +2,17 @@
 //! (thesis Ch. 5, `seeds/000_956e982470d7e5bf.txt` Sec. 5.2–5.8; `EQUATIONS.md` "Defocus + factoring").
 //!
 //! The pipeline's factoring node ([`wedge_graph::factoring`]): with an aperture, every lighting
-//! component node of the pipeline (SoftShadows: direct; Indirect: indirect) renders its component
-//! for it ([`super::component`]) and this node
+//! component node of the pipeline (SoftShadows: direct; Indirect: indirect; Environment: the map's
+//! direct light) renders its component for it ([`super::component`]) and this node
 //! 1. asks the shared sampler for the thin lens (`aperture_radius`, `focus_distance`, `lens`) and
 //!    the thesis's first pass: `initial_paths` (16) paths through the pixel centre, one lens sample,
 //!    one shadow ray and one indirect sample each, the centre-of-light form factor (so `k·E = L` where
 //!    the scene factors; EQUATIONS.md reading; `form_factor: "exact"` for an unbiased reference);
 //! 2. computes `Ω_x^d` (5.7, 5.29) and `n_p` (5.24) from the first pass's circles of confusion
 //!    (`defocus.rates`) and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
-//! 3. sums its `direct` and `indirect` inputs (each a component's eq. 5.32 term) and the emission of
-//!    the primary hits, and filters the sum in screen space (eq. 5.33, `filter.defocus`).
+//! 3. sums its `direct`, `indirect` and `environment` inputs (each a component's eq. 5.32 term) and
+//!    the emission of the primary hits (the map where lens rays miss), and filters the sum in screen
+//!    space (eq. 5.33, `filter.defocus`).
 //!
 //! **Lens.** `aperture_radius` and `focus_distance` (world units; focus along the optical axis)
 //! come from the node's parameters, else from the pipeline's `camera:` block (its `aperture_radius`,
@@ -92,10 +93,7 @@ impl NodeKind for Defocus {
         "Thin-lens depth of field with factored irradiance filtering and two-level sampling (Mehta thesis Ch. 5)"
     }
     fn inputs(&self) -> Vec<PortDecl> {
-        vec![
-            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)").accepts(crate::light_terms::COMPONENT_DIRECT),
-            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)").accepts(crate::light_terms::COMPONENT_INDIRECT),
-        ]
+        crate::light_terms::component_inputs()
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
@@ -142,13 +140,11 @@ impl NodeKind for Defocus {
         super::component::expand(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let components: Vec<BufferId> = ["direct", "indirect"].into_iter().filter_map(|p| ctx.input(p)).collect();
+        let components: Vec<BufferId> = crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
         if components.is_empty() {
             return Err(GraphError::Expand {
                 node: ctx.node().into(),
-                message: "has no component to blur: wire `direct` (from a SoftShadows node's radiance) and/or `indirect` \
-                          (from an Indirect node's radiance)"
-                    .into(),
+                message: crate::light_terms::NO_COMPONENT.into(),
             });
         }
         let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {

@@ -13,7 +13,9 @@
 //! - Bandwidths written (vec2 each, `(B_X, B_Y)` in 1/m, μ included): `direct_diffuse`,
 //!   `direct_glossy`, `indirect_diffuse`, `indirect_glossy`; for the heatmaps (f32) `bandwidth` and
 //!   `filter_width` (the mean over both axes of the direct light's `B` and its σ in pixels — glossy
-//!   where the surface has a lobe, else diffuse), and `rays` (u32) the adaptive look-ups.
+//!   where the surface has a lobe, else diffuse), `bandlimit` (f32: the larger axis of that `B`, what a
+//!   factoring node's rates read as the environment component's own bandwidth), and `rays` (u32) the
+//!   adaptive look-ups.
 
 use glam::Vec3;
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
@@ -148,6 +150,9 @@ pub struct PixelBandwidths {
     pub b: formulas::Bandwidths,
     /// Mean of the shown direct part's `(B_X, B_Y)` and of its σ in pixels.
     pub bandwidth: f32,
+    /// The larger axis of the shown direct part's bandwidth: a factoring node's environment
+    /// statistic (one isotropic width per pixel; the larger axis is the conservative one).
+    pub bandlimit: f32,
     pub filter_width: f32,
     pub rays: u32,
 }
@@ -161,6 +166,7 @@ pub fn pixel_outputs(s: &PixelStats, footprint: f32, k: &BandwidthParams) -> Pix
     PixelBandwidths {
         b,
         bandwidth: 0.5 * (shown[0] + shown[1]),
+        bandlimit: shown[0].max(shown[1]),
         filter_width: 0.5 * (sigma[0] + sigma[1]),
         rays: formulas::look_ups(k.base, sigma, k.sigma_ref, k.max_rays),
     }
@@ -188,6 +194,7 @@ impl Kernel for Bandwidth {
             Binding::write_opt("indirect_diffuse", Format::Vec2),
             Binding::write_opt("indirect_glossy", Format::Vec2),
             Binding::write_opt("bandwidth", Format::F32),
+            Binding::write_opt("bandlimit", Format::F32),
             Binding::write_opt("filter_width", Format::F32),
             Binding::write_opt("rays", Format::U32),
         ]
@@ -225,6 +232,7 @@ impl Kernel for Bandwidth {
         ctx.put_opt("indirect_diffuse", || vec2(|b| b.indirect_diffuse))?;
         ctx.put_opt("indirect_glossy", || vec2(|b| b.indirect_glossy))?;
         ctx.put_opt("bandwidth", || out.iter().map(|o| o.bandwidth).collect::<Vec<f32>>())?;
+        ctx.put_opt("bandlimit", || out.iter().map(|o| o.bandlimit).collect::<Vec<f32>>())?;
         ctx.put_opt("filter_width", || out.iter().map(|o| o.filter_width).collect::<Vec<f32>>())?;
         ctx.put_opt("rays", || out.iter().map(|o| o.rays).collect::<Vec<u32>>())
     }

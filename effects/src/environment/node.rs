@@ -21,14 +21,19 @@
 //!    (a pixel whose jittered rays see two textures keeps its Monte Carlo `L`), as Ch. 5 composes.
 //!
 //! Ch. 6 has no μ and no adaptive rates; both are documented extensions here (μ = 1 and
-//! `adaptive: false` are the thesis). With a factoring node (Defocus, Motion) in the pipeline the
-//! node refuses: it is not a factored component.
+//! `adaptive: false` are the thesis).
+//!
+//! **Under a factoring node** (Defocus, Motion: [`wedge_graph::factoring`]) the environment's direct
+//! light is one factored component ([`expand_factored`]), as SoftShadows' direct light is: Ch. 6's
+//! bandwidth (steps 1–2, on the factoring node's first pass, at μ = 1) is the component's own
+//! bandlimit, which the factoring node's rates turn into its irradiance width and look-ups (the lens
+//! or velocity terms added: `crate::defocus::formulas::omega_environment`).
 
 use std::collections::BTreeMap;
 
 use wedge_graph::{
-    BufferId, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl,
-    Reference, SamplerPass, SamplerRequest, SceneRequest, Stage,
+    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part,
+    PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, SceneRequest, Stage, Statistic,
 };
 
 use crate::factored::{compose_component, factor_flags, PartTerms};
@@ -102,10 +107,15 @@ impl NodeKind for Environment {
     }
     /// Direct environment light (and one-bounce indirect with `indirect`; what camera rays see
     /// directly with `emission`), through the shared sampler's camera.
+    /// Under a factoring node: the direct environment light alone (the factoring node adds what camera
+    /// rays see directly).
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
         use wedge_graph::{Term, TermKind, Terms};
         let v = q.sampler_view();
         let mut t = Terms::new().with(Term::new(TermKind::DirectEnvironment, v));
+        if q.factored() {
+            return matches!(port, "radiance" | "unfiltered").then_some(t);
+        }
         if q.flag("indirect") {
             t = t.with(Term::new(TermKind::Indirect, v).detail("1 bounce"));
         }
@@ -139,15 +149,7 @@ impl NodeKind for Environment {
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         if let Some(f) = ctx.factoring() {
-            return Err(GraphError::Expand {
-                node: ctx.node().into(),
-                message: format!(
-                    "cannot render under the factoring node `{}`: Environment is not a factored component (thesis Ch. 6 \
-                     filters the environment on its own; README \"Composing effects\": what is refused) — render it in a \
-                     pipeline without Defocus or Motion",
-                    f.node
-                ),
-            });
+            return expand_factored(ctx, f);
         }
         let (primary, per_primary) = (count(ctx, "primary"), count(ctx, "per_primary"));
         let indirect = ctx.param("indirect").as_bool() == Some(true);
@@ -252,6 +254,90 @@ impl NodeKind for Environment {
         ctx.output("curvature", magnitude);
         Ok(())
     }
+}
+
+/// The parameters that have no meaning for a factored component, with why: refused when set, so
+/// nothing a pipeline states is silently ignored.
+const NOT_FACTORED: [(&str, &str); 3] = [
+    ("indirect", "the indirect light is the Indirect node's component: wire an Indirect node's radiance to the factoring node's `indirect`"),
+    ("temporal", "the factoring node's paths are not reprojected across frames"),
+    ("adaptive", "the factoring node's rates set the look-ups"),
+];
+
+/// Under a factoring node (thesis Ch. 5, App. B; [`wedge_graph::factoring`]): the environment's
+/// direct light as one factored component with two parts — diffuse and glossy, as Ch. 6 keeps them
+/// — which the factoring node renders ([`wedge_graph::NodeKind::expand_component`]). Its statistic is
+/// Ch. 6's bandwidth of the direct light (eqs. 6.13/6.17 from the curvature 6.20, the occluder term
+/// and `B_e`; the glossy part's where the receiver is glossy, the larger axis) on the factoring
+/// node's first pass, at μ = 1 (the factoring node's μ scales the widths it derives); its look-ups
+/// per primary ray are `per_primary`. `primary`, `mu`, `max_radius` and `emission` do not apply (the
+/// factoring node's paths, μ, filter reach, and the emission it adds once); `indirect`, `temporal`
+/// and `adaptive` are refused ([`NOT_FACTORED`]).
+fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphError> {
+    for (flag, why) in NOT_FACTORED {
+        if ctx.param(flag).as_bool() == Some(true) {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: format!(
+                    "`{flag}: true` does not apply under the factoring node `{}` ({}): {why}; remove it (README \"Composing \
+                     effects\")",
+                    f.node, f.kind
+                ),
+            });
+        }
+    }
+    // The first pass: one look-up per path, as Ch. 5 takes one shadow ray and one indirect sample.
+    let settings =
+        vec![("environment_per_primary", ParamValue::Int(1)), ("occluder_threshold", ctx.param("occluder_threshold").clone())];
+    let mut request = SamplerRequest::new().estimator("environment");
+    for (n, v) in &settings {
+        request = request.setting(n, v.clone());
+    }
+    ctx.sampler(request)?;
+    let bandlimit = first_pass_bandlimit(ctx, f)?;
+    ctx.component(&Component {
+        name: "environment",
+        estimator: "environment",
+        settings,
+        statistic: ("bandlimit", Statistic::Buffer(bandlimit)),
+        rate_params: vec![("environment_per_primary", ctx.param("per_primary").clone())],
+        parts: DIRECT_PARTS.iter().map(|(part, _)| part.clone()).collect(),
+    })
+}
+
+/// Ch. 6's bandwidth of the direct light per pixel on the first pass (1/m, μ = 1), the larger of
+/// its axes; at least the widest filter the factoring node's `max_radius` holds (the window floor
+/// that keeps μ consistent: [`super::formulas::window_bandwidth`]). Binds the node's `bandwidth` and
+/// `curvature` heatmap ports from the same passes.
+fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<BufferId, GraphError> {
+    let position = ctx.sampler_output(SamplerPass::First, "position")?;
+    let normal = ctx.sampler_output(SamplerPass::First, "normal")?;
+    let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
+    let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
+    ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
+        .read("position", position)
+        .read("normal", normal)
+        .write("curvature", curvature)
+        .write("magnitude", magnitude)
+        .finish();
+    let (bandlimit, bandwidth) = (ctx.buffer("bandlimit", Format::F32), ctx.buffer("bandwidth", Format::F32));
+    ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
+        .read("curvature", curvature)
+        .read("environment", stats)
+        .read("normal", normal)
+        .write("bandlimit", bandlimit)
+        .write("bandwidth", bandwidth)
+        .node_params(&["b_e"])
+        .float("mu", 1.0)
+        .param("max_radius", f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16)))
+        .int("base", 1)
+        .float("sigma_ref", 1.0)
+        .int("max_rays", 1)
+        .reference(Reference::Keep)
+        .finish();
+    ctx.output("bandwidth", bandwidth);
+    ctx.output("curvature", magnitude);
+    Ok(bandlimit)
 }
 
 /// The Ch. 6 filter of one irradiance as the node runs it (the MixedReality node filters its

@@ -15,6 +15,10 @@
 //! - The direct irradiance also takes the area-light width of eq. 5.18 without the lens term,
 //!   `min(Ω_pix^max, ℓ_p Ω_y^max/s_min)`; indirect takes only eq. 5.22's reflector-depth width
 //!   (App. B: "we only apply the standard irradiance filter based on minimum reflector depth").
+//! - The environment's irradiance takes its Ch. 6 bandwidth as the direct light takes the area light's
+//!   (`crate::defocus::formulas::omega_environment` without the lens term), like indirect light no
+//!   velocity term (the sampler keeps no velocity of the environment's occluders), and its look-ups
+//!   are eq. 5.24's factors at that width times the look-ups per primary ray, without a time factor.
 //! - Primary rays (B.3) `n_p = (Ω_pix^max + Ω_x^t)² (1 + |v_p| Ω_x^t)²` with `Ω_x^t = Ω_{x,p}^m`
 //!   (EQUATIONS.md: "(B.3)'s Ω_x^t means Ω_{x,p}^m") — eq. 5.24 with `|v_p|` for `r_max`. A pixel
 //!   that sees two or more velocities (primary hit or shadow) takes `multi_paths` primary rays (the
@@ -34,8 +38,8 @@ use glam::Vec2;
 use wedge_backends::kernels::filter_motion::velocity_tolerance;
 
 use crate::defocus::formulas::{
-    direct_rate, indirect_rate, omega_direct, omega_indirect, omega_mu, pixel_length, primary_rate, primary_strata,
-    secondary_strata, strata_cap, Mode,
+    direct_rate, environment_rate, indirect_rate, omega_direct, omega_environment, omega_indirect, omega_mu, pixel_length,
+    primary_rate, primary_strata, secondary_strata, strata_cap, Mode,
 };
 
 /// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (EQUATIONS.md "Motion"), the Motion node's
@@ -89,6 +93,8 @@ pub struct MotionStats {
     pub s_max: f32,
     pub z_min: f32,
     pub z_max: f32,
+    /// The environment's Ch. 6 bandwidth `B` (1/m), 0 where none.
+    pub bandlimit: f32,
 }
 
 impl MotionStats {
@@ -116,6 +122,8 @@ pub struct MotionParams {
     pub max_per_primary: u32,
     /// Primary rays at multi-velocity pixels (capped by `max_primary`).
     pub multi_paths: u32,
+    /// Environment look-ups per primary ray (`crate::defocus::formulas::environment_rate`).
+    pub environment_per_primary: f32,
 }
 
 /// One pixel's widths (μ-scaled; 0 = no such filter) and rounded counts.
@@ -129,10 +137,13 @@ pub struct MotionRates {
     pub omega_shadow: f32,
     /// Indirect irradiance: reflector-depth width (5.22 without the lens term).
     pub omega_indirect: f32,
+    /// Environment irradiance: Ch. 6's bandwidth as a width (no lens term).
+    pub omega_environment: f32,
     pub pixel_length: f32,
     pub n_primary: u32,
     pub n_direct: u32,
     pub n_indirect: u32,
+    pub n_environment: u32,
 }
 
 /// All of App. B's sampling for one pixel (see the module doc).
@@ -142,7 +153,7 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     let single = s.single();
     let mu = |omega: f32| omega_mu(omega, k.mu, k.mode, k.omega_pix);
     if !s.hit {
-        return MotionRates { single, n_primary: 1, n_direct: 1, n_indirect: 1, ..MotionRates::default() };
+        return MotionRates { single, n_primary: 1, n_direct: 1, n_indirect: 1, n_environment: 1, ..MotionRates::default() };
     }
     let l_p = pixel_length(k.pixel_scale, s.depth);
     // A velocity within the tolerance of a still point is no motion: neither filtered nor counted.
@@ -153,6 +164,7 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     let shadow = mu(omega_motion(speed_s, k.omega_t, k.omega_pix));
     let direct = mu(omega_direct(0.0, s.s_min, l_p, k.light_half_width, k.omega_pix));
     let indirect = mu(omega_indirect(0.0, s.z_min, l_p, k.omega_v, k.omega_pix));
+    let environment = mu(omega_environment(0.0, s.bandlimit, l_p, k.omega_pix));
     let p = if single {
         primary_strata(primary_rate(texture, speed_p, k.omega_pix), max_p)
     } else {
@@ -169,10 +181,12 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
         omega_direct: direct,
         omega_shadow: if single && speed_s > 0.0 { shadow } else { 0.0 },
         omega_indirect: indirect,
+        omega_environment: environment,
         pixel_length: l_p,
         n_primary: p * p,
         n_direct: total(direct_rate(omega_d, speed_s, s.s_max, l_p, k.light_half_width, k.omega_pix)),
         n_indirect: total(indirect_rate(indirect, 0.0, s.z_max, l_p, k.omega_v, k.omega_pix)),
+        n_environment: total(environment_rate(environment, 0.0, k.environment_per_primary, k.omega_pix)),
     }
 }
 
@@ -192,6 +206,7 @@ mod tests {
             max_primary: 256,
             max_per_primary: 4,
             multi_paths: THESIS_MULTI_VELOCITY_PATHS as u32,
+            environment_per_primary: 4.0,
         }
     }
 
@@ -230,6 +245,21 @@ mod tests {
         assert_eq!(still.omega_shadow, 0.0);
         assert_eq!(moving.omega_shadow, 0.125);
         assert!(moving.n_direct >= still.n_direct);
+    }
+
+    #[test]
+    fn the_environment_takes_its_bandwidth_as_a_width_and_no_time_factor() {
+        // ℓ_p = 0.004 m at depth 2; B = 100/m → Ω = 0.3536 · 100 · 0.004 = 0.1414 px⁻¹.
+        let base = MotionStats { hit: true, depth: 2.0, bandlimit: 100.0, ..Default::default() };
+        let r = pixel_rates(&base, &params());
+        assert!((r.omega_environment - 0.141_421_4).abs() < 1e-5, "{r:?}");
+        // (0.5 + 0.1414)² × 4 look-ups per primary ray = 1.65 → 2² at one primary ray.
+        assert_eq!((r.n_primary, r.n_environment), (1, 4));
+        // No bandwidth: the pixel limit; a moving receiver does not add a time factor (as indirect).
+        let flat = pixel_rates(&MotionStats { bandlimit: 0.0, ..base }, &params());
+        assert_eq!(flat.omega_environment, 0.5);
+        let moving = pixel_rates(&MotionStats { v_p: [10.0, 0.0], ..base }, &params());
+        assert_eq!((moving.n_primary, moving.n_environment), (4, 4), "one look-up on each of 2² timed paths: {moving:?}");
     }
 
     #[test]

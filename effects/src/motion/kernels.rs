@@ -50,6 +50,7 @@ fn motion_params(ctx: &KernelCtx<'_>) -> Result<MotionParams, BackendError> {
         max_primary: k.max_primary,
         max_per_primary: k.max_per_primary,
         multi_paths,
+        environment_per_primary: k.environment_per_primary,
     })
 }
 
@@ -61,6 +62,7 @@ pub fn motion_stats(
     depth: [f32; 4],
     occlusion: Option<[f32; 4]>,
     reflectors: Option<[f32; 4]>,
+    bandlimit: Option<f32>,
 ) -> MotionStats {
     let occluded_any = occlusion.is_some_and(|o| o[3] > 0.0);
     let (s_min, s_max) = match occlusion {
@@ -84,6 +86,7 @@ pub fn motion_stats(
         s_max,
         z_min,
         z_max,
+        bandlimit: bandlimit.filter(|b| b.is_finite()).unwrap_or(0.0).max(0.0),
     }
 }
 
@@ -105,6 +108,7 @@ impl Kernel for Rates {
             Binding::read("depth", Format::Vec4),
             Binding::read_opt("occlusion", Format::Vec4),
             Binding::read_opt("reflectors", Format::Vec4),
+            Binding::read_opt("bandlimit", Format::F32),
             Binding::write_opt("single", Format::U32),
             Binding::write_opt("texture_motion", Format::Vec4),
             Binding::write_opt("shadow_motion", Format::Vec4),
@@ -114,9 +118,12 @@ impl Kernel for Rates {
             Binding::write_opt("n_direct", Format::U32),
             Binding::write_opt("omega_indirect", Format::F32),
             Binding::write_opt("n_indirect", Format::U32),
+            Binding::write_opt("omega_environment", Format::F32),
+            Binding::write_opt("n_environment", Format::U32),
             Binding::write_opt("sigma_texture", Format::F32),
             Binding::write_opt("sigma_direct", Format::F32),
             Binding::write_opt("sigma_indirect", Format::F32),
+            Binding::write_opt("sigma_environment", Format::F32),
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -134,7 +141,8 @@ impl Kernel for Rates {
                     .f32("omega_v", k.omega_v)
                     .u32("max_p", strata_cap(k.max_primary))
                     .u32("max_s", strata_cap(k.max_per_primary))
-                    .u32("multi_paths", k.multi_paths))
+                    .u32("multi_paths", k.multi_paths)
+                    .f32("environment_per_primary", k.environment_per_primary))
             })
             .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
@@ -150,10 +158,11 @@ impl Kernel for Rates {
         let depth = ctx.read::<[f32; 4]>("depth")?;
         let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
         let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
+        let bandlimit = ctx.read_opt::<f32>("bandlimit")?;
         let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
         let rates: Vec<(MotionStats, MotionRates)> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            let s = motion_stats(velocity[i], at(shadow, i), depth[i], at(occlusion, i), at(reflectors, i));
+            let s = motion_stats(velocity[i], at(shadow, i), depth[i], at(occlusion, i), at(reflectors, i), bandlimit.map(|b| b[i]));
             (s, formulas::pixel_rates(&s, &k))
         });
         let column = |f: fn(&MotionRates) -> f32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<f32>>();
@@ -180,9 +189,12 @@ impl Kernel for Rates {
         ctx.put_opt("n_direct", || count(|r| r.n_direct))?;
         ctx.put_opt("omega_indirect", || column(|r| r.omega_indirect))?;
         ctx.put_opt("n_indirect", || count(|r| r.n_indirect))?;
+        ctx.put_opt("omega_environment", || column(|r| r.omega_environment))?;
+        ctx.put_opt("n_environment", || count(|r| r.n_environment))?;
         ctx.put_opt("sigma_texture", || column(|r| sigma_or_zero(r.omega_texture)))?;
         ctx.put_opt("sigma_direct", || column(|r| sigma_or_zero(r.omega_direct)))?;
-        ctx.put_opt("sigma_indirect", || column(|r| sigma_or_zero(r.omega_indirect)))
+        ctx.put_opt("sigma_indirect", || column(|r| sigma_or_zero(r.omega_indirect)))?;
+        ctx.put_opt("sigma_environment", || column(|r| sigma_or_zero(r.omega_environment)))
     }
 }
 
@@ -221,7 +233,7 @@ impl Kernel for Flags {
         let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
         let single: Vec<bool> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            motion_stats(velocity[i], shadow.map(|s| s[i]), [0.0; 4], occlusion.map(|o| o[i]), None).single()
+            motion_stats(velocity[i], shadow.map(|s| s[i]), [0.0; 4], occlusion.map(|o| o[i]), None, None).single()
         });
         ctx.put_opt("flag", || single.iter().map(|&s| s as u32).collect::<Vec<u32>>())?;
         ctx.put_opt("multi", || single.iter().map(|&s| !s as u32).collect::<Vec<u32>>())

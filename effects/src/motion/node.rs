@@ -13,17 +13,18 @@
 //!    `Ω_{x,p}^m` (B.1) and `n_p` (B.3; `multi_paths` where the pixel sees two or more velocities —
 //!    the thesis: 64, default 16, measured) with `motion.rates`, and submits `n_p` paths for the
 //!    second pass (3×3 max, `p²` rounding);
-//! 3. sums its `direct` and `indirect` inputs (each a component's factored term) and the emission of
-//!    the primary hits, and filters the sum at the pixels whose final paths saw two or more
+//! 3. sums its `direct`, `indirect` and `environment` inputs (each a component's factored term) and
+//!    the emission of the primary hits (the map where camera rays miss), and filters the sum at the pixels whose final paths saw two or more
 //!    velocities (`motion.flags`, `filter.radiance3`): `multi_filter` `velocity` (default) averages
 //!    such a pixel with its two neighbours along its velocity that see several velocities too;
 //!    `tent` is the thesis's 3×3 filter, which mixes across the sharp edges of blurred silhouettes
 //!    (measured: DESIGN-NOTES "Motion"); `none` keeps the 64-path estimate.
 //!
-//! **Components** ([`Motion::expand_component`]): each lighting component node (SoftShadows, Indirect)
-//! renders for it: `motion.rates` gives its irradiance width (direct: eq. 5.18 without the lens term,
-//! and B.2 along the shadow's velocity; indirect: eq. 5.22 without the lens term) and its count (5.25
-//! with the shadow's velocity; 5.26 without the time factor); per part the irradiance `E` is filtered
+//! **Components** ([`Motion::expand_component`]): each lighting component node (SoftShadows, Indirect,
+//! Environment) renders for it: `motion.rates` gives its irradiance width (direct: eq. 5.18 without the
+//! lens term, and B.2 along the shadow's velocity; indirect: eq. 5.22 without the lens term;
+//! environment: Ch. 6's bandwidth as 5.18's light term) and its count (5.25 with the shadow's
+//! velocity; 5.26 without the time factor; the environment's 5.24 factors × look-ups per primary ray); per part the irradiance `E` is filtered
 //! (`filter.irradiance`, then for direct light `filter.motion` along `v_s`), the texture `k` is filtered
 //! along `v_p` (`filter.motion`, B.1: App. B filters texture and irradiance independently, "since a
 //! moving surface may receive shadows that are not motion-blurred"), and the term is `k̃ Ẽ` where the
@@ -85,10 +86,7 @@ impl NodeKind for Motion {
         "Motion blur with factored texture/irradiance filters along the velocity and two-level sampling (Mehta thesis App. B)"
     }
     fn inputs(&self) -> Vec<PortDecl> {
-        vec![
-            PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)").accepts(crate::light_terms::COMPONENT_DIRECT),
-            PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)").accepts(crate::light_terms::COMPONENT_INDIRECT),
-        ]
+        crate::light_terms::component_inputs()
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
@@ -140,13 +138,11 @@ impl NodeKind for Motion {
         expand_component(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let components: Vec<BufferId> = ["direct", "indirect"].into_iter().filter_map(|p| ctx.input(p)).collect();
+        let components: Vec<BufferId> = crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
         if components.is_empty() {
             return Err(GraphError::Expand {
                 node: ctx.node().into(),
-                message: "has no component to blur: wire `direct` (from a SoftShadows node's radiance) and/or `indirect` \
-                          (from an Indirect node's radiance)"
-                    .into(),
+                message: crate::light_terms::NO_COMPONENT.into(),
             });
         }
         let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {
@@ -255,7 +251,7 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
     // 1. Widths and counts from the first pass (the shadow's velocity only for direct light).
     let velocity = ctx.sampler_output(SamplerPass::First, "velocity")?;
     let depth = ctx.sampler_output(SamplerPass::First, "defocus")?;
-    let statistic = ctx.sampler_output(SamplerPass::First, c.statistic.1)?;
+    let statistic = c.statistic(ctx)?;
     let shadow_velocity = if direct { Some(ctx.sampler_output(SamplerPass::First, "shadow_velocity")?) } else { None };
     let name = c.name;
     let (omega, pixel_length, count, sigma, texture_motion) = (
