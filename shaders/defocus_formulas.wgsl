@@ -114,6 +114,12 @@ fn defocus_environment_rate(omega: f32, r_max: f32, per_primary: f32, omega_pix:
     return defocus_primary_rate(omega, r_max, omega_pix) * rmax(per_primary, 1.0);
 }
 
+// formulas.rs time_factor: (1 + |v| Ω)², exactly 1 at v = 0.
+fn defocus_time_factor(speed: f32, omega: f32) -> f32 {
+    let f = 1.0 + speed * omega;
+    return f * f;
+}
+
 struct DefocusRates {
     omega_defocus: f32,
     omega_direct: f32,
@@ -132,6 +138,7 @@ struct DefocusRates {
 // formulas.rs pixel_rates: widths (μ-scaled) and rounded counts of one pixel.
 fn defocus_pixel_rates(
     r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32, bandlimit: f32,
+    v_p: f32, v_s: f32,
     mu: f32, mode: u32, omega_pix: f32, pixel_scale: f32, light_half_width: f32, omega_v: f32,
     max_p: u32, max_s: u32, environment_per_primary: f32,
 ) -> DefocusRates {
@@ -143,15 +150,19 @@ fn defocus_pixel_rates(
     let d = defocus_omega_mu(defocus_omega_defocus(r_min, omega_pix), mu, mode, omega_pix);
     let sd = defocus_omega_mu(defocus_omega_direct(r_min, s_min, l_p, light_half_width, omega_pix), mu, mode, omega_pix);
     let si = defocus_omega_mu(defocus_omega_indirect(r_min, z_min, l_p, omega_v, omega_pix), mu, mode, omega_pix);
-    let p = defocus_strata(defocus_primary_rate(d, r_max, omega_pix), max_p);
+    let p = defocus_strata(defocus_primary_rate(d, r_max, omega_pix) * defocus_time_factor(v_p, d), max_p);
     let pp = p * p;
-    let qdf = defocus_secondary_strata(defocus_direct_rate(sd, r_max, s_max, l_p, light_half_width, omega_pix), p, max_s);
-    let qdc = defocus_secondary_strata(defocus_direct_rate(d, r_max, s_max, l_p, light_half_width, omega_pix), p, max_s);
+    let qdf = defocus_secondary_strata(
+        defocus_direct_rate(sd, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_s, sd), p, max_s);
+    let qdc = defocus_secondary_strata(
+        defocus_direct_rate(d, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_p + v_s, d), p, max_s);
     let qif = defocus_secondary_strata(defocus_indirect_rate(si, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
-    let qic = defocus_secondary_strata(defocus_indirect_rate(d, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
+    let qic = defocus_secondary_strata(
+        defocus_indirect_rate(d, r_max, z_max, l_p, omega_v, omega_pix) * defocus_time_factor(v_p, d), p, max_s);
     let se = defocus_omega_mu(defocus_omega_environment(r_min, bandlimit, l_p, omega_pix), mu, mode, omega_pix);
     let qef = defocus_secondary_strata(defocus_environment_rate(se, r_max, environment_per_primary, omega_pix), p, max_s);
-    let qec = defocus_secondary_strata(defocus_environment_rate(d, r_max, environment_per_primary, omega_pix), p, max_s);
+    let qec = defocus_secondary_strata(
+        defocus_environment_rate(d, r_max, environment_per_primary, omega_pix) * defocus_time_factor(v_p, d), p, max_s);
     return DefocusRates(
         d, sd, si, l_p, pp, pp * qdf * qdf, pp * qdc * qdc, pp * qif * qif, pp * qic * qic, se, pp * qef * qef, pp * qec * qec,
     );

@@ -3,6 +3,8 @@
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 #include "defocus_formulas.wgsl"
+#include "velocity.wgsl"
+#include "motion_formulas.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -13,8 +15,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let lens = lens_at(i);
     var s = vec2<f32>(0.0);
     let occ = occlusion_at(i);
-    if (occlusion_bound() && occ.w > 0.0) {
+    let occluded = occlusion_bound() && occ.w > 0.0;
+    if (occluded) {
         s = shadows_slopes(occ.x, occ.y, occ.z);
+    }
+    // Speeds for the counts where the paths sample the shutter (kernels.rs pixel_stats).
+    var v_p = 0.0;
+    if (velocity_bound()) {
+        v_p = motion_fastest(velocity_at(i));
+    }
+    var v_s = 0.0;
+    if (shadow_velocity_bound() && occluded) {
+        v_s = motion_fastest(shadow_velocity_at(i));
     }
     var z = vec2<f32>(0.0);
     let refl = reflectors_at(i);
@@ -30,7 +42,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let r = defocus_pixel_rates(
-        lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y, bandlimit,
+        lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y, bandlimit, v_p, v_s,
         params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
         params.max_p, params.max_s, params.environment_per_primary,
     );

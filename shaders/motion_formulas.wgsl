@@ -22,6 +22,15 @@ fn motion_speed(v: vec2<f32>) -> f32 {
     return 0.0;
 }
 
+// formulas.rs fastest_speed: |mean| + |range|/2, 0 within the tolerance of a still point.
+fn motion_fastest(v: vec4<f32>) -> f32 {
+    let s = velocity_length(v.xy) + 0.5 * velocity_length(v.zw);
+    if (is_finite(s) && s > velocity_tolerance(0.0)) {
+        return s;
+    }
+    return 0.0;
+}
+
 fn motion_single_velocity(mean: vec2<f32>, spread: vec2<f32>) -> bool {
     let s = velocity_length(spread);
     return s <= velocity_tolerance(velocity_length(mean) + 0.5 * s);

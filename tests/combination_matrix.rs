@@ -1,6 +1,7 @@
 //! Issue 34's combination matrix: every single effect, every pair and the useful triples of
 //! {SoftShadows, Indirect, AO, Environment, LightField, MixedReality, PixelFilter, RadianceFilter,
-//! MonteCarlo} × {no factoring node, Defocus, Motion, Defocus + Motion}, wired as a user would (a
+//! MonteCarlo} × {no factoring node, Defocus, Motion, Defocus + Motion (one Defocus node on the moving
+//! scene: its paths sample the lens and the shutter together)}, wired as a user would (a
 //! factoring node takes the direct, indirect and environment components, everything else is added
 //! beside it, emission wired once). Each entry is either refused before anything runs with a reason from the
 //! README's "Composing effects" table, or renders on the CPU to finite pixels whose mean agrees with
@@ -92,7 +93,8 @@ impl Camera {
             Camera::Pinhole => &[],
             Camera::Defocus => &["Defocus"],
             Camera::Motion => &["Motion"],
-            Camera::DefocusMotion => &["Defocus", "Motion"],
+            // One Defocus node on a moving scene samples the lens and the shutter together.
+            Camera::DefocusMotion => &["Defocus"],
         }
     }
     /// A scene with an area light and an environment map, or one that moves.

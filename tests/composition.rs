@@ -342,3 +342,36 @@ fn an_environment_component_refuses_what_does_not_apply_and_the_port_checks_its_
     let e = refusal(&wrong);
     assert!(e.contains("error[term-not-accepted]") && e.contains("environment"), "{e}");
 }
+
+/// Issue 34 §4, Defocus and Motion together: on a moving scene one Defocus node's paths sample the
+/// lens and the shutter (docs/DEFOCUS-MOTION.md: Ch. 5's widths stay valid since the lens × shutter
+/// band is the intersection of the two; the counts take the time factor). Its image converges to the
+/// lens × shutter reference as μ grows (consistent mode), and is a different picture from the scene
+/// frozen at the shutter's centre (`shutter: "frozen"`, Ch. 5 alone), which stays away from it.
+#[test]
+fn defocus_on_a_moving_scene_samples_lens_and_shutter_and_converges() {
+    let text = shipped("defocus_motion_shadows_indirect.ron");
+    let at = |mu: f64, shutter: &str| {
+        sized(
+            64,
+            48,
+            None,
+            &[
+                ("defocus", "mode", ParamValue::Str("consistent".into())),
+                ("defocus", "mu", ParamValue::Float(mu)),
+                ("defocus", "shutter", ParamValue::Str(shutter.into())),
+            ],
+        )
+    };
+    let truth = {
+        let s = build_text(&text, &at(1.0, "sample"), Some(512)).expect("reference builds");
+        color(&s, &run(&s))
+    };
+    // Consistent mode's caps grow as μ²: μ = 4 is already ~1500 rays per pixel here.
+    let curve: Vec<(f64, f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| errors_at(&text, &at(mu, "sample"), &truth)).collect();
+    let frozen = errors_at(&text, &at(4.0, "frozen"), &truth);
+    eprintln!("lens + shutter (filtered RMSE, unfiltered RMSE, rays/px) at μ 1, 2, 4: {curve:?}; frozen at μ 4: {frozen:?}");
+    assert!(curve[1].0 < curve[0].0 && curve[2].0 < curve[1].0, "error falls as μ grows: {curve:?}");
+    assert!(curve[2].2 > 2.0 * curve[0].2, "rays grow with μ: {curve:?}");
+    assert!(frozen.0 > 4.0 * curve[2].0, "the frozen scene is not the motion-blurred one: {frozen:?} vs {curve:?}");
+}

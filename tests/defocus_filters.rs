@@ -199,6 +199,7 @@ fn random_stats(rng: &mut Rng) -> Buffers {
     let mut occ = Vec::with_capacity(N);
     let mut refl = Vec::with_capacity(N);
     let mut bandlimit = Vec::with_capacity(N);
+    let (mut velocity, mut shadow_velocity) = (Vec::with_capacity(N), Vec::with_capacity(N));
     for i in 0..N {
         let r_min = if rng.chance(0.2) { 0.0 } else { rng.range(0.0, 12.0) };
         let r_max = r_min + if rng.chance(0.2) { 0.0 } else { rng.range(0.0, 30.0) };
@@ -213,6 +214,10 @@ fn random_stats(rng: &mut Rng) -> Buffers {
         refl.push([z_min, z_min + rng.range(0.0, 5.0), if rng.chance(0.7) { rng.range(1.0, 16.0).floor() } else { 0.0 }, 16.0]);
         // The environment's Ch. 6 bandwidth (1/m), absent (0) at some pixels.
         bandlimit.push(if rng.chance(0.2) { 0.0 } else { rng.range(0.1, 60.0) });
+        // Image velocities (mean, per-axis range), still at some pixels.
+        let mut v = || if rng.chance(0.3) { [0.0; 4] } else { [rng.range(-20.0, 20.0), rng.range(-5.0, 5.0), rng.range(0.0, 8.0), rng.range(0.0, 2.0)] };
+        velocity.push(v());
+        shadow_velocity.push(v());
         if i == 17 {
             lens[i] = [f32::NAN, f32::NAN, 2.0, 16.0];
         }
@@ -220,7 +225,10 @@ fn random_stats(rng: &mut Rng) -> Buffers {
             lens[i] = [0.0, f32::INFINITY, 2.0, 16.0];
         }
     }
-    BTreeMap::from([("lens", vec4s(lens)), ("occlusion", vec4s(occ)), ("reflectors", vec4s(refl)), ("bandlimit", f32s(bandlimit))])
+    BTreeMap::from([("lens", vec4s(lens)), ("occlusion", vec4s(occ)), ("reflectors", vec4s(refl)), ("bandlimit", f32s(bandlimit)),
+        ("velocity", vec4s(velocity)),
+        ("shadow_velocity", vec4s(shadow_velocity)),
+    ])
 }
 
 fn rate_params(mu: f64, mode: &str, max_primary: i64, max_per_primary: i64) -> Params {
@@ -623,7 +631,7 @@ fn neighbourhood_filters_by_hand() {
 #[test]
 fn rates_kernel_matches_the_formulas() {
     use wedge::effects::defocus::formulas::{pixel_rates, Mode, RateParams};
-    use wedge::effects::defocus::kernels::pixel_stats;
+    use wedge::effects::defocus::kernels::{pixel_stats, OptionalStats};
     let scene = scene();
     let stats = random_stats(&mut Rng(41));
     let (out, _) = run_cpu(&scene, "defocus.rates", W, H, &rate_params(2.0, "consistent", 64, 256), &stats);
@@ -641,8 +649,16 @@ fn rates_kernel_matches_the_formulas() {
     };
     let (lens, occ, refl) = (vec4_of(&stats["lens"]), vec4_of(&stats["occlusion"]), vec4_of(&stats["reflectors"]));
     let BufferData::F32(bandlimit) = &stats["bandlimit"] else { panic!("f32 bandwidths") };
+    let (velocity, shadow_velocity) = (vec4_of(&stats["velocity"]), vec4_of(&stats["shadow_velocity"]));
     for i in 0..N {
-        let r = pixel_rates(&pixel_stats(lens[i], Some(occ[i]), Some(refl[i]), Some(bandlimit[i])), &k);
+        let o = OptionalStats {
+            occlusion: Some(occ[i]),
+            reflectors: Some(refl[i]),
+            bandlimit: Some(bandlimit[i]),
+            velocity: Some(velocity[i]),
+            shadow_velocity: Some(shadow_velocity[i]),
+        };
+        let r = pixel_rates(&pixel_stats(lens[i], o), &k);
         assert_eq!(u32_of(&out["n_environment"])[i], r.n_environment_combined, "no flag bound: combined");
         assert_eq!(out["omega_environment"].component(i, 0), r.omega_environment);
         assert_eq!(u32_of(&out["n_primary"])[i], r.n_primary);

@@ -151,7 +151,7 @@ fn params(mu: f32, mode: Mode) -> RateParams {
 }
 
 fn stats(r_min: f32, r_max: f32) -> PixelStats {
-    PixelStats { r_min, r_max, depth: 2.0, hit: true, s_min: 0.5, s_max: 2.0, z_min: 0.1, z_max: 0.5, bandlimit: 0.0 }
+    PixelStats { r_min, r_max, depth: 2.0, hit: true, s_min: 0.5, s_max: 2.0, z_min: 0.1, z_max: 0.5, bandlimit: 0.0, v_p: 0.0, v_s: 0.0 }
 }
 
 #[test]
@@ -226,7 +226,7 @@ fn stat_grid() -> Vec<PixelStats> {
             for (z_min, z_max) in [(0.0, 0.0), (0.05, 0.3), (1.0, 5.0)] {
                 for depth in [0.5f32, 2.0, 10.0] {
                     for bandlimit in [0.0f32, 0.5, 20.0] {
-                        v.push(PixelStats { r_min, r_max, depth, hit: true, s_min, s_max, z_min, z_max, bandlimit });
+                        v.push(PixelStats { r_min, r_max, depth, hit: true, s_min, s_max, z_min, z_max, bandlimit, v_p: 0.0, v_s: 0.0 });
                     }
                 }
             }
@@ -420,4 +420,40 @@ fn compose_term_eq_5_32() {
     let (l, k, e) = ([0.3, 0.2, 0.1], [0.5, 0.25, 1.0], [0.8, 0.4, 0.2]);
     assert_eq!(compose_term(l, k, e, true), [0.4, 0.1, 0.2]);
     assert_eq!(compose_term(l, k, e, false), l);
+}
+
+/// Lens and shutter together (docs/DEFOCUS-MOTION.md DM.8, DM.11, DM.12): a still pixel keeps Ch. 5's
+/// counts bit for bit; a moving primary hit adds `(1 + |v_p| Ω)²` to the primary and the combined
+/// counts, a moving shadow `(1 + |v_s| Ω)²` to the direct ones; the factored indirect and environment
+/// irradiance take no time factor (App. B's reading), and no width changes.
+#[test]
+fn the_shutter_adds_time_factors_to_the_counts_and_leaves_the_widths() {
+    use wedge::effects::defocus::formulas::time_factor;
+    for mode in [Mode::Literal, Mode::Consistent] {
+        for s in stat_grid() {
+            let k = params(1.0, mode);
+            let still = pixel_rates(&s, &k);
+            assert_eq!(pixel_rates(&PixelStats { v_p: 0.0, v_s: 0.0, ..s }, &k), still);
+            let moving = pixel_rates(&PixelStats { v_p: 12.0, v_s: 5.0, ..s }, &k);
+            let widths = |r: &wedge::effects::defocus::formulas::PixelRates| {
+                [r.omega_defocus, r.omega_direct, r.omega_indirect, r.omega_environment, r.pixel_length]
+            };
+            assert_eq!(widths(&moving), widths(&still), "{s:?}");
+            for (m, st) in [
+                (moving.n_primary, still.n_primary),
+                (moving.n_direct_factored, still.n_direct_factored),
+                (moving.n_direct_combined, still.n_direct_combined),
+                (moving.n_indirect_combined, still.n_indirect_combined),
+                (moving.n_environment_combined, still.n_environment_combined),
+            ] {
+                assert!(m >= st, "{s:?}: {moving:?} vs {still:?}");
+            }
+            if s.hit && s.r_max == 0.0 && still.n_primary < 64 {
+                // In focus, μ = 1: Ω_d = 0.5, so n_p = 1 · (1 + 12 · 0.5)² = 49 → 7².
+                assert_eq!(moving.n_primary, 49, "{s:?}");
+            }
+        }
+    }
+    assert_eq!(time_factor(0.0, 0.37), 1.0);
+    assert_eq!(time_factor(2.0, 0.5), 4.0);
 }

@@ -210,6 +210,6 @@ fn motion_and_defocus_in_one_pipeline_are_refused_with_the_reason() {
         Ok(_) => panic!("two factoring nodes must be refused"),
         Err(e) => e.to_string(),
     };
-    assert!(err.contains("both factor") && err.contains("combined analysis is left for future work"), "{err}");
+    assert!(err.contains("both factor") && err.contains("samples the camera's shutter too"), "{err}");
     assert!(err.contains("both.ron:6:"), "located at the second node: {err}");
 }

@@ -322,13 +322,12 @@ impl ValidatedPipeline {
                         location: n.location.clone(),
                         message: format!(
                             "nodes `{}` ({}) and `{}` ({}) both factor and filter the pipeline's lighting components; \
-                             each factoring node's analysis assumes it is the only blur of the camera path (the thesis \
-                             derives defocus in Ch. 5 and motion in App. B separately: \"We assume no defocus blur; the \
-                             combined analysis is left for future work\")",
+                             the pipeline has one camera path, and one factoring node samples and filters it",
                             first.node, first.kind, n.name, n.kind.kind()
                         ),
-                        help: "remove one of them, or make one of them a no-op (a Defocus node with `aperture_radius: 0`; \
-                               a Motion node on a static scene or with a zero-length shutter)"
+                        help: "keep one: a Defocus node samples the camera's shutter too where the scene moves (lens and \
+                               shutter together, docs/DEFOCUS-MOTION.md), so a film camera needs only it; or make one a \
+                               no-op (a Defocus node with `aperture_radius: 0`; a Motion node on a static scene)"
                             .into(),
                     }),
                 },

@@ -19,6 +19,7 @@
 //!    node outputs for the Defocus node to sum and blur (5.33) ([`crate::factored`], shared with
 //!    the Motion node).
 
+use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{
     Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
     SamplerRequest, Stage,
@@ -59,6 +60,12 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     // 1. Counts from the first pass.
     let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
     let statistic = c.statistic(ctx)?;
+    // Where the paths sample the shutter too, the speeds that add the counts' time factors.
+    let (velocity, shadow_velocity) = if f.bool(CameraSettings::TIME) == Some(true) {
+        (Some(ctx.sampler_output(SamplerPass::First, "velocity")?), Some(ctx.sampler_output(SamplerPass::First, "shadow_velocity")?))
+    } else {
+        (None, None)
+    };
     let flag_first =
         factor_flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, true, Reference::Keep)?;
     let (omega, pixel_length) =
@@ -69,6 +76,8 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         .pass(&format!("{}_rates", c.name), "defocus.rates", Stage::Bandwidth)
         .read("lens", lens)
         .read(c.statistic.0, statistic)
+        .read_opt("velocity", velocity)
+        .read_opt("shadow_velocity", shadow_velocity)
         .read(&format!("flag_{}", c.name), flag_first)
         .write("pixel_length", pixel_length)
         .write(&format!("omega_{}", c.name), omega)

@@ -184,6 +184,15 @@ pub fn environment_rate(omega: f32, r_max: f32, per_primary: f32, omega_pix: f32
     primary_rate(omega, r_max, omega_pix) * per_primary.max(1.0)
 }
 
+/// The time factor of a count where the paths also sample the shutter, `(1 + |v| Ω)²`
+/// (docs/DEFOCUS-MOTION.md DM.8, DM.11, DM.12: the alias spacing along time of a shear of slope `v`
+/// inside a filter passband `Ω`; squared as App. B's B.3 squares it). Exactly 1 at `v = 0`, so a
+/// still pixel keeps Ch. 5's counts bit for bit.
+pub fn time_factor(speed: f32, omega: f32) -> f32 {
+    let f = 1.0 + speed * omega;
+    f * f
+}
+
 /// How μ scales a bandwidth (eq. 5.29).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -319,6 +328,10 @@ pub struct PixelStats {
     pub z_max: f32,
     /// The environment's own spatial bandwidth `B` (1/m, Ch. 6), 0 where none is known.
     pub bandlimit: f32,
+    /// Where the paths also sample the shutter (a moving scene): the fastest image speed of the
+    /// primary hits and of the shadows, px per half shutter (0: still, or no shutter sampled).
+    pub v_p: f32,
+    pub v_s: f32,
 }
 
 /// Constants of one rates evaluation.
@@ -360,7 +373,12 @@ pub struct PixelRates {
 
 /// All of Sec. 5.7 for one pixel: the widths of eqs. 5.7, 5.18, 5.22 scaled by μ (eq. 5.29), the
 /// rates of eqs. 5.24–5.28, rounded to `p²` and `p² s²`. A pixel whose primary rays all missed takes
-/// the pixel-limit widths and one ray of each kind.
+/// the pixel-limit widths and one ray of each kind. Where the paths also sample the shutter, the
+/// counts take the time factor of the speeds that shear them (docs/DEFOCUS-MOTION.md: primary rays
+/// and the combined `n^c` the primary hit's, plus the shadow's for direct light; factored direct
+/// irradiance the shadow's; factored indirect and environment irradiance none, App. B's reading);
+/// the widths stay Ch. 5's — the lens × shutter band is the intersection of the two (DM.4), so a
+/// width that passes the lens's band passes the product's.
 pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
     let max_p = strata_cap(k.max_primary);
     let max_s = strata_cap(k.max_per_primary);
@@ -386,7 +404,8 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
     let sd = omega_mu(omega_direct(s.r_min, s.s_min, l_p, k.light_half_width, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let si = omega_mu(omega_indirect(s.r_min, s.z_min, l_p, k.omega_v, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let se = omega_mu(omega_environment(s.r_min, s.bandlimit, l_p, k.omega_pix), k.mu, k.mode, k.omega_pix);
-    let p = primary_strata(primary_rate(d, s.r_max, k.omega_pix), max_p);
+    let (vp, vs) = (s.v_p, s.v_s);
+    let p = primary_strata(primary_rate(d, s.r_max, k.omega_pix) * time_factor(vp, d), max_p);
     let total = |n: f32| {
         let q = secondary_strata(n, p, max_s);
         p * p * q * q
@@ -397,13 +416,13 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
         omega_indirect: si,
         pixel_length: l_p,
         n_primary: p * p,
-        n_direct_factored: total(direct_rate(sd, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix)),
-        n_direct_combined: total(direct_rate(d, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix)),
+        n_direct_factored: total(direct_rate(sd, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vs, sd)),
+        n_direct_combined: total(direct_rate(d, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vp + vs, d)),
         n_indirect_factored: total(indirect_rate(si, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix)),
-        n_indirect_combined: total(indirect_rate(d, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix)),
+        n_indirect_combined: total(indirect_rate(d, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix) * time_factor(vp, d)),
         omega_environment: se,
         n_environment_factored: total(environment_rate(se, s.r_max, k.environment_per_primary, k.omega_pix)),
-        n_environment_combined: total(environment_rate(d, s.r_max, k.environment_per_primary, k.omega_pix)),
+        n_environment_combined: total(environment_rate(d, s.r_max, k.environment_per_primary, k.omega_pix) * time_factor(vp, d)),
     }
 }
 

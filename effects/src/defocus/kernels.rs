@@ -13,6 +13,10 @@
 //!   and `paths.resolve` write as `depth`. Unbound: no reflector terms.
 //! - `bandlimit` (f32, optional): the environment component's own spatial bandwidth `B` (1/m, Ch. 6's
 //!   eqs. 6.13/6.17, as `environment.bandwidth` writes it), 0 where none. Unbound: no environment terms.
+//! - `velocity`, `shadow_velocity` (vec4, optional): where the paths also sample the shutter, the
+//!   sampler's image velocities (mean, per-axis range; px per half shutter) of the primary hits and of
+//!   the occluded shadow samples; their fastest speeds add the time factors to the counts
+//!   (`formulas::time_factor`). Unbound: still.
 //! - `radiance`, `texture`, `irradiance` (vec3 rgb): one component's lens-integrated `L`, `k`, `E`
 //!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
@@ -20,6 +24,7 @@ use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Unif
 use wedge_graph::Format;
 
 use super::formulas::{self, Mode, PixelRates, PixelStats, RateParams};
+use crate::motion::formulas::fastest_speed;
 use crate::shadows::slopes;
 
 /// Largest `max_primary` / `max_per_primary` a pass may ask for: 64² strata each, so a total
@@ -92,8 +97,19 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     })
 }
 
+/// The optional statistics of a pixel beside its `lens`: where each is unbound, `None`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OptionalStats {
+    pub occlusion: Option<[f32; 4]>,
+    pub reflectors: Option<[f32; 4]>,
+    pub bandlimit: Option<f32>,
+    pub velocity: Option<[f32; 4]>,
+    pub shadow_velocity: Option<[f32; 4]>,
+}
+
 /// One pixel's statistics from the input buffers.
-pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Option<[f32; 4]>, bandlimit: Option<f32>) -> PixelStats {
+pub fn pixel_stats(lens: [f32; 4], o: OptionalStats) -> PixelStats {
+    let OptionalStats { occlusion, reflectors, bandlimit, velocity, shadow_velocity } = o;
     let (s_min, s_max) = match occlusion {
         Some(o) if o[3] > 0.0 => slopes(o[0], o[1], o[2]),
         _ => (0.0, 0.0),
@@ -103,7 +119,11 @@ pub fn pixel_stats(lens: [f32; 4], occlusion: Option<[f32; 4]>, reflectors: Opti
         _ => (0.0, 0.0),
     };
     let bandlimit = bandlimit.filter(|b| b.is_finite()).unwrap_or(0.0).max(0.0);
-    PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max, bandlimit }
+    // Speeds for the counts where the paths sample the shutter; the shadow's only where occluded.
+    let occluded = occlusion.is_some_and(|o| o[3] > 0.0);
+    let v_p = velocity.map_or(0.0, fastest_speed);
+    let v_s = shadow_velocity.filter(|_| occluded).map_or(0.0, fastest_speed);
+    PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max, bandlimit, v_p, v_s }
 }
 
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
@@ -140,6 +160,8 @@ impl Kernel for Rates {
             Binding::read_opt("flag_indirect", Format::U32),
             Binding::read_opt("bandlimit", Format::F32),
             Binding::read_opt("flag_environment", Format::U32),
+            Binding::read_opt("velocity", Format::Vec4),
+            Binding::read_opt("shadow_velocity", Format::Vec4),
             Binding::write_opt("omega_defocus", Format::F32),
             Binding::write("pixel_length", Format::F32),
             Binding::write_opt("n_primary", Format::U32),
@@ -176,6 +198,8 @@ impl Kernel for Rates {
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
+            .with_include("velocity.wgsl", include_str!("../../../shaders/velocity.wgsl"))
+            .with_include("motion_formulas.wgsl", include_str!("../../../shaders/motion_formulas.wgsl"))
             .per_pixel(),
         )
     }
@@ -188,9 +212,19 @@ impl Kernel for Rates {
         let flag_indirect = ctx.read_opt::<u32>("flag_indirect")?;
         let bandlimit = ctx.read_opt::<f32>("bandlimit")?;
         let flag_environment = ctx.read_opt::<u32>("flag_environment")?;
+        let velocity = ctx.read_opt::<[f32; 4]>("velocity")?;
+        let shadow_velocity = ctx.read_opt::<[f32; 4]>("shadow_velocity")?;
         let rates: Vec<PixelRates> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            let s = pixel_stats(lens[i], occlusion.map(|o| o[i]), reflectors.map(|z| z[i]), bandlimit.map(|b| b[i]));
+            let at = |b: Option<&[[f32; 4]]>| b.map(|b| b[i]);
+            let o = OptionalStats {
+                occlusion: at(occlusion),
+                reflectors: at(reflectors),
+                bandlimit: bandlimit.map(|b| b[i]),
+                velocity: at(velocity),
+                shadow_velocity: at(shadow_velocity),
+            };
+            let s = pixel_stats(lens[i], o);
             formulas::pixel_rates(&s, &k)
         });
         let column = |f: fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();

@@ -21,16 +21,26 @@
 //! `aperture_radius = 0` is a pinhole: the node does not factor, the component nodes render as
 //! without it (Ch. 3/4 constants, which differ from Ch. 5's), and it only sums its inputs.
 //!
+//! **Lens and shutter together.** On a scene that moves over the camera's shutter (`shutter:
+//! "sample"`, the default) the node's paths sample the shutter too (camera setting `time`): each path
+//! its own lens point and time. Ch. 5's widths stay as they are — the lens × shutter band is the
+//! intersection of the two single-effect bands (docs/DEFOCUS-MOTION.md DM.4), so a filter that passes
+//! the lens's band passes the product's — and the counts take the time factor of the speeds that shear
+//! them (DM.8, DM.11, DM.12; `formulas::time_factor`), from the first pass's velocities. No motion
+//! filter (App. B's texture and shadow filters along the velocity) is applied: those pixels are
+//! filtered no wider than Ch. 5 filters them, never wider than their band. `shutter: "frozen"`
+//! renders the scene at the shutter's centre (Ch. 5 alone).
+//!
 //! **Settings for the components** (what [`wedge_graph::NodeKind::factoring`] returns): `mu`,
 //! `mode` (`literal` eq. 5.29 as printed, or `consistent`: no clamp, converges to Monte Carlo as
 //! μ → ∞), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
-//! `separable`, and the camera settings `aperture_radius`, `focus_distance`, `lens` (a node tracing
-//! its own camera rays, LightField, takes the same lens).
+//! `separable`, and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
+//! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
 
 use std::collections::BTreeMap;
 
-use wedge_graph::factoring::{FactoringInputs, Refusal, Settings};
+use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
     ParamValue, PortDecl, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
@@ -121,6 +131,12 @@ impl NodeKind for Defocus {
             ParamDecl::int("max_per_primary", 4, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square); 4 = 2×2 strata, see docs/DESIGN-NOTES.md \"Factoring nodes\""),
             ParamDecl::int("max_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),
             ParamDecl::boolean("separable", true, "x then y filter passes (O(R) taps) instead of the 2-D reference (O(R²))"),
+            ParamDecl::choice(
+                "shutter",
+                "sample",
+                &["sample", "frozen"],
+                "where the scene moves over the camera's shutter: sample it too (each path its own time; counts take the time factor, docs/DEFOCUS-MOTION.md), or freeze the scene at the shutter's centre (Ch. 5 alone)",
+            ),
         ]
     }
     fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
@@ -134,6 +150,12 @@ impl NodeKind for Defocus {
             .collect();
         s.insert("aperture_radius".into(), ParamValue::Float(aperture));
         s.insert("focus_distance".into(), ParamValue::Float(focus));
+        // Lens and shutter together where the scene moves (docs/DEFOCUS-MOTION.md): the camera
+        // setting of a factoring node whose paths sample the shutter.
+        let sample_shutter = params.get("shutter") != Some(&ParamValue::Str("frozen".into()));
+        if sample_shutter && inputs.scene.is_some_and(|f| f.motion) {
+            s.insert(CameraSettings::TIME.into(), ParamValue::Bool(true));
+        }
         Ok(Some(s))
     }
     fn expand_component(&self, ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(), GraphError> {
@@ -162,7 +184,9 @@ impl NodeKind for Defocus {
             return Ok(());
         };
 
-        // 1. The thin lens and the thesis's first pass (Sec. 5.8 step 1).
+        // 1. The thin lens and the thesis's first pass (Sec. 5.8 step 1); shutter times too where
+        // the scene moves.
+        let time = f.bool(CameraSettings::TIME) == Some(true);
         let mut request = SamplerRequest::new()
             .setting("paths", ctx.param("initial_paths").clone())
             .setting("shadow_per_primary", ParamValue::Int(1))
@@ -174,10 +198,14 @@ impl NodeKind for Defocus {
         for n in ["aperture_radius", "focus_distance"] {
             request = request.setting(n, f.setting(n).expect("a factoring Defocus has a lens").clone());
         }
+        if time {
+            request = request.estimator("time");
+        }
         ctx.sampler(request)?;
 
-        // 2. Ω_x^d and n_p (eqs. 5.7, 5.24, 5.29).
+        // 2. Ω_x^d and n_p (eqs. 5.7, 5.24, 5.29; with the shutter, DM.8's time factor).
         let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
+        let velocity = if time { Some(ctx.sampler_output(SamplerPass::First, "velocity")?) } else { None };
         let (omega, pixel_length, n_primary, sigma) = (
             ctx.buffer("omega_defocus", Format::F32),
             ctx.buffer("pixel_length", Format::F32),
@@ -187,6 +215,7 @@ impl NodeKind for Defocus {
         let mut b = ctx
             .pass("rates", "defocus.rates", Stage::Bandwidth)
             .read("lens", lens)
+            .read_opt("velocity", velocity)
             .write("omega_defocus", omega)
             .write("pixel_length", pixel_length)
             .write("n_primary", n_primary)

@@ -68,6 +68,19 @@ pub fn moving(v: [f32; 2]) -> bool {
     Vec2::from(v).length() > velocity_tolerance(0.0)
 }
 
+/// The fastest image speed among a pixel's paths, from a sampler velocity statistic (mean, per-axis
+/// range; px per half shutter): `|mean| + |range|/2`, 0 within the tolerance of a still point or where
+/// not finite. What a count needs where a pixel may see several motions (docs/DEFOCUS-MOTION.md 2.3:
+/// widths want the slowest, counts the fastest).
+pub fn fastest_speed(v: [f32; 4]) -> f32 {
+    let s = Vec2::new(v[0], v[1]).length() + 0.5 * Vec2::new(v[2], v[3]).length();
+    if s.is_finite() && s > velocity_tolerance(0.0) {
+        s
+    } else {
+        0.0
+    }
+}
+
 /// Whether velocities of mean `mean` and per-axis range `spread` (max − min over the samples) are one
 /// motion: the range is within the tolerance of the fastest sample (≈ |mean| + |spread|/2).
 pub fn single_velocity(mean: [f32; 2], spread: [f32; 2]) -> bool {
