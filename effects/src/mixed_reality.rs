@@ -173,13 +173,7 @@ impl NodeKind for MixedReality {
 
         // 2. Curvature (6.20) and bandwidths (6.13, 6.17, 6.18): the Environment node's kernels on
         // the sampler's conventions.
-        let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
-        ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
-            .read("position", position)
-            .read("normal", normal)
-            .write("curvature", curvature)
-            .write("magnitude", magnitude)
-            .finish();
+        let (curvature, _magnitude) = crate::environment::node::curvature_pass(ctx, position, normal);
         let [direct_diffuse, direct_glossy, indirect_diffuse, indirect_glossy] =
             ["direct_diffuse", "direct_glossy", "indirect_diffuse", "indirect_glossy"].map(|n| ctx.buffer(&format!("bandwidth_{n}"), Format::Vec2));
         let (bandwidth, width) = (ctx.buffer("bandwidth", Format::F32), ctx.buffer("filter_width", Format::F32));

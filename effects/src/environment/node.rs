@@ -174,13 +174,7 @@ impl NodeKind for Environment {
         let normal = ctx.sampler_output(SamplerPass::First, "normal")?;
         let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
         let depth = if indirect { Some(ctx.sampler_output(SamplerPass::First, "depth")?) } else { None };
-        let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
-        ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
-            .read("position", position)
-            .read("normal", normal)
-            .write("curvature", curvature)
-            .write("magnitude", magnitude)
-            .finish();
+        let (curvature, magnitude) = curvature_pass(ctx, position, normal);
         let parts: Vec<&(Part, &str)> = DIRECT_PARTS.iter().chain(if indirect { &INDIRECT_PARTS[..] } else { &[] }).collect();
         let bandwidths: Vec<BufferId> = parts.iter().map(|(_, b)| ctx.buffer(&format!("bandwidth_{b}"), Format::Vec2)).collect();
         let (bandwidth, width, rays) =
@@ -256,6 +250,19 @@ impl NodeKind for Environment {
     }
 }
 
+/// The screen-space curvature of eq. 6.20 (`environment.curvature`, pass `curvature`) from
+/// `position` and `normal`: per axis (`curvature_xy`) and its magnitude for the heatmap (`curvature`).
+pub(crate) fn curvature_pass(ctx: &mut ExpandCtx<'_>, position: BufferId, normal: BufferId) -> (BufferId, BufferId) {
+    let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
+    ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
+        .read("position", position)
+        .read("normal", normal)
+        .write("curvature", curvature)
+        .write("magnitude", magnitude)
+        .finish();
+    (curvature, magnitude)
+}
+
 /// The parameters that have no meaning for a factored component, with why: refused when set, so
 /// nothing a pipeline states is silently ignored.
 const NOT_FACTORED: [(&str, &str); 3] = [
@@ -313,13 +320,7 @@ fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Buffer
     let position = ctx.sampler_output(SamplerPass::First, "position")?;
     let normal = ctx.sampler_output(SamplerPass::First, "normal")?;
     let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
-    let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
-    ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
-        .read("position", position)
-        .read("normal", normal)
-        .write("curvature", curvature)
-        .write("magnitude", magnitude)
-        .finish();
+    let (curvature, magnitude) = curvature_pass(ctx, position, normal);
     let (bandlimit, bandwidth) = (ctx.buffer("bandlimit", Format::F32), ctx.buffer("bandwidth", Format::F32));
     ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
         .read("curvature", curvature)
