@@ -374,4 +374,15 @@ fn defocus_on_a_moving_scene_samples_lens_and_shutter_and_converges() {
     assert!(curve[1].0 < curve[0].0 && curve[2].0 < curve[1].0, "error falls as μ grows: {curve:?}");
     assert!(curve[2].2 > 2.0 * curve[0].2, "rays grow with μ: {curve:?}");
     assert!(frozen.0 > 4.0 * curve[2].0, "the frozen scene is not the motion-blurred one: {frozen:?} vs {curve:?}");
+    // App. B's filters along the velocity inside the lens filter (`motion_filter`): applied (a
+    // different image at μ = 1) and consistent too (the error falls as μ grows).
+    let with = |mu: f64| {
+        let mut ov = at(mu, "sample");
+        ov.params.push(("defocus".into(), "motion_filter".into(), ParamValue::Bool(true)));
+        errors_at(&text, &ov, &truth)
+    };
+    let filtered = [with(1.0), with(4.0)];
+    eprintln!("with motion_filter at μ 1, 4: {filtered:?}");
+    assert!(filtered[0].0 != curve[0].0, "the motion filters change the image: {filtered:?}");
+    assert!(filtered[1].0 < filtered[0].0, "error falls as μ grows: {filtered:?}");
 }

@@ -21,13 +21,14 @@
 
 use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
+    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
     SamplerRequest, Stage,
 };
 
 use crate::factored::{compose_component, factor_flags, IrradianceFilter, PartTerms};
 
 use super::formulas::OMEGA_PIX_MAX;
+use crate::motion::node::{motion_filter, motion_rate_settings};
 
 /// The factoring node's rate settings forwarded into `defocus.rates`, with `Ω_pix^max` and the
 /// diffuse receiver's `Ω_v^max` (a component may override it in its `rate_params`).
@@ -41,6 +42,38 @@ pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
             ("omega_v", ParamValue::Float(f64::from(omega_v))),
         ])
         .collect()
+}
+
+/// App. B's filter widths along the velocities from the first pass (`motion.rates`, pass
+/// `<component>_motion`): the texture's along the primary hit's velocity (B.1) and, for direct light,
+/// the irradiance's along the shadow's (B.2); width 0 where a pixel sees several velocities.
+fn velocity_widths(
+    ctx: &mut ExpandCtx<'_>,
+    f: &Factoring,
+    c: &Component,
+    velocity: BufferId,
+    shadow_velocity: Option<BufferId>,
+) -> Result<(BufferId, Option<BufferId>), GraphError> {
+    let direct = c.name == "direct";
+    let depth = ctx.sampler_output(SamplerPass::First, "defocus")?;
+    let occlusion = if direct { Some(ctx.sampler_output(SamplerPass::First, "occlusion")?) } else { None };
+    let texture_motion = ctx.buffer(&format!("{}_texture_motion", c.name), Format::Vec4);
+    let shadow_motion = direct.then(|| ctx.buffer(&format!("{}_shadow_motion", c.name), Format::Vec4));
+    let mut b = ctx
+        .pass(&format!("{}_motion", c.name), "motion.rates", Stage::Bandwidth)
+        .read("velocity", velocity)
+        .read("depth", depth)
+        .read_opt("shadow_velocity", shadow_velocity.filter(|_| direct))
+        .read_opt("occlusion", occlusion)
+        .write("texture_motion", texture_motion);
+    if let Some(s) = shadow_motion {
+        b = b.write("shadow_motion", s);
+    }
+    for (n, v) in motion_rate_settings(f) {
+        b = b.param(n, v);
+    }
+    b.finish();
+    Ok((texture_motion, shadow_motion))
 }
 
 /// Add the component's passes (see the module doc) and bind the node's ports `radiance` (the
@@ -100,14 +133,27 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     // 2–4. Per part: final flags, irradiance filter; composed and summed over parts.
     let position = ctx.sampler_output(SamplerPass::Final, "position")?;
     let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
+    let along = match velocity {
+        Some(v) if f.bool("motion_filter") == Some(true) => Some(velocity_widths(ctx, f, c, v, shadow_velocity)?),
+        _ => None,
+    };
     let mut terms = Vec::new();
     for part in &c.parts {
         let flag =
             factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, true, Reference::Fill(0))?;
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
-        let e = filter.apply(ctx, &format!("{}_filter", part.name), e);
-        let (l, k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
+        let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e);
+        let (l, mut k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
+        // With the shutter and `motion_filter`: App. B's filters along the velocity inside the lens
+        // filter (docs/DEFOCUS-MOTION.md Sec. 3) — texture along the primary hit's (B.1), direct
+        // irradiance along the shadow's (B.2); each skips pixels that see several velocities.
+        if let Some((texture_motion, shadow_motion)) = along {
+            if let Some(s) = shadow_motion {
+                e = motion_filter(ctx, &format!("{}_filter_shadow", part.name), e, s, &radius);
+            }
+            k = motion_filter(ctx, &format!("{}_filter_texture", part.name), k, texture_motion, &radius);
+        }
         terms.push((part, PartTerms { l, k, e, flag }));
     }
     compose_component(ctx, &terms, None, sigma, count);

@@ -26,16 +26,17 @@
 //! its own lens point and time. Ch. 5's widths stay as they are — the lens × shutter band is the
 //! intersection of the two single-effect bands (docs/DEFOCUS-MOTION.md DM.4), so a filter that passes
 //! the lens's band passes the product's — and the counts take the time factor of the speeds that shear
-//! them (DM.8, DM.11, DM.12; `formulas::time_factor`), from the first pass's velocities. No motion
-//! filter (App. B's texture and shadow filters along the velocity) is applied: those pixels are
-//! filtered no wider than Ch. 5 filters them, never wider than their band. `shutter: "frozen"`
-//! renders the scene at the shutter's centre (Ch. 5 alone).
+//! them (DM.8, DM.11, DM.12; `formulas::time_factor`), from the first pass's velocities. By default
+//! no motion filter is applied: moving pixels are filtered as Ch. 5 filters them, never wider than
+//! their band; `motion_filter: true` adds App. B's filters along the velocity inside the lens filter
+//! (the cascade of DEFOCUS-MOTION.md Sec. 3; measured: less variance, more bias, no net gain yet).
+//! `shutter: "frozen"` renders the scene at the shutter's centre (Ch. 5 alone).
 //!
 //! **Settings for the components** (what [`wedge_graph::NodeKind::factoring`] returns): `mu`,
 //! `mode` (`literal` eq. 5.29 as printed, or `consistent`: no clamp, converges to Monte Carlo as
 //! μ → ∞), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
-//! `separable`, and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
+//! `separable`, `motion_filter`, and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
 //! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
 
 use std::collections::BTreeMap;
@@ -137,6 +138,7 @@ impl NodeKind for Defocus {
                 &["sample", "frozen"],
                 "where the scene moves over the camera's shutter: sample it too (each path its own time; counts take the time factor, docs/DEFOCUS-MOTION.md), or freeze the scene at the shutter's centre (Ch. 5 alone)",
             ),
+            ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
     fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
@@ -144,7 +146,8 @@ impl NodeKind for Defocus {
         if aperture == 0.0 {
             return Ok(None);
         }
-        let mut s: Settings = ["mu", "mode", "factor", "max_primary", "max_per_primary", "max_radius", "separable", "lens", "initial_paths"]
+        let mut s: Settings =
+            ["mu", "mode", "factor", "max_primary", "max_per_primary", "max_radius", "separable", "lens", "initial_paths", "motion_filter"]
             .into_iter()
             .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
             .collect();

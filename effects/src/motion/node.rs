@@ -57,7 +57,7 @@ use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
 pub struct Motion;
 
 /// The settings `motion.rates` takes from the factoring node.
-fn motion_rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
+pub(crate) fn motion_rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
     let mut s = rate_settings(f);
     s.push(("multi_paths", f.setting("multi_paths").cloned().unwrap_or(ParamValue::Int(MULTI_VELOCITY_PATHS))));
     s.push(("omega_t", f.setting("omega_t").cloned().unwrap_or(ParamValue::Float(f64::from(OMEGA_T_MAX)))));
@@ -66,7 +66,7 @@ fn motion_rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
 
 /// `filter.motion` on `value` along `motion` (a `motion.rates` velocity/width buffer), named `name`;
 /// a reference bypasses it.
-fn motion_filter(ctx: &mut ExpandCtx<'_>, name: &str, value: BufferId, motion: BufferId, radius: &ParamValue) -> BufferId {
+pub(crate) fn motion_filter(ctx: &mut ExpandCtx<'_>, name: &str, value: BufferId, motion: BufferId, radius: &ParamValue) -> BufferId {
     let out = ctx.buffer(name, Format::Vec3);
     ctx.pass(name, "filter.motion", Stage::Filter)
         .read("value", value)
