@@ -4,7 +4,8 @@
 //! scene: its paths sample the lens and the shutter together)}, wired as a user would (a
 //! factoring node takes the direct, indirect and environment components, everything else is added
 //! beside it, emission wired once). Each entry is either refused before anything runs with a reason from the
-//! README's "Composing effects" table, or renders on the CPU to finite pixels whose mean agrees with
+//! README's "Composing effects" table, or passes `wedge parity` on the wgpu backend (lavapipe in CI)
+//! and renders on the CPU to finite pixels whose mean agrees with
 //! the pipeline's own converged reference (within 5% or 0.005: a dim indirect-only image's mean
 //! carries ~6% of sampling noise at this size, measured over seeds; a term counted twice or missed
 //! moves it by tens of percent). An internal error, a panic or an unlisted refusal fails. It found
@@ -16,6 +17,9 @@ mod common;
 
 
 use common::*;
+use wedge::backends::gpu::GpuBackend;
+use wedge::backends::parity::run_parity;
+use wedge::backends::Silent;
 use wedge::image::Image;
 use wedge::Session;
 
@@ -176,7 +180,17 @@ fn mean(image: &Image) -> f64 {
     image_mean(image)
 }
 
-fn outcome(text: &str) -> Outcome {
+/// `wedge parity` of a rendered entry on the wgpu backend (each GPU pass on the CPU's inputs, the
+/// shipped pipelines' tolerances): `None` where it passes, else the report.
+fn parity(session: &Session, gpu: &mut GpuBackend) -> Option<String> {
+    match run_parity(&session.job(session.seed, 0, &Silent), gpu) {
+        Ok(report) if report.ok() => None,
+        Ok(report) => Some(report.table()),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
+fn outcome(text: &str, gpu: &mut Option<GpuBackend>) -> Outcome {
     let session = match build(text, None) {
         Ok(s) => s,
         Err(e) => {
@@ -184,6 +198,9 @@ fn outcome(text: &str) -> Outcome {
             return Outcome::Refused(reason);
         }
     };
+    if let Some(report) = gpu.as_mut().and_then(|g| parity(&session, g)) {
+        panic!("parity fails on the wgpu backend:\n{report}\n{text}");
+    }
     let render = mean(&color(&session, &run(&session)));
     let reference = build(text, Some(256)).unwrap_or_else(|e| panic!("a rendered pipeline's reference is refused: {e}\n{text}"));
     Outcome::Rendered { render, reference: mean(&color(&reference, &run(&reference))) }
@@ -209,11 +226,12 @@ fn combinations() -> Vec<Vec<&'static Effect>> {
 fn every_combination_is_refused_for_a_listed_reason_or_renders_what_its_reference_converges_to() {
     let mut rendered = 0;
     let mut failures = Vec::new();
+    let mut gpu = gpu_or_skip("combination_matrix");
     for camera in [Camera::Pinhole, Camera::Defocus, Camera::Motion, Camera::DefocusMotion] {
         for effects in combinations() {
             let keys: Vec<&str> = effects.iter().map(|e| e.key).collect();
             let text = pipeline(&effects, camera);
-            match outcome(&text) {
+            match outcome(&text, &mut gpu) {
                 Outcome::Refused(reason) => println!("{camera:?} {keys:?}: refused, {reason}"),
                 Outcome::Rendered { render, reference } => {
                     rendered += 1;
