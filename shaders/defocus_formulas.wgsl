@@ -109,6 +109,14 @@ fn defocus_secondary_per_primary(n_p: u32, n: u32) -> u32 {
     return s * s;
 }
 
+// formulas.rs bandlimit_of: a bandwidth statistic that is not finite or below 0 reads 0.
+fn defocus_bandlimit(b: f32) -> f32 {
+    if (is_finite(b)) {
+        return rmax(b, 0.0);
+    }
+    return 0.0;
+}
+
 // formulas.rs environment_rate: eq. 5.24's factors times the look-ups per primary ray.
 fn defocus_environment_rate(omega: f32, r_max: f32, per_primary: f32, omega_pix: f32) -> f32 {
     return defocus_primary_rate(omega, r_max, omega_pix) * rmax(per_primary, 1.0);

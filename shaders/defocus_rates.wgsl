@@ -33,13 +33,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (reflectors_bound() && refl.z > 0.0) {
         z = refl.xy;
     }
-    // The environment's Ch. 6 bandwidth (kernels.rs pixel_stats: not finite or below 0 reads 0).
+    // The environment's Ch. 6 bandwidth (formulas.rs bandlimit_of).
     var bandlimit = 0.0;
     if (bandlimit_bound()) {
-        let b = bandlimit_at(i);
-        if (is_finite(b)) {
-            bandlimit = rmax(b, 0.0);
-        }
+        bandlimit = defocus_bandlimit(bandlimit_at(i));
     }
     let r = defocus_pixel_rates(
         lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y, bandlimit, v_p, v_s,

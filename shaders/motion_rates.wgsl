@@ -30,13 +30,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         params.mu, params.mode, params.omega_pix, params.omega_t, params.pixel_scale, params.light_half_width, params.omega_v,
         params.max_p, params.max_s, params.multi_paths, params.environment_per_primary,
     );
-    // The environment's Ch. 6 bandwidth (kernels.rs motion_stats: not finite or below 0 reads 0).
+    // The environment's Ch. 6 bandwidth (formulas.rs bandlimit_of).
     var bandlimit = 0.0;
     if (bandlimit_bound()) {
-        let b = bandlimit_at(i);
-        if (is_finite(b)) {
-            bandlimit = rmax(b, 0.0);
-        }
+        bandlimit = defocus_bandlimit(bandlimit_at(i));
     }
     let r = motion_pixel_rates(
         velocity, shadow, occluded && shadow_velocity_bound(), depth.w > 0.0, depth.z, s.x, s.y, z.x, z.y, bandlimit, k,

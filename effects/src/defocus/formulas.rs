@@ -176,6 +176,12 @@ pub fn omega_environment(r_min: f32, bandlimit: f32, pixel_length: f32, omega_pi
     omega_defocus(r_min, omega_pix).min(own)
 }
 
+/// A pixel's environment bandwidth statistic as the rates read it: absent, not finite or below 0
+/// reads 0 (no bandwidth known). `shaders/defocus_formulas.wgsl` `defocus_bandlimit`.
+pub fn bandlimit_of(b: Option<f32>) -> f32 {
+    b.filter(|b| b.is_finite()).unwrap_or(0.0).max(0.0)
+}
+
 /// Environment look-ups per pixel: eq. 5.24's spatial and lens factors at the component's width
 /// times `per_primary`, the look-ups per primary ray Ch. 6 takes (Algorithm 1: 4) — Ch. 6 gives no
 /// rate formula, and its importance-sampled look-ups need no angular factor grown from the map.

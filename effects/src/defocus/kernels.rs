@@ -118,7 +118,7 @@ pub fn pixel_stats(lens: [f32; 4], o: OptionalStats) -> PixelStats {
         Some(z) if z[2] > 0.0 => (z[0], z[1]),
         _ => (0.0, 0.0),
     };
-    let bandlimit = bandlimit.filter(|b| b.is_finite()).unwrap_or(0.0).max(0.0);
+    let bandlimit = formulas::bandlimit_of(bandlimit);
     // Speeds for the counts where the paths sample the shutter; the shadow's only where occluded.
     let occluded = occlusion.is_some_and(|o| o[3] > 0.0);
     let v_p = velocity.map_or(0.0, fastest_speed);

@@ -86,7 +86,7 @@ pub fn motion_stats(
         s_max,
         z_min,
         z_max,
-        bandlimit: bandlimit.filter(|b| b.is_finite()).unwrap_or(0.0).max(0.0),
+        bandlimit: crate::defocus::formulas::bandlimit_of(bandlimit),
     }
 }
 
