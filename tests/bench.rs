@@ -236,6 +236,8 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     let pipeline = root.join("pipelines/defocus_shadows_indirect.ron");
     assert_eq!(family_of(&pipeline).unwrap(), SuiteFamily::Defocus);
     assert_eq!(family_of(&root.join("pipelines/shadows.ron")).unwrap(), SuiteFamily::Shadows);
+    assert_eq!(family_of(&root.join("pipelines/motion_shadows_indirect.ron")).unwrap(), SuiteFamily::Motion);
+    assert!(lens_params(&root.join("pipelines/motion.ron"), "builtin:dof_tiny").unwrap().is_empty(), "Motion takes no lens");
     let scenes = family_scenes(SuiteFamily::Defocus);
     assert!(scenes.len() >= 8, "{scenes:?}");
     for s in &scenes {

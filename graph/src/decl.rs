@@ -666,6 +666,13 @@ pub trait NodeKind: Send + Sync {
     fn is_sink(&self) -> bool {
         false
     }
+    /// The scene suite `wedge bench --suite` measures a pipeline with this node on (issue 35:
+    /// `"defocus"`, `"motion"`, …; the names of `wedge_scene::builtin::SuiteFamily`); `None` (the
+    /// default): the node leaves the choice to the others, and a pipeline where every node does is
+    /// measured on the soft-shadow suite.
+    fn bench_suite(&self) -> Option<&'static str> {
+        None
+    }
     /// Whether this node, with these (validated) parameters and the pipeline's camera block, is the
     /// pipeline's **factoring node** ([`crate::factoring`]): it takes over the filtering of every
     /// lighting component the other nodes sample (thesis Ch. 5's Defocus; App. B's Motion), and

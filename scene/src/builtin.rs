@@ -58,8 +58,11 @@
 //!   no path escapes, so indirect light matters everywhere (see `builtin/room.rs`).
 //!
 //! **The defocus suite** ([`DEFOCUS_SUITE`], issue 35; `wedge bench --suite` picks it for a pipeline
-//! with a node that takes a thin lens, [`SuiteFamily::for_lens`]): nine scenes named `dof_*`, each with its own
+//! whose node names it, `NodeKind::bench_suite`: Defocus): nine scenes named `dof_*`, each with its own
 //! thin lens in its camera, described in `builtin/defocus_suite.rs`.
+//!
+//! **The motion suite** ([`MOTION_SUITE`], issue 35; picked for a pipeline with a Motion node): eight
+//! scenes named `mo_*` moving over the shutter (0, 1), described in `builtin/motion_suite.rs`.
 //!
 //! Mesh generators (ground planes, panels, boxes, bars, cylinders, spheres, tori, lathes, rectangular
 //! lights) live in `builtin/mesh.rs` so new built-ins reuse them; each scene larger than a screenful
@@ -73,6 +76,7 @@ mod glossy;
 mod grate;
 mod mesh;
 pub mod motion;
+mod motion_suite;
 mod near_light;
 mod room;
 mod slats;
@@ -91,7 +95,8 @@ pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
     "envmap_real", "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact",
     "suite_near_light", "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background",
-    "dof_receding", "dof_bokeh", "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room",
+    "dof_receding", "dof_bokeh", "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room", "mo_fast_thin", "mo_rotating",
+    "mo_shadow_caster", "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy",
 ];
 
 /// The scene suite of issue 16, in the order `wedge bench --suite` runs it: each built-in's name and
@@ -199,23 +204,39 @@ pub const DEFOCUS_SUITE: &[(&str, &str)] = &[
     ),
 ];
 
+/// The motion suite (issue 35, `builtin/motion_suite.rs`): each scene moves over the camera's
+/// shutter (0, 1); lights and camera at rest.
+pub const MOTION_SUITE: &[(&str, &str)] = &[
+    ("mo_fast_thin", "Fast thin movers: 6 cm posts sweeping 0.4 m over the shutter across a fine checker floor (blur many times wider than the mover)."),
+    ("mo_rotating", "A rotating textured object: a spinning checkered sphere and a spinning box (velocity varies across the object and flips across its axis)."),
+    ("mo_shadow_caster", "A moving shadow caster over static texture: a ball sweeping 0.6 m over a fine checker; the shadow blurs, the texture must stay sharp."),
+    ("mo_slow", "Slow motion: a box, a ball and bars moving 1-2 cm over the shutter (blur under two pixels); the filters must not lose to plain Monte Carlo."),
+    ("mo_sliding_wall", "A textured wall (6 cm checks) sliding 6 cm sideways behind a static fence that shadows it: the texture moves, the shadow stays."),
+    ("mo_approach", "Objects moving toward the camera (0.3-0.7 m over the shutter): radial image velocities and blur growing with speed."),
+    ("mo_crossing", "Twelve small cubes at different speeds and directions crossing one another over a checker floor."),
+    ("mo_glossy", "Glossy movers: a Phong ball sliding and a Phong box turning on a glossy floor before a checker wall (glossy indirect light over the shutter)."),
+];
+
 /// A family of scene suites: which scenes `wedge bench --suite` runs a pipeline over, picked from the
-/// pipeline's effects ([`SuiteFamily::for_lens`]).
+/// pipeline's nodes (`wedge_graph::NodeKind::bench_suite`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SuiteFamily {
     /// Soft shadows, indirect light, AO: [`SUITE`] (issue 16).
     Shadows,
     /// Depth of field: [`DEFOCUS_SUITE`], each scene with its own lens.
     Defocus,
+    /// Motion blur: [`MOTION_SUITE`], each scene moving over its camera's shutter.
+    Motion,
 }
 
 impl SuiteFamily {
-    pub const ALL: [SuiteFamily; 2] = [SuiteFamily::Shadows, SuiteFamily::Defocus];
+    pub const ALL: [SuiteFamily; 3] = [SuiteFamily::Shadows, SuiteFamily::Defocus, SuiteFamily::Motion];
 
     pub fn name(self) -> &'static str {
         match self {
             SuiteFamily::Shadows => "shadows",
             SuiteFamily::Defocus => "defocus",
+            SuiteFamily::Motion => "motion",
         }
     }
     pub fn parse(s: &str) -> Option<SuiteFamily> {
@@ -226,16 +247,7 @@ impl SuiteFamily {
         match self {
             SuiteFamily::Shadows => SUITE,
             SuiteFamily::Defocus => DEFOCUS_SUITE,
-        }
-    }
-    /// The family for a pipeline: one with a node that takes a thin lens (declares
-    /// `aperture_radius` and `focus_distance`) is measured on the defocus suite, any other on the
-    /// soft-shadow suite.
-    pub fn for_lens(takes_lens: bool) -> SuiteFamily {
-        if takes_lens {
-            SuiteFamily::Defocus
-        } else {
-            SuiteFamily::Shadows
+            SuiteFamily::Motion => MOTION_SUITE,
         }
     }
 }
@@ -282,6 +294,14 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "dof_wide" => Ok(defocus_suite::dof_wide()),
         "dof_tiny" => Ok(defocus_suite::dof_tiny()),
         "dof_room" => Ok(defocus_suite::dof_room()),
+        "mo_fast_thin" => Ok(motion_suite::mo_fast_thin()),
+        "mo_rotating" => Ok(motion_suite::mo_rotating()),
+        "mo_shadow_caster" => Ok(motion_suite::mo_shadow_caster()),
+        "mo_slow" => Ok(motion_suite::mo_slow()),
+        "mo_sliding_wall" => Ok(motion_suite::mo_sliding_wall()),
+        "mo_approach" => Ok(motion_suite::mo_approach()),
+        "mo_crossing" => Ok(motion_suite::mo_crossing()),
+        "mo_glossy" => Ok(motion_suite::mo_glossy()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),

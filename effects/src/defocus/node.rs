@@ -104,6 +104,9 @@ impl NodeKind for Defocus {
     fn doc(&self) -> &'static str {
         "Thin-lens depth of field with factored irradiance filtering and two-level sampling (Mehta thesis Ch. 5)"
     }
+    fn bench_suite(&self) -> Option<&'static str> {
+        Some("defocus")
+    }
     fn inputs(&self) -> Vec<PortDecl> {
         crate::light_terms::component_inputs()
     }

@@ -86,6 +86,9 @@ impl NodeKind for Motion {
     fn doc(&self) -> &'static str {
         "Motion blur with factored texture/irradiance filters along the velocity and two-level sampling (Mehta thesis App. B)"
     }
+    fn bench_suite(&self) -> Option<&'static str> {
+        Some("motion")
+    }
     fn inputs(&self) -> Vec<PortDecl> {
         crate::light_terms::component_inputs()
     }
