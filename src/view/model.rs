@@ -1,0 +1,249 @@
+//! The viewer's state, apart from any window: the session built from the pipeline and the current
+//! overrides, the backend it runs on, the running mean of its frames, the camera the user moved, and
+//! the diagnostics of the last failed reload. The window ([`super::window`]) and the script runner
+//! drive it through these methods; nothing here draws.
+//!
+//! A change (parameter, `mu`, camera, a saved pipeline) rebuilds the session with the changed
+//! overrides and starts the average over. Re-running only the passes downstream of a change is a
+//! later step (issue 38): today every frame runs the whole schedule.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use wedge_backends::{Backend, RunResult, Silent};
+use wedge_graph::ParamValue;
+use wedge_scene::{Camera, SceneSource};
+
+use super::accumulate::Accumulator;
+use super::watch::Watch;
+use super::ViewOptions;
+use crate::outputs::{write_run_with_picture, Picture, WrittenRun};
+use crate::{Overrides, Session, WedgeError};
+
+/// The lens and shutter of the pipeline's camera block, as the window edits them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    pub aperture_radius: f32,
+    pub focus_distance: f32,
+    pub shutter: (f32, f32),
+}
+
+impl Lens {
+    pub fn of(cam: &Camera) -> Lens {
+        Lens { aperture_radius: cam.aperture_radius, focus_distance: cam.focus_distance, shutter: (cam.shutter_open, cam.shutter_close) }
+    }
+}
+
+/// Most frames averaged; past it the image stops changing and the viewer stops rendering.
+pub const MAX_FRAMES: u32 = 1 << 16;
+
+pub struct Model {
+    pipeline: Option<PathBuf>,
+    /// The command line's overrides with the widgets' changes applied.
+    pub overrides: Overrides,
+    /// The last session that built; a failed rebuild keeps it (and its image).
+    pub session: Session,
+    backend: Box<dyn Backend>,
+    acc: Accumulator,
+    watch: Watch,
+    /// Where the user moved the camera: (position, look-at) over the session's camera (`None`: the
+    /// pipeline's). Only rays change, so no rebuild.
+    view: Option<(glam::Vec3, glam::Vec3)>,
+    /// The lens and shutter set in the window, written into the pipeline's camera block before each
+    /// build (they reach the nodes' filters, not only the rays). A save of the file clears them.
+    lens: Option<Lens>,
+    /// Why the last rebuild or frame failed, as `wedge graph` prints it; cleared by the next success.
+    pub error: Option<String>,
+    /// Frames rendered since the window opened (the script's clock).
+    pub rendered: u64,
+    /// Wall time of the last frame and the time between the last two frames.
+    pub last_frame_seconds: f64,
+    pub frame_interval: f64,
+    last_frame_end: Option<Instant>,
+    /// The outputs of the last frame rendered (kept across a change, until the next frame).
+    outputs: Vec<String>,
+    /// No new frames while set (the user paused, or a frame failed).
+    pub paused: bool,
+}
+
+impl Model {
+    /// Open the session the command line asks for; an error here ends `wedge view` like `render`.
+    pub fn open(opts: &ViewOptions) -> Result<Model, WedgeError> {
+        let session = Session::open(opts.pipeline.as_deref(), &opts.overrides)?;
+        if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
+            let mode = if opts.backend == "wgpu" { crate::session::RunMode::Gpu } else { crate::session::RunMode::Cpu };
+            session.memory_estimate(mode).check(limit, &source)?;
+        }
+        let backend: Box<dyn Backend> = match opts.backend.as_str() {
+            "wgpu" => Box::new(crate::session::open_gpu(opts.gpu_limits.as_deref())?),
+            _ => Box::new(wedge_backends::cpu::CpuBackend::new()),
+        };
+        let watch = Watch::new(watched_files(opts.pipeline.as_ref(), &session, &opts.overrides));
+        Ok(Model {
+            pipeline: opts.pipeline.clone(),
+            overrides: opts.overrides.clone(),
+            session,
+            backend,
+            acc: Accumulator::new(),
+            watch,
+            view: None,
+            lens: None,
+            error: None,
+            rendered: 0,
+            last_frame_seconds: 0.0,
+            frame_interval: 0.0,
+            last_frame_end: None,
+            paused: false,
+            outputs: Vec::new(),
+        })
+    }
+
+    pub fn backend_name(&self) -> &'static str {
+        self.backend.name()
+    }
+
+    /// The mean of the frames since the last change.
+    pub fn mean(&self) -> Option<&RunResult> {
+        self.acc.mean()
+    }
+
+    /// The names the output picker offers (those of the last frame rendered).
+    pub fn output_names(&self) -> &[String] {
+        &self.outputs
+    }
+
+    pub fn frames(&self) -> u32 {
+        self.acc.frames()
+    }
+
+    /// The camera frames are rendered with.
+    pub fn camera(&self) -> Camera {
+        let cam = self.session.scene.camera;
+        self.view.map_or(cam, |(position, look_at)| Camera { position, look_at, ..cam })
+    }
+
+    /// Whether the pipeline has a camera block (whose lens and shutter the window can change).
+    pub fn has_camera_block(&self) -> bool {
+        self.session.pipeline.pipeline.camera.is_some()
+    }
+
+    /// Whether the next frame would add to the image (not paused, not converged).
+    pub fn wants_frame(&self) -> bool {
+        !self.paused && self.acc.frames() < MAX_FRAMES
+    }
+
+    /// Render one more frame (a new seed) and add it to the mean.
+    pub fn render_frame(&mut self) -> Result<(), WedgeError> {
+        let start = Instant::now();
+        let base = self.session.scene.camera;
+        self.session.scene.camera = self.camera();
+        // Frame n of a still camera: seed + n, no history — frame 0 is exactly `wedge render`'s image.
+        let run = self.session.run_progressive_frame(self.backend.as_mut(), &Silent, self.acc.frames(), None);
+        self.session.scene.camera = base;
+        let end = Instant::now();
+        self.last_frame_seconds = (end - start).as_secs_f64();
+        self.frame_interval = self.last_frame_end.map_or(self.last_frame_seconds, |t| (end - t).as_secs_f64());
+        self.last_frame_end = Some(end);
+        let run = run?;
+        self.outputs = super::outputs::names(&run);
+        self.acc.add(run);
+        self.rendered += 1;
+        Ok(())
+    }
+
+    /// Set `node.param` (as `--set`) and rebuild; on a refusal the old value stays and the error is returned.
+    pub fn set_param(&mut self, node: &str, param: &str, value: ParamValue) -> Result<(), WedgeError> {
+        let mut ov = self.overrides.clone();
+        ov.params.retain(|(n, p, _)| !(n == node && p == param));
+        ov.params.push((node.to_string(), param.to_string(), value));
+        self.rebuild_with(ov)
+    }
+
+    /// Set `--mu` and rebuild.
+    pub fn set_mu(&mut self, mu: f64) -> Result<(), WedgeError> {
+        let ov = Overrides { mu: Some(mu), ..self.overrides.clone() };
+        self.rebuild_with(ov)
+    }
+
+    /// Move the camera to `camera`'s position and look-at (`None`: back to the pipeline's, lens
+    /// included) and start the average over.
+    pub fn set_camera(&mut self, camera: Option<Camera>) -> Result<(), WedgeError> {
+        self.view = camera.map(|c| (c.position, c.look_at));
+        self.acc.reset();
+        if camera.is_none() && self.lens.take().is_some() {
+            return self.rebuild_with(self.overrides.clone());
+        }
+        Ok(())
+    }
+
+    /// Set the lens and shutter of the pipeline's camera block and rebuild; refused (old lens kept)
+    /// when the pipeline does not accept it.
+    pub fn set_lens(&mut self, lens: Lens) -> Result<(), WedgeError> {
+        let old = self.lens.replace(lens);
+        let rebuilt = self.rebuild_with(self.overrides.clone());
+        if rebuilt.is_err() {
+            self.lens = old;
+        }
+        rebuilt
+    }
+
+    /// Reload when the pipeline or scene file changed on disk. A file that no longer loads keeps
+    /// the last good session and sets [`Model::error`] to what `wedge graph` would print.
+    pub fn poll_reload(&mut self) {
+        if !self.watch.changed() {
+            return;
+        }
+        self.lens = None;
+        match self.build(&self.overrides) {
+            Ok(session) => self.replace(session),
+            Err(e) => self.error = Some(format!("error: {e}")),
+        }
+    }
+
+    /// A session of the pipeline file with `ov` and the window's lens.
+    fn build(&self, ov: &Overrides) -> Result<Session, WedgeError> {
+        let mut loaded = crate::session::load_pipeline_or_default(self.pipeline.as_deref())?;
+        if let (Some(lens), Some(spec)) = (self.lens, loaded.pipeline.camera.as_mut()) {
+            spec.aperture_radius = lens.aperture_radius;
+            spec.focus_distance = Some(lens.focus_distance);
+            spec.shutter = Some(lens.shutter);
+        }
+        let (nodes, kernels) = wedge_effects::builtin();
+        Session::build(loaded, ov, nodes, kernels)
+    }
+
+    fn rebuild_with(&mut self, ov: Overrides) -> Result<(), WedgeError> {
+        let session = self.build(&ov)?;
+        self.overrides = ov;
+        self.replace(session);
+        Ok(())
+    }
+
+    fn replace(&mut self, session: Session) {
+        self.watch = Watch::new(watched_files(self.pipeline.as_ref(), &session, &self.overrides));
+        self.session = session;
+        self.acc.reset();
+        self.error = None;
+        self.paused = false;
+    }
+
+    /// Write the mean run's outputs as `wedge render` writes them into `dir`, with `picture` (what
+    /// the window shows) as `view.png`, all or nothing.
+    pub fn screenshot(&self, dir: &std::path::Path, picture: &super::outputs::Picture) -> Result<WrittenRun, WedgeError> {
+        crate::staging::check_output_dir(dir)?;
+        let run = self.mean().ok_or_else(|| WedgeError::Usage("no frame has been rendered yet to take a screenshot of".into()))?;
+        let shown = Picture { name: "view", width: picture.width, height: picture.height, rgb: &picture.rgb };
+        Ok(write_run_with_picture(dir, "render", run, &shown, self.session.width, self.session.height)?)
+    }
+}
+
+/// The pipeline file and, where it names one (and `--scene` does not replace it), its scene file.
+fn watched_files(pipeline: Option<&PathBuf>, session: &Session, ov: &Overrides) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = pipeline.cloned().into_iter().collect();
+    if ov.scene.is_none() {
+        if let SceneSource::File(scene) = crate::session::scene_source(&session.pipeline, None) {
+            files.push(scene);
+        }
+    }
+    files
+}
