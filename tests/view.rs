@@ -47,6 +47,22 @@ fn run_ok(cmd: &mut Command) -> String {
     text
 }
 
+/// `wedge view shadows.ron ARGS --script SCRIPT` under `xvfb-run`; its output.
+fn view_script(script: &Path, args: &[&str]) -> String {
+    run_ok(
+        Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 800x600x24", env!("CARGO_BIN_EXE_wedge"), "view"])
+            .arg(shadows())
+            .args(args)
+            .arg("--script")
+            .arg(script)
+            .arg("--out")
+            .arg(script.with_file_name("unused"))
+            // Mesa's window-system code warns without one; the window does not need it.
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir()),
+    )
+}
+
 #[test]
 fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     if !xvfb_or_skip("scripted_window") {
@@ -70,17 +86,7 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     );
     std::fs::write(&script, text).expect("script");
     let size = ["--width", "64", "--height", "48", "--backend", "cpu"];
-    let log = run_ok(
-        Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 800x600x24", env!("CARGO_BIN_EXE_wedge"), "view"])
-            .arg(shadows())
-            .args(size)
-            .arg("--script")
-            .arg(&script)
-            .arg("--out")
-            .arg(dir.path().join("unused")),
-    );
-    eprintln!("{log}");
+    eprintln!("{}", view_script(&script, &size));
     run_ok(wedge().arg("render").arg(shadows()).args(size).arg("--out").arg(shot("render")));
 
     // The first screenshot is one frame: `render`'s image bit for bit, and the window's picture.
@@ -103,6 +109,33 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     assert!(cw >= W && ch > H, "the heatmap picture is {cw}x{ch}");
     let moved = read_exr(&shot("c").join("render.exr")).expect("c/render.exr");
     assert_ne!(moved.pixels, rendered.pixels, "the parameter change and the orbit changed nothing");
+}
+
+/// The same on the wgpu backend (lavapipe): the screenshot equals `wedge render --backend wgpu`'s.
+#[test]
+fn scripted_window_on_the_wgpu_backend_matches_render() {
+    if !xvfb_or_skip("scripted_window_wgpu") {
+        return;
+    }
+    if let Err(e) = wedge::backends::gpu::GpuBackend::new() {
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("scripted_window_wgpu: CI=true and the wgpu backend is unavailable: {e}");
+        }
+        eprintln!("scripted_window_wgpu: SKIPPED — the wgpu backend is unavailable: {e}");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let script = dir.path().join("s.ron");
+    let shot = dir.path().join("a");
+    std::fs::write(&script, format!("[(frame: 0, screenshot: \"{}\")]", shot.display())).expect("script");
+    let size = ["--width", "64", "--height", "48", "--backend", "wgpu"];
+    eprintln!("{}", view_script(&script, &size));
+    let out = dir.path().join("render");
+    run_ok(wedge().arg("render").arg(shadows()).args(size).arg("--out").arg(&out));
+    let viewed = read_exr(&shot.join("render.exr")).expect("a/render.exr");
+    let rendered = read_exr(&out.join("render.exr")).expect("render.exr");
+    assert_eq!(viewed.pixels, rendered.pixels, "view's screenshot differs from wedge render --backend wgpu");
+    assert_eq!(png_size(&shot.join("view.png")), (W, H));
 }
 
 #[test]
