@@ -5,6 +5,7 @@
 use wedge_backends::{BufferData, RunResult};
 
 /// The running mean of the runs since the last change.
+#[derive(Default)]
 pub struct Accumulator {
     /// The mean run: the last run's timings, rays and sinks, the mean of every output.
     mean: Option<RunResult>,
@@ -12,10 +13,6 @@ pub struct Accumulator {
 }
 
 impl Accumulator {
-    pub fn new() -> Accumulator {
-        Accumulator { mean: None, frames: 0 }
-    }
-
     /// Forget everything (a parameter, the camera or the pipeline changed).
     pub fn reset(&mut self) {
         self.mean = None;
@@ -88,7 +85,7 @@ mod tests {
 
     #[test]
     fn one_frame_is_itself_and_more_frames_average() {
-        let mut acc = Accumulator::new();
+        let mut acc = Accumulator::default();
         acc.add(run(0.3));
         assert_eq!(acc.mean().and_then(|m| m.output("color")), run(0.3).output("color"));
         acc.add(run(0.5));

@@ -84,7 +84,7 @@ impl Model {
             overrides: opts.overrides.clone(),
             session,
             backend,
-            acc: Accumulator::new(),
+            acc: Accumulator::default(),
             watch,
             view: None,
             lens: None,

@@ -89,7 +89,7 @@ impl Panels {
         if ui.checkbox(&mut paused, "pause (Space)").changed() {
             actions.push(Action::Pause(paused));
         }
-        if ui.button(format!("screenshot (F12) → {}", self.out.display())).clicked() {
+        if ui.button(format!("screenshot (F12) into {}", self.out.display())).clicked() {
             actions.push(Action::Screenshot(self.out.clone()));
         }
     }
@@ -114,7 +114,7 @@ impl Panels {
 
     fn image(&mut self, ui: &mut egui::Ui, model: &Model, display: &Display, actions: &mut Vec<Action>) {
         let Some(picture) = display.picture(model) else {
-            ui.label("rendering the first frame…");
+            ui.label("rendering the first frame...");
             return;
         };
         let texture = self.upload(ui.ctx(), picture);
