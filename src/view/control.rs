@@ -129,8 +129,14 @@ fn screenshot(model: &Model, display: &Display, dir: &std::path::Path) -> Result
         .picture(model)
         .ok_or_else(|| WedgeError::Usage(format!("screenshot into {}: nothing is shown yet", dir.display())))?;
     let written = model.screenshot(dir, &picture)?;
-    let files: Vec<String> = written.files.iter().map(|f| f.display().to_string()).collect();
-    Ok(format!("screenshot after {} frame(s): wrote {}\n{}", model.frames(), files.join(", "), written.warnings()))
+    let files: Vec<String> = written.files.iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
+    Ok(format!(
+        "screenshot after {} frame(s): wrote {} into {}\n{}",
+        model.frames(),
+        files.join(", "),
+        dir.display(),
+        written.warnings()
+    ))
 }
 
 #[cfg(test)]

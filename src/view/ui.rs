@@ -42,7 +42,10 @@ impl Panels {
         egui::Panel::left("controls").resizable(true).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui, model, display, &mut actions));
         });
-        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui, model));
+        // Resizable and scrolled: long diagnostics must not squeeze the image away.
+        egui::Panel::bottom("status").resizable(true).default_size(90.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.status_bar(ui, model));
+        });
         egui::CentralPanel::default().show(ui, |ui| self.image(ui, model, display, &mut actions));
         actions
     }

@@ -23,7 +23,9 @@ use super::script::Script;
 use super::ui::Panels;
 use crate::WedgeError;
 
-/// Largest initial window side (points): big renders are scaled down to fit.
+/// Initial window size (points) between these: small renders get room for the controls, big ones
+/// are scaled down to fit.
+const MIN_WINDOW: (u32, u32) = (960, 640);
 const MAX_WINDOW: (u32, u32) = (1600, 1000);
 /// Room for the controls beside and the status below the image.
 const PANEL_ROOM: (u32, u32) = (340, 170);
@@ -75,7 +77,7 @@ impl App {
         let (w, h) = (self.model.session.width + PANEL_ROOM.0, self.model.session.height + PANEL_ROOM.1);
         let attributes = Window::default_attributes()
             .with_title(format!("wedge view — {}", self.model.session.pipeline.path.display()))
-            .with_inner_size(winit::dpi::LogicalSize::new(w.min(MAX_WINDOW.0), h.min(MAX_WINDOW.1)));
+            .with_inner_size(winit::dpi::LogicalSize::new(w.clamp(MIN_WINDOW.0, MAX_WINDOW.0), h.clamp(MIN_WINDOW.1, MAX_WINDOW.1)));
         let window = Arc::new(el.create_window(attributes).map_err(|e| window_error(&e))?);
         let config = egui_wgpu::WgpuConfiguration::default();
         let mut painter = pollster::block_on(Painter::new(self.ctx.clone(), config, false, egui_wgpu::RendererOptions::default()));
