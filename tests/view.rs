@@ -181,14 +181,14 @@ fn a_saved_edit_reloads_and_an_invalid_one_keeps_the_last_good_pipeline() {
         std::fs::File::options().write(true).open(&pipeline).and_then(|f| f.set_modified(t)).expect("touch");
     };
     touch(&source.replace("\"max_rays\": 16", "\"max_rays\": 8"), 5);
-    model.poll_reload();
+    assert!(model.poll_reload(), "the edit was not noticed");
     assert!(model.error.is_none(), "{:?}", model.error);
     assert_eq!(model.frames(), 0, "a reload starts the average over");
     let max_rays = model.session.pipeline.node("shadows").and_then(|n| n.params.get("max_rays")).cloned();
     assert_eq!(max_rays, Some(wedge::graph::ParamValue::Int(8)));
 
     touch(&source.replace("kind: \"SoftShadows\"", "kind: \"SoftShadowz\""), 10);
-    model.poll_reload();
+    assert!(model.poll_reload(), "the edit was not noticed");
     let error = model.error.clone().expect("diagnostics");
     let graph = wedge().arg("graph").arg(&pipeline).output().expect("graph runs");
     assert_eq!(error.trim(), String::from_utf8_lossy(&graph.stderr).trim(), "not what `wedge graph` prints");

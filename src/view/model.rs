@@ -188,16 +188,18 @@ impl Model {
     }
 
     /// Reload when the pipeline or scene file changed on disk. A file that no longer loads keeps
-    /// the last good session and sets [`Model::error`] to what `wedge graph` would print.
-    pub fn poll_reload(&mut self) {
+    /// the last good session and sets [`Model::error`] to what `wedge graph` would print. Whether a
+    /// file changed (the window has something new to show).
+    pub fn poll_reload(&mut self) -> bool {
         if !self.watch.changed() {
-            return;
+            return false;
         }
         self.lens = None;
         match self.build(&self.overrides) {
             Ok(session) => self.replace(session),
             Err(e) => self.error = Some(format!("error: {e}")),
         }
+        true
     }
 
     /// A session of the pipeline file with `ov` and the window's lens.

@@ -43,7 +43,7 @@ impl Panels {
             egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui, model, display, &mut actions));
         });
         // Resizable and scrolled: long diagnostics must not squeeze the image away.
-        egui::Panel::bottom("status").resizable(true).default_size(90.0).show(ui, |ui| {
+        egui::Panel::bottom("status").resizable(true).default_size(120.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| self.status_bar(ui, model));
         });
         egui::CentralPanel::default().show(ui, |ui| self.image(ui, model, display, &mut actions));
@@ -98,6 +98,11 @@ impl Panels {
     }
 
     fn status_bar(&self, ui: &mut egui::Ui, model: &Model) {
+        // Diagnostics first: they are what the user must see after a save.
+        if let Some(error) = &model.error {
+            ui.colored_label(Color32::from_rgb(255, 110, 110), "the last edit did not load; showing the last good pipeline:");
+            ui.monospace(error);
+        }
         ui.label(stats_line(model));
         if let Some(run) = model.mean() {
             egui::CollapsingHeader::new("pass times of the last frame").show(ui, |ui| {
@@ -108,10 +113,6 @@ impl Panels {
         }
         if !self.status.is_empty() {
             ui.label(&self.status);
-        }
-        if let Some(error) = &model.error {
-            ui.colored_label(Color32::from_rgb(255, 110, 110), "the last edit did not load; showing the last good pipeline:");
-            ui.monospace(error);
         }
     }
 

@@ -27,6 +27,8 @@ use crate::WedgeError;
 /// are scaled down to fit.
 const MIN_WINDOW: (u32, u32) = (960, 640);
 const MAX_WINDOW: (u32, u32) = (1600, 1000);
+/// How often an idle window looks at the watched files.
+const RELOAD_POLL: std::time::Duration = std::time::Duration::from_millis(250);
 /// Room for the controls beside and the status below the image.
 const PANEL_ROOM: (u32, u32) = (340, 170);
 
@@ -206,10 +208,12 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
-        // Keep rendering while the image converges (or a script runs); otherwise sleep until an event.
+        // Keep rendering while the image converges (or a script runs); otherwise sleep until an event,
+        // waking a few times a second to notice a saved pipeline (a converged or paused image still reloads).
         let busy = self.model.wants_frame() || self.script.is_some();
-        el.set_control_flow(if busy { ControlFlow::Poll } else { ControlFlow::Wait });
-        if busy {
+        let wake = std::time::Instant::now() + RELOAD_POLL;
+        el.set_control_flow(if busy { ControlFlow::Poll } else { ControlFlow::WaitUntil(wake) });
+        if busy || self.model.poll_reload() {
             if let Some(gfx) = &self.gfx {
                 gfx.window.request_redraw();
             }
