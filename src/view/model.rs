@@ -30,7 +30,11 @@ pub struct Lens {
 
 impl Lens {
     pub fn of(cam: &Camera) -> Lens {
-        Lens { aperture_radius: cam.aperture_radius, focus_distance: cam.focus_distance, shutter: (cam.shutter_open, cam.shutter_close) }
+        Lens {
+            aperture_radius: cam.aperture_radius,
+            focus_distance: cam.focus_distance,
+            shutter: (cam.shutter_open, cam.shutter_close),
+        }
     }
 }
 
@@ -71,14 +75,22 @@ impl Model {
     pub fn open(opts: &ViewOptions) -> Result<Model, WedgeError> {
         let session = Session::open(opts.pipeline.as_deref(), &opts.overrides)?;
         if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
-            let mode = if opts.backend == "wgpu" { crate::session::RunMode::Gpu } else { crate::session::RunMode::Cpu };
+            let mode = if opts.backend == "wgpu" {
+                crate::session::RunMode::Gpu
+            } else {
+                crate::session::RunMode::Cpu
+            };
             session.memory_estimate(mode).check(limit, &source)?;
         }
         let backend: Box<dyn Backend> = match opts.backend.as_str() {
             "wgpu" => Box::new(crate::session::open_gpu(opts.gpu_limits.as_deref())?),
             _ => Box::new(wedge_backends::cpu::CpuBackend::new()),
         };
-        let watch = Watch::new(watched_files(opts.pipeline.as_ref(), &session, &opts.overrides));
+        let watch = Watch::new(watched_files(
+            opts.pipeline.as_ref(),
+            &session,
+            &opts.overrides,
+        ));
         Ok(Model {
             pipeline: opts.pipeline.clone(),
             overrides: opts.overrides.clone(),
@@ -119,7 +131,11 @@ impl Model {
     /// The camera frames are rendered with.
     pub fn camera(&self) -> Camera {
         let cam = self.session.scene.camera;
-        self.view.map_or(cam, |(position, look_at)| Camera { position, look_at, ..cam })
+        self.view.map_or(cam, |(position, look_at)| Camera {
+            position,
+            look_at,
+            ..cam
+        })
     }
 
     /// Whether the pipeline has a camera block (whose lens and shutter the window can change).
@@ -138,11 +154,18 @@ impl Model {
         let base = self.session.scene.camera;
         self.session.scene.camera = self.camera();
         // Frame n of a still camera: seed + n, no history — frame 0 is exactly `wedge render`'s image.
-        let run = self.session.run_progressive_frame(self.backend.as_mut(), &Silent, self.acc.frames(), None);
+        let run = self.session.run_progressive_frame(
+            self.backend.as_mut(),
+            &Silent,
+            self.acc.frames(),
+            None,
+        );
         self.session.scene.camera = base;
         let end = Instant::now();
         self.last_frame_seconds = (end - start).as_secs_f64();
-        self.frame_interval = self.last_frame_end.map_or(self.last_frame_seconds, |t| (end - t).as_secs_f64());
+        self.frame_interval = self
+            .last_frame_end
+            .map_or(self.last_frame_seconds, |t| (end - t).as_secs_f64());
         self.last_frame_end = Some(end);
         let run = run?;
         self.outputs = super::outputs::names(&run);
@@ -152,7 +175,12 @@ impl Model {
     }
 
     /// Set `node.param` (as `--set`) and rebuild; on a refusal the old value stays and the error is returned.
-    pub fn set_param(&mut self, node: &str, param: &str, value: ParamValue) -> Result<(), WedgeError> {
+    pub fn set_param(
+        &mut self,
+        node: &str,
+        param: &str,
+        value: ParamValue,
+    ) -> Result<(), WedgeError> {
         let mut ov = self.overrides.clone();
         ov.params.retain(|(n, p, _)| !(n == node && p == param));
         ov.params.push((node.to_string(), param.to_string(), value));
@@ -161,7 +189,10 @@ impl Model {
 
     /// Set `--mu` and rebuild.
     pub fn set_mu(&mut self, mu: f64) -> Result<(), WedgeError> {
-        let ov = Overrides { mu: Some(mu), ..self.overrides.clone() };
+        let ov = Overrides {
+            mu: Some(mu),
+            ..self.overrides.clone()
+        };
         self.rebuild_with(ov)
     }
 
@@ -222,7 +253,11 @@ impl Model {
     }
 
     fn replace(&mut self, session: Session) {
-        self.watch = Watch::new(watched_files(self.pipeline.as_ref(), &session, &self.overrides));
+        self.watch = Watch::new(watched_files(
+            self.pipeline.as_ref(),
+            &session,
+            &self.overrides,
+        ));
         self.session = session;
         self.acc.reset();
         self.error = None;
@@ -231,11 +266,29 @@ impl Model {
 
     /// Write the mean run's outputs as `wedge render` writes them into `dir`, with `picture` (what
     /// the window shows) as `view.png`, all or nothing.
-    pub fn screenshot(&self, dir: &std::path::Path, picture: &super::outputs::Picture) -> Result<WrittenRun, WedgeError> {
+    pub fn screenshot(
+        &self,
+        dir: &std::path::Path,
+        picture: &super::outputs::Picture,
+    ) -> Result<WrittenRun, WedgeError> {
         crate::staging::check_output_dir(dir)?;
-        let run = self.mean().ok_or_else(|| WedgeError::Usage("no frame has been rendered yet to take a screenshot of".into()))?;
-        let shown = Picture { name: "view", width: picture.width, height: picture.height, rgb: &picture.rgb };
-        Ok(write_run_with_picture(dir, "render", run, &shown, self.session.width, self.session.height)?)
+        let run = self.mean().ok_or_else(|| {
+            WedgeError::Usage("no frame has been rendered yet to take a screenshot of".into())
+        })?;
+        let shown = Picture {
+            name: "view",
+            width: picture.width,
+            height: picture.height,
+            rgb: &picture.rgb,
+        };
+        Ok(write_run_with_picture(
+            dir,
+            "render",
+            run,
+            &shown,
+            self.session.width,
+            self.session.height,
+        )?)
     }
 }
 
