@@ -18,6 +18,7 @@ pub mod control;
 pub mod model;
 pub mod outputs;
 pub mod params;
+pub mod render;
 pub mod script;
 mod ui;
 pub mod watch;

@@ -4,17 +4,21 @@
 //! drive it through these methods; nothing here draws.
 //!
 //! A change (parameter, `mu`, camera, a saved pipeline) rebuilds the session with the changed
-//! overrides and starts the average over. Re-running only the passes downstream of a change is a
-//! later step (issue 38): today every frame runs the whole schedule.
+//! overrides and starts the average over. Frames run on the render thread ([`super::render`]); the
+//! window starts one and takes it when done ([`Model::start_frame`], [`Model::poll_frame`]), a
+//! script or test renders one and waits ([`Model::render_frame`]). Re-running only the passes
+//! downstream of a change is a later step (issue 38): today every frame runs the whole schedule.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
-use wedge_backends::{Backend, RunResult, Silent};
+use wedge_backends::{Backend, RunResult};
 use wedge_graph::ParamValue;
 use wedge_scene::{Camera, SceneSource};
 
 use super::accumulate::Accumulator;
+use super::render::{Done, Renderer, LOST};
 use super::watch::Watch;
 use super::ViewOptions;
 use crate::outputs::{write_run_with_picture, Picture, WrittenRun};
@@ -45,9 +49,14 @@ pub struct Model {
     pipeline: Option<PathBuf>,
     /// The command line's overrides with the widgets' changes applied.
     pub overrides: Overrides,
-    /// The last session that built; a failed rebuild keeps it (and its image).
-    pub session: Session,
-    backend: Box<dyn Backend>,
+    /// The last session that built; a failed rebuild keeps it (and its image). Shared with the render
+    /// thread while a frame renders; its scene camera is set to [`Model::camera`] between frames.
+    pub session: Arc<Session>,
+    /// The session's own camera (the pipeline's), under the user's moves.
+    base_camera: Camera,
+    renderer: Renderer,
+    /// Bumped by every change: a frame started before it is dropped, not averaged.
+    generation: u64,
     acc: Accumulator,
     watch: Watch,
     /// Where the user moved the camera: (position, look-at) over the session's camera (`None`: the
@@ -82,7 +91,7 @@ impl Model {
             };
             session.memory_estimate(mode).check(limit, &source)?;
         }
-        let backend: Box<dyn Backend> = match opts.backend.as_str() {
+        let backend: Box<dyn Backend + Send> = match opts.backend.as_str() {
             "wgpu" => Box::new(crate::session::open_gpu(opts.gpu_limits.as_deref())?),
             _ => Box::new(wedge_backends::cpu::CpuBackend::new()),
         };
@@ -94,8 +103,10 @@ impl Model {
         Ok(Model {
             pipeline: opts.pipeline.clone(),
             overrides: opts.overrides.clone(),
-            session,
-            backend,
+            base_camera: session.scene.camera,
+            session: Arc::new(session),
+            renderer: Renderer::new(backend)?,
+            generation: 0,
             acc: Accumulator::default(),
             watch,
             view: None,
@@ -111,7 +122,7 @@ impl Model {
     }
 
     pub fn backend_name(&self) -> &'static str {
-        self.backend.name()
+        self.renderer.name()
     }
 
     /// The mean of the frames since the last change.
@@ -130,7 +141,7 @@ impl Model {
 
     /// The camera frames are rendered with.
     pub fn camera(&self) -> Camera {
-        let cam = self.session.scene.camera;
+        let cam = self.base_camera;
         self.view.map_or(cam, |(position, look_at)| Camera {
             position,
             look_at,
@@ -148,30 +159,80 @@ impl Model {
         !self.paused && self.acc.frames() < MAX_FRAMES
     }
 
-    /// Render one more frame (a new seed) and add it to the mean.
+    /// Whether a frame is on the render thread (or finished and not taken).
+    pub fn frame_in_flight(&mut self) -> bool {
+        self.renderer.poll();
+        self.renderer.in_flight()
+    }
+
+    /// Whether the frame in flight has finished.
+    pub fn frame_ready(&mut self) -> bool {
+        self.renderer.poll()
+    }
+
+    /// Start the next frame on the render thread unless one is in flight or none is wanted.
+    pub fn start_frame(&mut self) -> Result<(), WedgeError> {
+        if self.renderer.in_flight() || !self.wants_frame() {
+            return Ok(());
+        }
+        // The render thread let go of the session after its last frame, so the camera can be set.
+        let camera = self.camera();
+        if self.session.scene.camera != camera {
+            let Some(session) = Arc::get_mut(&mut self.session) else {
+                return Ok(());
+            };
+            session.scene.camera = camera;
+        }
+        self.renderer
+            .start(self.session.clone(), self.acc.frames(), self.generation)
+    }
+
+    /// Take the finished frame, if any, into the mean: `Some(Ok(true))` when one was added,
+    /// `Some(Ok(false))` when it was started before a change and dropped.
+    pub fn poll_frame(&mut self) -> Option<Result<bool, WedgeError>> {
+        self.renderer.take().map(|done| self.finish(done))
+    }
+
+    /// Render one more frame (a new seed) and add it to the mean, waiting for it (scripts, tests).
     pub fn render_frame(&mut self) -> Result<(), WedgeError> {
-        let start = Instant::now();
-        let base = self.session.scene.camera;
-        self.session.scene.camera = self.camera();
-        // Frame n of a still camera: seed + n, no history — frame 0 is exactly `wedge render`'s image.
-        let run = self.session.run_progressive_frame(
-            self.backend.as_mut(),
-            &Silent,
-            self.acc.frames(),
-            None,
-        );
-        self.session.scene.camera = base;
+        // A frame started before a change is dropped; then this one starts from the new state.
+        if let Some(done) = self.renderer.wait() {
+            self.finish(done)?;
+        }
+        let paused = std::mem::replace(&mut self.paused, false);
+        let started = self.start_frame();
+        self.paused = paused;
+        started?;
+        match self.renderer.wait() {
+            Some(done) => self.finish(done).map(|_| ()),
+            None => Err(WedgeError::Usage(format!(
+                "no frame was started: {} frames are averaged already",
+                MAX_FRAMES
+            ))),
+        }
+    }
+
+    fn finish(&mut self, done: Done) -> Result<bool, WedgeError> {
+        if done.generation != self.generation && done.generation != LOST {
+            return Ok(false);
+        }
         let end = Instant::now();
-        self.last_frame_seconds = (end - start).as_secs_f64();
+        self.last_frame_seconds = done.seconds;
         self.frame_interval = self
             .last_frame_end
-            .map_or(self.last_frame_seconds, |t| (end - t).as_secs_f64());
+            .map_or(done.seconds, |t| (end - t).as_secs_f64());
         self.last_frame_end = Some(end);
-        let run = run?;
+        let run = done.run?;
         self.outputs = super::outputs::names(&run);
         self.acc.add(run);
         self.rendered += 1;
-        Ok(())
+        Ok(true)
+    }
+
+    /// Start the mean over (something changed): frames in flight are dropped when they arrive.
+    fn restart(&mut self) {
+        self.acc.reset();
+        self.generation += 1;
     }
 
     /// Set `node.param` (as `--set`) and rebuild; on a refusal the old value stays and the error is returned.
@@ -200,7 +261,7 @@ impl Model {
     /// included) and start the average over.
     pub fn set_camera(&mut self, camera: Option<Camera>) -> Result<(), WedgeError> {
         self.view = camera.map(|c| (c.position, c.look_at));
-        self.acc.reset();
+        self.restart();
         if camera.is_none() && self.lens.take().is_some() {
             return self.rebuild_with(self.overrides.clone());
         }
@@ -258,8 +319,9 @@ impl Model {
             &session,
             &self.overrides,
         ));
-        self.session = session;
-        self.acc.reset();
+        self.base_camera = session.scene.camera;
+        self.session = Arc::new(session);
+        self.restart();
         self.error = None;
         self.paused = false;
     }

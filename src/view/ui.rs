@@ -172,11 +172,18 @@ impl Panels {
         display: &Display,
         actions: &mut Vec<Action>,
     ) {
-        let Some(picture) = display.picture(model) else {
-            ui.label("rendering the first frame...");
-            return;
+        // Until the first frame after a change arrives, the last picture stays (it can be orbited).
+        let texture = match (display.picture(model), &self.texture) {
+            (Some(picture), _) => self.upload(ui.ctx(), picture),
+            (None, Some(last)) => last.clone(),
+            (None, None) => {
+                ui.label("rendering the first frame...");
+                return;
+            }
         };
-        let texture = self.upload(ui.ctx(), picture);
+        if model.frames() == 0 {
+            ui.label("rendering the first frame after the change...");
+        }
         let size = texture.size_vec2();
         let scale = (ui.available_width() / size.x)
             .min(ui.available_height() / size.y)
@@ -189,7 +196,12 @@ impl Panels {
             ui.painter()
                 .vline(x, rect.y_range(), egui::Stroke::new(1.0, Color32::WHITE));
         }
-        let drag = response.drag_delta();
+        // Not on the frame the drag starts: its delta may hold the pointer's jump to the image.
+        let drag = if response.drag_started() {
+            egui::Vec2::ZERO
+        } else {
+            response.drag_delta()
+        };
         if drag != egui::Vec2::ZERO {
             actions.push(Action::Orbit(
                 -drag.x * ORBIT_PER_POINT,

@@ -2,9 +2,10 @@
 //! their own (the wgpu backend, when chosen, renders on another device; its buffers come back to
 //! the host and are shown as a texture, like the CPU backend's).
 //!
-//! Each redraw: poll the watched files, render one more frame if the image is not converged, apply
-//! the script's steps for that frame, draw the panels, apply the edits they report. While nothing
-//! is left to render the loop sleeps until an event arrives.
+//! Each redraw: poll the watched files, take the frame the render thread finished and start the
+//! next (a script instead renders one and waits, then applies its steps for that frame), draw the
+//! panels, apply the edits they report. While nothing is left to render the loop sleeps until an
+//! event arrives (waking to poll the files).
 
 use std::num::NonZeroU32;
 use std::path::PathBuf;
@@ -29,6 +30,8 @@ const MIN_WINDOW: (u32, u32) = (960, 640);
 const MAX_WINDOW: (u32, u32) = (1600, 1000);
 /// How often an idle window looks at the watched files.
 const RELOAD_POLL: std::time::Duration = std::time::Duration::from_millis(250);
+/// How often the window looks for a frame finished on the render thread.
+const FRAME_POLL: std::time::Duration = std::time::Duration::from_millis(5);
 /// Room for the controls beside and the status below the image.
 const PANEL_ROOM: (u32, u32) = (340, 170);
 
@@ -48,6 +51,7 @@ pub fn run(model: Model, out: PathBuf, script: Option<Script>) -> Result<String,
         ctx: egui::Context::default(),
         gfx: None,
         result: Ok(String::new()),
+        repaint_at: None,
     };
     event_loop.run_app(&mut app).map_err(|e| {
         WedgeError::Usage(format!("wedge view: the window's event loop failed: {e}"))
@@ -71,6 +75,8 @@ struct App {
     gfx: Option<Gfx>,
     /// What `run` returns: the screenshots written, or the error that ended the loop.
     result: Result<String, WedgeError>,
+    /// When egui asked to be drawn again (a click is finished, an animation runs) without an event.
+    repaint_at: Option<std::time::Instant>,
 }
 
 impl App {
@@ -124,20 +130,40 @@ impl App {
 
     fn redraw(&mut self, el: &ActiveEventLoop) {
         self.model.poll_reload();
-        if self.model.wants_frame() {
-            match self.model.render_frame() {
-                Ok(()) => self.run_script(el),
-                Err(e) if self.script.is_some() => return self.fail(el, e),
-                Err(e) => {
-                    self.model.error = Some(format!("error: {e}"));
-                    self.model.paused = true;
+        if self.script.is_some() {
+            // A script waits for each frame, so its steps apply after exactly the frame they name.
+            if self.model.wants_frame() {
+                match self.model.render_frame() {
+                    Ok(()) => self.run_script(el),
+                    Err(e) => return self.fail(el, e),
                 }
             }
+        } else {
+            if let Some(Err(e)) = self.model.poll_frame() {
+                self.frame_failed(e);
+            }
+            self.start_frame();
         }
         let actions = self.paint();
         for action in actions {
             self.interactive(action);
         }
+        // An edit restarted the mean: start its first frame now, not at the next event.
+        if self.script.is_none() {
+            self.start_frame();
+        }
+    }
+
+    fn start_frame(&mut self) {
+        if let Err(e) = self.model.start_frame() {
+            self.frame_failed(e);
+        }
+    }
+
+    /// A frame that failed pauses the viewer with the error shown (the next change resumes it).
+    fn frame_failed(&mut self, e: WedgeError) {
+        self.model.error = Some(format!("error: {e}"));
+        self.model.paused = true;
     }
 
     /// Draw the panels; the edits the user made in them.
@@ -254,19 +280,33 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
-        // Keep rendering while the image converges (or a script runs); otherwise sleep until an event,
-        // waking a few times a second to notice a saved pipeline (a converged or paused image still reloads).
-        let busy = self.model.wants_frame() || self.script.is_some();
-        let wake = std::time::Instant::now() + RELOAD_POLL;
-        el.set_control_flow(if busy {
-            ControlFlow::Poll
-        } else {
-            ControlFlow::WaitUntil(wake)
-        });
-        if busy || self.model.poll_reload() {
-            if let Some(gfx) = &self.gfx {
-                gfx.window.request_redraw();
+        let redraw = |gfx: &Option<Gfx>| gfx.iter().for_each(|g| g.window.request_redraw());
+        let now = std::time::Instant::now();
+        // egui's own repaint requests (the end of a click, a hover animation).
+        if self.repaint_at.is_some_and(|t| t <= now) {
+            self.repaint_at = None;
+            redraw(&self.gfx);
+        }
+        let soon = |d: std::time::Duration| self.repaint_at.map_or(now + d, |t| t.min(now + d));
+        if self.script.is_some() {
+            // A script renders frame after frame as fast as it can.
+            el.set_control_flow(ControlFlow::Poll);
+            redraw(&self.gfx);
+        } else if self.model.frame_in_flight() {
+            // Look for the finished frame often; draw only when it is there (or on input).
+            if self.model.frame_ready() {
+                redraw(&self.gfx);
             }
+            el.set_control_flow(ControlFlow::WaitUntil(soon(FRAME_POLL)));
+        } else if self.model.wants_frame() {
+            redraw(&self.gfx);
+            el.set_control_flow(ControlFlow::Poll);
+        } else {
+            // Converged or paused: sleep, waking a few times a second to notice a saved pipeline.
+            if self.model.poll_reload() {
+                redraw(&self.gfx);
+            }
+            el.set_control_flow(ControlFlow::WaitUntil(soon(RELOAD_POLL)));
         }
     }
 }
