@@ -208,19 +208,10 @@ fn a_bad_script_is_refused_with_its_position_before_a_window_opens() {
     );
 }
 
-/// Hot reload without a window: an edit reloads, an invalid edit keeps the last good session and
-/// reports what `wedge graph` prints.
-#[test]
-fn a_saved_edit_reloads_and_an_invalid_one_keeps_the_last_good_pipeline() {
-    use wedge::view::model::Model;
-    use wedge::view::ViewOptions;
-
-    let dir = tempfile::tempdir().expect("tempdir");
-    let pipeline = dir.path().join("p.ron");
-    let source = std::fs::read_to_string(shadows()).expect("shadows.ron");
-    std::fs::write(&pipeline, &source).expect("copy");
-    let opts = ViewOptions {
-        pipeline: Some(pipeline.clone()),
+/// The viewer's options for `pipeline` at 16×12 on the CPU.
+fn tiny(pipeline: &Path, dir: &Path) -> wedge::view::ViewOptions {
+    wedge::view::ViewOptions {
+        pipeline: Some(pipeline.to_path_buf()),
         overrides: wedge::Overrides {
             width: Some(16),
             height: Some(12),
@@ -228,10 +219,46 @@ fn a_saved_edit_reloads_and_an_invalid_one_keeps_the_last_good_pipeline() {
         },
         backend: "cpu".into(),
         gpu_limits: None,
-        out: dir.path().join("out"),
+        out: dir.join("out"),
         memory_limit: None,
         script: None,
+    }
+}
+
+/// The window's way of rendering (start a frame on the render thread, take it later): a frame
+/// started before a change arrives after it and is dropped, not averaged into the new image.
+#[test]
+fn a_frame_started_before_a_change_is_dropped() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut model = wedge::view::model::Model::open(&tiny(&shadows(), dir.path())).expect("opens");
+    model.start_frame().expect("starts");
+    assert!(model.frame_in_flight());
+    let moved = wedge::view::camera::orbit(&model.camera(), 0.3, 0.0);
+    model.set_camera(Some(moved)).expect("moves");
+    let taken = loop {
+        if let Some(taken) = model.poll_frame() {
+            break taken.expect("the frame renders");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
     };
+    assert!(!taken, "a frame of the old camera was averaged");
+    assert_eq!(model.frames(), 0);
+    model.render_frame().expect("frame");
+    assert_eq!(model.frames(), 1);
+    assert_eq!(model.session.scene.camera.position, moved.position);
+}
+
+/// Hot reload without a window: an edit reloads, an invalid edit keeps the last good session and
+/// reports what `wedge graph` prints.
+#[test]
+fn a_saved_edit_reloads_and_an_invalid_one_keeps_the_last_good_pipeline() {
+    use wedge::view::model::Model;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    let pipeline = dir.path().join("p.ron");
+    let source = std::fs::read_to_string(shadows()).expect("shadows.ron");
+    std::fs::write(&pipeline, &source).expect("copy");
+    let opts = tiny(&pipeline, dir.path());
     let mut model = Model::open(&opts).expect("opens");
     model.render_frame().expect("frame");
     assert_eq!(model.frames(), 1);
