@@ -54,6 +54,19 @@ fn run_ok(cmd: &mut Command) -> String {
     text
 }
 
+/// `wedge render shadows.ron ARGS --out OUT`: what the viewer's screenshots are compared with.
+fn render_shadows(args: &[&str], out: &Path) {
+    run_ok(
+        wedge()
+            .arg("render")
+            .arg(shadows())
+            .args(args)
+            .arg("--out")
+            .arg(out)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir()),
+    );
+}
+
 /// `wedge view shadows.ron ARGS --script SCRIPT` under `xvfb-run`; its output.
 fn view_script(script: &Path, args: &[&str]) -> String {
     run_ok(
@@ -100,14 +113,7 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     std::fs::write(&script, text).expect("script");
     let size = ["--width", "64", "--height", "48", "--backend", "cpu"];
     eprintln!("{}", view_script(&script, &size));
-    run_ok(
-        wedge()
-            .arg("render")
-            .arg(shadows())
-            .args(size)
-            .arg("--out")
-            .arg(shot("render")),
-    );
+    render_shadows(&size, &shot("render"));
 
     // The first screenshot is one frame: `render`'s image bit for bit, and the window's picture.
     let viewed = read_exr(&shot("a").join("render.exr")).expect("a/render.exr");
@@ -170,15 +176,7 @@ fn scripted_window_on_the_wgpu_backend_matches_render() {
     let size = ["--width", "64", "--height", "48", "--backend", "wgpu"];
     eprintln!("{}", view_script(&script, &size));
     let out = dir.path().join("render");
-    run_ok(
-        wedge()
-            .arg("render")
-            .arg(shadows())
-            .args(size)
-            .arg("--out")
-            .arg(&out)
-            .env("XDG_RUNTIME_DIR", std::env::temp_dir()),
-    );
+    render_shadows(&size, &out);
     let viewed = read_exr(&shot.join("render.exr")).expect("a/render.exr");
     let rendered = read_exr(&out.join("render.exr")).expect("render.exr");
     assert_eq!(
