@@ -22,7 +22,7 @@ struct Cli {
 /// Options every rendering command shares.
 #[derive(Args, Clone)]
 struct Common {
-    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`, and the defocus suite's `dof_*`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
     #[arg(long)]
     scene: Option<String>,
     /// Output directory.
@@ -124,9 +124,10 @@ enum Command {
         /// .gltf/.glb/.obj/.ron file (as for `render`).
         #[arg(long, conflicts_with_all = ["suite", "suite_scenes"])]
         scene: Option<String>,
-        /// Run the bench over the built-in scene suite (issue 16: grids, suite_slats, suite_grate,
-        /// suite_contact, suite_near_light, curved, suite_textured, suite_glossy, cornell, suite_room),
-        /// each into OUT/SCENE/, and write OUT/suite.md (+ .csv, .json, suite_speedup.png): per scene
+        /// Run the bench over the built-in scene suite of the pipeline's effects: the defocus suite
+        /// (dof_*, each scene's own lens set on the nodes that take a lens) for a pipeline with a lens,
+        /// else the soft-shadow suite (issue 16: grids, suite_slats, suite_grate, suite_contact,
+        /// suite_near_light, curved, suite_textured, suite_glossy, cornell, suite_room), each into OUT/SCENE/, and write OUT/suite.md (+ .csv, .json, suite_speedup.png): per scene
         /// rays/px, equal-RMSE speedups, bias/variance, filter overhead; the median and the worst.
         #[arg(long)]
         suite: bool,
@@ -153,6 +154,11 @@ enum Command {
         /// As for `render` (the bench also keeps a few full-size images for its report).
         #[arg(long, value_name = "SIZE", value_parser = parse_size)]
         memory_limit: Option<u64>,
+        /// Set a node parameter on every run and on the reference: NODE.PARAM=VALUE (repeatable;
+        /// e.g. measure an option against the pipeline's default). Under --suite a scene's lens
+        /// wins over a --set lens.
+        #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
+        set: Vec<String>,
     },
     /// Check the wgpu backend against the CPU backend pass by pass (each GPU pass runs on the CPU's
     /// inputs) and print max abs / max rel differences and pixels over tolerance; fails on a mismatch.
@@ -678,10 +684,11 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
     Ok(text)
 }
 
-/// `--suite-scenes`' names as scene specs (every one a built-in), or the whole suite when empty.
-fn suite_scene_specs(names: &[String]) -> Result<Vec<String>, WedgeError> {
+/// `--suite-scenes`' names as scene specs (every one a built-in), or the whole suite of the
+/// pipeline's family when empty (the defocus suite for a pipeline that takes a lens).
+fn suite_scene_specs(pipeline: &Path, names: &[String]) -> Result<Vec<String>, WedgeError> {
     if names.is_empty() {
-        return Ok(wedge::bench::suite::default_scenes());
+        return Ok(wedge::bench::suite::family_scenes(wedge::bench::suite::family_of(pipeline)?));
     }
     names
         .iter()
@@ -690,7 +697,7 @@ fn suite_scene_specs(names: &[String]) -> Result<Vec<String>, WedgeError> {
             if wedge::scene::builtin_names().contains(&name) {
                 Ok(format!("builtin:{name}"))
             } else {
-                let suite: Vec<&str> = wedge::scene::builtin::suite_names().collect();
+                let suite: Vec<&str> = wedge::scene::builtin::SuiteFamily::ALL.iter().flat_map(|f| f.scenes()).map(|(s, _)| *s).collect();
                 Err(WedgeError::Usage(format!(
                     "--suite-scenes: `{n}` is not a built-in scene; the suite's are {} (other built-ins: {})",
                     suite.join(", "),
@@ -778,7 +785,7 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
             }
         }
-        Command::Bench { pipeline, quick, scene, suite, suite_scenes, compare, out, width, height, seed, reference_spp, memory_limit } => {
+        Command::Bench { pipeline, quick, scene, suite, suite_scenes, compare, out, width, height, seed, reference_spp, memory_limit, set } => {
             wedge::staging::check_output_dir(&out)?;
             let opts = wedge::bench::BenchOptions {
                 quick,
@@ -789,11 +796,12 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
                 seed,
                 reference_spp,
                 memory_limit,
+                params: set.iter().map(|s| wedge::session::parse_set(s)).collect::<Result<_, _>>()?,
                 verbose: true,
                 ..wedge::bench::BenchOptions::new(pipeline, out)
             };
             if suite {
-                let scenes = suite_scene_specs(&suite_scenes)?;
+                let scenes = suite_scene_specs(&opts.pipeline, &suite_scenes)?;
                 let r = wedge::bench::suite::run_suite(&opts, &scenes)?;
                 return Ok(format!("{}\n", wedge::bench::suite::summary(&r)));
             }

@@ -224,6 +224,56 @@ fn suite_smoke_two_scenes() {
     assert!(refused.to_string().contains("--scene"), "{refused}");
 }
 
+/// The defocus suite (issue 35) in small: a pipeline with a lens picks it; each scene's lens is set
+/// on the Defocus node (the scene's, not the pipeline's 5 cm); the report splits the error by pixel
+/// class (focus, texture) with shares summing to one, and writes the bias² and variance maps.
+#[test]
+fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
+    use wedge::bench::suite::{family_of, family_scenes, lens_params, run_suite};
+    use wedge::graph::ParamValue;
+    use wedge::scene::builtin::SuiteFamily;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let pipeline = root.join("pipelines/defocus_shadows_indirect.ron");
+    assert_eq!(family_of(&pipeline).unwrap(), SuiteFamily::Defocus);
+    assert_eq!(family_of(&root.join("pipelines/shadows.ron")).unwrap(), SuiteFamily::Shadows);
+    let scenes = family_scenes(SuiteFamily::Defocus);
+    assert!(scenes.len() >= 8, "{scenes:?}");
+    for s in &scenes {
+        let name = s.strip_prefix("builtin:").unwrap();
+        assert!(wedge::scene::builtin::describe(name).is_some(), "{name} has no description");
+    }
+    let lens = lens_params(&pipeline, "builtin:dof_tiny").unwrap();
+    assert_eq!(
+        lens,
+        vec![
+            ("defocus".to_string(), "aperture_radius".to_string(), ParamValue::Float(f64::from(0.003f32))),
+            ("defocus".to_string(), "focus_distance".to_string(), ParamValue::Float(f64::from(2.9f32))),
+        ]
+    );
+    assert!(lens_params(&pipeline, "builtin:grids").unwrap().is_empty(), "a pinhole scene sets no lens");
+
+    let dir = tempfile::tempdir().unwrap();
+    let opts = BenchOptions {
+        width: Some(40),
+        height: Some(30),
+        reference_spp: Some(32),
+        mu_values: Some(vec![1.0]),
+        baseline_spp: Some(vec![2, 8]),
+        ..BenchOptions { quick: true, ..BenchOptions::new(pipeline, dir.path()) }
+    };
+    let r = run_suite(&opts, &["builtin:dof_foreground".to_string()]).expect("defocus suite runs");
+    assert_eq!(r.family, SuiteFamily::Defocus);
+    let row = &r.rows[0];
+    assert!(row.rmse.is_finite() && row.rays_per_pixel > 1.0);
+    assert!(row.error_home.contains("focus") && row.error_home.contains('%'), "{}", row.error_home);
+    let report = std::fs::read_to_string(dir.path().join("dof_foreground/report.md")).unwrap();
+    for needle in ["Where the error lives", "| focus | out of focus |", "| texture | texture edge |", "error_bias2.png", "error_variance.png"] {
+        assert!(report.contains(needle), "report lacks {needle:?}:\n{report}");
+    }
+    let md = std::fs::read_to_string(&r.table).unwrap();
+    assert!(md.contains("Issue 35's goals"), "{md}");
+}
+
 /// `BenchOptions.scene` (`wedge bench --scene`) benches another scene than the pipeline's.
 #[test]
 fn bench_on_another_scene() {

@@ -205,6 +205,8 @@ fn the_consistent_mode_converges_and_the_literal_one_stops() {
     // As printed, the clamp at Ω_pix^max holds the filters and counts: μ 2 → 8 changes little.
     assert!((literal[1].0 - literal[0].0).abs() < 0.05 * literal[0].0, "{literal:?}");
     assert!(literal[1].1 < 1.2 * literal[0].1, "{literal:?}");
+    // The default is the consistent mode (issue 35: the clamp made μ > 1 a knob that raised the error).
+    assert_eq!(defocus_error(&[("mu", ParamValue::Float(2.0))], &reference), consistent[1]);
 }
 
 #[test]

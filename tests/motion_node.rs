@@ -192,6 +192,9 @@ fn consistent_mode_converges_to_the_reference_as_mu_grows() {
     let truth = reference(&text, 1024, &ov(1.0));
     let errors: Vec<f64> = [0.5, 2.0, 8.0].iter().map(|&mu| rmse(&render(&text, &ov(mu)).0, &truth)).collect();
     assert!(errors[0] > errors[1] && errors[1] > errors[2], "RMSE at μ 0.5, 2, 8: {errors:?}");
+    // It is the default (issue 35): the same image without the mode written.
+    let default = pipeline("builtin:motion", "", "", "motion.radiance");
+    assert_eq!(rmse(&render(&default, &ov(2.0)).0, &truth), errors[1]);
 }
 
 #[test]

@@ -57,12 +57,17 @@
 //! - `suite_room`: a closed room seen from inside — table, cabinet, bench, one small ceiling light;
 //!   no path escapes, so indirect light matters everywhere (see `builtin/room.rs`).
 //!
+//! **The defocus suite** ([`DEFOCUS_SUITE`], issue 35; `wedge bench --suite` picks it for a pipeline
+//! with a node that takes a thin lens, [`SuiteFamily::for_lens`]): nine scenes named `dof_*`, each with its own
+//! thin lens in its camera, described in `builtin/defocus_suite.rs`.
+//!
 //! Mesh generators (ground planes, panels, boxes, bars, cylinders, spheres, tori, lathes, rectangular
 //! lights) live in `builtin/mesh.rs` so new built-ins reuse them; each scene larger than a screenful
 //! lives in its own file under `builtin/`.
 
 pub mod chess;
 mod contact;
+mod defocus_suite;
 pub mod envmap;
 mod glossy;
 mod grate;
@@ -85,7 +90,8 @@ use mesh::{add_box, add_ground, add_sphere, add_square_light, add_torus, paramet
 pub const NAMES: &[&str] = &[
     "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
     "envmap_real", "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact",
-    "suite_near_light", "suite_textured", "suite_glossy", "suite_room",
+    "suite_near_light", "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background",
+    "dof_receding", "dof_bokeh", "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room",
 ];
 
 /// The scene suite of issue 16, in the order `wedge bench --suite` runs it: each built-in's name and
@@ -143,13 +149,104 @@ pub const SUITE: &[(&str, &str)] = &[
     ),
 ];
 
-/// What the suite scene `name` tests ([`SUITE`]); `None` for a built-in outside the suite or an
-/// unknown name.
-pub fn describe(name: &str) -> Option<&'static str> {
-    SUITE.iter().find(|(n, _)| *n == name).map(|(_, d)| *d)
+/// The defocus suite (issue 35, `builtin/defocus_suite.rs`): each scene's camera carries its own thin
+/// lens, which `wedge bench --suite` sets on the pipeline's Defocus node.
+pub const DEFOCUS_SUITE: &[(&str, &str)] = &[
+    (
+        "dof_foreground",
+        "Foreground out of focus over sharp texture: posts and a lattice 0.7-1.1 m from the lens (circles of \
+         confusion of tens of pixels) in front of a fine checker wall and floor in focus at 4.6 m.",
+    ),
+    (
+        "dof_background",
+        "Background out of focus behind a sharp subject: boxes and a sphere in focus at 1.7 m, a fine checker wall \
+         6 m away blurred behind their edges.",
+    ),
+    (
+        "dof_receding",
+        "A deep receding checker floor from under the camera to 20 m at a grazing angle, focus 3 m: the circle of \
+         confusion sweeps from large to zero to large along every column.",
+    ),
+    (
+        "dof_bokeh",
+        "Bright small features: 5 cm white beads 4-6 m behind a sharp textured box, on a dark wall, blurred into \
+         discs a few lens samples find.",
+    ),
+    (
+        "dof_thin",
+        "Thin occluders across the focal plane: 2.5 cm rods tilted in depth from ~1 to ~5 m, in focus in the \
+         middle, over a textured floor they shadow.",
+    ),
+    (
+        "dof_glossy",
+        "Glossy receivers through the lens: a Phong (m = 50) floor and Phong spheres (m 15-80) at four depths, \
+         a checker wall behind.",
+    ),
+    (
+        "dof_wide",
+        "A large aperture (0.15 m): boxes and spheres from 1.4 to 7 m on a checker floor, focus 3.6 m; circles of \
+         confusion of tens of pixels, the widest filters and most primary rays.",
+    ),
+    (
+        "dof_tiny",
+        "A tiny aperture (3 mm): a textured table with boxes and bars, nearly a pinhole (circles under a pixel); \
+         the factored filter must not lose to plain Monte Carlo.",
+    ),
+    (
+        "dof_room",
+        "suite_room through a 4 cm lens focused on the table's sphere (2.4 m): the thesis's ROOM-like scene, \
+         closed, indirect light everywhere.",
+    ),
+];
+
+/// A family of scene suites: which scenes `wedge bench --suite` runs a pipeline over, picked from the
+/// pipeline's effects ([`SuiteFamily::for_lens`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SuiteFamily {
+    /// Soft shadows, indirect light, AO: [`SUITE`] (issue 16).
+    Shadows,
+    /// Depth of field: [`DEFOCUS_SUITE`], each scene with its own lens.
+    Defocus,
 }
 
-/// The names of the suite's scenes, in order.
+impl SuiteFamily {
+    pub const ALL: [SuiteFamily; 2] = [SuiteFamily::Shadows, SuiteFamily::Defocus];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SuiteFamily::Shadows => "shadows",
+            SuiteFamily::Defocus => "defocus",
+        }
+    }
+    pub fn parse(s: &str) -> Option<SuiteFamily> {
+        SuiteFamily::ALL.into_iter().find(|f| f.name() == s)
+    }
+    /// The scenes and what each tests, in run order.
+    pub fn scenes(self) -> &'static [(&'static str, &'static str)] {
+        match self {
+            SuiteFamily::Shadows => SUITE,
+            SuiteFamily::Defocus => DEFOCUS_SUITE,
+        }
+    }
+    /// The family for a pipeline: one with a node that takes a thin lens (declares
+    /// `aperture_radius` and `focus_distance`) is measured on the defocus suite, any other on the
+    /// soft-shadow suite.
+    pub fn for_lens(takes_lens: bool) -> SuiteFamily {
+        if takes_lens {
+            SuiteFamily::Defocus
+        } else {
+            SuiteFamily::Shadows
+        }
+    }
+}
+
+/// What the suite scene `name` tests (any family's suite); `None` for a built-in outside every
+/// suite or an unknown name.
+pub fn describe(name: &str) -> Option<&'static str> {
+    SuiteFamily::ALL.iter().flat_map(|f| f.scenes()).find(|(n, _)| *n == name).map(|(_, d)| *d)
+}
+
+/// The names of the soft-shadow suite's scenes, in order.
 pub fn suite_names() -> impl Iterator<Item = &'static str> {
     SUITE.iter().map(|(n, _)| *n)
 }
@@ -176,6 +273,15 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "suite_textured" => Ok(textured::textured()),
         "suite_glossy" => Ok(glossy::glossy()),
         "suite_room" => Ok(room::room()),
+        "dof_foreground" => Ok(defocus_suite::dof_foreground()),
+        "dof_background" => Ok(defocus_suite::dof_background()),
+        "dof_receding" => Ok(defocus_suite::dof_receding()),
+        "dof_bokeh" => Ok(defocus_suite::dof_bokeh()),
+        "dof_thin" => Ok(defocus_suite::dof_thin()),
+        "dof_glossy" => Ok(defocus_suite::dof_glossy()),
+        "dof_wide" => Ok(defocus_suite::dof_wide()),
+        "dof_tiny" => Ok(defocus_suite::dof_tiny()),
+        "dof_room" => Ok(defocus_suite::dof_room()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),

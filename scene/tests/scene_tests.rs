@@ -371,9 +371,18 @@ fn builtins_load_and_are_sane() {
         &[
             "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real",
             "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact", "suite_near_light",
-            "suite_textured", "suite_glossy", "suite_room"
+            "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background", "dof_receding", "dof_bokeh",
+            "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room"
         ]
     );
+    // The defocus suite: every scene states a lens and has one area light (the component nodes'
+    // `light: 0`), and is described.
+    for (name, _) in wedge_scene::builtin::DEFOCUS_SUITE {
+        let s = load(&SceneSource::Builtin((*name).into())).unwrap();
+        assert!(s.camera.aperture_radius > 0.0 && s.camera.focus_distance > 0.0, "{name}: no lens");
+        assert_eq!(s.lights.len(), 1, "{name}");
+        assert!(s.triangle_count() > 0, "{name}");
+    }
     for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
         assert_eq!(s.lights.len(), 1, "{name}");

@@ -23,6 +23,7 @@
 //! method, so the ratio is the same kind of number for every effect; the CSV also has each kind.
 //! **Time** is the sum of the passes' measured times (wall-clock per pass).
 
+pub mod classes;
 pub mod curves;
 pub mod flip;
 pub mod format;
@@ -40,6 +41,7 @@ use wedge_backends::cpu::CpuBackend;
 use wedge_backends::{KernelClass, RunResult, Silent};
 use wedge_scene::SceneSource;
 
+use crate::graph::factoring::CameraSettings;
 use crate::image::Image;
 use crate::metrics::{compare, Metrics};
 use crate::outputs::buffer_to_image;
@@ -78,6 +80,9 @@ pub struct BenchOptions {
     pub seed: Option<u32>,
     /// Scene override (as `--scene`).
     pub scene: Option<String>,
+    /// Node parameters set on every run and on the reference (as `--set NODE.PARAM=VALUE`): the
+    /// suite sets each scene's lens so ([`suite::lens_params`]).
+    pub params: Vec<(String, String, crate::graph::ParamValue)>,
     /// `mu` values of the sweep (default 0.5, 1, 2, 4; quick 1, 2). Ignored when no node declares `mu`.
     pub mu_values: Option<Vec<f64>>,
     /// Other pipelines to measure beside it (`--compare`): each on the bench's scene, size and
@@ -111,6 +116,7 @@ impl BenchOptions {
             height: None,
             seed: None,
             scene: None,
+            params: Vec::new(),
             mu_values: None,
             compare: Vec::new(),
             baseline_spp: None,
@@ -339,6 +345,8 @@ pub struct BenchResult {
     /// The primary run's mean over the reference's mean, minus 1 (all pixels and channels): the
     /// image-wide bias in brightness (issue 16's AO goal: within ±2%).
     pub mean_offset: f64,
+    /// The primary run's error split by pixel class ([`classes`]: focus, texture).
+    pub error_by_class: Vec<classes::ClassError>,
     pub seconds: f64,
 }
 
@@ -437,6 +445,8 @@ pub(crate) struct KeptImages {
     pub ours: Image,
     pub unfiltered: Option<Image>,
     pub equal_time: Option<(Image, u32)>,
+    /// The primary run's per-pixel (squared error, variance) ([`classes::pixel_errors`]).
+    pub pixel_errors: Vec<(f64, f64)>,
 }
 
 fn fmt_mu(mu: f64) -> String {
@@ -453,7 +463,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         height: opts.height.or(dh),
         seed: opts.seed,
         mu: None,
-        params: Vec::new(),
+        params: opts.params.clone(),
         ..Overrides::default()
     };
     let path = opts.pipeline.as_path();
@@ -521,7 +531,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     }
     let seed2 = seed.wrapping_add(1);
     let mut runs: Vec<RunRecord> = Vec::new();
-    let mut kept_ours: Option<(Image, Option<Image>)> = None;
+    // The primary run: seed 1's image, its unfiltered input, seed 2's image, its pixel classes.
+    let mut kept_ours: Option<(Image, Option<Image>, Image, Vec<classes::Partition>)> = None;
     let pipeline_dir = opts.out.join("pipeline");
     for &mu in &mus {
         let s1 = Session::open(Some(path), &ctx.ov(seed, mu))?;
@@ -545,7 +556,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         if rec.primary {
             crate::outputs::write_run(&pipeline_dir, "render", &run1, width, height)?;
             let unfiltered = run1.output("unfiltered").map(|b| buffer_to_image(b, width, height));
-            kept_ours = Some((img1.clone(), unfiltered));
+            let partitions = pixel_classes(&s1, width, height)?;
+            kept_ours = Some((img1.clone(), unfiltered, img2.clone(), partitions));
         }
         runs.push(rec);
         runs.push(parts2.record(Method::Pipeline, Role::SecondSeed, format!("{label} seed {seed2}"), shown_mu, None, seed2));
@@ -659,9 +671,11 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     }
 
     let goals = report::check_goals(&runs, &opts.goals);
-    let (ours, unfiltered) = kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
+    let (ours, unfiltered, ours_seed2, partitions) = kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
     let mean_offset = mean_of(&ours) / mean_of(&ctx.reference) - 1.0;
-    let kept = KeptImages { reference: ctx.reference, ours, unfiltered, equal_time };
+    let pixel_errors = classes::pixel_errors(&ours, &ours_seed2, &ctx.reference);
+    let error_by_class = classes::class_errors(&partitions, &pixel_errors, reference.noise_rmse * reference.noise_rmse);
+    let kept = KeptImages { reference: ctx.reference, ours, unfiltered, equal_time, pixel_errors };
     let mut result = BenchResult {
         pipeline_name,
         scene: scene_name,
@@ -679,10 +693,22 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         goals,
         fits,
         mean_offset,
+        error_by_class,
         seconds: 0.0,
     };
     report::write_all(&mut result, &kept, &pipeline_dir, t0)?;
     Ok(result)
+}
+
+/// The pixel classes of `session`'s image ([`classes::partitions`]): its scene's G-buffer at the
+/// bench's size, and the lens of its factoring node where it has one.
+fn pixel_classes(session: &Session, width: u32, height: u32) -> Result<Vec<classes::Partition>, WedgeError> {
+    let aovs = crate::aov::Aovs::render(&session.scene, width, height)?;
+    let lens = session.pipeline.factoring.as_ref().and_then(|f| {
+        let [aperture, focus] = [CameraSettings::LENS[0], CameraSettings::LENS[1]].map(|n| f.float(n));
+        Some((aperture? as f32, focus? as f32))
+    });
+    Ok(classes::partitions(&aovs, &session.camera_at(0), lens))
 }
 
 /// Mean of every finite channel value of `img` (NaN when there is none).
@@ -742,6 +768,7 @@ fn obtain_reference(
         height,
         spp,
         sampling: "stratified".into(),
+        params: opts.params.iter().map(|(n, k, v)| format!("{n}.{k}={v:?}")).collect::<Vec<_>>().join(" "),
     };
     let dir = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let seeds = reference_seeds(seed);

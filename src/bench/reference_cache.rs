@@ -43,6 +43,8 @@ pub struct ReferenceSpec {
     pub height: u32,
     pub spp: u32,
     pub sampling: String,
+    /// The `--set` overrides the reference was rendered with (`NODE.PARAM=VALUE`, space-separated).
+    pub params: String,
 }
 
 /// 64-bit FNV-1a.
@@ -59,7 +61,7 @@ impl ReferenceSpec {
     /// One line naming everything the image depends on (file contents by hash).
     pub fn description(&self) -> String {
         format!(
-            "v{FORMAT_VERSION} wedge {} build {} pipeline {:016x} scene {:?} scene-file {} seed {} size {}x{} spp {} sampling {}",
+            "v{FORMAT_VERSION} wedge {} build {} pipeline {:016x} scene {:?} scene-file {} seed {} size {}x{} spp {} sampling {} set {:?}",
             env!("CARGO_PKG_VERSION"),
             renderer_fingerprint(),
             fnv1a64(self.pipeline_text.as_bytes()),
@@ -69,7 +71,8 @@ impl ReferenceSpec {
             self.width,
             self.height,
             self.spp,
-            self.sampling
+            self.sampling,
+            self.params
         )
     }
     /// The cache key: 16 hex digits.
@@ -148,6 +151,7 @@ mod tests {
             height: 3,
             spp: 64,
             sampling: "stratified".into(),
+            params: String::new(),
         }
     }
 
@@ -171,6 +175,9 @@ mod tests {
         assert_ne!(s.key(), base);
         let mut s = spec();
         s.scene_bytes = Some(vec![1, 2]);
+        assert_ne!(s.key(), base);
+        let mut s = spec();
+        s.params = "defocus.aperture_radius=Float(0.05)".into();
         assert_ne!(s.key(), base);
         assert_eq!(spec().key(), base);
     }

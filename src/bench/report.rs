@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::classes;
 use super::format::{ratio, sci};
 use super::plots::{write_plot, Plot, Series, SeriesStyle, BLUE, GREEN, GREY, RED};
 use super::{BenchResult, GoalOutcome, Goals, KeptImages, Method, Role, RunRecord};
@@ -271,9 +272,18 @@ pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_di
         let e = squared_error_map(img, &kept.reference);
         errors.push((img_dir.join("error_equal_time_mc.png"), format!("squared error: equal-time {} ({n} spp)", Method::Stratified.name()), e));
     }
+    // Its two parts, per 4×4 block (classes.rs), on the same log range as the squared error.
+    let (w, h) = (kept.reference.width, kept.reference.height);
+    let reference_variance = result.reference.noise_rmse * result.reference.noise_rmse;
+    errors.push((
+        img_dir.join("error_bias2.png"),
+        "bias² per 4x4 block: ours (pipeline's mu)".into(),
+        classes::block_map(&kept.pixel_errors, w, h, 4, |mse, var| (mse - var - reference_variance).max(0.0)),
+    ));
+    errors.push((img_dir.join("error_variance.png"), "variance per 4x4 block: ours (pipeline's mu)".into(), classes::block_map(&kept.pixel_errors, w, h, 4, |_, var| var)));
     for (path, title, values) in &errors {
         let spec = HeatmapSpec { title, unit: "", scale: Scale::Log, range, arrows: None };
-        write_heatmap_png(&set.file(rel(path))?, kept.reference.width, kept.reference.height, values, None, &spec)?;
+        write_heatmap_png(&set.file(rel(path))?, w, h, values, None, &spec)?;
     }
     result.images = crops.iter().map(|c| c.1.clone()).chain([full_ref]).chain(errors.iter().map(|e| e.0.clone())).collect();
 
@@ -481,6 +491,7 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             let _ = writeln!(w, "![{}]({})", rel(e, out), rel(e, out));
         }
     }
+    class_table(w, &r.error_by_class);
     let heat: Vec<PathBuf> =
         ["filter_width.png", "rays_per_pixel.png"].iter().map(|n| pipeline_dir.join(n)).filter(|p| p.exists()).collect();
     if !heat.is_empty() {
@@ -503,6 +514,38 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
 - **Filter overhead**: (bandwidth + filter time) / sampling time. Timings on a shared machine are noisy."
     );
     s
+}
+
+/// The "Where the error lives" table: each pixel class's share of the squared error, its bias² and
+/// variance (classes.rs).
+fn class_table(w: &mut String, errors: &[classes::ClassError]) {
+    if errors.is_empty() {
+        return;
+    }
+    let _ = writeln!(w, "\n## Where the error lives, by pixel class (ours, pipeline's mu)\n");
+    let _ = writeln!(w, "{}\n", classes::summary(errors));
+    let _ = writeln!(w, "| partition | class | pixels | share of squared error | MSE | bias² | variance | dominant |\n|---|---|---|---|---|---|---|---|");
+    for e in errors {
+        let _ = writeln!(
+            w,
+            "| {} | {} | {:.1}% | {:.1}% | {} | {} | {} | {} |",
+            e.partition,
+            e.class,
+            100.0 * e.pixels,
+            100.0 * e.share,
+            sci(e.mse, 3),
+            sci(e.bias2, 3),
+            sci(e.variance, 3),
+            e.dominant()
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\nClasses from the scene's pinhole G-buffer: in focus = circle of confusion ≤ {} px; texture edge = albedo \
+         luminance step > {} to a 4-neighbour. bias² = MSE − variance − reference variance per class, clamped at 0.",
+        classes::IN_FOCUS_COC_PX,
+        classes::EDGE_STEP
+    );
 }
 
 #[cfg(test)]

@@ -25,13 +25,70 @@ use serde::Serialize;
 use super::plots::{write_bar_chart, BarChart, BarSeries, BLUE, GREY, RED};
 use super::format::{ratio, sci};
 use super::{BenchOptions, BenchResult, Method};
+use crate::graph::factoring::CameraSettings;
+use crate::graph::ParamValue;
+use wedge_scene::builtin::SuiteFamily;
+use wedge_scene::SceneSource;
 use crate::image::ImageError;
 use crate::staging::Staging;
 use crate::WedgeError;
 
 /// The default suite: every scene of [`wedge_scene::builtin::SUITE`], as `builtin:NAME` specs.
 pub fn default_scenes() -> Vec<String> {
-    wedge_scene::builtin::suite_names().map(|n| format!("builtin:{n}")).collect()
+    family_scenes(SuiteFamily::Shadows)
+}
+
+/// Every scene of `family`'s suite, as `builtin:NAME` specs.
+pub fn family_scenes(family: SuiteFamily) -> Vec<String> {
+    family.scenes().iter().map(|(n, _)| format!("builtin:{n}")).collect()
+}
+
+/// The names of the camera parameters a node declares to take the thin lens from (the factoring
+/// contract's [`CameraSettings::LENS`] without the lens shape): a node that declares both takes
+/// each suite scene's lens.
+const LENS_PARAMS: [&str; 2] = [CameraSettings::LENS[0], CameraSettings::LENS[1]];
+
+/// The nodes of `pipeline` that declare the thin lens's parameters (by declaration, not by kind).
+fn lens_nodes(pipeline: &Path) -> Result<Vec<String>, WedgeError> {
+    let loaded = crate::session::load_pipeline_or_default(Some(pipeline))?;
+    let (registry, _) = wedge_effects::builtin();
+    Ok(loaded
+        .pipeline
+        .nodes
+        .iter()
+        .filter(|n| {
+            registry.get(&n.kind).is_some_and(|k| {
+                let params = k.params();
+                LENS_PARAMS.iter().all(|p| params.iter().any(|d| d.name == *p))
+            })
+        })
+        .map(|n| n.name.clone())
+        .collect())
+}
+
+/// The suite family for `pipeline`: the defocus suite when a node takes a thin lens, else the
+/// soft-shadow suite ([`SuiteFamily::for_lens`]).
+pub fn family_of(pipeline: &Path) -> Result<SuiteFamily, WedgeError> {
+    Ok(SuiteFamily::for_lens(!lens_nodes(pipeline)?.is_empty()))
+}
+
+/// `--set` overrides that give every lens-taking node of `pipeline` the lens of the built-in scene
+/// `spec`'s camera (none for a scene without an aperture): the defocus suite's scenes each state
+/// their lens, as a pipeline states its own.
+pub fn lens_params(pipeline: &Path, spec: &str) -> Result<Vec<(String, String, ParamValue)>, WedgeError> {
+    let Some(name) = spec.strip_prefix("builtin:") else {
+        return Ok(Vec::new());
+    };
+    let scene = wedge_scene::load(&SceneSource::Builtin(name.to_string()))?;
+    let cam = scene.camera;
+    if cam.aperture_radius <= 0.0 {
+        return Ok(Vec::new());
+    }
+    let values = [cam.aperture_radius, cam.effective_focus_distance()];
+    Ok(lens_nodes(pipeline)?
+        .into_iter()
+        .flat_map(|node| LENS_PARAMS.iter().zip(values).map(move |(p, v)| (node.clone(), p.to_string(), ParamValue::Float(f64::from(v)))))
+        .collect())
 }
 
 /// The name a scene spec gets in the suite (its directory under `<out>`): a built-in's name, or a
@@ -75,6 +132,9 @@ pub struct SuiteRow {
     pub reference_noise_rmse: f64,
     /// The scene's whole bench, seconds.
     pub seconds: f64,
+    /// Where the error lives ([`super::classes::summary`]): per pixel partition, the class with
+    /// the largest share of the squared error and what dominates it.
+    pub error_home: String,
 }
 
 impl SuiteRow {
@@ -100,6 +160,7 @@ impl SuiteRow {
             filter_overhead: p.map_or(f64::NAN, |p| p.time.filter_overhead()),
             reference_noise_rmse: r.reference.noise_rmse,
             seconds: r.seconds,
+            error_home: super::classes::summary(&r.error_by_class),
         }
     }
 
@@ -205,6 +266,9 @@ pub fn worst_row(rows: &[SuiteRow]) -> Option<usize> {
 #[derive(Clone, Debug, Serialize)]
 pub struct SuiteResult {
     pub pipeline_name: String,
+    /// Which suite's goals the table is read against.
+    #[serde(serialize_with = "family_name")]
+    pub family: SuiteFamily,
     pub width: u32,
     pub height: u32,
     pub quick: bool,
@@ -220,6 +284,10 @@ pub struct SuiteResult {
     pub json: PathBuf,
     pub plot: PathBuf,
     pub seconds: f64,
+}
+
+fn family_name<S: serde::Serializer>(f: &SuiteFamily, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(f.name())
 }
 
 impl SuiteResult {
@@ -272,8 +340,11 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
             b.set_message(format!("{key}: starting"));
         }
         say(format!("suite: scene `{key}` ({}/{})", rows.len() + 1, scenes.len()));
+        let mut params = opts.params.clone();
+        params.extend(lens_params(&opts.pipeline, spec)?);
         let scene_opts = BenchOptions {
             scene: Some(spec.clone()),
+            params,
             out: opts.out.join(key),
             cache_dir: Some(cache.clone()),
             progress: bar.clone(),
@@ -306,6 +377,7 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
     let out = opts.out.clone();
     let mut result = SuiteResult {
         pipeline_name,
+        family: family_of(&opts.pipeline)?,
         width: size.0,
         height: size.1,
         quick: opts.quick,
@@ -469,12 +541,12 @@ pub fn markdown(r: &SuiteResult) -> String {
     );
     let _ = writeln!(
         w,
-        "| scene | μ | rays/px | RMSE | vs independent | vs stratified | bias² | variance | bias share | mean offset | filter overhead |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|"
+        "| scene | μ | rays/px | RMSE | vs independent | vs stratified | bias² | variance | bias share | mean offset | filter overhead | where the error lives |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     let row_cells = |x: &SuiteRow| {
         format!(
-            "{} | {} | {} | {}x{} | {}x{} | {} | {} | {} | {} | {}",
+            "{} | {} | {} | {}x{} | {}x{} | {} | {} | {} | {} | {} | {}",
             x.mu.map_or("-".into(), |m| m.to_string()),
             ratio(x.rays_per_pixel),
             sci(x.rmse, 2),
@@ -486,7 +558,8 @@ pub fn markdown(r: &SuiteResult) -> String {
             sci(x.variance, 2),
             pct(x.bias_fraction, 0),
             signed_pct(x.mean_offset),
-            pct(x.filter_overhead, 1)
+            pct(x.filter_overhead, 1),
+            x.error_home
         )
     };
     for x in &r.rows {
@@ -495,7 +568,7 @@ pub fn markdown(r: &SuiteResult) -> String {
     let m = &r.median;
     let _ = writeln!(
         w,
-        "| **median** | | {} | {} | **{}x** | **{}x** | {} | {} | {} | {} | {} |",
+        "| **median** | | {} | {} | **{}x** | **{}x** | {} | {} | {} | {} | {} | |",
         ratio(m.rays_per_pixel),
         sci(m.rmse, 2),
         ratio(m.speedup_vs_independent),
@@ -515,10 +588,19 @@ pub fn markdown(r: &SuiteResult) -> String {
          against stratified MC. ⚠ = the baseline's rays were extrapolated beyond its measured curve (see that scene's report).\n"
     );
     let below = |t: f64| r.rows.iter().filter(|x| x.speedup_vs_stratified.is_finite() && x.speedup_vs_stratified < t).count();
+    let goals = match r.family {
+        SuiteFamily::Shadows => {
+            "Issue 16's goals against stratified MC (SoftShadows: median ≥ 2×, worst ≥ 1.5×, ≥ 10× against independent; \
+             Indirect: median ≥ 1.5×; AO: mean within 2%)"
+        }
+        SuiteFamily::Defocus => {
+            "Issue 35's goals against stratified MC over lens and light (Defocus pipelines at 640×480: median ≥ 3×, worst ≥ \
+             1.5×, ≥ 8× against independent everywhere; mean within 1%)"
+        }
+    };
     let _ = writeln!(
         w,
-        "Issue 16's goals against stratified MC (SoftShadows: median ≥ 2×, worst ≥ 1.5×, ≥ 10× against independent; \
-         Indirect: median ≥ 1.5×; AO: mean within 2%): median **{}x**, worst **{}x**; {} of {} scenes below 1.5×, {} below 2×; \
+        "{goals}: median **{}x**, worst **{}x**; {} of {} scenes below 1.5×, {} below 2×; \
          median against independent {}x; median |mean offset| {}.\n",
         ratio(m.speedup_vs_stratified),
         r.worst_row().map_or("n/a".into(), |x| ratio(x.speedup_vs_stratified)),
@@ -553,6 +635,9 @@ pub fn markdown(r: &SuiteResult) -> String {
          - **bias², variance**: the MSE split from two seeds with the reference's noise removed; **bias share** = bias² / \
          (bias² + variance).\n\
          - **mean offset**: mean(ours) / mean(reference) − 1 over all pixels and channels (issue 16's AO goal: within ±2%).\n\
+         - **where the error lives**: per pixel partition (focus with a lens, texture), the class with the largest share of \
+         the squared error and whether bias² or variance dominates it (each scene's report has the whole table and the \
+         bias² / variance maps).\n\
          - **filter overhead**: (bandwidth + filter time) / sampling time."
     );
     s
@@ -580,6 +665,7 @@ mod tests {
             filter_overhead: 0.01,
             reference_noise_rmse: 1e-4,
             seconds: 1.0,
+            error_home: "out of focus 80% (variance)".into(),
         }
     }
 
@@ -617,6 +703,7 @@ mod tests {
         let rows = vec![row("a", 2.5, 20.0), row("b", 1.2, 30.0)];
         let r = SuiteResult {
             pipeline_name: "shadows".into(),
+            family: SuiteFamily::Shadows,
             width: 8,
             height: 6,
             quick: true,

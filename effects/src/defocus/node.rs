@@ -33,8 +33,9 @@
 //! `shutter: "frozen"` renders the scene at the shutter's centre (Ch. 5 alone).
 //!
 //! **Settings for the components** (what [`wedge_graph::NodeKind::factoring`] returns): `mu`,
-//! `mode` (`literal` eq. 5.29 as printed, or `consistent`: no clamp, converges to Monte Carlo as
-//! μ → ∞), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
+//! `mode` (`consistent`, the default: no clamp, converges to Monte Carlo as μ → ∞; or `literal`,
+//! eq. 5.29 as printed — above μ = 1 its clamped widths narrow the filters while the counts stop
+//! growing, so the error rises with μ: DESIGN-NOTES "μ above 1: the clamp of eq. 5.29"), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
 //! `separable`, `motion_filter`, and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
 //! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
@@ -124,7 +125,7 @@ impl NodeKind for Defocus {
             ParamDecl::positive("focus_distance", 2.6, 1e9, "distance of the plane in focus along the view direction, world units; default: the camera block's").optional(),
             ParamDecl::choice("lens", "disk", &["disk", "gaussian"], "aperture weight: uniform disk (pbrt, Mitsuba) or the thesis's Gaussian exp(-|u|²/2)"),
             ParamDecl::positive("mu", 1.0, 1e6, "μ: scales every Ch. 5 bandwidth (eq. 5.29); larger = narrower filters, more rays"),
-            ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
+            ParamDecl::choice("mode", "consistent", &Mode::NAMES, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (the thesis's reading: k·E = L where the scene factors), or the per-sample geometry term (unbiased; for comparisons with other renderers)"),
             ParamDecl::boolean("factor", true, "factor L into texture × irradiance (eq. 5.30); false = the thesis's no-factoring ablation"),
             ParamDecl::int("initial_paths", 16, 1, 4096, "first-pass paths per pixel (thesis: 16, one lens, shadow and indirect sample each)"),

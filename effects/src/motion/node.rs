@@ -36,8 +36,9 @@
 //! file's `motion`, the built-in `motion` scene) or the pipeline's `motion` block; the shutter from the
 //! camera.
 //!
-//! Settings for the components (the factoring contract): `mu`, `mode` (`literal` eq. 5.29 as printed,
-//! or `consistent`: converges to Monte Carlo as μ → ∞), `max_primary`, `max_per_primary`,
+//! Settings for the components (the factoring contract): `mu`, `mode` (`consistent`, the default:
+//! converges to Monte Carlo as μ → ∞; or `literal`, eq. 5.29 as printed, whose error rises above
+//! μ = 1: DESIGN-NOTES "μ above 1: the clamp of eq. 5.29"), `max_primary`, `max_per_primary`,
 //! `max_radius`, `multi_paths`, and the camera setting `time = true` (its paths sample the shutter:
 //! a node tracing its own camera rays, LightField, samples it too).
 
@@ -106,7 +107,7 @@ impl NodeKind for Motion {
         vec![
             ParamDecl::positive("mu", 1.0, 1e6, "μ: scales every App. B bandwidth (eq. 5.29); larger = narrower filters, more rays"),
             ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = EQUATIONS.md's reading)"),
-            ParamDecl::choice("mode", "literal", &Mode::NAMES, "eq. 5.29 as printed (clamped at Ω_pix^max), or consistent (converges to Monte Carlo as μ grows)"),
+            ParamDecl::choice("mode", "consistent", &Mode::NAMES, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one time, shadow and indirect sample each (thesis App. B: 9; 4 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
