@@ -38,6 +38,19 @@ if ! has_gl; then
     fi
 fi
 
+# `wedge view`'s window test (tests/view.rs) runs the viewer under Xvfb (Debian `xvfb`: xvfb-run).
+# Without it the test prints that it was skipped and why — except under CI=true, where it fails.
+if ! command -v xvfb-run >/dev/null 2>&1; then
+    if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
+        echo "test.sh: xvfb-run not found; installing Xvfb (xvfb)"
+        apt-get update -qq && apt-get install -y -qq xvfb >/dev/null ||
+            echo "test.sh: warning: installing xvfb failed; the window test will be skipped (fails under CI=true)"
+    else
+        echo "test.sh: no xvfb-run and no way to install it (needs root and apt-get): the window test" \
+             "will be skipped (fails under CI=true). Install with: apt-get install xvfb"
+    fi
+fi
+
 cargo test --release --workspace --all-targets "$@"
 
 # The user-crate example (examples/custom_kernel: outside the workspace; its own kernel + WGSL + node,

@@ -22,5 +22,8 @@ pub mod outputs;
 pub mod progress;
 pub mod session;
 pub mod staging;
+/// `wedge view`, the interactive window (the `view` feature, on by default).
+#[cfg(feature = "view")]
+pub mod view;
 
 pub use session::{Overrides, Session, WedgeError};

@@ -9,7 +9,7 @@ use wedge::graph::ParamValue;
 use wedge::image::read_exr;
 use wedge::outputs::summary;
 use wedge::progress::Bars;
-use wedge::session::RunMode;
+use wedge::session::{open_gpu, RunMode};
 use wedge::{Overrides, Session, WedgeError};
 
 #[derive(Parser)]
@@ -204,6 +204,23 @@ enum Command {
         /// As for `render`.
         #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
         allow_outside_dir: bool,
+    },
+    /// Open a window showing the pipeline live (default: pipelines/shadows.ron): output picker with
+    /// A/B split, parameter widgets from the node declarations, hot reload of the pipeline file,
+    /// frame averaging while nothing changes, timings, orbit camera; F12 writes a screenshot
+    /// (EXR + PNG as `render` writes them) into --out.
+    #[cfg(feature = "view")]
+    View {
+        pipeline: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+        /// Scale every node's bandwidth parameter `mu` (a finite number > 0); a slider in the window.
+        #[arg(long, value_parser = parse_mu)]
+        mu: Option<f64>,
+        /// Run the steps of this RON script (parameter changes, outputs, camera moves, screenshots at
+        /// given frames), then close the window and exit: for tests and demos.
+        #[arg(long, value_name = "SCRIPT")]
+        script: Option<PathBuf>,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes). Refusals that
     /// need no scene come first; then the scene is loaded as `render` loads it (no environment map
@@ -575,17 +592,6 @@ fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[St
     Ok(text)
 }
 
-/// The wgpu backend with the limits `--gpu-limits` names (None: the library's default, which reads
-/// `WEDGE_WGPU_LIMITS`).
-fn open_gpu(limits: Option<&str>) -> Result<wedge::backends::gpu::GpuBackend, WedgeError> {
-    use wedge::backends::gpu::{GpuBackend, LimitsChoice};
-    Ok(match limits {
-        None => GpuBackend::new()?,
-        Some("webgpu") => GpuBackend::open(LimitsChoice::WebGpuDefault)?,
-        Some(_) => GpuBackend::open(LimitsChoice::Adapter)?,
-    })
-}
-
 fn run_wgpu(
     session: &Session,
     bars: &Bars,
@@ -719,6 +725,8 @@ impl Command {
     fn threads(&self) -> Option<usize> {
         match self {
             Command::Render { common, .. } | Command::Reference { common, .. } => common.threads,
+            #[cfg(feature = "view")]
+            Command::View { common, .. } => common.threads,
             _ => None,
         }
     }
@@ -744,6 +752,20 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             render(&session, &common, "reference", &[])
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
+        #[cfg(feature = "view")]
+        Command::View { pipeline, common, mu, script } => {
+            start_rendering_command(&common)?;
+            let opts = wedge::view::ViewOptions {
+                pipeline,
+                overrides: overrides(&common, mu)?,
+                backend: common.backend.clone(),
+                gpu_limits: common.gpu_limits.clone(),
+                out: common.out.clone(),
+                memory_limit: common.memory_limit,
+                script,
+            };
+            wedge::view::run(opts)
+        }
         Command::Parity { pipeline, scene, width, height, seed, set, memory_limit, gpu_limits, frames } => {
             let ov = Overrides {
                 scene,

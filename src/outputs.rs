@@ -104,6 +104,24 @@ pub fn write_run_with(
     set.commit()
 }
 
+/// An already drawn 8-bit sRGB picture (`width * height * 3` bytes, top row first), written as
+/// `<name>.png` beside a run's outputs: what `wedge view` shows when its screenshot key is pressed.
+pub struct Picture<'a> {
+    pub name: &'a str,
+    pub width: u32,
+    pub height: u32,
+    pub rgb: &'a [u8],
+}
+
+/// [`write_run`] and `picture` in one all-or-nothing set (`wedge view`'s screenshot).
+pub fn write_run_with_picture(dir: &Path, stem: &str, run: &RunResult, picture: &Picture, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
+    let mut set = OutputSet::new(dir)?;
+    set.run(stem, run, &[], width, height)?;
+    let path = set.file(&format!("{}.png", picture.name), "the viewer's picture")?;
+    crate::image::write_png_rgb8(&path, picture.width, picture.height, picture.rgb)?;
+    set.commit()
+}
+
 /// The files of `render --frames`, written as the frames come so that a sequence of any length holds
 /// one frame in memory: `frame_NNNN.exr` / `.png` and `extra` EXRs of each frame are staged on disk
 /// at once, `preview.gif` (sRGB, 8 bits, 24 frames per second, looping) is encoded frame by frame
@@ -202,30 +220,15 @@ impl OutputSet {
 
     /// Stage everything `run` produced (see [`write_run`]) and `extra`.
     fn run(&mut self, stem: &str, run: &RunResult, extra: &[ExtraExr], width: u32, height: u32) -> Result<(), ImageError> {
-        for (port, name) in [("color", stem), ("unfiltered", "unfiltered")] {
+        for (port, default_name) in IMAGE_PORTS {
+            let name = if port == "color" { stem } else { default_name };
             if let Some(b) = run.output(port) {
                 self.image(name, &buffer_to_image(b, width, height), &format!("the `{port}` image"))?;
             }
         }
-        let output_maps = [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
-        for (port, title, unit, mask_zero) in output_maps {
-            if let Some(b) = run.output(port) {
-                let path = self.file(&format!("{port}.png"), &format!("the `{port}` heatmap"))?;
-                let spec = HeatmapSpec { title, unit, scale: Scale::Log, range: None, arrows: None };
-                write_values(&path, &b.to_scalar(), mask_zero, &spec, width, height)?;
-            }
-        }
-        for ((node, port), b) in &run.outputs {
-            let Some(sink) = run.sinks.get(node).filter(|s| s.kind == heatmap::KIND) else { continue };
-            let Some(d) = heatmap::describe(node, &sink.params, port) else { continue };
-            let path = self.file(&format!("{node}.png"), &format!("Heatmap node `{node}`"))?;
-            let scale = if d.log { Scale::Log } else { Scale::Linear };
-            // A `motion` input (v_x, v_y, Ω, σ): σ with strokes along v.
-            let arrows: Option<Vec<[f32; 2]>> =
-                d.velocity.then(|| (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1)]).collect());
-            let spec = HeatmapSpec { title: &d.title, unit: &d.unit, scale, range: None, arrows: arrows.as_deref() };
-            let values = if d.velocity { (0..b.len()).map(|i| b.component(i, 3)).collect() } else { b.to_scalar() };
-            write_values(&path, &values, d.mask_zero, &spec, width, height)?;
+        for map in heatmap_views(run) {
+            let path = self.file(&format!("{}.png", map.name), &map.what)?;
+            map.write(&path, width, height)?;
         }
         extra.iter().try_for_each(|e| self.extra(e))
     }
@@ -236,10 +239,86 @@ impl OutputSet {
     }
 }
 
-/// Write `path`, a heatmap of `values`; `mask_zero` draws values ≤ 0 black.
-fn write_values(path: &Path, values: &[f32], mask_zero: bool, spec: &HeatmapSpec, width: u32, height: u32) -> Result<(), ImageError> {
-    let mask: Option<Vec<bool>> = mask_zero.then(|| values.iter().map(|v| *v <= 0.0).collect());
-    write_heatmap_png(path, width, height, values, mask.as_deref(), spec)
+/// The `(port, file stem)` of `Output`'s images, written as EXR + PNG (tone-mapped).
+pub const IMAGE_PORTS: [(&str, &str); 2] = [("color", "render"), ("unfiltered", "unfiltered")];
+
+/// One heatmap a run produced (an `Output` map or a `Heatmap` sink): its values and how to draw
+/// them. `wedge render` writes each as `<name>.png`; `wedge view` shows the same picture.
+#[derive(Clone, Debug)]
+pub struct HeatmapView {
+    /// File stem: the `Output` port or the `Heatmap` node's name.
+    pub name: String,
+    /// Which output writes it, for a clash message.
+    pub what: String,
+    pub title: String,
+    pub unit: String,
+    pub scale: Scale,
+    /// Draw values ≤ 0 black (e.g. "not filtered").
+    pub mask_zero: bool,
+    pub values: Vec<f32>,
+    /// Per-pixel velocity strokes (a `motion` input).
+    pub arrows: Option<Vec<[f32; 2]>>,
+}
+
+impl HeatmapView {
+    /// The picture with title and colour bar: `(width, height, rgb8)`.
+    pub fn render(&self, width: u32, height: u32) -> (u32, u32, Vec<u8>) {
+        let mask = self.mask();
+        crate::heatmap::render_heatmap(width, height, &self.values, mask.as_deref(), &self.spec())
+    }
+
+    fn write(&self, path: &Path, width: u32, height: u32) -> Result<(), ImageError> {
+        let mask = self.mask();
+        write_heatmap_png(path, width, height, &self.values, mask.as_deref(), &self.spec())
+    }
+
+    fn mask(&self) -> Option<Vec<bool>> {
+        self.mask_zero.then(|| self.values.iter().map(|v| *v <= 0.0).collect())
+    }
+
+    fn spec(&self) -> HeatmapSpec<'_> {
+        HeatmapSpec { title: &self.title, unit: &self.unit, scale: self.scale, range: None, arrows: self.arrows.as_deref() }
+    }
+}
+
+/// Every heatmap of `run`, in the order `wedge render` writes them: `Output`'s filter width and rays
+/// per pixel, then every `Heatmap` sink drawn as its parameters say (the run carries each sink's kind
+/// and parameters, [`RunResult::sinks`]).
+pub fn heatmap_views(run: &RunResult) -> Vec<HeatmapView> {
+    let mut views = Vec::new();
+    let output_maps = [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
+    for (port, title, unit, mask_zero) in output_maps {
+        if let Some(b) = run.output(port) {
+            views.push(HeatmapView {
+                name: port.to_string(),
+                what: format!("the `{port}` heatmap"),
+                title: title.to_string(),
+                unit: unit.to_string(),
+                scale: Scale::Log,
+                mask_zero,
+                values: b.to_scalar(),
+                arrows: None,
+            });
+        }
+    }
+    for ((node, port), b) in &run.outputs {
+        let Some(sink) = run.sinks.get(node).filter(|s| s.kind == heatmap::KIND) else { continue };
+        let Some(d) = heatmap::describe(node, &sink.params, port) else { continue };
+        // A `motion` input (v_x, v_y, Ω, σ): σ with strokes along v.
+        let arrows = d.velocity.then(|| (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1)]).collect());
+        let values = if d.velocity { (0..b.len()).map(|i| b.component(i, 3)).collect() } else { b.to_scalar() };
+        views.push(HeatmapView {
+            name: node.clone(),
+            what: format!("Heatmap node `{node}`"),
+            title: d.title.clone(),
+            unit: d.unit.clone(),
+            scale: if d.log { Scale::Log } else { Scale::Linear },
+            mask_zero: d.mask_zero,
+            values,
+            arrows,
+        });
+    }
+    views
 }
 
 /// Average rays per pixel of each kind, and the per-pass time table.

@@ -94,6 +94,17 @@ pub struct Session {
     pub allow_outside_dir: bool,
 }
 
+/// The wgpu backend with the limits `--gpu-limits` names (None: the library's default, which reads
+/// `WEDGE_WGPU_LIMITS`). Shared by `render`, `parity` and `view`.
+pub fn open_gpu(limits: Option<&str>) -> Result<wedge_backends::gpu::GpuBackend, WedgeError> {
+    use wedge_backends::gpu::{GpuBackend, LimitsChoice};
+    Ok(match limits {
+        None => GpuBackend::new()?,
+        Some("webgpu") => GpuBackend::open(LimitsChoice::WebGpuDefault)?,
+        Some(_) => GpuBackend::open(LimitsChoice::Adapter)?,
+    })
+}
+
 /// Read a pipeline file, or the built-in default when `path` is `None`.
 pub fn load_pipeline_or_default(path: Option<&Path>) -> Result<LoadedPipeline, GraphError> {
     match path {

@@ -1,0 +1,366 @@
+//! The viewer's state, apart from any window: the session built from the pipeline and the current
+//! overrides, the backend it runs on, the running mean of its frames, the camera the user moved, and
+//! the diagnostics of the last failed reload. The window ([`super::window`]) and the script runner
+//! drive it through these methods; nothing here draws.
+//!
+//! A change (parameter, `mu`, camera, a saved pipeline) rebuilds the session with the changed
+//! overrides and starts the average over. Frames run on the render thread ([`super::render`]); the
+//! window starts one and takes it when done ([`Model::start_frame`], [`Model::poll_frame`]), a
+//! script or test renders one and waits ([`Model::render_frame`]). Re-running only the passes
+//! downstream of a change is a later step (issue 38): today every frame runs the whole schedule.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use wedge_backends::{Backend, RunResult};
+use wedge_graph::ParamValue;
+use wedge_scene::{Camera, SceneSource};
+
+use super::accumulate::Accumulator;
+use super::render::{Done, Renderer, LOST};
+use super::watch::Watch;
+use super::ViewOptions;
+use crate::outputs::{write_run_with_picture, Picture, WrittenRun};
+use crate::{Overrides, Session, WedgeError};
+
+/// The lens and shutter of the pipeline's camera block, as the window edits them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    pub aperture_radius: f32,
+    pub focus_distance: f32,
+    pub shutter: (f32, f32),
+}
+
+impl Lens {
+    pub fn of(cam: &Camera) -> Lens {
+        Lens {
+            aperture_radius: cam.aperture_radius,
+            focus_distance: cam.focus_distance,
+            shutter: (cam.shutter_open, cam.shutter_close),
+        }
+    }
+}
+
+/// Most frames averaged; past it the image stops changing and the viewer stops rendering.
+pub const MAX_FRAMES: u32 = 1 << 16;
+
+pub struct Model {
+    pipeline: Option<PathBuf>,
+    /// The command line's overrides with the widgets' changes applied.
+    pub overrides: Overrides,
+    /// The last session that built; a failed rebuild keeps it (and its image). Shared with the render
+    /// thread while a frame renders; its scene camera is set to [`Model::camera`] between frames.
+    pub session: Arc<Session>,
+    /// The session's own camera (the pipeline's), under the user's moves.
+    base_camera: Camera,
+    renderer: Renderer,
+    /// Bumped by every change: a frame started before it is dropped, not averaged.
+    generation: u64,
+    acc: Accumulator,
+    watch: Watch,
+    /// Where the user moved the camera: (position, look-at) over the session's camera (`None`: the
+    /// pipeline's). Only rays change, so no rebuild.
+    view: Option<(glam::Vec3, glam::Vec3)>,
+    /// The lens and shutter set in the window, written into the pipeline's camera block before each
+    /// build (they reach the nodes' filters, not only the rays). A save of the file clears them.
+    lens: Option<Lens>,
+    /// Why the last rebuild or frame failed, as `wedge graph` prints it; cleared by the next success.
+    pub error: Option<String>,
+    /// Frames rendered since the window opened (the script's clock).
+    pub rendered: u64,
+    /// Wall time of the last frame and the time between the last two frames.
+    pub last_frame_seconds: f64,
+    pub frame_interval: f64,
+    last_frame_end: Option<Instant>,
+    /// The outputs of the last frame rendered (kept across a change, until the next frame).
+    outputs: Vec<String>,
+    /// No new frames while set (the user paused, or a frame failed).
+    pub paused: bool,
+}
+
+impl Model {
+    /// Open the session the command line asks for; an error here ends `wedge view` like `render`.
+    pub fn open(opts: &ViewOptions) -> Result<Model, WedgeError> {
+        let session = Session::open(opts.pipeline.as_deref(), &opts.overrides)?;
+        if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
+            let mode = if opts.backend == "wgpu" {
+                crate::session::RunMode::Gpu
+            } else {
+                crate::session::RunMode::Cpu
+            };
+            session.memory_estimate(mode).check(limit, &source)?;
+        }
+        let backend: Box<dyn Backend + Send> = match opts.backend.as_str() {
+            "wgpu" => Box::new(crate::session::open_gpu(opts.gpu_limits.as_deref())?),
+            _ => Box::new(wedge_backends::cpu::CpuBackend::new()),
+        };
+        let watch = Watch::new(watched_files(
+            opts.pipeline.as_ref(),
+            &session,
+            &opts.overrides,
+        ));
+        Ok(Model {
+            pipeline: opts.pipeline.clone(),
+            overrides: opts.overrides.clone(),
+            base_camera: session.scene.camera,
+            session: Arc::new(session),
+            renderer: Renderer::new(backend)?,
+            generation: 0,
+            acc: Accumulator::default(),
+            watch,
+            view: None,
+            lens: None,
+            error: None,
+            rendered: 0,
+            last_frame_seconds: 0.0,
+            frame_interval: 0.0,
+            last_frame_end: None,
+            paused: false,
+            outputs: Vec::new(),
+        })
+    }
+
+    pub fn backend_name(&self) -> &'static str {
+        self.renderer.name()
+    }
+
+    /// The mean of the frames since the last change.
+    pub fn mean(&self) -> Option<&RunResult> {
+        self.acc.mean()
+    }
+
+    /// The names the output picker offers (those of the last frame rendered).
+    pub fn output_names(&self) -> &[String] {
+        &self.outputs
+    }
+
+    pub fn frames(&self) -> u32 {
+        self.acc.frames()
+    }
+
+    /// The camera frames are rendered with.
+    pub fn camera(&self) -> Camera {
+        let cam = self.base_camera;
+        self.view.map_or(cam, |(position, look_at)| Camera {
+            position,
+            look_at,
+            ..cam
+        })
+    }
+
+    /// Whether the pipeline has a camera block (whose lens and shutter the window can change).
+    pub fn has_camera_block(&self) -> bool {
+        self.session.pipeline.pipeline.camera.is_some()
+    }
+
+    /// Whether the next frame would add to the image (not paused, not converged).
+    pub fn wants_frame(&self) -> bool {
+        !self.paused && self.acc.frames() < MAX_FRAMES
+    }
+
+    /// Whether a frame is on the render thread (or finished and not taken).
+    pub fn frame_in_flight(&mut self) -> bool {
+        self.renderer.poll();
+        self.renderer.in_flight()
+    }
+
+    /// Whether the frame in flight has finished.
+    pub fn frame_ready(&mut self) -> bool {
+        self.renderer.poll()
+    }
+
+    /// Start the next frame on the render thread unless one is in flight or none is wanted.
+    pub fn start_frame(&mut self) -> Result<(), WedgeError> {
+        if self.renderer.in_flight() || !self.wants_frame() {
+            return Ok(());
+        }
+        // The render thread let go of the session after its last frame, so the camera can be set.
+        let camera = self.camera();
+        if self.session.scene.camera != camera {
+            let Some(session) = Arc::get_mut(&mut self.session) else {
+                return Ok(());
+            };
+            session.scene.camera = camera;
+        }
+        self.renderer
+            .start(self.session.clone(), self.acc.frames(), self.generation)
+    }
+
+    /// Take the finished frame, if any, into the mean: `Some(Ok(true))` when one was added,
+    /// `Some(Ok(false))` when it was started before a change and dropped.
+    pub fn poll_frame(&mut self) -> Option<Result<bool, WedgeError>> {
+        self.renderer.take().map(|done| self.finish(done))
+    }
+
+    /// Render one more frame (a new seed) and add it to the mean, waiting for it (scripts, tests).
+    pub fn render_frame(&mut self) -> Result<(), WedgeError> {
+        // A frame started before a change is dropped; then this one starts from the new state.
+        if let Some(done) = self.renderer.wait() {
+            self.finish(done)?;
+        }
+        let paused = std::mem::replace(&mut self.paused, false);
+        let started = self.start_frame();
+        self.paused = paused;
+        started?;
+        match self.renderer.wait() {
+            Some(done) => self.finish(done).map(|_| ()),
+            None => Err(WedgeError::Usage(format!(
+                "no frame was started: {} frames are averaged already",
+                MAX_FRAMES
+            ))),
+        }
+    }
+
+    fn finish(&mut self, done: Done) -> Result<bool, WedgeError> {
+        if done.generation != self.generation && done.generation != LOST {
+            return Ok(false);
+        }
+        let end = Instant::now();
+        self.last_frame_seconds = done.seconds;
+        self.frame_interval = self
+            .last_frame_end
+            .map_or(done.seconds, |t| (end - t).as_secs_f64());
+        self.last_frame_end = Some(end);
+        let run = done.run?;
+        self.outputs = super::outputs::names(&run);
+        self.acc.add(run);
+        self.rendered += 1;
+        Ok(true)
+    }
+
+    /// Start the mean over (something changed): frames in flight are dropped when they arrive.
+    fn restart(&mut self) {
+        self.acc.reset();
+        self.generation += 1;
+    }
+
+    /// Set `node.param` (as `--set`) and rebuild; on a refusal the old value stays and the error is returned.
+    pub fn set_param(
+        &mut self,
+        node: &str,
+        param: &str,
+        value: ParamValue,
+    ) -> Result<(), WedgeError> {
+        let mut ov = self.overrides.clone();
+        ov.params.retain(|(n, p, _)| !(n == node && p == param));
+        ov.params.push((node.to_string(), param.to_string(), value));
+        self.rebuild_with(ov)
+    }
+
+    /// Set `--mu` and rebuild.
+    pub fn set_mu(&mut self, mu: f64) -> Result<(), WedgeError> {
+        let ov = Overrides {
+            mu: Some(mu),
+            ..self.overrides.clone()
+        };
+        self.rebuild_with(ov)
+    }
+
+    /// Move the camera to `camera`'s position and look-at (`None`: back to the pipeline's, lens
+    /// included) and start the average over.
+    pub fn set_camera(&mut self, camera: Option<Camera>) -> Result<(), WedgeError> {
+        self.view = camera.map(|c| (c.position, c.look_at));
+        self.restart();
+        if camera.is_none() && self.lens.take().is_some() {
+            return self.rebuild_with(self.overrides.clone());
+        }
+        Ok(())
+    }
+
+    /// Set the lens and shutter of the pipeline's camera block and rebuild; refused (old lens kept)
+    /// when the pipeline does not accept it.
+    pub fn set_lens(&mut self, lens: Lens) -> Result<(), WedgeError> {
+        let old = self.lens.replace(lens);
+        let rebuilt = self.rebuild_with(self.overrides.clone());
+        if rebuilt.is_err() {
+            self.lens = old;
+        }
+        rebuilt
+    }
+
+    /// Reload when the pipeline or scene file changed on disk. A file that no longer loads keeps
+    /// the last good session and sets [`Model::error`] to what `wedge graph` would print. Whether a
+    /// file changed (the window has something new to show).
+    pub fn poll_reload(&mut self) -> bool {
+        if !self.watch.changed() {
+            return false;
+        }
+        self.lens = None;
+        match self.build(&self.overrides) {
+            Ok(session) => self.replace(session),
+            Err(e) => self.error = Some(format!("error: {e}")),
+        }
+        true
+    }
+
+    /// A session of the pipeline file with `ov` and the window's lens.
+    fn build(&self, ov: &Overrides) -> Result<Session, WedgeError> {
+        let mut loaded = crate::session::load_pipeline_or_default(self.pipeline.as_deref())?;
+        if let (Some(lens), Some(spec)) = (self.lens, loaded.pipeline.camera.as_mut()) {
+            spec.aperture_radius = lens.aperture_radius;
+            spec.focus_distance = Some(lens.focus_distance);
+            spec.shutter = Some(lens.shutter);
+        }
+        let (nodes, kernels) = wedge_effects::builtin();
+        Session::build(loaded, ov, nodes, kernels)
+    }
+
+    fn rebuild_with(&mut self, ov: Overrides) -> Result<(), WedgeError> {
+        let session = self.build(&ov)?;
+        self.overrides = ov;
+        self.replace(session);
+        Ok(())
+    }
+
+    fn replace(&mut self, session: Session) {
+        self.watch = Watch::new(watched_files(
+            self.pipeline.as_ref(),
+            &session,
+            &self.overrides,
+        ));
+        self.base_camera = session.scene.camera;
+        self.session = Arc::new(session);
+        self.restart();
+        self.error = None;
+        self.paused = false;
+    }
+
+    /// Write the mean run's outputs as `wedge render` writes them into `dir`, with `picture` (what
+    /// the window shows) as `view.png`, all or nothing.
+    pub fn screenshot(
+        &self,
+        dir: &std::path::Path,
+        picture: &super::outputs::Picture,
+    ) -> Result<WrittenRun, WedgeError> {
+        crate::staging::check_output_dir(dir)?;
+        let run = self.mean().ok_or_else(|| {
+            WedgeError::Usage("no frame has been rendered yet to take a screenshot of".into())
+        })?;
+        let shown = Picture {
+            name: "view",
+            width: picture.width,
+            height: picture.height,
+            rgb: &picture.rgb,
+        };
+        Ok(write_run_with_picture(
+            dir,
+            "render",
+            run,
+            &shown,
+            self.session.width,
+            self.session.height,
+        )?)
+    }
+}
+
+/// The pipeline file and, where it names one (and `--scene` does not replace it), its scene file.
+fn watched_files(pipeline: Option<&PathBuf>, session: &Session, ov: &Overrides) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = pipeline.cloned().into_iter().collect();
+    if ov.scene.is_none() {
+        if let SceneSource::File(scene) = crate::session::scene_source(&session.pipeline, None) {
+            files.push(scene);
+        }
+    }
+    files
+}

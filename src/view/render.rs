@@ -1,0 +1,173 @@
+//! The render thread: frames run on a thread of their own so the window stays responsive while a
+//! slow frame (a large `mu`, a big image on the CPU) renders. The thread owns the backend; the model
+//! hands it a shared session and a frame number, and gets the run back tagged with the generation it
+//! was started for, so a frame that finishes after a change is dropped instead of averaged.
+
+use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use wedge_backends::{Backend, RunResult, Silent};
+
+use crate::{Session, WedgeError};
+
+/// A frame to render: frame `frame` of `session` (seed + frame, no history), for `generation`.
+struct Job {
+    session: Arc<Session>,
+    frame: u32,
+    generation: u64,
+}
+
+/// The generation of the report that the render thread is gone (never stale).
+pub const LOST: u64 = u64::MAX;
+
+/// A finished frame.
+pub struct Done {
+    pub generation: u64,
+    pub run: Result<RunResult, WedgeError>,
+    /// Wall time of the frame on the render thread.
+    pub seconds: f64,
+}
+
+pub struct Renderer {
+    jobs: Option<Sender<Job>>,
+    done: Receiver<Done>,
+    thread: Option<JoinHandle<()>>,
+    name: &'static str,
+    /// A frame is on the render thread.
+    in_flight: bool,
+    /// A finished frame not taken yet.
+    ready: Option<Done>,
+}
+
+impl Renderer {
+    /// Start the render thread with `backend`.
+    pub fn new(backend: Box<dyn Backend + Send>) -> Result<Renderer, WedgeError> {
+        let name = backend.name();
+        let (jobs, job_rx) = channel::<Job>();
+        let (done_tx, done) = channel::<Done>();
+        let thread = std::thread::Builder::new()
+            .name("wedge view render".into())
+            .spawn(move || serve(backend, job_rx, done_tx))
+            .map_err(|e| {
+                WedgeError::Usage(format!("wedge view: cannot start the render thread: {e}"))
+            })?;
+        Ok(Renderer {
+            jobs: Some(jobs),
+            done,
+            thread: Some(thread),
+            name,
+            in_flight: false,
+            ready: None,
+        })
+    }
+
+    pub fn name(&self) -> &'static str {
+        self.name
+    }
+
+    /// Whether a frame is rendering or finished but not taken.
+    pub fn in_flight(&self) -> bool {
+        self.in_flight || self.ready.is_some()
+    }
+
+    /// Render frame `frame` of `session`; the caller checks [`Renderer::in_flight`] first.
+    pub fn start(
+        &mut self,
+        session: Arc<Session>,
+        frame: u32,
+        generation: u64,
+    ) -> Result<(), WedgeError> {
+        let sent = self.jobs.as_ref().is_some_and(|j| {
+            j.send(Job {
+                session,
+                frame,
+                generation,
+            })
+            .is_ok()
+        });
+        if !sent {
+            return Err(stopped());
+        }
+        self.in_flight = true;
+        Ok(())
+    }
+
+    /// Whether the frame in flight has finished (without taking it).
+    pub fn poll(&mut self) -> bool {
+        if self.ready.is_none() && self.in_flight {
+            match self.done.try_recv() {
+                Ok(done) => self.arrived(done),
+                Err(TryRecvError::Empty) => {}
+                Err(TryRecvError::Disconnected) => self.arrived(lost()),
+            }
+        }
+        self.ready.is_some()
+    }
+
+    /// The finished frame, if any (non-blocking).
+    pub fn take(&mut self) -> Option<Done> {
+        self.poll();
+        self.ready.take()
+    }
+
+    /// The frame in flight, waiting for it (`None`: nothing in flight).
+    pub fn wait(&mut self) -> Option<Done> {
+        if self.ready.is_none() && self.in_flight {
+            let done = self.done.recv().unwrap_or_else(|_| lost());
+            self.arrived(done);
+        }
+        self.ready.take()
+    }
+
+    fn arrived(&mut self, done: Done) {
+        self.in_flight = false;
+        self.ready = Some(done);
+    }
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        // Closing the channel ends the thread after its frame.
+        self.jobs = None;
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// The render thread's loop: one job at a time until the window goes.
+fn serve(mut backend: Box<dyn Backend + Send>, jobs: Receiver<Job>, done: Sender<Done>) {
+    while let Ok(job) = jobs.recv() {
+        let start = Instant::now();
+        let run = job
+            .session
+            .run_progressive_frame(backend.as_mut(), &Silent, job.frame, None);
+        // Let go of the session before reporting, so the model may change it (its camera) at once.
+        drop(job.session);
+        let finished = Done {
+            generation: job.generation,
+            run,
+            seconds: start.elapsed().as_secs_f64(),
+        };
+        if done.send(finished).is_err() {
+            return;
+        }
+    }
+}
+
+fn stopped() -> WedgeError {
+    WedgeError::Usage(
+        "wedge view: the render thread has stopped (it panicked; see the message above)".into(),
+    )
+}
+
+/// What a frame reports when the render thread is gone.
+fn lost() -> Done {
+    Done {
+        generation: LOST,
+        run: Err(stopped()),
+        seconds: 0.0,
+    }
+}
