@@ -317,6 +317,11 @@ pub(crate) fn builtin(name: &str) -> Result<Scene, SceneError> {
     Ok(scene)
 }
 
+/// A Phong material: diffuse `kd`, grey specular `ks`, exponent `m` (the suites' glossy surfaces).
+fn phong(name: &str, kd: Vec3, ks: f32, m: f32) -> Material {
+    Material { specular: Vec3::splat(ks), phong_exponent: m, ..Material::diffuse(name, kd) }
+}
+
 /// A pinhole camera at `position` looking at `look_at` (+y up) with a `vfov_deg` vertical field of view.
 fn pinhole(position: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
     Camera {

@@ -30,16 +30,13 @@
 use glam::{Mat4, Quat, Vec3};
 
 use super::mesh::{add_bar, add_box, add_ground, add_panel, add_sphere, add_square_light};
+use super::phong;
 use crate::data::SceneData;
 use crate::{Camera, Material, Texture};
 
 /// A camera with a thin lens: `aperture_radius` and `focus_distance` in metres.
 fn lens_camera(position: Vec3, look_at: Vec3, vfov_deg: f32, aperture_radius: f32, focus_distance: f32) -> Camera {
     Camera { aperture_radius, focus_distance, ..super::pinhole(position, look_at, vfov_deg) }
-}
-
-fn phong(name: &str, kd: Vec3, ks: f32, m: f32) -> Material {
-    Material { specular: Vec3::splat(ks), phong_exponent: m, ..Material::diffuse(name, kd) }
 }
 
 /// A textured material from texture `texture` tinted by `tint`.

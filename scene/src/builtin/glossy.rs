@@ -14,13 +14,9 @@
 use glam::{Mat4, Quat, Vec3};
 
 use super::mesh::{add_box, add_ground, add_panel, add_sphere, add_square_light};
-use super::pinhole;
+use super::{phong, pinhole};
 use crate::data::SceneData;
 use crate::Material;
-
-fn phong(name: &str, kd: Vec3, ks: f32, m: f32) -> Material {
-    Material { specular: Vec3::splat(ks), phong_exponent: m, ..Material::diffuse(name, kd) }
-}
 
 pub(crate) fn glossy() -> SceneData {
     let mut d = SceneData::default();

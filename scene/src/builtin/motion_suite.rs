@@ -26,6 +26,7 @@ use std::f32::consts::PI;
 use glam::{Mat4, Quat, Vec3};
 
 use super::mesh::{add_bar, add_box, add_ground, add_panel, add_sphere, add_square_light};
+use super::phong;
 use crate::data::SceneData;
 use crate::motion::RigidMotion;
 use crate::{Camera, Material, Texture};
@@ -49,10 +50,6 @@ fn checker_material(d: &mut SceneData, name: &str, size: u32, checks: u32, tint:
     d.textures.push(Texture::checker(size, checks, 0.15, 0.85));
     let t = d.textures.len() as u32 - 1;
     d.add_material(Material { base_color_texture: Some(t), ..Material::diffuse(name, tint) }, false)
-}
-
-fn phong(name: &str, kd: Vec3, ks: f32, m: f32) -> Material {
-    Material { specular: Vec3::splat(ks), phong_exponent: m, ..Material::diffuse(name, kd) }
 }
 
 pub(crate) fn mo_fast_thin() -> SceneData {
