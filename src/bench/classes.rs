@@ -99,10 +99,7 @@ fn focus_partition(aovs: &Aovs, cam: &Camera) -> Partition {
 
 fn texture_partition(aovs: &Aovs) -> Partition {
     let (w, h) = (aovs.width as usize, aovs.height as usize);
-    let lum = |k: usize| {
-        let a = aovs.albedo[k];
-        (aovs.position[k][3] > 0.0).then_some(0.2126 * a[0] + 0.7152 * a[1] + 0.0722 * a[2])
-    };
+    let lum = |k: usize| (aovs.position[k][3] > 0.0).then(|| wedge_scene::environment::luminance(aovs.albedo[k]) as f32);
     let label = (0..w * h)
         .map(|k| {
             let Some(l) = lum(k) else { return 0 };

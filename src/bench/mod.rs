@@ -41,7 +41,6 @@ use wedge_backends::cpu::CpuBackend;
 use wedge_backends::{KernelClass, RunResult, Silent};
 use wedge_scene::SceneSource;
 
-use crate::graph::factoring::CameraSettings;
 use crate::image::Image;
 use crate::metrics::{compare, Metrics};
 use crate::outputs::buffer_to_image;
@@ -705,7 +704,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
 fn pixel_classes(session: &Session, width: u32, height: u32) -> Result<Vec<classes::Partition>, WedgeError> {
     let aovs = crate::aov::Aovs::render(&session.scene, width, height)?;
     let lens = session.pipeline.factoring.as_ref().and_then(|f| {
-        let [aperture, focus] = [CameraSettings::LENS[0], CameraSettings::LENS[1]].map(|n| f.float(n));
+        let [aperture, focus] = suite::LENS_PARAMS.map(|n| f.float(n));
         Some((aperture? as f32, focus? as f32))
     });
     Ok(classes::partitions(&aovs, &session.camera_at(0), lens))

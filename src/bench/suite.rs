@@ -46,7 +46,7 @@ pub fn family_scenes(family: SuiteFamily) -> Vec<String> {
 /// The names of the camera parameters a node declares to take the thin lens from (the factoring
 /// contract's [`CameraSettings::LENS`] without the lens shape): a node that declares both takes
 /// each suite scene's lens.
-const LENS_PARAMS: [&str; 2] = [CameraSettings::LENS[0], CameraSettings::LENS[1]];
+pub(crate) const LENS_PARAMS: [&str; 2] = [CameraSettings::LENS[0], CameraSettings::LENS[1]];
 
 /// The nodes of `pipeline` that declare the thin lens's parameters (by declaration, not by kind).
 fn lens_nodes(pipeline: &Path) -> Result<Vec<String>, WedgeError> {
@@ -336,6 +336,8 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
         }
     }
     let t0 = Instant::now();
+    // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them.
+    let family = family_of(&opts.pipeline)?;
     std::fs::create_dir_all(&opts.out).map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
     let cache = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let bar = opts.verbose.then(|| scene_bar(scenes.len() as u64));
@@ -388,7 +390,7 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
     let out = opts.out.clone();
     let mut result = SuiteResult {
         pipeline_name,
-        family: family_of(&opts.pipeline)?,
+        family,
         width: size.0,
         height: size.1,
         quick: opts.quick,
