@@ -53,7 +53,8 @@ fi
 
 cargo test --release --workspace --all-targets "$@"
 
-# The user-crate example (examples/custom_kernel: outside the workspace; its own kernel + WGSL + node,
-# run through parity). Shares the target directory so wgpu is not rebuilt.
+# The user-crate example (examples/fog: outside the workspace; its own node, kernel + WGSL, and the
+# binary `wedge-fog` = wedge's whole CLI with Fog added, run through render/reference/bench/parity).
+# Shares the target directory so wgpu is not rebuilt.
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" \
-    cargo test --release --all-targets --manifest-path examples/custom_kernel/Cargo.toml "$@"
+    cargo test --release --all-targets --manifest-path examples/fog/Cargo.toml "$@"

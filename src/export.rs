@@ -60,8 +60,8 @@ pub struct PipelineParts<'a> {
 
 /// Open `pipeline` (or the default) for export, with `ov` (scene, size, `--allow-outside-dir`):
 /// the session without a mixed-reality real layer (module doc).
-pub fn open(pipeline: Option<&Path>, ov: &Overrides) -> Result<Session, WedgeError> {
-    Session::open(pipeline, &Overrides { without_real_layer: true, ..ov.clone() })
+pub fn open(registries: &crate::session::Registries, pipeline: Option<&Path>, ov: &Overrides) -> Result<Session, WedgeError> {
+    Session::open_with(registries, pipeline, &Overrides { without_real_layer: true, ..ov.clone() })
 }
 
 /// Write the scene of `session` (opened by [`open`]), seen by its camera at its size, with the

@@ -14,6 +14,7 @@ pub use wedge_scene as scene;
 pub mod aov;
 pub mod bench;
 pub mod capture;
+pub mod cli;
 pub mod export;
 pub mod heatmap;
 pub mod image;
@@ -26,4 +27,4 @@ pub mod staging;
 #[cfg(feature = "view")]
 pub mod view;
 
-pub use session::{Overrides, Session, WedgeError};
+pub use session::{Overrides, Registries, Session, WedgeError};

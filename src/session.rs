@@ -113,11 +113,61 @@ pub fn load_pipeline_or_default(path: Option<&Path>) -> Result<LoadedPipeline, G
     }
 }
 
+/// The node kinds and kernels a session knows: wedge's own ([`Registries::builtin`]) plus whatever
+/// a user crate adds. Every command of the CLI ([`crate::cli::main`]) opens its sessions with the
+/// registries it is given, so a user's binary runs their nodes under every subcommand.
+#[derive(Clone)]
+pub struct Registries {
+    pub nodes: NodeRegistry,
+    pub kernels: KernelRegistry,
+}
+
+impl Registries {
+    /// Everything wedge ships ([`wedge_effects::builtin`]).
+    pub fn builtin() -> Registries {
+        let (nodes, kernels) = wedge_effects::builtin();
+        Registries { nodes, kernels }
+    }
+    /// These registries plus a node kind.
+    pub fn with_node(mut self, kind: impl wedge_graph::NodeKind + 'static) -> Registries {
+        self.nodes.register(std::sync::Arc::new(kind));
+        self
+    }
+    /// These registries plus a kernel (both backends' implementations are the kernel's own).
+    pub fn with_kernel(mut self, kernel: impl wedge_backends::Kernel + 'static) -> Registries {
+        self.kernels.register(std::sync::Arc::new(kernel));
+        self
+    }
+}
+
+impl std::fmt::Debug for Registries {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Registries").finish_non_exhaustive()
+    }
+}
+
+impl Default for Registries {
+    fn default() -> Registries {
+        Registries::builtin()
+    }
+}
+
 impl Session {
     /// Load `path` (or the default pipeline) with wedge's own nodes and kernels.
     pub fn open(path: Option<&Path>, ov: &Overrides) -> Result<Session, WedgeError> {
-        let (nodes, kernels) = wedge_effects::builtin();
+        Session::open_with(&Registries::builtin(), path, ov)
+    }
+
+    /// [`Session::open`] with the caller's registries (a user crate's nodes and kernels).
+    pub fn open_with(registries: &Registries, path: Option<&Path>, ov: &Overrides) -> Result<Session, WedgeError> {
+        let Registries { nodes, kernels } = registries.clone();
         Session::build(load_pipeline_or_default(path)?, ov, nodes, kernels)
+    }
+
+    /// The registries this session was built with: sessions derived from it (a reference, a
+    /// bench's other seeds) know the same nodes.
+    pub fn registries(&self) -> Registries {
+        Registries { nodes: self.nodes.clone(), kernels: self.kernels.clone() }
     }
 
     /// The plain Monte Carlo reference of the pipeline at `path` (or the default): the pipeline's own
@@ -126,7 +176,18 @@ impl Session {
     /// (`stratified`: jointly stratified; `independent`). Same scene, camera, size, seed and
     /// `--set` overrides as a render.
     pub fn reference(path: Option<&Path>, spp: u32, sampling: &str, ov: &Overrides) -> Result<Session, WedgeError> {
-        let (nodes, kernels) = wedge_effects::builtin();
+        Session::reference_with(&Registries::builtin(), path, spp, sampling, ov)
+    }
+
+    /// [`Session::reference`] with the caller's registries.
+    pub fn reference_with(
+        registries: &Registries,
+        path: Option<&Path>,
+        spp: u32,
+        sampling: &str,
+        ov: &Overrides,
+    ) -> Result<Session, WedgeError> {
+        let Registries { nodes, kernels } = registries.clone();
         Session::build_reference(load_pipeline_or_default(path)?, ov, nodes, kernels, spp, sampling)
     }
 
@@ -221,6 +282,18 @@ impl Session {
         let empty = BTreeMap::new();
         let history = previous.map_or(&empty, |r| &r.history);
         self.at_frame(frame, first, |s, seed, index| s.run_with(backend, progress, seed, index, history))
+    }
+
+    /// `wedge parity`: every pass of the session's image (frame 0) run on the CPU and alone on `gpu`
+    /// with the same inputs, compared pass by pass.
+    pub fn parity(&self, gpu: &mut wedge_backends::gpu::GpuBackend) -> Result<wedge_backends::parity::ParityReport, WedgeError> {
+        Ok(wedge_backends::parity::run_parity(&self.job(self.seed, 0, &wedge_backends::Silent), gpu)?)
+    }
+
+    /// Write `run` into `dir` as `wedge render` does (`stem`.exr/.png, the unfiltered image, every
+    /// heatmap and statistic the pipeline's Output names), all or nothing ([`crate::staging`]).
+    pub fn write_outputs(&self, dir: &Path, stem: &str, run: &RunResult) -> Result<crate::outputs::WrittenRun, WedgeError> {
+        Ok(crate::outputs::write_run(dir, stem, run, self.width, self.height)?)
     }
 
     /// `wedge parity --frames`: frame `frame` of a sequence that started at `first`, set up as

@@ -233,18 +233,19 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     use wedge::graph::ParamValue;
     use wedge::scene::builtin::SuiteFamily;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let reg = wedge::Registries::builtin().nodes;
     let pipeline = root.join("pipelines/defocus_shadows_indirect.ron");
-    assert_eq!(family_of(&pipeline).unwrap(), SuiteFamily::Defocus);
-    assert_eq!(family_of(&root.join("pipelines/shadows.ron")).unwrap(), SuiteFamily::Shadows);
-    assert_eq!(family_of(&root.join("pipelines/motion_shadows_indirect.ron")).unwrap(), SuiteFamily::Motion);
-    assert!(lens_params(&root.join("pipelines/motion.ron"), "builtin:dof_tiny").unwrap().is_empty(), "Motion takes no lens");
+    assert_eq!(family_of(&reg, &pipeline).unwrap(), SuiteFamily::Defocus);
+    assert_eq!(family_of(&reg, &root.join("pipelines/shadows.ron")).unwrap(), SuiteFamily::Shadows);
+    assert_eq!(family_of(&reg, &root.join("pipelines/motion_shadows_indirect.ron")).unwrap(), SuiteFamily::Motion);
+    assert!(lens_params(&reg, &root.join("pipelines/motion.ron"), "builtin:dof_tiny").unwrap().is_empty(), "Motion takes no lens");
     let scenes = family_scenes(SuiteFamily::Defocus);
     assert!(scenes.len() >= 8, "{scenes:?}");
     for s in &scenes {
         let name = s.strip_prefix("builtin:").unwrap();
         assert!(wedge::scene::builtin::describe(name).is_some(), "{name} has no description");
     }
-    let lens = lens_params(&pipeline, "builtin:dof_tiny").unwrap();
+    let lens = lens_params(&reg, &pipeline, "builtin:dof_tiny").unwrap();
     assert_eq!(
         lens,
         vec![
@@ -252,7 +253,7 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
             ("defocus".to_string(), "focus_distance".to_string(), ParamValue::Float(f64::from(2.9f32))),
         ]
     );
-    assert!(lens_params(&pipeline, "builtin:grids").unwrap().is_empty(), "a pinhole scene sets no lens");
+    assert!(lens_params(&reg, &pipeline, "builtin:grids").unwrap().is_empty(), "a pinhole scene sets no lens");
 
     let dir = tempfile::tempdir().unwrap();
     let opts = BenchOptions {

@@ -210,6 +210,7 @@ fn a_bad_script_is_refused_with_its_position_before_a_window_opens() {
 fn tiny(pipeline: &Path, dir: &Path) -> wedge::view::ViewOptions {
     wedge::view::ViewOptions {
         pipeline: Some(pipeline.to_path_buf()),
+        registries: wedge::Registries::builtin(),
         overrides: wedge::Overrides {
             width: Some(16),
             height: Some(12),

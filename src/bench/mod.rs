@@ -71,6 +71,9 @@ impl Default for Goals {
 pub struct BenchOptions {
     pub pipeline: PathBuf,
     pub out: PathBuf,
+    /// The node kinds and kernels the pipeline (and `--compare`'s) may use: a user's binary
+    /// ([`crate::cli::main`]) benches its own nodes.
+    pub registries: crate::session::Registries,
     /// Small and fast (CI smoke test): 128×96 unless a size is given, reference 512 spp,
     /// mu 1 and 2, baselines at 4, 16 and 64 spp.
     pub quick: bool,
@@ -110,6 +113,7 @@ impl BenchOptions {
         BenchOptions {
             pipeline: pipeline.into(),
             out: out.into(),
+            registries: crate::session::Registries::builtin(),
             quick: false,
             width: None,
             height: None,
@@ -466,7 +470,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
         ..Overrides::default()
     };
     let path = opts.pipeline.as_path();
-    let session = Session::open(Some(path), &base)?;
+    let session = Session::open_with(&opts.registries, Some(path), &base)?;
     let (width, height, seed) = (session.width, session.height, session.seed);
     if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
         // One run at a time, plus the full-size images the report keeps (reference, its two
@@ -534,9 +538,9 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     let mut kept_ours: Option<(Image, Option<Image>, Image, Vec<classes::Partition>)> = None;
     let pipeline_dir = opts.out.join("pipeline");
     for &mu in &mus {
-        let s1 = Session::open(Some(path), &ctx.ov(seed, mu))?;
+        let s1 = Session::open_with(&opts.registries, Some(path), &ctx.ov(seed, mu))?;
         let (run1, img1, parts1) = ctx.measure(&s1)?;
-        let s2 = Session::open(Some(path), &ctx.ov(seed2, mu))?;
+        let s2 = Session::open_with(&opts.registries, Some(path), &ctx.ov(seed2, mu))?;
         let (_, img2, parts2) = ctx.measure(&s2)?;
         let shown_mu = mu.or(default_mu);
         let label = match shown_mu {
@@ -565,7 +569,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     for other in &opts.compare {
         let name = other.file_stem().map_or("compared".into(), |s| s.to_string_lossy().into_owned());
         let on_scene = |seed: u32, mu: Option<f64>| Overrides { scene: Some(scene_spec.clone()), ..ctx.ov(seed, mu) };
-        let probe = Session::open(Some(other), &on_scene(seed, None))?;
+        let probe = Session::open_with(&opts.registries, Some(other), &on_scene(seed, None))?;
         let own_mu = probe
             .pipeline
             .factoring
@@ -583,8 +587,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
                 Some(m) => format!("{name} (mu={})", fmt_mu(m)),
                 None => name.clone(),
             };
-            let (_, img1, parts1) = ctx.measure(&Session::open(Some(other), &on_scene(seed, mu))?)?;
-            let (_, img2, parts2) = ctx.measure(&Session::open(Some(other), &on_scene(seed2, mu))?)?;
+            let (_, img1, parts1) = ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed, mu))?)?;
+            let (_, img2, parts2) = ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed2, mu))?)?;
             let mut rec = parts1.record(Method::Compared, Role::Sweep, label.clone(), shown, None, seed);
             let msd = stats::mean_squared_difference(&img1, &img2)?;
             let mse = rec.metrics.rmse * rec.metrics.rmse;
@@ -619,7 +623,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
                 },
                 None => spp,
             };
-            let s = Session::reference(Some(path), n, sampling, &ctx.ov(seed, None))?;
+            let s = Session::reference_with(&opts.registries, Some(path), n, sampling, &ctx.ov(seed, None))?;
             let (_, _, parts) = ctx.measure(&s)?;
             let rec = parts.record(method, Role::Curve, format!("{} {n} spp", method.name()), None, Some(n), seed);
             ctx.log(format!("{}: {:.1} rays/px, {:.2} s, RMSE {:.3e}", rec.label, rec.rays.total, rec.time.total, rec.metrics.rmse));
@@ -661,7 +665,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     let primary_time = runs.iter().find(|r| r.primary).map(|r| r.time.total).unwrap_or(f64::NAN);
     let mut equal_time = None;
     if let Some(n) = equal_time_spp(runs.iter().filter(|r| r.method == Method::Stratified && r.role == Role::Curve), primary_time) {
-        let s = Session::reference(Some(path), n, "stratified", &ctx.ov(seed, None))?;
+        let s = Session::reference_with(&opts.registries, Some(path), n, "stratified", &ctx.ov(seed, None))?;
         let (_, img, parts) = ctx.measure(&s)?;
         let rec = parts.record(Method::Stratified, Role::EqualTime, format!("{} {n} spp (equal time)", Method::Stratified.name()), None, Some(n), seed);
         ctx.log(format!("{}: {:.2} s vs ours {:.2} s, RMSE {:.3e}", rec.label, rec.time.total, primary_time, rec.metrics.rmse));
@@ -787,7 +791,7 @@ fn obtain_reference(
     let half = spp / 2;
     let mut halves = Vec::new();
     for s in seeds {
-        let session = Session::reference(Some(path), half, "stratified", &Overrides { seed: Some(s), ..base.clone() })?;
+        let session = Session::reference_with(&opts.registries, Some(path), half, "stratified", &Overrides { seed: Some(s), ..base.clone() })?;
         let run = session.run(&mut CpuBackend::new(), &Silent)?;
         let c = run.output("color").ok_or_else(|| WedgeError::Usage("reference has no color output".into()))?;
         halves.push(buffer_to_image(c, width, height));

@@ -26,7 +26,7 @@ use super::plots::{write_bar_chart, BarChart, BarSeries, BLUE, GREY, RED};
 use super::format::{ratio, sci};
 use super::{BenchOptions, BenchResult, Method};
 use crate::graph::factoring::CameraSettings;
-use crate::graph::ParamValue;
+use crate::graph::{NodeRegistry, ParamValue};
 use wedge_scene::builtin::SuiteFamily;
 use wedge_scene::SceneSource;
 use crate::image::ImageError;
@@ -49,9 +49,8 @@ pub fn family_scenes(family: SuiteFamily) -> Vec<String> {
 pub(crate) const LENS_PARAMS: [&str; 2] = [CameraSettings::LENS[0], CameraSettings::LENS[1]];
 
 /// The nodes of `pipeline` that declare the thin lens's parameters (by declaration, not by kind).
-fn lens_nodes(pipeline: &Path) -> Result<Vec<String>, WedgeError> {
+fn lens_nodes(registry: &NodeRegistry, pipeline: &Path) -> Result<Vec<String>, WedgeError> {
     let loaded = crate::session::load_pipeline_or_default(Some(pipeline))?;
-    let (registry, _) = wedge_effects::builtin();
     Ok(loaded
         .pipeline
         .nodes
@@ -69,9 +68,9 @@ fn lens_nodes(pipeline: &Path) -> Result<Vec<String>, WedgeError> {
 /// The suite family for `pipeline`: the first suite a node of it names
 /// ([`crate::graph::NodeKind::bench_suite`]: Defocus the defocus suite, Motion the motion suite),
 /// else the soft-shadow suite. A name that is no family is an error naming the node kind.
-pub fn family_of(pipeline: &Path) -> Result<SuiteFamily, WedgeError> {
+/// `registry` knows the pipeline's node kinds (a user's nodes can name a suite too).
+pub fn family_of(registry: &NodeRegistry, pipeline: &Path) -> Result<SuiteFamily, WedgeError> {
     let loaded = crate::session::load_pipeline_or_default(Some(pipeline))?;
-    let (registry, _) = wedge_effects::builtin();
     for node in &loaded.pipeline.nodes {
         if let Some(name) = registry.get(&node.kind).and_then(|k| k.bench_suite()) {
             return SuiteFamily::parse(name).ok_or_else(|| {
@@ -86,7 +85,7 @@ pub fn family_of(pipeline: &Path) -> Result<SuiteFamily, WedgeError> {
 /// `--set` overrides that give every lens-taking node of `pipeline` the lens of the built-in scene
 /// `spec`'s camera (none for a scene without an aperture): the defocus suite's scenes each state
 /// their lens, as a pipeline states its own.
-pub fn lens_params(pipeline: &Path, spec: &str) -> Result<Vec<(String, String, ParamValue)>, WedgeError> {
+pub fn lens_params(registry: &NodeRegistry, pipeline: &Path, spec: &str) -> Result<Vec<(String, String, ParamValue)>, WedgeError> {
     let Some(name) = spec.strip_prefix("builtin:") else {
         return Ok(Vec::new());
     };
@@ -96,7 +95,7 @@ pub fn lens_params(pipeline: &Path, spec: &str) -> Result<Vec<(String, String, P
         return Ok(Vec::new());
     }
     let values = [cam.aperture_radius, cam.effective_focus_distance()];
-    Ok(lens_nodes(pipeline)?
+    Ok(lens_nodes(registry, pipeline)?
         .into_iter()
         .flat_map(|node| LENS_PARAMS.iter().zip(values).map(move |(p, v)| (node.clone(), p.to_string(), ParamValue::Float(f64::from(v)))))
         .collect())
@@ -337,7 +336,7 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
     }
     let t0 = Instant::now();
     // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them.
-    let family = family_of(&opts.pipeline)?;
+    let family = family_of(&opts.registries.nodes, &opts.pipeline)?;
     std::fs::create_dir_all(&opts.out).map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
     let cache = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let bar = opts.verbose.then(|| scene_bar(scenes.len() as u64));
@@ -354,7 +353,7 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
         }
         say(format!("suite: scene `{key}` ({}/{})", rows.len() + 1, scenes.len()));
         let mut params = opts.params.clone();
-        params.extend(lens_params(&opts.pipeline, spec)?);
+        params.extend(lens_params(&opts.registries.nodes, &opts.pipeline, spec)?);
         let scene_opts = BenchOptions {
             scene: Some(spec.clone()),
             params,

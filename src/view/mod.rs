@@ -32,6 +32,8 @@ use crate::{Overrides, WedgeError};
 #[derive(Clone, Debug)]
 pub struct ViewOptions {
     pub pipeline: Option<PathBuf>,
+    /// The node kinds and kernels the pipeline may use (a user's binary: [`crate::cli::main`]).
+    pub registries: crate::session::Registries,
     /// `--scene`, `--width`, `--height`, `--seed`, `--set`, `--mu`, as for `render`.
     pub overrides: Overrides,
     /// `cpu` or `wgpu`.

@@ -82,7 +82,7 @@ pub struct Model {
 impl Model {
     /// Open the session the command line asks for; an error here ends `wedge view` like `render`.
     pub fn open(opts: &ViewOptions) -> Result<Model, WedgeError> {
-        let session = Session::open(opts.pipeline.as_deref(), &opts.overrides)?;
+        let session = Session::open_with(&opts.registries, opts.pipeline.as_deref(), &opts.overrides)?;
         if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
             let mode = if opts.backend == "wgpu" {
                 crate::session::RunMode::Gpu
@@ -302,7 +302,8 @@ impl Model {
             spec.focus_distance = Some(lens.focus_distance);
             spec.shutter = Some(lens.shutter);
         }
-        let (nodes, kernels) = wedge_effects::builtin();
+        // The registries the window opened with (a user's binary's nodes), kept by every session.
+        let crate::session::Registries { nodes, kernels } = self.session.registries();
         Session::build(loaded, ov, nodes, kernels)
     }
 

@@ -1,0 +1,315 @@
+//! The command line's flags and subcommands (clap derive), and the parsers that check their values
+//! before anything runs: the one declaration of every flag `wedge` and a user's binary accept.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+use crate::{Overrides, WedgeError};
+
+#[derive(Parser)]
+#[command(name = "wedge", version, about = "Sample-and-filter physically based rendering with axis-aligned filters")]
+pub(super) struct Cli {
+    #[command(subcommand)]
+    pub(super) command: Command,
+}
+
+/// Options every rendering command shares.
+#[derive(Args, Clone)]
+pub(super) struct Common {
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`, the defocus suite's `dof_*`, the motion suite's `mo_*`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    #[arg(long)]
+    pub(super) scene: Option<String>,
+    /// Output directory.
+    #[arg(long, default_value = "out")]
+    pub(super) out: PathBuf,
+    /// Seed of the counter-based sampler (0..=4294967295).
+    #[arg(long)]
+    pub(super) seed: Option<u32>,
+    /// Image width in pixels (1..=16384; width × height at most 2^26).
+    #[arg(long, value_parser = side_parser())]
+    pub(super) width: Option<u32>,
+    /// Image height in pixels (1..=16384; width × height at most 2^26).
+    #[arg(long, value_parser = side_parser())]
+    pub(super) height: Option<u32>,
+    /// Worker threads (default: all cores; at most 4 × the cores). The image does not depend on it.
+    #[arg(long, value_parser = parse_threads)]
+    pub(super) threads: Option<usize>,
+    /// Refuse a run whose estimated peak memory exceeds SIZE (bytes, or K/M/G/T: 512M, 8G).
+    /// Default: 3/4 of the memory available when the run starts.
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    pub(super) memory_limit: Option<u64>,
+    /// Set a node parameter: NODE.PARAM=VALUE (e.g. shadows.max_rays=200). Repeatable.
+    #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
+    pub(super) set: Vec<String>,
+    /// Where passes run: `cpu` (rayon) or `wgpu` (WGSL compute on a GPU, or Mesa's software Vulkan).
+    #[arg(long, default_value = "cpu", value_parser = ["cpu", "wgpu"])]
+    pub(super) backend: String,
+    /// Let the pipeline name files outside its own directory (its scene, environment map, real-layer
+    /// maps) and the scene file read buffers, textures and meshes outside its own (symlinks are
+    /// followed before the check). `--scene PATH` is never confined.
+    #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
+    pub(super) allow_outside_dir: bool,
+    /// With --backend wgpu: `adapter` (the device's own limits) or `webgpu` (wgpu's
+    /// Limits::default(), 8 storage buffers per stage: checks that every kernel runs on any WebGPU
+    /// device). Default: the WEDGE_WGPU_LIMITS environment variable, else `adapter`.
+    #[arg(long, value_parser = ["adapter", "webgpu"])]
+    pub(super) gpu_limits: Option<String>,
+}
+
+#[derive(Subcommand)]
+pub(super) enum Command {
+    /// Render a pipeline (default: pipelines/shadows.ron on the built-in `grids` scene).
+    Render {
+        pipeline: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+        /// Scale every node's bandwidth parameter `mu` (a finite number > 0).
+        #[arg(long, value_parser = parse_mu)]
+        mu: Option<f64>,
+        /// Render frames A to B (both included) of a sequence: the camera follows the pipeline's
+        /// `camera_path`, each frame has its own noise, temporal filters see the frame before.
+        /// Writes frame_NNNN.exr/png per frame, preview.gif, and the last frame's outputs.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
+        /// Also write per-pixel surface data of the scene seen by the camera at the render's size,
+        /// comma-separated: `position` (aov_position.exr, RGBA: world xyz, A = 1 where the ray through
+        /// the pixel centre hits geometry, 0 where it misses), `normal` (aov_normal.exr: unit shading
+        /// normal), `albedo` (aov_albedo.exr: diffuse k_d with textures) — the maps a mixed-reality
+        /// real layer reads. With --frames: one per frame (aov_NAME_NNNN.exr, for `{frame:04}` in a
+        /// mixed-reality pipeline's file names) and the last frame's unnumbered.
+        #[arg(long, value_name = "NAMES", value_delimiter = ',', value_parser = crate::aov::AOV_NAMES)]
+        aov: Vec<String>,
+        /// Progressive rendering: N frames (1..=1000000) with the camera held still, each adding its
+        /// paths to what nodes accumulate over frames (PixelFilter, RadianceFilter); writes progressive_NNNN.exr/png
+        /// after 1, 2, 4, 8, … frames and the last, each with that frame's full outputs (an
+        /// interrupted render keeps the last complete snapshot), and prints the time per frame.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_PROGRESSIVE), conflicts_with = "frames")]
+        progressive: Option<u32>,
+    },
+    /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
+    /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
+    Reference {
+        pipeline: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+        /// Samples per pixel (per light, per indirect component), 1..=1048576.
+        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
+        spp: u32,
+        /// `stratified` (default) or `independent`.
+        #[arg(long, default_value = "stratified", value_parser = ["stratified", "independent"])]
+        sampling: String,
+    },
+    /// Compare two EXR images: RMSE, relMSE, PSNR, SMAPE, and an error heatmap.
+    Compare {
+        test: PathBuf,
+        reference: PathBuf,
+        /// Where to write the error heatmap PNG.
+        #[arg(long, default_value = "out/error.png")]
+        heatmap: PathBuf,
+    },
+    /// Benchmark a pipeline: equal-error speedup vs Monte Carlo, convergence plots, report.md; on its
+    /// own scene, on any scene (--scene) or over the built-in scene suite (--suite).
+    Bench {
+        pipeline: PathBuf,
+        /// Small and fast (CI smoke test): 128x96, reference 512 spp, 2 mu values, 3 spp per baseline.
+        #[arg(long)]
+        quick: bool,
+        /// Bench this scene instead of the pipeline's: a built-in name, `builtin:NAME`, or a
+        /// .gltf/.glb/.obj/.ron file (as for `render`).
+        #[arg(long, conflicts_with_all = ["suite", "suite_scenes"])]
+        scene: Option<String>,
+        /// Run the bench over the built-in scene suite a node of the pipeline names: the defocus suite
+        /// (Defocus: dof_*, each scene's own lens set on the nodes that take a lens), the motion suite
+        /// (Motion: mo_*), else the soft-shadow suite (issue 16: grids, suite_slats, suite_grate, suite_contact,
+        /// suite_near_light, curved, suite_textured, suite_glossy, cornell, suite_room), each into OUT/SCENE/, and write OUT/suite.md (+ .csv, .json, suite_speedup.png): per scene
+        /// rays/px, equal-RMSE speedups, bias/variance, filter overhead; the median and the worst.
+        #[arg(long)]
+        suite: bool,
+        /// With --suite: only these built-ins, comma-separated (e.g. grids,suite_grate).
+        #[arg(long, value_name = "NAMES", value_delimiter = ',', requires = "suite")]
+        suite_scenes: Vec<String>,
+        /// Measure another pipeline beside it (repeatable): on the bench's scene, size, seeds and
+        /// reference, in the same tables and plots (e.g. pipelines/lightfield_indirect.ron beside
+        /// pipelines/indirect.ron).
+        #[arg(long, value_name = "PIPELINE", conflicts_with = "suite")]
+        compare: Vec<PathBuf>,
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+        #[arg(long, value_parser = side_parser())]
+        width: Option<u32>,
+        #[arg(long, value_parser = side_parser())]
+        height: Option<u32>,
+        #[arg(long)]
+        seed: Option<u32>,
+        /// Reference samples per pixel, split over two seeds (default 4096; quick 512). Baselines
+        /// run up to a quarter of it, so a larger reference brackets more of their curves.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(16..=1_048_576))]
+        reference_spp: Option<u32>,
+        /// As for `render` (the bench also keeps a few full-size images for its report).
+        #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+        memory_limit: Option<u64>,
+        /// Set a node parameter on every run and on the reference: NODE.PARAM=VALUE (repeatable;
+        /// e.g. measure an option against the pipeline's default). Under --suite a scene's lens
+        /// wins over a --set lens.
+        #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
+        set: Vec<String>,
+    },
+    /// Check the wgpu backend against the CPU backend pass by pass (each GPU pass runs on the CPU's
+    /// inputs) and print max abs / max rel differences and pixels over tolerance; fails on a mismatch.
+    Parity {
+        pipeline: Option<PathBuf>,
+        /// Scene override, as for `render`.
+        #[arg(long)]
+        scene: Option<String>,
+        #[arg(long, default_value_t = 64, value_parser = side_parser())]
+        width: u32,
+        #[arg(long, default_value_t = 48, value_parser = side_parser())]
+        height: u32,
+        #[arg(long)]
+        seed: Option<u32>,
+        /// Set a node parameter: NODE.PARAM=VALUE. Repeatable.
+        #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
+        set: Vec<String>,
+        /// As for `render`; parity holds CPU and GPU copies of the buffers.
+        #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+        memory_limit: Option<u64>,
+        /// As for `render`: `adapter` or `webgpu` (WebGPU's default limits).
+        #[arg(long, value_parser = ["adapter", "webgpu"])]
+        gpu_limits: Option<String>,
+        /// Check frames A to B (both included) of a sequence, as `render --frames` renders them: each
+        /// frame's passes with the previous frame's history (the CPU's) on both backends.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
+    },
+    /// Write the pipeline's scene, seen by its camera, for other renderers: scene.obj/.mtl, textures
+    /// (EXR + PNG) and scene.json (camera with thin-lens conventions, exact materials, area lights).
+    ExportScene {
+        pipeline: Option<PathBuf>,
+        /// Scene override, as for `render`.
+        #[arg(long)]
+        scene: Option<String>,
+        #[arg(long, default_value = "out/scene")]
+        out: PathBuf,
+        /// Image size recorded in scene.json (default: the pipeline's).
+        #[arg(long, value_parser = side_parser())]
+        width: Option<u32>,
+        #[arg(long, value_parser = side_parser())]
+        height: Option<u32>,
+        /// As for `render`.
+        #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
+        allow_outside_dir: bool,
+    },
+    /// Open a window showing the pipeline live (default: pipelines/shadows.ron): output picker with
+    /// A/B split, parameter widgets from the node declarations, hot reload of the pipeline file,
+    /// frame averaging while nothing changes, timings, orbit camera; F12 writes a screenshot
+    /// (EXR + PNG as `render` writes them) into --out.
+    #[cfg(feature = "view")]
+    View {
+        pipeline: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+        /// Scale every node's bandwidth parameter `mu` (a finite number > 0); a slider in the window.
+        #[arg(long, value_parser = parse_mu)]
+        mu: Option<f64>,
+        /// Run the steps of this RON script (parameter changes, outputs, camera moves, screenshots at
+        /// given frames), then close the window and exit: for tests and demos.
+        #[arg(long, value_name = "SCRIPT")]
+        script: Option<PathBuf>,
+    },
+    /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes). Refusals that
+    /// need no scene come first; then the scene is loaded as `render` loads it (no environment map
+    /// read, no real layer captured), so the schedule is the one `render` runs.
+    Graph {
+        pipeline: Option<PathBuf>,
+        /// Print Graphviz DOT instead of the table.
+        #[arg(long)]
+        dot: bool,
+        /// Scene override, as for `render`.
+        #[arg(long)]
+        scene: Option<String>,
+        /// As for `render`.
+        #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
+        allow_outside_dir: bool,
+    },
+}
+
+impl Command {
+    /// `--threads`, for the commands that take it.
+    pub(super) fn threads(&self) -> Option<usize> {
+        match self {
+            Command::Render { common, .. } | Command::Reference { common, .. } => common.threads,
+            #[cfg(feature = "view")]
+            Command::View { common, .. } => common.threads,
+            _ => None,
+        }
+    }
+}
+
+pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
+    Ok(Overrides {
+        scene: c.scene.clone(),
+        width: c.width,
+        height: c.height,
+        seed: c.seed,
+        mu,
+        params: c.set.iter().map(|s| crate::session::parse_set(s)).collect::<Result<_, _>>()?,
+        allow_outside_dir: c.allow_outside_dir,
+        without_real_layer: false,
+        frame: None,
+    })
+}
+
+/// Largest `reference --spp` (the `MonteCarlo` node's `spp` limit, kept for references from the graph).
+pub(super) const MAX_SPP: i64 = 1 << 20;
+
+/// `--width`/`--height`: clap checks the range and names the flag in its message.
+pub(super) fn side_parser() -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(1..=i64::from(crate::graph::MAX_SIDE))
+}
+
+/// `--mu`: finite and > 0 (0 would be an infinitely wide filter, NaN no filter at all).
+pub(super) fn parse_mu(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(_) => Err("must be a finite number > 0 (e.g. 2.0)".into()),
+        Err(e) => Err(format!("{e}; use a finite number > 0 (e.g. 2.0)")),
+    }
+}
+
+/// `--threads`: 1 ..= 4 × the cores (more threads than that only cost memory and start-up time;
+/// 100000 of them took minutes to spawn).
+pub(super) fn parse_threads(s: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cap = 4 * cores;
+    match s.parse::<usize>() {
+        Ok(n) if (1..=cap).contains(&n) => Ok(n),
+        Ok(_) => Err(format!("must be in 1..={cap} (at most 4 × the {cores} core(s) of this machine)")),
+        Err(e) => Err(format!("{e}; use a whole number in 1..={cap}")),
+    }
+}
+
+pub(super) fn parse_size(s: &str) -> Result<u64, String> {
+    crate::session::parse_size(s)
+}
+
+/// Most frames one `--frames` range may hold.
+pub(super) const MAX_FRAMES: u32 = 100_000;
+
+/// `A..B` (both included, A ≤ B) or a single frame `A`.
+pub(super) fn parse_frames(s: &str) -> Result<(u32, u32), String> {
+    let number = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("`{t}` is not a frame number (0..=4294967295)"));
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (number(a)?, number(b.trim_start_matches('='))?),
+        None => (number(s)?, number(s)?),
+    };
+    if a > b {
+        return Err(format!("{a}..{b} ends before it starts; write the first frame first, e.g. 0..23"));
+    }
+    if b - a >= MAX_FRAMES {
+        return Err(format!("{a}..{b} is {} frames, more than {MAX_FRAMES}; render it in parts", u64::from(b - a) + 1));
+    }
+    Ok((a, b))
+}
+
+/// Most frames `render --progressive` takes.
+pub(super) const MAX_PROGRESSIVE: i64 = 1_000_000;
