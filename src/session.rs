@@ -245,6 +245,10 @@ impl Session {
         let schedule = schedule(expansion)?;
         kernels.check_schedule(&schedule)?;
         let (width, height, seed) = (pipeline.pipeline.width, pipeline.pipeline.height, pipeline.pipeline.seed);
+        // Every pass's WGSL parsed and validated here, on any backend: a typo in a kernel's shader
+        // is found by a CPU render and a CPU-only CI, at its file and line (backends gpu/validate.rs).
+        let job = Job { schedule: &schedule, scene: &scene, kernels: &kernels, width, height, seed, frame, progress: &wedge_backends::Silent };
+        wedge_backends::gpu::validate::check_job(&job)?;
         let allow_outside_dir = ov.allow_outside_dir;
         Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed, frame, allow_outside_dir })
     }

@@ -94,3 +94,71 @@ fn a_random_kernel_needs_a_pass_declared_random() {
     let problems: Vec<String> = kernels.pass_problems(&schedule, &pass).iter().map(|e| e.to_string()).collect();
     assert!(!problems.iter().any(|p| p.contains(".random()")), "{problems:?}");
 }
+
+/// A user's kernel whose WGSL has a typo (`scael` for `scale`): a session built for the CPU backend
+/// refuses it — no device needed — at the kernel's own line, not the composed shader's.
+struct Typo;
+
+impl wedge::backends::Kernel for Typo {
+    fn name(&self) -> &'static str {
+        "user.typo"
+    }
+    fn class(&self) -> wedge::backends::KernelClass {
+        wedge::backends::KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<wedge::backends::Binding> {
+        vec![wedge::backends::Binding::read("value", Format::Vec4), wedge::backends::Binding::write("out", Format::Vec3)]
+    }
+    fn run_cpu(&self, ctx: &mut wedge::backends::KernelCtx<'_>) -> Result<(), wedge::backends::BackendError> {
+        let v = ctx.read::<[f32; 4]>("value")?;
+        let out = v.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<[f32; 3]>>();
+        ctx.put("out", out)
+    }
+    fn wgsl(&self) -> Option<wedge::backends::WgslSource> {
+        const SOURCE: &str = "#include \"common.wgsl\"\n@compute @workgroup_size(8, 8)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n    if (!pixel_of(gid)) {\n        return;\n    }\n    let i = pixel_index(gid);\n    out_put(i, value_at(i).xyz * params.scael);\n}\n";
+        Some(wedge::backends::WgslSource::new(SOURCE, |_| Ok(wedge::backends::Uniforms::new().f32("scale", 1.0))).per_pixel())
+    }
+}
+
+struct UsesTypo;
+
+impl NodeKind for UsesTypo {
+    fn kind(&self) -> &'static str {
+        "UsesTypo"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("position", Format::Vec4, "position")]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("color", Format::Vec3, "colour")]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        Vec::new()
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let position = ctx.required("position")?;
+        let out = ctx.buffer("color", Format::Vec3);
+        ctx.pass("apply", "user.typo", wedge::graph::Stage::ImageFilter).read("value", position).write("out", out).finish();
+        ctx.output("color", out);
+        Ok(())
+    }
+}
+
+#[test]
+fn a_wgsl_typo_is_refused_at_its_line_without_a_device() {
+    let registries = wedge::Registries::builtin().with_node(UsesTypo).with_kernel(Typo);
+    let text = r#"Pipeline(scene: "builtin:grids", width: 8, height: 6, seed: 1, nodes: [
+        (name: "primary", kind: "Primary"),
+        (name: "typo", kind: "UsesTypo", inputs: {"position": "primary.position"}),
+        (name: "out", kind: "Output", inputs: {"color": "typo.color"}),
+    ])"#;
+    let loaded = wedge::graph::parse_pipeline(Path::new("typo.ron"), text).unwrap();
+    let wedge::Registries { nodes, kernels } = registries;
+    let err = match wedge::Session::build(loaded, &Default::default(), nodes, kernels) {
+        Ok(_) => panic!("a kernel with a WGSL typo built a session"),
+        Err(e) => e.to_string(),
+    };
+    // Line 8 of the kernel's own source, with the line quoted.
+    assert!(err.contains("kernel `user.typo` (pass `typo.apply`): user.typo:8:"), "{err}");
+    assert!(err.contains("params.scael"), "{err}");
+}

@@ -55,6 +55,9 @@ pub enum BackendError {
     /// The wgpu backend failed: no adapter, shader validation, device lost, out of memory, a limit.
     #[error("wgpu backend: {0}")]
     Gpu(String),
+    /// A kernel's WGSL does not compile (found without a device: `gpu::validate`).
+    #[error("{0}")]
+    Wgsl(String),
 }
 
 /// What a run needs besides the schedule.

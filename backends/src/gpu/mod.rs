@@ -41,6 +41,7 @@
 pub mod bands;
 pub mod scene;
 pub mod shaders;
+pub mod validate;
 
 /// Which graphics APIs [`GpuBackend::open_on`] may use (wgpu's set: `Backends::GL`, `Backends::VULKAN`, …).
 pub use wgpu::Backends;
@@ -494,7 +495,7 @@ impl GpuBackend {
 
     /// The pass's `Params` block ([`crate::kernel::Uniforms`]), from the same `KernelCtx` accessors
     /// its CPU path uses.
-    fn uniforms(job: &Job<'_>, pass: &Pass, src: &crate::kernel::WgslSource) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
+    pub(crate) fn uniforms(job: &Job<'_>, pass: &Pass, src: &crate::kernel::WgslSource) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
         let cpu_counters = Counters::default();
         let ctx = KernelCtx::new(
             job.width,
@@ -547,12 +548,7 @@ impl GpuBackend {
                 self.uniform_layouts.insert(name.to_string(), fields);
             }
         }
-        let params = uniforms.wgsl_struct().map_err(|e| gpu_err(format!("kernel `{name}`: {e}")))?;
-        let mut header = params + &shaders::binding_header(name, &bindings, plan)?;
-        if src.scene {
-            header.push_str(&format!("const BVH_STACK_SIZE: u32 = {}u;\n", self.stack_entries));
-        }
-        let text = shaders::compose(name, &src, &header)?;
+        let text = shaders::kernel_wgsl(name, &src, &bindings, uniforms, plan, self.stack_entries)?.text;
         let mut h = std::collections::hash_map::DefaultHasher::new();
         (name, &text, src.scene, plan).hash(&mut h);
         Ok(PipelineSource { key: h.finish(), name, text, src, plan, bindings })

@@ -45,10 +45,49 @@ pub const SHARED: &[(&str, &str)] = &[
     ("environment_light.wgsl", include_str!("../../../shaders/environment_light.wgsl")),
 ];
 
+/// A kernel's composed WGSL and, for each of its lines, where that line came from: the file (a
+/// shared file's name, `generated` for the header, or the kernel's own source) and its 1-based line
+/// (0 for a `// ---- NAME ----` marker), so a compiler's error points at what the user wrote.
+pub struct Composed {
+    pub text: String,
+    pub origin: Vec<(String, usize)>,
+}
+
+impl Composed {
+    /// `file:line` of line `line` (1-based) of the composed text.
+    pub fn origin_of(&self, line: usize) -> Option<(&str, usize)> {
+        self.origin.get(line.checked_sub(1)?).map(|(f, l)| (f.as_str(), *l))
+    }
+}
+
 /// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see
 /// [`binding_header`]), then its source with every include resolved.
 pub fn compose(kernel: &str, src: &WgslSource, header: &str) -> Result<String, BackendError> {
-    let mut out = String::new();
+    Ok(compose_mapped(kernel, src, header)?.text)
+}
+
+/// The text a kernel's pipeline compiles, as the wgpu backend builds it: the `Params` struct of
+/// `uniforms`, the binding header under `plan`, the traversal stack size for a scene kernel, then
+/// [`compose_mapped`]. Shared by the backend and the device-less check ([`super::validate`]).
+pub fn kernel_wgsl(
+    name: &str,
+    src: &WgslSource,
+    bindings: &[Binding],
+    uniforms: &crate::kernel::Uniforms,
+    plan: BindingPlan,
+    stack_entries: u32,
+) -> Result<Composed, BackendError> {
+    let params = uniforms.wgsl_struct().map_err(|e| BackendError::Gpu(format!("kernel `{name}`: {e}")))?;
+    let mut header = params + &binding_header(name, bindings, plan)?;
+    if src.scene {
+        header.push_str(&format!("const BVH_STACK_SIZE: u32 = {stack_entries}u;\n"));
+    }
+    compose_mapped(name, src, &header)
+}
+
+/// [`compose`] with the origin of every line.
+pub fn compose_mapped(kernel: &str, src: &WgslSource, header: &str) -> Result<Composed, BackendError> {
+    let mut out = Composed { text: String::new(), origin: Vec::new() };
     let mut seen = HashSet::new();
     let lookup = |name: &str| -> Option<String> {
         src.includes
@@ -58,9 +97,20 @@ pub fn compose(kernel: &str, src: &WgslSource, header: &str) -> Result<String, B
             .or_else(|| SHARED.iter().find(|(n, _)| *n == name).map(|(_, t)| t.to_string()))
     };
     expand(kernel, "common.wgsl", &lookup("common.wgsl").unwrap_or_default(), &lookup, &mut seen, &mut out, 0)?;
-    out.push_str(header);
+    for (k, line) in header.lines().enumerate() {
+        out.push(line, "generated header", k + 1);
+    }
+    // The kernel's own source is named by the kernel (it has no file name of its own here).
     expand(kernel, kernel, &src.source, &lookup, &mut seen, &mut out, 0)?;
     Ok(out)
+}
+
+impl Composed {
+    fn push(&mut self, line: &str, file: &str, line_no: usize) {
+        self.text.push_str(line);
+        self.text.push('\n');
+        self.origin.push((file.to_string(), line_no));
+    }
 }
 
 fn expand(
@@ -69,7 +119,7 @@ fn expand(
     text: &str,
     lookup: &dyn Fn(&str) -> Option<String>,
     seen: &mut HashSet<String>,
-    out: &mut String,
+    out: &mut Composed,
     depth: usize,
 ) -> Result<(), BackendError> {
     if depth > 16 {
@@ -78,7 +128,7 @@ fn expand(
     if !seen.insert(name.to_string()) {
         return Ok(());
     }
-    out.push_str(&format!("// ---- {name} ----\n"));
+    out.push(&format!("// ---- {name} ----"), name, 0);
     for (line_no, line) in text.lines().enumerate() {
         let t = line.trim();
         if let Some(rest) = t.strip_prefix("#include") {
@@ -93,8 +143,7 @@ fn expand(
             })?;
             expand(kernel, inc, &body, lookup, seen, out, depth + 1)?;
         } else {
-            out.push_str(line);
-            out.push('\n');
+            out.push(line, name, line_no + 1);
         }
     }
     Ok(())
