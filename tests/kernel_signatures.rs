@@ -162,3 +162,44 @@ fn a_wgsl_typo_is_refused_at_its_line_without_a_device() {
     assert!(err.contains("kernel `user.typo` (pass `typo.apply`): user.typo:8:"), "{err}");
     assert!(err.contains("params.scael"), "{err}");
 }
+
+/// A node kind that reads a parameter it does not declare (`density`, declared as `dens`).
+struct ReadsUndeclared;
+
+impl NodeKind for ReadsUndeclared {
+    fn kind(&self) -> &'static str {
+        "ReadsUndeclared"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("color", Format::Vec3, "colour")]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("color", Format::Vec3, "colour")]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        vec![ParamDecl::float("dens", 1.0, 0.0, 10.0, "density")]
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let _ = ctx.param("density").as_f64();
+        let color = ctx.required("color")?;
+        ctx.output("color", color);
+        Ok(())
+    }
+}
+
+/// The expansion is refused naming the parameter and what is declared; nothing panics.
+#[test]
+fn reading_an_undeclared_parameter_is_an_error_not_a_panic() {
+    let text = r#"Pipeline(scene: "builtin:grids", width: 8, height: 6, seed: 1, nodes: [
+        (name: "primary", kind: "Primary"),
+        (name: "user", kind: "ReadsUndeclared", inputs: {"color": "primary.albedo"}),
+        (name: "out", kind: "Output", inputs: {"color": "user.color"}),
+    ])"#;
+    let loaded = wedge::graph::parse_pipeline(Path::new("undeclared.ron"), text).unwrap();
+    let wedge::Registries { nodes, kernels } = wedge::Registries::builtin().with_node(ReadsUndeclared);
+    let err = match wedge::Session::build(loaded, &Default::default(), nodes, kernels) {
+        Ok(_) => panic!("a node reading an undeclared parameter expanded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(err.contains("`user`") && err.contains("undeclared parameter(s) `density`") && err.contains("declared: dens"), "{err}");
+}

@@ -152,7 +152,14 @@ pub struct ExpandCtx<'a> {
     pub(crate) sampler: Option<&'a mut SamplerPlan>,
     /// The pipeline's factoring node ([`crate::factoring`]), if any, and its kind.
     pub(crate) factoring: Option<(&'a Factoring, &'a dyn crate::NodeKind)>,
+    /// Parameters the node read without declaring them ([`ExpandCtx::param`]); the expansion fails
+    /// naming them ([`ExpandCtx::check_params`]) instead of panicking.
+    undeclared: std::cell::RefCell<Vec<String>>,
 }
+
+/// What [`ExpandCtx::param`] hands a node for an undeclared name while the expansion runs on to
+/// its error (never used: the expansion is refused).
+static UNDECLARED: ParamValue = ParamValue::Str(String::new());
 
 impl<'a> ExpandCtx<'a> {
     /// Build a context by hand (tests, tools). Normally [`crate::expand()`] makes these.
@@ -169,7 +176,25 @@ impl<'a> ExpandCtx<'a> {
             expansion,
             sampler: None,
             factoring: None,
+            undeclared: Default::default(),
         }
+    }
+    /// Refuse an expansion that read parameters its node does not declare (a bug in the node kind,
+    /// reported with the fix rather than a panic).
+    pub fn check_params(&self) -> Result<(), GraphError> {
+        let undeclared = self.undeclared.borrow();
+        if undeclared.is_empty() {
+            return Ok(());
+        }
+        let declared: Vec<&str> = self.params.keys().map(String::as_str).collect();
+        Err(GraphError::Expand {
+            node: self.node.to_string(),
+            message: format!(
+                "reads undeclared parameter(s) {}: declare them in the node kind's params() (declared: {})",
+                undeclared.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", "),
+                if declared.is_empty() { "none".to_string() } else { declared.join(", ") }
+            ),
+        })
     }
     /// A context that sees the pipeline's factoring node and its kind (tests, tools;
     /// [`crate::expand()`] sets it).
@@ -244,12 +269,12 @@ impl<'a> ExpandCtx<'a> {
             message: format!("input `{port}` is not connected"),
         })
     }
+    /// A declared parameter's value (validated, default filled in). An undeclared name is recorded
+    /// and fails the node's expansion ([`ExpandCtx::check_params`]).
     pub fn param(&self, name: &str) -> &ParamValue {
         self.params.get(name).unwrap_or_else(|| {
-            panic!(
-                "node `{}` reads undeclared parameter `{name}`: declare it in params()",
-                self.node
-            )
+            self.undeclared.borrow_mut().push(name.to_string());
+            &UNDECLARED
         })
     }
     pub fn params(&self) -> &BTreeMap<String, ParamValue> {

@@ -1279,11 +1279,13 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         }
         let first_pass = expansion.passes.len();
         let first_buffer = expansion.buffers.len();
-        node.kind.expand(
-            &mut ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
-                .with_sampler(&mut plan)
-                .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref())))),
-        )?;
+        let mut ctx = ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
+            .with_sampler(&mut plan)
+            .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref()))));
+        let expanded = node.kind.expand(&mut ctx);
+        // An undeclared parameter first: the errors after it may come from its placeholder value.
+        ctx.check_params()?;
+        expanded?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
         follow_data_stages(&mut expansion, first_pass);
         check_input_stages(v, node, &expansion, first_pass)?;
@@ -1419,7 +1421,10 @@ fn emit_sampler(
     let kind = v.sampler.clone().ok_or_else(|| err("no sampler kind is registered".into()))?;
     let first_pass = expansion.passes.len();
     let (params, inputs) = (BTreeMap::new(), BTreeMap::new());
-    kind.emit(&mut ExpandCtx::new(SAMPLER_NODE, &params, &inputs, expansion), plan)?;
+    let mut ctx = ExpandCtx::new(SAMPLER_NODE, &params, &inputs, expansion);
+    let emitted = kind.emit(&mut ctx, plan);
+    ctx.check_params()?;
+    emitted?;
     for pass in &expansion.passes[first_pass..] {
         for (binding, id) in &pass.writes {
             if let Some(prev) = written.insert(*id, pass.name.clone()) {
