@@ -277,6 +277,39 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     assert!(md.contains("Issue 35's goals"), "{md}");
 }
 
+/// The environment suite (issue 35) in small: an Environment pipeline picks it, every scene is
+/// described, and a scene runs under its own map (the sun's, not the pipeline's).
+#[test]
+fn environment_suite_smoke_runs_each_scene_under_its_own_map() {
+    use wedge::bench::suite::{family_of, family_scenes, run_suite};
+    use wedge::scene::builtin::SuiteFamily;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let reg = wedge::Registries::builtin().nodes;
+    let pipeline = root.join("pipelines/environment.ron");
+    assert_eq!(family_of(&reg, &pipeline).unwrap(), SuiteFamily::Environment);
+    let scenes = family_scenes(SuiteFamily::Environment);
+    assert!(scenes.len() >= 8, "{scenes:?}");
+    for s in &scenes {
+        assert!(wedge::scene::builtin::describe(s.strip_prefix("builtin:").unwrap()).is_some(), "{s} has no description");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let opts = BenchOptions {
+        width: Some(40),
+        height: Some(30),
+        reference_spp: Some(32),
+        mu_values: Some(vec![1.0]),
+        baseline_spp: Some(vec![2, 8]),
+        ..BenchOptions { quick: true, ..BenchOptions::new(pipeline, dir.path()) }
+    };
+    let r = run_suite(&opts, &["builtin:env_sun".to_string()]).expect("environment suite runs");
+    assert_eq!(r.family, SuiteFamily::Environment);
+    assert!(r.rows[0].rmse.is_finite() && r.rows[0].rays_per_pixel > 1.0);
+    let report = std::fs::read_to_string(dir.path().join("env_sun/report.md")).unwrap();
+    assert!(report.contains("builtin:sun") || report.contains("env_sun"), "{report}");
+    let md = std::fs::read_to_string(&r.table).unwrap();
+    assert!(md.contains("Environment pipelines"), "{md}");
+}
+
 /// `BenchOptions.scene` (`wedge bench --scene`) benches another scene than the pipeline's.
 #[test]
 fn bench_on_another_scene() {

@@ -64,6 +64,10 @@
 //! **The motion suite** ([`MOTION_SUITE`], issue 35; picked for a pipeline with a Motion node): eight
 //! scenes named `mo_*` moving over the shutter (0, 1), described in `builtin/motion_suite.rs`.
 //!
+//! **The environment suite** ([`ENVIRONMENT_SUITE`], issue 35; picked for a pipeline with an
+//! Environment node): eight scenes named `env_*`, each lit by its own environment map alone
+//! (`sun`, `overcast`, `sunset`, `sky`, `studio`), described in `builtin/environment_suite.rs`.
+//!
 //! Mesh generators (ground planes, panels, boxes, bars, cylinders, spheres, tori, lathes, rectangular
 //! lights) live in `builtin/mesh.rs` so new built-ins reuse them; each scene larger than a screenful
 //! lives in its own file under `builtin/`.
@@ -71,6 +75,7 @@
 pub mod chess;
 mod contact;
 mod defocus_suite;
+mod environment_suite;
 pub mod envmap;
 mod glossy;
 mod grate;
@@ -96,7 +101,8 @@ pub const NAMES: &[&str] = &[
     "envmap_real", "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact",
     "suite_near_light", "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background",
     "dof_receding", "dof_bokeh", "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room", "mo_fast_thin", "mo_rotating",
-    "mo_shadow_caster", "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy",
+    "mo_shadow_caster", "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy", "env_sun", "env_overcast",
+    "env_glossy", "env_courtyard", "env_sunset", "env_slats", "env_studio", "env_curved",
 ];
 
 /// The scene suite of issue 16, in the order `wedge bench --suite` runs it: each built-in's name and
@@ -217,6 +223,19 @@ pub const MOTION_SUITE: &[(&str, &str)] = &[
     ("mo_glossy", "Glossy movers: a Phong ball sliding and a Phong box turning on a glossy floor before a checker wall (glossy indirect light over the shutter)."),
 ];
 
+/// The environment suite (issue 35, `builtin/environment_suite.rs`): each scene lit by one
+/// environment map alone.
+pub const ENVIRONMENT_SUITE: &[(&str, &str)] = &[
+    ("env_sun", "A sphere, a box and a post under builtin:sun (a 0.5 degree sun at 30000): high-frequency shadows, B_e far above sky's."),
+    ("env_overcast", "The same objects under builtin:overcast (CIE overcast, no sun): the smoothest light; contact shadows must stay."),
+    ("env_glossy", "Glossy receivers under builtin:sky: a Phong-32 floor and spheres of exponent 8, 64 and 256 reflecting the sun and windows."),
+    ("env_courtyard", "An enclosed courtyard (3 m walls, open top) under builtin:sun seen from inside: most of the sky occluded, one sunlit wall."),
+    ("env_sunset", "Posts on a fine checker under builtin:sunset (sun 6 degrees up): long thin shadows across texture."),
+    ("env_slats", "A pergola of thin slats under builtin:sun: stripes of sun and shade 2 m below the occluders."),
+    ("env_studio", "A product shot under builtin:studio: a glossy torus (m 96) and sphere on a sweep lit by soft boxes."),
+    ("env_curved", "Twenty small spheres (6-12 cm) on a plain ground under builtin:overcast: the curvature term where occlusion is small."),
+];
+
 /// A family of scene suites: which scenes `wedge bench --suite` runs a pipeline over, picked from the
 /// pipeline's nodes (`wedge_graph::NodeKind::bench_suite`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -227,16 +246,19 @@ pub enum SuiteFamily {
     Defocus,
     /// Motion blur: [`MOTION_SUITE`], each scene moving over its camera's shutter.
     Motion,
+    /// Environment lighting: [`ENVIRONMENT_SUITE`], each scene with its own map.
+    Environment,
 }
 
 impl SuiteFamily {
-    pub const ALL: [SuiteFamily; 3] = [SuiteFamily::Shadows, SuiteFamily::Defocus, SuiteFamily::Motion];
+    pub const ALL: [SuiteFamily; 4] = [SuiteFamily::Shadows, SuiteFamily::Defocus, SuiteFamily::Motion, SuiteFamily::Environment];
 
     pub fn name(self) -> &'static str {
         match self {
             SuiteFamily::Shadows => "shadows",
             SuiteFamily::Defocus => "defocus",
             SuiteFamily::Motion => "motion",
+            SuiteFamily::Environment => "environment",
         }
     }
     pub fn parse(s: &str) -> Option<SuiteFamily> {
@@ -248,6 +270,7 @@ impl SuiteFamily {
             SuiteFamily::Shadows => SUITE,
             SuiteFamily::Defocus => DEFOCUS_SUITE,
             SuiteFamily::Motion => MOTION_SUITE,
+            SuiteFamily::Environment => ENVIRONMENT_SUITE,
         }
     }
 }
@@ -302,6 +325,14 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "mo_approach" => Ok(motion_suite::mo_approach()),
         "mo_crossing" => Ok(motion_suite::mo_crossing()),
         "mo_glossy" => Ok(motion_suite::mo_glossy()),
+        "env_sun" => Ok(environment_suite::env_sun()),
+        "env_overcast" => Ok(environment_suite::env_overcast()),
+        "env_glossy" => Ok(environment_suite::env_glossy()),
+        "env_courtyard" => Ok(environment_suite::env_courtyard()),
+        "env_sunset" => Ok(environment_suite::env_sunset()),
+        "env_slats" => Ok(environment_suite::env_slats()),
+        "env_studio" => Ok(environment_suite::env_studio()),
+        "env_curved" => Ok(environment_suite::env_curved()),
         _ => Err(SceneError::UnknownBuiltin {
             name: name.to_string(),
             known: NAMES.join(", "),
@@ -311,8 +342,10 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
 
 pub(crate) fn builtin(name: &str) -> Result<Scene, SceneError> {
     let mut scene = builtin_data(name)?.into_scene(name)?;
-    if name.starts_with("envmap") {
-        scene.set_environment(Some(crate::EnvironmentMap::open(envmap::MAP)?));
+    // The scenes that carry a map: the `envmap` family its `sky`, the environment suite its own.
+    let map = if name.starts_with("envmap") { Some(envmap::MAP) } else { environment_suite::map_of(name) };
+    if let Some(map) = map {
+        scene.set_environment(Some(crate::EnvironmentMap::open(map)?));
     }
     Ok(scene)
 }

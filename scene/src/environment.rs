@@ -86,7 +86,7 @@ use crate::SceneError;
 /// Entries of the precomputed sample table (thesis Sec. 6.5.2).
 pub const TABLE_SIZE: usize = 4096;
 /// Names accepted by [`EnvironmentMap::builtin`] (as `builtin:NAME` in [`EnvironmentMap::open`]).
-pub const BUILTIN_NAMES: &[&str] = &["sky", "studio"];
+pub const BUILTIN_NAMES: &[&str] = &["sky", "studio", "sun", "overcast", "sunset"];
 /// The B_e FFT runs on at most this many columns (larger maps are box-averaged first).
 pub const BANDWIDTH_MAX_COLUMNS: u32 = 2048;
 /// Fraction of the spectrum's energy inside `B_e`.
@@ -237,9 +237,15 @@ impl EnvironmentMap {
     pub fn builtin(name: &str) -> Result<EnvironmentMap, SceneError> {
         static SKY: OnceLock<EnvironmentMap> = OnceLock::new();
         static STUDIO: OnceLock<EnvironmentMap> = OnceLock::new();
+        static SUN: OnceLock<EnvironmentMap> = OnceLock::new();
+        static OVERCAST: OnceLock<EnvironmentMap> = OnceLock::new();
+        static SUNSET: OnceLock<EnvironmentMap> = OnceLock::new();
         let (cell, make): (&OnceLock<EnvironmentMap>, fn() -> Texels) = match name {
             "sky" => (&SKY, procedural::sky),
             "studio" => (&STUDIO, procedural::studio),
+            "sun" => (&SUN, procedural::sun),
+            "overcast" => (&OVERCAST, procedural::overcast),
+            "sunset" => (&SUNSET, procedural::sunset),
             _ => {
                 return Err(SceneError::invalid(
                     Path::new(&format!("builtin:{name}")),
@@ -1166,6 +1172,51 @@ mod procedural {
                 [0.03 + 0.02 * d[1]; 3]
             }
         });
+        (w as u32, h as u32, texels)
+    }
+
+    /// A clear sky under a small, intense sun (the environment suite's high-frequency light):
+    /// horizon-to-zenith blue gradient, a dark ground, the sun `radius_deg` in angular radius at
+    /// `radiance` at azimuth `u`, `elevation` degrees up, with a faint glow of a few degrees.
+    fn clear_sky(w: usize, h: usize, (u, elevation): (f64, f64), radius_deg: f64, radiance: [f64; 3]) -> Vec<[f32; 3]> {
+        let sun = at(u, elevation);
+        let sun_cos = radius_deg.to_radians().cos();
+        render(w, h, |d| {
+            if d[1] < 0.0 {
+                return [0.08, 0.07, 0.06];
+            }
+            let t = d[1].sqrt();
+            let cos_sun = dot(d, sun);
+            if cos_sun >= sun_cos {
+                return radiance;
+            }
+            let glow = 2.0 * ((cos_sun - 1.0) / 0.01).exp();
+            let sky = [0.9 * (1.0 - t) + 0.2 * t, 0.9 * (1.0 - t) + 0.35 * t, 0.95 * (1.0 - t) + 0.8 * t];
+            std::array::from_fn(|k| sky[k] + glow * [1.0, 0.85, 0.6][k])
+        })
+    }
+
+    /// `builtin:sun`, 1024 × 512: a clear sky and a sun 0.5° in radius at 30 000 (about the
+    /// irradiance of `sky`'s sun from a ninth of its solid angle: shadows three times sharper and a
+    /// far higher `B_e`), 50° up behind the suite's scenes; nothing else in the sky.
+    pub fn sun() -> Texels {
+        let (w, h) = (1024usize, 512usize);
+        (w as u32, h as u32, clear_sky(w, h, (0.44, 50.0), 0.5, [30000.0, 28500.0, 26000.0]))
+    }
+
+    /// `builtin:sunset`, 1024 × 512: the sun 1° in radius at 6 000, 6° above the horizon (long
+    /// shadows, light grazing the ground), over the same clear sky.
+    pub fn sunset() -> Texels {
+        let (w, h) = (1024usize, 512usize);
+        (w as u32, h as u32, clear_sky(w, h, (0.40, 6.0), 1.0, [6000.0, 4200.0, 2400.0]))
+    }
+
+    /// `builtin:overcast`, 256 × 128: the CIE standard overcast sky, radiance (1 + 2 sin θ)/3 of a
+    /// zenith 1.5 (no sun, no features: the smoothest light there is, `B_e` near its floor), over a
+    /// uniform ground of 0.15.
+    pub fn overcast() -> Texels {
+        let (w, h) = (256usize, 128usize);
+        let texels = render(w, h, |d| if d[1] < 0.0 { [0.15; 3] } else { [1.5 * (1.0 + 2.0 * d[1]) / 3.0; 3] });
         (w as u32, h as u32, texels)
     }
 }

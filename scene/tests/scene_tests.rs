@@ -373,7 +373,8 @@ fn builtins_load_and_are_sane() {
             "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact", "suite_near_light",
             "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background", "dof_receding", "dof_bokeh",
             "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room", "mo_fast_thin", "mo_rotating", "mo_shadow_caster",
-            "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy"
+            "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy", "env_sun", "env_overcast", "env_glossy",
+            "env_courtyard", "env_sunset", "env_slats", "env_studio", "env_curved"
         ]
     );
     // The defocus suite: every scene states a lens and has one area light (the component nodes'
@@ -391,6 +392,17 @@ fn builtins_load_and_are_sane() {
         assert!(s.has_motion(), "{name}: nothing moves");
         assert_eq!(s.lights.len(), 1, "{name}");
     }
+    // The environment suite: every scene is lit by its own map alone (no area light, nothing emits),
+    // and the maps differ where the scenes say (a sun's B_e far above overcast's).
+    let mut bandwidths = std::collections::BTreeMap::new();
+    for (name, _) in wedge_scene::builtin::ENVIRONMENT_SUITE {
+        let s = load(&SceneSource::Builtin((*name).into())).unwrap();
+        let env = s.environment.as_ref().unwrap_or_else(|| panic!("{name}: no environment map"));
+        assert!(s.lights.is_empty() && s.triangle_count() > 0, "{name}");
+        bandwidths.insert(env.name().to_string(), env.bandwidth());
+    }
+    assert_eq!(bandwidths.len(), 5, "{bandwidths:?}");
+    assert!(bandwidths["builtin:sun"] > 2.0 * bandwidths["builtin:overcast"], "{bandwidths:?}");
     for (name, side) in [("grids", 0.6f32), ("curved", 1.0)] {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
         assert_eq!(s.lights.len(), 1, "{name}");

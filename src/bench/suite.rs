@@ -613,6 +613,10 @@ pub fn markdown(r: &SuiteResult) -> String {
             "Issue 35's goals against stratified MC over time and light (Motion pipelines at 640×480: median ≥ 3×, worst ≥ \
              1.5×; mean within 1%)"
         }
+        SuiteFamily::Environment => {
+            "Issue 35's goals against stratified MC over the map (Environment pipelines at 640×480: median ≥ 4×, worst ≥ \
+             2×; mean within 1%)"
+        }
     };
     let _ = writeln!(
         w,

@@ -58,7 +58,7 @@ pub(crate) const NORMAL_DEG: f64 = 10.0;
 /// such node so that the same names mean the same thing; [`environment_request`] asks the scene for it.
 pub(crate) fn map_params() -> [ParamDecl; 3] {
     [
-        ParamDecl::path("map", "", "lat-long environment map: .exr or .hdr, relative to the pipeline file, or builtin:sky / builtin:studio; empty = the scene's own"),
+        ParamDecl::path("map", "", "lat-long environment map: .exr or .hdr, relative to the pipeline file, or builtin:sky / studio / sun / overcast / sunset; empty = the scene's own"),
         ParamDecl::positive("scale", 1.0, 1e9, "multiplies the map's radiance"),
         ParamDecl::float("rotation_deg", 0.0, -3600.0, 3600.0, "turns the map about +Y (right-hand rule, degrees)"),
     ]
@@ -91,6 +91,9 @@ impl NodeKind for Environment {
     }
     fn doc(&self) -> &'static str {
         "Environment-map lighting with axis-aligned filtering and optional temporal filtering (Mehta thesis Ch. 6)"
+    }
+    fn bench_suite(&self) -> Option<&'static str> {
+        Some("environment")
     }
     fn inputs(&self) -> Vec<PortDecl> {
         Vec::new()
