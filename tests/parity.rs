@@ -232,7 +232,7 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
         let a = session.run(&mut whole, &Silent).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         if session.schedule.buffers.iter().any(|b| b.layers > 1) {
             // Per-sample buffers (LightField) are never split into bands of rows: a pass binding
-            // them over the limit fails, naming itself (README "Backends and parity").
+            // them over the limit fails, naming itself (docs/BACKENDS.md).
             let e = session.run(&mut banded, &Silent).expect_err("banded per-sample buffers");
             assert!(e.to_string().contains("light_field."), "{}: {e}", path.display());
             continue;

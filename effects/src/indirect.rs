@@ -162,7 +162,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Resul
             node: ctx.node().into(),
             message: format!(
                 "ambient occlusion (`mode: \"ao\"`) is not a lighting component `{}` ({}) can factor; use `mode: \"radiance\"` \
-                 or a pipeline without {} (README \"Composing effects\": what is refused, and why)",
+                 or a pipeline without {} (docs/NODES.md \"Composing effects\": what is refused, and why)",
                 f.node, f.kind, f.kind
             ),
         });

@@ -90,7 +90,7 @@ impl NodeKind for LightField {
                 "gaps",
                 "trace",
                 &["trace", "black"],
-                "a reconstruction ray that crosses no splat: traced into the scene and its hit path-traced like an input ray (trace; where the input rays reached a surface too sparsely to cover it with splats), or black (the paper's rule, which read the open envmap_light 14-23% dark; README \"Composing effects\")",
+                "a reconstruction ray that crosses no splat: traced into the scene and its hit path-traced like an input ray (trace; where the input rays reached a surface too sparsely to cover it with splats), or black (the paper's rule, which read the open envmap_light 14-23% dark; docs/NODES.md \"Composing effects\")",
             ),
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),

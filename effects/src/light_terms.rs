@@ -10,7 +10,7 @@ pub(crate) fn seen_directly(view: View) -> Terms {
 }
 
 /// The lobes of a BRDF a direct-light term integrates (its detail): the same area light through
-/// different lobes is different light — on glossy scenes 2.5–4% of the image (README "Composing
+/// different lobes is different light — on glossy scenes 2.5–4% of the image (docs/NODES.md "Composing
 /// effects").
 pub(crate) mod lobes {
     /// `k_d` times the irradiance: Ch. 3's receivers (SoftShadows alone, MonteCarlo).
@@ -56,7 +56,7 @@ pub(crate) const COMPONENT_DIRECT: Accepts = Accepts {
     fix: "wire the `radiance` of a SoftShadows node: it renders the direct component on the shared sampler, \
           through the factoring node's lens and shutter; a node that traces its own pinhole paths (PixelFilter, \
           RadianceFilter, MonteCarlo) or one that holds indirect light cannot be factored, the environment's direct \
-          light goes to `environment`, and the real layer is not a factored component yet (README \"Composing effects\": \
+          light goes to `environment`, and the real layer is not a factored component yet (docs/NODES.md \"Composing effects\": \
           what is refused)",
 };
 
@@ -65,7 +65,7 @@ pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
     kinds: &[TermKind::Indirect, TermKind::AmbientOcclusion],
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of an Indirect (or LightField) node: it renders the indirect component through the \
-          factoring node's lens and shutter; direct light goes to `direct` (README \"Composing effects\": what is refused)",
+          factoring node's lens and shutter; direct light goes to `direct` (docs/NODES.md \"Composing effects\": what is refused)",
 };
 
 /// A factoring node's `environment` input: the environment's direct light, through the sampler's camera.
@@ -73,7 +73,7 @@ pub(crate) const COMPONENT_ENVIRONMENT: Accepts = Accepts {
     kinds: &[TermKind::DirectEnvironment],
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of an Environment node (without `indirect`): it renders the environment's direct light \
-          through the factoring node's lens and shutter; indirect light goes to `indirect` (README \"Composing effects\")",
+          through the factoring node's lens and shutter; indirect light goes to `indirect` (docs/NODES.md \"Composing effects\")",
 };
 
 /// A factoring node's component inputs (Defocus and Motion take the same): each a component node's

@@ -247,7 +247,7 @@ fn generic_help(code: &E) -> String {
         E::ExceededRecursionLimit => {
             "the value is nested too deeply; a pipeline needs only a few levels of brackets".into()
         }
-        _ => "see the pipeline format in the wedge documentation (README) and fix the syntax here"
+        _ => "see the pipeline format in the wedge documentation (docs/GUIDE.md, \"A pipeline\") and fix the syntax here"
             .into(),
     }
 }

@@ -289,7 +289,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphEr
             return Err(GraphError::Expand {
                 node: ctx.node().into(),
                 message: format!(
-                    "`{flag}: true` does not apply under the factoring node `{}` ({}): {why}; remove it (README \"Composing \
+                    "`{flag}: true` does not apply under the factoring node `{}` ({}): {why}; remove it (docs/NODES.md \"Composing \
                      effects\")",
                     f.node, f.kind
                 ),
