@@ -1,5 +1,5 @@
 //! Run the example pipeline on the CPU, then (when an adapter exists) check every pass on wgpu.
-use wedge::backends::{cpu::CpuBackend, gpu::GpuBackend, parity::run_parity, Job, Silent};
+use wedge::backends::{cpu::CpuBackend, gpu::GpuBackend, parity::run_parity, Silent};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let session = wedge_custom_kernel::session(&Default::default())?;
@@ -7,16 +7,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("cpu: {} passes, output {:?}", run.timings.len(), run.outputs.keys().collect::<Vec<_>>());
     match GpuBackend::new() {
         Ok(mut gpu) => {
-            let job = Job {
-                schedule: &session.schedule,
-                scene: &session.scene,
-                kernels: &session.kernels,
-                width: session.width,
-                height: session.height,
-                seed: session.seed,
-                frame: 0,
-                progress: &Silent,
-            };
+            let job = session.job(session.seed, 0, &Silent);
             let report = run_parity(&job, &mut gpu)?;
             print!("{}", report.table());
             if !report.ok() {

@@ -1,5 +1,5 @@
 //! The user-defined kernel runs through wedge's parity harness like wedge's own kernels.
-use wedge::backends::{gpu::GpuBackend, parity::run_parity, Job, Silent};
+use wedge::backends::{gpu::GpuBackend, parity::run_parity, Silent};
 
 #[test]
 fn custom_kernel_parity() {
@@ -13,16 +13,7 @@ fn custom_kernel_parity() {
     };
     let mut gpu = gpu;
     let session = wedge_custom_kernel::session(&Default::default()).unwrap();
-    let job = Job {
-        schedule: &session.schedule,
-        scene: &session.scene,
-        kernels: &session.kernels,
-        width: session.width,
-        height: session.height,
-        seed: session.seed,
-        frame: 0,
-        progress: &Silent,
-    };
+    let job = session.job(session.seed, 0, &Silent);
     let report = run_parity(&job, &mut gpu).unwrap();
     println!("{}", report.table());
     assert!(report.rows.iter().any(|r| r.kernel == "example.exposure"), "the custom kernel did not run");
