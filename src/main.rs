@@ -91,6 +91,25 @@ enum Command {
         /// interrupted render keeps the last complete snapshot), and prints the time per frame.
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_PROGRESSIVE), conflicts_with = "frames")]
         progressive: Option<u32>,
+        /// Render only tile I (from 0) of N, with the apron the pipeline's passes need around it, into
+        /// --out as tile_IIII_of_NNNN.exr for `wedge merge` (N tiles: a near-square grid).
+        #[arg(long, value_name = "I/N", value_parser = wedge::tiles::parse_tile, conflicts_with_all = ["frames", "progressive", "aov"])]
+        tile: Option<(u32, u32)>,
+        /// With --tile: the grid, C columns by R rows (C × R = N).
+        #[arg(long, value_name = "CxR", value_parser = wedge::tiles::parse_grid, requires = "tile")]
+        tile_grid: Option<wedge::tiles::Grid>,
+    },
+    /// Assemble the tile files of `render --tile` in DIR into render.exr/.png (and unfiltered.exr/.png)
+    /// in --out, after checking that they belong together and cover the image exactly.
+    Merge {
+        dir: PathBuf,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Run a render on a cluster's scheduler as tiles and a merge (see `wedge farm slurm --help`).
+    Farm {
+        #[command(subcommand)]
+        farm: Farm,
     },
     /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
     /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
@@ -236,6 +255,30 @@ enum Command {
         /// As for `render`.
         #[arg(long = "allow-outside-dir", alias = "allow-outside-scene-dir")]
         allow_outside_dir: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum Farm {
+    /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`), and a merge
+    /// job chained with --dependency=afterok, written to OUT/slurm/ and submitted with sbatch (or
+    /// printed with --dry-run). Tiles go to OUT/tiles/, the merged images to OUT (--out).
+    Slurm {
+        pipeline: PathBuf,
+        /// Number of tiles (array tasks), 1..=65536; a near-square grid.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(wedge::tiles::MAX_TILES)))]
+        tiles: u32,
+        #[command(flatten)]
+        common: Common,
+        /// Slurm partition of both jobs.
+        #[arg(long)]
+        partition: Option<String>,
+        /// Slurm time limit of each task and of the merge (e.g. 01:00:00).
+        #[arg(long)]
+        time: Option<String>,
+        /// Print the scripts and the sbatch commands instead of submitting.
+        #[arg(long)]
+        dry_run: bool,
     },
 }
 
@@ -394,6 +437,75 @@ fn render(session: &Session, common: &Common, stem: &str, aov: &[String]) -> Res
         text.push_str(&format!("wrote {}\n", f.display()));
     }
     Ok(text)
+}
+
+/// `render --tile I/N`: one tile file into --out ([`wedge::tiles`]).
+fn render_tile(session: &Session, common: &Common, (index, n): (u32, u32), grid: Option<wedge::tiles::Grid>) -> Result<String, WedgeError> {
+    let grid = wedge::tiles::grid_of(n, grid, (session.width, session.height))?;
+    scene_notes(session);
+    let bars = Bars::default();
+    let tile = match common.backend.as_str() {
+        "wgpu" => wedge::tiles::render_tile(session, &mut open_gpu(common.gpu_limits.as_deref())?, &bars, index, grid)?,
+        _ => wedge::tiles::render_tile(session, &mut CpuBackend::new(), &bars, index, grid)?,
+    };
+    let path = wedge::tiles::write_tile(&common.out, &tile)?;
+    let (h, r) = (&tile.header, tile.header.rect);
+    Ok(format!(
+        "tile {index}/{n} of a {}x{} grid: {}x{} at ({}, {}) of {}x{}, apron {} px\nwrote {}\n",
+        h.grid.cols, h.grid.rows, r.w, r.h, r.x, r.y, h.full.0, h.full.1, h.apron, path.display()
+    ))
+}
+
+/// The `render` flags of `c` that a farm task passes on (not --out: the farm places the tiles).
+fn forwarded_args(c: &Common) -> Vec<String> {
+    let mut a: Vec<String> = Vec::new();
+    let values = [
+        ("--scene", c.scene.clone()),
+        ("--seed", c.seed.map(|v| v.to_string())),
+        ("--width", c.width.map(|v| v.to_string())),
+        ("--height", c.height.map(|v| v.to_string())),
+        ("--threads", c.threads.map(|v| v.to_string())),
+        ("--memory-limit", c.memory_limit.map(|v| v.to_string())),
+        ("--backend", Some(c.backend.clone())),
+        ("--gpu-limits", c.gpu_limits.clone()),
+    ];
+    for (flag, v) in values {
+        if let Some(v) = v {
+            a.extend([flag.to_string(), v]);
+        }
+    }
+    for s in &c.set {
+        a.extend(["--set".to_string(), s.clone()]);
+    }
+    if c.allow_outside_dir {
+        a.push("--allow-outside-dir".into());
+    }
+    a
+}
+
+/// `wedge farm slurm`: refuse a pipeline that cannot be tiled before anything is submitted.
+fn farm_slurm(pipeline: &Path, tiles: u32, common: &Common, partition: Option<String>, time: Option<String>, dry_run: bool) -> Result<String, WedgeError> {
+    for (flag, v) in [("--partition", &partition), ("--time", &time)] {
+        if let Some(v) = v {
+            wedge::farm::check_sbatch_value(flag, v)?;
+        }
+    }
+    let session = Session::open(Some(pipeline), &overrides(common, None)?)?;
+    wedge::tiles::check(&session, wedge::tiles::Grid::near_square(tiles, (session.width, session.height)))?;
+    let absolute = |p: &Path| std::path::absolute(p).map_err(|e| WedgeError::Usage(format!("{}: {e}", p.display())));
+    let plan = wedge::farm::SlurmPlan {
+        wedge: std::env::current_exe().map_err(|e| WedgeError::Usage(format!("cannot find the wedge executable: {e}")))?,
+        pipeline: absolute(pipeline)?,
+        tiles,
+        out: absolute(&common.out)?,
+        render_args: forwarded_args(common),
+        partition,
+        time,
+    };
+    if dry_run {
+        return Ok(plan.dry_run());
+    }
+    plan.submit()
 }
 
 /// Most frames one `--frames` range may hold.
@@ -735,15 +847,16 @@ impl Command {
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu, frames, aov, progressive } => {
+        Command::Render { pipeline, common, mu, frames, aov, progressive, tile, tile_grid } => {
             start_rendering_command(&common)?;
             // A sequence opens at its first frame (its camera, and a real layer read per frame).
             let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
             let mut session = Session::open(pipeline.as_deref(), &ov)?;
-            match (frames, progressive) {
-                (_, Some(n)) => render_progressive(&session, &common, n, &aov),
-                (Some(frames), None) => render_frames(&mut session, &common, frames, &aov),
-                (None, None) => render(&session, &common, "render", &aov),
+            match (frames, progressive, tile) {
+                (_, _, Some(tile)) => render_tile(&session, &common, tile, tile_grid),
+                (_, Some(n), None) => render_progressive(&session, &common, n, &aov),
+                (Some(frames), None, None) => render_frames(&mut session, &common, frames, &aov),
+                (None, None, None) => render(&session, &common, "render", &aov),
             }
         }
         Command::Reference { pipeline, common, spp, sampling } => {
@@ -752,6 +865,10 @@ fn run(cli: Cli) -> Result<String, WedgeError> {
             render(&session, &common, "reference", &[])
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
+        Command::Merge { dir, out } => wedge::merge::merge(&dir, &out),
+        Command::Farm { farm: Farm::Slurm { pipeline, tiles, common, partition, time, dry_run } } => {
+            farm_slurm(&pipeline, tiles, &common, partition, time, dry_run)
+        }
         #[cfg(feature = "view")]
         Command::View { pipeline, common, mu, script } => {
             start_rendering_command(&common)?;

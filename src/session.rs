@@ -329,7 +329,22 @@ impl Session {
             seed,
             frame,
             progress,
+            window: wedge_backends::Window::whole(self.width, self.height),
         }
+    }
+
+    /// Run only `window` of this session's image (`render --tile`, [`crate::tiles`]): buffers of
+    /// `width × height` at the window's place in the full image, whose camera rays and random
+    /// numbers they use. A single image (no sequence, no history).
+    pub fn run_window(
+        &self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        window: wedge_backends::Window,
+        (width, height): (u32, u32),
+    ) -> Result<RunResult, WedgeError> {
+        let job = Job { width, height, window, ..self.job(self.seed, 0, progress) };
+        self.run_job(backend, &job, &BTreeMap::new())
     }
 
     fn run_with(
@@ -340,7 +355,16 @@ impl Session {
         frame: u32,
         history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
     ) -> Result<RunResult, WedgeError> {
-        let mut run = backend.run_frame(&self.job(seed, frame, progress), history)?;
+        self.run_job(backend, &self.job(seed, frame, progress), history)
+    }
+
+    fn run_job(
+        &self,
+        backend: &mut dyn Backend,
+        job: &Job<'_>,
+        history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
+    ) -> Result<RunResult, WedgeError> {
+        let mut run = backend.run_frame(job, history)?;
         // The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
         run.sinks = self
             .pipeline
