@@ -21,7 +21,8 @@
 // of rows [frame.row0, frame.row_end); each band binds its buffers from pixel `frame.first` on.
 // So a kernel must
 //   - index its buffers with `pixel_index(gid)` (its own pixel) or `index_at(x, y)` (a neighbour),
-//   - key randomness and anything else per-pixel with the absolute `pixel_id(gid)` / `pixel_xy(gid)`,
+//   - key randomness with `pixel_id(gid)` and generate camera rays at `global_xy(gid)`: the pixel in
+//     the full image, of which a tile (`--tile`, frame.x0/y0/full_width/full_height) is a window,
 //   - declare how far it reads (`WgslSource::per_pixel` / `with_reach`); one that does not is never
 //     split. Without bands row0 = 0, row_end = height, first = 0: indices equal ids.
 //   group(2)             the scene (scene.wgsl), only for kernels that declare `scene: true`.
