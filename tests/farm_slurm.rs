@@ -148,6 +148,55 @@ fn farm_slurm_array_merges_to_the_single_process_render() {
     let o = wedge(&[&["render", "pipelines/shadows.ron"], &flags[..], &["--out", &whole.to_string_lossy()]].concat(), &conf);
     assert!(o.status.success());
     // The merge job writes its set by renames: once render.exr is there, it is complete.
-    assert!(std::fs::read(&merged).unwrap() == std::fs::read(whole.join("render.exr")).unwrap(), "merged render.exr differs");
+    let expected = std::fs::read(whole.join("render.exr")).unwrap();
+    assert!(std::fs::read(&merged).unwrap() == expected, "merged render.exr differs");
     eprintln!("farm_slurm: 4 tasks + merge in {:.1} s", start.elapsed().as_secs_f64());
+    a_failed_task_is_named_and_resubmitting_it_completes_the_set(&cluster, &flags, out.path(), &expected);
+}
+
+/// Task 2 fails (its tile's path is a directory, which wedge never replaces): the merge job never
+/// starts (afterok), `wedge merge` names tile 2/4, and resubmitting array index 2 completes the set.
+fn a_failed_task_is_named_and_resubmitting_it_completes_the_set(cluster: &Cluster, flags: &[&str], out: &Path, expected: &[u8]) {
+    let conf = cluster.conf();
+    let farm = out.join("farm2");
+    let blocker = farm.join("tiles/tile_0002_of_0004.exr");
+    std::fs::create_dir_all(&blocker).unwrap();
+    let farm_s = farm.to_string_lossy().into_owned();
+    let o = wedge(&[&["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4"], flags, &["--out", &farm_s]].concat(), &conf);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(o.status.success(), "{text}{}", String::from_utf8_lossy(&o.stderr));
+    // "submitted tile array job A (4 tasks) and merge job M (after A succeeds)"
+    let ids: Vec<&str> = text.split_whitespace().filter(|w| w.chars().all(|c| c.is_ascii_digit()) && !w.is_empty()).collect();
+    let (array, merge) = (ids[0], ids[2]);
+    let squeue = |job: &str| {
+        let o = Command::new("squeue").args(["-h", "-j", job, "-o", "%T %r"]).env("SLURM_CONF", &conf).output().unwrap();
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    };
+    wait_for(|| squeue(array).is_empty(), "the array to finish");
+    assert!(!farm.join("render.exr").exists(), "the merge job must not run after a failed task");
+    // Slurm either keeps the merge job pending (DependencyNeverSatisfied) or cancels it; it never runs.
+    let pending = squeue(merge);
+    assert!(pending.is_empty() || pending.contains("Dependency"), "merge job: {pending}");
+    let o = wedge(&["merge", &format!("{farm_s}/tiles"), "--out", &farm_s], &conf);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("missing") && err.contains("2/4"), "{err}");
+    if !pending.is_empty() {
+        let o = Command::new("scancel").arg(merge).env("SLURM_CONF", &conf).output().unwrap();
+        assert!(o.status.success(), "scancel {merge}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    std::fs::remove_dir(&blocker).unwrap();
+    let o = Command::new("sbatch").args(["--array=2", &format!("{farm_s}/slurm/tiles.sbatch")]).env("SLURM_CONF", &conf).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    wait_for(|| blocker.is_file(), "the resubmitted task's tile");
+    let o = wedge(&["merge", &format!("{farm_s}/tiles"), "--out", &farm_s], &conf);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read(farm.join("render.exr")).unwrap() == expected, "merged render.exr after the resubmission differs");
+}
+
+fn wait_for(done: impl Fn() -> bool, what: &str) {
+    let start = Instant::now();
+    while !done() {
+        assert!(start.elapsed() < Duration::from_secs(120), "waited 120 s for {what}");
+        std::thread::sleep(Duration::from_millis(500));
+    }
 }
