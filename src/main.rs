@@ -443,10 +443,16 @@ fn render(session: &Session, common: &Common, stem: &str, aov: &[String]) -> Res
 fn render_tile(session: &Session, common: &Common, (index, n): (u32, u32), grid: Option<wedge::tiles::Grid>) -> Result<String, WedgeError> {
     let grid = wedge::tiles::grid_of(n, grid, (session.width, session.height))?;
     scene_notes(session);
+    let plan = wedge::tiles::plan(session, index, grid)?;
+    // The memory of the tile with its apron, not of the whole image.
+    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    if let Some((limit, source)) = wedge::session::memory_budget(common.memory_limit) {
+        session.memory_estimate_at(mode, (plan.grown.2, plan.grown.3)).check(limit, &source)?;
+    }
     let bars = Bars::default();
     let tile = match common.backend.as_str() {
-        "wgpu" => wedge::tiles::render_tile(session, &mut open_gpu(common.gpu_limits.as_deref())?, &bars, index, grid)?,
-        _ => wedge::tiles::render_tile(session, &mut CpuBackend::new(), &bars, index, grid)?,
+        "wgpu" => wedge::tiles::render_planned(session, &mut open_gpu(common.gpu_limits.as_deref())?, &bars, &plan)?,
+        _ => wedge::tiles::render_planned(session, &mut CpuBackend::new(), &bars, &plan)?,
     };
     let path = wedge::tiles::write_tile(&common.out, &tile)?;
     let (h, r) = (&tile.header, tile.header.rect);

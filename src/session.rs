@@ -378,19 +378,25 @@ impl Session {
 
     /// Peak memory of running this session in `mode` (see [`MemoryEstimate`]).
     pub fn memory_estimate(&self, mode: RunMode) -> MemoryEstimate {
-        let b = self.schedule.buffer_bytes(self.width, self.height);
+        self.memory_estimate_at(mode, (self.width, self.height))
+    }
+
+    /// [`Session::memory_estimate`] for buffers of `width × height` pixels: a tile with its apron
+    /// (`render --tile`).
+    pub fn memory_estimate_at(&self, mode: RunMode, (width, height): (u32, u32)) -> MemoryEstimate {
+        let b = self.schedule.buffer_bytes(width, height);
         let scene = scene_bytes(&self.scene);
-        let pixels = u64::from(self.width) * u64::from(self.height);
+        let pixels = u64::from(width) * u64::from(height);
         match mode {
             RunMode::Cpu => MemoryEstimate {
-                buffers: self.schedule.peak_bytes(self.width, self.height),
+                buffers: self.schedule.peak_bytes(width, height),
                 scene,
                 images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
             },
             // The pool lives on the device, the sink copies and images on the host; a software
             // adapter (lavapipe) takes both from the same RAM, so both count. The scene is uploaded.
             RunMode::Gpu => MemoryEstimate {
-                buffers: self.schedule.peak_bytes(self.width, self.height),
+                buffers: self.schedule.peak_bytes(width, height),
                 scene: scene.saturating_mul(2),
                 images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
             },

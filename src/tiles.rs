@@ -212,6 +212,27 @@ fn apron(session: &Session) -> Result<u32, WedgeError> {
         .map_err(|e| WedgeError::Usage(format!("--tile: {}: {e}", session.pipeline.path.display())))
 }
 
+/// What one tile computes: its rectangle, the apron around it and the rectangle with the apron
+/// (`x0, y0, width, height`, clipped to the image).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TilePlan {
+    pub index: u32,
+    pub grid: Grid,
+    pub rect: Rect,
+    pub apron: u32,
+    pub grown: (u32, u32, u32, u32),
+}
+
+/// Plan tile `index` of `grid`, or why it cannot be rendered (the grid, a pass reading the whole
+/// image), before any backend is opened.
+pub fn plan(session: &Session, index: u32, grid: Grid) -> Result<TilePlan, WedgeError> {
+    let full = (session.width, session.height);
+    let rect = grid.rect(index, full)?;
+    let apron = apron(session)?;
+    let grown = wedge_backends::tiles::grow((rect.x, rect.y, rect.w, rect.h), apron, full);
+    Ok(TilePlan { index, grid, rect, apron, grown })
+}
+
 /// Render tile `index` of `grid` of `session`'s image on `backend`.
 pub fn render_tile(
     session: &Session,
@@ -220,10 +241,13 @@ pub fn render_tile(
     index: u32,
     grid: Grid,
 ) -> Result<Tile, WedgeError> {
+    render_planned(session, backend, progress, &plan(session, index, grid)?)
+}
+
+/// Render a planned tile on `backend`.
+pub fn render_planned(session: &Session, backend: &mut dyn Backend, progress: &dyn Progress, plan: &TilePlan) -> Result<Tile, WedgeError> {
     let full = (session.width, session.height);
-    let rect = grid.rect(index, full)?;
-    let apron = apron(session)?;
-    let grown = wedge_backends::tiles::grow((rect.x, rect.y, rect.w, rect.h), apron, full);
+    let TilePlan { index, grid, rect, apron, grown } = *plan;
     let window = wedge_backends::tiles::window_of(grown, full);
     let run = session.run_window(backend, progress, window, (grown.2, grown.3))?;
     let images = IMAGE_PORTS

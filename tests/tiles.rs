@@ -289,3 +289,14 @@ fn farm_slurm_dry_run_prints_the_array_and_the_merge() {
     refused(&wedge(&["farm", "slurm", "pipelines/lightfield_ao.ron", "--tiles", "4", "--dry-run"]), &["cannot be tiled", "node `ao`"]);
     refused(&wedge(&["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4", "--time", "1 --x", "--dry-run"]), &["--time"]);
 }
+
+/// `--memory-limit` applies to the tile with its apron, not to the whole image: a limit the whole
+/// 640x480 render exceeds lets one of its 4 tiles run.
+#[test]
+fn memory_limit_counts_the_tile_not_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let size = ["--width", "640", "--height", "480", "--memory-limit", "300M"];
+    refused(&wedge(&[&["render"], &size[..], &["--out", s(dir.path())]].concat()), &["memory limit"]);
+    ok(&wedge(&[&["render"], &size[..], &["--tile", "3/4", "--out", s(dir.path())]].concat()));
+    assert!(dir.path().join("tile_0003_of_0004.exr").is_file());
+}
