@@ -31,8 +31,8 @@ fn lens_weight(c: CameraModel, u: vec2<f32>) -> f32 {
 
 // Camera::ray: image point `pixel` (pixels, (0,0) top-left, y down), lens sample in [0,1)².
 fn camera_ray(c: CameraModel, pixel: vec2<f32>, lens_sample: vec2<f32>) -> LensRay {
-    let w = f32(max(frame.width, 1u));
-    let h = f32(max(frame.height, 1u));
+    let w = f32(max(frame.full_width, 1u));
+    let h = f32(max(frame.full_height, 1u));
     let sx = (2.0 * pixel.x / w - 1.0) * c.tan_half * (w / h);
     let sy = (1.0 - 2.0 * pixel.y / h) * c.tan_half;
     let dir = normalize3(c.forward + sx * c.right + sy * c.up);
@@ -51,6 +51,6 @@ fn coc_pixels(c: CameraModel, depth: f32) -> f32 {
     if (c.aperture <= 0.0) {
         return 0.0;
     }
-    let scale = c.aperture * f32(max(frame.height, 1u)) / (2.0 * c.focus_distance * c.tan_half);
+    let scale = c.aperture * f32(max(frame.full_height, 1u)) / (2.0 * c.focus_distance * c.tan_half);
     return scale * (c.focus_distance / depth - 1.0);
 }

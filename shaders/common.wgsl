@@ -21,7 +21,8 @@
 // of rows [frame.row0, frame.row_end); each band binds its buffers from pixel `frame.first` on.
 // So a kernel must
 //   - index its buffers with `pixel_index(gid)` (its own pixel) or `index_at(x, y)` (a neighbour),
-//   - key randomness and anything else per-pixel with the absolute `pixel_id(gid)` / `pixel_xy(gid)`,
+//   - key randomness with `pixel_id(gid)` and generate camera rays at `global_xy(gid)`: the pixel in
+//     the full image, of which a tile (`--tile`, frame.x0/y0/full_width/full_height) is a window,
 //   - declare how far it reads (`WgslSource::per_pixel` / `with_reach`); one that does not is never
 //     split. Without bands row0 = 0, row_end = height, first = 0: indices equal ids.
 //   group(2)             the scene (scene.wgsl), only for kernels that declare `scene: true`.
@@ -46,6 +47,10 @@ struct Frame {
     chunk_end: u32,   // pass's sample indices [chunk_begin, chunk_end); unchunked: [0, 2^32 - 1)
     packed_pixels: u32, // packed binding plan: elements per binding region (the band's end - first)
     frame_index: u32, // frames run before this one in its sequence (Job::frame; 0 for a single image)
+    x0: u32,          // tiles (Job::window): this image of width x height lies at (x0, y0) of a full
+    y0: u32,          // image of full_width x full_height; camera rays and random numbers use the
+    full_width: u32,  // full image's pixels (global_xy, pixel_id). Without tiles x0 = y0 = 0 and the
+    full_height: u32, // full size is the image's.
     _pad1: u32,
     _pad2: u32,
 }
@@ -202,19 +207,27 @@ fn pixel_of(gid: vec3<u32>) -> bool {
     return gid.x < frame.width && gid.y + frame.row0 < frame.row_end;
 }
 
-// The invocation's pixel (x, y) in the image.
+// The invocation's pixel (x, y) in the image (its buffers' coordinates: index_at, bounds checks).
 fn pixel_xy(gid: vec3<u32>) -> vec2<u32> {
     return vec2<u32>(gid.x, gid.y + frame.row0);
 }
 
-// The invocation's pixel as y * width + x: keys the RNG (the CPU uses the same number).
+// The invocation's pixel (x, y) in the full image (a tile's pixels lie at (x0, y0) in it): what
+// camera rays are generated for, with the full size (camera.wgsl).
+fn global_xy(gid: vec3<u32>) -> vec2<u32> {
+    return pixel_xy(gid) + vec2<u32>(frame.x0, frame.y0);
+}
+
+// The invocation's pixel as y * full_width + x of the full image: keys the RNG (the CPU uses the
+// same number, KernelCtx::window.pixel_id), so a tile draws what the whole image draws there.
 fn pixel_id(gid: vec3<u32>) -> u32 {
-    return (gid.y + frame.row0) * frame.width + gid.x;
+    let g = global_xy(gid);
+    return g.y * frame.full_width + g.x;
 }
 
 // The invocation's own element in every bound per-pixel buffer.
 fn pixel_index(gid: vec3<u32>) -> u32 {
-    return pixel_id(gid) - frame.first;
+    return (gid.y + frame.row0) * frame.width + gid.x - frame.first;
 }
 
 // The element of pixel (x, y) — inside the image and within the kernel's declared reach.

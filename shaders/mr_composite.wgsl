@@ -16,7 +16,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let xy = pixel_xy(gid);
+    let xy = global_xy(gid);
     let l_cam = real_camera(i32(xy.x), i32(xy.y));
     let t = texture_at(i);
     let m = t.w;

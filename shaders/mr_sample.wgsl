@@ -292,10 +292,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let xy = pixel_xy(gid);
+    // The pixel's place in the full image: the real layer, camera rays and random numbers use it.
+    let xy = global_xy(gid);
     let px = xy.x;
     let py = xy.y;
-    let pixel = py * frame.width + px;
+    let pixel = pixel_id(gid);
     let cam = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
         params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
     var shift = 0u;
@@ -304,7 +305,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let real_pw = real_position(i32(px), i32(py));
     let has_real = real_pw.w > 0.0;
-    let h = f32(max(frame.height, 1u));
+    let h = f32(max(frame.full_height, 1u));
     let pixel_angle = 2.0 * params.cam_tan_half / h;
     var footprint = 0.0;
     // Chunks (WgslSource::chunked): this dispatch takes primary samples [chunk_begin, end); a pixel

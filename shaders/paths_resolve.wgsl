@@ -60,7 +60,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let z = hit_mean(r, r.depth);
         position = vec4<f32>(lambda, f32(r.object));
         normal = vec4<f32>(n, footprint);
-        defocus = vec4<f32>(r.r_min, r.r_max, z, 2.0 * z * params.tan_half / f32(max(frame.height, 1u)));
+        defocus = vec4<f32>(r.r_min, r.r_max, z, 2.0 * z * params.tan_half / f32(max(frame.full_height, 1u)));
     }
     position_put(i, position);
     normal_put(i, normal);

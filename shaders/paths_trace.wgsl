@@ -113,7 +113,7 @@ fn image_velocity(c: CameraModel, x: vec3<f32>, v: vec3<f32>) -> vec2<f32> {
     if (!(z > 0.0)) {
         return vec2<f32>(0.0);
     }
-    let scale = f32(max(frame.height, 1u)) / (2.0 * c.tan_half);
+    let scale = f32(max(frame.full_height, 1u)) / (2.0 * c.tan_half);
     let vz = dot3(v, c.forward);
     let zz = z * z;
     let vx = scale * (dot3(v, c.right) * z - dot3(d, c.right) * vz) / zz;
@@ -447,7 +447,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     let pixel = pixel_id(gid);
-    let xy = pixel_xy(gid);
+    let xy = global_xy(gid);
     let prev = previous_at(i); // zero when unbound
     var count = params.count;
     if (counts_bound()) {

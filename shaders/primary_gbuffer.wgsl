@@ -16,8 +16,8 @@ fn generate_ray(px: f32, py: f32) -> Ray {
     let forward = params.forward;
     let position = params.position;
     let tan_half = params.tan_half;
-    let w = f32(max(frame.width, 1u));
-    let h = f32(max(frame.height, 1u));
+    let w = f32(max(frame.full_width, 1u));
+    let h = f32(max(frame.full_height, 1u));
     let sx = (2.0 * px / w - 1.0) * tan_half * (w / h);
     let sy = (1.0 - 2.0 * py / h) * tan_half;
     let dir = normalize3(forward + sx * right + sy * up);
@@ -46,7 +46,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     atomicAdd(&counters[COUNTER_PRIMARY], 1u);
-    let xy = pixel_xy(gid);
+    let xy = global_xy(gid);
     let ray = generate_ray(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let hit = scene_intersect(ray.o, ray.d, 0.0, inf());
     if (!hit.hit) {

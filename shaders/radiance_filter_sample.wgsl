@@ -22,7 +22,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     let pixel = pixel_id(gid);
-    let xy = pixel_xy(gid);
+    let xy = global_xy(gid);
     let c = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
         params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
     let key = rng_key(frame.seed, pixel, params.stream);

@@ -27,8 +27,8 @@ struct ScreenHit {
 }
 
 fn screen_project(p: vec3<f32>, z: f32) -> vec2<f32> {
-    let w = f32(frame.width);
-    let h = f32(frame.height);
+    let w = f32(frame.full_width);
+    let h = f32(frame.full_height);
     let d = p - params.cam_position;
     let sx = dot3(d, params.cam_right) / z;
     let sy = dot3(d, params.cam_up) / z;
@@ -36,8 +36,8 @@ fn screen_project(p: vec3<f32>, z: f32) -> vec2<f32> {
 }
 
 fn screen_sight(s: vec2<f32>) -> vec3<f32> {
-    let w = f32(frame.width);
-    let h = f32(frame.height);
+    let w = f32(frame.full_width);
+    let h = f32(frame.full_height);
     let sx = (2.0 * s.x / w - 1.0) * params.cam_tan_half * (w / h);
     let sy = (1.0 - 2.0 * s.y / h) * params.cam_tan_half;
     return params.cam_forward + sx * params.cam_right + sy * params.cam_up;
@@ -116,8 +116,8 @@ fn screen_end(g: ScreenSegment, k: u32) -> ScreenHit {
 }
 
 fn screen_segment(o: vec3<f32>, d: vec3<f32>) -> ScreenSegment {
-    let w = f32(frame.width);
-    let h = f32(frame.height);
+    let w = f32(frame.full_width);
+    let h = f32(frame.full_height);
     let z0 = dot3(o - params.cam_position, params.cam_forward);
     if (!(z0 > SCREEN_NEAR)) {
         return screen_no_segment(SCREEN_OFFSCREEN);
@@ -178,8 +178,8 @@ fn screen_segment(o: vec3<f32>, d: vec3<f32>) -> ScreenSegment {
 // The exact test of step k (depth z_ray, the step before at z_prev): a SCREEN_HIT, or SCREEN_MISS
 // for none.
 fn screen_step_hit(g: ScreenSegment, k: u32, z_ray: f32, z_prev: f32) -> ScreenHit {
-    let w = f32(frame.width);
-    let h = f32(frame.height);
+    let w = f32(frame.full_width);
+    let h = f32(frame.full_height);
     let u = screen_u(g, k);
     let s = g.s0 + g.delta * u;
     let fx = floor(s.x);
@@ -304,8 +304,8 @@ fn screen_trace(o: vec3<f32>, d: vec3<f32>) -> ScreenHit {
     if (g.end != SCREEN_MARCH) {
         return ScreenHit(g.end, 0.0, 0u, 0u);
     }
-    let w = i32(frame.width);
-    let h = i32(frame.height);
+    let w = i32(frame.full_width);
+    let h = i32(frame.full_height);
     var guess = params.max_steps;
     let steps = ceil((g.u_out - g.u_first) / g.du);
     if (steps < f32(params.max_steps)) {

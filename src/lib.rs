@@ -16,13 +16,16 @@ pub mod bench;
 pub mod capture;
 pub mod cli;
 pub mod export;
+pub mod farm;
 pub mod heatmap;
 pub mod image;
+pub mod merge;
 pub mod metrics;
 pub mod outputs;
 pub mod progress;
 pub mod session;
 pub mod staging;
+pub mod tiles;
 /// `wedge view`, the interactive window (the `view` feature, on by default).
 #[cfg(feature = "view")]
 pub mod view;

@@ -170,6 +170,20 @@ impl SequenceWriter {
     }
 }
 
+/// Stage the images of `images` (`(port, image)`) under the names `render` gives them
+/// ([`IMAGE_PORTS`]; `color` as `stem`) and commit them as one set: what `wedge merge` writes from
+/// tiles, through the same writers, so its files are the bytes `render` writes.
+pub fn write_images(dir: &Path, stem: &str, images: &[(String, Image)]) -> Result<WrittenRun, ImageError> {
+    let mut set = OutputSet::new(dir)?;
+    for (port, default_name) in IMAGE_PORTS {
+        let name = if port == "color" { stem } else { default_name };
+        if let Some((_, img)) = images.iter().find(|(p, _)| p == port) {
+            set.image(name, img, &format!("the `{port}` image"))?;
+        }
+    }
+    set.commit()
+}
+
 /// One all-or-nothing set of output files being staged ([`Staging`]), with the name of each file's
 /// producer, so that two outputs claiming one file name (a `Heatmap` node named like another
 /// output) are an error instead of a silently lost file; and the images with non-finite pixels.

@@ -247,7 +247,7 @@ impl Session {
         let (width, height, seed) = (pipeline.pipeline.width, pipeline.pipeline.height, pipeline.pipeline.seed);
         // Every pass's WGSL parsed and validated here, on any backend: a typo in a kernel's shader
         // is found by a CPU render and a CPU-only CI, at its file and line (backends gpu/validate.rs).
-        let job = Job { schedule: &schedule, scene: &scene, kernels: &kernels, width, height, seed, frame, progress: &wedge_backends::Silent };
+        let job = Job { schedule: &schedule, scene: &scene, kernels: &kernels, width, height, seed, frame, progress: &wedge_backends::Silent, window: wedge_backends::Window::whole(width, height) };
         wedge_backends::gpu::validate::check_job(&job)?;
         let allow_outside_dir = ov.allow_outside_dir;
         Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed, frame, allow_outside_dir })
@@ -406,7 +406,22 @@ impl Session {
             seed,
             frame,
             progress,
+            window: wedge_backends::Window::whole(self.width, self.height),
         }
+    }
+
+    /// Run only `window` of this session's image (`render --tile`, [`crate::tiles`]): buffers of
+    /// `width × height` at the window's place in the full image, whose camera rays and random
+    /// numbers they use. A single image (no sequence, no history).
+    pub fn run_window(
+        &self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        window: wedge_backends::Window,
+        (width, height): (u32, u32),
+    ) -> Result<RunResult, WedgeError> {
+        let job = Job { width, height, window, ..self.job(self.seed, 0, progress) };
+        self.run_job(backend, &job, &BTreeMap::new())
     }
 
     fn run_with(
@@ -417,7 +432,16 @@ impl Session {
         frame: u32,
         history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
     ) -> Result<RunResult, WedgeError> {
-        let mut run = backend.run_frame(&self.job(seed, frame, progress), history)?;
+        self.run_job(backend, &self.job(seed, frame, progress), history)
+    }
+
+    fn run_job(
+        &self,
+        backend: &mut dyn Backend,
+        job: &Job<'_>,
+        history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
+    ) -> Result<RunResult, WedgeError> {
+        let mut run = backend.run_frame(job, history)?;
         // The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
         run.sinks = self
             .pipeline
@@ -431,19 +455,25 @@ impl Session {
 
     /// Peak memory of running this session in `mode` (see [`MemoryEstimate`]).
     pub fn memory_estimate(&self, mode: RunMode) -> MemoryEstimate {
-        let b = self.schedule.buffer_bytes(self.width, self.height);
+        self.memory_estimate_at(mode, (self.width, self.height))
+    }
+
+    /// [`Session::memory_estimate`] for buffers of `width × height` pixels: a tile with its apron
+    /// (`render --tile`).
+    pub fn memory_estimate_at(&self, mode: RunMode, (width, height): (u32, u32)) -> MemoryEstimate {
+        let b = self.schedule.buffer_bytes(width, height);
         let scene = scene_bytes(&self.scene);
-        let pixels = u64::from(self.width) * u64::from(self.height);
+        let pixels = u64::from(width) * u64::from(height);
         match mode {
             RunMode::Cpu => MemoryEstimate {
-                buffers: self.schedule.peak_bytes(self.width, self.height),
+                buffers: self.schedule.peak_bytes(width, height),
                 scene,
                 images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
             },
             // The pool lives on the device, the sink copies and images on the host; a software
             // adapter (lavapipe) takes both from the same RAM, so both count. The scene is uploaded.
             RunMode::Gpu => MemoryEstimate {
-                buffers: self.schedule.peak_bytes(self.width, self.height),
+                buffers: self.schedule.peak_bytes(width, height),
                 scene: scene.saturating_mul(2),
                 images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
             },

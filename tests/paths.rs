@@ -710,7 +710,7 @@ fn parity_harness_compares_struct_fields() {
     };
     let mut registry = KernelRegistry::new();
     registry.register(Arc::new(PathsTrace)).register(Arc::new(PathsResolve));
-    let job = Job { schedule: &schedule, scene: &scene, kernels: &registry, width: 24, height: 18, seed: 3, frame: 0, progress: &Silent };
+    let job = Job { schedule: &schedule, scene: &scene, kernels: &registry, width: 24, height: 18, seed: 3, frame: 0, progress: &Silent, window: wedge::backends::Window::whole(24, 18) };
     let report = run_parity(&job, &mut gpu).unwrap();
     println!("{}", report.table());
     let rows: Vec<&str> = report.rows.iter().map(|r| r.binding.as_str()).collect();

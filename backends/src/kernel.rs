@@ -79,6 +79,15 @@ pub trait Kernel: Send + Sync {
     fn host(&self) -> bool {
         false
     }
+    /// How far from its own pixel a pass of this kernel reads (see [`Reach`]). By default the reach
+    /// its WGSL declares ([`WgslSource::reach`]), so a kernel says it once for both backends; a
+    /// kernel without WGSL reads anywhere unless it overrides this.
+    fn reach(&self, ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
+        match self.wgsl() {
+            Some(src) => (src.reach)(ctx),
+            None => Ok(Reach::Image),
+        }
+    }
 }
 
 /// A kernel's WGSL implementation (see `shaders/common.wgsl` for the binding convention; the
@@ -115,15 +124,74 @@ pub struct WgslSource {
     pub max_chunk: u32,
 }
 
-/// How far from its own pixel a kernel reads per-pixel buffers (see [`WgslSource::reach`]).
+/// How far from its own pixel a kernel reads per-pixel buffers (see [`WgslSource::reach`]): ONE
+/// declaration per kernel that both backends use — the wgpu backend to split an image into bands
+/// of rows (`gpu/bands.rs`), and tiles (`--tile`, [`crate::tiles`]) on either backend to size the
+/// apron a tile computes around its rectangle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reach {
     /// Only its own pixel: any band of rows works.
     Pixel,
-    /// Pixels up to `n` rows above or below its own (neighbourhood filters, separable passes).
+    /// Pixels up to `n` rows above or below its own and up to `n` columns left or right of it: a
+    /// square window of radius `n` (neighbourhood filters, the vertical pass of a separable filter).
     Rows(u32),
-    /// Anywhere in the image (reductions, gathers): never split.
+    /// Pixels up to `n` columns left or right of its own, in its own row only (the horizontal pass
+    /// of a separable filter): any band of rows works, a tile needs `n` columns of apron.
+    Cols(u32),
+    /// Anywhere in the image (reductions, gathers): never split, never tiled.
     Image,
+}
+
+impl Reach {
+    /// Rows above or below a pixel that it reads (`None`: anywhere).
+    pub fn rows(self) -> Option<u32> {
+        match self {
+            Reach::Pixel | Reach::Cols(_) => Some(0),
+            Reach::Rows(n) => Some(n),
+            Reach::Image => None,
+        }
+    }
+    /// Distance in pixels, along either axis, of the farthest pixel it reads (`None`: anywhere).
+    pub fn radius(self) -> Option<u32> {
+        match self {
+            Reach::Pixel => Some(0),
+            Reach::Rows(n) | Reach::Cols(n) => Some(n),
+            Reach::Image => None,
+        }
+    }
+}
+
+/// The rectangle of the full image a job computes: its buffers are the rectangle's size
+/// (`KernelCtx::width × height`), at `(x0, y0)` in an image of `full_width × full_height`. Camera
+/// rays and random numbers use the full image's coordinates ([`KernelCtx::global_xy`],
+/// [`KernelCtx::pixel_id`]), so a rectangle computes exactly what the whole image computes there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Window {
+    pub x0: u32,
+    pub y0: u32,
+    pub full_width: u32,
+    pub full_height: u32,
+}
+
+impl Window {
+    /// The whole `width × height` image (what every job without `--tile` computes).
+    pub fn whole(width: u32, height: u32) -> Window {
+        Window { x0: 0, y0: 0, full_width: width, full_height: height }
+    }
+    /// The full image's size: what camera rays and pixel footprints are computed for.
+    pub fn full_size(&self) -> (u32, u32) {
+        (self.full_width, self.full_height)
+    }
+    /// Pixel `(x, y)` of the window in the full image's coordinates.
+    pub fn global_xy(&self, x: u32, y: u32) -> (u32, u32) {
+        (x + self.x0, y + self.y0)
+    }
+    /// The full image's index of the window's pixel `(x, y)`: what random numbers are keyed by
+    /// ([`crate::rng::PixelRng::new`]), so a tile draws the numbers the whole image draws there.
+    pub fn pixel_id(&self, x: u32, y: u32) -> u32 {
+        let (gx, gy) = self.global_xy(x, y);
+        gy * self.full_width + gx
+    }
 }
 
 impl WgslSource {
@@ -490,6 +558,8 @@ pub struct KernelCtx<'a> {
     /// Elements per pixel of each bound binding that is not an image ([`wedge_graph::BufferInfo::layers`]);
     /// absent = 1.
     pub(crate) layers: BTreeMap<String, u32>,
+    /// Where this job's `width × height` lies in the full image ([`Window`]).
+    pub window: Window,
 }
 
 impl<'a> KernelCtx<'a> {
@@ -506,7 +576,8 @@ impl<'a> KernelCtx<'a> {
         reads: BTreeMap<String, &'a BufferData>,
         writes: BTreeMap<String, Option<BufferData>>,
     ) -> Self {
-        KernelCtx { width, height, seed, frame: 0, scene, pass, params, counters, progress, reads, writes, layers: BTreeMap::new() }
+        let window = Window::whole(width, height);
+        KernelCtx { width, height, seed, frame: 0, scene, pass, params, counters, progress, reads, writes, layers: BTreeMap::new(), window }
     }
 
     /// The same context with the pass's bindings' elements per pixel (from the schedule's buffers);
@@ -532,8 +603,19 @@ impl<'a> KernelCtx<'a> {
         self
     }
 
+    /// The same context computing `window` of the full image ([`Window`]; its size is the context's).
+    pub fn with_window(mut self, window: Window) -> Self {
+        self.window = window;
+        self
+    }
+
     pub fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
+    }
+
+    /// The full image's size ([`Window::full_size`]): what camera rays and pixel footprints use.
+    pub fn full_size(&self) -> (u32, u32) {
+        self.window.full_size()
     }
 
     /// An error of this pass (`BackendError::Kernel` naming it), for a kernel's own checks.

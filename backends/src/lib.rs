@@ -25,6 +25,7 @@ pub mod lone;
 pub mod parity;
 pub mod rng;
 pub mod sobol;
+pub mod tiles;
 
 use std::collections::BTreeMap;
 
@@ -34,7 +35,7 @@ pub use buffer::{BufferData, Texel};
 pub use wedge_graph as __graph;
 pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
-    UniformType, Uniforms, WgslSource,
+    UniformType, Uniforms, WgslSource, Window,
 };
 use wedge_graph::{BufferId, ParamValue, Schedule};
 use wedge_scene::Scene;
@@ -75,6 +76,9 @@ pub struct Job<'a> {
     /// seed 002 Sec. 3.3.3: frames 4, 8, 16, …).
     pub frame: u32,
     pub progress: &'a dyn Progress,
+    /// Where `width × height` lies in the full image: [`Window::whole`] for a whole image, a tile's
+    /// rectangle and apron for `--tile` (see [`crate::tiles`]).
+    pub window: Window,
 }
 
 /// Time spent in one pass, and what it counted (rays traced, non-finite samples excluded), so a

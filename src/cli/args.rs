@@ -85,6 +85,25 @@ pub(super) enum Command {
         /// interrupted render keeps the last complete snapshot), and prints the time per frame.
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_PROGRESSIVE), conflicts_with = "frames")]
         progressive: Option<u32>,
+        /// Render only tile I (from 0) of N, with the apron the pipeline's passes need around it, into
+        /// --out as tile_IIII_of_NNNN.exr for `wedge merge` (N tiles: a near-square grid).
+        #[arg(long, value_name = "I/N", value_parser = crate::tiles::parse_tile, conflicts_with_all = ["frames", "progressive", "aov"])]
+        tile: Option<(u32, u32)>,
+        /// With --tile: the grid, C columns by R rows (C × R = N).
+        #[arg(long, value_name = "CxR", value_parser = crate::tiles::parse_grid, requires = "tile")]
+        tile_grid: Option<crate::tiles::Grid>,
+    },
+    /// Assemble the tile files of `render --tile` in DIR into render.exr/.png (and unfiltered.exr/.png)
+    /// in --out, after checking that they belong together and cover the image exactly.
+    Merge {
+        dir: PathBuf,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Run a render on a cluster's scheduler as tiles and a merge (see `wedge farm slurm --help`).
+    Farm {
+        #[command(subcommand)]
+        farm: Farm,
     },
     /// Plain Monte Carlo reference of the pipeline: its own graph with the filters bypassed, the
     /// per-pixel counts set to --spp and every sampling pass at --spp (`--set` applies as for render).
@@ -257,6 +276,30 @@ pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeE
         without_real_layer: false,
         frame: None,
     })
+}
+
+#[derive(Subcommand)]
+pub(super) enum Farm {
+    /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`), and a merge
+    /// job chained with --dependency=afterok, written to OUT/slurm/ and submitted with sbatch (or
+    /// printed with --dry-run). Tiles go to OUT/tiles/, the merged images to OUT (--out).
+    Slurm {
+        pipeline: PathBuf,
+        /// Number of tiles (array tasks), 1..=65536; a near-square grid.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
+        tiles: u32,
+        #[command(flatten)]
+        common: Common,
+        /// Slurm partition of both jobs.
+        #[arg(long)]
+        partition: Option<String>,
+        /// Slurm time limit of each task and of the merge (e.g. 01:00:00).
+        #[arg(long)]
+        time: Option<String>,
+        /// Print the scripts and the sbatch commands instead of submitting.
+        #[arg(long)]
+        dry_run: bool,
+    },
 }
 
 /// Largest `reference --spp` (the `MonteCarlo` node's `spp` limit, kept for references from the graph).

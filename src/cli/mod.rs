@@ -12,6 +12,7 @@
 //! `args` declares the flags, `render` runs the rendering commands; this file dispatches.
 
 mod args;
+mod farm;
 mod render;
 
 use std::path::Path;
@@ -23,7 +24,7 @@ use crate::backends::cpu::CpuBackend;
 use crate::image::read_exr;
 use crate::session::{open_gpu, Registries, RunMode};
 use crate::{Overrides, Session, WedgeError};
-use args::{overrides, Cli, Command};
+use args::{overrides, Cli, Command, Farm};
 use render::{check_memory, render, render_frames, render_progressive, start_rendering_command};
 
 /// `--threads N`: every rayon pool of the process runs N threads from here on — the global pool
@@ -119,15 +120,16 @@ fn suite_scene_specs(registries: &Registries, pipeline: &Path, names: &[String])
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu, frames, aov, progressive } => {
+        Command::Render { pipeline, common, mu, frames, aov, progressive, tile, tile_grid } => {
             start_rendering_command(&common)?;
             // A sequence opens at its first frame (its camera, and a real layer read per frame).
             let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
             let mut session = Session::open_with(registries, pipeline.as_deref(), &ov)?;
-            match (frames, progressive) {
-                (_, Some(n)) => render_progressive(&session, &common, n, &aov),
-                (Some(frames), None) => render_frames(&mut session, &common, frames, &aov),
-                (None, None) => render(&session, &common, "render", &aov),
+            match (frames, progressive, tile) {
+                (_, _, Some(tile)) => farm::render_tile(&session, &common, tile, tile_grid),
+                (_, Some(n), None) => render_progressive(&session, &common, n, &aov),
+                (Some(frames), None, None) => render_frames(&mut session, &common, frames, &aov),
+                (None, None, None) => render(&session, &common, "render", &aov),
             }
         }
         Command::Reference { pipeline, common, spp, sampling } => {
@@ -136,6 +138,10 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
             render(&session, &common, "reference", &[])
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
+        Command::Merge { dir, out } => crate::merge::merge(&dir, &out),
+        Command::Farm { farm: Farm::Slurm { pipeline, tiles, common, partition, time, dry_run } } => {
+            farm::farm_slurm(registries, farm::SlurmRequest { pipeline: &pipeline, tiles, common: &common, partition, time, dry_run })
+        }
         #[cfg(feature = "view")]
         Command::View { pipeline, common, mu, script } => {
             start_rendering_command(&common)?;

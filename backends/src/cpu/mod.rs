@@ -58,6 +58,7 @@ pub fn run_pass(
         writes,
     )
     .with_frame(job.frame)
+    .with_window(job.window)
     .with_layers(pass, &job.schedule.buffers);
     kernel.run_cpu(&mut ctx)?;
     let mut out = BTreeMap::new();

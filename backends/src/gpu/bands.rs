@@ -40,10 +40,9 @@ pub fn plan(width: u32, height: u32, bytes_per_pixel: u64, reach: Reach, limits:
     if fits && height <= limits.max_rows {
         return Ok(vec![Band { row0: 0, row_end: height, first: 0, end: pixels }]);
     }
-    let halo = match reach {
-        Reach::Pixel => 0u64,
-        Reach::Rows(n) => n as u64,
-        Reach::Image => {
+    let halo = match reach.rows() {
+        Some(n) => n as u64,
+        None => {
             return Err(format!(
                 "its buffers need {} bytes per binding, over this device's limit of {} bytes, and the kernel reads anywhere \
                  in the image (Reach::Image), so it cannot be split into bands of rows; render smaller (--width/--height) or \

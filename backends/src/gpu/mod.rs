@@ -510,6 +510,7 @@ impl GpuBackend {
             BTreeMap::new(),
         )
         .with_frame(job.frame)
+        .with_window(job.window)
         .with_layers(pass, &job.schedule.buffers);
         Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
     }
@@ -812,6 +813,10 @@ impl GpuBackend {
                             chunk_end,
                             (end - first) as u32,
                             job.frame,
+                            job.window.x0,
+                            job.window.y0,
+                            job.window.full_width,
+                            job.window.full_height,
                             0,
                             0,
                         ];

@@ -185,6 +185,7 @@ impl Kernel for DirectLight {
         let seed = ctx.seed;
         let width = ctx.width;
         let counters = ctx.counters;
+        let window = ctx.window;
         // A Ch. 3 kernel: the scene at the shutter's centre.
         let at = scene.at(0.0);
 
@@ -208,7 +209,8 @@ impl Kernel for DirectLight {
                 if want_stats {
                     stats.d1 = (light.centre() - x).dot(light.normal()).abs();
                 }
-                let rng = PixelRng::new(seed, i as u32, substream(stream, l as u32));
+                // Keyed by the full image's pixel, so a tile draws what the whole image draws there.
+                let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, l as u32));
                 let factor = centre.then(|| light_centre_factor(light, x, n));
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };

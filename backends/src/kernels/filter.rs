@@ -147,7 +147,7 @@ impl Kernel for GaussianFilter {
         .with_reach(|ctx| {
             // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
             Ok(match ctx.int_param("axis")? {
-                0 => Reach::Pixel,
+                0 => Reach::Cols(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
                 _ => Reach::Rows(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
             })
         }))

@@ -250,7 +250,7 @@ fn axis(ctx: &KernelCtx<'_>) -> Result<Axis, BackendError> {
 /// The x pass stays in its row; the 2-D and y passes read `max_radius` rows away.
 fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
     Ok(match axis(ctx)? {
-        Axis::X => Reach::Pixel,
+        Axis::X => Reach::Cols(max_radius(ctx)? as u32),
         _ => Reach::Rows(max_radius(ctx)? as u32),
     })
 }

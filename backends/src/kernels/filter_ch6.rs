@@ -330,7 +330,7 @@ impl Kernel for EnvironmentFilter {
             })
             .with_reach(|ctx| {
                 let p = params(ctx)?;
-                Ok(if p.axis == 0 { Reach::Pixel } else { Reach::Rows(p.max_radius as u32) })
+                Ok(if p.axis == 0 { Reach::Cols(p.max_radius as u32) } else { Reach::Rows(p.max_radius as u32) })
             }),
         )
     }

@@ -434,7 +434,7 @@ impl Kernel for IndirectSample {
         let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
         let stream = ctx.int_param("stream")? as u32;
         let want_glossy = ctx.is_bound("glossy") && specular.is_some() && !ao;
-        let (seed, width) = (ctx.seed, ctx.width);
+        let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let camera = scene.camera.position;
         // A Ch. 4 kernel: the scene at the shutter's centre.
         let at = scene.at(0.0);
@@ -470,7 +470,8 @@ impl Kernel for IndirectSample {
             };
             // Diffuse component.
             let extra = rays_d.map_or(count, |r| r[i]).saturating_sub(pd[3] as u32);
-            let rng = PixelRng::new(seed, i as u32, substream(stream, COMPONENT_DIFFUSE));
+            // Keyed by the full image's pixel, so a tile draws what the whole image draws there.
+            let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, COMPONENT_DIFFUSE));
             let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
             for s in 0..extra {
                 let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };
@@ -488,7 +489,7 @@ impl Kernel for IndirectSample {
             // Glossy component.
             if glossy {
                 let extra = rays_g.map_or(count, |r| r[i]).saturating_sub(pg[3] as u32);
-                let rng = PixelRng::new(seed, i as u32, substream(stream, COMPONENT_GLOSSY));
+                let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, COMPONENT_GLOSSY));
                 let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };

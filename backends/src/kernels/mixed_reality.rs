@@ -82,13 +82,15 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
     let err = |m: String| BackendError::Kernel { pass: ctx.pass.into(), message: m };
     let scene = ctx.scene;
     let layer = scene.real.as_ref().ok_or_else(|| err("the scene has no real layer (camera image, position and normal maps): the MixedReality node loads one".into()))?;
-    if layer.width() != ctx.width || layer.height() != ctx.height {
+    // The full image's size: a tile's window reads the layer at its own place in it.
+    let (width, height) = ctx.full_size();
+    if layer.width() != width || layer.height() != height {
         return Err(err(format!(
             "the real layer is {}x{} but the image is {}x{}: render at the capture's size",
             layer.width(),
             layer.height(),
-            ctx.width,
-            ctx.height
+            width,
+            height
         )));
     }
     let env = scene.environment.as_ref().ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
@@ -98,7 +100,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
         return Err(err(format!("occluder_threshold {threshold} must be >= 0 and thickness {thickness} > 0")));
     }
     let max_steps = ctx.int_param("max_steps")?;
-    let diagonal = (ctx.width as f32).hypot(ctx.height as f32).ceil() as u32 + 1;
+    let diagonal = (width as f32).hypot(height as f32).ceil() as u32 + 1;
     Ok(MrSettings {
         count: ctx.int_param("count")?.clamp(0, 1 << 16) as u32,
         per_primary: ctx.int_param("per_primary")?.clamp(1, 1 << 12) as u32,
@@ -512,11 +514,16 @@ impl Kernel for MrSample {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = settings(ctx)?;
-        let (scene, seed, width, height) = (ctx.scene, ctx.seed, ctx.width, ctx.height);
+        let (scene, seed, window) = (ctx.scene, ctx.seed, ctx.window);
+        let (width, height) = window.full_size();
         let camera = scene.camera;
         let layer = scene.real.as_ref().expect("checked in settings");
         let screen = ScreenTracer::new(layer, &camera, s.thickness, s.max_steps);
-        let px = ctx.map_pixels(true, |x, y| sample_pixel(scene, &camera, &screen, &s, seed, x, y, width, height));
+        // Each pixel at its place in the full image (a tile's window is part of it).
+        let px = ctx.map_pixels(true, |x, y| {
+            let (gx, gy) = window.global_xy(x, y);
+            sample_pixel(scene, &camera, &screen, &s, seed, gx, gy, width, height)
+        });
         let total = |k: usize| px.iter().map(|p| p.rays[k]).sum::<u64>();
         Counters::add(&ctx.counters.primary_rays, total(0));
         Counters::add(&ctx.counters.shadow_rays, total(1));
@@ -585,17 +592,18 @@ impl Kernel for MrComposite {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let layer = ctx.scene.real.as_ref().ok_or_else(|| BackendError::Kernel { pass: ctx.pass.into(), message: "the scene has no real layer".into() })?;
-        let width = ctx.width;
+        let (width, window) = (ctx.width, ctx.window);
         let e: Vec<&[[f32; 3]]> = IRRADIANCES.iter().map(|n| ctx.read::<[f32; 3]>(n)).collect::<Result<_, _>>()?;
         let texture = ctx.read::<[f32; 4]>("texture")?;
         let out = ctx.map_pixels(false, |x, y| {
             let i = (y * width + x) as usize;
-            composite([e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i]], texture[i], layer.camera(x, y))
+            let (gx, gy) = window.global_xy(x, y);
+            composite([e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i]], texture[i], layer.camera(gx, gy))
         });
         ctx.put_opt("reconstruction", || {
             (0..out.len())
                 .map(|i| {
-                    let (x, y) = (i as u32 % width, i as u32 / width);
+                    let (x, y) = window.global_xy(i as u32 % width, i as u32 / width);
                     let e_r = Vec3::from(e[0][i]) + Vec3::from(e[1][i]);
                     (layer.albedo(x, y) * e_r).to_array()
                 })

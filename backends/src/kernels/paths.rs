@@ -468,7 +468,9 @@ impl Kernel for PathsTrace {
         let diffuse_total = ctx.read_opt::<u32>("diffuse_total")?;
         let glossy_total = ctx.read_opt::<u32>("glossy_total")?;
         let environment_total = ctx.read_opt::<u32>("environment_total")?;
-        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
+        // Camera rays, footprints and random numbers of the full image's pixels (a tile is part of it).
+        let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
+        let (full_width, height) = ctx.full_size();
         let has_light = s.light < scene.lights.len();
         let projection = Projection::new(cam, height);
         // Through the pixel centre of a pinhole camera every path of a pixel has the same camera ray
@@ -477,7 +479,7 @@ impl Kernel for PathsTrace {
         let fixed_primary = s.fixed_primary;
         let records = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
-            let pixel = i as u32;
+            let pixel = window.pixel_id(px, py);
             let mut r = previous.map_or_else(PathRecord::default, |p| p[i]);
             let first = r.paths;
             let count = counts.map_or(s.count, |c| c[i]).min(u32::MAX - first);
@@ -491,7 +493,8 @@ impl Kernel for PathsTrace {
             for j in first..first + count {
                 let jitter = if s.jitter { draw(&s, seed, pixel, pair::PIXEL, j) } else { Vec2::splat(0.5) };
                 let lens = draw(&s, seed, pixel, pair::LENS, j);
-                let ray = cam.ray(Vec2::new(px as f32, py as f32) + jitter, lens, width, height, s.lens);
+                let (gx, gy) = window.global_xy(px, py);
+                let ray = cam.ray(Vec2::new(gx as f32, gy as f32) + jitter, lens, full_width, height, s.lens);
                 // The path's shutter time (App. B), its own stratified dimension.
                 let at = scene.at(if s.time { 2.0 * draw(&s, seed, pixel, pair::TIME, j).x - 1.0 } else { 0.0 });
                 let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
@@ -1118,7 +1121,7 @@ impl Kernel for PathsResolve {
                 let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
                 Ok(Uniforms::new()
                     .vec3("camera", cam.position.to_array())
-                    .f32("pixel_angle", 2.0 * tan_half / ctx.height as f32)
+                    .f32("pixel_angle", 2.0 * tan_half / ctx.full_size().1 as f32)
                     .f32("tan_half", tan_half))
             })
             .per_pixel(),
@@ -1128,8 +1131,8 @@ impl Kernel for PathsResolve {
         let records = ctx.read::<PathRecord>("record")?;
         let cam = ctx.scene.camera;
         let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
-        let pixel_angle = 2.0 * tan_half / ctx.height as f32;
-        let height = ctx.height;
+        let height = ctx.full_size().1;
+        let pixel_angle = 2.0 * tan_half / height as f32;
         let width = ctx.width;
         for (k, (name, format)) in RESOLVE_OUTPUTS.iter().enumerate() {
             let column = |ctx: &KernelCtx<'_>| {

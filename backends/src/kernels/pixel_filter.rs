@@ -392,12 +392,13 @@ impl CameraPaths {
     /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
     /// was finite (the others are counted as non-finite samples); rays are counted too.
     pub fn run<T: Default + Send>(&self, ctx: &KernelCtx<'_>, fold: impl Fn(&mut T, u32, &FirstVertex) -> bool + Sync) -> Vec<T> {
-        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
+        // The full image's pixel and size (a tile's window is part of it).
+        let (seed, window) = (ctx.seed, ctx.window);
         let out = ctx.map_pixels(true, |px, py| {
-            let rng = PixelRng::new(seed, py * width + px, self.stream);
+            let rng = PixelRng::new(seed, window.pixel_id(px, py), self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             for j in 0..self.count {
-                let (ray, t) = camera_ray(&self.camera, &rng, j, (px, py), (width, height));
+                let (ray, t) = camera_ray(&self.camera, &rng, j, window.global_xy(px, py), window.full_size());
                 let v = first_vertex(&ctx.scene.at(t), &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {
                     bad += 1;
@@ -646,14 +647,14 @@ impl Kernel for RangeBuffer {
         }
         let stream = ctx.int_param("stream")? as u32;
         let cam = ctx.scene.camera;
-        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
+        // The full image's pixel and size (a tile's window is part of it).
+        let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let k = pass.max(1) as f32;
         let out = ctx.map_pixels(false, |px, py| {
-            let pixel = py * width + px;
-            let rng = PixelRng::new(seed, pixel, stream);
+            let rng = PixelRng::new(seed, window.pixel_id(px, py), stream);
             let (mut sum, mut depth) = (Vec3::ZERO, MISS_DEPTH);
             for s in 0..count {
-                let (ray, t) = camera_ray(&cam, &rng, s, (px, py), (width, height));
+                let (ray, t) = camera_ray(&cam, &rng, s, window.global_xy(px, py), window.full_size());
                 let at = ctx.scene.at(t);
                 if let Some(hit) = at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) {
                     let sp = at.surface(&hit, ray.origin, ray.dir);
@@ -664,7 +665,7 @@ impl Kernel for RangeBuffer {
                 }
             }
             let c = if count > 0 { sum / count as f32 } else { Vec3::ZERO };
-            range_update(previous.map(|p| p[(pixel) as usize]), c, depth, k)
+            range_update(previous.map(|p| p[(py * width + px) as usize]), c, depth, k)
         });
         Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64 * u64::from(count));
         ctx.put("range", out)
@@ -1030,7 +1031,7 @@ impl Kernel for Separable {
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../shaders/pixel_filter_formulas.wgsl"))
             .with_reach(|ctx| {
                 let s = separable_params(ctx)?;
-                Ok(if s.axis == 0 { Reach::Pixel } else { Reach::Rows(s.radius()) })
+                Ok(if s.axis == 0 { Reach::Cols(s.radius()) } else { Reach::Rows(s.radius()) })
             }),
         )
     }

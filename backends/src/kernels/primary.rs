@@ -46,7 +46,7 @@ impl Kernel for PrimaryGBuffer {
                 let cam = &ctx.scene.camera;
                 let (right, up, forward) = cam.basis();
                 let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
-                let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / ctx.height as f32;
+                let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / ctx.full_size().1 as f32;
                 Ok(Uniforms::new()
                     .vec3("position", cam.position.to_array())
                     .f32("tan_half", tan_half)
@@ -64,10 +64,12 @@ impl Kernel for PrimaryGBuffer {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let scene = ctx.scene;
         let cam = &scene.camera;
-        let (w, h) = (ctx.width, ctx.height);
+        // Rays of the full image's pixels (a tile's window is part of it).
+        let ((w, h), window) = (ctx.full_size(), ctx.window);
         // Angle subtended by one pixel at the image centre.
         let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / h as f32;
         let texels = ctx.map_pixels(false, |x, y| {
+            let (x, y) = window.global_xy(x, y);
             let (o, d) = cam.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, glam::Vec2::splat(0.5));
             let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) else {
                 // A camera ray that leaves the scene sees the environment (black without a map).

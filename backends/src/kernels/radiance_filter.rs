@@ -228,7 +228,7 @@ impl TangentKernel {
 
 /// The angle one pixel subtends at the image centre, `2 tan(fov/2) / height`.
 fn pixel_angle(ctx: &KernelCtx<'_>) -> f32 {
-    2.0 * (ctx.scene.camera.vfov_deg.to_radians() * 0.5).tan() / ctx.height as f32
+    2.0 * (ctx.scene.camera.vfov_deg.to_radians() * 0.5).tan() / ctx.full_size().1 as f32
 }
 
 fn max_radius(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {

@@ -71,7 +71,7 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     let pixel_scale = if ctx.params.contains_key("pixel_scale") {
         positive_param(ctx, "pixel_scale", false)?
     } else {
-        formulas::pixel_scale(ctx.scene.camera.vfov_deg, ctx.height)
+        formulas::pixel_scale(ctx.scene.camera.vfov_deg, ctx.full_size().1)
     };
     let light_half_width = if ctx.params.contains_key("light_half_width") {
         positive_param(ctx, "light_half_width", true)?

@@ -1,0 +1,97 @@
+//! `render --tile` and `farm slurm`: one tile of an image for `wedge merge`, and a Slurm job array
+//! of tiles with its merge job (the machinery is `crate::tiles` and `crate::farm`).
+
+use std::path::Path;
+
+use super::args::{overrides, Common};
+use super::render::scene_notes;
+use crate::backends::cpu::CpuBackend;
+use crate::progress::Bars;
+use crate::session::{open_gpu, Registries, RunMode};
+use crate::{Session, WedgeError};
+
+/// `render --tile I/N`: one tile file into --out ([`crate::tiles`]).
+pub(super) fn render_tile(session: &Session, common: &Common, (index, n): (u32, u32), grid: Option<crate::tiles::Grid>) -> Result<String, WedgeError> {
+    let grid = crate::tiles::grid_of(n, grid, (session.width, session.height))?;
+    scene_notes(session);
+    let plan = crate::tiles::plan(session, index, grid)?;
+    // The memory of the tile with its apron, not of the whole image.
+    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    if let Some((limit, source)) = crate::session::memory_budget(common.memory_limit) {
+        session.memory_estimate_at(mode, (plan.grown.2, plan.grown.3)).check(limit, &source)?;
+    }
+    let bars = Bars::default();
+    let tile = match common.backend.as_str() {
+        "wgpu" => crate::tiles::render_planned(session, &mut open_gpu(common.gpu_limits.as_deref())?, &bars, &plan)?,
+        _ => crate::tiles::render_planned(session, &mut CpuBackend::new(), &bars, &plan)?,
+    };
+    let path = crate::tiles::write_tile(&common.out, &tile)?;
+    let (h, r) = (&tile.header, tile.header.rect);
+    Ok(format!(
+        "tile {index}/{n} of a {}x{} grid: {}x{} at ({}, {}) of {}x{}, apron {} px\nwrote {}\n",
+        h.grid.cols, h.grid.rows, r.w, r.h, r.x, r.y, h.full.0, h.full.1, h.apron, path.display()
+    ))
+}
+
+/// The `render` flags of `c` that a farm task passes on (not --out: the farm places the tiles).
+fn forwarded_args(c: &Common) -> Vec<String> {
+    let mut a: Vec<String> = Vec::new();
+    let values = [
+        ("--scene", c.scene.clone()),
+        ("--seed", c.seed.map(|v| v.to_string())),
+        ("--width", c.width.map(|v| v.to_string())),
+        ("--height", c.height.map(|v| v.to_string())),
+        ("--threads", c.threads.map(|v| v.to_string())),
+        ("--memory-limit", c.memory_limit.map(|v| v.to_string())),
+        ("--backend", Some(c.backend.clone())),
+        ("--gpu-limits", c.gpu_limits.clone()),
+    ];
+    for (flag, v) in values {
+        if let Some(v) = v {
+            a.extend([flag.to_string(), v]);
+        }
+    }
+    for s in &c.set {
+        a.extend(["--set".to_string(), s.clone()]);
+    }
+    if c.allow_outside_dir {
+        a.push("--allow-outside-dir".into());
+    }
+    a
+}
+
+/// What `wedge farm slurm` was asked for.
+pub(super) struct SlurmRequest<'a> {
+    pub pipeline: &'a Path,
+    pub tiles: u32,
+    pub common: &'a Common,
+    pub partition: Option<String>,
+    pub time: Option<String>,
+    pub dry_run: bool,
+}
+
+/// `wedge farm slurm`: refuse a pipeline that cannot be tiled before anything is submitted. The
+/// tasks run this same binary (a user's, with its nodes, too).
+pub(super) fn farm_slurm(registries: &Registries, r: SlurmRequest<'_>) -> Result<String, WedgeError> {
+    for (flag, v) in [("--partition", &r.partition), ("--time", &r.time)] {
+        if let Some(v) = v {
+            crate::farm::check_sbatch_value(flag, v)?;
+        }
+    }
+    let session = Session::open_with(registries, Some(r.pipeline), &overrides(r.common, None)?)?;
+    crate::tiles::check(&session, crate::tiles::Grid::near_square(r.tiles, (session.width, session.height)))?;
+    let absolute = |p: &Path| std::path::absolute(p).map_err(|e| WedgeError::Usage(format!("{}: {e}", p.display())));
+    let plan = crate::farm::SlurmPlan {
+        wedge: std::env::current_exe().map_err(|e| WedgeError::Usage(format!("cannot find the wedge executable: {e}")))?,
+        pipeline: absolute(r.pipeline)?,
+        tiles: r.tiles,
+        out: absolute(&r.common.out)?,
+        render_args: forwarded_args(r.common),
+        partition: r.partition,
+        time: r.time,
+    };
+    if r.dry_run {
+        return Ok(plan.dry_run());
+    }
+    plan.submit()
+}

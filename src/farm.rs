@@ -1,0 +1,165 @@
+//! `wedge farm slurm P.ron --tiles N`: run a render as a Slurm job array, one task per tile
+//! (`render --tile $SLURM_ARRAY_TASK_ID/N`), and a merge job that starts only when every task
+//! succeeded (`--dependency=afterok:<array job>`). wedge writes the two sbatch scripts and submits
+//! them with `sbatch`; it does not schedule anything itself. `--dry-run` prints them instead.
+//!
+//! Layout under OUT: `slurm/tiles.sbatch`, `slurm/merge.sbatch`, `slurm/logs/` (one log per task),
+//! `tiles/` (the tile files) and the merged outputs in OUT itself. A failed task leaves its tile
+//! missing, so the merge job never runs (afterok) and `wedge merge OUT/tiles --out OUT` names it;
+//! resubmitting that array index (`sbatch --array=I OUT/slurm/tiles.sbatch`) completes the set.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::session::WedgeError;
+
+/// What one Slurm submission runs.
+#[derive(Clone, Debug)]
+pub struct SlurmPlan {
+    /// The wedge executable the tasks run (this one, by absolute path).
+    pub wedge: PathBuf,
+    pub pipeline: PathBuf,
+    pub tiles: u32,
+    pub out: PathBuf,
+    /// `render` flags every task passes on (size, seed, scene, `--set`, backend …).
+    pub render_args: Vec<String>,
+    pub partition: Option<String>,
+    pub time: Option<String>,
+}
+
+/// `s` quoted for a POSIX shell.
+fn quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+fn quote_path(p: &Path) -> String {
+    quote(&p.to_string_lossy())
+}
+
+/// A value for an `#SBATCH` line: letters, digits and `_-:.,+` only (no spaces or newlines that
+/// could end the directive or start another).
+pub fn check_sbatch_value(flag: &str, v: &str) -> Result<(), WedgeError> {
+    if v.is_empty() || !v.chars().all(|c| c.is_ascii_alphanumeric() || "_-:.,+".contains(c)) {
+        return Err(WedgeError::Usage(format!("{flag} `{v}`: use letters, digits and _-:.,+ only (e.g. --time 01:00:00)")));
+    }
+    Ok(())
+}
+
+impl SlurmPlan {
+    /// `slurm/` under OUT, where the scripts and logs go.
+    pub fn dir(&self) -> PathBuf {
+        self.out.join("slurm")
+    }
+
+    fn directives(&self, name: &str) -> String {
+        let mut s = format!("#!/bin/bash\n#SBATCH --job-name=wedge-{name}\n");
+        if let Some(p) = &self.partition {
+            s.push_str(&format!("#SBATCH --partition={p}\n"));
+        }
+        if let Some(t) = &self.time {
+            s.push_str(&format!("#SBATCH --time={t}\n"));
+        }
+        s
+    }
+
+    /// The array script: task `$SLURM_ARRAY_TASK_ID` renders that tile into OUT/tiles.
+    pub fn tiles_script(&self) -> String {
+        let mut s = self.directives("tiles");
+        s.push_str(&format!("#SBATCH --array=0-{}\n", self.tiles - 1));
+        s.push_str(&format!("#SBATCH --output={}/logs/tile_%a.log\n", self.dir().display()));
+        s.push_str("set -euo pipefail\n");
+        let args: Vec<String> = self.render_args.iter().map(|a| quote(a)).collect();
+        s.push_str(&format!(
+            "exec {} render {} {} --tile \"${{SLURM_ARRAY_TASK_ID}}/{}\" --out {}\n",
+            quote_path(&self.wedge),
+            quote_path(&self.pipeline),
+            args.join(" "),
+            self.tiles,
+            quote_path(&self.out.join("tiles"))
+        ));
+        s
+    }
+
+    /// The merge script, run after every task succeeded.
+    pub fn merge_script(&self) -> String {
+        let mut s = self.directives("merge");
+        s.push_str(&format!("#SBATCH --output={}/logs/merge.log\n", self.dir().display()));
+        s.push_str("set -euo pipefail\n");
+        s.push_str(&format!(
+            "exec {} merge {} --out {}\n",
+            quote_path(&self.wedge),
+            quote_path(&self.out.join("tiles")),
+            quote_path(&self.out)
+        ));
+        s
+    }
+
+    /// Write both scripts (and the logs directory); their paths.
+    pub fn write_scripts(&self) -> Result<(PathBuf, PathBuf), WedgeError> {
+        let dir = self.dir();
+        let io = |e: std::io::Error| WedgeError::Usage(format!("{}: {e}", dir.display()));
+        std::fs::create_dir_all(dir.join("logs")).map_err(io)?;
+        std::fs::create_dir_all(self.out.join("tiles")).map_err(io)?;
+        let (tiles, merge) = (dir.join("tiles.sbatch"), dir.join("merge.sbatch"));
+        std::fs::write(&tiles, self.tiles_script()).map_err(io)?;
+        std::fs::write(&merge, self.merge_script()).map_err(io)?;
+        Ok((tiles, merge))
+    }
+
+    /// What `--dry-run` prints: both scripts and the commands that would submit them.
+    pub fn dry_run(&self) -> String {
+        let dir = self.dir();
+        format!(
+            "# {tiles}\n{}\n# {merge}\n{}\n# submit:\njobid=$(sbatch --parsable {tiles})\nsbatch --parsable --dependency=afterok:${{jobid%%;*}} {merge}\n",
+            self.tiles_script(),
+            self.merge_script(),
+            tiles = quote_path(&dir.join("tiles.sbatch")),
+            merge = quote_path(&dir.join("merge.sbatch")),
+        )
+    }
+
+    /// Write the scripts and submit them: the array, then the merge after it (afterok).
+    pub fn submit(&self) -> Result<String, WedgeError> {
+        let (tiles, merge) = self.write_scripts()?;
+        let array = sbatch(&[tiles.as_os_str().to_string_lossy().as_ref()])?;
+        let dependency = format!("--dependency=afterok:{array}");
+        let merge_id = sbatch(&[&dependency, merge.as_os_str().to_string_lossy().as_ref()])?;
+        Ok(format!(
+            "submitted tile array job {array} ({} tasks) and merge job {merge_id} (after {array} succeeds)\nlogs: {}\noutputs: {}\n",
+            self.tiles,
+            self.dir().join("logs").display(),
+            self.out.display()
+        ))
+    }
+}
+
+/// Run `sbatch --parsable ARGS`; the job id it prints (`ID` or `ID;CLUSTER`).
+fn sbatch(args: &[&str]) -> Result<String, WedgeError> {
+    let out = Command::new("sbatch").arg("--parsable").args(args).output().map_err(|e| {
+        WedgeError::Usage(format!("cannot run sbatch ({e}); is Slurm installed here? --dry-run prints the scripts instead"))
+    })?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let id = text.trim().split(';').next().unwrap_or("").to_string();
+    if !out.status.success() || id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {
+        return Err(WedgeError::Usage(format!(
+            "sbatch {} failed: {}{}",
+            args.join(" "),
+            text.trim(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        )));
+    }
+    Ok(id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quotes_for_the_shell() {
+        assert_eq!(quote("a b"), "'a b'");
+        assert_eq!(quote("it's"), r"'it'\''s'");
+        assert!(check_sbatch_value("--time", "01:00:00").is_ok());
+        assert!(check_sbatch_value("--partition", "a\n#SBATCH --x").is_err());
+    }
+}
