@@ -102,3 +102,18 @@ fn stratified_reference_beats_independent_at_equal_samples() {
     let (strat, ind) = (rmse(&image(64, "stratified", 1), &converged), rmse(&image(64, "independent", 1), &converged));
     assert!(strat < 0.7 * ind, "stratified {strat} vs independent {ind}");
 }
+
+/// An adaptive Environment node's bandwidth pass writes its look-up counts beside its filter widths:
+/// its reference fills the counts with N and keeps the pass for its other outputs, and is the same
+/// plain Monte Carlo image as the non-adaptive node's (the counts were all that differed).
+#[test]
+fn a_count_pass_with_other_outputs_keeps_them_and_its_reference_is_plain_mc() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/environment.ron");
+    let image = |adaptive: bool| {
+        let ov = sized(24, 18, None, &[("env", "adaptive", ParamValue::Bool(adaptive))]);
+        // This failed with "count or fill pass `env.bandwidth` writes `bandwidth` as f32".
+        let s = Session::reference(Some(&path), 8, "stratified", &ov).unwrap();
+        run(&s).output("color").cloned().expect("a colour output")
+    };
+    assert_eq!(image(true), image(false));
+}

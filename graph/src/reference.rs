@@ -11,6 +11,10 @@
 //! - **Fill** passes (`Reference::Fill(v)`, a `u32` per-pixel decision such as a factoring flag) are
 //!   replaced the same way by `fill.constant` writing `v` (a Ch. 5 reference composes every
 //!   component's `L`: its flags are 0).
+//! - A count or fill pass that also writes other outputs (a bandwidth pass that sets adaptive counts
+//!   beside its filter widths, e.g. Environment with `adaptive`) keeps running for those outputs; only
+//!   its `u32` writes are taken over by `fill.constant` (the pass writes them into buffers nothing
+//!   reads).
 //! - **Sample** passes take `count = N` and the reference's `sampling`; a **Continued** first pass
 //!   takes `count = 0`, so the pass that continues it draws all `N` samples as one set: a stratified
 //!   reference is N jointly stratified samples (per light, per component), an independent one N
@@ -45,7 +49,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
     if spp == 0 {
         return Err(err("reference", "a reference needs at least 1 sample per pixel".into()));
     }
-    let Expansion { buffers, passes, outputs, sink_inputs, history } = e;
+    let Expansion { mut buffers, passes, outputs, sink_inputs, history } = e;
 
     // Every pass's role must make sense before anything is rewritten; report all problems at once.
     let mut problems: Vec<(String, String)> = Vec::new();
@@ -91,16 +95,13 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 }
             }
         }
-        if matches!(role, Reference::Count | Reference::CountPerPrimary | Reference::Fill(_)) {
-            for (binding, id) in &p.writes {
-                let f = buffers[id.0].format;
-                if f != Format::U32 {
-                    problems.push((
-                        p.node.clone(),
-                        format!("count or fill pass `{}` writes `{binding}` as {f}; it must be u32", p.name),
-                    ));
-                }
-            }
+        if matches!(role, Reference::Count | Reference::CountPerPrimary | Reference::Fill(_))
+            && !p.writes.iter().any(|(_, id)| buffers[id.0].format == Format::U32)
+        {
+            problems.push((
+                p.node.clone(),
+                format!("count or fill pass `{}` writes no u32 buffer: a count or decision it could stand for", p.name),
+            ));
         }
     }
     if !problems.is_empty() {
@@ -140,8 +141,9 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                     Reference::Fill(v) => ParamValue::Int(i64::from(v)),
                     _ => ParamValue::Int(1),
                 };
+                let counts: Vec<bool> = p.writes.iter().map(|(_, id)| buffers[id.0].format == Format::U32).collect();
                 let many = p.writes.len() > 1;
-                for (binding, id) in &p.writes {
+                for ((binding, id), _) in p.writes.iter().zip(&counts).filter(|(_, c)| **c) {
                     let name = if many { format!("{}[{binding}]", p.name) } else { p.name.clone() };
                     let mut fill = Pass::new(&name, &p.node, FILL_CONSTANT, p.stage);
                     fill.writes.push(("out".into(), *id));
@@ -149,6 +151,24 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                     writer_stage.insert(*id, p.stage);
                     out_passes.push(fill);
                 }
+                if counts.iter().all(|c| *c) {
+                    continue;
+                }
+                // The pass's other outputs are still needed: it runs, its counts going nowhere.
+                let mut p = p;
+                for ((_, id), _) in p.writes.iter_mut().zip(&counts).filter(|(_, c)| **c) {
+                    let mut spare = buffers[id.0].clone();
+                    spare.name = format!("{}@unused_in_reference", spare.name);
+                    buffers.push(spare);
+                    *id = BufferId(buffers.len() - 1);
+                }
+                for (_, id) in p.reads.iter_mut() {
+                    *id = resolve(*id);
+                }
+                for (_, id) in &p.writes {
+                    writer_stage.insert(*id, p.stage);
+                }
+                out_passes.push(p);
                 continue;
             }
             _ => {}
