@@ -327,7 +327,9 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
     let exr_image =
         exr::image::Image::from_encoded_channels((width, img.height as usize), encoding, channels);
     write_atomically(path, |out| {
-        exr_image.write().to_buffered(out).map_err(|e| match e {
+        let w = exr_image.write();
+        let written = if one_thread() { w.non_parallel().to_buffered(out) } else { w.to_buffered(out) };
+        written.map_err(|e| match e {
             exr::error::Error::Io(source) => ImageError::Write {
                 path: path.to_path_buf(),
                 source,
@@ -355,11 +357,20 @@ pub fn write_exr_rgba(path: &Path, width: u32, height: u32, pixels: &[[f32; 4]])
     let encoding = Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
     let exr_image = exr::image::Image::from_encoded_channels((w, height as usize), encoding, channels);
     write_atomically(path, |out| {
-        exr_image.write().to_buffered(out).map_err(|e| match e {
+        let w = exr_image.write();
+        let written = if one_thread() { w.non_parallel().to_buffered(out) } else { w.to_buffered(out) };
+        written.map_err(|e| match e {
             exr::error::Error::Io(source) => ImageError::Write { path: path.to_path_buf(), source },
             other => ImageError::Encode { path: path.to_path_buf(), reason: other.to_string() },
         })
     })
+}
+
+/// Whether the process runs one thread (`--threads 1`): EXRs are then compressed on the calling
+/// thread (`non_parallel`), so that no compressor thread runs beside the one the user allowed. The
+/// bytes are the same either way (blocks are written in line order).
+fn one_thread() -> bool {
+    rayon::current_num_threads() <= 1
 }
 
 fn check_buffer(

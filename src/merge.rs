@@ -107,18 +107,7 @@ fn assemble(tiles: &[(PathBuf, Tile)]) -> Result<Vec<(String, Image)>, WedgeErro
     let ports: Vec<&String> = tiles[0].1.images.iter().map(|(p, _)| p).collect();
     let mut out: Vec<(String, Image)> = ports.iter().map(|p| (p.to_string(), Image::new(w, h))).collect();
     for (path, t) in tiles {
-        let these: Vec<&String> = t.images.iter().map(|(p, _)| p).collect();
-        if these != ports {
-            return Err(WedgeError::Usage(format!("{}: holds images {these:?}, the other tiles {ports:?}", path.display())));
-        }
-        let r = t.header.rect;
-        for ((_, full), (_, img)) in out.iter_mut().zip(&t.images) {
-            for y in 0..r.h {
-                let src = (y * r.w) as usize;
-                let dst = ((r.y + y) * w + r.x) as usize;
-                full.pixels[dst..dst + r.w as usize].copy_from_slice(&img.pixels[src..src + r.w as usize]);
-            }
-        }
+        crate::tiles::paste(&mut out, t).map_err(|e| WedgeError::Usage(format!("{}: {e}", path.display())))?;
     }
     Ok(out)
 }

@@ -7,6 +7,10 @@
 //! `render` writes (`color` → render.exr, `unfiltered`) as 32-bit float channels `PORT.R/G/B`,
 //! and in its header what merge checks before it trusts the tiles belong together: the pipeline's
 //! and the scene's fingerprints, seed, frame, full size, grid, index, rectangle and wedge version.
+//!
+//! `render` uses the same tiles by itself when the whole image does not fit the memory limit
+//! ([`grid_within`], [`render_all`]): it picks the fewest tiles that fit and renders them in sequence
+//! in one process, assembling the images a whole render writes.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -15,7 +19,7 @@ use wedge_backends::{Backend, Progress};
 
 use crate::image::Image;
 use crate::outputs::{buffer_to_image, IMAGE_PORTS};
-use crate::session::{Session, WedgeError};
+use crate::session::{RunMode, Session, WedgeError};
 
 /// Most tiles one grid may have.
 pub const MAX_TILES: u32 = 65_536;
@@ -207,7 +211,9 @@ pub fn check(session: &Session, grid: Grid) -> Result<u32, WedgeError> {
     apron(session)
 }
 
-fn apron(session: &Session) -> Result<u32, WedgeError> {
+/// How far around its rectangle a tile of `session`'s image computes (the sum of the passes' reach
+/// along each chain), or why the pipeline cannot be tiled.
+pub fn apron(session: &Session) -> Result<u32, WedgeError> {
     wedge_backends::tiles::apron(&session.job(session.seed, 0, &wedge_backends::Silent))
         .map_err(|e| WedgeError::Usage(format!("--tile: {}: {e}", session.pipeline.path.display())))
 }
@@ -397,6 +403,72 @@ fn parse_header(attr: &dyn Fn(&str) -> Result<String, WedgeError>, bad: &dyn Fn(
         apron: int("wedge_apron")?,
         version: attr("wedge_version")?,
     })
+}
+
+/// What a tiled render holds besides one tile's run: the assembled full `color` and `unfiltered`
+/// images (f32 RGB each).
+const ASSEMBLED_BYTES_PER_PIXEL: u64 = 2 * 12;
+
+/// Most tiles `render` splits an image into by itself to fit a memory limit.
+pub const MAX_AUTO_TILES: u32 = 4096;
+
+/// The estimated peak of rendering `session`'s image as `grid`'s tiles in sequence in one process:
+/// the largest tile's run with its apron, plus the assembled full images.
+pub fn tiled_bytes(session: &Session, mode: RunMode, grid: Grid, apron: u32) -> u64 {
+    let (w, h) = (session.width, session.height);
+    let grown = |side: u32, n: u32| side.div_ceil(n).saturating_add(2 * apron).min(side);
+    let tile = session.memory_estimate_at(mode, (grown(w, grid.cols), grown(h, grid.rows))).total();
+    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL)
+}
+
+/// The fewest tiles (near-square grids of 2, 3, 4, … up to [`MAX_AUTO_TILES`]) whose tiled render
+/// fits `limit` bytes, with its estimate; `Ok(None)` when none does (the scene alone may not fit),
+/// an error when the pipeline cannot be tiled (naming the pass that reads the whole image).
+pub fn grid_within(session: &Session, mode: RunMode, limit: u64) -> Result<Option<(Grid, u64)>, WedgeError> {
+    let apron = apron(session)?;
+    let size = (session.width, session.height);
+    Ok((2..=MAX_AUTO_TILES)
+        .map(|n| Grid::near_square(n, size))
+        .filter(|g| g.cols <= size.0 && g.rows <= size.1)
+        .map(|g| (g, tiled_bytes(session, mode, g, apron)))
+        .find(|(_, bytes)| *bytes <= limit))
+}
+
+/// Render every tile of `grid` in sequence on `backend` and assemble the full images (`color`,
+/// `unfiltered`): the pixels a whole render computes, tile by tile.
+pub fn render_all(session: &Session, backend: &mut dyn Backend, progress: &dyn Progress, grid: Grid) -> Result<Vec<(String, Image)>, WedgeError> {
+    let mut full: Vec<(String, Image)> = Vec::new();
+    for index in 0..grid.count() {
+        let tile = render_planned(session, backend, progress, &plan(session, index, grid)?)?;
+        if full.is_empty() {
+            full = tile.images.iter().map(|(p, _)| (p.clone(), Image::new(session.width, session.height))).collect();
+        }
+        paste(&mut full, &tile)?;
+    }
+    Ok(full)
+}
+
+/// Copy `tile`'s images into their rectangle of the full images (the same ports, in order).
+pub fn paste(full: &mut [(String, Image)], tile: &Tile) -> Result<(), WedgeError> {
+    let ports = |v: &[(String, Image)]| v.iter().map(|(p, _)| p.clone()).collect::<Vec<_>>();
+    if ports(full) != ports(&tile.images) {
+        return Err(WedgeError::Usage(format!(
+            "tile {} holds images {:?}, the others {:?}",
+            tile.header.index,
+            ports(&tile.images),
+            ports(full)
+        )));
+    }
+    let r = tile.header.rect;
+    for ((_, whole), (_, img)) in full.iter_mut().zip(&tile.images) {
+        let w = whole.width;
+        for y in 0..r.h {
+            let src = (y * r.w) as usize;
+            let dst = ((r.y + y) * w + r.x) as usize;
+            whole.pixels[dst..dst + r.w as usize].copy_from_slice(&img.pixels[src..src + r.w as usize]);
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -296,7 +296,26 @@ fn farm_slurm_dry_run_prints_the_array_and_the_merge() {
 fn memory_limit_counts_the_tile_not_the_image() {
     let dir = tempfile::tempdir().unwrap();
     let size = ["--width", "640", "--height", "480", "--memory-limit", "300M"];
-    refused(&wedge(&[&["render"], &size[..], &["--out", s(dir.path())]].concat()), &["memory limit"]);
     ok(&wedge(&[&["render"], &size[..], &["--tile", "3/4", "--out", s(dir.path())]].concat()));
     assert!(dir.path().join("tile_0003_of_0004.exr").is_file());
+}
+
+/// `render` of an image whose whole run does not fit `--memory-limit` picks the fewest tiles that
+/// fit and renders them in sequence in one process: the same render.exr and unfiltered.exr bytes as
+/// the whole image rendered without the limit. A limit no grid meets is refused with the reason.
+#[test]
+fn a_render_over_the_memory_limit_runs_as_tiles_with_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = ["--width", "192", "--height", "144", "--set", "shadows.max_radius=4", "--set", "shadows.fill_radius=2"];
+    let (whole, tiled) = (dir.path().join("whole"), dir.path().join("tiled"));
+    ok(&wedge(&[&["render"], &base[..], &["--out", s(&whole)]].concat()));
+    let out = wedge(&[&["render"], &base[..], &["--memory-limit", "24M", "--out", s(&tiled)]].concat());
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    let text = ok(&out);
+    assert!(err.contains("does not fit the memory limit") && text.contains("rendered as"), "{err}{text}");
+    for name in ["render.exr", "unfiltered.exr"] {
+        assert_same_bytes(&whole.join(name), &tiled.join(name));
+    }
+    let small = [&["render"], &base[..], &["--memory-limit", "1M", "--out", s(&tiled)]].concat();
+    refused(&wedge(&small), &["memory limit", "rendering it in tiles does not help", "apron of"]);
 }

@@ -97,7 +97,9 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
     );
     scene_notes(session);
     let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
-    check_memory(session, mode, common.memory_limit)?;
+    if let Err(too_big) = check_memory(session, mode, common.memory_limit) {
+        return render_in_tiles(session, common, stem, aov, too_big);
+    }
     let bars = Bars::default();
     let (run, note) = match common.backend.as_str() {
         "wgpu" => run_wgpu(session, &bars, common.gpu_limits.as_deref())?,
@@ -111,6 +113,58 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
         text.push_str(&note);
     }
     text.push_str(&aov_line);
+    for f in &written.files {
+        text.push_str(&format!("wrote {}\n", f.display()));
+    }
+    Ok(text)
+}
+
+/// `render` of an image whose whole run does not fit the memory limit (`too_big` says so): the
+/// fewest tiles that fit, rendered in sequence in this process and assembled into the images a whole
+/// render writes (the same bytes; heatmaps and AOVs are not assembled). Refused with `too_big` and
+/// the reason when no grid fits or the pipeline cannot be tiled.
+fn render_in_tiles(session: &Session, common: &Common, stem: &str, aov: &[String], too_big: WedgeError) -> Result<String, WedgeError> {
+    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    let Some((limit, _)) = crate::session::memory_budget(common.memory_limit) else { return Err(too_big) };
+    let refuse = |why: String| WedgeError::Usage(format!("{too_big}; rendering it in tiles does not help: {why}"));
+    if !aov.is_empty() {
+        return Err(refuse("--aov maps are not assembled from tiles; render them separately".into()));
+    }
+    let (grid, bytes) = match crate::tiles::grid_within(session, mode, limit) {
+        Ok(Some(found)) => found,
+        Ok(None) => {
+            let apron = crate::tiles::apron(session).unwrap_or(0);
+            return Err(refuse(format!(
+                "no grid of up to {} tiles fits: each tile computes its rectangle plus an apron of {apron} px (how far \
+                 the passes read around a pixel), and the scene and the full images stay in memory",
+                crate::tiles::MAX_AUTO_TILES
+            )));
+        }
+        Err(e) => return Err(refuse(e.to_string())),
+    };
+    eprintln!(
+        "the whole image does not fit the memory limit of {}: rendering it as {} tiles ({}x{}) in sequence, estimated peak {}",
+        crate::session::format_bytes(limit),
+        grid.count(),
+        grid.cols,
+        grid.rows,
+        crate::session::format_bytes(bytes)
+    );
+    let start = std::time::Instant::now();
+    let bars = Bars::default();
+    let images = match common.backend.as_str() {
+        "wgpu" => crate::tiles::render_all(session, &mut open_gpu(common.gpu_limits.as_deref())?, &bars, grid)?,
+        _ => crate::tiles::render_all(session, &mut CpuBackend::new(), &bars, grid)?,
+    };
+    let written = crate::outputs::write_images(&common.out, stem, &images)?;
+    let mut text = format!(
+        "rendered as {} tiles ({}x{} grid) in {:.1} s; heatmaps are not written for a tiled render\n",
+        grid.count(),
+        grid.cols,
+        grid.rows,
+        start.elapsed().as_secs_f64()
+    );
+    text.push_str(&written.warnings());
     for f in &written.files {
         text.push_str(&format!("wrote {}\n", f.display()));
     }
