@@ -256,14 +256,7 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     assert!(lens_params(&reg, &pipeline, "builtin:grids").unwrap().is_empty(), "a pinhole scene sets no lens");
 
     let dir = tempfile::tempdir().unwrap();
-    let opts = BenchOptions {
-        width: Some(40),
-        height: Some(30),
-        reference_spp: Some(32),
-        mu_values: Some(vec![1.0]),
-        baseline_spp: Some(vec![2, 8]),
-        ..BenchOptions { quick: true, ..BenchOptions::new(pipeline, dir.path()) }
-    };
+    let opts = tiny_suite(pipeline, dir.path());
     let r = run_suite(&opts, &["builtin:dof_foreground".to_string()]).expect("defocus suite runs");
     assert_eq!(r.family, SuiteFamily::Defocus);
     let row = &r.rows[0];
@@ -275,6 +268,19 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     }
     let md = std::fs::read_to_string(&r.table).unwrap();
     assert!(md.contains("Issue 35's goals"), "{md}");
+}
+
+/// A suite bench at its smallest (the CI smoke size of a family's suite): 40×30, reference 32 spp,
+/// μ 1, baselines at 2 and 8 spp.
+fn tiny_suite(pipeline: PathBuf, out: &Path) -> BenchOptions {
+    BenchOptions {
+        width: Some(40),
+        height: Some(30),
+        reference_spp: Some(32),
+        mu_values: Some(vec![1.0]),
+        baseline_spp: Some(vec![2, 8]),
+        ..BenchOptions { quick: true, ..BenchOptions::new(pipeline, out) }
+    }
 }
 
 /// The environment suite (issue 35) in small: an Environment pipeline picks it, every scene is
@@ -293,14 +299,7 @@ fn environment_suite_smoke_runs_each_scene_under_its_own_map() {
         assert!(wedge::scene::builtin::describe(s.strip_prefix("builtin:").unwrap()).is_some(), "{s} has no description");
     }
     let dir = tempfile::tempdir().unwrap();
-    let opts = BenchOptions {
-        width: Some(40),
-        height: Some(30),
-        reference_spp: Some(32),
-        mu_values: Some(vec![1.0]),
-        baseline_spp: Some(vec![2, 8]),
-        ..BenchOptions { quick: true, ..BenchOptions::new(pipeline, dir.path()) }
-    };
+    let opts = tiny_suite(pipeline, dir.path());
     let r = run_suite(&opts, &["builtin:env_sun".to_string()]).expect("environment suite runs");
     assert_eq!(r.family, SuiteFamily::Environment);
     assert!(r.rows[0].rmse.is_finite() && r.rows[0].rays_per_pixel > 1.0);

@@ -609,6 +609,22 @@ impl<'a> KernelCtx<'a> {
         self
     }
 
+    /// The context of `pass` in `job` — size, seed, frame, window, scene, parameters, progress and
+    /// its bindings' elements per pixel — with `reads` and `writes` bound (empty where nothing runs:
+    /// a pass's uniforms, its reach). The one place every backend and every look at a pass build it.
+    pub fn for_pass(
+        job: &crate::Job<'a>,
+        pass: &'a Pass,
+        counters: &'a Counters,
+        reads: BTreeMap<String, &'a BufferData>,
+        writes: BTreeMap<String, Option<BufferData>>,
+    ) -> Self {
+        KernelCtx::new(job.width, job.height, job.seed, job.scene, &pass.name, &pass.params, counters, job.progress, reads, writes)
+            .with_frame(job.frame)
+            .with_window(job.window)
+            .with_layers(pass, &job.schedule.buffers)
+    }
+
     pub fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }

@@ -5,7 +5,7 @@
 //! (statistics → rates → adaptive sampling → filters), and the apron of a schedule the longest chain.
 //! A pass that reads anywhere ([`Reach::Image`]) makes the schedule refuse tiles, naming it.
 
-use crate::kernel::{Counters, Kernel, KernelCtx, Silent, Window};
+use crate::kernel::{Counters, Kernel, KernelCtx, Window};
 use crate::{BackendError, Job};
 
 /// Pixels of apron every tile of `job`'s schedule needs on each side (clipped to the image by the
@@ -39,21 +39,7 @@ fn pass_reaches(job: &Job<'_>) -> Result<Vec<u32>, BackendError> {
                 kernel: pass.kernel.clone(),
                 known: job.kernels.names().collect::<Vec<_>>().join(", "),
             })?;
-            let ctx = KernelCtx::new(
-                job.width,
-                job.height,
-                job.seed,
-                job.scene,
-                &pass.name,
-                &pass.params,
-                &counters,
-                &Silent,
-                Default::default(),
-                Default::default(),
-            )
-            .with_frame(job.frame)
-            .with_window(job.window)
-            .with_layers(pass, &job.schedule.buffers);
+            let ctx = KernelCtx::for_pass(job, pass, &counters, Default::default(), Default::default());
             radius(kernel.as_ref(), &ctx, &pass.node)
         })
         .collect()

@@ -45,21 +45,7 @@ pub fn run_pass(
         reads.insert(name.clone(), *b);
     }
     let writes = pass.writes.iter().map(|(n, _)| (n.clone(), None)).collect();
-    let mut ctx = KernelCtx::new(
-        job.width,
-        job.height,
-        job.seed,
-        job.scene,
-        &pass.name,
-        &pass.params,
-        counters,
-        job.progress,
-        reads,
-        writes,
-    )
-    .with_frame(job.frame)
-    .with_window(job.window)
-    .with_layers(pass, &job.schedule.buffers);
+    let mut ctx = KernelCtx::for_pass(job, pass, counters, reads, writes);
     kernel.run_cpu(&mut ctx)?;
     let mut out = BTreeMap::new();
     for (name, data) in ctx.writes {

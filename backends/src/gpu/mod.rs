@@ -497,21 +497,7 @@ impl GpuBackend {
     /// its CPU path uses.
     pub(crate) fn uniforms(job: &Job<'_>, pass: &Pass, src: &crate::kernel::WgslSource) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
         let cpu_counters = Counters::default();
-        let ctx = KernelCtx::new(
-            job.width,
-            job.height,
-            job.seed,
-            job.scene,
-            &pass.name,
-            &pass.params,
-            &cpu_counters,
-            job.progress,
-            BTreeMap::new(),
-            BTreeMap::new(),
-        )
-        .with_frame(job.frame)
-        .with_window(job.window)
-        .with_layers(pass, &job.schedule.buffers);
+        let ctx = KernelCtx::for_pass(job, pass, &cpu_counters, BTreeMap::new(), BTreeMap::new());
         Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
     }
 
