@@ -21,14 +21,17 @@ static VALID: Mutex<Option<HashSet<u64>>> = Mutex::new(None);
 
 /// Parse and validate the WGSL of every pass of `job` that has a WGSL implementation; every failing
 /// kernel is reported at once, each error at its source file and line. A kernel without WGSL is
-/// left to the wgpu backend, which refuses it when it would run.
+/// left to the wgpu backend, which refuses it when it would run; so is a pass whose uniforms this
+/// job cannot evaluate (its `Params` block comes from the scene, e.g. a mixed-reality pass in a
+/// session opened without its real layer for `export-scene`): running it reports why, and its
+/// shader is checked in any session that can run it.
 pub fn check_job(job: &Job<'_>) -> Result<(), BackendError> {
     let mut problems = Vec::new();
     let mut checked = HashSet::new();
     for pass in &job.schedule.passes {
         let Some(kernel) = job.kernels.get(&pass.kernel) else { continue };
         let Some(src) = kernel.wgsl() else { continue };
-        let (uniforms, _) = GpuBackend::uniforms(job, pass, &src)?;
+        let Ok((uniforms, _)) = GpuBackend::uniforms(job, pass, &src) else { continue };
         // The binding plan only changes the generated accessors; the traversal stack size only an
         // array length: the direct plan and the default stack check the user's code.
         let stack = wedge_scene::bvh::STACK_SIZE as u32;
