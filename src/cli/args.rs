@@ -264,6 +264,17 @@ impl Command {
     }
 }
 
+impl Common {
+    /// What the run's memory is estimated for: the backend `--backend` names.
+    pub(super) fn run_mode(&self) -> crate::session::RunMode {
+        if self.backend == "wgpu" {
+            crate::session::RunMode::Gpu
+        } else {
+            crate::session::RunMode::Cpu
+        }
+    }
+}
+
 pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeError> {
     Ok(Overrides {
         scene: c.scene.clone(),

@@ -7,7 +7,7 @@ use super::args::{overrides, Common};
 use super::render::scene_notes;
 use crate::backends::cpu::CpuBackend;
 use crate::progress::Bars;
-use crate::session::{open_gpu, Registries, RunMode};
+use crate::session::{open_gpu, Registries};
 use crate::{Session, WedgeError};
 
 /// `render --tile I/N`: one tile file into --out ([`crate::tiles`]).
@@ -16,7 +16,7 @@ pub(super) fn render_tile(session: &Session, common: &Common, (index, n): (u32, 
     scene_notes(session);
     let plan = crate::tiles::plan(session, index, grid)?;
     // The memory of the tile with its apron, not of the whole image.
-    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    let mode = common.run_mode();
     if let Some((limit, source)) = crate::session::memory_budget(common.memory_limit) {
         session.memory_estimate_at(mode, (plan.grown.2, plan.grown.3)).check(limit, &source)?;
     }

@@ -96,7 +96,7 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
         session.seed
     );
     scene_notes(session);
-    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    let mode = common.run_mode();
     if let Err(too_big) = check_memory(session, mode, common.memory_limit) {
         return render_in_tiles(session, common, stem, aov, too_big);
     }
@@ -124,7 +124,7 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
 /// render writes (the same bytes; heatmaps and AOVs are not assembled). Refused with `too_big` and
 /// the reason when no grid fits or the pipeline cannot be tiled.
 fn render_in_tiles(session: &Session, common: &Common, stem: &str, aov: &[String], too_big: WedgeError) -> Result<String, WedgeError> {
-    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    let mode = common.run_mode();
     let Some((limit, _)) = crate::session::memory_budget(common.memory_limit) else { return Err(too_big) };
     let refuse = |why: String| WedgeError::Usage(format!("{too_big}; rendering it in tiles does not help: {why}"));
     if !aov.is_empty() {
@@ -183,7 +183,7 @@ pub(super) fn sequence_backend(session: &Session, common: &Common, what: &str) -
         session.seed
     );
     scene_notes(session);
-    let mode = if common.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+    let mode = common.run_mode();
     if let Some((limit, source)) = crate::session::memory_budget(common.memory_limit) {
         session.sequence_memory_estimate(mode).check(limit, &source)?;
     }

@@ -1,11 +1,11 @@
 //! WGSL composition: wedge's shared shader files and `#include` resolution.
 //!
 //! A kernel's WGSL names the shared code it needs with `#include "NAME.wgsl"` lines (a line holding
-//! only the directive). [`compose`] replaces each with the file's text, recursively, each file at
+//! only the directive). [`compose_mapped`] replaces each with the file's text, recursively, each file at
 //! most once — so `bvh.wgsl` and `sampling.wgsl` may both include `scene.wgsl` and the kernel still
 //! gets one copy. `common.wgsl` (frame uniform, counters, NaN-safe math) is always placed first.
 //! This is deliberately plain text concatenation: WGSL has no modules, and naga reports errors with
-//! line numbers in the composed text, which [`compose`]'s output keeps readable (each file starts
+//! line numbers in the composed text, which [`compose_mapped`]'s output keeps readable (each file starts
 //! with a `// ---- NAME ----` marker).
 //!
 //! The binding header is generated here too ([`binding_header`]): kernels never declare group(1);
@@ -60,12 +60,6 @@ impl Composed {
     }
 }
 
-/// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see
-/// [`binding_header`]), then its source with every include resolved.
-pub fn compose(kernel: &str, src: &WgslSource, header: &str) -> Result<String, BackendError> {
-    Ok(compose_mapped(kernel, src, header)?.text)
-}
-
 /// The text a kernel's pipeline compiles, as the wgpu backend builds it: the `Params` struct of
 /// `uniforms`, the binding header under `plan`, the traversal stack size for a scene kernel, then
 /// [`compose_mapped`]. Shared by the backend and the device-less check ([`super::validate`]).
@@ -85,7 +79,8 @@ pub fn kernel_wgsl(
     compose_mapped(name, src, &header)
 }
 
-/// [`compose`] with the origin of every line.
+/// The full WGSL of a kernel: `common.wgsl`, the generated `header` (its bindings, see
+/// [`binding_header`]), then its source with every include resolved, with the origin of every line.
 pub fn compose_mapped(kernel: &str, src: &WgslSource, header: &str) -> Result<Composed, BackendError> {
     let mut out = Composed { text: String::new(), origin: Vec::new() };
     let mut seen = HashSet::new();
