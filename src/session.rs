@@ -60,8 +60,9 @@ pub struct Overrides {
 }
 
 /// One `--set NODE.PARAM=VALUE` as an override of [`Overrides::params`]: the value is an integer,
-/// a number, a bool or else a string, as written (checked against the parameter's declaration when
-/// a session applies it). Public so that the fuzz target `set` parses exactly what the CLI does.
+/// a number, a bool, three numbers (`0.5,0.6,0.7` or `(0.5,0.6,0.7)`: a colour or vector) or else a
+/// string, as written (checked against the parameter's declaration when a session applies it).
+/// Public so that the fuzz target `set` parses exactly what the CLI does.
 pub fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
     let usage = || WedgeError::Usage(format!("--set {s:?}: expected NODE.PARAM=VALUE, e.g. shadows.mu=4"));
     let (lhs, value) = s.split_once('=').ok_or_else(usage)?;
@@ -72,10 +73,20 @@ pub fn parse_set(s: &str) -> Result<(String, String, ParamValue), WedgeError> {
         ParamValue::Float(f)
     } else if let Ok(b) = value.parse::<bool>() {
         ParamValue::Bool(b)
+    } else if let Some(v) = parse_vec3(value) {
+        ParamValue::Vec3(v)
     } else {
         ParamValue::Str(value.to_string())
     };
     Ok((node.to_string(), param.to_string(), v))
+}
+
+/// `a,b,c` or `(a, b, c)`: three numbers, else `None`.
+fn parse_vec3(value: &str) -> Option<[f64; 3]> {
+    let inner = value.trim();
+    let inner = inner.strip_prefix('(').and_then(|s| s.strip_suffix(')')).unwrap_or(inner);
+    let parts: Vec<f64> = inner.split(',').map(|p| p.trim().parse::<f64>()).collect::<Result<_, _>>().ok()?;
+    <[f64; 3]>::try_from(parts).ok()
 }
 
 pub struct Session {
@@ -1100,6 +1111,16 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn set_reads_three_numbers_as_a_colour_and_anything_else_as_before() {
+        let value = |s: &str| parse_set(s).unwrap().2;
+        assert_eq!(value("fog.colour=0.5,0.6,0.7"), ParamValue::Vec3([0.5, 0.6, 0.7]));
+        assert_eq!(value("fog.colour=(1, 0, 2e-1)"), ParamValue::Vec3([1.0, 0.0, 0.2]));
+        assert_eq!(value("fog.colour=0.5,0.6"), ParamValue::Str("0.5,0.6".into()));
+        assert_eq!(value("shadows.mu=2"), ParamValue::Int(2));
+        assert_eq!(value("env.map=builtin:sky"), ParamValue::Str("builtin:sky".into()));
+    }
 
     #[test]
     fn frame_placeholders_are_replaced_and_malformed_ones_named() {

@@ -686,6 +686,14 @@ impl<'a> KernelCtx<'a> {
             other => Err(self.err(format!("parameter `{name}` must be a number, found {other:?}"))),
         }
     }
+    /// Three numbers ([`wedge_graph::ParamDecl::colour`] / `vec3`), as f32 — for `Uniforms::vec3`
+    /// and the CPU kernel alike.
+    pub fn vec3_param(&self, name: &str) -> Result<[f32; 3], BackendError> {
+        match self.params.get(name) {
+            Some(ParamValue::Vec3(v)) => Ok(v.map(|x| x as f32)),
+            other => Err(self.err(format!("parameter `{name}` must be three numbers, found {other:?}"))),
+        }
+    }
     /// A number parameter that must be finite and > 0 (a width, a threshold).
     pub fn positive_f32_param(&self, name: &str) -> Result<f32, BackendError> {
         let v = self.f32_param(name)?;

@@ -307,6 +307,9 @@ pub enum ParamValue {
     Int(i64),
     Bool(bool),
     Str(String),
+    /// Three numbers: a colour (linear RGB) or a vector, written `(r, g, b)` in RON and `r,g,b` in
+    /// `--set`.
+    Vec3([f64; 3]),
 }
 
 impl ParamValue {
@@ -321,6 +324,13 @@ impl ParamValue {
     pub fn as_bool(&self) -> Option<bool> {
         match self {
             ParamValue::Bool(v) => Some(*v),
+            _ => None,
+        }
+    }
+    /// Three numbers (a [`ParamKind::Vec3`] value), else `None`.
+    pub fn as_vec3(&self) -> Option<[f64; 3]> {
+        match self {
+            ParamValue::Vec3(v) => Some(*v),
             _ => None,
         }
     }
@@ -341,6 +351,7 @@ impl fmt::Display for ParamValue {
             ParamValue::Int(v) => write!(f, "{v}"),
             ParamValue::Bool(v) => write!(f, "{v}"),
             ParamValue::Str(v) => write!(f, "{v:?}"),
+            ParamValue::Vec3([a, b, c]) => write!(f, "({a}, {b}, {c})"),
         }
     }
 }
@@ -377,6 +388,15 @@ pub enum ParamKind {
     /// reads it, and reports a file it cannot read at the parameter's position.
     Path {
         default: &'static str,
+    },
+    /// Three numbers, each in `min..=max`: a colour (linear RGB, [`ParamDecl::colour`]) or a
+    /// vector. One declaration, one value — not three `_r`/`_g`/`_b` parameters.
+    Vec3 {
+        default: [f64; 3],
+        min: f64,
+        max: f64,
+        /// Shown as a colour (the window's colour picker) rather than three numbers.
+        colour: bool,
     },
 }
 
@@ -472,6 +492,27 @@ impl ParamDecl {
     }
 
     /// A file path (see [`ParamKind::Path`]).
+    /// Three numbers, each in `min..=max` (a direction, an offset, a scale per axis).
+    pub const fn vec3(name: &'static str, default: [f64; 3], min: f64, max: f64, doc: &'static str) -> Self {
+        ParamDecl {
+            name,
+            kind: ParamKind::Vec3 { default, min, max, colour: false },
+            doc,
+            optional: false,
+        }
+    }
+
+    /// A linear RGB colour: three non-negative numbers (radiance or albedo; `max` bounds each
+    /// channel, e.g. 1 for an albedo). Kernels read it with `KernelCtx::vec3_param`.
+    pub const fn colour(name: &'static str, default: [f64; 3], max: f64, doc: &'static str) -> Self {
+        ParamDecl {
+            name,
+            kind: ParamKind::Vec3 { default, min: 0.0, max, colour: true },
+            doc,
+            optional: false,
+        }
+    }
+
     pub const fn path(name: &'static str, default: &'static str, doc: &'static str) -> Self {
         ParamDecl {
             name,
@@ -504,6 +545,7 @@ impl ParamDecl {
             ParamKind::Int { default, .. } => ParamValue::Int(*default),
             ParamKind::Bool { default } => ParamValue::Bool(*default),
             ParamKind::Choice { default, .. } | ParamKind::Path { default } => ParamValue::Str((*default).to_string()),
+            ParamKind::Vec3 { default, .. } => ParamValue::Vec3(*default),
         }
     }
 
@@ -559,6 +601,19 @@ impl ParamDecl {
                     Ok(ParamValue::Str(s.clone()))
                 }
             }
+            (ParamKind::Vec3 { min, max, .. }, ParamValue::Vec3(v)) => {
+                for (c, x) in ["first", "second", "third"].iter().zip(v) {
+                    if !x.is_finite() || x < min || x > max {
+                        return Err(format!(
+                            "{} = {value}: its {c} number {} is out of range; each must satisfy {min} <= x <= {max}",
+                            self.name,
+                            as_written(*x)
+                        ));
+                    }
+                    check_single_precision(self.name, *x, *min, false, *max)?;
+                }
+                Ok(ParamValue::Vec3(*v))
+            }
             (kind, v) => Err(format!(
                 "{} = {v} has the wrong type; expected {}",
                 self.name,
@@ -612,6 +667,8 @@ fn kind_name(kind: &ParamKind) -> &'static str {
         ParamKind::Bool { .. } => "true or false",
         ParamKind::Choice { .. } => "a string",
         ParamKind::Path { .. } => "a file path string",
+        ParamKind::Vec3 { colour: true, .. } => "a colour, three numbers `(r, g, b)`",
+        ParamKind::Vec3 { .. } => "three numbers `(x, y, z)`",
     }
 }
 

@@ -314,13 +314,57 @@ impl CameraSpec {
 }
 
 /// A parameter as written; checked against the node kind's [`crate::ParamDecl`] by the validator.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
+/// Deserialized by hand (not `untagged`) so that a value of no kind says what a parameter may be,
+/// and a list of the wrong length says so, at its position.
+#[derive(Clone, Debug, PartialEq)]
 pub enum RawParam {
     Bool(bool),
     Int(i64),
     Float(f64),
     Str(String),
+    /// `(r, g, b)` or `[x, y, z]`: a [`crate::ParamKind::Vec3`].
+    Vec3([f64; 3]),
+}
+
+impl<'de> Deserialize<'de> for RawParam {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(RawParamVisitor)
+    }
+}
+
+struct RawParamVisitor;
+
+impl<'de> serde::de::Visitor<'de> for RawParamVisitor {
+    type Value = RawParam;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a parameter value: a number, true/false, a \"string\" or three numbers (r, g, b)")
+    }
+    fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<RawParam, E> {
+        Ok(RawParam::Bool(v))
+    }
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<RawParam, E> {
+        Ok(RawParam::Int(v))
+    }
+    /// Beyond i64 (`99999999999999999999`): a float, which the declaration then refuses by range.
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<RawParam, E> {
+        Ok(i64::try_from(v).map_or(RawParam::Float(v as f64), RawParam::Int))
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<RawParam, E> {
+        Ok(RawParam::Float(v))
+    }
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<RawParam, E> {
+        Ok(RawParam::Str(v.to_string()))
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<RawParam, A::Error> {
+        let mut v = Vec::new();
+        while let Some(x) = seq.next_element::<f64>()? {
+            v.push(x);
+        }
+        let n = v.len();
+        <[f64; 3]>::try_from(v).map(RawParam::Vec3).map_err(|_| {
+            serde::de::Error::custom(format!("a colour or vector parameter takes three numbers (r, g, b), not {n}"))
+        })
+    }
 }
 
 impl From<&RawParam> for ParamValue {
@@ -330,6 +374,7 @@ impl From<&RawParam> for ParamValue {
             RawParam::Int(i) => ParamValue::Int(*i),
             RawParam::Float(f) => ParamValue::Float(*f),
             RawParam::Str(s) => ParamValue::Str(s.clone()),
+            RawParam::Vec3(v) => ParamValue::Vec3(*v),
         }
     }
 }

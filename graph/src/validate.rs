@@ -531,6 +531,9 @@ fn params_list(params: &[ParamDecl]) -> String {
             ParamKind::Bool { .. } => format!("{}: bool", p.name),
             ParamKind::Choice { options, .. } => format!("{}: one of {options:?}", p.name),
             ParamKind::Path { .. } => format!("{}: file path", p.name),
+            ParamKind::Vec3 { min, max, colour, .. } => {
+                format!("{}: {} in [{min}, {max}]", p.name, if *colour { "colour (r, g, b)" } else { "three numbers (x, y, z)" })
+            }
         })
         .collect::<Vec<_>>()
         .join(", ")
@@ -546,6 +549,7 @@ fn type_matches(kind: &ParamKind, v: &ParamValue) -> bool {
         ) | (ParamKind::Int { .. }, ParamValue::Int(_))
             | (ParamKind::Bool { .. }, ParamValue::Bool(_))
             | (ParamKind::Choice { .. } | ParamKind::Path { .. }, ParamValue::Str(_))
+            | (ParamKind::Vec3 { .. }, ParamValue::Vec3(_))
     )
 }
 

@@ -286,6 +286,29 @@ fn param_out_of_range() {
     assert!(d[1].help.contains("0 < mu"), "{}", d[1]);
 }
 
+/// A colour is one parameter of three numbers: written `(r, g, b)` or `[r, g, b]`, each checked
+/// against the range at the parameter's position; a single number is the wrong type; a list of
+/// another length is refused where it is written.
+#[test]
+fn colour_params_are_three_numbers_checked_in_place() {
+    for written in ["(0.5, 1, 0)", "[0.5, 1, 0]"] {
+        let ok = format!(r#"(name: "blur", kind: "Blur", params: {{"tint": {written}}}, inputs: {{"x": "src.a"}})"#);
+        let v = validate(&parse(&pipeline(&[SRC, &ok, OUT])), &registry()).unwrap();
+        let blur = v.nodes.iter().find(|n| n.name == "blur").unwrap();
+        assert_eq!(blur.params.get("tint"), Some(&ParamValue::Vec3([0.5, 1.0, 0.0])), "{written}");
+    }
+    let scalar = r#"(name: "blur", kind: "Blur", params: {"tint": 0.5}, inputs: {"x": "src.a"})"#;
+    let d = single(&pipeline(&[SRC, scalar, OUT]), DiagnosticKind::ParamType, 5, 47);
+    assert!(d.help.contains("a colour, three numbers `(r, g, b)`"), "{d}");
+    let bright = r#"(name: "blur", kind: "Blur", params: {"tint": (0.5, 2, 0)}, inputs: {"x": "src.a"})"#;
+    let d = single(&pipeline(&[SRC, bright, OUT]), DiagnosticKind::ParamOutOfRange, 5, 47);
+    assert!(d.help.contains("its second number 2 is out of range; each must satisfy 0 <= x <= 1"), "{d}");
+    let two = r#"(name: "blur", kind: "Blur", params: {"tint": (0.5, 2)}, inputs: {"x": "src.a"})"#;
+    let (line, _, message, _) = parse_err(&pipeline(&[SRC, two, OUT]));
+    assert_eq!(line, 5, "{message}");
+    assert!(message.contains("three numbers (r, g, b), not 2"), "{message}");
+}
+
 #[test]
 fn param_choice() {
     let ok = r#"(name: "src", kind: "Source", params: {"mode": "slow"})"#;

@@ -85,7 +85,7 @@ pub fn step_actions(step: &Step) -> Vec<Action> {
     let mut v = Vec::new();
     if let Some((name, value)) = &step.set {
         if let Some((node, param)) = name.split_once('.') {
-            v.push(Action::Set(node.into(), param.into(), value.to_param()));
+            v.push(Action::Set(node.into(), param.into(), wedge_graph::ParamValue::from(value)));
         }
     }
     v.extend(step.mu.map(Action::Mu));

@@ -21,6 +21,13 @@ pub enum Widget {
     },
     Check,
     Combo(&'static [&'static str]),
+    /// Three numbers; a colour within [0, 1] gets egui's colour picker (linear RGB), any other
+    /// three drag values.
+    Vec3 {
+        lo: f64,
+        hi: f64,
+        picker: bool,
+    },
     /// File parameters are edited in the RON file (hot reload picks the edit up).
     None,
 }
@@ -60,6 +67,11 @@ pub fn widget_for(decl: &ParamDecl) -> Widget {
         ParamKind::Bool { .. } => Widget::Check,
         ParamKind::Choice { options, .. } => Widget::Combo(options),
         ParamKind::Path { .. } => Widget::None,
+        ParamKind::Vec3 { min, max, colour, .. } => Widget::Vec3 {
+            lo: min,
+            hi: max,
+            picker: colour && min >= 0.0 && max <= 1.0,
+        },
     }
 }
 
@@ -166,12 +178,35 @@ pub fn param_ui(
                 });
             (chosen != s).then_some(ParamValue::Str(chosen))
         }
+        (Widget::Vec3 { lo, hi, picker }, ParamValue::Vec3(v)) => vec3_ui(ui, id, decl.name, v, (lo, hi), picker),
         (_, v) => {
             ui.label(format!("{} = {v:?}", decl.name));
             None
         }
     };
     changed
+}
+
+/// A colour picker (linear RGB, a value within [0, 1]) or three drag values in `lo..=hi`.
+fn vec3_ui(ui: &mut egui::Ui, id: &str, name: &str, v: [f64; 3], (lo, hi): (f64, f64), picker: bool) -> Option<ParamValue> {
+    let mut x = shown(ui, id, v);
+    let r = ui
+        .horizontal(|ui| {
+            let r = if picker {
+                let mut rgb = x.map(|c| c as f32);
+                let r = ui.color_edit_button_rgb(&mut rgb);
+                x = rgb.map(f64::from);
+                r
+            } else {
+                let [a, b, c] = &mut x;
+                ui.add(egui::DragValue::new(a).range(lo..=hi).speed(0.01))
+                    | ui.add(egui::DragValue::new(b).range(lo..=hi).speed(0.01))
+                    | ui.add(egui::DragValue::new(c).range(lo..=hi).speed(0.01))
+            };
+            r | ui.label(name)
+        })
+        .inner;
+    commit(ui, id, &r, x).map(ParamValue::Vec3)
 }
 
 /// Every node's widgets; `Some((node, param, value))` for the change the user committed this frame.
@@ -224,12 +259,25 @@ mod tests {
                     Widget::Int { lo, hi, .. } => assert!(lo <= hi, "{}.{}", kind.kind(), d.name),
                     Widget::Combo(o) => assert!(!o.is_empty()),
                     Widget::Check => {}
+                    Widget::Vec3 { lo, hi, .. } => assert!(lo <= hi, "{}.{}", kind.kind(), d.name),
                     Widget::None => assert!(matches!(d.kind, ParamKind::Path { .. })),
                 }
                 count += 1;
             }
         }
         assert!(count > 20, "{count} parameters");
+    }
+
+    /// A colour within [0, 1] gets the colour picker; a radiance colour (unbounded) or a vector,
+    /// three numbers.
+    #[test]
+    fn a_colour_gets_a_picker_and_a_vector_three_numbers() {
+        let albedo = ParamDecl::colour("albedo", [0.5; 3], 1.0, "k_d");
+        assert_eq!(widget_for(&albedo), Widget::Vec3 { lo: 0.0, hi: 1.0, picker: true });
+        let radiance = ParamDecl::colour("colour", [0.5; 3], 1e6, "fog radiance");
+        assert_eq!(widget_for(&radiance), Widget::Vec3 { lo: 0.0, hi: 1e6, picker: false });
+        let v = ParamDecl::vec3("offset", [0.0; 3], -10.0, 10.0, "metres");
+        assert_eq!(widget_for(&v), Widget::Vec3 { lo: -10.0, hi: 10.0, picker: false });
     }
 
     #[test]

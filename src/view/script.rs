@@ -19,30 +19,9 @@
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
-use wedge_graph::ParamValue;
+use wedge_graph::RawParam;
 
 use crate::WedgeError;
-
-/// A value of `set: ("NODE.PARAM", VALUE)`, as RON writes it.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
-pub enum ScriptValue {
-    Bool(bool),
-    Int(i64),
-    Float(f64),
-    Str(String),
-}
-
-impl ScriptValue {
-    pub fn to_param(&self) -> ParamValue {
-        match self {
-            ScriptValue::Bool(b) => ParamValue::Bool(*b),
-            ScriptValue::Int(i) => ParamValue::Int(*i),
-            ScriptValue::Float(f) => ParamValue::Float(*f),
-            ScriptValue::Str(s) => ParamValue::Str(s.clone()),
-        }
-    }
-}
 
 /// One step of a script. Every action is optional; a step applies those it has in the order the
 /// fields are listed here (parameters before the camera before the output choice before the
@@ -56,9 +35,10 @@ pub struct Step {
     pub order: usize,
     /// After which rendered frame (0-based, counted from the window's first frame) the step applies.
     pub frame: u64,
-    /// `("NODE.PARAM", value)`: as `--set NODE.PARAM=value`.
+    /// `("NODE.PARAM", value)`: as `--set NODE.PARAM=value`; the value as a pipeline's `params`
+    /// write it (`wedge_graph::RawParam`: a number, bool, string or `(r, g, b)`).
     #[serde(default)]
-    pub set: Option<(String, ScriptValue)>,
+    pub set: Option<(String, RawParam)>,
     /// As `--mu`.
     #[serde(default)]
     pub mu: Option<f64>,
@@ -237,7 +217,7 @@ mod tests {
         );
         assert_eq!(
             s.steps[0].set,
-            Some(("shadows.mu".into(), ScriptValue::Float(2.0)))
+            Some(("shadows.mu".into(), RawParam::Float(2.0)))
         );
         assert_eq!(s.steps[1].output.as_deref(), Some("unfiltered"));
         assert_eq!(s.last_frame(), 3);
@@ -248,8 +228,8 @@ mod tests {
     fn integers_stay_integers() {
         let s = parse(r#"[(frame: 0, set: ("shadows.max_rays", 8))]"#).expect("valid");
         assert_eq!(
-            s.steps[0].set.as_ref().map(|(_, v)| v.to_param()),
-            Some(ParamValue::Int(8))
+            s.steps[0].set.as_ref().map(|(_, v)| wedge_graph::ParamValue::from(v)),
+            Some(wedge_graph::ParamValue::Int(8))
         );
     }
 

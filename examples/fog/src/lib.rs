@@ -21,8 +21,7 @@ struct FogParams {
 }
 
 fn fog_params(ctx: &KernelCtx<'_>) -> Result<FogParams, BackendError> {
-    let colour = [ctx.f32_param("colour_r")?, ctx.f32_param("colour_g")?, ctx.f32_param("colour_b")?];
-    Ok(FogParams { density: ctx.f32_param("density")?, colour, eye: ctx.scene.camera.position.to_array() })
+    Ok(FogParams { density: ctx.f32_param("density")?, colour: ctx.vec3_param("colour")?, eye: ctx.scene.camera.position.to_array() })
 }
 
 pub struct FogKernel;
@@ -82,23 +81,16 @@ impl NodeKind for Fog {
         vec![PortDecl::new("color", Format::Vec3, "radiance seen through the fog")]
     }
     fn params(&self) -> Vec<ParamDecl> {
-        let channel = |name, doc| ParamDecl::float(name, 0.5, 0.0, 1e6, doc);
         vec![
             ParamDecl::float("density", 0.1, 0.0, 1e3, "extinction per metre"),
-            channel("colour_r", "fog radiance, red"),
-            channel("colour_g", "fog radiance, green"),
-            channel("colour_b", "fog radiance, blue"),
+            ParamDecl::colour("colour", [0.5, 0.5, 0.5], 1e6, "fog radiance (linear RGB)"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let (color, position) = (ctx.required("color")?, ctx.required("position")?);
-        let params: Vec<_> = ["density", "colour_r", "colour_g", "colour_b"].iter().map(|n| (*n, ctx.param(n).clone())).collect();
         let out = ctx.buffer("color", Format::Vec3);
-        let mut pass = ctx.pass("apply", "fog.apply", Stage::ImageFilter).read("color", color).read("position", position).write("out", out);
-        for (name, value) in params {
-            pass = pass.param(name, value);
-        }
-        pass.finish();
+        let pass = ctx.pass("apply", "fog.apply", Stage::ImageFilter).read("color", color).read("position", position);
+        pass.write("out", out).node_params(&["density", "colour"]).finish();
         ctx.output("color", out);
         Ok(())
     }

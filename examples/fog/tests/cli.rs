@@ -38,7 +38,7 @@ fn render_applies_the_users_node_and_density_zero_is_the_unfogged_image() {
         ok(&args)
     };
     run(&fogged, &[]);
-    run(&clear, &["--set", "fog.density=0", "--set", "fog.colour_r=0", "--set", "fog.colour_g=0", "--set", "fog.colour_b=0"]);
+    run(&clear, &["--set", "fog.density=0", "--set", "fog.colour=0,0,0"]);
     let (a, b) = (colour(&fogged, "render"), colour(&clear, "render"));
     let unfiltered = colour(&clear, "unfiltered");
     assert_eq!(a.len(), 32 * 24);

@@ -6,11 +6,11 @@ use wedge::graph::{ParamValue, Stage};
 use wedge::{Overrides, Session};
 
 fn reference(density: f64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
-    let set = |p: &str, v: f64| ("fog".to_string(), p.to_string(), ParamValue::Float(v));
+    let set = |p: &str, v: ParamValue| ("fog".to_string(), p.to_string(), v);
     let ov = Overrides {
         width: Some(24),
         height: Some(18),
-        params: vec![set("density", density), set("colour_r", 0.0), set("colour_g", 0.0), set("colour_b", 0.0)],
+        params: vec![set("density", ParamValue::Float(density)), set("colour", ParamValue::Vec3([0.0; 3]))],
         ..Default::default()
     };
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/fog.ron");

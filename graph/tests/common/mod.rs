@@ -60,6 +60,7 @@ impl NodeKind for Blur {
             ParamDecl::positive("mu", 1.0, 100.0, "filter width"),
             ParamDecl::int("taps", 3, 1, 16, "taps"),
             ParamDecl::boolean("wide", false, "wide"),
+            ParamDecl::colour("tint", [1.0, 1.0, 1.0], 1.0, "albedo-like colour"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
