@@ -60,7 +60,7 @@ fn every_binding_mismatch_is_reported_before_anything_runs() {
     };
     println!("{err}");
     for line in [
-        "4 binding problem(s): passes do not match their kernel's bindings",
+        "4 signature problem(s): passes do not match their kernel's bindings and parameters",
         "pass `bad.wrong`: binding `value` is bound to a vec3<f32> buffer but the kernel declares vec4<f32>",
         "pass `bad.wrong`: binding `tint` is not declared by kernel `compose.modulate` as a Read",
         "pass `bad.fill`: binding `spare` is not declared by kernel `compose.modulate` as a Write",
@@ -202,4 +202,90 @@ fn reading_an_undeclared_parameter_is_an_error_not_a_panic() {
         Err(e) => e.to_string(),
     };
     assert!(err.contains("`user`") && err.contains("undeclared parameter(s) `density`") && err.contains("declared: dens"), "{err}");
+}
+
+wedge::backends::kernel_params! {
+    /// What `user.scale` reads: one declared number and one the node sets.
+    struct ScaleParams {
+        scale: f32 = positive(1.0, 1e6, "multiplier"),
+        tint: [f32; 3],
+    }
+}
+
+/// A kernel with typed parameters ([`wedge::backends::kernel_params!`]).
+struct Scale;
+
+impl wedge::backends::Kernel for Scale {
+    fn name(&self) -> &'static str {
+        "user.scale"
+    }
+    fn class(&self) -> wedge::backends::KernelClass {
+        wedge::backends::KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<wedge::backends::Binding> {
+        vec![wedge::backends::Binding::read("value", Format::Vec4), wedge::backends::Binding::write("out", Format::Vec3)]
+    }
+    fn params(&self) -> Vec<wedge::backends::ParamSpec> {
+        use wedge::backends::KernelParams;
+        ScaleParams::specs()
+    }
+    fn run_cpu(&self, _: &mut wedge::backends::KernelCtx<'_>) -> Result<(), wedge::backends::BackendError> {
+        unreachable!("refused before it runs")
+    }
+}
+
+/// Forwards `scale` as a string and never sets `tint`.
+struct ForgetsTint;
+
+impl NodeKind for ForgetsTint {
+    fn kind(&self) -> &'static str {
+        "ForgetsTint"
+    }
+    fn doc(&self) -> &'static str {
+        "a node that does not give user.scale its parameters"
+    }
+    fn inputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("position", Format::Vec4, "position")]
+    }
+    fn outputs(&self) -> Vec<PortDecl> {
+        vec![PortDecl::new("color", Format::Vec3, "colour")]
+    }
+    fn params(&self) -> Vec<ParamDecl> {
+        Vec::new()
+    }
+    fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+        let position = ctx.required("position")?;
+        let out = ctx.buffer("color", Format::Vec3);
+        ctx.pass("apply", "user.scale", wedge::graph::Stage::Compose)
+            .read("value", position)
+            .write("out", out)
+            .param("scale", wedge::graph::ParamValue::Str("big".into()))
+            .finish();
+        ctx.output("color", out);
+        Ok(())
+    }
+}
+
+/// A kernel's declared parameters are part of its signature: a pass without one, or with one of
+/// another type, is refused when the session is built, with the fix.
+#[test]
+fn a_kernels_typed_parameters_are_checked_before_anything_runs() {
+    let (mut nodes, mut kernels) = wedge::effects::builtin();
+    nodes.register(Arc::new(ForgetsTint));
+    kernels.register(Arc::new(Scale));
+    let text = PIPELINE
+        .replace("\"Miswired\", inputs: {\"albedo\": \"primary.albedo\", \"position\": \"primary.position\"}", "\"ForgetsTint\", inputs: {\"position\": \"primary.position\"}")
+        .replace("\"unfiltered\": \"bad.extra\"", "\"unfiltered\": \"bad.color\"");
+    let loaded = wedge::graph::parse_pipeline(Path::new("forgets.ron"), &text).unwrap();
+    let err = match wedge::Session::build(loaded, &Default::default(), nodes, kernels) {
+        Ok(_) => panic!("a pass without its kernel's parameters built a session"),
+        Err(e) => e.to_string(),
+    };
+    for line in [
+        "2 signature problem(s)",
+        "pass `bad.apply`: parameter `scale`: kernel `user.scale` reads it as a number; the pass carries \"big\"",
+        "pass `bad.apply`: parameter `tint`: kernel `user.scale` reads it as three numbers; the pass does not carry it: forward it from the node (`.node_params(..)`) or set it (`.param(..)`)",
+    ] {
+        assert!(err.contains(line), "missing {line:?} in\n{err}");
+    }
 }

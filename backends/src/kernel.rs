@@ -61,6 +61,13 @@ pub trait Kernel: Send + Sync {
     /// Whether the kernel draws random numbers. Such a kernel keys them by its pass's `stream`
     /// parameter, which the graph assigns to passes declared `.random()`; the signature check refuses
     /// a pass of this kernel that is not so declared (at `wedge graph` time, not when it runs).
+    /// The parameters the kernel reads from its pass, by name and type — `P::specs()` of its
+    /// [`crate::kernel_params!`] block. The schedule check refuses a pass that lacks one or carries
+    /// another type (at `wedge graph` / session build, every problem at once). Default: none
+    /// declared, nothing checked (a kernel still reading `ctx.f32_param("…")` by hand).
+    fn params(&self) -> Vec<crate::params::ParamSpec> {
+        Vec::new()
+    }
     fn draws_random(&self) -> bool {
         false
     }
@@ -429,6 +436,18 @@ impl KernelRegistry {
                     }
                 }
             }
+        }
+        for spec in kernel.params() {
+            let problem = match pass.params.get(spec.name) {
+                None => "the pass does not carry it: forward it from the node (`.node_params(..)`) or set it (`.param(..)`)".to_string(),
+                Some(v) if !spec.ty.accepts(v) => format!("the pass carries {v}"),
+                Some(_) => continue,
+            };
+            problems.push(BackendError::Param {
+                pass: pass.name.clone(),
+                param: spec.name.to_string(),
+                message: format!("kernel `{}` reads it as {}; {problem}", pass.kernel, spec.ty.describe()),
+            });
         }
         for d in decls.iter().filter(|d| !d.optional) {
             let bound = match d.access {

@@ -23,6 +23,7 @@ pub mod kernels;
 pub mod lone;
 #[cfg(feature = "gpu")]
 pub mod parity;
+pub mod params;
 pub mod rng;
 pub mod sobol;
 pub mod tiles;
@@ -37,6 +38,7 @@ pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
     UniformType, Uniforms, WgslSource, Window,
 };
+pub use params::{KernelParams, ParamField, ParamSpec, ParamType};
 use wedge_graph::{BufferId, ParamValue, Schedule};
 use wedge_scene::Scene;
 
@@ -48,8 +50,11 @@ pub enum BackendError {
     UnknownKernel { pass: String, kernel: String, known: String },
     #[error("pass `{pass}`: binding `{binding}` {message}")]
     Binding { pass: String, binding: String, message: String },
+    /// A pass lacks a parameter its kernel declares ([`Kernel::params`]) or carries another type.
+    #[error("pass `{pass}`: parameter `{param}`: {message}")]
+    Param { pass: String, param: String, message: String },
     /// Passes that do not match their kernels' declared signatures, all of them.
-    #[error("{} binding problem(s): passes do not match their kernel's bindings:\n  - {}\nfix the node's `expand` (binding names, read/write, formats) or the kernel's `bindings()`", problems.len(), problems.join("\n  - "))]
+    #[error("{} signature problem(s): passes do not match their kernel's bindings and parameters:\n  - {}\nfix the node's `expand` (binding names, read/write, formats, forwarded parameters) or the kernel's `bindings()` / `params()`", problems.len(), problems.join("\n  - "))]
     Signatures { problems: Vec<String> },
     #[error("{0}")]
     Other(String),
