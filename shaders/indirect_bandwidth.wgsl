@@ -10,7 +10,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let i = pixel_index(gid);
     // The bandwidth pass reads no rate settings: initial = max = 1 as on the CPU.
-    let s = IndirectSettings(params.mu, params.alpha, params.z_fraction, params.extent, 1u, 1u);
+    let s = IndirectSettings(params.mu, params.alpha, params.z_min_fraction, params.extent, 1u, 1u);
     let dp = depth_at(i);
     let d = normal_at(i).w;
     let has_stats = dp.w > 0.0;
@@ -25,7 +25,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (has_stats && specular_bound()) {
             let sp = specular_at(i);
             if (indirect_has_glossy(sp)) {
-                let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.blinn != 0u), sp.w);
+                let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.brdf != 0u), sp.w);
                 bg = indirect_component(r, dp, d, s).beta;
             }
         }

@@ -10,7 +10,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let s = IndirectSettings(params.mu, params.alpha, params.z_fraction, params.extent, params.initial, params.max_rays);
+    let s = IndirectSettings(params.mu, params.alpha, params.z_min_fraction, params.extent, params.initial_rays, params.max_rays);
     let dp = depth_at(i);
     var nd = 0u;
     var ng = 0u;
@@ -20,12 +20,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (specular_bound() && rays_glossy_bound()) {
             let sp = specular_at(i);
             if (indirect_has_glossy(sp)) {
-                let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.blinn != 0u), sp.w);
+                let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.brdf != 0u), sp.w);
                 ng = indirect_component(r, dp, d, s).rays;
             }
         }
-        nd = min(nd, params.cap);
-        ng = min(ng, params.cap);
+        nd = min(nd, params.rays_cap);
+        ng = min(ng, params.rays_cap);
     }
     rays_diffuse_put(i, nd);
     if (rays_glossy_bound()) {

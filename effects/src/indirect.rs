@@ -41,7 +41,8 @@
 use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
 
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
+use wedge_backends::kernels::hemisphere::Lobe;
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, WgslSource};
 use wedge_graph::{
     Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference, Statistic,
     SamplerPass, Stage,
@@ -212,24 +213,22 @@ impl NodeKind for Indirect {
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
-            ParamDecl::positive("mu", 0.9, 1e6, "μ: scales the filter bandwidth (eq. 4.15); larger = narrower filter, more rays (eq. 4.21)"),
-            ParamDecl::positive("alpha", 0.3, 1.0, "α = Ω_x^max · d ∈ (0, 1] (eq. 4.15)"),
+            crate::params::mu(0.9, "μ: scales the filter bandwidth (eq. 4.15); larger = narrower filter, more rays (eq. 4.21)"),
+            crate::params::brdf("glossy lobe of k_s, m: Phong (A.5) or Blinn-Phong (4.18, A.3)"),
+        ]
+        .into_iter()
+        .chain(RateParams::decls())
+        .chain([
             ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (a hit reflector returns 1)"),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: hits farther than this are misses (0 = no limit)"),
-            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m: Phong (A.5) or Blinn-Phong (4.18, A.3)"),
-            ParamDecl::int("initial_rays", 16, 1, 4096, "first-pass hemisphere rays per component (thesis: 16, stratified)"),
-            ParamDecl::int("max_rays", 100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
-            ParamDecl::int("rays_cap", 1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
-            ParamDecl::float("z_min_fraction", 0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
             ParamDecl::choice(
                 "statistics",
                 "neighbours",
                 &["own", "neighbours"],
                 "z_min, z_max for eqs. 4.15–4.21 from the pixel's own first pass (thesis), or from its eight neighbours' (leaves its own samples out: no correlation between a pixel's estimate and its count or width; not with factoring)",
             ),
-        ]
-        .into_iter()
+        ])
         .chain(filtering::params())
         .collect()
     }
@@ -283,7 +282,7 @@ impl NodeKind for Indirect {
         if glossy {
             pass = pass.write("beta_glossy", beta_g);
         }
-        pass.node_params(&["mu", "alpha", "brdf", "z_min_fraction"]).finish();
+        pass.node_params(RateParams::names()).finish();
 
         let rays_d = ctx.buffer("rays_diffuse", Format::U32);
         let rays_g = ctx.buffer("rays_glossy", Format::U32);
@@ -298,8 +297,7 @@ impl NodeKind for Indirect {
         if glossy {
             pass = pass.write("rays_glossy", rays_g);
         }
-        pass.node_params(&["mu", "alpha", "brdf", "z_min_fraction", "initial_rays", "max_rays", "rays_cap"])
-            .reference(Reference::Count)
+        pass.node_params(RateParams::names()).reference(Reference::Count)
             .finish();
 
         // eq. 4.21's n per part over both passes, exactly: the sampler traces the rest on paths of
@@ -340,22 +338,41 @@ impl NodeKind for Indirect {
     }
 }
 
-/// Settings and the glossy receiver model of a formula pass.
-fn settings(ctx: &KernelCtx<'_>, with_rates: bool) -> Result<(Settings, Option<bool>), BackendError> {
+wedge_backends::kernel_params! {
+    /// The parameters of eqs. 4.15–4.21 as `indirect.bandwidth` and `indirect.rates` read them
+    /// (CPU: typed; WGSL: `params.NAME`, `brdf` 0 = Phong, 1 = Blinn-Phong, plus the scene's
+    /// `extent`). `mu` and `brdf` are declared by the shared definitions (`crate::params`), the
+    /// rest here; the node forwards all of them to both passes.
+    pub struct RateParams {
+        mu: f32,
+        brdf: Lobe,
+        alpha: f32 = positive(0.3, 1.0, "α = Ω_x^max · d ∈ (0, 1] (eq. 4.15)"),
+        initial_rays: u32 = int(16, 1, 4096, "first-pass hemisphere rays per component (thesis: 16, stratified)"),
+        max_rays: u32 = int(100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
+        rays_cap: u32 = int(1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
+        z_min_fraction: f32 = float(0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
+    }
+}
+
+/// The formulas' settings and whether glossy receivers are Blinn-Phong; `with_rates` = false for
+/// the bandwidth pass (counts of 1: it computes no rates).
+fn settings(ctx: &KernelCtx<'_>, with_rates: bool) -> Result<(RateParams, Settings, bool), BackendError> {
+    let p = RateParams::read(ctx)?;
     let s = Settings {
-        mu: ctx.f32_param("mu")?,
-        alpha: ctx.f32_param("alpha")?,
-        z_fraction: ctx.f32_param("z_min_fraction")?,
+        mu: p.mu,
+        alpha: p.alpha,
+        z_fraction: p.z_min_fraction,
         extent: ctx.scene.extent(),
-        initial: if with_rates { ctx.int_param("initial_rays")?.max(1) as u32 } else { 1 },
-        max: if with_rates { ctx.int_param("max_rays")?.max(1) as u32 } else { 1 },
+        initial: if with_rates { p.initial_rays.max(1) } else { 1 },
+        max: if with_rates { p.max_rays.max(1) } else { 1 },
     };
-    let blinn = match ctx.str_param("brdf")? {
-        "phong" => Some(false),
-        "blinn_phong" => Some(true),
-        _ => None,
-    };
-    Ok((s, blinn))
+    let blinn = p.brdf == Lobe::BlinnPhong;
+    Ok((p, s, blinn))
+}
+
+/// The WGSL parameter block of both formula passes.
+fn uniforms(ctx: &KernelCtx<'_>) -> Result<wedge_backends::Uniforms, BackendError> {
+    Ok(RateParams::read(ctx)?.uniforms().f32("extent", ctx.scene.extent()))
 }
 
 /// The glossy receiver at a pixel, if it has a glossy lobe.
@@ -363,10 +380,6 @@ fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<R
     let s = spec?[i];
     let m = s[3];
     (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then_some(if blinn { Receiver::BlinnPhong(m) } else { Receiver::Phong(m) })
-}
-
-fn bad_brdf(ctx: &KernelCtx<'_>) -> BackendError {
-    BackendError::Kernel { pass: ctx.pass.into(), message: "`brdf` must be phong or blinn_phong".into() }
 }
 
 /// `indirect.bandwidth`: β (metres) per component and the diffuse β in pixels for the heatmap.
@@ -378,6 +391,9 @@ impl Kernel for Bandwidth {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        RateParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -392,11 +408,7 @@ impl Kernel for Bandwidth {
     /// WGSL mirror: `shaders/indirect_bandwidth.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../shaders/indirect_bandwidth.wgsl"), |ctx| {
-                let (s, blinn) = settings(ctx, false)?;
-                let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
-                Ok(Uniforms::new().f32("mu", s.mu).f32("alpha", s.alpha).f32("z_fraction", s.z_fraction).f32("extent", s.extent).u32("blinn", blinn as u32))
-            })
+            WgslSource::new(include_str!("../../shaders/indirect_bandwidth.wgsl"), uniforms)
             .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
             .per_pixel(),
         )
@@ -405,8 +417,7 @@ impl Kernel for Bandwidth {
         let depth = ctx.read::<[f32; 4]>("depth")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let spec = ctx.read_opt::<[f32; 4]>("specular")?;
-        let (s, blinn) = settings(ctx, false)?;
-        let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
+        let (_, s, blinn) = settings(ctx, false)?;
         let active = |i: usize| depth[i][3] > 0.0;
         let beta_d: Vec<f32> = (0..ctx.pixels())
             .map(|i| if active(i) { component(Receiver::Diffuse, depth[i], normal[i][3], &s).beta } else { 0.0 })
@@ -436,6 +447,9 @@ impl Kernel for Rates {
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        RateParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("depth", Format::Vec4),
@@ -449,20 +463,7 @@ impl Kernel for Rates {
     /// WGSL mirror: `shaders/indirect_rates.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../shaders/indirect_rates.wgsl"), |ctx| {
-                let (s, blinn) = settings(ctx, true)?;
-                let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
-                let cap = ctx.int_param("rays_cap")?.max(1) as u32;
-                Ok(Uniforms::new()
-                    .f32("mu", s.mu)
-                    .f32("alpha", s.alpha)
-                    .f32("z_fraction", s.z_fraction)
-                    .f32("extent", s.extent)
-                    .u32("initial", s.initial)
-                    .u32("max_rays", s.max)
-                    .u32("cap", cap)
-                    .u32("blinn", blinn as u32))
-            })
+            WgslSource::new(include_str!("../../shaders/indirect_rates.wgsl"), uniforms)
             .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
             .per_pixel(),
         )
@@ -471,10 +472,9 @@ impl Kernel for Rates {
         let depth = ctx.read::<[f32; 4]>("depth")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let spec = ctx.read_opt::<[f32; 4]>("specular")?;
-        let (s, blinn) = settings(ctx, true)?;
-        let blinn = blinn.ok_or_else(|| bad_brdf(ctx))?;
+        let (p, s, blinn) = settings(ctx, true)?;
         let glossy_bound = ctx.is_bound("rays_glossy");
-        let cap = ctx.int_param("rays_cap")?.max(1) as u32;
+        let cap = p.rays_cap.max(1);
         let per: Vec<(u32, u32)> = (0..ctx.pixels())
             .map(|i| {
                 if depth[i][3] <= 0.0 {

@@ -60,6 +60,7 @@ pub mod mixed_reality;
 pub mod montecarlo;
 pub mod motion;
 pub mod output;
+pub mod params;
 pub mod pixel_filter;
 pub mod primary;
 pub mod light_field;

@@ -95,7 +95,7 @@ impl NodeKind for LightField {
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),
             ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
-            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m"),
+            crate::params::brdf("glossy lobe of k_s, m"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {

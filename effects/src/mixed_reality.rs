@@ -103,7 +103,7 @@ impl NodeKind for MixedReality {
             ParamDecl::int("primary", 4, 1, 256, "primary samples per pixel (Algorithm 1: 4)"),
             ParamDecl::int("per_primary", 4, 1, 4096, "direct and indirect samples per primary sample (Algorithm 1: 4)"),
             ParamDecl::float("b_e", -1.0, 0.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth").or_special(-1.0, "automatic: the map's 99%-energy bandwidth"),
-            ParamDecl::positive("mu", 1.0, 1e6, "μ (an extension): scales every bandwidth; larger = narrower filters"),
+            crate::params::mu(1.0, "μ (an extension): scales every bandwidth; larger = narrower filters"),
             ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
             ParamDecl::positive("thickness", 0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),

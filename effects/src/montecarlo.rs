@@ -68,7 +68,7 @@ impl NodeKind for MonteCarlo {
             ParamDecl::int("bounces", 0, 0, 64, "indirect bounces path-traced with next-event estimation (0 = direct only)"),
             ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "radiance, or ambient occlusion (spp hemisphere rays)"),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: hits farther than this are misses (0 = no limit)"),
-            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m for indirect paths"),
+            crate::params::brdf("glossy lobe of k_s, m for indirect paths"),
             ParamDecl::boolean("direct", true, "include direct light (false with bounces > 0: indirect only)"),
         ]
     }

@@ -90,7 +90,7 @@ impl NodeKind for PixelFilter {
             ParamDecl::int("range_samples", 4, 1, 64, "anti-aliasing samples of the range buffer per filter pass"),
             ParamDecl::int("paths", 1, 1, 1 << 20, "paths per pixel per frame"),
             ParamDecl::int("bounces", 3, 1, 64, "path vertices after the first, each with next-event estimation"),
-            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m"),
+            crate::params::brdf("glossy lobe of k_s, m"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {

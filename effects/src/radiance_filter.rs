@@ -70,7 +70,7 @@ impl NodeKind for RadianceFilter {
                 "correction phase: keep accumulating (thesis, bias falls as O(1/N)) or switch to the plain accumulation (Sec. 4.4.1)",
             ),
             ParamDecl::int("bounces", 3, 1, 64, "path vertices after the first, each with next-event estimation"),
-            ParamDecl::choice("brdf", "phong", &["phong", "blinn_phong"], "glossy lobe of k_s, m"),
+            crate::params::brdf("glossy lobe of k_s, m"),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {

@@ -102,7 +102,7 @@ impl NodeKind for SoftShadows {
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
-            ParamDecl::positive("mu", 2.0, 1e6, "μ: scales the filter bandwidth; larger = narrower filter, more rays (eq. 3.21)"),
+            crate::params::mu(2.0, "μ: scales the filter bandwidth; larger = narrower filter, more rays (eq. 3.21)"),
             ParamDecl::positive("alpha", 1.0, 1.0, "α = Ω_g^max/Ω_pix^max ∈ (0, 1] (eq. 3.5); 1 is conservative"),
             ParamDecl::positive("k", 3.0, 100.0, "k: Gaussian spread correction in eq. 3.13"),
             ParamDecl::int("light", 0, 0, 1 << 16, "index of the area light whose shadows this node filters"),

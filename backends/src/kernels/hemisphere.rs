@@ -18,20 +18,12 @@ use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
 use glam::{Vec2, Vec3};
 
-/// Glossy lobe model of a material's `k_s, m`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Lobe {
-    Phong,
-    BlinnPhong,
-}
-
-impl Lobe {
-    pub fn parse(s: &str) -> Option<Lobe> {
-        match s {
-            "phong" => Some(Lobe::Phong),
-            "blinn_phong" => Some(Lobe::BlinnPhong),
-            _ => None,
-        }
+crate::param_choice! {
+    /// Glossy lobe model of a material's `k_s, m`: the `brdf` parameter of every node that traces
+    /// glossy paths (declared once: `wedge_effects::params::brdf`). WGSL: 0 = Phong, 1 = Blinn-Phong.
+    pub enum Lobe {
+        Phong = "phong",
+        BlinnPhong = "blinn_phong",
     }
 }
 

@@ -66,8 +66,7 @@ impl PathParams {
     /// optional `ao`). One reading for every kernel that traces indirect paths.
     pub fn from_params(ctx: &KernelCtx<'_>, ao: bool, max_distance: f32) -> Result<PathParams, BackendError> {
         let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
-        let brdf = ctx.str_param("brdf")?;
-        let lobe = Lobe::parse(brdf).ok_or_else(|| err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))?;
+        let lobe = <Lobe as crate::params::ParamField>::read(ctx, "brdf")?;
         let bounces = ctx.int_param("bounces")?;
         let bounces =
             u32::try_from(bounces).map_err(|_| err(format!("`bounces` = {bounces} must be between 1 and {}", u32::MAX)))?;

@@ -240,8 +240,7 @@ fn max_radius(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
 }
 
 fn lobe(ctx: &KernelCtx<'_>) -> Result<Lobe, BackendError> {
-    let brdf = ctx.str_param("brdf")?;
-    Lobe::parse(brdf).ok_or_else(|| ctx.err(format!("unknown brdf `{brdf}`; use phong or blinn_phong")))
+    <Lobe as crate::params::ParamField>::read(ctx, "brdf")
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -131,7 +131,7 @@ impl NodeKind for Environment {
         let mut params = map_params().to_vec();
         params.extend([
             ParamDecl::float("b_e", -1.0, 0.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth (Sec. 6.7)").or_special(-1.0, "automatic: the map's 99%-energy bandwidth"),
-            ParamDecl::positive("mu", 1.0, 1e6, "μ (an extension; the thesis has none): scales every bandwidth; larger = narrower filters"),
+            crate::params::mu(1.0, "μ (an extension; the thesis has none): scales every bandwidth; larger = narrower filters"),
             ParamDecl::int("primary", 4, 1, 256, "primary rays per pixel, jittered where more than one (Algorithm 1: 4)"),
             ParamDecl::int("per_primary", 4, 1, 4096, "environment look-ups per primary ray (Algorithm 1: 4)"),
             ParamDecl::boolean("indirect", false, "also sample and filter one-bounce indirect light (eq. 6.18)"),
