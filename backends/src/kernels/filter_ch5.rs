@@ -35,8 +35,8 @@
 use glam::Vec3;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::v3;
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernels::{count_non_finite, is_finite3, v3};
 use crate::BackendError;
 
 /// The constant 16 of eqs. 5.31 and 5.33.
@@ -80,9 +80,6 @@ fn is_hit(position: [f32; 4]) -> bool {
     position[3] > 0.0
 }
 
-fn is_finite3(v: [f32; 3]) -> bool {
-    v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
-}
 
 fn valid_width(w: f32) -> bool {
     w > 0.0 && w.is_finite()
@@ -231,7 +228,8 @@ pub fn defocus_pixel(
     })
 }
 
-fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
+/// The `max_radius` parameter clamped to `0..=MAX_RADIUS_LIMIT` (shared by `filter.motion`).
+pub(crate) fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
     Ok(ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32)
 }
 
@@ -255,10 +253,6 @@ fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
     })
 }
 
-fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
-    let n = value.iter().filter(|v| !is_finite3(**v)).count() as u64;
-    Counters::add(&ctx.counters.non_finite_samples, n);
-}
 
 /// `filter.irradiance`: eq. 5.31 on factored irradiance.
 pub struct IrradianceFilter;

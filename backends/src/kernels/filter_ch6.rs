@@ -39,9 +39,9 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::Camera;
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::paths::camera_uniforms;
-use crate::kernels::v3;
+use crate::kernels::{count_non_finite, is_finite3, v3};
 use crate::BackendError;
 
 /// Largest `max_radius` a pass may ask for.
@@ -49,9 +49,6 @@ pub const MAX_RADIUS_LIMIT: i64 = 64;
 /// Largest `max_motion` a history pass may ask for.
 pub const MAX_MOTION_LIMIT: i64 = 4096;
 
-fn is_finite3(v: [f32; 3]) -> bool {
-    v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
-}
 
 /// The filter's parameters.
 #[derive(Clone, Copy, Debug)]
@@ -292,9 +289,6 @@ fn history_params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
     Ok(Ch6Params { max_motion: ctx.int_param("max_motion")?.clamp(0, MAX_MOTION_LIMIT) as i32, ..params(ctx)? })
 }
 
-fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
-    Counters::add(&ctx.counters.non_finite_samples, value.iter().filter(|v| !is_finite3(**v)).count() as u64);
-}
 
 /// `filter.environment`: one axis of eqs. 6.21–6.23 (and 6.26 with `previous`).
 pub struct EnvironmentFilter;

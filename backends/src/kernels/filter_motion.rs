@@ -27,8 +27,9 @@
 use glam::Vec2;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::filter_ch5::{pair_weight, window_radius, MAX_RADIUS_LIMIT};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernels::filter_ch5::{max_radius, pair_weight, window_radius};
+use crate::kernels::{count_non_finite, is_finite3};
 use crate::BackendError;
 
 /// Two velocities (pixels per half shutter) are the same motion when they differ by at most
@@ -51,9 +52,6 @@ pub fn same_velocity(a: [f32; 2], b: [f32; 2]) -> bool {
     (a - b).length_squared() <= tol * tol
 }
 
-fn is_finite3(v: [f32; 3]) -> bool {
-    v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
-}
 
 fn valid_width(w: f32) -> bool {
     w > 0.0 && w.is_finite()
@@ -162,14 +160,7 @@ pub fn radiance3_pixel(
     }
 }
 
-fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
-    Ok(ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32)
-}
 
-fn count_non_finite(ctx: &KernelCtx<'_>, value: &[[f32; 3]]) {
-    let n = value.iter().filter(|v| !is_finite3(**v)).count() as u64;
-    Counters::add(&ctx.counters.non_finite_samples, n);
-}
 
 /// `filter.motion`: the oriented 1-D Gaussian of eqs. B.1 / B.2 (module doc).
 pub struct MotionFilter;

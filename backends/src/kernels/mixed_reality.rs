@@ -49,6 +49,7 @@ use wedge_scene::{Camera, Scene, SceneAt};
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::environment::{brdf, stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
+use crate::kernels::luminance;
 use crate::kernels::paths::camera_uniforms;
 use crate::kernels::screen_trace::{ScreenHit, ScreenTracer};
 use crate::sobol::{independent2, pair, sequence_key, sobol2};
@@ -61,9 +62,6 @@ pub const REAL_OBJECT: u32 = 1 << 22;
 /// Offset of secondary ray origins along the normal, relative to the scene's extent.
 const EPS_RELATIVE: f32 = 1e-4;
 
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
 
 /// `mr.sample`'s settings.
 #[derive(Clone, Copy, Debug)]

@@ -69,7 +69,29 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(radiance_filter::Compose));
 }
 
-/// Small vector helpers on the plain arrays buffers hold.
-pub(crate) fn v3(a: [f32; 4]) -> glam::Vec3 {
+// Small helpers every kernel family uses, defined once here.
+
+/// The `xyz` of a `vec4` buffer element.
+pub fn v3(a: [f32; 4]) -> glam::Vec3 {
     glam::Vec3::new(a[0], a[1], a[2])
+}
+
+/// Whether all three components are finite.
+pub fn is_finite3(v: [f32; 3]) -> bool {
+    v[0].is_finite() && v[1].is_finite() && v[2].is_finite()
+}
+
+/// Add the pass's non-finite values to the run's `non_finite_samples` counter (they are counted
+/// and left out of every sum, never averaged in).
+pub fn count_non_finite(ctx: &crate::KernelCtx<'_>, value: &[[f32; 3]]) {
+    let n = value.iter().filter(|v| !is_finite3(**v)).count() as u64;
+    crate::Counters::add(&ctx.counters.non_finite_samples, n);
+}
+
+/// Rec. 709 luminance (`wedge_scene::environment::luminance`, in f32): the scalar whose variance
+/// the pixel filter's blend works with (reading: the thesis blends RGB radiance with one `s` per
+/// pixel and does not say which scalar its variances are of), and the environment's brightness.
+#[inline]
+pub fn luminance(c: glam::Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }

@@ -75,6 +75,7 @@ use crate::kernels::direct::{light_centre_factor, light_sample};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
+use crate::kernels::luminance;
 use crate::rng::PixelRng;
 use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
 use crate::BackendError;
@@ -188,18 +189,15 @@ record! {
     }
 }
 
-fn v3(a: [f32; 3]) -> Vec3 {
-    Vec3::from(a)
-}
 
 fn add(a: &mut [f32; 3], b: Vec3) {
-    *a = (v3(*a) + b).to_array();
+    *a = (Vec3::from(*a) + b).to_array();
 }
 
 impl PathRecord {
     fn mean_of(&self, s: [f32; 3], over: f32) -> Vec3 {
         if over > 0.0 {
-            v3(s) / over
+            Vec3::from(s) / over
         } else {
             Vec3::ZERO
         }
@@ -852,11 +850,6 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, seed: u32,
     accumulate(sums, if glossy { ks } else { Vec3::ZERO }, eg, valid_g, w, s.fixed_primary);
 }
 
-/// Rec. 709 luminance (`wedge_scene::environment::luminance`, in f32).
-#[inline]
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
 
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
 #[allow(clippy::too_many_arguments)]

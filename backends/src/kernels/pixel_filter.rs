@@ -47,12 +47,7 @@ use crate::BackendError;
 // Formulas (pure; WGSL mirror: shaders/pixel_filter_formulas.wgsl)
 // ---------------------------------------------------------------------------------------------
 
-/// Rec. 709 luminance: the scalar whose variance the blend works with (reading: the thesis blends
-/// RGB radiance with one `s` per pixel and does not say which scalar its variances are of).
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
+pub use crate::kernels::luminance;
 
 /// `variance.w` of a pixel the filter wrote. The accumulation's `M2` (≥ 0) never equals it, so a
 /// reference, whose filters are bypassed to the accumulation, blends with `s = 1`, as does a frame
@@ -498,9 +493,6 @@ pub fn split_path(v: &FirstVertex, split: Split) -> (Vec3, Vec3) {
     }
 }
 
-fn finite3(v: Vec3) -> bool {
-    v.is_finite()
-}
 
 impl Kernel for PixelSample {
     fn name(&self) -> &'static str {
@@ -537,7 +529,7 @@ impl Kernel for PixelSample {
         let s = sample_settings(ctx)?;
         let out: Vec<Stats> = s.paths.run(ctx, |st: &mut Stats, _, v| {
             let (lv, hv) = split_path(v, s.split);
-            let finite = finite3(lv) && finite3(hv);
+            let finite = Vec3::is_finite(lv) && Vec3::is_finite(hv);
             if finite {
                 *st = Stats::combine(*st, Stats::one(lv, hv));
             }

@@ -42,7 +42,8 @@ use wedge_graph::Format;
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::hemisphere::Lobe;
 use crate::kernels::indirect::lobe_mixture;
-use crate::kernels::pixel_filter::{luminance, CameraPaths, Stats};
+use crate::kernels::pixel_filter::{CameraPaths, Stats};
+use crate::kernels::{luminance, v3};
 use crate::BackendError;
 
 // ---------------------------------------------------------------------------------------------
@@ -441,9 +442,6 @@ pub fn window(r: f32, max_radius: u32) -> i32 {
     }
 }
 
-fn v3(a: [f32; 4]) -> Vec3 {
-    Vec3::new(a[0], a[1], a[2])
-}
 
 impl Kernel for Filter {
     fn name(&self) -> &'static str {

@@ -17,15 +17,13 @@
 //!   factoring node's rates read as the environment component's own bandwidth), and `rays` (u32) the
 //!   adaptive look-ups.
 
-use glam::Vec3;
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use wedge_graph::Format;
 
+use wedge_backends::kernels::v3;
+
 use super::formulas::{self, PixelStats};
 
-fn v3(a: [f32; 4]) -> Vec3 {
-    Vec3::new(a[0], a[1], a[2])
-}
 
 /// `|κ|` along `axis` at pixel `(x, y)` (eq. 6.20): against the next pixel along the axis where it
 /// shows the same object, else the previous one, else 0.
