@@ -413,12 +413,15 @@ const ASSEMBLED_BYTES_PER_PIXEL: u64 = 2 * 12;
 pub const MAX_AUTO_TILES: u32 = 4096;
 
 /// The estimated peak of rendering `session`'s image as `grid`'s tiles in sequence in one process:
-/// the largest tile's run with its apron, plus the assembled full images.
+/// the largest tile's run with its apron, plus the assembled full images, plus the encoders'
+/// buffers for writing one full image ([`crate::image::encoder_bytes`]). The last tile's run is over
+/// when the images are written; the sum stays an upper bound whether or not the allocator has given
+/// its memory back by then.
 pub fn tiled_bytes(session: &Session, mode: RunMode, grid: Grid, apron: u32) -> u64 {
     let (w, h) = (session.width, session.height);
     let grown = |side: u32, n: u32| side.div_ceil(n).saturating_add(2 * apron).min(side);
     let tile = session.memory_estimate_at(mode, (grown(w, grid.cols), grown(h, grid.rows))).total();
-    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL)
+    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL).saturating_add(crate::image::encoder_bytes(w, h))
 }
 
 /// The fewest tiles (near-square grids of 2, 3, 4, … up to [`MAX_AUTO_TILES`]) whose tiled render
