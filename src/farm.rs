@@ -4,7 +4,10 @@
 //! them with `sbatch`; it does not schedule anything itself. `--dry-run` prints them instead.
 //!
 //! Layout under OUT: `slurm/tiles.sbatch`, `slurm/merge.sbatch`, `slurm/logs/` (one log per task),
-//! `tiles/` (the tile files) and the merged outputs in OUT itself. A failed task leaves its tile
+//! `tiles/` (the tile files) and the merged outputs in OUT itself. With `--frames A..B` there is one
+//! task per tile × frame (task T: frame A + T / N, tile T % N, as `render --frames A..B --shard
+//! T/N/M --tile T%N/N` with M the frame count), the tiles of frame F in `tiles/frame_FFFF/`, and the
+//! merge job merges each frame into `OUT/frame_FFFF/`. A failed task leaves its tile
 //! missing, so the merge job never runs (afterok) and `wedge merge OUT/tiles --out OUT` names it;
 //! resubmitting that array index (`sbatch --array=I OUT/slurm/tiles.sbatch`) completes the set.
 
@@ -20,6 +23,8 @@ pub struct SlurmPlan {
     pub wedge: PathBuf,
     pub pipeline: PathBuf,
     pub tiles: u32,
+    /// Frames A..B of a sequence: one task per tile × frame.
+    pub frames: Option<(u32, u32)>,
     pub out: PathBuf,
     /// `render` flags every task passes on (size, seed, scene, `--set`, backend …).
     pub render_args: Vec<String>,
@@ -62,19 +67,33 @@ impl SlurmPlan {
         s
     }
 
-    /// The array script: task `$SLURM_ARRAY_TASK_ID` renders that tile into OUT/tiles.
+    /// Array tasks: one per tile, or per tile × frame.
+    pub fn tasks(&self) -> u64 {
+        u64::from(self.tiles) * self.frames.map_or(1, |(a, b)| u64::from(b - a) + 1)
+    }
+
+    /// The array script: task `$SLURM_ARRAY_TASK_ID` renders its tile (of its frame) into OUT/tiles.
     pub fn tiles_script(&self) -> String {
         let mut s = self.directives("tiles");
-        s.push_str(&format!("#SBATCH --array=0-{}\n", self.tiles - 1));
+        s.push_str(&format!("#SBATCH --array=0-{}\n", self.tasks() - 1));
         s.push_str(&format!("#SBATCH --output={}/logs/tile_%a.log\n", self.dir().display()));
         s.push_str("set -euo pipefail\n");
         let args: Vec<String> = self.render_args.iter().map(|a| quote(a)).collect();
+        let n = self.tiles;
+        // Task T: tile T % N of frame A + T / N (the frame as the stride shard T / N of the M frames, so
+        // it is set up from A as an unsharded --frames A..B sets it up).
+        let which = match self.frames {
+            None => format!("--tile \"${{SLURM_ARRAY_TASK_ID}}/{n}\""),
+            Some((a, b)) => format!(
+                "--frames {a}..{b} --shard \"$((SLURM_ARRAY_TASK_ID / {n}))/{m}\" --tile \"$((SLURM_ARRAY_TASK_ID % {n}))/{n}\"",
+                m = b - a + 1
+            ),
+        };
         s.push_str(&format!(
-            "exec {} render {} {} --tile \"${{SLURM_ARRAY_TASK_ID}}/{}\" --out {}\n",
+            "exec {} render {} {} {which} --out {}\n",
             quote_path(&self.wedge),
             quote_path(&self.pipeline),
             args.join(" "),
-            self.tiles,
             quote_path(&self.out.join("tiles"))
         ));
         s
@@ -85,12 +104,14 @@ impl SlurmPlan {
         let mut s = self.directives("merge");
         s.push_str(&format!("#SBATCH --output={}/logs/merge.log\n", self.dir().display()));
         s.push_str("set -euo pipefail\n");
-        s.push_str(&format!(
-            "exec {} merge {} --out {}\n",
-            quote_path(&self.wedge),
-            quote_path(&self.out.join("tiles")),
-            quote_path(&self.out)
-        ));
+        let (wedge, tiles, out) = (quote_path(&self.wedge), quote_path(&self.out.join("tiles")), quote_path(&self.out));
+        match self.frames {
+            None => s.push_str(&format!("exec {wedge} merge {tiles} --out {out}\n")),
+            // Every frame, each its own all-or-nothing set; the first that fails stops the job (set -e).
+            Some((a, b)) => s.push_str(&format!(
+                "for f in $(seq {a} {b}); do\n  d=$(printf 'frame_%04d' \"$f\")\n  {wedge} merge {tiles}/\"$d\" --out {out}/\"$d\"\ndone\n"
+            )),
+        }
         s
     }
 
@@ -126,7 +147,7 @@ impl SlurmPlan {
         let merge_id = sbatch(&[&dependency, merge.as_os_str().to_string_lossy().as_ref()])?;
         Ok(format!(
             "submitted tile array job {array} ({} tasks) and merge job {merge_id} (after {array} succeeds)\nlogs: {}\noutputs: {}\n",
-            self.tiles,
+            self.tasks(),
             self.dir().join("logs").display(),
             self.out.display()
         ))

@@ -24,6 +24,7 @@ pub mod metrics;
 pub mod outputs;
 pub mod progress;
 pub mod session;
+pub mod shard;
 pub mod staging;
 pub mod tiles;
 /// `wedge view`, the interactive window (the `view` feature, on by default).

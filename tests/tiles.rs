@@ -162,7 +162,7 @@ fn bad_tile_flags_are_refused() {
     refused(&wedge(&["render", "--tile", "4/4"]), &["numbered from 0"]);
     refused(&wedge(&["render", "--tile", "0/4", "--tile-grid", "3x1"]), &["disagree"]);
     refused(&wedge(&["render", "--width", "2", "--height", "2", "--tile", "0/9"]), &["does not fit"]);
-    refused(&wedge(&["render", "--tile", "0/2", "--frames", "0..1"]), &["cannot be used with"]);
+    refused(&wedge(&["render", "--tile", "0/2", "--progressive", "2"]), &["cannot be used with"]);
     let dir = tempfile::tempdir().unwrap();
     refused(&wedge(&["merge", s(dir.path()), "--out", s(&dir.path().join("o"))]), &["no tile files"]);
 }

@@ -54,6 +54,12 @@ pub(super) struct Common {
     /// device). Default: the WEDGE_WGPU_LIMITS environment variable, else `adapter`.
     #[arg(long, value_parser = ["adapter", "webgpu"])]
     pub(super) gpu_limits: Option<String>,
+    /// Progress lines on stderr, one per 10% of the task's work (its passes × pixels over every tile
+    /// and frame it renders), for a farm's logs: `human` (`progress: 30% tile 2/4 frame 7 (pass
+    /// NAME, 1.2 s)`), `json` (one object per line: task, percent, tile, frame, pass, elapsed_s) or
+    /// `none`. They never change the image.
+    #[arg(long, default_value = "human", value_parser = ["human", "json", "none"])]
+    pub(super) progress: String,
 }
 
 #[derive(Subcommand)]
@@ -87,11 +93,22 @@ pub(super) enum Command {
         progressive: Option<u32>,
         /// Render only tile I (from 0) of N, with the apron the pipeline's passes need around it, into
         /// --out as tile_IIII_of_NNNN.exr for `wedge merge` (N tiles: a near-square grid).
-        #[arg(long, value_name = "I/N", value_parser = crate::tiles::parse_tile, conflicts_with_all = ["frames", "progressive", "aov"])]
+        /// With --frames: tile I of each frame, into --out/frame_FFFF/ (pipelines without frame history).
+        #[arg(long, value_name = "I/N", value_parser = crate::tiles::parse_tile, conflicts_with_all = ["progressive", "aov"])]
         tile: Option<(u32, u32)>,
         /// With --tile: the grid, C columns by R rows (C × R = N).
         #[arg(long, value_name = "CxR", value_parser = crate::tiles::parse_grid, requires = "tile")]
         tile_grid: Option<crate::tiles::Grid>,
+        /// With --frames A..B: render only shard I (from 0) of N of the frames, each frame's file the
+        /// bytes an unsharded --frames A..B writes for it; writes frame_NNNN.exr/png only (no
+        /// preview.gif, no last-frame outputs), so shards can share --out.
+        #[arg(long, value_name = "I/N", value_parser = crate::shard::parse_shard, requires = "frames")]
+        shard: Option<(u32, u32)>,
+        /// How --shard splits the frames: `stride` (frames A+I, A+I+N, …; refused for pipelines
+        /// with frame history) or `chunks` (the I-th of N contiguous runs; with frame history, the
+        /// shard first renders every frame from A up to its chunk to warm the history up, unwritten).
+        #[arg(long, default_value = "stride", value_parser = ["stride", "chunks"])]
+        shard_mode: String,
     },
     /// Assemble the tile files of `render --tile` in DIR into render.exr/.png (and unfiltered.exr/.png)
     /// in --out, after checking that they belong together and cover the image exactly.
@@ -265,6 +282,11 @@ impl Command {
 }
 
 impl Common {
+    /// `--progress`.
+    pub(super) fn progress_format(&self) -> crate::progress::ProgressFormat {
+        crate::progress::ProgressFormat::parse(&self.progress)
+    }
+
     /// What the run's memory is estimated for: the backend `--backend` names.
     pub(super) fn run_mode(&self) -> crate::session::RunMode {
         if self.backend == "wgpu" {
@@ -291,14 +313,19 @@ pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeE
 
 #[derive(Subcommand)]
 pub(super) enum Farm {
-    /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`), and a merge
-    /// job chained with --dependency=afterok, written to OUT/slurm/ and submitted with sbatch (or
-    /// printed with --dry-run). Tiles go to OUT/tiles/, the merged images to OUT (--out).
+    /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`; with
+    /// --frames one per tile × frame), and a merge job chained with --dependency=afterok, written to
+    /// OUT/slurm/ and submitted with sbatch (or printed with --dry-run). Tiles go to OUT/tiles/, the
+    /// merged images to OUT (--out; with --frames OUT/frame_NNNN/).
     Slurm {
         pipeline: PathBuf,
-        /// Number of tiles (array tasks), 1..=65536; a near-square grid.
+        /// Number of tiles per frame, 1..=65536; a near-square grid.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
         tiles: u32,
+        /// Frames A..B of a sequence: one array task per tile × frame (task T renders frame
+        /// A + T / tiles, tile T % tiles), merged per frame into OUT/frame_NNNN/.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
         #[command(flatten)]
         common: Common,
         /// Slurm partition of both jobs.
