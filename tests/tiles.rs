@@ -146,6 +146,11 @@ fn merge_names_missing_extra_and_mismatched_tiles() {
     render(2, "2", &other);
     std::fs::copy(other.join("tile_0002_of_0004.exr"), tiles.join("tile_0002_of_0004.exr")).unwrap();
     refused(&wedge(&["merge", s(&tiles), "--out", s(&out)]), &["tile_0002_of_0004.exr", "seed 2", "do not belong"]);
+    // Tile 2 from another pipeline (a parameter changed by --set): not belonging either.
+    let changed = dir.path().join("changed");
+    ok(&wedge(&["render", "--width", "32", "--height", "24", "--seed", "1", "--set", "shadows.mu=3", "--tile", "2/4", "--out", s(&changed)]));
+    std::fs::copy(changed.join("tile_0002_of_0004.exr"), tiles.join("tile_0002_of_0004.exr")).unwrap();
+    refused(&wedge(&["merge", s(&tiles), "--out", s(&out)]), &["tile_0002_of_0004.exr", "seed 1", "do not belong"]);
     // The right tile 2, plus a copy of tile 1 under another name: an extra tile.
     render(2, "1", &tiles);
     std::fs::copy(tiles.join("tile_0001_of_0004.exr"), tiles.join("copy.exr")).unwrap();
