@@ -32,8 +32,41 @@ pub struct SlurmPlan {
     pub time: Option<String>,
 }
 
+/// The shell line of array task `$index` (a shell variable holding the task's number, from 0):
+/// `WEDGE render PIPELINE ARGS` for its tile (and frame) into `tiles_dir`. Task T renders tile
+/// T % tiles of frame A + T / tiles, as the stride shard T / tiles of the M frames, so each frame
+/// is set up from A as an unsharded `--frames A..B` sets it up. Shared by Slurm and Kubernetes.
+pub fn task_line(wedge: &str, pipeline: &str, render_args: &[String], (tiles, frames): (u32, Option<(u32, u32)>), index: &str, tiles_dir: &str) -> String {
+    let args: Vec<String> = render_args.iter().map(|a| quote(a)).collect();
+    let which = match frames {
+        None => format!("--tile \"${{{index}}}/{tiles}\""),
+        Some((a, b)) => format!(
+            "--frames {a}..{b} --shard \"$(({index} / {tiles}))/{m}\" --tile \"$(({index} % {tiles}))/{tiles}\"",
+            m = b - a + 1
+        ),
+    };
+    format!("exec {} render {} {} {which} --out {}\n", quote(wedge), quote(pipeline), args.join(" "), quote(tiles_dir))
+}
+
+/// The shell lines that merge `tiles_dir` into `out_dir`: one merge, or with frames one per frame
+/// (`frame_FFFF/` in both), each its own all-or-nothing set; the first that fails stops (set -e).
+pub fn merge_lines(wedge: &str, frames: Option<(u32, u32)>, tiles_dir: &str, out_dir: &str) -> String {
+    let (wedge, tiles, out) = (quote(wedge), quote(tiles_dir), quote(out_dir));
+    match frames {
+        None => format!("exec {wedge} merge {tiles} --out {out}\n"),
+        Some((a, b)) => format!(
+            "for f in $(seq {a} {b}); do\n  d=$(printf 'frame_%04d' \"$f\")\n  {wedge} merge {tiles}/\"$d\" --out {out}/\"$d\"\ndone\n"
+        ),
+    }
+}
+
+/// Array tasks of `tiles` tiles (of each of `frames`).
+pub fn task_count(tiles: u32, frames: Option<(u32, u32)>) -> u64 {
+    u64::from(tiles) * frames.map_or(1, |(a, b)| u64::from(b - a) + 1)
+}
+
 /// `s` quoted for a POSIX shell.
-fn quote(s: &str) -> String {
+pub fn quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
@@ -69,7 +102,7 @@ impl SlurmPlan {
 
     /// Array tasks: one per tile, or per tile × frame.
     pub fn tasks(&self) -> u64 {
-        u64::from(self.tiles) * self.frames.map_or(1, |(a, b)| u64::from(b - a) + 1)
+        task_count(self.tiles, self.frames)
     }
 
     /// The array script: task `$SLURM_ARRAY_TASK_ID` renders its tile (of its frame) into OUT/tiles.
@@ -78,23 +111,14 @@ impl SlurmPlan {
         s.push_str(&format!("#SBATCH --array=0-{}\n", self.tasks() - 1));
         s.push_str(&format!("#SBATCH --output={}/logs/tile_%a.log\n", self.dir().display()));
         s.push_str("set -euo pipefail\n");
-        let args: Vec<String> = self.render_args.iter().map(|a| quote(a)).collect();
-        let n = self.tiles;
-        // Task T: tile T % N of frame A + T / N (the frame as the stride shard T / N of the M frames, so
-        // it is set up from A as an unsharded --frames A..B sets it up).
-        let which = match self.frames {
-            None => format!("--tile \"${{SLURM_ARRAY_TASK_ID}}/{n}\""),
-            Some((a, b)) => format!(
-                "--frames {a}..{b} --shard \"$((SLURM_ARRAY_TASK_ID / {n}))/{m}\" --tile \"$((SLURM_ARRAY_TASK_ID % {n}))/{n}\"",
-                m = b - a + 1
-            ),
-        };
-        s.push_str(&format!(
-            "exec {} render {} {} {which} --out {}\n",
-            quote_path(&self.wedge),
-            quote_path(&self.pipeline),
-            args.join(" "),
-            quote_path(&self.out.join("tiles"))
+        let lossy = |p: &Path| p.to_string_lossy().into_owned();
+        s.push_str(&task_line(
+            &lossy(&self.wedge),
+            &lossy(&self.pipeline),
+            &self.render_args,
+            (self.tiles, self.frames),
+            "SLURM_ARRAY_TASK_ID",
+            &lossy(&self.out.join("tiles")),
         ));
         s
     }
@@ -104,14 +128,8 @@ impl SlurmPlan {
         let mut s = self.directives("merge");
         s.push_str(&format!("#SBATCH --output={}/logs/merge.log\n", self.dir().display()));
         s.push_str("set -euo pipefail\n");
-        let (wedge, tiles, out) = (quote_path(&self.wedge), quote_path(&self.out.join("tiles")), quote_path(&self.out));
-        match self.frames {
-            None => s.push_str(&format!("exec {wedge} merge {tiles} --out {out}\n")),
-            // Every frame, each its own all-or-nothing set; the first that fails stops the job (set -e).
-            Some((a, b)) => s.push_str(&format!(
-                "for f in $(seq {a} {b}); do\n  d=$(printf 'frame_%04d' \"$f\")\n  {wedge} merge {tiles}/\"$d\" --out {out}/\"$d\"\ndone\n"
-            )),
-        }
+        let lossy = |p: &Path| p.to_string_lossy().into_owned();
+        s.push_str(&merge_lines(&lossy(&self.wedge), self.frames, &lossy(&self.out.join("tiles")), &lossy(&self.out)));
         s
     }
 

@@ -19,6 +19,7 @@ pub mod export;
 pub mod farm;
 pub mod heatmap;
 pub mod image;
+pub mod k8s;
 pub mod merge;
 pub mod metrics;
 pub mod outputs;

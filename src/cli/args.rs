@@ -117,7 +117,8 @@ pub(super) enum Command {
         #[arg(long, default_value = "out")]
         out: PathBuf,
     },
-    /// Run a render on a cluster's scheduler as tiles and a merge (see `wedge farm slurm --help`).
+    /// Run a render on a cluster's scheduler as tiles and a merge (see `wedge farm slurm --help`,
+    /// `wedge farm k8s --help`).
     Farm {
         #[command(subcommand)]
         farm: Farm,
@@ -338,6 +339,51 @@ pub(super) enum Farm {
         #[arg(long)]
         dry_run: bool,
     },
+    /// Kubernetes manifests into OUT/k8s/ (--out): tiles.yaml (a ConfigMap with the pipeline, a
+    /// ReadWriteMany volume claim, an Indexed Job with one completion per tile, or per tile × frame,
+    /// each pod rendering task JOB_COMPLETION_INDEX), merge.yaml (the merge Job, to apply once the
+    /// tiles Job is complete: Kubernetes cannot chain Jobs) and submit.sh (the kubectl apply/wait
+    /// commands in order). Talks to no cluster.
+    K8s {
+        pipeline: PathBuf,
+        /// Number of tiles per frame, 1..=65536; a near-square grid.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
+        tiles: u32,
+        /// Frames A..B of a sequence: one completion per tile × frame, merged per frame into
+        /// out/frame_NNNN/ on the claim.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
+        #[command(flatten)]
+        k8s: K8sArgs,
+        #[command(flatten)]
+        common: Common,
+    },
+}
+
+/// What `wedge farm k8s` takes besides the render flags.
+#[derive(Args)]
+pub(super) struct K8sArgs {
+    /// The container image the pods run; it must hold wedge (--wedge) and `/bin/sh`.
+    #[arg(long)]
+    pub(super) image: String,
+    /// Prefix of the objects' names (a DNS-1123 label); default: wedge-PIPELINE.
+    #[arg(long)]
+    pub(super) name: Option<String>,
+    /// The wedge executable inside the image.
+    #[arg(long, default_value = "wedge")]
+    pub(super) wedge: String,
+    /// Pods running at once (default: every task).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(super) parallelism: Option<u32>,
+    /// Size of the ReadWriteMany volume claim for the tiles and the merged images.
+    #[arg(long, default_value = "10Gi")]
+    pub(super) storage: String,
+    /// Storage class of the claim (one that offers ReadWriteMany, e.g. an NFS or CephFS class).
+    #[arg(long)]
+    pub(super) storage_class: Option<String>,
+    /// Namespace of every object.
+    #[arg(long)]
+    pub(super) namespace: Option<String>,
 }
 
 /// Largest `reference --spp` (the `MonteCarlo` node's `spp` limit, kept for references from the graph).

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::args::{overrides, Common};
+use super::args::{overrides, Common, K8sArgs};
 use super::render::scene_notes;
 use crate::backends::cpu::CpuBackend;
 use crate::progress::{Bars, TaskProgress};
@@ -90,6 +90,64 @@ fn forwarded_args(c: &Common) -> Vec<String> {
     a
 }
 
+/// The session of a farm submission, opened as its tasks open it (at the range's first frame), with
+/// what would make a task fail refused first: a pipeline that cannot be tiled, tiles of a pipeline
+/// with frame history.
+fn farm_session(registries: &Registries, pipeline: &Path, (tiles, frames): (u32, Option<(u32, u32)>), common: &Common) -> Result<Session, WedgeError> {
+    let ov = crate::Overrides { frame: frames.map(|(first, _)| first), ..overrides(common, None)? };
+    let session = Session::open_with(registries, Some(pipeline), &ov)?;
+    crate::tiles::check(&session, crate::tiles::Grid::near_square(tiles, (session.width, session.height)))?;
+    if frames.is_some() {
+        crate::tiles::check_frames(&session)?;
+    }
+    Ok(session)
+}
+
+/// `wedge farm k8s`: the manifests into OUT/k8s/ ([`crate::k8s`]).
+pub(super) fn farm_k8s(registries: &Registries, pipeline: &Path, (tiles, frames): (u32, Option<(u32, u32)>), k8s: &K8sArgs, common: &Common) -> Result<String, WedgeError> {
+    crate::staging::check_output_dir(&common.out)?;
+    let session = farm_session(registries, pipeline, (tiles, frames), common)?;
+    let text = std::fs::read_to_string(pipeline).map_err(|e| WedgeError::Usage(format!("{}: {e}", pipeline.display())))?;
+    let stem = pipeline.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().to_lowercase());
+    let default_name: String = format!("wedge-{stem}").chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(40).collect();
+    let plan = crate::k8s::K8sPlan {
+        name: k8s.name.clone().unwrap_or_else(|| default_name.trim_end_matches('-').to_string()),
+        image: k8s.image.clone(),
+        wedge: k8s.wedge.clone(),
+        pipeline_file: crate::k8s::config_key(&pipeline.file_name().map_or("pipeline.ron".into(), |s| s.to_string_lossy().into_owned())),
+        pipeline_text: text,
+        tiles,
+        frames,
+        // The pods' tiles go to the claim, not to this --out.
+        render_args: forwarded_args(common),
+        parallelism: k8s.parallelism,
+        storage: k8s.storage.clone(),
+        storage_class: k8s.storage_class.clone(),
+        namespace: k8s.namespace.clone(),
+    };
+    plan.check()?;
+    let files = plan.write(&common.out.join("k8s"))?;
+    let range = frames.map_or(String::new(), |(a, b)| format!(" × frames {a}..{b}"));
+    let mut out = format!("{} task(s) ({tiles} tile(s){range}) of {}\n", plan.tasks(), pipeline.display());
+    let scene = common.scene.as_deref().unwrap_or(&session.pipeline.pipeline.scene);
+    if !scene.starts_with("builtin:") && !crate::scene::builtin_names().contains(&scene) {
+        out.push_str(&format!(
+            "note: the scene `{scene}` is a file: the pods read it at that path (relative to {}) inside the image; only \
+             the pipeline file travels in the ConfigMap\n",
+            crate::k8s::PIPELINE_DIR
+        ));
+    }
+    for f in &files {
+        out.push_str(&format!("wrote {}\n", f.display()));
+    }
+    out.push_str(&format!(
+        "run: sh {}/k8s/submit.sh (kubectl apply -f tiles.yaml; wait for job/{name}-tiles to complete; kubectl apply -f merge.yaml)\n",
+        common.out.display(),
+        name = plan.name
+    ));
+    Ok(out)
+}
+
 /// What `wedge farm slurm` was asked for.
 pub(super) struct SlurmRequest<'a> {
     pub pipeline: &'a Path,
@@ -109,12 +167,7 @@ pub(super) fn farm_slurm(registries: &Registries, r: SlurmRequest<'_>) -> Result
             crate::farm::check_sbatch_value(flag, v)?;
         }
     }
-    let ov = crate::Overrides { frame: r.frames.map(|(first, _)| first), ..overrides(r.common, None)? };
-    let session = Session::open_with(registries, Some(r.pipeline), &ov)?;
-    crate::tiles::check(&session, crate::tiles::Grid::near_square(r.tiles, (session.width, session.height)))?;
-    if r.frames.is_some() {
-        crate::tiles::check_frames(&session)?;
-    }
+    farm_session(registries, r.pipeline, (r.tiles, r.frames), r.common)?;
     let absolute = |p: &Path| std::path::absolute(p).map_err(|e| WedgeError::Usage(format!("{}: {e}", p.display())));
     let plan = crate::farm::SlurmPlan {
         wedge: std::env::current_exe().map_err(|e| WedgeError::Usage(format!("cannot find the wedge executable: {e}")))?,
