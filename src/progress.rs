@@ -130,7 +130,9 @@ struct TaskState {
 /// The progress of one render task over all its runs: forwards the passes' rows to the bars and
 /// prints a line each time another tenth of the work is done (see the module doc).
 pub struct TaskProgress<'a> {
-    bars: &'a Bars,
+    /// The per-pass bars it forwards to; none where the caller draws a bar of its own (the frames of
+    /// `render --progressive`).
+    bars: Option<&'a Bars>,
     format: ProgressFormat,
     /// What the task is: `render`, `tile`, `tiles`, `frames`, `shard`.
     task: &'static str,
@@ -142,7 +144,12 @@ pub struct TaskProgress<'a> {
 impl<'a> TaskProgress<'a> {
     /// A task of `total` work units: the sum over its runs of passes × pixels ([`TaskProgress::work`]).
     pub fn new(bars: &'a Bars, format: ProgressFormat, task: &'static str, total: u64) -> TaskProgress<'a> {
-        TaskProgress { bars, format, task, total: total.max(1), start: Instant::now(), state: Mutex::new(TaskState::default()) }
+        TaskProgress { bars: Some(bars), format, task, total: total.max(1), start: Instant::now(), state: Mutex::new(TaskState::default()) }
+    }
+
+    /// [`TaskProgress::new`] with no per-pass bars: only the lines.
+    pub fn lines_only(format: ProgressFormat, task: &'static str, total: u64) -> TaskProgress<'static> {
+        TaskProgress { bars: None, format, task, total: total.max(1), start: Instant::now(), state: Mutex::new(TaskState::default()) }
     }
 
     /// The work of one run of `passes` passes over `pixels` pixels.
@@ -195,19 +202,29 @@ impl<'a> TaskProgress<'a> {
 
 impl Progress for TaskProgress<'_> {
     fn begin(&self, pass: &str, rows: u64) {
-        self.bars.begin(pass, rows);
+        if let Some(b) = self.bars {
+            b.begin(pass, rows);
+        }
     }
     fn advance(&self, rows: u64) {
-        self.bars.advance(rows);
+        if let Some(b) = self.bars {
+            b.advance(rows);
+        }
     }
     fn end(&self) {
-        self.bars.end();
+        if let Some(b) = self.bars {
+            b.end();
+        }
     }
     fn begin_compile(&self, kernels: u64, software: bool) {
-        self.bars.begin_compile(kernels, software);
+        if let Some(b) = self.bars {
+            b.begin_compile(kernels, software);
+        }
     }
     fn compiling(&self, kernel: &str) {
-        self.bars.compiling(kernel);
+        if let Some(b) = self.bars {
+            b.compiling(kernel);
+        }
     }
     fn pass_done(&self, pass: &str) {
         let mut s = self.lock();
@@ -218,7 +235,10 @@ impl Progress for TaskProgress<'_> {
             s.reported = tenths;
             if self.format != ProgressFormat::None {
                 let line = self.render_line(&s, tenths * 10, pass);
-                self.bars.line(&line);
+                match self.bars {
+                    Some(b) => b.line(&line),
+                    None => eprintln!("{line}"),
+                }
             }
         }
     }

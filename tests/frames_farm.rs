@@ -159,6 +159,18 @@ fn progress_lines_for_every_kind_of_task_and_the_same_image() {
         err.contains("progress: 10% frame 3") && err.contains("progress: 100% frame 5"),
         "{err}"
     );
+    // A progressive render: its frames.
+    let (_, err) = ok(&wedge(
+        &[
+            &["render", &pipeline("progressive_pixel.ron")],
+            &SMALL[..],
+            &["--progressive", "3", "--out", "p"],
+        ]
+        .concat(),
+        &d,
+    ));
+    percents(&err, false);
+    assert!(err.contains("progress: 100% frame 2"), "{err}");
     // An auto-tiled render (the whole image over --memory-limit): tile numbers of the grid.
     let base = [
         "--width",

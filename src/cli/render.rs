@@ -306,6 +306,9 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
     );
     bar.set_prefix("progressive");
     let classes = [KernelClass::Sampling, KernelClass::Bandwidth, KernelClass::Filter, KernelClass::Compose];
+    // Lines only: the bar over the frames is drawn here, not per pass.
+    let pixels = u64::from(session.width) * u64::from(session.height);
+    let progress = TaskProgress::lines_only(common.progress_format(), "progressive", u64::from(frames).saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)));
     // One closure, so that the bar is cleared before an error returns.
     let looped = (|| -> Result<_, WedgeError> {
         let mut previous: Option<crate::backends::RunResult> = None;
@@ -314,7 +317,8 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
         let (mut per_class, mut total, mut filter_frames, mut filter_seconds) = ([0.0f64; 4], 0.0f64, 0u32, 0.0f64);
         let mut frame_seconds: Vec<f64> = Vec::with_capacity(frames as usize);
         for frame in 0..frames {
-            let run = session.run_progressive_frame(backend.as_mut(), &crate::backends::Silent, frame, previous.as_ref())?;
+            progress.at(None, Some(frame), pixels);
+            let run = session.run_progressive_frame(backend.as_mut(), &progress, frame, previous.as_ref())?;
             let seconds = run.total_seconds();
             total += seconds;
             frame_seconds.push(seconds);
