@@ -342,6 +342,10 @@ fn bad_shards_are_refused_by_flag() {
         &wedge(&["render", &shadows, "--progress", "loud"], &d),
         &["--progress"],
     );
+    refused(
+        &wedge(&["render", &shadows, "--frames", "0..3", "--shard-mode", "chunks"], &d),
+        &["--shard"],
+    );
     assert!(!d.join("x").exists(), "nothing written");
 }
 

@@ -107,7 +107,7 @@ pub(super) enum Command {
         /// How --shard splits the frames: `stride` (frames A+I, A+I+N, …; refused for pipelines
         /// with frame history) or `chunks` (the I-th of N contiguous runs; with frame history, the
         /// shard first renders every frame from A up to its chunk to warm the history up, unwritten).
-        #[arg(long, default_value = "stride", value_parser = ["stride", "chunks"])]
+        #[arg(long, default_value = "stride", value_parser = ["stride", "chunks"], requires = "shard")]
         shard_mode: String,
     },
     /// Assemble the tile files of `render --tile` in DIR into render.exr/.png (and unfiltered.exr/.png)

@@ -1,5 +1,6 @@
-//! `render --tile` and `farm slurm`: one tile of an image for `wedge merge`, and a Slurm job array
-//! of tiles with its merge job (the machinery is `crate::tiles` and `crate::farm`).
+//! `render --tile`, `farm slurm` and `farm k8s`: one tile of an image (of each frame) for `wedge
+//! merge`, a Slurm job array of tiles with its merge job, and the Kubernetes manifests of the same
+//! (the machinery is `crate::tiles`, `crate::farm` and `crate::k8s`).
 
 use std::path::Path;
 
