@@ -4,7 +4,10 @@
 //! them with `sbatch`; it does not schedule anything itself. `--dry-run` prints them instead.
 //!
 //! Layout under OUT: `slurm/tiles.sbatch`, `slurm/merge.sbatch`, `slurm/logs/` (one log per task),
-//! `tiles/` (the tile files) and the merged outputs in OUT itself. A failed task leaves its tile
+//! `tiles/` (the tile files) and the merged outputs in OUT itself. With `--frames A..B` there is one
+//! task per tile × frame (task T: frame A + T / N, tile T % N, as `render --frames A..B --shard
+//! T/N/M --tile T%N/N` with M the frame count), the tiles of frame F in `tiles/frame_FFFF/`, and the
+//! merge job merges each frame into `OUT/frame_FFFF/`. A failed task leaves its tile
 //! missing, so the merge job never runs (afterok) and `wedge merge OUT/tiles --out OUT` names it;
 //! resubmitting that array index (`sbatch --array=I OUT/slurm/tiles.sbatch`) completes the set.
 
@@ -20,6 +23,8 @@ pub struct SlurmPlan {
     pub wedge: PathBuf,
     pub pipeline: PathBuf,
     pub tiles: u32,
+    /// Frames A..B of a sequence: one task per tile × frame.
+    pub frames: Option<(u32, u32)>,
     pub out: PathBuf,
     /// `render` flags every task passes on (size, seed, scene, `--set`, backend …).
     pub render_args: Vec<String>,
@@ -27,8 +32,41 @@ pub struct SlurmPlan {
     pub time: Option<String>,
 }
 
+/// The shell line of array task `$index` (a shell variable holding the task's number, from 0):
+/// `WEDGE render PIPELINE ARGS` for its tile (and frame) into `tiles_dir`. Task T renders tile
+/// T % tiles of frame A + T / tiles, as the stride shard T / tiles of the M frames, so each frame
+/// is set up from A as an unsharded `--frames A..B` sets it up. Shared by Slurm and Kubernetes.
+pub fn task_line(wedge: &str, pipeline: &str, render_args: &[String], (tiles, frames): (u32, Option<(u32, u32)>), index: &str, tiles_dir: &str) -> String {
+    let args: Vec<String> = render_args.iter().map(|a| quote(a)).collect();
+    let which = match frames {
+        None => format!("--tile \"${{{index}}}/{tiles}\""),
+        Some((a, b)) => format!(
+            "--frames {a}..{b} --shard \"$(({index} / {tiles}))/{m}\" --tile \"$(({index} % {tiles}))/{tiles}\"",
+            m = b - a + 1
+        ),
+    };
+    format!("exec {} render {} {} {which} --out {}\n", quote(wedge), quote(pipeline), args.join(" "), quote(tiles_dir))
+}
+
+/// The shell lines that merge `tiles_dir` into `out_dir`: one merge, or with frames one per frame
+/// (`frame_FFFF/` in both), each its own all-or-nothing set; the first that fails stops (set -e).
+pub fn merge_lines(wedge: &str, frames: Option<(u32, u32)>, tiles_dir: &str, out_dir: &str) -> String {
+    let (wedge, tiles, out) = (quote(wedge), quote(tiles_dir), quote(out_dir));
+    match frames {
+        None => format!("exec {wedge} merge {tiles} --out {out}\n"),
+        Some((a, b)) => format!(
+            "for f in $(seq {a} {b}); do\n  d=$(printf 'frame_%04d' \"$f\")\n  {wedge} merge {tiles}/\"$d\" --out {out}/\"$d\"\ndone\n"
+        ),
+    }
+}
+
+/// Array tasks of `tiles` tiles (of each of `frames`).
+pub fn task_count(tiles: u32, frames: Option<(u32, u32)>) -> u64 {
+    u64::from(tiles) * frames.map_or(1, |(a, b)| u64::from(b - a) + 1)
+}
+
 /// `s` quoted for a POSIX shell.
-fn quote(s: &str) -> String {
+pub fn quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
@@ -62,20 +100,25 @@ impl SlurmPlan {
         s
     }
 
-    /// The array script: task `$SLURM_ARRAY_TASK_ID` renders that tile into OUT/tiles.
+    /// Array tasks: one per tile, or per tile × frame.
+    pub fn tasks(&self) -> u64 {
+        task_count(self.tiles, self.frames)
+    }
+
+    /// The array script: task `$SLURM_ARRAY_TASK_ID` renders its tile (of its frame) into OUT/tiles.
     pub fn tiles_script(&self) -> String {
         let mut s = self.directives("tiles");
-        s.push_str(&format!("#SBATCH --array=0-{}\n", self.tiles - 1));
+        s.push_str(&format!("#SBATCH --array=0-{}\n", self.tasks() - 1));
         s.push_str(&format!("#SBATCH --output={}/logs/tile_%a.log\n", self.dir().display()));
         s.push_str("set -euo pipefail\n");
-        let args: Vec<String> = self.render_args.iter().map(|a| quote(a)).collect();
-        s.push_str(&format!(
-            "exec {} render {} {} --tile \"${{SLURM_ARRAY_TASK_ID}}/{}\" --out {}\n",
-            quote_path(&self.wedge),
-            quote_path(&self.pipeline),
-            args.join(" "),
-            self.tiles,
-            quote_path(&self.out.join("tiles"))
+        let lossy = |p: &Path| p.to_string_lossy().into_owned();
+        s.push_str(&task_line(
+            &lossy(&self.wedge),
+            &lossy(&self.pipeline),
+            &self.render_args,
+            (self.tiles, self.frames),
+            "SLURM_ARRAY_TASK_ID",
+            &lossy(&self.out.join("tiles")),
         ));
         s
     }
@@ -85,12 +128,8 @@ impl SlurmPlan {
         let mut s = self.directives("merge");
         s.push_str(&format!("#SBATCH --output={}/logs/merge.log\n", self.dir().display()));
         s.push_str("set -euo pipefail\n");
-        s.push_str(&format!(
-            "exec {} merge {} --out {}\n",
-            quote_path(&self.wedge),
-            quote_path(&self.out.join("tiles")),
-            quote_path(&self.out)
-        ));
+        let lossy = |p: &Path| p.to_string_lossy().into_owned();
+        s.push_str(&merge_lines(&lossy(&self.wedge), self.frames, &lossy(&self.out.join("tiles")), &lossy(&self.out)));
         s
     }
 
@@ -126,7 +165,7 @@ impl SlurmPlan {
         let merge_id = sbatch(&[&dependency, merge.as_os_str().to_string_lossy().as_ref()])?;
         Ok(format!(
             "submitted tile array job {array} ({} tasks) and merge job {merge_id} (after {array} succeeds)\nlogs: {}\noutputs: {}\n",
-            self.tiles,
+            self.tasks(),
             self.dir().join("logs").display(),
             self.out.display()
         ))

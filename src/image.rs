@@ -369,6 +369,24 @@ pub fn write_exr_rgba(path: &Path, width: u32, height: u32, pixels: &[[f32; 4]])
 /// Whether the process runs one thread (`--threads 1`): EXRs are then compressed on the calling
 /// thread (`non_parallel`), so that no compressor thread runs beside the one the user allowed. The
 /// bytes are the same either way (blocks are written in line order).
+/// Peak bytes the writers hold besides the image itself while writing one `width × height` image
+/// as EXR and then PNG (the two run one after the other, so the larger counts):
+/// - PNG ([`write_png_srgb`]): the sRGB bytes (3 per pixel), and the png crate's whole zlib stream,
+///   which it builds in one `Vec` before writing the IDAT chunks (at most about the input, 3 per
+///   pixel plus a filter byte per row, for an image that does not compress);
+/// - EXR ([`write_exr`]): the exr crate keeps one ZIP16 block (16 rows of f32 RGB) per compressor
+///   thread plus two in flight, each uncompressed and compressed (at most the same size again).
+///
+/// The tiled render's memory estimate counts them: an 8K render under a 4 GiB limit peaked at
+/// 4.09 GiB without them (`crate::tiles::tiled_bytes`).
+pub fn encoder_bytes(width: u32, height: u32) -> u64 {
+    let (w, h) = (u64::from(width), u64::from(height));
+    let png = w * h * 3 + (w * 3 + 1) * h;
+    let threads = if one_thread() { 1 } else { rayon::current_num_threads() as u64 + 2 };
+    let exr = threads * 2 * 16 * w * 12;
+    png.max(exr)
+}
+
 fn one_thread() -> bool {
     rayon::current_num_threads() <= 1
 }

@@ -19,11 +19,13 @@ pub mod export;
 pub mod farm;
 pub mod heatmap;
 pub mod image;
+pub mod k8s;
 pub mod merge;
 pub mod metrics;
 pub mod outputs;
 pub mod progress;
 pub mod session;
+pub mod shard;
 pub mod staging;
 pub mod tiles;
 /// `wedge view`, the interactive window (the `view` feature, on by default).

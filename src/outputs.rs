@@ -131,6 +131,9 @@ pub struct SequenceWriter {
     set: OutputSet,
     /// The preview, started with the first frame (a run without an image writes none).
     gif: Option<GifStream>,
+    /// A shard of a sequence (`render --shard`): only the frames' files, no preview and no
+    /// last-frame outputs, which belong to the whole sequence.
+    frames_only: bool,
 }
 
 /// Frames per second of a sequence's `preview.gif`.
@@ -139,13 +142,20 @@ const PREVIEW_FPS: u32 = 24;
 impl SequenceWriter {
     /// Start a sequence in `dir` (created if missing).
     pub fn new(dir: &Path) -> Result<SequenceWriter, ImageError> {
-        Ok(SequenceWriter { set: OutputSet::new(dir)?, gif: None })
+        Ok(SequenceWriter { set: OutputSet::new(dir)?, gif: None, frames_only: false })
+    }
+
+    /// Start a shard of a sequence in `dir`: [`SequenceWriter::frame`] and
+    /// [`SequenceWriter::extra`] stage the frames' files as for a whole sequence, and
+    /// [`SequenceWriter::finish`] commits them alone.
+    pub fn frames_only(dir: &Path) -> Result<SequenceWriter, ImageError> {
+        Ok(SequenceWriter { frames_only: true, ..SequenceWriter::new(dir)? })
     }
 
     /// Stage frame `frame`'s image and append it to the preview.
     pub fn frame(&mut self, frame: u32, image: &Image) -> Result<(), ImageError> {
         self.set.image(&format!("frame_{frame:04}"), image, &format!("frame {frame}"))?;
-        if self.gif.is_none() {
+        if self.gif.is_none() && !self.frames_only {
             let path = self.set.file("preview.gif", "the animated preview")?;
             self.gif = Some(GifStream::create(&path, image.width, image.height, PREVIEW_FPS)?);
         }
@@ -165,7 +175,9 @@ impl SequenceWriter {
         if let Some(gif) = self.gif.take() {
             gif.finish()?;
         }
-        self.set.run(stem, run, extra, width, height)?;
+        if !self.frames_only {
+            self.set.run(stem, run, extra, width, height)?;
+        }
         self.set.commit()
     }
 }

@@ -435,6 +435,23 @@ impl Session {
         self.run_job(backend, &job, &BTreeMap::new())
     }
 
+    /// [`Session::run_window`] at frame `frame` of a sequence that started at `first`, set up as
+    /// [`Session::run_frame`] sets it up, with no history (`render --tile` with `--frames`).
+    pub fn run_window_frame(
+        &mut self,
+        backend: &mut dyn Backend,
+        progress: &dyn Progress,
+        window: wedge_backends::Window,
+        (width, height): (u32, u32),
+        frame: u32,
+        first: u32,
+    ) -> Result<RunResult, WedgeError> {
+        self.at_frame(frame, first, |s, seed, index| {
+            let job = Job { width, height, window, ..s.job(seed, index, progress) };
+            s.run_job(backend, &job, &BTreeMap::new())
+        })
+    }
+
     fn run_with(
         &self,
         backend: &mut dyn Backend,

@@ -19,6 +19,7 @@ use wedge_backends::{Backend, Progress};
 
 use crate::image::Image;
 use crate::outputs::{buffer_to_image, IMAGE_PORTS};
+use crate::progress::TaskProgress;
 use crate::session::{RunMode, Session, WedgeError};
 
 /// Most tiles one grid may have.
@@ -229,6 +230,19 @@ pub struct TilePlan {
     pub grown: (u32, u32, u32, u32),
 }
 
+impl TilePlan {
+    /// The pixels the tile computes: its rectangle with the apron.
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.grown.2) * u64::from(self.grown.3)
+    }
+}
+
+/// The work of rendering every tile of `grid` ([`TaskProgress::work`]: passes × pixels with aprons).
+pub fn work(session: &Session, grid: Grid) -> Result<u64, WedgeError> {
+    let passes = session.schedule.passes.len();
+    (0..grid.count()).try_fold(0u64, |sum, i| Ok(sum.saturating_add(TaskProgress::work(passes, plan(session, i, grid)?.pixels()))))
+}
+
 /// Plan tile `index` of `grid`, or why it cannot be rendered (the grid, a pass reading the whole
 /// image), before any backend is opened.
 pub fn plan(session: &Session, index: u32, grid: Grid) -> Result<TilePlan, WedgeError> {
@@ -252,10 +266,42 @@ pub fn render_tile(
 
 /// Render a planned tile on `backend`.
 pub fn render_planned(session: &Session, backend: &mut dyn Backend, progress: &dyn Progress, plan: &TilePlan) -> Result<Tile, WedgeError> {
+    let window = wedge_backends::tiles::window_of(plan.grown, (session.width, session.height));
+    let run = session.run_window(backend, progress, window, (plan.grown.2, plan.grown.3))?;
+    Ok(tile_of(session, plan, &run, session.frame))
+}
+
+/// Render a planned tile of frame `frame` of a sequence that started at `first`, set up as
+/// `render --frames` sets that frame up (`Session::run_window_frame`; no history: a pipeline that
+/// keeps some is refused before, by [`check_frames`]).
+pub fn render_planned_frame(
+    session: &mut Session,
+    backend: &mut dyn Backend,
+    progress: &dyn Progress,
+    plan: &TilePlan,
+    (frame, first): (u32, u32),
+) -> Result<Tile, WedgeError> {
+    let window = wedge_backends::tiles::window_of(plan.grown, (session.width, session.height));
+    let run = session.run_window_frame(backend, progress, window, (plan.grown.2, plan.grown.3), frame, first)?;
+    Ok(tile_of(session, plan, &run, frame))
+}
+
+/// Tiles of a sequence's frames: refused for a pipeline that keeps frame history, whose frame reads
+/// the whole previous frame (a tile would need its history from a larger apron every frame back).
+pub fn check_frames(session: &Session) -> Result<(), WedgeError> {
+    if session.schedule.history.is_empty() {
+        return Ok(());
+    }
+    Err(WedgeError::Usage(format!(
+        "--tile with --frames: {} keeps frame history (a temporal filter or progressive accumulation reads the frame          before), which tiles of single frames cannot carry; render its frames whole (--frames with --shard          --shard-mode chunks splits them over tasks)",
+        session.pipeline.path.display()
+    )))
+}
+
+/// The tile of `plan` cut from `run` (its grown rectangle), with its header (`frame`: the frame it shows).
+fn tile_of(session: &Session, plan: &TilePlan, run: &wedge_backends::RunResult, frame: u32) -> Tile {
     let full = (session.width, session.height);
     let TilePlan { index, grid, rect, apron, grown } = *plan;
-    let window = wedge_backends::tiles::window_of(grown, full);
-    let run = session.run_window(backend, progress, window, (grown.2, grown.3))?;
     let images = IMAGE_PORTS
         .iter()
         .filter_map(|(port, _)| run.output(port).map(|b| (port.to_string(), buffer_to_image(b, grown.2, grown.3))))
@@ -265,7 +311,7 @@ pub fn render_planned(session: &Session, backend: &mut dyn Backend, progress: &d
         pipeline_hash: pipeline_hash(session),
         scene_hash: scene_hash(session),
         seed: session.seed,
-        frame: session.frame,
+        frame,
         full,
         grid,
         index,
@@ -273,7 +319,7 @@ pub fn render_planned(session: &Session, backend: &mut dyn Backend, progress: &d
         apron,
         version: env!("CARGO_PKG_VERSION").to_string(),
     };
-    Ok(Tile { header, images })
+    Tile { header, images }
 }
 
 /// The `w × h` rectangle of `img` at `(x, y)`.
@@ -413,12 +459,15 @@ const ASSEMBLED_BYTES_PER_PIXEL: u64 = 2 * 12;
 pub const MAX_AUTO_TILES: u32 = 4096;
 
 /// The estimated peak of rendering `session`'s image as `grid`'s tiles in sequence in one process:
-/// the largest tile's run with its apron, plus the assembled full images.
+/// the largest tile's run with its apron, plus the assembled full images, plus the encoders'
+/// buffers for writing one full image ([`crate::image::encoder_bytes`]). The last tile's run is over
+/// when the images are written; the sum stays an upper bound whether or not the allocator has given
+/// its memory back by then.
 pub fn tiled_bytes(session: &Session, mode: RunMode, grid: Grid, apron: u32) -> u64 {
     let (w, h) = (session.width, session.height);
     let grown = |side: u32, n: u32| side.div_ceil(n).saturating_add(2 * apron).min(side);
     let tile = session.memory_estimate_at(mode, (grown(w, grid.cols), grown(h, grid.rows))).total();
-    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL)
+    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL).saturating_add(crate::image::encoder_bytes(w, h))
 }
 
 /// The fewest tiles (near-square grids of 2, 3, 4, … up to [`MAX_AUTO_TILES`]) whose tiled render
@@ -436,10 +485,12 @@ pub fn grid_within(session: &Session, mode: RunMode, limit: u64) -> Result<Optio
 
 /// Render every tile of `grid` in sequence on `backend` and assemble the full images (`color`,
 /// `unfiltered`): the pixels a whole render computes, tile by tile.
-pub fn render_all(session: &Session, backend: &mut dyn Backend, progress: &dyn Progress, grid: Grid) -> Result<Vec<(String, Image)>, WedgeError> {
+pub fn render_all(session: &Session, backend: &mut dyn Backend, progress: &TaskProgress<'_>, grid: Grid) -> Result<Vec<(String, Image)>, WedgeError> {
     let mut full: Vec<(String, Image)> = Vec::new();
     for index in 0..grid.count() {
-        let tile = render_planned(session, backend, progress, &plan(session, index, grid)?)?;
+        let plan = plan(session, index, grid)?;
+        progress.at(Some((index, grid.count())), None, plan.pixels());
+        let tile = render_planned(session, backend, progress, &plan)?;
         if full.is_empty() {
             full = tile.images.iter().map(|(p, _)| (p.clone(), Image::new(session.width, session.height))).collect();
         }

@@ -1,7 +1,8 @@
 //! `wedge farm slurm` on a real one-node Slurm cluster: munged, slurmctld and slurmd started on
-//! localhost from a generated slurm.conf in a temp dir (stopped again when the test ends), a 4-tile
-//! array and its afterok merge job submitted by wedge, and the merged render.exr compared byte for
-//! byte with a single-process render. Needs Debian's `slurm-wlm` and `munge` and root (slurmd runs
+//! localhost from a generated slurm.conf in a temp dir (stopped again when the test ends), 4-tile
+//! arrays of shadows.ron and defocus.ron and a 2-tile × 2-frame array, each with its afterok merge
+//! job, submitted by wedge, and every merged image compared byte for byte with a single-process
+//! render (of the frame, for the sequence). Needs Debian's `slurm-wlm` and `munge` and root (slurmd runs
 //! jobs as their user); `scripts/test.sh` installs them. Without them the test says why and is
 //! skipped — except under CI=true, where that fails.
 
@@ -125,32 +126,55 @@ fn farm_slurm_array_merges_to_the_single_process_render() {
     let cluster = Cluster::start().unwrap_or_else(|e| panic!("starting the one-node cluster: {e}"));
     let conf = cluster.conf();
     let out = tempfile::tempdir().unwrap();
-    let flags = ["--width", "64", "--height", "48", "--set", "shadows.max_radius=4", "--set", "shadows.fill_radius=2", "--threads", "1"];
-    let farm = out.path().join("farm");
-    let o = wedge(
-        &[
-            &["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4", "--time", "00:05:00"],
-            &flags[..],
-            &["--out", &farm.to_string_lossy()],
-        ]
-        .concat(),
-        &conf,
-    );
-    assert!(o.status.success(), "{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
-    let merged = farm.join("render.exr");
     let start = Instant::now();
-    while !merged.exists() {
-        let logs = std::fs::read_to_string(cluster.dir.path().join("log/slurmctld.log")).unwrap_or_default();
-        assert!(start.elapsed() < Duration::from_secs(150), "no merged image after 150 s; slurmctld log:\n{logs}");
-        std::thread::sleep(Duration::from_millis(500));
+    // Three submissions at once, as issue 37 asks: 4-tile arrays of shadows.ron and defocus.ron at
+    // 160x120, and 2 tiles x 2 frames of shadows.ron merged per frame. Radii lowered so that a tile's
+    // apron does not cover the image; one thread per task so the two CPUs run two tasks at a time.
+    let runs: [(&str, &[&str], &[&str]); 3] = [
+        ("pipelines/shadows.ron", &["--set", "shadows.max_radius=8", "--set", "shadows.fill_radius=4"], &["--tiles", "4"]),
+        ("pipelines/defocus.ron", &["--set", "defocus.max_radius=8"], &["--tiles", "4"]),
+        ("pipelines/shadows.ron", &["--set", "shadows.max_radius=8", "--set", "shadows.fill_radius=4"], &["--tiles", "2", "--frames", "3..4"]),
+    ];
+    let size = ["--width", "160", "--height", "120", "--threads", "1"];
+    let mut expected_files = Vec::new();
+    for (k, (pipeline, sets, farm_flags)) in runs.iter().enumerate() {
+        let farm = out.path().join(format!("farm{k}"));
+        let farm_s = farm.to_string_lossy().into_owned();
+        let args = [&["farm", "slurm", *pipeline, "--time", "00:05:00"], *farm_flags, &size[..], sets, &["--out", &farm_s]].concat();
+        let o = wedge(&args, &conf);
+        assert!(o.status.success(), "{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+        // The single-process render of the same image (or frames), while the cluster works.
+        let whole = out.path().join(format!("whole{k}"));
+        let frames = farm_flags.contains(&"--frames");
+        let range: &[&str] = if frames { &["--frames", "3..4"] } else { &[] };
+        let o = wedge(&[&["render", *pipeline], &size[..], sets, range, &["--out", &whole.to_string_lossy()]].concat(), &conf);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        if frames {
+            for f in 3..=4 {
+                expected_files.push((farm.join(format!("frame_{f:04}/render.exr")), whole.join(format!("frame_{f:04}.exr"))));
+            }
+        } else {
+            expected_files.push((farm.join("render.exr"), whole.join("render.exr")));
+        }
     }
-    let whole = out.path().join("whole");
+    for (merged, whole) in &expected_files {
+        // The merge job writes its set by renames: once render.exr is there, it is complete.
+        while !merged.exists() {
+            let logs = std::fs::read_to_string(cluster.dir.path().join("log/slurmctld.log")).unwrap_or_default();
+            assert!(start.elapsed() < Duration::from_secs(240), "no {} after 240 s; slurmctld log:\n{logs}", merged.display());
+            std::thread::sleep(Duration::from_millis(500));
+        }
+        assert!(std::fs::read(merged).unwrap() == std::fs::read(whole).unwrap(), "{} differs from {}", merged.display(), whole.display());
+    }
+    eprintln!("farm_slurm: 3 arrays (12 tasks) + 3 merges in {:.1} s", start.elapsed().as_secs_f64());
+    // Every task logged its progress up to 100%.
+    let log = std::fs::read_to_string(out.path().join("farm2/slurm/logs/tile_3.log")).unwrap();
+    assert!(log.contains("progress: 100% tile 1/2 frame 4"), "{log}");
+    let flags = ["--width", "64", "--height", "48", "--set", "shadows.max_radius=4", "--set", "shadows.fill_radius=2", "--threads", "1"];
+    let whole = out.path().join("whole_small");
     let o = wedge(&[&["render", "pipelines/shadows.ron"], &flags[..], &["--out", &whole.to_string_lossy()]].concat(), &conf);
     assert!(o.status.success());
-    // The merge job writes its set by renames: once render.exr is there, it is complete.
     let expected = std::fs::read(whole.join("render.exr")).unwrap();
-    assert!(std::fs::read(&merged).unwrap() == expected, "merged render.exr differs");
-    eprintln!("farm_slurm: 4 tasks + merge in {:.1} s", start.elapsed().as_secs_f64());
     a_failed_task_is_named_and_resubmitting_it_completes_the_set(&cluster, &flags, out.path(), &expected);
 }
 

@@ -146,6 +146,11 @@ fn merge_names_missing_extra_and_mismatched_tiles() {
     render(2, "2", &other);
     std::fs::copy(other.join("tile_0002_of_0004.exr"), tiles.join("tile_0002_of_0004.exr")).unwrap();
     refused(&wedge(&["merge", s(&tiles), "--out", s(&out)]), &["tile_0002_of_0004.exr", "seed 2", "do not belong"]);
+    // Tile 2 from another pipeline (a parameter changed by --set): not belonging either.
+    let changed = dir.path().join("changed");
+    ok(&wedge(&["render", "--width", "32", "--height", "24", "--seed", "1", "--set", "shadows.mu=3", "--tile", "2/4", "--out", s(&changed)]));
+    std::fs::copy(changed.join("tile_0002_of_0004.exr"), tiles.join("tile_0002_of_0004.exr")).unwrap();
+    refused(&wedge(&["merge", s(&tiles), "--out", s(&out)]), &["tile_0002_of_0004.exr", "seed 1", "do not belong"]);
     // The right tile 2, plus a copy of tile 1 under another name: an extra tile.
     render(2, "1", &tiles);
     std::fs::copy(tiles.join("tile_0001_of_0004.exr"), tiles.join("copy.exr")).unwrap();
@@ -162,7 +167,7 @@ fn bad_tile_flags_are_refused() {
     refused(&wedge(&["render", "--tile", "4/4"]), &["numbered from 0"]);
     refused(&wedge(&["render", "--tile", "0/4", "--tile-grid", "3x1"]), &["disagree"]);
     refused(&wedge(&["render", "--width", "2", "--height", "2", "--tile", "0/9"]), &["does not fit"]);
-    refused(&wedge(&["render", "--tile", "0/2", "--frames", "0..1"]), &["cannot be used with"]);
+    refused(&wedge(&["render", "--tile", "0/2", "--progressive", "2"]), &["cannot be used with"]);
     let dir = tempfile::tempdir().unwrap();
     refused(&wedge(&["merge", s(dir.path()), "--out", s(&dir.path().join("o"))]), &["no tile files"]);
 }

@@ -553,6 +553,9 @@ pub trait Progress: Send + Sync {
     fn begin_compile(&self, _kernels: u64, _software: bool) {}
     /// The kernel now being compiled.
     fn compiling(&self, _kernel: &str) {}
+    /// Pass `pass` of the job's schedule has run (every pass, in schedule order, on every backend):
+    /// what a task's progress lines count (`wedge::progress::TaskProgress`).
+    fn pass_done(&self, _pass: &str) {}
 }
 
 /// No progress display.

@@ -54,6 +54,12 @@ pub(super) struct Common {
     /// device). Default: the WEDGE_WGPU_LIMITS environment variable, else `adapter`.
     #[arg(long, value_parser = ["adapter", "webgpu"])]
     pub(super) gpu_limits: Option<String>,
+    /// Progress lines on stderr, one per 10% of the task's work (its passes × pixels over every tile
+    /// and frame it renders), for a farm's logs: `human` (`progress: 30% tile 2/4 frame 7 (pass
+    /// NAME, 1.2 s)`), `json` (one object per line: task, percent, tile, frame, pass, elapsed_s) or
+    /// `none`. They never change the image.
+    #[arg(long, default_value = "human", value_parser = ["human", "json", "none"])]
+    pub(super) progress: String,
 }
 
 #[derive(Subcommand)]
@@ -87,11 +93,22 @@ pub(super) enum Command {
         progressive: Option<u32>,
         /// Render only tile I (from 0) of N, with the apron the pipeline's passes need around it, into
         /// --out as tile_IIII_of_NNNN.exr for `wedge merge` (N tiles: a near-square grid).
-        #[arg(long, value_name = "I/N", value_parser = crate::tiles::parse_tile, conflicts_with_all = ["frames", "progressive", "aov"])]
+        /// With --frames: tile I of each frame, into --out/frame_FFFF/ (pipelines without frame history).
+        #[arg(long, value_name = "I/N", value_parser = crate::tiles::parse_tile, conflicts_with_all = ["progressive", "aov"])]
         tile: Option<(u32, u32)>,
         /// With --tile: the grid, C columns by R rows (C × R = N).
         #[arg(long, value_name = "CxR", value_parser = crate::tiles::parse_grid, requires = "tile")]
         tile_grid: Option<crate::tiles::Grid>,
+        /// With --frames A..B: render only shard I (from 0) of N of the frames, each frame's file the
+        /// bytes an unsharded --frames A..B writes for it; writes frame_NNNN.exr/png only (no
+        /// preview.gif, no last-frame outputs), so shards can share --out.
+        #[arg(long, value_name = "I/N", value_parser = crate::shard::parse_shard, requires = "frames")]
+        shard: Option<(u32, u32)>,
+        /// How --shard splits the frames: `stride` (frames A+I, A+I+N, …; refused for pipelines
+        /// with frame history) or `chunks` (the I-th of N contiguous runs; with frame history, the
+        /// shard first renders every frame from A up to its chunk to warm the history up, unwritten).
+        #[arg(long, default_value = "stride", value_parser = ["stride", "chunks"], requires = "shard")]
+        shard_mode: String,
     },
     /// Assemble the tile files of `render --tile` in DIR into render.exr/.png (and unfiltered.exr/.png)
     /// in --out, after checking that they belong together and cover the image exactly.
@@ -100,7 +117,8 @@ pub(super) enum Command {
         #[arg(long, default_value = "out")]
         out: PathBuf,
     },
-    /// Run a render on a cluster's scheduler as tiles and a merge (see `wedge farm slurm --help`).
+    /// Run a render on a cluster's scheduler as tiles and a merge (see `wedge farm slurm --help`,
+    /// `wedge farm k8s --help`).
     Farm {
         #[command(subcommand)]
         farm: Farm,
@@ -265,6 +283,11 @@ impl Command {
 }
 
 impl Common {
+    /// `--progress`.
+    pub(super) fn progress_format(&self) -> crate::progress::ProgressFormat {
+        crate::progress::ProgressFormat::parse(&self.progress)
+    }
+
     /// What the run's memory is estimated for: the backend `--backend` names.
     pub(super) fn run_mode(&self) -> crate::session::RunMode {
         if self.backend == "wgpu" {
@@ -291,14 +314,19 @@ pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeE
 
 #[derive(Subcommand)]
 pub(super) enum Farm {
-    /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`), and a merge
-    /// job chained with --dependency=afterok, written to OUT/slurm/ and submitted with sbatch (or
-    /// printed with --dry-run). Tiles go to OUT/tiles/, the merged images to OUT (--out).
+    /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`; with
+    /// --frames one per tile × frame), and a merge job chained with --dependency=afterok, written to
+    /// OUT/slurm/ and submitted with sbatch (or printed with --dry-run). Tiles go to OUT/tiles/, the
+    /// merged images to OUT (--out; with --frames OUT/frame_NNNN/).
     Slurm {
         pipeline: PathBuf,
-        /// Number of tiles (array tasks), 1..=65536; a near-square grid.
+        /// Number of tiles per frame, 1..=65536; a near-square grid.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
         tiles: u32,
+        /// Frames A..B of a sequence: one array task per tile × frame (task T renders frame
+        /// A + T / tiles, tile T % tiles), merged per frame into OUT/frame_NNNN/.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
         #[command(flatten)]
         common: Common,
         /// Slurm partition of both jobs.
@@ -311,6 +339,51 @@ pub(super) enum Farm {
         #[arg(long)]
         dry_run: bool,
     },
+    /// Kubernetes manifests into OUT/k8s/ (--out): tiles.yaml (a ConfigMap with the pipeline, a
+    /// ReadWriteMany volume claim, an Indexed Job with one completion per tile, or per tile × frame,
+    /// each pod rendering task JOB_COMPLETION_INDEX), merge.yaml (the merge Job, to apply once the
+    /// tiles Job is complete: Kubernetes cannot chain Jobs) and submit.sh (the kubectl apply/wait
+    /// commands in order). Talks to no cluster.
+    K8s {
+        pipeline: PathBuf,
+        /// Number of tiles per frame, 1..=65536; a near-square grid.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
+        tiles: u32,
+        /// Frames A..B of a sequence: one completion per tile × frame, merged per frame into
+        /// out/frame_NNNN/ on the claim.
+        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
+        #[command(flatten)]
+        k8s: K8sArgs,
+        #[command(flatten)]
+        common: Common,
+    },
+}
+
+/// What `wedge farm k8s` takes besides the render flags.
+#[derive(Args)]
+pub(super) struct K8sArgs {
+    /// The container image the pods run; it must hold wedge (--wedge) and `/bin/sh`.
+    #[arg(long)]
+    pub(super) image: String,
+    /// Prefix of the objects' names (a DNS-1123 label); default: wedge-PIPELINE.
+    #[arg(long)]
+    pub(super) name: Option<String>,
+    /// The wedge executable inside the image.
+    #[arg(long, default_value = "wedge")]
+    pub(super) wedge: String,
+    /// Pods running at once (default: every task).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(super) parallelism: Option<u32>,
+    /// Size of the ReadWriteMany volume claim for the tiles and the merged images.
+    #[arg(long, default_value = "10Gi")]
+    pub(super) storage: String,
+    /// Storage class of the claim (one that offers ReadWriteMany, e.g. an NFS or CephFS class).
+    #[arg(long)]
+    pub(super) storage_class: Option<String>,
+    /// Namespace of every object.
+    #[arg(long)]
+    pub(super) namespace: Option<String>,
 }
 
 /// Largest `reference --spp` (the `MonteCarlo` node's `spp` limit, kept for references from the graph).

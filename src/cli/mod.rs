@@ -120,15 +120,24 @@ fn suite_scene_specs(registries: &Registries, pipeline: &Path, names: &[String])
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu, frames, aov, progressive, tile, tile_grid } => {
+        Command::Render { pipeline, common, mu, frames, aov, progressive, tile, tile_grid, shard, shard_mode } => {
             start_rendering_command(&common)?;
-            // A sequence opens at its first frame (its camera, and a real layer read per frame).
+            // A sequence opens at its first frame (its camera, and a real layer read per frame); so
+            // does every shard of it, whichever frames it renders.
             let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
             let mut session = Session::open_with(registries, pipeline.as_deref(), &ov)?;
-            match (frames, progressive, tile) {
-                (_, _, Some(tile)) => farm::render_tile(&session, &common, tile, tile_grid),
+            let plan = match frames {
+                Some(range) => {
+                    let shard = shard.map(|s| (s, crate::shard::ShardMode::parse(&shard_mode)));
+                    let history = !session.schedule.history.is_empty();
+                    Some(crate::shard::plan(range, shard, history, &session.pipeline.path.display().to_string())?)
+                }
+                None => None,
+            };
+            match (plan, progressive, tile) {
+                (plan, _, Some(tile)) => farm::render_tile(&mut session, &common, tile, tile_grid, plan.as_ref()),
                 (_, Some(n), None) => render_progressive(&session, &common, n, &aov),
-                (Some(frames), None, None) => render_frames(&mut session, &common, frames, &aov),
+                (Some(plan), None, None) => render_frames(&mut session, &common, &plan, shard.is_some(), &aov),
                 (None, None, None) => render(&session, &common, "render", &aov),
             }
         }
@@ -139,8 +148,9 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
         Command::Merge { dir, out } => crate::merge::merge(&dir, &out),
-        Command::Farm { farm: Farm::Slurm { pipeline, tiles, common, partition, time, dry_run } } => {
-            farm::farm_slurm(registries, farm::SlurmRequest { pipeline: &pipeline, tiles, common: &common, partition, time, dry_run })
+        Command::Farm { farm: Farm::K8s { pipeline, tiles, frames, k8s, common } } => farm::farm_k8s(registries, &pipeline, (tiles, frames), &k8s, &common),
+        Command::Farm { farm: Farm::Slurm { pipeline, tiles, frames, common, partition, time, dry_run } } => {
+            farm::farm_slurm(registries, farm::SlurmRequest { pipeline: &pipeline, tiles, frames, common: &common, partition, time, dry_run })
         }
         #[cfg(feature = "view")]
         Command::View { pipeline, common, mu, script } => {

@@ -5,7 +5,7 @@ use super::args::Common;
 use crate::backends::cpu::CpuBackend;
 use crate::graph::ParamValue;
 use crate::outputs::summary;
-use crate::progress::Bars;
+use crate::progress::{Bars, TaskProgress};
 use crate::session::{open_gpu, RunMode};
 use crate::{Session, WedgeError};
 
@@ -101,9 +101,12 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
         return render_in_tiles(session, common, stem, aov, too_big);
     }
     let bars = Bars::default();
+    let pixels = u64::from(session.width) * u64::from(session.height);
+    let progress = TaskProgress::new(&bars, common.progress_format(), "render", TaskProgress::work(session.schedule.passes.len(), pixels));
+    progress.at(None, None, pixels);
     let (run, note) = match common.backend.as_str() {
-        "wgpu" => run_wgpu(session, &bars, common.gpu_limits.as_deref())?,
-        _ => (session.run(&mut CpuBackend::new(), &bars)?, None),
+        "wgpu" => run_wgpu(session, &progress, common.gpu_limits.as_deref())?,
+        _ => (session.run(&mut CpuBackend::new(), &progress)?, None),
     };
     let (extra, aov_line) = aov_images(&session.scene, session, aov)?;
     let written = crate::outputs::write_run_with(&common.out, stem, &run, &extra, session.width, session.height)?;
@@ -152,9 +155,10 @@ fn render_in_tiles(session: &Session, common: &Common, stem: &str, aov: &[String
     );
     let start = std::time::Instant::now();
     let bars = Bars::default();
+    let progress = TaskProgress::new(&bars, common.progress_format(), "tiles", crate::tiles::work(session, grid)?);
     let images = match common.backend.as_str() {
-        "wgpu" => crate::tiles::render_all(session, &mut open_gpu(common.gpu_limits.as_deref())?, &bars, grid)?,
-        _ => crate::tiles::render_all(session, &mut CpuBackend::new(), &bars, grid)?,
+        "wgpu" => crate::tiles::render_all(session, &mut open_gpu(common.gpu_limits.as_deref())?, &progress, grid)?,
+        _ => crate::tiles::render_all(session, &mut CpuBackend::new(), &progress, grid)?,
     };
     let written = crate::outputs::write_images(&common.out, stem, &images)?;
     let mut text = format!(
@@ -193,30 +197,55 @@ pub(super) fn sequence_backend(session: &Session, common: &Common, what: &str) -
     })
 }
 
-/// `render --frames A..B`: every frame in order on one backend, each with the previous frame's
-/// history. Each frame's image (and AOVs) is written as soon as it is rendered, into one
-/// all-or-nothing set committed with the last frame's full outputs ([`crate::outputs::SequenceWriter`]):
-/// the memory held is one frame's, however many frames the range has.
-pub(super) fn render_frames(session: &mut Session, common: &Common, (first, last): (u32, u32), aov: &[String]) -> Result<String, WedgeError> {
-    let mut backend = sequence_backend(session, common, &format!("frames {first}..{last}"))?;
+/// `render --frames A..B` (the frames of `plan`: all of them, or one `--shard`'s): every frame in
+/// order on one backend, each with the previous frame's history. Each frame's image (and AOVs) is
+/// written as soon as it is rendered, into one all-or-nothing set committed with the last frame's
+/// full outputs ([`crate::outputs::SequenceWriter`]): the memory held is one frame's, however many
+/// frames the range has. A shard (`sharded`) writes its frames' files only: the preview and the
+/// last frame's outputs belong to the whole sequence, and shards may share --out.
+pub(super) fn render_frames(session: &mut Session, common: &Common, plan: &crate::shard::FramePlan, sharded: bool, aov: &[String]) -> Result<String, WedgeError> {
+    let (first, last) = (plan.first, plan.frames.last().copied().unwrap_or(plan.first));
+    let what = match (sharded, plan.frames.as_slice()) {
+        (true, [a, .., b]) => format!("frames {a}..{b} of a shard of {first}.. ({} frames)", plan.frames.len()),
+        (true, [a]) => format!("frame {a} of a shard of {first}.."),
+        _ => format!("frames {first}..{last}"),
+    };
+    let mut backend = sequence_backend(session, common, &what)?;
     for w in session.pipeline.sequence_warnings(first, last) {
         eprintln!("warning: {w}");
     }
+    if let (Some(a), Some(b)) = (plan.warm_up.first(), plan.warm_up.last()) {
+        eprintln!(
+            "warming up the frame history on frames {a}..{b} ({} frame(s) rendered and not written) before frame {}: the \
+             pipeline's history is a recurrence over every frame since {first}",
+            plan.warm_up.len(),
+            plan.frames.first().copied().unwrap_or(first)
+        );
+    }
     let bars = Bars::default();
-    let mut out = crate::outputs::SequenceWriter::new(&common.out)?;
+    let pixels = u64::from(session.width) * u64::from(session.height);
+    let runs = (plan.warm_up.len() + plan.frames.len()) as u64;
+    let progress = TaskProgress::new(&bars, common.progress_format(), if sharded { "shard" } else { "frames" }, runs.saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)));
+    let mut out = if sharded { crate::outputs::SequenceWriter::frames_only(&common.out)? } else { crate::outputs::SequenceWriter::new(&common.out)? };
     let (mut previous, mut seconds) = (None, 0.0f64);
     let (mut last_aovs, mut aov_line) = (Vec::new(), String::new());
-    for frame in first..=last {
-        let run = session.run_frame(backend.as_mut(), &bars, frame, first, previous.as_ref())?;
+    for frame in plan.runs() {
+        progress.at(None, Some(frame), pixels);
+        // Without history no frame reads the one before, so a stride shard's frames need none.
+        let history = if plan.history { previous.as_ref() } else { None };
+        let run = session.run_frame(backend.as_mut(), &progress, frame, first, history)?;
         seconds += run.total_seconds();
-        if let Some(b) = run.output("color") {
-            out.frame(frame, &crate::outputs::buffer_to_image(b, session.width, session.height))?;
+        let warming = plan.warm_up.contains(&frame);
+        if !warming {
+            if let Some(b) = run.output("color") {
+                out.frame(frame, &crate::outputs::buffer_to_image(b, session.width, session.height))?;
+            }
         }
         previous = Some(run);
         // The AOVs of every frame's camera, `aov_NAME_NNNN.exr` beside `frame_NNNN.exr` (the inputs of
         // a mixed-reality sequence, `{frame:04}` in its file names); the last frame's also unnumbered,
         // like the full outputs.
-        if !aov.is_empty() {
+        if !aov.is_empty() && !warming {
             let base = session.scene.camera;
             session.scene.camera = session.camera_at(frame);
             let aovs = aov_images(&session.scene, session, aov);
@@ -229,11 +258,14 @@ pub(super) fn render_frames(session: &mut Session, common: &Common, (first, last
             }
         }
     }
-    let run = previous.expect("a frame range holds at least one frame");
+    let run = previous.expect("a frame plan holds at least one frame");
     let written = out.finish("render", &run, &last_aovs, session.width, session.height)?;
-    let n = last - first + 1;
+    let n = plan.frames.len() as u32;
     let mut text = summary(&run, session.width, session.height);
     text.push_str(&format!("{n} frames in {seconds:.2} s of passes: {:.2} frames per second ({})\n", f64::from(n) / seconds.max(1e-9), backend.name()));
+    if !plan.warm_up.is_empty() {
+        text.push_str(&format!("of which {} warm-up frame(s) before the shard's chunk (not written)\n", plan.warm_up.len()));
+    }
     text.push_str(&aov_line);
     text.push_str(&written.warnings());
     for f in &written.files {
@@ -274,6 +306,9 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
     );
     bar.set_prefix("progressive");
     let classes = [KernelClass::Sampling, KernelClass::Bandwidth, KernelClass::Filter, KernelClass::Compose];
+    // Lines only: the bar over the frames is drawn here, not per pass.
+    let pixels = u64::from(session.width) * u64::from(session.height);
+    let progress = TaskProgress::lines_only(common.progress_format(), "progressive", u64::from(frames).saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)));
     // One closure, so that the bar is cleared before an error returns.
     let looped = (|| -> Result<_, WedgeError> {
         let mut previous: Option<crate::backends::RunResult> = None;
@@ -282,7 +317,8 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
         let (mut per_class, mut total, mut filter_frames, mut filter_seconds) = ([0.0f64; 4], 0.0f64, 0u32, 0.0f64);
         let mut frame_seconds: Vec<f64> = Vec::with_capacity(frames as usize);
         for frame in 0..frames {
-            let run = session.run_progressive_frame(backend.as_mut(), &crate::backends::Silent, frame, previous.as_ref())?;
+            progress.at(None, Some(frame), pixels);
+            let run = session.run_progressive_frame(backend.as_mut(), &progress, frame, previous.as_ref())?;
             let seconds = run.total_seconds();
             total += seconds;
             frame_seconds.push(seconds);
@@ -347,12 +383,12 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
 
 pub(super) fn run_wgpu(
     session: &Session,
-    bars: &Bars,
+    progress: &dyn crate::backends::Progress,
     limits: Option<&str>,
 ) -> Result<(crate::backends::RunResult, Option<String>), WedgeError> {
     let mut gpu = open_gpu(limits)?;
     eprintln!("wgpu adapter: {}", gpu.adapter_description());
-    let run = session.run(&mut gpu, bars)?;
+    let run = session.run(&mut gpu, progress)?;
     let mut note = format!(
         "backend wgpu on {}; pass times are {}\n",
         gpu.adapter_description(),

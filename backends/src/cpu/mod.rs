@@ -119,6 +119,7 @@ impl Backend for CpuBackend {
                 seconds: start.elapsed().as_secs_f64(),
                 counts,
             });
+            job.progress.pass_done(&pass.name);
         }
         let mut outputs = BTreeMap::new();
         for (node, port, id) in &sched.sink_inputs {

@@ -1140,6 +1140,7 @@ impl Backend for GpuBackend {
                 let t = self.run_host_pass(job, pass, &mut slots, &mut holder, &mut allocations)?;
                 rays.add(&t.counts);
                 timings.push(t);
+                job.progress.pass_done(&pass.name);
                 continue;
             }
             let mut bufs = Vec::new();
@@ -1187,6 +1188,7 @@ impl Backend for GpuBackend {
                 seconds: t.seconds,
                 counts: counted,
             });
+            job.progress.pass_done(&pass.name);
         }
         let mut outputs = BTreeMap::new();
         for (node, port, id) in &sched.sink_inputs {
