@@ -364,7 +364,7 @@ fn secondary_per_primary_after_the_max_filter() {
 
 #[test]
 fn supersampling_reading_omega_pix_quarter() {
-    // EQUATIONS.md reading: anti-aliasing by supersampling uses Ω_pix^max = 0.25; in focus
+    // docs/EQUATIONS.md reading: anti-aliasing by supersampling uses Ω_pix^max = 0.25; in focus
     // n_p = (0.25 + 0.25)² = 0.25 → still one ray.
     let k = RateParams { omega_pix: 0.25, ..params(1.0, Mode::Literal) };
     let r = pixel_rates(&stats(0.0, 0.0), &k);

@@ -1,5 +1,5 @@
 //! `Indirect`: axis-aligned filtering of diffuse and glossy indirect light, multi-bounce, and the
-//! ambient-occlusion variant (Mehta thesis Ch. 4, eqs. 4.15–4.21, App. A; `EQUATIONS.md` "Indirect").
+//! ambient-occlusion variant (Mehta thesis Ch. 4, eqs. 4.15–4.21, App. A; `docs/EQUATIONS.md` "Indirect").
 //!
 //! Sampling is the shared sampler's ([`crate::sampler`], `docs/SAMPLER-STAGE.md` §4): the node asks
 //! it for the `hemisphere` estimator with the Ch. 4 constants — one path through the pixel centre,
@@ -12,7 +12,7 @@
 //! final `diffuse` / `glossy` estimates (the shared separable world-space Gaussian, full 3-D
 //! distance, 10° normal test) → `compose` (k_d and k_s multiply after filtering).
 //!
-//! Readings taken (documented in the report and `EQUATIONS.md`'s map):
+//! Readings taken (documented in the report and `docs/EQUATIONS.md`'s map):
 //! - **Components**: the diffuse component (cosine sampling) and, on pixels whose `specular` input has
 //!   `k_s > 0, m > 0`, the glossy component (Phong-lobe sampling) are each sampled with *their own*
 //!   count from eq. 4.21 (own `Ω_h`, own `γ`) and filtered with their own β. `rays_per_pixel` is the

@@ -1,6 +1,6 @@
 //! # wedge-effects
 //!
-//! Effect nodes, one file each. An effect is three things (see `ARCHITECTURE.md`): what to sample,
+//! Effect nodes, one file each. An effect is three things (see `docs/ARCHITECTURE.md`): what to sample,
 //! its bandwidth and rate formulas (pure per-pixel functions, unit-tested against the thesis), and the
 //! buffers it reads and writes. The heavy machinery — sampling, neighbourhood fill, the separable
 //! world-space Gaussian, compose — is shared from `wedge-backends`.

@@ -1,5 +1,5 @@
 //! `LightField`: visibility-aware reconstruction of the indirect light field (issue 17; Lehtinen,
-//! Aila, Laine, Durand 2012, `seeds/001_2d3ed232e6777e89.txt`; EQUATIONS.md "Light-field
+//! Aila, Laine, Durand 2012, `seeds/001_2d3ed232e6777e89.txt`; docs/EQUATIONS.md "Light-field
 //! reconstruction"). Where `Indirect` blurs each pixel's estimate with an axis-aligned filter, this
 //! node keeps every secondary ray as a sample of the incident light field, turns the samples into
 //! splats sized by a bandwidth-aware k-NN and shrunk against the input rays, and integrates each

@@ -1,7 +1,7 @@
 //! `MixedReality`: virtual objects inserted into a photograph of a real scene, with the real
 //! scene's environment light, shadows and interreflections in both directions (thesis Ch. 6,
 //! Sec. 6.3–6.5, `seeds/000_956e982470d7e5bf.txt`; supplemental `seeds/003_73c0b487982c85a7.txt`,
-//! Algorithm 1; `EQUATIONS.md` "Environment", mixed reality 6.1–6.2).
+//! Algorithm 1; `docs/EQUATIONS.md` "Environment", mixed reality 6.1–6.2).
 //!
 //! The node
 //! 1. asks the scene for the captured real world ([`SceneRequest::RealLayer`]: the camera image

@@ -32,7 +32,7 @@ use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue
 
 pub struct PixelFilter;
 
-/// Defaults of `../shared/EQUATIONS.md` ("Pixel filtering", the thesis's Sec. 3.5.2).
+/// Defaults of `docs/EQUATIONS.md` ("Pixel filtering", the thesis's Sec. 3.5.2).
 pub const DEFAULT_T: f64 = 0.01;
 pub const DEFAULT_SIGMA_S: f64 = 8.0;
 pub const DEFAULT_SIGMA_C: f64 = 0.02;

@@ -1,5 +1,5 @@
 //! `SoftShadows`: axis-aligned filtering of area-light soft shadows (Mehta thesis Ch. 3,
-//! `seeds/000_956e982470d7e5bf.txt`; `EQUATIONS.md` "SoftShadows").
+//! `seeds/000_956e982470d7e5bf.txt`; `docs/EQUATIONS.md` "SoftShadows").
 //!
 //! Sampling is the shared sampler's ([`crate::sampler`], `docs/SAMPLER-STAGE.md` §4): the node asks
 //! it for the `light` estimator with the Ch. 3 constants — one primary path per pixel through the

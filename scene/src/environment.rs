@@ -53,7 +53,7 @@
 //! with the error measured in `scene/tests/environment.rs` (thesis: RMS 1e-5 in its images). More
 //! look-ups converge to that quadrature, not to the exact integral.
 //!
-//! # Bandwidth `B_e` (thesis Sec. 6.7, EQUATIONS.md "Environment")
+//! # Bandwidth `B_e` (thesis Sec. 6.7, docs/EQUATIONS.md "Environment")
 //!
 //! The radius, in cycles per radian, holding 99% of the energy of the 2-D power spectrum of the
 //! map's luminance in lat-long coordinates, DC included ([`EnvironmentMap::bandwidth`]). A column

@@ -93,7 +93,7 @@ impl AreaLight {
         }
     }
 
-    /// Std-dev (metres) of the emitter's footprint, the σ of the thesis's bandwidth (EQUATIONS.md,
+    /// Std-dev (metres) of the emitter's footprint, the σ of the thesis's bandwidth (docs/EQUATIONS.md,
     /// SoftShadows). Rect: `max(|edge_u|, |edge_v|)/√12`, the std-dev of a uniform distribution over the
     /// longer side. Triangle: √(largest eigenvalue) of the covariance of a point uniformly distributed over
     /// the triangle, `Cov = (e1 e1ᵀ + e2 e2ᵀ)/18 − (e1 e2ᵀ + e2 e1ᵀ)/36` with e1 = v1−v0, e2 = v2−v0 (from

@@ -1,7 +1,7 @@
 //! Rigid motion of a group of triangles over the shutter (thesis App. B: "per-object linear motion").
 //!
 //! **Time.** `t ∈ [−1, 1]` over the shutter: −1 = shutter open, +1 = close, 0 = the shutter's centre
-//! (EQUATIONS.md "Motion": `t` replaces the lens coordinate `u`, Ω_t^max = 1). Everything that renders
+//! (docs/EQUATIONS.md "Motion": `t` replaces the lens coordinate `u`, Ω_t^max = 1). Everything that renders
 //! without time uses `t = 0`.
 //!
 //! **Motion.** A [`RigidMotion`] moves points stored in their rest pose `x_rest` to

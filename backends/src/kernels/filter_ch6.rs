@@ -21,7 +21,7 @@
 //!   more than `max_motion` pixels: a bound the thesis does not have, which keeps the rows the pass
 //!   reads local so it splits into bands like every other filter).
 //! - The y pass of `filter.environment` with `previous` bound joins it (eq. 6.26, whose printed form
-//!   is garbled — EQUATIONS.md: the previous-frame term uses w′): reading taken, the previous frame's
+//!   is garbled — docs/EQUATIONS.md: the previous-frame term uses w′): reading taken, the previous frame's
 //!   x-filtered value at each `(x, y + j)` enters the y sum with the same spatial weight as the current
 //!   one, `Ē = Σ_j w_j (E_X + v'_j E'_X)(x, y+j) / Σ_j w_j (1 + v'_j)`, `v'_j` its validity. Both sit at
 //!   the current pixels' positions by construction, so the spatial weight is theirs.

@@ -9,7 +9,7 @@
 //!   neighbour is also dropped when it has no filter of its own (`Ω_j` not a valid width: a static
 //!   or a multi-velocity pixel — so sharp regions never bleed into blurred ones) or moves with another
 //!   velocity ([`same_velocity`]). Pixels without a valid width are passed through: the node writes
-//!   none where `v = 0`, since eq. B.1 alone would still blur at `Ω_pix^max` (EQUATIONS.md reading).
+//!   none where `v = 0`, since eq. B.1 alone would still blur at `Ω_pix^max` (docs/EQUATIONS.md reading).
 //!   The thesis applies it to texture (`v_p`, B.1) and to direct irradiance (`v_s`, B.2) separately.
 //! - `filter.radiance3`: the "small 3×3 pixel-wide filter" App. B applies to the radiance of pixels
 //!   that see two or more velocities (not factored), at pixels whose `mask` is set (elsewhere the

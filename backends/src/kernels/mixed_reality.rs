@@ -25,7 +25,7 @@
 //!
 //! **Readings taken** (docs/DESIGN-NOTES.md "Mixed reality"): irradiances are wedge's `E` (a diffuse
 //! surface's outgoing radiance is `k E`: `E = L cos / (π pdf)`), each sum divided by its own sample
-//! count (EQUATIONS.md); the real irradiances average over the pixel's real samples and the virtual
+//! count (docs/EQUATIONS.md); the real irradiances average over the pixel's real samples and the virtual
 //! ones over its virtual samples (Algorithm 1 divides everything by 16, which at a silhouette mixes
 //! the two kinds into one ratio), so that eq. 6.2 composes `(1 − M) k_V E_V + M (E_RV / E_R) L_cam`
 //! exactly at partly covered pixels; at a virtual sample `E_V` is its outgoing radiance divided by

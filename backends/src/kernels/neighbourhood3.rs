@@ -1,7 +1,7 @@
 //! `neighbourhood.max3` and `neighbourhood.median3`: the 3×3 neighbourhood filters of thesis Ch. 5
 //! (Sec. 5.8, step 2: "We run a 3×3 max-filter on the ray counts, and a median filter on the
 //! factorization flags, to reduce noise and artifacts"; the median's size is unstated, 3×3 is the
-//! reading taken in `EQUATIONS.md`).
+//! reading taken in `docs/EQUATIONS.md`).
 //!
 //! Both read one `u32` per pixel (`value`) and write one (`out`). Pixels outside the image repeat the
 //! nearest edge pixel (clamp to edge), so every pixel sees nine values: the median of 0/1 flags is

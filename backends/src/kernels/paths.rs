@@ -19,7 +19,7 @@
 //! `direct::light_centre_factor`, `indirect::trace_path`; WGSL `light_sample.wgsl`,
 //! `indirect_path.wgsl`). Per path with lens weight `w` ([`wedge_scene::LensShape`]) and hit `x`:
 //! - direct (one light, `light`): `E = f_c · V̄` over the path's shadow rays with the centre-of-light
-//!   form factor `f_c` (eqs. 5.9–5.14, EQUATIONS.md reading: f_c in L, k and E), `k = k_d + π k_s
+//!   form factor `f_c` (eqs. 5.9–5.14, docs/EQUATIONS.md reading: f_c in L, k and E), `k = k_d + π k_s
 //!   ρ_s(ω_c)` (the glossy lobe toward the light centre folded into k, eq. 5.20), `L = k·E`;
 //! - indirect diffuse: `E` = mean incident radiance of cosine-sampled one-bounce paths, `k = k_d`;
 //! - indirect glossy: `E` = mean of `L_i · f cos/pdf` (k_s left out) over lobe samples, `k = k_s`.
@@ -782,7 +782,7 @@ fn trace_direct(
 /// at `cos θ` to the normal, blocked at distance `t` along it. The thesis's flatland occluder is a
 /// half-plane at height `z` above the receiver whose edge is seen at `θ_occ` (Fig. 6.4(c), eq. 6.8);
 /// the edge lies at distance `t = z / cos θ_occ` along the blocked direction, so the term is
-/// `cos θ / t` (EQUATIONS.md "Environment"; docs/DESIGN-NOTES.md "The Environment node").
+/// `cos θ / t` (docs/EQUATIONS.md "Environment"; docs/DESIGN-NOTES.md "The Environment node").
 #[inline]
 pub fn occluder_term(cos: f32, t: f32) -> f32 {
     if t > 0.0 {

@@ -189,7 +189,7 @@ impl TangentKernel {
     pub fn new(x: Vec3, n: Vec3, eye: Vec3, distance: f32, r: f32, pixel_angle: f32, thickness: f32) -> TangentKernel {
         let d = (x - eye).normalize_or_zero();
         let dn = d.dot(n);
-        // Eq. 4.19 with the reading of EQUATIONS.md: the tangent projection of D is D − (D·N)N.
+        // Eq. 4.19 with the reading of docs/EQUATIONS.md: the tangent projection of D is D − (D·N)N.
         let mut a_d = d - n * dn;
         let len = a_d.length();
         if !(len > 1e-6) {

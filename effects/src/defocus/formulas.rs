@@ -1,5 +1,5 @@
 //! The per-pixel formulas of thesis Ch. 5 (defocus + factoring + two-level sampling,
-//! `seeds/000_956e982470d7e5bf.txt` Sec. 5.4–5.8; `EQUATIONS.md` "Defocus + factoring"), as pure
+//! `seeds/000_956e982470d7e5bf.txt` Sec. 5.4–5.8; `docs/EQUATIONS.md` "Defocus + factoring"), as pure
 //! functions. `shaders/defocus_formulas.wgsl` mirrors them expression for expression; the kernels in
 //! [`super::kernels`] evaluate them per pixel on both backends.
 //!
@@ -113,7 +113,7 @@ impl ThinLens {
 
 /// `ℓ_I`: the light's physical half-width (thesis Sec. 5.5: `I(y)` over `[−ℓ_I, ℓ_I]`,
 /// `Ω_y^max = 1/ℓ_I`), along its longer extent: half the longer side of a rectangle, half the
-/// longest edge of a triangle. Not Ch. 3's `w/√12` std-dev reading (`EQUATIONS.md`).
+/// longest edge of a triangle. Not Ch. 3's `w/√12` std-dev reading (`docs/EQUATIONS.md`).
 pub fn light_half_width(light: &AreaLight) -> f32 {
     match light.shape {
         LightShape::Rect { edge_u, edge_v, .. } => 0.5 * edge_u.length().max(edge_v.length()),

@@ -1,4 +1,4 @@
-//! Defocus, factoring and two-level sampling (Mehta thesis Ch. 5, eqs. 5.2–5.33; `EQUATIONS.md`
+//! Defocus, factoring and two-level sampling (Mehta thesis Ch. 5, eqs. 5.2–5.33; `docs/EQUATIONS.md`
 //! "Defocus + factoring + two-level sampling").
 //!
 //! This module holds the per-pixel parts of Ch. 5 that consume the path sampler's statistics:

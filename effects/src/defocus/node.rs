@@ -1,5 +1,5 @@
 //! `Defocus`: thin-lens depth of field with factored axis-aligned filtering and two-level sampling
-//! (thesis Ch. 5, `seeds/000_956e982470d7e5bf.txt` Sec. 5.2–5.8; `EQUATIONS.md` "Defocus + factoring").
+//! (thesis Ch. 5, `seeds/000_956e982470d7e5bf.txt` Sec. 5.2–5.8; `docs/EQUATIONS.md` "Defocus + factoring").
 //!
 //! The pipeline's factoring node ([`wedge_graph::factoring`]): with an aperture, every lighting
 //! component node of the pipeline (SoftShadows: direct; Indirect: indirect; Environment: the map's
@@ -7,7 +7,7 @@
 //! 1. asks the shared sampler for the thin lens (`aperture_radius`, `focus_distance`, `lens`) and
 //!    the thesis's first pass: `initial_paths` (16) paths through the pixel centre, one lens sample,
 //!    one shadow ray and one indirect sample each, the centre-of-light form factor (so `k·E = L` where
-//!    the scene factors; EQUATIONS.md reading; `form_factor: "exact"` for an unbiased reference);
+//!    the scene factors; docs/EQUATIONS.md reading; `form_factor: "exact"` for an unbiased reference);
 //! 2. computes `Ω_x^d` (5.7, 5.29) and `n_p` (5.24) from the first pass's circles of confusion
 //!    (`defocus.rates`) and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
 //! 3. sums its `direct`, `indirect` and `environment` inputs (each a component's eq. 5.32 term) and

@@ -1,5 +1,5 @@
 //! The per-pixel formulas of thesis Ch. 6 (environment lighting, `seeds/000_956e982470d7e5bf.txt`
-//! Sec. 6.6–6.7; `EQUATIONS.md` "Environment"), as pure functions. `shaders/environment_formulas.wgsl`
+//! Sec. 6.6–6.7; `docs/EQUATIONS.md` "Environment"), as pure functions. `shaders/environment_formulas.wgsl`
 //! mirrors them expression for expression.
 //!
 //! Units: bandwidths `B` are spatial frequencies in 1/m on the receiver (the filter weight of eq.
@@ -13,10 +13,10 @@
 //!   whatever the angles), 0 where nothing was occluded.
 //! - Indirect light (eq. 6.18): `B_x = B_h / z_min`, `B_h` = 2.8 diffuse, `4.27 + 0.15 m` Phong.
 //! - `B_ρ` of a Phong lobe of exponent `m`: the thesis gives `B_ρ(64) = 10` and `B_ρ(32) = 3.5`
-//!   (App. E), which no single power law fits; reading taken (EQUATIONS.md): `B_ρ = 1.25 √m`, which
+//!   (App. E), which no single power law fits; reading taken (docs/EQUATIONS.md): `B_ρ = 1.25 √m`, which
 //!   gives its 10 at m = 64, the exponent of its glossy results (Fig. 6.7, 6.9).
 //! - Screen-space curvature (eq. 6.20): `κ_X = angle(n(x,y), n(x+1,y)) / ‖p(x,y) − p(x+1,y)‖`, the
-//!   magnitude (EQUATIONS.md: |κ| by default); the backward neighbour where the forward one is not on
+//!   magnitude (docs/EQUATIONS.md: |κ| by default); the backward neighbour where the forward one is not on
 //!   the same object, 0 where neither is.
 //! - μ (an extension: Ch. 6 has none): every bandwidth, at least the window's ([`window_bandwidth`]:
 //!   a zero bandwidth is the widest filter the 30 × 30 window holds, which a Gaussian of σ = 15 px

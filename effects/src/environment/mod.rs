@@ -1,5 +1,5 @@
 //! Environment lighting and temporal filtering (Mehta thesis Ch. 6, `seeds/000_956e982470d7e5bf.txt`
-//! Sec. 6.5–6.7; `EQUATIONS.md` "Environment"): image-based lighting from a lat-long map
+//! Sec. 6.5–6.7; `docs/EQUATIONS.md` "Environment"): image-based lighting from a lat-long map
 //! (`wedge_scene::EnvironmentMap`), filtered with axis-aligned bandwidths from curvature, occluders,
 //! the BRDF and the map's own bandwidth, and across the frames of a camera path.
 //!

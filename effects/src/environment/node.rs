@@ -1,5 +1,5 @@
 //! `Environment`: image-based lighting with axis-aligned filtering, and filtering across frames
-//! (thesis Ch. 6, `seeds/000_956e982470d7e5bf.txt` Sec. 6.5–6.7; `EQUATIONS.md` "Environment").
+//! (thesis Ch. 6, `seeds/000_956e982470d7e5bf.txt` Sec. 6.5–6.7; `docs/EQUATIONS.md` "Environment").
 //!
 //! The node
 //! 1. asks the scene for its environment map ([`SceneRequest::Environment`]: `map`, `scale`,

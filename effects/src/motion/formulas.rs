@@ -1,10 +1,10 @@
 //! The per-pixel formulas of thesis App. B (motion blur with secondary effects,
-//! `seeds/000_956e982470d7e5bf.txt` Appendix B; `EQUATIONS.md` "Motion"), as pure functions.
+//! `seeds/000_956e982470d7e5bf.txt` Appendix B; `docs/EQUATIONS.md` "Motion"), as pure functions.
 //! `shaders/motion_formulas.wgsl` mirrors them expression for expression, on top of the Ch. 5 rate
 //! formulas it shares (`shaders/defocus_formulas.wgsl`).
 //!
 //! Units are Ch. 5's: widths `Ω` in pixel⁻¹ (`Ω_pix^max = 0.5`), velocities `v` in pixels per
-//! **half** shutter (time `t ∈ [−1, 1]` over the shutter, `Ω_t^max = 1`: EQUATIONS.md reading), so a
+//! **half** shutter (time `t ∈ [−1, 1]` over the shutter, `Ω_t^max = 1`: docs/EQUATIONS.md reading), so a
 //! point moving at `v` sweeps `2|v|` pixels while the shutter is open.
 //!
 //! - Texture width (B.1) `Ω_{x,p}^m = min(Ω_pix^max, Ω_t^max/|v_p|)`, irradiance width (B.2)
@@ -20,7 +20,7 @@
 //!   velocity term (the sampler keeps no velocity of the environment's occluders), and its look-ups
 //!   are eq. 5.24's factors at that width times the look-ups per primary ray, without a time factor.
 //! - Primary rays (B.3) `n_p = (Ω_pix^max + Ω_x^t)² (1 + |v_p| Ω_x^t)²` with `Ω_x^t = Ω_{x,p}^m`
-//!   (EQUATIONS.md: "(B.3)'s Ω_x^t means Ω_{x,p}^m") — eq. 5.24 with `|v_p|` for `r_max`. A pixel
+//!   (docs/EQUATIONS.md: "(B.3)'s Ω_x^t means Ω_{x,p}^m") — eq. 5.24 with `|v_p|` for `r_max`. A pixel
 //!   that sees two or more velocities (primary hit or shadow) takes `multi_paths` primary rays (the
 //!   thesis: 64).
 //! - Shadow rays "similar to eq. 5.25": `(Ω_pix+Ω)²(1 + |v_s| Ω)²(1 + ℓ_I s_max Ω/ℓ_p)²` with
@@ -42,7 +42,7 @@ use crate::defocus::formulas::{
     primary_rate, primary_strata, secondary_strata, strata_cap, Mode,
 };
 
-/// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (EQUATIONS.md "Motion"), the Motion node's
+/// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (docs/EQUATIONS.md "Motion"), the Motion node's
 /// default (`omega_t`).
 pub const OMEGA_T_MAX: f32 = 1.0;
 

@@ -1,5 +1,5 @@
 //! Motion blur with secondary effects (Mehta thesis App. B, `seeds/000_956e982470d7e5bf.txt`
-//! Appendix B; `EQUATIONS.md` "Motion"): Ch. 5's factoring and two-level sampling with shutter time
+//! Appendix B; `docs/EQUATIONS.md` "Motion"): Ch. 5's factoring and two-level sampling with shutter time
 //! in place of the lens.
 //!
 //! - [`formulas`]: pure functions — the widths `Ω_{x,p}^m` (B.1), `Ω_{x,s}^m` (B.2), `n_p` (B.3),

@@ -1,5 +1,5 @@
 //! `Motion`: motion blur with factored axis-aligned filtering and two-level sampling (thesis App. B,
-//! `seeds/000_956e982470d7e5bf.txt` Appendix B; `EQUATIONS.md` "Motion").
+//! `seeds/000_956e982470d7e5bf.txt` Appendix B; `docs/EQUATIONS.md` "Motion").
 //!
 //! The pipeline's factoring node ([`wedge_graph::factoring`]) when the scene moves over the shutter
 //! (a static scene, or a zero-length shutter: the node does not factor, the component nodes render
@@ -109,7 +109,7 @@ impl NodeKind for Motion {
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             crate::params::mu(1.0, "μ: scales every App. B bandwidth (eq. 5.29); larger = narrower filters, more rays"),
-            ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = EQUATIONS.md's reading)"),
+            ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = docs/EQUATIONS.md's reading)"),
             ParamDecl::choice("mode", "consistent", &Mode::NAMES, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one time, shadow and indirect sample each (thesis App. B: 9; 4 measured better, DESIGN-NOTES \"Motion\")"),

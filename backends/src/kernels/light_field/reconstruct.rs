@@ -10,7 +10,7 @@
 //!    it is in visibility conflict with one of its members ([`conflict`]); the first conflict closes
 //!    the surface. The nearest surface is the one the ray sees.
 //! 3. **Undersampled surfaces** (Sec. 2.5): a surface of one or two splats is re-tested with its
-//!    splats' radii scaled by 1/2 and 2/3 (EQUATIONS.md reading); if the ray misses them all, the
+//!    splats' radii scaled by 1/2 and 2/3 (docs/EQUATIONS.md reading); if the ray misses them all, the
 //!    next surface is the nearest.
 //! 4. **Filter** (Sec. 2.4): front-facing splats only, unless all of the surface's splats face away
 //!    (two-sided surfaces, Sec. 2.5) — or, with `two_sided` off, such a surface is passed through
