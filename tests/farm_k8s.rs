@@ -9,7 +9,7 @@ use std::fs;
 use std::path::Path;
 use std::process::Command;
 
-use common::cli::{refused, temp_dir, wedge};
+use common::cli::{pipeline, refused, temp_dir, wedge};
 use serde::Deserialize;
 use serde_json::Value;
 
@@ -17,13 +17,6 @@ fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn pipeline(name: &str) -> String {
-    repo()
-        .join("pipelines")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
-}
 
 /// Every document of a YAML file, as JSON values.
 fn documents(path: &Path) -> Vec<Value> {

@@ -9,19 +9,9 @@ use std::fs;
 use std::path::Path;
 use std::process::Output;
 
-use common::cli::{refused, temp_dir, wedge};
+use common::cli::{pipeline, refused, temp_dir, wedge};
 
-fn repo() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
-fn pipeline(name: &str) -> String {
-    repo()
-        .join("pipelines")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
-}
 
 fn ok(o: &Output) -> (String, String) {
     let (out, err) = (

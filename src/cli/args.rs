@@ -312,6 +312,19 @@ pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeE
     })
 }
 
+/// What a farm runs, for Slurm and Kubernetes alike: one task per tile (× frame).
+#[derive(Args, Debug)]
+pub(super) struct FarmTasks {
+    pub pipeline: PathBuf,
+    /// Number of tiles per frame, 1..=65536; a near-square grid.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
+    pub tiles: u32,
+    /// Frames A..B of a sequence: one task per tile × frame (task T renders frame A + T / tiles,
+    /// tile T % tiles), merged per frame into OUT/frame_NNNN/.
+    #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+    pub frames: Option<(u32, u32)>,
+}
+
 #[derive(Subcommand)]
 pub(super) enum Farm {
     /// An sbatch job array, one task per tile (`render --tile $SLURM_ARRAY_TASK_ID/N`; with
@@ -319,14 +332,8 @@ pub(super) enum Farm {
     /// OUT/slurm/ and submitted with sbatch (or printed with --dry-run). Tiles go to OUT/tiles/, the
     /// merged images to OUT (--out; with --frames OUT/frame_NNNN/).
     Slurm {
-        pipeline: PathBuf,
-        /// Number of tiles per frame, 1..=65536; a near-square grid.
-        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
-        tiles: u32,
-        /// Frames A..B of a sequence: one array task per tile × frame (task T renders frame
-        /// A + T / tiles, tile T % tiles), merged per frame into OUT/frame_NNNN/.
-        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
-        frames: Option<(u32, u32)>,
+        #[command(flatten)]
+        tasks: FarmTasks,
         #[command(flatten)]
         common: Common,
         /// Slurm partition of both jobs.
@@ -345,14 +352,8 @@ pub(super) enum Farm {
     /// tiles Job is complete: Kubernetes cannot chain Jobs) and submit.sh (the kubectl apply/wait
     /// commands in order). Talks to no cluster.
     K8s {
-        pipeline: PathBuf,
-        /// Number of tiles per frame, 1..=65536; a near-square grid.
-        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::tiles::MAX_TILES)))]
-        tiles: u32,
-        /// Frames A..B of a sequence: one completion per tile × frame, merged per frame into
-        /// out/frame_NNNN/ on the claim.
-        #[arg(long, value_name = "A..B", value_parser = parse_frames)]
-        frames: Option<(u32, u32)>,
+        #[command(flatten)]
+        tasks: FarmTasks,
         #[command(flatten)]
         k8s: K8sArgs,
         #[command(flatten)]

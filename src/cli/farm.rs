@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::args::{overrides, Common, K8sArgs};
+use super::args::{overrides, Common, FarmTasks, K8sArgs};
 use super::render::scene_notes;
 use crate::backends::cpu::CpuBackend;
 use crate::progress::{Bars, TaskProgress};
@@ -94,20 +94,21 @@ fn forwarded_args(c: &Common) -> Vec<String> {
 /// The session of a farm submission, opened as its tasks open it (at the range's first frame), with
 /// what would make a task fail refused first: a pipeline that cannot be tiled, tiles of a pipeline
 /// with frame history.
-fn farm_session(registries: &Registries, pipeline: &Path, (tiles, frames): (u32, Option<(u32, u32)>), common: &Common) -> Result<Session, WedgeError> {
-    let ov = crate::Overrides { frame: frames.map(|(first, _)| first), ..overrides(common, None)? };
-    let session = Session::open_with(registries, Some(pipeline), &ov)?;
-    crate::tiles::check(&session, crate::tiles::Grid::near_square(tiles, (session.width, session.height)))?;
-    if frames.is_some() {
+fn farm_session(registries: &Registries, t: &FarmTasks, common: &Common) -> Result<Session, WedgeError> {
+    let ov = crate::Overrides { frame: t.frames.map(|(first, _)| first), ..overrides(common, None)? };
+    let session = Session::open_with(registries, Some(&t.pipeline), &ov)?;
+    crate::tiles::check(&session, crate::tiles::Grid::near_square(t.tiles, (session.width, session.height)))?;
+    if t.frames.is_some() {
         crate::tiles::check_frames(&session)?;
     }
     Ok(session)
 }
 
 /// `wedge farm k8s`: the manifests into OUT/k8s/ ([`crate::k8s`]).
-pub(super) fn farm_k8s(registries: &Registries, pipeline: &Path, (tiles, frames): (u32, Option<(u32, u32)>), k8s: &K8sArgs, common: &Common) -> Result<String, WedgeError> {
+pub(super) fn farm_k8s(registries: &Registries, tasks: &FarmTasks, k8s: &K8sArgs, common: &Common) -> Result<String, WedgeError> {
     crate::staging::check_output_dir(&common.out)?;
-    let session = farm_session(registries, pipeline, (tiles, frames), common)?;
+    let session = farm_session(registries, tasks, common)?;
+    let (pipeline, tiles, frames) = (tasks.pipeline.as_path(), tasks.tiles, tasks.frames);
     let text = std::fs::read_to_string(pipeline).map_err(|e| WedgeError::Usage(format!("{}: {e}", pipeline.display())))?;
     let stem = pipeline.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().to_lowercase());
     let default_name: String = format!("wedge-{stem}").chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(40).collect();
@@ -151,9 +152,7 @@ pub(super) fn farm_k8s(registries: &Registries, pipeline: &Path, (tiles, frames)
 
 /// What `wedge farm slurm` was asked for.
 pub(super) struct SlurmRequest<'a> {
-    pub pipeline: &'a Path,
-    pub tiles: u32,
-    pub frames: Option<(u32, u32)>,
+    pub tasks: &'a FarmTasks,
     pub common: &'a Common,
     pub partition: Option<String>,
     pub time: Option<String>,
@@ -168,13 +167,13 @@ pub(super) fn farm_slurm(registries: &Registries, r: SlurmRequest<'_>) -> Result
             crate::farm::check_sbatch_value(flag, v)?;
         }
     }
-    farm_session(registries, r.pipeline, (r.tiles, r.frames), r.common)?;
+    farm_session(registries, r.tasks, r.common)?;
     let absolute = |p: &Path| std::path::absolute(p).map_err(|e| WedgeError::Usage(format!("{}: {e}", p.display())));
     let plan = crate::farm::SlurmPlan {
         wedge: std::env::current_exe().map_err(|e| WedgeError::Usage(format!("cannot find the wedge executable: {e}")))?,
-        pipeline: absolute(r.pipeline)?,
-        tiles: r.tiles,
-        frames: r.frames,
+        pipeline: absolute(&r.tasks.pipeline)?,
+        tiles: r.tasks.tiles,
+        frames: r.tasks.frames,
         out: absolute(&r.common.out)?,
         render_args: forwarded_args(r.common),
         partition: r.partition,

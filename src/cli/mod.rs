@@ -148,9 +148,9 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
         Command::Merge { dir, out } => crate::merge::merge(&dir, &out),
-        Command::Farm { farm: Farm::K8s { pipeline, tiles, frames, k8s, common } } => farm::farm_k8s(registries, &pipeline, (tiles, frames), &k8s, &common),
-        Command::Farm { farm: Farm::Slurm { pipeline, tiles, frames, common, partition, time, dry_run } } => {
-            farm::farm_slurm(registries, farm::SlurmRequest { pipeline: &pipeline, tiles, frames, common: &common, partition, time, dry_run })
+        Command::Farm { farm: Farm::K8s { tasks, k8s, common } } => farm::farm_k8s(registries, &tasks, &k8s, &common),
+        Command::Farm { farm: Farm::Slurm { tasks, common, partition, time, dry_run } } => {
+            farm::farm_slurm(registries, farm::SlurmRequest { tasks: &tasks, common: &common, partition, time, dry_run })
         }
         #[cfg(feature = "view")]
         Command::View { pipeline, common, mu, script } => {

@@ -13,6 +13,11 @@ pub fn temp_dir(suite: &str, name: &str) -> PathBuf {
     d
 }
 
+/// The path of shipped pipeline `name` (e.g. `shadows.ron`), as a string for `wedge`'s arguments.
+pub fn pipeline(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines").join(name).to_string_lossy().into_owned()
+}
+
 /// Run `wedge ARGS` in `cwd`.
 pub fn wedge(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).current_dir(cwd).output().expect("wedge runs")
