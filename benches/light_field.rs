@@ -122,14 +122,30 @@ fn main() {
     let plot_dir = PathBuf::from(std::env::var("WEDGE_BENCH_PLOT_DIR").unwrap_or_else(|_| "target".into()));
     let ov = Overrides { width: Some(w), height: Some(h), ..Default::default() };
     let per_sample = LIGHT_SAMPLE.words() + SPLAT.words() + 2 * SPLAT_NODE.words();
-    println!("memory per input sample: at most {per_sample} floats ({} B): the record, its splat, two tree nodes", 4 * per_sample);
+    println!(
+        "memory per input sample: at most {per_sample} floats ({} B): the record, its splat, two tree nodes",
+        4 * per_sample
+    );
 
     for case in &CASES {
-        let lf = |spp: u32| text(case, "LightField", &case.lightfield.replacen('{', &format!("{{\"spp\": {spp}, \"rays\": {rays}, "), 1), "{}");
+        let lf = |spp: u32| {
+            text(
+                case,
+                "LightField",
+                &case.lightfield.replacen('{', &format!("{{\"spp\": {spp}, \"rays\": {rays}, "), 1),
+                "{}",
+            )
+        };
         let start = std::time::Instant::now();
-        let reference = session(&lf(1), &ov, Some(ref_spp)).run(&mut CpuBackend::new(), &Silent).expect("reference runs");
+        let reference =
+            session(&lf(1), &ov, Some(ref_spp)).run(&mut CpuBackend::new(), &Silent).expect("reference runs");
         let r = reference.output("color").expect("color").clone();
-        println!("\n## {} on {} {w}x{h} (reference: {ref_spp} paths/px, {:.1} s)\n", case.name, scene(case), start.elapsed().as_secs_f64());
+        println!(
+            "\n## {} on {} {w}x{h} (reference: {ref_spp} paths/px, {:.1} s)\n",
+            case.name,
+            scene(case),
+            start.elapsed().as_secs_f64()
+        );
 
         // Plain Monte Carlo: the same estimator at 1, 2, 4, … paths per pixel.
         let (mut mc, mut mc_spp, mut mc_time_of_spp) = (Vec::new(), Vec::new(), Vec::new());
@@ -177,7 +193,9 @@ fn main() {
         let mut aaf_points = Vec::new();
         for &mu in mus {
             let params = case.aaf.replacen('{', &format!("{{\"mu\": {mu}, "), 1);
-            let run = session(&text(case, "Indirect", &params, case.inputs), &ov, None).run(&mut CpuBackend::new(), &Silent).expect("AAF runs");
+            let run = session(&text(case, "Indirect", &params, case.inputs), &ov, None)
+                .run(&mut CpuBackend::new(), &Silent)
+                .expect("AAF runs");
             let (t, e) = (run.total_seconds(), rel_mse(run.output("color").expect("color"), &r));
             let e_time = at_time(&mc, t);
             println!(
@@ -189,13 +207,33 @@ fn main() {
         }
 
         let series = vec![
-            Series { label: "plain Monte Carlo (stratified)".into(), color: [128, 128, 128], style: SeriesStyle::LinePoints, points: mc },
-            Series { label: format!("LightField, {rays} reconstruction rays, spp 1-16"), color: [214, 39, 40], style: SeriesStyle::LinePoints, points },
-            Series { label: "AAF (Indirect), mu 0.5-4".into(), color: [31, 119, 180], style: SeriesStyle::LinePoints, points: aaf_points },
+            Series {
+                label: "plain Monte Carlo (stratified)".into(),
+                color: [128, 128, 128],
+                style: SeriesStyle::LinePoints,
+                points: mc,
+            },
+            Series {
+                label: format!("LightField, {rays} reconstruction rays, spp 1-16"),
+                color: [214, 39, 40],
+                style: SeriesStyle::LinePoints,
+                points,
+            },
+            Series {
+                label: "AAF (Indirect), mu 0.5-4".into(),
+                color: [31, 119, 180],
+                style: SeriesStyle::LinePoints,
+                points: aaf_points,
+            },
         ];
         let scene_name = scene(case).trim_start_matches("builtin:").to_string();
         let file = plot_dir.join(format!("light_field_{}_{scene_name}.png", case.name.replace(' ', "_")));
-        let plot = Plot { title: format!("{} on {} {w}x{h}: relMSE vs time", case.name, scene(case)), x_label: "seconds (CPU, passes)".into(), y_label: "relMSE vs reference".into(), series };
+        let plot = Plot {
+            title: format!("{} on {} {w}x{h}: relMSE vs time", case.name, scene(case)),
+            x_label: "seconds (CPU, passes)".into(),
+            y_label: "relMSE vs reference".into(),
+            series,
+        };
         write_plot(&file, &plot).expect("plot written");
         println!("\nwrote {}", file.display());
     }

@@ -47,11 +47,8 @@ fn main() {
     // without paying for the numbers.
     let smoke = !std::env::args().any(|a| a == "--bench");
     let (w, h) = progressive::bench_size(smoke);
-    let (spp, frames) = if smoke {
-        (64, 8)
-    } else {
-        (env_u32("WEDGE_BENCH_REF_SPP", 4096), env_u32("WEDGE_BENCH_FRAMES", 256))
-    };
+    let (spp, frames) =
+        if smoke { (64, 8) } else { (env_u32("WEDGE_BENCH_REF_SPP", 4096), env_u32("WEDGE_BENCH_FRAMES", 256)) };
     let scene = std::env::var("WEDGE_BENCH_SCENE").ok();
     let ov = |mu: Option<f64>, params: &[(&str, &str, ParamValue)]| Overrides {
         scene: scene.clone(),
@@ -62,7 +59,8 @@ fn main() {
         ..Default::default()
     };
     let start = std::time::Instant::now();
-    let reference = Session::reference(Some(&pipeline("progressive_pixel.ron")), spp, "independent", &ov(None, &[])).expect("reference");
+    let reference = Session::reference(Some(&pipeline("progressive_pixel.ron")), spp, "independent", &ov(None, &[]))
+        .expect("reference");
     let scene_name = reference.scene.name.clone();
     let r = reference.run(&mut CpuBackend::new(), &Silent).expect("reference runs");
     let rc = r.output("color").expect("color").clone();
@@ -90,7 +88,12 @@ fn main() {
     let aaf = pipeline("shadows_indirect.ron");
     let aaf_spp = spp.min(2048);
     let aaf_ref = Session::reference(Some(&aaf), aaf_spp, "stratified", &ov(None, &[])).expect("AAF reference");
-    let ra = aaf_ref.run(&mut CpuBackend::new(), &Silent).expect("AAF reference runs").output("color").expect("color").clone();
+    let ra = aaf_ref
+        .run(&mut CpuBackend::new(), &Silent)
+        .expect("AAF reference runs")
+        .output("color")
+        .expect("color")
+        .clone();
     let mut points = Vec::new();
     println!("\nAAF shadows_indirect.ron (SoftShadows + Indirect), against its own {aaf_spp}-spp reference:");
     println!("| mu | time (s) | RMSE | relMSE |\n|---|---|---|---|");
@@ -101,7 +104,17 @@ fn main() {
         println!("| {mu} | {t:.3} | {:.4} | {:.5} |", rmse(c, &ra), rel_mse(c, &ra));
         points.push((t, rel_mse(c, &ra)));
     }
-    let aaf_series = Series { label: "AAF shadows_indirect.ron, mu 0.5-4".into(), color: [0, 0, 0], style: SeriesStyle::LinePoints, points };
+    let aaf_series = Series {
+        label: "AAF shadows_indirect.ron, mu 0.5-4".into(),
+        color: [0, 0, 0],
+        style: SeriesStyle::LinePoints,
+        points,
+    };
     let out = std::env::var("WEDGE_BENCH_PLOT").unwrap_or_else(|_| "target/progressive_error_vs_time.png".into());
-    plot_curves(Path::new(&out), &format!("{scene_name} {w}x{h}: relMSE vs time (reference {spp} paths/px)"), &curves, vec![aaf_series]);
+    plot_curves(
+        Path::new(&out),
+        &format!("{scene_name} {w}x{h}: relMSE vs time (reference {spp} paths/px)"),
+        &curves,
+        vec![aaf_series],
+    );
 }

@@ -69,8 +69,8 @@ use wedge::backends::cpu::CpuBackend;
 use wedge::backends::kernels::hemisphere::{cosine_hemisphere, Frame};
 use wedge::backends::rng::PixelRng;
 use wedge::backends::Silent;
-use wedge::scene::{RigidMotion, Scene, SceneObject, SceneSource};
 use wedge::scene::bvh::Simd;
+use wedge::scene::{RigidMotion, Scene, SceneObject, SceneSource};
 
 const W: u32 = 640;
 const H: u32 = 480;
@@ -103,9 +103,7 @@ fn primary_rays(scene: &Scene) -> Vec<Ray> {
     let mut rays = Vec::with_capacity((W * H) as usize);
     for y in 0..H {
         for x in 0..W {
-            let (o, d) = scene
-                .camera
-                .generate_ray(x as f32 + 0.5, y as f32 + 0.5, W, H, Vec2::splat(0.5));
+            let (o, d) = scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, W, H, Vec2::splat(0.5));
             rays.push(Ray { o, d, tmax: f32::INFINITY });
         }
     }
@@ -188,9 +186,9 @@ enum Mode {
 #[inline]
 fn query(scene: &Scene, r: &Ray, mode: Mode) -> i32 {
     match mode {
-        Mode::Closest => scene
-            .intersect(r.o, r.d, 0.0, r.tmax)
-            .map_or(-1, |h| scene.triangles[h.triangle as usize].source as i32),
+        Mode::Closest => {
+            scene.intersect(r.o, r.d, 0.0, r.tmax).map_or(-1, |h| scene.triangles[h.triangle as usize].source as i32)
+        }
         Mode::AnyHit => -(!scene.occluded(r.o, r.d, 0.0, r.tmax) as i32),
     }
 }
@@ -308,7 +306,10 @@ struct BuildRow {
 fn trace_rate(bvh: &wedge::scene::bvh::Bvh, simd: Simd, rays: &[Ray], min: Duration) -> f64 {
     let (start, mut passes) = (Instant::now(), 0u64);
     while passes == 0 || start.elapsed() < min {
-        let hits = rays.iter().filter(|r| wedge::scene::bvh::traverse_simd(bvh, simd, r.o, r.d, 0.0, r.tmax, false).is_some()).count();
+        let hits = rays
+            .iter()
+            .filter(|r| wedge::scene::bvh::traverse_simd(bvh, simd, r.o, r.d, 0.0, r.tmax, false).is_some())
+            .count();
         std::hint::black_box(hits);
         passes += 1;
     }
@@ -356,7 +357,17 @@ fn build_table(input: &[[Vec3; 3]], primary: &[Ray], diffuse: &[Ray], min: Durat
                 .collect();
             let (nodes, depth, refs) = (built.nodes.len(), built.depth, built.order.len());
             let bvh = Bvh::pack(built.nodes, &records);
-            let row = BuildRow { builder, best, runs, nodes, node_bytes: bvh.bytes(), refs, depth, primary_mrays: 0.0, diffuse_mrays: 0.0 };
+            let row = BuildRow {
+                builder,
+                best,
+                runs,
+                nodes,
+                node_bytes: bvh.bytes(),
+                refs,
+                depth,
+                primary_mrays: 0.0,
+                diffuse_mrays: 0.0,
+            };
             (row, bvh, simd)
         })
         .collect();
@@ -370,7 +381,11 @@ fn build_table(input: &[[Vec3; 3]], primary: &[Ray], diffuse: &[Ray], min: Durat
     trees
         .into_iter()
         .zip(rates)
-        .map(|((row, _, _), (mut p, mut d))| BuildRow { primary_mrays: median(&mut p), diffuse_mrays: median(&mut d), ..row })
+        .map(|((row, _, _), (mut p, mut d))| BuildRow {
+            primary_mrays: median(&mut p),
+            diffuse_mrays: median(&mut d),
+            ..row
+        })
         .collect()
 }
 
@@ -444,7 +459,13 @@ fn write_rays(path: &Path, input: &[[Vec3; 3]], sets: &[RaySet]) -> std::io::Res
 }
 
 /// Trace `sets` with Embree through `embree_compare.py`; its parsed JSON output.
-fn embree_compare(python: &str, scene: &str, input: &[[Vec3; 3]], sets: &[RaySet], min: Duration) -> Result<serde_json::Value, String> {
+fn embree_compare(
+    python: &str,
+    scene: &str,
+    input: &[[Vec3; 3]],
+    sets: &[RaySet],
+    min: Duration,
+) -> Result<serde_json::Value, String> {
     let path: PathBuf = std::env::temp_dir().join(format!("wedge-embree-{}-{scene}.bin", std::process::id()));
     let written = write_rays(&path, input, sets).map_err(|e| format!("writing {}: {e}", path.display()));
     let out = written.and_then(|()| {
@@ -505,12 +526,21 @@ fn with_moving(scene: &Scene, n: usize) -> Scene {
         .iter()
         .enumerate()
         .map(|(k, o)| SceneObject {
-            motion: (1..=n).contains(&k).then(|| RigidMotion::translation(Vec3::ZERO, Vec3::new(0.01, 0.0, 0.01 * (k as f32 / n as f32)))),
+            motion: (1..=n)
+                .contains(&k)
+                .then(|| RigidMotion::translation(Vec3::ZERO, Vec3::new(0.01, 0.0, 0.01 * (k as f32 / n as f32)))),
             ..SceneObject::named(o.name.clone())
         })
         .collect();
-    Scene::from_objects(&scene.name, loose(scene, 0.0), scene.materials.clone(), scene.textures.clone(), scene.camera, objects)
-        .expect("moving scene")
+    Scene::from_objects(
+        &scene.name,
+        loose(scene, 0.0),
+        scene.materials.clone(),
+        scene.textures.clone(),
+        scene.camera,
+        objects,
+    )
+    .expect("moving scene")
 }
 
 /// Per ray a time in [−1, 1) (stream 2 of the bench's per-pixel RNG, keyed by the ray's index).
@@ -519,7 +549,12 @@ fn ray_times(n: usize) -> Vec<f32> {
 }
 
 /// Rays per second of `trace(ray index)` over `rays` (≥ `min`, at least one pass), and the hits.
-fn measure_timed(pool: &rayon::ThreadPool, n: usize, min: Duration, trace: &(dyn Fn(usize) -> bool + Sync)) -> (f64, u64) {
+fn measure_timed(
+    pool: &rayon::ThreadPool,
+    n: usize,
+    min: Duration,
+    trace: &(dyn Fn(usize) -> bool + Sync),
+) -> (f64, u64) {
     pool.install(|| {
         let start = Instant::now();
         let (mut passes, mut hits) = (0u64, 0u64);
@@ -602,7 +637,11 @@ fn main() {
         .filter(|s| !s.is_empty())
         .collect();
     let min = Duration::from_secs_f64(
-        std::env::var("WEDGE_BENCH_MIN_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(if smoke { 0.0 } else { 1.0 }),
+        std::env::var("WEDGE_BENCH_MIN_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(if smoke {
+            0.0
+        } else {
+            1.0
+        }),
     );
     let repeats: usize = std::env::var("WEDGE_BENCH_REPEATS").ok().and_then(|s| s.parse().ok()).unwrap_or(3).max(1);
     let (nproc, model) = machine_info();
@@ -673,7 +712,11 @@ fn main() {
         ));
         if let Ok(py) = &python {
             let sets = [
-                RaySet { name: "primary", rays: &primary, queries: vec![(Mode::Closest, results(&scene, &primary, Mode::Closest))] },
+                RaySet {
+                    name: "primary",
+                    rays: &primary,
+                    queries: vec![(Mode::Closest, results(&scene, &primary, Mode::Closest))],
+                },
                 RaySet {
                     name: "shadow",
                     rays: &shadow,
@@ -682,7 +725,11 @@ fn main() {
                         (Mode::Closest, results(&scene, &shadow, Mode::Closest)),
                     ],
                 },
-                RaySet { name: "diffuse", rays: &diffuse, queries: vec![(Mode::Closest, results(&scene, &diffuse, Mode::Closest))] },
+                RaySet {
+                    name: "diffuse",
+                    rays: &diffuse,
+                    queries: vec![(Mode::Closest, results(&scene, &diffuse, Mode::Closest))],
+                },
             ];
             // Interleaved repetitions: wedge's four 1-thread cells, then Embree on the same rays.
             let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
@@ -785,15 +832,24 @@ fn main() {
             let (first, wedge_first) = &reps[0];
             for (k, (set, q, _, hits)) in wedge_first.iter().enumerate() {
                 let embree_result = |json: &serde_json::Value| {
-                    json["results"].as_array().into_iter().flatten().find(|r| r["set"] == *set && r["query"] == *q).cloned()
+                    json["results"]
+                        .as_array()
+                        .into_iter()
+                        .flatten()
+                        .find(|r| r["set"] == *set && r["query"] == *q)
+                        .cloned()
                 };
                 let Some(r) = embree_result(first) else {
                     continue;
                 };
-                let mut e: Vec<f64> = reps.iter().map(|(j, _)| embree_result(j).and_then(|r| r["mrays"].as_f64()).unwrap_or(f64::NAN)).collect();
+                let mut e: Vec<f64> = reps
+                    .iter()
+                    .map(|(j, _)| embree_result(j).and_then(|r| r["mrays"].as_f64()).unwrap_or(f64::NAN))
+                    .collect();
                 let mut w: Vec<f64> = reps.iter().map(|(_, cells)| cells[k].2).collect();
                 let mut ratio: Vec<f64> = w.iter().zip(&e).map(|(w, e)| w / e).collect();
-                let (lo, hi) = ratio.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+                let (lo, hi) =
+                    ratio.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
                 println!(
                     "| {name} | {set} | {q} | {:.2} | {:.2} | {:.2} ({lo:.2}–{hi:.2}) | {} | {hits} | {} / {} | {:.2} |",
                     median(&mut e),

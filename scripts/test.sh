@@ -65,6 +65,12 @@ if ! command -v slurmctld >/dev/null 2>&1 || ! command -v munged >/dev/null 2>&1
     fi
 fi
 
+# Formatting (rustfmt.toml: 120 columns): seconds, so first; a change that is not `cargo fmt`-clean
+# fails here with the diff. Clippy is run by hand (`cargo clippy --release --workspace --all-targets`,
+# clean), not here: it would check every crate a second time and CI has no minutes to spare.
+cargo fmt --all --check
+cargo fmt --manifest-path examples/fog/Cargo.toml --check
+
 cargo test --release --workspace --all-targets "$@"
 
 # The user-crate example (examples/fog: outside the workspace; its own node, kernel + WGSL, and the

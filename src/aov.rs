@@ -53,12 +53,14 @@ impl Aovs {
         let get = |name: &str| {
             out.get(name).ok_or_else(|| WedgeError::Usage(format!("primary.gbuffer wrote no `{name}` buffer (a bug)")))
         };
-        let (BufferData::Vec4(pos), BufferData::Vec4(nor), BufferData::Vec3(alb)) = (get("position")?, get("normal")?, get("albedo")?)
+        let (BufferData::Vec4(pos), BufferData::Vec4(nor), BufferData::Vec3(alb)) =
+            (get("position")?, get("normal")?, get("albedo")?)
         else {
             return Err(WedgeError::Usage("primary.gbuffer's outputs have unexpected formats (a bug)".into()));
         };
         let n = pos.len();
-        let (mut position, mut normal, mut albedo) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut position, mut normal, mut albedo) =
+            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
         for k in 0..n {
             // position.w = 1 + object id on a hit, 0 on a miss (primary.rs).
             if pos[k][3] > 0.0 {
@@ -89,7 +91,13 @@ impl Aovs {
                 "normal" => (rgb(&self.normal), false),
                 _ => (rgb(&self.albedo), false),
             };
-            out.push(crate::outputs::ExtraExr { stem: format!("aov_{name}"), width: self.width, height: self.height, pixels, alpha });
+            out.push(crate::outputs::ExtraExr {
+                stem: format!("aov_{name}"),
+                width: self.width,
+                height: self.height,
+                pixels,
+                alpha,
+            });
         }
         out
     }

@@ -40,8 +40,19 @@ pub struct Capture<'a> {
 
 /// The key of a capture in the process-wide cache: every input, printed.
 fn key(c: &Capture<'_>) -> String {
-    let env = c.environment.as_ref().map(|e| format!("{}|{}|{}", e.name(), e.scale().to_bits(), e.rotation_deg().to_bits()));
-    format!("{}|{}|{}|{:?}|{env:?}|{}x{}|{}|{}", c.spec, c.base_dir.display(), c.allow_outside_dir, c.camera, c.width, c.height, c.spp, c.seed)
+    let env =
+        c.environment.as_ref().map(|e| format!("{}|{}|{}", e.name(), e.scale().to_bits(), e.rotation_deg().to_bits()));
+    format!(
+        "{}|{}|{}|{:?}|{env:?}|{}x{}|{}|{}",
+        c.spec,
+        c.base_dir.display(),
+        c.allow_outside_dir,
+        c.camera,
+        c.width,
+        c.height,
+        c.spp,
+        c.seed
+    )
 }
 
 /// Render the real layer of [`Capture`] (module doc), or return the process's earlier render of it.
@@ -59,7 +70,8 @@ pub fn capture_real_layer(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
 
 fn render(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
     eprintln!("capturing the real layer from `{}` at {} samples per pixel ({}x{})", c.spec, c.spp, c.width, c.height);
-    let scene = if c.spec.starts_with("builtin:") { c.spec.to_string() } else { c.base_dir.join(c.spec).display().to_string() };
+    let scene =
+        if c.spec.starts_with("builtin:") { c.spec.to_string() } else { c.base_dir.join(c.spec).display().to_string() };
     // The captured scene is lit by the pipeline's map, set on its scene below, not by a map of its own
     // (which it may not have, e.g. `builtin:cornell`): its Environment node names a built-in map only
     // so that building the session does not ask the captured scene for one; it is replaced before
@@ -77,7 +89,11 @@ fn render(c: &Capture<'_>) -> Result<RealLayer, WedgeError> {
     let (nodes, kernels) = wedge_effects::builtin();
     // The scene goes in as an override: as this generated pipeline's `scene:` it would be confined
     // to the directory of `<capture>` (the working directory), while the user's pipeline named it.
-    let ov = crate::session::Overrides { scene: Some(scene.clone()), allow_outside_dir: c.allow_outside_dir, ..Default::default() };
+    let ov = crate::session::Overrides {
+        scene: Some(scene.clone()),
+        allow_outside_dir: c.allow_outside_dir,
+        ..Default::default()
+    };
     let mut session = Session::build_reference(loaded, &ov, nodes, kernels, c.spp, "stratified")
         .map_err(|e| WedgeError::Usage(format!("capture of `{}`: {e}", c.spec)))?;
     session.scene.camera = c.camera;

@@ -60,7 +60,11 @@ pub struct PipelineParts<'a> {
 
 /// Open `pipeline` (or the default) for export, with `ov` (scene, size, `--allow-outside-dir`):
 /// the session without a mixed-reality real layer (module doc).
-pub fn open(registries: &crate::session::Registries, pipeline: Option<&Path>, ov: &Overrides) -> Result<Session, WedgeError> {
+pub fn open(
+    registries: &crate::session::Registries,
+    pipeline: Option<&Path>,
+    ov: &Overrides,
+) -> Result<Session, WedgeError> {
     Session::open_with(registries, pipeline, &Overrides { without_real_layer: true, ..ov.clone() })
 }
 
@@ -80,7 +84,11 @@ fn not_exported(session: &Session) -> Vec<String> {
     for node in &session.pipeline.nodes {
         for request in node.kind.scene_requests(&node.params) {
             if let SceneRequest::RealLayer { camera_image, capture, .. } = request {
-                let source = if capture.is_empty() { format!("camera_image {camera_image:?} and its maps") } else { format!("capture {capture:?}") };
+                let source = if capture.is_empty() {
+                    format!("camera_image {camera_image:?} and its maps")
+                } else {
+                    format!("capture {capture:?}")
+                };
                 lost.push(format!(
                     "the mixed-reality real layer of node `{}` ({source}): it is an image the virtual objects are composited \
                      into, not a scene; the export holds the virtual objects and their lighting only",
@@ -126,7 +134,8 @@ fn string(s: &str) -> String {
 /// The MTL name of material `i`: index first (unique), then the name with anything but
 /// letters, digits, `-` and `_` replaced (MTL readers split names at whitespace).
 fn mtl_name(i: usize, name: &str) -> String {
-    let clean: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect();
+    let clean: String =
+        name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect();
     format!("m{i}_{clean}")
 }
 
@@ -166,7 +175,8 @@ fn obj_text(scene: &Scene) -> String {
 }
 
 fn mtl_text(scene: &Scene) -> String {
-    let mut s = String::from("# wedge export-scene: Kd base colour (× map_Kd), Ks/Ns Phong lobe, Ke emitted radiance\n");
+    let mut s =
+        String::from("# wedge export-scene: Kd base colour (× map_Kd), Ks/Ns Phong lobe, Ke emitted radiance\n");
     for (i, m) in scene.materials.iter().enumerate() {
         let c = |v: glam::Vec3| format!("{} {} {}", num(v.x), num(v.y), num(v.z));
         let _ = writeln!(s, "\nnewmtl {}", mtl_name(i, &m.name));
@@ -224,7 +234,11 @@ fn objects_json(scene: &Scene, camera: &Camera) -> String {
                 format!("{{\"pivot\": {}, \"keyframes\": [{}]}}", vec3(m.pivot), keys.join(", "))
             }
         };
-        let _ = write!(s, "    {{\"index\": {i}, \"name\": {}, \"obj_groups\": \"obj{i}_m*\", \"motion\": {motion}}}", string(&o.name));
+        let _ = write!(
+            s,
+            "    {{\"index\": {i}, \"name\": {}, \"obj_groups\": \"obj{i}_m*\", \"motion\": {motion}}}",
+            string(&o.name)
+        );
         s.push_str(if i + 1 < scene.objects.len() { ",\n" } else { "\n" });
     }
     s.push_str("  ],\n");
@@ -271,8 +285,10 @@ fn environment_json(env: Option<&EnvironmentMap>) -> String {
 /// The `camera_path` entry: the pipeline's keys (empty without a path).
 fn camera_path_json(keys: &[CameraKey]) -> String {
     let v = |t: (f32, f32, f32)| vec3(glam::Vec3::new(t.0, t.1, t.2));
-    let entries: Vec<String> =
-        keys.iter().map(|k| format!("{{\"frame\": {}, \"position\": {}, \"look_at\": {}}}", k.frame, v(k.position), v(k.look_at))).collect();
+    let entries: Vec<String> = keys
+        .iter()
+        .map(|k| format!("{{\"frame\": {}, \"position\": {}, \"look_at\": {}}}", k.frame, v(k.position), v(k.look_at)))
+        .collect();
     format!(
         "  \"camera_path\": [{}],\n  \"camera_path_conventions\": \"wedge render --frames: frame f's camera is camera with position \
          and look_at interpolated linearly between the keys around f (held before the first and after the last); empty: one \
@@ -286,7 +302,11 @@ fn json_text(scene: &Scene, camera: &Camera, width: u32, height: u32, parts: &Pi
     let mut s = String::from("{\n");
     let _ = writeln!(s, "  \"generator\": \"wedge export-scene\",");
     let _ = writeln!(s, "  \"scene\": {},", string(&scene.name));
-    let _ = writeln!(s, "  \"obj\": \"scene.obj\",\n  \"mtl\": \"scene.mtl\",\n  \"triangles\": {},", scene.triangles.len());
+    let _ = writeln!(
+        s,
+        "  \"obj\": \"scene.obj\",\n  \"mtl\": \"scene.mtl\",\n  \"triangles\": {},",
+        scene.triangles.len()
+    );
     let _ = writeln!(
         s,
         "  \"image\": {{\"width\": {width}, \"height\": {height}, \"pixel_origin\": \"top-left, y down; pixel (x, y) spans \
@@ -383,11 +403,24 @@ fn json_text(scene: &Scene, camera: &Camera, width: u32, height: u32, parts: &Pi
 
 /// Write `scene` seen by `camera` at `width`×`height` into `dir` (see the module doc), without a
 /// pipeline's parts ([`export_session`] adds them); returns the files written.
-pub fn export_scene(scene: &Scene, camera: &Camera, width: u32, height: u32, dir: &Path) -> Result<Vec<PathBuf>, ImageError> {
+pub fn export_scene(
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, ImageError> {
     write_files(scene, camera, width, height, &PipelineParts::default(), dir)
 }
 
-fn write_files(scene: &Scene, camera: &Camera, width: u32, height: u32, parts: &PipelineParts<'_>, dir: &Path) -> Result<Vec<PathBuf>, ImageError> {
+fn write_files(
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    parts: &PipelineParts<'_>,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, ImageError> {
     let mut set = Staging::new(dir)?;
     let text = |set: &mut Staging, name: &str, body: String| -> Result<(), ImageError> {
         let path = set.file(name)?;

@@ -36,7 +36,14 @@ pub struct SlurmPlan {
 /// `WEDGE render PIPELINE ARGS` for its tile (and frame) into `tiles_dir`. Task T renders tile
 /// T % tiles of frame A + T / tiles, as the stride shard T / tiles of the M frames, so each frame
 /// is set up from A as an unsharded `--frames A..B` sets it up. Shared by Slurm and Kubernetes.
-pub fn task_line(wedge: &str, pipeline: &str, render_args: &[String], (tiles, frames): (u32, Option<(u32, u32)>), index: &str, tiles_dir: &str) -> String {
+pub fn task_line(
+    wedge: &str,
+    pipeline: &str,
+    render_args: &[String],
+    (tiles, frames): (u32, Option<(u32, u32)>),
+    index: &str,
+    tiles_dir: &str,
+) -> String {
     let args: Vec<String> = render_args.iter().map(|a| quote(a)).collect();
     let which = match frames {
         None => format!("--tile \"${{{index}}}/{tiles}\""),
@@ -78,7 +85,9 @@ fn quote_path(p: &Path) -> String {
 /// could end the directive or start another).
 pub fn check_sbatch_value(flag: &str, v: &str) -> Result<(), WedgeError> {
     if v.is_empty() || !v.chars().all(|c| c.is_ascii_alphanumeric() || "_-:.,+".contains(c)) {
-        return Err(WedgeError::Usage(format!("{flag} `{v}`: use letters, digits and _-:.,+ only (e.g. --time 01:00:00)")));
+        return Err(WedgeError::Usage(format!(
+            "{flag} `{v}`: use letters, digits and _-:.,+ only (e.g. --time 01:00:00)"
+        )));
     }
     Ok(())
 }
@@ -175,7 +184,9 @@ impl SlurmPlan {
 /// Run `sbatch --parsable ARGS`; the job id it prints (`ID` or `ID;CLUSTER`).
 fn sbatch(args: &[&str]) -> Result<String, WedgeError> {
     let out = Command::new("sbatch").arg("--parsable").args(args).output().map_err(|e| {
-        WedgeError::Usage(format!("cannot run sbatch ({e}); is Slurm installed here? --dry-run prints the scripts instead"))
+        WedgeError::Usage(format!(
+            "cannot run sbatch ({e}); is Slurm installed here? --dry-run prints the scripts instead"
+        ))
     })?;
     let text = String::from_utf8_lossy(&out.stdout);
     let id = text.trim().split(';').next().unwrap_or("").to_string();

@@ -105,9 +105,7 @@ pub fn colormap(t: f32) -> [u8; 3] {
 }
 
 fn lut() -> Vec<[u8; 3]> {
-    (0..LUT_SIZE)
-        .map(|i| colormap(i as f32 / (LUT_SIZE - 1) as f32))
-        .collect()
+    (0..LUT_SIZE).map(|i| colormap(i as f32 / (LUT_SIZE - 1) as f32)).collect()
 }
 
 /// Resolved value → [0, 1] mapping.
@@ -121,23 +119,16 @@ struct Mapping {
 impl Mapping {
     fn new(values: &[f32], mask: Option<&[bool]>, spec: &HeatmapSpec) -> Mapping {
         let masked = |i: usize| mask.and_then(|m| m.get(i).copied()).unwrap_or(false);
-        let usable = |i: usize, v: f32| {
-            v.is_finite() && !masked(i) && (spec.scale == Scale::Linear || v > 0.0)
-        };
+        let usable = |i: usize, v: f32| v.is_finite() && !masked(i) && (spec.scale == Scale::Linear || v > 0.0);
         let data_range = || {
-            values
-                .iter()
-                .enumerate()
-                .filter(|&(i, &v)| usable(i, v))
-                .fold(None, |acc: Option<(f32, f32)>, (_, &v)| match acc {
+            values.iter().enumerate().filter(|&(i, &v)| usable(i, v)).fold(None, |acc: Option<(f32, f32)>, (_, &v)| {
+                match acc {
                     None => Some((v, v)),
                     Some((a, b)) => Some((a.min(v), b.max(v))),
-                })
+                }
+            })
         };
-        let explicit = spec
-            .range
-            .filter(|(a, b)| a.is_finite() && b.is_finite())
-            .map(|(a, b)| (a.min(b), a.max(b)));
+        let explicit = spec.range.filter(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| (a.min(b), a.max(b)));
         let (mut lo, mut hi) = match (explicit, spec.scale) {
             (Some(r), _) => r,
             (None, Scale::Linear) => data_range().unwrap_or((0.0, 1.0)),
@@ -146,19 +137,12 @@ impl Mapping {
         if spec.scale == Scale::Log && lo <= 0.0 {
             // Log cannot show 0 or negatives: start at the smallest positive
             // datum, or a few decades below the top if there is none.
-            lo = data_range()
-                .map(|(a, _)| a)
-                .filter(|&a| a < hi)
-                .unwrap_or(if hi > 0.0 { hi * 1e-3 } else { 1e-3 });
+            lo = data_range().map(|(a, _)| a).filter(|&a| a < hi).unwrap_or(if hi > 0.0 { hi * 1e-3 } else { 1e-3 });
             if hi <= lo {
                 hi = lo * 1e3;
             }
         }
-        Mapping {
-            scale: spec.scale,
-            lo,
-            hi,
-        }
+        Mapping { scale: spec.scale, lo, hi }
     }
 
     /// Position on the colour bar of a finite value, in [0, 1]. A degenerate
@@ -283,10 +267,7 @@ impl Canvas<'_> {
 
     fn text(&mut self, s: &str, x: i32, y: i32, align: Alignment) {
         let style = MonoTextStyle::new(&FONT_6X10, TEXT);
-        let text_style = TextStyleBuilder::new()
-            .alignment(align)
-            .baseline(Baseline::Top)
-            .build();
+        let text_style = TextStyleBuilder::new().alignment(align).baseline(Baseline::Top).build();
         // Infallible: the canvas clips instead of failing.
         let _ = Text::with_text_style(s, Point::new(x, y), style, text_style).draw(self);
     }
@@ -326,10 +307,7 @@ struct Layout {
 const TITLE_BAND: i32 = CHAR_H + 2 * PAD;
 
 fn layout(width: u32, height: u32, labels: &[String; 3], spec: &HeatmapSpec) -> Layout {
-    let (w, h) = (
-        width.min(i32::MAX as u32 / 4) as i32,
-        height.min(i32::MAX as u32 / 4) as i32,
-    );
+    let (w, h) = (width.min(i32::MAX as u32 / 4) as i32, height.min(i32::MAX as u32 / 4) as i32);
     let title_w = text_width(spec.title) + 2 * PAD;
     let unit_w = text_width(spec.unit);
     let label_w = labels.iter().map(|l| text_width(l)).max().unwrap_or(0);
@@ -341,24 +319,12 @@ fn layout(width: u32, height: u32, labels: &[String; 3], spec: &HeatmapSpec) -> 
         let out_w = (content_w + 2 * PAD).max(title_w);
         let unit_h = if spec.unit.is_empty() { 0 } else { CHAR_H + 2 };
         let out_h = TITLE_BAND + h + 2 * PAD + BAR_THICK + TICK + 1 + CHAR_H + unit_h + PAD;
-        Layout {
-            out_w,
-            out_h,
-            map_x: (out_w - w) / 2,
-            map_y: TITLE_BAND,
-            below,
-        }
+        Layout { out_w, out_h, map_x: (out_w - w) / 2, map_y: TITLE_BAND, below }
     } else {
         let panel_w = 2 * PAD + BAR_THICK + TICK + 2 + label_w.max(unit_w - BAR_THICK - TICK - 2);
         let out_w = (PAD + w + panel_w + PAD).max(title_w);
         let out_h = TITLE_BAND + h + PAD;
-        Layout {
-            out_w,
-            out_h,
-            map_x: PAD,
-            map_y: TITLE_BAND,
-            below,
-        }
+        Layout { out_w, out_h, map_x: PAD, map_y: TITLE_BAND, below }
     }
 }
 
@@ -386,23 +352,15 @@ pub fn render_heatmap(
     }
     let lay = layout(width, height, &labels, spec);
     let (out_w, out_h) = (lay.out_w as u32, lay.out_h as u32);
-    let mut buf: Vec<u8> = BACKGROUND
-        .iter()
-        .copied()
-        .cycle()
-        .take(out_w as usize * out_h as usize * 3)
-        .collect();
+    let mut buf: Vec<u8> = BACKGROUND.iter().copied().cycle().take(out_w as usize * out_h as usize * 3).collect();
     let lut = lut();
     let colour_of = |t: f32| lut[(t * (LUT_SIZE - 1) as f32 + 0.5) as usize];
 
     // The map, one output row per input row (parallel: maps can be 4K).
     let row_bytes = out_w as usize * 3;
     if width > 0 {
-        buf.par_chunks_mut(row_bytes)
-            .skip(lay.map_y as usize)
-            .take(height as usize)
-            .enumerate()
-            .for_each(|(y, row)| {
+        buf.par_chunks_mut(row_bytes).skip(lay.map_y as usize).take(height as usize).enumerate().for_each(
+            |(y, row)| {
                 for x in 0..width as usize {
                     let i = y * width as usize + x;
                     let masked = mask.and_then(|m| m.get(i).copied()).unwrap_or(false);
@@ -416,14 +374,11 @@ pub fn render_heatmap(
                     let o = (lay.map_x as usize + x) * 3;
                     row[o..o + 3].copy_from_slice(&c);
                 }
-            });
+            },
+        );
     }
 
-    let mut canvas = Canvas {
-        width: out_w,
-        height: out_h,
-        buf: &mut buf,
-    };
+    let mut canvas = Canvas { width: out_w, height: out_h, buf: &mut buf };
     if let Some(arrows) = spec.arrows {
         canvas.strokes(arrows, width, height, lay.map_x, lay.map_y);
     }
@@ -434,21 +389,14 @@ pub fn render_heatmap(
         let bar_w = lay.out_w - 2 * PAD;
         let bar_y = lay.map_y + h + 2 * PAD;
         for i in 0..bar_w {
-            let t = if bar_w > 1 {
-                i as f32 / (bar_w - 1) as f32
-            } else {
-                0.0
-            };
+            let t = if bar_w > 1 { i as f32 / (bar_w - 1) as f32 } else { 0.0 };
             canvas.rect(bar_x + i, bar_y, 1, BAR_THICK, colour_of(t));
         }
         canvas.frame(bar_x, bar_y, bar_w, BAR_THICK);
         let tick_y = bar_y + BAR_THICK + 1;
         let label_y = tick_y + TICK;
-        let ticks = [
-            (bar_x, Alignment::Left),
-            (bar_x + bar_w / 2, Alignment::Center),
-            (bar_x + bar_w - 1, Alignment::Right),
-        ];
+        let ticks =
+            [(bar_x, Alignment::Left), (bar_x + bar_w / 2, Alignment::Center), (bar_x + bar_w - 1, Alignment::Right)];
         for ((x, align), label) in ticks.into_iter().zip(&labels) {
             if !label.is_empty() {
                 canvas.rect(x, tick_y, 1, TICK - 1, FRAME);
@@ -457,12 +405,7 @@ pub fn render_heatmap(
             }
         }
         if !spec.unit.is_empty() {
-            canvas.text(
-                spec.unit,
-                lay.out_w / 2,
-                label_y + CHAR_H + 2,
-                Alignment::Center,
-            );
+            canvas.text(spec.unit, lay.out_w / 2, label_y + CHAR_H + 2, Alignment::Center);
         }
     } else {
         let bar_x = lay.map_x + w + 2 * PAD;
@@ -476,11 +419,7 @@ pub fn render_heatmap(
         }
         for i in 0..bar_h {
             // Top of the bar is the maximum.
-            let t = if bar_h > 1 {
-                1.0 - i as f32 / (bar_h - 1) as f32
-            } else {
-                0.0
-            };
+            let t = if bar_h > 1 { 1.0 - i as f32 / (bar_h - 1) as f32 } else { 0.0 };
             canvas.rect(bar_x, bar_top + i, BAR_THICK, 1, colour_of(t));
         }
         canvas.frame(bar_x, bar_top, BAR_THICK, bar_h);
@@ -511,13 +450,7 @@ pub fn write_heatmap_png(
     let n = width as usize * height as usize;
     for actual in std::iter::once(values.len()).chain(mask.map(|m| m.len())) {
         if actual != n {
-            return Err(ImageError::BufferSize {
-                path: path.to_path_buf(),
-                width,
-                height,
-                expected: n,
-                actual,
-            });
+            return Err(ImageError::BufferSize { path: path.to_path_buf(), width, height, expected: n, actual });
         }
     }
     let (w, h, rgb) = render_heatmap(width, height, values, mask, spec);
@@ -529,20 +462,12 @@ mod tests {
     use super::*;
 
     fn spec(scale: Scale) -> HeatmapSpec<'static> {
-        HeatmapSpec {
-            title: "relative error",
-            unit: "relMSE",
-            scale,
-            range: None,
-            arrows: None,
-        }
+        HeatmapSpec { title: "relative error", unit: "relMSE", scale, range: None, arrows: None }
     }
 
     /// Colour of map pixel (x, y) in a rendered heatmap.
     fn map_pixel(out: &(u32, u32, Vec<u8>), lay: &Layout, x: u32, y: u32) -> [u8; 3] {
-        let i =
-            ((lay.map_y as usize + y as usize) * out.0 as usize + lay.map_x as usize + x as usize)
-                * 3;
+        let i = ((lay.map_y as usize + y as usize) * out.0 as usize + lay.map_x as usize + x as usize) * 3;
         [out.2[i], out.2[i + 1], out.2[i + 2]]
     }
 
@@ -584,11 +509,7 @@ mod tests {
         let values: Vec<f32> = (0..w * h).map(|i| i as f32).collect();
         let out = render_heatmap(w, h, &values, None, &spec(Scale::Linear));
         assert_eq!(out.2.len(), out.0 as usize * out.1 as usize * 3);
-        assert!(
-            out.0 > w + BAR_THICK as u32,
-            "bar on the right widens the image: {}",
-            out.0
-        );
+        assert!(out.0 > w + BAR_THICK as u32, "bar on the right widens the image: {}", out.0);
         assert_eq!(out.1, h + TITLE_BAND as u32 + PAD as u32);
         assert!(!layout_of(w, h, &values, None, &spec(Scale::Linear)).below);
 
@@ -619,16 +540,8 @@ mod tests {
             let s = spec(scale);
             let out = render_heatmap(w, h, &values, Some(&mask), &s);
             let lay = layout_of(w, h, &values, Some(&mask), &s);
-            assert_eq!(
-                map_pixel(&out, &lay, 0, 0),
-                colormap(0.0),
-                "min -> first colour"
-            );
-            assert_eq!(
-                map_pixel(&out, &lay, 99, 99),
-                colormap(1.0),
-                "max -> last colour"
-            );
+            assert_eq!(map_pixel(&out, &lay, 0, 0), colormap(0.0), "min -> first colour");
+            assert_eq!(map_pixel(&out, &lay, 99, 99), colormap(1.0), "max -> last colour");
             assert_eq!(map_pixel(&out, &lay, 5, 0), NON_FINITE);
             assert_eq!(map_pixel(&out, &lay, 6, 0), colormap(1.0), "+inf saturates (does not stretch the range)");
             assert_eq!(map_pixel(&out, &lay, 7, 0), MASKED);
@@ -640,11 +553,7 @@ mod tests {
 
     #[test]
     fn explicit_range_clamps_and_log_maps_decades_evenly() {
-        let s = HeatmapSpec {
-            range: Some((10.0, 1000.0)),
-            arrows: None,
-            ..spec(Scale::Log)
-        };
+        let s = HeatmapSpec { range: Some((10.0, 1000.0)), arrows: None, ..spec(Scale::Log) };
         let m = Mapping::new(&[], None, &s);
         assert!((m.t(100.0) - 0.5).abs() < 1e-6);
         assert_eq!(m.t(1.0), 0.0);
@@ -652,15 +561,7 @@ mod tests {
         assert_eq!(m.t(-5.0), 0.0);
         assert!((m.mid() - 100.0).abs() < 1e-3);
         // Reversed range is swapped; all-equal data maps to the first colour.
-        let m = Mapping::new(
-            &[],
-            None,
-            &HeatmapSpec {
-                range: Some((2.0, 0.0)),
-                arrows: None,
-                ..spec(Scale::Linear)
-            },
-        );
+        let m = Mapping::new(&[], None, &HeatmapSpec { range: Some((2.0, 0.0)), arrows: None, ..spec(Scale::Linear) });
         assert_eq!((m.lo, m.hi), (0.0, 2.0));
         let m = Mapping::new(&[3.0, 3.0], None, &spec(Scale::Linear));
         assert_eq!(m.t(3.0), 0.0);
@@ -705,36 +606,17 @@ mod tests {
     fn png_written_and_bad_lengths_rejected() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("err.png");
-        let values: Vec<f32> = (0..64 * 96)
-            .map(|i| (i as f32 * 0.01).sin().abs())
-            .collect();
+        let values: Vec<f32> = (0..64 * 96).map(|i| (i as f32 * 0.01).sin().abs()).collect();
         write_heatmap_png(&path, 64, 96, &values, None, &spec(Scale::Linear)).unwrap();
         let img = ::image::open(&path).unwrap().to_rgb8();
         let (ow, oh, _) = render_heatmap(64, 96, &values, None, &spec(Scale::Linear));
         assert_eq!(img.dimensions(), (ow, oh));
-        let err = write_heatmap_png(
-            &dir.path().join("bad.png"),
-            64,
-            96,
-            &values[1..],
-            None,
-            &spec(Scale::Linear),
-        )
-        .unwrap_err();
+        let err = write_heatmap_png(&dir.path().join("bad.png"), 64, 96, &values[1..], None, &spec(Scale::Linear))
+            .unwrap_err();
         assert!(err.to_string().contains("bad.png"), "{err}");
-        let err = write_heatmap_png(
-            &dir.path().join("bad.png"),
-            64,
-            96,
-            &values,
-            Some(&[true]),
-            &spec(Scale::Linear),
-        )
-        .unwrap_err();
-        assert!(
-            matches!(err, ImageError::BufferSize { actual: 1, .. }),
-            "{err:?}"
-        );
+        let err = write_heatmap_png(&dir.path().join("bad.png"), 64, 96, &values, Some(&[true]), &spec(Scale::Linear))
+            .unwrap_err();
+        assert!(matches!(err, ImageError::BufferSize { actual: 1, .. }), "{err:?}");
         assert!(!dir.path().join("bad.png").exists());
     }
 }

@@ -63,11 +63,7 @@ pub struct Image {
 impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
-        Image {
-            width,
-            height,
-            pixels: vec![[0.0; 3]; width as usize * height as usize],
-        }
+        Image { width, height, pixels: vec![[0.0; 3]; width as usize * height as usize] }
     }
 
     /// An image whose pixel `(x, y)` is `f(x, y)`; `y = 0` is the top row.
@@ -78,32 +74,20 @@ impl Image {
                 pixels.push(f(x, y));
             }
         }
-        Image {
-            width,
-            height,
-            pixels,
-        }
+        Image { width, height, pixels }
     }
 
     /// Pixel `(x, y)`. Panics when out of bounds, like slice indexing: an
     /// out-of-bounds read here is a bug in the caller, not bad input.
     pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
-        assert!(
-            x < self.width && y < self.height,
-            "pixel ({x}, {y}) outside {}x{} image",
-            self.width,
-            self.height
-        );
+        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}x{} image", self.width, self.height);
         self.pixels[y as usize * self.width as usize + x as usize]
     }
 
     /// Per-pixel luminance with Rec. 709 weights (0.2126, 0.7152, 0.0722),
     /// on the linear values. Non-finite channels give non-finite luminance.
     pub fn luminance(&self) -> Vec<f32> {
-        self.pixels
-            .iter()
-            .map(|p| LUMA_709[0] * p[0] + LUMA_709[1] * p[1] + LUMA_709[2] * p[2])
-            .collect()
+        self.pixels.iter().map(|p| LUMA_709[0] * p[0] + LUMA_709[1] * p[1] + LUMA_709[2] * p[2]).collect()
     }
 
     /// `width * height` as usize (u32 × u32 always fits in u64; on 32-bit
@@ -133,11 +117,7 @@ pub enum ImageError {
     MissingChannels { path: PathBuf, found: String },
     /// The header claims a size that is empty or absurdly large.
     #[error("{} claims to be {width}x{height} pixels, outside the accepted 1..={max_dim} per side and {max_pixels} pixels in all; the file is probably corrupt, re-export it (or crop it if it really is that large)", path.display(), max_dim = MAX_DIMENSION, max_pixels = MAX_PIXELS)]
-    BadSize {
-        path: PathBuf,
-        width: u64,
-        height: u64,
-    },
+    BadSize { path: PathBuf, width: u64, height: u64 },
     /// The file could not be created, written, or moved into place.
     #[error("cannot write {}: {source}; check that the directory exists and is writable and that the disk is not full", path.display())]
     Write {
@@ -161,23 +141,13 @@ pub enum ImageError {
     Encode { path: PathBuf, reason: String },
     /// A pixel buffer does not match the stated dimensions.
     #[error("cannot write {}: the image is {width}x{height} but has {actual} values where {expected} are needed; this is a bug in the code that built the image", path.display())]
-    BufferSize {
-        path: PathBuf,
-        width: u32,
-        height: u32,
-        expected: usize,
-        actual: usize,
-    },
+    BufferSize { path: PathBuf, width: u32, height: u32, expected: usize, actual: usize },
     /// Two outputs of one run would be written to the same file (a `Heatmap` node named like an image).
     #[error("cannot write {} for {second}: {first} already writes it; rename the Heatmap node (its file is `<node name>.png`)", path.display())]
     Clash { path: PathBuf, first: String, second: String },
     /// A zero-width or zero-height image cannot be stored in PNG/EXR.
     #[error("cannot write {}: the image is {width}x{height}, which has no pixels; render at least one pixel", path.display())]
-    Empty {
-        path: PathBuf,
-        width: u32,
-        height: u32,
-    },
+    Empty { path: PathBuf, width: u32, height: u32 },
 }
 
 // ---------------------------------------------------------------------------
@@ -213,22 +183,13 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
 
     let not_exr = |e: exr::error::Error| match e {
         exr::error::Error::Io(source) if source.kind() != io::ErrorKind::UnexpectedEof => {
-            ImageError::Read {
-                path: path.to_path_buf(),
-                source,
-            }
+            ImageError::Read { path: path.to_path_buf(), source }
         }
-        other => ImageError::NotExr {
-            path: path.to_path_buf(),
-            reason: other.to_string(),
-        },
+        other => ImageError::NotExr { path: path.to_path_buf(), reason: other.to_string() },
     };
 
     // Open explicitly first so "file missing" is an I/O error, not "not an EXR".
-    let read_err = |source| ImageError::Read {
-        path: path.to_path_buf(),
-        source,
-    };
+    let read_err = |source| ImageError::Read { path: path.to_path_buf(), source };
     let mut file = File::open(path).map_err(read_err)?;
     // Check the magic number ourselves: the exr crate's message for a PNG or
     // a text file ("reference to missing bytes") would not tell the user
@@ -241,10 +202,7 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
         Err(e) => return Err(read_err(e)),
     };
     if let Some(reason) = reason {
-        return Err(ImageError::NotExr {
-            path: path.to_path_buf(),
-            reason: reason.to_string(),
-        });
+        return Err(ImageError::NotExr { path: path.to_path_buf(), reason: reason.to_string() });
     }
     io::Seek::rewind(&mut file).map_err(read_err)?;
     let meta = exr::meta::MetaData::read_from_unbuffered(file, false).map_err(not_exr)?;
@@ -252,39 +210,18 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
     // Size check over *all* headers: the reader may allocate per layer.
     for header in meta.headers.iter() {
         let (w, h) = (header.layer_size.0 as u64, header.layer_size.1 as u64);
-        if w == 0
-            || h == 0
-            || w > MAX_DIMENSION
-            || h > MAX_DIMENSION
-            || w.saturating_mul(h) > MAX_PIXELS
-        {
-            return Err(ImageError::BadSize {
-                path: path.to_path_buf(),
-                width: w,
-                height: h,
-            });
+        if w == 0 || h == 0 || w > MAX_DIMENSION || h > MAX_DIMENSION || w.saturating_mul(h) > MAX_PIXELS {
+            return Err(ImageError::BadSize { path: path.to_path_buf(), width: w, height: h });
         }
     }
     let has_rgb = |header: &exr::meta::header::Header| {
-        ["R", "G", "B"]
-            .iter()
-            .all(|&c| header.channels.list.iter().any(|ch| ch.name.eq(c)))
+        ["R", "G", "B"].iter().all(|&c| header.channels.list.iter().any(|ch| ch.name.eq(c)))
     };
     if !meta.headers.iter().any(has_rgb) {
-        let found: Vec<String> = meta
-            .headers
-            .iter()
-            .flat_map(|h| h.channels.list.iter().map(|ch| ch.name.to_string()))
-            .collect();
-        let found = if found.is_empty() {
-            "no channels".to_string()
-        } else {
-            found.join(", ")
-        };
-        return Err(ImageError::MissingChannels {
-            path: path.to_path_buf(),
-            found,
-        });
+        let found: Vec<String> =
+            meta.headers.iter().flat_map(|h| h.channels.list.iter().map(|ch| ch.name.to_string())).collect();
+        let found = if found.is_empty() { "no channels".to_string() } else { found.join(", ") };
+        return Err(ImageError::MissingChannels { path: path.to_path_buf(), found });
     }
 
     let decoded = read_first_rgba_layer_from_file(
@@ -303,41 +240,23 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
 /// scanlines — the most widely readable layout). Values are stored exactly,
 /// including NaN and infinities, so a round trip is bit-exact.
 pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
-    use exr::prelude::{
-        Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage,
-    };
+    use exr::prelude::{Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage};
 
-    check_buffer(
-        path,
-        img.width,
-        img.height,
-        img.pixels.len(),
-        img.pixel_count(),
-    )?;
+    check_buffer(path, img.width, img.height, img.pixels.len(), img.pixel_count())?;
     let width = img.width as usize;
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = img.pixels[y * width + x];
         (p[0], p[1], p[2])
     });
-    let encoding = Encoding {
-        compression: Compression::ZIP16,
-        blocks: Blocks::ScanLines,
-        line_order: LineOrder::Increasing,
-    };
-    let exr_image =
-        exr::image::Image::from_encoded_channels((width, img.height as usize), encoding, channels);
+    let encoding =
+        Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
+    let exr_image = exr::image::Image::from_encoded_channels((width, img.height as usize), encoding, channels);
     write_atomically(path, |out| {
         let w = exr_image.write();
         let written = if one_thread() { w.non_parallel().to_buffered(out) } else { w.to_buffered(out) };
         written.map_err(|e| match e {
-            exr::error::Error::Io(source) => ImageError::Write {
-                path: path.to_path_buf(),
-                source,
-            },
-            other => ImageError::Encode {
-                path: path.to_path_buf(),
-                reason: other.to_string(),
-            },
+            exr::error::Error::Io(source) => ImageError::Write { path: path.to_path_buf(), source },
+            other => ImageError::Encode { path: path.to_path_buf(), reason: other.to_string() },
         })
     })
 }
@@ -354,7 +273,8 @@ pub fn write_exr_rgba(path: &Path, width: u32, height: u32, pixels: &[[f32; 4]])
         let p = pixels[y * w + x];
         (p[0], p[1], p[2], p[3])
     });
-    let encoding = Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
+    let encoding =
+        Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
     let exr_image = exr::image::Image::from_encoded_channels((w, height as usize), encoding, channels);
     write_atomically(path, |out| {
         let w = exr_image.write();
@@ -391,28 +311,12 @@ fn one_thread() -> bool {
     rayon::current_num_threads() <= 1
 }
 
-fn check_buffer(
-    path: &Path,
-    width: u32,
-    height: u32,
-    actual: usize,
-    expected: usize,
-) -> Result<(), ImageError> {
+fn check_buffer(path: &Path, width: u32, height: u32, actual: usize, expected: usize) -> Result<(), ImageError> {
     if width == 0 || height == 0 {
-        return Err(ImageError::Empty {
-            path: path.to_path_buf(),
-            width,
-            height,
-        });
+        return Err(ImageError::Empty { path: path.to_path_buf(), width, height });
     }
     if actual != expected {
-        return Err(ImageError::BufferSize {
-            path: path.to_path_buf(),
-            width,
-            height,
-            expected,
-            actual,
-        });
+        return Err(ImageError::BufferSize { path: path.to_path_buf(), width, height, expected, actual });
     }
     Ok(())
 }
@@ -449,30 +353,22 @@ pub fn to_srgb8(img: &Image, exposure: f32) -> Vec<u8> {
     let mut out = vec![0u8; img.pixels.len() * 3];
     // Parallel because this runs on every preview of full-size renders and
     // the powf per channel dominates.
-    out.par_chunks_mut(3)
-        .zip(img.pixels.par_iter())
-        .for_each(|(o, p)| {
-            if p.iter().all(|c| c.is_finite()) {
-                for c in 0..3 {
-                    o[c] = encode_channel(p[c], exposure);
-                }
-            } else {
-                o.copy_from_slice(&MAGENTA);
+    out.par_chunks_mut(3).zip(img.pixels.par_iter()).for_each(|(o, p)| {
+        if p.iter().all(|c| c.is_finite()) {
+            for c in 0..3 {
+                o[c] = encode_channel(p[c], exposure);
             }
-        });
+        } else {
+            o.copy_from_slice(&MAGENTA);
+        }
+    });
     out
 }
 
 /// Writes `img` as an 8-bit sRGB PNG after [`to_srgb8`] (exposure, clamp,
 /// sRGB curve, magenta for non-finite pixels).
 pub fn write_png_srgb(path: &Path, img: &Image, exposure: f32) -> Result<(), ImageError> {
-    check_buffer(
-        path,
-        img.width,
-        img.height,
-        img.pixels.len(),
-        img.pixel_count(),
-    )?;
+    check_buffer(path, img.width, img.height, img.pixels.len(), img.pixel_count())?;
     let rgb = to_srgb8(img, exposure);
     write_png_rgb8(path, img.width, img.height, &rgb)
 }
@@ -488,14 +384,8 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
         ::image::codecs::png::PngEncoder::new(out)
             .write_image(rgb, width, height, ::image::ExtendedColorType::Rgb8)
             .map_err(|e| match e {
-                ::image::ImageError::IoError(source) => ImageError::Write {
-                    path: path.to_path_buf(),
-                    source,
-                },
-                other => ImageError::Encode {
-                    path: path.to_path_buf(),
-                    reason: other.to_string(),
-                },
+                ::image::ImageError::IoError(source) => ImageError::Write { path: path.to_path_buf(), source },
+                other => ImageError::Encode { path: path.to_path_buf(), reason: other.to_string() },
             })
     })
 }
@@ -569,20 +459,12 @@ mod tests {
     use std::io::Write;
 
     fn gradient(w: u32, h: u32) -> Image {
-        Image::from_fn(w, h, |x, y| {
-            [
-                x as f32 * 0.37 - 1.0,
-                y as f32 * 1e-3,
-                (x * y) as f32 * 123.456,
-            ]
-        })
+        Image::from_fn(w, h, |x, y| [x as f32 * 0.37 - 1.0, y as f32 * 1e-3, (x * y) as f32 * 123.456])
     }
 
     fn dir_entries(dir: &Path) -> Vec<String> {
-        let mut v: Vec<String> = fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
+        let mut v: Vec<String> =
+            fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         v.sort();
         v
     }
@@ -622,11 +504,7 @@ mod tests {
                 assert_eq!(a[c].to_bits(), b[c].to_bits());
             }
         }
-        assert_eq!(
-            dir_entries(dir.path()),
-            vec!["a.exr"],
-            "no temporary file left behind"
-        );
+        assert_eq!(dir_entries(dir.path()), vec!["a.exr"], "no temporary file left behind");
     }
 
     #[test]
@@ -635,12 +513,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("half.exr");
         write_rgba_file(&path, 4, 3, |x, y| {
-            (
-                f16::from_f32(x as f32),
-                f16::from_f32(y as f32 * 0.5),
-                f16::from_f32(2.0),
-                f16::from_f32(0.25),
-            )
+            (f16::from_f32(x as f32), f16::from_f32(y as f32 * 0.5), f16::from_f32(2.0), f16::from_f32(0.25))
         })
         .unwrap();
         let img = read_exr(&path).unwrap();
@@ -657,15 +530,9 @@ mod tests {
             (2, 2),
             LayerAttributes::named("main"),
             Encoding::UNCOMPRESSED,
-            AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
-                "Z",
-                FlatSamples::F32(vec![1.0; 4]),
-            )])),
+            AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Z", FlatSamples::F32(vec![1.0; 4]))])),
         );
-        exr::image::Image::from_layer(layer)
-            .write()
-            .to_file(&path)
-            .unwrap();
+        exr::image::Image::from_layer(layer).write().to_file(&path).unwrap();
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, ImageError::MissingChannels { .. }), "{err:?}");
         let msg = err.to_string();
@@ -686,17 +553,7 @@ mod tests {
         bytes[at + 12..at + 16].copy_from_slice(&999_999i32.to_le_bytes());
         fs::write(&path, &bytes).unwrap();
         let err = read_exr(&path).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                ImageError::BadSize {
-                    width: 1_000_000,
-                    height: 1_000_000,
-                    ..
-                }
-            ),
-            "{err:?}"
-        );
+        assert!(matches!(err, ImageError::BadSize { width: 1_000_000, height: 1_000_000, .. }), "{err:?}");
         assert!(err.to_string().contains("huge.exr"));
     }
 
@@ -707,10 +564,7 @@ mod tests {
         fs::write(&path, b"this is plain text, not an image").unwrap();
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, ImageError::NotExr { .. }), "{err:?}");
-        assert!(
-            err.to_string().contains("notes.exr") && err.to_string().contains("magic"),
-            "{err}"
-        );
+        assert!(err.to_string().contains("notes.exr") && err.to_string().contains("magic"), "{err}");
         let empty = dir.path().join("empty.exr");
         fs::write(&empty, b"").unwrap();
         assert!(matches!(read_exr(&empty), Err(ImageError::NotExr { .. })));
@@ -742,10 +596,7 @@ mod tests {
             [v, v, v]
         });
         let rgb = to_srgb8(&img, 1.0);
-        assert_eq!(
-            rgb,
-            vec![0, 0, 0, 188, 188, 188, 255, 255, 255, 255, 255, 255]
-        );
+        assert_eq!(rgb, vec![0, 0, 0, 188, 188, 188, 255, 255, 255, 255, 255, 255]);
         // Exposure is a plain multiply: 0.25 * 2 = 0.5 -> 188; negatives clamp to 0.
         let img = Image::from_fn(2, 1, |x, _| if x == 0 { [0.25; 3] } else { [-1.0; 3] });
         assert_eq!(to_srgb8(&img, 2.0), vec![188, 188, 188, 0, 0, 0]);
@@ -777,10 +628,7 @@ mod tests {
         assert_eq!(decoded.as_raw(), &to_srgb8(&img, 1.0));
         // Overwriting an existing file works (rename over the destination).
         write_png_srgb(&path, &Image::new(5, 3), 1.0).unwrap();
-        assert_eq!(
-            ::image::open(&path).unwrap().to_rgb8().as_raw(),
-            &vec![0u8; 45]
-        );
+        assert_eq!(::image::open(&path).unwrap().to_rgb8().as_raw(), &vec![0u8; 45]);
         assert_eq!(dir_entries(dir.path()), vec!["out.png"]);
     }
 
@@ -810,10 +658,7 @@ mod tests {
         // and the temporary file is cleaned up.
         let err = write_atomically(&path, |out| {
             out.write_all(b"partial").unwrap();
-            Err(ImageError::Encode {
-                path: path.clone(),
-                reason: "simulated".into(),
-            })
+            Err(ImageError::Encode { path: path.clone(), reason: "simulated".into() })
         })
         .unwrap_err();
         assert!(matches!(err, ImageError::Encode { .. }));
@@ -826,25 +671,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bad.png");
         let err = write_png_rgb8(&path, 2, 2, &[0; 5]).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                ImageError::BufferSize {
-                    expected: 12,
-                    actual: 5,
-                    ..
-                }
-            ),
-            "{err:?}"
-        );
+        assert!(matches!(err, ImageError::BufferSize { expected: 12, actual: 5, .. }), "{err:?}");
         let err = write_png_rgb8(&path, 0, 2, &[]).unwrap_err();
         assert!(matches!(err, ImageError::Empty { .. }), "{err:?}");
         let mut img = Image::new(2, 2);
         img.pixels.pop();
-        assert!(matches!(
-            write_exr(&dir.path().join("bad.exr"), &img),
-            Err(ImageError::BufferSize { .. })
-        ));
+        assert!(matches!(write_exr(&dir.path().join("bad.exr"), &img), Err(ImageError::BufferSize { .. })));
         assert!(dir_entries(dir.path()).is_empty());
     }
 }

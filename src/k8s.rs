@@ -57,8 +57,7 @@ pub struct K8sPlan {
 pub fn check_name(flag: &str, v: &str, max: usize) -> Result<(), WedgeError> {
     let ok = !v.is_empty()
         && v.len() <= max
-        && v.chars()
-            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
+        && v.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
         && !v.starts_with('-')
         && !v.ends_with('-');
     if ok {
@@ -82,16 +81,7 @@ pub fn check_image(v: &str) -> Result<(), WedgeError> {
 
 /// `s` with every character outside `[-._a-zA-Z0-9]` (a ConfigMap key's alphabet) replaced by `_`.
 pub fn config_key(s: &str) -> String {
-    let key: String = s
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || "-._".contains(c) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
+    let key: String = s.chars().map(|c| if c.is_ascii_alphanumeric() || "-._".contains(c) { c } else { '_' }).collect();
     if key.is_empty() || key == "." || key == ".." {
         "pipeline.ron".into()
     } else {
@@ -108,11 +98,7 @@ impl K8sPlan {
     /// Refuse what Kubernetes would refuse, before anything is written.
     pub fn check(&self) -> Result<(), WedgeError> {
         // The longest suffix is `-pipeline`; a pod's hostname is `NAME-tiles-INDEX` (63 at most).
-        check_name(
-            "--name",
-            &self.name,
-            63 - "-tiles-".len() - MAX_COMPLETIONS.to_string().len(),
-        )?;
+        check_name("--name", &self.name, 63 - "-tiles-".len() - MAX_COMPLETIONS.to_string().len())?;
         if let Some(ns) = &self.namespace {
             check_name("--namespace", ns, 63)?;
         }
@@ -136,13 +122,10 @@ impl K8sPlan {
                 self.tasks()
             )));
         }
-        let quantity = self
-            .storage
-            .trim_end_matches(|c: char| c.is_ascii_alphabetic());
+        let quantity = self.storage.trim_end_matches(|c: char| c.is_ascii_alphabetic());
         if quantity.is_empty()
             || !quantity.chars().all(|c| c.is_ascii_digit())
-            || !["", "Ki", "Mi", "Gi", "Ti", "k", "M", "G", "T"]
-                .contains(&&self.storage[quantity.len()..])
+            || !["", "Ki", "Mi", "Gi", "Ti", "k", "M", "G", "T"].contains(&&self.storage[quantity.len()..])
         {
             return Err(WedgeError::Usage(format!(
                 "--storage `{}`: a whole number with Ki, Mi, Gi or Ti (e.g. 10Gi)",
@@ -167,7 +150,8 @@ impl K8sPlan {
 
     /// The volume claim for the tiles and the merged images.
     pub fn claim(&self) -> Value {
-        let mut spec = json!({ "accessModes": ["ReadWriteMany"], "resources": { "requests": { "storage": self.storage } } });
+        let mut spec =
+            json!({ "accessModes": ["ReadWriteMany"], "resources": { "requests": { "storage": self.storage } } });
         if let Some(class) = &self.storage_class {
             spec["storageClassName"] = json!(class);
         }
@@ -240,26 +224,17 @@ impl K8sPlan {
             &format!("{DATA_DIR}/tiles"),
             &format!("{DATA_DIR}/out"),
         );
-        self.job(
-            "merge",
-            line,
-            json!({ "completions": 1, "parallelism": 1, "backoffLimit": 0 }),
-        )
+        self.job("merge", line, json!({ "completions": 1, "parallelism": 1, "backoffLimit": 0 }))
     }
 
     /// `(file name, YAML)` of the two files: the tiles' objects and the merge Job.
     pub fn files(&self) -> Result<Vec<(&'static str, String)>, WedgeError> {
         let yaml = |docs: &[Value]| -> Result<String, WedgeError> {
             let parts: Result<Vec<String>, _> = docs.iter().map(serde_yaml_ng::to_string).collect();
-            Ok(parts
-                .map_err(|e| WedgeError::Usage(format!("writing YAML: {e}")))?
-                .join("---\n"))
+            Ok(parts.map_err(|e| WedgeError::Usage(format!("writing YAML: {e}")))?.join("---\n"))
         };
         Ok(vec![
-            (
-                "tiles.yaml",
-                yaml(&[self.config_map(), self.claim(), self.tiles_job()])?,
-            ),
+            ("tiles.yaml", yaml(&[self.config_map(), self.claim(), self.tiles_job()])?),
             ("merge.yaml", yaml(&[self.merge_job()])?),
             ("submit.sh", self.submit_script()),
         ])
@@ -267,10 +242,7 @@ impl K8sPlan {
 
     /// The kubectl commands, in order: what Kubernetes cannot chain itself.
     pub fn submit_script(&self) -> String {
-        let ns = self
-            .namespace
-            .as_ref()
-            .map_or(String::new(), |n| format!(" -n {n}"));
+        let ns = self.namespace.as_ref().map_or(String::new(), |n| format!(" -n {n}"));
         let name = &self.name;
         format!(
             "#!/bin/sh\n# {tasks} task(s) of {name}-tiles, then the merge (Kubernetes has no afterok: wait, then apply).\nset -eu\n\
@@ -288,8 +260,7 @@ impl K8sPlan {
         let mut staging = crate::staging::Staging::new(dir)?;
         for (name, text) in &files {
             let path = staging.file(name)?;
-            std::fs::write(&path, text)
-                .map_err(|e| WedgeError::Usage(format!("{}: {e}", path.display())))?;
+            std::fs::write(&path, text).map_err(|e| WedgeError::Usage(format!("{}: {e}", path.display())))?;
         }
         Ok(staging.commit()?)
     }

@@ -19,7 +19,8 @@ use crate::tiles::{read_tile, Grid, Tile};
 pub fn merge(dir: &Path, out: &Path) -> Result<String, WedgeError> {
     crate::staging::check_output_dir(out)?;
     let files = tile_files(dir)?;
-    let tiles: Vec<(PathBuf, Tile)> = files.into_iter().map(|f| read_tile(&f).map(|t| (f, t))).collect::<Result<_, _>>()?;
+    let tiles: Vec<(PathBuf, Tile)> =
+        files.into_iter().map(|f| read_tile(&f).map(|t| (f, t))).collect::<Result<_, _>>()?;
     check_set(&tiles)?;
     check_cover(&tiles)?;
     let images = assemble(&tiles)?;
@@ -42,10 +43,12 @@ pub fn merge(dir: &Path, out: &Path) -> Result<String, WedgeError> {
 
 /// The `.exr` files of `dir`, sorted by name (other files are left alone).
 fn tile_files(dir: &Path) -> Result<Vec<PathBuf>, WedgeError> {
-    let entries =
-        std::fs::read_dir(dir).map_err(|e| WedgeError::Usage(format!("{}: cannot read the tile directory: {e}", dir.display())))?;
-    let mut files: Vec<PathBuf> =
-        entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "exr") && p.is_file()).collect();
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| WedgeError::Usage(format!("{}: cannot read the tile directory: {e}", dir.display())))?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "exr") && p.is_file())
+        .collect();
     files.sort();
     if files.is_empty() {
         return Err(WedgeError::Usage(format!(
@@ -84,21 +87,35 @@ fn check_cover(tiles: &[(PathBuf, Tile)]) -> Result<(), WedgeError> {
     for (path, t) in tiles {
         match grid.rect(t.header.index, h.full) {
             Ok(r) if r == t.header.rect => by_index.entry(t.header.index).or_default().push(path),
-            _ => problems.push(format!("  {}: tile {} has rect {:?}, not the grid's", path.display(), t.header.index, t.header.rect)),
+            _ => problems.push(format!(
+                "  {}: tile {} has rect {:?}, not the grid's",
+                path.display(),
+                t.header.index,
+                t.header.rect
+            )),
         }
     }
     for (i, paths) in by_index.iter().filter(|(_, p)| p.len() > 1) {
         let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
         problems.push(format!("  extra: tile {i} appears {} times ({})", paths.len(), names.join(", ")));
     }
-    let missing: Vec<String> = (0..grid.count()).filter(|i| !by_index.contains_key(i)).map(|i| format!("{i}/{}", grid.count())).collect();
+    let missing: Vec<String> =
+        (0..grid.count()).filter(|i| !by_index.contains_key(i)).map(|i| format!("{i}/{}", grid.count())).collect();
     if !missing.is_empty() {
-        problems.push(format!("  missing: tile(s) {} (render them with `wedge render ... --tile I/N`)", missing.join(", ")));
+        problems.push(format!(
+            "  missing: tile(s) {} (render them with `wedge render ... --tile I/N`)",
+            missing.join(", ")
+        ));
     }
     if problems.is_empty() {
         return Ok(());
     }
-    Err(WedgeError::Usage(format!("the tiles do not cover the {}x{} image exactly:\n{}", h.full.0, h.full.1, problems.join("\n"))))
+    Err(WedgeError::Usage(format!(
+        "the tiles do not cover the {}x{} image exactly:\n{}",
+        h.full.0,
+        h.full.1,
+        problems.join("\n")
+    )))
 }
 
 /// The full images, each tile's pixels copied to its rectangle; every tile must hold the same images.

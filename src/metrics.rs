@@ -55,17 +55,11 @@ pub struct Metrics {
 #[derive(Debug, thiserror::Error)]
 pub enum MetricsError {
     #[error("image sizes differ: test is {}x{}, reference is {}x{}; render the test image at the reference's resolution", test.0, test.1, reference.0, reference.1)]
-    SizeMismatch {
-        test: (u32, u32),
-        reference: (u32, u32),
-    },
-    #[error("the {which} image claims {width}x{height} pixels but holds {actual}; this is a bug in the code that built it")]
-    BadBuffer {
-        which: &'static str,
-        width: u32,
-        height: u32,
-        actual: usize,
-    },
+    SizeMismatch { test: (u32, u32), reference: (u32, u32) },
+    #[error(
+        "the {which} image claims {width}x{height} pixels but holds {actual}; this is a bug in the code that built it"
+    )]
+    BadBuffer { which: &'static str, width: u32, height: u32, actual: usize },
 }
 
 /// Running sums for one chunk of pixels.
@@ -98,12 +92,7 @@ fn finite(p: &[f32; 3]) -> bool {
 fn check_buffer(which: &'static str, img: &Image) -> Result<(), MetricsError> {
     let expected = img.width as u64 * img.height as u64;
     if img.pixels.len() as u64 != expected {
-        return Err(MetricsError::BadBuffer {
-            which,
-            width: img.width,
-            height: img.height,
-            actual: img.pixels.len(),
-        });
+        return Err(MetricsError::BadBuffer { which, width: img.width, height: img.height, actual: img.pixels.len() });
     }
     Ok(())
 }
@@ -191,11 +180,7 @@ pub fn error_map(test: &Image, reference: &Image) -> Vec<f32> {
         .map(|i| {
             let (x, y) = (i % tw, i / tw);
             let t = test.pixels.get(i);
-            let r = if x < rw && y < reference.height as usize {
-                reference.pixels.get(y * rw + x)
-            } else {
-                None
-            };
+            let r = if x < rw && y < reference.height as usize { reference.pixels.get(y * rw + x) } else { None };
             match (t, r) {
                 (Some(t), Some(r)) if finite(t) && finite(r) => {
                     let mut acc = 0.0f64;
@@ -220,11 +205,7 @@ mod tests {
     }
 
     fn two_pixel(a: [f32; 3], b: [f32; 3]) -> Image {
-        Image {
-            width: 2,
-            height: 1,
-            pixels: vec![a, b],
-        }
+        Image { width: 2, height: 1, pixels: vec![a, b] }
     }
 
     #[test]
@@ -277,16 +258,8 @@ mod tests {
 
     #[test]
     fn non_finite_pixels_are_counted_and_excluded() {
-        let test = Image {
-            width: 3,
-            height: 1,
-            pixels: vec![[f32::NAN, 0.0, 0.0], [1.0; 3], [0.5; 3]],
-        };
-        let reference = Image {
-            width: 3,
-            height: 1,
-            pixels: vec![[0.0; 3], [1.0; 3], [f32::INFINITY, 0.0, 0.0]],
-        };
+        let test = Image { width: 3, height: 1, pixels: vec![[f32::NAN, 0.0, 0.0], [1.0; 3], [0.5; 3]] };
+        let reference = Image { width: 3, height: 1, pixels: vec![[0.0; 3], [1.0; 3], [f32::INFINITY, 0.0, 0.0]] };
         let m = compare(&test, &reference).unwrap();
         assert_eq!((m.non_finite, m.pixels), (2, 1));
         // Only the identical middle pixel is averaged.
@@ -299,11 +272,7 @@ mod tests {
 
     #[test]
     fn nothing_usable_gives_nan_and_zero_pixels() {
-        let test = Image {
-            width: 1,
-            height: 1,
-            pixels: vec![[f32::NAN; 3]],
-        };
+        let test = Image { width: 1, height: 1, pixels: vec![[f32::NAN; 3]] };
         let m = compare(&test, &Image::new(1, 1)).unwrap();
         assert_eq!((m.pixels, m.non_finite), (0, 1));
         assert!(m.rmse.is_nan() && m.psnr.is_nan());
@@ -324,19 +293,14 @@ mod tests {
     fn malformed_buffer_is_an_error() {
         let mut bad = Image::new(2, 2);
         bad.pixels.pop();
-        assert!(matches!(
-            compare(&bad, &Image::new(2, 2)),
-            Err(MetricsError::BadBuffer { which: "test", .. })
-        ));
+        assert!(matches!(compare(&bad, &Image::new(2, 2)), Err(MetricsError::BadBuffer { which: "test", .. })));
     }
 
     #[test]
     fn result_is_independent_of_chunking() {
         // More pixels than one chunk, so several partial sums are combined.
         let a = Image::from_fn(300, 50, |x, y| [(x as f32).sin(), (y as f32).cos(), 0.3]);
-        let b = Image::from_fn(300, 50, |x, y| {
-            [(x as f32 * 1.01).sin(), (y as f32).cos() * 0.9, 0.3]
-        });
+        let b = Image::from_fn(300, 50, |x, y| [(x as f32 * 1.01).sin(), (y as f32).cos() * 0.9, 0.3]);
         let m = compare(&a, &b).unwrap();
         let (mut sq, mut rel) = (0.0f64, 0.0f64);
         for (x, r) in a.pixels.iter().zip(&b.pixels) {

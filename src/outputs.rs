@@ -114,7 +114,14 @@ pub struct Picture<'a> {
 }
 
 /// [`write_run`] and `picture` in one all-or-nothing set (`wedge view`'s screenshot).
-pub fn write_run_with_picture(dir: &Path, stem: &str, run: &RunResult, picture: &Picture, width: u32, height: u32) -> Result<WrittenRun, ImageError> {
+pub fn write_run_with_picture(
+    dir: &Path,
+    stem: &str,
+    run: &RunResult,
+    picture: &Picture,
+    width: u32,
+    height: u32,
+) -> Result<WrittenRun, ImageError> {
     let mut set = OutputSet::new(dir)?;
     set.run(stem, run, &[], width, height)?;
     let path = set.file(&format!("{}.png", picture.name), "the viewer's picture")?;
@@ -171,7 +178,14 @@ impl SequenceWriter {
     }
 
     /// Finish the preview, stage the last frame's outputs (`run`, `extra`) and commit the set.
-    pub fn finish(mut self, stem: &str, run: &RunResult, extra: &[ExtraExr], width: u32, height: u32) -> Result<WrittenRun, ImageError> {
+    pub fn finish(
+        mut self,
+        stem: &str,
+        run: &RunResult,
+        extra: &[ExtraExr],
+        width: u32,
+        height: u32,
+    ) -> Result<WrittenRun, ImageError> {
         if let Some(gif) = self.gif.take() {
             gif.finish()?;
         }
@@ -209,13 +223,22 @@ struct OutputSet {
 
 impl OutputSet {
     fn new(dir: &Path) -> Result<OutputSet, ImageError> {
-        Ok(OutputSet { dir: dir.to_path_buf(), staging: Staging::new(dir)?, claimed: Vec::new(), non_finite: Vec::new() })
+        Ok(OutputSet {
+            dir: dir.to_path_buf(),
+            staging: Staging::new(dir)?,
+            claimed: Vec::new(),
+            non_finite: Vec::new(),
+        })
     }
 
     /// Where to write `file` (claimed for `what`), or the clash with its first claimant.
     fn file(&mut self, file: &str, what: &str) -> Result<PathBuf, ImageError> {
         if let Some((_, first)) = self.claimed.iter().find(|(f, _)| f == file) {
-            return Err(ImageError::Clash { path: self.dir.join(file), first: first.clone(), second: what.to_string() });
+            return Err(ImageError::Clash {
+                path: self.dir.join(file),
+                first: first.clone(),
+                second: what.to_string(),
+            });
         }
         self.claimed.push((file.to_string(), what.to_string()));
         self.staging.file(file)
@@ -238,14 +261,25 @@ impl OutputSet {
         if e.alpha {
             write_exr_rgba(&path, e.width, e.height, &e.pixels)?;
         } else {
-            let img = Image { width: e.width, height: e.height, pixels: e.pixels.iter().map(|p| [p[0], p[1], p[2]]).collect() };
+            let img = Image {
+                width: e.width,
+                height: e.height,
+                pixels: e.pixels.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+            };
             write_exr(&path, &img)?;
         }
         Ok(())
     }
 
     /// Stage everything `run` produced (see [`write_run`]) and `extra`.
-    fn run(&mut self, stem: &str, run: &RunResult, extra: &[ExtraExr], width: u32, height: u32) -> Result<(), ImageError> {
+    fn run(
+        &mut self,
+        stem: &str,
+        run: &RunResult,
+        extra: &[ExtraExr],
+        width: u32,
+        height: u32,
+    ) -> Result<(), ImageError> {
         for (port, default_name) in IMAGE_PORTS {
             let name = if port == "color" { stem } else { default_name };
             if let Some(b) = run.output(port) {
@@ -303,7 +337,13 @@ impl HeatmapView {
     }
 
     fn spec(&self) -> HeatmapSpec<'_> {
-        HeatmapSpec { title: &self.title, unit: &self.unit, scale: self.scale, range: None, arrows: self.arrows.as_deref() }
+        HeatmapSpec {
+            title: &self.title,
+            unit: &self.unit,
+            scale: self.scale,
+            range: None,
+            arrows: self.arrows.as_deref(),
+        }
     }
 }
 
@@ -312,7 +352,8 @@ impl HeatmapView {
 /// and parameters, [`RunResult::sinks`]).
 pub fn heatmap_views(run: &RunResult) -> Vec<HeatmapView> {
     let mut views = Vec::new();
-    let output_maps = [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
+    let output_maps =
+        [("filter_width", "filter width (beta)", "px", true), ("rays_per_pixel", "rays per pixel", "rays", false)];
     for (port, title, unit, mask_zero) in output_maps {
         if let Some(b) = run.output(port) {
             views.push(HeatmapView {
@@ -414,7 +455,14 @@ mod tests {
     fn run_with_color(color: Vec<[f32; 3]>) -> RunResult {
         let mut outputs = BTreeMap::new();
         outputs.insert(("out".to_string(), "color".to_string()), BufferData::Vec3(color));
-        RunResult { outputs, sinks: BTreeMap::new(), timings: Vec::new(), rays: RayCounts::default(), allocations: 0, history: BTreeMap::new() }
+        RunResult {
+            outputs,
+            sinks: BTreeMap::new(),
+            timings: Vec::new(),
+            rays: RayCounts::default(),
+            allocations: 0,
+            history: BTreeMap::new(),
+        }
     }
 
     #[test]
@@ -440,11 +488,15 @@ mod tests {
     fn extra_exrs_join_the_set_alpha_kept_and_clashes_refused() {
         let dir = tempfile::tempdir().unwrap();
         let pixels: Vec<[f32; 4]> = (0..6).map(|i| [i as f32, -1.5, 1e-20, (i % 2) as f32]).collect();
-        let position = ExtraExr { stem: "aov_position".into(), width: 3, height: 2, pixels: pixels.clone(), alpha: true };
+        let position =
+            ExtraExr { stem: "aov_position".into(), width: 3, height: 2, pixels: pixels.clone(), alpha: true };
         let normal = ExtraExr { stem: "aov_normal".into(), alpha: false, ..position.clone() };
         let run = run_with_color(vec![[0.5; 3]; 6]);
         let w = write_run_with(dir.path(), "render", &run, &[position.clone(), normal], 3, 2).unwrap();
-        assert!(w.files.contains(&dir.path().join("aov_position.exr")) && w.files.contains(&dir.path().join("aov_normal.exr")));
+        assert!(
+            w.files.contains(&dir.path().join("aov_position.exr"))
+                && w.files.contains(&dir.path().join("aov_normal.exr"))
+        );
         let back = exr::prelude::read_first_rgba_layer_from_file(
             dir.path().join("aov_position.exr"),
             |res, _| vec![[0.0f32; 4]; res.width() * res.height()],
@@ -472,8 +524,10 @@ mod tests {
         let err = write_run(dir.path(), "render", &run, 3, 2).unwrap_err().to_string();
         assert!(err.contains("filter_width.png"), "{err}");
         assert_eq!(std::fs::read(dir.path().join("render.exr")).unwrap(), before);
-        let mut names: Vec<String> =
-            std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
         names.sort();
         assert_eq!(names, ["render.exr", "render.png"]);
     }
@@ -486,7 +540,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let frame = |v: f32| Image { width: 3, height: 2, pixels: vec![[v; 3]; 6] };
         let staged_files = |d: &Path| -> usize {
-            std::fs::read_dir(d).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).map(|p| std::fs::read_dir(p).unwrap().count()).sum()
+            std::fs::read_dir(d)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.is_dir())
+                .map(|p| std::fs::read_dir(p).unwrap().count())
+                .sum()
         };
         let mut dropped = SequenceWriter::new(dir.path()).unwrap();
         dropped.frame(0, &frame(0.1)).unwrap();
@@ -503,7 +562,8 @@ mod tests {
         for name in ["frame_0000.exr", "frame_0002.png", "render.exr", "preview.gif"] {
             assert!(written.files.contains(&dir.path().join(name)), "{name}: {:?}", written.files);
         }
-        let mut decoder = gif::DecodeOptions::new().read_info(std::fs::File::open(dir.path().join("preview.gif")).unwrap()).unwrap();
+        let mut decoder =
+            gif::DecodeOptions::new().read_info(std::fs::File::open(dir.path().join("preview.gif")).unwrap()).unwrap();
         let mut frames = 0;
         while decoder.read_next_frame().unwrap().is_some() {
             frames += 1;

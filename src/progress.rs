@@ -144,12 +144,26 @@ pub struct TaskProgress<'a> {
 impl<'a> TaskProgress<'a> {
     /// A task of `total` work units: the sum over its runs of passes × pixels ([`TaskProgress::work`]).
     pub fn new(bars: &'a Bars, format: ProgressFormat, task: &'static str, total: u64) -> TaskProgress<'a> {
-        TaskProgress { bars: Some(bars), format, task, total: total.max(1), start: Instant::now(), state: Mutex::new(TaskState::default()) }
+        TaskProgress {
+            bars: Some(bars),
+            format,
+            task,
+            total: total.max(1),
+            start: Instant::now(),
+            state: Mutex::new(TaskState::default()),
+        }
     }
 
     /// [`TaskProgress::new`] with no per-pass bars: only the lines.
     pub fn lines_only(format: ProgressFormat, task: &'static str, total: u64) -> TaskProgress<'static> {
-        TaskProgress { bars: None, format, task, total: total.max(1), start: Instant::now(), state: Mutex::new(TaskState::default()) }
+        TaskProgress {
+            bars: None,
+            format,
+            task,
+            total: total.max(1),
+            start: Instant::now(),
+            state: Mutex::new(TaskState::default()),
+        }
     }
 
     /// The work of one run of `passes` passes over `pixels` pixels.

@@ -4,14 +4,14 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use wedge_backends::{Backend, BackendError, Job, KernelRegistry, Progress, RunResult, SinkNode};
-use wedge_graph::{
-    expand, parse_pipeline, schedule, validate, BufferBytes, GraphError, LoadedPipeline, NodeRegistry, ParamValue, Schedule,
-    ValidatedPipeline,
-};
 use glam::{Quat, Vec3};
-use wedge_scene::motion::RigidMotion;
+use wedge_backends::{Backend, BackendError, Job, KernelRegistry, Progress, RunResult, SinkNode};
 use wedge_graph::SceneRequest;
+use wedge_graph::{
+    expand, parse_pipeline, schedule, validate, BufferBytes, GraphError, LoadedPipeline, NodeRegistry, ParamValue,
+    Schedule, ValidatedPipeline,
+};
+use wedge_scene::motion::RigidMotion;
 use wedge_scene::{Camera, ConfinedTo, Confinement, Scene, SceneError, SceneSource};
 
 /// The default pipeline, compiled in so `wedge render` works from any directory.
@@ -216,7 +216,12 @@ impl Session {
     }
 
     /// The general constructor: a user crate passes registries extended with its own nodes/kernels.
-    pub fn build(loaded: LoadedPipeline, ov: &Overrides, nodes: NodeRegistry, kernels: KernelRegistry) -> Result<Session, WedgeError> {
+    pub fn build(
+        loaded: LoadedPipeline,
+        ov: &Overrides,
+        nodes: NodeRegistry,
+        kernels: KernelRegistry,
+    ) -> Result<Session, WedgeError> {
         Session::build_with(loaded, ov, nodes, kernels, None)
     }
 
@@ -258,7 +263,17 @@ impl Session {
         let (width, height, seed) = (pipeline.pipeline.width, pipeline.pipeline.height, pipeline.pipeline.seed);
         // Every pass's WGSL parsed and validated here, on any backend: a typo in a kernel's shader
         // is found by a CPU render and a CPU-only CI, at its file and line (backends gpu/validate.rs).
-        let job = Job { schedule: &schedule, scene: &scene, kernels: &kernels, width, height, seed, frame, progress: &wedge_backends::Silent, window: wedge_backends::Window::whole(width, height) };
+        let job = Job {
+            schedule: &schedule,
+            scene: &scene,
+            kernels: &kernels,
+            width,
+            height,
+            seed,
+            frame,
+            progress: &wedge_backends::Silent,
+            window: wedge_backends::Window::whole(width, height),
+        };
         wedge_backends::gpu::validate::check_job(&job)?;
         let allow_outside_dir = ov.allow_outside_dir;
         Ok(Session { pipeline, schedule, scene, nodes, kernels, width, height, seed, frame, allow_outside_dir })
@@ -301,13 +316,21 @@ impl Session {
 
     /// `wedge parity`: every pass of the session's image (frame 0) run on the CPU and alone on `gpu`
     /// with the same inputs, compared pass by pass.
-    pub fn parity(&self, gpu: &mut wedge_backends::gpu::GpuBackend) -> Result<wedge_backends::parity::ParityReport, WedgeError> {
+    pub fn parity(
+        &self,
+        gpu: &mut wedge_backends::gpu::GpuBackend,
+    ) -> Result<wedge_backends::parity::ParityReport, WedgeError> {
         Ok(wedge_backends::parity::run_parity(&self.job(self.seed, 0, &wedge_backends::Silent), gpu)?)
     }
 
     /// Write `run` into `dir` as `wedge render` does (`stem`.exr/.png, the unfiltered image, every
     /// heatmap and statistic the pipeline's Output names), all or nothing ([`crate::staging`]).
-    pub fn write_outputs(&self, dir: &Path, stem: &str, run: &RunResult) -> Result<crate::outputs::WrittenRun, WedgeError> {
+    pub fn write_outputs(
+        &self,
+        dir: &Path,
+        stem: &str,
+        run: &RunResult,
+    ) -> Result<crate::outputs::WrittenRun, WedgeError> {
         Ok(crate::outputs::write_run(dir, stem, run, self.width, self.height)?)
     }
 
@@ -363,7 +386,8 @@ impl Session {
         let Some((node, request)) = real_layer_request(&self.pipeline) else {
             return Ok(None);
         };
-        let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, capture, .. } = &request else {
+        let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, capture, .. } = &request
+        else {
             return Ok(None);
         };
         // The frame the session opened at already has its layer (read or captured at build).
@@ -383,7 +407,12 @@ impl Session {
             return Ok(None);
         }
         if capture.is_empty() || *camera != self.scene.camera {
-            let at = RealLayerAt { camera, environment: self.scene.environment.as_ref(), frame, allow_outside_dir: self.allow_outside_dir };
+            let at = RealLayerAt {
+                camera,
+                environment: self.scene.environment.as_ref(),
+                frame,
+                allow_outside_dir: self.allow_outside_dir,
+            };
             return load_real_layer(&self.pipeline, node, request, &at).map(Some);
         }
         Ok(None)
@@ -505,11 +534,9 @@ impl Session {
                 scene: scene.saturating_mul(2),
                 images: pixels.saturating_mul(OUTPUT_BYTES_PER_PIXEL),
             },
-            RunMode::Parity => MemoryEstimate {
-                buffers: parity_buffer_bytes(&b),
-                scene: scene.saturating_mul(2),
-                images: 0,
-            },
+            RunMode::Parity => {
+                MemoryEstimate { buffers: parity_buffer_bytes(&b), scene: scene.saturating_mul(2), images: 0 }
+            }
         }
     }
 }
@@ -602,7 +629,12 @@ pub fn path_at(keys: &[wedge_graph::CameraKey], frame: u32) -> Option<(Vec3, Vec
 /// The scene a render of `pipeline` sees at `frame`, before the nodes' scene requests (environment
 /// map, real layer): its geometry and lights, the pipeline's camera block and motion, the frame's
 /// camera on the path, motion held still under a zero-length shutter.
-fn load_scene_at(loaded: &LoadedPipeline, pipeline: &ValidatedPipeline, ov: &Overrides, frame: u32) -> Result<Scene, WedgeError> {
+fn load_scene_at(
+    loaded: &LoadedPipeline,
+    pipeline: &ValidatedPipeline,
+    ov: &Overrides,
+    frame: u32,
+) -> Result<Scene, WedgeError> {
     let source = scene_source(pipeline, ov.scene.as_deref());
     // A scene file the pipeline names is confined to the pipeline's directory; one given on the
     // command line (`--scene PATH`) is not: the user chose it, as they chose the pipeline file, and
@@ -641,7 +673,11 @@ fn load_scene_at(loaded: &LoadedPipeline, pipeline: &ValidatedPipeline, ov: &Ove
 /// The scene facts a render of `loaded` decides with, for `wedge graph` (issue 34 §4: `graph` and
 /// `render` make the same decision): the scene loaded as a render loads it, before any environment
 /// map is read or real layer captured. Refusals that need no scene come first, from [`validate`].
-pub fn graph_scene_facts(loaded: &LoadedPipeline, pipeline: &ValidatedPipeline, ov: &Overrides) -> Result<wedge_graph::SceneFacts, WedgeError> {
+pub fn graph_scene_facts(
+    loaded: &LoadedPipeline,
+    pipeline: &ValidatedPipeline,
+    ov: &Overrides,
+) -> Result<wedge_graph::SceneFacts, WedgeError> {
     let scene = load_scene_at(loaded, pipeline, ov, ov.frame.unwrap_or(0))?;
     Ok(decision_facts(&scene, pipeline))
 }
@@ -651,7 +687,10 @@ pub fn graph_scene_facts(loaded: &LoadedPipeline, pipeline: &ValidatedPipeline, 
 fn decision_facts(scene: &Scene, pipeline: &ValidatedPipeline) -> wedge_graph::SceneFacts {
     let mut facts = scene_facts(scene);
     facts.environment |= pipeline.nodes.iter().any(|n| {
-        n.kind.scene_requests(&n.params).iter().any(|r| matches!(r, SceneRequest::Environment { map, .. } if !map.is_empty()))
+        n.kind
+            .scene_requests(&n.params)
+            .iter()
+            .any(|r| matches!(r, SceneRequest::Environment { map, .. } if !map.is_empty()))
     });
     facts
 }
@@ -703,7 +742,11 @@ pub fn motion_from_spec(scene: &Scene, m: &wedge_graph::MotionSpec) -> RigidMoti
     });
     let (axis, half) = (v(m.axis).normalize_or_zero(), 0.5 * m.rotate_deg.to_radians());
     let half_turn = |a: f32| if axis == Vec3::ZERO { Quat::IDENTITY } else { Quat::from_axis_angle(axis, a) };
-    RigidMotion { pivot, translation: [v(m.translate) * -0.5, v(m.translate) * 0.5], rotation: [half_turn(-half), half_turn(half)] }
+    RigidMotion {
+        pivot,
+        translation: [v(m.translate) * -0.5, v(m.translate) * 0.5],
+        rotation: [half_turn(-half), half_turn(half)],
+    }
 }
 
 /// Apply the pipeline's `motion` entries to the loaded scene; an entry the scene cannot take (no such
@@ -722,14 +765,24 @@ fn apply_motion(scene: &mut Scene, pipeline: &ValidatedPipeline) -> Result<(), W
 /// relative to the pipeline file (or the scene's own, scaled and turned), and a mixed-reality real
 /// layer (unless `ov.without_real_layer`). One of each kind per scene: nodes that ask for different
 /// ones are refused, naming both. Files are confined to the pipeline's directory ([`pipeline_file`]).
-fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: u32, ov: &Overrides) -> Result<(), WedgeError> {
+fn apply_scene_requests(
+    scene: &mut Scene,
+    pipeline: &ValidatedPipeline,
+    frame: u32,
+    ov: &Overrides,
+) -> Result<(), WedgeError> {
     type Asked<'p> = Option<(&'p wedge_graph::ValidatedNode, SceneRequest)>;
     let (mut environment, mut real): (Asked<'_>, Asked<'_>) = (None, None);
     for node in &pipeline.nodes {
         for request in node.kind.scene_requests(&node.params) {
             let (slot, what) = match request {
-                SceneRequest::Environment { .. } => (&mut environment, "one scene has one environment: give both nodes the same map, scale and rotation_deg"),
-                SceneRequest::RealLayer { .. } => (&mut real, "one scene has one real layer: give both nodes the same inputs"),
+                SceneRequest::Environment { .. } => (
+                    &mut environment,
+                    "one scene has one environment: give both nodes the same map, scale and rotation_deg",
+                ),
+                SceneRequest::RealLayer { .. } => {
+                    (&mut real, "one scene has one real layer: give both nodes the same inputs")
+                }
             };
             match slot {
                 Some((first, wanted)) if *wanted != request => {
@@ -748,7 +801,12 @@ fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: 
         apply_environment(scene, pipeline, node, &requested, ov.allow_outside_dir)?;
     }
     if let Some((node, request)) = real.filter(|_| !ov.without_real_layer) {
-        let at = RealLayerAt { camera: &scene.camera, environment: scene.environment.as_ref(), frame, allow_outside_dir: ov.allow_outside_dir };
+        let at = RealLayerAt {
+            camera: &scene.camera,
+            environment: scene.environment.as_ref(),
+            frame,
+            allow_outside_dir: ov.allow_outside_dir,
+        };
         let layer = load_real_layer(pipeline, node, request, &at)?;
         scene.set_real(Some(layer));
     }
@@ -759,7 +817,11 @@ fn apply_scene_requests(scene: &mut Scene, pipeline: &ValidatedPipeline, frame: 
 /// checked that every node asks for the same one).
 fn real_layer_request(pipeline: &ValidatedPipeline) -> Option<(&wedge_graph::ValidatedNode, SceneRequest)> {
     pipeline.nodes.iter().find_map(|node| {
-        node.kind.scene_requests(&node.params).into_iter().find(|r| matches!(r, SceneRequest::RealLayer { .. })).map(|r| (node, r))
+        node.kind
+            .scene_requests(&node.params)
+            .into_iter()
+            .find(|r| matches!(r, SceneRequest::RealLayer { .. }))
+            .map(|r| (node, r))
     })
 }
 
@@ -781,7 +843,8 @@ fn apply_environment(
     allow_outside_dir: bool,
 ) -> Result<(), WedgeError> {
     let EnvironmentRequest { map, scale, rotation_deg, param } = *request;
-    let at = |e: String| WedgeError::Usage(format!("{}: node `{}`, parameter `{param}`: {e}", node.location, node.name));
+    let at =
+        |e: String| WedgeError::Usage(format!("{}: node `{}`, parameter `{param}`: {e}", node.location, node.name));
     let (base, scale, rotation_deg) = if map.is_empty() {
         // The scene's own map, with the node's scale and rotation on top of its own.
         let own = scene.environment.clone().ok_or_else(|| {
@@ -814,7 +877,12 @@ const CAPTURE_SEED: u32 = 0x5eed_ca97;
 /// ([`wedge_scene::Confinement`], symlinks followed): the canonical path. `entry` says where in the
 /// pipeline it is named (`line 12: node `env`, parameter `map` = "../sky.exr"`), for the refusal.
 /// `builtin:` names are not files: the callers keep them away from here.
-pub fn pipeline_file(pipeline_path: &Path, reference: &str, entry: &str, allow_outside: bool) -> Result<PathBuf, SceneError> {
+pub fn pipeline_file(
+    pipeline_path: &Path,
+    reference: &str,
+    entry: &str,
+    allow_outside: bool,
+) -> Result<PathBuf, SceneError> {
     let confinement = Confinement::of_file(pipeline_path, ConfinedTo::Pipeline, allow_outside)?;
     confinement.resolve(pipeline_path, Path::new(reference), entry)
 }
@@ -844,21 +912,26 @@ fn load_real_layer(
     at_frame: &RealLayerAt<'_>,
 ) -> Result<wedge_scene::RealLayer, WedgeError> {
     let &RealLayerAt { camera, environment, frame, allow_outside_dir } = at_frame;
-    let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, albedo, capture, capture_spp } = request else {
+    let SceneRequest::RealLayer { camera_image, position_map, normal_map, albedo_map, albedo, capture, capture_spp } =
+        request
+    else {
         unreachable!("load_real_layer is given RealLayer requests only");
     };
     let at = |e: String| WedgeError::Usage(format!("{}: node `{}`: {e}", node.location, node.name));
     let (width, height) = (pipeline.pipeline.width, pipeline.pipeline.height);
     let maps = [("camera_image", &camera_image), ("position_map", &position_map), ("normal_map", &normal_map)];
     let layer = if !capture.is_empty() {
-        let given: Vec<&str> = maps.iter().chain([&("albedo_map", &albedo_map)]).filter(|(_, v)| !v.is_empty()).map(|(n, _)| *n).collect();
+        let given: Vec<&str> =
+            maps.iter().chain([&("albedo_map", &albedo_map)]).filter(|(_, v)| !v.is_empty()).map(|(n, _)| *n).collect();
         if !given.is_empty() {
             return Err(at(format!("give either `capture` or the maps, not both (also given: {})", given.join(", "))));
         }
         let scene = if capture.starts_with("builtin:") {
             capture.clone()
         } else {
-            pipeline_file(&pipeline.path, &capture, &node_entry(node, "capture", &capture), allow_outside_dir)?.display().to_string()
+            pipeline_file(&pipeline.path, &capture, &node_entry(node, "capture", &capture), allow_outside_dir)?
+                .display()
+                .to_string()
         };
         crate::capture::capture_real_layer(&crate::capture::Capture {
             spec: &scene,
@@ -885,11 +958,19 @@ fn load_real_layer(
         }
         let file = |param: &str, template: &str| -> Result<PathBuf, WedgeError> {
             let name = frame_path(template, frame).map_err(|e| at(format!("parameter `{param}`: {e}")))?;
-            let entry = if name == template { node_entry(node, param, template) } else { format!("{} (frame {frame}: {name:?})", node_entry(node, param, template)) };
+            let entry = if name == template {
+                node_entry(node, param, template)
+            } else {
+                format!("{} (frame {frame}: {name:?})", node_entry(node, param, template))
+            };
             Ok(pipeline_file(&pipeline.path, &name, &entry, allow_outside_dir)?)
         };
         // The camera image first: a missing frame is named by it.
-        let (image, position, normal) = (file("camera_image", &camera_image)?, file("position_map", &position_map)?, file("normal_map", &normal_map)?);
+        let (image, position, normal) = (
+            file("camera_image", &camera_image)?,
+            file("position_map", &position_map)?,
+            file("normal_map", &normal_map)?,
+        );
         let albedo = if albedo_map.is_empty() {
             wedge_scene::RealAlbedo::Constant([albedo as f32; 3])
         } else {
@@ -919,7 +1000,9 @@ pub fn frame_path(template: &str, frame: u32) -> Result<String, String> {
     while let Some(start) = rest.find("{frame") {
         out.push_str(&rest[..start]);
         let after = &rest[start + "{frame".len()..];
-        let end = after.find('}').ok_or_else(|| format!("`{template}`: `{{frame` is not closed; write `{{frame}}` or `{{frame:04}}`"))?;
+        let end = after
+            .find('}')
+            .ok_or_else(|| format!("`{template}`: `{{frame` is not closed; write `{{frame}}` or `{{frame:04}}`"))?;
         let spec = &after[..end];
         let digits = match spec.strip_prefix(":0") {
             None if spec.is_empty() => 0,
@@ -949,14 +1032,23 @@ pub fn scene_bytes(scene: &Scene) -> u64 {
     let environment = scene.environment.as_ref().map_or(0, |e| e.bytes());
     // A mixed-reality real layer: 52 bytes per camera pixel on the CPU (the GPU's 64, as above).
     let real = scene.real.as_ref().map_or(0, |r| r.bytes());
-    of(&scene.triangles) + of(&scene.shading) + scene.bvh.bytes() as u64 + of(&scene.materials) + of(&scene.lights) + texels + motion + environment + real
+    of(&scene.triangles)
+        + of(&scene.shading)
+        + scene.bvh.bytes() as u64
+        + of(&scene.materials)
+        + of(&scene.lights)
+        + texels
+        + motion
+        + environment
+        + real
 }
 
 /// The default memory limit: 3/4 of the memory the kernel reports available (`MemAvailable` of
 /// /proc/meminfo), leaving room for the rest of the system. `None` where it cannot be read.
 pub fn default_memory_limit() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let kib: u64 = text.lines().find_map(|l| l.strip_prefix("MemAvailable:"))?.trim().strip_suffix("kB")?.trim().parse().ok()?;
+    let kib: u64 =
+        text.lines().find_map(|l| l.strip_prefix("MemAvailable:"))?.trim().strip_suffix("kB")?.trim().parse().ok()?;
     Some(kib.saturating_mul(1024) / 4 * 3)
 }
 
@@ -984,7 +1076,9 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
         "M" => 20,
         "G" => 30,
         "T" => 40,
-        _ => return Err(format!("`{s}` has an unknown unit; write bytes or a number with K, M, G or T (e.g. 512M, 8G)")),
+        _ => {
+            return Err(format!("`{s}` has an unknown unit; write bytes or a number with K, M, G or T (e.g. 512M, 8G)"))
+        }
     };
     let n: f64 = number.parse().map_err(|_| format!("`{s}` is not a size; write e.g. 512M, 8G or 1073741824"))?;
     let bytes = n * (1u64 << shift) as f64;
@@ -1144,7 +1238,9 @@ mod tests {
         assert_eq!(frame_path("cam_{frame:04}.exr", 7).unwrap(), "cam_0007.exr");
         assert_eq!(frame_path("f{frame}/p_{frame:02}.exr", 123).unwrap(), "f123/p_123.exr");
         assert_eq!(frame_path("still.exr", 9).unwrap(), "still.exr");
-        for bad in ["cam_{frame.exr", "cam_{frame:4}.exr", "cam_{frame:0}.exr", "cam_{frame:0x}.exr", "cam_{frames}.exr"] {
+        for bad in
+            ["cam_{frame.exr", "cam_{frame:4}.exr", "cam_{frame:0}.exr", "cam_{frame:0x}.exr", "cam_{frames}.exr"]
+        {
             let e = frame_path(bad, 1).unwrap_err();
             assert!(e.contains(bad) && e.contains("{frame:0"), "{bad}: {e}");
         }
@@ -1164,7 +1260,14 @@ mod tests {
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
-            BufferBytes { pool: 960 * px, pass_outputs: 404 * px, sinks: 32 * px, unpooled: 1056 * px, pass_bindings: 816 * px, history: 0 }
+            BufferBytes {
+                pool: 960 * px,
+                pass_outputs: 404 * px,
+                sinks: 32 * px,
+                unpooled: 1056 * px,
+                pass_bindings: 816 * px,
+                history: 0
+            }
         );
         assert_eq!(s.schedule.peak_bytes(640, 480), 1396 * px);
         assert_eq!(s.schedule.peak_bytes(640, 480), 428_851_200);

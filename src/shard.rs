@@ -44,18 +44,12 @@ impl ShardMode {
 pub fn parse_shard(s: &str) -> Result<(u32, u32), String> {
     let usage = || format!("`{s}`: expected I/N, shard I (0..N-1) of N, e.g. 0/2");
     let (i, n) = s.split_once('/').ok_or_else(usage)?;
-    let (i, n) = (
-        i.trim().parse::<u32>().map_err(|_| usage())?,
-        n.trim().parse::<u32>().map_err(|_| usage())?,
-    );
+    let (i, n) = (i.trim().parse::<u32>().map_err(|_| usage())?, n.trim().parse::<u32>().map_err(|_| usage())?);
     if n == 0 {
         return Err(format!("`{s}`: the number of shards must be at least 1"));
     }
     if i >= n {
-        return Err(format!(
-            "`{s}`: shards are numbered from 0, so shard {i} of {n} does not exist; use 0..{}",
-            n - 1
-        ));
+        return Err(format!("`{s}`: shards are numbered from 0, so shard {i} of {n} does not exist; use 0..{}", n - 1));
     }
     Ok((i, n))
 }
@@ -88,12 +82,7 @@ pub fn plan(
 ) -> Result<FramePlan, WedgeError> {
     let all: Vec<u32> = (first..=last).collect();
     let Some(((index, count), mode)) = shard else {
-        return Ok(FramePlan {
-            first,
-            warm_up: Vec::new(),
-            frames: all,
-            history,
-        });
+        return Ok(FramePlan { first, warm_up: Vec::new(), frames: all, history });
     };
     let n = all.len() as u64;
     if u64::from(count) > n {
@@ -126,31 +115,16 @@ mod tests {
     #[test]
     fn shards_cover_the_range_once() {
         for mode in [ShardMode::Stride, ShardMode::Chunks] {
-            let mut seen: Vec<u32> = (0..3)
-                .flat_map(|i| {
-                    plan((5, 14), Some(((i, 3), mode)), false, "p")
-                        .unwrap()
-                        .frames
-                })
-                .collect();
+            let mut seen: Vec<u32> =
+                (0..3).flat_map(|i| plan((5, 14), Some(((i, 3), mode)), false, "p").unwrap().frames).collect();
             seen.sort_unstable();
             assert_eq!(seen, (5..=14).collect::<Vec<_>>());
         }
-        assert_eq!(
-            plan((5, 14), Some(((1, 3), ShardMode::Stride)), false, "p")
-                .unwrap()
-                .frames,
-            vec![6, 9, 12]
-        );
+        assert_eq!(plan((5, 14), Some(((1, 3), ShardMode::Stride)), false, "p").unwrap().frames, vec![6, 9, 12]);
         let chunk = plan((5, 14), Some(((1, 3), ShardMode::Chunks)), true, "p").unwrap();
-        assert_eq!(
-            (chunk.warm_up, chunk.frames),
-            (vec![5, 6, 7], vec![8, 9, 10])
-        );
+        assert_eq!((chunk.warm_up, chunk.frames), (vec![5, 6, 7], vec![8, 9, 10]));
         assert!(plan((5, 14), Some(((1, 3), ShardMode::Stride)), true, "p").is_err());
         assert!(plan((0, 1), Some(((0, 3), ShardMode::Chunks)), false, "p").is_err());
-        assert!(
-            parse_shard("2/2").is_err() && parse_shard("0/0").is_err() && parse_shard("x").is_err()
-        );
+        assert!(parse_shard("2/2").is_err() && parse_shard("0/0").is_err() && parse_shard("x").is_err());
     }
 }

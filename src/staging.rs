@@ -119,7 +119,9 @@ fn kind_name(t: fs::FileType) -> &'static str {
 /// itself is looked at, not what it points to.
 fn refuse_non_regular(dest: &Path) -> Result<(), ImageError> {
     match fs::symlink_metadata(dest) {
-        Ok(m) if !m.file_type().is_file() => Err(ImageError::NotRegularFile { path: dest.to_path_buf(), kind: kind_name(m.file_type()) }),
+        Ok(m) if !m.file_type().is_file() => {
+            Err(ImageError::NotRegularFile { path: dest.to_path_buf(), kind: kind_name(m.file_type()) })
+        }
         _ => Ok(()),
     }
 }
@@ -187,9 +189,9 @@ pub(crate) fn write_file_atomically(
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), ImageError>,
 ) -> Result<(), ImageError> {
     let io_err = |source: io::Error| ImageError::Write { path: path.to_path_buf(), source };
-    let name = path.file_name().ok_or_else(|| {
-        io_err(io::Error::new(io::ErrorKind::InvalidInput, "the path does not end in a file name"))
-    })?;
+    let name = path
+        .file_name()
+        .ok_or_else(|| io_err(io::Error::new(io::ErrorKind::InvalidInput, "the path does not end in a file name")))?;
     refuse_non_regular(path)?;
     let prefix = format!(".{}.{}.", name.to_string_lossy(), std::process::id());
     let tmp = {
@@ -388,7 +390,13 @@ mod tests {
             fs::write(s.file("a.txt").unwrap(), "new a").unwrap();
             fs::write(s.file(name).unwrap(), "new").unwrap();
             let err = s.commit().unwrap_err().to_string();
-            assert!(err.contains(&format!("refusing to write {}: it is a {kind}, not a regular file", d.path().join(name).display())), "{err}");
+            assert!(
+                err.contains(&format!(
+                    "refusing to write {}: it is a {kind}, not a regular file",
+                    d.path().join(name).display()
+                )),
+                "{err}"
+            );
             assert_eq!(fs::read_to_string(d.path().join("a.txt")).unwrap(), "old a", "{name}: nothing moved");
             let err = write_file_atomically(&d.path().join(name), |_| Ok(())).unwrap_err().to_string();
             assert!(err.contains(kind), "{err}");
@@ -406,7 +414,10 @@ mod tests {
         fs::write(&file, "png").unwrap();
         for dir in [file.clone(), file.join("deeper/still")] {
             let err = Staging::new(&dir).err().expect("refused").to_string();
-            assert!(err.contains(&format!("cannot write into {}: it is a regular file, not a directory", file.display())), "{err}");
+            assert!(
+                err.contains(&format!("cannot write into {}: it is a regular file, not a directory", file.display())),
+                "{err}"
+            );
         }
         assert!(check_output_dir(&d.path().join("new/dir")).is_ok());
         assert_eq!(fs::read_to_string(&file).unwrap(), "png");

@@ -49,7 +49,8 @@ impl Grid {
     /// The near-square grid of `n` tiles over a `width × height` image: of the factorisations
     /// `cols × rows = n`, the one whose tiles are closest to square.
     pub fn near_square(n: u32, (width, height): (u32, u32)) -> Grid {
-        let aspect = |c: u32, r: u32| ((f64::from(width) / f64::from(c)) / (f64::from(height) / f64::from(r))).ln().abs();
+        let aspect =
+            |c: u32, r: u32| ((f64::from(width) / f64::from(c)) / (f64::from(height) / f64::from(r))).ln().abs();
         (1..=n.max(1))
             .filter(|c| n.is_multiple_of(*c))
             .map(|c| Grid { cols: c, rows: n / c })
@@ -188,7 +189,9 @@ fn fingerprint(f: impl FnOnce(&mut Fnv) -> std::fmt::Result) -> u64 {
 /// The session's pipeline as it runs: every pass, its kernel, parameters (after `--set`, `--mu`)
 /// and buffers, and the image size.
 pub fn pipeline_hash(session: &Session) -> u64 {
-    fingerprint(|h| write!(h, "{:?}|{:?}|{}x{}", session.schedule.passes, session.schedule.buffers, session.width, session.height))
+    fingerprint(|h| {
+        write!(h, "{:?}|{:?}|{}x{}", session.schedule.passes, session.schedule.buffers, session.width, session.height)
+    })
 }
 
 /// The session's scene: geometry, materials, lights, camera, instances and the environment map's
@@ -240,7 +243,8 @@ impl TilePlan {
 /// The work of rendering every tile of `grid` ([`TaskProgress::work`]: passes × pixels with aprons).
 pub fn work(session: &Session, grid: Grid) -> Result<u64, WedgeError> {
     let passes = session.schedule.passes.len();
-    (0..grid.count()).try_fold(0u64, |sum, i| Ok(sum.saturating_add(TaskProgress::work(passes, plan(session, i, grid)?.pixels()))))
+    (0..grid.count())
+        .try_fold(0u64, |sum, i| Ok(sum.saturating_add(TaskProgress::work(passes, plan(session, i, grid)?.pixels()))))
 }
 
 /// Plan tile `index` of `grid`, or why it cannot be rendered (the grid, a pass reading the whole
@@ -265,7 +269,12 @@ pub fn render_tile(
 }
 
 /// Render a planned tile on `backend`.
-pub fn render_planned(session: &Session, backend: &mut dyn Backend, progress: &dyn Progress, plan: &TilePlan) -> Result<Tile, WedgeError> {
+pub fn render_planned(
+    session: &Session,
+    backend: &mut dyn Backend,
+    progress: &dyn Progress,
+    plan: &TilePlan,
+) -> Result<Tile, WedgeError> {
     let window = wedge_backends::tiles::window_of(plan.grown, (session.width, session.height));
     let run = session.run_window(backend, progress, window, (plan.grown.2, plan.grown.3))?;
     Ok(tile_of(session, plan, &run, session.frame))
@@ -358,12 +367,14 @@ fn header_values(h: &TileHeader) -> [String; 10] {
 /// Write `tile` into `dir` (created if needed) as its tile file, atomically; returns its path.
 pub fn write_tile(dir: &Path, tile: &Tile) -> Result<PathBuf, WedgeError> {
     use exr::prelude::{
-        AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples, Layer, LayerAttributes, LineOrder, Text,
-        WritableImage,
+        AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples, Layer, LayerAttributes,
+        LineOrder, Text, WritableImage,
     };
     crate::staging::create_output_dir(dir)?;
     let path = dir.join(tile.header.file_name());
-    let text = |s: &str| Text::new_or_none(s).ok_or_else(|| WedgeError::Usage(format!("tile header value `{s}` is not plain ASCII")));
+    let text = |s: &str| {
+        Text::new_or_none(s).ok_or_else(|| WedgeError::Usage(format!("tile header value `{s}` is not plain ASCII")))
+    };
     let mut attributes = LayerAttributes::named(text("wedge_tile")?);
     for (name, value) in ATTRS.iter().zip(header_values(&tile.header)) {
         attributes.other.insert(text(name)?, AttributeValue::Text(text(&value)?));
@@ -376,11 +387,15 @@ pub fn write_tile(dir: &Path, tile: &Tile) -> Result<PathBuf, WedgeError> {
         }
     }
     let size = (tile.header.rect.w as usize, tile.header.rect.h as usize);
-    let encoding = Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
+    let encoding =
+        Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
     let layer = Layer::new(size, attributes, encoding, AnyChannels::sort(channels.into()));
     let image = exr::image::Image::from_layer(layer);
     crate::image::write_atomically(&path, |out| {
-        image.write().to_buffered(out).map_err(|e| crate::image::ImageError::Encode { path: path.clone(), reason: e.to_string() })
+        image
+            .write()
+            .to_buffered(out)
+            .map_err(|e| crate::image::ImageError::Encode { path: path.clone(), reason: e.to_string() })
     })?;
     Ok(path)
 }
@@ -420,8 +435,12 @@ pub fn read_tile(path: &Path) -> Result<Tile, WedgeError> {
     Ok(Tile { header, images })
 }
 
-fn parse_header(attr: &dyn Fn(&str) -> Result<String, WedgeError>, bad: &dyn Fn(String) -> WedgeError) -> Result<TileHeader, WedgeError> {
-    let hex = |name: &str| attr(name).and_then(|v| u64::from_str_radix(&v, 16).map_err(|_| bad(format!("`{name}` = `{v}`"))));
+fn parse_header(
+    attr: &dyn Fn(&str) -> Result<String, WedgeError>,
+    bad: &dyn Fn(String) -> WedgeError,
+) -> Result<TileHeader, WedgeError> {
+    let hex =
+        |name: &str| attr(name).and_then(|v| u64::from_str_radix(&v, 16).map_err(|_| bad(format!("`{name}` = `{v}`"))));
     let int = |name: &str| attr(name).and_then(|v| v.parse::<u32>().map_err(|_| bad(format!("`{name}` = `{v}`"))));
     let pair = |name: &str| {
         attr(name).and_then(|v| {
@@ -433,8 +452,11 @@ fn parse_header(attr: &dyn Fn(&str) -> Result<String, WedgeError>, bad: &dyn Fn(
         })
     };
     let rect = attr("wedge_rect")?;
-    let r: Vec<u32> =
-        rect.split(',').map(|p| p.parse::<u32>()).collect::<Result<_, _>>().map_err(|_| bad(format!("`wedge_rect` = `{rect}`")))?;
+    let r: Vec<u32> = rect
+        .split(',')
+        .map(|p| p.parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad(format!("`wedge_rect` = `{rect}`")))?;
     let [x, y, w, h] = r[..] else { return Err(bad(format!("`wedge_rect` = `{rect}`"))) };
     let (cols, rows) = pair("wedge_grid")?;
     Ok(TileHeader {
@@ -467,7 +489,8 @@ pub fn tiled_bytes(session: &Session, mode: RunMode, grid: Grid, apron: u32) -> 
     let (w, h) = (session.width, session.height);
     let grown = |side: u32, n: u32| side.div_ceil(n).saturating_add(2 * apron).min(side);
     let tile = session.memory_estimate_at(mode, (grown(w, grid.cols), grown(h, grid.rows))).total();
-    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL).saturating_add(crate::image::encoder_bytes(w, h))
+    tile.saturating_add(u64::from(w) * u64::from(h) * ASSEMBLED_BYTES_PER_PIXEL)
+        .saturating_add(crate::image::encoder_bytes(w, h))
 }
 
 /// The fewest tiles (near-square grids of 2, 3, 4, … up to [`MAX_AUTO_TILES`]) whose tiled render
@@ -485,7 +508,12 @@ pub fn grid_within(session: &Session, mode: RunMode, limit: u64) -> Result<Optio
 
 /// Render every tile of `grid` in sequence on `backend` and assemble the full images (`color`,
 /// `unfiltered`): the pixels a whole render computes, tile by tile.
-pub fn render_all(session: &Session, backend: &mut dyn Backend, progress: &TaskProgress<'_>, grid: Grid) -> Result<Vec<(String, Image)>, WedgeError> {
+pub fn render_all(
+    session: &Session,
+    backend: &mut dyn Backend,
+    progress: &TaskProgress<'_>,
+    grid: Grid,
+) -> Result<Vec<(String, Image)>, WedgeError> {
     let mut full: Vec<(String, Image)> = Vec::new();
     for index in 0..grid.count() {
         let plan = plan(session, index, grid)?;

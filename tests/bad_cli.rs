@@ -35,7 +35,9 @@ fn fails_with(o: &Output, code: i32, needles: &[&str]) -> String {
 /// Names in `dir` that start with a dot: temporary files or staging directories left behind.
 fn hidden_entries(dir: &Path) -> Vec<String> {
     fs::read_dir(dir)
-        .map(|rd| rd.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with('.')).collect())
+        .map(|rd| {
+            rd.map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with('.')).collect()
+        })
         .unwrap_or_default()
 }
 
@@ -81,10 +83,22 @@ fn bench_suite_and_scene_flags_are_checked_before_running() {
     let p = shadows.to_str().unwrap();
     let out = d.join("suite");
     let o = out.to_str().unwrap();
-    fails_with(&wedge(&["bench", p, "--suite", "--scene", "builtin:grids", "--out", o], d), 2, &["--scene", "--suite", "cannot be used"]);
+    fails_with(
+        &wedge(&["bench", p, "--suite", "--scene", "builtin:grids", "--out", o], d),
+        2,
+        &["--scene", "--suite", "cannot be used"],
+    );
     fails_with(&wedge(&["bench", p, "--suite-scenes", "grids", "--out", o], d), 2, &["--suite"]);
-    fails_with(&wedge(&["bench", p, "--suite", "--suite-scenes", "grids,nope", "--out", o], d), 1, &["`nope` is not a built-in scene", "suite_grate"]);
-    fails_with(&wedge(&["bench", p, "--scene", "no_such_file.gltf", "--quick", "--out", o], d), 1, &["no_such_file.gltf"]);
+    fails_with(
+        &wedge(&["bench", p, "--suite", "--suite-scenes", "grids,nope", "--out", o], d),
+        1,
+        &["`nope` is not a built-in scene", "suite_grate"],
+    );
+    fails_with(
+        &wedge(&["bench", p, "--scene", "no_such_file.gltf", "--quick", "--out", o], d),
+        1,
+        &["no_such_file.gltf"],
+    );
     assert!(!out.join("suite.md").exists(), "nothing written by refused runs");
 }
 
@@ -92,7 +106,10 @@ fn bench_suite_and_scene_flags_are_checked_before_running() {
 #[test]
 fn unknown_aov_names_list_the_valid_ones() {
     let dir = tempfile::tempdir().unwrap();
-    let o = wedge(&["render", "--width", "8", "--height", "8", "--out", dir.path().to_str().unwrap(), "--aov", "position,depth"], repo());
+    let o = wedge(
+        &["render", "--width", "8", "--height", "8", "--out", dir.path().to_str().unwrap(), "--aov", "position,depth"],
+        repo(),
+    );
     fails_with(&o, 2, &["invalid value 'depth' for '--aov <NAMES>'", "position, normal, albedo"]);
     assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0, "nothing written");
 }
@@ -107,7 +124,10 @@ fn threads_are_capped_at_four_times_the_cores() {
         fails_with(&wedge(&["render", "--threads", n], dir.path()), 2, &["'--threads <THREADS>'", &cap, "4 ×"]);
     }
     let out = dir.path().join("out");
-    let o = wedge(&["render", "--threads", "1", "--width", "16", "--height", "12", "--out", out.to_str().unwrap()], dir.path());
+    let o = wedge(
+        &["render", "--threads", "1", "--width", "16", "--height", "12", "--out", out.to_str().unwrap()],
+        dir.path(),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
@@ -125,7 +145,18 @@ fn memory_limit_refuses_before_allocating_and_graph_prints_the_estimate() {
     fails_with(&wedge(&["render", "--memory-limit", "8X"], d), 2, &["'--memory-limit <SIZE>'", "unknown unit"]);
     fails_with(&wedge(&["render", "--memory-limit", "0"], d), 2, &["'--memory-limit <SIZE>'"]);
     fails_with(
-        &wedge(&["bench", repo().join("pipelines/shadows.ron").to_str().unwrap(), "--quick", "--memory-limit", "1M", "--out", "b"], d),
+        &wedge(
+            &[
+                "bench",
+                repo().join("pipelines/shadows.ron").to_str().unwrap(),
+                "--quick",
+                "--memory-limit",
+                "1M",
+                "--out",
+                "b",
+            ],
+            d,
+        ),
         1,
         &["more than the memory limit of 1.0 MiB (--memory-limit)"],
     );
@@ -231,12 +262,20 @@ fn symlinked_outputs_are_refused_and_their_targets_untouched() {
     let before_exr = fs::read(&exr).unwrap();
     std::os::unix::fs::symlink(&precious, d.join("link.png")).unwrap();
     let e = exr.to_str().unwrap();
-    fails_with(&wedge(&["compare", e, e, "--heatmap", "link.png"], d), 1, &["refusing to write link.png", "symbolic link"]);
+    fails_with(
+        &wedge(&["compare", e, e, "--heatmap", "link.png"], d),
+        1,
+        &["refusing to write link.png", "symbolic link"],
+    );
     assert!(fs::symlink_metadata(d.join("link.png")).unwrap().file_type().is_symlink());
     // A render whose set contains a link: refused as a whole, the rest of the old set stays.
     fs::remove_file(out.join("render.png")).unwrap();
     std::os::unix::fs::symlink(&precious, out.join("render.png")).unwrap();
-    fails_with(&wedge(&["render", "--width", "16", "--height", "12", "--seed", "9", "--out", "out"], d), 1, &["render.png", "symbolic link"]);
+    fails_with(
+        &wedge(&["render", "--width", "16", "--height", "12", "--seed", "9", "--out", "out"], d),
+        1,
+        &["render.png", "symbolic link"],
+    );
     assert_eq!(fs::read(&exr).unwrap(), before_exr, "render.exr not replaced: the set is all-or-nothing");
     assert_eq!(fs::read_to_string(&precious).unwrap(), "keep me");
     assert_eq!(hidden_entries(&out), Vec::<String>::new());
@@ -343,7 +382,13 @@ fn char_device(path: &Path) -> bool {
 
 #[cfg(unix)]
 fn fifo(path: &Path) {
-    assert_eq!(unsafe { libc::mkfifo(c_path(path).as_ptr(), 0o644) }, 0, "mkfifo {}: {}", path.display(), std::io::Error::last_os_error());
+    assert_eq!(
+        unsafe { libc::mkfifo(c_path(path).as_ptr(), 0o644) },
+        0,
+        "mkfifo {}: {}",
+        path.display(),
+        std::io::Error::last_os_error()
+    );
 }
 
 #[cfg(unix)]
@@ -358,7 +403,8 @@ fn is_fifo(path: &Path) -> bool {
 
 /// Names in `dir`, sorted.
 fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut v: Vec<String> =
+        fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     v.sort();
     v
 }
@@ -383,7 +429,8 @@ fn compare_refuses_a_heatmap_over_a_device_a_fifo_a_directory_or_an_input() {
     let before = (fs::read(&a).unwrap(), fs::read(&b).unwrap());
     let compare = |heatmap: &str| wedge(&["compare", "a.exr", "b.exr", "--heatmap", heatmap], d);
     if char_device(&d.join("full")) {
-        let err = fails_with(&compare("full"), 1, &["refusing to write full: it is a character device, not a regular file"]);
+        let err =
+            fails_with(&compare("full"), 1, &["refusing to write full: it is a character device, not a regular file"]);
         assert!(!err.contains("wrote"), "{err}");
         assert!(is_char_device(&d.join("full")), "still a device");
     }
@@ -394,7 +441,9 @@ fn compare_refuses_a_heatmap_over_a_device_a_fifo_a_directory_or_an_input() {
     fails_with(&compare("dir.png"), 1, &["refusing to write dir.png: it is a directory"]);
     // An input under its own name, another spelling of it, and a hard link to it.
     fs::hard_link(&b, d.join("same_as_b.png")).unwrap();
-    for (heatmap, input) in [("a.exr", "a.exr"), ("./a.exr", "a.exr"), (a.to_str().unwrap(), "a.exr"), ("same_as_b.png", "b.exr")] {
+    for (heatmap, input) in
+        [("a.exr", "a.exr"), ("./a.exr", "a.exr"), (a.to_str().unwrap(), "a.exr"), ("same_as_b.png", "b.exr")]
+    {
         let o = compare(heatmap);
         fails_with(&o, 1, &[&format!("refusing to write {heatmap}: it is the input {input} (the same file)")]);
         assert!(o.stdout.is_empty(), "nothing printed: the metrics are not even computed");
@@ -448,7 +497,11 @@ fn export_scene_refuses_a_device_node_in_its_set() {
         fifo(&node);
         "FIFO (named pipe)"
     };
-    fails_with(&wedge(&["export-scene", "--out", out.to_str().unwrap()], repo()), 1, &[&format!("scene.json: it is a {kind}, not a regular file")]);
+    fails_with(
+        &wedge(&["export-scene", "--out", out.to_str().unwrap()], repo()),
+        1,
+        &[&format!("scene.json: it is a {kind}, not a regular file")],
+    );
     assert!(is_char_device(&node) || is_fifo(&node), "still a {kind}");
     assert_eq!(names(&out), ["scene.json"], "scene.obj, scene.mtl not written either");
 }
@@ -480,7 +533,11 @@ fn out_naming_a_file_or_a_device_says_it_is_not_a_directory() {
     assert_eq!(names(d), ["taken.png"]);
     #[cfg(unix)]
     if char_device(&d.join("full")) {
-        fails_with(&wedge(&["render", "--out", "full"], d), 1, &["cannot write into full: it is a character device, not a directory"]);
+        fails_with(
+            &wedge(&["render", "--out", "full"], d),
+            1,
+            &["cannot write into full: it is a character device, not a directory"],
+        );
         assert!(is_char_device(&d.join("full")));
     }
 }
@@ -494,13 +551,20 @@ fn negative_sizes_and_bad_set_targets_are_named() {
     let err = fails_with(
         &wedge(&["render", "--set", "shadowz.mu=2"], d),
         1,
-        &["--set shadowz.mu: node `shadowz` does not exist in", "did you mean `shadows`?", "its nodes are: primary, shadows, out"],
+        &[
+            "--set shadowz.mu: node `shadowz` does not exist in",
+            "did you mean `shadows`?",
+            "its nodes are: primary, shadows, out",
+        ],
     );
     assert!(!err.contains("declares parameter"), "{err}");
     fails_with(
         &wedge(&["parity", "--set", "shadows.muu=2"], d),
         1,
-        &["--set shadows.muu: node `shadows` (kind SoftShadows) has no parameter `muu`; did you mean `mu`?", "max_rays"],
+        &[
+            "--set shadows.muu: node `shadows` (kind SoftShadows) has no parameter `muu`; did you mean `mu`?",
+            "max_rays",
+        ],
     );
     // An integer beyond i64 is out of the parameter's range, not of the wrong type.
     let err = fails_with(
@@ -509,13 +573,27 @@ fn negative_sizes_and_bad_set_targets_are_named() {
         &["--set shadows.max_rays: max_rays = 1e23 is out of range; it must satisfy 1 <= max_rays <= 1048576"],
     );
     assert!(!err.contains("wrong type"), "{err}");
-    fails_with(&wedge(&["render", "--set", "shadows.max_rays=-99999999999999999999999"], d), 1, &["max_rays = -1e23 is out of range"]);
-    fails_with(&wedge(&["render", "--set", "shadows.max_rays=2000000"], d), 1, &["max_rays = 2000000 is out of range; it must satisfy 1 <= max_rays <= 1048576"]);
+    fails_with(
+        &wedge(&["render", "--set", "shadows.max_rays=-99999999999999999999999"], d),
+        1,
+        &["max_rays = -1e23 is out of range"],
+    );
+    fails_with(
+        &wedge(&["render", "--set", "shadows.max_rays=2000000"], d),
+        1,
+        &["max_rays = 2000000 is out of range; it must satisfy 1 <= max_rays <= 1048576"],
+    );
     // The same integer written in a pipeline file (RON reads it as a float too).
-    let text = fs::read_to_string(repo().join("pipelines/shadows.ron")).unwrap().replace(r#""max_rays": 16"#, r#""max_rays": 99999999999999999999999"#);
+    let text = fs::read_to_string(repo().join("pipelines/shadows.ron"))
+        .unwrap()
+        .replace(r#""max_rays": 16"#, r#""max_rays": 99999999999999999999999"#);
     let big = d.join("big.ron");
     fs::write(&big, text).unwrap();
-    let err = fails_with(&wedge(&["graph", "big.ron"], d), 1, &["big.ron:14:", "max_rays = 1e23 is out of range; it must satisfy 1 <= max_rays <= 1048576"]);
+    let err = fails_with(
+        &wedge(&["graph", "big.ron"], d),
+        1,
+        &["big.ron:14:", "max_rays = 1e23 is out of range; it must satisfy 1 <= max_rays <= 1048576"],
+    );
     assert!(!err.contains("wrong type"), "{err}");
     fs::remove_file(big).unwrap();
     assert_eq!(names(d), Vec::<String>::new(), "nothing written");
@@ -544,7 +622,18 @@ fn threads_one_holds_while_the_mixed_reality_capture_runs() {
     let out = dir.path().join("mr");
     let pipeline = repo().join("pipelines/mixed_reality.ron");
     let mut child = Command::new(env!("CARGO_BIN_EXE_wedge"))
-        .args(["render", pipeline.to_str().unwrap(), "--threads", "1", "--width", "64", "--height", "48", "--out", out.to_str().unwrap()])
+        .args([
+            "render",
+            pipeline.to_str().unwrap(),
+            "--threads",
+            "1",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()

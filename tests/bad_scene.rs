@@ -40,7 +40,10 @@ fn refused(scene: &str, fragments: &[&str]) {
 
 #[test]
 fn gltf_inputs_that_panicked_the_gltf_crate_exit_1() {
-    refused("position_index_out_of_range.gltf", &["meshes[0].primitives[0].attributes.POSITION = 7 but the file has 3 accessors"]);
+    refused(
+        "position_index_out_of_range.gltf",
+        &["meshes[0].primitives[0].attributes.POSITION = 7 but the file has 3 accessors"],
+    );
     refused("stride_smaller_than_element.gltf", &["bufferViews[0].byteStride is 4", "set byteStride to at least 12"]);
     refused("indices_float.gltf", &["meshes[0].primitives[0].indices must be SCALAR of UNSIGNED_BYTE"]);
     refused("texcoord_unsigned_int.gltf", &["attributes.TEXCOORD_0 must be VEC2 of FLOAT"]);
@@ -48,13 +51,19 @@ fn gltf_inputs_that_panicked_the_gltf_crate_exit_1() {
 
 #[test]
 fn gltf_node_cycle_exits_1() {
-    refused("node_cycle.gltf", &["nodes[0].children[0] = 0 reaches nodes[0] a second time", "make the node hierarchy a tree"]);
+    refused(
+        "node_cycle.gltf",
+        &["nodes[0].children[0] = 0 reaches nodes[0] a second time", "make the node hierarchy a tree"],
+    );
 }
 
 #[test]
 fn degenerate_scene_cameras_exit_1() {
     refused("camera_negative_yfov.gltf", &["cameras[0].perspective.yfov is -0.5 radians", "0 < yfov < π"]);
-    refused("camera_look_at_position.ron", &["camera: look_at [0, 1, 3] and position [0, 1, 3] give no view direction"]);
+    refused(
+        "camera_look_at_position.ron",
+        &["camera: look_at [0, 1, 3] and position [0, 1, 3] give no view direction"],
+    );
     refused("camera_up_parallel.ron", &["camera: up [0, 1, 0] is parallel to the view direction"]);
     refused("camera_fov_180.ron", &["camera: vfov_deg 180 is outside 0 < vfov_deg < 180"]);
 }
@@ -91,7 +100,17 @@ fn a_scene_without_lights_says_so() {
     let out = dir.path().join("out");
     // The default pipeline filters the shadows of light 0.
     let o = Command::new(env!("CARGO_BIN_EXE_wedge"))
-        .args(["render", "--width", "16", "--height", "12", "--scene", obj.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "render",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--scene",
+            obj.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .current_dir(repo())
         .output()
         .unwrap();
@@ -126,7 +145,10 @@ fn sampling_every_light_of_a_scene_without_lights_warns() {
     let o = run(Some("pipelines/indirect.ron"));
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(err.contains("has no area light (no emissive triangles) and no environment map: light sampling adds nothing"), "{err}");
+    assert!(
+        err.contains("has no area light (no emissive triangles) and no environment map: light sampling adds nothing"),
+        "{err}"
+    );
     let o = run(None);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");

@@ -32,7 +32,8 @@ fn check_csv(r: &BenchResult) {
     assert_eq!(rows.len(), 2 * 2 + 3 + 3 + 1, "{text}");
     assert_eq!(rows.len(), r.runs.len());
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let count = |method: &str, role: &str| rows.iter().filter(|x| x[col("method")] == method && x[col("role")] == role).count();
+    let count =
+        |method: &str, role: &str| rows.iter().filter(|x| x[col("method")] == method && x[col("role")] == role).count();
     assert_eq!(count("pipeline", "sweep"), 2);
     assert_eq!(count("pipeline", "seed2"), 2);
     assert_eq!(count("independent", "curve"), 3);
@@ -45,7 +46,17 @@ fn check_csv(r: &BenchResult) {
     };
     for row in &rows {
         assert_eq!(row.len(), header.len());
-        for name in ["rays_per_pixel", "shadow_rays_per_pixel", "time_total_s", "time_sampling_s", "rmse", "rel_mse", "psnr_db", "smape", "flip"] {
+        for name in [
+            "rays_per_pixel",
+            "shadow_rays_per_pixel",
+            "time_total_s",
+            "time_sampling_s",
+            "rmse",
+            "rel_mse",
+            "psnr_db",
+            "smape",
+            "flip",
+        ] {
             finite(row, name);
         }
         assert!(finite(row, "rmse") > 0.0);
@@ -54,7 +65,15 @@ fn check_csv(r: &BenchResult) {
         assert!(finite(row, "rays_per_pixel") >= 1.0);
     }
     for row in rows.iter().filter(|x| x[col("role")] == "sweep") {
-        for name in ["variance", "bias2", "filter_overhead", "speedup_rays_vs_independent", "speedup_time_vs_independent", "speedup_rays_vs_stratified", "speedup_time_vs_stratified"] {
+        for name in [
+            "variance",
+            "bias2",
+            "filter_overhead",
+            "speedup_rays_vs_independent",
+            "speedup_time_vs_independent",
+            "speedup_rays_vs_stratified",
+            "speedup_time_vs_stratified",
+        ] {
             assert!(finite(row, name) >= 0.0, "{name}");
         }
         assert!(["true", "false"].contains(&row[col("extrapolated_vs_independent")].as_str()));
@@ -146,7 +165,8 @@ fn quick_bench_writes_everything_and_caches_the_reference() {
         first.reference.obtain_seconds
     );
     assert!(second.seconds < first.seconds, "{} vs {}", second.seconds, first.seconds);
-    let rmses = |r: &BenchResult| r.runs.iter().filter(|x| x.role == Role::Sweep).map(|x| x.metrics.rmse).collect::<Vec<_>>();
+    let rmses =
+        |r: &BenchResult| r.runs.iter().filter(|x| x.role == Role::Sweep).map(|x| x.metrics.rmse).collect::<Vec<_>>();
     assert_eq!(rmses(&second), rmses(&first));
     let report = std::fs::read_to_string(&second.report).unwrap();
     assert!(report.contains("loaded from the cache"));
@@ -206,7 +226,13 @@ fn suite_smoke_two_scenes() {
     assert!(r.rows.iter().all(|x| x.speedup_vs_stratified >= r.rows[worst].speedup_vs_stratified));
     // Files: table with both rows, median and worst; CSV; JSON; chart.
     let md = std::fs::read_to_string(&r.table).unwrap();
-    for needle in ["[suite_contact](suite_contact/report.md)", "[suite_slats](suite_slats/report.md)", "| **median** |", "| **worst: ", "suite_speedup.png"] {
+    for needle in [
+        "[suite_contact](suite_contact/report.md)",
+        "[suite_slats](suite_slats/report.md)",
+        "| **median** |",
+        "| **worst: ",
+        "suite_speedup.png",
+    ] {
         assert!(md.contains(needle), "suite.md lacks {needle:?}:\n{md}");
     }
     let csv = std::fs::read_to_string(&r.csv).unwrap();
@@ -220,7 +246,8 @@ fn suite_smoke_two_scenes() {
     assert_eq!(w, wedge::bench::plots::PLOT_WIDTH);
     assert!(h >= wedge::bench::plots::PLOT_HEIGHT);
 
-    let refused = run_suite(&BenchOptions { scene: Some("builtin:grids".into()), ..opts.clone() }, &scenes).unwrap_err();
+    let refused =
+        run_suite(&BenchOptions { scene: Some("builtin:grids".into()), ..opts.clone() }, &scenes).unwrap_err();
     assert!(refused.to_string().contains("--scene"), "{refused}");
 }
 
@@ -238,7 +265,10 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     assert_eq!(family_of(&reg, &pipeline).unwrap(), SuiteFamily::Defocus);
     assert_eq!(family_of(&reg, &root.join("pipelines/shadows.ron")).unwrap(), SuiteFamily::Shadows);
     assert_eq!(family_of(&reg, &root.join("pipelines/motion_shadows_indirect.ron")).unwrap(), SuiteFamily::Motion);
-    assert!(lens_params(&reg, &root.join("pipelines/motion.ron"), "builtin:dof_tiny").unwrap().is_empty(), "Motion takes no lens");
+    assert!(
+        lens_params(&reg, &root.join("pipelines/motion.ron"), "builtin:dof_tiny").unwrap().is_empty(),
+        "Motion takes no lens"
+    );
     let scenes = family_scenes(SuiteFamily::Defocus);
     assert!(scenes.len() >= 8, "{scenes:?}");
     for s in &scenes {
@@ -263,7 +293,13 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     assert!(row.rmse.is_finite() && row.rays_per_pixel > 1.0);
     assert!(row.error_home.contains("focus") && row.error_home.contains('%'), "{}", row.error_home);
     let report = std::fs::read_to_string(dir.path().join("dof_foreground/report.md")).unwrap();
-    for needle in ["Where the error lives", "| focus | out of focus |", "| texture | texture edge |", "error_bias2.png", "error_variance.png"] {
+    for needle in [
+        "Where the error lives",
+        "| focus | out of focus |",
+        "| texture | texture edge |",
+        "error_bias2.png",
+        "error_variance.png",
+    ] {
         assert!(report.contains(needle), "report lacks {needle:?}:\n{report}");
     }
     let md = std::fs::read_to_string(&r.table).unwrap();
@@ -296,7 +332,10 @@ fn environment_suite_smoke_runs_each_scene_under_its_own_map() {
     let scenes = family_scenes(SuiteFamily::Environment);
     assert!(scenes.len() >= 8, "{scenes:?}");
     for s in &scenes {
-        assert!(wedge::scene::builtin::describe(s.strip_prefix("builtin:").unwrap()).is_some(), "{s} has no description");
+        assert!(
+            wedge::scene::builtin::describe(s.strip_prefix("builtin:").unwrap()).is_some(),
+            "{s} has no description"
+        );
     }
     let dir = tempfile::tempdir().unwrap();
     let opts = tiny_suite(pipeline, dir.path());

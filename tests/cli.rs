@@ -34,17 +34,24 @@ fn render_writes_image_unfiltered_and_heatmaps() {
     assert!(o.status.success(), "{stdout}{stderr}");
     assert!(stdout.contains("rays per pixel"), "{stdout}");
     assert!(stdout.contains("shadows.filter_x"), "per-pass times: {stdout}");
-    for f in ["render.exr", "render.png", "unfiltered.exr", "unfiltered.png", "filter_width.png", "rays_per_pixel.png"] {
+    for f in ["render.exr", "render.png", "unfiltered.exr", "unfiltered.png", "filter_width.png", "rays_per_pixel.png"]
+    {
         let p = out.join(f);
         assert!(p.metadata().map(|m| m.len() > 0).unwrap_or(false), "missing {f}");
     }
     let img = wedge::image::read_exr(&out.join("render.exr")).unwrap();
     assert_eq!((img.width, img.height), (64, 48));
     // Reference of the same scene, then compare: the same file against itself is exact.
-    let o = wedge(&["reference", "--spp", "16", "--width", "64", "--height", "48", "--out", out.to_str().unwrap()], dir.path());
+    let o = wedge(
+        &["reference", "--spp", "16", "--width", "64", "--height", "48", "--out", out.to_str().unwrap()],
+        dir.path(),
+    );
     assert!(o.status.success(), "{:?}", text(&o));
     let r = out.join("reference.exr");
-    let o = wedge(&["compare", r.to_str().unwrap(), r.to_str().unwrap(), "--heatmap", out.join("e.png").to_str().unwrap()], dir.path());
+    let o = wedge(
+        &["compare", r.to_str().unwrap(), r.to_str().unwrap(), "--heatmap", out.join("e.png").to_str().unwrap()],
+        dir.path(),
+    );
     let (stdout, _) = text(&o);
     assert!(o.status.success());
     assert!(stdout.contains("RMSE    0.000000"), "{stdout}");
@@ -57,12 +64,29 @@ fn graph_prints_schedule_and_dot() {
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stderr}");
     // SoftShadows samples through the shared sampler (node `sampler`, SAMPLER-STAGE.md §4).
-    for pass in ["primary.gbuffer", "sampler.first", "shadows.bandwidth", "shadows.rates", "sampler.counts_paths", "sampler.adaptive", "shadows.filter_x", "shadows.filter_y", "shadows.compose"] {
+    for pass in [
+        "primary.gbuffer",
+        "sampler.first",
+        "shadows.bandwidth",
+        "shadows.rates",
+        "sampler.counts_paths",
+        "sampler.adaptive",
+        "shadows.filter_x",
+        "shadows.filter_y",
+        "shadows.compose",
+    ] {
         assert!(stdout.contains(pass), "{pass} missing from\n{stdout}");
     }
     // The stage column, and random passes marked.
     assert!(stdout.contains("stage") && stdout.contains("(random)"), "{stdout}");
-    for (stage, pass) in [("sample", "sampler.first"), ("bandwidth", "shadows.rates"), ("counts", "sampler.counts_paths"), ("adaptive", "sampler.adaptive"), ("filter", "shadows.filter_y"), ("compose", "shadows.compose")] {
+    for (stage, pass) in [
+        ("sample", "sampler.first"),
+        ("bandwidth", "shadows.rates"),
+        ("counts", "sampler.counts_paths"),
+        ("adaptive", "sampler.adaptive"),
+        ("filter", "shadows.filter_y"),
+        ("compose", "shadows.compose"),
+    ] {
         assert!(stdout.lines().any(|l| l.contains(&format!("{stage:12}  {pass} "))), "{stage} {pass} in\n{stdout}");
     }
     let o = wedge(&["graph", "pipelines/shadows.ron", "--dot"], repo());
@@ -76,7 +100,18 @@ fn reference_takes_set_overrides() {
     // template knew only a fixed list of the Indirect node's).
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let args = ["reference", "pipelines/indirect.ron", "--set", "indirect.bounces=3", "--spp", "2", "--width", "16", "--height", "12"];
+    let args = [
+        "reference",
+        "pipelines/indirect.ron",
+        "--set",
+        "indirect.bounces=3",
+        "--spp",
+        "2",
+        "--width",
+        "16",
+        "--height",
+        "12",
+    ];
     let o = wedge(&[&args[..], &["--out", out.to_str().unwrap()]].concat(), repo());
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stdout}{stderr}");
@@ -96,7 +131,11 @@ fn bad_inputs_fail_with_clear_errors() {
     .unwrap();
     fails_cleanly(&wedge(&["render", "bad.ron"], d), &["bad.ron:3:", "Primary"]);
     // Unknown field.
-    std::fs::write(d.join("field.ron"), "Pipeline(scene: \"builtin:grids\", width: 8, height: 8, colour: 1, nodes: [])\n").unwrap();
+    std::fs::write(
+        d.join("field.ron"),
+        "Pipeline(scene: \"builtin:grids\", width: 8, height: 8, colour: 1, nodes: [])\n",
+    )
+    .unwrap();
     fails_cleanly(&wedge(&["graph", "field.ron"], d), &["field.ron:1:", "colour"]);
     // Missing pipeline, scene, EXR.
     fails_cleanly(&wedge(&["render", "nope.ron"], d), &["nope.ron"]);
@@ -125,13 +164,32 @@ fn render_aov_maps_load_as_a_real_layer() {
     let out = dir.path().join("out");
     let (w, h) = (64u32, 48u32);
     let o = wedge(
-        &["render", "pipelines/environment.ron", "--scene", "envmap_real", "--width", "64", "--height", "48", "--out", out.to_str().unwrap(), "--aov", "position,normal,albedo"],
+        &[
+            "render",
+            "pipelines/environment.ron",
+            "--scene",
+            "envmap_real",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--out",
+            out.to_str().unwrap(),
+            "--aov",
+            "position,normal,albedo",
+        ],
         repo(),
     );
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stdout}{stderr}");
     assert!(stdout.contains("AOVs aov_position, aov_normal, aov_albedo in"), "{stdout}");
-    let layer = RealLayer::open(&out.join("render.exr"), &out.join("aov_position.exr"), &out.join("aov_normal.exr"), RealAlbedo::Map(out.join("aov_albedo.exr"))).unwrap();
+    let layer = RealLayer::open(
+        &out.join("render.exr"),
+        &out.join("aov_position.exr"),
+        &out.join("aov_normal.exr"),
+        RealAlbedo::Map(out.join("aov_albedo.exr")),
+    )
+    .unwrap();
     assert_eq!((layer.width(), layer.height()), (w, h));
     let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("envmap_real".into())).unwrap();
     let aovs = wedge::aov::Aovs::render(&scene, w, h).unwrap();
@@ -153,7 +211,22 @@ fn render_aov_maps_load_as_a_real_layer() {
     assert_eq!(layer.normal(w / 2, h - 1).to_array(), [0.0, 1.0, 0.0]);
 
     let only = dir.path().join("only");
-    let o = wedge(&["render", "--width", "32", "--height", "24", "--frames", "0..1", "--out", only.to_str().unwrap(), "--aov", "albedo"], repo());
+    let o = wedge(
+        &[
+            "render",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--frames",
+            "0..1",
+            "--out",
+            only.to_str().unwrap(),
+            "--aov",
+            "albedo",
+        ],
+        repo(),
+    );
     assert!(o.status.success(), "{:?}", text(&o));
     assert!(only.join("aov_albedo.exr").is_file());
     assert!(only.join("aov_albedo_0000.exr").is_file() && only.join("aov_albedo_0001.exr").is_file());
@@ -172,21 +245,36 @@ fn bench_suite_quick_and_bench_scene() {
     let out = dir.path().join("suite");
     let pipeline = repo().join("pipelines/shadows.ron");
     let common = ["--quick", "--width", "32", "--height", "24", "--reference-spp", "32"];
-    let mut args = vec!["bench", pipeline.to_str().unwrap(), "--suite", "--suite-scenes", "suite_grate,builtin:curved", "--out", out.to_str().unwrap()];
+    let mut args = vec![
+        "bench",
+        pipeline.to_str().unwrap(),
+        "--suite",
+        "--suite-scenes",
+        "suite_grate,builtin:curved",
+        "--out",
+        out.to_str().unwrap(),
+    ];
     args.extend(common);
     let o = wedge(&args, dir.path());
     let (stdout, stderr) = text(&o);
     assert!(o.status.success(), "{stdout}{stderr}");
     assert!(stdout.contains("suite of 2 scenes: median") && stdout.contains("worst: `"), "{stdout}");
     let md = std::fs::read_to_string(out.join("suite.md")).unwrap();
-    for needle in ["[suite_grate](suite_grate/report.md)", "[curved](curved/report.md)", "| **median** |", "| **worst: ", "quick mode"] {
+    for needle in [
+        "[suite_grate](suite_grate/report.md)",
+        "[curved](curved/report.md)",
+        "| **median** |",
+        "| **worst: ",
+        "quick mode",
+    ] {
         assert!(md.contains(needle), "suite.md lacks {needle:?}:\n{md}");
     }
     for f in ["suite.csv", "suite.json", "suite_speedup.png", "suite_grate/report.md", "curved/bench.csv"] {
         assert!(out.join(f).exists(), "{f}");
     }
     let one = dir.path().join("one");
-    let mut args = vec!["bench", pipeline.to_str().unwrap(), "--scene", "suite_contact", "--out", one.to_str().unwrap()];
+    let mut args =
+        vec!["bench", pipeline.to_str().unwrap(), "--scene", "suite_contact", "--out", one.to_str().unwrap()];
     args.extend(common);
     let o = wedge(&args, dir.path());
     assert!(o.status.success(), "{:?}", text(&o));
@@ -204,21 +292,37 @@ fn a_sequence_the_memory_limit_cannot_hold_is_refused_up_front() {
     let pipeline = repo().join("pipelines/environment_temporal.ron");
     let size = ["--width", "320", "--height", "240"];
     let out = dir.path().join("seq");
-    let mut args = vec!["render", pipeline.to_str().unwrap(), "--frames", "0..99999", "--memory-limit", "124M", "--out", out.to_str().unwrap()];
+    let mut args = vec![
+        "render",
+        pipeline.to_str().unwrap(),
+        "--frames",
+        "0..99999",
+        "--memory-limit",
+        "124M",
+        "--out",
+        out.to_str().unwrap(),
+    ];
     args.extend(size);
     let o = wedge(&args, dir.path());
     fails_cleanly(&o, &["more than the memory limit of 124.0 MiB (--memory-limit)", "estimated 128.0 MiB"]);
     assert!(!out.exists(), "nothing written for a refused sequence");
     // The single-frame estimate of the same size is below the limit: the sequence's share is what refused it.
-    let single = wedge::session::Session::open(Some(&pipeline), &wedge::session::Overrides { width: Some(320), height: Some(240), ..Default::default() })
-        .unwrap()
-        .memory_estimate(wedge::session::RunMode::Cpu);
+    let single = wedge::session::Session::open(
+        Some(&pipeline),
+        &wedge::session::Overrides { width: Some(320), height: Some(240), ..Default::default() },
+    )
+    .unwrap()
+    .memory_estimate(wedge::session::RunMode::Cpu);
     assert!(single.total() < 124 << 20, "{single:?}");
 
     let many = dir.path().join("many");
-    let o = wedge(&["render", "--width", "8", "--height", "6", "--frames", "0..39", "--out", many.to_str().unwrap()], repo());
+    let o = wedge(
+        &["render", "--width", "8", "--height", "6", "--frames", "0..39", "--out", many.to_str().unwrap()],
+        repo(),
+    );
     assert!(o.status.success(), "{:?}", text(&o));
-    assert!((0..40).all(|f| many.join(format!("frame_{f:04}.exr")).is_file() && many.join(format!("frame_{f:04}.png")).is_file()));
+    assert!((0..40)
+        .all(|f| many.join(format!("frame_{f:04}.exr")).is_file() && many.join(format!("frame_{f:04}.png")).is_file()));
     let file = std::fs::File::open(many.join("preview.gif")).unwrap();
     let mut gif = gif::DecodeOptions::new().read_info(file).unwrap();
     let mut frames = 0;

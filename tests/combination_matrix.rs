@@ -15,7 +15,6 @@
 
 mod common;
 
-
 use common::*;
 use wedge::backends::gpu::GpuBackend;
 use wedge::backends::parity::run_parity;
@@ -57,22 +56,68 @@ struct Effect {
 }
 
 const EFFECTS: [Effect; 9] = [
-    Effect { key: "shadows", role: Role::Direct, emission: Emission::Input, node: r#"(name: "shadows", kind: "SoftShadows", inputs: {P{E}})"# },
-    Effect { key: "indirect", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "indirect", kind: "Indirect", inputs: {P, "specular": "primary.specular"})"# },
-    Effect { key: "ao", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "ao", kind: "Indirect", params: {"mode": "ao"}, inputs: {P})"# },
-    Effect { key: "env", role: Role::Environment, emission: Emission::Param, node: r#"(name: "env", kind: "Environment", params: {"map": "builtin:sky"{E}})"# },
-    Effect { key: "lf", role: Role::Indirect, emission: Emission::Never, node: r#"(name: "lf", kind: "LightField", params: {"spp": 2, "rays": 8})"# },
-    Effect { key: "mr", role: Role::Whole, emission: Emission::Always, node: r#"(name: "mr", kind: "MixedReality", params: {"capture": "builtin:envmap_real", "capture_spp": 4})"# },
+    Effect {
+        key: "shadows",
+        role: Role::Direct,
+        emission: Emission::Input,
+        node: r#"(name: "shadows", kind: "SoftShadows", inputs: {P{E}})"#,
+    },
+    Effect {
+        key: "indirect",
+        role: Role::Indirect,
+        emission: Emission::Never,
+        node: r#"(name: "indirect", kind: "Indirect", inputs: {P, "specular": "primary.specular"})"#,
+    },
+    Effect {
+        key: "ao",
+        role: Role::Indirect,
+        emission: Emission::Never,
+        node: r#"(name: "ao", kind: "Indirect", params: {"mode": "ao"}, inputs: {P})"#,
+    },
+    Effect {
+        key: "env",
+        role: Role::Environment,
+        emission: Emission::Param,
+        node: r#"(name: "env", kind: "Environment", params: {"map": "builtin:sky"{E}})"#,
+    },
+    Effect {
+        key: "lf",
+        role: Role::Indirect,
+        emission: Emission::Never,
+        node: r#"(name: "lf", kind: "LightField", params: {"spp": 2, "rays": 8})"#,
+    },
+    Effect {
+        key: "mr",
+        role: Role::Whole,
+        emission: Emission::Always,
+        node: r#"(name: "mr", kind: "MixedReality", params: {"capture": "builtin:envmap_real", "capture_spp": 4})"#,
+    },
     Effect { key: "pf", role: Role::Whole, emission: Emission::Always, node: r#"(name: "pf", kind: "PixelFilter")"# },
-    Effect { key: "rf", role: Role::Whole, emission: Emission::Always, node: r#"(name: "rf", kind: "RadianceFilter")"# },
-    Effect { key: "mc", role: Role::Whole, emission: Emission::Input, node: r#"(name: "mc", kind: "MonteCarlo", params: {"spp": 4}, inputs: {P{E}})"# },
+    Effect {
+        key: "rf",
+        role: Role::Whole,
+        emission: Emission::Always,
+        node: r#"(name: "rf", kind: "RadianceFilter")"#,
+    },
+    Effect {
+        key: "mc",
+        role: Role::Whole,
+        emission: Emission::Input,
+        node: r#"(name: "mc", kind: "MonteCarlo", params: {"spp": 4}, inputs: {P{E}})"#,
+    },
 ];
 
 impl Effect {
     fn ron(&self, emits: bool) -> String {
         let e = match (self.emission, emits) {
             (Emission::Input, true) => r#", "emission": "primary.emission""#,
-            (Emission::Param, on) => if on { r#", "emission": true"# } else { r#", "emission": false"# },
+            (Emission::Param, on) => {
+                if on {
+                    r#", "emission": true"#
+                } else {
+                    r#", "emission": false"#
+                }
+            }
             _ => "",
         };
         self.node.replace("{P", &format!("{{{P}")).replace("{E}", e)
@@ -126,7 +171,9 @@ fn pipeline(effects: &[&Effect], camera: Camera) -> String {
     // Emission once: a factoring node adds it; else an effect that always holds it; else the first
     // that can be asked to.
     let always = effects.iter().any(|e| e.emission == Emission::Always);
-    let owner = (!factored && !always).then(|| effects.iter().position(|e| matches!(e.emission, Emission::Input | Emission::Param))).flatten();
+    let owner = (!factored && !always)
+        .then(|| effects.iter().position(|e| matches!(e.emission, Emission::Input | Emission::Param)))
+        .flatten();
     let mut nodes = vec![r#"(name: "primary", kind: "Primary")"#.to_string()];
     nodes.extend(effects.iter().enumerate().map(|(k, e)| e.ron(owner == Some(k))));
     let of = |role: Role| effects.iter().filter(|e| e.role == role).map(|e| e.radiance()).collect::<Vec<_>>();
@@ -144,14 +191,21 @@ fn pipeline(effects: &[&Effect], camera: Camera) -> String {
             .collect();
         for kind in camera.factoring() {
             let name = kind.to_lowercase();
-            let params = if *kind == "Defocus" { r#"params: {"aperture_radius": 0.05, "focus_distance": 2.6}, "# } else { "" };
+            let params =
+                if *kind == "Defocus" { r#"params: {"aperture_radius": 0.05, "focus_distance": 2.6}, "# } else { "" };
             nodes.push(format!(r#"(name: "{name}", kind: "{kind}", {params}inputs: {{{}}})"#, inputs.join(", ")));
             images.insert(0, format!("{name}.radiance"));
         }
     }
     let color = sum(&images, "sum", &mut nodes).expect("an image");
     nodes.push(format!(r#"(name: "out", kind: "Output", inputs: {{"color": "{color}"}})"#));
-    format!("Pipeline(scene: \"{}\", width: {}, height: {}, seed: 3, nodes: [\n    {}\n])\n", camera.scene(), SIZE.0, SIZE.1, nodes.join(",\n    "))
+    format!(
+        "Pipeline(scene: \"{}\", width: {}, height: {}, seed: 3, nodes: [\n    {}\n])\n",
+        camera.scene(),
+        SIZE.0,
+        SIZE.1,
+        nodes.join(",\n    ")
+    )
 }
 
 /// The refusals docs/NODES.md "Composing effects" lists, by the words their messages carry.
@@ -194,7 +248,10 @@ fn outcome(text: &str, gpu: &mut Option<GpuBackend>) -> Outcome {
     let session = match build(text, None) {
         Ok(s) => s,
         Err(e) => {
-            let reason = TABLE.iter().find(|t| e.contains(**t)).unwrap_or_else(|| panic!("a refusal not in the table:\n{e}\n{text}"));
+            let reason = TABLE
+                .iter()
+                .find(|t| e.contains(**t))
+                .unwrap_or_else(|| panic!("a refusal not in the table:\n{e}\n{text}"));
             return Outcome::Refused(reason);
         }
     };
@@ -202,7 +259,8 @@ fn outcome(text: &str, gpu: &mut Option<GpuBackend>) -> Outcome {
         panic!("parity fails on the wgpu backend:\n{report}\n{text}");
     }
     let render = mean(&color(&session, &run(&session)));
-    let reference = build(text, Some(256)).unwrap_or_else(|e| panic!("a rendered pipeline's reference is refused: {e}\n{text}"));
+    let reference =
+        build(text, Some(256)).unwrap_or_else(|e| panic!("a rendered pipeline's reference is refused: {e}\n{text}"));
     Outcome::Rendered { render, reference: mean(&color(&reference, &run(&reference))) }
 }
 
@@ -244,6 +302,11 @@ fn every_combination_is_refused_for_a_listed_reason_or_renders_what_its_referenc
             }
         }
     }
-    assert!(failures.is_empty(), "{} combination(s) render away from their reference:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} combination(s) render away from their reference:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
     assert!(rendered >= 20, "only {rendered} combinations render");
 }

@@ -9,7 +9,6 @@
 
 mod common;
 
-
 use common::*;
 use wedge::graph::{ParamValue, Stage};
 use wedge::image::Image;
@@ -81,7 +80,10 @@ fn environment_next_to_indirect_negotiates_the_sampler_and_sums_to_one_node() {
     assert_eq!(first.params["count"], ParamValue::Int(4));
     let (of_parts, of_one) = (reference(&parts, 256), reference(&pipeline("builtin:envmap", ENV_ALONE), 256));
     let (m_parts, m_one, m_render) = (image_mean(&of_parts), image_mean(&of_one), image_mean(&image));
-    assert!((m_parts / m_one - 1.0).abs() < 0.01, "parts {m_parts} vs one node {m_one}: a term counted twice or missed");
+    assert!(
+        (m_parts / m_one - 1.0).abs() < 0.01,
+        "parts {m_parts} vs one node {m_one}: a term counted twice or missed"
+    );
     assert!((m_render / m_parts - 1.0).abs() < 0.03, "render {m_render} vs its reference {m_parts}");
 }
 
@@ -90,7 +92,9 @@ fn environment_next_to_indirect_negotiates_the_sampler_and_sums_to_one_node() {
 #[test]
 fn two_lights_on_one_sampler_are_refused_with_the_fix() {
     let node = |name: &str, light: u32| {
-        format!(r#"(name: "{name}", kind: "SoftShadows", params: {{"light": {light}}}, inputs: {{"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}}),"#)
+        format!(
+            r#"(name: "{name}", kind: "SoftShadows", params: {{"light": {light}}}, inputs: {{"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}}),"#
+        )
     };
     let nodes = format!(
         "(name: \"primary\", kind: \"Primary\"),\n{}\n{}\n(name: \"sum\", kind: \"Add\", inputs: {{\"a\": \"a.radiance\", \"b\": \"b.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"sum.radiance\"}}),",
@@ -98,7 +102,12 @@ fn two_lights_on_one_sampler_are_refused_with_the_fix() {
         node("b", 1)
     );
     let err = refusal(&pipeline("builtin:cornell", &nodes));
-    for needle in ["node `b`", "`light` = 1, but node `a` needs 0", "one area light per pipeline", "MonteCarlo node (`light`: its index"] {
+    for needle in [
+        "node `b`",
+        "`light` = 1, but node `a` needs 0",
+        "one area light per pipeline",
+        "MonteCarlo node (`light`: its index",
+    ] {
         assert!(err.contains(needle), "{needle:?} in: {err}");
     }
     assert!(!err.contains("panicked"), "{err}");
@@ -108,14 +117,20 @@ fn two_lights_on_one_sampler_are_refused_with_the_fix() {
 /// image-space filter, and the render agrees with the pipeline's own reference.
 #[test]
 fn an_add_after_defocus_runs_after_it_and_converges() {
-    let nodes = SHADOWS_UNDER_DEFOCUS.to_string() + r#"
+    let nodes = SHADOWS_UNDER_DEFOCUS.to_string()
+        + r#"
     (name: "sum", kind: "Add", inputs: {"a": "defocus.radiance", "b": "lf.radiance"}),
     (name: "lf", kind: "LightField", params: {"spp": 1, "rays": 4}),
     (name: "out", kind: "Output", inputs: {"color": "sum.radiance"}),"#;
     let text = pipeline("builtin:chess", &nodes);
     let (session, image) = render(&text);
     let passes = &session.schedule.passes;
-    let at = |name: &str| passes.iter().position(|p| p.name == name).unwrap_or_else(|| panic!("no pass {name}\n{}", session.schedule.table()));
+    let at = |name: &str| {
+        passes
+            .iter()
+            .position(|p| p.name == name)
+            .unwrap_or_else(|| panic!("no pass {name}\n{}", session.schedule.table()))
+    };
     let last_defocus = passes.iter().rposition(|p| p.node == "defocus").unwrap();
     assert!(at("sum.add") > last_defocus, "{}", session.schedule.table());
     assert_eq!(passes[at("sum.add")].stage, Stage::ImageFilter);
@@ -141,7 +156,10 @@ fn graph_and_render_make_the_same_decision() {
     for (what, o) in [("graph", run(&["graph", "p.ron"])), ("render", run(&["render", "p.ron", "--out", "still"]))] {
         assert!(o.status.success(), "{what} on a static scene: {}", String::from_utf8_lossy(&o.stderr));
     }
-    let graph = common::cli::refused(&run(&["graph", "p.ron", "--scene", "motion"]), &["ambient occlusion", "is not a lighting component `motion`"]);
+    let graph = common::cli::refused(
+        &run(&["graph", "p.ron", "--scene", "motion"]),
+        &["ambient occlusion", "is not a lighting component `motion`"],
+    );
     let render = common::cli::refused(&run(&["render", "p.ron", "--scene", "motion", "--out", "moving"]), &[]);
     assert_eq!(graph.lines().next(), render.lines().next(), "the same refusal");
     assert!(!dir.join("moving").exists(), "nothing written");
@@ -152,11 +170,15 @@ fn graph_and_render_make_the_same_decision() {
 /// file that does not exist, which would be the error were it captured first.
 #[test]
 fn a_refused_combination_captures_no_real_layer_first() {
-    let nodes = SHADOWS_UNDER_DEFOCUS.to_string() + r#"
+    let nodes = SHADOWS_UNDER_DEFOCUS.to_string()
+        + r#"
     (name: "mr", kind: "MixedReality", params: {"capture": "no_such_capture.ron"}),
     (name: "out", kind: "Output", inputs: {"color": "defocus.radiance", "unfiltered": "mr.radiance"}),"#;
     let err = refusal(&pipeline("builtin:chess", &nodes));
-    assert!(err.contains("cannot render under the factoring node `defocus`") && err.contains("one still photograph"), "{err}");
+    assert!(
+        err.contains("cannot render under the factoring node `defocus`") && err.contains("one still photograph"),
+        "{err}"
+    );
     assert!(!err.contains("no_such_capture"), "refused after trying to capture: {err}");
 }
 
@@ -218,15 +240,25 @@ fn the_progressive_nodes_render_through_the_camera_blocks_lens_and_shutter() {
             let color = last.output("color").unwrap();
             let reference_of = |t: &str| reference_color(t, &size, 1024);
             let (to_open, to_closed) = (rmse(color, &reference_of(&open)), rmse(color, &reference_of(&closed)));
-            println!("{kind}, {}: RMSE after 128 frames {to_open:.4} to the reference through it, {to_closed:.4} without", c.what);
-            assert!(to_open < 0.6 * to_closed, "{kind}, {}: RMSE {to_open} to the open camera's reference, {to_closed} to the closed one's", c.what);
+            println!(
+                "{kind}, {}: RMSE after 128 frames {to_open:.4} to the reference through it, {to_closed:.4} without",
+                c.what
+            );
+            assert!(
+                to_open < 0.6 * to_closed,
+                "{kind}, {}: RMSE {to_open} to the open camera's reference, {to_closed} to the closed one's",
+                c.what
+            );
 
             let dir = common::cli::temp_dir("composition", &format!("{}-{kind}", c.what));
             std::fs::write(dir.join("p.ron"), &open).unwrap();
             let o = common::cli::wedge(&["graph", "p.ron"], &dir);
             let out = String::from_utf8_lossy(&o.stdout);
             assert!(out.contains("out.color = p.radiance: ") && out.contains(c.view), "{kind}: {out}");
-            assert!(!out.contains("is not sampled") && !out.contains("rendered at the shutter's centre"), "{kind}: {out}");
+            assert!(
+                !out.contains("is not sampled") && !out.contains("rendered at the shutter's centre"),
+                "{kind}: {out}"
+            );
         }
     }
 }
@@ -237,7 +269,8 @@ fn the_progressive_nodes_lens_and_shutter_pass_parity() {
     let Some(mut gpu) = gpu_or_skip("the_progressive_nodes_lens_and_shutter_pass_parity") else { return };
     for (kind, c) in PROGRESSIVE.iter().flat_map(|k| CAMERAS.iter().map(move |c| (*k, c))) {
         let s = session_from_text(&progressive_pipeline(kind, c, c.open), &sized(16, 12, None, &[]));
-        let report = wedge::backends::parity::run_parity(&s.job(s.seed, 0, &wedge::backends::Silent), &mut gpu).expect("parity runs");
+        let report = wedge::backends::parity::run_parity(&s.job(s.seed, 0, &wedge::backends::Silent), &mut gpu)
+            .expect("parity runs");
         assert!(report.ok(), "{kind}, {}:\n{}", c.what, report.table());
     }
 }
@@ -250,15 +283,22 @@ fn the_progressive_nodes_lens_and_shutter_pass_parity() {
 #[test]
 fn defocus_from_parts_converges_to_a_path_tracer_through_the_same_lens() {
     use common::progressive::rmse;
-    let camera = |lens: &str| format!("camera: Some((position: (0.0, 3.4, 3.2), look_at: (0.0, 0.2, 0.0), vfov_deg: 45.0, {lens})),");
+    let camera = |lens: &str| {
+        format!("camera: Some((position: (0.0, 3.4, 3.2), look_at: (0.0, 0.2, 0.0), vfov_deg: 45.0, {lens})),")
+    };
     let lens = camera("aperture_radius: 0.5, focus_distance: Some(2.5)");
-    let with = |camera: &str, nodes: &str| format!("Pipeline(scene: \"builtin:curved\", width: 48, height: 36, seed: 1, {camera} nodes: [\n{nodes}\n])\n");
-    let parts = with(&lens, r#"
+    let with = |camera: &str, nodes: &str| {
+        format!("Pipeline(scene: \"builtin:curved\", width: 48, height: 36, seed: 1, {camera} nodes: [\n{nodes}\n])\n")
+    };
+    let parts = with(
+        &lens,
+        r#"
     (name: "primary", kind: "Primary"),
     (name: "shadows", kind: "SoftShadows", params: {"form_factor": "exact"}, inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "emission": "primary.emission"}),
     (name: "indirect", kind: "Indirect", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "specular": "primary.specular"}),
     (name: "defocus", kind: "Defocus", params: {"form_factor": "exact"}, inputs: {"direct": "shadows.radiance", "indirect": "indirect.radiance"}),
-    (name: "out", kind: "Output", inputs: {"color": "defocus.radiance"}),"#);
+    (name: "out", kind: "Output", inputs: {"color": "defocus.radiance"}),"#,
+    );
     let tracer = r#"
     (name: "p", kind: "PixelFilter", params: {"bounces": 1}),
     (name: "out", kind: "Output", inputs: {"color": "p.radiance"}),"#;
@@ -273,14 +313,16 @@ fn defocus_from_parts_converges_to_a_path_tracer_through_the_same_lens() {
 
 /// The text of shipped pipeline `name`.
 fn shipped(name: &str) -> String {
-    std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines").join(name)).expect("shipped pipeline")
+    std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines").join(name))
+        .expect("shipped pipeline")
 }
 
 /// RMSE of the filtered and the unfiltered image against `truth`, and rays per pixel.
 fn errors_at(text: &str, ov: &Overrides, truth: &Image) -> (f64, f64, f64) {
     let s = session_from_text(text, ov);
     let r = run(&s);
-    let unfiltered = wedge::outputs::buffer_to_image(r.output("unfiltered").expect("unfiltered output"), s.width, s.height);
+    let unfiltered =
+        wedge::outputs::buffer_to_image(r.output("unfiltered").expect("unfiltered output"), s.width, s.height);
     let rays = r.rays.total_rays() as f64 / f64::from(s.width * s.height);
     (rmse(&color(&s, &r), truth), rmse(&unfiltered, truth), rays)
 }
@@ -297,13 +339,19 @@ fn the_environment_is_a_factored_component_under_defocus_and_motion() {
     for (file, node) in [("defocus_environment.ron", "defocus"), ("motion_environment.ron", "motion")] {
         let text = shipped(file);
         let at = |mu: f64| {
-            sized(64, 48, None, &[(node, "mode", ParamValue::Str("consistent".into())), (node, "mu", ParamValue::Float(mu))])
+            sized(
+                64,
+                48,
+                None,
+                &[(node, "mode", ParamValue::Str("consistent".into())), (node, "mu", ParamValue::Float(mu))],
+            )
         };
         let truth = {
             let s = build_text(&text, &at(1.0), Some(512)).expect("reference builds");
             color(&s, &run(&s))
         };
-        let curve: Vec<(f64, f64, f64)> = [1.0, 4.0, 16.0].iter().map(|&mu| errors_at(&text, &at(mu), &truth)).collect();
+        let curve: Vec<(f64, f64, f64)> =
+            [1.0, 4.0, 16.0].iter().map(|&mu| errors_at(&text, &at(mu), &truth)).collect();
         eprintln!("{file}: (filtered RMSE, unfiltered RMSE, rays/px) at μ 1, 4, 16: {curve:?}");
         if node == "defocus" {
             assert!(curve[0].0 < curve[0].1, "{file}: the filter lowers the error at equal rays: {curve:?}");
@@ -327,7 +375,9 @@ fn an_environment_component_refuses_what_does_not_apply_and_the_port_checks_its_
             ),
         )
     };
-    for (flag, fix) in [("indirect", "Indirect node"), ("temporal", "reprojected"), ("adaptive", "rates set the look-ups")] {
+    for (flag, fix) in
+        [("indirect", "Indirect node"), ("temporal", "reprojected"), ("adaptive", "rates set the look-ups")]
+    {
         let e = refusal(&with(&format!(r#""{flag}": true"#)));
         assert!(e.contains(&format!("`{flag}: true` does not apply")) && e.contains(fix), "{e}");
     }
@@ -336,7 +386,8 @@ fn an_environment_component_refuses_what_does_not_apply_and_the_port_checks_its_
     // Direct light of an area light is not the environment's: refused at the port with the fix.
     let wrong = pipeline(
         "builtin:envmap_light",
-        &(SHADOWS_UNDER_DEFOCUS.replace(r#"inputs: {"direct": "shadows.radiance"}"#, r#"inputs: {"environment": "shadows.radiance"}"#)
+        &(SHADOWS_UNDER_DEFOCUS
+            .replace(r#"inputs: {"direct": "shadows.radiance"}"#, r#"inputs: {"environment": "shadows.radiance"}"#)
             + r#"    (name: "out", kind: "Output", inputs: {"color": "defocus.radiance"}),"#),
     );
     let e = refusal(&wrong);
@@ -368,9 +419,12 @@ fn defocus_on_a_moving_scene_samples_lens_and_shutter_and_converges() {
         color(&s, &run(&s))
     };
     // Consistent mode's caps grow as μ²: μ = 4 is already ~1500 rays per pixel here.
-    let curve: Vec<(f64, f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| errors_at(&text, &at(mu, "sample"), &truth)).collect();
+    let curve: Vec<(f64, f64, f64)> =
+        [1.0, 2.0, 4.0].iter().map(|&mu| errors_at(&text, &at(mu, "sample"), &truth)).collect();
     let frozen = errors_at(&text, &at(4.0, "frozen"), &truth);
-    eprintln!("lens + shutter (filtered RMSE, unfiltered RMSE, rays/px) at μ 1, 2, 4: {curve:?}; frozen at μ 4: {frozen:?}");
+    eprintln!(
+        "lens + shutter (filtered RMSE, unfiltered RMSE, rays/px) at μ 1, 2, 4: {curve:?}; frozen at μ 4: {frozen:?}"
+    );
     assert!(curve[1].0 < curve[0].0 && curve[2].0 < curve[1].0, "error falls as μ grows: {curve:?}");
     assert!(curve[2].2 > 2.0 * curve[0].2, "rays grow with μ: {curve:?}");
     assert!(frozen.0 > 4.0 * curve[2].0, "the frozen scene is not the motion-blurred one: {frozen:?} vs {curve:?}");

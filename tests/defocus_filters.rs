@@ -17,14 +17,15 @@ use common::gpu_or_skip;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use wedge::backends::lone::LonePass;
 use wedge::backends::gpu::GpuBackend;
-use wedge::backends::kernels::filter_ch5::{defocus_pixel, window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT};
+use wedge::backends::kernels::filter_ch5::{
+    defocus_pixel, window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT,
+};
 use wedge::backends::kernels::neighbourhood3::{max3, median3};
+use wedge::backends::lone::LonePass;
 use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::{
-    BackendError, Binding, BufferData, Kernel, KernelClass, KernelCtx, RayCounts,
-    Uniforms, WgslSource,
+    BackendError, Binding, BufferData, Kernel, KernelClass, KernelCtx, RayCounts, Uniforms, WgslSource,
 };
 use wedge::graph::Format;
 use wedge::graph::ParamValue;
@@ -32,7 +33,6 @@ use wedge::scene::Scene;
 
 type Params = BTreeMap<String, ParamValue>;
 type Buffers = BTreeMap<&'static str, BufferData>;
-
 
 /// The seed of every lone pass here (these kernels draw no random numbers).
 const SEED: u32 = 7;
@@ -42,7 +42,14 @@ fn scene() -> Scene {
 }
 
 /// Run one kernel on the CPU backend: outputs by binding name and the counters.
-fn run_cpu(scene: &Scene, name: &str, w: u32, h: u32, params: &Params, inputs: &Buffers) -> (BTreeMap<String, BufferData>, RayCounts) {
+fn run_cpu(
+    scene: &Scene,
+    name: &str,
+    w: u32,
+    h: u32,
+    params: &Params,
+    inputs: &Buffers,
+) -> (BTreeMap<String, BufferData>, RayCounts) {
     run_cpu_with(kernel(name), scene, w, h, params, inputs)
 }
 
@@ -79,7 +86,10 @@ fn run_gpu_with(
     params: &Params,
     inputs: &Buffers,
 ) -> (BTreeMap<String, BufferData>, RayCounts) {
-    LonePass::new(k, params.clone(), inputs).expect("inputs given").run_gpu(gpu, scene, w, h, SEED).expect("gpu pass runs")
+    LonePass::new(k, params.clone(), inputs)
+        .expect("inputs given")
+        .run_gpu(gpu, scene, w, h, SEED)
+        .expect("gpu pass runs")
 }
 
 fn kernel(name: &str) -> Arc<dyn Kernel> {
@@ -155,7 +165,15 @@ fn u32_of(b: &BufferData) -> &[u32] {
 }
 
 /// Compare every output of one pass on both backends; returns the mismatches as text.
-fn parity(gpu: &mut GpuBackend, scene: &Scene, name: &str, w: u32, h: u32, p: &Params, inputs: &Buffers) -> Vec<String> {
+fn parity(
+    gpu: &mut GpuBackend,
+    scene: &Scene,
+    name: &str,
+    w: u32,
+    h: u32,
+    p: &Params,
+    inputs: &Buffers,
+) -> Vec<String> {
     parity_with(gpu, kernel(name), scene, w, h, p, inputs)
 }
 
@@ -177,13 +195,20 @@ fn parity_with(
     assert_eq!(cpu_out.keys().collect::<Vec<_>>(), gpu_out.keys().collect::<Vec<_>>(), "{name}: same outputs");
     for (binding, c) in &cpu_out {
         let (max_abs, max_rel, over, boundary) = compare(c, &gpu_out[binding], tol);
-        println!("{name:<22} {binding:<20} max abs {max_abs:.3e} max rel {max_rel:.3e} over {over} boundary {boundary}");
+        println!(
+            "{name:<22} {binding:<20} max abs {max_abs:.3e} max rel {max_rel:.3e} over {over} boundary {boundary}"
+        );
         if over > 0 || boundary > 0 {
-            bad.push(format!("{name}.{binding}: {over} pixels over tolerance, {boundary} off by one (max abs {max_abs:.3e})"));
+            bad.push(format!(
+                "{name}.{binding}: {over} pixels over tolerance, {boundary} off by one (max abs {max_abs:.3e})"
+            ));
         }
     }
     if cpu_rays.non_finite_samples != gpu_rays.non_finite_samples {
-        bad.push(format!("{name}: non-finite counts differ: cpu {} gpu {}", cpu_rays.non_finite_samples, gpu_rays.non_finite_samples));
+        bad.push(format!(
+            "{name}: non-finite counts differ: cpu {} gpu {}",
+            cpu_rays.non_finite_samples, gpu_rays.non_finite_samples
+        ));
     }
     bad
 }
@@ -211,11 +236,22 @@ fn random_stats(rng: &mut Rng) -> Buffers {
         occ.push([d1, d2_min, d2_max, if rng.chance(0.5) { 1.0 } else { 0.0 }]);
         let z_min = rng.range(0.01, 2.0);
         // As indirect.sample's `depth`: z_min, z_max, samples that hit, samples.
-        refl.push([z_min, z_min + rng.range(0.0, 5.0), if rng.chance(0.7) { rng.range(1.0, 16.0).floor() } else { 0.0 }, 16.0]);
+        refl.push([
+            z_min,
+            z_min + rng.range(0.0, 5.0),
+            if rng.chance(0.7) { rng.range(1.0, 16.0).floor() } else { 0.0 },
+            16.0,
+        ]);
         // The environment's Ch. 6 bandwidth (1/m), absent (0) at some pixels.
         bandlimit.push(if rng.chance(0.2) { 0.0 } else { rng.range(0.1, 60.0) });
         // Image velocities (mean, per-axis range), still at some pixels.
-        let mut v = || if rng.chance(0.3) { [0.0; 4] } else { [rng.range(-20.0, 20.0), rng.range(-5.0, 5.0), rng.range(0.0, 8.0), rng.range(0.0, 2.0)] };
+        let mut v = || {
+            if rng.chance(0.3) {
+                [0.0; 4]
+            } else {
+                [rng.range(-20.0, 20.0), rng.range(-5.0, 5.0), rng.range(0.0, 8.0), rng.range(0.0, 2.0)]
+            }
+        };
         velocity.push(v());
         shadow_velocity.push(v());
         if i == 17 {
@@ -225,7 +261,11 @@ fn random_stats(rng: &mut Rng) -> Buffers {
             lens[i] = [0.0, f32::INFINITY, 2.0, 16.0];
         }
     }
-    BTreeMap::from([("lens", vec4s(lens)), ("occlusion", vec4s(occ)), ("reflectors", vec4s(refl)), ("bandlimit", f32s(bandlimit)),
+    BTreeMap::from([
+        ("lens", vec4s(lens)),
+        ("occlusion", vec4s(occ)),
+        ("reflectors", vec4s(refl)),
+        ("bandlimit", f32s(bandlimit)),
         ("velocity", vec4s(velocity)),
         ("shadow_velocity", vec4s(shadow_velocity)),
     ])
@@ -252,7 +292,9 @@ fn parity_defocus_rates_and_flags() {
     let mut rng = Rng(11);
     let stats = random_stats(&mut rng);
     let mut bad = Vec::new();
-    for (mu, mode, cap_p, cap_s) in [(1.0, "literal", 64, 64), (2.5, "consistent", 4096, 4096), (0.3, "consistent", 16, 256)] {
+    for (mu, mode, cap_p, cap_s) in
+        [(1.0, "literal", 64, 64), (2.5, "consistent", 4096, 4096), (0.3, "consistent", 16, 256)]
+    {
         bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &rate_params(mu, mode, cap_p, cap_s), &stats));
     }
     // Only the lens statistics bound: no occluders or reflectors anywhere.
@@ -288,7 +330,10 @@ fn parity_neighbourhood_max3_and_median3() {
     let scene = scene();
     let mut rng = Rng(12);
     let mut bad = Vec::new();
-    for values in [(0..N).map(|_| (rng.next() % 2) as u32).collect::<Vec<_>>(), (0..N).map(|_| (rng.next() % 500) as u32).collect()] {
+    for values in [
+        (0..N).map(|_| (rng.next() % 2) as u32).collect::<Vec<_>>(),
+        (0..N).map(|_| (rng.next() % 500) as u32).collect(),
+    ] {
         let inputs: Buffers = BTreeMap::from([("value", BufferData::U32(values))]);
         for name in ["neighbourhood.max3", "neighbourhood.median3"] {
             bad.extend(parity(&mut gpu, &scene, name, W, H, &Params::new(), &inputs));
@@ -340,7 +385,13 @@ fn random_widths(rng: &mut Rng) -> Vec<f32> {
 
 fn random_image(rng: &mut Rng, nan_every: usize) -> Vec<[f32; 3]> {
     (0..N)
-        .map(|i| if nan_every > 0 && i % nan_every == 5 { [f32::NAN, 0.0, 0.0] } else { [rng.unit(), rng.unit(), rng.unit()] })
+        .map(|i| {
+            if nan_every > 0 && i % nan_every == 5 {
+                [f32::NAN, 0.0, 0.0]
+            } else {
+                [rng.unit(), rng.unit(), rng.unit()]
+            }
+        })
         .collect()
 }
 
@@ -392,7 +443,8 @@ fn parity_packed_and_in_bands() {
     let mut bad = Vec::new();
     let stats = random_stats(&mut rng);
     bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &rate_params(2.0, "consistent", 64, 256), &stats));
-    let counts: Buffers = BTreeMap::from([("value", BufferData::U32((0..N).map(|_| (rng.next() % 100) as u32).collect()))]);
+    let counts: Buffers =
+        BTreeMap::from([("value", BufferData::U32((0..N).map(|_| (rng.next() % 100) as u32).collect()))]);
     for name in ["neighbourhood.max3", "neighbourhood.median3"] {
         bad.extend(parity(&mut gpu, &scene, name, W, H, &Params::new(), &counts));
     }
@@ -475,7 +527,8 @@ fn consistent_mode_converges_to_the_identity_literal_mode_does_not() {
     // The rms change falls as μ grows (a single pixel's change need not: its neighbourhood's
     // rejections change with μ too) and is exactly 0 once every filter is below a pixel.
     for name in FILTERS {
-        let changes: Vec<(f64, f64)> = [1.0, 4.0, 30.0, 1e3, 1e5].iter().map(|mu| filter_change_at(name, *mu, "consistent")).collect();
+        let changes: Vec<(f64, f64)> =
+            [1.0, 4.0, 30.0, 1e3, 1e5].iter().map(|mu| filter_change_at(name, *mu, "consistent")).collect();
         println!("{name}: consistent (rms, max) |out − in| at μ = 1, 4, 30, 1e3, 1e5: {changes:?}");
         assert!(changes[0].0 > 0.05, "{name}: the filter blurs at μ = 1: {changes:?}");
         assert!(changes.windows(2).all(|w| w[1].0 <= w[0].0), "{name}: rms non-increasing in μ: {changes:?}");
@@ -494,7 +547,8 @@ fn rejection_keeps_sharp_regions_out_of_blurry_ones() {
     // white. Pixel i in the blurry half next to the edge weighs its sharp neighbours by its own
     // Gaussian at ≈ 0.96, but i lies outside their filters (w_j(i) = e^{−64} < 0.01): rejected.
     let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 32 { 0.05 } else { 2.0 }).collect();
-    let value: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 32 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
+    let value: Vec<[f32; 3]> =
+        (0..N).map(|i| if (i as u32 % W) < 32 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
     let (out, _) = run_filter("filter.defocus", &defocus_inputs(value.clone(), omega));
     assert_eq!(out, value, "neither side bleeds into the other");
     // Without the rejection the blurry pixel next to the edge would be about half white.
@@ -502,7 +556,8 @@ fn rejection_keeps_sharp_regions_out_of_blurry_ones() {
     assert!(own > 0.9);
     // The irradiance filter on the camera-facing plane (x < 24): blurry left part, sharp right part.
     let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 12 { 0.05 } else { 2.0 }).collect();
-    let value: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
+    let value: Vec<[f32; 3]> =
+        (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
     let (out, _) = run_filter("filter.irradiance", &irradiance_inputs(value.clone(), omega));
     assert_eq!(out, value);
     // Blurry pixels do mix among themselves: a gradient inside the blurry region is smoothed.
@@ -519,7 +574,8 @@ fn rejection_keeps_sharp_regions_out_of_blurry_ones() {
 fn normal_test_separates_surfaces_more_than_ten_degrees_apart() {
     // planes(): x < 24 faces the camera, 24 ≤ x < 56 is tilted 30°. Values 0 and 1: no mixing across.
     let omega = vec![0.05f32; N];
-    let value: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 24 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
+    let value: Vec<[f32; 3]> =
+        (0..N).map(|i| if (i as u32 % W) < 24 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
     let (out, _) = run_filter("filter.irradiance", &irradiance_inputs(value.clone(), omega.clone()));
     assert_eq!(out, value);
     // With a 40° tolerance the two planes mix at the seam.
@@ -569,7 +625,8 @@ fn nan_pixel_is_counted_once_and_not_spread() {
                 "filter.irradiance" => irradiance_params(16),
                 _ => params(&[("max_radius", int(16))]),
             };
-            let (_, rays) = run_gpu(&mut gpu, &scene(), name, W, H, &p, &inputs_for(name, value.clone(), vec![0.05; N]));
+            let (_, rays) =
+                run_gpu(&mut gpu, &scene(), name, W, H, &p, &inputs_for(name, value.clone(), vec![0.05; N]));
             assert_eq!(rays.non_finite_samples, 2, "{name}");
         }
     }
@@ -667,7 +724,10 @@ fn rates_kernel_matches_the_formulas() {
         assert_eq!(out["omega_direct"].component(i, 0), r.omega_direct);
     }
     // Unknown modes are an error naming the choices, not a panic.
-    let e = LonePass::new(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats).unwrap().run_cpu(&scene, W, H, SEED).unwrap_err();
+    let e = LonePass::new(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats)
+        .unwrap()
+        .run_cpu(&scene, W, H, SEED)
+        .unwrap_err();
     assert!(e.to_string().contains("literal or consistent"), "{e}");
     // So are non-positive or non-finite constants.
     for (name, v) in [("mu", 0.0), ("mu", f64::NAN), ("pixel_scale", -1.0), ("light_half_width", -0.1)] {
@@ -754,7 +814,8 @@ fn separable_passes_match_the_2d_filters() {
         assert!(rms < 0.3 * change, "{name}: rms {rms} vs the filter's own change {change}");
         // No bleeding across a sharp/blurry edge either.
         let omega: Vec<f32> = (0..N).map(|i| if (i as u32 % W) < 12 { 0.05 } else { 2.0 }).collect();
-        let edge: Vec<[f32; 3]> = (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
+        let edge: Vec<[f32; 3]> =
+            (0..N).map(|i| if (i as u32 % W) < 12 { [0.0, 0.0, 0.0] } else { [1.0, 1.0, 1.0] }).collect();
         assert_eq!(run_separable(name, &inputs_for(name, edge.clone(), omega)), edge, "{name}");
     }
 }
@@ -784,7 +845,12 @@ impl Kernel for FormulaProbe {
         use wedge::effects::defocus::formulas::{secondary_per_primary, ThinLens};
         let lens = ctx.read::<[f32; 4]>("lens")?;
         let (n_p, n) = (ctx.read::<u32>("n_p")?, ctx.read::<u32>("n")?);
-        let coc = lens.iter().map(|l| ThinLens { aperture_radius: l[0], focus_distance: l[1], pixel_scale: l[2] }.circle_of_confusion(l[3])).collect();
+        let coc = lens
+            .iter()
+            .map(|l| {
+                ThinLens { aperture_radius: l[0], focus_distance: l[1], pixel_scale: l[2] }.circle_of_confusion(l[3])
+            })
+            .collect();
         ctx.put("coc", coc)?;
         ctx.put("per_primary", n_p.iter().zip(n).map(|(a, b)| secondary_per_primary(*a, *b)).collect())
     }
@@ -823,11 +889,8 @@ fn parity_wgsl_formula_helpers() {
         .collect();
     let n_p: Vec<u32> = (0..N).map(|_| [0u32, 1, 4, 9, 16, 64][(rng.next() % 6) as usize]).collect();
     let n: Vec<u32> = (0..N).map(|_| (rng.next() % 2000) as u32).collect();
-    let inputs: Buffers = BTreeMap::from([
-        ("lens", vec4s(lens)),
-        ("n_p", BufferData::U32(n_p)),
-        ("n", BufferData::U32(n)),
-    ]);
+    let inputs: Buffers =
+        BTreeMap::from([("lens", vec4s(lens)), ("n_p", BufferData::U32(n_p)), ("n", BufferData::U32(n))]);
     let bad = parity_with(&mut gpu, Arc::new(FormulaProbe), &scene(), W, H, &Params::new(), &inputs);
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
@@ -844,7 +907,8 @@ fn noise_reduction_matches_the_weights() {
     let value: Vec<[f32; 3]> = (0..n).map(|_| [0.5 + rng.range(-0.2, 0.2), 0.5, 0.5]).collect();
     let sigma_in = 0.4 / 12f64.sqrt();
     let ell = 0.01f32;
-    let position: Vec<[f32; 4]> = (0..n).map(|i| [(i as u32 % w) as f32 * ell, (i as u32 / w) as f32 * ell, 2.0, 1.0]).collect();
+    let position: Vec<[f32; 4]> =
+        (0..n).map(|i| [(i as u32 % w) as f32 * ell, (i as u32 / w) as f32 * ell, 2.0, 1.0]).collect();
     let normal = vec![[0.0f32, 0.0, 1.0, ell]; n];
     for omega in [0.1f32, 0.2] {
         // N_eff over the window the kernels use (d² with 16 d² Ω² ≤ ln 100).
@@ -953,13 +1017,23 @@ fn first_pass(name: &str, aperture: f32, jitter: bool, (w, h): (u32, u32)) -> (S
         ("sampling", ParamValue::Str("stratified".into())),
     ]);
     let (rec, _) = run_cpu_with(Arc::new(PathsTrace), &scene, w, h, &trace, &Buffers::new());
-    let (res, _) = run_cpu_with(Arc::new(PathsResolve), &scene, w, h, &Params::new(), &BTreeMap::from([("record", rec["record"].clone())]));
+    let (res, _) = run_cpu_with(
+        Arc::new(PathsResolve),
+        &scene,
+        w,
+        h,
+        &Params::new(),
+        &BTreeMap::from([("record", rec["record"].clone())]),
+    );
     (scene, res)
 }
 
 fn direct_flags(scene: &Scene, res: &BTreeMap<String, BufferData>, (w, h): (u32, u32)) -> Vec<u32> {
-    let inputs: Buffers =
-        BTreeMap::from([("radiance", res["l_direct"].clone()), ("texture", res["k_direct"].clone()), ("irradiance", res["e_direct"].clone())]);
+    let inputs: Buffers = BTreeMap::from([
+        ("radiance", res["l_direct"].clone()),
+        ("texture", res["k_direct"].clone()),
+        ("irradiance", res["e_direct"].clone()),
+    ]);
     let (out, _) = run_cpu(scene, "defocus.flags", w, h, &params(&[("threshold", float(0.01))]), &inputs);
     u32_of(&out["flag"]).to_vec()
 }
@@ -978,7 +1052,11 @@ fn factoring_is_exact_at_a_single_primary_point_and_flagged_off_under_defocus() 
         let worst = (0..flags.len())
             .map(|i| (0..3).map(|c| (l[i][c] - k[i][c] * e[i][c]).abs()).fold(0f32, f32::max))
             .fold(0f32, f32::max);
-        println!("{name}, pinhole: SepDir at {} of {} pixels, max |L − kE| {worst:.2e}", flags.iter().sum::<u32>(), flags.len());
+        println!(
+            "{name}, pinhole: SepDir at {} of {} pixels, max |L − kE| {worst:.2e}",
+            flags.iter().sum::<u32>(),
+            flags.len()
+        );
         assert!(flags.iter().all(|f| *f == 1), "{name}: SepDir everywhere at a single primary point");
         assert!(worst < 1e-5, "{name}: k·E equals L ({worst})");
     }
@@ -993,7 +1071,11 @@ fn factoring_is_exact_at_a_single_primary_point_and_flagged_off_under_defocus() 
     };
     let (sharp, n_sharp) = off_share(&|r_max| r_max < 0.5);
     let (blurred, n_blurred) = off_share(&|r_max| r_max > 2.0);
-    println!("chess, aperture 0.1: SepDir off at {:.1}% of {n_sharp} sharp pixels, {:.1}% of {n_blurred} defocused pixels", sharp * 100.0, blurred * 100.0);
+    println!(
+        "chess, aperture 0.1: SepDir off at {:.1}% of {n_sharp} sharp pixels, {:.1}% of {n_blurred} defocused pixels",
+        sharp * 100.0,
+        blurred * 100.0
+    );
     assert!(n_sharp > 50 && n_blurred > 50, "both kinds of pixel present");
     assert!(blurred > 0.05 && blurred > 3.0 * sharp, "flags turn off under defocus: {blurred} vs {sharp}");
 }

@@ -4,12 +4,13 @@
 //! `n_dir^f ≤ n_dir^c`; counts monotone in μ; the literal eq. 5.29 stops at `Ω_pix^max`, the
 //! consistent mode shrinks every filter to a pixel and grows every count without bound.
 
-use wedge::scene::Vec2;
 use wedge::effects::defocus::formulas::{
-    compose_term, direct_rate, filter_width_px, light_half_width, indirect_rate, omega_defocus, omega_direct, omega_indirect, omega_mu, pixel_rates,
-    pixel_scale, primary_rate, primary_strata, secondary_per_primary, secondary_strata, separable, strata_cap, lens_std, omega_u_max, LensShape,
-    Mode, PixelStats, RateParams, ThinLens, FILTER_SHARPNESS, OMEGA_PIX_MAX,
+    compose_term, direct_rate, filter_width_px, indirect_rate, lens_std, light_half_width, omega_defocus, omega_direct,
+    omega_indirect, omega_mu, omega_u_max, pixel_rates, pixel_scale, primary_rate, primary_strata,
+    secondary_per_primary, secondary_strata, separable, strata_cap, LensShape, Mode, PixelStats, RateParams, ThinLens,
+    FILTER_SHARPNESS, OMEGA_PIX_MAX,
 };
+use wedge::scene::Vec2;
 
 fn close(a: f32, b: f32, tol: f32) -> bool {
     (a - b).abs() <= tol * b.abs().max(1.0)
@@ -24,7 +25,11 @@ fn circle_of_confusion_eq_5_2_matches_the_thesis_parametrisation() {
     assert!(close(lens.pixel_scale, 2.0 * 22.5f32.to_radians().tan() / 512.0, 1e-6));
     for z in [0.5f32, 2.0, 3.9, 4.0, 6.0, 40.0] {
         let thesis_r = (a * w / s) * (f / z - 1.0);
-        assert!(close(lens.circle_of_confusion(z), thesis_r, 1e-5), "z = {z}: {} vs {thesis_r}", lens.circle_of_confusion(z));
+        assert!(
+            close(lens.circle_of_confusion(z), thesis_r, 1e-5),
+            "z = {z}: {} vs {thesis_r}",
+            lens.circle_of_confusion(z)
+        );
         // ℓ_p = S z/(W f).
         assert!(close(lens.pixel_length(z), s * z / (w * f), 1e-6));
     }
@@ -151,7 +156,19 @@ fn params(mu: f32, mode: Mode) -> RateParams {
 }
 
 fn stats(r_min: f32, r_max: f32) -> PixelStats {
-    PixelStats { r_min, r_max, depth: 2.0, hit: true, s_min: 0.5, s_max: 2.0, z_min: 0.1, z_max: 0.5, bandlimit: 0.0, v_p: 0.0, v_s: 0.0 }
+    PixelStats {
+        r_min,
+        r_max,
+        depth: 2.0,
+        hit: true,
+        s_min: 0.5,
+        s_max: 2.0,
+        z_min: 0.1,
+        z_max: 0.5,
+        bandlimit: 0.0,
+        v_p: 0.0,
+        v_s: 0.0,
+    }
 }
 
 #[test]
@@ -166,7 +183,7 @@ fn pixel_rates_by_hand_and_caps() {
     assert_eq!(r.n_direct_combined, 121); // 121 → 11²
     assert_eq!(r.n_indirect_factored, 196); // 171.7 → 14²
     assert_eq!(r.n_indirect_combined, 784); // (2.8 + 25)² = 772.84 → 28²
-    // Caps round down to squares: 64 per primary → s ≤ 8; 10 primaries → p ≤ 3.
+                                            // Caps round down to squares: 64 per primary → s ≤ 8; 10 primaries → p ≤ 3.
     let capped = RateParams { max_per_primary: 64, max_primary: 10, ..params(1.0, Mode::Literal) };
     let r = pixel_rates(&stats(0.0, 0.0), &capped);
     assert_eq!((r.n_direct_combined, r.n_indirect_factored, r.n_indirect_combined), (64, 64, 64));
@@ -226,7 +243,19 @@ fn stat_grid() -> Vec<PixelStats> {
             for (z_min, z_max) in [(0.0, 0.0), (0.05, 0.3), (1.0, 5.0)] {
                 for depth in [0.5f32, 2.0, 10.0] {
                     for bandlimit in [0.0f32, 0.5, 20.0] {
-                        v.push(PixelStats { r_min, r_max, depth, hit: true, s_min, s_max, z_min, z_max, bandlimit, v_p: 0.0, v_s: 0.0 });
+                        v.push(PixelStats {
+                            r_min,
+                            r_max,
+                            depth,
+                            hit: true,
+                            s_min,
+                            s_max,
+                            z_min,
+                            z_max,
+                            bandlimit,
+                            v_p: 0.0,
+                            v_s: 0.0,
+                        });
                     }
                 }
             }
@@ -299,7 +328,13 @@ fn counts_are_monotone_in_mu() {
                 assert!(last.omega_defocus <= r.omega_defocus && last.omega_direct <= r.omega_direct);
                 assert!(last.omega_indirect <= r.omega_indirect);
                 // Rounded counts cover their rates wherever no cap binds.
-                let rounded = [r.n_primary, r.n_direct_factored, r.n_direct_combined, r.n_indirect_factored, r.n_indirect_combined];
+                let rounded = [
+                    r.n_primary,
+                    r.n_direct_factored,
+                    r.n_direct_combined,
+                    r.n_indirect_factored,
+                    r.n_indirect_combined,
+                ];
                 let p = (r.n_primary as f64).sqrt() as u32;
                 for c in 0..5 {
                     let q = rounded[c] / r.n_primary;
@@ -350,7 +385,8 @@ fn literal_mode_stops_consistent_mode_converges() {
     assert_eq!(far.n_primary, 4096);
     assert_eq!(far.n_direct_combined, 4096 * 4096);
     // In focus too: consistent mode supersamples the pixel as μ grows (anti-aliasing converges).
-    assert_eq!(pixel_rates(&stats(0.0, 0.0), &params(2.0, Mode::Consistent)).n_primary, 4); // (0.5+1)² = 2.25 → 2²
+    assert_eq!(pixel_rates(&stats(0.0, 0.0), &params(2.0, Mode::Consistent)).n_primary, 4);
+    // (0.5+1)² = 2.25 → 2²
 }
 
 #[test]
@@ -391,7 +427,11 @@ fn factoring_flag_eq_5_30() {
 fn light_half_width_and_camera_lens() {
     use wedge::scene::{AreaLight, Camera, LightShape, Vec3};
     let rect = AreaLight {
-        shape: LightShape::Rect { corner: Vec3::ZERO, edge_u: Vec3::new(0.6, 0.0, 0.0), edge_v: Vec3::new(0.0, 0.0, 0.2) },
+        shape: LightShape::Rect {
+            corner: Vec3::ZERO,
+            edge_u: Vec3::new(0.6, 0.0, 0.0),
+            edge_v: Vec3::new(0.0, 0.0, 0.2),
+        },
         radiance: Vec3::ONE,
         two_sided: false,
     };

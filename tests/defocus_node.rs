@@ -54,12 +54,21 @@ fn build_error(text: &str) -> String {
 fn a_pinhole_renders_as_without_the_defocus_node() {
     // aperture 0: the Defocus node does not factor, SoftShadows renders Ch. 3 and Defocus passes its
     // one component through — the image equals the pipeline that reads SoftShadows directly.
-    let with = render(&pipeline("builtin:chess", r#""aperture_radius": 0.0, "focus_distance": 2.6"#, "defocus.radiance", "None"), &Overrides::default());
-    let without = render(&pipeline("builtin:chess", r#""aperture_radius": 0.0, "focus_distance": 2.6"#, "shadows.radiance", "None"), &Overrides::default());
+    let with = render(
+        &pipeline("builtin:chess", r#""aperture_radius": 0.0, "focus_distance": 2.6"#, "defocus.radiance", "None"),
+        &Overrides::default(),
+    );
+    let without = render(
+        &pipeline("builtin:chess", r#""aperture_radius": 0.0, "focus_distance": 2.6"#, "shadows.radiance", "None"),
+        &Overrides::default(),
+    );
     assert_eq!(rmse(&with.0, &without.0), 0.0);
     assert_eq!(with.1.rays, without.1.rays);
     // The same through `--set` on a defocused pipeline.
-    let ov = Overrides { params: vec![("defocus".into(), "aperture_radius".into(), ParamValue::Float(0.0))], ..Default::default() };
+    let ov = Overrides {
+        params: vec![("defocus".into(), "aperture_radius".into(), ParamValue::Float(0.0))],
+        ..Default::default()
+    };
     let set = render(&pipeline("builtin:chess", CHESS_LENS, "defocus.radiance", "None"), &ov);
     assert_eq!(rmse(&set.0, &without.0), 0.0);
 }
@@ -106,7 +115,10 @@ fn in_focus_pixels_take_one_primary_ray_in_the_second_pass() {
     };
     assert!(counts(r#""aperture_radius": 1e-7, "focus_distance": 2.6"#).iter().all(|&n| n == 1));
     let wide = counts(r#""aperture_radius": 0.1, "focus_distance": 2.6, "mu": 2.0"#);
-    assert!(wide.iter().any(|&n| n > 1) && wide.iter().all(|&n| n >= 1 && (n as f64).sqrt().fract() == 0.0), "{wide:?}");
+    assert!(
+        wide.iter().any(|&n| n > 1) && wide.iter().all(|&n| n >= 1 && (n as f64).sqrt().fract() == 0.0),
+        "{wide:?}"
+    );
 }
 
 /// Records of `paths.trace` (16 paths, one lens, shadow and indirect sample each, light-centre form
@@ -193,9 +205,13 @@ fn defocus_error(sets: &[(&str, ParamValue)], reference: &wedge::image::Image) -
 #[test]
 fn the_consistent_mode_converges_and_the_literal_one_stops() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
-    let s = Session::reference(Some(&path), 1024, "stratified", &Overrides { seed: Some(99), ..sized(64, 48, None, &[]) }).unwrap();
+    let s =
+        Session::reference(Some(&path), 1024, "stratified", &Overrides { seed: Some(99), ..sized(64, 48, None, &[]) })
+            .unwrap();
     let reference = color(&s, &run(&s));
-    let at = |mode: &str, mu: f64| defocus_error(&[("mode", ParamValue::Str(mode.into())), ("mu", ParamValue::Float(mu))], &reference);
+    let at = |mode: &str, mu: f64| {
+        defocus_error(&[("mode", ParamValue::Str(mode.into())), ("mu", ParamValue::Float(mu))], &reference)
+    };
     let consistent: Vec<(f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at("consistent", mu)).collect();
     let literal: Vec<(f64, f64)> = [2.0, 8.0].iter().map(|&mu| at("literal", mu)).collect();
     eprintln!("consistent (RMSE, rays/px) at mu 1, 2, 4: {consistent:?}; literal at mu 2, 8: {literal:?}");
@@ -216,13 +232,15 @@ fn heatmap_sinks_write_one_png_each_and_need_exactly_one_input() {
     let r = run(&s);
     let dir = tempfile::tempdir().unwrap();
     let written = wedge::outputs::write_run(dir.path(), "render", &r, s.width, s.height).unwrap();
-    let names: Vec<String> = written.files.iter().map(|f| f.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    let names: Vec<String> =
+        written.files.iter().map(|f| f.file_name().unwrap().to_string_lossy().into_owned()).collect();
     let maps = ["width_defocus", "width_direct", "width_indirect", "rays_primary", "rays_shadow", "samples_indirect"];
     for m in maps {
         assert!(names.contains(&format!("{m}.png")), "{m}.png not in {names:?}");
     }
     // Different diagnostics, different pictures.
-    let bytes: Vec<Vec<u8>> = maps.iter().map(|m| std::fs::read(dir.path().join(format!("{m}.png"))).unwrap()).collect();
+    let bytes: Vec<Vec<u8>> =
+        maps.iter().map(|m| std::fs::read(dir.path().join(format!("{m}.png"))).unwrap()).collect();
     assert!(bytes.windows(2).all(|w| w[0] != w[1]));
 
     for inputs in ["{}", r#"{"width": "defocus.filter_width", "count": "defocus.rays_per_pixel"}"#] {
@@ -245,8 +263,13 @@ fn factoring_lowers_the_in_focus_error_at_equal_rays() {
     let (w, h) = (128u32, 96u32);
     let ov = sized(w, h, None, &[]);
     let p = |n: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines").join(n);
-    let rs = Session::reference(Some(&p("defocus_shadows_indirect.ron")), 512, "stratified", &Overrides { seed: Some(99), ..ov.clone() })
-        .unwrap();
+    let rs = Session::reference(
+        Some(&p("defocus_shadows_indirect.ron")),
+        512,
+        "stratified",
+        &Overrides { seed: Some(99), ..ov.clone() },
+    )
+    .unwrap();
     let reference = color(&rs, &run(&rs));
     let in_focus = |name: &str| {
         let s = Session::open(Some(&p(name)), &ov).unwrap();
@@ -265,7 +288,9 @@ fn factoring_lowers_the_in_focus_error_at_equal_rays() {
     };
     let (factored, n, rays_f) = in_focus("defocus_shadows_indirect.ron");
     let (ablation, _, rays_a) = in_focus("defocus_shadows_indirect_nofactor.ron");
-    eprintln!("in focus ({n} px): factored RMSE {factored:.5} at {rays_f} rays, ablation {ablation:.5} at {rays_a} rays");
+    eprintln!(
+        "in focus ({n} px): factored RMSE {factored:.5} at {rays_f} rays, ablation {ablation:.5} at {rays_a} rays"
+    );
     assert!(n > (w * h / 8) as usize, "{n}");
     assert!(rays_f <= rays_a, "{rays_f} vs {rays_a}");
     assert!(factored < 0.92 * ablation, "{factored} vs {ablation}");

@@ -23,7 +23,8 @@ const H: u32 = 30;
 /// A plane z = 0 seen head on from z = 3, so pixel (x, y)'s position is where its centre ray meets it.
 fn plane_scene() -> (Scene, Camera) {
     let mut scene = wedge::scene::load(&SceneSource::Builtin("grids".into())).expect("scene");
-    let cam = Camera { position: glam::Vec3::new(0.0, 0.0, 3.0), look_at: glam::Vec3::ZERO, vfov_deg: 40.0, ..scene.camera };
+    let cam =
+        Camera { position: glam::Vec3::new(0.0, 0.0, 3.0), look_at: glam::Vec3::ZERO, vfov_deg: 40.0, ..scene.camera };
     scene.camera = cam;
     (scene, cam)
 }
@@ -49,7 +50,13 @@ fn value() -> Vec<[f32; 3]> {
     (0..W * H).map(|i| [(i % W) as f32 / W as f32, ((i / W) % 3) as f32, 1.0]).collect()
 }
 
-fn run(kernel: Arc<dyn Kernel>, scene: &Scene, params: &[(&str, ParamValue)], inputs: &BTreeMap<&str, BufferData>, gpu: Option<&mut GpuBackend>) -> BufferData {
+fn run(
+    kernel: Arc<dyn Kernel>,
+    scene: &Scene,
+    params: &[(&str, ParamValue)],
+    inputs: &BTreeMap<&str, BufferData>,
+    gpu: Option<&mut GpuBackend>,
+) -> BufferData {
     let params = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
     let lone = LonePass::new(kernel, params, inputs).expect("inputs match the kernel's bindings");
     let out = match gpu {
@@ -60,7 +67,11 @@ fn run(kernel: Arc<dyn Kernel>, scene: &Scene, params: &[(&str, ParamValue)], in
 }
 
 fn axis_params(axis: i64) -> Vec<(&'static str, ParamValue)> {
-    vec![("axis", ParamValue::Int(axis)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(10f64.to_radians().cos()))]
+    vec![
+        ("axis", ParamValue::Int(axis)),
+        ("max_radius", ParamValue::Int(15)),
+        ("normal_cos", ParamValue::Float(10f64.to_radians().cos())),
+    ]
 }
 
 #[test]
@@ -121,7 +132,12 @@ fn a_still_camera_reprojects_onto_itself_and_joins_the_y_pass() {
     hist_in.insert("previous_position", BufferData::Vec4(position.clone()));
     hist_in.insert("previous_normal", BufferData::Vec4(normal.clone()));
     hist_in.insert("previous_bandwidth", BufferData::Vec2(bandwidth.clone()));
-    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98)), ("max_motion", ParamValue::Int(32))];
+    let hp: Vec<(&str, ParamValue)> = vec![
+        ("axis", ParamValue::Int(0)),
+        ("max_radius", ParamValue::Int(15)),
+        ("normal_cos", ParamValue::Float(0.98)),
+        ("max_motion", ParamValue::Int(32)),
+    ];
     let hist = run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, None);
     let (xs, hs) = (<[f32; 3] as Texel>::slice(&x).unwrap(), <[f32; 4] as Texel>::slice(&hist).unwrap());
     for i in 0..(W * H) as usize {
@@ -153,7 +169,11 @@ fn a_moving_camera_reprojects_to_the_same_world_points() {
     // shifted; with a previous value that is a function of world x only, the history pass must return
     // that function at the current position (no ghost of the old image grid).
     let (mut scene, cam) = plane_scene();
-    let prev = Camera { position: cam.position - glam::Vec3::new(0.3, 0.0, 0.0), look_at: cam.look_at - glam::Vec3::new(0.3, 0.0, 0.0), ..cam };
+    let prev = Camera {
+        position: cam.position - glam::Vec3::new(0.3, 0.0, 0.0),
+        look_at: cam.look_at - glam::Vec3::new(0.3, 0.0, 0.0),
+        ..cam
+    };
     scene.previous_camera = Some(prev);
     let (position, normal) = gbuffer(&cam);
     let (prev_position, prev_normal) = gbuffer(&prev);
@@ -171,7 +191,12 @@ fn a_moving_camera_reprojects_to_the_same_world_points() {
     ]
     .into_iter()
     .collect();
-    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98)), ("max_motion", ParamValue::Int(32))];
+    let hp: Vec<(&str, ParamValue)> = vec![
+        ("axis", ParamValue::Int(0)),
+        ("max_radius", ParamValue::Int(15)),
+        ("normal_cos", ParamValue::Float(0.98)),
+        ("max_motion", ParamValue::Int(32)),
+    ];
     let hist = run(Arc::new(EnvironmentHistory), &scene, &hp, &inputs, None);
     let hs = <[f32; 4] as Texel>::slice(&hist).unwrap();
     let mut valid = 0;
@@ -223,17 +248,38 @@ fn both_kernels_agree_with_the_gpu() {
     .into_iter()
     .collect();
     let tol = Tolerance::for_class(KernelClass::Filter);
-    let hp: Vec<(&str, ParamValue)> = vec![("axis", ParamValue::Int(0)), ("max_radius", ParamValue::Int(15)), ("normal_cos", ParamValue::Float(0.98)), ("max_motion", ParamValue::Int(32))];
-    let only = |names: &[&str]| -> BTreeMap<&str, BufferData> { inputs.iter().filter(|(k, _)| names.contains(k)).map(|(k, v)| (*k, v.clone())).collect() };
-    let hist_in = only(&["position", "normal", "bandwidth", "previous_value", "previous_position", "previous_normal", "previous_bandwidth"]);
-    let (hc, hg) = (run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, None), run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, Some(&mut gpu)));
+    let hp: Vec<(&str, ParamValue)> = vec![
+        ("axis", ParamValue::Int(0)),
+        ("max_radius", ParamValue::Int(15)),
+        ("normal_cos", ParamValue::Float(0.98)),
+        ("max_motion", ParamValue::Int(32)),
+    ];
+    let only = |names: &[&str]| -> BTreeMap<&str, BufferData> {
+        inputs.iter().filter(|(k, _)| names.contains(k)).map(|(k, v)| (*k, v.clone())).collect()
+    };
+    let hist_in = only(&[
+        "position",
+        "normal",
+        "bandwidth",
+        "previous_value",
+        "previous_position",
+        "previous_normal",
+        "previous_bandwidth",
+    ]);
+    let (hc, hg) = (
+        run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, None),
+        run(Arc::new(EnvironmentHistory), &scene, &hp, &hist_in, Some(&mut gpu)),
+    );
     assert_eq!(compare(&hc, &hg, tol).2, 0, "history pass");
     // Every point moved one pixel to the left (1.4 px from the pixel centre): a motion bound of 0 px
     // cuts all history, on both backends.
     let mut hp1 = hp.clone();
     hp1.retain(|(k, _)| *k != "max_motion");
     hp1.push(("max_motion", ParamValue::Int(0)));
-    let (c1, g1) = (run(Arc::new(EnvironmentHistory), &scene, &hp1, &hist_in, None), run(Arc::new(EnvironmentHistory), &scene, &hp1, &hist_in, Some(&mut gpu)));
+    let (c1, g1) = (
+        run(Arc::new(EnvironmentHistory), &scene, &hp1, &hist_in, None),
+        run(Arc::new(EnvironmentHistory), &scene, &hp1, &hist_in, Some(&mut gpu)),
+    );
     assert_eq!(compare(&c1, &g1, tol).2, 0, "history pass, max_motion 0");
     let valid = |b: &BufferData| <[f32; 4] as Texel>::slice(b).unwrap().iter().filter(|h| h[3] > 0.0).count();
     println!("history pixels: {} under max_motion 32, {} on the GPU under 0", valid(&hc), valid(&g1));
@@ -243,7 +289,10 @@ fn both_kernels_agree_with_the_gpu() {
         if axis == 1 {
             f_in.insert("previous", hc.clone());
         }
-        let (c, g) = (run(Arc::new(EnvironmentFilter), &scene, &axis_params(axis), &f_in, None), run(Arc::new(EnvironmentFilter), &scene, &axis_params(axis), &f_in, Some(&mut gpu)));
+        let (c, g) = (
+            run(Arc::new(EnvironmentFilter), &scene, &axis_params(axis), &f_in, None),
+            run(Arc::new(EnvironmentFilter), &scene, &axis_params(axis), &f_in, Some(&mut gpu)),
+        );
         assert_eq!(compare(&c, &g, tol).2, 0, "axis {axis}");
     }
 }

@@ -74,7 +74,8 @@ fn text_overrides() -> Overrides {
 fn reference(text: &str, spp: u32) -> Image {
     let loaded = parse_pipeline(Path::new("test.ron"), text).expect("pipeline parses");
     let (nodes, kernels) = wedge::effects::builtin();
-    let s = Session::build_reference(loaded, &text_overrides(), nodes, kernels, spp, "stratified").expect("reference builds");
+    let s = Session::build_reference(loaded, &text_overrides(), nodes, kernels, spp, "stratified")
+        .expect("reference builds");
     color(&s, &run(&s))
 }
 
@@ -154,7 +155,8 @@ fn a_white_furnace_converges_to_the_map() {
     // Albedo 1 and L = 1: the sphere disappears into the map. With the indirect part on (a convex
     // object has no reflector, so its indirect light is 0) the sum is still 1.
     let dir = tempfile::tempdir().unwrap();
-    let text = furnace(&sphere_obj(dir.path(), 1.0), &constant_map(dir.path(), 1.0), r#""per_primary": 16, "indirect": true"#);
+    let text =
+        furnace(&sphere_obj(dir.path(), 1.0), &constant_map(dir.path(), 1.0), r#""per_primary": 16, "indirect": true"#);
     let s = session_from_text(&text, &text_overrides());
     let r = run(&s);
     let inside = sphere_pixels(0.05);
@@ -240,9 +242,14 @@ fn a_moving_camera_leaves_no_ghost() {
             err_s += (0..3).map(|c| ((s[c] - r[c]) as f64).abs()).sum::<f64>();
         }
     }
-    let profile: Vec<String> = (0..64).map(|x| format!("{:.2}", temporal.get(x, 26)[1] - truth.get(x, 26)[1])).collect();
+    let profile: Vec<String> =
+        (0..64).map(|x| format!("{:.2}", temporal.get(x, 26)[1] - truth.get(x, 26)[1])).collect();
     println!("row 26, temporal − converged: {}", profile.join(" "));
-    println!("mean |error| over rows 20..32: temporal {:.4e}, spatial {:.4e}", err_t / (12.0 * 64.0 * 3.0), err_s / (12.0 * 64.0 * 3.0));
+    println!(
+        "mean |error| over rows 20..32: temporal {:.4e}, spatial {:.4e}",
+        err_t / (12.0 * 64.0 * 3.0),
+        err_s / (12.0 * 64.0 * 3.0)
+    );
     assert!(err_t <= 1.05 * err_s, "temporal {err_t} vs spatial {err_s}");
 }
 
@@ -294,7 +301,19 @@ fn bad_maps_are_clear_errors_at_the_node() {
     assert!(e.contains("2:1") && e.contains("node `env`"), "{e}");
     // NaN and negative texels are counted and refused.
     let bad = dir.path().join("bad.exr");
-    write_exr(&bad, &Image::from_fn(64, 32, |x, y| if (x, y) == (3, 3) { [f32::NAN; 3] } else if x == 5 { [-1.0; 3] } else { [1.0; 3] })).unwrap();
+    write_exr(
+        &bad,
+        &Image::from_fn(64, 32, |x, y| {
+            if (x, y) == (3, 3) {
+                [f32::NAN; 3]
+            } else if x == 5 {
+                [-1.0; 3]
+            } else {
+                [1.0; 3]
+            }
+        }),
+    )
+    .unwrap();
     let e = build_error(&furnace(&scene, &bad, ""));
     println!("{e}");
     assert!(e.contains("NaN") && e.contains("negative"), "{e}");

@@ -22,7 +22,8 @@ fn export(pipeline: &Path, dir: &Path) -> (String, Value) {
     let out = dir.join("out");
     let o = wedge(&["export-scene", pipeline.to_str().unwrap(), "--out", out.to_str().unwrap()], dir);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let json = serde_json::from_str(&std::fs::read_to_string(out.join("scene.json")).unwrap()).expect("scene.json parses");
+    let json =
+        serde_json::from_str(&std::fs::read_to_string(out.join("scene.json")).unwrap()).expect("scene.json parses");
     (String::from_utf8_lossy(&o.stdout).into_owned(), json)
 }
 
@@ -56,20 +57,32 @@ fn the_environment_node_s_map_is_exported_exactly_with_scale_and_rotation() {
     let (stdout, json) = export(&p, dir.path());
     assert!(stdout.contains("environment.exr"), "{stdout}");
     let env = &json["environment"];
-    assert_eq!((env["exr"].as_str(), env["width"].as_u64(), env["height"].as_u64()), (Some("environment.exr"), Some(8), Some(4)));
+    assert_eq!(
+        (env["exr"].as_str(), env["width"].as_u64(), env["height"].as_u64()),
+        (Some("environment.exr"), Some(8), Some(4))
+    );
     assert_eq!((f(&env["scale"]), f(&env["rotation_deg"])), (2.5, 30.0));
     // Mitsuba's envmap has u = 0 at -Z where wedge has u = 0.5: half a turn more about +Y.
     let m = &env["mitsuba"];
-    assert_eq!((m["type"].as_str(), m["filename"].as_str(), f(&m["scale"])), (Some("envmap"), Some("environment.exr"), 2.5));
+    assert_eq!(
+        (m["type"].as_str(), m["filename"].as_str(), f(&m["scale"])),
+        (Some("envmap"), Some("environment.exr"), 2.5)
+    );
     assert_eq!((v3(&m["to_world"]["rotate"]["axis"]), f(&m["to_world"]["rotate"]["angle"])), (Vec3::Y, 210.0));
     // Mitsuba 3's envmap looks a world direction d up at u = atan2(x, -z)/(2 pi), v = acos(y)/pi of
     // d in its local frame (to_world^-1 d): with the exported angle that is wedge's texel for d.
-    let map = wedge::scene::EnvironmentMap::open(dir.path().join("sky.exr").to_str().unwrap()).unwrap().with_params(2.5, 30.0).unwrap();
+    let map = wedge::scene::EnvironmentMap::open(dir.path().join("sky.exr").to_str().unwrap())
+        .unwrap()
+        .with_params(2.5, 30.0)
+        .unwrap();
     let to_local = glam::Quat::from_rotation_y(-f(&m["to_world"]["rotate"]["angle"]).to_radians());
     for k in 0..64 {
         let d = Vec3::new((k as f32 * 0.7).sin(), (k as f32 * 0.31).cos(), (k as f32 * 1.3).cos()).normalize();
         let l = to_local * d;
-        let (u, v) = ((l.x.atan2(-l.z) / std::f32::consts::TAU).rem_euclid(1.0), l.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
+        let (u, v) = (
+            (l.x.atan2(-l.z) / std::f32::consts::TAU).rem_euclid(1.0),
+            l.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+        );
         let want = map.uv_of(d);
         let du = (u - want.x).abs();
         assert!(du.min(1.0 - du) < 1e-5 && (v - want.y).abs() < 1e-5, "{d}: mitsuba ({u}, {v}), wedge {want}");
@@ -85,7 +98,8 @@ fn the_environment_node_s_map_is_exported_exactly_with_scale_and_rotation() {
 fn a_scene_without_an_environment_exports_none() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("bar.obj"), "o bar\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-    let text = "Pipeline(scene: \"bar.obj\", width: 8, height: 6, nodes: [\n    (name: \"p\", kind: \"Primary\"),\n    \
+    let text =
+        "Pipeline(scene: \"bar.obj\", width: 8, height: 6, nodes: [\n    (name: \"p\", kind: \"Primary\"),\n    \
                 (name: \"out\", kind: \"Output\", inputs: {\"color\": \"p.albedo\"}),\n])\n";
     std::fs::write(dir.path().join("none.ron"), text).unwrap();
     let (_, json) = export(&dir.path().join("none.ron"), dir.path());
@@ -105,7 +119,10 @@ fn pipeline_motion_is_exported_as_keyframes_at_shutter_open_and_close() {
     let camera = &json["camera"];
     assert_eq!((f(&camera["shutter_open"]), f(&camera["shutter_close"])), (2.0, 3.0));
     let path = json["camera_path"].as_array().unwrap();
-    assert_eq!((path.len(), path[1]["frame"].as_u64(), v3(&path[1]["position"])), (2, Some(9), Vec3::new(1.0, 0.5, 4.0)));
+    assert_eq!(
+        (path.len(), path[1]["frame"].as_u64(), v3(&path[1]["position"])),
+        (2, Some(9), Vec3::new(1.0, 0.5, 4.0))
+    );
 
     // What wedge renders: the session's motion of `bar`.
     let s = Session::open(Some(&p), &Overrides::default()).unwrap();
@@ -139,7 +156,10 @@ fn pipeline_motion_is_exported_as_keyframes_at_shutter_open_and_close() {
 fn a_mixed_reality_real_layer_is_neither_captured_nor_exported_and_that_is_said() {
     let dir = tempfile::tempdir().unwrap();
     // Neither a capture scene nor maps exist: reading or capturing either would fail the export.
-    for (name, real) in [("capture", "\"capture\": \"missing.obj\", \"capture_spp\": 65536"), ("maps", "\"camera_image\": \"c.exr\", \"position_map\": \"p.exr\", \"normal_map\": \"n.exr\"")] {
+    for (name, real) in [
+        ("capture", "\"capture\": \"missing.obj\", \"capture_spp\": 65536"),
+        ("maps", "\"camera_image\": \"c.exr\", \"position_map\": \"p.exr\", \"normal_map\": \"n.exr\""),
+    ] {
         let text = format!(
             "Pipeline(scene: \"builtin:envmap_virtual\", width: 64, height: 48, nodes: [\n    (name: \"mr\", kind: \"MixedReality\", params: {{{real}}}),\n    \
              (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"mr.radiance\"}}),\n])\n"
@@ -150,7 +170,10 @@ fn a_mixed_reality_real_layer_is_neither_captured_nor_exported_and_that_is_said(
         let lost = json["not_exported"].as_array().unwrap();
         assert_eq!(lost.len(), 1, "{lost:?}");
         let lost = lost[0].as_str().unwrap();
-        assert!(lost.starts_with("the mixed-reality real layer of node `mr`") && lost.contains("not a scene"), "{lost}");
+        assert!(
+            lost.starts_with("the mixed-reality real layer of node `mr`") && lost.contains("not a scene"),
+            "{lost}"
+        );
         assert!(stdout.contains(&format!("not exported: {lost}")), "{stdout}");
         // The virtual objects and their light are exported.
         assert_eq!(json["environment"]["exr"].as_str(), Some("environment.exr"));

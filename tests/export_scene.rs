@@ -52,12 +52,20 @@ fn exported_obj_loads_back_as_the_same_scene_and_image() {
     // through 8-bit sRGB: within one code step).
     for (i, m) in s.scene.materials.iter().enumerate() {
         let back = obj.materials.iter().find(|b| b.name.starts_with(&format!("m{i}_"))).unwrap();
-        assert_eq!((back.base_color, back.specular, back.phong_exponent, back.emission), (m.base_color, m.specular, m.phong_exponent, m.emission));
+        assert_eq!(
+            (back.base_color, back.specular, back.phong_exponent, back.emission),
+            (m.base_color, m.specular, m.phong_exponent, m.emission)
+        );
         assert_eq!(back.base_color_texture.is_some(), m.base_color_texture.is_some());
     }
     let (t0, t1) = (&s.scene.textures[0], &obj.textures[0]);
     assert_eq!((t0.width, t0.height), (t1.width, t1.height));
-    let worst = t0.texels.iter().zip(&t1.texels).flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs())).fold(0f32, f32::max);
+    let worst = t0
+        .texels
+        .iter()
+        .zip(&t1.texels)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+        .fold(0f32, f32::max);
     assert!(worst < 4e-3, "texture through sRGB8: {worst}");
     // Same geometry per material, same light.
     let built = area_by_material(&s.scene, &|i| s.scene.materials[i].name.clone());
@@ -73,7 +81,13 @@ fn exported_obj_loads_back_as_the_same_scene_and_image() {
 
     // scene.json states the camera that was rendered, lens included.
     let json = std::fs::read_to_string(dir.path().join("scene.json")).unwrap();
-    for needle in ["\"aperture_radius\": 0.05", "\"focus_distance\": 2.6", "\"vfov_deg\": 32", "\"width\": 48", "\"two_sided\": false"] {
+    for needle in [
+        "\"aperture_radius\": 0.05",
+        "\"focus_distance\": 2.6",
+        "\"vfov_deg\": 32",
+        "\"width\": 48",
+        "\"two_sided\": false",
+    ] {
         assert!(json.contains(needle), "{needle} in scene.json");
     }
 
@@ -85,7 +99,8 @@ fn exported_obj_loads_back_as_the_same_scene_and_image() {
     let a = Session::reference(Some(&pipeline), 128, "stratified", &ov).unwrap();
     let obj_ov = wedge::Overrides { scene: Some(dir.path().join("scene.obj").display().to_string()), ..ov.clone() };
     let b = Session::reference(Some(&pipeline), 128, "stratified", &obj_ov).unwrap();
-    let c = Session::reference(Some(&pipeline), 128, "stratified", &wedge::Overrides { seed: Some(2), ..ov.clone() }).unwrap();
+    let c = Session::reference(Some(&pipeline), 128, "stratified", &wedge::Overrides { seed: Some(2), ..ov.clone() })
+        .unwrap();
     let (ia, ib, ic) = (color(&a, &run(&a)), color(&b, &run(&b)), color(&c, &run(&c)));
     let mean = |i: &Image| i.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / i.pixels.len() as f64;
     // And the OBJ's texture went through 8-bit sRGB (0.3% darker on average). So the means agree
@@ -94,7 +109,10 @@ fn exported_obj_loads_back_as_the_same_scene_and_image() {
     let (ma, mb, e, noise) = (mean(&ia), mean(&ib), rmse(&ia, &ib), rmse(&ia, &ic));
     println!("built-in mean {ma:.5}, OBJ mean {mb:.5}, RMSE {e:.5} (two seeds of the built-in: {noise:.5})");
     assert!(ma > 0.05, "the image is lit: {ma}");
-    assert!((ma - mb).abs() < 1e-2 * ma && e < 2.0 * noise, "means {ma} vs {mb}, RMSE {e} against a noise RMSE {noise}");
+    assert!(
+        (ma - mb).abs() < 1e-2 * ma && e < 2.0 * noise,
+        "means {ma} vs {mb}, RMSE {e} against a noise RMSE {noise}"
+    );
 }
 
 /// The thin-lens check's wedge-side "lens-correct" image: the path sampler (`paths.trace`, the
@@ -110,7 +128,8 @@ fn exported_obj_loads_back_as_the_same_scene_and_image() {
 fn thin_lens_check_sampler_image() {
     let out = std::env::var("LENS_OUT").expect("LENS_OUT: the EXR to write");
     let spp: i64 = std::env::var("LENS_SPP").map_or(1024, |s| s.parse().expect("LENS_SPP: a whole number"));
-    let pipeline = std::env::var("LENS_PIPELINE").map_or_else(|_| check_pipeline("chess_defocus_direct.ron"), PathBuf::from);
+    let pipeline =
+        std::env::var("LENS_PIPELINE").map_or_else(|_| check_pipeline("chess_defocus_direct.ron"), PathBuf::from);
     let s = Session::open(Some(&pipeline), &wedge::Overrides::default()).unwrap();
     let mut scene = s.scene;
     if std::env::var("LENS_DIFFUSE").is_ok_and(|v| v == "1") {
@@ -150,7 +169,8 @@ fn thin_lens_check_sampler_image() {
         }
     }
     let none: BTreeMap<&str, BufferData> = BTreeMap::new();
-    let (outputs, _) = LonePass::new(Arc::new(PathsTrace), params, &none).unwrap().run_cpu(&scene, s.width, s.height, s.seed).unwrap();
+    let (outputs, _) =
+        LonePass::new(Arc::new(PathsTrace), params, &none).unwrap().run_cpu(&scene, s.width, s.height, s.seed).unwrap();
     let rec = <PathRecord as Texel>::slice(&outputs["record"]).unwrap();
     let img = Image::from_fn(s.width, s.height, |x, y| rec[(y * s.width + x) as usize].radiance().to_array());
     wedge::image::write_exr(Path::new(&out), &img).unwrap();

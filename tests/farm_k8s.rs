@@ -17,7 +17,6 @@ fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-
 /// Every document of a YAML file, as JSON values.
 fn documents(path: &Path) -> Vec<Value> {
     let text = fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -38,16 +37,11 @@ fn schema_errors(doc: &Value) -> Vec<String> {
         Some("Job") => validator("job-batch-v1.schema.json"),
         _ => validator("core-v1.schema.json"),
     };
-    v.iter_errors(doc)
-        .map(|e| format!("{} at {}", e, e.instance_path()))
-        .collect()
+    v.iter_errors(doc).map(|e| format!("{} at {}", e, e.instance_path())).collect()
 }
 
 fn ok(o: &std::process::Output) -> String {
-    let (out, err) = (
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    );
+    let (out, err) = (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
     assert!(o.status.success(), "failed: {out}{err}");
     out
 }
@@ -62,11 +56,8 @@ fn run_pod(job: &Value, index: u64) -> String {
         .map(|v| v.as_str().unwrap().to_string())
         .collect();
     assert_eq!(command[..2], ["/bin/sh", "-c"]);
-    let o = Command::new(&command[0])
-        .args(&command[1..])
-        .env("JOB_COMPLETION_INDEX", index.to_string())
-        .output()
-        .unwrap();
+    let o =
+        Command::new(&command[0]).args(&command[1..]).env("JOB_COMPLETION_INDEX", index.to_string()).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
@@ -89,35 +80,14 @@ fn manifests_pass_the_schema_and_index_the_tasks() {
         "echo",
     ];
     let out = ok(&wedge(
-        &[
-            &args[..],
-            &[
-                "--width",
-                "160",
-                "--height",
-                "120",
-                "--seed",
-                "3",
-                "--parallelism",
-                "5",
-                "--out",
-                "o",
-            ],
-        ]
-        .concat(),
+        &[&args[..], &["--width", "160", "--height", "120", "--seed", "3", "--parallelism", "5", "--out", "o"]]
+            .concat(),
         &d,
     ));
-    assert!(
-        out.contains("12 task(s) (4 tile(s) × frames 5..7)"),
-        "{out}"
-    );
+    assert!(out.contains("12 task(s) (4 tile(s) × frames 5..7)"), "{out}");
     let tiles = documents(&d.join("o/k8s/tiles.yaml"));
     let merge = documents(&d.join("o/k8s/merge.yaml"));
-    let kinds: Vec<&str> = tiles
-        .iter()
-        .chain(&merge)
-        .map(|v| v["kind"].as_str().unwrap())
-        .collect();
+    let kinds: Vec<&str> = tiles.iter().chain(&merge).map(|v| v["kind"].as_str().unwrap()).collect();
     assert_eq!(kinds, ["ConfigMap", "PersistentVolumeClaim", "Job", "Job"]);
     for doc in tiles.iter().chain(&merge) {
         let errors = schema_errors(doc);
@@ -125,28 +95,15 @@ fn manifests_pass_the_schema_and_index_the_tasks() {
     }
     let (config, claim, job) = (&tiles[0], &tiles[1], &tiles[2]);
     // The pipeline travels in the ConfigMap, byte for byte.
-    assert_eq!(
-        config["data"]["shadows.ron"].as_str().unwrap(),
-        fs::read_to_string(&shadows).unwrap()
-    );
+    assert_eq!(config["data"]["shadows.ron"].as_str().unwrap(), fs::read_to_string(&shadows).unwrap());
     let spec = &job["spec"];
     assert_eq!(
-        (
-            spec["completionMode"].as_str(),
-            spec["completions"].as_u64(),
-            spec["parallelism"].as_u64()
-        ),
+        (spec["completionMode"].as_str(), spec["completions"].as_u64(), spec["parallelism"].as_u64()),
         (Some("Indexed"), Some(12), Some(5))
     );
     let pod = &spec["template"]["spec"];
-    assert_eq!(
-        pod["volumes"][0]["configMap"]["name"],
-        config["metadata"]["name"]
-    );
-    assert_eq!(
-        pod["volumes"][1]["persistentVolumeClaim"]["claimName"],
-        claim["metadata"]["name"]
-    );
+    assert_eq!(pod["volumes"][0]["configMap"]["name"], config["metadata"]["name"]);
+    assert_eq!(pod["volumes"][1]["persistentVolumeClaim"]["claimName"], claim["metadata"]["name"]);
     assert_eq!(claim["spec"]["accessModes"][0], "ReadWriteMany");
     // Task T: tile T % 4 of frame 5 + T / 4, with the render flags.
     for (index, shard, tile) in [(0, "0/3", "0/4"), (6, "1/3", "2/4"), (11, "2/3", "3/4")] {
@@ -167,15 +124,11 @@ fn manifests_pass_the_schema_and_index_the_tasks() {
     let merged = run_pod(&merge[0], 0);
     assert_eq!(
         merged.lines().collect::<Vec<_>>(),
-        (5..=7)
-            .map(|f| format!("merge /data/tiles/frame_{f:04} --out /data/out/frame_{f:04}"))
-            .collect::<Vec<_>>()
+        (5..=7).map(|f| format!("merge /data/tiles/frame_{f:04} --out /data/out/frame_{f:04}")).collect::<Vec<_>>()
     );
     let submit = fs::read_to_string(d.join("o/k8s/submit.sh")).unwrap();
     let (wait, apply_merge) = (
-        submit
-            .find("wait --for=condition=complete --timeout=24h job/wedge-shadows-tiles")
-            .unwrap(),
+        submit.find("wait --for=condition=complete --timeout=24h job/wedge-shadows-tiles").unwrap(),
         submit.find("apply -f merge.yaml").unwrap(),
     );
     assert!(wait < apply_merge, "{submit}");
@@ -214,20 +167,7 @@ fn manifests_pass_the_schema_and_index_the_tasks() {
 #[test]
 fn the_schema_catches_broken_jobs() {
     let d = temp_dir("farm_k8s", "broken");
-    ok(&wedge(
-        &[
-            "farm",
-            "k8s",
-            &pipeline("shadows.ron"),
-            "--tiles",
-            "2",
-            "--image",
-            "wedge:1",
-            "--out",
-            "o",
-        ],
-        &d,
-    ));
+    ok(&wedge(&["farm", "k8s", &pipeline("shadows.ron"), "--tiles", "2", "--image", "wedge:1", "--out", "o"], &d));
     let job = documents(&d.join("o/k8s/tiles.yaml")).remove(2);
     assert!(schema_errors(&job).is_empty());
     let broken = |f: &dyn Fn(&mut Value)| {
@@ -236,15 +176,8 @@ fn the_schema_catches_broken_jobs() {
         schema_errors(&j)
     };
     assert!(!broken(&|j| j["spec"]["completionMode"] = "Indexd".into()).is_empty());
-    assert!(!broken(&|j| j["spec"]
-        .as_object_mut()
-        .unwrap()
-        .remove("completions")
-        .map_or((), |_| ()))
-    .is_empty());
-    assert!(
-        !broken(&|j| j["spec"]["template"]["spec"]["restartPolicy"] = "Always".into()).is_empty()
-    );
+    assert!(!broken(&|j| j["spec"].as_object_mut().unwrap().remove("completions").map_or((), |_| ())).is_empty());
+    assert!(!broken(&|j| j["spec"]["template"]["spec"]["restartPolicy"] = "Always".into()).is_empty());
     assert!(!broken(&|j| j["spec"]["paralelism"] = 2.into()).is_empty());
     assert!(!broken(&|j| j["apiVersion"] = "batch/v2".into()).is_empty());
 }
@@ -254,83 +187,36 @@ fn bad_k8s_flags_are_refused_by_name_and_nothing_is_written() {
     let d = temp_dir("farm_k8s", "bad");
     let shadows = pipeline("shadows.ron");
     let base = ["farm", "k8s", &shadows, "--tiles", "4"];
+    refused(&wedge(&[&base[..], &["--out", "o"]].concat(), &d), &["--image"]);
+    refused(&wedge(&[&base[..], &["--image", "a b", "--out", "o"]].concat(), &d), &["--image `a b`"]);
     refused(
-        &wedge(&[&base[..], &["--out", "o"]].concat(), &d),
-        &["--image"],
-    );
-    refused(
-        &wedge(&[&base[..], &["--image", "a b", "--out", "o"]].concat(), &d),
-        &["--image `a b`"],
-    );
-    refused(
-        &wedge(
-            &[
-                &base[..],
-                &["--image", "w", "--name", "Film_1", "--out", "o"],
-            ]
-            .concat(),
-            &d,
-        ),
+        &wedge(&[&base[..], &["--image", "w", "--name", "Film_1", "--out", "o"]].concat(), &d),
         &["--name `Film_1`", "DNS-1123"],
     );
     refused(
-        &wedge(
-            &[
-                &base[..],
-                &["--image", "w", "--parallelism", "5", "--out", "o"],
-            ]
-            .concat(),
-            &d,
-        ),
+        &wedge(&[&base[..], &["--image", "w", "--parallelism", "5", "--out", "o"]].concat(), &d),
         &["--parallelism 5", "4 task(s)"],
     );
     refused(
-        &wedge(
-            &[
-                &base[..],
-                &["--image", "w", "--storage", "ten", "--out", "o"],
-            ]
-            .concat(),
-            &d,
-        ),
+        &wedge(&[&base[..], &["--image", "w", "--storage", "ten", "--out", "o"]].concat(), &d),
         &["--storage `ten`"],
     );
     refused(
-        &wedge(
-            &[
-                &base[..],
-                &["--image", "w", "--frames", "3..1", "--out", "o"],
-            ]
-            .concat(),
-            &d,
-        ),
+        &wedge(&[&base[..], &["--image", "w", "--frames", "3..1", "--out", "o"]].concat(), &d),
         &["--frames", "ends before it starts"],
     );
     refused(
         &wedge(
             &[
-                "farm", "k8s", &shadows, "--tiles", "65536", "--frames", "0..1", "--width", "1024",
-                "--height", "1024", "--image", "w", "--out", "o",
+                "farm", "k8s", &shadows, "--tiles", "65536", "--frames", "0..1", "--width", "1024", "--height", "1024",
+                "--image", "w", "--out", "o",
             ],
             &d,
         ),
         &["131072 tasks", "100000"],
     );
     refused(
-        &wedge(
-            &[
-                "farm",
-                "k8s",
-                &pipeline("lightfield_ao.ron"),
-                "--tiles",
-                "4",
-                "--image",
-                "w",
-                "--out",
-                "o",
-            ],
-            &d,
-        ),
+        &wedge(&["farm", "k8s", &pipeline("lightfield_ao.ron"), "--tiles", "4", "--image", "w", "--out", "o"], &d),
         &["cannot be tiled"],
     );
     refused(

@@ -40,7 +40,8 @@ impl Cluster {
         for sub in ["munge", "spool", "state", "log"] {
             std::fs::create_dir_all(d.join(sub)).map_err(|e| e.to_string())?;
         }
-        let key: Vec<u8> = (0..1024u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8 ^ std::process::id() as u8).collect();
+        let key: Vec<u8> =
+            (0..1024u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8 ^ std::process::id() as u8).collect();
         std::fs::write(d.join("munge/munge.key"), key).map_err(|e| e.to_string())?;
         run("chmod", &["400", &d.join("munge/munge.key").to_string_lossy()])?;
         let p = |s: &str| d.join(s).to_string_lossy().into_owned();
@@ -60,8 +61,11 @@ impl Cluster {
         let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
         std::fs::write(cluster.conf(), slurm_conf(d, port, cpus)).map_err(|e| e.to_string())?;
         // Slurm 22.05 has no "disabled" cgroup plugin; v1 with nothing constrained loads everywhere.
-        std::fs::write(d.join("cgroup.conf"), "CgroupPlugin=cgroup/v1\nCgroupAutomount=no\nConstrainCores=no\nConstrainRAMSpace=no\n")
-            .map_err(|e| e.to_string())?;
+        std::fs::write(
+            d.join("cgroup.conf"),
+            "CgroupPlugin=cgroup/v1\nCgroupAutomount=no\nConstrainCores=no\nConstrainRAMSpace=no\n",
+        )
+        .map_err(|e| e.to_string())?;
         let conf = cluster.conf().to_string_lossy().into_owned();
         run("slurmctld", &["-f", &conf, "-i"])?;
         run("slurmd", &["-f", &conf])?;
@@ -105,13 +109,23 @@ fn slurm_conf(d: &Path, port: u32, cpus: usize) -> String {
 fn run(program: &str, args: &[&str]) -> Result<(), String> {
     let o = Command::new(program).args(args).output().map_err(|e| format!("{program}: {e}"))?;
     if !o.status.success() {
-        return Err(format!("{program} {}: {}{}", args.join(" "), String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr)));
+        return Err(format!(
+            "{program} {}: {}{}",
+            args.join(" "),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ));
     }
     Ok(())
 }
 
 fn wedge(args: &[&str], conf: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).env("SLURM_CONF", conf).current_dir(repo()).output().expect("wedge runs")
+    Command::new(env!("CARGO_BIN_EXE_wedge"))
+        .args(args)
+        .env("SLURM_CONF", conf)
+        .current_dir(repo())
+        .output()
+        .expect("wedge runs")
 }
 
 #[test]
@@ -131,27 +145,41 @@ fn farm_slurm_array_merges_to_the_single_process_render() {
     // 160x120, and 2 tiles x 2 frames of shadows.ron merged per frame. Radii lowered so that a tile's
     // apron does not cover the image; one thread per task so the two CPUs run two tasks at a time.
     let runs: [(&str, &[&str], &[&str]); 3] = [
-        ("pipelines/shadows.ron", &["--set", "shadows.max_radius=8", "--set", "shadows.fill_radius=4"], &["--tiles", "4"]),
+        (
+            "pipelines/shadows.ron",
+            &["--set", "shadows.max_radius=8", "--set", "shadows.fill_radius=4"],
+            &["--tiles", "4"],
+        ),
         ("pipelines/defocus.ron", &["--set", "defocus.max_radius=8"], &["--tiles", "4"]),
-        ("pipelines/shadows.ron", &["--set", "shadows.max_radius=8", "--set", "shadows.fill_radius=4"], &["--tiles", "2", "--frames", "3..4"]),
+        (
+            "pipelines/shadows.ron",
+            &["--set", "shadows.max_radius=8", "--set", "shadows.fill_radius=4"],
+            &["--tiles", "2", "--frames", "3..4"],
+        ),
     ];
     let size = ["--width", "160", "--height", "120", "--threads", "1"];
     let mut expected_files = Vec::new();
     for (k, (pipeline, sets, farm_flags)) in runs.iter().enumerate() {
         let farm = out.path().join(format!("farm{k}"));
         let farm_s = farm.to_string_lossy().into_owned();
-        let args = [&["farm", "slurm", *pipeline, "--time", "00:05:00"], *farm_flags, &size[..], sets, &["--out", &farm_s]].concat();
+        let args =
+            [&["farm", "slurm", *pipeline, "--time", "00:05:00"], *farm_flags, &size[..], sets, &["--out", &farm_s]]
+                .concat();
         let o = wedge(&args, &conf);
         assert!(o.status.success(), "{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
         // The single-process render of the same image (or frames), while the cluster works.
         let whole = out.path().join(format!("whole{k}"));
         let frames = farm_flags.contains(&"--frames");
         let range: &[&str] = if frames { &["--frames", "3..4"] } else { &[] };
-        let o = wedge(&[&["render", *pipeline], &size[..], sets, range, &["--out", &whole.to_string_lossy()]].concat(), &conf);
+        let o = wedge(
+            &[&["render", *pipeline], &size[..], sets, range, &["--out", &whole.to_string_lossy()]].concat(),
+            &conf,
+        );
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         if frames {
             for f in 3..=4 {
-                expected_files.push((farm.join(format!("frame_{f:04}/render.exr")), whole.join(format!("frame_{f:04}.exr"))));
+                expected_files
+                    .push((farm.join(format!("frame_{f:04}/render.exr")), whole.join(format!("frame_{f:04}.exr"))));
             }
         } else {
             expected_files.push((farm.join("render.exr"), whole.join("render.exr")));
@@ -161,18 +189,41 @@ fn farm_slurm_array_merges_to_the_single_process_render() {
         // The merge job writes its set by renames: once render.exr is there, it is complete.
         while !merged.exists() {
             let logs = std::fs::read_to_string(cluster.dir.path().join("log/slurmctld.log")).unwrap_or_default();
-            assert!(start.elapsed() < Duration::from_secs(240), "no {} after 240 s; slurmctld log:\n{logs}", merged.display());
+            assert!(
+                start.elapsed() < Duration::from_secs(240),
+                "no {} after 240 s; slurmctld log:\n{logs}",
+                merged.display()
+            );
             std::thread::sleep(Duration::from_millis(500));
         }
-        assert!(std::fs::read(merged).unwrap() == std::fs::read(whole).unwrap(), "{} differs from {}", merged.display(), whole.display());
+        assert!(
+            std::fs::read(merged).unwrap() == std::fs::read(whole).unwrap(),
+            "{} differs from {}",
+            merged.display(),
+            whole.display()
+        );
     }
     eprintln!("farm_slurm: 3 arrays (12 tasks) + 3 merges in {:.1} s", start.elapsed().as_secs_f64());
     // Every task logged its progress up to 100%.
     let log = std::fs::read_to_string(out.path().join("farm2/slurm/logs/tile_3.log")).unwrap();
     assert!(log.contains("progress: 100% tile 1/2 frame 4"), "{log}");
-    let flags = ["--width", "64", "--height", "48", "--set", "shadows.max_radius=4", "--set", "shadows.fill_radius=2", "--threads", "1"];
+    let flags = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--set",
+        "shadows.max_radius=4",
+        "--set",
+        "shadows.fill_radius=2",
+        "--threads",
+        "1",
+    ];
     let whole = out.path().join("whole_small");
-    let o = wedge(&[&["render", "pipelines/shadows.ron"], &flags[..], &["--out", &whole.to_string_lossy()]].concat(), &conf);
+    let o = wedge(
+        &[&["render", "pipelines/shadows.ron"], &flags[..], &["--out", &whole.to_string_lossy()]].concat(),
+        &conf,
+    );
     assert!(o.status.success());
     let expected = std::fs::read(whole.join("render.exr")).unwrap();
     a_failed_task_is_named_and_resubmitting_it_completes_the_set(&cluster, &flags, out.path(), &expected);
@@ -180,20 +231,30 @@ fn farm_slurm_array_merges_to_the_single_process_render() {
 
 /// Task 2 fails (its tile's path is a directory, which wedge never replaces): the merge job never
 /// starts (afterok), `wedge merge` names tile 2/4, and resubmitting array index 2 completes the set.
-fn a_failed_task_is_named_and_resubmitting_it_completes_the_set(cluster: &Cluster, flags: &[&str], out: &Path, expected: &[u8]) {
+fn a_failed_task_is_named_and_resubmitting_it_completes_the_set(
+    cluster: &Cluster,
+    flags: &[&str],
+    out: &Path,
+    expected: &[u8],
+) {
     let conf = cluster.conf();
     let farm = out.join("farm2");
     let blocker = farm.join("tiles/tile_0002_of_0004.exr");
     std::fs::create_dir_all(&blocker).unwrap();
     let farm_s = farm.to_string_lossy().into_owned();
-    let o = wedge(&[&["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4"], flags, &["--out", &farm_s]].concat(), &conf);
+    let o = wedge(
+        &[&["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4"], flags, &["--out", &farm_s]].concat(),
+        &conf,
+    );
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(o.status.success(), "{text}{}", String::from_utf8_lossy(&o.stderr));
     // "submitted tile array job A (4 tasks) and merge job M (after A succeeds)"
-    let ids: Vec<&str> = text.split_whitespace().filter(|w| w.chars().all(|c| c.is_ascii_digit()) && !w.is_empty()).collect();
+    let ids: Vec<&str> =
+        text.split_whitespace().filter(|w| w.chars().all(|c| c.is_ascii_digit()) && !w.is_empty()).collect();
     let (array, merge) = (ids[0], ids[2]);
     let squeue = |job: &str| {
-        let o = Command::new("squeue").args(["-h", "-j", job, "-o", "%T %r"]).env("SLURM_CONF", &conf).output().unwrap();
+        let o =
+            Command::new("squeue").args(["-h", "-j", job, "-o", "%T %r"]).env("SLURM_CONF", &conf).output().unwrap();
         String::from_utf8_lossy(&o.stdout).trim().to_string()
     };
     wait_for(|| squeue(array).is_empty(), "the array to finish");
@@ -209,12 +270,19 @@ fn a_failed_task_is_named_and_resubmitting_it_completes_the_set(cluster: &Cluste
         assert!(o.status.success(), "scancel {merge}: {}", String::from_utf8_lossy(&o.stderr));
     }
     std::fs::remove_dir(&blocker).unwrap();
-    let o = Command::new("sbatch").args(["--array=2", &format!("{farm_s}/slurm/tiles.sbatch")]).env("SLURM_CONF", &conf).output().unwrap();
+    let o = Command::new("sbatch")
+        .args(["--array=2", &format!("{farm_s}/slurm/tiles.sbatch")])
+        .env("SLURM_CONF", &conf)
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     wait_for(|| blocker.is_file(), "the resubmitted task's tile");
     let o = wedge(&["merge", &format!("{farm_s}/tiles"), "--out", &farm_s], &conf);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(std::fs::read(farm.join("render.exr")).unwrap() == expected, "merged render.exr after the resubmission differs");
+    assert!(
+        std::fs::read(farm.join("render.exr")).unwrap() == expected,
+        "merged render.exr after the resubmission differs"
+    );
 }
 
 fn wait_for(done: impl Fn() -> bool, what: &str) {

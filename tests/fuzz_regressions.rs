@@ -8,11 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn wedge_graph(file: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wedge"))
-        .arg("graph")
-        .arg(file)
-        .output()
-        .expect("wedge runs")
+    Command::new(env!("CARGO_BIN_EXE_wedge")).arg("graph").arg(file).output().expect("wedge runs")
 }
 
 fn bad(dir: &str, name: &str) -> PathBuf {

@@ -56,7 +56,8 @@ fn each_heatmap_node_writes_its_png_as_its_parameters_say() {
     let r = run(&s);
     let dir = tempfile::tempdir().unwrap();
     let written = write_run(dir.path(), "render", &r, s.width, s.height).unwrap();
-    let names: Vec<String> = written.files.iter().map(|f| f.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    let names: Vec<String> =
+        written.files.iter().map(|f| f.file_name().unwrap().to_string_lossy().into_owned()).collect();
     for f in ["render.png", "filter_width.png", "beta.png", "rays.png", "raw_beta.png"] {
         assert!(names.contains(&f.to_string()), "{f} not in {names:?}");
     }
@@ -139,8 +140,10 @@ fn wrong_wiring_and_unusable_names_are_refused_naming_the_node() {
 
 #[test]
 fn a_heatmap_named_like_another_output_is_an_error_and_writes_nothing() {
-    let s = build(&shadows_with(r#"        (name: "filter_width", kind: "Heatmap", inputs: {"count": "shadows.rays_per_pixel"}),"#))
-        .unwrap();
+    let s = build(&shadows_with(
+        r#"        (name: "filter_width", kind: "Heatmap", inputs: {"count": "shadows.rays_per_pixel"}),"#,
+    ))
+    .unwrap();
     let r = run(&s);
     let dir = tempfile::tempdir().unwrap();
     let e = write_run(dir.path(), "render", &r, s.width, s.height).unwrap_err().to_string();

@@ -64,7 +64,6 @@ fn cached_reference() -> &'static Image {
 const QW_I: u32 = 96;
 const QH_I: u32 = 72;
 
-
 /// Paths per pixel: hemisphere rays of the primary hit, i.e. secondary rays with one bounce.
 fn paths_per_pixel(r: &RunResult, w: u32, h: u32) -> f64 {
     r.rays.secondary_rays as f64 / (w as f64 * h as f64)
@@ -94,7 +93,11 @@ fn furnace_scene(le: f32, rho: f32) -> Scene {
             let mut n = [0.0; 3];
             n[axis] = inward;
             let n = Vec3::from(n);
-            let (a, b, cc, d) = if (q[1] - q[0]).cross(q[2] - q[0]).dot(n) > 0.0 { (q[0], q[1], q[2], q[3]) } else { (q[0], q[3], q[2], q[1]) };
+            let (a, b, cc, d) = if (q[1] - q[0]).cross(q[2] - q[0]).dot(n) > 0.0 {
+                (q[0], q[1], q[2], q[3])
+            } else {
+                (q[0], q[3], q[2], q[1])
+            };
             let object = (axis * 2) as u32 + (side > 0.0) as u32;
             let sh = TriangleShading { n: [n; 3], uv: [Vec2::ZERO; 3], material: 0, object };
             tris.push((a, b, cc, sh));
@@ -256,7 +259,10 @@ fn ao_is_a_fraction_and_reference_follows_the_node() {
     let (a, b) = (image_mean(&ao), image_mean(&reference));
     let un = buffer_to_image(r.output("unfiltered").unwrap(), s.width, s.height);
     let (e, e_un) = (rmse(&ao, &reference), rmse(&un, &reference));
-    eprintln!("AO mean {a:.4} (unfiltered {:.4}), reference {b:.4}, RMSE {e:.4} (unfiltered {e_un:.4})", image_mean(&un));
+    eprintln!(
+        "AO mean {a:.4} (unfiltered {:.4}), reference {b:.4}, RMSE {e:.4} (unfiltered {e_un:.4})",
+        image_mean(&un)
+    );
     // The unfiltered estimate's mean over seeds matches the reference's. The fixed-count estimator
     // is unbiased. The adaptive one with the thesis's own-pixel statistics (Ch. 4: the first pass's
     // 16 samples are kept and decide the count) is low by ~1.5% here: a pixel whose 16 rays all

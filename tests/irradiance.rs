@@ -67,7 +67,8 @@ fn check(node: &str) {
                 continue;
             }
             let sp = scene.surface(&hit, o, d);
-            let expected = ALBEDO * light.irradiance_unoccluded(sp.position, sp.shading_normal).x / std::f32::consts::PI;
+            let expected =
+                ALBEDO * light.irradiance_unoccluded(sp.position, sp.shading_normal).x / std::f32::consts::PI;
             if expected < 1e-3 {
                 continue;
             }

@@ -30,10 +30,17 @@ impl NodeKind for Miswired {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let albedo = ctx.required("albedo")?;
         let out = ctx.buffer("color", Format::Vec3);
-        ctx.pass("wrong", "compose.modulate", wedge::graph::Stage::Compose).read("value", albedo).read("tint", albedo).write("out", out).finish();
+        ctx.pass("wrong", "compose.modulate", wedge::graph::Stage::Compose)
+            .read("value", albedo)
+            .read("tint", albedo)
+            .write("out", out)
+            .finish();
         let position = ctx.required("position")?;
         let other = ctx.buffer("extra", Format::Vec3);
-        ctx.pass("fill", "compose.modulate", wedge::graph::Stage::Compose).read("value", position).write("spare", other).finish();
+        ctx.pass("fill", "compose.modulate", wedge::graph::Stage::Compose)
+            .read("value", position)
+            .write("spare", other)
+            .finish();
         ctx.output("color", out);
         ctx.output("extra", other);
         Ok(())
@@ -82,7 +89,7 @@ fn a_random_kernel_needs_a_pass_declared_random() {
         lifetimes: Vec::new(),
         slots: Vec::new(),
         slot_formats: Vec::new(),
-            slot_layers: Vec::new(),
+        slot_layers: Vec::new(),
         sink_inputs: Vec::new(),
         history: Vec::new(),
         culled: Vec::new(),
@@ -107,7 +114,10 @@ impl wedge::backends::Kernel for Typo {
         wedge::backends::KernelClass::Compose
     }
     fn bindings(&self) -> Vec<wedge::backends::Binding> {
-        vec![wedge::backends::Binding::read("value", Format::Vec4), wedge::backends::Binding::write("out", Format::Vec3)]
+        vec![
+            wedge::backends::Binding::read("value", Format::Vec4),
+            wedge::backends::Binding::write("out", Format::Vec3),
+        ]
     }
     fn run_cpu(&self, ctx: &mut wedge::backends::KernelCtx<'_>) -> Result<(), wedge::backends::BackendError> {
         let v = ctx.read::<[f32; 4]>("value")?;
@@ -116,7 +126,10 @@ impl wedge::backends::Kernel for Typo {
     }
     fn wgsl(&self) -> Option<wedge::backends::WgslSource> {
         const SOURCE: &str = "#include \"common.wgsl\"\n@compute @workgroup_size(8, 8)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n    if (!pixel_of(gid)) {\n        return;\n    }\n    let i = pixel_index(gid);\n    out_put(i, value_at(i).xyz * params.scael);\n}\n";
-        Some(wedge::backends::WgslSource::new(SOURCE, |_| Ok(wedge::backends::Uniforms::new().f32("scale", 1.0))).per_pixel())
+        Some(
+            wedge::backends::WgslSource::new(SOURCE, |_| Ok(wedge::backends::Uniforms::new().f32("scale", 1.0)))
+                .per_pixel(),
+        )
     }
 }
 
@@ -138,7 +151,10 @@ impl NodeKind for UsesTypo {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let position = ctx.required("position")?;
         let out = ctx.buffer("color", Format::Vec3);
-        ctx.pass("apply", "user.typo", wedge::graph::Stage::ImageFilter).read("value", position).write("out", out).finish();
+        ctx.pass("apply", "user.typo", wedge::graph::Stage::ImageFilter)
+            .read("value", position)
+            .write("out", out)
+            .finish();
         ctx.output("color", out);
         Ok(())
     }
@@ -201,7 +217,10 @@ fn reading_an_undeclared_parameter_is_an_error_not_a_panic() {
         Ok(_) => panic!("a node reading an undeclared parameter expanded"),
         Err(e) => e.to_string(),
     };
-    assert!(err.contains("`user`") && err.contains("undeclared parameter(s) `density`") && err.contains("declared: dens"), "{err}");
+    assert!(
+        err.contains("`user`") && err.contains("undeclared parameter(s) `density`") && err.contains("declared: dens"),
+        "{err}"
+    );
 }
 
 wedge::backends::kernel_params! {
@@ -223,7 +242,10 @@ impl wedge::backends::Kernel for Scale {
         wedge::backends::KernelClass::Compose
     }
     fn bindings(&self) -> Vec<wedge::backends::Binding> {
-        vec![wedge::backends::Binding::read("value", Format::Vec4), wedge::backends::Binding::write("out", Format::Vec3)]
+        vec![
+            wedge::backends::Binding::read("value", Format::Vec4),
+            wedge::backends::Binding::write("out", Format::Vec3),
+        ]
     }
     fn params(&self) -> Vec<wedge::backends::ParamSpec> {
         use wedge::backends::KernelParams;
@@ -274,7 +296,10 @@ fn a_kernels_typed_parameters_are_checked_before_anything_runs() {
     nodes.register(Arc::new(ForgetsTint));
     kernels.register(Arc::new(Scale));
     let text = PIPELINE
-        .replace("\"Miswired\", inputs: {\"albedo\": \"primary.albedo\", \"position\": \"primary.position\"}", "\"ForgetsTint\", inputs: {\"position\": \"primary.position\"}")
+        .replace(
+            "\"Miswired\", inputs: {\"albedo\": \"primary.albedo\", \"position\": \"primary.position\"}",
+            "\"ForgetsTint\", inputs: {\"position\": \"primary.position\"}",
+        )
         .replace("\"unfiltered\": \"bad.extra\"", "\"unfiltered\": \"bad.color\"");
     let loaded = wedge::graph::parse_pipeline(Path::new("forgets.ron"), &text).unwrap();
     let err = match wedge::Session::build(loaded, &Default::default(), nodes, kernels) {

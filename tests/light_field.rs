@@ -37,7 +37,9 @@ use wedge::backends::kernel::Counters;
 use wedge::backends::kernels::direct::RAY_EPSILON;
 use wedge::backends::kernels::light_field::reconstruct::{collect, resolve};
 use wedge::backends::kernels::light_field::splats::{blockers, KnnSettings};
-use wedge::backends::kernels::light_field::{build, input_rays, LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE};
+use wedge::backends::kernels::light_field::{
+    build, input_rays, LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE,
+};
 use wedge::backends::{BufferData, RunResult, Silent, Texel};
 use wedge::graph::{parse_pipeline, BufferId, ParamValue};
 use wedge::Session;
@@ -56,14 +58,30 @@ fn open(name: &str, w: u32, h: u32, params: &[(&str, &str, ParamValue)]) -> Sess
 /// `lightfield_indirect.ron` with a second sink `parts` (`color` = the LightField node's
 /// `radiance`, `unfiltered` = the direct light), on `scene` (None: the pipeline's `cornell`) with
 /// `seed` (None: the pipeline's); `reference = Some(spp)`: its stratified reference.
-fn parts(scene: Option<&str>, w: u32, h: u32, seed: Option<u32>, params: &[(&str, &str, ParamValue)], reference: Option<u32>) -> Session {
+fn parts(
+    scene: Option<&str>,
+    w: u32,
+    h: u32,
+    seed: Option<u32>,
+    params: &[(&str, &str, ParamValue)],
+    reference: Option<u32>,
+) -> Session {
     parts_of(INDIRECT, "direct", scene, w, h, seed, params, reference)
 }
 
 /// [`parts`] of pipeline `name`, whose LightField node is `indirect` and direct-light node `direct`;
 /// a third sink `input` has the LightField node's `unfiltered` as its `color`.
 #[allow(clippy::too_many_arguments)]
-fn parts_of(name: &str, direct: &str, scene: Option<&str>, w: u32, h: u32, seed: Option<u32>, params: &[(&str, &str, ParamValue)], reference: Option<u32>) -> Session {
+fn parts_of(
+    name: &str,
+    direct: &str,
+    scene: Option<&str>,
+    w: u32,
+    h: u32,
+    seed: Option<u32>,
+    params: &[(&str, &str, ParamValue)],
+    reference: Option<u32>,
+) -> Session {
     let path = pipeline(name);
     let text = std::fs::read_to_string(&path).expect("pipeline file");
     let heatmap = r#"(name: "splat_radius","#;
@@ -84,12 +102,18 @@ fn parts_of(name: &str, direct: &str, scene: Option<&str>, w: u32, h: u32, seed:
     let (nodes, kernels) = wedge::effects::builtin();
     match reference {
         None => Session::build(loaded, &ov, nodes, kernels).expect("session builds"),
-        Some(spp) => Session::build_reference(loaded, &ov, nodes, kernels, spp, "stratified").expect("reference builds"),
+        Some(spp) => {
+            Session::build_reference(loaded, &ov, nodes, kernels, spp, "stratified").expect("reference builds")
+        }
     }
 }
 
 fn sink<'a>(run: &'a RunResult, node: &str, port: &str) -> &'a BufferData {
-    run.outputs.iter().find(|((n, p), _)| n == node && p == port).unwrap_or_else(|| panic!("no sink input {node}.{port}")).1
+    run.outputs
+        .iter()
+        .find(|((n, p), _)| n == node && p == port)
+        .unwrap_or_else(|| panic!("no sink input {node}.{port}"))
+        .1
 }
 
 /// The indirect component of a `parts` run.
@@ -102,7 +126,8 @@ fn every_buffer(s: &Session) -> BTreeMap<BufferId, BufferData> {
     let job = s.job(s.seed, 0, &Silent);
     let mut held = BTreeMap::new();
     for pass in &s.schedule.passes {
-        let inputs: BTreeMap<BufferId, &BufferData> = pass.reads.iter().filter_map(|(_, id)| held.get(id).map(|b| (*id, b))).collect();
+        let inputs: BTreeMap<BufferId, &BufferData> =
+            pass.reads.iter().filter_map(|(_, id)| held.get(id).map(|b| (*id, b))).collect();
         for (binding, data) in run_pass(&job, pass, &inputs, &Counters::default()).expect("pass runs") {
             held.insert(pass.write(&binding).expect("bound"), data);
         }
@@ -162,10 +187,18 @@ fn shrinking_leaves_no_input_ray_blocked() {
                 assert_eq!(blocked_rays[pass], 0, "{name}: no input ray blocked after shrinking");
                 // The pass wrote these splats (then unused slots).
                 let pass_splats: &[Splat] = records(written(&s, &held, "light_field.splats", "splats"));
-                assert_eq!(&pass_splats[..built.splats.len()], &built.splats[..], "{name}: the splats pass writes build()'s splats");
+                assert_eq!(
+                    &pass_splats[..built.splats.len()],
+                    &built.splats[..],
+                    "{name}: the splats pass writes build()'s splats"
+                );
                 assert!(pass_splats[built.splats.len()..].iter().all(|x| x.flags == 0));
             } else {
-                assert!(blocked_rays[pass] > rays / 2, "{name}: unshrunk, most input rays are blocked ({} of {rays})", blocked_rays[pass]);
+                assert!(
+                    blocked_rays[pass] > rays / 2,
+                    "{name}: unshrunk, most input rays are blocked ({} of {rays})",
+                    blocked_rays[pass]
+                );
             }
         }
     }
@@ -189,9 +222,14 @@ fn a_reference_bypasses_reconstruction() {
     let r = parts(None, 32, 24, None, &[], Some(16));
     assert!(no_reconstruct(&r));
     let run = run(&r);
-    let (color, unfiltered, direct) = (sink(&run, "out", "color"), sink(&run, "out", "unfiltered"), sink(&run, "parts", "unfiltered"));
+    let (color, unfiltered, direct) =
+        (sink(&run, "out", "color"), sink(&run, "out", "unfiltered"), sink(&run, "parts", "unfiltered"));
     assert_eq!(sink(&run, "parts", "color"), unfiltered, "the LightField node outputs its unfiltered estimate");
-    let sum = BufferData::Vec3((0..color.len()).map(|i| std::array::from_fn(|c| direct.component(i, c) + unfiltered.component(i, c))).collect());
+    let sum = BufferData::Vec3(
+        (0..color.len())
+            .map(|i| std::array::from_fn(|c| direct.component(i, c) + unfiltered.component(i, c)))
+            .collect(),
+    );
     assert_eq!(*color, sum, "color = direct + unfiltered");
     assert!(unfiltered.to_scalar().iter().any(|&x| x > 0.0));
 }
@@ -218,7 +256,12 @@ fn converges_to_the_reference() {
         [2, 4, 8]
             .iter()
             .map(|&spp| {
-                let r = run(&open(AO, w, h, &[("ao", "spp", ParamValue::Int(spp)), ("ao", "gaps", ParamValue::Str(gaps.into()))]));
+                let r = run(&open(
+                    AO,
+                    w,
+                    h,
+                    &[("ao", "spp", ParamValue::Int(spp)), ("ao", "gaps", ParamValue::Str(gaps.into()))],
+                ));
                 (rel_mse(r.output("color").unwrap(), &reference), rel_mse(r.output("unfiltered").unwrap(), &reference))
             })
             .collect()
@@ -226,7 +269,10 @@ fn converges_to_the_reference() {
     // The paper's rule (`gaps: black`): rays no splat answers are unoccluded, so the error falls as
     // more input rays cover the scene with splats.
     let ao = ao_with("black");
-    println!("curved AO relMSE (LightField, unfiltered) at 2, 4, 8 spp, gaps black: {ao:.5?}; gain at 4 spp {:.1}×", ao[1].1 / ao[1].0);
+    println!(
+        "curved AO relMSE (LightField, unfiltered) at 2, 4, 8 spp, gaps black: {ao:.5?}; gain at 4 spp {:.1}×",
+        ao[1].1 / ao[1].0
+    );
     assert!(ao[1].0 * 8.0 < ao[1].1, "AO: reconstruction ≥ 8× better than its input at 4 spp");
     assert!(ao[2].0 < 0.8 * ao[0].0, "AO: error falls from 2 to 8 spp");
     // Tracing those rays (the default) answers them from the scene: lower error at every count,
@@ -241,11 +287,21 @@ fn converges_to_the_reference() {
     let ind: Vec<(f64, f64)> = [2, 4, 8, 16]
         .iter()
         .map(|&spp| {
-            let r = run(&parts(None, w, h, None, &[("indirect", "spp", ParamValue::Int(spp)), ("indirect", "rays", ParamValue::Int(256))], None));
+            let r = run(&parts(
+                None,
+                w,
+                h,
+                None,
+                &[("indirect", "spp", ParamValue::Int(spp)), ("indirect", "rays", ParamValue::Int(256))],
+                None,
+            ));
             (rel_mse(&indirect(&r), reference), rel_mse(sink(&r, "out", "unfiltered"), reference))
         })
         .collect();
-    println!("cornell indirect relMSE (LightField, unfiltered) at 2, 4, 8, 16 spp: {ind:.5?}; gain at 8 spp {:.1}×", ind[2].1 / ind[2].0);
+    println!(
+        "cornell indirect relMSE (LightField, unfiltered) at 2, 4, 8, 16 spp: {ind:.5?}; gain at 8 spp {:.1}×",
+        ind[2].1 / ind[2].0
+    );
     assert!(ind[2].0 * 5.0 < ind[2].1, "indirect: reconstruction ≥ 5× better than its input at 8 spp");
     assert!(ind[2].0 < 0.75 * ind[0].0, "indirect: error falls from 2 to 8 spp");
 }
@@ -259,11 +315,25 @@ fn converges_to_the_reference() {
 fn angular_bandwidth_matters_on_glossy_surfaces() {
     let reference = cornell_reference();
     let mean_error = |angular: bool| {
-        let images: Vec<BufferData> =
-            (1..=4).map(|seed| indirect(&run(&parts(None, 64, 48, Some(seed), &[("indirect", "angular", ParamValue::Bool(angular))], None)))).collect();
+        let images: Vec<BufferData> = (1..=4)
+            .map(|seed| {
+                indirect(&run(&parts(
+                    None,
+                    64,
+                    48,
+                    Some(seed),
+                    &[("indirect", "angular", ParamValue::Bool(angular))],
+                    None,
+                )))
+            })
+            .collect();
         let per_seed: Vec<f64> = images.iter().map(|i| rel_mse(i, reference)).collect();
         let n = images[0].len();
-        let mean = BufferData::Vec3((0..n).map(|i| std::array::from_fn(|c| images.iter().map(|b| b.component(i, c)).sum::<f32>() / 4.0)).collect());
+        let mean = BufferData::Vec3(
+            (0..n)
+                .map(|i| std::array::from_fn(|c| images.iter().map(|b| b.component(i, c)).sum::<f32>() / 4.0))
+                .collect(),
+        );
         (rel_mse(&mean, reference), per_seed)
     };
     let (with, with_seeds) = mean_error(true);
@@ -282,7 +352,12 @@ fn angular_bandwidth_matters_on_glossy_surfaces() {
 fn the_glossy_cap_bounds_glossy_splats() {
     let scene = Some("builtin:suite_glossy");
     let reference = indirect(&run(&parts(scene, 64, 48, None, &[], Some(1024))));
-    let error = |cap: f64| rel_mse(&indirect(&run(&parts(scene, 64, 48, None, &[("indirect", "glossy_cap", ParamValue::Float(cap))], None))), &reference);
+    let error = |cap: f64| {
+        rel_mse(
+            &indirect(&run(&parts(scene, 64, 48, None, &[("indirect", "glossy_cap", ParamValue::Float(cap))], None))),
+            &reference,
+        )
+    };
     let (capped, unbounded) = (error(4.0), error(1e30));
     println!("suite_glossy indirect relMSE: glossy_cap 4 {capped:.5}, unbounded {unbounded:.5}");
     assert!(capped < 0.8 * unbounded, "{capped} vs {unbounded}");
@@ -293,7 +368,14 @@ fn the_glossy_cap_bounds_glossy_splats() {
 /// (≤ ⌈log2 n⌉ + 1 levels), so the render succeeds whatever the splats.
 #[test]
 fn deep_splat_trees_fall_back_to_a_median_split() {
-    let s = parts(Some("builtin:suite_glossy"), 96, 72, None, &[("indirect", "rays", ParamValue::Int(1)), ("indirect", "glossy_cap", ParamValue::Float(1e30))], None);
+    let s = parts(
+        Some("builtin:suite_glossy"),
+        96,
+        72,
+        None,
+        &[("indirect", "rays", ParamValue::Int(1)), ("indirect", "glossy_cap", ParamValue::Float(1e30))],
+        None,
+    );
     let r = s.run(&mut wedge::backends::cpu::CpuBackend::new(), &Silent).expect("renders");
     assert!(indirect(&r).to_scalar().iter().any(|&x| x > 0.0));
 }
@@ -344,7 +426,10 @@ fn a_glossy_pixel_is_one_input_samples_value() {
             let first = hits.iter().find(|h| h.t == t).expect("the surface's nearest splat was collected");
             if splats[first.splat as usize].kappa > 0.0 {
                 glossy += 1;
-                assert!(hits.iter().any(|h| Vec3::from(splats[h.splat as usize].radiance) == seen.radiance), "pixel {i}: {seen:?} is no crossed splat's radiance");
+                assert!(
+                    hits.iter().any(|h| Vec3::from(splats[h.splat as usize].radiance) == seen.radiance),
+                    "pixel {i}: {seen:?} is no crossed splat's radiance"
+                );
             } else {
                 diffuse += 1;
             }
@@ -379,7 +464,11 @@ fn samples_carry_lens_points_times_and_motion_vectors() {
         let lens = glam::Vec2::from(x.lens);
         assert!(lens.length() <= 1.0 + 1e-6, "lens point {lens} on the unit disk");
         let eye = cam.position + 0.05 * (lens.x * right + lens.y * up);
-        assert!((Vec3::from(p.eye) - eye).length() < 1e-5, "the camera ray starts at the lens point: {:?} vs {eye}", p.eye);
+        assert!(
+            (Vec3::from(p.eye) - eye).length() < 1e-5,
+            "the camera ray starts at the lens point: {:?} vs {eye}",
+            p.eye
+        );
         assert_eq!(x.time, 0.0);
         assert_eq!(p.weight, 1.0, "a disk lens weighs every path 1");
         checked += 1;
@@ -394,7 +483,11 @@ fn samples_carry_lens_points_times_and_motion_vectors() {
     let primary: &[LightPrimary] = records(written(&s, &held, "light_field.sample", "primary"));
     for (x, p) in samples.iter().zip(primary).filter(|(x, _)| x.flags != SAMPLE_NONE) {
         let u = glam::Vec2::from(x.lens);
-        assert!((p.weight - (-0.5 * u.length_squared()).exp()).abs() < 1e-6, "Gaussian lens weight {} at {u}", p.weight);
+        assert!(
+            (p.weight - (-0.5 * u.length_squared()).exp()).abs() < 1e-6,
+            "Gaussian lens weight {} at {u}",
+            p.weight
+        );
     }
 
     // Time and motion vectors.
@@ -422,8 +515,15 @@ fn samples_carry_lens_points_times_and_motion_vectors() {
     let t_min = RAY_EPSILON * s.scene.extent();
     let knn = KnnSettings { k: 12, alpha: 3.0, glossy_cap: wedge::effects::light_field::DEFAULT_GLOSSY_CAP as f32 };
     let built = build(samples, knn, true, t_min).expect("tree within the stack");
-    let blocked = input_rays(samples, &built.splats).iter().filter(|ray| !blockers(&built.nodes, &built.splats, ray, t_min).is_empty()).count();
-    println!("motion: {} splats, {} shrunk, {blocked} input rays blocked after shrinking", built.splats.len(), built.shrunk);
+    let blocked = input_rays(samples, &built.splats)
+        .iter()
+        .filter(|ray| !blockers(&built.nodes, &built.splats, ray, t_min).is_empty())
+        .count();
+    println!(
+        "motion: {} splats, {} shrunk, {blocked} input rays blocked after shrinking",
+        built.splats.len(),
+        built.shrunk
+    );
     assert!(built.shrunk > 0);
     assert_eq!(blocked, 0, "no input ray blocked at its own time after shrinking");
 }
@@ -438,7 +538,10 @@ fn converges_under_a_lens_and_over_the_shutter() {
         let reference = indirect(&run(&parts_of(name, "shadows", None, 48, 36, None, &[], Some(256))));
         let r = run(&parts_of(name, "shadows", None, 48, 36, None, &[], None));
         let (lf, plain) = (rel_mse(&indirect(&r), &reference), rel_mse(sink(&r, "input", "color"), &reference));
-        println!("{name} indirect relMSE at 48×36: LightField {lf:.5}, its input (8 paths) {plain:.5}; gain {:.1}×", plain / lf);
+        println!(
+            "{name} indirect relMSE at 48×36: LightField {lf:.5}, its input (8 paths) {plain:.5}; gain {:.1}×",
+            plain / lf
+        );
         assert!(lf * 3.0 < plain, "{name}: reconstruction ≥ 3× better than its input ({lf} vs {plain})");
     }
 }

@@ -18,14 +18,16 @@ fn temp_dir(name: &str) -> PathBuf {
 
 /// `wedge graph` on a pipeline of `nodes` (RON node tuples) over `scene`, written to `dir/name.ron`.
 fn graph(dir: &Path, name: &str, scene: &str, camera: &str, nodes: &str) -> Output {
-    let text = format!("Pipeline(scene: \"{scene}\", width: 16, height: 12, seed: 1, {camera}\n nodes: [\n{nodes}\n])\n");
+    let text =
+        format!("Pipeline(scene: \"{scene}\", width: 16, height: 12, seed: 1, {camera}\n nodes: [\n{nodes}\n])\n");
     fs::write(dir.join(format!("{name}.ron")), text).unwrap();
     wedge(&["graph", &format!("{name}.ron")], dir)
 }
 
 const PRIMARY: &str = "(name: \"primary\", kind: \"Primary\"),";
 const SHADOWS: &str = "(name: \"shadows\", kind: \"SoftShadows\", inputs: {\"position\": \"primary.position\", \"normal\": \"primary.normal\", \"albedo\": \"primary.albedo\", \"emission\": \"primary.emission\"}),";
-const LENS: &str = "(name: \"defocus\", kind: \"Defocus\", params: {\"aperture_radius\": 0.05, \"focus_distance\": 2.6}";
+const LENS: &str =
+    "(name: \"defocus\", kind: \"Defocus\", params: {\"aperture_radius\": 0.05, \"focus_distance\": 2.6}";
 
 #[test]
 fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
@@ -36,7 +38,10 @@ fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
         let o = wedge(&["graph", path.to_str().unwrap()], root);
         let out = String::from_utf8_lossy(&o.stdout);
         assert!(o.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&o.stderr));
-        let line = out.lines().find(|l| l.trim_start().starts_with("out.color = ")).unwrap_or_else(|| panic!("{}: no terms line in\n{out}", path.display()));
+        let line = out
+            .lines()
+            .find(|l| l.trim_start().starts_with("out.color = "))
+            .unwrap_or_else(|| panic!("{}: no terms line in\n{out}", path.display()));
         for term in ["emission", "background", "direct(environment)", "real layer", "ambient occlusion"] {
             assert!(line.matches(term).count() <= 1, "{}: {term} twice in {line}", path.display());
         }
@@ -51,15 +56,26 @@ fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
     );
     // The environment's direct light as a factored component: the sky and emitters once, by the factoring node.
     for (file, image) in [
-        ("defocus_environment.ron", "out.color = defocus.radiance: emission + background + direct(environment), through the lens"),
-        ("motion_environment.ron", "out.color = motion.radiance: emission + background + direct(environment), over the shutter"),
+        (
+            "defocus_environment.ron",
+            "out.color = defocus.radiance: emission + background + direct(environment), through the lens",
+        ),
+        (
+            "motion_environment.ron",
+            "out.color = motion.radiance: emission + background + direct(environment), over the shutter",
+        ),
     ] {
         let o = wedge(&["graph", &format!("pipelines/{file}")], root);
         let text = String::from_utf8_lossy(&o.stdout);
         assert!(text.contains(image), "{file}: {text}");
     }
     // The component's `emission` wire is read only without factoring: said, not silent.
-    assert!(out.contains("note: ") && out.contains("input `emission` of node `shadows`") && out.contains("adds the emission seen directly once itself"), "{out}");
+    assert!(
+        out.contains("note: ")
+            && out.contains("input `emission` of node `shadows`")
+            && out.contains("adds the emission seen directly once itself"),
+        "{out}"
+    );
 }
 
 #[test]
@@ -82,7 +98,15 @@ fn swapped_components_are_refused() {
     let nodes = format!(
         "{PRIMARY}\n(name: \"shadows\", kind: \"SoftShadows\", inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\"}}),\n(name: \"indirect\", kind: \"Indirect\", inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\"}}),\n{LENS}, inputs: {{\"direct\": \"indirect.radiance\", \"indirect\": \"shadows.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"defocus.radiance\"}}),"
     );
-    refused(&graph(&d, "swap", "builtin:chess", "", &nodes), &["input `direct` of node `defocus` (Defocus) takes direct(area)", "`indirect.radiance` holds indirect(1 bounce, diffuse)", "input `indirect` of node `defocus`", "`shadows.radiance` holds direct(area light 0, diffuse+glossy toward the light centre)"]);
+    refused(
+        &graph(&d, "swap", "builtin:chess", "", &nodes),
+        &[
+            "input `direct` of node `defocus` (Defocus) takes direct(area)",
+            "`indirect.radiance` holds indirect(1 bounce, diffuse)",
+            "input `indirect` of node `defocus`",
+            "`shadows.radiance` holds direct(area light 0, diffuse+glossy toward the light centre)",
+        ],
+    );
 }
 
 #[test]
@@ -91,7 +115,14 @@ fn sums_that_count_light_twice_are_refused_naming_both_producers() {
     let rf = format!("{PRIMARY}\n(name: \"rf\", kind: \"RadianceFilter\"),\n{SHADOWS}\n(name: \"sum\", kind: \"Add\", inputs: {{\"a\": \"rf.radiance\", \"b\": \"shadows.radiance\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"sum.radiance\"}}),");
     refused(&graph(&d, "rf", "builtin:cornell", "", &rf), &["error[term-overlap]", "node `sum` (Add) counts light twice", "emission: input `a` = `rf.radiance` holds emission and input `b` = `shadows.radiance` holds emission", "direct(area): input `a` = `rf.radiance` holds direct(area, every light, diffuse+glossy) and input `b` = `shadows.radiance` holds direct(area light 0, diffuse)", "help: each light must be counted once"]);
     let sky = "(name: \"pf\", kind: \"PixelFilter\"),\n(name: \"env\", kind: \"Environment\"),\n(name: \"sum\", kind: \"Add\", inputs: {\"a\": \"pf.radiance\", \"b\": \"env.radiance\"}),\n(name: \"out\", kind: \"Output\", inputs: {\"color\": \"sum.radiance\"}),";
-    refused(&graph(&d, "sky", "builtin:envmap", "", sky), &["counts light twice", "background: input `a` = `pf.radiance` holds background and input `b` = `env.radiance` holds background", "direct(environment)"]);
+    refused(
+        &graph(&d, "sky", "builtin:envmap", "", sky),
+        &[
+            "counts light twice",
+            "background: input `a` = `pf.radiance` holds background and input `b` = `env.radiance` holds background",
+            "direct(environment)",
+        ],
+    );
     // Two SoftShadows nodes of the same light hold its direct light twice. (Of different lights they
     // overlap in nothing — `terms.rs`'s unit test — but the shared sampler cannot yet serve two
     // lights at once: issue 34's sampler negotiation.)
@@ -109,14 +140,24 @@ fn a_pinhole_image_added_to_a_blurred_one_is_refused() {
     );
     // MonteCarlo's indirect light overlaps nothing of the defocused direct light, but it is a
     // pinhole image: adding it to a defocused one mixes cameras.
-    refused(&graph(&d, "mixed", "builtin:chess", "", &nodes), &["node `sum` (Add) sums images of different cameras", "input `a` = `defocus.radiance` through the lens", "input `b` = `mc.radiance` through a pinhole"]);
+    refused(
+        &graph(&d, "mixed", "builtin:chess", "", &nodes),
+        &[
+            "node `sum` (Add) sums images of different cameras",
+            "input `a` = `defocus.radiance` through the lens",
+            "input `b` = `mc.radiance` through a pinhole",
+        ],
+    );
 }
 
 #[test]
 fn a_lens_no_node_samples_is_warned_about() {
     let d = temp_dir("lens");
-    let camera = "camera: Some((position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.05)),";
-    let nodes = format!("{PRIMARY}\n{SHADOWS}\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"shadows.radiance\"}}),");
+    let camera =
+        "camera: Some((position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.05)),";
+    let nodes = format!(
+        "{PRIMARY}\n{SHADOWS}\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"shadows.radiance\"}}),"
+    );
     let o = graph(&d, "lens", "builtin:cornell", camera, &nodes);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = String::from_utf8_lossy(&o.stdout);
@@ -127,7 +168,11 @@ fn a_lens_no_node_samples_is_warned_about() {
 fn light_the_scene_has_and_no_term_covers_is_warned_about_at_render() {
     let d = temp_dir("uncovered");
     let nodes = format!("{PRIMARY}\n(name: \"shadows\", kind: \"SoftShadows\", inputs: {{\"position\": \"primary.position\", \"normal\": \"primary.normal\"}}),\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"shadows.radiance\"}}),");
-    fs::write(d.join("dark.ron"), format!("Pipeline(scene: \"builtin:cornell\", width: 8, height: 6, seed: 1, nodes: [\n{nodes}\n])\n")).unwrap();
+    fs::write(
+        d.join("dark.ron"),
+        format!("Pipeline(scene: \"builtin:cornell\", width: 8, height: 6, seed: 1, nodes: [\n{nodes}\n])\n"),
+    )
+    .unwrap();
     let o = wedge(&["render", "dark.ron", "--backend", "cpu", "--out", "o"], &d);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
@@ -144,10 +189,17 @@ fn a_factoring_node_nothing_reads_is_warned_about() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
-        out.contains("warning: unread.ron:5:8: ") && out.contains("node `defocus` (Defocus) factors the pipeline but no node reads its outputs")
+        out.contains("warning: unread.ron:5:8: ")
+            && out.contains("node `defocus` (Defocus) factors the pipeline but no node reads its outputs")
             && out.contains("take `defocus.radiance` to the Output"),
         "{out}"
     );
-    let read = graph(&d, "read", "builtin:chess", "", &nodes.replace("\"color\": \"shadows.radiance\"", "\"color\": \"defocus.radiance\""));
+    let read = graph(
+        &d,
+        "read",
+        "builtin:chess",
+        "",
+        &nodes.replace("\"color\": \"shadows.radiance\"", "\"color\": \"defocus.radiance\""),
+    );
     assert!(!String::from_utf8_lossy(&read.stdout).contains("no node reads its outputs"));
 }

@@ -10,11 +10,11 @@ use std::path::Path;
 
 use common::*;
 use wedge::backends::cpu::CpuBackend;
-use wedge::scene::RealLayer;
 use wedge::backends::{RunResult, Silent};
 use wedge::graph::parse_pipeline;
 use wedge::image::Image;
 use wedge::outputs::buffer_to_image;
+use wedge::scene::RealLayer;
 use wedge::{Overrides, Session};
 
 const W: u32 = 64;
@@ -62,7 +62,12 @@ fn a_virtual_object_without_influence_leaves_the_camera_image_exact() {
     let s = build(&mr("builtin:envmap_far", "builtin:envmap_real", 16, "\"mu\": 1")).unwrap();
     let r = run_cpu(&s);
     let (out, cam) = (output(&s, &r, "color"), camera_image(&s));
-    let differ = out.pixels.iter().zip(&cam.pixels).filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| x.to_bits() != y.to_bits())).count();
+    let differ = out
+        .pixels
+        .iter()
+        .zip(&cam.pixels)
+        .filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| x.to_bits() != y.to_bits()))
+        .count();
     println!("pixels that differ from L_cam: {differ} of {}", out.pixels.len());
     assert_eq!(differ, 0);
 }
@@ -93,7 +98,8 @@ fn the_round_trip_matches_a_render_of_both_worlds() {
     // Real = envmap without the torus, captured by wedge; virtual = the torus; the composite against
     // a render of the whole envmap scene, both at the same sample count.
     let spp = 256;
-    let s = build(&mr("builtin:envmap_virtual", "builtin:envmap_real", spp, "\"primary\": 4, \"per_primary\": 16")).unwrap();
+    let s = build(&mr("builtin:envmap_virtual", "builtin:envmap_real", spp, "\"primary\": 4, \"per_primary\": 16"))
+        .unwrap();
     let r = run_cpu(&s);
     let composite = output(&s, &r, "unfiltered");
     let full = format!(
@@ -177,12 +183,22 @@ fn frames(s: &mut Session, first: u32, last: u32) -> Result<Vec<Image>, String> 
 }
 
 fn differing_pixels(a: &Image, b: &Image) -> usize {
-    a.pixels.iter().zip(&b.pixels).filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.to_bits() != y.to_bits())).count()
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.to_bits() != y.to_bits()))
+        .count()
 }
 
 /// The real layer wedge captures of `envmap_real` from `camera` (a session of the still camera).
 fn capture_from(camera: &str) -> (Session, Image) {
-    let s = build(&mr_with("builtin:envmap_far", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, "\"mu\": 1", camera)).unwrap();
+    let s = build(&mr_with(
+        "builtin:envmap_far",
+        r#""capture": "builtin:envmap_real", "capture_spp": 16"#,
+        "\"mu\": 1",
+        camera,
+    ))
+    .unwrap();
     let cam = camera_image(&s);
     (s, cam)
 }
@@ -192,7 +208,9 @@ fn temporal_filtering_damps_the_flicker_of_a_still_camera() {
     // The same camera and photograph every frame, each frame with its own noise: the frame-to-frame
     // difference of the composite is the flicker of the virtual torus and its shadow.
     let flicker = |temporal: bool| {
-        let mut s = build(&mr("builtin:envmap_virtual", "builtin:envmap_real", 16, &format!("\"temporal\": {temporal}"))).unwrap();
+        let mut s =
+            build(&mr("builtin:envmap_virtual", "builtin:envmap_real", 16, &format!("\"temporal\": {temporal}")))
+                .unwrap();
         let f = frames(&mut s, 0, 4).unwrap();
         f.windows(2).map(|w| rmse(&w[0], &w[1])).sum::<f64>() / 4.0
     };
@@ -206,11 +224,18 @@ fn each_frame_of_a_moving_camera_composites_into_its_own_capture() {
     // With no virtual influence (`envmap_far`) the composite is the camera image bit for bit — so
     // frame by frame it shows which real layer the frame used: the capture from that frame's camera,
     // with temporal filtering on (E_R and E_RV take the same history, their ratio stays 1).
-    let mut s = build(&mr_with("builtin:envmap_far", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, "\"mu\": 1, \"temporal\": true", PATH)).unwrap();
+    let mut s = build(&mr_with(
+        "builtin:envmap_far",
+        r#""capture": "builtin:envmap_real", "capture_spp": 16"#,
+        "\"mu\": 1, \"temporal\": true",
+        PATH,
+    ))
+    .unwrap();
     let out = frames(&mut s, 0, 1).unwrap();
     let (_, cam0) = capture_from("camera: Some((position: (-0.3, 1.6, 3.4), look_at: (-0.3, 0.45, 0), vfov_deg: 40)),");
     let (_, cam1) = capture_from("camera: Some((position: (0, 1.6, 3.4), look_at: (0, 0.45, 0), vfov_deg: 40)),");
-    let (d0, d1, moved) = (differing_pixels(&out[0], &cam0), differing_pixels(&out[1], &cam1), differing_pixels(&cam0, &cam1));
+    let (d0, d1, moved) =
+        (differing_pixels(&out[0], &cam0), differing_pixels(&out[1], &cam1), differing_pixels(&cam0, &cam1));
     println!("pixels differing from the frame's own capture: frame 0 {d0}, frame 1 {d1} (the two captures differ in {moved})");
     assert_eq!((d0, d1), (0, 0));
     // The camera translates (same direction): the sky, at infinity, is the same in both; the ground
@@ -274,7 +299,12 @@ fn one_photograph_refuses_a_moving_camera() {
     wedge::image::write_exr(&dir.path().join("c.exr"), &cam).unwrap();
     wedge::image::write_exr_rgba(&dir.path().join("p.exr"), W, H, layer.position_map()).unwrap();
     wedge::image::write_exr(&dir.path().join("n.exr"), &rgb(layer.normal_map())).unwrap();
-    let text = mr_with("builtin:envmap_far", r#""camera_image": "c.exr", "position_map": "p.exr", "normal_map": "n.exr""#, "\"mu\": 1", PATH);
+    let text = mr_with(
+        "builtin:envmap_far",
+        r#""camera_image": "c.exr", "position_map": "p.exr", "normal_map": "n.exr""#,
+        "\"mu\": 1",
+        PATH,
+    );
     let loaded = parse_pipeline(&dir.path().join("one.ron"), &text).unwrap();
     let (nodes, kernels) = wedge::effects::builtin();
     let mut s = Session::build(loaded, &Overrides::default(), nodes, kernels).unwrap();
@@ -289,12 +319,23 @@ fn a_moving_camera_leaves_no_ghost_of_the_virtual_object() {
     // pass must find the same world points, so frame 1 with temporal filtering is no further from the
     // converged composite than frame 1 without it.
     let run = |temporal: bool| {
-        let text = mr_with("builtin:envmap_virtual", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, &format!("\"temporal\": {temporal}"), PATH);
+        let text = mr_with(
+            "builtin:envmap_virtual",
+            r#""capture": "builtin:envmap_real", "capture_spp": 16"#,
+            &format!("\"temporal\": {temporal}"),
+            PATH,
+        );
         frames(&mut build(&text).unwrap(), 0, 1).unwrap().pop().unwrap()
     };
     let (temporal, spatial) = (run(true), run(false));
     let still = "camera: Some((position: (0, 1.6, 3.4), look_at: (0, 0.45, 0), vfov_deg: 40)),";
-    let converged = build(&mr_with("builtin:envmap_virtual", r#""capture": "builtin:envmap_real", "capture_spp": 16"#, "\"per_primary\": 256", still)).unwrap();
+    let converged = build(&mr_with(
+        "builtin:envmap_virtual",
+        r#""capture": "builtin:envmap_real", "capture_spp": 16"#,
+        "\"per_primary\": 256",
+        still,
+    ))
+    .unwrap();
     let truth = output(&converged, &run_cpu(&converged), "unfiltered");
     let (et, es) = (rmse(&temporal, &truth), rmse(&spatial, &truth));
     println!("frame 1 RMSE against the converged composite: temporal {et:.4e}, spatial {es:.4e}");
@@ -305,7 +346,8 @@ fn a_moving_camera_leaves_no_ghost_of_the_virtual_object() {
 fn a_captured_scene_without_a_map_of_its_own_is_lit_by_the_nodes_map() {
     // Issue 33: `builtin:cornell` has no environment map; the node's `map` lights the capture, as the
     // README says capture accepts any scene (this failed with "scene `cornell` has none").
-    let s = build(&mr("builtin:envmap_virtual", "builtin:cornell", 4, r#""map": "builtin:sky""#)).unwrap_or_else(|e| panic!("{e}"));
+    let s = build(&mr("builtin:envmap_virtual", "builtin:cornell", 4, r#""map": "builtin:sky""#))
+        .unwrap_or_else(|e| panic!("{e}"));
     let lit = mean(&camera_image(&s));
     assert!(lit.is_finite() && lit > 0.0, "the capture under builtin:sky is black: {lit}");
 }

@@ -71,7 +71,8 @@ fn a_zero_length_shutter_renders_as_without_the_motion_node() {
     assert_eq!(with.1.rays, without.1.rays);
     // With its shutter the same scene factors: every pixel traces its first pass of 4 timed paths
     // (the Motion node's default `initial_paths`), then the B.3 counts.
-    let moving = render(&pipeline("builtin:motion", &motion_camera("None"), "", "motion.radiance"), &Overrides::default());
+    let moving =
+        render(&pipeline("builtin:motion", &motion_camera("None"), "", "motion.radiance"), &Overrides::default());
     assert!(moving.1.rays.primary_rays > 4 * 64 * 48, "{:?} vs {:?}", moving.1.rays, with.1.rays);
     assert!(rmse(&moving.0, &with.0) > 0.0);
 }
@@ -130,11 +131,7 @@ fn the_oriented_filter_blurs_along_the_velocity_only() {
 /// A scene of two quads seen head on (written to `dir`): an emissive backdrop (radiance 1) at z = 0,
 /// and a black bar of width 0.2 m at z = 0.5 m in front of it; the camera at z = 3 looks down −z.
 fn bar_scene(dir: &Path) -> std::path::PathBuf {
-    std::fs::write(
-        dir.join("bar.mtl"),
-        "newmtl backdrop\nKd 0 0 0\nKe 1 1 1\nnewmtl black\nKd 0 0 0\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join("bar.mtl"), "newmtl backdrop\nKd 0 0 0\nKe 1 1 1\nnewmtl black\nKd 0 0 0\n").unwrap();
     std::fs::write(
         dir.join("bar.obj"),
         "mtllib bar.mtl\n\

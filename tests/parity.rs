@@ -33,7 +33,6 @@ use wedge::backends::{
 use wedge::graph::Format;
 use wedge::{Overrides, Session};
 
-
 fn small(w: u32, h: u32) -> Overrides {
     Overrides { width: Some(w), height: Some(h), ..Default::default() }
 }
@@ -147,7 +146,11 @@ fn every_scheduled_kernel_has_wgsl() {
             gaps.push(format!("{}: {}", path.display(), missing.join(", ")));
         }
     }
-    assert!(gaps.is_empty(), "kernels without a WGSL implementation (the wgpu backend cannot run them):\n{}", gaps.join("\n"));
+    assert!(
+        gaps.is_empty(),
+        "kernels without a WGSL implementation (the wgpu backend cannot run them):\n{}",
+        gaps.join("\n")
+    );
 }
 
 fn rel_mse(test: &BufferData, reference: &BufferData) -> f64 {
@@ -241,7 +244,9 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
         for (key, x) in &a.outputs {
             let y = &b.outputs[key];
             let differ = (0..x.len())
-                .filter(|&i| (0..x.format().components()).any(|c| x.component(i, c).to_bits() != y.component(i, c).to_bits()))
+                .filter(|&i| {
+                    (0..x.format().components()).any(|c| x.component(i, c).to_bits() != y.component(i, c).to_bits())
+                })
                 .count();
             println!("{}: {key:?}: {differ} of {} pixels differ", path.display(), x.len());
             assert_eq!(differ, 0, "{}: {key:?} differs between banded and whole dispatches", path.display());
@@ -251,7 +256,9 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
         // Passes whose every buffer fits the limit whole (u32 counts and flags, vec2 bandwidths:
         // 12 and 24 KiB at 64×48) need no bands.
         let limit = (20 * w as u64 * 16).max(record_row);
-        let fits = |id: &wedge::graph::BufferId| (session.schedule.buffers[id.0].format.components() as u64 * 4) * (w * h) as u64 <= limit;
+        let fits = |id: &wedge::graph::BufferId| {
+            (session.schedule.buffers[id.0].format.components() as u64 * 4) * (w * h) as u64 <= limit
+        };
         let u32_only: std::collections::HashSet<&str> = session
             .schedule
             .passes
@@ -259,7 +266,8 @@ fn bands_give_the_same_outputs_as_one_dispatch() {
             .filter(|p| p.reads.iter().chain(&p.writes).all(|(_, id)| fits(id)))
             .map(|p| p.name.as_str())
             .collect();
-        let fewest = banded.last_bands.iter().filter(|(p, _)| !u32_only.contains(p.as_str())).map(|(_, n)| *n).min().unwrap();
+        let fewest =
+            banded.last_bands.iter().filter(|(p, _)| !u32_only.contains(p.as_str())).map(|(_, n)| *n).min().unwrap();
         println!("{}: bands per pass {:?}", path.display(), banded.last_bands);
         assert!(fewest >= 2, "{}: every pass should have been split: {:?}", path.display(), banded.last_bands);
     }
@@ -270,7 +278,9 @@ fn assert_same_bits(path: &Path, what: &str, a: &wedge::backends::RunResult, b: 
     for (key, x) in &a.outputs {
         let y = &b.outputs[key];
         let differ = (0..x.len())
-            .filter(|&i| (0..x.format().components()).any(|c| x.component(i, c).to_bits() != y.component(i, c).to_bits()))
+            .filter(|&i| {
+                (0..x.format().components()).any(|c| x.component(i, c).to_bits() != y.component(i, c).to_bits())
+            })
             .count();
         println!("{}: {what}: {key:?}: {differ} of {} pixels differ", path.display(), x.len());
         assert_eq!(differ, 0, "{}: {key:?} differs ({what})", path.display());
@@ -286,7 +296,9 @@ fn packed_bindings_give_the_same_outputs_as_direct_bindings() {
     use wedge::backends::gpu::shaders::BindingPlan;
     let Some(mut direct) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else { return };
     let Some(mut packed) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else { return };
-    let Some(mut packed_bands) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else { return };
+    let Some(mut packed_bands) = gpu_or_skip("packed_bindings_give_the_same_outputs_as_direct_bindings") else {
+        return;
+    };
     let (w, h) = (64u32, 48u32);
     packed.force_packed(true);
     packed_bands.force_packed(true);
@@ -319,7 +331,8 @@ fn packed_bindings_give_the_same_outputs_as_direct_bindings() {
             continue;
         }
         let b = session.run(&mut packed, &Silent).unwrap_or_else(|e| panic!("{}: packed: {e}", path.display()));
-        let c = session.run(&mut packed_bands, &Silent).unwrap_or_else(|e| panic!("{}: packed bands: {e}", path.display()));
+        let c =
+            session.run(&mut packed_bands, &Silent).unwrap_or_else(|e| panic!("{}: packed bands: {e}", path.display()));
         assert!(direct.last_plans.iter().all(|(_, p)| *p == BindingPlan::Direct), "{:?}", direct.last_plans);
         assert!(packed.last_plans.iter().all(|(_, p)| *p == BindingPlan::Packed), "{:?}", packed.last_plans);
         println!("{}: packed bands per pass {:?}", path.display(), packed_bands.last_bands);
@@ -338,7 +351,10 @@ fn parity_with_webgpu_default_limits() {
     let mut gpu = match GpuBackend::open(LimitsChoice::WebGpuDefault) {
         Ok(g) => g,
         Err(e) => {
-            assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "CI=true and no wgpu device with default limits: {e}");
+            assert!(
+                !std::env::var("CI").is_ok_and(|v| v == "true"),
+                "CI=true and no wgpu device with default limits: {e}"
+            );
             eprintln!("parity_with_webgpu_default_limits: SKIPPED — {e}");
             return;
         }
@@ -460,17 +476,20 @@ impl Kernel for RngProbe {
         let seed = ctx.seed;
         let n = ctx.pixels() as u32;
         let hash: Vec<u32> = (0..n).map(|i| rng::hash4(i, i.wrapping_mul(2654435761), seed, i ^ 0xdead_beef)).collect();
-        let uniform: Vec<f32> = (0..n).map(|i| rng::PixelRng::new(seed, i, 3).uniform(i % 97, rng::dim::LIGHT)).collect();
+        let uniform: Vec<f32> =
+            (0..n).map(|i| rng::PixelRng::new(seed, i, 3).uniform(i % 97, rng::dim::LIGHT)).collect();
         let cmj: Vec<[f32; 2]> = (0..n)
             .map(|i| {
                 let m = 1 + i % 401;
                 rng::cmj(hash[i as usize] % m, m, rng::hash4(i, 17, 0, 0))
             })
             .collect();
-        let perm: Vec<u32> = (0..n).map(|i| {
-            let m = 1 + i % 401;
-            rng::permute(i % m, m, hash[i as usize])
-        }).collect();
+        let perm: Vec<u32> = (0..n)
+            .map(|i| {
+                let m = 1 + i % 401;
+                rng::permute(i % m, m, hash[i as usize])
+            })
+            .collect();
         let substream: Vec<u32> = (0..n).map(|i| rng::substream(hash[i as usize], i % 300)).collect();
         ctx.put("substream", substream)?;
         ctx.put("hash", hash)?;
@@ -501,7 +520,8 @@ fn rng_wgsl_is_bit_exact() {
         let hs = rng::hash4(i, i.wrapping_mul(2654435761), seed, i ^ 0xdead_beef);
         let m = 1 + i % 401;
         hash += (gh[k] != hs) as usize;
-        uniform += (gu[k].to_bits() != rng::PixelRng::new(seed, i, 3).uniform(i % 97, rng::dim::LIGHT).to_bits()) as usize;
+        uniform +=
+            (gu[k].to_bits() != rng::PixelRng::new(seed, i, 3).uniform(i % 97, rng::dim::LIGHT).to_bits()) as usize;
         let c = rng::cmj(hs % m, m, rng::hash4(i, 17, 0, 0));
         cmj += (gc[k][0].to_bits() != c[0].to_bits() || gc[k][1].to_bits() != c[1].to_bits()) as usize;
         perm += (gp[k] != rng::permute(i % m, m, hs)) as usize;
@@ -513,7 +533,9 @@ fn rng_wgsl_is_bit_exact() {
 
 /// Pixels where `a` and `b` differ in any component's bits.
 fn differing_pixels(a: &BufferData, b: &BufferData) -> usize {
-    (0..a.len()).filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits())).count()
+    (0..a.len())
+        .filter(|&i| (0..a.format().components()).any(|c| a.component(i, c).to_bits() != b.component(i, c).to_bits()))
+        .count()
 }
 
 /// Every output of a GPU run within relMSE 1e-4 of the CPU run's (printed).
@@ -622,7 +644,8 @@ fn light_field_sampling_is_chunked_bit_for_bit() {
     }
     assert_eq!(three.rays, one.rays);
     gpu.set_samples_per_dispatch(16);
-    let reference = Session::reference(Some(&dir.join("lightfield_indirect.ron")), 1024, "stratified", &small(16, 12)).unwrap();
+    let reference =
+        Session::reference(Some(&dir.join("lightfield_indirect.ron")), 1024, "stratified", &small(16, 12)).unwrap();
     let cpu = reference.run(&mut CpuBackend::new(), &Silent).unwrap();
     let chunked = reference.run(&mut gpu, &Silent).unwrap();
     println!("1024-path reference: cut loops {}", chunked.rays.cut_loops);
@@ -638,7 +661,10 @@ fn kernel_without_declared_reach_is_not_split() {
     let Some(mut gpu) = gpu_or_skip("kernel_without_declared_reach_is_not_split") else { return };
     gpu.set_binding_limit(1024);
     let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
-    let e = gpu.run_kernel(Arc::new(RngProbe), &scene, 64, 64, 1, BTreeMap::new(), &BTreeMap::new()).unwrap_err().to_string();
+    let e = gpu
+        .run_kernel(Arc::new(RngProbe), &scene, 64, 64, 1, BTreeMap::new(), &BTreeMap::new())
+        .unwrap_err()
+        .to_string();
     println!("{e}");
     assert!(e.contains("test.rng_probe") && e.contains("Reach::Image") && e.contains("--backend cpu"), "{e}");
 }
@@ -665,7 +691,11 @@ fn params_fields_must_not_depend_on_parameters() {
         fn wgsl(&self) -> Option<WgslSource> {
             let src = "@compute @workgroup_size(8, 8)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n    if (pixel_of(gid)) { out_put(pixel_index(gid), 1.0); }\n}\n";
             Some(WgslSource::new(src, |ctx| {
-                Ok(if ctx.params.contains_key("wide") { Uniforms::new().vec3("a", [1.0; 3]) } else { Uniforms::new().f32("a", 1.0) })
+                Ok(if ctx.params.contains_key("wide") {
+                    Uniforms::new().vec3("a", [1.0; 3])
+                } else {
+                    Uniforms::new().f32("a", 1.0)
+                })
             }))
         }
     }
@@ -742,8 +772,18 @@ fn cli_gpu_limits_webgpu_packs_and_keeps_parity() {
             .unwrap()
     };
     let o = wedge(&[
-        "render", "pipelines/indirect.ron", "--backend", "wgpu", "--gpu-limits", "webgpu", "--width", "16", "--height",
-        "12", "--out", out.path().to_str().unwrap(),
+        "render",
+        "pipelines/indirect.ron",
+        "--backend",
+        "wgpu",
+        "--gpu-limits",
+        "webgpu",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--out",
+        out.path().to_str().unwrap(),
     ]);
     let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{text}");
@@ -842,10 +882,12 @@ impl Kernel for MotionProbe {
         ]
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let (origin, dir, time) = (ctx.read::<[f32; 3]>("origin")?, ctx.read::<[f32; 3]>("dir")?, ctx.read::<f32>("time")?);
+        let (origin, dir, time) =
+            (ctx.read::<[f32; 3]>("origin")?, ctx.read::<[f32; 3]>("dir")?, ctx.read::<f32>("time")?);
         let n = ctx.pixels();
         let (mut triangle, mut distance) = (vec![u32::MAX; n], vec![0.0f32; n]);
-        let (mut position, mut normal, mut velocity, mut light) = (vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]);
+        let (mut position, mut normal, mut velocity, mut light) =
+            (vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]);
         let mut occluded = vec![0u32; n];
         for i in 0..n {
             let at = ctx.scene.at(time[i]);
@@ -919,7 +961,15 @@ fn many_moving_instances_wgsl_match_scene_at() {
             ..SceneObject::named(o.name.clone())
         })
         .collect();
-    let scene = Scene::from_objects("spheres, 120 moving", tris, still.materials.clone(), still.textures.clone(), still.camera, objects).unwrap();
+    let scene = Scene::from_objects(
+        "spheres, 120 moving",
+        tris,
+        still.materials.clone(),
+        still.textures.clone(),
+        still.camera,
+        objects,
+    )
+    .unwrap();
     assert_eq!(scene.instances.len(), 120);
     motion_probe_matches("many_moving_instances_wgsl_match_scene_at", &scene);
 }
@@ -1045,8 +1095,10 @@ impl Kernel for EnvProbe {
         let dir = ctx.read::<[f32; 3]>("dir")?;
         let scene = ctx.scene;
         let n = ctx.pixels();
-        let (mut texel, mut radiance, mut pdf, mut background) = (vec![u32::MAX; n], vec![[0.0f32; 3]; n], vec![0.0f32; n], vec![[0.0f32; 3]; n]);
-        let (mut tdir, mut trad, mut tpdf, mut ttex) = (vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n], vec![0.0f32; n], vec![0u32; n]);
+        let (mut texel, mut radiance, mut pdf, mut background) =
+            (vec![u32::MAX; n], vec![[0.0f32; 3]; n], vec![0.0f32; n], vec![[0.0f32; 3]; n]);
+        let (mut tdir, mut trad, mut tpdf, mut ttex) =
+            (vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n], vec![0.0f32; n], vec![0u32; n]);
         for i in 0..n {
             let d = glam::Vec3::from(dir[i]);
             background[i] = scene.background(d).to_array();
@@ -1085,7 +1137,15 @@ fn env_probe_dirs(env: &wedge::scene::EnvironmentMap, n: usize) -> Vec<[f32; 3]>
         ((z ^ (z >> 31)) >> 40) as f32 / (1u32 << 24) as f32
     };
     let (w, h) = (env.width(), env.height());
-    let mut dirs = vec![[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 3.0, 0.0]];
+    let mut dirs = vec![
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [0.0, 3.0, 0.0],
+    ];
     while dirs.len() < n / 2 {
         let (u, v) = ((next() * w as f32).floor() / w as f32, (next() * h as f32).floor() / h as f32);
         let half = if next() < 0.5 { 0.5 / w as f32 } else { 0.0 };
@@ -1129,13 +1189,18 @@ fn environment_wgsl_matches_cpu() {
             let (cpu, _) = lone.run_cpu(s, w, h, 1).unwrap();
             let out = gpu.run_kernel(Arc::new(EnvProbe), s, w, h, 1, BTreeMap::new(), &inputs).unwrap();
             let n = (w * h) as usize;
-            let (BufferData::U32(ct), BufferData::U32(gt)) = (&cpu["env_texel_out"], &out["env_texel_out"]) else { panic!() };
+            let (BufferData::U32(ct), BufferData::U32(gt)) = (&cpu["env_texel_out"], &out["env_texel_out"]) else {
+                panic!()
+            };
             let differ = (0..n).filter(|&i| ct[i] != gt[i]).count();
             let mut other = Vec::new();
             for name in ["radiance", "pdf", "background", "table_dir", "table_radiance", "table_pdf", "table_texel"] {
                 let bad = (0..n)
                     .filter(|&i| ct[i] == gt[i] || name.starts_with("table"))
-                    .filter(|&i| (0..cpu[name].format().components()).any(|c| cpu[name].component(i, c).to_bits() != out[name].component(i, c).to_bits()))
+                    .filter(|&i| {
+                        (0..cpu[name].format().components())
+                            .any(|c| cpu[name].component(i, c).to_bits() != out[name].component(i, c).to_bits())
+                    })
                     .count();
                 other.push((name, bad));
             }
@@ -1189,12 +1254,14 @@ impl Kernel for RealProbe {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (w, n) = (ctx.width as i32, ctx.pixels());
         let real = ctx.scene.real.as_ref();
-        let (mut camera, mut position, mut normal, mut albedo) = (vec![[0.0f32; 3]; n], vec![[0.0f32; 4]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]);
+        let (mut camera, mut position, mut normal, mut albedo) =
+            (vec![[0.0f32; 3]; n], vec![[0.0f32; 4]; n], vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]);
         for i in 0..n {
             let (x, y) = (i as i32 % w - 8, i as i32 / w - 8);
             let Some(k) = real.and_then(|r| r.index_of(x, y)) else { continue };
             let r = real.unwrap();
-            (camera[i], position[i], normal[i], albedo[i]) = (r.camera_map()[k], r.position_map()[k], r.normal_map()[k], r.albedo_map()[k]);
+            (camera[i], position[i], normal[i], albedo[i]) =
+                (r.camera_map()[k], r.position_map()[k], r.normal_map()[k], r.albedo_map()[k]);
         }
         ctx.put("camera", camera)?;
         ctx.put("position", position)?;
@@ -1216,7 +1283,15 @@ fn real_layer_wgsl_matches_cpu() {
     let (lw, lh) = (64u32, 48u32);
     let aovs = wedge::aov::Aovs::render(&scene, lw, lh).unwrap();
     let camera: Vec<[f32; 3]> = (0..lw * lh).map(|k| [k as f32 * 0.001, 1.0 / (1.0 + k as f32), 0.25]).collect();
-    let layer = wedge::scene::RealLayer::from_maps(lw, lh, camera, aovs.position.clone(), aovs.normal.clone(), aovs.albedo.clone()).unwrap();
+    let layer = wedge::scene::RealLayer::from_maps(
+        lw,
+        lh,
+        camera,
+        aovs.position.clone(),
+        aovs.normal.clone(),
+        aovs.albedo.clone(),
+    )
+    .unwrap();
     assert!(layer.covered_count() > 0 && layer.covered_count() < (lw * lh) as usize, "the sky shows above the ground");
     assert_eq!(layer.position_map(), &aovs.position[..], "AOV positions load unchanged");
     scene.set_real(Some(layer));
@@ -1231,7 +1306,11 @@ fn real_layer_wgsl_matches_cpu() {
         let n = (w * h) as usize;
         for name in ["camera", "position", "normal", "albedo", "present"] {
             let comps = cpu[name].format().components();
-            let bad = (0..n).filter(|&i| (0..comps).any(|c| cpu[name].component(i, c).to_bits() != out[name].component(i, c).to_bits())).count();
+            let bad = (0..n)
+                .filter(|&i| {
+                    (0..comps).any(|c| cpu[name].component(i, c).to_bits() != out[name].component(i, c).to_bits())
+                })
+                .count();
             assert_eq!(bad, 0, "`{name}` differs in {bad} of {n} pixels on `{}`", s.name);
         }
         let covered = (0..n).filter(|&i| out["position"].component(i, 3) == 1.0).count();
@@ -1287,7 +1366,8 @@ impl Kernel for TriangleProbe {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (origin, dir) = (ctx.read::<[f32; 3]>("origin")?, ctx.read::<[f32; 3]>("dir")?);
         let n = ctx.pixels();
-        let (mut triangle, mut distance, mut b1, mut b2) = (vec![u32::MAX; n], vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
+        let (mut triangle, mut distance, mut b1, mut b2) =
+            (vec![u32::MAX; n], vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
         let mut occluded = vec![0u32; n];
         for i in 0..n {
             let (o, d) = (glam::Vec3::from(origin[i]), glam::Vec3::from(dir[i]));
@@ -1330,8 +1410,11 @@ fn watertight_triangle_wgsl_matches_cpu() {
         dir.push(((target - o) * scale).to_array());
         aimed_at.push(object);
     };
-    let meshes: [(Vec3, f32, bool); 3] =
-        [(Vec3::new(0.0, 1.0, 0.0), 1.0, true), (Vec3::new(1000.0, 37.0, -500.0), 1.0, true), (Vec3::new(-40.0, 3.0, 25.0), 2.0, false)];
+    let meshes: [(Vec3, f32, bool); 3] = [
+        (Vec3::new(0.0, 1.0, 0.0), 1.0, true),
+        (Vec3::new(1000.0, 37.0, -500.0), 1.0, true),
+        (Vec3::new(-40.0, 3.0, 25.0), 2.0, false),
+    ];
     for (object, &(c, r, closed)) in meshes.iter().enumerate() {
         let (slices, stacks) = (16usize, 8usize);
         let mut v = Vec::new();
@@ -1340,8 +1423,14 @@ fn watertight_triangle_wgsl_matches_cpu() {
             v.push(c + Vec3::Y * r);
             for i in 1..stacks {
                 for j in 0..slices {
-                    let (th, ph) = (std::f32::consts::PI * i as f32 / stacks as f32, std::f32::consts::TAU * j as f32 / slices as f32);
-                    v.push(c + Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * (r * (1.0 + 0.05 * (next() - 0.5))));
+                    let (th, ph) = (
+                        std::f32::consts::PI * i as f32 / stacks as f32,
+                        std::f32::consts::TAU * j as f32 / slices as f32,
+                    );
+                    v.push(
+                        c + Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
+                            * (r * (1.0 + 0.05 * (next() - 0.5))),
+                    );
                 }
             }
             v.push(c - Vec3::Y * r);
@@ -1402,16 +1491,27 @@ fn watertight_triangle_wgsl_matches_cpu() {
         aimed_at.push(a);
     }
     let camera = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap().camera;
-    let scene = Scene::from_triangles("watertight probe", tris, vec![Material::diffuse("grey", Vec3::splat(0.5))], vec![], camera).unwrap();
+    let scene = Scene::from_triangles(
+        "watertight probe",
+        tris,
+        vec![Material::diffuse("grey", Vec3::splat(0.5))],
+        vec![],
+        camera,
+    )
+    .unwrap();
     let inputs: BTreeMap<String, BufferData> =
-        [("origin".to_string(), BufferData::Vec3(origin)), ("dir".to_string(), BufferData::Vec3(dir))].into_iter().collect();
+        [("origin".to_string(), BufferData::Vec3(origin)), ("dir".to_string(), BufferData::Vec3(dir))]
+            .into_iter()
+            .collect();
     let n = (w * h) as usize;
     let lone = wedge::backends::lone::LonePass::new(Arc::new(TriangleProbe), BTreeMap::new(), &inputs).unwrap();
     let (cpu, _) = lone.run_cpu(&scene, w, h, 1).unwrap();
     // No leaks on the CPU: every ray hits (any-hit too) the mesh it was aimed at.
     let on_target = |out: &BTreeMap<String, BufferData>| {
         let (BufferData::U32(t), BufferData::U32(occ)) = (&out["triangle"], &out["occluded"]) else { panic!() };
-        (0..n).filter(|&i| t[i] != u32::MAX && scene.shading[t[i] as usize].object == aimed_at[i] && occ[i] == 1).count()
+        (0..n)
+            .filter(|&i| t[i] != u32::MAX && scene.shading[t[i] as usize].object == aimed_at[i] && occ[i] == 1)
+            .count()
     };
     assert_eq!(on_target(&cpu), n, "CPU: rays leaked between triangles");
     let mut backends = Vec::new();
@@ -1431,7 +1531,9 @@ fn watertight_triangle_wgsl_matches_cpu() {
         let bits = (0..n)
             .filter(|&i| {
                 gt[i] == ct[i]
-                    && ["distance", "b1", "b2", "occluded"].iter().all(|name| cpu[*name].component(i, 0).to_bits() == out[*name].component(i, 0).to_bits())
+                    && ["distance", "b1", "b2", "occluded"]
+                        .iter()
+                        .all(|name| cpu[*name].component(i, 0).to_bits() == out[*name].component(i, 0).to_bits())
             })
             .count();
         let hits = on_target(&out);
@@ -1502,7 +1604,12 @@ impl Kernel for ScreenProbe {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         use wedge::backends::kernels::screen_trace::ScreenTracer;
         let layer = ctx.scene.real.as_ref().expect("a real layer");
-        let t = ScreenTracer::new(layer, &ctx.scene.camera, SCREEN_PROBE_THICKNESS, screen_probe_max_steps(ctx.width, ctx.height));
+        let t = ScreenTracer::new(
+            layer,
+            &ctx.scene.camera,
+            SCREEN_PROBE_THICKNESS,
+            screen_probe_max_steps(ctx.width, ctx.height),
+        );
         let (origin, dir) = (ctx.read::<[f32; 4]>("origin")?, ctx.read::<[f32; 4]>("dir")?);
         let v3 = |a: [f32; 4]| wedge::scene::Vec3::new(a[0], a[1], a[2]);
         let fast = origin.iter().zip(dir).map(|(&o, &d)| screen_probe_row(t.trace(v3(o), v3(d)))).collect();
@@ -1516,7 +1623,11 @@ impl Kernel for ScreenProbe {
                 let u = Uniforms::new()
                     .f32("thickness", SCREEN_PROBE_THICKNESS)
                     .u32("max_steps", screen_probe_max_steps(ctx.width, ctx.height));
-                Ok(wedge::backends::kernels::paths::camera_uniforms(u, &ctx.scene.camera, wedge::scene::LensShape::Disk))
+                Ok(wedge::backends::kernels::paths::camera_uniforms(
+                    u,
+                    &ctx.scene.camera,
+                    wedge::scene::LensShape::Disk,
+                ))
             })
             .with_include("screen_trace.wgsl", include_str!("../shaders/screen_trace.wgsl"))
             .with_scene()
@@ -1567,8 +1678,12 @@ fn screen_trace_wgsl_hierarchical_equals_linear() {
             dir.push([r * phi.cos(), r * phi.sin(), z, 0.0]);
         }
         let inputs: BTreeMap<String, BufferData> =
-            [("origin".to_string(), BufferData::Vec4(origin)), ("dir".to_string(), BufferData::Vec4(dir))].into_iter().collect();
-        let g = gpu.run_kernel(Arc::new(ScreenProbe), &session.scene, w, h, 1, BTreeMap::new(), &inputs).expect("GPU probe");
+            [("origin".to_string(), BufferData::Vec4(origin)), ("dir".to_string(), BufferData::Vec4(dir))]
+                .into_iter()
+                .collect();
+        let g = gpu
+            .run_kernel(Arc::new(ScreenProbe), &session.scene, w, h, 1, BTreeMap::new(), &inputs)
+            .expect("GPU probe");
         let c = wedge::backends::lone::LonePass::new(Arc::new(ScreenProbe), BTreeMap::new(), &inputs)
             .and_then(|p| p.run_cpu(&session.scene, w, h, 1))
             .expect("CPU probe")
@@ -1582,11 +1697,18 @@ fn screen_trace_wgsl_hierarchical_equals_linear() {
         for i in 0..gf.len() {
             total += 1;
             hits += (cl[i][0] == 1.0) as usize;
-            assert_eq!(bits(cf[i]), bits(cl[i]), "CPU: hierarchical and linear differ (the unit tests should have caught it)");
+            assert_eq!(
+                bits(cf[i]),
+                bits(cl[i]),
+                "CPU: hierarchical and linear differ (the unit tests should have caught it)"
+            );
             if bits(gf[i]) == bits(gl[i]) {
                 same_gpu += 1;
             } else if differ_gpu.len() < 10 {
-                differ_gpu.push(format!("batch {batch} ray {i}: hierarchical {:?}, linear {:?}, CPU {:?}", gf[i], gl[i], cl[i]));
+                differ_gpu.push(format!(
+                    "batch {batch} ray {i}: hierarchical {:?}, linear {:?}, CPU {:?}",
+                    gf[i], gl[i], cl[i]
+                ));
             }
             same_cpu += (bits(gl[i]) == bits(cl[i])) as usize;
         }

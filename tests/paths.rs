@@ -13,7 +13,6 @@ use wedge::backends::{sobol, BackendError, Binding, BufferData, Kernel, KernelCl
 use wedge::graph::Format;
 use wedge::scene::{Camera, LensShape, Scene};
 
-
 fn builtin(name: &str) -> Scene {
     wedge::scene::load(&wedge::scene::SceneSource::Builtin(name.into())).unwrap()
 }
@@ -50,7 +49,10 @@ impl Kernel for SobolProbe {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (seed, n) = (ctx.seed, ctx.pixels() as u32);
         ctx.put("a", (0..n).map(|p| sobol::sample2(seed, p, p % 7, sobol::pair::LENS, p % 300)).collect::<Vec<_>>())?;
-        ctx.put("b", (0..n).map(|p| sobol::sample2(seed, p / 3, 1, p % 6, p.wrapping_mul(2654435761))).collect::<Vec<_>>())?;
+        ctx.put(
+            "b",
+            (0..n).map(|p| sobol::sample2(seed, p / 3, 1, p % 6, p.wrapping_mul(2654435761))).collect::<Vec<_>>(),
+        )?;
         ctx.put("key", (0..n).map(|p| sobol::sequence_key(seed, p, 5, sobol::pair::LIGHT)).collect::<Vec<_>>())
     }
     fn wgsl(&self) -> Option<WgslSource> {
@@ -64,7 +66,9 @@ fn sobol_wgsl_is_bit_exact() {
     let scene = builtin("grids");
     let (w, h, seed) = (128u32, 96u32, 4242u32);
     let gpu_out = gpu.run_kernel(Arc::new(SobolProbe), &scene, w, h, seed, BTreeMap::new(), &BTreeMap::new()).unwrap();
-    let (BufferData::Vec2(a), BufferData::Vec2(b), BufferData::U32(k)) = (&gpu_out["a"], &gpu_out["b"], &gpu_out["key"]) else {
+    let (BufferData::Vec2(a), BufferData::Vec2(b), BufferData::U32(k)) =
+        (&gpu_out["a"], &gpu_out["b"], &gpu_out["key"])
+    else {
         panic!("formats")
     };
     let mut bad = 0;
@@ -124,7 +128,11 @@ impl Kernel for CameraProbe {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::write("origin", Format::Vec3), Binding::write("dir", Format::Vec3), Binding::write("weight", Format::Vec2)]
+        vec![
+            Binding::write("origin", Format::Vec3),
+            Binding::write("dir", Format::Vec3),
+            Binding::write("weight", Format::Vec2),
+        ]
     }
     fn run_cpu(&self, _ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         unreachable!("the test compares against Camera::ray directly")
@@ -148,7 +156,9 @@ fn thin_lens_rays_agree_on_both_backends() {
         let name = if shape == LensShape::Gaussian { "gaussian" } else { "disk" };
         let params = BTreeMap::from([("lens".to_string(), wedge::graph::ParamValue::Str(name.into()))]);
         let out = gpu.run_kernel(Arc::new(CameraProbe), &scene, w, h, 1, params, &BTreeMap::new()).unwrap();
-        let (BufferData::Vec3(o), BufferData::Vec3(d), BufferData::Vec2(wt)) = (&out["origin"], &out["dir"], &out["weight"]) else {
+        let (BufferData::Vec3(o), BufferData::Vec3(d), BufferData::Vec2(wt)) =
+            (&out["origin"], &out["dir"], &out["weight"])
+        else {
             panic!("formats")
         };
         let mut worst = 0f32;
@@ -200,12 +210,11 @@ fn thin_lens_focuses_and_pinhole_ignores_the_lens() {
 
 // ---- paths.trace ----
 
-
+use wedge::backends::kernels::direct::DirectLight;
 use wedge::backends::kernels::paths::{PathRecord, PathsTrace};
 use wedge::backends::kernels::primary::PrimaryGBuffer;
-use wedge::backends::kernels::direct::DirectLight;
-use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::lone::LonePass;
+use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::{Job, KernelRegistry, RayCounts, Silent, Texel};
 use wedge::graph::{BufferId, ParamValue, Pass, Stage};
 
@@ -228,7 +237,11 @@ fn run_alone(
 }
 
 /// `paths.trace` on the CPU with `params`, its record as `paths.resolve`'s input.
-fn traced_record(scene: &Scene, size: (u32, u32, u32), params: &[(&str, ParamValue)]) -> BTreeMap<&'static str, BufferData> {
+fn traced_record(
+    scene: &Scene,
+    size: (u32, u32, u32),
+    params: &[(&str, ParamValue)],
+) -> BTreeMap<&'static str, BufferData> {
     let (rec, _) = run_alone(Arc::new(PathsTrace), scene, size, params, &BTreeMap::new(), None);
     BTreeMap::from([("record", rec["record"].clone())])
 }
@@ -331,7 +344,10 @@ fn paths_trace_cpu_gpu_parity() {
         assert!(share <= 0.02, "{scene_name}: {share}");
         let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / (a.max(1) as f64);
         assert_eq!(c_rays.primary_rays, g_rays.primary_rays);
-        assert!(rel(c_rays.shadow_rays, g_rays.shadow_rays) < 0.01 && rel(c_rays.secondary_rays, g_rays.secondary_rays) < 0.01);
+        assert!(
+            rel(c_rays.shadow_rays, g_rays.shadow_rays) < 0.01
+                && rel(c_rays.secondary_rays, g_rays.secondary_rays) < 0.01
+        );
         assert_eq!(g_rays.cut_loops, 0);
         if scene_name == "cornell" {
             let glossy: u64 = records(c).iter().map(|r| r.glossy_samples as u64).sum();
@@ -352,7 +368,8 @@ fn paths_kernels_run_on_gl_and_webgpu_limits() {
     let (c, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
     let inputs = BTreeMap::from([("record", c["record"].clone())]);
     let (cr, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
-    let devices = [("GL", Some(Backends::GL), LimitsChoice::Adapter), ("WebGPU limits", None, LimitsChoice::WebGpuDefault)];
+    let devices =
+        [("GL", Some(Backends::GL), LimitsChoice::Adapter), ("WebGPU limits", None, LimitsChoice::WebGpuDefault)];
     for (what, backends, limits) in devices {
         let mut gpu = match GpuBackend::open_on(backends, limits) {
             Ok(g) => g,
@@ -365,7 +382,11 @@ fn paths_kernels_run_on_gl_and_webgpu_limits() {
         let (g, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), Some(&mut gpu));
         let share = share_differing(what, &c["record"], &g["record"]);
         let (gr, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, Some(&mut gpu));
-        println!("{what} ({}): paths.trace records differing from the CPU's beyond round-off: {:.2}%", gpu.adapter_description(), share * 100.0);
+        println!(
+            "{what} ({}): paths.trace records differing from the CPU's beyond round-off: {:.2}%",
+            gpu.adapter_description(),
+            share * 100.0
+        );
         assert!(share <= 0.02, "{what}: {share}");
         for (name, a) in &cr {
             let (_, _, over, _) = compare(a, &gr[name], Tolerance::for_class(KernelClass::Compose));
@@ -379,9 +400,12 @@ fn paths_kernels_run_on_gl_and_webgpu_limits() {
 fn pinhole_single_path_hits_equal_the_gbuffer() {
     let scene = builtin("cornell");
     let size = (32u32, 24u32, 5u32);
-    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
+    let (rec, _) =
+        run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(1, false, "disk"), &BTreeMap::new(), None);
     let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
-    let (BufferData::Vec4(pos), BufferData::Vec4(nrm), BufferData::Vec3(alb)) = (&gb["position"], &gb["normal"], &gb["albedo"]) else {
+    let (BufferData::Vec4(pos), BufferData::Vec4(nrm), BufferData::Vec3(alb)) =
+        (&gb["position"], &gb["normal"], &gb["albedo"])
+    else {
         panic!("formats")
     };
     let mut hits = 0;
@@ -407,7 +431,8 @@ fn mean_direct_matches_direct_light() {
     let scene = builtin("grids");
     let size = (32u32, 24u32, 11u32);
     let n = 256;
-    let (rec, _) = run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(n, false, "disk"), &BTreeMap::new(), None);
+    let (rec, _) =
+        run_alone(Arc::new(PathsTrace), &scene, size, &trace_params(n, false, "disk"), &BTreeMap::new(), None);
     let (gb, _) = run_alone(Arc::new(PrimaryGBuffer), &scene, size, &[], &BTreeMap::new(), None);
     let inputs = BTreeMap::from([("position", gb["position"].clone()), ("normal", gb["normal"].clone())]);
     let dl_params = [
@@ -580,7 +605,12 @@ fn resolve_gives_means_in_gbuffer_conventions() {
     for i in 0..p.len() {
         assert_eq!(p[i], gp[i], "pixel {i}: position");
         for c in 0..4 {
-            assert!((n[i][c] - gn[i][c]).abs() <= 1e-5 * gn[i][c].abs().max(1.0), "pixel {i}: normal {:?} vs {:?}", n[i], gn[i]);
+            assert!(
+                (n[i][c] - gn[i][c]).abs() <= 1e-5 * gn[i][c].abs().max(1.0),
+                "pixel {i}: normal {:?} vs {:?}",
+                n[i],
+                gn[i]
+            );
         }
     }
     let Some(mut gpu) = gpu_or_skip("resolve_gives_means_in_gbuffer_conventions") else { return };
@@ -613,8 +643,12 @@ fn resolve_gives_means_in_gbuffer_conventions() {
 #[test]
 fn struct_layouts_are_checked_by_fields() {
     use wedge::graph::{Field, FieldType, StructLayout};
-    static IMPOSTOR: StructLayout = StructLayout { name: "PathRecord", fields: &[Field::new("l_direct", FieldType::Vec4)] };
-    let pass = Pass { writes: vec![("record".into(), BufferId(0))], ..Pass::new("paths", "test", "paths.trace", Stage::Sample) };
+    static IMPOSTOR: StructLayout =
+        StructLayout { name: "PathRecord", fields: &[Field::new("l_direct", FieldType::Vec4)] };
+    let pass = Pass {
+        writes: vec![("record".into(), BufferId(0))],
+        ..Pass::new("paths", "test", "paths.trace", Stage::Sample)
+    };
     let schedule = wedge::graph::Schedule {
         passes: vec![pass],
         buffers: vec![wedge::graph::BufferInfo::new("paths.record", Format::Struct(&IMPOSTOR))],
@@ -660,7 +694,11 @@ fn stratified_paths_beat_independent_paths() {
             set(&mut p, "sampling", ParamValue::Str(sampling.into()));
             set(&mut p, "stream", ParamValue::Int(stream));
             let (out, _) = run_alone(Arc::new(PathsTrace), &scene, size, &p, &BTreeMap::new(), None);
-            total += radiance(&out["record"]).iter().zip(&reference).map(|(a, b)| (*a - *b).length_squared() as f64).sum::<f64>();
+            total += radiance(&out["record"])
+                .iter()
+                .zip(&reference)
+                .map(|(a, b)| (*a - *b).length_squared() as f64)
+                .sum::<f64>();
         }
         rmse.insert(sampling, (total / (4.0 * reference.len() as f64)).sqrt());
     }
@@ -700,7 +738,10 @@ fn parity_harness_compares_struct_fields() {
             wedge::graph::BufferInfo::new("paths.record", Format::Struct(&PATH_RECORD)),
             wedge::graph::BufferInfo::new("resolve.radiance", Format::Vec3),
         ],
-        lifetimes: vec![Some(wedge::graph::Lifetime { first: 0, last: 1 }), Some(wedge::graph::Lifetime { first: 1, last: 1 })],
+        lifetimes: vec![
+            Some(wedge::graph::Lifetime { first: 0, last: 1 }),
+            Some(wedge::graph::Lifetime { first: 1, last: 1 }),
+        ],
         slots: vec![Some(0), Some(1)],
         slot_formats: Vec::new(),
         slot_layers: Vec::new(),
@@ -710,12 +751,25 @@ fn parity_harness_compares_struct_fields() {
     };
     let mut registry = KernelRegistry::new();
     registry.register(Arc::new(PathsTrace)).register(Arc::new(PathsResolve));
-    let job = Job { schedule: &schedule, scene: &scene, kernels: &registry, width: 24, height: 18, seed: 3, frame: 0, progress: &Silent, window: wedge::backends::Window::whole(24, 18) };
+    let job = Job {
+        schedule: &schedule,
+        scene: &scene,
+        kernels: &registry,
+        width: 24,
+        height: 18,
+        seed: 3,
+        frame: 0,
+        progress: &Silent,
+        window: wedge::backends::Window::whole(24, 18),
+    };
     let report = run_parity(&job, &mut gpu).unwrap();
     println!("{}", report.table());
     let rows: Vec<&str> = report.rows.iter().map(|r| r.binding.as_str()).collect();
     assert_eq!(rows.len(), PATH_RECORD.fields.len() + 1, "{rows:?}");
-    assert!(rows.contains(&"record.l_direct") && rows.contains(&"record.non_finite") && rows.contains(&"radiance"), "{rows:?}");
+    assert!(
+        rows.contains(&"record.l_direct") && rows.contains(&"record.non_finite") && rows.contains(&"radiance"),
+        "{rows:?}"
+    );
     assert!(report.ok());
 }
 
@@ -729,7 +783,9 @@ fn unshadowed_direct_is_the_same_samples_without_visibility() {
     let size = (48u32, 36u32, 5u32);
     let inputs = traced_record(&scene, size, &trace_params(4, true, "disk"));
     let (res, _) = run_alone(Arc::new(PathsResolve), &scene, size, &[], &inputs, None);
-    let (BufferData::Vec4(e), BufferData::Vec4(u), BufferData::Vec4(occ)) = (&res["direct"], &res["direct_unshadowed"], &res["occlusion"]) else {
+    let (BufferData::Vec4(e), BufferData::Vec4(u), BufferData::Vec4(occ)) =
+        (&res["direct"], &res["direct_unshadowed"], &res["occlusion"])
+    else {
         panic!("formats")
     };
     let (mut equal, mut shadowed) = (0, 0);

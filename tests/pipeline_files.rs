@@ -55,11 +55,19 @@ fn an_environment_map_outside_the_pipeline_dir_needs_the_flag() {
     let (_dir, root) = layout();
     let sky = root.join("sky.exr");
     let up = pipeline(&root, "up.ron", "builtin:envmap", "Environment", "\"map\": \"../sky.exr\"");
-    let abs = pipeline(&root, "abs.ron", "builtin:envmap", "Environment", &format!("\"map\": {:?}", sky.display().to_string()));
+    let abs = pipeline(
+        &root,
+        "abs.ron",
+        "builtin:envmap",
+        "Environment",
+        &format!("\"map\": {:?}", sky.display().to_string()),
+    );
     std::os::unix::fs::symlink(&sky, root.join("p/link.exr")).unwrap();
     let link = pipeline(&root, "link.ron", "builtin:envmap", "Environment", "\"map\": \"link.exr\"");
     let out = root.join("out");
-    for (p, written) in [(&up, "\"../sky.exr\""), (&abs, &format!("{:?}", sky.display().to_string())[..]), (&link, "\"link.exr\"")] {
+    for (p, written) in
+        [(&up, "\"../sky.exr\""), (&abs, &format!("{:?}", sky.display().to_string())[..]), (&link, "\"link.exr\"")]
+    {
         let o = wedge(&["render", p.to_str().unwrap(), "--out", out.to_str().unwrap()], &root);
         let e = refused(
             &o,
@@ -96,16 +104,35 @@ fn real_layer_maps_and_captures_outside_the_pipeline_dir_are_refused() {
     let maps = format!("\"camera_image\": {sky:?}, \"position_map\": \"../sky.exr\", \"normal_map\": \"../sky.exr\"");
     let p = pipeline(&root, "maps.ron", "builtin:envmap_virtual", "MixedReality", &maps);
     let o = wedge(&["render", p.to_str().unwrap(), "--out", "out"], &root);
-    refused(&o, &[&format!("line 2: node `env`, parameter `camera_image` = {sky:?} points to {sky}"), "outside the pipeline directory", "--allow-outside-dir"]);
+    refused(
+        &o,
+        &[
+            &format!("line 2: node `env`, parameter `camera_image` = {sky:?} points to {sky}"),
+            "outside the pipeline directory",
+            "--allow-outside-dir",
+        ],
+    );
     // A frame sequence's file names say the frame they were made for.
     let framed = "\"camera_image\": \"../c_{frame:02}.exr\", \"position_map\": \"p.exr\", \"normal_map\": \"n.exr\"";
     std::fs::copy(root.join("sky.exr"), root.join("c_00.exr")).unwrap();
     let p = pipeline(&root, "framed.ron", "builtin:envmap_virtual", "MixedReality", framed);
     let o = wedge(&["render", p.to_str().unwrap(), "--out", "out"], &root);
-    refused(&o, &["parameter `camera_image` = \"../c_{frame:02}.exr\" (frame 0: \"../c_00.exr\")", "outside the pipeline directory"]);
+    refused(
+        &o,
+        &[
+            "parameter `camera_image` = \"../c_{frame:02}.exr\" (frame 0: \"../c_00.exr\")",
+            "outside the pipeline directory",
+        ],
+    );
     let p = pipeline(&root, "capture.ron", "builtin:envmap_virtual", "MixedReality", "\"capture\": \"../tri.obj\"");
     let o = wedge(&["render", p.to_str().unwrap(), "--out", "out"], &root);
-    refused(&o, &[&format!("parameter `capture` = \"../tri.obj\" points to {}", root.join("tri.obj").display()), "outside the pipeline directory"]);
+    refused(
+        &o,
+        &[
+            &format!("parameter `capture` = \"../tri.obj\" points to {}", root.join("tri.obj").display()),
+            "outside the pipeline directory",
+        ],
+    );
     assert!(!root.join("out").exists());
 }
 
@@ -117,7 +144,10 @@ fn the_pipeline_scene_is_confined_but_a_command_line_scene_is_not() {
     let o = wedge(&["export-scene", p.to_str().unwrap(), "--out", out.to_str().unwrap()], &root);
     refused(
         &o,
-        &[&format!("{}: line 1: scene = \"../tri.obj\" points to {}", p.display(), root.join("tri.obj").display()), "outside the pipeline directory"],
+        &[
+            &format!("{}: line 1: scene = \"../tri.obj\" points to {}", p.display(), root.join("tri.obj").display()),
+            "outside the pipeline directory",
+        ],
     );
     assert!(!out.exists());
     for args in [&["--allow-outside-dir"][..], &["--scene", "tri.obj"][..]] {
@@ -131,6 +161,12 @@ fn the_pipeline_scene_is_confined_but_a_command_line_scene_is_not() {
     // A scene that is not there is named with the pipeline line that names it.
     let p = pipeline(&root, "missing.ron", "nope.obj", "Environment", "\"map\": \"builtin:sky\"");
     let o = wedge(&["export-scene", p.to_str().unwrap(), "--out", out.to_str().unwrap()], &root);
-    refused(&o, &[&format!("cannot read the file referenced by {} line 1: scene = \"nope.obj\" (it does not exist)", p.display())]);
+    refused(
+        &o,
+        &[&format!(
+            "cannot read the file referenced by {} line 1: scene = \"nope.obj\" (it does not exist)",
+            p.display()
+        )],
+    );
     assert!(!out.exists());
 }

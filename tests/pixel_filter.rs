@@ -28,7 +28,12 @@ fn open(name: &str, w: u32, h: u32, params: &[(&str, &str, ParamValue)]) -> Sess
 /// The contents of `<buffer>@previous_frame` a run hands to the next frame (the accumulation).
 fn handed_on<'a>(s: &Session, run: &'a RunResult, buffer: &str) -> &'a [[f32; 4]] {
     let name = format!("{buffer}@previous_frame");
-    let h = s.schedule.history.iter().find(|h| s.schedule.buffers[h.buffer.0].name == name).unwrap_or_else(|| panic!("{name}"));
+    let h = s
+        .schedule
+        .history
+        .iter()
+        .find(|h| s.schedule.buffers[h.buffer.0].name == name)
+        .unwrap_or_else(|| panic!("{name}"));
     match &run.history[&h.buffer] {
         BufferData::Vec4(v) => v,
         other => panic!("{name} is {}", other.format()),
@@ -45,8 +50,9 @@ fn accumulation_is_the_mean_of_independent_one_path_frames() {
     let runs = progressive(&s, n);
     let last = runs.last().unwrap();
     let (acc_lv, acc_hv) = (handed_on(&s, last, "pf.lv"), handed_on(&s, last, "pf.hv"));
-    let alone: Vec<RunResult> =
-        (0..n).map(|f| s.run_progressive_frame(&mut CpuBackend::new(), &Silent, f, None).expect("frame alone")).collect();
+    let alone: Vec<RunResult> = (0..n)
+        .map(|f| s.run_progressive_frame(&mut CpuBackend::new(), &Silent, f, None).expect("frame alone"))
+        .collect();
     let pixels = acc_lv.len();
     let mut worst = 0.0f64;
     for i in 0..pixels {
@@ -113,7 +119,11 @@ fn blend_factor_goes_to_one_and_the_output_becomes_plain_accumulation() {
                 assert!((0.0..=1.0).contains(&sv), "s = {sv}");
                 if sv == 1.0 {
                     for c in 0..3 {
-                        assert_eq!(rad.component(i, c).to_bits(), unf.component(i, c).to_bits(), "{name}: s = 1 must be plain accumulation");
+                        assert_eq!(
+                            rad.component(i, c).to_bits(),
+                            unf.component(i, c).to_bits(),
+                            "{name}: s = 1 must be plain accumulation"
+                        );
                     }
                 }
             }
@@ -128,7 +138,8 @@ fn blend_factor_goes_to_one_and_the_output_becomes_plain_accumulation() {
             previous = Some(run);
         }
         println!("{name}: mean s by paths per pixel {means:?}; every pixel s = 1 after {converged_at:?} paths");
-        let n = converged_at.unwrap_or_else(|| panic!("{name}: s did not reach 1 everywhere in 4096 frames: {means:?}"));
+        let n =
+            converged_at.unwrap_or_else(|| panic!("{name}: s did not reach 1 everywhere in 4096 frames: {means:?}"));
         assert!(means.first().unwrap().1 < 1.0, "{name}: the first frame must blend in the filtered buffer somewhere");
         let at = |k: u32| means.iter().find(|(m, _)| *m == k).map(|(_, v)| *v);
         assert!(at(16).unwrap() >= at(4).unwrap(), "{name}: {means:?}");
@@ -158,10 +169,15 @@ fn error_against_the_reference_falls_with_frames() {
             ((rmse(c, rc), rmse(u, rc)), (rel_mse(c, rc), rel_mse(u, rc)))
         };
         let (e4, e16, e64) = (at(4), at(16), at(64));
-        println!("{name}: (RMSE filtered, plain), (relMSE filtered, plain) after 4 {e4:?}, 16 {e16:?}, 64 {e64:?} frames");
+        println!(
+            "{name}: (RMSE filtered, plain), (relMSE filtered, plain) after 4 {e4:?}, 16 {e16:?}, 64 {e64:?} frames"
+        );
         for k in [0, 1] {
             let m = |e: ((f64, f64), (f64, f64))| if k == 0 { e.0 } else { e.1 };
-            assert!(m(e4).0 > m(e16).0 && m(e16).0 > m(e64).0, "{name}: filtered error must fall: {e4:?} {e16:?} {e64:?}");
+            assert!(
+                m(e4).0 > m(e16).0 && m(e16).0 > m(e64).0,
+                "{name}: filtered error must fall: {e4:?} {e16:?} {e64:?}"
+            );
             assert!(m(e4).1 > m(e16).1 && m(e16).1 > m(e64).1, "{name}: plain error must fall");
             assert!(m(e4).0 < m(e4).1, "{name}: filtered beats plain accumulation at 4 frames: {e4:?}");
         }
@@ -209,7 +225,18 @@ fn cli_progressive_writes_snapshots_and_refuses_bad_values() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     let p = pipeline("progressive_pixel.ron");
     let o = wedge(
-        &["render", p.to_str().unwrap(), "--progressive", "6", "--width", "32", "--height", "24", "--out", out.to_str().unwrap()],
+        &[
+            "render",
+            p.to_str().unwrap(),
+            "--progressive",
+            "6",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            out.to_str().unwrap(),
+        ],
         repo,
     );
     let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
@@ -217,7 +244,8 @@ fn cli_progressive_writes_snapshots_and_refuses_bad_values() {
     for needle in ["progressive: 6 frames", "per frame by pass class", "filter frames: 2 of 6", "wrote "] {
         assert!(stdout.contains(needle), "{needle:?} in {stdout}");
     }
-    let mut names: Vec<String> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     names.sort();
     for f in [
         "progressive_0001.exr",
@@ -243,8 +271,16 @@ fn cli_progressive_writes_snapshots_and_refuses_bad_values() {
         (vec!["render", p.to_str().unwrap(), "--progressive", "abc"], 2, vec!["--progressive <N>"]),
         (vec!["render", p.to_str().unwrap(), "--progressive=-3"], 2, vec!["--progressive <N>"]),
         (vec!["render", p.to_str().unwrap(), "--progressive", "2000000"], 2, vec!["--progressive <N>", "1..=1000000"]),
-        (vec!["render", p.to_str().unwrap(), "--progressive", "4", "--frames", "0..3"], 2, vec!["--progressive <N>", "--frames"]),
-        (vec!["render", "pipelines/shadows.ron", "--progressive", "4", "--width", "16", "--height", "12"], 1, vec!["no node that accumulates", "progressive_pixel.ron"]),
+        (
+            vec!["render", p.to_str().unwrap(), "--progressive", "4", "--frames", "0..3"],
+            2,
+            vec!["--progressive <N>", "--frames"],
+        ),
+        (
+            vec!["render", "pipelines/shadows.ron", "--progressive", "4", "--width", "16", "--height", "12"],
+            1,
+            vec!["no node that accumulates", "progressive_pixel.ron"],
+        ),
     ] {
         let o = wedge(&args, repo);
         let err = String::from_utf8_lossy(&o.stderr);
@@ -265,6 +301,9 @@ fn gpu_parity_at_a_filter_frame_with_history() {
     let Some(mut gpu) = gpu_or_skip("gpu_parity_at_a_filter_frame_with_history") else { return };
     for name in ["progressive_pixel.ron", "progressive_pixel_fast.ron"] {
         let report = gpu_parity_with_history(&open(name, 48, 36, &[]), &mut gpu, 3, 6);
-        assert!(report.rows.iter().any(|r| r.kernel.starts_with("pixel_filter.") && r.class == wedge::backends::KernelClass::Filter));
+        assert!(report
+            .rows
+            .iter()
+            .any(|r| r.kernel.starts_with("pixel_filter.") && r.class == wedge::backends::KernelClass::Filter));
     }
 }

@@ -44,7 +44,13 @@ fn surface_pixels(s: &Session) -> Vec<bool> {
     let (w, h) = (s.width, s.height);
     (0..w * h)
         .map(|i| {
-            let r = s.scene.camera.ray(glam::Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5), glam::Vec2::splat(0.5), w, h, LensShape::Disk);
+            let r = s.scene.camera.ray(
+                glam::Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5),
+                glam::Vec2::splat(0.5),
+                w,
+                h,
+                LensShape::Disk,
+            );
             at.intersect(r.origin, r.dir, 0.0, f32::INFINITY).is_some()
         })
         .collect()
@@ -71,7 +77,15 @@ fn a_reference_is_plain_path_tracing() {
 /// high-variance neighbours.
 #[test]
 fn the_radius_follows_the_warm_up_then_falls_as_one_over_root_k() {
-    let s = open(64, 48, &[("rf", "max_radius", ParamValue::Int(64)), ("rf", "t_u", ParamValue::Float(0.002)), ("rf", "occlusion", ParamValue::Bool(false))]);
+    let s = open(
+        64,
+        48,
+        &[
+            ("rf", "max_radius", ParamValue::Int(64)),
+            ("rf", "t_u", ParamValue::Float(0.002)),
+            ("rf", "occlusion", ParamValue::Bool(false)),
+        ],
+    );
     let runs = progressive(&s, 128);
     for k in 1..=4u32 {
         let r = heatmap(&runs[k as usize - 1], "radius");
@@ -85,7 +99,10 @@ fn the_radius_follows_the_warm_up_then_falls_as_one_over_root_k() {
     };
     let r: Vec<f32> = [8, 16, 32, 64, 128].iter().map(|&k| med(k)).collect();
     let ideal = ((2.0 * 128.0 - 1.0) / (2.0 * 32.0 - 1.0) as f32).sqrt();
-    println!("median radius over surfaces at frames 8, 16, 32, 64, 128: {r:?}; r32/r128 {:.3} (ideal {ideal:.3})", r[2] / r[4]);
+    println!(
+        "median radius over surfaces at frames 8, 16, 32, 64, 128: {r:?}; r32/r128 {:.3} (ideal {ideal:.3})",
+        r[2] / r[4]
+    );
     assert!(r.windows(2).all(|p| p[0] > p[1]), "the radius shrinks");
     assert!((r[2] / r[4] - ideal).abs() < 0.1 * ideal, "r32/r128 = {} ≈ {ideal}", r[2] / r[4]);
 }
@@ -103,7 +120,10 @@ fn the_occlusion_factor_shrinks_kernels_near_occluders() {
     assert!(b.iter().all(|&r| r == full));
     let shrunk = a.iter().filter(|&&r| r > 0.0 && r < 0.9 * full).count();
     let kept = a.iter().filter(|&&r| r > 0.99 * full).count();
-    println!("frame 2 with occlusion: {shrunk} pixels shrunk below 90%, {kept} kept, mean radius {:.3} (without {full:.3})", a.iter().sum::<f32>() / a.len() as f32);
+    println!(
+        "frame 2 with occlusion: {shrunk} pixels shrunk below 90%, {kept} kept, mean radius {:.3} (without {full:.3})",
+        a.iter().sum::<f32>() / a.len() as f32
+    );
     assert!(shrunk > a.len() / 20 && kept > a.len() / 20, "{shrunk} shrunk, {kept} kept of {}", a.len());
 }
 
@@ -123,7 +143,13 @@ fn a_textured_diffuse_plane_keeps_its_texture() {
     // material and the same albedo.
     let at = s.scene.at(0.0);
     let albedo = |x: u32, y: u32| -> Option<(u32, f32)> {
-        let r = s.scene.camera.ray(glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5), glam::Vec2::splat(0.5), w, h, LensShape::Disk);
+        let r = s.scene.camera.ray(
+            glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+            glam::Vec2::splat(0.5),
+            w,
+            h,
+            LensShape::Disk,
+        );
         let hit = at.intersect(r.origin, r.dir, 0.0, f32::INFINITY)?;
         let sp = at.surface(&hit, r.origin, r.dir);
         s.scene.materials[sp.material as usize].base_color_texture?;
@@ -134,7 +160,11 @@ fn a_textured_diffuse_plane_keeps_its_texture() {
         for x in 1..w - 1 {
             let Some(c) = albedo(x, y) else { continue };
             if (0..9).all(|k| albedo(x + k % 3 - 1, y + k / 3 - 1) == Some(c)) {
-                if c.1 > 0.65 { light.push((y * w + x) as usize) } else { dark.push((y * w + x) as usize) }
+                if c.1 > 0.65 {
+                    light.push((y * w + x) as usize)
+                } else {
+                    dark.push((y * w + x) as usize)
+                }
             }
         }
     }
@@ -168,7 +198,11 @@ fn a_textured_diffuse_plane_keeps_its_texture() {
     assert!(c_blur < 0.9 * c_ref, "the test can see a blur");
     for (k, run) in runs.iter().enumerate() {
         let c = contrast(&vec3s(run.output("color").unwrap()));
-        println!("frame {}: radiance-filtered contrast {c:.4} ({:+.2}% vs reference)", k + 1, 100.0 * (c / c_ref - 1.0));
+        println!(
+            "frame {}: radiance-filtered contrast {c:.4} ({:+.2}% vs reference)",
+            k + 1,
+            100.0 * (c / c_ref - 1.0)
+        );
         assert!((c / c_ref - 1.0).abs() < 0.03, "frame {}: contrast {c} vs reference {c_ref}", k + 1);
     }
 }
@@ -199,14 +233,18 @@ fn error_against_the_reference_falls_with_frames() {
     let preview = phase.iter().zip(&surface).filter(|(&p, &s)| s && p < 1.0).count();
     let radius = heatmap(&runs[255], "radius");
     println!("after 256 frames: {preview} surface pixels still filtered; median radius {:.3}", median(radius.clone()));
-    assert!(preview * 100 <= surface.iter().filter(|&&s| s).count(), "≤ 1% of surface pixels still in the preview phase");
+    assert!(
+        preview * 100 <= surface.iter().filter(|&&s| s).count(),
+        "≤ 1% of surface pixels still in the preview phase"
+    );
 }
 
 /// `correction: "switch"`: once a pixel's kernel holds only its own sample it shows the plain
 /// accumulation, bit for bit, and stays there.
 #[test]
 fn switch_mode_shows_the_plain_accumulation_in_the_correction_phase() {
-    let s = open(48, 36, &[("rf", "correction", ParamValue::Str("switch".into())), ("rf", "t_u", ParamValue::Float(0.05))]);
+    let s =
+        open(48, 36, &[("rf", "correction", ParamValue::Str("switch".into())), ("rf", "t_u", ParamValue::Float(0.05))]);
     let runs = progressive(&s, 24);
     let mut switched_before = vec![false; 48 * 36];
     let mut seen = 0;
@@ -224,7 +262,11 @@ fn switch_mode_shows_the_plain_accumulation_in_the_correction_phase() {
     }
     assert!(seen > 0);
     let last = heatmap(runs.last().unwrap(), "phase");
-    println!("switch: {} of {} pixels in the correction phase after 24 frames", last.iter().filter(|&&p| p >= 1.0).count(), last.len());
+    println!(
+        "switch: {} of {} pixels in the correction phase after 24 frames",
+        last.iter().filter(|&&p| p >= 1.0).count(),
+        last.len()
+    );
 }
 
 /// Frames do not depend on the thread count (1 vs 3 threads, every output, 6 frames).

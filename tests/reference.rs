@@ -13,8 +13,11 @@ use wedge::Session;
 
 fn pipelines() -> Vec<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines");
-    let mut v: Vec<PathBuf> =
-        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "ron")).collect();
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+        .collect();
     v.sort();
     assert!(v.len() >= 4, "{v:?}");
     v
@@ -25,13 +28,18 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
     for path in pipelines() {
         let s = Session::reference(Some(&path), 64, "independent", &sized(16, 12, None, &[])).unwrap();
         let name = path.display();
-        assert!(s.schedule.passes.iter().all(|p| p.stage != Stage::Filter), "{name}: a filter ran\n{}", s.schedule.table());
+        assert!(
+            s.schedule.passes.iter().all(|p| p.stage != Stage::Filter),
+            "{name}: a filter ran\n{}",
+            s.schedule.table()
+        );
         for p in &s.schedule.passes {
             if p.random {
                 let count = &p.params["count"];
                 assert!(
                     *count == ParamValue::Int(64)
-                        || (*count == ParamValue::Int(0) && (p.name.ends_with("sample_initial") || p.name == "sampler.first")),
+                        || (*count == ParamValue::Int(0)
+                            && (p.name.ends_with("sample_initial") || p.name == "sampler.first")),
                     "{name}: {} count {count:?}",
                     p.name
                 );
@@ -49,7 +57,10 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
         let fills = s.schedule.passes.iter().filter(|p| p.kernel == FILL_CONSTANT).count();
         assert_eq!(adaptive, fills > 0, "{name}: adaptive passes read constant counts");
         let ports: Vec<&str> = s.schedule.sink_inputs.iter().map(|(_, p, _)| p.as_str()).collect();
-        assert!(ports.contains(&"color") && !ports.contains(&"filter_width") && !ports.contains(&"rays_per_pixel"), "{name}: {ports:?}");
+        assert!(
+            ports.contains(&"color") && !ports.contains(&"filter_width") && !ports.contains(&"rays_per_pixel"),
+            "{name}: {ports:?}"
+        );
         // Nothing only the filters needed is left: no bandwidth kernel runs.
         assert!(s.schedule.passes.iter().all(|p| !p.kernel.ends_with(".bandwidth")), "{name}\n{}", s.schedule.table());
     }
@@ -94,7 +105,8 @@ fn stratified_reference_beats_independent_at_equal_samples() {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
     let ov = sized(48, 36, None, &[]);
     let image = |spp, sampling: &str, seed| {
-        let s = Session::reference(Some(&path), spp, sampling, &wedge::Overrides { seed: Some(seed), ..ov.clone() }).unwrap();
+        let s = Session::reference(Some(&path), spp, sampling, &wedge::Overrides { seed: Some(seed), ..ov.clone() })
+            .unwrap();
         let r = run(&s);
         color(&s, &r)
     };

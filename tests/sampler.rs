@@ -47,7 +47,10 @@ fn reference_matches_direct_light_for_both_form_factors() {
         d.push(rmse(&a, &b));
     }
     let across = rmse(&sampler_reference(1024, "exact"), &direct_light_mc(1024, "light_centre"));
-    eprintln!("RMSE sampler vs direct.light: exact {:.6}, light_centre {:.6}; exact vs light_centre {across:.6}", d[0], d[1]);
+    eprintln!(
+        "RMSE sampler vs direct.light: exact {:.6}, light_centre {:.6}; exact vs light_centre {across:.6}",
+        d[0], d[1]
+    );
     assert!(d[0] < 1.5e-3 && d[1] < 1.5e-3, "{d:?}");
     assert!(across > 3.0 * d[0].max(d[1]), "{across} vs {d:?}");
 }
@@ -56,7 +59,9 @@ fn reference_matches_direct_light_for_both_form_factors() {
 fn shadow_rays_are_traced_in_paths_of_initial_rays() {
     let s = Session::open(None, &sized(SW, SH, None, &[])).unwrap();
     let r = run(&s);
-    let wedge::backends::BufferData::U32(n) = r.output("rays_per_pixel").unwrap() else { panic!("rays_per_pixel is u32") };
+    let wedge::backends::BufferData::U32(n) = r.output("rays_per_pixel").unwrap() else {
+        panic!("rays_per_pixel is u32")
+    };
     // SoftShadows' default `initial_rays`: the shadow rays of one path.
     const PER_PATH: u32 = 8;
     // ceil(n / 8) sampler paths per pixel (1 in the first pass), all through the pixel centre of a
@@ -104,7 +109,9 @@ fn chapters_3_and_4(shadows: bool, indirect: bool) -> String {
     }
     let color = match (shadows, indirect) {
         (true, true) => {
-            nodes.push(r#"(name: "sum", kind: "Add", inputs: {"a": "shadows.radiance", "b": "indirect.radiance"})"#.into());
+            nodes.push(
+                r#"(name: "sum", kind: "Add", inputs: {"a": "shadows.radiance", "b": "indirect.radiance"})"#.into(),
+            );
             "sum.radiance"
         }
         (true, false) => "shadows.radiance",
@@ -136,15 +143,27 @@ fn two_nodes_on_the_sampler_trace_exactly_their_own_counts() {
     let (alone_i, _) = go(false, true);
     assert_eq!(both.rays.shadow_rays, alone_s.rays.shadow_rays + alone_i.rays.shadow_rays, "{:?}", both.rays);
     assert_eq!(both.rays.secondary_rays, alone_i.rays.secondary_rays, "{:?}", both.rays);
-    assert!(alone_i.rays.secondary_rays > 16 * u64::from(SW * SH) / 2, "Indirect traced its hemisphere rays: {:?}", alone_i.rays);
-    let counts = |r: &wedge::backends::RunResult, sink: &str| match &r.outputs[&(sink.to_string(), "count".to_string())] {
+    assert!(
+        alone_i.rays.secondary_rays > 16 * u64::from(SW * SH) / 2,
+        "Indirect traced its hemisphere rays: {:?}",
+        alone_i.rays
+    );
+    let counts = |r: &wedge::backends::RunResult, sink: &str| match &r.outputs[&(sink.to_string(), "count".to_string())]
+    {
         wedge::backends::BufferData::U32(v) => v.clone(),
         _ => panic!("{sink} is a u32 count"),
     };
     assert_eq!(counts(&both, "shadow_rays"), counts(&alone_s, "shadow_rays"));
     assert_eq!(counts(&both, "indirect_rays"), counts(&alone_i, "indirect_rays"));
-    let shadows_in_both = wedge::outputs::buffer_to_image(both.output("unfiltered").unwrap(), s_both.width, s_both.height);
+    let shadows_in_both =
+        wedge::outputs::buffer_to_image(both.output("unfiltered").unwrap(), s_both.width, s_both.height);
     let alone = color(&s_s, &alone_s);
-    let worst = shadows_in_both.pixels.iter().zip(&alone.pixels).flat_map(|(a, b)| a.iter().zip(b)).map(|(a, b)| (a - b).abs() / b.abs().max(1e-3)).fold(0.0f32, f32::max);
+    let worst = shadows_in_both
+        .pixels
+        .iter()
+        .zip(&alone.pixels)
+        .flat_map(|(a, b)| a.iter().zip(b))
+        .map(|(a, b)| (a - b).abs() / b.abs().max(1e-3))
+        .fold(0.0f32, f32::max);
     assert!(worst < 1e-4, "largest relative difference {worst}");
 }

@@ -72,7 +72,8 @@ fn huge_mu_gives_the_unfiltered_image() {
     // adaptive-sampled input bit for bit. (The analytic default then gives each pixel its own ratio
     // estimate r(x)·E/U, consistent as the samples grow: `error_falls_as_mu_grows`.)
     let sampled = ("shadows", "irradiance", ParamValue::Str("sampled".into()));
-    let s = wedge::Session::open(None, &overrides(Some(1e6), &[("shadows", "rays_cap", ParamValue::Int(16)), sampled])).unwrap();
+    let s = wedge::Session::open(None, &overrides(Some(1e6), &[("shadows", "rays_cap", ParamValue::Int(16)), sampled]))
+        .unwrap();
     let r = run(&s);
     let out = color(&s, &r);
     let unfiltered = wedge::outputs::buffer_to_image(r.output("unfiltered").unwrap(), W, H);
@@ -86,7 +87,8 @@ fn analytic_irradiance_is_exact_where_nothing_occludes() {
     // noise at 8 rays per pixel, where stratified Monte Carlo still has the geometry term's variance
     // (the unoccluded error that dominated `suite_contact`, `suite_glossy`, `cornell`, `suite_room`).
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("ground.obj"), "v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 3 2\nf 1 4 3\n").unwrap();
+    std::fs::write(dir.path().join("ground.obj"), "v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 3 2\nf 1 4 3\n")
+        .unwrap();
     let scene = dir.path().join("lit.ron");
     std::fs::write(
         &scene,
@@ -115,7 +117,8 @@ fn analytic_irradiance_is_exact_where_nothing_occludes() {
     let rays = shadow_rpp(&r, 64, 48);
     let mc = wedge::Session::reference(None, rays.round() as u32, "stratified", &ov()).unwrap();
     let mc_img = color(&mc, &run(&mc));
-    let mc_err = rmse(&mc_img, &out) / (out.luminance().iter().map(|&v| v as f64).sum::<f64>() / out.pixels.len() as f64);
+    let mc_err =
+        rmse(&mc_img, &out) / (out.luminance().iter().map(|&v| v as f64).sum::<f64>() / out.pixels.len() as f64);
     println!("{lit} lit pixels at {rays:.1} rays/px: largest relative error {worst:.2e}; stratified MC at equal rays {mc_err:.2e} (relative RMSE)");
     assert!(lit > 64 * 48 / 2);
     assert!(worst < 1e-4, "{worst}");

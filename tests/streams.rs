@@ -17,7 +17,8 @@ fn random_passes_have_their_hashed_stream_and_none_collide() {
         if path.extension().is_none_or(|x| x != "ron") {
             continue;
         }
-        let s = Session::open(Some(&path), &Overrides { width: Some(8), height: Some(6), ..Default::default() }).unwrap();
+        let s =
+            Session::open(Some(&path), &Overrides { width: Some(8), height: Some(6), ..Default::default() }).unwrap();
         for p in s.schedule.passes.iter().filter(|p| p.random) {
             random += 1;
             // A pass continuing another's sequences (the shared sampler's adaptive pass) has the

@@ -28,7 +28,11 @@ const FRAMES: u32 = 4;
 /// The temporal pipelines, found by their schedules rather than listed, so a new one is checked too.
 fn temporal_pipelines(ov: &Overrides) -> Vec<(PathBuf, Session)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "ron")).collect();
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
     paths.sort();
     paths
         .into_iter()
@@ -44,7 +48,8 @@ fn sequences_agree(name: &str, frame: u32, cpu: &RunResult, gpu: &RunResult) -> 
     let tol = Tolerance::for_class(KernelClass::Sampling);
     let mut worst = 0.0f64;
     for (key, c) in &cpu.outputs {
-        let g = gpu.outputs.get(key).unwrap_or_else(|| panic!("{name} frame {frame}: the GPU run has no output {key:?}"));
+        let g =
+            gpu.outputs.get(key).unwrap_or_else(|| panic!("{name} frame {frame}: the GPU run has no output {key:?}"));
         let (max_abs, _, over_strict, _) = compare(c, g, tol);
         let (_, _, over_loose, _) = compare(c, g, Tolerance { rel: tol.perturbed_rel, ..tol });
         let (over, perturbed) = (allowed_pixels(tol.max_share, c.len()), allowed_pixels(tol.perturbed_share, c.len()));
@@ -64,7 +69,8 @@ fn every_temporal_pipeline_agrees_frame_by_frame_with_history() {
     let Some(mut gpu) = gpu_or_skip("every_temporal_pipeline_agrees_frame_by_frame_with_history") else { return };
     let ov = Overrides { width: Some(32), height: Some(24), ..Default::default() };
     let pipelines = temporal_pipelines(&ov);
-    let names: Vec<String> = pipelines.iter().map(|(p, _)| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    let names: Vec<String> =
+        pipelines.iter().map(|(p, _)| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
     assert!(names.contains(&"environment_temporal.ron".to_string()), "{names:?}");
     for (path, mut session) in pipelines {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();

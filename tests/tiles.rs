@@ -48,7 +48,14 @@ fn apron(stdout: &str) -> u32 {
 /// Render `pipeline` (with `extra` flags) whole into `dir/whole` and as `n` tiles into
 /// `dir/tiles`, merge into `dir/merged`; the paths of the two render.exr files. The apron must be
 /// smaller than the tiles' share of the image, or the test would compare whole images.
-fn whole_and_merged(pipeline: &str, backend: &str, (w, h): (u32, u32), n: u32, extra: &[&str], dir: &Path) -> (PathBuf, PathBuf) {
+fn whole_and_merged(
+    pipeline: &str,
+    backend: &str,
+    (w, h): (u32, u32),
+    n: u32,
+    extra: &[&str],
+    dir: &Path,
+) -> (PathBuf, PathBuf) {
     let size = [w.to_string(), h.to_string()];
     let common = [&["--width", &size[0], "--height", &size[1], "--backend", backend][..], extra].concat();
     let whole = dir.join("whole");
@@ -89,14 +96,16 @@ fn merged_shadows_is_byte_identical() {
 #[test]
 fn merged_defocus_is_byte_identical() {
     let dir = tempfile::tempdir().unwrap();
-    let (whole, merged) = whole_and_merged("pipelines/defocus.ron", "cpu", (64, 48), 4, &["--set", "defocus.max_radius=4"], dir.path());
+    let (whole, merged) =
+        whole_and_merged("pipelines/defocus.ron", "cpu", (64, 48), 4, &["--set", "defocus.max_radius=4"], dir.path());
     assert_same_bytes(&whole, &merged);
 }
 
 #[test]
 fn merged_indirect_is_byte_identical() {
     let dir = tempfile::tempdir().unwrap();
-    let (whole, merged) = whole_and_merged("pipelines/indirect.ron", "cpu", (64, 48), 4, &["--set", "indirect.max_radius=4"], dir.path());
+    let (whole, merged) =
+        whole_and_merged("pipelines/indirect.ron", "cpu", (64, 48), 4, &["--set", "indirect.max_radius=4"], dir.path());
     assert_same_bytes(&whole, &merged);
 }
 
@@ -120,7 +129,19 @@ fn tile_grid_and_odd_sizes_merge_exactly() {
     let dir = tempfile::tempdir().unwrap();
     let tiles = dir.path().join("tiles");
     for i in 0..3 {
-        ok(&wedge(&["render", "--width", "37", "--height", "23", "--tile", &format!("{i}/3"), "--tile-grid", "3x1", "--out", s(&tiles)]));
+        ok(&wedge(&[
+            "render",
+            "--width",
+            "37",
+            "--height",
+            "23",
+            "--tile",
+            &format!("{i}/3"),
+            "--tile-grid",
+            "3x1",
+            "--out",
+            s(&tiles),
+        ]));
     }
     let whole = dir.path().join("whole");
     ok(&wedge(&["render", "--width", "37", "--height", "23", "--out", s(&whole)]));
@@ -133,7 +154,19 @@ fn merge_names_missing_extra_and_mismatched_tiles() {
     let dir = tempfile::tempdir().unwrap();
     let tiles = dir.path().join("tiles");
     let render = |i: u32, seed: &str, out: &Path| {
-        ok(&wedge(&["render", "--width", "32", "--height", "24", "--seed", seed, "--tile", &format!("{i}/4"), "--out", s(out)]))
+        ok(&wedge(&[
+            "render",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--seed",
+            seed,
+            "--tile",
+            &format!("{i}/4"),
+            "--out",
+            s(out),
+        ]))
     };
     for i in [0, 1, 3] {
         render(i, "1", &tiles);
@@ -148,7 +181,21 @@ fn merge_names_missing_extra_and_mismatched_tiles() {
     refused(&wedge(&["merge", s(&tiles), "--out", s(&out)]), &["tile_0002_of_0004.exr", "seed 2", "do not belong"]);
     // Tile 2 from another pipeline (a parameter changed by --set): not belonging either.
     let changed = dir.path().join("changed");
-    ok(&wedge(&["render", "--width", "32", "--height", "24", "--seed", "1", "--set", "shadows.mu=3", "--tile", "2/4", "--out", s(&changed)]));
+    ok(&wedge(&[
+        "render",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--seed",
+        "1",
+        "--set",
+        "shadows.mu=3",
+        "--tile",
+        "2/4",
+        "--out",
+        s(&changed),
+    ]));
     std::fs::copy(changed.join("tile_0002_of_0004.exr"), tiles.join("tile_0002_of_0004.exr")).unwrap();
     refused(&wedge(&["merge", s(&tiles), "--out", s(&out)]), &["tile_0002_of_0004.exr", "seed 1", "do not belong"]);
     // The right tile 2, plus a copy of tile 1 under another name: an extra tile.
@@ -177,7 +224,18 @@ fn bad_tile_flags_are_refused() {
 fn a_whole_image_pass_refuses_tiles() {
     let dir = tempfile::tempdir().unwrap();
     refused(
-        &wedge(&["render", "pipelines/lightfield_ao.ron", "--width", "16", "--height", "12", "--tile", "0/4", "--out", s(dir.path())]),
+        &wedge(&[
+            "render",
+            "pipelines/lightfield_ao.ron",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--tile",
+            "0/4",
+            "--out",
+            s(dir.path()),
+        ]),
         &["cannot be tiled", "Reach::Image", "node `"],
     );
 }
@@ -209,7 +267,8 @@ fn small_reach(path: &Path, ov: &Overrides) -> Overrides {
 #[test]
 fn every_shipped_pipeline_tiles_exactly_or_is_refused() {
     let mut report = Vec::new();
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(repo().join("pipelines")).unwrap().map(|e| e.unwrap().path()).collect();
+    let mut paths: Vec<PathBuf> =
+        std::fs::read_dir(repo().join("pipelines")).unwrap().map(|e| e.unwrap().path()).collect();
     paths.sort();
     let (w, h) = (48, 36);
     for path in paths.iter().filter(|p| p.extension().is_some_and(|x| x == "ron")) {
@@ -235,7 +294,14 @@ fn every_shipped_pipeline_tiles_exactly_or_is_refused() {
                             for x in 0..r.w {
                                 let a = img.pixels[(y * r.w + x) as usize].map(f32::to_bits);
                                 let b = full.pixels[((r.y + y) * w + r.x + x) as usize].map(f32::to_bits);
-                                assert_eq!(a, b, "{}: tile {i} `{port}` differs at ({}, {})", path.display(), r.x + x, r.y + y);
+                                assert_eq!(
+                                    a,
+                                    b,
+                                    "{}: tile {i} `{port}` differs at ({}, {})",
+                                    path.display(),
+                                    r.x + x,
+                                    r.y + y
+                                );
                             }
                         }
                     }
@@ -291,8 +357,14 @@ fn farm_slurm_dry_run_prints_the_array_and_the_merge() {
     }
     assert!(!out.exists(), "--dry-run writes nothing");
     // Refused before anything is written: a pipeline that cannot be tiled, an unsafe directive.
-    refused(&wedge(&["farm", "slurm", "pipelines/lightfield_ao.ron", "--tiles", "4", "--dry-run"]), &["cannot be tiled", "node `ao`"]);
-    refused(&wedge(&["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4", "--time", "1 --x", "--dry-run"]), &["--time"]);
+    refused(
+        &wedge(&["farm", "slurm", "pipelines/lightfield_ao.ron", "--tiles", "4", "--dry-run"]),
+        &["cannot be tiled", "node `ao`"],
+    );
+    refused(
+        &wedge(&["farm", "slurm", "pipelines/shadows.ron", "--tiles", "4", "--time", "1 --x", "--dry-run"]),
+        &["--time"],
+    );
 }
 
 /// `--memory-limit` applies to the tile with its apron, not to the whole image: a limit the whole

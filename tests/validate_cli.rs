@@ -52,11 +52,15 @@ fn camera_paths_through_their_target_or_along_up_are_refused_before_rendering() 
     // Looking straight down along the scene camera's `up` at frame 5: no camera block, so the
     // scene decides `up`; refused once it is loaded, still before any frame.
     fs::write(dir.join("top.ron"), env_path("", OVER_THE_TOP, "")).unwrap();
-    stderr_of(&wedge(&["render", "top.ron", "--out", "o", "--frames", "0..1"], &dir), 1, &[
-        "top.ron:5:17: error[bad-camera]",
-        "the camera at frame 5 breaks a camera rule: camera `up` [0.0, 1.0, 0.0] is parallel to the view direction",
-        "add a key in between",
-    ]);
+    stderr_of(
+        &wedge(&["render", "top.ron", "--out", "o", "--frames", "0..1"], &dir),
+        1,
+        &[
+            "top.ron:5:17: error[bad-camera]",
+            "the camera at frame 5 breaks a camera rule: camera `up` [0.0, 1.0, 0.0] is parallel to the view direction",
+            "add a key in between",
+        ],
+    );
     assert!(!dir.join("o").exists(), "nothing rendered");
 }
 
@@ -76,9 +80,11 @@ fn parameter_values_mean_what_they_say() {
     ]);
     // The same through `--set`, blamed on the value.
     fs::write(dir.join("ok.ron"), env_path("", still, "")).unwrap();
-    stderr_of(&wedge(&["render", "ok.ron", "--out", "o", "--set", "env.mu=1e-300"], &dir), 1, &[
-        "--set env.mu: mu = 1e-300 is 0 in single precision (f32)",
-    ]);
+    stderr_of(
+        &wedge(&["render", "ok.ron", "--out", "o", "--set", "env.mu=1e-300"], &dir),
+        1,
+        &["--set env.mu: mu = 1e-300 is 0 in single precision (f32)"],
+    );
     assert!(!dir.join("o").exists(), "nothing rendered");
     let pf = "Pipeline(scene: \"builtin:cornell\", width: 16, height: 12, nodes: [\n    (name: \"pf\", kind: \"PixelFilter\", params: {\"sigma_c\": 1e-300}),\n    (name: \"out\", kind: \"Output\", inputs: {\"color\": \"pf.radiance\"}),\n])\n";
     fs::write(dir.join("sigma.ron"), pf).unwrap();

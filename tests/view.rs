@@ -26,10 +26,7 @@ fn shadows() -> PathBuf {
 
 /// Whether `xvfb-run` is on the PATH; under `CI=true` its absence fails the test.
 fn xvfb_or_skip(test: &str) -> bool {
-    let found = Command::new("sh")
-        .args(["-c", "command -v xvfb-run"])
-        .output()
-        .is_ok_and(|o| o.status.success());
+    let found = Command::new("sh").args(["-c", "command -v xvfb-run"]).output().is_ok_and(|o| o.status.success());
     if !found {
         if std::env::var("CI").is_ok_and(|v| v == "true") {
             panic!("{test}: CI=true and xvfb-run is missing; install it with `apt-get install xvfb` (scripts/test.sh does)");
@@ -45,11 +42,7 @@ fn png_size(path: &Path) -> (u32, u32) {
 
 fn run_ok(cmd: &mut Command) -> String {
     let out = cmd.output().expect("the command starts");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "{cmd:?} failed:\n{text}");
     text
 }
@@ -71,13 +64,7 @@ fn render_shadows(args: &[&str], out: &Path) {
 fn view_script(script: &Path, args: &[&str]) -> String {
     run_ok(
         Command::new("xvfb-run")
-            .args([
-                "-a",
-                "-s",
-                "-screen 0 800x600x24",
-                env!("CARGO_BIN_EXE_wedge"),
-                "view",
-            ])
+            .args(["-a", "-s", "-screen 0 800x600x24", env!("CARGO_BIN_EXE_wedge"), "view"])
             .arg(shadows())
             .args(args)
             .arg("--script")
@@ -118,16 +105,8 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     // The first screenshot is one frame: `render`'s image bit for bit, and the window's picture.
     let viewed = read_exr(&shot("a").join("render.exr")).expect("a/render.exr");
     let rendered = read_exr(&shot("render").join("render.exr")).expect("render.exr");
-    assert_eq!(
-        viewed.pixels, rendered.pixels,
-        "view's screenshot differs from wedge render"
-    );
-    for f in [
-        "render.png",
-        "unfiltered.exr",
-        "filter_width.png",
-        "rays_per_pixel.png",
-    ] {
+    assert_eq!(viewed.pixels, rendered.pixels, "view's screenshot differs from wedge render");
+    for f in ["render.png", "unfiltered.exr", "filter_width.png", "rays_per_pixel.png"] {
         assert!(shot("a").join(f).is_file(), "a/{f} missing");
     }
     assert_eq!(png_size(&shot("a").join("view.png")), (W, H));
@@ -146,10 +125,7 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     let (cw, ch) = png_size(&shot("c").join("view.png"));
     assert!(cw >= W && ch > H, "the heatmap picture is {cw}x{ch}");
     let moved = read_exr(&shot("c").join("render.exr")).expect("c/render.exr");
-    assert_ne!(
-        moved.pixels, rendered.pixels,
-        "the parameter change and the orbit changed nothing"
-    );
+    assert_ne!(moved.pixels, rendered.pixels, "the parameter change and the orbit changed nothing");
 }
 
 /// The same on the wgpu backend (lavapipe): the screenshot equals `wedge render --backend wgpu`'s.
@@ -168,21 +144,14 @@ fn scripted_window_on_the_wgpu_backend_matches_render() {
     let dir = tempfile::tempdir().expect("tempdir");
     let script = dir.path().join("s.ron");
     let shot = dir.path().join("a");
-    std::fs::write(
-        &script,
-        format!("[(frame: 0, screenshot: \"{}\")]", shot.display()),
-    )
-    .expect("script");
+    std::fs::write(&script, format!("[(frame: 0, screenshot: \"{}\")]", shot.display())).expect("script");
     let size = ["--width", "64", "--height", "48", "--backend", "wgpu"];
     eprintln!("{}", view_script(&script, &size));
     let out = dir.path().join("render");
     render_shadows(&size, &out);
     let viewed = read_exr(&shot.join("render.exr")).expect("a/render.exr");
     let rendered = read_exr(&out.join("render.exr")).expect("render.exr");
-    assert_eq!(
-        viewed.pixels, rendered.pixels,
-        "view's screenshot differs from wedge render --backend wgpu"
-    );
+    assert_eq!(viewed.pixels, rendered.pixels, "view's screenshot differs from wedge render --backend wgpu");
     assert_eq!(png_size(&shot.join("view.png")), (W, H));
 }
 
@@ -192,18 +161,10 @@ fn a_bad_script_is_refused_with_its_position_before_a_window_opens() {
     let script = dir.path().join("bad.ron");
     std::fs::write(&script, "[\n  (frame: 0, screenshoot: \"x\"),\n]\n").expect("script");
     // No display needed: the script is read first.
-    let out = wedge()
-        .args(["view", "--script"])
-        .arg(&script)
-        .env_remove("DISPLAY")
-        .output()
-        .expect("runs");
+    let out = wedge().args(["view", "--script"]).arg(&script).env_remove("DISPLAY").output().expect("runs");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(
-        err.contains(&format!("{}:2:", script.display())) && err.contains("screenshoot"),
-        "{err}"
-    );
+    assert!(err.contains(&format!("{}:2:", script.display())) && err.contains("screenshoot"), "{err}");
 }
 
 /// The viewer's options for `pipeline` at 16×12 on the CPU.
@@ -211,11 +172,7 @@ fn tiny(pipeline: &Path, dir: &Path) -> wedge::view::ViewOptions {
     wedge::view::ViewOptions {
         pipeline: Some(pipeline.to_path_buf()),
         registries: wedge::Registries::builtin(),
-        overrides: wedge::Overrides {
-            width: Some(16),
-            height: Some(12),
-            ..Default::default()
-        },
+        overrides: wedge::Overrides { width: Some(16), height: Some(12), ..Default::default() },
         backend: "cpu".into(),
         gpu_limits: None,
         out: dir.join("out"),
@@ -266,50 +223,20 @@ fn a_saved_edit_reloads_and_an_invalid_one_keeps_the_last_good_pipeline() {
         std::fs::write(&pipeline, text).expect("edit");
         // Whole-second file systems: move the time forward rather than sleep.
         let t = std::time::SystemTime::now() + std::time::Duration::from_secs(secs);
-        std::fs::File::options()
-            .write(true)
-            .open(&pipeline)
-            .and_then(|f| f.set_modified(t))
-            .expect("touch");
+        std::fs::File::options().write(true).open(&pipeline).and_then(|f| f.set_modified(t)).expect("touch");
     };
     touch(&source.replace("\"max_rays\": 16", "\"max_rays\": 8"), 5);
     assert!(model.poll_reload(), "the edit was not noticed");
     assert!(model.error.is_none(), "{:?}", model.error);
     assert_eq!(model.frames(), 0, "a reload starts the average over");
-    let max_rays = model
-        .session
-        .pipeline
-        .node("shadows")
-        .and_then(|n| n.params.get("max_rays"))
-        .cloned();
+    let max_rays = model.session.pipeline.node("shadows").and_then(|n| n.params.get("max_rays")).cloned();
     assert_eq!(max_rays, Some(wedge::graph::ParamValue::Int(8)));
 
-    touch(
-        &source.replace("kind: \"SoftShadows\"", "kind: \"SoftShadowz\""),
-        10,
-    );
+    touch(&source.replace("kind: \"SoftShadows\"", "kind: \"SoftShadowz\""), 10);
     assert!(model.poll_reload(), "the edit was not noticed");
     let error = model.error.clone().expect("diagnostics");
-    let graph = wedge()
-        .arg("graph")
-        .arg(&pipeline)
-        .output()
-        .expect("graph runs");
-    assert_eq!(
-        error.trim(),
-        String::from_utf8_lossy(&graph.stderr).trim(),
-        "not what `wedge graph` prints"
-    );
-    model
-        .render_frame()
-        .expect("the last good pipeline still renders");
-    assert_eq!(
-        max_rays,
-        model
-            .session
-            .pipeline
-            .node("shadows")
-            .and_then(|n| n.params.get("max_rays"))
-            .cloned()
-    );
+    let graph = wedge().arg("graph").arg(&pipeline).output().expect("graph runs");
+    assert_eq!(error.trim(), String::from_utf8_lossy(&graph.stderr).trim(), "not what `wedge graph` prints");
+    model.render_frame().expect("the last good pipeline still renders");
+    assert_eq!(max_rays, model.session.pipeline.node("shadows").and_then(|n| n.params.get("max_rays")).cloned());
 }

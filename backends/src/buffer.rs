@@ -17,7 +17,10 @@ pub enum BufferData {
     U32(Vec<u32>),
     /// A struct format: `layout.words()` words per pixel, fields in layout order (f32 fields as
     /// their bits).
-    Words { layout: &'static StructLayout, data: Vec<u32> },
+    Words {
+        layout: &'static StructLayout,
+        data: Vec<u32>,
+    },
 }
 
 impl BufferData {
@@ -250,7 +253,11 @@ mod tests {
 
     static LAYOUT: StructLayout = StructLayout {
         name: "Sample",
-        fields: &[Field::new("l", FieldType::Vec3), Field::new("count", FieldType::U32), Field::new("r", FieldType::Vec2)],
+        fields: &[
+            Field::new("l", FieldType::Vec3),
+            Field::new("count", FieldType::U32),
+            Field::new("r", FieldType::Vec2),
+        ],
     };
 
     #[repr(C)]
@@ -267,7 +274,10 @@ mod tests {
     #[test]
     fn records_round_trip_and_fields_read_by_name() {
         assert!(record_matches::<Sample>());
-        let recs = vec![Sample { l: [1.0, 2.0, 3.0], count: 7, r: [0.5, -0.5] }, Sample { l: [4.0, 5.0, 6.0], count: 9, r: [1.5, 2.5] }];
+        let recs = vec![
+            Sample { l: [1.0, 2.0, 3.0], count: 7, r: [0.5, -0.5] },
+            Sample { l: [4.0, 5.0, 6.0], count: 9, r: [1.5, 2.5] },
+        ];
         let b = <Sample as Texel>::wrap(recs.clone());
         assert_eq!(b.format(), Format::Struct(&LAYOUT));
         assert_eq!(b.len(), 2);
@@ -286,7 +296,10 @@ mod tests {
 
     #[test]
     fn a_record_of_another_layout_is_refused() {
-        static OTHER: StructLayout = StructLayout { name: "Sample", fields: &[Field::new("l", FieldType::Vec4), Field::new("r", FieldType::Vec2)] };
+        static OTHER: StructLayout = StructLayout {
+            name: "Sample",
+            fields: &[Field::new("l", FieldType::Vec4), Field::new("r", FieldType::Vec2)],
+        };
         let b = BufferData::zeroed(Format::Struct(&OTHER), 2);
         assert!(<Sample as Texel>::slice(&b).is_none());
         assert!(<[f32; 4] as Texel>::slice(&b).is_none());

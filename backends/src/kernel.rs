@@ -202,7 +202,10 @@ impl Window {
 }
 
 impl WgslSource {
-    pub fn new(source: impl Into<std::borrow::Cow<'static, str>>, uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>) -> Self {
+    pub fn new(
+        source: impl Into<std::borrow::Cow<'static, str>>,
+        uniforms: fn(&KernelCtx<'_>) -> Result<Uniforms, BackendError>,
+    ) -> Self {
         WgslSource {
             source: source.into(),
             includes: Vec::new(),
@@ -350,7 +353,9 @@ impl Uniforms {
             let valid = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
                 && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
             if !valid {
-                return Err(format!("uniform field `{name}` is not a WGSL identifier (a letter, then letters, digits or `_`)"));
+                return Err(format!(
+                    "uniform field `{name}` is not a WGSL identifier (a letter, then letters, digits or `_`)"
+                ));
             }
             s.push_str(&format!("    {name}: {},\n", ty.wgsl()));
         }
@@ -368,12 +373,30 @@ mod uniform_tests {
 
     #[test]
     fn words_follow_wgsl_layout_and_struct_matches() {
-        let u = Uniforms::new().f32("a", 1.0).vec3("c", [2.0, 3.0, 4.0]).u32("n", 7).vec2("uv", [5.0, 6.0]).bool("on", true);
+        let u = Uniforms::new()
+            .f32("a", 1.0)
+            .vec3("c", [2.0, 3.0, 4.0])
+            .u32("n", 7)
+            .vec2("uv", [5.0, 6.0])
+            .bool("on", true);
         let w = u.words();
         // a @0, pad to 4, c @4..7, n @7 (fills the vec3's fourth word), uv @8..10, on @10, pad to 12.
         assert_eq!(
             w,
-            vec![1f32.to_bits(), 0, 0, 0, 2f32.to_bits(), 3f32.to_bits(), 4f32.to_bits(), 7, 5f32.to_bits(), 6f32.to_bits(), 1, 0]
+            vec![
+                1f32.to_bits(),
+                0,
+                0,
+                0,
+                2f32.to_bits(),
+                3f32.to_bits(),
+                4f32.to_bits(),
+                7,
+                5f32.to_bits(),
+                6f32.to_bits(),
+                1,
+                0
+            ]
         );
         let s = u.wgsl_struct().unwrap();
         assert!(s.contains("a: f32,\n    c: vec3<f32>,\n    n: u32,\n    uv: vec2<f32>,\n    on: u32,"), "{s}");
@@ -416,13 +439,17 @@ impl KernelRegistry {
         if kernel.draws_random() && !pass.random {
             problems.push(berr(
                 "stream",
-                format!("kernel `{}` draws random numbers: declare the pass `.random()` so the graph assigns its stream", pass.kernel),
+                format!(
+                    "kernel `{}` draws random numbers: declare the pass `.random()` so the graph assigns its stream",
+                    pass.kernel
+                ),
             ));
         }
         for (list, access) in [(&pass.reads, Access::Read), (&pass.writes, Access::Write)] {
             for (name, id) in list {
                 match decls.iter().find(|d| d.name == name && d.access == access) {
-                    None => problems.push(berr(name, format!("is not declared by kernel `{}` as a {access:?}", pass.kernel))),
+                    None => problems
+                        .push(berr(name, format!("is not declared by kernel `{}` as a {access:?}", pass.kernel))),
                     Some(d) => {
                         let f = schedule.buffers[id.0].format;
                         if f != d.format {
@@ -431,7 +458,10 @@ impl KernelRegistry {
                                 (Some(a), Some(b)) => a.difference(b).map(|w| format!(" ({w})")).unwrap_or_default(),
                                 _ => String::new(),
                             };
-                            problems.push(berr(name, format!("is bound to a {f} buffer but the kernel declares {}{why}", d.format)));
+                            problems.push(berr(
+                                name,
+                                format!("is bound to a {f} buffer but the kernel declares {}{why}", d.format),
+                            ));
                         }
                     }
                 }
@@ -439,7 +469,10 @@ impl KernelRegistry {
         }
         for spec in kernel.params() {
             let problem = match pass.params.get(spec.name) {
-                None => "the pass does not carry it: forward it from the node (`.node_params(..)`) or set it (`.param(..)`)".to_string(),
+                None => {
+                    "the pass does not carry it: forward it from the node (`.node_params(..)`) or set it (`.param(..)`)"
+                        .to_string()
+                }
                 Some(v) if !spec.ty.accepts(v) => format!("the pass carries {v}"),
                 Some(_) => continue,
             };
@@ -599,7 +632,21 @@ impl<'a> KernelCtx<'a> {
         writes: BTreeMap<String, Option<BufferData>>,
     ) -> Self {
         let window = Window::whole(width, height);
-        KernelCtx { width, height, seed, frame: 0, scene, pass, params, counters, progress, reads, writes, layers: BTreeMap::new(), window }
+        KernelCtx {
+            width,
+            height,
+            seed,
+            frame: 0,
+            scene,
+            pass,
+            params,
+            counters,
+            progress,
+            reads,
+            writes,
+            layers: BTreeMap::new(),
+            window,
+        }
     }
 
     /// The same context with the pass's bindings' elements per pixel (from the schedule's buffers);
@@ -641,10 +688,21 @@ impl<'a> KernelCtx<'a> {
         reads: BTreeMap<String, &'a BufferData>,
         writes: BTreeMap<String, Option<BufferData>>,
     ) -> Self {
-        KernelCtx::new(job.width, job.height, job.seed, job.scene, &pass.name, &pass.params, counters, job.progress, reads, writes)
-            .with_frame(job.frame)
-            .with_window(job.window)
-            .with_layers(pass, &job.schedule.buffers)
+        KernelCtx::new(
+            job.width,
+            job.height,
+            job.seed,
+            job.scene,
+            &pass.name,
+            &pass.params,
+            counters,
+            job.progress,
+            reads,
+            writes,
+        )
+        .with_frame(job.frame)
+        .with_window(job.window)
+        .with_layers(pass, &job.schedule.buffers)
     }
 
     pub fn pixels(&self) -> usize {

@@ -21,9 +21,9 @@ pub mod gpu;
 pub mod kernel;
 pub mod kernels;
 pub mod lone;
+pub mod params;
 #[cfg(feature = "gpu")]
 pub mod parity;
-pub mod params;
 pub mod rng;
 pub mod sobol;
 pub mod tiles;
@@ -32,13 +32,13 @@ use std::collections::BTreeMap;
 
 pub use buffer::{BufferData, Texel};
 // For `record!` expansions in other crates.
-#[doc(hidden)]
-pub use wedge_graph as __graph;
 pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
     UniformType, Uniforms, WgslSource, Window,
 };
 pub use params::{KernelParams, ParamField, ParamSpec, ParamType};
+#[doc(hidden)]
+pub use wedge_graph as __graph;
 use wedge_graph::{BufferId, ParamValue, Schedule};
 use wedge_scene::Scene;
 
@@ -142,7 +142,8 @@ pub trait Backend {
     /// ([`wedge_graph::Schedule::history`], keyed by those buffers; a missing one is all zeros, as in
     /// a first frame), and the result hands back each one's source for the next frame
     /// ([`RunResult::history`]).
-    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>) -> Result<RunResult, BackendError>;
+    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>)
+        -> Result<RunResult, BackendError>;
     /// Run one image (a first frame: every previous-frame buffer is zeros).
     fn run(&mut self, job: &Job<'_>) -> Result<RunResult, BackendError> {
         self.run_frame(job, &BTreeMap::new())

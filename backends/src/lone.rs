@@ -87,11 +87,27 @@ impl<'a> LonePass<'a> {
 
     /// The job the pass runs in: `scene`, image size and seed.
     pub fn job<'s>(&'s self, scene: &'s Scene, width: u32, height: u32, seed: u32) -> Job<'s> {
-        Job { schedule: &self.schedule, scene, kernels: &self.kernels, width, height, seed, frame: 0, progress: &Silent, window: crate::Window::whole(width, height) }
+        Job {
+            schedule: &self.schedule,
+            scene,
+            kernels: &self.kernels,
+            width,
+            height,
+            seed,
+            frame: 0,
+            progress: &Silent,
+            window: crate::Window::whole(width, height),
+        }
     }
 
     /// Run on the CPU backend: every write binding by name, and the ray counters.
-    pub fn run_cpu(&self, scene: &Scene, width: u32, height: u32, seed: u32) -> Result<(BTreeMap<String, BufferData>, RayCounts), BackendError> {
+    pub fn run_cpu(
+        &self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        seed: u32,
+    ) -> Result<(BTreeMap<String, BufferData>, RayCounts), BackendError> {
         let counters = Counters::default();
         let out = crate::cpu::run_pass(&self.job(scene, width, height, seed), &self.pass, &self.inputs, &counters)?;
         Ok((out, counters.snapshot()))

@@ -111,7 +111,8 @@ impl ParamField for i32 {
     const TYPE: ParamType = ParamType::Integer;
     fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
         let v = ctx.int_param(name)?;
-        i32::try_from(v).map_err(|_| ctx.err(format!("parameter `{name}` = {v} must be in {}..={}", i32::MIN, i32::MAX)))
+        i32::try_from(v)
+            .map_err(|_| ctx.err(format!("parameter `{name}` = {v} must be in {}..={}", i32::MIN, i32::MAX)))
     }
     fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
         u.i32(name, *self)
@@ -268,7 +269,10 @@ mod tests {
         assert_eq!(types, [ParamType::Number, ParamType::Vec3, ParamType::Text, ParamType::Number, ParamType::Integer]);
         let b = Block { density: 0.5, colour: [1.0, 2.0, 3.0], shape: Shape::Square, b_e: 2.0, radius_px: 7 };
         let s = b.uniforms().wgsl_struct().unwrap();
-        assert!(s.contains("density: f32,\n    colour: vec3<f32>,\n    shape: u32,\n    b_e: f32,\n    radius_px: u32,"), "{s}");
+        assert!(
+            s.contains("density: f32,\n    colour: vec3<f32>,\n    shape: u32,\n    b_e: f32,\n    radius_px: u32,"),
+            "{s}"
+        );
         assert_eq!(Shape::parse("square"), Some(Shape::Square));
         assert_eq!(Shape::Disk.as_str(), "disk");
         assert!(ParamType::Number.accepts(&ParamValue::Int(3)) && !ParamType::Integer.accepts(&ParamValue::Float(3.0)));

@@ -61,7 +61,9 @@ pub const BOUNDARY_SHARE: f64 = 1e-3;
 impl Tolerance {
     pub fn for_class(class: KernelClass) -> Tolerance {
         match class {
-            KernelClass::Sampling => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 1e-3, perturbed_rel: 1e-2, perturbed_share: 2e-2 },
+            KernelClass::Sampling => {
+                Tolerance { rel: 1e-5, abs: 1e-6, max_share: 1e-3, perturbed_rel: 1e-2, perturbed_share: 2e-2 }
+            }
             _ => Tolerance { rel: 1e-5, abs: 1e-6, max_share: 0.0, perturbed_rel: 0.0, perturbed_share: 0.0 },
         }
     }
@@ -265,7 +267,11 @@ pub fn run_parity_with_history(
                     .fields
                     .iter()
                     .filter_map(|f| {
-                        Some((format!("{binding}.{}", f.name), Cow::Owned(cpu_buf.field(f.name)?), Cow::Owned(gpu_buf.field(f.name)?)))
+                        Some((
+                            format!("{binding}.{}", f.name),
+                            Cow::Owned(cpu_buf.field(f.name)?),
+                            Cow::Owned(gpu_buf.field(f.name)?),
+                        ))
                     })
                     .collect(),
                 _ => vec![(binding.clone(), Cow::Borrowed(cpu_buf), Cow::Borrowed(gpu_buf))],
@@ -275,12 +281,17 @@ pub fn run_parity_with_history(
                 let pixels = cpu_buf.len();
                 let is_int = matches!(**cpu_buf, BufferData::U32(_));
                 // Pixels beyond the perturbed bound are `over`; the rest over tolerance are `perturbed`.
-                let over = if is_int || tol.perturbed_share == 0.0 { over_tight } else { compare(cpu_buf, gpu_buf, tol.loose()).2 };
+                let over = if is_int || tol.perturbed_share == 0.0 {
+                    over_tight
+                } else {
+                    compare(cpu_buf, gpu_buf, tol.loose()).2
+                };
                 let perturbed = over_tight - over;
                 let ok = if is_int {
                     over == 0 && boundary <= allowed_pixels(BOUNDARY_SHARE, pixels)
                 } else {
-                    over <= allowed_pixels(tol.max_share, pixels) && perturbed <= allowed_pixels(tol.perturbed_share, pixels)
+                    over <= allowed_pixels(tol.max_share, pixels)
+                        && perturbed <= allowed_pixels(tol.perturbed_share, pixels)
                 };
                 report.rows.push(BufferParity {
                     pass: pass.name.clone(),

@@ -227,7 +227,12 @@ mod tests {
         // The streams of SoftShadows' two passes (as the graph hashes them) over 4096 lights, and
         // Indirect's two components: every key distinct, where `stream * 64 + l` collided at l = 64.
         let fnv = |s: &str| s.bytes().fold(0x811c_9dc5u32, |h, b| (h ^ u32::from(b)).wrapping_mul(0x0100_0193));
-        let streams = [fnv("shadows.sample_initial"), fnv("shadows.sample_adaptive"), fnv("indirect.sample_initial"), fnv("indirect.sample_adaptive")];
+        let streams = [
+            fnv("shadows.sample_initial"),
+            fnv("shadows.sample_adaptive"),
+            fnv("indirect.sample_initial"),
+            fnv("indirect.sample_adaptive"),
+        ];
         let mut keys: Vec<u32> = Vec::new();
         for s in streams {
             for l in 0..4096 {

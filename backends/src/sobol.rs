@@ -120,10 +120,7 @@ pub fn sobol2(key: u32, index: u32) -> [f32; 2] {
     let shuffled = nested_uniform_scramble(index, key);
     let sx = pcg_hash(key ^ 0x68bc_21eb);
     let sy = pcg_hash(key ^ 0x02e5_be93);
-    [
-        to_unit(nested_uniform_scramble(sobol(shuffled, 0), sx)),
-        to_unit(nested_uniform_scramble(sobol(shuffled, 1), sy)),
-    ]
+    [to_unit(nested_uniform_scramble(sobol(shuffled, 0), sx)), to_unit(nested_uniform_scramble(sobol(shuffled, 1), sy))]
 }
 
 /// Independent uniform numbers for the same (key, index): the Monte Carlo baseline that samples the
@@ -197,7 +194,8 @@ mod tests {
             by[(y * 20.0) as usize] += 1;
             b2[(x * 10.0) as usize + 10 * (y * 10.0) as usize] += 1;
         }
-        let (cx, cy, c2) = (chi_square(&bx, n as f64 / 20.0), chi_square(&by, n as f64 / 20.0), chi_square(&b2, n as f64 / 100.0));
+        let (cx, cy, c2) =
+            (chi_square(&bx, n as f64 / 20.0), chi_square(&by, n as f64 / 20.0), chi_square(&b2, n as f64 / 100.0));
         println!("chi-square 1-D x {cx:.1}, y {cy:.1} (19 dof); 2-D {c2:.1} (99 dof)");
         assert!(cx < 43.8 && cy < 43.8 && c2 < 148.2, "{cx} {cy} {c2}");
         // Within one pixel, 4096 samples: stratified, so far more uniform than chance.

@@ -18,7 +18,11 @@ fn chi_square_p(observed: &[f64], expected: &[f64]) -> f64 {
 
 fn rect() -> AreaLight {
     AreaLight {
-        shape: LightShape::Rect { corner: Vec3::new(-0.5, 2.0, -0.25), edge_u: Vec3::new(1.0, 0.0, 0.0), edge_v: Vec3::new(0.0, 0.0, 0.5) },
+        shape: LightShape::Rect {
+            corner: Vec3::new(-0.5, 2.0, -0.25),
+            edge_u: Vec3::new(1.0, 0.0, 0.0),
+            edge_v: Vec3::new(0.0, 0.0, 0.5),
+        },
         radiance: Vec3::ONE,
         two_sided: false,
     }
@@ -26,7 +30,11 @@ fn rect() -> AreaLight {
 
 fn triangle() -> AreaLight {
     AreaLight {
-        shape: LightShape::Triangle { v0: Vec3::new(0.0, 1.0, 0.0), v1: Vec3::new(1.0, 1.0, 0.0), v2: Vec3::new(0.2, 1.0, 0.7) },
+        shape: LightShape::Triangle {
+            v0: Vec3::new(0.0, 1.0, 0.0),
+            v1: Vec3::new(1.0, 1.0, 0.0),
+            v2: Vec3::new(0.2, 1.0, 0.7),
+        },
         radiance: Vec3::ONE,
         two_sided: false,
     }

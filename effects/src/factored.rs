@@ -3,7 +3,9 @@
 //! `k̃ Ẽ` where a part factors, else `L`, summed over parts) with the component node's ports, and the
 //! sum of components the factoring node blurs.
 
-use wedge_graph::{BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, Reference, SamplerPass, Stage, FILL_CONSTANT};
+use wedge_graph::{
+    BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, Reference, SamplerPass, Stage, FILL_CONSTANT,
+};
 
 use crate::defocus::formulas::FACTORING_THRESHOLD;
 
@@ -100,7 +102,12 @@ impl IrradianceFilter {
             "filter.irradiance",
             Stage::Filter,
             e,
-            &[("position", self.position), ("normal", self.normal), ("omega", self.omega), ("pixel_length", self.pixel_length)],
+            &[
+                ("position", self.position),
+                ("normal", self.normal),
+                ("omega", self.omega),
+                ("pixel_length", self.pixel_length),
+            ],
             &[("max_radius", self.max_radius.clone()), ("normal_cos", ParamValue::Float(10f64.to_radians().cos()))],
             self.separable,
         )
@@ -145,7 +152,11 @@ pub fn compose_component(
             Some(prev) => {
                 let name = format!("{}_unfiltered", part.name);
                 let sum = ctx.buffer(&name, Format::Vec3);
-                ctx.pass(&name, "compose.add", Stage::Compose).read("a", prev).read("b", t.l).write("out", sum).finish();
+                ctx.pass(&name, "compose.add", Stage::Compose)
+                    .read("a", prev)
+                    .read("b", t.l)
+                    .write("out", sum)
+                    .finish();
                 sum
             }
         });

@@ -86,7 +86,11 @@ impl NodeKind for Heatmap {
             PortDecl::optional("width", Format::F32, "a filter width in pixels (0 = not filtered)"),
             PortDecl::optional("count", Format::U32, "rays or samples per pixel"),
             PortDecl::optional("value", Format::F32, "any other per-pixel scalar"),
-            PortDecl::optional("motion", Format::Vec4, "a velocity (px per half shutter) and its filter (Ω, σ px): σ with strokes along v"),
+            PortDecl::optional(
+                "motion",
+                Format::Vec4,
+                "a velocity (px per half shutter) and its filter (Ω, σ px): σ with strokes along v",
+            ),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -114,7 +118,8 @@ impl NodeKind for Heatmap {
         }
         let wired: Vec<&str> = PORTS.iter().map(|(p, _, _)| *p).filter(|p| ctx.input(p).is_some()).collect();
         if wired.len() != 1 {
-            let which = if wired.is_empty() { "none is".to_string() } else { format!("`{}` are", wired.join("` and `")) };
+            let which =
+                if wired.is_empty() { "none is".to_string() } else { format!("`{}` are", wired.join("` and `")) };
             return Err(err(format!(
                 "wire exactly one of `width` (a filter width, f32), `count` (a ray count, u32), `value` (another \
                  f32) and `motion` (a velocity and its filter, vec4); {which} wired"
@@ -136,7 +141,10 @@ mod tests {
     fn defaults_follow_the_port_and_parameters_override_them() {
         let none = params(&[("scale", ParamValue::Str("log".into()))]);
         let d = describe("w", &none, "width").unwrap();
-        assert_eq!(d, HeatmapDesc { title: "w".into(), unit: "px".into(), log: true, mask_zero: true, velocity: false });
+        assert_eq!(
+            d,
+            HeatmapDesc { title: "w".into(), unit: "px".into(), log: true, mask_zero: true, velocity: false }
+        );
         assert!(describe("m", &none, "motion").unwrap().velocity);
         let c = describe("n", &none, "count").unwrap();
         assert_eq!((c.unit.as_str(), c.mask_zero), ("rays", false));
@@ -149,7 +157,10 @@ mod tests {
             ("mask_zero", ParamValue::Bool(true)),
         ]);
         let c = describe("n", &set, "count").unwrap();
-        assert_eq!(c, HeatmapDesc { title: "n".into(), unit: "samples".into(), log: false, mask_zero: true, velocity: false });
+        assert_eq!(
+            c,
+            HeatmapDesc { title: "n".into(), unit: "samples".into(), log: false, mask_zero: true, velocity: false }
+        );
         let no_unit = params(&[("unit", ParamValue::Str("none".into())), ("mask_zero", ParamValue::Bool(false))]);
         let w = describe("w", &no_unit, "width").unwrap();
         assert_eq!((w.unit.as_str(), w.mask_zero), ("", false));

@@ -42,10 +42,12 @@ use std::f32::consts::FRAC_PI_2;
 use std::sync::Arc;
 
 use wedge_backends::kernels::hemisphere::Lobe;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, WgslSource,
+};
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference, Statistic,
-    SamplerPass, Stage,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary,
+    PortDecl, Reference, SamplerPass, Stage, Statistic,
 };
 
 use crate::filtering::{self, Separable};
@@ -194,22 +196,35 @@ impl NodeKind for Indirect {
             PortDecl::new("position", Format::Vec4, "from Primary"),
             PortDecl::new("normal", Format::Vec4, "from Primary (w = pixel footprint d)"),
             PortDecl::optional("albedo", Format::Vec3, "k_d, multiplied after filtering; white if absent"),
-            PortDecl::optional("specular", Format::Vec4, "k_s and Phong exponent (w) from Primary; no glossy component if absent"),
+            PortDecl::optional(
+                "specular",
+                Format::Vec4,
+                "k_s and Phong exponent (w) from Primary; no glossy component if absent",
+            ),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::new("radiance", Format::Vec3, "filtered indirect light (k_d diffuse + k_s glossy); AO mode: the filtered unoccluded fraction"),
+            PortDecl::new(
+                "radiance",
+                Format::Vec3,
+                "filtered indirect light (k_d diffuse + k_s glossy); AO mode: the filtered unoccluded fraction",
+            ),
             PortDecl::new("unfiltered", Format::Vec3, "the adaptive-sampled estimate before filtering"),
             PortDecl::new("filter_width", Format::F32, "diffuse filter std-dev β in pixels (0 = not filtered)"),
-            PortDecl::new("rays_per_pixel", Format::U32, "hemisphere samples (paths) per pixel, both components and passes (eq. 4.21)"),
+            PortDecl::new(
+                "rays_per_pixel",
+                Format::U32,
+                "hemisphere samples (paths) per pixel, both components and passes (eq. 4.21)",
+            ),
         ]
     }
     /// Indirect light (diffuse, and glossy where `specular` is wired) or ambient occlusion, through
     /// the shared sampler's camera.
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
         let lobes = if q.is_connected("specular") { "diffuse+glossy" } else { "diffuse" };
-        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::indirect_or_ao(q, q.sampler_view(), lobes))
+        matches!(port, "radiance" | "unfiltered")
+            .then(|| crate::light_terms::indirect_or_ao(q, q.sampler_view(), lobes))
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
@@ -245,7 +260,8 @@ impl NodeKind for Indirect {
         // The shared sampler's first pass: one path through the pixel centre with `initial_rays`
         // stratified hemisphere samples per part (Ch. 4's first pass); its first-hit distances
         // `z_min, z_max` feed eqs. 4.15–4.21.
-        let (first, per_path) = centre_path(ctx.node(), "hemisphere", "indirect_per_primary", ctx.param("initial_rays"))?;
+        let (first, per_path) =
+            centre_path(ctx.node(), "hemisphere", "indirect_per_primary", ctx.param("initial_rays"))?;
         ctx.sampler(
             first
                 .setting("bounces", ctx.param("bounces").clone())
@@ -297,8 +313,7 @@ impl NodeKind for Indirect {
         if glossy {
             pass = pass.write("rays_glossy", rays_g);
         }
-        pass.node_params(RateParams::names()).reference(Reference::Count)
-            .finish();
+        pass.node_params(RateParams::names()).reference(Reference::Count).finish();
 
         // eq. 4.21's n per part over both passes, exactly: the sampler traces the rest on paths of
         // about `initial_rays` (the camera ray is fixed, so every sample of a part weighs the same).
@@ -318,10 +333,9 @@ impl NodeKind for Indirect {
         let filtered_d = filter(ctx, "diffuse_", noisy_d, beta_d);
         let filtered_g = noisy_g.map(|g| filter(ctx, "glossy_", g, beta_g));
 
-        for (pass, d, g, port) in [
-            ("compose", filtered_d, filtered_g, "radiance"),
-            ("compose_unfiltered", noisy_d, noisy_g, "unfiltered"),
-        ] {
+        for (pass, d, g, port) in
+            [("compose", filtered_d, filtered_g, "radiance"), ("compose_unfiltered", noisy_d, noisy_g, "unfiltered")]
+        {
             let out = ctx.buffer(port, Format::Vec3);
             ctx.pass(pass, "indirect.compose", Stage::Compose)
                 .read("diffuse", d)
@@ -379,7 +393,11 @@ fn uniforms(ctx: &KernelCtx<'_>) -> Result<wedge_backends::Uniforms, BackendErro
 fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<Receiver> {
     let s = spec?[i];
     let m = s[3];
-    (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then_some(if blinn { Receiver::BlinnPhong(m) } else { Receiver::Phong(m) })
+    (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then_some(if blinn {
+        Receiver::BlinnPhong(m)
+    } else {
+        Receiver::Phong(m)
+    })
 }
 
 /// `indirect.bandwidth`: β (metres) per component and the diffuse β in pixels for the heatmap.
@@ -409,8 +427,8 @@ impl Kernel for Bandwidth {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/indirect_bandwidth.wgsl"), uniforms)
-            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
-            .per_pixel(),
+                .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
+                .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -464,8 +482,8 @@ impl Kernel for Rates {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/indirect_rates.wgsl"), uniforms)
-            .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
-            .per_pixel(),
+                .with_include("indirect_formulas.wgsl", include_str!("../../shaders/indirect_formulas.wgsl"))
+                .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

@@ -60,9 +60,17 @@ impl NodeKind for LightField {
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::new("radiance", Format::Vec3, "reconstructed indirect light (eq. 3); AO mode: the occluded fraction"),
+            PortDecl::new(
+                "radiance",
+                Format::Vec3,
+                "reconstructed indirect light (eq. 3); AO mode: the occluded fraction",
+            ),
             PortDecl::new("unfiltered", Format::Vec3, "the plain Monte Carlo estimate of the same input rays"),
-            PortDecl::new("splat_radius", Format::F32, "mean splat radius (world units) of the pixel's input samples, after shrinking"),
+            PortDecl::new(
+                "splat_radius",
+                Format::F32,
+                "mean splat radius (world units) of the pixel's input samples, after shrinking",
+            ),
             PortDecl::new("rays_per_pixel", Format::U32, "input secondary rays (paths) per pixel"),
         ]
     }
@@ -105,7 +113,8 @@ impl NodeKind for LightField {
         // 1. The input samples and their primary hits (one per pixel where every path has the same
         // camera ray).
         let samples = ctx.layered_buffer("samples", Format::Struct(&LIGHT_SAMPLE), spp);
-        let primary = ctx.layered_buffer("primary", Format::Struct(&LIGHT_PRIMARY), if camera.fixed() { 1 } else { spp });
+        let primary =
+            ctx.layered_buffer("primary", Format::Struct(&LIGHT_PRIMARY), if camera.fixed() { 1 } else { spp });
         let estimate = ctx.buffer("estimate", Format::Vec4);
         let mut b = ctx
             .pass("sample", "light_field.sample", Stage::Sample)
@@ -121,7 +130,10 @@ impl NodeKind for LightField {
         b.random().reference(Reference::Sample).finish();
         // The plain estimate's rgb (the Vec4 estimate convention's mean).
         let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
-        ctx.pass("unfiltered", "compose.modulate", Stage::Sample).read("value", estimate).write("out", unfiltered).finish();
+        ctx.pass("unfiltered", "compose.modulate", Stage::Sample)
+            .read("value", estimate)
+            .write("out", unfiltered)
+            .finish();
 
         // Input rays per pixel: the constant spp (a diagnostic, like other nodes' ray counts: a
         // reference does not hand it back).

@@ -83,8 +83,10 @@ pub(crate) const COMPONENT_PORTS: [&str; 3] = ["direct", "indirect", "environmen
 /// The declarations of [`COMPONENT_PORTS`].
 pub(crate) fn component_inputs() -> Vec<PortDecl> {
     vec![
-        PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)").accepts(COMPONENT_DIRECT),
-        PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)").accepts(COMPONENT_INDIRECT),
+        PortDecl::optional("direct", Format::Vec3, "the direct component (SoftShadows.radiance)")
+            .accepts(COMPONENT_DIRECT),
+        PortDecl::optional("indirect", Format::Vec3, "the indirect component (Indirect.radiance)")
+            .accepts(COMPONENT_INDIRECT),
         PortDecl::optional("environment", Format::Vec3, "the environment's direct light (Environment.radiance)")
             .accepts(COMPONENT_ENVIRONMENT),
     ]

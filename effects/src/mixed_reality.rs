@@ -30,7 +30,9 @@
 
 use std::collections::BTreeMap;
 
-use wedge_graph::{BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SceneRequest, Stage};
+use wedge_graph::{
+    BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SceneRequest, Stage,
+};
 
 use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
@@ -70,7 +72,11 @@ impl NodeKind for MixedReality {
         vec![
             PortDecl::new("radiance", Format::Vec3, "the composite (eq. 6.2)"),
             PortDecl::new("unfiltered", Format::Vec3, "the composite of the unfiltered irradiances"),
-            PortDecl::new("reconstruction", Format::Vec3, "k_R·E_R: should match the camera image on real surfaces (a check of the inputs)"),
+            PortDecl::new(
+                "reconstruction",
+                Format::Vec3,
+                "k_R·E_R: should match the camera image on real surfaces (a check of the inputs)",
+            ),
             PortDecl::new("filter_width", Format::F32, "the direct light's filter width σ (pixels)"),
             PortDecl::new("bandwidth", Format::F32, "the direct light's bandwidth B_x"),
             PortDecl::new("mask", Format::F32, "M, the fraction of the pixel the real world covers"),
@@ -150,9 +156,15 @@ impl NodeKind for MixedReality {
 
         // 1. Two-mode sampling (Algorithm 1).
         let e: Vec<_> = IRRADIANCES.iter().map(|(n, _)| ctx.buffer(n, Format::Vec3)).collect();
-        let [texture, position, normal, stats, depth, screen] =
-            [("texture", Format::Vec4), ("position", Format::Vec4), ("normal", Format::Vec4), ("environment", Format::Vec4), ("depth", Format::Vec4), ("screen", Format::Vec4)]
-                .map(|(n, f)| ctx.buffer(n, f));
+        let [texture, position, normal, stats, depth, screen] = [
+            ("texture", Format::Vec4),
+            ("position", Format::Vec4),
+            ("normal", Format::Vec4),
+            ("environment", Format::Vec4),
+            ("depth", Format::Vec4),
+            ("screen", Format::Vec4),
+        ]
+        .map(|(n, f)| ctx.buffer(n, f));
         let mut pass = ctx.pass("sample", "mr.sample", Stage::Sample);
         for ((name, _), id) in IRRADIANCES.iter().zip(&e) {
             pass = pass.write(name, *id);
@@ -175,7 +187,8 @@ impl NodeKind for MixedReality {
         // the sampler's conventions.
         let (curvature, _magnitude) = crate::environment::node::curvature_pass(ctx, position, normal);
         let [direct_diffuse, direct_glossy, indirect_diffuse, indirect_glossy] =
-            ["direct_diffuse", "direct_glossy", "indirect_diffuse", "indirect_glossy"].map(|n| ctx.buffer(&format!("bandwidth_{n}"), Format::Vec2));
+            ["direct_diffuse", "direct_glossy", "indirect_diffuse", "indirect_glossy"]
+                .map(|n| ctx.buffer(&format!("bandwidth_{n}"), Format::Vec2));
         let (bandwidth, width) = (ctx.buffer("bandwidth", Format::F32), ctx.buffer("filter_width", Format::F32));
         ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
             .read("curvature", curvature)

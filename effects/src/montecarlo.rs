@@ -25,8 +25,13 @@ impl NodeKind for MonteCarlo {
             PortDecl::new("position", Format::Vec4, "from Primary"),
             PortDecl::new("normal", Format::Vec4, "from Primary"),
             PortDecl::optional("albedo", Format::Vec3, "multiplied after integration; white if absent"),
-            PortDecl::optional("emission", Format::Vec3, "added to the result").accepts(crate::light_terms::EMISSION_INPUT),
-            PortDecl::optional("specular", Format::Vec4, "k_s, m from Primary: glossy indirect component (bounces > 0)"),
+            PortDecl::optional("emission", Format::Vec3, "added to the result")
+                .accepts(crate::light_terms::EMISSION_INPUT),
+            PortDecl::optional(
+                "specular",
+                Format::Vec4,
+                "k_s, m from Primary: glossy indirect component (bounces > 0)",
+            ),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -47,7 +52,12 @@ impl NodeKind for MonteCarlo {
         let mut t = Terms::new();
         if direct {
             let light = Term::new(TermKind::DirectArea, View::PINHOLE).detail(crate::light_terms::lobes::DIFFUSE);
-            t = t.with(match u32::try_from(q.int("light").unwrap_or(-1)) { Ok(i) => light.light(i), Err(_) => light }).plus(q.input("emission"));
+            t = t
+                .with(match u32::try_from(q.int("light").unwrap_or(-1)) {
+                    Ok(i) => light.light(i),
+                    Err(_) => light,
+                })
+                .plus(q.input("emission"));
         }
         if bounces > 0 {
             t = t.plus(Some(&crate::light_terms::indirect_or_ao(q, View::PINHOLE, "")));
@@ -65,8 +75,19 @@ impl NodeKind for MonteCarlo {
                 &["exact", "light_centre"],
                 "per-sample geometry term, or the thesis's light-centre approximation",
             ),
-            ParamDecl::int("bounces", 0, 0, 64, "indirect bounces path-traced with next-event estimation (0 = direct only)"),
-            ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "radiance, or ambient occlusion (spp hemisphere rays)"),
+            ParamDecl::int(
+                "bounces",
+                0,
+                0,
+                64,
+                "indirect bounces path-traced with next-event estimation (0 = direct only)",
+            ),
+            ParamDecl::choice(
+                "mode",
+                "radiance",
+                &["radiance", "ao"],
+                "radiance, or ambient occlusion (spp hemisphere rays)",
+            ),
             ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: hits farther than this are misses (0 = no limit)"),
             crate::params::brdf("glossy lobe of k_s, m for indirect paths"),
             ParamDecl::boolean("direct", true, "include direct light (false with bounces > 0: indirect only)"),
@@ -87,7 +108,8 @@ impl NodeKind for MonteCarlo {
             if !direct {
                 return Err(GraphError::Expand {
                     node: ctx.node().to_string(),
-                    message: "`direct: false` with `bounces: 0` samples nothing; set bounces ≥ 1 or direct: true".into(),
+                    message: "`direct: false` with `bounces: 0` samples nothing; set bounces ≥ 1 or direct: true"
+                        .into(),
                 });
             }
             let estimate = ctx.buffer("estimate", Format::Vec4);

@@ -16,7 +16,11 @@ impl NodeKind for Primary {
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::new("position", Format::Vec4, "world position; w = 1 + object id where a surface is seen, 0 for background"),
+            PortDecl::new(
+                "position",
+                Format::Vec4,
+                "world position; w = 1 + object id where a surface is seen, 0 for background",
+            ),
             PortDecl::new("normal", Format::Vec4, "unit shading normal; w = projected pixel size d (metres)"),
             PortDecl::new("albedo", Format::Vec3, "diffuse albedo k_d (texture applied)"),
             PortDecl::new("emission", Format::Vec3, "emitted radiance of the visible surface"),

@@ -44,10 +44,18 @@ impl NodeKind for RadianceFilter {
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::new("radiance", Format::Vec3, "the accumulated image: direct + filtered indirect light (eqs. 4.10, 4.13)"),
+            PortDecl::new(
+                "radiance",
+                Format::Vec3,
+                "the accumulated image: direct + filtered indirect light (eqs. 4.10, 4.13)",
+            ),
             PortDecl::new("unfiltered", Format::Vec3, "the plain progressive accumulation (path tracing)"),
             PortDecl::new("radius", Format::F32, "the image-space kernel radius of this frame (pixels)"),
-            PortDecl::new("phase", Format::F32, "1 where the pixel used only its own sample (correction phase), else 0"),
+            PortDecl::new(
+                "phase",
+                Format::F32,
+                "1 where the pixel used only its own sample (correction phase), else 0",
+            ),
         ]
     }
     /// A whole path-traced image from its own camera paths: through the camera block's lens where it
@@ -77,7 +85,8 @@ impl NodeKind for RadianceFilter {
         // 1–2. This frame's paths and radiance samples; the running statistics.
         let sample_lv = ctx.buffer("sample_lv", Format::Vec4);
         let own = ctx.buffer("own", Format::Vec4);
-        let [point, normal, albedo, direction, incident] = ["point", "normal", "albedo", "direction", "incident"].map(|n| ctx.buffer(n, Format::Vec4));
+        let [point, normal, albedo, direction, incident] =
+            ["point", "normal", "albedo", "direction", "incident"].map(|n| ctx.buffer(n, Format::Vec4));
         ctx.pass("sample", "radiance_filter.sample", Stage::Sample)
             .write("lv", sample_lv)
             .write("hv", own)

@@ -124,7 +124,9 @@ const OPTIONAL_SETTINGS: [&str; 1] = ["focus_distance"];
 /// setting selects — a light, a lobe, a camera — is one per pipeline.
 fn merge_rule(setting: &str) -> SettingMerge {
     let why = match setting {
-        "paths" | "shadow_per_primary" | "indirect_per_primary" | "environment_per_primary" => return SettingMerge::Max,
+        "paths" | "shadow_per_primary" | "indirect_per_primary" | "environment_per_primary" => {
+            return SettingMerge::Max
+        }
         "jitter" => return SettingMerge::Any,
         "light" => {
             "the shared sampler traces shadow rays to one area light per pipeline: filter one light's shadows with \
@@ -247,11 +249,23 @@ impl SamplerKind for PathSampler {
     }
     fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError> {
         let first_paths = Self::count_setting(plan, "paths")?;
-        let mut trace_params: Vec<(&str, ParamValue)> =
-            ["light", "jitter", "lens", "sampling", "form_factor", "brdf", "bounces", "ao", "max_distance", "glossy", "aperture_radius", "occluder_threshold"]
-            .into_iter()
-            .map(|n| (n, Self::setting(plan, n)))
-            .collect();
+        let mut trace_params: Vec<(&str, ParamValue)> = [
+            "light",
+            "jitter",
+            "lens",
+            "sampling",
+            "form_factor",
+            "brdf",
+            "bounces",
+            "ao",
+            "max_distance",
+            "glossy",
+            "aperture_radius",
+            "occluder_threshold",
+        ]
+        .into_iter()
+        .map(|n| (n, Self::setting(plan, n)))
+        .collect();
         for n in OPTIONAL_SETTINGS {
             if let Some(v) = plan.setting(n) {
                 trace_params.push((n, v.clone()));
@@ -265,8 +279,11 @@ impl SamplerKind for PathSampler {
         }
 
         // 1–2. First pass and its resolve.
-        let first = plan.handle(SamplerPass::First, "record").unwrap_or_else(|| ctx.buffer("first_record", Format::Struct(&PATH_RECORD)));
-        let mut b = ctx.pass("first", "paths.trace", Stage::Sample).write("record", first).int("count", i64::from(first_paths));
+        let first = plan
+            .handle(SamplerPass::First, "record")
+            .unwrap_or_else(|| ctx.buffer("first_record", Format::Struct(&PATH_RECORD)));
+        let mut b =
+            ctx.pass("first", "paths.trace", Stage::Sample).write("record", first).int("count", i64::from(first_paths));
         for (n, v) in &trace_params {
             b = b.param(n, v.clone());
         }
@@ -315,7 +332,13 @@ impl SamplerKind for PathSampler {
                         continue;
                     }
                     let total = spread(ctx, format!("counts_{channel}_max3_{k}"), total, r.max3);
-                    let rest = Self::combine(ctx, &format!("counts_{channel}_rest_{k}"), &[(total, 1, first)], 0, Reference::Keep);
+                    let rest = Self::combine(
+                        ctx,
+                        &format!("counts_{channel}_rest_{k}"),
+                        &[(total, 1, first)],
+                        0,
+                        Reference::Keep,
+                    );
                     // Paths of about `unit` samples each.
                     path_sources.push((rest, unit, 0));
                     rests.push((k, channel, rest));
@@ -379,7 +402,9 @@ impl SamplerKind for PathSampler {
         }
 
         // 4–5. Adaptive pass continuing the first pass's record and sequences, and its resolve.
-        let last = plan.handle(SamplerPass::Final, "record").unwrap_or_else(|| ctx.buffer("final_record", Format::Struct(&PATH_RECORD)));
+        let last = plan
+            .handle(SamplerPass::Final, "record")
+            .unwrap_or_else(|| ctx.buffer("final_record", Format::Struct(&PATH_RECORD)));
         let mut b = ctx
             .pass("adaptive", "paths.trace", Stage::Adaptive)
             .read("previous", first)
@@ -407,7 +432,10 @@ fn combine_params(ctx: &KernelCtx<'_>) -> Result<(u32, u32, u32), BackendError> 
     let get = |name: &str, min: i64| -> Result<u32, BackendError> {
         let v = ctx.int_param(name)?;
         if v < min || v > i64::from(u32::MAX) {
-            return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("`{name}` = {v} is out of range") });
+            return Err(BackendError::Kernel {
+                pass: ctx.pass.into(),
+                message: format!("`{name}` = {v} is out of range"),
+            });
         }
         Ok(v as u32)
     };
@@ -427,7 +455,11 @@ impl Kernel for CombineCounts {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("value", Format::U32), Binding::read_opt("other", Format::U32), Binding::write("out", Format::U32)]
+        vec![
+            Binding::read("value", Format::U32),
+            Binding::read_opt("other", Format::U32),
+            Binding::write("out", Format::U32),
+        ]
     }
     /// WGSL mirror: `shaders/sampler_combine.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -443,8 +475,9 @@ impl Kernel for CombineCounts {
         let (unit, minus, at_least) = combine_params(ctx)?;
         let value = ctx.read::<u32>("value")?;
         let other = ctx.read_opt::<u32>("other")?;
-        let out: Vec<u32> =
-            (0..ctx.pixels()).map(|i| combine_pixel(value[i], other.map_or(0, |o| o[i]), unit, minus, at_least)).collect();
+        let out: Vec<u32> = (0..ctx.pixels())
+            .map(|i| combine_pixel(value[i], other.map_or(0, |o| o[i]), unit, minus, at_least))
+            .collect();
         ctx.put("out", out)
     }
 }
@@ -486,7 +519,10 @@ pub fn pass_total_pixel(paths: u32, per_path: u32, rest: u32, at_least: u32) -> 
 
 fn at_least_param(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
     let v = ctx.int_param("at_least")?;
-    u32::try_from(v).map_err(|_| BackendError::Kernel { pass: ctx.pass.into(), message: format!("`at_least` = {v} is out of range") })
+    u32::try_from(v).map_err(|_| BackendError::Kernel {
+        pass: ctx.pass.into(),
+        message: format!("`at_least` = {v} is out of range"),
+    })
 }
 
 impl Kernel for PassTotal {
@@ -532,10 +568,17 @@ impl Kernel for PerPrimaryCounts {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("total", Format::U32), Binding::read("paths", Format::U32), Binding::write("out", Format::U32)]
+        vec![
+            Binding::read("total", Format::U32),
+            Binding::read("paths", Format::U32),
+            Binding::write("out", Format::U32),
+        ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../shaders/sampler_per_primary.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../shaders/sampler_per_primary.wgsl"), |_| Ok(Uniforms::new()))
+                .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let total = ctx.read::<u32>("total")?;

@@ -24,8 +24,8 @@ use std::sync::Arc;
 
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary, PortDecl, Reference, Statistic,
-    SamplerPass, Stage,
+    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary,
+    PortDecl, Reference, SamplerPass, Stage, Statistic,
 };
 
 use crate::filtering::{self, Separable};
@@ -73,7 +73,8 @@ impl NodeKind for SoftShadows {
             PortDecl::new("position", Format::Vec4, "from Primary"),
             PortDecl::new("normal", Format::Vec4, "from Primary (w = pixel footprint d)"),
             PortDecl::optional("albedo", Format::Vec3, "texture, multiplied after filtering; white if absent"),
-            PortDecl::optional("emission", Format::Vec3, "added after filtering").accepts(crate::light_terms::EMISSION_INPUT),
+            PortDecl::optional("emission", Format::Vec3, "added after filtering")
+                .accepts(crate::light_terms::EMISSION_INPUT),
         ]
     }
     fn outputs(&self) -> Vec<PortDecl> {
@@ -96,9 +97,16 @@ impl NodeKind for SoftShadows {
         use crate::light_terms::lobes;
         let light = u32::try_from(q.int("light")?).ok()?;
         let lobes = if q.factored() { lobes::TOWARD_LIGHT_CENTRE } else { lobes::DIFFUSE };
-        let term = wedge_graph::Term::new(wedge_graph::TermKind::DirectArea, q.sampler_view()).light(light).detail(lobes);
+        let term =
+            wedge_graph::Term::new(wedge_graph::TermKind::DirectArea, q.sampler_view()).light(light).detail(lobes);
         let direct = wedge_graph::Terms::new().with(term);
-        matches!(port, "radiance" | "unfiltered").then(|| if q.factored() { direct } else { direct.plus(q.input("emission")) })
+        matches!(port, "radiance" | "unfiltered").then(|| {
+            if q.factored() {
+                direct
+            } else {
+                direct.plus(q.input("emission"))
+            }
+        })
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![
@@ -291,7 +299,11 @@ impl Kernel for Bandwidth {
         Some(
             WgslSource::new(include_str!("../../shaders/shadows_bandwidth.wgsl"), |ctx| {
                 let sigma = ctx.scene.lights[ctx.light_param("light")?].sigma();
-                Ok(Uniforms::new().f32("mu", ctx.f32_param("mu")?).f32("alpha", ctx.f32_param("alpha")?).f32("k", ctx.f32_param("k")?).f32("sigma", sigma))
+                Ok(Uniforms::new()
+                    .f32("mu", ctx.f32_param("mu")?)
+                    .f32("alpha", ctx.f32_param("alpha")?)
+                    .f32("k", ctx.f32_param("k")?)
+                    .f32("sigma", sigma))
             })
             .with_include("shadows_formulas.wgsl", include_str!("../../shaders/shadows_formulas.wgsl"))
             .per_pixel(),
@@ -422,12 +434,15 @@ impl Kernel for Visibility {
     }
     /// WGSL mirror: `shaders/shadows_visibility.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../shaders/shadows_visibility.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../shaders/shadows_visibility.wgsl"), |_| Ok(Uniforms::new())).per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let e = ctx.read::<[f32; 4]>("direct")?;
         let u = ctx.read::<[f32; 4]>("unshadowed")?;
-        let out: Vec<[f32; 4]> = e.iter().zip(u).map(|(e, u)| [e[0] + e[1] + e[2], u[0] + u[1] + u[2], 0.0, e[3]]).collect();
+        let out: Vec<[f32; 4]> =
+            e.iter().zip(u).map(|(e, u)| [e[0] + e[1] + e[2], u[0] + u[1] + u[2], 0.0, e[3]]).collect();
         ctx.put("out", out)
     }
 }
@@ -537,7 +552,10 @@ mod tests {
         let b = filter_beta(0.3, 0.5, 0.01, 1e6, 1.0, 3.0);
         assert!(b < 1e-6);
         assert_eq!((-(0.01f32 * 0.01) / (2.0 * b * b)).exp(), 0.0);
-        assert!((filter_beta(0.3, 0.5, 0.01, 4.0, 1.0, 3.0) * 2.0 - filter_beta(0.3, 0.5, 0.01, 2.0, 1.0, 3.0)).abs() < 1e-7);
+        assert!(
+            (filter_beta(0.3, 0.5, 0.01, 4.0, 1.0, 3.0) * 2.0 - filter_beta(0.3, 0.5, 0.01, 2.0, 1.0, 3.0)).abs()
+                < 1e-7
+        );
     }
 
     #[test]

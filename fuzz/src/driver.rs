@@ -106,14 +106,7 @@ impl std::fmt::Display for Report {
             self.crashers.len()
         )?;
         for c in &self.crashers {
-            write!(
-                f,
-                "\n  {} x{}: {} -> {}",
-                c.kind,
-                c.hits,
-                c.message,
-                c.file.display()
-            )?;
+            write!(f, "\n  {} x{}: {} -> {}", c.kind, c.hits, c.message, c.file.display())?;
         }
         Ok(())
     }
@@ -126,11 +119,7 @@ struct Current {
     input: Vec<u8>,
 }
 
-static CURRENT: Mutex<Current> = Mutex::new(Current {
-    target: None,
-    out: PathBuf::new(),
-    input: Vec::new(),
-});
+static CURRENT: Mutex<Current> = Mutex::new(Current { target: None, out: PathBuf::new(), input: Vec::new() });
 /// Milliseconds since [`epoch`] when the current execution started; 0 when idle.
 static EXEC_START_MS: AtomicU64 = AtomicU64::new(0);
 static HANG_LIMIT_MS: AtomicU64 = AtomicU64::new(5000);
@@ -171,8 +160,7 @@ fn install() {
                     .location()
                     .map(|l| format!("{}:{}:{}", l.file(), l.line(), l.column()))
                     .unwrap_or_else(|| "(unknown location)".into());
-                *LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()) =
-                    Some(format!("{msg} at {at}"));
+                *LAST_PANIC.lock().unwrap_or_else(|e| e.into_inner()) = Some(format!("{msg} at {at}"));
             } else {
                 default(info);
             }
@@ -197,10 +185,7 @@ fn install() {
             let trace = std::backtrace::Backtrace::force_capture();
             save_current_and_exit(
                 "oom",
-                &format!(
-                    "the live heap would reach {} MiB, over the cap\nbacktrace:\n{trace}",
-                    live >> 20
-                ),
+                &format!("the live heap would reach {} MiB, over the cap\nbacktrace:\n{trace}", live >> 20),
                 4,
             )
         });
@@ -221,10 +206,7 @@ fn save_current_and_exit(kind: &'static str, message: &str, code: i32) -> ! {
     if current.out.as_os_str().is_empty() {
         // `run_one` outside `fuzz` (replays, regression tests): the input is a file already.
         let name = current.target.map_or("?", |t| t.name);
-        say(format!(
-            "wedge-fuzz: {name}: {kind} crasher: {}",
-            message.lines().next().unwrap_or("")
-        ));
+        say(format!("wedge-fuzz: {name}: {kind} crasher: {}", message.lines().next().unwrap_or("")));
         std::process::exit(code);
     }
     if let Some(target) = current.target {
@@ -232,12 +214,8 @@ fn save_current_and_exit(kind: &'static str, message: &str, code: i32) -> ! {
             Ok(path) => {
                 // For a supervising parent process (see main.rs), on stdout.
                 println!("wedge-fuzz-crasher {kind} {}", path.display());
-                let secs =
-                    now_ms().saturating_sub(FUZZ_START_MS.load(Ordering::SeqCst)) as f64 / 1e3;
-                println!(
-                    "wedge-fuzz-stats {} {secs}",
-                    EXECUTIONS.load(Ordering::SeqCst)
-                );
+                let secs = now_ms().saturating_sub(FUZZ_START_MS.load(Ordering::SeqCst)) as f64 / 1e3;
+                println!("wedge-fuzz-stats {} {secs}", EXECUTIONS.load(Ordering::SeqCst));
                 say(format!(
                     "wedge-fuzz: {}: {kind} crasher ({}) saved to {}",
                     target.name,
@@ -245,10 +223,7 @@ fn save_current_and_exit(kind: &'static str, message: &str, code: i32) -> ! {
                     path.display()
                 ))
             }
-            Err(e) => say(format!(
-                "wedge-fuzz: {}: {kind} crasher ({message}); could not save it: {e}",
-                target.name
-            )),
+            Err(e) => say(format!("wedge-fuzz: {}: {kind} crasher ({message}); could not save it: {e}", target.name)),
         }
     }
     std::process::exit(code)
@@ -262,13 +237,7 @@ pub fn hash(data: &[u8]) -> u64 {
 }
 
 /// Write a crasher and its description; returns the input file's path.
-fn save(
-    out: &Path,
-    target: Target,
-    kind: &str,
-    message: &str,
-    input: &[u8],
-) -> std::io::Result<PathBuf> {
+fn save(out: &Path, target: Target, kind: &str, message: &str, input: &[u8]) -> std::io::Result<PathBuf> {
     let dir = out.join(target.name);
     std::fs::create_dir_all(&dir)?;
     let path = dir.join(format!("{kind}-{:016x}.{}", hash(input), target.ext));
@@ -368,9 +337,7 @@ pub fn files_in(dir: &Path) -> Vec<PathBuf> {
 
 /// The committed regression inputs of a target: `tests/data/bad/fuzz/<target>/`.
 pub fn regression_dir(target: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/bad/fuzz")
-        .join(target)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/bad/fuzz").join(target)
 }
 
 /// Fuzz `target` as configured.
@@ -410,16 +377,13 @@ pub fn fuzz(target: Target, cfg: &Config) -> Report {
     let mut handle = |input: &[u8], outcome: Outcome, crashers: &mut BTreeMap<String, Crasher>| {
         if let Outcome::Panic(msg) = &outcome {
             let location = msg.rsplit(" at ").next().unwrap_or(msg).to_string();
-            crashers
-                .entry(location)
-                .and_modify(|c| c.hits += 1)
-                .or_insert_with(|| Crasher {
-                    kind: "panic",
-                    message: msg.clone(),
-                    file: save(&cfg.out, target, "panic", msg, input)
-                        .unwrap_or_else(|e| PathBuf::from(format!("(not saved: {e})"))),
-                    hits: 1,
-                });
+            crashers.entry(location).and_modify(|c| c.hits += 1).or_insert_with(|| Crasher {
+                kind: "panic",
+                message: msg.clone(),
+                file: save(&cfg.out, target, "panic", msg, input)
+                    .unwrap_or_else(|e| PathBuf::from(format!("(not saved: {e})"))),
+                hits: 1,
+            });
         }
         let mut new = false;
         for f in features(&outcome) {

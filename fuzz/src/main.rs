@@ -14,10 +14,7 @@ use wedge_fuzz::{by_name, driver, Config, Outcome, TARGETS};
 static ALLOC: wedge_fuzz::alloc::CountingAlloc = wedge_fuzz::alloc::CountingAlloc;
 
 #[derive(Parser)]
-#[command(
-    name = "wedge-fuzz",
-    about = "Mutation fuzzing of wedge's input readers"
-)]
+#[command(name = "wedge-fuzz", about = "Mutation fuzzing of wedge's input readers")]
 struct Cli {
     /// pipeline, gltf, glb, obj, exr, camera_path, set, or all
     target: String,
@@ -69,27 +66,17 @@ fn main() -> ExitCode {
             Some(t) => vec![t],
             None => {
                 let names: Vec<&str> = TARGETS.iter().map(|t| t.name).collect();
-                eprintln!(
-                    "wedge-fuzz: unknown target `{}`; use one of: {}, all",
-                    cli.target,
-                    names.join(", ")
-                );
+                eprintln!("wedge-fuzz: unknown target `{}`; use one of: {}, all", cli.target, names.join(", "));
                 return ExitCode::from(2);
             }
         }
     };
     if !(cli.seconds.is_finite() && cli.seconds >= 0.0) {
-        eprintln!(
-            "wedge-fuzz: --seconds {} is not a duration; give seconds >= 0",
-            cli.seconds
-        );
+        eprintln!("wedge-fuzz: --seconds {} is not a duration; give seconds >= 0", cli.seconds);
         return ExitCode::from(2);
     }
     if !(cli.hang_seconds.is_finite() && cli.hang_seconds > 0.0) {
-        eprintln!(
-            "wedge-fuzz: --hang-seconds {} must be > 0",
-            cli.hang_seconds
-        );
+        eprintln!("wedge-fuzz: --hang-seconds {} must be > 0", cli.hang_seconds);
         return ExitCode::from(2);
     }
     if cli.threads == 0 || cli.threads > 1024 {
@@ -97,9 +84,7 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     // Ignore the error: a global pool may already exist (it cannot in this binary).
-    let _ = rayon::ThreadPoolBuilder::new()
-        .num_threads(cli.threads)
-        .build_global();
+    let _ = rayon::ThreadPoolBuilder::new().num_threads(cli.threads).build_global();
     if !wedge_fuzz::alloc::installed() {
         eprintln!("wedge-fuzz: warning: the counting allocator is not installed; memory crashers are not detected");
     }
@@ -128,11 +113,7 @@ fn main() -> ExitCode {
                 }
             }
         }
-        return if panicked {
-            ExitCode::from(1)
-        } else {
-            ExitCode::SUCCESS
-        };
+        return if panicked { ExitCode::from(1) } else { ExitCode::SUCCESS };
     }
 
     let mut found = false;
@@ -146,11 +127,7 @@ fn main() -> ExitCode {
             max_len: cli.max_len,
             hang_seconds: cli.hang_seconds,
             memory_mib: cli.memory_mib,
-            skip: cli
-                .skip_hash
-                .iter()
-                .filter_map(|h| u64::from_str_radix(h, 16).ok())
-                .collect(),
+            skip: cli.skip_hash.iter().filter_map(|h| u64::from_str_radix(h, 16).ok()).collect(),
         };
         eprintln!(
             "wedge-fuzz: fuzzing `{}` for {} s (seed {}), crashers to {}",
@@ -220,11 +197,7 @@ fn supervise(cli: &Cli, target: &str) -> std::io::Result<bool> {
         segments += 1;
         for line in String::from_utf8_lossy(&output.stdout).lines() {
             if let Some(stats) = line.strip_prefix("wedge-fuzz-stats ") {
-                executions += stats
-                    .split(' ')
-                    .next()
-                    .and_then(|n| n.parse::<u64>().ok())
-                    .unwrap_or(0);
+                executions += stats.split(' ').next().and_then(|n| n.parse::<u64>().ok()).unwrap_or(0);
             } else if let Some(c) = line.strip_prefix("wedge-fuzz-crasher ") {
                 // `<kind> <dir>/<kind>-<hash>.<ext>`: skip that input from now on.
                 if let Some(h) = c.rsplit('-').next().and_then(|s| s.split('.').next()) {

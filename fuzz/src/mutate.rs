@@ -59,9 +59,7 @@ const NUMBERS: &[&str] = &[
     "34963",
 ];
 
-const BYTES: &[u8] = &[
-    0, 1, 0x7f, 0x80, 0xff, b'\n', b'"', b'(', b')', b'[', b']', b'{', b'}', b',', b':', b'\\',
-];
+const BYTES: &[u8] = &[0, 1, 0x7f, 0x80, 0xff, b'\n', b'"', b'(', b')', b'[', b']', b'{', b'}', b',', b':', b'\\'];
 
 const INTS: &[u64] = &[
     0,
@@ -280,12 +278,7 @@ pub fn dictionary(target: &str) -> &'static [&'static str] {
 
 impl Mutator {
     pub fn new(seed: u64, target: &str, text: bool, max_len: usize) -> Self {
-        Mutator {
-            rng: Rng::with_seed(seed),
-            dictionary: dictionary(target),
-            text,
-            max_len,
-        }
+        Mutator { rng: Rng::with_seed(seed), dictionary: dictionary(target), text, max_len }
     }
 
     /// A mutated copy of `input`: 1, 2, 4 or 8 stacked mutations; `other` is a donor for splices.
@@ -301,11 +294,7 @@ impl Mutator {
 
     fn mutate_once(&mut self, data: &mut Vec<u8>, other: &[u8]) {
         // Token-level mutations are more productive on text formats, so they get more weight there.
-        let choice = if self.text && self.rng.bool() {
-            self.rng.u32(100..106)
-        } else {
-            self.rng.u32(0..11)
-        };
+        let choice = if self.text && self.rng.bool() { self.rng.u32(100..106) } else { self.rng.u32(0..11) };
         let len = data.len();
         match choice {
             0 if len > 0 => {
@@ -314,28 +303,16 @@ impl Mutator {
             }
             1 if len > 0 => {
                 let i = self.rng.usize(..len);
-                data[i] = if self.rng.bool() {
-                    BYTES[self.rng.usize(..BYTES.len())]
-                } else {
-                    self.rng.u8(..)
-                };
+                data[i] = if self.rng.bool() { BYTES[self.rng.usize(..BYTES.len())] } else { self.rng.u8(..) };
             }
             2 if len > 0 => {
                 // An interesting integer, 1/2/4/8 bytes, either endianness.
                 let width = 1usize << self.rng.u32(0..4);
                 let v = INTS[self.rng.usize(..INTS.len())];
-                let bytes = if self.rng.bool() {
-                    v.to_le_bytes()
-                } else {
-                    v.to_be_bytes()
-                };
+                let bytes = if self.rng.bool() { v.to_le_bytes() } else { v.to_be_bytes() };
                 let at = self.rng.usize(..len);
                 let end = (at + width).min(len);
-                let src = if self.rng.bool() {
-                    &bytes[..width]
-                } else {
-                    &bytes[8 - width..]
-                };
+                let src = if self.rng.bool() { &bytes[..width] } else { &bytes[8 - width..] };
                 data[at..end].copy_from_slice(&src[..end - at]);
             }
             3 if len >= 4 => {
@@ -355,11 +332,7 @@ impl Mutator {
                 let from = self.rng.usize(..=len - n);
                 let chunk = data[from..from + n].to_vec();
                 let at = self.rng.usize(..=len);
-                let times = if self.rng.u32(0..16) == 0 {
-                    self.rng.usize(2..64)
-                } else {
-                    1
-                };
+                let times = if self.rng.u32(0..16) == 0 { self.rng.usize(2..64) } else { 1 };
                 for _ in 0..times {
                     data.splice(at..at, chunk.iter().copied());
                 }
@@ -370,9 +343,7 @@ impl Mutator {
                 let at = self.rng.usize(..=len);
                 let byte = self.rng.u8(..);
                 let repeat = self.rng.bool();
-                let bytes: Vec<u8> = (0..n)
-                    .map(|_| if repeat { byte } else { self.rng.u8(..) })
-                    .collect();
+                let bytes: Vec<u8> = (0..n).map(|_| if repeat { byte } else { self.rng.u8(..) }).collect();
                 data.splice(at..at, bytes);
             }
             7 if !other.is_empty() => {
@@ -398,9 +369,7 @@ impl Mutator {
             100 | 101 => self.replace_number(data),
             102 => {
                 // Replace a word (identifier, quoted string or number) with a dictionary word.
-                let words = spans(data, |c| {
-                    c.is_ascii_alphanumeric() || c == b'_' || c == b'"'
-                });
+                let words = spans(data, |c| c.is_ascii_alphanumeric() || c == b'_' || c == b'"');
                 if let Some(&(a, b)) = self.pick(&words) {
                     let word = self.dictionary[self.rng.usize(..self.dictionary.len())];
                     data.splice(a..b, word.bytes());
@@ -418,11 +387,7 @@ impl Mutator {
 
     /// A length in 1..=max, biased towards short.
     fn small_len(&mut self, max: usize) -> usize {
-        let cap = if self.rng.u32(0..8) == 0 {
-            max
-        } else {
-            max.min(16)
-        };
+        let cap = if self.rng.u32(0..8) == 0 { max } else { max.min(16) };
         self.rng.usize(1..=cap.max(1))
     }
 
@@ -431,12 +396,10 @@ impl Mutator {
     }
 
     fn replace_number(&mut self, data: &mut Vec<u8>) {
-        let numbers = spans(data, |c| {
-            c.is_ascii_digit() || matches!(c, b'.' | b'-' | b'e' | b'E' | b'+')
-        })
-        .into_iter()
-        .filter(|&(a, b)| data[a..b].iter().any(u8::is_ascii_digit))
-        .collect::<Vec<_>>();
+        let numbers = spans(data, |c| c.is_ascii_digit() || matches!(c, b'.' | b'-' | b'e' | b'E' | b'+'))
+            .into_iter()
+            .filter(|&(a, b)| data[a..b].iter().any(u8::is_ascii_digit))
+            .collect::<Vec<_>>();
         if let Some(&(a, b)) = self.pick(&numbers) {
             let n = NUMBERS[self.rng.usize(..NUMBERS.len())];
             data.splice(a..b, n.bytes());
@@ -493,9 +456,7 @@ mod tests {
         let input = b"Pipeline(width: 64, height: 48, nodes: [])\nsecond line 12\n";
         let run = |seed| {
             let mut m = Mutator::new(seed, "pipeline", true, 1 << 16);
-            (0..200)
-                .map(|_| m.mutate(input, b"other 1.5"))
-                .collect::<Vec<_>>()
+            (0..200).map(|_| m.mutate(input, b"other 1.5")).collect::<Vec<_>>()
         };
         assert_eq!(run(7), run(7));
         assert_ne!(run(7), run(8));

@@ -56,7 +56,11 @@ fn pipelines() -> Vec<Vec<u8>> {
 /// that turns, a held path, and a long one (the shapes the validator's analysis distinguishes).
 fn camera_paths() -> Vec<Vec<u8>> {
     let temporal = include_str!("../../pipelines/environment_temporal.ron");
-    let with_camera = temporal.replacen("seed: 1,", "seed: 1,\n    camera: Some((position: (0, 1.6, 3.3), look_at: (0, 0.45, 0), up: (0, 1, 0), vfov_deg: 40)),", 1);
+    let with_camera = temporal.replacen(
+        "seed: 1,",
+        "seed: 1,\n    camera: Some((position: (0, 1.6, 3.3), look_at: (0, 0.45, 0), up: (0, 1, 0), vfov_deg: 40)),",
+        1,
+    );
     let keys = |k: &str| temporal.replacen("(frame: 23, position: (0.8, 1.6, 3.3), look_at: (0, 0.45, 0)),", k, 1);
     [
         temporal.to_string(),
@@ -73,10 +77,15 @@ fn camera_paths() -> Vec<Vec<u8>> {
 
 /// `--set` lines for the `set` target's pipeline: every value type, and several at once.
 fn sets() -> Vec<Vec<u8>> {
-    ["shadows.mu=2", "shadows.light=0\nshadows.max_rays=64", "shadows.mu=0.5\nshadows.fill_radius=4", "shadows.form_factor=light_centre\nshadows.alpha=0.5"]
-        .iter()
-        .map(|s| s.as_bytes().to_vec())
-        .collect()
+    [
+        "shadows.mu=2",
+        "shadows.light=0\nshadows.max_rays=64",
+        "shadows.mu=0.5\nshadows.fill_radius=4",
+        "shadows.form_factor=light_centre\nshadows.alpha=0.5",
+    ]
+    .iter()
+    .map(|s| s.as_bytes().to_vec())
+    .collect()
 }
 
 /// A 2×2 RGB PNG (the texture companion file `tex.png`).
@@ -89,8 +98,7 @@ pub fn tiny_png() -> Vec<u8> {
         }
     });
     let mut out = Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png)
-        .expect("encoding a 2x2 PNG in memory cannot fail");
+    img.write_to(&mut out, image::ImageFormat::Png).expect("encoding a 2x2 PNG in memory cannot fail");
     out.into_inner()
 }
 
@@ -100,20 +108,9 @@ pub fn tiny_png() -> Vec<u8> {
 /// (6), padded to 284 bytes; then animation keyframes: 284 times (2 × f32: 0, 1), 292 translations
 /// (2 × vec3), 316 rotations (2 × vec4: identity, 90° about y); 348 bytes.
 pub fn gltf_buffer() -> Vec<u8> {
-    let ground: [[f32; 3]; 6] = [
-        [-1., 0., 1.],
-        [1., 0., 1.],
-        [1., 0., -1.],
-        [-1., 0., 1.],
-        [1., 0., -1.],
-        [-1., 0., -1.],
-    ];
-    let light: [[f32; 3]; 4] = [
-        [-0.25, 2., -0.25],
-        [0.25, 2., -0.25],
-        [0.25, 2., 0.25],
-        [-0.25, 2., 0.25],
-    ];
+    let ground: [[f32; 3]; 6] =
+        [[-1., 0., 1.], [1., 0., 1.], [1., 0., -1.], [-1., 0., 1.], [1., 0., -1.], [-1., 0., -1.]];
+    let light: [[f32; 3]; 4] = [[-0.25, 2., -0.25], [0.25, 2., -0.25], [0.25, 2., 0.25], [-0.25, 2., 0.25]];
     let uv: [[f32; 2]; 6] = [[0., 1.], [1., 1.], [1., 0.], [0., 1.], [1., 0.], [0., 0.]];
     let mut b = Vec::new();
     for p in ground.iter().chain(light.iter()) {
@@ -126,9 +123,7 @@ pub fn gltf_buffer() -> Vec<u8> {
         t.iter().for_each(|c| b.extend_from_slice(&c.to_le_bytes()));
     }
     for _ in 0..6 {
-        [0f32, 1., 0.]
-            .iter()
-            .for_each(|c| b.extend_from_slice(&c.to_le_bytes()));
+        [0f32, 1., 0.].iter().for_each(|c| b.extend_from_slice(&c.to_le_bytes()));
     }
     for i in [0u32, 1, 2, 0, 2, 3] {
         b.extend_from_slice(&i.to_le_bytes());
@@ -178,10 +173,7 @@ const ACCESSORS: &str = r#"[
 /// without a URI (the GLB form).
 fn gltf_scenes() -> Vec<String> {
     let buffer = gltf_buffer();
-    let data_uri = format!(
-        r#""uri": "data:application/octet-stream;base64,{}""#,
-        base64::encode(&buffer)
-    );
+    let data_uri = format!(r#""uri": "data:application/octet-stream;base64,{}""#, base64::encode(&buffer));
     let doc = |uri: &str, body: &str| {
         let comma = if uri.is_empty() { "" } else { ", " };
         format!(
@@ -283,11 +275,7 @@ fn gltf_scenes() -> Vec<String> {
         v.push(doc(r#""uri": "buffer.bin""#, body));
     }
     // Without a URI, for GLB: the buffer is the BIN chunk; images still refer to tex.png.
-    v.extend(
-        [basic, textured, hierarchy, animated]
-            .iter()
-            .map(|body| doc("", body)),
-    );
+    v.extend([basic, textured, hierarchy, animated].iter().map(|body| doc("", body)));
     v
 }
 
@@ -341,16 +329,10 @@ fn obj_scenes() -> Vec<Vec<u8>> {
 }
 
 fn exr_images() -> Vec<Vec<u8>> {
-    use exr::prelude::{
-        f16, Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage,
-    };
+    use exr::prelude::{f16, Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage};
     let (w, h) = (5usize, 3usize);
     let value = |x: usize, y: usize, c: usize| (x + 2 * y + c) as f32 * 0.25;
-    let scan = |compression| Encoding {
-        compression,
-        blocks: Blocks::ScanLines,
-        line_order: LineOrder::Increasing,
-    };
+    let scan = |compression| Encoding { compression, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
     let mut out = Vec::new();
     // The project's own writer first.
     let img = wedge::image::Image::from_fn(w as u32, h as u32, |x, y| {
@@ -361,9 +343,8 @@ fn exr_images() -> Vec<Vec<u8>> {
     let path = dir.join("seed.exr");
     wedge::image::write_exr(&path, &img).expect("writing a seed EXR to the scratch directory");
     out.push(std::fs::read(&path).expect("reading the seed EXR back"));
-    let mut push = |bytes: Result<Vec<u8>, exr::error::Error>| {
-        out.push(bytes.expect("writing a small EXR in memory cannot fail"))
-    };
+    let mut push =
+        |bytes: Result<Vec<u8>, exr::error::Error>| out.push(bytes.expect("writing a small EXR in memory cannot fail"));
 
     for compression in [
         Compression::Uncompressed,
@@ -374,17 +355,10 @@ fn exr_images() -> Vec<Vec<u8>> {
         Compression::PXR24,
         Compression::B44,
     ] {
-        let f32_rgb = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-            (value(x, y, 0), value(x, y, 1), value(x, y, 2))
-        });
+        let f32_rgb = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| (value(x, y, 0), value(x, y, 1), value(x, y, 2)));
         let image = exr::image::Image::from_encoded_channels((w, h), scan(compression), f32_rgb);
         let mut buf = Cursor::new(Vec::new());
-        push(
-            image
-                .write()
-                .to_buffered(&mut buf)
-                .map(|_| buf.into_inner()),
-        );
+        push(image.write().to_buffered(&mut buf).map(|_| buf.into_inner()));
 
         let f16_rgba = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
             (
@@ -396,12 +370,7 @@ fn exr_images() -> Vec<Vec<u8>> {
         });
         let image = exr::image::Image::from_encoded_channels((w, h), scan(compression), f16_rgba);
         let mut buf = Cursor::new(Vec::new());
-        push(
-            image
-                .write()
-                .to_buffered(&mut buf)
-                .map(|_| buf.into_inner()),
-        );
+        push(image.write().to_buffered(&mut buf).map(|_| buf.into_inner()));
     }
     // Tiles.
     let tiles = Encoding {
@@ -409,16 +378,9 @@ fn exr_images() -> Vec<Vec<u8>> {
         blocks: Blocks::Tiles(Vec2(2, 2)),
         line_order: LineOrder::Increasing,
     };
-    let rgb = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        (value(x, y, 0), value(x, y, 1), value(x, y, 2))
-    });
+    let rgb = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| (value(x, y, 0), value(x, y, 1), value(x, y, 2)));
     let image = exr::image::Image::from_encoded_channels((w, h), tiles, rgb);
     let mut buf = Cursor::new(Vec::new());
-    push(
-        image
-            .write()
-            .to_buffered(&mut buf)
-            .map(|_| buf.into_inner()),
-    );
+    push(image.write().to_buffered(&mut buf).map(|_| buf.into_inner()));
     out
 }

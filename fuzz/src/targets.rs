@@ -27,48 +27,13 @@ pub struct Target {
 
 /// Every target, in the order `--all` runs them.
 pub const TARGETS: &[Target] = &[
-    Target {
-        name: "pipeline",
-        run: pipeline,
-        ext: "ron",
-        text: true,
-    },
-    Target {
-        name: "gltf",
-        run: gltf,
-        ext: "gltf",
-        text: true,
-    },
-    Target {
-        name: "glb",
-        run: glb,
-        ext: "glb",
-        text: false,
-    },
-    Target {
-        name: "obj",
-        run: obj,
-        ext: "obj",
-        text: true,
-    },
-    Target {
-        name: "exr",
-        run: exr,
-        ext: "exr",
-        text: false,
-    },
-    Target {
-        name: "camera_path",
-        run: camera_path,
-        ext: "ron",
-        text: true,
-    },
-    Target {
-        name: "set",
-        run: set,
-        ext: "txt",
-        text: true,
-    },
+    Target { name: "pipeline", run: pipeline, ext: "ron", text: true },
+    Target { name: "gltf", run: gltf, ext: "gltf", text: true },
+    Target { name: "glb", run: glb, ext: "glb", text: false },
+    Target { name: "obj", run: obj, ext: "obj", text: true },
+    Target { name: "exr", run: exr, ext: "exr", text: false },
+    Target { name: "camera_path", run: camera_path, ext: "ron", text: true },
+    Target { name: "set", run: set, ext: "txt", text: true },
 ];
 
 /// The target called `name`.
@@ -116,15 +81,31 @@ pub fn camera_path(data: &[u8]) -> Result<(), String> {
     let (camera, check_up) = match &validated.pipeline.camera {
         Some(c) => (c.clone(), true),
         None => (
-            wedge_graph::CameraSpec { position: (0.0, 0.0, 1.0), look_at: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), vfov_deg: 45.0, aperture_radius: 0.0, focus_distance: None, shutter: None },
+            wedge_graph::CameraSpec {
+                position: (0.0, 0.0, 1.0),
+                look_at: (0.0, 0.0, 0.0),
+                up: (0.0, 1.0, 0.0),
+                vfov_deg: 45.0,
+                aperture_radius: 0.0,
+                focus_distance: None,
+                shutter: None,
+            },
             false,
         ),
     };
     for frame in sampled_frames(keys) {
         let Some((position, look_at)) = wedge_graph::camera_path_at(keys, frame) else { continue };
         let cam = wedge_graph::CameraSpec { position, look_at, ..camera.clone() };
-        let broken: Vec<_> = cam.problems().into_iter().filter(|p| matches!(p.field, "position" | "look_at") || (check_up && p.field == "up")).collect();
-        assert!(broken.is_empty(), "validation accepted a camera path whose frame {frame} breaks a camera rule: {}", broken[0].message);
+        let broken: Vec<_> = cam
+            .problems()
+            .into_iter()
+            .filter(|p| matches!(p.field, "position" | "look_at") || (check_up && p.field == "up"))
+            .collect();
+        assert!(
+            broken.is_empty(),
+            "validation accepted a camera path whose frame {frame} breaks a camera rule: {}",
+            broken[0].message
+        );
     }
     Ok(())
 }
@@ -152,15 +133,31 @@ pub fn set(data: &[u8]) -> Result<(), String> {
         (name: "out", kind: "Output", inputs: {"color": "shadows.radiance"}),
     ])"#;
     let text = String::from_utf8_lossy(data);
-    let params = text.lines().take(8).map(wedge::session::parse_set).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
+    let params = text
+        .lines()
+        .take(8)
+        .map(wedge::session::parse_set)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())?;
     let loaded = wedge_graph::parse_pipeline(Path::new("fuzz.ron"), PIPELINE).map_err(|e| e.to_string())?;
     let (nodes, kernels) = wedge_effects::builtin();
     let ov = wedge::Overrides { params: params.clone(), ..Default::default() };
     let session = wedge::Session::build(loaded, &ov, nodes, kernels).map_err(|e| e.to_string())?;
     for (node, name, _) in &params {
-        let n = session.pipeline.node(node).unwrap_or_else(|| panic!("--set {node}.{name} was accepted but there is no node `{node}`"));
-        let decl = n.kind.params().into_iter().find(|d| d.name == name).unwrap_or_else(|| panic!("--set {node}.{name} was accepted but `{node}` declares no `{name}`"));
-        let value = n.params.get(name).unwrap_or_else(|| panic!("--set {node}.{name} was accepted but the node has no value for it"));
+        let n = session
+            .pipeline
+            .node(node)
+            .unwrap_or_else(|| panic!("--set {node}.{name} was accepted but there is no node `{node}`"));
+        let decl = n
+            .kind
+            .params()
+            .into_iter()
+            .find(|d| d.name == name)
+            .unwrap_or_else(|| panic!("--set {node}.{name} was accepted but `{node}` declares no `{name}`"));
+        let value = n
+            .params
+            .get(name)
+            .unwrap_or_else(|| panic!("--set {node}.{name} was accepted but the node has no value for it"));
         assert!(decl.check(value).is_ok(), "--set {node}.{name} left the value {value}, which its declaration refuses");
     }
     Ok(())

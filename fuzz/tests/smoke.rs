@@ -15,12 +15,7 @@ static SERIAL: Mutex<()> = Mutex::new(());
 fn smoke(target: &str) {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let out = tempfile::tempdir().unwrap();
-    let cfg = Config {
-        seconds: 3.0,
-        seed: 1,
-        out: out.path().to_path_buf(),
-        ..Config::default()
-    };
+    let cfg = Config { seconds: 3.0, seed: 1, out: out.path().to_path_buf(), ..Config::default() };
     let report = fuzz(by_name(target).unwrap(), &cfg);
     eprintln!("{report}");
     assert!(wedge_fuzz::alloc::installed());
@@ -78,13 +73,8 @@ fn seeds_load_cleanly() {
 fn same_seed_same_run() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let out = tempfile::tempdir().unwrap();
-    let cfg = Config {
-        seconds: 60.0,
-        max_runs: Some(3000),
-        seed: 42,
-        out: out.path().to_path_buf(),
-        ..Config::default()
-    };
+    let cfg =
+        Config { seconds: 60.0, max_runs: Some(3000), seed: 42, out: out.path().to_path_buf(), ..Config::default() };
     let target = by_name("pipeline").unwrap();
     let a = fuzz(target, &cfg);
     let b = fuzz(target, &cfg);

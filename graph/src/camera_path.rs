@@ -166,7 +166,12 @@ impl Segment {
     /// `|d|` and sine of every whole frame) come within that drift of a rule, a frame between them
     /// may break it in f32 although none checked does (e.g. a camera 0.06 from its target at
     /// x = 10⁶, where f32 steps are 0.06): refused as too close to call, at the closest frame.
-    fn too_close_for_f32(&self, (first, last): (u32, u32), frames: &[u32], check_up: bool) -> Option<(u32, CameraProblem)> {
+    fn too_close_for_f32(
+        &self,
+        (first, last): (u32, u32),
+        frames: &[u32],
+        check_up: bool,
+    ) -> Option<(u32, CameraProblem)> {
         let coords = [self.pos.0, self.pos.1, self.at.0, self.at.1];
         let largest = coords.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
         let drift = F32_DRIFT * largest;

@@ -118,7 +118,11 @@ impl StructLayout {
     pub fn word_name(&self, w: usize) -> Option<String> {
         for (o, f) in self.offsets() {
             if (o..o + f.ty.words()).contains(&w) {
-                return Some(if f.ty.words() == 1 { f.name.to_string() } else { format!("{}.{}", f.name, ["x", "y", "z", "w"][w - o]) });
+                return Some(if f.ty.words() == 1 {
+                    f.name.to_string()
+                } else {
+                    format!("{}.{}", f.name, ["x", "y", "z", "w"][w - o])
+                });
             }
         }
         None
@@ -254,7 +258,11 @@ mod struct_tests {
     fn bad_layouts_are_named() {
         static BAD: StructLayout = StructLayout {
             name: "my rec",
-            fields: &[Field::new("a", FieldType::F32), Field::new("a", FieldType::U32), Field::new("b-c", FieldType::F32)],
+            fields: &[
+                Field::new("a", FieldType::F32),
+                Field::new("a", FieldType::U32),
+                Field::new("b-c", FieldType::F32),
+            ],
         };
         let p = BAD.problems();
         assert_eq!(p.len(), 3, "{p:?}");
@@ -276,22 +284,10 @@ pub struct PortDecl {
 
 impl PortDecl {
     pub const fn new(name: &'static str, format: Format, doc: &'static str) -> Self {
-        PortDecl {
-            name,
-            format,
-            optional: false,
-            doc,
-            accepts: None,
-        }
+        PortDecl { name, format, optional: false, doc, accepts: None }
     }
     pub const fn optional(name: &'static str, format: Format, doc: &'static str) -> Self {
-        PortDecl {
-            name,
-            format,
-            optional: true,
-            doc,
-            accepts: None,
-        }
+        PortDecl { name, format, optional: true, doc, accepts: None }
     }
     /// The same input, taking only radiance of these terms ([`crate::terms::Accepts`]).
     pub const fn accepts(mut self, accepts: crate::terms::Accepts) -> Self {
@@ -420,22 +416,10 @@ pub struct ParamDecl {
 }
 
 impl ParamDecl {
-    pub const fn float(
-        name: &'static str,
-        default: f64,
-        min: f64,
-        max: f64,
-        doc: &'static str,
-    ) -> Self {
+    pub const fn float(name: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> Self {
         ParamDecl {
             name,
-            kind: ParamKind::Float {
-                default,
-                min,
-                max,
-                min_exclusive: false,
-                special: None,
-            },
+            kind: ParamKind::Float { default, min, max, min_exclusive: false, special: None },
             doc,
             optional: false,
         }
@@ -444,38 +428,16 @@ impl ParamDecl {
     pub const fn positive(name: &'static str, default: f64, max: f64, doc: &'static str) -> Self {
         ParamDecl {
             name,
-            kind: ParamKind::Float {
-                default,
-                min: 0.0,
-                max,
-                min_exclusive: true,
-                special: None,
-            },
+            kind: ParamKind::Float { default, min: 0.0, max, min_exclusive: true, special: None },
             doc,
             optional: false,
         }
     }
-    pub const fn int(
-        name: &'static str,
-        default: i64,
-        min: i64,
-        max: i64,
-        doc: &'static str,
-    ) -> Self {
-        ParamDecl {
-            name,
-            kind: ParamKind::Int { default, min, max },
-            doc,
-            optional: false,
-        }
+    pub const fn int(name: &'static str, default: i64, min: i64, max: i64, doc: &'static str) -> Self {
+        ParamDecl { name, kind: ParamKind::Int { default, min, max }, doc, optional: false }
     }
     pub const fn boolean(name: &'static str, default: bool, doc: &'static str) -> Self {
-        ParamDecl {
-            name,
-            kind: ParamKind::Bool { default },
-            doc,
-            optional: false,
-        }
+        ParamDecl { name, kind: ParamKind::Bool { default }, doc, optional: false }
     }
     pub const fn choice(
         name: &'static str,
@@ -483,43 +445,23 @@ impl ParamDecl {
         options: &'static [&'static str],
         doc: &'static str,
     ) -> Self {
-        ParamDecl {
-            name,
-            kind: ParamKind::Choice { default, options },
-            doc,
-            optional: false,
-        }
+        ParamDecl { name, kind: ParamKind::Choice { default, options }, doc, optional: false }
     }
 
     /// A file path (see [`ParamKind::Path`]).
     /// Three numbers, each in `min..=max` (a direction, an offset, a scale per axis).
     pub const fn vec3(name: &'static str, default: [f64; 3], min: f64, max: f64, doc: &'static str) -> Self {
-        ParamDecl {
-            name,
-            kind: ParamKind::Vec3 { default, min, max, colour: false },
-            doc,
-            optional: false,
-        }
+        ParamDecl { name, kind: ParamKind::Vec3 { default, min, max, colour: false }, doc, optional: false }
     }
 
     /// A linear RGB colour: three non-negative numbers (radiance or albedo; `max` bounds each
     /// channel, e.g. 1 for an albedo). Kernels read it with `KernelCtx::vec3_param`.
     pub const fn colour(name: &'static str, default: [f64; 3], max: f64, doc: &'static str) -> Self {
-        ParamDecl {
-            name,
-            kind: ParamKind::Vec3 { default, min: 0.0, max, colour: true },
-            doc,
-            optional: false,
-        }
+        ParamDecl { name, kind: ParamKind::Vec3 { default, min: 0.0, max, colour: true }, doc, optional: false }
     }
 
     pub const fn path(name: &'static str, default: &'static str, doc: &'static str) -> Self {
-        ParamDecl {
-            name,
-            kind: ParamKind::Path { default },
-            doc,
-            optional: false,
-        }
+        ParamDecl { name, kind: ParamKind::Path { default }, doc, optional: false }
     }
 
     /// The same float declaration, also accepting exactly `value` (outside the range) with the meaning
@@ -564,9 +506,17 @@ impl ParamDecl {
                 }
                 let low_ok = if *min_exclusive { v > *min } else { v >= *min };
                 if !v.is_finite() || !low_ok || v > *max {
-                    let lo = if *min_exclusive { format!("{min} < {}", self.name) } else { format!("{min} <= {}", self.name) };
+                    let lo = if *min_exclusive {
+                        format!("{min} < {}", self.name)
+                    } else {
+                        format!("{min} <= {}", self.name)
+                    };
                     let or = special.map_or(String::new(), |s| format!("be {} ({}) or ", s.value, s.meaning));
-                    return Err(format!("{} = {} is out of range; it must {or}satisfy {lo} <= {max}", self.name, as_written(v)));
+                    return Err(format!(
+                        "{} = {} is out of range; it must {or}satisfy {lo} <= {max}",
+                        self.name,
+                        as_written(v)
+                    ));
                 }
                 check_single_precision(self.name, v, *min, *min_exclusive, *max)?;
                 Ok(ParamValue::Float(v))
@@ -582,10 +532,9 @@ impl ParamDecl {
             }
             // A whole number beyond i64 (`--set n=99999999999999999999999` is read as a float) is
             // out of every integer range, not of the wrong type.
-            (ParamKind::Int { min, max, .. }, ParamValue::Float(v)) if v.fract() == 0.0 && v.abs() >= 2f64.powi(63) => Err(format!(
-                "{} = {v:e} is out of range; it must satisfy {min} <= {} <= {max}",
-                self.name, self.name
-            )),
+            (ParamKind::Int { min, max, .. }, ParamValue::Float(v)) if v.fract() == 0.0 && v.abs() >= 2f64.powi(63) => {
+                Err(format!("{} = {v:e} is out of range; it must satisfy {min} <= {} <= {max}", self.name, self.name))
+            }
             (ParamKind::Bool { .. }, ParamValue::Bool(v)) => Ok(ParamValue::Bool(*v)),
             (ParamKind::Choice { options, .. }, ParamValue::Str(s)) => {
                 if options.contains(&s.as_str()) {
@@ -614,11 +563,7 @@ impl ParamDecl {
                 }
                 Ok(ParamValue::Vec3(*v))
             }
-            (kind, v) => Err(format!(
-                "{} = {v} has the wrong type; expected {}",
-                self.name,
-                kind_name(kind)
-            )),
+            (kind, v) => Err(format!("{} = {v} has the wrong type; expected {}", self.name, kind_name(kind))),
         }
     }
 }
@@ -834,12 +779,18 @@ mod param_tests {
             scale.check(&ParamValue::Float(1e-300)).unwrap_err(),
             "scale = 1e-300 is 0 in single precision (f32), which the kernels compute in; write a value of magnitude at least 1.1754944e-38"
         );
-        assert!(scale.check(&ParamValue::Float(1e-39)).unwrap_err().starts_with("scale = 1e-39 is subnormal (flushed to 0 on GPUs)"));
+        assert!(scale
+            .check(&ParamValue::Float(1e-39))
+            .unwrap_err()
+            .starts_with("scale = 1e-39 is subnormal (flushed to 0 on GPUs)"));
         assert!(scale.check(&ParamValue::Float(1e-30)).is_ok());
         // Where 0 is in the range, writing 0 is offered as the fix.
         let dist = ParamDecl::float("max_distance", 0.0, 0.0, 1e300, "0 = no limit");
         assert!(dist.check(&ParamValue::Float(1e-300)).unwrap_err().contains("write 0, or a value of magnitude"));
-        assert_eq!(dist.check(&ParamValue::Float(1e39)).unwrap_err(), "max_distance = 1e39 is beyond single precision (|x| <= 3.4028235e38), which the kernels compute in");
+        assert_eq!(
+            dist.check(&ParamValue::Float(1e39)).unwrap_err(),
+            "max_distance = 1e39 is beyond single precision (|x| <= 3.4028235e38), which the kernels compute in"
+        );
         assert!(dist.check(&ParamValue::Float(0.0)).is_ok());
     }
 }

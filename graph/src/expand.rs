@@ -45,11 +45,7 @@ impl BufferInfo {
     }
     /// An image buffer (one element per pixel).
     pub fn new(name: impl Into<String>, format: Format) -> BufferInfo {
-        BufferInfo {
-            name: name.into(),
-            format,
-            layers: 1,
-        }
+        BufferInfo { name: name.into(), format, layers: 1 }
     }
 }
 
@@ -93,16 +89,10 @@ impl Pass {
         }
     }
     pub fn read(&self, binding: &str) -> Option<BufferId> {
-        self.reads
-            .iter()
-            .find(|(b, _)| b == binding)
-            .map(|(_, id)| *id)
+        self.reads.iter().find(|(b, _)| b == binding).map(|(_, id)| *id)
     }
     pub fn write(&self, binding: &str) -> Option<BufferId> {
-        self.writes
-            .iter()
-            .find(|(b, _)| b == binding)
-            .map(|(_, id)| *id)
+        self.writes.iter().find(|(b, _)| b == binding).map(|(_, id)| *id)
     }
 }
 
@@ -134,10 +124,7 @@ impl Expansion {
         &self.buffers[id.0]
     }
     pub fn find_buffer(&self, name: &str) -> Option<BufferId> {
-        self.buffers
-            .iter()
-            .position(|b| b.name == name)
-            .map(BufferId)
+        self.buffers.iter().position(|b| b.name == name).map(BufferId)
     }
 }
 
@@ -169,15 +156,7 @@ impl<'a> ExpandCtx<'a> {
         inputs: &'a BTreeMap<String, BufferId>,
         expansion: &'a mut Expansion,
     ) -> Self {
-        ExpandCtx {
-            node,
-            params,
-            inputs,
-            expansion,
-            sampler: None,
-            factoring: None,
-            undeclared: Default::default(),
-        }
+        ExpandCtx { node, params, inputs, expansion, sampler: None, factoring: None, undeclared: Default::default() }
     }
     /// Refuse an expansion that read parameters its node does not declare (a bug in the node kind,
     /// reported with the fix rather than a panic).
@@ -213,7 +192,10 @@ impl<'a> ExpandCtx<'a> {
         let Some((f, kind)) = self.factoring else {
             return Err(GraphError::Expand {
                 node: self.node.to_string(),
-                message: format!("declares lighting component `{}` but the pipeline has no factoring node", component.name),
+                message: format!(
+                    "declares lighting component `{}` but the pipeline has no factoring node",
+                    component.name
+                ),
             });
         };
         kind.expand_component(self, f, component)
@@ -293,11 +275,7 @@ impl<'a> ExpandCtx<'a> {
     /// output port or a sink input must be an image (the scheduler refuses a layered one).
     pub fn layered_buffer(&mut self, name: &str, format: Format, layers: u32) -> BufferId {
         let full = format!("{}.{name}", self.node);
-        self.expansion.buffers.push(BufferInfo {
-            name: full,
-            format,
-            layers: layers.max(1),
-        });
+        self.expansion.buffers.push(BufferInfo { name: full, format, layers: layers.max(1) });
         BufferId(self.expansion.buffers.len() - 1)
     }
     /// Elements per pixel of a buffer ([`BufferInfo::layers`]).
@@ -306,11 +284,7 @@ impl<'a> ExpandCtx<'a> {
     }
     /// Start a pass named `<node>.<name>` running `kernel` in `stage`.
     pub fn pass(&mut self, name: &str, kernel: &str, stage: Stage) -> PassBuilder<'_, 'a> {
-        PassBuilder {
-            ctx: self,
-            pass: Pass::new("", "", kernel, stage),
-            local_name: name.to_string(),
-        }
+        PassBuilder { ctx: self, pass: Pass::new("", "", kernel, stage), local_name: name.to_string() }
     }
     /// A buffer holding `source`'s contents from the previous frame of a sequence (all zeros in the
     /// first frame and in single images: a kernel reading it must treat zeros as "no history", e.g.
@@ -322,20 +296,14 @@ impl<'a> ExpandCtx<'a> {
             return h.buffer;
         }
         let BufferInfo { name, format, layers } = self.expansion.buffers[source.0].clone();
-        self.expansion.buffers.push(BufferInfo {
-            name: format!("{name}@previous_frame"),
-            format,
-            layers,
-        });
+        self.expansion.buffers.push(BufferInfo { name: format!("{name}@previous_frame"), format, layers });
         let buffer = BufferId(self.expansion.buffers.len() - 1);
         self.expansion.history.push(History { buffer, source });
         buffer
     }
     /// Bind a declared output port to a buffer.
     pub fn output(&mut self, port: &str, id: BufferId) {
-        self.expansion
-            .outputs
-            .insert((self.node.to_string(), port.to_string()), id);
+        self.expansion.outputs.insert((self.node.to_string(), port.to_string()), id);
     }
 }
 

@@ -21,11 +21,7 @@ pub(crate) struct Explained {
 /// Explain ron's error `err` at `at` in `src`.
 pub(crate) fn explain(src: &str, err: &E, at: Pos) -> Explained {
     let toks = tokenize(src);
-    let plain = || Explained {
-        pos: at,
-        message: err.to_string(),
-        help: generic_help(err),
-    };
+    let plain = || Explained { pos: at, message: err.to_string(), help: generic_help(err) };
 
     // A number literal that contains ron's position: a fraction or exponent where a whole number
     // is wanted, or an integer out of range (negative, or too large).
@@ -57,9 +53,7 @@ pub(crate) fn explain(src: &str, err: &E, at: Pos) -> Explained {
                 return Explained {
                     pos: t.pos,
                     message: format!("`{field}` must be a whole number, but `{text}` is not"),
-                    help: format!(
-                        "write `{field}` without a decimal point or exponent{suggestion}"
-                    ),
+                    help: format!("write `{field}` without a decimal point or exponent{suggestion}"),
                 };
             }
             if inside && matches!(err, E::IntegerOutOfBounds) {
@@ -74,9 +68,7 @@ pub(crate) fn explain(src: &str, err: &E, at: Pos) -> Explained {
                     help: format!(
                         "write `{field}` as a whole number from 0 to {}{}",
                         u32::MAX,
-                        field_example(field)
-                            .map(|e| format!(", e.g. {e}"))
-                            .unwrap_or_default()
+                        field_example(field).map(|e| format!(", e.g. {e}")).unwrap_or_default()
                     ),
                 };
             }
@@ -145,11 +137,7 @@ pub(crate) fn explain(src: &str, err: &E, at: Pos) -> Explained {
     } else {
         format!("write {wanted} here")
     };
-    Explained {
-        pos: found.pos,
-        message: format!("{what} expects {wanted}, but found `{}`", token_text(found)),
-        help,
-    }
+    Explained { pos: found.pos, message: format!("{what} expects {wanted}, but found `{}`", token_text(found)), help }
 }
 
 /// The field whose value contains token `k`: the nearest `name:` before it that is not inside a
@@ -186,9 +174,7 @@ fn field_example(field: &str) -> Option<&'static str> {
         "scene" => "`scene: \"builtin:grids\"`",
         "name" => "`name: \"primary\"`",
         "kind" => "`kind: \"Primary\"`",
-        "camera" => {
-            "`camera: Some((position: (0, 1, 4), look_at: (0, 0, 0), vfov_deg: 45))` or `camera: None`"
-        }
+        "camera" => "`camera: Some((position: (0, 1, 4), look_at: (0, 0, 0), vfov_deg: 45))` or `camera: None`",
         "nodes" => "`nodes: [(name: \"primary\", kind: \"Primary\"), …]`",
         "params" => "`params: {\"mu\": 2.0}`",
         "inputs" => "`inputs: {\"color\": \"shadows.radiance\"}`",
@@ -215,16 +201,9 @@ fn token_text(t: &Token) -> String {
 /// What to do about a ron error that [`explain`] has no specific words for.
 fn generic_help(code: &E) -> String {
     match code {
-        E::NoSuchStructField {
-            expected,
-            found,
-            outer,
-        } => {
+        E::NoSuchStructField { expected, found, outer } => {
             let what = outer.as_deref().unwrap_or("this struct");
-            format!(
-                "`{found}` is not a field of {what}; remove it or use one of: {}",
-                expected.join(", ")
-            )
+            format!("`{found}` is not a field of {what}; remove it or use one of: {}", expected.join(", "))
         }
         E::MissingStructField { field, outer } => {
             let what = outer.as_deref().unwrap_or("this struct");
@@ -235,9 +214,7 @@ fn generic_help(code: &E) -> String {
         E::ExpectedMap | E::ExpectedMapColon | E::ExpectedMapEnd => {
             "write maps as {\"key\": value, …} (string keys, `:` between key and value)".into()
         }
-        E::ExpectedString | E::ExpectedStringEnd => {
-            "write this value as a double-quoted string".into()
-        }
+        E::ExpectedString | E::ExpectedStringEnd => "write this value as a double-quoted string".into(),
         E::ExpectedArray | E::ExpectedArrayEnd => "write `nodes` as a list `[ (…), (…) ]`".into(),
         E::Eof => "the file ends early; close every open `(`, `[` and `{`".into(),
         E::InvalidValueForType { expected, .. } => format!("write {expected} here"),
@@ -247,7 +224,9 @@ fn generic_help(code: &E) -> String {
         E::ExceededRecursionLimit => {
             "the value is nested too deeply; a pipeline needs only a few levels of brackets".into()
         }
-        _ => "see the pipeline format in the wedge documentation (docs/GUIDE.md, \"A pipeline\") and fix the syntax here"
-            .into(),
+        _ => {
+            "see the pipeline format in the wedge documentation (docs/GUIDE.md, \"A pipeline\") and fix the syntax here"
+                .into()
+        }
     }
 }

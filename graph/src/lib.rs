@@ -24,8 +24,8 @@
 pub mod camera_path;
 pub mod decl;
 pub mod expand;
-pub mod factoring;
 mod explain;
+pub mod factoring;
 pub mod pipeline;
 mod reference;
 pub mod sampler;
@@ -36,7 +36,10 @@ pub mod terms;
 mod validate;
 
 pub use camera_path::{camera_path_at, camera_path_problems, PathProblem};
-pub use decl::{Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, SceneRequest, Special, StructLayout};
+pub use decl::{
+    Field, FieldType, Format, NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl, SceneRequest,
+    Special, StructLayout,
+};
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, PassBuilder};
 pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts, Statistic};
 pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
@@ -48,8 +51,8 @@ pub use schedule::{bytes_per_pixel, schedule, BufferBytes, Lifetime, Schedule};
 pub use stage::{stream_id, Reference, Stage};
 pub use terms::{AcceptView, Accepts, Term, TermKind, TermQuery, TermReport, Terms, View};
 pub use validate::{
-    check_camera_path, expand, load_pipeline, parse_pipeline, suggestion, validate, Diagnostic, DiagnosticKind, LoadedPipeline,
-    ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,
+    check_camera_path, expand, load_pipeline, parse_pipeline, suggestion, validate, Diagnostic, DiagnosticKind,
+    LoadedPipeline, ValidatedNode, ValidatedPipeline, MAX_DIAGNOSTICS, MAX_PIXELS, MAX_SIDE,
 };
 
 /// Everything that can go wrong between a pipeline file and a schedule.
@@ -60,19 +63,11 @@ pub enum GraphError {
     Io { path: String, message: String },
     /// RON syntax or schema error (includes unknown fields), with ron's position.
     #[error("{location}: {message}\n  help: {help}")]
-    Parse {
-        location: Location,
-        message: String,
-        help: String,
-    },
+    Parse { location: Location, message: String, help: String },
     /// The file is beyond a size limit (bytes, nodes, entries or string length; see
     /// [`pipeline::MAX_PIPELINE_BYTES`] and its neighbours), refused before it is expanded.
     #[error("{location}: {message}\n  help: {help}")]
-    TooLarge {
-        location: Location,
-        message: String,
-        help: String,
-    },
+    TooLarge { location: Location, message: String, help: String },
     /// Every validation problem found, in file order.
     #[error("{}", format_diagnostics(.0))]
     Invalid(Vec<Diagnostic>),
@@ -98,10 +93,7 @@ fn format_diagnostics(d: &[Diagnostic]) -> String {
 }
 
 /// Parse, validate, expand and schedule a pipeline file in one call.
-pub fn compile(
-    path: &std::path::Path,
-    registry: &NodeRegistry,
-) -> Result<(ValidatedPipeline, Schedule), GraphError> {
+pub fn compile(path: &std::path::Path, registry: &NodeRegistry) -> Result<(ValidatedPipeline, Schedule), GraphError> {
     let loaded = load_pipeline(path)?;
     let validated = validate(&loaded, registry)?;
     let expansion = expand(&validated)?;

@@ -72,13 +72,20 @@ impl CameraKey {
         let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
         for (field, v) in [("position", self.position), ("look_at", self.look_at)] {
             if !finite3(v) {
-                out.push((field, format!("camera key at frame {}: `{field}` {v:?} is not finite", self.frame), "write three ordinary numbers".to_string()));
+                out.push((
+                    field,
+                    format!("camera key at frame {}: `{field}` {v:?} is not finite", self.frame),
+                    "write three ordinary numbers".to_string(),
+                ));
             }
         }
         if finite3(self.position) && self.position == self.look_at {
             out.push((
                 "look_at",
-                format!("camera key at frame {}: `look_at` equals `position`, so there is no view direction", self.frame),
+                format!(
+                    "camera key at frame {}: `look_at` equals `position`, so there is no view direction",
+                    self.frame
+                ),
                 "move `look_at` to the point the camera looks at".to_string(),
             ));
         }
@@ -117,10 +124,18 @@ impl MotionSpec {
         let mut out = Vec::new();
         let finite3 = |v: (f32, f32, f32)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
         if self.object.trim().is_empty() {
-            out.push(("object", "a motion entry names no object".to_string(), "write `object: \"name\"` with a scene object's name".to_string()));
+            out.push((
+                "object",
+                "a motion entry names no object".to_string(),
+                "write `object: \"name\"` with a scene object's name".to_string(),
+            ));
         }
         if !finite3(self.translate) {
-            out.push(("translate", format!("motion of `{}`: translate {:?} is not finite", self.object, self.translate), "write three ordinary numbers (world units)".into()));
+            out.push((
+                "translate",
+                format!("motion of `{}`: translate {:?} is not finite", self.object, self.translate),
+                "write three ordinary numbers (world units)".into(),
+            ));
         }
         if !(self.rotate_deg.is_finite() && self.rotate_deg.abs() < 180.0) {
             out.push((
@@ -133,11 +148,19 @@ impl MotionSpec {
         }
         let a = self.axis;
         if !finite3(a) || (self.rotate_deg != 0.0 && a.0 * a.0 + a.1 * a.1 + a.2 * a.2 == 0.0) {
-            out.push(("axis", format!("motion of `{}`: axis {a:?} is not a direction", self.object), "write a non-zero axis, e.g. (0.0, 1.0, 0.0)".into()));
+            out.push((
+                "axis",
+                format!("motion of `{}`: axis {a:?} is not a direction", self.object),
+                "write a non-zero axis, e.g. (0.0, 1.0, 0.0)".into(),
+            ));
         }
         if let Some(p) = self.pivot {
             if !finite3(p) {
-                out.push(("pivot", format!("motion of `{}`: pivot {p:?} is not finite", self.object), "write a point in world units, or leave `pivot` out".into()));
+                out.push((
+                    "pivot",
+                    format!("motion of `{}`: pivot {p:?} is not finite", self.object),
+                    "write a point in world units, or leave `pivot` out".into(),
+                ));
             }
         }
         out
@@ -178,13 +201,8 @@ impl CameraSpec {
     /// between its keys ([`crate::camera_path`]).
     pub fn view_problems(pos: [f64; 3], at: [f64; 3], up: [f64; 3]) -> Vec<CameraProblem> {
         let mut out = Vec::new();
-        let mut bad = |field: &'static str, message: String, help: String| {
-            out.push(CameraProblem {
-                field,
-                message,
-                help,
-            })
-        };
+        let mut bad =
+            |field: &'static str, message: String, help: String| out.push(CameraProblem { field, message, help });
         let finite = |a: [f64; 3]| a.iter().all(|x| x.is_finite());
         for (field, value) in [("position", pos), ("look_at", at), ("up", up)] {
             if !finite(value) {
@@ -203,14 +221,9 @@ impl CameraSpec {
                 "look_at",
                 format!(
                     "camera `look_at` {at:?} {} `position`, so there is no view direction",
-                    if len(dir) == 0.0 {
-                        "equals"
-                    } else {
-                        "is too far from"
-                    }
+                    if len(dir) == 0.0 { "equals" } else { "is too far from" }
                 ),
-                "move `look_at` to the point the camera should look at, away from `position`"
-                    .into(),
+                "move `look_at` to the point the camera should look at, away from `position`".into(),
             );
         }
         if finite(up) {
@@ -221,11 +234,8 @@ impl CameraSpec {
                     "set `up` to the world's up direction, usually (0.0, 1.0, 0.0)".into(),
                 );
             } else if dir_ok {
-                let c = [
-                    dir[1] * up[2] - dir[2] * up[1],
-                    dir[2] * up[0] - dir[0] * up[2],
-                    dir[0] * up[1] - dir[1] * up[0],
-                ];
+                let c =
+                    [dir[1] * up[2] - dir[2] * up[1], dir[2] * up[0] - dir[0] * up[2], dir[0] * up[1] - dir[1] * up[0]];
                 let sine = len(c) / (len(dir) * len(up));
                 if sine < MIN_UP_SINE {
                     bad(
@@ -262,32 +272,20 @@ impl CameraSpec {
     pub fn problems(&self) -> Vec<CameraProblem> {
         let v = |t: (f32, f32, f32)| [f64::from(t.0), f64::from(t.1), f64::from(t.2)];
         let mut out = Self::view_problems(v(self.position), v(self.look_at), v(self.up));
-        let mut bad = |field: &'static str, message: String, help: String| {
-            out.push(CameraProblem {
-                field,
-                message,
-                help,
-            })
-        };
+        let mut bad =
+            |field: &'static str, message: String, help: String| out.push(CameraProblem { field, message, help });
         if !(self.vfov_deg.is_finite() && self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
             bad(
                 "vfov_deg",
-                format!(
-                    "camera `vfov_deg` = {} is not a field of view in degrees",
-                    self.vfov_deg
-                ),
+                format!("camera `vfov_deg` = {} is not a field of view in degrees", self.vfov_deg),
                 "set `vfov_deg` to a value with 0 < vfov_deg < 180, e.g. 45.0".into(),
             );
         }
         if !(self.aperture_radius.is_finite() && self.aperture_radius >= 0.0) {
             bad(
                 "aperture_radius",
-                format!(
-                    "camera `aperture_radius` = {} is not a lens radius",
-                    self.aperture_radius
-                ),
-                "set `aperture_radius` to 0.0 (pinhole) or a small positive radius in metres"
-                    .into(),
+                format!("camera `aperture_radius` = {} is not a lens radius", self.aperture_radius),
+                "set `aperture_radius` to 0.0 (pinhole) or a small positive radius in metres".into(),
             );
         }
         if let Some((open, close)) = self.shutter {
@@ -295,7 +293,8 @@ impl CameraSpec {
                 bad(
                     "shutter",
                     format!("camera `shutter` = ({open}, {close}) is not an interval"),
-                    "write `shutter: Some((open, close))` with finite times and open <= close (equal: no motion blur)".into(),
+                    "write `shutter: Some((open, close))` with finite times and open <= close (equal: no motion blur)"
+                        .into(),
                 );
             }
         }
@@ -304,8 +303,7 @@ impl CameraSpec {
                 bad(
                     "focus_distance",
                     format!("camera `focus_distance` = {f} is not a distance"),
-                    "write `focus_distance: Some(d)` with d > 0 in metres, or `None` to focus on `look_at`"
-                        .into(),
+                    "write `focus_distance: Some(d)` with d > 0 in metres, or `None` to focus on `look_at`".into(),
                 );
             }
         }

@@ -318,10 +318,9 @@ impl SamplerPlan {
                 ),
             });
         };
-        expansion.buffers.push(crate::expand::BufferInfo::new(
-            format!("{SAMPLER_NODE}.{}_{name}", pass.name()),
-            *format,
-        ));
+        expansion
+            .buffers
+            .push(crate::expand::BufferInfo::new(format!("{SAMPLER_NODE}.{}_{name}", pass.name()), *format));
         let id = BufferId(expansion.buffers.len() - 1);
         self.handles.insert((pass, name.to_string()), id);
         Ok(id)

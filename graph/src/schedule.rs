@@ -72,13 +72,7 @@ pub struct Schedule {
 
 /// Cull, order, and plan the storage of an expansion.
 pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
-    let Expansion {
-        buffers,
-        passes,
-        sink_inputs,
-        history,
-        ..
-    } = e;
+    let Expansion { buffers, passes, sink_inputs, history, .. } = e;
     let nb = buffers.len();
     let is_history = |id: BufferId| history.iter().any(|h| h.buffer == id);
 
@@ -89,10 +83,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             if id.0 >= nb {
                 return Err(GraphError::Expand {
                     node: p.node.clone(),
-                    message: format!(
-                        "pass `{}` writes buffer #{} that does not exist",
-                        p.name, id.0
-                    ),
+                    message: format!("pass `{}` writes buffer #{} that does not exist", p.name, id.0),
                 });
             }
             writer[id.0] = Some(pi);
@@ -109,20 +100,14 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             if is_history(*id) {
                 continue; // filled by the runner before the first pass
             }
-            let w =
-                (id.0 < nb)
-                    .then(|| writer[id.0])
-                    .flatten()
-                    .ok_or_else(|| GraphError::Expand {
-                        node: p.node.clone(),
-                        message: format!(
-                            "pass `{}` reads `{}` (binding `{binding}`), which no pass writes",
-                            p.name,
-                            buffers
-                                .get(id.0)
-                                .map_or("<no such buffer>", |b| b.name.as_str())
-                        ),
-                    })?;
+            let w = (id.0 < nb).then(|| writer[id.0]).flatten().ok_or_else(|| GraphError::Expand {
+                node: p.node.clone(),
+                message: format!(
+                    "pass `{}` reads `{}` (binding `{binding}`), which no pass writes",
+                    p.name,
+                    buffers.get(id.0).map_or("<no such buffer>", |b| b.name.as_str())
+                ),
+            })?;
             g.add_edge(idx[w], idx[pi], *id);
         }
     }
@@ -132,13 +117,10 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     let mut live = vec![false; passes.len()];
     let rev = Reversed(&g);
     for (node, port, id) in &sink_inputs {
-        let w = (id.0 < nb)
-            .then(|| writer[id.0])
-            .flatten()
-            .ok_or_else(|| GraphError::Expand {
-                node: node.clone(),
-                message: format!("sink input `{port}` is a buffer that no pass writes"),
-            })?;
+        let w = (id.0 < nb).then(|| writer[id.0]).flatten().ok_or_else(|| GraphError::Expand {
+            node: node.clone(),
+            message: format!("sink input `{port}` is a buffer that no pass writes"),
+        })?;
         if buffers[id.0].layers != 1 {
             return Err(GraphError::Expand {
                 node: node.clone(),
@@ -167,7 +149,10 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
                 if read {
                     return Err(GraphError::Expand {
                         node: buffers[h.buffer.0].name.clone(),
-                        message: format!("asks for the previous frame of `{}`, which no pass writes", buffers[h.source.0].name),
+                        message: format!(
+                            "asks for the previous frame of `{}`, which no pass writes",
+                            buffers[h.source.0].name
+                        ),
                     });
                 }
                 continue;
@@ -184,12 +169,8 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             break;
         }
     }
-    let culled: Vec<String> = passes
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !live[*i])
-        .map(|(_, p)| p.name.clone())
-        .collect();
+    let culled: Vec<String> =
+        passes.iter().enumerate().filter(|(i, _)| !live[*i]).map(|(_, p)| p.name.clone()).collect();
 
     // Deterministic topological order of the live passes (Kahn; ready set ordered by expansion index).
     let mut indeg = vec![0usize; passes.len()];
@@ -199,10 +180,8 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         }
     }
     let key = |i: usize| Reverse((passes[i].stage, i));
-    let mut ready: BinaryHeap<Reverse<(Stage, usize)>> = (0..passes.len())
-        .filter(|&i| live[i] && indeg[i] == 0)
-        .map(key)
-        .collect();
+    let mut ready: BinaryHeap<Reverse<(Stage, usize)>> =
+        (0..passes.len()).filter(|&i| live[i] && indeg[i] == 0).map(key).collect();
     let mut order: Vec<usize> = Vec::new();
     while let Some(Reverse((_, i))) = ready.pop() {
         order.push(i);
@@ -217,9 +196,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     }
     let live_count = live.iter().filter(|&&l| l).count();
     if order.len() != live_count {
-        let stuck = (0..passes.len())
-            .find(|&i| live[i] && indeg[i] > 0)
-            .unwrap();
+        let stuck = (0..passes.len()).find(|&i| live[i] && indeg[i] > 0).unwrap();
         return Err(GraphError::Expand {
             node: passes[stuck].node.clone(),
             message: format!("pass `{}` is part of a cycle of passes", passes[stuck].name),
@@ -235,10 +212,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     for (b, w) in writer.iter().enumerate() {
         if let Some(w) = *w {
             if live[w] {
-                lifetimes[b] = Some(Lifetime {
-                    first: position[w],
-                    last: position[w],
-                });
+                lifetimes[b] = Some(Lifetime { first: position[w], last: position[w] });
             }
         }
     }
@@ -280,8 +254,8 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     for b in by_first {
         let l = lifetimes[b].unwrap();
         let (f, n) = (buffers[b].format, buffers[b].layers);
-        let free = (0..slot_formats.len())
-            .find(|&s| slot_formats[s] == f && slot_layers[s] == n && slot_last[s] < l.first);
+        let free =
+            (0..slot_formats.len()).find(|&s| slot_formats[s] == f && slot_layers[s] == n && slot_last[s] < l.first);
         let s = free.unwrap_or_else(|| {
             slot_formats.push(f);
             slot_layers.push(n);
@@ -401,20 +375,11 @@ impl Schedule {
     /// The buffer memory of this schedule at `width × height` (saturating, never overflowing).
     pub fn buffer_bytes(&self, width: u32, height: u32) -> BufferBytes {
         let pixels = u64::from(width) * u64::from(height);
-        let of = |f: Format, layers: u32| {
-            pixels
-                .saturating_mul(u64::from(layers))
-                .saturating_mul(bytes_per_pixel(f))
-        };
-        let of_buffer =
-            |id: &BufferId| self.buffers.get(id.0).map_or(0, |b| of(b.format, b.layers));
+        let of = |f: Format, layers: u32| pixels.saturating_mul(u64::from(layers)).saturating_mul(bytes_per_pixel(f));
+        let of_buffer = |id: &BufferId| self.buffers.get(id.0).map_or(0, |b| of(b.format, b.layers));
         let sum = |it: &mut dyn Iterator<Item = u64>| it.fold(0u64, u64::saturating_add);
         BufferBytes {
-            pool: sum(&mut self
-                .slot_formats
-                .iter()
-                .zip(&self.slot_layers)
-                .map(|(f, n)| of(*f, *n))),
+            pool: sum(&mut self.slot_formats.iter().zip(&self.slot_layers).map(|(f, n)| of(*f, *n))),
             pass_outputs: self
                 .passes
                 .iter()
@@ -448,59 +413,25 @@ impl Schedule {
 
     /// The buffer handed to sink `node`'s input `port`, if connected.
     pub fn sink(&self, node: &str, port: &str) -> Option<BufferId> {
-        self.sink_inputs
-            .iter()
-            .find(|(n, p, _)| n == node && p == port)
-            .map(|(_, _, id)| *id)
+        self.sink_inputs.iter().find(|(n, p, _)| n == node && p == port).map(|(_, _, id)| *id)
     }
 
     /// Buffers that are scheduled (not culled), in id order.
     pub fn live_buffers(&self) -> impl Iterator<Item = BufferId> + '_ {
-        (0..self.buffers.len())
-            .filter(|&b| self.lifetimes[b].is_some())
-            .map(BufferId)
+        (0..self.buffers.len()).filter(|&b| self.lifetimes[b].is_some()).map(BufferId)
     }
 
     /// Human-readable schedule: passes, buffers with lifetimes and slots, culled passes.
     pub fn table(&self) -> String {
         let mut s = String::new();
-        let name_w = self
-            .passes
-            .iter()
-            .map(|p| p.name.len())
-            .max()
-            .unwrap_or(4)
-            .max(4);
-        let kern_w = self
-            .passes
-            .iter()
-            .map(|p| p.kernel.len())
-            .max()
-            .unwrap_or(6)
-            .max(6);
-        let bname = |id: &BufferId| {
-            self.buffers
-                .get(id.0)
-                .map_or("?", |b| b.name.as_str())
-                .to_string()
-        };
+        let name_w = self.passes.iter().map(|p| p.name.len()).max().unwrap_or(4).max(4);
+        let kern_w = self.passes.iter().map(|p| p.kernel.len()).max().unwrap_or(6).max(6);
+        let bname = |id: &BufferId| self.buffers.get(id.0).map_or("?", |b| b.name.as_str()).to_string();
         let _ = writeln!(s, "passes ({}):", self.passes.len());
-        let _ = writeln!(
-            s,
-            "  {:>3}  {:12}  {:name_w$}  {:kern_w$}  reads -> writes",
-            "#", "stage", "pass", "kernel"
-        );
+        let _ = writeln!(s, "  {:>3}  {:12}  {:name_w$}  {:kern_w$}  reads -> writes", "#", "stage", "pass", "kernel");
         for (i, p) in self.passes.iter().enumerate() {
-            let reads: Vec<String> = p
-                .reads
-                .iter()
-                .map(|(b, id)| format!("{b}={}", bname(id)))
-                .collect();
-            let writes: Vec<String> = p
-                .writes
-                .iter()
-                .map(|(b, id)| format!("{b}={}", bname(id)))
-                .collect();
+            let reads: Vec<String> = p.reads.iter().map(|(b, id)| format!("{b}={}", bname(id))).collect();
+            let writes: Vec<String> = p.writes.iter().map(|(b, id)| format!("{b}={}", bname(id))).collect();
             let random = if p.random { "  (random)" } else { "" };
             let _ = writeln!(
                 s,
@@ -512,49 +443,20 @@ impl Schedule {
                 writes.join(", ")
             );
         }
-        let buf_w = self
-            .buffers
-            .iter()
-            .map(|b| b.name.len())
-            .max()
-            .unwrap_or(6)
-            .max(6);
-        let _ = writeln!(
-            s,
-            "buffers ({} logical, {} physical):",
-            self.live_buffers().count(),
-            self.physical_allocations()
-        );
-        let _ = writeln!(
-            s,
-            "  {:buf_w$}  {:9}  {:9}  slot",
-            "buffer", "format", "lifetime"
-        );
+        let buf_w = self.buffers.iter().map(|b| b.name.len()).max().unwrap_or(6).max(6);
+        let _ =
+            writeln!(s, "buffers ({} logical, {} physical):", self.live_buffers().count(), self.physical_allocations());
+        let _ = writeln!(s, "  {:buf_w$}  {:9}  {:9}  slot", "buffer", "format", "lifetime");
         for (b, info) in self.buffers.iter().enumerate() {
             let (life, slot) = match (self.lifetimes[b], self.slots[b]) {
                 (Some(l), Some(sl)) => (format!("{}..={}", l.first, l.last), sl.to_string()),
                 _ => ("culled".to_string(), "-".to_string()),
             };
-            let sink = if self.sink_inputs.iter().any(|(_, _, id)| id.0 == b) {
-                "  (sink)"
-            } else {
-                ""
-            };
-            let _ = writeln!(
-                s,
-                "  {:buf_w$}  {:9}  {:9}  {slot}{sink}",
-                info.name,
-                info.shape(),
-                life
-            );
+            let sink = if self.sink_inputs.iter().any(|(_, _, id)| id.0 == b) { "  (sink)" } else { "" };
+            let _ = writeln!(s, "  {:buf_w$}  {:9}  {:9}  {slot}{sink}", info.name, info.shape(), life);
         }
         if !self.culled.is_empty() {
-            let _ = writeln!(
-                s,
-                "culled ({}): {}",
-                self.culled.len(),
-                self.culled.join(", ")
-            );
+            let _ = writeln!(s, "culled ({}): {}", self.culled.len(), self.culled.join(", "));
         }
         s
     }
@@ -568,13 +470,7 @@ impl Schedule {
         let mut s = String::from("digraph wedge {\n  rankdir=LR;\n");
         let mut shown: HashSet<usize> = HashSet::new();
         for (i, p) in self.passes.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "  p{i} [shape=box, label=\"{}\\n{}\\n[{}]\"];",
-                esc(&p.name),
-                esc(&p.kernel),
-                p.stage
-            );
+            let _ = writeln!(s, "  p{i} [shape=box, label=\"{}\\n{}\\n[{}]\"];", esc(&p.name), esc(&p.kernel), p.stage);
             for (_, id) in p.reads.iter().chain(&p.writes) {
                 shown.insert(id.0);
             }
@@ -584,17 +480,11 @@ impl Schedule {
         for b in shown {
             let info = &self.buffers[b];
             let sink = self.sink_inputs.iter().any(|(_, _, id)| id.0 == b);
-            let slot = self.slots[b]
-                .map(|s| format!(" [slot {s}]"))
-                .unwrap_or_default();
+            let slot = self.slots[b].map(|s| format!(" [slot {s}]")).unwrap_or_default();
             let _ = writeln!(
                 s,
                 "  b{b} [shape={}, label=\"{}\\n{}{slot}\"];",
-                if sink {
-                    "ellipse, peripheries=2"
-                } else {
-                    "ellipse"
-                },
+                if sink { "ellipse, peripheries=2" } else { "ellipse" },
                 esc(&info.name),
                 info.shape()
             );

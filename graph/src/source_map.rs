@@ -143,9 +143,7 @@ pub fn tokenize(src: &str) -> Vec<Token> {
                             if i < chars.len() {
                                 bump!();
                             }
-                            if let Some(ch) =
-                                u32::from_str_radix(&hex, 16).ok().and_then(char::from_u32)
-                            {
+                            if let Some(ch) = u32::from_str_radix(&hex, 16).ok().and_then(char::from_u32) {
                                 value.push(ch);
                             }
                         }
@@ -157,9 +155,7 @@ pub fn tokenize(src: &str) -> Vec<Token> {
                                     bump!();
                                 }
                             }
-                            if let Some(ch) =
-                                u32::from_str_radix(&hex, 16).ok().and_then(char::from_u32)
-                            {
+                            if let Some(ch) = u32::from_str_radix(&hex, 16).ok().and_then(char::from_u32) {
                                 value.push(ch);
                             }
                         }
@@ -179,20 +175,9 @@ pub fn tokenize(src: &str) -> Vec<Token> {
             if i < chars.len() {
                 bump!();
             }
-            out.push(Token {
-                tok: Tok::Str(value),
-                pos,
-            });
+            out.push(Token { tok: Tok::Str(value), pos });
         } else if (c == 'r' || c == 'b')
-            && raw_string_hashes(
-                &chars,
-                if c == 'b' && next == Some('r') {
-                    i + 2
-                } else {
-                    i + 1
-                },
-            )
-            .is_some()
+            && raw_string_hashes(&chars, if c == 'b' && next == Some('r') { i + 2 } else { i + 1 }).is_some()
             && (c == 'r' || next == Some('r'))
         {
             // Raw string r"…", r#"…"#, br"…": no escapes, ends at `"` followed by as many `#`.
@@ -215,43 +200,26 @@ pub fn tokenize(src: &str) -> Vec<Token> {
                 value.push(chars[i]);
                 bump!();
             }
-            out.push(Token {
-                tok: Tok::Str(value),
-                pos,
-            });
-        } else if c == 'r'
-            && next == Some('#')
-            && chars.get(i + 2).is_some_and(|&c| is_ident_start(c))
-        {
+            out.push(Token { tok: Tok::Str(value), pos });
+        } else if c == 'r' && next == Some('#') && chars.get(i + 2).is_some_and(|&c| is_ident_start(c)) {
             // Raw identifier r#name.
             bump!();
             bump!();
             let mut name = String::new();
-            while i < chars.len()
-                && (is_ident_char(chars[i])
-                    || chars[i] == '.'
-                    || chars[i] == '+'
-                    || chars[i] == '-')
+            while i < chars.len() && (is_ident_char(chars[i]) || chars[i] == '.' || chars[i] == '+' || chars[i] == '-')
             {
                 name.push(chars[i]);
                 bump!();
             }
-            out.push(Token {
-                tok: Tok::Ident(name),
-                pos,
-            });
+            out.push(Token { tok: Tok::Ident(name), pos });
         } else if is_ident_start(c) {
             let mut name = String::new();
             while i < chars.len() && is_ident_char(chars[i]) {
                 name.push(chars[i]);
                 bump!();
             }
-            out.push(Token {
-                tok: Tok::Ident(name),
-                pos,
-            });
-        } else if c.is_ascii_digit()
-            || ((c == '-' || c == '+' || c == '.') && next.is_some_and(|n| n.is_ascii_digit()))
+            out.push(Token { tok: Tok::Ident(name), pos });
+        } else if c.is_ascii_digit() || ((c == '-' || c == '+' || c == '.') && next.is_some_and(|n| n.is_ascii_digit()))
         {
             let start = i;
             bump!();
@@ -265,10 +233,7 @@ pub fn tokenize(src: &str) -> Vec<Token> {
                     break;
                 }
             }
-            out.push(Token {
-                tok: Tok::Number(chars[start..i].iter().collect()),
-                pos,
-            });
+            out.push(Token { tok: Tok::Number(chars[start..i].iter().collect()), pos });
         } else if c == '\'' {
             bump!();
             while i < chars.len() && chars[i] != '\'' {
@@ -282,16 +247,10 @@ pub fn tokenize(src: &str) -> Vec<Token> {
             if i < chars.len() {
                 bump!();
             }
-            out.push(Token {
-                tok: Tok::Char,
-                pos,
-            });
+            out.push(Token { tok: Tok::Char, pos });
         } else {
             bump!();
-            out.push(Token {
-                tok: Tok::Punct(c),
-                pos,
-            });
+            out.push(Token { tok: Tok::Punct(c), pos });
         }
     }
     out
@@ -408,11 +367,7 @@ impl SourceMap {
 
     /// Position of the value written for camera field `name`, else of the camera block.
     pub fn camera_field(&self, name: &str) -> Option<Pos> {
-        self.camera_fields
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, p)| *p)
-            .or(self.camera)
+        self.camera_fields.iter().find(|(n, _)| n == name).map(|(_, p)| *p).or(self.camera)
     }
 }
 
@@ -524,10 +479,7 @@ fn walk_nodes(toks: &[Token], mut i: usize) -> (Vec<NodeSource>, usize) {
 
 /// Walk one node tuple starting just after its `(`; returns the index just after its `)`.
 fn walk_node(toks: &[Token], mut i: usize, tuple: Pos) -> (NodeSource, usize) {
-    let mut node = NodeSource {
-        tuple,
-        ..NodeSource::default()
-    };
+    let mut node = NodeSource { tuple, ..NodeSource::default() };
     while i < toks.len() {
         match &toks[i].tok {
             Tok::Punct(')') => return (node, i + 1),
@@ -637,10 +589,7 @@ mod tests {
         assert_eq!(m.width, Some(Pos { line: 1, col: 29 }));
         assert_eq!(m.nodes[0].name, Some(Pos { line: 3, col: 10 }));
         assert_eq!(m.nodes[0].params, vec![Pos { line: 3, col: 35 }]);
-        assert_eq!(
-            m.nodes[0].inputs,
-            vec![(Pos { line: 4, col: 13 }, Pos { line: 4, col: 18 })]
-        );
+        assert_eq!(m.nodes[0].inputs, vec![(Pos { line: 4, col: 13 }, Pos { line: 4, col: 18 })]);
         assert_eq!(m.nodes[1].kind, Some(Pos { line: 5, col: 18 }));
         assert_eq!(m.nodes[1].name, Some(Pos { line: 5, col: 29 }));
     }

@@ -184,7 +184,11 @@ impl Terms {
     /// Every pair of terms that count the same light.
     pub fn overlapping(&self) -> Vec<(&Term, &Term)> {
         let t = &self.terms;
-        (0..t.len()).flat_map(|i| (i + 1..t.len()).map(move |j| (i, j))).filter(|&(i, j)| t[i].overlaps(&t[j])).map(|(i, j)| (&t[i], &t[j])).collect()
+        (0..t.len())
+            .flat_map(|i| (i + 1..t.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| t[i].overlaps(&t[j]))
+            .map(|(i, j)| (&t[i], &t[j]))
+            .collect()
     }
     /// The distinct views, in order of appearance.
     pub fn views(&self) -> Vec<View> {
@@ -370,7 +374,8 @@ pub(crate) fn check(v: &ValidatedPipeline) -> (TermReport, Vec<Diagnostic>) {
         let refused = if upstream_reported { Vec::new() } else { check_accepted(v, node, &inputs) };
         let connected = node.inputs.keys().map(String::as_str).collect();
         let (factoring, camera, scene) = (v.factoring.as_ref(), v.pipeline.camera.as_ref(), v.scene_facts.as_ref());
-        let q = TermQuery { node: &node.name, params: &node.params, inputs: &inputs, connected, factoring, camera, scene };
+        let q =
+            TermQuery { node: &node.name, params: &node.params, inputs: &inputs, connected, factoring, camera, scene };
         let mut own: Vec<(&'static str, Terms)> = Vec::new();
         for port in node.kind.outputs() {
             if let Some(t) = node.kind.terms(port.name, &q) {
@@ -409,7 +414,9 @@ fn wired_terms(node: &crate::ValidatedNode, report: &TermReport) -> BTreeMap<Str
             let terms = match report.of(pnode, pport) {
                 Some(t) => t.clone().via(&reference),
                 // A radiance output whose kind declares no terms: unknown, carried by name.
-                None if is_undeclared_radiance(node, port) => Terms { terms: Vec::new(), undeclared: vec![reference.clone()] },
+                None if is_undeclared_radiance(node, port) => {
+                    Terms { terms: Vec::new(), undeclared: vec![reference.clone()] }
+                }
                 None => return None,
             };
             Some((port.clone(), terms))
@@ -420,16 +427,24 @@ fn wired_terms(node: &crate::ValidatedNode, report: &TermReport) -> BTreeMap<Str
 /// Whether input `port` of `node` takes radiance (it accepts terms, or it is a sink's vec3 image),
 /// so an output wired into it without declared terms is carried as unknown.
 fn is_undeclared_radiance(node: &crate::ValidatedNode, port: &str) -> bool {
-    node.kind.inputs().iter().any(|d| d.name == port && (d.accepts.is_some() || (node.kind.is_sink() && d.format == crate::Format::Vec3)))
+    node.kind
+        .inputs()
+        .iter()
+        .any(|d| d.name == port && (d.accepts.is_some() || (node.kind.is_sink() && d.format == crate::Format::Vec3)))
 }
 
 /// An input given a term it does not accept, or a view it does not.
-fn check_accepted(v: &ValidatedPipeline, node: &crate::ValidatedNode, inputs: &BTreeMap<String, Terms>) -> Vec<Diagnostic> {
+fn check_accepted(
+    v: &ValidatedPipeline,
+    node: &crate::ValidatedNode,
+    inputs: &BTreeMap<String, Terms>,
+) -> Vec<Diagnostic> {
     let sampler_view = View::of(&CameraSettings::of(v.factoring.as_ref()));
     let mut out = Vec::new();
     for decl in node.kind.inputs() {
         let (Some(accepts), Some(terms)) = (decl.accepts, inputs.get(decl.name)) else { continue };
-        let foreign: Vec<String> = terms.terms.iter().filter(|t| !accepts.kinds.contains(&t.kind)).map(Term::label).collect();
+        let foreign: Vec<String> =
+            terms.terms.iter().filter(|t| !accepts.kinds.contains(&t.kind)).map(Term::label).collect();
         let wrong_view = accepts.view == AcceptView::Sampler && terms.views().iter().any(|w| *w != sampler_view);
         if foreign.is_empty() && !wrong_view {
             continue;
@@ -444,7 +459,11 @@ fn check_accepted(v: &ValidatedPipeline, node: &crate::ValidatedNode, inputs: &B
             ),
             _ => String::new(),
         };
-        let what = if foreign.is_empty() { String::new() } else { format!(", which include {} that it does not take", foreign.join(", ")) };
+        let what = if foreign.is_empty() {
+            String::new()
+        } else {
+            format!(", which include {} that it does not take", foreign.join(", "))
+        };
         out.push(Diagnostic {
             kind: DiagnosticKind::TermNotAccepted,
             location: node.location.clone(),
@@ -469,13 +488,25 @@ fn check_sum(node: &crate::ValidatedNode, terms: &Terms) -> Vec<Diagnostic> {
         if t.via.is_empty() {
             format!("node `{}` itself", node.name)
         } else {
-            let port = node.inputs.iter().find(|(_, (n, p))| format!("{n}.{p}") == t.via).map(|(port, _)| port.as_str()).unwrap_or("?");
+            let port = node
+                .inputs
+                .iter()
+                .find(|(_, (n, p))| format!("{n}.{p}") == t.via)
+                .map(|(port, _)| port.as_str())
+                .unwrap_or("?");
             format!("input `{port}` = `{}`", t.via)
         }
     };
     let mut twice: Vec<String> = Vec::new();
     for (a, b) in terms.overlapping() {
-        twice.push(format!("{}: {} holds {} and {} holds {}", a.kind.name(), source(a), a.label(), source(b), b.label()));
+        twice.push(format!(
+            "{}: {} holds {} and {} holds {}",
+            a.kind.name(),
+            source(a),
+            a.label(),
+            source(b),
+            b.label()
+        ));
     }
     if !twice.is_empty() {
         out.push(Diagnostic {
@@ -493,7 +524,14 @@ fn check_sum(node: &crate::ValidatedNode, terms: &Terms) -> Vec<Diagnostic> {
         let by_view: Vec<String> = views
             .iter()
             .map(|w| {
-                let from: Vec<String> = terms.terms.iter().filter(|t| t.view == *w).map(source).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+                let from: Vec<String> = terms
+                    .terms
+                    .iter()
+                    .filter(|t| t.view == *w)
+                    .map(source)
+                    .collect::<std::collections::BTreeSet<_>>()
+                    .into_iter()
+                    .collect();
                 format!("{} {w}", from.join(", "))
             })
             .collect();
@@ -510,7 +548,12 @@ fn check_sum(node: &crate::ValidatedNode, terms: &Terms) -> Vec<Diagnostic> {
 }
 
 /// Wired radiance inputs whose terms reach none of the node's outputs.
-fn unread_inputs(v: &ValidatedPipeline, node: &crate::ValidatedNode, inputs: &BTreeMap<String, Terms>, own: &[(&'static str, Terms)]) -> Vec<String> {
+fn unread_inputs(
+    v: &ValidatedPipeline,
+    node: &crate::ValidatedNode,
+    inputs: &BTreeMap<String, Terms>,
+    own: &[(&'static str, Terms)],
+) -> Vec<String> {
     if own.is_empty() {
         return Vec::new();
     }
@@ -577,7 +620,8 @@ impl ValidatedPipeline {
         let f = self.factoring.as_ref()?;
         let read = self.nodes.iter().any(|n| n.inputs.values().any(|(from, _)| *from == f.node));
         let node = self.node(&f.node)?;
-        let image = node.kind.outputs().first().map_or_else(|| "its image".to_string(), |o| format!("`{}.{}`", f.node, o.name));
+        let image =
+            node.kind.outputs().first().map_or_else(|| "its image".to_string(), |o| format!("`{}.{}`", f.node, o.name));
         (!read).then(|| {
             format!(
                 "{}: node `{}` ({}) factors the pipeline but no node reads its outputs: its components render through \
@@ -619,11 +663,17 @@ fn uncovered_light(image: &str, terms: &Terms, facts: &crate::SceneFacts) -> Vec
     if facts.area_lights > 0 {
         match terms.area_lights() {
             None => {}
-            Some(covered) if covered.is_empty() => missing.push(format!("direct light from its {} area light(s)", facts.area_lights)),
+            Some(covered) if covered.is_empty() => {
+                missing.push(format!("direct light from its {} area light(s)", facts.area_lights))
+            }
             Some(covered) => {
-                let rest: Vec<String> = (0..facts.area_lights).filter(|i| !covered.contains(i)).map(|i| i.to_string()).collect();
+                let rest: Vec<String> =
+                    (0..facts.area_lights).filter(|i| !covered.contains(i)).map(|i| i.to_string()).collect();
                 if !rest.is_empty() {
-                    missing.push(format!("direct light from area light(s) {} (a SoftShadows node per light, summed with Add)", rest.join(", ")));
+                    missing.push(format!(
+                        "direct light from area light(s) {} (a SoftShadows node per light, summed with Add)",
+                        rest.join(", ")
+                    ));
                 }
             }
         }
@@ -637,7 +687,11 @@ fn uncovered_light(image: &str, terms: &Terms, facts: &crate::SceneFacts) -> Vec
     if missing.is_empty() {
         return Vec::new();
     }
-    vec![format!("the scene has light that {image} does not hold: {}; the image holds {}", missing.join("; "), terms.sum_label())]
+    vec![format!(
+        "the scene has light that {image} does not hold: {}; the image holds {}",
+        missing.join("; "),
+        terms.sum_label()
+    )]
 }
 
 #[cfg(test)]
@@ -653,7 +707,8 @@ mod tests {
         assert!(!t(TermKind::DirectArea).light(0).overlaps(&t(TermKind::DirectArea).light(1)));
         assert!(t(TermKind::DirectArea).overlaps(&t(TermKind::DirectArea).light(1)), "every light covers light 1");
         assert!(!t(TermKind::Emission).overlaps(&t(TermKind::Background)));
-        let sum = Terms::new().with(t(TermKind::Emission)).with(t(TermKind::DirectArea).light(0)).with(t(TermKind::Emission));
+        let sum =
+            Terms::new().with(t(TermKind::Emission)).with(t(TermKind::DirectArea).light(0)).with(t(TermKind::Emission));
         assert_eq!(sum.overlapping().len(), 1);
     }
 
@@ -664,9 +719,15 @@ mod tests {
             .with(Term::new(TermKind::Indirect, lens).detail("1 bounce, diffuse+glossy"))
             .with(Term::new(TermKind::DirectArea, lens).light(0))
             .with(Term::new(TermKind::Emission, lens));
-        assert_eq!(sum.to_string(), "emission + direct(area light 0) + indirect(1 bounce, diffuse+glossy), through the lens");
+        assert_eq!(
+            sum.to_string(),
+            "emission + direct(area light 0) + indirect(1 bounce, diffuse+glossy), through the lens"
+        );
         assert_eq!(sum.area_lights(), Some(vec![0]));
         let mixed = sum.clone().with(t(TermKind::Background));
-        assert!(mixed.to_string().ends_with("mixed: through the lens / through a pinhole at the shutter's centre"), "{mixed}");
+        assert!(
+            mixed.to_string().ends_with("mixed: through the lens / through a pinhole at the shutter's centre"),
+            "{mixed}"
+        );
     }
 }

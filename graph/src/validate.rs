@@ -13,10 +13,10 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::camera_path::{camera_path_problems, PathProblem};
 use crate::decl::{NodeKind, NodeRegistry, ParamDecl, ParamKind, ParamValue, PortDecl};
 use crate::expand::{BufferId, ExpandCtx, Expansion};
 use crate::explain::explain;
-use crate::camera_path::{camera_path_problems, PathProblem};
 use crate::pipeline::{
     CameraSpec, Location, Pipeline, RawParam, MAX_NAME_CHARS, MAX_NODES, MAX_NODE_ENTRIES, MAX_PIPELINE_BYTES,
     MAX_SCENE_CHARS,
@@ -53,11 +53,7 @@ impl LoadedPipeline {
 
     fn loc(&self, pos: Option<Pos>) -> Location {
         let pos = pos.unwrap_or(Pos { line: 1, col: 1 });
-        Location {
-            file: self.path.clone(),
-            line: pos.line,
-            col: pos.col,
-        }
+        Location { file: self.path.clone(), line: pos.line, col: pos.col }
     }
 
     fn node_src(&self, index: usize) -> NodeSource {
@@ -75,11 +71,7 @@ pub fn parse_pipeline(path: &Path, text: &str) -> Result<LoadedPipeline, GraphEr
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let at = |pos: Option<Pos>| {
         let pos = pos.unwrap_or(Pos { line: 1, col: 1 });
-        Location {
-            file: path.to_path_buf(),
-            line: pos.line,
-            col: pos.col,
-        }
+        Location { file: path.to_path_buf(), line: pos.line, col: pos.col }
     };
     if text.len() > MAX_PIPELINE_BYTES {
         return Err(file_too_large(path, text.len() as u64));
@@ -92,22 +84,10 @@ pub fn parse_pipeline(path: &Path, text: &str) -> Result<LoadedPipeline, GraphEr
                 message,
                 help,
             })?;
-            Ok(LoadedPipeline {
-                pipeline,
-                path: path.to_path_buf(),
-                source: text.to_string(),
-                map,
-            })
+            Ok(LoadedPipeline { pipeline, path: path.to_path_buf(), source: text.to_string(), map })
         }
         Err(e) => {
-            let explained = explain(
-                text,
-                &e.code,
-                Pos {
-                    line: e.span.start.line,
-                    col: e.span.start.col,
-                },
-            );
+            let explained = explain(text, &e.code, Pos { line: e.span.start.line, col: e.span.start.col });
             Err(GraphError::Parse {
                 location: at(Some(explained.pos)),
                 message: explained.message,
@@ -119,11 +99,7 @@ pub fn parse_pipeline(path: &Path, text: &str) -> Result<LoadedPipeline, GraphEr
 
 fn file_too_large(path: &Path, bytes: u64) -> GraphError {
     GraphError::TooLarge {
-        location: Location {
-            file: path.to_path_buf(),
-            line: 1,
-            col: 1,
-        },
+        location: Location { file: path.to_path_buf(), line: 1, col: 1 },
         message: format!(
             "the pipeline file is {bytes} bytes, more than the limit of {MAX_PIPELINE_BYTES} bytes (1 MiB)"
         ),
@@ -138,10 +114,7 @@ fn check_limits(pl: &Pipeline, map: &SourceMap) -> Result<(), (Option<Pos>, Stri
     if pl.nodes.len() > MAX_NODES {
         return Err((
             map.nodes_key,
-            format!(
-                "the pipeline has {} nodes, more than the limit of {MAX_NODES}",
-                pl.nodes.len()
-            ),
+            format!("the pipeline has {} nodes, more than the limit of {MAX_NODES}", pl.nodes.len()),
             format!("use at most {MAX_NODES} nodes (a render pipeline needs a handful)"),
         ));
     }
@@ -212,9 +185,7 @@ pub fn load_pipeline(path: &Path) -> Result<LoadedPipeline, GraphError> {
         }
     }
     let mut bytes = Vec::new();
-    file.take(MAX_PIPELINE_BYTES as u64 + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io_err)?;
+    file.take(MAX_PIPELINE_BYTES as u64 + 1).read_to_end(&mut bytes).map_err(io_err)?;
     if bytes.len() > MAX_PIPELINE_BYTES {
         return Err(file_too_large(path, bytes.len() as u64));
     }
@@ -446,11 +417,7 @@ pub struct Diagnostic {
 
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}: error[{}]: {}\n  help: {}",
-            self.location, self.kind, self.message, self.help
-        )
+        write!(f, "{}: error[{}]: {}\n  help: {}", self.location, self.kind, self.message, self.help)
     }
 }
 
@@ -504,14 +471,7 @@ fn ports_list(ports: &[PortDecl]) -> String {
     }
     ports
         .iter()
-        .map(|p| {
-            format!(
-                "{}: {}{}",
-                p.name,
-                p.format,
-                if p.optional { " (optional)" } else { "" }
-            )
-        })
+        .map(|p| format!("{}: {}{}", p.name, p.format, if p.optional { " (optional)" } else { "" }))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -532,7 +492,11 @@ fn params_list(params: &[ParamDecl]) -> String {
             ParamKind::Choice { options, .. } => format!("{}: one of {options:?}", p.name),
             ParamKind::Path { .. } => format!("{}: file path", p.name),
             ParamKind::Vec3 { min, max, colour, .. } => {
-                format!("{}: {} in [{min}, {max}]", p.name, if *colour { "colour (r, g, b)" } else { "three numbers (x, y, z)" })
+                format!(
+                    "{}: {} in [{min}, {max}]",
+                    p.name,
+                    if *colour { "colour (r, g, b)" } else { "three numbers (x, y, z)" }
+                )
             }
         })
         .collect::<Vec<_>>()
@@ -543,10 +507,8 @@ fn params_list(params: &[ParamDecl]) -> String {
 fn type_matches(kind: &ParamKind, v: &ParamValue) -> bool {
     matches!(
         (kind, v),
-        (
-            ParamKind::Float { .. },
-            ParamValue::Float(_) | ParamValue::Int(_)
-        ) | (ParamKind::Int { .. }, ParamValue::Int(_))
+        (ParamKind::Float { .. }, ParamValue::Float(_) | ParamValue::Int(_))
+            | (ParamKind::Int { .. }, ParamValue::Int(_))
             | (ParamKind::Bool { .. }, ParamValue::Bool(_))
             | (ParamKind::Choice { .. } | ParamKind::Path { .. }, ParamValue::Str(_))
             | (ParamKind::Vec3 { .. }, ParamValue::Vec3(_))
@@ -594,26 +556,13 @@ fn printable(s: String) -> String {
     if !s.chars().any(char::is_control) {
         return s;
     }
-    s.chars()
-        .map(|c| {
-            if c.is_control() {
-                c.escape_unicode().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
+    s.chars().map(|c| if c.is_control() { c.escape_unicode().to_string() } else { c.to_string() }).collect()
 }
 
 /// The first names of a list for a help line, and how many were left out.
 fn list_some<S: AsRef<str>>(names: &[S]) -> String {
     const SHOWN: usize = 20;
-    let mut s = names
-        .iter()
-        .take(SHOWN)
-        .map(|n| n.as_ref())
-        .collect::<Vec<_>>()
-        .join(", ");
+    let mut s = names.iter().take(SHOWN).map(|n| n.as_ref()).collect::<Vec<_>>().join(", ");
     if names.len() > SHOWN {
         s.push_str(&format!(", … ({} more)", names.len() - SHOWN));
     }
@@ -623,16 +572,10 @@ fn list_some<S: AsRef<str>>(names: &[S]) -> String {
 /// Check `p` against `reg`; all problems are collected before returning.
 pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipeline, GraphError> {
     let pl = &p.pipeline;
-    let mut r = Reporter {
-        p,
-        list: Vec::new(),
-    };
+    let mut r = Reporter { p, list: Vec::new() };
 
     // Image size.
-    for (what, v, pos) in [
-        ("width", pl.width, p.map.width),
-        ("height", pl.height, p.map.height),
-    ] {
+    for (what, v, pos) in [("width", pl.width, p.map.width), ("height", pl.height, p.map.height)] {
         if v == 0 || v > MAX_SIDE {
             r.add(
                 DiagnosticKind::BadSize,
@@ -643,19 +586,11 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         }
     }
     let pixels = u64::from(pl.width) * u64::from(pl.height);
-    if pl.width > 0
-        && pl.height > 0
-        && pl.width <= MAX_SIDE
-        && pl.height <= MAX_SIDE
-        && pixels > MAX_PIXELS
-    {
+    if pl.width > 0 && pl.height > 0 && pl.width <= MAX_SIDE && pl.height <= MAX_SIDE && pixels > MAX_PIXELS {
         r.add(
             DiagnosticKind::BadSize,
             p.map.width,
-            format!(
-                "{}x{} = {pixels} pixels is more than the limit of {MAX_PIXELS} (2^26)",
-                pl.width, pl.height
-            ),
+            format!("{}x{} = {pixels} pixels is more than the limit of {MAX_PIXELS} (2^26)", pl.width, pl.height),
             "reduce width or height (render tiles separately if you need a larger image)".into(),
         );
     }
@@ -663,12 +598,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     // Camera: a degenerate one renders black or NaN without any other error.
     if let Some(camera) = &pl.camera {
         for problem in camera.problems() {
-            r.add(
-                DiagnosticKind::BadCamera,
-                p.map.camera_field(problem.field),
-                problem.message,
-                problem.help,
-            );
+            r.add(DiagnosticKind::BadCamera, p.map.camera_field(problem.field), problem.message, problem.help);
         }
     }
 
@@ -697,7 +627,12 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             r.add(
                 DiagnosticKind::BadCamera,
                 p.map.camera_path_field(k, "frame"),
-                format!("camera key {} is at frame {}, not after the key before it (frame {})", k + 1, key.frame, pl.camera_path[k - 1].frame),
+                format!(
+                    "camera key {} is at frame {}, not after the key before it (frame {})",
+                    k + 1,
+                    key.frame,
+                    pl.camera_path[k - 1].frame
+                ),
                 "list the keys of `camera_path` in increasing frame order, each frame once".into(),
             );
         }
@@ -706,7 +641,8 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     // Every camera along the path, once its keys are usable: the view it gets between keys. Without
     // a camera block the scene's camera decides `up`, so only the view direction is checked here
     // (a session checks `up` with the scene loaded, [`check_camera_path`]).
-    let keys_ok = pl.camera_path.iter().all(|k| k.problems().is_empty()) && pl.camera_path.windows(2).all(|w| w[0].frame < w[1].frame);
+    let keys_ok = pl.camera_path.iter().all(|k| k.problems().is_empty())
+        && pl.camera_path.windows(2).all(|w| w[0].frame < w[1].frame);
     if keys_ok {
         let (camera, check_up) = match &pl.camera {
             Some(c) => (c.clone(), true),
@@ -727,10 +663,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         let src = p.node_src(i);
         // A reference is `node.port`, so a name with a dot (or blanks, or control characters)
         // could never be referred to.
-        if n.name.is_empty()
-            || n.name.contains('.')
-            || n.name.chars().any(|c| c.is_whitespace() || c.is_control())
-        {
+        if n.name.is_empty() || n.name.contains('.') || n.name.chars().any(|c| c.is_whitespace() || c.is_control()) {
             r.add(
                 DiagnosticKind::BadName,
                 src.name.or(src.tuple_pos()),
@@ -745,10 +678,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             r.add(
                 DiagnosticKind::DuplicateNode,
                 src.name,
-                format!(
-                    "a node named `{}` is already defined at {}:{}",
-                    n.name, f.line, f.col
-                ),
+                format!("a node named `{}` is already defined at {}:{}", n.name, f.line, f.col),
                 "give each node a unique name (and update the references to it)".into(),
             );
         } else {
@@ -774,17 +704,17 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 DiagnosticKind::UnknownNodeKind,
                 src.kind,
                 format!("node `{}` has unknown kind `{}`", n.name, n.kind),
-                format!("{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)", list_some(&names)),
+                format!(
+                    "{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)",
+                    list_some(&names)
+                ),
             );
         }
 
         // Parameters.
         let decls = kind.map(|k| k.params()).unwrap_or_default();
-        let mut params: BTreeMap<String, ParamValue> = decls
-            .iter()
-            .filter(|d| !d.optional)
-            .map(|d| (d.name.to_string(), d.default_value()))
-            .collect();
+        let mut params: BTreeMap<String, ParamValue> =
+            decls.iter().filter(|d| !d.optional).map(|d| (d.name.to_string(), d.default_value())).collect();
         let mut seen: HashSet<&str> = HashSet::new();
         for (j, (key, raw)) in n.params.iter().enumerate() {
             if r.full() {
@@ -807,16 +737,8 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 r.add(
                     DiagnosticKind::UnknownParam,
                     pos,
-                    format!(
-                        "node `{}` of kind `{}` has no parameter `{key}`",
-                        n.name,
-                        k.kind()
-                    ),
-                    format!(
-                        "{closest}parameters of {}: {}",
-                        k.kind(),
-                        params_list(&decls)
-                    ),
+                    format!("node `{}` of kind `{}` has no parameter `{key}`", n.name, k.kind()),
+                    format!("{closest}parameters of {}: {}", k.kind(), params_list(&decls)),
                 );
                 continue;
             };
@@ -837,11 +759,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                         format!("invalid parameter `{key}` of node `{}`", n.name),
                         format!(
                             "{why}{}",
-                            if decl.doc.is_empty() {
-                                String::new()
-                            } else {
-                                format!(" ({})", decl.doc)
-                            }
+                            if decl.doc.is_empty() { String::new() } else { format!(" ({})", decl.doc) }
                         ),
                     );
                 }
@@ -856,11 +774,8 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             if r.full() {
                 break;
             }
-            let (kpos, vpos) = src
-                .inputs
-                .get(j)
-                .map(|&(k, v)| (Some(k), Some(v)))
-                .unwrap_or((src.tuple_pos(), src.tuple_pos()));
+            let (kpos, vpos) =
+                src.inputs.get(j).map(|&(k, v)| (Some(k), Some(v))).unwrap_or((src.tuple_pos(), src.tuple_pos()));
             if let Some(&first) = seen.get(port.as_str()) {
                 r.add(
                     DiagnosticKind::TwoProducers,
@@ -883,11 +798,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                         r.add(
                             DiagnosticKind::UnknownInputPort,
                             kpos,
-                            format!(
-                                "node `{}` of kind `{}` has no input `{port}`",
-                                n.name,
-                                k.kind()
-                            ),
+                            format!("node `{}` of kind `{}` has no input `{port}`", n.name, k.kind()),
                             format!("{closest}inputs of {}: {}", k.kind(), ports_list(&in_decls)),
                         );
                         None
@@ -898,12 +809,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             let Some((pnode, pport)) = split_reference(reference) else {
                 // If the text names a node, offer that node's outputs.
                 let outputs = kind_of(reference)
-                    .map(|k| {
-                        k.outputs()
-                            .iter()
-                            .map(|o| format!("\"{reference}.{}\"", o.name))
-                            .collect::<Vec<_>>()
-                    })
+                    .map(|k| k.outputs().iter().map(|o| format!("\"{reference}.{}\"", o.name)).collect::<Vec<_>>())
                     .filter(|o| !o.is_empty())
                     .map(|o| format!(" (here: {})", o.join(", ")))
                     .unwrap_or_default();
@@ -937,30 +843,17 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                 r.add(
                     DiagnosticKind::UnknownOutputPort,
                     vpos,
-                    format!(
-                        "node `{pnode}` of kind `{}` has no output `{pport}`",
-                        pkind.kind()
-                    ),
-                    format!(
-                        "{closest}outputs of {}: {}",
-                        pkind.kind(),
-                        ports_list(&outs)
-                    ),
+                    format!("node `{pnode}` of kind `{}` has no output `{pport}`", pkind.kind()),
+                    format!("{closest}outputs of {}: {}", pkind.kind(), ports_list(&outs)),
                 );
                 continue;
             };
             if let Some(d) = decl {
                 if d.format != out.format {
-                    let same: Vec<String> = outs
-                        .iter()
-                        .filter(|o| o.format == d.format)
-                        .map(|o| format!("{pnode}.{}", o.name))
-                        .collect();
-                    let alt = if same.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" ({pnode} has: {})", same.join(", "))
-                    };
+                    let same: Vec<String> =
+                        outs.iter().filter(|o| o.format == d.format).map(|o| format!("{pnode}.{}", o.name)).collect();
+                    let alt =
+                        if same.is_empty() { String::new() } else { format!(" ({pnode} has: {})", same.join(", ")) };
                     r.add(
                         DiagnosticKind::FormatConflict,
                         vpos,
@@ -978,10 +871,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
 
         // Required inputs left unconnected.
         if let Some(k) = kind {
-            for d in in_decls
-                .iter()
-                .filter(|d| !d.optional && !seen.contains_key(d.name))
-            {
+            for d in in_decls.iter().filter(|d| !d.optional && !seen.contains_key(d.name)) {
                 if r.full() {
                     break;
                 }
@@ -1014,34 +904,20 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
                         n.name,
                         k.kind()
                     ),
-                    format!(
-                        "add `inputs: {{\"{}\": \"<node>.<port>\"}}`; {hint}",
-                        d.name
-                    ),
+                    format!("add `inputs: {{\"{}\": \"<node>.<port>\"}}`; {hint}", d.name),
                 );
             }
         }
     }
 
     // Sinks.
-    if !pl
-        .nodes
-        .iter()
-        .any(|n| reg.get(&n.kind).is_some_and(|k| k.is_sink()))
-    {
-        let sinks: Vec<&str> = reg
-            .names()
-            .into_iter()
-            .filter(|n| reg.get(n).is_some_and(|k| k.is_sink()))
-            .collect();
+    if !pl.nodes.iter().any(|n| reg.get(&n.kind).is_some_and(|k| k.is_sink())) {
+        let sinks: Vec<&str> = reg.names().into_iter().filter(|n| reg.get(n).is_some_and(|k| k.is_sink())).collect();
         r.add(
             DiagnosticKind::NoSink,
             p.map.nodes_key,
             "the pipeline has no sink, so nothing would be computed".into(),
-            format!(
-                "add a sink node (kinds: {}) and connect what you want to see to it",
-                sinks.join(", ")
-            ),
+            format!("add a sink node (kinds: {}) and connect what you want to see to it", sinks.join(", ")),
         );
     }
 
@@ -1057,12 +933,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         }
         let path: Vec<String> = cycle
             .iter()
-            .map(|(from, out, to, inp)| {
-                format!(
-                    "{}.{out} -> {}.{inp}",
-                    pl.nodes[*from].name, pl.nodes[*to].name
-                )
-            })
+            .map(|(from, out, to, inp)| format!("{}.{out} -> {}.{inp}", pl.nodes[*from].name, pl.nodes[*to].name))
             .collect();
         let first = cycle[0].0;
         r.add(
@@ -1156,7 +1027,12 @@ pub fn check_camera_path(p: &LoadedPipeline, up: (f32, f32, f32)) -> Result<(), 
         .iter()
         .map(|problem| {
             let (pos, message, help) = path_diagnostic(p, problem);
-            Diagnostic { kind: DiagnosticKind::BadCamera, location: p.loc(pos), message: printable(message), help: printable(help) }
+            Diagnostic {
+                kind: DiagnosticKind::BadCamera,
+                location: p.loc(pos),
+                message: printable(message),
+                help: printable(help),
+            }
         })
         .collect();
     if list.is_empty() {
@@ -1171,7 +1047,8 @@ pub fn check_camera_path(p: &LoadedPipeline, up: (f32, f32, f32)) -> Result<(), 
 fn path_diagnostic(p: &LoadedPipeline, problem: &PathProblem) -> (Option<Pos>, String, String) {
     let keys = &p.pipeline.camera_path;
     let (k, a, b) = (problem.key, &keys[problem.key], &keys[problem.key + 1]);
-    let line = |i: usize| p.map.camera_path_field(i, "frame").map_or(String::new(), |pos| format!(", line {}", pos.line));
+    let line =
+        |i: usize| p.map.camera_path_field(i, "frame").map_or(String::new(), |pos| format!(", line {}", pos.line));
     let when = if problem.frame.fract() == 0.0 {
         format!("at frame {}", problem.frame)
     } else {
@@ -1268,10 +1145,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
     let mut written: HashMap<BufferId, String> = HashMap::new(); // buffer → name of the pass writing it
     let mut plan = crate::sampler::SamplerPlan::new(v.sampler.clone());
     for node in &v.nodes {
-        let err = |message: String| GraphError::Expand {
-            node: node.name.clone(),
-            message,
-        };
+        let err = |message: String| GraphError::Expand { node: node.name.clone(), message };
         let mut inputs: BTreeMap<String, BufferId> = BTreeMap::new();
         for (port, (pnode, pport)) in &node.inputs {
             let id = expansion
@@ -1297,16 +1171,8 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         // The node kind must keep its declared contract; a violation is a bug in the kind.
         let kind = node.kind.kind();
         for out in node.kind.outputs() {
-            match expansion
-                .outputs
-                .get(&(node.name.clone(), out.name.to_string()))
-            {
-                None => {
-                    return Err(err(format!(
-                        "kind `{kind}` did not bind its declared output `{}`",
-                        out.name
-                    )))
-                }
+            match expansion.outputs.get(&(node.name.clone(), out.name.to_string())) {
+                None => return Err(err(format!("kind `{kind}` did not bind its declared output `{}`", out.name))),
                 Some(id) => {
                     let f = expansion.buffers[id.0].format;
                     if f != out.format {
@@ -1338,9 +1204,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         if node.kind.is_sink() {
             for d in node.kind.inputs() {
                 if let Some(id) = inputs.get(d.name) {
-                    expansion
-                        .sink_inputs
-                        .push((node.name.clone(), d.name.to_string(), *id));
+                    expansion.sink_inputs.push((node.name.clone(), d.name.to_string(), *id));
                 }
             }
         }
@@ -1363,7 +1227,8 @@ fn follow_data_stages(expansion: &mut Expansion, first_pass: usize) {
         if pass.stage < Stage::Compose {
             continue;
         }
-        let writer_stage = |id: &BufferId| earlier.iter().rev().find(|p| p.writes.iter().any(|(_, b)| b == id)).map(|p| p.stage);
+        let writer_stage =
+            |id: &BufferId| earlier.iter().rev().find(|p| p.writes.iter().any(|(_, b)| b == id)).map(|p| p.stage);
         if let Some(latest) = pass.reads.iter().filter_map(|(_, id)| writer_stage(id)).max() {
             pass.stage = pass.stage.max(latest);
         }
@@ -1374,16 +1239,25 @@ fn follow_data_stages(expansion: &mut Expansion, first_pass: usize) {
 /// input whose producer writes it in a later stage is the user's wiring, not a node kind's bug, so
 /// it is reported at the node with the ports as the pipeline file names them, and what to wire
 /// instead; the scheduler's own stage check stays for node kinds that break the rule inside.
-fn check_input_stages(v: &ValidatedPipeline, node: &ValidatedNode, expansion: &Expansion, first_pass: usize) -> Result<(), GraphError> {
+fn check_input_stages(
+    v: &ValidatedPipeline,
+    node: &ValidatedNode,
+    expansion: &Expansion,
+    first_pass: usize,
+) -> Result<(), GraphError> {
     let (earlier, own) = expansion.passes.split_at(first_pass);
     for (port, (pnode, pport)) in &node.inputs {
         let Some(id) = expansion.outputs.get(&(pnode.clone(), pport.clone())) else { continue };
         let Some(writer) = earlier.iter().find(|p| p.writes.iter().any(|(_, b)| b == id)) else { continue };
-        let Some(reader) = own.iter().find(|p| p.stage < writer.stage && p.reads.iter().any(|(_, b)| b == id)) else { continue };
+        let Some(reader) = own.iter().find(|p| p.stage < writer.stage && p.reads.iter().any(|(_, b)| b == id)) else {
+            continue;
+        };
         let producer = v.node(pnode);
         let kind = |n: Option<&ValidatedNode>| n.map_or_else(String::new, |n| format!(" ({})", n.kind.kind()));
-        let upstream: Vec<String> = producer.map_or_else(Vec::new, |p| p.inputs.values().map(|(n, o)| format!("`{n}.{o}`")).collect());
-        let own_out = node.kind.outputs().first().map_or_else(|| node.name.clone(), |o| format!("{}.{}", node.name, o.name));
+        let upstream: Vec<String> =
+            producer.map_or_else(Vec::new, |p| p.inputs.values().map(|(n, o)| format!("`{n}.{o}`")).collect());
+        let own_out =
+            node.kind.outputs().first().map_or_else(|| node.name.clone(), |o| format!("{}.{}", node.name, o.name));
         let combine = if upstream.is_empty() {
             String::new()
         } else {
@@ -1398,7 +1272,12 @@ fn check_input_stages(v: &ValidatedPipeline, node: &ValidatedNode, expansion: &E
             writer.stage
         );
         let help = format!("{combine}take `{pnode}.{pport}` straight to the Output");
-        return Err(GraphError::Invalid(vec![Diagnostic { kind: DiagnosticKind::StageOrder, location: node.location.clone(), message: printable(message), help: printable(help) }]));
+        return Err(GraphError::Invalid(vec![Diagnostic {
+            kind: DiagnosticKind::StageOrder,
+            location: node.location.clone(),
+            message: printable(message),
+            help: printable(help),
+        }]));
     }
     Ok(())
 }

@@ -8,7 +8,8 @@ use wedge_graph::*;
 
 /// A pipeline with `camera` (a `camera:` line or "") and the path `keys` (frame, position, look_at).
 fn with_path(camera: &str, keys: &[(u32, &str, &str)]) -> String {
-    let mut s = format!("Pipeline(\n    scene: \"builtin:grids\", width: 64, height: 32,\n    {camera}\n    camera_path: [\n");
+    let mut s =
+        format!("Pipeline(\n    scene: \"builtin:grids\", width: 64, height: 32,\n    {camera}\n    camera_path: [\n");
     for (frame, position, look_at) in keys {
         s.push_str(&format!("        (frame: {frame}, position: {position}, look_at: {look_at}),\n"));
     }
@@ -43,20 +44,30 @@ fn a_view_along_up_between_keys_is_refused_with_a_camera_block() {
     let text = with_path(CAMERA, &[(0, "(0, 2, 1)", "(0, 1, 0)"), (10, "(0, 2, -1)", "(0, 1, 0)")]);
     let d = diagnostics(&text);
     assert_eq!(d.len(), 1, "{d:#?}");
-    assert!(d[0].message.contains("the camera at frame 5 breaks a camera rule: camera `up` [0.0, 1.0, 0.0] is parallel"), "{}", d[0].message);
+    assert!(
+        d[0].message.contains("the camera at frame 5 breaks a camera rule: camera `up` [0.0, 1.0, 0.0] is parallel"),
+        "{}",
+        d[0].message
+    );
     assert!(d[0].help.contains("add a key in between"), "{}", d[0].help);
     // Without a block the scene's camera decides `up`: checked when a session has loaded it.
     let text = with_path("", &[(0, "(0, 2, 1)", "(0, 1, 0)"), (10, "(0, 2, -1)", "(0, 1, 0)")]);
     let loaded = parse(&text);
     assert!(validate(&loaded, &registry()).is_ok());
-    let Err(GraphError::Invalid(d)) = check_camera_path(&loaded, (0.0, 1.0, 0.0)) else { panic!("a view along up passed") };
+    let Err(GraphError::Invalid(d)) = check_camera_path(&loaded, (0.0, 1.0, 0.0)) else {
+        panic!("a view along up passed")
+    };
     assert_eq!((d.len(), d[0].location.line), (1, 5), "{d:#?}");
     assert!(check_camera_path(&loaded, (1.0, 0.0, 0.0)).is_ok());
 }
 
 #[test]
 fn ordinary_paths_pass_and_the_renderer_interpolates_the_same_way() {
-    let keys = [(0, "(-0.8, 1.6, 3.3)", "(0, 0.45, 0)"), (23, "(0.8, 1.6, 3.3)", "(0, 0.45, 0)"), (4000000000, "(3, 1, -3)", "(0, 0.45, 0)")];
+    let keys = [
+        (0, "(-0.8, 1.6, 3.3)", "(0, 0.45, 0)"),
+        (23, "(0.8, 1.6, 3.3)", "(0, 0.45, 0)"),
+        (4000000000, "(3, 1, -3)", "(0, 0.45, 0)"),
+    ];
     let loaded = parse(&with_path(CAMERA, &keys));
     assert!(validate(&loaded, &registry()).is_ok());
     let path = &loaded.pipeline.camera_path;

@@ -10,19 +10,13 @@ use common::*;
 use wedge_graph::*;
 
 fn bad(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/bad/pipeline")
-        .join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/bad/pipeline").join(name)
 }
 
 /// Load `tests/data/bad/pipeline/<name>`, expecting a parse error: (line, col, message, help).
 fn parse_error_of(name: &str) -> (usize, usize, String, String) {
     match load_pipeline(&bad(name)) {
-        Err(GraphError::Parse {
-            location,
-            message,
-            help,
-        }) => {
+        Err(GraphError::Parse { location, message, help }) => {
             assert!(location.file.ends_with(name), "{}", location.file.display());
             (location.line, location.col, message, help)
         }
@@ -44,10 +38,7 @@ fn byte_order_mark_is_skipped() {
 fn fractional_number_where_a_whole_number_is_wanted() {
     let (line, col, message, help) = parse_error_of("fractional_width.ron");
     assert_eq!((line, col), (3, 12), "{message}");
-    assert!(
-        message.contains("`width` must be a whole number") && message.contains("64.5"),
-        "{message}"
-    );
+    assert!(message.contains("`width` must be a whole number") && message.contains("64.5"), "{message}");
     assert!(help.contains("`width: 64`"), "{help}");
     assert!(!message.contains("comma"), "{message}");
 }
@@ -56,70 +47,42 @@ fn fractional_number_where_a_whole_number_is_wanted() {
 fn negative_and_too_large_integers() {
     let (line, col, message, help) = parse_error_of("negative_seed.ron");
     assert_eq!((line, col), (5, 11), "{message}");
-    assert!(
-        message.contains("`seed` cannot be negative") && message.contains("-1"),
-        "{message}"
-    );
+    assert!(message.contains("`seed` cannot be negative") && message.contains("-1"), "{message}");
     assert!(help.contains("0 to 4294967295"), "{help}");
 
     let text = pipeline(&[]).replace("width: 64", "width: 4294967296");
-    let Err(GraphError::Parse {
-        location, message, ..
-    }) = parse_pipeline(Path::new("t.ron"), &text)
-    else {
+    let Err(GraphError::Parse { location, message, .. }) = parse_pipeline(Path::new("t.ron"), &text) else {
         panic!("expected a parse error");
     };
     assert_eq!((location.line, location.col), (2, 36));
-    assert!(
-        message.contains("`4294967296` is too large for `width`"),
-        "{message}"
-    );
+    assert!(message.contains("`4294967296` is too large for `width`"), "{message}");
 }
 
 #[test]
 fn quoted_number_asks_to_remove_the_quotes() {
     let (line, col, message, help) = parse_error_of("quoted_height.ron");
     assert_eq!((line, col), (4, 13), "{message}");
-    assert!(
-        message.contains("`height` expects a whole number") && message.contains("\"48\""),
-        "{message}"
-    );
-    assert!(
-        help.contains("remove the quotes") && help.contains("`height: 480`"),
-        "{help}"
-    );
+    assert!(message.contains("`height` expects a whole number") && message.contains("\"48\""), "{message}");
+    assert!(help.contains("remove the quotes") && help.contains("`height: 480`"), "{help}");
 }
 
 #[test]
 fn missing_closing_paren_names_the_open_bracket() {
     let (line, _, message, help) = parse_error_of("unclosed.ron");
     assert_eq!(line, 7, "{message}");
-    assert!(
-        message.contains("the `(` opened at 1:9 is closed"),
-        "{message}"
-    );
+    assert!(message.contains("the `(` opened at 1:9 is closed"), "{message}");
     assert!(help.contains("add the missing `)`"), "{help}");
 }
 
 #[test]
 fn wrong_camera_syntax_shows_the_form() {
-    let text = pipeline(&[]).replace(
-        "nodes:",
-        "camera: (position: (0, 1, 2), look_at: (0, 0, 0), vfov_deg: 45),\n    nodes:",
-    );
-    let Err(GraphError::Parse {
-        location,
-        message,
-        help,
-    }) = parse_pipeline(Path::new("t.ron"), &text)
-    else {
+    let text =
+        pipeline(&[]).replace("nodes:", "camera: (position: (0, 1, 2), look_at: (0, 0, 0), vfov_deg: 45),\n    nodes:");
+    let Err(GraphError::Parse { location, message, help }) = parse_pipeline(Path::new("t.ron"), &text) else {
         panic!("expected a parse error");
     };
     assert_eq!((location.line, location.col), (3, 13), "{message}");
-    assert!(
-        message.contains("`camera` expects `Some(…)` or `None`"),
-        "{message}"
-    );
+    assert!(message.contains("`camera` expects `Some(…)` or `None`"), "{message}");
     assert!(help.contains("camera: Some(("), "{help}");
 }
 
@@ -153,27 +116,15 @@ fn degenerate_camera_is_refused_at_its_fields() {
     let p = camera_problems("camera_nan.ron");
     let at: Vec<(usize, usize)> = p.iter().map(|x| (x.0, x.1)).collect();
     assert_eq!(at, [(6, 19), (8, 13), (10, 26), (11, 25)], "{p:#?}");
-    assert!(
-        p[0].2.contains("`position`") && p[0].2.contains("NaN"),
-        "{}",
-        p[0].2
-    );
+    assert!(p[0].2.contains("`position`") && p[0].2.contains("NaN"), "{}", p[0].2);
     assert!(p[1].2.contains("`up` is (0, 0, 0)"), "{}", p[1].2);
     assert!(p[2].2.contains("aperture_radius` = -1"), "{}", p[2].2);
     assert!(p[3].2.contains("focus_distance` = 0"), "{}", p[3].2);
 
     let p = camera_problems("camera_up_parallel.ron");
     assert_eq!(p.len(), 1, "{p:#?}");
-    assert_eq!(
-        (p[0].0, p[0].1),
-        (5, 13),
-        "the default `up` is not written: point at the camera"
-    );
-    assert!(
-        p[0].2.contains("parallel to the view direction"),
-        "{}",
-        p[0].2
-    );
+    assert_eq!((p[0].0, p[0].1), (5, 13), "the default `up` is not written: point at the camera");
+    assert!(p[0].2.contains("parallel to the view direction"), "{}", p[0].2);
 }
 
 #[test]
@@ -187,30 +138,14 @@ fn camera_rules_accept_ordinary_cameras() {
         focus_distance: None,
         shutter: None,
     };
-    assert!(cam((0.0, 1.0, 4.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 45.0)
-        .problems()
-        .is_empty());
+    assert!(cam((0.0, 1.0, 4.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 45.0).problems().is_empty());
     // Straight down with a tilted up is fine; huge but finite coordinates are fine.
-    assert!(
-        cam((0.0, 5.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, -1.0), 179.0)
-            .problems()
-            .is_empty()
-    );
-    assert!(
-        cam((3e38, 0.0, 0.0), (-3e38, 0.0, 0.0), (0.0, 1.0, 0.0), 0.5)
-            .problems()
-            .is_empty()
-    );
+    assert!(cam((0.0, 5.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, -1.0), 179.0).problems().is_empty());
+    assert!(cam((3e38, 0.0, 0.0), (-3e38, 0.0, 0.0), (0.0, 1.0, 0.0), 0.5).problems().is_empty());
     let p = cam((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), 0.0).problems();
     assert_eq!(p.len(), 1);
     assert_eq!(p[0].field, "vfov_deg");
-    let p = cam(
-        (0.0, 0.0, 0.0),
-        (0.0, 0.0, -1.0),
-        (0.0, 0.0, f32::INFINITY),
-        45.0,
-    )
-    .problems();
+    let p = cam((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 0.0, f32::INFINITY), 45.0).problems();
     assert_eq!(p.iter().map(|x| x.field).collect::<Vec<_>>(), ["up"]);
 }
 
@@ -227,10 +162,7 @@ fn oversized_file_is_refused_before_parsing() {
         match result {
             Err(e @ GraphError::TooLarge { .. }) => {
                 let s = e.to_string();
-                assert!(
-                    s.contains("huge.ron:1:1") && s.contains("limit of 1048576 bytes"),
-                    "{s}"
-                );
+                assert!(s.contains("huge.ron:1:1") && s.contains("limit of 1048576 bytes"), "{s}");
             }
             Err(e) => panic!("expected TooLarge, got {e}"),
             Ok(_) => panic!("expected TooLarge"),
@@ -238,10 +170,7 @@ fn oversized_file_is_refused_before_parsing() {
     }
     // A device that never ends is read only up to the limit.
     if Path::new("/dev/zero").exists() {
-        assert!(matches!(
-            load_pipeline(Path::new("/dev/zero")),
-            Err(GraphError::TooLarge { .. })
-        ));
+        assert!(matches!(load_pipeline(Path::new("/dev/zero")), Err(GraphError::TooLarge { .. })));
     }
 }
 
@@ -263,10 +192,7 @@ fn too_many_nodes_or_long_names_are_refused_after_parsing() {
         Err(e @ GraphError::TooLarge { .. }) => {
             let s = e.to_string();
             assert!(s.starts_with("t.ron:4:16:"), "{s}");
-            assert!(
-                s.contains("the node name is 300 characters long, more than the limit of 256"),
-                "{s}"
-            );
+            assert!(s.contains("the node name is 300 characters long, more than the limit of 256"), "{s}");
         }
         other => panic!("expected TooLarge, got {:?}", other.map(|_| ())),
     }
@@ -276,20 +202,15 @@ fn too_many_nodes_or_long_names_are_refused_after_parsing() {
 fn a_badly_broken_pipeline_reports_a_bounded_number_of_problems() {
     // 1000 nodes, each referring to a node that does not exist: a suggestion per problem is
     // computed over all node names, so the report is capped (and so is the time it takes).
-    let nodes: Vec<String> = (0..1000)
-        .map(|i| format!(r#"(name: "blur{i}", kind: "Blur", inputs: {{"x": "nowhere{i}.a"}})"#))
-        .collect();
+    let nodes: Vec<String> =
+        (0..1000).map(|i| format!(r#"(name: "blur{i}", kind: "Blur", inputs: {{"x": "nowhere{i}.a"}})"#)).collect();
     let refs: Vec<&str> = nodes.iter().map(String::as_str).collect();
     let start = std::time::Instant::now();
     let d = diagnostics(&pipeline(&refs));
     assert_eq!(d.len(), MAX_DIAGNOSTICS);
     assert!(start.elapsed().as_secs_f64() < 2.0, "{:?}", start.elapsed());
     let text = GraphError::Invalid(d).to_string();
-    assert!(
-        text.contains("the first 100; fix these and run again"),
-        "{}",
-        &text[..200]
-    );
+    assert!(text.contains("the first 100; fix these and run again"), "{}", &text[..200]);
     // Help lines list at most 20 names.
     assert!(text.contains(", … (980 more)"), "{}", &text[..2000]);
 }
@@ -302,10 +223,7 @@ fn a_runaway_string_is_quoted_short() {
         panic!("expected a parse error");
     };
     assert!(message.len() < 150, "{message}");
-    assert!(
-        message.contains("`height` expects a whole number") && message.contains('…'),
-        "{message}"
-    );
+    assert!(message.contains("`height` expects a whole number") && message.contains('…'), "{message}");
 }
 
 #[test]
@@ -315,19 +233,10 @@ fn the_largest_allowed_pipeline_compiles_quickly() {
     let n = wedge_graph::pipeline::MAX_NODES;
     let mut nodes = vec![r#"(name: "b0", kind: "Source")"#.to_string()];
     for i in 1..n - 1 {
-        let from = if i == 1 {
-            "b0.a".to_string()
-        } else {
-            format!("b{}.y", i - 1)
-        };
-        nodes.push(format!(
-            r#"(name: "b{i}", kind: "Blur", inputs: {{"x": "{from}"}})"#
-        ));
+        let from = if i == 1 { "b0.a".to_string() } else { format!("b{}.y", i - 1) };
+        nodes.push(format!(r#"(name: "b{i}", kind: "Blur", inputs: {{"x": "{from}"}})"#));
     }
-    nodes.push(format!(
-        r#"(name: "out", kind: "Sink", inputs: {{"color": "b{}.y"}})"#,
-        n - 2
-    ));
+    nodes.push(format!(r#"(name: "out", kind: "Sink", inputs: {{"color": "b{}.y"}})"#, n - 2));
     let refs: Vec<&str> = nodes.iter().map(String::as_str).collect();
     let text = pipeline(&refs);
     let start = std::time::Instant::now();
@@ -345,19 +254,10 @@ fn node_names_must_be_referable_and_messages_stay_printable() {
         r#"(name: "out", kind: "Sink", inputs: {"color": "a.b.a"})"#,
     ]);
     let d = diagnostics(&text);
-    let bad: Vec<&Diagnostic> = d
-        .iter()
-        .filter(|d| d.kind == DiagnosticKind::BadName)
-        .collect();
+    let bad: Vec<&Diagnostic> = d.iter().filter(|d| d.kind == DiagnosticKind::BadName).collect();
     assert_eq!(bad.len(), 2, "{d:#?}");
     assert_eq!((bad[0].location.line, bad[0].location.col), (4, 16));
-    assert!(
-        bad[0]
-            .message
-            .contains("`a.b` cannot be used in references"),
-        "{}",
-        bad[0]
-    );
+    assert!(bad[0].message.contains("`a.b` cannot be used in references"), "{}", bad[0]);
     // The newline in the name is shown as an escape, in every diagnostic that prints it.
     for x in &d {
         assert!(!x.message.contains('\n') && !x.help.contains('\n'), "{x}");
@@ -387,7 +287,8 @@ fn motion_entries_are_checked_at_their_fields() {
     assert!(camera[0].2.contains("not an interval"), "{camera:#?}");
     // A well-formed block validates.
     let nodes = [r#"(name: "src", kind: "Source")"#, r#"(name: "out", kind: "Sink", inputs: {"color": "src.a"})"#];
-    let ok = pipeline(&nodes).replace("    nodes:", "    motion: [(object: \"ball\", translate: (0.3, 0, 0), rotate_deg: 30)],\n    nodes:");
+    let ok = pipeline(&nodes)
+        .replace("    nodes:", "    motion: [(object: \"ball\", translate: (0.3, 0, 0), rotate_deg: 30)],\n    nodes:");
     if let Err(e) = validate(&parse(&ok), &registry()) {
         panic!("{e}");
     }

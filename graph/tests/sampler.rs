@@ -97,14 +97,29 @@ impl NodeKind for Shadowy {
             ParamDecl::int("light", 0, 0, 8, "light"),
             ParamDecl::int("paths", 1, 1, 16, "first-pass paths"),
             ParamDecl::choice("estimator", "light", &["light", "hemisphere", "lens"], "estimator to ask for"),
-            ParamDecl::choice("counts", "constant", &["constant", "spread", "spread0"], "9 per path, or a spread of `rays` (unit 9, or 0)"),
-            ParamDecl::choice("key", "estimator", &["estimator", "glossy"], "the count request names the estimator, or channel `glossy`"),
+            ParamDecl::choice(
+                "counts",
+                "constant",
+                &["constant", "spread", "spread0"],
+                "9 per path, or a spread of `rays` (unit 9, or 0)",
+            ),
+            ParamDecl::choice(
+                "key",
+                "estimator",
+                &["estimator", "glossy"],
+                "the count request names the estimator, or channel `glossy`",
+            ),
         ]
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let ParamValue::Str(estimator) = ctx.param("estimator").clone() else { unreachable!() };
         let light = ctx.param("light").clone();
-        ctx.sampler(SamplerRequest::new().estimator(&estimator).setting("light", light).setting("paths", ctx.param("paths").clone()))?;
+        ctx.sampler(
+            SamplerRequest::new()
+                .estimator(&estimator)
+                .setting("light", light)
+                .setting("paths", ctx.param("paths").clone()),
+        )?;
         let stats = ctx.sampler_output(SamplerPass::First, "stats")?;
         let rays = ctx.buffer("rays", Format::U32);
         ctx.pass("rates", "test.rates", Stage::Bandwidth).read("stats", stats).write("rays", rays).finish();
@@ -117,7 +132,13 @@ impl NodeKind for Shadowy {
             ParamValue::Str(c) if c == "spread0" => PerPrimary::Spread { total: rays, unit: 0 },
             _ => PerPrimary::Constant(9),
         };
-        ctx.sampler_counts(CountRequest { paths: Some(rays), paths_unit: 9, per_primary: vec![(key, per)], max3: false, beyond_first: false })?;
+        ctx.sampler_counts(CountRequest {
+            paths: Some(rays),
+            paths_unit: 9,
+            per_primary: vec![(key, per)],
+            max3: false,
+            beyond_first: false,
+        })?;
         let estimate = ctx.sampler_output(SamplerPass::Final, "estimate")?;
         let y = ctx.buffer("y", Format::F32);
         ctx.pass("compose", "test.compose", Stage::Compose).read("x", estimate).write("y", y).finish();
@@ -176,7 +197,10 @@ fn two_nodes_share_one_sampler_and_both_requests_reach_its_counts() {
     // The shared stream is not a collision, and stages are in order.
     let s = schedule(e).unwrap();
     let names: Vec<&str> = s.passes.iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["sampler.first", "a.rates", "b.rates", "sampler.counts", "sampler.per_light", "sampler.adaptive", "a.compose"]);
+    assert_eq!(
+        names,
+        ["sampler.first", "a.rates", "b.rates", "sampler.counts", "sampler.per_light", "sampler.adaptive", "a.compose"]
+    );
 }
 
 #[test]
@@ -192,7 +216,9 @@ fn conflicting_settings_are_an_error_naming_both_nodes() {
     .unwrap_err()
     .to_string();
     assert!(
-        err.contains("node `b`") && err.contains("needs the shared sampler's `light` = 2, but node `a` needs 1: shadow rays go to one light"),
+        err.contains("node `b`")
+            && err
+                .contains("needs the shared sampler's `light` = 2, but node `a` needs 1: shadow rays go to one light"),
         "{err}"
     );
 }
@@ -213,7 +239,10 @@ fn negotiable_settings_take_the_kinds_rule() {
         .unwrap();
         assert_eq!(pass(&e, "sampler.first").params["count"], ParamValue::Int(4), "paths {a} and {b}");
     }
-    assert_eq!(SettingMerge::Any.merge(&ParamValue::Bool(false), &ParamValue::Bool(true)), Some(ParamValue::Bool(true)));
+    assert_eq!(
+        SettingMerge::Any.merge(&ParamValue::Bool(false), &ParamValue::Bool(true)),
+        Some(ParamValue::Bool(true))
+    );
     assert_eq!(SettingMerge::Max.merge(&ParamValue::Int(2), &ParamValue::Float(3.0)), None, "kinds differ");
     assert_eq!(SettingMerge::Equal { why: "" }.merge(&ParamValue::Int(2), &ParamValue::Int(3)), None);
 }
@@ -239,7 +268,11 @@ fn estimators_merge_and_unknown_ones_are_errors() {
 
 #[test]
 fn no_node_asking_means_no_sampler_passes() {
-    let e = expansion(&[r#"(name: "s", kind: "Source")"#, r#"(name: "out", kind: "Sink", inputs: {"color": "s.a"})"#], true).unwrap();
+    let e = expansion(
+        &[r#"(name: "s", kind: "Source")"#, r#"(name: "out", kind: "Sink", inputs: {"color": "s.a"})"#],
+        true,
+    )
+    .unwrap();
     assert!(e.passes.iter().all(|p| p.node != SAMPLER_NODE), "{:?}", e.passes);
     assert!(e.buffers.iter().all(|b| !b.name.starts_with("sampler.")));
 }
@@ -248,16 +281,10 @@ fn no_node_asking_means_no_sampler_passes() {
 fn asking_without_a_registered_sampler_or_under_its_name_is_an_error() {
     let err = expansion(&[r#"(name: "a", kind: "Shadowy")"#, TWO_LIGHTS_SINK], false).unwrap_err().to_string();
     assert!(err.contains("node `a`") && err.contains("no sampler kind is registered"), "{err}");
-    let err = expansion(
-        &[
-            r#"(name: "a", kind: "Shadowy")"#,
-            r#"(name: "sampler", kind: "Source")"#,
-            TWO_LIGHTS_SINK,
-        ],
-        true,
-    )
-    .unwrap_err()
-    .to_string();
+    let err =
+        expansion(&[r#"(name: "a", kind: "Shadowy")"#, r#"(name: "sampler", kind: "Source")"#, TWO_LIGHTS_SINK], true)
+            .unwrap_err()
+            .to_string();
     assert!(err.contains("node `sampler`") && err.contains("`a`") && err.contains("rename this node"), "{err}");
 }
 
@@ -281,12 +308,18 @@ fn reference_is_n_jointly_stratified_paths_of_one_secondary_each() {
 fn count_requests_may_name_a_channel_of_an_asked_estimator_and_a_spread_needs_a_unit() {
     // `glossy` is a channel of `hemisphere`: fine where a node asked for `hemisphere`, an error naming
     // the estimator where none did.
-    let ok = [r#"(name: "a", kind: "Shadowy", params: {"estimator": "hemisphere", "key": "glossy", "counts": "spread"})"#, TWO_LIGHTS_SINK];
+    let ok = [
+        r#"(name: "a", kind: "Shadowy", params: {"estimator": "hemisphere", "key": "glossy", "counts": "spread"})"#,
+        TWO_LIGHTS_SINK,
+    ];
     expansion(&ok, true).unwrap();
     let err = expansion(&[r#"(name: "a", kind: "Shadowy", params: {"key": "glossy"})"#, TWO_LIGHTS_SINK], true)
         .unwrap_err()
         .to_string();
-    assert!(err.contains("node `a`") && err.contains("estimator `hemisphere`") && err.contains("no node asked"), "{err}");
+    assert!(
+        err.contains("node `a`") && err.contains("estimator `hemisphere`") && err.contains("no node asked"),
+        "{err}"
+    );
     let err = expansion(&[r#"(name: "a", kind: "Shadowy", params: {"counts": "spread0"})"#, TWO_LIGHTS_SINK], true)
         .unwrap_err()
         .to_string();

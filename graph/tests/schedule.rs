@@ -21,23 +21,13 @@ fn pass_names(s: &Schedule) -> Vec<&str> {
 }
 
 fn buffer(s: &Schedule, name: &str) -> BufferId {
-    BufferId(
-        s.buffers
-            .iter()
-            .position(|b| b.name == name)
-            .unwrap_or_else(|| panic!("no buffer {name}")),
-    )
+    BufferId(s.buffers.iter().position(|b| b.name == name).unwrap_or_else(|| panic!("no buffer {name}")))
 }
 
 #[test]
 fn chain_order_and_lifetimes() {
     // Source -> Blur -> Blur -> Sink.
-    let text = pipeline(&[
-        SRC,
-        &blur("b1", "src.a"),
-        &blur("b2", "b1.y"),
-        &sink("b2.y"),
-    ]);
+    let text = pipeline(&[SRC, &blur("b1", "src.a"), &blur("b2", "b1.y"), &sink("b2.y")]);
     let (_, s) = compile_text(&text);
     assert_eq!(pass_names(&s), ["src.gen", "b1.h", "b1.v", "b2.h", "b2.v"]);
     assert!(s.culled.is_empty());
@@ -66,31 +56,18 @@ fn sink_input_read_early_lives_to_the_end() {
         r#"(name: "out2", kind: "Sink", inputs: {"color": "b1.y"})"#,
     ]);
     let (_, s) = compile_text(&text);
-    assert_eq!(
-        s.lifetimes[buffer(&s, "src.a").0],
-        Some(Lifetime { first: 0, last: 2 })
-    );
+    assert_eq!(s.lifetimes[buffer(&s, "src.a").0], Some(Lifetime { first: 0, last: 2 }));
 }
 
 #[test]
 fn schedule_respects_dependencies() {
     // Nodes written in reverse; two branches joined at the sink through `aux`-free wiring.
-    let text = pipeline(&[
-        &sink("b3.y"),
-        &blur("b3", "b2.y"),
-        &blur("b2", "b1.y"),
-        &blur("b1", "src.a"),
-        SRC,
-    ]);
+    let text = pipeline(&[&sink("b3.y"), &blur("b3", "b2.y"), &blur("b2", "b1.y"), &blur("b1", "src.a"), SRC]);
     let (_, s) = compile_text(&text);
     let pos = |name: &str| s.passes.iter().position(|p| p.name == name).unwrap();
     for (i, p) in s.passes.iter().enumerate() {
         for (_, id) in &p.reads {
-            let writer = s
-                .passes
-                .iter()
-                .position(|q| q.writes.iter().any(|(_, w)| w == id))
-                .unwrap();
+            let writer = s.passes.iter().position(|q| q.writes.iter().any(|(_, w)| w == id)).unwrap();
             assert!(writer < i, "{} reads a buffer written later", p.name);
         }
     }
@@ -99,22 +76,13 @@ fn schedule_respects_dependencies() {
 
 #[test]
 fn unread_blur_is_culled() {
-    let text = pipeline(&[
-        SRC,
-        &blur("used", "src.a"),
-        &blur("debug", "src.a"),
-        &sink("used.y"),
-    ]);
+    let text = pipeline(&[SRC, &blur("used", "src.a"), &blur("debug", "src.a"), &sink("used.y")]);
     let (_, s) = compile_text(&text);
     assert_eq!(s.culled, ["debug.h", "debug.v"]);
     assert_eq!(pass_names(&s), ["src.gen", "used.h", "used.v"]);
     assert_eq!(s.lifetimes[buffer(&s, "debug.tmp").0], None);
     assert_eq!(s.slots[buffer(&s, "debug.y").0], None);
-    assert!(
-        s.table().contains("culled (2): debug.h, debug.v"),
-        "{}",
-        s.table()
-    );
+    assert!(s.table().contains("culled (2): debug.h, debug.v"), "{}", s.table());
 }
 
 #[test]
@@ -130,10 +98,7 @@ fn pool_plan_of_four_blurs_shares_slots_without_overlap() {
     let (_, s) = compile_text(&text);
     let live: Vec<BufferId> = s.live_buffers().collect();
     assert_eq!(live.len(), 10); // src.a, src.b, 4 × (tmp, y)
-    let f32_buffers = live
-        .iter()
-        .filter(|b| s.buffers[b.0].format == Format::F32)
-        .count();
+    let f32_buffers = live.iter().filter(|b| s.buffers[b.0].format == Format::F32).count();
     assert_eq!(f32_buffers, 9);
     // A chain needs only two f32 slots at a time (the one being read and the one being written),
     // plus one vec3 slot.
@@ -145,11 +110,7 @@ fn pool_plan_of_four_blurs_shares_slots_without_overlap() {
         for b in &live[i + 1..] {
             let (lb, sb) = (s.lifetimes[b.0].unwrap(), s.slots[b.0].unwrap());
             if la.overlaps(&lb) {
-                assert_ne!(
-                    sa, sb,
-                    "{} and {} overlap but share slot {sa}",
-                    s.buffers[a.0].name, s.buffers[b.0].name
-                );
+                assert_ne!(sa, sb, "{} and {} overlap but share slot {sa}", s.buffers[a.0].name, s.buffers[b.0].name);
             }
         }
     }
@@ -165,12 +126,7 @@ fn pool_plan_of_four_blurs_shares_slots_without_overlap() {
 
 #[test]
 fn table_and_dot_show_every_scheduled_pass() {
-    let text = pipeline(&[
-        SRC,
-        &blur("b1", "src.a"),
-        &blur("dbg", "src.a"),
-        &sink("b1.y"),
-    ]);
+    let text = pipeline(&[SRC, &blur("b1", "src.a"), &blur("dbg", "src.a"), &sink("b1.y")]);
     let (_, s) = compile_text(&text);
     let dot = s.to_dot();
     assert!(dot.starts_with("digraph"));
@@ -184,21 +140,12 @@ fn table_and_dot_show_every_scheduled_pass() {
     }
     assert!(dot.contains("shape=box") && dot.contains("shape=ellipse"));
     assert!(dot.contains("b1.tmp\\nf32"), "{dot}");
-    assert!(
-        !dot.contains("dbg.h"),
-        "culled passes are not drawn:\n{dot}"
-    );
+    assert!(!dot.contains("dbg.h"), "culled passes are not drawn:\n{dot}");
     let table = s.table();
     for p in &s.passes {
-        assert!(
-            table.contains(&p.name) && table.contains(&p.kernel),
-            "{table}"
-        );
+        assert!(table.contains(&p.name) && table.contains(&p.kernel), "{table}");
     }
-    assert!(
-        table.contains("x=src.a") && table.contains("out=b1.tmp"),
-        "{table}"
-    );
+    assert!(table.contains("x=src.a") && table.contains("out=b1.tmp"), "{table}");
     assert!(table.contains("0..=1"), "{table}");
 }
 
@@ -215,17 +162,11 @@ fn expand_err(nodes: &[&str]) -> (String, String) {
 fn broken_node_kinds_are_caught_at_expansion() {
     let (node, message) = expand_err(&[r#"(name: "l", kind: "Lazy")"#, &sink("l.y")]);
     assert_eq!(node, "l");
-    assert!(
-        message.contains("did not bind") && message.contains("`y`"),
-        "{message}"
-    );
+    assert!(message.contains("did not bind") && message.contains("`y`"), "{message}");
 
     let (node, message) = expand_err(&[r#"(name: "t", kind: "Twice")"#, &sink("t.y")]);
     assert_eq!(node, "t");
-    assert!(
-        message.contains("t.p1") && message.contains("t.p2"),
-        "{message}"
-    );
+    assert!(message.contains("t.p1") && message.contains("t.p2"), "{message}");
 
     let (node, message) = expand_err(&[r#"(name: "w", kind: "WrongFormat")"#, &sink("w.y")]);
     assert_eq!(node, "w");
@@ -249,8 +190,7 @@ fn reading_an_unwritten_buffer_is_an_error() {
         reference: Reference::Keep,
         continues: None,
     });
-    e.sink_inputs
-        .push(("out".into(), "color".into(), BufferId(1)));
+    e.sink_inputs.push(("out".into(), "color".into(), BufferId(1)));
     match schedule(e) {
         Err(GraphError::Expand { node, message }) => {
             assert_eq!(node, "n");
@@ -310,7 +250,11 @@ fn previous_frame_buffers_are_inputs_that_keep_their_sources() {
     assert_eq!(s.lifetimes[h.source.0].unwrap().last, end);
     // It has storage of its own.
     let slot = s.slots[h.buffer.0].unwrap();
-    assert!(s.slots.iter().enumerate().all(|(b, sl)| b == h.buffer.0 || *sl != Some(slot) || s.lifetimes[b].unwrap().first > mix));
+    assert!(s
+        .slots
+        .iter()
+        .enumerate()
+        .all(|(b, sl)| b == h.buffer.0 || *sl != Some(slot) || s.lifetimes[b].unwrap().first > mix));
 }
 
 fn pass(name: &str, reads: &[(&str, usize)], writes: &[(&str, usize)]) -> Pass {

@@ -126,7 +126,8 @@ fn effect_like() -> Expansion {
     first.reference = Reference::Continued;
     first.params.insert("count".into(), ParamValue::Int(9));
     b.pass("e.bandwidth", Stage::Bandwidth, &[("stats", "e.initial")], &[("filter_width", "e.width")]);
-    b.pass("e.rates", Stage::Bandwidth, &[("stats", "e.initial")], &[("rays_per_pixel", "e.rays")]).reference = Reference::Count;
+    b.pass("e.rates", Stage::Bandwidth, &[("stats", "e.initial")], &[("rays_per_pixel", "e.rays")]).reference =
+        Reference::Count;
     let adaptive = b.pass(
         "e.sample_adaptive",
         Stage::Adaptive,
@@ -202,7 +203,9 @@ fn a_hand_picked_stream_is_an_error() {
     b.pass("a.sample", Stage::Sample, &[], &[("out", "a.out")]).params.insert("stream".into(), ParamValue::Int(1));
     b.sink("color", "a.out");
     match schedule(b.e) {
-        Err(GraphError::Expand { message, .. }) => assert!(message.contains("`a.sample` sets `stream` by hand"), "{message}"),
+        Err(GraphError::Expand { message, .. }) => {
+            assert!(message.contains("`a.sample` sets `stream` by hand"), "{message}")
+        }
         other => panic!("expected an error, got {:?}", other.map(|_| ())),
     }
 }

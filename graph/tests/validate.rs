@@ -52,12 +52,7 @@ fn ties_in_file_order() {
 #[test]
 fn unknown_node_kind() {
     let bad = r#"(name: "blur", kind: "Blurr", inputs: {"x": "src.a"})"#;
-    let d = single(
-        &pipeline(&[SRC, bad, OUT]),
-        DiagnosticKind::UnknownNodeKind,
-        5,
-        30,
-    );
+    let d = single(&pipeline(&[SRC, bad, OUT]), DiagnosticKind::UnknownNodeKind, 5, 30);
     assert!(d.help.contains("did you mean `Blur`"), "{d}");
     // Every registered kind is listed, the closest first.
     let list = d.help.split("registered kinds: ").nth(1).unwrap();
@@ -66,87 +61,51 @@ fn unknown_node_kind() {
         assert!(list.contains(k), "{d}");
     }
     let shown = d.to_string();
-    assert!(
-        shown.starts_with("test.ron:5:30: error[unknown-node-kind]: "),
-        "{shown}"
-    );
+    assert!(shown.starts_with("test.ron:5:30: error[unknown-node-kind]: "), "{shown}");
     assert!(shown.contains("\n  help: did you mean"), "{shown}");
 }
 
 #[test]
 fn duplicate_node() {
-    let d = single(
-        &pipeline(&[SRC, BLUR, BLUR, OUT]),
-        DiagnosticKind::DuplicateNode,
-        6,
-        16,
-    );
+    let d = single(&pipeline(&[SRC, BLUR, BLUR, OUT]), DiagnosticKind::DuplicateNode, 6, 16);
     assert!(d.message.contains("5:16"), "{d}");
 }
 
 #[test]
 fn unknown_input_port() {
     let bad = r#"(name: "blur", kind: "Blur", inputs: {"x": "src.a", "z": "src.a"})"#;
-    let d = single(
-        &pipeline(&[SRC, bad, OUT]),
-        DiagnosticKind::UnknownInputPort,
-        5,
-        61,
-    );
+    let d = single(&pipeline(&[SRC, bad, OUT]), DiagnosticKind::UnknownInputPort, 5, 61);
     assert!(d.help.contains("x: f32"), "{d}");
 }
 
 #[test]
 fn unknown_output_port() {
     let bad = r#"(name: "out", kind: "Sink", inputs: {"color": "blur.q"})"#;
-    let d = single(
-        &pipeline(&[SRC, BLUR, bad]),
-        DiagnosticKind::UnknownOutputPort,
-        6,
-        55,
-    );
+    let d = single(&pipeline(&[SRC, BLUR, bad]), DiagnosticKind::UnknownOutputPort, 6, 55);
     assert!(d.help.contains("y: f32"), "{d}");
 }
 
 #[test]
 fn bad_reference() {
     let bad = r#"(name: "out", kind: "Sink", inputs: {"color": "blur"})"#;
-    let d = single(
-        &pipeline(&[SRC, BLUR, bad]),
-        DiagnosticKind::BadReference,
-        6,
-        55,
-    );
+    let d = single(&pipeline(&[SRC, BLUR, bad]), DiagnosticKind::BadReference, 6, 55);
     assert!(d.help.contains("<node>.<output port>"), "{d}");
 }
 
 #[test]
 fn unknown_node() {
     let bad = r#"(name: "out", kind: "Sink", inputs: {"color": "blurry.y"})"#;
-    let d = single(
-        &pipeline(&[SRC, BLUR, bad]),
-        DiagnosticKind::UnknownNode,
-        6,
-        55,
-    );
+    let d = single(&pipeline(&[SRC, BLUR, bad]), DiagnosticKind::UnknownNode, 6, 55);
     assert!(d.help.contains("did you mean `blur`"), "{d}");
 }
 
 #[test]
 fn missing_producer() {
     let bad = r#"(name: "out", kind: "Sink")"#;
-    let d = single(
-        &pipeline(&[SRC, BLUR, bad]),
-        DiagnosticKind::MissingProducer,
-        6,
-        16,
-    );
+    let d = single(&pipeline(&[SRC, BLUR, bad]), DiagnosticKind::MissingProducer, 6, 16);
     assert!(d.message.contains("color"), "{d}");
     // The help names the outputs that could be connected.
-    assert!(
-        d.help.contains("\"src.a\"") && d.help.contains("\"blur.y\""),
-        "{d}"
-    );
+    assert!(d.help.contains("\"src.a\"") && d.help.contains("\"blur.y\""), "{d}");
     assert!(!d.help.contains("src.b"), "{d}");
 }
 
@@ -162,27 +121,14 @@ fn optional_input_may_be_left_unconnected_or_connected() {
 #[test]
 fn two_producers() {
     let bad = r#"(name: "out", kind: "Sink", inputs: {"color": "blur.y", "color": "src.a"})"#;
-    single(
-        &pipeline(&[SRC, BLUR, bad]),
-        DiagnosticKind::TwoProducers,
-        6,
-        65,
-    );
+    single(&pipeline(&[SRC, BLUR, bad]), DiagnosticKind::TwoProducers, 6, 65);
 }
 
 #[test]
 fn format_conflict() {
     let bad = r#"(name: "out", kind: "Sink", inputs: {"color": "src.b"})"#;
-    let d = single(
-        &pipeline(&[SRC, BLUR, bad]),
-        DiagnosticKind::FormatConflict,
-        6,
-        55,
-    );
-    assert!(
-        d.message.contains("f32") && d.message.contains("vec3<f32>"),
-        "{d}"
-    );
+    let d = single(&pipeline(&[SRC, BLUR, bad]), DiagnosticKind::FormatConflict, 6, 55);
+    assert!(d.message.contains("f32") && d.message.contains("vec3<f32>"), "{d}");
     assert!(d.help.contains("src.a"), "{d}");
 }
 
@@ -202,16 +148,8 @@ fn cycle_of_three_is_reported_once_with_full_path() {
     let b = r#"(name: "b", kind: "Blur", inputs: {"x": "a.y"})"#;
     let out = r#"(name: "out", kind: "Sink", inputs: {"color": "a.y"})"#;
     // `c` is the first node of the cycle in the file: line 5.
-    let d = single(
-        &pipeline(&[SRC, c, a, b, out]),
-        DiagnosticKind::Cycle,
-        5,
-        16,
-    );
-    assert!(
-        d.message.contains("c.y -> a.x, a.y -> b.x, b.y -> c.x"),
-        "{d}"
-    );
+    let d = single(&pipeline(&[SRC, c, a, b, out]), DiagnosticKind::Cycle, 5, 16);
+    assert!(d.message.contains("c.y -> a.x, a.y -> b.x, b.y -> c.x"), "{d}");
 }
 
 #[test]
@@ -225,42 +163,25 @@ fn self_loop_is_a_cycle() {
 #[test]
 fn unknown_param() {
     let bad = r#"(name: "blur", kind: "Blur", params: {"sigma": 2.0}, inputs: {"x": "src.a"})"#;
-    let d = single(
-        &pipeline(&[SRC, bad, OUT]),
-        DiagnosticKind::UnknownParam,
-        5,
-        47,
-    );
+    let d = single(&pipeline(&[SRC, bad, OUT]), DiagnosticKind::UnknownParam, 5, 47);
     assert!(d.help.contains("mu: number in (0, 100]"), "{d}");
 }
 
 #[test]
 fn duplicate_param() {
-    let bad =
-        r#"(name: "blur", kind: "Blur", params: {"mu": 2.0, "mu": 3.0}, inputs: {"x": "src.a"})"#;
-    single(
-        &pipeline(&[SRC, bad, OUT]),
-        DiagnosticKind::DuplicateParam,
-        5,
-        58,
-    );
+    let bad = r#"(name: "blur", kind: "Blur", params: {"mu": 2.0, "mu": 3.0}, inputs: {"x": "src.a"})"#;
+    single(&pipeline(&[SRC, bad, OUT]), DiagnosticKind::DuplicateParam, 5, 58);
 }
 
 #[test]
 fn param_type() {
     let bad = r#"(name: "blur", kind: "Blur", params: {"mu": "wide", "taps": 2.5, "wide": 1}, inputs: {"x": "src.a"})"#;
     let d = diagnostics(&pipeline(&[SRC, bad, OUT]));
-    let got: Vec<(DiagnosticKind, usize, usize)> = d
-        .iter()
-        .map(|d| (d.kind, d.location.line, d.location.col))
-        .collect();
+    let got: Vec<(DiagnosticKind, usize, usize)> =
+        d.iter().map(|d| (d.kind, d.location.line, d.location.col)).collect();
     assert_eq!(
         got,
-        [
-            (DiagnosticKind::ParamType, 5, 47),
-            (DiagnosticKind::ParamType, 5, 61),
-            (DiagnosticKind::ParamType, 5, 74)
-        ]
+        [(DiagnosticKind::ParamType, 5, 47), (DiagnosticKind::ParamType, 5, 61), (DiagnosticKind::ParamType, 5, 74)]
     );
     assert!(d[0].help.contains("expected a number"), "{}", d[0]);
     assert!(d[1].help.contains("expected an integer"), "{}", d[1]);
@@ -268,20 +189,11 @@ fn param_type() {
 
 #[test]
 fn param_out_of_range() {
-    let bad =
-        r#"(name: "blur", kind: "Blur", params: {"taps": 17, "mu": 0.0}, inputs: {"x": "src.a"})"#;
+    let bad = r#"(name: "blur", kind: "Blur", params: {"taps": 17, "mu": 0.0}, inputs: {"x": "src.a"})"#;
     let d = diagnostics(&pipeline(&[SRC, bad, OUT]));
-    let got: Vec<(DiagnosticKind, usize, usize)> = d
-        .iter()
-        .map(|d| (d.kind, d.location.line, d.location.col))
-        .collect();
-    assert_eq!(
-        got,
-        [
-            (DiagnosticKind::ParamOutOfRange, 5, 47),
-            (DiagnosticKind::ParamOutOfRange, 5, 59)
-        ]
-    );
+    let got: Vec<(DiagnosticKind, usize, usize)> =
+        d.iter().map(|d| (d.kind, d.location.line, d.location.col)).collect();
+    assert_eq!(got, [(DiagnosticKind::ParamOutOfRange, 5, 47), (DiagnosticKind::ParamOutOfRange, 5, 59)]);
     assert!(d[0].help.contains("1 <= taps <= 16"), "{}", d[0]);
     assert!(d[1].help.contains("0 < mu"), "{}", d[1]);
 }
@@ -313,18 +225,10 @@ fn colour_params_are_three_numbers_checked_in_place() {
 fn param_choice() {
     let ok = r#"(name: "src", kind: "Source", params: {"mode": "slow"})"#;
     let v = validate(&parse(&pipeline(&[ok, BLUR, OUT])), &registry()).unwrap();
-    assert_eq!(
-        v.node("src").unwrap().params["mode"],
-        ParamValue::Str("slow".into())
-    );
+    assert_eq!(v.node("src").unwrap().params["mode"], ParamValue::Str("slow".into()));
     let bad = r#"(name: "src", kind: "Source", params: {"mode": "medium"})"#;
     // `"mode"` at column 9 + 39.
-    single(
-        &pipeline(&[bad, BLUR, OUT]),
-        DiagnosticKind::ParamOutOfRange,
-        4,
-        48,
-    );
+    single(&pipeline(&[bad, BLUR, OUT]), DiagnosticKind::ParamOutOfRange, 4, 48);
 }
 
 #[test]
@@ -336,32 +240,13 @@ fn no_sink() {
 #[test]
 fn bad_size() {
     // Line 2 is `    scene: "builtin:grids", width: W, height: H,`; W starts at column 36.
-    single(
-        &pipeline_sized(0, 32, &[SRC, BLUR, OUT]),
-        DiagnosticKind::BadSize,
-        2,
-        36,
-    );
-    single(
-        &pipeline_sized(64, 20000, &[SRC, BLUR, OUT]),
-        DiagnosticKind::BadSize,
-        2,
-        48,
-    );
+    single(&pipeline_sized(0, 32, &[SRC, BLUR, OUT]), DiagnosticKind::BadSize, 2, 36);
+    single(&pipeline_sized(64, 20000, &[SRC, BLUR, OUT]), DiagnosticKind::BadSize, 2, 48);
     // Both sides allowed, but 10^8 pixels > 2^26.
-    let d = single(
-        &pipeline_sized(10000, 10000, &[SRC, BLUR, OUT]),
-        DiagnosticKind::BadSize,
-        2,
-        36,
-    );
+    let d = single(&pipeline_sized(10000, 10000, &[SRC, BLUR, OUT]), DiagnosticKind::BadSize, 2, 36);
     assert!(d.message.contains("100000000"), "{d}");
     // Exactly at the limits is fine.
-    validate(
-        &parse(&pipeline_sized(16384, 4096, &[SRC, BLUR, OUT])),
-        &registry(),
-    )
-    .unwrap();
+    validate(&parse(&pipeline_sized(16384, 4096, &[SRC, BLUR, OUT])), &registry()).unwrap();
 }
 
 #[test]
@@ -371,13 +256,9 @@ fn three_mistakes_in_one_report_in_file_order() {
     let extra = r#"(name: "extra", kind: "Fog")"#;
     let text = pipeline(&[SRC, blur, out, extra]);
     let err = validate(&parse(&text), &registry()).unwrap_err();
-    let GraphError::Invalid(d) = &err else {
-        panic!("{err}")
-    };
-    let got: Vec<(DiagnosticKind, usize, usize)> = d
-        .iter()
-        .map(|d| (d.kind, d.location.line, d.location.col))
-        .collect();
+    let GraphError::Invalid(d) = &err else { panic!("{err}") };
+    let got: Vec<(DiagnosticKind, usize, usize)> =
+        d.iter().map(|d| (d.kind, d.location.line, d.location.col)).collect();
     assert_eq!(
         got,
         [
@@ -387,14 +268,8 @@ fn three_mistakes_in_one_report_in_file_order() {
         ]
     );
     let shown = err.to_string();
-    assert!(
-        shown.starts_with("3 problem(s) in the pipeline:"),
-        "{shown}"
-    );
-    assert!(
-        shown.contains("test.ron:6:72: error[unknown-node]"),
-        "{shown}"
-    );
+    assert!(shown.starts_with("3 problem(s) in the pipeline:"), "{shown}");
+    assert!(shown.contains("test.ron:6:72: error[unknown-node]"), "{shown}");
 }
 
 #[test]
@@ -402,27 +277,15 @@ fn comments_and_odd_layout_do_not_confuse_locations() {
     let text = "// header comment with ( [ { \"quotes\"\nPipeline(\n  /* nodes: [ */ scene: r#\"builtin:\"grids\"#,\n  width: 8, height: 8,\n  nodes: [\n    (name: \"src\", kind: \"Source\"), (name: \"out\",\n      kind: \"Snk\", // typo\n      inputs: {\"color\": \"src.a\"}),\n  ],\n)\n";
     let d = diagnostics(text);
     // The misspelt sink also leaves the pipeline without a sink, reported at the `nodes` key.
-    let got: Vec<(DiagnosticKind, usize, usize)> = d
-        .iter()
-        .map(|d| (d.kind, d.location.line, d.location.col))
-        .collect();
-    assert_eq!(
-        got,
-        [
-            (DiagnosticKind::NoSink, 5, 3),
-            (DiagnosticKind::UnknownNodeKind, 7, 13)
-        ]
-    );
+    let got: Vec<(DiagnosticKind, usize, usize)> =
+        d.iter().map(|d| (d.kind, d.location.line, d.location.col)).collect();
+    assert_eq!(got, [(DiagnosticKind::NoSink, 5, 3), (DiagnosticKind::UnknownNodeKind, 7, 13)]);
     assert!(d[1].help.starts_with("did you mean `Sink`?"), "{}", d[1]);
 }
 
 fn parse_err(text: &str) -> (usize, usize, String, String) {
     match parse_pipeline(Path::new("p.ron"), text) {
-        Err(GraphError::Parse {
-            location,
-            message,
-            help,
-        }) => {
+        Err(GraphError::Parse { location, message, help }) => {
             assert_eq!(location.file, Path::new("p.ron"));
             (location.line, location.col, message, help)
         }
@@ -455,17 +318,12 @@ fn unknown_field_in_node() {
 fn missing_field_and_syntax_errors() {
     let (line, _, message, help) = parse_err(&pipeline(&[r#"(kind: "Source")"#]));
     assert_eq!(line, 4, "{message}");
-    assert!(
-        message.contains("name") && help.contains("name"),
-        "{message} / {help}"
-    );
+    assert!(message.contains("name") && help.contains("name"), "{message} / {help}");
 
-    let (line, _, message, _) =
-        parse_err("Pipeline(\n  scene: \"x\", width: 1 height: 2, nodes: [])");
+    let (line, _, message, _) = parse_err("Pipeline(\n  scene: \"x\", width: 1 height: 2, nodes: [])");
     assert_eq!(line, 2, "{message}");
 
-    let (line, _, message, _) =
-        parse_err("Pipeline(\n  scene: \"x\", width: \"wide\", height: 2, nodes: [])");
+    let (line, _, message, _) = parse_err("Pipeline(\n  scene: \"x\", width: \"wide\", height: 2, nodes: [])");
     assert_eq!(line, 2, "{message}");
 }
 
@@ -503,7 +361,12 @@ fn a_composition_after_an_image_space_filter_runs_after_it() {
     let order: Vec<(&str, Stage)> = s.passes.iter().map(|p| (p.name.as_str(), p.stage)).collect();
     assert_eq!(
         order,
-        [("src.gen", Stage::Sample), ("grade.p", Stage::ImageFilter), ("mix.p", Stage::ImageFilter), ("again.p", Stage::ImageFilter)]
+        [
+            ("src.gen", Stage::Sample),
+            ("grade.p", Stage::ImageFilter),
+            ("mix.p", Stage::ImageFilter),
+            ("again.p", Stage::ImageFilter)
+        ]
     );
 }
 
@@ -519,6 +382,10 @@ fn a_filter_reading_an_image_space_output_is_a_stage_order_error() {
     assert_eq!(d.len(), 1, "{d:#?}");
     assert_eq!(d[0].kind, DiagnosticKind::StageOrder);
     assert_eq!((d[0].location.line, d[0].location.col), (6, 16), "{}", d[0]);
-    assert!(d[0].message.contains("node `blur` (Blur) runs in stage filter, but its input `x` is `grade.y`"), "{}", d[0]);
+    assert!(
+        d[0].message.contains("node `blur` (Blur) runs in stage filter, but its input `x` is `grade.y`"),
+        "{}",
+        d[0]
+    );
     assert!(d[0].help.contains("combine before `grade` instead"), "{}", d[0]);
 }

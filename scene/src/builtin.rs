@@ -97,12 +97,51 @@ use crate::{Camera, Material, Scene, SceneError, Texture};
 use mesh::{add_box, add_ground, add_sphere, add_square_light, add_torus, parametric, smooth_tri};
 
 pub const NAMES: &[&str] = &[
-    "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light",
-    "envmap_real", "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact",
-    "suite_near_light", "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background",
-    "dof_receding", "dof_bokeh", "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room", "mo_fast_thin", "mo_rotating",
-    "mo_shadow_caster", "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy", "env_sun", "env_overcast",
-    "env_glossy", "env_courtyard", "env_sunset", "env_slats", "env_studio", "env_curved",
+    "grids",
+    "curved",
+    "heavy",
+    "cornell",
+    "chess",
+    "spheres",
+    "motion",
+    "envmap",
+    "envmap_light",
+    "envmap_real",
+    "envmap_virtual",
+    "envmap_far",
+    "envmap_empty",
+    "suite_slats",
+    "suite_grate",
+    "suite_contact",
+    "suite_near_light",
+    "suite_textured",
+    "suite_glossy",
+    "suite_room",
+    "dof_foreground",
+    "dof_background",
+    "dof_receding",
+    "dof_bokeh",
+    "dof_thin",
+    "dof_glossy",
+    "dof_wide",
+    "dof_tiny",
+    "dof_room",
+    "mo_fast_thin",
+    "mo_rotating",
+    "mo_shadow_caster",
+    "mo_slow",
+    "mo_sliding_wall",
+    "mo_approach",
+    "mo_crossing",
+    "mo_glossy",
+    "env_sun",
+    "env_overcast",
+    "env_glossy",
+    "env_courtyard",
+    "env_sunset",
+    "env_slats",
+    "env_studio",
+    "env_curved",
 ];
 
 /// The scene suite of issue 16, in the order `wedge bench --suite` runs it: each built-in's name and
@@ -251,7 +290,8 @@ pub enum SuiteFamily {
 }
 
 impl SuiteFamily {
-    pub const ALL: [SuiteFamily; 4] = [SuiteFamily::Shadows, SuiteFamily::Defocus, SuiteFamily::Motion, SuiteFamily::Environment];
+    pub const ALL: [SuiteFamily; 4] =
+        [SuiteFamily::Shadows, SuiteFamily::Defocus, SuiteFamily::Motion, SuiteFamily::Environment];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -297,10 +337,18 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "motion" => Ok(motion::motion()),
         "envmap" => Ok(envmap::envmap(false)),
         "envmap_light" => Ok(envmap::envmap(true)),
-        "envmap_real" => Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false, far: false })),
-        "envmap_virtual" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: false })),
-        "envmap_far" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: true })),
-        "envmap_empty" => Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: false, light: false, far: false })),
+        "envmap_real" => {
+            Ok(envmap::envmap_parts(envmap::Parts { real: true, virtual_objects: false, light: false, far: false }))
+        }
+        "envmap_virtual" => {
+            Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: false }))
+        }
+        "envmap_far" => {
+            Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: true, light: false, far: true }))
+        }
+        "envmap_empty" => {
+            Ok(envmap::envmap_parts(envmap::Parts { real: false, virtual_objects: false, light: false, far: false }))
+        }
         "suite_slats" => Ok(slats::slats()),
         "suite_grate" => Ok(grate::grate()),
         "suite_contact" => Ok(contact::contact()),
@@ -333,10 +381,7 @@ pub(crate) fn builtin_data(name: &str) -> Result<SceneData, SceneError> {
         "env_slats" => Ok(environment_suite::env_slats()),
         "env_studio" => Ok(environment_suite::env_studio()),
         "env_curved" => Ok(environment_suite::env_curved()),
-        _ => Err(SceneError::UnknownBuiltin {
-            name: name.to_string(),
-            known: NAMES.join(", "),
-        }),
+        _ => Err(SceneError::UnknownBuiltin { name: name.to_string(), known: NAMES.join(", ") }),
     }
 }
 
@@ -369,7 +414,6 @@ fn pinhole(position: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
     }
 }
 
-
 /// Three layered, mutually rotated grids of 4 cm bars (x bars below z bars, so no coplanar faces).
 fn add_grids(d: &mut SceneData) {
     const SEGMENT: f32 = 0.1;
@@ -378,11 +422,9 @@ fn add_grids(d: &mut SceneData) {
     // Under a 0.6 m light 3 m up, penumbrae are 0.6·h/(3 − h) = 0.14–0.26 m wide, comparable to the
     // bar spacing, so the three grids' shadows overlap into intricate patterns; heights within a factor
     // 1.8 keep the spread of occluder depths per pixel (s_max/s_min, eq. 3.21) in the thesis's range.
-    for (height, angle_deg, spacing, count) in [
-        (0.6f32, 0.0f32, 0.22f32, 7i32),
-        (0.8, 30.0, 0.26, 6),
-        (1.05, 60.0, 0.30, 5),
-    ] {
+    for (height, angle_deg, spacing, count) in
+        [(0.6f32, 0.0f32, 0.22f32, 7i32), (0.8, 30.0, 0.26, 6), (1.05, 60.0, 0.30, 5)]
+    {
         let o = d.new_object();
         let rot = Quat::from_rotation_y(angle_deg.to_radians());
         let half_len = spacing * count as f32 * 0.5 + 0.1;
@@ -414,13 +456,8 @@ fn grids() -> SceneData {
     let mut d = SceneData::default();
     // Mild checker (0.55/0.75 in linear units) so texture-after-filter is exercised without dominating.
     d.textures.push(Texture::checker(64, 8, 0.55, 0.75));
-    let ground = d.add_material(
-        Material {
-            base_color_texture: Some(0),
-            ..Material::diffuse("ground", Vec3::ONE)
-        },
-        false,
-    );
+    let ground =
+        d.add_material(Material { base_color_texture: Some(0), ..Material::diffuse("ground", Vec3::ONE) }, false);
     let o = d.new_object();
     // 14 m × 12 m so the ground fills the whole frame from the default camera (a 6 m square would leave
     // the top ~17% of the image empty); uv = position/2 m with 8 checks per uv unit → 25 cm squares.
@@ -460,10 +497,7 @@ fn curved() -> SceneData {
         let (y, n) = wavy(x, z);
         (Vec3::new(x, y, z), n)
     });
-    let red = d.add_material(
-        Material::diffuse("sphere", Vec3::new(0.7, 0.35, 0.3)),
-        false,
-    );
+    let red = d.add_material(Material::diffuse("sphere", Vec3::new(0.7, 0.35, 0.3)), false);
     let o = d.new_object();
     add_sphere(&mut d, Vec3::new(-0.6, 0.9, 0.2), 0.35, 32, 64, red, o);
     let blue = d.add_material(Material::diffuse("torus", Vec3::new(0.3, 0.4, 0.7)), false);
@@ -491,39 +525,20 @@ fn heavy() -> SceneData {
     // 200×200 cells = 80k triangles of gently displaced terrain (kept below the grids' lowest bar).
     parametric(&mut d, 200, 200, ground, o, |u, v| {
         let (x, z) = (-4.0 + 8.0 * u, -4.0 + 8.0 * v);
-        let h = |x: f32, z: f32| {
-            0.06 * (3.0 * x).sin() * (2.5 * z).cos() + 0.03 * (7.0 * x + 5.0 * z).sin()
-        };
+        let h = |x: f32, z: f32| 0.06 * (3.0 * x).sin() * (2.5 * z).cos() + 0.03 * (7.0 * x + 5.0 * z).sin();
         let e = 1e-3;
-        let n = Vec3::new(
-            -(h(x + e, z) - h(x - e, z)) / (2.0 * e),
-            1.0,
-            -(h(x, z + e) - h(x, z - e)) / (2.0 * e),
-        );
+        let n = Vec3::new(-(h(x + e, z) - h(x - e, z)) / (2.0 * e), 1.0, -(h(x, z + e) - h(x, z - e)) / (2.0 * e));
         (Vec3::new(x, h(x, z), z), n.normalize())
     });
     add_grids(&mut d);
     add_square_light(&mut d, 10.0, Vec3::new(0.0, 3.0, 0.0), 1.0);
     // 12 spheres × ~7.7k triangles, on a ring outside the light's footprint.
     for k in 0..12 {
-        let m = d.add_material(
-            Material::diffuse(
-                &format!("sphere{k}"),
-                Vec3::new(0.4 + 0.04 * k as f32, 0.5, 0.6),
-            ),
-            false,
-        );
+        let m =
+            d.add_material(Material::diffuse(&format!("sphere{k}"), Vec3::new(0.4 + 0.04 * k as f32, 0.5, 0.6)), false);
         let o = d.new_object();
         let a = k as f32 / 12.0 * TAU;
-        add_sphere(
-            &mut d,
-            Vec3::new(2.6 * a.cos(), 0.45, 2.6 * a.sin()),
-            0.3,
-            40,
-            96,
-            m,
-            o,
-        );
+        add_sphere(&mut d, Vec3::new(2.6 * a.cos(), 0.45, 2.6 * a.sin()), 0.3, 40, 96, m, o);
     }
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 3.6, 5.5),
@@ -546,20 +561,37 @@ fn cornell() -> SceneData {
     let red = d.add_material(Material::diffuse("red", Vec3::new(0.7, 0.12, 0.1)), false);
     let green = d.add_material(Material::diffuse("green", Vec3::new(0.12, 0.55, 0.12)), false);
     let back = d.add_material(
-        Material {
-            base_color_texture: Some(0),
-            ..Material::diffuse("back", Vec3::new(0.85, 0.8, 0.7))
-        },
+        Material { base_color_texture: Some(0), ..Material::diffuse("back", Vec3::new(0.85, 0.8, 0.7)) },
         false,
     );
     let (lo, hi, top) = (-1.0f32, 1.0f32, 2.0f32);
     let walls = [
         // floor, ceiling, back, left, right
-        ([Vec3::new(lo, 0.0, lo), Vec3::new(hi, 0.0, lo), Vec3::new(hi, 0.0, hi), Vec3::new(lo, 0.0, hi)], Vec3::Y, white),
-        ([Vec3::new(lo, top, lo), Vec3::new(hi, top, lo), Vec3::new(hi, top, hi), Vec3::new(lo, top, hi)], -Vec3::Y, white),
-        ([Vec3::new(lo, 0.0, lo), Vec3::new(hi, 0.0, lo), Vec3::new(hi, top, lo), Vec3::new(lo, top, lo)], Vec3::Z, back),
-        ([Vec3::new(lo, 0.0, lo), Vec3::new(lo, 0.0, hi), Vec3::new(lo, top, hi), Vec3::new(lo, top, lo)], Vec3::X, red),
-        ([Vec3::new(hi, 0.0, lo), Vec3::new(hi, 0.0, hi), Vec3::new(hi, top, hi), Vec3::new(hi, top, lo)], -Vec3::X, green),
+        (
+            [Vec3::new(lo, 0.0, lo), Vec3::new(hi, 0.0, lo), Vec3::new(hi, 0.0, hi), Vec3::new(lo, 0.0, hi)],
+            Vec3::Y,
+            white,
+        ),
+        (
+            [Vec3::new(lo, top, lo), Vec3::new(hi, top, lo), Vec3::new(hi, top, hi), Vec3::new(lo, top, hi)],
+            -Vec3::Y,
+            white,
+        ),
+        (
+            [Vec3::new(lo, 0.0, lo), Vec3::new(hi, 0.0, lo), Vec3::new(hi, top, lo), Vec3::new(lo, top, lo)],
+            Vec3::Z,
+            back,
+        ),
+        (
+            [Vec3::new(lo, 0.0, lo), Vec3::new(lo, 0.0, hi), Vec3::new(lo, top, hi), Vec3::new(lo, top, lo)],
+            Vec3::X,
+            red,
+        ),
+        (
+            [Vec3::new(hi, 0.0, lo), Vec3::new(hi, 0.0, hi), Vec3::new(hi, top, hi), Vec3::new(hi, top, lo)],
+            -Vec3::X,
+            green,
+        ),
     ];
     for (p, n, m) in walls {
         let o = d.new_object();

@@ -62,11 +62,7 @@ impl Camera {
     /// look_at", so any finite value is fine); `shutter_open <= shutter_close`. Returns what is wrong,
     /// without the file name.
     pub fn validate(&self) -> Result<(), String> {
-        let vectors = [
-            ("position", self.position),
-            ("look_at", self.look_at),
-            ("up", self.up),
-        ];
+        let vectors = [("position", self.position), ("look_at", self.look_at), ("up", self.up)];
         for (name, v) in vectors {
             if !v.is_finite() {
                 return Err(format!("{name} {v} is not finite"));
@@ -85,10 +81,7 @@ impl Camera {
             }
         }
         if !(self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
-            return Err(format!(
-                "vfov_deg {} is outside 0 < vfov_deg < 180",
-                self.vfov_deg
-            ));
+            return Err(format!("vfov_deg {} is outside 0 < vfov_deg < 180", self.vfov_deg));
         }
         let Some(forward) = (self.look_at - self.position).try_normalize() else {
             return Err(format!(
@@ -100,22 +93,13 @@ impl Camera {
             return Err(format!("up {} has no direction", self.up));
         };
         if forward.cross(up).length() < Self::MIN_UP_VIEW_SINE {
-            return Err(format!(
-                "up {} is parallel to the view direction {forward}",
-                self.up
-            ));
+            return Err(format!("up {} is parallel to the view direction {forward}", self.up));
         }
         if self.aperture_radius < 0.0 {
-            return Err(format!(
-                "aperture_radius {} is negative",
-                self.aperture_radius
-            ));
+            return Err(format!("aperture_radius {} is negative", self.aperture_radius));
         }
         if self.shutter_open > self.shutter_close {
-            return Err(format!(
-                "shutter_open {} is after shutter_close {}",
-                self.shutter_open, self.shutter_close
-            ));
+            return Err(format!("shutter_open {} is after shutter_close {}", self.shutter_open, self.shutter_close));
         }
         Ok(())
     }
@@ -123,16 +107,10 @@ impl Camera {
     /// Orthonormal camera frame (right, up, forward). Falls back to another up vector when `up` is
     /// parallel to the view direction so the frame is never NaN.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
-        let forward = (self.look_at - self.position)
-            .try_normalize()
-            .unwrap_or(Vec3::NEG_Z);
+        let forward = (self.look_at - self.position).try_normalize().unwrap_or(Vec3::NEG_Z);
         let mut right = forward.cross(self.up).try_normalize();
         if right.is_none() {
-            let alt = if forward.y.abs() < 0.9 {
-                Vec3::Y
-            } else {
-                Vec3::Z
-            };
+            let alt = if forward.y.abs() < 0.9 { Vec3::Y } else { Vec3::Z };
             right = forward.cross(alt).try_normalize();
         }
         let right = right.unwrap_or(Vec3::X);
@@ -152,14 +130,7 @@ impl Camera {
     /// Primary ray through image coordinates (px, py) in pixels, (0,0) the top-left corner, y down;
     /// the centre of pixel (x,y) is (x+0.5, y+0.5). `lens` in [0,1)^2 is mapped to the aperture disk with
     /// Shirley's concentric mapping (ignored for a pinhole). Returns (origin, unit direction).
-    pub fn generate_ray(
-        &self,
-        px: f32,
-        py: f32,
-        width: u32,
-        height: u32,
-        lens: Vec2,
-    ) -> (Vec3, Vec3) {
+    pub fn generate_ray(&self, px: f32, py: f32, width: u32, height: u32, lens: Vec2) -> (Vec3, Vec3) {
         let r = self.ray(Vec2::new(px, py), lens, width, height, LensShape::Disk);
         (r.origin, r.dir)
     }
@@ -169,14 +140,7 @@ impl Camera {
     /// distortion, so stratified lens samples stay stratified), scaled by `aperture_radius`; the ray
     /// aims at the focal-plane point of the pinhole ray. A pinhole (`aperture_radius <= 0`) ignores
     /// the lens sample. See [`LensShape`] for the weight.
-    pub fn ray(
-        &self,
-        pixel: Vec2,
-        lens_sample: Vec2,
-        width: u32,
-        height: u32,
-        shape: LensShape,
-    ) -> LensRay {
+    pub fn ray(&self, pixel: Vec2, lens_sample: Vec2, width: u32, height: u32, shape: LensShape) -> LensRay {
         let (right, up, forward) = self.basis();
         let w = width.max(1) as f32;
         let h = height.max(1) as f32;
@@ -185,24 +149,14 @@ impl Camera {
         let sy = (1.0 - 2.0 * pixel.y / h) * tan_half;
         let dir = (forward + sx * right + sy * up).normalize();
         if self.aperture_radius <= 0.0 {
-            return LensRay {
-                origin: self.position,
-                dir,
-                weight: 1.0,
-                lens: Vec2::ZERO,
-            };
+            return LensRay { origin: self.position, dir, weight: 1.0, lens: Vec2::ZERO };
         }
         // Thin lens: every ray through this pixel meets the pinhole ray on the focal plane.
         let focus = self.position + dir * (self.effective_focus_distance() / dir.dot(forward));
         let u = concentric_disk(lens_sample);
         let d = u * self.aperture_radius;
         let origin = self.position + d.x * right + d.y * up;
-        LensRay {
-            origin,
-            dir: (focus - origin).normalize(),
-            weight: shape.weight(u),
-            lens: u,
-        }
+        LensRay { origin, dir: (focus - origin).normalize(), weight: shape.weight(u), lens: u }
     }
 
     /// Circle of confusion, in pixels, of a point at `depth` along the optical axis (thesis eq. 5.2,
@@ -292,10 +246,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     let (r, theta) = if o.x.abs() > o.y.abs() {
         (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
     } else {
-        (
-            o.y,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
-        )
+        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
     };
     Vec2::new(theta.cos(), theta.sin()) * r
 }

@@ -141,10 +141,7 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
     let text = String::from_utf8(bytes).map_err(|e| {
         SceneError::invalid(
             path,
-            format!(
-                "not UTF-8 text (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
+            format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()),
             "save the scene file as UTF-8",
         )
     })?;
@@ -170,16 +167,14 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
                 shutter_open: c.shutter.0,
                 shutter_close: c.shutter.1,
             };
-            camera.validate().map_err(|what| {
-                SceneError::invalid(path, format!("camera: {what}"), Camera::VALID_RULES)
-            })?;
+            camera
+                .validate()
+                .map_err(|what| SceneError::invalid(path, format!("camera: {what}"), Camera::VALID_RULES))?;
             Some(camera)
         }
     };
     let mut res = res.clone();
-    res.shutter = res
-        .shutter
-        .or(camera.map(|c| (c.shutter_open, c.shutter_close)));
+    res.shutter = res.shutter.or(camera.map(|c| (c.shutter_open, c.shutter_close)));
     let res = &res;
     let mut d = match &file.builtin {
         Some(name) => builtin::builtin_data(name)
@@ -242,10 +237,7 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
                 } else {
                     return Err(SceneError::invalid(
                         path,
-                        format!(
-                            "mesh {i} ('{}') asks for material '{name}' which is not defined",
-                            m.path
-                        ),
+                        format!("mesh {i} ('{}') asks for material '{name}' which is not defined", m.path),
                         "use a material name from the mesh or an earlier mesh",
                     ));
                 }
@@ -262,33 +254,15 @@ pub(crate) fn load_ron(path: &Path, res: &Resources) -> Result<Scene, SceneError
     for (i, l) in file.lights.iter().enumerate() {
         let o = d.new_object();
         match *l {
-            LightEntry::Rect {
-                corner,
-                edge_u,
-                edge_v,
-                radiance,
-                two_sided,
-            } => {
+            LightEntry::Rect { corner, edge_u, edge_v, radiance, two_sided } => {
                 let (c, eu, ev) = (v(corner), v(edge_u), v(edge_v));
                 check_light(path, i, eu.cross(ev), v(radiance))?;
-                let m = d.add_material(
-                    Material::emitter(&format!("light{i}"), v(radiance)),
-                    two_sided,
-                );
+                let m = d.add_material(Material::emitter(&format!("light{i}"), v(radiance)), two_sided);
                 d.quad(c, c + eu, c + eu + ev, c + ev, m, o);
             }
-            LightEntry::Triangle {
-                v0,
-                v1,
-                v2,
-                radiance,
-                two_sided,
-            } => {
+            LightEntry::Triangle { v0, v1, v2, radiance, two_sided } => {
                 check_light(path, i, (v(v1) - v(v0)).cross(v(v2) - v(v0)), v(radiance))?;
-                let m = d.add_material(
-                    Material::emitter(&format!("light{i}"), v(radiance)),
-                    two_sided,
-                );
+                let m = d.add_material(Material::emitter(&format!("light{i}"), v(radiance)), two_sided);
                 d.flat(v(v0), v(v1), v(v2), m, o);
             }
         }
@@ -346,12 +320,7 @@ fn check_light(path: &Path, i: usize, cross: Vec3, radiance: Vec3) -> Result<(),
 }
 
 /// A mesh's `motion` block as a [`RigidMotion`] in world space, checked.
-fn mesh_motion(
-    path: &Path,
-    i: usize,
-    m: &MeshEntry,
-    e: &MotionEntry,
-) -> Result<RigidMotion, SceneError> {
+fn mesh_motion(path: &Path, i: usize, m: &MeshEntry, e: &MotionEntry) -> Result<RigidMotion, SceneError> {
     let what = |w: String| {
         SceneError::invalid(
             path,

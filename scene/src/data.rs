@@ -29,17 +29,7 @@ impl SceneData {
 
     /// One triangle with per-vertex normals and uvs (every loader's common path).
     pub fn push(&mut self, p: [Vec3; 3], n: [Vec3; 3], uv: [Vec2; 3], material: u32, object: u32) {
-        self.tris.push((
-            p[0],
-            p[1],
-            p[2],
-            TriangleShading {
-                n,
-                uv,
-                material,
-                object,
-            },
-        ));
+        self.tris.push((p[0], p[1], p[2], TriangleShading { n, uv, material, object }));
     }
 
     /// A new object at rest named `object<id>`.
@@ -69,17 +59,7 @@ impl SceneData {
     /// A triangle with flat normals and zero uvs.
     pub fn flat(&mut self, a: Vec3, b: Vec3, c: Vec3, material: u32, object: u32) {
         let n = (b - a).cross(c - a).normalize_or_zero();
-        self.tris.push((
-            a,
-            b,
-            c,
-            TriangleShading {
-                n: [n; 3],
-                uv: [Vec2::ZERO; 3],
-                material,
-                object,
-            },
-        ));
+        self.tris.push((a, b, c, TriangleShading { n: [n; 3], uv: [Vec2::ZERO; 3], material, object }));
     }
 
     /// A quad a-b-c-d (counter-clockwise around its front) as two flat triangles sharing the a-c diagonal.
@@ -100,8 +80,7 @@ impl SceneData {
         for (a, b, c, mut s) in other.tris {
             s.material = material_override.unwrap_or(s.material + mat_off);
             s.object += obj_off;
-            s.n =
-                s.n.map(|n| normal_m.transform_vector3(n).normalize_or_zero());
+            s.n = s.n.map(|n| normal_m.transform_vector3(n).normalize_or_zero());
             self.tris.push((
                 transform.transform_point3(a),
                 transform.transform_point3(b),
@@ -149,14 +128,7 @@ impl SceneData {
             }
         });
         let two_sided = self.two_sided;
-        let mut scene = Scene::from_objects(
-            name,
-            self.tris,
-            self.materials,
-            self.textures,
-            camera,
-            self.objects,
-        )?;
+        let mut scene = Scene::from_objects(name, self.tris, self.materials, self.textures, camera, self.objects)?;
         scene.set_two_sided_by_material(&two_sided);
         // Loader warnings first (they are about the files), then the builder's (dropped triangles).
         let mut warnings = self.warnings;

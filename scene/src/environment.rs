@@ -181,19 +181,18 @@ impl EnvironmentMap {
     /// 2:1 or over [`crate::limits`], and NaN, infinite, negative or absurdly large (> `MAX_RADIANCE`)
     /// texels (counted by kind; never clamped or spread).
     pub fn load(path: &Path) -> Result<EnvironmentMap, SceneError> {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        let (w, h, texels) =
-            match ext.as_deref() {
-                Some("exr") => read_exr(path)?,
-                Some("hdr") | Some("pic") => read_hdr(path)?,
-                _ => return Err(SceneError::invalid(
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let (w, h, texels) = match ext.as_deref() {
+            Some("exr") => read_exr(path)?,
+            Some("hdr") | Some("pic") => read_hdr(path)?,
+            _ => {
+                return Err(SceneError::invalid(
                     path,
                     "not an environment map format we read",
                     "give a lat-long map as .exr (OpenEXR) or .hdr (Radiance RGBE), or builtin:sky",
-                )),
-            };
+                ))
+            }
+        };
         EnvironmentMap::from_texels(&path.display().to_string(), w, h, texels)
     }
 
@@ -252,11 +251,7 @@ impl EnvironmentMap {
                     "no such built-in environment map",
                     format!(
                         "use one of {}, or a .exr/.hdr file",
-                        BUILTIN_NAMES
-                            .iter()
-                            .map(|n| format!("builtin:{n}"))
-                            .collect::<Vec<_>>()
-                            .join(", ")
+                        BUILTIN_NAMES.iter().map(|n| format!("builtin:{n}")).collect::<Vec<_>>().join(", ")
                     ),
                 ))
             }
@@ -271,11 +266,7 @@ impl EnvironmentMap {
 
     /// The same map with radiance multiplied by `scale` (finite, > 0) and rotated by `rotation_deg`
     /// about +Y (see the module doc); the table is redrawn in the new frame (same texels, same pdfs).
-    pub fn with_params(
-        mut self,
-        scale: f32,
-        rotation_deg: f32,
-    ) -> Result<EnvironmentMap, SceneError> {
+    pub fn with_params(mut self, scale: f32, rotation_deg: f32) -> Result<EnvironmentMap, SceneError> {
         let path = PathBuf::from(&self.name);
         if !(scale.is_finite() && scale > 0.0) {
             return Err(SceneError::invalid(
@@ -284,12 +275,7 @@ impl EnvironmentMap {
                 "give a scale > 0 (1 keeps the map's radiance)",
             ));
         }
-        let brightest = self
-            .data
-            .texels
-            .iter()
-            .map(|c| c[0].max(c[1]).max(c[2]))
-            .fold(0.0f32, f32::max);
+        let brightest = self.data.texels.iter().map(|c| c[0].max(c[1]).max(c[2])).fold(0.0f32, f32::max);
         if (brightest as f64) * (scale as f64) > MAX_RADIANCE as f64 {
             return Err(SceneError::invalid(
                 &path,
@@ -437,11 +423,7 @@ impl EnvironmentMap {
     }
 
     fn world_table(&self) -> Vec<EnvSample> {
-        self.data
-            .table_map
-            .iter()
-            .map(|&(t, phi, c)| self.world_sample(t, phi, c))
-            .collect()
+        self.data.table_map.iter().map(|&(t, phi, c)| self.world_sample(t, phi, c)).collect()
     }
 
     /// GPU data: row boundary values `cot² θ_k` (index 0 unused).
@@ -473,11 +455,7 @@ impl EnvironmentMap {
 fn world_dir(phi_map: f64, cos_theta: f64, rot: f64) -> Vec3 {
     let psi = phi_map - rot;
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    Vec3::new(
-        (-psi.sin() * sin_theta) as f32,
-        cos_theta as f32,
-        (psi.cos() * sin_theta) as f32,
-    )
+    Vec3::new((-psi.sin() * sin_theta) as f32, cos_theta as f32, (psi.cos() * sin_theta) as f32)
 }
 
 impl MapData {
@@ -527,11 +505,7 @@ impl MapData {
             width,
             height,
             texels,
-            total: if total.is_finite() && total > 0.0 {
-                total
-            } else {
-                0.0
-            },
+            total: if total.is_finite() && total > 0.0 { total } else { 0.0 },
             marginal,
             conditional,
             cos_theta,
@@ -610,9 +584,7 @@ impl ColumnBounds {
     fn build(width: u32, rotation_deg: f32) -> ColumnBounds {
         let w = width as usize;
         let rot = (rotation_deg as f64).to_radians();
-        let psi: Vec<f64> = (0..w)
-            .map(|i| (2.0 * PI * i as f64 / w as f64 - rot).rem_euclid(2.0 * PI))
-            .collect();
+        let psi: Vec<f64> = (0..w).map(|i| (2.0 * PI * i as f64 / w as f64 - rot).rem_euclid(2.0 * PI)).collect();
         let mut first = 0usize;
         for i in 1..w {
             if psi[i] < psi[first] {
@@ -629,11 +601,7 @@ impl ColumnBounds {
             q.push(quadrant as u32);
             f.push((s / (s + c)) as f32);
         }
-        ColumnBounds {
-            q,
-            f,
-            first: first as u32,
-        }
+        ColumnBounds { q, f, first: first as u32 }
     }
 
     /// Map column of `dir`: count the sorted boundaries at or before its pseudo-angle (module doc).
@@ -705,11 +673,7 @@ fn invert_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
     // First index with cdf > u, minus one: the last k with cdf[k] <= u.
     let k = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
     let width = cdf[k + 1] - cdf[k];
-    let frac = if width > 0.0 {
-        ((u - cdf[k]) / width).clamp(0.0, 1.0)
-    } else {
-        0.5
-    };
+    let frac = if width > 0.0 { ((u - cdf[k]) / width).clamp(0.0, 1.0) } else { 0.5 };
     (k, frac)
 }
 
@@ -717,10 +681,7 @@ fn invert_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
 /// in base 2), Owen-scrambled with fixed seeds so the table is deterministic.
 pub fn table_point(m: u32) -> (f64, f64) {
     let unit = |v: u32| (v as f64 + 0.5) / 4_294_967_296.0;
-    (
-        unit(owen(m.reverse_bits(), 0x8a3c_0e71)),
-        unit(owen(sobol1(m), 0x1f2b_99d5)),
-    )
+    (unit(owen(m.reverse_bits(), 0x8a3c_0e71)), unit(owen(sobol1(m), 0x1f2b_99d5)))
 }
 
 /// Sobol' dimension 1 (primitive polynomial x + 1) of index `i` as a 32-bit fraction.
@@ -824,10 +785,7 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<(), SceneError> {
             "give a lat-long map with width = 2 × height",
         ));
     }
-    if width > MAX_TEXTURE_SIDE
-        || height > MAX_TEXTURE_SIDE
-        || width as u64 * height as u64 > MAX_TEXTURE_PIXELS
-    {
+    if width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE || width as u64 * height as u64 > MAX_TEXTURE_PIXELS {
         return Err(SceneError::invalid(
             path,
             format!(
@@ -875,24 +833,13 @@ fn check_texels(path: &Path, width: u32, texels: &[[f32; 3]]) -> Result<(), Scen
         .iter()
         .zip(names)
         .filter_map(|(f, n)| {
-            f.map(|k| {
-                format!(
-                    "first {n} at column {}, row {}",
-                    k % width as usize,
-                    k / width as usize
-                )
-            })
+            f.map(|k| format!("first {n} at column {}, row {}", k % width as usize, k / width as usize))
         })
         .collect();
-    let mut what = format!(
-        "the environment map has {} NaN, {} infinite, {} negative texels",
-        counts[0], counts[1], counts[2]
-    );
+    let mut what =
+        format!("the environment map has {} NaN, {} infinite, {} negative texels", counts[0], counts[1], counts[2]);
     if counts[3] > 0 {
-        what += &format!(
-            " and {} over the radiance limit of {MAX_RADIANCE:e}",
-            counts[3]
-        );
+        what += &format!(" and {} over the radiance limit of {MAX_RADIANCE:e}", counts[3]);
     }
     what += &format!(" ({})", at.join("; "));
     Err(SceneError::invalid(
@@ -916,9 +863,7 @@ fn read_exr(path: &Path) -> Result<Texels, SceneError> {
     };
     let mut magic = [0u8; 4];
     if (&bytes[..]).read_exact(&mut magic).is_err() || magic != [0x76, 0x2f, 0x31, 0x01] {
-        return Err(not_exr(
-            "it does not start with the OpenEXR magic number".into(),
-        ));
+        return Err(not_exr("it does not start with the OpenEXR magic number".into()));
     }
     let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(&bytes[..]), false)
         .map_err(|e| not_exr(e.to_string()))?;
@@ -931,21 +876,12 @@ fn read_exr(path: &Path) -> Result<Texels, SceneError> {
     }
     let has = |c: &str| header.channels.list.iter().any(|ch| ch.name.eq(c));
     if !(has("R") && has("G") && has("B")) {
-        let found: Vec<String> = header
-            .channels
-            .list
-            .iter()
-            .map(|ch| ch.name.to_string())
-            .collect();
+        let found: Vec<String> = header.channels.list.iter().map(|ch| ch.name.to_string()).collect();
         return Err(SceneError::invalid(
             path,
             format!(
                 "the first layer has no R, G and B channels (it has {})",
-                if found.is_empty() {
-                    "none".to_string()
-                } else {
-                    found.join(", ")
-                }
+                if found.is_empty() { "none".to_string() } else { found.join(", ") }
             ),
             "export the map with R, G, B channels",
         ));
@@ -960,10 +896,7 @@ fn read_exr(path: &Path) -> Result<Texels, SceneError> {
         .no_deep_data()
         .largest_resolution_level()
         .rgba_channels(
-            |res, _| Pixels {
-                w: res.width(),
-                texels: vec![[0.0; 3]; res.width() * res.height()],
-            },
+            |res, _| Pixels { w: res.width(), texels: vec![[0.0; 3]; res.width() * res.height()] },
             |p: &mut Pixels, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
                 let i = pos.y() * p.w + pos.x();
                 if let Some(t) = p.texels.get_mut(i) {
@@ -1061,12 +994,7 @@ mod procedural {
                 let mut acc = [0.0f64; 3];
                 for sy in 0..4 {
                     for sx in 0..4 {
-                        let d = dir(
-                            x as f64 + (sx as f64 + 0.5) / 4.0,
-                            y as f64 + (sy as f64 + 0.5) / 4.0,
-                            w,
-                            h,
-                        );
+                        let d = dir(x as f64 + (sx as f64 + 0.5) / 4.0, y as f64 + (sy as f64 + 0.5) / 4.0, w, h);
                         let c = f(d);
                         for k in 0..3 {
                             acc[k] += c[k] / 16.0;
@@ -1095,16 +1023,10 @@ mod procedural {
         let sun = at(SUN_U, SUN_ELEVATION_DEG);
         let sun_cos = SUN_RADIUS_DEG.to_radians().cos();
         // Clouds: (centre, angular radius in rad, brightness added).
-        let clouds = [
-            (at(0.62, 25.0), 0.22, 0.9),
-            (at(0.30, 50.0), 0.18, 0.7),
-            (at(0.85, 15.0), 0.25, 0.8),
-        ];
+        let clouds = [(at(0.62, 25.0), 0.22, 0.9), (at(0.30, 50.0), 0.18, 0.7), (at(0.85, 15.0), 0.25, 0.8)];
         // Windows: (u range, elevation range in degrees, radiance).
-        let windows = [
-            ((0.70, 0.76), (5.0, 25.0), [40.0, 36.0, 30.0]),
-            ((0.10, 0.16), (10.0, 30.0), [24.0, 28.0, 34.0]),
-        ];
+        let windows =
+            [((0.70, 0.76), (5.0, 25.0), [40.0, 36.0, 30.0]), ((0.10, 0.16), (10.0, 30.0), [24.0, 28.0, 34.0])];
         let texels = render(w, h, |d| {
             let y = d[1];
             if y < 0.0 {
@@ -1227,9 +1149,5 @@ pub use procedural::{SUN_ELEVATION_DEG, SUN_RADIANCE, SUN_RADIUS_DEG, SUN_U};
 pub fn sky_sun_direction() -> Vec3 {
     let phi = 2.0 * PI * SUN_U;
     let e = SUN_ELEVATION_DEG.to_radians();
-    Vec3::new(
-        (-phi.sin() * e.cos()) as f32,
-        e.sin() as f32,
-        (phi.cos() * e.cos()) as f32,
-    )
+    Vec3::new((-phi.sin() * e.cos()) as f32, e.sin() as f32, (phi.cos() * e.cos()) as f32)
 }

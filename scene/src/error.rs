@@ -19,11 +19,7 @@ pub enum SceneError {
     },
     /// The file was read but its contents are not valid (parse error, bad indices, NaN vertices…).
     #[error("{}: {what} — {fix}", path.display())]
-    Invalid {
-        path: PathBuf,
-        what: String,
-        fix: String,
-    },
+    Invalid { path: PathBuf, what: String, fix: String },
     /// A scene file or a pipeline references a file outside the directory of the scene file or the
     /// pipeline file (refused by default so neither can read arbitrary files such as `/etc/passwd`;
     /// see `scene/src/resource.rs`).
@@ -69,40 +65,20 @@ fn io_what(e: &std::io::Error) -> String {
 
 fn io_fix(e: &std::io::Error) -> &'static str {
     match e.kind() {
-        std::io::ErrorKind::NotFound => {
-            "check the path (relative paths start at the referencing file's directory)"
-        }
-        std::io::ErrorKind::PermissionDenied => {
-            "make the file readable (chmod) or run as a user who may read it"
-        }
+        std::io::ErrorKind::NotFound => "check the path (relative paths start at the referencing file's directory)",
+        std::io::ErrorKind::PermissionDenied => "make the file readable (chmod) or run as a user who may read it",
         _ => "check the path, the permissions and the disk",
     }
 }
 
 impl SceneError {
     pub(crate) fn invalid(path: &Path, what: impl Into<String>, fix: impl Into<String>) -> Self {
-        SceneError::Invalid {
-            path: path.to_path_buf(),
-            what: what.into(),
-            fix: fix.into(),
-        }
+        SceneError::Invalid { path: path.to_path_buf(), what: what.into(), fix: fix.into() }
     }
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
-        SceneError::Io {
-            path: path.to_path_buf(),
-            referenced_by: None,
-            source,
-        }
+        SceneError::Io { path: path.to_path_buf(), referenced_by: None, source }
     }
-    pub(crate) fn io_referenced(
-        path: &Path,
-        referenced_by: String,
-        source: std::io::Error,
-    ) -> Self {
-        SceneError::Io {
-            path: path.to_path_buf(),
-            referenced_by: Some(referenced_by),
-            source,
-        }
+    pub(crate) fn io_referenced(path: &Path, referenced_by: String, source: std::io::Error) -> Self {
+        SceneError::Io { path: path.to_path_buf(), referenced_by: Some(referenced_by), source }
     }
 }

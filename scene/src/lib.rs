@@ -64,9 +64,7 @@ pub use light::{AreaLight, LightShape};
 pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
 pub use real_layer::{RealAlbedo, RealLayer};
 pub use resource::{ConfinedTo, Confinement};
-pub use scene::{
-    Aabb, Instance, Material, Scene, SceneAt, SceneObject, SurfacePoint, TriangleShading,
-};
+pub use scene::{Aabb, Instance, Material, Scene, SceneAt, SceneObject, SurfacePoint, TriangleShading};
 pub use texture::Texture;
 
 /// Where to get a scene: a built-in by name, or a file (format chosen by extension).
@@ -165,20 +163,14 @@ pub fn builtin_names() -> &'static [&'static str] {
 }
 
 fn ext(path: &Path) -> Option<String> {
-    path.extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+    path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase())
 }
 
 /// Load a mesh file into loose triangles (used by `load` and by `.ron` composition).
-pub(crate) fn load_data(
-    path: &Path,
-    res: &resource::Resources,
-) -> Result<data::SceneData, SceneError> {
+pub(crate) fn load_data(path: &Path, res: &resource::Resources) -> Result<data::SceneData, SceneError> {
     match ext(path).as_deref() {
         Some("gltf") | Some("glb") => load_gltf::load_gltf(path, res),
         Some("obj") => load_obj::load_obj(path, res),
-        _ => Err(SceneError::UnsupportedFormat {
-            path: path.to_path_buf(),
-        }),
+        _ => Err(SceneError::UnsupportedFormat { path: path.to_path_buf() }),
     }
 }

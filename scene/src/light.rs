@@ -7,11 +7,7 @@ use glam::{Vec2, Vec3};
 pub enum LightShape {
     /// The parallelogram `corner + s*edge_u + t*edge_v`, s,t in [0,1]. Its emitting side is
     /// `edge_u × edge_v`.
-    Rect {
-        corner: Vec3,
-        edge_u: Vec3,
-        edge_v: Vec3,
-    },
+    Rect { corner: Vec3, edge_u: Vec3, edge_v: Vec3 },
     /// Emitting side `(v1-v0) × (v2-v0)` (counter-clockwise seen from the lit side).
     Triangle { v0: Vec3, v1: Vec3, v2: Vec3 },
 }
@@ -36,17 +32,8 @@ impl AreaLight {
     /// The polygon's vertices in order, counter-clockwise around `normal()`.
     pub fn vertices(&self) -> Vec<Vec3> {
         match self.shape {
-            LightShape::Rect {
-                corner,
-                edge_u,
-                edge_v,
-            } => {
-                vec![
-                    corner,
-                    corner + edge_u,
-                    corner + edge_u + edge_v,
-                    corner + edge_v,
-                ]
+            LightShape::Rect { corner, edge_u, edge_v } => {
+                vec![corner, corner + edge_u, corner + edge_u + edge_v, corner + edge_v]
             }
             LightShape::Triangle { v0, v1, v2 } => vec![v0, v1, v2],
         }
@@ -67,11 +54,7 @@ impl AreaLight {
     /// Centroid.
     pub fn centre(&self) -> Vec3 {
         match self.shape {
-            LightShape::Rect {
-                corner,
-                edge_u,
-                edge_v,
-            } => corner + 0.5 * (edge_u + edge_v),
+            LightShape::Rect { corner, edge_u, edge_v } => corner + 0.5 * (edge_u + edge_v),
             LightShape::Triangle { v0, v1, v2 } => (v0 + v1 + v2) / 3.0,
         }
     }
@@ -81,11 +64,7 @@ impl AreaLight {
     /// `(1-√u.x) v0 + √u.x (1-u.y) v1 + √u.x u.y v2`.
     pub fn sample_point(&self, u: Vec2) -> Vec3 {
         match self.shape {
-            LightShape::Rect {
-                corner,
-                edge_u,
-                edge_v,
-            } => corner + u.x * edge_u + u.y * edge_v,
+            LightShape::Rect { corner, edge_u, edge_v } => corner + u.x * edge_u + u.y * edge_v,
             LightShape::Triangle { v0, v1, v2 } => {
                 let su = u.x.max(0.0).sqrt();
                 (1.0 - su) * v0 + su * (1.0 - u.y) * v1 + su * u.y * v2
@@ -101,9 +80,7 @@ impl AreaLight {
     /// give the same value when its edges are orthogonal.
     pub fn sigma(&self) -> f32 {
         match self.shape {
-            LightShape::Rect { edge_u, edge_v, .. } => {
-                edge_u.length().max(edge_v.length()) / 12f32.sqrt()
-            }
+            LightShape::Rect { edge_u, edge_v, .. } => edge_u.length().max(edge_v.length()) / 12f32.sqrt(),
             LightShape::Triangle { v0, v1, v2 } => {
                 let (e1, e2) = ((v1 - v0) as Vec3, (v2 - v0) as Vec3);
                 // Work in a 2-D orthonormal basis of the triangle's plane: the covariance has rank ≤ 2.
@@ -198,9 +175,13 @@ pub fn angle(y: f32, x: f32) -> f32 {
     let t = num / den;
     const TAN_PI_12: f32 = 0.267_949_2;
     const INV_SQRT3: f32 = 0.577_350_26;
-    let (t, base) = if t > TAN_PI_12 { ((t - INV_SQRT3) / (1.0 + t * INV_SQRT3), std::f32::consts::FRAC_PI_6) } else { (t, 0.0) };
+    let (t, base) =
+        if t > TAN_PI_12 { ((t - INV_SQRT3) / (1.0 + t * INV_SQRT3), std::f32::consts::FRAC_PI_6) } else { (t, 0.0) };
     let t2 = t * t;
-    let series = t * (1.0 + t2 * (-1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (-1.0 / 7.0 + t2 * (1.0 / 9.0 + t2 * (-1.0 / 11.0 + t2 * (1.0 / 13.0)))))));
+    let series = t
+        * (1.0
+            + t2 * (-1.0 / 3.0
+                + t2 * (1.0 / 5.0 + t2 * (-1.0 / 7.0 + t2 * (1.0 / 9.0 + t2 * (-1.0 / 11.0 + t2 * (1.0 / 13.0)))))));
     let mut a = base + series;
     if ay > ax {
         a = std::f32::consts::FRAC_PI_2 - a;

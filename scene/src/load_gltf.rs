@@ -42,13 +42,7 @@ fn bad(path: &Path, what: impl Into<String>, fix: impl Into<String>) -> SceneErr
 }
 
 /// `items[index]`, or an error naming the JSON path that holds the index.
-fn get<'a, T>(
-    path: &Path,
-    items: &'a [T],
-    index: usize,
-    kind: &str,
-    at: &str,
-) -> Result<&'a T, SceneError> {
+fn get<'a, T>(path: &Path, items: &'a [T], index: usize, kind: &str, at: &str) -> Result<&'a T, SceneError> {
     items.get(index).ok_or_else(|| {
         bad(
             path,
@@ -87,10 +81,7 @@ impl Buffers<'_> {
         if (data.len() as u64) < declared {
             return Err(bad(
                 self.path,
-                format!(
-                    "buffers[{b}] declares byteLength {declared} but its data has {} bytes",
-                    data.len()
-                ),
+                format!("buffers[{b}] declares byteLength {declared} but its data has {} bytes", data.len()),
                 "re-export the file with its complete .bin (or fix byteLength)",
             ));
         }
@@ -104,24 +95,12 @@ fn read_uri(path: &Path, res: &Resources, uri: &str, at: &str) -> Result<Vec<u8>
     let by = format!("{at} = \"{}\"", shorten(uri));
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((_, b64)) = rest.split_once(";base64,") else {
-            return Err(bad(
-                path,
-                format!("{by} is a data URI without ;base64,"),
-                "embed data as base64 data URIs",
-            ));
+            return Err(bad(path, format!("{by} is a data URI without ;base64,"), "embed data as base64 data URIs"));
         };
-        return base64::decode(b64).map_err(|e| {
-            bad(
-                path,
-                format!("{by} is not valid base64 ({e})"),
-                "re-export the file",
-            )
-        });
+        return base64::decode(b64)
+            .map_err(|e| bad(path, format!("{by} is not valid base64 ({e})"), "re-export the file"));
     }
-    let file = if let Some(rest) = uri
-        .strip_prefix("file://")
-        .or_else(|| uri.strip_prefix("file:"))
-    {
+    let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
         rest.to_string()
     } else if uri.contains("://") {
         return Err(bad(
@@ -131,13 +110,7 @@ fn read_uri(path: &Path, res: &Resources, uri: &str, at: &str) -> Result<Vec<u8>
         ));
     } else {
         urlencoding::decode(uri)
-            .map_err(|_| {
-                bad(
-                    path,
-                    format!("{by} has percent-escapes that are not UTF-8"),
-                    "fix the uri",
-                )
-            })?
+            .map_err(|_| bad(path, format!("{by} has percent-escapes that are not UTF-8"), "fix the uri"))?
             .into_owned()
     };
     res.read_referenced(path, Path::new(&file), &by)
@@ -200,26 +173,15 @@ struct Layout {
     components: &'static [(ComponentType, bool)],
 }
 
-const POSITION: Layout = Layout {
-    ty: Type::Vec3,
-    components: &[(ComponentType::F32, false)],
-};
+const POSITION: Layout = Layout { ty: Type::Vec3, components: &[(ComponentType::F32, false)] };
 const NORMAL: Layout = POSITION;
 const TEXCOORD: Layout = Layout {
     ty: Type::Vec2,
-    components: &[
-        (ComponentType::F32, false),
-        (ComponentType::U8, true),
-        (ComponentType::U16, true),
-    ],
+    components: &[(ComponentType::F32, false), (ComponentType::U8, true), (ComponentType::U16, true)],
 };
 const INDICES: Layout = Layout {
     ty: Type::Scalar,
-    components: &[
-        (ComponentType::U8, false),
-        (ComponentType::U16, false),
-        (ComponentType::U32, false),
-    ],
+    components: &[(ComponentType::U8, false), (ComponentType::U16, false), (ComponentType::U32, false)],
 };
 
 /// One component as f32 (normalized integers mapped to 0..1). Only layouts above reach it, so signed
@@ -256,23 +218,13 @@ fn read_accessor<T: Default + Clone>(
 ) -> Result<Vec<T>, SceneError> {
     let acc = get(path, &root.accessors, index, "accessors", at)?;
     let here = format!("accessors[{index}] (used as {at})");
-    let (Checked::Valid(ty), Checked::Valid(GenericComponentType(comp))) =
-        (&acc.type_, &acc.component_type)
-    else {
-        return Err(bad(
-            path,
-            format!("{here} has an unknown type or componentType"),
-            "re-export the file",
-        ));
+    let (Checked::Valid(ty), Checked::Valid(GenericComponentType(comp))) = (&acc.type_, &acc.component_type) else {
+        return Err(bad(path, format!("{here} has an unknown type or componentType"), "re-export the file"));
     };
     let (ty, comp) = (*ty, *comp);
     let allowed = layout.components.iter().find(|(c, _)| *c == comp);
     if ty != layout.ty || allowed.is_none() {
-        let names: Vec<_> = layout
-            .components
-            .iter()
-            .map(|(c, _)| component_name(*c))
-            .collect();
+        let names: Vec<_> = layout.components.iter().map(|(c, _)| component_name(*c)).collect();
         return Err(bad(
             path,
             format!(
@@ -301,11 +253,7 @@ fn read_accessor<T: Default + Clone>(
     }
     let count = acc.count.0;
     if count == 0 {
-        return Err(bad(
-            path,
-            format!("{here} has count 0"),
-            "remove the empty primitive or fix the count",
-        ));
+        return Err(bad(path, format!("{here} has count 0"), "remove the empty primitive or fix the count"));
     }
     if count > MAX_ACCESSOR_ELEMENTS {
         return Err(bad(
@@ -322,13 +270,7 @@ fn read_accessor<T: Default + Clone>(
         return Ok(vec![T::default(); (count * comps) as usize]);
     };
     let view_at = format!("accessors[{index}].bufferView");
-    let view = get(
-        path,
-        &root.buffer_views,
-        view_index,
-        "bufferViews",
-        &view_at,
-    )?;
+    let view = get(path, &root.buffer_views, view_index, "bufferViews", &view_at)?;
     let stride = view.byte_stride.map(|s| s.0 as u64).unwrap_or(elem);
     if stride < elem {
         return Err(bad(
@@ -342,10 +284,7 @@ fn read_accessor<T: Default + Clone>(
         ));
     }
     let offset = acc.byte_offset.map(|o| o.0).unwrap_or(0);
-    let need = (count - 1)
-        .checked_mul(stride)
-        .and_then(|x| x.checked_add(offset))
-        .and_then(|x| x.checked_add(elem));
+    let need = (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem));
     let view_len = view.byte_length.0;
     if need.is_none_or(|n| n > view_len) {
         return Err(bad(
@@ -359,30 +298,16 @@ fn read_accessor<T: Default + Clone>(
     }
     let buffer_index = view.buffer.value();
     let view_offset = view.byte_offset.map(|o| o.0).unwrap_or(0);
-    let buffer_len = get(
-        path,
-        &root.buffers,
-        buffer_index,
-        "buffers",
-        &format!("bufferViews[{view_index}].buffer"),
-    )?
-    .byte_length
-    .0;
-    if view_offset
-        .checked_add(view_len)
-        .is_none_or(|end| end > buffer_len)
-    {
+    let buffer_len =
+        get(path, &root.buffers, buffer_index, "buffers", &format!("bufferViews[{view_index}].buffer"))?.byte_length.0;
+    if view_offset.checked_add(view_len).is_none_or(|end| end > buffer_len) {
         return Err(bad(
             path,
             format!("bufferViews[{view_index}] (byteOffset {view_offset} + byteLength {view_len}) runs past buffers[{buffer_index}].byteLength {buffer_len}"),
             "fix the bufferView or re-export the file",
         ));
     }
-    let data = buffers.get(
-        root,
-        buffer_index,
-        &format!("bufferViews[{view_index}].buffer"),
-    )?;
+    let data = buffers.get(root, buffer_index, &format!("bufferViews[{view_index}].buffer"))?;
     // All bounds are checked above, so these slices are in range (`get` would only hide a bug).
     let bytes = &data[(view_offset + offset) as usize..(view_offset + view_len) as usize];
     let mut out = Vec::with_capacity((count * comps) as usize);
@@ -410,10 +335,7 @@ fn read_floats(
     if let Some(k) = values.iter().position(|v| !v.is_finite()) {
         return Err(bad(
             path,
-            format!(
-                "{at}: element {} (accessors[{index}]) is NaN or infinite",
-                k / n
-            ),
+            format!("{at}: element {} (accessors[{index}]) is NaN or infinite", k / n),
             "fix the mesh data",
         ));
     }
@@ -442,11 +364,7 @@ fn read_primitive(
     let at = format!("meshes[{mesh}].primitives[{p}]");
     let attribute = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|i| i.value());
     let Some(pos_index) = attribute(Semantic::Positions) else {
-        return Err(bad(
-            path,
-            format!("{at} has no POSITION attribute"),
-            "export positions",
-        ));
+        return Err(bad(path, format!("{at} has no POSITION attribute"), "export positions"));
     };
     let pos_at = format!("{at}.attributes.POSITION");
     let positions: Vec<Vec3> = read_floats(path, root, buffers, pos_index, &pos_at, &POSITION)?
@@ -467,17 +385,10 @@ fn read_primitive(
     };
     let normals = match attribute(Semantic::Normals) {
         Some(i) => {
-            let v: Vec<Vec3> = read_floats(
-                path,
-                root,
-                buffers,
-                i,
-                &format!("{at}.attributes.NORMAL"),
-                &NORMAL,
-            )?
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
+            let v: Vec<Vec3> = read_floats(path, root, buffers, i, &format!("{at}.attributes.NORMAL"), &NORMAL)?
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2]))
+                .collect();
             check_count("NORMAL", v.len())?;
             Some(v)
         }
@@ -488,17 +399,10 @@ fn read_primitive(
     let uvs = match attribute(Semantic::TexCoords(set)) {
         Some(i) => {
             let name = format!("TEXCOORD_{set}");
-            let v: Vec<Vec2> = read_floats(
-                path,
-                root,
-                buffers,
-                i,
-                &format!("{at}.attributes.{name}"),
-                &TEXCOORD,
-            )?
-            .chunks_exact(2)
-            .map(|c| Vec2::new(c[0], c[1]))
-            .collect();
+            let v: Vec<Vec2> = read_floats(path, root, buffers, i, &format!("{at}.attributes.{name}"), &TEXCOORD)?
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0], c[1]))
+                .collect();
             check_count(&name, v.len())?;
             Some(v)
         }
@@ -526,18 +430,16 @@ fn read_primitive(
         }
         None => {
             if !n.is_multiple_of(3) {
-                return Err(bad(path, format!("{pos_at} has {n} vertices, not a multiple of 3 (the primitive has no indices)"), "export whole triangles"));
+                return Err(bad(
+                    path,
+                    format!("{pos_at} has {n} vertices, not a multiple of 3 (the primitive has no indices)"),
+                    "export whole triangles",
+                ));
             }
             (0..n as u32).collect()
         }
     };
-    Ok(Primitive {
-        positions,
-        normals,
-        uvs,
-        indices,
-        material,
-    })
+    Ok(Primitive { positions, normals, uvs, indices, material })
 }
 
 /// A node's local transform (matrix, or translation·rotation·scale), refusing non-finite values.
@@ -557,11 +459,7 @@ fn local_transform_at(
         if v.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
-            Err(bad(
-                path,
-                format!("nodes[{n}].{what} {v:?} is not finite"),
-                "use finite transform values",
-            ))
+            Err(bad(path, format!("nodes[{n}].{what} {v:?} is not finite"), "use finite transform values"))
         }
     };
     if let Some(m) = &node.matrix {
@@ -569,36 +467,19 @@ fn local_transform_at(
         return Ok(Mat4::from_cols_array(m));
     }
     let xyz = |v: [f32; 4]| [v[0], v[1], v[2]];
-    let t = animated[0]
-        .map(xyz)
-        .unwrap_or(node.translation.unwrap_or([0.0; 3]));
-    let r = animated[1].unwrap_or(
-        node.rotation
-            .as_ref()
-            .map(|q| q.0)
-            .unwrap_or([0.0, 0.0, 0.0, 1.0]),
-    );
-    let s = animated[2]
-        .map(xyz)
-        .unwrap_or(node.scale.unwrap_or([1.0; 3]));
+    let t = animated[0].map(xyz).unwrap_or(node.translation.unwrap_or([0.0; 3]));
+    let r = animated[1].unwrap_or(node.rotation.as_ref().map(|q| q.0).unwrap_or([0.0, 0.0, 0.0, 1.0]));
+    let s = animated[2].map(xyz).unwrap_or(node.scale.unwrap_or([1.0; 3]));
     finite("translation", &t)?;
     finite("rotation", &r)?;
     finite("scale", &s)?;
     let q = Quat::from_array(r);
     let len = q.length();
     if !(len.is_finite() && len > 1e-6) {
-        return Err(bad(
-            path,
-            format!("nodes[{n}].rotation {r:?} is not a rotation"),
-            "use a unit quaternion",
-        ));
+        return Err(bad(path, format!("nodes[{n}].rotation {r:?} is not a rotation"), "use a unit quaternion"));
     }
     let q = q / len;
-    Ok(Mat4::from_scale_rotation_translation(
-        Vec3::from(s),
-        q,
-        Vec3::from(t),
-    ))
+    Ok(Mat4::from_scale_rotation_translation(Vec3::from(s), q, Vec3::from(t)))
 }
 
 /// A mesh instance found while walking the node tree.
@@ -621,29 +502,18 @@ fn material(path: &Path, i: usize, m: &json::Material) -> Result<(Material, bool
     let metallic = pbr.metallic_factor.0;
     let roughness = pbr.roughness_factor.0;
     let e = m.emissive_factor.0;
-    let strength = m
-        .extensions
-        .as_ref()
-        .and_then(|x| x.emissive_strength.as_ref())
-        .map(|s| s.emissive_strength.0)
-        .unwrap_or(1.0);
+    let strength =
+        m.extensions.as_ref().and_then(|x| x.emissive_strength.as_ref()).map(|s| s.emissive_strength.0).unwrap_or(1.0);
     let checks: [(&str, &[f32]); 5] = [
         ("pbrMetallicRoughness.baseColorFactor", &bc),
         ("pbrMetallicRoughness.metallicFactor", &[metallic]),
         ("pbrMetallicRoughness.roughnessFactor", &[roughness]),
         ("emissiveFactor", &e),
-        (
-            "extensions.KHR_materials_emissive_strength.emissiveStrength",
-            &[strength],
-        ),
+        ("extensions.KHR_materials_emissive_strength.emissiveStrength", &[strength]),
     ];
     for (field, v) in checks {
         if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-            return Err(bad(
-                path,
-                format!("{at}.{field} is {v:?}"),
-                "use finite, non-negative values",
-            ));
+            return Err(bad(path, format!("{at}.{field} is {v:?}"), "use finite, non-negative values"));
         }
     }
     let emission = Vec3::from(e) * strength;
@@ -660,11 +530,7 @@ fn material(path: &Path, i: usize, m: &json::Material) -> Result<(Material, bool
     let roughness = roughness.clamp(0.0, 1.0);
     let alpha = (roughness * roughness).max(1e-3);
     let m_exp = (2.0 / (alpha * alpha) - 2.0).clamp(0.0, 1e4);
-    let specular = if m_exp > 0.0 {
-        Vec3::splat(0.04).lerp(base, metallic)
-    } else {
-        Vec3::ZERO
-    };
+    let specular = if m_exp > 0.0 { Vec3::splat(0.04).lerp(base, metallic) } else { Vec3::ZERO };
     Ok((
         Material {
             name: m.name.clone().unwrap_or_else(|| format!("material{i}")),
@@ -693,15 +559,8 @@ fn image(
             let v = v.value();
             let view_at = format!("images[{img}].bufferView");
             let view = get(path, &root.buffer_views, v, "bufferViews", &view_at)?;
-            let (off, len) = (
-                view.byte_offset.map(|o| o.0).unwrap_or(0),
-                view.byte_length.0,
-            );
-            let data = buffers.get(
-                root,
-                view.buffer.value(),
-                &format!("bufferViews[{v}].buffer"),
-            )?;
+            let (off, len) = (view.byte_offset.map(|o| o.0).unwrap_or(0), view.byte_length.0);
+            let data = buffers.get(root, view.buffer.value(), &format!("bufferViews[{v}].buffer"))?;
             match off.checked_add(len) {
                 Some(end) if end <= data.len() as u64 => data[off as usize..end as usize].to_vec(),
                 _ => {
@@ -715,11 +574,7 @@ fn image(
         }
         (None, Some(uri)) => read_uri(path, res, uri, &format!("images[{img}].uri"))?,
         (None, None) => {
-            return Err(bad(
-                path,
-                format!("images[{img}] has neither uri nor bufferView"),
-                "re-export the file",
-            ))
+            return Err(bad(path, format!("images[{img}] has neither uri nor bufferView"), "re-export the file"))
         }
     };
     decode_texture(&bytes, path, &format!("images[{img}]"))
@@ -728,21 +583,12 @@ fn image(
 pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, SceneError> {
     let bytes = read_capped(path, None)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
-        bad(
-            path,
-            format!("not a valid glTF file ({e})"),
-            "re-export it as glTF 2.0 (.gltf JSON or .glb)",
-        )
+        bad(path, format!("not a valid glTF file ({e})"), "re-export it as glTF 2.0 (.gltf JSON or .glb)")
     })?;
     drop(bytes);
     let blob = gltf.blob;
     let root = gltf.document.into_json();
-    let mut buffers = Buffers {
-        path,
-        res,
-        blob,
-        loaded: vec![None; root.buffers.len()],
-    };
+    let mut buffers = Buffers { path, res, blob, loaded: vec![None; root.buffers.len()] };
     let mut d = SceneData::default();
 
     // Materials in document order, so material i is SceneData material i; textures on first use.
@@ -751,20 +597,13 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         let (mut mat, two_sided) = material(path, i, m)?;
         if let Some(info) = &m.pbr_metallic_roughness.base_color_texture {
             let tex_at = format!("materials[{i}].pbrMetallicRoughness.baseColorTexture.index");
-            let texture = get(
-                path,
-                &root.textures,
-                info.index.value(),
-                "textures",
-                &tex_at,
-            )?;
+            let texture = get(path, &root.textures, info.index.value(), "textures", &tex_at)?;
             let img = texture.source.value();
             let t = match image_to_texture.get(&img) {
                 Some(&t) => t,
                 None => {
                     let src_at = format!("textures[{}].source", info.index.value());
-                    d.textures
-                        .push(image(path, res, &root, &mut buffers, img, &src_at)?);
+                    d.textures.push(image(path, res, &root, &mut buffers, img, &src_at)?);
                     let t = (d.textures.len() - 1) as u32;
                     image_to_texture.insert(img, t);
                     t
@@ -789,11 +628,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         None => (0, "scenes".to_string()),
     };
     if root.scenes.is_empty() {
-        return Err(bad(
-            path,
-            "the file has no scene",
-            "export at least one scene with meshes",
-        ));
+        return Err(bad(path, "the file has no scene", "export at least one scene with meshes"));
     }
     let scene = get(path, &root.scenes, scene_index, "scenes", &scene_at)?;
     // Animations are sampled at the shutter's two ends (the camera's `shutter_open`/`shutter_close`;
@@ -815,15 +650,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         .iter()
         .enumerate()
         .rev()
-        .map(|(k, n)| {
-            (
-                n.value(),
-                Mat4::IDENTITY,
-                Mat4::IDENTITY,
-                None,
-                format!("scenes[{scene_index}].nodes[{k}]"),
-            )
-        })
+        .map(|(k, n)| (n.value(), Mat4::IDENTITY, Mat4::IDENTITY, None, format!("scenes[{scene_index}].nodes[{k}]")))
         .collect();
     let mut instances = Vec::new();
     let mut camera: Option<(usize, Mat4, f32)> = None;
@@ -846,8 +673,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             }
             Some(tracks) => {
                 let open = local_transform_at(path, node, n, animations.sample(path, tracks, shutter.0)?)?;
-                let close =
-                    local_transform_at(path, node, n, animations.sample(path, tracks, shutter.1)?)?;
+                let close = local_transform_at(path, node, n, animations.sample(path, tracks, shutter.1)?)?;
                 let world = parent * open;
                 (world, parent_close * close, Some(world.w_axis.truncate()))
             }
@@ -861,13 +687,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         }
         if let (None, Some(c)) = (&camera, node.camera) {
             let c = c.value();
-            let cam = get(
-                path,
-                &root.cameras,
-                c,
-                "cameras",
-                &format!("nodes[{n}].camera"),
-            )?;
+            let cam = get(path, &root.cameras, c, "cameras", &format!("nodes[{n}].camera"))?;
             if let Some(p) = &cam.perspective {
                 if !(p.yfov.is_finite() && p.yfov > 0.0 && p.yfov < std::f32::consts::PI) {
                     return Err(bad(
@@ -896,20 +716,17 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         }
         if let Some(m) = node.mesh {
             let mesh_index = m.value();
-            let mesh = get(
-                path,
-                &root.meshes,
-                mesh_index,
-                "meshes",
-                &format!("nodes[{n}].mesh"),
-            )?;
+            let mesh = get(path, &root.meshes, mesh_index, "meshes", &format!("nodes[{n}].mesh"))?;
             for (p, prim) in mesh.primitives.iter().enumerate() {
                 let pat = format!("meshes[{mesh_index}].primitives[{p}]");
                 match prim.mode {
                     Checked::Valid(Mode::Triangles) => {}
                     Checked::Valid(_) => {
                         if !warned_modes {
-                            d.warnings.push(format!("{}: {pat} is not a triangle list (mode 4); primitives of other modes are skipped", path.display()));
+                            d.warnings.push(format!(
+                                "{}: {pat} is not a triangle list (mode 4); primitives of other modes are skipped",
+                                path.display()
+                            ));
                             warned_modes = true;
                         }
                         continue;
@@ -923,31 +740,14 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                     }
                 }
                 // Count before reading: a small file can instance a mesh millions of times.
-                let counted = match (
-                    prim.indices,
-                    prim.attributes.get(&Checked::Valid(Semantic::Positions)),
-                ) {
+                let counted = match (prim.indices, prim.attributes.get(&Checked::Valid(Semantic::Positions))) {
                     (Some(i), _) => {
-                        get(
-                            path,
-                            &root.accessors,
-                            i.value(),
-                            "accessors",
-                            &format!("{pat}.indices"),
-                        )?
-                        .count
-                        .0
+                        get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.indices"))?.count.0
                     }
                     (None, Some(i)) => {
-                        get(
-                            path,
-                            &root.accessors,
-                            i.value(),
-                            "accessors",
-                            &format!("{pat}.attributes.POSITION"),
-                        )?
-                        .count
-                        .0
+                        get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.attributes.POSITION"))?
+                            .count
+                            .0
                     }
                     (None, None) => 0,
                 };
@@ -970,13 +770,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         }
         if let Some(children) = &node.children {
             for (k, c) in children.iter().enumerate().rev() {
-                todo.push((
-                    c.value(),
-                    world,
-                    world_close,
-                    pivot,
-                    format!("nodes[{n}].children[{k}]"),
-                ));
+                todo.push((c.value(), world, world_close, pivot, format!("nodes[{n}].children[{k}]")));
             }
         }
     }
@@ -986,11 +780,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
     let mut default_material: Option<u32> = None;
     for inst in &instances {
         let normal_m = inst.world.inverse().transpose();
-        let motion = if inst.world_close == inst.world {
-            None
-        } else {
-            Some(node_motion(path, inst)?)
-        };
+        let motion = if inst.world_close == inst.world { None } else { Some(node_motion(path, inst)?) };
         let name = root.nodes[inst.node]
             .name
             .clone()
@@ -1002,14 +792,9 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             }
             let data = match read.entry((inst.mesh, p)) {
                 std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
-                std::collections::hash_map::Entry::Vacant(e) => e.insert(read_primitive(
-                    path,
-                    &root,
-                    &mut buffers,
-                    inst.mesh,
-                    p,
-                    &texcoord_set,
-                )?),
+                std::collections::hash_map::Entry::Vacant(e) => {
+                    e.insert(read_primitive(path, &root, &mut buffers, inst.mesh, p, &texcoord_set)?)
+                }
             };
             let material = match data.material {
                 Some(i) if i < d.materials.len() => i as u32,
@@ -1017,16 +802,15 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                     return Err(bad(
                         path,
                         format!(
-                        "meshes[{}].primitives[{p}].material = {i} but the file has {} materials",
-                        inst.mesh,
-                        d.materials.len()
-                    ),
+                            "meshes[{}].primitives[{p}].material = {i} but the file has {} materials",
+                            inst.mesh,
+                            d.materials.len()
+                        ),
                         "point the primitive at an existing material",
                     ))
                 }
-                None => *default_material.get_or_insert_with(|| {
-                    d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)
-                }),
+                None => *default_material
+                    .get_or_insert_with(|| d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)),
             };
             let object = d.new_named_object(name.clone());
             if let Some(m) = motion {
@@ -1035,16 +819,17 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             for tri in data.indices.chunks_exact(3) {
                 let tri = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 let p = tri.map(|i| inst.world.transform_point3(data.positions[i]));
-                if p.iter()
-                    .any(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE))
-                {
+                if p.iter().any(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE)) {
                     return Err(bad(
                         path,
                         format!(
                             "nodes[{}] places meshes[{}] vertices at {} (beyond ±{MAX_COORDINATE:e} m or not finite)",
                             inst.node,
                             inst.mesh,
-                            p.iter().find(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE)).copied().unwrap_or_default()
+                            p.iter()
+                                .find(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE))
+                                .copied()
+                                .unwrap_or_default()
                         ),
                         "check the scale/translation of this node and its parents (units are metres)",
                     ));
@@ -1070,11 +855,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         }
     }
     if d.tris.is_empty() {
-        return Err(bad(
-            path,
-            "no triangles in the default scene",
-            "export triangle meshes",
-        ));
+        return Err(bad(path, "no triangles in the default scene", "export triangle meshes"));
     }
     if let Some((n, world, yfov)) = camera {
         let position = world.transform_point3(Vec3::ZERO);
@@ -1131,10 +912,7 @@ fn node_motion(path: &Path, inst: &Instance) -> Result<RigidMotion, SceneError> 
         ));
     }
     let r = close * open.inverse();
-    let err = (r * r.transpose() - Mat3::IDENTITY)
-        .to_cols_array()
-        .iter()
-        .fold(0.0f32, |m, x| m.max(x.abs()));
+    let err = (r * r.transpose() - Mat3::IDENTITY).to_cols_array().iter().fold(0.0f32, |m, x| m.max(x.abs()));
     if !(err <= 1e-3 && r.determinant() > 0.0) {
         return Err(bad(
             path,
@@ -1146,14 +924,8 @@ fn node_motion(path: &Path, inst: &Instance) -> Result<RigidMotion, SceneError> 
     }
     let q = Quat::from_mat3(&r).normalize();
     let p = inst.pivot;
-    let moved = inst
-        .world_close
-        .transform_point3(inst.world.inverse().transform_point3(p));
-    let motion = RigidMotion {
-        pivot: p,
-        translation: [Vec3::ZERO, moved - p],
-        rotation: [Quat::IDENTITY, q],
-    };
+    let moved = inst.world_close.transform_point3(inst.world.inverse().transform_point3(p));
+    let motion = RigidMotion { pivot: p, translation: [Vec3::ZERO, moved - p], rotation: [Quat::IDENTITY, q] };
     motion.validate().map_err(|what| {
         bad(
             path,
@@ -1165,17 +937,11 @@ fn node_motion(path: &Path, inst: &Instance) -> Result<RigidMotion, SceneError> 
 }
 
 /// Keyframe times: SCALAR FLOAT.
-const ANIM_TIMES: Layout = Layout {
-    ty: Type::Scalar,
-    components: &[(ComponentType::F32, false)],
-};
+const ANIM_TIMES: Layout = Layout { ty: Type::Scalar, components: &[(ComponentType::F32, false)] };
 /// Translation and scale keyframes: VEC3 FLOAT.
 const ANIM_VEC3: Layout = POSITION;
 /// Rotation keyframes: VEC4 FLOAT (the normalized-integer forms of the spec are refused).
-const ANIM_VEC4: Layout = Layout {
-    ty: Type::Vec4,
-    components: &[(ComponentType::F32, false)],
-};
+const ANIM_VEC4: Layout = Layout { ty: Type::Vec4, components: &[(ComponentType::F32, false)] };
 
 /// One checked animation channel (its sampler's keyframes).
 struct Track {
@@ -1217,10 +983,9 @@ impl Track {
         let v4 = |a: [f32; 4]| glam::Vec4::from_array(a);
         match self.interpolation {
             Step => value(k),
-            Linear if self.rotation => Quat::from_array(value(k))
-                .normalize()
-                .slerp(Quat::from_array(value(k + 1)).normalize(), u)
-                .to_array(),
+            Linear if self.rotation => {
+                Quat::from_array(value(k)).normalize().slerp(Quat::from_array(value(k + 1)).normalize(), u).to_array()
+            }
             Linear => v4(value(k)).lerp(v4(value(k + 1)), u).to_array(),
             CubicSpline => {
                 let td = t1 - t0;
@@ -1295,11 +1060,7 @@ fn read_animations(
     warnings: &mut Vec<String>,
 ) -> Result<Animations, SceneError> {
     use json::animation::{Interpolation, Property};
-    let mut out = Animations {
-        tracks: Vec::new(),
-        per_node: HashMap::new(),
-        channels: 0,
-    };
+    let mut out = Animations { tracks: Vec::new(), per_node: HashMap::new(), channels: 0 };
     let mut owner: HashMap<(usize, usize), String> = HashMap::new();
     let mut warned_weights = false;
     for (a, anim) in root.animations.iter().enumerate() {
@@ -1342,13 +1103,8 @@ fn read_animations(
                 ));
             }
             let s = channel.sampler.value();
-            let sampler = get(
-                path,
-                &anim.samplers,
-                s,
-                &format!("samplers in animations[{a}]"),
-                &format!("{at}.sampler"),
-            )?;
+            let sampler =
+                get(path, &anim.samplers, s, &format!("samplers in animations[{a}]"), &format!("{at}.sampler"))?;
             let sat = format!("animations[{a}].samplers[{s}]");
             let Checked::Valid(interpolation) = sampler.interpolation else {
                 return Err(bad(
@@ -1358,14 +1114,7 @@ fn read_animations(
                 ));
             };
             let input = sampler.input.value();
-            let times = read_floats(
-                path,
-                root,
-                buffers,
-                input,
-                &format!("{sat}.input"),
-                &ANIM_TIMES,
-            )?;
+            let times = read_floats(path, root, buffers, input, &format!("{sat}.input"), &ANIM_TIMES)?;
             if let Some(k) = (1..times.len()).find(|&k| times[k] <= times[k - 1]) {
                 return Err(bad(
                     path,
@@ -1379,11 +1128,7 @@ fn read_animations(
                 ));
             }
             let rotation = slot == 1;
-            let (layout, comps) = if rotation {
-                (&ANIM_VEC4, 4)
-            } else {
-                (&ANIM_VEC3, 3)
-            };
+            let (layout, comps) = if rotation { (&ANIM_VEC4, 4) } else { (&ANIM_VEC3, 3) };
             let output = sampler.output.value();
             let oat = format!("{sat}.output");
             let raw = read_floats(path, root, buffers, output, &oat, layout)?;
@@ -1406,10 +1151,8 @@ fn read_animations(
                     },
                 ));
             }
-            let values: Vec<[f32; 4]> = raw
-                .chunks_exact(comps)
-                .map(|v| [v[0], v[1], v[2], if comps == 4 { v[3] } else { 0.0 }])
-                .collect();
+            let values: Vec<[f32; 4]> =
+                raw.chunks_exact(comps).map(|v| [v[0], v[1], v[2], if comps == 4 { v[3] } else { 0.0 }]).collect();
             if rotation {
                 for (k, q) in values.iter().enumerate().skip(per_key / 2).step_by(per_key) {
                     let len = Quat::from_array(*q).length();
@@ -1425,13 +1168,7 @@ fn read_animations(
                     }
                 }
             }
-            out.tracks.push(Track {
-                times,
-                values,
-                interpolation,
-                rotation,
-                at: at.clone(),
-            });
+            out.tracks.push(Track { times, values, interpolation, rotation, at: at.clone() });
             out.per_node.entry(n).or_insert([None; 3])[slot] = Some(out.tracks.len() - 1);
             out.channels += 1;
         }

@@ -31,22 +31,14 @@ struct Prescan {
 }
 
 fn prescan(bytes: &[u8]) -> Prescan {
-    let mut scan = Prescan {
-        triangles: 0,
-        usemtl: Vec::new(),
-    };
+    let mut scan = Prescan { triangles: 0, usemtl: Vec::new() };
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
         let line = String::from_utf8_lossy(line);
         let mut words = line.split_whitespace();
         match words.next() {
             Some("f") => scan.triangles += words.count().saturating_sub(2) as u64,
             Some("usemtl") => {
-                let name = line
-                    .trim()
-                    .split_once(' ')
-                    .map(|x| x.1.trim())
-                    .unwrap_or("")
-                    .to_string();
+                let name = line.trim().split_once(' ').map(|x| x.1.trim()).unwrap_or("").to_string();
                 if !scan.usemtl.iter().any(|(n, _)| *n == name) {
                     scan.usemtl.push((name, i + 1));
                 }
@@ -63,18 +55,11 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     if scan.triangles > MAX_TRIANGLES as u64 {
         return Err(SceneError::invalid(
             path,
-            format!(
-                "its faces make {} triangles, more than the limit of {MAX_TRIANGLES}",
-                scan.triangles
-            ),
+            format!("its faces make {} triangles, more than the limit of {MAX_TRIANGLES}", scan.triangles),
             "decimate the mesh or split the scene",
         ));
     }
-    let opts = tobj::LoadOptions {
-        single_index: false,
-        triangulate: true,
-        ..Default::default()
-    };
+    let opts = tobj::LoadOptions { single_index: false, triangulate: true, ..Default::default() };
     // tobj's material callback can only return tobj's error enum, so keep our (more precise) error here.
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
     let mtl_names: RefCell<Vec<String>> = RefCell::new(Vec::new());
@@ -87,10 +72,7 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             tobj::load_mtl_buf(&mut Cursor::new(b)).map_err(|e| {
                 SceneError::invalid(
                     &mtl_path,
-                    format!(
-                        "not a valid MTL material library ({e}; referenced by {} {by})",
-                        path.display()
-                    ),
+                    format!("not a valid MTL material library ({e}; referenced by {} {by})", path.display()),
                     "fix or re-export the .mtl file",
                 )
             })
@@ -100,8 +82,7 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             tobj::LoadError::OpenFileFailed
         })
     };
-    let (models, mats) = tobj::load_obj_buf(&mut Cursor::new(&bytes[..]), &opts, material_loader)
-        .map_err(|e| {
+    let (models, mats) = tobj::load_obj_buf(&mut Cursor::new(&bytes[..]), &opts, material_loader).map_err(|e| {
         SceneError::invalid(
             path,
             format!("not a valid OBJ file ({e})"),
@@ -118,11 +99,7 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     for (name, line) in &scan.usemtl {
         if !mats.iter().any(|m| &m.name == name) {
             let libs = mtl_names.borrow();
-            let libs = if libs.is_empty() {
-                "no mtllib line".to_string()
-            } else {
-                libs.join(", ")
-            };
+            let libs = if libs.is_empty() { "no mtllib line".to_string() } else { libs.join(", ") };
             d.warnings.push(format!(
                 "{}:{line}: usemtl '{name}' is not defined in the material library ({libs}); its faces use \
                  the default grey material — define it in the .mtl or fix the name",
@@ -134,14 +111,9 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
     let mut tex_cache: HashMap<String, u32> = HashMap::new();
     for m in &mats {
         let base_color_texture = match &m.diffuse_texture {
-            Some(name) if !name.trim().is_empty() => Some(load_texture_cached(
-                &mut d,
-                &mut tex_cache,
-                res,
-                path,
-                &m.name,
-                name.trim(),
-            )?),
+            Some(name) if !name.trim().is_empty() => {
+                Some(load_texture_cached(&mut d, &mut tex_cache, res, path, &m.name, name.trim())?)
+            }
             _ => None,
         };
         // NaN/inf in a library is refused (it would render black or NaN); the .mtl path is named.
@@ -172,11 +144,7 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
                 base_color_texture,
                 emission: v3(m.emissive, "Ke", Vec3::ZERO)?,
                 specular: if ns > 0.0 { specular } else { Vec3::ZERO },
-                phong_exponent: if specular.max_element() > 0.0 {
-                    ns
-                } else {
-                    0.0
-                },
+                phong_exponent: if specular.max_element() > 0.0 { ns } else { 0.0 },
             },
             false,
         );
@@ -187,34 +155,22 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
         let mesh = &model.mesh;
         // Named after its `o`/`g` line, so `Scene::set_motion` can name it (tobj's "unnamed_object"
         // when there is none).
-        let object = if model.name.is_empty() {
-            d.new_object()
-        } else {
-            d.new_named_object(model.name.clone())
-        };
+        let object = if model.name.is_empty() { d.new_object() } else { d.new_named_object(model.name.clone()) };
         let material = match mesh.material_id {
             Some(id) if id < mats.len() => id as u32,
             Some(id) => {
                 return Err(SceneError::invalid(
                     path,
-                    format!(
-                        "object '{}' uses material {id} but the library has {}",
-                        model.name,
-                        mats.len()
-                    ),
+                    format!("object '{}' uses material {id} but the library has {}", model.name, mats.len()),
                     "fix the usemtl/mtllib lines",
                 ))
             }
-            None => *default_material.get_or_insert_with(|| {
-                d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)
-            }),
+            None => *default_material
+                .get_or_insert_with(|| d.add_material(Material::diffuse("default", Vec3::splat(0.8)), false)),
         };
         let pos = |i: u32| -> Result<Vec3, SceneError> {
             let i = i as usize * 3;
-            let p = mesh
-                .positions
-                .get(i..i + 3)
-                .map(|s| Vec3::new(s[0], s[1], s[2]));
+            let p = mesh.positions.get(i..i + 3).map(|s| Vec3::new(s[0], s[1], s[2]));
             match p {
                 Some(p) if p.is_finite() => Ok(p),
                 Some(_) => Err(SceneError::invalid(
@@ -229,15 +185,10 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
                 )),
             }
         };
-        if !(mesh.normals.iter().all(|x| x.is_finite())
-            && mesh.texcoords.iter().all(|x| x.is_finite()))
-        {
+        if !(mesh.normals.iter().all(|x| x.is_finite()) && mesh.texcoords.iter().all(|x| x.is_finite())) {
             return Err(SceneError::invalid(
                 path,
-                format!(
-                    "object '{}' has a NaN or infinite normal (vn) or texture coordinate (vt)",
-                    model.name
-                ),
+                format!("object '{}' has a NaN or infinite normal (vn) or texture coordinate (vt)", model.name),
                 "fix the vn/vt lines",
             ));
         }
@@ -256,20 +207,14 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             let out_of_range = |what: &str| {
                 SceneError::invalid(
                     path,
-                    format!(
-                        "object '{}' face {f} has a {what} index beyond the {what} lines",
-                        model.name
-                    ),
+                    format!("object '{}' face {f} has a {what} index beyond the {what} lines", model.name),
                     format!("fix the f lines' {what} indices"),
                 )
             };
             for (k, nk) in n.iter_mut().enumerate() {
                 if let Some(&ni) = mesh.normal_indices.get(f * 3 + k) {
                     let ni = ni as usize * 3;
-                    let s = mesh
-                        .normals
-                        .get(ni..ni + 3)
-                        .ok_or_else(|| out_of_range("vn"))?;
+                    let s = mesh.normals.get(ni..ni + 3).ok_or_else(|| out_of_range("vn"))?;
                     let v = Vec3::new(s[0], s[1], s[2]).normalize_or_zero();
                     if v != Vec3::ZERO {
                         *nk = v;
@@ -280,10 +225,7 @@ pub(crate) fn load_obj(path: &Path, res: &Resources) -> Result<SceneData, SceneE
             for (k, uvk) in uv.iter_mut().enumerate() {
                 if let Some(&ti) = mesh.texcoord_indices.get(f * 3 + k) {
                     let ti = ti as usize * 2;
-                    let s = mesh
-                        .texcoords
-                        .get(ti..ti + 2)
-                        .ok_or_else(|| out_of_range("vt"))?;
+                    let s = mesh.texcoords.get(ti..ti + 2).ok_or_else(|| out_of_range("vt"))?;
                     *uvk = Vec2::new(s[0], 1.0 - s[1]); // OBJ v=0 is the bottom row
                 }
             }
@@ -314,11 +256,7 @@ fn load_texture_cached(
     let by = format!("material '{material}' map_Kd {name}");
     let bytes = res.read_referenced(obj, Path::new(name), &by)?;
     let file = crate::resource::parent_dir(obj).join(name);
-    let tex = decode_texture(
-        &bytes,
-        &file,
-        &format!("the texture ({} {by})", obj.display()),
-    )?;
+    let tex = decode_texture(&bytes, &file, &format!("the texture ({} {by})", obj.display()))?;
     d.textures.push(tex);
     let i = (d.textures.len() - 1) as u32;
     cache.insert(name.to_string(), i);

@@ -57,18 +57,12 @@ pub const NLERP_BELOW: f32 = 1e-5;
 
 impl RigidMotion {
     /// No motion: every point stays where it is stored.
-    pub const IDENTITY: RigidMotion = RigidMotion {
-        pivot: Vec3::ZERO,
-        translation: [Vec3::ZERO; 2],
-        rotation: [Quat::IDENTITY; 2],
-    };
+    pub const IDENTITY: RigidMotion =
+        RigidMotion { pivot: Vec3::ZERO, translation: [Vec3::ZERO; 2], rotation: [Quat::IDENTITY; 2] };
 
     /// Pure translation from `open` to `close` (world units over the whole shutter).
     pub fn translation(open: Vec3, close: Vec3) -> RigidMotion {
-        RigidMotion {
-            translation: [open, close],
-            ..RigidMotion::IDENTITY
-        }
+        RigidMotion { translation: [open, close], ..RigidMotion::IDENTITY }
     }
 
     /// Rotation about `axis` through `pivot` from `open_rad` to `close_rad` (radians; at most π
@@ -78,10 +72,7 @@ impl RigidMotion {
         RigidMotion {
             pivot,
             translation: [Vec3::ZERO; 2],
-            rotation: [
-                Quat::from_axis_angle(axis, open_rad),
-                Quat::from_axis_angle(axis, close_rad),
-            ],
+            rotation: [Quat::from_axis_angle(axis, open_rad), Quat::from_axis_angle(axis, close_rad)],
         }
     }
 
@@ -99,10 +90,7 @@ impl RigidMotion {
                 return Err(format!("the {name} {v} is not finite"));
             }
             if v.abs().max_element() > crate::limits::MAX_COORDINATE {
-                return Err(format!(
-                    "the {name} {v} is beyond ±{:e} m",
-                    crate::limits::MAX_COORDINATE
-                ));
+                return Err(format!("the {name} {v} is beyond ±{:e} m", crate::limits::MAX_COORDINATE));
             }
         }
         for (k, q) in self.rotation.iter().enumerate() {
@@ -112,9 +100,7 @@ impl RigidMotion {
             }
             let len = q.length();
             if (len - 1.0).abs() > UNIT_TOLERANCE {
-                return Err(format!(
-                    "the rotation at shutter {when} {q} has length {len}, not a unit quaternion"
-                ));
+                return Err(format!("the rotation at shutter {when} {q} has length {len}, not a unit quaternion"));
             }
         }
         Ok(())
@@ -125,10 +111,7 @@ impl RigidMotion {
     pub fn is_static(&self) -> bool {
         self.translation[0] == Vec3::ZERO
             && self.translation[1] == Vec3::ZERO
-            && self
-                .rotation
-                .iter()
-                .all(|q| q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w.abs() == 1.0)
+            && self.rotation.iter().all(|q| q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w.abs() == 1.0)
     }
 
     /// Whether points move over the shutter at all (the same pose at both ends): velocity is then
@@ -178,10 +161,7 @@ impl RigidMotion {
         if points.is_empty() {
             return out;
         }
-        let r = points
-            .iter()
-            .map(|&x| (x - m.pivot).length())
-            .fold(0.0f32, f32::max);
+        let r = points.iter().map(|&x| (x - m.pivot).length()).fold(0.0f32, f32::max);
         let angle = 2.0 * m.theta as f64;
         let n = ((angle / (std::f64::consts::PI / 8.0)).ceil() as usize).clamp(1, 16);
         let delta = angle / n as f64;
@@ -269,17 +249,9 @@ impl PreparedMotion {
         let dq = q1 * q0.conjugate();
         let v = DVec3::new(dq.x, dq.y, dq.z);
         let sin = v.length();
-        let omega = if sin > 0.0 {
-            v * (theta / sin)
-        } else {
-            DVec3::ZERO
-        };
+        let omega = if sin > 0.0 { v * (theta / sin) } else { DVec3::ZERO };
         let theta32 = theta as f32;
-        let inv_sin_theta = if theta32 < NLERP_BELOW {
-            0.0
-        } else {
-            1.0 / sin_poly(theta32)
-        };
+        let inv_sin_theta = if theta32 < NLERP_BELOW { 0.0 } else { 1.0 / sin_poly(theta32) };
         PreparedMotion {
             pivot: m.pivot,
             t: m.translation,
@@ -315,25 +287,12 @@ impl PreparedMotion {
             let (w0, w1) = if self.nlerp() {
                 (1.0 - s, s)
             } else {
-                (
-                    sin_poly((1.0 - s) * self.theta) * self.inv_sin_theta,
-                    sin_poly(s * self.theta) * self.inv_sin_theta,
-                )
+                (sin_poly((1.0 - s) * self.theta) * self.inv_sin_theta, sin_poly(s * self.theta) * self.inv_sin_theta)
             };
             let (a, b) = (self.q[0], self.q[1]);
-            let q = [
-                a.x * w0 + b.x * w1,
-                a.y * w0 + b.y * w1,
-                a.z * w0 + b.z * w1,
-                a.w * w0 + b.w * w1,
-            ];
+            let q = [a.x * w0 + b.x * w1, a.y * w0 + b.y * w1, a.z * w0 + b.z * w1, a.w * w0 + b.w * w1];
             let inv_len = 1.0 / (((q[0] * q[0] + q[1] * q[1]) + q[2] * q[2]) + q[3] * q[3]).sqrt();
-            let q = Quat::from_xyzw(
-                q[0] * inv_len,
-                q[1] * inv_len,
-                q[2] * inv_len,
-                q[3] * inv_len,
-            );
+            let q = Quat::from_xyzw(q[0] * inv_len, q[1] * inv_len, q[2] * inv_len, q[3] * inv_len);
             (self.t[0] * (1.0 - s) + self.t[1] * s, q)
         };
         RigidTransform::new(self.pivot, translation, q)

@@ -346,7 +346,12 @@ impl RealLayer {
                 albedo[k] = [0.0; 3];
             }
         }
-        Ok(RealLayer { name: name.to_string(), width, height, maps: Arc::new(Maps { camera, position, normal, albedo }) })
+        Ok(RealLayer {
+            name: name.to_string(),
+            width,
+            height,
+            maps: Arc::new(Maps { camera, position, normal, albedo }),
+        })
     }
 
     /// The camera image's file, or `real layer (in memory)`.
@@ -361,7 +366,12 @@ impl RealLayer {
     }
 
     fn index(&self, x: u32, y: u32) -> usize {
-        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside the {}x{} real layer", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside the {}x{} real layer",
+            self.width,
+            self.height
+        );
         y as usize * self.width as usize + x as usize
     }
 
@@ -505,10 +515,14 @@ fn read_map(path: &Path, which: Which) -> Result<Decoded, SceneError> {
         Some("png") | Some("jpg") | Some("jpeg") if eight_bit_ok => read_srgb(path, which),
         Some("png") | Some("jpg") | Some("jpeg") => Err(SceneError::invalid(
             path,
-            format!("the {} is a PNG/JPEG image, which cannot hold world-space {}", which.what(), match which {
-                Which::Position => "coordinates (metres, any sign and size)",
-                _ => "unit vectors at float precision",
-            }),
+            format!(
+                "the {} is a PNG/JPEG image, which cannot hold world-space {}",
+                which.what(),
+                match which {
+                    Which::Position => "coordinates (metres, any sign and size)",
+                    _ => "unit vectors at float precision",
+                }
+            ),
             format!(
                 "write the {} as an OpenEXR file (.exr, float or half RGB{}); only the camera image and the albedo may \
                  be PNG or JPEG",
@@ -548,9 +562,11 @@ fn read_exr(path: &Path, which: Which) -> Result<Decoded, SceneError> {
         let side = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
         check_size(path, side(h.layer_size.0).max(1), side(h.layer_size.1).max(1))?;
     }
-    let has_rgb = |h: &exr::meta::header::Header| ["R", "G", "B"].iter().all(|c| h.channels.list.iter().any(|ch| ch.name.eq(c)));
+    let has_rgb =
+        |h: &exr::meta::header::Header| ["R", "G", "B"].iter().all(|c| h.channels.list.iter().any(|ch| ch.name.eq(c)));
     if !meta.headers.iter().any(has_rgb) {
-        let found: Vec<String> = meta.headers.iter().flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string())).collect();
+        let found: Vec<String> =
+            meta.headers.iter().flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string())).collect();
         return Err(SceneError::invalid(
             path,
             format!(
@@ -597,11 +613,8 @@ fn read_srgb(path: &Path, which: Which) -> Result<Decoded, SceneError> {
             "re-export it as PNG, JPEG or OpenEXR",
         )
     };
-    let reader = || {
-        image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
-            .with_guessed_format()
-            .map_err(|e| unreadable(&e))
-    };
+    let reader =
+        || image::ImageReader::new(std::io::Cursor::new(&bytes[..])).with_guessed_format().map_err(|e| unreadable(&e));
     let (w, h) = reader()?.into_dimensions().map_err(|e| unreadable(&e))?;
     check_size(path, w, h)?;
     let mut limits = image::Limits::default();

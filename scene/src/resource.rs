@@ -49,32 +49,18 @@ pub struct Confinement {
 impl Confinement {
     /// The confinement of references made from `file` (a file the user named; reading it is always
     /// allowed) to its directory; `allow_outside` lifts it (`--allow-outside-dir`).
-    pub fn of_file(
-        file: &Path,
-        to: ConfinedTo,
-        allow_outside: bool,
-    ) -> Result<Confinement, SceneError> {
+    pub fn of_file(file: &Path, to: ConfinedTo, allow_outside: bool) -> Result<Confinement, SceneError> {
         let root = std::fs::canonicalize(parent_dir(file)).map_err(|e| SceneError::io(file, e))?;
-        Ok(Confinement {
-            root,
-            allow_outside,
-            to,
-        })
+        Ok(Confinement { root, allow_outside, to })
     }
 
     /// Resolve `reference` (a path written in `file`, relative to `file`'s directory unless absolute):
     /// the canonical path, refused when it leaves the root and that is not allowed. `referenced_by`
     /// says where in `file`, e.g. `buffers[0].uri = "a.bin"` or `line 3: mtllib a.mtl`.
-    pub fn resolve(
-        &self,
-        file: &Path,
-        reference: &Path,
-        referenced_by: &str,
-    ) -> Result<PathBuf, SceneError> {
+    pub fn resolve(&self, file: &Path, reference: &Path, referenced_by: &str) -> Result<PathBuf, SceneError> {
         let joined = parent_dir(file).join(reference);
         let by = format!("{} {referenced_by}", file.display());
-        let canonical = std::fs::canonicalize(&joined)
-            .map_err(|e| SceneError::io_referenced(&joined, by, e))?;
+        let canonical = std::fs::canonicalize(&joined).map_err(|e| SceneError::io_referenced(&joined, by, e))?;
         if !self.allow_outside && !canonical.starts_with(&self.root) {
             return Err(SceneError::OutsideDir {
                 file: file.to_path_buf(),
@@ -100,58 +86,36 @@ pub(crate) struct Resources {
 impl Resources {
     /// The policy for loading `scene_file` (a file the user named; reading it is always allowed).
     pub fn for_scene(scene_file: &Path, opts: &LoadOptions) -> Result<Resources, SceneError> {
-        let confinement =
-            Confinement::of_file(scene_file, ConfinedTo::Scene, opts.allow_outside_dir)?;
-        Ok(Resources {
-            confinement,
-            shutter: None,
-        })
+        let confinement = Confinement::of_file(scene_file, ConfinedTo::Scene, opts.allow_outside_dir)?;
+        Ok(Resources { confinement, shutter: None })
     }
 
     /// Resolve `reference`, written in `scene` ([`Confinement::resolve`]).
-    pub fn resolve(
-        &self,
-        scene: &Path,
-        reference: &Path,
-        referenced_by: &str,
-    ) -> Result<PathBuf, SceneError> {
+    pub fn resolve(&self, scene: &Path, reference: &Path, referenced_by: &str) -> Result<PathBuf, SceneError> {
         self.confinement.resolve(scene, reference, referenced_by)
     }
 
     /// Resolve and read a referenced file (see [`Resources::resolve`]).
-    pub fn read_referenced(
-        &self,
-        scene: &Path,
-        reference: &Path,
-        referenced_by: &str,
-    ) -> Result<Vec<u8>, SceneError> {
+    pub fn read_referenced(&self, scene: &Path, reference: &Path, referenced_by: &str) -> Result<Vec<u8>, SceneError> {
         let file = self.resolve(scene, reference, referenced_by)?;
         read_capped(&file, Some(format!("{} {referenced_by}", scene.display())))
     }
 }
 
 /// Read a whole file, refusing files over [`MAX_FILE_BYTES`] before allocating.
-pub(crate) fn read_capped(
-    file: &Path,
-    referenced_by: Option<String>,
-) -> Result<Vec<u8>, SceneError> {
+pub(crate) fn read_capped(file: &Path, referenced_by: Option<String>) -> Result<Vec<u8>, SceneError> {
     let io_err = |e| match &referenced_by {
         Some(by) => SceneError::io_referenced(file, by.clone(), e),
         None => SceneError::io(file, e),
     };
     let meta = std::fs::metadata(file).map_err(io_err)?;
     if !meta.is_file() {
-        return Err(io_err(std::io::Error::other(
-            "it is a directory or a device, not a regular file",
-        )));
+        return Err(io_err(std::io::Error::other("it is a directory or a device, not a regular file")));
     }
     if meta.len() > MAX_FILE_BYTES {
         return Err(SceneError::invalid(
             file,
-            format!(
-                "the file has {} bytes, more than the limit of {MAX_FILE_BYTES}",
-                meta.len()
-            ),
+            format!("the file has {} bytes, more than the limit of {MAX_FILE_BYTES}", meta.len()),
             "split the scene into smaller files",
         ));
     }

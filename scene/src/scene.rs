@@ -54,10 +54,7 @@ impl Material {
     }
     /// A black emitter.
     pub fn emitter(name: &str, radiance: Vec3) -> Material {
-        Material {
-            emission: radiance,
-            ..Material::diffuse(name, Vec3::ZERO)
-        }
+        Material { emission: radiance, ..Material::diffuse(name, Vec3::ZERO) }
     }
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
@@ -95,10 +92,7 @@ pub struct Aabb {
 
 impl Aabb {
     pub fn empty() -> Aabb {
-        Aabb {
-            min: Vec3::splat(f32::INFINITY),
-            max: Vec3::splat(f32::NEG_INFINITY),
-        }
+        Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) }
     }
     pub fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
@@ -112,10 +106,7 @@ impl Aabb {
     }
     /// The smallest box holding both.
     pub fn union(&self, other: &Aabb) -> Aabb {
-        Aabb {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
+        Aabb { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
     /// Whether `p` lies inside (boundary included).
     pub fn contains(&self, p: Vec3) -> bool {
@@ -181,11 +172,7 @@ pub struct SceneObject {
 impl SceneObject {
     /// An object at rest.
     pub fn named(name: impl Into<String>) -> SceneObject {
-        SceneObject {
-            name: name.into(),
-            motion: None,
-            instance: None,
-        }
+        SceneObject { name: name.into(), motion: None, instance: None }
     }
 }
 
@@ -249,10 +236,7 @@ impl Scene {
         if tris.len() > MAX_TRIANGLES {
             return Err(SceneError::invalid(
                 &path,
-                format!(
-                    "{} triangles, more than the limit of {MAX_TRIANGLES}",
-                    tris.len()
-                ),
+                format!("{} triangles, more than the limit of {MAX_TRIANGLES}", tris.len()),
                 "decimate the meshes or split the scene",
             ));
         }
@@ -277,18 +261,16 @@ impl Scene {
             if far > MAX_COORDINATE {
                 return Err(SceneError::invalid(
                     &path,
-                    format!("triangle {i} has a vertex {far:e} m from the origin, beyond the limit of {MAX_COORDINATE:e} m"),
+                    format!(
+                        "triangle {i} has a vertex {far:e} m from the origin, beyond the limit of {MAX_COORDINATE:e} m"
+                    ),
                     "check the units and the transforms' scale/translation",
                 ));
             }
             if s.material as usize >= materials.len() {
                 return Err(SceneError::invalid(
                     &path,
-                    format!(
-                        "triangle {i} uses material {} but there are {}",
-                        s.material,
-                        materials.len()
-                    ),
+                    format!("triangle {i} uses material {} but there are {}", s.material, materials.len()),
                     "give every triangle a valid material index",
                 ));
             }
@@ -399,9 +381,7 @@ impl Scene {
     /// would then move differently.
     pub fn set_motion(&mut self, object: &str, motion: RigidMotion) -> Result<(), SceneError> {
         let path = origin_path(&self.name);
-        let ids: Vec<usize> = (0..self.objects.len())
-            .filter(|&k| self.objects[k].name == object)
-            .collect();
+        let ids: Vec<usize> = (0..self.objects.len()).filter(|&k| self.objects[k].name == object).collect();
         if ids.is_empty() {
             let mut names: Vec<&str> = self.objects.iter().map(|o| o.name.as_str()).collect();
             names.dedup();
@@ -431,8 +411,7 @@ impl Scene {
             if t.light == NO_LIGHT {
                 continue;
             }
-            let (of_light, of_triangle) =
-                (self.light_object[t.light as usize], self.shading[i].object);
+            let (of_light, of_triangle) = (self.light_object[t.light as usize], self.shading[i].object);
             if objects[of_light as usize].motion != objects[of_triangle as usize].motion {
                 return Err(SceneError::invalid(
                     &path,
@@ -448,10 +427,8 @@ impl Scene {
         let mut order: Vec<u32> = (0..self.triangles.len() as u32).collect();
         order.sort_by_key(|&i| self.triangles[i as usize].source);
         order.dedup_by_key(|i| self.triangles[*i as usize].source);
-        let records: Vec<TriangleRecord> =
-            order.iter().map(|&i| self.triangles[i as usize]).collect();
-        let shading: Vec<TriangleShading> =
-            order.iter().map(|&i| self.shading[i as usize]).collect();
+        let records: Vec<TriangleRecord> = order.iter().map(|&i| self.triangles[i as usize]).collect();
+        let shading: Vec<TriangleShading> = order.iter().map(|&i| self.shading[i as usize]).collect();
         let positions: Vec<[Vec3; 3]> = records.iter().map(|r| r.vertices()).collect();
         let mut bounds = Aabb::empty();
         for (p, s) in positions.iter().zip(&shading) {
@@ -610,8 +587,7 @@ impl<'a> SceneAt<'a> {
         if s.instances.is_empty() {
             return bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax);
         }
-        bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax)
-            || self.occluded_instances(origin, dir, tmin, tmax)
+        bvh::traverse::occluded(&s.bvh, origin, dir, tmin, tmax) || self.occluded_instances(origin, dir, tmin, tmax)
     }
 
     // Measured: with the `instances.is_empty()` test *after* the static traversal, the scene
@@ -623,23 +599,14 @@ impl<'a> SceneAt<'a> {
     /// [`SceneAt::intersect`]'s instances, after the static tree gave `best`: those whose swept box
     /// the ray enters before the best hit so far, found by walking the top-level tree.
     #[inline(never)]
-    fn intersect_instances(
-        &self,
-        mut best: Option<Hit>,
-        origin: Vec3,
-        dir: Vec3,
-        tmin: f32,
-        tmax: f32,
-    ) -> Option<Hit> {
+    fn intersect_instances(&self, mut best: Option<Hit>, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let s = self.scene;
         let limit = best.map_or(tmax, |h| h.t);
         bvh::traverse::walk_leaves(&s.bvh, s.instance_root, origin, dir, tmin, limit, |k| {
             let inst = &s.instances[k as usize];
             let xf = inst.prepared.at(self.t);
             let (o, d) = (xf.inverse_point(origin), xf.inverse_vector(dir));
-            if let Some(h) =
-                bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, false, best.as_ref())
-            {
+            if let Some(h) = bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, false, best.as_ref()) {
                 best = Some(h);
             }
             Some(best.map_or(tmax, |h| h.t))
@@ -656,8 +623,7 @@ impl<'a> SceneAt<'a> {
             let inst = &s.instances[k as usize];
             let xf = inst.prepared.at(self.t);
             let (o, d) = (xf.inverse_point(origin), xf.inverse_vector(dir));
-            occluded =
-                bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, true, None).is_some();
+            occluded = bvh::traverse_from(&s.bvh, inst.root, o, d, tmin, tmax, true, None).is_some();
             (!occluded).then_some(tmax)
         });
         occluded
@@ -693,20 +659,12 @@ impl<'a> SceneAt<'a> {
         };
         let xf = inst.prepared.at(self.t);
         let shape = match light.shape {
-            LightShape::Rect {
-                corner,
-                edge_u,
-                edge_v,
-            } => LightShape::Rect {
-                corner: xf.point(corner),
-                edge_u: xf.vector(edge_u),
-                edge_v: xf.vector(edge_v),
-            },
-            LightShape::Triangle { v0, v1, v2 } => LightShape::Triangle {
-                v0: xf.point(v0),
-                v1: xf.point(v1),
-                v2: xf.point(v2),
-            },
+            LightShape::Rect { corner, edge_u, edge_v } => {
+                LightShape::Rect { corner: xf.point(corner), edge_u: xf.vector(edge_u), edge_v: xf.vector(edge_v) }
+            }
+            LightShape::Triangle { v0, v1, v2 } => {
+                LightShape::Triangle { v0: xf.point(v0), v1: xf.point(v1), v2: xf.point(v2) }
+            }
         };
         AreaLight { shape, ..light }
     }
@@ -728,11 +686,7 @@ fn complete_objects(
     mut objects: Vec<SceneObject>,
     tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
 ) -> Result<Vec<SceneObject>, SceneError> {
-    let used = tris
-        .iter()
-        .map(|t| t.3.object as usize + 1)
-        .max()
-        .unwrap_or(0);
+    let used = tris.iter().map(|t| t.3.object as usize + 1).max().unwrap_or(0);
     if used > objects.len() {
         let from = objects.len();
         objects.extend((from..used).map(|i| SceneObject::named(format!("object{i}"))));
@@ -822,10 +776,7 @@ fn assemble(
 
     let mut triangles = Vec::with_capacity(records.len());
     let mut shading_out = Vec::with_capacity(records.len());
-    let mut bvh = Bvh {
-        nodes: Vec::new(),
-        packs: Vec::with_capacity(records.len() / 2),
-    };
+    let mut bvh = Bvh { nodes: Vec::new(), packs: Vec::with_capacity(records.len() / 2) };
     let mut instances = Vec::with_capacity(motions.len());
     let mut bounds = Aabb::empty();
     for (g, idx) in members.iter().enumerate() {
@@ -873,10 +824,7 @@ fn assemble(
         if triangles.len() > MAX_REFERENCES {
             return Err(SceneError::invalid(
                 path,
-                format!(
-                    "{} triangle references, more than the BVH can address ({MAX_REFERENCES})",
-                    triangles.len()
-                ),
+                format!("{} triangle references, more than the BVH can address ({MAX_REFERENCES})", triangles.len()),
                 "decimate the meshes or split the scene",
             ));
         }
@@ -911,10 +859,8 @@ fn assemble(
     }
     let mut instance_root = 0;
     if !instances.is_empty() {
-        let boxes: Vec<([f32; 3], [f32; 3])> = instances
-            .iter()
-            .map(|i| (i.swept_bounds.min.to_array(), i.swept_bounds.max.to_array()))
-            .collect();
+        let boxes: Vec<([f32; 3], [f32; 3])> =
+            instances.iter().map(|i| (i.swept_bounds.min.to_array(), i.swept_bounds.max.to_array())).collect();
         let top = bvh::build::build_boxes(&boxes);
         if top.stack_need + 1 > bvh::build::TOP_STACK_SIZE {
             return Err(SceneError::invalid(
@@ -939,48 +885,25 @@ fn assemble(
             bvh.nodes.push(node);
         }
     }
-    Ok(Assembled {
-        triangles,
-        shading: shading_out,
-        bvh,
-        objects,
-        instances,
-        instance_root,
-        bounds,
-    })
+    Ok(Assembled { triangles, shading: shading_out, bvh, objects, instances, instance_root, bounds })
 }
 
 /// Whether a material's numbers are usable: finite, non-negative colours, emission at most
 /// [`MAX_RADIANCE`] (larger sums overflow to inf and NaN pixels), a finite Phong exponent, a valid
 /// texture index. One check for every loader; loaders with a more precise location (a glTF JSON path)
 /// check their raw values first.
-fn check_material(
-    path: &std::path::Path,
-    i: usize,
-    m: &Material,
-    textures: usize,
-) -> Result<(), SceneError> {
+fn check_material(path: &std::path::Path, i: usize, m: &Material, textures: usize) -> Result<(), SceneError> {
     let what = |field: &str, v: String| format!("material {i} ('{}') has {field} {v}", m.name);
-    for (field, v) in [
-        ("base colour", m.base_color),
-        ("specular", m.specular),
-        ("emission", m.emission),
-    ] {
+    for (field, v) in [("base colour", m.base_color), ("specular", m.specular), ("emission", m.emission)] {
         if !v.is_finite() || v.min_element() < 0.0 {
-            return Err(SceneError::invalid(
-                path,
-                what(field, v.to_string()),
-                "use finite, non-negative values",
-            ));
+            return Err(SceneError::invalid(path, what(field, v.to_string()), "use finite, non-negative values"));
         }
     }
     if m.emission.max_element() > MAX_RADIANCE {
         return Err(SceneError::invalid(
             path,
             what("emission", m.emission.to_string()),
-            format!(
-                "keep emitted radiance at most {MAX_RADIANCE:e} per channel (scale the light down)"
-            ),
+            format!("keep emitted radiance at most {MAX_RADIANCE:e} per channel (scale the light down)"),
         ));
     }
     if !(m.phong_exponent.is_finite() && m.phong_exponent >= 0.0) {
@@ -994,10 +917,7 @@ fn check_material(
         if t as usize >= textures {
             return Err(SceneError::invalid(
                 path,
-                format!(
-                    "material {i} ('{}') uses texture {t} but there are {textures}",
-                    m.name
-                ),
+                format!("material {i} ('{}') uses texture {t} but there are {textures}", m.name),
                 "give every material a valid texture index",
             ));
         }
@@ -1008,13 +928,9 @@ fn check_material(
 /// Indices of the triangles worth building a BVH over: zero-area ones (cross product of the edges is
 /// zero) and exact copies of an earlier triangle (same three vertices bit for bit, in the same cyclic
 /// order) are left out. Returns the kept input indices and one warning per kind of drop.
-fn drop_degenerate_and_duplicates(
-    name: &str,
-    tris: &[(Vec3, Vec3, Vec3, TriangleShading)],
-) -> (Vec<u32>, Vec<String>) {
+fn drop_degenerate_and_duplicates(name: &str, tris: &[(Vec3, Vec3, Vec3, TriangleShading)]) -> (Vec<u32>, Vec<String>) {
     let key = |v: Vec3| v.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() }); // -0 == +0
-    let mut seen: std::collections::HashSet<[[u32; 3]; 3]> =
-        std::collections::HashSet::with_capacity(tris.len());
+    let mut seen: std::collections::HashSet<[[u32; 3]; 3]> = std::collections::HashSet::with_capacity(tris.len());
     let (mut zero_area, mut duplicates) = (0usize, 0usize);
     let mut kept = Vec::with_capacity(tris.len());
     for (i, (a, b, c, _)) in tris.iter().enumerate() {
@@ -1062,12 +978,7 @@ fn extract_lights(
     let mut light_object = Vec::new();
     let emissive: Vec<usize> = (0..tris.len())
         .filter(|&i| materials[tris[i].3.material as usize].is_emissive())
-        .filter(|&i| {
-            (tris[i].1 - tris[i].0)
-                .cross(tris[i].2 - tris[i].0)
-                .length_squared()
-                > 0.0
-        })
+        .filter(|&i| (tris[i].1 - tris[i].0).cross(tris[i].2 - tris[i].0).length_squared() > 0.0)
         .collect();
     if emissive.is_empty() {
         return (Vec::new(), light_of, light_object);
@@ -1114,17 +1025,9 @@ fn extract_lights(
                 light_of[j] = index;
                 rect
             }
-            None => LightShape::Triangle {
-                v0: v[0],
-                v1: v[1],
-                v2: v[2],
-            },
+            None => LightShape::Triangle { v0: v[0], v1: v[1], v2: v[2] },
         };
-        lights.push(AreaLight {
-            shape,
-            radiance,
-            two_sided: false,
-        });
+        lights.push(AreaLight { shape, radiance, two_sided: false });
         light_object.push(tris[i].3.object);
     }
     (lights, light_of, light_object)
@@ -1166,9 +1069,5 @@ fn parallelogram(
     if eu.cross(ev).dot(na) < 0.0 {
         std::mem::swap(&mut eu, &mut ev);
     }
-    Some(LightShape::Rect {
-        corner,
-        edge_u: eu,
-        edge_v: ev,
-    })
+    Some(LightShape::Rect { corner, edge_u: eu, edge_v: ev })
 }

@@ -25,19 +25,11 @@ impl Texture {
         let texels = (0..size * size)
             .map(|i| {
                 let (x, y) = (i % size, i / size);
-                let v = if ((x / cell) + (y / cell)) & 1 == 0 {
-                    a
-                } else {
-                    b
-                };
+                let v = if ((x / cell) + (y / cell)) & 1 == 0 { a } else { b };
                 [v; 3]
             })
             .collect();
-        Texture {
-            width: size,
-            height: size,
-            texels,
-        }
+        Texture { width: size, height: size, texels }
     }
 
     /// Texel at integer coordinates with wrap-around (repeat).
@@ -53,11 +45,7 @@ impl Texture {
         if self.width == 0 || self.height == 0 || self.texels.is_empty() {
             return Vec3::ONE;
         }
-        let uv = if uv.is_finite() {
-            uv
-        } else {
-            Vec2::splat(0.5) / Vec2::new(self.width as f32, self.height as f32)
-        };
+        let uv = if uv.is_finite() { uv } else { Vec2::splat(0.5) / Vec2::new(self.width as f32, self.height as f32) };
         // Keep the coordinate small before converting so huge repeats do not lose the fraction.
         let x = uv.x.rem_euclid(1.0) * self.width as f32 - 0.5;
         let y = uv.y.rem_euclid(1.0) * self.height as f32 - 0.5;
@@ -87,11 +75,7 @@ impl Texture {
                 }
             })
             .collect();
-        Some(Texture {
-            width,
-            height,
-            texels,
-        })
+        Some(Texture { width, height, texels })
     }
 
     /// Build from a decoded `image` crate image (assumed sRGB, as base-colour textures are).
@@ -113,11 +97,8 @@ pub(crate) fn decode_texture(bytes: &[u8], file: &Path, what: &str) -> Result<Te
             "re-export the texture as 8-bit PNG or JPEG",
         )
     };
-    let reader = || {
-        image::ImageReader::new(std::io::Cursor::new(bytes))
-            .with_guessed_format()
-            .map_err(|e| unreadable(&e))
-    };
+    let reader =
+        || image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| unreadable(&e));
     let (w, h) = reader()?.into_dimensions().map_err(|e| unreadable(&e))?;
     if w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
         return Err(SceneError::invalid(
@@ -137,9 +118,8 @@ pub(crate) fn decode_texture(bytes: &[u8], file: &Path, what: &str) -> Result<Te
     let mut decoder = reader()?;
     decoder.limits(limits);
     let img = decoder.decode().map_err(|e| unreadable(&e))?;
-    Texture::from_image(&img).ok_or_else(|| {
-        SceneError::invalid(file, format!("{what} is empty"), "use a non-empty image")
-    })
+    Texture::from_image(&img)
+        .ok_or_else(|| SceneError::invalid(file, format!("{what} is empty"), "use a non-empty image"))
 }
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).

@@ -16,9 +16,7 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/bad/scene")
-        .join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/bad/scene").join(name)
 }
 
 fn load_file(path: &Path) -> Result<Scene, SceneError> {
@@ -29,11 +27,7 @@ fn load_file(path: &Path) -> Result<Scene, SceneError> {
 fn fails(path: &Path, fragments: &[&str]) -> SceneError {
     let e = match load_file(path) {
         Err(e) => e,
-        Ok(s) => panic!(
-            "{} should fail, loaded {} triangles",
-            path.display(),
-            s.triangle_count()
-        ),
+        Ok(s) => panic!("{} should fail, loaded {} triangles", path.display(), s.triangle_count()),
     };
     let msg = e.to_string();
     let name = path.file_name().unwrap().to_string_lossy();
@@ -94,41 +88,19 @@ fn base_gltf_loads() {
 fn the_four_gltf_crate_panics_are_errors() {
     fails(
         &data("position_index_out_of_range.gltf"),
-        &[
-            "meshes[0].primitives[0].attributes.POSITION = 7",
-            "3 accessors",
-        ],
+        &["meshes[0].primitives[0].attributes.POSITION = 7", "3 accessors"],
     );
     fails(
         &data("stride_smaller_than_element.gltf"),
-        &[
-            "bufferViews[0].byteStride is 4",
-            "12-byte elements",
-            "at least 12",
-        ],
+        &["bufferViews[0].byteStride is 4", "12-byte elements", "at least 12"],
     );
-    fails(
-        &data("indices_float.gltf"),
-        &[
-            "meshes[0].primitives[0].indices must be SCALAR",
-            "is SCALAR FLOAT",
-        ],
-    );
-    fails(
-        &data("texcoord_unsigned_int.gltf"),
-        &["attributes.TEXCOORD_0 must be VEC2", "VEC2 UNSIGNED_INT"],
-    );
+    fails(&data("indices_float.gltf"), &["meshes[0].primitives[0].indices must be SCALAR", "is SCALAR FLOAT"]);
+    fails(&data("texcoord_unsigned_int.gltf"), &["attributes.TEXCOORD_0 must be VEC2", "VEC2 UNSIGNED_INT"]);
 }
 
 #[test]
 fn gltf_node_graphs_must_be_trees() {
-    fails(
-        &data("node_cycle.gltf"),
-        &[
-            "nodes[0].children[0] = 0 reaches nodes[0] a second time",
-            "tree",
-        ],
-    );
+    fails(&data("node_cycle.gltf"), &["nodes[0].children[0] = 0 reaches nodes[0] a second time", "tree"]);
     let dir = temp_dir("nodes");
     let buf = tri_buffer(TRI, [0, 1, 2]);
     // A node with two parents (a DAG: each level doubling would instance a mesh 2^depth times).
@@ -137,20 +109,11 @@ fn gltf_node_graphs_must_be_trees() {
         "two_parents.gltf",
         &buf,
         &[
-            (
-                r#""nodes":[{"mesh":0}]"#,
-                r#""nodes":[{"mesh":0},{"children":[0]},{"children":[0]}]"#,
-            ),
-            (
-                r#""scenes":[{"nodes":[0]}]"#,
-                r#""scenes":[{"nodes":[1,2]}]"#,
-            ),
+            (r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0},{"children":[0]},{"children":[0]}]"#),
+            (r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{"nodes":[1,2]}]"#),
         ],
     );
-    fails(
-        &p,
-        &["nodes[2].children[0] = 0 reaches nodes[0] a second time"],
-    );
+    fails(&p, &["nodes[2].children[0] = 0 reaches nodes[0] a second time"]);
     // Distinct nodes sharing a mesh are fine, but the instanced total is capped before reading.
     let big = 3 * ((limits::MAX_TRIANGLES as u64) / 2 + 1);
     let p = gltf_variant(
@@ -158,18 +121,9 @@ fn gltf_node_graphs_must_be_trees() {
         "instanced.gltf",
         &buf,
         &[
-            (
-                r#""count":3,"type":"SCALAR""#,
-                &format!(r#""count":{big},"type":"SCALAR""#),
-            ),
-            (
-                r#""nodes":[{"mesh":0}]"#,
-                r#""nodes":[{"mesh":0},{"mesh":0}]"#,
-            ),
-            (
-                r#""scenes":[{"nodes":[0]}]"#,
-                r#""scenes":[{"nodes":[0,1]}]"#,
-            ),
+            (r#""count":3,"type":"SCALAR""#, &format!(r#""count":{big},"type":"SCALAR""#)),
+            (r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0},{"mesh":0}]"#),
+            (r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{"nodes":[0,1]}]"#),
         ],
     );
     fails(&p, &["instances more than 67108864 triangles", "nodes[1]"]);
@@ -177,10 +131,7 @@ fn gltf_node_graphs_must_be_trees() {
         &dir,
         "bad_child.gltf",
         &buf,
-        &[(
-            r#""nodes":[{"mesh":0}]"#,
-            r#""nodes":[{"mesh":0,"children":[9]}]"#,
-        )],
+        &[(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"children":[9]}]"#)],
     );
     fails(&p, &["nodes[0].children[0] = 9 but the file has 1 nodes"]);
 }
@@ -192,48 +143,22 @@ fn gltf_index_counts_are_checked() {
     let count = |n: &str| format!(r#""count":{n},"type":"SCALAR""#);
     let c = r#""count":3,"type":"SCALAR""#;
     let p = gltf_variant(&dir, "too_many.gltf", &buf, &[(c, &count("6"))]);
-    fails(
-        &p,
-        &[
-            "accessors[1] (used as meshes[0].primitives[0].indices) needs 12 bytes",
-            "byteLength 6",
-        ],
-    );
+    fails(&p, &["accessors[1] (used as meshes[0].primitives[0].indices) needs 12 bytes", "byteLength 6"]);
     let p = gltf_variant(&dir, "zero.gltf", &buf, &[(c, &count("0"))]);
     fails(&p, &["meshes[0].primitives[0].indices) has count 0"]);
     let p = gltf_variant(&dir, "two.gltf", &buf, &[(c, &count("2"))]);
-    fails(
-        &p,
-        &["meshes[0].primitives[0].indices: 2 indices is not a multiple of 3"],
-    );
+    fails(&p, &["meshes[0].primitives[0].indices: 2 indices is not a multiple of 3"]);
     let p = gltf_variant(&dir, "range.gltf", &tri_buffer(TRI, [0, 1, 5]), &[]);
-    fails(
-        &p,
-        &["indices: index 5 at position 2 is out of range (POSITION has 3 vertices)"],
-    );
+    fails(&p, &["indices: index 5 at position 2 is out of range (POSITION has 3 vertices)"]);
     let p = gltf_variant(
         &dir,
         "view.gltf",
         &buf,
-        &[(
-            r#""byteOffset":36,"byteLength":6"#,
-            r#""byteOffset":36,"byteLength":600"#,
-        )],
+        &[(r#""byteOffset":36,"byteLength":6"#, r#""byteOffset":36,"byteLength":600"#)],
     );
-    fails(
-        &p,
-        &["bufferViews[1] (byteOffset 36 + byteLength 600) runs past buffers[0].byteLength 44"],
-    );
-    let p = gltf_variant(
-        &dir,
-        "short.gltf",
-        &buf,
-        &[(r#""byteLength":44"#, r#""byteLength":100"#)],
-    );
-    fails(
-        &p,
-        &["buffers[0] declares byteLength 100 but its data has 44 bytes"],
-    );
+    fails(&p, &["bufferViews[1] (byteOffset 36 + byteLength 600) runs past buffers[0].byteLength 44"]);
+    let p = gltf_variant(&dir, "short.gltf", &buf, &[(r#""byteLength":44"#, r#""byteLength":100"#)]);
+    fails(&p, &["buffers[0] declares byteLength 100 but its data has 44 bytes"]);
     let p = gltf_variant(
         &dir,
         "sparse.gltf",
@@ -263,46 +188,27 @@ fn gltf_non_finite_and_overflowing_values_are_refused() {
             r#""materials":[{"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":3e38}}}]"#,
         )],
     );
-    fails(
-        &p,
-        &[
-            "materials[0]: emissiveFactor",
-            "more than the limit of 1e12",
-            "emissiveStrength",
-        ],
-    );
+    fails(&p, &["materials[0]: emissiveFactor", "more than the limit of 1e12", "emissiveStrength"]);
     let p = gltf_variant(
         &dir,
         "scale.gltf",
         &buf,
-        &[(
-            r#""nodes":[{"mesh":0}]"#,
-            r#""nodes":[{"mesh":0,"scale":[1e38,1e38,1e38]}]"#,
-        )],
+        &[(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"scale":[1e38,1e38,1e38]}]"#)],
     );
-    fails(
-        &p,
-        &["nodes[0] places meshes[0] vertices at", "beyond ±1e8"],
-    );
+    fails(&p, &["nodes[0] places meshes[0] vertices at", "beyond ±1e8"]);
     // 1e39 does not fit an f32: serde reads it as infinity.
     let p = gltf_variant(
         &dir,
         "translation.gltf",
         &buf,
-        &[(
-            r#""nodes":[{"mesh":0}]"#,
-            r#""nodes":[{"mesh":0,"translation":[1e39,0,0]}]"#,
-        )],
+        &[(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"translation":[1e39,0,0]}]"#)],
     );
     fails(&p, &["nodes[0].translation", "not finite"]);
     let p = gltf_variant(
         &dir,
         "matrix.gltf",
         &buf,
-        &[(
-            r#""nodes":[{"mesh":0}]"#,
-            r#""nodes":[{"mesh":0,"matrix":[1e39,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]"#,
-        )],
+        &[(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"matrix":[1e39,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]"#)],
     );
     fails(&p, &["nodes[0].matrix", "not finite"]);
     let p = gltf_variant(
@@ -319,10 +225,7 @@ fn gltf_non_finite_and_overflowing_values_are_refused() {
 
 #[test]
 fn gltf_camera_sanity() {
-    fails(
-        &data("camera_negative_yfov.gltf"),
-        &["cameras[0].perspective.yfov is -0.5", "0 < yfov < π"],
-    );
+    fails(&data("camera_negative_yfov.gltf"), &["cameras[0].perspective.yfov is -0.5", "0 < yfov < π"]);
     let dir = temp_dir("camera");
     let buf = tri_buffer(TRI, [0, 1, 2]);
     let with_camera = |name: &str, perspective: &str, node: &str| {
@@ -337,18 +240,11 @@ fn gltf_camera_sanity() {
                         r#""cameras":[{{"type":"perspective","perspective":{perspective}}}],"nodes":[{{"mesh":0}},{node}]"#
                     ),
                 ),
-                (
-                    r#""scenes":[{"nodes":[0]}]"#,
-                    r#""scenes":[{"nodes":[0,1]}]"#,
-                ),
+                (r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{"nodes":[0,1]}]"#),
             ],
         )
     };
-    let p = with_camera(
-        "wide.gltf",
-        r#"{"yfov":3.2,"znear":0.1}"#,
-        r#"{"camera":0,"translation":[0,0,3]}"#,
-    );
+    let p = with_camera("wide.gltf", r#"{"yfov":3.2,"znear":0.1}"#, r#"{"camera":0,"translation":[0,0,3]}"#);
     fails(&p, &["cameras[0].perspective.yfov is 3.2"]);
     let p = with_camera(
         "aspect.gltf",
@@ -362,11 +258,7 @@ fn gltf_camera_sanity() {
         r#"{"camera":0,"translation":[0,0,3],"scale":[0,0,0]}"#,
     );
     fails(&p, &["the camera of nodes[1]"]);
-    let p = with_camera(
-        "good.gltf",
-        r#"{"yfov":0.8,"znear":0.1}"#,
-        r#"{"camera":0,"translation":[0.2,0.2,3]}"#,
-    );
+    let p = with_camera("good.gltf", r#"{"yfov":0.8,"znear":0.1}"#, r#"{"camera":0,"translation":[0.2,0.2,3]}"#);
     let s = load_file(&p).unwrap();
     assert!((s.camera.vfov_deg - 0.8f32.to_degrees()).abs() < 1e-4);
 }
@@ -377,17 +269,15 @@ fn ron_camera_sanity() {
         &data("camera_look_at_position.ron"),
         &["camera: look_at [0, 1, 3] and position [0, 1, 3] give no view direction"],
     );
-    fails(
-        &data("camera_up_parallel.ron"),
-        &["camera: up [0, 1, 0] is parallel to the view direction"],
-    );
-    fails(
-        &data("camera_fov_180.ron"),
-        &["camera: vfov_deg 180 is outside 0 < vfov_deg < 180"],
-    );
+    fails(&data("camera_up_parallel.ron"), &["camera: up [0, 1, 0] is parallel to the view direction"]);
+    fails(&data("camera_fov_180.ron"), &["camera: vfov_deg 180 is outside 0 < vfov_deg < 180"]);
     let dir = temp_dir("ron_nan");
     let p = dir.join("nan.ron");
-    std::fs::write(&p, r#"Scene(builtin: Some("grids"), camera: Some((position: (0, 1, 3), look_at: (0, 0, 0), vfov_deg: NaN)))"#).unwrap();
+    std::fs::write(
+        &p,
+        r#"Scene(builtin: Some("grids"), camera: Some((position: (0, 1, 3), look_at: (0, 0, 0), vfov_deg: NaN)))"#,
+    )
+    .unwrap();
     fails(&p, &["vfov_deg NaN is not finite"]);
 }
 
@@ -396,74 +286,29 @@ fn camera_validate_rules() {
     let ok = Camera::default();
     assert_eq!(ok.validate(), Ok(()));
     let bad = [
-        Camera {
-            vfov_deg: 0.0,
-            ..ok
-        },
-        Camera {
-            vfov_deg: 180.0,
-            ..ok
-        },
-        Camera {
-            vfov_deg: f32::NAN,
-            ..ok
-        },
-        Camera {
-            position: Vec3::new(f32::INFINITY, 0.0, 0.0),
-            ..ok
-        },
-        Camera {
-            look_at: ok.position,
-            ..ok
-        },
-        Camera {
-            up: Vec3::ZERO,
-            ..ok
-        },
-        Camera {
-            up: ok.look_at - ok.position,
-            ..ok
-        },
-        Camera {
-            aperture_radius: -1.0,
-            ..ok
-        },
+        Camera { vfov_deg: 0.0, ..ok },
+        Camera { vfov_deg: 180.0, ..ok },
+        Camera { vfov_deg: f32::NAN, ..ok },
+        Camera { position: Vec3::new(f32::INFINITY, 0.0, 0.0), ..ok },
+        Camera { look_at: ok.position, ..ok },
+        Camera { up: Vec3::ZERO, ..ok },
+        Camera { up: ok.look_at - ok.position, ..ok },
+        Camera { aperture_radius: -1.0, ..ok },
         // Finite, but the difference overflows f32.
-        Camera {
-            position: Vec3::splat(-3e38),
-            look_at: Vec3::splat(3e38),
-            ..ok
-        },
+        Camera { position: Vec3::splat(-3e38), look_at: Vec3::splat(3e38), ..ok },
     ];
     for c in bad {
         assert!(c.validate().is_err(), "{c:?} should be refused");
     }
-    assert_eq!(
-        Camera {
-            vfov_deg: 179.0,
-            up: Vec3::new(0.0, 1.0, 0.01),
-            ..ok
-        }
-        .validate(),
-        Ok(())
-    );
+    assert_eq!(Camera { vfov_deg: 179.0, up: Vec3::new(0.0, 1.0, 0.01), ..ok }.validate(), Ok(()));
 }
 
 #[test]
 fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
     let p = data("outside/scene/buffer_outside.gltf");
-    let e = fails(
-        &p,
-        &[
-            "buffers[0].uri = \"../outside.bin\"",
-            "outside the scene directory",
-            "--allow-outside-dir",
-        ],
-    );
+    let e = fails(&p, &["buffers[0].uri = \"../outside.bin\"", "outside the scene directory", "--allow-outside-dir"]);
     assert!(matches!(e, SceneError::OutsideDir { .. }), "{e:?}");
-    let allow = LoadOptions {
-        allow_outside_dir: true,
-    };
+    let allow = LoadOptions { allow_outside_dir: true };
     let s = load_with(&SceneSource::File(p), &allow).unwrap();
     assert_eq!((s.triangle_count(), s.lights.len()), (2, 1));
 
@@ -473,19 +318,9 @@ fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
     std::fs::write(dir.join("secret.bin"), &buf).unwrap();
     // Absolute paths, file: URIs and symlinks that leave the directory are all caught.
     let abs = dir.join("secret.bin").display().to_string();
-    for (name, uri) in [
-        ("abs.gltf", abs.clone()),
-        ("file_uri.gltf", format!("file://{abs}")),
-    ] {
-        let p = gltf_variant(
-            &dir.join("scene"),
-            name,
-            &buf,
-            &[("data:application/octet-stream;base64,", "")],
-        );
-        let json = std::fs::read_to_string(&p)
-            .unwrap()
-            .replace(&base64::encode(&buf), &uri);
+    for (name, uri) in [("abs.gltf", abs.clone()), ("file_uri.gltf", format!("file://{abs}"))] {
+        let p = gltf_variant(&dir.join("scene"), name, &buf, &[("data:application/octet-stream;base64,", "")]);
+        let json = std::fs::read_to_string(&p).unwrap().replace(&base64::encode(&buf), &uri);
         std::fs::write(&p, json).unwrap();
         let e = fails(&p, &["outside the scene directory"]);
         assert!(matches!(e, SceneError::OutsideDir { .. }));
@@ -493,51 +328,22 @@ fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
     #[cfg(unix)]
     {
         std::os::unix::fs::symlink(dir.join("secret.bin"), dir.join("scene/link.bin")).unwrap();
-        let p = gltf_variant(
-            &dir.join("scene"),
-            "link.gltf",
-            &buf,
-            &[("data:application/octet-stream;base64,", "")],
-        );
-        let json = std::fs::read_to_string(&p)
-            .unwrap()
-            .replace(&base64::encode(&buf), "link.bin");
+        let p = gltf_variant(&dir.join("scene"), "link.gltf", &buf, &[("data:application/octet-stream;base64,", "")]);
+        let json = std::fs::read_to_string(&p).unwrap().replace(&base64::encode(&buf), "link.bin");
         std::fs::write(&p, json).unwrap();
-        fails(
-            &p,
-            &[
-                "buffers[0].uri = \"link.bin\"",
-                "outside the scene directory",
-            ],
-        );
-        let s = load_with(
-            &SceneSource::File(p),
-            &LoadOptions {
-                allow_outside_dir: true,
-            },
-        )
-        .unwrap();
+        fails(&p, &["buffers[0].uri = \"link.bin\"", "outside the scene directory"]);
+        let s = load_with(&SceneSource::File(p), &LoadOptions { allow_outside_dir: true }).unwrap();
         assert_eq!(s.triangle_count(), 1);
     }
     // A .ron scene's mesh path is checked the same way.
     std::fs::write(dir.join("mesh.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let ron = dir.join("scene/s.ron");
     std::fs::write(&ron, r#"Scene(meshes: [(path: "../mesh.obj")])"#).unwrap();
-    fails(
-        &ron,
-        &[
-            "meshes[0].path = \"../mesh.obj\"",
-            "outside the scene directory",
-        ],
-    );
+    fails(&ron, &["meshes[0].path = \"../mesh.obj\"", "outside the scene directory"]);
     // An OBJ's mtllib too.
     std::fs::write(dir.join("lib.mtl"), "newmtl a\nKd 1 1 1\n").unwrap();
     let obj = dir.join("scene/m.obj");
-    std::fs::write(
-        &obj,
-        "mtllib ../lib.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(&obj, "mtllib ../lib.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n").unwrap();
     fails(&obj, &["mtllib ../lib.mtl", "outside the scene directory"]);
 }
 
@@ -545,75 +351,38 @@ fn resources_outside_the_scene_dir_are_refused_unless_allowed() {
 fn missing_and_unreadable_files_name_the_file_and_the_referrer() {
     let dir = temp_dir("missing");
     let buf = tri_buffer(TRI, [0, 1, 2]);
-    let p = gltf_variant(
-        &dir,
-        "nobin.gltf",
-        &buf,
-        &[("data:application/octet-stream;base64,", "")],
-    );
-    let json = std::fs::read_to_string(&p)
-        .unwrap()
-        .replace(&base64::encode(&buf), "gone.bin");
+    let p = gltf_variant(&dir, "nobin.gltf", &buf, &[("data:application/octet-stream;base64,", "")]);
+    let json = std::fs::read_to_string(&p).unwrap().replace(&base64::encode(&buf), "gone.bin");
     std::fs::write(&p, json).unwrap();
     let e = load_file(&p).unwrap_err();
     let msg = e.to_string();
     assert!(matches!(e, SceneError::Io { .. }), "{e:?}");
-    for f in [
-        "gone.bin",
-        "nobin.gltf buffers[0].uri = \"gone.bin\"",
-        "it does not exist",
-    ] {
+    for f in ["gone.bin", "nobin.gltf buffers[0].uri = \"gone.bin\"", "it does not exist"] {
         assert!(msg.contains(f), "{f:?} missing from {msg}");
     }
     // Percent-escapes that are not UTF-8 (urlencoding().unwrap() in the gltf crate panicked).
-    let p = gltf_variant(
-        &dir,
-        "escape.gltf",
-        &buf,
-        &[("data:application/octet-stream;base64,", "")],
-    );
-    let json = std::fs::read_to_string(&p)
-        .unwrap()
-        .replace(&base64::encode(&buf), "%FF%FE.bin");
+    let p = gltf_variant(&dir, "escape.gltf", &buf, &[("data:application/octet-stream;base64,", "")]);
+    let json = std::fs::read_to_string(&p).unwrap().replace(&base64::encode(&buf), "%FF%FE.bin");
     std::fs::write(&p, json).unwrap();
     fails(&p, &["buffers[0].uri", "percent-escapes"]);
 
     let obj = dir.join("m.obj");
-    std::fs::write(
-        &obj,
-        "mtllib nope.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(&obj, "mtllib nope.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let e = load_file(&obj).unwrap_err();
     let msg = e.to_string();
     assert!(matches!(e, SceneError::Io { .. }), "{e:?}");
     for f in ["nope.mtl", "m.obj mtllib nope.mtl", "does not exist"] {
         assert!(msg.contains(f), "{f:?} missing from {msg}");
     }
-    std::fs::write(
-        dir.join("t.mtl"),
-        "newmtl wood\nKd 1 1 1\nmap_Kd wood.png\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join("t.mtl"), "newmtl wood\nKd 1 1 1\nmap_Kd wood.png\n").unwrap();
     let obj = dir.join("t.obj");
-    std::fs::write(
-        &obj,
-        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl wood\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(&obj, "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl wood\nf 1 2 3\n").unwrap();
     let msg = load_file(&obj).unwrap_err().to_string();
-    for f in [
-        "wood.png",
-        "material 'wood' map_Kd wood.png",
-        "does not exist",
-    ] {
+    for f in ["wood.png", "material 'wood' map_Kd wood.png", "does not exist"] {
         assert!(msg.contains(f), "{f:?} missing from {msg}");
     }
     let e = load_file(&dir.join("absent.obj")).unwrap_err();
-    assert!(
-        matches!(e, SceneError::Io { .. }) && e.to_string().contains("does not exist"),
-        "{e}"
-    );
+    assert!(matches!(e, SceneError::Io { .. }) && e.to_string().contains("does not exist"), "{e}");
     // Permission denied reads as such (tests often run as root, where chmod 000 does not deny, so the
     // message is checked on the error value).
     let e = SceneError::Io {
@@ -622,10 +391,7 @@ fn missing_and_unreadable_files_name_the_file_and_the_referrer() {
         source: std::io::Error::from(std::io::ErrorKind::PermissionDenied),
     };
     let msg = e.to_string();
-    assert!(
-        msg.contains("permission denied") && msg.contains("chmod") && !msg.contains("not a valid"),
-        "{msg}"
-    );
+    assert!(msg.contains("permission denied") && msg.contains("chmod") && !msg.contains("not a valid"), "{msg}");
 }
 
 #[test]
@@ -634,28 +400,16 @@ fn obj_unknown_usemtl_is_a_warning_with_the_line() {
     assert_eq!((s.triangle_count(), s.lights.len()), (4, 1));
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     let w = &s.warnings[0];
-    for f in [
-        "usemtl_unknown.obj:11: usemtl 'no_such_material'",
-        "usemtl_unknown.mtl",
-        "default",
-    ] {
+    for f in ["usemtl_unknown.obj:11: usemtl 'no_such_material'", "usemtl_unknown.mtl", "default"] {
         assert!(w.contains(f), "{f:?} missing from {w}");
     }
     let dir = temp_dir("mtl_nan");
     std::fs::write(dir.join("n.mtl"), "newmtl a\nKd nan 1 1\n").unwrap();
     let obj = dir.join("n.obj");
-    std::fs::write(
-        &obj,
-        "mtllib n.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(&obj, "mtllib n.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n").unwrap();
     fails(&obj, &["material 'a' in n.mtl has Kd"]);
     let obj = dir.join("vn.obj");
-    std::fs::write(
-        &obj,
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 nan\nf 1//1 2//1 3//1\n",
-    )
-    .unwrap();
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 nan\nf 1//1 2//1 3//1\n").unwrap();
     fails(&obj, &["NaN or infinite normal"]);
     let obj = dir.join("vt.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/9 3/1\n").unwrap();
@@ -669,11 +423,7 @@ fn png_header(w: u32, h: u32) -> Vec<u8> {
         for &b in bytes {
             c ^= b as u32;
             for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
+                c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
             }
         }
         !c
@@ -711,36 +461,19 @@ fn oversized_textures_are_refused_before_decoding() {
     std::fs::write(dir.join("big.png"), png_header(20_000, 10)).unwrap();
     std::fs::write(dir.join("b.mtl"), "newmtl a\nmap_Kd big.png\n").unwrap();
     let obj = dir.join("b.obj");
-    std::fs::write(
-        &obj,
-        "mtllib b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(&obj, "mtllib b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n").unwrap();
     fails(&obj, &["map_Kd big.png", "20000x10 pixels"]);
 }
 
 fn shading() -> TriangleShading {
-    TriangleShading {
-        n: [Vec3::Z; 3],
-        uv: [Vec2::ZERO; 3],
-        material: 0,
-        object: 0,
-    }
+    TriangleShading { n: [Vec3::Z; 3], uv: [Vec2::ZERO; 3], material: 0, object: 0 }
 }
 
 fn build(name: &str, tris: Vec<[Vec3; 3]>) -> (Result<Scene, SceneError>, Duration) {
-    let tris = tris
-        .into_iter()
-        .map(|t| (t[0], t[1], t[2], shading()))
-        .collect();
+    let tris = tris.into_iter().map(|t| (t[0], t[1], t[2], shading())).collect();
     let t0 = Instant::now();
-    let s = Scene::from_triangles(
-        name,
-        tris,
-        vec![Material::diffuse("m", Vec3::splat(0.5))],
-        vec![],
-        Camera::default(),
-    );
+    let s =
+        Scene::from_triangles(name, tris, vec![Material::diffuse("m", Vec3::splat(0.5))], vec![], Camera::default());
     (s, t0.elapsed())
 }
 
@@ -750,28 +483,16 @@ fn copies_of_one_triangle_are_deduplicated() {
     let s = s.unwrap();
     assert_eq!(s.triangle_count(), 1);
     assert_eq!(s.warnings.len(), 1);
-    assert!(
-        s.warnings[0].contains("dropped 199999 exact duplicate triangle(s) of 200000"),
-        "{:?}",
-        s.warnings
-    );
+    assert!(s.warnings[0].contains("dropped 199999 exact duplicate triangle(s) of 200000"), "{:?}", s.warnings);
     assert!(t < Duration::from_secs(10), "{t:?}");
     // Same vertices, other starting vertex: still the same triangle; reversed winding is kept.
     let (s, _) = build(
         "rotated",
-        vec![
-            [Vec3::ZERO, Vec3::X, Vec3::Y],
-            [Vec3::X, Vec3::Y, Vec3::ZERO],
-            [Vec3::ZERO, Vec3::Y, Vec3::X],
-        ],
+        vec![[Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::X, Vec3::Y, Vec3::ZERO], [Vec3::ZERO, Vec3::Y, Vec3::X]],
     );
     let s = s.unwrap();
     assert_eq!(s.triangle_count(), 2);
-    assert!(
-        s.warnings[0].contains("dropped 1 exact duplicate"),
-        "{:?}",
-        s.warnings
-    );
+    assert!(s.warnings[0].contains("dropped 1 exact duplicate"), "{:?}", s.warnings);
 }
 
 #[test]
@@ -781,16 +502,9 @@ fn zero_area_triangles_are_dropped_with_a_warning() {
     let (s, _) = build("flat", tris);
     let s = s.unwrap();
     assert_eq!(s.triangle_count(), 1);
-    assert!(
-        s.warnings[0].contains("dropped 1000 zero-area triangle(s) of 1001"),
-        "{:?}",
-        s.warnings
-    );
+    assert!(s.warnings[0].contains("dropped 1000 zero-area triangle(s) of 1001"), "{:?}", s.warnings);
     let (s, _) = build("all_flat", vec![[Vec3::ZERO, Vec3::X, Vec3::X * 2.0]; 10]);
-    assert!(s
-        .unwrap_err()
-        .to_string()
-        .contains("all 10 triangles have zero area"));
+    assert!(s.unwrap_err().to_string().contains("all 10 triangles have zero area"));
 }
 
 /// Distinct triangles whose bounding boxes share one centre (`box`) or nest along one axis (`fan`):
@@ -799,18 +513,12 @@ fn zero_area_triangles_are_dropped_with_a_warning() {
 fn degenerate_centres(n: usize, kind: &str) -> Vec<[Vec3; 3]> {
     let mut seed = 7u64;
     let mut rnd = move || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
     };
     (0..n)
         .map(|_| match kind {
-            "box" => [
-                Vec3::splat(-1.0),
-                Vec3::splat(1.0),
-                Vec3::new(rnd(), rnd(), rnd()),
-            ],
+            "box" => [Vec3::splat(-1.0), Vec3::splat(1.0), Vec3::new(rnd(), rnd(), rnd())],
             _ => {
                 let (a, r) = (3.0 * rnd(), 1.0 + 0.5 * rnd());
                 let d = Vec3::new(a.cos(), a.sin(), 0.0) * r;
@@ -826,11 +534,7 @@ fn identical_centres_build_in_bounded_time() {
         let (s, t) = build(kind, degenerate_centres(200_000, kind));
         let s = s.unwrap();
         assert_eq!(s.triangle_count(), 200_000);
-        assert!(
-            stack_need(&s.bvh.nodes) <= STACK_SIZE,
-            "{kind}: depth {}",
-            tree_depth(&s.bvh.nodes)
-        );
+        assert!(stack_need(&s.bvh.nodes) <= STACK_SIZE, "{kind}: depth {}", tree_depth(&s.bvh.nodes));
         assert!(t < Duration::from_secs(20), "{kind}: {t:?}");
         // Still a correct BVH: closest hits agree with testing every triangle.
         for k in 0..16 {
@@ -842,16 +546,11 @@ fn identical_centres_build_in_bounded_time() {
                 .iter()
                 .filter_map(|t| intersect_triangle(t, o, d, 0.0, f32::INFINITY).map(|h| h.0))
                 .fold(f32::INFINITY, f32::min);
-            let got = s
-                .intersect(o, d, 0.0, f32::INFINITY)
-                .map_or(f32::INFINITY, |h| h.t);
+            let got = s.intersect(o, d, 0.0, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
             assert_eq!(got, brute, "{kind} ray {k}");
             assert!(got.is_finite(), "{kind} ray {k} should hit");
         }
-        println!(
-            "{kind}: 200k triangles with degenerate centres built in {t:?}, depth {}",
-            tree_depth(&s.bvh.nodes)
-        );
+        println!("{kind}: 200k triangles with degenerate centres built in {t:?}, depth {}", tree_depth(&s.bvh.nodes));
     }
 }
 
@@ -906,12 +605,7 @@ const UNIT_Q: [[f32; 4]; 2] = [[0., 0., 0., 1.], [0., 0.70710677, 0., 0.70710677
 const ONES: [[f32; 3]; 3] = [[1., 1., 1.]; 3];
 
 /// Write the animated glTF with `edits` applied (each must apply) and load it at shutter (0.2, 0.8).
-fn animated(
-    dir: &Path,
-    name: &str,
-    json: String,
-    edits: &[(&str, &str)],
-) -> (PathBuf, Result<Scene, SceneError>) {
+fn animated(dir: &Path, name: &str, json: String, edits: &[(&str, &str)]) -> (PathBuf, Result<Scene, SceneError>) {
     let mut json = json;
     for (from, to) in edits {
         assert!(json.contains(from), "edit {from:?} does not apply");
@@ -919,36 +613,20 @@ fn animated(
     }
     let path = dir.join(name);
     std::fs::write(&path, json).unwrap();
-    let r = load_with_shutter(
-        &SceneSource::File(path.clone()),
-        &LoadOptions::default(),
-        Some((0.2, 0.8)),
-    );
+    let r = load_with_shutter(&SceneSource::File(path.clone()), &LoadOptions::default(), Some((0.2, 0.8)));
     (path, r)
 }
 
 /// Load must fail with a message naming the file and holding every fragment.
-fn animated_fails(
-    dir: &Path,
-    name: &str,
-    json: String,
-    edits: &[(&str, &str)],
-    fragments: &[&str],
-) {
+fn animated_fails(dir: &Path, name: &str, json: String, edits: &[(&str, &str)], fragments: &[&str]) {
     let (path, r) = animated(dir, name, json, edits);
     let msg = match r {
         Err(e) => e.to_string(),
         Ok(_) => panic!("{name} should fail"),
     };
-    assert!(
-        msg.contains(path.file_name().unwrap().to_str().unwrap()),
-        "{msg}"
-    );
+    assert!(msg.contains(path.file_name().unwrap().to_str().unwrap()), "{msg}");
     for f in fragments {
-        assert!(
-            msg.contains(f),
-            "{name}: message should contain {f:?}: {msg}"
-        );
+        assert!(msg.contains(f), "{name}: message should contain {f:?}: {msg}");
     }
 }
 
@@ -961,10 +639,16 @@ fn gltf_animations_load_and_malformed_ones_are_located_errors() {
     assert!(s.has_motion() && s.warnings.is_empty(), "{:?}", s.warnings);
 
     let nan = |v: [f32; 2]| animated_json(v, UNIT_Q, ONES);
-    animated_fails(&dir, "times.gltf", nan([0.5, 0.5]), &[], &[
-        "animations[0].samplers[0].input (accessors[1]): keyframe time 1 (0.5) is not after time 0 (0.5)",
-        "increase strictly",
-    ]);
+    animated_fails(
+        &dir,
+        "times.gltf",
+        nan([0.5, 0.5]),
+        &[],
+        &[
+            "animations[0].samplers[0].input (accessors[1]): keyframe time 1 (0.5) is not after time 0 (0.5)",
+            "increase strictly",
+        ],
+    );
     animated_fails(
         &dir,
         "times_nan.gltf",
@@ -978,11 +662,7 @@ fn gltf_animations_load_and_malformed_ones_are_located_errors() {
         "nonunit.gltf",
         q([0., 0., 0., 2.]),
         &[],
-        &[
-            "animations[0].samplers[1].output (accessors[3]): keyframe 1 rotation",
-            "not a unit quaternion",
-            "normalise",
-        ],
+        &["animations[0].samplers[1].output (accessors[3]): keyframe 1 rotation", "not a unit quaternion", "normalise"],
     );
     animated_fails(
         &dir,
@@ -1018,11 +698,7 @@ fn gltf_animations_load_and_malformed_ones_are_located_errors() {
         animated_fails(&dir, name, ok(), edits, fragments);
     }
     // A scale that changes over the shutter (1 → 2 between 0 and 1 s, shutter 0.2–0.8).
-    let growing = animated_json(
-        [0.0, 1.0],
-        UNIT_Q,
-        [[1., 1., 1.], [2., 2., 2.], [1., 1., 1.]],
-    );
+    let growing = animated_json([0.0, 1.0], UNIT_Q, [[1., 1., 1.], [2., 2., 2.], [1., 1., 1.]]);
     animated_fails(
         &dir,
         "scale.gltf",
@@ -1036,31 +712,14 @@ fn gltf_animations_load_and_malformed_ones_are_located_errors() {
                 r#""interpolation":"STEP"}"#,
                 r#""interpolation":"STEP"},{"input":1,"output":4,"interpolation":"LINEAR"}"#,
             ),
-            (
-                r#""count":3,"type":"VEC3"}],"#,
-                r#""count":2,"type":"VEC3"}],"#,
-            ),
+            (r#""count":3,"type":"VEC3"}],"#, r#""count":2,"type":"VEC3"}],"#),
         ],
-        &[
-            "nodes[0] (meshes[0]): its transform at shutter close is not a rigid motion",
-            "constant scale",
-        ],
+        &["nodes[0] (meshes[0]): its transform at shutter close is not a rigid motion", "constant scale"],
     );
     // Morph-target weights are skipped with a warning, not an error.
-    let (_, r) = animated(
-        &dir,
-        "weights.gltf",
-        ok(),
-        &[(r#""path":"rotation""#, r#""path":"weights""#)],
-    );
+    let (_, r) = animated(&dir, "weights.gltf", ok(), &[(r#""path":"rotation""#, r#""path":"weights""#)]);
     let s = r.unwrap();
-    assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.contains("morph-target weights")),
-        "{:?}",
-        s.warnings
-    );
+    assert!(s.warnings.iter().any(|w| w.contains("morph-target weights")), "{:?}", s.warnings);
 }
 
 #[test]
@@ -1083,11 +742,7 @@ fn ron_motion_and_shutter_errors_are_located() {
             r#"Scene(meshes: [(path: "t.obj", motion: Some((translation: ((0, 0, 0), (NaN, 0, 0)))))])"#,
             "is not finite",
         ),
-        (
-            "field.ron",
-            r#"Scene(meshes: [(path: "t.obj", motion: Some((spin: 3)))])"#,
-            "spin",
-        ),
+        ("field.ron", r#"Scene(meshes: [(path: "t.obj", motion: Some((spin: 3)))])"#, "spin"),
         (
             "shutter.ron",
             r#"Scene(meshes: [(path: "t.obj")], camera: Some((position: (0, 1, 3), look_at: (0, 0, 0), vfov_deg: 40, shutter: (1, 0))))"#,
@@ -1135,7 +790,8 @@ fn bad_environment_maps_are_refused_with_counts() {
     let hdr = dir.join("good.hdr");
     {
         let f = std::io::BufWriter::new(std::fs::File::create(&hdr).unwrap());
-        let px: Vec<image::Rgb<f32>> = (0..32 * 16).map(|k| image::Rgb([if k < 32 { 4.0 } else { 0.25 }, 0.25, 0.25])).collect();
+        let px: Vec<image::Rgb<f32>> =
+            (0..32 * 16).map(|k| image::Rgb([if k < 32 { 4.0 } else { 0.25 }, 0.25, 0.25])).collect();
         image::codecs::hdr::HdrEncoder::new(f).encode(&px, 32, 16).unwrap();
     }
     let m = EnvironmentMap::open(&hdr.display().to_string()).unwrap();
@@ -1149,7 +805,15 @@ fn bad_environment_maps_are_refused_with_counts() {
         (5, 5) => [1.0, 1.0, -0.5],
         _ => [1.0; 3],
     });
-    env_fails(&bad, &["12 NaN, 3 infinite, 1 negative texels", "first NaN at column 0, row 0", "first negative at column 5, row 5", "refused rather than clamped"]);
+    env_fails(
+        &bad,
+        &[
+            "12 NaN, 3 infinite, 1 negative texels",
+            "first NaN at column 0, row 0",
+            "first negative at column 5, row 5",
+            "refused rather than clamped",
+        ],
+    );
     let neg = write_exr("negative.exr", 8, 4, &|x, _| if x == 3 { [-1.0, 0.0, 0.0] } else { [0.2; 3] });
     env_fails(&neg, &["0 NaN, 0 infinite, 4 negative texels"]);
     let huge = write_exr("huge.exr", 8, 4, &|x, _| if x == 1 { [1e30, 1.0, 1.0] } else { [0.2; 3] });
@@ -1225,13 +889,25 @@ fn ron_scenes_that_include_scenes_and_unusable_scales_are_named() {
         p
     };
     let me = write("self.ron", r#"Scene(meshes: [(path: "self.ron")])"#);
-    let e = fails(&me, &[r#"meshes[0].path = "self.ron" includes this scene file itself (self.ron → self.ron), an include cycle"#, "name a .gltf, .glb or .obj file"]);
+    let e = fails(
+        &me,
+        &[
+            r#"meshes[0].path = "self.ron" includes this scene file itself (self.ron → self.ron), an include cycle"#,
+            "name a .gltf, .glb or .obj file",
+        ],
+    );
     assert!(!e.to_string().contains("unsupported scene format"), "{e}");
     let a = write("a.ron", r#"Scene(meshes: [(path: "t.obj"), (path: "b.ron")])"#);
     write("b.ron", r#"Scene(meshes: [(path: "a.ron")])"#);
     fails(&a, &[r#"meshes[1].path = "b.ron" includes another .ron scene (a.ron → b.ron); .ron scenes do not nest"#]);
     let tiny = write("tiny.ron", r#"Scene(meshes: [(path: "t.obj", scale: 1e-300)])"#);
-    fails(&tiny, &["mesh 0 ('t.obj') has scale = 1e-300, which is 0 in single precision", "use a non-zero scale of magnitude between"]);
+    fails(
+        &tiny,
+        &[
+            "mesh 0 ('t.obj') has scale = 1e-300, which is 0 in single precision",
+            "use a non-zero scale of magnitude between",
+        ],
+    );
     let sub = write("sub.ron", r#"Scene(meshes: [(path: "t.obj", scale: -1e-40)])"#);
     fails(&sub, &["scale = -1e-40, which is subnormal"]);
 }

@@ -45,45 +45,33 @@ fn pieces(s: &Scene) -> BTreeMap<u32, (Vec3, u32)> {
         e.1 += 1;
         assert_eq!(e.2, sh.material, "one material per piece");
     }
-    acc.into_iter()
-        .map(|(o, (sum, n, m))| (o, (sum / n as f32, m)))
-        .collect()
+    acc.into_iter().map(|(o, (sum, n, m))| (o, (sum / n as f32, m))).collect()
 }
 
 /// First hit of the pinhole ray through the centre of pixel (x, y) of a `w`×`h` image.
 fn trace_pixel(s: &Scene, x: u32, y: u32, w: u32, h: u32) -> Option<(Hit, SurfacePoint, Vec3)> {
-    let (o, d) = s
-        .camera
-        .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+    let (o, d) = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
     let hit = s.intersect(o, d, 1e-4, f32::INFINITY)?;
     let sp = s.surface(&hit, o, d);
     Some((hit, sp, d))
 }
 
 #[test]
-fn loads_with_one_rect_light_out_of_view_and_a_pinhole_camera_focused_at_the_recommended_distance()
-{
+fn loads_with_one_rect_light_out_of_view_and_a_pinhole_camera_focused_at_the_recommended_distance() {
     let s = chess();
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert_eq!(s.lights.len(), 1);
     let l = &s.lights[0];
     assert!(matches!(l.shape, LightShape::Rect { .. }), "{:?}", l.shape);
     assert!((l.area() - 0.81).abs() < 1e-4, "area {}", l.area());
-    assert!(
-        l.normal().abs_diff_eq(-Vec3::Y, 1e-6),
-        "faces down: {}",
-        l.normal()
-    );
+    assert!(l.normal().abs_diff_eq(-Vec3::Y, 1e-6), "faces down: {}", l.normal());
     assert!(l.radiance.min_element() > 0.0 && !l.two_sided);
     // Out of view: every corner of the light projects above the top of the image.
     let (_, up, forward) = s.camera.basis();
     let tan_half = (s.camera.vfov_deg.to_radians() * 0.5).tan();
     for v in l.vertices() {
         let r = v - s.camera.position;
-        assert!(
-            r.dot(up) / r.dot(forward).max(1e-6) > tan_half || r.dot(forward) <= 0.0,
-            "{v}"
-        );
+        assert!(r.dot(up) / r.dot(forward).max(1e-6) > tan_half || r.dot(forward) <= 0.0, "{v}");
     }
     // Pinhole by default (pipelines without a Defocus node render it sharp), focused at the recommendation.
     let c = s.camera;
@@ -114,35 +102,26 @@ fn bvh_traversal_matches_brute_force_on_camera_and_shadow_rays() {
     let mut checked_shadow = 0;
     for y in 0..h {
         for x in 0..w {
-            let (o, d) = s
-                .camera
-                .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+            let (o, d) = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
             let brute = s
                 .triangles
                 .iter()
                 .enumerate()
-                .filter_map(|(i, t)| {
-                    intersect_triangle(t, o, d, 1e-4, f32::INFINITY).map(|r| (i as u32, r.0))
-                })
+                .filter_map(|(i, t)| intersect_triangle(t, o, d, 1e-4, f32::INFINITY).map(|r| (i as u32, r.0)))
                 .min_by(|a, b| a.1.total_cmp(&b.1));
             let bvh = s.intersect(o, d, 1e-4, f32::INFINITY);
             match (brute, bvh) {
                 (None, None) => {}
                 (Some((_, tb)), Some(hit)) => {
                     hits += 1;
-                    assert!(
-                        (tb - hit.t).abs() <= 1e-5 * tb.max(1.0),
-                        "pixel ({x},{y}): {tb} vs {}",
-                        hit.t
-                    );
+                    assert!((tb - hit.t).abs() <= 1e-5 * tb.max(1.0), "pixel ({x},{y}): {tb} vs {}", hit.t);
                     // A shadow ray toward the light's centre: occlusion agrees with brute force.
                     let p = o + d * hit.t;
                     let to = s.lights[0].centre() - p;
                     let (dist, dir) = (to.length(), to.normalize());
                     let start = p + s.surface(&hit, o, d).geometric_normal * 1e-4;
                     let brute_occluded = s.triangles.iter().any(|t| {
-                        t.light == NO_LIGHT
-                            && intersect_triangle(t, start, dir, 1e-4, dist * 0.999).is_some()
+                        t.light == NO_LIGHT && intersect_triangle(t, start, dir, 1e-4, dist * 0.999).is_some()
                     });
                     let occluded = s
                         .intersect(start, dir, 1e-4, dist * 0.999)
@@ -169,11 +148,7 @@ fn ground_texture_is_a_high_contrast_checker_seen_over_a_wide_range_of_depths() 
     let row: Vec<f32> = (0..t.width as usize).map(|x| t.texels[x][0]).collect();
     let period = 2 * TEXELS_PER_SQUARE as usize;
     for (x, v) in row.iter().enumerate() {
-        let expect = if (x / TEXELS_PER_SQUARE as usize).is_multiple_of(2) {
-            0.1
-        } else {
-            0.9
-        };
+        let expect = if (x / TEXELS_PER_SQUARE as usize).is_multiple_of(2) { 0.1 } else { 0.9 };
         assert_eq!(*v, expect, "texel {x}");
         assert_eq!(row[x], row[(x + period) % row.len()]);
     }
@@ -202,11 +177,7 @@ fn ground_texture_is_a_high_contrast_checker_seen_over_a_wide_range_of_depths() 
         let inside = cell - cell.floor();
         if inside.min_element() > 0.1 && inside.max_element() < 0.9 {
             let bright = s.albedo(&sp).x > 0.5;
-            assert_eq!(
-                bright,
-                (i + j).rem_euclid(2) == 1,
-                "pixel row {y}, square ({i},{j})"
-            );
+            assert_eq!(bright, (i + j).rem_euclid(2) == 1, "pixel row {y}, square ({i},{j})");
             checked += 1;
         }
     }
@@ -214,19 +185,11 @@ fn ground_texture_is_a_high_contrast_checker_seen_over_a_wide_range_of_depths() 
     let far = depths.iter().cloned().fold(0.0, f32::max);
     assert!(near < 0.65 * FOCUS_DISTANCE, "nearest board depth {near}");
     assert!(far > 3.0 * FOCUS_DISTANCE, "farthest board depth {far}");
-    assert!(
-        squares.len() >= 30,
-        "{} squares down the column",
-        squares.len()
-    );
+    assert!(squares.len() >= 30, "{} squares down the column", squares.len());
     assert!(checked >= 40, "{checked} rows checked");
     // In focus a square spans several pixels across: detail the filters must keep.
-    let px_per_square =
-        SQUARE / (2.0 * FOCUS_DISTANCE * (CAMERA_VFOV_DEG.to_radians() * 0.5).tan() / h as f32);
-    assert!(
-        (8.0..32.0).contains(&px_per_square),
-        "{px_per_square} px per square at focus"
-    );
+    let px_per_square = SQUARE / (2.0 * FOCUS_DISTANCE * (CAMERA_VFOV_DEG.to_radians() * 0.5).tan() / h as f32);
+    assert!((8.0..32.0).contains(&px_per_square), "{px_per_square} px per square at focus");
 }
 
 #[test]
@@ -253,41 +216,23 @@ fn pieces_stand_in_front_of_at_and_beyond_focus_with_the_documented_circles_of_c
         let r = *centroid - s.camera.position;
         let tan_half = (s.camera.vfov_deg.to_radians() * 0.5).tan();
         assert!((r.dot(up) / r.dot(forward)).abs() < tan_half, "{centroid}");
-        assert!(
-            (r.dot(right) / r.dot(forward)).abs() < tan_half * 640.0 / 480.0,
-            "{centroid}"
-        );
+        assert!((r.dot(right) / r.dot(forward)).abs() < tan_half * 640.0 / 480.0, "{centroid}");
     }
     let [near, at, beyond] = groups.map(|mut g| {
         g.sort_by(f32::total_cmp);
         g
     });
-    assert_eq!(
-        (near.len(), at.len(), beyond.len()),
-        (2, 3, 4),
-        "{near:?} {at:?} {beyond:?}"
-    );
+    assert_eq!((near.len(), at.len(), beyond.len()), (2, 3, 4), "{near:?} {at:?} {beyond:?}");
     // Circles of confusion at 640×480 with the recommended aperture (module doc): sharp in focus,
     // several pixels in front and beyond.
     for z in &at {
-        assert!(
-            coc_pixels(*z, 480) < 0.25,
-            "in focus at {z}: {} px",
-            coc_pixels(*z, 480)
-        );
+        assert!(coc_pixels(*z, 480) < 0.25, "in focus at {z}: {} px", coc_pixels(*z, 480));
     }
-    for (z, range) in near
-        .iter()
-        .map(|z| (z, 6.5..9.5))
-        .chain(beyond.iter().map(|z| (z, 4.5..9.0)))
-    {
+    for (z, range) in near.iter().map(|z| (z, 6.5..9.5)).chain(beyond.iter().map(|z| (z, 4.5..9.0))) {
         let r = coc_pixels(*z, 480);
         assert!(range.contains(&r), "depth {z}: {r} px");
     }
-    assert!(
-        beyond[beyond.len() - 1] > 2.0 * f,
-        "farthest piece {beyond:?}"
-    );
+    assert!(beyond[beyond.len() - 1] > 2.0 * f, "farthest piece {beyond:?}");
 }
 
 #[test]
@@ -297,33 +242,17 @@ fn glossy_and_diffuse_pieces_both_present() {
     let (mut glossy, mut diffuse) = (0, 0);
     for (_, m) in p.values() {
         let m = &s.materials[*m as usize];
-        assert!(
-            m.base_color_texture.is_none() && !m.is_emissive(),
-            "{}",
-            m.name
-        );
+        assert!(m.base_color_texture.is_none() && !m.is_emissive(), "{}", m.name);
         // Energy conserving in every channel (k_d + k_s ≤ 1).
-        assert!(
-            (m.base_color + m.specular).max_element() <= 1.0,
-            "{}",
-            m.name
-        );
+        assert!((m.base_color + m.specular).max_element() <= 1.0, "{}", m.name);
         if m.specular.max_element() > 0.0 {
-            assert!(
-                m.phong_exponent >= 10.0,
-                "{}: m = {}",
-                m.name,
-                m.phong_exponent
-            );
+            assert!(m.phong_exponent >= 10.0, "{}: m = {}", m.name, m.phong_exponent);
             glossy += 1;
         } else {
             diffuse += 1;
         }
     }
-    assert!(
-        glossy >= 3 && diffuse >= 3,
-        "{glossy} glossy, {diffuse} diffuse"
-    );
+    assert!(glossy >= 3 && diffuse >= 3, "{glossy} glossy, {diffuse} diffuse");
 }
 
 #[test]
@@ -347,10 +276,7 @@ fn camera_rays_hit_the_outside_of_the_pieces() {
             assert!(g.dot(d) < 0.0, "pixel ({x},{y}) hit a back face");
             let sh = &s.shading[hit.triangle as usize];
             let n = (1.0 - hit.b1 - hit.b2) * sh.n[0] + hit.b1 * sh.n[1] + hit.b2 * sh.n[2];
-            assert!(
-                n.dot(g) > 0.0,
-                "pixel ({x},{y}): shading normal disagrees with the face"
-            );
+            assert!(n.dot(g) > 0.0, "pixel ({x},{y}): shading normal disagrees with the face");
         }
     }
     assert!(piece_hits > 1500, "{piece_hits} piece pixels at 160x120");
@@ -374,10 +300,7 @@ fn the_light_casts_soft_shadows_of_the_pieces_onto_the_board_in_view() {
                 continue;
             }
             board_pixels += 1;
-            let o = s
-                .camera
-                .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO)
-                .0;
+            let o = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO).0;
             let start = s.surface(&hit, o, d).position + sp.geometric_normal * 1e-4;
             let visible = (0..64)
                 .filter(|k| {
@@ -393,14 +316,8 @@ fn the_light_casts_soft_shadows_of_the_pieces_onto_the_board_in_view() {
             }
         }
     }
-    assert!(
-        lit * 10 > board_pixels * 8,
-        "{lit} of {board_pixels} board pixels fully lit"
-    );
+    assert!(lit * 10 > board_pixels * 8, "{lit} of {board_pixels} board pixels fully lit");
     // Soft: penumbrae (4–63 of 64 points visible) outnumber umbrae (at most 3) several times over.
     let umbra = board_pixels - lit - penumbra;
-    assert!(
-        penumbra >= 300 && penumbra > 5 * umbra,
-        "{penumbra} penumbra, {umbra} umbra pixels"
-    );
+    assert!(penumbra >= 300 && penumbra > 5 * umbra, "{penumbra} penumbra, {umbra} umbra pixels");
 }

@@ -30,21 +30,14 @@ impl Rng {
 }
 
 fn constant(w: u32, value: f32) -> EnvironmentMap {
-    EnvironmentMap::from_texels("constant", w, w / 2, vec![[value; 3]; (w * w / 2) as usize])
-        .unwrap()
+    EnvironmentMap::from_texels("constant", w, w / 2, vec![[value; 3]; (w * w / 2) as usize]).unwrap()
 }
 
 /// 32 × 16, dim sky (0.05) with five hot texels (100–5000) and one black row: a peaky distribution.
 fn hot_texels() -> EnvironmentMap {
     let (w, h) = (32u32, 16u32);
     let mut t = vec![[0.05f32; 3]; (w * h) as usize];
-    for (x, y, v) in [
-        (3, 2, 5000.0),
-        (17, 5, 800.0),
-        (30, 9, 100.0),
-        (0, 0, 300.0),
-        (12, 15, 2000.0),
-    ] {
+    for (x, y, v) in [(3, 2, 5000.0), (17, 5, 800.0), (30, 9, 100.0), (0, 0, 300.0), (12, 15, 2000.0)] {
         t[(y * w + x) as usize] = [v, 0.5 * v, 0.25 * v];
     }
     for x in 0..w {
@@ -66,10 +59,7 @@ fn brute_irradiance(env: &EnvironmentMap, n: Vec3, sub: usize) -> f64 {
         let (x, y) = (k % w, k / w);
         let mut cos_sum = 0.0;
         // Equal-solid-angle sub-cells: uniform in cos θ and φ inside the texel.
-        let (c0, c1) = (
-            (PI * y as f64 / h as f64).cos(),
-            (PI * (y + 1) as f64 / h as f64).cos(),
-        );
+        let (c0, c1) = ((PI * y as f64 / h as f64).cos(), (PI * (y + 1) as f64 / h as f64).cos());
         for sy in 0..sub {
             let c = c0 + (c1 - c0) * (sy as f64 + 0.5) / sub as f64;
             let v = c.clamp(-1.0, 1.0).acos() / PI;
@@ -116,11 +106,7 @@ fn column_at_u_half_faces_minus_z_and_u_three_quarters_plus_x() {
     assert!(e(&q, Vec3::X).0 > 0.05 && e(&q, -Vec3::X).0 == 0.0);
     // rotation_deg = 90 turns the −Z column toward −X (right-hand rule about +Y).
     let turned = column(w / 2).with_params(1.0, 90.0).unwrap();
-    assert!(
-        e(&turned, -Vec3::X).0 > 0.05
-            && e(&turned, Vec3::X).0 == 0.0
-            && e(&turned, -Vec3::Z).0 < 0.01
-    );
+    assert!(e(&turned, -Vec3::X).0 > 0.05 && e(&turned, Vec3::X).0 == 0.0 && e(&turned, -Vec3::Z).0 < 0.01);
     // Directions of named texels.
     let env = constant(64, 1.0);
     assert!(env.direction_of(0.5, 0.5).distance(-Vec3::Z) < 1e-6);
@@ -140,35 +126,24 @@ fn column_at_u_half_faces_minus_z_and_u_three_quarters_plus_x() {
 fn texel_lookup_matches_atan2_acos_away_from_boundaries() {
     let mut rng = Rng(7);
     for rot in [0.0f32, 90.0, 33.3, -170.0, 725.0] {
-        let env = EnvironmentMap::builtin("sky")
-            .unwrap()
-            .with_params(1.0, rot)
-            .unwrap();
+        let env = EnvironmentMap::builtin("sky").unwrap().with_params(1.0, rot).unwrap();
         let (w, h) = (env.width() as f32, env.height() as f32);
         let (mut same, mut near, n) = (0, 0, 200_000);
         for _ in 0..n {
             let d = rng.dir() * (0.5 + rng.next() as f32);
             let uv = env.uv_of(d);
-            let expect = (
-                ((uv.x * w) as u32).min(w as u32 - 1),
-                ((uv.y * h) as u32).min(h as u32 - 1),
-            );
+            let expect = (((uv.x * w) as u32).min(w as u32 - 1), ((uv.y * h) as u32).min(h as u32 - 1));
             let got = env.texel_of(d);
             if got == expect {
                 same += 1;
             } else {
                 let fx = (uv.x * w).fract().min(1.0 - (uv.x * w).fract());
                 let fy = (uv.y * h).fract().min(1.0 - (uv.y * h).fract());
-                assert!(
-                    fx < 1e-3 || fy < 1e-3,
-                    "rot {rot}: {d} uv {uv} expected {expect:?} got {got:?}"
-                );
+                assert!(fx < 1e-3 || fy < 1e-3, "rot {rot}: {d} uv {uv} expected {expect:?} got {got:?}");
                 near += 1;
             }
         }
-        println!(
-            "rotation {rot}: {same} of {n} equal, {near} differ within 1e-3 texel of a boundary"
-        );
+        println!("rotation {rot}: {same} of {n} equal, {near} differ within 1e-3 texel of a boundary");
         assert!(near * 10_000 <= n, "{near}");
     }
 }
@@ -215,24 +190,17 @@ fn sampling_passes_chi_square_against_pdf() {
         observed[s.texel as usize] += 1.0;
         assert!(s.pdf > 0.0);
     }
-    let expected: Vec<f64> = (0..texels)
-        .map(|k| n as f64 * env.texel_pdf(k) as f64 * env.texel_solid_angle(k))
-        .collect();
+    let expected: Vec<f64> =
+        (0..texels).map(|k| n as f64 * env.texel_pdf(k) as f64 * env.texel_solid_angle(k)).collect();
     let (chi, dof) = chi_square(&observed, &expected);
-    println!(
-        "hot texels: chi² = {chi:.1}, dof {dof}, critical (p = 1e-4) {:.1}",
-        chi_critical(dof)
-    );
+    println!("hot texels: chi² = {chi:.1}, dof {dof}, critical (p = 1e-4) {:.1}", chi_critical(dof));
     assert!(chi < chi_critical(dof));
 
     // The sky, rotated, binned on a 24 × 12 grid of the world sphere, equal steps of y and of the
     // azimuth ψ = atan2(−x, z) offset by 0.1 rad, so the bins do not line up with texel columns and
     // the within-texel placement is tested too. Texels and bins are rectangles in (y, ψ), where
     // dω = dy dψ and the pdf is constant per texel, so the expected counts are exact overlaps.
-    let env = EnvironmentMap::builtin("sky")
-        .unwrap()
-        .with_params(2.0, 21.0)
-        .unwrap();
+    let env = EnvironmentMap::builtin("sky").unwrap().with_params(2.0, 21.0).unwrap();
     let (bx, by) = (24usize, 12usize);
     let offset = 0.1f64;
     let tau = 2.0 * PI;
@@ -256,19 +224,13 @@ fn sampling_passes_chi_square_against_pdf() {
         if p == 0.0 {
             continue;
         }
-        let (y0, y1) = (
-            (PI * (j + 1) as f64 / h as f64).cos(),
-            (PI * j as f64 / h as f64).cos(),
-        );
+        let (y0, y1) = ((PI * (j + 1) as f64 / h as f64).cos(), (PI * j as f64 / h as f64).cos());
         // The texel's world azimuths, relative to the bins' origin, in [0, 2π) (maybe wrapping).
         let p0 = (tau * i as f64 / w as f64 - rot - offset).rem_euclid(tau);
         let p1 = p0 + tau / w as f64;
         for (b, e) in expected.iter_mut().enumerate() {
             let (x, y) = (b % bx, b / bx);
-            let (by1, by0) = (
-                1.0 - 2.0 * y as f64 / by as f64,
-                1.0 - 2.0 * (y + 1) as f64 / by as f64,
-            );
+            let (by1, by0) = (1.0 - 2.0 * y as f64 / by as f64, 1.0 - 2.0 * (y + 1) as f64 / by as f64);
             let dy = overlap(y0, y1, by0, by1);
             if dy == 0.0 {
                 continue;
@@ -279,27 +241,17 @@ fn sampling_passes_chi_square_against_pdf() {
         }
     }
     let (chi, dof) = chi_square(&observed, &expected);
-    println!(
-        "sky: chi² = {chi:.1}, dof {dof}, critical (p = 1e-4) {:.1}",
-        chi_critical(dof)
-    );
+    println!("sky: chi² = {chi:.1}, dof {dof}, critical (p = 1e-4) {:.1}", chi_critical(dof));
     assert!(chi < chi_critical(dof));
 }
 
 #[test]
 fn pdf_integrates_to_one_and_sample_round_trips() {
-    for env in [
-        hot_texels(),
-        EnvironmentMap::builtin("sky")
-            .unwrap()
-            .with_params(3.0, 47.0)
-            .unwrap(),
-        constant(16, 0.0),
-    ] {
+    for env in
+        [hot_texels(), EnvironmentMap::builtin("sky").unwrap().with_params(3.0, 47.0).unwrap(), constant(16, 0.0)]
+    {
         let texels = (env.width() * env.height()) as usize;
-        let exact: f64 = (0..texels)
-            .map(|k| env.texel_pdf(k) as f64 * env.texel_solid_angle(k))
-            .sum();
+        let exact: f64 = (0..texels).map(|k| env.texel_pdf(k) as f64 * env.texel_solid_angle(k)).sum();
         // ∫ pdf dω through pdf(dir) on a 2048 × 1024 equal-area grid of cell centres (uniform in y and
         // in azimuth; deterministic, so the sun's spike does not make it noisy).
         let (gx, gy) = (2048usize, 1024usize);
@@ -309,18 +261,11 @@ fn pdf_integrates_to_one_and_sample_round_trips() {
             let s = (1.0 - z * z).sqrt();
             for x in 0..gx {
                 let phi = 2.0 * PI * (x as f64 + 0.5) / gx as f64;
-                grid += env.pdf(Vec3::new(
-                    (s * phi.cos()) as f32,
-                    z as f32,
-                    (s * phi.sin()) as f32,
-                )) as f64;
+                grid += env.pdf(Vec3::new((s * phi.cos()) as f32, z as f32, (s * phi.sin()) as f32)) as f64;
             }
         }
         let grid = grid * 4.0 * PI / (gx * gy) as f64;
-        println!(
-            "{}: Σ pdf·Ω = {exact:.9}, ∫ pdf dω on a 2048 × 1024 grid = {grid:.5}",
-            env.name()
-        );
+        println!("{}: Σ pdf·Ω = {exact:.9}, ∫ pdf dω on a 2048 × 1024 grid = {grid:.5}", env.name());
         assert!((exact - 1.0).abs() < 1e-5, "{exact}");
         assert!((grid - 1.0).abs() < 0.01, "{grid}");
         let mut rng = Rng(3);
@@ -332,10 +277,7 @@ fn pdf_integrates_to_one_and_sample_round_trips() {
                 same += 1;
             }
         }
-        println!(
-            "{}: {same} of {m} samples read back the same pdf and radiance",
-            env.name()
-        );
+        println!("{}: {same} of {m} samples read back the same pdf and radiance", env.name());
         assert!(same * 1000 >= m * 999, "{same}");
     }
 }
@@ -369,10 +311,7 @@ fn table_white_furnace() {
     ] {
         let e = table_irradiance(&env, n);
         let rel = (e / (PI * 0.7) - 1.0).abs();
-        println!(
-            "furnace n = {n}: table E = {e:.6}, πL = {:.6}, relative error {rel:.2e}",
-            PI * 0.7
-        );
+        println!("furnace n = {n}: table E = {e:.6}, πL = {:.6}, relative error {rel:.2e}", PI * 0.7);
         worst = worst.max(rel);
     }
     assert!(worst < 2e-3, "{worst}");
@@ -391,10 +330,8 @@ fn table_quadrature_of_the_sky() {
         Vec3::new(0.4, 0.6, -0.7).normalize(),
         Vec3::new(0.0, -1.0, 0.0),
     ];
-    let pairs: Vec<(f64, f64)> = normals
-        .iter()
-        .map(|&n| (brute_irradiance(&env, n, 4), table_irradiance(&env, n)))
-        .collect();
+    let pairs: Vec<(f64, f64)> =
+        normals.iter().map(|&n| (brute_irradiance(&env, n, 4), table_irradiance(&env, n))).collect();
     let e_max = pairs.iter().map(|p| p.0).fold(0.0, f64::max);
     let (mut sq, mut worst_rel, mut worst_abs) = (0.0, 0.0f64, 0.0f64);
     for (n, &(exact, table)) in normals.iter().zip(&pairs) {
@@ -419,41 +356,27 @@ fn table_quadrature_of_the_sky() {
 fn bandwidth_of_known_spectra() {
     let (w, h) = (256usize, 128usize);
     // A sinusoid of 8 cycles around the horizon: 8/(2π) cycles per radian.
-    let around: Vec<f32> = (0..w * h)
-        .map(|k| 1.0 + 0.5 * (2.0 * PI * 8.0 * ((k % w) as f64 + 0.5) / w as f64).cos() as f32)
-        .collect();
+    let around: Vec<f32> =
+        (0..w * h).map(|k| 1.0 + 0.5 * (2.0 * PI * 8.0 * ((k % w) as f64 + 0.5) / w as f64).cos() as f32).collect();
     let b = bandwidth_99(&around, w, h);
     println!("8 cycles around: B_e = {b} (expected {})", 8.0 / (2.0 * PI));
     assert!((b as f64 - 8.0 / (2.0 * PI)).abs() < 1e-4);
     // 5 cycles from zenith to nadir (period H rows): 5/π cycles per radian.
-    let down: Vec<f32> = (0..w * h)
-        .map(|k| 2.0 + (2.0 * PI * 5.0 * ((k / w) as f64 + 0.5) / h as f64).sin() as f32)
-        .collect();
+    let down: Vec<f32> =
+        (0..w * h).map(|k| 2.0 + (2.0 * PI * 5.0 * ((k / w) as f64 + 0.5) / h as f64).sin() as f32).collect();
     let b = bandwidth_99(&down, w, h);
     println!("5 cycles down: B_e = {b} (expected {})", 5.0 / PI);
     assert!((b as f64 - 5.0 / PI).abs() < 1e-4);
     // Both: the larger radius sqrt((8/2π)² + (5/π)²) if the diagonal term is the product.
     assert_eq!(constant(256, 3.0).bandwidth(), 0.0);
     // Through the map: the same as the free function on its luminance; independent of the parameters.
-    let env = EnvironmentMap::from_texels(
-        "around",
-        w as u32,
-        h as u32,
-        around.iter().map(|&v| [v; 3]).collect(),
-    )
-    .unwrap();
+    let env =
+        EnvironmentMap::from_texels("around", w as u32, h as u32, around.iter().map(|&v| [v; 3]).collect()).unwrap();
     assert!((env.bandwidth() as f64 - 8.0 / (2.0 * PI)).abs() < 1e-4);
-    assert_eq!(
-        env.clone().with_params(5.0, 30.0).unwrap().bandwidth(),
-        env.bandwidth()
-    );
+    assert_eq!(env.clone().with_params(5.0, 30.0).unwrap().bandwidth(), env.bandwidth());
     let sky = EnvironmentMap::builtin("sky").unwrap();
     let studio = EnvironmentMap::builtin("studio").unwrap();
-    println!(
-        "B_e: sky {} cycles/rad, studio {} cycles/rad",
-        sky.bandwidth(),
-        studio.bandwidth()
-    );
+    println!("B_e: sky {} cycles/rad, studio {} cycles/rad", sky.bandwidth(), studio.bandwidth());
     assert!(sky.bandwidth() > 0.5 && sky.bandwidth().is_finite());
 }
 
@@ -471,20 +394,13 @@ fn procedural_sky_has_a_sun_thousands_of_times_the_sky() {
     assert!(sun_l.x > 1000.0 * zenith.x);
     assert!(ground.max_element() < zenith.min_element());
     // Most of the table looks at the sun (it holds most of the light) but not all of it.
-    let at_sun = (0..TABLE_SIZE)
-        .filter(|&i| sky.table(i).dir.dot(sun) > 0.999)
-        .count();
+    let at_sun = (0..TABLE_SIZE).filter(|&i| sky.table(i).dir.dot(sun) > 0.999).count();
     println!("table entries within 2.6° of the sun: {at_sun} of {TABLE_SIZE}");
     assert!(at_sun > TABLE_SIZE / 4 && at_sun < TABLE_SIZE * 9 / 10);
     let studio = EnvironmentMap::open("builtin:studio").unwrap();
     assert_eq!((studio.width(), studio.height()), (256, 128));
-    let e = EnvironmentMap::open("builtin:nope")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("builtin:nope") && e.contains("builtin:sky"),
-        "{e}"
-    );
+    let e = EnvironmentMap::open("builtin:nope").unwrap_err().to_string();
+    assert!(e.contains("builtin:nope") && e.contains("builtin:sky"), "{e}");
 }
 
 #[test]
@@ -546,24 +462,13 @@ fn build_timings() {
     for name in ["sky", "studio"] {
         let t = std::time::Instant::now();
         let env = EnvironmentMap::builtin(name).unwrap();
-        println!(
-            "builtin:{name} ({}x{}): {:?}",
-            env.width(),
-            env.height(),
-            t.elapsed()
-        );
+        println!("builtin:{name} ({}x{}): {:?}", env.width(), env.height(), t.elapsed());
     }
     for (w, h) in [(512u32, 256u32), (2048, 1024)] {
-        let texels: Vec<[f32; 3]> = (0..w * h)
-            .map(|k| [1.0 + (k % 7) as f32, 1.0, 0.5])
-            .collect();
+        let texels: Vec<[f32; 3]> = (0..w * h).map(|k| [1.0 + (k % 7) as f32, 1.0, 0.5]).collect();
         let t = std::time::Instant::now();
         let env = EnvironmentMap::from_texels("timing", w, h, texels).unwrap();
-        println!(
-            "{w}x{h}: distribution + table + B_e in {:?} ({} bytes)",
-            t.elapsed(),
-            env.bytes()
-        );
+        println!("{w}x{h}: distribution + table + B_e in {:?} ({} bytes)", t.elapsed(), env.bytes());
         let t = std::time::Instant::now();
         let _ = env.with_params(1.5, 30.0).unwrap();
         println!("{w}x{h}: new rotation + scale in {:?}", t.elapsed());
@@ -598,10 +503,7 @@ fn envmap_builtin_scene() {
     let (mut misses, mut top_misses) = (0, 0);
     for y in 0..h {
         for x in 0..w {
-            let (o, d) =
-                scene
-                    .camera
-                    .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+            let (o, d) = scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
             if scene.intersect(o, d, 0.0, f32::INFINITY).is_none() {
                 misses += 1;
                 top_misses += (y < 4) as u32;
@@ -609,10 +511,7 @@ fn envmap_builtin_scene() {
             }
         }
     }
-    println!(
-        "envmap: {misses} of {} camera rays miss (see the map), {top_misses} in the top 4 rows",
-        w * h
-    );
+    println!("envmap: {misses} of {} camera rays miss (see the map), {top_misses} in the top 4 rows", w * h);
     assert!(misses > w * h / 20 && misses < w * h / 5);
     // The sun shadows: a point on the plane just beyond the sphere, away from the sun, cannot see it.
     let sun = environment::sky_sun_direction();

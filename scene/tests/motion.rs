@@ -11,10 +11,7 @@ use wedge_scene::*;
 struct Rng(u64);
 impl Rng {
     fn f(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
     }
     /// Uniform in [lo, hi).
@@ -40,10 +37,7 @@ impl Rng {
         RigidMotion {
             pivot: self.v(-2.0, 2.0),
             translation: [self.v(-1.0, 1.0), self.v(-1.0, 1.0)],
-            rotation: [
-                Quat::from_axis_angle(axis, a0),
-                Quat::from_axis_angle(axis, a1),
-            ],
+            rotation: [Quat::from_axis_angle(axis, a0), Quat::from_axis_angle(axis, a1)],
         }
     }
 }
@@ -57,21 +51,14 @@ fn slerp_ends_are_exact_and_zero_motion_is_the_identity() {
         let (open, close) = (m.at(-1.0), m.at(1.0));
         assert_eq!(open.translation, m.translation[0]);
         assert_eq!(close.translation, m.translation[1]);
-        assert_eq!(
-            open.rotation, m.rotation[0],
-            "unit to f32 precision: kept as given"
-        );
+        assert_eq!(open.rotation, m.rotation[0], "unit to f32 precision: kept as given");
         // The short arc may store −q, the same rotation.
         assert!(close.rotation == m.rotation[1] || close.rotation == -m.rotation[1]);
         assert!(p.q[0].dot(p.q[1]) >= 0.0);
         // A point at the ends is where the end rotation puts it (to f32 rounding of the matrix).
         let x = rng.v(-3.0, 3.0);
         let want = m.pivot + m.translation[1] + m.rotation[1] * (x - m.pivot);
-        assert!(
-            (close.point(x) - want).length() < 1e-5,
-            "{} vs {want}",
-            close.point(x)
-        );
+        assert!((close.point(x) - want).length() < 1e-5, "{} vs {want}", close.point(x));
         // Rest → world → rest round trip.
         let t = rng.r(-1.0, 1.0);
         let xf = m.at(t);
@@ -96,12 +83,9 @@ fn slerp_turns_at_a_constant_rate_about_one_axis() {
     // 90° about z over the shutter: at t = 0 the point (1, 0, 0) about the origin is at 45°.
     let m = RigidMotion::rotation_about(Vec3::ZERO, Vec3::Z, 0.0, std::f32::consts::FRAC_PI_2);
     let h = std::f32::consts::FRAC_1_SQRT_2;
-    for (t, want) in [
-        (-1.0, Vec3::X),
-        (-0.5, Vec3::new(0.9238795, 0.38268343, 0.0)),
-        (0.0, Vec3::new(h, h, 0.0)),
-        (1.0, Vec3::Y),
-    ] {
+    for (t, want) in
+        [(-1.0, Vec3::X), (-0.5, Vec3::new(0.9238795, 0.38268343, 0.0)), (0.0, Vec3::new(h, h, 0.0)), (1.0, Vec3::Y)]
+    {
         let got = m.at(t).point(Vec3::X);
         assert!((got - want).length() < 2e-7, "t = {t}: {got} vs {want}");
     }
@@ -143,11 +127,7 @@ fn swept_bounds_contain_every_transformed_point() {
             let xf = m.at(t);
             for &x in &points {
                 let w = xf.point(x);
-                assert!(
-                    swept.contains(w),
-                    "case {case}: {w} at t = {t} outside {:?}",
-                    swept
-                );
+                assert!(swept.contains(w), "case {case}: {w} at t = {t} outside {:?}", swept);
             }
         }
         // And the box of the rest points at the ends (the cheap necessary condition).
@@ -158,24 +138,13 @@ fn swept_bounds_contain_every_transformed_point() {
     }
     // A pure translation's swept box is the two end boxes' union, padded by 1e-5 of the magnitude.
     let m = RigidMotion::translation(Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0));
-    let b = m.swept_box(&Aabb {
-        min: Vec3::ZERO,
-        max: Vec3::ONE,
-    });
+    let b = m.swept_box(&Aabb { min: Vec3::ZERO, max: Vec3::ONE });
     assert!((b.min - Vec3::ZERO).abs().max_element() < 1e-4, "{b:?}");
-    assert!(
-        (b.max - Vec3::new(2.0, 1.0, 1.0)).abs().max_element() < 1e-4,
-        "{b:?}"
-    );
+    assert!((b.max - Vec3::new(2.0, 1.0, 1.0)).abs().max_element() < 1e-4, "{b:?}");
 }
 
 fn shading(object: u32) -> TriangleShading {
-    TriangleShading {
-        n: [Vec3::Y; 3],
-        uv: [Vec2::ZERO; 3],
-        material: 0,
-        object,
-    }
+    TriangleShading { n: [Vec3::Y; 3], uv: [Vec2::ZERO; 3], material: 0, object }
 }
 
 /// A soup: a static ground (object 0) plus `movers` clusters of small random triangles, each its own
@@ -184,16 +153,8 @@ fn soup(rng: &mut Rng, movers: usize, per: usize) -> Scene {
     let mut tris = Vec::new();
     let g = 6.0;
     for (a, b, c) in [
-        (
-            Vec3::new(-g, 0.0, g),
-            Vec3::new(g, 0.0, g),
-            Vec3::new(g, 0.0, -g),
-        ),
-        (
-            Vec3::new(-g, 0.0, g),
-            Vec3::new(g, 0.0, -g),
-            Vec3::new(-g, 0.0, -g),
-        ),
+        (Vec3::new(-g, 0.0, g), Vec3::new(g, 0.0, g), Vec3::new(g, 0.0, -g)),
+        (Vec3::new(-g, 0.0, g), Vec3::new(g, 0.0, -g), Vec3::new(-g, 0.0, -g)),
     ] {
         tris.push((a, b, c, shading(0)));
     }
@@ -203,19 +164,11 @@ fn soup(rng: &mut Rng, movers: usize, per: usize) -> Scene {
         let centre = Vec3::new(rng.r(-2.0, 2.0), rng.r(2.2, 4.0), rng.r(-2.0, 2.0));
         for _ in 0..per {
             let a = centre + rng.v(-0.6, 0.6);
-            tris.push((
-                a,
-                a + rng.v(-0.3, 0.3),
-                a + rng.v(-0.3, 0.3),
-                shading(k as u32 + 1),
-            ));
+            tris.push((a, a + rng.v(-0.3, 0.3), a + rng.v(-0.3, 0.3), shading(k as u32 + 1)));
         }
         let mut m = rng.motion(120.0);
         m.pivot = centre;
-        objects.push(SceneObject {
-            motion: Some(m),
-            ..SceneObject::named(format!("mover{k}"))
-        });
+        objects.push(SceneObject { motion: Some(m), ..SceneObject::named(format!("mover{k}")) });
     }
     Scene::from_objects(
         "soup",
@@ -303,13 +256,8 @@ fn moving_instances_trace_like_brute_force_over_moved_triangles() {
             }
         }
     }
-    println!(
-        "{rays} rays: {hits} hits on the same triangle, {disagree} near-ties or grazing edges"
-    );
-    assert!(
-        hits > rays / 4,
-        "too few hits to test anything: {hits} of {rays}"
-    );
+    println!("{rays} rays: {hits} hits on the same triangle, {disagree} near-ties or grazing edges");
+    assert!(hits > rays / 4, "too few hits to test anything: {hits} of {rays}");
     assert!(disagree * 500 <= rays, "{disagree} of {rays} rays disagree");
 }
 
@@ -339,10 +287,7 @@ fn the_top_level_tree_finds_what_a_loop_over_all_instances_finds() {
                 Child::Leaf { first, count } => {
                     assert_eq!(count, 1);
                     let inst = &scene.instances[first as usize];
-                    assert_eq!(
-                        (inst.swept_bounds.min, inst.swept_bounds.max),
-                        (b.min, b.max)
-                    );
+                    assert_eq!((inst.swept_bounds.min, inst.swept_bounds.max), (b.min, b.max));
                     seen[first as usize] += 1;
                 }
             }
@@ -356,24 +301,17 @@ fn the_top_level_tree_finds_what_a_loop_over_all_instances_finds() {
         for _ in 0..200 {
             let o = rng.v(-4.0, 4.0) + Vec3::new(0.0, 6.0, 0.0);
             let d = (rng.v(-3.0, 3.0) + Vec3::Y * 2.5 - o).normalize();
-            let tmax = if rays % 3 == 0 {
-                rng.r(2.0, 8.0)
-            } else {
-                f32::INFINITY
-            };
+            let tmax = if rays % 3 == 0 { rng.r(2.0, 8.0) } else { f32::INFINITY };
             let mut want = bvh::traverse(&scene.bvh, o, d, 0.0, tmax, false);
             let mut occluded = want.is_some();
             for inst in &scene.instances {
                 let xf = inst.prepared.at(t);
                 let (ro, rd) = (xf.inverse_point(o), xf.inverse_vector(d));
                 let root = inst.root;
-                if let Some(h) =
-                    bvh::traverse_from(&scene.bvh, root, ro, rd, 0.0, tmax, false, want.as_ref())
-                {
+                if let Some(h) = bvh::traverse_from(&scene.bvh, root, ro, rd, 0.0, tmax, false, want.as_ref()) {
                     want = Some(h);
                 }
-                occluded |=
-                    bvh::traverse_from(&scene.bvh, root, ro, rd, 0.0, tmax, true, None).is_some();
+                occluded |= bvh::traverse_from(&scene.bvh, root, ro, rd, 0.0, tmax, true, None).is_some();
             }
             let got = at.intersect(o, d, 0.0, tmax);
             assert_eq!(
@@ -381,17 +319,10 @@ fn the_top_level_tree_finds_what_a_loop_over_all_instances_finds() {
                 want.map(|h| (h.triangle, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits())),
                 "ray {rays} at t = {t}"
             );
-            assert_eq!(
-                at.occluded(o, d, 0.0, tmax),
-                occluded,
-                "ray {rays}: any-hit"
-            );
+            assert_eq!(at.occluded(o, d, 0.0, tmax), occluded, "ray {rays}: any-hit");
             rays += 1;
-            hits += got.is_some_and(|h| {
-                scene
-                    .instance_of(scene.shading[h.triangle as usize].object)
-                    .is_some()
-            }) as usize;
+            hits +=
+                got.is_some_and(|h| scene.instance_of(scene.shading[h.triangle as usize].object).is_some()) as usize;
         }
     }
     println!("{rays} rays, {hits} hit a moving instance");
@@ -425,18 +356,12 @@ fn probe_rays(scene: &Scene) -> Vec<(Vec3, Vec3)> {
     let (w, h) = (160, 120);
     for y in (0..h).step_by(7) {
         for x in (0..w).step_by(7) {
-            let (o, d) =
-                scene
-                    .camera
-                    .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+            let (o, d) = scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
             rays.push((o, d));
             if let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) {
                 let sp = scene.surface(&hit, o, d);
                 let p = sp.position + sp.shading_normal * 1e-3;
-                rays.push((
-                    p,
-                    (sp.shading_normal + Vec3::new(0.3, 0.2, -0.1)).normalize(),
-                ));
+                rays.push((p, (sp.shading_normal + Vec3::new(0.3, 0.2, -0.1)).normalize()));
             }
         }
     }
@@ -456,9 +381,7 @@ fn static_scenes_trace_the_same_at_every_time() {
             for &(o, d) in &rays {
                 let a = scene.intersect(o, d, 0.0, f32::INFINITY);
                 let b = at.intersect(o, d, 0.0, f32::INFINITY);
-                let bits = |h: Option<Hit>| {
-                    h.map(|h| (h.triangle, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits()))
-                };
+                let bits = |h: Option<Hit>| h.map(|h| (h.triangle, h.t.to_bits(), h.b1.to_bits(), h.b2.to_bits()));
                 assert_eq!(bits(a), bits(b), "{name} t = {t}");
                 assert_eq!(scene.occluded(o, d, 0.0, 5.0), at.occluded(o, d, 0.0, 5.0));
                 if let Some(hit) = a {
@@ -483,8 +406,7 @@ fn surfaces_of_moving_triangles_are_where_the_motion_puts_them() {
         let at = scene.at(t);
         let world = world_triangles(&scene, t);
         for inst in &scene.instances {
-            let k =
-                inst.first as usize + (rng.f() * inst.count as f32) as usize % inst.count as usize;
+            let k = inst.first as usize + (rng.f() * inst.count as f32) as usize % inst.count as usize;
             let w = world[k].vertices();
             let target = (w[0] + w[1] + w[2]) / 3.0;
             let o = target + Vec3::new(0.1, 3.0, 0.2);
@@ -494,20 +416,14 @@ fn surfaces_of_moving_triangles_are_where_the_motion_puts_them() {
             };
             let sp = at.surface(&hit, o, d);
             let on_ray = o + d * hit.t;
-            assert!(
-                (sp.position - on_ray).length() < 1e-4,
-                "{} vs {on_ray}",
-                sp.position
-            );
+            assert!((sp.position - on_ray).length() < 1e-4, "{} vs {on_ray}", sp.position);
             assert!(sp.geometric_normal.dot(d) <= 1e-6);
             let n = world[hit.triangle as usize].vertices();
             let flat = (n[1] - n[0]).cross(n[2] - n[0]).normalize();
             assert!(sp.geometric_normal.dot(flat).abs() > 0.9999);
             let v = at.velocity(&sp);
             let obj = scene.shading[hit.triangle as usize].object;
-            let m = scene.objects[obj as usize]
-                .motion
-                .expect("a moving triangle is hit");
+            let m = scene.objects[obj as usize].motion.expect("a moving triangle is hit");
             assert_eq!(v, m.prepare().velocity(t, sp.position));
         }
     }
@@ -529,15 +445,7 @@ fn set_motion_moves_objects_by_name_and_back() {
         tris.push((a, a + rng.v(-0.2, 0.2), a + rng.v(-0.2, 0.2), shading(1)));
     }
     let objects = vec![SceneObject::named("ground"), SceneObject::named("crate")];
-    scene = Scene::from_objects(
-        "named",
-        tris,
-        before.materials.clone(),
-        vec![],
-        Camera::default(),
-        objects,
-    )
-    .unwrap();
+    scene = Scene::from_objects("named", tris, before.materials.clone(), vec![], Camera::default(), objects).unwrap();
     // Origins on a 1/1024 grid, so moving them by 3 m and back is exact.
     let rays: Vec<(Vec3, Vec3)> = (0..400)
         .map(|_| {
@@ -547,46 +455,26 @@ fn set_motion_moves_objects_by_name_and_back() {
         .collect();
     let hits = |s: &Scene, t: f32| -> Vec<Option<u32>> {
         rays.iter()
-            .map(|&(o, d)| {
-                s.at(t)
-                    .intersect(o, d, 0.0, f32::INFINITY)
-                    .map(|h| s.triangles[h.triangle as usize].source)
-            })
+            .map(|&(o, d)| s.at(t).intersect(o, d, 0.0, f32::INFINITY).map(|h| s.triangles[h.triangle as usize].source))
             .collect()
     };
     let still = hits(&scene, 0.0);
     assert!(!scene.has_motion());
 
-    let e = scene
-        .set_motion("barrel", RigidMotion::translation(Vec3::ZERO, Vec3::X))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("no object is called 'barrel'") && e.contains("ground, crate"),
-        "{e}"
-    );
-    let bad = RigidMotion {
-        rotation: [Quat::from_xyzw(0.0, 0.0, 0.0, 2.0), Quat::IDENTITY],
-        ..RigidMotion::IDENTITY
-    };
+    let e = scene.set_motion("barrel", RigidMotion::translation(Vec3::ZERO, Vec3::X)).unwrap_err().to_string();
+    assert!(e.contains("no object is called 'barrel'") && e.contains("ground, crate"), "{e}");
+    let bad = RigidMotion { rotation: [Quat::from_xyzw(0.0, 0.0, 0.0, 2.0), Quat::IDENTITY], ..RigidMotion::IDENTITY };
     let e = scene.set_motion("crate", bad).unwrap_err().to_string();
     assert!(e.contains("not a unit quaternion"), "{e}");
 
     // Moved 3 m along x: at every time the crate is hit where a translated copy would be.
-    scene
-        .set_motion(
-            "crate",
-            RigidMotion::translation(Vec3::X * 3.0, Vec3::X * 3.0),
-        )
-        .unwrap();
+    scene.set_motion("crate", RigidMotion::translation(Vec3::X * 3.0, Vec3::X * 3.0)).unwrap();
     assert!(scene.has_motion());
     assert_eq!(scene.objects[1].instance, Some(0));
     let moved = hits(&scene, 0.3);
     assert_ne!(moved, still);
     for (k, &(o, d)) in rays.iter().enumerate() {
-        let shifted = scene
-            .at(0.3)
-            .intersect(o + Vec3::X * 3.0, d, 0.0, f32::INFINITY);
+        let shifted = scene.at(0.3).intersect(o + Vec3::X * 3.0, d, 0.0, f32::INFINITY);
         let src = shifted.map(|h| scene.triangles[h.triangle as usize].source);
         if still[k].is_some_and(|s| s >= 2) {
             assert_eq!(src, still[k], "ray {k}");
@@ -602,23 +490,10 @@ fn set_motion_moves_objects_by_name_and_back() {
 fn lights_on_moving_objects_move_with_them() {
     let lamp = Material::emitter("lamp", Vec3::splat(5.0));
     let grey = Material::diffuse("grey", Vec3::splat(0.5));
-    let q = [
-        Vec3::new(0.0, 2.0, 0.0),
-        Vec3::new(1.0, 2.0, 0.0),
-        Vec3::new(1.0, 2.0, 1.0),
-        Vec3::new(0.0, 2.0, 1.0),
-    ];
-    let s = |material, object| TriangleShading {
-        material,
-        ..shading(object)
-    };
+    let q = [Vec3::new(0.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 0.0), Vec3::new(1.0, 2.0, 1.0), Vec3::new(0.0, 2.0, 1.0)];
+    let s = |material, object| TriangleShading { material, ..shading(object) };
     let tris = vec![
-        (
-            Vec3::new(-5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, 5.0),
-            Vec3::new(0.0, 0.0, -5.0),
-            s(1, 0),
-        ),
+        (Vec3::new(-5.0, 0.0, 5.0), Vec3::new(5.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -5.0), s(1, 0)),
         (q[0], q[1], q[2], s(0, 1)),
         (q[0], q[2], q[3], s(0, 1)),
     ];
@@ -627,22 +502,8 @@ fn lights_on_moving_objects_move_with_them() {
         translation: [Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0)],
         rotation: [Quat::IDENTITY, Quat::from_rotation_y(0.5)],
     };
-    let objects = vec![
-        SceneObject::named("floor"),
-        SceneObject {
-            motion: Some(motion),
-            ..SceneObject::named("lamp")
-        },
-    ];
-    let scene = Scene::from_objects(
-        "lamp",
-        tris,
-        vec![lamp, grey],
-        vec![],
-        Camera::default(),
-        objects,
-    )
-    .unwrap();
+    let objects = vec![SceneObject::named("floor"), SceneObject { motion: Some(motion), ..SceneObject::named("lamp") }];
+    let scene = Scene::from_objects("lamp", tris, vec![lamp, grey], vec![], Camera::default(), objects).unwrap();
     assert_eq!(scene.lights.len(), 1, "the quad is still one rect light");
     assert_eq!(scene.light_object, vec![1]);
     for t in [-1.0f32, 0.0, 0.6, 1.0] {
@@ -656,9 +517,7 @@ fn lights_on_moving_objects_move_with_them() {
         // The light's centre, seen from below, is the light's own surface at that time.
         let c = l.centre();
         let o = c - Vec3::Y;
-        let hit = at
-            .intersect(o, Vec3::Y, 0.0, f32::INFINITY)
-            .expect("light hit");
+        let hit = at.intersect(o, Vec3::Y, 0.0, f32::INFINITY).expect("light hit");
         assert!((hit.t - 1.0).abs() < 1e-5);
         assert_eq!(scene.light_of_triangle(hit.triangle), Some(0));
         assert!((l.normal() - Vec3::NEG_Y).length() < 1e-5);
@@ -669,11 +528,7 @@ fn lights_on_moving_objects_move_with_them() {
 fn the_motion_builtin_blurs_5_to_40_pixels_and_keeps_static_parts_still() {
     let scene = load(&SceneSource::Builtin("motion".into())).unwrap();
     assert!(builtin_names().contains(&"motion"));
-    assert!(
-        scene.triangle_count() < 20_000,
-        "{}",
-        scene.triangle_count()
-    );
+    assert!(scene.triangle_count() < 20_000, "{}", scene.triangle_count());
     assert!(scene.has_motion());
     assert_eq!(scene.lights.len(), 1);
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
@@ -749,11 +604,7 @@ pub fn animated_gltf(rotation_interpolation: &str) -> String {
     buf.extend(le(&step_times)); // 44..52
     buf.extend(le(&tr)); // 52..76
     buf.extend(le(&rot)); // 76..108
-    let rot_input = if rotation_interpolation == "STEP" {
-        2
-    } else {
-        1
-    };
+    let rot_input = if rotation_interpolation == "STEP" { 2 } else { 1 };
     format!(
         r#"{{"asset":{{"version":"2.0"}},
 "buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}],
@@ -778,9 +629,7 @@ fn base64_encode(b: &[u8]) -> String {
     const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for c in b.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
+        let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
         for k in 0..4 {
             if k <= c.len() {
                 out.push(T[(n >> (18 - 6 * k)) as usize & 63] as char);
@@ -827,23 +676,13 @@ fn gltf_animations_are_sampled_at_the_shutter() {
         // Without a shutter: sampled at time 0 only, nothing moves, a warning says why.
         let still = load(&src).unwrap();
         assert!(!still.has_motion());
-        assert!(
-            still
-                .warnings
-                .iter()
-                .any(|w| w.contains("shutter is empty")),
-            "{:?}",
-            still.warnings
-        );
+        assert!(still.warnings.iter().any(|w| w.contains("shutter is empty")), "{:?}", still.warnings);
         assert_eq!(still.objects[0].name, "spin");
 
         // Shutter (0.25, 0.75): the carrier is at x = 0.5 and 1.5; the spin at 22.5° and 67.5°
         // (LINEAR) or 0° and 90° (STEP: the 0.5 s key holds from then on).
         let scene = load_with_shutter(&src, &opts, Some((0.25, 0.75))).unwrap();
-        assert_eq!(
-            (scene.camera.shutter_open, scene.camera.shutter_close),
-            (0.25, 0.75)
-        );
+        assert_eq!((scene.camera.shutter_open, scene.camera.shutter_close), (0.25, 0.75));
         assert!(scene.has_motion());
         let deg = |d: f32| Quat::from_rotation_y(d.to_radians());
         let (rot_open, rot_close) = match interp {
@@ -853,23 +692,12 @@ fn gltf_animations_are_sampled_at_the_shutter() {
         let open: Vec<Vec3> = tri.iter().map(|&p| rot_open * p + Vec3::X * 0.5).collect();
         let close: Vec<Vec3> = tri.iter().map(|&p| rot_close * p + Vec3::X * 1.5).collect();
         let (got_open, got_close) = (vertices_at(&scene, 0, -1.0), vertices_at(&scene, 0, 1.0));
-        assert!(
-            close_to(&got_open, &open),
-            "{interp} open: {got_open:?} vs {open:?}"
-        );
-        assert!(
-            close_to(&got_close, &close),
-            "{interp} close: {got_close:?} vs {close:?}"
-        );
+        assert!(close_to(&got_open, &open), "{interp} open: {got_open:?} vs {open:?}");
+        assert!(close_to(&got_close, &close), "{interp} close: {got_close:?} vs {close:?}");
         // Pivot: the animated child's origin at open, (0.5, 0, 0); it travels straight.
         let m = scene.objects[0].motion.unwrap();
         assert!((m.pivot - Vec3::X * 0.5).length() < 1e-6);
-        let mid = scene
-            .instance_of(0)
-            .unwrap()
-            .prepared
-            .at(0.0)
-            .point(m.pivot);
+        let mid = scene.instance_of(0).unwrap().prepared.at(0.0).point(m.pivot);
         assert!((mid - Vec3::X * 1.0).length() < 1e-6);
     }
     // Before the first and after the last keyframe the values hold.
@@ -879,12 +707,7 @@ fn gltf_animations_are_sampled_at_the_shutter() {
     let want: Vec<Vec3> = tri.iter().map(|&p| y90(p) + Vec3::X * 2.0).collect();
     assert!(close_to(&vertices_at(&scene, 0, 0.0), &want));
     // A shutter that is not an interval is refused.
-    let e = load_with_shutter(
-        &SceneSource::Builtin("grids".into()),
-        &opts,
-        Some((1.0, 0.0)),
-    )
-    .unwrap_err();
+    let e = load_with_shutter(&SceneSource::Builtin("grids".into()), &opts, Some((1.0, 0.0))).unwrap_err();
     assert!(e.to_string().contains("not an interval"), "{e}");
 }
 
@@ -892,11 +715,7 @@ fn gltf_animations_are_sampled_at_the_shutter() {
 fn ron_motion_blocks_and_camera_shutters() {
     let dir = temp_dir("ron");
     std::fs::write(dir.join("anim.gltf"), animated_gltf("LINEAR")).unwrap();
-    std::fs::write(
-        dir.join("tri.obj"),
-        "o wedge\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join("tri.obj"), "o wedge\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let scene_file = write(
         &dir,
         "s.ron",
@@ -910,23 +729,13 @@ fn ron_motion_blocks_and_camera_shutters() {
 )"#,
     );
     let scene = load(&SceneSource::File(scene_file.clone())).unwrap();
-    assert_eq!(
-        (scene.camera.shutter_open, scene.camera.shutter_close),
-        (0.0, 1.0)
-    );
+    assert_eq!((scene.camera.shutter_open, scene.camera.shutter_close), (0.0, 1.0));
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(names, ["wedge", "spin"]);
     // The OBJ triangle turns 90° about y through its placed origin (0, 0, −2) and moves 0.4 m.
     let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
-    let close: Vec<Vec3> = tri
-        .iter()
-        .map(|&p| Vec3::new(p.z, p.y, -p.x) + Vec3::new(0.4, 0.0, -2.0))
-        .collect();
-    assert!(
-        close_to(&vertices_at(&scene, 0, 1.0), &close),
-        "{:?}",
-        vertices_at(&scene, 0, 1.0)
-    );
+    let close: Vec<Vec3> = tri.iter().map(|&p| Vec3::new(p.z, p.y, -p.x) + Vec3::new(0.4, 0.0, -2.0)).collect();
+    assert!(close_to(&vertices_at(&scene, 0, 1.0), &close), "{:?}", vertices_at(&scene, 0, 1.0));
     // The glTF's animation sampled at the RON camera's shutter: carrier from x = 0 to 2.
     let open: Vec<Vec3> = tri.to_vec();
     assert!(close_to(&vertices_at(&scene, 1, -1.0), &open));
@@ -939,37 +748,14 @@ fn ron_motion_blocks_and_camera_shutters() {
   camera: Some((position: (0, 1, 4), look_at: (0, 0, 0), vfov_deg: 40, shutter: (0.0, 1.0))))"#,
     );
     let s3 = load(&SceneSource::File(placed)).unwrap();
-    let place = |p: Vec3| {
-        Quat::from_rotation_y(std::f32::consts::FRAC_PI_2) * (p * 2.0) + Vec3::new(1.0, 0.0, -1.0)
-    };
-    let pose_close: Vec<Vec3> = tri
-        .iter()
-        .map(|&p| place(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2) * p + Vec3::X * 2.0))
-        .collect();
+    let place = |p: Vec3| Quat::from_rotation_y(std::f32::consts::FRAC_PI_2) * (p * 2.0) + Vec3::new(1.0, 0.0, -1.0);
+    let pose_close: Vec<Vec3> =
+        tri.iter().map(|&p| place(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2) * p + Vec3::X * 2.0)).collect();
     let pose_open: Vec<Vec3> = tri.iter().map(|&p| place(p)).collect();
-    assert!(
-        close_to(&vertices_at(&s3, 0, -1.0), &pose_open),
-        "{:?}",
-        vertices_at(&s3, 0, -1.0)
-    );
-    assert!(
-        close_to(&vertices_at(&s3, 0, 1.0), &pose_close),
-        "{:?}",
-        vertices_at(&s3, 0, 1.0)
-    );
+    assert!(close_to(&vertices_at(&s3, 0, -1.0), &pose_open), "{:?}", vertices_at(&s3, 0, -1.0));
+    assert!(close_to(&vertices_at(&s3, 0, 1.0), &pose_close), "{:?}", vertices_at(&s3, 0, 1.0));
     // A shutter from the caller (a pipeline camera) wins over the file's.
-    let s2 = load_with_shutter(
-        &SceneSource::File(scene_file),
-        &LoadOptions::default(),
-        Some((0.5, 0.5)),
-    )
-    .unwrap();
-    assert!(
-        s2.instance_of(1).is_none(),
-        "the glTF does not move over an empty shutter"
-    );
-    assert!(
-        s2.instance_of(0).is_some(),
-        "the RON motion block does not depend on the shutter"
-    );
+    let s2 = load_with_shutter(&SceneSource::File(scene_file), &LoadOptions::default(), Some((0.5, 0.5))).unwrap();
+    assert!(s2.instance_of(1).is_none(), "the glTF does not move over an empty shutter");
+    assert!(s2.instance_of(0).is_some(), "the RON motion block does not depend on the shutter");
 }

@@ -84,7 +84,10 @@ fn bad_maps_are_refused_with_counts_and_the_first_pixel() {
     has(&message(RealLayer::from_maps(20000, 1, vec![], vec![], vec![], vec![])), &["20000x1", "more than the limit"]);
     let mut short = n.clone();
     short.pop();
-    has(&message(RealLayer::from_maps(4, 3, c.clone(), p.clone(), short, a.clone())), &["normal map has 11 pixels", "4x3", "expected 12"]);
+    has(
+        &message(RealLayer::from_maps(4, 3, c.clone(), p.clone(), short, a.clone())),
+        &["normal map has 11 pixels", "4x3", "expected 12"],
+    );
     // The camera image: NaN, infinite, negative — counted by kind, the first of each located.
     let mut bad = c.clone();
     bad[5] = [f32::NAN, 0.0, 0.0];
@@ -92,7 +95,13 @@ fn bad_maps_are_refused_with_counts_and_the_first_pixel() {
     bad[11] = [0.0, f32::INFINITY, 0.0];
     has(
         &message(RealLayer::from_maps(4, 3, bad, p.clone(), n.clone(), a.clone())),
-        &["camera image has bad pixels: 2 NaN, 1 infinite, 1 negative", "first NaN at column 1, row 1", "first infinite at column 3, row 2", "first negative at column 2, row 1", ">= 0"],
+        &[
+            "camera image has bad pixels: 2 NaN, 1 infinite, 1 negative",
+            "first NaN at column 1, row 1",
+            "first infinite at column 3, row 2",
+            "first negative at column 2, row 1",
+            ">= 0",
+        ],
     );
     // Coverage must be 0 or 1.
     let mut soft = p.clone();
@@ -100,13 +109,22 @@ fn bad_maps_are_refused_with_counts_and_the_first_pixel() {
     soft[2][3] = f32::NAN;
     has(
         &message(RealLayer::from_maps(4, 3, c.clone(), soft, n.clone(), a.clone())),
-        &["position map has bad coverage values", "1 NaN", "1 other than 0 or 1", "first other than 0 or 1 at column 1, row 0", "threshold"],
+        &[
+            "position map has bad coverage values",
+            "1 NaN",
+            "1 other than 0 or 1",
+            "first other than 0 or 1 at column 1, row 0",
+            "threshold",
+        ],
     );
     // Covered positions: finite and within 1e8 m.
     let mut far = p.clone();
     far[4] = [f32::INFINITY, 0.0, 0.0, 1.0];
     far[5] = [3e8, 0.0, 0.0, 1.0];
-    has(&message(RealLayer::from_maps(4, 3, c.clone(), far, n.clone(), a.clone())), &["covered positions: 1 infinite, 1 beyond 1e8 m", "column 0, row 1"]);
+    has(
+        &message(RealLayer::from_maps(4, 3, c.clone(), far, n.clone(), a.clone())),
+        &["covered positions: 1 infinite, 1 beyond 1e8 m", "column 0, row 1"],
+    );
     // Normals: unit-ish where covered (an 8-bit 0.5·n + 0.5 map of (0, 1, 0) is (0.5, 1, 0.5): 1.22 long,
     // accepted by length alone, so the test uses a zero normal and a 2.5-long one).
     let mut nn = n.clone();
@@ -114,7 +132,10 @@ fn bad_maps_are_refused_with_counts_and_the_first_pixel() {
     nn[9] = [0.0, 2.5, 0.0];
     has(
         &message(RealLayer::from_maps(4, 3, c.clone(), p.clone(), nn, a.clone())),
-        &["normal map has bad covered normals: 2 of length outside 0.5..2", "first of length outside 0.5..2 at column 0, row 0"],
+        &[
+            "normal map has bad covered normals: 2 of length outside 0.5..2",
+            "first of length outside 0.5..2 at column 0, row 0",
+        ],
     );
     // Albedo: in [0, 1] where covered; over 1 creates energy.
     let mut hot = a.clone();
@@ -122,7 +143,11 @@ fn bad_maps_are_refused_with_counts_and_the_first_pixel() {
     hot[4] = [-0.1, 0.5, 0.5];
     has(
         &message(RealLayer::from_maps(4, 3, c.clone(), p.clone(), n.clone(), hot)),
-        &["albedo map has bad covered albedo values: 1 negative, 1 over 1 (energy-creating)", "column 2, row 0", "column 0, row 1"],
+        &[
+            "albedo map has bad covered albedo values: 1 negative, 1 over 1 (energy-creating)",
+            "column 2, row 0",
+            "column 0, row 1",
+        ],
     );
     // The same maps without the bad pixels load.
     RealLayer::from_maps(4, 3, c, p, n, a).unwrap();
@@ -197,14 +222,23 @@ fn files_round_trip_and_bad_files_name_themselves() {
         &message(RealLayer::open(&cam, &png, &nor, RealAlbedo::Constant([0.5; 3]))),
         &["camera.png", "position map is a PNG/JPEG", "OpenEXR", "coverage in A"],
     );
-    has(&message(RealLayer::open(&cam, &pos, &png, RealAlbedo::Constant([0.5; 3]))), &["camera.png", "normal map is a PNG/JPEG"]);
+    has(
+        &message(RealLayer::open(&cam, &pos, &png, RealAlbedo::Constant([0.5; 3]))),
+        &["camera.png", "normal map is a PNG/JPEG"],
+    );
     // Missing file, wrong extension, not an EXR.
     let missing = dir.join("nope.exr");
-    has(&message(RealLayer::open(&cam, &missing, &nor, RealAlbedo::Constant([0.5; 3]))), &["nope.exr", "does not exist"]);
+    has(
+        &message(RealLayer::open(&cam, &missing, &nor, RealAlbedo::Constant([0.5; 3]))),
+        &["nope.exr", "does not exist"],
+    );
     has(&message(RealLayer::open(&cam, &pos, &nor, RealAlbedo::Map(missing.clone()))), &["nope.exr", "does not exist"]);
     let txt = dir.join("camera.txt");
     std::fs::write(&txt, "hello").unwrap();
-    has(&message(RealLayer::open(&txt, &pos, &nor, RealAlbedo::Constant([0.5; 3]))), &["camera.txt", "not a format we read"]);
+    has(
+        &message(RealLayer::open(&txt, &pos, &nor, RealAlbedo::Constant([0.5; 3]))),
+        &["camera.txt", "not a format we read"],
+    );
     let fake = dir.join("fake.exr");
     std::fs::write(&fake, "not an exr at all").unwrap();
     has(&message(RealLayer::open(&cam, &fake, &nor, RealAlbedo::Constant([0.5; 3]))), &["fake.exr", "magic number"]);
@@ -235,7 +269,15 @@ fn triangle_set(s: &Scene) -> Vec<String> {
             let bits = |a: &[f32]| a.iter().map(|f| format!("{:08x}", f.to_bits())).collect::<String>();
             let n: Vec<f32> = sh.n.iter().flat_map(|n| n.to_array()).collect();
             let uv: Vec<f32> = sh.uv.iter().flat_map(|u| u.to_array()).collect();
-            format!("{}{}{} {} {} {:?}", bits(&t.v0), bits(&t.v1), bits(&t.v2), bits(&n), bits(&uv), s.materials[t.material as usize])
+            format!(
+                "{}{}{} {} {} {:?}",
+                bits(&t.v0),
+                bits(&t.v1),
+                bits(&t.v2),
+                bits(&n),
+                bits(&uv),
+                s.materials[t.material as usize]
+            )
         })
         .collect();
     v.sort();
@@ -281,7 +323,8 @@ fn load_timings_640x480() {
     let t = std::time::Instant::now();
     let l = RealLayer::open(&cam, &pos, &nor, RealAlbedo::Map(alb.clone())).unwrap();
     let open_ms = t.elapsed().as_secs_f64() * 1e3;
-    let (c, p, n, a) = (l.camera_map().to_vec(), l.position_map().to_vec(), l.normal_map().to_vec(), l.albedo_map().to_vec());
+    let (c, p, n, a) =
+        (l.camera_map().to_vec(), l.position_map().to_vec(), l.normal_map().to_vec(), l.albedo_map().to_vec());
     let t = std::time::Instant::now();
     let m = RealLayer::from_maps(w as u32, h as u32, c, p, n, a).unwrap();
     let check_ms = t.elapsed().as_secs_f64() * 1e3;

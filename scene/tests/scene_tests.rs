@@ -59,21 +59,14 @@ fn check_traversal(name: &str) {
     let s = load(&SceneSource::Builtin(name.into())).unwrap();
     assert!(stack_need(&s.bvh.nodes) <= STACK_SIZE);
     let mut rng = Rng(42);
-    let (lo, hi) = (
-        s.bounds.min - Vec3::splat(0.5),
-        s.bounds.max + Vec3::splat(0.5),
-    );
+    let (lo, hi) = (s.bounds.min - Vec3::splat(0.5), s.bounds.max + Vec3::splat(0.5));
     let (mut hits, mut ties, mut anyhit_checks) = (0, 0, 0);
     for k in 0..10_000 {
         // Half the rays from the camera through random pixels (the realistic case), half arbitrary.
         let (o, d) = if k % 2 == 0 {
-            s.camera
-                .generate_ray(rng.f() * 640.0, rng.f() * 480.0, 640, 480, rng.v2())
+            s.camera.generate_ray(rng.f() * 640.0, rng.f() * 480.0, 640, 480, rng.v2())
         } else {
-            (
-                lo + (hi - lo) * Vec3::new(rng.f(), rng.f(), rng.f()),
-                rng.dir(),
-            )
+            (lo + (hi - lo) * Vec3::new(rng.f(), rng.f(), rng.f()), rng.dir())
         };
         let got = s.intersect(o, d, 1e-4, f32::INFINITY);
         let want = brute_closest(&s, o, d, 1e-4, f32::INFINITY);
@@ -96,10 +89,7 @@ fn check_traversal(name: &str) {
         let occ = s.occluded(o, d, 1e-4, tmax);
         // Anything in (tmin, tmax) ⇔ the closest hit in (tmin, ∞) is before tmax.
         let want_occ = want.is_some_and(|(_, t)| t < tmax);
-        assert_eq!(
-            occ, want_occ,
-            "{name} ray {k}: occluded mismatch (tmax {tmax})"
-        );
+        assert_eq!(occ, want_occ, "{name} ray {k}: occluded mismatch (tmax {tmax})");
         anyhit_checks += 1;
     }
     println!(
@@ -161,10 +151,7 @@ fn irradiance_matches_monte_carlo() {
     // The triangle's winding must face down for these receivers; flip it if needed.
     let tri = if tri.normal().y > 0.0 {
         if let LightShape::Triangle { v0, v1, v2 } = tri.shape {
-            AreaLight {
-                shape: LightShape::Triangle { v0, v1: v2, v2: v1 },
-                ..tri
-            }
+            AreaLight { shape: LightShape::Triangle { v0, v1: v2, v2: v1 }, ..tri }
         } else {
             unreachable!()
         }
@@ -174,14 +161,8 @@ fn irradiance_matches_monte_carlo() {
     let points = [
         (Vec3::ZERO, Vec3::Y),
         (Vec3::new(0.7, 0.0, 0.4), Vec3::Y),
-        (
-            Vec3::new(-0.5, 0.3, -0.2),
-            Vec3::new(0.3, 1.0, 0.2).normalize(),
-        ),
-        (
-            Vec3::new(1.2, 0.5, 0.0),
-            Vec3::new(-0.6, 1.0, 0.0).normalize(),
-        ),
+        (Vec3::new(-0.5, 0.3, -0.2), Vec3::new(0.3, 1.0, 0.2).normalize()),
+        (Vec3::new(1.2, 0.5, 0.0), Vec3::new(-0.6, 1.0, 0.0).normalize()),
         // Lights straddling the tangent plane (a vertical face under the light, a face tilted past
         // the light's edge): the closed form clips the polygon to the part above the horizon.
         (Vec3::new(0.1, 1.0, 0.0), Vec3::X),
@@ -193,19 +174,13 @@ fn irradiance_matches_monte_carlo() {
             let mc = mc_irradiance(l, *p, *n, 1_000_000, 7 + pi as u64);
             let rel = (exact - mc).abs() / mc;
             println!("light {li} point {pi}: closed form {exact:.6}, MC {mc:.6}, rel {rel:.2e}");
-            assert!(
-                exact > 0.0 && rel < 0.01,
-                "light {li} point {pi}: {exact} vs MC {mc}"
-            );
+            assert!(exact > 0.0 && rel < 0.01, "light {li} point {pi}: {exact} vs MC {mc}");
         }
     }
     // One-sided light seen from behind: zero; two-sided: same as from the front by symmetry.
     let above = Vec3::new(0.0, 4.0, 0.0);
     assert_eq!(rect.irradiance_unoccluded(above, Vec3::NEG_Y), Vec3::ZERO);
-    let two = AreaLight {
-        two_sided: true,
-        ..rect
-    };
+    let two = AreaLight { two_sided: true, ..rect };
     let back = two.irradiance_unoccluded(above, Vec3::NEG_Y).x;
     let front = two.irradiance_unoccluded(Vec3::ZERO, Vec3::Y).x;
     assert!((back - front).abs() / front < 1e-4, "{back} vs {front}");
@@ -239,35 +214,17 @@ fn irradiance_on_axis_square_is_analytic() {
 #[test]
 fn sigma_rect_and_triangle() {
     let rect = AreaLight {
-        shape: LightShape::Rect {
-            corner: Vec3::ZERO,
-            edge_u: Vec3::X * 0.8,
-            edge_v: Vec3::Z * 0.5,
-        },
+        shape: LightShape::Rect { corner: Vec3::ZERO, edge_u: Vec3::X * 0.8, edge_v: Vec3::Z * 0.5 },
         radiance: Vec3::ONE,
         two_sided: false,
     };
     assert!((rect.sigma() - 0.8 / 12f32.sqrt()).abs() < 1e-6);
     // Triangle: compare with the largest eigenvalue of the sample covariance (power iteration).
-    let (a, b, c) = (
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::new(1.2, 1.0, 0.1),
-        Vec3::new(0.3, 1.3, 0.9),
-    );
-    let tri = AreaLight {
-        shape: LightShape::Triangle {
-            v0: a,
-            v1: b,
-            v2: c,
-        },
-        radiance: Vec3::ONE,
-        two_sided: false,
-    };
+    let (a, b, c) = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.2, 1.0, 0.1), Vec3::new(0.3, 1.3, 0.9));
+    let tri = AreaLight { shape: LightShape::Triangle { v0: a, v1: b, v2: c }, radiance: Vec3::ONE, two_sided: false };
     let mut rng = Rng(3);
     let n = 400_000;
-    let pts: Vec<glam::DVec3> = (0..n)
-        .map(|_| tri.sample_point(rng.v2()).as_dvec3())
-        .collect();
+    let pts: Vec<glam::DVec3> = (0..n).map(|_| tri.sample_point(rng.v2()).as_dvec3()).collect();
     let mean = pts.iter().copied().sum::<glam::DVec3>() / n as f64;
     let mut cov = glam::DMat3::ZERO;
     for p in &pts {
@@ -281,11 +238,7 @@ fn sigma_rect_and_triangle() {
     }
     let lambda = v.dot(cov * v);
     let rel = (tri.sigma() as f64 - lambda.sqrt()).abs() / lambda.sqrt();
-    println!(
-        "triangle sigma {} vs sampled {}",
-        tri.sigma(),
-        lambda.sqrt()
-    );
+    println!("triangle sigma {} vs sampled {}", tri.sigma(), lambda.sqrt());
     assert!(rel < 0.01);
     // Centroid and area sanity.
     assert!((tri.centre() - (a + b + c) / 3.0).length() < 1e-6);
@@ -296,22 +249,13 @@ fn sigma_rect_and_triangle() {
 #[test]
 fn texture_sample_at_texel_centres() {
     let (w, h) = (5u32, 3u32);
-    let texels: Vec<[f32; 3]> = (0..w * h)
-        .map(|i| [i as f32, (i * 2) as f32, 0.5])
-        .collect();
-    let t = Texture {
-        width: w,
-        height: h,
-        texels: texels.clone(),
-    };
+    let texels: Vec<[f32; 3]> = (0..w * h).map(|i| [i as f32, (i * 2) as f32, 0.5]).collect();
+    let t = Texture { width: w, height: h, texels: texels.clone() };
     for y in 0..h {
         for x in 0..w {
             let uv = Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
             let got = t.sample(uv);
-            assert!(
-                got.abs_diff_eq(Vec3::from(texels[(y * w + x) as usize]), 1e-4),
-                "({x},{y}): {got}"
-            );
+            assert!(got.abs_diff_eq(Vec3::from(texels[(y * w + x) as usize]), 1e-4), "({x},{y}): {got}");
             // Repeat wrapping: one period away gives the same value.
             assert!(t.sample(uv + Vec2::new(1.0, -2.0)).abs_diff_eq(got, 1e-3));
         }
@@ -345,16 +289,8 @@ fn camera_rays() {
     let (_, d) = cam.generate_ray(100.0, 25.0, 100, 50, Vec2::ZERO);
     assert!(d.abs_diff_eq(Vec3::new(2.0, 0.0, -1.0).normalize(), 1e-6));
     // Thin lens: all lens samples of a pixel meet on the focal plane.
-    let lens = Camera {
-        aperture_radius: 0.2,
-        focus_distance: 3.0,
-        ..cam
-    };
-    for u in [
-        Vec2::new(0.1, 0.9),
-        Vec2::new(0.7, 0.3),
-        Vec2::new(0.5, 0.5),
-    ] {
+    let lens = Camera { aperture_radius: 0.2, focus_distance: 3.0, ..cam };
+    for u in [Vec2::new(0.1, 0.9), Vec2::new(0.7, 0.3), Vec2::new(0.5, 0.5)] {
         let (o, d) = lens.generate_ray(70.0, 10.0, 100, 50, u);
         assert!((o - cam.position).length() <= 0.2 + 1e-5);
         let (_, d0) = cam.generate_ray(70.0, 10.0, 100, 50, u);
@@ -369,12 +305,51 @@ fn builtins_load_and_are_sane() {
     assert_eq!(
         builtin_names(),
         &[
-            "grids", "curved", "heavy", "cornell", "chess", "spheres", "motion", "envmap", "envmap_light", "envmap_real",
-            "envmap_virtual", "envmap_far", "envmap_empty", "suite_slats", "suite_grate", "suite_contact", "suite_near_light",
-            "suite_textured", "suite_glossy", "suite_room", "dof_foreground", "dof_background", "dof_receding", "dof_bokeh",
-            "dof_thin", "dof_glossy", "dof_wide", "dof_tiny", "dof_room", "mo_fast_thin", "mo_rotating", "mo_shadow_caster",
-            "mo_slow", "mo_sliding_wall", "mo_approach", "mo_crossing", "mo_glossy", "env_sun", "env_overcast", "env_glossy",
-            "env_courtyard", "env_sunset", "env_slats", "env_studio", "env_curved"
+            "grids",
+            "curved",
+            "heavy",
+            "cornell",
+            "chess",
+            "spheres",
+            "motion",
+            "envmap",
+            "envmap_light",
+            "envmap_real",
+            "envmap_virtual",
+            "envmap_far",
+            "envmap_empty",
+            "suite_slats",
+            "suite_grate",
+            "suite_contact",
+            "suite_near_light",
+            "suite_textured",
+            "suite_glossy",
+            "suite_room",
+            "dof_foreground",
+            "dof_background",
+            "dof_receding",
+            "dof_bokeh",
+            "dof_thin",
+            "dof_glossy",
+            "dof_wide",
+            "dof_tiny",
+            "dof_room",
+            "mo_fast_thin",
+            "mo_rotating",
+            "mo_shadow_caster",
+            "mo_slow",
+            "mo_sliding_wall",
+            "mo_approach",
+            "mo_crossing",
+            "mo_glossy",
+            "env_sun",
+            "env_overcast",
+            "env_glossy",
+            "env_courtyard",
+            "env_sunset",
+            "env_slats",
+            "env_studio",
+            "env_curved"
         ]
     );
     // The defocus suite: every scene states a lens and has one area light (the component nodes'
@@ -407,34 +382,23 @@ fn builtins_load_and_are_sane() {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
         assert_eq!(s.lights.len(), 1, "{name}");
         let l = &s.lights[0];
-        assert!(
-            matches!(l.shape, LightShape::Rect { .. }),
-            "{name}: {:?}",
-            l.shape
-        );
+        assert!(matches!(l.shape, LightShape::Rect { .. }), "{name}: {:?}", l.shape);
         assert!((l.area() - side * side).abs() < 1e-5 && l.normal().abs_diff_eq(Vec3::NEG_Y, 1e-6));
         assert!((l.sigma() - side / 12f32.sqrt()).abs() < 1e-6);
         let e = l.irradiance_unoccluded(Vec3::ZERO, Vec3::Y).x;
         assert!(e > 0.5 && e < 3.0, "{name}: ground irradiance {e}");
         // Both light triangles map to light 0, nothing else does.
-        let lit: Vec<u32> = (0..s.triangle_count() as u32)
-            .filter(|&t| s.light_of_triangle(t).is_some())
-            .collect();
+        let lit: Vec<u32> = (0..s.triangle_count() as u32).filter(|&t| s.light_of_triangle(t).is_some()).collect();
         assert_eq!(lit.len(), 2);
         // The light is not in view; most camera rays hit something.
         let (w, h) = (64, 48);
         let mut hit = 0;
         for y in 0..h {
             for x in 0..w {
-                let (o, d) =
-                    s.camera
-                        .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+                let (o, d) = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
                 if let Some(hh) = s.intersect(o, d, 0.0, f32::INFINITY) {
                     hit += 1;
-                    assert!(
-                        s.light_of_triangle(hh.triangle).is_none(),
-                        "{name}: light visible at ({x},{y})"
-                    );
+                    assert!(s.light_of_triangle(hh.triangle).is_none(), "{name}: light visible at ({x},{y})");
                     let sp = s.surface(&hh, o, d);
                     assert!(sp.geometric_normal.dot(d) <= 0.0 && sp.shading_normal.dot(d) <= 1e-6);
                     let a = s.albedo(&sp);
@@ -451,10 +415,7 @@ fn builtins_load_and_are_sane() {
     let sp = g.surface(&g.intersect(o, d, 0.0, f32::INFINITY).unwrap(), o, d);
     let a = g.albedo(&sp).x;
     assert!((0.549..=0.751).contains(&a), "{a}");
-    assert!(matches!(
-        load(&SceneSource::Builtin("nope".into())),
-        Err(SceneError::UnknownBuiltin { .. })
-    ));
+    assert!(matches!(load(&SceneSource::Builtin("nope".into())), Err(SceneError::UnknownBuiltin { .. })));
 }
 
 /// The scene suite (issue 16): every member is a built-in with a description, loads, is small, has
@@ -502,7 +463,8 @@ fn suite_scenes_load_and_are_sane() {
                         let u = Vec2::new((k % 4) as f32 + 0.5, (k / 4) as f32 + 0.5) / 4.0;
                         let q = l.sample_point(u);
                         let to = q - p;
-                        to.dot(sp.geometric_normal) > 0.0 && !s.occluded(p, to.normalize(), 0.0, to.length() * (1.0 - 1e-4))
+                        to.dot(sp.geometric_normal) > 0.0
+                            && !s.occluded(p, to.normalize(), 0.0, to.length() * (1.0 - 1e-4))
                     })
                     .count();
                 match seen {
@@ -518,7 +480,10 @@ fn suite_scenes_load_and_are_sane() {
         assert!(hit as f32 >= min_hit * px, "{name}: only {hit} of {px} camera rays hit geometry");
         assert!((lit + penumbra) as f32 > 0.5 * px, "{name}: only {} pixels see the light", lit + penumbra);
         assert!(penumbra as f32 > 0.03 * px, "{name}: only {penumbra} penumbra pixels (shadows in view?)");
-        println!("{name}: {} triangles, hit {hit}, lit {lit}, penumbra {penumbra}, umbra {umbra} of {px}", s.triangle_count());
+        println!(
+            "{name}: {} triangles, hit {hit}, lit {lit}, penumbra {penumbra}, umbra {umbra} of {px}",
+            s.triangle_count()
+        );
     }
 }
 
@@ -546,14 +511,7 @@ fn heavy_build_timing() {
         })
         .collect();
     let t0 = Instant::now();
-    let s2 = Scene::from_triangles(
-        "heavy",
-        tris,
-        s.materials.clone(),
-        s.textures.clone(),
-        s.camera,
-    )
-    .unwrap();
+    let s2 = Scene::from_triangles("heavy", tris, s.materials.clone(), s.textures.clone(), s.camera).unwrap();
     println!("heavy: Scene::from_triangles {:?}", t0.elapsed());
     assert_eq!(s2.lights.len(), 1);
     // Throughput smoke: a few thousand camera rays.
@@ -561,9 +519,7 @@ fn heavy_build_timing() {
     let mut n = 0;
     for y in 0..60 {
         for x in 0..80 {
-            let (o, d) =
-                s.camera
-                    .generate_ray(x as f32 * 8.0, y as f32 * 8.0, 640, 480, Vec2::ZERO);
+            let (o, d) = s.camera.generate_ray(x as f32 * 8.0, y as f32 * 8.0, 640, 480, Vec2::ZERO);
             n += s.intersect(o, d, 0.0, f32::INFINITY).is_some() as u32;
         }
     }
@@ -614,20 +570,9 @@ fn spheres_scene_matches_issue_12() {
 fn gltf_two_triangles_emissive_quad_and_camera() {
     let dir = temp_dir("gltf");
     // Ground: two triangles (non-indexed). Light: an indexed quad at y = 2 facing down.
-    let ground: [[f32; 3]; 6] = [
-        [-1., 0., 1.],
-        [1., 0., 1.],
-        [1., 0., -1.],
-        [-1., 0., 1.],
-        [1., 0., -1.],
-        [-1., 0., -1.],
-    ];
-    let light: [[f32; 3]; 4] = [
-        [-0.25, 2., -0.25],
-        [0.25, 2., -0.25],
-        [0.25, 2., 0.25],
-        [-0.25, 2., 0.25],
-    ];
+    let ground: [[f32; 3]; 6] =
+        [[-1., 0., 1.], [1., 0., 1.], [1., 0., -1.], [-1., 0., 1.], [1., 0., -1.], [-1., 0., -1.]];
+    let light: [[f32; 3]; 4] = [[-0.25, 2., -0.25], [0.25, 2., -0.25], [0.25, 2., 0.25], [-0.25, 2., 0.25]];
     let idx: [u16; 6] = [0, 1, 2, 0, 2, 3];
     let mut buf: Vec<u8> = Vec::new();
     buf.extend_from_slice(bytemuck::cast_slice(&ground));
@@ -680,14 +625,9 @@ fn gltf_two_triangles_emissive_quad_and_camera() {
     assert!(l.radiance.abs_diff_eq(Vec3::new(1.0, 0.5, 0.25), 1e-6));
     // Winding (0,1,2) with those positions gives normal -Y: the light faces the ground.
     assert!(l.normal().abs_diff_eq(Vec3::NEG_Y, 1e-6));
-    assert!(s
-        .camera
-        .position
-        .abs_diff_eq(Vec3::new(0.0, 1.0, 5.0), 1e-6));
+    assert!(s.camera.position.abs_diff_eq(Vec3::new(0.0, 1.0, 5.0), 1e-6));
     assert!((s.camera.vfov_deg - 0.7f32.to_degrees()).abs() < 1e-4);
-    assert!((s.camera.look_at - s.camera.position)
-        .normalize()
-        .abs_diff_eq(Vec3::NEG_Z, 1e-6));
+    assert!((s.camera.look_at - s.camera.position).normalize().abs_diff_eq(Vec3::NEG_Z, 1e-6));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -737,11 +677,7 @@ fn obj_mtl_with_texture() {
     let (o, d) = (Vec3::new(-0.99, 1.0, 0.99), Vec3::NEG_Y);
     let h = s.intersect(o, d, 0.0, f32::INFINITY).unwrap();
     let sp = s.surface(&h, o, d);
-    assert!(
-        sp.uv.abs_diff_eq(Vec2::new(0.005, 0.995), 1e-3),
-        "{}",
-        sp.uv
-    );
+    assert!(sp.uv.abs_diff_eq(Vec2::new(0.005, 0.995), 1e-3), "{}", sp.uv);
     assert!(sp.shading_normal.abs_diff_eq(Vec3::Y, 1e-6));
     // Camera: OBJ has none, so the default framing looks at the bounds' centre.
     assert!(s.camera.look_at.abs_diff_eq(s.bounds.centre(), 1e-5));
@@ -766,16 +702,9 @@ fn ron_composition() {
     // grids + 4 mesh triangles (lamp overridden to floor: not a light) + 2 + 1 light triangles.
     assert_eq!(s.triangle_count(), grids.triangle_count() + 4 + 3);
     assert_eq!(s.lights.len(), 3, "{:?}", s.lights);
-    let rects = s
-        .lights
-        .iter()
-        .filter(|l| matches!(l.shape, LightShape::Rect { .. }))
-        .count();
+    let rects = s.lights.iter().filter(|l| matches!(l.shape, LightShape::Rect { .. })).count();
     assert_eq!(rects, 2);
-    assert!(s
-        .lights
-        .iter()
-        .any(|l| l.two_sided && matches!(l.shape, LightShape::Triangle { .. })));
+    assert!(s.lights.iter().any(|l| l.two_sided && matches!(l.shape, LightShape::Triangle { .. })));
     assert_eq!(s.camera.position, Vec3::new(0.0, 1.0, 3.0));
     assert_eq!(s.camera.vfov_deg, 40.0);
     // The scaled mesh spans 4 m, so the bounds still come from the grids ground (6 m).
@@ -792,11 +721,7 @@ fn errors_name_the_file_and_never_panic() {
     assert!(e.contains("does_not_exist.obj"), "{e}");
     // Garbage OBJ.
     let garbage = dir.join("garbage.obj");
-    std::fs::write(
-        &garbage,
-        b"\x00\x01hello world\nthis is not an obj\n\xff\xfe",
-    )
-    .unwrap();
+    std::fs::write(&garbage, b"\x00\x01hello world\nthis is not an obj\n\xff\xfe").unwrap();
     let e = load(&SceneSource::File(garbage)).unwrap_err().to_string();
     assert!(e.contains("garbage.obj") && e.contains('—'), "{e}");
     // NaN vertex and out-of-range face index.
@@ -809,17 +734,9 @@ fn errors_name_the_file_and_never_panic() {
     let e = load(&SceneSource::File(oob)).unwrap_err().to_string();
     assert!(e.contains("oob.obj"), "{e}");
     // Missing texture file.
-    std::fs::write(
-        dir.join("t.mtl"),
-        "newmtl m\nKd 1 1 1\nmap_Kd nowhere.png\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join("t.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd nowhere.png\n").unwrap();
     let tex = dir.join("tex.obj");
-    std::fs::write(
-        &tex,
-        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(&tex, "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n").unwrap();
     let e = load(&SceneSource::File(tex)).unwrap_err().to_string();
     assert!(e.contains("nowhere.png"), "{e}");
     // RON with an unknown field: file name and line:col.
@@ -831,16 +748,10 @@ fn errors_name_the_file_and_never_panic() {
     // Garbage glTF, unsupported extension, empty RON scene.
     let g = dir.join("bad.gltf");
     std::fs::write(&g, "{ not json").unwrap();
-    assert!(load(&SceneSource::File(g))
-        .unwrap_err()
-        .to_string()
-        .contains("bad.gltf"));
+    assert!(load(&SceneSource::File(g)).unwrap_err().to_string().contains("bad.gltf"));
     let u = dir.join("x.fbx");
     std::fs::write(&u, "").unwrap();
-    assert!(load(&SceneSource::File(u))
-        .unwrap_err()
-        .to_string()
-        .contains("x.fbx"));
+    assert!(load(&SceneSource::File(u)).unwrap_err().to_string().contains("x.fbx"));
     let empty = dir.join("empty.ron");
     std::fs::write(&empty, "Scene()").unwrap();
     let e = load(&SceneSource::File(empty)).unwrap_err().to_string();
@@ -867,9 +778,7 @@ fn preview_direct_lighting() {
         let s = load(&SceneSource::Builtin(name.into())).unwrap();
         let (w, h) = (320u32, 240u32);
         let img = image::RgbImage::from_fn(w, h, |x, y| {
-            let (o, d) = s
-                .camera
-                .generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
+            let (o, d) = s.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, Vec2::ZERO);
             let Some(hit) = s.intersect(o, d, 0.0, f32::INFINITY) else {
                 return image::Rgb([0, 0, 40]);
             };
@@ -879,10 +788,7 @@ fn preview_direct_lighting() {
                 let n = 8;
                 let mut e = Vec3::ZERO;
                 for i in 0..n * n {
-                    let u = Vec2::new(
-                        ((i % n) as f32 + 0.5) / n as f32,
-                        ((i / n) as f32 + 0.5) / n as f32,
-                    );
+                    let u = Vec2::new(((i % n) as f32 + 0.5) / n as f32, ((i / n) as f32 + 0.5) / n as f32);
                     let q = l.sample_point(u);
                     let to = q - sp.position;
                     let dist = to.length();
@@ -902,9 +808,7 @@ fn preview_direct_lighting() {
                 }
                 c += s.albedo(&sp) / std::f32::consts::PI * e / (n * n) as f32;
             }
-            let g = c
-                .to_array()
-                .map(|v| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8);
+            let g = c.to_array().map(|v| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8);
             image::Rgb(g)
         });
         img.save(out.join(format!("{name}.png"))).unwrap();

@@ -6,17 +6,14 @@
 
 use glam::Vec3;
 use wedge_scene::bvh::{
-    self, build::BinaryNode, build::BinaryTree, child_ref, closer, intersect_triangle, stack_need,
-    Bvh, Child, Simd, TriangleRecord, WideNode, MAX_LEAF, STACK_SIZE,
+    self, build::BinaryNode, build::BinaryTree, child_ref, closer, intersect_triangle, stack_need, Bvh, Child, Simd,
+    TriangleRecord, WideNode, MAX_LEAF, STACK_SIZE,
 };
 
 struct Rng(u64);
 impl Rng {
     fn f(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
     }
     fn v(&mut self) -> Vec3 {
@@ -68,10 +65,7 @@ fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
                     for cs in (0..bvh::WIDTH).filter(|&cs| c.used(cs)) {
                         let clo = Vec3::new(c.bounds[0][cs], c.bounds[2][cs], c.bounds[4][cs]);
                         let chi = Vec3::new(c.bounds[1][cs], c.bounds[3][cs], c.bounds[5][cs]);
-                        assert!(
-                            clo.cmpge(lo).all() && chi.cmple(hi).all(),
-                            "node {j} slot {cs} outside its parent"
-                        );
+                        assert!(clo.cmpge(lo).all() && chi.cmple(hi).all(), "node {j} slot {cs} outside its parent");
                     }
                     todo.push(j as usize);
                 }
@@ -80,20 +74,14 @@ fn check_structure(nodes: &[WideNode], tris: &[TriangleRecord]) {
                     for k in first..first + count {
                         seen[k as usize] += 1;
                         for v in tris[k as usize].vertices() {
-                            assert!(
-                                v.cmpge(lo).all() && v.cmple(hi).all(),
-                                "triangle {k} outside its leaf box"
-                            );
+                            assert!(v.cmpge(lo).all() && v.cmple(hi).all(), "triangle {k} outside its leaf box");
                         }
                     }
                 }
             }
         }
     }
-    assert!(
-        seen.iter().all(|&c| c == 1),
-        "every triangle reference in exactly one leaf"
-    );
+    assert!(seen.iter().all(|&c| c == 1), "every triangle reference in exactly one leaf");
     assert!(stack_need(nodes) <= STACK_SIZE);
 }
 
@@ -103,26 +91,19 @@ fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
     for n in &bvh.nodes {
         for c in n.children() {
             if let Child::Leaf { first, count } = c {
-                assert!(
-                    count <= 2,
-                    "a leaf of at most 8 triangles takes at most two packs"
-                );
+                assert!(count <= 2, "a leaf of at most 8 triangles takes at most two packs");
                 for p in &bvh.packs[first as usize..(first + count) as usize] {
                     for lane in 0..4 {
                         let i = p.index[lane];
                         if i == wedge_scene::bvh::NO_TRIANGLE {
-                            assert_eq!(
-                                [p.v1[0][lane], p.v2[0][lane], p.v1[1][lane], p.v2[2][lane]],
-                                [0.0; 4]
-                            );
+                            assert_eq!([p.v1[0][lane], p.v2[0][lane], p.v1[1][lane], p.v2[2][lane]], [0.0; 4]);
                             continue;
                         }
                         seen[i as usize] += 1;
                         let t = &tris[i as usize];
                         for axis in 0..3 {
                             assert_eq!(
-                                [p.v0[axis][lane], p.v1[axis][lane], p.v2[axis][lane]]
-                                    .map(f32::to_bits),
+                                [p.v0[axis][lane], p.v1[axis][lane], p.v2[axis][lane]].map(f32::to_bits),
                                 [t.v0[axis], t.v1[axis], t.v2[axis]].map(f32::to_bits)
                             );
                         }
@@ -131,19 +112,10 @@ fn check_packs(bvh: &Bvh, tris: &[TriangleRecord]) {
             }
         }
     }
-    assert!(
-        seen.iter().all(|&c| c == 1),
-        "every triangle in exactly one pack lane"
-    );
+    assert!(seen.iter().all(|&c| c == 1), "every triangle in exactly one pack lane");
 }
 
-fn check_rays(
-    name: &str,
-    tris: &[TriangleRecord],
-    nodes: &[WideNode],
-    rng: &mut Rng,
-    rays: usize,
-) -> (u32, u32) {
+fn check_rays(name: &str, tris: &[TriangleRecord], nodes: &[WideNode], rng: &mut Rng, rays: usize) -> (u32, u32) {
     let bvh = Bvh::pack(nodes.to_vec(), tris);
     check_packs(&bvh, tris);
     let (mut hits, mut ties) = (0, 0);
@@ -162,18 +134,10 @@ fn check_rays(
         if d == Vec3::ZERO {
             continue;
         }
-        let tmax = if k % 3 == 0 {
-            0.5 + rng.f()
-        } else {
-            f32::INFINITY
-        };
+        let tmax = if k % 3 == 0 { 0.5 + rng.f() } else { f32::INFINITY };
         let want = brute(tris, o, d, 1e-5, tmax);
         let got = bvh::traverse(&bvh, o, d, 1e-5, tmax, false);
-        assert_eq!(
-            got.map(|h| (h.triangle, h.t.to_bits())),
-            want.map(|(i, t)| (i, t.to_bits())),
-            "{name} ray {k}"
-        );
+        assert_eq!(got.map(|h| (h.triangle, h.t.to_bits())), want.map(|(i, t)| (i, t.to_bits())), "{name} ray {k}");
         let occluded = bvh::traverse(&bvh, o, d, 1e-5, tmax, true).is_some();
         assert_eq!(occluded, want.is_some(), "{name} ray {k}: any-hit");
         // Every slab test this CPU runs (portable 4-lane groups, AVX) gives the same hit, bits and all.
@@ -186,8 +150,7 @@ fn check_rays(
         if let Some((i, t)) = want {
             hits += 1;
             ties += tris.iter().enumerate().any(|(j, tr)| {
-                j as u32 != i
-                    && intersect_triangle(tr, o, d, 1e-5, f32::INFINITY).is_some_and(|h| h.0 == t)
+                j as u32 != i && intersect_triangle(tr, o, d, 1e-5, f32::INFINITY).is_some_and(|h| h.0 == t)
             }) as u32;
         }
     }
@@ -221,10 +184,7 @@ fn random_soup_with_coincident_copies_matches_brute_force_exactly() {
         built.depth,
         built.stack_need
     );
-    assert!(
-        hits > 1000 && ties > 20,
-        "{hits} hits, {ties} ties: the test must exercise ties"
-    );
+    assert!(hits > 1000 && ties > 20, "{hits} hits, {ties} ties: the test must exercise ties");
 }
 
 #[test]
@@ -266,24 +226,9 @@ fn oversized_leaves_are_split() {
     let (a, b, all) = (boxed(0..40), boxed(40..45), boxed(0..45));
     let tree = BinaryTree {
         nodes: vec![
-            BinaryNode {
-                min: all.0,
-                index: 1,
-                max: all.1,
-                count: 0,
-            },
-            BinaryNode {
-                min: a.0,
-                index: 0,
-                max: a.1,
-                count: 40,
-            },
-            BinaryNode {
-                min: b.0,
-                index: 40,
-                max: b.1,
-                count: 5,
-            },
+            BinaryNode { min: all.0, index: 1, max: all.1, count: 0 },
+            BinaryNode { min: a.0, index: 0, max: a.1, count: 40 },
+            BinaryNode { min: b.0, index: 40, max: b.1, count: 5 },
         ],
         order: (0..45).collect(),
     };
@@ -341,37 +286,20 @@ fn optimal_collapse_costs_no_more_than_greedy() {
         })
         .collect();
     for leaf in [8, 1] {
-        let params = obvhs::BvhBuildParams {
-            max_prims_per_leaf: leaf,
-            ..obvhs::BvhBuildParams::fast_build()
-        };
+        let params = obvhs::BvhBuildParams { max_prims_per_leaf: leaf, ..obvhs::BvhBuildParams::fast_build() };
         let tree = binary_obvhs(&input, params);
         let greedy = collapse_greedy(&tree);
-        for cost in [
-            bvh::build::COLLAPSE_COST,
-            CollapseCost {
-                node: 1.0,
-                pack: 0.5,
-            },
-            CollapseCost {
-                node: 1.0,
-                pack: 4.0,
-            },
-        ] {
+        for cost in
+            [bvh::build::COLLAPSE_COST, CollapseCost { node: 1.0, pack: 0.5 }, CollapseCost { node: 1.0, pack: 4.0 }]
+        {
             let optimal = collapse_with(&tree, cost);
-            let (g, o) = (
-                sah_cost(&greedy.nodes, cost),
-                sah_cost(&optimal.nodes, cost),
-            );
+            let (g, o) = (sah_cost(&greedy.nodes, cost), sah_cost(&optimal.nodes, cost));
             println!(
                 "leaf {leaf}, {cost:?}: greedy {g:.1}, optimal {o:.1} ({} / {} nodes)",
                 greedy.nodes.len(),
                 optimal.nodes.len()
             );
-            assert!(
-                o <= g * (1.0 + 1e-5),
-                "leaf {leaf}, {cost:?}: optimal {o} > greedy {g}"
-            );
+            assert!(o <= g * (1.0 + 1e-5), "leaf {leaf}, {cost:?}: optimal {o} > greedy {g}");
             let tris = records(&input, &optimal);
             check_structure(&optimal.nodes, &tris);
             check_rays("optimal collapse", &tris, &optimal.nodes, &mut rng, 300);
@@ -384,11 +312,7 @@ fn optimal_collapse_costs_no_more_than_greedy() {
 /// t > 0, for the leak comparison below.
 fn moller_trumbore(t: &TriangleRecord, o: Vec3, d: Vec3) -> Option<f32> {
     let (e1, e2, v0) = (t.e1().to_array(), t.e2().to_array(), t.v0);
-    let p = [
-        d.y * e2[2] - d.z * e2[1],
-        d.z * e2[0] - d.x * e2[2],
-        d.x * e2[1] - d.y * e2[0],
-    ];
+    let p = [d.y * e2[2] - d.z * e2[1], d.z * e2[0] - d.x * e2[2], d.x * e2[1] - d.y * e2[0]];
     let det = (e1[0] * p[0] + e1[1] * p[1]) + e1[2] * p[2];
     if det == 0.0 || !det.is_finite() {
         return None;
@@ -399,11 +323,7 @@ fn moller_trumbore(t: &TriangleRecord, o: Vec3, d: Vec3) -> Option<f32> {
     if !(0.0..=1.0).contains(&b1) {
         return None;
     }
-    let q = [
-        s[1] * e1[2] - s[2] * e1[1],
-        s[2] * e1[0] - s[0] * e1[2],
-        s[0] * e1[1] - s[1] * e1[0],
-    ];
+    let q = [s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]];
     let b2 = ((d.x * q[0] + d.y * q[1]) + d.z * q[2]) * inv_det;
     if b2 < 0.0 || b1 + b2 > 1.0 {
         return None;
@@ -413,24 +333,14 @@ fn moller_trumbore(t: &TriangleRecord, o: Vec3, d: Vec3) -> Option<f32> {
 
 /// A closed mesh: a UV sphere of radius `r` about `c` with jittered vertices, each vertex stored once
 /// and shared by the triangles around it (so neighbours see bit-identical corners).
-fn closed_sphere(
-    rng: &mut Rng,
-    c: Vec3,
-    r: f32,
-    slices: usize,
-    stacks: usize,
-) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+fn closed_sphere(rng: &mut Rng, c: Vec3, r: f32, slices: usize, stacks: usize) -> (Vec<Vec3>, Vec<[usize; 3]>) {
     let mut v = vec![c + Vec3::Y * r];
     for i in 1..stacks {
         for j in 0..slices {
-            let (th, ph) = (
-                std::f32::consts::PI * i as f32 / stacks as f32,
-                std::f32::consts::TAU * j as f32 / slices as f32,
-            );
+            let (th, ph) =
+                (std::f32::consts::PI * i as f32 / stacks as f32, std::f32::consts::TAU * j as f32 / slices as f32);
             let jitter = 1.0 + 0.05 * (rng.f() - 0.5);
-            v.push(
-                c + Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * (r * jitter),
-            );
+            v.push(c + Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * (r * jitter));
         }
     }
     v.push(c - Vec3::Y * r);
@@ -503,15 +413,12 @@ fn count_leaks(
             let d = (target - o) * (0.5 + rng.f());
             let hit = bvh::traverse(&b, o, d, 0.0, f32::INFINITY, false);
             let any = bvh::traverse(&b, o, d, 0.0, f32::INFINITY, true);
-            let brute = tris
-                .iter()
-                .any(|t| intersect_triangle(t, o, d, 0.0, f32::INFINITY).is_some());
+            let brute = tris.iter().any(|t| intersect_triangle(t, o, d, 0.0, f32::INFINITY).is_some());
             assert_eq!(hit.is_some(), brute, "traversal = brute force");
             assert_eq!(any.is_some(), brute, "any-hit = brute force");
             l.rays[kind] += 1;
             l.watertight[kind] += hit.is_none() as usize;
-            l.moller_trumbore[kind] +=
-                tris.iter().all(|t| moller_trumbore(t, o, d).is_none()) as usize;
+            l.moller_trumbore[kind] += tris.iter().all(|t| moller_trumbore(t, o, d).is_none()) as usize;
         }
     }
     l
@@ -537,11 +444,7 @@ fn rays_through_shared_edges_and_vertices_never_leak() {
             total.moller_trumbore[k] += l.moller_trumbore[k];
         }
     };
-    for (c, r) in [
-        (Vec3::ZERO, 1.0),
-        (Vec3::new(1000.0, 37.0, -500.0), 1.0),
-        (Vec3::new(3.0, -2.0, 1.0), 0.01),
-    ] {
+    for (c, r) in [(Vec3::ZERO, 1.0), (Vec3::new(1000.0, 37.0, -500.0), 1.0), (Vec3::new(3.0, -2.0, 1.0), 0.01)] {
         let (v, f) = closed_sphere(&mut rng, c, r, 24, 12);
         let all: Vec<usize> = (0..v.len()).collect();
         let mut inside = |rng: &mut Rng| c + (rng.v() - Vec3::splat(0.5)) * r;

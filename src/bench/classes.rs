@@ -99,12 +99,18 @@ fn focus_partition(aovs: &Aovs, cam: &Camera) -> Partition {
 
 fn texture_partition(aovs: &Aovs) -> Partition {
     let (w, h) = (aovs.width as usize, aovs.height as usize);
-    let lum = |k: usize| (aovs.position[k][3] > 0.0).then(|| wedge_scene::environment::luminance(aovs.albedo[k]) as f32);
+    let lum =
+        |k: usize| (aovs.position[k][3] > 0.0).then(|| wedge_scene::environment::luminance(aovs.albedo[k]) as f32);
     let label = (0..w * h)
         .map(|k| {
             let Some(l) = lum(k) else { return 0 };
             let (x, y) = (k % w, k / w);
-            let neighbours = [(x > 0).then(|| k - 1), (x + 1 < w).then(|| k + 1), (y > 0).then(|| k - w), (y + 1 < h).then(|| k + w)];
+            let neighbours = [
+                (x > 0).then(|| k - 1),
+                (x + 1 < w).then(|| k + 1),
+                (y > 0).then(|| k - w),
+                (y + 1 < h).then(|| k + w),
+            ];
             let edge = neighbours.into_iter().flatten().any(|n| lum(n).is_none_or(|m| (m - l).abs() > EDGE_STEP));
             if edge {
                 2
@@ -146,7 +152,12 @@ pub fn class_errors(partitions: &[Partition], errors: &[(f64, f64)], reference_v
     let mut out = Vec::new();
     for p in partitions {
         for (c, class) in p.classes.iter().enumerate() {
-            let members: Vec<&(f64, f64)> = errors.iter().zip(&p.label).filter(|(e, l)| usize::from(**l) == c && e.0.is_finite()).map(|(e, _)| e).collect();
+            let members: Vec<&(f64, f64)> = errors
+                .iter()
+                .zip(&p.label)
+                .filter(|(e, l)| usize::from(**l) == c && e.0.is_finite())
+                .map(|(e, _)| e)
+                .collect();
             if members.is_empty() {
                 continue;
             }
@@ -191,13 +202,21 @@ pub fn summary(errors: &[ClassError]) -> String {
 
 /// Per-pixel map of `value(mse, variance)` averaged over `block`×`block` blocks (each pixel gets
 /// its block's mean), for the heatmaps: one pixel's noise does not hide the structure.
-pub fn block_map(errors: &[(f64, f64)], width: u32, height: u32, block: u32, value: impl Fn(f64, f64) -> f64) -> Vec<f32> {
+pub fn block_map(
+    errors: &[(f64, f64)],
+    width: u32,
+    height: u32,
+    block: u32,
+    value: impl Fn(f64, f64) -> f64,
+) -> Vec<f32> {
     let (w, h, b) = (width as usize, height as usize, block.max(1) as usize);
     let mut out = vec![f32::NAN; w * h];
     for by in (0..h).step_by(b) {
         for bx in (0..w).step_by(b) {
-            let cells: Vec<usize> = (by..(by + b).min(h)).flat_map(|y| (bx..(bx + b).min(w)).map(move |x| y * w + x)).collect();
-            let vals: Vec<f64> = cells.iter().map(|&k| value(errors[k].0, errors[k].1)).filter(|v| v.is_finite()).collect();
+            let cells: Vec<usize> =
+                (by..(by + b).min(h)).flat_map(|y| (bx..(bx + b).min(w)).map(move |x| y * w + x)).collect();
+            let vals: Vec<f64> =
+                cells.iter().map(|&k| value(errors[k].0, errors[k].1)).filter(|v| v.is_finite()).collect();
             let mean = if vals.is_empty() { f64::NAN } else { vals.iter().sum::<f64>() / vals.len() as f64 };
             for k in cells {
                 out[k] = mean as f32;

@@ -395,9 +395,9 @@ impl Ctx<'_> {
     /// Run `session` and measure it against the reference.
     fn measure(&self, session: &Session) -> Result<(RunResult, Image, RunRecordParts), WedgeError> {
         let run = session.run(&mut CpuBackend::new(), &Silent)?;
-        let color = run
-            .output("color")
-            .ok_or_else(|| WedgeError::Usage(format!("{}: the sink has no `color` input to measure", session.pipeline.path.display())))?;
+        let color = run.output("color").ok_or_else(|| {
+            WedgeError::Usage(format!("{}: the sink has no `color` input to measure", session.pipeline.path.display()))
+        })?;
         let img = buffer_to_image(color, session.width, session.height);
         let metrics = compare(&img, &self.reference)?;
         let flip = flip::mean_flip(&img, &self.reference);
@@ -422,7 +422,15 @@ struct RunRecordParts {
 }
 
 impl RunRecordParts {
-    fn record(self, method: Method, role: Role, label: String, mu: Option<f64>, spp: Option<u32>, seed: u32) -> RunRecord {
+    fn record(
+        self,
+        method: Method,
+        role: Role,
+        label: String,
+        mu: Option<f64>,
+        spp: Option<u32>,
+        seed: u32,
+    ) -> RunRecord {
         RunRecord {
             method,
             role,
@@ -563,23 +571,38 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
             kept_ours = Some((img1.clone(), unfiltered, img2.clone(), partitions));
         }
         runs.push(rec);
-        runs.push(parts2.record(Method::Pipeline, Role::SecondSeed, format!("{label} seed {seed2}"), shown_mu, None, seed2));
+        runs.push(parts2.record(
+            Method::Pipeline,
+            Role::SecondSeed,
+            format!("{label} seed {seed2}"),
+            shown_mu,
+            None,
+            seed2,
+        ));
     }
     // 2b. Compared pipelines: the same sweep, on this bench's scene, size, seeds and reference.
     for other in &opts.compare {
         let name = other.file_stem().map_or("compared".into(), |s| s.to_string_lossy().into_owned());
         let on_scene = |seed: u32, mu: Option<f64>| Overrides { scene: Some(scene_spec.clone()), ..ctx.ov(seed, mu) };
         let probe = Session::open_with(&opts.registries, Some(other), &on_scene(seed, None))?;
-        let own_mu = probe
-            .pipeline
-            .factoring
-            .as_ref()
-            .and_then(|f| f.float("mu"))
-            .or_else(|| probe.pipeline.nodes.iter().filter(|n| n.kind.params().iter().any(|d| d.name == "mu")).find_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64)));
+        let own_mu = probe.pipeline.factoring.as_ref().and_then(|f| f.float("mu")).or_else(|| {
+            probe
+                .pipeline
+                .nodes
+                .iter()
+                .filter(|n| n.kind.params().iter().any(|d| d.name == "mu"))
+                .find_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64))
+        });
         drop(probe);
         let sweep: Vec<Option<f64>> = match own_mu {
             None => vec![None],
-            Some(_) => opts.mu_values.clone().unwrap_or_else(|| if opts.quick { vec![1.0, 2.0] } else { vec![0.5, 1.0, 2.0, 4.0] }).into_iter().map(Some).collect(),
+            Some(_) => opts
+                .mu_values
+                .clone()
+                .unwrap_or_else(|| if opts.quick { vec![1.0, 2.0] } else { vec![0.5, 1.0, 2.0, 4.0] })
+                .into_iter()
+                .map(Some)
+                .collect(),
         };
         for mu in sweep {
             let shown = mu.or(own_mu);
@@ -587,16 +610,22 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
                 Some(m) => format!("{name} (mu={})", fmt_mu(m)),
                 None => name.clone(),
             };
-            let (_, img1, parts1) = ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed, mu))?)?;
-            let (_, img2, parts2) = ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed2, mu))?)?;
+            let (_, img1, parts1) =
+                ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed, mu))?)?;
+            let (_, img2, parts2) =
+                ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed2, mu))?)?;
             let mut rec = parts1.record(Method::Compared, Role::Sweep, label.clone(), shown, None, seed);
             let msd = stats::mean_squared_difference(&img1, &img2)?;
             let mse = rec.metrics.rmse * rec.metrics.rmse;
             rec.bias_variance = Some(split_bias_variance(mse, msd, reference.noise_rmse * reference.noise_rmse));
             rec.compared = Some(name.clone());
-            ctx.log(format!("{label}: {:.1} rays/px, {:.2} s, RMSE {:.3e}", rec.rays.total, rec.time.total, rec.metrics.rmse));
+            ctx.log(format!(
+                "{label}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
+                rec.rays.total, rec.time.total, rec.metrics.rmse
+            ));
             runs.push(rec);
-            let mut second = parts2.record(Method::Compared, Role::SecondSeed, format!("{label} seed {seed2}"), shown, None, seed2);
+            let mut second =
+                parts2.record(Method::Compared, Role::SecondSeed, format!("{label} seed {seed2}"), shown, None, seed2);
             second.compared = Some(name.clone());
             runs.push(second);
         }
@@ -626,7 +655,10 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
             let s = Session::reference_with(&opts.registries, Some(path), n, sampling, &ctx.ov(seed, None))?;
             let (_, _, parts) = ctx.measure(&s)?;
             let rec = parts.record(method, Role::Curve, format!("{} {n} spp", method.name()), None, Some(n), seed);
-            ctx.log(format!("{}: {:.1} rays/px, {:.2} s, RMSE {:.3e}", rec.label, rec.rays.total, rec.time.total, rec.metrics.rmse));
+            ctx.log(format!(
+                "{}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
+                rec.label, rec.rays.total, rec.time.total, rec.metrics.rmse
+            ));
             let below = rec.metrics.rmse < min_pipeline_rmse;
             runs.push(rec);
             i += 1;
@@ -664,17 +696,30 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     // 5. Equal-time stratified Monte Carlo, for the image comparison.
     let primary_time = runs.iter().find(|r| r.primary).map(|r| r.time.total).unwrap_or(f64::NAN);
     let mut equal_time = None;
-    if let Some(n) = equal_time_spp(runs.iter().filter(|r| r.method == Method::Stratified && r.role == Role::Curve), primary_time) {
+    if let Some(n) =
+        equal_time_spp(runs.iter().filter(|r| r.method == Method::Stratified && r.role == Role::Curve), primary_time)
+    {
         let s = Session::reference_with(&opts.registries, Some(path), n, "stratified", &ctx.ov(seed, None))?;
         let (_, img, parts) = ctx.measure(&s)?;
-        let rec = parts.record(Method::Stratified, Role::EqualTime, format!("{} {n} spp (equal time)", Method::Stratified.name()), None, Some(n), seed);
-        ctx.log(format!("{}: {:.2} s vs ours {:.2} s, RMSE {:.3e}", rec.label, rec.time.total, primary_time, rec.metrics.rmse));
+        let rec = parts.record(
+            Method::Stratified,
+            Role::EqualTime,
+            format!("{} {n} spp (equal time)", Method::Stratified.name()),
+            None,
+            Some(n),
+            seed,
+        );
+        ctx.log(format!(
+            "{}: {:.2} s vs ours {:.2} s, RMSE {:.3e}",
+            rec.label, rec.time.total, primary_time, rec.metrics.rmse
+        ));
         runs.push(rec);
         equal_time = Some((img, n));
     }
 
     let goals = report::check_goals(&runs, &opts.goals);
-    let (ours, unfiltered, ours_seed2, partitions) = kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
+    let (ours, unfiltered, ours_seed2, partitions) =
+        kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
     let mean_offset = mean_of(&ours) / mean_of(&ctx.reference) - 1.0;
     let pixel_errors = classes::pixel_errors(&ours, &ours_seed2, &ctx.reference);
     let error_by_class = classes::class_errors(&partitions, &pixel_errors, reference.noise_rmse * reference.noise_rmse);
@@ -716,7 +761,12 @@ fn pixel_classes(session: &Session, width: u32, height: u32) -> Result<Vec<class
 
 /// Mean of every finite channel value of `img` (NaN when there is none).
 fn mean_of(img: &Image) -> f64 {
-    let (sum, n) = img.pixels.iter().flatten().filter(|c| c.is_finite()).fold((0.0f64, 0u64), |(s, n), &c| (s + f64::from(c), n + 1));
+    let (sum, n) = img
+        .pixels
+        .iter()
+        .flatten()
+        .filter(|c| c.is_finite())
+        .fold((0.0f64, 0u64), |(s, n), &c| (s + f64::from(c), n + 1));
     if n > 0 {
         sum / n as f64
     } else {
@@ -759,9 +809,8 @@ fn obtain_reference(
     let t = Instant::now();
     let path = opts.pipeline.as_path();
     let spp = opts.reference_spp.unwrap_or(if opts.quick { 512 } else { 4096 }).max(2);
-    let pipeline_text = std::fs::read_to_string(path).map_err(|source| {
-        WedgeError::Image(crate::image::ImageError::Read { path: path.to_path_buf(), source })
-    })?;
+    let pipeline_text = std::fs::read_to_string(path)
+        .map_err(|source| WedgeError::Image(crate::image::ImageError::Read { path: path.to_path_buf(), source }))?;
     let spec = ReferenceSpec {
         pipeline_text,
         scene: scene_spec.to_string(),
@@ -791,7 +840,13 @@ fn obtain_reference(
     let half = spp / 2;
     let mut halves = Vec::new();
     for s in seeds {
-        let session = Session::reference_with(&opts.registries, Some(path), half, "stratified", &Overrides { seed: Some(s), ..base.clone() })?;
+        let session = Session::reference_with(
+            &opts.registries,
+            Some(path),
+            half,
+            "stratified",
+            &Overrides { seed: Some(s), ..base.clone() },
+        )?;
         let run = session.run(&mut CpuBackend::new(), &Silent)?;
         let c = run.output("color").ok_or_else(|| WedgeError::Usage("reference has no color output".into()))?;
         halves.push(buffer_to_image(c, width, height));

@@ -9,9 +9,7 @@ use embedded_graphics::prelude::{DrawTarget, Drawable, OriginDimensions, Pixel, 
 use embedded_graphics::text::{Baseline, Text};
 use plotters::backend::BitMapBackend;
 use plotters_backend::text_anchor::{HPos, VPos};
-use plotters_backend::{
-    BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingBackend, DrawingErrorKind,
-};
+use plotters_backend::{BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingBackend, DrawingErrorKind};
 
 fn font_for(size: f64) -> &'static MonoFont<'static> {
     if size <= 11.0 {
@@ -78,16 +76,30 @@ impl<'a> DrawingBackend for MonoText<'a> {
     fn draw_line<S: BackendStyle>(&mut self, from: BackendCoord, to: BackendCoord, style: &S) -> Result<(), Err<'a>> {
         self.inner.draw_line(from, to, style)
     }
-    fn draw_rect<S: BackendStyle>(&mut self, ul: BackendCoord, br: BackendCoord, style: &S, fill: bool) -> Result<(), Err<'a>> {
+    fn draw_rect<S: BackendStyle>(
+        &mut self,
+        ul: BackendCoord,
+        br: BackendCoord,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), Err<'a>> {
         self.inner.draw_rect(ul, br, style, fill)
     }
-    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, path: I, style: &S) -> Result<(), Err<'a>> {
+    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        path: I,
+        style: &S,
+    ) -> Result<(), Err<'a>> {
         self.inner.draw_path(path, style)
     }
     fn draw_circle<S: BackendStyle>(&mut self, c: BackendCoord, r: u32, style: &S, fill: bool) -> Result<(), Err<'a>> {
         self.inner.draw_circle(c, r, style, fill)
     }
-    fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, vert: I, style: &S) -> Result<(), Err<'a>> {
+    fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        vert: I,
+        style: &S,
+    ) -> Result<(), Err<'a>> {
         self.inner.fill_polygon(vert, style)
     }
     fn blit_bitmap(&mut self, pos: BackendCoord, size: (u32, u32), src: &[u8]) -> Result<(), Err<'a>> {
@@ -109,7 +121,8 @@ impl<'a> DrawingBackend for MonoText<'a> {
         let (w, h) = self.estimate_text_size(text, style)?;
         let (w, h) = (w as i32, h as i32);
         let mut lit = Collect(Vec::new());
-        let _ = Text::with_baseline(text, Point::zero(), MonoTextStyle::new(f, BinaryColor::On), Baseline::Top).draw(&mut lit);
+        let _ = Text::with_baseline(text, Point::zero(), MonoTextStyle::new(f, BinaryColor::On), Baseline::Top)
+            .draw(&mut lit);
         let dx = match style.anchor().h_pos {
             HPos::Left => 0,
             HPos::Right => -w,
@@ -132,4 +145,3 @@ impl<'a> DrawingBackend for MonoText<'a> {
         Ok(())
     }
 }
-

@@ -140,7 +140,9 @@ pub fn render_plot(plot: &Plot, width: u32, height: u32) -> Result<Vec<u8>, Stri
                         .draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))
                         .map_err(|e| e.to_string())?
                         .label(s.label.as_str())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], legend_color.stroke_width(2)));
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], legend_color.stroke_width(2))
+                        });
                     chart
                         .draw_series(points.iter().map(|p| Circle::new(*p, 4, color.filled())))
                         .map_err(|e| e.to_string())?;
@@ -280,7 +282,8 @@ pub fn render_bar_chart(chart: &BarChart, width: u32, height: u32) -> Result<Vec
             let values = s.values.iter().enumerate().filter(|(_, v)| usable(&(**v, 1.0))).map(|(k, &v)| {
                 let centre = (n - k) as f64 - 0.1 - 0.8 * (si as f64 + 0.5) / groups;
                 let h = if v >= chart.base { HPos::Left } else { HPos::Right };
-                let style = TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(h, VPos::Center)).color(&BLACK);
+                let style =
+                    TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(h, VPos::Center)).color(&BLACK);
                 Text::new(format!(" {v:.2}x "), (v, centre), style)
             });
             ch.draw_series(values).map_err(|e| e.to_string())?;
@@ -303,7 +306,8 @@ pub fn render_bar_chart(chart: &BarChart, width: u32, height: u32) -> Result<Vec
             .draw()
             .map_err(|e| e.to_string())?;
         // Category names left of the plotting area, centred on their group.
-        let style = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Right, VPos::Center)).color(&BLACK);
+        let style =
+            TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Right, VPos::Center)).color(&BLACK);
         for (k, name) in chart.categories.iter().enumerate() {
             let (px, py) = ch.backend_coord(&(x0, (n - k) as f64 - 0.5));
             root.draw(&Text::new(name.as_str(), (px - 6, py), style.clone())).map_err(|e| e.to_string())?;
@@ -321,7 +325,8 @@ pub fn bar_chart_height(categories: usize) -> u32 {
 /// Render and write `chart` as a PNG ([`PLOT_WIDTH`] wide, [`bar_chart_height`] high).
 pub fn write_bar_chart(path: &Path, chart: &BarChart) -> Result<(), ImageError> {
     let height = bar_chart_height(chart.categories.len());
-    let rgb = render_bar_chart(chart, PLOT_WIDTH, height).map_err(|reason| ImageError::Encode { path: path.to_path_buf(), reason })?;
+    let rgb = render_bar_chart(chart, PLOT_WIDTH, height)
+        .map_err(|reason| ImageError::Encode { path: path.to_path_buf(), reason })?;
     write_png_rgb8(path, PLOT_WIDTH, height, &rgb)
 }
 
@@ -343,7 +348,12 @@ mod tests {
                     points: vec![(1.0, 1.0), (4.0, 0.5), (16.0, 0.25), (0.0, 1.0)],
                 },
                 Series { label: "b".into(), color: GREEN, style: SeriesStyle::Points, points: vec![(2.0, 0.3)] },
-                Series { label: "c".into(), color: GREY, style: SeriesStyle::Dashed, points: vec![(1.0, 0.1), (16.0, 0.1)] },
+                Series {
+                    label: "c".into(),
+                    color: GREY,
+                    style: SeriesStyle::Dashed,
+                    points: vec![(1.0, 0.1), (16.0, 0.1)],
+                },
             ],
         };
         let buf = render_plot(&plot, 400, 300).unwrap();
@@ -407,7 +417,12 @@ mod extreme_value_tests {
             x_label: "x".into(),
             y_label: "y".into(),
             series: vec![
-                Series { label: "ok".into(), color: RED, style: SeriesStyle::LinePoints, points: vec![(1.0, 0.1), (16.0, 0.02)] },
+                Series {
+                    label: "ok".into(),
+                    color: RED,
+                    style: SeriesStyle::LinePoints,
+                    points: vec![(1.0, 0.1), (16.0, 0.02)],
+                },
                 Series { label: "bad".into(), color: GREY, style: SeriesStyle::Dashed, points },
             ],
         }

@@ -121,7 +121,13 @@ pub fn load(dir: &Path, spec: &ReferenceSpec) -> Option<StoredReference> {
 
 /// Write the reference and its description; the image first, so a description never points at a
 /// missing image.
-pub fn store(dir: &Path, spec: &ReferenceSpec, image: &Image, noise_rmse: f64, render_seconds: f64) -> Result<PathBuf, ImageError> {
+pub fn store(
+    dir: &Path,
+    spec: &ReferenceSpec,
+    image: &Image,
+    noise_rmse: f64,
+    render_seconds: f64,
+) -> Result<PathBuf, ImageError> {
     fs::create_dir_all(dir).map_err(|source| ImageError::Write { path: dir.to_path_buf(), source })?;
     let (exr, meta) = paths(dir, spec);
     write_exr(&exr, image)?;
@@ -132,7 +138,8 @@ pub fn store(dir: &Path, spec: &ReferenceSpec, image: &Image, noise_rmse: f64, r
         spec.sampling
     );
     crate::image::write_atomically(&meta, |out| {
-        std::io::Write::write_all(out, text.as_bytes()).map_err(|source| ImageError::Write { path: meta.clone(), source })
+        std::io::Write::write_all(out, text.as_bytes())
+            .map_err(|source| ImageError::Write { path: meta.clone(), source })
     })?;
     Ok(exr)
 }
@@ -214,7 +221,9 @@ mod tests {
             let text = fs::read_to_string(&meta).unwrap();
             let edited: String = text
                 .lines()
-                .map(|l| if l.starts_with(&format!("{field}=")) { format!("{field}={bad}\n") } else { format!("{l}\n") })
+                .map(
+                    |l| if l.starts_with(&format!("{field}=")) { format!("{field}={bad}\n") } else { format!("{l}\n") },
+                )
                 .collect();
             fs::write(&meta, edited).unwrap();
             assert!(load(dir.path(), &spec()).is_none(), "{field}={bad} must be a cache miss");

@@ -134,7 +134,9 @@ pub fn check_goals(runs: &[RunRecord], goals: &Goals) -> Vec<GoalOutcome> {
         ),
         None => "no bias/variance split available".into(),
     };
-    for (m, want) in [(Method::Independent, goals.speedup_vs_independent), (Method::Stratified, goals.speedup_vs_stratified)] {
+    for (m, want) in
+        [(Method::Independent, goals.speedup_vs_independent), (Method::Stratified, goals.speedup_vs_stratified)]
+    {
         let s = p.speedup(m);
         let measured = s.map_or(f64::NAN, |s| s.rays);
         let pass = measured >= want;
@@ -197,18 +199,31 @@ fn plot_for(result: &BenchResult, x_of: impl Fn(&RunRecord) -> f64, x_label: &st
         let pts: Vec<(f64, f64)> = result.curve_runs(m).map(|r| (x_of(r), r.metrics.rmse)).collect();
         s.push(series(m.name().into(), c, SeriesStyle::LinePoints, pts));
     }
-    let ours: Vec<(f64, f64)> =
-        result.runs.iter().filter(|r| r.method == Method::Pipeline && r.role == Role::Sweep).map(|r| (x_of(r), r.metrics.rmse)).collect();
+    let ours: Vec<(f64, f64)> = result
+        .runs
+        .iter()
+        .filter(|r| r.method == Method::Pipeline && r.role == Role::Sweep)
+        .map(|r| (x_of(r), r.metrics.rmse))
+        .collect();
     s.push(series(format!("{} (mu sweep)", Method::Pipeline.name()), GREEN, SeriesStyle::LinePoints, ours));
     if let Some(p) = result.primary() {
-        s.push(series(format!("{} (pipeline's mu)", Method::Pipeline.name()), [0, 90, 0], SeriesStyle::Points, vec![(x_of(p), p.metrics.rmse)]));
+        s.push(series(
+            format!("{} (pipeline's mu)", Method::Pipeline.name()),
+            [0, 90, 0],
+            SeriesStyle::Points,
+            vec![(x_of(p), p.metrics.rmse)],
+        ));
     }
     // Compared pipelines (`--compare`): one series each.
     let mut names: Vec<&str> = result.runs.iter().filter_map(|r| r.compared.as_deref()).collect();
     names.dedup();
     for (k, name) in names.into_iter().enumerate() {
-        let pts: Vec<(f64, f64)> =
-            result.runs.iter().filter(|r| r.compared.as_deref() == Some(name) && r.role == Role::Sweep).map(|r| (x_of(r), r.metrics.rmse)).collect();
+        let pts: Vec<(f64, f64)> = result
+            .runs
+            .iter()
+            .filter(|r| r.compared.as_deref() == Some(name) && r.role == Role::Sweep)
+            .map(|r| (x_of(r), r.metrics.rmse))
+            .collect();
         let colours = [[148, 103, 189], [255, 127, 14], [140, 86, 75]];
         s.push(series(name.to_string(), colours[k % colours.len()], SeriesStyle::LinePoints, pts));
     }
@@ -227,14 +242,22 @@ fn rel(path: &Path, base: &Path) -> String {
 
 /// Write CSV, plots, crops and `report.md` as one all-or-nothing set ([`Staging`]); fills
 /// `result.plots`, `result.images`, `result.seconds`.
-pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_dir: &Path, t0: Instant) -> Result<(), WedgeError> {
+pub(crate) fn write_all(
+    result: &mut BenchResult,
+    kept: &KeptImages,
+    pipeline_dir: &Path,
+    t0: Instant,
+) -> Result<(), WedgeError> {
     let out = result.out.clone();
     let mut set = Staging::new(&out)?;
     // Every file of the set is named relative to `out`, staged, and moved into place at the end.
-    let rel = |path: &Path| path.strip_prefix(&out).map(Path::to_path_buf).unwrap_or_else(|_| path.file_name().unwrap_or_default().into());
+    let rel = |path: &Path| {
+        path.strip_prefix(&out).map(Path::to_path_buf).unwrap_or_else(|_| path.file_name().unwrap_or_default().into())
+    };
     let write_text = |set: &mut Staging, path: &Path, text: String| -> Result<(), WedgeError> {
         let staged = set.file(rel(path))?;
-        std::fs::write(&staged, text).map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
+        std::fs::write(&staged, text)
+            .map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
     };
     write_text(&mut set, &result.csv, csv(&result.runs))?;
 
@@ -267,10 +290,18 @@ pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_di
     // log colour range so the two maps compare.
     let ours_err = squared_error_map(&kept.ours, &kept.reference);
     let range = error_range(&ours_err);
-    let mut errors = vec![(img_dir.join("error_ours.png"), format!("squared error: {} (pipeline's mu)", Method::Pipeline.name()), ours_err)];
+    let mut errors = vec![(
+        img_dir.join("error_ours.png"),
+        format!("squared error: {} (pipeline's mu)", Method::Pipeline.name()),
+        ours_err,
+    )];
     if let Some((img, n)) = &kept.equal_time {
         let e = squared_error_map(img, &kept.reference);
-        errors.push((img_dir.join("error_equal_time_mc.png"), format!("squared error: equal-time {} ({n} spp)", Method::Stratified.name()), e));
+        errors.push((
+            img_dir.join("error_equal_time_mc.png"),
+            format!("squared error: equal-time {} ({n} spp)", Method::Stratified.name()),
+            e,
+        ));
     }
     // Its two parts, per 4×4 block (classes.rs), on the same log range as the squared error.
     let (w, h) = (kept.reference.width, kept.reference.height);
@@ -280,12 +311,17 @@ pub(crate) fn write_all(result: &mut BenchResult, kept: &KeptImages, pipeline_di
         "bias² per 4x4 block: ours (pipeline's mu)".into(),
         classes::block_map(&kept.pixel_errors, w, h, 4, |mse, var| (mse - var - reference_variance).max(0.0)),
     ));
-    errors.push((img_dir.join("error_variance.png"), "variance per 4x4 block: ours (pipeline's mu)".into(), classes::block_map(&kept.pixel_errors, w, h, 4, |_, var| var)));
+    errors.push((
+        img_dir.join("error_variance.png"),
+        "variance per 4x4 block: ours (pipeline's mu)".into(),
+        classes::block_map(&kept.pixel_errors, w, h, 4, |_, var| var),
+    ));
     for (path, title, values) in &errors {
         let spec = HeatmapSpec { title, unit: "", scale: Scale::Log, range, arrows: None };
         write_heatmap_png(&set.file(rel(path))?, w, h, values, None, &spec)?;
     }
-    result.images = crops.iter().map(|c| c.1.clone()).chain([full_ref]).chain(errors.iter().map(|e| e.0.clone())).collect();
+    result.images =
+        crops.iter().map(|c| c.1.clone()).chain([full_ref]).chain(errors.iter().map(|e| e.0.clone())).collect();
 
     result.seconds = t0.elapsed().as_secs_f64();
     let md = markdown(result, &crops, pipeline_dir);
@@ -303,7 +339,9 @@ pub fn squared_error_map(test: &Image, reference: &Image) -> Vec<f32> {
         .iter()
         .enumerate()
         .map(|(i, t)| match reference.pixels.get(i).filter(|_| same) {
-            Some(r) if t.iter().chain(r).all(|v| v.is_finite()) => (0..3).map(|c| (t[c] - r[c]) * (t[c] - r[c])).sum::<f32>() / 3.0,
+            Some(r) if t.iter().chain(r).all(|v| v.is_finite()) => {
+                (0..3).map(|c| (t[c] - r[c]) * (t[c] - r[c])).sum::<f32>() / 3.0
+            }
             _ => f32::NAN,
         })
         .collect()
@@ -326,8 +364,20 @@ pub fn error_range(values: &[f32]) -> Option<(f32, f32)> {
 pub fn summary(r: &BenchResult) -> String {
     let mut s = String::new();
     for g in &r.goals {
-        let measured = if g.name.starts_with("filter overhead") { format!("{:.2}%", 100.0 * g.measured) } else { format!("{}x", ratio(g.measured)) };
-        let _ = writeln!(s, "{:<5} {} {} (target {}){}", if g.pass { "PASS" } else { "MISS" }, g.name, measured, g.target, if g.note.is_empty() { String::new() } else { format!(": {}", g.note) });
+        let measured = if g.name.starts_with("filter overhead") {
+            format!("{:.2}%", 100.0 * g.measured)
+        } else {
+            format!("{}x", ratio(g.measured))
+        };
+        let _ = writeln!(
+            s,
+            "{:<5} {} {} (target {}){}",
+            if g.pass { "PASS" } else { "MISS" },
+            g.name,
+            measured,
+            g.target,
+            if g.note.is_empty() { String::new() } else { format!(": {}", g.note) }
+        );
     }
     let _ = writeln!(
         s,
@@ -338,7 +388,13 @@ pub fn summary(r: &BenchResult) -> String {
         r.runs.len(),
         r.seconds
     );
-    let _ = write!(s, "wrote {}, {}, {}", r.report.display(), r.csv.display(), r.plots.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+    let _ = write!(
+        s,
+        "wrote {}, {}, {}",
+        r.report.display(),
+        r.csv.display(),
+        r.plots.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+    );
     s
 }
 
@@ -387,11 +443,27 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     );
 
     let _ = writeln!(w, "## Goals\n");
-    let _ = writeln!(w, "Checked on {} (the pipeline file's own configuration).\n", r.primary().map_or("-".into(), |p| format!("`{}`", p.label)));
+    let _ = writeln!(
+        w,
+        "Checked on {} (the pipeline file's own configuration).\n",
+        r.primary().map_or("-".into(), |p| format!("`{}`", p.label))
+    );
     let _ = writeln!(w, "| goal | target | measured | result | cause / note |\n|---|---|---|---|---|");
     for g in &r.goals {
-        let measured = if g.name.starts_with("filter overhead") { format!("{:.2}%", 100.0 * g.measured) } else { format!("{}x", ratio(g.measured)) };
-        let _ = writeln!(w, "| {} | {} | {} | **{}** | {} |", g.name, g.target, measured, if g.pass { "PASS" } else { "MISS" }, g.note);
+        let measured = if g.name.starts_with("filter overhead") {
+            format!("{:.2}%", 100.0 * g.measured)
+        } else {
+            format!("{}x", ratio(g.measured))
+        };
+        let _ = writeln!(
+            w,
+            "| {} | {} | {} | **{}** | {} |",
+            g.name,
+            g.target,
+            measured,
+            if g.pass { "PASS" } else { "MISS" },
+            g.note
+        );
     }
 
     let _ = writeln!(w, "\n## Results\n");
@@ -467,7 +539,13 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     for (m, fit) in &r.fits {
         match fit {
             Some(f) => {
-                let _ = writeln!(w, "- {}: least-squares log-log fit RMSE ∝ rays^{:.3} (r² = {:.4}).", m.name(), f.slope, f.r2);
+                let _ = writeln!(
+                    w,
+                    "- {}: least-squares log-log fit RMSE ∝ rays^{:.3} (r² = {:.4}).",
+                    m.name(),
+                    f.slope,
+                    f.r2
+                );
             }
             None => {
                 let _ = writeln!(w, "- {}: too few points for a fit.", m.name());
@@ -483,8 +561,13 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     let _ = writeln!(w, "\n## Images (centre quarter, sRGB, exposure 1)\n");
     let _ = writeln!(w, "| {} |", crops.iter().map(|c| c.0.clone()).collect::<Vec<_>>().join(" | "));
     let _ = writeln!(w, "|{}", "---|".repeat(crops.len()));
-    let _ = writeln!(w, "| {} |", crops.iter().map(|c| format!("![{}]({})", c.0, rel(&c.1, out))).collect::<Vec<_>>().join(" | "));
-    let errors: Vec<&PathBuf> = r.images.iter().filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("error_"))).collect();
+    let _ = writeln!(
+        w,
+        "| {} |",
+        crops.iter().map(|c| format!("![{}]({})", c.0, rel(&c.1, out))).collect::<Vec<_>>().join(" | ")
+    );
+    let errors: Vec<&PathBuf> =
+        r.images.iter().filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("error_"))).collect();
     if !errors.is_empty() {
         let _ = writeln!(w, "\n## Where the error is (squared error per pixel against the reference, one log scale)\n");
         for e in errors {
@@ -492,8 +575,11 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
         }
     }
     class_table(w, &r.error_by_class);
-    let heat: Vec<PathBuf> =
-        ["filter_width.png", "rays_per_pixel.png"].iter().map(|n| pipeline_dir.join(n)).filter(|p| p.exists()).collect();
+    let heat: Vec<PathBuf> = ["filter_width.png", "rays_per_pixel.png"]
+        .iter()
+        .map(|n| pipeline_dir.join(n))
+        .filter(|p| p.exists())
+        .collect();
     if !heat.is_empty() {
         let _ = writeln!(w, "\n## Heatmaps of ours (pipeline's mu)\n");
         for h in heat {

@@ -87,14 +87,7 @@ pub fn split_bias_variance(mse: f64, seed_msd: f64, reference_variance: f64) -> 
     let variance = seed_msd / 2.0;
     let bias2_unclamped = mse - variance - reference_variance;
     let clamped = bias2_unclamped < 0.0;
-    BiasVariance {
-        mse,
-        variance,
-        reference_variance,
-        bias2: bias2_unclamped.max(0.0),
-        bias2_unclamped,
-        clamped,
-    }
+    BiasVariance { mse, variance, reference_variance, bias2: bias2_unclamped.max(0.0), bias2_unclamped, clamped }
 }
 
 /// `baseline_cost / pipeline_cost`; NaN when either is not finite and positive.

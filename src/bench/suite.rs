@@ -22,16 +22,16 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use super::plots::{write_bar_chart, BarChart, BarSeries, BLUE, GREY, RED};
 use super::format::{ratio, sci};
+use super::plots::{write_bar_chart, BarChart, BarSeries, BLUE, GREY, RED};
 use super::{BenchOptions, BenchResult, Method};
 use crate::graph::factoring::CameraSettings;
 use crate::graph::{NodeRegistry, ParamValue};
-use wedge_scene::builtin::SuiteFamily;
-use wedge_scene::SceneSource;
 use crate::image::ImageError;
 use crate::staging::Staging;
 use crate::WedgeError;
+use wedge_scene::builtin::SuiteFamily;
+use wedge_scene::SceneSource;
 
 /// The default suite: every scene of [`wedge_scene::builtin::SUITE`], as `builtin:NAME` specs.
 pub fn default_scenes() -> Vec<String> {
@@ -75,7 +75,11 @@ pub fn family_of(registry: &NodeRegistry, pipeline: &Path) -> Result<SuiteFamily
         if let Some(name) = registry.get(&node.kind).and_then(|k| k.bench_suite()) {
             return SuiteFamily::parse(name).ok_or_else(|| {
                 let known: Vec<&str> = SuiteFamily::ALL.iter().map(|f| f.name()).collect();
-                WedgeError::Usage(format!("node kind `{}` names the bench suite `{name}`, which is none of {}", node.kind, known.join(", ")))
+                WedgeError::Usage(format!(
+                    "node kind `{}` names the bench suite `{name}`, which is none of {}",
+                    node.kind,
+                    known.join(", ")
+                ))
             });
         }
     }
@@ -85,7 +89,11 @@ pub fn family_of(registry: &NodeRegistry, pipeline: &Path) -> Result<SuiteFamily
 /// `--set` overrides that give every lens-taking node of `pipeline` the lens of the built-in scene
 /// `spec`'s camera (none for a scene without an aperture): the defocus suite's scenes each state
 /// their lens, as a pipeline states its own.
-pub fn lens_params(registry: &NodeRegistry, pipeline: &Path, spec: &str) -> Result<Vec<(String, String, ParamValue)>, WedgeError> {
+pub fn lens_params(
+    registry: &NodeRegistry,
+    pipeline: &Path,
+    spec: &str,
+) -> Result<Vec<(String, String, ParamValue)>, WedgeError> {
     let Some(name) = spec.strip_prefix("builtin:") else {
         return Ok(Vec::new());
     };
@@ -97,7 +105,12 @@ pub fn lens_params(registry: &NodeRegistry, pipeline: &Path, spec: &str) -> Resu
     let values = [cam.aperture_radius, cam.effective_focus_distance()];
     Ok(lens_nodes(registry, pipeline)?
         .into_iter()
-        .flat_map(|node| LENS_PARAMS.iter().zip(values).map(move |(p, v)| (node.clone(), p.to_string(), ParamValue::Float(f64::from(v)))))
+        .flat_map(|node| {
+            LENS_PARAMS
+                .iter()
+                .zip(values)
+                .map(move |(p, v)| (node.clone(), p.to_string(), ParamValue::Float(f64::from(v))))
+        })
         .collect())
 }
 
@@ -337,7 +350,8 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
     let t0 = Instant::now();
     // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them.
     let family = family_of(&opts.registries.nodes, &opts.pipeline)?;
-    std::fs::create_dir_all(&opts.out).map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
+    std::fs::create_dir_all(&opts.out)
+        .map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
     let cache = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let bar = opts.verbose.then(|| scene_bar(scenes.len() as u64));
     let say = |line: String| match &bar {
@@ -414,7 +428,8 @@ fn write_files(r: &SuiteResult) -> Result<(), WedgeError> {
     let mut set = Staging::new(&r.out)?;
     let text = |set: &mut Staging, path: &Path, body: String| -> Result<(), WedgeError> {
         let name = path.file_name().map(PathBuf::from).unwrap_or_default();
-        std::fs::write(set.file(name)?, body).map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
+        std::fs::write(set.file(name)?, body)
+            .map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
     };
     text(&mut set, &r.csv, csv(&r.rows))?;
     let json = serde_json::to_string_pretty(r).map_err(|e| WedgeError::Usage(format!("suite.json: {e}")))?;
@@ -523,7 +538,15 @@ pub fn summary(r: &SuiteResult) -> String {
             pct(w.bias_fraction, 0)
         );
     }
-    let _ = write!(s, "{:.1} s; wrote {}, {}, {}, {}", r.seconds, r.table.display(), r.csv.display(), r.json.display(), r.plot.display());
+    let _ = write!(
+        s,
+        "{:.1} s; wrote {}, {}, {}, {}",
+        r.seconds,
+        r.table.display(),
+        r.csv.display(),
+        r.json.display(),
+        r.plot.display()
+    );
     s
 }
 
@@ -599,7 +622,8 @@ pub fn markdown(r: &SuiteResult) -> String {
         "\nThe median is per column (over the scenes with a value); the worst row is the scene with the lowest speedup \
          against stratified MC. ⚠ = the baseline's rays were extrapolated beyond its measured curve (see that scene's report).\n"
     );
-    let below = |t: f64| r.rows.iter().filter(|x| x.speedup_vs_stratified.is_finite() && x.speedup_vs_stratified < t).count();
+    let below =
+        |t: f64| r.rows.iter().filter(|x| x.speedup_vs_stratified.is_finite() && x.speedup_vs_stratified < t).count();
     let goals = match r.family {
         SuiteFamily::Shadows => {
             "Issue 16's goals against stratified MC (SoftShadows: median ≥ 2×, worst ≥ 1.5×, ≥ 10× against independent; \

@@ -3,8 +3,8 @@
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand};
 use crate::{Overrides, WedgeError};
+use clap::{Args, Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(name = "wedge", version, about = "Sample-and-filter physically based rendering with axis-aligned filters")]

@@ -37,7 +37,12 @@ pub(super) fn render_tile(
     };
     let bars = Bars::default();
     let runs = frames.map_or(1, |f| f.frames.len() as u64);
-    let progress = TaskProgress::new(&bars, common.progress_format(), "tile", runs.saturating_mul(TaskProgress::work(session.schedule.passes.len(), plan.pixels())));
+    let progress = TaskProgress::new(
+        &bars,
+        common.progress_format(),
+        "tile",
+        runs.saturating_mul(TaskProgress::work(session.schedule.passes.len(), plan.pixels())),
+    );
     let mut text = String::new();
     let Some(frames) = frames else {
         progress.at(Some((index, n)), None, plan.pixels());
@@ -46,7 +51,8 @@ pub(super) fn render_tile(
     };
     for &frame in &frames.frames {
         progress.at(Some((index, n)), Some(frame), plan.pixels());
-        let tile = crate::tiles::render_planned_frame(session, backend.as_mut(), &progress, &plan, (frame, frames.first))?;
+        let tile =
+            crate::tiles::render_planned_frame(session, backend.as_mut(), &progress, &plan, (frame, frames.first))?;
         let dir = common.out.join(format!("frame_{frame:04}"));
         text.push_str(&tile_line(&tile, n, Some(frame), &crate::tiles::write_tile(&dir, &tile)?));
     }
@@ -59,7 +65,17 @@ fn tile_line(tile: &crate::tiles::Tile, n: u32, frame: Option<u32>, path: &Path)
     let of_frame = frame.map_or(String::new(), |f| format!(" of frame {f}"));
     format!(
         "tile {}/{n}{of_frame} of a {}x{} grid: {}x{} at ({}, {}) of {}x{}, apron {} px\nwrote {}\n",
-        h.index, h.grid.cols, h.grid.rows, r.w, r.h, r.x, r.y, h.full.0, h.full.1, h.apron, path.display()
+        h.index,
+        h.grid.cols,
+        h.grid.rows,
+        r.w,
+        r.h,
+        r.x,
+        r.y,
+        h.full.0,
+        h.full.1,
+        h.apron,
+        path.display()
     )
 }
 
@@ -105,18 +121,27 @@ fn farm_session(registries: &Registries, t: &FarmTasks, common: &Common) -> Resu
 }
 
 /// `wedge farm k8s`: the manifests into OUT/k8s/ ([`crate::k8s`]).
-pub(super) fn farm_k8s(registries: &Registries, tasks: &FarmTasks, k8s: &K8sArgs, common: &Common) -> Result<String, WedgeError> {
+pub(super) fn farm_k8s(
+    registries: &Registries,
+    tasks: &FarmTasks,
+    k8s: &K8sArgs,
+    common: &Common,
+) -> Result<String, WedgeError> {
     crate::staging::check_output_dir(&common.out)?;
     let session = farm_session(registries, tasks, common)?;
     let (pipeline, tiles, frames) = (tasks.pipeline.as_path(), tasks.tiles, tasks.frames);
-    let text = std::fs::read_to_string(pipeline).map_err(|e| WedgeError::Usage(format!("{}: {e}", pipeline.display())))?;
+    let text =
+        std::fs::read_to_string(pipeline).map_err(|e| WedgeError::Usage(format!("{}: {e}", pipeline.display())))?;
     let stem = pipeline.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().to_lowercase());
-    let default_name: String = format!("wedge-{stem}").chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(40).collect();
+    let default_name: String =
+        format!("wedge-{stem}").chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(40).collect();
     let plan = crate::k8s::K8sPlan {
         name: k8s.name.clone().unwrap_or_else(|| default_name.trim_end_matches('-').to_string()),
         image: k8s.image.clone(),
         wedge: k8s.wedge.clone(),
-        pipeline_file: crate::k8s::config_key(&pipeline.file_name().map_or("pipeline.ron".into(), |s| s.to_string_lossy().into_owned())),
+        pipeline_file: crate::k8s::config_key(
+            &pipeline.file_name().map_or("pipeline.ron".into(), |s| s.to_string_lossy().into_owned()),
+        ),
         pipeline_text: text,
         tiles,
         frames,
@@ -170,7 +195,8 @@ pub(super) fn farm_slurm(registries: &Registries, r: SlurmRequest<'_>) -> Result
     farm_session(registries, r.tasks, r.common)?;
     let absolute = |p: &Path| std::path::absolute(p).map_err(|e| WedgeError::Usage(format!("{}: {e}", p.display())));
     let plan = crate::farm::SlurmPlan {
-        wedge: std::env::current_exe().map_err(|e| WedgeError::Usage(format!("cannot find the wedge executable: {e}")))?,
+        wedge: std::env::current_exe()
+            .map_err(|e| WedgeError::Usage(format!("cannot find the wedge executable: {e}")))?,
         pipeline: absolute(&r.tasks.pipeline)?,
         tiles: r.tasks.tiles,
         frames: r.tasks.frames,

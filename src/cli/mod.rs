@@ -43,7 +43,11 @@ fn set_threads(threads: Option<usize>) -> Result<(), WedgeError> {
 
 /// `wedge parity`: every pass on both backends with the same inputs, at the first frame or, with
 /// `frames`, at each frame of the sequence with the previous frame's history (the CPU's run of it).
-fn parity(session: &mut Session, limits: Option<&str>, frames: Option<(u32, u32)>) -> Result<(String, bool), WedgeError> {
+fn parity(
+    session: &mut Session,
+    limits: Option<&str>,
+    frames: Option<(u32, u32)>,
+) -> Result<(String, bool), WedgeError> {
     let mut gpu = open_gpu(limits)?;
     let Some((first, last)) = frames else {
         let report = session.parity(&mut gpu)?;
@@ -55,7 +59,13 @@ fn parity(session: &mut Session, limits: Option<&str>, frames: Option<(u32, u32)
         text.push_str(&format!("frame {frame}\n{}", report.table()));
         ok &= report.ok();
         if frame < last {
-            previous = Some(session.run_frame(&mut CpuBackend::new(), &crate::backends::Silent, frame, first, previous.as_ref())?);
+            previous = Some(session.run_frame(
+                &mut CpuBackend::new(),
+                &crate::backends::Silent,
+                frame,
+                first,
+                previous.as_ref(),
+            )?);
         }
     }
     Ok((text, ok))
@@ -106,11 +116,17 @@ fn suite_scene_specs(registries: &Registries, pipeline: &Path, names: &[String])
             if crate::scene::builtin_names().contains(&name) {
                 Ok(format!("builtin:{name}"))
             } else {
-                let suite: Vec<&str> = crate::scene::builtin::SuiteFamily::ALL.iter().flat_map(|f| f.scenes()).map(|(s, _)| *s).collect();
+                let suite: Vec<&str> =
+                    crate::scene::builtin::SuiteFamily::ALL.iter().flat_map(|f| f.scenes()).map(|(s, _)| *s).collect();
                 Err(WedgeError::Usage(format!(
                     "--suite-scenes: `{n}` is not a built-in scene; the suite's are {} (other built-ins: {})",
                     suite.join(", "),
-                    crate::scene::builtin_names().iter().filter(|b| !suite.contains(b)).copied().collect::<Vec<_>>().join(", ")
+                    crate::scene::builtin_names()
+                        .iter()
+                        .filter(|b| !suite.contains(b))
+                        .copied()
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 )))
             }
         })
@@ -143,15 +159,17 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
         }
         Command::Reference { pipeline, common, spp, sampling } => {
             start_rendering_command(&common)?;
-            let session = Session::reference_with(registries, pipeline.as_deref(), spp, &sampling, &overrides(&common, None)?)?;
+            let session =
+                Session::reference_with(registries, pipeline.as_deref(), spp, &sampling, &overrides(&common, None)?)?;
             render(&session, &common, "reference", &[])
         }
         Command::Compare { test, reference, heatmap } => compare(&test, &reference, &heatmap),
         Command::Merge { dir, out } => crate::merge::merge(&dir, &out),
         Command::Farm { farm: Farm::K8s { tasks, k8s, common } } => farm::farm_k8s(registries, &tasks, &k8s, &common),
-        Command::Farm { farm: Farm::Slurm { tasks, common, partition, time, dry_run } } => {
-            farm::farm_slurm(registries, farm::SlurmRequest { tasks: &tasks, common: &common, partition, time, dry_run })
-        }
+        Command::Farm { farm: Farm::Slurm { tasks, common, partition, time, dry_run } } => farm::farm_slurm(
+            registries,
+            farm::SlurmRequest { tasks: &tasks, common: &common, partition, time, dry_run },
+        ),
         #[cfg(feature = "view")]
         Command::View { pipeline, common, mu, script } => {
             start_rendering_command(&common)?;
@@ -177,16 +195,36 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
                 params: set.iter().map(|s| crate::session::parse_set(s)).collect::<Result<_, _>>()?,
                 ..Overrides::default()
             };
-            let mut session = Session::open_with(registries, pipeline.as_deref(), &Overrides { frame: frames.map(|(first, _)| first), ..ov })?;
+            let mut session = Session::open_with(
+                registries,
+                pipeline.as_deref(),
+                &Overrides { frame: frames.map(|(first, _)| first), ..ov },
+            )?;
             check_memory(&session, RunMode::Parity, memory_limit)?;
             let (table, ok) = parity(&mut session, gpu_limits.as_deref(), frames)?;
             if ok {
                 Ok(table)
             } else {
-                Err(WedgeError::Usage(format!("{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)")))
+                Err(WedgeError::Usage(format!(
+                    "{table}the wgpu backend disagrees with the CPU backend (see MISMATCH rows above)"
+                )))
             }
         }
-        Command::Bench { pipeline, quick, scene, suite, suite_scenes, compare, out, width, height, seed, reference_spp, memory_limit, set } => {
+        Command::Bench {
+            pipeline,
+            quick,
+            scene,
+            suite,
+            suite_scenes,
+            compare,
+            out,
+            width,
+            height,
+            seed,
+            reference_spp,
+            memory_limit,
+            set,
+        } => {
             crate::staging::check_output_dir(&out)?;
             let opts = crate::bench::BenchOptions {
                 quick,
@@ -294,7 +332,9 @@ pub fn main(registries: Registries) -> ExitCode {
         return ExitCode::FAILURE;
     }
     if let Err(e) = crate::staging::install_signal_handler() {
-        eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}); an interrupted run may leave temporary files");
+        eprintln!(
+            "warning: cannot install the SIGINT/SIGTERM handler ({e}); an interrupted run may leave temporary files"
+        );
     }
     match run(&registries, cli) {
         Ok(text) => match print_stdout(&text) {
@@ -315,7 +355,9 @@ pub fn main(registries: Registries) -> ExitCode {
 /// a user's `wedge-fog`).
 fn parse_args() -> Result<Cli, clap::Error> {
     let mut command = Cli::command();
-    if let Some(name) = std::env::args_os().next().and_then(|a| Path::new(&a).file_name().map(|n| n.to_string_lossy().into_owned())) {
+    if let Some(name) =
+        std::env::args_os().next().and_then(|a| Path::new(&a).file_name().map(|n| n.to_string_lossy().into_owned()))
+    {
         command = command.bin_name(name);
     }
     Cli::from_arg_matches_mut(&mut command.get_matches())

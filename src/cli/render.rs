@@ -72,7 +72,11 @@ pub(super) fn scene_notes(session: &Session) {
 
 /// `--aov`'s maps for `scene` at the session's size (none when `names` is empty), and a line saying
 /// what they took.
-pub(super) fn aov_images(scene: &crate::scene::Scene, session: &Session, names: &[String]) -> Result<(Vec<crate::outputs::ExtraExr>, String), WedgeError> {
+pub(super) fn aov_images(
+    scene: &crate::scene::Scene,
+    session: &Session,
+    names: &[String],
+) -> Result<(Vec<crate::outputs::ExtraExr>, String), WedgeError> {
     if names.is_empty() {
         return Ok((Vec::new(), String::new()));
     }
@@ -80,7 +84,11 @@ pub(super) fn aov_images(scene: &crate::scene::Scene, session: &Session, names: 
     let aovs = crate::aov::Aovs::render(scene, session.width, session.height)?;
     let images = aovs.images(names);
     let stems: Vec<&str> = images.iter().map(|e| e.stem.as_str()).collect();
-    let line = format!("AOVs {} in {:.1} ms (primary.gbuffer on the CPU)\n", stems.join(", "), start.elapsed().as_secs_f64() * 1e3);
+    let line = format!(
+        "AOVs {} in {:.1} ms (primary.gbuffer on the CPU)\n",
+        stems.join(", "),
+        start.elapsed().as_secs_f64() * 1e3
+    );
     Ok((images, line))
 }
 
@@ -102,7 +110,12 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
     }
     let bars = Bars::default();
     let pixels = u64::from(session.width) * u64::from(session.height);
-    let progress = TaskProgress::new(&bars, common.progress_format(), "render", TaskProgress::work(session.schedule.passes.len(), pixels));
+    let progress = TaskProgress::new(
+        &bars,
+        common.progress_format(),
+        "render",
+        TaskProgress::work(session.schedule.passes.len(), pixels),
+    );
     progress.at(None, None, pixels);
     let (run, note) = match common.backend.as_str() {
         "wgpu" => run_wgpu(session, &progress, common.gpu_limits.as_deref())?,
@@ -126,7 +139,13 @@ pub(super) fn render(session: &Session, common: &Common, stem: &str, aov: &[Stri
 /// fewest tiles that fit, rendered in sequence in this process and assembled into the images a whole
 /// render writes (the same bytes; heatmaps and AOVs are not assembled). Refused with `too_big` and
 /// the reason when no grid fits or the pipeline cannot be tiled.
-fn render_in_tiles(session: &Session, common: &Common, stem: &str, aov: &[String], too_big: WedgeError) -> Result<String, WedgeError> {
+fn render_in_tiles(
+    session: &Session,
+    common: &Common,
+    stem: &str,
+    aov: &[String],
+    too_big: WedgeError,
+) -> Result<String, WedgeError> {
     let mode = common.run_mode();
     let Some((limit, _)) = crate::session::memory_budget(common.memory_limit) else { return Err(too_big) };
     let refuse = |why: String| WedgeError::Usage(format!("{too_big}; rendering it in tiles does not help: {why}"));
@@ -177,7 +196,11 @@ fn render_in_tiles(session: &Session, common: &Common, stem: &str, aov: &[String
 
 /// The one backend a run of several frames (`--frames`, `--progressive`) keeps: announces the run
 /// (`what`: which frames), prints the scene notes and checks the memory estimate first.
-pub(super) fn sequence_backend(session: &Session, common: &Common, what: &str) -> Result<Box<dyn crate::backends::Backend + Send>, WedgeError> {
+pub(super) fn sequence_backend(
+    session: &Session,
+    common: &Common,
+    what: &str,
+) -> Result<Box<dyn crate::backends::Backend + Send>, WedgeError> {
     eprintln!(
         "{} on scene `{}`, {}x{}, {what}, seed {} (+ frame)",
         session.pipeline.path.display(),
@@ -203,7 +226,13 @@ pub(super) fn sequence_backend(session: &Session, common: &Common, what: &str) -
 /// full outputs ([`crate::outputs::SequenceWriter`]): the memory held is one frame's, however many
 /// frames the range has. A shard (`sharded`) writes its frames' files only: the preview and the
 /// last frame's outputs belong to the whole sequence, and shards may share --out.
-pub(super) fn render_frames(session: &mut Session, common: &Common, plan: &crate::shard::FramePlan, sharded: bool, aov: &[String]) -> Result<String, WedgeError> {
+pub(super) fn render_frames(
+    session: &mut Session,
+    common: &Common,
+    plan: &crate::shard::FramePlan,
+    sharded: bool,
+    aov: &[String],
+) -> Result<String, WedgeError> {
     let (first, last) = (plan.first, plan.frames.last().copied().unwrap_or(plan.first));
     let what = match (sharded, plan.frames.as_slice()) {
         (true, [a, .., b]) => format!("frames {a}..{b} of a shard of {first}.. ({} frames)", plan.frames.len()),
@@ -225,8 +254,17 @@ pub(super) fn render_frames(session: &mut Session, common: &Common, plan: &crate
     let bars = Bars::default();
     let pixels = u64::from(session.width) * u64::from(session.height);
     let runs = (plan.warm_up.len() + plan.frames.len()) as u64;
-    let progress = TaskProgress::new(&bars, common.progress_format(), if sharded { "shard" } else { "frames" }, runs.saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)));
-    let mut out = if sharded { crate::outputs::SequenceWriter::frames_only(&common.out)? } else { crate::outputs::SequenceWriter::new(&common.out)? };
+    let progress = TaskProgress::new(
+        &bars,
+        common.progress_format(),
+        if sharded { "shard" } else { "frames" },
+        runs.saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)),
+    );
+    let mut out = if sharded {
+        crate::outputs::SequenceWriter::frames_only(&common.out)?
+    } else {
+        crate::outputs::SequenceWriter::new(&common.out)?
+    };
     let (mut previous, mut seconds) = (None, 0.0f64);
     let (mut last_aovs, mut aov_line) = (Vec::new(), String::new());
     for frame in plan.runs() {
@@ -251,7 +289,10 @@ pub(super) fn render_frames(session: &mut Session, common: &Common, plan: &crate
             let aovs = aov_images(&session.scene, session, aov);
             session.scene.camera = base;
             let (maps, line) = aovs?;
-            let numbered: Vec<_> = maps.iter().map(|m| crate::outputs::ExtraExr { stem: format!("{}_{frame:04}", m.stem), ..m.clone() }).collect();
+            let numbered: Vec<_> = maps
+                .iter()
+                .map(|m| crate::outputs::ExtraExr { stem: format!("{}_{frame:04}", m.stem), ..m.clone() })
+                .collect();
             out.extra(&numbered)?;
             if frame == last {
                 (last_aovs, aov_line) = (maps, line);
@@ -262,9 +303,16 @@ pub(super) fn render_frames(session: &mut Session, common: &Common, plan: &crate
     let written = out.finish("render", &run, &last_aovs, session.width, session.height)?;
     let n = plan.frames.len() as u32;
     let mut text = summary(&run, session.width, session.height);
-    text.push_str(&format!("{n} frames in {seconds:.2} s of passes: {:.2} frames per second ({})\n", f64::from(n) / seconds.max(1e-9), backend.name()));
+    text.push_str(&format!(
+        "{n} frames in {seconds:.2} s of passes: {:.2} frames per second ({})\n",
+        f64::from(n) / seconds.max(1e-9),
+        backend.name()
+    ));
     if !plan.warm_up.is_empty() {
-        text.push_str(&format!("of which {} warm-up frame(s) before the shard's chunk (not written)\n", plan.warm_up.len()));
+        text.push_str(&format!(
+            "of which {} warm-up frame(s) before the shard's chunk (not written)\n",
+            plan.warm_up.len()
+        ));
     }
     text.push_str(&aov_line);
     text.push_str(&written.warnings());
@@ -278,7 +326,12 @@ pub(super) fn render_frames(session: &mut Session, common: &Common, plan: &crate
 /// history (`Session::run_progressive_frame`); after 1, 2, 4, 8, … frames and the last, one
 /// all-or-nothing set of files: `progressive_NNNN.exr/png` (NNNN = frames so far) and that frame's
 /// full outputs. Shows a bar over the frames and prints the time per frame and per pass class.
-pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32, aov: &[String]) -> Result<String, WedgeError> {
+pub(super) fn render_progressive(
+    session: &Session,
+    common: &Common,
+    frames: u32,
+    aov: &[String],
+) -> Result<String, WedgeError> {
     use crate::backends::KernelClass;
     if session.schedule.history.is_empty() {
         return Err(WedgeError::Usage(format!(
@@ -297,18 +350,26 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
             _ => None,
         }
     });
-    let filters = |frame: u32| schedule.is_some_and(|(first, ff)| crate::backends::kernels::pixel_filter::is_filter_frame(frame, first, ff));
+    let filters = |frame: u32| {
+        schedule.is_some_and(|(first, ff)| crate::backends::kernels::pixel_filter::is_filter_frame(frame, first, ff))
+    };
     let bar = indicatif::ProgressBar::new(u64::from(frames));
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        indicatif::ProgressStyle::with_template(
+            "{prefix:>12} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta} {msg}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
     );
     bar.set_prefix("progressive");
     let classes = [KernelClass::Sampling, KernelClass::Bandwidth, KernelClass::Filter, KernelClass::Compose];
     // Lines only: the bar over the frames is drawn here, not per pass.
     let pixels = u64::from(session.width) * u64::from(session.height);
-    let progress = TaskProgress::lines_only(common.progress_format(), "progressive", u64::from(frames).saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)));
+    let progress = TaskProgress::lines_only(
+        common.progress_format(),
+        "progressive",
+        u64::from(frames).saturating_mul(TaskProgress::work(session.schedule.passes.len(), pixels)),
+    );
     // One closure, so that the bar is cleared before an error returns.
     let looped = (|| -> Result<_, WedgeError> {
         let mut previous: Option<crate::backends::RunResult> = None;
@@ -334,13 +395,27 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
                 if let Some(color) = run.output("color") {
                     let image = crate::outputs::buffer_to_image(color, session.width, session.height);
                     let name = format!("progressive_{n:04}");
-                    let written = crate::outputs::write_snapshot(&common.out, "render", &run, (&name, &image), &extra, session.width, session.height)?;
+                    let written = crate::outputs::write_snapshot(
+                        &common.out,
+                        "render",
+                        &run,
+                        (&name, &image),
+                        &extra,
+                        session.width,
+                        session.height,
+                    )?;
                     if n == frames {
                         // The last set in full, after the earlier snapshots' own images.
                         files.extend(written.files.iter().cloned());
                         warnings = written.warnings();
                     } else {
-                        files.extend(written.files.iter().filter(|f| f.file_name().is_some_and(|s| s.to_string_lossy().starts_with(&name))).cloned());
+                        files.extend(
+                            written
+                                .files
+                                .iter()
+                                .filter(|f| f.file_name().is_some_and(|s| s.to_string_lossy().starts_with(&name)))
+                                .cloned(),
+                        );
                     }
                 }
             }
@@ -364,7 +439,11 @@ pub(super) fn render_progressive(session: &Session, common: &Common, frames: u32
         n / total.max(1e-9)
     ));
     let names = ["sampling", "bandwidth", "filter", "compose"];
-    let parts: Vec<String> = names.iter().zip(per_class).map(|(name, s)| format!("{name} {:.2} ms ({:.1}%)", s / n * 1e3, 100.0 * s / total.max(1e-12))).collect();
+    let parts: Vec<String> = names
+        .iter()
+        .zip(per_class)
+        .map(|(name, s)| format!("{name} {:.2} ms ({:.1}%)", s / n * 1e3, 100.0 * s / total.max(1e-12)))
+        .collect();
     text.push_str(&format!("per frame by pass class: {}\n", parts.join(", ")));
     if schedule.is_some() {
         text.push_str(&format!(
@@ -392,7 +471,11 @@ pub(super) fn run_wgpu(
     let mut note = format!(
         "backend wgpu on {}; pass times are {}\n",
         gpu.adapter_description(),
-        if gpu.has_timestamps() { "device timestamps (timestamp queries)" } else { "wall clock (no timestamp queries)" }
+        if gpu.has_timestamps() {
+            "device timestamps (timestamp queries)"
+        } else {
+            "wall clock (no timestamp queries)"
+        }
     );
     let split: Vec<String> = gpu.last_bands.iter().filter(|(_, n)| *n > 1).map(|(p, n)| format!("{p} ×{n}")).collect();
     if !split.is_empty() {

@@ -60,10 +60,7 @@ fn blend(m: &mut BufferData, x: &BufferData, weight: f32) {
         }
     }
     match (m, x) {
-        (BufferData::F32(m), BufferData::F32(x)) => m
-            .iter_mut()
-            .zip(x)
-            .for_each(|(a, b)| *a += (b - *a) * weight),
+        (BufferData::F32(m), BufferData::F32(x)) => m.iter_mut().zip(x).for_each(|(a, b)| *a += (b - *a) * weight),
         (BufferData::Vec2(m), BufferData::Vec2(x)) => mix(m, x, weight),
         (BufferData::Vec3(m), BufferData::Vec3(x)) => mix(m, x, weight),
         (BufferData::Vec4(m), BufferData::Vec4(x)) => mix(m, x, weight),
@@ -77,11 +74,7 @@ mod tests {
 
     fn run(v: f32) -> RunResult {
         RunResult {
-            outputs: [(
-                ("out".into(), "color".into()),
-                BufferData::Vec3(vec![[v, 2.0 * v, 0.1]; 4]),
-            )]
-            .into(),
+            outputs: [(("out".into(), "color".into()), BufferData::Vec3(vec![[v, 2.0 * v, 0.1]; 4]))].into(),
             sinks: Default::default(),
             timings: Vec::new(),
             rays: Default::default(),
@@ -94,21 +87,11 @@ mod tests {
     fn one_frame_is_itself_and_more_frames_average() {
         let mut acc = Accumulator::default();
         acc.add(run(0.3));
-        assert_eq!(
-            acc.mean().and_then(|m| m.output("color")),
-            run(0.3).output("color")
-        );
+        assert_eq!(acc.mean().and_then(|m| m.output("color")), run(0.3).output("color"));
         acc.add(run(0.5));
         acc.add(run(0.7));
-        let BufferData::Vec3(px) = acc.mean().and_then(|m| m.output("color")).expect("color")
-        else {
-            panic!("vec3")
-        };
-        assert!(
-            (px[0][0] - 0.5).abs() < 1e-6 && (px[0][1] - 1.0).abs() < 1e-6,
-            "{:?}",
-            px[0]
-        );
+        let BufferData::Vec3(px) = acc.mean().and_then(|m| m.output("color")).expect("color") else { panic!("vec3") };
+        assert!((px[0][0] - 0.5).abs() < 1e-6 && (px[0][1] - 1.0).abs() < 1e-6, "{:?}", px[0]);
         assert_eq!(acc.frames(), 3);
         acc.reset();
         assert!(acc.mean().is_none());

@@ -21,19 +21,13 @@ pub fn orbit(cam: &Camera, yaw: f32, pitch: f32) -> Camera {
         Some(axis) => Quat::from_axis_angle(axis, angle_to_up - target) * yawed,
         None => yawed,
     };
-    Camera {
-        position: cam.look_at + moved,
-        ..*cam
-    }
+    Camera { position: cam.look_at + moved, ..*cam }
 }
 
 /// `cam` moved `fraction` of the way to its look-at point (negative: away); `fraction < 1`.
 pub fn dolly(cam: &Camera, fraction: f32) -> Camera {
     let offset = (cam.position - cam.look_at) * (1.0 - fraction);
-    Camera {
-        position: cam.look_at + offset,
-        ..*cam
-    }
+    Camera { position: cam.look_at + offset, ..*cam }
 }
 
 #[cfg(test)]
@@ -49,12 +43,7 @@ mod tests {
         assert!(o.position.distance(cam.position) > 0.1);
         let back = orbit(&o, 0.0, -0.3);
         let back = orbit(&back, -0.7, 0.0);
-        assert!(
-            back.position.distance(cam.position) < 1e-3,
-            "{:?} vs {:?}",
-            back.position,
-            cam.position
-        );
+        assert!(back.position.distance(cam.position) < 1e-3, "{:?} vs {:?}", back.position, cam.position);
         let near = dolly(&cam, 0.5);
         assert!(((near.position - near.look_at).length() - d / 2.0).abs() < 1e-4);
     }

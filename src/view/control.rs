@@ -24,12 +24,7 @@ pub struct Display {
 
 impl Default for Display {
     fn default() -> Self {
-        Display {
-            output: "color".into(),
-            compare: None,
-            split: 0.5,
-            exposure: 1.0,
-        }
+        Display { output: "color".into(), compare: None, split: 0.5, exposure: 1.0 }
     }
 }
 
@@ -40,10 +35,7 @@ impl Display {
         let run = model.mean()?;
         let (w, h) = (model.session.width, model.session.height);
         let a = outputs::picture(run, &self.output, w, h, self.exposure)?;
-        let b = self
-            .compare
-            .as_deref()
-            .and_then(|b| outputs::picture(run, b, w, h, self.exposure));
+        let b = self.compare.as_deref().and_then(|b| outputs::picture(run, b, w, h, self.exposure));
         Some(match b {
             Some(b) if (b.width, b.height) == (a.width, a.height) => split(&a, &b, self.split),
             _ => a,
@@ -91,11 +83,7 @@ pub fn step_actions(step: &Step) -> Vec<Action> {
     v.extend(step.mu.map(Action::Mu));
     v.extend(step.orbit.map(|(yaw, pitch)| Action::Orbit(yaw, pitch)));
     v.extend(step.dolly.map(Action::Dolly));
-    v.extend(
-        step.reset_camera
-            .filter(|r| *r)
-            .map(|_| Action::ResetCamera),
-    );
+    v.extend(step.reset_camera.filter(|r| *r).map(|_| Action::ResetCamera));
     v.extend(step.output.clone().map(Action::Output));
     v.extend(step.compare.clone().map(|c| Action::Compare(Some(c))));
     v.extend(step.split.map(Action::Split));
@@ -104,11 +92,7 @@ pub fn step_actions(step: &Step) -> Vec<Action> {
 }
 
 /// Apply `action`; `Ok(Some(line))` is a message for the status line (e.g. the files written).
-pub fn apply(
-    model: &mut Model,
-    display: &mut Display,
-    action: Action,
-) -> Result<Option<String>, WedgeError> {
+pub fn apply(model: &mut Model, display: &mut Display, action: Action) -> Result<Option<String>, WedgeError> {
     match action {
         Action::Set(node, param, value) => model.set_param(&node, &param, value)?,
         Action::Mu(mu) => model.set_mu(mu)?,
@@ -117,9 +101,7 @@ pub fn apply(
         Action::Lens(lens) => model.set_lens(lens)?,
         Action::ResetCamera => model.set_camera(None)?,
         Action::Output(name) => display.output = known_output(model, name)?,
-        Action::Compare(name) => {
-            display.compare = name.map(|n| known_output(model, n)).transpose()?
-        }
+        Action::Compare(name) => display.compare = name.map(|n| known_output(model, n)).transpose()?,
         Action::Split(at) => display.split = at.clamp(0.0, 1.0),
         Action::Exposure(e) => display.exposure = e,
         Action::Pause(p) => model.paused = p,
@@ -142,24 +124,13 @@ fn known_output(model: &Model, name: String) -> Result<String, WedgeError> {
     )))
 }
 
-fn screenshot(
-    model: &Model,
-    display: &Display,
-    dir: &std::path::Path,
-) -> Result<String, WedgeError> {
-    let picture = display.picture(model).ok_or_else(|| {
-        WedgeError::Usage(format!(
-            "screenshot into {}: nothing is shown yet",
-            dir.display()
-        ))
-    })?;
+fn screenshot(model: &Model, display: &Display, dir: &std::path::Path) -> Result<String, WedgeError> {
+    let picture = display
+        .picture(model)
+        .ok_or_else(|| WedgeError::Usage(format!("screenshot into {}: nothing is shown yet", dir.display())))?;
     let written = model.screenshot(dir, &picture)?;
-    let files: Vec<String> = written
-        .files
-        .iter()
-        .filter_map(|f| f.file_name())
-        .map(|f| f.to_string_lossy().into_owned())
-        .collect();
+    let files: Vec<String> =
+        written.files.iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
     Ok(format!(
         "screenshot after {} frame(s): wrote {} into {}\n{}",
         model.frames(),
@@ -175,16 +146,8 @@ mod tests {
 
     #[test]
     fn split_takes_a_left_of_the_cut() {
-        let a = Picture {
-            width: 4,
-            height: 2,
-            rgb: vec![10; 24],
-        };
-        let b = Picture {
-            width: 4,
-            height: 2,
-            rgb: vec![200; 24],
-        };
+        let a = Picture { width: 4, height: 2, rgb: vec![10; 24] };
+        let b = Picture { width: 4, height: 2, rgb: vec![200; 24] };
         let s = split(&a, &b, 0.5);
         assert_eq!(&s.rgb[..6], &[10; 6]);
         assert_eq!(&s.rgb[6..12], &[200; 6]);

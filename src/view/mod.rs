@@ -50,11 +50,7 @@ pub struct ViewOptions {
 /// Open the window and run until it is closed (or the script is done). Returns what to print.
 pub fn run(opts: ViewOptions) -> Result<String, WedgeError> {
     // A bad script is refused before a window opens.
-    let script = opts
-        .script
-        .as_deref()
-        .map(script::Script::load)
-        .transpose()?;
+    let script = opts.script.as_deref().map(script::Script::load).transpose()?;
     let model = model::Model::open(&opts)?;
     window::run(model, opts.out.clone(), script)
 }

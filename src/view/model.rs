@@ -84,22 +84,14 @@ impl Model {
     pub fn open(opts: &ViewOptions) -> Result<Model, WedgeError> {
         let session = Session::open_with(&opts.registries, opts.pipeline.as_deref(), &opts.overrides)?;
         if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
-            let mode = if opts.backend == "wgpu" {
-                crate::session::RunMode::Gpu
-            } else {
-                crate::session::RunMode::Cpu
-            };
+            let mode = if opts.backend == "wgpu" { crate::session::RunMode::Gpu } else { crate::session::RunMode::Cpu };
             session.memory_estimate(mode).check(limit, &source)?;
         }
         let backend: Box<dyn Backend + Send> = match opts.backend.as_str() {
             "wgpu" => Box::new(crate::session::open_gpu(opts.gpu_limits.as_deref())?),
             _ => Box::new(wedge_backends::cpu::CpuBackend::new()),
         };
-        let watch = Watch::new(watched_files(
-            opts.pipeline.as_ref(),
-            &session,
-            &opts.overrides,
-        ));
+        let watch = Watch::new(watched_files(opts.pipeline.as_ref(), &session, &opts.overrides));
         Ok(Model {
             pipeline: opts.pipeline.clone(),
             overrides: opts.overrides.clone(),
@@ -142,11 +134,7 @@ impl Model {
     /// The camera frames are rendered with.
     pub fn camera(&self) -> Camera {
         let cam = self.base_camera;
-        self.view.map_or(cam, |(position, look_at)| Camera {
-            position,
-            look_at,
-            ..cam
-        })
+        self.view.map_or(cam, |(position, look_at)| Camera { position, look_at, ..cam })
     }
 
     /// Whether the pipeline has a camera block (whose lens and shutter the window can change).
@@ -183,8 +171,7 @@ impl Model {
             };
             session.scene.camera = camera;
         }
-        self.renderer
-            .start(self.session.clone(), self.acc.frames(), self.generation)
+        self.renderer.start(self.session.clone(), self.acc.frames(), self.generation)
     }
 
     /// Take the finished frame, if any, into the mean: `Some(Ok(true))` when one was added,
@@ -205,10 +192,7 @@ impl Model {
         started?;
         match self.renderer.wait() {
             Some(done) => self.finish(done).map(|_| ()),
-            None => Err(WedgeError::Usage(format!(
-                "no frame was started: {} frames are averaged already",
-                MAX_FRAMES
-            ))),
+            None => Err(WedgeError::Usage(format!("no frame was started: {} frames are averaged already", MAX_FRAMES))),
         }
     }
 
@@ -218,9 +202,7 @@ impl Model {
         }
         let end = Instant::now();
         self.last_frame_seconds = done.seconds;
-        self.frame_interval = self
-            .last_frame_end
-            .map_or(done.seconds, |t| (end - t).as_secs_f64());
+        self.frame_interval = self.last_frame_end.map_or(done.seconds, |t| (end - t).as_secs_f64());
         self.last_frame_end = Some(end);
         let run = done.run?;
         self.outputs = super::outputs::names(&run);
@@ -236,12 +218,7 @@ impl Model {
     }
 
     /// Set `node.param` (as `--set`) and rebuild; on a refusal the old value stays and the error is returned.
-    pub fn set_param(
-        &mut self,
-        node: &str,
-        param: &str,
-        value: ParamValue,
-    ) -> Result<(), WedgeError> {
+    pub fn set_param(&mut self, node: &str, param: &str, value: ParamValue) -> Result<(), WedgeError> {
         let mut ov = self.overrides.clone();
         ov.params.retain(|(n, p, _)| !(n == node && p == param));
         ov.params.push((node.to_string(), param.to_string(), value));
@@ -250,10 +227,7 @@ impl Model {
 
     /// Set `--mu` and rebuild.
     pub fn set_mu(&mut self, mu: f64) -> Result<(), WedgeError> {
-        let ov = Overrides {
-            mu: Some(mu),
-            ..self.overrides.clone()
-        };
+        let ov = Overrides { mu: Some(mu), ..self.overrides.clone() };
         self.rebuild_with(ov)
     }
 
@@ -315,11 +289,7 @@ impl Model {
     }
 
     fn replace(&mut self, session: Session) {
-        self.watch = Watch::new(watched_files(
-            self.pipeline.as_ref(),
-            &session,
-            &self.overrides,
-        ));
+        self.watch = Watch::new(watched_files(self.pipeline.as_ref(), &session, &self.overrides));
         self.base_camera = session.scene.camera;
         self.session = Arc::new(session);
         self.restart();
@@ -335,23 +305,11 @@ impl Model {
         picture: &super::outputs::Picture,
     ) -> Result<WrittenRun, WedgeError> {
         crate::staging::check_output_dir(dir)?;
-        let run = self.mean().ok_or_else(|| {
-            WedgeError::Usage("no frame has been rendered yet to take a screenshot of".into())
-        })?;
-        let shown = Picture {
-            name: "view",
-            width: picture.width,
-            height: picture.height,
-            rgb: &picture.rgb,
-        };
-        Ok(write_run_with_picture(
-            dir,
-            "render",
-            run,
-            &shown,
-            self.session.width,
-            self.session.height,
-        )?)
+        let run = self
+            .mean()
+            .ok_or_else(|| WedgeError::Usage("no frame has been rendered yet to take a screenshot of".into()))?;
+        let shown = Picture { name: "view", width: picture.width, height: picture.height, rgb: &picture.rgb };
+        Ok(write_run_with_picture(dir, "render", run, &shown, self.session.width, self.session.height)?)
     }
 }
 

@@ -38,40 +38,20 @@ const SLIDER_SPAN: f64 = 1e6;
 /// The widget for `decl`.
 pub fn widget_for(decl: &ParamDecl) -> Widget {
     match decl.kind {
-        ParamKind::Float {
-            min,
-            max,
-            min_exclusive,
-            ..
-        } => {
+        ParamKind::Float { min, max, min_exclusive, .. } => {
             // An exclusive 0 (`mu > 0`) starts a logarithmic slider just above it.
-            let lo = if min_exclusive {
-                next_up(min, max)
-            } else {
-                min
-            };
+            let lo = if min_exclusive { next_up(min, max) } else { min };
             let slider = lo.is_finite() && max.is_finite() && max - lo <= SLIDER_SPAN;
             let log = slider && lo > 0.0 && max / lo >= 100.0;
-            Widget::Float {
-                lo,
-                hi: max,
-                log,
-                slider,
-            }
+            Widget::Float { lo, hi: max, log, slider }
         }
-        ParamKind::Int { min, max, .. } => Widget::Int {
-            lo: min,
-            hi: max,
-            slider: (max - min) as f64 <= 4096.0,
-        },
+        ParamKind::Int { min, max, .. } => Widget::Int { lo: min, hi: max, slider: (max - min) as f64 <= 4096.0 },
         ParamKind::Bool { .. } => Widget::Check,
         ParamKind::Choice { options, .. } => Widget::Combo(options),
         ParamKind::Path { .. } => Widget::None,
-        ParamKind::Vec3 { min, max, colour, .. } => Widget::Vec3 {
-            lo: min,
-            hi: max,
-            picker: colour && min >= 0.0 && max <= 1.0,
-        },
+        ParamKind::Vec3 { min, max, colour, .. } => {
+            Widget::Vec3 { lo: min, hi: max, picker: colour && min >= 0.0 && max <= 1.0 }
+        }
     }
 }
 
@@ -118,34 +98,16 @@ pub(super) fn commit<T: Clone + Send + Sync + 'static>(
 }
 
 /// One parameter's widget; `Some(new value)` when the user committed a change.
-pub fn param_ui(
-    ui: &mut egui::Ui,
-    id: &str,
-    decl: &ParamDecl,
-    value: Option<&ParamValue>,
-) -> Option<ParamValue> {
+pub fn param_ui(ui: &mut egui::Ui, id: &str, decl: &ParamDecl, value: Option<&ParamValue>) -> Option<ParamValue> {
     let now = value.cloned().unwrap_or_else(|| decl.default_value());
     let changed = match (widget_for(decl), now) {
-        (
-            Widget::Float {
-                lo,
-                hi,
-                log,
-                slider,
-            },
-            v,
-        ) => {
+        (Widget::Float { lo, hi, log, slider }, v) => {
             let mut x = shown(ui, id, v.as_f64().unwrap_or(lo));
             let r = if slider {
-                ui.add(
-                    egui::Slider::new(&mut x, lo..=hi)
-                        .logarithmic(log)
-                        .text(decl.name),
-                )
+                ui.add(egui::Slider::new(&mut x, lo..=hi).logarithmic(log).text(decl.name))
             } else {
                 ui.horizontal(|ui| {
-                    ui.add(egui::DragValue::new(&mut x).range(lo..=hi).speed(0.01))
-                        | ui.label(decl.name)
+                    ui.add(egui::DragValue::new(&mut x).range(lo..=hi).speed(0.01)) | ui.label(decl.name)
                 })
                 .inner
             };
@@ -156,26 +118,20 @@ pub fn param_ui(
             let r = if slider {
                 ui.add(egui::Slider::new(&mut i, lo..=hi).text(decl.name))
             } else {
-                ui.horizontal(|ui| {
-                    ui.add(egui::DragValue::new(&mut i).range(lo..=hi)) | ui.label(decl.name)
-                })
-                .inner
+                ui.horizontal(|ui| ui.add(egui::DragValue::new(&mut i).range(lo..=hi)) | ui.label(decl.name)).inner
             };
             commit(ui, id, &r, i).map(ParamValue::Int)
         }
-        (Widget::Check, ParamValue::Bool(mut b)) => ui
-            .checkbox(&mut b, decl.name)
-            .changed()
-            .then_some(ParamValue::Bool(b)),
+        (Widget::Check, ParamValue::Bool(mut b)) => {
+            ui.checkbox(&mut b, decl.name).changed().then_some(ParamValue::Bool(b))
+        }
         (Widget::Combo(options), ParamValue::Str(s)) => {
             let mut chosen = s.clone();
-            egui::ComboBox::from_id_salt(id)
-                .selected_text(format!("{}: {s}", decl.name))
-                .show_ui(ui, |ui| {
-                    for o in options {
-                        ui.selectable_value(&mut chosen, o.to_string(), *o);
-                    }
-                });
+            egui::ComboBox::from_id_salt(id).selected_text(format!("{}: {s}", decl.name)).show_ui(ui, |ui| {
+                for o in options {
+                    ui.selectable_value(&mut chosen, o.to_string(), *o);
+                }
+            });
             (chosen != s).then_some(ParamValue::Str(chosen))
         }
         (Widget::Vec3 { lo, hi, picker }, ParamValue::Vec3(v)) => vec3_ui(ui, id, decl.name, v, (lo, hi), picker),
@@ -188,7 +144,14 @@ pub fn param_ui(
 }
 
 /// A colour picker (linear RGB, a value within [0, 1]) or three drag values in `lo..=hi`.
-fn vec3_ui(ui: &mut egui::Ui, id: &str, name: &str, v: [f64; 3], (lo, hi): (f64, f64), picker: bool) -> Option<ParamValue> {
+fn vec3_ui(
+    ui: &mut egui::Ui,
+    id: &str,
+    name: &str,
+    v: [f64; 3],
+    (lo, hi): (f64, f64),
+    picker: bool,
+) -> Option<ParamValue> {
     let mut x = shown(ui, id, v);
     let r = ui
         .horizontal(|ui| {
@@ -216,18 +179,13 @@ pub fn pipeline_ui(
 ) -> Option<(String, String, ParamValue)> {
     let mut change = None;
     for node in &pipeline.nodes {
-        let decls: Vec<ParamDecl> = node
-            .kind
-            .params()
-            .into_iter()
-            .filter(|d| widget_for(d) != Widget::None)
-            .collect();
+        let decls: Vec<ParamDecl> = node.kind.params().into_iter().filter(|d| widget_for(d) != Widget::None).collect();
         if decls.is_empty() {
             continue;
         }
-        egui::CollapsingHeader::new(format!("{} ({})", node.name, node.kind.kind()))
-            .default_open(true)
-            .show(ui, |ui| {
+        egui::CollapsingHeader::new(format!("{} ({})", node.name, node.kind.kind())).default_open(true).show(
+            ui,
+            |ui| {
                 for d in &decls {
                     let id = format!("{}.{}", node.name, d.name);
                     let r = param_ui(ui, &id, d, node.params.get(d.name));
@@ -235,7 +193,8 @@ pub fn pipeline_ui(
                         change = Some((node.name.clone(), d.name.to_string(), v));
                     }
                 }
-            });
+            },
+        );
     }
     change
 }
@@ -283,18 +242,7 @@ mod tests {
     #[test]
     fn mu_gets_a_logarithmic_slider_above_zero() {
         let d = ParamDecl::positive("mu", 2.0, 100.0, "bandwidth scale");
-        let Widget::Float {
-            lo,
-            hi,
-            log,
-            slider,
-        } = widget_for(&d)
-        else {
-            panic!("float")
-        };
-        assert!(
-            lo > 0.0 && hi == 100.0 && log && slider,
-            "{lo} {hi} {log} {slider}"
-        );
+        let Widget::Float { lo, hi, log, slider } = widget_for(&d) else { panic!("float") };
+        assert!(lo > 0.0 && hi == 100.0 && log && slider, "{lo} {hi} {log} {slider}");
     }
 }

@@ -50,17 +50,8 @@ impl Renderer {
         let thread = std::thread::Builder::new()
             .name("wedge view render".into())
             .spawn(move || serve(backend, job_rx, done_tx))
-            .map_err(|e| {
-                WedgeError::Usage(format!("wedge view: cannot start the render thread: {e}"))
-            })?;
-        Ok(Renderer {
-            jobs: Some(jobs),
-            done,
-            thread: Some(thread),
-            name,
-            in_flight: false,
-            ready: None,
-        })
+            .map_err(|e| WedgeError::Usage(format!("wedge view: cannot start the render thread: {e}")))?;
+        Ok(Renderer { jobs: Some(jobs), done, thread: Some(thread), name, in_flight: false, ready: None })
     }
 
     pub fn name(&self) -> &'static str {
@@ -73,20 +64,8 @@ impl Renderer {
     }
 
     /// Render frame `frame` of `session`; the caller checks [`Renderer::in_flight`] first.
-    pub fn start(
-        &mut self,
-        session: Arc<Session>,
-        frame: u32,
-        generation: u64,
-    ) -> Result<(), WedgeError> {
-        let sent = self.jobs.as_ref().is_some_and(|j| {
-            j.send(Job {
-                session,
-                frame,
-                generation,
-            })
-            .is_ok()
-        });
+    pub fn start(&mut self, session: Arc<Session>, frame: u32, generation: u64) -> Result<(), WedgeError> {
+        let sent = self.jobs.as_ref().is_some_and(|j| j.send(Job { session, frame, generation }).is_ok());
         if !sent {
             return Err(stopped());
         }
@@ -141,16 +120,10 @@ impl Drop for Renderer {
 fn serve(mut backend: Box<dyn Backend + Send>, jobs: Receiver<Job>, done: Sender<Done>) {
     while let Ok(job) = jobs.recv() {
         let start = Instant::now();
-        let run = job
-            .session
-            .run_progressive_frame(backend.as_mut(), &Silent, job.frame, None);
+        let run = job.session.run_progressive_frame(backend.as_mut(), &Silent, job.frame, None);
         // Let go of the session before reporting, so the model may change it (its camera) at once.
         drop(job.session);
-        let finished = Done {
-            generation: job.generation,
-            run,
-            seconds: start.elapsed().as_secs_f64(),
-        };
+        let finished = Done { generation: job.generation, run, seconds: start.elapsed().as_secs_f64() };
         if done.send(finished).is_err() {
             return;
         }
@@ -158,16 +131,10 @@ fn serve(mut backend: Box<dyn Backend + Send>, jobs: Receiver<Job>, done: Sender
 }
 
 fn stopped() -> WedgeError {
-    WedgeError::Usage(
-        "wedge view: the render thread has stopped (it panicked; see the message above)".into(),
-    )
+    WedgeError::Usage("wedge view: the render thread has stopped (it panicked; see the message above)".into())
 }
 
 /// What a frame reports when the render thread is gone.
 fn lost() -> Done {
-    Done {
-        generation: LOST,
-        run: Err(stopped()),
-        seconds: 0.0,
-    }
+    Done { generation: LOST, run: Err(stopped()), seconds: 0.0 }
 }

@@ -67,19 +67,7 @@ pub struct Step {
 impl Step {
     /// Whether the step does anything (an empty step is almost certainly a mistake).
     fn has_action(&self) -> bool {
-        let Step {
-            order: _,
-            frame: _,
-            set,
-            mu,
-            orbit,
-            dolly,
-            reset_camera,
-            output,
-            compare,
-            split,
-            screenshot,
-        } = self;
+        let Step { order: _, frame: _, set, mu, orbit, dolly, reset_camera, output, compare, split, screenshot } = self;
         set.is_some()
             || mu.is_some()
             || orbit.is_some()
@@ -105,9 +93,7 @@ const MAX_SCRIPT_BYTES: u64 = 1 << 20;
 impl Script {
     /// Read and check `path`.
     pub fn load(path: &Path) -> Result<Script, WedgeError> {
-        let io = |e: std::io::Error| {
-            WedgeError::Usage(format!("{}: cannot read the script: {e}", path.display()))
-        };
+        let io = |e: std::io::Error| WedgeError::Usage(format!("{}: cannot read the script: {e}", path.display()));
         let len = std::fs::metadata(path).map_err(io)?.len();
         if len > MAX_SCRIPT_BYTES {
             return Err(WedgeError::Usage(format!(
@@ -121,8 +107,7 @@ impl Script {
     /// Parse `text` (named `path` in messages).
     pub fn parse(path: &Path, text: &str) -> Result<Script, WedgeError> {
         // Implicit `Some`: a step writes `output: "color"`, not `output: Some("color")`.
-        let options = ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let options = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let mut steps: Vec<Step> = options.from_str(text).map_err(|e| {
             WedgeError::Usage(format!(
                 "{}:{}:{}: {}\n  help: a script is a list of steps such as [(frame: 2, set: (\"shadows.mu\", 4.0)), \
@@ -139,10 +124,7 @@ impl Script {
             check_step(path, i, step)?;
         }
         steps.sort_by_key(|s| s.frame);
-        Ok(Script {
-            path: path.to_path_buf(),
-            steps,
-        })
+        Ok(Script { path: path.to_path_buf(), steps })
     }
 
     /// The frame after which the script is done (the window closes then).
@@ -159,42 +141,31 @@ impl Script {
 /// Checks that need more than the RON schema: a step that does something, values in range.
 fn check_step(path: &Path, index: usize, step: &Step) -> Result<(), WedgeError> {
     let blame = |what: String| {
-        WedgeError::Usage(format!(
-            "{}: step {} (frame {}): {what}",
-            path.display(),
-            index + 1,
-            step.frame
-        ))
+        WedgeError::Usage(format!("{}: step {} (frame {}): {what}", path.display(), index + 1, step.frame))
     };
     if !step.has_action() {
-        return Err(blame("the step does nothing; give it an action such as output: \"unfiltered\" or screenshot: \"out/view\"".into()));
+        return Err(blame(
+            "the step does nothing; give it an action such as output: \"unfiltered\" or screenshot: \"out/view\""
+                .into(),
+        ));
     }
     if let Some(split) = step.split.filter(|s| !(0.0..=1.0).contains(s)) {
-        return Err(blame(format!(
-            "split {split} is outside 0..1 (0 = all B, 1 = all A)"
-        )));
+        return Err(blame(format!("split {split} is outside 0..1 (0 = all B, 1 = all A)")));
     }
     if let Some(mu) = step.mu.filter(|m| !(m.is_finite() && *m > 0.0)) {
-        return Err(blame(format!(
-            "mu {mu} must be a finite number > 0, as for --mu"
-        )));
+        return Err(blame(format!("mu {mu} must be a finite number > 0, as for --mu")));
     }
-    if let Some((name, _)) = step.set.as_ref().filter(|(n, _)| {
-        n.split_once('.')
-            .is_none_or(|(a, b)| a.is_empty() || b.is_empty())
-    }) {
-        return Err(blame(format!(
-            "set names `{name}`; write \"NODE.PARAM\", e.g. (\"shadows.mu\", 4.0)"
-        )));
+    if let Some((name, _)) =
+        step.set.as_ref().filter(|(n, _)| n.split_once('.').is_none_or(|(a, b)| a.is_empty() || b.is_empty()))
+    {
+        return Err(blame(format!("set names `{name}`; write \"NODE.PARAM\", e.g. (\"shadows.mu\", 4.0)")));
     }
     let finite = |v: Option<f32>| v.is_none_or(f32::is_finite);
     if !finite(step.orbit.map(|o| o.0)) || !finite(step.orbit.map(|o| o.1)) || !finite(step.dolly) {
         return Err(blame("orbit and dolly take finite numbers".into()));
     }
     if step.dolly.is_some_and(|d| d >= 1.0) {
-        return Err(blame(
-            "dolly must be < 1 (1 would put the camera on its look-at point)".into(),
-        ));
+        return Err(blame("dolly must be < 1 (1 would put the camera on its look-at point)".into()));
     }
     Ok(())
 }
@@ -211,14 +182,8 @@ mod tests {
     fn parses_steps_and_sorts_them_by_frame() {
         let s = parse(r#"[(frame: 3, screenshot: "out/a"), (frame: 1, set: ("shadows.mu", 2.0)), (frame: 1, output: "unfiltered")]"#)
             .expect("valid");
-        assert_eq!(
-            s.steps.iter().map(|s| s.frame).collect::<Vec<_>>(),
-            [1, 1, 3]
-        );
-        assert_eq!(
-            s.steps[0].set,
-            Some(("shadows.mu".into(), RawParam::Float(2.0)))
-        );
+        assert_eq!(s.steps.iter().map(|s| s.frame).collect::<Vec<_>>(), [1, 1, 3]);
+        assert_eq!(s.steps[0].set, Some(("shadows.mu".into(), RawParam::Float(2.0))));
         assert_eq!(s.steps[1].output.as_deref(), Some("unfiltered"));
         assert_eq!(s.last_frame(), 3);
         assert_eq!(s.at(1).count(), 2);

@@ -30,42 +30,25 @@ pub struct Panels {
 
 impl Panels {
     pub fn new(out: PathBuf) -> Panels {
-        Panels {
-            texture: None,
-            uploaded: None,
-            status: String::new(),
-            out,
-        }
+        Panels { texture: None, uploaded: None, status: String::new(), out }
     }
 
     /// Draw everything; the user's edits of this frame.
     pub fn show(&mut self, ui: &mut egui::Ui, model: &Model, display: &Display) -> Vec<Action> {
         let mut actions = Vec::new();
         keys(ui, model, &self.out, &mut actions);
-        egui::Panel::left("controls")
-            .resizable(true)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical()
-                    .show(ui, |ui| self.controls(ui, model, display, &mut actions));
-            });
+        egui::Panel::left("controls").resizable(true).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui, model, display, &mut actions));
+        });
         // Resizable and scrolled: long diagnostics must not squeeze the image away.
-        egui::Panel::bottom("status")
-            .resizable(true)
-            .default_size(120.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.status_bar(ui, model));
-            });
+        egui::Panel::bottom("status").resizable(true).default_size(120.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.status_bar(ui, model));
+        });
         egui::CentralPanel::default().show(ui, |ui| self.image(ui, model, display, &mut actions));
         actions
     }
 
-    fn controls(
-        &mut self,
-        ui: &mut egui::Ui,
-        model: &Model,
-        display: &Display,
-        actions: &mut Vec<Action>,
-    ) {
+    fn controls(&mut self, ui: &mut egui::Ui, model: &Model, display: &Display, actions: &mut Vec<Action>) {
         let names = model.output_names();
         ui.heading("Output");
         if let Some(a) = pick(ui, "output A", Some(&display.output), names, false) {
@@ -76,22 +59,12 @@ impl Panels {
         }
         if display.compare.is_some() {
             let mut at = display.split;
-            if ui
-                .add(egui::Slider::new(&mut at, 0.0..=1.0).text("split"))
-                .changed()
-            {
+            if ui.add(egui::Slider::new(&mut at, 0.0..=1.0).text("split")).changed() {
                 actions.push(Action::Split(at));
             }
         }
         let mut exposure = display.exposure;
-        if ui
-            .add(
-                egui::Slider::new(&mut exposure, 0.01..=100.0)
-                    .logarithmic(true)
-                    .text("exposure"),
-            )
-            .changed()
-        {
+        if ui.add(egui::Slider::new(&mut exposure, 0.01..=100.0).logarithmic(true).text("exposure")).changed() {
             actions.push(Action::Exposure(exposure));
         }
         ui.separator();
@@ -107,33 +80,15 @@ impl Panels {
     /// `--mu`, pause and the screenshot button.
     fn global(&mut self, ui: &mut egui::Ui, model: &Model, actions: &mut Vec<Action>) {
         // `--mu`, else the first node's own `mu` (what the nodes run with until the slider moves).
-        let first = || {
-            model
-                .session
-                .pipeline
-                .nodes
-                .iter()
-                .find_map(|n| n.params.get("mu")?.as_f64())
-        };
-        let mut mu = params::shown(
-            ui,
-            "global mu",
-            model.overrides.mu.or_else(first).unwrap_or(1.0),
-        );
-        let r = ui.add(
-            egui::Slider::new(&mut mu, 0.05..=50.0)
-                .logarithmic(true)
-                .text("mu (all nodes)"),
-        );
+        let first = || model.session.pipeline.nodes.iter().find_map(|n| n.params.get("mu")?.as_f64());
+        let mut mu = params::shown(ui, "global mu", model.overrides.mu.or_else(first).unwrap_or(1.0));
+        let r = ui.add(egui::Slider::new(&mut mu, 0.05..=50.0).logarithmic(true).text("mu (all nodes)"));
         actions.extend(params::commit(ui, "global mu", &r, mu).map(Action::Mu));
         let mut paused = model.paused;
         if ui.checkbox(&mut paused, "pause (Space)").changed() {
             actions.push(Action::Pause(paused));
         }
-        if ui
-            .button(format!("screenshot (F12) into {}", self.out.display()))
-            .clicked()
-        {
+        if ui.button(format!("screenshot (F12) into {}", self.out.display())).clicked() {
             actions.push(Action::Screenshot(self.out.clone()));
         }
     }
@@ -151,12 +106,7 @@ impl Panels {
         if let Some(run) = model.mean() {
             egui::CollapsingHeader::new("pass times of the last frame").show(ui, |ui| {
                 for t in &run.timings {
-                    ui.monospace(format!(
-                        "{:<32} {:<22} {:>9.2} ms",
-                        t.pass,
-                        t.kernel,
-                        t.seconds * 1e3
-                    ));
+                    ui.monospace(format!("{:<32} {:<22} {:>9.2} ms", t.pass, t.kernel, t.seconds * 1e3));
                 }
             });
         }
@@ -165,13 +115,7 @@ impl Panels {
         }
     }
 
-    fn image(
-        &mut self,
-        ui: &mut egui::Ui,
-        model: &Model,
-        display: &Display,
-        actions: &mut Vec<Action>,
-    ) {
+    fn image(&mut self, ui: &mut egui::Ui, model: &Model, display: &Display, actions: &mut Vec<Action>) {
         // Until the first frame after a change arrives, the last picture stays (it can be orbited).
         let texture = match (display.picture(model), &self.texture) {
             (Some(picture), _) => self.upload(ui.ctx(), picture),
@@ -185,34 +129,20 @@ impl Panels {
             ui.label("rendering the first frame after the change...");
         }
         let size = texture.size_vec2();
-        let scale = (ui.available_width() / size.x)
-            .min(ui.available_height() / size.y)
-            .max(0.01);
+        let scale = (ui.available_width() / size.x).min(ui.available_height() / size.y).max(0.01);
         let (rect, response) = ui.allocate_exact_size(size * scale, Sense::drag());
         let uv = Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
         ui.painter().image(texture.id(), rect, uv, Color32::WHITE);
         if display.compare.is_some() {
             let x = rect.left() + display.split * rect.width();
-            ui.painter()
-                .vline(x, rect.y_range(), egui::Stroke::new(1.0, Color32::WHITE));
+            ui.painter().vline(x, rect.y_range(), egui::Stroke::new(1.0, Color32::WHITE));
         }
         // Not on the frame the drag starts: its delta may hold the pointer's jump to the image.
-        let drag = if response.drag_started() {
-            egui::Vec2::ZERO
-        } else {
-            response.drag_delta()
-        };
+        let drag = if response.drag_started() { egui::Vec2::ZERO } else { response.drag_delta() };
         if drag != egui::Vec2::ZERO {
-            actions.push(Action::Orbit(
-                -drag.x * ORBIT_PER_POINT,
-                drag.y * ORBIT_PER_POINT,
-            ));
+            actions.push(Action::Orbit(-drag.x * ORBIT_PER_POINT, drag.y * ORBIT_PER_POINT));
         }
-        let scroll = if response.hovered() {
-            ui.input(|i| i.smooth_scroll_delta.y)
-        } else {
-            0.0
-        };
+        let scroll = if response.hovered() { ui.input(|i| i.smooth_scroll_delta.y) } else { 0.0 };
         if scroll != 0.0 {
             actions.push(Action::Dolly((scroll * DOLLY_PER_POINT).clamp(-0.5, 0.5)));
         }
@@ -220,12 +150,7 @@ impl Panels {
 
     /// The texture showing `picture`, uploaded only when it differs from the last one.
     fn upload(&mut self, ctx: &egui::Context, picture: Picture) -> TextureHandle {
-        let image = || {
-            egui::ColorImage::from_rgb(
-                [picture.width as usize, picture.height as usize],
-                &picture.rgb,
-            )
-        };
+        let image = || egui::ColorImage::from_rgb([picture.width as usize, picture.height as usize], &picture.rgb);
         // Nearest: one rendered pixel stays one block of screen pixels, noise is not smoothed away.
         let options = TextureOptions::NEAREST;
         match &mut self.texture {
@@ -240,13 +165,8 @@ impl Panels {
 
 /// F12 screenshot, Space pause, R reset the camera.
 fn keys(ui: &egui::Ui, model: &Model, out: &std::path::Path, actions: &mut Vec<Action>) {
-    let (f12, space, r) = ui.input(|i| {
-        (
-            i.key_pressed(egui::Key::F12),
-            i.key_pressed(egui::Key::Space),
-            i.key_pressed(egui::Key::R),
-        )
-    });
+    let (f12, space, r) =
+        ui.input(|i| (i.key_pressed(egui::Key::F12), i.key_pressed(egui::Key::Space), i.key_pressed(egui::Key::R)));
     // Keys typed into a text field are the field's.
     if ui.ctx().egui_wants_keyboard_input() {
         return;
@@ -265,9 +185,7 @@ fn keys(ui: &egui::Ui, model: &Model, out: &std::path::Path, actions: &mut Vec<A
 /// Frames, time per frame, frames per second and rays per pixel.
 fn stats_line(model: &Model) -> String {
     let px = f64::from(model.session.width) * f64::from(model.session.height);
-    let rays = model
-        .mean()
-        .map_or(0.0, |r| r.rays.total_rays() as f64 / px.max(1.0));
+    let rays = model.mean().map_or(0.0, |r| r.rays.total_rays() as f64 / px.max(1.0));
     format!(
         "{} on {}, {}x{}: {} frame(s) averaged{} · last frame {:.1} ms · {:.1} fps · {:.2} rays/px per frame ({:.1} in the mean)",
         model.session.pipeline.path.display(),
@@ -292,16 +210,14 @@ fn pick(
     optional: bool,
 ) -> Option<Option<String>> {
     let mut chosen = current.cloned();
-    egui::ComboBox::from_label(label)
-        .selected_text(current.map_or("none", |s| s.as_str()))
-        .show_ui(ui, |ui| {
-            if optional {
-                ui.selectable_value(&mut chosen, None, "none");
-            }
-            for n in names {
-                ui.selectable_value(&mut chosen, Some(n.clone()), n);
-            }
-        });
+    egui::ComboBox::from_label(label).selected_text(current.map_or("none", |s| s.as_str())).show_ui(ui, |ui| {
+        if optional {
+            ui.selectable_value(&mut chosen, None, "none");
+        }
+        for n in names {
+            ui.selectable_value(&mut chosen, Some(n.clone()), n);
+        }
+    });
     (chosen.as_ref() != current).then_some(chosen)
 }
 
@@ -320,9 +236,7 @@ fn camera_ui(ui: &mut egui::Ui, model: &Model, actions: &mut Vec<Action>) {
     let mut field = |ui: &mut egui::Ui, v: &mut f32, lo: f32, label: &str| {
         *v = params::shown(ui, label, *v);
         let r = ui
-            .horizontal(|ui| {
-                ui.add(egui::DragValue::new(v).range(lo..=f32::MAX).speed(0.01)) | ui.label(label)
-            })
+            .horizontal(|ui| ui.add(egui::DragValue::new(v).range(lo..=f32::MAX).speed(0.01)) | ui.label(label))
             .inner;
         committed |= params::commit(ui, label, &r, *v).is_some();
     };

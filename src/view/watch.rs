@@ -18,13 +18,7 @@ fn modified(path: &Path) -> Option<SystemTime> {
 impl Watch {
     /// Watch `files` from now on.
     pub fn new(files: Vec<PathBuf>) -> Watch {
-        Watch {
-            files: files
-                .into_iter()
-                .map(|f| (modified(&f), f))
-                .map(|(t, f)| (f, t))
-                .collect(),
-        }
+        Watch { files: files.into_iter().map(|f| (modified(&f), f)).map(|(t, f)| (f, t)).collect() }
     }
 
     /// Whether any file changed (or appeared, or vanished) since the last call; remembers the new times.
@@ -54,11 +48,7 @@ mod tests {
         assert!(!watch.changed());
         // Some file systems keep whole seconds: set the time rather than wait.
         let later = SystemTime::now() + std::time::Duration::from_secs(5);
-        std::fs::File::options()
-            .write(true)
-            .open(&file)
-            .and_then(|f| f.set_modified(later))
-            .expect("touch");
+        std::fs::File::options().write(true).open(&file).and_then(|f| f.set_modified(later)).expect("touch");
         assert!(watch.changed());
         assert!(!watch.changed());
     }

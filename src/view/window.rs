@@ -53,9 +53,9 @@ pub fn run(model: Model, out: PathBuf, script: Option<Script>) -> Result<String,
         result: Ok(String::new()),
         repaint_at: None,
     };
-    event_loop.run_app(&mut app).map_err(|e| {
-        WedgeError::Usage(format!("wedge view: the window's event loop failed: {e}"))
-    })?;
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| WedgeError::Usage(format!("wedge view: the window's event loop failed: {e}")))?;
     app.result
 }
 
@@ -81,32 +81,20 @@ struct App {
 
 impl App {
     fn open(&self, el: &ActiveEventLoop) -> Result<Gfx, WedgeError> {
-        let window_error = |e: &dyn std::fmt::Display| {
-            WedgeError::Usage(format!("wedge view: cannot open the window: {e}"))
-        };
-        let (w, h) = (
-            self.model.session.width + PANEL_ROOM.0,
-            self.model.session.height + PANEL_ROOM.1,
-        );
+        let window_error =
+            |e: &dyn std::fmt::Display| WedgeError::Usage(format!("wedge view: cannot open the window: {e}"));
+        let (w, h) = (self.model.session.width + PANEL_ROOM.0, self.model.session.height + PANEL_ROOM.1);
         let attributes = Window::default_attributes()
-            .with_title(format!(
-                "wedge view — {}",
-                self.model.session.pipeline.path.display()
-            ))
+            .with_title(format!("wedge view — {}", self.model.session.pipeline.path.display()))
             .with_inner_size(winit::dpi::LogicalSize::new(
                 w.clamp(MIN_WINDOW.0, MAX_WINDOW.0),
                 h.clamp(MIN_WINDOW.1, MAX_WINDOW.1),
             ));
         let window = Arc::new(el.create_window(attributes).map_err(|e| window_error(&e))?);
         let config = egui_wgpu::WgpuConfiguration::default();
-        let mut painter = pollster::block_on(Painter::new(
-            self.ctx.clone(),
-            config,
-            false,
-            egui_wgpu::RendererOptions::default(),
-        ));
-        pollster::block_on(painter.set_window(ViewportId::ROOT, Some(window.clone())))
-            .map_err(|e| window_error(&e))?;
+        let mut painter =
+            pollster::block_on(Painter::new(self.ctx.clone(), config, false, egui_wgpu::RendererOptions::default()));
+        pollster::block_on(painter.set_window(ViewportId::ROOT, Some(window.clone()))).map_err(|e| window_error(&e))?;
         let input = egui_winit::State::new(
             self.ctx.clone(),
             ViewportId::ROOT,
@@ -115,11 +103,7 @@ impl App {
             None,
             painter.max_texture_side(),
         );
-        Ok(Gfx {
-            window,
-            painter,
-            input,
-        })
+        Ok(Gfx { window, painter, input })
     }
 
     /// End the loop with `e` as the command's error.
@@ -174,11 +158,8 @@ impl App {
         let raw = gfx.input.take_egui_input(&gfx.window);
         let mut actions = Vec::new();
         let (panels, model, display) = (&mut self.panels, &self.model, &self.display);
-        let mut out = self
-            .ctx
-            .run_ui(raw, |ui| actions = panels.show(ui, model, display));
-        gfx.input
-            .handle_platform_output(&gfx.window, out.platform_output);
+        let mut out = self.ctx.run_ui(raw, |ui| actions = panels.show(ui, model, display));
+        gfx.input.handle_platform_output(&gfx.window, out.platform_output);
         let shapes = self.ctx.tessellate(out.shapes, out.pixels_per_point);
         let clear = [0.08, 0.08, 0.08, 1.0];
         gfx.painter.paint_and_update_textures(
@@ -212,10 +193,7 @@ impl App {
     fn run_script(&mut self, el: &ActiveEventLoop) {
         let Some(script) = &self.script else { return };
         let frame = self.model.rendered - 1;
-        let steps: Vec<_> = script
-            .at(frame)
-            .map(|s| (s.order, step_actions(s)))
-            .collect();
+        let steps: Vec<_> = script.at(frame).map(|s| (s.order, step_actions(s))).collect();
         let (path, done) = (script.path.clone(), frame >= script.last_frame());
         for (order, actions) in steps {
             for action in actions {
@@ -227,11 +205,8 @@ impl App {
                     }
                     Ok(None) => {}
                     Err(e) => {
-                        let e = WedgeError::Usage(format!(
-                            "{}: step {} (frame {frame}): {e}",
-                            path.display(),
-                            order + 1
-                        ));
+                        let e =
+                            WedgeError::Usage(format!("{}: step {} (frame {frame}): {e}", path.display(), order + 1));
                         return self.fail(el, e);
                     }
                 }
@@ -263,9 +238,7 @@ impl ApplicationHandler for App {
         match event {
             WindowEvent::CloseRequested => el.exit(),
             WindowEvent::Resized(size) => {
-                if let (Some(w), Some(h)) =
-                    (NonZeroU32::new(size.width), NonZeroU32::new(size.height))
-                {
+                if let (Some(w), Some(h)) = (NonZeroU32::new(size.width), NonZeroU32::new(size.height)) {
                     gfx.painter.on_window_resized(ViewportId::ROOT, w, h);
                 }
             }

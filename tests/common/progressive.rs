@@ -22,7 +22,8 @@ pub fn vec3s(b: &BufferData) -> Vec<[f32; 3]> {
 
 pub fn rmse(a: &BufferData, b: &BufferData) -> f64 {
     let (a, b) = (vec3s(a), vec3s(b));
-    let sum: f64 = a.iter().zip(&b).map(|(x, y)| (0..3).map(|c| (x[c] as f64 - y[c] as f64).powi(2)).sum::<f64>()).sum();
+    let sum: f64 =
+        a.iter().zip(&b).map(|(x, y)| (0..3).map(|c| (x[c] as f64 - y[c] as f64).powi(2)).sum::<f64>()).sum();
     (sum / (3 * a.len()) as f64).sqrt()
 }
 
@@ -51,7 +52,14 @@ pub struct Curve {
 
 /// `filters(frame)`: whether the node filters in that frame (PixelFilter's schedule; every frame for
 /// RadianceFilter), for the time per filter pass.
-pub fn measure_curve(s: &Session, name: &str, node: &str, frames: u32, reference: &BufferData, filters: impl Fn(u32) -> bool) -> Curve {
+pub fn measure_curve(
+    s: &Session,
+    name: &str,
+    node: &str,
+    frames: u32,
+    reference: &BufferData,
+    filters: impl Fn(u32) -> bool,
+) -> Curve {
     let plain = [format!("{node}.sample"), format!("{node}.accumulate")];
     let mut previous: Option<RunResult> = None;
     let mut rows = Vec::new();
@@ -92,7 +100,15 @@ pub fn print_curve(c: &Curve) {
         let t = c.rows[n - 1].0;
         if let Some(k) = c.rows.iter().rposition(|r| r.1 <= t) {
             let (p, f) = (c.rows[n - 1], c.rows[k]);
-            println!("| {n} | {t:.3} | {:.4} | {:.5} | {} | {:.4} | {:.5} | {:.2} |", p.2, p.3, k + 1, f.4, f.5, p.3 / f.5);
+            println!(
+                "| {n} | {t:.3} | {:.4} | {:.5} | {} | {:.4} | {:.5} | {:.2} |",
+                p.2,
+                p.3,
+                k + 1,
+                f.4,
+                f.5,
+                p.3 / f.5
+            );
         } else {
             println!("| {n} | {t:.3} | {:.4} | {:.5} | none yet | | | |", c.rows[n - 1].2, c.rows[n - 1].3);
         }
@@ -126,7 +142,12 @@ pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve], extra:
         });
     }
     series.extend(extra);
-    let plot = Plot { title: title.into(), x_label: "seconds (CPU, passes)".into(), y_label: "relMSE vs reference".into(), series };
+    let plot = Plot {
+        title: title.into(),
+        x_label: "seconds (CPU, passes)".into(),
+        y_label: "relMSE vs reference".into(),
+        series,
+    };
     write_plot(path, &plot).expect("plot written");
     println!("wrote {}", path.display());
 }
@@ -135,11 +156,17 @@ pub fn plot_curves(path: &std::path::Path, title: &str, curves: &[Curve], extra:
 /// pass on `gpu` from the CPU's history (asserted ok; the report is returned for more checks); then
 /// `whole` frames end to end on each backend, whose `color` and `unfiltered` must agree to a relative
 /// MSE below 1e-4 (a wrong kernel is far above; float round-off compounds to ~1e-16).
-pub fn gpu_parity_with_history(s: &Session, gpu: &mut wedge::backends::gpu::GpuBackend, frame: u32, whole: u32) -> wedge::backends::parity::ParityReport {
+pub fn gpu_parity_with_history(
+    s: &Session,
+    gpu: &mut wedge::backends::gpu::GpuBackend,
+    frame: u32,
+    whole: u32,
+) -> wedge::backends::parity::ParityReport {
     let runs = progressive(s, frame);
     let job = s.job(s.seed.wrapping_add(frame), frame, &Silent);
     let name = s.pipeline.path.display();
-    let report = wedge::backends::parity::run_parity_with_history(&job, gpu, &runs[frame as usize - 1].history).expect("parity runs");
+    let report = wedge::backends::parity::run_parity_with_history(&job, gpu, &runs[frame as usize - 1].history)
+        .expect("parity runs");
     println!("{name} frame {frame}\n{}", report.table());
     assert!(report.ok(), "{name}: parity at frame {frame} (table above)");
     let mut previous: Option<RunResult> = None;
@@ -150,7 +177,8 @@ pub fn gpu_parity_with_history(s: &Session, gpu: &mut wedge::backends::gpu::GpuB
     let c = progressive(s, whole).pop().unwrap();
     for port in ["color", "unfiltered"] {
         let (a, b) = (vec3s(c.output(port).unwrap()), vec3s(g.output(port).unwrap()));
-        let num: f64 = a.iter().zip(&b).map(|(x, y)| (0..3).map(|k| (x[k] as f64 - y[k] as f64).powi(2)).sum::<f64>()).sum();
+        let num: f64 =
+            a.iter().zip(&b).map(|(x, y)| (0..3).map(|k| (x[k] as f64 - y[k] as f64).powi(2)).sum::<f64>()).sum();
         let den: f64 = a.iter().map(|x| (0..3).map(|k| (x[k] as f64).powi(2)).sum::<f64>()).sum();
         println!("{name} {port}: relative MSE gpu vs cpu after {whole} frames {:.2e}", num / den.max(1e-30));
         assert!(num / den.max(1e-30) < 1e-4, "{name} {port}");
@@ -166,7 +194,8 @@ pub fn bench_size(smoke: bool) -> (u32, u32) {
     let Ok(v) = std::env::var("WEDGE_BENCH_SIZE") else {
         return if smoke { (32, 24) } else { (160, 120) };
     };
-    let parsed = v.split_once('x').and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)));
+    let parsed =
+        v.split_once('x').and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)));
     match parsed {
         Some((w, h)) if w > 0 && h > 0 => (w, h),
         _ => {

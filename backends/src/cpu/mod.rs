@@ -64,7 +64,11 @@ impl Backend for CpuBackend {
         "cpu"
     }
 
-    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>) -> Result<RunResult, BackendError> {
+    fn run_frame(
+        &mut self,
+        job: &Job<'_>,
+        history: &BTreeMap<BufferId, BufferData>,
+    ) -> Result<RunResult, BackendError> {
         let sched = job.schedule;
         let mut rays = crate::RayCounts::default();
         // Physical storage, indexed by pool slot; a slot holds the buffer currently living in it.
@@ -138,7 +142,12 @@ impl Backend for CpuBackend {
                 Some((held, data)) if *held == h.source => {
                     next.insert(h.buffer, data.clone());
                 }
-                _ => return Err(BackendError::Other(format!("`{}` was overwritten before the run ended", sched.buffers[h.source.0].name))),
+                _ => {
+                    return Err(BackendError::Other(format!(
+                        "`{}` was overwritten before the run ended",
+                        sched.buffers[h.source.0].name
+                    )))
+                }
             }
         }
         Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })

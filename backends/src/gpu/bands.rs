@@ -34,7 +34,13 @@ pub struct BindLimits {
 
 /// Split `width × height` pixels for a kernel reading `reach` whose widest binding has
 /// `bytes_per_pixel` bytes per pixel. One band covering everything when it fits.
-pub fn plan(width: u32, height: u32, bytes_per_pixel: u64, reach: Reach, limits: &BindLimits) -> Result<Vec<Band>, String> {
+pub fn plan(
+    width: u32,
+    height: u32,
+    bytes_per_pixel: u64,
+    reach: Reach,
+    limits: &BindLimits,
+) -> Result<Vec<Band>, String> {
     let pixels = width as u64 * height as u64;
     let fits = pixels * bytes_per_pixel <= limits.max_binding;
     if fits && height <= limits.max_rows {

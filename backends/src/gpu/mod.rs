@@ -51,8 +51,8 @@ use std::hash::{Hash, Hasher};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::Instant;
 
-use wgpu::util::DeviceExt;
 use wedge_graph::{BufferId, Format, Pass};
+use wgpu::util::DeviceExt;
 
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
@@ -206,8 +206,11 @@ impl GpuBackend {
         }))
         .map_err(|e| gpu_err(format!("{INSTALL_HINT} (wgpu: {e})")))?;
         let info = adapter.get_info();
-        let samples_per_dispatch =
-            if info.device_type == wgpu::DeviceType::Cpu { SOFTWARE_SAMPLES_PER_DISPATCH } else { GPU_SAMPLES_PER_DISPATCH };
+        let samples_per_dispatch = if info.device_type == wgpu::DeviceType::Cpu {
+            SOFTWARE_SAMPLES_PER_DISPATCH
+        } else {
+            GPU_SAMPLES_PER_DISPATCH
+        };
         let limits = match choice {
             LimitsChoice::Adapter => adapter.limits(),
             LimitsChoice::WebGpuDefault => wgpu::Limits::default(),
@@ -219,7 +222,9 @@ impl GpuBackend {
             required_limits: limits.clone(),
             ..Default::default()
         }))
-        .map_err(|e| gpu_err(format!("adapter `{}` refused a device with the requested limits ({choice:?}): {e}", info.name)))?;
+        .map_err(|e| {
+            gpu_err(format!("adapter `{}` refused a device with the requested limits ({choice:?}): {e}", info.name))
+        })?;
         let errors = Arc::new(Mutex::new(Vec::new()));
         {
             let errors = errors.clone();
@@ -306,7 +311,12 @@ impl GpuBackend {
 
     /// The binding plan for a kernel: one storage binding per declared buffer when
     /// `1 (counters) + scene + bindings` fits `max_storage_buffers_per_shader_stage`, else packed.
-    fn binding_plan(&self, name: &str, bindings: &[crate::kernel::Binding], scene: bool) -> Result<shaders::BindingPlan, BackendError> {
+    fn binding_plan(
+        &self,
+        name: &str,
+        bindings: &[crate::kernel::Binding],
+        scene: bool,
+    ) -> Result<shaders::BindingPlan, BackendError> {
         use shaders::BindingPlan;
         let limit = self.limits.max_storage_buffers_per_shader_stage;
         let fixed = 1 + scene as u32;
@@ -412,7 +422,8 @@ impl GpuBackend {
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+            let mut enc =
+                self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
             enc.copy_buffer_to_buffer(buf, 0, &staging, 0, size);
             self.queue.submit([enc.finish()]);
             staging
@@ -434,7 +445,13 @@ impl GpuBackend {
         Ok(data)
     }
 
-    fn read_buffer(&self, what: &str, buf: &wgpu::Buffer, format: Format, pixels: usize) -> Result<BufferData, BackendError> {
+    fn read_buffer(
+        &self,
+        what: &str,
+        buf: &wgpu::Buffer,
+        format: Format,
+        pixels: usize,
+    ) -> Result<BufferData, BackendError> {
         let bytes = self.read_bytes(what, buf, (pixels * format.components() * 4) as u64)?;
         Ok(from_bytes(format, &bytes))
     }
@@ -453,7 +470,8 @@ impl GpuBackend {
         // The scene is bound whole (a ray may touch any node or triangle).
         let max_binding = self.limits.max_storage_buffer_binding_size;
         if bytes.len() as u64 > max_binding {
-            let sizes: Vec<String> = scene::SCENE_ARRAYS.iter().zip(&arrays).map(|(n, a)| format!("{n} {}", a.len())).collect();
+            let sizes: Vec<String> =
+                scene::SCENE_ARRAYS.iter().zip(&arrays).map(|(n, a)| format!("{n} {}", a.len())).collect();
             return Err(gpu_err(format!(
                 "scene `{}` needs {} bytes ({}), over this device's max_storage_buffer_binding_size ({} bytes, \
                  adapter `{}`); use a smaller scene or --backend cpu",
@@ -495,7 +513,11 @@ impl GpuBackend {
 
     /// The pass's `Params` block ([`crate::kernel::Uniforms`]), from the same `KernelCtx` accessors
     /// its CPU path uses.
-    pub(crate) fn uniforms(job: &Job<'_>, pass: &Pass, src: &crate::kernel::WgslSource) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
+    pub(crate) fn uniforms(
+        job: &Job<'_>,
+        pass: &Pass,
+        src: &crate::kernel::WgslSource,
+    ) -> Result<(crate::kernel::Uniforms, Reach), BackendError> {
         let cpu_counters = Counters::default();
         let ctx = KernelCtx::for_pass(job, pass, &cpu_counters, BTreeMap::new(), BTreeMap::new());
         Ok(((src.uniforms)(&ctx)?, (src.reach)(&ctx)?))
@@ -517,7 +539,11 @@ impl GpuBackend {
     }
 
     /// Everything a kernel's pipeline is built from, and the key it is cached under.
-    fn pipeline_source(&mut self, kernel: &dyn Kernel, uniforms: &crate::kernel::Uniforms) -> Result<PipelineSource, BackendError> {
+    fn pipeline_source(
+        &mut self,
+        kernel: &dyn Kernel,
+        uniforms: &crate::kernel::Uniforms,
+    ) -> Result<PipelineSource, BackendError> {
         let name = kernel.name();
         let src = Self::wgsl_of(kernel)?;
         let bindings = kernel.bindings();
@@ -656,7 +682,8 @@ impl GpuBackend {
             };
             id.and_then(|id| job.schedule.buffers.get(id.0)).map_or(1, |b| u64::from(b.layers))
         };
-        let layered: Vec<&str> = (0..buffers.len()).filter(|&k| buffers[k].is_some() && layers(k) > 1).map(|k| bindings[k].name).collect();
+        let layered: Vec<&str> =
+            (0..buffers.len()).filter(|&k| buffers[k].is_some() && layers(k) > 1).map(|k| bindings[k].name).collect();
         if !layered.is_empty() && plan == BindingPlan::Packed {
             return Err(gpu_err(format!(
                 "{what}: binds per-sample buffers ({}), which the packed binding plan this device needs (too few storage \
@@ -667,7 +694,11 @@ impl GpuBackend {
         let (packed_offsets, packed_in, packed_out) = shaders::packed_layout(&bindings);
         // What one band binds per pixel: the widest buffer, or (packed) the larger packed buffer.
         let widest = match plan {
-            BindingPlan::Direct => (0..buffers.len()).filter(|&k| buffers[k].is_some()).map(|k| bytes_per_pixel(k) * layers(k)).max().unwrap_or(4),
+            BindingPlan::Direct => (0..buffers.len())
+                .filter(|&k| buffers[k].is_some())
+                .map(|k| bytes_per_pixel(k) * layers(k))
+                .max()
+                .unwrap_or(4),
             BindingPlan::Packed => packed_in.max(packed_out).max(1) * 4,
         };
         let max_groups = self.limits.max_compute_workgroups_per_dimension;
@@ -683,11 +714,15 @@ impl GpuBackend {
             offset_alignment: self.limits.min_storage_buffer_offset_alignment as u64,
             max_rows: max_groups.saturating_mul(WORKGROUP),
         };
-        let bands = bands::plan(job.width, job.height, widest, reach, &limits).map_err(|e| gpu_err(format!("{what}: {e}")))?;
+        let bands =
+            bands::plan(job.width, job.height, widest, reach, &limits).map_err(|e| gpu_err(format!("{what}: {e}")))?;
         if !layered.is_empty() && bands.len() > 1 {
             // Bands are offsets of whole pixels into image buffers; a kernel reading per-sample
             // buffers declares `Reach::Image` (its samples are read from anywhere).
-            return Err(gpu_err(format!("{what}: binds per-sample buffers ({}) and would be split into bands of rows; declare Reach::Image", layered.join(", "))));
+            return Err(gpu_err(format!(
+                "{what}: binds per-sample buffers ({}) and would be split into bands of rows; declare Reach::Image",
+                layered.join(", ")
+            )));
         }
         let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
         // Packed plan: one staging buffer for all inputs and one for all outputs, as large as the
@@ -768,7 +803,11 @@ impl GpuBackend {
                             .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
                             .collect(),
                     };
-                    self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("buffers"), layout: &p.g1, entries: &e1 })
+                    self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("buffers"),
+                        layout: &p.g1,
+                        entries: &e1,
+                    })
                 })
                 .collect();
             (params_buf, scene_group, buffer_groups)
@@ -825,7 +864,8 @@ impl GpuBackend {
                         })
                     })
                     .collect();
-                let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
+                let mut enc =
+                    self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
                 enc.clear_buffer(&counters, 0, None);
                 let last = bands.len() - 1;
                 for (n, ((g0, g1), band)) in frames.iter().zip(&buffer_groups).zip(&bands).enumerate() {
@@ -840,25 +880,39 @@ impl GpuBackend {
                                 continue;
                             };
                             let c = components(k);
-                            enc.copy_buffer_to_buffer(b, band.first * c * 4, dst, packed_offsets[k] * window * 4, window * c * 4);
+                            enc.copy_buffer_to_buffer(
+                                b,
+                                band.first * c * 4,
+                                dst,
+                                packed_offsets[k] * window * 4,
+                                window * c * 4,
+                            );
                         }
                     }
                     {
                         // The first band's pass starts the timer and the last one stops it.
-                        let ts = self.timestamps.as_ref().filter(|_| n == 0 || n == last).map(|(qs, _)| wgpu::ComputePassTimestampWrites {
-                            query_set: qs,
-                            beginning_of_pass_write_index: (n == 0).then_some(0),
-                            end_of_pass_write_index: (n == last).then_some(1),
+                        let ts = self.timestamps.as_ref().filter(|_| n == 0 || n == last).map(|(qs, _)| {
+                            wgpu::ComputePassTimestampWrites {
+                                query_set: qs,
+                                beginning_of_pass_write_index: (n == 0).then_some(0),
+                                end_of_pass_write_index: (n == last).then_some(1),
+                            }
                         });
-                        let mut cp =
-                            enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&pass.name), timestamp_writes: ts });
+                        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some(&pass.name),
+                            timestamp_writes: ts,
+                        });
                         cp.set_pipeline(&p.pipeline);
                         if let Some(g2) = &scene_group {
                             cp.set_bind_group(2, g2, &[]);
                         }
                         cp.set_bind_group(0, g0, &[]);
                         cp.set_bind_group(1, g1, &[]);
-                        cp.dispatch_workgroups(job.width.div_ceil(WORKGROUP), (band.row_end - band.row0).div_ceil(WORKGROUP), 1);
+                        cp.dispatch_workgroups(
+                            job.width.div_ceil(WORKGROUP),
+                            (band.row_end - band.row0).div_ceil(WORKGROUP),
+                            1,
+                        );
                     }
                     if let (BindingPlan::Packed, Some(src_buf)) = (plan, &packed_outputs) {
                         // Copy back the rows this band computed (not its halo).
@@ -986,7 +1040,11 @@ impl GpuBackend {
         if kernel.host() {
             let (counters, start) = (Counters::default(), Instant::now());
             let out = crate::cpu::run_pass(job, pass, inputs, &counters)?;
-            return Ok((out, DispatchTime { seconds: start.elapsed().as_secs_f64(), from_timestamps: false }, counters.snapshot()));
+            return Ok((
+                out,
+                DispatchTime { seconds: start.elapsed().as_secs_f64(), from_timestamps: false },
+                counters.snapshot(),
+            ));
         }
         let pixels = job.width as usize * job.height as usize;
         let elements = |id: BufferId| pixels * job.schedule.buffers.get(id.0).map_or(1, |b| b.layers as usize);
@@ -1006,7 +1064,12 @@ impl GpuBackend {
                             return Err(BackendError::Binding {
                                 pass: pass.name.clone(),
                                 binding: b.name.to_string(),
-                                message: format!("input is {} × {}, expected {pixels} × {}", data.len(), data.format(), b.format),
+                                message: format!(
+                                    "input is {} × {}, expected {pixels} × {}",
+                                    data.len(),
+                                    data.format(),
+                                    b.format
+                                ),
                             });
                         }
                         Some(self.storage_init(b.name, &to_bytes(data))?)
@@ -1027,7 +1090,8 @@ impl GpuBackend {
         let (time, rays, _, _) = self.dispatch(job, pass, &bufs)?;
         let mut out = BTreeMap::new();
         for (name, format, buf, elements) in outs {
-            let data = self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, elements)?;
+            let data =
+                self.read_buffer(&format!("reading `{}` of pass `{}`", name, pass.name), &buf, format, elements)?;
             out.insert(name, data);
         }
         Ok((out, time, rays))
@@ -1047,15 +1111,28 @@ impl GpuBackend {
     ) -> Result<PassTiming, BackendError> {
         let (sched, start) = (job.schedule, Instant::now());
         let pixels = job.width as usize * job.height as usize;
-        let slot_of = |id: BufferId| sched.slots[id.0].ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)));
+        let slot_of = |id: BufferId| {
+            sched.slots[id.0].ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)))
+        };
         let mut data = BTreeMap::new();
         for (_, id) in &pass.reads {
             let slot = slot_of(*id)?;
             let (Some(buf), true) = (&slots[slot], holder[slot] == Some(*id)) else {
-                return Err(BackendError::Other(format!("pass `{}` reads `{}` after its storage was reused (pool plan bug)", pass.name, sched.buffers[id.0].name)));
+                return Err(BackendError::Other(format!(
+                    "pass `{}` reads `{}` after its storage was reused (pool plan bug)",
+                    pass.name, sched.buffers[id.0].name
+                )));
             };
             let info = &sched.buffers[id.0];
-            data.insert(*id, self.read_buffer(&format!("reading `{}` for host pass `{}`", info.name, pass.name), buf, info.format, pixels * info.layers as usize)?);
+            data.insert(
+                *id,
+                self.read_buffer(
+                    &format!("reading `{}` for host pass `{}`", info.name, pass.name),
+                    buf,
+                    info.format,
+                    pixels * info.layers as usize,
+                )?,
+            );
         }
         let inputs: BTreeMap<BufferId, &BufferData> = data.iter().map(|(k, v)| (*k, v)).collect();
         let counters = Counters::default();
@@ -1074,7 +1151,13 @@ impl GpuBackend {
             holder[slot] = Some(id);
         }
         let kernel = job.kernels.get(&pass.kernel).expect("checked");
-        Ok(PassTiming { pass: pass.name.clone(), kernel: pass.kernel.clone(), class: kernel.class(), seconds: start.elapsed().as_secs_f64(), counts: counters.snapshot() })
+        Ok(PassTiming {
+            pass: pass.name.clone(),
+            kernel: pass.kernel.clone(),
+            class: kernel.class(),
+            seconds: start.elapsed().as_secs_f64(),
+            counts: counters.snapshot(),
+        })
     }
 
     /// Run one kernel outside any pipeline: `inputs` by binding name, `params` as its parameter block.
@@ -1109,7 +1192,11 @@ impl Backend for GpuBackend {
         "wgpu"
     }
 
-    fn run_frame(&mut self, job: &Job<'_>, history: &BTreeMap<BufferId, BufferData>) -> Result<RunResult, BackendError> {
+    fn run_frame(
+        &mut self,
+        job: &Job<'_>,
+        history: &BTreeMap<BufferId, BufferData>,
+    ) -> Result<RunResult, BackendError> {
         let sched = job.schedule;
         let passes: Vec<&Pass> = sched.passes.iter().collect();
         // Fail before any work if a pass cannot run here (bindings, missing WGSL, shader errors).
@@ -1153,7 +1240,8 @@ impl Backend for GpuBackend {
                     bufs.push(None);
                     continue;
                 };
-                let slot = sched.slots[id.0].ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)))?;
+                let slot = sched.slots[id.0]
+                    .ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)))?;
                 match b.access {
                     Access::Read => {
                         if holder[slot] != Some(id) {
@@ -1166,7 +1254,10 @@ impl Backend for GpuBackend {
                     Access::Write => {
                         if slots[slot].is_none() {
                             let (f, n) = (sched.slot_formats[slot], sched.slot_layers[slot] as usize);
-                            slots[slot] = Some(self.storage(&format!("pool slot {slot} ({f})"), (pixels * n * f.components() * 4) as u64)?);
+                            slots[slot] = Some(self.storage(
+                                &format!("pool slot {slot} ({f})"),
+                                (pixels * n * f.components() * 4) as u64,
+                            )?);
                             allocations += 1;
                         }
                         holder[slot] = Some(id);
@@ -1195,7 +1286,12 @@ impl Backend for GpuBackend {
             let slot = sched.slots[id.0].ok_or_else(|| gpu_err("sink buffer has no slot"))?;
             match (&slots[slot], holder[slot]) {
                 (Some(buf), Some(h)) if h == *id => {
-                    let data = self.read_buffer(&format!("reading `{node}.{port}`"), buf, sched.buffers[id.0].format, pixels * sched.buffers[id.0].layers as usize)?;
+                    let data = self.read_buffer(
+                        &format!("reading `{node}.{port}`"),
+                        buf,
+                        sched.buffers[id.0].format,
+                        pixels * sched.buffers[id.0].layers as usize,
+                    )?;
                     outputs.insert((node.clone(), port.clone()), data);
                 }
                 _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
@@ -1208,9 +1304,22 @@ impl Backend for GpuBackend {
                 (Some(buf), Some(held)) if held == h.source => {
                     let name = &sched.buffers[h.source.0].name;
                     let info = &sched.buffers[h.source.0];
-                    next.insert(h.buffer, self.read_buffer(&format!("reading `{name}`"), buf, info.format, pixels * info.layers as usize)?);
+                    next.insert(
+                        h.buffer,
+                        self.read_buffer(
+                            &format!("reading `{name}`"),
+                            buf,
+                            info.format,
+                            pixels * info.layers as usize,
+                        )?,
+                    );
                 }
-                _ => return Err(BackendError::Other(format!("`{}` was overwritten before the run ended", sched.buffers[h.source.0].name))),
+                _ => {
+                    return Err(BackendError::Other(format!(
+                        "`{}` was overwritten before the run ended",
+                        sched.buffers[h.source.0].name
+                    )))
+                }
             }
         }
         Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })

@@ -131,8 +131,17 @@ pub const LAYOUT_WORDS: usize = 24;
 
 /// The words of `SceneLayout` after the arrays' offsets, in order (`_pad` words included), as
 /// `shaders/scene.wgsl` names them.
-pub const LAYOUT_TAIL: [&str; LAYOUT_WORDS - ARRAY_COUNT] =
-    ["instance_count", "instance_root", "env_width", "env_height", "env_first", "real_width", "real_height", "_pad0", "_pad1"];
+pub const LAYOUT_TAIL: [&str; LAYOUT_WORDS - ARRAY_COUNT] = [
+    "instance_count",
+    "instance_root",
+    "env_width",
+    "env_height",
+    "env_first",
+    "real_width",
+    "real_height",
+    "_pad0",
+    "_pad1",
+];
 
 /// The bytes of each scene array (never empty: an empty array gets one zeroed element, since
 /// WGSL storage buffers cannot be zero-sized).
@@ -413,7 +422,8 @@ mod tests {
 
     #[test]
     fn packed_arrays_start_on_16_byte_elements_in_order() {
-        let arrays = [vec![1u8; 32], vec![2; 48], vec![3; 80], vec![4; 48], vec![5; 16], vec![6; 20], vec![7; 112], vec![8; 4]];
+        let arrays =
+            [vec![1u8; 32], vec![2; 48], vec![3; 80], vec![4; 48], vec![5; 16], vec![6; 20], vec![7; 112], vec![8; 4]];
         let (data, offsets) = pack(&arrays);
         assert_eq!(offsets, [0, 2, 5, 10, 13, 14, 16, 23]);
         assert_eq!(data.len(), 24 * 16);
@@ -431,7 +441,10 @@ mod tests {
             let scene = wedge_scene::load(&wedge_scene::SceneSource::Builtin(name.to_string())).unwrap();
             let (need, entries) = (scene.traversal_stack_need(), crate::gpu::traversal_stack_entries(&scene) as usize);
             println!("{name}: the trees need {need} stack entries, the kernels get {entries}");
-            assert!(need <= entries && entries.is_power_of_two() && (16..=wedge_scene::bvh::STACK_SIZE).contains(&entries), "{name}");
+            assert!(
+                need <= entries && entries.is_power_of_two() && (16..=wedge_scene::bvh::STACK_SIZE).contains(&entries),
+                "{name}"
+            );
         }
     }
 }

@@ -221,7 +221,8 @@ pub fn storage_bindings(bindings: &[Binding], plan: BindingPlan) -> u32 {
     match plan {
         BindingPlan::Direct => bindings.len() as u32,
         BindingPlan::Packed => {
-            bindings.iter().any(|b| b.access == Access::Read) as u32 + bindings.iter().any(|b| b.access == Access::Write) as u32
+            bindings.iter().any(|b| b.access == Access::Read) as u32
+                + bindings.iter().any(|b| b.access == Access::Write) as u32
         }
     }
 }
@@ -259,7 +260,9 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
                 out.push_str(&format!("@group(1) @binding({in_slot}) var<storage, read> packed_inputs: array<u32>;\n"));
             }
             if bindings.iter().any(|b| b.access == Access::Write) {
-                out.push_str(&format!("@group(1) @binding({out_slot}) var<storage, read_write> packed_outputs: array<u32>;\n"));
+                out.push_str(&format!(
+                    "@group(1) @binding({out_slot}) var<storage, read_write> packed_outputs: array<u32>;\n"
+                ));
             }
         }
     }
@@ -269,7 +272,10 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
         if let Format::Struct(layout) = b.format {
             if let Some(other) = declared.iter().find(|d| d.name == layout.name) {
                 if let Some(diff) = layout.difference(other) {
-                    return Err(BackendError::Gpu(format!("kernel `{kernel}`: two layouts named `{}`: {diff}", layout.name)));
+                    return Err(BackendError::Gpu(format!(
+                        "kernel `{kernel}`: two layouts named `{}`: {diff}",
+                        layout.name
+                    )));
                 }
                 continue;
             }
@@ -294,7 +300,8 @@ pub fn binding_header(kernel: &str, bindings: &[Binding], plan: BindingPlan) -> 
         let ty = element_type(b.format);
         let n = b.format.components();
         let write = b.access == Access::Write;
-        let guard_at = if b.optional { format!("    if (!is_bound({k}u)) {{ return {ty}(); }}\n") } else { String::new() };
+        let guard_at =
+            if b.optional { format!("    if (!is_bound({k}u)) {{ return {ty}(); }}\n") } else { String::new() };
         let guard_put = if b.optional { format!("    if (!is_bound({k}u)) {{ return; }}\n") } else { String::new() };
         out.push_str(&format!("fn {name}_bound() -> bool {{ return is_bound({k}u); }}\n"));
         // Element load/store bodies, per plan.
@@ -384,7 +391,10 @@ mod tests {
         let h = binding_header("k", &b, BindingPlan::Packed).unwrap();
         assert!(h.contains("@group(1) @binding(0) var<storage, read> packed_inputs: array<u32>;"), "{h}");
         assert!(h.contains("@group(1) @binding(1) var<storage, read_write> packed_outputs: array<u32>;"), "{h}");
-        assert!(h.contains("fn albedo_at(i: u32) -> vec3<f32>") && h.contains("21u * frame.packed_pixels + 3u * i"), "{h}");
+        assert!(
+            h.contains("fn albedo_at(i: u32) -> vec3<f32>") && h.contains("21u * frame.packed_pixels + 3u * i"),
+            "{h}"
+        );
         assert!(h.contains("fn depth_put(i: u32, v: f32) {\n    if (!is_bound(8u)) { return; }"), "{h}");
         assert!(!h.contains("fn position_put"), "inputs get no writer: {h}");
         let d = binding_header("k", &b, BindingPlan::Direct).unwrap();
@@ -397,9 +407,17 @@ mod tests {
         use wedge_graph::Field;
         static REC: StructLayout = StructLayout {
             name: "Rec",
-            fields: &[Field::new("l", FieldType::Vec3), Field::new("n", FieldType::U32), Field::new("d", FieldType::F32)],
+            fields: &[
+                Field::new("l", FieldType::Vec3),
+                Field::new("n", FieldType::U32),
+                Field::new("d", FieldType::F32),
+            ],
         };
-        let b = vec![Binding::read("a", Format::Vec3), Binding::read_opt("prev", Format::Struct(&REC)), Binding::write("rec", Format::Struct(&REC))];
+        let b = vec![
+            Binding::read("a", Format::Vec3),
+            Binding::read_opt("prev", Format::Struct(&REC)),
+            Binding::write("rec", Format::Struct(&REC)),
+        ];
         let d = binding_header("k", &b, BindingPlan::Direct).unwrap();
         assert_eq!(d.matches("struct Rec {").count(), 1, "one declaration for two bindings: {d}");
         assert!(d.contains("struct Rec {\n    l: vec3<f32>,\n    n: u32,\n    d: f32,\n}"), "{d}");
@@ -412,13 +430,21 @@ mod tests {
         assert_eq!((offsets, inputs, outputs), (vec![0, 3, 0], 8, 5));
         assert!(p.contains("let b = 3u * frame.packed_pixels + 5u * i;\n    return Rec(vec3<f32>(bitcast<f32>(packed_inputs[b + 0u])"), "{p}");
         static OTHER: StructLayout = StructLayout { name: "Rec", fields: &[Field::new("l", FieldType::Vec4)] };
-        let e = binding_header("k", &[Binding::read("a", Format::Struct(&REC)), Binding::write("b", Format::Struct(&OTHER))], BindingPlan::Direct).unwrap_err();
+        let e = binding_header(
+            "k",
+            &[Binding::read("a", Format::Struct(&REC)), Binding::write("b", Format::Struct(&OTHER))],
+            BindingPlan::Direct,
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("two layouts named `Rec`"), "{e}");
     }
 
     #[test]
     fn binding_names_must_be_wgsl_identifiers() {
         let e = binding_header("user.k", &[Binding::read("my-input", Format::F32)], BindingPlan::Direct).unwrap_err();
-        assert!(e.to_string().contains("`my-input` is not a WGSL identifier") && e.to_string().contains("user.k"), "{e}");
+        assert!(
+            e.to_string().contains("`my-input` is not a WGSL identifier") && e.to_string().contains("user.k"),
+            "{e}"
+        );
     }
 }

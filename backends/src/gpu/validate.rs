@@ -68,7 +68,8 @@ fn validate_cached(composed: &Composed) -> Result<(), String> {
 pub fn validate(composed: &Composed) -> Result<(), String> {
     let text = &composed.text;
     let module = naga::front::wgsl::parse_str(text).map_err(|e| at(composed, e.location(text), e.message()))?;
-    let mut validator = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
+    let mut validator =
+        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
     validator.validate(&module).map_err(|e| {
         let mut message = e.as_inner().to_string();
         let mut source = std::error::Error::source(e.as_inner());
@@ -127,7 +128,8 @@ mod tests {
     /// A type error found only by validation (not by the parser) is mapped too.
     #[test]
     fn a_validation_error_is_mapped() {
-        let wrong: &'static str = Box::leak(GOOD.replace("value_at(i) * params.scale", "params.scale").into_boxed_str());
+        let wrong: &'static str =
+            Box::leak(GOOD.replace("value_at(i) * params.scale", "params.scale").into_boxed_str());
         let e = validate(&composed(wrong)).unwrap_err();
         assert!(e.starts_with("test.scale:9:"), "{e}");
     }

@@ -24,7 +24,10 @@ impl Kernel for Modulate {
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/compose_modulate.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../shaders/compose_modulate.wgsl"), |_| Ok(Uniforms::new()))
+                .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;

@@ -30,7 +30,12 @@ impl Kernel for FillConstant {
     }
     /// WGSL mirror: `shaders/fill_constant.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| Ok(Uniforms::new().u32("value", value(ctx)?))).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| {
+                Ok(Uniforms::new().u32("value", value(ctx)?))
+            })
+            .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let v = value(ctx)?;
@@ -62,7 +67,12 @@ impl Kernel for FillConstantF32 {
         vec![Binding::write("out", Format::F32)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| Ok(Uniforms::new().f32("value", value_f32(ctx)?))).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| {
+                Ok(Uniforms::new().f32("value", value_f32(ctx)?))
+            })
+            .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let v = value_f32(ctx)?;
@@ -86,8 +96,10 @@ impl Kernel for FillConstantVec4 {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/fill_constant_vec4.wgsl"), |ctx| Ok(Uniforms::new().f32("value", value_f32(ctx)?)))
-                .per_pixel(),
+            WgslSource::new(include_str!("../../../shaders/fill_constant_vec4.wgsl"), |ctx| {
+                Ok(Uniforms::new().f32("value", value_f32(ctx)?))
+            })
+            .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {

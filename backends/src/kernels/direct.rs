@@ -172,11 +172,8 @@ impl Kernel for DirectLight {
         let rpp = ctx.read_opt::<u32>("rays_per_pixel")?;
         let previous = ctx.read_opt::<[f32; 4]>("previous")?;
         let light_param = ctx.int_param("light")?;
-        let lights: Vec<usize> = if light_param < 0 {
-            (0..scene.lights.len()).collect()
-        } else {
-            vec![ctx.light_param("light")?]
-        };
+        let lights: Vec<usize> =
+            if light_param < 0 { (0..scene.lights.len()).collect() } else { vec![ctx.light_param("light")?] };
         let count = ctx.int_param("count")?.max(0) as u32;
         let stratified = ctx.stratified_param()?;
         let centre = ctx.str_param("form_factor")? == "light_centre";
@@ -213,7 +210,8 @@ impl Kernel for DirectLight {
                 let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, l as u32));
                 let factor = centre.then(|| light_centre_factor(light, x, n));
                 for s in 0..extra {
-                    let u = if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };
+                    let u =
+                        if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };
                     let ls = light_sample(&at, light, x, n, Vec2::from(u), factor, want_stats);
                     let v = ls.value;
                     if let Some(d2) = ls.occluder.map(|o| o.distance) {
@@ -232,21 +230,13 @@ impl Kernel for DirectLight {
             // With several lights, each light gets `extra` samples and the estimates add.
             let per_light = valid as f32 / lights.len().max(1) as f32;
             let total = prev[3] + per_light;
-            let mean = if total > 0.0 {
-                (Vec3::new(prev[0], prev[1], prev[2]) * prev[3] + sum) / total
-            } else {
-                Vec3::ZERO
-            };
+            let mean =
+                if total > 0.0 { (Vec3::new(prev[0], prev[1], prev[2]) * prev[3] + sum) / total } else { Vec3::ZERO };
             if stats.occluded == 0 {
                 stats.d2_min = 0.0;
             }
             let occ = [stats.d1, stats.d2_min, stats.d2_max, stats.occluded as f32];
-            (
-                [mean.x, mean.y, mean.z, total],
-                occ,
-                (extra as u64) * lights.len() as u64,
-                bad,
-            )
+            ([mean.x, mean.y, mean.z, total], occ, (extra as u64) * lights.len() as u64, bad)
         });
         let rays: u64 = results.iter().map(|r| r.2).sum();
         let bad: u64 = results.iter().map(|r| r.3).sum();

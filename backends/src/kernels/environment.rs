@@ -65,7 +65,8 @@ pub fn environment_event(
     let Some(env) = scene.scene().environment.as_ref() else {
         return Vec3::ZERO;
     };
-    let e: EnvSample = env.table(uniform_entry(rng.uniform(sample, dim::ENVIRONMENT + bounce * dim::BOUNCE_STRIDE)) as usize);
+    let e: EnvSample =
+        env.table(uniform_entry(rng.uniform(sample, dim::ENVIRONMENT + bounce * dim::BOUNCE_STRIDE)) as usize);
     let cos = n.dot(e.dir);
     if !(cos > 0.0 && e.pdf > 0.0) {
         return Vec3::ZERO;

@@ -132,25 +132,27 @@ impl Kernel for GaussianFilter {
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {
-            let plane_normal = match ctx.int_param("plane_light")? {
-                l if l < 0 => Vec3::ZERO,
-                _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
-            };
-            Ok(Uniforms::new()
-                .u32("axis", ctx.int_param("axis")?.clamp(0, 1) as u32)
-                .i32("max_radius", ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
-                .f32("normal_cos", ctx.f32_param("normal_cos")?)
-                .u32("mutual", (ctx.str_param("reach")? == "mutual") as u32)
-                .vec3("plane_normal", plane_normal.to_array()))
-        })
-        .with_reach(|ctx| {
-            // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
-            Ok(match ctx.int_param("axis")? {
-                0 => Reach::Cols(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
-                _ => Reach::Rows(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
+        Some(
+            WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {
+                let plane_normal = match ctx.int_param("plane_light")? {
+                    l if l < 0 => Vec3::ZERO,
+                    _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
+                };
+                Ok(Uniforms::new()
+                    .u32("axis", ctx.int_param("axis")?.clamp(0, 1) as u32)
+                    .i32("max_radius", ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
+                    .f32("normal_cos", ctx.f32_param("normal_cos")?)
+                    .u32("mutual", (ctx.str_param("reach")? == "mutual") as u32)
+                    .vec3("plane_normal", plane_normal.to_array()))
             })
-        }))
+            .with_reach(|ctx| {
+                // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
+                Ok(match ctx.int_param("axis")? {
+                    0 => Reach::Cols(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
+                    _ => Reach::Rows(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
+                })
+            }),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;
@@ -169,9 +171,8 @@ impl Kernel for GaussianFilter {
             mutual: ctx.str_param("reach")? == "mutual",
         };
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| {
-            filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth)
-        });
+        let out = ctx
+            .map_pixels(false, |x, y| filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth));
         ctx.put("out", out)
     }
 }
@@ -187,8 +188,19 @@ mod tests {
         let n = 21;
         let position: Vec<[f32; 4]> = (0..n).map(|i| [i as f32 * 0.01, 0.0, 0.0, 1.0]).collect();
         let normal = vec![[0.0, 1.0, 0.0, 0.01]; n];
-        let value: Vec<[f32; 4]> = (0..n).map(|i| if i >= 14 { [0.0, 0.0, 0.0, 8.0] } else { [1.0, 1.0, 1.0, 8.0] }).collect();
-        let bandwidth: Vec<f32> = (0..n).map(|i| if i == 10 { 0.05 } else if i >= 14 { 0.01 } else { 0.0 }).collect();
+        let value: Vec<[f32; 4]> =
+            (0..n).map(|i| if i >= 14 { [0.0, 0.0, 0.0, 8.0] } else { [1.0, 1.0, 1.0, 8.0] }).collect();
+        let bandwidth: Vec<f32> = (0..n)
+            .map(|i| {
+                if i == 10 {
+                    0.05
+                } else if i >= 14 {
+                    0.01
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let p = FilterParams { axis: 0, plane_normal: Vec3::ZERO, max_radius: 64, normal_cos: 0.98, mutual };
         filter_pixel(10, 0, n as i32, 1, &p, &value, &position, &normal, &bandwidth)
     }

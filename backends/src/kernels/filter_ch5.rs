@@ -80,7 +80,6 @@ fn is_hit(position: [f32; 4]) -> bool {
     position[3] > 0.0
 }
 
-
 fn valid_width(w: f32) -> bool {
     w > 0.0 && w.is_finite()
 }
@@ -253,7 +252,6 @@ fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
     })
 }
 
-
 /// `filter.irradiance`: eq. 5.31 on factored irradiance.
 pub struct IrradianceFilter;
 
@@ -292,7 +290,11 @@ impl Kernel for IrradianceFilter {
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let omega = ctx.read::<f32>("omega")?;
         let pixel_length = ctx.read::<f32>("pixel_length")?;
-        let p = IrradianceParams { max_radius: max_radius(ctx)?, normal_cos: ctx.f32_param("normal_cos")?, axis: axis(ctx)? };
+        let p = IrradianceParams {
+            max_radius: max_radius(ctx)?,
+            normal_cos: ctx.f32_param("normal_cos")?,
+            axis: axis(ctx)?,
+        };
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
@@ -313,7 +315,11 @@ impl Kernel for DefocusFilter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("value", Format::Vec3), Binding::read("omega", Format::F32), Binding::write("out", Format::Vec3)]
+        vec![
+            Binding::read("value", Format::Vec3),
+            Binding::read("omega", Format::F32),
+            Binding::write("out", Format::Vec3),
+        ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -334,4 +340,3 @@ impl Kernel for DefocusFilter {
         ctx.put("out", out)
     }
 }
-

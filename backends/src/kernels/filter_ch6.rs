@@ -49,7 +49,6 @@ pub const MAX_RADIUS_LIMIT: i64 = 64;
 /// Largest `max_motion` a history pass may ask for.
 pub const MAX_MOTION_LIMIT: i64 = 4096;
 
-
 /// The filter's parameters.
 #[derive(Clone, Copy, Debug)]
 pub struct Ch6Params {
@@ -135,13 +134,17 @@ pub fn filter_pixel(
         }
         let j = (jy * width + jx) as usize;
         let bj = bandwidth[j];
-        if !is_finite3(value[j]) || !(bj[p.axis] >= 0.0) || !compatible(position[i], ni, position[j], normal[j], p.normal_cos) {
+        if !is_finite3(value[j])
+            || !(bj[p.axis] >= 0.0)
+            || !compatible(position[i], ni, position[j], normal[j], p.normal_cos)
+        {
             return None;
         }
         let d2 = (v3(position[j]) - xi).length_squared();
         Some((j, 2.0 * mean_b2(bi, bj, p.axis) * d2))
     };
-    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1))) else {
+    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1)))
+    else {
         return centre;
     };
     let mut sum = [0.0f32; 3];
@@ -255,7 +258,8 @@ pub fn history_pixel(
         Some((j, 2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2))
     };
     // No neighbour near enough to weigh anything: no history (as when there is no neighbour).
-    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1))) else {
+    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1)))
+    else {
         return none;
     };
     let mut sum = [0.0f32; 3];
@@ -274,7 +278,10 @@ pub fn history_pixel(
 fn params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
     let axis = ctx.int_param("axis")?;
     if !(0..=1).contains(&axis) {
-        return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("`axis` = {axis}; use 0 (x) or 1 (y)") });
+        return Err(BackendError::Kernel {
+            pass: ctx.pass.into(),
+            message: format!("`axis` = {axis}; use 0 (x) or 1 (y)"),
+        });
     }
     Ok(Ch6Params {
         axis: axis as usize,
@@ -288,7 +295,6 @@ fn params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
 fn history_params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
     Ok(Ch6Params { max_motion: ctx.int_param("max_motion")?.clamp(0, MAX_MOTION_LIMIT) as i32, ..params(ctx)? })
 }
-
 
 /// `filter.environment`: one axis of eqs. 6.21–6.23 (and 6.26 with `previous`).
 pub struct EnvironmentFilter;

@@ -52,7 +52,6 @@ pub fn same_velocity(a: [f32; 2], b: [f32; 2]) -> bool {
     (a - b).length_squared() <= tol * tol
 }
 
-
 fn valid_width(w: f32) -> bool {
     w > 0.0 && w.is_finite()
 }
@@ -70,7 +69,15 @@ fn step(x: i32, y: i32, k: i32, d: [f32; 2]) -> (i32, i32) {
 }
 
 /// `filter.motion` at pixel `(x, y)`; `motion[i]` = (v_x, v_y, Ω, unused).
-pub fn motion_pixel(x: i32, y: i32, width: i32, height: i32, max_radius: i32, value: &[[f32; 3]], motion: &[[f32; 4]]) -> [f32; 3] {
+pub fn motion_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    max_radius: i32,
+    value: &[[f32; 3]],
+    motion: &[[f32; 4]],
+) -> [f32; 3] {
     let i = (y * width + x) as usize;
     let centre = value[i];
     let (vi, om) = ([motion[i][0], motion[i][1]], motion[i][2]);
@@ -160,8 +167,6 @@ pub fn radiance3_pixel(
     }
 }
 
-
-
 /// `filter.motion`: the oriented 1-D Gaussian of eqs. B.1 / B.2 (module doc).
 pub struct MotionFilter;
 
@@ -173,7 +178,11 @@ impl Kernel for MotionFilter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("value", Format::Vec3), Binding::read("motion", Format::Vec4), Binding::write("out", Format::Vec3)]
+        vec![
+            Binding::read("value", Format::Vec3),
+            Binding::read("motion", Format::Vec4),
+            Binding::write("out", Format::Vec3),
+        ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(

@@ -68,8 +68,8 @@ impl PathParams {
         let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
         let lobe = <Lobe as crate::params::ParamField>::read(ctx, "brdf")?;
         let bounces = ctx.int_param("bounces")?;
-        let bounces =
-            u32::try_from(bounces).map_err(|_| err(format!("`bounces` = {bounces} must be between 1 and {}", u32::MAX)))?;
+        let bounces = u32::try_from(bounces)
+            .map_err(|_| err(format!("`bounces` = {bounces} must be between 1 and {}", u32::MAX)))?;
         Ok(PathParams { bounces: bounces.max(1), ao, max_distance, lobe, eps: RAY_EPSILON * ctx.scene.extent() })
     }
     /// The fields `shaders/indirect_path.wgsl` reads from the including kernel's `Params`: `eps`,
@@ -89,7 +89,10 @@ fn ao_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
     match ctx.str_param("mode")? {
         "radiance" => Ok(false),
         "ao" => Ok(true),
-        other => Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("unknown mode `{other}`; use radiance or ao") }),
+        other => Err(BackendError::Kernel {
+            pass: ctx.pass.into(),
+            message: format!("unknown mode `{other}`; use radiance or ao"),
+        }),
     }
 }
 
@@ -244,7 +247,8 @@ pub fn next_event_parts(
         sum += light.radiance * f * geometry;
     }
     // The environment is a light too (thesis Ch. 6: it lights the reflectors of E^ind).
-    let total = sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow);
+    let total =
+        sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow);
     (total, glossy_sum)
 }
 
@@ -551,7 +555,10 @@ impl Kernel for IndirectCompose {
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new()))
+                .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let diffuse = ctx.read::<[f32; 4]>("diffuse")?;

@@ -62,7 +62,6 @@ pub const REAL_OBJECT: u32 = 1 << 22;
 /// Offset of secondary ray origins along the normal, relative to the scene's extent.
 const EPS_RELATIVE: f32 = 1e-4;
 
-
 /// `mr.sample`'s settings.
 #[derive(Clone, Copy, Debug)]
 pub struct MrSettings {
@@ -79,7 +78,10 @@ pub struct MrSettings {
 fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
     let err = |m: String| BackendError::Kernel { pass: ctx.pass.into(), message: m };
     let scene = ctx.scene;
-    let layer = scene.real.as_ref().ok_or_else(|| err("the scene has no real layer (camera image, position and normal maps): the MixedReality node loads one".into()))?;
+    let layer = scene.real.as_ref().ok_or_else(|| {
+        err("the scene has no real layer (camera image, position and normal maps): the MixedReality node loads one"
+            .into())
+    })?;
     // The full image's size: a tile's window reads the layer at its own place in it.
     let (width, height) = ctx.full_size();
     if layer.width() != width || layer.height() != height {
@@ -91,7 +93,10 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
             height
         )));
     }
-    let env = scene.environment.as_ref().ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
+    let env = scene
+        .environment
+        .as_ref()
+        .ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
     let threshold = ctx.f32_param("occluder_threshold")?;
     let thickness = ctx.f32_param("thickness")?;
     if !(threshold.is_finite() && threshold >= 0.0 && thickness.is_finite() && thickness > 0.0) {
@@ -205,7 +210,16 @@ impl World<'_> {
 /// Radiance leaving a virtual hit `y` toward `-d`: one environment look-up `u` with shadow rays in
 /// both worlds (Algorithm 1, line 29).
 #[allow(clippy::too_many_arguments)]
-fn virtual_hit_radiance(world: &World<'_>, s: &MrSettings, sums: &mut Sums, y: Vec3, n: Vec3, wo: Vec3, (kd, ks, m): (Vec3, Vec3, f32), u: f32) -> Vec3 {
+fn virtual_hit_radiance(
+    world: &World<'_>,
+    s: &MrSettings,
+    sums: &mut Sums,
+    y: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    (kd, ks, m): (Vec3, Vec3, f32),
+    u: f32,
+) -> Vec3 {
     let env = world.scene.scene().environment.as_ref().expect("checked in settings");
     let e = env.table(uniform_entry(u) as usize);
     let cos = n.dot(e.dir);
@@ -226,16 +240,27 @@ fn virtual_hit_radiance(world: &World<'_>, s: &MrSettings, sums: &mut Sums, y: V
 
 /// One primary sample's `per_primary` secondary samples at receiver `r` (the module doc).
 #[allow(clippy::too_many_arguments)]
-fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u32, first: u32, r: &Receiver, sums: &mut Sums) {
+fn secondary(
+    world: &World<'_>,
+    s: &MrSettings,
+    seed: u32,
+    pixel: u32,
+    shift: u32,
+    first: u32,
+    r: &Receiver,
+    sums: &mut Sums,
+) {
     let env = world.scene.scene().environment.as_ref().expect("checked in settings");
     let origin = r.x + r.n * s.eps;
     // k_V for dividing a virtual sample's outgoing radiance (0 channels stay 0).
     let k_v = r.kd + r.ks;
-    let per_k = |l: Vec3| Vec3::new(
-        if k_v.x > 0.0 { l.x / k_v.x } else { 0.0 },
-        if k_v.y > 0.0 { l.y / k_v.y } else { 0.0 },
-        if k_v.z > 0.0 { l.z / k_v.z } else { 0.0 },
-    );
+    let per_k = |l: Vec3| {
+        Vec3::new(
+            if k_v.x > 0.0 { l.x / k_v.x } else { 0.0 },
+            if k_v.y > 0.0 { l.y / k_v.y } else { 0.0 },
+            if k_v.z > 0.0 { l.z / k_v.z } else { 0.0 },
+        )
+    };
     let glossy = !r.real && r.m > 0.0 && r.ks.max_element() > 0.0;
     let (lum_d, lum_s) = (luminance(r.kd), if glossy { luminance(r.ks) } else { 0.0 });
     let p_glossy = if lum_d + lum_s > 0.0 { lum_s / (lum_d + lum_s) } else { 0.0 };
@@ -248,7 +273,11 @@ fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u3
         }
         // Direct light: look-up q of the table.
         sums.look_ups += 1;
-        let entry = if s.stratified { stratified_entry(shift, q) } else { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x) };
+        let entry = if s.stratified {
+            stratified_entry(shift, q)
+        } else {
+            uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x)
+        };
         let e = env.table(entry as usize);
         let cos = r.n.dot(e.dir);
         let (mut dir_r, mut dir_rv) = (Vec3::ZERO, Vec3::ZERO);
@@ -288,13 +317,21 @@ fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u3
         // Indirect light: one direction from the receiver's BRDF.
         let u = draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q);
         let pick = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
-        let wi = if glossy && pick.x < p_glossy { sample_glossy(Lobe::Phong, r.m, r.n, r.wo, u).0 } else { sample_diffuse(r.n, u) };
+        let wi = if glossy && pick.x < p_glossy {
+            sample_glossy(Lobe::Phong, r.m, r.n, r.wo, u).0
+        } else {
+            sample_diffuse(r.n, u)
+        };
         let cos_i = r.n.dot(wi);
         let (mut ind_r, mut ind_rv) = (Vec3::ZERO, Vec3::ZERO);
         if cos_i > 0.0 && wi.is_finite() {
             // The mixture pdf of the two lobes (diffuse alone: cos/π).
             let pdf_d = cos_i * std::f32::consts::FRAC_1_PI;
-            let pdf = if glossy { (1.0 - p_glossy) * pdf_d + p_glossy * glossy_pdf(Lobe::Phong, r.m, r.n, r.wo, wi) } else { pdf_d };
+            let pdf = if glossy {
+                (1.0 - p_glossy) * pdf_d + p_glossy * glossy_pdf(Lobe::Phong, r.m, r.n, r.wo, wi)
+            } else {
+                pdf_d
+            };
             sums.ind_rays += 1;
             // One BVH and one screen-space ray.
             sums.indirect_rays += 2;
@@ -309,7 +346,16 @@ fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u3
                 let mat = &world.scene.scene().materials[sp.material as usize];
                 let kd = world.scene.scene().albedo(&sp);
                 let u_env = draw(s, seed, pixel, pair::PATH, q).x;
-                let l = virtual_hit_radiance(world, s, sums, sp.position, sp.shading_normal, -wi, (kd, mat.specular, mat.phong_exponent), u_env);
+                let l = virtual_hit_radiance(
+                    world,
+                    s,
+                    sums,
+                    sp.position,
+                    sp.shading_normal,
+                    -wi,
+                    (kd, mat.specular, mat.phong_exponent),
+                    u_env,
+                );
                 (h.t, l)
             });
             let nearest = match (l_r, l_v) {
@@ -362,7 +408,17 @@ fn secondary(world: &World<'_>, s: &MrSettings, seed: u32, pixel: u32, shift: u3
 /// `mr.sample` at pixel `(px, py)`; `screen` is the real layer's tracer for `camera` (built once per
 /// image: it holds the layer's depth pyramid).
 #[allow(clippy::too_many_arguments)]
-pub fn sample_pixel(scene: &Scene, camera: &Camera, screen: &ScreenTracer<'_>, s: &MrSettings, seed: u32, px: u32, py: u32, width: u32, height: u32) -> MrPixel {
+pub fn sample_pixel(
+    scene: &Scene,
+    camera: &Camera,
+    screen: &ScreenTracer<'_>,
+    s: &MrSettings,
+    seed: u32,
+    px: u32,
+    py: u32,
+    width: u32,
+    height: u32,
+) -> MrPixel {
     let layer = screen.layer;
     let world = World { scene: scene.at(0.0), screen };
     let pixel = py * width + px;
@@ -449,7 +505,12 @@ pub fn sample_pixel(scene: &Scene, camera: &Camera, screen: &ScreenTracer<'_>, s
         position,
         normal,
         environment: [sums.occluder, exponent, sums.look_ups as f32, sums.blocked as f32],
-        depth: [if sums.ind_hits > 0 { sums.z_min } else { 0.0 }, sums.z_max, sums.ind_hits as f32, sums.ind_rays as f32],
+        depth: [
+            if sums.ind_hits > 0 { sums.z_min } else { 0.0 },
+            sums.z_max,
+            sums.ind_hits as f32,
+            sums.ind_rays as f32,
+        ],
         screen: [sums.screen_rays as f32, sums.offscreen as f32, sums.screen_hits as f32, 0.0],
         rays: [sums.primary_rays as u64, sums.shadow_rays as u64, sums.indirect_rays as u64],
         non_finite: sums.non_finite as u64,
@@ -586,10 +647,17 @@ impl Kernel for MrComposite {
         b
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/mr_composite.wgsl"), |_| Ok(Uniforms::new())).with_scene().per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../shaders/mr_composite.wgsl"), |_| Ok(Uniforms::new()))
+                .with_scene()
+                .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let layer = ctx.scene.real.as_ref().ok_or_else(|| BackendError::Kernel { pass: ctx.pass.into(), message: "the scene has no real layer".into() })?;
+        let layer = ctx.scene.real.as_ref().ok_or_else(|| BackendError::Kernel {
+            pass: ctx.pass.into(),
+            message: "the scene has no real layer".into(),
+        })?;
         let (width, window) = (ctx.width, ctx.window);
         let e: Vec<&[[f32; 3]]> = IRRADIANCES.iter().map(|n| ctx.read::<[f32; 3]>(n)).collect::<Result<_, _>>()?;
         let texture = ctx.read::<[f32; 4]>("texture")?;

@@ -27,10 +27,12 @@ impl Kernel for FillInvalid {
         ]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/neighbourhood_fill.wgsl"), |ctx| {
-            Ok(Uniforms::new().i32("radius", ctx.int_param("radius")?.clamp(0, 64) as i32))
-        })
-        .with_reach(|ctx| Ok(Reach::Rows(ctx.int_param("radius")?.clamp(0, 64) as u32))))
+        Some(
+            WgslSource::new(include_str!("../../../shaders/neighbourhood_fill.wgsl"), |ctx| {
+                Ok(Uniforms::new().i32("radius", ctx.int_param("radius")?.clamp(0, 64) as i32))
+            })
+            .with_reach(|ctx| Ok(Reach::Rows(ctx.int_param("radius")?.clamp(0, 64) as u32))),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;

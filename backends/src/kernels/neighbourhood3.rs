@@ -100,4 +100,3 @@ impl Kernel for Median3 {
         run(ctx, median3)
     }
 }
-

@@ -69,13 +69,13 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::{Camera, LensShape, SceneAt};
 
-use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::{light_centre_factor, light_sample};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::kernels::luminance;
+use crate::record;
 use crate::rng::PixelRng;
 use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
 use crate::BackendError;
@@ -188,7 +188,6 @@ record! {
         env_rays: u32,
     }
 }
-
 
 fn add(a: &mut [f32; 3], b: Vec3) {
     *a = (Vec3::from(*a) + b).to_array();
@@ -481,9 +480,12 @@ impl Kernel for PathsTrace {
             let mut r = previous.map_or_else(PathRecord::default, |p| p[i]);
             let first = r.paths;
             let count = counts.map_or(s.count, |c| c[i]).min(u32::MAX - first);
-            let split = |total: Option<&[u32]>, per_path: u32| total.map_or(Split::per_path(per_path), |t| Split::new(t[i], count));
+            let split = |total: Option<&[u32]>, per_path: u32| {
+                total.map_or(Split::per_path(per_path), |t| Split::new(t[i], count))
+            };
             let diffuse = split(diffuse_total, s.indirect_per_primary);
-            let (shadow, glossy) = (split(shadow_total, s.shadow_per_primary), glossy_total.map_or(diffuse, |t| Split::new(t[i], count)));
+            let (shadow, glossy) =
+                (split(shadow_total, s.shadow_per_primary), glossy_total.map_or(diffuse, |t| Split::new(t[i], count)));
             let environment = split(environment_total, s.environment_per_primary);
             let rng_d = PixelRng::new(seed, pixel, substream(s.stream, SALT_DIFFUSE_PATH));
             let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
@@ -498,7 +500,12 @@ impl Kernel for PathsTrace {
                 let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
                 let hit = if fixed_primary { *fixed_hit.get_or_insert_with(trace) } else { trace() };
                 let t = j - first;
-                let n = Secondary { shadow: shadow.at(t), diffuse: diffuse.at(t), glossy: glossy.at(t), environment: environment.at(t) };
+                let n = Secondary {
+                    shadow: shadow.at(t),
+                    diffuse: diffuse.at(t),
+                    glossy: glossy.at(t),
+                    environment: environment.at(t),
+                };
                 let light = has_light.then(|| at.light(s.light));
                 let view = View { forward, height, projection: &projection };
                 trace_one(&at, &s, light.as_ref(), &view, &ray, hit, seed, pixel, &rng_d, &rng_g, n, &mut r);
@@ -772,7 +779,13 @@ fn trace_direct(
         }
     }
     // U takes E's weights (a path's mean, or the sample sum with a fixed camera ray).
-    let per = if s.fixed_primary { 1.0 } else if valid > 0 { 1.0 / valid as f32 } else { 0.0 };
+    let per = if s.fixed_primary {
+        1.0
+    } else if valid > 0 {
+        1.0 / valid as f32
+    } else {
+        0.0
+    };
     add(&mut r.u_direct, unshadowed * (per * w));
     let sums = Sums { l: &mut r.l_direct, k: &mut r.k_direct, e: &mut r.e_direct, w: &mut r.w_direct };
     accumulate(sums, k, e, valid, w, s.fixed_primary);
@@ -798,7 +811,15 @@ pub fn occluder_term(cos: f32, t: f32) -> f32 {
 /// cos/pdf` with `k = k_s` (Phong receivers, eq. 6.14). Occluded samples at least
 /// `occluder_luminance` bright keep the largest [`occluder_term`].
 #[allow(clippy::too_many_arguments)]
-fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, seed: u32, pixel: u32, count: u32, r: &mut PathRecord) {
+fn trace_environment(
+    scene: &SceneAt<'_>,
+    s: &Settings,
+    at: &PathHit,
+    seed: u32,
+    pixel: u32,
+    count: u32,
+    r: &mut PathRecord,
+) {
     let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
     let Some(env) = scene.scene().environment.as_ref() else { return };
     let shift = if s.stratified { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, 0).x) } else { 0 };
@@ -807,7 +828,11 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, seed: u32,
     for _ in 0..count {
         let q = r.env_samples;
         r.env_samples += 1;
-        let entry = if s.stratified { stratified_entry(shift, q) } else { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x) };
+        let entry = if s.stratified {
+            stratified_entry(shift, q)
+        } else {
+            uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x)
+        };
         let e = env.table(entry as usize);
         let cos = n.dot(e.dir);
         let (mut vd, mut vg) = (Vec3::ZERO, Vec3::ZERO);
@@ -844,12 +869,12 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, seed: u32,
             }
         }
     }
-    let sums = Sums { l: &mut r.l_env_diffuse, k: &mut r.k_env_diffuse, e: &mut r.e_env_diffuse, w: &mut r.w_env_diffuse };
+    let sums =
+        Sums { l: &mut r.l_env_diffuse, k: &mut r.k_env_diffuse, e: &mut r.e_env_diffuse, w: &mut r.w_env_diffuse };
     accumulate(sums, kd, ed, valid_d, w, s.fixed_primary);
     let sums = Sums { l: &mut r.l_env_glossy, k: &mut r.k_env_glossy, e: &mut r.e_env_glossy, w: &mut r.w_env_glossy };
     accumulate(sums, if glossy { ks } else { Vec3::ZERO }, eg, valid_g, w, s.fixed_primary);
 }
-
 
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
 #[allow(clippy::too_many_arguments)]
@@ -893,7 +918,8 @@ fn trace_indirect(
             r.glossy_samples += 1;
             let u = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
             let (wi, weight) = sample_glossy(s.path.lobe, m, n, wo, u);
-            let v = if weight > 0.0 { indirect_ray(scene, &s.path, x, n, wi, rng_g, q, r) * weight } else { Vec3::ZERO };
+            let v =
+                if weight > 0.0 { indirect_ray(scene, &s.path, x, n, wi, rng_g, q, r) * weight } else { Vec3::ZERO };
             if v.is_finite() {
                 e += v;
                 valid += 1;
@@ -908,7 +934,16 @@ fn trace_indirect(
 
 /// One indirect path (shared estimator `indirect::trace_path`), with its rays and first hit recorded.
 #[allow(clippy::too_many_arguments)]
-fn indirect_ray(scene: &SceneAt<'_>, p: &PathParams, x: Vec3, n: Vec3, wi: Vec3, rng: &PixelRng, q: u32, r: &mut PathRecord) -> Vec3 {
+fn indirect_ray(
+    scene: &SceneAt<'_>,
+    p: &PathParams,
+    x: Vec3,
+    n: Vec3,
+    wi: Vec3,
+    rng: &PixelRng,
+    q: u32,
+    r: &mut PathRecord,
+) -> Vec3 {
     let mut rays = PathRays::default();
     let (v, t) = trace_path(scene, p, x, n, wi, rng, q, &mut rays);
     r.indirect_rays += rays.secondary as u32;
@@ -938,11 +973,8 @@ struct Sums<'a> {
 /// each times the lens weight (the component weight was added with the path); with sample weights
 /// (`fixed_primary`), the sums themselves, `k` times `valid`, and `w·valid` to the component weight.
 fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primary: bool) {
-    let (e, n) = if fixed_primary {
-        (e, valid as f32)
-    } else {
-        (if valid > 0 { e / valid as f32 } else { Vec3::ZERO }, 1.0)
-    };
+    let (e, n) =
+        if fixed_primary { (e, valid as f32) } else { (if valid > 0 { e / valid as f32 } else { Vec3::ZERO }, 1.0) };
     add(sums.l, k * e * w);
     add(sums.k, k * (n * w));
     add(sums.e, e * w);
@@ -1071,7 +1103,9 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "defocus" => surface(2),
         "occlusion" => [hit_mean(r.d1), r.d2_min, r.d2_max, r.occluded as f32],
         "depth" => [r.z_min, r.z_max, r.indirect_hits as f32, r.indirect_rays as f32],
-        "counts" => [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32],
+        "counts" => {
+            [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32]
+        }
         "direct" => estimate(e(r.e_direct, r.w_direct), r.shadow),
         "diffuse" => estimate(e(r.e_diffuse, r.w_diffuse), r.diffuse_samples),
         "glossy" => estimate(e(r.e_glossy, r.w_glossy), r.glossy_samples),
@@ -1129,7 +1163,9 @@ impl Kernel for PathsResolve {
         let width = ctx.width;
         for (k, (name, format)) in RESOLVE_OUTPUTS.iter().enumerate() {
             let column = |ctx: &KernelCtx<'_>| {
-                ctx.map_pixels(false, |x, y| resolve_output(k, &records[(y * width + x) as usize], &cam, pixel_angle, tan_half, height))
+                ctx.map_pixels(false, |x, y| {
+                    resolve_output(k, &records[(y * width + x) as usize], &cam, pixel_angle, tan_half, height)
+                })
             };
             if !ctx.is_bound(name) {
                 continue;

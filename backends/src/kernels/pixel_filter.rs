@@ -39,7 +39,9 @@ use wedge_graph::Format;
 use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::indirect::{continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays};
+use crate::kernels::indirect::{
+    continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
+};
 use crate::rng::{dim, PixelRng};
 use crate::BackendError;
 
@@ -279,7 +281,13 @@ impl Split {
 /// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed 002
 /// assumes a pinhole at one instant, and for such a camera the rays are as before, bit for bit). The
 /// WGSL draws the same numbers in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`.
-fn camera_ray(cam: &Camera, rng: &PixelRng, j: u32, (px, py): (u32, u32), (width, height): (u32, u32)) -> (LensRay, f32) {
+fn camera_ray(
+    cam: &Camera,
+    rng: &PixelRng,
+    j: u32,
+    (px, py): (u32, u32),
+    (width, height): (u32, u32),
+) -> (LensRay, f32) {
     let jit = rng.uniform2(j, dim::PIXEL);
     let lens = if cam.aperture_radius > 0.0 { Vec2::from(rng.uniform2(j, dim::LENS)) } else { Vec2::splat(0.5) };
     let t = if shutter_is_open(cam) { 2.0 * rng.uniform2(j, dim::TIME)[0] - 1.0 } else { 0.0 };
@@ -355,7 +363,8 @@ struct SampleSettings {
 
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> {
     let split = ctx.str_param("split")?;
-    let split = Split::parse(split).ok_or_else(|| ctx.err(format!("unknown split `{split}`; use indirect, caustics or all")))?;
+    let split = Split::parse(split)
+        .ok_or_else(|| ctx.err(format!("unknown split `{split}`; use indirect, caustics or all")))?;
     Ok(SampleSettings { paths: CameraPaths::read(ctx)?, split })
 }
 
@@ -386,7 +395,11 @@ impl CameraPaths {
     }
     /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
     /// was finite (the others are counted as non-finite samples); rays are counted too.
-    pub fn run<T: Default + Send>(&self, ctx: &KernelCtx<'_>, fold: impl Fn(&mut T, u32, &FirstVertex) -> bool + Sync) -> Vec<T> {
+    pub fn run<T: Default + Send>(
+        &self,
+        ctx: &KernelCtx<'_>,
+        fold: impl Fn(&mut T, u32, &FirstVertex) -> bool + Sync,
+    ) -> Vec<T> {
         // The full image's pixel and size (a tile's window is part of it).
         let (seed, window) = (ctx.seed, ctx.window);
         let out = ctx.map_pixels(true, |px, py| {
@@ -444,12 +457,28 @@ pub struct FirstVertex {
 /// sample of the vertex's lobe mixture (as [`trace_path_split`] continues at later vertices, on the
 /// first vertex's dimensions, which the later vertices do not use).
 #[allow(clippy::too_many_arguments)]
-pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, rng: &PixelRng, j: u32, rays: &mut PathRays) -> FirstVertex {
+pub fn first_vertex(
+    at: &SceneAt<'_>,
+    p: &PathParams,
+    origin: Vec3,
+    dir: Vec3,
+    rng: &PixelRng,
+    j: u32,
+    rays: &mut PathRays,
+) -> FirstVertex {
     let scene = at.scene();
     let Some(hit) = at.intersect(origin, dir, 0.0, f32::INFINITY) else {
         // The environment seen directly (black without a map).
         let bg = scene.background(dir);
-        return FirstVertex { direct: bg, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface: None, wi: None, incident: Vec3::ZERO, bounce_distance: None };
+        return FirstVertex {
+            direct: bg,
+            indirect: Vec3::ZERO,
+            caustic: Vec3::ZERO,
+            surface: None,
+            wi: None,
+            incident: Vec3::ZERO,
+            bounce_distance: None,
+        };
     };
     let sp = at.surface(&hit, origin, dir);
     let (x, n, wo) = (sp.position, sp.shading_normal, -dir);
@@ -459,7 +488,15 @@ pub fn first_vertex(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, dir: Vec3, r
     let emitted = scene.emission(&sp);
     let direct = next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays);
     let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
-    let mut v = FirstVertex { direct: emitted + direct, indirect: Vec3::ZERO, caustic: Vec3::ZERO, surface, wi: None, incident: Vec3::ZERO, bounce_distance: None };
+    let mut v = FirstVertex {
+        direct: emitted + direct,
+        indirect: Vec3::ZERO,
+        caustic: Vec3::ZERO,
+        surface,
+        wi: None,
+        incident: Vec3::ZERO,
+        bounce_distance: None,
+    };
     // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
     if let Some(mix) = lobe_mixture(kd, ks, m) {
         let (u, select) = continuation_numbers(rng, j, 0);
@@ -492,7 +529,6 @@ pub fn split_path(v: &FirstVertex, split: Split) -> (Vec3, Vec3) {
         Split::All => (Vec3::ZERO, v.direct + v.indirect),
     }
 }
-
 
 impl Kernel for PixelSample {
     fn name(&self) -> &'static str {
@@ -734,7 +770,8 @@ impl Kernel for AdaptiveWidth {
         let pf = ctx.read_opt::<[f32; 4]>("previous_filtered")?;
         let pv = ctx.read_opt::<[f32; 4]>("previous_variance")?;
         let at = |b: Option<&[[f32; 4]]>, i: usize| b.map_or([0.0; 4], |b| b[i]);
-        let out: Vec<f32> = (0..ctx.pixels()).map(|i| width_pixel(lv[i], at(pf, i), at(pv, i), sigma_s, c, t)).collect();
+        let out: Vec<f32> =
+            (0..ctx.pixels()).map(|i| width_pixel(lv[i], at(pf, i), at(pv, i), sigma_s, c, t)).collect();
         ctx.put("sigma", out)
     }
 }
@@ -882,7 +919,9 @@ impl Kernel for Bilateral {
                         continue;
                     }
                     let i = (y * w + x) as usize;
-                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv[i][3], hv[i], 1.0, None, true, spread);
+                    add_tap(
+                        &mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv[i][3], hv[i], 1.0, None, true, spread,
+                    );
                 }
             }
             let (value, r, sigma2) = sums.finish();
@@ -1076,12 +1115,42 @@ impl Kernel for Separable {
                 let i = (y * w + x) as usize;
                 if s.first {
                     let spread = lv.unwrap()[j][3] < 2.0;
-                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv.unwrap()[i][3], value[i], 1.0, None, true, spread);
+                    add_tap(
+                        &mut sums,
+                        range[i],
+                        cj,
+                        dj,
+                        ds2,
+                        inv_s,
+                        inv_c,
+                        inv_d,
+                        lv.unwrap()[i][3],
+                        value[i],
+                        1.0,
+                        None,
+                        true,
+                        spread,
+                    );
                 } else {
                     let v = var.unwrap()[i];
                     // A pixel without paths is not in the chain (valid flag 0).
                     let n = if v[1] > 0.0 { 1.0 } else { 0.0 };
-                    add_tap(&mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, n, value[i], value[i][3], Some(v[0]), false, false);
+                    add_tap(
+                        &mut sums,
+                        range[i],
+                        cj,
+                        dj,
+                        ds2,
+                        inv_s,
+                        inv_c,
+                        inv_d,
+                        n,
+                        value[i],
+                        value[i][3],
+                        Some(v[0]),
+                        false,
+                        false,
+                    );
                 }
             }
             let (val, r, sigma2) = sums.finish();
@@ -1122,7 +1191,13 @@ fn blend_params(ctx: &KernelCtx<'_>) -> Result<BlendParams, BackendError> {
 }
 
 /// One pixel of [`Blend`]: (radiance, unfiltered, s).
-pub fn blend_pixel(lv: [f32; 4], hv: [f32; 4], filtered: [f32; 4], variance: [f32; 4], b: BlendParams) -> (Vec3, Vec3, f32) {
+pub fn blend_pixel(
+    lv: [f32; 4],
+    hv: [f32; 4],
+    filtered: [f32; 4],
+    variance: [f32; 4],
+    b: BlendParams,
+) -> (Vec3, Vec3, f32) {
     let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
     let (llv, lu, lf) = (v3(lv), v3(hv), v3(filtered));
     let n = lv[3];
@@ -1187,7 +1262,8 @@ impl Kernel for Blend {
         let hv = ctx.read::<[f32; 4]>("hv")?;
         let filtered = ctx.read::<[f32; 4]>("filtered")?;
         let variance = ctx.read::<[f32; 4]>("variance")?;
-        let out: Vec<(Vec3, Vec3, f32)> = (0..ctx.pixels()).map(|i| blend_pixel(lv[i], hv[i], filtered[i], variance[i], b)).collect();
+        let out: Vec<(Vec3, Vec3, f32)> =
+            (0..ctx.pixels()).map(|i| blend_pixel(lv[i], hv[i], filtered[i], variance[i], b)).collect();
         ctx.put("radiance", out.iter().map(|o| o.0.to_array()).collect::<Vec<_>>())?;
         ctx.put("unfiltered", out.iter().map(|o| o.1.to_array()).collect::<Vec<_>>())?;
         ctx.put("blend", out.iter().map(|o| o.2).collect::<Vec<_>>())
@@ -1201,7 +1277,9 @@ mod tests {
     #[test]
     fn blend_case_three_meets_the_threshold_exactly() {
         // s'²u + (1 − s')²f = t (eq. 3.9 without covariance) wherever case 3 applies.
-        for &(u, f, t) in &[(1.0f32, 0.1, 0.5), (4.0, 0.05, 0.2), (0.3, 0.01, 0.02), (100.0, 0.001, 0.01), (2.0, 1.0, 1.5)] {
+        for &(u, f, t) in
+            &[(1.0f32, 0.1, 0.5), (4.0, 0.05, 0.2), (0.3, 0.01, 0.02), (100.0, 0.001, 0.01), (2.0, 1.0, 1.5)]
+        {
             let s = blend_factor(u, f, t);
             assert!(s > 0.0 && s < 1.0, "case 3 at {u} {f} {t}: {s}");
             let v = s * s * u + (1.0 - s) * (1.0 - s) * f;
@@ -1258,7 +1336,11 @@ mod tests {
                 let mut count = 0;
                 for f in 0..300 {
                     count += is_filter_frame(f, first, ff) as u32;
-                    assert_eq!(filter_passes_through(f, first, ff), count, "first {first}, first frame {ff}, frame {f}");
+                    assert_eq!(
+                        filter_passes_through(f, first, ff),
+                        count,
+                        "first {first}, first frame {ff}, frame {f}"
+                    );
                 }
             }
         }
@@ -1317,7 +1399,9 @@ mod tests {
         assert!(((st.m2 as f64) - m2).abs() < 2e-3 * m2, "M2 {} vs {m2} (offset 1000: no cancellation)", st.m2);
         // Combining two halves equals one pass over all, to rounding.
         let (a, b) = xs.split_at(400);
-        let fold = |v: &[f32]| v.iter().fold(Stats::default(), |s, &x| Stats::combine(s, Stats::one(Vec3::ZERO, Vec3::splat(x))));
+        let fold = |v: &[f32]| {
+            v.iter().fold(Stats::default(), |s, &x| Stats::combine(s, Stats::one(Vec3::ZERO, Vec3::splat(x))))
+        };
         let both = Stats::combine(fold(a), fold(b));
         assert_eq!(both.n, 1000.0);
         assert!((both.m2 - st.m2).abs() < 1e-3 * st.m2, "{} vs {}", both.m2, st.m2);
@@ -1343,4 +1427,3 @@ mod tests {
         }
     }
 }
-

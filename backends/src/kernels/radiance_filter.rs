@@ -202,7 +202,16 @@ impl TangentKernel {
         let a_s = a_d.cross(n);
         let rs = r * pixel_angle * distance;
         let rd = rs / dn.abs().max(MIN_COS);
-        TangentKernel { centre: x, normal: n, axis_s: a_s, axis_d: a_d, rs, inv_rs: 1.0 / rs, inv_rd: 1.0 / rd, delta: thickness * rs }
+        TangentKernel {
+            centre: x,
+            normal: n,
+            axis_s: a_s,
+            axis_d: a_d,
+            rs,
+            inv_rs: 1.0 / rs,
+            inv_rd: 1.0 / rd,
+            delta: thickness * rs,
+        }
     }
 
     /// The Epanechnikov weight of a sample at `xj`.
@@ -288,9 +297,14 @@ impl Kernel for RadianceSample {
     /// WGSL mirror: `shaders/radiance_filter_sample.wgsl` (on the shared `first_vertex.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/radiance_filter_sample.wgsl"), |ctx| Ok(CameraPaths::read(ctx)?.uniforms(Uniforms::new(), ctx)))
+            WgslSource::new(include_str!("../../../shaders/radiance_filter_sample.wgsl"), |ctx| {
+                Ok(CameraPaths::read(ctx)?.uniforms(Uniforms::new(), ctx))
+            })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../shaders/pixel_filter_formulas.wgsl"))
-            .with_include("radiance_filter_formulas.wgsl", include_str!("../../../shaders/radiance_filter_formulas.wgsl"))
+            .with_include(
+                "radiance_filter_formulas.wgsl",
+                include_str!("../../../shaders/radiance_filter_formulas.wgsl"),
+            )
             .with_scene()
             .per_pixel()
             .chunked(),
@@ -373,7 +387,10 @@ impl Kernel for Radius {
                     .f32("warmup_radius", r.warmup_radius)
                     .f32("max_radius", r.max_radius))
             })
-            .with_include("radiance_filter_formulas.wgsl", include_str!("../../../shaders/radiance_filter_formulas.wgsl"))
+            .with_include(
+                "radiance_filter_formulas.wgsl",
+                include_str!("../../../shaders/radiance_filter_formulas.wgsl"),
+            )
             .per_pixel(),
         )
     }
@@ -386,7 +403,9 @@ impl Kernel for Radius {
             .map(|i| {
                 let (sigma2, lb, alpha) = match (pv, pa) {
                     // A first frame's history is zeros: w = 0 frames accumulated, no variance.
-                    (Some(v), Some(a)) if a[i][3] > 0.0 => (v[i][0], luminance(Vec3::new(a[i][0], a[i][1], a[i][2])), v[i][3]),
+                    (Some(v), Some(a)) if a[i][3] > 0.0 => {
+                        (v[i][0], luminance(Vec3::new(a[i][0], a[i][1], a[i][2])), v[i][3])
+                    }
                     _ => (-1.0, 0.0, 1.0),
                 };
                 let r = kernel_radius(&rule, k, sigma2, lb);
@@ -442,7 +461,6 @@ pub fn window(r: f32, max_radius: u32) -> i32 {
     }
 }
 
-
 impl Kernel for Filter {
     fn name(&self) -> &'static str {
         "radiance_filter.filter"
@@ -478,7 +496,10 @@ impl Kernel for Filter {
                     .u32("max_radius", s.max_radius)
                     .f32("pixel_angle", s.pixel_angle))
             })
-            .with_include("radiance_filter_formulas.wgsl", include_str!("../../../shaders/radiance_filter_formulas.wgsl"))
+            .with_include(
+                "radiance_filter_formulas.wgsl",
+                include_str!("../../../shaders/radiance_filter_formulas.wgsl"),
+            )
             .with_scene()
             .with_reach(|ctx| Ok(Reach::Rows(max_radius(ctx)?))),
         )
@@ -519,7 +540,8 @@ impl Kernel for Filter {
                     if !(direction[j][3] > 0.0 && point[j][3] > 0.0) {
                         continue;
                     }
-                    let wk = if j == c { 1.0 } else { kernel.weight(v3(point[j])) * normal_weight(v3(normal[j]), n, e) };
+                    let wk =
+                        if j == c { 1.0 } else { kernel.weight(v3(point[j])) * normal_weight(v3(normal[j]), n, e) };
                     if !(wk > 0.0) {
                         continue;
                     }
@@ -566,7 +588,15 @@ pub struct Compose;
 /// `sample_lv` (w = finite paths), own indirect estimate `own`, filtered indirect light
 /// `filtered`, the accumulated unfiltered image `unfiltered`, the previous accumulation and phase.
 /// A frame whose own path was not finite (`sample_lv.w = 0`) adds nothing to the pixel.
-pub fn compose_pixel(sample_lv: [f32; 4], own: [f32; 4], filtered: [f32; 4], unfiltered: Vec3, previous: [f32; 4], previous_phase: f32, switch: bool) -> ([f32; 4], Vec3, f32) {
+pub fn compose_pixel(
+    sample_lv: [f32; 4],
+    own: [f32; 4],
+    filtered: [f32; 4],
+    unfiltered: Vec3,
+    previous: [f32; 4],
+    previous_phase: f32,
+    switch: bool,
+) -> ([f32; 4], Vec3, f32) {
     let own_only = filtered[3] != FILTERED;
     let indirect = if own_only { v3(own) } else { v3(filtered) };
     let x = v3(sample_lv) + indirect;
@@ -618,20 +648,32 @@ impl Kernel for Compose {
             WgslSource::new(include_str!("../../../shaders/radiance_filter_compose.wgsl"), |ctx| {
                 Ok(Uniforms::new().u32("switch_mode", switch_mode(ctx)? as u32))
             })
-            .with_include("radiance_filter_formulas.wgsl", include_str!("../../../shaders/radiance_filter_formulas.wgsl"))
+            .with_include(
+                "radiance_filter_formulas.wgsl",
+                include_str!("../../../shaders/radiance_filter_formulas.wgsl"),
+            )
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let switch = switch_mode(ctx)?;
-        let (slv, own, filtered) = (ctx.read::<[f32; 4]>("sample_lv")?, ctx.read::<[f32; 4]>("own")?, ctx.read::<[f32; 4]>("filtered")?);
+        let (slv, own, filtered) =
+            (ctx.read::<[f32; 4]>("sample_lv")?, ctx.read::<[f32; 4]>("own")?, ctx.read::<[f32; 4]>("filtered")?);
         let (lv, hv) = (ctx.read::<[f32; 4]>("lv")?, ctx.read::<[f32; 4]>("hv")?);
         let pa = ctx.read_opt::<[f32; 4]>("previous_accumulated")?;
         let pp = ctx.read_opt::<f32>("previous_phase")?;
         let out: Vec<([f32; 4], Vec3, f32, Vec3)> = (0..ctx.pixels())
             .map(|i| {
                 let unfiltered = v3(lv[i]) + v3(hv[i]);
-                let (acc, radiance, phase) = compose_pixel(slv[i], own[i], filtered[i], unfiltered, pa.map_or([0.0; 4], |p| p[i]), pp.map_or(0.0, |p| p[i]), switch);
+                let (acc, radiance, phase) = compose_pixel(
+                    slv[i],
+                    own[i],
+                    filtered[i],
+                    unfiltered,
+                    pa.map_or([0.0; 4], |p| p[i]),
+                    pp.map_or(0.0, |p| p[i]),
+                    switch,
+                );
                 (acc, radiance, phase, unfiltered)
             })
             .collect();
@@ -734,22 +776,26 @@ mod tests {
         let own = [0.5, 0.5, 0.5, 0.0];
         let filtered = [0.2, 0.2, 0.2, FILTERED];
         // Preview frame: direct + filtered, running mean over frames.
-        let (acc, rad, phase) = compose_pixel([1.0, 1.0, 1.0, 1.0], own, filtered, Vec3::splat(9.0), [0.0; 4], 0.0, false);
+        let (acc, rad, phase) =
+            compose_pixel([1.0, 1.0, 1.0, 1.0], own, filtered, Vec3::splat(9.0), [0.0; 4], 0.0, false);
         assert_eq!(acc, [1.2, 1.2, 1.2, 1.0]);
         assert_eq!((rad, phase), (Vec3::splat(1.2), 0.0));
-        let (acc, _, _) = compose_pixel([2.0, 2.0, 2.0, 1.0], own, [0.0, 0.0, 0.0, OWN], Vec3::splat(9.0), acc, 0.0, false);
+        let (acc, _, _) =
+            compose_pixel([2.0, 2.0, 2.0, 1.0], own, [0.0, 0.0, 0.0, OWN], Vec3::splat(9.0), acc, 0.0, false);
         // Own estimate in the correction phase: 2 + 0.5, mean with 1.2.
         assert!((acc[0] - 1.85).abs() < 1e-6 && acc[3] == 2.0);
         // A non-finite path adds nothing.
         let (same, _, _) = compose_pixel([0.0, 0.0, 0.0, 0.0], own, filtered, Vec3::ZERO, acc, 0.0, false);
         assert_eq!(same, acc);
         // Switch: once in the correction phase, the plain accumulation, and it stays there.
-        let (_, rad, phase) = compose_pixel([1.0, 1.0, 1.0, 1.0], own, [0.0, 0.0, 0.0, OWN], Vec3::splat(9.0), acc, 0.0, true);
+        let (_, rad, phase) =
+            compose_pixel([1.0, 1.0, 1.0, 1.0], own, [0.0, 0.0, 0.0, OWN], Vec3::splat(9.0), acc, 0.0, true);
         assert_eq!((rad, phase), (Vec3::splat(9.0), 1.0));
         let (_, rad, phase) = compose_pixel([1.0, 1.0, 1.0, 1.0], own, filtered, Vec3::splat(9.0), acc, 1.0, true);
         assert_eq!((rad, phase), (Vec3::splat(9.0), 1.0));
         // A reference's bypassed filter (w = M2 ≥ 0) keeps the own estimate.
-        let (acc, _, _) = compose_pixel([1.0, 1.0, 1.0, 4.0], own, [0.5, 0.5, 0.5, 0.3], Vec3::ZERO, [0.0; 4], 0.0, false);
+        let (acc, _, _) =
+            compose_pixel([1.0, 1.0, 1.0, 4.0], own, [0.5, 0.5, 0.5, 0.3], Vec3::ZERO, [0.0; 4], 0.0, false);
         assert_eq!(acc, [1.5, 1.5, 1.5, 4.0]);
     }
 }

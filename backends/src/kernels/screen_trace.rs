@@ -149,7 +149,11 @@ impl DepthPyramid {
     /// end of the header), width, height and the level count (zeros past the last level); then the
     /// values, four per 16-byte element, as f32 bits.
     pub fn gpu_elements(&self) -> Vec<[u32; 4]> {
-        assert!(self.levels.len() <= PYRAMID_HEADER, "a pyramid of {} levels (at most {PYRAMID_HEADER})", self.levels.len());
+        assert!(
+            self.levels.len() <= PYRAMID_HEADER,
+            "a pyramid of {} levels (at most {PYRAMID_HEADER})",
+            self.levels.len()
+        );
         let mut v = vec![[0u32; 4]; PYRAMID_HEADER];
         for (l, &(first, w, h)) in self.levels.iter().enumerate() {
             v[l] = [first as u32, w, h, self.levels.len() as u32];
@@ -420,7 +424,22 @@ impl<'a> ScreenTracer<'a> {
         let u_first = u_in.max(du);
         let inv = |d: f32| if d != 0.0 { 1.0 / (d * du) } else { 0.0 };
         let inv_step = Vec2::new(inv(delta.x), inv(delta.y));
-        Ok(Segment { o, e, s0, delta, k0, k1, u_first, du, u_out, clipped, origin_pixel, z0, k_first: u_first / du, inv_step })
+        Ok(Segment {
+            o,
+            e,
+            s0,
+            delta,
+            k0,
+            k1,
+            u_first,
+            du,
+            u_out,
+            clipped,
+            origin_pixel,
+            z0,
+            k_first: u_first / du,
+            inv_step,
+        })
     }
 
     /// The exact test of step `k` (depth `z_ray`, the step before at `z_prev`).
@@ -595,15 +614,21 @@ mod tests {
         use crate::BufferData;
         let scene: Scene = wedge_scene::load(&SceneSource::Builtin(name.into())).expect("built-in scene");
         let inputs = std::collections::BTreeMap::<String, BufferData>::new();
-        let pass = LonePass::new(std::sync::Arc::new(crate::kernels::primary::PrimaryGBuffer), std::collections::BTreeMap::new(), &inputs)
-            .expect("G-buffer pass");
+        let pass = LonePass::new(
+            std::sync::Arc::new(crate::kernels::primary::PrimaryGBuffer),
+            std::collections::BTreeMap::new(),
+            &inputs,
+        )
+        .expect("G-buffer pass");
         let (out, _) = pass.run_cpu(&scene, w, h, 0).expect("G-buffer");
-        let (Some(BufferData::Vec4(pos)), Some(BufferData::Vec4(nor))) = (out.get("position"), out.get("normal")) else {
+        let (Some(BufferData::Vec4(pos)), Some(BufferData::Vec4(nor))) = (out.get("position"), out.get("normal"))
+        else {
             panic!("G-buffer formats")
         };
         let covered = |k: usize| pos[k][3] > 0.0;
         let n = pos.len();
-        let position = (0..n).map(|k| if covered(k) { [pos[k][0], pos[k][1], pos[k][2], 1.0] } else { [0.0; 4] }).collect();
+        let position =
+            (0..n).map(|k| if covered(k) { [pos[k][0], pos[k][1], pos[k][2], 1.0] } else { [0.0; 4] }).collect();
         let normal = (0..n).map(|k| if covered(k) { [nor[k][0], nor[k][1], nor[k][2]] } else { [0.0; 3] }).collect();
         let layer = RealLayer::from_maps(w, h, vec![[0.5; 3]; n], position, normal, vec![[0.5; 3]; n]).expect("layer");
         (layer, scene.camera)
@@ -654,7 +679,9 @@ mod tests {
 
     fn same(a: ScreenHit, b: ScreenHit) -> bool {
         match (a, b) {
-            (ScreenHit::Hit { t: ta, x: xa, y: ya }, ScreenHit::Hit { t: tb, x: xb, y: yb }) => ta.to_bits() == tb.to_bits() && (xa, ya) == (xb, yb),
+            (ScreenHit::Hit { t: ta, x: xa, y: ya }, ScreenHit::Hit { t: tb, x: xb, y: yb }) => {
+                ta.to_bits() == tb.to_bits() && (xa, ya) == (xb, yb)
+            }
             _ => a == b,
         }
     }
@@ -693,7 +720,12 @@ mod tests {
             counts[4] += exact as u64;
             counts[5] += looked as u64;
         }
-        assert!(failures.is_empty(), "{} of {rays} rays differ:\n{}", failures.len(), failures[..failures.len().min(20)].join("\n"));
+        assert!(
+            failures.is_empty(),
+            "{} of {rays} rays differ:\n{}",
+            failures.len(),
+            failures[..failures.len().min(20)].join("\n")
+        );
         counts
     }
 
@@ -707,7 +739,12 @@ mod tests {
             println!(
                 "envmap_real 320x240, thickness {thickness}, max_steps {max_steps}: {} hits, {} misses, {} offscreen; \
                  per ray {:.1} linear steps, {:.2} exact tests + {:.2} pyramid look-ups",
-                c[0], c[1], c[2], c[3] as f64 / n, c[4] as f64 / n, c[5] as f64 / n
+                c[0],
+                c[1],
+                c[2],
+                c[3] as f64 / n,
+                c[4] as f64 / n,
+                c[5] as f64 / n
             );
             assert!(c[0] > 1000 && c[1] + c[2] > 1000, "too few hits or ends to mean much: {c:?}");
         }
@@ -747,7 +784,11 @@ mod tests {
         let diagonal = 640f32.hypot(480.0).ceil() as u32 + 1;
         let start = std::time::Instant::now();
         let t = ScreenTracer::new(&layer, &camera, 0.05, diagonal);
-        println!("tracer and pyramid ({} levels) built in {:.1} ms", t.pyramid.levels(), start.elapsed().as_secs_f64() * 1e3);
+        println!(
+            "tracer and pyramid ({} levels) built in {:.1} ms",
+            t.pyramid.levels(),
+            start.elapsed().as_secs_f64() * 1e3
+        );
         let eps = 1e-4 * wedge_scene::load(&SceneSource::Builtin("envmap_real".into())).unwrap().extent();
         let mut r = Draw(3, 0);
         let mut rays = Vec::new();
@@ -796,7 +837,8 @@ mod tests {
     /// skips rest on), probed at random points of random pixels and at their corners.
     #[test]
     fn pyramid_bounds_every_surface_depth_in_the_pixel() {
-        let camera = Camera { position: Vec3::ZERO, look_at: Vec3::new(0.2, -0.3, -1.0), vfov_deg: 70.0, ..Camera::default() };
+        let camera =
+            Camera { position: Vec3::ZERO, look_at: Vec3::new(0.2, -0.3, -1.0), vfov_deg: 70.0, ..Camera::default() };
         let layer = synthetic(&camera, 120, 90, 9);
         let t = ScreenTracer::new(&layer, &camera, 0.05, 100);
         let mut r = Draw(5, 0);

@@ -21,8 +21,8 @@
 
 use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{
-    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerPass,
-    SamplerRequest, Stage,
+    BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, ParamValue, PerPrimary, Reference,
+    SamplerPass, SamplerRequest, Stage,
 };
 
 use crate::factored::{compose_component, factor_flags, IrradianceFilter, PartTerms};
@@ -95,16 +95,30 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let statistic = c.statistic(ctx)?;
     // Where the paths sample the shutter too, the speeds that add the counts' time factors.
     let (velocity, shadow_velocity) = if f.bool(CameraSettings::TIME) == Some(true) {
-        (Some(ctx.sampler_output(SamplerPass::First, "velocity")?), Some(ctx.sampler_output(SamplerPass::First, "shadow_velocity")?))
+        (
+            Some(ctx.sampler_output(SamplerPass::First, "velocity")?),
+            Some(ctx.sampler_output(SamplerPass::First, "shadow_velocity")?),
+        )
     } else {
         (None, None)
     };
-    let flag_first =
-        factor_flags(ctx, &format!("{}_flag_first", c.name), first, (SamplerPass::First, Stage::Bandwidth), factor, true, Reference::Keep)?;
-    let (omega, pixel_length) =
-        (ctx.buffer(&format!("{}_omega", c.name), Format::F32), ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32));
-    let (count, sigma) =
-        (ctx.buffer(&format!("{}_rays_per_pixel", c.name), Format::U32), ctx.buffer(&format!("{}_sigma", c.name), Format::F32));
+    let flag_first = factor_flags(
+        ctx,
+        &format!("{}_flag_first", c.name),
+        first,
+        (SamplerPass::First, Stage::Bandwidth),
+        factor,
+        true,
+        Reference::Keep,
+    )?;
+    let (omega, pixel_length) = (
+        ctx.buffer(&format!("{}_omega", c.name), Format::F32),
+        ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32),
+    );
+    let (count, sigma) = (
+        ctx.buffer(&format!("{}_rays_per_pixel", c.name), Format::U32),
+        ctx.buffer(&format!("{}_sigma", c.name), Format::F32),
+    );
     let mut b = ctx
         .pass(&format!("{}_rates", c.name), "defocus.rates", Stage::Bandwidth)
         .read("lens", lens)
@@ -139,12 +153,22 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     };
     let mut terms = Vec::new();
     for part in &c.parts {
-        let flag =
-            factor_flags(ctx, &format!("{}_flag", part.name), part, (SamplerPass::Final, Stage::Factor), factor, true, Reference::Fill(0))?;
+        let flag = factor_flags(
+            ctx,
+            &format!("{}_flag", part.name),
+            part,
+            (SamplerPass::Final, Stage::Factor),
+            factor,
+            true,
+            Reference::Fill(0),
+        )?;
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
         let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e);
-        let (l, mut k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
+        let (l, mut k) = (
+            ctx.sampler_output(SamplerPass::Final, part.radiance)?,
+            ctx.sampler_output(SamplerPass::Final, part.texture)?,
+        );
         // With the shutter and `motion_filter`: App. B's filters along the velocity inside the lens
         // filter (docs/DEFOCUS-MOTION.md Sec. 3) — texture along the primary hit's (B.1), direct
         // irradiance along the shadow's (B.2); each skips pixels that see several velocities.

@@ -254,7 +254,14 @@ pub fn primary_rate(omega_d: f32, r_max: f32, omega_pix: f32) -> f32 {
 /// `(Ω_pix^max + Ω)² (1 + r_max Ω)² (1 + ℓ_I s_max Ω/ℓ_p)²` with `Ω = Ω_x^s` for factored pixels
 /// (`n_dir^f`) or `Ω = Ω_x^d` for combined ones (`n_dir^c`), μ-scaled. A point light or a pixel
 /// without occluder has no light factor, so `n_dir^c = n_p`. Unrounded.
-pub fn direct_rate(omega: f32, r_max: f32, s_max: f32, pixel_length: f32, light_half_width: f32, omega_pix: f32) -> f32 {
+pub fn direct_rate(
+    omega: f32,
+    r_max: f32,
+    s_max: f32,
+    pixel_length: f32,
+    light_half_width: f32,
+    omega_pix: f32,
+) -> f32 {
     let spread = light_half_width * s_max.max(0.0);
     let light = if spread > 0.0 { 1.0 + spread * omega / pixel_length } else { 1.0 };
     primary_rate(omega, r_max, omega_pix) * light * light
@@ -422,13 +429,21 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
         omega_indirect: si,
         pixel_length: l_p,
         n_primary: p * p,
-        n_direct_factored: total(direct_rate(sd, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vs, sd)),
-        n_direct_combined: total(direct_rate(d, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vp + vs, d)),
+        n_direct_factored: total(
+            direct_rate(sd, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vs, sd),
+        ),
+        n_direct_combined: total(
+            direct_rate(d, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vp + vs, d),
+        ),
         n_indirect_factored: total(indirect_rate(si, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix)),
-        n_indirect_combined: total(indirect_rate(d, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix) * time_factor(vp, d)),
+        n_indirect_combined: total(
+            indirect_rate(d, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix) * time_factor(vp, d),
+        ),
         omega_environment: se,
         n_environment_factored: total(environment_rate(se, s.r_max, k.environment_per_primary, k.omega_pix)),
-        n_environment_combined: total(environment_rate(d, s.r_max, k.environment_per_primary, k.omega_pix) * time_factor(vp, d)),
+        n_environment_combined: total(
+            environment_rate(d, s.r_max, k.environment_per_primary, k.omega_pix) * time_factor(vp, d),
+        ),
     }
 }
 

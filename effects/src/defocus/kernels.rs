@@ -47,7 +47,10 @@ fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32,
     }
     Err(BackendError::Kernel {
         pass: ctx.pass.to_string(),
-        message: format!("parameter `{name}` = {v}; it must be a finite number {}", if zero_ok { ">= 0" } else { "> 0" }),
+        message: format!(
+            "parameter `{name}` = {v}; it must be a finite number {}",
+            if zero_ok { ">= 0" } else { "> 0" }
+        ),
     })
 }
 
@@ -82,8 +85,11 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     };
     let (mu, mode) = (positive_param(ctx, "mu", false)?, mode_param(ctx)?);
     // Look-ups per primary ray of an environment component (absent: 1, no environment component).
-    let environment_per_primary =
-        if ctx.params.contains_key("environment_per_primary") { positive_param(ctx, "environment_per_primary", false)? } else { 1.0 };
+    let environment_per_primary = if ctx.params.contains_key("environment_per_primary") {
+        positive_param(ctx, "environment_per_primary", false)?
+    } else {
+        1.0
+    };
     Ok(RateParams {
         mu,
         mode,
@@ -123,7 +129,19 @@ pub fn pixel_stats(lens: [f32; 4], o: OptionalStats) -> PixelStats {
     let occluded = occlusion.is_some_and(|o| o[3] > 0.0);
     let v_p = velocity.map_or(0.0, fastest_speed);
     let v_s = shadow_velocity.filter(|_| occluded).map_or(0.0, fastest_speed);
-    PixelStats { r_min: lens[0], r_max: lens[1], depth: lens[2], hit: lens[3] > 0.0, s_min, s_max, z_min, z_max, bandlimit, v_p, v_s }
+    PixelStats {
+        r_min: lens[0],
+        r_max: lens[1],
+        depth: lens[2],
+        hit: lens[3] > 0.0,
+        s_min,
+        s_max,
+        z_min,
+        z_max,
+        bandlimit,
+        v_p,
+        v_s,
+    }
 }
 
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
@@ -239,12 +257,18 @@ impl Kernel for Rates {
         ctx.put_opt("n_indirect_factored", || count(|r| r.n_indirect_factored))?;
         ctx.put_opt("n_indirect_combined", || count(|r| r.n_indirect_combined))?;
         let pick = |flag: Option<&[u32]>, f: fn(&PixelRates) -> u32, c: fn(&PixelRates) -> u32| {
-            rates.iter().enumerate().map(|(i, r)| if flag.is_some_and(|g| g[i] != 0) { f(r) } else { c(r) }).collect::<Vec<u32>>()
+            rates
+                .iter()
+                .enumerate()
+                .map(|(i, r)| if flag.is_some_and(|g| g[i] != 0) { f(r) } else { c(r) })
+                .collect::<Vec<u32>>()
         };
         ctx.put_opt("n_direct", || pick(flag_direct, |r| r.n_direct_factored, |r| r.n_direct_combined))?;
         ctx.put_opt("n_indirect", || pick(flag_indirect, |r| r.n_indirect_factored, |r| r.n_indirect_combined))?;
         ctx.put_opt("omega_environment", || column(|r| r.omega_environment))?;
-        ctx.put_opt("n_environment", || pick(flag_environment, |r| r.n_environment_factored, |r| r.n_environment_combined))?;
+        ctx.put_opt("n_environment", || {
+            pick(flag_environment, |r| r.n_environment_factored, |r| r.n_environment_combined)
+        })?;
         ctx.put_opt("sigma_defocus", || column(|r| sigma_px(r.omega_defocus)))?;
         ctx.put_opt("sigma_direct", || column(|r| sigma_px(r.omega_direct)))?;
         ctx.put_opt("sigma_indirect", || column(|r| sigma_px(r.omega_indirect)))?;

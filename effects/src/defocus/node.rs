@@ -49,8 +49,8 @@ use wedge_graph::{
 };
 
 use super::component::rate_settings;
-use crate::factored::{filter_chain, sum};
 use super::formulas::Mode;
+use crate::factored::{filter_chain, sum};
 
 pub struct Defocus;
 
@@ -115,7 +115,11 @@ impl NodeKind for Defocus {
             PortDecl::new("radiance", Format::Vec3, "Σ components + emission, defocus-filtered (eq. 5.33)"),
             PortDecl::new("unfiltered", Format::Vec3, "the same sum before the defocus filter (components filtered)"),
             PortDecl::new("filter_width", Format::F32, "defocus filter std-dev in pixels, 1/(√32 Ω_x^d) (0 = pinhole)"),
-            PortDecl::new("rays_per_pixel", Format::U32, "primary rays per pixel asked for the second pass, n_p (eq. 5.24)"),
+            PortDecl::new(
+                "rays_per_pixel",
+                Format::U32,
+                "primary rays per pixel asked for the second pass, n_p (eq. 5.24)",
+            ),
         ]
     }
     /// Its components, and (where it factors) what its camera rays see directly, added once here.
@@ -145,16 +149,30 @@ impl NodeKind for Defocus {
             ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
-    fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
+    fn factoring(
+        &self,
+        params: &BTreeMap<String, ParamValue>,
+        inputs: &FactoringInputs<'_>,
+    ) -> Result<Option<Settings>, Refusal> {
         let (aperture, focus) = lens(params, inputs.camera)?;
         if aperture == 0.0 {
             return Ok(None);
         }
-        let mut s: Settings =
-            ["mu", "mode", "factor", "max_primary", "max_per_primary", "max_radius", "separable", "lens", "initial_paths", "motion_filter"]
-            .into_iter()
-            .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
-            .collect();
+        let mut s: Settings = [
+            "mu",
+            "mode",
+            "factor",
+            "max_primary",
+            "max_per_primary",
+            "max_radius",
+            "separable",
+            "lens",
+            "initial_paths",
+            "motion_filter",
+        ]
+        .into_iter()
+        .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
+        .collect();
         s.insert("aperture_radius".into(), ParamValue::Float(aperture));
         s.insert("focus_distance".into(), ParamValue::Float(focus));
         // Lens and shutter together where the scene moves (docs/DEFOCUS-MOTION.md): the camera
@@ -169,7 +187,8 @@ impl NodeKind for Defocus {
         super::component::expand(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let components: Vec<BufferId> = crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
+        let components: Vec<BufferId> =
+            crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
         if components.is_empty() {
             return Err(GraphError::Expand {
                 node: ctx.node().into(),
@@ -180,7 +199,10 @@ impl NodeKind for Defocus {
             // A pinhole: the components rendered as without a Defocus node; only their sum here.
             let radiance = sum(ctx, "sum", &components, None);
             let width = ctx.buffer("filter_width", Format::F32);
-            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose).write("out", width).float("value", 0.0).finish();
+            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose)
+                .write("out", width)
+                .float("value", 0.0)
+                .finish();
             let rays = ctx.buffer("rays_per_pixel", Format::U32);
             ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
             for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
@@ -231,7 +253,13 @@ impl NodeKind for Defocus {
             b = b.param(n, v);
         }
         b.finish();
-        ctx.sampler_counts(CountRequest { paths: Some(n_primary), paths_unit: 1, per_primary: vec![], max3: true, beyond_first: true })?;
+        ctx.sampler_counts(CountRequest {
+            paths: Some(n_primary),
+            paths_unit: 1,
+            per_primary: vec![],
+            max3: true,
+            beyond_first: true,
+        })?;
 
         // 3. Σ components + emission (eq. 5.32), then the screen-space defocus filter (eq. 5.33).
         let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;

@@ -24,10 +24,17 @@ use wedge_backends::kernels::v3;
 
 use super::formulas::{self, PixelStats};
 
-
 /// `|κ|` along `axis` at pixel `(x, y)` (eq. 6.20): against the next pixel along the axis where it
 /// shows the same object, else the previous one, else 0.
-pub fn curvature_at(x: i32, y: i32, width: i32, height: i32, axis: usize, position: &[[f32; 4]], normal: &[[f32; 4]]) -> f32 {
+pub fn curvature_at(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    axis: usize,
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+) -> f32 {
     let i = (y * width + x) as usize;
     if !(position[i][3] > 0.0) {
         return 0.0;

@@ -43,12 +43,24 @@ pub struct Environment;
 /// The filtered parts: the sampler's `L, k, E` names and the bandwidth output of
 /// `environment.bandwidth` filtering them.
 const DIRECT_PARTS: [(Part, &str); 2] = [
-    (Part { name: "env_diffuse", radiance: "l_env_diffuse", texture: "k_env_diffuse", irradiance: "e_env_diffuse" }, "direct_diffuse"),
-    (Part { name: "env_glossy", radiance: "l_env_glossy", texture: "k_env_glossy", irradiance: "e_env_glossy" }, "direct_glossy"),
+    (
+        Part { name: "env_diffuse", radiance: "l_env_diffuse", texture: "k_env_diffuse", irradiance: "e_env_diffuse" },
+        "direct_diffuse",
+    ),
+    (
+        Part { name: "env_glossy", radiance: "l_env_glossy", texture: "k_env_glossy", irradiance: "e_env_glossy" },
+        "direct_glossy",
+    ),
 ];
 const INDIRECT_PARTS: [(Part, &str); 2] = [
-    (Part { name: "indirect_diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" }, "indirect_diffuse"),
-    (Part { name: "indirect_glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" }, "indirect_glossy"),
+    (
+        Part { name: "indirect_diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
+        "indirect_diffuse",
+    ),
+    (
+        Part { name: "indirect_glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
+        "indirect_glossy",
+    ),
 ];
 
 /// The normal test of the filters: neighbours whose normals differ by more are not averaged.
@@ -75,7 +87,12 @@ pub(crate) fn str_param(params: &BTreeMap<String, ParamValue>, name: &str) -> St
 /// The environment [`map_params`] describe, as a scene request.
 pub(crate) fn environment_request(params: &BTreeMap<String, ParamValue>) -> SceneRequest {
     let f = |n: &str| params.get(n).and_then(ParamValue::as_f64).unwrap_or(0.0);
-    SceneRequest::Environment { map: str_param(params, "map"), scale: f("scale"), rotation_deg: f("rotation_deg"), param: "map" }
+    SceneRequest::Environment {
+        map: str_param(params, "map"),
+        scale: f("scale"),
+        rotation_deg: f("rotation_deg"),
+        param: "map",
+    }
 }
 
 fn count(ctx: &ExpandCtx<'_>, name: &str) -> i64 {
@@ -100,12 +117,28 @@ impl NodeKind for Environment {
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![
-            PortDecl::new("radiance", Format::Vec3, "Σ k·Ē over the filtered parts (+ emission and the visible environment, with `emission`)"),
+            PortDecl::new(
+                "radiance",
+                Format::Vec3,
+                "Σ k·Ē over the filtered parts (+ emission and the visible environment, with `emission`)",
+            ),
             PortDecl::new("unfiltered", Format::Vec3, "the same sum of the parts' Monte Carlo L"),
-            PortDecl::new("filter_width", Format::F32, "σ of the direct light's filter in pixels, mean of x and y (thesis Fig. 6.7(b))"),
-            PortDecl::new("bandwidth", Format::F32, "B_x of the direct light (eq. 6.13/6.17, μ included), mean of x and y, 1/m"),
+            PortDecl::new(
+                "filter_width",
+                Format::F32,
+                "σ of the direct light's filter in pixels, mean of x and y (thesis Fig. 6.7(b))",
+            ),
+            PortDecl::new(
+                "bandwidth",
+                Format::F32,
+                "B_x of the direct light (eq. 6.13/6.17, μ included), mean of x and y, 1/m",
+            ),
             PortDecl::new("curvature", Format::F32, "screen-space curvature |κ| (eq. 6.20), mean of x and y, rad/m"),
-            PortDecl::new("rays_per_pixel", Format::U32, "environment look-ups per pixel asked for (16 without `adaptive`)"),
+            PortDecl::new(
+                "rays_per_pixel",
+                Format::U32,
+                "environment look-ups per pixel asked for (16 without `adaptive`)",
+            ),
         ]
     }
     /// Direct environment light (and one-bounce indirect with `indirect`; what camera rays see
@@ -168,7 +201,9 @@ impl NodeKind for Environment {
             .setting("sampling", ParamValue::Str("stratified".into()))
             .setting("occluder_threshold", ctx.param("occluder_threshold").clone());
         if indirect {
-            request = request.estimator("hemisphere").setting("indirect_per_primary", ctx.param("indirect_per_primary").clone());
+            request = request
+                .estimator("hemisphere")
+                .setting("indirect_per_primary", ctx.param("indirect_per_primary").clone());
         }
         ctx.sampler(request)?;
 
@@ -178,10 +213,15 @@ impl NodeKind for Environment {
         let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
         let depth = if indirect { Some(ctx.sampler_output(SamplerPass::First, "depth")?) } else { None };
         let (curvature, magnitude) = curvature_pass(ctx, position, normal);
-        let parts: Vec<&(Part, &str)> = DIRECT_PARTS.iter().chain(if indirect { &INDIRECT_PARTS[..] } else { &[] }).collect();
-        let bandwidths: Vec<BufferId> = parts.iter().map(|(_, b)| ctx.buffer(&format!("bandwidth_{b}"), Format::Vec2)).collect();
-        let (bandwidth, width, rays) =
-            (ctx.buffer("bandwidth", Format::F32), ctx.buffer("filter_width", Format::F32), ctx.buffer("rays_per_pixel", Format::U32));
+        let parts: Vec<&(Part, &str)> =
+            DIRECT_PARTS.iter().chain(if indirect { &INDIRECT_PARTS[..] } else { &[] }).collect();
+        let bandwidths: Vec<BufferId> =
+            parts.iter().map(|(_, b)| ctx.buffer(&format!("bandwidth_{b}"), Format::Vec2)).collect();
+        let (bandwidth, width, rays) = (
+            ctx.buffer("bandwidth", Format::F32),
+            ctx.buffer("filter_width", Format::F32),
+            ctx.buffer("rays_per_pixel", Format::U32),
+        );
         let mut b = ctx
             .pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
             .read("curvature", curvature)
@@ -241,11 +281,17 @@ impl NodeKind for Environment {
             )?;
             let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
             let e = filter.apply(ctx, part.name, e, *bw);
-            let (l, k) = (ctx.sampler_output(SamplerPass::Final, part.radiance)?, ctx.sampler_output(SamplerPass::Final, part.texture)?);
+            let (l, k) = (
+                ctx.sampler_output(SamplerPass::Final, part.radiance)?,
+                ctx.sampler_output(SamplerPass::Final, part.texture)?,
+            );
             terms.push((part, PartTerms { l, k, e, flag }));
         }
-        let emission =
-            if ctx.param("emission").as_bool() == Some(true) { Some(ctx.sampler_output(SamplerPass::Final, "emission")?) } else { None };
+        let emission = if ctx.param("emission").as_bool() == Some(true) {
+            Some(ctx.sampler_output(SamplerPass::Final, "emission")?)
+        } else {
+            None
+        };
         compose_component(ctx, &terms, emission, width, rays);
         ctx.output("bandwidth", bandwidth);
         ctx.output("curvature", magnitude);
@@ -297,8 +343,10 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphEr
         }
     }
     // The first pass: one look-up per path, as Ch. 5 takes one shadow ray and one indirect sample.
-    let settings =
-        vec![("environment_per_primary", ParamValue::Int(1)), ("occluder_threshold", ctx.param("occluder_threshold").clone())];
+    let settings = vec![
+        ("environment_per_primary", ParamValue::Int(1)),
+        ("occluder_threshold", ctx.param("occluder_threshold").clone()),
+    ];
     let mut request = SamplerRequest::new().estimator("environment");
     for (n, v) in &settings {
         request = request.setting(n, v.clone());

@@ -38,8 +38,8 @@ use glam::Vec2;
 use wedge_backends::kernels::filter_motion::velocity_tolerance;
 
 use crate::defocus::formulas::{
-    direct_rate, environment_rate, indirect_rate, omega_direct, omega_environment, omega_indirect, omega_mu, pixel_length,
-    primary_rate, primary_strata, secondary_strata, strata_cap, Mode,
+    direct_rate, environment_rate, indirect_rate, omega_direct, omega_environment, omega_indirect, omega_mu,
+    pixel_length, primary_rate, primary_strata, secondary_strata, strata_cap, Mode,
 };
 
 /// `Ω_t^max`: the shutter's bandlimit over `t ∈ [−1, 1]` (docs/EQUATIONS.md "Motion"), the Motion node's
@@ -166,7 +166,14 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     let single = s.single();
     let mu = |omega: f32| omega_mu(omega, k.mu, k.mode, k.omega_pix);
     if !s.hit {
-        return MotionRates { single, n_primary: 1, n_direct: 1, n_indirect: 1, n_environment: 1, ..MotionRates::default() };
+        return MotionRates {
+            single,
+            n_primary: 1,
+            n_direct: 1,
+            n_indirect: 1,
+            n_environment: 1,
+            ..MotionRates::default()
+        };
     }
     let l_p = pixel_length(k.pixel_scale, s.depth);
     // A velocity within the tolerance of a still point is no motion: neither filtered nor counted.
@@ -272,7 +279,11 @@ mod tests {
         let flat = pixel_rates(&MotionStats { bandlimit: 0.0, ..base }, &params());
         assert_eq!(flat.omega_environment, 0.5);
         let moving = pixel_rates(&MotionStats { v_p: [10.0, 0.0], ..base }, &params());
-        assert_eq!((moving.n_primary, moving.n_environment), (4, 4), "one look-up on each of 2² timed paths: {moving:?}");
+        assert_eq!(
+            (moving.n_primary, moving.n_environment),
+            (4, 4),
+            "one look-up on each of 2² timed paths: {moving:?}"
+        );
     }
 
     #[test]
@@ -281,7 +292,8 @@ mod tests {
         let mut k = params();
         k.mode = Mode::Consistent;
         k.max_primary = 1 << 20;
-        let counts: Vec<u32> = [1.0, 4.0, 16.0].iter().map(|&mu| pixel_rates(&s, &MotionParams { mu, ..k }).n_primary).collect();
+        let counts: Vec<u32> =
+            [1.0, 4.0, 16.0].iter().map(|&mu| pixel_rates(&s, &MotionParams { mu, ..k }).n_primary).collect();
         assert!(counts[0] < counts[1] && counts[1] < counts[2], "{counts:?}");
     }
 }

@@ -37,7 +37,10 @@ fn motion_params(ctx: &KernelCtx<'_>) -> Result<MotionParams, BackendError> {
     })?;
     let omega_t = ctx.f32_param("omega_t")?;
     if !(omega_t.is_finite() && omega_t > 0.0) {
-        return Err(BackendError::Kernel { pass: ctx.pass.to_string(), message: format!("`omega_t` = {omega_t}; it must be a finite number > 0") });
+        return Err(BackendError::Kernel {
+            pass: ctx.pass.to_string(),
+            message: format!("`omega_t` = {omega_t}; it must be a finite number > 0"),
+        });
     }
     Ok(MotionParams {
         mu: k.mu,
@@ -162,7 +165,14 @@ impl Kernel for Rates {
         let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
         let rates: Vec<(MotionStats, MotionRates)> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            let s = motion_stats(velocity[i], at(shadow, i), depth[i], at(occlusion, i), at(reflectors, i), bandlimit.map(|b| b[i]));
+            let s = motion_stats(
+                velocity[i],
+                at(shadow, i),
+                depth[i],
+                at(occlusion, i),
+                at(reflectors, i),
+                bandlimit.map(|b| b[i]),
+            );
             (s, formulas::pixel_rates(&s, &k))
         });
         let column = |f: fn(&MotionRates) -> f32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<f32>>();

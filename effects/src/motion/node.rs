@@ -67,7 +67,13 @@ pub(crate) fn motion_rate_settings(f: &Factoring) -> Vec<(&'static str, ParamVal
 
 /// `filter.motion` on `value` along `motion` (a `motion.rates` velocity/width buffer), named `name`;
 /// a reference bypasses it.
-pub(crate) fn motion_filter(ctx: &mut ExpandCtx<'_>, name: &str, value: BufferId, motion: BufferId, radius: &ParamValue) -> BufferId {
+pub(crate) fn motion_filter(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    value: BufferId,
+    motion: BufferId,
+    radius: &ParamValue,
+) -> BufferId {
     let out = ctx.buffer(name, Format::Vec3);
     ctx.pass(name, "filter.motion", Stage::Filter)
         .read("value", value)
@@ -125,15 +131,28 @@ impl NodeKind for Motion {
             ),
         ]
     }
-    fn factoring(&self, params: &BTreeMap<String, ParamValue>, inputs: &FactoringInputs<'_>) -> Result<Option<Settings>, Refusal> {
+    fn factoring(
+        &self,
+        params: &BTreeMap<String, ParamValue>,
+        inputs: &FactoringInputs<'_>,
+    ) -> Result<Option<Settings>, Refusal> {
         if inputs.scene.is_some_and(|s| !s.motion) {
             return Ok(None);
         }
-        let mut s: Settings =
-            ["mu", "mode", "omega_t", "max_primary", "max_per_primary", "max_radius", "multi_paths", "initial_paths", "form_factor"]
-                .into_iter()
-                .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
-                .collect();
+        let mut s: Settings = [
+            "mu",
+            "mode",
+            "omega_t",
+            "max_primary",
+            "max_per_primary",
+            "max_radius",
+            "multi_paths",
+            "initial_paths",
+            "form_factor",
+        ]
+        .into_iter()
+        .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
+        .collect();
         // The camera setting of a factoring node whose paths sample the shutter.
         s.insert(CameraSettings::TIME.into(), ParamValue::Bool(true));
         Ok(Some(s))
@@ -142,7 +161,8 @@ impl NodeKind for Motion {
         expand_component(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let components: Vec<BufferId> = crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
+        let components: Vec<BufferId> =
+            crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
         if components.is_empty() {
             return Err(GraphError::Expand {
                 node: ctx.node().into(),
@@ -153,7 +173,10 @@ impl NodeKind for Motion {
             // A static scene: the components rendered as without a Motion node; only their sum here.
             let radiance = sum(ctx, "sum", &components, None);
             let width = ctx.buffer("filter_width", Format::F32);
-            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose).write("out", width).float("value", 0.0).finish();
+            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose)
+                .write("out", width)
+                .float("value", 0.0)
+                .finish();
             let rays = ctx.buffer("rays_per_pixel", Format::U32);
             ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
             let still = ctx.buffer("velocity", Format::Vec4);
@@ -205,7 +228,13 @@ impl NodeKind for Motion {
             b = b.param(n, v);
         }
         b.finish();
-        ctx.sampler_counts(CountRequest { paths: Some(n_primary), paths_unit: 1, per_primary: vec![], max3: true, beyond_first: true })?;
+        ctx.sampler_counts(CountRequest {
+            paths: Some(n_primary),
+            paths_unit: 1,
+            per_primary: vec![],
+            max3: true,
+            beyond_first: true,
+        })?;
 
         // 3. Σ components + emission, then the 3×3 filter at multi-velocity pixels (App. B).
         let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;
@@ -315,7 +344,8 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
     // composed and summed over parts.
     let position = ctx.sampler_output(SamplerPass::Final, "position")?;
     let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
-    let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable: true };
+    let filter =
+        IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable: true };
     let mut terms = Vec::new();
     for part in &c.parts {
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;

@@ -32,7 +32,11 @@ impl Kernel for FogKernel {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("color", Format::Vec3), Binding::read("position", Format::Vec4), Binding::write("out", Format::Vec3)]
+        vec![
+            Binding::read("color", Format::Vec3),
+            Binding::read("position", Format::Vec4),
+            Binding::write("out", Format::Vec3),
+        ]
     }
     fn params(&self) -> Vec<ParamSpec> {
         FogParams::specs()

@@ -4,7 +4,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn wedge_fog(args: &[&str]) -> Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_wedge-fog")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_wedge-fog"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
     eprintln!("{}", String::from_utf8_lossy(&out.stderr));
     out
 }
@@ -45,7 +49,10 @@ fn render_applies_the_users_node_and_density_zero_is_the_unfogged_image() {
     // Fog pulls every pixel towards (0.55, 0.6, 0.65): the fogged image differs, and its blue
     // channel is never darker than the fog's share of it.
     assert!(a.iter().zip(&b).filter(|(x, y)| x != y).count() > a.len() / 2);
-    assert!(a.iter().all(|p| p[2] >= 0.0) && b.iter().zip(&unfiltered).any(|(x, y)| x != y), "the shadows were filtered");
+    assert!(
+        a.iter().all(|p| p[2] >= 0.0) && b.iter().zip(&unfiltered).any(|(x, y)| x != y),
+        "the shadows were filtered"
+    );
     let mean = |v: &[[f32; 3]], c: usize| v.iter().map(|p| f64::from(p[c])).sum::<f64>() / v.len() as f64;
     assert!((mean(&a, 2) - 0.65).abs() < (mean(&b, 2) - 0.65).abs(), "fog moves the image towards its colour");
 }
@@ -67,7 +74,17 @@ fn graph_reference_and_help_know_the_users_node() {
 #[test]
 fn bench_measures_the_users_pipeline() {
     let dir = tmp("bench");
-    let out = ok(&["bench", "pipelines/fog.ron", "--quick", "--width", "24", "--height", "18", "--out", dir.to_str().unwrap()]);
+    let out = ok(&[
+        "bench",
+        "pipelines/fog.ron",
+        "--quick",
+        "--width",
+        "24",
+        "--height",
+        "18",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
     assert!(dir.join("report.md").is_file(), "{out}");
 }
 

@@ -23,10 +23,7 @@ impl NodeKind for Source {
         vec![]
     }
     fn outputs(&self) -> Vec<PortDecl> {
-        vec![
-            PortDecl::new("a", Format::F32, "scalar"),
-            PortDecl::new("b", Format::Vec3, "vector"),
-        ]
+        vec![PortDecl::new("a", Format::F32, "scalar"), PortDecl::new("b", Format::Vec3, "vector")]
     }
     fn params(&self) -> Vec<ParamDecl> {
         vec![ParamDecl::choice("mode", "fast", &["fast", "slow"], "how")]
@@ -34,10 +31,7 @@ impl NodeKind for Source {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let a = ctx.buffer("a", Format::F32);
         let b = ctx.buffer("b", Format::Vec3);
-        ctx.pass("gen", "test.gen", Stage::Sample)
-            .write("a", a)
-            .write("b", b)
-            .finish();
+        ctx.pass("gen", "test.gen", Stage::Sample).write("a", a).write("b", b).finish();
         ctx.output("a", a);
         ctx.output("b", b);
         Ok(())
@@ -90,10 +84,7 @@ impl NodeKind for Sink {
         "Sink"
     }
     fn inputs(&self) -> Vec<PortDecl> {
-        vec![
-            PortDecl::new("color", Format::F32, "shown"),
-            PortDecl::optional("aux", Format::Vec3, "extra"),
-        ]
+        vec![PortDecl::new("color", Format::F32, "shown"), PortDecl::optional("aux", Format::Vec3, "extra")]
     }
     fn outputs(&self) -> Vec<PortDecl> {
         vec![]

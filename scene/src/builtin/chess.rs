@@ -109,14 +109,7 @@ fn profile(piece: Piece) -> Vec<Vec2> {
     match piece {
         Piece::Pawn => {
             v = base(0.058, 0.04);
-            v.extend([
-                p(0.032, 0.07),
-                p(0.026, 0.1),
-                p(0.023, 0.125),
-                p(0.04, 0.132),
-                p(0.04, 0.14),
-                p(0.022, 0.146),
-            ]);
+            v.extend([p(0.032, 0.07), p(0.026, 0.1), p(0.023, 0.125), p(0.04, 0.132), p(0.04, 0.14), p(0.022, 0.146)]);
             v.extend(cap(0.182, 0.04, -64.0, 10));
         }
         Piece::Rook => {
@@ -134,52 +127,19 @@ fn profile(piece: Piece) -> Vec<Vec2> {
         }
         Piece::Bishop => {
             v = base(0.062, 0.042);
-            v.extend([
-                p(0.033, 0.09),
-                p(0.026, 0.15),
-                p(0.023, 0.2),
-                p(0.042, 0.21),
-                p(0.042, 0.218),
-                p(0.026, 0.225),
-            ]);
-            v.extend([
-                p(0.032, 0.236),
-                p(0.038, 0.256),
-                p(0.037, 0.28),
-                p(0.03, 0.3),
-                p(0.018, 0.314),
-                p(0.011, 0.32),
-            ]);
+            v.extend([p(0.033, 0.09), p(0.026, 0.15), p(0.023, 0.2), p(0.042, 0.21), p(0.042, 0.218), p(0.026, 0.225)]);
+            v.extend([p(0.032, 0.236), p(0.038, 0.256), p(0.037, 0.28), p(0.03, 0.3), p(0.018, 0.314), p(0.011, 0.32)]);
             v.extend(cap(0.33, 0.012, -55.0, 6));
         }
         Piece::Queen => {
             v = base(0.068, 0.046);
-            v.extend([
-                p(0.036, 0.1),
-                p(0.029, 0.17),
-                p(0.026, 0.25),
-                p(0.046, 0.26),
-                p(0.046, 0.268),
-                p(0.03, 0.276),
-            ]);
-            v.extend([
-                p(0.034, 0.3),
-                p(0.046, 0.34),
-                p(0.041, 0.348),
-                p(0.02, 0.352),
-            ]);
+            v.extend([p(0.036, 0.1), p(0.029, 0.17), p(0.026, 0.25), p(0.046, 0.26), p(0.046, 0.268), p(0.03, 0.276)]);
+            v.extend([p(0.034, 0.3), p(0.046, 0.34), p(0.041, 0.348), p(0.02, 0.352)]);
             v.extend(cap(0.372, 0.02, -60.0, 8));
         }
         Piece::King => {
             v = base(0.07, 0.048);
-            v.extend([
-                p(0.037, 0.1),
-                p(0.03, 0.18),
-                p(0.027, 0.27),
-                p(0.048, 0.28),
-                p(0.048, 0.288),
-                p(0.031, 0.296),
-            ]);
+            v.extend([p(0.037, 0.1), p(0.03, 0.18), p(0.027, 0.27), p(0.048, 0.28), p(0.048, 0.288), p(0.031, 0.296)]);
             v.extend([p(0.036, 0.32), p(0.046, 0.36), p(0.04, 0.37), p(0.0, 0.372)]);
         }
     }
@@ -190,14 +150,8 @@ fn profile(piece: Piece) -> Vec<Vec2> {
 /// z ∈ [j, j+1]·SQUARE), turned `yaw` radians about its axis (only the king's cross shows it).
 fn add_piece(d: &mut SceneData, piece: Piece, col: i32, row: i32, yaw: f32, material: u32) {
     let o = d.new_object();
-    let at = Vec3::new(
-        (col as f32 + 0.5) * SQUARE,
-        0.0,
-        (row as f32 + 0.5) * SQUARE,
-    );
-    let xf = Mat4::from_translation(at)
-        * Mat4::from_rotation_y(yaw)
-        * Mat4::from_scale(Vec3::splat(PIECE_SCALE));
+    let at = Vec3::new((col as f32 + 0.5) * SQUARE, 0.0, (row as f32 + 0.5) * SQUARE);
+    let xf = Mat4::from_translation(at) * Mat4::from_rotation_y(yaw) * Mat4::from_scale(Vec3::splat(PIECE_SCALE));
     lathe(d, xf, &profile(piece), SLICES, material, o);
     if let Piece::King = piece {
         // The cross: an upright bar through the top and a crossbar, overlapping the crown slightly.
@@ -208,13 +162,7 @@ fn add_piece(d: &mut SceneData, piece: Piece, col: i32, row: i32, yaw: f32, mate
             material,
             o,
         );
-        add_box(
-            d,
-            xf * Mat4::from_translation(Vec3::new(0.0, 0.41, 0.0)),
-            Vec3::new(0.026, 0.009, 0.009),
-            material,
-            o,
-        );
+        add_box(d, xf * Mat4::from_translation(Vec3::new(0.0, 0.41, 0.0)), Vec3::new(0.026, 0.009, 0.009), material, o);
     }
 }
 
@@ -223,14 +171,7 @@ fn add_piece(d: &mut SceneData, piece: Piece, col: i32, row: i32, yaw: f32, mate
 fn add_rect(d: &mut SceneData, p: [Vec3; 4], n: Vec3, uv: [Vec2; 4], material: u32) {
     let o = d.new_object();
     for idx in [[0, 1, 2], [0, 2, 3]] {
-        smooth_tri(
-            d,
-            idx.map(|k| p[k]),
-            [n; 3],
-            idx.map(|k| uv[k]),
-            material,
-            o,
-        );
+        smooth_tri(d, idx.map(|k| p[k]), [n; 3], idx.map(|k| uv[k]), material, o);
     }
 }
 
@@ -239,46 +180,23 @@ pub(crate) fn chess() -> SceneData {
     // Board texture: 16×16 squares of 16 texels; dark 0.1 and light 0.9 (×tint) — the thesis's point is
     // a high-contrast texture whose detail must survive filtering in focus.
     let side = SQUARES_PER_TEXTURE * TEXELS_PER_SQUARE;
-    d.textures
-        .push(Texture::checker(side, SQUARES_PER_TEXTURE, 0.1, 0.9));
+    d.textures.push(Texture::checker(side, SQUARES_PER_TEXTURE, 0.1, 0.9));
     let board = d.add_material(
-        Material {
-            base_color_texture: Some(0),
-            ..Material::diffuse("board", Vec3::new(0.95, 0.85, 0.7))
-        },
+        Material { base_color_texture: Some(0), ..Material::diffuse("board", Vec3::new(0.95, 0.85, 0.7)) },
         false,
     );
     // Ground: x ∈ [−6, 6] m, z ∈ [−8, 3] m (wide enough to fill the frame at the back wall); uv = position / (16 squares) so texel (0,0)'s square starts at
     // the origin and squares line up with the pieces' grid.
     let (x0, x1, z0, z1) = (-6.0f32, 6.0f32, -8.0f32, 3.0f32);
-    let p = [
-        Vec3::new(x0, 0.0, z1),
-        Vec3::new(x1, 0.0, z1),
-        Vec3::new(x1, 0.0, z0),
-        Vec3::new(x0, 0.0, z0),
-    ];
+    let p = [Vec3::new(x0, 0.0, z1), Vec3::new(x1, 0.0, z1), Vec3::new(x1, 0.0, z0), Vec3::new(x0, 0.0, z0)];
     let per_metre = 1.0 / (SQUARES_PER_TEXTURE as f32 * SQUARE);
-    add_rect(
-        &mut d,
-        p,
-        Vec3::Y,
-        p.map(|q| Vec2::new(q.x, q.z) * per_metre),
-        board,
-    );
+    add_rect(&mut d, p, Vec3::Y, p.map(|q| Vec2::new(q.x, q.z) * per_metre), board);
     let wall = d.add_material(Material::diffuse("back wall", Vec3::splat(0.5)), false);
     let h = 4.0;
-    let p = [
-        Vec3::new(x0, 0.0, z0),
-        Vec3::new(x1, 0.0, z0),
-        Vec3::new(x1, h, z0),
-        Vec3::new(x0, h, z0),
-    ];
+    let p = [Vec3::new(x0, 0.0, z0), Vec3::new(x1, 0.0, z0), Vec3::new(x1, h, z0), Vec3::new(x0, h, z0)];
     add_rect(&mut d, p, Vec3::Z, p.map(|q| Vec2::new(q.x, q.y) / h), wall);
 
-    let ivory = d.add_material(
-        Material::diffuse("piece ivory", Vec3::new(0.78, 0.7, 0.56)),
-        false,
-    );
+    let ivory = d.add_material(Material::diffuse("piece ivory", Vec3::new(0.78, 0.7, 0.56)), false);
     let lacquer = d.add_material(
         Material {
             specular: Vec3::splat(0.3),
@@ -319,14 +237,7 @@ pub(crate) fn chess() -> SceneData {
     // (a light behind the pieces hides their shadows behind them); low enough that the pieces' sides
     // get light at a usable angle, above the camera so it stays out of view. eu × ev = −Y: emits downward.
     let side = 0.9;
-    add_rect_light(
-        &mut d,
-        "light",
-        Vec3::splat(30.0),
-        Vec3::new(-2.5, 1.7, 0.3),
-        Vec3::X * side,
-        Vec3::Z * side,
-    );
+    add_rect_light(&mut d, "light", Vec3::splat(30.0), Vec3::new(-2.5, 1.7, 0.3), Vec3::X * side, Vec3::Z * side);
 
     let pitch = CAMERA_PITCH_DEG.to_radians();
     let forward = Vec3::new(0.0, -pitch.sin(), -pitch.cos());

@@ -38,7 +38,7 @@ pub(crate) fn contact() -> SceneData {
     let along = (top - foot).normalize();
     let across = cube_yaw * Vec3::X;
     let up = across.cross(along).normalize(); // the plank's upward face normal (y > 0)
-    // 5 cm past the edge, so the plank rests on the cube's top rather than ending on the edge.
+                                              // 5 cm past the edge, so the plank rests on the cube's top rather than ending on the edge.
     let half_len = 0.5 * (top - foot).length() + 0.025;
     let centre = 0.5 * (top + foot) + along * 0.025 + up * 0.01;
     let xf = Mat4::from_mat3_translation(Mat3::from_cols(across, up, across.cross(up)), centre);

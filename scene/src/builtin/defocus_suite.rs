@@ -62,7 +62,14 @@ pub(crate) fn dof_foreground() -> SceneData {
     let o = d.new_named_object("posts");
     for k in 0..5 {
         let x = -0.8 + 0.4 * k as f32;
-        add_bar(&mut d, Mat4::from_translation(Vec3::new(x, 0.6, 2.2 - 0.1 * k as f32)), Vec3::new(0.03, 0.6, 0.03), 0.15, wood, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(Vec3::new(x, 0.6, 2.2 - 0.1 * k as f32)),
+            Vec3::new(0.03, 0.6, 0.03),
+            0.15,
+            wood,
+            o,
+        );
     }
     let lattice = d.add_material(Material::diffuse("lattice", Vec3::splat(0.7)), false);
     let o = d.new_named_object("lattice");
@@ -72,7 +79,13 @@ pub(crate) fn dof_foreground() -> SceneData {
     }
     let red = d.add_material(Material::diffuse("box", Vec3::new(0.7, 0.2, 0.15)), false);
     let o = d.new_named_object("box");
-    add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(0.6, 0.3, -1.0)), Vec3::new(0.3, 0.3, 0.3), red, o);
+    add_box(
+        &mut d,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(0.6, 0.3, -1.0)),
+        Vec3::new(0.3, 0.3, 0.3),
+        red,
+        o,
+    );
     add_square_light(&mut d, 30.0, Vec3::new(0.0, 3.2, 0.5), 0.8);
     d.camera = Some(lens_camera(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 0.8, -2.0), 45.0, 0.04, 4.6));
     d
@@ -92,8 +105,20 @@ pub(crate) fn dof_background() -> SceneData {
     add_sphere(&mut d, Vec3::new(-0.25, 0.25, 0.4), 0.25, 24, 48, blue, o);
     let white = d.add_material(Material::diffuse("boxes", Vec3::splat(0.8)), false);
     let o = d.new_named_object("boxes");
-    add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.3), Vec3::new(0.35, 0.2, 0.3)), Vec3::new(0.2, 0.2, 0.2), white, o);
-    add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(-0.5), Vec3::new(0.3, 0.5, 0.3)), Vec3::new(0.1, 0.1, 0.1), blue, o);
+    add_box(
+        &mut d,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(0.3), Vec3::new(0.35, 0.2, 0.3)),
+        Vec3::new(0.2, 0.2, 0.2),
+        white,
+        o,
+    );
+    add_box(
+        &mut d,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(-0.5), Vec3::new(0.3, 0.5, 0.3)),
+        Vec3::new(0.1, 0.1, 0.1),
+        blue,
+        o,
+    );
     add_square_light(&mut d, 25.0, Vec3::new(0.5, 3.5, -1.5), 1.5);
     d.camera = Some(lens_camera(Vec3::new(0.0, 0.6, 2.0), Vec3::new(0.0, 0.45, 0.3), 40.0, 0.05, 1.7));
     d
@@ -110,7 +135,14 @@ pub(crate) fn dof_receding() -> SceneData {
     for k in 0..6 {
         let z = 1.2 - 2.2 * k as f32;
         add_bar(&mut d, Mat4::from_translation(Vec3::new(0.6, 0.35, z)), Vec3::new(0.02, 0.35, 0.02), 0.15, bars, o);
-        add_bar(&mut d, Mat4::from_translation(Vec3::new(-0.9, 0.25, z - 1.0)), Vec3::new(0.4, 0.02, 0.02), 0.15, bars, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(Vec3::new(-0.9, 0.25, z - 1.0)),
+            Vec3::new(0.4, 0.02, 0.02),
+            0.15,
+            bars,
+            o,
+        );
     }
     add_square_light(&mut d, 60.0, Vec3::new(0.0, 3.5, -3.0), 1.0);
     d.camera = Some(lens_camera(Vec3::new(0.0, 0.8, 3.0), Vec3::new(0.0, 0.2, -3.0), 40.0, 0.04, 3.0));
@@ -136,7 +168,13 @@ pub(crate) fn dof_bokeh() -> SceneData {
     d.textures.push(Texture::checker(64, 8, 0.2, 0.8));
     let subject = textured(&mut d, "subject", 0, Vec3::new(0.8, 0.6, 0.4));
     let o = d.new_named_object("subject");
-    add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.6), Vec3::new(0.0, 0.3, 0.0)), Vec3::new(0.25, 0.3, 0.25), subject, o);
+    add_box(
+        &mut d,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(0.6), Vec3::new(0.0, 0.3, 0.0)),
+        Vec3::new(0.25, 0.3, 0.25),
+        subject,
+        o,
+    );
     add_square_light(&mut d, 60.0, Vec3::new(0.0, 3.5, -2.0), 1.2);
     d.camera = Some(lens_camera(Vec3::new(0.0, 0.9, 1.8), Vec3::new(0.0, 0.5, -2.0), 40.0, 0.05, 1.75));
     d
@@ -154,7 +192,10 @@ pub(crate) fn dof_thin() -> SceneData {
     for k in 0..7 {
         let x = -0.9 + 0.3 * k as f32;
         let y = 0.3 + 0.15 * k as f32;
-        let xf = Mat4::from_rotation_translation(Quat::from_rotation_y(0.25 * (k as f32 - 3.0) / 3.0), Vec3::new(x, y, -0.5));
+        let xf = Mat4::from_rotation_translation(
+            Quat::from_rotation_y(0.25 * (k as f32 - 3.0) / 3.0),
+            Vec3::new(x, y, -0.5),
+        );
         add_bar(&mut d, xf, Vec3::new(0.012, 0.012, 2.0), 0.15, rods, o);
     }
     add_square_light(&mut d, 40.0, Vec3::new(0.0, 3.0, -1.0), 0.8);
@@ -170,11 +211,17 @@ pub(crate) fn dof_glossy() -> SceneData {
     d.textures.push(Texture::checker(64, 8, 0.3, 0.75));
     let back = textured(&mut d, "wall", 0, Vec3::new(0.85, 0.8, 0.7));
     wall(&mut d, (-5.0, 5.0, -6.0, 4.0), 0.5, back, "wall");
-    for (k, (x, z, r, m)) in [(-0.7f32, 1.0f32, 0.25f32, 30.0f32), (0.2, -0.5, 0.35, 80.0), (0.9, -2.5, 0.4, 15.0), (-1.2, -3.5, 0.5, 60.0)]
-        .into_iter()
-        .enumerate()
+    for (k, (x, z, r, m)) in
+        [(-0.7f32, 1.0f32, 0.25f32, 30.0f32), (0.2, -0.5, 0.35, 80.0), (0.9, -2.5, 0.4, 15.0), (-1.2, -3.5, 0.5, 60.0)]
+            .into_iter()
+            .enumerate()
     {
-        let kd = [Vec3::new(0.6, 0.15, 0.1), Vec3::new(0.1, 0.2, 0.5), Vec3::new(0.2, 0.45, 0.15), Vec3::new(0.5, 0.45, 0.1)][k];
+        let kd = [
+            Vec3::new(0.6, 0.15, 0.1),
+            Vec3::new(0.1, 0.2, 0.5),
+            Vec3::new(0.2, 0.45, 0.15),
+            Vec3::new(0.5, 0.45, 0.1),
+        ][k];
         let mat = d.add_material(phong("sphere", kd, 0.5, m), false);
         let o = d.new_named_object("sphere");
         add_sphere(&mut d, Vec3::new(x, r, z), r, 24, 48, mat, o);
@@ -199,7 +246,13 @@ pub(crate) fn dof_wide() -> SceneData {
         if k % 3 == 0 {
             add_sphere(&mut d, Vec3::new(x, 0.3, z), 0.3, 24, 48, mat, o);
         } else {
-            add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.5 * k as f32), Vec3::new(x, 0.3, z)), Vec3::splat(0.3), mat, o);
+            add_box(
+                &mut d,
+                Mat4::from_rotation_translation(Quat::from_rotation_y(0.5 * k as f32), Vec3::new(x, 0.3, z)),
+                Vec3::splat(0.3),
+                mat,
+                o,
+            );
         }
     }
     add_square_light(&mut d, 40.0, Vec3::new(0.0, 3.5, -2.0), 1.2);
@@ -214,15 +267,30 @@ pub(crate) fn dof_tiny() -> SceneData {
     let o = d.new_named_object("table");
     add_ground(&mut d, (-3.0, 3.0, -4.0, 2.0), 0.5, top, o);
     let mats = [Vec3::new(0.75, 0.3, 0.2), Vec3::new(0.2, 0.5, 0.7), Vec3::splat(0.85)];
-    for (k, p) in [Vec3::new(-0.5, 0.15, 0.0), Vec3::new(0.1, 0.2, -0.6), Vec3::new(0.6, 0.1, 0.3)].into_iter().enumerate() {
+    for (k, p) in
+        [Vec3::new(-0.5, 0.15, 0.0), Vec3::new(0.1, 0.2, -0.6), Vec3::new(0.6, 0.1, 0.3)].into_iter().enumerate()
+    {
         let mat = d.add_material(Material::diffuse("object", mats[k]), false);
         let o = d.new_named_object("object");
-        add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.7 * k as f32), p), Vec3::splat(p.y), mat, o);
+        add_box(
+            &mut d,
+            Mat4::from_rotation_translation(Quat::from_rotation_y(0.7 * k as f32), p),
+            Vec3::splat(p.y),
+            mat,
+            o,
+        );
     }
     let bars = d.add_material(Material::diffuse("bars", Vec3::splat(0.5)), false);
     let o = d.new_named_object("bars");
     for k in 0..5 {
-        add_bar(&mut d, Mat4::from_translation(Vec3::new(0.0, 0.55, -0.8 + 0.25 * k as f32)), Vec3::new(1.2, 0.015, 0.015), 0.15, bars, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(Vec3::new(0.0, 0.55, -0.8 + 0.25 * k as f32)),
+            Vec3::new(1.2, 0.015, 0.015),
+            0.15,
+            bars,
+            o,
+        );
     }
     add_square_light(&mut d, 40.0, Vec3::new(0.0, 2.5, -0.3), 0.7);
     d.camera = Some(lens_camera(Vec3::new(0.0, 1.5, 2.2), Vec3::new(0.0, 0.2, -0.4), 45.0, 0.003, 2.9));
@@ -231,7 +299,8 @@ pub(crate) fn dof_tiny() -> SceneData {
 
 pub(crate) fn dof_room() -> SceneData {
     let mut d = super::room::room();
-    let camera = d.camera.take().unwrap_or_else(|| super::pinhole(Vec3::new(0.3, 1.6, 1.6), Vec3::new(-0.2, 0.55, -1.0), 55.0));
+    let camera =
+        d.camera.take().unwrap_or_else(|| super::pinhole(Vec3::new(0.3, 1.6, 1.6), Vec3::new(-0.2, 0.55, -1.0), 55.0));
     // Focused on the sphere on the table (2.4 m away along the view axis), the bench in front and
     // the cabinet behind out of focus.
     d.camera = Some(Camera { aperture_radius: 0.04, focus_distance: 2.4, ..camera });

@@ -55,7 +55,13 @@ fn objects(d: &mut SceneData) {
     add_sphere(d, Vec3::new(-0.7, 0.4, 0.0), 0.4, 48, 96, m, o);
     let m = d.add_material(Material::diffuse("box", Vec3::new(0.35, 0.5, 0.7)), false);
     let o = d.new_named_object("box");
-    add_box(d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.5), Vec3::new(0.5, 0.3, -0.3)), Vec3::new(0.3, 0.3, 0.3), m, o);
+    add_box(
+        d,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(0.5), Vec3::new(0.5, 0.3, -0.3)),
+        Vec3::new(0.3, 0.3, 0.3),
+        m,
+        o,
+    );
     let m = d.add_material(Material::diffuse("post", Vec3::new(0.8, 0.8, 0.75)), false);
     let o = d.new_named_object("post");
     add_bar(d, Mat4::from_translation(Vec3::new(0.05, 0.6, 0.5)), Vec3::new(0.03, 0.6, 0.03), 0.2, m, o);
@@ -116,14 +122,22 @@ pub(crate) fn env_sunset() -> SceneData {
     let mut d = SceneData::default();
     d.textures.push(Texture::checker(256, 64, 0.2, 0.8));
     let t = d.textures.len() as u32 - 1;
-    let floor = d.add_material(Material { base_color_texture: Some(t), ..Material::diffuse("floor", Vec3::ONE) }, false);
+    let floor =
+        d.add_material(Material { base_color_texture: Some(t), ..Material::diffuse("floor", Vec3::ONE) }, false);
     let o = d.new_named_object("checker ground");
     add_ground(&mut d, (-20.0, 20.0, -20.0, 20.0), 0.25, floor, o);
     let m = d.add_material(Material::diffuse("post", Vec3::new(0.6, 0.55, 0.5)), false);
     for k in 0..5 {
         let o = d.new_named_object("post");
         let x = -1.0 + 0.5 * k as f32;
-        add_bar(&mut d, Mat4::from_translation(Vec3::new(x, 0.5, -1.0 - 0.3 * k as f32)), Vec3::new(0.04, 0.5, 0.04), 0.2, m, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(Vec3::new(x, 0.5, -1.0 - 0.3 * k as f32)),
+            Vec3::new(0.04, 0.5, 0.04),
+            0.2,
+            m,
+            o,
+        );
     }
     d.camera = Some(pinhole(Vec3::new(0.0, 1.4, 3.0), Vec3::new(0.0, 0.2, -0.5), 45.0));
     d
@@ -152,7 +166,8 @@ pub(crate) fn env_studio() -> SceneData {
     let o = d.new_named_object("sweep floor");
     add_ground(&mut d, (-3.0, 3.0, -2.0, 3.0), 0.5, sweep, o);
     let o = d.new_named_object("sweep wall");
-    let p = [Vec3::new(-3.0, 0.0, -2.0), Vec3::new(3.0, 0.0, -2.0), Vec3::new(3.0, 3.0, -2.0), Vec3::new(-3.0, 3.0, -2.0)];
+    let p =
+        [Vec3::new(-3.0, 0.0, -2.0), Vec3::new(3.0, 0.0, -2.0), Vec3::new(3.0, 3.0, -2.0), Vec3::new(-3.0, 3.0, -2.0)];
     add_panel(&mut d, p, Vec3::Z, 0.5, sweep, o);
     let gold = d.add_material(phong("torus", Vec3::new(0.3, 0.22, 0.08), 0.6, 96.0), false);
     let o = d.new_named_object("torus");

@@ -98,10 +98,7 @@ fn add_real(d: &mut SceneData) {
     let ground = d.add_material(Material::diffuse("ground", Vec3::splat(0.6)), false);
     let o = d.new_named_object("ground");
     add_ground(d, (-20.0, 20.0, -20.0, 20.0), 0.5, ground, o);
-    let diffuse = d.add_material(
-        Material::diffuse("sphere", Vec3::new(0.7, 0.62, 0.5)),
-        false,
-    );
+    let diffuse = d.add_material(Material::diffuse("sphere", Vec3::new(0.7, 0.62, 0.5)), false);
     let o = d.new_named_object("sphere");
     add_sphere(d, SPHERE_CENTRE, SPHERE_RADIUS, 64, 128, diffuse, o);
 }
@@ -120,9 +117,6 @@ fn add_torus_part(d: &mut SceneData, offset: Vec3) {
     // Tilted about x, then lifted so its lowest point touches the plane: the lowest point of a torus
     // tilted by t is (R sin t + r) below its centre.
     let lift = TORUS_MAJOR * TORUS_TILT.sin() + TORUS_MINOR;
-    let xf = Mat4::from_rotation_translation(
-        Quat::from_rotation_x(TORUS_TILT),
-        TORUS_CENTRE + Vec3::Y * lift + offset,
-    );
+    let xf = Mat4::from_rotation_translation(Quat::from_rotation_x(TORUS_TILT), TORUS_CENTRE + Vec3::Y * lift + offset);
     add_torus(d, xf, TORUS_MAJOR, TORUS_MINOR, glossy, o);
 }

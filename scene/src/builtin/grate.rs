@@ -47,13 +47,23 @@ pub(crate) fn grate() -> SceneData {
     add_ground(&mut d, (-8.0, 8.0, -16.0, 3.0), 0.5, ground, o);
     let metal = d.add_material(Material::diffuse("grate", Vec3::new(0.35, 0.37, 0.4)), false);
     let o = d.new_named_object("fine grate");
-    add_grid(&mut d, Grid { centre: Vec3::new(0.0, 0.25, 0.0), yaw: 0.0, count: 21, pitch: 0.06, bar: 0.012 }, metal, o);
+    add_grid(
+        &mut d,
+        Grid { centre: Vec3::new(0.0, 0.25, 0.0), yaw: 0.0, count: 21, pitch: 0.06, bar: 0.012 },
+        metal,
+        o,
+    );
     for (x, z) in [(-0.6f32, -0.6f32), (0.6, -0.6), (0.6, 0.6), (-0.6, 0.6)] {
         add_box(&mut d, Mat4::from_translation(Vec3::new(x, 0.125, z)), Vec3::new(0.01, 0.125, 0.01), metal, o);
     }
     let paint = d.add_material(Material::diffuse("coarse grate", Vec3::new(0.6, 0.5, 0.3)), false);
     let o = d.new_named_object("coarse grate");
-    add_grid(&mut d, Grid { centre: Vec3::new(0.1, 0.8, -0.1), yaw: 30f32.to_radians(), count: 8, pitch: 0.15, bar: 0.02 }, paint, o);
+    add_grid(
+        &mut d,
+        Grid { centre: Vec3::new(0.1, 0.8, -0.1), yaw: 30f32.to_radians(), count: 8, pitch: 0.15, bar: 0.02 },
+        paint,
+        o,
+    );
     let side = 0.15;
     add_square_light(&mut d, 640.0, Vec3::new(0.0, 2.4, -0.4), side);
     d.camera = Some(pinhole(Vec3::new(0.0, 1.7, 2.4), Vec3::new(0.0, 0.0, -0.05), 45.0));

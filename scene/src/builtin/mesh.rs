@@ -12,24 +12,13 @@ use crate::Material;
 
 /// Push a triangle with per-vertex normals/uvs, wound so its geometric normal agrees with the vertex
 /// normals (so one-sided consumers see a consistent front).
-pub(crate) fn smooth_tri(
-    d: &mut SceneData,
-    p: [Vec3; 3],
-    n: [Vec3; 3],
-    uv: [Vec2; 3],
-    material: u32,
-    object: u32,
-) {
+pub(crate) fn smooth_tri(d: &mut SceneData, p: [Vec3; 3], n: [Vec3; 3], uv: [Vec2; 3], material: u32, object: u32) {
     let g = (p[1] - p[0]).cross(p[2] - p[0]);
     if g.length_squared() == 0.0 {
         return; // degenerate (sphere poles): skip rather than store an untraceable triangle
     }
     let (p, n, uv) = if g.dot(n[0] + n[1] + n[2]) < 0.0 {
-        (
-            [p[0], p[2], p[1]],
-            [n[0], n[2], n[1]],
-            [uv[0], uv[2], uv[1]],
-        )
+        ([p[0], p[2], p[1]], [n[0], n[2], n[1]], [uv[0], uv[2], uv[1]])
     } else {
         (p, n, uv)
     };
@@ -55,14 +44,7 @@ pub(crate) fn parametric(
             let c = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
             for idx in [[0, 1, 2], [0, 2, 3]] {
                 let t = idx.map(|k| c[k]);
-                smooth_tri(
-                    d,
-                    t.map(|x| x.0),
-                    t.map(|x| x.1),
-                    t.map(|x| x.2),
-                    material,
-                    object,
-                );
+                smooth_tri(d, t.map(|x| x.0), t.map(|x| x.1), t.map(|x| x.2), material, object);
             }
         }
     }
@@ -72,7 +54,13 @@ pub(crate) fn parametric(
 /// smooth triangles with uv = (x, z) · `uv_per_metre` (for checker textures). Shared by `grids`,
 /// `envmap` and the scene suite; the vertex order and arithmetic are fixed (the `envmap` triangles
 /// are compared bit for bit by the real-layer tests).
-pub(crate) fn add_ground(d: &mut SceneData, (x0, x1, z0, z1): (f32, f32, f32, f32), uv_per_metre: f32, material: u32, object: u32) {
+pub(crate) fn add_ground(
+    d: &mut SceneData,
+    (x0, x1, z0, z1): (f32, f32, f32, f32),
+    uv_per_metre: f32,
+    material: u32,
+    object: u32,
+) {
     let p = [Vec3::new(x0, 0.0, z1), Vec3::new(x1, 0.0, z1), Vec3::new(x1, 0.0, z0), Vec3::new(x0, 0.0, z0)];
     let uv = p.map(|p| Vec2::new(p.x, p.z) * uv_per_metre);
     for idx in [[0, 1, 2], [0, 2, 3]] {
@@ -116,7 +104,15 @@ pub(crate) fn add_bar(d: &mut SceneData, xf: Mat4, half: Vec3, segment: f32, mat
 
 /// A closed cylinder of `radius` and `length` along the y axis of `xf`, centred on its origin (a lathe
 /// with flat, creased caps).
-pub(crate) fn add_cylinder(d: &mut SceneData, xf: Mat4, radius: f32, length: f32, slices: u32, material: u32, object: u32) {
+pub(crate) fn add_cylinder(
+    d: &mut SceneData,
+    xf: Mat4,
+    radius: f32,
+    length: f32,
+    slices: u32,
+    material: u32,
+    object: u32,
+) {
     let h = 0.5 * length;
     let profile = [Vec2::new(0.0, -h), Vec2::new(radius, -h), Vec2::new(radius, h), Vec2::new(0.0, h)];
     lathe(d, xf, &profile, slices, material, object);
@@ -124,47 +120,15 @@ pub(crate) fn add_cylinder(d: &mut SceneData, xf: Mat4, radius: f32, length: f32
 
 /// An oriented box (12 flat triangles, outward normals).
 pub(crate) fn add_box(d: &mut SceneData, xf: Mat4, half: Vec3, material: u32, object: u32) {
-    let c = |sx: f32, sy: f32, sz: f32| {
-        xf.transform_point3(Vec3::new(sx * half.x, sy * half.y, sz * half.z))
-    };
+    let c = |sx: f32, sy: f32, sz: f32| xf.transform_point3(Vec3::new(sx * half.x, sy * half.y, sz * half.z));
     let centre = xf.transform_point3(Vec3::ZERO);
     let faces = [
-        [
-            c(1., -1., -1.),
-            c(1., 1., -1.),
-            c(1., 1., 1.),
-            c(1., -1., 1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(-1., -1., 1.),
-            c(-1., 1., 1.),
-            c(-1., 1., -1.),
-        ],
-        [
-            c(-1., 1., -1.),
-            c(-1., 1., 1.),
-            c(1., 1., 1.),
-            c(1., 1., -1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(1., -1., -1.),
-            c(1., -1., 1.),
-            c(-1., -1., 1.),
-        ],
-        [
-            c(-1., -1., 1.),
-            c(1., -1., 1.),
-            c(1., 1., 1.),
-            c(-1., 1., 1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(-1., 1., -1.),
-            c(1., 1., -1.),
-            c(1., -1., -1.),
-        ],
+        [c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)],
+        [c(-1., -1., -1.), c(-1., -1., 1.), c(-1., 1., 1.), c(-1., 1., -1.)],
+        [c(-1., 1., -1.), c(-1., 1., 1.), c(1., 1., 1.), c(1., 1., -1.)],
+        [c(-1., -1., -1.), c(1., -1., -1.), c(1., -1., 1.), c(-1., -1., 1.)],
+        [c(-1., -1., 1.), c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.)],
+        [c(-1., -1., -1.), c(-1., 1., -1.), c(1., 1., -1.), c(1., -1., -1.)],
     ];
     for [a, b, cc, dd] in faces {
         let fc = (a + b + cc + dd) * 0.25;
@@ -197,21 +161,10 @@ pub(crate) fn add_sphere(
 /// [`smooth_tri`] drops.
 pub(crate) fn sphere_normal(u: f32, v: f32) -> Vec3 {
     let (phi, theta) = (u * TAU, v * PI);
-    Vec3::new(
-        theta.sin() * phi.cos(),
-        theta.cos(),
-        theta.sin() * phi.sin(),
-    )
+    Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())
 }
 
-pub(crate) fn add_torus(
-    d: &mut SceneData,
-    xf: Mat4,
-    big_r: f32,
-    small_r: f32,
-    material: u32,
-    object: u32,
-) {
+pub(crate) fn add_torus(d: &mut SceneData, xf: Mat4, big_r: f32, small_r: f32, material: u32, object: u32) {
     let nm = xf.inverse().transpose();
     parametric(d, 96, 32, material, object, |u, v| {
         let (a, b) = (u * TAU, v * TAU);
@@ -224,14 +177,7 @@ pub(crate) fn add_torus(
 
 /// A rectangular area light with corner `corner` and edges `eu`, `ev` (two emissive triangles, which the
 /// scene merges into one `Rect` light). It emits on the side of `eu × ev` only.
-pub(crate) fn add_rect_light(
-    d: &mut SceneData,
-    name: &str,
-    radiance: Vec3,
-    corner: Vec3,
-    eu: Vec3,
-    ev: Vec3,
-) {
+pub(crate) fn add_rect_light(d: &mut SceneData, name: &str, radiance: Vec3, corner: Vec3, eu: Vec3, ev: Vec3) {
     let m = d.add_material(Material::emitter(name, radiance), false);
     let o = d.new_object();
     d.quad(corner, corner + eu, corner + eu + ev, corner + ev, m, o);
@@ -255,14 +201,7 @@ const LATHE_SMOOTH_COS: f32 = 0.766; // cos 40°
 /// skipped by [`smooth_tri`]. Each segment is shaded with normals averaged with its neighbours' where
 /// they meet at less than 40°, and creased otherwise. `slices` steps around the axis. uv = (angle/2π,
 /// point index / (points − 1)).
-pub(crate) fn lathe(
-    d: &mut SceneData,
-    xf: Mat4,
-    profile: &[Vec2],
-    slices: u32,
-    material: u32,
-    object: u32,
-) {
+pub(crate) fn lathe(d: &mut SceneData, xf: Mat4, profile: &[Vec2], slices: u32, material: u32, object: u32) {
     let segments = profile.len().saturating_sub(1);
     let slices = slices.max(3);
     let seg_normal: Vec<Vec2> = (0..segments)
@@ -274,15 +213,9 @@ pub(crate) fn lathe(
     // Profile normal of segment k at its start (end = false) or end (end = true).
     let normal_at = |k: usize, end: bool| -> Vec2 {
         let own = seg_normal[k];
-        let other = if end {
-            seg_normal.get(k + 1)
-        } else {
-            k.checked_sub(1).map(|j| &seg_normal[j])
-        };
+        let other = if end { seg_normal.get(k + 1) } else { k.checked_sub(1).map(|j| &seg_normal[j]) };
         match other {
-            Some(&o) if o != Vec2::ZERO && own.dot(o) >= LATHE_SMOOTH_COS => {
-                (own + o).normalize_or_zero()
-            }
+            Some(&o) if o != Vec2::ZERO && own.dot(o) >= LATHE_SMOOTH_COS => (own + o).normalize_or_zero(),
             _ => own,
         }
     };
@@ -292,10 +225,7 @@ pub(crate) fn lathe(
         let (sin, cos) = a.sin_cos();
         let pos = Vec3::new(p.x * cos, p.y, p.x * sin);
         let nrm = Vec3::new(n.x * cos, n.y, n.x * sin);
-        (
-            xf.transform_point3(pos),
-            nm.transform_vector3(nrm).normalize_or_zero(),
-        )
+        (xf.transform_point3(pos), nm.transform_vector3(nrm).normalize_or_zero())
     };
     let last = segments.max(1) as f32;
     for k in 0..segments {
@@ -305,33 +235,14 @@ pub(crate) fn lathe(
         let (n0, n1) = (normal_at(k, false), normal_at(k, true));
         for s in 0..slices {
             let c = [
-                (
-                    vertex(profile[k], n0, s),
-                    Vec2::new(s as f32 / slices as f32, k as f32 / last),
-                ),
-                (
-                    vertex(profile[k], n0, s + 1),
-                    Vec2::new((s + 1) as f32 / slices as f32, k as f32 / last),
-                ),
-                (
-                    vertex(profile[k + 1], n1, s + 1),
-                    Vec2::new((s + 1) as f32 / slices as f32, (k + 1) as f32 / last),
-                ),
-                (
-                    vertex(profile[k + 1], n1, s),
-                    Vec2::new(s as f32 / slices as f32, (k + 1) as f32 / last),
-                ),
+                (vertex(profile[k], n0, s), Vec2::new(s as f32 / slices as f32, k as f32 / last)),
+                (vertex(profile[k], n0, s + 1), Vec2::new((s + 1) as f32 / slices as f32, k as f32 / last)),
+                (vertex(profile[k + 1], n1, s + 1), Vec2::new((s + 1) as f32 / slices as f32, (k + 1) as f32 / last)),
+                (vertex(profile[k + 1], n1, s), Vec2::new(s as f32 / slices as f32, (k + 1) as f32 / last)),
             ];
             for idx in [[0, 1, 2], [0, 2, 3]] {
                 let t = idx.map(|i| c[i]);
-                smooth_tri(
-                    d,
-                    t.map(|x| x.0 .0),
-                    t.map(|x| x.0 .1),
-                    t.map(|x| x.1),
-                    material,
-                    object,
-                );
+                smooth_tri(d, t.map(|x| x.0 .0), t.map(|x| x.0 .1), t.map(|x| x.1), material, object);
             }
         }
     }
@@ -343,32 +254,20 @@ mod tests {
 
     /// Signed volume by the divergence theorem: positive when every triangle winds outward.
     fn signed_volume(d: &SceneData) -> f32 {
-        d.tris
-            .iter()
-            .map(|(a, b, c, _)| a.dot(b.cross(*c)) / 6.0)
-            .sum()
+        d.tris.iter().map(|(a, b, c, _)| a.dot(b.cross(*c)) / 6.0).sum()
     }
 
     #[test]
     fn lathe_of_a_rectangle_is_a_closed_outward_prism_with_creased_caps() {
         let mut d = SceneData::default();
         let (r, h, n) = (0.5f32, 2.0f32, 12u32);
-        let profile = [
-            Vec2::new(0.0, 0.0),
-            Vec2::new(r, 0.0),
-            Vec2::new(r, h),
-            Vec2::new(0.0, h),
-        ];
+        let profile = [Vec2::new(0.0, 0.0), Vec2::new(r, 0.0), Vec2::new(r, h), Vec2::new(0.0, h)];
         lathe(&mut d, Mat4::IDENTITY, &profile, n, 0, 0);
         // Bottom and top: one triangle per slice (the other of each quad has zero area); side: two.
         assert_eq!(d.tris.len(), 4 * n as usize);
         // An n-gon prism: (n/2) r² sin(2π/n) · h, positive because every face winds outward.
         let expect = 0.5 * n as f32 * r * r * (TAU / n as f32).sin() * h;
-        assert!(
-            (signed_volume(&d) - expect).abs() < 1e-5 * expect,
-            "{} vs {expect}",
-            signed_volume(&d)
-        );
+        assert!((signed_volume(&d) - expect).abs() < 1e-5 * expect, "{} vs {expect}", signed_volume(&d));
         for (a, b, c, s) in &d.tris {
             let g = (*b - *a).cross(*c - *a).normalize();
             let centre = (*a + *b + *c) / 3.0;
@@ -386,10 +285,7 @@ mod tests {
                     assert!(v.abs_diff_eq(expect_n, 1e-6), "{v} vs {expect_n}");
                 } else {
                     // Vertex normals sit on their own slice, within one slice step of the centroid.
-                    assert!(
-                        v.y.abs() < 1e-6 && v.dot(expect_n) > (TAU / n as f32).cos(),
-                        "{v}"
-                    );
+                    assert!(v.y.abs() < 1e-6 && v.dot(expect_n) > (TAU / n as f32).cos(), "{v}");
                 }
             }
         }
@@ -398,13 +294,8 @@ mod tests {
     #[test]
     fn lathe_smooths_gentle_bends_and_scales_with_its_transform() {
         // A cone frustum on a cylinder: 10° bend, shaded smoothly (shared normal at the joint).
-        let p = [
-            Vec2::new(0.0, 0.0),
-            Vec2::new(1.0, 0.0),
-            Vec2::new(1.0, 1.0),
-            Vec2::new(0.82, 2.0),
-            Vec2::new(0.0, 2.0),
-        ];
+        let p =
+            [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.82, 2.0), Vec2::new(0.0, 2.0)];
         let mut d = SceneData::default();
         lathe(&mut d, Mat4::from_scale(Vec3::splat(2.0)), &p, 16, 0, 0);
         let at_joint: Vec<Vec3> = d
@@ -417,11 +308,7 @@ mod tests {
         assert!(at_joint.len() >= 2);
         let bend = ((1.0f32 - 0.82).atan2(1.0) * 0.5).sin(); // half the 10.2° bend
         for n in &at_joint {
-            assert!(
-                n.abs_diff_eq(at_joint[0], 1e-6),
-                "joint normals differ: {n} vs {}",
-                at_joint[0]
-            );
+            assert!(n.abs_diff_eq(at_joint[0], 1e-6), "joint normals differ: {n} vs {}", at_joint[0]);
             assert!((n.y - bend).abs() < 1e-4, "{n}");
         }
         assert!(signed_volume(&d) > 0.0);

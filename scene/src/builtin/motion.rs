@@ -54,11 +54,7 @@ fn multi_frequency_texture(size: u32) -> Texture {
             [v, 0.9 * v + 0.05 * b, 0.8 * v + 0.1 * c]
         })
         .collect();
-    Texture {
-        width: size,
-        height: size,
-        texels,
-    }
+    Texture { width: size, height: size, texels }
 }
 
 /// An axis-aligned cube of half-size `half` about `centre` whose six faces each carry the whole
@@ -71,22 +67,10 @@ fn textured_cube(d: &mut SceneData, centre: Vec3, half: f32, material: u32, obje
             let v = Vec3::AXES[(axis + 2) % 3] * half;
             let c = centre + n * half;
             let p = [c - u - v, c + u - v, c + u + v, c - u + v];
-            let uv = [
-                Vec2::new(0.0, 1.0),
-                Vec2::new(1.0, 1.0),
-                Vec2::new(1.0, 0.0),
-                Vec2::new(0.0, 0.0),
-            ];
+            let uv = [Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)];
             for idx in [[0, 1, 2], [0, 2, 3]] {
                 // `smooth_tri` winds each triangle to face its normal.
-                smooth_tri(
-                    d,
-                    idx.map(|k| p[k]),
-                    [n; 3],
-                    idx.map(|k| uv[k]),
-                    material,
-                    object,
-                );
+                smooth_tri(d, idx.map(|k| p[k]), [n; 3], idx.map(|k| uv[k]), material, object);
             }
         }
     }
@@ -97,66 +81,29 @@ pub(crate) fn motion() -> SceneData {
 
     // Ground, at rest: 25 cm checks, mild contrast.
     d.textures.push(Texture::checker(64, 8, 0.5, 0.7));
-    let ground_mat = d.add_material(
-        Material {
-            base_color_texture: Some(0),
-            ..Material::diffuse("ground", Vec3::ONE)
-        },
-        false,
-    );
+    let ground_mat =
+        d.add_material(Material { base_color_texture: Some(0), ..Material::diffuse("ground", Vec3::ONE) }, false);
     let ground = d.new_named_object("ground");
     let g = 4.0f32;
-    let corners = [
-        Vec3::new(-g, 0.0, g),
-        Vec3::new(g, 0.0, g),
-        Vec3::new(g, 0.0, -g),
-        Vec3::new(-g, 0.0, -g),
-    ];
+    let corners = [Vec3::new(-g, 0.0, g), Vec3::new(g, 0.0, g), Vec3::new(g, 0.0, -g), Vec3::new(-g, 0.0, -g)];
     let uv = corners.map(|p| Vec2::new(p.x, p.z) * 0.5);
     for idx in [[0, 1, 2], [0, 2, 3]] {
-        smooth_tri(
-            &mut d,
-            idx.map(|k| corners[k]),
-            [Vec3::Y; 3],
-            idx.map(|k| uv[k]),
-            ground_mat,
-            ground,
-        );
+        smooth_tri(&mut d, idx.map(|k| corners[k]), [Vec3::Y; 3], idx.map(|k| uv[k]), ground_mat, ground);
     }
 
     // Panel, translating along x in its own plane.
     d.textures.push(multi_frequency_texture(256));
-    let panel_mat = d.add_material(
-        Material {
-            base_color_texture: Some(1),
-            ..Material::diffuse("panel", Vec3::ONE)
-        },
-        false,
-    );
+    let panel_mat =
+        d.add_material(Material { base_color_texture: Some(1), ..Material::diffuse("panel", Vec3::ONE) }, false);
     let panel = d.new_named_object("panel");
     let (x0, x1, z0, z1, y) = (-1.3f32, 1.1f32, -0.6f32, 0.9f32, 0.02f32);
-    let p = [
-        Vec3::new(x0, y, z1),
-        Vec3::new(x1, y, z1),
-        Vec3::new(x1, y, z0),
-        Vec3::new(x0, y, z0),
-    ];
+    let p = [Vec3::new(x0, y, z1), Vec3::new(x1, y, z1), Vec3::new(x1, y, z0), Vec3::new(x0, y, z0)];
     // One texture repeat over the panel's width (2.4 m): 0.6 m, 15 cm and 3.75 cm checks.
     let uv = p.map(|q| Vec2::new(q.x - x0, q.z - z0) / (x1 - x0));
     for idx in [[0, 1, 2], [0, 2, 3]] {
-        smooth_tri(
-            &mut d,
-            idx.map(|k| p[k]),
-            [Vec3::Y; 3],
-            idx.map(|k| uv[k]),
-            panel_mat,
-            panel,
-        );
+        smooth_tri(&mut d, idx.map(|k| p[k]), [Vec3::Y; 3], idx.map(|k| uv[k]), panel_mat, panel);
     }
-    d.set_motion(
-        panel,
-        RigidMotion::translation(-0.5 * PANEL_SHIFT, 0.5 * PANEL_SHIFT),
-    );
+    d.set_motion(panel, RigidMotion::translation(-0.5 * PANEL_SHIFT, 0.5 * PANEL_SHIFT));
 
     // Ball, moving over the panel (its shadow falls on the panel).
     let ball_mat = d.add_material(Material::diffuse("ball", Vec3::new(0.75, 0.3, 0.2)), false);
@@ -164,17 +111,10 @@ pub(crate) fn motion() -> SceneData {
     let (centre, r) = (Vec3::new(0.45, 0.55, 0.15), 0.22f32);
     parametric(&mut d, 64, 32, ball_mat, ball, |u, v| {
         // The bottom pole snapped to −y so its triangles have exactly zero area (see `sphere_normal`).
-        let n = if v == 1.0 {
-            Vec3::NEG_Y
-        } else {
-            sphere_normal(u, v)
-        };
+        let n = if v == 1.0 { Vec3::NEG_Y } else { sphere_normal(u, v) };
         (centre + r * n, n)
     });
-    d.set_motion(
-        ball,
-        RigidMotion::translation(-0.5 * BALL_SHIFT, 0.5 * BALL_SHIFT),
-    );
+    d.set_motion(ball, RigidMotion::translation(-0.5 * BALL_SHIFT, 0.5 * BALL_SHIFT));
 
     // Bridge, at rest: a 30 cm plank across the view 0.45 m over the panel, on legs outside the
     // panel's reach; under the light its shadow has a 12 cm umbra between 17 cm penumbrae.
@@ -202,33 +142,20 @@ pub(crate) fn motion() -> SceneData {
     // Spinner, rotating about its vertical axis on the floor behind the panel.
     d.textures.push(Texture::checker(64, 4, 0.2, 0.85));
     let spinner_mat = d.add_material(
-        Material {
-            base_color_texture: Some(2),
-            ..Material::diffuse("spinner", Vec3::new(0.4, 0.55, 0.9))
-        },
+        Material { base_color_texture: Some(2), ..Material::diffuse("spinner", Vec3::new(0.4, 0.55, 0.9)) },
         false,
     );
     let spinner = d.new_named_object("spinner");
     let spin_centre = Vec3::new(1.8, 0.2, -1.0);
     textured_cube(&mut d, spin_centre, 0.2, spinner_mat, spinner);
-    d.set_motion(
-        spinner,
-        RigidMotion::rotation_about(spin_centre, Vec3::Y, -0.5 * SPIN, 0.5 * SPIN),
-    );
+    d.set_motion(spinner, RigidMotion::rotation_about(spin_centre, Vec3::Y, -0.5 * SPIN, 0.5 * SPIN));
 
     // Light, at rest: 0.8 m square 3 m up, emitting downward (edge_u × edge_v = −y).
     let light_mat = d.add_material(Material::emitter("light", Vec3::splat(45.0)), false);
     let light = d.new_named_object("light");
     let corner = Vec3::new(-0.6, 3.0, -0.3);
     let (eu, ev) = (Vec3::X * 0.8, Vec3::Z * 0.8);
-    d.quad(
-        corner,
-        corner + eu,
-        corner + eu + ev,
-        corner + ev,
-        light_mat,
-        light,
-    );
+    d.quad(corner, corner + eu, corner + eu + ev, corner + ev, light_mat, light);
 
     d.camera = Some(Camera {
         position: Vec3::new(0.0, 2.2, 4.2),

@@ -61,7 +61,14 @@ pub(crate) fn mo_fast_thin() -> SceneData {
     for k in 0..4 {
         let o = d.new_named_object("bar");
         let z = -0.8 + 0.5 * k as f32;
-        add_bar(&mut d, Mat4::from_translation(Vec3::new(-0.3 + 0.2 * k as f32, 0.3 + 0.1 * k as f32, z)), Vec3::new(0.03, 0.3, 0.03), 0.15, bars, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(Vec3::new(-0.3 + 0.2 * k as f32, 0.3 + 0.1 * k as f32, z)),
+            Vec3::new(0.03, 0.3, 0.03),
+            0.15,
+            bars,
+            o,
+        );
         d.set_motion(o, sweep(Vec3::new(0.4, 0.0, 0.0)));
     }
     add_square_light(&mut d, 35.0, Vec3::new(0.0, 3.0, -0.5), 0.8);
@@ -110,7 +117,13 @@ pub(crate) fn mo_slow() -> SceneData {
     add_ground(&mut d, (-4.0, 4.0, -4.0, 3.0), 0.5, floor, o);
     let red = d.add_material(Material::diffuse("box", Vec3::new(0.75, 0.25, 0.2)), false);
     let o = d.new_named_object("box");
-    add_box(&mut d, Mat4::from_rotation_translation(Quat::from_rotation_y(0.5), Vec3::new(-0.5, 0.25, -0.3)), Vec3::splat(0.25), red, o);
+    add_box(
+        &mut d,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(0.5), Vec3::new(-0.5, 0.25, -0.3)),
+        Vec3::splat(0.25),
+        red,
+        o,
+    );
     d.set_motion(o, sweep(Vec3::new(0.015, 0.0, 0.0)));
     let blue = d.add_material(Material::diffuse("ball", Vec3::new(0.2, 0.35, 0.7)), false);
     let o = d.new_named_object("ball");
@@ -119,7 +132,14 @@ pub(crate) fn mo_slow() -> SceneData {
     let bars = d.add_material(Material::diffuse("bars", Vec3::splat(0.5)), false);
     let o = d.new_named_object("bars");
     for k in 0..4 {
-        add_bar(&mut d, Mat4::from_translation(Vec3::new(0.0, 0.8, -0.6 + 0.2 * k as f32)), Vec3::new(1.0, 0.012, 0.012), 0.15, bars, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(Vec3::new(0.0, 0.8, -0.6 + 0.2 * k as f32)),
+            Vec3::new(1.0, 0.012, 0.012),
+            0.15,
+            bars,
+            o,
+        );
     }
     d.set_motion(o, sweep(Vec3::new(0.01, 0.0, 0.0)));
     add_square_light(&mut d, 40.0, Vec3::new(0.0, 2.8, -0.3), 0.7);
@@ -135,12 +155,26 @@ pub(crate) fn mo_sliding_wall() -> SceneData {
     let wall = checker_material(&mut d, "wall", 256, 32, Vec3::new(0.9, 0.8, 0.7));
     let o = d.new_named_object("sliding wall");
     let v = Vec3::new;
-    add_panel(&mut d, [v(-4.0, 0.0, -1.5), v(4.0, 0.0, -1.5), v(4.0, 2.5, -1.5), v(-4.0, 2.5, -1.5)], Vec3::Z, 0.5, wall, o);
+    add_panel(
+        &mut d,
+        [v(-4.0, 0.0, -1.5), v(4.0, 0.0, -1.5), v(4.0, 2.5, -1.5), v(-4.0, 2.5, -1.5)],
+        Vec3::Z,
+        0.5,
+        wall,
+        o,
+    );
     d.set_motion(o, sweep(Vec3::new(0.06, 0.0, 0.0)));
     let fence = d.add_material(Material::diffuse("fence", Vec3::new(0.45, 0.35, 0.25)), false);
     let o = d.new_named_object("fence");
     for k in 0..8 {
-        add_bar(&mut d, Mat4::from_translation(v(-1.4 + 0.4 * k as f32, 0.6, -0.6)), v(0.025, 0.6, 0.025), 0.15, fence, o);
+        add_bar(
+            &mut d,
+            Mat4::from_translation(v(-1.4 + 0.4 * k as f32, 0.6, -0.6)),
+            v(0.025, 0.6, 0.025),
+            0.15,
+            fence,
+            o,
+        );
     }
     add_bar(&mut d, Mat4::from_translation(v(0.0, 1.0, -0.6)), v(1.6, 0.025, 0.025), 0.15, fence, o);
     add_square_light(&mut d, 35.0, Vec3::new(0.0, 2.8, 1.2), 0.9);
@@ -176,7 +210,8 @@ pub(crate) fn mo_crossing() -> SceneData {
     let floor = checker_material(&mut d, "floor", 128, 16, Vec3::new(0.8, 0.8, 0.75));
     let o = d.new_named_object("floor");
     add_ground(&mut d, (-4.0, 4.0, -4.0, 3.0), 0.5, floor, o);
-    let colours = [Vec3::new(0.85, 0.3, 0.2), Vec3::new(0.2, 0.6, 0.3), Vec3::new(0.2, 0.3, 0.8), Vec3::new(0.85, 0.75, 0.2)];
+    let colours =
+        [Vec3::new(0.85, 0.3, 0.2), Vec3::new(0.2, 0.6, 0.3), Vec3::new(0.2, 0.3, 0.8), Vec3::new(0.85, 0.75, 0.2)];
     for k in 0..12 {
         let f = k as f32;
         let m = d.add_material(Material::diffuse("cube", colours[k % 4]), false);
@@ -200,7 +235,14 @@ pub(crate) fn mo_glossy() -> SceneData {
     let wall = checker_material(&mut d, "wall", 64, 8, Vec3::new(0.85, 0.8, 0.7));
     let o = d.new_named_object("wall");
     let v = Vec3::new;
-    add_panel(&mut d, [v(-4.0, 0.0, -2.0), v(4.0, 0.0, -2.0), v(4.0, 3.0, -2.0), v(-4.0, 3.0, -2.0)], Vec3::Z, 0.5, wall, o);
+    add_panel(
+        &mut d,
+        [v(-4.0, 0.0, -2.0), v(4.0, 0.0, -2.0), v(4.0, 3.0, -2.0), v(-4.0, 3.0, -2.0)],
+        Vec3::Z,
+        0.5,
+        wall,
+        o,
+    );
     let ball = d.add_material(phong("ball", Vec3::new(0.6, 0.15, 0.1), 0.5, 60.0), false);
     let o = d.new_named_object("ball");
     add_sphere(&mut d, Vec3::new(-0.4, 0.3, -0.3), 0.3, 24, 48, ball, o);

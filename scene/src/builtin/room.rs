@@ -46,7 +46,13 @@ pub(crate) fn room() -> SceneData {
     let (tx, tz) = (-0.2f32, -0.6f32);
     add_box(&mut d, Mat4::from_translation(v(tx, 0.72, tz)), v(0.6, 0.02, 0.35), wood, o);
     for (sx, sz) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        add_box(&mut d, Mat4::from_translation(v(tx + sx * 0.53, 0.35, tz + sz * 0.29)), v(0.025, 0.35, 0.025), wood, o);
+        add_box(
+            &mut d,
+            Mat4::from_translation(v(tx + sx * 0.53, 0.35, tz + sz * 0.29)),
+            v(0.025, 0.35, 0.025),
+            wood,
+            o,
+        );
     }
     let blue = d.add_material(Material::diffuse("sphere", Vec3::new(0.25, 0.35, 0.65)), false);
     let o = d.new_named_object("sphere");

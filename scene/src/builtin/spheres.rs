@@ -44,22 +44,12 @@ pub(crate) fn spheres() -> SceneData {
     let o = d.new_object();
     let g = GROUND_HALF;
     // Counter-clockwise seen from above, so the flat normal points up.
-    d.quad(
-        Vec3::new(-g, 0.0, g),
-        Vec3::new(g, 0.0, g),
-        Vec3::new(g, 0.0, -g),
-        Vec3::new(-g, 0.0, -g),
-        ground,
-        o,
-    );
+    d.quad(Vec3::new(-g, 0.0, g), Vec3::new(g, 0.0, g), Vec3::new(g, 0.0, -g), Vec3::new(-g, 0.0, -g), ground, o);
     let materials: Vec<u32> = (0..8)
         .map(|k| {
             let t = k as f32 / 7.0;
             d.add_material(
-                Material::diffuse(
-                    &format!("sphere{k}"),
-                    Vec3::new(0.25 + 0.5 * t, 0.45, 0.75 - 0.5 * t),
-                ),
+                Material::diffuse(&format!("sphere{k}"), Vec3::new(0.25 + 0.5 * t, 0.45, 0.75 - 0.5 * t)),
                 false,
             )
         })
@@ -67,11 +57,7 @@ pub(crate) fn spheres() -> SceneData {
     let half = (GRID - 1) as f32 * 0.5;
     for j in 0..GRID {
         for i in 0..GRID {
-            let centre = Vec3::new(
-                (i as f32 - half) * SPACING,
-                RADIUS,
-                (j as f32 - half) * SPACING,
-            );
+            let centre = Vec3::new((i as f32 - half) * SPACING, RADIUS, (j as f32 - half) * SPACING);
             let m = materials[((i + 3 * j) % 8) as usize];
             let o = d.new_object();
             // `add_sphere` with the bottom pole snapped to exactly −y: its sin π ≠ 0 left 312
@@ -79,11 +65,7 @@ pub(crate) fn spheres() -> SceneData {
             // have zero area and are dropped, so every sphere has exactly 1,024 (the count).
             // The other built-ins keep `add_sphere` unchanged so their images do not move.
             parametric(&mut d, SLICES, STACKS, m, o, |u, v| {
-                let n = if v == 1.0 {
-                    Vec3::NEG_Y
-                } else {
-                    sphere_normal(u, v)
-                };
+                let n = if v == 1.0 { Vec3::NEG_Y } else { sphere_normal(u, v) };
                 (centre + RADIUS * n, n)
             });
         }

@@ -24,7 +24,8 @@ pub(crate) fn textured() -> SceneData {
     // 256 texels, 32 checks per uv unit; uv = 0.5 per metre: 2 m per uv unit → 6.25 cm squares.
     d.textures.push(Texture::checker(256, 32, 0.08, 0.85));
     d.textures.push(Texture::checker(64, 8, 0.25, 0.75));
-    let fine = d.add_material(Material { base_color_texture: Some(0), ..Material::diffuse("ground", Vec3::ONE) }, false);
+    let fine =
+        d.add_material(Material { base_color_texture: Some(0), ..Material::diffuse("ground", Vec3::ONE) }, false);
     let coarse = d.add_material(
         Material { base_color_texture: Some(1), ..Material::diffuse("wall", Vec3::new(0.9, 0.85, 0.75)) },
         false,
@@ -52,7 +53,10 @@ pub(crate) fn textured() -> SceneData {
     let torus = d.add_material(Material::diffuse("torus", Vec3::new(0.75, 0.55, 0.3)), false);
     let o = d.new_named_object("torus");
     // Standing on edge (axis along z): its lowest point touches the ground.
-    let xf = Mat4::from_rotation_translation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2), Vec3::new(0.85, 0.42, -0.4));
+    let xf = Mat4::from_rotation_translation(
+        Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+        Vec3::new(0.85, 0.42, -0.4),
+    );
     add_torus(&mut d, xf, 0.32, 0.1, torus, o);
     let o = d.new_named_object("box");
     let boxed = Mat4::from_rotation_translation(Quat::from_rotation_y(0.5), Vec3::new(-0.9, 0.2, -0.6));

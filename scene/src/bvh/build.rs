@@ -53,11 +53,7 @@ pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
     // PLOC pair poorly too, without any tie. A PLOC build of an evenly strided sample is cheap and shows
     // it: ordinary scenes' samples are 18–23 deep (built-ins), such inputs' 130+.
     if tris.len() > PROBE_SIZE {
-        let sample: Vec<[Vec3; 3]> = tris
-            .iter()
-            .step_by(tris.len() / PROBE_SIZE)
-            .copied()
-            .collect();
+        let sample: Vec<[Vec3; 3]> = tris.iter().step_by(tris.len() / PROBE_SIZE).copied().collect();
         let probe = binary_obvhs(&sample, PRESET);
         if binary_depth(&probe.nodes) > MAX_PROBE_DEPTH {
             return build_median(tris);
@@ -76,10 +72,8 @@ pub fn build(tris: &[[Vec3; 3]]) -> BuiltBvh {
 /// trees traced as fast as `medium_build`'s and `slow_build`'s (spatial splits) in 60–80% of
 /// `medium_build`'s time; with the SAH-optimal collapse, one-triangle leaves take 3–6% fewer
 /// instructions per ray than obvhs's own 8-triangle leaves.
-pub const PRESET: obvhs::BvhBuildParams = obvhs::BvhBuildParams {
-    max_prims_per_leaf: 1,
-    ..obvhs::BvhBuildParams::fast_build()
-};
+pub const PRESET: obvhs::BvhBuildParams =
+    obvhs::BvhBuildParams { max_prims_per_leaf: 1, ..obvhs::BvhBuildParams::fast_build() };
 
 /// Sample size of [`build`]'s PLOC probe on large inputs.
 pub const PROBE_SIZE: usize = 16384;
@@ -122,10 +116,7 @@ pub fn build_median(tris: &[[Vec3; 3]]) -> BuiltBvh {
 /// [`build_median`]'s binary tree.
 pub fn binary_median(tris: &[[Vec3; 3]]) -> BinaryTree {
     const LEAF: usize = 4;
-    let boxes: Vec<(Vec3, Vec3)> = tris
-        .iter()
-        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
-        .collect();
+    let boxes: Vec<(Vec3, Vec3)> = tris.iter().map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))).collect();
     let centres: Vec<Vec3> = boxes.iter().map(|(a, b)| (*a + *b) * 0.5).collect();
     let mut order: Vec<u32> = (0..tris.len() as u32).collect();
     let mut nodes = vec![BinaryNode::zeroed()];
@@ -140,28 +131,18 @@ pub fn binary_median(tris: &[[Vec3; 3]]) -> BinaryTree {
             chi = chi.max(centres[i as usize]);
         }
         if end - start <= LEAF {
-            nodes[node] = BinaryNode {
-                min: lo.to_array(),
-                index: start as u32,
-                max: hi.to_array(),
-                count: (end - start) as u32,
-            };
+            nodes[node] =
+                BinaryNode { min: lo.to_array(), index: start as u32, max: hi.to_array(), count: (end - start) as u32 };
             continue;
         }
         let axis = (chi - clo).max_position();
         let mid = (end - start) / 2;
-        order[start..end].select_nth_unstable_by(mid, |&a, &b| {
-            centres[a as usize][axis].total_cmp(&centres[b as usize][axis])
-        });
+        order[start..end]
+            .select_nth_unstable_by(mid, |&a, &b| centres[a as usize][axis].total_cmp(&centres[b as usize][axis]));
         let first_child = nodes.len();
         nodes.push(BinaryNode::zeroed());
         nodes.push(BinaryNode::zeroed());
-        nodes[node] = BinaryNode {
-            min: lo.to_array(),
-            index: first_child as u32,
-            max: hi.to_array(),
-            count: 0,
-        };
+        nodes[node] = BinaryNode { min: lo.to_array(), index: first_child as u32, max: hi.to_array(), count: 0 };
         todo.push((first_child, start, start + mid));
         todo.push((first_child + 1, start + mid, end));
     }
@@ -176,14 +157,8 @@ pub fn build_with(tris: &[[Vec3; 3]], params: obvhs::BvhBuildParams) -> BuiltBvh
 /// obvhs's binary tree in [`BinaryNode`]s.
 pub fn binary_obvhs(tris: &[[Vec3; 3]], params: obvhs::BvhBuildParams) -> BinaryTree {
     use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle};
-    let input: Vec<Triangle> = tris
-        .iter()
-        .map(|t| Triangle {
-            v0: t[0].into(),
-            v1: t[1].into(),
-            v2: t[2].into(),
-        })
-        .collect();
+    let input: Vec<Triangle> =
+        tris.iter().map(|t| Triangle { v0: t[0].into(), v1: t[1].into(), v2: t[2].into() }).collect();
     let mut core_time = std::time::Duration::ZERO;
     let bvh = build_bvh2_from_tris(&input, params, &mut core_time);
     let nodes: Vec<BinaryNode> = bvh
@@ -196,10 +171,7 @@ pub fn binary_obvhs(tris: &[[Vec3; 3]], params: obvhs::BvhBuildParams) -> Binary
             count: n.prim_count,
         })
         .collect();
-    BinaryTree {
-        nodes,
-        order: bvh.primitive_indices,
-    }
+    BinaryTree { nodes, order: bvh.primitive_indices }
 }
 
 /// Depth of the tree (root alone = 1), iteratively so deep trees cannot blow the Rust stack.
@@ -231,10 +203,7 @@ pub struct CollapseCost {
 /// The costs scenes' trees are collapsed with. Chosen by callgrind instructions per ray on `heavy` and
 /// `spheres` (primary, shadow, diffuse rays; one-triangle `fast_build` leaves): pack cost 1.5 took
 /// 0.3–0.6% fewer than 1.0 and 1–2% fewer than 0.7, and 2.0 made the same trees as 1.5.
-pub const COLLAPSE_COST: CollapseCost = CollapseCost {
-    node: 1.0,
-    pack: 1.5,
-};
+pub const COLLAPSE_COST: CollapseCost = CollapseCost { node: 1.0, pack: 1.5 };
 
 /// Collapse a binary tree into wide nodes with the least surface-area cost ([`collapse_with`] at
 /// [`COLLAPSE_COST`]).
@@ -298,12 +267,7 @@ fn collapse_leaves(tree: &BinaryTree, cost: CollapseCost, max_leaf: u32) -> Buil
         }
     }
     let (depth, stack_need) = (tree_depth(&nodes), stack_need(&nodes));
-    BuiltBvh {
-        nodes,
-        order,
-        depth,
-        stack_need,
-    }
+    BuiltBvh { nodes, order, depth, stack_need }
 }
 
 /// [`collapse_with`]'s decisions per binary node.
@@ -333,11 +297,7 @@ impl CollapsePlan {
         }
         let mut count = vec![0u32; n];
         let mut c = vec![[0f32; WIDTH]; n]; // c[n][i − 1] = C(n, i)
-        let mut plan = CollapsePlan {
-            leaf: vec![false; n],
-            split: vec![[0; WIDTH - 1]; n],
-            split4: vec![0; n],
-        };
+        let mut plan = CollapsePlan { leaf: vec![false; n], split: vec![[0; WIDTH - 1]; n], split4: vec![0; n] };
         let packs = |count: u32| count.div_ceil(4) as f32;
         for &i in pre.iter().rev() {
             let (i, b) = (i as usize, &bin[i as usize]);
@@ -441,11 +401,7 @@ pub fn collapse_greedy(tree: &BinaryTree) -> BuiltBvh {
         let mut todo = vec![(0usize, 0u32)];
         while let Some((w, b)) = todo.pop() {
             let n = bin[b as usize];
-            let mut open: Vec<u32> = if n.count > 0 {
-                vec![b]
-            } else {
-                vec![n.index, n.index + 1]
-            };
+            let mut open: Vec<u32> = if n.count > 0 { vec![b] } else { vec![n.index, n.index + 1] };
             while open.len() < WIDTH {
                 let widest = open
                     .iter()
@@ -470,12 +426,7 @@ pub fn collapse_greedy(tree: &BinaryTree) -> BuiltBvh {
         }
     }
     let (depth, stack_need) = (tree_depth(&nodes), stack_need(&nodes));
-    BuiltBvh {
-        nodes,
-        order: tree.order.clone(),
-        depth,
-        stack_need,
-    }
+    BuiltBvh { nodes, order: tree.order.clone(), depth, stack_need }
 }
 
 /// A wide tree over boxes, one box per leaf: each leaf reference is `leaf_ref(box index, 1)` (no
@@ -486,34 +437,21 @@ pub fn collapse_greedy(tree: &BinaryTree) -> BuiltBvh {
 /// and whenever the collapsed tree would need more than [`TOP_STACK_SIZE`] stack entries, it splits
 /// at the median: the tree's depth stays within `BOX_SAH_DEPTH + log2(n) + 1`.
 pub fn build_boxes(boxes: &[([f32; 3], [f32; 3])]) -> BuiltBvh {
-    let cost = CollapseCost {
-        node: 1.0,
-        pack: 1.0,
-    };
+    let cost = CollapseCost { node: 1.0, pack: 1.0 };
     let built = collapse_leaves(&binary_boxes(boxes, BOX_SAH_DEPTH), cost, 1);
-    let built = if built.stack_need + 1 > TOP_STACK_SIZE {
-        collapse_leaves(&binary_boxes(boxes, 0), cost, 1)
-    } else {
-        built
-    };
+    let built =
+        if built.stack_need + 1 > TOP_STACK_SIZE { collapse_leaves(&binary_boxes(boxes, 0), cost, 1) } else { built };
     // Leaves name positions in `order`; name the boxes instead.
     let mut nodes = built.nodes;
     for n in &mut nodes {
         for slot in 0..WIDTH {
-            if let (true, Child::Leaf { first, count }) =
-                (n.used(slot), super::child_ref(n.child[slot]))
-            {
+            if let (true, Child::Leaf { first, count }) = (n.used(slot), super::child_ref(n.child[slot])) {
                 debug_assert_eq!(count, 1);
                 n.child[slot] = leaf_ref(built.order[first as usize], 1);
             }
         }
     }
-    BuiltBvh {
-        nodes,
-        order: built.order,
-        depth: built.depth,
-        stack_need: built.stack_need,
-    }
+    BuiltBvh { nodes, order: built.order, depth: built.depth, stack_need: built.stack_need }
 }
 
 /// Binary levels [`build_boxes`] splits by surface area before it splits at the median.
@@ -560,12 +498,7 @@ fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree 
     while let Some((node, start, end, depth)) = todo.pop() {
         let (lo, hi) = union(&order[start..end]);
         if end - start == 1 {
-            nodes[node] = BinaryNode {
-                min: lo.to_array(),
-                index: start as u32,
-                max: hi.to_array(),
-                count: 1,
-            };
+            nodes[node] = BinaryNode { min: lo.to_array(), index: start as u32, max: hi.to_array(), count: 1 };
             continue;
         }
         let ids = &mut order[start..end];
@@ -577,15 +510,13 @@ fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree 
                 ids.sort_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
                 right_area.clear();
                 right_area.resize(n, 0.0);
-                let (mut rlo, mut rhi) =
-                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                let (mut rlo, mut rhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
                 for k in (1..n).rev() {
                     rlo = rlo.min(Vec3::from(boxes[ids[k] as usize].0));
                     rhi = rhi.max(Vec3::from(boxes[ids[k] as usize].1));
                     right_area[k] = half_area((rlo, rhi));
                 }
-                let (mut llo, mut lhi) =
-                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                let (mut llo, mut lhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
                 for k in 1..n {
                     llo = llo.min(Vec3::from(boxes[ids[k - 1] as usize].0));
                     lhi = lhi.max(Vec3::from(boxes[ids[k - 1] as usize].1));
@@ -603,12 +534,7 @@ fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree 
         let first_child = nodes.len();
         nodes.push(BinaryNode::zeroed());
         nodes.push(BinaryNode::zeroed());
-        nodes[node] = BinaryNode {
-            min: lo.to_array(),
-            index: first_child as u32,
-            max: hi.to_array(),
-            count: 0,
-        };
+        nodes[node] = BinaryNode { min: lo.to_array(), index: first_child as u32, max: hi.to_array(), count: 0 };
         todo.push((first_child, start, start + mid, depth + 1));
         todo.push((first_child + 1, start + mid, end, depth + 1));
     }
@@ -617,13 +543,7 @@ fn binary_boxes(boxes: &[([f32; 3], [f32; 3])], sah_depth: usize) -> BinaryTree 
 
 /// A reference to `count` triangles from `first`: a leaf, or for more than [`MAX_LEAF`] a new node
 /// over up to [`WIDTH`] chunks (recursively), each with the whole leaf's box.
-fn leaf_slot(
-    nodes: &mut Vec<WideNode>,
-    first: u32,
-    count: u32,
-    min: [f32; 3],
-    max: [f32; 3],
-) -> u32 {
+fn leaf_slot(nodes: &mut Vec<WideNode>, first: u32, count: u32, min: [f32; 3], max: [f32; 3]) -> u32 {
     if count <= MAX_LEAF {
         return leaf_ref(first, count);
     }

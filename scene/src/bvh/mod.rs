@@ -24,13 +24,9 @@ pub mod triangle;
 
 use bytemuck::{Pod, Zeroable};
 
-pub use build::{
-    build, build_median, build_with, largest_morton_cell, stack_need, stack_needs, tree_depth, BuiltBvh,
-};
+pub use build::{build, build_median, build_with, largest_morton_cell, stack_need, stack_needs, tree_depth, BuiltBvh};
 pub use traverse::{traverse, traverse_counted, traverse_from, traverse_simd, Simd, TraversalStats};
-pub use triangle::{
-    closer, intersect_triangle, Hit, TrianglePack, TriangleRecord, NO_LIGHT, NO_TRIANGLE,
-};
+pub use triangle::{closer, intersect_triangle, Hit, TrianglePack, TriangleRecord, NO_LIGHT, NO_TRIANGLE};
 
 /// Children per node (a multiple of 4: the portable slab test and the WGSL take four lanes at a time;
 /// the AVX test eight).
@@ -99,10 +95,7 @@ pub fn child_ref(r: u32) -> Child {
     if r & LEAF_BIT == 0 {
         Child::Node(r)
     } else {
-        Child::Leaf {
-            first: r & ((1 << LEAF_FIRST_BITS) - 1),
-            count: ((r >> LEAF_FIRST_BITS) & 7) + 1,
-        }
+        Child::Leaf { first: r & ((1 << LEAF_FIRST_BITS) - 1), count: ((r >> LEAF_FIRST_BITS) & 7) + 1 }
     }
 }
 
@@ -110,11 +103,7 @@ impl WideNode {
     /// A node with every slot unused.
     pub fn empty() -> Self {
         let (lo, hi) = ([f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]);
-        WideNode {
-            bounds: [lo, hi, lo, hi, lo, hi],
-            child: [u32::MAX; WIDTH],
-            pad: [0; WIDTH],
-        }
+        WideNode { bounds: [lo, hi, lo, hi, lo, hi], child: [u32::MAX; WIDTH], pad: [0; WIDTH] }
     }
 
     /// Put a child with box `(min, max)` in slot `i`.
@@ -133,9 +122,7 @@ impl WideNode {
 
     /// The used slots' decoded references.
     pub fn children(&self) -> impl Iterator<Item = Child> + '_ {
-        (0..WIDTH)
-            .filter(|&i| self.used(i))
-            .map(|i| child_ref(self.child[i]))
+        (0..WIDTH).filter(|&i| self.used(i)).map(|i| child_ref(self.child[i]))
     }
 }
 
@@ -150,10 +137,7 @@ impl Bvh {
     /// Pack a built tree's leaves: each leaf's triangle range (positions in `tris`, the triangles in
     /// BVH order) becomes consecutive [`TrianglePack`]s of four, and its reference points at them.
     pub fn pack(nodes: Vec<WideNode>, tris: &[TriangleRecord]) -> Bvh {
-        let mut bvh = Bvh {
-            nodes: Vec::with_capacity(nodes.len()),
-            packs: Vec::with_capacity(tris.len() / 2),
-        };
+        let mut bvh = Bvh { nodes: Vec::with_capacity(nodes.len()), packs: Vec::with_capacity(tris.len() / 2) };
         bvh.pack_into(nodes, tris, 0);
         bvh
     }
@@ -164,12 +148,7 @@ impl Bvh {
     /// the position in `tris` (so `tris` are the scene's triangles from `first_triangle` on). Returns
     /// the new tree's root. Scenes keep one tree per moving instance this way (`Scene::instances`),
     /// all traversed by the same code from their own root ([`traverse_from`]).
-    pub fn pack_into(
-        &mut self,
-        nodes: Vec<WideNode>,
-        tris: &[TriangleRecord],
-        first_triangle: u32,
-    ) -> u32 {
+    pub fn pack_into(&mut self, nodes: Vec<WideNode>, tris: &[TriangleRecord], first_triangle: u32) -> u32 {
         let root = self.nodes.len() as u32;
         for mut node in nodes {
             for slot in 0..WIDTH {
@@ -182,10 +161,7 @@ impl Bvh {
                         let start = self.packs.len() as u32;
                         let end = first + count;
                         for c in (first..end).step_by(4) {
-                            self.packs.push(TrianglePack::new(
-                                &tris[c as usize..end as usize],
-                                first_triangle + c,
-                            ));
+                            self.packs.push(TrianglePack::new(&tris[c as usize..end as usize], first_triangle + c));
                         }
                         node.child[slot] = leaf_ref(start, self.packs.len() as u32 - start);
                     }

@@ -199,10 +199,7 @@ fn nan_free(near: Vec4, far: Vec4) -> (Vec4, Vec4) {
     } else {
         let n = near.is_nan_mask();
         let f = far.is_nan_mask();
-        (
-            Vec4::select(n, Vec4::NEG_INFINITY, near),
-            Vec4::select(f, Vec4::INFINITY, far),
-        )
+        (Vec4::select(n, Vec4::NEG_INFINITY, near), Vec4::select(f, Vec4::INFINITY, far))
     }
 }
 
@@ -267,11 +264,7 @@ pub fn traverse_from(
     any_hit: bool,
     best: Option<&Hit>,
 ) -> Option<Hit> {
-    let start = Start {
-        root,
-        t_best: best.map_or(tmax, |h| h.t),
-        best_triangle: best.map_or(0, |h| h.triangle),
-    };
+    let start = Start { root, t_best: best.map_or(tmax, |h| h.t), best_triangle: best.map_or(0, |h| h.triangle) };
     traverse_with(bvh, start, o, d, tmin, any_hit, &mut ())
 }
 
@@ -288,11 +281,7 @@ impl Start {
     /// Node 0 with nothing hit yet.
     #[inline(always)]
     fn root(tmax: f32) -> Start {
-        Start {
-            root: 0,
-            t_best: tmax,
-            best_triangle: 0,
-        }
+        Start { root: 0, t_best: tmax, best_triangle: 0 }
     }
 }
 
@@ -378,12 +367,7 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter, S: SlabTest>(
     let ray = S::prepare(o, d);
     let pack_ray = PackRay::new(o, d);
     let mut t_best = start.t_best;
-    let mut best = Hit {
-        t: t_best,
-        triangle: start.best_triangle,
-        b1: 0.0,
-        b2: 0.0,
-    };
+    let mut best = Hit { t: t_best, triangle: start.best_triangle, b1: 0.0, b2: 0.0 };
     let mut found = false;
     // Not zeroed: clearing 512 bytes was 9% of a primary ray's instructions (callgrind, `spheres`).
     // Entries below `sp` are always written by a push before a pop reads them.
@@ -443,24 +427,14 @@ fn traverse_impl<const ANY_HIT: bool, C: Counter, S: SlabTest>(
                     }
                     let lane = mask.trailing_zeros() as usize;
                     let triangle = pack.index[lane];
-                    return Some(Hit {
-                        t: t[lane],
-                        triangle,
-                        b1: b1[lane],
-                        b2: b2[lane],
-                    });
+                    return Some(Hit { t: t[lane], triangle, b1: b1[lane], b2: b2[lane] });
                 }
                 while mask != 0 {
                     let lane = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     if closer(t[lane], pack.index[lane], t_best, best.triangle) {
                         t_best = t[lane];
-                        best = Hit {
-                            t: t_best,
-                            triangle: pack.index[lane],
-                            b1: b1[lane],
-                            b2: b2[lane],
-                        };
+                        best = Hit { t: t_best, triangle: pack.index[lane], b1: b1[lane], b2: b2[lane] };
                         found = true;
                     }
                 }

@@ -44,14 +44,7 @@ pub struct TriangleRecord {
 
 impl TriangleRecord {
     pub fn new(a: Vec3, b: Vec3, c: Vec3, material: u32, source: u32) -> Self {
-        TriangleRecord {
-            v0: a.to_array(),
-            material,
-            v1: b.to_array(),
-            light: NO_LIGHT,
-            v2: c.to_array(),
-            source,
-        }
+        TriangleRecord { v0: a.to_array(), material, v1: b.to_array(), light: NO_LIGHT, v2: c.to_array(), source }
     }
     pub fn vertices(&self) -> [Vec3; 3] {
         [self.v0.into(), self.v1.into(), self.v2.into()]
@@ -79,13 +72,7 @@ pub struct Hit {
 /// The watertight test (module doc). Returns (t, b1, b2) for a hit with tmin < t < tmax. Single-sided
 /// tests are not done: both faces are hit.
 #[inline]
-pub fn intersect_triangle(
-    tri: &TriangleRecord,
-    o: Vec3,
-    d: Vec3,
-    tmin: f32,
-    tmax: f32,
-) -> Option<(f32, f32, f32)> {
+pub fn intersect_triangle(tri: &TriangleRecord, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
     let (o, d) = (Vec3A::from(o), Vec3A::from(d));
     let (t, b1, b2) = triangle_hit(tri, o, &Shear::new(d))?;
     (t > tmin && t < tmax).then_some((t, b1, b2))
@@ -108,17 +95,10 @@ impl Shear {
         // Components picked from an array (a `Vec3A` indexed at run time compiles to branches).
         let d = d.to_array();
         let a = d.map(f32::abs);
-        let kz = if a[2] > a[0].max(a[1]) {
-            2
-        } else {
-            (a[1] > a[0]) as usize
-        };
+        let kz = if a[2] > a[0].max(a[1]) { 2 } else { (a[1] > a[0]) as usize };
         let [kx, ky] = XY[kz + 3 * (d[kz] < 0.0) as usize];
         let sz = 1.0 / d[kz];
-        Shear {
-            k: [kx, ky, kz],
-            s: [d[kx] * sz, d[ky] * sz, sz],
-        }
+        Shear { k: [kx, ky, kz], s: [d[kx] * sz, d[ky] * sz, sz] }
     }
 }
 
@@ -152,13 +132,7 @@ pub(crate) fn triangle_hit(tri: &TriangleRecord, o: Vec3A, r: &Shear) -> Option<
     let t = ((u * az + v * bz) + w * cz) * inv_det;
     // t must exceed its rounding error bound (see `t_error_bound`).
     let max = |p: f32, q: f32, r: f32| p.abs().max(q.abs()).max(r.abs());
-    let bound = t_error_bound(
-        max(ax, bx, cx),
-        max(ay, by, cy),
-        max(az, bz, cz),
-        max(u, v, w),
-        inv_det.abs(),
-    );
+    let bound = t_error_bound(max(ax, bx, cx), max(ay, by, cy), max(az, bz, cz), max(u, v, w), inv_det.abs());
     (t > bound).then_some((t, v * inv_det, w * inv_det))
 }
 
@@ -237,11 +211,7 @@ impl PackRay {
     pub fn new(o: Vec3A, d: Vec3A) -> Self {
         let r = Shear::new(d);
         let o = o.to_array();
-        PackRay {
-            o: r.k.map(|k| Vec4::splat(o[k])),
-            s: r.s.map(Vec4::splat),
-            k: r.k,
-        }
+        PackRay { o: r.k.map(|k| Vec4::splat(o[k])), s: r.s.map(Vec4::splat), k: r.k }
     }
 }
 
@@ -268,13 +238,8 @@ impl TrianglePack {
     pub(crate) fn intersect(&self, r: &PackRay, tmin: f32, tmax: f32) -> (Vec4, Vec4, Vec4, u32) {
         let [kx, ky, kz] = r.k;
         let [sx, sy, sz] = r.s;
-        let rel = |v: &[[f32; 4]; 3]| {
-            [
-                Vec4::from(v[kx]) - r.o[0],
-                Vec4::from(v[ky]) - r.o[1],
-                Vec4::from(v[kz]) - r.o[2],
-            ]
-        };
+        let rel =
+            |v: &[[f32; 4]; 3]| [Vec4::from(v[kx]) - r.o[0], Vec4::from(v[ky]) - r.o[1], Vec4::from(v[kz]) - r.o[2]];
         let (a, b, c) = (rel(&self.v0), rel(&self.v1), rel(&self.v2));
         let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
         let (bx, by) = (b[0] - sx * b[2], b[1] - sy * b[2]);
@@ -298,19 +263,10 @@ impl TrianglePack {
         let inv_det = Vec4::ONE / det;
         let t = ((u * az + v * bz) + w * cz) * inv_det;
         let max = |p: Vec4, q: Vec4, r: Vec4| p.abs().max(q.abs()).max(r.abs());
-        let bound = t_error_bound(
-            max(ax, bx, cx),
-            max(ay, by, cy),
-            max(az, bz, cz),
-            max(u, v, w),
-            inv_det.abs(),
-        );
+        let bound = t_error_bound(max(ax, bx, cx), max(ay, by, cy), max(az, bz, cz), max(u, v, w), inv_det.abs());
         // The scalar test's conditions lane by lane (a NaN fails the range test there too).
-        let ok = !(neg & pos)
-            & det.cmpne(zero)
-            & t.cmpgt(bound)
-            & t.cmpgt(Vec4::splat(tmin))
-            & t.cmple(Vec4::splat(tmax));
+        let ok =
+            !(neg & pos) & det.cmpne(zero) & t.cmpgt(bound) & t.cmpgt(Vec4::splat(tmin)) & t.cmple(Vec4::splat(tmax));
         (t, v * inv_det, w * inv_det, ok.bitmask())
     }
 }

@@ -49,12 +49,12 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
-use crate::record;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::hemisphere::{sample_diffuse, Lobe};
 use crate::kernels::indirect::{lobe_mixture, path_from_hit, PathParams, PathRays, LOBE_SELECT};
 use crate::kernels::paths::{camera_uniforms, pass_camera};
+use crate::record;
 use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
@@ -149,7 +149,13 @@ record! {
 
 impl LightPrimary {
     fn at(&self) -> Option<Primary> {
-        (self.valid != 0).then(|| Primary { x: Vec3::from(self.position), n: Vec3::from(self.normal), kd: Vec3::from(self.kd), ks: Vec3::from(self.ks), m: self.m })
+        (self.valid != 0).then(|| Primary {
+            x: Vec3::from(self.position),
+            n: Vec3::from(self.normal),
+            kd: Vec3::from(self.kd),
+            ks: Vec3::from(self.ks),
+            m: self.m,
+        })
     }
 }
 
@@ -188,8 +194,20 @@ struct Primary {
 /// independent), or — `fixed` — the pinhole ray at the shutter's centre.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn camera_sample(camera: &Camera, shape: LensShape, pixel: Vec2, size: (u32, u32), rng: &PixelRng, s: u32, count: u32, stratified: bool, time: bool) -> (LensRay, f32) {
-    let draw = |dimension: u32| Vec2::from(if stratified { rng.stratified2(s, count.max(1), dimension) } else { rng.uniform2(s, dimension) });
+fn camera_sample(
+    camera: &Camera,
+    shape: LensShape,
+    pixel: Vec2,
+    size: (u32, u32),
+    rng: &PixelRng,
+    s: u32,
+    count: u32,
+    stratified: bool,
+    time: bool,
+) -> (LensRay, f32) {
+    let draw = |dimension: u32| {
+        Vec2::from(if stratified { rng.stratified2(s, count.max(1), dimension) } else { rng.uniform2(s, dimension) })
+    };
     let lens = if camera.aperture_radius > 0.0 { draw(dim::LENS) } else { Vec2::splat(0.5) };
     let t = if time { 2.0 * draw(dim::TIME).x - 1.0 } else { 0.0 };
     (camera.ray(pixel, lens, size.0, size.1, shape), t)
@@ -201,8 +219,18 @@ fn camera_sample(camera: &Camera, shape: LensShape, pixel: Vec2, size: (u32, u32
 /// the surface).
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn leave(p: &Primary, wo: Vec3, lobe: Lobe, ao: bool, rng: &PixelRng, s: u32, count: u32, stratified: bool) -> (Vec3, Vec3) {
-    let u = Vec2::from(if stratified { rng.stratified2(s, count.max(1), dim::BSDF) } else { rng.uniform2(s, dim::BSDF) });
+fn leave(
+    p: &Primary,
+    wo: Vec3,
+    lobe: Lobe,
+    ao: bool,
+    rng: &PixelRng,
+    s: u32,
+    count: u32,
+    stratified: bool,
+) -> (Vec3, Vec3) {
+    let u =
+        Vec2::from(if stratified { rng.stratified2(s, count.max(1), dim::BSDF) } else { rng.uniform2(s, dim::BSDF) });
     let select = rng.uniform(s, LOBE_SELECT);
     let mix = if ao { None } else { lobe_mixture(p.kd, p.ks, p.m) };
     let Some(mix) = mix else {
@@ -344,7 +372,13 @@ impl Kernel for LightFieldSample {
                 let prim = camera_hit.map(|hit| {
                     let sp = at.surface(&hit, ray.origin, ray.dir);
                     let mat = &scene.materials[sp.material as usize];
-                    Primary { x: sp.position, n: sp.shading_normal, kd: scene.albedo(&sp), ks: mat.specular, m: mat.phong_exponent }
+                    Primary {
+                        x: sp.position,
+                        n: sp.shading_normal,
+                        kd: scene.albedo(&sp),
+                        ks: mat.specular,
+                        m: mat.phong_exponent,
+                    }
                 });
                 if s < primaries {
                     o.primary[s as usize] = match &prim {
@@ -359,7 +393,12 @@ impl Kernel for LightFieldSample {
                             weight: ray.weight,
                             eye: ray.origin.to_array(),
                         },
-                        None => LightPrimary { time: t, weight: ray.weight, eye: ray.origin.to_array(), ..Default::default() },
+                        None => LightPrimary {
+                            time: t,
+                            weight: ray.weight,
+                            eye: ray.origin.to_array(),
+                            ..Default::default()
+                        },
                     };
                 }
                 let Some(prim) = prim else {
@@ -512,7 +551,8 @@ fn knn_settings(ctx: &KernelCtx<'_>) -> Result<splats::KnnSettings, BackendError
     }
     let glossy_cap = ctx.f32_param("glossy_cap")?;
     if !(glossy_cap >= 1.0) {
-        return Err(ctx.err(format!("`glossy_cap` = {glossy_cap} must be ≥ 1 (0 or less: no cap is written as a large number)")));
+        return Err(ctx
+            .err(format!("`glossy_cap` = {glossy_cap} must be ≥ 1 (0 or less: no cap is written as a large number)")));
     }
     Ok(splats::KnnSettings { k: k as u32, alpha, glossy_cap })
 }
@@ -558,7 +598,10 @@ impl Kernel for LightFieldSplats {
                 sum[p] += s.radius;
                 n[p] += 1;
             }
-            ctx.put("splat_radius", sum.iter().zip(&n).map(|(s, &n)| if n > 0 { s / n as f32 } else { 0.0 }).collect::<Vec<_>>())?;
+            ctx.put(
+                "splat_radius",
+                sum.iter().zip(&n).map(|(s, &n)| if n > 0 { s / n as f32 } else { 0.0 }).collect::<Vec<_>>(),
+            )?;
         }
         let mut splats = built.splats;
         splats.resize(splat_slots, Splat::default());
@@ -686,7 +729,15 @@ fn trace_gaps(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
 /// the direction it was drawn with) — for AO, occluded where that hit is within `max_distance`. A
 /// ray that leaves the scene is 0, as an input ray that escapes. The estimate stays eq. 3's mean
 /// over the pixel's rays; it no longer counts unresolved rays as black.
-fn trace_gap(at: &SceneAt<'_>, p: &PathParams, origin: Vec3, wi: Vec3, rng: &PixelRng, k: u32, rays: &mut PathRays) -> Vec3 {
+fn trace_gap(
+    at: &SceneAt<'_>,
+    p: &PathParams,
+    origin: Vec3,
+    wi: Vec3,
+    rng: &PixelRng,
+    k: u32,
+    rays: &mut PathRays,
+) -> Vec3 {
     rays.secondary += 1;
     let Some(hit) = at.intersect(origin, wi, 0.0, f32::INFINITY) else {
         return Vec3::ZERO;
@@ -730,8 +781,13 @@ impl<'a> RayShare<'a> {
     }
     /// `Σ w_j` over the hits that have rays (1 where that is 0, so an empty pixel is 0).
     pub fn total_weight(&self) -> f32 {
-        let w: f32 = (0..self.hits.len() as u32).filter(|&j| self.rays_of(j) > 0).map(|j| self.hits[j as usize].weight).sum();
-        if w > 0.0 { w } else { 1.0 }
+        let w: f32 =
+            (0..self.hits.len() as u32).filter(|&j| self.rays_of(j) > 0).map(|j| self.hits[j as usize].weight).sum();
+        if w > 0.0 {
+            w
+        } else {
+            1.0
+        }
     }
 }
 
@@ -766,5 +822,8 @@ pub const MAX_RAYS: u32 = 1 << 14;
 fn reconstruction_rays(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
     let n = ctx.int_param("rays")?;
     // At most 2^14: the WGSL loop stays far below a driver's cap on loop iterations (lavapipe: 65,535).
-    u32::try_from(n).ok().filter(|n| (1..=MAX_RAYS).contains(n)).ok_or_else(|| ctx.err(format!("`rays` = {n} must be between 1 and {MAX_RAYS}")))
+    u32::try_from(n)
+        .ok()
+        .filter(|n| (1..=MAX_RAYS).contains(n))
+        .ok_or_else(|| ctx.err(format!("`rays` = {n} must be between 1 and {MAX_RAYS}")))
 }

@@ -106,7 +106,15 @@ pub(crate) fn box_entered(n: &SplatNode, o: Vec3, inv_d: Vec3, t_min: f32, t_max
 /// Depth-first, left child first; a subtree is skipped once the list is full and the box starts
 /// beyond its farthest entry (never one that could hold a nearer splat).
 /// The tree's depth is at most [`STACK_SIZE`] (checked where it is built).
-pub fn collect(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, t_max: f32, time: f32) -> Vec<RayHit> {
+pub fn collect(
+    nodes: &[SplatNode],
+    splats: &[Splat],
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+    time: f32,
+) -> Vec<RayHit> {
     let mut hits = Vec::with_capacity(MAX_HITS);
     if nodes.is_empty() {
         return hits;
@@ -206,7 +214,16 @@ fn front(s: &Splat, d: Vec3) -> bool {
 /// Steps 2–4 on the sorted hits of one ray at shutter time `time`; `two_sided`: a surface seen only
 /// from behind gives its splats' radiance (the paper's Sec. 2.5), else it is passed through.
 #[allow(clippy::too_many_arguments)]
-pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, t_max: f32, time: f32, two_sided: bool) -> Seen {
+pub fn resolve(
+    splats: &[Splat],
+    hits: &[RayHit],
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+    time: f32,
+    two_sided: bool,
+) -> Seen {
     let mut start = 0usize;
     while start < hits.len() {
         // Step 2: the open surface grows until a conflict.
@@ -228,13 +245,19 @@ pub fn resolve(splats: &[Splat], hits: &[RayHit], o: Vec3, d: Vec3, t_min: f32, 
             2 => 2.0 / 3.0,
             _ => 1.0,
         };
-        let kept = |h: &&RayHit| scale == 1.0 || disk_hit(&splats[h.splat as usize], o, d, t_min, t_max, scale, time).is_some();
+        let kept = |h: &&RayHit| {
+            scale == 1.0 || disk_hit(&splats[h.splat as usize], o, d, t_min, t_max, scale, time).is_some()
+        };
         let surface: Vec<RayHit> = members.iter().filter(kept).copied().collect();
         if surface.is_empty() || (!two_sided && !surface.iter().any(|h| front(&splats[h.splat as usize], d))) {
             start = end;
             continue;
         }
-        return Seen { radiance: filter(splats, &surface, o, d, time), distance: Some(surface[0].t), splats: surface.len() as u32 };
+        return Seen {
+            radiance: filter(splats, &surface, o, d, time),
+            distance: Some(surface[0].t),
+            splats: surface.len() as u32,
+        };
     }
     Seen::default()
 }
@@ -274,7 +297,15 @@ pub fn filter(splats: &[Splat], surface: &[RayHit], o: Vec3, d: Vec3, time: f32)
 
 /// RECONSTRUCT(p, ω) at shutter time `time` (the splats where they are then): collect, then
 /// resolve ([`resolve`]'s `two_sided`).
-pub fn reconstruct(nodes: &[SplatNode], splats: &[Splat], o: Vec3, d: Vec3, t_min: f32, time: f32, two_sided: bool) -> Seen {
+pub fn reconstruct(
+    nodes: &[SplatNode],
+    splats: &[Splat],
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    time: f32,
+    two_sided: bool,
+) -> Seen {
     let hits = collect(nodes, splats, o, d, t_min, f32::INFINITY, time);
     resolve(splats, &hits, o, d, t_min, f32::INFINITY, time, two_sided)
 }
@@ -284,7 +315,17 @@ mod tests {
     use super::*;
 
     fn splat(c: Vec3, n: Vec3, r: f32, l: f32) -> Splat {
-        Splat { centre: c.to_array(), radius: r, normal: n.to_array(), kappa: 0.0, direction: (-n).to_array(), sample: 0, radiance: [l; 3], flags: 1, ..Default::default() }
+        Splat {
+            centre: c.to_array(),
+            radius: r,
+            normal: n.to_array(),
+            kappa: 0.0,
+            direction: (-n).to_array(),
+            sample: 0,
+            radiance: [l; 3],
+            flags: 1,
+            ..Default::default()
+        }
     }
 
     #[test]
@@ -325,7 +366,9 @@ mod tests {
             }
         }
         let nodes = super::super::splats::tree(&mut splats);
-        for (k, d) in [Vec3::new(0.1, -1.0, 0.2), Vec3::new(-0.3, -1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)].into_iter().enumerate() {
+        for (k, d) in
+            [Vec3::new(0.1, -1.0, 0.2), Vec3::new(-0.3, -1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)].into_iter().enumerate()
+        {
             let seen = reconstruct(&nodes, &splats, Vec3::new(0.45, 1.0, 0.45), d.normalize(), 1e-4, 0.0, true);
             assert!(seen.splats >= 3, "ray {k}: {seen:?}");
             assert!((seen.radiance - Vec3::splat(0.7)).abs().max_element() < 1e-6, "ray {k}: {seen:?}");
@@ -354,7 +397,9 @@ mod tests {
         // Splats with κ > 0: the result is exactly one splat's radiance, the one whose direction
         // matches the ray best at equal tent weight.
         let mut splats = Vec::new();
-        for (k, dir) in [Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.6, -0.8, 0.0), Vec3::new(-0.6, -0.8, 0.0)].into_iter().enumerate() {
+        for (k, dir) in
+            [Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.6, -0.8, 0.0), Vec3::new(-0.6, -0.8, 0.0)].into_iter().enumerate()
+        {
             let mut s = splat(Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.0, k as f32 + 1.0);
             s.kappa = 8.0;
             s.direction = dir.to_array();

@@ -83,7 +83,13 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
     // The search without the angular test: a diffuse sample's radius, and a glossy sample's cap.
     let spatial = |i: usize| {
         knn_search(splats, &centres, i, 0.0, s, n, 0.0, f32::INFINITY, |want| {
-            tree3.query(&points[i]).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
+            tree3
+                .query(&points[i])
+                .nearest_n::<SquaredEuclidean<f32>>(want)
+                .execute()
+                .into_iter()
+                .map(|f| (f.item, f.distance))
+                .collect()
         })
     };
     let diffuse: Vec<usize> = (0..n).filter(|&i| !(splats[i].kappa > 0.0)).collect();
@@ -125,7 +131,13 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
             let slack = scale * scale * 2.0 * std::f32::consts::LN_2 / splats[i].kappa;
             let cap = if s.glossy_cap.is_finite() { s.glossy_cap * spatial(i) } else { f32::INFINITY };
             knn_search(splats, &centres, i, splats[i].kappa, s, n, slack, cap, |want| {
-                tree6.query(&points6[i]).nearest_n::<SquaredEuclidean<f32>>(want).execute().into_iter().map(|f| (f.item, f.distance)).collect()
+                tree6
+                    .query(&points6[i])
+                    .nearest_n::<SquaredEuclidean<f32>>(want)
+                    .execute()
+                    .into_iter()
+                    .map(|f| (f.item, f.distance))
+                    .collect()
             })
         })
         .collect();
@@ -144,7 +156,17 @@ pub fn knn_radii(splats: &[Splat], s: KnnSettings) -> Vec<f32> {
 /// metric is never shorter than the spatial distance — or the reach passes `cap`, which the `k`-th
 /// distance then exceeds too: the result is `min(k-th distance, cap)`.
 #[allow(clippy::too_many_arguments)]
-fn knn_search(splats: &[Splat], centres: &[Vec3], i: usize, kappa: f32, s: KnnSettings, n: usize, slack: f32, cap: f32, nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>) -> f32 {
+fn knn_search(
+    splats: &[Splat],
+    centres: &[Vec3],
+    i: usize,
+    kappa: f32,
+    s: KnnSettings,
+    n: usize,
+    slack: f32,
+    cap: f32,
+    nearest: impl Fn(NonZeroUsize) -> Vec<(u32, f32)>,
+) -> f32 {
     let k = s.k as usize;
     let p = &splats[i];
     let (hi, ni, wi) = (centres[i], Vec3::from(p.normal), Vec3::from(p.direction));
@@ -209,17 +231,26 @@ pub fn tree(splats: &mut Vec<Splat>) -> Vec<SplatNode> {
     let mut params = obvhs::BvhBuildParams::medium_build();
     params.max_prims_per_leaf = LEAF_SIZE;
     let mut core = std::time::Duration::ZERO;
-    let prims: Vec<SplatBox> = boxes.iter().map(|(lo, hi)| SplatBox(obvhs::aabb::Aabb::new(Vec3::from(*lo).into(), Vec3::from(*hi).into()))).collect();
+    let prims: Vec<SplatBox> = boxes
+        .iter()
+        .map(|(lo, hi)| SplatBox(obvhs::aabb::Aabb::new(Vec3::from(*lo).into(), Vec3::from(*hi).into())))
+        .collect();
     let bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
     let mut nodes: Vec<SplatNode> = bvh
         .nodes
         .iter()
-        .map(|n| SplatNode { min: Vec3::from(n.aabb.min).to_array(), count: n.prim_count, max: Vec3::from(n.aabb.max).to_array(), index: n.first_index })
+        .map(|n| SplatNode {
+            min: Vec3::from(n.aabb.min).to_array(),
+            count: n.prim_count,
+            max: Vec3::from(n.aabb.max).to_array(),
+            index: n.first_index,
+        })
         .collect();
     let mut order = bvh.primitive_indices;
     if depth(&nodes) >= STACK_SIZE {
         let median = wedge_scene::bvh::build::binary_median_boxes(&boxes);
-        nodes = median.nodes.iter().map(|n| SplatNode { min: n.min, count: n.count, max: n.max, index: n.index }).collect();
+        nodes =
+            median.nodes.iter().map(|n| SplatNode { min: n.min, count: n.count, max: n.max, index: n.index }).collect();
         order = median.order;
     }
     *splats = order.iter().map(|&i| splats[i as usize]).collect();
@@ -358,7 +389,17 @@ mod tests {
     use super::*;
 
     fn sample(c: Vec3, n: Vec3, w: Vec3, kappa: f32) -> Splat {
-        Splat { centre: c.to_array(), radius: 0.0, normal: n.to_array(), kappa, direction: w.to_array(), sample: 0, radiance: [0.0; 3], flags: 1, ..Default::default() }
+        Splat {
+            centre: c.to_array(),
+            radius: 0.0,
+            normal: n.to_array(),
+            kappa,
+            direction: w.to_array(),
+            sample: 0,
+            radiance: [0.0; 3],
+            flags: 1,
+            ..Default::default()
+        }
     }
 
     #[test]
@@ -424,7 +465,13 @@ mod tests {
                 let tw = (0.5 - eye.z) / dir.z;
                 let pw = eye + dir * tw;
                 let (h, n) = if pw.x.abs() < 0.1 && pw.y < 1.2 { (pw, -Vec3::Z) } else { (target, Vec3::Y) };
-                rays.push(InputRay { origin: eye, direction: dir, distance: (h - eye).length(), own: v.len() as u32, time: 0.0 });
+                rays.push(InputRay {
+                    origin: eye,
+                    direction: dir,
+                    distance: (h - eye).length(),
+                    own: v.len() as u32,
+                    time: 0.0,
+                });
                 v.push(sample(h, n, dir, 0.0));
             }
         }
