@@ -569,11 +569,57 @@ fn list_some<S: AsRef<str>>(names: &[S]) -> String {
     s
 }
 
-/// Check `p` against `reg`; all problems are collected before returning.
+/// Check `p` against `reg`; all problems are collected before returning. Phases, in order: the
+/// pipeline-level blocks (size, camera, motion, camera path), node names, then per node its kind,
+/// parameters and inputs, then sinks and cycles over the resolved wiring; a pipeline without
+/// problems is ordered (topologically, ties in file order) and its factoring decided.
 pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipeline, GraphError> {
-    let pl = &p.pipeline;
     let mut r = Reporter { p, list: Vec::new() };
+    check_size(&mut r);
+    check_camera_and_motion(&mut r);
+    let index_of = check_node_names(&mut r);
+    let mut wiring = Wiring { index_of, edges: Vec::new() };
+    let mut validated_params: Vec<BTreeMap<String, ParamValue>> = Vec::new();
+    for i in 0..p.pipeline.nodes.len() {
+        if r.full() {
+            break;
+        }
+        let kind = check_kind(&mut r, reg, i);
+        validated_params.push(check_params(&mut r, i, kind));
+        let connected = check_inputs(&mut r, reg, &mut wiring, i, kind);
+        if let Some(k) = kind {
+            check_required_inputs(&mut r, reg, i, k, &connected);
+        }
+    }
+    check_sinks(&mut r, reg);
+    let succ = successors(p.pipeline.nodes.len(), &wiring.edges);
+    check_cycles(&mut r, &succ);
+    if !r.list.is_empty() {
+        let mut diags = r.list;
+        // File order; the sort is stable, so problems at one token keep their discovery order.
+        diags.sort_by_key(|d| (d.location.line, d.location.col));
+        return Err(GraphError::Invalid(diags));
+    }
+    let order = topological_order(&succ);
+    let mut validated = assemble(p, reg, order, wiring.edges, validated_params);
+    // Which node factors follows from each node's whole, valid parameter block and the camera (the
+    // scene is not loaded yet: a session decides again with its facts).
+    validated.update_factoring(None)?;
+    Ok(validated)
+}
 
+/// A wire `(consumer, input port, producer, output port)` between node indices.
+type Edge = (usize, String, usize, String);
+
+/// The wiring resolved so far: node names to indices (first definition wins) and the valid edges.
+struct Wiring<'a> {
+    index_of: HashMap<&'a str, usize>,
+    edges: Vec<Edge>,
+}
+
+/// Image size: each side usable, the whole within [`MAX_PIXELS`].
+fn check_size(r: &mut Reporter<'_>) {
+    let (p, pl) = (r.p, &r.p.pipeline);
     // Image size.
     for (what, v, pos) in [("width", pl.width, p.map.width), ("height", pl.height, p.map.height)] {
         if v == 0 || v > MAX_SIDE {
@@ -594,7 +640,12 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             "reduce width or height (render tiles separately if you need a larger image)".into(),
         );
     }
+}
 
+/// The camera block, the motion entries (numbers the scene's rigid motion can hold, each object
+/// once) and the camera path (usable keys in increasing frame order, and the view between keys).
+fn check_camera_and_motion(r: &mut Reporter<'_>) {
+    let (p, pl) = (r.p, &r.p.pipeline);
     // Camera: a degenerate one renders black or NaN without any other error.
     if let Some(camera) = &pl.camera {
         for problem in camera.problems() {
@@ -653,7 +704,11 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             r.add(DiagnosticKind::BadCamera, pos, message, help);
         }
     }
+}
 
+/// Node names usable in references and unique; returns the index of each name's first definition.
+fn check_node_names<'a>(r: &mut Reporter<'a>) -> HashMap<&'a str, usize> {
+    let (p, pl) = (r.p, &r.p.pipeline);
     // Node names: first definition wins for wiring; later ones are reported.
     let mut index_of: HashMap<&str, usize> = HashMap::new();
     for (i, n) in pl.nodes.iter().enumerate() {
@@ -685,232 +740,254 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             index_of.insert(&n.name, i);
         }
     }
-    let kind_of = |name: &str| index_of.get(name).and_then(|&i| reg.get(&pl.nodes[i].kind));
+    index_of
+}
 
-    // Resolved wiring for nodes without problems in their inputs: (consumer, port, producer, port).
-    let mut edges: Vec<(usize, String, usize, String)> = Vec::new();
-    let mut validated_params: Vec<BTreeMap<String, ParamValue>> = Vec::new();
+/// Node `i`'s kind, or an unknown-kind diagnostic with the closest registered names.
+fn check_kind<'r>(r: &mut Reporter<'_>, reg: &'r NodeRegistry, i: usize) -> Option<&'r Arc<dyn NodeKind>> {
+    let (p, n) = (r.p, &r.p.pipeline.nodes[i]);
+    let src = p.node_src(i);
+    let kind = reg.get(&n.kind);
+    if kind.is_none() {
+        let names = by_closeness(&n.kind, reg.names());
+        let closest = did_you_mean(&n.kind, &names);
+        r.add(
+            DiagnosticKind::UnknownNodeKind,
+            src.kind,
+            format!("node `{}` has unknown kind `{}`", n.name, n.kind),
+            format!(
+                "{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)",
+                list_some(&names)
+            ),
+        );
+    }
 
-    for (i, n) in pl.nodes.iter().enumerate() {
+    kind
+}
+
+/// Node `i`'s parameter block: declared defaults, overridden by each valid written value; every
+/// duplicate, unknown, mistyped or out-of-range value reported at its position.
+fn check_params(r: &mut Reporter<'_>, i: usize, kind: Option<&Arc<dyn NodeKind>>) -> BTreeMap<String, ParamValue> {
+    let (p, n) = (r.p, &r.p.pipeline.nodes[i]);
+    let src = p.node_src(i);
+    let decls = kind.map(|k| k.params()).unwrap_or_default();
+    let mut params: BTreeMap<String, ParamValue> =
+        decls.iter().filter(|d| !d.optional).map(|d| (d.name.to_string(), d.default_value())).collect();
+    let mut seen: HashSet<&str> = HashSet::new();
+    for (j, (key, raw)) in n.params.iter().enumerate() {
         if r.full() {
             break;
         }
-        let src = p.node_src(i);
-        let kind = reg.get(&n.kind);
-        if kind.is_none() {
-            let names = by_closeness(&n.kind, reg.names());
-            let closest = did_you_mean(&n.kind, &names);
+        let pos = src.params.get(j).copied().or(src.tuple_pos());
+        if !seen.insert(key) {
             r.add(
-                DiagnosticKind::UnknownNodeKind,
-                src.kind,
-                format!("node `{}` has unknown kind `{}`", n.name, n.kind),
-                format!(
-                    "{closest}registered kinds: {} (a new kind must be added with NodeRegistry::register)",
-                    list_some(&names)
-                ),
+                DiagnosticKind::DuplicateParam,
+                pos,
+                format!("parameter `{key}` of node `{}` is given twice", n.name),
+                "remove one of the two entries".into(),
             );
+            continue;
         }
-
-        // Parameters.
-        let decls = kind.map(|k| k.params()).unwrap_or_default();
-        let mut params: BTreeMap<String, ParamValue> =
-            decls.iter().filter(|d| !d.optional).map(|d| (d.name.to_string(), d.default_value())).collect();
-        let mut seen: HashSet<&str> = HashSet::new();
-        for (j, (key, raw)) in n.params.iter().enumerate() {
-            if r.full() {
-                break;
+        let Some(k) = kind else { continue };
+        let Some(decl) = decls.iter().find(|d| d.name == key) else {
+            let names = by_closeness(key, decls.iter().map(|d| d.name));
+            let closest = did_you_mean(key, &names);
+            r.add(
+                DiagnosticKind::UnknownParam,
+                pos,
+                format!("node `{}` of kind `{}` has no parameter `{key}`", n.name, k.kind()),
+                format!("{closest}parameters of {}: {}", k.kind(), params_list(&decls)),
+            );
+            continue;
+        };
+        let value = ParamValue::from(raw);
+        match decl.check(&value) {
+            Ok(v) => {
+                params.insert(key.clone(), v);
             }
-            let pos = src.params.get(j).copied().or(src.tuple_pos());
-            if !seen.insert(key) {
-                r.add(
-                    DiagnosticKind::DuplicateParam,
-                    pos,
-                    format!("parameter `{key}` of node `{}` is given twice", n.name),
-                    "remove one of the two entries".into(),
-                );
-                continue;
-            }
-            let Some(k) = kind else { continue };
-            let Some(decl) = decls.iter().find(|d| d.name == key) else {
-                let names = by_closeness(key, decls.iter().map(|d| d.name));
-                let closest = did_you_mean(key, &names);
-                r.add(
-                    DiagnosticKind::UnknownParam,
-                    pos,
-                    format!("node `{}` of kind `{}` has no parameter `{key}`", n.name, k.kind()),
-                    format!("{closest}parameters of {}: {}", k.kind(), params_list(&decls)),
-                );
-                continue;
-            };
-            let value = ParamValue::from(raw);
-            match decl.check(&value) {
-                Ok(v) => {
-                    params.insert(key.clone(), v);
-                }
-                Err(why) => {
-                    let kind = if type_matches(&decl.kind, &value) {
-                        DiagnosticKind::ParamOutOfRange
-                    } else {
-                        DiagnosticKind::ParamType
-                    };
-                    r.add(
-                        kind,
-                        pos,
-                        format!("invalid parameter `{key}` of node `{}`", n.name),
-                        format!(
-                            "{why}{}",
-                            if decl.doc.is_empty() { String::new() } else { format!(" ({})", decl.doc) }
-                        ),
-                    );
-                }
-            }
-        }
-        validated_params.push(params);
-
-        // Inputs.
-        let in_decls = kind.map(|k| k.inputs()).unwrap_or_default();
-        let mut seen: HashMap<&str, usize> = HashMap::new();
-        for (j, (port, reference)) in n.inputs.iter().enumerate() {
-            if r.full() {
-                break;
-            }
-            let (kpos, vpos) =
-                src.inputs.get(j).map(|&(k, v)| (Some(k), Some(v))).unwrap_or((src.tuple_pos(), src.tuple_pos()));
-            if let Some(&first) = seen.get(port.as_str()) {
-                r.add(
-                    DiagnosticKind::TwoProducers,
-                    kpos,
-                    format!(
-                        "input `{port}` of node `{}` is connected twice (to `{}` and `{reference}`)",
-                        n.name, n.inputs[first].1
-                    ),
-                    "an input has exactly one producer: keep one of the two entries".into(),
-                );
-                continue;
-            }
-            seen.insert(port, j);
-            let decl = match kind {
-                Some(k) => match in_decls.iter().find(|d| d.name == port) {
-                    Some(d) => Some(d),
-                    None => {
-                        let names = by_closeness(port, in_decls.iter().map(|d| d.name));
-                        let closest = did_you_mean(port, &names);
-                        r.add(
-                            DiagnosticKind::UnknownInputPort,
-                            kpos,
-                            format!("node `{}` of kind `{}` has no input `{port}`", n.name, k.kind()),
-                            format!("{closest}inputs of {}: {}", k.kind(), ports_list(&in_decls)),
-                        );
-                        None
-                    }
-                },
-                None => None,
-            };
-            let Some((pnode, pport)) = split_reference(reference) else {
-                // If the text names a node, offer that node's outputs.
-                let outputs = kind_of(reference)
-                    .map(|k| k.outputs().iter().map(|o| format!("\"{reference}.{}\"", o.name)).collect::<Vec<_>>())
-                    .filter(|o| !o.is_empty())
-                    .map(|o| format!(" (here: {})", o.join(", ")))
-                    .unwrap_or_default();
-                r.add(
-                    DiagnosticKind::BadReference,
-                    vpos,
-                    format!("`{reference}` is not a reference to an output"),
-                    format!("write references as \"<node>.<output port>\", e.g. \"primary.normal\"{outputs}"),
-                );
-                continue;
-            };
-            let Some(&pi) = index_of.get(pnode) else {
-                let names = by_closeness(pnode, pl.nodes.iter().map(|n| n.name.as_str()));
-                let closest = did_you_mean(pnode, &names);
-                r.add(
-                    DiagnosticKind::UnknownNode,
-                    vpos,
-                    format!("input `{port}` of node `{}` refers to node `{pnode}`, which does not exist", n.name),
-                    format!("{closest}nodes in this pipeline: {}", list_some(&names)),
-                );
-                continue;
-            };
-            let Some(pkind) = kind_of(pnode) else {
-                // The producer's kind is unknown, which is reported at the producer.
-                continue;
-            };
-            let outs = pkind.outputs();
-            let Some(out) = outs.iter().find(|o| o.name == pport) else {
-                let names = by_closeness(pport, outs.iter().map(|o| o.name));
-                let closest = did_you_mean(pport, &names);
-                r.add(
-                    DiagnosticKind::UnknownOutputPort,
-                    vpos,
-                    format!("node `{pnode}` of kind `{}` has no output `{pport}`", pkind.kind()),
-                    format!("{closest}outputs of {}: {}", pkind.kind(), ports_list(&outs)),
-                );
-                continue;
-            };
-            if let Some(d) = decl {
-                if d.format != out.format {
-                    let same: Vec<String> =
-                        outs.iter().filter(|o| o.format == d.format).map(|o| format!("{pnode}.{}", o.name)).collect();
-                    let alt =
-                        if same.is_empty() { String::new() } else { format!(" ({pnode} has: {})", same.join(", ")) };
-                    r.add(
-                        DiagnosticKind::FormatConflict,
-                        vpos,
-                        format!(
-                            "input `{port}` of node `{}` expects {} but `{reference}` is {}",
-                            n.name, d.format, out.format
-                        ),
-                        format!("connect `{port}` to an output of format {}{alt}", d.format),
-                    );
-                    continue;
-                }
-                edges.push((i, port.clone(), pi, pport.to_string()));
-            }
-        }
-
-        // Required inputs left unconnected.
-        if let Some(k) = kind {
-            for d in in_decls.iter().filter(|d| !d.optional && !seen.contains_key(d.name)) {
-                if r.full() {
-                    break;
-                }
-                let candidates: Vec<String> = pl
-                    .nodes
-                    .iter()
-                    .enumerate()
-                    .filter(|&(j, _)| j != i)
-                    .filter_map(|(_, m)| reg.get(&m.kind).map(|mk| (m, mk)))
-                    .flat_map(|(m, mk)| {
-                        mk.outputs()
-                            .into_iter()
-                            .filter(|o| o.format == d.format)
-                            .map(move |o| format!("\"{}.{}\"", m.name, o.name))
-                            .collect::<Vec<_>>()
-                    })
-                    .collect();
-                let hint = if candidates.is_empty() {
-                    format!("add a node with a {} output", d.format)
+            Err(why) => {
+                let kind = if type_matches(&decl.kind, &value) {
+                    DiagnosticKind::ParamOutOfRange
                 } else {
-                    format!("candidates: {}", list_some(&candidates))
+                    DiagnosticKind::ParamType
                 };
                 r.add(
-                    DiagnosticKind::MissingProducer,
-                    src.name.or(src.tuple_pos()),
-                    format!(
-                        "required input `{}` ({}) of node `{}` ({}) is not connected",
-                        d.name,
-                        d.format,
-                        n.name,
-                        k.kind()
-                    ),
-                    format!("add `inputs: {{\"{}\": \"<node>.<port>\"}}`; {hint}", d.name),
+                    kind,
+                    pos,
+                    format!("invalid parameter `{key}` of node `{}`", n.name),
+                    format!("{why}{}", if decl.doc.is_empty() { String::new() } else { format!(" ({})", decl.doc) }),
                 );
             }
         }
     }
+    params
+}
 
-    // Sinks.
+/// Node `i`'s written inputs: each connected once, to a port its kind has, by a well-formed
+/// reference to an existing node's output of the same format; valid wires go to `wiring.edges`.
+/// Returns the ports written (valid or not), for the required-input check.
+fn check_inputs(
+    r: &mut Reporter<'_>,
+    reg: &NodeRegistry,
+    wiring: &mut Wiring<'_>,
+    i: usize,
+    kind: Option<&Arc<dyn NodeKind>>,
+) -> HashSet<String> {
+    let (p, pl) = (r.p, &r.p.pipeline);
+    let n = &pl.nodes[i];
+    let src = p.node_src(i);
+    let index_of = &wiring.index_of;
+    let kind_of = |name: &str| index_of.get(name).and_then(|&i| reg.get(&pl.nodes[i].kind));
+    let in_decls = kind.map(|k| k.inputs()).unwrap_or_default();
+    let mut seen: HashMap<&str, usize> = HashMap::new();
+    for (j, (port, reference)) in n.inputs.iter().enumerate() {
+        if r.full() {
+            break;
+        }
+        let (kpos, vpos) =
+            src.inputs.get(j).map(|&(k, v)| (Some(k), Some(v))).unwrap_or((src.tuple_pos(), src.tuple_pos()));
+        if let Some(&first) = seen.get(port.as_str()) {
+            r.add(
+                DiagnosticKind::TwoProducers,
+                kpos,
+                format!(
+                    "input `{port}` of node `{}` is connected twice (to `{}` and `{reference}`)",
+                    n.name, n.inputs[first].1
+                ),
+                "an input has exactly one producer: keep one of the two entries".into(),
+            );
+            continue;
+        }
+        seen.insert(port, j);
+        let decl = match kind {
+            Some(k) => match in_decls.iter().find(|d| d.name == port) {
+                Some(d) => Some(d),
+                None => {
+                    let names = by_closeness(port, in_decls.iter().map(|d| d.name));
+                    let closest = did_you_mean(port, &names);
+                    r.add(
+                        DiagnosticKind::UnknownInputPort,
+                        kpos,
+                        format!("node `{}` of kind `{}` has no input `{port}`", n.name, k.kind()),
+                        format!("{closest}inputs of {}: {}", k.kind(), ports_list(&in_decls)),
+                    );
+                    None
+                }
+            },
+            None => None,
+        };
+        let Some((pnode, pport)) = split_reference(reference) else {
+            // If the text names a node, offer that node's outputs.
+            let outputs = kind_of(reference)
+                .map(|k| k.outputs().iter().map(|o| format!("\"{reference}.{}\"", o.name)).collect::<Vec<_>>())
+                .filter(|o| !o.is_empty())
+                .map(|o| format!(" (here: {})", o.join(", ")))
+                .unwrap_or_default();
+            r.add(
+                DiagnosticKind::BadReference,
+                vpos,
+                format!("`{reference}` is not a reference to an output"),
+                format!("write references as \"<node>.<output port>\", e.g. \"primary.normal\"{outputs}"),
+            );
+            continue;
+        };
+        let Some(&pi) = index_of.get(pnode) else {
+            let names = by_closeness(pnode, pl.nodes.iter().map(|n| n.name.as_str()));
+            let closest = did_you_mean(pnode, &names);
+            r.add(
+                DiagnosticKind::UnknownNode,
+                vpos,
+                format!("input `{port}` of node `{}` refers to node `{pnode}`, which does not exist", n.name),
+                format!("{closest}nodes in this pipeline: {}", list_some(&names)),
+            );
+            continue;
+        };
+        let Some(pkind) = kind_of(pnode) else {
+            // The producer's kind is unknown, which is reported at the producer.
+            continue;
+        };
+        let outs = pkind.outputs();
+        let Some(out) = outs.iter().find(|o| o.name == pport) else {
+            let names = by_closeness(pport, outs.iter().map(|o| o.name));
+            let closest = did_you_mean(pport, &names);
+            r.add(
+                DiagnosticKind::UnknownOutputPort,
+                vpos,
+                format!("node `{pnode}` of kind `{}` has no output `{pport}`", pkind.kind()),
+                format!("{closest}outputs of {}: {}", pkind.kind(), ports_list(&outs)),
+            );
+            continue;
+        };
+        if let Some(d) = decl {
+            if d.format != out.format {
+                let same: Vec<String> =
+                    outs.iter().filter(|o| o.format == d.format).map(|o| format!("{pnode}.{}", o.name)).collect();
+                let alt = if same.is_empty() { String::new() } else { format!(" ({pnode} has: {})", same.join(", ")) };
+                r.add(
+                    DiagnosticKind::FormatConflict,
+                    vpos,
+                    format!(
+                        "input `{port}` of node `{}` expects {} but `{reference}` is {}",
+                        n.name, d.format, out.format
+                    ),
+                    format!("connect `{port}` to an output of format {}{alt}", d.format),
+                );
+                continue;
+            }
+            wiring.edges.push((i, port.clone(), pi, pport.to_string()));
+        }
+    }
+
+    seen.into_keys().map(str::to_string).collect()
+}
+
+/// Required inputs of node `i` (kind `k`) left unconnected, each with the outputs that could feed it.
+fn check_required_inputs(
+    r: &mut Reporter<'_>,
+    reg: &NodeRegistry,
+    i: usize,
+    k: &Arc<dyn NodeKind>,
+    connected: &HashSet<String>,
+) {
+    let (p, pl) = (r.p, &r.p.pipeline);
+    let n = &pl.nodes[i];
+    let src = p.node_src(i);
+    let in_decls = k.inputs();
+    for d in in_decls.iter().filter(|d| !d.optional && !connected.contains(d.name)) {
+        if r.full() {
+            break;
+        }
+        let candidates: Vec<String> = pl
+            .nodes
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .filter_map(|(_, m)| reg.get(&m.kind).map(|mk| (m, mk)))
+            .flat_map(|(m, mk)| {
+                mk.outputs()
+                    .into_iter()
+                    .filter(|o| o.format == d.format)
+                    .map(move |o| format!("\"{}.{}\"", m.name, o.name))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let hint = if candidates.is_empty() {
+            format!("add a node with a {} output", d.format)
+        } else {
+            format!("candidates: {}", list_some(&candidates))
+        };
+        r.add(
+            DiagnosticKind::MissingProducer,
+            src.name.or(src.tuple_pos()),
+            format!("required input `{}` ({}) of node `{}` ({}) is not connected", d.name, d.format, n.name, k.kind()),
+            format!("add `inputs: {{\"{}\": \"<node>.<port>\"}}`; {hint}", d.name),
+        );
+    }
+}
+
+/// At least one sink, or nothing would be computed.
+fn check_sinks(r: &mut Reporter<'_>, reg: &NodeRegistry) {
+    let (p, pl) = (r.p, &r.p.pipeline);
     if !pl.nodes.iter().any(|n| reg.get(&n.kind).is_some_and(|k| k.is_sink())) {
         let sinks: Vec<&str> = reg.names().into_iter().filter(|n| reg.get(n).is_some_and(|k| k.is_sink())).collect();
         r.add(
@@ -920,14 +997,21 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             format!("add a sink node (kinds: {}) and connect what you want to see to it", sinks.join(", ")),
         );
     }
+}
 
-    // Cycles among the resolved wiring.
-    let n = pl.nodes.len();
-    let mut succ: Vec<Vec<(usize, String, String)>> = vec![Vec::new(); n]; // producer → (consumer, out port, in port)
-    for (c, cport, pidx, pport) in &edges {
+/// Per producer, its consumers: `(consumer, output port, input port)`.
+fn successors(n: usize, edges: &[Edge]) -> Vec<Vec<(usize, String, String)>> {
+    let mut succ: Vec<Vec<(usize, String, String)>> = vec![Vec::new(); n];
+    for (c, cport, pidx, pport) in edges {
         succ[*pidx].push((*c, pport.clone(), cport.clone()));
     }
-    for cycle in find_cycles(&succ) {
+    succ
+}
+
+/// Every cycle among the resolved wiring, reported at its first node with the whole path.
+fn check_cycles(r: &mut Reporter<'_>, succ: &[Vec<(usize, String, String)>]) {
+    let (p, pl) = (r.p, &r.p.pipeline);
+    for cycle in find_cycles(succ) {
         if r.full() {
             break;
         }
@@ -943,17 +1027,13 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             "a node cannot depend on its own output; remove one of these connections".into(),
         );
     }
+}
 
-    if !r.list.is_empty() {
-        let mut diags = r.list;
-        // File order; the sort is stable, so problems at one token keep their discovery order.
-        diags.sort_by_key(|d| (d.location.line, d.location.col));
-        return Err(GraphError::Invalid(diags));
-    }
-
-    // Topological order, ties broken by file order (Kahn with an ordered ready set).
+/// Topological order of an acyclic wiring, ties broken by file order (Kahn with an ordered ready set).
+fn topological_order(succ: &[Vec<(usize, String, String)>]) -> Vec<usize> {
+    let n = succ.len();
     let mut indeg = vec![0usize; n];
-    for s in &succ {
+    for s in succ {
         for (c, _, _) in s {
             indeg[*c] += 1;
         }
@@ -971,6 +1051,18 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
     }
     debug_assert_eq!(order.len(), n, "cycles were reported above");
 
+    order
+}
+
+/// The validated pipeline: nodes in `order` with their kinds, checked parameters and resolved inputs.
+fn assemble(
+    p: &LoadedPipeline,
+    reg: &NodeRegistry,
+    order: Vec<usize>,
+    edges: Vec<Edge>,
+    validated_params: Vec<BTreeMap<String, ParamValue>>,
+) -> ValidatedPipeline {
+    let (pl, n) = (&p.pipeline, p.pipeline.nodes.len());
     let mut inputs: Vec<BTreeMap<String, (String, String)>> = vec![BTreeMap::new(); n];
     for (c, cport, pidx, pport) in edges {
         inputs[c].insert(cport, (pl.nodes[pidx].name.clone(), pport));
@@ -990,7 +1082,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
             }
         })
         .collect();
-    let mut validated = ValidatedPipeline {
+    ValidatedPipeline {
         pipeline: pl.clone(),
         path: p.path.clone(),
         nodes,
@@ -998,11 +1090,7 @@ pub fn validate(p: &LoadedPipeline, reg: &NodeRegistry) -> Result<ValidatedPipel
         factoring: None,
         terms: Default::default(),
         scene_facts: None,
-    };
-    // Which node factors follows from each node's whole, valid parameter block and the camera (the
-    // scene is not loaded yet: a session decides again with its facts).
-    validated.update_factoring(None)?;
-    Ok(validated)
+    }
 }
 
 /// A camera for checking a path where the pipeline has no camera block: only its `up` matters.
