@@ -178,11 +178,9 @@ macro_rules! kernel_params {
                 &[$(stringify!($field)),*]
             }
             fn decls() -> Vec<$crate::__graph::ParamDecl> {
-                let mut v = Vec::new();
-                $($(
-                    v.push($crate::__graph::ParamDecl::$ctor(stringify!($field), $($arg),*) $(. $then ( $($targ),* ))*);
-                )?)*
-                v
+                vec![$($(
+                    $crate::__graph::ParamDecl::$ctor(stringify!($field), $($arg),*) $(. $then ( $($targ),* ))*,
+                )?)*]
             }
             fn specs() -> Vec<$crate::params::ParamSpec> {
                 vec![$($crate::params::ParamSpec {
