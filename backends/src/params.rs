@@ -141,7 +141,8 @@ impl ParamField for [f32; 3] {
 
 /// A typed parameter block, declared once with [`kernel_params!`] (module doc).
 pub trait KernelParams: Sized {
-    /// Every field's name, in declaration order (for `.node_params(..)`: the declared ones).
+    /// Every field's name, in declaration order: `.node_params(P::names())` forwards them all where
+    /// every field is a parameter of the node (declared here or elsewhere, e.g. a shared `mu`).
     fn names() -> &'static [&'static str];
     /// The fields the node declares (those written with `= constructor(..)`), for `NodeKind::params`.
     fn decls() -> Vec<ParamDecl>;
