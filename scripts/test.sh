@@ -70,8 +70,14 @@ fi
 # clean), not here: it would check every crate a second time and CI has no minutes to spare.
 cargo fmt --all --check
 cargo fmt --manifest-path examples/fog/Cargo.toml --check
+cargo fmt --manifest-path checks/k8s_schema/Cargo.toml --check
 
 cargo test --release --workspace --all-targets "$@"
+
+# `wedge farm k8s`'s manifests against the Kubernetes schemas (checks/k8s_schema: outside the workspace,
+# so that jsonschema's serde_json features do not reach the other crates' tests), with the wedge just built.
+WEDGE_BIN="${CARGO_TARGET_DIR:-$PWD/target}/release/wedge" CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" \
+    cargo test --release --manifest-path checks/k8s_schema/Cargo.toml "$@"
 
 # The user-crate example (examples/fog: outside the workspace; its own node, kernel + WGSL, and the
 # binary `wedge-fog` = wedge's whole CLI with Fog added, run through render/reference/bench/parity).

@@ -1,20 +1,55 @@
 //! `wedge farm k8s`: its manifests parse as YAML and pass the batch/v1 Job (and v1 ConfigMap,
-//! PersistentVolumeClaim) schemas in tests/data/k8s/; the Indexed Job's pods map
+//! PersistentVolumeClaim) schemas in schemas/; the Indexed Job's pods map
 //! `JOB_COMPLETION_INDEX` to the tile and frame a Slurm array task gets (run through `/bin/sh` with
 //! `--wedge echo`); bad flags are refused by name with nothing written. No cluster is needed.
 
-mod common;
-
 use std::fs;
-use std::path::Path;
-use std::process::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
-use common::cli::{pipeline, refused, temp_dir, wedge};
 use serde::Deserialize;
 use serde_json::Value;
 
-fn repo() -> &'static Path {
+/// This crate's directory (its schemas) and wedge's repository two levels up.
+fn here() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The `wedge` binary the workspace built: `WEDGE_BIN`, else `target/release/wedge` of the repository.
+fn wedge_bin() -> PathBuf {
+    std::env::var_os("WEDGE_BIN").map(PathBuf::from).unwrap_or_else(|| here().join("../../target/release/wedge"))
+}
+
+/// A fresh, empty directory under the system's temporary directory.
+fn temp_dir(suite: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("wedge-{suite}-{}-{name}", std::process::id()));
+    let _ = fs::remove_dir_all(&d);
+    fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run `wedge ARGS` in `cwd`.
+fn wedge(args: &[&str], cwd: &Path) -> Output {
+    let bin = wedge_bin();
+    Command::new(&bin).args(args).current_dir(cwd).output().unwrap_or_else(|e| {
+        panic!("{}: {e} (build wedge first: cargo build --release; or set WEDGE_BIN)", bin.display())
+    })
+}
+
+/// Assert a refusal (a non-zero exit, no panic) whose stderr holds every fragment; returns stderr.
+fn refused(o: &Output, needles: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_ne!(o.status.code(), Some(0), "must be refused; stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr should mention {n:?}: {err}");
+    }
+    err
+}
+
+/// The path of shipped pipeline `name`.
+fn pipeline(name: &str) -> String {
+    here().join("../../pipelines").join(name).to_string_lossy().into_owned()
 }
 
 /// Every document of a YAML file, as JSON values.
@@ -26,7 +61,7 @@ fn documents(path: &Path) -> Vec<Value> {
 }
 
 fn validator(file: &str) -> jsonschema::Validator {
-    let path = repo().join("tests/data/k8s").join(file);
+    let path = here().join("schemas").join(file);
     let schema: Value = serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
     jsonschema::validator_for(&schema).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
