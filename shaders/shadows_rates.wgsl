@@ -28,12 +28,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (is_finite(n)) {
         // `as u32` saturates (NaN → 0); n ≥ 0 here.
         let c = ceil(n);
-        var v = params.max_rays;
+        var v = params.cap;
         if (c < 4294967040.0) {
             v = u32(max(c, 0.0));
         }
-        rays_per_pixel_put(i, whole_multiples(clamp(v, params.initial, params.max_rays)));
+        rays_per_pixel_put(i, whole_multiples(clamp(v, params.initial, params.cap)));
     } else {
-        rays_per_pixel_put(i, whole_multiples(params.max_rays));
+        rays_per_pixel_put(i, whole_multiples(params.cap));
     }
 }

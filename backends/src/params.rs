@@ -129,6 +129,47 @@ impl ParamField for bool {
     }
 }
 
+/// An area light's index (`light`), checked against the scene as it is read
+/// ([`KernelCtx::light_param`]: a scene with no area light, or fewer than the index asks for, is
+/// refused with the fix); a `u32` in WGSL.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightIndex(pub usize);
+
+impl ParamField for LightIndex {
+    const TYPE: ParamType = ParamType::Integer;
+    fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
+        ctx.light_param(name).map(LightIndex)
+    }
+    fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
+        u.u32(name, self.0 as u32)
+    }
+}
+
+/// `light` where a negative value means every area light (`None`), as `direct.light` takes it;
+/// an index is checked like [`LightIndex`]'s. An `i32` in WGSL, −1 for every light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AnyLight(pub Option<usize>);
+
+impl ParamField for AnyLight {
+    const TYPE: ParamType = ParamType::Integer;
+    fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
+        if ctx.int_param(name)? < 0 {
+            return Ok(AnyLight(None));
+        }
+        ctx.light_param(name).map(|i| AnyLight(Some(i)))
+    }
+    fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
+        u.i32(name, self.0.map_or(-1, |i| i as i32))
+    }
+}
+
+impl AnyLight {
+    /// The lights it covers in a scene of `count` lights.
+    pub fn lights(self, count: usize) -> Vec<usize> {
+        self.0.map_or_else(|| (0..count).collect(), |i| vec![i])
+    }
+}
+
 impl ParamField for [f32; 3] {
     const TYPE: ParamType = ParamType::Vec3;
     fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
