@@ -33,7 +33,7 @@ use crate::motion::node::{motion_filter, motion_rate_settings};
 /// The factoring node's rate settings forwarded into `defocus.rates`, with `Ω_pix^max` and the
 /// diffuse receiver's `Ω_v^max` (a component may override it in its `rate_params`).
 pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
-    let omega_v = crate::indirect::transfer_bandlimit(crate::indirect::Receiver::Diffuse);
+    let omega_v = crate::indirect::formulas::transfer_bandlimit(crate::indirect::formulas::Receiver::Diffuse);
     ["mu", "mode", "max_primary", "max_per_primary"]
         .into_iter()
         .filter_map(|n| f.setting(n).map(|v| (n, v.clone())))

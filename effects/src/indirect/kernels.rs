@@ -1,0 +1,169 @@
+//! The indirect-light kernels: `indirect.bandwidth` (β per component, eqs. 4.15–4.16) and
+//! `indirect.rates` (n per component, eq. 4.21), both from the first pass's reflector depths;
+//! CPU here, WGSL in `shaders/indirect_{bandwidth,rates}.wgsl`.
+
+use wedge_backends::kernels::hemisphere::Lobe;
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
+use wedge_graph::Format;
+
+use super::formulas::{component, Receiver, Settings};
+
+wedge_backends::kernel_params! {
+    /// The parameters of eqs. 4.15–4.21 as `indirect.bandwidth` and `indirect.rates` read them
+    /// (CPU: typed; WGSL: `params.NAME`, `brdf` 0 = Phong, 1 = Blinn-Phong, plus the scene's
+    /// `extent`). `mu` and `brdf` are declared by the shared definitions (`crate::params`), the
+    /// rest here; the node forwards all of them to both passes.
+    pub struct RateParams {
+        mu: f32,
+        brdf: Lobe,
+        alpha: f32 = positive(0.3, 1.0, "α = Ω_x^max · d ∈ (0, 1] (eq. 4.15)"),
+        initial_rays: u32 = int(16, 1, 4096, "first-pass hemisphere rays per component (thesis: 16, stratified)"),
+        max_rays: u32 = int(100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
+        rays_cap: u32 = int(1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
+        z_min_fraction: f32 = float(0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
+    }
+}
+
+/// The formulas' settings and whether glossy receivers are Blinn-Phong; `with_rates` = false for
+/// the bandwidth pass (counts of 1: it computes no rates).
+fn settings(ctx: &KernelCtx<'_>, with_rates: bool) -> Result<(RateParams, Settings, bool), BackendError> {
+    let p = RateParams::read(ctx)?;
+    let s = Settings {
+        mu: p.mu,
+        alpha: p.alpha,
+        z_fraction: p.z_min_fraction,
+        extent: ctx.scene.extent(),
+        initial: if with_rates { p.initial_rays.max(1) } else { 1 },
+        max: if with_rates { p.max_rays.max(1) } else { 1 },
+    };
+    let blinn = p.brdf == Lobe::BlinnPhong;
+    Ok((p, s, blinn))
+}
+
+/// The WGSL parameter block of both formula passes.
+fn uniforms(ctx: &KernelCtx<'_>) -> Result<wedge_backends::Uniforms, BackendError> {
+    Ok(RateParams::read(ctx)?.uniforms().f32("extent", ctx.scene.extent()))
+}
+
+/// The glossy receiver at a pixel, if it has a glossy lobe.
+fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<Receiver> {
+    let s = spec?[i];
+    let m = s[3];
+    (m > 0.0 && s[0].max(s[1]).max(s[2]) > 0.0).then_some(if blinn {
+        Receiver::BlinnPhong(m)
+    } else {
+        Receiver::Phong(m)
+    })
+}
+
+/// `indirect.bandwidth`: β (metres) per component and the diffuse β in pixels for the heatmap.
+pub struct Bandwidth;
+
+impl Kernel for Bandwidth {
+    fn name(&self) -> &'static str {
+        "indirect.bandwidth"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        RateParams::specs()
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("depth", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read_opt("specular", Format::Vec4),
+            Binding::write("beta_diffuse", Format::F32),
+            Binding::write_opt("beta_glossy", Format::F32),
+            Binding::write("filter_width", Format::F32),
+        ]
+    }
+    /// WGSL mirror: `shaders/indirect_bandwidth.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/indirect_bandwidth.wgsl"), uniforms)
+                .with_include("indirect_formulas.wgsl", include_str!("../../../shaders/indirect_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let depth = ctx.read::<[f32; 4]>("depth")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let (_, s, blinn) = settings(ctx, false)?;
+        let active = |i: usize| depth[i][3] > 0.0;
+        let beta_d: Vec<f32> = (0..ctx.pixels())
+            .map(|i| if active(i) { component(Receiver::Diffuse, depth[i], normal[i][3], &s).beta } else { 0.0 })
+            .collect();
+        let px = beta_d.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
+        ctx.put_opt("beta_glossy", || {
+            (0..beta_d.len())
+                .map(|i| match glossy_receiver(spec, i, blinn) {
+                    Some(r) if active(i) => component(r, depth[i], normal[i][3], &s).beta,
+                    _ => 0.0,
+                })
+                .collect::<Vec<f32>>()
+        })?;
+        ctx.put("beta_diffuse", beta_d)?;
+        ctx.put("filter_width", px)
+    }
+}
+
+/// `indirect.rates`: samples per pixel per component from eq. 4.21, clamped to `[16, 100·max(μ,1)]`,
+/// and their sum (the `rays_per_pixel` heatmap).
+pub struct Rates;
+
+impl Kernel for Rates {
+    fn name(&self) -> &'static str {
+        "indirect.rates"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        RateParams::specs()
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("depth", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read_opt("specular", Format::Vec4),
+            Binding::write("rays_diffuse", Format::U32),
+            Binding::write_opt("rays_glossy", Format::U32),
+            Binding::write("rays_per_pixel", Format::U32),
+        ]
+    }
+    /// WGSL mirror: `shaders/indirect_rates.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/indirect_rates.wgsl"), uniforms)
+                .with_include("indirect_formulas.wgsl", include_str!("../../../shaders/indirect_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let depth = ctx.read::<[f32; 4]>("depth")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let (p, s, blinn) = settings(ctx, true)?;
+        let glossy_bound = ctx.is_bound("rays_glossy");
+        let cap = p.rays_cap.max(1);
+        let per: Vec<(u32, u32)> = (0..ctx.pixels())
+            .map(|i| {
+                if depth[i][3] <= 0.0 {
+                    return (0, 0);
+                }
+                let nd = component(Receiver::Diffuse, depth[i], normal[i][3], &s).rays;
+                let ng = match glossy_receiver(spec, i, blinn) {
+                    Some(r) if glossy_bound => component(r, depth[i], normal[i][3], &s).rays,
+                    _ => 0,
+                };
+                (nd.min(cap), ng.min(cap))
+            })
+            .collect();
+        ctx.put_opt("rays_glossy", || per.iter().map(|p| p.1).collect::<Vec<u32>>())?;
+        ctx.put("rays_per_pixel", per.iter().map(|p| p.0 + p.1).collect::<Vec<u32>>())?;
+        ctx.put("rays_diffuse", per.iter().map(|p| p.0).collect::<Vec<u32>>())
+    }
+}
