@@ -77,7 +77,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             d1 = abs(dot3(l.centre_sigma.xyz - x, l.normal_area.xyz));
         }
         let key = rng_key(frame.seed, pixel_id(gid), rng_substream(params.stream, li));
-        let use_centre = params.light_centre != 0u;
+        let use_centre = params.form_factor == 1u;
         var factor = vec3<f32>(0.0);
         if (use_centre) {
             factor = light_centre_factor(l, x, n);
@@ -85,7 +85,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         var s = s_begin;
         for (; s < run.end; s = s + 1u) {
             var u: vec2<f32>;
-            if (params.stratified != 0u) {
+            if (params.sampling == 0u) {
                 u = rng_stratified2(key, s, extra, DIM_LIGHT);
             } else {
                 u = rng_uniform2(key, s, DIM_LIGHT);

@@ -469,6 +469,7 @@ impl KernelRegistry {
         }
         for spec in kernel.params() {
             let problem = match pass.params.get(spec.name) {
+                None if spec.optional => continue,
                 None => {
                     "the pass does not carry it: forward it from the node (`.node_params(..)`) or set it (`.param(..)`)"
                         .to_string()

@@ -36,7 +36,7 @@ pub use kernel::{
     Access, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelRegistry, Progress, RayCounts, Reach, Silent,
     UniformType, Uniforms, WgslSource, Window,
 };
-pub use params::{AnyLight, KernelParams, LightIndex, ParamField, ParamSpec, ParamType};
+pub use params::{AnyLight, KernelParams, LightIndex, ParamField, ParamSpec, ParamType, Sampling};
 #[doc(hidden)]
 pub use wedge_graph as __graph;
 use wedge_graph::{BufferId, ParamValue, Schedule};

@@ -76,14 +76,40 @@ impl ParamType {
 pub struct ParamSpec {
     pub name: &'static str,
     pub ty: ParamType,
+    /// A pass may leave it out (an `Option<T>` field: the kernel's default applies).
+    pub optional: bool,
 }
 
 /// A Rust type a kernel parameter can have: how it is read from a pass and uploaded to WGSL.
 pub trait ParamField: Sized {
     const TYPE: ParamType;
+    /// Whether a pass may leave the parameter out (`Option<T>`).
+    const OPTIONAL: bool = false;
     fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError>;
     /// `u` with this value appended as the uniform field `name`.
     fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms;
+}
+
+/// A parameter a pass may leave out: `None` where it does (the kernel applies its default, written
+/// once where it reads the field); a value present is checked as `T`'s. Its uniform is `T`'s where
+/// present and nothing where absent, so a kernel with optional parameters builds the WGSL fields it
+/// reads from the values it applies (e.g. `paths.trace`'s settings).
+impl<T: ParamField> ParamField for Option<T> {
+    const TYPE: ParamType = T::TYPE;
+    const OPTIONAL: bool = true;
+    fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
+        if ctx.params.contains_key(name) {
+            T::read(ctx, name).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+    fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
+        match self {
+            Some(v) => v.uniform(u, name),
+            None => u,
+        }
+    }
 }
 
 impl ParamField for f32 {
@@ -127,6 +153,13 @@ impl ParamField for bool {
     fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
         u.bool(name, *self)
     }
+}
+
+crate::param_choice! {
+    /// `sampling`, which every sampling kernel takes: Owen-scrambled Sobol' / correlated
+    /// multi-jitter (`stratified`) or independent numbers for the same dimensions (`independent`,
+    /// the plain Monte Carlo baseline). WGSL: `params.sampling`, 0 = stratified.
+    pub enum Sampling { Stratified = "stratified", Independent = "independent" }
 }
 
 /// An area light's index (`light`), checked against the scene as it is read
@@ -228,6 +261,7 @@ macro_rules! kernel_params {
                 vec![$($crate::params::ParamSpec {
                     name: stringify!($field),
                     ty: <$ty as $crate::params::ParamField>::TYPE,
+                    optional: <$ty as $crate::params::ParamField>::OPTIONAL,
                 }),*]
             }
             fn read(ctx: &$crate::KernelCtx<'_>) -> Result<Self, $crate::BackendError> {

@@ -16,8 +16,9 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::{AreaLight, Hit, SceneAt};
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, WgslSource};
 use crate::kernels::v3;
+use crate::params::{AnyLight, KernelParams, ParamSpec, Sampling};
 use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
@@ -121,6 +122,27 @@ pub fn light_centre_factor(light: &AreaLight, x: Vec3, n: Vec3) -> Vec3 {
     light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI)
 }
 
+crate::param_choice! {
+    /// The geometry term of a light sample: evaluated per sample (`exact`, unbiased) or the thesis's
+    /// light-centre form factor `f_c` (`light_centre`). WGSL: `params.form_factor`, 1 = light centre.
+    pub enum FormFactor { Exact = "exact", LightCentre = "light_centre" }
+}
+
+crate::kernel_params! {
+    /// `direct.light`'s parameters, all set by the node that adds the pass (WGSL: `params.NAME`,
+    /// plus the scene's `extent` and `light_count`).
+    pub struct DirectParams {
+        /// One area light, or every light (negative).
+        light: AnyLight,
+        /// Samples per pixel where `rays_per_pixel` is unbound.
+        count: u32,
+        sampling: Sampling,
+        form_factor: FormFactor,
+        /// The pass's random stream (graph-assigned).
+        stream: u32,
+    }
+}
+
 impl Kernel for DirectLight {
     fn name(&self) -> &'static str {
         "direct.light"
@@ -130,6 +152,9 @@ impl Kernel for DirectLight {
     }
     fn draws_random(&self) -> bool {
         true
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        DirectParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -148,15 +173,8 @@ impl Kernel for DirectLight {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/direct_light.wgsl"), |ctx| {
-                let light = ctx.int_param("light")?;
-                let light = if light < 0 { -1 } else { ctx.light_param("light")? as i32 };
-                let stratified = ctx.stratified_param()? as u32;
-                Ok(Uniforms::new()
-                    .i32("light", light)
-                    .u32("count", ctx.int_param("count")?.max(0) as u32)
-                    .u32("stratified", stratified)
-                    .u32("light_centre", (ctx.str_param("form_factor")? == "light_centre") as u32)
-                    .u32("stream", ctx.int_param("stream")? as u32)
+                Ok(DirectParams::read(ctx)?
+                    .uniforms()
                     .f32("extent", ctx.scene.extent())
                     .u32("light_count", ctx.scene.lights.len() as u32))
             })
@@ -171,13 +189,10 @@ impl Kernel for DirectLight {
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let rpp = ctx.read_opt::<u32>("rays_per_pixel")?;
         let previous = ctx.read_opt::<[f32; 4]>("previous")?;
-        let light_param = ctx.int_param("light")?;
-        let lights: Vec<usize> =
-            if light_param < 0 { (0..scene.lights.len()).collect() } else { vec![ctx.light_param("light")?] };
-        let count = ctx.int_param("count")?.max(0) as u32;
-        let stratified = ctx.stratified_param()?;
-        let centre = ctx.str_param("form_factor")? == "light_centre";
-        let stream = ctx.int_param("stream")? as u32;
+        let DirectParams { light, count, sampling, form_factor, stream } = DirectParams::read(ctx)?;
+        let lights = light.lights(scene.lights.len());
+        let stratified = sampling == Sampling::Stratified;
+        let centre = form_factor == FormFactor::LightCentre;
         let want_stats = ctx.is_bound("occlusion");
         let seed = ctx.seed;
         let width = ctx.width;
