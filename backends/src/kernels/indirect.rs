@@ -35,6 +35,7 @@ use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::environment::environment_event;
 use crate::kernels::hemisphere::{glossy_brdf, glossy_pdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::v3;
+use crate::params::{KernelParams, ParamSpec, Sampling};
 use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
@@ -59,18 +60,56 @@ pub struct PathParams {
     pub eps: f32,
 }
 
+crate::kernel_params! {
+    /// The path estimator's two parameters, as every kernel that traces indirect paths reads them
+    /// ([`PathParams::from_params`]).
+    pub struct EstimatorParams {
+        brdf: Lobe,
+        /// Path vertices after the first hit (at least 1 is traced).
+        bounces: u32,
+    }
+}
+
+crate::param_choice! {
+    /// `indirect.sample`'s `mode`: indirect radiance, or ambient occlusion.
+    pub enum SampleMode { Radiance = "radiance", Ao = "ao" }
+}
+
+crate::kernel_params! {
+    /// `indirect.sample`'s parameters, set by the node that adds the pass. Its WGSL block is the
+    /// path estimator's ([`PathParams::uniforms`]) plus `count`, `stratified`, `stream`.
+    pub struct SampleParams {
+        mode: SampleMode,
+        /// Samples per pixel and component where `rays_diffuse` / `rays_glossy` are unbound.
+        count: u32,
+        sampling: Sampling,
+        /// AO: hits farther than this count as misses (0: no limit).
+        max_distance: f32,
+        /// The pass's random stream (graph-assigned).
+        stream: u32,
+        brdf: Lobe,
+        bounces: u32,
+    }
+}
+
+impl SampleParams {
+    fn path(&self, ctx: &KernelCtx<'_>) -> PathParams {
+        PathParams::new(ctx, self.brdf, self.bounces, self.mode == SampleMode::Ao, self.max_distance)
+    }
+}
+
 impl PathParams {
     /// The estimator settings of a pass: `bounces` (at least 1) and `brdf` (`phong` |
     /// `blinn_phong`) from its parameters, the ray offset from the scene's extent; `ao` and
     /// `max_distance` as the kernel reads them (`indirect.sample`'s `mode`, `paths.trace`'s
     /// optional `ao`). One reading for every kernel that traces indirect paths.
     pub fn from_params(ctx: &KernelCtx<'_>, ao: bool, max_distance: f32) -> Result<PathParams, BackendError> {
-        let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
-        let lobe = <Lobe as crate::params::ParamField>::read(ctx, "brdf")?;
-        let bounces = ctx.int_param("bounces")?;
-        let bounces = u32::try_from(bounces)
-            .map_err(|_| err(format!("`bounces` = {bounces} must be between 1 and {}", u32::MAX)))?;
-        Ok(PathParams { bounces: bounces.max(1), ao, max_distance, lobe, eps: RAY_EPSILON * ctx.scene.extent() })
+        let EstimatorParams { brdf, bounces } = EstimatorParams::read(ctx)?;
+        Ok(PathParams::new(ctx, brdf, bounces, ao, max_distance))
+    }
+    /// The settings from values already read (`bounces` at least 1).
+    pub fn new(ctx: &KernelCtx<'_>, lobe: Lobe, bounces: u32, ao: bool, max_distance: f32) -> PathParams {
+        PathParams { bounces: bounces.max(1), ao, max_distance, lobe, eps: RAY_EPSILON * ctx.scene.extent() }
     }
     /// The fields `shaders/indirect_path.wgsl` reads from the including kernel's `Params`: `eps`,
     /// `lobe`, `bounces`, `ao`, `max_distance` and the scene's `light_count`.
@@ -81,18 +120,6 @@ impl PathParams {
             .u32("ao", self.ao as u32)
             .f32("max_distance", self.max_distance)
             .u32("light_count", ctx.scene.lights.len() as u32)
-    }
-}
-
-/// `indirect.sample`'s `mode`: `"ao"` (ambient occlusion) or `"radiance"`.
-fn ao_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
-    match ctx.str_param("mode")? {
-        "radiance" => Ok(false),
-        "ao" => Ok(true),
-        other => Err(BackendError::Kernel {
-            pass: ctx.pass.into(),
-            message: format!("unknown mode `{other}`; use radiance or ao"),
-        }),
     }
 }
 
@@ -385,6 +412,9 @@ impl Kernel for IndirectSample {
     fn draws_random(&self) -> bool {
         true
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        SampleParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("position", Format::Vec4),
@@ -407,14 +437,13 @@ impl Kernel for IndirectSample {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/indirect_sample.wgsl"), |ctx| {
-                let stratified = ctx.stratified_param()? as u32;
-                let p = PathParams::from_params(ctx, ao_mode(ctx)?, ctx.f32_param("max_distance")?)?;
+                let s = SampleParams::read(ctx)?;
                 let u = Uniforms::new()
                     .vec3("camera", ctx.scene.camera.position.to_array())
-                    .u32("count", ctx.int_param("count")?.max(0) as u32)
-                    .u32("stratified", stratified)
-                    .u32("stream", ctx.int_param("stream")? as u32);
-                Ok(p.uniforms(u, ctx))
+                    .u32("count", s.count)
+                    .u32("stratified", (s.sampling == Sampling::Stratified) as u32)
+                    .u32("stream", s.stream);
+                Ok(s.path(ctx).uniforms(u, ctx))
             })
             .with_include("hemisphere.wgsl", include_str!("../../../shaders/hemisphere.wgsl"))
             .with_scene()
@@ -431,11 +460,10 @@ impl Kernel for IndirectSample {
         let rays_g = ctx.read_opt::<u32>("rays_glossy")?;
         let prev_d = ctx.read_opt::<[f32; 4]>("previous_diffuse")?;
         let prev_g = ctx.read_opt::<[f32; 4]>("previous_glossy")?;
-        let count = ctx.int_param("count")?.max(0) as u32;
-        let stratified = ctx.stratified_param()?;
-        let ao = ao_mode(ctx)?;
-        let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
-        let stream = ctx.int_param("stream")? as u32;
+        let s = SampleParams::read(ctx)?;
+        let (count, stream, stratified) = (s.count, s.stream, s.sampling == Sampling::Stratified);
+        let p = s.path(ctx);
+        let ao = p.ao;
         let want_glossy = ctx.is_bound("glossy") && specular.is_some() && !ao;
         let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let camera = scene.camera.position;
