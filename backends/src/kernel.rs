@@ -811,7 +811,11 @@ impl<'a> KernelCtx<'a> {
         }
     }
     pub fn light_param(&self, name: &str) -> Result<usize, BackendError> {
-        let i = self.int_param(name)?;
+        self.check_light(name, self.int_param(name)?)
+    }
+    /// Light index `i` (parameter `name`) checked against the scene: a scene with no area light,
+    /// or fewer than `i + 1`, is refused with the fix.
+    pub fn check_light(&self, name: &str, i: i64) -> Result<usize, BackendError> {
         if self.scene.lights.is_empty() {
             return Err(self.err(format!(
                 "`{name}` = {i} but scene `{}` has no area light (no emissive triangles) — add an emissive \

@@ -203,6 +203,18 @@ impl AnyLight {
     }
 }
 
+/// A thin lens's shape (`lens`: `disk` | `gaussian`); a `u32` in WGSL, 1 = Gaussian.
+impl ParamField for wedge_scene::LensShape {
+    const TYPE: ParamType = ParamType::Text;
+    fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
+        let s = ctx.str_param(name)?;
+        Self::parse(s).ok_or_else(|| ctx.err(format!("unknown {name} `{s}`; use disk or gaussian")))
+    }
+    fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
+        u.u32(name, (*self == wedge_scene::LensShape::Gaussian) as u32)
+    }
+}
+
 impl ParamField for [f32; 3] {
     const TYPE: ParamType = ParamType::Vec3;
     fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {

@@ -70,11 +70,12 @@ use wedge_graph::Format;
 use wedge_scene::{Camera, LensShape, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
-use crate::kernels::direct::{light_centre_factor, light_sample};
+use crate::kernels::direct::{light_centre_factor, light_sample, FormFactor};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
-use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy};
+use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::kernels::luminance;
+use crate::params::{KernelParams, ParamSpec, Sampling};
 use crate::record;
 use crate::rng::PixelRng;
 use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
@@ -244,29 +245,63 @@ pub fn camera_uniforms(u: Uniforms, cam: &Camera, shape: LensShape) -> Uniforms 
 /// Shared by every kernel that traces its own camera rays (`paths.trace`, `light_field.sample`), so
 /// they see one lens.
 pub fn pass_camera(ctx: &KernelCtx<'_>) -> Result<(Camera, LensShape), BackendError> {
-    let lens = match ctx.params.get("lens") {
-        None => LensShape::Disk,
-        Some(_) => {
-            let name = ctx.str_param("lens")?;
-            LensShape::parse(name).ok_or_else(|| ctx.err(format!("unknown lens `{name}`; use disk or gaussian")))?
-        }
-    };
+    let LensParams { lens, aperture_radius, focus_distance } = LensParams::read(ctx)?;
     let mut camera = ctx.scene.camera;
-    if ctx.params.contains_key("aperture_radius") {
-        let a = ctx.f32_param("aperture_radius")?;
+    if let Some(a) = aperture_radius {
         if !(a.is_finite() && a >= 0.0) {
             return Err(ctx.err(format!("`aperture_radius` = {a} must be a finite number >= 0")));
         }
         camera.aperture_radius = a;
     }
-    if ctx.params.contains_key("focus_distance") {
-        let f = ctx.f32_param("focus_distance")?;
+    if let Some(f) = focus_distance {
         if !(f.is_finite() && f > 0.0) {
             return Err(ctx.err(format!("`focus_distance` = {f} must be a finite number > 0")));
         }
         camera.focus_distance = f;
     }
-    Ok((camera, lens))
+    Ok((camera, lens.unwrap_or(LensShape::Disk)))
+}
+
+crate::kernel_params! {
+    /// A pass's thin lens, each part optional ([`pass_camera`]: the scene camera's where absent).
+    pub struct LensParams {
+        lens: Option<LensShape>,
+        aperture_radius: Option<f32>,
+        focus_distance: Option<f32>,
+    }
+}
+
+crate::kernel_params! {
+    /// `paths.trace`'s parameters (module doc, "Parameters"), set by the shared sampler; an
+    /// `Option` is one a pass may leave out, its default applied in [`settings`]. The WGSL block is
+    /// built from the [`Settings`] they give (`PathsTrace::wgsl`).
+    pub struct TraceParams {
+        count: u32,
+        jitter: bool,
+        shadow_per_primary: u32,
+        indirect_per_primary: u32,
+        /// The direct estimator's area light: needed where `direct` is on.
+        light: Option<i32>,
+        stream: u32,
+        sampling: Sampling,
+        brdf: Lobe,
+        bounces: u32,
+        /// Default: the light-centre form factor.
+        form_factor: Option<FormFactor>,
+        /// Defaults: `ao`, `time`, `environment` off; `direct`, `indirect`, `glossy` on.
+        ao: Option<bool>,
+        direct: Option<bool>,
+        indirect: Option<bool>,
+        glossy: Option<bool>,
+        time: Option<bool>,
+        environment: Option<bool>,
+        /// Default 0: no limit.
+        max_distance: Option<f32>,
+        /// Default 0.1 (thesis Sec. 6.7).
+        occluder_threshold: Option<f32>,
+        /// Default 0.
+        environment_per_primary: Option<u32>,
+    }
 }
 
 /// Sub-stream salts of the independent numbers beyond the first bounce.
@@ -315,38 +350,17 @@ struct Settings {
 
 fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
     let err = |message: String| BackendError::Kernel { pass: ctx.pass.into(), message };
-    let positive = |name: &str| -> Result<u32, BackendError> {
-        let v = ctx.int_param(name)?;
-        u32::try_from(v).map_err(|_| err(format!("`{name}` = {v} must be between 0 and {}", u32::MAX)))
-    };
-    let exact = match ctx.params.get("form_factor") {
-        None => false,
-        Some(_) => match ctx.str_param("form_factor")? {
-            "light_centre" => false,
-            "exact" => true,
-            other => return Err(err(format!("unknown form_factor `{other}`; use light_centre or exact"))),
-        },
-    };
-    // An optional bool parameter with its default.
-    let flag = |name: &str, default: bool| -> Result<bool, BackendError> {
-        match ctx.params.get(name) {
-            None => Ok(default),
-            Some(_) => ctx.bool_param(name),
-        }
-    };
+    let p = TraceParams::read(ctx)?;
     let (camera, lens) = pass_camera(ctx)?;
-    let ao = flag("ao", false)?;
-    let max_distance = match ctx.params.get("max_distance") {
-        None => 0.0,
-        Some(_) => ctx.f32_param("max_distance")?,
-    };
+    let ao = p.ao.unwrap_or(false);
+    let max_distance = p.max_distance.unwrap_or(0.0);
     if !(max_distance.is_finite() && max_distance >= 0.0) {
         return Err(err(format!("`max_distance` = {max_distance} must be a finite number >= 0")));
     }
-    let jitter = ctx.bool_param("jitter")?;
-    let direct = flag("direct", true)?;
-    let time = flag("time", false)?;
-    let environment = flag("environment", false)?;
+    let jitter = p.jitter;
+    let direct = p.direct.unwrap_or(true);
+    let time = p.time.unwrap_or(false);
+    let environment = p.environment.unwrap_or(false);
     let env = ctx.scene.environment.as_ref();
     if environment && env.is_none() {
         return Err(err(format!(
@@ -355,38 +369,36 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
             ctx.scene.name
         )));
     }
-    let occluder_threshold = match ctx.params.get("occluder_threshold") {
-        None => 0.1,
-        Some(_) => ctx.f32_param("occluder_threshold")?,
-    };
+    let occluder_threshold = p.occluder_threshold.unwrap_or(0.1);
     if !(occluder_threshold.is_finite() && occluder_threshold >= 0.0) {
         return Err(err(format!("`occluder_threshold` = {occluder_threshold} must be a finite number >= 0")));
     }
     let mean_luminance = env.map_or(0.0, |e| (e.total_luminance() / (4.0 * std::f64::consts::PI)) as f32);
-    let environment_per_primary = match ctx.params.get("environment_per_primary") {
-        None => 0,
-        Some(_) => positive("environment_per_primary")?,
+    let light = match (direct, p.light) {
+        (false, _) => 0,
+        (true, Some(i)) => ctx.check_light("light", i64::from(i))?,
+        (true, None) => return Err(err("the direct estimator is on but the pass sets no `light`".into())),
     };
     Ok(Settings {
         // Under motion the same camera ray meets a different surface at each time.
         fixed_primary: !jitter && camera.aperture_radius == 0.0 && !time,
         time,
         camera,
-        exact,
+        exact: p.form_factor == Some(FormFactor::Exact),
         direct,
-        indirect: flag("indirect", true)?,
-        glossy: flag("glossy", true)? && !ao,
-        stratified: ctx.stratified_param()?,
-        count: positive("count")?,
+        indirect: p.indirect.unwrap_or(true),
+        glossy: p.glossy.unwrap_or(true) && !ao,
+        stratified: p.sampling == Sampling::Stratified,
+        count: p.count,
         jitter,
         lens,
-        shadow_per_primary: positive("shadow_per_primary")?,
-        indirect_per_primary: positive("indirect_per_primary")?,
-        light: if direct { ctx.light_param("light")? } else { 0 },
-        stream: ctx.int_param("stream")? as u32,
-        path: PathParams::from_params(ctx, ao, max_distance)?,
+        shadow_per_primary: p.shadow_per_primary,
+        indirect_per_primary: p.indirect_per_primary,
+        light,
+        stream: p.stream,
+        path: PathParams::new(ctx, p.brdf, p.bounces, ao, max_distance),
         environment,
-        environment_per_primary,
+        environment_per_primary: p.environment_per_primary.unwrap_or(0),
         occluder_luminance: occluder_threshold * mean_luminance,
     })
 }
@@ -409,6 +421,9 @@ impl Kernel for PathsTrace {
     }
     fn draws_random(&self) -> bool {
         true
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        TraceParams::specs().into_iter().chain(LensParams::specs()).collect()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
