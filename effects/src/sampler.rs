@@ -35,7 +35,10 @@
 use std::sync::Arc;
 
 use wedge_backends::kernels::paths::{PATH_RECORD, RESOLVE_OUTPUTS};
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, Uniforms,
+    WgslSource,
+};
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerKind, SamplerPass, SamplerPlan,
     SamplerRequest, SettingMerge, Stage,
@@ -428,18 +431,22 @@ impl SamplerKind for PathSampler {
 /// running max of the earlier requests). Integer-only, so both backends agree bit for bit.
 pub struct CombineCounts;
 
-fn combine_params(ctx: &KernelCtx<'_>) -> Result<(u32, u32, u32), BackendError> {
-    let get = |name: &str, min: i64| -> Result<u32, BackendError> {
-        let v = ctx.int_param(name)?;
-        if v < min || v > i64::from(u32::MAX) {
-            return Err(BackendError::Kernel {
-                pass: ctx.pass.into(),
-                message: format!("`{name}` = {v} is out of range"),
-            });
-        }
-        Ok(v as u32)
-    };
-    Ok((get("unit", 1)?, get("minus", 0)?, get("at_least", 0)?))
+wedge_backends::kernel_params! {
+    /// `sampler.combine`'s parameters, set by the sampler (WGSL: `params.NAME`).
+    pub struct CombineParams {
+        /// Divisor of `value`, at least 1.
+        unit: u32,
+        minus: u32,
+        at_least: u32,
+    }
+}
+
+fn combine_params(ctx: &KernelCtx<'_>) -> Result<CombineParams, BackendError> {
+    let p = CombineParams::read(ctx)?;
+    if p.unit == 0 {
+        return Err(ctx.err("`unit` = 0 is out of range".into()));
+    }
+    Ok(p)
 }
 
 /// One pixel of [`CombineCounts`].
@@ -454,6 +461,9 @@ impl Kernel for CombineCounts {
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        CombineParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("value", Format::U32),
@@ -465,14 +475,13 @@ impl Kernel for CombineCounts {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/sampler_combine.wgsl"), |ctx| {
-                let (unit, minus, at_least) = combine_params(ctx)?;
-                Ok(Uniforms::new().u32("unit", unit).u32("minus", minus).u32("at_least", at_least))
+                Ok(combine_params(ctx)?.uniforms())
             })
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let (unit, minus, at_least) = combine_params(ctx)?;
+        let CombineParams { unit, minus, at_least } = combine_params(ctx)?;
         let value = ctx.read::<u32>("value")?;
         let other = ctx.read_opt::<u32>("other")?;
         let out: Vec<u32> = (0..ctx.pixels())
@@ -517,12 +526,11 @@ pub fn pass_total_pixel(paths: u32, per_path: u32, rest: u32, at_least: u32) -> 
     paths.saturating_mul(per_path.max(at_least)).max(rest)
 }
 
-fn at_least_param(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
-    let v = ctx.int_param("at_least")?;
-    u32::try_from(v).map_err(|_| BackendError::Kernel {
-        pass: ctx.pass.into(),
-        message: format!("`at_least` = {v} is out of range"),
-    })
+wedge_backends::kernel_params! {
+    /// `sampler.pass_total`'s one parameter, set by the sampler (WGSL: `params.at_least`).
+    pub struct PassTotalParams {
+        at_least: u32,
+    }
 }
 
 impl Kernel for PassTotal {
@@ -531,6 +539,9 @@ impl Kernel for PassTotal {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        PassTotalParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -543,13 +554,13 @@ impl Kernel for PassTotal {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/sampler_pass_total.wgsl"), |ctx| {
-                Ok(Uniforms::new().u32("at_least", at_least_param(ctx)?))
+                Ok(PassTotalParams::read(ctx)?.uniforms())
             })
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let at_least = at_least_param(ctx)?;
+        let PassTotalParams { at_least } = PassTotalParams::read(ctx)?;
         let paths = ctx.read::<u32>("paths")?;
         let per_path = ctx.read_opt::<u32>("per_path")?;
         let rest = ctx.read_opt::<u32>("rest")?;
