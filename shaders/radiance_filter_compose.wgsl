@@ -1,6 +1,6 @@
 // radiance_filter.compose — this frame's direct + filtered indirect light accumulated over frames, or
 // the plain accumulation once a pixel is in the correction phase (`switch_mode`, seed 002 Sec. 4.4.1);
-// mirrors backends/src/kernels/radiance_filter.rs (compose_pixel).
+// mirrors effects/src/radiance_filter/formulas.rs (compose_pixel).
 #include "common.wgsl"
 #include "radiance_filter_formulas.wgsl"
 

@@ -1,7 +1,7 @@
 // radiance_filter.filter — eqs. 4.10-4.12 (seed 002): the neighbours' incident radiance samples under
 // this pixel's BRDF and pdf, weighted by the Epanechnikov kernel on the tangent plane (eqs. 4.19-4.22)
 // and the normal heuristic (eq. 4.9); the per-path variance filtered with the same weights (Sec.
-// 4.3.4). Mirrors backends/src/kernels/radiance_filter.rs (Filter::run_cpu).
+// 4.3.4). Mirrors effects/src/radiance_filter/kernels.rs (Filter::run_cpu).
 #include "common.wgsl"
 #include "hemisphere.wgsl"
 #include "lobe_mixture.wgsl"

@@ -1,5 +1,5 @@
 // radiance_filter.radius — this frame's image-space kernel radius per pixel (seed 002 eqs. 4.1, 4.2,
-// 4.14, 4.15) scaled by the previous frame's occlusion factor; mirrors backends/src/kernels/radiance_filter.rs (Radius::run_cpu, kernel_radius).
+// 4.14, 4.15) scaled by the previous frame's occlusion factor; mirrors effects/src/radiance_filter/kernels.rs (Radius::run_cpu, kernel_radius).
 #include "common.wgsl"
 #include "radiance_filter_formulas.wgsl"
 

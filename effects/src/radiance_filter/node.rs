@@ -1,25 +1,4 @@
-//! `RadianceFilter`: radiance filtering for progressive rendering (issue 18; Schwenk's thesis,
-//! `seeds/002_34c8a733cb47f3c2.txt` Ch. 4 "Filtering Incident Radiance", Sec. 4.3). One path per
-//! pixel per frame (`wedge render --progressive N`); each pixel's indirect light is estimated from
-//! its neighbours' incident-radiance samples under its own BRDF (eq. 4.10), so texture and geometry
-//! stay sharp; the kernel shrinks so the accumulated image keeps the target variance `T_u` while the
-//! radius falls as `k^-1/2` (eqs. 4.13–4.15) until each pixel is plain path tracing (the correction
-//! phase, Sec. 4.4).
-//!
-//! Passes (kernels in `wedge_backends::kernels::radiance_filter`, formulas unit-tested there):
-//! 1. `sample` (random, reference role `Sample`): paths and the radiance samples (position, normal,
-//!    albedo, direction, incident radiance `L̆` at the first vertex);
-//! 2. `accumulate` (`pixel_filter.accumulate`, shared with `PixelFilter`): the running statistics of
-//!    direct light and of the pixel's own indirect estimate (Welford/Chan `M2`);
-//! 3. `radius` (Bandwidth): this frame's image-space radius per pixel (warm-up, then target variance),
-//!    scaled by the screen-space ambient-occlusion factor of the previous frame's filter (`occlusion`);
-//! 4. `filter` (role `Bypass`: a reference is plain path tracing): eqs. 4.10–4.12 with the
-//!    Epanechnikov kernel on the tangent plane (eqs. 4.19–4.22) and the normal heuristic (eq. 4.9);
-//! 5. `compose`: the running mean of direct + filtered indirect light (or the plain accumulation
-//!    once a pixel is in the correction phase, `correction: "switch"`).
-//!
-//! Outputs: `radiance`, `unfiltered` (the plain progressive accumulation), `radius` (pixels, the
-//! thesis's Fig. 4.2 bottom row) and `phase` (1 = the pixel's own sample only: correction phase).
+//! The `RadianceFilter` node: its ports, parameters and the passes of [`super`]'s module doc.
 
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Reference, Stage};
 
