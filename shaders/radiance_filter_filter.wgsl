@@ -59,7 +59,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let cos_i = dot3(wi, n);
             var term = vec3<f32>(0.0);
             if (mix.some && cos_i > 0.0) {
-                let lv = lobe_eval(params.lobe, kd, ks, m, mix, n, wo, wi, cos_i);
+                let lv = lobe_eval(params.brdf, kd, ks, m, mix, n, wo, wi, cos_i);
                 if (lv.pdf > 0.0) {
                     term = incident_at(j).xyz * (lv.f * (cos_i / lv.pdf));
                 }

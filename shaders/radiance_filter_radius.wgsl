@@ -22,7 +22,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             lb = rf_luminance(a.xyz);
         }
     }
-    let r = rf_kernel_radius(params.t_u, params.warmup, params.warmup_radius, params.max_radius, k, sigma2, lb);
+    let r = rf_kernel_radius(params.t_u, params.warmup, params.warmup_radius, f32(params.max_radius), k, sigma2, lb);
     if (params.occlusion != 0u) {
         radius_put(i, r * alpha);
     } else {

@@ -7,11 +7,12 @@
 //! in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`).
 
 use glam::{Vec2, Vec3};
+use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::kernels::indirect::{
     continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
 };
 use wedge_backends::rng::{dim, PixelRng};
-use wedge_backends::{BackendError, Counters, KernelCtx, Uniforms};
+use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Uniforms};
 use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
 /// The camera ray of path `j` through pixel (`px`, `py`) and its time: jittered over the pixel, over
@@ -44,13 +45,24 @@ pub fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
         .u32("cam_shutter", shutter_is_open(cam) as u32)
 }
 
-/// An integer parameter in `0..=max`, as a `u32`.
-pub fn count_param(ctx: &KernelCtx<'_>, name: &str, max: i64) -> Result<u32, BackendError> {
-    let v = ctx.int_param(name)?;
-    if !(0..=max).contains(&v) {
-        return Err(ctx.err(format!("`{name}` = {v} must be between 0 and {max}")));
+wedge_backends::kernel_params! {
+    /// A sampling pass's paths per pixel (`count`, set by the node) and random stream (`stream`, set
+    /// by the graph for a `.random()` pass): `pixel_filter.sample`, `pixel_filter.range`,
+    /// `radiance_filter.sample`.
+    pub struct PathCount {
+        count: u32,
+        stream: u32,
     }
-    Ok(v as u32)
+}
+
+wedge_backends::kernel_params! {
+    /// The path tracer's settings, declared alike on both progressive nodes and forwarded to their
+    /// sampling passes. [`PathParams::from_params`] reads them, the one reading every kernel that
+    /// traces indirect paths shares; this block declares them.
+    pub struct TracerParams {
+        bounces: u32 = int(3, 1, 64, "path vertices after the first, each with next-event estimation"),
+        brdf: Lobe,
+    }
 }
 
 /// The camera paths of a progressive sampling pass (`pixel_filter.sample`,
@@ -66,12 +78,12 @@ pub struct CameraPaths {
 impl CameraPaths {
     /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera.
     pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
-        Ok(CameraPaths {
-            count: count_param(ctx, "count", i64::from(u32::MAX))?,
-            path: PathParams::from_params(ctx, false, 0.0)?,
-            stream: ctx.int_param("stream")? as u32,
-            camera: ctx.scene.camera,
-        })
+        let PathCount { count, stream } = PathCount::read(ctx)?;
+        Ok(CameraPaths { count, path: PathParams::from_params(ctx, false, 0.0)?, stream, camera: ctx.scene.camera })
+    }
+    /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
+    pub fn specs() -> Vec<ParamSpec> {
+        [PathCount::specs(), TracerParams::specs()].concat()
     }
     /// The WGSL's `Params` fields for them: the camera, `count`, `stream` and `indirect_path.wgsl`'s.
     pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {

@@ -4,6 +4,8 @@
 use glam::Vec3;
 use wedge_backends::kernels::v3;
 
+use super::node::{DEFAULT_MAX_RADIUS, DEFAULT_T_U, DEFAULT_WARMUP, DEFAULT_WARMUP_RADIUS};
+
 /// `filtered.w` of a pixel filtered over its neighbours (the preview phase).
 pub const FILTERED: f32 = -1.0;
 /// `filtered.w` of a pixel whose kernel holds only its own sample (radius < 1 pixel: the correction
@@ -47,15 +49,18 @@ pub fn variance_radius(v: f32, t_u: f32, k: u32) -> f32 {
     (m / (EPANECHNIKOV_EFFICIENCY * std::f32::consts::PI)).sqrt()
 }
 
-/// The settings of the kernel-radius rule.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RadiusRule {
-    /// Scale the radius by the previous frame's occlusion factor α (the radius pass).
-    pub occlusion: bool,
-    pub t_u: f32,
-    pub warmup: u32,
-    pub warmup_radius: f32,
-    pub max_radius: f32,
+wedge_backends::kernel_params! {
+    /// The settings of the kernel-radius rule: the parameters of `radiance_filter.radius`, the
+    /// node's first five.
+    pub struct RadiusRule {
+        t_u: f32 = positive(DEFAULT_T_U, 1e6, "threshold T_u on the accumulated image's perceived variance (eq. 4.13)"),
+        warmup: u32 = int(DEFAULT_WARMUP, 1, 1 << 20, "frames that use the warm-up radius r_w1 k^-1/2 (eq. 4.15) before the variance estimate"),
+        warmup_radius: f32 = float(DEFAULT_WARMUP_RADIUS, 0.0, 1024.0, "warm-up radius r_w1 of the first frame (pixels)"),
+        /// Also the filter's window cap (`FilterParams`).
+        max_radius: u32 = int(DEFAULT_MAX_RADIUS, 0, 1024, "largest image-space kernel radius (pixels)"),
+        /// Scale the radius by the previous frame's occlusion factor α.
+        occlusion: bool = boolean(true, "scale the radius by a screen-space ambient-occlusion factor (Sec. 4.3.1, step 3) against light leaks"),
+    }
 }
 
 /// The radius of frame `k` (1-based) for a pixel: the warm-up radius for the first `warmup` frames
@@ -68,14 +73,14 @@ pub fn kernel_radius(rule: &RadiusRule, k: u32, sigma2: f32, lb: f32) -> f32 {
     } else if !(sigma2 > 0.0) {
         0.0
     } else if !(lb > 0.0) {
-        rule.max_radius
+        rule.max_radius as f32
     } else {
         variance_radius(sigma2 / (lb * lb), rule.t_u, k)
     };
     if r.is_nan() {
         0.0
     } else {
-        r.min(rule.max_radius)
+        r.min(rule.max_radius as f32)
     }
 }
 
@@ -245,7 +250,7 @@ mod tests {
 
     #[test]
     fn radius_falls_as_one_over_root_k() {
-        let rule = RadiusRule { occlusion: false, t_u: 0.01, warmup: 4, warmup_radius: 8.0, max_radius: 1e9 };
+        let rule = RadiusRule { occlusion: false, t_u: 0.01, warmup: 4, warmup_radius: 8.0, max_radius: 1 << 30 };
         // Warm-up (eq. 4.15): r_w1 k^-1/2.
         assert_eq!(kernel_radius(&rule, 1, -1.0, 1.0), 8.0);
         assert!((kernel_radius(&rule, 4, 0.5, 1.0) - 4.0).abs() < 1e-6);
@@ -263,7 +268,7 @@ mod tests {
 
     #[test]
     fn radius_edge_cases() {
-        let rule = RadiusRule { occlusion: false, t_u: 0.01, warmup: 2, warmup_radius: 6.0, max_radius: 16.0 };
+        let rule = RadiusRule { occlusion: false, t_u: 0.01, warmup: 2, warmup_radius: 6.0, max_radius: 16 };
         // Unknown variance after warm-up: warm-up radius; zero variance: no filter; black
         // background under noise: the cap; NaN: no filter.
         assert!((kernel_radius(&rule, 9, -1.0, 1.0) - 2.0).abs() < 1e-6);

@@ -6,7 +6,9 @@ use glam::Vec3;
 use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::kernels::indirect::lobe_mixture;
 use wedge_backends::kernels::{luminance, v3};
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
 use super::formulas::*;
@@ -22,16 +24,33 @@ fn pixel_angle(ctx: &KernelCtx<'_>) -> f32 {
     2.0 * (ctx.scene.camera.vfov_deg.to_radians() * 0.5).tan() / ctx.full_size().1 as f32
 }
 
-fn max_radius(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
-    let v = ctx.int_param("max_radius")?;
-    if !(0..=1024).contains(&v) {
-        return Err(ctx.err(format!("`max_radius` = {v} must be between 0 and 1024 pixels")));
+wedge_backends::kernel_params! {
+    /// The filter pass's parameters: the prism's thickness, the window cap (declared with the
+    /// radius rule, [`RadiusRule`]) and the BRDF the neighbours' radiance is weighed under.
+    pub struct FilterParams {
+        thickness: f32 = positive(0.2, 1e3, "half-height of the kernel's prism along the normal, in units of its tangent radius (eq. 4.18)"),
+        max_radius: u32,
+        brdf: Lobe,
     }
-    Ok(v as u32)
 }
 
-fn lobe(ctx: &KernelCtx<'_>) -> Result<Lobe, BackendError> {
-    <Lobe as wedge_backends::ParamField>::read(ctx, "brdf")
+wedge_backends::param_choice! {
+    /// The correction phase (Sec. 4.4.1): keep accumulating, or switch to the plain accumulation.
+    pub enum Correction {
+        Accumulate = "accumulate",
+        Switch = "switch",
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// The compose pass's parameter.
+    pub struct ComposeParams {
+        correction: Correction = choice(
+            "accumulate",
+            Correction::OPTIONS,
+            "correction phase: keep accumulating (thesis, bias falls as O(1/N)) or switch to the plain accumulation (Sec. 4.4.1)"
+        ),
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -58,6 +77,9 @@ impl Kernel for RadianceSample {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Sampling
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        CameraPaths::specs()
     }
     fn draws_random(&self) -> bool {
         true
@@ -127,26 +149,15 @@ impl Kernel for RadianceSample {
 /// `k = frame + 1`, from the previous frame's filtered variance and accumulated image (history).
 pub struct Radius;
 
-fn radius_rule(ctx: &KernelCtx<'_>) -> Result<RadiusRule, BackendError> {
-    let warmup = ctx.int_param("warmup")?;
-    if !(1..=1 << 20).contains(&warmup) {
-        return Err(ctx.err(format!("`warmup` = {warmup} must be between 1 and {}", 1 << 20)));
-    }
-    Ok(RadiusRule {
-        occlusion: ctx.bool_param("occlusion")?,
-        t_u: ctx.positive_f32_param("t_u")?,
-        warmup: warmup as u32,
-        warmup_radius: ctx.f32_param("warmup_radius")?.max(0.0),
-        max_radius: max_radius(ctx)? as f32,
-    })
-}
-
 impl Kernel for Radius {
     fn name(&self) -> &'static str {
         "radiance_filter.radius"
     }
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        RadiusRule::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -160,13 +171,7 @@ impl Kernel for Radius {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/radiance_filter_radius.wgsl"), |ctx| {
-                let r = radius_rule(ctx)?;
-                Ok(Uniforms::new()
-                    .u32("occlusion", r.occlusion as u32)
-                    .f32("t_u", r.t_u)
-                    .u32("warmup", r.warmup)
-                    .f32("warmup_radius", r.warmup_radius)
-                    .f32("max_radius", r.max_radius))
+                Ok(RadiusRule::read(ctx)?.uniforms())
             })
             .with_include(
                 "radiance_filter_formulas.wgsl",
@@ -176,7 +181,7 @@ impl Kernel for Radius {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let rule = radius_rule(ctx)?;
+        let rule = RadiusRule::read(ctx)?;
         let k = ctx.frame + 1;
         let pv = ctx.read_opt::<[f32; 4]>("previous_variance")?;
         let pa = ctx.read_opt::<[f32; 4]>("previous_accumulated")?;
@@ -208,20 +213,16 @@ impl Kernel for Radius {
 /// `radiance_filter.filter` (see the module doc).
 pub struct Filter;
 
-#[derive(Clone, Copy, Debug)]
+/// The filter pass's parameters and what it takes from the camera.
 struct FilterSettings {
-    lobe: Lobe,
-    thickness: f32,
-    max_radius: u32,
+    p: FilterParams,
     pixel_angle: f32,
     eye: Vec3,
 }
 
 fn filter_settings(ctx: &KernelCtx<'_>) -> Result<FilterSettings, BackendError> {
     Ok(FilterSettings {
-        lobe: lobe(ctx)?,
-        thickness: ctx.positive_f32_param("thickness")?,
-        max_radius: max_radius(ctx)?,
+        p: FilterParams::read(ctx)?,
         pixel_angle: pixel_angle(ctx),
         // The lens centre: the kernel's view direction and the stored vertex's outgoing direction.
         // Under an aperture each path starts elsewhere on the lens, within `aperture_radius` of it;
@@ -237,6 +238,9 @@ impl Kernel for Filter {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Filter
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        FilterParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -259,19 +263,14 @@ impl Kernel for Filter {
         Some(
             WgslSource::new(include_str!("../../../shaders/radiance_filter_filter.wgsl"), |ctx| {
                 let s = filter_settings(ctx)?;
-                Ok(Uniforms::new()
-                    .vec3("eye", s.eye.to_array())
-                    .u32("lobe", (s.lobe == Lobe::BlinnPhong) as u32)
-                    .f32("thickness", s.thickness)
-                    .u32("max_radius", s.max_radius)
-                    .f32("pixel_angle", s.pixel_angle))
+                Ok(s.p.uniforms().vec3("eye", s.eye.to_array()).f32("pixel_angle", s.pixel_angle))
             })
             .with_include(
                 "radiance_filter_formulas.wgsl",
                 include_str!("../../../shaders/radiance_filter_formulas.wgsl"),
             )
             .with_scene()
-            .with_reach(|ctx| Ok(Reach::Rows(max_radius(ctx)?))),
+            .with_reach(|ctx| Ok(Reach::Rows(FilterParams::read(ctx)?.max_radius))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
@@ -289,7 +288,7 @@ impl Kernel for Filter {
         let out = ctx.map_pixels(false, |px, py| {
             let c = (py as i32 * w + px as i32) as usize;
             let r = radius[c];
-            let half = window(r, s.max_radius);
+            let half = window(r, s.p.max_radius);
             if !(point[c][3] > 0.0) {
                 // No surface: no indirect light to filter, and no variance (radius 0 from the next frame).
                 return ([0.0, 0.0, 0.0, OWN], [0.0, 0.0, r, 0.0]);
@@ -300,7 +299,7 @@ impl Kernel for Filter {
             let mix = lobe_mixture(kd, ks, m);
             let e = normal_exponent(ks, m);
             let wo = (s.eye - x).normalize_or_zero();
-            let kernel = TangentKernel::new(x, n, s.eye, point[c][3], r.max(1.0), s.pixel_angle, s.thickness);
+            let kernel = TangentKernel::new(x, n, s.eye, point[c][3], r.max(1.0), s.pixel_angle, s.p.thickness);
             let (mut sum_w, mut sum) = (0.0f32, Vec3::ZERO);
             let (mut var_w, mut var) = (0.0f32, 0.0f32);
             let mut open_w = 0.0f32;
@@ -320,7 +319,7 @@ impl Kernel for Filter {
                     let cos_i = wi.dot(n);
                     let mut term = Vec3::ZERO;
                     if let (Some(mix), true) = (mix, cos_i > 0.0) {
-                        let v = mix.eval(s.lobe, kd, ks, m, n, wo, wi, cos_i);
+                        let v = mix.eval(s.p.brdf, kd, ks, m, n, wo, wi, cos_i);
                         if v.pdf > 0.0 {
                             term = v3(incident[j]) * (v.f * (cos_i / v.pdf));
                         }
@@ -355,11 +354,7 @@ impl Kernel for Filter {
 pub struct Compose;
 
 fn switch_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
-    match ctx.str_param("correction")? {
-        "accumulate" => Ok(false),
-        "switch" => Ok(true),
-        other => Err(ctx.err(format!("unknown correction `{other}`; use accumulate or switch"))),
-    }
+    Ok(ComposeParams::read(ctx)?.correction == Correction::Switch)
 }
 
 impl Kernel for Compose {
@@ -368,6 +363,9 @@ impl Kernel for Compose {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Compose
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        ComposeParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -387,7 +385,7 @@ impl Kernel for Compose {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/radiance_filter_compose.wgsl"), |ctx| {
-                Ok(Uniforms::new().u32("switch_mode", switch_mode(ctx)? as u32))
+                Ok(ComposeParams::read(ctx)?.uniforms())
             })
             .with_include(
                 "radiance_filter_formulas.wgsl",

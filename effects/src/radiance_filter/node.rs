@@ -1,6 +1,11 @@
 //! The `RadianceFilter` node: its ports, parameters and the passes of [`super`]'s module doc.
 
+use wedge_backends::KernelParams;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Reference, Stage};
+
+use super::formulas::RadiusRule;
+use super::kernels::{ComposeParams, FilterParams};
+use crate::camera_paths::TracerParams;
 
 pub struct RadianceFilter;
 
@@ -43,22 +48,14 @@ impl NodeKind for RadianceFilter {
         matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }
     fn params(&self) -> Vec<ParamDecl> {
-        vec![
-            ParamDecl::positive("t_u", DEFAULT_T_U, 1e6, "threshold T_u on the accumulated image's perceived variance (eq. 4.13)"),
-            ParamDecl::int("warmup", DEFAULT_WARMUP, 1, 1 << 20, "frames that use the warm-up radius r_w1 k^-1/2 (eq. 4.15) before the variance estimate"),
-            ParamDecl::float("warmup_radius", DEFAULT_WARMUP_RADIUS, 0.0, 1024.0, "warm-up radius r_w1 of the first frame (pixels)"),
-            ParamDecl::int("max_radius", DEFAULT_MAX_RADIUS, 0, 1024, "largest image-space kernel radius (pixels)"),
-            ParamDecl::boolean("occlusion", true, "scale the radius by a screen-space ambient-occlusion factor (Sec. 4.3.1, step 3) against light leaks"),
-            ParamDecl::positive("thickness", 0.2, 1e3, "half-height of the kernel's prism along the normal, in units of its tangent radius (eq. 4.18)"),
-            ParamDecl::choice(
-                "correction",
-                "accumulate",
-                &["accumulate", "switch"],
-                "correction phase: keep accumulating (thesis, bias falls as O(1/N)) or switch to the plain accumulation (Sec. 4.4.1)",
-            ),
-            ParamDecl::int("bounces", 3, 1, 64, "path vertices after the first, each with next-event estimation"),
-            crate::params::brdf("glossy lobe of k_s, m"),
+        [
+            RadiusRule::decls(),
+            FilterParams::decls(),
+            ComposeParams::decls(),
+            TracerParams::decls(),
+            vec![crate::params::brdf("glossy lobe of k_s, m")],
         ]
+        .concat()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         // 1–2. This frame's paths and radiance samples; the running statistics.
@@ -75,7 +72,7 @@ impl NodeKind for RadianceFilter {
             .write("direction", direction)
             .write("incident", incident)
             .int("count", 1)
-            .node_params(&["bounces", "brdf"])
+            .node_params(TracerParams::names())
             .random()
             .reference(Reference::Sample)
             .finish();
@@ -98,7 +95,7 @@ impl NodeKind for RadianceFilter {
             .read("previous_variance", previous_variance)
             .read("previous_accumulated", previous_accumulated)
             .write("radius", radius)
-            .node_params(&["t_u", "warmup", "warmup_radius", "max_radius", "occlusion"])
+            .node_params(RadiusRule::names())
             .finish();
 
         // 4. The filter.
@@ -115,7 +112,7 @@ impl NodeKind for RadianceFilter {
             .read("hv", hv)
             .write("filtered", filtered)
             .write("variance", variance)
-            .node_params(&["thickness", "max_radius", "brdf"])
+            .node_params(FilterParams::names())
             .reference(Reference::Bypass { input: "own" })
             .finish();
 
@@ -136,7 +133,7 @@ impl NodeKind for RadianceFilter {
             .write("radiance", radiance)
             .write("unfiltered", unfiltered)
             .write("phase", phase)
-            .node_params(&["correction"])
+            .node_params(ComposeParams::names())
             .finish();
         ctx.output("radiance", radiance);
         ctx.output("unfiltered", unfiltered);

@@ -2,8 +2,12 @@
 //! eqs. 3.15–3.17) and `pixel_filter.blend` (eqs. 3.1, 3.10–3.13, the spike clamp of eq. 3.18).
 
 use glam::Vec3;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
+
+use super::ThresholdParams;
 
 use crate::pixel_filter::formulas::{adaptive_sigma, blend_factor, luminance, spike_clamp, FILTERED};
 
@@ -15,12 +19,18 @@ use crate::pixel_filter::formulas::{adaptive_sigma, blend_factor, luminance, spi
 /// last filter pass's filtered variance and background; before any filter pass, the guide σ̄(n).
 pub struct AdaptiveWidth;
 
-fn width_params(ctx: &KernelCtx<'_>) -> Result<(f32, f32, f32), BackendError> {
-    let t = ctx.f32_param("t")?;
-    if !(t >= 0.0 && t.is_finite()) {
-        return Err(ctx.err(format!("`t` = {t} must be a finite number >= 0")));
+wedge_backends::kernel_params! {
+    /// The adaptive width's parameters (with [`ThresholdParams`]): the user's widest σ (declared
+    /// with the filter's, `FilterParams`) and the bound `c` of eq. 3.16.
+    pub struct WidthParams {
+        sigma_s: f32,
+        adaptive_c: f32 = float(4.0, 1.0, 1e3, "the adaptive width stays within [guide/c, c guide] (eq. 3.16)"),
     }
-    Ok((ctx.positive_f32_param("sigma_s")?, ctx.positive_f32_param("adaptive_c")?, t))
+}
+
+fn width_params(ctx: &KernelCtx<'_>) -> Result<(f32, f32, f32), BackendError> {
+    let (w, t) = (WidthParams::read(ctx)?, ThresholdParams::read(ctx)?);
+    Ok((w.sigma_s, w.adaptive_c, t.t))
 }
 
 /// One pixel of [`AdaptiveWidth`].
@@ -39,6 +49,9 @@ impl Kernel for AdaptiveWidth {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [ThresholdParams::specs(), WidthParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -85,13 +98,17 @@ pub struct BlendParams {
     pub spike_c: f32,
 }
 
-fn blend_params(ctx: &KernelCtx<'_>) -> Result<BlendParams, BackendError> {
-    let t = ctx.f32_param("t")?;
-    if !(t >= 0.0 && t.is_finite()) {
-        return Err(ctx.err(format!("`t` = {t} must be a finite number >= 0")));
+wedge_backends::kernel_params! {
+    /// The spike clamp of eq. 3.18 (with [`ThresholdParams`], the blend's parameters).
+    pub struct SpikeParams {
+        spike_clamp: bool = boolean(false, "clamp L_u to [L_f/c, c L_f] while blending (eq. 3.18)"),
+        spike_c: f32 = float(2.0, 1.0, 1e6, "the spike clamp's factor c"),
     }
-    let spike_c = if ctx.bool_param("spike_clamp")? { ctx.positive_f32_param("spike_c")? } else { 0.0 };
-    Ok(BlendParams { t, spike_c })
+}
+
+fn blend_params(ctx: &KernelCtx<'_>) -> Result<BlendParams, BackendError> {
+    let (t, spike) = (ThresholdParams::read(ctx)?, SpikeParams::read(ctx)?);
+    Ok(BlendParams { t: t.t, spike_c: if spike.spike_clamp { spike.spike_c } else { 0.0 } })
 }
 
 /// One pixel of [`Blend`]: (radiance, unfiltered, s).
@@ -138,6 +155,9 @@ impl Kernel for Blend {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Compose
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [ThresholdParams::specs(), SpikeParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![

@@ -3,37 +3,46 @@
 //! eq. 3.14), both run on filter frames only and otherwise keep the last filtered buffer.
 
 use glam::Vec3;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
-use super::schedule;
-use crate::camera_paths::count_param;
+use super::{schedule, ScheduleParams};
 use crate::pixel_filter::formulas::{bilateral_weight, inv_two_sigma2, iteration_sigma, luminance, FILTERED};
+use crate::pixel_filter::node::{DEFAULT_SIGMA_C, DEFAULT_SIGMA_D, DEFAULT_SIGMA_S};
 
-/// The filter's kernel widths: spatial σ_s (pixels), colour σ_c, depth σ_d (metres), the truncation
-/// in σ_s, and the largest window radius (pixels) any pixel may use.
-#[derive(Clone, Copy, Debug)]
-struct FilterParams {
-    sigma_s: f32,
-    sigma_c: f32,
-    sigma_d: f32,
-    truncate: f32,
+wedge_backends::kernel_params! {
+    /// The filter's kernel widths: spatial σ_s (pixels), colour σ_c, depth σ_d (metres), and the
+    /// truncation in σ_s (the largest window radius any pixel may use, [`FilterParams::radius`]).
+    pub struct FilterParams {
+        sigma_s: f32 = positive(DEFAULT_SIGMA_S, 256.0, "spatial standard deviation of the filter (pixels)"),
+        sigma_c: f32 = positive(DEFAULT_SIGMA_C, 1e6, "range standard deviation of colours (linear RGB)"),
+        sigma_d: f32 = positive(DEFAULT_SIGMA_D, 1e9, "range standard deviation of depths (scene units, metres)"),
+        truncate: f32 = positive(3.0, 16.0, "the spatial kernel is cut at truncate × sigma"),
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// One pass of the iterated separable filter (set by the node, but `iterations`, the node's
+    /// own): its axis (0 = x, 1 = y), iteration (1-based) of `iterations`, and whether it is the
+    /// chain's first or last pass.
+    pub struct PassParams {
+        axis: u32,
+        iteration: u32,
+        iterations: u32 = int(3, 1, 8, "iterations of the separable filter (eq. 3.14)"),
+        first: bool,
+        last: bool,
+    }
 }
 
 impl FilterParams {
-    fn read(ctx: &KernelCtx<'_>) -> Result<FilterParams, BackendError> {
-        Ok(FilterParams {
-            sigma_s: ctx.positive_f32_param("sigma_s")?,
-            sigma_c: ctx.positive_f32_param("sigma_c")?,
-            sigma_d: ctx.positive_f32_param("sigma_d")?,
-            truncate: ctx.positive_f32_param("truncate")?,
-        })
-    }
     /// Window radius (pixels) for spatial σ `sigma`, capped at 1024.
     fn radius(&self, sigma: f32) -> u32 {
         (self.truncate * sigma).ceil().clamp(0.0, 1024.0) as u32
     }
-    fn uniforms(&self, u: Uniforms) -> Uniforms {
+    /// The WGSL's fields: the kernels' `1/(2σ²)` rather than σ_c, σ_d.
+    fn wgsl_uniforms(&self, u: Uniforms) -> Uniforms {
         u.f32("sigma_s", self.sigma_s)
             .f32("inv_c", inv_two_sigma2(self.sigma_c))
             .f32("inv_d", inv_two_sigma2(self.sigma_d))
@@ -112,7 +121,7 @@ fn filter_outputs(value: Vec3, r: f32, sigma2: f32, n: f32) -> ([f32; 4], [f32; 
 fn filter_uniforms(ctx: &KernelCtx<'_>) -> Result<Uniforms, BackendError> {
     let (update, _) = schedule(ctx)?;
     let p = FilterParams::read(ctx)?;
-    Ok(p.uniforms(Uniforms::new().u32("update", update as u32)).u32("radius", p.radius(p.sigma_s)))
+    Ok(p.wgsl_uniforms(Uniforms::new().u32("update", update as u32)).u32("radius", p.radius(p.sigma_s)))
 }
 
 /// Keep the last filter pass's buffers (or zeros before the first).
@@ -130,6 +139,9 @@ impl Kernel for Bilateral {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Filter
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [ScheduleParams::specs(), FilterParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -175,9 +187,7 @@ impl Kernel for Bilateral {
             let sg = sigma.map_or(p.sigma_s, |s| s[j]).min(p.sigma_s);
             let cut = p.truncate * sg;
             let radius = (p.radius(sg) as i32).min(max_radius);
-            let inv_s = inv_two_sigma2(sg);
-            let (cj, dj) = (Vec3::new(range[j][0], range[j][1], range[j][2]), range[j][3]);
-            let spread = lv[j][3] < 2.0;
+            let centre = Centre::new(range[j], [inv_two_sigma2(sg), inv_c, inv_d], true, lv[j][3] < 2.0);
             let mut sums = Sums::default();
             for y in (py as i32 - radius).max(0)..=(py as i32 + radius).min(h - 1) {
                 for x in (px as i32 - radius).max(0)..=(px as i32 + radius).min(w - 1) {
@@ -187,9 +197,8 @@ impl Kernel for Bilateral {
                         continue;
                     }
                     let i = (y * w + x) as usize;
-                    add_tap(
-                        &mut sums, range[i], cj, dj, ds2, inv_s, inv_c, inv_d, lv[i][3], hv[i], 1.0, None, true, spread,
-                    );
+                    let tap = Tap { range: range[i], n: lv[i][3], hv: hv[i], r_in: 1.0, var_in: None };
+                    sums.add(&centre, ds2, tap);
                 }
             }
             let (value, r, sigma2) = sums.finish();
@@ -200,53 +209,65 @@ impl Kernel for Bilateral {
     }
 }
 
-/// One tap of the cross-bilateral filter at neighbour `i`: its range entry, its path count `n` and
-/// value `hv` (`hv.w` = M2 on the first pass, where `first`; later passes carry the value's `r` in
-/// `r_in` and the filtered σ² in `var_in`). `spread`: keep the one-path spread, needed only where the
-/// centre pixel has fewer than two paths (otherwise its own tap, weight 1, makes the variance sum
-/// non-empty and the spread unused).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn add_tap(
-    sums: &mut Sums,
-    range_i: [f32; 4],
-    cj: Vec3,
-    dj: f32,
-    ds2: f32,
-    inv_s: f32,
-    inv_c: f32,
-    inv_d: f32,
+/// The centre pixel of a filter window: its range entry (colour, depth), the kernels' `1/(2σ²)`
+/// (spatial, colour, depth), whether the pass reads the accumulation (`first`: `hv.w` = M2) and
+/// whether it keeps the one-path spread (`spread`: needed only where the centre pixel has fewer
+/// than two paths; otherwise its own tap, weight 1, makes the variance sum non-empty).
+struct Centre {
+    colour: Vec3,
+    depth: f32,
+    inv: [f32; 3],
+    first: bool,
+    spread: bool,
+}
+
+impl Centre {
+    fn new(range: [f32; 4], inv: [f32; 3], first: bool, spread: bool) -> Centre {
+        Centre { colour: Vec3::new(range[0], range[1], range[2]), depth: range[3], inv, first, spread }
+    }
+}
+
+/// One neighbour of the cross-bilateral filter: its range entry, its path count `n` and value `hv`
+/// (`hv.w` = M2 on the first pass; later passes carry the value's `r` in `r_in` and the filtered σ²
+/// in `var_in`).
+struct Tap {
+    range: [f32; 4],
     n: f32,
     hv: [f32; 4],
     r_in: f32,
     var_in: Option<f32>,
-    first: bool,
-    spread: bool,
-) {
-    if !(n > 0.0) {
-        return;
-    }
-    let dc = Vec3::new(range_i[0], range_i[1], range_i[2]) - cj;
-    let a = bilateral_weight(ds2, dc.dot(dc), dj - range_i[3], inv_s, inv_c, inv_d);
-    if !(a > 0.0) {
-        // Underflowed (another surface): nothing to add, and the spread's first weight must be > 0.
-        return;
-    }
-    let value = Vec3::new(hv[0], hv[1], hv[2]);
-    sums.a += a;
-    sums.value += value * a;
-    sums.a2 += a * a * r_in;
-    if first {
-        if n >= 2.0 {
-            sums.var += a * (hv[3] / (n - 1.0));
-            sums.var_w += a;
+}
+
+impl Sums {
+    /// Add one tap at spatial distance² `ds2` from the centre.
+    #[inline]
+    fn add(&mut self, c: &Centre, ds2: f32, tap: Tap) {
+        let Tap { range: range_i, n, hv, r_in, var_in } = tap;
+        if !(n > 0.0) {
+            return;
         }
-        if spread {
-            sums.spread.add(luminance(value), a);
+        let dc = Vec3::new(range_i[0], range_i[1], range_i[2]) - c.colour;
+        let a = bilateral_weight(ds2, dc.dot(dc), c.depth - range_i[3], c.inv[0], c.inv[1], c.inv[2]);
+        if !(a > 0.0) {
+            // Underflowed (another surface): nothing to add, and the spread's first weight must be > 0.
+            return;
         }
-    } else if let Some(v) = var_in {
-        sums.var += a * v;
-        sums.var_w += a;
+        let value = Vec3::new(hv[0], hv[1], hv[2]);
+        self.a += a;
+        self.value += value * a;
+        self.a2 += a * a * r_in;
+        if c.first {
+            if n >= 2.0 {
+                self.var += a * (hv[3] / (n - 1.0));
+                self.var_w += a;
+            }
+            if c.spread {
+                self.spread.add(luminance(value), a);
+            }
+        } else if let Some(v) = var_in {
+            self.var += a * v;
+            self.var_w += a;
+        }
     }
 }
 
@@ -262,7 +283,8 @@ fn add_tap(
 /// `filtered`/`variance` as [`Bilateral`] does and keeps them on frames that do not filter.
 pub struct Separable;
 
-struct SeparableParams {
+/// A separable pass's settings: its widths, its place in the chain, whether this frame filters.
+struct SeparableSettings {
     filter: FilterParams,
     axis: u32,
     iteration: u32,
@@ -272,20 +294,14 @@ struct SeparableParams {
     update: bool,
 }
 
-fn separable_params(ctx: &KernelCtx<'_>) -> Result<SeparableParams, BackendError> {
+fn separable_params(ctx: &KernelCtx<'_>) -> Result<SeparableSettings, BackendError> {
     let (update, _) = schedule(ctx)?;
-    Ok(SeparableParams {
-        filter: FilterParams::read(ctx)?,
-        axis: count_param(ctx, "axis", 1)?,
-        iteration: count_param(ctx, "iteration", 16)?.max(1),
-        iterations: count_param(ctx, "iterations", 16)?.max(1),
-        first: ctx.bool_param("first")?,
-        last: ctx.bool_param("last")?,
-        update,
-    })
+    let PassParams { axis, iteration, iterations, first, last } = PassParams::read(ctx)?;
+    let (iteration, iterations) = (iteration.max(1), iterations.max(1));
+    Ok(SeparableSettings { filter: FilterParams::read(ctx)?, axis, iteration, iterations, first, last, update })
 }
 
-impl SeparableParams {
+impl SeparableSettings {
     /// The pass's widest window radius (σ_s of this iteration).
     fn radius(&self) -> u32 {
         self.filter.radius(iteration_sigma(self.filter.sigma_s, self.iteration, self.iterations))
@@ -298,6 +314,9 @@ impl Kernel for Separable {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Filter
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [ScheduleParams::specs(), FilterParams::specs(), PassParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -320,7 +339,7 @@ impl Kernel for Separable {
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_separable.wgsl"), |ctx| {
                 let s = separable_params(ctx)?;
                 Ok(s.filter
-                    .uniforms(Uniforms::new().u32("update", s.update as u32))
+                    .wgsl_uniforms(Uniforms::new().u32("update", s.update as u32))
                     .u32("axis", s.axis)
                     .f32("scale", iteration_sigma(1.0, s.iteration, s.iterations))
                     .u32("radius", s.radius())
@@ -345,7 +364,7 @@ impl Kernel for Separable {
             ctx.put("value_out", vec![[0.0f32; 4]; n])?;
             return ctx.put("variance_out", vec![[0.0f32; 4]; n]);
         }
-        let p = s.filter;
+        let p = &s.filter;
         let range = ctx.read::<[f32; 4]>("range")?;
         let value = ctx.read::<[f32; 4]>("value_in")?;
         let var = ctx.read_opt::<[f32; 4]>("variance_in")?;
@@ -366,8 +385,9 @@ impl Kernel for Separable {
             let sg = sigma.map_or(p.sigma_s, |v| v[j]).min(p.sigma_s) * scale;
             let cut = p.truncate * sg;
             let radius = (p.radius(sg) as i32).min(max_radius);
-            let inv_s = inv_two_sigma2(sg);
-            let (cj, dj) = (Vec3::new(range[j][0], range[j][1], range[j][2]), range[j][3]);
+            // The one-path spread only on the first pass (later passes carry σ²).
+            let spread = s.first && lv.unwrap()[j][3] < 2.0;
+            let centre = Centre::new(range[j], [inv_two_sigma2(sg), inv_c, inv_d], s.first, spread);
             let mut sums = Sums::default();
             let (lo, hi) = if s.axis == 0 {
                 ((px as i32 - radius).max(0), (px as i32 + radius).min(w - 1))
@@ -381,45 +401,15 @@ impl Kernel for Separable {
                     continue;
                 }
                 let i = (y * w + x) as usize;
-                if s.first {
-                    let spread = lv.unwrap()[j][3] < 2.0;
-                    add_tap(
-                        &mut sums,
-                        range[i],
-                        cj,
-                        dj,
-                        ds2,
-                        inv_s,
-                        inv_c,
-                        inv_d,
-                        lv.unwrap()[i][3],
-                        value[i],
-                        1.0,
-                        None,
-                        true,
-                        spread,
-                    );
+                let tap = if s.first {
+                    Tap { range: range[i], n: lv.unwrap()[i][3], hv: value[i], r_in: 1.0, var_in: None }
                 } else {
                     let v = var.unwrap()[i];
                     // A pixel without paths is not in the chain (valid flag 0).
                     let n = if v[1] > 0.0 { 1.0 } else { 0.0 };
-                    add_tap(
-                        &mut sums,
-                        range[i],
-                        cj,
-                        dj,
-                        ds2,
-                        inv_s,
-                        inv_c,
-                        inv_d,
-                        n,
-                        value[i],
-                        value[i][3],
-                        Some(v[0]),
-                        false,
-                        false,
-                    );
-                }
+                    Tap { range: range[i], n, hv: value[i], r_in: value[i][3], var_in: Some(v[0]) }
+                };
+                sums.add(&centre, ds2, tap);
             }
             let (val, r, sigma2) = sums.finish();
             if s.last {

@@ -28,10 +28,10 @@
 //!
 //! Files: [`sample`] (sample, accumulate, range), [`filter`] (bilateral, separable), [`blend`] (width, blend).
 
-use wedge_backends::{BackendError, KernelCtx};
+use wedge_backends::{BackendError, KernelCtx, KernelParams};
 
 use super::formulas::{filter_passes_through, is_filter_frame};
-use crate::camera_paths::count_param;
+use super::node::DEFAULT_T;
 
 pub mod blend;
 pub mod filter;
@@ -41,9 +41,24 @@ pub use blend::{AdaptiveWidth, Blend};
 pub use filter::{Bilateral, Separable};
 pub use sample::{Accumulate, PixelSample, RangeBuffer};
 
+wedge_backends::kernel_params! {
+    /// The filter schedule (Sec. 3.3.3), read by the range buffer and the filters.
+    pub struct ScheduleParams {
+        first_filter: u32 = int(4, 1, 1 << 20, "the filter runs when a pixel has first_filter × 2^i paths (4, 8, 16, …)"),
+        filter_first_frame: bool = boolean(true, "also filter the first frame (a single image, and the preview before frame 4)"),
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// The threshold on perceived variance (eq. 3.11), read by the blend and the adaptive width.
+    pub struct ThresholdParams {
+        t: f32 = float(DEFAULT_T, 0.0, 1e6, "threshold on perceived variance (eq. 3.11); 0 = never blend in the filtered buffer where noise remains"),
+    }
+}
+
 /// The filter schedule of a pass: whether this frame filters, and which filter pass it is.
 fn schedule(ctx: &KernelCtx<'_>) -> Result<(bool, u32), BackendError> {
-    let first = count_param(ctx, "first_filter", 1 << 20)?.max(1);
-    let first_frame = ctx.bool_param("filter_first_frame")?;
+    let ScheduleParams { first_filter, filter_first_frame: first_frame } = ScheduleParams::read(ctx)?;
+    let first = first_filter.max(1);
     Ok((is_filter_frame(ctx.frame, first, first_frame), filter_passes_through(ctx.frame, first, first_frame)))
 }

@@ -4,57 +4,41 @@
 
 use glam::Vec3;
 use wedge_backends::rng::PixelRng;
-use wedge_backends::{BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
-use super::schedule;
-use crate::camera_paths::{camera_ray, camera_uniforms, count_param, CameraPaths, FirstVertex};
+use super::{schedule, ScheduleParams};
+use crate::camera_paths::{camera_ray, camera_uniforms, CameraPaths, FirstVertex, PathCount};
 use crate::pixel_filter::formulas::{range_colour, Stats, MISS_DEPTH};
 
-/// How paths are split into low- and high-variance buffers (Sec. 3.3, Fig. 3.1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Split {
-    /// `L_lv` = emission + direct light at the first vertex, `L_u` = the indirect light (the thesis's
-    /// usual choice).
-    Indirect,
-    /// `L_u` = light reaching the first (diffuse) vertex through glossy scattering only (paths
-    /// `L S+ D E`, [`trace_path_split`]); the rest in `L_lv`.
-    Caustics,
-    /// Everything in `L_u` (the thesis's Fig. 3.7).
-    All,
+wedge_backends::param_choice! {
+    /// How paths are split into low- and high-variance buffers (Sec. 3.3, Fig. 3.1).
+    pub enum Split {
+        /// `L_lv` = emission + direct light at the first vertex, `L_u` = the indirect light (the
+        /// thesis's usual choice).
+        Indirect = "indirect",
+        /// `L_u` = light reaching the first (diffuse) vertex through glossy scattering only (paths
+        /// `L S+ D E`, `trace_path_split`); the rest in `L_lv`.
+        Caustics = "caustics",
+        /// Everything in `L_u` (the thesis's Fig. 3.7).
+        All = "all",
+    }
 }
 
-impl Split {
-    pub fn parse(s: &str) -> Option<Split> {
-        match s {
-            "indirect" => Some(Split::Indirect),
-            "caustics" => Some(Split::Caustics),
-            "all" => Some(Split::All),
-            _ => None,
-        }
-    }
-    fn code(self) -> u32 {
-        match self {
-            Split::Indirect => 0,
-            Split::Caustics => 1,
-            Split::All => 2,
-        }
+wedge_backends::kernel_params! {
+    /// `pixel_filter.sample`'s own parameter (with [`CameraPaths`]'): the split.
+    pub struct SampleParams {
+        split: Split = choice("indirect", Split::OPTIONS, "which paths are high-variance and filtered: indirect light, caustic paths (L S+ D E), or all"),
     }
 }
 
 /// `pixel_filter.sample` (see the module doc).
 pub struct PixelSample;
 
-struct SampleSettings {
-    paths: CameraPaths,
-    split: Split,
-}
-
-fn sample_settings(ctx: &KernelCtx<'_>) -> Result<SampleSettings, BackendError> {
-    let split = ctx.str_param("split")?;
-    let split = Split::parse(split)
-        .ok_or_else(|| ctx.err(format!("unknown split `{split}`; use indirect, caustics or all")))?;
-    Ok(SampleSettings { paths: CameraPaths::read(ctx)?, split })
+fn sample_settings(ctx: &KernelCtx<'_>) -> Result<(CameraPaths, SampleParams), BackendError> {
+    Ok((CameraPaths::read(ctx)?, SampleParams::read(ctx)?))
 }
 
 /// One camera path's `(L_lv, L_u)` under `split` (Sec. 3.3, Fig. 3.1).
@@ -76,6 +60,9 @@ impl Kernel for PixelSample {
     fn class(&self) -> KernelClass {
         KernelClass::Sampling
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        [CameraPaths::specs(), SampleParams::specs()].concat()
+    }
     fn draws_random(&self) -> bool {
         true
     }
@@ -91,8 +78,8 @@ impl Kernel for PixelSample {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_sample.wgsl"), |ctx| {
-                let s = sample_settings(ctx)?;
-                Ok(s.paths.uniforms(Uniforms::new(), ctx).u32("split", s.split.code()))
+                let (paths, s) = sample_settings(ctx)?;
+                Ok(paths.uniforms(s.uniforms(), ctx))
             })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../../shaders/pixel_filter_formulas.wgsl"))
             .with_scene()
@@ -101,8 +88,8 @@ impl Kernel for PixelSample {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let s = sample_settings(ctx)?;
-        let out: Vec<Stats> = s.paths.run(ctx, |st: &mut Stats, _, v| {
+        let (paths, s) = sample_settings(ctx)?;
+        let out: Vec<Stats> = paths.run(ctx, |st: &mut Stats, _, v| {
             let (lv, hv) = split_path(v, s.split);
             let finite = Vec3::is_finite(lv) && Vec3::is_finite(hv);
             if finite {
@@ -181,6 +168,9 @@ impl Kernel for RangeBuffer {
     fn class(&self) -> KernelClass {
         KernelClass::Sampling
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        [PathCount::specs(), ScheduleParams::specs()].concat()
+    }
     fn draws_random(&self) -> bool {
         true
     }
@@ -196,11 +186,8 @@ impl Kernel for RangeBuffer {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_range.wgsl"), |ctx| {
                 let (update, pass) = schedule(ctx)?;
-                let u = camera_uniforms(Uniforms::new(), &ctx.scene.camera);
-                Ok(u.u32("count", count_param(ctx, "count", 4096)?)
-                    .u32("stream", ctx.int_param("stream")? as u32)
-                    .u32("update", update as u32)
-                    .f32("pass_index", pass.max(1) as f32))
+                let u = camera_uniforms(PathCount::read(ctx)?.uniforms(), &ctx.scene.camera);
+                Ok(u.u32("update", update as u32).f32("pass_index", pass.max(1) as f32))
             })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../../shaders/pixel_filter_formulas.wgsl"))
             .with_scene()
@@ -209,13 +196,12 @@ impl Kernel for RangeBuffer {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (update, pass) = schedule(ctx)?;
-        let count = count_param(ctx, "count", 4096)?;
+        let PathCount { count, stream } = PathCount::read(ctx)?;
         let previous = ctx.read_opt::<[f32; 4]>("previous")?;
         if !update {
             let out = previous.map_or_else(|| vec![[0.0; 4]; ctx.pixels()], |p| p.to_vec());
             return ctx.put("range", out);
         }
-        let stream = ctx.int_param("stream")? as u32;
         let cam = ctx.scene.camera;
         // The full image's pixel and size (a tile's window is part of it).
         let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
