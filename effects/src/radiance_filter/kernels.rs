@@ -24,6 +24,11 @@ fn pixel_angle(ctx: &KernelCtx<'_>) -> f32 {
     2.0 * (ctx.scene.camera.vfov_deg.to_radians() * 0.5).tan() / ctx.full_size().1 as f32
 }
 
+/// The radiance sample of a pixel (Sec. 4.3.1, steps 1–2), one `vec4` buffer each (buffer
+/// conventions in the module doc): `radiance_filter.sample` writes them, `radiance_filter.filter`
+/// reads them, and the node wires them from this one list.
+pub const SAMPLE_BUFFERS: [&str; 5] = ["point", "normal", "albedo", "direction", "incident"];
+
 wedge_backends::kernel_params! {
     /// The filter pass's parameters: the prism's thickness, the window cap (declared with the
     /// radius rule, [`RadiusRule`]) and the BRDF the neighbours' radiance is weighed under.
@@ -71,6 +76,13 @@ struct PixelSamples {
     incident: [f32; 4],
 }
 
+impl PixelSamples {
+    /// The radiance sample in [`SAMPLE_BUFFERS`]' order.
+    fn buffers(&self) -> [[f32; 4]; 5] {
+        [self.point, self.normal, self.albedo, self.direction, self.incident]
+    }
+}
+
 impl Kernel for RadianceSample {
     fn name(&self) -> &'static str {
         "radiance_filter.sample"
@@ -89,13 +101,11 @@ impl Kernel for RadianceSample {
             // The batch's Stats: mean direct light (w = finite paths), mean own indirect (w = M2).
             Binding::write("lv", Format::Vec4),
             Binding::write("hv", Format::Vec4),
-            // Path 0's radiance sample.
-            Binding::write("point", Format::Vec4),
-            Binding::write("normal", Format::Vec4),
-            Binding::write("albedo", Format::Vec4),
-            Binding::write("direction", Format::Vec4),
-            Binding::write("incident", Format::Vec4),
         ]
+        .into_iter()
+        // Path 0's radiance sample.
+        .chain(SAMPLE_BUFFERS.map(|n| Binding::write(n, Format::Vec4)))
+        .collect()
     }
     /// WGSL mirror: `shaders/radiance_filter_sample.wgsl` (on the shared `first_vertex.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
@@ -133,11 +143,10 @@ impl Kernel for RadianceSample {
         });
         ctx.put("lv", out.iter().map(|o| o.stats.lv_buffer()).collect::<Vec<_>>())?;
         ctx.put("hv", out.iter().map(|o| o.stats.u_buffer()).collect::<Vec<_>>())?;
-        ctx.put("point", out.iter().map(|o| o.point).collect::<Vec<_>>())?;
-        ctx.put("normal", out.iter().map(|o| o.normal).collect::<Vec<_>>())?;
-        ctx.put("albedo", out.iter().map(|o| o.albedo).collect::<Vec<_>>())?;
-        ctx.put("direction", out.iter().map(|o| o.direction).collect::<Vec<_>>())?;
-        ctx.put("incident", out.iter().map(|o| o.incident).collect::<Vec<_>>())
+        for (k, name) in SAMPLE_BUFFERS.into_iter().enumerate() {
+            ctx.put(name, out.iter().map(|o| o.buffers()[k]).collect::<Vec<_>>())?;
+        }
+        Ok(())
     }
 }
 
@@ -243,13 +252,9 @@ impl Kernel for Filter {
         FilterParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("radius", Format::F32),
-            Binding::read("point", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read("albedo", Format::Vec4),
-            Binding::read("direction", Format::Vec4),
-            Binding::read("incident", Format::Vec4),
+        let mut b = vec![Binding::read("radius", Format::F32)];
+        b.extend(SAMPLE_BUFFERS.map(|n| Binding::read(n, Format::Vec4)));
+        b.extend([
             // This frame's own indirect estimate (the sample pass's `hv`): what a reference keeps.
             Binding::read("own", Format::Vec4),
             // The accumulated statistics (n in lv.w, M2 in hv.w): the per-path variance to filter.
@@ -257,7 +262,8 @@ impl Kernel for Filter {
             Binding::read("hv", Format::Vec4),
             Binding::write("filtered", Format::Vec4),
             Binding::write("variance", Format::Vec4),
-        ]
+        ]);
+        b
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -276,11 +282,8 @@ impl Kernel for Filter {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = filter_settings(ctx)?;
         let radius = ctx.read::<f32>("radius")?;
-        let point = ctx.read::<[f32; 4]>("point")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let albedo = ctx.read::<[f32; 4]>("albedo")?;
-        let direction = ctx.read::<[f32; 4]>("direction")?;
-        let incident = ctx.read::<[f32; 4]>("incident")?;
+        let [point, normal, albedo, direction, incident] = SAMPLE_BUFFERS.map(|n| ctx.read::<[f32; 4]>(n));
+        let (point, normal, albedo, direction, incident) = (point?, normal?, albedo?, direction?, incident?);
         let lv = ctx.read::<[f32; 4]>("lv")?;
         let hv = ctx.read::<[f32; 4]>("hv")?;
         let materials = &ctx.scene.materials;

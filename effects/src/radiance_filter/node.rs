@@ -4,7 +4,7 @@ use wedge_backends::KernelParams;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Reference, Stage};
 
 use super::formulas::RadiusRule;
-use super::kernels::{ComposeParams, FilterParams};
+use super::kernels::{ComposeParams, FilterParams, SAMPLE_BUFFERS};
 use crate::camera_paths::TracerParams;
 
 pub struct RadianceFilter;
@@ -61,21 +61,12 @@ impl NodeKind for RadianceFilter {
         // 1–2. This frame's paths and radiance samples; the running statistics.
         let sample_lv = ctx.buffer("sample_lv", Format::Vec4);
         let own = ctx.buffer("own", Format::Vec4);
-        let [point, normal, albedo, direction, incident] =
-            ["point", "normal", "albedo", "direction", "incident"].map(|n| ctx.buffer(n, Format::Vec4));
-        ctx.pass("sample", "radiance_filter.sample", Stage::Sample)
-            .write("lv", sample_lv)
-            .write("hv", own)
-            .write("point", point)
-            .write("normal", normal)
-            .write("albedo", albedo)
-            .write("direction", direction)
-            .write("incident", incident)
-            .int("count", 1)
-            .node_params(TracerParams::names())
-            .random()
-            .reference(Reference::Sample)
-            .finish();
+        let sample = SAMPLE_BUFFERS.map(|n| (n, ctx.buffer(n, Format::Vec4)));
+        let mut b = ctx.pass("sample", "radiance_filter.sample", Stage::Sample).write("lv", sample_lv).write("hv", own);
+        for (n, id) in sample {
+            b = b.write(n, id);
+        }
+        b.int("count", 1).node_params(TracerParams::names()).random().reference(Reference::Sample).finish();
         let (lv, hv) = (ctx.buffer("lv", Format::Vec4), ctx.buffer("hv", Format::Vec4));
         let (previous_lv, previous_hv) = (ctx.previous_frame(lv), ctx.previous_frame(hv));
         ctx.pass("accumulate", "pixel_filter.accumulate", Stage::Sample)
@@ -100,14 +91,11 @@ impl NodeKind for RadianceFilter {
 
         // 4. The filter.
         let filtered = ctx.buffer("filtered", Format::Vec4);
-        ctx.pass("filter", "radiance_filter.filter", Stage::Filter)
-            .read("radius", radius)
-            .read("point", point)
-            .read("normal", normal)
-            .read("albedo", albedo)
-            .read("direction", direction)
-            .read("incident", incident)
-            .read("own", own)
+        let mut b = ctx.pass("filter", "radiance_filter.filter", Stage::Filter).read("radius", radius);
+        for (n, id) in sample {
+            b = b.read(n, id);
+        }
+        b.read("own", own)
             .read("lv", lv)
             .read("hv", hv)
             .write("filtered", filtered)
