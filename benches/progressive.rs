@@ -6,7 +6,7 @@
 //!
 //! - Reference: the pixel-filter pipeline's own (`Session::reference`, filters bypassed) at
 //!   `WEDGE_BENCH_REF_SPP` (4096) paths per pixel; the radiance pipeline's reference is the same
-//!   estimator (`pixel_filter::first_vertex`, next-event estimation at every vertex, 3 bounces).
+//!   estimator (`camera_paths::first_vertex`, next-event estimation at every vertex, 3 bounces).
 //! - Each progressive pipeline runs `WEDGE_BENCH_FRAMES` (256) frames on the CPU. "Plain" is
 //!   progressive accumulation without the filter: the same run's `unfiltered` output, timed by its
 //!   node's `sample` and `accumulate` passes only; the filtered image is timed by every pass. At the
@@ -27,9 +27,9 @@ use std::path::{Path, PathBuf};
 
 use progressive::{measure_curve, plot_curves, print_curve, rel_mse, rmse};
 use wedge::backends::cpu::CpuBackend;
-use wedge::backends::kernels::pixel_filter::is_filter_frame;
 use wedge::backends::Silent;
 use wedge::bench::plots::{Series, SeriesStyle};
+use wedge::effects::pixel_filter::formulas::is_filter_frame;
 use wedge::graph::ParamValue;
 use wedge::{Overrides, Session};
 

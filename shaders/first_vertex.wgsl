@@ -1,4 +1,4 @@
-// first_vertex.wgsl — a camera path's first vertex (mirrors backends/src/kernels/pixel_filter.rs
+// first_vertex.wgsl — a camera path's first vertex (mirrors effects/src/camera_paths.rs
 // first_vertex): emission + next-event estimation there, the indirect
 // estimate f L cos/pdf through one sample of the lobe mixture, its caustic part, and the radiance
 // sample radiance filtering stores (seed 002 Sec. 4.3.1). Shared by pixel_filter.sample and

@@ -1,5 +1,5 @@
 // pixel_filter.accumulate — the running statistics: the previous frame's (history) combined with this
-// frame's paths (Stats::combine); mirrors backends/src/kernels/pixel_filter.rs (Accumulate).
+// frame's paths (Stats::combine); mirrors effects/src/pixel_filter/kernels/sample.rs (Accumulate).
 #include "common.wgsl"
 #include "pixel_filter_formulas.wgsl"
 

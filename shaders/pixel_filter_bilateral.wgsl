@@ -1,7 +1,7 @@
 // pixel_filter.bilateral — the brute-force cross-bilateral filter (seed 002 eq. 3.6) of the
 // accumulated L_u with Σa² (eq. 3.5) and the per-path variance filtered with the same weights
 // (Sec. 3.3.2); on frames that do not filter it keeps the previous buffers. Mirrors
-// backends/src/kernels/pixel_filter.rs (Bilateral::run_cpu, add_tap, Sums::finish, filter_outputs).
+// effects/src/pixel_filter/kernels/filter.rs (Bilateral::run_cpu, add_tap, Sums::finish, filter_outputs).
 #include "common.wgsl"
 #include "pixel_filter_formulas.wgsl"
 

@@ -1,5 +1,5 @@
 // pixel_filter.blend — L = L_lv + s L_u + (1 - s) L_f (seed 002 eq. 3.1) with s from eqs. 3.10-3.13
-// and the optional spike clamp (eq. 3.18); mirrors backends/src/kernels/pixel_filter.rs (blend_pixel).
+// and the optional spike clamp (eq. 3.18); mirrors effects/src/pixel_filter/kernels/blend.rs (blend_pixel).
 #include "common.wgsl"
 #include "pixel_filter_formulas.wgsl"
 

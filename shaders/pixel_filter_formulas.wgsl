@@ -1,9 +1,9 @@
 // pixel_filter_formulas.wgsl — the formulas of pixel filtering (seed 002, Ch. 3); mirrors
-// backends/src/kernels/pixel_filter.rs (luminance, Stats::combine, blend_factor, spike_clamp,
+// effects/src/pixel_filter/formulas.rs (luminance, Stats::combine, blend_factor, spike_clamp,
 // adaptive_sigma, range_colour, bilateral_weight, range_update) with the same operation order.
 #include "common.wgsl"
 
-const PF_FILTERED: f32 = -1.0;     // variance.w of a pixel the filter wrote (pixel_filter.rs FILTERED)
+const PF_FILTERED: f32 = -1.0;     // variance.w of a pixel the filter wrote (pixel_filter/formulas.rs FILTERED)
 const PF_MISS_DEPTH: f32 = 1e9;    // range depth of a ray that left the scene (MISS_DEPTH)
 
 fn pf_luminance(c: vec3<f32>) -> f32 {
@@ -82,7 +82,7 @@ fn pf_range_colour(kd: vec3<f32>, ks: vec3<f32>, c: f32) -> vec3<f32> {
     return (kd + ks) * (0.5 + 0.5 * c);
 }
 
-const PF_WEIGHT_CUTOFF: f32 = 80.0; // weights below e^-80 are 0 (pixel_filter.rs WEIGHT_CUTOFF)
+const PF_WEIGHT_CUTOFF: f32 = 80.0; // weights below e^-80 are 0 (pixel_filter/formulas.rs WEIGHT_CUTOFF)
 
 fn pf_bilateral_weight(ds2: f32, dc2: f32, dd: f32, inv_s: f32, inv_c: f32, inv_d: f32) -> f32 {
     let x = ds2 * inv_s + dc2 * inv_c + dd * dd * inv_d;
@@ -104,7 +104,7 @@ fn pf_radius(truncate: f32, sigma: f32) -> i32 {
     return i32(rmin(rmax(ceil(truncate * sigma), 0.0), 1024.0));
 }
 
-// Sums of one filtered pixel (pixel_filter.rs Sums, Spread).
+// Sums of one filtered pixel (pixel_filter/kernels/filter.rs Sums, Spread).
 struct PfSums {
     a: f32,
     value: vec3<f32>,

@@ -1,7 +1,7 @@
 // pixel_filter.range — the range buffer (seed 002 Sec. 3.3.3): `count` jittered camera rays per pixel
 // on filter frames, albedo under ambient + head light (pf_range_colour) averaged with the earlier
 // passes', nearest depth; other frames keep the previous buffer. Mirrors
-// backends/src/kernels/pixel_filter.rs (RangeBuffer, range_update).
+// effects/src/pixel_filter/kernels/sample.rs (RangeBuffer, range_update).
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "bvh.wgsl"
@@ -33,7 +33,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var s = 0u; s < params.count; s = s + 1u) {
         let jit = rng_uniform2(key, s, DIM_PIXEL);
         // Through the lens where the camera has an aperture, at the path's own time where the shutter
-        // is open over an interval (pixel_filter.rs `camera_ray`).
+        // is open over an interval (camera_paths.rs `camera_ray`).
         let lens = select(vec2<f32>(0.5), rng_uniform2(key, s, DIM_LENS), c.aperture > 0.0);
         scene_time = select(0.0, 2.0 * rng_uniform2(key, s, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);

@@ -1,6 +1,6 @@
 // pixel_filter.sample — `count` jittered paths per pixel (through the lens where the camera has one) (one per frame in progressive mode),
 // split into L_lv and L_u (seed 002 Sec. 3.3, Fig. 3.1), accumulated with Stats::combine; mirrors
-// backends/src/kernels/pixel_filter.rs (PixelSample::run_cpu, path_sample) with the same RNG calls
+// effects/src/pixel_filter/kernels/sample.rs (PixelSample::run_cpu, path_sample) with the same RNG calls
 // and dimensions, on the shared first_vertex.wgsl (next_event, trace_path_split of indirect_path.wgsl).
 // Chunked (WgslSource::chunked): a resuming dispatch continues the running statistics it left.
 #include "common.wgsl"
@@ -60,7 +60,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (; j < end; j = j + 1u) {
         let jit = rng_uniform2(key, j, DIM_PIXEL);
         // Through the lens where the camera has an aperture, at the path's own time where the shutter
-        // is open over an interval (pixel_filter.rs `camera_ray`).
+        // is open over an interval (camera_paths.rs `camera_ray`).
         let lens = select(vec2<f32>(0.5), rng_uniform2(key, j, DIM_LENS), c.aperture > 0.0);
         scene_time = select(0.0, 2.0 * rng_uniform2(key, j, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);

@@ -1,7 +1,7 @@
 // pixel_filter.separable — one 1-D pass of the iterated separable cross-bilateral filter (seed 002
 // Sec. 3.6.1, eq. 3.14): axis 0 = x, 1 = y; the first pass reads the accumulation, later ones the
 // chain (rgb, r) and (sigma², valid); the last writes filtered/variance (or keeps the previous ones on
-// frames that do not filter). Mirrors backends/src/kernels/pixel_filter.rs (Separable::run_cpu).
+// frames that do not filter). Mirrors effects/src/pixel_filter/kernels/filter.rs (Separable::run_cpu).
 #include "common.wgsl"
 #include "pixel_filter_formulas.wgsl"
 

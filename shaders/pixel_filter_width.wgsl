@@ -1,5 +1,5 @@
 // pixel_filter.width — the adaptive spatial sigma (seed 002 Sec. 3.6.3, eqs. 3.15-3.17); mirrors
-// backends/src/kernels/pixel_filter.rs (width_pixel).
+// effects/src/pixel_filter/kernels/blend.rs (width_pixel).
 #include "common.wgsl"
 #include "pixel_filter_formulas.wgsl"
 

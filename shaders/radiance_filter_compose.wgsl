@@ -1,6 +1,6 @@
 // radiance_filter.compose — this frame's direct + filtered indirect light accumulated over frames, or
 // the plain accumulation once a pixel is in the correction phase (`switch_mode`, seed 002 Sec. 4.4.1);
-// mirrors backends/src/kernels/radiance_filter.rs (compose_pixel).
+// mirrors effects/src/radiance_filter/formulas.rs (compose_pixel).
 #include "common.wgsl"
 #include "radiance_filter_formulas.wgsl"
 
@@ -38,11 +38,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         now = 1.0;
     }
     var phase = now;
-    if (params.switch_mode != 0u) {
+    // correction: 0 = accumulate, 1 = switch (the options' order, `Correction`).
+    if (params.correction != 0u) {
         phase = rmax(previous_phase, now);
     }
     var radiance = acc.xyz;
-    if (params.switch_mode != 0u && phase >= 1.0) {
+    if (params.correction != 0u && phase >= 1.0) {
         radiance = unfiltered;
     }
     accumulated_put(i, acc);

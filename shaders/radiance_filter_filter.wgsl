@@ -1,7 +1,7 @@
 // radiance_filter.filter — eqs. 4.10-4.12 (seed 002): the neighbours' incident radiance samples under
 // this pixel's BRDF and pdf, weighted by the Epanechnikov kernel on the tangent plane (eqs. 4.19-4.22)
 // and the normal heuristic (eq. 4.9); the per-path variance filtered with the same weights (Sec.
-// 4.3.4). Mirrors backends/src/kernels/radiance_filter.rs (Filter::run_cpu).
+// 4.3.4). Mirrors effects/src/radiance_filter/kernels.rs (Filter::run_cpu).
 #include "common.wgsl"
 #include "hemisphere.wgsl"
 #include "lobe_mixture.wgsl"
@@ -59,7 +59,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let cos_i = dot3(wi, n);
             var term = vec3<f32>(0.0);
             if (mix.some && cos_i > 0.0) {
-                let lv = lobe_eval(params.lobe, kd, ks, m, mix, n, wo, wi, cos_i);
+                let lv = lobe_eval(params.brdf, kd, ks, m, mix, n, wo, wi, cos_i);
                 if (lv.pdf > 0.0) {
                     term = incident_at(j).xyz * (lv.f * (cos_i / lv.pdf));
                 }

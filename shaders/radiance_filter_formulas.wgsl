@@ -1,5 +1,5 @@
 // radiance_filter_formulas.wgsl — the formulas of radiance filtering (seed 002, Ch. 4); mirrors
-// backends/src/kernels/radiance_filter.rs (target_variance, warmup_radius, variance_radius,
+// effects/src/radiance_filter/formulas.rs (target_variance, warmup_radius, variance_radius,
 // kernel_radius, normal_weight, normal_exponent, TangentKernel, window, compose_pixel) with the same
 // operation order.
 #include "common.wgsl"

@@ -1,5 +1,5 @@
 // radiance_filter.radius — this frame's image-space kernel radius per pixel (seed 002 eqs. 4.1, 4.2,
-// 4.14, 4.15) scaled by the previous frame's occlusion factor; mirrors backends/src/kernels/radiance_filter.rs (Radius::run_cpu, kernel_radius).
+// 4.14, 4.15) scaled by the previous frame's occlusion factor; mirrors effects/src/radiance_filter/kernels.rs (Radius::run_cpu, kernel_radius).
 #include "common.wgsl"
 #include "radiance_filter_formulas.wgsl"
 
@@ -22,7 +22,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             lb = rf_luminance(a.xyz);
         }
     }
-    let r = rf_kernel_radius(params.t_u, params.warmup, params.warmup_radius, params.max_radius, k, sigma2, lb);
+    let r = rf_kernel_radius(params.t_u, params.warmup, params.warmup_radius, f32(params.max_radius), k, sigma2, lb);
     if (params.occlusion != 0u) {
         radius_put(i, r * alpha);
     } else {

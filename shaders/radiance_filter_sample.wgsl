@@ -1,6 +1,6 @@
 // radiance_filter.sample — `count` jittered paths per pixel (one per frame; through the camera's lens), their Stats of
 // direct light and own indirect estimate, and path 0's radiance sample at the first vertex (seed 002
-// Sec. 4.3.1, steps 1-2); mirrors backends/src/kernels/radiance_filter.rs (RadianceSample::run_cpu)
+// Sec. 4.3.1, steps 1-2); mirrors effects/src/radiance_filter/kernels.rs (RadianceSample::run_cpu)
 // with the same RNG calls and dimensions, on the shared first_vertex.wgsl.
 // Chunked (WgslSource::chunked): a resuming dispatch continues the running statistics it left; the
 // radiance sample is path 0's, written by the first chunk.
@@ -42,7 +42,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (; j < end; j = j + 1u) {
         let jit = rng_uniform2(key, j, DIM_PIXEL);
         // Through the lens where the camera has an aperture, at the path's own time where the shutter
-        // is open over an interval (pixel_filter.rs `camera_ray`).
+        // is open over an interval (camera_paths.rs `camera_ray`).
         let lens = select(vec2<f32>(0.5), rng_uniform2(key, j, DIM_LENS), c.aperture > 0.0);
         scene_time = select(0.0, 2.0 * rng_uniform2(key, j, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
         let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);

@@ -2,7 +2,7 @@
 //! accumulation over frames, determinism, convergence to plain accumulation, consistency against the
 //! pipeline's own reference, the path splits, the CLI's `--progressive`, and GPU parity at a filter
 //! frame with history. The blend algebra, the schedule, eq. 3.14–3.18 and the variance estimator's
-//! unbiasedness are unit tests in `backends/src/kernels/pixel_filter.rs`.
+//! unbiasedness are unit tests in `effects/src/pixel_filter/formulas.rs`.
 
 mod common;
 
@@ -12,8 +12,8 @@ use std::process::Command;
 use common::progressive::{gpu_parity_with_history, progressive, rel_mse, rmse, vec3s};
 use common::{gpu_or_skip, sized};
 use wedge::backends::cpu::CpuBackend;
-use wedge::backends::kernels::pixel_filter::Stats;
 use wedge::backends::{BufferData, RunResult, Silent};
+use wedge::effects::pixel_filter::formulas::Stats;
 use wedge::graph::ParamValue;
 use wedge::Session;
 

@@ -4,7 +4,7 @@
 //! the correction phase is plain path tracing, frames do not depend on the thread count, and the GPU
 //! agrees pass by pass with history. The target-variance identity, the radius rule, the tangent-plane
 //! Epanechnikov kernel and the compose algebra are unit tests in
-//! `backends/src/kernels/radiance_filter.rs`.
+//! `effects/src/radiance_filter/formulas.rs`.
 
 mod common;
 

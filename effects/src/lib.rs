@@ -22,6 +22,7 @@
 //!   thesis, seed 002 Ch. 3): accumulation over frames, cross-bilateral filter, perceptual blend.
 //! - [`radiance_filter`]: `RadianceFilter`, progressive path tracing with radiance filtering (seed 002
 //!   Ch. 4): neighbours' incident radiance under each pixel's BRDF, kernels shrinking as `k^-1/2`.
+//! - [`camera_paths`]: the path tracer both progressive nodes sample with (camera ray, first vertex).
 //! - [`light_field`]: `LightField`, visibility-aware reconstruction of the indirect light field
 //!   (Lehtinen et al. 2012, seed 001): secondary rays as splats, many reconstruction rays per pixel.
 //! - [`add`]: `Add`, the sum of two radiance images (direct + indirect composed by the graph).
@@ -49,6 +50,7 @@ use wedge_backends::KernelRegistry;
 use wedge_graph::NodeRegistry;
 
 pub mod add;
+pub mod camera_paths;
 pub mod defocus;
 pub mod environment;
 pub mod factored;
@@ -91,7 +93,9 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     environment::register_kernels(kernels);
     nodes.register(Arc::new(mixed_reality::MixedReality));
     nodes.register(Arc::new(pixel_filter::PixelFilter));
+    pixel_filter::register_kernels(kernels);
     nodes.register(Arc::new(radiance_filter::RadianceFilter));
+    radiance_filter::register_kernels(kernels);
     nodes.register(Arc::new(light_field::LightField));
 }
 

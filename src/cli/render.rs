@@ -351,7 +351,7 @@ pub(super) fn render_progressive(
         }
     });
     let filters = |frame: u32| {
-        schedule.is_some_and(|(first, ff)| crate::backends::kernels::pixel_filter::is_filter_frame(frame, first, ff))
+        schedule.is_some_and(|(first, ff)| crate::effects::pixel_filter::formulas::is_filter_frame(frame, first, ff))
     };
     let bar = indicatif::ProgressBar::new(u64::from(frames));
     bar.set_style(

@@ -39,7 +39,7 @@ pub const SHARED: &[(&str, &str)] = &[
     ("light_sample.wgsl", include_str!("../../../shaders/light_sample.wgsl")),
     ("indirect_path.wgsl", include_str!("../../../shaders/indirect_path.wgsl")),
     // A camera path's first vertex and radiance sample, shared by pixel_filter.sample and
-    // radiance_filter.sample (kernels/pixel_filter.rs first_vertex).
+    // radiance_filter.sample (wedge-effects' camera_paths.rs first_vertex).
     ("first_vertex.wgsl", include_str!("../../../shaders/first_vertex.wgsl")),
     // Environment look-ups and next-event estimation of the environment (kernels/environment.rs).
     ("environment_light.wgsl", include_str!("../../../shaders/environment_light.wgsl")),

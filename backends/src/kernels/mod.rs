@@ -21,9 +21,7 @@ pub mod neighbourhood;
 pub mod neighbourhood3;
 pub mod neighbourhood_others;
 pub mod paths;
-pub mod pixel_filter;
 pub mod primary;
-pub mod radiance_filter;
 pub mod screen_trace;
 
 pub fn register(reg: &mut KernelRegistry) {
@@ -51,22 +49,10 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(constant::FillConstantVec4));
     reg.register(Arc::new(paths::PathsTrace));
     reg.register(Arc::new(paths::PathsResolve));
-    // Pixel filtering for progressive rendering (issue 18, seed 002 Ch. 3).
-    reg.register(Arc::new(pixel_filter::PixelSample));
-    reg.register(Arc::new(pixel_filter::Accumulate));
-    reg.register(Arc::new(pixel_filter::RangeBuffer));
-    reg.register(Arc::new(pixel_filter::AdaptiveWidth));
-    reg.register(Arc::new(pixel_filter::Bilateral));
-    reg.register(Arc::new(pixel_filter::Separable));
-    reg.register(Arc::new(pixel_filter::Blend));
     // Light-field reconstruction (issue 17, seed 001).
     reg.register(Arc::new(light_field::LightFieldSample));
     reg.register(Arc::new(light_field::LightFieldSplats));
     reg.register(Arc::new(light_field::LightFieldReconstruct));
-    reg.register(Arc::new(radiance_filter::RadianceSample));
-    reg.register(Arc::new(radiance_filter::Radius));
-    reg.register(Arc::new(radiance_filter::Filter));
-    reg.register(Arc::new(radiance_filter::Compose));
 }
 
 // Small helpers every kernel family uses, defined once here.

@@ -1,27 +1,11 @@
-//! `RadianceFilter`: radiance filtering for progressive rendering (issue 18; Schwenk's thesis,
-//! `seeds/002_34c8a733cb47f3c2.txt` Ch. 4 "Filtering Incident Radiance", Sec. 4.3). One path per
-//! pixel per frame (`wedge render --progressive N`); each pixel's indirect light is estimated from
-//! its neighbours' incident-radiance samples under its own BRDF (eq. 4.10), so texture and geometry
-//! stay sharp; the kernel shrinks so the accumulated image keeps the target variance `T_u` while the
-//! radius falls as `k^-1/2` (eqs. 4.13–4.15) until each pixel is plain path tracing (the correction
-//! phase, Sec. 4.4).
-//!
-//! Passes (kernels in `wedge_backends::kernels::radiance_filter`, formulas unit-tested there):
-//! 1. `sample` (random, reference role `Sample`): paths and the radiance samples (position, normal,
-//!    albedo, direction, incident radiance `L̆` at the first vertex);
-//! 2. `accumulate` (`pixel_filter.accumulate`, shared with `PixelFilter`): the running statistics of
-//!    direct light and of the pixel's own indirect estimate (Welford/Chan `M2`);
-//! 3. `radius` (Bandwidth): this frame's image-space radius per pixel (warm-up, then target variance),
-//!    scaled by the screen-space ambient-occlusion factor of the previous frame's filter (`occlusion`);
-//! 4. `filter` (role `Bypass`: a reference is plain path tracing): eqs. 4.10–4.12 with the
-//!    Epanechnikov kernel on the tangent plane (eqs. 4.19–4.22) and the normal heuristic (eq. 4.9);
-//! 5. `compose`: the running mean of direct + filtered indirect light (or the plain accumulation
-//!    once a pixel is in the correction phase, `correction: "switch"`).
-//!
-//! Outputs: `radiance`, `unfiltered` (the plain progressive accumulation), `radius` (pixels, the
-//! thesis's Fig. 4.2 bottom row) and `phase` (1 = the pixel's own sample only: correction phase).
+//! The `RadianceFilter` node: its ports, parameters and the passes of [`super`]'s module doc.
 
+use wedge_backends::KernelParams;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Reference, Stage};
+
+use super::formulas::RadiusRule;
+use super::kernels::{ComposeParams, FilterParams, SAMPLE_BUFFERS};
+use crate::camera_paths::TracerParams;
 
 pub struct RadianceFilter;
 
@@ -64,42 +48,25 @@ impl NodeKind for RadianceFilter {
         matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }
     fn params(&self) -> Vec<ParamDecl> {
-        vec![
-            ParamDecl::positive("t_u", DEFAULT_T_U, 1e6, "threshold T_u on the accumulated image's perceived variance (eq. 4.13)"),
-            ParamDecl::int("warmup", DEFAULT_WARMUP, 1, 1 << 20, "frames that use the warm-up radius r_w1 k^-1/2 (eq. 4.15) before the variance estimate"),
-            ParamDecl::float("warmup_radius", DEFAULT_WARMUP_RADIUS, 0.0, 1024.0, "warm-up radius r_w1 of the first frame (pixels)"),
-            ParamDecl::int("max_radius", DEFAULT_MAX_RADIUS, 0, 1024, "largest image-space kernel radius (pixels)"),
-            ParamDecl::boolean("occlusion", true, "scale the radius by a screen-space ambient-occlusion factor (Sec. 4.3.1, step 3) against light leaks"),
-            ParamDecl::positive("thickness", 0.2, 1e3, "half-height of the kernel's prism along the normal, in units of its tangent radius (eq. 4.18)"),
-            ParamDecl::choice(
-                "correction",
-                "accumulate",
-                &["accumulate", "switch"],
-                "correction phase: keep accumulating (thesis, bias falls as O(1/N)) or switch to the plain accumulation (Sec. 4.4.1)",
-            ),
-            ParamDecl::int("bounces", 3, 1, 64, "path vertices after the first, each with next-event estimation"),
-            crate::params::brdf("glossy lobe of k_s, m"),
+        [
+            RadiusRule::decls(),
+            FilterParams::decls(),
+            ComposeParams::decls(),
+            TracerParams::decls(),
+            vec![crate::params::brdf("glossy lobe of k_s, m")],
         ]
+        .concat()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         // 1–2. This frame's paths and radiance samples; the running statistics.
         let sample_lv = ctx.buffer("sample_lv", Format::Vec4);
         let own = ctx.buffer("own", Format::Vec4);
-        let [point, normal, albedo, direction, incident] =
-            ["point", "normal", "albedo", "direction", "incident"].map(|n| ctx.buffer(n, Format::Vec4));
-        ctx.pass("sample", "radiance_filter.sample", Stage::Sample)
-            .write("lv", sample_lv)
-            .write("hv", own)
-            .write("point", point)
-            .write("normal", normal)
-            .write("albedo", albedo)
-            .write("direction", direction)
-            .write("incident", incident)
-            .int("count", 1)
-            .node_params(&["bounces", "brdf"])
-            .random()
-            .reference(Reference::Sample)
-            .finish();
+        let sample = SAMPLE_BUFFERS.map(|n| (n, ctx.buffer(n, Format::Vec4)));
+        let mut b = ctx.pass("sample", "radiance_filter.sample", Stage::Sample).write("lv", sample_lv).write("hv", own);
+        for (n, id) in sample {
+            b = b.write(n, id);
+        }
+        b.int("count", 1).node_params(TracerParams::names()).random().reference(Reference::Sample).finish();
         let (lv, hv) = (ctx.buffer("lv", Format::Vec4), ctx.buffer("hv", Format::Vec4));
         let (previous_lv, previous_hv) = (ctx.previous_frame(lv), ctx.previous_frame(hv));
         ctx.pass("accumulate", "pixel_filter.accumulate", Stage::Sample)
@@ -119,24 +86,21 @@ impl NodeKind for RadianceFilter {
             .read("previous_variance", previous_variance)
             .read("previous_accumulated", previous_accumulated)
             .write("radius", radius)
-            .node_params(&["t_u", "warmup", "warmup_radius", "max_radius", "occlusion"])
+            .node_params(RadiusRule::names())
             .finish();
 
         // 4. The filter.
         let filtered = ctx.buffer("filtered", Format::Vec4);
-        ctx.pass("filter", "radiance_filter.filter", Stage::Filter)
-            .read("radius", radius)
-            .read("point", point)
-            .read("normal", normal)
-            .read("albedo", albedo)
-            .read("direction", direction)
-            .read("incident", incident)
-            .read("own", own)
+        let mut b = ctx.pass("filter", "radiance_filter.filter", Stage::Filter).read("radius", radius);
+        for (n, id) in sample {
+            b = b.read(n, id);
+        }
+        b.read("own", own)
             .read("lv", lv)
             .read("hv", hv)
             .write("filtered", filtered)
             .write("variance", variance)
-            .node_params(&["thickness", "max_radius", "brdf"])
+            .node_params(FilterParams::names())
             .reference(Reference::Bypass { input: "own" })
             .finish();
 
@@ -157,7 +121,7 @@ impl NodeKind for RadianceFilter {
             .write("radiance", radiance)
             .write("unfiltered", unfiltered)
             .write("phase", phase)
-            .node_params(&["correction"])
+            .node_params(ComposeParams::names())
             .finish();
         ctx.output("radiance", radiance);
         ctx.output("unfiltered", unfiltered);

@@ -1,34 +1,13 @@
-//! `PixelFilter`: pixel filtering for progressive rendering (issue 18; Schwenk's thesis,
-//! `seeds/002_34c8a733cb47f3c2.txt` Ch. 3 "Filtering Pixel Radiance", Sec. 3.3 and the optimizations of
-//! Sec. 3.6). One path per pixel per frame (`wedge render --progressive N`), accumulated over frames
-//! through the graph's frame history; the high-variance paths are filtered by a cross-bilateral filter
-//! on a schedule of frames and blended back per pixel under a threshold on perceived noise, so the
-//! image converges to plain progressive accumulation (`s → 1`).
-//!
-//! Passes (kernels in `wedge_backends::kernels::pixel_filter`, formulas unit-tested there):
-//! 1. `sample` (`pixel_filter.sample`, random, reference role `Sample`): `paths` jittered paths
-//!    per pixel (through the camera's lens and over its shutter where they open) on the shared
-//!    estimators (next-event estimation at every vertex, the indirect path of `indirect.rs`), split
-//!    into `L_lv` and `L_u` by `split` (`indirect`: direct vs indirect light, the thesis's usual split;
-//!    `caustics`: light reaching the first diffuse vertex through glossy scattering only; `all`:
-//!    everything filtered, Fig. 3.7);
-//! 2. `accumulate`: the running mean of both and `M2` of `Y(L_u)` (Welford/Chan), continuing the
-//!    previous frame's (`ExpandCtx::previous_frame`);
-//! 3. `range` (random): the range buffer of Sec. 3.3.3 — albedo lit by ambient light and a head light,
-//!    nearest depth — `range_samples` (4) jittered rays more per filter pass;
-//! 4. `width` (with `adaptive`): the per-pixel σ_s of eqs. 3.15–3.17;
-//! 5. `filter` (`bilateral`: the brute-force filter of eq. 3.6 with Σa², eq. 3.5) or
-//!    `filter_<k>_x/y` (`separable`: the iterated approximation of eq. 3.14, `iterations` × 2
-//!    passes), on frames 1 (a single image), 4, 8, 16, … (`first_filter`, `filter_first_frame`);
-//!    between them the last filtered buffer is kept through the history. Role `Bypass`: a reference
-//!    is the plain accumulation of its `paths` = N samples;
-//! 6. `blend`: eqs. 3.1 and 3.10–3.13 with the spike clamp of eq. 3.18 (`spike_clamp`).
-//!
-//! Outputs: `radiance` (the blended image), `unfiltered` (the plain accumulation `L_lv + L_u`),
-//! `blend` (the blend factor `s` per pixel, the thesis's Fig. 3.3 bottom row) and `sigma` (the spatial
-//! σ per pixel: `sigma_s`, or the adaptive width).
+//! The `PixelFilter` node: its ports, parameters and the passes of [`super`]'s module doc.
 
+use wedge_backends::KernelParams;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+
+use super::kernels::blend::{SpikeParams, WidthParams};
+use super::kernels::filter::{FilterParams, PassParams};
+use super::kernels::sample::SampleParams;
+use super::kernels::{ScheduleParams, ThresholdParams};
+use crate::camera_paths::TracerParams;
 
 pub struct PixelFilter;
 
@@ -67,42 +46,32 @@ impl NodeKind for PixelFilter {
         matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
     }
     fn params(&self) -> Vec<ParamDecl> {
-        vec![
-            ParamDecl::choice(
-                "split",
-                "indirect",
-                &["indirect", "caustics", "all"],
-                "which paths are high-variance and filtered: indirect light, caustic paths (L S+ D E), or all",
-            ),
-            ParamDecl::float("t", DEFAULT_T, 0.0, 1e6, "threshold on perceived variance (eq. 3.11); 0 = never blend in the filtered buffer where noise remains"),
-            ParamDecl::positive("sigma_s", DEFAULT_SIGMA_S, 256.0, "spatial standard deviation of the filter (pixels)"),
-            ParamDecl::positive("sigma_c", DEFAULT_SIGMA_C, 1e6, "range standard deviation of colours (linear RGB)"),
-            ParamDecl::positive("sigma_d", DEFAULT_SIGMA_D, 1e9, "range standard deviation of depths (scene units, metres)"),
-            ParamDecl::positive("truncate", 3.0, 16.0, "the spatial kernel is cut at truncate × sigma"),
-            ParamDecl::int("first_filter", 4, 1, 1 << 20, "the filter runs when a pixel has first_filter × 2^i paths (4, 8, 16, …)"),
-            ParamDecl::boolean("filter_first_frame", true, "also filter the first frame (a single image, and the preview before frame 4)"),
-            ParamDecl::choice("filter", "bilateral", &["bilateral", "separable"], "brute-force cross-bilateral (eq. 3.6) or the iterated separable approximation (eq. 3.14)"),
-            ParamDecl::int("iterations", 3, 1, 8, "iterations of the separable filter (eq. 3.14)"),
-            ParamDecl::boolean("adaptive", false, "adapt the spatial width per pixel (eqs. 3.15-3.17)"),
-            ParamDecl::float("adaptive_c", 4.0, 1.0, 1e3, "the adaptive width stays within [guide/c, c guide] (eq. 3.16)"),
-            ParamDecl::boolean("spike_clamp", false, "clamp L_u to [L_f/c, c L_f] while blending (eq. 3.18)"),
-            ParamDecl::float("spike_c", 2.0, 1.0, 1e6, "the spike clamp's factor c"),
-            ParamDecl::int("range_samples", 4, 1, 64, "anti-aliasing samples of the range buffer per filter pass"),
-            ParamDecl::int("paths", 1, 1, 1 << 20, "paths per pixel per frame"),
-            ParamDecl::int("bounces", 3, 1, 64, "path vertices after the first, each with next-event estimation"),
-            crate::params::brdf("glossy lobe of k_s, m"),
+        [
+            SampleParams::decls(),
+            ThresholdParams::decls(),
+            FilterParams::decls(),
+            ScheduleParams::decls(),
+            vec![ParamDecl::choice(
+                "filter",
+                "bilateral",
+                &["bilateral", "separable"],
+                "brute-force cross-bilateral (eq. 3.6) or the iterated separable approximation (eq. 3.14)",
+            )],
+            PassParams::decls(),
+            vec![ParamDecl::boolean("adaptive", false, "adapt the spatial width per pixel (eqs. 3.15-3.17)")],
+            WidthParams::decls(),
+            SpikeParams::decls(),
+            vec![
+                ParamDecl::int("range_samples", 4, 1, 64, "anti-aliasing samples of the range buffer per filter pass"),
+                ParamDecl::int("paths", 1, 1, 1 << 20, "paths per pixel per frame"),
+            ],
+            TracerParams::decls(),
+            vec![crate::params::brdf("glossy lobe of k_s, m")],
         ]
+        .concat()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let p = |ctx: &ExpandCtx<'_>, n: &str| ctx.param(n).clone();
-        let schedule = [("first_filter", p(ctx, "first_filter")), ("filter_first_frame", p(ctx, "filter_first_frame"))];
-        let filter_params = [
-            ("sigma_s", p(ctx, "sigma_s")),
-            ("sigma_c", p(ctx, "sigma_c")),
-            ("sigma_d", p(ctx, "sigma_d")),
-            ("truncate", p(ctx, "truncate")),
-        ];
-
         let (paths, range_samples, sigma_s) = (p(ctx, "paths"), p(ctx, "range_samples"), p(ctx, "sigma_s"));
 
         // 1–2. This frame's paths and the running statistics.
@@ -111,7 +80,8 @@ impl NodeKind for PixelFilter {
             .write("lv", sample_lv)
             .write("hv", sample_hv)
             .param("count", paths)
-            .node_params(&["split", "bounces", "brdf"])
+            .node_params(SampleParams::names())
+            .node_params(TracerParams::names())
             .random()
             .reference(Reference::Sample)
             .finish();
@@ -129,15 +99,14 @@ impl NodeKind for PixelFilter {
         // 3. The range buffer.
         let range = ctx.buffer("range", Format::Vec4);
         let previous_range = ctx.previous_frame(range);
-        let mut b = ctx
-            .pass("range", "pixel_filter.range", Stage::Sample)
+        ctx.pass("range", "pixel_filter.range", Stage::Sample)
             .read("previous", previous_range)
             .write("range", range)
-            .param("count", range_samples);
-        for (n, v) in &schedule {
-            b = b.param(n, v.clone());
-        }
-        b.random().reference(Reference::Sample).finish();
+            .param("count", range_samples)
+            .node_params(ScheduleParams::names())
+            .random()
+            .reference(Reference::Sample)
+            .finish();
 
         // 4. The spatial width.
         let (filtered, variance) = (ctx.buffer("filtered", Format::Vec4), ctx.buffer("variance", Format::Vec4));
@@ -150,7 +119,8 @@ impl NodeKind for PixelFilter {
                 .read("previous_filtered", previous_filtered)
                 .read("previous_variance", previous_variance)
                 .write("sigma", sigma)
-                .node_params(&["t", "sigma_s", "adaptive_c"])
+                .node_params(ThresholdParams::names())
+                .node_params(WidthParams::names())
                 .finish();
         } else {
             ctx.pass("width", "fill.constant_f32", Stage::Bandwidth)
@@ -163,8 +133,7 @@ impl NodeKind for PixelFilter {
         // 5. The filter: written on filter frames, kept (through the history) on the others.
         let separable = matches!(ctx.param("filter"), ParamValue::Str(f) if f == "separable");
         if !separable {
-            let mut b = ctx
-                .pass("filter", "pixel_filter.bilateral", Stage::Filter)
+            ctx.pass("filter", "pixel_filter.bilateral", Stage::Filter)
                 .read("range", range)
                 .read("lv", lv)
                 .read("hv", hv)
@@ -172,11 +141,11 @@ impl NodeKind for PixelFilter {
                 .read("previous_variance", previous_variance)
                 .read_opt("sigma", sigma_in)
                 .write("filtered", filtered)
-                .write("variance", variance);
-            for (n, v) in schedule.iter().chain(filter_params.iter()) {
-                b = b.param(n, v.clone());
-            }
-            b.reference(Reference::Bypass { input: "hv" }).finish();
+                .write("variance", variance)
+                .node_params(ScheduleParams::names())
+                .node_params(FilterParams::names())
+                .reference(Reference::Bypass { input: "hv" })
+                .finish();
         } else {
             let iterations = match ctx.param("iterations") {
                 ParamValue::Int(n) => *n,
@@ -192,8 +161,7 @@ impl NodeKind for PixelFilter {
                     } else {
                         (ctx.buffer(&local, Format::Vec4), ctx.buffer(&format!("{local}_variance"), Format::Vec4))
                     };
-                    let mut b = ctx
-                        .pass(&local, "pixel_filter.separable", Stage::Filter)
+                    ctx.pass(&local, "pixel_filter.separable", Stage::Filter)
                         .read("range", range)
                         .read("value_in", value)
                         .read_opt("variance_in", var)
@@ -207,11 +175,11 @@ impl NodeKind for PixelFilter {
                         .int("iteration", k)
                         .int("iterations", iterations)
                         .param("first", ParamValue::Bool(first))
-                        .param("last", ParamValue::Bool(last));
-                    for (n, v) in schedule.iter().chain(filter_params.iter()) {
-                        b = b.param(n, v.clone());
-                    }
-                    b.reference(Reference::Bypass { input: "value_in" }).finish();
+                        .param("last", ParamValue::Bool(last))
+                        .node_params(ScheduleParams::names())
+                        .node_params(FilterParams::names())
+                        .reference(Reference::Bypass { input: "value_in" })
+                        .finish();
                     (value, var) = (out, Some(out_var));
                 }
             }
@@ -229,7 +197,8 @@ impl NodeKind for PixelFilter {
             .write("radiance", radiance)
             .write("unfiltered", unfiltered)
             .write("blend", blend)
-            .node_params(&["t", "spike_clamp", "spike_c"])
+            .node_params(ThresholdParams::names())
+            .node_params(SpikeParams::names())
             .finish();
         ctx.output("radiance", radiance);
         ctx.output("unfiltered", unfiltered);

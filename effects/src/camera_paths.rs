@@ -1,0 +1,216 @@
+//! The camera paths of the progressive nodes (`PixelFilter`, `RadianceFilter`; seed 002 Sec. 3.3 and
+//! 4.3.1): one path tracer both sample with, so the two estimate the same radiance the same way.
+//! [`camera_ray`] jitters a path over the pixel, the lens and the shutter; [`first_vertex`] shades it
+//! with the shared estimators of `wedge_backends::kernels::indirect` (next-event estimation at every
+//! vertex, the lobe-mixture continuation) and keeps the first vertex's radiance sample;
+//! [`CameraPaths`] runs `count` of them per pixel. WGSL mirror: `shaders/first_vertex.wgsl` (the ray
+//! in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`).
+
+use glam::{Vec2, Vec3};
+use wedge_backends::kernels::hemisphere::Lobe;
+use wedge_backends::kernels::indirect::{
+    continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
+};
+use wedge_backends::rng::{dim, PixelRng};
+use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Uniforms};
+use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
+
+/// The camera ray of path `j` through pixel (`px`, `py`) and its time: jittered over the pixel, over
+/// the lens where the camera has an aperture and over the shutter where it is open over an interval
+/// (`t` in [−1, 1], the scene's motion parameter; each a dimension of its own), so the accumulation
+/// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed 002
+/// assumes a pinhole at one instant, and for such a camera the rays are as before, bit for bit). The
+/// WGSL draws the same numbers in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`.
+pub fn camera_ray(
+    cam: &Camera,
+    rng: &PixelRng,
+    j: u32,
+    (px, py): (u32, u32),
+    (width, height): (u32, u32),
+) -> (LensRay, f32) {
+    let jit = rng.uniform2(j, dim::PIXEL);
+    let lens = if cam.aperture_radius > 0.0 { Vec2::from(rng.uniform2(j, dim::LENS)) } else { Vec2::splat(0.5) };
+    let t = if shutter_is_open(cam) { 2.0 * rng.uniform2(j, dim::TIME)[0] - 1.0 } else { 0.0 };
+    (cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), lens, width, height, LensShape::Disk), t)
+}
+
+/// The camera's shutter is open over an interval: each path takes its own time.
+pub fn shutter_is_open(cam: &Camera) -> bool {
+    cam.shutter_open < cam.shutter_close
+}
+
+/// The camera's WGSL uniforms (`camera.wgsl`) and `cam_shutter`, as the progressive kernels read them.
+pub fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
+    wedge_backends::kernels::paths::camera_uniforms(u, cam, LensShape::Disk)
+        .u32("cam_shutter", shutter_is_open(cam) as u32)
+}
+
+wedge_backends::kernel_params! {
+    /// A sampling pass's paths per pixel (`count`, set by the node) and random stream (`stream`, set
+    /// by the graph for a `.random()` pass): `pixel_filter.sample`, `pixel_filter.range`,
+    /// `radiance_filter.sample`.
+    pub struct PathCount {
+        count: u32,
+        stream: u32,
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// The path tracer's settings, declared alike on both progressive nodes and forwarded to their
+    /// sampling passes. [`PathParams::from_params`] reads them, the one reading every kernel that
+    /// traces indirect paths shares; this block declares them.
+    pub struct TracerParams {
+        bounces: u32 = int(3, 1, 64, "path vertices after the first, each with next-event estimation"),
+        brdf: Lobe,
+    }
+}
+
+/// The camera paths of a progressive sampling pass (`pixel_filter.sample`,
+/// `radiance_filter.sample`): `count` jittered paths per pixel ([`camera_ray`]), each shaded by
+/// [`first_vertex`] on the stream `stream`.
+pub struct CameraPaths {
+    pub count: u32,
+    pub path: PathParams,
+    pub stream: u32,
+    pub camera: Camera,
+}
+
+impl CameraPaths {
+    /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera.
+    pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
+        let PathCount { count, stream } = PathCount::read(ctx)?;
+        Ok(CameraPaths { count, path: PathParams::from_params(ctx, false, 0.0)?, stream, camera: ctx.scene.camera })
+    }
+    /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
+    pub fn specs() -> Vec<ParamSpec> {
+        [PathCount::specs(), TracerParams::specs()].concat()
+    }
+    /// The WGSL's `Params` fields for them: the camera, `count`, `stream` and `indirect_path.wgsl`'s.
+    pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
+        let u = camera_uniforms(u, &self.camera).u32("count", self.count).u32("stream", self.stream);
+        self.path.uniforms(u, ctx)
+    }
+    /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
+    /// was finite (the others are counted as non-finite samples); rays are counted too.
+    pub fn run<T: Default + Send>(
+        &self,
+        ctx: &KernelCtx<'_>,
+        fold: impl Fn(&mut T, u32, &FirstVertex) -> bool + Sync,
+    ) -> Vec<T> {
+        // The full image's pixel and size (a tile's window is part of it).
+        let (seed, window) = (ctx.seed, ctx.window);
+        let out = ctx.map_pixels(true, |px, py| {
+            let rng = PixelRng::new(seed, window.pixel_id(px, py), self.stream);
+            let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
+            for j in 0..self.count {
+                let (ray, t) = camera_ray(&self.camera, &rng, j, window.global_xy(px, py), window.full_size());
+                let v = first_vertex(&ctx.scene.at(t), &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
+                if !fold(&mut state, j, &v) {
+                    bad += 1;
+                }
+            }
+            (state, rays, bad)
+        });
+        Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64 * u64::from(self.count));
+        Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.1.shadow).sum());
+        Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.1.secondary).sum());
+        Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.2).sum());
+        out.into_iter().map(|o| o.0).collect()
+    }
+}
+
+/// The surface a camera path's first vertex lies on.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstSurface {
+    pub position: Vec3,
+    pub normal: Vec3,
+    /// Ray distance from the camera.
+    pub distance: f32,
+    pub albedo: Vec3,
+    pub material: u32,
+}
+
+/// One camera path's first vertex: what the path tracer estimates there, and the radiance sample
+/// radiance filtering stores (seed 002 Sec. 4.3.1, steps 1–2).
+#[derive(Clone, Copy, Debug)]
+pub struct FirstVertex {
+    /// Emission + next-event estimation at the first vertex; the background on a miss.
+    pub direct: Vec3,
+    /// The indirect estimate `f L̆ cos/pdf` and its caustic part `f_d L̆_c cos/pdf`.
+    pub indirect: Vec3,
+    pub caustic: Vec3,
+    pub surface: Option<FirstSurface>,
+    /// The continuation direction drawn from the lobe mixture (`None`: black surface or a miss) and
+    /// the incident radiance `L̆` along it (0 where it fell below the surface or had pdf 0).
+    pub wi: Option<Vec3>,
+    pub incident: Vec3,
+    /// How far the continuation ray went before it hit a surface (`None`: it left the scene, or was
+    /// not traced).
+    pub bounce_distance: Option<f32>,
+}
+
+/// One path through the camera ray `(origin, dir)` up to its first vertex and beyond. Next-event
+/// estimation at the first vertex gives the direct light; the indirect light continues with one
+/// sample of the vertex's lobe mixture (as [`trace_path_split`] continues at later vertices, on the
+/// first vertex's dimensions, which the later vertices do not use).
+#[allow(clippy::too_many_arguments)]
+pub fn first_vertex(
+    at: &SceneAt<'_>,
+    p: &PathParams,
+    origin: Vec3,
+    dir: Vec3,
+    rng: &PixelRng,
+    j: u32,
+    rays: &mut PathRays,
+) -> FirstVertex {
+    let scene = at.scene();
+    let Some(hit) = at.intersect(origin, dir, 0.0, f32::INFINITY) else {
+        // The environment seen directly (black without a map).
+        let bg = scene.background(dir);
+        return FirstVertex {
+            direct: bg,
+            indirect: Vec3::ZERO,
+            caustic: Vec3::ZERO,
+            surface: None,
+            wi: None,
+            incident: Vec3::ZERO,
+            bounce_distance: None,
+        };
+    };
+    let sp = at.surface(&hit, origin, dir);
+    let (x, n, wo) = (sp.position, sp.shading_normal, -dir);
+    let mat = &scene.materials[sp.material as usize];
+    let kd = scene.albedo(&sp);
+    let (ks, m) = (mat.specular, mat.phong_exponent);
+    let emitted = scene.emission(&sp);
+    let direct = next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays);
+    let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
+    let mut v = FirstVertex {
+        direct: emitted + direct,
+        indirect: Vec3::ZERO,
+        caustic: Vec3::ZERO,
+        surface,
+        wi: None,
+        incident: Vec3::ZERO,
+        bounce_distance: None,
+    };
+    // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
+    if let Some(mix) = lobe_mixture(kd, ks, m) {
+        let (u, select) = continuation_numbers(rng, j, 0);
+        let wi = mix.sample(p.lobe, m, n, wo, u, select);
+        v.wi = Some(wi);
+        let cos_i = wi.dot(n);
+        if cos_i > 0.0 {
+            let LobeValue { f, fd, pdf, .. } = mix.eval(p.lobe, kd, ks, m, n, wo, wi, cos_i);
+            if pdf > 0.0 {
+                let (li, lc, first) = trace_path_split(at, p, x, n, wi, rng, j, rays);
+                v.incident = li;
+                v.bounce_distance = first;
+                v.indirect = li * (f * (cos_i / pdf));
+                // Caustic paths leave the first vertex by its diffuse part.
+                v.caustic = lc * (fd * (cos_i / pdf));
+            }
+        }
+    }
+    v
+}
