@@ -56,9 +56,8 @@ wedge_backends::kernel_params! {
 }
 
 wedge_backends::kernel_params! {
-    /// The path tracer's settings, declared alike on both progressive nodes and forwarded to their
-    /// sampling passes. [`PathParams::from_params`] reads them, the one reading every kernel that
-    /// traces indirect paths shares; this block declares them.
+    /// The path tracer's settings, declared alike on both progressive nodes, forwarded to their
+    /// sampling passes and read there ([`CameraPaths::read`]).
     pub struct TracerParams {
         bounces: u32 = int(3, 1, 64, "path vertices after the first, each with next-event estimation"),
         brdf: Lobe,
@@ -79,7 +78,9 @@ impl CameraPaths {
     /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera.
     pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
         let PathCount { count, stream } = PathCount::read(ctx)?;
-        Ok(CameraPaths { count, path: PathParams::from_params(ctx, false, 0.0)?, stream, camera: ctx.scene.camera })
+        let TracerParams { bounces, brdf } = TracerParams::read(ctx)?;
+        let path = PathParams::new(ctx, brdf, bounces, false, 0.0);
+        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera })
     }
     /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
     pub fn specs() -> Vec<ParamSpec> {
