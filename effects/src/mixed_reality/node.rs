@@ -25,7 +25,7 @@
 //! `Environment` node's does (Sec. 6.7).
 //!
 //! Readings and measurements: `docs/DESIGN-NOTES.md` "Mixed reality"; the sampler's rules:
-//! `wedge_backends::kernels::mixed_reality`, the screen-space tracer's:
+//! [`super::kernels`], the screen-space tracer's:
 //! `wedge_backends::kernels::screen_trace`.
 
 use std::collections::BTreeMap;

@@ -6,7 +6,7 @@
 //! pixel's BRDF with many reconstruction rays through that point-sampled scene (eq. 3). Direct
 //! light is not included (Sec. 2): pair it with a direct-light node and an `Add`, as `Indirect`.
 //!
-//! Passes (kernels in `wedge_backends::kernels::light_field`):
+//! Passes (kernels in [`super::kernels`]):
 //! 1. `sample` (random, reference role `Sample`): `spp` camera paths per pixel of one secondary ray
 //!    each, kept as per-sample records (a buffer of `spp` layers) with their primary hits, and their
 //!    plain Monte Carlo estimate;
@@ -31,7 +31,7 @@
 //! reconstruction ray is occluded where its nearest apparent surface lies within `max_distance`;
 //! the image is the occluded fraction, as `Indirect`'s AO mode (bright = occluded).
 
-use wedge_backends::kernels::light_field::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
+use super::records::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
 use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
