@@ -47,9 +47,9 @@
 
 use glam::{Vec2, Vec3};
 use wedge_backends::kernels::hemisphere::{sample_diffuse, Lobe};
-use wedge_backends::kernels::indirect::{lobe_mixture, LOBE_SELECT};
+use wedge_backends::kernels::indirect::{lobe_mixture, PathParams, LOBE_SELECT};
 use wedge_backends::rng::{dim, PixelRng};
-use wedge_backends::{BackendError, KernelCtx};
+use wedge_backends::{BackendError, KernelCtx, KernelParams};
 use wedge_scene::{Camera, LensRay, LensShape};
 
 use super::records::LightPrimary;
@@ -74,13 +74,35 @@ impl LightPrimary {
     }
 }
 
-/// `mode`: ambient occlusion or radiance.
-fn ao_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
-    match ctx.str_param("mode")? {
-        "radiance" => Ok(false),
-        "ao" => Ok(true),
-        other => Err(ctx.err(format!("unknown mode `{other}`; use radiance or ao"))),
+wedge_backends::param_choice! {
+    /// `mode`: indirect radiance, or ambient occlusion.
+    pub enum Mode { Radiance = "radiance", Ao = "ao" }
+}
+
+wedge_backends::kernel_params! {
+    /// The estimator both ray-tracing kernels (`light_field.sample`, `.reconstruct`) read; the node
+    /// declares them (`brdf`: the shared declaration, `crate::params::brdf`) and forwards them to both.
+    pub struct EstimatorParams {
+        mode: Mode = choice("radiance", Mode::OPTIONS, "indirect radiance, or ambient occlusion (Sec. 3.3)"),
+        max_distance: f32 = float(0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),
+        bounces: u32 = int(1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
+        brdf: Lobe,
     }
+}
+
+impl EstimatorParams {
+    /// The pass's estimator and its path settings (`bounces` and `brdf` as every kernel that traces
+    /// indirect paths reads them, `PathParams::from_params`).
+    fn read_paths(ctx: &KernelCtx<'_>) -> Result<(EstimatorParams, PathParams), BackendError> {
+        let e = EstimatorParams::read(ctx)?;
+        let p = PathParams::from_params(ctx, e.mode == Mode::Ao, e.max_distance)?;
+        Ok((e, p))
+    }
+}
+
+/// The pass's random stream: the graph assigns it to a `.random()` pass (not a node parameter).
+fn stream(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
+    Ok(ctx.int_param("stream")? as u32)
 }
 
 /// A primary hit: point, shading normal (facing the camera ray), `k_d`, `k_s`, `m`.

@@ -4,17 +4,63 @@
 use glam::Vec3;
 use wedge_backends::kernels::indirect::{path_from_hit, PathParams, PathRays};
 use wedge_backends::rng::{substream, PixelRng};
-use wedge_backends::{BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms,
+    WgslSource,
+};
 use wedge_graph::Format;
 use wedge_scene::SceneAt;
 
-use super::{ao_mode, leave};
+use super::{leave, stream, EstimatorParams};
 use crate::light_field::formulas::{occlusion, RayShare};
+use crate::light_field::node::DEFAULT_RAYS;
 use crate::light_field::reconstruct;
 use crate::light_field::records::{LightPrimary, Splat, SplatNode, LIGHT_PRIMARY, SPLAT, SPLAT_NODE};
 
 /// `light_field.reconstruct` (see [`super`]).
 pub struct LightFieldReconstruct;
+
+wedge_backends::param_choice! {
+    /// `back_faces`: whether a surface a reconstruction ray sees only from behind gives its splats'
+    /// radiance (`two_sided`, the paper's Sec. 2.5) or is passed through (`pass`: no input ray saw
+    /// that side); `auto` is `two_sided` for ambient occlusion (a surface occludes from either side)
+    /// and `pass` for radiance (its value on that side was never measured). Measured in
+    /// docs/DESIGN-NOTES.md "Light-field reconstruction".
+    pub enum BackFaces { Auto = "auto", TwoSided = "two_sided", Pass = "pass" }
+}
+
+wedge_backends::param_choice! {
+    /// `gaps`: whether a reconstruction ray that crosses no splat is traced into the scene (`trace`)
+    /// or black (`black`, the paper's rule).
+    pub enum Gaps { Trace = "trace", Black = "black" }
+}
+
+wedge_backends::kernel_params! {
+    /// `light_field.reconstruct`'s own parameters (besides [`EstimatorParams`]), declared by the node
+    /// and forwarded.
+    pub struct ReconstructParams {
+        rays: u32 = int(DEFAULT_RAYS, 1, 1 << 14, "reconstruction rays per pixel, N of eq. 3 (paper: 256-512)"),
+        back_faces: BackFaces = choice("auto", BackFaces::OPTIONS, "a surface a reconstruction ray sees only from behind: its splats' radiance (two_sided, the paper's Sec. 2.5), or passed through to the next surface (pass: no input ray saw that side, e.g. splats overhanging a convex edge); auto = two_sided for AO, pass for radiance"),
+        gaps: Gaps = choice("trace", Gaps::OPTIONS, "a reconstruction ray that crosses no splat: traced into the scene and its hit path-traced like an input ray (trace; where the input rays reached a surface too sparsely to cover it with splats), or black (the paper's rule, which read the open envmap_light 14-23% dark; docs/NODES.md \"Composing effects\")"),
+    }
+}
+
+impl ReconstructParams {
+    /// The pass's settings: these parameters (`rays` checked) and whether back faces are two-sided.
+    fn read_checked(ctx: &KernelCtx<'_>, ao: bool) -> Result<(ReconstructParams, bool), BackendError> {
+        let p = ReconstructParams::read(ctx)?;
+        // At most 2^14: the WGSL loop stays far below a driver's cap on loop iterations (lavapipe: 65,535).
+        if !(1..=MAX_RAYS).contains(&p.rays) {
+            return Err(ctx.err(format!("`rays` = {} must be between 1 and {MAX_RAYS}", p.rays)));
+        }
+        let two_sided = match p.back_faces {
+            BackFaces::Auto => ao,
+            BackFaces::TwoSided => true,
+            BackFaces::Pass => false,
+        };
+        Ok((p, two_sided))
+    }
+}
 
 impl Kernel for LightFieldReconstruct {
     fn name(&self) -> &'static str {
@@ -29,6 +75,9 @@ impl Kernel for LightFieldReconstruct {
     fn draws_random(&self) -> bool {
         true
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        [EstimatorParams::specs(), ReconstructParams::specs()].concat()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("primary", Format::Struct(&LIGHT_PRIMARY)),
@@ -42,14 +91,14 @@ impl Kernel for LightFieldReconstruct {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/light_field_reconstruct.wgsl"), |ctx| {
-                let ao = ao_mode(ctx)?;
-                let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
+                let (_, p) = EstimatorParams::read_paths(ctx)?;
+                let (r, two_sided) = ReconstructParams::read_checked(ctx, p.ao)?;
                 let u = Uniforms::new()
-                    .u32("rays", reconstruction_rays(ctx)?)
+                    .u32("rays", r.rays)
                     .u32("primaries", ctx.layers("primary"))
-                    .u32("two_sided", two_sided(ctx, ao)? as u32)
-                    .u32("trace_gaps", trace_gaps(ctx)? as u32)
-                    .u32("stream", ctx.int_param("stream")? as u32);
+                    .bool("two_sided", two_sided)
+                    .bool("trace_gaps", r.gaps == Gaps::Trace)
+                    .u32("stream", stream(ctx)?);
                 Ok(p.uniforms(u, ctx))
             })
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
@@ -65,13 +114,11 @@ impl Kernel for LightFieldReconstruct {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let primary = ctx.read::<LightPrimary>("primary")?;
         let hits_per_pixel = ctx.layers("primary") as usize;
-        let ao = ao_mode(ctx)?;
-        let max_distance = ctx.f32_param("max_distance")?;
-        let p = PathParams::from_params(ctx, ao, max_distance)?;
-        let rays = reconstruction_rays(ctx)?;
-        let two_sided = two_sided(ctx, ao)?;
-        let trace_gaps = trace_gaps(ctx)?;
-        let stream = ctx.int_param("stream")? as u32;
+        let (e, p) = EstimatorParams::read_paths(ctx)?;
+        let (ao, max_distance) = (p.ao, e.max_distance);
+        let (r, two_sided) = ReconstructParams::read_checked(ctx, ao)?;
+        let (rays, trace_gaps) = (r.rays, r.gaps == Gaps::Trace);
+        let stream = stream(ctx)?;
         let splats = ctx.read::<Splat>("splats")?;
         let nodes = ctx.read::<SplatNode>("nodes")?;
         let (seed, width) = (ctx.seed, ctx.width);
@@ -110,16 +157,6 @@ impl Kernel for LightFieldReconstruct {
     }
 }
 
-/// `gaps`: whether a reconstruction ray that crosses no splat is traced into the scene (`trace`) or
-/// black (`black`, the paper's rule).
-fn trace_gaps(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
-    match ctx.str_param("gaps")? {
-        "trace" => Ok(true),
-        "black" => Ok(false),
-        other => Err(ctx.err(format!("unknown gaps `{other}`; use trace or black"))),
-    }
-}
-
 /// A reconstruction ray the splats do not answer (`gaps: trace`): where the input rays reached a
 /// surface too sparsely for splats to cover it, the ray is traced into the scene and its hit
 /// path-traced as an input ray's would be (`path_from_hit`, continuing the ray's own sequence past
@@ -152,32 +189,5 @@ fn hit_rng(seed: u32, pixel: u32, stream: u32, j: u32) -> PixelRng {
     PixelRng::new(seed, pixel, substream(stream, j))
 }
 
-/// `back_faces`: whether a surface a reconstruction ray sees only from behind gives its splats'
-/// radiance (`two_sided`, the paper's Sec. 2.5) or is passed through (`pass`: no input ray saw that
-/// side); `auto` (the default) is `two_sided` for ambient occlusion (a surface occludes from either
-/// side) and `pass` for radiance (its value on that side was never measured). Measured in
-/// docs/DESIGN-NOTES.md "Light-field reconstruction".
-fn two_sided(ctx: &KernelCtx<'_>, ao: bool) -> Result<bool, BackendError> {
-    if !ctx.params.contains_key("back_faces") {
-        return Ok(true);
-    }
-    match ctx.str_param("back_faces")? {
-        "auto" => Ok(ao),
-        "two_sided" => Ok(true),
-        "pass" => Ok(false),
-        other => Err(ctx.err(format!("unknown back_faces `{other}`; use auto, two_sided or pass"))),
-    }
-}
-
 /// The most reconstruction rays per pixel.
 pub const MAX_RAYS: u32 = 1 << 14;
-
-/// `rays`: reconstruction rays per pixel (N of eq. 3).
-fn reconstruction_rays(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
-    let n = ctx.int_param("rays")?;
-    // At most 2^14: the WGSL loop stays far below a driver's cap on loop iterations (lavapipe: 65,535).
-    u32::try_from(n)
-        .ok()
-        .filter(|n| (1..=MAX_RAYS).contains(n))
-        .ok_or_else(|| ctx.err(format!("`rays` = {n} must be between 1 and {MAX_RAYS}")))
-}

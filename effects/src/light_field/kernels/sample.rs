@@ -1,25 +1,34 @@
 //! `light_field.sample`: the input samples (see [`super`]); WGSL `shaders/light_field_sample.wgsl`.
 
 use glam::{Vec2, Vec3};
-use wedge_backends::kernels::indirect::{path_from_hit, PathParams, PathRays};
+use wedge_backends::kernels::indirect::{path_from_hit, PathRays};
 use wedge_backends::kernels::paths::{camera_uniforms, pass_camera};
 use wedge_backends::rng::PixelRng;
-use wedge_backends::{BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
-use super::{ao_mode, camera_sample, leave, Primary};
+use super::{camera_sample, leave, stream, EstimatorParams, Primary};
 use crate::light_field::formulas::{kappa, occlusion};
 use crate::light_field::records::{LightPrimary, LightSample, LIGHT_PRIMARY, LIGHT_SAMPLE, SAMPLE_ESCAPED, SAMPLE_HIT};
 
 /// `light_field.sample` (see [`super`]).
 pub struct LightFieldSample;
 
-/// `time`: each path at its own shutter time (optional, default off).
-fn time_param(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
-    if ctx.params.contains_key("time") {
-        ctx.bool_param("time")
-    } else {
-        Ok(false)
+wedge_backends::kernel_params! {
+    /// `light_field.sample`'s own parameter, declared by the node and forwarded.
+    pub struct SampleParams {
+        angular: bool = boolean(true, "use each sample's angular bandwidth kappa (eq. 2); false treats every surface as diffuse (Fig. 10's ablation)"),
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// What the node sets on the pass: `count` paths per pixel (its `spp`; a reference's N) and
+    /// `time`, whether each path takes its own shutter time (the factoring node's camera settings).
+    pub struct SamplePass {
+        count: u32,
+        time: bool,
     }
 }
 
@@ -32,6 +41,9 @@ impl Kernel for LightFieldSample {
     }
     fn draws_random(&self) -> bool {
         true
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [EstimatorParams::specs(), SampleParams::specs(), SamplePass::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -46,17 +58,18 @@ impl Kernel for LightFieldSample {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/light_field_sample.wgsl"), |ctx| {
-                let ao = ao_mode(ctx)?;
-                let p = PathParams::from_params(ctx, ao, ctx.f32_param("max_distance")?)?;
+                let (_, p) = EstimatorParams::read_paths(ctx)?;
+                let (own, pass) = (SampleParams::read(ctx)?, SamplePass::read(ctx)?);
                 let (camera, shape) = pass_camera(ctx)?;
+                // The path settings as `indirect_path.wgsl` reads them (`PathParams::uniforms`).
                 let u = camera_uniforms(Uniforms::new(), &camera, shape)
-                    .u32("count", ctx.int_param("count")?.max(0) as u32)
+                    .u32("count", pass.count)
                     .u32("layers", ctx.layers("samples"))
                     .u32("primaries", ctx.layers("primary"))
-                    .u32("time", time_param(ctx)? as u32)
-                    .u32("angular", ctx.bool_param("angular")? as u32)
+                    .bool("time", pass.time)
+                    .bool("angular", own.angular)
                     .u32("stratified", ctx.stratified_param()? as u32)
-                    .u32("stream", ctx.int_param("stream")? as u32);
+                    .u32("stream", stream(ctx)?);
                 Ok(p.uniforms(u, ctx))
             })
             .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
@@ -71,16 +84,13 @@ impl Kernel for LightFieldSample {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let ao = ao_mode(ctx)?;
-        let max_distance = ctx.f32_param("max_distance")?;
-        let p = PathParams::from_params(ctx, ao, max_distance)?;
-        let count = ctx.int_param("count")?.max(0) as u32;
+        let (e, p) = EstimatorParams::read_paths(ctx)?;
+        let (ao, max_distance) = (p.ao, e.max_distance);
+        let (angular, SamplePass { count, time }) = (SampleParams::read(ctx)?.angular, SamplePass::read(ctx)?);
         let (layers, primaries) = (ctx.layers("samples"), ctx.layers("primary"));
-        let angular = ctx.bool_param("angular")?;
         let stratified = ctx.stratified_param()?;
-        let stream = ctx.int_param("stream")? as u32;
+        let stream = stream(ctx)?;
         let (camera, shape) = pass_camera(ctx)?;
-        let time = time_param(ctx)?;
         // A pinhole at the shutter's centre: one camera ray for every path of a pixel.
         let fixed = camera.aperture_radius == 0.0 && !time;
         let scene = ctx.scene;

@@ -2,9 +2,10 @@
 //! samples ([`crate::light_field::splats`]).
 
 use wedge_backends::kernels::direct::RAY_EPSILON;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx};
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec};
 use wedge_graph::Format;
 
+use crate::light_field::node::{DEFAULT_ALPHA, DEFAULT_GLOSSY_CAP, DEFAULT_K};
 use crate::light_field::records::{LightSample, Splat, SplatNode, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
 use crate::light_field::splats::{build, KnnSettings};
 use crate::light_field::STACK_SIZE;
@@ -12,21 +13,30 @@ use crate::light_field::STACK_SIZE;
 /// `light_field.splats` (see [`super`] and [`crate::light_field::splats`]).
 pub struct LightFieldSplats;
 
-fn knn_settings(ctx: &KernelCtx<'_>) -> Result<KnnSettings, BackendError> {
-    let k = ctx.int_param("k")?;
+wedge_backends::kernel_params! {
+    /// `light_field.splats`'s parameters (Secs. 2.2, 2.3.1), declared by the node and forwarded.
+    pub struct SplatParams {
+        k: u32 = int(DEFAULT_K, 1, 256, "the k of the splat-radius k-NN search (Sec. 2.2)"),
+        alpha: f32 = float(DEFAULT_ALPHA, 1.0, 1e3, "k-NN metric: offsets along the normal count alpha times (Sec. 2.2)"),
+        glossy_cap: f32 = float(DEFAULT_GLOSSY_CAP, 1.0, f64::from(f32::MAX), "a glossy splat's radius is at most this many times its spatial-only k-NN radius (a large number: the paper's unbounded search)"),
+        shrink: bool = boolean(true, "shrink splats that block input rays (Sec. 2.3.1)"),
+    }
+}
+
+/// The k-NN settings of `p`, checked (a pass need not come from the node's declarations).
+fn knn_settings(ctx: &KernelCtx<'_>, p: &SplatParams) -> Result<KnnSettings, BackendError> {
+    let SplatParams { k, alpha, glossy_cap, .. } = *p;
     if !(1..=256).contains(&k) {
         return Err(ctx.err(format!("`k` = {k} must be between 1 and 256")));
     }
-    let alpha = ctx.f32_param("alpha")?;
     if !(alpha >= 1.0 && alpha.is_finite()) {
         return Err(ctx.err(format!("`alpha` = {alpha} must be a finite number ≥ 1")));
     }
-    let glossy_cap = ctx.f32_param("glossy_cap")?;
     if !(glossy_cap >= 1.0) {
         return Err(ctx
             .err(format!("`glossy_cap` = {glossy_cap} must be ≥ 1 (0 or less: no cap is written as a large number)")));
     }
-    Ok(KnnSettings { k: k as u32, alpha, glossy_cap })
+    Ok(KnnSettings { k, alpha, glossy_cap })
 }
 
 impl Kernel for LightFieldSplats {
@@ -39,6 +49,9 @@ impl Kernel for LightFieldSplats {
     fn host(&self) -> bool {
         true
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        SplatParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("samples", Format::Struct(&LIGHT_SAMPLE)),
@@ -48,8 +61,8 @@ impl Kernel for LightFieldSplats {
         ]
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let knn = knn_settings(ctx)?;
-        let shrink = ctx.bool_param("shrink")?;
+        let p = SplatParams::read(ctx)?;
+        let (knn, shrink) = (knn_settings(ctx, &p)?, p.shrink);
         let samples = ctx.read::<LightSample>("samples")?;
         let (spp, pixels) = (ctx.layers("samples") as usize, ctx.pixels());
         let (splat_slots, node_slots) = (pixels * ctx.layers("splats") as usize, pixels * ctx.layers("nodes") as usize);

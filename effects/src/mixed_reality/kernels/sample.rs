@@ -10,7 +10,9 @@ use wedge_backends::kernels::luminance;
 use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::screen_trace::{ScreenHit, ScreenTracer};
 use wedge_backends::sobol::{independent2, pair, sequence_key, sobol2};
-use wedge_backends::{BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
 
 use super::IRRADIANCES;
 
@@ -20,6 +22,24 @@ pub const REAL_OBJECT: u32 = 1 << 22;
 
 /// Offset of secondary ray origins along the normal, relative to the scene's extent.
 const EPS_RELATIVE: f32 = 1e-4;
+
+wedge_backends::kernel_params! {
+    /// `mr.sample`'s parameters the node declares and forwards as they are.
+    pub struct MrParams {
+        occluder_threshold: f32 = float(0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
+        thickness: f32 = positive(0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),
+        max_steps: u32 = int(0, 0, 1 << 16, "screen-space rays: the most pixels one ray marches; 0 = the image diagonal"),
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// `mr.sample`'s counts, which the node sets (`count` = its `primary`), and the pass's stream.
+    pub struct MrCounts {
+        count: u32,
+        per_primary: u32,
+        stream: u32,
+    }
+}
 
 /// `mr.sample`'s settings.
 #[derive(Clone, Copy, Debug)]
@@ -56,21 +76,20 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
         .environment
         .as_ref()
         .ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
-    let threshold = ctx.f32_param("occluder_threshold")?;
-    let thickness = ctx.f32_param("thickness")?;
+    let (p, c) = (MrParams::read(ctx)?, MrCounts::read(ctx)?);
+    let (threshold, thickness) = (p.occluder_threshold, p.thickness);
     if !(threshold.is_finite() && threshold >= 0.0 && thickness.is_finite() && thickness > 0.0) {
         return Err(err(format!("occluder_threshold {threshold} must be >= 0 and thickness {thickness} > 0")));
     }
-    let max_steps = ctx.int_param("max_steps")?;
     let diagonal = (width as f32).hypot(height as f32).ceil() as u32 + 1;
     Ok(MrSettings {
-        count: ctx.int_param("count")?.clamp(0, 1 << 16) as u32,
-        per_primary: ctx.int_param("per_primary")?.clamp(1, 1 << 12) as u32,
+        count: c.count.min(1 << 16),
+        per_primary: c.per_primary.clamp(1, 1 << 12),
         stratified: ctx.stratified_param()?,
-        stream: ctx.int_param("stream")? as u32,
+        stream: c.stream,
         occluder_luminance: threshold * (env.total_luminance() / (4.0 * std::f64::consts::PI)) as f32,
         thickness,
-        max_steps: if max_steps <= 0 { diagonal } else { (max_steps as u32).min(diagonal) },
+        max_steps: if p.max_steps == 0 { diagonal } else { p.max_steps.min(diagonal) },
         eps: EPS_RELATIVE * scene.extent().max(1e-3),
     })
 }
@@ -488,6 +507,9 @@ impl Kernel for MrSample {
     }
     fn draws_random(&self) -> bool {
         true
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [MrParams::specs(), MrCounts::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::write(n, Format::Vec3)).collect();
