@@ -30,9 +30,9 @@ use std::path::{Path, PathBuf};
 use progressive::rel_mse;
 
 use wedge::backends::cpu::CpuBackend;
-use wedge::backends::kernels::light_field::{LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
 use wedge::backends::{RunResult, Silent};
 use wedge::bench::plots::{write_plot, Plot, Series, SeriesStyle};
+use wedge::effects::light_field::{LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
 use wedge::graph::parse_pipeline;
 use wedge::{Overrides, Session};
 

@@ -1,7 +1,7 @@
 // light_field_common.wgsl — what light_field.sample and light_field.reconstruct share: how a ray
 // leaves a primary hit (the lobe mixture, eq. 3's weight f cos/pdf) and the sample flags; mirrors
-// backends/src/kernels/light_field/mod.rs (leave, kappa, ao_occluded, SAMPLE_*). The including
-// kernel's Params must have `lobe`, `ao` and `max_distance`.
+// effects/src/light_field/ (kernels/mod.rs leave, formulas.rs kappa and ao_occluded, records.rs
+// SAMPLE_*). The including kernel's Params must have `lobe`, `ao` and `max_distance`.
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "hemisphere.wgsl"

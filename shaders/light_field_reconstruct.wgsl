@@ -1,8 +1,8 @@
 // light_field.reconstruct — eq. 3 of seed 001: `rays` reconstruction rays per pixel shared among its
 // `primaries` primary hits (RayShare), each at its hit's shutter time and resolved by RECONSTRUCT
 // through the splat BVH the host pass built, the splats moved to that time (Secs. 2.3.2-2.5); mirrors
-// backends/src/kernels/light_field/reconstruct.rs (collect, conflict, resolve, filter) and mod.rs
-// (LightFieldReconstruct::run_cpu, RayShare): the same nodes visited in the same order, the same total
+// effects/src/light_field/reconstruct.rs (collect, conflict, resolve, filter), kernels/reconstruct.rs
+// (LightFieldReconstruct::run_cpu) and formulas.rs (RayShare): the same nodes visited in the same order, the same total
 // order of hits, the same RNG calls and dimensions. Chunked over rays, the sum kept in the same order.
 #include "common.wgsl"
 #include "rng.wgsl"

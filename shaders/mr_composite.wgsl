@@ -1,5 +1,5 @@
 // mr.composite — differential compositing, thesis eq. 6.2: (1 − M) k_V E_V + M (E_RV / E_R) L_cam;
-// mirrors backends/src/kernels/mixed_reality.rs (composite, MrComposite) in the same order.
+// mirrors effects/src/mixed_reality/ (formulas.rs composite, kernels/composite.rs MrComposite) in the same order.
 #include "common.wgsl"
 #include "scene.wgsl"
 

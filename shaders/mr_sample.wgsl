@@ -1,5 +1,5 @@
 // mr.sample — two-mode sampling of the real and the virtual world (thesis Ch. 6, Algorithm 1 of the
-// supplement); mirrors backends/src/kernels/mixed_reality.rs (sample_pixel, secondary,
+// supplement); mirrors effects/src/mixed_reality/kernels/sample.rs (sample_pixel, secondary,
 // virtual_hit_radiance) with the same samples and operation order.
 #include "common.wgsl"
 #include "sobol.wgsl"

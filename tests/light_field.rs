@@ -16,7 +16,7 @@
 //!   on real splats.
 //!
 //! The pure pieces (k-NN radii against brute force, the conflict test, tent and vMF filters, the
-//! shrink on a synthetic wall) are unit tests in `backends/src/kernels/light_field/`. Errors are
+//! shrink on a synthetic wall) are unit tests in `effects/src/light_field/`. Errors are
 //! relMSE ([`rel_mse`]) of the indirect component alone: a second sink `parts` wires the
 //! LightField node's own `radiance` (in a reference: its bypassed `unfiltered`) and the direct
 //! light, so the direct light's own noise never enters a comparison. Every measured number is
@@ -35,12 +35,10 @@ use glam::Vec3;
 use wedge::backends::cpu::run_pass;
 use wedge::backends::kernel::Counters;
 use wedge::backends::kernels::direct::RAY_EPSILON;
-use wedge::backends::kernels::light_field::reconstruct::{collect, resolve};
-use wedge::backends::kernels::light_field::splats::{blockers, KnnSettings};
-use wedge::backends::kernels::light_field::{
-    build, input_rays, LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE,
-};
 use wedge::backends::{BufferData, RunResult, Silent, Texel};
+use wedge::effects::light_field::reconstruct::{collect, resolve};
+use wedge::effects::light_field::splats::{blockers, build, input_rays, KnnSettings};
+use wedge::effects::light_field::{LightPrimary, LightSample, Splat, SplatNode, SAMPLE_HIT, SAMPLE_NONE};
 use wedge::graph::{parse_pipeline, BufferId, ParamValue};
 use wedge::Session;
 

@@ -1,4 +1,4 @@
-//! The `MixedReality` node end to end (thesis Ch. 6.3–6.5, Algorithm 1; `effects/src/mixed_reality.rs`,
+//! The `MixedReality` node end to end (thesis Ch. 6.3–6.5, Algorithm 1; `effects/src/mixed_reality/`,
 //! `docs/DESIGN-NOTES.md` "Mixed reality"): with no virtual triangles, or none with influence, the
 //! composite is the camera image bit for bit; the round trip against a full render of real + virtual scenes; convergence of the
 //! filtered composite to the unfiltered one as μ grows; sequences (a real layer per frame, captured or

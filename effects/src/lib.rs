@@ -92,11 +92,13 @@ pub fn register(nodes: &mut NodeRegistry, kernels: &mut KernelRegistry) {
     nodes.register(Arc::new(environment::Environment));
     environment::register_kernels(kernels);
     nodes.register(Arc::new(mixed_reality::MixedReality));
+    mixed_reality::register_kernels(kernels);
     nodes.register(Arc::new(pixel_filter::PixelFilter));
     pixel_filter::register_kernels(kernels);
     nodes.register(Arc::new(radiance_filter::RadianceFilter));
     radiance_filter::register_kernels(kernels);
     nodes.register(Arc::new(light_field::LightField));
+    light_field::register_kernels(kernels);
 }
 
 /// The registries with everything wedge ships.

@@ -46,8 +46,9 @@ pub const COMPONENT_GLOSSY: u32 = 1;
 
 /// Dimension offset between lights in next-event estimation (far above any bounce's dimensions).
 const LIGHT_DIM_STRIDE: u32 = 1 << 16;
-/// Dimension choosing the lobe at a path vertex (within a bounce's stride, unused by `dim`).
-pub(crate) const LOBE_SELECT: u32 = 14;
+/// Dimension choosing the lobe at a path vertex (within a bounce's stride, unused by `dim`); `pub`
+/// for the kernels of `wedge-effects` that draw directions as these paths do (`light_field`).
+pub const LOBE_SELECT: u32 = 14;
 
 /// Estimator settings shared by every sample of a pass.
 #[derive(Clone, Copy, Debug)]

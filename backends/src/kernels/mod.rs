@@ -15,8 +15,6 @@ pub mod filter_ch6;
 pub mod filter_motion;
 pub mod hemisphere;
 pub mod indirect;
-pub mod light_field;
-pub mod mixed_reality;
 pub mod neighbourhood;
 pub mod neighbourhood3;
 pub mod neighbourhood_others;
@@ -41,18 +39,12 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(filter_ch6::EnvironmentFilter));
     reg.register(Arc::new(filter_ch6::EnvironmentHistory));
     reg.register(Arc::new(filter_ch6::BandwidthMax));
-    reg.register(Arc::new(mixed_reality::MrSample));
-    reg.register(Arc::new(mixed_reality::MrComposite));
     reg.register(Arc::new(filter_motion::Radiance3Filter));
     reg.register(Arc::new(constant::FillConstant));
     reg.register(Arc::new(constant::FillConstantF32));
     reg.register(Arc::new(constant::FillConstantVec4));
     reg.register(Arc::new(paths::PathsTrace));
     reg.register(Arc::new(paths::PathsResolve));
-    // Light-field reconstruction (issue 17, seed 001).
-    reg.register(Arc::new(light_field::LightFieldSample));
-    reg.register(Arc::new(light_field::LightFieldSplats));
-    reg.register(Arc::new(light_field::LightFieldReconstruct));
 }
 
 // Small helpers every kernel family uses, defined once here.

@@ -463,7 +463,7 @@ pub const TOP_STACK_SIZE: usize = 32;
 
 /// A binary tree over boxes, one box per leaf, split at the median of its largest axis at every
 /// level: at most `⌈log2 n⌉ + 1` levels whatever the boxes. The fallback of builders whose depth is
-/// not bounded (the light-field splat tree, `wedge_backends::kernels::light_field::splats`), when
+/// not bounded (the light-field splat tree, `wedge_effects::light_field::splats`), when
 /// their tree is deeper than a traversal stack allows.
 pub fn binary_median_boxes(boxes: &[([f32; 3], [f32; 3])]) -> BinaryTree {
     binary_boxes(boxes, 0)

@@ -30,6 +30,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 use super::reconstruct::{box_entered, disk_hit};
+use super::records::{LightSample, SAMPLE_HIT, SAMPLE_NONE};
 use super::{Splat, SplatNode, STACK_SIZE};
 
 /// The k-NN settings (Sec. 2.2; paper: `k = 12`, `α = 3`).
@@ -384,6 +385,72 @@ pub fn shrink(nodes: &mut [SplatNode], splats: &mut [Splat], rays: &[InputRay], 
     shrunk
 }
 
+/// The splats, the tree and per-pixel statistics built from a pass's samples.
+pub struct Built {
+    pub splats: Vec<Splat>,
+    pub nodes: Vec<SplatNode>,
+    /// Splats that shrank.
+    pub shrunk: usize,
+}
+
+/// Build everything the reconstruction reads from the stored samples (`layers` per pixel). A tree
+/// deeper than the traversal stack ([`STACK_SIZE`]) is an error (the depth is returned).
+pub fn build(samples: &[LightSample], knn: KnnSettings, shrink: bool, t_min: f32) -> Result<Built, usize> {
+    let mut list: Vec<Splat> = samples
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.flags == SAMPLE_HIT && Vec3::from(s.hit).is_finite())
+        .map(|(k, s)| Splat {
+            centre: s.hit,
+            radius: 0.0,
+            normal: s.normal,
+            kappa: s.kappa,
+            direction: s.direction,
+            sample: k as u32,
+            radiance: s.radiance,
+            flags: 1,
+            velocity: s.velocity,
+            time: s.time,
+        })
+        .collect();
+    let radii = knn_radii(&list, knn);
+    for (s, r) in list.iter_mut().zip(radii) {
+        s.radius = r;
+    }
+    let mut nodes = tree(&mut list);
+    let depth = self::depth(&nodes);
+    if depth >= STACK_SIZE {
+        return Err(depth);
+    }
+    let mut shrunk = 0;
+    if shrink {
+        let rays = input_rays(samples, &list);
+        shrunk = self::shrink(&mut nodes, &mut list, &rays, t_min);
+    }
+    Ok(Built { splats: list, nodes, shrunk })
+}
+
+/// Every input ray of `samples` (Sec. 2.3.1: escaped ones to infinity, each at its own time), naming
+/// its own splat among `splats` (in leaf order, as [`build`] stores them; `u32::MAX`: none).
+pub fn input_rays(samples: &[LightSample], splats: &[Splat]) -> Vec<InputRay> {
+    let mut position = vec![u32::MAX; samples.len()];
+    for (k, s) in splats.iter().enumerate() {
+        position[s.sample as usize] = k as u32;
+    }
+    samples
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.flags != SAMPLE_NONE)
+        .map(|(k, s)| InputRay {
+            origin: Vec3::from(s.origin),
+            direction: Vec3::from(s.direction),
+            distance: if s.flags == SAMPLE_HIT { s.distance } else { f32::INFINITY },
+            own: position[k],
+            time: s.time,
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -420,8 +487,8 @@ mod tests {
         let mut v = Vec::new();
         let mut h = 1u32;
         let mut rnd = || {
-            h = crate::rng::pcg_hash(h);
-            crate::rng::to_unit(h)
+            h = wedge_backends::rng::pcg_hash(h);
+            wedge_backends::rng::to_unit(h)
         };
         for i in 0..30 {
             for j in 0..30 {

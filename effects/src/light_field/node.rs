@@ -6,7 +6,7 @@
 //! pixel's BRDF with many reconstruction rays through that point-sampled scene (eq. 3). Direct
 //! light is not included (Sec. 2): pair it with a direct-light node and an `Add`, as `Indirect`.
 //!
-//! Passes (kernels in `wedge_backends::kernels::light_field`):
+//! Passes (kernels in [`super::kernels`]):
 //! 1. `sample` (random, reference role `Sample`): `spp` camera paths per pixel of one secondary ray
 //!    each, kept as per-sample records (a buffer of `spp` layers) with their primary hits, and their
 //!    plain Monte Carlo estimate;
@@ -31,9 +31,15 @@
 //! reconstruction ray is occluded where its nearest apparent surface lies within `max_distance`;
 //! the image is the occluded fraction, as `Indirect`'s AO mode (bright = occluded).
 
-use wedge_backends::kernels::light_field::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
+use wedge_backends::KernelParams;
 use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+
+use super::kernels::reconstruct::ReconstructParams;
+use super::kernels::sample::SampleParams;
+use super::kernels::splats::SplatParams;
+use super::kernels::EstimatorParams;
+use super::records::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
 
 pub struct LightField;
 
@@ -79,32 +85,23 @@ impl NodeKind for LightField {
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
         matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::indirect_or_ao(q, q.sampler_view(), ""))
     }
+    /// The kernels' declarations, in the order the node has always listed them (`wedge view`'s
+    /// widgets, messages): `spp`, `rays`, `k`, `alpha`, `glossy_cap`, `angular`, `shrink`,
+    /// `back_faces`, `gaps`, then the estimator's and `brdf`.
     fn params(&self) -> Vec<ParamDecl> {
-        vec![
-            ParamDecl::int("spp", DEFAULT_SPP, 1, 16, "input secondary rays per pixel, each kept as a sample (paper: 1-16)"),
-            ParamDecl::int("rays", DEFAULT_RAYS, 1, 1 << 14, "reconstruction rays per pixel, N of eq. 3 (paper: 256-512)"),
-            ParamDecl::int("k", DEFAULT_K, 1, 256, "the k of the splat-radius k-NN search (Sec. 2.2)"),
-            ParamDecl::float("alpha", DEFAULT_ALPHA, 1.0, 1e3, "k-NN metric: offsets along the normal count alpha times (Sec. 2.2)"),
-            ParamDecl::float("glossy_cap", DEFAULT_GLOSSY_CAP, 1.0, f64::from(f32::MAX), "a glossy splat's radius is at most this many times its spatial-only k-NN radius (a large number: the paper's unbounded search)"),
-            ParamDecl::boolean("angular", true, "use each sample's angular bandwidth kappa (eq. 2); false treats every surface as diffuse (Fig. 10's ablation)"),
-            ParamDecl::boolean("shrink", true, "shrink splats that block input rays (Sec. 2.3.1)"),
-            ParamDecl::choice(
-                "back_faces",
-                "auto",
-                &["auto", "two_sided", "pass"],
-                "a surface a reconstruction ray sees only from behind: its splats' radiance (two_sided, the paper's Sec. 2.5), or passed through to the next surface (pass: no input ray saw that side, e.g. splats overhanging a convex edge); auto = two_sided for AO, pass for radiance",
-            ),
-            ParamDecl::choice(
-                "gaps",
-                "trace",
-                &["trace", "black"],
-                "a reconstruction ray that crosses no splat: traced into the scene and its hit path-traced like an input ray (trace; where the input rays reached a surface too sparsely to cover it with splats), or black (the paper's rule, which read the open envmap_light 14-23% dark; docs/NODES.md \"Composing effects\")",
-            ),
-            ParamDecl::choice("mode", "radiance", &["radiance", "ao"], "indirect radiance, or ambient occlusion (Sec. 3.3)"),
-            ParamDecl::float("max_distance", 0.0, 0.0, 1e9, "AO: surfaces farther than this do not occlude (0 = no limit)"),
-            ParamDecl::int("bounces", 1, 1, 64, "path vertices beyond the primary hit with next-event estimation (1 = one-bounce indirect)"),
-            crate::params::brdf("glossy lobe of k_s, m"),
+        let (rays, splats) = (ReconstructParams::decls(), SplatParams::decls());
+        let spp = "input secondary rays per pixel, each kept as a sample (paper: 1-16)";
+        [
+            vec![ParamDecl::int("spp", DEFAULT_SPP, 1, 16, spp)],
+            rays[..1].to_vec(),
+            splats[..3].to_vec(),
+            SampleParams::decls(),
+            splats[3..].to_vec(),
+            rays[1..].to_vec(),
+            EstimatorParams::decls(),
+            vec![crate::params::brdf("glossy lobe of k_s, m")],
         ]
+        .concat()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let spp = ctx.param("spp").as_count().unwrap_or(1);
@@ -123,7 +120,8 @@ impl NodeKind for LightField {
             .write("estimate", estimate)
             .int("count", i64::from(spp))
             .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&["mode", "max_distance", "bounces", "brdf", "angular"]);
+            .node_params(EstimatorParams::names())
+            .node_params(SampleParams::names());
         for (name, value) in camera.params() {
             b = b.param(name, value);
         }
@@ -149,7 +147,7 @@ impl NodeKind for LightField {
             .write("splats", splats)
             .write("nodes", nodes)
             .write("splat_radius", splat_radius)
-            .node_params(&["k", "alpha", "glossy_cap", "shrink"])
+            .node_params(SplatParams::names())
             .finish();
 
         // 3. Reconstruction rays.
@@ -160,7 +158,8 @@ impl NodeKind for LightField {
             .read("nodes", nodes)
             .read("unfiltered", unfiltered)
             .write("radiance", radiance)
-            .node_params(&["rays", "mode", "max_distance", "bounces", "brdf", "back_faces", "gaps"])
+            .node_params(EstimatorParams::names())
+            .node_params(ReconstructParams::names())
             .random()
             .reference(Reference::Bypass { input: "unfiltered" })
             .finish();

@@ -25,15 +25,17 @@
 //! `Environment` node's does (Sec. 6.7).
 //!
 //! Readings and measurements: `docs/DESIGN-NOTES.md` "Mixed reality"; the sampler's rules:
-//! `wedge_backends::kernels::mixed_reality`, the screen-space tracer's:
+//! [`super::kernels`], the screen-space tracer's:
 //! `wedge_backends::kernels::screen_trace`.
 
 use std::collections::BTreeMap;
 
+use wedge_backends::KernelParams;
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, SceneRequest, Stage,
 };
 
+use super::kernels::sample::MrParams;
 use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
 pub struct MixedReality;
@@ -111,9 +113,9 @@ impl NodeKind for MixedReality {
             ParamDecl::float("b_e", -1.0, 0.0, 1e4, "B_e in cycles per radian; -1 = the map's 99%-energy bandwidth").or_special(-1.0, "automatic: the map's 99%-energy bandwidth"),
             crate::params::mu(1.0, "μ (an extension): scales every bandwidth; larger = narrower filters"),
             ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
-            ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
-            ParamDecl::positive("thickness", 0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),
-            ParamDecl::int("max_steps", 0, 0, 1 << 16, "screen-space rays: the most pixels one ray marches; 0 = the image diagonal"),
+        ]);
+        params.extend(MrParams::decls());
+        params.extend([
             ParamDecl::boolean("temporal", false, "in a sequence: join each irradiance's previous frame, reprojected, in its y pass (eqs. 6.24-6.26, as Environment)"),
             ParamDecl::int("max_motion", 32, 0, 4096, "with `temporal`: pixels a point may move between frames and keep its history"),
         ]);
@@ -178,7 +180,7 @@ impl NodeKind for MixedReality {
             .param("count", ParamValue::Int(primary))
             .param("per_primary", ParamValue::Int(per_primary))
             .param("sampling", ParamValue::Str("stratified".into()))
-            .node_params(&["occluder_threshold", "thickness", "max_steps"])
+            .node_params(MrParams::names())
             .random()
             .reference(Reference::Sample)
             .finish();

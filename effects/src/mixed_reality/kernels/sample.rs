@@ -1,59 +1,20 @@
-//! Mixed reality (thesis Ch. 6, Sec. 6.3–6.5; supplemental seed 003, Algorithm 1): two-mode
-//! sampling of the real and the virtual world, and differential compositing. WGSL mirrors:
-//! `shaders/mr_sample.wgsl`, `shaders/mr_composite.wgsl`.
-//!
-//! **Two modes.** Virtual geometry is the scene's triangles (the BVH: only virtual objects); real
-//! geometry is the captured real layer (`wedge_scene::RealLayer`: per-pixel position, normal, albedo
-//! and the camera image `L_cam`), intersected by screen-space rays ([`super::screen_trace`]).
-//!
-//! `mr.sample` (Algorithm 1): per pixel `count` primary samples (jittered in the pixel, Sobol' pair
-//! `PIXEL`); a sample is *real* where no virtual surface is hit or the pixel's real surface is nearer
-//! (line 7; the real layer is one surface per pixel, so every sample of a pixel sees the same real
-//! point), else *virtual*; `M` = the real fraction. Each sample takes `per_primary` secondary samples:
-//! - direct light: a look-up into the environment's table (stratified per pixel as the sampler does,
-//!   `environment::stratified_entry`), tested against both worlds — a virtual shadow ray (BVH,
-//!   any-hit unless the look-up is bright enough to set the occluder term) and a screen-space one. At a
-//!   real sample, `E_R^dir` counts it when no real surface blocks it, `E_RV^dir` when nothing blocks it
-//!   (lines 20–25). At a virtual sample, `E_V^dir` counts it when nothing blocks it.
-//! - indirect light: a cosine-hemisphere direction (real surfaces are diffuse), or at a virtual
-//!   sample one of the surface's lobes picked by reflectance (diffuse or Phong, the mixture pdf), traced
-//!   in both modes. A real hit returns `L_cam` at the hit's pixel (line 28); a virtual hit returns its
-//!   radiance from one environment look-up with shadow rays in both modes (line 29: "tracing a secondary
-//!   shadow ray to an environment map sample"). `E_R^ind` takes the real hit only (virtual objects do
-//!   not exist there), `E_RV^ind` and `E_V^ind` the nearer of the two (lines 30–40). A ray that hits
-//!   nothing adds 0: the environment is the direct term's.
-//!
-//! **Readings taken** (docs/DESIGN-NOTES.md "Mixed reality"): irradiances are wedge's `E` (a diffuse
-//! surface's outgoing radiance is `k E`: `E = L cos / (π pdf)`), each sum divided by its own sample
-//! count (docs/EQUATIONS.md); the real irradiances average over the pixel's real samples and the virtual
-//! ones over its virtual samples (Algorithm 1 divides everything by 16, which at a silhouette mixes
-//! the two kinds into one ratio), so that eq. 6.2 composes `(1 − M) k_V E_V + M (E_RV / E_R) L_cam`
-//! exactly at partly covered pixels; at a virtual sample `E_V` is its outgoing radiance divided by
-//! `k_V = k_d + k_s` (the thesis: "we may represent this outgoing radiance with the same symbol E_RV"),
-//! so `k̄_V Ē_V` restores it after filtering. Samples where neither world has a surface (the sky seen
-//! through the pixel) are real with no irradiance: `E_R = E_RV = 0`, and the composite keeps `L_cam`.
-//!
-//! Outputs per pixel: the six irradiances (vec3), `texture` (`k_V`, `M`), the filter's `position`
-//! (`w` = 1 + object id; real surfaces [`REAL_OBJECT`]) and `normal` (`w` the footprint) of the pixel's
-//! majority kind, `environment` and `depth` in the sampler's conventions (occluder term `cos θ / t` over
-//! bright blocked look-ups of either world, mean Phong exponent, look-ups, blocked look-ups; indirect
-//! `z_min`, `z_max`, hits, rays) so the Environment node's bandwidth kernels apply unchanged, and
-//! `screen` (screen-space rays, those that left the image, hits). Ray counts: camera rays as
-//! primary, rays toward the environment as shadow, indirect rays as secondary — a BVH ray and a
-//! screen-space ray one each, since both are traced for every direction.
+//! `mr.sample`: the two-mode sampler of Algorithm 1 (see [`super`]); WGSL `shaders/mr_sample.wgsl`.
 
 use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::{Camera, Scene, SceneAt};
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
-use crate::kernels::environment::{brdf, stratified_entry, uniform_entry};
-use crate::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
-use crate::kernels::luminance;
-use crate::kernels::paths::camera_uniforms;
-use crate::kernels::screen_trace::{ScreenHit, ScreenTracer};
-use crate::sobol::{independent2, pair, sequence_key, sobol2};
-use crate::BackendError;
+use wedge_backends::kernels::environment::{brdf, stratified_entry, uniform_entry};
+use wedge_backends::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
+use wedge_backends::kernels::luminance;
+use wedge_backends::kernels::paths::camera_uniforms;
+use wedge_backends::kernels::screen_trace::{ScreenHit, ScreenTracer};
+use wedge_backends::sobol::{independent2, pair, sequence_key, sobol2};
+use wedge_backends::{
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
+
+use super::IRRADIANCES;
 
 /// The object id (`position.w − 1`) of the real layer's surfaces: one "object" for the filters'
 /// same-object test, far above any scene's object count (`1 + REAL_OBJECT` is exact in f32).
@@ -61,6 +22,24 @@ pub const REAL_OBJECT: u32 = 1 << 22;
 
 /// Offset of secondary ray origins along the normal, relative to the scene's extent.
 const EPS_RELATIVE: f32 = 1e-4;
+
+wedge_backends::kernel_params! {
+    /// `mr.sample`'s parameters the node declares and forwards as they are.
+    pub struct MrParams {
+        occluder_threshold: f32 = float(0.1, 0.0, 1e6, "look-ups dimmer than this × the map's mean radiance do not set the occluder term"),
+        thickness: f32 = positive(0.05, 1e3, "screen-space rays: a real surface's assumed thickness, as a fraction of its depth"),
+        max_steps: u32 = int(0, 0, 1 << 16, "screen-space rays: the most pixels one ray marches; 0 = the image diagonal"),
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// `mr.sample`'s counts, which the node sets (`count` = its `primary`), and the pass's stream.
+    pub struct MrCounts {
+        count: u32,
+        per_primary: u32,
+        stream: u32,
+    }
+}
 
 /// `mr.sample`'s settings.
 #[derive(Clone, Copy, Debug)]
@@ -97,21 +76,20 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
         .environment
         .as_ref()
         .ok_or_else(|| err("mixed reality needs an environment map (the light of the real scene)".into()))?;
-    let threshold = ctx.f32_param("occluder_threshold")?;
-    let thickness = ctx.f32_param("thickness")?;
+    let (p, c) = (MrParams::read(ctx)?, MrCounts::read(ctx)?);
+    let (threshold, thickness) = (p.occluder_threshold, p.thickness);
     if !(threshold.is_finite() && threshold >= 0.0 && thickness.is_finite() && thickness > 0.0) {
         return Err(err(format!("occluder_threshold {threshold} must be >= 0 and thickness {thickness} > 0")));
     }
-    let max_steps = ctx.int_param("max_steps")?;
     let diagonal = (width as f32).hypot(height as f32).ceil() as u32 + 1;
     Ok(MrSettings {
-        count: ctx.int_param("count")?.clamp(0, 1 << 16) as u32,
-        per_primary: ctx.int_param("per_primary")?.clamp(1, 1 << 12) as u32,
+        count: c.count.min(1 << 16),
+        per_primary: c.per_primary.clamp(1, 1 << 12),
         stratified: ctx.stratified_param()?,
-        stream: ctx.int_param("stream")? as u32,
+        stream: c.stream,
         occluder_luminance: threshold * (env.total_luminance() / (4.0 * std::f64::consts::PI)) as f32,
         thickness,
-        max_steps: if max_steps <= 0 { diagonal } else { (max_steps as u32).min(diagonal) },
+        max_steps: if p.max_steps == 0 { diagonal } else { p.max_steps.min(diagonal) },
         eps: EPS_RELATIVE * scene.extent().max(1e-3),
     })
 }
@@ -238,7 +216,7 @@ fn virtual_hit_radiance(
     e.radiance * brdf(Lobe::Phong, kd, ks, m, n, wo, e.dir) * (cos / e.pdf)
 }
 
-/// One primary sample's `per_primary` secondary samples at receiver `r` (the module doc).
+/// One primary sample's `per_primary` secondary samples at receiver `r` ([`super`]'s doc).
 #[allow(clippy::too_many_arguments)]
 fn secondary(
     world: &World<'_>,
@@ -517,10 +495,7 @@ pub fn sample_pixel(
     }
 }
 
-/// The buffers `mr.sample` writes, in [`MrPixel::e`] order and then the rest.
-pub const IRRADIANCES: [&str; 6] = ["e_r_dir", "e_r_ind", "e_rv_dir", "e_rv_ind", "e_v_dir", "e_v_ind"];
-
-/// `mr.sample`: the two-mode sampler (module doc).
+/// `mr.sample`: the two-mode sampler ([`super`]'s doc).
 pub struct MrSample;
 
 impl Kernel for MrSample {
@@ -532,6 +507,9 @@ impl Kernel for MrSample {
     }
     fn draws_random(&self) -> bool {
         true
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [MrParams::specs(), MrCounts::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::write(n, Format::Vec3)).collect();
@@ -547,7 +525,7 @@ impl Kernel for MrSample {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/mr_sample.wgsl"), |ctx| {
+            WgslSource::new(include_str!("../../../../shaders/mr_sample.wgsl"), |ctx| {
                 let s = settings(ctx)?;
                 let u = Uniforms::new()
                     .u32("count", s.count)
@@ -562,7 +540,7 @@ impl Kernel for MrSample {
                     .u32("lobe", 0);
                 Ok(camera_uniforms(u, &ctx.scene.camera, wedge_scene::LensShape::Disk))
             })
-            .with_include("screen_trace.wgsl", include_str!("../../../shaders/screen_trace.wgsl"))
+            .with_include("screen_trace.wgsl", include_str!("../../../../shaders/screen_trace.wgsl"))
             .with_scene()
             .per_pixel()
             // A reference takes thousands of primaries per pixel; lavapipe stops an invocation's
@@ -597,85 +575,5 @@ impl Kernel for MrSample {
         ctx.put("environment", px.iter().map(|p| p.environment).collect::<Vec<_>>())?;
         ctx.put("depth", px.iter().map(|p| p.depth).collect::<Vec<_>>())?;
         ctx.put_opt("screen", || px.iter().map(|p| p.screen).collect::<Vec<_>>())
-    }
-}
-
-/// Eq. 6.2 at one pixel: `(1 − M) k_V (E_V^dir + E_V^ind) + M (E_RV / E_R) L_cam`, the ratio per
-/// channel and 1 where `E_R` is not positive (a real point the real light does not reach: `L_cam`
-/// holds no light to scale, so it is kept). `M = 1` gives exactly `ratio · L_cam` and `M = 0` exactly
-/// the virtual radiance (nothing of the other term is evaluated).
-pub fn composite(e: [[f32; 3]; 6], texture: [f32; 4], l_cam: Vec3) -> [f32; 3] {
-    let v = |k: usize| Vec3::from(e[k]);
-    let m = texture[3];
-    let e_r = v(0) + v(1);
-    let e_rv = v(2) + v(3);
-    let ratio = |a: f32, b: f32| if b > 0.0 && (a / b).is_finite() { a / b } else { 1.0 };
-    let real = l_cam * Vec3::new(ratio(e_rv.x, e_r.x), ratio(e_rv.y, e_r.y), ratio(e_rv.z, e_r.z));
-    let virt = Vec3::new(texture[0], texture[1], texture[2]) * (v(4) + v(5));
-    let out = if m >= 1.0 {
-        real
-    } else if m <= 0.0 {
-        virt
-    } else {
-        virt * (1.0 - m) + real * m
-    };
-    out.to_array()
-}
-
-/// `mr.composite`: eq. 6.2 per pixel from the six (filtered) irradiances, `texture` and the real
-/// layer's `L_cam`; optionally `reconstruction` = `k_R E_R` (the real albedo times the real
-/// irradiance), which should reproduce `L_cam` on real surfaces when the inputs agree with each other
-/// (map scale, registration): a check of the capture, not part of eq. 6.2.
-pub struct MrComposite;
-
-impl Kernel for MrComposite {
-    fn name(&self) -> &'static str {
-        "mr.composite"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::read(n, Format::Vec3)).collect();
-        b.extend([
-            Binding::read("texture", Format::Vec4),
-            Binding::write("out", Format::Vec3),
-            Binding::write_opt("reconstruction", Format::Vec3),
-            // M on its own, for a heatmap.
-            Binding::write_opt("mask", Format::F32),
-        ]);
-        b
-    }
-    fn wgsl(&self) -> Option<WgslSource> {
-        Some(
-            WgslSource::new(include_str!("../../../shaders/mr_composite.wgsl"), |_| Ok(Uniforms::new()))
-                .with_scene()
-                .per_pixel(),
-        )
-    }
-    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let layer = ctx.scene.real.as_ref().ok_or_else(|| BackendError::Kernel {
-            pass: ctx.pass.into(),
-            message: "the scene has no real layer".into(),
-        })?;
-        let (width, window) = (ctx.width, ctx.window);
-        let e: Vec<&[[f32; 3]]> = IRRADIANCES.iter().map(|n| ctx.read::<[f32; 3]>(n)).collect::<Result<_, _>>()?;
-        let texture = ctx.read::<[f32; 4]>("texture")?;
-        let out = ctx.map_pixels(false, |x, y| {
-            let i = (y * width + x) as usize;
-            let (gx, gy) = window.global_xy(x, y);
-            composite([e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i]], texture[i], layer.camera(gx, gy))
-        });
-        ctx.put_opt("reconstruction", || {
-            (0..out.len())
-                .map(|i| {
-                    let (x, y) = window.global_xy(i as u32 % width, i as u32 / width);
-                    let e_r = Vec3::from(e[0][i]) + Vec3::from(e[1][i]);
-                    (layer.albedo(x, y) * e_r).to_array()
-                })
-                .collect::<Vec<_>>()
-        })?;
-        ctx.put_opt("mask", || texture.iter().map(|t| t[3]).collect::<Vec<f32>>())?;
-        ctx.put("out", out)
     }
 }

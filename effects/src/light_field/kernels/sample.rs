@@ -1,0 +1,229 @@
+//! `light_field.sample`: the input samples (see [`super`]); WGSL `shaders/light_field_sample.wgsl`.
+
+use glam::{Vec2, Vec3};
+use wedge_backends::kernels::indirect::{path_from_hit, PathRays};
+use wedge_backends::kernels::paths::{camera_uniforms, pass_camera};
+use wedge_backends::rng::PixelRng;
+use wedge_backends::{
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
+use wedge_graph::Format;
+
+use super::{camera_sample, leave, stream, EstimatorParams, Primary};
+use crate::light_field::formulas::{kappa, occlusion};
+use crate::light_field::records::{LightPrimary, LightSample, LIGHT_PRIMARY, LIGHT_SAMPLE, SAMPLE_ESCAPED, SAMPLE_HIT};
+
+/// `light_field.sample` (see [`super`]).
+pub struct LightFieldSample;
+
+wedge_backends::kernel_params! {
+    /// `light_field.sample`'s own parameter, declared by the node and forwarded.
+    pub struct SampleParams {
+        angular: bool = boolean(true, "use each sample's angular bandwidth kappa (eq. 2); false treats every surface as diffuse (Fig. 10's ablation)"),
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// What the node sets on the pass: `count` paths per pixel (its `spp`; a reference's N) and
+    /// `time`, whether each path takes its own shutter time (the factoring node's camera settings).
+    pub struct SamplePass {
+        count: u32,
+        time: bool,
+    }
+}
+
+impl Kernel for LightFieldSample {
+    fn name(&self) -> &'static str {
+        "light_field.sample"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Sampling
+    }
+    fn draws_random(&self) -> bool {
+        true
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        [EstimatorParams::specs(), SampleParams::specs(), SamplePass::specs()].concat()
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            // `layers` records per pixel.
+            Binding::write("samples", Format::Struct(&LIGHT_SAMPLE)),
+            // `layers("primary")` records per pixel: the first paths' primary hits.
+            Binding::write("primary", Format::Struct(&LIGHT_PRIMARY)),
+            // rgb: Σ w·L f cos/pdf / Σ w over the finite samples; w: Σ w.
+            Binding::write("estimate", Format::Vec4),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../../shaders/light_field_sample.wgsl"), |ctx| {
+                let (_, p) = EstimatorParams::read_paths(ctx)?;
+                let (own, pass) = (SampleParams::read(ctx)?, SamplePass::read(ctx)?);
+                let (camera, shape) = pass_camera(ctx)?;
+                // The path settings as `indirect_path.wgsl` reads them (`PathParams::uniforms`).
+                let u = camera_uniforms(Uniforms::new(), &camera, shape)
+                    .u32("count", pass.count)
+                    .u32("layers", ctx.layers("samples"))
+                    .u32("primaries", ctx.layers("primary"))
+                    .bool("time", pass.time)
+                    .bool("angular", own.angular)
+                    .u32("stratified", ctx.stratified_param()? as u32)
+                    .u32("stream", stream(ctx)?);
+                Ok(p.uniforms(u, ctx))
+            })
+            .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
+            .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
+            .with_include("indirect_path.wgsl", include_str!("../../../../shaders/indirect_path.wgsl"))
+            .with_include("light_field_common.wgsl", include_str!("../../../../shaders/light_field_common.wgsl"))
+            .with_scene()
+            // A reference traces thousands of paths per pixel: lavapipe stops a loop after 65,535
+            // iterations (measured: a 1024-path reference of lightfield_indirect.ron at 32×24 cut
+            // 656 loops unchunked).
+            .chunked(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let (e, p) = EstimatorParams::read_paths(ctx)?;
+        let (ao, max_distance) = (p.ao, e.max_distance);
+        let (angular, SamplePass { count, time }) = (SampleParams::read(ctx)?.angular, SamplePass::read(ctx)?);
+        let (layers, primaries) = (ctx.layers("samples"), ctx.layers("primary"));
+        let stratified = ctx.stratified_param()?;
+        let stream = stream(ctx)?;
+        let (camera, shape) = pass_camera(ctx)?;
+        // A pinhole at the shutter's centre: one camera ray for every path of a pixel.
+        let fixed = camera.aperture_radius == 0.0 && !time;
+        let scene = ctx.scene;
+        let (seed, width, height) = (ctx.seed, ctx.width, ctx.height);
+        struct Px {
+            samples: Vec<LightSample>,
+            primary: Vec<LightPrimary>,
+            estimate: [f32; 4],
+            rays: PathRays,
+            primary_rays: u64,
+            bad: u64,
+        }
+        let out = ctx.map_pixels(true, |px, py| {
+            let i = (py * width + px) as usize;
+            let mut o = Px {
+                samples: vec![LightSample::default(); layers as usize],
+                primary: vec![LightPrimary::default(); primaries as usize],
+                estimate: [0.0; 4],
+                rays: PathRays::default(),
+                primary_rays: 0,
+                bad: 0,
+            };
+            let rng = PixelRng::new(seed, i as u32, stream);
+            let centre = Vec2::new(px as f32 + 0.5, py as f32 + 0.5);
+            let (mut sum, mut sum_w) = (Vec3::ZERO, 0.0f32);
+            let mut fixed_hit = None;
+            for s in 0..count {
+                let (ray, t) = camera_sample(&camera, shape, centre, (width, height), &rng, s, count, stratified, time);
+                let at = scene.at(t);
+                let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
+                let camera_hit = if fixed {
+                    *fixed_hit.get_or_insert_with(|| {
+                        o.primary_rays += 1;
+                        trace()
+                    })
+                } else {
+                    o.primary_rays += 1;
+                    trace()
+                };
+                let prim = camera_hit.map(|hit| {
+                    let sp = at.surface(&hit, ray.origin, ray.dir);
+                    let mat = &scene.materials[sp.material as usize];
+                    Primary {
+                        x: sp.position,
+                        n: sp.shading_normal,
+                        kd: scene.albedo(&sp),
+                        ks: mat.specular,
+                        m: mat.phong_exponent,
+                    }
+                });
+                if s < primaries {
+                    o.primary[s as usize] = match &prim {
+                        Some(q) => LightPrimary {
+                            position: q.x.to_array(),
+                            valid: 1,
+                            normal: q.n.to_array(),
+                            m: q.m,
+                            kd: q.kd.to_array(),
+                            time: t,
+                            ks: q.ks.to_array(),
+                            weight: ray.weight,
+                            eye: ray.origin.to_array(),
+                        },
+                        None => LightPrimary {
+                            time: t,
+                            weight: ray.weight,
+                            eye: ray.origin.to_array(),
+                            ..Default::default()
+                        },
+                    };
+                }
+                let Some(prim) = prim else {
+                    // The camera ray left the scene: no indirect light along it.
+                    sum_w += ray.weight;
+                    continue;
+                };
+                let wo = (ray.origin - prim.x).normalize_or_zero();
+                let (wi, weight) = leave(&prim, wo, p.lobe, ao, &rng, s, count, stratified);
+                let side = if wi.dot(prim.n) >= 0.0 { 1.0 } else { -1.0 };
+                let origin = prim.x + prim.n * (side * p.eps);
+                o.rays.secondary += 1;
+                let hit = at.intersect(origin, wi, 0.0, f32::INFINITY);
+                let mut rec = LightSample {
+                    origin: origin.to_array(),
+                    flags: SAMPLE_ESCAPED,
+                    direction: wi.to_array(),
+                    time: t,
+                    lens: ray.lens.to_array(),
+                    ..Default::default()
+                };
+                let mut value = Vec3::ZERO;
+                if let Some(hit) = hit {
+                    let sp = at.surface(&hit, origin, wi);
+                    let mat = &scene.materials[sp.material as usize];
+                    // Every hit is a sample of the light field, whatever this pixel's BRDF makes of
+                    // it (a black or below-surface direction still gives other pixels a splat).
+                    let radiance = if ao {
+                        occlusion(Some(hit.t), max_distance)
+                    } else {
+                        path_from_hit(&at, &p, hit, origin, wi, &rng, s, &mut o.rays).0
+                    };
+                    value = radiance;
+                    rec.flags = SAMPLE_HIT;
+                    rec.hit = sp.position.to_array();
+                    rec.distance = hit.t;
+                    rec.normal = sp.shading_normal.to_array();
+                    rec.kappa = if angular { kappa(mat.specular, mat.phong_exponent, p.lobe) } else { 0.0 };
+                    rec.radiance = radiance.to_array();
+                    rec.velocity = at.velocity(&sp).to_array();
+                }
+                let contribution = value * weight;
+                if contribution.is_finite() {
+                    sum += contribution * ray.weight;
+                    sum_w += ray.weight;
+                } else {
+                    // Counted, never spread: the sample is kept without radiance.
+                    o.bad += 1;
+                    rec.radiance = [0.0; 3];
+                }
+                if s < layers {
+                    o.samples[s as usize] = rec;
+                }
+            }
+            let mean = if sum_w > 0.0 { sum / sum_w } else { Vec3::ZERO };
+            o.estimate = [mean.x, mean.y, mean.z, sum_w];
+            o
+        });
+        Counters::add(&ctx.counters.primary_rays, out.iter().map(|o| o.primary_rays).sum());
+        Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.rays.secondary).sum());
+        Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.rays.shadow).sum());
+        Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.bad).sum());
+        ctx.put("estimate", out.iter().map(|o| o.estimate).collect::<Vec<_>>())?;
+        ctx.put("primary", out.iter().flat_map(|o| o.primary.iter().copied()).collect::<Vec<_>>())?;
+        ctx.put("samples", out.into_iter().flat_map(|o| o.samples).collect::<Vec<_>>())
+    }
+}
