@@ -1,5 +1,5 @@
 // filter.gaussian — one axis of the separable world-space Gaussian driven by a per-pixel bandwidth;
-// mirrors backends/src/kernels/filter.rs (filter_pixel) term by term and in the same order.
+// mirrors backends/src/kernels/gaussian_filter.rs (filter_pixel) term by term and in the same order.
 #include "common.wgsl"
 
 const TANGENT_SLOPE: f32 = 0.2;

@@ -6,7 +6,7 @@ use wedge_graph::{BufferId, ExpandCtx, Format, ParamDecl, ParamValue, Reference,
 
 /// The parameters every filtering node declares (window cap, normal test, and the reach rule:
 /// `mutual`, the default, weighs a neighbour with a narrower filter by its own width
-/// (`backends::kernels::filter::FilterParams::mutual`); `own` is the thesis's, each pixel's β alone —
+/// (`backends::kernels::gaussian_filter::FilterParams::mutual`); `own` is the thesis's, each pixel's β alone —
 /// measured over the scene suite in docs/DESIGN-NOTES.md "SoftShadows after the suite").
 pub fn params() -> [ParamDecl; 3] {
     [

@@ -30,7 +30,7 @@
 //!   exceeds an integer `p` by less than [`ROUNDING_SLACK`] takes `p` strata, so float noise in e.g.
 //!   `(0.5 + 0.5)² = 1` never adds a stratum.
 
-use wedge_backends::kernels::filter_ch5;
+use wedge_backends::kernels::filter_window;
 use wedge_scene::{AreaLight, Camera, LightShape};
 
 /// `Ω_pix^max`: the pixel bandlimit of one sample per pixel (thesis eq. 5.7).
@@ -42,7 +42,7 @@ pub const FACTORING_THRESHOLD: f32 = 0.01;
 /// A square root of a rate within this of an integer `p` rounds to `p`, not `p + 1`.
 pub const ROUNDING_SLACK: f32 = 1e-4;
 /// Filter constants of eqs. 5.31 and 5.33 (the shared filter kernels own them).
-pub use filter_ch5::{FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_WEIGHT};
+pub use filter_window::{FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_WEIGHT};
 
 /// The aperture's weight over the unit lens disk: the camera's (`wedge_scene::LensShape`, which the
 /// path sampler applies; `disk` uniform, `gaussian` the thesis's `exp(−|u|²/2)`).

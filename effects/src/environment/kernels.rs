@@ -17,6 +17,8 @@
 //!   factoring node's rates read as the environment component's own bandwidth), and `rays` (u32) the
 //!   adaptive look-ups.
 
+pub mod filter;
+
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use wedge_graph::Format;
 

@@ -12,6 +12,8 @@
 //! - Filter inputs written for `filter.motion`: `texture_motion`, `shadow_motion` (vec4: the velocity
 //!   to filter along, its μ-scaled width Ω — 0 where the pixel is not filtered — and σ in pixels).
 
+pub mod filter;
+
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use wedge_graph::Format;
 

@@ -30,8 +30,10 @@
 //!   the same normalised average, with no weight left to underflow into the subnormals on which the
 //!   CPU (keeps them) and GPUs (flush them) disagree.
 //!
-//! WGSL mirrors: `shaders/filter_environment.wgsl` and `shaders/filter_environment_history.wgsl`,
-//! term by term in the same order.
+//! - `bandwidth.max` ([`BandwidthMax`]): two parts' bandwidths merged for one filter (MixedReality).
+//!
+//! WGSL mirrors: `shaders/filter_environment.wgsl`, `shaders/filter_environment_history.wgsl` and
+//! `shaders/bandwidth_max.wgsl`, term by term in the same order.
 //! Non-finite values are never used as neighbours; each pixel whose own value is non-finite is
 //! counted once in `non_finite_samples` (in the x and history passes; the y pass sees x outputs).
 
@@ -39,10 +41,9 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::Camera;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::paths::camera_uniforms;
-use crate::kernels::{count_non_finite, is_finite3, v3};
-use crate::BackendError;
+use wedge_backends::kernels::paths::camera_uniforms;
+use wedge_backends::kernels::{count_non_finite, is_finite3, v3};
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 
 /// Largest `max_radius` a pass may ask for.
 pub const MAX_RADIUS_LIMIT: i64 = 64;
@@ -320,7 +321,7 @@ impl Kernel for EnvironmentFilter {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/filter_environment.wgsl"), |ctx| {
+            WgslSource::new(include_str!("../../../../shaders/filter_environment.wgsl"), |ctx| {
                 let p = params(ctx)?;
                 Ok(Uniforms::new()
                     .u32("axis", p.axis as u32)
@@ -376,7 +377,7 @@ impl Kernel for EnvironmentHistory {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/filter_environment_history.wgsl"), |ctx| {
+            WgslSource::new(include_str!("../../../../shaders/filter_environment_history.wgsl"), |ctx| {
                 let p = history_params(ctx)?;
                 let (cam, present) = match ctx.scene.previous_camera {
                     Some(c) => (c, 1u32),
@@ -390,7 +391,7 @@ impl Kernel for EnvironmentHistory {
                     .f32("max_weight_exponent", MAX_WEIGHT_EXPONENT);
                 Ok(camera_uniforms(u, &cam, wedge_scene::LensShape::Disk))
             })
-            .with_include("camera.wgsl", include_str!("../../../shaders/camera.wgsl"))
+            .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
             .with_reach(|ctx| Ok(Reach::Rows(history_params(ctx)?.max_motion as u32 + 1))),
         )
     }
@@ -416,6 +417,8 @@ impl Kernel for EnvironmentHistory {
 /// negative one ("do not filter" for that part) counting as absent; negative where both are. For an
 /// irradiance that mixes two parts (a surface's diffuse and glossy light in one value): the larger
 /// bandwidth is the narrower filter, which keeps both parts' detail.
+/// MixedReality's (its virtual objects' irradiance mixes the parts); it lives beside the filter it
+/// feeds, whose passes MixedReality reuses by kernel name.
 pub struct BandwidthMax;
 
 /// The larger of two bandwidths (see [`BandwidthMax`]).
@@ -440,7 +443,10 @@ impl Kernel for BandwidthMax {
         vec![Binding::read("a", Format::Vec2), Binding::read("b", Format::Vec2), Binding::write("out", Format::Vec2)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/bandwidth_max.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../../shaders/bandwidth_max.wgsl"), |_| Ok(Uniforms::new()))
+                .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let a = ctx.read::<[f32; 2]>("a")?;
