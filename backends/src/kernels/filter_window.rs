@@ -21,6 +21,7 @@
 
 use crate::kernel::{KernelCtx, Reach};
 use crate::kernels::is_finite3;
+use crate::params::KernelParams;
 use crate::BackendError;
 
 /// The constant 16 of eqs. 5.31 and 5.33.
@@ -138,12 +139,33 @@ pub fn gather(
     }
 }
 
-/// The `max_radius` parameter clamped to `0..=MAX_RADIUS_LIMIT` (shared by `filter.motion`).
-pub fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
-    Ok(ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32)
+crate::kernel_params! {
+    /// The window's cap, as `filter.defocus` and `filter.motion` read it (`filter.irradiance`'s block
+    /// adds its normal test): clamped to `0..=MAX_RADIUS_LIMIT` ([`WindowParams::read_clamped`]).
+    pub struct WindowParams {
+        max_radius: i32,
+    }
 }
 
-/// The `axis` parameter: absent or -1 = 2-D, 0 = x, 1 = y.
+impl WindowParams {
+    /// The pass's block, `max_radius` clamped ([`clamp_radius`]).
+    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        Ok(Self { max_radius: clamp_radius(Self::read(ctx)?.max_radius) })
+    }
+}
+
+/// A pass's `max_radius` clamped to `0..=MAX_RADIUS_LIMIT`.
+pub fn clamp_radius(r: i32) -> i32 {
+    r.clamp(0, MAX_RADIUS_LIMIT as i32)
+}
+
+/// The `max_radius` parameter clamped to `0..=MAX_RADIUS_LIMIT`.
+pub fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
+    Ok(WindowParams::read_clamped(ctx)?.max_radius)
+}
+
+/// The `axis` parameter: absent or -1 = 2-D, 0 = x, 1 = y. Read by name, not declared in the
+/// kernels' blocks: it is optional (absent = the 2-D reference filter), which a block's field is not.
 pub fn axis(ctx: &KernelCtx<'_>) -> Result<Axis, BackendError> {
     if !ctx.params.contains_key("axis") {
         return Ok(Axis::Both);

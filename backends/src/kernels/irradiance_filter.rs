@@ -15,17 +15,27 @@
 use glam::Vec3;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
-use crate::kernels::filter_window::{axis, gather, max_radius, pair_weight, reach, valid_width, window_radius, Axis};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
+use crate::kernels::filter_window::{axis, clamp_radius, gather, pair_weight, reach, valid_width, window_radius, Axis};
 use crate::kernels::{count_non_finite, v3};
+use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
 
-/// Parameters of one irradiance filter pass.
-#[derive(Clone, Copy, Debug)]
-pub struct IrradianceParams {
-    pub max_radius: i32,
-    pub normal_cos: f32,
-    pub axis: Axis,
+crate::kernel_params! {
+    /// What a `filter.irradiance` pass carries besides its optional `axis` ([`axis`]): the window's
+    /// cap (clamped, [`IrradianceParams::read_clamped`]) and the cosine of the normal test.
+    pub struct IrradianceParams {
+        max_radius: i32,
+        normal_cos: f32,
+    }
+}
+
+impl IrradianceParams {
+    /// The pass's block, `max_radius` clamped ([`clamp_radius`]).
+    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        let p = Self::read(ctx)?;
+        Ok(Self { max_radius: clamp_radius(p.max_radius), ..p })
+    }
 }
 
 /// Eq. 5.31 at pixel `(x, y)`.
@@ -36,6 +46,7 @@ pub fn irradiance_pixel(
     width: i32,
     height: i32,
     p: &IrradianceParams,
+    axis: Axis,
     value: &[[f32; 3]],
     position: &[[f32; 4]],
     normal: &[[f32; 4]],
@@ -55,7 +66,7 @@ pub fn irradiance_pixel(
     let gi = om / ell;
     let gi2 = gi * gi;
     let xi = v3(position[i]);
-    let extent = p.axis.extent(window_radius(om, p.max_radius));
+    let extent = axis.extent(window_radius(om, p.max_radius));
     gather(x, y, width, height, extent, value, |j, _| {
         if !is_hit(position[j]) || ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
             return None;
@@ -80,6 +91,9 @@ impl Kernel for IrradianceFilter {
     fn class(&self) -> KernelClass {
         KernelClass::Filter
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        IrradianceParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("value", Format::Vec3),
@@ -93,10 +107,7 @@ impl Kernel for IrradianceFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_irradiance.wgsl"), |ctx| {
-                Ok(Uniforms::new()
-                    .i32("max_radius", max_radius(ctx)?)
-                    .i32("axis", axis(ctx)?.code())
-                    .f32("normal_cos", ctx.f32_param("normal_cos")?))
+                Ok(IrradianceParams::read_clamped(ctx)?.uniforms().i32("axis", axis(ctx)?.code()))
             })
             .with_include("filter_window.wgsl", include_str!("../../../shaders/filter_window.wgsl"))
             .with_reach(reach),
@@ -108,15 +119,11 @@ impl Kernel for IrradianceFilter {
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let omega = ctx.read::<f32>("omega")?;
         let pixel_length = ctx.read::<f32>("pixel_length")?;
-        let p = IrradianceParams {
-            max_radius: max_radius(ctx)?,
-            normal_cos: ctx.f32_param("normal_cos")?,
-            axis: axis(ctx)?,
-        };
+        let (p, a) = (IrradianceParams::read_clamped(ctx)?, axis(ctx)?);
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
-            irradiance_pixel(x as i32, y as i32, w, h, &p, value, position, normal, omega, pixel_length)
+            irradiance_pixel(x as i32, y as i32, w, h, &p, a, value, position, normal, omega, pixel_length)
         });
         ctx.put("out", out)
     }

@@ -7,9 +7,9 @@
 
 use wedge_backends::kernels::count_non_finite;
 use wedge_backends::kernels::filter_window::{
-    axis, gather, max_radius, pair_weight, reach, valid_width, window_radius, Axis,
+    axis, gather, pair_weight, reach, valid_width, window_radius, Axis, WindowParams,
 };
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
 use wedge_graph::Format;
 
 /// Eq. 5.33 at pixel `(x, y)`.
@@ -46,6 +46,9 @@ impl Kernel for DefocusFilter {
     fn class(&self) -> KernelClass {
         KernelClass::Filter
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        WindowParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("value", Format::Vec3),
@@ -56,7 +59,7 @@ impl Kernel for DefocusFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_defocus.wgsl"), |ctx| {
-                Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?).i32("axis", axis(ctx)?.code()))
+                Ok(WindowParams::read_clamped(ctx)?.uniforms().i32("axis", axis(ctx)?.code()))
             })
             .with_include("filter_window.wgsl", include_str!("../../../../shaders/filter_window.wgsl"))
             .with_reach(reach),
@@ -65,7 +68,7 @@ impl Kernel for DefocusFilter {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 3]>("value")?;
         let omega = ctx.read::<f32>("omega")?;
-        let (r, a) = (max_radius(ctx)?, axis(ctx)?);
+        let (r, a) = (WindowParams::read_clamped(ctx)?.max_radius, axis(ctx)?);
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, a, value, omega));

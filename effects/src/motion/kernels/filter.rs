@@ -27,9 +27,11 @@
 use glam::Vec2;
 use wedge_graph::Format;
 
-use wedge_backends::kernels::filter_window::{max_radius, pair_weight, valid_width, window_radius};
+use wedge_backends::kernels::filter_window::{max_radius, pair_weight, valid_width, window_radius, WindowParams};
 use wedge_backends::kernels::{count_non_finite, is_finite3};
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 
 /// Two velocities (pixels per half shutter) are the same motion when they differ by at most
 /// `VELOCITY_TOLERANCE_PX + VELOCITY_TOLERANCE_REL · max(|a|, |b|)`: half a pixel of blur length
@@ -172,6 +174,9 @@ impl Kernel for MotionFilter {
     fn class(&self) -> KernelClass {
         KernelClass::Filter
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        WindowParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("value", Format::Vec3),
@@ -182,7 +187,7 @@ impl Kernel for MotionFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_motion.wgsl"), |ctx| {
-                Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?))
+                Ok(WindowParams::read_clamped(ctx)?.uniforms())
             })
             .with_include("filter_window.wgsl", include_str!("../../../../shaders/filter_window.wgsl"))
             .with_include("velocity.wgsl", include_str!("../../../../shaders/velocity.wgsl"))
