@@ -199,32 +199,13 @@ pub fn time_factor(speed: f32, omega: f32) -> f32 {
     f * f
 }
 
-/// How μ scales a bandwidth (eq. 5.29).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// `Ω(μ) = min(Ω_pix^max, μ Ω)` as printed: stops at Ω_pix^max, does not converge as μ → ∞.
-    Literal,
-    /// `Ω(μ) = μ Ω`: filters shrink to one pixel and counts grow without bound as μ → ∞.
-    Consistent,
-}
-
-impl Mode {
-    pub const NAMES: [&'static str; 2] = ["literal", "consistent"];
-
-    pub fn parse(name: &str) -> Option<Mode> {
-        match name {
-            "literal" => Some(Mode::Literal),
-            "consistent" => Some(Mode::Consistent),
-            _ => None,
-        }
-    }
-
-    /// The value a kernel's uniform block carries (0 literal, 1 consistent).
-    pub fn code(self) -> u32 {
-        match self {
-            Mode::Literal => 0,
-            Mode::Consistent => 1,
-        }
+wedge_backends::param_choice! {
+    /// How μ scales a bandwidth (eq. 5.29); a kernel's uniform block carries it as 0 literal, 1 consistent.
+    pub enum Mode {
+        /// `Ω(μ) = min(Ω_pix^max, μ Ω)` as printed: stops at Ω_pix^max, does not converge as μ → ∞.
+        Literal = "literal",
+        /// `Ω(μ) = μ Ω`: filters shrink to one pixel and counts grow without bound as μ → ∞.
+        Consistent = "consistent",
     }
 }
 
