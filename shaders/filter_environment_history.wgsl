@@ -65,7 +65,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let fx = i32(floor(qx));
     let fy = i32(floor(qy));
-    // Moved farther than max_motion pixels: no history (filter.rs Ch6Params::max_motion).
+    // Moved farther than max_motion pixels: no history (filter.rs HistoryParams::max_motion).
     if (abs(fx - xy.x) > params.max_motion || abs(fy - xy.y) > params.max_motion) {
         out_put(i, none);
         return;
