@@ -1,5 +1,5 @@
 // bandwidth.max — per pixel and axis the larger of two Ch. 6 bandwidths, a negative one ("do not
-// filter") counting as absent. Mirrors backends/src/kernels/filter_ch6.rs `bandwidth_max`.
+// filter") counting as absent. Mirrors effects/src/environment/kernels/filter.rs `bandwidth_max`.
 #include "common.wgsl"
 
 fn larger_bandwidth(x: f32, y: f32) -> f32 {

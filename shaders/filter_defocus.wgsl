@@ -1,8 +1,8 @@
 // filter.defocus — thesis eq. 5.33: screen-space pixel-distance Gaussian on composed radiance, 2-D,
-// with the w_j(i) < 0.01 rejection; mirrors backends/src/kernels/filter_ch5.rs (defocus_pixel) term
+// with the w_j(i) < 0.01 rejection; mirrors effects/src/defocus/kernels/filter.rs (defocus_pixel) term
 // by term and in the same order.
 #include "common.wgsl"
-#include "filter_ch5_window.wgsl"
+#include "filter_window.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

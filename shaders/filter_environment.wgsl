@@ -1,8 +1,8 @@
 // filter.environment — thesis eqs. 6.21–6.23: one image axis of the world-space Gaussian
 // exp(−2 B̄² ‖p − p'‖²) with B̄² the mean of the two pixels' squared bandwidths along the axis; with
 // `previous` bound, the y pass joins the previous frame's x-filtered irradiance (eq. 6.26 as read in
-// backends/src/kernels/filter_ch6.rs). Mirrors filter_ch6.rs (filter_pixel) term by term and in the
-// same order.
+// effects/src/environment/kernels/filter.rs). Mirrors that file's filter_pixel term by term and in
+// the same order.
 #include "common.wgsl"
 
 fn mean_b2(bi: vec2<f32>, bj: vec2<f32>, axis: u32) -> f32 {
@@ -26,7 +26,7 @@ fn neighbour_index(xy: vec2<i32>, k: i32) -> u32 {
     return index_at(p.x, p.y);
 }
 
-// filter_ch6.rs filter_pixel's `term`: neighbour k's weight exponent 2 B̄² d², NOT_USED where it is
+// filter.rs filter_pixel's `term`: neighbour k's weight exponent 2 B̄² d², NOT_USED where it is
 // off the image, not finite, "do not filter", or on another surface.
 fn neighbour_exponent(xy: vec2<i32>, k: i32, pi: vec4<f32>, ni: vec3<f32>, bi: vec2<f32>) -> f32 {
     let p = neighbour_xy(xy, k);
@@ -62,7 +62,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let ni = normalize_or_zero3(normal_at(i).xyz);
-    // filter_ch6.rs RelativeWeights: weights relative to the nearest neighbour's, cut at
+    // filter.rs RelativeWeights: weights relative to the nearest neighbour's, cut at
     // params.max_weight_exponent, so no weight is subnormal (flushed here, kept on the CPU).
     var a_min = NOT_USED;
     for (var k = -params.max_radius; k <= params.max_radius; k = k + 1) {

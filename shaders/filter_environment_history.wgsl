@@ -1,7 +1,7 @@
 // filter.environment_history — thesis eqs. 6.24–6.25: the previous frame's raw irradiance, x-filtered
 // around the previous pixel whose world position is closest to this pixel's (searched over the 3×3
 // pixels around its projection by the previous camera), weights measured from this pixel's position;
-// w = 1 where any previous neighbour had a weight. Mirrors backends/src/kernels/filter_ch6.rs
+// w = 1 where any previous neighbour had a weight. Mirrors effects/src/environment/kernels/filter.rs
 // (history_pixel, project) term by term and in the same order.
 #include "common.wgsl"
 #include "camera.wgsl"
@@ -10,7 +10,7 @@
 // 1.0 / 0.0: a constant division by zero is a shader-creation error in WGSL.)
 const NOT_USED: f32 = 3.0e38;
 
-// filter_ch6.rs history_pixel's `term`: the previous pixel (jx, row)'s weight exponent 2 B̄² d²
+// filter.rs history_pixel's `term`: the previous pixel (jx, row)'s weight exponent 2 B̄² d²
 // measured from this pixel's position, NOT_USED where it is off the image, not finite or on
 // another surface.
 fn previous_exponent(jx: i32, row: i32, pi: vec4<f32>, ni: vec3<f32>, bi: vec2<f32>) -> f32 {
@@ -45,7 +45,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let xi = pi.xyz;
     let ni = normalize_or_zero3(normal_at(i).xyz);
-    // filter_ch6.rs `project`: the previous camera's pixel coordinates of xi.
+    // filter.rs `project`: the previous camera's pixel coordinates of xi.
     let d = xi - params.cam_position;
     let z = dot3(d, params.cam_forward);
     if (!(z > 0.0)) {
@@ -65,7 +65,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let fx = i32(floor(qx));
     let fy = i32(floor(qy));
-    // Moved farther than max_motion pixels: no history (filter_ch6.rs Ch6Params::max_motion).
+    // Moved farther than max_motion pixels: no history (filter.rs HistoryParams::max_motion).
     if (abs(fx - xy.x) > params.max_motion || abs(fy - xy.y) > params.max_motion) {
         out_put(i, none);
         return;
@@ -100,7 +100,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let bi = bandwidth_at(i);
-    // filter_ch6.rs RelativeWeights: weights relative to the nearest neighbour's, cut at
+    // filter.rs RelativeWeights: weights relative to the nearest neighbour's, cut at
     // params.max_weight_exponent, so no weight is subnormal (flushed here, kept on the CPU) and
     // whether a pixel has history is decided alike on both backends.
     var a_min = NOT_USED;

@@ -1,5 +1,5 @@
 // filter.gaussian — one axis of the separable world-space Gaussian driven by a per-pixel bandwidth;
-// mirrors backends/src/kernels/filter.rs (filter_pixel) term by term and in the same order.
+// mirrors backends/src/kernels/gaussian_filter.rs (filter_pixel) term by term and in the same order.
 #include "common.wgsl"
 
 const TANGENT_SLOPE: f32 = 0.2;
@@ -66,7 +66,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let bj = bandwidth_at(j);
         var inv_j = inv;
-        if (params.mutual != 0u && bj > 0.0 && bj < beta) {
+        if (params.reach == 1u && bj > 0.0 && bj < beta) {
             inv_j = -0.5 / (bj * bj);
         }
         let w = exp(plane_distance2(xi, xj, params.plane_normal.xyz) * inv_j);

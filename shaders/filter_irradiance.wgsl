@@ -1,8 +1,8 @@
 // filter.irradiance — thesis eq. 5.31 on factored irradiance, 2-D, with the 10° normal test and the
-// w_j(i) < 0.01 rejection; mirrors backends/src/kernels/filter_ch5.rs (irradiance_pixel) term by term
+// w_j(i) < 0.01 rejection; mirrors backends/src/kernels/irradiance_filter.rs (irradiance_pixel) term by term
 // and in the same order.
 #include "common.wgsl"
-#include "filter_ch5_window.wgsl"
+#include "filter_window.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

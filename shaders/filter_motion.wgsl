@@ -1,9 +1,9 @@
 // filter.motion — thesis App. B eqs. B.1/B.2: a 1-D Gaussian oriented along the pixel's velocity, with
 // the Ch. 5 weight and w_j(i) < 0.01 rejection, neighbours without a filter or with another velocity
-// dropped; mirrors backends/src/kernels/filter_motion.rs (motion_pixel) term by term and in the same
+// dropped; mirrors effects/src/motion/kernels/filter.rs (motion_pixel) term by term and in the same
 // order.
 #include "common.wgsl"
-#include "filter_ch5_window.wgsl"
+#include "filter_window.wgsl"
 #include "velocity.wgsl"
 
 @compute @workgroup_size(8, 8)

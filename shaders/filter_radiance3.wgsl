@@ -1,7 +1,7 @@
 // filter.radiance3 — thesis App. B: at pixels whose `mask` is set (multi-velocity pixels), a 1-2-1 tent
 // over the 3×3 neighbourhood of the finite radiance values, or with `velocity` bound a 1-2-1 filter
 // over the pixel and its two masked neighbours along its velocity; mirrors
-// backends/src/kernels/filter_motion.rs (radiance3_pixel) term by term and in the same order.
+// effects/src/motion/kernels/filter.rs (radiance3_pixel) term by term and in the same order.
 #include "common.wgsl"
 #include "velocity.wgsl"
 

@@ -1,5 +1,5 @@
 // neighbourhood.fill — average of neighbours' statistics within a radius for pixels without their
-// own; mirrors backends/src/kernels/neighbourhood.rs (same visiting order, so the sums agree).
+// own; mirrors backends/src/kernels/neighbourhood_fill.rs (same visiting order, so the sums agree).
 #include "common.wgsl"
 
 @compute @workgroup_size(8, 8)

@@ -1,5 +1,5 @@
 // velocity.wgsl — when two image-space velocities are one motion; mirrors `velocity_tolerance` and
-// `same_velocity` of backends/src/kernels/filter_motion.rs (the constants are its
+// `same_velocity` of effects/src/motion/kernels/filter.rs (the constants are its
 // VELOCITY_TOLERANCE_PX and VELOCITY_TOLERANCE_REL). Included by filter_motion.wgsl and
 // motion_formulas.wgsl.
 

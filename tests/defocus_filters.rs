@@ -18,8 +18,8 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use wedge::backends::gpu::GpuBackend;
-use wedge::backends::kernels::filter_ch5::{
-    defocus_pixel, window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT,
+use wedge::backends::kernels::filter_window::{
+    window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT,
 };
 use wedge::backends::kernels::neighbourhood3::{max3, median3};
 use wedge::backends::lone::LonePass;
@@ -27,6 +27,7 @@ use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::{
     BackendError, Binding, BufferData, Kernel, KernelClass, KernelCtx, RayCounts, Uniforms, WgslSource,
 };
+use wedge::effects::defocus::kernels::filter::defocus_pixel;
 use wedge::graph::Format;
 use wedge::graph::ParamValue;
 use wedge::scene::Scene;
@@ -728,7 +729,7 @@ fn rates_kernel_matches_the_formulas() {
         .unwrap()
         .run_cpu(&scene, W, H, SEED)
         .unwrap_err();
-    assert!(e.to_string().contains("literal or consistent"), "{e}");
+    assert!(e.to_string().contains(r#"["literal", "consistent"]"#), "{e}");
     // So are non-positive or non-finite constants.
     for (name, v) in [("mu", 0.0), ("mu", f64::NAN), ("pixel_scale", -1.0), ("light_half_width", -0.1)] {
         let mut p = rate_params(1.0, "literal", 64, 64);

@@ -1,5 +1,5 @@
 //! The Ch. 6 filter (`filter.environment`, eqs. 6.21–6.23; `filter.environment_history` and the
-//! temporal y pass, eqs. 6.24–6.26 as read in `backends/src/kernels/filter_ch6.rs`): weights against a
+//! temporal y pass, eqs. 6.24–6.26 as read in `effects/src/environment/kernels/filter.rs`): weights against a
 //! direct evaluation, the temporal join on a still camera, reprojection under camera motion, and
 //! parity of both kernels with the wgpu backend.
 
@@ -10,10 +10,10 @@ use std::sync::Arc;
 
 use common::gpu_or_skip;
 use wedge::backends::gpu::GpuBackend;
-use wedge::backends::kernels::filter_ch6::{EnvironmentFilter, EnvironmentHistory};
 use wedge::backends::lone::LonePass;
 use wedge::backends::parity::{compare, Tolerance};
 use wedge::backends::{BufferData, Kernel, KernelClass, Texel};
+use wedge::effects::environment::kernels::filter::{EnvironmentFilter, EnvironmentHistory};
 use wedge::graph::ParamValue;
 use wedge::scene::{Camera, Scene, SceneSource};
 

@@ -10,9 +10,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 use common::*;
-use wedge::backends::kernels::filter_motion::MotionFilter;
 use wedge::backends::lone::LonePass;
 use wedge::backends::{BufferData, Texel};
+use wedge::effects::motion::kernels::filter::MotionFilter;
 use wedge::graph::{parse_pipeline, ParamValue};
 use wedge::image::Image;
 use wedge::{Overrides, Session};
@@ -105,7 +105,7 @@ fn the_oriented_filter_blurs_along_the_velocity_only() {
         }
     }
     // Row profile (row 0, away from the borders): the Gaussian-weighted mean of g along x.
-    let r = wedge::backends::kernels::filter_ch5::window_radius(omega, 32);
+    let r = wedge::backends::kernels::filter_window::window_radius(omega, 32);
     for x in 24..40 {
         let (mut s, mut ws) = (0.0f64, 0.0f64);
         for k in -r..=r {

@@ -2,7 +2,7 @@
 //! carries buffers from one frame to the next — over the first frames of a `render --frames`
 //! sequence (issue 33: `environment_temporal.ron` frame 2 differed at 5 of 768 pixels by up to 0.26,
 //! because history weights underflowed to subnormals the CPU kept and lavapipe flushed; see
-//! `backends/src/kernels/filter_ch6.rs`, `RelativeWeights`).
+//! `effects/src/environment/kernels/filter.rs`, `RelativeWeights`).
 //!
 //! Two checks per frame:
 //! - `Session::parity_frame` (what `wedge parity --frames` runs): each pass on both backends with the

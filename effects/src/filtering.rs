@@ -2,11 +2,12 @@
 //! parameters and expands into the `filter_x` → `filter_y` pass pair (shared kernel
 //! `filter.gaussian`, thesis Sec. 3.6 / 4.5), so every effect filters the same way.
 
+use wedge_backends::kernels::gaussian_filter::FilterReach;
 use wedge_graph::{BufferId, ExpandCtx, Format, ParamDecl, ParamValue, Reference, Stage};
 
 /// The parameters every filtering node declares (window cap, normal test, and the reach rule:
 /// `mutual`, the default, weighs a neighbour with a narrower filter by its own width
-/// (`backends::kernels::filter::FilterParams::mutual`); `own` is the thesis's, each pixel's β alone —
+/// (`backends::kernels::gaussian_filter::FilterParams::mutual`); `own` is the thesis's, each pixel's β alone —
 /// measured over the scene suite in docs/DESIGN-NOTES.md "SoftShadows after the suite").
 pub fn params() -> [ParamDecl; 3] {
     [
@@ -15,7 +16,7 @@ pub fn params() -> [ParamDecl; 3] {
         ParamDecl::choice(
             "reach",
             "mutual",
-            &["own", "mutual"],
+            FilterReach::OPTIONS,
             "weigh neighbours by this pixel's filter width (thesis), or by the narrower of its and theirs",
         ),
     ]

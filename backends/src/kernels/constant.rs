@@ -4,18 +4,24 @@
 
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
+use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
 
 pub struct FillConstant;
 
-/// The parameter as a `u32`; a count outside `0..=u32::MAX` is an error, never wrapped.
-fn value(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
-    let v = ctx.int_param("value")?;
-    u32::try_from(v).map_err(|_| BackendError::Kernel {
-        pass: ctx.pass.into(),
-        message: format!("`value` {v} is not a count (0..=4294967295)"),
-    })
+crate::kernel_params! {
+    /// `fill.constant`'s count (a count outside `0..=u32::MAX` is an error when read, never wrapped).
+    pub struct CountParams {
+        value: u32,
+    }
+}
+
+crate::kernel_params! {
+    /// `fill.constant_f32` / `fill.constant_vec4`'s value, finite ([`ValueParams::read_finite`]).
+    pub struct ValueParams {
+        value: f32,
+    }
 }
 
 impl Kernel for FillConstant {
@@ -25,6 +31,9 @@ impl Kernel for FillConstant {
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        CountParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![Binding::write("out", Format::U32)]
     }
@@ -32,13 +41,13 @@ impl Kernel for FillConstant {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| {
-                Ok(Uniforms::new().u32("value", value(ctx)?))
+                Ok(CountParams::read(ctx)?.uniforms())
             })
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let v = value(ctx)?;
+        let v = CountParams::read(ctx)?.value;
         ctx.put("out", vec![v; ctx.pixels()])
     }
 }
@@ -48,12 +57,15 @@ impl Kernel for FillConstant {
 /// generated bindings make `value` and `out` `f32`.
 pub struct FillConstantF32;
 
-fn value_f32(ctx: &KernelCtx<'_>) -> Result<f32, BackendError> {
-    let v = ctx.f32_param("value")?;
-    if !v.is_finite() {
-        return Err(BackendError::Kernel { pass: ctx.pass.into(), message: format!("`value` {v} is not finite") });
+impl ValueParams {
+    /// The pass's value; one that is not finite is an error.
+    pub fn read_finite(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        let p = Self::read(ctx)?;
+        if !p.value.is_finite() {
+            return Err(ctx.err(format!("`value` {} is not finite", p.value)));
+        }
+        Ok(p)
     }
-    Ok(v)
 }
 
 impl Kernel for FillConstantF32 {
@@ -63,19 +75,22 @@ impl Kernel for FillConstantF32 {
     fn class(&self) -> KernelClass {
         KernelClass::Compose
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        ValueParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![Binding::write("out", Format::F32)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| {
-                Ok(Uniforms::new().f32("value", value_f32(ctx)?))
+                Ok(ValueParams::read_finite(ctx)?.uniforms())
             })
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let v = value_f32(ctx)?;
+        let v = ValueParams::read_finite(ctx)?.value;
         ctx.put("out", vec![v; ctx.pixels()])
     }
 }
@@ -91,19 +106,22 @@ impl Kernel for FillConstantVec4 {
     fn class(&self) -> KernelClass {
         KernelClass::Compose
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        ValueParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![Binding::write("out", Format::Vec4)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/fill_constant_vec4.wgsl"), |ctx| {
-                Ok(Uniforms::new().f32("value", value_f32(ctx)?))
+                Ok(ValueParams::read_finite(ctx)?.uniforms())
             })
             .per_pixel(),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let v = value_f32(ctx)?;
+        let v = ValueParams::read_finite(ctx)?.value;
         ctx.put("out", vec![[v; 4]; ctx.pixels()])
     }
 }

@@ -30,7 +30,7 @@
 //!   exceeds an integer `p` by less than [`ROUNDING_SLACK`] takes `p` strata, so float noise in e.g.
 //!   `(0.5 + 0.5)² = 1` never adds a stratum.
 
-use wedge_backends::kernels::filter_ch5;
+use wedge_backends::kernels::filter_window;
 use wedge_scene::{AreaLight, Camera, LightShape};
 
 /// `Ω_pix^max`: the pixel bandlimit of one sample per pixel (thesis eq. 5.7).
@@ -42,7 +42,7 @@ pub const FACTORING_THRESHOLD: f32 = 0.01;
 /// A square root of a rate within this of an integer `p` rounds to `p`, not `p + 1`.
 pub const ROUNDING_SLACK: f32 = 1e-4;
 /// Filter constants of eqs. 5.31 and 5.33 (the shared filter kernels own them).
-pub use filter_ch5::{FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_WEIGHT};
+pub use filter_window::{FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_WEIGHT};
 
 /// The aperture's weight over the unit lens disk: the camera's (`wedge_scene::LensShape`, which the
 /// path sampler applies; `disk` uniform, `gaussian` the thesis's `exp(−|u|²/2)`).
@@ -199,32 +199,13 @@ pub fn time_factor(speed: f32, omega: f32) -> f32 {
     f * f
 }
 
-/// How μ scales a bandwidth (eq. 5.29).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// `Ω(μ) = min(Ω_pix^max, μ Ω)` as printed: stops at Ω_pix^max, does not converge as μ → ∞.
-    Literal,
-    /// `Ω(μ) = μ Ω`: filters shrink to one pixel and counts grow without bound as μ → ∞.
-    Consistent,
-}
-
-impl Mode {
-    pub const NAMES: [&'static str; 2] = ["literal", "consistent"];
-
-    pub fn parse(name: &str) -> Option<Mode> {
-        match name {
-            "literal" => Some(Mode::Literal),
-            "consistent" => Some(Mode::Consistent),
-            _ => None,
-        }
-    }
-
-    /// The value a kernel's uniform block carries (0 literal, 1 consistent).
-    pub fn code(self) -> u32 {
-        match self {
-            Mode::Literal => 0,
-            Mode::Consistent => 1,
-        }
+wedge_backends::param_choice! {
+    /// How μ scales a bandwidth (eq. 5.29); a kernel's uniform block carries it as 0 literal, 1 consistent.
+    pub enum Mode {
+        /// `Ω(μ) = min(Ω_pix^max, μ Ω)` as printed: stops at Ω_pix^max, does not converge as μ → ∞.
+        Literal = "literal",
+        /// `Ω(μ) = μ Ω`: filters shrink to one pixel and counts grow without bound as μ → ∞.
+        Consistent = "consistent",
     }
 }
 

@@ -20,7 +20,11 @@
 //! - `radiance`, `texture`, `irradiance` (vec3 rgb): one component's lens-integrated `L`, `k`, `E`
 //!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+pub mod filter;
+
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
 use super::formulas::{self, Mode, PixelRates, PixelStats, RateParams};
@@ -31,17 +35,40 @@ use crate::shadows::slopes;
 /// `p² s²` stays far inside `u32`.
 pub const MAX_COUNT_CAP: i64 = 4096;
 
-fn mode_param(ctx: &KernelCtx<'_>) -> Result<Mode, BackendError> {
-    let name = ctx.str_param("mode")?;
-    Mode::parse(name).ok_or_else(|| BackendError::Kernel {
-        pass: ctx.pass.to_string(),
-        message: format!("unknown mode `{name}`; use {}", Mode::NAMES.join(" or ")),
-    })
+wedge_backends::kernel_params! {
+    /// What every `defocus.rates` (and `motion.rates`) pass carries (`component::rate_settings`):
+    /// the rate constants checked by [`rate_params`]. Its optional settings (`pixel_scale`,
+    /// `light_half_width` or `light`, `environment_per_primary`) are read by name there: absent,
+    /// each has a default, which a block's field does not.
+    pub struct RatesParams {
+        mu: f32,
+        mode: Mode,
+        omega_pix: f32,
+        omega_v: f32,
+        max_primary: i32,
+        max_per_primary: i32,
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// `defocus.flags`'s threshold on `‖L − k E‖` (eq. 5.30), finite and ≥ 0.
+    pub struct FlagsParams {
+        threshold: f32,
+    }
+}
+
+/// `defocus.flags`'s threshold, checked.
+fn threshold(ctx: &KernelCtx<'_>) -> Result<f32, BackendError> {
+    positive(ctx, "threshold", FlagsParams::read(ctx)?.threshold, true)
 }
 
 /// A number parameter that must be finite and above (or, with `zero_ok`, at least) 0.
 fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32, BackendError> {
-    let v = ctx.f32_param(name)?;
+    positive(ctx, name, ctx.f32_param(name)?, zero_ok)
+}
+
+/// [`positive_param`] on a value already read.
+fn positive(ctx: &KernelCtx<'_>, name: &str, v: f32, zero_ok: bool) -> Result<f32, BackendError> {
     if v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)) {
         return Ok(v);
     }
@@ -58,8 +85,8 @@ fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32,
 /// `max(μ, 1)²` (counts grow about as μ² per factor), so the caps do not stop the convergence to
 /// Monte Carlo that the mode is for (up to [`MAX_COUNT_CAP`]). Ch. 4 scales its cap the same way
 /// (100μ rays).
-pub fn scaled_cap(cap: i64, mu: f32, mode: Mode) -> u32 {
-    let cap = cap.clamp(1, MAX_COUNT_CAP);
+pub fn scaled_cap(cap: i32, mu: f32, mode: Mode) -> u32 {
+    let cap = i64::from(cap).clamp(1, MAX_COUNT_CAP);
     let scaled = match mode {
         Mode::Literal => cap as f64,
         Mode::Consistent => cap as f64 * f64::from(mu.max(1.0)).powi(2),
@@ -83,7 +110,8 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     } else {
         0.0
     };
-    let (mu, mode) = (positive_param(ctx, "mu", false)?, mode_param(ctx)?);
+    let p = RatesParams::read(ctx)?;
+    let (mu, mode) = (positive(ctx, "mu", p.mu, false)?, p.mode);
     // Look-ups per primary ray of an environment component (absent: 1, no environment component).
     let environment_per_primary = if ctx.params.contains_key("environment_per_primary") {
         positive_param(ctx, "environment_per_primary", false)?
@@ -93,12 +121,12 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
     Ok(RateParams {
         mu,
         mode,
-        omega_pix: positive_param(ctx, "omega_pix", false)?,
+        omega_pix: positive(ctx, "omega_pix", p.omega_pix, false)?,
         pixel_scale,
         light_half_width,
-        omega_v: positive_param(ctx, "omega_v", false)?,
-        max_primary: scaled_cap(ctx.int_param("max_primary")?, mu, mode),
-        max_per_primary: scaled_cap(ctx.int_param("max_per_primary")?, mu, mode),
+        omega_v: positive(ctx, "omega_v", p.omega_v, false)?,
+        max_primary: scaled_cap(p.max_primary, mu, mode),
+        max_per_primary: scaled_cap(p.max_per_primary, mu, mode),
         environment_per_primary,
     })
 }
@@ -199,17 +227,17 @@ impl Kernel for Rates {
             Binding::write_opt("sigma_environment", Format::F32),
         ]
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        RatesParams::specs()
+    }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_rates.wgsl"), |ctx| {
                 let k = rate_params(ctx)?;
-                Ok(Uniforms::new()
-                    .f32("mu", k.mu)
-                    .u32("mode", k.mode.code())
-                    .f32("omega_pix", k.omega_pix)
+                Ok(RatesParams::read(ctx)?
+                    .uniforms()
                     .f32("pixel_scale", k.pixel_scale)
                     .f32("light_half_width", k.light_half_width)
-                    .f32("omega_v", k.omega_v)
                     .u32("max_p", formulas::strata_cap(k.max_primary))
                     .u32("max_s", formulas::strata_cap(k.max_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary))
@@ -295,10 +323,13 @@ impl Kernel for Flags {
             Binding::write("flag", Format::U32),
         ]
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        FlagsParams::specs()
+    }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_flags.wgsl"), |ctx| {
-                Ok(Uniforms::new().f32("threshold", positive_param(ctx, "threshold", true)?))
+                Ok(FlagsParams { threshold: threshold(ctx)? }.uniforms())
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .per_pixel(),
@@ -308,7 +339,7 @@ impl Kernel for Flags {
         let l = ctx.read::<[f32; 3]>("radiance")?;
         let k = ctx.read::<[f32; 3]>("texture")?;
         let e = ctx.read::<[f32; 3]>("irradiance")?;
-        let threshold = positive_param(ctx, "threshold", true)?;
+        let threshold = threshold(ctx)?;
         let flag: Vec<u32> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             formulas::separable(l[i], k[i], e[i], threshold) as u32

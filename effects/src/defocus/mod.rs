@@ -8,11 +8,11 @@
 //!   full stratification, and the factoring test (5.30);
 //! - [`kernels`]: `defocus.rates` (widths and counts per pixel), `defocus.flags` (SepDir / SepInd,
 //!   5.30) and `defocus.compose` (5.32), each with a CPU implementation and a WGSL one
-//!   (`shaders/defocus_*.wgsl`).
+//!   (`shaders/defocus_*.wgsl`); [`kernels::filter`]: `filter.defocus` (5.33).
 //!
 //! The shared kernels the Ch. 5 stages also use live in `wedge-backends`: `neighbourhood.max3` (3×3 max
-//! on counts), `neighbourhood.median3` (3×3 median on flags), `filter.irradiance` (5.31) and
-//! `filter.defocus` (5.33).
+//! on counts), `neighbourhood.median3` (3×3 median on flags), `filter.irradiance` (5.31) and the
+//! filters' window (`kernels::filter_window`).
 //! - [`node`]: the `Defocus` node, the pipeline's factoring node ([`wedge_graph::factoring`]);
 //! - [`component`]: the passes a component node (SoftShadows, Indirect) adds under it.
 
@@ -27,9 +27,10 @@ pub mod node;
 
 pub use node::Defocus;
 
-/// Register the defocus kernels (`defocus.rates`, `defocus.flags`, `defocus.compose`).
+/// Register the defocus kernels (`defocus.rates`, `defocus.flags`, `defocus.compose`, `filter.defocus`).
 pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::Rates));
     reg.register(Arc::new(kernels::Flags));
     reg.register(Arc::new(kernels::Compose));
+    reg.register(Arc::new(kernels::filter::DefocusFilter));
 }

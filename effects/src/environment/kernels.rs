@@ -17,7 +17,11 @@
 //!   factoring node's rates read as the environment component's own bandwidth), and `rays` (u32) the
 //!   adaptive look-ups.
 
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+pub mod filter;
+
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
 use wedge_backends::kernels::v3;
@@ -92,51 +96,55 @@ impl Kernel for Curvature {
     }
 }
 
-/// The parameters of `environment.bandwidth`.
-#[derive(Clone, Copy, Debug)]
-pub struct BandwidthParams {
-    pub mu: f32,
-    /// `B_e` in cycles per radian: the node's value, or the scene map's (Sec. 6.7: 99% energy).
-    pub b_e: f32,
-    pub max_radius: f32,
-    /// Adaptive look-ups: `base` (the fixed count), `sigma_ref`, `max` ([`formulas::look_ups`]).
-    pub base: u32,
-    pub sigma_ref: f32,
-    pub max_rays: u32,
+wedge_backends::kernel_params! {
+    /// The parameters of `environment.bandwidth` (WGSL: `params.NAME`), checked by [`bandwidth_params`].
+    pub struct BandwidthParams {
+        mu: f32,
+        /// `B_e` in cycles per radian: the node's value, or the scene map's (Sec. 6.7: 99% energy).
+        b_e: f32,
+        max_radius: f32,
+        /// Adaptive look-ups: `base` (the fixed count), `sigma_ref`, `max` ([`formulas::look_ups`]).
+        base: u32,
+        sigma_ref: f32,
+        max_rays: u32,
+    }
 }
 
+/// The pass's [`BandwidthParams`], checked, with `b_e` = -1 resolved to the scene map's.
 fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError> {
-    let err = |message: String| BackendError::Kernel { pass: ctx.pass.to_string(), message };
-    let finite = |name: &str, min: f32| -> Result<f32, BackendError> {
-        let v = ctx.f32_param(name)?;
+    let p = BandwidthParams::read(ctx)?;
+    let finite = |name: &str, v: f32, min: f32| -> Result<f32, BackendError> {
         if v.is_finite() && v >= min {
             Ok(v)
         } else {
-            Err(err(format!("`{name}` = {v}; it must be a finite number >= {min}")))
+            Err(ctx.err(format!("`{name}` = {v}; it must be a finite number >= {min}")))
         }
     };
-    let count = |name: &str| -> Result<u32, BackendError> {
-        let v = ctx.int_param(name)?;
-        u32::try_from(v).ok().filter(|&c| c >= 1).ok_or_else(|| err(format!("`{name}` = {v}; it must be a count >= 1")))
+    let count = |name: &str, c: u32| -> Result<u32, BackendError> {
+        if c >= 1 {
+            Ok(c)
+        } else {
+            Err(ctx.err(format!("`{name}` = {c}; it must be a count >= 1")))
+        }
     };
-    let mu = finite("mu", 0.0)?;
+    let mu = finite("mu", p.mu, 0.0)?;
     if mu <= 0.0 {
-        return Err(err(format!("`mu` = {mu}; it must be > 0")));
+        return Err(ctx.err(format!("`mu` = {mu}; it must be > 0")));
     }
     // `b_e` = -1 (its declaration's special value; validation admits no other negative): the scene map's B_e.
-    let b_e = match ctx.f32_param("b_e")? {
+    let b_e = match p.b_e {
         v if v >= 0.0 && v.is_finite() => v,
         _ => ctx.scene.environment.as_ref().map(|e| e.bandwidth()).ok_or_else(|| {
-            err(format!("B_e comes from the scene's environment map, but scene `{}` has none", ctx.scene.name))
+            ctx.err(format!("B_e comes from the scene's environment map, but scene `{}` has none", ctx.scene.name))
         })?,
     };
     Ok(BandwidthParams {
         mu,
         b_e,
-        max_radius: finite("max_radius", 0.0)?,
-        base: count("base")?,
-        sigma_ref: finite("sigma_ref", 0.0)?,
-        max_rays: count("max_rays")?,
+        max_radius: finite("max_radius", p.max_radius, 0.0)?,
+        base: count("base", p.base)?,
+        sigma_ref: finite("sigma_ref", p.sigma_ref, 0.0)?,
+        max_rays: count("max_rays", p.max_rays)?,
     })
 }
 
@@ -204,17 +212,13 @@ impl Kernel for Bandwidth {
             Binding::write_opt("rays", Format::U32),
         ]
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        BandwidthParams::specs()
+    }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/environment_bandwidth.wgsl"), |ctx| {
-                let k = bandwidth_params(ctx)?;
-                Ok(Uniforms::new()
-                    .f32("mu", k.mu)
-                    .f32("b_e", k.b_e)
-                    .f32("max_radius", k.max_radius)
-                    .u32("base", k.base)
-                    .f32("sigma_ref", k.sigma_ref)
-                    .u32("max_rays", k.max_rays))
+                Ok(bandwidth_params(ctx)?.uniforms())
             })
             .with_include("environment_formulas.wgsl", include_str!("../../../shaders/environment_formulas.wgsl"))
             .per_pixel(),

@@ -31,11 +31,11 @@
 //!   filtered, only averaged over 3×3.
 //! - **Single velocity** (factoring is "enforced at all pixels with a single primary hit velocity"):
 //!   the spread of the velocities a pixel's paths saw (misses count as 0: the background is static)
-//!   is within the tolerance of [`wedge_backends::kernels::filter_motion::velocity_tolerance`], for the
+//!   is within the tolerance of [`super::kernels::filter::velocity_tolerance`], for the
 //!   primary hits and for the occluded shadow samples alike.
 
+use super::kernels::filter::velocity_tolerance;
 use glam::Vec2;
-use wedge_backends::kernels::filter_motion::velocity_tolerance;
 
 use crate::defocus::formulas::{
     direct_rate, environment_rate, indirect_rate, omega_direct, omega_environment, omega_indirect, omega_mu,

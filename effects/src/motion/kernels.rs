@@ -12,11 +12,15 @@
 //! - Filter inputs written for `filter.motion`: `texture_motion`, `shadow_motion` (vec4: the velocity
 //!   to filter along, its μ-scaled width Ω — 0 where the pixel is not filtered — and σ in pixels).
 
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+pub mod filter;
+
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
 use super::formulas::{self, MotionParams, MotionRates, MotionStats};
-use crate::defocus::kernels::{rate_params, sigma_px};
+use crate::defocus::kernels::{rate_params, sigma_px, RatesParams};
 use crate::shadows::slopes;
 
 /// The filter's σ in pixels (`1/(√32 Ω)`, Ch. 5's Gaussian), 0 where it does not filter (Ω = 0).
@@ -28,19 +32,23 @@ pub fn sigma_or_zero(omega: f32) -> f32 {
     }
 }
 
+wedge_backends::kernel_params! {
+    /// What a `motion.rates` pass carries besides the Ch. 5 rate constants ([`RatesParams`]):
+    /// `multi_paths` (a count ≥ 1) and `omega_t` (finite, > 0), checked by [`motion_params`].
+    pub struct MotionRatesParams {
+        multi_paths: u32,
+        omega_t: f32,
+    }
+}
+
 fn motion_params(ctx: &KernelCtx<'_>) -> Result<MotionParams, BackendError> {
     let k = rate_params(ctx)?;
-    let multi = ctx.int_param("multi_paths")?;
-    let multi_paths = u32::try_from(multi).ok().filter(|&m| m >= 1).ok_or_else(|| BackendError::Kernel {
-        pass: ctx.pass.to_string(),
-        message: format!("`multi_paths` = {multi}; it must be a count >= 1"),
-    })?;
-    let omega_t = ctx.f32_param("omega_t")?;
+    let MotionRatesParams { multi_paths, omega_t } = MotionRatesParams::read(ctx)?;
+    if multi_paths < 1 {
+        return Err(ctx.err(format!("`multi_paths` = {multi_paths}; it must be a count >= 1")));
+    }
     if !(omega_t.is_finite() && omega_t > 0.0) {
-        return Err(BackendError::Kernel {
-            pass: ctx.pass.to_string(),
-            message: format!("`omega_t` = {omega_t}; it must be a finite number > 0"),
-        });
+        return Err(ctx.err(format!("`omega_t` = {omega_t}; it must be a finite number > 0")));
     }
     Ok(MotionParams {
         mu: k.mu,
@@ -129,19 +137,19 @@ impl Kernel for Rates {
             Binding::write_opt("sigma_environment", Format::F32),
         ]
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        RatesParams::specs().into_iter().chain(MotionRatesParams::specs()).collect()
+    }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/motion_rates.wgsl"), |ctx| {
                 let k = motion_params(ctx)?;
                 use crate::defocus::formulas::strata_cap;
-                Ok(Uniforms::new()
-                    .f32("mu", k.mu)
-                    .u32("mode", k.mode.code())
-                    .f32("omega_pix", k.omega_pix)
+                Ok(RatesParams::read(ctx)?
+                    .uniforms()
                     .f32("omega_t", k.omega_t)
                     .f32("pixel_scale", k.pixel_scale)
                     .f32("light_half_width", k.light_half_width)
-                    .f32("omega_v", k.omega_v)
                     .u32("max_p", strata_cap(k.max_primary))
                     .u32("max_s", strata_cap(k.max_per_primary))
                     .u32("multi_paths", k.multi_paths)

@@ -116,7 +116,7 @@ impl NodeKind for Motion {
         vec![
             crate::params::mu(1.0, "μ: scales every App. B bandwidth (eq. 5.29); larger = narrower filters, more rays"),
             ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = docs/EQUATIONS.md's reading)"),
-            ParamDecl::choice("mode", "consistent", &Mode::NAMES, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
+            ParamDecl::choice("mode", "consistent", Mode::OPTIONS, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one time, shadow and indirect sample each (thesis App. B: 9; 4 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),

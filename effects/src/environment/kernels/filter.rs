@@ -30,8 +30,10 @@
 //!   the same normalised average, with no weight left to underflow into the subnormals on which the
 //!   CPU (keeps them) and GPUs (flush them) disagree.
 //!
-//! WGSL mirrors: `shaders/filter_environment.wgsl` and `shaders/filter_environment_history.wgsl`,
-//! term by term in the same order.
+//! - `bandwidth.max` ([`BandwidthMax`]): two parts' bandwidths merged for one filter (MixedReality).
+//!
+//! WGSL mirrors: `shaders/filter_environment.wgsl`, `shaders/filter_environment_history.wgsl` and
+//! `shaders/bandwidth_max.wgsl`, term by term in the same order.
 //! Non-finite values are never used as neighbours; each pixel whose own value is non-finite is
 //! counted once in `non_finite_samples` (in the x and history passes; the y pass sees x outputs).
 
@@ -39,27 +41,40 @@ use glam::{Vec2, Vec3};
 use wedge_graph::Format;
 use wedge_scene::Camera;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::paths::camera_uniforms;
-use crate::kernels::{count_non_finite, is_finite3, v3};
-use crate::BackendError;
+use wedge_backends::kernels::paths::camera_uniforms;
+use wedge_backends::kernels::{count_non_finite, is_finite3, v3};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 
 /// Largest `max_radius` a pass may ask for.
 pub const MAX_RADIUS_LIMIT: i64 = 64;
 /// Largest `max_motion` a history pass may ask for.
 pub const MAX_MOTION_LIMIT: i64 = 4096;
 
-/// The filter's parameters.
-#[derive(Clone, Copy, Debug)]
-pub struct Ch6Params {
-    pub axis: usize,
-    pub max_radius: i32,
-    pub normal_cos: f32,
-    /// History pass only: the most pixels (along either axis) a point may have moved since the
-    /// previous frame and still find its history; farther is "no history", as for a disocclusion.
-    /// It bounds the rows the pass reads (`Reach::Rows(max_motion + 1)`), so the pass splits into
-    /// bands of rows on devices with small bindings.
-    pub max_motion: i32,
+wedge_backends::kernel_params! {
+    /// What a `filter.environment` pass carries (the node's `PartFilter` sets them): `axis` 0 = x,
+    /// 1 = y; `max_radius` clamped to `0..=MAX_RADIUS_LIMIT` ([`FilterParams::read_checked`]).
+    pub struct FilterParams {
+        axis: u32,
+        max_radius: i32,
+        normal_cos: f32,
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// What a `filter.environment_history` pass carries: the filter's (its `axis` is 0, eq. 6.24)
+    /// and `max_motion`, clamped to `0..=MAX_MOTION_LIMIT` ([`HistoryParams::read_checked`]).
+    pub struct HistoryParams {
+        axis: u32,
+        max_radius: i32,
+        normal_cos: f32,
+        /// The most pixels (along either axis) a point may have moved since the previous frame and
+        /// still find its history; farther is "no history", as for a disocclusion. It bounds the
+        /// rows the pass reads (`Reach::Rows(max_motion + 1)`), so the pass splits into bands of
+        /// rows on devices with small bindings.
+        max_motion: i32,
+    }
 }
 
 /// Whether neighbour `j` (position `pj`, normal `nj`) may be averaged into pixel `i`.
@@ -111,37 +126,37 @@ pub fn filter_pixel(
     y: i32,
     width: i32,
     height: i32,
-    p: &Ch6Params,
+    p: &FilterParams,
     value: &[[f32; 3]],
     position: &[[f32; 4]],
     normal: &[[f32; 4]],
     bandwidth: &[[f32; 2]],
     previous: Option<&[[f32; 4]]>,
 ) -> [f32; 3] {
-    let i = (y * width + x) as usize;
+    let (i, axis) = ((y * width + x) as usize, p.axis as usize);
     let centre = value[i];
     let bi = bandwidth[i];
-    if !(position[i][3] > 0.0 && bi[p.axis] >= 0.0 && bi[p.axis].is_finite()) {
+    if !(position[i][3] > 0.0 && bi[axis] >= 0.0 && bi[axis].is_finite()) {
         return centre;
     }
     let ni = v3(normal[i]).normalize_or_zero();
     let xi = v3(position[i]);
     // Neighbour `k`'s index and weight exponent `2 B̄² d²`, or `None` where it is not used.
     let term = |k: i32| -> Option<(usize, f32)> {
-        let (jx, jy) = if p.axis == 0 { (x + k, y) } else { (x, y + k) };
+        let (jx, jy) = if axis == 0 { (x + k, y) } else { (x, y + k) };
         if jx < 0 || jy < 0 || jx >= width || jy >= height {
             return None;
         }
         let j = (jy * width + jx) as usize;
         let bj = bandwidth[j];
         if !is_finite3(value[j])
-            || !(bj[p.axis] >= 0.0)
+            || !(bj[axis] >= 0.0)
             || !compatible(position[i], ni, position[j], normal[j], p.normal_cos)
         {
             return None;
         }
         let d2 = (v3(position[j]) - xi).length_squared();
-        Some((j, 2.0 * mean_b2(bi, bj, p.axis) * d2))
+        Some((j, 2.0 * mean_b2(bi, bj, axis) * d2))
     };
     let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1)))
     else {
@@ -194,7 +209,7 @@ pub fn history_pixel(
     y: i32,
     width: i32,
     height: i32,
-    p: &Ch6Params,
+    p: &HistoryParams,
     previous_camera: Option<&Camera>,
     position: &[[f32; 4]],
     normal: &[[f32; 4]],
@@ -220,7 +235,7 @@ pub fn history_pixel(
         return none;
     }
     let (qx, qy) = (q.x.floor() as i64, q.y.floor() as i64);
-    // Moved farther than `max_motion` pixels: no history (see [`Ch6Params::max_motion`]).
+    // Moved farther than `max_motion` pixels: no history (see [`HistoryParams::max_motion`]).
     if (qx - x as i64).abs() > p.max_motion as i64 || (qy - y as i64).abs() > p.max_motion as i64 {
         return none;
     }
@@ -275,25 +290,34 @@ pub fn history_pixel(
     [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum, 1.0]
 }
 
-fn params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
-    let axis = ctx.int_param("axis")?;
-    if !(0..=1).contains(&axis) {
-        return Err(BackendError::Kernel {
-            pass: ctx.pass.into(),
-            message: format!("`axis` = {axis}; use 0 (x) or 1 (y)"),
-        });
+/// An `axis` other than 0 (x) or 1 (y) is an error.
+fn check_axis(ctx: &KernelCtx<'_>, axis: u32) -> Result<(), BackendError> {
+    match axis {
+        0 | 1 => Ok(()),
+        _ => Err(ctx.err(format!("`axis` = {axis}; use 0 (x) or 1 (y)"))),
     }
-    Ok(Ch6Params {
-        axis: axis as usize,
-        max_radius: ctx.int_param("max_radius")?.clamp(0, MAX_RADIUS_LIMIT) as i32,
-        normal_cos: ctx.f32_param("normal_cos")?,
-        max_motion: 0,
-    })
 }
 
-/// [`params`] and the history pass's `max_motion`.
-fn history_params(ctx: &KernelCtx<'_>) -> Result<Ch6Params, BackendError> {
-    Ok(Ch6Params { max_motion: ctx.int_param("max_motion")?.clamp(0, MAX_MOTION_LIMIT) as i32, ..params(ctx)? })
+impl FilterParams {
+    /// The pass's block, `axis` checked and `max_radius` clamped.
+    pub fn read_checked(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        let p = Self::read(ctx)?;
+        check_axis(ctx, p.axis)?;
+        Ok(Self { max_radius: p.max_radius.clamp(0, MAX_RADIUS_LIMIT as i32), ..p })
+    }
+}
+
+impl HistoryParams {
+    /// The pass's block, `axis` checked, `max_radius` and `max_motion` clamped.
+    pub fn read_checked(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        let p = Self::read(ctx)?;
+        check_axis(ctx, p.axis)?;
+        Ok(Self {
+            max_radius: p.max_radius.clamp(0, MAX_RADIUS_LIMIT as i32),
+            max_motion: p.max_motion.clamp(0, MAX_MOTION_LIMIT as i32),
+            ..p
+        })
+    }
 }
 
 /// `filter.environment`: one axis of eqs. 6.21–6.23 (and 6.26 with `previous`).
@@ -305,6 +329,9 @@ impl Kernel for EnvironmentFilter {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Filter
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        FilterParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -320,22 +347,17 @@ impl Kernel for EnvironmentFilter {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/filter_environment.wgsl"), |ctx| {
-                let p = params(ctx)?;
-                Ok(Uniforms::new()
-                    .u32("axis", p.axis as u32)
-                    .i32("max_radius", p.max_radius)
-                    .f32("normal_cos", p.normal_cos)
-                    .f32("max_weight_exponent", MAX_WEIGHT_EXPONENT))
+            WgslSource::new(include_str!("../../../../shaders/filter_environment.wgsl"), |ctx| {
+                Ok(FilterParams::read_checked(ctx)?.uniforms().f32("max_weight_exponent", MAX_WEIGHT_EXPONENT))
             })
             .with_reach(|ctx| {
-                let p = params(ctx)?;
+                let p = FilterParams::read_checked(ctx)?;
                 Ok(if p.axis == 0 { Reach::Cols(p.max_radius as u32) } else { Reach::Rows(p.max_radius as u32) })
             }),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let p = params(ctx)?;
+        let p = FilterParams::read_checked(ctx)?;
         let value = ctx.read::<[f32; 3]>("value")?;
         let position = ctx.read::<[f32; 4]>("position")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
@@ -362,6 +384,9 @@ impl Kernel for EnvironmentHistory {
     fn class(&self) -> KernelClass {
         KernelClass::Filter
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        HistoryParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("position", Format::Vec4),
@@ -376,26 +401,21 @@ impl Kernel for EnvironmentHistory {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/filter_environment_history.wgsl"), |ctx| {
-                let p = history_params(ctx)?;
+            WgslSource::new(include_str!("../../../../shaders/filter_environment_history.wgsl"), |ctx| {
+                let p = HistoryParams::read_checked(ctx)?;
                 let (cam, present) = match ctx.scene.previous_camera {
                     Some(c) => (c, 1u32),
                     None => (ctx.scene.camera, 0u32),
                 };
-                let u = Uniforms::new()
-                    .i32("max_radius", p.max_radius)
-                    .f32("normal_cos", p.normal_cos)
-                    .u32("history", present)
-                    .i32("max_motion", p.max_motion)
-                    .f32("max_weight_exponent", MAX_WEIGHT_EXPONENT);
+                let u = p.uniforms().u32("history", present).f32("max_weight_exponent", MAX_WEIGHT_EXPONENT);
                 Ok(camera_uniforms(u, &cam, wedge_scene::LensShape::Disk))
             })
-            .with_include("camera.wgsl", include_str!("../../../shaders/camera.wgsl"))
-            .with_reach(|ctx| Ok(Reach::Rows(history_params(ctx)?.max_motion as u32 + 1))),
+            .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
+            .with_reach(|ctx| Ok(Reach::Rows(HistoryParams::read_checked(ctx)?.max_motion as u32 + 1))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let p = history_params(ctx)?;
+        let p = HistoryParams::read_checked(ctx)?;
         let position = ctx.read::<[f32; 4]>("position")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let bandwidth = ctx.read::<[f32; 2]>("bandwidth")?;
@@ -416,6 +436,8 @@ impl Kernel for EnvironmentHistory {
 /// negative one ("do not filter" for that part) counting as absent; negative where both are. For an
 /// irradiance that mixes two parts (a surface's diffuse and glossy light in one value): the larger
 /// bandwidth is the narrower filter, which keeps both parts' detail.
+/// MixedReality's (its virtual objects' irradiance mixes the parts); it lives beside the filter it
+/// feeds, whose passes MixedReality reuses by kernel name.
 pub struct BandwidthMax;
 
 /// The larger of two bandwidths (see [`BandwidthMax`]).
@@ -440,7 +462,10 @@ impl Kernel for BandwidthMax {
         vec![Binding::read("a", Format::Vec2), Binding::read("b", Format::Vec2), Binding::write("out", Format::Vec2)]
     }
     fn wgsl(&self) -> Option<WgslSource> {
-        Some(WgslSource::new(include_str!("../../../shaders/bandwidth_max.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
+        Some(
+            WgslSource::new(include_str!("../../../../shaders/bandwidth_max.wgsl"), |_| Ok(Uniforms::new()))
+                .per_pixel(),
+        )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let a = ctx.read::<[f32; 2]>("a")?;

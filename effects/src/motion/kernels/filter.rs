@@ -5,7 +5,7 @@
 //!   Pixel `i` with velocity `v_i` (pixels per half shutter) and width `Ω_i` (pixel⁻¹, μ-scaled)
 //!   averages the pixels met at unit steps along `v̂_i`, `j(k) = ⌊i + ½ + k v̂_i⌋` for `|k| ≤ R`, with
 //!   the weight of the Ch. 5 filters `exp(−16 k² Ω_i²)` and their rejection (neighbour `j` is dropped
-//!   when `exp(−16 k² Ω_j²) < 0.01`, `i` outside `j`'s own filter: [`super::filter_ch5`]). A
+//!   when `exp(−16 k² Ω_j²) < 0.01`, `i` outside `j`'s own filter: [`wedge_backends::kernels::filter_window`]). A
 //!   neighbour is also dropped when it has no filter of its own (`Ω_j` not a valid width: a static
 //!   or a multi-velocity pixel — so sharp regions never bleed into blurred ones) or moves with another
 //!   velocity ([`same_velocity`]). Pixels without a valid width are passed through: the node writes
@@ -27,10 +27,11 @@
 use glam::Vec2;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
-use crate::kernels::filter_ch5::{max_radius, pair_weight, window_radius};
-use crate::kernels::{count_non_finite, is_finite3};
-use crate::BackendError;
+use wedge_backends::kernels::filter_window::{max_radius, pair_weight, valid_width, window_radius, WindowParams};
+use wedge_backends::kernels::{count_non_finite, is_finite3};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 
 /// Two velocities (pixels per half shutter) are the same motion when they differ by at most
 /// `VELOCITY_TOLERANCE_PX + VELOCITY_TOLERANCE_REL · max(|a|, |b|)`: half a pixel of blur length
@@ -50,10 +51,6 @@ pub fn same_velocity(a: [f32; 2], b: [f32; 2]) -> bool {
     let (a, b) = (Vec2::from(a), Vec2::from(b));
     let tol = velocity_tolerance(a.length().max(b.length()));
     (a - b).length_squared() <= tol * tol
-}
-
-fn valid_width(w: f32) -> bool {
-    w > 0.0 && w.is_finite()
 }
 
 /// The unit direction of `v`, or `None` for a zero or non-finite velocity.
@@ -177,6 +174,9 @@ impl Kernel for MotionFilter {
     fn class(&self) -> KernelClass {
         KernelClass::Filter
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        WindowParams::specs()
+    }
     fn bindings(&self) -> Vec<Binding> {
         vec![
             Binding::read("value", Format::Vec3),
@@ -186,11 +186,11 @@ impl Kernel for MotionFilter {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/filter_motion.wgsl"), |ctx| {
-                Ok(Uniforms::new().i32("max_radius", max_radius(ctx)?))
+            WgslSource::new(include_str!("../../../../shaders/filter_motion.wgsl"), |ctx| {
+                Ok(WindowParams::read_clamped(ctx)?.uniforms())
             })
-            .with_include("filter_ch5_window.wgsl", include_str!("../../../shaders/filter_ch5_window.wgsl"))
-            .with_include("velocity.wgsl", include_str!("../../../shaders/velocity.wgsl"))
+            .with_include("filter_window.wgsl", include_str!("../../../../shaders/filter_window.wgsl"))
+            .with_include("velocity.wgsl", include_str!("../../../../shaders/velocity.wgsl"))
             .with_reach(|ctx| Ok(Reach::Rows(max_radius(ctx)? as u32))),
         )
     }
@@ -226,8 +226,8 @@ impl Kernel for Radiance3Filter {
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
-            WgslSource::new(include_str!("../../../shaders/filter_radiance3.wgsl"), |_| Ok(Uniforms::new()))
-                .with_include("velocity.wgsl", include_str!("../../../shaders/velocity.wgsl"))
+            WgslSource::new(include_str!("../../../../shaders/filter_radiance3.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("velocity.wgsl", include_str!("../../../../shaders/velocity.wgsl"))
                 .with_reach(|_| Ok(Reach::Rows(1))),
         )
     }

@@ -7,10 +7,25 @@
 
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
+use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
 
 pub struct FillInvalid;
+
+crate::kernel_params! {
+    /// The neighbourhood's radius in pixels, clamped to `0..=64` when read ([`FillParams::read_clamped`]).
+    pub struct FillParams {
+        radius: i32,
+    }
+}
+
+impl FillParams {
+    /// The pass's radius, clamped to `0..=64`.
+    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        Ok(Self { radius: Self::read(ctx)?.radius.clamp(0, 64) })
+    }
+}
 
 impl Kernel for FillInvalid {
     fn name(&self) -> &'static str {
@@ -18,6 +33,9 @@ impl Kernel for FillInvalid {
     }
     fn class(&self) -> KernelClass {
         KernelClass::Bandwidth
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        FillParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -29,15 +47,15 @@ impl Kernel for FillInvalid {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/neighbourhood_fill.wgsl"), |ctx| {
-                Ok(Uniforms::new().i32("radius", ctx.int_param("radius")?.clamp(0, 64) as i32))
+                Ok(FillParams::read_clamped(ctx)?.uniforms())
             })
-            .with_reach(|ctx| Ok(Reach::Rows(ctx.int_param("radius")?.clamp(0, 64) as u32))),
+            .with_reach(|ctx| Ok(Reach::Rows(FillParams::read_clamped(ctx)?.radius as u32))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let value = ctx.read::<[f32; 4]>("value")?;
         let position = ctx.read::<[f32; 4]>("position")?;
-        let radius = ctx.int_param("radius")?.clamp(0, 64) as i32;
+        let radius = FillParams::read_clamped(ctx)?.radius;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
             let i = (y as i32 * w + x as i32) as usize;

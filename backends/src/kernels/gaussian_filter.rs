@@ -13,8 +13,9 @@
 use glam::Vec3;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
 use crate::kernels::v3;
+use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
 
 pub struct GaussianFilter;
@@ -23,7 +24,43 @@ pub struct GaussianFilter;
 /// surface may have; 0.2 allows a curvature radius down to about 2.5× the filter reach.
 pub const TANGENT_SLOPE: f32 = 0.2;
 
-/// Parameters of one filter pass, read once from the pass's parameter block.
+crate::param_choice! {
+    /// Whose width weighs a neighbour ([`FilterParams::mutual`]); WGSL `params.reach`, 1 = mutual.
+    pub enum FilterReach { Own = "own", Mutual = "mutual" }
+}
+
+crate::kernel_params! {
+    /// What a `filter.gaussian` pass carries (set by `effects::filtering::separable`): `axis` 0 = x,
+    /// else y; `plane_light` the light of eq. 3.12's plane, -1 = full 3-D; `max_radius` clamped to
+    /// `0..=MAX_RADIUS_LIMIT` when read ([`GaussianParams::read_clamped`]).
+    pub struct GaussianParams {
+        axis: u32,
+        plane_light: i32,
+        max_radius: i32,
+        normal_cos: f32,
+        reach: FilterReach,
+    }
+}
+
+/// Largest `max_radius` a pass may ask for.
+pub const MAX_RADIUS_LIMIT: i32 = 1024;
+
+impl GaussianParams {
+    /// The pass's block with `max_radius` clamped to `0..=MAX_RADIUS_LIMIT`.
+    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        let p = Self::read(ctx)?;
+        Ok(Self { max_radius: p.max_radius.clamp(0, MAX_RADIUS_LIMIT), ..p })
+    }
+    /// The normal of eq. 3.12's plane: light `plane_light`'s, or 0 (full 3-D distance) for -1.
+    fn plane_normal(&self, ctx: &KernelCtx<'_>) -> Result<Vec3, BackendError> {
+        Ok(match self.plane_light {
+            l if l < 0 => Vec3::ZERO,
+            _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
+        })
+    }
+}
+
+/// Parameters of one filter pass as [`filter_pixel`] uses them.
 #[derive(Clone, Copy, Debug)]
 pub struct FilterParams {
     pub axis: u32,
@@ -131,25 +168,21 @@ impl Kernel for GaussianFilter {
             Binding::write("out", Format::Vec4),
         ]
     }
+    fn params(&self) -> Vec<ParamSpec> {
+        GaussianParams::specs()
+    }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {
-                let plane_normal = match ctx.int_param("plane_light")? {
-                    l if l < 0 => Vec3::ZERO,
-                    _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
-                };
-                Ok(Uniforms::new()
-                    .u32("axis", ctx.int_param("axis")?.clamp(0, 1) as u32)
-                    .i32("max_radius", ctx.int_param("max_radius")?.clamp(0, 1024) as i32)
-                    .f32("normal_cos", ctx.f32_param("normal_cos")?)
-                    .u32("mutual", (ctx.str_param("reach")? == "mutual") as u32)
-                    .vec3("plane_normal", plane_normal.to_array()))
+                let p = GaussianParams::read_clamped(ctx)?;
+                Ok(p.uniforms().vec3("plane_normal", p.plane_normal(ctx)?.to_array()))
             })
             .with_reach(|ctx| {
                 // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
-                Ok(match ctx.int_param("axis")? {
-                    0 => Reach::Cols(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
-                    _ => Reach::Rows(ctx.int_param("max_radius")?.clamp(0, 1024) as u32),
+                let p = GaussianParams::read_clamped(ctx)?;
+                Ok(match p.axis {
+                    0 => Reach::Cols(p.max_radius as u32),
+                    _ => Reach::Rows(p.max_radius as u32),
                 })
             }),
         )
@@ -159,16 +192,13 @@ impl Kernel for GaussianFilter {
         let position = ctx.read::<[f32; 4]>("position")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let bandwidth = ctx.read::<f32>("bandwidth")?;
+        let g = GaussianParams::read_clamped(ctx)?;
         let p = FilterParams {
-            axis: ctx.int_param("axis")?.clamp(0, 1) as u32,
-            // `plane_light` names the light whose plane distances are measured in; -1 = full 3-D.
-            plane_normal: match ctx.int_param("plane_light")? {
-                l if l < 0 => Vec3::ZERO,
-                _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
-            },
-            max_radius: ctx.int_param("max_radius")?.clamp(0, 1024) as i32,
-            normal_cos: ctx.f32_param("normal_cos")?,
-            mutual: ctx.str_param("reach")? == "mutual",
+            axis: g.axis,
+            plane_normal: g.plane_normal(ctx)?,
+            max_radius: g.max_radius,
+            normal_cos: g.normal_cos,
+            mutual: g.reach == FilterReach::Mutual,
         };
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx

@@ -1,0 +1,130 @@
+//! `filter.irradiance` (thesis eq. 5.31): the factoring nodes' filter of factored irradiance `E`
+//! with `w_i(j) = exp(−16 ‖λ(i) − λ(j)‖² (Ω(i)/ℓ_p(i))²)` on lens-averaged world positions `λ`, with
+//! `Ω = Ω_x^s` (direct) or `Ω_x^i` (indirect) and `ℓ_p` converting it to metres, in the window and
+//! with the rejection of [`super::filter_window`]. Neighbours whose (lens-averaged, normalised)
+//! normals differ by more than the normal test allows (thesis: 10°) are not used. The pixel bound of
+//! the window assumes `‖λ(i) − λ(j)‖ ≥ ℓ_p(i) |i − j|` (true on a surface facing the camera; slanted
+//! surfaces are farther apart).
+//!
+//! Pass-through pixels (output = input): width not finite or ≤ 0, `ℓ_p` not finite or ≤ 0, no hit
+//! (`position.w ≤ 0`) or a zero normal. Non-finite values are never used as neighbours; each pixel
+//! whose own value is non-finite is counted once in `non_finite_samples`, and gets its neighbours'
+//! average if it has any (else it keeps its value: it is never spread). Values are rgb (`vec3`), as
+//! `paths.resolve` writes `E`. WGSL mirror: `shaders/filter_irradiance.wgsl`.
+
+use glam::Vec3;
+use wedge_graph::Format;
+
+use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
+use crate::kernels::filter_window::{axis, clamp_radius, gather, pair_weight, reach, valid_width, window_radius, Axis};
+use crate::kernels::{count_non_finite, v3};
+use crate::params::{KernelParams, ParamSpec};
+use crate::BackendError;
+
+crate::kernel_params! {
+    /// What a `filter.irradiance` pass carries besides its optional `axis` ([`axis`]): the window's
+    /// cap (clamped, [`IrradianceParams::read_clamped`]) and the cosine of the normal test.
+    pub struct IrradianceParams {
+        max_radius: i32,
+        normal_cos: f32,
+    }
+}
+
+impl IrradianceParams {
+    /// The pass's block, `max_radius` clamped ([`clamp_radius`]).
+    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
+        let p = Self::read(ctx)?;
+        Ok(Self { max_radius: clamp_radius(p.max_radius), ..p })
+    }
+}
+
+/// Eq. 5.31 at pixel `(x, y)`.
+#[allow(clippy::too_many_arguments)]
+pub fn irradiance_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    p: &IrradianceParams,
+    axis: Axis,
+    value: &[[f32; 3]],
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    omega: &[f32],
+    pixel_length: &[f32],
+) -> [f32; 3] {
+    let i = (y * width + x) as usize;
+    let centre = value[i];
+    let (om, ell) = (omega[i], pixel_length[i]);
+    if !valid_width(om) || !valid_width(ell) || !is_hit(position[i]) {
+        return centre;
+    }
+    let ni = v3(normal[i]).normalize_or_zero();
+    if ni == Vec3::ZERO {
+        return centre;
+    }
+    let gi = om / ell;
+    let gi2 = gi * gi;
+    let xi = v3(position[i]);
+    let extent = axis.extent(window_radius(om, p.max_radius));
+    gather(x, y, width, height, extent, value, |j, _| {
+        if !is_hit(position[j]) || ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
+            return None;
+        }
+        let gj = omega[j] / pixel_length[j];
+        pair_weight((v3(position[j]) - xi).length_squared(), gi2, gj * gj)
+    })
+}
+
+/// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
+fn is_hit(position: [f32; 4]) -> bool {
+    position[3] > 0.0
+}
+
+/// `filter.irradiance`: eq. 5.31 on factored irradiance.
+pub struct IrradianceFilter;
+
+impl Kernel for IrradianceFilter {
+    fn name(&self) -> &'static str {
+        "filter.irradiance"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        IrradianceParams::specs()
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("value", Format::Vec3),
+            Binding::read("position", Format::Vec4),
+            Binding::read("normal", Format::Vec4),
+            Binding::read("omega", Format::F32),
+            Binding::read("pixel_length", Format::F32),
+            Binding::write("out", Format::Vec3),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/filter_irradiance.wgsl"), |ctx| {
+                Ok(IrradianceParams::read_clamped(ctx)?.uniforms().i32("axis", axis(ctx)?.code()))
+            })
+            .with_include("filter_window.wgsl", include_str!("../../../shaders/filter_window.wgsl"))
+            .with_reach(reach),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let value = ctx.read::<[f32; 3]>("value")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let omega = ctx.read::<f32>("omega")?;
+        let pixel_length = ctx.read::<f32>("pixel_length")?;
+        let (p, a) = (IrradianceParams::read_clamped(ctx)?, axis(ctx)?);
+        count_non_finite(ctx, value);
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| {
+            irradiance_pixel(x as i32, y as i32, w, h, &p, a, value, position, normal, omega, pixel_length)
+        });
+        ctx.put("out", out)
+    }
+}

@@ -1,0 +1,77 @@
+//! `filter.defocus` (thesis eq. 5.33): Defocus's filter of the composed radiance with the
+//! screen-space, pixel-distance Gaussian `w_i(j) = exp(−16 |i − j|² Ω_x^d(i)²)` (`|i − j|` the
+//! Euclidean pixel distance; σ = 0.177/Ω px), in the window and with the rejection of
+//! [`wedge_backends::kernels::filter_window`]. No geometry test: defocus blur crosses object
+//! boundaries. Pass-through pixels: width not finite or ≤ 0. Non-finite values are counted and
+//! never spread, as in `filter.irradiance`. WGSL mirror: `shaders/filter_defocus.wgsl`.
+
+use wedge_backends::kernels::count_non_finite;
+use wedge_backends::kernels::filter_window::{
+    axis, gather, pair_weight, reach, valid_width, window_radius, Axis, WindowParams,
+};
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
+use wedge_graph::Format;
+
+/// Eq. 5.33 at pixel `(x, y)`.
+#[allow(clippy::too_many_arguments)]
+pub fn defocus_pixel(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    max_radius: i32,
+    axis: Axis,
+    value: &[[f32; 3]],
+    omega: &[f32],
+) -> [f32; 3] {
+    let i = (y * width + x) as usize;
+    let centre = value[i];
+    let om = omega[i];
+    if !valid_width(om) {
+        return centre;
+    }
+    let gi2 = om * om;
+    gather(x, y, width, height, axis.extent(window_radius(om, max_radius)), value, |j, (dx, dy)| {
+        pair_weight((dx * dx + dy * dy) as f32, gi2, omega[j] * omega[j])
+    })
+}
+
+/// `filter.defocus`: eq. 5.33 on composed radiance.
+pub struct DefocusFilter;
+
+impl Kernel for DefocusFilter {
+    fn name(&self) -> &'static str {
+        "filter.defocus"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Filter
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        WindowParams::specs()
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("value", Format::Vec3),
+            Binding::read("omega", Format::F32),
+            Binding::write("out", Format::Vec3),
+        ]
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../../shaders/filter_defocus.wgsl"), |ctx| {
+                Ok(WindowParams::read_clamped(ctx)?.uniforms().i32("axis", axis(ctx)?.code()))
+            })
+            .with_include("filter_window.wgsl", include_str!("../../../../shaders/filter_window.wgsl"))
+            .with_reach(reach),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let value = ctx.read::<[f32; 3]>("value")?;
+        let omega = ctx.read::<f32>("omega")?;
+        let (r, a) = (WindowParams::read_clamped(ctx)?.max_radius, axis(ctx)?);
+        count_non_finite(ctx, value);
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, a, value, omega));
+        ctx.put("out", out)
+    }
+}
