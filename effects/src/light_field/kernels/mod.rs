@@ -100,9 +100,11 @@ impl EstimatorParams {
     }
 }
 
-/// The pass's random stream: the graph assigns it to a `.random()` pass (not a node parameter).
-fn stream(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
-    Ok(ctx.int_param("stream")? as u32)
+wedge_backends::kernel_params! {
+    /// The pass's random stream: the graph assigns it to a `.random()` pass (not a node parameter).
+    pub struct RandomStream {
+        stream: u32,
+    }
 }
 
 /// A primary hit: point, shading normal (facing the camera ray), `k_d`, `k_s`, `m`.

@@ -11,7 +11,7 @@ use wedge_backends::{
 use wedge_graph::Format;
 use wedge_scene::SceneAt;
 
-use super::{leave, stream, EstimatorParams};
+use super::{leave, EstimatorParams, RandomStream};
 use crate::light_field::formulas::{occlusion, RayShare};
 use crate::light_field::node::DEFAULT_RAYS;
 use crate::light_field::reconstruct;
@@ -76,7 +76,7 @@ impl Kernel for LightFieldReconstruct {
         true
     }
     fn params(&self) -> Vec<ParamSpec> {
-        [EstimatorParams::specs(), ReconstructParams::specs()].concat()
+        [EstimatorParams::specs(), ReconstructParams::specs(), RandomStream::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -98,7 +98,7 @@ impl Kernel for LightFieldReconstruct {
                     .u32("primaries", ctx.layers("primary"))
                     .bool("two_sided", two_sided)
                     .bool("trace_gaps", r.gaps == Gaps::Trace)
-                    .u32("stream", stream(ctx)?);
+                    .u32("stream", RandomStream::read(ctx)?.stream);
                 Ok(p.uniforms(u, ctx))
             })
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
@@ -118,7 +118,7 @@ impl Kernel for LightFieldReconstruct {
         let (ao, max_distance) = (p.ao, e.max_distance);
         let (r, two_sided) = ReconstructParams::read_checked(ctx, ao)?;
         let (rays, trace_gaps) = (r.rays, r.gaps == Gaps::Trace);
-        let stream = stream(ctx)?;
+        let RandomStream { stream } = RandomStream::read(ctx)?;
         let splats = ctx.read::<Splat>("splats")?;
         let nodes = ctx.read::<SplatNode>("nodes")?;
         let (seed, width) = (ctx.seed, ctx.width);

@@ -5,11 +5,12 @@ use wedge_backends::kernels::indirect::{path_from_hit, PathRays};
 use wedge_backends::kernels::paths::{camera_uniforms, pass_camera};
 use wedge_backends::rng::PixelRng;
 use wedge_backends::{
-    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms,
+    WgslSource,
 };
 use wedge_graph::Format;
 
-use super::{camera_sample, leave, stream, EstimatorParams, Primary};
+use super::{camera_sample, leave, EstimatorParams, Primary, RandomStream};
 use crate::light_field::formulas::{kappa, occlusion};
 use crate::light_field::records::{LightPrimary, LightSample, LIGHT_PRIMARY, LIGHT_SAMPLE, SAMPLE_ESCAPED, SAMPLE_HIT};
 
@@ -29,6 +30,7 @@ wedge_backends::kernel_params! {
     pub struct SamplePass {
         count: u32,
         time: bool,
+        sampling: Sampling,
     }
 }
 
@@ -43,7 +45,7 @@ impl Kernel for LightFieldSample {
         true
     }
     fn params(&self) -> Vec<ParamSpec> {
-        [EstimatorParams::specs(), SampleParams::specs(), SamplePass::specs()].concat()
+        [EstimatorParams::specs(), SampleParams::specs(), SamplePass::specs(), RandomStream::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
         vec![
@@ -68,8 +70,8 @@ impl Kernel for LightFieldSample {
                     .u32("primaries", ctx.layers("primary"))
                     .bool("time", pass.time)
                     .bool("angular", own.angular)
-                    .u32("stratified", ctx.stratified_param()? as u32)
-                    .u32("stream", stream(ctx)?);
+                    .u32("stratified", (pass.sampling == Sampling::Stratified) as u32)
+                    .u32("stream", RandomStream::read(ctx)?.stream);
                 Ok(p.uniforms(u, ctx))
             })
             .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
@@ -86,10 +88,11 @@ impl Kernel for LightFieldSample {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (e, p) = EstimatorParams::read_paths(ctx)?;
         let (ao, max_distance) = (p.ao, e.max_distance);
-        let (angular, SamplePass { count, time }) = (SampleParams::read(ctx)?.angular, SamplePass::read(ctx)?);
+        let (angular, SamplePass { count, time, sampling }) =
+            (SampleParams::read(ctx)?.angular, SamplePass::read(ctx)?);
         let (layers, primaries) = (ctx.layers("samples"), ctx.layers("primary"));
-        let stratified = ctx.stratified_param()?;
-        let stream = stream(ctx)?;
+        let stratified = sampling == Sampling::Stratified;
+        let RandomStream { stream } = RandomStream::read(ctx)?;
         let (camera, shape) = pass_camera(ctx)?;
         // A pinhole at the shutter's centre: one camera ray for every path of a pixel.
         let fixed = camera.aperture_radius == 0.0 && !time;

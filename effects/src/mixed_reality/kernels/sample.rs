@@ -11,7 +11,8 @@ use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::screen_trace::{ScreenHit, ScreenTracer};
 use wedge_backends::sobol::{independent2, pair, sequence_key, sobol2};
 use wedge_backends::{
-    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms,
+    WgslSource,
 };
 
 use super::IRRADIANCES;
@@ -38,6 +39,7 @@ wedge_backends::kernel_params! {
         count: u32,
         per_primary: u32,
         stream: u32,
+        sampling: Sampling,
     }
 }
 
@@ -85,7 +87,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<MrSettings, BackendError> {
     Ok(MrSettings {
         count: c.count.min(1 << 16),
         per_primary: c.per_primary.clamp(1, 1 << 12),
-        stratified: ctx.stratified_param()?,
+        stratified: c.sampling == Sampling::Stratified,
         stream: c.stream,
         occluder_luminance: threshold * (env.total_luminance() / (4.0 * std::f64::consts::PI)) as f32,
         thickness,
