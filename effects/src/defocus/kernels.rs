@@ -23,7 +23,7 @@
 pub mod filter;
 
 use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, LightIndex, ParamSpec, Uniforms, WgslSource,
 };
 use wedge_graph::Format;
 
@@ -37,9 +37,7 @@ pub const MAX_COUNT_CAP: i64 = 4096;
 
 wedge_backends::kernel_params! {
     /// What every `defocus.rates` (and `motion.rates`) pass carries (`component::rate_settings`):
-    /// the rate constants checked by [`rate_params`]. Its optional settings (`pixel_scale`,
-    /// `light_half_width` or `light`, `environment_per_primary`) are read by name there: absent,
-    /// each has a default, which a block's field does not.
+    /// the rate constants checked by [`rate_params`]; its optional settings are [`RateOptions`].
     pub struct RatesParams {
         mu: f32,
         mode: Mode,
@@ -47,6 +45,17 @@ wedge_backends::kernel_params! {
         omega_v: f32,
         max_primary: i32,
         max_per_primary: i32,
+    }
+}
+
+wedge_backends::kernel_params! {
+    /// The rate settings a pass may leave out, their defaults applied in [`rate_params`] (not
+    /// uploaded as they are: the WGSL reads the values applied).
+    pub struct RateOptions {
+        pixel_scale: Option<f32>,
+        light_half_width: Option<f32>,
+        light: Option<LightIndex>,
+        environment_per_primary: Option<f32>,
     }
 }
 
@@ -63,11 +72,6 @@ fn threshold(ctx: &KernelCtx<'_>) -> Result<f32, BackendError> {
 }
 
 /// A number parameter that must be finite and above (or, with `zero_ok`, at least) 0.
-fn positive_param(ctx: &KernelCtx<'_>, name: &str, zero_ok: bool) -> Result<f32, BackendError> {
-    positive(ctx, name, ctx.f32_param(name)?, zero_ok)
-}
-
-/// [`positive_param`] on a value already read.
 fn positive(ctx: &KernelCtx<'_>, name: &str, v: f32, zero_ok: bool) -> Result<f32, BackendError> {
     if v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)) {
         return Ok(v);
@@ -98,25 +102,22 @@ pub fn scaled_cap(cap: i32, mu: f32, mode: Mode) -> u32 {
 /// camera's at the image height; `light_half_width` (ℓ_I) to the half-width of area light `light`
 /// where that is given, else 0 (no light term: no area light, or a point light).
 pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
-    let pixel_scale = if ctx.params.contains_key("pixel_scale") {
-        positive_param(ctx, "pixel_scale", false)?
-    } else {
-        formulas::pixel_scale(ctx.scene.camera.vfov_deg, ctx.full_size().1)
+    let o = RateOptions::read(ctx)?;
+    let pixel_scale = match o.pixel_scale {
+        Some(v) => positive(ctx, "pixel_scale", v, false)?,
+        None => formulas::pixel_scale(ctx.scene.camera.vfov_deg, ctx.full_size().1),
     };
-    let light_half_width = if ctx.params.contains_key("light_half_width") {
-        positive_param(ctx, "light_half_width", true)?
-    } else if ctx.params.contains_key("light") {
-        formulas::light_half_width(&ctx.scene.lights[ctx.light_param("light")?])
-    } else {
-        0.0
+    let light_half_width = match (o.light_half_width, o.light) {
+        (Some(v), _) => positive(ctx, "light_half_width", v, true)?,
+        (None, Some(light)) => formulas::light_half_width(&ctx.scene.lights[light.0]),
+        (None, None) => 0.0,
     };
     let p = RatesParams::read(ctx)?;
     let (mu, mode) = (positive(ctx, "mu", p.mu, false)?, p.mode);
     // Look-ups per primary ray of an environment component (absent: 1, no environment component).
-    let environment_per_primary = if ctx.params.contains_key("environment_per_primary") {
-        positive_param(ctx, "environment_per_primary", false)?
-    } else {
-        1.0
+    let environment_per_primary = match o.environment_per_primary {
+        Some(v) => positive(ctx, "environment_per_primary", v, false)?,
+        None => 1.0,
     };
     Ok(RateParams {
         mu,
@@ -228,7 +229,7 @@ impl Kernel for Rates {
         ]
     }
     fn params(&self) -> Vec<ParamSpec> {
-        RatesParams::specs()
+        [RatesParams::specs(), RateOptions::specs()].concat()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(

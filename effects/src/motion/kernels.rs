@@ -20,7 +20,7 @@ use wedge_backends::{
 use wedge_graph::Format;
 
 use super::formulas::{self, MotionParams, MotionRates, MotionStats};
-use crate::defocus::kernels::{rate_params, sigma_px, RatesParams};
+use crate::defocus::kernels::{rate_params, sigma_px, RateOptions, RatesParams};
 use crate::shadows::slopes;
 
 /// The filter's σ in pixels (`1/(√32 Ω)`, Ch. 5's Gaussian), 0 where it does not filter (Ω = 0).
@@ -138,7 +138,7 @@ impl Kernel for Rates {
         ]
     }
     fn params(&self) -> Vec<ParamSpec> {
-        RatesParams::specs().into_iter().chain(MotionRatesParams::specs()).collect()
+        [RatesParams::specs(), RateOptions::specs(), MotionRatesParams::specs()].concat()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
