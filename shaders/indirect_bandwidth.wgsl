@@ -1,5 +1,5 @@
 // indirect.bandwidth — β (metres) per component and the diffuse β in pixels; mirrors
-// effects/src/indirect.rs `Bandwidth` with the formulas of indirect_formulas.wgsl.
+// effects/src/indirect/kernels.rs `Bandwidth` with the formulas of indirect_formulas.wgsl.
 #include "common.wgsl"
 #include "indirect_formulas.wgsl"
 

@@ -1,4 +1,4 @@
-// indirect_formulas.wgsl — the WGSL mirror of effects/src/indirect.rs's formulas (thesis eqs. 4.15,
+// indirect_formulas.wgsl — the WGSL mirror of effects/src/indirect/formulas.rs (thesis eqs. 4.15,
 // 4.16, 4.18, 4.21, A.3, A.5), same operation order. Included by indirect_bandwidth.wgsl and
 // indirect_rates.wgsl.
 
@@ -133,7 +133,7 @@ struct ComponentRate {
 
 // indirect::component: β and n of one component from its first-pass statistics.
 fn indirect_component(r: Receiver, dp: vec4<f32>, d: f32, s: IndirectSettings) -> ComponentRate {
-    // No reflector found: the farthest one can be, the scene's size (see effects/src/indirect.rs).
+    // No reflector found: the farthest one can be, the scene's size (see effects/src/indirect/mod.rs).
     var z = dp.xy;
     if (dp.z <= 0.0) {
         z = vec2<f32>(s.extent, s.extent);

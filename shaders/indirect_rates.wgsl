@@ -1,5 +1,5 @@
 // indirect.rates — samples per pixel per component (eq. 4.21) clamped to [initial, max·max(μ,1)]
-// and to `rays_cap`, and their sum; mirrors effects/src/indirect.rs `Rates` with the formulas of
+// and to `rays_cap`, and their sum; mirrors effects/src/indirect/kernels.rs `Rates` with the formulas of
 // indirect_formulas.wgsl.
 #include "common.wgsl"
 #include "indirect_formulas.wgsl"

@@ -1,4 +1,4 @@
-// shadows.bandwidth — β (metres) and β in pixels; mirrors effects/src/shadows.rs `Bandwidth`.
+// shadows.bandwidth — β (metres) and β in pixels; mirrors effects/src/shadows/kernels.rs `Bandwidth`.
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 

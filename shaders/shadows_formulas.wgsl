@@ -1,4 +1,4 @@
-// shadows_formulas.wgsl — the WGSL mirror of effects/src/shadows.rs's formulas (thesis eqs. 3.4,
+// shadows_formulas.wgsl — the WGSL mirror of effects/src/shadows/formulas.rs (thesis eqs. 3.4,
 // 3.13, 3.21), same operation order. Included by shadows_bandwidth.wgsl and shadows_rates.wgsl.
 
 // s_min, s_max (eq. 3.4)

@@ -1,5 +1,5 @@
 // shadows.rates — total shadow rays per pixel (eq. 3.21) clamped to [initial, max], rounded up to a
-// multiple of initial; mirrors effects/src/shadows.rs `Rates` and `whole_multiples`.
+// multiple of initial; mirrors effects/src/shadows/kernels.rs `Rates` and formulas.rs `whole_multiples`.
 #include "common.wgsl"
 #include "shadows_formulas.wgsl"
 

@@ -1,5 +1,5 @@
 // shadows.shade — r(x)·V: the closed-form unoccluded irradiance of the light (over π) times the
-// filtered visibility ΣE/ΣU; mirrors effects/src/shadows.rs `Shade` and, term by term,
+// filtered visibility ΣE/ΣU; mirrors effects/src/shadows/kernels.rs `Shade` and, term by term,
 // scene/src/light.rs `AreaLight::irradiance_unoccluded` (Lambert's polygon formula, clipped to the
 // tangent plane). The light's corners, radiance and (unnormalised) normal come as uniforms.
 #include "common.wgsl"

@@ -1,5 +1,5 @@
 // shadows.visibility — the pair (ΣE, ΣU) the filter averages for the ratio estimate of visibility;
-// mirrors effects/src/shadows.rs `Visibility`.
+// mirrors effects/src/shadows/kernels.rs `Visibility`.
 #include "common.wgsl"
 
 @compute @workgroup_size(8, 8)
