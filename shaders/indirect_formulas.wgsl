@@ -16,10 +16,17 @@ struct Receiver {
 struct IndirectSettings {
     mu: f32,
     alpha: f32,
+    width_alpha: f32,
     z_fraction: f32,
     extent: f32,
     initial: u32,
     max_rays: u32,
+}
+
+// indirect::kernels::settings: the width's α, `width_alpha` where set (> 0), else α.
+fn indirect_settings(initial: u32, max_rays: u32) -> IndirectSettings {
+    let width_alpha = select(params.alpha, params.width_alpha, params.width_alpha > 0.0);
+    return IndirectSettings(params.mu, params.alpha, width_alpha, params.z_min_fraction, params.extent, initial, max_rays);
 }
 
 // Ω_h^max (eqs. 4.18, A.3, A.5).
@@ -132,7 +139,8 @@ struct ComponentRate {
 }
 
 // indirect::component: β and n of one component from its first-pass statistics.
-fn indirect_component(r: Receiver, dp: vec4<f32>, d: f32, s: IndirectSettings) -> ComponentRate {
+// `nearest` > 0: the width's z_min (indirect.nearest), unclamped; 0: the rates' clamped z_min.
+fn indirect_component(r: Receiver, dp: vec4<f32>, nearest: f32, d: f32, s: IndirectSettings) -> ComponentRate {
     // No reflector found: the farthest one can be, the scene's size (see effects/src/indirect/mod.rs).
     var z = dp.xy;
     if (dp.z <= 0.0) {
@@ -141,7 +149,8 @@ fn indirect_component(r: Receiver, dp: vec4<f32>, d: f32, s: IndirectSettings) -
     let z_min = indirect_clamp_z_min(z.x, s.extent, s.z_fraction);
     let z_max = rmax(z.y, z_min);
     let omega_h = indirect_transfer_bandlimit(r);
-    let beta = indirect_filter_beta(indirect_filter_bandwidth(omega_h, z_min, rmax(d, 1e-12), s.mu, s.alpha));
+    let z_width = select(z_min, nearest, nearest > 0.0);
+    let beta = indirect_filter_beta(indirect_filter_bandwidth(omega_h, z_width, rmax(d, 1e-12), s.mu, s.width_alpha));
     let n = indirect_samples_per_pixel(indirect_gamma(r), omega_h, d, z_min, z_max, s.mu, s.alpha);
     return ComponentRate(beta, indirect_clamp_rate(n, s.mu, s.initial, s.max_rays));
 }

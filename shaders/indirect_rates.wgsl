@@ -10,18 +10,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let s = IndirectSettings(params.mu, params.alpha, params.z_min_fraction, params.extent, params.initial_rays, params.max_rays);
+    let s = indirect_settings(params.initial_rays, params.max_rays);
     let dp = depth_at(i);
     var nd = 0u;
     var ng = 0u;
     if (dp.w > 0.0) {
         let d = normal_at(i).w;
-        nd = indirect_component(Receiver(RECEIVER_DIFFUSE, 0.0), dp, d, s).rays;
+        nd = indirect_component(Receiver(RECEIVER_DIFFUSE, 0.0), dp, 0.0, d, s).rays;
         if (specular_bound() && rays_glossy_bound()) {
             let sp = specular_at(i);
             if (indirect_has_glossy(sp)) {
                 let r = Receiver(select(RECEIVER_PHONG, RECEIVER_BLINN_PHONG, params.brdf != 0u), sp.w);
-                ng = indirect_component(r, dp, d, s).rays;
+                ng = indirect_component(r, dp, 0.0, d, s).rays;
             }
         }
         nd = min(nd, params.rays_cap);

@@ -164,13 +164,24 @@ fn white_furnace() {
 // ---------------------------------------------------------------------------------------------
 // Consistency and baselines on `cornell`
 
+/// The default width (`width_z_min: "nearest"`, `width_alpha` 1) and the thesis's (`"statistics"`,
+/// α): both consistent.
 #[test]
 fn error_falls_as_mu_grows() {
+    error_falls_as_mu_grows_with("");
+}
+
+#[test]
+fn error_falls_as_mu_grows_with_the_thesis_width() {
+    error_falls_as_mu_grows_with(r#", "width_z_min": "statistics", "width_alpha": 0.0"#);
+}
+
+fn error_falls_as_mu_grows_with(width: &str) {
     let reference = cached_reference();
     let mut rows = Vec::new();
     let mut last = f64::INFINITY;
     for mu in [0.5, 1.0, 2.0, 4.0] {
-        let (img, run, _) = render(&indirect_text(&format!(r#", "mu": {mu:?}"#)), QW_I, QH_I);
+        let (img, run, _) = render(&indirect_text(&format!(r#", "mu": {mu:?}{width}"#)), QW_I, QH_I);
         let e = rmse(&img, reference);
         rows.push((mu, e, paths_per_pixel(&run, QW_I, QH_I)));
         eprintln!("mu {mu}: RMSE {e:.5}, paths/pixel {:.1}", paths_per_pixel(&run, QW_I, QH_I));

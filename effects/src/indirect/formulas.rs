@@ -68,6 +68,38 @@ pub fn clamp_rate(n: f32, mu: f32, initial: u32, max: u32) -> u32 {
     }
 }
 
+/// The nearest reflector the eight neighbours' first passes saw, on the pixel's own object: the
+/// minimum of their `z_min` over those with hits, 0 where there is none (or the pixel has no
+/// samples). Eq. 4.15's `z_min` is "the minimum world-space distance to any reflector"; the
+/// minimum of one pixel's 16 cosine-weighted rays over-estimates it (near reflectors at grazing
+/// angles are rarely sampled), and with it the filter width (docs/DESIGN-NOTES.md "AO over
+/// fourteen scenes"). The neighbours' 8 × 16 rays see more of the hemisphere; the pixel's own are
+/// left out so that its width does not depend on the samples its estimate reuses (as
+/// `neighbourhood.others` does for the rates). Mirrored in `shaders/indirect_nearest.wgsl`.
+pub fn nearest(depth: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32, y: i32) -> f32 {
+    let i = (y * w + x) as usize;
+    if !(depth[i][3] > 0.0) {
+        return 0.0;
+    }
+    let mut z = f32::INFINITY;
+    for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+        let (nx, ny) = (x + dx, y + dy);
+        if (dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h {
+            continue;
+        }
+        let j = (ny * w + nx) as usize;
+        let v = depth[j];
+        if v[3] > 0.0 && v[2] > 0.0 && position[j][3] == position[i][3] {
+            z = z.min(v[0]);
+        }
+    }
+    if z.is_finite() {
+        z
+    } else {
+        0.0
+    }
+}
+
 /// What one pixel's formulas need, for one component.
 #[derive(Clone, Copy, Debug)]
 pub struct ComponentRate {
@@ -80,6 +112,8 @@ pub struct ComponentRate {
 pub struct Settings {
     pub mu: f32,
     pub alpha: f32,
+    /// α of eq. 4.15's pixel bound in the filter width alone (= `alpha` for the thesis's width).
+    pub width_alpha: f32,
     pub z_fraction: f32,
     pub extent: f32,
     pub initial: u32,
@@ -87,15 +121,18 @@ pub struct Settings {
 }
 
 /// β and n for one component at one pixel from its first-pass statistics `depth` (z_min, z_max,
-/// hits, traced) and footprint `d`.
+/// hits, traced), the nearest reflector its neighbourhood's first passes saw (`nearest`, 0 = none:
+/// see [`nearest`]) and footprint `d`.
 /// Pixels whose first-pass rays all missed take `z_min = z_max = extent`, the farthest a reflector
-/// can be (see the module docs).
-pub fn component(r: Receiver, depth: [f32; 4], d: f32, s: &Settings) -> ComponentRate {
+/// can be (see the module docs). The width's `z_min` is `nearest` where there is one, unclamped
+/// (eq. 4.15's pixel bound limits the width), else the rates' clamped `z_min` (the thesis's).
+pub fn component(r: Receiver, depth: [f32; 4], nearest: f32, d: f32, s: &Settings) -> ComponentRate {
     let (z_min, z_max) = if depth[2] > 0.0 { (depth[0], depth[1]) } else { (s.extent, s.extent) };
     let z_min = clamp_z_min(z_min, s.extent, s.z_fraction);
     let z_max = z_max.max(z_min);
     let omega_h = transfer_bandlimit(r);
-    let beta = filter_beta(filter_bandwidth(omega_h, z_min, d.max(1e-12), s.mu, s.alpha));
+    let z_width = if nearest > 0.0 { nearest } else { z_min };
+    let beta = filter_beta(filter_bandwidth(omega_h, z_width, d.max(1e-12), s.mu, s.width_alpha));
     let n = samples_per_pixel(gamma(r), omega_h, d, z_min, z_max, s.mu, s.alpha);
     ComponentRate { beta, rays: clamp_rate(n, s.mu, s.initial, s.max) }
 }
@@ -186,17 +223,61 @@ mod tests {
 
     #[test]
     fn component_uses_clamped_depths() {
-        let s = Settings { mu: 0.9, alpha: 0.3, z_fraction: 0.02, extent: 5.0, initial: 16, max: 100 };
+        let s =
+            Settings { mu: 0.9, alpha: 0.3, width_alpha: 0.3, z_fraction: 0.02, extent: 5.0, initial: 16, max: 100 };
         // z_min = 0.01 clamps to 0.1: Ω = 0.9·min(28, 30) = 25.2 → β = 0.079365.
-        let c = component(Receiver::Diffuse, [0.01, 0.5, 16.0, 16.0], 0.01, &s);
+        let c = component(Receiver::Diffuse, [0.01, 0.5, 16.0, 16.0], 0.0, 0.01, &s);
         assert!(close(c.beta, 2.0 / 25.2, 1e-5), "{}", c.beta);
         // No hits: z_min = z_max = extent = 5: Ω = 0.9·min(0.56, 30) = 0.504 → β = 3.968;
         // n = 0.4·(0.9·2.8·0.01/5 + 0.3)²·7.84·1.9² = 1.037 → the initial 16.
-        let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.01, &s);
+        let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.0, 0.01, &s);
         assert!(close(c.beta, 2.0 / 0.504, 1e-5), "{}", c.beta);
         assert_eq!(c.rays, 16);
         // ... and still a one-pixel filter as μ → ∞ (consistency): β = 2/(1e6·0.56) ≪ d.
-        let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.01, &Settings { mu: 1e6, ..s });
+        let c = component(Receiver::Diffuse, [0.0, 0.0, 0.0, 16.0], 0.0, 0.01, &Settings { mu: 1e6, ..s });
         assert!(c.beta < 0.01 / 100.0, "{}", c.beta);
+    }
+
+    #[test]
+    fn the_width_takes_the_nearest_reflector_and_its_own_pixel_bound() {
+        let s =
+            Settings { mu: 0.9, alpha: 0.3, width_alpha: 0.3, z_fraction: 0.02, extent: 5.0, initial: 16, max: 100 };
+        let depth = [0.5, 2.0, 16.0, 16.0];
+        let thesis = component(Receiver::Diffuse, depth, 0.0, 0.01, &s);
+        // A neighbourhood reflector at 0.2 (below the statistics' 0.5): Ω = 0.9·min(14, 30) = 12.6.
+        let near = component(Receiver::Diffuse, depth, 0.2, 0.01, &s);
+        assert!(close(near.beta, 2.0 / 12.6, 1e-5), "{}", near.beta);
+        // The rates do not change: eq. 4.21 keeps the statistics' z_min and α.
+        assert_eq!(near.rays, thesis.rays);
+        // Unclamped: 0.05 < the 2% clamp (0.1) → Ω = 0.9·min(56, 30) = 27 (the pixel bound, α = 0.3);
+        // with the width's α = 1: 0.9·min(56, 100) = 50.4.
+        let c = component(Receiver::Diffuse, depth, 0.05, 0.01, &s);
+        assert!(close(c.beta, 2.0 / 27.0, 1e-5), "{}", c.beta);
+        let c = component(Receiver::Diffuse, depth, 0.05, 0.01, &Settings { width_alpha: 1.0, ..s });
+        assert!(close(c.beta, 2.0 / 50.4, 1e-5), "{}", c.beta);
+        assert_eq!(c.rays, thesis.rays);
+        // Consistent: a one-pixel filter as μ → ∞ whatever the reflector.
+        let c = component(Receiver::Diffuse, depth, 3.0, 0.01, &Settings { mu: 1e6, width_alpha: 1.0, ..s });
+        assert!(c.beta < 0.01 / 100.0, "{}", c.beta);
+    }
+
+    #[test]
+    fn nearest_is_the_neighbours_minimum_on_the_same_object() {
+        // 3×3 on one object; the centre's own near hit (0.1) is left out.
+        let mut depth = vec![[1.0, 2.0, 4.0, 16.0]; 9];
+        depth[4] = [0.1, 3.0, 9.0, 16.0];
+        depth[0] = [0.5, 1.0, 2.0, 16.0];
+        depth[8] = [0.05, 0.0, 0.0, 16.0]; // no hits: its minimum is not a distance
+        let position = vec![[0.0, 0.0, 0.0, 1.0]; 9];
+        assert_eq!(nearest(&depth, &position, 3, 3, 1, 1), 0.5);
+        // A corner sees the centre's 0.1 among its neighbours.
+        assert_eq!(nearest(&depth, &position, 3, 3, 0, 0), 0.1);
+        // Another object's pixels do not count: none left → 0 (the statistics' z_min is used).
+        let mut other = position.clone();
+        other[4][3] = 2.0;
+        assert_eq!(nearest(&depth, &other, 3, 3, 1, 1), 0.0);
+        // A pixel without samples (background) gets none.
+        depth[4][3] = 0.0;
+        assert_eq!(nearest(&depth, &position, 3, 3, 1, 1), 0.0);
     }
 }

@@ -3,10 +3,12 @@
 //! CPU here, WGSL in `shaders/indirect_{bandwidth,rates}.wgsl`.
 
 use wedge_backends::kernels::hemisphere::Lobe;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
+use wedge_backends::{
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+};
 use wedge_graph::Format;
 
-use super::formulas::{component, Receiver, Settings};
+use super::formulas::{component, nearest, Receiver, Settings};
 
 wedge_backends::kernel_params! {
     /// The parameters of eqs. 4.15–4.21 as `indirect.bandwidth` and `indirect.rates` read them
@@ -21,6 +23,7 @@ wedge_backends::kernel_params! {
         max_rays: u32 = int(100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
         rays_cap: u32 = int(1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
         z_min_fraction: f32 = float(0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
+        width_alpha: f32 = float(1.0, 0.0, 1.0, "α of eq. 4.15's pixel bound in the filter width alone (β ≥ 2/(μ·width_alpha) px; 0 = alpha, the thesis); the rates keep alpha"),
     }
 }
 
@@ -31,6 +34,7 @@ fn settings(ctx: &KernelCtx<'_>, with_rates: bool) -> Result<(RateParams, Settin
     let s = Settings {
         mu: p.mu,
         alpha: p.alpha,
+        width_alpha: if p.width_alpha > 0.0 { p.width_alpha } else { p.alpha },
         z_fraction: p.z_min_fraction,
         extent: ctx.scene.extent(),
         initial: if with_rates { p.initial_rays.max(1) } else { 1 },
@@ -74,6 +78,8 @@ impl Kernel for Bandwidth {
             Binding::read("depth", Format::Vec4),
             Binding::read("normal", Format::Vec4),
             Binding::read_opt("specular", Format::Vec4),
+            // `width_z_min: "nearest"`: the neighbourhood's nearest reflector (`indirect.nearest`).
+            Binding::read_opt("nearest", Format::F32),
             Binding::write("beta_diffuse", Format::F32),
             Binding::write_opt("beta_glossy", Format::F32),
             Binding::write("filter_width", Format::F32),
@@ -91,16 +97,18 @@ impl Kernel for Bandwidth {
         let depth = ctx.read::<[f32; 4]>("depth")?;
         let normal = ctx.read::<[f32; 4]>("normal")?;
         let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let nearest = ctx.read_opt::<f32>("nearest")?;
         let (_, s, blinn) = settings(ctx, false)?;
         let active = |i: usize| depth[i][3] > 0.0;
-        let beta_d: Vec<f32> = (0..ctx.pixels())
-            .map(|i| if active(i) { component(Receiver::Diffuse, depth[i], normal[i][3], &s).beta } else { 0.0 })
-            .collect();
+        let near = |i: usize| nearest.map_or(0.0, |z| z[i]);
+        let beta = |r, i: usize| component(r, depth[i], near(i), normal[i][3], &s).beta;
+        let beta_d: Vec<f32> =
+            (0..ctx.pixels()).map(|i| if active(i) { beta(Receiver::Diffuse, i) } else { 0.0 }).collect();
         let px = beta_d.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
         ctx.put_opt("beta_glossy", || {
             (0..beta_d.len())
                 .map(|i| match glossy_receiver(spec, i, blinn) {
-                    Some(r) if active(i) => component(r, depth[i], normal[i][3], &s).beta,
+                    Some(r) if active(i) => beta(r, i),
                     _ => 0.0,
                 })
                 .collect::<Vec<f32>>()
@@ -154,9 +162,10 @@ impl Kernel for Rates {
                 if depth[i][3] <= 0.0 {
                     return (0, 0);
                 }
-                let nd = component(Receiver::Diffuse, depth[i], normal[i][3], &s).rays;
+                // The rates do not read the width's nearest reflector (0 = none).
+                let nd = component(Receiver::Diffuse, depth[i], 0.0, normal[i][3], &s).rays;
                 let ng = match glossy_receiver(spec, i, blinn) {
-                    Some(r) if glossy_bound => component(r, depth[i], normal[i][3], &s).rays,
+                    Some(r) if glossy_bound => component(r, depth[i], 0.0, normal[i][3], &s).rays,
                     _ => 0,
                 };
                 (nd.min(cap), ng.min(cap))
@@ -165,5 +174,39 @@ impl Kernel for Rates {
         ctx.put_opt("rays_glossy", || per.iter().map(|p| p.1).collect::<Vec<u32>>())?;
         ctx.put("rays_per_pixel", per.iter().map(|p| p.0 + p.1).collect::<Vec<u32>>())?;
         ctx.put("rays_diffuse", per.iter().map(|p| p.0).collect::<Vec<u32>>())
+    }
+}
+
+/// `indirect.nearest` (`width_z_min: "nearest"`): per pixel, the nearest reflector its eight
+/// neighbours' first passes saw on its object ([`nearest`]), for the width of eq. 4.15.
+pub struct Nearest;
+
+impl Kernel for Nearest {
+    fn name(&self) -> &'static str {
+        "indirect.nearest"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Bandwidth
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        vec![
+            Binding::read("depth", Format::Vec4),
+            Binding::read("position", Format::Vec4),
+            Binding::write("nearest", Format::F32),
+        ]
+    }
+    /// WGSL mirror: `shaders/indirect_nearest.wgsl`.
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/indirect_nearest.wgsl"), |_| Ok(Uniforms::new()))
+                .with_reach(|_| Ok(Reach::Rows(1))),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let depth = ctx.read::<[f32; 4]>("depth")?;
+        let position = ctx.read::<[f32; 4]>("position")?;
+        let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| nearest(depth, position, w, h, x as i32, y as i32));
+        ctx.put("nearest", out)
     }
 }

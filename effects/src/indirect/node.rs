@@ -107,6 +107,12 @@ impl NodeKind for Indirect {
                 &["own", "neighbours"],
                 "z_min, z_max for eqs. 4.15–4.21 from the pixel's own first pass (thesis), or from its eight neighbours' (leaves its own samples out: no correlation between a pixel's estimate and its count or width; not with factoring)",
             ),
+            ParamDecl::choice(
+                "width_z_min",
+                "nearest",
+                &["statistics", "nearest"],
+                "z_min of the filter width (eq. 4.15): the nearest reflector the eight neighbours' first passes saw, unclamped (narrower where reflectors are near), or the rates' statistics, clamped (thesis); the rates are unchanged; not with factoring",
+            ),
         ])
         .chain(filtering::params())
         .collect()
@@ -149,6 +155,16 @@ impl NodeKind for Indirect {
             own_depth
         };
 
+        // `width_z_min: "nearest"`: the width's z_min from the neighbourhood's nearest reflector.
+        let nearest = matches!(ctx.param("width_z_min"), ParamValue::Str(m) if m == "nearest").then(|| {
+            let nearest = ctx.buffer("nearest", Format::F32);
+            ctx.pass("nearest", "indirect.nearest", Stage::Bandwidth)
+                .read("depth", own_depth)
+                .read("position", position)
+                .write("nearest", nearest)
+                .finish();
+            nearest
+        });
         let beta_d = ctx.buffer("beta_diffuse", Format::F32);
         let beta_g = ctx.buffer("beta_glossy", Format::F32);
         let width_px = ctx.buffer("filter_width", Format::F32);
@@ -157,6 +173,7 @@ impl NodeKind for Indirect {
             .read("depth", depth)
             .read("normal", normal)
             .read_opt("specular", specular)
+            .read_opt("nearest", nearest)
             .write("beta_diffuse", beta_d)
             .write("filter_width", width_px);
         if glossy {
