@@ -69,10 +69,27 @@ impl Reference {
         if (image.width, image.height) != (self.image.width, self.image.height) {
             return None;
         }
-        let spec = HeatmapSpec { title: "|image - reference|", unit: "", scale: Scale::Log, range: None, arrows: None };
-        let (width, height, rgb) = render_heatmap(width, height, &abs_error(&image, &self.image), None, &spec);
+        let error = abs_error(&image, &self.image);
+        let spec = HeatmapSpec {
+            title: "|image - reference|",
+            unit: "",
+            scale: Scale::Log,
+            range: log_range(&error),
+            arrows: None,
+        };
+        let (width, height, rgb) = render_heatmap(width, height, &error, None, &spec);
         Some(Picture { width, height, rgb })
     }
+}
+
+/// Decades of error the heatmap spans below the largest: float round-off (1e-19 next to 1e-2)
+/// would otherwise take most of the colour bar.
+const LOG_DECADES: f32 = 4.0;
+
+/// The heatmap's range: [`LOG_DECADES`] decades up to the largest finite error (`None`: no error > 0).
+fn log_range(error: &[f32]) -> Option<(f32, f32)> {
+    let hi = error.iter().copied().filter(|e| e.is_finite()).fold(0.0f32, f32::max);
+    (hi > 0.0).then(|| (hi * 10f32.powf(-LOG_DECADES), hi))
 }
 
 /// A reference of `found` pixels for a viewer of `want`: refused, with how to get a matching one.
@@ -122,6 +139,12 @@ mod tests {
         let e = abs_error(&a, &b);
         assert_eq!(&e[..2], &[4.0 / 3.0, 0.0]);
         assert!(e[2].is_nan());
+    }
+
+    #[test]
+    fn the_log_range_spans_four_decades_below_the_largest_error() {
+        assert_eq!(log_range(&[0.0, 1e-20, 0.5, f32::NAN]), Some((0.5e-4, 0.5)));
+        assert_eq!(log_range(&[0.0, f32::NAN]), None);
     }
 
     #[test]
