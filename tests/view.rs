@@ -2,8 +2,9 @@
 //! egui-wgpu on Mesa's software Vulkan, and the viewer's model without a window (hot reload).
 //!
 //! The scripted run opens the window at 64×48 on `pipelines/shadows.ron`, switches outputs, sets an
-//! A/B split, changes a parameter, orbits, and takes screenshots; the first screenshot's EXR must
-//! equal `wedge render`'s for the same settings bit for bit (one frame averaged is that frame).
+//! A/B split, changes a parameter, orbits, flies, shows the error against a reference side by side
+//! with the image and G-buffer / per-node buffers, and takes screenshots; the first screenshot's EXR
+//! must equal `wedge render`'s for the same settings bit for bit (one frame averaged is that frame).
 //!
 //! Without `xvfb-run` (Debian `xvfb`; `scripts/test.sh` installs it where it can) the window test
 //! prints why it was skipped and passes — except under `CI=true`, where it fails.
@@ -83,28 +84,38 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let shot = |name: &str| dir.path().join(name);
+    let size = ["--width", "64", "--height", "48", "--backend", "cpu"];
+    // `render`'s image first: the screenshots are compared with it, and it is the error view's reference.
+    render_shadows(&size, &shot("render"));
+    let reference = shot("render").join("render.exr");
     let script = dir.path().join("s.ron");
     let text = format!(
         r#"[
-            (frame: 0, screenshot: "{a}"),
+            (frame: 0, reference: "{r}", screenshot: "{a}"),
             (frame: 1, output: "unfiltered", compare: "color", split: 0.25),
             (frame: 2, screenshot: "{b}"),
             (frame: 2, set: ("shadows.mu", 4.0)),
-            (frame: 3, output: "rays_per_pixel", orbit: (0.3, 0.1)),
+            (frame: 3, output: "rays_per_pixel", orbit: (0.3, 0.1), fly: (0.1, 0.05, 0.2)),
             (frame: 4, screenshot: "{c}"),
+            (frame: 4, output: "color", compare: "error", layout: "side_by_side"),
+            (frame: 5, screenshot: "{d}"),
+            (frame: 5, output: "primary.normal", compare: "shadows.beta"),
+            (frame: 6, screenshot: "{e}"),
         ]"#,
+        r = reference.display(),
         a = shot("a").display(),
         b = shot("b").display(),
-        c = shot("c").display()
+        c = shot("c").display(),
+        d = shot("d").display(),
+        e = shot("e").display()
     );
     std::fs::write(&script, text).expect("script");
-    let size = ["--width", "64", "--height", "48", "--backend", "cpu"];
-    eprintln!("{}", view_script(&script, &size));
-    render_shadows(&size, &shot("render"));
+    let log = view_script(&script, &size);
+    eprintln!("{log}");
 
     // The first screenshot is one frame: `render`'s image bit for bit, and the window's picture.
     let viewed = read_exr(&shot("a").join("render.exr")).expect("a/render.exr");
-    let rendered = read_exr(&shot("render").join("render.exr")).expect("render.exr");
+    let rendered = read_exr(&reference).expect("render.exr");
     assert_eq!(viewed.pixels, rendered.pixels, "view's screenshot differs from wedge render");
     for f in ["render.png", "unfiltered.exr", "filter_width.png", "rays_per_pixel.png"] {
         assert!(shot("a").join(f).is_file(), "a/{f} missing");
@@ -125,7 +136,30 @@ fn scripted_window_switches_outputs_changes_a_parameter_and_matches_render() {
     let (cw, ch) = png_size(&shot("c").join("view.png"));
     assert!(cw >= W && ch > H, "the heatmap picture is {cw}x{ch}");
     let moved = read_exr(&shot("c").join("render.exr")).expect("c/render.exr");
-    assert_ne!(moved.pixels, rendered.pixels, "the parameter change and the orbit changed nothing");
+    assert_ne!(moved.pixels, rendered.pixels, "the parameter change, the orbit and the fly changed nothing");
+
+    // The error view: zero against itself at frame 0; later the numbers `wedge compare` prints.
+    assert!(log.contains(&format!("against {}: RMSE 0.000000 · relMSE 0.000000", reference.display())), "{log}");
+    let compared = run_ok(
+        wedge()
+            .arg("compare")
+            .arg(shot("c").join("render.exr"))
+            .arg(&reference)
+            .arg("--heatmap")
+            .arg(shot("error.png")),
+    );
+    let rmse = compared.lines().find_map(|l| l.strip_prefix("RMSE")).map(str::trim).expect("RMSE line");
+    assert!(rmse != "0.000000" && log.contains(&format!("RMSE {rmse} ·")), "{rmse} not in\n{log}");
+    // Side by side: the colour image and the error heatmap (with its colour bar) next to each other.
+    let (dw, dh) = png_size(&shot("d").join("view.png"));
+    assert!(dw > 2 * W + wedge::view::control::SIDE_BY_SIDE_GAP && dh > H, "side by side is {dw}x{dh}");
+
+    // Buffers of the schedule (the G-buffer's normal beside a bandwidth heatmap) are handed back
+    // without changing the image: the first frame after picking them is c's frame bit for bit.
+    let (ew, eh) = png_size(&shot("e").join("view.png"));
+    assert!(ew > 2 * W + wedge::view::control::SIDE_BY_SIDE_GAP && eh > H, "normal | beta is {ew}x{eh}");
+    let probed = read_exr(&shot("e").join("render.exr")).expect("e/render.exr");
+    assert_eq!(probed.pixels, moved.pixels, "showing a buffer of the schedule changed the image");
 }
 
 /// The same on the wgpu backend (lavapipe): the screenshot equals `wedge render --backend wgpu`'s.
@@ -178,6 +212,7 @@ fn tiny(pipeline: &Path, dir: &Path) -> wedge::view::ViewOptions {
         out: dir.join("out"),
         memory_limit: None,
         script: None,
+        reference: None,
     }
 }
 

@@ -252,6 +252,10 @@ pub(super) enum Command {
         /// given frames), then close the window and exit: for tests and demos.
         #[arg(long, value_name = "SCRIPT")]
         script: Option<PathBuf>,
+        /// An EXR of the same size (e.g. `wedge reference`'s render.exr): adds the `error` output,
+        /// |image − reference| as a heatmap, and the RMSE and relMSE of the mean against it.
+        #[arg(long, value_name = "REF.exr")]
+        reference: Option<PathBuf>,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes). Refusals that
     /// need no scene come first; then the scene is loaded as `render` loads it (no environment map

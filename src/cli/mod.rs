@@ -171,7 +171,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
             farm::SlurmRequest { tasks: &tasks, common: &common, partition, time, dry_run },
         ),
         #[cfg(feature = "view")]
-        Command::View { pipeline, common, mu, script } => {
+        Command::View { pipeline, common, mu, script, reference } => {
             start_rendering_command(&common)?;
             let opts = crate::view::ViewOptions {
                 pipeline,
@@ -182,6 +182,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
                 out: common.out.clone(),
                 memory_limit: common.memory_limit,
                 script,
+                reference,
             };
             crate::view::run(opts)
         }

@@ -1,5 +1,6 @@
-//! Camera moves of the viewer: orbit around the look-at point and dolly towards it. The moved
-//! camera replaces the session's (`Session::scene.camera`) for the frames rendered after it.
+//! Camera moves of the viewer: orbit around the look-at point and dolly towards it, or fly (move in
+//! the camera's own frame) and look around (turn on the spot). The moved camera replaces the
+//! session's (`Session::scene.camera`) for the frames rendered after it.
 
 use glam::{Quat, Vec3};
 use wedge_scene::Camera;
@@ -30,9 +31,65 @@ pub fn dolly(cam: &Camera, fraction: f32) -> Camera {
     Camera { position: cam.look_at + offset, ..*cam }
 }
 
+/// The camera's frame: right, up and forward (towards the look-at point), orthonormal.
+fn frame(cam: &Camera) -> (Vec3, Vec3, Vec3) {
+    let up = cam.up.try_normalize().unwrap_or(Vec3::Y);
+    let forward = (cam.look_at - cam.position).try_normalize().unwrap_or(Vec3::NEG_Z);
+    let right = forward.cross(up).try_normalize().unwrap_or(Vec3::X);
+    (right, right.cross(forward), forward)
+}
+
+/// `cam` moved by `d` in its own frame (`d.x` right, `d.y` up, `d.z` forward, in scene units); the
+/// look-at point moves with it, so the view direction stays.
+pub fn fly(cam: &Camera, d: Vec3) -> Camera {
+    let (right, up, forward) = frame(cam);
+    let step = right * d.x + up * d.y + forward * d.z;
+    Camera { position: cam.position + step, look_at: cam.look_at + step, ..*cam }
+}
+
+/// `cam` turned on the spot by `yaw` around its up axis (> 0: to the left) and by `pitch` up: the
+/// look-at point orbits the position (as [`orbit`] with the two swapped, whose pitch > 0 lowers the
+/// orbiting point), the position stays.
+pub fn look(cam: &Camera, yaw: f32, pitch: f32) -> Camera {
+    let swapped = Camera { position: cam.look_at, look_at: cam.position, ..*cam };
+    Camera { look_at: orbit(&swapped, yaw, -pitch).position, ..*cam }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fly_moves_in_the_camera_frame_and_keeps_the_view_direction() {
+        let cam = Camera::default();
+        let forward = (cam.look_at - cam.position).normalize();
+        let f = fly(&cam, Vec3::new(0.0, 0.0, 2.0));
+        assert!((f.position - (cam.position + forward * 2.0)).length() < 1e-4);
+        assert!(((f.look_at - f.position) - (cam.look_at - cam.position)).length() < 1e-4);
+        // Right is perpendicular to forward and up; up stays perpendicular to forward.
+        let r = fly(&cam, Vec3::X);
+        assert!((r.position - cam.position).dot(forward).abs() < 1e-5);
+        assert!((r.position - cam.position).dot(cam.up).abs() < 1e-5);
+        let u = fly(&cam, Vec3::Y);
+        assert!((u.position - cam.position).dot(forward).abs() < 1e-5);
+        assert!((u.position - cam.position).dot(cam.up) > 0.9);
+        let back = fly(&fly(&cam, Vec3::new(0.3, -0.2, 0.5)), Vec3::new(-0.3, 0.2, -0.5));
+        assert!(back.position.distance(cam.position) < 1e-4);
+    }
+
+    #[test]
+    fn look_turns_on_the_spot_and_undoes() {
+        let cam = Camera::default();
+        let l = look(&cam, 0.4, 0.2);
+        assert_eq!(l.position, cam.position);
+        assert!(((l.look_at - l.position).length() - (cam.look_at - cam.position).length()).abs() < 1e-4);
+        assert!(l.look_at.distance(cam.look_at) > 0.1);
+        assert!((l.look_at - cam.look_at).dot(cam.up) > 0.0, "pitch > 0 looks up");
+        let (right, _, _) = frame(&cam);
+        assert!((look(&cam, 0.3, 0.0).look_at - cam.look_at).dot(right) < 0.0, "yaw > 0 turns left");
+        let back = look(&look(&l, 0.0, -0.2), -0.4, 0.0);
+        assert!(back.look_at.distance(cam.look_at) < 1e-3, "{:?} vs {:?}", back.look_at, cam.look_at);
+    }
 
     #[test]
     fn orbit_keeps_the_distance_and_dolly_scales_it() {

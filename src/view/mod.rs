@@ -8,6 +8,7 @@
 //!
 //! - [`model`]: session, backend, frame averaging, rebuilds on changes, hot reload, screenshots;
 //! - [`outputs`]: the output picker's entries as pictures; [`params`]: widgets from declarations;
+//! - [`reference`]: the error view against a reference image; [`probes`]: any buffer of the schedule;
 //! - [`camera`]: orbit and dolly; [`script`]: `--script` steps; [`watch`]: file polling;
 //! - [`control`]: the actions widgets, keys and script steps share;
 //! - [`ui`]: the panels; [`window`]: the winit/egui-wgpu event loop.
@@ -18,6 +19,8 @@ pub mod control;
 pub mod model;
 pub mod outputs;
 pub mod params;
+pub mod probes;
+pub mod reference;
 pub mod render;
 pub mod script;
 mod ui;
@@ -45,6 +48,8 @@ pub struct ViewOptions {
     pub memory_limit: Option<u64>,
     /// `--script`: run these steps, write their screenshots and exit.
     pub script: Option<PathBuf>,
+    /// `--reference`: an EXR of the viewer's size (`wedge reference`'s) for the error view.
+    pub reference: Option<PathBuf>,
 }
 
 /// Open the window and run until it is closed (or the script is done). Returns what to print.

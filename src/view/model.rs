@@ -18,6 +18,7 @@ use wedge_graph::ParamValue;
 use wedge_scene::{Camera, SceneSource};
 
 use super::accumulate::Accumulator;
+use super::reference::{Reference, ERROR_VIEW};
 use super::render::{Done, Renderer, LOST};
 use super::watch::Watch;
 use super::ViewOptions;
@@ -77,6 +78,15 @@ pub struct Model {
     outputs: Vec<String>,
     /// No new frames while set (the user paused, or a frame failed).
     pub paused: bool,
+    /// The error view's reference image and the mean's metrics against it.
+    reference: Option<Reference>,
+    /// The buffers of the schedule the picker offers besides the sinks' outputs ([`super::probes`]),
+    /// and those picked so far (the session hands them back; kept across rebuilds while they exist).
+    probe_names: Vec<String>,
+    probes: Vec<String>,
+    /// How the backend times its passes (the wgpu backend uses timestamp queries where the adapter
+    /// has `TIMESTAMP_QUERY`, `backends/src/gpu/mod.rs`).
+    pub timed_by: &'static str,
 }
 
 impl Model {
@@ -87,12 +97,17 @@ impl Model {
             let mode = if opts.backend == "wgpu" { crate::session::RunMode::Gpu } else { crate::session::RunMode::Cpu };
             session.memory_estimate(mode).check(limit, &source)?;
         }
-        let backend: Box<dyn Backend + Send> = match opts.backend.as_str() {
-            "wgpu" => Box::new(crate::session::open_gpu(opts.gpu_limits.as_deref())?),
-            _ => Box::new(wedge_backends::cpu::CpuBackend::new()),
+        let (backend, timed_by): (Box<dyn Backend + Send>, _) = match opts.backend.as_str() {
+            "wgpu" => {
+                let gpu = crate::session::open_gpu(opts.gpu_limits.as_deref())?;
+                let by = if gpu.has_timestamps() { "GPU timestamp queries" } else { "wall clock around each dispatch" };
+                (Box::new(gpu), by)
+            }
+            _ => (Box::new(wedge_backends::cpu::CpuBackend::new()), "wall clock on the CPU"),
         };
         let watch = Watch::new(watched_files(opts.pipeline.as_ref(), &session, &opts.overrides));
-        Ok(Model {
+        let probe_names = super::probes::candidates(&session)?;
+        let mut model = Model {
             pipeline: opts.pipeline.clone(),
             overrides: opts.overrides.clone(),
             base_camera: session.scene.camera,
@@ -110,7 +125,66 @@ impl Model {
             last_frame_end: None,
             paused: false,
             outputs: Vec::new(),
-        })
+            reference: None,
+            probe_names,
+            probes: Vec::new(),
+            timed_by,
+        };
+        if let Some(path) = &opts.reference {
+            model.set_reference(path)?;
+        }
+        Ok(model)
+    }
+
+    /// Compare the mean with the EXR at `path` from now on (the `error` output, the metrics); a
+    /// file of another size than the viewer's is refused, naming both sizes.
+    pub fn set_reference(&mut self, path: &std::path::Path) -> Result<(), WedgeError> {
+        let mut reference = Reference::load(path, self.session.width, self.session.height)?;
+        reference.update(self.acc.mean(), self.session.width, self.session.height);
+        self.reference = Some(reference);
+        self.list_outputs();
+        Ok(())
+    }
+
+    /// Make runs hand back buffer `name` of the schedule (a [`super::probes`] candidate) from the
+    /// next frame on; nothing for a sink's output or a buffer already probed. Waits for the frame in
+    /// flight (the session is rescheduled) and starts the mean over.
+    pub fn probe(&mut self, name: &str) -> Result<(), WedgeError> {
+        if !self.probe_names.iter().any(|n| n == name) || self.probes.iter().any(|n| n == name) {
+            return Ok(());
+        }
+        if let Some(done) = self.renderer.wait() {
+            self.finish(done)?;
+        }
+        let mut probes = self.probes.clone();
+        probes.push(name.to_string());
+        let session = Arc::get_mut(&mut self.session)
+            .ok_or_else(|| WedgeError::Usage("wedge view: the render thread still holds the session".into()))?;
+        super::probes::set_probes(session, &probes)?;
+        self.probes = probes;
+        self.restart();
+        Ok(())
+    }
+
+    /// The reference the error view compares with, if one is loaded.
+    pub fn reference(&self) -> Option<&Reference> {
+        self.reference.as_ref()
+    }
+
+    /// The picker's names: the last run's outputs, the error view when a reference is loaded, then
+    /// every buffer of the schedule that can be shown.
+    fn list_outputs(&mut self) {
+        let mut names = self.acc.mean().map(super::outputs::names).unwrap_or_default();
+        if self.reference.is_some() && !names.iter().any(|n| n == ERROR_VIEW) {
+            names.push(ERROR_VIEW.to_string());
+        }
+        if !names.is_empty() {
+            names.extend(self.probe_names.iter().filter(|n| !names.contains(n)).cloned().collect::<Vec<_>>());
+        }
+        // Kept across a change until the next frame arrives, as the picture is.
+        if !names.is_empty() {
+            self.outputs = names;
+        }
     }
 
     pub fn backend_name(&self) -> &'static str {
@@ -135,6 +209,17 @@ impl Model {
     pub fn camera(&self) -> Camera {
         let cam = self.base_camera;
         self.view.map_or(cam, |(position, look_at)| Camera { position, look_at, ..cam })
+    }
+
+    /// The diagonal of the scene's bounds (1 for an empty or unbounded scene): what the fly keys'
+    /// speed is scaled by.
+    pub fn scene_size(&self) -> f32 {
+        let d = self.session.scene.bounds.size().length();
+        if d.is_finite() && d > 0.0 {
+            d
+        } else {
+            1.0
+        }
     }
 
     /// Whether the pipeline has a camera block (whose lens and shutter the window can change).
@@ -205,8 +290,11 @@ impl Model {
         self.frame_interval = self.last_frame_end.map_or(done.seconds, |t| (end - t).as_secs_f64());
         self.last_frame_end = Some(end);
         let run = done.run?;
-        self.outputs = super::outputs::names(&run);
         self.acc.add(run);
+        self.list_outputs();
+        if let Some(reference) = &mut self.reference {
+            reference.update(self.acc.mean(), self.session.width, self.session.height);
+        }
         self.rendered += 1;
         Ok(true)
     }
@@ -288,7 +376,14 @@ impl Model {
         Ok(())
     }
 
-    fn replace(&mut self, session: Session) {
+    fn replace(&mut self, mut session: Session) {
+        // The picked buffers stay picked while the new pipeline has them.
+        self.probe_names = super::probes::candidates(&session).unwrap_or_default();
+        self.probes.retain(|p| self.probe_names.contains(p));
+        if let Err(e) = super::probes::set_probes(&mut session, &self.probes) {
+            self.probes.clear();
+            eprintln!("warning: the buffers picked for the viewer are dropped: {e}");
+        }
         self.watch = Watch::new(watched_files(self.pipeline.as_ref(), &session, &self.overrides));
         self.base_camera = session.scene.camera;
         self.session = Arc::new(session);

@@ -48,9 +48,16 @@ pub struct Step {
     /// Move the camera towards (> 0) or away from (< 0) its look-at point by this fraction of the distance.
     #[serde(default)]
     pub dolly: Option<f32>,
+    /// Move the camera by (right, up, forward) in its own frame, in scene units (the look-at point
+    /// moves along: the WASD/QE keys' move).
+    #[serde(default)]
+    pub fly: Option<(f32, f32, f32)>,
     /// Back to the pipeline's camera.
     #[serde(default)]
     pub reset_camera: Option<bool>,
+    /// Load this EXR (of the viewer's size, e.g. `wedge reference`'s) as the error view's reference.
+    #[serde(default)]
+    pub reference: Option<PathBuf>,
     /// Show this output (a name from the output picker: `color`, `unfiltered`, a heatmap's name).
     #[serde(default)]
     pub output: Option<String>,
@@ -59,6 +66,9 @@ pub struct Step {
     pub compare: Option<String>,
     #[serde(default)]
     pub split: Option<f32>,
+    /// How A and B are shown: `"split"` (A/B at the split) or `"side_by_side"`.
+    #[serde(default)]
+    pub layout: Option<String>,
     /// Write the screenshot (EXR + PNG, as `render` writes its outputs) into this directory.
     #[serde(default)]
     pub screenshot: Option<PathBuf>,
@@ -67,15 +77,33 @@ pub struct Step {
 impl Step {
     /// Whether the step does anything (an empty step is almost certainly a mistake).
     fn has_action(&self) -> bool {
-        let Step { order: _, frame: _, set, mu, orbit, dolly, reset_camera, output, compare, split, screenshot } = self;
+        let Step {
+            order: _,
+            frame: _,
+            set,
+            mu,
+            orbit,
+            dolly,
+            fly,
+            reset_camera,
+            reference,
+            output,
+            compare,
+            split,
+            layout,
+            screenshot,
+        } = self;
         set.is_some()
             || mu.is_some()
             || orbit.is_some()
             || dolly.is_some()
+            || fly.is_some()
             || reset_camera.is_some()
+            || reference.is_some()
             || output.is_some()
             || compare.is_some()
             || split.is_some()
+            || layout.is_some()
             || screenshot.is_some()
     }
 }
@@ -111,8 +139,8 @@ impl Script {
         let mut steps: Vec<Step> = options.from_str(text).map_err(|e| {
             WedgeError::Usage(format!(
                 "{}:{}:{}: {}\n  help: a script is a list of steps such as [(frame: 2, set: (\"shadows.mu\", 4.0)), \
-                 (frame: 3, screenshot: \"out/view\")]; a step's fields are frame, set, mu, orbit, dolly, reset_camera, \
-                 output, compare, split, screenshot",
+                 (frame: 3, screenshot: \"out/view\")]; a step's fields are frame, set, mu, orbit, dolly, fly, reset_camera, \
+                 reference, output, compare, split, layout, screenshot",
                 path.display(),
                 e.span.start.line,
                 e.span.start.col,
@@ -152,6 +180,10 @@ fn check_step(path: &Path, index: usize, step: &Step) -> Result<(), WedgeError> 
     if let Some(split) = step.split.filter(|s| !(0.0..=1.0).contains(s)) {
         return Err(blame(format!("split {split} is outside 0..1 (0 = all B, 1 = all A)")));
     }
+    if let Some(layout) = step.layout.as_deref().filter(|l| super::control::Layout::parse(l).is_none()) {
+        let names: Vec<&str> = super::control::Layout::NAMES.iter().map(|(n, _)| *n).collect();
+        return Err(blame(format!("layout `{layout}` is not one of {}", names.join(", "))));
+    }
     if let Some(mu) = step.mu.filter(|m| !(m.is_finite() && *m > 0.0)) {
         return Err(blame(format!("mu {mu} must be a finite number > 0, as for --mu")));
     }
@@ -161,8 +193,9 @@ fn check_step(path: &Path, index: usize, step: &Step) -> Result<(), WedgeError> 
         return Err(blame(format!("set names `{name}`; write \"NODE.PARAM\", e.g. (\"shadows.mu\", 4.0)")));
     }
     let finite = |v: Option<f32>| v.is_none_or(f32::is_finite);
-    if !finite(step.orbit.map(|o| o.0)) || !finite(step.orbit.map(|o| o.1)) || !finite(step.dolly) {
-        return Err(blame("orbit and dolly take finite numbers".into()));
+    let fly_finite = step.fly.is_none_or(|(x, y, z)| [x, y, z].iter().all(|v| v.is_finite()));
+    if !finite(step.orbit.map(|o| o.0)) || !finite(step.orbit.map(|o| o.1)) || !finite(step.dolly) || !fly_finite {
+        return Err(blame("orbit, dolly and fly take finite numbers".into()));
     }
     if step.dolly.is_some_and(|d| d >= 1.0) {
         return Err(blame("dolly must be < 1 (1 would put the camera on its look-at point)".into()));
@@ -220,6 +253,7 @@ mod tests {
             ("[(frame: 0, mu: -1.0)]", "mu -1 must be"),
             ("[(frame: 0, set: (\"mu\", 1.0))]", "write \"NODE.PARAM\""),
             ("[(frame: 0, dolly: 1.0)]", "dolly must be < 1"),
+            ("[(frame: 0, layout: \"sbs\")]", "layout `sbs` is not one of split, side_by_side"),
             ("[(frame: -1, output: \"color\")]", "s.ron:1:"),
         ] {
             let e = parse(text).unwrap_err();

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use egui::{Color32, Rect, Sense, TextureHandle, TextureOptions};
 
-use super::control::{Action, Display};
+use super::control::{Action, Display, Layout};
 use super::model::{Lens, Model};
 use super::outputs::Picture;
 use super::params;
@@ -16,6 +16,12 @@ use super::params;
 const ORBIT_PER_POINT: f32 = 0.01;
 /// Fraction of the distance dollied per point of wheel scroll.
 const DOLLY_PER_POINT: f32 = 0.002;
+/// Radians the camera turns per point of right-button drag.
+const LOOK_PER_POINT: f32 = 0.004;
+/// Fraction of the scene's size (its bounds' diagonal) flown per second a WASD/QE key is held.
+const FLY_PER_SECOND: f32 = 0.25;
+/// Longest time step of one fly move (a stalled frame does not jump the camera across the scene).
+const MAX_FLY_STEP: f32 = 0.1;
 
 /// What the panels keep between frames: the texture of the shown picture and the status line.
 pub struct Panels {
@@ -54,14 +60,11 @@ impl Panels {
         if let Some(a) = pick(ui, "output A", Some(&display.output), names, false) {
             actions.extend(a.map(Action::Output));
         }
-        if let Some(b) = pick(ui, "B (split)", display.compare.as_ref(), names, true) {
+        if let Some(b) = pick(ui, "B", display.compare.as_ref(), names, true) {
             actions.push(Action::Compare(b));
         }
         if display.compare.is_some() {
-            let mut at = display.split;
-            if ui.add(egui::Slider::new(&mut at, 0.0..=1.0).text("split")).changed() {
-                actions.push(Action::Split(at));
-            }
+            layout_ui(ui, display, actions);
         }
         let mut exposure = display.exposure;
         if ui.add(egui::Slider::new(&mut exposure, 0.01..=100.0).logarithmic(true).text("exposure")).changed() {
@@ -103,8 +106,11 @@ impl Panels {
             ui.monospace(error);
         }
         ui.label(stats_line(model));
+        if let Some(reference) = model.reference() {
+            ui.label(format!("error {}", reference.summary()));
+        }
         if let Some(run) = model.mean() {
-            egui::CollapsingHeader::new("pass times of the last frame").show(ui, |ui| {
+            egui::CollapsingHeader::new(format!("pass times of the last frame ({})", model.timed_by)).show(ui, |ui| {
                 for t in &run.timings {
                     ui.monospace(format!("{:<32} {:<22} {:>9.2} ms", t.pass, t.kernel, t.seconds * 1e3));
                 }
@@ -133,14 +139,19 @@ impl Panels {
         let (rect, response) = ui.allocate_exact_size(size * scale, Sense::drag());
         let uv = Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
         ui.painter().image(texture.id(), rect, uv, Color32::WHITE);
-        if display.compare.is_some() {
+        if display.compare.is_some() && display.layout == Layout::Split {
             let x = rect.left() + display.split * rect.width();
             ui.painter().vline(x, rect.y_range(), egui::Stroke::new(1.0, Color32::WHITE));
         }
         // Not on the frame the drag starts: its delta may hold the pointer's jump to the image.
         let drag = if response.drag_started() { egui::Vec2::ZERO } else { response.drag_delta() };
         if drag != egui::Vec2::ZERO {
-            actions.push(Action::Orbit(-drag.x * ORBIT_PER_POINT, drag.y * ORBIT_PER_POINT));
+            // Left button orbits around the look-at point, right button looks around on the spot.
+            if response.dragged_by(egui::PointerButton::Secondary) {
+                actions.push(Action::Look(-drag.x * LOOK_PER_POINT, -drag.y * LOOK_PER_POINT));
+            } else {
+                actions.push(Action::Orbit(-drag.x * ORBIT_PER_POINT, drag.y * ORBIT_PER_POINT));
+            }
         }
         let scroll = if response.hovered() { ui.input(|i| i.smooth_scroll_delta.y) } else { 0.0 };
         if scroll != 0.0 {
@@ -163,13 +174,26 @@ impl Panels {
     }
 }
 
-/// F12 screenshot, Space pause, R reset the camera.
+/// The WASD/QE keys: right (D − A), up (E − Q), forward (W − S), each −1, 0 or 1.
+const FLY_KEYS: [(egui::Key, egui::Key); 3] =
+    [(egui::Key::D, egui::Key::A), (egui::Key::E, egui::Key::Q), (egui::Key::W, egui::Key::S)];
+
+/// F12 screenshot, Space pause, R reset the camera, WASD/QE fly while held.
 fn keys(ui: &egui::Ui, model: &Model, out: &std::path::Path, actions: &mut Vec<Action>) {
     let (f12, space, r) =
         ui.input(|i| (i.key_pressed(egui::Key::F12), i.key_pressed(egui::Key::Space), i.key_pressed(egui::Key::R)));
     // Keys typed into a text field are the field's.
     if ui.ctx().egui_wants_keyboard_input() {
         return;
+    }
+    let (axes, dt) = ui.input(|i| {
+        let axis = |(plus, minus): (egui::Key, egui::Key)| f32::from(i.key_down(plus)) - f32::from(i.key_down(minus));
+        (glam::Vec3::from(FLY_KEYS.map(axis)), i.stable_dt.min(MAX_FLY_STEP))
+    });
+    if axes != glam::Vec3::ZERO {
+        actions.push(Action::Fly(axes * (FLY_PER_SECOND * model.scene_size() * dt)));
+        // Held keys send no events of their own: draw again to keep moving.
+        ui.ctx().request_repaint();
     }
     if f12 {
         actions.push(Action::Screenshot(out.to_path_buf()));
@@ -201,6 +225,23 @@ fn stats_line(model: &Model) -> String {
     )
 }
 
+/// Split or side by side; the split's place.
+fn layout_ui(ui: &mut egui::Ui, display: &Display, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        for (label, layout) in [("A/B split", Layout::Split), ("side by side", Layout::SideBySide)] {
+            if ui.selectable_label(display.layout == layout, label).clicked() && display.layout != layout {
+                actions.push(Action::Layout(layout));
+            }
+        }
+    });
+    if display.layout == Layout::Split {
+        let mut at = display.split;
+        if ui.add(egui::Slider::new(&mut at, 0.0..=1.0).text("split")).changed() {
+            actions.push(Action::Split(at));
+        }
+    }
+}
+
 /// A combo box over `names`; `Some(choice)` when the user picked one (`None` = "none", if `optional`).
 fn pick(
     ui: &mut egui::Ui,
@@ -224,7 +265,7 @@ fn pick(
 /// Reset, and the lens and shutter of the pipeline's camera block when it has one.
 fn camera_ui(ui: &mut egui::Ui, model: &Model, actions: &mut Vec<Action>) {
     ui.heading("Camera");
-    ui.label("drag the image to orbit, wheel to dolly");
+    ui.label("drag the image to orbit, right-drag to look around, wheel to dolly, WASD/QE to fly");
     if ui.button("reset camera (R)").clicked() {
         actions.push(Action::ResetCamera);
     }

@@ -160,6 +160,11 @@ impl App {
         let (panels, model, display) = (&mut self.panels, &self.model, &self.display);
         let mut out = self.ctx.run_ui(raw, |ui| actions = panels.show(ui, model, display));
         gfx.input.handle_platform_output(&gfx.window, out.platform_output);
+        // egui asks to be drawn again (a held fly key, the end of a click) after this delay.
+        let delay = out.viewport_output.get(&ViewportId::ROOT).map(|v| v.repaint_delay);
+        if let Some(at) = delay.and_then(|d| std::time::Instant::now().checked_add(d)) {
+            self.repaint_at = Some(self.repaint_at.map_or(at, |t| t.min(at)));
+        }
         let shapes = self.ctx.tessellate(out.shapes, out.pixels_per_point);
         let clear = [0.08, 0.08, 0.08, 1.0];
         gfx.painter.paint_and_update_textures(
