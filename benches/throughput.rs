@@ -30,6 +30,14 @@
 //!   with 1, 2 and 3 bounces: hemisphere/bounce rays plus next-event shadow rays per second, and
 //!   paths per second (kernel time from the run's pass timings).
 //!
+//! - passes vs bare traversal (issue 38 §2): the `primary.gbuffer` pass and a `direct.light` pass
+//!   (`MonteCarlo` with 16 independent samples toward light 0, no occlusion output: any-hit rays) run
+//!   through one persistent `CpuBackend` on the same scene at the same 640×480, beside the bare rows'
+//!   primary (closest) and shadow (any-hit) rates. A pass's rays are the bare set's (the pass draws its
+//!   own light points, so its count of rays actually traced differs by noise); its time is the pass's
+//!   own timing, the first frame (buffers allocated) apart from the median of the later frames (a
+//!   persistent backend recycles them). Goal ≥ 0.8 of the bare rate.
+//!
 //! - Embree (issue 12's yardstick): each scene's triangles and rays are written to a temporary file
 //!   (format in `benches/embree_compare.py`) and `embree_compare.py` traces them with Embree 4 through
 //!   `embreex` (`rtcIntersect1`/`rtcOccluded1`, one thread), repeated for ≥1 s; the table sets its
@@ -284,6 +292,47 @@ fn paths(threads: usize, bounces: u32, size: (u32, u32), spp: u32, min: Duration
     }
     let paths = (paths_per_run * runs).max(1) as f64;
     (rays as f64 / secs / 1e6, paths / secs / 1e6, rays as f64 / paths)
+}
+
+/// `primary.gbuffer` and `direct.light` (`SHADOW_SAMPLES` independent samples toward light 0) on the
+/// built-in `scene` at W×H: the passes whose rays the bare primary and shadow rows trace.
+fn pass_session(scene: &str) -> wedge::Session {
+    let text = format!(
+        r#"Pipeline(scene: "builtin:{scene}", width: {W}, height: {H}, seed: 1, nodes: [
+    (name: "primary", kind: "Primary"),
+    (name: "mc", kind: "MonteCarlo", params: {{"spp": {SHADOW_SAMPLES}, "sampling": "independent", "light": 0}},
+     inputs: {{"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo"}}),
+    (name: "out", kind: "Output", inputs: {{"color": "mc.radiance"}}),
+])"#
+    );
+    let loaded = wedge::graph::parse_pipeline(Path::new("passes.ron"), &text).expect("bench pipeline parses");
+    let (nodes, kernels) = wedge::effects::builtin();
+    wedge::Session::build(loaded, &Default::default(), nodes, kernels).expect("bench session")
+}
+
+/// Seconds of the passes of `kernels` on one persistent CPU backend with `threads` threads: the first
+/// frame's, and the median over the later frames (at least one, then until `min` has passed).
+struct PassTimes {
+    first: [f64; 2],
+    later: [f64; 2],
+    frames: usize,
+}
+
+fn pass_times(session: &wedge::Session, threads: usize, kernels: [&str; 2], min: Duration) -> PassTimes {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let mut backend = CpuBackend::new();
+    let mut run = || {
+        let r = pool.install(|| session.run(&mut backend, &Silent)).expect("bench run");
+        kernels.map(|k| r.timings.iter().filter(|t| t.kernel == k).map(|t| t.seconds).sum::<f64>())
+    };
+    let first = run();
+    let (start, mut later) = (Instant::now(), Vec::new());
+    while later.is_empty() || start.elapsed() < min {
+        later.push(run());
+    }
+    let frames = later.len() + 1;
+    let column = |k: usize| median(&mut later.iter().map(|t| t[k]).collect::<Vec<_>>());
+    PassTimes { first, later: [column(0), column(1)], frames }
 }
 
 /// One row of the build table.
@@ -662,6 +711,7 @@ fn main() {
     let mut builds = Vec::new();
     let mut embree = Vec::new();
     let mut work = Vec::new();
+    let mut passes = Vec::new();
     for name in &scenes {
         let t = Instant::now();
         let scene = match wedge::scene::load(&SceneSource::Builtin(name.clone())) {
@@ -691,6 +741,13 @@ fn main() {
         let diffuse = diffuse_rays(&scene, &points);
         drop(points);
         builds.push((name.clone(), record_bytes, build_table(&input, &primary, &diffuse, min, repeats)));
+        let session = pass_session(name);
+        // The smoke run checks the table works on one thread count: each run traces ~5 M rays.
+        for &threads in if smoke { &[2usize][..] } else { &[1, 2] } {
+            let t = pass_times(&session, threads, ["primary.gbuffer", "direct.light"], min);
+            passes.push((name.clone(), threads, [primary.len(), shadow.len()], t));
+        }
+        drop(session);
         let mut cells = Vec::new();
         for threads in [1usize, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
@@ -769,7 +826,7 @@ fn main() {
     println!();
     println!("| scene | threads | primary Mrays/s | shadow (any-hit) Mrays/s | shadow (closest) Mrays/s | diffuse Mrays/s | rays (primary / shadow / diffuse) | passes | checksum |");
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---|");
-    for (name, threads, [np, ns, nd], p, s, c, d) in rows {
+    for (name, threads, [np, ns, nd], p, s, c, d) in &rows {
         println!(
             "| {name} | {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {np} / {ns} / {nd} | {}/{}/{}/{} | p {}:{:x} s {} c {}:{:x} d {}:{:x} |",
             p.mrays,
@@ -789,6 +846,7 @@ fn main() {
             d.check.1
         );
     }
+    pass_table(&passes, &rows);
     println!();
     println!("Traversal work per ray (8-wide nodes whose boxes were tested, 4-triangle packs tested):\n");
     println!("| scene | rays | query | nodes / ray | packs / ray |");
@@ -898,5 +956,35 @@ fn main() {
     println!("|---:|---:|---:|---:|---:|");
     for (bounces, threads, (mrays, mpaths, per)) in path_rows {
         println!("| {bounces} | {threads} | {mrays:.2} | {per:.2} | {mpaths:.3} |");
+    }
+}
+
+/// The "passes vs bare traversal" table: each pass's rays per second (first frame, later frames of a
+/// persistent backend) beside the bare rate of the same rays at the same thread count.
+#[allow(clippy::type_complexity)]
+fn pass_table(
+    passes: &[(String, usize, [usize; 2], PassTimes)],
+    rows: &[(String, usize, [usize; 3], Cell, Cell, Cell, Cell)],
+) {
+    println!();
+    println!("Passes vs bare traversal (one persistent `CpuBackend`; first frame apart from the median of the later ones; goal: later / bare ≥ 0.8):\n");
+    println!("| scene | threads | pass | rays | bare Mrays/s | pass first frame Mrays/s | pass later frames Mrays/s | later / bare | frames |");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    for (name, threads, counts, t) in passes {
+        let Some((.., p, s, _, _)) = rows.iter().find(|r| r.0 == *name && r.1 == *threads) else { continue };
+        for (k, (pass, bare)) in
+            [("primary.gbuffer (closest)", p), ("direct.light (any-hit)", s)].into_iter().enumerate()
+        {
+            let rate = |secs: f64| counts[k] as f64 / secs / 1e6;
+            println!(
+                "| {name} | {threads} | {pass} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
+                counts[k],
+                bare.mrays,
+                rate(t.first[k]),
+                rate(t.later[k]),
+                rate(t.later[k]) / bare.mrays,
+                t.frames
+            );
+        }
     }
 }

@@ -124,3 +124,38 @@ fn analytic_irradiance_is_exact_where_nothing_occludes() {
     assert!(worst < 1e-4, "{worst}");
     assert!(mc_err > 100.0 * worst, "{mc_err} vs {worst}");
 }
+
+/// Issue 38 §2: a CPU backend kept across frames recycles its pool — the in-place G-buffer pass
+/// allocates nothing on a second frame — and renders what a fresh backend per frame renders.
+#[test]
+fn persistent_cpu_backend_reuses_its_pool() {
+    use wedge::backends::cpu::CpuBackend;
+    use wedge::backends::Silent;
+    let ov = sized(32, 24, None, &[]);
+    let gbuffer = session_from_text(
+        r#"Pipeline(scene: "builtin:grids", width: 32, height: 24, seed: 1, nodes: [
+            (name: "primary", kind: "Primary"),
+            (name: "out", kind: "Output", inputs: {"color": "primary.albedo"}),
+        ])"#,
+        &ov,
+    );
+    let mut backend = CpuBackend::new();
+    let first = gbuffer.run(&mut backend, &Silent).expect("first frame");
+    let second = gbuffer.run(&mut backend, &Silent).expect("second frame");
+    assert!(first.allocations > 0, "a first frame allocates its buffers");
+    assert_eq!(second.allocations, 0, "a second frame of in-place kernels allocates nothing");
+    assert_eq!(first.outputs, second.outputs);
+    // The default pipeline over frames (kernels writing in place and others): the same images as a
+    // fresh backend, with fewer buffers allocated after the first frame.
+    let mut session = wedge::Session::open(None, &ov).expect("default pipeline");
+    let (mut kept, mut fresh, mut backend) = (None, None, CpuBackend::new());
+    for frame in 0..3 {
+        let a = session.run_frame(&mut backend, &Silent, frame, 0, kept.as_ref()).expect("kept backend");
+        let b = session.run_frame(&mut CpuBackend::new(), &Silent, frame, 0, fresh.as_ref()).expect("fresh");
+        assert_eq!(a.outputs, b.outputs, "frame {frame}");
+        if frame > 0 {
+            assert!(a.allocations < b.allocations, "frame {frame}: {} vs {}", a.allocations, b.allocations);
+        }
+        (kept, fresh) = (Some(a), Some(b));
+    }
+}

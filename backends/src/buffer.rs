@@ -246,6 +246,24 @@ impl<R: Record> Texel for R {
     }
 }
 
+/// Filling a buffer in place (the CPU backend's persistent pool, issue 38 §2).
+impl BufferData {
+    /// Copy `from`'s contents into this buffer's storage. Panics if the formats or lengths differ
+    /// (callers check both: it is a pool invariant, not user input).
+    pub fn copy_from(&mut self, from: &BufferData) {
+        assert!(self.format() == from.format() && self.len() == from.len(), "copy_from between different buffers");
+        match (self, from) {
+            (BufferData::F32(a), BufferData::F32(b)) => a.copy_from_slice(b),
+            (BufferData::Vec2(a), BufferData::Vec2(b)) => a.copy_from_slice(b),
+            (BufferData::Vec3(a), BufferData::Vec3(b)) => a.copy_from_slice(b),
+            (BufferData::Vec4(a), BufferData::Vec4(b)) => a.copy_from_slice(b),
+            (BufferData::U32(a), BufferData::U32(b)) => a.copy_from_slice(b),
+            (BufferData::Words { data: a, .. }, BufferData::Words { data: b, .. }) => a.copy_from_slice(b),
+            _ => unreachable!("formats checked above"),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

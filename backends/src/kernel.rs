@@ -616,6 +616,8 @@ pub struct KernelCtx<'a> {
     pub(crate) layers: BTreeMap<String, u32>,
     /// Where this job's `width × height` lies in the full image ([`Window`]).
     pub window: Window,
+    /// Storage of a persistent pool the pass may write its outputs into ([`Recycled`]).
+    pub(crate) recycled: Recycled,
 }
 
 impl<'a> KernelCtx<'a> {
@@ -647,6 +649,7 @@ impl<'a> KernelCtx<'a> {
             writes,
             layers: BTreeMap::new(),
             window,
+            recycled: Recycled::default(),
         }
     }
 
@@ -855,5 +858,71 @@ impl<'a> KernelCtx<'a> {
             self.progress.end();
         }
         rows.into_iter().flatten().collect()
+    }
+}
+
+/// Storage a backend's persistent pool offers a pass for its outputs (issue 38 §2): per write binding,
+/// what its pool slot held before — a buffer whose lifetime ended earlier in the frame, or the slot's
+/// buffer of the previous frame. Same format and length while the schedule's slot plan is unchanged.
+#[derive(Default)]
+pub struct Recycled {
+    spare: BTreeMap<String, BufferData>,
+    /// Write bindings whose output went into spare storage: no fresh allocation.
+    reused: std::collections::BTreeSet<String>,
+}
+
+/// Writing outputs in place into recycled storage, beside [`KernelCtx::put`] with a fresh `Vec`.
+impl<'a> KernelCtx<'a> {
+    /// The same context offering `spare` (write binding → storage) for its outputs.
+    pub fn with_recycled(mut self, spare: BTreeMap<String, BufferData>) -> Self {
+        self.recycled.spare = spare;
+        self
+    }
+
+    /// Storage for write binding `binding` (its full length), to fill in place and hand back with
+    /// [`KernelCtx::put`]: the recycled buffer when one of type `T` and the right length was offered
+    /// (its contents are stale — the kernel writes every element), else a fresh zeroed one.
+    pub fn output_vec<T: Texel>(&mut self, binding: &str) -> Result<Vec<T>, BackendError> {
+        if !self.writes.contains_key(binding) {
+            return Err(self.err(format!("writes `{binding}`, which is not bound")));
+        }
+        let len = self.pixels() * self.layers(binding) as usize;
+        if let Some(Ok(v)) = self.recycled.spare.remove(binding).map(T::unwrap) {
+            if v.len() == len {
+                // A record type's `unwrap` copies the words: not a reuse.
+                if !matches!(T::FORMAT, Format::Struct(_)) {
+                    self.recycled.reused.insert(binding.to_string());
+                }
+                return Ok(v);
+            }
+        }
+        Ok(vec![T::default(); len])
+    }
+
+    /// [`KernelCtx::output_vec`] for an optional write: `None` when the pass left it unbound.
+    pub fn output_vec_opt<T: Texel>(&mut self, binding: &str) -> Result<Option<Vec<T>>, BackendError> {
+        if self.writes.contains_key(binding) {
+            self.output_vec(binding).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
+    /// Whether the output of `binding` was written into recycled storage (not freshly allocated).
+    pub fn reused(&self, binding: &str) -> bool {
+        self.recycled.reused.contains(binding)
+    }
+}
+
+/// The rows (`row` elements each) of an optional output to zip beside a required one's
+/// `par_chunks_mut(row)`: `Some(row)` where the output is bound, `None` for each of `rows` where not.
+pub fn optional_rows<T: Send>(
+    out: Option<&mut Vec<T>>,
+    row: usize,
+    rows: usize,
+) -> impl IndexedParallelIterator<Item = Option<&mut [T]>> {
+    match out {
+        Some(o) => rayon::iter::Either::Left(o.par_chunks_mut(row.max(1)).map(Some)),
+        None => rayon::iter::Either::Right((0..rows).into_par_iter().map(|_| None)),
     }
 }

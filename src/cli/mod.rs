@@ -54,18 +54,14 @@ fn parity(
         return Ok((report.table(), report.ok()));
     };
     let (mut text, mut ok, mut previous) = (String::new(), true, None);
+    // One CPU backend for the sequence: its buffer pool persists across frames.
+    let mut cpu = CpuBackend::new();
     for frame in first..=last {
         let report = session.parity_frame(&mut gpu, frame, first, previous.as_ref())?;
         text.push_str(&format!("frame {frame}\n{}", report.table()));
         ok &= report.ok();
         if frame < last {
-            previous = Some(session.run_frame(
-                &mut CpuBackend::new(),
-                &crate::backends::Silent,
-                frame,
-                first,
-                previous.as_ref(),
-            )?);
+            previous = Some(session.run_frame(&mut cpu, &crate::backends::Silent, frame, first, previous.as_ref())?);
         }
     }
     Ok((text, ok))

@@ -1,5 +1,10 @@
 //! The CPU backend: runs each scheduled pass with rayon. Buffers live in physical slots assigned by
 //! the schedule's pool plan, so intermediates whose lifetimes do not overlap share storage.
+//!
+//! The pool persists (issue 38 §2): a backend kept across frames holds each slot's storage after a
+//! run, and a pass is offered what its output's slot held before ([`KernelCtx::output_vec`]), so
+//! kernels that write in place allocate nothing after the first frame. A slot whose format or size
+//! changed (another schedule or image size) gets fresh storage: the plan is re-made as it goes.
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -11,11 +16,44 @@ use crate::kernel::{Counters, KernelCtx};
 use crate::{Backend, BackendError, Job, PassTiming, RunResult};
 
 #[derive(Default)]
-pub struct CpuBackend;
+pub struct CpuBackend {
+    /// Each pool slot's storage at the end of the last run, offered to the next run's writers.
+    spare: Vec<Option<BufferData>>,
+}
 
 impl CpuBackend {
     pub fn new() -> Self {
-        CpuBackend
+        CpuBackend::default()
+    }
+}
+
+/// The previous run's storage of each slot of `job`'s plan, kept where its format and length still fit.
+fn spare_for(job: &Job<'_>, mut spare: Vec<Option<BufferData>>) -> Vec<Option<BufferData>> {
+    let sched = job.schedule;
+    spare.resize_with(sched.slot_formats.len(), || None);
+    for (s, held) in spare.iter_mut().enumerate() {
+        let len = job.width as usize * job.height as usize * sched.slot_layers[s] as usize;
+        if held.as_ref().is_some_and(|b| b.format() != sched.slot_formats[s] || b.len() != len) {
+            *held = None;
+        }
+    }
+    spare
+}
+
+/// Previous-frame buffer `h` for this run, copied into `spare` where it fits; `true` if it did (no
+/// fresh allocation).
+fn history_into(
+    job: &Job<'_>,
+    history: &BTreeMap<BufferId, BufferData>,
+    h: &wedge_graph::History,
+    spare: Option<BufferData>,
+) -> (BufferData, bool) {
+    match (spare, history.get(&h.buffer)) {
+        (Some(mut into), Some(from)) if from.format() == into.format() && from.len() == into.len() => {
+            into.copy_from(from);
+            (into, true)
+        }
+        _ => (crate::history_input(job, history, h), false),
     }
 }
 
@@ -33,6 +71,18 @@ pub fn run_pass(
     inputs: &BTreeMap<BufferId, &BufferData>,
     counters: &Counters,
 ) -> Result<BTreeMap<String, BufferData>, BackendError> {
+    Ok(run_pass_recycled(job, pass, inputs, counters, BTreeMap::new())?.into_iter().map(|(n, (d, _))| (n, d)).collect())
+}
+
+/// [`run_pass`] offering `spare` storage (write binding → buffer) for the outputs; each output comes
+/// back with whether it was written into spare storage (`true`) or freshly allocated.
+fn run_pass_recycled(
+    job: &Job<'_>,
+    pass: &Pass,
+    inputs: &BTreeMap<BufferId, &BufferData>,
+    counters: &Counters,
+    spare: BTreeMap<String, BufferData>,
+) -> Result<BTreeMap<String, (BufferData, bool)>, BackendError> {
     check_bindings(job, pass)?;
     let kernel = job.kernels.get(&pass.kernel).expect("checked");
     let mut reads = BTreeMap::new();
@@ -45,16 +95,17 @@ pub fn run_pass(
         reads.insert(name.clone(), *b);
     }
     let writes = pass.writes.iter().map(|(n, _)| (n.clone(), None)).collect();
-    let mut ctx = KernelCtx::for_pass(job, pass, counters, reads, writes);
+    let mut ctx = KernelCtx::for_pass(job, pass, counters, reads, writes).with_recycled(spare);
     kernel.run_cpu(&mut ctx)?;
+    let reused: Vec<bool> = ctx.writes.keys().map(|name| ctx.reused(name)).collect();
     let mut out = BTreeMap::new();
-    for (name, data) in ctx.writes {
+    for ((name, data), reused) in ctx.writes.into_iter().zip(reused) {
         let data = data.ok_or_else(|| BackendError::Binding {
             pass: pass.name.clone(),
             binding: name.clone(),
             message: "was bound but the kernel wrote nothing to it".into(),
         })?;
-        out.insert(name, data);
+        out.insert(name, (data, reused));
     }
     Ok(out)
 }
@@ -71,19 +122,32 @@ impl Backend for CpuBackend {
     ) -> Result<RunResult, BackendError> {
         let sched = job.schedule;
         let mut rays = crate::RayCounts::default();
-        // Physical storage, indexed by pool slot; a slot holds the buffer currently living in it.
+        // Physical storage, indexed by pool slot; a slot holds the buffer currently living in it, and
+        // `spare` the storage the previous run left there.
         let mut slots: Vec<Option<(BufferId, BufferData)>> = vec![None; sched.slot_formats.len()];
+        let mut spare = spare_for(job, std::mem::take(&mut self.spare));
+        // Buffers freshly allocated in this run (not written into a slot's earlier storage).
         let mut allocations = 0usize;
         // Previous-frame buffers are there before the first pass.
         for h in &sched.history {
             let slot = sched.slots[h.buffer.0].expect("a scheduled previous-frame buffer has a slot");
-            slots[slot] = Some((h.buffer, crate::history_input(job, history, h)));
-            allocations += 1;
+            let (data, reused) = history_into(job, history, h, spare[slot].take());
+            allocations += usize::from(!reused);
+            slots[slot] = Some((h.buffer, data));
         }
         let mut timings = Vec::with_capacity(sched.passes.len());
         for pass in &sched.passes {
             let start = Instant::now();
             let counters = Counters::default();
+            // What each output's slot held before: a buffer whose lifetime has ended (a slot is only
+            // reused after its last reader, never by a pass reading it), else the last run's storage.
+            let mut offered = BTreeMap::new();
+            for (binding, id) in &pass.writes {
+                let slot = sched.slots[id.0].expect("scheduled buffer has a slot");
+                if let Some(b) = slots[slot].take().map(|(_, b)| b).or_else(|| spare[slot].take()) {
+                    offered.insert(binding.clone(), b);
+                }
+            }
             let outputs = {
                 let mut inputs = BTreeMap::new();
                 for (_, id) in &pass.reads {
@@ -100,17 +164,14 @@ impl Backend for CpuBackend {
                         }
                     }
                 }
-                run_pass(job, pass, &inputs, &counters)?
+                run_pass_recycled(job, pass, &inputs, &counters, offered)?
             };
-            for (binding, data) in outputs {
+            for (binding, (data, reused)) in outputs {
                 let id = pass.write(&binding).expect("bound");
                 let slot = sched.slots[id.0].expect("scheduled buffer has a slot");
-                // A slot's previous occupant is dropped when the next buffer of its pool slot is
-                // written, so at most `slot_formats.len()` buffers are alive between passes (plus
-                // the outputs of the pass running). `allocations` counts slots ever filled.
-                if slots[slot].is_none() {
-                    allocations += 1;
-                }
+                // At most `slot_formats.len()` buffers are alive between passes; storage a kernel
+                // did not take (it `put` a Vec of its own) was dropped with its context.
+                allocations += usize::from(!reused);
                 slots[slot] = Some((id, data));
             }
             let kernel = job.kernels.get(&pass.kernel).expect("checked");
@@ -150,6 +211,9 @@ impl Backend for CpuBackend {
                 }
             }
         }
+        // Outputs and history were handed back as copies (the caller keeps them: a sink's buffer goes
+        // to the image writers, history into the next frame); the storage stays for the next run.
+        self.spare = slots.into_iter().map(|s| s.map(|(_, b)| b)).collect();
         Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })
     }
 }

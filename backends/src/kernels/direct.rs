@@ -13,10 +13,11 @@
 //! graph-assigned `stream`, sub-stream per light `substream(stream, light)` (hashed; see `rng.rs`).
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use wedge_graph::Format;
 use wedge_scene::{AreaLight, Hit, SceneAt};
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, WgslSource};
+use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, WgslSource};
 use crate::kernels::v3;
 use crate::params::{AnyLight, KernelParams, ParamSpec, Sampling};
 use crate::rng::{dim, substream, PixelRng};
@@ -201,7 +202,7 @@ impl Kernel for DirectLight {
         // A Ch. 3 kernel: the scene at the shutter's centre.
         let at = scene.at(0.0);
 
-        let results = ctx.map_pixels(true, |px, py| {
+        let pixel = |px: u32, py: u32| {
             let i = (py * width + px) as usize;
             let prev = previous.map_or([0.0; 4], |p| p[i]);
             if position[i][3] == 0.0 {
@@ -252,12 +253,40 @@ impl Kernel for DirectLight {
             }
             let occ = [stats.d1, stats.d2_min, stats.d2_max, stats.occluded as f32];
             ([mean.x, mean.y, mean.z, total], occ, (extra as u64) * lights.len() as u64, bad)
-        });
-        let rays: u64 = results.iter().map(|r| r.2).sum();
-        let bad: u64 = results.iter().map(|r| r.3).sum();
+        };
+        // Outputs written in place, row by row (recycled storage of a persistent pool, issue 38 §2);
+        // the ray and non-finite counts are summed per row, exact in any order.
+        let mut estimate = ctx.output_vec::<[f32; 4]>("estimate")?;
+        let mut occlusion = ctx.output_vec_opt::<[f32; 4]>("occlusion")?;
+        // (`max(1)`: chunks of an empty image's empty buffers.)
+        let row = (width as usize).max(1);
+        let occlusion_rows = optional_rows(occlusion.as_mut(), row, ctx.height as usize);
+        let progress = ctx.progress;
+        progress.begin(ctx.pass, ctx.height as u64);
+        let (rays, bad) = estimate
+            .par_chunks_mut(row)
+            .zip(occlusion_rows)
+            .enumerate()
+            .map(|(y, (est, mut occ))| {
+                let mut sums = (0u64, 0u64);
+                for (x, e) in est.iter_mut().enumerate() {
+                    let (mean, stats, rays, bad) = pixel(x as u32, y as u32);
+                    *e = mean;
+                    if let Some(o) = occ.as_mut() {
+                        o[x] = stats;
+                    }
+                    sums = (sums.0 + rays, sums.1 + bad);
+                }
+                progress.advance(1);
+                sums
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        progress.end();
         Counters::add(&counters.shadow_rays, rays);
         Counters::add(&counters.non_finite_samples, bad);
-        ctx.put_opt("occlusion", || results.iter().map(|r| r.1).collect::<Vec<_>>())?;
-        ctx.put("estimate", results.into_iter().map(|r| r.0).collect::<Vec<_>>())
+        if let Some(o) = occlusion {
+            ctx.put("occlusion", o)?;
+        }
+        ctx.put("estimate", estimate)
     }
 }

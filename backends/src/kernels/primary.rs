@@ -2,9 +2,10 @@
 //! effect reads (thesis Ch. 3–4 shade the point a pixel sees; lens and shutter sampling for Ch. 5 and
 //! App. B belong to a multi-sample primary kernel, not this one).
 
+use rayon::prelude::*;
 use wedge_graph::Format;
 
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
 
 pub struct PrimaryGBuffer;
@@ -68,7 +69,7 @@ impl Kernel for PrimaryGBuffer {
         let ((w, h), window) = (ctx.full_size(), ctx.window);
         // Angle subtended by one pixel at the image centre.
         let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / h as f32;
-        let texels = ctx.map_pixels(false, |x, y| {
+        let texel = |x: u32, y: u32| {
             let (x, y) = window.global_xy(x, y);
             let (o, d) = cam.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, glam::Vec2::splat(0.5));
             let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) else {
@@ -91,13 +92,42 @@ impl Kernel for PrimaryGBuffer {
                 emission: e.to_array(),
                 specular: [mat.specular.x, mat.specular.y, mat.specular.z, mat.phong_exponent],
             }
-        });
+        };
+        // Each output is written in place, row by row (recycled storage of a persistent pool; no
+        // per-pixel intermediate to copy out), issue 38 §2.
+        let mut position = ctx.output_vec::<[f32; 4]>("position")?;
+        let mut normal = ctx.output_vec::<[f32; 4]>("normal")?;
+        let mut albedo = ctx.output_vec::<[f32; 3]>("albedo")?;
+        let mut emission = ctx.output_vec::<[f32; 3]>("emission")?;
+        let mut specular = ctx.output_vec_opt::<[f32; 4]>("specular")?;
+        // (`max(1)`: chunks of an empty image's empty buffers.)
+        let row = (ctx.width as usize).max(1);
+        let rows = ctx.height as usize;
+        let specular_rows = optional_rows(specular.as_mut(), row, rows);
+        position
+            .par_chunks_mut(row)
+            .zip(normal.par_chunks_mut(row))
+            .zip(albedo.par_chunks_mut(row))
+            .zip(emission.par_chunks_mut(row))
+            .zip(specular_rows)
+            .enumerate()
+            .for_each(|(y, ((((p, n), a), e), mut s))| {
+                for x in 0..row {
+                    let t = texel(x as u32, y as u32);
+                    (p[x], n[x], a[x], e[x]) = (t.position, t.normal, t.albedo, t.emission);
+                    if let Some(s) = s.as_mut() {
+                        s[x] = t.specular;
+                    }
+                }
+            });
         Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64);
-        ctx.put("position", texels.iter().map(|t| t.position).collect::<Vec<_>>())?;
-        ctx.put("normal", texels.iter().map(|t| t.normal).collect::<Vec<_>>())?;
-        ctx.put("albedo", texels.iter().map(|t| t.albedo).collect::<Vec<_>>())?;
-        ctx.put("emission", texels.iter().map(|t| t.emission).collect::<Vec<_>>())?;
-        ctx.put_opt("specular", || texels.iter().map(|t| t.specular).collect::<Vec<_>>())?;
+        ctx.put("position", position)?;
+        ctx.put("normal", normal)?;
+        ctx.put("albedo", albedo)?;
+        ctx.put("emission", emission)?;
+        if let Some(s) = specular {
+            ctx.put("specular", s)?;
+        }
         Ok(())
     }
 }
