@@ -30,7 +30,8 @@
 //! - `FogData<'a>`, the CPU side, from `FogIo::read(ctx)?`: a `&'a [T]` per `read` (an
 //!   `Option<&'a [T]>` per `read_opt`, `None` where the pass left it unbound) and an [`Output<T>`]
 //!   per `write` (`Option<Output<T>>` per `write_opt`, `None` where unbound, which is how a kernel
-//!   skips work nobody reads): `data.out.put(ctx, vec)?`. The reads borrow the pass's buffers, not
+//!   skips work nobody reads): `data.out.put(ctx, vec)?`, `data.depth.put_with(ctx, || vec)?`
+//!   ([`PutWith`]: computed only where bound). The reads borrow the pass's buffers, not
 //!   the context, so the kernel keeps `&mut ctx` for its writes.
 //!
 //! A per-sample (layered) binding needs nothing more: its slice holds `layers` elements per pixel
@@ -42,18 +43,27 @@ use crate::buffer::Texel;
 use crate::kernel::KernelCtx;
 use crate::BackendError;
 
-/// A kernel's write binding `T`, typed (from a [`kernel_bindings!`] block's `read`): hand the
+/// A kernel's write binding of `T`, typed (from a [`kernel_bindings!`] block's `read`): hand the
 /// pass's output back with [`Output::put`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Output<T> {
+pub struct Output<'a, T> {
     name: &'static str,
-    texel: PhantomData<fn(T)>,
+    /// The pass it belongs to (`'a`, the context's: the data struct holds no borrow otherwise when a
+    /// kernel only writes) and the element type.
+    texel: PhantomData<(&'a (), fn(T))>,
 }
 
-impl<T: Texel> Output<T> {
+impl<T: Texel> Output<'_, T> {
     /// The write binding `name` (the generated `read` makes these).
     pub fn new(name: &'static str) -> Self {
         Output { name, texel: PhantomData }
+    }
+    /// The write binding `name`, which the pass must bind (refused as [`KernelCtx::put`] would).
+    pub fn required(ctx: &KernelCtx<'_>, name: &'static str) -> Result<Self, BackendError> {
+        match ctx.is_bound(name) {
+            true => Ok(Output::new(name)),
+            false => Err(ctx.err(format!("writes `{name}`, which is not bound"))),
+        }
     }
     /// The write binding `name` where the pass binds it (an optional output), else `None`.
     pub fn bound(ctx: &KernelCtx<'_>, name: &'static str) -> Option<Self> {
@@ -70,6 +80,22 @@ impl<T: Texel> Output<T> {
     /// Hand back the output: `layers` elements per pixel ([`KernelCtx::put`]).
     pub fn put(self, ctx: &mut KernelCtx<'_>, data: Vec<T>) -> Result<(), BackendError> {
         ctx.put(self.name, data)
+    }
+}
+
+/// An optional write binding (`write_opt`) handed back only where the pass binds it: the data is
+/// computed only then (what [`KernelCtx::put_opt`] did by name).
+pub trait PutWith<T> {
+    /// Hand back `data()` if the binding is bound; nothing otherwise.
+    fn put_with(self, ctx: &mut KernelCtx<'_>, data: impl FnOnce() -> Vec<T>) -> Result<(), BackendError>;
+}
+
+impl<T: Texel> PutWith<T> for Option<Output<'_, T>> {
+    fn put_with(self, ctx: &mut KernelCtx<'_>, data: impl FnOnce() -> Vec<T>) -> Result<(), BackendError> {
+        match self {
+            Some(out) => out.put(ctx, data()),
+            None => Ok(()),
+        }
     }
 }
 
@@ -118,8 +144,8 @@ macro_rules! kernel_bindings {
     (@id write_opt) => { Option<$crate::__graph::BufferId> };
     (@data read $a:lifetime $ty:ty) => { &$a [$ty] };
     (@data read_opt $a:lifetime $ty:ty) => { Option<&$a [$ty]> };
-    (@data write $a:lifetime $ty:ty) => { $crate::bindings::Output<$ty> };
-    (@data write_opt $a:lifetime $ty:ty) => { Option<$crate::bindings::Output<$ty>> };
+    (@data write $a:lifetime $ty:ty) => { $crate::bindings::Output<$a, $ty> };
+    (@data write_opt $a:lifetime $ty:ty) => { Option<$crate::bindings::Output<$a, $ty>> };
     (@bind read $b:ident, $name:expr, $id:expr) => { $b.read($name, $id) };
     (@bind read_opt $b:ident, $name:expr, $id:expr) => { $b.read_opt($name, $id) };
     (@bind write $b:ident, $name:expr, $id:expr) => { $b.write($name, $id) };
@@ -131,7 +157,7 @@ macro_rules! kernel_bindings {
     };
     (@read read $ctx:ident, $name:expr, $ty:ty) => { $ctx.read::<$ty>($name)? };
     (@read read_opt $ctx:ident, $name:expr, $ty:ty) => { $ctx.read_opt::<$ty>($name)? };
-    (@read write $ctx:ident, $name:expr, $ty:ty) => { $crate::bindings::Output::<$ty>::new($name) };
+    (@read write $ctx:ident, $name:expr, $ty:ty) => { $crate::bindings::Output::<$ty>::required($ctx, $name)? };
     (@read write_opt $ctx:ident, $name:expr, $ty:ty) => { $crate::bindings::Output::<$ty>::bound($ctx, $name) };
 }
 
@@ -141,6 +167,7 @@ mod tests {
 
     use wedge_graph::{BufferId, ExpandCtx, Expansion, Format, Stage};
 
+    use super::PutWith;
     use crate::buffer::BufferData;
     use crate::kernel::{Binding, Counters, KernelCtx, Silent};
 
@@ -197,13 +224,14 @@ mod tests {
             let io = TestIo::read(ctx).unwrap();
             assert_eq!(io.position[1], [2.0; 4]);
             assert!(io.counts.is_none() && io.depth.is_none(), "unbound optionals are None");
+            io.depth.put_with(ctx, || unreachable!("not computed where unbound")).unwrap();
             io.out.put(ctx, vec![[0.5; 4]; 2]).unwrap();
         });
         let counts = BufferData::U32(vec![3, 4]);
         run(BTreeMap::from([("position".to_string(), &position), ("counts".to_string(), &counts)]), true, |ctx| {
             let io = TestIo::read(ctx).unwrap();
             assert_eq!(io.counts, Some(&[3u32, 4][..]));
-            assert!(io.depth.unwrap().put(ctx, vec![1.0, 2.0]).is_ok());
+            assert!(io.depth.put_with(ctx, || vec![1.0, 2.0]).is_ok());
         });
     }
 

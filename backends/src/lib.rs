@@ -31,7 +31,7 @@ pub mod tiles;
 
 use std::collections::BTreeMap;
 
-pub use bindings::Output;
+pub use bindings::{Output, PutWith};
 pub use buffer::{BufferData, Texel};
 // For `record!` expansions in other crates.
 pub use kernel::{

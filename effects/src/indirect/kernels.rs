@@ -4,7 +4,6 @@
 
 use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
-use wedge_graph::Format;
 
 use super::formulas::{component, Receiver, Settings};
 
@@ -59,6 +58,25 @@ fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<R
 /// `indirect.bandwidth`: β (metres) per component and the diffuse β in pixels for the heatmap.
 pub struct Bandwidth;
 
+wedge_backends::kernel_bindings! {
+    /// What an `indirect.bandwidth` pass binds: the first pass's depth statistics, the normal
+    /// (`w` = pixel footprint), the specular G-buffer where glossy receivers are filtered, and β per
+    /// component (glossy only where bound) and in pixels.
+    pub struct BandwidthIo / BandwidthData {
+        read depth: [f32; 4], read normal: [f32; 4], read_opt specular: [f32; 4], write beta_diffuse: f32,
+        write_opt beta_glossy: f32, write filter_width: f32,
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What an `indirect.rates` pass binds: the inputs of [`BandwidthIo`], the samples per pixel
+    /// per component (glossy only where bound) and their sum.
+    pub struct RatesIo / RatesData {
+        read depth: [f32; 4], read normal: [f32; 4], read_opt specular: [f32; 4], write rays_diffuse: u32,
+        write_opt rays_glossy: u32, write rays_per_pixel: u32,
+    }
+}
+
 impl Kernel for Bandwidth {
     fn name(&self) -> &'static str {
         "indirect.bandwidth"
@@ -70,14 +88,7 @@ impl Kernel for Bandwidth {
         RateParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("depth", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("specular", Format::Vec4),
-            Binding::write("beta_diffuse", Format::F32),
-            Binding::write_opt("beta_glossy", Format::F32),
-            Binding::write("filter_width", Format::F32),
-        ]
+        BandwidthIo::bindings()
     }
     /// WGSL mirror: `shaders/indirect_bandwidth.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -88,25 +99,25 @@ impl Kernel for Bandwidth {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let depth = ctx.read::<[f32; 4]>("depth")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let io = BandwidthIo::read(ctx)?;
+        let (depth, normal, spec) = (io.depth, io.normal, io.specular);
         let (_, s, blinn) = settings(ctx, false)?;
         let active = |i: usize| depth[i][3] > 0.0;
         let beta_d: Vec<f32> = (0..ctx.pixels())
             .map(|i| if active(i) { component(Receiver::Diffuse, depth[i], normal[i][3], &s).beta } else { 0.0 })
             .collect();
         let px = beta_d.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
-        ctx.put_opt("beta_glossy", || {
-            (0..beta_d.len())
+        if let Some(beta_glossy) = io.beta_glossy {
+            let beta_g = (0..beta_d.len())
                 .map(|i| match glossy_receiver(spec, i, blinn) {
                     Some(r) if active(i) => component(r, depth[i], normal[i][3], &s).beta,
                     _ => 0.0,
                 })
-                .collect::<Vec<f32>>()
-        })?;
-        ctx.put("beta_diffuse", beta_d)?;
-        ctx.put("filter_width", px)
+                .collect::<Vec<f32>>();
+            beta_glossy.put(ctx, beta_g)?;
+        }
+        io.beta_diffuse.put(ctx, beta_d)?;
+        io.filter_width.put(ctx, px)
     }
 }
 
@@ -125,14 +136,7 @@ impl Kernel for Rates {
         RateParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("depth", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("specular", Format::Vec4),
-            Binding::write("rays_diffuse", Format::U32),
-            Binding::write_opt("rays_glossy", Format::U32),
-            Binding::write("rays_per_pixel", Format::U32),
-        ]
+        RatesIo::bindings()
     }
     /// WGSL mirror: `shaders/indirect_rates.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -143,11 +147,10 @@ impl Kernel for Rates {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let depth = ctx.read::<[f32; 4]>("depth")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let io = RatesIo::read(ctx)?;
+        let (depth, normal, spec) = (io.depth, io.normal, io.specular);
         let (p, s, blinn) = settings(ctx, true)?;
-        let glossy_bound = ctx.is_bound("rays_glossy");
+        let glossy_bound = io.rays_glossy.is_some();
         let cap = p.rays_cap.max(1);
         let per: Vec<(u32, u32)> = (0..ctx.pixels())
             .map(|i| {
@@ -162,8 +165,10 @@ impl Kernel for Rates {
                 (nd.min(cap), ng.min(cap))
             })
             .collect();
-        ctx.put_opt("rays_glossy", || per.iter().map(|p| p.1).collect::<Vec<u32>>())?;
-        ctx.put("rays_per_pixel", per.iter().map(|p| p.0 + p.1).collect::<Vec<u32>>())?;
-        ctx.put("rays_diffuse", per.iter().map(|p| p.0).collect::<Vec<u32>>())
+        if let Some(rays_glossy) = io.rays_glossy {
+            rays_glossy.put(ctx, per.iter().map(|p| p.1).collect())?;
+        }
+        io.rays_per_pixel.put(ctx, per.iter().map(|p| p.0 + p.1).collect())?;
+        io.rays_diffuse.put(ctx, per.iter().map(|p| p.0).collect())
     }
 }
