@@ -49,14 +49,15 @@ use crate::BackendError;
 pub struct Output<'a, T> {
     name: &'static str,
     /// The pass it belongs to (`'a`, the context's: the data struct holds no borrow otherwise when a
-    /// kernel only writes) and the element type.
-    texel: PhantomData<(&'a (), fn(T))>,
+    /// kernel only writes).
+    pass: PhantomData<&'a ()>,
+    texel: PhantomData<fn(T)>,
 }
 
 impl<T: Texel> Output<'_, T> {
     /// The write binding `name` (the generated `read` makes these).
     pub fn new(name: &'static str) -> Self {
-        Output { name, texel: PhantomData }
+        Output { name, pass: PhantomData, texel: PhantomData }
     }
     /// The write binding `name`, which the pass must bind (refused as [`KernelCtx::put`] would).
     pub fn required(ctx: &KernelCtx<'_>, name: &'static str) -> Result<Self, BackendError> {
