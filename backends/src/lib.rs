@@ -14,6 +14,7 @@
 // false); clippy's `partial_cmp` rewrite would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bindings;
 pub mod buffer;
 pub mod cpu;
 #[cfg(feature = "gpu")]
@@ -30,6 +31,7 @@ pub mod tiles;
 
 use std::collections::BTreeMap;
 
+pub use bindings::{Output, PutWith};
 pub use buffer::{BufferData, Texel};
 // For `record!` expansions in other crates.
 pub use kernel::{

@@ -3,8 +3,12 @@
 //! `k̃ Ẽ` where a part factors, else `L`, summed over parts) with the component node's ports, and the
 //! sum of components the factoring node blurs.
 
+use wedge_backends::kernels::constant::FillU32Io;
+use wedge_backends::kernels::irradiance_filter::IrradianceIo;
+use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
 use wedge_graph::{
-    BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, Reference, SamplerPass, Stage, FILL_CONSTANT,
+    BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, PassBuilder, Reference, SamplerPass, Stage,
+    FILL_CONSTANT,
 };
 
 use crate::defocus::formulas::FACTORING_THRESHOLD;
@@ -25,7 +29,7 @@ pub fn factor_flags(
 ) -> Result<BufferId, GraphError> {
     let out = ctx.buffer(name, Format::U32);
     if !factor {
-        ctx.pass(name, FILL_CONSTANT, stage).write("out", out).int("value", 0).reference(role).finish();
+        FillU32Io { out }.bind(ctx.pass(name, FILL_CONSTANT, stage)).int("value", 0).reference(role).finish();
         return Ok(out);
     }
     let (l, k, e) = (
@@ -44,14 +48,16 @@ pub fn factor_flags(
         .reference(if median { Reference::Keep } else { role })
         .finish();
     if median {
-        ctx.pass(name, "neighbourhood.median3", stage).read("value", raw).write("out", out).reference(role).finish();
+        let io = Neighbourhood3Io { value: raw, out };
+        io.bind(ctx.pass(name, "neighbourhood.median3", stage)).reference(role).finish();
     }
     Ok(out)
 }
 
 /// A Ch. 5 filter (`filter.irradiance` or `filter.defocus`) on `value`: the x then the y pass
 /// (`<name>_x`, `<name>_y`) when `separable`, else the 2-D reference (`<name>`); a reference
-/// bypasses them.
+/// bypasses them. `bind(pass, value, out)` binds one pass's buffers (the kernel's `kernel_bindings!`
+/// struct).
 #[allow(clippy::too_many_arguments)]
 pub fn filter_chain(
     ctx: &mut ExpandCtx<'_>,
@@ -59,7 +65,7 @@ pub fn filter_chain(
     kernel: &str,
     stage: Stage,
     value: BufferId,
-    reads: &[(&str, BufferId)],
+    bind: impl for<'c, 'a> Fn(PassBuilder<'c, 'a>, BufferId, BufferId) -> PassBuilder<'c, 'a>,
     params: &[(&str, ParamValue)],
     separable: bool,
 ) -> BufferId {
@@ -68,14 +74,11 @@ pub fn filter_chain(
     for (axis, suffix) in axes {
         let local = format!("{name}{suffix}");
         let out = ctx.buffer(&local, Format::Vec3);
-        let mut b = ctx.pass(&local, kernel, stage).read("value", value);
-        for (binding, id) in reads {
-            b = b.read(binding, *id);
-        }
+        let mut b = bind(ctx.pass(&local, kernel, stage), value, out);
         for (n, v) in params {
             b = b.param(n, v.clone());
         }
-        b.write("out", out).int("axis", *axis).reference(Reference::Bypass { input: "value" }).finish();
+        b.int("axis", *axis).reference(Reference::Bypass { input: "value" }).finish();
         value = out;
     }
     value
@@ -102,12 +105,11 @@ impl IrradianceFilter {
             "filter.irradiance",
             Stage::Filter,
             e,
-            &[
-                ("position", self.position),
-                ("normal", self.normal),
-                ("omega", self.omega),
-                ("pixel_length", self.pixel_length),
-            ],
+            |b, value, out| {
+                let (position, normal, omega, pixel_length) =
+                    (self.position, self.normal, self.omega, self.pixel_length);
+                IrradianceIo { value, position, normal, omega, pixel_length, out }.bind(b)
+            },
             &[("max_radius", self.max_radius.clone()), ("normal_cos", ParamValue::Float(10f64.to_radians().cos()))],
             self.separable,
         )

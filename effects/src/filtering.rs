@@ -2,7 +2,7 @@
 //! parameters and expands into the `filter_x` → `filter_y` pass pair (shared kernel
 //! `filter.gaussian`, thesis Sec. 3.6 / 4.5), so every effect filters the same way.
 
-use wedge_backends::kernels::gaussian_filter::FilterReach;
+use wedge_backends::kernels::gaussian_filter::{FilterReach, GaussianIo};
 use wedge_graph::{BufferId, ExpandCtx, Format, ParamDecl, ParamValue, Reference, Stage};
 
 /// The parameters every filtering node declares (window cap, normal test, and the reach rule:
@@ -45,12 +45,8 @@ pub fn separable(ctx: &mut ExpandCtx<'_>, prefix: &str, value: BufferId, f: &Sep
     for (axis, name) in [(0, "filter_x"), (1, "filter_y")] {
         let local = format!("{prefix}{name}");
         let out = ctx.buffer(&local, Format::Vec4);
-        ctx.pass(&local, "filter.gaussian", Stage::Filter)
-            .read("value", v)
-            .read("position", f.position)
-            .read("normal", f.normal)
-            .read("bandwidth", f.bandwidth)
-            .write("out", out)
+        let io = GaussianIo { value: v, position: f.position, normal: f.normal, bandwidth: f.bandwidth, out };
+        io.bind(ctx.pass(&local, "filter.gaussian", Stage::Filter))
             .int("axis", axis)
             .param("plane_light", plane_light.clone())
             .param("max_radius", max_radius.clone())

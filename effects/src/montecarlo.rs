@@ -9,6 +9,7 @@
 //! the direct light out (an indirect-only baseline); `mode: "ao"` gives plain Monte Carlo ambient
 //! occlusion instead. `bounces: 0, mode: "radiance"` (the default) is the original direct-only node.
 
+use wedge_backends::kernels::compose::ModulateIo;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 pub struct MonteCarlo;
@@ -123,12 +124,8 @@ impl NodeKind for MonteCarlo {
                 .reference(Reference::Sample)
                 .finish();
             let radiance = ctx.buffer("radiance", Format::Vec3);
-            ctx.pass("compose", "compose.modulate", Stage::Compose)
-                .read("value", estimate)
-                .read_opt("albedo", albedo)
-                .read_opt("emission", emission)
-                .write("out", radiance)
-                .finish();
+            let io = ModulateIo { value: estimate, albedo, emission, out: radiance };
+            io.bind(ctx.pass("compose", "compose.modulate", Stage::Compose)).finish();
             ctx.output("radiance", radiance);
             return Ok(());
         }

@@ -34,6 +34,8 @@
 
 use std::sync::Arc;
 
+use wedge_backends::kernels::constant::FillU32Io;
+use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
 use wedge_backends::kernels::paths::{PATH_RECORD, RESOLVE_OUTPUTS};
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, Uniforms,
@@ -202,8 +204,8 @@ impl PathSampler {
     ) -> BufferId {
         if sources.is_empty() {
             let out = ctx.buffer(name, Format::U32);
-            ctx.pass(name, wedge_graph::FILL_CONSTANT, Stage::Counts)
-                .write("out", out)
+            FillU32Io { out }
+                .bind(ctx.pass(name, wedge_graph::FILL_CONSTANT, Stage::Counts))
                 .int("value", i64::from(at_least))
                 .reference(role)
                 .finish();
@@ -299,7 +301,7 @@ impl SamplerKind for PathSampler {
                 return value;
             }
             let out = ctx.buffer(&name, Format::U32);
-            ctx.pass(&name, "neighbourhood.max3", Stage::Counts).read("value", value).write("out", out).finish();
+            Neighbourhood3Io { value, out }.bind(ctx.pass(&name, "neighbourhood.max3", Stage::Counts)).finish();
             out
         };
         let mut path_sources: Vec<(BufferId, u32, u32)> = Vec::new();

@@ -1,10 +1,16 @@
 //! `compose.modulate`: `out = value.rgb · albedo + emission`. Textures multiply *after* filtering
 //! (thesis eq. 3.1: `h(x) = r(x) ∫ f l`, with texture in `r`), so the filter never blurs texture detail.
 
-use wedge_graph::Format;
-
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
+
+crate::kernel_bindings! {
+    /// What a `compose.modulate` pass binds: the filtered value (rgb of a `vec4` estimate), the
+    /// albedo it is multiplied by and the emission added (each optional: 1 and 0 without).
+    pub struct ModulateIo / ModulateData {
+        read value: [f32; 4], read_opt albedo: [f32; 3], read_opt emission: [f32; 3], write out: [f32; 3],
+    }
+}
 
 pub struct Modulate;
 
@@ -16,12 +22,7 @@ impl Kernel for Modulate {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec4),
-            Binding::read_opt("albedo", Format::Vec3),
-            Binding::read_opt("emission", Format::Vec3),
-            Binding::write("out", Format::Vec3),
-        ]
+        ModulateIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -30,16 +31,14 @@ impl Kernel for Modulate {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
-        let albedo = ctx.read_opt::<[f32; 3]>("albedo")?;
-        let emission = ctx.read_opt::<[f32; 3]>("emission")?;
-        let out = (0..ctx.pixels())
+        let ModulateData { value, albedo, emission, out } = ModulateIo::read(ctx)?;
+        let composed = (0..ctx.pixels())
             .map(|i| {
                 let a = albedo.map_or([1.0; 3], |a| a[i]);
                 let e = emission.map_or([0.0; 3], |e| e[i]);
                 std::array::from_fn(|c| value[i][c] * a[c] + e[c])
             })
             .collect::<Vec<[f32; 3]>>();
-        ctx.put("out", out)
+        out.put(ctx, composed)
     }
 }

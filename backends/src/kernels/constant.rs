@@ -2,13 +2,24 @@
 //! (`wedge_graph::reference`) puts it where a pipeline computes per-pixel sample counts, so the
 //! adaptive sampling passes draw the reference's count everywhere.
 
-use wedge_graph::Format;
-
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
 use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
 
 pub struct FillConstant;
+
+crate::kernel_bindings! {
+    /// What a `fill.constant` pass binds.
+    pub struct FillU32Io / FillU32Data { write out: u32 }
+}
+crate::kernel_bindings! {
+    /// What a `fill.constant_f32` pass binds.
+    pub struct FillF32Io / FillF32Data { write out: f32 }
+}
+crate::kernel_bindings! {
+    /// What a `fill.constant_vec4` pass binds.
+    pub struct FillVec4Io / FillVec4Data { write out: [f32; 4] }
+}
 
 crate::kernel_params! {
     /// `fill.constant`'s count (a count outside `0..=u32::MAX` is an error when read, never wrapped).
@@ -35,7 +46,7 @@ impl Kernel for FillConstant {
         CountParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::write("out", Format::U32)]
+        FillU32Io::bindings()
     }
     /// WGSL mirror: `shaders/fill_constant.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -48,7 +59,7 @@ impl Kernel for FillConstant {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let v = CountParams::read(ctx)?.value;
-        ctx.put("out", vec![v; ctx.pixels()])
+        FillU32Io::read(ctx)?.out.put(ctx, vec![v; ctx.pixels()])
     }
 }
 
@@ -79,7 +90,7 @@ impl Kernel for FillConstantF32 {
         ValueParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::write("out", Format::F32)]
+        FillF32Io::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -91,7 +102,7 @@ impl Kernel for FillConstantF32 {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let v = ValueParams::read_finite(ctx)?.value;
-        ctx.put("out", vec![v; ctx.pixels()])
+        FillF32Io::read(ctx)?.out.put(ctx, vec![v; ctx.pixels()])
     }
 }
 
@@ -110,7 +121,7 @@ impl Kernel for FillConstantVec4 {
         ValueParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::write("out", Format::Vec4)]
+        FillVec4Io::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -122,6 +133,6 @@ impl Kernel for FillConstantVec4 {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let v = ValueParams::read_finite(ctx)?.value;
-        ctx.put("out", vec![[v; 4]; ctx.pixels()])
+        FillVec4Io::read(ctx)?.out.put(ctx, vec![[v; 4]; ctx.pixels()])
     }
 }

@@ -11,7 +11,6 @@
 //! (thesis: 10°), or whose values are not finite, are not used. `w` of the value passes through.
 
 use glam::Vec3;
-use wedge_graph::Format;
 
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
 use crate::kernels::v3;
@@ -39,6 +38,15 @@ crate::kernel_params! {
         max_radius: i32,
         normal_cos: f32,
         reach: FilterReach,
+    }
+}
+
+crate::kernel_bindings! {
+    /// What a `filter.gaussian` pass binds: the value filtered, the G-buffer, the bandwidth `β`
+    /// per pixel (metres) and the filtered value.
+    pub struct GaussianIo / GaussianData {
+        read value: [f32; 4], read position: [f32; 4], read normal: [f32; 4], read bandwidth: f32,
+        write out: [f32; 4],
     }
 }
 
@@ -160,13 +168,7 @@ impl Kernel for GaussianFilter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec4),
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read("bandwidth", Format::F32),
-            Binding::write("out", Format::Vec4),
-        ]
+        GaussianIo::bindings()
     }
     fn params(&self) -> Vec<ParamSpec> {
         GaussianParams::specs()
@@ -188,10 +190,7 @@ impl Kernel for GaussianFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let bandwidth = ctx.read::<f32>("bandwidth")?;
+        let io = GaussianIo::read(ctx)?;
         let g = GaussianParams::read_clamped(ctx)?;
         let p = FilterParams {
             axis: g.axis,
@@ -201,9 +200,10 @@ impl Kernel for GaussianFilter {
             mutual: g.reach == FilterReach::Mutual,
         };
         let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let (value, position, normal, bandwidth) = (io.value, io.position, io.normal, io.bandwidth);
         let out = ctx
             .map_pixels(false, |x, y| filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth));
-        ctx.put("out", out)
+        io.out.put(ctx, out)
     }
 }
 

@@ -13,7 +13,6 @@
 //! `paths.resolve` writes `E`. WGSL mirror: `shaders/filter_irradiance.wgsl`.
 
 use glam::Vec3;
-use wedge_graph::Format;
 
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
 use crate::kernels::filter_window::{axis, clamp_radius, gather, pair_weight, reach, valid_width, window_radius, Axis};
@@ -35,6 +34,15 @@ impl IrradianceParams {
     pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
         let p = Self::read(ctx)?;
         Ok(Self { max_radius: clamp_radius(p.max_radius), ..p })
+    }
+}
+
+crate::kernel_bindings! {
+    /// What a `filter.irradiance` pass binds: `E` (rgb), the lens-averaged G-buffer, the width
+    /// `Ω` (pixel⁻¹) and `ℓ_p` converting it to metres.
+    pub struct IrradianceIo / IrradianceData {
+        read value: [f32; 3], read position: [f32; 4], read normal: [f32; 4], read omega: f32, read pixel_length: f32,
+        write out: [f32; 3],
     }
 }
 
@@ -95,14 +103,7 @@ impl Kernel for IrradianceFilter {
         IrradianceParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec3),
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read("omega", Format::F32),
-            Binding::read("pixel_length", Format::F32),
-            Binding::write("out", Format::Vec3),
-        ]
+        IrradianceIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -114,17 +115,14 @@ impl Kernel for IrradianceFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 3]>("value")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let omega = ctx.read::<f32>("omega")?;
-        let pixel_length = ctx.read::<f32>("pixel_length")?;
+        let io = IrradianceIo::read(ctx)?;
+        let IrradianceData { value, position, normal, omega, pixel_length, .. } = io;
         let (p, a) = (IrradianceParams::read_clamped(ctx)?, axis(ctx)?);
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
             irradiance_pixel(x as i32, y as i32, w, h, &p, a, value, position, normal, omega, pixel_length)
         });
-        ctx.put("out", out)
+        io.out.put(ctx, out)
     }
 }

@@ -8,8 +8,6 @@
 //! their majority, and the max is the same as ignoring outside pixels. Integer-only, so both backends
 //! agree bit for bit. WGSL: `shaders/neighbourhood3.wgsl` (one shader, `params.op` picks the filter).
 
-use wedge_graph::Format;
-
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
@@ -48,15 +46,18 @@ fn wgsl_with_op(op: u32) -> WgslSource {
     WgslSource::new(include_str!("../../../shaders/neighbourhood3.wgsl"), uniforms).with_reach(|_| Ok(Reach::Rows(1)))
 }
 
-fn bindings() -> Vec<Binding> {
-    vec![Binding::read("value", Format::U32), Binding::write("out", Format::U32)]
+crate::kernel_bindings! {
+    /// What a `neighbourhood.max3` / `neighbourhood.median3` pass binds.
+    pub struct Neighbourhood3Io / Neighbourhood3Data {
+        read value: u32, write out: u32,
+    }
 }
 
 fn run(ctx: &mut KernelCtx<'_>, f: fn(&[u32], u32, u32, u32, u32) -> u32) -> Result<(), BackendError> {
-    let value = ctx.read::<u32>("value")?;
+    let Neighbourhood3Data { value, out } = Neighbourhood3Io::read(ctx)?;
     let (w, h) = (ctx.width, ctx.height);
-    let out = ctx.map_pixels(false, |x, y| f(value, w, h, x, y));
-    ctx.put("out", out)
+    let result = ctx.map_pixels(false, |x, y| f(value, w, h, x, y));
+    out.put(ctx, result)
 }
 
 /// `neighbourhood.max3`: 3×3 max on per-pixel ray counts (thesis Sec. 5.8, step 2).
@@ -70,7 +71,7 @@ impl Kernel for Max3 {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        bindings()
+        Neighbourhood3Io::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(wgsl_with_op(0))
@@ -91,7 +92,7 @@ impl Kernel for Median3 {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        bindings()
+        Neighbourhood3Io::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(wgsl_with_op(1))

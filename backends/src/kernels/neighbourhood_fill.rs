@@ -5,8 +5,6 @@
 //! pixel that has its own statistic; output `w` is 1 for own, 2 for filled from neighbours, 0 for
 //! neither (such pixels are not filtered).
 
-use wedge_graph::Format;
-
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
 use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
@@ -27,6 +25,14 @@ impl FillParams {
     }
 }
 
+crate::kernel_bindings! {
+    /// What a `neighbourhood.fill` pass binds: the first pass's statistics (`w` > 0 where valid),
+    /// the G-buffer position (same object test) and the filled statistics.
+    pub struct FillIo / FillData {
+        read value: [f32; 4], read position: [f32; 4], write out: [f32; 4],
+    }
+}
+
 impl Kernel for FillInvalid {
     fn name(&self) -> &'static str {
         "neighbourhood.fill"
@@ -38,11 +44,7 @@ impl Kernel for FillInvalid {
         FillParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec4),
-            Binding::read("position", Format::Vec4),
-            Binding::write("out", Format::Vec4),
-        ]
+        FillIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -53,11 +55,10 @@ impl Kernel for FillInvalid {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
+        let FillData { value, position, out } = FillIo::read(ctx)?;
         let radius = FillParams::read_clamped(ctx)?.radius;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| {
+        let filled = ctx.map_pixels(false, |x, y| {
             let i = (y as i32 * w + x as i32) as usize;
             let v = value[i];
             if v[3] > 0.0 {
@@ -94,6 +95,6 @@ impl Kernel for FillInvalid {
                 [sum[0] / n as f32, sum[1] / n as f32, sum[2] / n as f32, 2.0]
             }
         });
-        ctx.put("out", out)
+        out.put(ctx, filled)
     }
 }

@@ -18,8 +18,6 @@
 //! with none keeps its own statistics. Sums in a fixed order: both backends agree bit for bit.
 //! WGSL: `shaders/neighbourhood_others.wgsl`.
 
-use wedge_graph::Format;
-
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
@@ -63,6 +61,14 @@ pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32,
     }
 }
 
+crate::kernel_bindings! {
+    /// What a `neighbourhood.others` pass binds: each pixel's own statistics, the G-buffer
+    /// position and the eight neighbours' statistics.
+    pub struct OthersIo / OthersData {
+        read value: [f32; 4], read position: [f32; 4], write out: [f32; 4],
+    }
+}
+
 impl Kernel for Others {
     fn name(&self) -> &'static str {
         "neighbourhood.others"
@@ -71,11 +77,7 @@ impl Kernel for Others {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec4),
-            Binding::read("position", Format::Vec4),
-            Binding::write("out", Format::Vec4),
-        ]
+        OthersIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -84,11 +86,10 @@ impl Kernel for Others {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 4]>("value")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
+        let OthersData { value, position, out } = OthersIo::read(ctx)?;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| others(value, position, w, h, x as i32, y as i32));
-        ctx.put("out", out)
+        let gathered = ctx.map_pixels(false, |x, y| others(value, position, w, h, x as i32, y as i32));
+        out.put(ctx, gathered)
     }
 }
 

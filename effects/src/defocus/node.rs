@@ -42,6 +42,7 @@
 
 use std::collections::BTreeMap;
 
+use wedge_backends::kernels::constant::{FillF32Io, FillU32Io};
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
@@ -50,6 +51,7 @@ use wedge_graph::{
 
 use super::component::rate_settings;
 use super::formulas::Mode;
+use super::kernels::filter::DefocusIo;
 use crate::factored::{filter_chain, sum};
 
 pub struct Defocus;
@@ -199,12 +201,15 @@ impl NodeKind for Defocus {
             // A pinhole: the components rendered as without a Defocus node; only their sum here.
             let radiance = sum(ctx, "sum", &components, None);
             let width = ctx.buffer("filter_width", Format::F32);
-            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose)
-                .write("out", width)
+            FillF32Io { out: width }
+                .bind(ctx.pass("filter_width", "fill.constant_f32", Stage::Compose))
                 .float("value", 0.0)
                 .finish();
             let rays = ctx.buffer("rays_per_pixel", Format::U32);
-            ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
+            FillU32Io { out: rays }
+                .bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose))
+                .int("value", 1)
+                .finish();
             for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
                 ctx.output(port, id);
             }
@@ -272,7 +277,7 @@ impl NodeKind for Defocus {
             "filter.defocus",
             Stage::ImageFilter,
             composed,
-            &[("omega", omega)],
+            |b, value, out| DefocusIo { value, omega, out }.bind(b),
             &[("max_radius", radius)],
             separable,
         );

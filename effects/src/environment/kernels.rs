@@ -20,7 +20,8 @@
 pub mod filter;
 
 use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith, Reach, Uniforms,
+    WgslSource,
 };
 use wedge_graph::Format;
 
@@ -60,6 +61,13 @@ pub fn curvature_at(
 /// heatmap).
 pub struct Curvature;
 
+wedge_backends::kernel_bindings! {
+    /// What an `environment.curvature` pass binds.
+    pub struct CurvatureIo / CurvatureData {
+        read position: [f32; 4], read normal: [f32; 4], write curvature: [f32; 2], write_opt magnitude: f32,
+    }
+}
+
 impl Kernel for Curvature {
     fn name(&self) -> &'static str {
         "environment.curvature"
@@ -68,12 +76,7 @@ impl Kernel for Curvature {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::write("curvature", Format::Vec2),
-            Binding::write_opt("magnitude", Format::F32),
-        ]
+        CurvatureIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -84,15 +87,14 @@ impl Kernel for Curvature {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let CurvatureData { position, normal, curvature, magnitude } = CurvatureIo::read(ctx)?;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let kappa: Vec<[f32; 2]> = ctx.map_pixels(false, |x, y| {
             let (x, y) = (x as i32, y as i32);
             [0, 1].map(|axis| curvature_at(x, y, w, h, axis, position, normal))
         });
-        ctx.put_opt("magnitude", || kappa.iter().map(|k| 0.5 * (k[0] + k[1])).collect::<Vec<f32>>())?;
-        ctx.put("curvature", kappa)
+        magnitude.put_with(ctx, || kappa.iter().map(|k| 0.5 * (k[0] + k[1])).collect())?;
+        curvature.put(ctx, kappa)
     }
 }
 

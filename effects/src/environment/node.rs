@@ -36,6 +36,8 @@ use wedge_graph::{
     PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, SceneRequest, Stage, Statistic,
 };
 
+use super::kernels::filter::{EnvironmentFilterIo, HistoryIo};
+use super::kernels::CurvatureIo;
 use crate::factored::{compose_component, factor_flags, PartTerms};
 
 pub struct Environment;
@@ -303,12 +305,8 @@ impl NodeKind for Environment {
 /// `position` and `normal`: per axis (`curvature_xy`) and its magnitude for the heatmap (`curvature`).
 pub(crate) fn curvature_pass(ctx: &mut ExpandCtx<'_>, position: BufferId, normal: BufferId) -> (BufferId, BufferId) {
     let (curvature, magnitude) = (ctx.buffer("curvature_xy", Format::Vec2), ctx.buffer("curvature", Format::F32));
-    ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)
-        .read("position", position)
-        .read("normal", normal)
-        .write("curvature", curvature)
-        .write("magnitude", magnitude)
-        .finish();
+    let io = CurvatureIo { position, normal, curvature, magnitude: Some(magnitude) };
+    io.bind(ctx.pass("curvature", "environment.curvature", Stage::Bandwidth)).finish();
     (curvature, magnitude)
 }
 
@@ -412,15 +410,17 @@ impl PartFilter {
         let history = self.temporal.then(|| {
             let out = ctx.buffer(&format!("{name}_history"), Format::Vec4);
             let previous = [e, self.position, self.normal, bandwidth].map(|b| ctx.previous_frame(b));
-            ctx.pass(&format!("{name}_history"), "filter.environment_history", Stage::Factor)
-                .read("position", self.position)
-                .read("normal", self.normal)
-                .read("bandwidth", bandwidth)
-                .read("previous_value", previous[0])
-                .read("previous_position", previous[1])
-                .read("previous_normal", previous[2])
-                .read("previous_bandwidth", previous[3])
-                .write("out", out)
+            let io = HistoryIo {
+                position: self.position,
+                normal: self.normal,
+                bandwidth,
+                previous_value: previous[0],
+                previous_position: previous[1],
+                previous_normal: previous[2],
+                previous_bandwidth: previous[3],
+                out,
+            };
+            io.bind(ctx.pass(&format!("{name}_history"), "filter.environment_history", Stage::Factor))
                 // Eq. 6.24 filters the previous frame along x.
                 .int("axis", 0)
                 .param("max_radius", self.max_radius.clone())
@@ -433,13 +433,9 @@ impl PartFilter {
         for (axis, suffix) in [(0, "x"), (1, "y")] {
             let local = format!("{name}_{suffix}");
             let out = ctx.buffer(&local, Format::Vec3);
-            ctx.pass(&local, "filter.environment", Stage::Filter)
-                .read("value", value)
-                .read("position", self.position)
-                .read("normal", self.normal)
-                .read("bandwidth", bandwidth)
-                .read_opt("previous", if axis == 1 { history } else { None })
-                .write("out", out)
+            let (position, normal, previous) = (self.position, self.normal, if axis == 1 { history } else { None });
+            EnvironmentFilterIo { value, position, normal, bandwidth, previous, out }
+                .bind(ctx.pass(&local, "filter.environment", Stage::Filter))
                 .int("axis", axis)
                 .param("max_radius", self.max_radius.clone())
                 .param("normal_cos", self.normal_cos.clone())

@@ -6,7 +6,6 @@ use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
 };
-use wedge_graph::Format;
 
 use super::formulas::{component, nearest, Receiver, Settings};
 
@@ -63,6 +62,26 @@ fn glossy_receiver(spec: Option<&[[f32; 4]]>, i: usize, blinn: bool) -> Option<R
 /// `indirect.bandwidth`: β (metres) per component and the diffuse β in pixels for the heatmap.
 pub struct Bandwidth;
 
+wedge_backends::kernel_bindings! {
+    /// What an `indirect.bandwidth` pass binds: the first pass's depth statistics, the normal
+    /// (`w` = pixel footprint), the specular G-buffer where glossy receivers are filtered, the
+    /// neighbourhood's nearest reflector (`width_z_min: "nearest"`), and β per component (glossy only
+    /// where bound) and in pixels.
+    pub struct BandwidthIo / BandwidthData {
+        read depth: [f32; 4], read normal: [f32; 4], read_opt specular: [f32; 4], read_opt nearest: f32,
+        write beta_diffuse: f32, write_opt beta_glossy: f32, write filter_width: f32,
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What an `indirect.rates` pass binds: the inputs of [`BandwidthIo`], the samples per pixel
+    /// per component (glossy only where bound) and their sum.
+    pub struct RatesIo / RatesData {
+        read depth: [f32; 4], read normal: [f32; 4], read_opt specular: [f32; 4], write rays_diffuse: u32,
+        write_opt rays_glossy: u32, write rays_per_pixel: u32,
+    }
+}
+
 impl Kernel for Bandwidth {
     fn name(&self) -> &'static str {
         "indirect.bandwidth"
@@ -74,16 +93,7 @@ impl Kernel for Bandwidth {
         RateParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("depth", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("specular", Format::Vec4),
-            // `width_z_min: "nearest"`: the neighbourhood's nearest reflector (`indirect.nearest`).
-            Binding::read_opt("nearest", Format::F32),
-            Binding::write("beta_diffuse", Format::F32),
-            Binding::write_opt("beta_glossy", Format::F32),
-            Binding::write("filter_width", Format::F32),
-        ]
+        BandwidthIo::bindings()
     }
     /// WGSL mirror: `shaders/indirect_bandwidth.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -94,27 +104,26 @@ impl Kernel for Bandwidth {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let depth = ctx.read::<[f32; 4]>("depth")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
-        let nearest = ctx.read_opt::<f32>("nearest")?;
+        let io = BandwidthIo::read(ctx)?;
+        let (depth, normal, spec) = (io.depth, io.normal, io.specular);
         let (_, s, blinn) = settings(ctx, false)?;
         let active = |i: usize| depth[i][3] > 0.0;
-        let near = |i: usize| nearest.map_or(0.0, |z| z[i]);
+        let near = |i: usize| io.nearest.map_or(0.0, |z| z[i]);
         let beta = |r, i: usize| component(r, depth[i], near(i), normal[i][3], &s).beta;
         let beta_d: Vec<f32> =
             (0..ctx.pixels()).map(|i| if active(i) { beta(Receiver::Diffuse, i) } else { 0.0 }).collect();
         let px = beta_d.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
-        ctx.put_opt("beta_glossy", || {
-            (0..beta_d.len())
+        if let Some(beta_glossy) = io.beta_glossy {
+            let beta_g = (0..beta_d.len())
                 .map(|i| match glossy_receiver(spec, i, blinn) {
                     Some(r) if active(i) => beta(r, i),
                     _ => 0.0,
                 })
-                .collect::<Vec<f32>>()
-        })?;
-        ctx.put("beta_diffuse", beta_d)?;
-        ctx.put("filter_width", px)
+                .collect::<Vec<f32>>();
+            beta_glossy.put(ctx, beta_g)?;
+        }
+        io.beta_diffuse.put(ctx, beta_d)?;
+        io.filter_width.put(ctx, px)
     }
 }
 
@@ -133,14 +142,7 @@ impl Kernel for Rates {
         RateParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("depth", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("specular", Format::Vec4),
-            Binding::write("rays_diffuse", Format::U32),
-            Binding::write_opt("rays_glossy", Format::U32),
-            Binding::write("rays_per_pixel", Format::U32),
-        ]
+        RatesIo::bindings()
     }
     /// WGSL mirror: `shaders/indirect_rates.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -151,11 +153,10 @@ impl Kernel for Rates {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let depth = ctx.read::<[f32; 4]>("depth")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let spec = ctx.read_opt::<[f32; 4]>("specular")?;
+        let io = RatesIo::read(ctx)?;
+        let (depth, normal, spec) = (io.depth, io.normal, io.specular);
         let (p, s, blinn) = settings(ctx, true)?;
-        let glossy_bound = ctx.is_bound("rays_glossy");
+        let glossy_bound = io.rays_glossy.is_some();
         let cap = p.rays_cap.max(1);
         let per: Vec<(u32, u32)> = (0..ctx.pixels())
             .map(|i| {
@@ -171,9 +172,19 @@ impl Kernel for Rates {
                 (nd.min(cap), ng.min(cap))
             })
             .collect();
-        ctx.put_opt("rays_glossy", || per.iter().map(|p| p.1).collect::<Vec<u32>>())?;
-        ctx.put("rays_per_pixel", per.iter().map(|p| p.0 + p.1).collect::<Vec<u32>>())?;
-        ctx.put("rays_diffuse", per.iter().map(|p| p.0).collect::<Vec<u32>>())
+        if let Some(rays_glossy) = io.rays_glossy {
+            rays_glossy.put(ctx, per.iter().map(|p| p.1).collect())?;
+        }
+        io.rays_per_pixel.put(ctx, per.iter().map(|p| p.0 + p.1).collect())?;
+        io.rays_diffuse.put(ctx, per.iter().map(|p| p.0).collect())
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What an `indirect.nearest` pass binds: the first pass's depth statistics, the position (`w` =
+    /// object) and the nearest reflector per pixel.
+    pub struct NearestIo / NearestData {
+        read depth: [f32; 4], read position: [f32; 4], write nearest: f32,
     }
 }
 
@@ -189,11 +200,7 @@ impl Kernel for Nearest {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("depth", Format::Vec4),
-            Binding::read("position", Format::Vec4),
-            Binding::write("nearest", Format::F32),
-        ]
+        NearestIo::bindings()
     }
     /// WGSL mirror: `shaders/indirect_nearest.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -203,10 +210,9 @@ impl Kernel for Nearest {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let depth = ctx.read::<[f32; 4]>("depth")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
+        let io = NearestIo::read(ctx)?;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| nearest(depth, position, w, h, x as i32, y as i32));
-        ctx.put("nearest", out)
+        let out = ctx.map_pixels(false, |x, y| nearest(io.depth, io.position, w, h, x as i32, y as i32));
+        io.nearest.put(ctx, out)
     }
 }

@@ -2,13 +2,14 @@
 //! (the shared sampler's centre path, statistics, bandwidth, rates, the sampler's adaptive paths,
 //! a separable filter per component, compose) or as a factoring node's component.
 
+use wedge_backends::kernels::neighbourhood_others::OthersIo;
 use wedge_backends::KernelParams;
 use wedge_graph::{
     Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary,
     PortDecl, Reference, SamplerPass, Stage, Statistic,
 };
 
-use super::kernels::RateParams;
+use super::kernels::{BandwidthIo, NearestIo, RateParams, RatesIo};
 use crate::filtering::{self, Separable};
 use crate::sampler::centre_path;
 
@@ -145,11 +146,8 @@ impl NodeKind for Indirect {
         // passes, so its count and width do not depend on the samples its estimate reuses.
         let depth = if matches!(ctx.param("statistics"), ParamValue::Str(m) if m == "neighbours") {
             let others = ctx.buffer("depth_neighbours", Format::Vec4);
-            ctx.pass("statistics", "neighbourhood.others", Stage::Bandwidth)
-                .read("value", own_depth)
-                .read("position", position)
-                .write("out", others)
-                .finish();
+            let io = OthersIo { value: own_depth, position, out: others };
+            io.bind(ctx.pass("statistics", "neighbourhood.others", Stage::Bandwidth)).finish();
             others
         } else {
             own_depth
@@ -158,42 +156,37 @@ impl NodeKind for Indirect {
         // `width_z_min: "nearest"`: the width's z_min from the neighbourhood's nearest reflector.
         let nearest = matches!(ctx.param("width_z_min"), ParamValue::Str(m) if m == "nearest").then(|| {
             let nearest = ctx.buffer("nearest", Format::F32);
-            ctx.pass("nearest", "indirect.nearest", Stage::Bandwidth)
-                .read("depth", own_depth)
-                .read("position", position)
-                .write("nearest", nearest)
-                .finish();
+            let io = NearestIo { depth: own_depth, position, nearest };
+            io.bind(ctx.pass("nearest", "indirect.nearest", Stage::Bandwidth)).finish();
             nearest
         });
         let beta_d = ctx.buffer("beta_diffuse", Format::F32);
         let beta_g = ctx.buffer("beta_glossy", Format::F32);
         let width_px = ctx.buffer("filter_width", Format::F32);
-        let mut pass = ctx
-            .pass("bandwidth", "indirect.bandwidth", Stage::Bandwidth)
-            .read("depth", depth)
-            .read("normal", normal)
-            .read_opt("specular", specular)
-            .read_opt("nearest", nearest)
-            .write("beta_diffuse", beta_d)
-            .write("filter_width", width_px);
-        if glossy {
-            pass = pass.write("beta_glossy", beta_g);
-        }
+        let io = BandwidthIo {
+            depth,
+            normal,
+            specular,
+            nearest,
+            beta_diffuse: beta_d,
+            beta_glossy: glossy.then_some(beta_g),
+            filter_width: width_px,
+        };
+        let pass = io.bind(ctx.pass("bandwidth", "indirect.bandwidth", Stage::Bandwidth));
         pass.node_params(RateParams::names()).finish();
 
         let rays_d = ctx.buffer("rays_diffuse", Format::U32);
         let rays_g = ctx.buffer("rays_glossy", Format::U32);
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
-        let mut pass = ctx
-            .pass("rates", "indirect.rates", Stage::Bandwidth)
-            .read("depth", depth)
-            .read("normal", normal)
-            .read_opt("specular", specular)
-            .write("rays_diffuse", rays_d)
-            .write("rays_per_pixel", rays);
-        if glossy {
-            pass = pass.write("rays_glossy", rays_g);
-        }
+        let io = RatesIo {
+            depth,
+            normal,
+            specular,
+            rays_diffuse: rays_d,
+            rays_glossy: glossy.then_some(rays_g),
+            rays_per_pixel: rays,
+        };
+        let pass = io.bind(ctx.pass("rates", "indirect.rates", Stage::Bandwidth));
         pass.node_params(RateParams::names()).reference(Reference::Count).finish();
 
         // eq. 4.21's n per part over both passes, exactly: the sampler traces the rest on paths of

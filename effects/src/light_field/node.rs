@@ -31,6 +31,8 @@
 //! reconstruction ray is occluded where its nearest apparent surface lies within `max_distance`;
 //! the image is the occluded fraction, as `Indirect`'s AO mode (bright = occluded).
 
+use wedge_backends::kernels::compose::ModulateIo;
+use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::KernelParams;
 use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
@@ -128,15 +130,14 @@ impl NodeKind for LightField {
         b.random().reference(Reference::Sample).finish();
         // The plain estimate's rgb (the Vec4 estimate convention's mean).
         let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
-        ctx.pass("unfiltered", "compose.modulate", Stage::Sample)
-            .read("value", estimate)
-            .write("out", unfiltered)
-            .finish();
+        let io = ModulateIo { value: estimate, albedo: None, emission: None, out: unfiltered };
+        io.bind(ctx.pass("unfiltered", "compose.modulate", Stage::Sample)).finish();
 
         // Input rays per pixel: the constant spp (a diagnostic, like other nodes' ray counts: a
         // reference does not hand it back).
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
-        ctx.pass("rays", "fill.constant", Stage::Bandwidth).write("out", rays).int("value", i64::from(spp)).finish();
+        let fill = ctx.pass("rays", "fill.constant", Stage::Bandwidth);
+        FillU32Io { out: rays }.bind(fill).int("value", i64::from(spp)).finish();
 
         // 2. Splats and their tree (a BVH2 over n splats has at most 2n − 1 nodes).
         let splats = ctx.layered_buffer("splats", Format::Struct(&SPLAT), spp);

@@ -36,6 +36,7 @@ use wedge_graph::{
 };
 
 use super::kernels::sample::MrParams;
+use crate::environment::kernels::filter::BandwidthMaxIo;
 use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
 pub struct MixedReality;
@@ -210,7 +211,7 @@ impl NodeKind for MixedReality {
             .finish();
         let mut larger = |name: &str, a, b| {
             let out = ctx.buffer(name, Format::Vec2);
-            ctx.pass(name, "bandwidth.max", Stage::Bandwidth).read("a", a).read("b", b).write("out", out).finish();
+            BandwidthMaxIo { a, b, out }.bind(ctx.pass(name, "bandwidth.max", Stage::Bandwidth)).finish();
             out
         };
         let direct_virtual = larger("bandwidth_direct_virtual", direct_diffuse, direct_glossy);

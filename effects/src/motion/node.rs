@@ -44,6 +44,7 @@
 
 use std::collections::BTreeMap;
 
+use wedge_backends::kernels::constant::{FillF32Io, FillU32Io, FillVec4Io};
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue,
@@ -51,6 +52,7 @@ use wedge_graph::{
 };
 
 use super::formulas::{MULTI_VELOCITY_PATHS, OMEGA_T_MAX};
+use super::kernels::filter::{MotionFilterIo, Radiance3Io};
 use crate::defocus::component::rate_settings;
 use crate::defocus::formulas::Mode;
 use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
@@ -75,10 +77,8 @@ pub(crate) fn motion_filter(
     radius: &ParamValue,
 ) -> BufferId {
     let out = ctx.buffer(name, Format::Vec3);
-    ctx.pass(name, "filter.motion", Stage::Filter)
-        .read("value", value)
-        .read("motion", motion)
-        .write("out", out)
+    MotionFilterIo { value, motion, out }
+        .bind(ctx.pass(name, "filter.motion", Stage::Filter))
         .param("max_radius", radius.clone())
         .reference(Reference::Bypass { input: "value" })
         .finish();
@@ -173,14 +173,20 @@ impl NodeKind for Motion {
             // A static scene: the components rendered as without a Motion node; only their sum here.
             let radiance = sum(ctx, "sum", &components, None);
             let width = ctx.buffer("filter_width", Format::F32);
-            ctx.pass("filter_width", "fill.constant_f32", Stage::Compose)
-                .write("out", width)
+            FillF32Io { out: width }
+                .bind(ctx.pass("filter_width", "fill.constant_f32", Stage::Compose))
                 .float("value", 0.0)
                 .finish();
             let rays = ctx.buffer("rays_per_pixel", Format::U32);
-            ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose).write("out", rays).int("value", 1).finish();
+            FillU32Io { out: rays }
+                .bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose))
+                .int("value", 1)
+                .finish();
             let still = ctx.buffer("velocity", Format::Vec4);
-            ctx.pass("velocity", "fill.constant_vec4", Stage::Compose).write("out", still).float("value", 0.0).finish();
+            FillVec4Io { out: still }
+                .bind(ctx.pass("velocity", "fill.constant_vec4", Stage::Compose))
+                .float("value", 0.0)
+                .finish();
             for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
                 ctx.output(port, id);
             }
@@ -251,11 +257,8 @@ impl NodeKind for Motion {
             f => {
                 let along = (f == ParamValue::Str("velocity".into())).then_some(final_velocity);
                 let out = ctx.buffer("radiance", Format::Vec3);
-                ctx.pass("filter", "filter.radiance3", Stage::ImageFilter)
-                    .read("value", composed)
-                    .read("mask", multi)
-                    .read_opt("velocity", along)
-                    .write("out", out)
+                Radiance3Io { value: composed, mask: multi, velocity: along, out }
+                    .bind(ctx.pass("filter", "filter.radiance3", Stage::ImageFilter))
                     .reference(Reference::Bypass { input: "value" })
                     .finish();
                 out

@@ -1,5 +1,6 @@
 //! The `PixelFilter` node: its ports, parameters and the passes of [`super`]'s module doc.
 
+use wedge_backends::kernels::constant::FillF32Io;
 use wedge_backends::KernelParams;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
@@ -123,8 +124,8 @@ impl NodeKind for PixelFilter {
                 .node_params(WidthParams::names())
                 .finish();
         } else {
-            ctx.pass("width", "fill.constant_f32", Stage::Bandwidth)
-                .write("out", sigma)
+            FillF32Io { out: sigma }
+                .bind(ctx.pass("width", "fill.constant_f32", Stage::Bandwidth))
                 .param("value", sigma_s)
                 .finish();
         }

@@ -5,7 +5,6 @@
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, LightIndex, ParamSpec, Uniforms, WgslSource,
 };
-use wedge_graph::Format;
 
 use super::formulas::{filter_beta, rays_cap, samples_per_pixel, slopes, whole_multiples};
 
@@ -58,6 +57,36 @@ fn pixel_stats(occ: [f32; 4], normal: [f32; 4]) -> PixelStats {
     PixelStats { filterable: occ[3] > 0.0, s_min, s_max, d: normal[3] }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `shadows.bandwidth` pass binds: the filled first-pass occluder statistics, the normal
+    /// (`w` = pixel footprint), β in metres and in pixels.
+    pub struct BandwidthIo / BandwidthData {
+        read occlusion: [f32; 4], read normal: [f32; 4], write beta: f32, write filter_width: f32,
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `shadows.rates` pass binds: the statistics of [`BandwidthIo`] and the rays per pixel.
+    pub struct RatesIo / RatesData {
+        read occlusion: [f32; 4], read normal: [f32; 4], write rays_per_pixel: u32,
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `shadows.visibility` pass binds: the shadowed and unshadowed estimates, the pair.
+    pub struct VisibilityIo / VisibilityData {
+        read direct: [f32; 4], read unshadowed: [f32; 4], write out: [f32; 4],
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `shadows.shade` pass binds: the estimate, the filtered pair, the G-buffer, the shade.
+    pub struct ShadeIo / ShadeData {
+        read direct: [f32; 4], read visibility: [f32; 4], read position: [f32; 4], read normal: [f32; 4],
+        write out: [f32; 4],
+    }
+}
+
 /// `shadows.bandwidth`: β (metres) and β in pixels for the heatmap.
 pub struct Bandwidth;
 
@@ -72,12 +101,7 @@ impl Kernel for Bandwidth {
         BandwidthParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("occlusion", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::write("beta", Format::F32),
-            Binding::write("filter_width", Format::F32),
-        ]
+        BandwidthIo::bindings()
     }
     /// WGSL mirror: `shaders/shadows_bandwidth.wgsl` with the formulas of `shaders/shadows_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -91,8 +115,7 @@ impl Kernel for Bandwidth {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let occ = ctx.read::<[f32; 4]>("occlusion")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let BandwidthData { occlusion: occ, normal, beta: beta_out, filter_width } = BandwidthIo::read(ctx)?;
         let BandwidthParams { mu, alpha, k, light } = BandwidthParams::read(ctx)?;
         let sigma = ctx.scene.lights[light.0].sigma();
         let beta: Vec<f32> = (0..ctx.pixels())
@@ -106,8 +129,8 @@ impl Kernel for Bandwidth {
             })
             .collect();
         let px = beta.iter().zip(normal).map(|(b, n)| if *b > 0.0 { b / n[3] } else { 0.0 }).collect::<Vec<f32>>();
-        ctx.put("beta", beta)?;
-        ctx.put("filter_width", px)
+        beta_out.put(ctx, beta)?;
+        filter_width.put(ctx, px)
     }
 }
 
@@ -131,11 +154,7 @@ impl Kernel for Rates {
         RateParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("occlusion", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::write("rays_per_pixel", Format::U32),
-        ]
+        RatesIo::bindings()
     }
     /// WGSL mirror: `shaders/shadows_rates.wgsl` with the formulas of `shaders/shadows_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -151,8 +170,7 @@ impl Kernel for Rates {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let occ = ctx.read::<[f32; 4]>("occlusion")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let RatesData { occlusion: occ, normal, rays_per_pixel } = RatesIo::read(ctx)?;
         let p = RateParams::read(ctx)?;
         let (mu, alpha) = (p.mu, p.alpha);
         let (initial, max) = count_bounds(&p);
@@ -168,7 +186,7 @@ impl Kernel for Rates {
                 whole_multiples(n, initial)
             })
             .collect();
-        ctx.put("rays_per_pixel", n)
+        rays_per_pixel.put(ctx, n)
     }
 }
 
@@ -185,11 +203,7 @@ impl Kernel for Visibility {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("direct", Format::Vec4),
-            Binding::read("unshadowed", Format::Vec4),
-            Binding::write("out", Format::Vec4),
-        ]
+        VisibilityIo::bindings()
     }
     /// WGSL mirror: `shaders/shadows_visibility.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -199,11 +213,10 @@ impl Kernel for Visibility {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let e = ctx.read::<[f32; 4]>("direct")?;
-        let u = ctx.read::<[f32; 4]>("unshadowed")?;
-        let out: Vec<[f32; 4]> =
+        let VisibilityData { direct: e, unshadowed: u, out } = VisibilityIo::read(ctx)?;
+        let pair: Vec<[f32; 4]> =
             e.iter().zip(u).map(|(e, u)| [e[0] + e[1] + e[2], u[0] + u[1] + u[2], 0.0, e[3]]).collect();
-        ctx.put("out", out)
+        out.put(ctx, pair)
     }
 }
 
@@ -224,13 +237,7 @@ impl Kernel for Shade {
         ShadeParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("direct", Format::Vec4),
-            Binding::read("visibility", Format::Vec4),
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::write("out", Format::Vec4),
-        ]
+        ShadeIo::bindings()
     }
     /// WGSL mirror: `shaders/shadows_shade.wgsl` (the polygon formula term by term).
     fn wgsl(&self) -> Option<WgslSource> {
@@ -255,13 +262,10 @@ impl Kernel for Shade {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let direct = ctx.read::<[f32; 4]>("direct")?;
-        let vis = ctx.read::<[f32; 4]>("visibility")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
+        let ShadeData { direct, visibility: vis, position, normal, out } = ShadeIo::read(ctx)?;
         // A Ch. 3 kernel: the light at the shutter's centre, as the sampler's shadow rays see it.
         let light = ctx.scene.at(0.0).light(ShadeParams::read(ctx)?.light.0);
-        let out: Vec<[f32; 4]> = (0..ctx.pixels())
+        let shaded: Vec<[f32; 4]> = (0..ctx.pixels())
             .map(|i| {
                 if position[i][3] == 0.0 {
                     return direct[i];
@@ -272,6 +276,6 @@ impl Kernel for Shade {
                 [e.x, e.y, e.z, direct[i][3]]
             })
             .collect();
-        ctx.put("out", out)
+        out.put(ctx, shaded)
     }
 }

@@ -7,9 +7,11 @@ use wedge_graph::{
     PortDecl, Reference, SamplerPass, Stage, Statistic,
 };
 
+use wedge_backends::kernels::compose::ModulateIo;
+use wedge_backends::kernels::neighbourhood_fill::FillIo;
 use wedge_backends::KernelParams;
 
-use super::kernels::{BandwidthParams, RateParams};
+use super::kernels::{BandwidthIo, BandwidthParams, RateParams, RatesIo, ShadeIo, VisibilityIo};
 use crate::filtering::{self, Separable};
 use crate::sampler::centre_path;
 
@@ -104,28 +106,21 @@ impl NodeKind for SoftShadows {
         let occlusion = ctx.sampler_output(SamplerPass::First, "occlusion")?;
 
         let filled = ctx.buffer("occlusion_filled", Format::Vec4);
-        ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth)
-            .read("value", occlusion)
-            .read("position", position)
-            .write("out", filled)
+        FillIo { value: occlusion, position, out: filled }
+            .bind(ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth))
             .param("radius", fill_radius)
             .finish();
 
         let beta = ctx.buffer("beta", Format::F32);
         let width_px = ctx.buffer("filter_width", Format::F32);
-        ctx.pass("bandwidth", "shadows.bandwidth", Stage::Bandwidth)
-            .read("occlusion", filled)
-            .read("normal", normal)
-            .write("beta", beta)
-            .write("filter_width", width_px)
+        BandwidthIo { occlusion: filled, normal, beta, filter_width: width_px }
+            .bind(ctx.pass("bandwidth", "shadows.bandwidth", Stage::Bandwidth))
             .node_params(BandwidthParams::names())
             .finish();
 
         let rays = ctx.buffer("rays_per_pixel", Format::U32);
-        ctx.pass("rates", "shadows.rates", Stage::Bandwidth)
-            .read("occlusion", filled)
-            .read("normal", normal)
-            .write("rays_per_pixel", rays)
+        RatesIo { occlusion: filled, normal, rays_per_pixel: rays }
+            .bind(ctx.pass("rates", "shadows.rates", Stage::Bandwidth))
             .node_params(RateParams::names())
             .reference(Reference::Count)
             .finish();
@@ -152,20 +147,14 @@ impl NodeKind for SoftShadows {
             // stays plain Monte Carlo.
             let unshadowed = ctx.sampler_output(SamplerPass::Final, "direct_unshadowed")?;
             let pair = ctx.buffer("visibility", Format::Vec4);
-            ctx.pass("visibility", "shadows.visibility", Stage::Filter)
-                .read("direct", noisy)
-                .read("unshadowed", unshadowed)
-                .write("out", pair)
+            VisibilityIo { direct: noisy, unshadowed, out: pair }
+                .bind(ctx.pass("visibility", "shadows.visibility", Stage::Filter))
                 .reference(Reference::Bypass { input: "direct" })
                 .finish();
             let pair = filtering::separable(ctx, "", pair, &filter);
             let shaded = ctx.buffer("shaded", Format::Vec4);
-            ctx.pass("shade", "shadows.shade", Stage::Filter)
-                .read("direct", noisy)
-                .read("visibility", pair)
-                .read("position", position)
-                .read("normal", normal)
-                .write("out", shaded)
+            ShadeIo { direct: noisy, visibility: pair, position, normal, out: shaded }
+                .bind(ctx.pass("shade", "shadows.shade", Stage::Filter))
                 .param("light", light.clone())
                 .reference(Reference::Bypass { input: "direct" })
                 .finish();
@@ -176,12 +165,8 @@ impl NodeKind for SoftShadows {
 
         for (pass, value, port) in [("compose", filtered, "radiance"), ("compose_unfiltered", noisy, "unfiltered")] {
             let out = ctx.buffer(port, Format::Vec3);
-            ctx.pass(pass, "compose.modulate", Stage::Compose)
-                .read("value", value)
-                .read_opt("albedo", albedo)
-                .read_opt("emission", emission)
-                .write("out", out)
-                .finish();
+            let io = ModulateIo { value, albedo, emission, out };
+            io.bind(ctx.pass(pass, "compose.modulate", Stage::Compose)).finish();
             ctx.output(port, out);
         }
         ctx.output("filter_width", width_px);

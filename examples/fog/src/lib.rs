@@ -22,6 +22,14 @@ wedge::backends::kernel_params! {
     }
 }
 
+wedge::backends::kernel_bindings! {
+    /// Fog's bindings, declared once: the kernel's `bindings()`, its typed reads and write, and the
+    /// node's `FogIo { .. }.bind(pass)` all come from here.
+    pub struct FogIo / FogData {
+        read color: [f32; 3], read position: [f32; 4], write out: [f32; 3],
+    }
+}
+
 pub struct FogKernel;
 
 impl Kernel for FogKernel {
@@ -32,20 +40,15 @@ impl Kernel for FogKernel {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("color", Format::Vec3),
-            Binding::read("position", Format::Vec4),
-            Binding::write("out", Format::Vec3),
-        ]
+        FogIo::bindings()
     }
     fn params(&self) -> Vec<ParamSpec> {
         FogParams::specs()
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let (p, eye) = (FogParams::read(ctx)?, eye(ctx));
-        let (color, position) = (ctx.read::<[f32; 3]>("color")?, ctx.read::<[f32; 4]>("position")?);
-        let out = color.iter().zip(position).map(|(c, x)| fogged(&p, eye, *c, *x)).collect();
-        ctx.put("out", out)
+        let (p, eye, io) = (FogParams::read(ctx)?, eye(ctx), FogIo::read(ctx)?);
+        let image = io.color.iter().zip(io.position).map(|(c, x)| fogged(&p, eye, *c, *x)).collect();
+        io.out.put(ctx, image)
     }
     fn wgsl(&self) -> Option<WgslSource> {
         let uniforms = |ctx: &KernelCtx<'_>| Ok(FogParams::read(ctx)?.uniforms().vec3("eye", eye(ctx)));
@@ -93,8 +96,8 @@ impl NodeKind for Fog {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let (color, position) = (ctx.required("color")?, ctx.required("position")?);
         let out = ctx.buffer("color", Format::Vec3);
-        let pass = ctx.pass("apply", "fog.apply", Stage::ImageFilter).read("color", color).read("position", position);
-        pass.write("out", out).node_params(FogParams::names()).finish();
+        let pass = ctx.pass("apply", "fog.apply", Stage::ImageFilter);
+        FogIo { color, position, out }.bind(pass).node_params(FogParams::names()).finish();
         ctx.output("color", out);
         Ok(())
     }

@@ -10,7 +10,14 @@ use wedge_backends::kernels::filter_window::{
     axis, gather, pair_weight, reach, valid_width, window_radius, Axis, WindowParams,
 };
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
-use wedge_graph::Format;
+
+wedge_backends::kernel_bindings! {
+    /// What a `filter.defocus` pass binds: the composed radiance, its width `Ω_x^d` (pixel⁻¹) and
+    /// the filtered radiance.
+    pub struct DefocusIo / DefocusData {
+        read value: [f32; 3], read omega: f32, write out: [f32; 3],
+    }
+}
 
 /// Eq. 5.33 at pixel `(x, y)`.
 #[allow(clippy::too_many_arguments)]
@@ -50,11 +57,7 @@ impl Kernel for DefocusFilter {
         WindowParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec3),
-            Binding::read("omega", Format::F32),
-            Binding::write("out", Format::Vec3),
-        ]
+        DefocusIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -66,12 +69,11 @@ impl Kernel for DefocusFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 3]>("value")?;
-        let omega = ctx.read::<f32>("omega")?;
+        let DefocusData { value, omega, out } = DefocusIo::read(ctx)?;
         let (r, a) = (WindowParams::read_clamped(ctx)?.max_radius, axis(ctx)?);
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, a, value, omega));
-        ctx.put("out", out)
+        let filtered = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, a, value, omega));
+        out.put(ctx, filtered)
     }
 }

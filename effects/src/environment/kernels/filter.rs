@@ -38,7 +38,6 @@
 //! counted once in `non_finite_samples` (in the x and history passes; the y pass sees x outputs).
 
 use glam::{Vec2, Vec3};
-use wedge_graph::Format;
 use wedge_scene::Camera;
 
 use wedge_backends::kernels::paths::camera_uniforms;
@@ -320,6 +319,34 @@ impl HistoryParams {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `filter.environment` pass binds.
+    pub struct EnvironmentFilterIo / EnvironmentFilterData {
+        read value: [f32; 3], read position: [f32; 4], read normal: [f32; 4], read bandwidth: [f32; 2],
+        /// The previous frame's x-filtered irradiance at each pixel (`filter.environment_history`):
+        /// joins the y pass (eq. 6.26).
+        read_opt previous: [f32; 4],
+        write out: [f32; 3],
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `filter.environment_history` pass binds: this frame's G-buffer and bandwidths, the
+    /// previous frame's irradiance, G-buffer and bandwidths, and the reprojected, x-filtered history.
+    pub struct HistoryIo / HistoryData {
+        read position: [f32; 4], read normal: [f32; 4], read bandwidth: [f32; 2], read previous_value: [f32; 3],
+        read previous_position: [f32; 4], read previous_normal: [f32; 4], read previous_bandwidth: [f32; 2],
+        write out: [f32; 4],
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `bandwidth.max` pass binds.
+    pub struct BandwidthMaxIo / BandwidthMaxData {
+        read a: [f32; 2], read b: [f32; 2], write out: [f32; 2],
+    }
+}
+
 /// `filter.environment`: one axis of eqs. 6.21–6.23 (and 6.26 with `previous`).
 pub struct EnvironmentFilter;
 
@@ -334,16 +361,7 @@ impl Kernel for EnvironmentFilter {
         FilterParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec3),
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read("bandwidth", Format::Vec2),
-            // The previous frame's x-filtered irradiance at each pixel (`filter.environment_history`):
-            // joins the y pass (eq. 6.26).
-            Binding::read_opt("previous", Format::Vec4),
-            Binding::write("out", Format::Vec3),
-        ]
+        EnvironmentFilterIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -358,19 +376,16 @@ impl Kernel for EnvironmentFilter {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let p = FilterParams::read_checked(ctx)?;
-        let value = ctx.read::<[f32; 3]>("value")?;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let bandwidth = ctx.read::<[f32; 2]>("bandwidth")?;
-        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
+        let EnvironmentFilterData { value, position, normal, bandwidth, previous, out } =
+            EnvironmentFilterIo::read(ctx)?;
         if p.axis == 0 {
             count_non_finite(ctx, value);
         }
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| {
+        let filtered = ctx.map_pixels(false, |x, y| {
             filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth, previous)
         });
-        ctx.put("out", out)
+        out.put(ctx, filtered)
     }
 }
 
@@ -388,16 +403,7 @@ impl Kernel for EnvironmentHistory {
         HistoryParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read("bandwidth", Format::Vec2),
-            Binding::read("previous_value", Format::Vec3),
-            Binding::read("previous_position", Format::Vec4),
-            Binding::read("previous_normal", Format::Vec4),
-            Binding::read("previous_bandwidth", Format::Vec2),
-            Binding::write("out", Format::Vec4),
-        ]
+        HistoryIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -416,19 +422,15 @@ impl Kernel for EnvironmentHistory {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let p = HistoryParams::read_checked(ctx)?;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let bandwidth = ctx.read::<[f32; 2]>("bandwidth")?;
-        let pv = ctx.read::<[f32; 3]>("previous_value")?;
-        let pp = ctx.read::<[f32; 4]>("previous_position")?;
-        let pn = ctx.read::<[f32; 4]>("previous_normal")?;
-        let pb = ctx.read::<[f32; 2]>("previous_bandwidth")?;
+        let io = HistoryIo::read(ctx)?;
+        let (position, normal, bandwidth) = (io.position, io.normal, io.bandwidth);
+        let (pv, pp, pn, pb) = (io.previous_value, io.previous_position, io.previous_normal, io.previous_bandwidth);
         let cam = ctx.scene.previous_camera;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| {
+        let history = ctx.map_pixels(false, |x, y| {
             history_pixel(x as i32, y as i32, w, h, &p, cam.as_ref(), position, normal, bandwidth, pv, pp, pn, pb)
         });
-        ctx.put("out", out)
+        io.out.put(ctx, history)
     }
 }
 
@@ -459,7 +461,7 @@ impl Kernel for BandwidthMax {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("a", Format::Vec2), Binding::read("b", Format::Vec2), Binding::write("out", Format::Vec2)]
+        BandwidthMaxIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -468,10 +470,9 @@ impl Kernel for BandwidthMax {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let a = ctx.read::<[f32; 2]>("a")?;
-        let b = ctx.read::<[f32; 2]>("b")?;
-        let out: Vec<[f32; 2]> = a.iter().zip(b).map(|(a, b)| bandwidth_max(*a, *b)).collect();
-        ctx.put("out", out)
+        let BandwidthMaxData { a, b, out } = BandwidthMaxIo::read(ctx)?;
+        let larger: Vec<[f32; 2]> = a.iter().zip(b).map(|(a, b)| bandwidth_max(*a, *b)).collect();
+        out.put(ctx, larger)
     }
 }
 

@@ -25,7 +25,6 @@
 //! `shaders/filter_motion.wgsl`, `shaders/filter_radiance3.wgsl`, term by term in the same order.
 
 use glam::Vec2;
-use wedge_graph::Format;
 
 use wedge_backends::kernels::filter_window::{max_radius, pair_weight, valid_width, window_radius, WindowParams};
 use wedge_backends::kernels::{count_non_finite, is_finite3};
@@ -164,6 +163,24 @@ pub fn radiance3_pixel(
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `filter.motion` pass binds: the radiance, the motion (direction and width) and the
+    /// filtered radiance.
+    pub struct MotionFilterIo / MotionFilterData {
+        read value: [f32; 3], read motion: [f32; 4], write out: [f32; 3],
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `filter.radiance3` pass binds.
+    pub struct Radiance3Io / Radiance3Data {
+        read value: [f32; 3], read mask: u32,
+        /// A velocity per pixel (x, y used): filter along it instead of over 3×3.
+        read_opt velocity: [f32; 4],
+        write out: [f32; 3],
+    }
+}
+
 /// `filter.motion`: the oriented 1-D Gaussian of eqs. B.1 / B.2 (module doc).
 pub struct MotionFilter;
 
@@ -178,11 +195,7 @@ impl Kernel for MotionFilter {
         WindowParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec3),
-            Binding::read("motion", Format::Vec4),
-            Binding::write("out", Format::Vec3),
-        ]
+        MotionFilterIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -195,13 +208,12 @@ impl Kernel for MotionFilter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 3]>("value")?;
-        let motion = ctx.read::<[f32; 4]>("motion")?;
+        let MotionFilterData { value, motion, out } = MotionFilterIo::read(ctx)?;
         let r = max_radius(ctx)?;
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| motion_pixel(x as i32, y as i32, w, h, r, value, motion));
-        ctx.put("out", out)
+        let filtered = ctx.map_pixels(false, |x, y| motion_pixel(x as i32, y as i32, w, h, r, value, motion));
+        out.put(ctx, filtered)
     }
 }
 
@@ -216,13 +228,7 @@ impl Kernel for Radiance3Filter {
         KernelClass::Filter
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::Vec3),
-            Binding::read("mask", Format::U32),
-            // A velocity per pixel (x, y used): filter along it instead of over 3×3.
-            Binding::read_opt("velocity", Format::Vec4),
-            Binding::write("out", Format::Vec3),
-        ]
+        Radiance3Io::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -232,13 +238,11 @@ impl Kernel for Radiance3Filter {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let value = ctx.read::<[f32; 3]>("value")?;
-        let mask = ctx.read::<u32>("mask")?;
-        let velocity = ctx.read_opt::<[f32; 4]>("velocity")?;
+        let Radiance3Data { value, mask, velocity, out } = Radiance3Io::read(ctx)?;
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| radiance3_pixel(x as i32, y as i32, w, h, value, mask, velocity));
-        ctx.put("out", out)
+        let filtered = ctx.map_pixels(false, |x, y| radiance3_pixel(x as i32, y as i32, w, h, value, mask, velocity));
+        out.put(ctx, filtered)
     }
 }
 
