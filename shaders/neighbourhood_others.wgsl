@@ -1,6 +1,7 @@
 // neighbourhood.others — a pixel's first-pass statistics from its eight neighbours on the same
 // object, its own samples left out; mirrors backends/src/kernels/neighbourhood_others.rs.
 #include "common.wgsl"
+#include "same_object_neighbour.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -8,8 +9,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let w = i32(frame.width);
-    let h = i32(frame.height);
     let xy = vec2<i32>(pixel_xy(gid));
     let own = value_at(i);
     if (!(own.w > 0.0)) {
@@ -23,14 +22,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var with_hits = 0u;
     for (var dy = -1; dy <= 1; dy = dy + 1) {
         for (var dx = -1; dx <= 1; dx = dx + 1) {
-            let nx = xy.x + dx;
-            let ny = xy.y + dy;
-            if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h) {
+            let j = same_object_neighbour(i, xy, dx, dy);
+            if (j < 0) {
                 continue;
             }
-            let j = index_at(nx, ny);
-            let v = value_at(j);
-            if (!(v.w > 0.0) || position_at(j).w != position_at(i).w) {
+            let v = value_at(u32(j));
+            if (!(v.w > 0.0)) {
                 continue;
             }
             n = n + 1u;

@@ -24,6 +24,28 @@ use crate::BackendError;
 /// `neighbourhood.others` (module doc).
 pub struct Others;
 
+/// The indices of pixel `(x, y)`'s eight neighbours inside the `w × h` image that lie on its object
+/// (position `w`), in a fixed order (rows, then columns), the pixel itself left out: the neighbourhood
+/// `others` and the Indirect node's `nearest` read (WGSL: `same_object_neighbour` in common.wgsl).
+pub fn same_object_neighbours(
+    position: &[[f32; 4]],
+    w: i32,
+    h: i32,
+    x: i32,
+    y: i32,
+) -> impl Iterator<Item = usize> + '_ {
+    let object = position[(y * w + x) as usize][3];
+    (-1..=1)
+        .flat_map(move |dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
+        .filter(move |&(nx, ny)| (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && nx < w && ny < h)
+        .map(move |(nx, ny)| (ny * w + nx) as usize)
+        .filter(move |&j| position[j][3] == object)
+}
+
+/// The WGSL mirror of [`same_object_neighbours`] (name, source), for `WgslSource::with_include`.
+pub const SAME_OBJECT_NEIGHBOUR: (&str, &str) =
+    ("same_object_neighbour.wgsl", include_str!("../../../shaders/same_object_neighbour.wgsl"));
+
 /// The statistics of pixel `(x, y)` from its neighbours (module doc).
 pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32, y: i32) -> [f32; 4] {
     let i = (y * w + x) as usize;
@@ -32,24 +54,13 @@ pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32,
         return own;
     }
     let (mut min_sum, mut max_sum, mut hits, mut n, mut with_hits) = (0.0f32, 0.0f32, 0.0f32, 0u32, 0u32);
-    for dy in -1..=1 {
-        for dx in -1..=1 {
-            let (nx, ny) = (x + dx, y + dy);
-            if (dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h {
-                continue;
-            }
-            let j = (ny * w + nx) as usize;
-            let v = value[j];
-            if !(v[3] > 0.0) || position[j][3] != position[i][3] {
-                continue;
-            }
-            n += 1;
-            if v[2] > 0.0 {
-                min_sum += v[0];
-                max_sum += v[1];
-                hits += v[2];
-                with_hits += 1;
-            }
+    for v in same_object_neighbours(position, w, h, x, y).map(|j| value[j]).filter(|v| v[3] > 0.0) {
+        n += 1;
+        if v[2] > 0.0 {
+            min_sum += v[0];
+            max_sum += v[1];
+            hits += v[2];
+            with_hits += 1;
         }
     }
     if n == 0 {
@@ -82,6 +93,7 @@ impl Kernel for Others {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/neighbourhood_others.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include(SAME_OBJECT_NEIGHBOUR.0, SAME_OBJECT_NEIGHBOUR.1)
                 .with_reach(|_| Ok(Reach::Rows(1))),
         )
     }

@@ -5,6 +5,8 @@
 
 use std::f32::consts::FRAC_PI_2;
 
+use wedge_backends::kernels::neighbourhood_others::same_object_neighbours;
+
 /// Receiver BRDF for the transfer-function bandlimit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Receiver {
@@ -81,18 +83,8 @@ pub fn nearest(depth: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32
     if !(depth[i][3] > 0.0) {
         return 0.0;
     }
-    let mut z = f32::INFINITY;
-    for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
-        let (nx, ny) = (x + dx, y + dy);
-        if (dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= w || ny >= h {
-            continue;
-        }
-        let j = (ny * w + nx) as usize;
-        let v = depth[j];
-        if v[3] > 0.0 && v[2] > 0.0 && position[j][3] == position[i][3] {
-            z = z.min(v[0]);
-        }
-    }
+    let hits = same_object_neighbours(position, w, h, x, y).map(|j| depth[j]).filter(|v| v[3] > 0.0 && v[2] > 0.0);
+    let z = hits.fold(f32::INFINITY, |z, v| z.min(v[0]));
     if z.is_finite() {
         z
     } else {

@@ -3,6 +3,7 @@
 //! CPU here, WGSL in `shaders/indirect_{bandwidth,rates}.wgsl`.
 
 use wedge_backends::kernels::hemisphere::Lobe;
+use wedge_backends::kernels::neighbourhood_others::SAME_OBJECT_NEIGHBOUR;
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
 };
@@ -206,6 +207,7 @@ impl Kernel for Nearest {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/indirect_nearest.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include(SAME_OBJECT_NEIGHBOUR.0, SAME_OBJECT_NEIGHBOUR.1)
                 .with_reach(|_| Ok(Reach::Rows(1))),
         )
     }
