@@ -57,6 +57,9 @@ pub struct Overrides {
     /// The frame the session opens at (the first of `render --frames`; default 0): the camera path's
     /// position there, and the mixed-reality real layer of that frame.
     pub frame: Option<u32>,
+    /// Render without the pipeline's filters at the same rays (`render --unfiltered`,
+    /// [`wedge_graph::unfiltered`]): the baseline each filter must beat.
+    pub unfiltered: bool,
 }
 
 /// One `--set NODE.PARAM=VALUE` as an override of [`Overrides::params`]: the value is an integer,
@@ -257,6 +260,8 @@ impl Session {
         apply_scene_requests(&mut scene, &pipeline, frame, ov)?;
         if let Some((spp, sampling)) = reference {
             expansion = wedge_graph::reference(expansion, spp, sampling)?;
+        } else if ov.unfiltered {
+            expansion = wedge_graph::unfiltered(expansion)?;
         }
         let schedule = schedule(expansion)?;
         kernels.check_schedule(&schedule)?;

@@ -129,3 +129,35 @@ fn a_count_pass_with_other_outputs_keeps_them_and_its_reference_is_plain_mc() {
     };
     assert_eq!(image(true), image(false));
 }
+
+/// `render --unfiltered` (`wedge_graph::unfiltered`): every shipped pipeline without its filter
+/// passes and with every other pass as the render has it (sampling passes at their counts, count and
+/// decision passes) — only what a filter alone read may be culled (PixelFilter's `range` pass); on `shadows.ron`, whose node hands
+/// out its pre-filter image, the two agree bit for bit.
+#[test]
+fn unfiltered_is_the_render_without_its_filter_passes() {
+    use wedge::graph::Reference;
+    let passes = |s: &Session| -> Vec<(String, String)> {
+        s.schedule.passes.iter().map(|p| (p.name.clone(), format!("{:?}", p.params))).collect()
+    };
+    for path in pipelines() {
+        let ov = sized(16, 12, None, &[]);
+        let render = Session::open(Some(&path), &ov).unwrap();
+        let bare = Session::open(Some(&path), &wedge::Overrides { unfiltered: true, ..ov }).unwrap();
+        let name = path.display();
+        let (all, without) = (passes(&render), passes(&bare));
+        assert!(
+            bare.schedule.passes.iter().all(|p| !matches!(p.reference, Reference::Bypass { .. })),
+            "{name}: a filter ran\n{}",
+            bare.schedule.table()
+        );
+        assert!(without.iter().all(|p| all.contains(p)), "{name}: a pass changed\n{without:?}\nvs {all:?}");
+        assert!(bare.schedule.passes.iter().any(|p| p.random), "{name}: nothing samples");
+    }
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    let ov = sized(32, 24, None, &[]);
+    let render = Session::open(Some(&path), &ov).unwrap();
+    let bare = Session::open(Some(&path), &wedge::Overrides { unfiltered: true, ..ov }).unwrap();
+    let unfiltered = wedge::outputs::buffer_to_image(run(&render).output("unfiltered").unwrap(), 32, 24);
+    assert_eq!(unfiltered.pixels, color(&bare, &run(&bare)).pixels, "shadows.ron");
+}

@@ -43,7 +43,7 @@ pub use decl::{
 pub use expand::{BufferId, BufferInfo, ExpandCtx, Expansion, History, Pass, PassBuilder};
 pub use factoring::{Component, Factoring, FactoringInputs, Part, SceneFacts, Statistic};
 pub use pipeline::{CameraKey, CameraProblem, CameraSpec, Location, MotionSpec, NodeSpec, Pipeline, RawParam};
-pub use reference::{reference, FILL_CONSTANT, REFERENCE_SAMPLING};
+pub use reference::{reference, unfiltered, FILL_CONSTANT, REFERENCE_SAMPLING};
 pub use sampler::{
     CountRequest, PerPrimary, SamplerKind, SamplerPass, SamplerPlan, SamplerRequest, SettingMerge, SAMPLER_NODE,
 };

@@ -67,34 +67,7 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
                 ),
             ));
         }
-        if p.stage == Stage::Filter && !matches!(role, Reference::Bypass { .. }) {
-            problems.push((
-                p.node.clone(),
-                format!("filter pass `{}` must declare `.reference(Reference::Bypass {{ input: .. }})`", p.name),
-            ));
-        }
-        if let Reference::Bypass { input } = role {
-            match p.read(input) {
-                None => problems.push((
-                    p.node.clone(),
-                    format!("pass `{}` bypasses to binding `{input}`, which it does not read", p.name),
-                )),
-                Some(from) => {
-                    for (binding, id) in &p.writes {
-                        let (a, b) = (buffers[from.0].format, buffers[id.0].format);
-                        if a != b || buffers[from.0].layers != buffers[id.0].layers {
-                            problems.push((
-                                p.node.clone(),
-                                format!(
-                                    "pass `{}` bypasses `{binding}` ({b}) to `{input}` ({a}): the formats differ",
-                                    p.name
-                                ),
-                            ));
-                        }
-                    }
-                }
-            }
-        }
+        check_bypass(p, &buffers, &mut problems);
         if matches!(role, Reference::Count | Reference::CountPerPrimary | Reference::Fill(_))
             && !p.writes.iter().any(|(_, id)| buffers[id.0].format == Format::U32)
         {
@@ -104,30 +77,9 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
             ));
         }
     }
-    if !problems.is_empty() {
-        return Err(GraphError::Expand {
-            node: problems[0].0.clone(),
-            message: problems.into_iter().map(|(_, m)| m).collect::<Vec<_>>().join("\n"),
-        });
-    }
-
-    // Buffers written by a bypassed filter → the buffer it reads at `input` (chains resolved later).
-    let mut alias: BTreeMap<BufferId, BufferId> = BTreeMap::new();
-    for p in &passes {
-        if let Reference::Bypass { input } = p.reference {
-            let from = p.read(input).expect("checked above");
-            for (_, id) in &p.writes {
-                alias.insert(*id, from);
-            }
-        }
-    }
-    let resolve = |mut id: BufferId| {
-        // Each step moves to a buffer written earlier in the DAG, so this ends.
-        while let Some(next) = alias.get(&id) {
-            id = *next;
-        }
-        id
-    };
+    report(problems)?;
+    let alias = Bypasses::of(&passes);
+    let resolve = |id| alias.resolve(id);
 
     let count = ParamValue::Int(i64::from(spp));
     let mut out_passes: Vec<Pass> = Vec::with_capacity(passes.len());
@@ -201,4 +153,102 @@ pub fn reference(e: Expansion, spp: u32, sampling: &str) -> Result<Expansion, Gr
         .filter(|(_, _, id)| !matches!(writer_stage.get(id), Some(Stage::Bandwidth | Stage::Counts)))
         .collect();
     Ok(Expansion { buffers, passes: out_passes, outputs, sink_inputs, history })
+}
+
+/// The pipeline's image at **equal rays without its filters**: every filter pass
+/// (`Reference::Bypass`) removed and its readers reading its input, while the sampling passes, their
+/// adaptive counts and every decision (factoring flags) stay as the pipeline made them. The baseline a
+/// filter must beat (issue 34: "its filtered image has lower RMSE than its unfiltered one at equal
+/// rays"); `wedge render --unfiltered` writes it for any pipeline, a user's nodes included.
+pub fn unfiltered(e: Expansion) -> Result<Expansion, GraphError> {
+    let Expansion { buffers, passes, outputs, sink_inputs, history } = e;
+    let mut problems: Vec<(String, String)> = Vec::new();
+    for p in &passes {
+        check_bypass(p, &buffers, &mut problems);
+    }
+    report(problems)?;
+    let alias = Bypasses::of(&passes);
+    let passes = passes
+        .into_iter()
+        .filter(|p| !matches!(p.reference, Reference::Bypass { .. }))
+        .map(|mut p| {
+            for (_, id) in p.reads.iter_mut() {
+                *id = alias.resolve(*id);
+            }
+            p
+        })
+        .collect();
+    let outputs = outputs.into_iter().map(|(k, id)| (k, alias.resolve(id))).collect();
+    let sink_inputs = sink_inputs.into_iter().map(|(node, port, id)| (node, port, alias.resolve(id))).collect();
+    // A temporal filter's own output fed back as its history: the unfiltered value instead.
+    let history = history
+        .into_iter()
+        .map(|h| crate::expand::History { buffer: h.buffer, source: alias.resolve(h.source) })
+        .collect();
+    Ok(Expansion { buffers, passes, outputs, sink_inputs, history })
+}
+
+/// A filter pass must say what it stands for without filtering (`Bypass`), and that input must
+/// have the format and layers of every buffer it writes.
+fn check_bypass(p: &Pass, buffers: &[crate::expand::BufferInfo], problems: &mut Vec<(String, String)>) {
+    if p.stage == Stage::Filter && !matches!(p.reference, Reference::Bypass { .. }) {
+        problems.push((
+            p.node.clone(),
+            format!("filter pass `{}` must declare `.reference(Reference::Bypass {{ input: .. }})`", p.name),
+        ));
+    }
+    let Reference::Bypass { input } = p.reference else { return };
+    let Some(from) = p.read(input) else {
+        problems
+            .push((p.node.clone(), format!("pass `{}` bypasses to binding `{input}`, which it does not read", p.name)));
+        return;
+    };
+    for (binding, id) in &p.writes {
+        let (a, b) = (buffers[from.0].format, buffers[id.0].format);
+        if a != b || buffers[from.0].layers != buffers[id.0].layers {
+            problems.push((
+                p.node.clone(),
+                format!("pass `{}` bypasses `{binding}` ({b}) to `{input}` ({a}): the formats differ", p.name),
+            ));
+        }
+    }
+}
+
+/// Every problem found, in one error naming the first node.
+fn report(problems: Vec<(String, String)>) -> Result<(), GraphError> {
+    match problems.first() {
+        None => Ok(()),
+        Some((node, _)) => Err(GraphError::Expand {
+            node: node.clone(),
+            message: problems.iter().map(|(_, m)| m.as_str()).collect::<Vec<_>>().join("\n"),
+        }),
+    }
+}
+
+/// Buffers written by a bypassed filter → the buffer it reads at `input`.
+struct Bypasses(BTreeMap<BufferId, BufferId>);
+
+impl Bypasses {
+    /// From passes already checked by [`check_bypass`].
+    fn of(passes: &[Pass]) -> Bypasses {
+        let mut alias = BTreeMap::new();
+        for p in passes {
+            if let Reference::Bypass { input } = p.reference {
+                let from = p.read(input).expect("checked by check_bypass");
+                for (_, id) in &p.writes {
+                    alias.insert(*id, from);
+                }
+            }
+        }
+        Bypasses(alias)
+    }
+
+    /// The buffer standing for `id` once every filter is gone (chains followed).
+    fn resolve(&self, mut id: BufferId) -> BufferId {
+        // Each step moves to a buffer written earlier in the DAG, so this ends.
+        while let Some(next) = self.0.get(&id) {
+            id = *next;
+        }
+        id
+    }
 }

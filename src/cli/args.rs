@@ -109,6 +109,11 @@ pub(super) enum Command {
         /// shard first renders every frame from A up to its chunk to warm the history up, unwritten).
         #[arg(long, default_value = "stride", value_parser = ["stride", "chunks"], requires = "shard")]
         shard_mode: String,
+        /// Render without the pipeline's filters at the same rays: every filter pass bypassed, the
+        /// sampling and its adaptive counts as the pipeline makes them — the image each filter must
+        /// improve on (its RMSE against `wedge reference`).
+        #[arg(long)]
+        unfiltered: bool,
     },
     /// Assemble the tile files of `render --tile` in DIR into render.exr/.png (and unfiltered.exr/.png)
     /// in --out, after checking that they belong together and cover the image exactly.
@@ -313,6 +318,7 @@ pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeE
         allow_outside_dir: c.allow_outside_dir,
         without_real_layer: false,
         frame: None,
+        unfiltered: false,
     })
 }
 

@@ -132,11 +132,23 @@ fn suite_scene_specs(registries: &Registries, pipeline: &Path, names: &[String])
 /// What a command prints on stdout (written once at the end, so a closed pipe is not a panic).
 fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
     match cli.command {
-        Command::Render { pipeline, common, mu, frames, aov, progressive, tile, tile_grid, shard, shard_mode } => {
+        Command::Render {
+            pipeline,
+            common,
+            mu,
+            frames,
+            aov,
+            progressive,
+            tile,
+            tile_grid,
+            shard,
+            shard_mode,
+            unfiltered,
+        } => {
             start_rendering_command(&common)?;
             // A sequence opens at its first frame (its camera, and a real layer read per frame); so
             // does every shard of it, whichever frames it renders.
-            let ov = Overrides { frame: frames.map(|(first, _)| first), ..overrides(&common, mu)? };
+            let ov = Overrides { frame: frames.map(|(first, _)| first), unfiltered, ..overrides(&common, mu)? };
             let mut session = Session::open_with(registries, pipeline.as_deref(), &ov)?;
             let plan = match frames {
                 Some(range) => {
