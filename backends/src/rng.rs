@@ -58,26 +58,37 @@ pub mod dim {
 /// Identifies one pixel's random sequence in one stream (pass) of one render.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelRng {
-    key: u32,
+    /// `pcg_hash(key)` of the sequence's key `hash4(seed, pixel, stream, 0x9e37_79b9)`: the first
+    /// step of every `hash4(key, …)` below, hashed once per pixel, not per number (the same numbers
+    /// bit for bit).
+    hashed: u32,
 }
 
 impl PixelRng {
     pub fn new(seed: u32, pixel: u32, stream: u32) -> Self {
-        PixelRng { key: hash4(seed, pixel, stream, 0x9e37_79b9) }
+        PixelRng { hashed: pcg_hash(hash4(seed, pixel, stream, 0x9e37_79b9)) }
+    }
+    /// `hash4(key, a, b, c)` from the stored first step.
+    #[inline]
+    fn hash3(&self, a: u32, b: u32, c: u32) -> u32 {
+        pcg_hash(pcg_hash(pcg_hash(self.hashed ^ a) ^ b) ^ c)
     }
     /// Independent uniform number for (sample, dimension).
     #[inline]
     pub fn uniform(&self, sample: u32, dimension: u32) -> f32 {
-        to_unit(hash4(self.key, sample, dimension, 0x85eb_ca6b))
+        to_unit(self.hash3(sample, dimension, 0x85eb_ca6b))
     }
+    /// `[uniform(sample, dimension), uniform(sample, dimension + 1)]`, hashing `sample` once.
     #[inline]
     pub fn uniform2(&self, sample: u32, dimension: u32) -> [f32; 2] {
-        [self.uniform(sample, dimension), self.uniform(sample, dimension + 1)]
+        let h = pcg_hash(self.hashed ^ sample);
+        let dim = |d: u32| to_unit(pcg_hash(pcg_hash(h ^ d) ^ 0x85eb_ca6b));
+        [dim(dimension), dim(dimension + 1)]
     }
     /// Sample `s` of a stratified 2-D pattern of `n` samples for `dimension` (CMJ).
     #[inline]
     pub fn stratified2(&self, s: u32, n: u32, dimension: u32) -> [f32; 2] {
-        cmj(s, n, hash4(self.key, dimension, 0x68bc_21eb, 0x02e5_be93))
+        cmj(s, n, self.hash3(dimension, 0x68bc_21eb, 0x02e5_be93))
     }
 }
 
@@ -243,11 +254,29 @@ mod tests {
         keys.sort_unstable();
         keys.dedup();
         assert_eq!(keys.len(), n, "sub-stream keys collide");
-        // And the per-pixel keys built on them stay distinct across pixels for one light.
-        let mut px: Vec<u32> = (0..65_536).map(|p| PixelRng::new(1, p, substream(streams[0], 64)).key).collect();
+        // And the per-pixel keys built on them stay distinct across pixels for one light (`hashed` is a
+        // bijection of the key: `pcg_hash` is one).
+        let mut px: Vec<u32> = (0..65_536).map(|p| PixelRng::new(1, p, substream(streams[0], 64)).hashed).collect();
         px.sort_unstable();
         px.dedup();
         assert!(px.len() > 65_536 - 4, "{} distinct of 65536", px.len());
+    }
+
+    #[test]
+    fn hoisted_hashes_give_the_same_numbers() {
+        // The numbers as defined before the first hash was stored: `hash4(key, …)` per number.
+        for p in 0..3000u32 {
+            let r = PixelRng::new(7, p, pcg_hash(p / 100));
+            let key = hash4(7, p, pcg_hash(p / 100), 0x9e37_79b9);
+            for (s, d) in [(0u32, 0u32), (1, 2), (p, 14), (u32::MAX, p % 40), (pcg_hash(p), 8)] {
+                let old = |d: u32| to_unit(hash4(key, s, d, 0x85eb_ca6b)).to_bits();
+                assert_eq!(r.uniform(s, d).to_bits(), old(d));
+                assert_eq!(r.uniform2(s, d).map(f32::to_bits), [old(d), old(d + 1)]);
+                let n = 1 + s % 20;
+                let old_cmj = cmj(s % n, n, hash4(key, d, 0x68bc_21eb, 0x02e5_be93)).map(f32::to_bits);
+                assert_eq!(r.stratified2(s % n, n, d).map(f32::to_bits), old_cmj);
+            }
+        }
     }
 
     #[test]

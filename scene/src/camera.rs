@@ -30,6 +30,40 @@ pub struct Camera {
     pub shutter_close: f32,
 }
 
+/// [`Camera::ray`] for one image size with its per-ray constants computed once ([`Camera::rays`]):
+/// the same operations on the same values, so the same rays bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRays {
+    position: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    w: f32,
+    h: f32,
+    tan_half: f32,
+    aperture_radius: f32,
+    focus: f32,
+}
+
+impl CameraRays {
+    /// See [`Camera::ray`].
+    pub fn ray(&self, pixel: Vec2, lens_sample: Vec2, shape: LensShape) -> LensRay {
+        let CameraRays { position, right, up, forward, w, h, tan_half, aperture_radius, focus } = *self;
+        let sx = (2.0 * pixel.x / w - 1.0) * tan_half * (w / h);
+        let sy = (1.0 - 2.0 * pixel.y / h) * tan_half;
+        let dir = (forward + sx * right + sy * up).normalize();
+        if aperture_radius <= 0.0 {
+            return LensRay { origin: position, dir, weight: 1.0, lens: Vec2::ZERO };
+        }
+        // Thin lens: every ray through this pixel meets the pinhole ray on the focal plane.
+        let focus = position + dir * (focus / dir.dot(forward));
+        let u = concentric_disk(lens_sample);
+        let d = u * aperture_radius;
+        let origin = position + d.x * right + d.y * up;
+        LensRay { origin, dir: (focus - origin).normalize(), weight: shape.weight(u), lens: u }
+    }
+}
+
 impl Default for Camera {
     fn default() -> Self {
         Camera {
@@ -141,22 +175,24 @@ impl Camera {
     /// aims at the focal-plane point of the pinhole ray. A pinhole (`aperture_radius <= 0`) ignores
     /// the lens sample. See [`LensShape`] for the weight.
     pub fn ray(&self, pixel: Vec2, lens_sample: Vec2, width: u32, height: u32, shape: LensShape) -> LensRay {
+        self.rays(width, height).ray(pixel, lens_sample, shape)
+    }
+
+    /// The constants of [`Camera::ray`] for a `width`×`height` image (basis, field of view, focal
+    /// distance), computed once for the many rays of a pass instead of per ray.
+    pub fn rays(&self, width: u32, height: u32) -> CameraRays {
         let (right, up, forward) = self.basis();
-        let w = width.max(1) as f32;
-        let h = height.max(1) as f32;
-        let tan_half = (self.vfov_deg.to_radians() * 0.5).tan();
-        let sx = (2.0 * pixel.x / w - 1.0) * tan_half * (w / h);
-        let sy = (1.0 - 2.0 * pixel.y / h) * tan_half;
-        let dir = (forward + sx * right + sy * up).normalize();
-        if self.aperture_radius <= 0.0 {
-            return LensRay { origin: self.position, dir, weight: 1.0, lens: Vec2::ZERO };
+        CameraRays {
+            position: self.position,
+            right,
+            up,
+            forward,
+            w: width.max(1) as f32,
+            h: height.max(1) as f32,
+            tan_half: (self.vfov_deg.to_radians() * 0.5).tan(),
+            aperture_radius: self.aperture_radius,
+            focus: self.effective_focus_distance(),
         }
-        // Thin lens: every ray through this pixel meets the pinhole ray on the focal plane.
-        let focus = self.position + dir * (self.effective_focus_distance() / dir.dot(forward));
-        let u = concentric_disk(lens_sample);
-        let d = u * self.aperture_radius;
-        let origin = self.position + d.x * right + d.y * up;
-        LensRay { origin, dir: (focus - origin).normalize(), weight: shape.weight(u), lens: u }
     }
 
     /// Circle of confusion, in pixels, of a point at `depth` along the optical axis (thesis eq. 5.2,

@@ -57,10 +57,10 @@ use std::path::{Path, PathBuf};
 pub use glam::{Quat, Vec2, Vec3};
 
 pub use bvh::{Hit, TriangleRecord, WideNode, NO_LIGHT};
-pub use camera::{Camera, LensRay, LensShape};
+pub use camera::{Camera, CameraRays, LensRay, LensShape};
 pub use environment::{EnvSample, EnvironmentMap};
 pub use error::SceneError;
-pub use light::{AreaLight, LightShape};
+pub use light::{AreaLight, LightShape, PreparedLight};
 pub use motion::{PreparedMotion, RigidMotion, RigidTransform};
 pub use real_layer::{RealAlbedo, RealLayer};
 pub use resource::{ConfinedTo, Confinement};

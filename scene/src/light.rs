@@ -21,7 +21,31 @@ pub struct AreaLight {
     pub two_sided: bool,
 }
 
+/// A light with the constants its samples use — unit normal, area, centre — computed once (per
+/// pass, or per path where the light moves) rather than per sample. The values are those of
+/// [`AreaLight::normal`], [`AreaLight::area`] and [`AreaLight::centre`], bit for bit. Dereferences to
+/// the light for everything else (`sample_point`, `radiance`, `two_sided`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparedLight {
+    pub light: AreaLight,
+    pub normal: Vec3,
+    pub area: f32,
+    pub centre: Vec3,
+}
+
+impl std::ops::Deref for PreparedLight {
+    type Target = AreaLight;
+    fn deref(&self) -> &AreaLight {
+        &self.light
+    }
+}
+
 impl AreaLight {
+    /// The light with its per-sample constants computed ([`PreparedLight`]).
+    pub fn prepare(&self) -> PreparedLight {
+        PreparedLight { light: *self, normal: self.normal(), area: self.area(), centre: self.centre() }
+    }
+
     fn cross(&self) -> Vec3 {
         match self.shape {
             LightShape::Rect { edge_u, edge_v, .. } => edge_u.cross(edge_v),

@@ -15,7 +15,7 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use wedge_graph::Format;
-use wedge_scene::{AreaLight, Hit, SceneAt};
+use wedge_scene::{Hit, PreparedLight, SceneAt};
 
 use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, WgslSource};
 use crate::kernels::v3;
@@ -64,11 +64,12 @@ pub struct LightSample {
 
 /// One sample of direct light toward `light` (as it is at the scene's time) from point `x` with
 /// normal `n`: the value (before albedo), the same without visibility, and, when occluded and
-/// `want_distance`, the occluder.
+/// `want_distance`, the occluder. The light comes prepared ([`PreparedLight`]): its normal, area
+/// and centre are the same for every sample, so they are computed once, not per sample.
 #[inline]
 pub fn light_sample(
     scene: &SceneAt<'_>,
-    light: &AreaLight,
+    light: &PreparedLight,
     x: Vec3,
     n: Vec3,
     u: Vec2,
@@ -81,14 +82,14 @@ pub fn light_sample(
     let r2 = to.length_squared();
     let dir = to / r2.sqrt();
     let cos_x = n.dot(dir);
-    let ln = light.normal();
+    let ln = light.normal;
     let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
     if cos_x <= 0.0 || cos_y <= 0.0 {
         return out;
     }
     out.unshadowed = match centre_factor {
         Some(f) => f,
-        None => light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI),
+        None => light.radiance * (cos_x * cos_y / r2 * light.area / std::f32::consts::PI),
     };
     // The shadow ray starts off the surface and aims at `y` from there, stopping just short of the
     // light so the light's own triangles never count as occluders.
@@ -100,7 +101,7 @@ pub fn light_sample(
     if want_distance {
         if let Some(hit) = scene.intersect(origin, ray_dir, 0.0, tmax) {
             let p = origin + ray_dir * hit.t;
-            let distance = (light.centre() - p).dot(ln).abs();
+            let distance = (light.centre - p).dot(ln).abs();
             out.occluder = Some(Occluder { distance, hit, origin, dir: ray_dir });
             return out;
         }
@@ -113,14 +114,14 @@ pub fn light_sample(
 
 /// Unoccluded diffuse radiance (unit albedo) with the geometry evaluated at the light centre: the
 /// thesis's `r(x)` (eq. 3.1).
-pub fn light_centre_factor(light: &AreaLight, x: Vec3, n: Vec3) -> Vec3 {
-    let to = light.centre() - x;
+pub fn light_centre_factor(light: &PreparedLight, x: Vec3, n: Vec3) -> Vec3 {
+    let to = light.centre - x;
     let r2 = to.length_squared();
     let dir = to / r2.sqrt();
     let cos_x = n.dot(dir).max(0.0);
-    let cos_y = light.normal().dot(-dir);
+    let cos_y = light.normal.dot(-dir);
     let cos_y = if light.two_sided { cos_y.abs() } else { cos_y.max(0.0) };
-    light.radiance * (cos_x * cos_y / r2 * light.area() / std::f32::consts::PI)
+    light.radiance * (cos_x * cos_y / r2 * light.area / std::f32::consts::PI)
 }
 
 crate::param_choice! {
@@ -218,9 +219,9 @@ impl Kernel for DirectLight {
             let mut bad = 0u64;
             let mut stats = OccluderStats { d2_min: f32::INFINITY, ..Default::default() };
             for &l in &lights {
-                let light = &at.light(l);
+                let light = &at.light(l).prepare();
                 if want_stats {
-                    stats.d1 = (light.centre() - x).dot(light.normal()).abs();
+                    stats.d1 = (light.centre - x).dot(light.normal).abs();
                 }
                 // Keyed by the full image's pixel, so a tile draws what the whole image draws there.
                 let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, l as u32));

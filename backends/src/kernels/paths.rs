@@ -66,8 +66,9 @@
 //! one-bounce indirect sample).
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use wedge_graph::Format;
-use wedge_scene::{Camera, LensShape, SceneAt};
+use wedge_scene::{Camera, LensShape, PreparedLight, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::{light_centre_factor, light_sample, FormFactor};
@@ -78,7 +79,7 @@ use crate::kernels::luminance;
 use crate::params::{KernelParams, ParamSpec, Sampling};
 use crate::record;
 use crate::rng::PixelRng;
-use crate::sobol::{independent2, pair, sequence_key, sobol2, substream};
+use crate::sobol::{pair, sequence_key, substream, Sequence};
 use crate::BackendError;
 
 record! {
@@ -403,11 +404,41 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
     })
 }
 
-/// Sample `index` of pair `pair` of a pixel's sequences.
-#[inline]
-fn draw(s: &Settings, seed: u32, pixel: u32, pair: u32, index: u32) -> Vec2 {
-    let key = sequence_key(seed, pixel, s.stream, pair);
-    Vec2::from(if s.stratified { sobol2(key, index) } else { independent2(key, index) })
+/// A pixel's sequences in a pass, one per dimension pair ([`pair`]), keyed once per pixel: a draw
+/// then pays only for its index (`Sequence`), not for re-hashing (seed, pixel, stream, pair) and
+/// the scramble seeds each time (that was a quarter of the sampler's time). Only the pairs the
+/// pass's settings draw from are keyed.
+struct Draws {
+    stratified: bool,
+    sequences: [Sequence; pair::ENVIRONMENT as usize + 1],
+}
+
+impl Draws {
+    fn new(s: &Settings, seed: u32, pixel: u32) -> Draws {
+        let used = [
+            (pair::PIXEL, s.jitter),
+            (pair::LENS, true),
+            (pair::LIGHT, s.direct),
+            (pair::HEMISPHERE_DIFFUSE, s.indirect),
+            (pair::HEMISPHERE_GLOSSY, s.indirect && s.glossy),
+            (pair::TIME, s.time),
+            (pair::ENVIRONMENT, s.environment),
+        ];
+        let mut sequences = [Sequence::default(); pair::ENVIRONMENT as usize + 1];
+        for (p, on) in used {
+            if on {
+                sequences[p as usize] = Sequence::new(sequence_key(seed, pixel, s.stream, p));
+            }
+        }
+        Draws { stratified: s.stratified, sequences }
+    }
+
+    /// Sample `index` of pair `pair` (one the settings draw from).
+    #[inline]
+    fn draw(&self, pair: u32, index: u32) -> Vec2 {
+        let q = &self.sequences[pair as usize];
+        Vec2::from(if self.stratified { q.point(index) } else { q.independent(index) })
+    }
 }
 
 pub struct PathsTrace;
@@ -484,12 +515,16 @@ impl Kernel for PathsTrace {
         let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let (full_width, height) = ctx.full_size();
         let has_light = s.light < scene.lights.len();
+        // The light's per-sample constants, once per pass where every path sees it at the same time
+        // (else once per path, at the path's time).
+        let still_light = (has_light && !s.time).then(|| scene.at(0.0).light(s.light).prepare());
         let projection = Projection::new(cam, height);
+        let rays = cam.rays(full_width, height);
         // Through the pixel centre of a pinhole camera every path of a pixel has the same camera ray
         // (the lens sample only changes a Gaussian lens's weight): trace it once per pixel and pass,
         // and count it once, as plain Monte Carlo with one primary and N shadow rays would.
         let fixed_primary = s.fixed_primary;
-        let records = ctx.map_pixels(true, |px, py| {
+        let pixel_record = |px: u32, py: u32| {
             let i = (py * width + px) as usize;
             let pixel = window.pixel_id(px, py);
             let mut r = previous.map_or_else(PathRecord::default, |p| p[i]);
@@ -502,16 +537,20 @@ impl Kernel for PathsTrace {
             let (shadow, glossy) =
                 (split(shadow_total, s.shadow_per_primary), glossy_total.map_or(diffuse, |t| Split::new(t[i], count)));
             let environment = split(environment_total, s.environment_per_primary);
+            if count == 0 {
+                return r;
+            }
+            let draws = Draws::new(&s, seed, pixel);
             let rng_d = PixelRng::new(seed, pixel, substream(s.stream, SALT_DIFFUSE_PATH));
             let rng_g = PixelRng::new(seed, pixel, substream(s.stream, SALT_GLOSSY_PATH));
             let mut fixed_hit = None;
             for j in first..first + count {
-                let jitter = if s.jitter { draw(&s, seed, pixel, pair::PIXEL, j) } else { Vec2::splat(0.5) };
-                let lens = draw(&s, seed, pixel, pair::LENS, j);
+                let jitter = if s.jitter { draws.draw(pair::PIXEL, j) } else { Vec2::splat(0.5) };
+                let lens = draws.draw(pair::LENS, j);
                 let (gx, gy) = window.global_xy(px, py);
-                let ray = cam.ray(Vec2::new(gx as f32, gy as f32) + jitter, lens, full_width, height, s.lens);
+                let ray = rays.ray(Vec2::new(gx as f32, gy as f32) + jitter, lens, s.lens);
                 // The path's shutter time (App. B), its own stratified dimension.
-                let at = scene.at(if s.time { 2.0 * draw(&s, seed, pixel, pair::TIME, j).x - 1.0 } else { 0.0 });
+                let at = scene.at(if s.time { 2.0 * draws.draw(pair::TIME, j).x - 1.0 } else { 0.0 });
                 let trace = || at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY);
                 let hit = if fixed_primary { *fixed_hit.get_or_insert_with(trace) } else { trace() };
                 let t = j - first;
@@ -521,12 +560,24 @@ impl Kernel for PathsTrace {
                     glossy: glossy.at(t),
                     environment: environment.at(t),
                 };
-                let light = has_light.then(|| at.light(s.light));
+                let light = still_light.or_else(|| has_light.then(|| at.light(s.light).prepare()));
                 let view = View { forward, height, projection: &projection };
-                trace_one(&at, &s, light.as_ref(), &view, &ray, hit, seed, pixel, &rng_d, &rng_g, n, &mut r);
+                trace_one(&at, &s, light.as_ref(), &view, &ray, hit, &draws, &rng_d, &rng_g, n, &mut r);
             }
             r
+        };
+        // Written in place, row by row, into the pool's storage (as `direct.light` does): no per-row
+        // vectors flattened into a third.
+        let mut records = ctx.output_vec::<PathRecord>("record")?;
+        let progress = ctx.progress;
+        progress.begin(ctx.pass, ctx.height as u64);
+        records.par_chunks_mut((width as usize).max(1)).enumerate().for_each(|(y, row)| {
+            for (x, r) in row.iter_mut().enumerate() {
+                *r = pixel_record(x as u32, y as u32);
+            }
+            progress.advance(1);
         });
+        progress.end();
         let sum = |f: fn(&PathRecord) -> u32| -> u64 {
             records.iter().zip(0..).map(|(r, i)| (f(r) - previous.map_or(0, |p| f(&p[i]))) as u64).sum()
         };
@@ -647,12 +698,11 @@ fn extend_range(min: &mut [f32; 2], max: &mut [f32; 2], v: Vec2, first: bool) {
 fn trace_one(
     scene: &SceneAt<'_>,
     s: &Settings,
-    light: Option<&wedge_scene::AreaLight>,
+    light: Option<&PreparedLight>,
     view: &View<'_>,
     ray: &wedge_scene::LensRay,
     hit: Option<wedge_scene::Hit>,
-    seed: u32,
-    pixel: u32,
+    draws: &Draws,
     rng_d: &PixelRng,
     rng_g: &PixelRng,
     count: Secondary,
@@ -712,13 +762,13 @@ fn trace_one(
     r.exponent += w * if glossy { m } else { 0.0 };
     let at = PathHit { x, n, wo, kd: scene.scene().albedo(&sp), ks, m, glossy, w };
     if s.environment && count.environment > 0 {
-        trace_environment(scene, s, &at, seed, pixel, count.environment, r);
+        trace_environment(scene, s, &at, draws, count.environment, r);
     }
     if let Some(light) = light.filter(|_| s.direct && count.shadow > 0) {
-        trace_direct(scene, s, light, view.projection, &at, seed, pixel, count.shadow, r);
+        trace_direct(scene, s, light, view.projection, &at, draws, count.shadow, r);
     }
     if s.indirect {
-        trace_indirect(scene, s, &at, seed, pixel, (rng_d, rng_g), count, r);
+        trace_indirect(scene, s, &at, draws, (rng_d, rng_g), count, r);
     }
 }
 
@@ -741,11 +791,10 @@ struct PathHit {
 fn trace_direct(
     scene: &SceneAt<'_>,
     s: &Settings,
-    light: &wedge_scene::AreaLight,
+    light: &PreparedLight,
     projection: &Projection,
     at: &PathHit,
-    seed: u32,
-    pixel: u32,
+    draws: &Draws,
     n_shadow: u32,
     r: &mut PathRecord,
 ) {
@@ -756,14 +805,14 @@ fn trace_direct(
     let fc = light_centre_factor(light, x, n);
     let mut k = kd;
     if glossy {
-        let to_centre = (light.centre() - x).normalize_or_zero();
+        let to_centre = (light.centre - x).normalize_or_zero();
         k += ks * (std::f32::consts::PI * glossy_brdf(s.path.lobe, m, n, wo, to_centre));
     }
-    let d1 = (light.centre() - x).dot(light.normal()).abs();
+    let d1 = (light.centre - x).dot(light.normal).abs();
     r.d1 += w * d1;
     let (mut e, mut unshadowed, mut valid) = (Vec3::ZERO, Vec3::ZERO, 0u32);
     for _ in 0..n_shadow {
-        let u = draw(s, seed, pixel, pair::LIGHT, r.shadow);
+        let u = draws.draw(pair::LIGHT, r.shadow);
         r.shadow += 1;
         let ls = light_sample(scene, light, x, n, u, if s.exact { None } else { Some(fc) }, true);
         let v = ls.value;
@@ -826,28 +875,17 @@ pub fn occluder_term(cos: f32, t: f32) -> f32 {
 /// cos/pdf` with `k = k_s` (Phong receivers, eq. 6.14). Occluded samples at least
 /// `occluder_luminance` bright keep the largest [`occluder_term`].
 #[allow(clippy::too_many_arguments)]
-fn trace_environment(
-    scene: &SceneAt<'_>,
-    s: &Settings,
-    at: &PathHit,
-    seed: u32,
-    pixel: u32,
-    count: u32,
-    r: &mut PathRecord,
-) {
+fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Draws, count: u32, r: &mut PathRecord) {
     let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
     let Some(env) = scene.scene().environment.as_ref() else { return };
-    let shift = if s.stratified { uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, 0).x) } else { 0 };
+    let shift = if s.stratified { uniform_entry(draws.draw(pair::ENVIRONMENT, 0).x) } else { 0 };
     let origin = x + n * s.path.eps;
     let (mut ed, mut eg, mut valid_d, mut valid_g) = (Vec3::ZERO, Vec3::ZERO, 0u32, 0u32);
     for _ in 0..count {
         let q = r.env_samples;
         r.env_samples += 1;
-        let entry = if s.stratified {
-            stratified_entry(shift, q)
-        } else {
-            uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x)
-        };
+        let entry =
+            if s.stratified { stratified_entry(shift, q) } else { uniform_entry(draws.draw(pair::ENVIRONMENT, q).x) };
         let e = env.table(entry as usize);
         let cos = n.dot(e.dir);
         let (mut vd, mut vg) = (Vec3::ZERO, Vec3::ZERO);
@@ -897,8 +935,7 @@ fn trace_indirect(
     scene: &SceneAt<'_>,
     s: &Settings,
     at: &PathHit,
-    seed: u32,
-    pixel: u32,
+    draws: &Draws,
     (rng_d, rng_g): (&PixelRng, &PixelRng),
     count: Secondary,
     r: &mut PathRecord,
@@ -911,7 +948,7 @@ fn trace_indirect(
         for _ in 0..count.diffuse {
             let q = r.diffuse_samples;
             r.diffuse_samples += 1;
-            let wi = sample_diffuse(n, draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q));
+            let wi = sample_diffuse(n, draws.draw(pair::HEMISPHERE_DIFFUSE, q));
             let v = indirect_ray(scene, &s.path, x, n, wi, rng_d, q, r);
             if v.is_finite() {
                 e += v;
@@ -931,7 +968,7 @@ fn trace_indirect(
         for _ in 0..count.glossy {
             let q = r.glossy_samples;
             r.glossy_samples += 1;
-            let u = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
+            let u = draws.draw(pair::HEMISPHERE_GLOSSY, q);
             let (wi, weight) = sample_glossy(s.path.lobe, m, n, wo, u);
             let v =
                 if weight > 0.0 { indirect_ray(scene, &s.path, x, n, wi, rng_g, q, r) * weight } else { Vec3::ZERO };
