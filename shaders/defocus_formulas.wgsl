@@ -56,6 +56,14 @@ fn defocus_omega_mu(omega: f32, mu: f32, mode: u32, omega_pix: f32) -> f32 {
     return mu * omega;
 }
 
+// formulas.rs screen_width: the screen filter's width, eq. 5.7's d, or the lens term alone.
+fn defocus_screen_width(d: f32, r_min: f32, mu: f32, pixel_limit: u32) -> f32 {
+    if (pixel_limit != 0u) {
+        return d;
+    }
+    return mu * defocus_ratio_or_inf(DEFOCUS_OMEGA_U_MAX, abs(r_min));
+}
+
 // n_p (eq. 5.24)
 fn defocus_primary_rate(omega_d: f32, r_max: f32, omega_pix: f32) -> f32 {
     let spatial = omega_pix + omega_d;
@@ -148,7 +156,7 @@ fn defocus_pixel_rates(
     r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32, bandlimit: f32,
     v_p: f32, v_s: f32,
     mu: f32, mode: u32, omega_pix: f32, pixel_scale: f32, light_half_width: f32, omega_v: f32,
-    max_p: u32, max_s: u32, environment_per_primary: f32,
+    max_p: u32, max_s: u32, environment_per_primary: f32, width_pixel_limit: u32,
 ) -> DefocusRates {
     let omega_pix_mu = defocus_omega_mu(omega_pix, mu, mode, omega_pix);
     if (!hit) {
@@ -172,7 +180,7 @@ fn defocus_pixel_rates(
     let qec = defocus_secondary_strata(
         defocus_environment_rate(d, r_max, environment_per_primary, omega_pix) * defocus_time_factor(v_p, d), p, max_s);
     return DefocusRates(
-        d, sd, si, l_p, pp, pp * qdf * qdf, pp * qdc * qdc, pp * qif * qif, pp * qic * qic, se, pp * qef * qef, pp * qec * qec,
+        defocus_screen_width(d, r_min, mu, width_pixel_limit), sd, si, l_p, pp, pp * qdf * qdf, pp * qdc * qdc, pp * qif * qif, pp * qic * qic, se, pp * qef * qef, pp * qec * qec,
     );
 }
 

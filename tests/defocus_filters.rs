@@ -704,6 +704,7 @@ fn rates_kernel_matches_the_formulas() {
         max_primary: 256,
         max_per_primary: 1024,
         environment_per_primary: 4.0,
+        width_pixel_limit: true,
     };
     let (lens, occ, refl) = (vec4_of(&stats["lens"]), vec4_of(&stats["occlusion"]), vec4_of(&stats["reflectors"]));
     let BufferData::F32(bandlimit) = &stats["bandlimit"] else { panic!("f32 bandwidths") };

@@ -152,6 +152,7 @@ fn params(mu: f32, mode: Mode) -> RateParams {
         max_primary: 4096,
         max_per_primary: 4096,
         environment_per_primary: 4.0,
+        width_pixel_limit: true,
     }
 }
 
@@ -496,4 +497,21 @@ fn the_shutter_adds_time_factors_to_the_counts_and_leaves_the_widths() {
     }
     assert_eq!(time_factor(0.0, 0.37), 1.0);
     assert_eq!(time_factor(2.0, 0.5), 4.0);
+}
+
+/// The screen filter's width (eq. 5.33): with the pixel limit eq. 5.7's `Ω_x^d` as the counts take
+/// it; without, the lens term alone — infinite (a pass-through) in focus, `μ Ω_u^max / r_min` beyond.
+#[test]
+fn the_screen_width_is_the_lens_term_alone_unless_pixel_limited() {
+    use wedge::effects::defocus::formulas::{omega_defocus, screen_width, OMEGA_PIX_MAX};
+    let d = omega_defocus(0.5, OMEGA_PIX_MAX);
+    assert_eq!(screen_width(d, 0.5, 1.0, true), d);
+    assert_eq!(d, OMEGA_PIX_MAX);
+    assert_eq!(screen_width(d, 0.5, 1.0, false), 2.0);
+    assert_eq!(screen_width(d, 0.0, 1.0, false), f32::INFINITY);
+    // Out of focus (a 4-px circle of confusion) the two agree: the lens term is below the limit.
+    let d = omega_defocus(4.0, OMEGA_PIX_MAX);
+    assert_eq!(screen_width(d, 4.0, 1.0, false), d);
+    // μ scales it without bound: the filter vanishes as μ → ∞.
+    assert_eq!(screen_width(d, 4.0, 8.0, false), 2.0);
 }

@@ -209,15 +209,32 @@ fn the_consistent_mode_converges_and_the_literal_one_stops() {
         Session::reference(Some(&path), 1024, "stratified", &Overrides { seed: Some(99), ..sized(64, 48, None, &[]) })
             .unwrap();
     let reference = color(&s, &run(&s));
-    let at = |mode: &str, mu: f64| {
-        defocus_error(&[("mode", ParamValue::Str(mode.into())), ("mu", ParamValue::Float(mu))], &reference)
+    let at = |mode: &str, mu: f64, pixel_limit: bool| {
+        let sets = [
+            ("mode", ParamValue::Str(mode.into())),
+            ("mu", ParamValue::Float(mu)),
+            ("width_pixel_limit", ParamValue::Bool(pixel_limit)),
+        ];
+        defocus_error(&sets, &reference)
     };
-    let consistent: Vec<(f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at("consistent", mu)).collect();
-    let literal: Vec<(f64, f64)> = [2.0, 8.0].iter().map(|&mu| at("literal", mu)).collect();
-    eprintln!("consistent (RMSE, rays/px) at mu 1, 2, 4: {consistent:?}; literal at mu 2, 8: {literal:?}");
-    // Eq. 5.29 without the clamp: narrower filters and more rays as μ grows, so the error falls.
-    assert!(consistent[1].0 < 0.9 * consistent[0].0 && consistent[2].0 < 0.9 * consistent[1].0, "{consistent:?}");
-    assert!(consistent[2].1 > 4.0 * consistent[0].1, "{consistent:?}");
+    let consistent: Vec<(f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at("consistent", mu, false)).collect();
+    let thesis_width: Vec<(f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at("consistent", mu, true)).collect();
+    let literal: Vec<(f64, f64)> = [2.0, 8.0].iter().map(|&mu| at("literal", mu, true)).collect();
+    eprintln!(
+        "consistent (RMSE, rays/px) at mu 1, 2, 4: {consistent:?}; with the pixel-limited screen width: \
+         {thesis_width:?}; literal at mu 2, 8: {literal:?}"
+    );
+    // Eq. 5.29 without the clamp: narrower filters and more rays as μ grows, so the error falls —
+    // with the screen filter's width the lens term alone (the default) and with eq. 5.7's pixel limit.
+    for series in [&consistent, &thesis_width] {
+        assert!(series[1].0 < 0.9 * series[0].0 && series[2].0 < 0.9 * series[1].0, "{series:?}");
+        assert!(series[2].1 > 4.0 * series[0].1, "{series:?}");
+    }
+    // The two widths take the same rays.
+    assert_eq!(
+        consistent.iter().map(|c| c.1).collect::<Vec<_>>(),
+        thesis_width.iter().map(|c| c.1).collect::<Vec<_>>()
+    );
     // As printed, the clamp at Ω_pix^max holds the filters and counts: μ 2 → 8 changes little.
     assert!((literal[1].0 - literal[0].0).abs() < 0.05 * literal[0].0, "{literal:?}");
     assert!(literal[1].1 < 1.2 * literal[0].1, "{literal:?}");
@@ -257,7 +274,7 @@ fn heatmap_sinks_write_one_png_each_and_need_exactly_one_input() {
 fn factoring_lowers_the_in_focus_error_at_equal_rays() {
     // Thesis Fig. 5.1(e): against the no-factoring ablation (every pixel composes L, counts n^c), the
     // factored pipeline filters the irradiance under the in-focus texture. In focus: the pixels whose
-    // defocus width is the pixel limit (σ_d = 1/(√32 Ω_pix^max) = 0.354 px). Measured (160×120,
+    // defocus width is at most the pixel limit's (σ_d ≤ 1/(√32 Ω_pix^max) = 0.354 px). Measured (160×120,
     // 1024-path reference): in focus 0.00973 vs 0.01134 at 87.1 vs 88.0 rays/px; 320×240: 0.00763 vs
     // 0.01082 at 85.3 vs 86.1.
     let (w, h) = (128u32, 96u32);
@@ -276,10 +293,11 @@ fn factoring_lowers_the_in_focus_error_at_equal_rays() {
         let r = run(&s);
         let img = color(&s, &r);
         let BufferData::F32(sigma) = r.output("filter_width").unwrap().clone() else { panic!("f32") };
-        let min = sigma.iter().copied().fold(f32::INFINITY, f32::min);
+        // The pixel limit's σ, which the screen width (the lens term alone) stays under in focus.
+        let limit = 1.0 / (32f32.sqrt() * wedge::effects::defocus::formulas::OMEGA_PIX_MAX);
         let (mut e, mut n) = (0f64, 0usize);
         for (i, (a, b)) in img.pixels.iter().zip(&reference.pixels).enumerate() {
-            if sigma[i] <= min * 1.0001 {
+            if sigma[i] <= limit * 1.0001 {
                 e += (0..3).map(|c| f64::from(a[c] - b[c]).powi(2)).sum::<f64>() / 3.0;
                 n += 1;
             }

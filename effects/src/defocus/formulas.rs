@@ -217,6 +217,19 @@ pub fn omega_mu(omega: f32, mu: f32, mode: Mode, omega_pix: f32) -> f32 {
     }
 }
 
+/// The width of the screen-space defocus filter (eq. 5.33) where a primary ray hit: eq. 5.7's
+/// `Ω_x^d` μ-scaled (`d`) with the pixel limit, or without it the lens term alone, `μ Ω_u^max / r_min`
+/// — which grows without bound as the circle of confusion shrinks, so an in-focus pixel is not
+/// blurred at all (infinite: a pass-through in `filter.defocus`). The counts keep `d` either way
+/// (docs/DESIGN-NOTES.md "The filters against their own rays").
+pub fn screen_width(d: f32, r_min: f32, mu: f32, pixel_limit: bool) -> f32 {
+    if pixel_limit {
+        d
+    } else {
+        mu * ratio_or_inf(OMEGA_U_MAX, r_min.abs())
+    }
+}
+
 /// Primal-domain filter width in pixels, `R = 1/Ω` (thesis eqs. 5.8, 5.19, 5.23: `max{2, r_min}` for
 /// defocus at Ω_pix^max = 0.5).
 pub fn filter_width_px(omega: f32) -> f32 {
@@ -346,6 +359,9 @@ pub struct RateParams {
     pub max_per_primary: u32,
     /// Environment look-ups per primary ray at the pixel limit ([`environment_rate`]).
     pub environment_per_primary: f32,
+    /// The screen-space filter's width capped at `Ω_pix^max` as eq. 5.7 caps `Ω_x^d` (the thesis: an
+    /// in-focus pixel gets a σ = 0.35 px Gaussian), or (false) the lens term alone ([`screen_width`]).
+    pub width_pixel_limit: bool,
 }
 
 /// Widths (μ-scaled) and rounded counts of one pixel.
@@ -405,7 +421,7 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
         p * p * q * q
     };
     PixelRates {
-        omega_defocus: d,
+        omega_defocus: screen_width(d, s.r_min, k.mu, k.width_pixel_limit),
         omega_direct: sd,
         omega_indirect: si,
         pixel_length: l_p,

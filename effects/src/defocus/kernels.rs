@@ -56,6 +56,7 @@ wedge_backends::kernel_params! {
         light_half_width: Option<f32>,
         light: Option<LightIndex>,
         environment_per_primary: Option<f32>,
+        width_pixel_limit: Option<bool>,
     }
 }
 
@@ -129,6 +130,8 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
         max_primary: scaled_cap(p.max_primary, mu, mode),
         max_per_primary: scaled_cap(p.max_per_primary, mu, mode),
         environment_per_primary,
+        // Absent (a component's rates, which write no screen width): the thesis's.
+        width_pixel_limit: o.width_pixel_limit.unwrap_or(true),
     })
 }
 
@@ -241,7 +244,8 @@ impl Kernel for Rates {
                     .f32("light_half_width", k.light_half_width)
                     .u32("max_p", formulas::strata_cap(k.max_primary))
                     .u32("max_s", formulas::strata_cap(k.max_per_primary))
-                    .f32("environment_per_primary", k.environment_per_primary))
+                    .f32("environment_per_primary", k.environment_per_primary)
+                    .u32("width_pixel_limit", u32::from(k.width_pixel_limit)))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))

@@ -148,6 +148,7 @@ impl NodeKind for Defocus {
                 &["sample", "frozen"],
                 "where the scene moves over the camera's shutter: sample it too (each path its own time; counts take the time factor, docs/DEFOCUS-MOTION.md), or freeze the scene at the shutter's centre (Ch. 5 alone)",
             ),
+            ParamDecl::boolean("width_pixel_limit", false, "cap the screen-space filter's width at the pixel limit Ω_pix^max as eq. 5.7 does (the thesis: every in-focus pixel gets a σ = 0.35 px blur, a bias at sharp edges and highlights); false: the lens term alone, μ Ω_u^max / r_min, so in-focus pixels stay sharp. The counts are the same either way (DESIGN-NOTES \"The filters against their own rays\")"),
             ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
@@ -171,6 +172,7 @@ impl NodeKind for Defocus {
             "lens",
             "initial_paths",
             "motion_filter",
+            "width_pixel_limit",
         ]
         .into_iter()
         .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
@@ -256,6 +258,9 @@ impl NodeKind for Defocus {
             .write("sigma_defocus", sigma);
         for (n, v) in rate_settings(f) {
             b = b.param(n, v);
+        }
+        if let Some(limit) = f.setting("width_pixel_limit") {
+            b = b.param("width_pixel_limit", limit.clone());
         }
         b.finish();
         ctx.sampler_counts(CountRequest {
