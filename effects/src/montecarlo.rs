@@ -10,7 +10,10 @@
 //! occlusion instead. `bounces: 0, mode: "radiance"` (the default) is the original direct-only node.
 
 use wedge_backends::kernels::compose::ModulateIo;
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+use wedge_backends::kernels::direct::DirectIo;
+use wedge_graph::{
+    BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage,
+};
 
 pub struct MonteCarlo;
 
@@ -114,10 +117,8 @@ impl NodeKind for MonteCarlo {
                 });
             }
             let estimate = ctx.buffer("estimate", Format::Vec4);
-            ctx.pass("sample", "direct.light", Stage::Sample)
-                .read("position", position)
-                .read("normal", normal)
-                .write("estimate", estimate)
+            direct_io(position, normal, estimate)
+                .bind(ctx.pass("sample", "direct.light", Stage::Sample))
                 .param("count", spp)
                 .node_params(&["sampling", "light", "form_factor"])
                 .random()
@@ -131,10 +132,8 @@ impl NodeKind for MonteCarlo {
         }
         let estimate = direct.then(|| {
             let estimate = ctx.buffer("estimate", Format::Vec4);
-            ctx.pass("sample", "direct.light", Stage::Sample)
-                .read("position", position)
-                .read("normal", normal)
-                .write("estimate", estimate)
+            direct_io(position, normal, estimate)
+                .bind(ctx.pass("sample", "direct.light", Stage::Sample))
                 .param("count", spp.clone())
                 .node_params(&["sampling", "light", "form_factor"])
                 .random()
@@ -175,4 +174,9 @@ impl NodeKind for MonteCarlo {
         ctx.output("radiance", radiance);
         Ok(())
     }
+}
+
+/// A plain `direct.light` pass: `spp` samples from scratch, no occluder statistics.
+fn direct_io(position: BufferId, normal: BufferId, estimate: BufferId) -> DirectIo {
+    DirectIo { position, normal, rays_per_pixel: None, previous: None, estimate, occlusion: None }
 }
