@@ -12,6 +12,7 @@ use wedge_graph::{
 };
 
 use crate::defocus::formulas::FACTORING_THRESHOLD;
+use crate::defocus::kernels::{ComposeIo, FlagsIo};
 
 /// SepDir / SepInd of `part` on the `pass` record (eq. 5.30: `‖L − k E‖` below a threshold, so `k E`
 /// may stand for the pixel's `L`), with the 3×3 median where `median` (Ch. 5: its flags come from
@@ -39,11 +40,8 @@ pub fn factor_flags(
     );
     let raw = if median { ctx.buffer(&format!("{name}_raw"), Format::U32) } else { out };
     let raw_name = if median { format!("{name}_raw") } else { name.to_string() };
-    ctx.pass(&raw_name, "defocus.flags", stage)
-        .read("radiance", l)
-        .read("texture", k)
-        .read("irradiance", e)
-        .write("flag", raw)
+    FlagsIo { radiance: l, texture: k, irradiance: e, flag: raw }
+        .bind(ctx.pass(&raw_name, "defocus.flags", stage))
         .float("threshold", f64::from(FACTORING_THRESHOLD))
         .reference(if median { Reference::Keep } else { role })
         .finish();
@@ -140,14 +138,8 @@ pub fn compose_component(
     for (part, t) in parts {
         let name = format!("{}_compose", part.name);
         let out = ctx.buffer(&name, Format::Vec3);
-        ctx.pass(&name, "defocus.compose", Stage::Compose)
-            .read("radiance", t.l)
-            .read("texture", t.k)
-            .read("irradiance", t.e)
-            .read("flag", t.flag)
-            .read_opt("previous", radiance)
-            .write("out", out)
-            .finish();
+        let io = ComposeIo { radiance: t.l, texture: t.k, irradiance: t.e, flag: t.flag, previous: radiance, out };
+        io.bind(ctx.pass(&name, "defocus.compose", Stage::Compose)).finish();
         radiance = Some(out);
         unfiltered = Some(match unfiltered {
             None => t.l,
