@@ -11,6 +11,7 @@ use wedge_graph::{
     FILL_CONSTANT,
 };
 
+use crate::add::AddIo;
 use crate::defocus::formulas::FACTORING_THRESHOLD;
 use crate::defocus::kernels::{ComposeIo, FlagsIo};
 
@@ -146,11 +147,7 @@ pub fn compose_component(
             Some(prev) => {
                 let name = format!("{}_unfiltered", part.name);
                 let sum = ctx.buffer(&name, Format::Vec3);
-                ctx.pass(&name, "compose.add", Stage::Compose)
-                    .read("a", prev)
-                    .read("b", t.l)
-                    .write("out", sum)
-                    .finish();
+                AddIo { a: prev, b: t.l, out: sum }.bind(ctx.pass(&name, "compose.add", Stage::Compose)).finish();
                 sum
             }
         });
@@ -169,7 +166,7 @@ pub fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Optio
     for (k, b) in all[1..].iter().enumerate() {
         let local = if k + 2 == all.len() { name.to_string() } else { format!("{name}_{}", k + 1) };
         let out = ctx.buffer(&local, Format::Vec3);
-        ctx.pass(&local, "compose.add", Stage::Compose).read("a", acc).read("b", *b).write("out", out).finish();
+        AddIo { a: acc, b: *b, out }.bind(ctx.pass(&local, "compose.add", Stage::Compose)).finish();
         acc = out;
     }
     acc
