@@ -78,6 +78,11 @@ impl<T: Texel> Output<'_, T> {
     pub fn layers(&self, ctx: &KernelCtx<'_>) -> u32 {
         ctx.layers(self.name)
     }
+    /// Storage to fill in place and hand back with [`Output::put`] ([`KernelCtx::output_vec`]: the
+    /// pool's recycled buffer where one fits).
+    pub fn storage(&self, ctx: &mut KernelCtx<'_>) -> Result<Vec<T>, BackendError> {
+        ctx.output_vec(self.name)
+    }
     /// Hand back the output: `layers` elements per pixel ([`KernelCtx::put`]).
     pub fn put(self, ctx: &mut KernelCtx<'_>, data: Vec<T>) -> Result<(), BackendError> {
         ctx.put(self.name, data)
@@ -89,9 +94,22 @@ impl<T: Texel> Output<'_, T> {
 pub trait PutWith<T> {
     /// Hand back `data()` if the binding is bound; nothing otherwise.
     fn put_with(self, ctx: &mut KernelCtx<'_>, data: impl FnOnce() -> Vec<T>) -> Result<(), BackendError>;
+    /// Storage to fill in place where the binding is bound ([`Output::storage`]), else `None`.
+    fn storage(&self, ctx: &mut KernelCtx<'_>) -> Result<Option<Vec<T>>, BackendError>;
+    /// Hand back `data` filled from [`PutWith::storage`] (nothing where unbound).
+    fn put_some(self, ctx: &mut KernelCtx<'_>, data: Option<Vec<T>>) -> Result<(), BackendError>;
 }
 
 impl<T: Texel> PutWith<T> for Option<Output<'_, T>> {
+    fn storage(&self, ctx: &mut KernelCtx<'_>) -> Result<Option<Vec<T>>, BackendError> {
+        self.as_ref().map(|out| out.storage(ctx)).transpose()
+    }
+    fn put_some(self, ctx: &mut KernelCtx<'_>, data: Option<Vec<T>>) -> Result<(), BackendError> {
+        match (self, data) {
+            (Some(out), Some(data)) => out.put(ctx, data),
+            _ => Ok(()),
+        }
+    }
     fn put_with(self, ctx: &mut KernelCtx<'_>, data: impl FnOnce() -> Vec<T>) -> Result<(), BackendError> {
         match self {
             Some(out) => out.put(ctx, data()),

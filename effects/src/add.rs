@@ -35,9 +35,16 @@ impl NodeKind for Add {
         let a = ctx.required("a")?;
         let b = ctx.required("b")?;
         let out = ctx.buffer("radiance", Format::Vec3);
-        ctx.pass("add", "compose.add", Stage::Compose).read("a", a).read("b", b).write("out", out).finish();
+        AddIo { a, b, out }.bind(ctx.pass("add", "compose.add", Stage::Compose)).finish();
         ctx.output("radiance", out);
         Ok(())
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `compose.add` pass binds.
+    pub struct AddIo / AddData {
+        read a: [f32; 3], read b: [f32; 3], write out: [f32; 3],
     }
 }
 
@@ -52,17 +59,15 @@ impl Kernel for ComposeAdd {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![Binding::read("a", Format::Vec3), Binding::read("b", Format::Vec3), Binding::write("out", Format::Vec3)]
+        AddIo::bindings()
     }
     /// WGSL mirror: `shaders/compose_add.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(WgslSource::new(include_str!("../../shaders/compose_add.wgsl"), |_| Ok(Uniforms::new())).per_pixel())
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let a = ctx.read::<[f32; 3]>("a")?;
-        let b = ctx.read::<[f32; 3]>("b")?;
-        let out: Vec<[f32; 3]> = a.iter().zip(b).map(|(x, y)| std::array::from_fn(|c| x[c] + y[c])).collect();
-        ctx.put("out", out)
+        let AddData { a, b, out } = AddIo::read(ctx)?;
+        out.put(ctx, a.iter().zip(b).map(|(x, y)| std::array::from_fn(|c| x[c] + y[c])).collect())
     }
 }
 

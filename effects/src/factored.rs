@@ -11,7 +11,9 @@ use wedge_graph::{
     FILL_CONSTANT,
 };
 
+use crate::add::AddIo;
 use crate::defocus::formulas::FACTORING_THRESHOLD;
+use crate::defocus::kernels::{ComposeIo, FlagsIo};
 
 /// SepDir / SepInd of `part` on the `pass` record (eq. 5.30: `‖L − k E‖` below a threshold, so `k E`
 /// may stand for the pixel's `L`), with the 3×3 median where `median` (Ch. 5: its flags come from
@@ -39,11 +41,8 @@ pub fn factor_flags(
     );
     let raw = if median { ctx.buffer(&format!("{name}_raw"), Format::U32) } else { out };
     let raw_name = if median { format!("{name}_raw") } else { name.to_string() };
-    ctx.pass(&raw_name, "defocus.flags", stage)
-        .read("radiance", l)
-        .read("texture", k)
-        .read("irradiance", e)
-        .write("flag", raw)
+    FlagsIo { radiance: l, texture: k, irradiance: e, flag: raw }
+        .bind(ctx.pass(&raw_name, "defocus.flags", stage))
         .float("threshold", f64::from(FACTORING_THRESHOLD))
         .reference(if median { Reference::Keep } else { role })
         .finish();
@@ -140,25 +139,15 @@ pub fn compose_component(
     for (part, t) in parts {
         let name = format!("{}_compose", part.name);
         let out = ctx.buffer(&name, Format::Vec3);
-        ctx.pass(&name, "defocus.compose", Stage::Compose)
-            .read("radiance", t.l)
-            .read("texture", t.k)
-            .read("irradiance", t.e)
-            .read("flag", t.flag)
-            .read_opt("previous", radiance)
-            .write("out", out)
-            .finish();
+        let io = ComposeIo { radiance: t.l, texture: t.k, irradiance: t.e, flag: t.flag, previous: radiance, out };
+        io.bind(ctx.pass(&name, "defocus.compose", Stage::Compose)).finish();
         radiance = Some(out);
         unfiltered = Some(match unfiltered {
             None => t.l,
             Some(prev) => {
                 let name = format!("{}_unfiltered", part.name);
                 let sum = ctx.buffer(&name, Format::Vec3);
-                ctx.pass(&name, "compose.add", Stage::Compose)
-                    .read("a", prev)
-                    .read("b", t.l)
-                    .write("out", sum)
-                    .finish();
+                AddIo { a: prev, b: t.l, out: sum }.bind(ctx.pass(&name, "compose.add", Stage::Compose)).finish();
                 sum
             }
         });
@@ -177,7 +166,7 @@ pub fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Optio
     for (k, b) in all[1..].iter().enumerate() {
         let local = if k + 2 == all.len() { name.to_string() } else { format!("{name}_{}", k + 1) };
         let out = ctx.buffer(&local, Format::Vec3);
-        ctx.pass(&local, "compose.add", Stage::Compose).read("a", acc).read("b", *b).write("out", out).finish();
+        AddIo { a: acc, b: *b, out }.bind(ctx.pass(&local, "compose.add", Stage::Compose)).finish();
         acc = out;
     }
     acc

@@ -10,7 +10,11 @@
 //! occlusion instead. `bounces: 0, mode: "radiance"` (the default) is the original direct-only node.
 
 use wedge_backends::kernels::compose::ModulateIo;
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+use wedge_backends::kernels::direct::DirectIo;
+use wedge_backends::kernels::indirect::{ComposeIo, SampleIo};
+use wedge_graph::{
+    BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage,
+};
 
 pub struct MonteCarlo;
 
@@ -114,10 +118,8 @@ impl NodeKind for MonteCarlo {
                 });
             }
             let estimate = ctx.buffer("estimate", Format::Vec4);
-            ctx.pass("sample", "direct.light", Stage::Sample)
-                .read("position", position)
-                .read("normal", normal)
-                .write("estimate", estimate)
+            direct_io(position, normal, estimate)
+                .bind(ctx.pass("sample", "direct.light", Stage::Sample))
                 .param("count", spp)
                 .node_params(&["sampling", "light", "form_factor"])
                 .random()
@@ -131,10 +133,8 @@ impl NodeKind for MonteCarlo {
         }
         let estimate = direct.then(|| {
             let estimate = ctx.buffer("estimate", Format::Vec4);
-            ctx.pass("sample", "direct.light", Stage::Sample)
-                .read("position", position)
-                .read("normal", normal)
-                .write("estimate", estimate)
+            direct_io(position, normal, estimate)
+                .bind(ctx.pass("sample", "direct.light", Stage::Sample))
                 .param("count", spp.clone())
                 .node_params(&["sampling", "light", "form_factor"])
                 .random()
@@ -145,16 +145,20 @@ impl NodeKind for MonteCarlo {
         let specular = if ao { None } else { specular };
         let diffuse = ctx.buffer("indirect_diffuse", Format::Vec4);
         let glossy = specular.map(|_| ctx.buffer("indirect_glossy", Format::Vec4));
-        let mut pass = ctx
-            .pass("sample_indirect", "indirect.sample", Stage::Sample)
-            .read("position", position)
-            .read("normal", normal)
-            .read_opt("specular", specular)
-            .write("diffuse", diffuse);
-        if let Some(g) = glossy {
-            pass = pass.write("glossy", g);
-        }
-        pass.param("count", spp)
+        let io = SampleIo {
+            position,
+            normal,
+            specular,
+            rays_diffuse: None,
+            rays_glossy: None,
+            previous_diffuse: None,
+            previous_glossy: None,
+            diffuse,
+            glossy,
+            depth: None,
+        };
+        io.bind(ctx.pass("sample_indirect", "indirect.sample", Stage::Sample))
+            .param("count", spp)
             .param("bounces", ParamValue::Int(bounces.max(1)))
             .node_params(&["sampling", "mode", "max_distance", "brdf"])
             .random()
@@ -163,16 +167,14 @@ impl NodeKind for MonteCarlo {
         let radiance = ctx.buffer("radiance", Format::Vec3);
         // Emission is the zero-bounce part of the direct light: left out with it.
         let (albedo, emission) = if ao { (None, None) } else { (albedo, if direct { emission } else { None }) };
-        ctx.pass("compose", "indirect.compose", Stage::Compose)
-            .read("diffuse", diffuse)
-            .read_opt("glossy", glossy)
-            .read_opt("direct", estimate)
-            .read_opt("albedo", albedo)
-            .read_opt("specular", specular)
-            .read_opt("emission", emission)
-            .write("out", radiance)
-            .finish();
+        let io = ComposeIo { diffuse, glossy, direct: estimate, albedo, specular, emission, out: radiance };
+        io.bind(ctx.pass("compose", "indirect.compose", Stage::Compose)).finish();
         ctx.output("radiance", radiance);
         Ok(())
     }
+}
+
+/// A plain `direct.light` pass: `spp` samples from scratch, no occluder statistics.
+fn direct_io(position: BufferId, normal: BufferId, estimate: BufferId) -> DirectIo {
+    DirectIo { position, normal, rays_per_pixel: None, previous: None, estimate, occlusion: None }
 }

@@ -1,5 +1,6 @@
 //! `Primary`: the per-pixel surface every effect shades — one ray through each pixel centre.
 
+use wedge_backends::kernels::primary::GBufferIo;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage, TermQuery, Terms, View};
 
 pub struct Primary;
@@ -40,13 +41,8 @@ impl NodeKind for Primary {
         let albedo = ctx.buffer("albedo", Format::Vec3);
         let emission = ctx.buffer("emission", Format::Vec3);
         let specular = ctx.buffer("specular", Format::Vec4);
-        ctx.pass("gbuffer", "primary.gbuffer", Stage::Sample)
-            .write("position", position)
-            .write("normal", normal)
-            .write("albedo", albedo)
-            .write("emission", emission)
-            .write("specular", specular)
-            .finish();
+        let io = GBufferIo { position, normal, albedo, emission, specular: Some(specular) };
+        io.bind(ctx.pass("gbuffer", "primary.gbuffer", Stage::Sample)).finish();
         for (port, id) in [
             ("position", position),
             ("normal", normal),

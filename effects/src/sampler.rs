@@ -216,10 +216,8 @@ impl PathSampler {
             let last = k + 1 == sources.len();
             let local = if last { name.to_string() } else { format!("{name}_{k}") };
             let out = ctx.buffer(&local, Format::U32);
-            ctx.pass(&local, "sampler.combine", Stage::Counts)
-                .read("value", *value)
-                .read_opt("other", running)
-                .write("out", out)
+            CombineIo { value: *value, other: running, out }
+                .bind(ctx.pass(&local, "sampler.combine", Stage::Counts))
                 .int("unit", i64::from(*unit))
                 .int("minus", i64::from(*minus))
                 .int("at_least", i64::from(at_least))
@@ -372,10 +370,8 @@ impl SamplerKind for PathSampler {
                             let total = spread(ctx, format!("counts_{channel}_max3_{k}"), *id, r.max3);
                             let name = format!("counts_{channel}_per_path_{k}");
                             let out = ctx.buffer(&name, Format::U32);
-                            ctx.pass(&name, "sampler.per_primary", Stage::Counts)
-                                .read("total", total)
-                                .read("paths", paths)
-                                .write("out", out)
+                            PerPrimaryIo { total, paths, out }
+                                .bind(ctx.pass(&name, "sampler.per_primary", Stage::Counts))
                                 .finish();
                             per_path.push((out, 1, 0));
                         }
@@ -395,11 +391,8 @@ impl SamplerKind for PathSampler {
             // paths) makes it N: one sample per path.
             let name = format!("counts_{channel}");
             let total = ctx.buffer(&name, Format::U32);
-            ctx.pass(&name, "sampler.pass_total", Stage::Counts)
-                .read("paths", paths)
-                .read_opt("per_path", per_path)
-                .read_opt("rest", rest)
-                .write("out", total)
+            PassTotalIo { paths, per_path, rest, out: total }
+                .bind(ctx.pass(&name, "sampler.pass_total", Stage::Counts))
                 .int("at_least", i64::from(at_least))
                 .reference(Reference::Count)
                 .finish();
@@ -456,6 +449,15 @@ pub fn combine_pixel(value: u32, other: u32, unit: u32, minus: u32, at_least: u3
     value.div_ceil(unit).saturating_sub(minus).max(other).max(at_least)
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `sampler.combine` pass binds.
+    pub struct CombineIo / CombineData {
+        read value: u32,
+        read_opt other: u32,
+        write out: u32,
+    }
+}
+
 impl Kernel for CombineCounts {
     fn name(&self) -> &'static str {
         "sampler.combine"
@@ -467,11 +469,7 @@ impl Kernel for CombineCounts {
         CombineParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("value", Format::U32),
-            Binding::read_opt("other", Format::U32),
-            Binding::write("out", Format::U32),
-        ]
+        CombineIo::bindings()
     }
     /// WGSL mirror: `shaders/sampler_combine.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -484,12 +482,10 @@ impl Kernel for CombineCounts {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let CombineParams { unit, minus, at_least } = combine_params(ctx)?;
-        let value = ctx.read::<u32>("value")?;
-        let other = ctx.read_opt::<u32>("other")?;
-        let out: Vec<u32> = (0..ctx.pixels())
-            .map(|i| combine_pixel(value[i], other.map_or(0, |o| o[i]), unit, minus, at_least))
-            .collect();
-        ctx.put("out", out)
+        let CombineData { value, other, out } = CombineIo::read(ctx)?;
+        let counts =
+            (0..ctx.pixels()).map(|i| combine_pixel(value[i], other.map_or(0, |o| o[i]), unit, minus, at_least));
+        out.put(ctx, counts.collect())
     }
 }
 
@@ -535,6 +531,16 @@ wedge_backends::kernel_params! {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `sampler.pass_total` pass binds.
+    pub struct PassTotalIo / PassTotalData {
+        read paths: u32,
+        read_opt per_path: u32,
+        read_opt rest: u32,
+        write out: u32,
+    }
+}
+
 impl Kernel for PassTotal {
     fn name(&self) -> &'static str {
         "sampler.pass_total"
@@ -546,12 +552,7 @@ impl Kernel for PassTotal {
         PassTotalParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("paths", Format::U32),
-            Binding::read_opt("per_path", Format::U32),
-            Binding::read_opt("rest", Format::U32),
-            Binding::write("out", Format::U32),
-        ]
+        PassTotalIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -563,13 +564,19 @@ impl Kernel for PassTotal {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let PassTotalParams { at_least } = PassTotalParams::read(ctx)?;
-        let paths = ctx.read::<u32>("paths")?;
-        let per_path = ctx.read_opt::<u32>("per_path")?;
-        let rest = ctx.read_opt::<u32>("rest")?;
+        let PassTotalData { paths, per_path, rest, out } = PassTotalIo::read(ctx)?;
         let at = |b: Option<&[u32]>, i: usize| b.map_or(0, |b| b[i]);
-        let out: Vec<u32> =
-            (0..ctx.pixels()).map(|i| pass_total_pixel(paths[i], at(per_path, i), at(rest, i), at_least)).collect();
-        ctx.put("out", out)
+        let totals = (0..ctx.pixels()).map(|i| pass_total_pixel(paths[i], at(per_path, i), at(rest, i), at_least));
+        out.put(ctx, totals.collect())
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `sampler.per_primary` pass binds.
+    pub struct PerPrimaryIo / PerPrimaryData {
+        read total: u32,
+        read paths: u32,
+        write out: u32,
     }
 }
 
@@ -581,11 +588,7 @@ impl Kernel for PerPrimaryCounts {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("total", Format::U32),
-            Binding::read("paths", Format::U32),
-            Binding::write("out", Format::U32),
-        ]
+        PerPrimaryIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -594,10 +597,8 @@ impl Kernel for PerPrimaryCounts {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let total = ctx.read::<u32>("total")?;
-        let paths = ctx.read::<u32>("paths")?;
-        let out: Vec<u32> = (0..ctx.pixels()).map(|i| per_primary_pixel(paths[i], total[i])).collect();
-        ctx.put("out", out)
+        let PerPrimaryData { total, paths, out } = PerPrimaryIo::read(ctx)?;
+        out.put(ctx, (0..ctx.pixels()).map(|i| per_primary_pixel(paths[i], total[i])).collect())
     }
 }
 

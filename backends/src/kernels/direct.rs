@@ -14,14 +14,30 @@
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use wedge_graph::Format;
 use wedge_scene::{Hit, PreparedLight, SceneAt};
 
+use crate::bindings::PutWith;
 use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, WgslSource};
 use crate::kernels::v3;
 use crate::params::{AnyLight, KernelParams, ParamSpec, Sampling};
 use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
+
+crate::kernel_bindings! {
+    /// What a `direct.light` pass binds.
+    pub struct DirectIo / DirectData {
+        read position: [f32; 4],
+        read normal: [f32; 4],
+        /// Per-pixel total sample count (including `previous`'s); else the `count` parameter.
+        read_opt rays_per_pixel: u32,
+        /// Earlier estimate to continue: rgb mean, w = samples in it.
+        read_opt previous: [f32; 4],
+        /// rgb mean of all samples so far, w = number of samples in the mean.
+        write estimate: [f32; 4],
+        /// d1, d2_min, d2_max, number of occluded samples (see [`OccluderStats`]).
+        write_opt occlusion: [f32; 4],
+    }
+}
 
 pub struct DirectLight;
 
@@ -159,18 +175,7 @@ impl Kernel for DirectLight {
         DirectParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            // Per-pixel total sample count (including `previous`'s); else the `count` parameter.
-            Binding::read_opt("rays_per_pixel", Format::U32),
-            // Earlier estimate to continue: rgb mean, w = samples in it.
-            Binding::read_opt("previous", Format::Vec4),
-            // rgb mean of all samples so far, w = number of samples in the mean.
-            Binding::write("estimate", Format::Vec4),
-            // d1, d2_min, d2_max, number of occluded samples (see [`OccluderStats`]).
-            Binding::write_opt("occlusion", Format::Vec4),
-        ]
+        DirectIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -187,15 +192,13 @@ impl Kernel for DirectLight {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let scene = ctx.scene;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let rpp = ctx.read_opt::<u32>("rays_per_pixel")?;
-        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
+        let io = DirectIo::read(ctx)?;
+        let (position, normal, rpp, previous) = (io.position, io.normal, io.rays_per_pixel, io.previous);
         let DirectParams { light, count, sampling, form_factor, stream } = DirectParams::read(ctx)?;
         let lights = light.lights(scene.lights.len());
         let stratified = sampling == Sampling::Stratified;
         let centre = form_factor == FormFactor::LightCentre;
-        let want_stats = ctx.is_bound("occlusion");
+        let want_stats = io.occlusion.is_some();
         let seed = ctx.seed;
         let width = ctx.width;
         let counters = ctx.counters;
@@ -257,8 +260,8 @@ impl Kernel for DirectLight {
         };
         // Outputs written in place, row by row (recycled storage of a persistent pool, issue 38 §2);
         // the ray and non-finite counts are summed per row, exact in any order.
-        let mut estimate = ctx.output_vec::<[f32; 4]>("estimate")?;
-        let mut occlusion = ctx.output_vec_opt::<[f32; 4]>("occlusion")?;
+        let mut estimate = io.estimate.storage(ctx)?;
+        let mut occlusion = io.occlusion.storage(ctx)?;
         // (`max(1)`: chunks of an empty image's empty buffers.)
         let row = (width as usize).max(1);
         let occlusion_rows = optional_rows(occlusion.as_mut(), row, ctx.height as usize);
@@ -285,9 +288,7 @@ impl Kernel for DirectLight {
         progress.end();
         Counters::add(&counters.shadow_rays, rays);
         Counters::add(&counters.non_finite_samples, bad);
-        if let Some(o) = occlusion {
-            ctx.put("occlusion", o)?;
-        }
-        ctx.put("estimate", estimate)
+        io.occlusion.put_some(ctx, occlusion)?;
+        io.estimate.put(ctx, estimate)
     }
 }

@@ -27,9 +27,9 @@
 //! hit, and the number traced. Non-finite sample values are counted and excluded from the means.
 
 use glam::{Vec2, Vec3};
-use wedge_graph::Format;
 use wedge_scene::SceneAt;
 
+use crate::bindings::PutWith;
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::environment::environment_event;
@@ -403,6 +403,26 @@ fn continue_mean(prev: [f32; 4], sum: Vec3, valid: u32) -> [f32; 4] {
     [mean.x, mean.y, mean.z, total]
 }
 
+crate::kernel_bindings! {
+    /// What an `indirect.sample` pass binds.
+    pub struct SampleIo / SampleData {
+        read position: [f32; 4],
+        read normal: [f32; 4],
+        /// k_s rgb, w = Phong exponent m (from Primary); absent = no glossy component.
+        read_opt specular: [f32; 4],
+        /// Per-pixel total sample counts (including `previous_*`'s); else `count`.
+        read_opt rays_diffuse: u32,
+        read_opt rays_glossy: u32,
+        read_opt previous_diffuse: [f32; 4],
+        read_opt previous_glossy: [f32; 4],
+        /// rgb mean, w = samples in the mean.
+        write diffuse: [f32; 4],
+        write_opt glossy: [f32; 4],
+        /// z_min, z_max, hemisphere rays that hit, hemisphere rays traced (this pass).
+        write_opt depth: [f32; 4],
+    }
+}
+
 impl Kernel for IndirectSample {
     fn name(&self) -> &'static str {
         "indirect.sample"
@@ -417,22 +437,7 @@ impl Kernel for IndirectSample {
         SampleParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("position", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            // k_s rgb, w = Phong exponent m (from Primary); absent = no glossy component.
-            Binding::read_opt("specular", Format::Vec4),
-            // Per-pixel total sample counts (including `previous_*`'s); else `count`.
-            Binding::read_opt("rays_diffuse", Format::U32),
-            Binding::read_opt("rays_glossy", Format::U32),
-            Binding::read_opt("previous_diffuse", Format::Vec4),
-            Binding::read_opt("previous_glossy", Format::Vec4),
-            // rgb mean, w = samples in the mean.
-            Binding::write("diffuse", Format::Vec4),
-            Binding::write_opt("glossy", Format::Vec4),
-            // z_min, z_max, hemisphere rays that hit, hemisphere rays traced (this pass).
-            Binding::write_opt("depth", Format::Vec4),
-        ]
+        SampleIo::bindings()
     }
     /// WGSL mirror: `shaders/indirect_sample.wgsl` with the sampling of `shaders/hemisphere.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
@@ -454,18 +459,15 @@ impl Kernel for IndirectSample {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let scene = ctx.scene;
-        let position = ctx.read::<[f32; 4]>("position")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let specular = ctx.read_opt::<[f32; 4]>("specular")?;
-        let rays_d = ctx.read_opt::<u32>("rays_diffuse")?;
-        let rays_g = ctx.read_opt::<u32>("rays_glossy")?;
-        let prev_d = ctx.read_opt::<[f32; 4]>("previous_diffuse")?;
-        let prev_g = ctx.read_opt::<[f32; 4]>("previous_glossy")?;
+        let io = SampleIo::read(ctx)?;
+        let (position, normal, specular) = (io.position, io.normal, io.specular);
+        let (rays_d, rays_g, prev_d, prev_g) =
+            (io.rays_diffuse, io.rays_glossy, io.previous_diffuse, io.previous_glossy);
         let s = SampleParams::read(ctx)?;
         let (count, stream, stratified) = (s.count, s.stream, s.sampling == Sampling::Stratified);
         let p = s.path(ctx);
         let ao = p.ao;
-        let want_glossy = ctx.is_bound("glossy") && specular.is_some() && !ao;
+        let want_glossy = io.glossy.is_some() && specular.is_some() && !ao;
         let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let camera = scene.camera.position;
         // A Ch. 4 kernel: the scene at the shutter's centre.
@@ -554,9 +556,9 @@ impl Kernel for IndirectSample {
         Counters::add(&ctx.counters.secondary_rays, secondary);
         Counters::add(&ctx.counters.shadow_rays, shadow);
         Counters::add(&ctx.counters.non_finite_samples, bad);
-        ctx.put_opt("depth", || results.iter().map(|r| r.depth).collect::<Vec<_>>())?;
-        ctx.put_opt("glossy", || results.iter().map(|r| r.g).collect::<Vec<_>>())?;
-        ctx.put("diffuse", results.into_iter().map(|r| r.d).collect::<Vec<_>>())
+        io.depth.put_with(ctx, || results.iter().map(|r| r.depth).collect())?;
+        io.glossy.put_with(ctx, || results.iter().map(|r| r.g).collect())?;
+        io.diffuse.put(ctx, results.into_iter().map(|r| r.d).collect())
     }
 }
 
@@ -564,6 +566,19 @@ impl Kernel for IndirectSample {
 /// multiply after filtering (thesis Sec. 4.5). Every input but `diffuse` is optional (absent `k_d`
 /// is white, absent `k_s` zero).
 pub struct IndirectCompose;
+
+crate::kernel_bindings! {
+    /// What an `indirect.compose` pass binds.
+    pub struct ComposeIo / ComposeData {
+        read diffuse: [f32; 4],
+        read_opt glossy: [f32; 4],
+        read_opt direct: [f32; 4],
+        read_opt albedo: [f32; 3],
+        read_opt specular: [f32; 4],
+        read_opt emission: [f32; 3],
+        write out: [f32; 3],
+    }
+}
 
 impl Kernel for IndirectCompose {
     fn name(&self) -> &'static str {
@@ -573,15 +588,7 @@ impl Kernel for IndirectCompose {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("diffuse", Format::Vec4),
-            Binding::read_opt("glossy", Format::Vec4),
-            Binding::read_opt("direct", Format::Vec4),
-            Binding::read_opt("albedo", Format::Vec3),
-            Binding::read_opt("specular", Format::Vec4),
-            Binding::read_opt("emission", Format::Vec3),
-            Binding::write("out", Format::Vec3),
-        ]
+        ComposeIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -590,12 +597,7 @@ impl Kernel for IndirectCompose {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let diffuse = ctx.read::<[f32; 4]>("diffuse")?;
-        let glossy = ctx.read_opt::<[f32; 4]>("glossy")?;
-        let direct = ctx.read_opt::<[f32; 4]>("direct")?;
-        let albedo = ctx.read_opt::<[f32; 3]>("albedo")?;
-        let specular = ctx.read_opt::<[f32; 4]>("specular")?;
-        let emission = ctx.read_opt::<[f32; 3]>("emission")?;
+        let ComposeData { diffuse, glossy, direct, albedo, specular, emission, out: composed } = ComposeIo::read(ctx)?;
         let out = (0..ctx.pixels())
             .map(|i| {
                 let kd = albedo.map_or([1.0; 3], |a| a[i]);
@@ -615,6 +617,6 @@ impl Kernel for IndirectCompose {
                 })
             })
             .collect::<Vec<[f32; 3]>>();
-        ctx.put("out", out)
+        composed.put(ctx, out)
     }
 }

@@ -3,10 +3,26 @@
 //! App. B belong to a multi-sample primary kernel, not this one).
 
 use rayon::prelude::*;
-use wedge_graph::Format;
 
+use crate::bindings::PutWith;
 use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
+
+crate::kernel_bindings! {
+    /// What a `primary.gbuffer` pass binds: the per-pixel surface data.
+    pub struct GBufferIo / GBufferData {
+        /// xyz world position; w = 1 + object id where the pixel sees a surface, 0 for background
+        /// (exact in f32 up to 2^24 objects). Filters use it to keep to one object (thesis
+        /// Sec. 3.6, footnote 7).
+        write position: [f32; 4],
+        /// xyz unit shading normal facing the camera, w = projected pixel size d (metres).
+        write normal: [f32; 4],
+        write albedo: [f32; 3],
+        write emission: [f32; 3],
+        /// Optional: k_s rgb, w = Phong exponent m (0 = no glossy lobe). Read by `Indirect`.
+        write_opt specular: [f32; 4],
+    }
+}
 
 pub struct PrimaryGBuffer;
 
@@ -28,18 +44,7 @@ impl Kernel for PrimaryGBuffer {
         KernelClass::Sampling
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // xyz world position; w = 1 + object id where the pixel sees a surface, 0 for background
-            // (exact in f32 up to 2^24 objects). Filters use it to keep to one object (thesis
-            // Sec. 3.6, footnote 7).
-            Binding::write("position", Format::Vec4),
-            // xyz unit shading normal facing the camera, w = projected pixel size d (metres).
-            Binding::write("normal", Format::Vec4),
-            Binding::write("albedo", Format::Vec3),
-            Binding::write("emission", Format::Vec3),
-            // Optional: k_s rgb, w = Phong exponent m (0 = no glossy lobe). Read by `Indirect`.
-            Binding::write_opt("specular", Format::Vec4),
-        ]
+        GBufferIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -95,11 +100,12 @@ impl Kernel for PrimaryGBuffer {
         };
         // Each output is written in place, row by row (recycled storage of a persistent pool; no
         // per-pixel intermediate to copy out), issue 38 §2.
-        let mut position = ctx.output_vec::<[f32; 4]>("position")?;
-        let mut normal = ctx.output_vec::<[f32; 4]>("normal")?;
-        let mut albedo = ctx.output_vec::<[f32; 3]>("albedo")?;
-        let mut emission = ctx.output_vec::<[f32; 3]>("emission")?;
-        let mut specular = ctx.output_vec_opt::<[f32; 4]>("specular")?;
+        let out = GBufferIo::read(ctx)?;
+        let mut position = out.position.storage(ctx)?;
+        let mut normal = out.normal.storage(ctx)?;
+        let mut albedo = out.albedo.storage(ctx)?;
+        let mut emission = out.emission.storage(ctx)?;
+        let mut specular = out.specular.storage(ctx)?;
         // (`max(1)`: chunks of an empty image's empty buffers.)
         let row = (ctx.width as usize).max(1);
         let rows = ctx.height as usize;
@@ -121,13 +127,10 @@ impl Kernel for PrimaryGBuffer {
                 }
             });
         Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64);
-        ctx.put("position", position)?;
-        ctx.put("normal", normal)?;
-        ctx.put("albedo", albedo)?;
-        ctx.put("emission", emission)?;
-        if let Some(s) = specular {
-            ctx.put("specular", s)?;
-        }
-        Ok(())
+        out.position.put(ctx, position)?;
+        out.normal.put(ctx, normal)?;
+        out.albedo.put(ctx, albedo)?;
+        out.emission.put(ctx, emission)?;
+        out.specular.put_some(ctx, specular)
     }
 }

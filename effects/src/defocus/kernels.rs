@@ -309,6 +309,22 @@ impl Kernel for Rates {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `defocus.flags` pass binds: a part's `L`, `k` and `E`, and its flag.
+    pub struct FlagsIo / FlagsData {
+        read radiance: [f32; 3], read texture: [f32; 3], read irradiance: [f32; 3], write flag: u32,
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `defocus.compose` pass binds: [`FlagsIo`]'s inputs, the flag, the running sum
+    /// (optional: the first part starts at 0) and the new sum.
+    pub struct ComposeIo / ComposeData {
+        read radiance: [f32; 3], read texture: [f32; 3], read irradiance: [f32; 3], read flag: u32,
+        read_opt previous: [f32; 3], write out: [f32; 3],
+    }
+}
+
 /// `defocus.flags`: SepDir / SepInd for one component (eq. 5.30), 1 where `‖L − k E‖ < threshold`,
 /// else 0 (also where any input is not finite). The 3×3 median (`neighbourhood.median3`) follows.
 pub struct Flags;
@@ -321,12 +337,7 @@ impl Kernel for Flags {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("radiance", Format::Vec3),
-            Binding::read("texture", Format::Vec3),
-            Binding::read("irradiance", Format::Vec3),
-            Binding::write("flag", Format::U32),
-        ]
+        FlagsIo::bindings()
     }
     fn params(&self) -> Vec<ParamSpec> {
         FlagsParams::specs()
@@ -341,15 +352,13 @@ impl Kernel for Flags {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let l = ctx.read::<[f32; 3]>("radiance")?;
-        let k = ctx.read::<[f32; 3]>("texture")?;
-        let e = ctx.read::<[f32; 3]>("irradiance")?;
+        let FlagsData { radiance: l, texture: k, irradiance: e, flag: out } = FlagsIo::read(ctx)?;
         let threshold = threshold(ctx)?;
         let flag: Vec<u32> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             formulas::separable(l[i], k[i], e[i], threshold) as u32
         });
-        ctx.put("flag", flag)
+        out.put(ctx, flag)
     }
 }
 
@@ -369,14 +378,7 @@ impl Kernel for Compose {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("radiance", Format::Vec3),
-            Binding::read("texture", Format::Vec3),
-            Binding::read("irradiance", Format::Vec3),
-            Binding::read("flag", Format::U32),
-            Binding::read_opt("previous", Format::Vec3),
-            Binding::write("out", Format::Vec3),
-        ]
+        ComposeIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -386,12 +388,8 @@ impl Kernel for Compose {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let l = ctx.read::<[f32; 3]>("radiance")?;
-        let k = ctx.read::<[f32; 3]>("texture")?;
-        let e = ctx.read::<[f32; 3]>("irradiance")?;
-        let flag = ctx.read::<u32>("flag")?;
-        let previous = ctx.read_opt::<[f32; 3]>("previous")?;
-        let out: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
+        let ComposeData { radiance: l, texture: k, irradiance: e, flag, previous, out } = ComposeIo::read(ctx)?;
+        let sum: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             let t = formulas::compose_term(l[i], k[i], e[i], flag[i] != 0);
             match previous {
@@ -399,6 +397,6 @@ impl Kernel for Compose {
                 None => t,
             }
         });
-        ctx.put("out", out)
+        out.put(ctx, sum)
     }
 }

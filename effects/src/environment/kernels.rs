@@ -23,7 +23,7 @@ use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith, Reach, Uniforms,
     WgslSource,
 };
-use wedge_graph::Format;
+use wedge_graph::BufferId;
 
 use wedge_backends::kernels::v3;
 
@@ -187,6 +187,46 @@ pub fn pixel_outputs(s: &PixelStats, footprint: f32, k: &BandwidthParams) -> Pix
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What an `environment.bandwidth` pass binds: the curvature, the environment statistics, the
+    /// normal (`w` = pixel footprint), the hit depths (indirect light); each output optional (a pass
+    /// binds the bandwidths of the parts it filters and the heatmaps it shows).
+    pub struct BandwidthIo / BandwidthData {
+        read curvature: [f32; 2],
+        read environment: [f32; 4],
+        read normal: [f32; 4],
+        read_opt depth: [f32; 4],
+        write_opt direct_diffuse: [f32; 2],
+        write_opt direct_glossy: [f32; 2],
+        write_opt indirect_diffuse: [f32; 2],
+        write_opt indirect_glossy: [f32; 2],
+        write_opt bandwidth: f32,
+        write_opt bandlimit: f32,
+        write_opt filter_width: f32,
+        write_opt rays: u32,
+    }
+}
+
+impl BandwidthIo {
+    /// The inputs with no output bound yet (a pass names the outputs it wants).
+    pub fn inputs(curvature: BufferId, environment: BufferId, normal: BufferId, depth: Option<BufferId>) -> Self {
+        BandwidthIo {
+            curvature,
+            environment,
+            normal,
+            depth,
+            direct_diffuse: None,
+            direct_glossy: None,
+            indirect_diffuse: None,
+            indirect_glossy: None,
+            bandwidth: None,
+            bandlimit: None,
+            filter_width: None,
+            rays: None,
+        }
+    }
+}
+
 /// `environment.bandwidth`: the bandwidths of eqs. 6.13, 6.17 and 6.18 per pixel (every output
 /// optional; see the module doc).
 pub struct Bandwidth;
@@ -199,20 +239,7 @@ impl Kernel for Bandwidth {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("curvature", Format::Vec2),
-            Binding::read("environment", Format::Vec4),
-            Binding::read("normal", Format::Vec4),
-            Binding::read_opt("depth", Format::Vec4),
-            Binding::write_opt("direct_diffuse", Format::Vec2),
-            Binding::write_opt("direct_glossy", Format::Vec2),
-            Binding::write_opt("indirect_diffuse", Format::Vec2),
-            Binding::write_opt("indirect_glossy", Format::Vec2),
-            Binding::write_opt("bandwidth", Format::F32),
-            Binding::write_opt("bandlimit", Format::F32),
-            Binding::write_opt("filter_width", Format::F32),
-            Binding::write_opt("rays", Format::U32),
-        ]
+        BandwidthIo::bindings()
     }
     fn params(&self) -> Vec<ParamSpec> {
         BandwidthParams::specs()
@@ -228,23 +255,21 @@ impl Kernel for Bandwidth {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let k = bandwidth_params(ctx)?;
-        let curvature = ctx.read::<[f32; 2]>("curvature")?;
-        let environment = ctx.read::<[f32; 4]>("environment")?;
-        let normal = ctx.read::<[f32; 4]>("normal")?;
-        let depth = ctx.read_opt::<[f32; 4]>("depth")?;
+        let io = BandwidthIo::read(ctx)?;
+        let (curvature, environment, normal, depth) = (io.curvature, io.environment, io.normal, io.depth);
         let out: Vec<PixelBandwidths> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             let s = pixel_stats(curvature[i], environment[i], depth.map(|d| d[i]));
             pixel_outputs(&s, normal[i][3], &k)
         });
         let vec2 = |f: fn(&formulas::Bandwidths) -> [f32; 2]| out.iter().map(|o| f(&o.b)).collect::<Vec<[f32; 2]>>();
-        ctx.put_opt("direct_diffuse", || vec2(|b| b.direct_diffuse))?;
-        ctx.put_opt("direct_glossy", || vec2(|b| b.direct_glossy))?;
-        ctx.put_opt("indirect_diffuse", || vec2(|b| b.indirect_diffuse))?;
-        ctx.put_opt("indirect_glossy", || vec2(|b| b.indirect_glossy))?;
-        ctx.put_opt("bandwidth", || out.iter().map(|o| o.bandwidth).collect::<Vec<f32>>())?;
-        ctx.put_opt("bandlimit", || out.iter().map(|o| o.bandlimit).collect::<Vec<f32>>())?;
-        ctx.put_opt("filter_width", || out.iter().map(|o| o.filter_width).collect::<Vec<f32>>())?;
-        ctx.put_opt("rays", || out.iter().map(|o| o.rays).collect::<Vec<u32>>())
+        io.direct_diffuse.put_with(ctx, || vec2(|b| b.direct_diffuse))?;
+        io.direct_glossy.put_with(ctx, || vec2(|b| b.direct_glossy))?;
+        io.indirect_diffuse.put_with(ctx, || vec2(|b| b.indirect_diffuse))?;
+        io.indirect_glossy.put_with(ctx, || vec2(|b| b.indirect_glossy))?;
+        io.bandwidth.put_with(ctx, || out.iter().map(|o| o.bandwidth).collect())?;
+        io.bandlimit.put_with(ctx, || out.iter().map(|o| o.bandlimit).collect())?;
+        io.filter_width.put_with(ctx, || out.iter().map(|o| o.filter_width).collect())?;
+        io.rays.put_with(ctx, || out.iter().map(|o| o.rays).collect())
     }
 }

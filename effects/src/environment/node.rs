@@ -37,7 +37,7 @@ use wedge_graph::{
 };
 
 use super::kernels::filter::{EnvironmentFilterIo, HistoryIo};
-use super::kernels::CurvatureIo;
+use super::kernels::{BandwidthIo, CurvatureIo};
 use crate::factored::{compose_component, factor_flags, PartTerms};
 
 pub struct Environment;
@@ -224,22 +224,23 @@ impl NodeKind for Environment {
             ctx.buffer("filter_width", Format::F32),
             ctx.buffer("rays_per_pixel", Format::U32),
         );
-        let mut b = ctx
-            .pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
-            .read("curvature", curvature)
-            .read("environment", stats)
-            .read("normal", normal)
-            .read_opt("depth", depth)
-            .write("bandwidth", bandwidth)
-            .write("filter_width", width)
-            .write("rays", rays)
+        // The parts' bandwidths in `DIRECT_PARTS`, `INDIRECT_PARTS` order (the indirect ones where sampled).
+        let part = |i: usize| bandwidths.get(i).copied();
+        let io = BandwidthIo {
+            direct_diffuse: part(0),
+            direct_glossy: part(1),
+            indirect_diffuse: part(2),
+            indirect_glossy: part(3),
+            bandwidth: Some(bandwidth),
+            filter_width: Some(width),
+            rays: Some(rays),
+            ..BandwidthIo::inputs(curvature, stats, normal, depth)
+        };
+        io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
             .node_params(&["b_e", "mu", "max_radius", "sigma_ref", "max_rays"])
             .int("base", primary * per_primary)
-            .reference(if adaptive { Reference::Count } else { Reference::Keep });
-        for ((_, binding), id) in parts.iter().zip(&bandwidths) {
-            b = b.write(binding, *id);
-        }
-        b.finish();
+            .reference(if adaptive { Reference::Count } else { Reference::Keep })
+            .finish();
         if adaptive {
             // Look-ups over both passes, `per_primary` per path: the sampler adds paths.
             let mut per_path = vec![("environment".to_string(), PerPrimary::Constant(per_primary as u32))];
@@ -371,12 +372,12 @@ fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Buffer
     let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
     let (curvature, magnitude) = curvature_pass(ctx, position, normal);
     let (bandlimit, bandwidth) = (ctx.buffer("bandlimit", Format::F32), ctx.buffer("bandwidth", Format::F32));
-    ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
-        .read("curvature", curvature)
-        .read("environment", stats)
-        .read("normal", normal)
-        .write("bandlimit", bandlimit)
-        .write("bandwidth", bandwidth)
+    let io = BandwidthIo {
+        bandlimit: Some(bandlimit),
+        bandwidth: Some(bandwidth),
+        ..BandwidthIo::inputs(curvature, stats, normal, None)
+    };
+    io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
         .node_params(&["b_e"])
         .float("mu", 1.0)
         .param("max_radius", f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16)))

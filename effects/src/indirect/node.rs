@@ -2,6 +2,7 @@
 //! (the shared sampler's centre path, statistics, bandwidth, rates, the sampler's adaptive paths,
 //! a separable filter per component, compose) or as a factoring node's component.
 
+use wedge_backends::kernels::indirect::ComposeIo;
 use wedge_backends::kernels::neighbourhood_others::OthersIo;
 use wedge_backends::KernelParams;
 use wedge_graph::{
@@ -211,13 +212,8 @@ impl NodeKind for Indirect {
             [("compose", filtered_d, filtered_g, "radiance"), ("compose_unfiltered", noisy_d, noisy_g, "unfiltered")]
         {
             let out = ctx.buffer(port, Format::Vec3);
-            ctx.pass(pass, "indirect.compose", Stage::Compose)
-                .read("diffuse", d)
-                .read_opt("glossy", g)
-                .read_opt("albedo", albedo)
-                .read_opt("specular", specular)
-                .write("out", out)
-                .finish();
+            let io = ComposeIo { diffuse: d, glossy: g, direct: None, albedo, specular, emission: None, out };
+            io.bind(ctx.pass(pass, "indirect.compose", Stage::Compose)).finish();
             ctx.output(port, out);
         }
         ctx.output("filter_width", width_px);

@@ -37,9 +37,9 @@ use wedge_backends::KernelParams;
 use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
-use super::kernels::reconstruct::ReconstructParams;
-use super::kernels::sample::SampleParams;
-use super::kernels::splats::SplatParams;
+use super::kernels::reconstruct::{ReconstructIo, ReconstructParams};
+use super::kernels::sample::{SampleIo, SampleParams};
+use super::kernels::splats::{SplatParams, SplatsIo};
 use super::kernels::EstimatorParams;
 use super::records::{LIGHT_PRIMARY, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
 
@@ -115,11 +115,8 @@ impl NodeKind for LightField {
         let primary =
             ctx.layered_buffer("primary", Format::Struct(&LIGHT_PRIMARY), if camera.fixed() { 1 } else { spp });
         let estimate = ctx.buffer("estimate", Format::Vec4);
-        let mut b = ctx
-            .pass("sample", "light_field.sample", Stage::Sample)
-            .write("samples", samples)
-            .write("primary", primary)
-            .write("estimate", estimate)
+        let mut b = SampleIo { samples, primary, estimate }
+            .bind(ctx.pass("sample", "light_field.sample", Stage::Sample))
             .int("count", i64::from(spp))
             .param("sampling", ParamValue::Str("stratified".into()))
             .node_params(EstimatorParams::names())
@@ -143,22 +140,15 @@ impl NodeKind for LightField {
         let splats = ctx.layered_buffer("splats", Format::Struct(&SPLAT), spp);
         let nodes = ctx.layered_buffer("nodes", Format::Struct(&SPLAT_NODE), 2 * spp);
         let splat_radius = ctx.buffer("splat_radius", Format::F32);
-        ctx.pass("splats", "light_field.splats", Stage::Bandwidth)
-            .read("samples", samples)
-            .write("splats", splats)
-            .write("nodes", nodes)
-            .write("splat_radius", splat_radius)
+        SplatsIo { samples, splats, nodes, splat_radius: Some(splat_radius) }
+            .bind(ctx.pass("splats", "light_field.splats", Stage::Bandwidth))
             .node_params(SplatParams::names())
             .finish();
 
         // 3. Reconstruction rays.
         let radiance = ctx.buffer("radiance", Format::Vec3);
-        ctx.pass("reconstruct", "light_field.reconstruct", Stage::Filter)
-            .read("primary", primary)
-            .read("splats", splats)
-            .read("nodes", nodes)
-            .read("unfiltered", unfiltered)
-            .write("radiance", radiance)
+        ReconstructIo { primary, splats, nodes, unfiltered, radiance }
+            .bind(ctx.pass("reconstruct", "light_field.reconstruct", Stage::Filter))
             .node_params(EstimatorParams::names())
             .node_params(ReconstructParams::names())
             .random()

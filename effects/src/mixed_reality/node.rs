@@ -37,6 +37,7 @@ use wedge_graph::{
 
 use super::kernels::sample::MrParams;
 use crate::environment::kernels::filter::BandwidthMaxIo;
+use crate::environment::kernels::BandwidthIo;
 use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
 pub struct MixedReality;
@@ -193,17 +194,16 @@ impl NodeKind for MixedReality {
             ["direct_diffuse", "direct_glossy", "indirect_diffuse", "indirect_glossy"]
                 .map(|n| ctx.buffer(&format!("bandwidth_{n}"), Format::Vec2));
         let (bandwidth, width) = (ctx.buffer("bandwidth", Format::F32), ctx.buffer("filter_width", Format::F32));
-        ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth)
-            .read("curvature", curvature)
-            .read("environment", stats)
-            .read("normal", normal)
-            .read("depth", depth)
-            .write("direct_diffuse", direct_diffuse)
-            .write("direct_glossy", direct_glossy)
-            .write("indirect_diffuse", indirect_diffuse)
-            .write("indirect_glossy", indirect_glossy)
-            .write("bandwidth", bandwidth)
-            .write("filter_width", width)
+        let io = BandwidthIo {
+            direct_diffuse: Some(direct_diffuse),
+            direct_glossy: Some(direct_glossy),
+            indirect_diffuse: Some(indirect_diffuse),
+            indirect_glossy: Some(indirect_glossy),
+            bandwidth: Some(bandwidth),
+            filter_width: Some(width),
+            ..BandwidthIo::inputs(curvature, stats, normal, Some(depth))
+        };
+        io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
             .node_params(&["b_e", "mu", "max_radius"])
             .float("sigma_ref", 1.0)
             .int("max_rays", 1)

@@ -15,7 +15,7 @@
 pub mod filter;
 
 use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith, Uniforms, WgslSource,
 };
 use wedge_graph::Format;
 
@@ -216,6 +216,15 @@ impl Kernel for Rates {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `motion.flags` pass binds: the final paths' velocities (the shadow's and the occlusion
+    /// for direct light) and either flag (each optional: a pass computes only what is bound).
+    pub struct FlagsIo / FlagsData {
+        read velocity: [f32; 4], read_opt shadow_velocity: [f32; 4], read_opt occlusion: [f32; 4],
+        write_opt flag: u32, write_opt multi: u32,
+    }
+}
+
 /// `motion.flags`: `flag` 1 where the pixel's paths saw one velocity (App. B factors it), else 0;
 /// `multi` the opposite (the pixels App. B filters over 3×3). Both optional.
 pub struct Flags;
@@ -228,13 +237,7 @@ impl Kernel for Flags {
         KernelClass::Bandwidth
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("velocity", Format::Vec4),
-            Binding::read_opt("shadow_velocity", Format::Vec4),
-            Binding::read_opt("occlusion", Format::Vec4),
-            Binding::write_opt("flag", Format::U32),
-            Binding::write_opt("multi", Format::U32),
-        ]
+        FlagsIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -246,14 +249,12 @@ impl Kernel for Flags {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let velocity = ctx.read::<[f32; 4]>("velocity")?;
-        let shadow = ctx.read_opt::<[f32; 4]>("shadow_velocity")?;
-        let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
+        let FlagsData { velocity, shadow_velocity: shadow, occlusion, flag, multi } = FlagsIo::read(ctx)?;
         let single: Vec<bool> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             motion_stats(velocity[i], shadow.map(|s| s[i]), [0.0; 4], occlusion.map(|o| o[i]), None, None).single()
         });
-        ctx.put_opt("flag", || single.iter().map(|&s| s as u32).collect::<Vec<u32>>())?;
-        ctx.put_opt("multi", || single.iter().map(|&s| !s as u32).collect::<Vec<u32>>())
+        flag.put_with(ctx, || single.iter().map(|&s| s as u32).collect())?;
+        multi.put_with(ctx, || single.iter().map(|&s| !s as u32).collect())
     }
 }

@@ -53,6 +53,7 @@ use wedge_graph::{
 
 use super::formulas::{MULTI_VELOCITY_PATHS, OMEGA_T_MAX};
 use super::kernels::filter::{MotionFilterIo, Radiance3Io};
+use super::kernels::FlagsIo;
 use crate::defocus::component::rate_settings;
 use crate::defocus::formulas::Mode;
 use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
@@ -247,11 +248,14 @@ impl NodeKind for Motion {
         let composed = sum(ctx, "compose", &components, Some(emission));
         let final_velocity = ctx.sampler_output(SamplerPass::Final, "velocity")?;
         let multi = ctx.buffer("multi", Format::U32);
-        ctx.pass("multi", "motion.flags", Stage::Factor)
-            .read("velocity", final_velocity)
-            .write("multi", multi)
-            .reference(Reference::Fill(0))
-            .finish();
+        let io = FlagsIo {
+            velocity: final_velocity,
+            shadow_velocity: None,
+            occlusion: None,
+            flag: None,
+            multi: Some(multi),
+        };
+        io.bind(ctx.pass("multi", "motion.flags", Stage::Factor)).reference(Reference::Fill(0)).finish();
         let radiance = match ctx.param("multi_filter").clone() {
             ParamValue::Str(f) if f == "none" => composed,
             f => {
@@ -335,13 +339,14 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
         (None, None)
     };
     let flag = ctx.buffer(&format!("{name}_flag"), Format::U32);
-    ctx.pass(&format!("{name}_flag"), "motion.flags", Stage::Factor)
-        .read("velocity", final_velocity)
-        .read_opt("shadow_velocity", final_shadow)
-        .read_opt("occlusion", final_occlusion)
-        .write("flag", flag)
-        .reference(Reference::Fill(0))
-        .finish();
+    let io = FlagsIo {
+        velocity: final_velocity,
+        shadow_velocity: final_shadow,
+        occlusion: final_occlusion,
+        flag: Some(flag),
+        multi: None,
+    };
+    io.bind(ctx.pass(&format!("{name}_flag"), "motion.flags", Stage::Factor)).reference(Reference::Fill(0)).finish();
 
     // 3–4. Per part: E filtered (5.18/5.22, then B.2 along the shadow), k filtered along v_p (B.1);
     // composed and summed over parts.

@@ -2,11 +2,13 @@
 
 use wedge_backends::kernels::constant::FillF32Io;
 use wedge_backends::KernelParams;
-use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
+use wedge_graph::{
+    BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage,
+};
 
-use super::kernels::blend::{SpikeParams, WidthParams};
-use super::kernels::filter::{FilterParams, PassParams};
-use super::kernels::sample::SampleParams;
+use super::kernels::blend::{BlendIo, SpikeParams, WidthIo, WidthParams};
+use super::kernels::filter::{BilateralIo, FilterParams, PassParams, SeparableIo};
+use super::kernels::sample::{AccumulateIo, RangeIo, SampleIo, SampleParams};
 use super::kernels::{ScheduleParams, ThresholdParams};
 use crate::camera_paths::TracerParams;
 
@@ -77,9 +79,8 @@ impl NodeKind for PixelFilter {
 
         // 1–2. This frame's paths and the running statistics.
         let (sample_lv, sample_hv) = (ctx.buffer("sample_lv", Format::Vec4), ctx.buffer("sample_hv", Format::Vec4));
-        ctx.pass("sample", "pixel_filter.sample", Stage::Sample)
-            .write("lv", sample_lv)
-            .write("hv", sample_hv)
+        SampleIo { lv: sample_lv, hv: sample_hv }
+            .bind(ctx.pass("sample", "pixel_filter.sample", Stage::Sample))
             .param("count", paths)
             .node_params(SampleParams::names())
             .node_params(TracerParams::names())
@@ -88,21 +89,13 @@ impl NodeKind for PixelFilter {
             .finish();
         let (lv, hv) = (ctx.buffer("lv", Format::Vec4), ctx.buffer("hv", Format::Vec4));
         let (previous_lv, previous_hv) = (ctx.previous_frame(lv), ctx.previous_frame(hv));
-        ctx.pass("accumulate", "pixel_filter.accumulate", Stage::Sample)
-            .read("sample_lv", sample_lv)
-            .read("sample_hv", sample_hv)
-            .read("previous_lv", previous_lv)
-            .read("previous_hv", previous_hv)
-            .write("lv", lv)
-            .write("hv", hv)
-            .finish();
+        accumulate(ctx, [sample_lv, sample_hv], [previous_lv, previous_hv], [lv, hv]);
 
         // 3. The range buffer.
         let range = ctx.buffer("range", Format::Vec4);
         let previous_range = ctx.previous_frame(range);
-        ctx.pass("range", "pixel_filter.range", Stage::Sample)
-            .read("previous", previous_range)
-            .write("range", range)
+        RangeIo { previous: Some(previous_range), range }
+            .bind(ctx.pass("range", "pixel_filter.range", Stage::Sample))
             .param("count", range_samples)
             .node_params(ScheduleParams::names())
             .random()
@@ -115,11 +108,13 @@ impl NodeKind for PixelFilter {
         let adaptive = matches!(ctx.param("adaptive"), ParamValue::Bool(true));
         let sigma = ctx.buffer("sigma", Format::F32);
         if adaptive {
-            ctx.pass("width", "pixel_filter.width", Stage::Bandwidth)
-                .read("lv", lv)
-                .read("previous_filtered", previous_filtered)
-                .read("previous_variance", previous_variance)
-                .write("sigma", sigma)
+            let io = WidthIo {
+                lv,
+                previous_filtered: Some(previous_filtered),
+                previous_variance: Some(previous_variance),
+                sigma,
+            };
+            io.bind(ctx.pass("width", "pixel_filter.width", Stage::Bandwidth))
                 .node_params(ThresholdParams::names())
                 .node_params(WidthParams::names())
                 .finish();
@@ -134,15 +129,17 @@ impl NodeKind for PixelFilter {
         // 5. The filter: written on filter frames, kept (through the history) on the others.
         let separable = matches!(ctx.param("filter"), ParamValue::Str(f) if f == "separable");
         if !separable {
-            ctx.pass("filter", "pixel_filter.bilateral", Stage::Filter)
-                .read("range", range)
-                .read("lv", lv)
-                .read("hv", hv)
-                .read("previous_filtered", previous_filtered)
-                .read("previous_variance", previous_variance)
-                .read_opt("sigma", sigma_in)
-                .write("filtered", filtered)
-                .write("variance", variance)
+            let io = BilateralIo {
+                range,
+                lv,
+                hv,
+                previous_filtered: Some(previous_filtered),
+                previous_variance: Some(previous_variance),
+                sigma: sigma_in,
+                filtered,
+                variance,
+            };
+            io.bind(ctx.pass("filter", "pixel_filter.bilateral", Stage::Filter))
                 .node_params(ScheduleParams::names())
                 .node_params(FilterParams::names())
                 .reference(Reference::Bypass { input: "hv" })
@@ -162,16 +159,18 @@ impl NodeKind for PixelFilter {
                     } else {
                         (ctx.buffer(&local, Format::Vec4), ctx.buffer(&format!("{local}_variance"), Format::Vec4))
                     };
-                    ctx.pass(&local, "pixel_filter.separable", Stage::Filter)
-                        .read("range", range)
-                        .read("value_in", value)
-                        .read_opt("variance_in", var)
-                        .read_opt("lv", (first || last).then_some(lv))
-                        .read_opt("sigma", sigma_in)
-                        .read_opt("previous_filtered", last.then_some(previous_filtered))
-                        .read_opt("previous_variance", last.then_some(previous_variance))
-                        .write("value_out", out)
-                        .write("variance_out", out_var)
+                    let io = SeparableIo {
+                        range,
+                        value_in: value,
+                        variance_in: var,
+                        lv: (first || last).then_some(lv),
+                        sigma: sigma_in,
+                        previous_filtered: last.then_some(previous_filtered),
+                        previous_variance: last.then_some(previous_variance),
+                        value_out: out,
+                        variance_out: out_var,
+                    };
+                    io.bind(ctx.pass(&local, "pixel_filter.separable", Stage::Filter))
                         .int("axis", axis)
                         .int("iteration", k)
                         .int("iterations", iterations)
@@ -190,14 +189,8 @@ impl NodeKind for PixelFilter {
         let radiance = ctx.buffer("radiance", Format::Vec3);
         let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
         let blend = ctx.buffer("blend", Format::F32);
-        ctx.pass("blend", "pixel_filter.blend", Stage::Compose)
-            .read("lv", lv)
-            .read("hv", hv)
-            .read("filtered", filtered)
-            .read("variance", variance)
-            .write("radiance", radiance)
-            .write("unfiltered", unfiltered)
-            .write("blend", blend)
+        BlendIo { lv, hv, filtered, variance, radiance, unfiltered, blend }
+            .bind(ctx.pass("blend", "pixel_filter.blend", Stage::Compose))
             .node_params(ThresholdParams::names())
             .node_params(SpikeParams::names())
             .finish();
@@ -207,4 +200,18 @@ impl NodeKind for PixelFilter {
         ctx.output("sigma", sigma);
         Ok(())
     }
+}
+
+/// `pixel_filter.accumulate`: this frame's `(lv, hv)` combined with the previous frame's into `out`
+/// (RadianceFilter accumulates its paths the same way).
+pub(crate) fn accumulate(ctx: &mut ExpandCtx<'_>, sample: [BufferId; 2], previous: [BufferId; 2], out: [BufferId; 2]) {
+    let io = AccumulateIo {
+        sample_lv: sample[0],
+        sample_hv: sample[1],
+        previous_lv: Some(previous[0]),
+        previous_hv: Some(previous[1]),
+        lv: out[0],
+        hv: out[1],
+    };
+    io.bind(ctx.pass("accumulate", "pixel_filter.accumulate", Stage::Sample)).finish();
 }

@@ -9,7 +9,6 @@ use wedge_backends::kernels::{luminance, v3};
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
 };
-use wedge_graph::Format;
 
 use super::formulas::*;
 use crate::camera_paths::CameraPaths;
@@ -83,6 +82,20 @@ impl PixelSamples {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `radiance_filter.sample` pass binds: the batch's Stats — mean direct light (w = finite
+    /// paths), mean own indirect (w = M2) — and path 0's radiance sample ([`SAMPLE_BUFFERS`]).
+    pub struct SampleIo / SampleData {
+        write lv: [f32; 4],
+        write hv: [f32; 4],
+        write point: [f32; 4],
+        write normal: [f32; 4],
+        write albedo: [f32; 4],
+        write direction: [f32; 4],
+        write incident: [f32; 4],
+    }
+}
+
 impl Kernel for RadianceSample {
     fn name(&self) -> &'static str {
         "radiance_filter.sample"
@@ -97,15 +110,7 @@ impl Kernel for RadianceSample {
         true
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // The batch's Stats: mean direct light (w = finite paths), mean own indirect (w = M2).
-            Binding::write("lv", Format::Vec4),
-            Binding::write("hv", Format::Vec4),
-        ]
-        .into_iter()
-        // Path 0's radiance sample.
-        .chain(SAMPLE_BUFFERS.map(|n| Binding::write(n, Format::Vec4)))
-        .collect()
+        SampleIo::bindings()
     }
     /// WGSL mirror: `shaders/radiance_filter_sample.wgsl` (on the shared `first_vertex.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
@@ -124,6 +129,7 @@ impl Kernel for RadianceSample {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let io = SampleIo::read(ctx)?;
         let out: Vec<PixelSamples> = CameraPaths::read(ctx)?.run(ctx, |o: &mut PixelSamples, j, v| {
             let finite = v.direct.is_finite() && v.indirect.is_finite();
             if finite {
@@ -141,10 +147,11 @@ impl Kernel for RadianceSample {
             }
             finite
         });
-        ctx.put("lv", out.iter().map(|o| o.stats.lv_buffer()).collect::<Vec<_>>())?;
-        ctx.put("hv", out.iter().map(|o| o.stats.u_buffer()).collect::<Vec<_>>())?;
-        for (k, name) in SAMPLE_BUFFERS.into_iter().enumerate() {
-            ctx.put(name, out.iter().map(|o| o.buffers()[k]).collect::<Vec<_>>())?;
+        io.lv.put(ctx, out.iter().map(|o| o.stats.lv_buffer()).collect())?;
+        io.hv.put(ctx, out.iter().map(|o| o.stats.u_buffer()).collect())?;
+        let samples = [io.point, io.normal, io.albedo, io.direction, io.incident];
+        for (k, sample) in samples.into_iter().enumerate() {
+            sample.put(ctx, out.iter().map(|o| o.buffers()[k]).collect())?;
         }
         Ok(())
     }
@@ -158,6 +165,14 @@ impl Kernel for RadianceSample {
 /// `k = frame + 1`, from the previous frame's filtered variance and accumulated image (history).
 pub struct Radius;
 
+wedge_backends::kernel_bindings! {
+    /// What a `radiance_filter.radius` pass binds: the history — the previous frame's filtered
+    /// variance and accumulated image (zeros/unbound in a first frame) — and the radius.
+    pub struct RadiusIo / RadiusData {
+        read_opt previous_variance: [f32; 4], read_opt previous_accumulated: [f32; 4], write radius: f32,
+    }
+}
+
 impl Kernel for Radius {
     fn name(&self) -> &'static str {
         "radiance_filter.radius"
@@ -169,13 +184,7 @@ impl Kernel for Radius {
         RadiusRule::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // History: the previous frame's filtered variance and accumulated image (zeros/unbound
-            // in a first frame).
-            Binding::read_opt("previous_variance", Format::Vec4),
-            Binding::read_opt("previous_accumulated", Format::Vec4),
-            Binding::write("radius", Format::F32),
-        ]
+        RadiusIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -192,8 +201,7 @@ impl Kernel for Radius {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let rule = RadiusRule::read(ctx)?;
         let k = ctx.frame + 1;
-        let pv = ctx.read_opt::<[f32; 4]>("previous_variance")?;
-        let pa = ctx.read_opt::<[f32; 4]>("previous_accumulated")?;
+        let RadiusData { previous_variance: pv, previous_accumulated: pa, radius } = RadiusIo::read(ctx)?;
         let out: Vec<f32> = (0..ctx.pixels())
             .map(|i| {
                 let (sigma2, lb, alpha) = match (pv, pa) {
@@ -211,7 +219,7 @@ impl Kernel for Radius {
                 }
             })
             .collect();
-        ctx.put("radius", out)
+        radius.put(ctx, out)
     }
 }
 
@@ -241,6 +249,26 @@ fn filter_settings(ctx: &KernelCtx<'_>) -> Result<FilterSettings, BackendError> 
     })
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `radiance_filter.filter` pass binds: the radius, the radiance sample
+    /// ([`SampleIo`]'s), the estimates and the filtered value with its variance.
+    pub struct FilterIo / FilterData {
+        read radius: f32,
+        read point: [f32; 4],
+        read normal: [f32; 4],
+        read albedo: [f32; 4],
+        read direction: [f32; 4],
+        read incident: [f32; 4],
+        /// This frame's own indirect estimate (the sample pass's `hv`): what a reference keeps.
+        read own: [f32; 4],
+        /// The accumulated statistics (n in lv.w, M2 in hv.w): the per-path variance to filter.
+        read lv: [f32; 4],
+        read hv: [f32; 4],
+        write filtered: [f32; 4],
+        write variance: [f32; 4],
+    }
+}
+
 impl Kernel for Filter {
     fn name(&self) -> &'static str {
         "radiance_filter.filter"
@@ -252,18 +280,7 @@ impl Kernel for Filter {
         FilterParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        let mut b = vec![Binding::read("radius", Format::F32)];
-        b.extend(SAMPLE_BUFFERS.map(|n| Binding::read(n, Format::Vec4)));
-        b.extend([
-            // This frame's own indirect estimate (the sample pass's `hv`): what a reference keeps.
-            Binding::read("own", Format::Vec4),
-            // The accumulated statistics (n in lv.w, M2 in hv.w): the per-path variance to filter.
-            Binding::read("lv", Format::Vec4),
-            Binding::read("hv", Format::Vec4),
-            Binding::write("filtered", Format::Vec4),
-            Binding::write("variance", Format::Vec4),
-        ]);
-        b
+        FilterIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -281,11 +298,8 @@ impl Kernel for Filter {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = filter_settings(ctx)?;
-        let radius = ctx.read::<f32>("radius")?;
-        let [point, normal, albedo, direction, incident] = SAMPLE_BUFFERS.map(|n| ctx.read::<[f32; 4]>(n));
-        let (point, normal, albedo, direction, incident) = (point?, normal?, albedo?, direction?, incident?);
-        let lv = ctx.read::<[f32; 4]>("lv")?;
-        let hv = ctx.read::<[f32; 4]>("hv")?;
+        let FilterData { radius, point, normal, albedo, direction, incident, lv, hv, filtered, variance, .. } =
+            FilterIo::read(ctx)?;
         let materials = &ctx.scene.materials;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |px, py| {
@@ -344,8 +358,8 @@ impl Kernel for Filter {
             let code = if half > 0 { FILTERED } else { OWN };
             ([value.x, value.y, value.z, code], [sigma2, sum_w, r, occlusion_factor(open_w, sum_w)])
         });
-        ctx.put("filtered", out.iter().map(|o| o.0).collect::<Vec<_>>())?;
-        ctx.put("variance", out.iter().map(|o| o.1).collect::<Vec<_>>())
+        filtered.put(ctx, out.iter().map(|o| o.0).collect())?;
+        variance.put(ctx, out.iter().map(|o| o.1).collect())
     }
 }
 
@@ -360,6 +374,24 @@ fn switch_mode(ctx: &KernelCtx<'_>) -> Result<bool, BackendError> {
     Ok(ComposeParams::read(ctx)?.correction == Correction::Switch)
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `radiance_filter.compose` pass binds: this frame's estimates, the filtered value, the
+    /// statistics and the history (accumulated image, phase) in; the new history and the images out.
+    pub struct ComposeIo / ComposeData {
+        read sample_lv: [f32; 4],
+        read own: [f32; 4],
+        read filtered: [f32; 4],
+        read lv: [f32; 4],
+        read hv: [f32; 4],
+        read_opt previous_accumulated: [f32; 4],
+        read_opt previous_phase: f32,
+        write accumulated: [f32; 4],
+        write radiance: [f32; 3],
+        write unfiltered: [f32; 3],
+        write phase: f32,
+    }
+}
+
 impl Kernel for Compose {
     fn name(&self) -> &'static str {
         "radiance_filter.compose"
@@ -371,19 +403,7 @@ impl Kernel for Compose {
         ComposeParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("sample_lv", Format::Vec4),
-            Binding::read("own", Format::Vec4),
-            Binding::read("filtered", Format::Vec4),
-            Binding::read("lv", Format::Vec4),
-            Binding::read("hv", Format::Vec4),
-            Binding::read_opt("previous_accumulated", Format::Vec4),
-            Binding::read_opt("previous_phase", Format::F32),
-            Binding::write("accumulated", Format::Vec4),
-            Binding::write("radiance", Format::Vec3),
-            Binding::write("unfiltered", Format::Vec3),
-            Binding::write("phase", Format::F32),
-        ]
+        ComposeIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -399,11 +419,9 @@ impl Kernel for Compose {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let switch = switch_mode(ctx)?;
-        let (slv, own, filtered) =
-            (ctx.read::<[f32; 4]>("sample_lv")?, ctx.read::<[f32; 4]>("own")?, ctx.read::<[f32; 4]>("filtered")?);
-        let (lv, hv) = (ctx.read::<[f32; 4]>("lv")?, ctx.read::<[f32; 4]>("hv")?);
-        let pa = ctx.read_opt::<[f32; 4]>("previous_accumulated")?;
-        let pp = ctx.read_opt::<f32>("previous_phase")?;
+        let io = ComposeIo::read(ctx)?;
+        let (slv, own, filtered, lv, hv) = (io.sample_lv, io.own, io.filtered, io.lv, io.hv);
+        let (pa, pp) = (io.previous_accumulated, io.previous_phase);
         let out: Vec<([f32; 4], Vec3, f32, Vec3)> = (0..ctx.pixels())
             .map(|i| {
                 let unfiltered = v3(lv[i]) + v3(hv[i]);
@@ -419,9 +437,9 @@ impl Kernel for Compose {
                 (acc, radiance, phase, unfiltered)
             })
             .collect();
-        ctx.put("accumulated", out.iter().map(|o| o.0).collect::<Vec<_>>())?;
-        ctx.put("radiance", out.iter().map(|o| o.1.to_array()).collect::<Vec<_>>())?;
-        ctx.put("unfiltered", out.iter().map(|o| o.3.to_array()).collect::<Vec<_>>())?;
-        ctx.put("phase", out.iter().map(|o| o.2).collect::<Vec<_>>())
+        io.accumulated.put(ctx, out.iter().map(|o| o.0).collect())?;
+        io.radiance.put(ctx, out.iter().map(|o| o.1.to_array()).collect())?;
+        io.unfiltered.put(ctx, out.iter().map(|o| o.3.to_array()).collect())?;
+        io.phase.put(ctx, out.iter().map(|o| o.2).collect())
     }
 }

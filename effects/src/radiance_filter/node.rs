@@ -4,7 +4,7 @@ use wedge_backends::KernelParams;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Reference, Stage};
 
 use super::formulas::RadiusRule;
-use super::kernels::{ComposeParams, FilterParams, SAMPLE_BUFFERS};
+use super::kernels::{ComposeIo, ComposeParams, FilterIo, FilterParams, RadiusIo, SampleIo, SAMPLE_BUFFERS};
 use crate::camera_paths::TracerParams;
 
 pub struct RadianceFilter;
@@ -61,45 +61,35 @@ impl NodeKind for RadianceFilter {
         // 1–2. This frame's paths and radiance samples; the running statistics.
         let sample_lv = ctx.buffer("sample_lv", Format::Vec4);
         let own = ctx.buffer("own", Format::Vec4);
-        let sample = SAMPLE_BUFFERS.map(|n| (n, ctx.buffer(n, Format::Vec4)));
-        let mut b = ctx.pass("sample", "radiance_filter.sample", Stage::Sample).write("lv", sample_lv).write("hv", own);
-        for (n, id) in sample {
-            b = b.write(n, id);
-        }
-        b.int("count", 1).node_params(TracerParams::names()).random().reference(Reference::Sample).finish();
+        let [point, normal, albedo, direction, incident] = SAMPLE_BUFFERS.map(|n| ctx.buffer(n, Format::Vec4));
+        SampleIo { lv: sample_lv, hv: own, point, normal, albedo, direction, incident }
+            .bind(ctx.pass("sample", "radiance_filter.sample", Stage::Sample))
+            .int("count", 1)
+            .node_params(TracerParams::names())
+            .random()
+            .reference(Reference::Sample)
+            .finish();
         let (lv, hv) = (ctx.buffer("lv", Format::Vec4), ctx.buffer("hv", Format::Vec4));
         let (previous_lv, previous_hv) = (ctx.previous_frame(lv), ctx.previous_frame(hv));
-        ctx.pass("accumulate", "pixel_filter.accumulate", Stage::Sample)
-            .read("sample_lv", sample_lv)
-            .read("sample_hv", own)
-            .read("previous_lv", previous_lv)
-            .read("previous_hv", previous_hv)
-            .write("lv", lv)
-            .write("hv", hv)
-            .finish();
+        crate::pixel_filter::node::accumulate(ctx, [sample_lv, own], [previous_lv, previous_hv], [lv, hv]);
 
         // 3. The radius, from the previous frame's filtered variance and image.
         let (variance, accumulated) = (ctx.buffer("variance", Format::Vec4), ctx.buffer("accumulated", Format::Vec4));
         let (previous_variance, previous_accumulated) = (ctx.previous_frame(variance), ctx.previous_frame(accumulated));
         let radius = ctx.buffer("radius", Format::F32);
-        ctx.pass("radius", "radiance_filter.radius", Stage::Bandwidth)
-            .read("previous_variance", previous_variance)
-            .read("previous_accumulated", previous_accumulated)
-            .write("radius", radius)
+        let io = RadiusIo {
+            previous_variance: Some(previous_variance),
+            previous_accumulated: Some(previous_accumulated),
+            radius,
+        };
+        io.bind(ctx.pass("radius", "radiance_filter.radius", Stage::Bandwidth))
             .node_params(RadiusRule::names())
             .finish();
 
         // 4. The filter.
         let filtered = ctx.buffer("filtered", Format::Vec4);
-        let mut b = ctx.pass("filter", "radiance_filter.filter", Stage::Filter).read("radius", radius);
-        for (n, id) in sample {
-            b = b.read(n, id);
-        }
-        b.read("own", own)
-            .read("lv", lv)
-            .read("hv", hv)
-            .write("filtered", filtered)
-            .write("variance", variance)
+        FilterIo { radius, point, normal, albedo, direction, incident, own, lv, hv, filtered, variance }
+            .bind(ctx.pass("filter", "radiance_filter.filter", Stage::Filter))
             .node_params(FilterParams::names())
             .reference(Reference::Bypass { input: "own" })
             .finish();
@@ -109,18 +99,20 @@ impl NodeKind for RadianceFilter {
         let unfiltered = ctx.buffer("unfiltered", Format::Vec3);
         let phase = ctx.buffer("phase", Format::F32);
         let previous_phase = ctx.previous_frame(phase);
-        ctx.pass("compose", "radiance_filter.compose", Stage::Compose)
-            .read("sample_lv", sample_lv)
-            .read("own", own)
-            .read("filtered", filtered)
-            .read("lv", lv)
-            .read("hv", hv)
-            .read("previous_accumulated", previous_accumulated)
-            .read("previous_phase", previous_phase)
-            .write("accumulated", accumulated)
-            .write("radiance", radiance)
-            .write("unfiltered", unfiltered)
-            .write("phase", phase)
+        let io = ComposeIo {
+            sample_lv,
+            own,
+            filtered,
+            lv,
+            hv,
+            previous_accumulated: Some(previous_accumulated),
+            previous_phase: Some(previous_phase),
+            accumulated,
+            radiance,
+            unfiltered,
+            phase,
+        };
+        io.bind(ctx.pass("compose", "radiance_filter.compose", Stage::Compose))
             .node_params(ComposeParams::names())
             .finish();
         ctx.output("radiance", radiance);

@@ -8,14 +8,13 @@ use wedge_backends::{
     BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms,
     WgslSource,
 };
-use wedge_graph::Format;
 use wedge_scene::SceneAt;
 
 use super::{leave, EstimatorParams, RandomStream};
 use crate::light_field::formulas::{occlusion, RayShare};
 use crate::light_field::node::DEFAULT_RAYS;
 use crate::light_field::reconstruct;
-use crate::light_field::records::{LightPrimary, Splat, SplatNode, LIGHT_PRIMARY, SPLAT, SPLAT_NODE};
+use crate::light_field::records::{LightPrimary, Splat, SplatNode};
 
 /// `light_field.reconstruct` (see [`super`]).
 pub struct LightFieldReconstruct;
@@ -62,6 +61,18 @@ impl ReconstructParams {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `light_field.reconstruct` pass binds.
+    pub struct ReconstructIo / ReconstructData {
+        read primary: LightPrimary,
+        read splats: Splat,
+        read nodes: SplatNode,
+        /// What a reference keeps (the filter bypassed); unused here.
+        read unfiltered: [f32; 3],
+        write radiance: [f32; 3],
+    }
+}
+
 impl Kernel for LightFieldReconstruct {
     fn name(&self) -> &'static str {
         "light_field.reconstruct"
@@ -79,14 +90,7 @@ impl Kernel for LightFieldReconstruct {
         [EstimatorParams::specs(), ReconstructParams::specs(), RandomStream::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("primary", Format::Struct(&LIGHT_PRIMARY)),
-            Binding::read("splats", Format::Struct(&SPLAT)),
-            Binding::read("nodes", Format::Struct(&SPLAT_NODE)),
-            // What a reference keeps (the filter bypassed); unused here.
-            Binding::read("unfiltered", Format::Vec3),
-            Binding::write("radiance", Format::Vec3),
-        ]
+        ReconstructIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -112,15 +116,13 @@ impl Kernel for LightFieldReconstruct {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let primary = ctx.read::<LightPrimary>("primary")?;
+        let ReconstructData { primary, splats, nodes, radiance: out_radiance, .. } = ReconstructIo::read(ctx)?;
         let hits_per_pixel = ctx.layers("primary") as usize;
         let (e, p) = EstimatorParams::read_paths(ctx)?;
         let (ao, max_distance) = (p.ao, e.max_distance);
         let (r, two_sided) = ReconstructParams::read_checked(ctx, ao)?;
         let (rays, trace_gaps) = (r.rays, r.gaps == Gaps::Trace);
         let RandomStream { stream } = RandomStream::read(ctx)?;
-        let splats = ctx.read::<Splat>("splats")?;
-        let nodes = ctx.read::<SplatNode>("nodes")?;
         let (seed, width) = (ctx.seed, ctx.width);
         let out = ctx.map_pixels(true, |px, py| {
             let i = (py * width + px) as usize;
@@ -153,7 +155,7 @@ impl Kernel for LightFieldReconstruct {
         });
         Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.1.shadow).sum());
         Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.1.secondary).sum());
-        ctx.put("radiance", out.into_iter().map(|o| o.0.to_array()).collect::<Vec<_>>())
+        out_radiance.put(ctx, out.into_iter().map(|o| o.0.to_array()).collect())
     }
 }
 

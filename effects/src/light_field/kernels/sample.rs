@@ -8,11 +8,10 @@ use wedge_backends::{
     BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms,
     WgslSource,
 };
-use wedge_graph::Format;
 
 use super::{camera_sample, leave, EstimatorParams, Primary, RandomStream};
 use crate::light_field::formulas::{kappa, occlusion};
-use crate::light_field::records::{LightPrimary, LightSample, LIGHT_PRIMARY, LIGHT_SAMPLE, SAMPLE_ESCAPED, SAMPLE_HIT};
+use crate::light_field::records::{LightPrimary, LightSample, SAMPLE_ESCAPED, SAMPLE_HIT};
 
 /// `light_field.sample` (see [`super`]).
 pub struct LightFieldSample;
@@ -34,6 +33,18 @@ wedge_backends::kernel_params! {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `light_field.sample` pass binds.
+    pub struct SampleIo / SampleData {
+        /// `layers` records per pixel.
+        write samples: LightSample,
+        /// `layers("primary")` records per pixel: the first paths' primary hits.
+        write primary: LightPrimary,
+        /// rgb: Σ w·L f cos/pdf / Σ w over the finite samples; w: Σ w.
+        write estimate: [f32; 4],
+    }
+}
+
 impl Kernel for LightFieldSample {
     fn name(&self) -> &'static str {
         "light_field.sample"
@@ -48,14 +59,7 @@ impl Kernel for LightFieldSample {
         [EstimatorParams::specs(), SampleParams::specs(), SamplePass::specs(), RandomStream::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // `layers` records per pixel.
-            Binding::write("samples", Format::Struct(&LIGHT_SAMPLE)),
-            // `layers("primary")` records per pixel: the first paths' primary hits.
-            Binding::write("primary", Format::Struct(&LIGHT_PRIMARY)),
-            // rgb: Σ w·L f cos/pdf / Σ w over the finite samples; w: Σ w.
-            Binding::write("estimate", Format::Vec4),
-        ]
+        SampleIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -225,8 +229,9 @@ impl Kernel for LightFieldSample {
         Counters::add(&ctx.counters.secondary_rays, out.iter().map(|o| o.rays.secondary).sum());
         Counters::add(&ctx.counters.shadow_rays, out.iter().map(|o| o.rays.shadow).sum());
         Counters::add(&ctx.counters.non_finite_samples, out.iter().map(|o| o.bad).sum());
-        ctx.put("estimate", out.iter().map(|o| o.estimate).collect::<Vec<_>>())?;
-        ctx.put("primary", out.iter().flat_map(|o| o.primary.iter().copied()).collect::<Vec<_>>())?;
-        ctx.put("samples", out.into_iter().flat_map(|o| o.samples).collect::<Vec<_>>())
+        let io = SampleIo::read(ctx)?;
+        io.estimate.put(ctx, out.iter().map(|o| o.estimate).collect())?;
+        io.primary.put(ctx, out.iter().flat_map(|o| o.primary.iter().copied()).collect())?;
+        io.samples.put(ctx, out.into_iter().flat_map(|o| o.samples).collect())
     }
 }

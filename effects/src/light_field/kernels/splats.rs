@@ -2,11 +2,10 @@
 //! samples ([`crate::light_field::splats`]).
 
 use wedge_backends::kernels::direct::RAY_EPSILON;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec};
-use wedge_graph::Format;
+use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith};
 
 use crate::light_field::node::{DEFAULT_ALPHA, DEFAULT_GLOSSY_CAP, DEFAULT_K};
-use crate::light_field::records::{LightSample, Splat, SplatNode, LIGHT_SAMPLE, SPLAT, SPLAT_NODE};
+use crate::light_field::records::{LightSample, Splat, SplatNode};
 use crate::light_field::splats::{build, KnnSettings};
 use crate::light_field::STACK_SIZE;
 
@@ -39,6 +38,14 @@ fn knn_settings(ctx: &KernelCtx<'_>, p: &SplatParams) -> Result<KnnSettings, Bac
     Ok(KnnSettings { k, alpha, glossy_cap })
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `light_field.splats` pass binds: the samples, the splats and their tree, and the mean
+    /// splat radius per pixel (optional, a heatmap).
+    pub struct SplatsIo / SplatsData {
+        read samples: LightSample, write splats: Splat, write nodes: SplatNode, write_opt splat_radius: f32,
+    }
+}
+
 impl Kernel for LightFieldSplats {
     fn name(&self) -> &'static str {
         "light_field.splats"
@@ -53,17 +60,13 @@ impl Kernel for LightFieldSplats {
         SplatParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("samples", Format::Struct(&LIGHT_SAMPLE)),
-            Binding::write("splats", Format::Struct(&SPLAT)),
-            Binding::write("nodes", Format::Struct(&SPLAT_NODE)),
-            Binding::write_opt("splat_radius", Format::F32),
-        ]
+        SplatsIo::bindings()
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let p = SplatParams::read(ctx)?;
         let (knn, shrink) = (knn_settings(ctx, &p)?, p.shrink);
-        let samples = ctx.read::<LightSample>("samples")?;
+        let io = SplatsIo::read(ctx)?;
+        let samples = io.samples;
         let (spp, pixels) = (ctx.layers("samples") as usize, ctx.pixels());
         let (splat_slots, node_slots) = (pixels * ctx.layers("splats") as usize, pixels * ctx.layers("nodes") as usize);
         let built = build(samples, knn, shrink, RAY_EPSILON * ctx.scene.extent()).map_err(|depth| {
@@ -76,23 +79,20 @@ impl Kernel for LightFieldSplats {
                 built.nodes.len()
             )));
         }
-        if ctx.is_bound("splat_radius") {
+        io.splat_radius.put_with(ctx, || {
             let (mut sum, mut n) = (vec![0.0f32; pixels], vec![0u32; pixels]);
             for s in &built.splats {
                 let p = s.sample as usize / spp.max(1);
                 sum[p] += s.radius;
                 n[p] += 1;
             }
-            ctx.put(
-                "splat_radius",
-                sum.iter().zip(&n).map(|(s, &n)| if n > 0 { s / n as f32 } else { 0.0 }).collect::<Vec<_>>(),
-            )?;
-        }
+            sum.iter().zip(&n).map(|(s, &n)| if n > 0 { s / n as f32 } else { 0.0 }).collect()
+        })?;
         let mut splats = built.splats;
         splats.resize(splat_slots, Splat::default());
         let mut nodes = built.nodes;
         nodes.resize(node_slots, SplatNode::default());
-        ctx.put("splats", splats)?;
-        ctx.put("nodes", nodes)
+        io.splats.put(ctx, splats)?;
+        io.nodes.put(ctx, nodes)
     }
 }

@@ -5,7 +5,6 @@ use glam::Vec3;
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
 };
-use wedge_graph::Format;
 
 use super::ThresholdParams;
 
@@ -43,6 +42,16 @@ pub fn width_pixel(lv: [f32; 4], filtered: [f32; 4], variance: [f32; 4], sigma_s
     adaptive_sigma(variance[0], n, lb, t, sigma_s, c)
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.width` pass binds.
+    pub struct WidthIo / WidthData {
+        read lv: [f32; 4],
+        read_opt previous_filtered: [f32; 4],
+        read_opt previous_variance: [f32; 4],
+        write sigma: f32,
+    }
+}
+
 impl Kernel for AdaptiveWidth {
     fn name(&self) -> &'static str {
         "pixel_filter.width"
@@ -54,12 +63,7 @@ impl Kernel for AdaptiveWidth {
         [ThresholdParams::specs(), WidthParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("lv", Format::Vec4),
-            Binding::read_opt("previous_filtered", Format::Vec4),
-            Binding::read_opt("previous_variance", Format::Vec4),
-            Binding::write("sigma", Format::F32),
-        ]
+        WidthIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -73,13 +77,11 @@ impl Kernel for AdaptiveWidth {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (sigma_s, c, t) = width_params(ctx)?;
-        let lv = ctx.read::<[f32; 4]>("lv")?;
-        let pf = ctx.read_opt::<[f32; 4]>("previous_filtered")?;
-        let pv = ctx.read_opt::<[f32; 4]>("previous_variance")?;
+        let WidthData { lv, previous_filtered: pf, previous_variance: pv, sigma } = WidthIo::read(ctx)?;
         let at = |b: Option<&[[f32; 4]]>, i: usize| b.map_or([0.0; 4], |b| b[i]);
         let out: Vec<f32> =
             (0..ctx.pixels()).map(|i| width_pixel(lv[i], at(pf, i), at(pv, i), sigma_s, c, t)).collect();
-        ctx.put("sigma", out)
+        sigma.put(ctx, out)
     }
 }
 
@@ -149,6 +151,19 @@ pub fn blend_pixel(
     (llv + (lu * s + lf * (1.0 - s)), unfiltered, s)
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.blend` pass binds.
+    pub struct BlendIo / BlendData {
+        read lv: [f32; 4],
+        read hv: [f32; 4],
+        read filtered: [f32; 4],
+        read variance: [f32; 4],
+        write radiance: [f32; 3],
+        write unfiltered: [f32; 3],
+        write blend: f32,
+    }
+}
+
 impl Kernel for Blend {
     fn name(&self) -> &'static str {
         "pixel_filter.blend"
@@ -160,15 +175,7 @@ impl Kernel for Blend {
         [ThresholdParams::specs(), SpikeParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("lv", Format::Vec4),
-            Binding::read("hv", Format::Vec4),
-            Binding::read("filtered", Format::Vec4),
-            Binding::read("variance", Format::Vec4),
-            Binding::write("radiance", Format::Vec3),
-            Binding::write("unfiltered", Format::Vec3),
-            Binding::write("blend", Format::F32),
-        ]
+        BlendIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -182,14 +189,11 @@ impl Kernel for Blend {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let b = blend_params(ctx)?;
-        let lv = ctx.read::<[f32; 4]>("lv")?;
-        let hv = ctx.read::<[f32; 4]>("hv")?;
-        let filtered = ctx.read::<[f32; 4]>("filtered")?;
-        let variance = ctx.read::<[f32; 4]>("variance")?;
+        let BlendData { lv, hv, filtered, variance, radiance, unfiltered, blend } = BlendIo::read(ctx)?;
         let out: Vec<(Vec3, Vec3, f32)> =
             (0..ctx.pixels()).map(|i| blend_pixel(lv[i], hv[i], filtered[i], variance[i], b)).collect();
-        ctx.put("radiance", out.iter().map(|o| o.0.to_array()).collect::<Vec<_>>())?;
-        ctx.put("unfiltered", out.iter().map(|o| o.1.to_array()).collect::<Vec<_>>())?;
-        ctx.put("blend", out.iter().map(|o| o.2).collect::<Vec<_>>())
+        radiance.put(ctx, out.iter().map(|o| o.0.to_array()).collect())?;
+        unfiltered.put(ctx, out.iter().map(|o| o.1.to_array()).collect())?;
+        blend.put(ctx, out.iter().map(|o| o.2).collect())
     }
 }

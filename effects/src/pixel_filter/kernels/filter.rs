@@ -4,9 +4,8 @@
 
 use glam::Vec3;
 use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
+    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, Output, ParamSpec, Reach, Uniforms, WgslSource,
 };
-use wedge_graph::Format;
 
 use super::{schedule, ScheduleParams};
 use crate::pixel_filter::formulas::{bilateral_weight, inv_two_sigma2, iteration_sigma, luminance, FILTERED};
@@ -124,13 +123,34 @@ fn filter_uniforms(ctx: &KernelCtx<'_>) -> Result<Uniforms, BackendError> {
     Ok(p.wgsl_uniforms(Uniforms::new().u32("update", update as u32)).u32("radius", p.radius(p.sigma_s)))
 }
 
-/// Keep the last filter pass's buffers (or zeros before the first).
-fn keep_previous(ctx: &mut KernelCtx<'_>, filtered: &str, variance: &str) -> Result<(), BackendError> {
+/// A filtered value and its variance, as the history holds them (`previous_*`) or a pass writes them.
+type Pair<T> = (T, T);
+
+/// Keep the last filter pass's buffers `previous` (or zeros before the first) as `out`.
+fn keep_previous(
+    ctx: &mut KernelCtx<'_>,
+    previous: Pair<Option<&[[f32; 4]]>>,
+    out: Pair<Output<'_, [f32; 4]>>,
+) -> Result<(), BackendError> {
     let n = ctx.pixels();
-    let pf = ctx.read_opt::<[f32; 4]>("previous_filtered")?.map_or_else(|| vec![[0.0; 4]; n], |p| p.to_vec());
-    let pv = ctx.read_opt::<[f32; 4]>("previous_variance")?.map_or_else(|| vec![[0.0; 4]; n], |p| p.to_vec());
-    ctx.put(filtered, pf)?;
-    ctx.put(variance, pv)
+    let kept = |p: Option<&[[f32; 4]]>| p.map_or_else(|| vec![[0.0; 4]; n], |p| p.to_vec());
+    out.0.put(ctx, kept(previous.0))?;
+    out.1.put(ctx, kept(previous.1))
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.bilateral` pass binds.
+    pub struct BilateralIo / BilateralData {
+        read range: [f32; 4],
+        read lv: [f32; 4],
+        read hv: [f32; 4],
+        read_opt previous_filtered: [f32; 4],
+        read_opt previous_variance: [f32; 4],
+        /// Per-pixel spatial σ (adaptive width); unbound: `sigma_s`.
+        read_opt sigma: f32,
+        write filtered: [f32; 4],
+        write variance: [f32; 4],
+    }
 }
 
 impl Kernel for Bilateral {
@@ -144,17 +164,7 @@ impl Kernel for Bilateral {
         [ScheduleParams::specs(), FilterParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("range", Format::Vec4),
-            Binding::read("lv", Format::Vec4),
-            Binding::read("hv", Format::Vec4),
-            Binding::read_opt("previous_filtered", Format::Vec4),
-            Binding::read_opt("previous_variance", Format::Vec4),
-            // Per-pixel spatial σ (adaptive width); unbound: `sigma_s`.
-            Binding::read_opt("sigma", Format::F32),
-            Binding::write("filtered", Format::Vec4),
-            Binding::write("variance", Format::Vec4),
-        ]
+        BilateralIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -171,14 +181,12 @@ impl Kernel for Bilateral {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (update, _) = schedule(ctx)?;
+        let io = BilateralIo::read(ctx)?;
         if !update {
-            return keep_previous(ctx, "filtered", "variance");
+            return keep_previous(ctx, (io.previous_filtered, io.previous_variance), (io.filtered, io.variance));
         }
         let p = FilterParams::read(ctx)?;
-        let range = ctx.read::<[f32; 4]>("range")?;
-        let lv = ctx.read::<[f32; 4]>("lv")?;
-        let hv = ctx.read::<[f32; 4]>("hv")?;
-        let sigma = ctx.read_opt::<f32>("sigma")?;
+        let BilateralData { range, lv, hv, sigma, .. } = io;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let max_radius = p.radius(p.sigma_s) as i32;
         let (inv_c, inv_d) = (inv_two_sigma2(p.sigma_c), inv_two_sigma2(p.sigma_d));
@@ -204,8 +212,8 @@ impl Kernel for Bilateral {
             let (value, r, sigma2) = sums.finish();
             filter_outputs(value, r, sigma2, lv[j][3])
         });
-        ctx.put("filtered", out.iter().map(|o| o.0).collect::<Vec<_>>())?;
-        ctx.put("variance", out.iter().map(|o| o.1).collect::<Vec<_>>())
+        io.filtered.put(ctx, out.iter().map(|o| o.0).collect())?;
+        io.variance.put(ctx, out.iter().map(|o| o.1).collect())
     }
 }
 
@@ -308,6 +316,24 @@ impl SeparableSettings {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.separable` pass binds.
+    pub struct SeparableIo / SeparableData {
+        read range: [f32; 4],
+        /// First pass: the accumulation hv = (mean, M2); later: the chain's (rgb, r).
+        read value_in: [f32; 4],
+        /// Later passes: (σ², valid, 0, 0).
+        read_opt variance_in: [f32; 4],
+        /// First and last passes: the accumulation's lv (w = n).
+        read_opt lv: [f32; 4],
+        read_opt sigma: f32,
+        read_opt previous_filtered: [f32; 4],
+        read_opt previous_variance: [f32; 4],
+        write value_out: [f32; 4],
+        write variance_out: [f32; 4],
+    }
+}
+
 impl Kernel for Separable {
     fn name(&self) -> &'static str {
         "pixel_filter.separable"
@@ -319,20 +345,7 @@ impl Kernel for Separable {
         [ScheduleParams::specs(), FilterParams::specs(), PassParams::specs()].concat()
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("range", Format::Vec4),
-            // First pass: the accumulation hv = (mean, M2); later: the chain's (rgb, r).
-            Binding::read("value_in", Format::Vec4),
-            // Later passes: (σ², valid, 0, 0).
-            Binding::read_opt("variance_in", Format::Vec4),
-            // First and last passes: the accumulation's lv (w = n).
-            Binding::read_opt("lv", Format::Vec4),
-            Binding::read_opt("sigma", Format::F32),
-            Binding::read_opt("previous_filtered", Format::Vec4),
-            Binding::read_opt("previous_variance", Format::Vec4),
-            Binding::write("value_out", Format::Vec4),
-            Binding::write("variance_out", Format::Vec4),
-        ]
+        SeparableIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -355,21 +368,22 @@ impl Kernel for Separable {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = separable_params(ctx)?;
+        let io = SeparableIo::read(ctx)?;
         if !s.update {
             if s.last {
-                return keep_previous(ctx, "value_out", "variance_out");
+                return keep_previous(
+                    ctx,
+                    (io.previous_filtered, io.previous_variance),
+                    (io.value_out, io.variance_out),
+                );
             }
             // Nothing reads an intermediate pass's output on a frame that does not filter.
             let n = ctx.pixels();
-            ctx.put("value_out", vec![[0.0f32; 4]; n])?;
-            return ctx.put("variance_out", vec![[0.0f32; 4]; n]);
+            io.value_out.put(ctx, vec![[0.0f32; 4]; n])?;
+            return io.variance_out.put(ctx, vec![[0.0f32; 4]; n]);
         }
         let p = &s.filter;
-        let range = ctx.read::<[f32; 4]>("range")?;
-        let value = ctx.read::<[f32; 4]>("value_in")?;
-        let var = ctx.read_opt::<[f32; 4]>("variance_in")?;
-        let lv = ctx.read_opt::<[f32; 4]>("lv")?;
-        let sigma = ctx.read_opt::<f32>("sigma")?;
+        let SeparableData { range, value_in: value, variance_in: var, lv, sigma, .. } = io;
         if (s.first || s.last) && lv.is_none() {
             return Err(ctx.err("the first and last passes read `lv` (the path counts)".into()));
         }
@@ -419,7 +433,7 @@ impl Kernel for Separable {
                 ([val.x, val.y, val.z, r], [sigma2, valid, 0.0, 0.0])
             }
         });
-        ctx.put("value_out", out.iter().map(|o| o.0).collect::<Vec<_>>())?;
-        ctx.put("variance_out", out.iter().map(|o| o.1).collect::<Vec<_>>())
+        io.value_out.put(ctx, out.iter().map(|o| o.0).collect())?;
+        io.variance_out.put(ctx, out.iter().map(|o| o.1).collect())
     }
 }

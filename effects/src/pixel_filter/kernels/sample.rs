@@ -7,7 +7,6 @@ use wedge_backends::rng::PixelRng;
 use wedge_backends::{
     BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
 };
-use wedge_graph::Format;
 
 use super::{schedule, ScheduleParams};
 use crate::camera_paths::{camera_ray, camera_uniforms, CameraPaths, FirstVertex, PathCount};
@@ -53,6 +52,16 @@ pub fn split_path(v: &FirstVertex, split: Split) -> (Vec3, Vec3) {
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.sample` pass binds.
+    pub struct SampleIo / SampleData {
+        /// Mean L_lv, w = paths (finite ones) of this pass.
+        write lv: [f32; 4],
+        /// Mean L_u, w = M2 of Y(L_u) over this pass's paths.
+        write hv: [f32; 4],
+    }
+}
+
 impl Kernel for PixelSample {
     fn name(&self) -> &'static str {
         "pixel_filter.sample"
@@ -67,12 +76,7 @@ impl Kernel for PixelSample {
         true
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // Mean L_lv, w = paths (finite ones) of this pass.
-            Binding::write("lv", Format::Vec4),
-            // Mean L_u, w = M2 of Y(L_u) over this pass's paths.
-            Binding::write("hv", Format::Vec4),
-        ]
+        SampleIo::bindings()
     }
     /// WGSL mirror: `shaders/pixel_filter_sample.wgsl` (with the shared `indirect_path.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
@@ -89,6 +93,7 @@ impl Kernel for PixelSample {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (paths, s) = sample_settings(ctx)?;
+        let io = SampleIo::read(ctx)?;
         let out: Vec<Stats> = paths.run(ctx, |st: &mut Stats, _, v| {
             let (lv, hv) = split_path(v, s.split);
             let finite = Vec3::is_finite(lv) && Vec3::is_finite(hv);
@@ -97,8 +102,8 @@ impl Kernel for PixelSample {
             }
             finite
         });
-        ctx.put("lv", out.iter().map(Stats::lv_buffer).collect::<Vec<_>>())?;
-        ctx.put("hv", out.iter().map(Stats::u_buffer).collect::<Vec<_>>())
+        io.lv.put(ctx, out.iter().map(Stats::lv_buffer).collect())?;
+        io.hv.put(ctx, out.iter().map(Stats::u_buffer).collect())
     }
 }
 
@@ -109,6 +114,19 @@ impl Kernel for PixelSample {
 /// `pixel_filter.accumulate`: `(lv, hv) = combine(previous, sample)` per pixel ([`Stats::combine`]).
 pub struct Accumulate;
 
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.accumulate` pass binds.
+    pub struct AccumulateIo / AccumulateData {
+        read sample_lv: [f32; 4],
+        read sample_hv: [f32; 4],
+        /// The previous frame's accumulation (history; zeros in a first frame).
+        read_opt previous_lv: [f32; 4],
+        read_opt previous_hv: [f32; 4],
+        write lv: [f32; 4],
+        write hv: [f32; 4],
+    }
+}
+
 impl Kernel for Accumulate {
     fn name(&self) -> &'static str {
         "pixel_filter.accumulate"
@@ -117,15 +135,7 @@ impl Kernel for Accumulate {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("sample_lv", Format::Vec4),
-            Binding::read("sample_hv", Format::Vec4),
-            // The previous frame's accumulation (history; zeros in a first frame).
-            Binding::read_opt("previous_lv", Format::Vec4),
-            Binding::read_opt("previous_hv", Format::Vec4),
-            Binding::write("lv", Format::Vec4),
-            Binding::write("hv", Format::Vec4),
-        ]
+        AccumulateIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -138,8 +148,8 @@ impl Kernel for Accumulate {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let (slv, shv) = (ctx.read::<[f32; 4]>("sample_lv")?, ctx.read::<[f32; 4]>("sample_hv")?);
-        let (plv, phv) = (ctx.read_opt::<[f32; 4]>("previous_lv")?, ctx.read_opt::<[f32; 4]>("previous_hv")?);
+        let AccumulateData { sample_lv: slv, sample_hv: shv, previous_lv: plv, previous_hv: phv, lv, hv } =
+            AccumulateIo::read(ctx)?;
         let out: Vec<Stats> = (0..ctx.pixels())
             .map(|i| {
                 let prev = match (plv, phv) {
@@ -149,8 +159,8 @@ impl Kernel for Accumulate {
                 Stats::combine(prev, Stats::from_buffers(slv[i], shv[i]))
             })
             .collect();
-        ctx.put("lv", out.iter().map(Stats::lv_buffer).collect::<Vec<_>>())?;
-        ctx.put("hv", out.iter().map(Stats::u_buffer).collect::<Vec<_>>())
+        lv.put(ctx, out.iter().map(Stats::lv_buffer).collect())?;
+        hv.put(ctx, out.iter().map(Stats::u_buffer).collect())
     }
 }
 
@@ -160,6 +170,16 @@ impl Kernel for Accumulate {
 
 /// `pixel_filter.range` (see the module doc).
 pub struct RangeBuffer;
+
+wedge_backends::kernel_bindings! {
+    /// What a `pixel_filter.range` pass binds.
+    pub struct RangeIo / RangeData {
+        /// The range buffer so far (history; zeros in a first frame).
+        read_opt previous: [f32; 4],
+        /// rgb: mean colour (range_colour) over the filter passes' samples; w: nearest depth.
+        write range: [f32; 4],
+    }
+}
 
 impl Kernel for RangeBuffer {
     fn name(&self) -> &'static str {
@@ -175,12 +195,7 @@ impl Kernel for RangeBuffer {
         true
     }
     fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // The range buffer so far (history; zeros in a first frame).
-            Binding::read_opt("previous", Format::Vec4),
-            // rgb: mean colour (range_colour) over the filter passes' samples; w: nearest depth.
-            Binding::write("range", Format::Vec4),
-        ]
+        RangeIo::bindings()
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -197,10 +212,10 @@ impl Kernel for RangeBuffer {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (update, pass) = schedule(ctx)?;
         let PathCount { count, stream } = PathCount::read(ctx)?;
-        let previous = ctx.read_opt::<[f32; 4]>("previous")?;
+        let RangeData { previous, range } = RangeIo::read(ctx)?;
         if !update {
             let out = previous.map_or_else(|| vec![[0.0; 4]; ctx.pixels()], |p| p.to_vec());
-            return ctx.put("range", out);
+            return range.put(ctx, out);
         }
         let cam = ctx.scene.camera;
         // The full image's pixel and size (a tile's window is part of it).
@@ -224,7 +239,7 @@ impl Kernel for RangeBuffer {
             range_update(previous.map(|p| p[(py * width + px) as usize]), c, depth, k)
         });
         Counters::add(&ctx.counters.primary_rays, ctx.pixels() as u64 * u64::from(count));
-        ctx.put("range", out)
+        range.put(ctx, out)
     }
 }
 
