@@ -30,7 +30,7 @@ use wedge::backends::parity::run_parity;
 use wedge::backends::{
     rng, BackendError, Binding, BufferData, Job, Kernel, KernelClass, KernelCtx, Silent, Uniforms, WgslSource,
 };
-use wedge::graph::Format;
+use wedge::graph::{Format, ParamValue};
 use wedge::{Overrides, Session};
 
 fn small(w: u32, h: u32) -> Overrides {
@@ -1720,4 +1720,20 @@ fn screen_trace_wgsl_hierarchical_equals_linear() {
     assert_eq!(same_gpu, total, "the GPU's hierarchical march differs from its linear one:\n{}", differ_gpu.join("\n"));
     assert!(hits > total / 20, "too few hits to mean much");
     assert!(total - same_cpu <= total / 100, "{} of {total} rays differ between GPU and CPU", total - same_cpu);
+}
+
+/// Motion's filters at multi-velocity pixels (`filter.radiance3`), off by default since the motion
+/// suite, still agree pass by pass where a pipeline asks for them.
+#[test]
+fn parity_of_the_multi_velocity_filters() {
+    let Some(mut gpu) = gpu_or_skip("parity_of_the_multi_velocity_filters") else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/motion_shadows_indirect.ron");
+    for filter in ["velocity", "tent"] {
+        let set = ("motion".to_string(), "multi_filter".to_string(), ParamValue::Str(filter.into()));
+        let ov = Overrides { params: vec![set], ..small(64, 48) };
+        let session = Session::open(Some(&path), &ov).unwrap();
+        assert!(session.schedule.passes.iter().any(|p| p.kernel == "filter.radiance3"), "{filter}");
+        let report = run_parity(&job(&session), &mut gpu).expect("parity runs");
+        assert!(report.ok(), "multi_filter {filter}:\n{}", report.table());
+    }
 }
