@@ -8,7 +8,8 @@
 //! and renders on the CPU to finite pixels whose mean agrees with
 //! the pipeline's own converged reference (within 5% or 0.005: a dim indirect-only image's mean
 //! carries ~6% of sampling noise at this size, measured over seeds; a term counted twice or missed
-//! moves it by tens of percent). An internal error, a panic or an unlisted refusal fails. It found
+//! moves it by tens of percent), and — where it filters — with a lower RMSE against that reference
+//! than its own rays with the filters bypassed (`wedge render --unfiltered`). An internal error, a panic or an unlisted refusal fails. It found
 //! LightField reading an open scene 14–23% dark (reconstruction rays that crossed no splat were
 //! black; now traced, `gaps: "trace"`). 48×36 pixels, so the whole matrix stays cheap (~15 s);
 //! `--nocapture` prints it.
@@ -20,7 +21,7 @@ use wedge::backends::gpu::GpuBackend;
 use wedge::backends::parity::run_parity;
 use wedge::backends::Silent;
 use wedge::image::Image;
-use wedge::Session;
+use wedge::{Overrides, Session};
 
 const SIZE: (u32, u32) = (48, 36);
 const P: &str = r#""position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo""#;
@@ -221,11 +222,45 @@ const TABLE: [&str; 7] = [
 
 enum Outcome {
     Refused(&'static str),
-    Rendered { render: f64, reference: f64 },
+    Rendered(Images),
+}
+
+/// A rendered entry's images: the pipeline's, the same rays with its filters bypassed, its reference.
+struct Images {
+    render: Image,
+    unfiltered: Image,
+    reference: Image,
 }
 
 fn build(text: &str, reference: Option<u32>) -> Result<Session, String> {
     build_text(text, &sized(SIZE.0, SIZE.1, None, &[]), reference)
+}
+
+/// The entry at the same rays with every filter bypassed (`wedge render --unfiltered`).
+fn build_unfiltered(text: &str) -> Session {
+    let ov = Overrides { unfiltered: true, ..sized(SIZE.0, SIZE.1, None, &[]) };
+    build_text(text, &ov, None)
+        .unwrap_or_else(|e| panic!("a rendered pipeline's unfiltered form is refused: {e}\n{text}"))
+}
+
+/// What a rendered entry must show: its mean within 5% (or 0.005) of its reference's, and — where it
+/// filters at all — a lower RMSE against the reference than its own rays unfiltered.
+fn check(images: &Images) -> Result<String, String> {
+    let (render, reference) = (mean(&images.render), mean(&images.reference));
+    let (filtered, unfiltered) = (rmse(&images.render, &images.reference), rmse(&images.unfiltered, &images.reference));
+    let filters = images.render.pixels != images.unfiltered.pixels;
+    let line = format!(
+        "mean {render:.4} vs reference {reference:.4} ({:.3}); RMSE {filtered:.2e} vs {unfiltered:.2e} unfiltered{}",
+        render / reference,
+        if filters { "" } else { " (no filter)" }
+    );
+    if (render - reference).abs() > 0.05 * reference + 0.005 {
+        return Err(format!("mean off: {line}"));
+    }
+    if filters && filtered >= unfiltered {
+        return Err(format!("the filters add error: {line}"));
+    }
+    Ok(line)
 }
 
 /// The image's mean, after checking that every pixel is finite.
@@ -258,10 +293,12 @@ fn outcome(text: &str, gpu: &mut Option<GpuBackend>) -> Outcome {
     if let Some(report) = gpu.as_mut().and_then(|g| parity(&session, g)) {
         panic!("parity fails on the wgpu backend:\n{report}\n{text}");
     }
-    let render = mean(&color(&session, &run(&session)));
+    let render = color(&session, &run(&session));
+    let unfiltered = build_unfiltered(text);
+    let unfiltered = color(&unfiltered, &run(&unfiltered));
     let reference =
         build(text, Some(256)).unwrap_or_else(|e| panic!("a rendered pipeline's reference is refused: {e}\n{text}"));
-    Outcome::Rendered { render, reference: mean(&color(&reference, &run(&reference))) }
+    Outcome::Rendered(Images { render, unfiltered, reference: color(&reference, &run(&reference)) })
 }
 
 /// Singles, pairs, and the useful triples (direct + indirect + one more).
@@ -291,12 +328,14 @@ fn every_combination_is_refused_for_a_listed_reason_or_renders_what_its_referenc
             let text = pipeline(&effects, camera);
             match outcome(&text, &mut gpu) {
                 Outcome::Refused(reason) => println!("{camera:?} {keys:?}: refused, {reason}"),
-                Outcome::Rendered { render, reference } => {
+                Outcome::Rendered(images) => {
                     rendered += 1;
-                    let ratio = render / reference;
-                    println!("{camera:?} {keys:?}: renders, mean {render:.4} vs reference {reference:.4} ({ratio:.3})");
-                    if (render - reference).abs() > 0.05 * reference + 0.005 {
-                        failures.push(format!("{camera:?} {keys:?}: mean {render} vs reference {reference}\n{text}"));
+                    match check(&images) {
+                        Ok(line) => println!("{camera:?} {keys:?}: renders, {line}"),
+                        Err(why) => {
+                            println!("{camera:?} {keys:?}: FAILS, {why}");
+                            failures.push(format!("{camera:?} {keys:?}: {why}\n{text}"));
+                        }
                     }
                 }
             }
@@ -304,7 +343,7 @@ fn every_combination_is_refused_for_a_listed_reason_or_renders_what_its_referenc
     }
     assert!(
         failures.is_empty(),
-        "{} combination(s) render away from their reference:\n{}",
+        "{} combination(s) render away from their reference or filter badly:\n{}",
         failures.len(),
         failures.join("\n")
     );

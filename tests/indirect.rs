@@ -164,7 +164,7 @@ fn white_furnace() {
 // ---------------------------------------------------------------------------------------------
 // Consistency and baselines on `cornell`
 
-/// The default width (`width_z_min: "nearest"`, `width_alpha` 1) and the thesis's (`"statistics"`,
+/// The default width (`width_z_min: "nearest"`, `width_alpha` 4) and the thesis's (`"statistics"`,
 /// α): both consistent.
 #[test]
 fn error_falls_as_mu_grows() {

@@ -23,7 +23,7 @@ wedge_backends::kernel_params! {
         max_rays: u32 = int(100, 1, 1 << 20, "cap on rays per pixel per component, scaled by max(μ, 1) (thesis: 100μ)"),
         rays_cap: u32 = int(1 << 20, 1, 1 << 20, "absolute cap on rays per pixel per component, applied last (tests, previews)"),
         z_min_fraction: f32 = float(0.02, 0.0, 1.0, "z_min is clamped to at least this fraction of the scene's largest dimension"),
-        width_alpha: f32 = float(1.0, 0.0, 1.0, "α of eq. 4.15's pixel bound in the filter width alone (β ≥ 2/(μ·width_alpha) px; 0 = alpha, the thesis); the rates keep alpha"),
+        width_alpha: f32 = float(4.0, 0.0, 16.0, "α of eq. 4.15's pixel bound in the filter width alone (β ≥ 2/(μ·width_alpha) px; 0 = alpha, the thesis); the rates keep alpha. 4 since issue 34's matrix (1 kept β ≥ 2.2 px and lost to the unfiltered image at 48×36)"),
     }
 }
 

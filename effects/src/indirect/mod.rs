@@ -37,10 +37,11 @@
 //!   `"nearest"` takes the width's `z_min` from the nearest reflector the eight neighbours' first
 //!   passes saw on the same object (pass `nearest`, kernel `indirect.nearest`; 8 × 16 rays, the
 //!   pixel's own left out), unclamped, and the width's pixel bound `β ≥ 2/(μ·width_alpha)` px with
-//!   `width_alpha` 1 (the rates keep `alpha` 0.3 and the clamped statistics: same rays). Both are
-//!   needed (AO, the same fourteen scenes at 96×72: 0.81× → 0.93× nearest alone, 1.04× α alone,
-//!   1.89× both; fourteen scenes not used to choose it: 0.40× → 1.42×; indirect light on twelve:
-//!   1.48× → 2.40×, worst 0.68× → 0.97×; docs/DESIGN-NOTES.md "AO over fourteen scenes"). β still
+//!   `width_alpha` 4 (the rates keep `alpha` 0.3 and the clamped statistics: same rays). Both are
+//!   needed (AO, the same fourteen scenes at 96×72: 0.81× → 0.93× nearest alone, 1.04× α 1 alone,
+//!   1.89× both with α 1, 2.51× with α 4; fourteen scenes not used to choose it: 0.40× → 1.42× (α 1)
+//!   → 1.94× (α 4); indirect light on twelve: 1.48× → 2.40×, worst 0.68× → 0.97× (α 1);
+//!   docs/DESIGN-NOTES.md "AO over fourteen scenes", "The filters against their own rays"). β still
 //!   shrinks as `1/μ`, so μ → ∞ stays plain Monte Carlo. `width_z_min: "statistics", width_alpha: 0`
 //!   is the thesis's width.
 //! - **Whose statistics** (`statistics`): the thesis's `z_min, z_max` are the pixel's own first
