@@ -5,6 +5,8 @@
 //! A/B split, changes a parameter, orbits, flies, shows the error against a reference side by side
 //! with the image and G-buffer / per-node buffers, and takes screenshots; the first screenshot's EXR
 //! must equal `wedge render`'s for the same settings bit for bit (one frame averaged is that frame).
+//! A reference rendered in the background shows `wedge compare`'s RMSE; a parameter change's first
+//! frame runs only the passes downstream of it and equals a whole run with the new value.
 //!
 //! Without `xvfb-run` (Debian `xvfb`; `scripts/test.sh` installs it where it can) the window test
 //! prints why it was skipped and passes — except under `CI=true`, where it fails.

@@ -296,10 +296,10 @@ impl Model {
 
     /// Take the finished frame, if any, into the mean: `Some(Ok(true))` when one was added,
     /// `Some(Ok(false))` when it was started before a change and dropped. A background reference
-    /// that finished is loaded too (its failure is the error returned).
+    /// that finished is loaded too; one that failed says why in [`Model::error`], and frames go on.
     pub fn poll_frame(&mut self) -> Option<Result<bool, WedgeError>> {
         if let Some(Err(e)) = self.poll_reference() {
-            return Some(Err(e));
+            self.error = Some(format!("error: the background reference: {e}"));
         }
         self.renderer.take().map(|done| self.finish(done))
     }
