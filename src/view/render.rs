@@ -177,7 +177,13 @@ fn render(engine: &mut Engine, job: &Job) -> (Result<RunResult, WedgeError>, Opt
         Engine::Cpu(cpu) if job.frame == 0 => {
             let empty = KeptBuffers::new();
             let (kept, rerun) = job.partial.as_ref().map_or((&empty, None), |p| (&*p.kept, Some(&p.rerun[..])));
-            match job.session.run_partial_frame(cpu, &Silent, 0, kept, rerun) {
+            let mut ran = job.session.run_partial_frame(cpu, &Silent, 0, kept, rerun);
+            if ran.is_err() && rerun.is_some() {
+                // A kept buffer that does not fit (or any failure of the shortcut): the whole frame,
+                // whose error, if it fails too, is the one worth showing.
+                ran = job.session.run_partial_frame(cpu, &Silent, 0, &empty, None);
+            }
+            match ran {
                 Ok((run, buffers)) => (Ok(run), Some(buffers)),
                 Err(e) => (Err(e), None),
             }

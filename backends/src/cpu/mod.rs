@@ -244,9 +244,15 @@ impl CpuBackend {
         for (pass, run) in sched.passes.iter().zip(rerun.iter().chain(std::iter::repeat(&true))) {
             if !run {
                 for (_, id) in &pass.writes {
-                    let name = &sched.buffers[id.0].name;
-                    let data = kept.get(name).ok_or_else(|| {
-                        BackendError::Other(format!("pass `{}` is skipped but `{name}` was not kept", pass.name))
+                    let info = &sched.buffers[id.0];
+                    let len = job.width as usize * job.height as usize * info.layers as usize;
+                    let data = kept.get(&info.name).filter(|d| d.format() == info.format && d.len() == len);
+                    let data = data.ok_or_else(|| {
+                        let name = &info.name;
+                        BackendError::Other(format!(
+                            "pass `{}` is skipped but no `{name}` of its shape was kept",
+                            pass.name
+                        ))
                     })?;
                     held.insert(*id, data.clone());
                 }
