@@ -504,15 +504,18 @@ impl Session {
         history: &BTreeMap<wedge_graph::BufferId, wedge_backends::BufferData>,
     ) -> Result<RunResult, WedgeError> {
         let mut run = backend.run_frame(job, history)?;
-        // The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
-        run.sinks = self
-            .pipeline
+        run.sinks = self.sink_nodes();
+        Ok(run)
+    }
+
+    /// The pipeline's sinks, so whoever writes the outputs knows each one's kind and parameters.
+    fn sink_nodes(&self) -> BTreeMap<String, SinkNode> {
+        self.pipeline
             .nodes
             .iter()
             .filter(|n| n.kind.is_sink())
             .map(|n| (n.name.clone(), SinkNode { kind: n.kind.kind().to_string(), params: n.params.clone() }))
-            .collect();
-        Ok(run)
+            .collect()
     }
 
     /// Peak memory of running this session in `mode` (see [`MemoryEstimate`]).
@@ -1221,6 +1224,29 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
         focus_distance: c.focus_distance.unwrap_or((look_at - position).length()),
         shutter_open: c.shutter.map_or(scene.shutter_open, |s| s.0),
         shutter_close: c.shutter.map_or(scene.shutter_close, |s| s.1),
+    }
+}
+
+/// Re-running only what a change touches (issue 38, `wedge view`).
+impl Session {
+    /// Frame `frame` of a progressive render ([`Session::run_progressive_frame`], no history) on the
+    /// CPU, running only the passes `rerun` marks (all when it is `None`) and taking the others'
+    /// outputs from `kept`, an earlier such run's buffers of the same scene, camera, size, seed and
+    /// frame ([`wedge_graph::Schedule::changed_since`] says which passes that leaves to run). The
+    /// image is the whole run's bit for bit; the run's buffers come back for the next change.
+    pub fn run_partial_frame(
+        &self,
+        backend: &mut wedge_backends::cpu::CpuBackend,
+        progress: &dyn Progress,
+        frame: u32,
+        kept: &wedge_backends::cpu::KeptBuffers,
+        rerun: Option<&[bool]>,
+    ) -> Result<(RunResult, wedge_backends::cpu::KeptBuffers), WedgeError> {
+        let job = self.job(self.seed.wrapping_add(frame), frame, progress);
+        let all = vec![true; self.schedule.passes.len()];
+        let (mut run, buffers) = backend.run_partial(&job, &BTreeMap::new(), kept, rerun.unwrap_or(&all))?;
+        run.sinks = self.sink_nodes();
+        Ok((run, buffers))
     }
 }
 

@@ -5,6 +5,8 @@
 //! A/B split, changes a parameter, orbits, flies, shows the error against a reference side by side
 //! with the image and G-buffer / per-node buffers, and takes screenshots; the first screenshot's EXR
 //! must equal `wedge render`'s for the same settings bit for bit (one frame averaged is that frame).
+//! A reference rendered in the background shows `wedge compare`'s RMSE; a parameter change's first
+//! frame runs only the passes downstream of it and equals a whole run with the new value.
 //!
 //! Without `xvfb-run` (Debian `xvfb`; `scripts/test.sh` installs it where it can) the window test
 //! prints why it was skipped and passes — except under `CI=true`, where it fails.
@@ -213,6 +215,7 @@ fn tiny(pipeline: &Path, dir: &Path) -> wedge::view::ViewOptions {
         memory_limit: None,
         script: None,
         reference: None,
+        reference_spp: None,
     }
 }
 
@@ -274,4 +277,81 @@ fn a_saved_edit_reloads_and_an_invalid_one_keeps_the_last_good_pipeline() {
     assert_eq!(error.trim(), String::from_utf8_lossy(&graph.stderr).trim(), "not what `wedge graph` prints");
     model.render_frame().expect("the last good pipeline still renders");
     assert_eq!(max_rays, model.session.pipeline.node("shadows").and_then(|n| n.params.get("max_rays")).cloned());
+}
+
+/// A parameter change re-runs only the passes downstream of it (on the CPU): after `shadows.k`
+/// changes (the filter's reach in bandwidths; the sampling passes do not read it), the first frame
+/// runs fewer passes than the schedule has, and its image is a whole run's with the new value bit
+/// for bit — the kept sampling passes' buffers are frame 0's, as the whole run's are.
+#[test]
+fn a_parameter_change_reruns_only_the_passes_downstream_of_it() {
+    use wedge::graph::ParamValue;
+    use wedge::view::model::Model;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    let opts = tiny(&shadows(), dir.path());
+    let mut model = Model::open(&opts).expect("opens");
+    model.render_frame().expect("frame");
+    let total = model.session.schedule.passes.len();
+    assert_eq!(model.passes_run, (total, total), "the first frame runs every pass");
+    model.set_param("shadows", "k", ParamValue::Float(2.0)).expect("k = 2");
+    let partial = model.passes_to_rerun();
+    model.render_frame().expect("frame after the change");
+    assert_eq!(model.passes_run, (partial, total));
+    eprintln!("shadows.k: {partial} of {total} passes re-run");
+    assert!(partial < total && partial > 0, "{partial} of {total} passes re-run");
+
+    let mut set = opts.clone();
+    set.overrides.params.push(("shadows".into(), "k".into(), ParamValue::Float(2.0)));
+    let mut whole = Model::open(&set).expect("opens with k = 2");
+    whole.render_frame().expect("frame");
+    let (a, b) = (model.mean().expect("mean"), whole.mean().expect("mean"));
+    assert!(!a.outputs.is_empty());
+    assert_eq!(a.outputs, b.outputs, "the partial re-run differs from a whole run with k = 2");
+    // Later frames (new seeds) run in full; a camera move runs in full.
+    model.render_frame().expect("second frame");
+    assert_eq!(model.passes_run, (total, total));
+}
+
+/// The error view's reference rendered in the background (a script's `reference_spp`): the window
+/// keeps rendering frames while it renders, the script waits for it (bounded), and the RMSE shown
+/// is `wedge compare`'s of the screenshot against `wedge reference` at the same spp.
+#[test]
+fn a_reference_rendered_in_the_background_shows_its_rmse() {
+    if !xvfb_or_skip("background_reference") {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let shot = dir.path().join("a");
+    let script = dir.path().join("s.ron");
+    let text = format!(
+        "[(frame: 0, reference_spp: 8), (frame: 1, wait_reference: 120.0), (frame: 2, screenshot: \"{}\")]",
+        shot.display()
+    );
+    std::fs::write(&script, text).expect("script");
+    let size = ["--width", "64", "--height", "48", "--backend", "cpu"];
+    let log = view_script(&script, &size);
+    eprintln!("{log}");
+    let reference = dir.path().join("reference");
+    run_ok(
+        wedge()
+            .arg("reference")
+            .arg(shadows())
+            .args(["--spp", "8"])
+            .args(size)
+            .arg("--out")
+            .arg(&reference)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir()),
+    );
+    let compared = run_ok(
+        wedge()
+            .arg("compare")
+            .arg(shot.join("render.exr"))
+            .arg(reference.join("reference.exr"))
+            .arg("--heatmap")
+            .arg(dir.path().join("error.png")),
+    );
+    let rmse = compared.lines().find_map(|l| l.strip_prefix("RMSE")).map(str::trim).expect("RMSE line");
+    let label = format!("against the background reference (8 spp): RMSE {rmse} ·");
+    assert!(log.contains(&label), "`{label}` not in\n{log}");
 }

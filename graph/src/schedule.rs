@@ -501,3 +501,56 @@ impl Schedule {
         s
     }
 }
+
+/// What a change re-runs (issue 38, `wedge view`): passes downstream of a change, from the passes'
+/// buffer reads and writes. Buffers are matched across schedules by name, which is unique in a
+/// pipeline and stable across rebuilds (a pass's buffer ids are not).
+impl Schedule {
+    /// Per scheduled pass, whether it must run again when the passes `changed` picks do: those
+    /// passes and every pass reading, transitively, a buffer one of them writes. Passes are in
+    /// dependency order, so one sweep sees every writer before its readers.
+    pub fn downstream(&self, changed: impl Fn(&Pass) -> bool) -> Vec<bool> {
+        let mut dirty_buffer = vec![false; self.buffers.len()];
+        self.passes
+            .iter()
+            .map(|p| {
+                let dirty = changed(p) || p.reads.iter().any(|(_, id)| dirty_buffer[id.0]);
+                if dirty {
+                    p.writes.iter().for_each(|(_, id)| dirty_buffer[id.0] = true);
+                }
+                dirty
+            })
+            .collect()
+    }
+
+    /// The passes of node `node` and every pass downstream of them.
+    pub fn downstream_of_node(&self, node: &str) -> Vec<bool> {
+        self.downstream(|p| p.node == node)
+    }
+
+    /// Per pass of this schedule, whether it must run again after `old` ran: a pass with no equal
+    /// in `old` (by name: kernel, parameters, stage, randomness and bindings, with the bound
+    /// buffers' names, formats and layers) and everything downstream of one. The others, run with
+    /// the same scene, camera, size, seed and frame, write what they wrote in `old`'s run.
+    pub fn changed_since(&self, old: &Schedule) -> Vec<bool> {
+        self.downstream(|p| !old.passes.iter().any(|q| q.name == p.name && self.same_pass(p, old, q)))
+    }
+
+    /// Pass `p` of this schedule and pass `q` of `other` do the same work on the same buffers.
+    fn same_pass(&self, p: &Pass, other: &Schedule, q: &Pass) -> bool {
+        let same_buffer = |a: &BufferId, b: &BufferId| {
+            let (a, b) = (&self.buffers[a.0], &other.buffers[b.0]);
+            a.name == b.name && a.format == b.format && a.layers == b.layers
+        };
+        let same_bindings = |x: &[(String, BufferId)], y: &[(String, BufferId)]| {
+            x.len() == y.len() && x.iter().zip(y).all(|((n, a), (m, b))| n == m && same_buffer(a, b))
+        };
+        p.kernel == q.kernel
+            && p.params == q.params
+            && p.stage == q.stage
+            && p.random == q.random
+            && p.continues == q.continues
+            && same_bindings(&p.reads, &q.reads)
+            && same_bindings(&p.writes, &q.writes)
+    }
+}

@@ -304,3 +304,19 @@ fn per_sample_buffers_pool_by_layers_and_are_never_sinks() {
         other => panic!("expected an error, got {:?}", other.map(|_| ())),
     }
 }
+
+#[test]
+fn a_change_marks_its_passes_and_everything_downstream_of_them() {
+    let chain = |taps: &str| {
+        let b2 = format!(r#"(name: "b2", kind: "Blur", params: {{"taps": {taps}}}, inputs: {{"x": "b1.y"}})"#);
+        compile_text(&pipeline(&[SRC, &blur("b1", "src.a"), &b2, &sink("b2.y")])).1
+    };
+    let (old, new) = (chain("3"), chain("5"));
+    assert_eq!(pass_names(&new), ["src.gen", "b1.h", "b1.v", "b2.h", "b2.v"]);
+    // b2's `taps` changed: only b2.v reads it (b2.h's parameters are unchanged), so it alone runs
+    // again; src, b1 and b2.h keep what they wrote.
+    assert_eq!(new.changed_since(&old), [false, false, false, false, true]);
+    assert_eq!(new.changed_since(&new), [false; 5]);
+    // b1's passes, and b2's, which read what b1 writes.
+    assert_eq!(new.downstream_of_node("b1"), [false, true, true, true, true]);
+}

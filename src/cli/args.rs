@@ -261,6 +261,10 @@ pub(super) enum Command {
         /// |image − reference| as a heatmap, and the RMSE and relMSE of the mean against it.
         #[arg(long, value_name = "REF.exr")]
         reference: Option<PathBuf>,
+        /// Render the error view's reference in the background at N samples per pixel (the
+        /// pipeline's `wedge reference` for the camera the window opens with); shown when done.
+        #[arg(long, value_name = "N", conflicts_with = "reference")]
+        reference_spp: Option<u32>,
     },
     /// Print a pipeline's schedule (passes, kernels, reads, writes, buffer lifetimes). Refusals that
     /// need no scene come first; then the scene is loaded as `render` loads it (no environment map

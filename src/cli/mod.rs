@@ -179,7 +179,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
             farm::SlurmRequest { tasks: &tasks, common: &common, partition, time, dry_run },
         ),
         #[cfg(feature = "view")]
-        Command::View { pipeline, common, mu, script, reference } => {
+        Command::View { pipeline, common, mu, script, reference, reference_spp } => {
             start_rendering_command(&common)?;
             let opts = crate::view::ViewOptions {
                 pipeline,
@@ -191,6 +191,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
                 memory_limit: common.memory_limit,
                 script,
                 reference,
+                reference_spp,
             };
             crate::view::run(opts)
         }

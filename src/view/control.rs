@@ -128,6 +128,10 @@ pub enum Action {
     Exposure(f32),
     /// Load this reference image (the error view's).
     Reference(PathBuf),
+    /// Render the reference in the background at this many samples per pixel.
+    RenderReference(u32),
+    /// Wait at most this long for the background reference.
+    WaitReference(std::time::Duration),
     /// Write the screenshot into this directory.
     Screenshot(PathBuf),
     Pause(bool),
@@ -147,6 +151,10 @@ pub fn step_actions(step: &Step) -> Vec<Action> {
     v.extend(step.fly.map(|(x, y, z)| Action::Fly(glam::Vec3::new(x, y, z))));
     v.extend(step.reset_camera.filter(|r| *r).map(|_| Action::ResetCamera));
     v.extend(step.reference.clone().map(Action::Reference));
+    v.extend(step.reference_spp.map(Action::RenderReference));
+    let wait =
+        step.wait_reference.map(|s| std::time::Duration::try_from_secs_f64(s).unwrap_or(std::time::Duration::ZERO));
+    v.extend(wait.map(Action::WaitReference));
     v.extend(step.output.clone().map(Action::Output));
     v.extend(step.compare.clone().map(|c| Action::Compare(Some(c))));
     v.extend(step.split.map(Action::Split));
@@ -171,6 +179,8 @@ pub fn apply(model: &mut Model, display: &mut Display, action: Action) -> Result
         Action::Split(at) => display.split = at.clamp(0.0, 1.0),
         Action::Layout(layout) => display.layout = layout,
         Action::Reference(path) => model.set_reference(&path)?,
+        Action::RenderReference(spp) => model.render_reference(spp)?,
+        Action::WaitReference(timeout) => model.wait_reference(timeout)?,
         Action::Exposure(e) => display.exposure = e,
         Action::Pause(p) => model.paused = p,
         Action::Screenshot(dir) => return screenshot(model, display, &dir).map(Some),

@@ -8,12 +8,14 @@
 //!
 //! - [`model`]: session, backend, frame averaging, rebuilds on changes, hot reload, screenshots;
 //! - [`outputs`]: the output picker's entries as pictures; [`params`]: widgets from declarations;
-//! - [`reference`]: the error view against a reference image; [`probes`]: any buffer of the schedule;
+//! - [`reference`]: the error view against a reference image, [`background`]: one rendered in the
+//!   background; [`probes`]: any buffer of the schedule;
 //! - [`camera`]: orbit and dolly; [`script`]: `--script` steps; [`watch`]: file polling;
 //! - [`control`]: the actions widgets, keys and script steps share;
 //! - [`ui`]: the panels; [`window`]: the winit/egui-wgpu event loop.
 
 pub mod accumulate;
+pub mod background;
 pub mod camera;
 pub mod control;
 pub mod model;
@@ -50,6 +52,9 @@ pub struct ViewOptions {
     pub script: Option<PathBuf>,
     /// `--reference`: an EXR of the viewer's size (`wedge reference`'s) for the error view.
     pub reference: Option<PathBuf>,
+    /// `--reference-spp N`: render the error view's reference in the background at `N` samples per
+    /// pixel (the pipeline's `wedge reference`, for the camera the window opens with).
+    pub reference_spp: Option<u32>,
 }
 
 /// Open the window and run until it is closed (or the script is done). Returns what to print.

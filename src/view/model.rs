@@ -6,20 +6,26 @@
 //! A change (parameter, `mu`, camera, a saved pipeline) rebuilds the session with the changed
 //! overrides and starts the average over. Frames run on the render thread ([`super::render`]); the
 //! window starts one and takes it when done ([`Model::start_frame`], [`Model::poll_frame`]), a
-//! script or test renders one and waits ([`Model::render_frame`]). Re-running only the passes
-//! downstream of a change is a later step (issue 38): today every frame runs the whole schedule.
+//! script or test renders one and waits ([`Model::render_frame`]).
+//!
+//! On the CPU a parameter or `mu` change re-runs only the passes downstream of it in the first
+//! frame after it: the first frame of every session keeps its buffers ([`Kept`]), the rebuilt
+//! session's schedule says which of its passes differ from the kept run's or read what those write
+//! (`Schedule::changed_since`), and only those run, the others' buffers taken from the kept run —
+//! same seed and frame, so the image is a whole run's bit for bit. Later frames (new seeds) run in
+//! full; a camera move, a lens change, a reload or a changed scene request runs in full.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use wedge_backends::{Backend, RunResult};
+use wedge_backends::RunResult;
 use wedge_graph::ParamValue;
 use wedge_scene::{Camera, SceneSource};
 
 use super::accumulate::Accumulator;
 use super::reference::{Reference, ERROR_VIEW};
-use super::render::{Done, Renderer, LOST};
+use super::render::{Done, Engine, Partial, Renderer, LOST};
 use super::watch::Watch;
 use super::ViewOptions;
 use crate::outputs::{write_run_with_picture, Picture, WrittenRun};
@@ -41,6 +47,13 @@ impl Lens {
             shutter: (cam.shutter_open, cam.shutter_close),
         }
     }
+}
+
+/// The buffers of a session's first frame, with the schedule that wrote them: what a parameter
+/// change's first frame takes the passes upstream of the change from.
+struct Kept {
+    buffers: Arc<wedge_backends::cpu::KeptBuffers>,
+    schedule: wedge_graph::Schedule,
 }
 
 /// Most frames averaged; past it the image stops changing and the viewer stops rendering.
@@ -87,6 +100,15 @@ pub struct Model {
     /// How the backend times its passes (the wgpu backend uses timestamp queries where the adapter
     /// has `TIMESTAMP_QUERY`, `backends/src/gpu/mod.rs`).
     pub timed_by: &'static str,
+    /// The last first frame's buffers (CPU only; `None` after a camera move or a full rebuild until
+    /// the next first frame renders).
+    kept: Option<Kept>,
+    /// Per pass of the session's schedule, whether its next first frame runs it (`None`: all).
+    rerun: Option<Vec<bool>>,
+    /// Passes the last frame ran, of how many the schedule has.
+    pub passes_run: (usize, usize),
+    /// A reference rendering in the background, loaded into [`Model::reference`] when done.
+    background: Option<super::background::Background>,
 }
 
 impl Model {
@@ -97,13 +119,13 @@ impl Model {
             let mode = if opts.backend == "wgpu" { crate::session::RunMode::Gpu } else { crate::session::RunMode::Cpu };
             session.memory_estimate(mode).check(limit, &source)?;
         }
-        let (backend, timed_by): (Box<dyn Backend + Send>, _) = match opts.backend.as_str() {
+        let (backend, timed_by) = match opts.backend.as_str() {
             "wgpu" => {
                 let gpu = crate::session::open_gpu(opts.gpu_limits.as_deref())?;
                 let by = if gpu.has_timestamps() { "GPU timestamp queries" } else { "wall clock around each dispatch" };
-                (Box::new(gpu), by)
+                (Engine::Other(Box::new(gpu)), by)
             }
-            _ => (Box::new(wedge_backends::cpu::CpuBackend::new()), "wall clock on the CPU"),
+            _ => (Engine::Cpu(wedge_backends::cpu::CpuBackend::new()), "wall clock on the CPU"),
         };
         let watch = Watch::new(watched_files(opts.pipeline.as_ref(), &session, &opts.overrides));
         let probe_names = super::probes::candidates(&session)?;
@@ -129,9 +151,16 @@ impl Model {
             probe_names,
             probes: Vec::new(),
             timed_by,
+            kept: None,
+            rerun: None,
+            passes_run: (0, 0),
+            background: None,
         };
         if let Some(path) = &opts.reference {
             model.set_reference(path)?;
+        }
+        if let Some(spp) = opts.reference_spp {
+            model.render_reference(spp)?;
         }
         Ok(model)
     }
@@ -256,12 +285,22 @@ impl Model {
             };
             session.scene.camera = camera;
         }
-        self.renderer.start(self.session.clone(), self.acc.frames(), self.generation)
+        let partial = match (&self.kept, &self.rerun) {
+            (Some(kept), Some(rerun)) if self.acc.frames() == 0 => {
+                Some(Partial { kept: kept.buffers.clone(), rerun: rerun.clone() })
+            }
+            _ => None,
+        };
+        self.renderer.start(self.session.clone(), self.acc.frames(), self.generation, partial)
     }
 
     /// Take the finished frame, if any, into the mean: `Some(Ok(true))` when one was added,
-    /// `Some(Ok(false))` when it was started before a change and dropped.
+    /// `Some(Ok(false))` when it was started before a change and dropped. A background reference
+    /// that finished is loaded too; one that failed says why in [`Model::error`], and frames go on.
     pub fn poll_frame(&mut self) -> Option<Result<bool, WedgeError>> {
+        if let Some(Err(e)) = self.poll_reference() {
+            self.error = Some(format!("error: the background reference: {e}"));
+        }
         self.renderer.take().map(|done| self.finish(done))
     }
 
@@ -290,6 +329,11 @@ impl Model {
         self.frame_interval = self.last_frame_end.map_or(done.seconds, |t| (end - t).as_secs_f64());
         self.last_frame_end = Some(end);
         let run = done.run?;
+        self.passes_run = (run.timings.len(), self.session.schedule.passes.len());
+        if let Some(buffers) = done.kept {
+            self.kept = Some(Kept { buffers: Arc::new(buffers), schedule: self.session.schedule.clone() });
+            self.rerun = None;
+        }
         self.acc.add(run);
         self.list_outputs();
         if let Some(reference) = &mut self.reference {
@@ -303,6 +347,8 @@ impl Model {
     fn restart(&mut self) {
         self.acc.reset();
         self.generation += 1;
+        self.kept = None;
+        self.rerun = None;
     }
 
     /// Set `node.param` (as `--set`) and rebuild; on a refusal the old value stays and the error is returned.
@@ -310,13 +356,13 @@ impl Model {
         let mut ov = self.overrides.clone();
         ov.params.retain(|(n, p, _)| !(n == node && p == param));
         ov.params.push((node.to_string(), param.to_string(), value));
-        self.rebuild_with(ov)
+        self.rebuild_downstream(ov)
     }
 
     /// Set `--mu` and rebuild.
     pub fn set_mu(&mut self, mu: f64) -> Result<(), WedgeError> {
         let ov = Overrides { mu: Some(mu), ..self.overrides.clone() };
-        self.rebuild_with(ov)
+        self.rebuild_downstream(ov)
     }
 
     /// Move the camera to `camera`'s position and look-at (`None`: back to the pipeline's, lens
@@ -406,6 +452,92 @@ impl Model {
         let shown = Picture { name: "view", width: picture.width, height: picture.height, rgb: &picture.rgb };
         Ok(write_run_with_picture(dir, "render", run, &shown, self.session.width, self.session.height)?)
     }
+}
+
+/// Re-running only the passes downstream of a parameter change (see the module's doc).
+impl Model {
+    /// Rebuild with `ov` (a parameter or `mu` changed, nothing else), keeping the last first frame's
+    /// buffers for the passes the change leaves alone.
+    fn rebuild_downstream(&mut self, ov: Overrides) -> Result<(), WedgeError> {
+        let session = self.build(&ov)?;
+        let kept = self.kept.take().filter(|_| same_scene_requests(&self.session, &session));
+        let rerun = kept.as_ref().map(|k| session.schedule.changed_since(&k.schedule));
+        self.overrides = ov;
+        self.replace(session);
+        (self.kept, self.rerun) = (kept, rerun);
+        Ok(())
+    }
+
+    /// How many of the schedule's passes the next first frame runs (all without kept buffers).
+    pub fn passes_to_rerun(&self) -> usize {
+        let all = self.session.schedule.passes.len();
+        self.rerun.as_ref().map_or(all, |r| r.iter().filter(|&&run| run).count())
+    }
+}
+
+/// The error view's reference rendered in the background ([`super::background`]).
+impl Model {
+    /// Start rendering the pipeline's reference at `spp` samples per pixel for the camera shown now
+    /// (with the current overrides); the window keeps rendering, and the reference replaces the
+    /// error view's when it is done. A second request replaces one still rendering.
+    pub fn render_reference(&mut self, spp: u32) -> Result<(), WedgeError> {
+        if spp == 0 {
+            return Err(WedgeError::Usage("--reference-spp 0: a reference needs at least 1 sample per pixel".into()));
+        }
+        let request = super::background::Request {
+            registries: self.session.registries(),
+            pipeline: self.pipeline.clone(),
+            overrides: self.overrides.clone(),
+            camera: self.camera(),
+            spp,
+        };
+        self.background = Some(super::background::Background::start(request)?);
+        Ok(())
+    }
+
+    /// The name of the background reference still rendering, if one is.
+    pub fn background_label(&self) -> Option<String> {
+        self.background.as_ref().map(|b| b.label())
+    }
+
+    /// Load the background reference if it is done: `Some(Ok(()))` when it was loaded now.
+    pub fn poll_reference(&mut self) -> Option<Result<(), WedgeError>> {
+        let done = self.background.as_ref()?.poll()?;
+        Some(self.load_background(done))
+    }
+
+    /// Wait at most `timeout` for the background reference and load it; an error when none is
+    /// rendering or it is not done by then (a script's `wait_reference`).
+    pub fn wait_reference(&mut self, timeout: std::time::Duration) -> Result<(), WedgeError> {
+        let background = self.background.as_ref().ok_or_else(|| {
+            WedgeError::Usage("no reference is rendering: ask for one first (reference_spp, --reference-spp)".into())
+        })?;
+        match background.wait(timeout) {
+            Some(done) => self.load_background(done),
+            None => Err(WedgeError::Usage(format!(
+                "{} was not done after {:.1} s; wait longer or ask for fewer samples",
+                background.label(),
+                timeout.as_secs_f64()
+            ))),
+        }
+    }
+
+    fn load_background(&mut self, done: Result<crate::image::Image, WedgeError>) -> Result<(), WedgeError> {
+        let name = self.background.take().map(|b| b.label()).unwrap_or_default();
+        let mut reference = Reference::rendered(done?, name);
+        reference.update(self.acc.mean(), self.session.width, self.session.height);
+        self.reference = Some(reference);
+        self.list_outputs();
+        Ok(())
+    }
+}
+
+/// Whether two sessions' nodes ask the scene for the same things (an environment map, a real
+/// layer): a parameter that changes one changes what every pass tracing the scene sees.
+fn same_scene_requests(a: &Session, b: &Session) -> bool {
+    let requests =
+        |s: &Session| -> Vec<_> { s.pipeline.nodes.iter().flat_map(|n| n.kind.scene_requests(&n.params)).collect() };
+    requests(a) == requests(b)
 }
 
 /// The pipeline file and, where it names one (and `--scene` does not replace it), its scene file.

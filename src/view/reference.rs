@@ -1,9 +1,9 @@
 //! The error view: the mean of the frames against a reference image (`wedge view --reference REF.exr`,
-//! or a script's `reference: "FILE"`), shown as a heatmap of |image − reference| with its colour bar,
+//! a script's `reference: "FILE"`, or one rendered in the background: [`super::background`]), shown as a heatmap of |image − reference| with its colour bar,
 //! and the RMSE and relMSE of `wedge compare` (`crate::metrics`) in the status bar, so the numbers in
 //! the window are the ones `wedge compare` prints for a screenshot's `render.exr`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use wedge_backends::RunResult;
 
@@ -20,7 +20,8 @@ pub const ERROR_VIEW: &str = "error";
 /// A reference image the size of the viewer's, and the metrics of the current mean against it.
 #[derive(Clone, Debug)]
 pub struct Reference {
-    pub path: PathBuf,
+    /// Where it comes from, for the status bar: the file, or the background reference's name.
+    pub name: String,
     pub image: Image,
     /// Of the current mean's `color` against the reference; `Err` says why there are none (no
     /// frame yet, the pipeline's size changed on a reload).
@@ -32,7 +33,12 @@ impl Reference {
     pub fn load(path: &Path, width: u32, height: u32) -> Result<Reference, WedgeError> {
         let image = crate::image::read_exr(path)?;
         check_size(path, (image.width, image.height), (width, height))?;
-        Ok(Reference { path: path.to_path_buf(), image, metrics: Err("no frame rendered yet".into()) })
+        Ok(Reference::rendered(image, path.display().to_string()))
+    }
+
+    /// A reference image of the viewer's size rendered here, called `name` in the status bar.
+    pub fn rendered(image: Image, name: String) -> Reference {
+        Reference { name, image, metrics: Err("no frame rendered yet".into()) }
     }
 
     /// Recompute the metrics for `mean` (the viewer's mean run).
@@ -40,7 +46,7 @@ impl Reference {
         self.metrics = match mean.and_then(|run| run.output("color")) {
             None => Err("the pipeline has no `color` output to compare".into()),
             Some(color) => crate::metrics::compare(&buffer_to_image(color, width, height), &self.image)
-                .map_err(|e| format!("{}: {e}", self.path.display())),
+                .map_err(|e| format!("{}: {e}", self.name)),
         };
     }
 
@@ -49,7 +55,7 @@ impl Reference {
         match &self.metrics {
             Ok(m) => format!(
                 "against {}: RMSE {:.6} · relMSE {:.6}{}",
-                self.path.display(),
+                self.name,
                 m.rmse,
                 m.rel_mse,
                 if m.non_finite > 0 {
@@ -58,7 +64,7 @@ impl Reference {
                     String::new()
                 }
             ),
-            Err(why) => format!("against {}: {why}", self.path.display()),
+            Err(why) => format!("against {}: {why}", self.name),
         }
     }
 

@@ -2,12 +2,18 @@
 //! slow frame (a large `mu`, a big image on the CPU) renders. The thread owns the backend; the model
 //! hands it a shared session and a frame number, and gets the run back tagged with the generation it
 //! was started for, so a frame that finishes after a change is dropped instead of averaged.
+//!
+//! On the CPU a first frame (frame 0, the one a change shows first) keeps every buffer it wrote and
+//! hands them back; the next change's first frame runs only the passes downstream of the change
+//! ([`Partial`], `Session::run_partial_frame`) and takes the others' buffers from those. The wgpu
+//! backend runs every frame in full (its buffers stay on the device; keeping them is a later step).
 
 use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
 
+use wedge_backends::cpu::{CpuBackend, KeptBuffers};
 use wedge_backends::{Backend, RunResult, Silent};
 
 use crate::{Session, WedgeError};
@@ -17,6 +23,30 @@ struct Job {
     session: Arc<Session>,
     frame: u32,
     generation: u64,
+    partial: Option<Partial>,
+}
+
+/// A first frame that re-runs only some passes: `kept` are the buffers of the last first frame
+/// (same scene, camera, size, seed), `rerun` one flag per pass of the new session's schedule.
+#[derive(Clone)]
+pub struct Partial {
+    pub kept: Arc<KeptBuffers>,
+    pub rerun: Vec<bool>,
+}
+
+/// What renders: the CPU backend (which can keep a first frame's buffers) or any other.
+pub enum Engine {
+    Cpu(CpuBackend),
+    Other(Box<dyn Backend + Send>),
+}
+
+impl Engine {
+    fn name(&self) -> &'static str {
+        match self {
+            Engine::Cpu(cpu) => cpu.name(),
+            Engine::Other(backend) => backend.name(),
+        }
+    }
 }
 
 /// The generation of the report that the render thread is gone (never stale).
@@ -28,6 +58,8 @@ pub struct Done {
     pub run: Result<RunResult, WedgeError>,
     /// Wall time of the frame on the render thread.
     pub seconds: f64,
+    /// A first frame's buffers on the CPU, for the next change's [`Partial`].
+    pub kept: Option<KeptBuffers>,
 }
 
 pub struct Renderer {
@@ -43,7 +75,7 @@ pub struct Renderer {
 
 impl Renderer {
     /// Start the render thread with `backend`.
-    pub fn new(backend: Box<dyn Backend + Send>) -> Result<Renderer, WedgeError> {
+    pub fn new(backend: Engine) -> Result<Renderer, WedgeError> {
         let name = backend.name();
         let (jobs, job_rx) = channel::<Job>();
         let (done_tx, done) = channel::<Done>();
@@ -63,9 +95,17 @@ impl Renderer {
         self.in_flight || self.ready.is_some()
     }
 
-    /// Render frame `frame` of `session`; the caller checks [`Renderer::in_flight`] first.
-    pub fn start(&mut self, session: Arc<Session>, frame: u32, generation: u64) -> Result<(), WedgeError> {
-        let sent = self.jobs.as_ref().is_some_and(|j| j.send(Job { session, frame, generation }).is_ok());
+    /// Render frame `frame` of `session` (a first frame re-running only `partial`'s passes where
+    /// given); the caller checks [`Renderer::in_flight`] first.
+    pub fn start(
+        &mut self,
+        session: Arc<Session>,
+        frame: u32,
+        generation: u64,
+        partial: Option<Partial>,
+    ) -> Result<(), WedgeError> {
+        let job = Job { session, frame, generation, partial };
+        let sent = self.jobs.as_ref().is_some_and(|j| j.send(job).is_ok());
         if !sent {
             return Err(stopped());
         }
@@ -117,16 +157,39 @@ impl Drop for Renderer {
 }
 
 /// The render thread's loop: one job at a time until the window goes.
-fn serve(mut backend: Box<dyn Backend + Send>, jobs: Receiver<Job>, done: Sender<Done>) {
+fn serve(mut engine: Engine, jobs: Receiver<Job>, done: Sender<Done>) {
     while let Ok(job) = jobs.recv() {
         let start = Instant::now();
-        let run = job.session.run_progressive_frame(backend.as_mut(), &Silent, job.frame, None);
+        let (run, kept) = render(&mut engine, &job);
         // Let go of the session before reporting, so the model may change it (its camera) at once.
         drop(job.session);
-        let finished = Done { generation: job.generation, run, seconds: start.elapsed().as_secs_f64() };
+        let finished = Done { generation: job.generation, run, seconds: start.elapsed().as_secs_f64(), kept };
         if done.send(finished).is_err() {
             return;
         }
+    }
+}
+
+/// Render `job` on `engine`: a first frame on the CPU keeps its buffers (running only the partial
+/// job's passes where it has one); every other frame runs in full through the persistent pool.
+fn render(engine: &mut Engine, job: &Job) -> (Result<RunResult, WedgeError>, Option<KeptBuffers>) {
+    match engine {
+        Engine::Cpu(cpu) if job.frame == 0 => {
+            let empty = KeptBuffers::new();
+            let (kept, rerun) = job.partial.as_ref().map_or((&empty, None), |p| (&*p.kept, Some(&p.rerun[..])));
+            let mut ran = job.session.run_partial_frame(cpu, &Silent, 0, kept, rerun);
+            if ran.is_err() && rerun.is_some() {
+                // A kept buffer that does not fit (or any failure of the shortcut): the whole frame,
+                // whose error, if it fails too, is the one worth showing.
+                ran = job.session.run_partial_frame(cpu, &Silent, 0, &empty, None);
+            }
+            match ran {
+                Ok((run, buffers)) => (Ok(run), Some(buffers)),
+                Err(e) => (Err(e), None),
+            }
+        }
+        Engine::Cpu(cpu) => (job.session.run_progressive_frame(cpu, &Silent, job.frame, None), None),
+        Engine::Other(backend) => (job.session.run_progressive_frame(backend.as_mut(), &Silent, job.frame, None), None),
     }
 }
 
@@ -136,5 +199,5 @@ fn stopped() -> WedgeError {
 
 /// What a frame reports when the render thread is gone.
 fn lost() -> Done {
-    Done { generation: LOST, run: Err(stopped()), seconds: 0.0 }
+    Done { generation: LOST, run: Err(stopped()), seconds: 0.0, kept: None }
 }

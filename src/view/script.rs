@@ -58,6 +58,14 @@ pub struct Step {
     /// Load this EXR (of the viewer's size, e.g. `wedge reference`'s) as the error view's reference.
     #[serde(default)]
     pub reference: Option<PathBuf>,
+    /// Render the error view's reference in the background at this many samples per pixel (as
+    /// `--reference-spp`, for the camera shown now); the frames go on while it renders.
+    #[serde(default)]
+    pub reference_spp: Option<u32>,
+    /// Wait at most this many seconds for the background reference and load it (an error if it is
+    /// not done by then): a screenshot in a later step shows the error against it.
+    #[serde(default)]
+    pub wait_reference: Option<f64>,
     /// Show this output (a name from the output picker: `color`, `unfiltered`, a heatmap's name).
     #[serde(default)]
     pub output: Option<String>,
@@ -87,6 +95,8 @@ impl Step {
             fly,
             reset_camera,
             reference,
+            reference_spp,
+            wait_reference,
             output,
             compare,
             split,
@@ -100,6 +110,8 @@ impl Step {
             || fly.is_some()
             || reset_camera.is_some()
             || reference.is_some()
+            || reference_spp.is_some()
+            || wait_reference.is_some()
             || output.is_some()
             || compare.is_some()
             || split.is_some()
@@ -140,7 +152,7 @@ impl Script {
             WedgeError::Usage(format!(
                 "{}:{}:{}: {}\n  help: a script is a list of steps such as [(frame: 2, set: (\"shadows.mu\", 4.0)), \
                  (frame: 3, screenshot: \"out/view\")]; a step's fields are frame, set, mu, orbit, dolly, fly, reset_camera, \
-                 reference, output, compare, split, layout, screenshot",
+                 reference, reference_spp, wait_reference, output, compare, split, layout, screenshot",
                 path.display(),
                 e.span.start.line,
                 e.span.start.col,
@@ -183,6 +195,12 @@ fn check_step(path: &Path, index: usize, step: &Step) -> Result<(), WedgeError> 
     if let Some(layout) = step.layout.as_deref().filter(|l| super::control::Layout::parse(l).is_none()) {
         let names: Vec<&str> = super::control::Layout::NAMES.iter().map(|(n, _)| *n).collect();
         return Err(blame(format!("layout `{layout}` is not one of {}", names.join(", "))));
+    }
+    if let Some(wait) = step.wait_reference.filter(|w| !(w.is_finite() && (0.0..=3600.0).contains(w))) {
+        return Err(blame(format!("wait_reference {wait} must be a number of seconds in 0..3600")));
+    }
+    if step.reference_spp == Some(0) {
+        return Err(blame("reference_spp 0: a reference needs at least 1 sample per pixel".into()));
     }
     if let Some(mu) = step.mu.filter(|m| !(m.is_finite() && *m > 0.0)) {
         return Err(blame(format!("mu {mu} must be a finite number > 0, as for --mu")));

@@ -91,6 +91,10 @@ impl Panels {
         if ui.checkbox(&mut paused, "pause (Space)").changed() {
             actions.push(Action::Pause(paused));
         }
+        let spp = super::background::BUTTON_SPP;
+        if ui.button(format!("render a reference ({spp} spp) in the background")).clicked() {
+            actions.push(Action::RenderReference(spp));
+        }
         if ui.button(format!("screenshot (F12) into {}", self.out.display())).clicked() {
             actions.push(Action::Screenshot(self.out.clone()));
         }
@@ -109,8 +113,13 @@ impl Panels {
         if let Some(reference) = model.reference() {
             ui.label(format!("error {}", reference.summary()));
         }
+        if let Some(label) = model.background_label() {
+            ui.label(format!("rendering {label} in the background…"));
+        }
         if let Some(run) = model.mean() {
-            egui::CollapsingHeader::new(format!("pass times of the last frame ({})", model.timed_by)).show(ui, |ui| {
+            let (ran, of) = model.passes_run;
+            let header = format!("pass times of the last frame ({}; {ran} of {of} passes ran)", model.timed_by);
+            egui::CollapsingHeader::new(header).show(ui, |ui| {
                 for t in &run.timings {
                     ui.monospace(format!("{:<32} {:<22} {:>9.2} ms", t.pass, t.kernel, t.seconds * 1e3));
                 }

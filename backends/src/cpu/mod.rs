@@ -217,3 +217,76 @@ impl Backend for CpuBackend {
         Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })
     }
 }
+
+/// Every buffer a run wrote, by buffer name (names are stable across rebuilds of a pipeline, ids
+/// are not): what [`CpuBackend::run_partial`] keeps for the next change.
+pub type KeptBuffers = BTreeMap<String, BufferData>;
+
+impl CpuBackend {
+    /// Run only the passes `rerun` marks (one flag per scheduled pass), taking every other pass's
+    /// outputs from `kept` (an earlier run's [`KeptBuffers`] of the same scene, camera, size, seed
+    /// and frame); hand back the run and every buffer it holds, kept and written. With `kept` empty
+    /// and every flag set it is a whole run that keeps its buffers. Each buffer has storage of its
+    /// own here (no pool: all of them outlive the run), so this is for the viewer's first frame after
+    /// a change, not for every frame. A skipped pass whose outputs `kept` lacks is an error (the
+    /// caller runs in full).
+    pub fn run_partial(
+        &mut self,
+        job: &Job<'_>,
+        history: &BTreeMap<BufferId, BufferData>,
+        kept: &KeptBuffers,
+        rerun: &[bool],
+    ) -> Result<(RunResult, KeptBuffers), BackendError> {
+        let sched = job.schedule;
+        let mut held: BTreeMap<BufferId, BufferData> =
+            sched.history.iter().map(|h| (h.buffer, crate::history_input(job, history, h))).collect();
+        let (mut rays, mut timings, mut allocations) = (crate::RayCounts::default(), Vec::new(), 0);
+        for (pass, run) in sched.passes.iter().zip(rerun.iter().chain(std::iter::repeat(&true))) {
+            if !run {
+                for (_, id) in &pass.writes {
+                    let info = &sched.buffers[id.0];
+                    let len = job.width as usize * job.height as usize * info.layers as usize;
+                    let data = kept.get(&info.name).filter(|d| d.format() == info.format && d.len() == len);
+                    let data = data.ok_or_else(|| {
+                        let name = &info.name;
+                        BackendError::Other(format!(
+                            "pass `{}` is skipped but no `{name}` of its shape was kept",
+                            pass.name
+                        ))
+                    })?;
+                    held.insert(*id, data.clone());
+                }
+                continue;
+            }
+            let start = Instant::now();
+            let counters = Counters::default();
+            let outputs = run_pass(job, pass, &held.iter().map(|(id, d)| (*id, d)).collect(), &counters)?;
+            allocations += outputs.len();
+            for (binding, data) in outputs {
+                held.insert(pass.write(&binding).expect("bound"), data);
+            }
+            let counts = counters.snapshot();
+            rays.add(&counts);
+            let class = job.kernels.get(&pass.kernel).expect("checked").class();
+            let (name, kernel) = (pass.name.clone(), pass.kernel.clone());
+            timings.push(PassTiming { pass: name, kernel, class, seconds: start.elapsed().as_secs_f64(), counts });
+            job.progress.pass_done(&pass.name);
+        }
+        let take = |id: &BufferId, what: &str| {
+            held.get(id)
+                .cloned()
+                .ok_or_else(|| BackendError::Other(format!("{what} `{}` holds no data", sched.buffers[id.0].name)))
+        };
+        let mut outputs = BTreeMap::new();
+        for (node, port, id) in &sched.sink_inputs {
+            outputs.insert((node.clone(), port.clone()), take(id, "sink input")?);
+        }
+        let mut next = BTreeMap::new();
+        for h in &sched.history {
+            next.insert(h.buffer, take(&h.source, "previous-frame source")?);
+        }
+        let run = RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next };
+        let all = held.into_iter().map(|(id, data)| (sched.buffers[id.0].name.clone(), data)).collect();
+        Ok((run, all))
+    }
+}
