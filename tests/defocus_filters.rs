@@ -19,7 +19,7 @@ use std::sync::Arc;
 
 use wedge::backends::gpu::GpuBackend;
 use wedge::backends::kernels::filter_window::{
-    window_radius, Axis, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT,
+    window_radius, Axis, ScreenRadius, FILTER_SHARPNESS, REJECT_EXPONENT, REJECT_RADIUS, REJECT_WEIGHT,
 };
 use wedge::backends::kernels::neighbourhood3::{max3, median3};
 use wedge::backends::lone::LonePass;
@@ -646,14 +646,14 @@ fn defocus_weights_and_window_by_hand() {
     // 3×1 image, Ω = 0.5: the centre weighs 1, each neighbour e⁻⁴ (thesis Sec. 5.8).
     let value = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]];
     let e = (-4.0f32).exp();
-    let out = defocus_pixel(1, 0, 3, 1, 16, Axis::Both, &value, &[0.5; 3]);
+    let out = defocus_pixel(1, 0, 3, 1, ScreenRadius::clamped(16), Axis::Both, &value, &[0.5; 3]);
     assert!((out[0] - (1.0 + 2.0 * e) / (1.0 + 2.0 * e)).abs() < 1e-6, "{out:?}");
     // A sharp left neighbour (Ω = 2: i outside its filter, e_j = 64 > ln 100) is rejected.
-    let out = defocus_pixel(1, 0, 3, 1, 16, Axis::Both, &value, &[2.0, 0.5, 0.5]);
+    let out = defocus_pixel(1, 0, 3, 1, ScreenRadius::clamped(16), Axis::Both, &value, &[2.0, 0.5, 0.5]);
     assert!((out[0] - (1.0 + 2.0 * e) / (1.0 + e)).abs() < 1e-6, "{out:?}");
     // Ω = 0.25 (r_min = 4): neighbours at distance 1 and 2 weigh e^{−1} and e^{−4}.
     let row: Vec<[f32; 3]> = (0..5).map(|x| [x as f32, 0.0, 0.0]).collect();
-    let out = defocus_pixel(2, 0, 5, 1, 16, Axis::Both, &row, &[0.25; 5]);
+    let out = defocus_pixel(2, 0, 5, 1, ScreenRadius::clamped(16), Axis::Both, &row, &[0.25; 5]);
     let (e1, e4) = ((-1.0f32).exp(), (-4.0f32).exp());
     let expect = (0.0 * e4 + 1.0 * e1 + 2.0 + 3.0 * e1 + 4.0 * e4) / (1.0 + 2.0 * e1 + 2.0 * e4);
     assert!((out[0] - expect).abs() < 1e-6, "{out:?} vs {expect}");

@@ -4,6 +4,7 @@
 //! sum of components the factoring node blurs.
 
 use wedge_backends::kernels::constant::FillU32Io;
+use wedge_backends::kernels::filter_window::Axis;
 use wedge_backends::kernels::irradiance_filter::IrradianceIo;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
 use wedge_graph::{
@@ -68,16 +69,16 @@ pub fn filter_chain(
     params: &[(&str, ParamValue)],
     separable: bool,
 ) -> BufferId {
-    let axes: &[(i64, &str)] = if separable { &[(0, "_x"), (1, "_y")] } else { &[(-1, "")] };
+    let axes: &[(Axis, &str)] = if separable { &[(Axis::X, "_x"), (Axis::Y, "_y")] } else { &[(Axis::Both, "")] };
     let mut value = value;
     for (axis, suffix) in axes {
         let local = format!("{name}{suffix}");
         let out = ctx.buffer(&local, Format::Vec3);
         let mut b = bind(ctx.pass(&local, kernel, stage), value, out);
-        for (n, v) in params {
-            b = b.param(n, v.clone());
+        for (n, v) in params.iter().cloned().chain([axis.param()]) {
+            b = b.param(n, v);
         }
-        b.int("axis", *axis).reference(Reference::Bypass { input: "value" }).finish();
+        b.reference(Reference::Bypass { input: "value" }).finish();
         value = out;
     }
     value

@@ -19,9 +19,11 @@
 //! O(R²) taps per pixel, validated against the 2-D filter in `tests/defocus_filters.rs` (see there
 //! for the measured difference). WGSL mirror: `shaders/filter_window.wgsl`.
 
-use crate::kernel::{KernelCtx, Reach};
+use wedge_graph::ParamValue;
+
+use crate::kernel::{KernelCtx, Reach, Uniforms};
 use crate::kernels::is_finite3;
-use crate::params::KernelParams;
+use crate::params::{ParamField, ParamType};
 use crate::BackendError;
 
 /// The constant 16 of eqs. 5.31 and 5.33.
@@ -33,7 +35,7 @@ pub const REJECT_EXPONENT: f32 = 4.605_170_2;
 /// `sqrt(ln 100 / 16)`: the pixel distance at which `exp(−16 d² Ω²) = 0.01` for `Ω = 1`.
 pub const REJECT_RADIUS: f32 = 0.536_491_5;
 /// Largest `max_radius` a pass may ask for.
-pub const MAX_RADIUS_LIMIT: i64 = 64;
+pub const MAX_RADIUS_LIMIT: u32 = 64;
 
 /// Half-width in pixels of the square window for width `omega`: `ceil(0.5365/Ω)`, at most `cap`.
 pub fn window_radius(omega: f32, cap: i32) -> i32 {
@@ -140,47 +142,117 @@ pub fn gather(
 }
 
 crate::kernel_params! {
-    /// The window's cap, as `filter.defocus` and `filter.motion` read it (`filter.irradiance`'s block
-    /// adds its normal test): clamped to `0..=MAX_RADIUS_LIMIT` ([`WindowParams::read_clamped`]).
+    /// The window's cap, as `filter.motion` reads it (clamped to `0..=MAX_RADIUS_LIMIT` as read).
     pub struct WindowParams {
-        max_radius: i32,
+        max_radius: ScreenRadius,
     }
 }
 
-impl WindowParams {
-    /// The pass's block, `max_radius` clamped ([`clamp_radius`]).
-    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
-        Ok(Self { max_radius: clamp_radius(Self::read(ctx)?.max_radius) })
+crate::kernel_params! {
+    /// The window's cap and the pass's [`Axis`], as `filter.defocus` reads them (`filter.irradiance`'s
+    /// block adds its normal test).
+    pub struct AxisWindowParams {
+        max_radius: ScreenRadius,
+        axis: Axis,
     }
 }
 
-/// A pass's `max_radius` clamped to `0..=MAX_RADIUS_LIMIT`.
-pub fn clamp_radius(r: i32) -> i32 {
-    r.clamp(0, MAX_RADIUS_LIMIT as i32)
-}
-
-/// The `max_radius` parameter clamped to `0..=MAX_RADIUS_LIMIT`.
-pub fn max_radius(ctx: &KernelCtx<'_>) -> Result<i32, BackendError> {
-    Ok(WindowParams::read_clamped(ctx)?.max_radius)
-}
-
-/// The `axis` parameter: absent or -1 = 2-D, 0 = x, 1 = y. Read by name, not declared in the
-/// kernels' blocks: it is optional (absent = the 2-D reference filter), which a block's field is not.
-pub fn axis(ctx: &KernelCtx<'_>) -> Result<Axis, BackendError> {
-    if !ctx.params.contains_key("axis") {
-        return Ok(Axis::Both);
+/// The `axis` parameter: absent or -1 = 2-D, 0 = x, 1 = y; another value is refused with the fix.
+/// Optional (absent = the 2-D reference filter); an `i32` in WGSL ([`Axis::code`]).
+impl ParamField for Axis {
+    const TYPE: ParamType = ParamType::Integer;
+    const OPTIONAL: bool = true;
+    fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
+        if !ctx.params.contains_key(name) {
+            return Ok(Axis::Both);
+        }
+        let v = ctx.int_param(name)?;
+        Axis::from_param(v).ok_or_else(|| ctx.err(format!("`{name}` = {v}; use -1 (2-D), 0 (x) or 1 (y)")))
     }
-    let v = ctx.int_param("axis")?;
-    Axis::from_param(v).ok_or_else(|| BackendError::Kernel {
-        pass: ctx.pass.to_string(),
-        message: format!("`axis` = {v}; use -1 (2-D), 0 (x) or 1 (y)"),
-    })
+    fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
+        u.i32(name, self.code())
+    }
 }
 
-/// The x pass stays in its row; the 2-D and y passes read `max_radius` rows away.
-pub fn reach(ctx: &KernelCtx<'_>) -> Result<Reach, BackendError> {
-    Ok(match axis(ctx)? {
-        Axis::X => Reach::Cols(max_radius(ctx)? as u32),
-        _ => Reach::Rows(max_radius(ctx)? as u32),
-    })
+impl Axis {
+    /// The name the kernels' blocks declare the field under (`AxisWindowParams::axis`, ...).
+    pub const PARAM: &'static str = "axis";
+    /// The pass parameter a node sets for this axis (the value [`Axis::from_param`] reads back).
+    pub fn param(self) -> (&'static str, ParamValue) {
+        (Self::PARAM, ParamValue::Int(self.code().into()))
+    }
+    /// How far a pass along this axis reads for cap `r`: the x pass stays in its row; the 2-D and y
+    /// passes read `r` rows away.
+    pub fn reach(self, r: ScreenRadius) -> Reach {
+        match self {
+            Axis::X => Reach::Cols(r.get() as u32),
+            _ => Reach::Rows(r.get() as u32),
+        }
+    }
+}
+
+/// A filter window's cap in pixels (a pass's `max_radius`), clamped to `0..=LIMIT` as it is read
+/// (a value outside `i32` is refused, as an `i32` field's). One type for every filter's cap, each
+/// with its own limit: [`ScreenRadius`] (64) here, `filter.gaussian`'s 1024 (an axis-aligned filter
+/// of 1-D taps), `filter.environment`'s 64. An `i32` in WGSL.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WindowRadius<const LIMIT: u32>(u32);
+
+impl<const LIMIT: u32> WindowRadius<LIMIT> {
+    /// Largest cap a pass may ask for.
+    pub const LIMIT: u32 = LIMIT;
+    /// `r` clamped to `0..=LIMIT`.
+    pub fn clamped(r: i32) -> Self {
+        Self(r.clamp(0, LIMIT as i32) as u32)
+    }
+    /// The cap in pixels.
+    pub fn get(self) -> i32 {
+        self.0 as i32
+    }
+    /// The offsets `-cap..=cap` of a 1-D window at the cap.
+    pub fn taps(self) -> std::ops::RangeInclusive<i32> {
+        -self.get()..=self.get()
+    }
+    /// Half-width of the screen-space window for width `omega` under this cap ([`window_radius`]).
+    pub fn window(self, omega: f32) -> i32 {
+        window_radius(omega, self.get())
+    }
+}
+
+impl<const LIMIT: u32> ParamField for WindowRadius<LIMIT> {
+    const TYPE: ParamType = ParamType::Integer;
+    fn read(ctx: &KernelCtx<'_>, name: &str) -> Result<Self, BackendError> {
+        i32::read(ctx, name).map(Self::clamped)
+    }
+    fn uniform(&self, u: Uniforms, name: &'static str) -> Uniforms {
+        u.i32(name, self.get())
+    }
+}
+
+/// The cap of the screen-space window of this module's filters.
+pub type ScreenRadius = WindowRadius<MAX_RADIUS_LIMIT>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernels::irradiance_filter::IrradianceParams;
+    use crate::params::KernelParams;
+
+    #[test]
+    fn the_blocks_declare_the_axis_the_nodes_set() {
+        assert!(AxisWindowParams::names().contains(&Axis::PARAM));
+        assert!(IrradianceParams::names().contains(&Axis::PARAM));
+        for a in [Axis::Both, Axis::X, Axis::Y] {
+            let ParamValue::Int(v) = a.param().1 else { unreachable!() };
+            assert_eq!(Axis::from_param(v), Some(a));
+        }
+    }
+
+    #[test]
+    fn a_window_radius_clamps_to_its_limit() {
+        assert_eq!(ScreenRadius::clamped(1000).get(), 64);
+        assert_eq!(WindowRadius::<1024>::clamped(1000).get(), 1000);
+        assert_eq!(ScreenRadius::clamped(-3).get(), 0);
+        assert_eq!(ScreenRadius::clamped(16).window(0.5365 / 3.5), 4);
+    }
 }

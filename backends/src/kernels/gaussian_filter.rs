@@ -13,6 +13,7 @@
 use glam::Vec3;
 
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
+use crate::kernels::filter_window::WindowRadius;
 use crate::kernels::v3;
 use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
@@ -31,11 +32,11 @@ crate::param_choice! {
 crate::kernel_params! {
     /// What a `filter.gaussian` pass carries (set by `effects::filtering::separable`): `axis` 0 = x,
     /// else y; `plane_light` the light of eq. 3.12's plane, -1 = full 3-D; `max_radius` clamped to
-    /// `0..=MAX_RADIUS_LIMIT` when read ([`GaussianParams::read_clamped`]).
+    /// `0..=MAX_RADIUS_LIMIT` as read.
     pub struct GaussianParams {
         axis: u32,
         plane_light: i32,
-        max_radius: i32,
+        max_radius: WindowRadius<MAX_RADIUS_LIMIT>,
         normal_cos: f32,
         reach: FilterReach,
     }
@@ -51,14 +52,9 @@ crate::kernel_bindings! {
 }
 
 /// Largest `max_radius` a pass may ask for.
-pub const MAX_RADIUS_LIMIT: i32 = 1024;
+pub const MAX_RADIUS_LIMIT: u32 = 1024;
 
 impl GaussianParams {
-    /// The pass's block with `max_radius` clamped to `0..=MAX_RADIUS_LIMIT`.
-    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
-        let p = Self::read(ctx)?;
-        Ok(Self { max_radius: p.max_radius.clamp(0, MAX_RADIUS_LIMIT), ..p })
-    }
     /// The normal of eq. 3.12's plane: light `plane_light`'s, or 0 (full 3-D distance) for -1.
     fn plane_normal(&self, ctx: &KernelCtx<'_>) -> Result<Vec3, BackendError> {
         Ok(match self.plane_light {
@@ -176,26 +172,26 @@ impl Kernel for GaussianFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {
-                let p = GaussianParams::read_clamped(ctx)?;
+                let p = GaussianParams::read(ctx)?;
                 Ok(p.uniforms().vec3("plane_normal", p.plane_normal(ctx)?.to_array()))
             })
             .with_reach(|ctx| {
                 // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
-                let p = GaussianParams::read_clamped(ctx)?;
+                let p = GaussianParams::read(ctx)?;
                 Ok(match p.axis {
-                    0 => Reach::Cols(p.max_radius as u32),
-                    _ => Reach::Rows(p.max_radius as u32),
+                    0 => Reach::Cols(p.max_radius.get() as u32),
+                    _ => Reach::Rows(p.max_radius.get() as u32),
                 })
             }),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let io = GaussianIo::read(ctx)?;
-        let g = GaussianParams::read_clamped(ctx)?;
+        let g = GaussianParams::read(ctx)?;
         let p = FilterParams {
             axis: g.axis,
             plane_normal: g.plane_normal(ctx)?,
-            max_radius: g.max_radius,
+            max_radius: g.max_radius.get(),
             normal_cos: g.normal_cos,
             mutual: g.reach == FilterReach::Mutual,
         };

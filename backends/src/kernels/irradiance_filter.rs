@@ -15,25 +15,18 @@
 use glam::Vec3;
 
 use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
-use crate::kernels::filter_window::{axis, clamp_radius, gather, pair_weight, reach, valid_width, window_radius, Axis};
+use crate::kernels::filter_window::{gather, pair_weight, valid_width, Axis, ScreenRadius};
 use crate::kernels::{count_non_finite, v3};
 use crate::params::{KernelParams, ParamSpec};
 use crate::BackendError;
 
 crate::kernel_params! {
-    /// What a `filter.irradiance` pass carries besides its optional `axis` ([`axis`]): the window's
-    /// cap (clamped, [`IrradianceParams::read_clamped`]) and the cosine of the normal test.
+    /// What a `filter.irradiance` pass carries: the window's cap (clamped as read), the cosine of
+    /// the normal test and the optional [`Axis`] (absent = 2-D).
     pub struct IrradianceParams {
-        max_radius: i32,
+        max_radius: ScreenRadius,
         normal_cos: f32,
-    }
-}
-
-impl IrradianceParams {
-    /// The pass's block, `max_radius` clamped ([`clamp_radius`]).
-    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
-        let p = Self::read(ctx)?;
-        Ok(Self { max_radius: clamp_radius(p.max_radius), ..p })
+        axis: Axis,
     }
 }
 
@@ -54,7 +47,6 @@ pub fn irradiance_pixel(
     width: i32,
     height: i32,
     p: &IrradianceParams,
-    axis: Axis,
     value: &[[f32; 3]],
     position: &[[f32; 4]],
     normal: &[[f32; 4]],
@@ -74,7 +66,7 @@ pub fn irradiance_pixel(
     let gi = om / ell;
     let gi2 = gi * gi;
     let xi = v3(position[i]);
-    let extent = axis.extent(window_radius(om, p.max_radius));
+    let extent = p.axis.extent(p.max_radius.window(om));
     gather(x, y, width, height, extent, value, |j, _| {
         if !is_hit(position[j]) || ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
             return None;
@@ -108,20 +100,23 @@ impl Kernel for IrradianceFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_irradiance.wgsl"), |ctx| {
-                Ok(IrradianceParams::read_clamped(ctx)?.uniforms().i32("axis", axis(ctx)?.code()))
+                Ok(IrradianceParams::read(ctx)?.uniforms())
             })
             .with_include("filter_window.wgsl", include_str!("../../../shaders/filter_window.wgsl"))
-            .with_reach(reach),
+            .with_reach(|ctx| {
+                let p = IrradianceParams::read(ctx)?;
+                Ok(p.axis.reach(p.max_radius))
+            }),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let io = IrradianceIo::read(ctx)?;
         let IrradianceData { value, position, normal, omega, pixel_length, .. } = io;
-        let (p, a) = (IrradianceParams::read_clamped(ctx)?, axis(ctx)?);
+        let p = IrradianceParams::read(ctx)?;
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
-            irradiance_pixel(x as i32, y as i32, w, h, &p, a, value, position, normal, omega, pixel_length)
+            irradiance_pixel(x as i32, y as i32, w, h, &p, value, position, normal, omega, pixel_length)
         });
         io.out.put(ctx, out)
     }

@@ -3,6 +3,7 @@
 //! App. B belong to a multi-sample primary kernel, not this one).
 
 use rayon::prelude::*;
+use wedge_scene::{LensRay, LensShape};
 
 use crate::bindings::PutWith;
 use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
@@ -74,9 +75,12 @@ impl Kernel for PrimaryGBuffer {
         let ((w, h), window) = (ctx.full_size(), ctx.window);
         // Angle subtended by one pixel at the image centre.
         let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / h as f32;
+        // The camera basis once per pass, not per pixel (the same rays as `Camera::generate_ray`).
+        let rays = cam.rays(w, h);
         let texel = |x: u32, y: u32| {
             let (x, y) = window.global_xy(x, y);
-            let (o, d) = cam.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h, glam::Vec2::splat(0.5));
+            let pixel = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let LensRay { origin: o, dir: d, .. } = rays.ray(pixel, glam::Vec2::splat(0.5), LensShape::Disk);
             let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) else {
                 // A camera ray that leaves the scene sees the environment (black without a map).
                 return Texel { emission: scene.background(d).to_array(), ..Texel::default() };

@@ -6,9 +6,7 @@
 //! never spread, as in `filter.irradiance`. WGSL mirror: `shaders/filter_defocus.wgsl`.
 
 use wedge_backends::kernels::count_non_finite;
-use wedge_backends::kernels::filter_window::{
-    axis, gather, pair_weight, reach, valid_width, window_radius, Axis, WindowParams,
-};
+use wedge_backends::kernels::filter_window::{gather, pair_weight, valid_width, Axis, AxisWindowParams, ScreenRadius};
 use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
 
 wedge_backends::kernel_bindings! {
@@ -26,7 +24,7 @@ pub fn defocus_pixel(
     y: i32,
     width: i32,
     height: i32,
-    max_radius: i32,
+    max_radius: ScreenRadius,
     axis: Axis,
     value: &[[f32; 3]],
     omega: &[f32],
@@ -38,7 +36,7 @@ pub fn defocus_pixel(
         return centre;
     }
     let gi2 = om * om;
-    gather(x, y, width, height, axis.extent(window_radius(om, max_radius)), value, |j, (dx, dy)| {
+    gather(x, y, width, height, axis.extent(max_radius.window(om)), value, |j, (dx, dy)| {
         pair_weight((dx * dx + dy * dy) as f32, gi2, omega[j] * omega[j])
     })
 }
@@ -54,7 +52,7 @@ impl Kernel for DefocusFilter {
         KernelClass::Filter
     }
     fn params(&self) -> Vec<ParamSpec> {
-        WindowParams::specs()
+        AxisWindowParams::specs()
     }
     fn bindings(&self) -> Vec<Binding> {
         DefocusIo::bindings()
@@ -62,15 +60,18 @@ impl Kernel for DefocusFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_defocus.wgsl"), |ctx| {
-                Ok(WindowParams::read_clamped(ctx)?.uniforms().i32("axis", axis(ctx)?.code()))
+                Ok(AxisWindowParams::read(ctx)?.uniforms())
             })
             .with_include("filter_window.wgsl", include_str!("../../../../shaders/filter_window.wgsl"))
-            .with_reach(reach),
+            .with_reach(|ctx| {
+                let p = AxisWindowParams::read(ctx)?;
+                Ok(p.axis.reach(p.max_radius))
+            }),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let DefocusData { value, omega, out } = DefocusIo::read(ctx)?;
-        let (r, a) = (WindowParams::read_clamped(ctx)?.max_radius, axis(ctx)?);
+        let AxisWindowParams { max_radius: r, axis: a } = AxisWindowParams::read(ctx)?;
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let filtered = ctx.map_pixels(false, |x, y| defocus_pixel(x as i32, y as i32, w, h, r, a, value, omega));

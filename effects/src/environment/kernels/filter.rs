@@ -40,6 +40,7 @@
 use glam::{Vec2, Vec3};
 use wedge_scene::Camera;
 
+use wedge_backends::kernels::filter_window::WindowRadius;
 use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::{count_non_finite, is_finite3, v3};
 use wedge_backends::{
@@ -47,16 +48,16 @@ use wedge_backends::{
 };
 
 /// Largest `max_radius` a pass may ask for.
-pub const MAX_RADIUS_LIMIT: i64 = 64;
+pub const MAX_RADIUS_LIMIT: u32 = 64;
 /// Largest `max_motion` a history pass may ask for.
 pub const MAX_MOTION_LIMIT: i64 = 4096;
 
 wedge_backends::kernel_params! {
     /// What a `filter.environment` pass carries (the node's `PartFilter` sets them): `axis` 0 = x,
-    /// 1 = y; `max_radius` clamped to `0..=MAX_RADIUS_LIMIT` ([`FilterParams::read_checked`]).
+    /// 1 = y (checked, [`FilterParams::read_checked`]); `max_radius` clamped to `0..=MAX_RADIUS_LIMIT` as read.
     pub struct FilterParams {
         axis: u32,
-        max_radius: i32,
+        max_radius: WindowRadius<MAX_RADIUS_LIMIT>,
         normal_cos: f32,
     }
 }
@@ -66,7 +67,7 @@ wedge_backends::kernel_params! {
     /// and `max_motion`, clamped to `0..=MAX_MOTION_LIMIT` ([`HistoryParams::read_checked`]).
     pub struct HistoryParams {
         axis: u32,
-        max_radius: i32,
+        max_radius: WindowRadius<MAX_RADIUS_LIMIT>,
         normal_cos: f32,
         /// The most pixels (along either axis) a point may have moved since the previous frame and
         /// still find its history; farther is "no history", as for a disocclusion. It bounds the
@@ -157,13 +158,12 @@ pub fn filter_pixel(
         let d2 = (v3(position[j]) - xi).length_squared();
         Some((j, 2.0 * mean_b2(bi, bj, axis) * d2))
     };
-    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1)))
-    else {
+    let Some(weights) = RelativeWeights::new(p.max_radius.taps().filter_map(|k| term(k).map(|t| t.1))) else {
         return centre;
     };
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for (j, a) in (-p.max_radius..=p.max_radius).filter_map(term) {
+    for (j, a) in p.max_radius.taps().filter_map(term) {
         let Some(w) = weights.weight(a) else { continue };
         let v = value[j];
         for c in 0..3 {
@@ -272,13 +272,12 @@ pub fn history_pixel(
         Some((j, 2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2))
     };
     // No neighbour near enough to weigh anything: no history (as when there is no neighbour).
-    let Some(weights) = RelativeWeights::new((-p.max_radius..=p.max_radius).filter_map(|k| term(k).map(|t| t.1)))
-    else {
+    let Some(weights) = RelativeWeights::new(p.max_radius.taps().filter_map(|k| term(k).map(|t| t.1))) else {
         return none;
     };
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for (j, a) in (-p.max_radius..=p.max_radius).filter_map(term) {
+    for (j, a) in p.max_radius.taps().filter_map(term) {
         let Some(w) = weights.weight(a) else { continue };
         let v = prev_value[j];
         for c in 0..3 {
@@ -298,24 +297,20 @@ fn check_axis(ctx: &KernelCtx<'_>, axis: u32) -> Result<(), BackendError> {
 }
 
 impl FilterParams {
-    /// The pass's block, `axis` checked and `max_radius` clamped.
+    /// The pass's block, `axis` checked.
     pub fn read_checked(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
         let p = Self::read(ctx)?;
         check_axis(ctx, p.axis)?;
-        Ok(Self { max_radius: p.max_radius.clamp(0, MAX_RADIUS_LIMIT as i32), ..p })
+        Ok(p)
     }
 }
 
 impl HistoryParams {
-    /// The pass's block, `axis` checked, `max_radius` and `max_motion` clamped.
+    /// The pass's block, `axis` checked, `max_motion` clamped.
     pub fn read_checked(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
         let p = Self::read(ctx)?;
         check_axis(ctx, p.axis)?;
-        Ok(Self {
-            max_radius: p.max_radius.clamp(0, MAX_RADIUS_LIMIT as i32),
-            max_motion: p.max_motion.clamp(0, MAX_MOTION_LIMIT as i32),
-            ..p
-        })
+        Ok(Self { max_motion: p.max_motion.clamp(0, MAX_MOTION_LIMIT as i32), ..p })
     }
 }
 
@@ -370,7 +365,11 @@ impl Kernel for EnvironmentFilter {
             })
             .with_reach(|ctx| {
                 let p = FilterParams::read_checked(ctx)?;
-                Ok(if p.axis == 0 { Reach::Cols(p.max_radius as u32) } else { Reach::Rows(p.max_radius as u32) })
+                Ok(if p.axis == 0 {
+                    Reach::Cols(p.max_radius.get() as u32)
+                } else {
+                    Reach::Rows(p.max_radius.get() as u32)
+                })
             }),
         )
     }

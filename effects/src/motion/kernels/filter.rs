@@ -26,7 +26,7 @@
 
 use glam::Vec2;
 
-use wedge_backends::kernels::filter_window::{max_radius, pair_weight, valid_width, window_radius, WindowParams};
+use wedge_backends::kernels::filter_window::{pair_weight, valid_width, window_radius, WindowParams};
 use wedge_backends::kernels::{count_non_finite, is_finite3};
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
@@ -200,16 +200,16 @@ impl Kernel for MotionFilter {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_motion.wgsl"), |ctx| {
-                Ok(WindowParams::read_clamped(ctx)?.uniforms())
+                Ok(WindowParams::read(ctx)?.uniforms())
             })
             .with_include("filter_window.wgsl", include_str!("../../../../shaders/filter_window.wgsl"))
             .with_include("velocity.wgsl", include_str!("../../../../shaders/velocity.wgsl"))
-            .with_reach(|ctx| Ok(Reach::Rows(max_radius(ctx)? as u32))),
+            .with_reach(|ctx| Ok(Reach::Rows(WindowParams::read(ctx)?.max_radius.get() as u32))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let MotionFilterData { value, motion, out } = MotionFilterIo::read(ctx)?;
-        let r = max_radius(ctx)?;
+        let r = WindowParams::read(ctx)?.max_radius.get();
         count_non_finite(ctx, value);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let filtered = ctx.map_pixels(false, |x, y| motion_pixel(x as i32, y as i32, w, h, r, value, motion));
