@@ -294,7 +294,7 @@ fn factoring_lowers_the_in_focus_error_at_equal_rays() {
         let img = color(&s, &r);
         let BufferData::F32(sigma) = r.output("filter_width").unwrap().clone() else { panic!("f32") };
         // The pixel limit's σ, which the screen width (the lens term alone) stays under in focus.
-        let limit = 1.0 / (32f32.sqrt() * wedge::effects::defocus::formulas::OMEGA_PIX_MAX);
+        let limit = wedge::effects::defocus::kernels::sigma_px(wedge::effects::defocus::formulas::OMEGA_PIX_MAX);
         let (mut e, mut n) = (0f64, 0usize);
         for (i, (a, b)) in img.pixels.iter().zip(&reference.pixels).enumerate() {
             if sigma[i] <= limit * 1.0001 {
