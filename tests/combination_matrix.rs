@@ -210,10 +210,9 @@ fn pipeline(effects: &[&Effect], camera: Camera) -> String {
 }
 
 /// The refusals docs/NODES.md "Composing effects" lists, by the words their messages carry.
-const TABLE: [&str; 7] = [
+const TABLE: [&str; 6] = [
     "error[two-factoring-nodes]",
     "cannot render under the factoring node",
-    "is not a lighting component",
     "error[term-not-accepted]",
     "error[term-overlap]",
     "needs the shared sampler's",

@@ -96,11 +96,13 @@ pub(crate) fn component_inputs() -> Vec<PortDecl> {
 pub(crate) const NO_COMPONENT: &str = "has no component to blur: wire `direct` (from a SoftShadows node's radiance), \
     `indirect` (from an Indirect node's radiance) and/or `environment` (from an Environment node's radiance)";
 
-/// The terms of a factoring node's output: its components, plus — where it factors — what the
-/// shared sampler's camera rays see directly (it adds that once itself).
+/// The terms of a factoring node's output: its components, plus — where it factors and a component
+/// holds light — what the shared sampler's camera rays see directly (it adds that once itself;
+/// ambient occlusion alone is not radiance, and has no emission: [`crate::factored::seen_directly`]
+/// renders what this declares).
 pub(crate) fn factoring_sum(q: &TermQuery<'_>) -> Terms {
     let components = q.sum(&COMPONENT_PORTS);
-    if q.is_factoring_node() {
+    if q.is_factoring_node() && !components.is_occlusion() {
         seen_directly(q.sampler_view()).plus(Some(&components))
     } else {
         components

@@ -1247,6 +1247,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         let first_buffer = expansion.buffers.len();
         let mut ctx = ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
             .with_sampler(&mut plan)
+            .with_terms(&v.terms)
             .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref()))));
         let expanded = node.kind.expand(&mut ctx);
         // An undeclared parameter first: the errors after it may come from its placeholder value.
