@@ -257,6 +257,40 @@ const CAMERAS: [OpenCamera; 2] = [
     },
 ];
 
+/// LightField without a factoring node traces the `camera:` block's lens and shutter (issue 34 §2):
+/// its image is, bit for bit, the one it renders as a component under a Defocus (Motion) node of the
+/// same camera, and `wedge graph` says it is seen through the lens (over the shutter).
+#[test]
+fn light_field_takes_the_camera_blocks_lens_and_shutter() {
+    for (c, factoring) in CAMERAS.iter().zip(["Defocus", "Motion"]) {
+        let text = |factored: bool| {
+            let extra = if factored {
+                format!(
+                    r#"(name: "f", kind: "{factoring}", inputs: {{"indirect": "lf.radiance"}}), (name: "sink", kind: "Output", inputs: {{"color": "f.radiance"}}),"#
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                "Pipeline(scene: \"builtin:{}\", width: {}, height: {}, seed: 1,\n camera: Some(({})),\n nodes: [\n (name: \"lf\", kind: \"LightField\", params: {{\"spp\": 2, \"rays\": 8}}),\n {extra}\n (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"lf.radiance\"}}),\n])\n",
+                c.scene, c.size.0, c.size.1, c.open
+            )
+        };
+        let size = sized(c.size.0, c.size.1, None, &[]);
+        let image = |t: &str| {
+            let s = session_from_text(t, &size);
+            let terms = s.pipeline.terms.of("lf", "radiance").expect("declared").to_string();
+            assert!(terms.ends_with(c.view), "{factoring}: {terms}");
+            run(&s).output("color").expect("color").clone()
+        };
+        let (own, factored) = (image(&text(false)), image(&text(true)));
+        assert!(own == factored, "{}: LightField through the camera block differs from under {factoring}", c.what);
+        let closed = text(false).replace(c.open, c.closed);
+        let pinhole = run(&session_from_text(&closed, &size)).output("color").unwrap().clone();
+        assert!(own != pinhole, "{}: the camera block's camera changed nothing", c.what);
+    }
+}
+
 /// A progressive node's pipeline on `c`'s scene with camera block `camera`.
 fn progressive_pipeline(kind: &str, c: &OpenCamera, camera: &str) -> String {
     format!(

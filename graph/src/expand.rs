@@ -142,6 +142,8 @@ pub struct ExpandCtx<'a> {
     /// The light terms the validator worked out for every output ([`crate::terms`]); `None` for a
     /// context built by hand.
     pub(crate) terms: Option<&'a crate::terms::TermReport>,
+    /// The pipeline's `camera:` block and the loaded scene's facts ([`ExpandCtx::own_camera`]).
+    pub(crate) camera: (Option<&'a crate::pipeline::CameraSpec>, Option<crate::factoring::SceneFacts>),
     /// Parameters the node read without declaring them ([`ExpandCtx::param`]); the expansion fails
     /// naming them ([`ExpandCtx::check_params`]) instead of panicking.
     undeclared: std::cell::RefCell<Vec<String>>,
@@ -167,6 +169,7 @@ impl<'a> ExpandCtx<'a> {
             sampler: None,
             factoring: None,
             terms: None,
+            camera: (None, None),
             undeclared: Default::default(),
         }
     }
@@ -197,6 +200,21 @@ impl<'a> ExpandCtx<'a> {
     /// that sees one renders its component for it instead of filtering on its own.
     pub fn factoring(&self) -> Option<&'a Factoring> {
         self.factoring.map(|(f, _)| f)
+    }
+    /// A context that sees the pipeline's camera block and the scene's facts (tests, tools;
+    /// [`crate::expand()`] sets it).
+    pub fn with_camera(
+        mut self,
+        camera: Option<&'a crate::pipeline::CameraSpec>,
+        scene: Option<crate::factoring::SceneFacts>,
+    ) -> Self {
+        self.camera = (camera, scene);
+        self
+    }
+    /// The camera this node's own camera paths take ([`crate::factoring::CameraSettings::own_paths`]):
+    /// the factoring node's, else the pipeline's camera block's lens and shutter.
+    pub fn own_camera(&self) -> crate::factoring::CameraSettings {
+        crate::factoring::CameraSettings::own_paths(self.factoring(), self.camera.0, self.camera.1.as_ref())
     }
     /// A context that sees the validator's light terms (tests, tools; [`crate::expand()`] sets it).
     pub fn with_terms(mut self, terms: &'a crate::terms::TermReport) -> Self {

@@ -1248,6 +1248,7 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         let mut ctx = ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
             .with_sampler(&mut plan)
             .with_terms(&v.terms)
+            .with_camera(v.pipeline.camera.as_ref(), v.scene_facts)
             .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref()))));
         let expanded = node.kind.expand(&mut ctx);
         // An undeclared parameter first: the errors after it may come from its placeholder value.
