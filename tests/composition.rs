@@ -102,6 +102,8 @@ fn two_lights_on_one_sampler_are_refused_with_the_fix() {
         node("b", 1)
     );
     let err = refusal(&pipeline("builtin:cornell", &nodes));
+    // At the second node's place in the file (line 4: the header, `primary`, `a`, `b`).
+    assert!(err.starts_with("test.ron:4:"), "{err}");
     for needle in [
         "node `b`",
         "`light` = 1, but node `a` needs 0",
