@@ -65,7 +65,7 @@ pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
     kinds: &[TermKind::Indirect, TermKind::AmbientOcclusion],
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of an Indirect (or LightField) node: it renders the indirect component through the \
-          factoring node's lens and shutter; direct light goes to `direct` (docs/NODES.md \"Composing effects\": what is refused)",
+          factoring node's lens and shutter; direct light goes to `direct` (README \"What does not compose\")",
 };
 
 /// A factoring node's `environment` input: the environment's direct light, through the sampler's camera.
