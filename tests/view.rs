@@ -39,6 +39,16 @@ fn xvfb_or_skip(test: &str) -> bool {
     found
 }
 
+/// Whether the wgpu backend opens; under `CI=true` its absence fails the test.
+fn gpu_or_skip(test: &str) -> bool {
+    let Err(e) = wedge::backends::gpu::GpuBackend::new() else { return true };
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
+    }
+    eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
+    false
+}
+
 fn png_size(path: &Path) -> (u32, u32) {
     image::image_dimensions(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
@@ -170,11 +180,7 @@ fn scripted_window_on_the_wgpu_backend_matches_render() {
     if !xvfb_or_skip("scripted_window_wgpu") {
         return;
     }
-    if let Err(e) = wedge::backends::gpu::GpuBackend::new() {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("scripted_window_wgpu: CI=true and the wgpu backend is unavailable: {e}");
-        }
-        eprintln!("scripted_window_wgpu: SKIPPED — the wgpu backend is unavailable: {e}");
+    if !gpu_or_skip("scripted_window_wgpu") {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
@@ -364,11 +370,7 @@ fn a_parameter_change_on_the_wgpu_backend_reruns_only_the_passes_downstream_of_i
     use wedge::graph::ParamValue;
     use wedge::view::model::Model;
 
-    if let Err(e) = wedge::backends::gpu::GpuBackend::new() {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("wgpu partial re-run: CI=true and the wgpu backend is unavailable: {e}");
-        }
-        eprintln!("wgpu partial re-run: SKIPPED — the wgpu backend is unavailable: {e}");
+    if !gpu_or_skip("wgpu partial re-run") {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
