@@ -1410,4 +1410,21 @@ mod tests {
         let msg = Session::build(loaded, &ov, nodes, kernels).err().unwrap().to_string();
         assert!(msg.contains("--width 16384 × the pipeline's height 16384"), "{msg}");
     }
+
+    /// `wedge view` keeps a first frame's buffers (every one unpooled) and, during a change's first
+    /// frame, the re-run's new ones beside them: two unpooled sets on top of a run; none without keeping.
+    #[test]
+    fn view_estimate_adds_two_unpooled_sets_when_keeping() {
+        let ov = Overrides { width: Some(64), height: Some(48), ..Overrides::default() };
+        let s = Session::open(None, &ov).unwrap();
+        let unpooled = s.schedule.buffer_bytes(64, 48).unpooled;
+        for mode in [RunMode::Cpu, RunMode::Gpu] {
+            let run = s.memory_estimate(mode);
+            assert_eq!(s.view_memory_estimate(mode, false), run);
+            assert_eq!(
+                s.view_memory_estimate(mode, true),
+                MemoryEstimate { buffers: run.buffers + 2 * unpooled, ..run }
+            );
+        }
+    }
 }
