@@ -570,8 +570,9 @@ fn keep_buffers(
     let Some((limit, source)) = budget else {
         return Ok((true, None));
     };
-    session.view_memory_estimate(mode, false).check(*limit, source)?;
-    let (run, kept) = (session.view_memory_estimate(mode, false).total(), session.view_memory_estimate(mode, true));
+    let run = session.view_memory_estimate(mode, false);
+    run.check(*limit, source)?;
+    let (run, kept) = (run.total(), session.view_memory_estimate(mode, true));
     if kept.total() <= *limit {
         return Ok((true, None));
     }
