@@ -2,7 +2,7 @@
 //! frame that runs only the passes `Schedule::changed_since` marks, the others' buffers kept on the
 //! device from the run before, equals a whole (pooled) run with the new value bit for bit — with
 //! random passes among those re-run (same seed and frame as the whole run) and with passes split
-//! into bands of rows and chunks of samples. On the CPU backend the same contract is tested through
+//! into bands of rows and chunks of samples, and with per-sample buffers and a host pass. On the CPU backend the same contract is tested through
 //! the viewer (tests/view.rs).
 
 use std::path::{Path, PathBuf};
@@ -104,4 +104,31 @@ fn a_partial_rerun_without_the_kept_buffers_is_refused() {
         panic!("cpu: a skipped pass without kept buffers ran");
     };
     assert!(e.to_string().contains(&format!("pass `{first}` is skipped but no `")), "{e}");
+}
+
+/// Per-sample buffers and a host pass (LightField's splat build, run on the CPU inside a wgpu run):
+/// `rays` re-runs the reconstruction alone, `max_distance` everything from the samples on (the
+/// host pass among them); both equal a whole run bit for bit.
+#[test]
+fn a_wgpu_partial_rerun_keeps_per_sample_buffers_and_runs_host_passes() {
+    let Some(mut gpu) = gpu_or_skip("a_wgpu_partial_rerun_keeps_per_sample_buffers_and_runs_host_passes") else {
+        return;
+    };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/lightfield_ao.ron");
+    let open = |set: Option<(&str, ParamValue)>| {
+        let params = set.map(|(p, v)| ("ao".to_string(), p.to_string(), v)).into_iter().collect();
+        let ov = Overrides { width: Some(24), height: Some(16), params, ..Default::default() };
+        Session::open(Some(&path), &ov).expect("lightfield_ao.ron opens")
+    };
+    let before = open(None);
+    let (first, kept) = before.run_partial_frame(&mut gpu, &Silent, 0, &Default::default(), None).expect("first frame");
+    for (param, value, runs) in [("rays", ParamValue::Int(32), 1), ("max_distance", ParamValue::Float(0.5), 4)] {
+        let after = open(Some((param, value)));
+        let rerun = after.schedule.changed_since(&before.schedule);
+        let (partial, _) = after.run_partial_frame(&mut gpu, &Silent, 0, &kept, Some(&rerun)).expect("partial");
+        let whole = after.run_progressive_frame(&mut gpu, &Silent, 0, None).expect("whole run");
+        assert_eq!(partial.timings.len(), runs, "ao.{param}: {:?}", partial.timings);
+        assert_eq!(partial.outputs, whole.outputs, "ao.{param}: the partial re-run differs from a whole run");
+        assert_ne!(whole.outputs, first.outputs, "ao.{param} changed nothing");
+    }
 }
