@@ -1,9 +1,9 @@
 //! Partial re-runs on the wgpu backend (issue 38, `wedge view`): after a parameter change, a first
 //! frame that runs only the passes `Schedule::changed_since` marks, the others' buffers kept on the
 //! device from the run before, equals a whole (pooled) run with the new value bit for bit — with
-//! random passes among those re-run (same seed and frame as the whole run) and with passes split
-//! into bands of rows and chunks of samples, and with per-sample buffers and a host pass. On the CPU backend the same contract is tested through
-//! the viewer (tests/view.rs).
+//! random passes among those re-run (same seed and frame as the whole run), with passes split into
+//! bands of rows and chunks of samples, and with per-sample buffers and a host pass. On the CPU
+//! backend the same contract is tested through the viewer (tests/view.rs).
 
 use std::path::{Path, PathBuf};
 
