@@ -11,8 +11,10 @@
 //! moves it by tens of percent), and — where it filters — with a lower RMSE against that reference
 //! than its own rays with the filters bypassed (`wedge render --unfiltered`). An internal error, a panic or an unlisted refusal fails. It found
 //! LightField reading an open scene 14–23% dark (reconstruction rays that crossed no splat were
-//! black; now traced, `gaps: "trace"`). 48×36 pixels, so the whole matrix stays cheap (~15 s);
-//! `--nocapture` prints it.
+//! black; now traced, `gaps: "trace"`), three defaults that lost to their own rays unfiltered, and
+//! a radiance and an AO `Indirect` merging silently on one factoring node's sampler. 48×36 pixels
+//! (69 entries render, 127 are refused; 3–4 min on 2 cores with lavapipe's parity); `--nocapture`
+//! prints it.
 
 mod common;
 
