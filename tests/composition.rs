@@ -168,7 +168,8 @@ fn graph_and_render_make_the_same_decision() {
 
 /// Ambient occlusion under a factoring node (issue 34 §4): the occlusion a camera with that shutter
 /// sees — its terms hold no emission (AO is not light, so the factoring node adds none), its mean is
-/// its converged reference's, and the filters beat its own rays unfiltered. With each pixel's own
+/// its converged reference's, the filters beat its own rays unfiltered, and the error falls as μ
+/// grows (the neighbours' statistic under factoring is a new option: consistent). With each pixel's own
 /// first-pass statistic (`statistics: "own"`) the widths followed the samples and the mean fell
 /// (docs/DESIGN-NOTES.md "Ambient occlusion under a lens or shutter").
 #[test]
@@ -207,6 +208,10 @@ fn ambient_occlusion_under_motion_is_the_occlusion_over_the_shutter() {
     );
     let own_mean = image_mean(&rendered(&text("own"), &ov, None));
     assert!(own_mean / truth_mean < 0.95, "the bias `neighbours` removes: own {own_mean} vs {truth_mean}");
+    // Consistent as μ grows (issue 35: every new option): the widths shrink and the counts grow.
+    let at = |mu: f64| rmse(&rendered(&text("neighbours"), &sized(96, 72, Some(mu), &[]), None), &truth);
+    let errors = [at(0.5), at(2.0), at(6.0)];
+    assert!(errors[0] > errors[1] && errors[1] > errors[2], "RMSE at μ 0.5, 2, 6: {errors:?}");
 }
 
 /// Every refusal comes before a scene request is served (issue 34 §5): MixedReality beside a Defocus
