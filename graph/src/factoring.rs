@@ -183,6 +183,14 @@ impl CameraSettings {
         if factoring.is_some() {
             return Self::of(factoring);
         }
+        Self::of_block(camera, scene)
+    }
+
+    /// The pipeline's `camera:` block as camera settings: its lens where it gives an aperture, its
+    /// shutter where it opens one over an interval and the scene moves (or is not known yet); a
+    /// pinhole at one instant without a block. PixelFilter and RadianceFilter trace this camera
+    /// ([`crate::TermQuery::camera_view`]).
+    pub fn of_block(camera: Option<&crate::pipeline::CameraSpec>, scene: Option<&SceneFacts>) -> CameraSettings {
         let Some(c) = camera else {
             return CameraSettings::default();
         };

@@ -293,9 +293,7 @@ impl TermQuery<'_> {
     /// lens where the block gives an aperture, its shutter where the block opens it over an interval
     /// and the scene moves (or is not loaded yet: a static scene looks the same at every time).
     pub fn camera_view(&self) -> View {
-        let lens = self.camera.is_some_and(|c| c.aperture_radius > 0.0);
-        let open = self.camera.and_then(|c| c.shutter).is_some_and(|(open, close)| open < close);
-        View { lens, shutter: open && self.scene.is_none_or(|f| f.motion) }
+        View::of(&CameraSettings::of_block(self.camera, self.scene))
     }
     /// The view of a node that traces its own camera paths and is a component under a factoring
     /// node ([`CameraSettings::own_paths`]: the factoring node's camera, else the camera block's).

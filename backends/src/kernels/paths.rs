@@ -944,7 +944,7 @@ fn trace_indirect(
     let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
 
     // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d. Ambient
-    // occlusion is not reflected light: its texture is 1 (L = E = the unoccluded fraction), so a
+    // occlusion is not reflected light: its texture is 1 (L = E = the occluded fraction), so a
     // factoring node composes and blurs the occlusion itself (docs/NODES.md "Composing effects").
     let kd = if s.path.ao { Vec3::ONE } else { kd };
     if count.diffuse > 0 {

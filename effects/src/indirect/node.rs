@@ -26,7 +26,7 @@ pub struct Indirect;
 /// apply; `bounces` and `brdf` set the sampler's hemisphere estimator.
 ///
 /// Ambient occlusion (`mode: "ao"`) is one part, `occlusion`, with texture 1 (`paths.trace` under
-/// `ao`: `L = E` = the unoccluded fraction, so it always factors): the factoring node filters it in
+/// `ao`: `L = E` = the occluded fraction, so it always factors): the factoring node filters it in
 /// world space with the indirect component's width and counts (its occluders are reflectors at the
 /// same depths), then blurs it through the lens or over the shutter — the AO image a camera with
 /// that lens or shutter would see. Its terms say it is not light, so the factoring node adds no
@@ -72,7 +72,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
 /// not depend on the values its estimate reuses. That correlation is a bias where a first pass
 /// often sees no reflector: ambient occlusion under a factoring node lost 11% of its mean on the
 /// `motion` scene with its own statistics — the pixels whose first rays hit were filtered widely
-/// into zeros, the ones that saw nothing kept their zero (docs/DESIGN-NOTES.md "AO under a lens").
+/// into zeros, the ones that saw nothing kept their zero (docs/DESIGN-NOTES.md "Ambient occlusion under a lens or shutter").
 fn reflectors(ctx: &mut ExpandCtx<'_>, pass: SamplerPass) -> Result<wedge_graph::BufferId, GraphError> {
     let own = ctx.sampler_output(pass, "depth")?;
     if !matches!(ctx.param("statistics"), ParamValue::Str(m) if m == "neighbours") {
