@@ -10,7 +10,8 @@
 //!   with `backends/src/rng.rs` bit for bit,
 //! - heavy sampling runs in chunks (lavapipe's 65,535-iteration loop limit): equal to the CPU,
 //!   independent of the chunk size, and loops cut without chunking are counted, not silent,
-//! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`,
+//! - the GPU buffer pool: physical allocations == the schedule's `slot_formats.len()`, and a kept
+//!   backend's later runs write into those buffers (no allocation, the same bits),
 //! - bands: with the binding limit lowered so every pass is split into bands of rows, every pipeline
 //!   gives the same outputs and ray counts, bit for bit, as one dispatch per pass,
 //! - the watertight triangle test (`shaders/bvh.wgsl`) on rays aimed exactly at shared vertices and
@@ -200,6 +201,39 @@ fn gpu_pool_allocates_one_buffer_per_slot() {
     println!("physical {} (slots {}), logical {logical}", run.allocations, session.schedule.slot_formats.len());
     assert_eq!(run.allocations, session.schedule.slot_formats.len());
     assert!(run.allocations < logical, "pooling saved nothing: {} physical for {logical} logical", run.allocations);
+}
+
+/// Issue 38 §2: a kept `GpuBackend` writes a whole run into the previous run's pool buffers — a
+/// second run (a frame with previous-frame buffers too) allocates nothing and gives the first run's
+/// outputs bit for bit; a run at another image size allocates its slots afresh and still matches.
+#[test]
+fn gpu_pool_persists_across_runs() {
+    let Some(mut gpu) = gpu_or_skip("gpu_pool_persists_across_runs") else { return };
+    let open = |name: &str, w, h| {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines").join(name);
+        Session::open(Some(&path), &small(w, h)).unwrap()
+    };
+    let bytes = |r: &wedge::backends::RunResult| -> Vec<Vec<u8>> {
+        r.outputs.values().chain(r.history.values()).map(|d| d.as_bytes().to_vec()).collect()
+    };
+    let mut session = open("environment_temporal.ron", 32, 24);
+    assert!(!session.schedule.history.is_empty(), "the test wants previous-frame buffers");
+    let slots = session.schedule.slot_formats.len();
+    let first = session.run_frame(&mut gpu, &Silent, 0, 0, None).unwrap();
+    let again = session.run_frame(&mut gpu, &Silent, 0, 0, None).unwrap();
+    let next = session.run_frame(&mut gpu, &Silent, 1, 0, Some(&first)).unwrap();
+    assert_eq!(first.allocations, slots);
+    assert_eq!((again.allocations, next.allocations), (0, 0), "a kept backend's later runs allocate nothing");
+    assert_eq!(bytes(&first), bytes(&again), "a run into reused buffers differs from the first");
+    let fresh = session.run_frame(&mut GpuBackend::new().unwrap(), &Silent, 1, 0, Some(&first)).unwrap();
+    assert_eq!(bytes(&next), bytes(&fresh), "frame 1 on reused buffers differs from a fresh backend's");
+    let other = open("shadows.ron", 40, 30);
+    let run = other.run(&mut gpu, &Silent).unwrap();
+    assert_eq!(run.allocations, other.schedule.slot_formats.len(), "another size allocates its slots");
+    let cpu = other.run(&mut CpuBackend::new(), &Silent).unwrap();
+    for (key, reference) in &cpu.outputs {
+        assert!(rel_mse(&run.outputs[key], reference) <= 1e-4, "{key:?} at 40×30 after 32×24");
+    }
 }
 
 /// The band path (what runs when an image's buffers exceed the device's binding limit, e.g. 4K+

@@ -15,11 +15,12 @@
 //!   one storage buffer, all outputs in another, filled and emptied with `copy_buffer_to_buffer`
 //!   around each band's dispatch. Same bits either way ([`GpuBackend::force_packed`] for tests).
 //! - **Buffers**: per-pixel buffers follow the schedule's pool plan: one `wgpu::Buffer` per
-//!   physical slot (`Schedule::slot_formats`), created on first use, so a run allocates exactly
-//!   `slot_formats.len()` of them ([`RunResult::allocations`]). Layout per format: f32, vec2, vec4
-//!   and u32 are WGSL arrays of that type; **vec3 buffers are packed `array<f32>` (3 floats per
-//!   pixel)**, the same bytes as the CPU's `Vec<[f32; 3]>`, so upload/readback is a plain copy and
-//!   no 16-byte padding is stored.
+//!   physical slot (`Schedule::slot_formats`), created on first use, so a first run allocates
+//!   exactly `slot_formats.len()` of them ([`RunResult::allocations`]); the backend keeps them, and
+//!   the next whole run (a frame of `--frames`, a progressive round) writes into those of the same
+//!   size, allocating none. Layout per format: f32, vec2, vec4 and u32 are WGSL arrays of that
+//!   type; **vec3 buffers are packed `array<f32>` (3 floats per pixel)**, the same bytes as the
+//!   CPU's `Vec<[f32; 3]>`, so upload/readback is a plain copy and no 16-byte padding is stored.
 //! - **Bands**: a pass whose per-pixel bindings would exceed the device's storage-binding limit
 //!   (e.g. `vec4` from 4096×2160 on, against 128 MiB; packed: the packed buffer's bytes per pixel)
 //!   is dispatched as bands of rows, each binding only its rows plus the rows its kernel reads
@@ -136,6 +137,11 @@ pub struct DispatchTime {
     pub from_timestamps: bool,
 }
 
+/// The size of the device buffer [`GpuBackend::storage`] makes for `bytes`: at least 16, a multiple of 4.
+fn storage_size(bytes: u64) -> u64 {
+    bytes.max(16).div_ceil(4) * 4
+}
+
 pub struct GpuBackend {
     device: wgpu::Device,
     queue: wgpu::Queue,
@@ -165,6 +171,9 @@ pub struct GpuBackend {
     uniform_layouts: HashMap<String, Vec<(&'static str, crate::kernel::UniformType)>>,
     /// Per-pass binding plan of the last run.
     pub last_plans: Vec<(String, shaders::BindingPlan)>,
+    /// The pool slots' device buffers a whole run left, by slot: the next whole run writes into
+    /// those whose size still fits instead of allocating (issue 38 §2, see `run.rs`).
+    pool: Vec<Option<wgpu::Buffer>>,
 }
 
 impl GpuBackend {
@@ -277,6 +286,7 @@ impl GpuBackend {
             force_packed: false,
             uniform_layouts: HashMap::new(),
             last_plans: Vec::new(),
+            pool: Vec::new(),
         })
     }
 
@@ -389,7 +399,7 @@ impl GpuBackend {
 
     fn storage(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer, BackendError> {
         self.check_buffer_size(label, bytes)?;
-        let size = bytes.max(16).div_ceil(4) * 4;
+        let size = storage_size(bytes);
         self.scoped(&format!("allocating `{label}`"), || {
             self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use wedge_graph::{BufferId, Format, Pass, Schedule};
 
-use super::{gpu_err, to_bytes, GpuBackend};
+use super::{gpu_err, storage_size, to_bytes, GpuBackend};
 use crate::buffer::BufferData;
 use crate::kernel::{Access, Counters};
 use crate::partial::{kept_outputs, passes_to_run, KeptShape, PartialRun};
@@ -58,17 +58,53 @@ struct Slots {
     placement: Placement,
     bufs: Vec<Option<wgpu::Buffer>>,
     holder: Vec<Option<BufferId>>,
+    /// Pooled: each slot's buffer from the backend's previous whole run, not yet taken by this one.
+    /// Its contents are stale, like a slot's after its earlier holder's last reader: every kernel
+    /// writes all of its outputs' pixels before reading them (a chunked kernel resumes only from
+    /// what its own first chunk wrote), so nothing depends on a slot starting zeroed.
+    spare: Vec<Option<wgpu::Buffer>>,
     /// Buffers this run allocated.
     allocations: usize,
 }
 
 impl Slots {
-    fn new(sched: &Schedule, placement: Placement) -> Slots {
+    /// Empty slots; `spare` is what a pooled run may write into instead of allocating (empty for
+    /// [`Placement::PerBuffer`], whose buffers are never written twice).
+    fn new(sched: &Schedule, placement: Placement, mut spare: Vec<Option<wgpu::Buffer>>) -> Slots {
         let n = match placement {
             Placement::Pooled => sched.slot_formats.len(),
             Placement::PerBuffer => sched.buffers.len(),
         };
-        Slots { placement, bufs: vec![None; n], holder: vec![None; n], allocations: 0 }
+        spare.resize(n, None);
+        Slots { placement, bufs: vec![None; n], holder: vec![None; n], spare, allocations: 0 }
+    }
+
+    /// What the backend keeps for its next pooled run: each slot's last buffer, or the one this
+    /// run did not take.
+    fn into_pool(self) -> Vec<Option<wgpu::Buffer>> {
+        self.bufs.into_iter().zip(self.spare).map(|(b, s)| b.or(s)).collect()
+    }
+
+    /// `slot`'s label and size in bytes (`width × height × layers` elements of its format).
+    fn shape(&self, job: &Job<'_>, slot: usize) -> (String, u64) {
+        let sched = job.schedule;
+        let (f, n, label) = match self.placement {
+            Placement::Pooled => {
+                let f = sched.slot_formats[slot];
+                (f, sched.slot_layers[slot], format!("pool slot {slot} ({f})"))
+            }
+            Placement::PerBuffer => {
+                let info = &sched.buffers[slot];
+                (info.format, info.layers, info.name.clone())
+            }
+        };
+        let bytes = job.width as usize * job.height as usize * n as usize * f.components() * 4;
+        (label, bytes as u64)
+    }
+
+    /// The previous run's buffer for `slot` if it has the size `bytes` asks for (else it is dropped).
+    fn reuse(&mut self, slot: usize, bytes: u64) -> Option<wgpu::Buffer> {
+        self.spare.get_mut(slot)?.take().filter(|b| b.size() == storage_size(bytes))
     }
 
     fn slot(&self, sched: &Schedule, id: BufferId) -> Result<usize, BackendError> {
@@ -97,20 +133,36 @@ impl Slots {
         let sched = job.schedule;
         let slot = self.slot(sched, id)?;
         if self.bufs[slot].is_none() || self.placement == Placement::PerBuffer {
-            let (f, n) = match self.placement {
-                Placement::Pooled => (sched.slot_formats[slot], sched.slot_layers[slot]),
-                Placement::PerBuffer => (sched.buffers[slot].format, sched.buffers[slot].layers),
+            let (label, bytes) = self.shape(job, slot);
+            let buf = match self.reuse(slot, bytes) {
+                Some(buf) => buf,
+                None => {
+                    self.allocations += 1;
+                    gpu.storage(&label, bytes)?
+                }
             };
-            let bytes = job.width as usize * job.height as usize * n as usize * f.components() * 4;
-            let label = match self.placement {
-                Placement::Pooled => format!("pool slot {slot} ({f})"),
-                Placement::PerBuffer => sched.buffers[slot].name.clone(),
-            };
-            self.bufs[slot] = Some(gpu.storage(&label, bytes as u64)?);
-            self.allocations += 1;
+            self.bufs[slot] = Some(buf);
         }
         self.holder[slot] = Some(id);
         Ok(self.bufs[slot].clone().expect("allocated above"))
+    }
+
+    /// Previous-frame buffer `id` uploaded as `data` into its slot: written into the previous run's
+    /// buffer for that slot where it fits, else into a fresh one.
+    fn upload(&mut self, gpu: &GpuBackend, job: &Job<'_>, id: BufferId, data: &[u8]) -> Result<(), BackendError> {
+        let slot = self.slot(job.schedule, id)?;
+        let (_, bytes) = self.shape(job, slot);
+        let buf = match self.reuse(slot, bytes).filter(|b| data.len() as u64 <= b.size()) {
+            Some(buf) => {
+                gpu.queue.write_buffer(&buf, 0, data);
+                buf
+            }
+            None => {
+                self.allocations += 1;
+                gpu.storage_init(&job.schedule.buffers[id.0].name, data)?
+            }
+        };
+        self.put(job.schedule, id, buf)
     }
 
     /// Put `buf` (uploaded or kept) in `id`'s slot.
@@ -144,9 +196,7 @@ impl GpuBackend {
         self.last_plans.clear();
         // Previous-frame buffers are uploaded before the first pass.
         for h in &sched.history {
-            let data = crate::history_input(job, history, h);
-            slots.put(sched, h.buffer, self.storage_init(&sched.buffers[h.buffer.0].name, &to_bytes(&data))?)?;
-            slots.allocations += 1;
+            slots.upload(self, job, h.buffer, &to_bytes(&crate::history_input(job, history, h)))?;
         }
         for pass in passes {
             let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
@@ -273,9 +323,13 @@ impl Backend for GpuBackend {
         job: &Job<'_>,
         history: &BTreeMap<BufferId, BufferData>,
     ) -> Result<RunResult, BackendError> {
-        let mut slots = Slots::new(job.schedule, Placement::Pooled);
-        let (timings, rays) = self.run_passes(job, history, &mut slots, &[])?;
-        Ok(RunResult { timings, rays, ..self.read_results(job, &slots)? })
+        // The previous whole run's slot buffers are written in place; this run's are kept for the
+        // next (a failed run's too: their contents never matter, only their sizes).
+        let mut slots = Slots::new(job.schedule, Placement::Pooled, std::mem::take(&mut self.pool));
+        let run = self.run_passes(job, history, &mut slots, &[]);
+        let run = run.and_then(|(timings, rays)| Ok(RunResult { timings, rays, ..self.read_results(job, &slots)? }));
+        self.pool = slots.into_pool();
+        run
     }
 }
 
@@ -292,7 +346,7 @@ impl PartialRun for GpuBackend {
         rerun: &[bool],
     ) -> Result<(RunResult, KeptBuffers), BackendError> {
         let sched = job.schedule;
-        let mut slots = Slots::new(sched, Placement::PerBuffer);
+        let mut slots = Slots::new(sched, Placement::PerBuffer, Vec::new());
         for (pass, run) in passes_to_run(job, rerun) {
             if !run {
                 for (id, b) in kept_outputs(job, pass, kept)? {
