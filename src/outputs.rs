@@ -435,7 +435,7 @@ pub fn summary(run: &RunResult, width: u32, height: u32) -> String {
     let overhead = run.seconds(KernelClass::Bandwidth) + run.seconds(KernelClass::Filter);
     let _ = writeln!(
         s,
-        "total {:.1} ms: sampling {:.1} ms, bandwidth+filter {:.1} ms ({:.1}% of sampling), compose {:.1} ms; {} physical buffers",
+        "total {:.1} ms: sampling {:.1} ms, bandwidth+filter {:.1} ms ({:.1}% of sampling), compose {:.1} ms; {} buffers allocated (0: the pool of an earlier run reused)",
         run.total_seconds() * 1e3,
         sampling * 1e3,
         overhead * 1e3,
