@@ -36,7 +36,7 @@ use std::sync::Arc;
 
 use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
-use wedge_backends::kernels::paths::{PATH_RECORD, RESOLVE_OUTPUTS};
+use wedge_backends::kernels::paths::{TraceIo, PATH_RECORD, RESOLVE_OUTPUTS};
 use wedge_backends::{
     BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, Uniforms,
     WgslSource,
@@ -75,17 +75,20 @@ pub fn centre_path(
 const ESTIMATORS: [(&str, &str); 4] =
     [("light", "direct"), ("hemisphere", "indirect"), ("time", "time"), ("environment", "environment")];
 
-/// Count channels: (channel, estimator, `paths.trace` binding of its samples over the adaptive pass,
-/// the setting giving its first-pass count per path). An estimator's first channel is always bound
+/// Count channels: (channel, estimator, the [`TraceIo`] binding of its samples over the adaptive
+/// pass, the setting giving its first-pass count per path). An estimator's first channel is always bound
 /// in the adaptive pass; a later one only where a count request names it — unbound, `paths.trace`
 /// gives it the first channel's counts (the glossy part follows the diffuse one unless Ch. 4 counts
 /// it apart).
-const CHANNELS: [(&str, &str, &str, &str); 4] = [
-    ("light", "light", "shadow_total", "shadow_per_primary"),
-    ("diffuse", "hemisphere", "diffuse_total", "indirect_per_primary"),
-    ("glossy", "hemisphere", "glossy_total", "indirect_per_primary"),
-    ("environment", "environment", "environment_total", "environment_per_primary"),
+const CHANNELS: [(&str, &str, TotalBinding, &str); 4] = [
+    ("light", "light", |io| &mut io.shadow_total, "shadow_per_primary"),
+    ("diffuse", "hemisphere", |io| &mut io.diffuse_total, "indirect_per_primary"),
+    ("glossy", "hemisphere", |io| &mut io.glossy_total, "indirect_per_primary"),
+    ("environment", "environment", |io| &mut io.environment_total, "environment_per_primary"),
 ];
+
+/// A channel's binding in an adaptive `paths.trace` pass.
+type TotalBinding = fn(&mut TraceIo) -> &mut Option<BufferId>;
 
 /// Settings and their defaults (thesis Ch. 3/4: one primary path through the pixel centre).
 fn defaults() -> Vec<(&'static str, ParamValue)> {
@@ -169,7 +172,9 @@ impl PathSampler {
         }
     }
 
-    /// Write the resolved outputs of `record` that nodes hold handles to, in one pass.
+    /// Write the resolved outputs of `record` that nodes hold handles to, in one pass. Bound by name
+    /// from [`RESOLVE_OUTPUTS`], the one list of the sampler's outputs nodes ask for by name (why it
+    /// is not a typed block: `wedge_backends::kernels::paths`, "Bindings").
     fn resolve(ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan, pass: SamplerPass, record: BufferId, stage: Stage) {
         let wanted: Vec<(&str, BufferId)> =
             RESOLVE_OUTPUTS.iter().filter_map(|(n, _)| plan.handle(pass, n).map(|id| (*n, id))).collect();
@@ -285,8 +290,9 @@ impl SamplerKind for PathSampler {
         let first = plan
             .handle(SamplerPass::First, "record")
             .unwrap_or_else(|| ctx.buffer("first_record", Format::Struct(&PATH_RECORD)));
-        let mut b =
-            ctx.pass("first", "paths.trace", Stage::Sample).write("record", first).int("count", i64::from(first_paths));
+        let mut b = TraceIo::new(first)
+            .bind(ctx.pass("first", "paths.trace", Stage::Sample))
+            .int("count", i64::from(first_paths));
         for (n, v) in &trace_params {
             b = b.param(n, v.clone());
         }
@@ -349,7 +355,7 @@ impl SamplerKind for PathSampler {
             }
         }
         let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
-        let mut totals: Vec<(&str, BufferId)> = Vec::new();
+        let mut totals: Vec<(TotalBinding, BufferId)> = Vec::new();
         for &(channel, estimator, binding, _) in &channels {
             // Per path: at least one secondary sample (Ch. 5), except for a channel counted only by
             // spreads, whose paths may carry none of it.
@@ -403,15 +409,11 @@ impl SamplerKind for PathSampler {
         let last = plan
             .handle(SamplerPass::Final, "record")
             .unwrap_or_else(|| ctx.buffer("final_record", Format::Struct(&PATH_RECORD)));
-        let mut b = ctx
-            .pass("adaptive", "paths.trace", Stage::Adaptive)
-            .read("previous", first)
-            .read("counts", paths)
-            .write("record", last)
-            .int("count", 0);
+        let mut io = TraceIo { previous: Some(first), counts: Some(paths), ..TraceIo::new(last) };
         for (binding, id) in totals {
-            b = b.read(binding, id);
+            *binding(&mut io) = Some(id);
         }
+        let mut b = io.bind(ctx.pass("adaptive", "paths.trace", Stage::Adaptive)).int("count", 0);
         for (n, v) in &trace_params {
             b = b.param(n, v.clone());
         }
