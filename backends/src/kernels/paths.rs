@@ -466,21 +466,6 @@ crate::kernel_bindings! {
     }
 }
 
-impl TraceIo {
-    /// A pass writing `record` from nothing: no record continued, the parameters' counts.
-    pub fn new(record: wedge_graph::BufferId) -> TraceIo {
-        TraceIo {
-            previous: None,
-            counts: None,
-            shadow_total: None,
-            diffuse_total: None,
-            glossy_total: None,
-            environment_total: None,
-            record,
-        }
-    }
-}
-
 /// `paths.trace` (module doc): adds paths to each pixel's record.
 pub struct PathsTrace;
 

@@ -62,14 +62,11 @@ fn velocity_widths(
     let texture_motion = ctx.buffer(&format!("{}_texture_motion", c.name), Format::Vec4);
     let shadow_motion = direct.then(|| ctx.buffer(&format!("{}_shadow_motion", c.name), Format::Vec4));
     let io = MotionRatesIo {
+        shadow_velocity: shadow_velocity.filter(|_| direct),
+        occlusion,
         texture_motion: Some(texture_motion),
         shadow_motion,
-        ..MotionRatesIo::new(
-            velocity,
-            depth,
-            shadow_velocity.filter(|_| direct),
-            Statistic { occlusion, ..Default::default() },
-        )
+        ..MotionRatesIo::new(velocity, depth)
     };
     let mut b = io.bind(ctx.pass(&format!("{}_motion", c.name), "motion.rates", Stage::Bandwidth));
     for (n, v) in motion_rate_settings(f) {

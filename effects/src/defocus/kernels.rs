@@ -278,28 +278,6 @@ wedge_backends::kernel_bindings! {
     }
 }
 
-impl RatesIo {
-    /// `lens` in and `pixel_length` out, nothing else bound: a pass fills the rest with `..`.
-    pub fn new(lens: BufferId, pixel_length: BufferId) -> RatesIo {
-        RatesIo {
-            lens,
-            occlusion: None,
-            reflectors: None,
-            bandlimit: None,
-            velocity: None,
-            shadow_velocity: None,
-            flag: None,
-            omega_defocus: None,
-            pixel_length,
-            n_primary: None,
-            omega: None,
-            n: None,
-            sigma_defocus: None,
-            sigma: None,
-        }
-    }
-}
-
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
 /// 5.29), `ℓ_p`, and the rounded counts `n_p`, `n_dir^{f|c}`, `n_ind^{f|c}` (eqs. 5.24–5.28); it
 /// writes the defocus ones and, with a `component` parameter, that component's width `omega`, count

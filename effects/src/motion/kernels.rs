@@ -127,25 +127,11 @@ wedge_backends::kernel_bindings! {
 }
 
 impl RatesIo {
-    /// The velocities' and depth's bindings, with the first-pass statistic `s`; no output bound (a
-    /// pass fills them with `..`).
-    pub fn new(velocity: BufferId, depth: BufferId, shadow_velocity: Option<BufferId>, s: Statistic) -> RatesIo {
-        RatesIo {
-            velocity,
-            depth,
-            shadow_velocity,
-            occlusion: s.occlusion,
-            reflectors: s.reflectors,
-            bandlimit: s.bandlimit,
-            pixel_length: None,
-            omega: None,
-            n: None,
-            sigma: None,
-            texture_motion: None,
-            shadow_motion: None,
-            n_primary: None,
-            sigma_texture: None,
-        }
+    /// The velocities and depth, with the first-pass statistic `s`; no output bound (a pass names
+    /// the outputs it wants with `..`).
+    pub fn inputs(velocity: BufferId, depth: BufferId, shadow_velocity: Option<BufferId>, s: Statistic) -> RatesIo {
+        let (occlusion, reflectors, bandlimit) = (s.occlusion, s.reflectors, s.bandlimit);
+        RatesIo { shadow_velocity, occlusion, reflectors, bandlimit, ..RatesIo::new(velocity, depth) }
     }
 }
 

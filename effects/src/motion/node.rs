@@ -225,16 +225,13 @@ impl NodeKind for Motion {
             ctx.buffer("filter_width", Format::F32),
         );
         let io = RatesIo {
+            shadow_velocity: Some(shadow_velocity),
+            occlusion: Some(occlusion),
             texture_motion: Some(texture_motion),
             shadow_motion: Some(shadow_motion),
             n_primary: Some(n_primary),
             sigma_texture: Some(sigma),
-            ..RatesIo::new(
-                velocity,
-                depth,
-                Some(shadow_velocity),
-                Statistic { occlusion: Some(occlusion), ..Default::default() },
-            )
+            ..RatesIo::new(velocity, depth)
         };
         let mut b = io.bind(ctx.pass("rates", "motion.rates", Stage::Bandwidth));
         for (n, v) in motion_rate_settings(f) {
@@ -315,7 +312,7 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
         sigma: Some(sigma),
         texture_motion: Some(texture_motion),
         shadow_motion,
-        ..RatesIo::new(velocity, depth, shadow_velocity, statistic)
+        ..RatesIo::inputs(velocity, depth, shadow_velocity, statistic)
     };
     let mut b = io.bind(ctx.pass(&format!("{name}_rates"), "motion.rates", Stage::Bandwidth));
     for (n, v) in motion_rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()).chain([component.param()]) {
