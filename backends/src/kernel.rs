@@ -111,8 +111,8 @@ pub trait Kernel: Send + Sync {
 /// }
 /// ```
 ///
-/// `class` is a [`KernelClass`] variant; `params: [A, B]` concatenates the blocks' specs (leave it out
-/// for a kernel without parameters); `random: true` declares a kernel that draws random numbers.
+/// `class` is a [`KernelClass`] variant; `params: [A, B]` concatenates `A::specs()` and `B::specs()`
+/// (a [`crate::KernelParams`] block's, or a type's own; leave it out for a kernel without parameters); `random: true` declares a kernel that draws random numbers.
 #[macro_export]
 macro_rules! kernel_signature {
     (
@@ -129,7 +129,10 @@ macro_rules! kernel_signature {
             <$io>::bindings()
         }
         $(fn params(&self) -> ::std::vec::Vec<$crate::ParamSpec> {
-            [$(<$p as $crate::KernelParams>::specs()),*].concat()
+            // A block's `KernelParams::specs`, or a type's own `specs()` (e.g. a shared settings struct).
+            #[allow(unused_imports)]
+            use $crate::KernelParams as _;
+            [$(<$p>::specs()),*].concat()
         })?
         $(fn draws_random(&self) -> bool {
             $random

@@ -37,10 +37,7 @@ use std::sync::Arc;
 use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
 use wedge_backends::kernels::paths::{TraceIo, PATH_RECORD, RESOLVE_OUTPUTS};
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, Uniforms,
-    WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerKind, SamplerPass, SamplerPlan,
     SamplerRequest, SettingMerge, Stage,
@@ -461,18 +458,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for CombineCounts {
-    fn name(&self) -> &'static str {
-        "sampler.combine"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        CombineParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        CombineIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "sampler.combine", class: Bandwidth, bindings: CombineIo, params: [CombineParams]
+    );
     /// WGSL mirror: `shaders/sampler_combine.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -544,18 +532,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for PassTotal {
-    fn name(&self) -> &'static str {
-        "sampler.pass_total"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        PassTotalParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        PassTotalIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "sampler.pass_total", class: Bandwidth, bindings: PassTotalIo, params: [PassTotalParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/sampler_pass_total.wgsl"), |ctx| {
@@ -583,15 +562,7 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for PerPrimaryCounts {
-    fn name(&self) -> &'static str {
-        "sampler.per_primary"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        PerPrimaryIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "sampler.per_primary", class: Bandwidth, bindings: PerPrimaryIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/sampler_per_primary.wgsl"), |_| Ok(Uniforms::new()))

@@ -84,7 +84,7 @@ use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::kernels::luminance;
-use crate::params::{KernelParams, ParamSpec, Sampling};
+use crate::params::{KernelParams, Sampling};
 use crate::record;
 use crate::rng::PixelRng;
 use crate::sobol::{pair, sequence_key, substream, Sequence};
@@ -470,21 +470,9 @@ crate::kernel_bindings! {
 pub struct PathsTrace;
 
 impl Kernel for PathsTrace {
-    fn name(&self) -> &'static str {
-        "paths.trace"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        TraceParams::specs().into_iter().chain(LensParams::specs()).collect()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        TraceIo::bindings()
-    }
+    crate::kernel_signature!(
+        name: "paths.trace", class: Sampling, bindings: TraceIo, params: [TraceParams, LensParams], random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/paths_trace.wgsl"), |ctx| {
