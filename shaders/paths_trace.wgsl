@@ -381,7 +381,8 @@ fn trace_indirect(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: 
                 rec.non_finite = rec.non_finite + 1u;
             }
         }
-        accumulate_diffuse(kd, e, valid, w);
+        // Ambient occlusion is not reflected light: texture 1 (paths.rs `trace_indirect`).
+        accumulate_diffuse(select(kd, vec3<f32>(1.0), params.ao != 0u), e, valid, w);
     }
 
     // Indirect glossy (`glossy` is off under ambient occlusion).

@@ -1229,24 +1229,37 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
 
 /// Re-running only what a change touches (issue 38, `wedge view`).
 impl Session {
-    /// Frame `frame` of a progressive render ([`Session::run_progressive_frame`], no history) on the
-    /// CPU, running only the passes `rerun` marks (all when it is `None`) and taking the others'
-    /// outputs from `kept`, an earlier such run's buffers of the same scene, camera, size, seed and
-    /// frame ([`wedge_graph::Schedule::changed_since`] says which passes that leaves to run). The
-    /// image is the whole run's bit for bit; the run's buffers come back for the next change.
-    pub fn run_partial_frame(
+    /// Frame `frame` of a progressive render ([`Session::run_progressive_frame`], no history) on
+    /// `backend` (the CPU's or the wgpu one), running only the passes `rerun` marks (all when it is
+    /// `None`) and taking the others' outputs from `kept`, an earlier such run's buffers of the same
+    /// scene, camera, size, seed and frame ([`wedge_graph::Schedule::changed_since`] says which
+    /// passes that leaves to run). The image is the whole run's bit for bit; the run's buffers come
+    /// back for the next change.
+    pub fn run_partial_frame<B: wedge_backends::PartialRun>(
         &self,
-        backend: &mut wedge_backends::cpu::CpuBackend,
+        backend: &mut B,
         progress: &dyn Progress,
         frame: u32,
-        kept: &wedge_backends::cpu::KeptBuffers,
+        kept: &B::Kept,
         rerun: Option<&[bool]>,
-    ) -> Result<(RunResult, wedge_backends::cpu::KeptBuffers), WedgeError> {
+    ) -> Result<(RunResult, B::Kept), WedgeError> {
         let job = self.job(self.seed.wrapping_add(frame), frame, progress);
-        let all = vec![true; self.schedule.passes.len()];
-        let (mut run, buffers) = backend.run_partial(&job, &BTreeMap::new(), kept, rerun.unwrap_or(&all))?;
+        let (mut run, buffers) = backend.run_partial(&job, &BTreeMap::new(), kept, rerun.unwrap_or(&[]))?;
         run.sinks = self.sink_nodes();
         Ok((run, buffers))
+    }
+
+    /// Peak memory of `wedge view` in `mode`: a frame's run as [`Session::memory_estimate`], plus
+    /// what a partial re-run keeps across frames when `keep` is set: a first frame's buffers, every
+    /// one of the schedule unpooled, and beside them the next change's re-run writing new ones (at
+    /// most as many again) until it replaces them. On the CPU the backend's persistent pool is the
+    /// run's pool, already counted; on the wgpu backend the kept buffers are device memory, counted
+    /// as the pool is (a software adapter takes it from the same RAM).
+    pub fn view_memory_estimate(&self, mode: RunMode, keep: bool) -> MemoryEstimate {
+        let run = self.memory_estimate(mode);
+        let kept =
+            if keep { self.schedule.buffer_bytes(self.width, self.height).unpooled.saturating_mul(2) } else { 0 };
+        MemoryEstimate { buffers: run.buffers.saturating_add(kept), ..run }
     }
 }
 
@@ -1396,5 +1409,22 @@ mod tests {
         let (nodes, kernels) = wedge_effects::builtin();
         let msg = Session::build(loaded, &ov, nodes, kernels).err().unwrap().to_string();
         assert!(msg.contains("--width 16384 × the pipeline's height 16384"), "{msg}");
+    }
+
+    /// `wedge view` keeps a first frame's buffers (every one unpooled) and, during a change's first
+    /// frame, the re-run's new ones beside them: two unpooled sets on top of a run; none without keeping.
+    #[test]
+    fn view_estimate_adds_two_unpooled_sets_when_keeping() {
+        let ov = Overrides { width: Some(64), height: Some(48), ..Overrides::default() };
+        let s = Session::open(None, &ov).unwrap();
+        let unpooled = s.schedule.buffer_bytes(64, 48).unpooled;
+        for mode in [RunMode::Cpu, RunMode::Gpu] {
+            let run = s.memory_estimate(mode);
+            assert_eq!(s.view_memory_estimate(mode, false), run);
+            assert_eq!(
+                s.view_memory_estimate(mode, true),
+                MemoryEstimate { buffers: run.buffers + 2 * unpooled, ..run }
+            );
+        }
     }
 }

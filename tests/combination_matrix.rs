@@ -4,7 +4,7 @@
 //! scene: its paths sample the lens and the shutter together)}, wired as a user would (a
 //! factoring node takes the direct, indirect and environment components, everything else is added
 //! beside it, emission wired once). Each entry is either refused before anything runs with a reason from the
-//! docs/NODES.md's "Composing effects" table, or passes `wedge parity` on the wgpu backend (lavapipe in CI)
+//! README's "What does not compose" table, or passes `wedge parity` on the wgpu backend (lavapipe in CI)
 //! and renders on the CPU to finite pixels whose mean agrees with
 //! the pipeline's own converged reference (within 5% or 0.005: a dim indirect-only image's mean
 //! carries ~6% of sampling noise at this size, measured over seeds; a term counted twice or missed
@@ -209,11 +209,10 @@ fn pipeline(effects: &[&Effect], camera: Camera) -> String {
     )
 }
 
-/// The refusals docs/NODES.md "Composing effects" lists, by the words their messages carry.
-const TABLE: [&str; 7] = [
+/// The refusals README "What does not compose" lists, by the words their messages carry.
+const TABLE: [&str; 6] = [
     "error[two-factoring-nodes]",
     "cannot render under the factoring node",
-    "is not a lighting component",
     "error[term-not-accepted]",
     "error[term-overlap]",
     "needs the shared sampler's",

@@ -54,7 +54,8 @@ fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
         out.contains("out.color = defocus.radiance: emission + background + direct(area light 0, diffuse+glossy toward the light centre) + indirect(1 bounce, diffuse+glossy), through the lens"),
         "{out}"
     );
-    // The environment's direct light as a factored component: the sky and emitters once, by the factoring node.
+    // The environment's direct light as a factored component: the sky and emitters once, by the
+    // factoring node; ambient occlusion alone without them.
     for (file, image) in [
         (
             "defocus_environment.ron",
@@ -64,6 +65,8 @@ fn every_shipped_pipeline_holds_each_term_once_and_graph_says_which() {
             "motion_environment.ron",
             "out.color = motion.radiance: emission + background + direct(environment), over the shutter",
         ),
+        // Ambient occlusion is not light: the factoring node adds no emission to it.
+        ("defocus_ao.ron", "out.color = defocus.radiance: ambient occlusion, through the lens\n"),
     ] {
         let o = wedge(&["graph", &format!("pipelines/{file}")], root);
         let text = String::from_utf8_lossy(&o.stdout);

@@ -39,6 +39,16 @@ fn xvfb_or_skip(test: &str) -> bool {
     found
 }
 
+/// Whether the wgpu backend opens; under `CI=true` its absence fails the test.
+fn gpu_or_skip(test: &str) -> bool {
+    let Err(e) = wedge::backends::gpu::GpuBackend::new() else { return true };
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!("{test}: CI=true and the wgpu backend is unavailable: {e}");
+    }
+    eprintln!("{test}: SKIPPED — the wgpu backend is unavailable: {e}");
+    false
+}
+
 fn png_size(path: &Path) -> (u32, u32) {
     image::image_dimensions(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
@@ -170,11 +180,7 @@ fn scripted_window_on_the_wgpu_backend_matches_render() {
     if !xvfb_or_skip("scripted_window_wgpu") {
         return;
     }
-    if let Err(e) = wedge::backends::gpu::GpuBackend::new() {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("scripted_window_wgpu: CI=true and the wgpu backend is unavailable: {e}");
-        }
-        eprintln!("scripted_window_wgpu: SKIPPED — the wgpu backend is unavailable: {e}");
+    if !gpu_or_skip("scripted_window_wgpu") {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
@@ -354,4 +360,73 @@ fn a_reference_rendered_in_the_background_shows_its_rmse() {
     let rmse = compared.lines().find_map(|l| l.strip_prefix("RMSE")).map(str::trim).expect("RMSE line");
     let label = format!("against the background reference (8 spp): RMSE {rmse} ·");
     assert!(log.contains(&label), "`{label}` not in\n{log}");
+}
+
+/// The same on the wgpu backend (lavapipe), the kept buffers staying on the device: the first frame
+/// after `shadows.k` changes runs fewer passes, and its image is the one a whole first frame of the
+/// changed session renders on the same backend (after a camera reset, which keeps nothing).
+#[test]
+fn a_parameter_change_on_the_wgpu_backend_reruns_only_the_passes_downstream_of_it() {
+    use wedge::graph::ParamValue;
+    use wedge::view::model::Model;
+
+    if !gpu_or_skip("wgpu partial re-run") {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let opts = wedge::view::ViewOptions { backend: "wgpu".into(), ..tiny(&shadows(), dir.path()) };
+    let mut model = Model::open(&opts).expect("opens");
+    model.render_frame().expect("frame");
+    let total = model.session.schedule.passes.len();
+    model.set_param("shadows", "k", ParamValue::Float(2.0)).expect("k = 2");
+    let partial = model.passes_to_rerun();
+    model.render_frame().expect("frame after the change");
+    eprintln!("wgpu, shadows.k: {partial} of {total} passes re-run");
+    assert_eq!(model.passes_run, (partial, total));
+    assert!(partial < total && partial > 0, "{partial} of {total} passes re-run");
+    let rerun = model.mean().expect("mean").outputs.clone();
+    model.set_camera(None).expect("reset");
+    model.render_frame().expect("a whole first frame");
+    assert_eq!(model.passes_run, (total, total));
+    assert_eq!(rerun, model.mean().expect("mean").outputs, "the partial re-run differs from a whole run with k = 2");
+}
+
+/// A first frame's kept buffers count against `--memory-limit`: with a limit that fits one frame's
+/// run but not the kept run beside it, the viewer says partial re-runs are off and which limit
+/// would allow them, and a change's first frame runs in full (the same image); a limit under one
+/// run is refused as `render` refuses it, naming the flag.
+#[test]
+fn kept_buffers_count_against_the_memory_limit() {
+    use wedge::graph::ParamValue;
+    use wedge::session::RunMode;
+    use wedge::view::model::Model;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    let opts = tiny(&shadows(), dir.path());
+    let probe = wedge::Session::open(Some(&shadows()), &opts.overrides).expect("opens");
+    let (run, keeping) = (
+        probe.view_memory_estimate(RunMode::Cpu, false).total(),
+        probe.view_memory_estimate(RunMode::Cpu, true).total(),
+    );
+    assert!(keeping > run, "kept buffers are not counted: {keeping} vs {run}");
+    let tight = wedge::view::ViewOptions { memory_limit: Some((run + keeping) / 2), ..opts.clone() };
+    let mut model = Model::open(&tight).expect("one run fits");
+    let notice = model.notice.clone().expect("a notice that partial re-runs are off");
+    let raise = format!("--memory-limit {}M", keeping.div_ceil(1 << 20));
+    assert!(notice.contains("partial re-runs are off") && notice.contains(&raise), "{notice}");
+    model.render_frame().expect("frame");
+    model.set_param("shadows", "k", ParamValue::Float(2.0)).expect("k = 2");
+    let total = model.session.schedule.passes.len();
+    assert_eq!(model.passes_to_rerun(), total);
+    model.render_frame().expect("frame after the change");
+    assert_eq!(model.passes_run, (total, total), "a change re-ran part of the frame without room for kept buffers");
+    let mut roomy = Model::open(&opts).expect("opens");
+    assert!(roomy.notice.is_none(), "{:?}", roomy.notice);
+    roomy.set_param("shadows", "k", ParamValue::Float(2.0)).expect("k = 2");
+    roomy.render_frame().expect("frame");
+    assert_eq!(model.mean().expect("mean").outputs, roomy.mean().expect("mean").outputs);
+
+    let under = wedge::view::ViewOptions { memory_limit: Some(run - 1), ..opts };
+    let e = Model::open(&under).err().expect("refused").to_string();
+    assert!(e.contains("(--memory-limit)") && e.contains("--memory-limit SIZE"), "{e}");
 }

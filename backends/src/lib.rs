@@ -25,6 +25,7 @@ pub mod lone;
 pub mod params;
 #[cfg(feature = "gpu")]
 pub mod parity;
+pub mod partial;
 pub mod rng;
 pub mod sobol;
 pub mod tiles;
@@ -39,6 +40,7 @@ pub use kernel::{
     UniformType, Uniforms, WgslSource, Window,
 };
 pub use params::{AnyLight, KernelParams, LightIndex, ParamField, ParamSpec, ParamType, Sampling};
+pub use partial::PartialRun;
 #[doc(hidden)]
 pub use wedge_graph as __graph;
 use wedge_graph::{BufferId, ParamValue, Schedule};

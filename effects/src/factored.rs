@@ -1,14 +1,15 @@
 //! Passes every factoring node (thesis Ch. 5's Defocus, App. B's Motion) builds the same way: the
 //! irradiance and screen-space filter chains, the compose of a component's factored parts (eq. 5.32:
 //! `k̃ Ẽ` where a part factors, else `L`, summed over parts) with the component node's ports, and the
-//! sum of components the factoring node blurs.
+//! sum of components the factoring node blurs, with the emission its camera rays see where its image
+//! declares it.
 
 use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::kernels::filter_window::Axis;
 use wedge_backends::kernels::irradiance_filter::IrradianceIo;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
 use wedge_graph::{
-    BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, PassBuilder, Reference, SamplerPass, Stage,
+    BufferId, ExpandCtx, Format, GraphError, ParamValue, Part, PassBuilder, Reference, SamplerPass, Stage, TermKind,
     FILL_CONSTANT,
 };
 
@@ -171,4 +172,15 @@ pub fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Optio
         acc = out;
     }
     acc
+}
+
+/// What the shared sampler's camera rays see directly (emitters; the map where they miss), summed
+/// with a factoring node's components where its `radiance` declares that term
+/// ([`crate::light_terms::factoring_sum`]): not where every component is ambient occlusion, which is
+/// not light. The expansion follows the declaration, so `wedge graph`'s terms are what renders.
+pub fn seen_directly(ctx: &mut ExpandCtx<'_>) -> Result<Option<BufferId>, GraphError> {
+    if ctx.output_terms("radiance").is_some_and(|t| !t.holds(TermKind::Emission)) {
+        return Ok(None);
+    }
+    ctx.sampler_output(SamplerPass::Final, "emission").map(Some)
 }

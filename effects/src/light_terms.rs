@@ -65,7 +65,7 @@ pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
     kinds: &[TermKind::Indirect, TermKind::AmbientOcclusion],
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of an Indirect (or LightField) node: it renders the indirect component through the \
-          factoring node's lens and shutter; direct light goes to `direct` (docs/NODES.md \"Composing effects\": what is refused)",
+          factoring node's lens and shutter; direct light goes to `direct` (README \"What does not compose\")",
 };
 
 /// A factoring node's `environment` input: the environment's direct light, through the sampler's camera.
@@ -96,11 +96,13 @@ pub(crate) fn component_inputs() -> Vec<PortDecl> {
 pub(crate) const NO_COMPONENT: &str = "has no component to blur: wire `direct` (from a SoftShadows node's radiance), \
     `indirect` (from an Indirect node's radiance) and/or `environment` (from an Environment node's radiance)";
 
-/// The terms of a factoring node's output: its components, plus — where it factors — what the
-/// shared sampler's camera rays see directly (it adds that once itself).
+/// The terms of a factoring node's output: its components, plus — where it factors and a component
+/// holds light — what the shared sampler's camera rays see directly (it adds that once itself;
+/// ambient occlusion alone is not radiance, and has no emission: [`crate::factored::seen_directly`]
+/// renders what this declares).
 pub(crate) fn factoring_sum(q: &TermQuery<'_>) -> Terms {
     let components = q.sum(&COMPONENT_PORTS);
-    if q.is_factoring_node() {
+    if q.is_factoring_node() && !components.is_occlusion() {
         seen_directly(q.sampler_view()).plus(Some(&components))
     } else {
         components

@@ -139,6 +139,11 @@ pub struct ExpandCtx<'a> {
     pub(crate) sampler: Option<&'a mut SamplerPlan>,
     /// The pipeline's factoring node ([`crate::factoring`]), if any, and its kind.
     pub(crate) factoring: Option<(&'a Factoring, &'a dyn crate::NodeKind)>,
+    /// The light terms the validator worked out for every output ([`crate::terms`]); `None` for a
+    /// context built by hand.
+    pub(crate) terms: Option<&'a crate::terms::TermReport>,
+    /// The pipeline's `camera:` block and the loaded scene's facts ([`ExpandCtx::own_camera`]).
+    pub(crate) camera: (Option<&'a crate::pipeline::CameraSpec>, Option<crate::factoring::SceneFacts>),
     /// Parameters the node read without declaring them ([`ExpandCtx::param`]); the expansion fails
     /// naming them ([`ExpandCtx::check_params`]) instead of panicking.
     undeclared: std::cell::RefCell<Vec<String>>,
@@ -156,7 +161,17 @@ impl<'a> ExpandCtx<'a> {
         inputs: &'a BTreeMap<String, BufferId>,
         expansion: &'a mut Expansion,
     ) -> Self {
-        ExpandCtx { node, params, inputs, expansion, sampler: None, factoring: None, undeclared: Default::default() }
+        ExpandCtx {
+            node,
+            params,
+            inputs,
+            expansion,
+            sampler: None,
+            factoring: None,
+            terms: None,
+            camera: (None, None),
+            undeclared: Default::default(),
+        }
     }
     /// Refuse an expansion that read parameters its node does not declare (a bug in the node kind,
     /// reported with the fix rather than a panic).
@@ -185,6 +200,33 @@ impl<'a> ExpandCtx<'a> {
     /// that sees one renders its component for it instead of filtering on its own.
     pub fn factoring(&self) -> Option<&'a Factoring> {
         self.factoring.map(|(f, _)| f)
+    }
+    /// A context that sees the pipeline's camera block and the scene's facts (tests, tools;
+    /// [`crate::expand()`] sets it).
+    pub fn with_camera(
+        mut self,
+        camera: Option<&'a crate::pipeline::CameraSpec>,
+        scene: Option<crate::factoring::SceneFacts>,
+    ) -> Self {
+        self.camera = (camera, scene);
+        self
+    }
+    /// The camera this node's own camera paths take ([`crate::factoring::CameraSettings::own_paths`]):
+    /// the factoring node's, else the pipeline's camera block's lens and shutter.
+    pub fn own_camera(&self) -> crate::factoring::CameraSettings {
+        crate::factoring::CameraSettings::own_paths(self.factoring(), self.camera.0, self.camera.1.as_ref())
+    }
+    /// A context that sees the validator's light terms (tests, tools; [`crate::expand()`] sets it).
+    pub fn with_terms(mut self, terms: &'a crate::terms::TermReport) -> Self {
+        self.terms = Some(terms);
+        self
+    }
+    /// The light terms this node's output `port` declares ([`crate::NodeKind::terms`], as the
+    /// validator checked them), so an expansion renders what its declaration says — e.g. a factoring
+    /// node adds the emission its camera rays see only where its image declares that term. `None`:
+    /// no terms declared, or a context built without them.
+    pub fn output_terms(&self, port: &str) -> Option<&'a crate::terms::Terms> {
+        self.terms?.of(self.node, port)
     }
     /// Render lighting component `component` of this node for the pipeline's factoring node: its
     /// kind's [`crate::NodeKind::expand_component`] adds the passes and binds this node's ports.

@@ -170,6 +170,33 @@ impl CameraSettings {
         }
     }
 
+    /// The camera of a node that traces its own camera paths and renders a component under a
+    /// factoring node (LightField): the factoring node's camera where one factors, else the
+    /// pipeline's `camera:` block — its lens where it gives an aperture, its shutter where it opens
+    /// one over an interval and the scene moves (or is not known yet) — so such a node is never
+    /// silently a pinhole (issue 34 §2). [`crate::TermQuery::own_view`] states the same camera.
+    pub fn own_paths(
+        factoring: Option<&Factoring>,
+        camera: Option<&crate::pipeline::CameraSpec>,
+        scene: Option<&SceneFacts>,
+    ) -> CameraSettings {
+        if factoring.is_some() {
+            return Self::of(factoring);
+        }
+        let Some(c) = camera else {
+            return CameraSettings::default();
+        };
+        let mut lens = Vec::new();
+        if c.aperture_radius > 0.0 {
+            lens.push(("aperture_radius", ParamValue::Float(f64::from(c.aperture_radius))));
+            if let Some(f) = c.focus_distance {
+                lens.push(("focus_distance", ParamValue::Float(f64::from(f))));
+            }
+        }
+        let open = c.shutter.is_some_and(|(open, close)| open < close);
+        CameraSettings { lens, time: open && scene.is_none_or(|f| f.motion) }
+    }
+
     /// Every path of a pixel has the same camera ray: no aperture (or a zero one) and no time.
     pub fn fixed(&self) -> bool {
         !self.time && self.aperture().is_none_or(|a| a == 0.0)

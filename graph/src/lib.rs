@@ -74,6 +74,19 @@ pub enum GraphError {
     /// A node kind's `expand` refused its (validated) configuration.
     #[error("node `{node}`: {message}")]
     Expand { node: String, message: String },
+    /// An error of a node's expansion at the node's place in the pipeline file (what the user edits).
+    #[error("{location}: {error}")]
+    At { location: Location, error: Box<GraphError> },
+}
+
+impl GraphError {
+    /// The error without the place it was found at ([`GraphError::At`]).
+    pub fn unlocated(&self) -> &GraphError {
+        match self {
+            GraphError::At { error, .. } => error.unlocated(),
+            e => e,
+        }
+    }
 }
 
 fn format_diagnostics(d: &[Diagnostic]) -> String {

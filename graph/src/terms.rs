@@ -297,6 +297,11 @@ impl TermQuery<'_> {
         let open = self.camera.and_then(|c| c.shutter).is_some_and(|(open, close)| open < close);
         View { lens, shutter: open && self.scene.is_none_or(|f| f.motion) }
     }
+    /// The view of a node that traces its own camera paths and is a component under a factoring
+    /// node ([`CameraSettings::own_paths`]: the factoring node's camera, else the camera block's).
+    pub fn own_view(&self) -> View {
+        View::of(&CameraSettings::own_paths(self.factoring, self.camera, self.scene))
+    }
     /// Some node factors the pipeline: the shared sampler's components are rendered for it.
     pub fn factored(&self) -> bool {
         self.factoring.is_some()

@@ -1247,11 +1247,15 @@ pub fn expand(v: &ValidatedPipeline) -> Result<Expansion, GraphError> {
         let first_buffer = expansion.buffers.len();
         let mut ctx = ExpandCtx::new(&node.name, &node.params, &inputs, &mut expansion)
             .with_sampler(&mut plan)
+            .with_terms(&v.terms)
+            .with_camera(v.pipeline.camera.as_ref(), v.scene_facts)
             .with_factoring(v.factoring.as_ref().and_then(|f| Some((f, v.node(&f.node)?.kind.as_ref()))));
         let expanded = node.kind.expand(&mut ctx);
+        // The node's place in the file, so a refusal points where the user edits.
+        let at = |error: GraphError| GraphError::At { location: node.location.clone(), error: Box::new(error) };
         // An undeclared parameter first: the errors after it may come from its placeholder value.
-        ctx.check_params()?;
-        expanded?;
+        ctx.check_params().map_err(at)?;
+        expanded.map_err(at)?;
         let handles: HashSet<BufferId> = plan.handles.values().copied().collect();
         follow_data_stages(&mut expansion, first_pass);
         check_input_stages(v, node, &expansion, first_pass)?;

@@ -151,8 +151,8 @@ fn table_and_dot_show_every_scheduled_pass() {
 
 fn expand_err(nodes: &[&str]) -> (String, String) {
     let v = validate(&parse(&pipeline(nodes)), &registry()).unwrap_or_else(|e| panic!("{e}"));
-    match expand(&v) {
-        Err(GraphError::Expand { node, message }) => (node, message),
+    match expand(&v).as_ref().map_err(GraphError::unlocated) {
+        Err(GraphError::Expand { node, message }) => (node.clone(), message.clone()),
         Err(e) => panic!("expected an expand error, got {e}"),
         Ok(_) => panic!("expected an expand error"),
     }

@@ -8,12 +8,17 @@
 //! window starts one and takes it when done ([`Model::start_frame`], [`Model::poll_frame`]), a
 //! script or test renders one and waits ([`Model::render_frame`]).
 //!
-//! On the CPU a parameter or `mu` change re-runs only the passes downstream of it in the first
-//! frame after it: the first frame of every session keeps its buffers ([`Kept`]), the rebuilt
+//! A parameter or `mu` change re-runs only the passes downstream of it in the first frame after it
+//! (on either backend): the first frame of every session keeps its buffers ([`Kept`]), the rebuilt
 //! session's schedule says which of its passes differ from the kept run's or read what those write
 //! (`Schedule::changed_since`), and only those run, the others' buffers taken from the kept run —
 //! same seed and frame, so the image is a whole run's bit for bit. Later frames (new seeds) run in
 //! full; a camera move, a lens change, a reload or a changed scene request runs in full.
+//!
+//! The kept buffers count against `--memory-limit` (`Session::view_memory_estimate`): where one
+//! frame's run fits the limit but not with a kept run beside it, first frames keep nothing, every
+//! frame runs in full, and [`Model::notice`] says so and which limit would do; where not even one
+//! run fits, opening (or the rebuild a change asks for) is refused as `render` refuses it.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -25,10 +30,11 @@ use wedge_scene::{Camera, SceneSource};
 
 use super::accumulate::Accumulator;
 use super::reference::{Reference, ERROR_VIEW};
-use super::render::{Done, Engine, Partial, Renderer, LOST};
+use super::render::{Done, Engine, FirstFrame, KeptRun, Partial, Renderer, LOST};
 use super::watch::Watch;
 use super::ViewOptions;
 use crate::outputs::{write_run_with_picture, Picture, WrittenRun};
+use crate::session::{format_bytes, RunMode};
 use crate::{Overrides, Session, WedgeError};
 
 /// The lens and shutter of the pipeline's camera block, as the window edits them.
@@ -52,7 +58,7 @@ impl Lens {
 /// The buffers of a session's first frame, with the schedule that wrote them: what a parameter
 /// change's first frame takes the passes upstream of the change from.
 struct Kept {
-    buffers: Arc<wedge_backends::cpu::KeptBuffers>,
+    buffers: Arc<KeptRun>,
     schedule: wedge_graph::Schedule,
 }
 
@@ -100,9 +106,17 @@ pub struct Model {
     /// How the backend times its passes (the wgpu backend uses timestamp queries where the adapter
     /// has `TIMESTAMP_QUERY`, `backends/src/gpu/mod.rs`).
     pub timed_by: &'static str,
-    /// The last first frame's buffers (CPU only; `None` after a camera move or a full rebuild until
-    /// the next first frame renders).
+    /// The last first frame's buffers (`None` after a camera move or a full rebuild until the next
+    /// first frame renders, and while the memory limit leaves no room for them).
     kept: Option<Kept>,
+    /// The memory limit and where it came from (`--memory-limit`, or the default's derivation).
+    budget: Option<(u64, String)>,
+    /// How the backend's memory is estimated.
+    mode: RunMode,
+    /// Whether first frames keep their buffers (the limit leaves room for them).
+    keeps: bool,
+    /// Why partial re-runs are off, with the limit that would allow them (`None` while they are on).
+    pub notice: Option<String>,
     /// Per pass of the session's schedule, whether its next first frame runs it (`None`: all).
     rerun: Option<Vec<bool>>,
     /// Passes the last frame ran, of how many the schedule has.
@@ -115,15 +129,17 @@ impl Model {
     /// Open the session the command line asks for; an error here ends `wedge view` like `render`.
     pub fn open(opts: &ViewOptions) -> Result<Model, WedgeError> {
         let session = Session::open_with(&opts.registries, opts.pipeline.as_deref(), &opts.overrides)?;
-        if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
-            let mode = if opts.backend == "wgpu" { crate::session::RunMode::Gpu } else { crate::session::RunMode::Cpu };
-            session.memory_estimate(mode).check(limit, &source)?;
+        let budget = crate::session::memory_budget(opts.memory_limit);
+        let mode = if opts.backend == "wgpu" { RunMode::Gpu } else { RunMode::Cpu };
+        let (keeps, notice) = keep_buffers(&session, mode, budget.as_ref())?;
+        if let Some(notice) = &notice {
+            eprintln!("note: {notice}");
         }
         let (backend, timed_by) = match opts.backend.as_str() {
             "wgpu" => {
                 let gpu = crate::session::open_gpu(opts.gpu_limits.as_deref())?;
                 let by = if gpu.has_timestamps() { "GPU timestamp queries" } else { "wall clock around each dispatch" };
-                (Engine::Other(Box::new(gpu)), by)
+                (Engine::Gpu(Box::new(gpu)), by)
             }
             _ => (Engine::Cpu(wedge_backends::cpu::CpuBackend::new()), "wall clock on the CPU"),
         };
@@ -152,6 +168,10 @@ impl Model {
             probes: Vec::new(),
             timed_by,
             kept: None,
+            budget,
+            mode,
+            keeps,
+            notice,
             rerun: None,
             passes_run: (0, 0),
             background: None,
@@ -285,13 +305,14 @@ impl Model {
             };
             session.scene.camera = camera;
         }
-        let partial = match (&self.kept, &self.rerun) {
-            (Some(kept), Some(rerun)) if self.acc.frames() == 0 => {
-                Some(Partial { kept: kept.buffers.clone(), rerun: rerun.clone() })
+        let first = match (&self.kept, &self.rerun) {
+            _ if !self.keeps => FirstFrame::Whole,
+            (Some(kept), Some(rerun)) => {
+                FirstFrame::Partial(Partial { kept: kept.buffers.clone(), rerun: rerun.clone() })
             }
-            _ => None,
+            _ => FirstFrame::Keep,
         };
-        self.renderer.start(self.session.clone(), self.acc.frames(), self.generation, partial)
+        self.renderer.start(self.session.clone(), self.acc.frames(), self.generation, first)
     }
 
     /// Take the finished frame, if any, into the mean: `Some(Ok(true))` when one was added,
@@ -412,7 +433,10 @@ impl Model {
         }
         // The registries the window opened with (a user's binary's nodes), kept by every session.
         let crate::session::Registries { nodes, kernels } = self.session.registries();
-        Session::build(loaded, ov, nodes, kernels)
+        let session = Session::build(loaded, ov, nodes, kernels)?;
+        // A change that makes one run too large for the limit is refused like `render` refuses it.
+        keep_buffers(&session, self.mode, self.budget.as_ref())?;
+        Ok(session)
     }
 
     fn rebuild_with(&mut self, ov: Overrides) -> Result<(), WedgeError> {
@@ -432,6 +456,8 @@ impl Model {
         }
         self.watch = Watch::new(watched_files(self.pipeline.as_ref(), &session, &self.overrides));
         self.base_camera = session.scene.camera;
+        // Checked by `build`: only whether the kept buffers still fit can change here.
+        (self.keeps, self.notice) = keep_buffers(&session, self.mode, self.budget.as_ref()).unwrap_or((false, None));
         self.session = Arc::new(session);
         self.restart();
         self.error = None;
@@ -464,14 +490,16 @@ impl Model {
         let rerun = kept.as_ref().map(|k| session.schedule.changed_since(&k.schedule));
         self.overrides = ov;
         self.replace(session);
-        (self.kept, self.rerun) = (kept, rerun);
+        if self.keeps {
+            (self.kept, self.rerun) = (kept, rerun);
+        }
         Ok(())
     }
 
     /// How many of the schedule's passes the next first frame runs (all without kept buffers).
     pub fn passes_to_rerun(&self) -> usize {
         let all = self.session.schedule.passes.len();
-        self.rerun.as_ref().map_or(all, |r| r.iter().filter(|&&run| run).count())
+        self.rerun.as_ref().filter(|_| self.keeps).map_or(all, |r| r.iter().filter(|&&run| run).count())
     }
 }
 
@@ -530,6 +558,37 @@ impl Model {
         self.list_outputs();
         Ok(())
     }
+}
+
+/// Whether first frames of `session` may keep their buffers under `budget` (limit, where it came
+/// from), with a note saying why not where they may not; an error when not even one frame's run fits.
+fn keep_buffers(
+    session: &Session,
+    mode: RunMode,
+    budget: Option<&(u64, String)>,
+) -> Result<(bool, Option<String>), WedgeError> {
+    let Some((limit, source)) = budget else {
+        return Ok((true, None));
+    };
+    let run = session.view_memory_estimate(mode, false);
+    run.check(*limit, source)?;
+    let (run, kept) = (run.total(), session.view_memory_estimate(mode, true));
+    if kept.total() <= *limit {
+        return Ok((true, None));
+    }
+    Ok((
+        false,
+        Some(format!(
+            "partial re-runs are off: keeping a first frame's buffers for them needs an estimated {} beside the {} of a \
+             frame ({} in all), over the memory limit of {} ({source}); every frame after a change runs in full. Raise \
+             the limit with --memory-limit {}M to re-run only the passes a change touches",
+            format_bytes(kept.total() - run),
+            format_bytes(run),
+            format_bytes(kept.total()),
+            format_bytes(*limit),
+            kept.total().div_ceil(1 << 20)
+        )),
+    ))
 }
 
 /// Whether two sessions' nodes ask the scene for the same things (an environment map, a real

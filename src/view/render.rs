@@ -3,18 +3,21 @@
 //! hands it a shared session and a frame number, and gets the run back tagged with the generation it
 //! was started for, so a frame that finishes after a change is dropped instead of averaged.
 //!
-//! On the CPU a first frame (frame 0, the one a change shows first) keeps every buffer it wrote and
-//! hands them back; the next change's first frame runs only the passes downstream of the change
-//! ([`Partial`], `Session::run_partial_frame`) and takes the others' buffers from those. The wgpu
-//! backend runs every frame in full (its buffers stay on the device; keeping them is a later step).
+//! A first frame (frame 0, the one a change shows first) keeps every buffer it wrote and hands them
+//! back ([`KeptRun`]); the next change's first frame runs only the passes downstream of the change
+//! ([`Partial`], `Session::run_partial_frame`) and takes the others' buffers from those. On the CPU
+//! they are host buffers; on the wgpu backend they stay on the device (`wedge_backends::gpu::run`),
+//! only the sinks' inputs are read back. Where `--memory-limit` leaves no room for them
+//! ([`super::model`]) no first frame keeps anything and every frame runs in full.
 
 use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-use wedge_backends::cpu::{CpuBackend, KeptBuffers};
-use wedge_backends::{Backend, RunResult, Silent};
+use wedge_backends::cpu::CpuBackend;
+use wedge_backends::gpu::GpuBackend;
+use wedge_backends::{Backend, PartialRun, RunResult, Silent};
 
 use crate::{Session, WedgeError};
 
@@ -23,28 +26,47 @@ struct Job {
     session: Arc<Session>,
     frame: u32,
     generation: u64,
-    partial: Option<Partial>,
+    /// How a first frame runs: keeping its buffers (re-running only some passes where given) or not.
+    first: FirstFrame,
+}
+
+/// How a first frame (frame 0) runs; later frames run in full through the backend's pool.
+#[derive(Clone)]
+pub enum FirstFrame {
+    /// In full, keeping nothing (`--memory-limit` leaves no room for a kept run).
+    Whole,
+    /// In full, keeping every buffer for the next change.
+    Keep,
+    /// Only some passes, the others' buffers from an earlier first frame; keeping the result.
+    Partial(Partial),
 }
 
 /// A first frame that re-runs only some passes: `kept` are the buffers of the last first frame
 /// (same scene, camera, size, seed), `rerun` one flag per pass of the new session's schedule.
 #[derive(Clone)]
 pub struct Partial {
-    pub kept: Arc<KeptBuffers>,
+    pub kept: Arc<KeptRun>,
     pub rerun: Vec<bool>,
 }
 
-/// What renders: the CPU backend (which can keep a first frame's buffers) or any other.
+/// What renders: the CPU backend or the wgpu one (each can keep a first frame's buffers).
 pub enum Engine {
     Cpu(CpuBackend),
-    Other(Box<dyn Backend + Send>),
+    Gpu(Box<GpuBackend>),
+}
+
+/// A first frame's buffers, on the backend that wrote them: host buffers on the CPU, device
+/// buffers on the wgpu backend.
+pub enum KeptRun {
+    Cpu(wedge_backends::cpu::KeptBuffers),
+    Gpu(wedge_backends::gpu::KeptBuffers),
 }
 
 impl Engine {
     fn name(&self) -> &'static str {
         match self {
             Engine::Cpu(cpu) => cpu.name(),
-            Engine::Other(backend) => backend.name(),
+            Engine::Gpu(gpu) => gpu.name(),
         }
     }
 }
@@ -58,8 +80,8 @@ pub struct Done {
     pub run: Result<RunResult, WedgeError>,
     /// Wall time of the frame on the render thread.
     pub seconds: f64,
-    /// A first frame's buffers on the CPU, for the next change's [`Partial`].
-    pub kept: Option<KeptBuffers>,
+    /// A first frame's buffers, for the next change's [`Partial`].
+    pub kept: Option<KeptRun>,
 }
 
 pub struct Renderer {
@@ -95,16 +117,16 @@ impl Renderer {
         self.in_flight || self.ready.is_some()
     }
 
-    /// Render frame `frame` of `session` (a first frame re-running only `partial`'s passes where
-    /// given); the caller checks [`Renderer::in_flight`] first.
+    /// Render frame `frame` of `session` (a first frame as `first` says); the caller checks
+    /// [`Renderer::in_flight`] first.
     pub fn start(
         &mut self,
         session: Arc<Session>,
         frame: u32,
         generation: u64,
-        partial: Option<Partial>,
+        first: FirstFrame,
     ) -> Result<(), WedgeError> {
-        let job = Job { session, frame, generation, partial };
+        let job = Job { session, frame, generation, first };
         let sent = self.jobs.as_ref().is_some_and(|j| j.send(job).is_ok());
         if !sent {
             return Err(stopped());
@@ -170,26 +192,48 @@ fn serve(mut engine: Engine, jobs: Receiver<Job>, done: Sender<Done>) {
     }
 }
 
-/// Render `job` on `engine`: a first frame on the CPU keeps its buffers (running only the partial
-/// job's passes where it has one); every other frame runs in full through the persistent pool.
-fn render(engine: &mut Engine, job: &Job) -> (Result<RunResult, WedgeError>, Option<KeptBuffers>) {
+/// Render `job` on `engine`: a first frame keeps its buffers (running only the partial job's
+/// passes where it has one) unless told not to; every other frame runs in full through the pool.
+fn render(engine: &mut Engine, job: &Job) -> (Result<RunResult, WedgeError>, Option<KeptRun>) {
+    let whole = job.frame > 0 || matches!(job.first, FirstFrame::Whole);
+    let kept = match &job.first {
+        FirstFrame::Partial(p) => Some((&*p.kept, &p.rerun[..])),
+        _ => None,
+    };
     match engine {
-        Engine::Cpu(cpu) if job.frame == 0 => {
-            let empty = KeptBuffers::new();
-            let (kept, rerun) = job.partial.as_ref().map_or((&empty, None), |p| (&*p.kept, Some(&p.rerun[..])));
-            let mut ran = job.session.run_partial_frame(cpu, &Silent, 0, kept, rerun);
-            if ran.is_err() && rerun.is_some() {
-                // A kept buffer that does not fit (or any failure of the shortcut): the whole frame,
-                // whose error, if it fails too, is the one worth showing.
-                ran = job.session.run_partial_frame(cpu, &Silent, 0, &empty, None);
-            }
-            match ran {
-                Ok((run, buffers)) => (Ok(run), Some(buffers)),
-                Err(e) => (Err(e), None),
-            }
+        Engine::Cpu(cpu) if whole => (job.session.run_progressive_frame(cpu, &Silent, job.frame, None), None),
+        Engine::Gpu(gpu) if whole => (job.session.run_progressive_frame(gpu.as_mut(), &Silent, job.frame, None), None),
+        Engine::Cpu(cpu) => {
+            let kept = kept.and_then(|(k, rerun)| if let KeptRun::Cpu(k) = k { Some((k, rerun)) } else { None });
+            let (run, kept) = first_frame(cpu, &job.session, kept);
+            (run, kept.map(KeptRun::Cpu))
         }
-        Engine::Cpu(cpu) => (job.session.run_progressive_frame(cpu, &Silent, job.frame, None), None),
-        Engine::Other(backend) => (job.session.run_progressive_frame(backend.as_mut(), &Silent, job.frame, None), None),
+        Engine::Gpu(gpu) => {
+            let kept = kept.and_then(|(k, rerun)| if let KeptRun::Gpu(k) = k { Some((k, rerun)) } else { None });
+            let (run, kept) = first_frame(gpu.as_mut(), &job.session, kept);
+            (run, kept.map(KeptRun::Gpu))
+        }
+    }
+}
+
+/// Frame 0 of `session` on `backend`, keeping its buffers: only `partial`'s passes where given
+/// (the others' buffers from its kept run), else every pass.
+fn first_frame<B: PartialRun>(
+    backend: &mut B,
+    session: &Session,
+    partial: Option<(&B::Kept, &[bool])>,
+) -> (Result<RunResult, WedgeError>, Option<B::Kept>) {
+    let empty = B::Kept::default();
+    let (kept, rerun) = partial.map_or((&empty, None), |(k, r)| (k, Some(r)));
+    let mut ran = session.run_partial_frame(backend, &Silent, 0, kept, rerun);
+    if ran.is_err() && rerun.is_some() {
+        // A kept buffer that does not fit (or any failure of the shortcut): the whole frame,
+        // whose error, if it fails too, is the one worth showing.
+        ran = session.run_partial_frame(backend, &Silent, 0, &empty, None);
+    }
+    match ran {
+        Ok((run, buffers)) => (Ok(run), Some(buffers)),
+        Err(e) => (Err(e), None),
     }
 }
 

@@ -110,6 +110,9 @@ impl Panels {
             ui.monospace(error);
         }
         ui.label(stats_line(model));
+        if let Some(notice) = &model.notice {
+            ui.label(notice);
+        }
         if let Some(reference) = model.reference() {
             ui.label(format!("error {}", reference.summary()));
         }

@@ -7,6 +7,7 @@
 //! changed (another schedule or image size) gets fresh storage: the plan is re-made as it goes.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::Instant;
 
 use wedge_graph::{BufferId, Pass};
@@ -218,19 +219,17 @@ impl Backend for CpuBackend {
     }
 }
 
-/// Every buffer a run wrote, by buffer name (names are stable across rebuilds of a pipeline, ids
-/// are not): what [`CpuBackend::run_partial`] keeps for the next change.
-pub type KeptBuffers = BTreeMap<String, BufferData>;
+/// Every buffer a run held, by buffer name (names are stable across rebuilds of a pipeline, ids
+/// are not): what [`CpuBackend::run_partial`] keeps for the next change. Shared, not copied: a
+/// partial run's skipped passes hand their kept buffers on as they are.
+pub type KeptBuffers = BTreeMap<String, Arc<BufferData>>;
 
-impl CpuBackend {
-    /// Run only the passes `rerun` marks (one flag per scheduled pass), taking every other pass's
-    /// outputs from `kept` (an earlier run's [`KeptBuffers`] of the same scene, camera, size, seed
-    /// and frame); hand back the run and every buffer it holds, kept and written. With `kept` empty
-    /// and every flag set it is a whole run that keeps its buffers. Each buffer has storage of its
-    /// own here (no pool: all of them outlive the run), so this is for the viewer's first frame after
-    /// a change, not for every frame. A skipped pass whose outputs `kept` lacks is an error (the
-    /// caller runs in full).
-    pub fn run_partial(
+impl crate::PartialRun for CpuBackend {
+    type Kept = KeptBuffers;
+
+    /// See [`crate::PartialRun::run_partial`]. This runs outside the pool (its buffers outlive the
+    /// run), so it is for the viewer's first frame after a change, not for every frame.
+    fn run_partial(
         &mut self,
         job: &Job<'_>,
         history: &BTreeMap<BufferId, BufferData>,
@@ -238,32 +237,20 @@ impl CpuBackend {
         rerun: &[bool],
     ) -> Result<(RunResult, KeptBuffers), BackendError> {
         let sched = job.schedule;
-        let mut held: BTreeMap<BufferId, BufferData> =
-            sched.history.iter().map(|h| (h.buffer, crate::history_input(job, history, h))).collect();
+        let mut held: BTreeMap<BufferId, Arc<BufferData>> =
+            sched.history.iter().map(|h| (h.buffer, Arc::new(crate::history_input(job, history, h)))).collect();
         let (mut rays, mut timings, mut allocations) = (crate::RayCounts::default(), Vec::new(), 0);
-        for (pass, run) in sched.passes.iter().zip(rerun.iter().chain(std::iter::repeat(&true))) {
+        for (pass, run) in crate::partial::passes_to_run(job, rerun) {
             if !run {
-                for (_, id) in &pass.writes {
-                    let info = &sched.buffers[id.0];
-                    let len = job.width as usize * job.height as usize * info.layers as usize;
-                    let data = kept.get(&info.name).filter(|d| d.format() == info.format && d.len() == len);
-                    let data = data.ok_or_else(|| {
-                        let name = &info.name;
-                        BackendError::Other(format!(
-                            "pass `{}` is skipped but no `{name}` of its shape was kept",
-                            pass.name
-                        ))
-                    })?;
-                    held.insert(*id, data.clone());
-                }
+                held.extend(crate::partial::kept_outputs(job, pass, kept)?);
                 continue;
             }
             let start = Instant::now();
             let counters = Counters::default();
-            let outputs = run_pass(job, pass, &held.iter().map(|(id, d)| (*id, d)).collect(), &counters)?;
+            let outputs = run_pass(job, pass, &held.iter().map(|(id, d)| (*id, &**d)).collect(), &counters)?;
             allocations += outputs.len();
             for (binding, data) in outputs {
-                held.insert(pass.write(&binding).expect("bound"), data);
+                held.insert(pass.write(&binding).expect("bound"), Arc::new(data));
             }
             let counts = counters.snapshot();
             rays.add(&counts);
@@ -274,7 +261,7 @@ impl CpuBackend {
         }
         let take = |id: &BufferId, what: &str| {
             held.get(id)
-                .cloned()
+                .map(|d| BufferData::clone(d))
                 .ok_or_else(|| BackendError::Other(format!("{what} `{}` holds no data", sched.buffers[id.0].name)))
         };
         let mut outputs = BTreeMap::new();

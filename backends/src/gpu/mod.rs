@@ -39,12 +39,15 @@
 //!   65,535 iterations; 64 on GPUs) until no pixel has samples left; the image does not depend on it.
 
 pub mod bands;
+pub mod run;
 pub mod scene;
 pub mod shaders;
 pub mod validate;
 
 /// Which graphics APIs [`GpuBackend::open_on`] may use (wgpu's set: `Backends::GL`, `Backends::VULKAN`, …).
 pub use wgpu::Backends;
+
+pub use run::{kept_bytes, DeviceBuffer, KeptBuffers};
 
 use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
@@ -57,7 +60,7 @@ use wgpu::util::DeviceExt;
 use crate::buffer::BufferData;
 use crate::cpu::check_bindings;
 use crate::kernel::{Access, Binding, Counters, Kernel, KernelCtx, Progress, Reach};
-use crate::{Backend, BackendError, Job, PassTiming, RayCounts, RunResult};
+use crate::{BackendError, Job, RayCounts};
 use bands::{Band, BindLimits};
 
 /// What to tell a user when there is no adapter at all.
@@ -1099,67 +1102,6 @@ impl GpuBackend {
 }
 
 impl GpuBackend {
-    /// A [`Kernel::host`] pass inside a run: its inputs read back from their pool slots, the CPU
-    /// implementation run, its outputs written into their slots.
-    fn run_host_pass(
-        &mut self,
-        job: &Job<'_>,
-        pass: &Pass,
-        slots: &mut [Option<wgpu::Buffer>],
-        holder: &mut [Option<BufferId>],
-        allocations: &mut usize,
-    ) -> Result<PassTiming, BackendError> {
-        let (sched, start) = (job.schedule, Instant::now());
-        let pixels = job.width as usize * job.height as usize;
-        let slot_of = |id: BufferId| {
-            sched.slots[id.0].ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)))
-        };
-        let mut data = BTreeMap::new();
-        for (_, id) in &pass.reads {
-            let slot = slot_of(*id)?;
-            let (Some(buf), true) = (&slots[slot], holder[slot] == Some(*id)) else {
-                return Err(BackendError::Other(format!(
-                    "pass `{}` reads `{}` after its storage was reused (pool plan bug)",
-                    pass.name, sched.buffers[id.0].name
-                )));
-            };
-            let info = &sched.buffers[id.0];
-            data.insert(
-                *id,
-                self.read_buffer(
-                    &format!("reading `{}` for host pass `{}`", info.name, pass.name),
-                    buf,
-                    info.format,
-                    pixels * info.layers as usize,
-                )?,
-            );
-        }
-        let inputs: BTreeMap<BufferId, &BufferData> = data.iter().map(|(k, v)| (*k, v)).collect();
-        let counters = Counters::default();
-        let out = crate::cpu::run_pass(job, pass, &inputs, &counters)?;
-        for (binding, d) in out {
-            let id = pass.write(&binding).expect("bound");
-            let slot = slot_of(id)?;
-            let bytes = to_bytes(&d);
-            match &slots[slot] {
-                Some(buf) => self.queue.write_buffer(buf, 0, &bytes),
-                None => {
-                    slots[slot] = Some(self.storage_init(&sched.buffers[id.0].name, &bytes)?);
-                    *allocations += 1;
-                }
-            }
-            holder[slot] = Some(id);
-        }
-        let kernel = job.kernels.get(&pass.kernel).expect("checked");
-        Ok(PassTiming {
-            pass: pass.name.clone(),
-            kernel: pass.kernel.clone(),
-            class: kernel.class(),
-            seconds: start.elapsed().as_secs_f64(),
-            counts: counters.snapshot(),
-        })
-    }
-
     /// Run one kernel outside any pipeline: `inputs` by binding name, `params` as its parameter block.
     /// Returns every bound write binding. For tests and user crates trying out a kernel's WGSL
     /// (e.g. the RNG bit-exactness test runs a tiny WGSL kernel through this).
@@ -1185,143 +1127,4 @@ pub fn to_bytes(b: &BufferData) -> Vec<u8> {
 
 pub fn from_bytes(format: Format, bytes: &[u8]) -> BufferData {
     BufferData::from_bytes(format, bytes)
-}
-
-impl Backend for GpuBackend {
-    fn name(&self) -> &'static str {
-        "wgpu"
-    }
-
-    fn run_frame(
-        &mut self,
-        job: &Job<'_>,
-        history: &BTreeMap<BufferId, BufferData>,
-    ) -> Result<RunResult, BackendError> {
-        let sched = job.schedule;
-        let passes: Vec<&Pass> = sched.passes.iter().collect();
-        // Fail before any work if a pass cannot run here (bindings, missing WGSL, shader errors).
-        if self.kernels_ready(job, &passes)? {
-            self.scene_buffers(job.scene)?;
-        }
-        let pixels = job.width as usize * job.height as usize;
-        // Physical storage by pool slot, and which logical buffer currently lives in each.
-        let mut slots: Vec<Option<wgpu::Buffer>> = vec![None; sched.slot_formats.len()];
-        let mut holder: Vec<Option<BufferId>> = vec![None; sched.slot_formats.len()];
-        let mut allocations = 0usize;
-        let mut rays = RayCounts::default();
-        let mut timings = Vec::with_capacity(passes.len());
-        self.last_device_times.clear();
-        self.last_bands.clear();
-        self.last_plans.clear();
-        // Previous-frame buffers are uploaded before the first pass.
-        for h in &sched.history {
-            let slot = sched.slots[h.buffer.0].ok_or_else(|| gpu_err("a previous-frame buffer has no pool slot"))?;
-            let data = crate::history_input(job, history, h);
-            slots[slot] = Some(self.storage_init(&sched.buffers[h.buffer.0].name, &to_bytes(&data))?);
-            holder[slot] = Some(h.buffer);
-            allocations += 1;
-        }
-        for pass in &passes {
-            let kernel = job.kernels.get(&pass.kernel).expect("checked").clone();
-            if kernel.host() {
-                let t = self.run_host_pass(job, pass, &mut slots, &mut holder, &mut allocations)?;
-                rays.add(&t.counts);
-                timings.push(t);
-                job.progress.pass_done(&pass.name);
-                continue;
-            }
-            let mut bufs = Vec::new();
-            for b in kernel.bindings() {
-                let id = match b.access {
-                    Access::Read => pass.read(b.name),
-                    Access::Write => pass.write(b.name),
-                };
-                let Some(id) = id else {
-                    bufs.push(None);
-                    continue;
-                };
-                let slot = sched.slots[id.0]
-                    .ok_or_else(|| gpu_err(format!("buffer `{}` has no pool slot", sched.buffers[id.0].name)))?;
-                match b.access {
-                    Access::Read => {
-                        if holder[slot] != Some(id) {
-                            return Err(BackendError::Other(format!(
-                                "pass `{}` reads `{}` after its storage was reused (pool plan bug)",
-                                pass.name, sched.buffers[id.0].name
-                            )));
-                        }
-                    }
-                    Access::Write => {
-                        if slots[slot].is_none() {
-                            let (f, n) = (sched.slot_formats[slot], sched.slot_layers[slot] as usize);
-                            slots[slot] = Some(self.storage(
-                                &format!("pool slot {slot} ({f})"),
-                                (pixels * n * f.components() * 4) as u64,
-                            )?);
-                            allocations += 1;
-                        }
-                        holder[slot] = Some(id);
-                    }
-                }
-                bufs.push(slots[slot].clone());
-            }
-            let (t, counted, bands, plan) = self.dispatch(job, pass, &bufs)?;
-            rays.add(&counted);
-            self.last_bands.push((pass.name.clone(), bands));
-            self.last_plans.push((pass.name.clone(), plan));
-            if t.from_timestamps {
-                self.last_device_times.push((pass.name.clone(), t.seconds));
-            }
-            timings.push(PassTiming {
-                pass: pass.name.clone(),
-                kernel: pass.kernel.clone(),
-                class: kernel.class(),
-                seconds: t.seconds,
-                counts: counted,
-            });
-            job.progress.pass_done(&pass.name);
-        }
-        let mut outputs = BTreeMap::new();
-        for (node, port, id) in &sched.sink_inputs {
-            let slot = sched.slots[id.0].ok_or_else(|| gpu_err("sink buffer has no slot"))?;
-            match (&slots[slot], holder[slot]) {
-                (Some(buf), Some(h)) if h == *id => {
-                    let data = self.read_buffer(
-                        &format!("reading `{node}.{port}`"),
-                        buf,
-                        sched.buffers[id.0].format,
-                        pixels * sched.buffers[id.0].layers as usize,
-                    )?;
-                    outputs.insert((node.clone(), port.clone()), data);
-                }
-                _ => return Err(BackendError::Other(format!("sink input `{node}.{port}` was overwritten"))),
-            }
-        }
-        let mut next = BTreeMap::new();
-        for h in &sched.history {
-            let slot = sched.slots[h.source.0].ok_or_else(|| gpu_err("a previous-frame source has no slot"))?;
-            match (&slots[slot], holder[slot]) {
-                (Some(buf), Some(held)) if held == h.source => {
-                    let name = &sched.buffers[h.source.0].name;
-                    let info = &sched.buffers[h.source.0];
-                    next.insert(
-                        h.buffer,
-                        self.read_buffer(
-                            &format!("reading `{name}`"),
-                            buf,
-                            info.format,
-                            pixels * info.layers as usize,
-                        )?,
-                    );
-                }
-                _ => {
-                    return Err(BackendError::Other(format!(
-                        "`{}` was overwritten before the run ended",
-                        sched.buffers[h.source.0].name
-                    )))
-                }
-            }
-        }
-        Ok(RunResult { outputs, sinks: Default::default(), timings, rays, allocations, history: next })
-    }
 }

@@ -53,7 +53,8 @@
 //! (secondary samples per path where the buffers `shadow_total` / `diffuse_total` are unbound; 0 =
 //! none), `ao` (optional bool:
 //! a hemisphere sample's value is 1 where it hits a reflector within `max_distance`, optional, 0 =
-//! no limit — `indirect.sample`'s ambient-occlusion mode; no glossy part), `glossy` (optional bool,
+//! no limit — `indirect.sample`'s ambient-occlusion mode; no glossy part, and the diffuse part's
+//! texture is 1, so `l_diffuse = e_diffuse` is the occlusion a factoring node composes), `glossy` (optional bool,
 //! default true: the glossy part where a surface has a lobe), `light` (the area light of the
 //! direct component: Ch. 5 factors one light; indirect next-event estimation uses every light),
 //! `form_factor` (optional: `"light_centre"`, the default, is f_c above; `"exact"` evaluates the
@@ -940,7 +941,10 @@ fn trace_indirect(
 ) {
     let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
 
-    // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d.
+    // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d. Ambient
+    // occlusion is not reflected light: its texture is 1 (L = E = the unoccluded fraction), so a
+    // factoring node composes and blurs the occlusion itself (docs/NODES.md "Composing effects").
+    let kd = if s.path.ao { Vec3::ONE } else { kd };
     if count.diffuse > 0 {
         let (mut e, mut valid) = (Vec3::ZERO, 0u32);
         for _ in 0..count.diffuse {

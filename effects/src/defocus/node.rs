@@ -273,8 +273,8 @@ impl NodeKind for Defocus {
         })?;
 
         // 3. Σ components + emission (eq. 5.32), then the screen-space defocus filter (eq. 5.33).
-        let emission = ctx.sampler_output(SamplerPass::Final, "emission")?;
-        let composed = sum(ctx, "compose", &components, Some(emission));
+        let emission = crate::factored::seen_directly(ctx)?;
+        let composed = sum(ctx, "compose", &components, emission);
         let separable = ctx.param("separable") == &ParamValue::Bool(true);
         let radius = ctx.param("max_radius").clone();
         let value = filter_chain(

@@ -7,7 +7,7 @@ use wedge_backends::kernels::neighbourhood_others::OthersIo;
 use wedge_backends::KernelParams;
 use wedge_graph::{
     Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary,
-    PortDecl, Reference, SamplerPass, Stage, Statistic,
+    PortDecl, Reference, SamplerPass, SamplerRequest, Stage, Statistic,
 };
 
 use super::kernels::{BandwidthIo, NearestIo, RateParams, RatesIo};
@@ -23,31 +23,67 @@ pub struct Indirect;
 /// `Ω_v^max` is the diffuse receiver's 2.8 (Ch. 4, eq. 4.18) for both parts: a reading — the thesis
 /// gives one `Ω_v^max` per pixel and glossy receivers would take `4.27 + 0.15 m`, which the per-pixel
 /// rate kernels do not see. The Ch. 4 parameters (`mu`, `alpha`, rays and filter settings) do not
-/// apply; `bounces` and `brdf` set the sampler's hemisphere estimator. AO is not a factored
-/// component: refused.
-fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &wedge_graph::Factoring) -> Result<(), GraphError> {
-    if matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao") {
-        return Err(GraphError::Expand {
-            node: ctx.node().into(),
-            message: format!(
-                "ambient occlusion (`mode: \"ao\"`) is not a lighting component `{}` ({}) can factor; use `mode: \"radiance\"` \
-                 or a pipeline without {} (docs/NODES.md \"Composing effects\": what is refused, and why)",
-                f.node, f.kind, f.kind
-            ),
-        });
+/// apply; `bounces` and `brdf` set the sampler's hemisphere estimator.
+///
+/// Ambient occlusion (`mode: "ao"`) is one part, `occlusion`, with texture 1 (`paths.trace` under
+/// `ao`: `L = E` = the unoccluded fraction, so it always factors): the factoring node filters it in
+/// world space with the indirect component's width and counts (its occluders are reflectors at the
+/// same depths), then blurs it through the lens or over the shutter — the AO image a camera with
+/// that lens or shutter would see. Its terms say it is not light, so the factoring node adds no
+/// emission to it ([`crate::factored::seen_directly`]).
+fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+    // `ao` is stated either way, so that radiance and AO on one sampler conflict (named) rather
+    // than one silently becoming the other.
+    let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
+    let settings = vec![
+        ("bounces", ctx.param("bounces").clone()),
+        ("brdf", ctx.param("brdf").clone()),
+        ("ao", ParamValue::Bool(ao)),
+        ("max_distance", ctx.param("max_distance").clone()),
+    ];
+    let diffuse = |name| Part { name, radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" };
+    let parts = if ao {
+        vec![diffuse("occlusion")]
+    } else {
+        let glossy = Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" };
+        vec![diffuse("diffuse"), glossy]
+    };
+    // The statistic reads the first pass: ask for the estimator now (the factoring node asks again
+    // with the component; identical requests merge).
+    let mut request = SamplerRequest::new().estimator("hemisphere");
+    for (n, v) in &settings {
+        request = request.setting(n, v.clone());
     }
-    let settings = vec![("bounces", ctx.param("bounces").clone()), ("brdf", ctx.param("brdf").clone())];
+    ctx.sampler(request)?;
+    let statistic = reflectors(ctx, SamplerPass::First)?;
     ctx.component(&Component {
         name: "indirect",
         estimator: "hemisphere",
         settings,
-        statistic: ("reflectors", Statistic::Sampler("depth")),
+        statistic: ("reflectors", Statistic::Buffer(statistic)),
         rate_params: vec![],
-        parts: vec![
-            Part { name: "diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
-            Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
-        ],
+        parts,
     })
+}
+
+/// The reflector depths (`z_min, z_max`, hits, rays) a pixel's rates and width read: its own first
+/// pass's (`statistics: "own"`, the thesis), or its eight neighbours' (`"neighbours"`,
+/// `neighbourhood.others`), which leaves the pixel's own samples out so that its count and width do
+/// not depend on the values its estimate reuses. That correlation is a bias where a first pass
+/// often sees no reflector: ambient occlusion under a factoring node lost 11% of its mean on the
+/// `motion` scene with its own statistics — the pixels whose first rays hit were filtered widely
+/// into zeros, the ones that saw nothing kept their zero (docs/DESIGN-NOTES.md "AO under a lens").
+fn reflectors(ctx: &mut ExpandCtx<'_>, pass: SamplerPass) -> Result<wedge_graph::BufferId, GraphError> {
+    let own = ctx.sampler_output(pass, "depth")?;
+    if !matches!(ctx.param("statistics"), ParamValue::Str(m) if m == "neighbours") {
+        return Ok(own);
+    }
+    let position = ctx.sampler_output(pass, "position")?;
+    let others = ctx.buffer("depth_neighbours", Format::Vec4);
+    OthersIo { value: own, position, out: others }
+        .bind(ctx.pass("statistics", "neighbourhood.others", Stage::Bandwidth))
+        .finish();
+    Ok(others)
 }
 
 impl NodeKind for Indirect {
@@ -107,7 +143,7 @@ impl NodeKind for Indirect {
                 "statistics",
                 "neighbours",
                 &["own", "neighbours"],
-                "z_min, z_max for eqs. 4.15–4.21 from the pixel's own first pass (thesis), or from its eight neighbours' (leaves its own samples out: no correlation between a pixel's estimate and its count or width; not with factoring)",
+                "z_min, z_max for eqs. 4.15–4.21 from the pixel's own first pass (thesis), or from its eight neighbours' (leaves its own samples out: no correlation between a pixel's estimate and its count or width; also the indirect or AO component's statistic under a factoring node)",
             ),
             ParamDecl::choice(
                 "width_z_min",
@@ -120,8 +156,8 @@ impl NodeKind for Indirect {
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        if let Some(f) = ctx.factoring() {
-            return expand_factored(ctx, f);
+        if ctx.factoring().is_some() {
+            return expand_factored(ctx);
         }
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;

@@ -23,9 +23,11 @@
 //! its own lens point and shutter time, and the samples carry them (and the hits' motion vectors):
 //! wire `radiance` to the factoring node's `indirect` input (e.g. `Defocus`, `Motion`), which adds it
 //! to its other components and filters the sum in screen space. Then every input path has its own
-//! primary hit (`primary` holds `spp` layers) and the reconstruction rays are shared among them;
-//! otherwise the camera ray is the pinhole through the pixel centre at the shutter's centre — the
-//! `Primary` G-buffer's hit, traced once per pixel.
+//! primary hit (`primary` holds `spp` layers) and the reconstruction rays are shared among them.
+//! Without a factoring node the paths take the pipeline's `camera:` block's lens and shutter
+//! (`ExpandCtx::own_camera`; its image then says "through the lens", and adding it to a pinhole image
+//! is refused); with neither, the camera ray is the pinhole through the pixel centre at the shutter's
+//! centre, traced once per pixel.
 //!
 //! `mode: "ao"` is the ambient-occlusion variant (Sec. 3.3): the radiance filter is bypassed and a
 //! reconstruction ray is occluded where its nearest apparent surface lies within `max_distance`;
@@ -34,7 +36,6 @@
 use wedge_backends::kernels::compose::ModulateIo;
 use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::KernelParams;
-use wedge_graph::factoring::CameraSettings;
 use wedge_graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage};
 
 use super::kernels::reconstruct::{ReconstructIo, ReconstructParams};
@@ -85,7 +86,7 @@ impl NodeKind for LightField {
     /// Indirect light or ambient occlusion, through the camera of the pipeline's factoring node
     /// (whose lens and shutter its own camera rays sample).
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
-        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::indirect_or_ao(q, q.sampler_view(), ""))
+        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::indirect_or_ao(q, q.own_view(), ""))
     }
     /// The kernels' declarations, in the order the node has always listed them (`wedge view`'s
     /// widgets, messages): `spp`, `rays`, `k`, `alpha`, `glossy_cap`, `angular`, `shrink`,
@@ -107,7 +108,7 @@ impl NodeKind for LightField {
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         let spp = ctx.param("spp").as_count().unwrap_or(1);
-        let camera = CameraSettings::of(ctx.factoring());
+        let camera = ctx.own_camera();
 
         // 1. The input samples and their primary hits (one per pixel where every path has the same
         // camera ray).

@@ -148,7 +148,7 @@ impl NodeKind for MixedReality {
                 node: ctx.node().into(),
                 message: format!(
                     "cannot render under the factoring node `{}`: the real layer is one still photograph (no lens or shutter \
-                     samples; docs/NODES.md \"Composing effects\": what is refused) — render mixed reality in a pipeline without \
+                     samples; README \"What does not compose\") — render mixed reality in a pipeline without \
                      Defocus or Motion",
                     f.node
                 ),
