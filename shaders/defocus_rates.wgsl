@@ -46,21 +46,23 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     omega_defocus_put(i, r.omega_defocus);
     pixel_length_put(i, r.pixel_length);
     n_primary_put(i, r.n_primary);
-    omega_direct_put(i, r.omega_direct);
-    n_direct_factored_put(i, r.n_direct_factored);
-    n_direct_combined_put(i, r.n_direct_combined);
-    omega_indirect_put(i, r.omega_indirect);
-    n_indirect_factored_put(i, r.n_indirect_factored);
-    n_indirect_combined_put(i, r.n_indirect_combined);
-    // The count the pixel takes: factored where its (median-filtered) flag is set, else combined.
-    n_direct_put(i, select(r.n_direct_combined, r.n_direct_factored, flag_direct_bound() && flag_direct_at(i) != 0u));
-    n_indirect_put(i, select(r.n_indirect_combined, r.n_indirect_factored,
-        flag_indirect_bound() && flag_indirect_at(i) != 0u));
     sigma_defocus_put(i, defocus_sigma_px(r.omega_defocus));
-    sigma_direct_put(i, defocus_sigma_px(r.omega_direct));
-    sigma_indirect_put(i, defocus_sigma_px(r.omega_indirect));
-    omega_environment_put(i, r.omega_environment);
-    n_environment_put(i, select(r.n_environment_combined, r.n_environment_factored,
-        flag_environment_bound() && flag_environment_at(i) != 0u));
-    sigma_environment_put(i, defocus_sigma_px(r.omega_environment));
+    // A component's pass (params.component: 0 direct, 1 indirect, 2 environment; kernels.rs
+    // RateComponent): its width, and the count the pixel takes — factored where its (median-filtered)
+    // flag is set, else combined.
+    var omega = r.omega_direct;
+    var n_f = r.n_direct_factored;
+    var n_c = r.n_direct_combined;
+    if (params.component == 1u) {
+        omega = r.omega_indirect;
+        n_f = r.n_indirect_factored;
+        n_c = r.n_indirect_combined;
+    } else if (params.component == 2u) {
+        omega = r.omega_environment;
+        n_f = r.n_environment_factored;
+        n_c = r.n_environment_combined;
+    }
+    omega_put(i, omega);
+    n_put(i, select(n_c, n_f, flag_bound() && flag_at(i) != 0u));
+    sigma_put(i, defocus_sigma_px(omega));
 }

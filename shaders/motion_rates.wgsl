@@ -38,19 +38,22 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let r = motion_pixel_rates(
         velocity, shadow, occluded && shadow_velocity_bound(), depth.w > 0.0, depth.z, s.x, s.y, z.x, z.y, bandlimit, k,
     );
-    single_put(i, select(0u, 1u, r.single));
     texture_motion_put(i, vec4<f32>(velocity.x, velocity.y, r.omega_texture, motion_sigma(r.omega_texture)));
     shadow_motion_put(i, vec4<f32>(shadow.x, shadow.y, r.omega_shadow, motion_sigma(r.omega_shadow)));
     n_primary_put(i, r.n_primary);
     pixel_length_put(i, r.pixel_length);
-    omega_direct_put(i, r.omega_direct);
-    n_direct_put(i, r.n_direct);
-    omega_indirect_put(i, r.omega_indirect);
-    n_indirect_put(i, r.n_indirect);
-    omega_environment_put(i, r.omega_environment);
-    n_environment_put(i, r.n_environment);
     sigma_texture_put(i, motion_sigma(r.omega_texture));
-    sigma_direct_put(i, motion_sigma(r.omega_direct));
-    sigma_indirect_put(i, motion_sigma(r.omega_indirect));
-    sigma_environment_put(i, motion_sigma(r.omega_environment));
+    // A component's pass (params.component: 0 direct, 1 indirect, 2 environment; kernels.rs select).
+    var omega = r.omega_direct;
+    var n = r.n_direct;
+    if (params.component == 1u) {
+        omega = r.omega_indirect;
+        n = r.n_indirect;
+    } else if (params.component == 2u) {
+        omega = r.omega_environment;
+        n = r.n_environment;
+    }
+    omega_put(i, omega);
+    n_put(i, n);
+    sigma_put(i, motion_sigma(omega));
 }

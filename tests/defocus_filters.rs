@@ -283,7 +283,24 @@ fn rate_params(mu: f64, mode: &str, max_primary: i64, max_per_primary: i64) -> P
         ("max_primary", int(max_primary)),
         ("max_per_primary", int(max_per_primary)),
         ("environment_per_primary", int(4)),
+        // Every output is bound in a lone pass: the component ones for the direct component.
+        ("component", ParamValue::Str("direct".into())),
     ])
+}
+
+/// `rate_params` for each component a rates pass sizes.
+fn component_params(mu: f64, mode: &str, max_primary: i64, max_per_primary: i64) -> [Params; 3] {
+    ["direct", "indirect", "environment"].map(|c| {
+        let mut p = rate_params(mu, mode, max_primary, max_per_primary);
+        p.insert("component".into(), ParamValue::Str(c.into()));
+        p
+    })
+}
+
+/// `stats` with a random first-pass factoring flag (`defocus.rates`' `flag`).
+fn with_flag(mut stats: Buffers, rng: &mut Rng) -> Buffers {
+    stats.insert("flag", BufferData::U32((0..N).map(|_| u32::from(rng.chance(0.5))).collect()));
+    stats
 }
 
 #[test]
@@ -292,11 +309,14 @@ fn parity_defocus_rates_and_flags() {
     let scene = scene();
     let mut rng = Rng(11);
     let stats = random_stats(&mut rng);
+    let stats = with_flag(stats, &mut rng);
     let mut bad = Vec::new();
     for (mu, mode, cap_p, cap_s) in
         [(1.0, "literal", 64, 64), (2.5, "consistent", 4096, 4096), (0.3, "consistent", 16, 256)]
     {
-        bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &rate_params(mu, mode, cap_p, cap_s), &stats));
+        for p in component_params(mu, mode, cap_p, cap_s) {
+            bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &p, &stats));
+        }
     }
     // Only the lens statistics bound: no occluders or reflectors anywhere.
     let lens_only: Buffers = BTreeMap::from([("lens", stats["lens"].clone())]);
@@ -442,8 +462,10 @@ fn parity_packed_and_in_bands() {
     let scene = scene();
     let mut rng = Rng(14);
     let mut bad = Vec::new();
-    let stats = random_stats(&mut rng);
-    bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &rate_params(2.0, "consistent", 64, 256), &stats));
+    let stats = with_flag(random_stats(&mut rng), &mut rng);
+    for p in component_params(2.0, "consistent", 64, 256) {
+        bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &p, &stats));
+    }
     let counts: Buffers =
         BTreeMap::from([("value", BufferData::U32((0..N).map(|_| (rng.next() % 100) as u32).collect()))]);
     for name in ["neighbourhood.max3", "neighbourhood.median3"] {
@@ -514,7 +536,7 @@ fn filter_change_at(name: &str, mu: f64, mode: &str) -> (f64, f64) {
     let stats = random_stats(&mut rng);
     let (rates, _) = run_cpu(&scene, "defocus.rates", W, H, &rate_params(mu, mode, 64, 64), &stats);
     let omega = match name {
-        "filter.irradiance" => rates["omega_direct"].clone(),
+        "filter.irradiance" => rates["omega"].clone(),
         _ => rates["omega_defocus"].clone(),
     };
     let BufferData::F32(omega) = omega else { panic!("f32 widths") };
@@ -689,10 +711,12 @@ fn neighbourhood_filters_by_hand() {
 #[test]
 fn rates_kernel_matches_the_formulas() {
     use wedge::effects::defocus::formulas::{pixel_rates, Mode, RateParams};
-    use wedge::effects::defocus::kernels::{pixel_stats, OptionalStats};
+    use wedge::effects::defocus::kernels::{pixel_stats, sigma_px, OptionalStats};
     let scene = scene();
-    let stats = random_stats(&mut Rng(41));
-    let (out, _) = run_cpu(&scene, "defocus.rates", W, H, &rate_params(2.0, "consistent", 64, 256), &stats);
+    let stats = with_flag(random_stats(&mut Rng(41)), &mut Rng(42));
+    let outs =
+        component_params(2.0, "consistent", 64, 256).map(|p| run_cpu(&scene, "defocus.rates", W, H, &p, &stats).0);
+    let [direct, indirect, environment] = outs;
     // Consistent mode scales the caps by max(μ, 1)² (kernels::scaled_cap): 64·4, 256·4.
     let k = RateParams {
         mu: 2.0,
@@ -709,6 +733,7 @@ fn rates_kernel_matches_the_formulas() {
     let (lens, occ, refl) = (vec4_of(&stats["lens"]), vec4_of(&stats["occlusion"]), vec4_of(&stats["reflectors"]));
     let BufferData::F32(bandlimit) = &stats["bandlimit"] else { panic!("f32 bandwidths") };
     let (velocity, shadow_velocity) = (vec4_of(&stats["velocity"]), vec4_of(&stats["shadow_velocity"]));
+    let flag = u32_of(&stats["flag"]);
     for i in 0..N {
         let o = OptionalStats {
             occlusion: Some(occ[i]),
@@ -718,13 +743,21 @@ fn rates_kernel_matches_the_formulas() {
             shadow_velocity: Some(shadow_velocity[i]),
         };
         let r = pixel_rates(&pixel_stats(lens[i], o), &k);
-        assert_eq!(u32_of(&out["n_environment"])[i], r.n_environment_combined, "no flag bound: combined");
-        assert_eq!(out["omega_environment"].component(i, 0), r.omega_environment);
-        assert_eq!(u32_of(&out["n_primary"])[i], r.n_primary);
-        assert_eq!(u32_of(&out["n_direct_factored"])[i], r.n_direct_factored);
-        assert_eq!(u32_of(&out["n_indirect_combined"])[i], r.n_indirect_combined);
-        assert_eq!(out["omega_direct"].component(i, 0), r.omega_direct);
+        let set = flag[i] != 0;
+        let n = |out: &BTreeMap<String, BufferData>| u32_of(&out["n"])[i];
+        assert_eq!(n(&environment), if set { r.n_environment_factored } else { r.n_environment_combined });
+        assert_eq!(environment["omega"].component(i, 0), r.omega_environment);
+        assert_eq!(u32_of(&direct["n_primary"])[i], r.n_primary);
+        assert_eq!(n(&direct), if set { r.n_direct_factored } else { r.n_direct_combined }, "the flag picks");
+        assert_eq!(n(&indirect), if set { r.n_indirect_factored } else { r.n_indirect_combined });
+        assert_eq!(direct["omega"].component(i, 0), r.omega_direct);
+        assert_eq!(indirect["sigma"].component(i, 0), sigma_px(r.omega_indirect));
     }
+    // A component's outputs need the `component` parameter: an error naming it, not a panic.
+    let mut p = rate_params(1.0, "literal", 64, 64);
+    p.remove("component");
+    let e = LonePass::new(kernel("defocus.rates"), p, &stats).unwrap().run_cpu(&scene, W, H, SEED).unwrap_err();
+    assert!(e.to_string().contains("`component`"), "{e}");
     // Unknown modes are an error naming the choices, not a panic.
     let e = LonePass::new(kernel("defocus.rates"), rate_params(1.0, "clamped", 64, 64), &stats)
         .unwrap()

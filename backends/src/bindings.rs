@@ -34,6 +34,10 @@
 //!   ([`PutWith`]: computed only where bound). The reads borrow the pass's buffers, not
 //!   the context, so the kernel keeps `&mut ctx` for its writes.
 //!
+//! `FogIo::new(color, position, out)` takes the required bindings in declaration order and leaves
+//! every optional one unbound, so a node with many optional bindings names only those it wants:
+//! `FogIo { counts: Some(id), ..FogIo::new(color, position, out) }`.
+//!
 //! A per-sample (layered) binding needs nothing more: its slice holds `layers` elements per pixel
 //! and [`Output::layers`] says how many the write expects.
 
@@ -155,7 +159,26 @@ macro_rules! kernel_bindings {
             pub fn read<'a>(ctx: &$crate::KernelCtx<'a>) -> Result<$data<'a>, $crate::BackendError> {
                 Ok($data { $( $field: $crate::kernel_bindings!(@read $access ctx, stringify!($field), $ty), )* })
             }
+            $crate::kernel_bindings!(@new $ids [] [] $($access $field,)*);
         }
+    };
+    // `new`: one parameter per required binding, in declaration order; the optional ones unbound.
+    (@new $ids:ident [$($p:tt)*] [$($i:tt)*]) => {
+        /// Every required binding given (declaration order), every optional one unbound: a pass
+        /// names the optional ones it wants with `Ids { x: Some(id), ..Ids::new(..) }`.
+        #[allow(dead_code, clippy::new_without_default, clippy::too_many_arguments)]
+        pub fn new($($p)*) -> $ids {
+            $ids { $($i)* }
+        }
+    };
+    (@new $ids:ident [$($p:tt)*] [$($i:tt)*] read $f:ident, $($rest:tt)*) => {
+        $crate::kernel_bindings!(@new $ids [$($p)* $f: $crate::__graph::BufferId,] [$($i)* $f,] $($rest)*);
+    };
+    (@new $ids:ident [$($p:tt)*] [$($i:tt)*] write $f:ident, $($rest:tt)*) => {
+        $crate::kernel_bindings!(@new $ids [$($p)* $f: $crate::__graph::BufferId,] [$($i)* $f,] $($rest)*);
+    };
+    (@new $ids:ident [$($p:tt)*] [$($i:tt)*] $opt:ident $f:ident, $($rest:tt)*) => {
+        $crate::kernel_bindings!(@new $ids [$($p)*] [$($i)* $f: None,] $($rest)*);
     };
     (@id read) => { $crate::__graph::BufferId };
     (@id write) => { $crate::__graph::BufferId };
@@ -211,6 +234,12 @@ mod tests {
         ];
         let generated = TestIo::bindings();
         assert_eq!(format!("{generated:?}"), format!("{hand:?}"));
+    }
+
+    #[test]
+    fn new_takes_the_required_bindings_and_leaves_the_optional_ones_unbound() {
+        let io = TestIo::new(BufferId(0), BufferId(1));
+        assert_eq!(io, TestIo { position: BufferId(0), counts: None, out: BufferId(1), depth: None });
     }
 
     #[test]

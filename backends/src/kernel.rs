@@ -97,6 +97,49 @@ pub trait Kernel: Send + Sync {
     }
 }
 
+/// The [`Kernel`] methods nearly every kernel writes alike — `name`, `class`, `bindings` from its
+/// [`crate::kernel_bindings!`] block, `params` from its [`crate::kernel_params!`] blocks and, for a
+/// sampler, `draws_random` — from one declaration inside the `impl` (`wgsl`, `run_cpu` and any
+/// other method stay written by hand, and a kernel may still write all of them: `dyn Kernel` is
+/// unchanged):
+///
+/// ```ignore
+/// impl Kernel for Fog {
+///     wedge::backends::kernel_signature!(name: "fog.apply", class: Compose, bindings: FogIo, params: [FogParams]);
+///     fn wgsl(&self) -> Option<WgslSource> { .. }
+///     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> { .. }
+/// }
+/// ```
+///
+/// `class` is a [`KernelClass`] variant; `params: [A, B]` concatenates `A::specs()` and `B::specs()`
+/// (a [`crate::KernelParams`] block's, or a type's own; leave it out for a kernel without parameters); `random: true` declares a kernel that draws random numbers.
+#[macro_export]
+macro_rules! kernel_signature {
+    (
+        name: $name:expr, class: $class:ident, bindings: $io:ty
+        $(, params: [$($p:ty),* $(,)?])? $(, random: $random:expr)? $(,)?
+    ) => {
+        fn name(&self) -> &'static str {
+            $name
+        }
+        fn class(&self) -> $crate::KernelClass {
+            $crate::KernelClass::$class
+        }
+        fn bindings(&self) -> ::std::vec::Vec<$crate::Binding> {
+            <$io>::bindings()
+        }
+        $(fn params(&self) -> ::std::vec::Vec<$crate::ParamSpec> {
+            // A block's `KernelParams::specs`, or a type's own `specs()` (e.g. a shared settings struct).
+            #[allow(unused_imports)]
+            use $crate::KernelParams as _;
+            [$(<$p>::specs()),*].concat()
+        })?
+        $(fn draws_random(&self) -> bool {
+            $random
+        })?
+    };
+}
+
 /// A kernel's WGSL implementation (see `shaders/common.wgsl` for the binding convention; the
 /// backend generates the kernel's bindings — `NAME_at`/`NAME_put`/`NAME_bound` per
 /// `Kernel::bindings()` entry — and its `Params` struct, so the WGSL declares neither):

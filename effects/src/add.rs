@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelRegistry, Uniforms, WgslSource};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{Accepts, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage, TermQuery, Terms};
 
 pub struct Add;
@@ -52,15 +52,7 @@ wedge_backends::kernel_bindings! {
 pub struct ComposeAdd;
 
 impl Kernel for ComposeAdd {
-    fn name(&self) -> &'static str {
-        "compose.add"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        AddIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "compose.add", class: Compose, bindings: AddIo);
     /// WGSL mirror: `shaders/compose_add.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(WgslSource::new(include_str!("../../shaders/compose_add.wgsl"), |_| Ok(Uniforms::new())).per_pixel())

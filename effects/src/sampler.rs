@@ -36,11 +36,8 @@ use std::sync::Arc;
 
 use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
-use wedge_backends::kernels::paths::{PATH_RECORD, RESOLVE_OUTPUTS};
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, KernelRegistry, ParamSpec, Uniforms,
-    WgslSource,
-};
+use wedge_backends::kernels::paths::{TraceIo, PATH_RECORD, RESOLVE_OUTPUTS};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerKind, SamplerPass, SamplerPlan,
     SamplerRequest, SettingMerge, Stage,
@@ -75,17 +72,20 @@ pub fn centre_path(
 const ESTIMATORS: [(&str, &str); 4] =
     [("light", "direct"), ("hemisphere", "indirect"), ("time", "time"), ("environment", "environment")];
 
-/// Count channels: (channel, estimator, `paths.trace` binding of its samples over the adaptive pass,
-/// the setting giving its first-pass count per path). An estimator's first channel is always bound
+/// Count channels: (channel, estimator, the [`TraceIo`] binding of its samples over the adaptive
+/// pass, the setting giving its first-pass count per path). An estimator's first channel is always bound
 /// in the adaptive pass; a later one only where a count request names it — unbound, `paths.trace`
 /// gives it the first channel's counts (the glossy part follows the diffuse one unless Ch. 4 counts
 /// it apart).
-const CHANNELS: [(&str, &str, &str, &str); 4] = [
-    ("light", "light", "shadow_total", "shadow_per_primary"),
-    ("diffuse", "hemisphere", "diffuse_total", "indirect_per_primary"),
-    ("glossy", "hemisphere", "glossy_total", "indirect_per_primary"),
-    ("environment", "environment", "environment_total", "environment_per_primary"),
+const CHANNELS: [(&str, &str, TotalBinding, &str); 4] = [
+    ("light", "light", |io| &mut io.shadow_total, "shadow_per_primary"),
+    ("diffuse", "hemisphere", |io| &mut io.diffuse_total, "indirect_per_primary"),
+    ("glossy", "hemisphere", |io| &mut io.glossy_total, "indirect_per_primary"),
+    ("environment", "environment", |io| &mut io.environment_total, "environment_per_primary"),
 ];
+
+/// A channel's binding in an adaptive `paths.trace` pass.
+type TotalBinding = fn(&mut TraceIo) -> &mut Option<BufferId>;
 
 /// Settings and their defaults (thesis Ch. 3/4: one primary path through the pixel centre).
 fn defaults() -> Vec<(&'static str, ParamValue)> {
@@ -169,7 +169,9 @@ impl PathSampler {
         }
     }
 
-    /// Write the resolved outputs of `record` that nodes hold handles to, in one pass.
+    /// Write the resolved outputs of `record` that nodes hold handles to, in one pass. Bound by name
+    /// from [`RESOLVE_OUTPUTS`], the one list of the sampler's outputs nodes ask for by name (why it
+    /// is not a typed block: `wedge_backends::kernels::paths`, "Bindings").
     fn resolve(ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan, pass: SamplerPass, record: BufferId, stage: Stage) {
         let wanted: Vec<(&str, BufferId)> =
             RESOLVE_OUTPUTS.iter().filter_map(|(n, _)| plan.handle(pass, n).map(|id| (*n, id))).collect();
@@ -285,8 +287,9 @@ impl SamplerKind for PathSampler {
         let first = plan
             .handle(SamplerPass::First, "record")
             .unwrap_or_else(|| ctx.buffer("first_record", Format::Struct(&PATH_RECORD)));
-        let mut b =
-            ctx.pass("first", "paths.trace", Stage::Sample).write("record", first).int("count", i64::from(first_paths));
+        let mut b = TraceIo::new(first)
+            .bind(ctx.pass("first", "paths.trace", Stage::Sample))
+            .int("count", i64::from(first_paths));
         for (n, v) in &trace_params {
             b = b.param(n, v.clone());
         }
@@ -349,7 +352,7 @@ impl SamplerKind for PathSampler {
             }
         }
         let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
-        let mut totals: Vec<(&str, BufferId)> = Vec::new();
+        let mut totals: Vec<(TotalBinding, BufferId)> = Vec::new();
         for &(channel, estimator, binding, _) in &channels {
             // Per path: at least one secondary sample (Ch. 5), except for a channel counted only by
             // spreads, whose paths may carry none of it.
@@ -403,15 +406,11 @@ impl SamplerKind for PathSampler {
         let last = plan
             .handle(SamplerPass::Final, "record")
             .unwrap_or_else(|| ctx.buffer("final_record", Format::Struct(&PATH_RECORD)));
-        let mut b = ctx
-            .pass("adaptive", "paths.trace", Stage::Adaptive)
-            .read("previous", first)
-            .read("counts", paths)
-            .write("record", last)
-            .int("count", 0);
+        let mut io = TraceIo { previous: Some(first), counts: Some(paths), ..TraceIo::new(last) };
         for (binding, id) in totals {
-            b = b.read(binding, id);
+            *binding(&mut io) = Some(id);
         }
+        let mut b = io.bind(ctx.pass("adaptive", "paths.trace", Stage::Adaptive)).int("count", 0);
         for (n, v) in &trace_params {
             b = b.param(n, v.clone());
         }
@@ -459,18 +458,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for CombineCounts {
-    fn name(&self) -> &'static str {
-        "sampler.combine"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        CombineParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        CombineIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "sampler.combine", class: Bandwidth, bindings: CombineIo, params: [CombineParams]
+    );
     /// WGSL mirror: `shaders/sampler_combine.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -542,18 +532,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for PassTotal {
-    fn name(&self) -> &'static str {
-        "sampler.pass_total"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        PassTotalParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        PassTotalIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "sampler.pass_total", class: Bandwidth, bindings: PassTotalIo, params: [PassTotalParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/sampler_pass_total.wgsl"), |ctx| {
@@ -581,15 +562,7 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for PerPrimaryCounts {
-    fn name(&self) -> &'static str {
-        "sampler.per_primary"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        PerPrimaryIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "sampler.per_primary", class: Bandwidth, bindings: PerPrimaryIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../shaders/sampler_per_primary.wgsl"), |_| Ok(Uniforms::new()))

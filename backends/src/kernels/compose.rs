@@ -1,7 +1,7 @@
 //! `compose.modulate`: `out = value.rgb · albedo + emission`. Textures multiply *after* filtering
 //! (thesis eq. 3.1: `h(x) = r(x) ∫ f l`, with texture in `r`), so the filter never blurs texture detail.
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{Kernel, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
 
 crate::kernel_bindings! {
@@ -15,15 +15,7 @@ crate::kernel_bindings! {
 pub struct Modulate;
 
 impl Kernel for Modulate {
-    fn name(&self) -> &'static str {
-        "compose.modulate"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        ModulateIo::bindings()
-    }
+    crate::kernel_signature!(name: "compose.modulate", class: Compose, bindings: ModulateIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/compose_modulate.wgsl"), |_| Ok(Uniforms::new()))

@@ -2,8 +2,8 @@
 //! (`wedge_graph::reference`) puts it where a pipeline computes per-pixel sample counts, so the
 //! adaptive sampling passes draw the reference's count everywhere.
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
-use crate::params::{KernelParams, ParamSpec};
+use crate::kernel::{Kernel, KernelCtx, WgslSource};
+use crate::params::KernelParams;
 use crate::BackendError;
 
 pub struct FillConstant;
@@ -36,18 +36,9 @@ crate::kernel_params! {
 }
 
 impl Kernel for FillConstant {
-    fn name(&self) -> &'static str {
-        wedge_graph::FILL_CONSTANT
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        CountParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FillU32Io::bindings()
-    }
+    crate::kernel_signature!(
+        name: wedge_graph::FILL_CONSTANT, class: Bandwidth, bindings: FillU32Io, params: [CountParams]
+    );
     /// WGSL mirror: `shaders/fill_constant.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -80,18 +71,7 @@ impl ValueParams {
 }
 
 impl Kernel for FillConstantF32 {
-    fn name(&self) -> &'static str {
-        "fill.constant_f32"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        ValueParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FillF32Io::bindings()
-    }
+    crate::kernel_signature!(name: "fill.constant_f32", class: Compose, bindings: FillF32Io, params: [ValueParams]);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/fill_constant.wgsl"), |ctx| {
@@ -111,18 +91,7 @@ impl Kernel for FillConstantF32 {
 pub struct FillConstantVec4;
 
 impl Kernel for FillConstantVec4 {
-    fn name(&self) -> &'static str {
-        "fill.constant_vec4"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        ValueParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FillVec4Io::bindings()
-    }
+    crate::kernel_signature!(name: "fill.constant_vec4", class: Compose, bindings: FillVec4Io, params: [ValueParams]);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/fill_constant_vec4.wgsl"), |ctx| {

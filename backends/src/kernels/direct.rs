@@ -17,9 +17,9 @@ use rayon::prelude::*;
 use wedge_scene::{Hit, PreparedLight, SceneAt};
 
 use crate::bindings::PutWith;
-use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, WgslSource};
+use crate::kernel::{optional_rows, Counters, Kernel, KernelCtx, WgslSource};
 use crate::kernels::v3;
-use crate::params::{AnyLight, KernelParams, ParamSpec, Sampling};
+use crate::params::{AnyLight, KernelParams, Sampling};
 use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
@@ -162,21 +162,9 @@ crate::kernel_params! {
 }
 
 impl Kernel for DirectLight {
-    fn name(&self) -> &'static str {
-        "direct.light"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        DirectParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        DirectIo::bindings()
-    }
+    crate::kernel_signature!(
+        name: "direct.light", class: Sampling, bindings: DirectIo, params: [DirectParams], random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/direct_light.wgsl"), |ctx| {

@@ -12,10 +12,10 @@
 
 use glam::Vec3;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
+use crate::kernel::{Kernel, KernelCtx, Reach, WgslSource};
 use crate::kernels::filter_window::WindowRadius;
 use crate::kernels::v3;
-use crate::params::{KernelParams, ParamSpec};
+use crate::params::KernelParams;
 use crate::BackendError;
 
 pub struct GaussianFilter;
@@ -157,18 +157,7 @@ pub fn filter_pixel(
 }
 
 impl Kernel for GaussianFilter {
-    fn name(&self) -> &'static str {
-        "filter.gaussian"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        GaussianIo::bindings()
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        GaussianParams::specs()
-    }
+    crate::kernel_signature!(name: "filter.gaussian", class: Filter, bindings: GaussianIo, params: [GaussianParams]);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {

@@ -30,12 +30,12 @@ use glam::{Vec2, Vec3};
 use wedge_scene::SceneAt;
 
 use crate::bindings::PutWith;
-use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{Counters, Kernel, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::RAY_EPSILON;
 use crate::kernels::environment::environment_event;
 use crate::kernels::hemisphere::{glossy_brdf, glossy_pdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::v3;
-use crate::params::{KernelParams, ParamSpec, Sampling};
+use crate::params::{KernelParams, Sampling};
 use crate::rng::{dim, substream, PixelRng};
 use crate::BackendError;
 
@@ -424,21 +424,9 @@ crate::kernel_bindings! {
 }
 
 impl Kernel for IndirectSample {
-    fn name(&self) -> &'static str {
-        "indirect.sample"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        SampleParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        SampleIo::bindings()
-    }
+    crate::kernel_signature!(
+        name: "indirect.sample", class: Sampling, bindings: SampleIo, params: [SampleParams], random: true
+    );
     /// WGSL mirror: `shaders/indirect_sample.wgsl` with the sampling of `shaders/hemisphere.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -581,15 +569,7 @@ crate::kernel_bindings! {
 }
 
 impl Kernel for IndirectCompose {
-    fn name(&self) -> &'static str {
-        "indirect.compose"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        ComposeIo::bindings()
-    }
+    crate::kernel_signature!(name: "indirect.compose", class: Compose, bindings: ComposeIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/indirect_compose.wgsl"), |_| Ok(Uniforms::new()))

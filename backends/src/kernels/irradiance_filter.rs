@@ -14,10 +14,10 @@
 
 use glam::Vec3;
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, WgslSource};
+use crate::kernel::{Kernel, KernelCtx, WgslSource};
 use crate::kernels::filter_window::{gather, pair_weight, valid_width, Axis, ScreenRadius};
 use crate::kernels::{count_non_finite, v3};
-use crate::params::{KernelParams, ParamSpec};
+use crate::params::KernelParams;
 use crate::BackendError;
 
 crate::kernel_params! {
@@ -85,18 +85,9 @@ fn is_hit(position: [f32; 4]) -> bool {
 pub struct IrradianceFilter;
 
 impl Kernel for IrradianceFilter {
-    fn name(&self) -> &'static str {
-        "filter.irradiance"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        IrradianceParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        IrradianceIo::bindings()
-    }
+    crate::kernel_signature!(
+        name: "filter.irradiance", class: Filter, bindings: IrradianceIo, params: [IrradianceParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_irradiance.wgsl"), |ctx| {

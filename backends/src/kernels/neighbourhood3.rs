@@ -8,7 +8,7 @@
 //! their majority, and the max is the same as ignoring outside pixels. Integer-only, so both backends
 //! agree bit for bit. WGSL: `shaders/neighbourhood3.wgsl` (one shader, `params.op` picks the filter).
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernel::{Kernel, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
 /// The nine values around `(x, y)`, edges clamped, row by row.
@@ -64,15 +64,7 @@ fn run(ctx: &mut KernelCtx<'_>, f: fn(&[u32], u32, u32, u32, u32) -> u32) -> Res
 pub struct Max3;
 
 impl Kernel for Max3 {
-    fn name(&self) -> &'static str {
-        "neighbourhood.max3"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        Neighbourhood3Io::bindings()
-    }
+    crate::kernel_signature!(name: "neighbourhood.max3", class: Bandwidth, bindings: Neighbourhood3Io);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(wgsl_with_op(0))
     }
@@ -85,15 +77,7 @@ impl Kernel for Max3 {
 pub struct Median3;
 
 impl Kernel for Median3 {
-    fn name(&self) -> &'static str {
-        "neighbourhood.median3"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        Neighbourhood3Io::bindings()
-    }
+    crate::kernel_signature!(name: "neighbourhood.median3", class: Bandwidth, bindings: Neighbourhood3Io);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(wgsl_with_op(1))
     }

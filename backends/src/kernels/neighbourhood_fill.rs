@@ -5,23 +5,17 @@
 //! pixel that has its own statistic; output `w` is 1 for own, 2 for filled from neighbours, 0 for
 //! neither (such pixels are not filtered).
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, WgslSource};
-use crate::params::{KernelParams, ParamSpec};
+use crate::kernel::{Kernel, KernelCtx, Reach, WgslSource};
+use crate::kernels::filter_window::ScreenRadius;
+use crate::params::KernelParams;
 use crate::BackendError;
 
 pub struct FillInvalid;
 
 crate::kernel_params! {
-    /// The neighbourhood's radius in pixels, clamped to `0..=64` when read ([`FillParams::read_clamped`]).
+    /// The neighbourhood's radius in pixels, clamped to `0..=64` when read (the filters' cap).
     pub struct FillParams {
-        radius: i32,
-    }
-}
-
-impl FillParams {
-    /// The pass's radius, clamped to `0..=64`.
-    pub fn read_clamped(ctx: &KernelCtx<'_>) -> Result<Self, BackendError> {
-        Ok(Self { radius: Self::read(ctx)?.radius.clamp(0, 64) })
+        radius: ScreenRadius,
     }
 }
 
@@ -34,29 +28,18 @@ crate::kernel_bindings! {
 }
 
 impl Kernel for FillInvalid {
-    fn name(&self) -> &'static str {
-        "neighbourhood.fill"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        FillParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FillIo::bindings()
-    }
+    crate::kernel_signature!(name: "neighbourhood.fill", class: Bandwidth, bindings: FillIo, params: [FillParams]);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/neighbourhood_fill.wgsl"), |ctx| {
-                Ok(FillParams::read_clamped(ctx)?.uniforms())
+                Ok(FillParams::read(ctx)?.uniforms())
             })
-            .with_reach(|ctx| Ok(Reach::Rows(FillParams::read_clamped(ctx)?.radius as u32))),
+            .with_reach(|ctx| Ok(Reach::Rows(FillParams::read(ctx)?.radius.get() as u32))),
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let FillData { value, position, out } = FillIo::read(ctx)?;
-        let radius = FillParams::read_clamped(ctx)?.radius;
+        let radius = FillParams::read(ctx)?.radius.get();
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let filled = ctx.map_pixels(false, |x, y| {
             let i = (y as i32 * w + x as i32) as usize;

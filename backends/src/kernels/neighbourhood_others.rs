@@ -18,7 +18,7 @@
 //! with none keeps its own statistics. Sums in a fixed order: both backends agree bit for bit.
 //! WGSL: `shaders/neighbourhood_others.wgsl`.
 
-use crate::kernel::{Binding, Kernel, KernelClass, KernelCtx, Reach, Uniforms, WgslSource};
+use crate::kernel::{Kernel, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
 /// `neighbourhood.others` (module doc).
@@ -81,15 +81,7 @@ crate::kernel_bindings! {
 }
 
 impl Kernel for Others {
-    fn name(&self) -> &'static str {
-        "neighbourhood.others"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        OthersIo::bindings()
-    }
+    crate::kernel_signature!(name: "neighbourhood.others", class: Bandwidth, bindings: OthersIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/neighbourhood_others.wgsl"), |_| Ok(Uniforms::new()))

@@ -65,6 +65,14 @@
 //! `stream` (graph-assigned), `sampling` (`"stratified"`: the Sobol' sequences; `"independent"`:
 //! independent numbers for the same dimensions, the Monte Carlo baseline), `brdf` (`"phong"` | `"blinn_phong"`), `bounces` (1 = the thesis's
 //! one-bounce indirect sample).
+//!
+//! **Bindings.** `paths.trace` declares its bindings once, [`TraceIo`] (the sampler binds them
+//! typed). `paths.resolve`'s stay data-driven on purpose: its 30 optional outputs are the shared
+//! sampler's named outputs, which nodes ask for by name (`ExpandCtx::sampler_output(pass,
+//! "defocus")`, any node, any crate) and which the sampler binds only where some node holds one —
+//! so [`RESOLVE_OUTPUTS`] is their single declaration, from which come `paths.resolve`'s bindings,
+//! the sampler's output list (`effects/src/sampler.rs`), the pass's writes and the CPU's per-output
+//! switch. A struct would name each output again beside the list nodes look names up in.
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -77,7 +85,7 @@ use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
 use crate::kernels::luminance;
-use crate::params::{KernelParams, ParamSpec, Sampling};
+use crate::params::{KernelParams, Sampling};
 use crate::record;
 use crate::rng::PixelRng;
 use crate::sobol::{pair, sequence_key, substream, Sequence};
@@ -442,36 +450,30 @@ impl Draws {
     }
 }
 
+crate::kernel_bindings! {
+    /// What a `paths.trace` pass binds (the sampler's two passes: `effects/src/sampler.rs`).
+    pub struct TraceIo / TraceData {
+        /// The record to continue (its counts give the first sample indices); absent = none.
+        read_opt previous: PathRecord,
+        /// Paths to add per pixel; else the `count` parameter.
+        read_opt counts: u32,
+        /// Shadow rays and indirect samples per part over this pass's paths, split evenly
+        /// ([`Split`]); unbound: the per-path parameters (glossy: the diffuse part's counts).
+        read_opt shadow_total: u32,
+        read_opt diffuse_total: u32,
+        read_opt glossy_total: u32,
+        read_opt environment_total: u32,
+        write record: PathRecord,
+    }
+}
+
+/// `paths.trace` (module doc): adds paths to each pixel's record.
 pub struct PathsTrace;
 
 impl Kernel for PathsTrace {
-    fn name(&self) -> &'static str {
-        "paths.trace"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        TraceParams::specs().into_iter().chain(LensParams::specs()).collect()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        vec![
-            // The record to continue (its counts give the first sample indices); absent = none.
-            Binding::read_opt("previous", Format::Struct(&PATH_RECORD)),
-            // Paths to add per pixel; else the `count` parameter.
-            Binding::read_opt("counts", Format::U32),
-            // Shadow rays and indirect samples per part over this pass's paths, split evenly
-            // ([`Split`]); unbound: the per-path parameters (glossy: the diffuse part's counts).
-            Binding::read_opt("shadow_total", Format::U32),
-            Binding::read_opt("diffuse_total", Format::U32),
-            Binding::read_opt("glossy_total", Format::U32),
-            Binding::read_opt("environment_total", Format::U32),
-            Binding::write("record", Format::Struct(&PATH_RECORD)),
-        ]
-    }
+    crate::kernel_signature!(
+        name: "paths.trace", class: Sampling, bindings: TraceIo, params: [TraceParams, LensParams], random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/paths_trace.wgsl"), |ctx| {
@@ -506,12 +508,8 @@ impl Kernel for PathsTrace {
         let scene = ctx.scene;
         let cam = &s.camera;
         let forward = cam.basis().2;
-        let previous = ctx.read_opt::<PathRecord>("previous")?;
-        let counts = ctx.read_opt::<u32>("counts")?;
-        let shadow_total = ctx.read_opt::<u32>("shadow_total")?;
-        let diffuse_total = ctx.read_opt::<u32>("diffuse_total")?;
-        let glossy_total = ctx.read_opt::<u32>("glossy_total")?;
-        let environment_total = ctx.read_opt::<u32>("environment_total")?;
+        let TraceData { previous, counts, shadow_total, diffuse_total, glossy_total, environment_total, record } =
+            TraceIo::read(ctx)?;
         // Camera rays, footprints and random numbers of the full image's pixels (a tile is part of it).
         let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let (full_width, height) = ctx.full_size();
@@ -569,7 +567,7 @@ impl Kernel for PathsTrace {
         };
         // Written in place, row by row, into the pool's storage (as `direct.light` does): no per-row
         // vectors flattened into a third.
-        let mut records = ctx.output_vec::<PathRecord>("record")?;
+        let mut records = record.storage(ctx)?;
         let progress = ctx.progress;
         progress.begin(ctx.pass, ctx.height as u64);
         records.par_chunks_mut((width as usize).max(1)).enumerate().for_each(|(y, row)| {
@@ -592,7 +590,7 @@ impl Kernel for PathsTrace {
         Counters::add(&ctx.counters.shadow_rays, sum(|r| r.shadow) + sum(|r| r.bounce_shadow) + sum(|r| r.env_rays));
         Counters::add(&ctx.counters.secondary_rays, sum(|r| r.indirect_rays));
         Counters::add(&ctx.counters.non_finite_samples, sum(|r| r.non_finite));
-        ctx.put("record", records)
+        record.put(ctx, records)
     }
 }
 
@@ -1067,7 +1065,8 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 ///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups.
 pub struct PathsResolve;
 
-/// Every output of `paths.resolve`, in binding order (all optional).
+/// Every output of `paths.resolve`, in binding order (all optional): the single declaration of the
+/// shared sampler's outputs (module doc, "Bindings").
 pub const RESOLVE_OUTPUTS: [(&str, Format); 30] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),

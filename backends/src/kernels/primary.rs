@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use wedge_scene::{LensRay, LensShape};
 
 use crate::bindings::PutWith;
-use crate::kernel::{optional_rows, Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
+use crate::kernel::{optional_rows, Counters, Kernel, KernelCtx, Uniforms, WgslSource};
 use crate::BackendError;
 
 crate::kernel_bindings! {
@@ -38,15 +38,7 @@ struct Texel {
 }
 
 impl Kernel for PrimaryGBuffer {
-    fn name(&self) -> &'static str {
-        "primary.gbuffer"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        GBufferIo::bindings()
-    }
+    crate::kernel_signature!(name: "primary.gbuffer", class: Sampling, bindings: GBufferIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/primary_gbuffer.wgsl"), |ctx| {

@@ -28,6 +28,8 @@ use wedge_graph::{
 use crate::factored::{compose_component, factor_flags, IrradianceFilter, PartTerms};
 
 use super::formulas::OMEGA_PIX_MAX;
+use super::kernels::{RateComponent, RatesIo, Statistic};
+use crate::motion::kernels::RatesIo as MotionRatesIo;
 use crate::motion::node::{motion_filter, motion_rate_settings};
 
 /// The factoring node's rate settings forwarded into `defocus.rates`, with `Ω_pix^max` and the
@@ -59,16 +61,14 @@ fn velocity_widths(
     let occlusion = if direct { Some(ctx.sampler_output(SamplerPass::First, "occlusion")?) } else { None };
     let texture_motion = ctx.buffer(&format!("{}_texture_motion", c.name), Format::Vec4);
     let shadow_motion = direct.then(|| ctx.buffer(&format!("{}_shadow_motion", c.name), Format::Vec4));
-    let mut b = ctx
-        .pass(&format!("{}_motion", c.name), "motion.rates", Stage::Bandwidth)
-        .read("velocity", velocity)
-        .read("depth", depth)
-        .read_opt("shadow_velocity", shadow_velocity.filter(|_| direct))
-        .read_opt("occlusion", occlusion)
-        .write("texture_motion", texture_motion);
-    if let Some(s) = shadow_motion {
-        b = b.write("shadow_motion", s);
-    }
+    let io = MotionRatesIo {
+        shadow_velocity: shadow_velocity.filter(|_| direct),
+        occlusion,
+        texture_motion: Some(texture_motion),
+        shadow_motion,
+        ..MotionRatesIo::new(velocity, depth)
+    };
+    let mut b = io.bind(ctx.pass(&format!("{}_motion", c.name), "motion.rates", Stage::Bandwidth));
     for (n, v) in motion_rate_settings(f) {
         b = b.param(n, v);
     }
@@ -92,7 +92,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
 
     // 1. Counts from the first pass.
     let lens = ctx.sampler_output(SamplerPass::First, "defocus")?;
-    let statistic = c.statistic(ctx)?;
+    let (statistic, component) = (Statistic::of(ctx, c)?, RateComponent::of(ctx, c)?);
     // Where the paths sample the shutter too, the speeds that add the counts' time factors.
     let (velocity, shadow_velocity) = if f.bool(CameraSettings::TIME) == Some(true) {
         (
@@ -119,19 +119,21 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         ctx.buffer(&format!("{}_rays_per_pixel", c.name), Format::U32),
         ctx.buffer(&format!("{}_sigma", c.name), Format::F32),
     );
-    let mut b = ctx
-        .pass(&format!("{}_rates", c.name), "defocus.rates", Stage::Bandwidth)
-        .read("lens", lens)
-        .read(c.statistic.0, statistic)
-        .read_opt("velocity", velocity)
-        .read_opt("shadow_velocity", shadow_velocity)
-        .read(&format!("flag_{}", c.name), flag_first)
-        .write("pixel_length", pixel_length)
-        .write(&format!("omega_{}", c.name), omega)
-        .write(&format!("n_{}", c.name), count)
-        .write(&format!("sigma_{}", c.name), sigma)
-        .reference(Reference::Keep);
-    for (n, v) in rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()) {
+    let io = RatesIo {
+        occlusion: statistic.occlusion,
+        reflectors: statistic.reflectors,
+        bandlimit: statistic.bandlimit,
+        velocity,
+        shadow_velocity,
+        flag: Some(flag_first),
+        omega: Some(omega),
+        n: Some(count),
+        sigma: Some(sigma),
+        ..RatesIo::new(lens, pixel_length)
+    };
+    let mut b =
+        io.bind(ctx.pass(&format!("{}_rates", c.name), "defocus.rates", Stage::Bandwidth)).reference(Reference::Keep);
+    for (n, v) in rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()).chain([component.param()]) {
         b = b.param(n, v);
     }
     b.finish();

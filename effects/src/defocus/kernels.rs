@@ -22,10 +22,8 @@
 
 pub mod filter;
 
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, LightIndex, ParamSpec, Uniforms, WgslSource,
-};
-use wedge_graph::Format;
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, LightIndex, PutWith, Uniforms, WgslSource};
+use wedge_graph::{BufferId, Component, ExpandCtx, GraphError, ParamValue};
 
 use super::formulas::{self, Mode, PixelRates, PixelStats, RateParams};
 use crate::motion::formulas::fastest_speed;
@@ -57,6 +55,7 @@ wedge_backends::kernel_params! {
         light: Option<LightIndex>,
         environment_per_primary: Option<f32>,
         width_pixel_limit: Option<bool>,
+        component: Option<RateComponent>,
     }
 }
 
@@ -176,14 +175,115 @@ pub fn pixel_stats(lens: [f32; 4], o: OptionalStats) -> PixelStats {
     }
 }
 
+wedge_backends::param_choice! {
+    /// Which lighting component a rates pass sizes (`defocus.rates` and `motion.rates`' `component`
+    /// parameter): its width and count are written as `omega`, `n`, `sigma` — fixed binding names,
+    /// so one declaration ([`RatesIo`], `motion::kernels::RatesIo`) serves the factoring node's own
+    /// pass and every component's (`docs/DESIGN-NOTES.md` "One rates kernel, fixed names").
+    pub enum RateComponent {
+        /// The light's occluder term (eqs. 5.18, 5.25, 5.26).
+        Direct = "direct",
+        /// The reflector-depth term (eqs. 5.22, 5.27, 5.28).
+        Indirect = "indirect",
+        /// The environment's Ch. 6 bandwidth (`formulas::omega_environment`).
+        Environment = "environment",
+    }
+}
+
+impl RateComponent {
+    /// The component a [`Component`] node declares (its `name`), refused naming the node otherwise.
+    pub fn of(ctx: &ExpandCtx<'_>, c: &Component) -> Result<RateComponent, GraphError> {
+        RateComponent::parse(c.name).ok_or_else(|| GraphError::Expand {
+            node: ctx.node().into(),
+            message: format!(
+                "lighting component `{}` has no rates: a factoring node sizes one of {:?}",
+                c.name,
+                RateComponent::OPTIONS
+            ),
+        })
+    }
+    /// The pass parameter that names it.
+    pub fn param(self) -> (&'static str, ParamValue) {
+        ("component", ParamValue::Str(self.as_str().into()))
+    }
+    /// Its width and its counts (factored, combined) among a pixel's rates.
+    fn select(self) -> (Width<PixelRates>, Count<PixelRates>, Count<PixelRates>) {
+        match self {
+            RateComponent::Direct => (|r| r.omega_direct, |r| r.n_direct_factored, |r| r.n_direct_combined),
+            RateComponent::Indirect => (|r| r.omega_indirect, |r| r.n_indirect_factored, |r| r.n_indirect_combined),
+            RateComponent::Environment => {
+                (|r| r.omega_environment, |r| r.n_environment_factored, |r| r.n_environment_combined)
+            }
+        }
+    }
+}
+
+/// A component's width among a pixel's rates (`PixelRates`, `MotionRates`).
+pub type Width<R> = fn(&R) -> f32;
+/// A component's count among a pixel's rates.
+pub type Count<R> = fn(&R) -> u32;
+
+/// A component's first-pass statistic where the rates kernels read it: [`Component::statistic`]
+/// names the binding (`occlusion`, `reflectors` or `bandlimit`), the one place a binding is chosen
+/// by name — the component node's declaration, checked here.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Statistic {
+    pub occlusion: Option<BufferId>,
+    pub reflectors: Option<BufferId>,
+    pub bandlimit: Option<BufferId>,
+}
+
+impl Statistic {
+    /// The component's statistic buffer in its binding; an unknown binding is refused naming it.
+    pub fn of(ctx: &mut ExpandCtx<'_>, c: &Component) -> Result<Statistic, GraphError> {
+        let id = Some(c.statistic(ctx)?);
+        match c.statistic.0 {
+            "occlusion" => Ok(Statistic { occlusion: id, ..Statistic::default() }),
+            "reflectors" => Ok(Statistic { reflectors: id, ..Statistic::default() }),
+            "bandlimit" => Ok(Statistic { bandlimit: id, ..Statistic::default() }),
+            other => Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: format!(
+                    "lighting component `{}` declares the statistic `{other}`; the rates kernels read `occlusion`, \
+                     `reflectors` or `bandlimit`",
+                    c.name
+                ),
+            }),
+        }
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `defocus.rates` pass binds. The factoring node's own pass reads `lens` (and `velocity`
+    /// under a shutter) and writes the primary outputs; a component's pass reads its [`Statistic`]
+    /// too (the shadow's velocity for direct light, its first-pass flag) and writes its width and
+    /// count as `omega`, `n`, `sigma` for the [`RateComponent`] its `component` parameter names.
+    pub struct RatesIo / RatesData {
+        read lens: [f32; 4],
+        read_opt occlusion: [f32; 4],
+        read_opt reflectors: [f32; 4],
+        read_opt bandlimit: f32,
+        read_opt velocity: [f32; 4],
+        read_opt shadow_velocity: [f32; 4],
+        /// The component's (median-filtered) factoring flag (eq. 5.30): `n` is `n^f` where it is
+        /// set, else `n^c`; unbound, every pixel is combined.
+        read_opt flag: u32,
+        write_opt omega_defocus: f32,
+        write pixel_length: f32,
+        write_opt n_primary: u32,
+        write_opt omega: f32,
+        write_opt n: u32,
+        write_opt sigma_defocus: f32,
+        write_opt sigma: f32,
+    }
+}
+
 /// `defocus.rates`: per pixel the μ-scaled widths `Ω_x^d`, `Ω_x^s`, `Ω_x^i` (eqs. 5.7, 5.18, 5.22,
-/// 5.29), `ℓ_p`, and the rounded counts `n_p`, `n_dir^{f|c}`, `n_ind^{f|c}` (eqs. 5.24–5.28). The
-/// defocus, direct and indirect outputs are optional (a component node binds only its own; the
-/// Defocus node only the defocus ones).
-/// With a (median-filtered) factoring flag bound (`flag_direct`, `flag_indirect`; eq. 5.30),
-/// `n_direct` / `n_indirect` is the count the pixel takes: `^f` where the flag is set, else `^c`
-/// (Sec. 5.7); unbound, the pixel is combined (`^c`). `sigma_*` are the widths as the filters'
-/// Gaussian standard deviation in pixels, `1/(√32 Ω)` (eqs. 5.31, 5.33), for heatmaps.
+/// 5.29), `ℓ_p`, and the rounded counts `n_p`, `n_dir^{f|c}`, `n_ind^{f|c}` (eqs. 5.24–5.28); it
+/// writes the defocus ones and, with a `component` parameter, that component's width `omega`, count
+/// `n` (`^f` where `flag` is set, else `^c`: Sec. 5.7) and `sigma` ([`RatesIo`]). `sigma_*` are the
+/// widths as the filters' Gaussian standard deviation in pixels, `1/(√32 Ω)` (eqs. 5.31, 5.33), for
+/// heatmaps.
 pub struct Rates;
 
 /// A width `Ω` (pixel⁻¹) as the standard deviation in pixels of the Ch. 5 filters' Gaussian
@@ -194,46 +294,28 @@ pub fn sigma_px(omega: f32) -> f32 {
     1.0 / (5.656_854 * omega)
 }
 
+/// The pass's [`RateComponent`] where it binds a component's outputs (`omega`, `n`, `sigma`), which
+/// need it; `None` where it binds none of them.
+pub fn rate_component(ctx: &KernelCtx<'_>, bound: bool) -> Result<Option<RateComponent>, BackendError> {
+    match (bound, RateOptions::read(ctx)?.component) {
+        (false, _) => Ok(None),
+        (true, Some(c)) => Ok(Some(c)),
+        (true, None) => Err(ctx.err(format!(
+            "binds a component's `omega`, `n` or `sigma` without the `component` parameter (one of {:?})",
+            RateComponent::OPTIONS
+        ))),
+    }
+}
+
+/// The `component` uniform: its index, 0 where the pass sizes no component.
+pub fn component_uniform(ctx: &KernelCtx<'_>) -> Result<u32, BackendError> {
+    Ok(RateOptions::read(ctx)?.component.map_or(0, |c| c as u32))
+}
+
 impl Kernel for Rates {
-    fn name(&self) -> &'static str {
-        "defocus.rates"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("lens", Format::Vec4),
-            Binding::read_opt("occlusion", Format::Vec4),
-            Binding::read_opt("reflectors", Format::Vec4),
-            Binding::read_opt("flag_direct", Format::U32),
-            Binding::read_opt("flag_indirect", Format::U32),
-            Binding::read_opt("bandlimit", Format::F32),
-            Binding::read_opt("flag_environment", Format::U32),
-            Binding::read_opt("velocity", Format::Vec4),
-            Binding::read_opt("shadow_velocity", Format::Vec4),
-            Binding::write_opt("omega_defocus", Format::F32),
-            Binding::write("pixel_length", Format::F32),
-            Binding::write_opt("n_primary", Format::U32),
-            Binding::write_opt("omega_direct", Format::F32),
-            Binding::write_opt("n_direct_factored", Format::U32),
-            Binding::write_opt("n_direct_combined", Format::U32),
-            Binding::write_opt("omega_indirect", Format::F32),
-            Binding::write_opt("n_indirect_factored", Format::U32),
-            Binding::write_opt("n_indirect_combined", Format::U32),
-            Binding::write_opt("n_direct", Format::U32),
-            Binding::write_opt("n_indirect", Format::U32),
-            Binding::write_opt("omega_environment", Format::F32),
-            Binding::write_opt("n_environment", Format::U32),
-            Binding::write_opt("sigma_defocus", Format::F32),
-            Binding::write_opt("sigma_direct", Format::F32),
-            Binding::write_opt("sigma_indirect", Format::F32),
-            Binding::write_opt("sigma_environment", Format::F32),
-        ]
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [RatesParams::specs(), RateOptions::specs()].concat()
-    }
+    wedge_backends::kernel_signature!(
+        name: "defocus.rates", class: Bandwidth, bindings: RatesIo, params: [RatesParams, RateOptions]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_rates.wgsl"), |ctx| {
@@ -245,7 +327,8 @@ impl Kernel for Rates {
                     .u32("max_p", formulas::strata_cap(k.max_primary))
                     .u32("max_s", formulas::strata_cap(k.max_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary)
-                    .u32("width_pixel_limit", u32::from(k.width_pixel_limit)))
+                    .u32("width_pixel_limit", u32::from(k.width_pixel_limit))
+                    .u32("component", component_uniform(ctx)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
             .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
@@ -256,56 +339,33 @@ impl Kernel for Rates {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let k = rate_params(ctx)?;
-        let lens = ctx.read::<[f32; 4]>("lens")?;
-        let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
-        let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
-        let flag_direct = ctx.read_opt::<u32>("flag_direct")?;
-        let flag_indirect = ctx.read_opt::<u32>("flag_indirect")?;
-        let bandlimit = ctx.read_opt::<f32>("bandlimit")?;
-        let flag_environment = ctx.read_opt::<u32>("flag_environment")?;
-        let velocity = ctx.read_opt::<[f32; 4]>("velocity")?;
-        let shadow_velocity = ctx.read_opt::<[f32; 4]>("shadow_velocity")?;
+        let io = RatesIo::read(ctx)?;
+        let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
         let rates: Vec<PixelRates> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             let at = |b: Option<&[[f32; 4]]>| b.map(|b| b[i]);
             let o = OptionalStats {
-                occlusion: at(occlusion),
-                reflectors: at(reflectors),
-                bandlimit: bandlimit.map(|b| b[i]),
-                velocity: at(velocity),
-                shadow_velocity: at(shadow_velocity),
+                occlusion: at(io.occlusion),
+                reflectors: at(io.reflectors),
+                bandlimit: io.bandlimit.map(|b| b[i]),
+                velocity: at(io.velocity),
+                shadow_velocity: at(io.shadow_velocity),
             };
-            let s = pixel_stats(lens[i], o);
-            formulas::pixel_rates(&s, &k)
+            formulas::pixel_rates(&pixel_stats(io.lens[i], o), &k)
         });
-        let column = |f: fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();
-        let count = |f: fn(&PixelRates) -> u32| rates.iter().map(f).collect::<Vec<u32>>();
-        ctx.put_opt("omega_defocus", || column(|r| r.omega_defocus))?;
-        ctx.put("pixel_length", column(|r| r.pixel_length))?;
-        ctx.put_opt("n_primary", || count(|r| r.n_primary))?;
-        ctx.put_opt("omega_direct", || column(|r| r.omega_direct))?;
-        ctx.put_opt("n_direct_factored", || count(|r| r.n_direct_factored))?;
-        ctx.put_opt("n_direct_combined", || count(|r| r.n_direct_combined))?;
-        ctx.put_opt("omega_indirect", || column(|r| r.omega_indirect))?;
-        ctx.put_opt("n_indirect_factored", || count(|r| r.n_indirect_factored))?;
-        ctx.put_opt("n_indirect_combined", || count(|r| r.n_indirect_combined))?;
-        let pick = |flag: Option<&[u32]>, f: fn(&PixelRates) -> u32, c: fn(&PixelRates) -> u32| {
-            rates
-                .iter()
-                .enumerate()
-                .map(|(i, r)| if flag.is_some_and(|g| g[i] != 0) { f(r) } else { c(r) })
-                .collect::<Vec<u32>>()
-        };
-        ctx.put_opt("n_direct", || pick(flag_direct, |r| r.n_direct_factored, |r| r.n_direct_combined))?;
-        ctx.put_opt("n_indirect", || pick(flag_indirect, |r| r.n_indirect_factored, |r| r.n_indirect_combined))?;
-        ctx.put_opt("omega_environment", || column(|r| r.omega_environment))?;
-        ctx.put_opt("n_environment", || {
-            pick(flag_environment, |r| r.n_environment_factored, |r| r.n_environment_combined)
+        let column = |f: &dyn Fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();
+        io.omega_defocus.put_with(ctx, || column(&|r| r.omega_defocus))?;
+        io.pixel_length.put(ctx, column(&|r| r.pixel_length))?;
+        io.n_primary.put_with(ctx, || rates.iter().map(|r| r.n_primary).collect())?;
+        io.sigma_defocus.put_with(ctx, || column(&|r| sigma_px(r.omega_defocus)))?;
+        let Some((omega, factored, combined)) = component.map(RateComponent::select) else { return Ok(()) };
+        io.omega.put_with(ctx, || column(&omega))?;
+        // The count the pixel takes: factored where its (median-filtered) flag is set, else combined.
+        io.n.put_with(ctx, || {
+            let set = |i: usize| io.flag.is_some_and(|g| g[i] != 0);
+            rates.iter().enumerate().map(|(i, r)| if set(i) { factored(r) } else { combined(r) }).collect()
         })?;
-        ctx.put_opt("sigma_defocus", || column(|r| sigma_px(r.omega_defocus)))?;
-        ctx.put_opt("sigma_direct", || column(|r| sigma_px(r.omega_direct)))?;
-        ctx.put_opt("sigma_indirect", || column(|r| sigma_px(r.omega_indirect)))?;
-        ctx.put_opt("sigma_environment", || column(|r| sigma_px(r.omega_environment)))
+        io.sigma.put_with(ctx, || column(&|r| sigma_px(omega(r))))
     }
 }
 
@@ -330,18 +390,9 @@ wedge_backends::kernel_bindings! {
 pub struct Flags;
 
 impl Kernel for Flags {
-    fn name(&self) -> &'static str {
-        "defocus.flags"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FlagsIo::bindings()
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        FlagsParams::specs()
-    }
+    wedge_backends::kernel_signature!(
+        name: "defocus.flags", class: Bandwidth, bindings: FlagsIo, params: [FlagsParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_flags.wgsl"), |ctx| {
@@ -371,15 +422,7 @@ impl Kernel for Flags {
 pub struct Compose;
 
 impl Kernel for Compose {
-    fn name(&self) -> &'static str {
-        "defocus.compose"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        ComposeIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "defocus.compose", class: Compose, bindings: ComposeIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_compose.wgsl"), |_| Ok(Uniforms::new()))

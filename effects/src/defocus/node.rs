@@ -52,6 +52,7 @@ use wedge_graph::{
 use super::component::rate_settings;
 use super::formulas::Mode;
 use super::kernels::filter::DefocusIo;
+use super::kernels::RatesIo;
 use crate::factored::{filter_chain, sum};
 
 pub struct Defocus;
@@ -248,14 +249,14 @@ impl NodeKind for Defocus {
             ctx.buffer("rays_per_pixel", Format::U32),
             ctx.buffer("filter_width", Format::F32),
         );
-        let mut b = ctx
-            .pass("rates", "defocus.rates", Stage::Bandwidth)
-            .read("lens", lens)
-            .read_opt("velocity", velocity)
-            .write("omega_defocus", omega)
-            .write("pixel_length", pixel_length)
-            .write("n_primary", n_primary)
-            .write("sigma_defocus", sigma);
+        let io = RatesIo {
+            velocity,
+            omega_defocus: Some(omega),
+            n_primary: Some(n_primary),
+            sigma_defocus: Some(sigma),
+            ..RatesIo::new(lens, pixel_length)
+        };
+        let mut b = io.bind(ctx.pass("rates", "defocus.rates", Stage::Bandwidth));
         for (n, v) in rate_settings(f) {
             b = b.param(n, v);
         }

@@ -19,10 +19,7 @@
 
 pub mod filter;
 
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith, Reach, Uniforms,
-    WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, PutWith, Reach, Uniforms, WgslSource};
 use wedge_graph::BufferId;
 
 use wedge_backends::kernels::v3;
@@ -69,15 +66,7 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Curvature {
-    fn name(&self) -> &'static str {
-        "environment.curvature"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        CurvatureIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "environment.curvature", class: Bandwidth, bindings: CurvatureIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/environment_curvature.wgsl"), |_| Ok(Uniforms::new()))
@@ -232,18 +221,9 @@ impl BandwidthIo {
 pub struct Bandwidth;
 
 impl Kernel for Bandwidth {
-    fn name(&self) -> &'static str {
-        "environment.bandwidth"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        BandwidthIo::bindings()
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        BandwidthParams::specs()
-    }
+    wedge_backends::kernel_signature!(
+        name: "environment.bandwidth", class: Bandwidth, bindings: BandwidthIo, params: [BandwidthParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/environment_bandwidth.wgsl"), |ctx| {

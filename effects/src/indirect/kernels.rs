@@ -4,9 +4,7 @@
 
 use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::kernels::neighbourhood_others::SAME_OBJECT_NEIGHBOUR;
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
 
 use super::formulas::{component, nearest, Receiver, Settings};
 
@@ -84,18 +82,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Bandwidth {
-    fn name(&self) -> &'static str {
-        "indirect.bandwidth"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        RateParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        BandwidthIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "indirect.bandwidth", class: Bandwidth, bindings: BandwidthIo, params: [RateParams]
+    );
     /// WGSL mirror: `shaders/indirect_bandwidth.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -133,18 +122,9 @@ impl Kernel for Bandwidth {
 pub struct Rates;
 
 impl Kernel for Rates {
-    fn name(&self) -> &'static str {
-        "indirect.rates"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        RateParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        RatesIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "indirect.rates", class: Bandwidth, bindings: RatesIo, params: [RateParams]
+    );
     /// WGSL mirror: `shaders/indirect_rates.wgsl` with the formulas of `shaders/indirect_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -194,15 +174,7 @@ wedge_backends::kernel_bindings! {
 pub struct Nearest;
 
 impl Kernel for Nearest {
-    fn name(&self) -> &'static str {
-        "indirect.nearest"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        NearestIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "indirect.nearest", class: Bandwidth, bindings: NearestIo);
     /// WGSL mirror: `shaders/indirect_nearest.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(

@@ -36,13 +36,15 @@ use wedge_graph::{
 };
 
 use super::kernels::sample::MrParams;
+use super::kernels::{irradiance_io, CompositeIo, SampleIo};
 use crate::environment::kernels::filter::BandwidthMaxIo;
 use crate::environment::kernels::BandwidthIo;
 use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
 pub struct MixedReality;
 
-/// The six irradiances `mr.sample` writes, each with the bandwidth that filters it.
+/// The six irradiances `mr.sample` writes (buffer names, in [`SampleIo`]'s order), each with the
+/// bandwidth that filters it.
 const IRRADIANCES: [(&str, Bandwidth); 6] = [
     ("e_r_dir", Bandwidth::DirectReal),
     ("e_r_ind", Bandwidth::IndirectReal),
@@ -159,7 +161,7 @@ impl NodeKind for MixedReality {
         let (primary, per_primary) = (int("primary"), int("per_primary"));
 
         // 1. Two-mode sampling (Algorithm 1).
-        let e: Vec<_> = IRRADIANCES.iter().map(|(n, _)| ctx.buffer(n, Format::Vec3)).collect();
+        let e = IRRADIANCES.map(|(n, _)| ctx.buffer(n, Format::Vec3));
         let [texture, position, normal, stats, depth, screen] = [
             ("texture", Format::Vec4),
             ("position", Format::Vec4),
@@ -169,16 +171,10 @@ impl NodeKind for MixedReality {
             ("screen", Format::Vec4),
         ]
         .map(|(n, f)| ctx.buffer(n, f));
-        let mut pass = ctx.pass("sample", "mr.sample", Stage::Sample);
-        for ((name, _), id) in IRRADIANCES.iter().zip(&e) {
-            pass = pass.write(name, *id);
-        }
-        pass.write("texture", texture)
-            .write("position", position)
-            .write("normal", normal)
-            .write("environment", stats)
-            .write("depth", depth)
-            .write("screen", screen)
+        let io = irradiance_io!(SampleIo, e, {
+            texture, position, normal, environment: stats, depth, screen: Some(screen)
+        });
+        io.bind(ctx.pass("sample", "mr.sample", Stage::Sample))
             .param("count", ParamValue::Int(primary))
             .param("per_primary", ParamValue::Int(per_primary))
             .param("sampling", ParamValue::Str("stratified".into()))
@@ -228,37 +224,30 @@ impl NodeKind for MixedReality {
             // object changes the light their ratio stays exactly 1 over a sequence too.
             temporal: ctx.param("temporal").as_bool() == Some(true),
         };
-        let filtered: Vec<_> = IRRADIANCES
-            .iter()
-            .zip(&e)
-            .map(|((name, which), id)| {
-                let bw = match which {
-                    Bandwidth::DirectReal => direct_diffuse,
-                    Bandwidth::IndirectReal => indirect_diffuse,
-                    Bandwidth::DirectVirtual => direct_virtual,
-                    Bandwidth::IndirectVirtual => indirect_virtual,
-                };
-                filter.apply(ctx, name, *id, bw)
-            })
-            .collect();
+        let filtered: [BufferId; 6] = std::array::from_fn(|k| {
+            let ((name, which), id) = (IRRADIANCES[k], e[k]);
+            let bw = match which {
+                Bandwidth::DirectReal => direct_diffuse,
+                Bandwidth::IndirectReal => indirect_diffuse,
+                Bandwidth::DirectVirtual => direct_virtual,
+                Bandwidth::IndirectVirtual => indirect_virtual,
+            };
+            filter.apply(ctx, name, id, bw)
+        });
 
         // 4. Differential compositing (6.2), of the filtered and of the raw irradiances.
-        let composite = |ctx: &mut ExpandCtx<'_>, name: &str, e: &[BufferId], extra: &[(&str, BufferId)]| {
+        // `extra`: the reconstruction and the mask, where wanted.
+        let composite = |ctx: &mut ExpandCtx<'_>, name: &str, e: [BufferId; 6], extra: Option<(BufferId, BufferId)>| {
             let out = ctx.buffer(name, Format::Vec3);
-            let mut pass = ctx.pass(name, "mr.composite", Stage::Compose);
-            for ((n, _), id) in IRRADIANCES.iter().zip(e) {
-                pass = pass.read(n, *id);
-            }
-            pass = pass.read("texture", texture).write("out", out);
-            for (binding, id) in extra {
-                pass = pass.write(binding, *id);
-            }
-            pass.finish();
+            let io = irradiance_io!(CompositeIo, e, {
+                texture, out, reconstruction: extra.map(|(r, _)| r), mask: extra.map(|(_, m)| m)
+            });
+            io.bind(ctx.pass(name, "mr.composite", Stage::Compose)).finish();
             out
         };
         let (reconstruction, mask) = (ctx.buffer("reconstruction", Format::Vec3), ctx.buffer("mask", Format::F32));
-        let radiance = composite(ctx, "composite", &filtered, &[("reconstruction", reconstruction), ("mask", mask)]);
-        let unfiltered = composite(ctx, "composite_unfiltered", &e, &[]);
+        let radiance = composite(ctx, "composite", filtered, Some((reconstruction, mask)));
+        let unfiltered = composite(ctx, "composite_unfiltered", e, None);
         ctx.output("radiance", radiance);
         ctx.output("unfiltered", unfiltered);
         ctx.output("reconstruction", reconstruction);

@@ -14,13 +14,14 @@
 
 pub mod filter;
 
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith, Uniforms, WgslSource,
-};
-use wedge_graph::Format;
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, PutWith, Uniforms, WgslSource};
+use wedge_graph::BufferId;
 
 use super::formulas::{self, MotionParams, MotionRates, MotionStats};
-use crate::defocus::kernels::{rate_params, sigma_px, RateOptions, RatesParams};
+use crate::defocus::kernels::{
+    component_uniform, rate_component, rate_params, sigma_px, Count, RateComponent, RateOptions, RatesParams,
+    Statistic, Width,
+};
 use crate::shadows::slopes;
 
 /// The filter's σ in pixels (`1/(√32 Ω)`, Ch. 5's Gaussian), 0 where it does not filter (Ω = 0).
@@ -101,45 +102,56 @@ pub fn motion_stats(
     }
 }
 
+wedge_backends::kernel_bindings! {
+    /// What a `motion.rates` pass binds. The Motion node's own pass (and a Defocus component's
+    /// filter widths along the velocities) reads the velocities and depth and writes the primary
+    /// outputs; a lighting component's pass reads its [`Statistic`] too and writes its width and
+    /// count as `omega`, `n`, `sigma` for the [`RateComponent`] its `component` parameter names
+    /// (fixed names, as `defocus.rates`: [`crate::defocus::kernels::RatesIo`]).
+    pub struct RatesIo / RatesData {
+        read velocity: [f32; 4],
+        read depth: [f32; 4],
+        read_opt shadow_velocity: [f32; 4],
+        read_opt occlusion: [f32; 4],
+        read_opt reflectors: [f32; 4],
+        read_opt bandlimit: f32,
+        write_opt pixel_length: f32,
+        write_opt omega: f32,
+        write_opt n: u32,
+        write_opt sigma: f32,
+        write_opt texture_motion: [f32; 4],
+        write_opt shadow_motion: [f32; 4],
+        write_opt n_primary: u32,
+        write_opt sigma_texture: f32,
+    }
+}
+
+impl RatesIo {
+    /// The velocities and depth, with the first-pass statistic `s`; no output bound (a pass names
+    /// the outputs it wants with `..`).
+    pub fn inputs(velocity: BufferId, depth: BufferId, shadow_velocity: Option<BufferId>, s: Statistic) -> RatesIo {
+        let (occlusion, reflectors, bandlimit) = (s.occlusion, s.reflectors, s.bandlimit);
+        RatesIo { shadow_velocity, occlusion, reflectors, bandlimit, ..RatesIo::new(velocity, depth) }
+    }
+}
+
+/// A component's width and count among a pixel's motion rates.
+fn select(c: RateComponent) -> (Width<MotionRates>, Count<MotionRates>) {
+    match c {
+        RateComponent::Direct => (|r| r.omega_direct, |r| r.n_direct),
+        RateComponent::Indirect => (|r| r.omega_indirect, |r| r.n_indirect),
+        RateComponent::Environment => (|r| r.omega_environment, |r| r.n_environment),
+    }
+}
+
 /// `motion.rates`: per pixel the App. B widths and rounded counts ([`formulas::pixel_rates`]); every
-/// output is optional (the Motion node binds the primary ones, each component its own).
+/// output is optional ([`RatesIo`]: the Motion node binds the primary ones, each component its own).
 pub struct Rates;
 
 impl Kernel for Rates {
-    fn name(&self) -> &'static str {
-        "motion.rates"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        vec![
-            Binding::read("velocity", Format::Vec4),
-            Binding::read_opt("shadow_velocity", Format::Vec4),
-            Binding::read("depth", Format::Vec4),
-            Binding::read_opt("occlusion", Format::Vec4),
-            Binding::read_opt("reflectors", Format::Vec4),
-            Binding::read_opt("bandlimit", Format::F32),
-            Binding::write_opt("single", Format::U32),
-            Binding::write_opt("texture_motion", Format::Vec4),
-            Binding::write_opt("shadow_motion", Format::Vec4),
-            Binding::write_opt("n_primary", Format::U32),
-            Binding::write_opt("pixel_length", Format::F32),
-            Binding::write_opt("omega_direct", Format::F32),
-            Binding::write_opt("n_direct", Format::U32),
-            Binding::write_opt("omega_indirect", Format::F32),
-            Binding::write_opt("n_indirect", Format::U32),
-            Binding::write_opt("omega_environment", Format::F32),
-            Binding::write_opt("n_environment", Format::U32),
-            Binding::write_opt("sigma_texture", Format::F32),
-            Binding::write_opt("sigma_direct", Format::F32),
-            Binding::write_opt("sigma_indirect", Format::F32),
-            Binding::write_opt("sigma_environment", Format::F32),
-        ]
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [RatesParams::specs(), RateOptions::specs(), MotionRatesParams::specs()].concat()
-    }
+    wedge_backends::kernel_signature!(
+        name: "motion.rates", class: Bandwidth, bindings: RatesIo, params: [RatesParams, RateOptions, MotionRatesParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/motion_rates.wgsl"), |ctx| {
@@ -153,7 +165,8 @@ impl Kernel for Rates {
                     .u32("max_p", strata_cap(k.max_primary))
                     .u32("max_s", strata_cap(k.max_per_primary))
                     .u32("multi_paths", k.multi_paths)
-                    .f32("environment_per_primary", k.environment_per_primary))
+                    .f32("environment_per_primary", k.environment_per_primary)
+                    .u32("component", component_uniform(ctx)?))
             })
             .with_include("shadows_formulas.wgsl", include_str!("../../../shaders/shadows_formulas.wgsl"))
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
@@ -164,34 +177,28 @@ impl Kernel for Rates {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let k = motion_params(ctx)?;
-        let velocity = ctx.read::<[f32; 4]>("velocity")?;
-        let shadow = ctx.read_opt::<[f32; 4]>("shadow_velocity")?;
-        let depth = ctx.read::<[f32; 4]>("depth")?;
-        let occlusion = ctx.read_opt::<[f32; 4]>("occlusion")?;
-        let reflectors = ctx.read_opt::<[f32; 4]>("reflectors")?;
-        let bandlimit = ctx.read_opt::<f32>("bandlimit")?;
+        let io = RatesIo::read(ctx)?;
+        let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
+        let shadow = io.shadow_velocity;
         let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
         let rates: Vec<(MotionStats, MotionRates)> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             let s = motion_stats(
-                velocity[i],
+                io.velocity[i],
                 at(shadow, i),
-                depth[i],
-                at(occlusion, i),
-                at(reflectors, i),
-                bandlimit.map(|b| b[i]),
+                io.depth[i],
+                at(io.occlusion, i),
+                at(io.reflectors, i),
+                io.bandlimit.map(|b| b[i]),
             );
             (s, formulas::pixel_rates(&s, &k))
         });
-        let column = |f: fn(&MotionRates) -> f32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<f32>>();
-        let count = |f: fn(&MotionRates) -> u32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<u32>>();
-        let motion = |v: fn(&MotionStats) -> [f32; 2], w: fn(&MotionRates) -> f32| {
-            rates.iter().map(|(s, r)| [v(s)[0], v(s)[1], w(r), sigma_or_zero(w(r))]).collect::<Vec<[f32; 4]>>()
-        };
-        ctx.put_opt("single", || count(|r| r.single as u32))?;
-        ctx.put_opt("texture_motion", || motion(|s| s.v_p, |r| r.omega_texture))?;
+        let column = |f: &dyn Fn(&MotionRates) -> f32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<f32>>();
+        io.texture_motion.put_with(ctx, || {
+            rates.iter().map(|(s, r)| [s.v_p[0], s.v_p[1], r.omega_texture, sigma_or_zero(r.omega_texture)]).collect()
+        })?;
         // The shadow's mean velocity as the sampler gave it (zero where unbound).
-        ctx.put_opt("shadow_motion", || {
+        io.shadow_motion.put_with(ctx, || {
             rates
                 .iter()
                 .enumerate()
@@ -199,20 +206,15 @@ impl Kernel for Rates {
                     let v = shadow.map_or([0.0; 4], |s| s[i]);
                     [v[0], v[1], r.omega_shadow, sigma_or_zero(r.omega_shadow)]
                 })
-                .collect::<Vec<[f32; 4]>>()
+                .collect()
         })?;
-        ctx.put_opt("n_primary", || count(|r| r.n_primary))?;
-        ctx.put_opt("pixel_length", || column(|r| r.pixel_length))?;
-        ctx.put_opt("omega_direct", || column(|r| r.omega_direct))?;
-        ctx.put_opt("n_direct", || count(|r| r.n_direct))?;
-        ctx.put_opt("omega_indirect", || column(|r| r.omega_indirect))?;
-        ctx.put_opt("n_indirect", || count(|r| r.n_indirect))?;
-        ctx.put_opt("omega_environment", || column(|r| r.omega_environment))?;
-        ctx.put_opt("n_environment", || count(|r| r.n_environment))?;
-        ctx.put_opt("sigma_texture", || column(|r| sigma_or_zero(r.omega_texture)))?;
-        ctx.put_opt("sigma_direct", || column(|r| sigma_or_zero(r.omega_direct)))?;
-        ctx.put_opt("sigma_indirect", || column(|r| sigma_or_zero(r.omega_indirect)))?;
-        ctx.put_opt("sigma_environment", || column(|r| sigma_or_zero(r.omega_environment)))
+        io.n_primary.put_with(ctx, || rates.iter().map(|(_, r)| r.n_primary).collect())?;
+        io.pixel_length.put_with(ctx, || column(&|r| r.pixel_length))?;
+        io.sigma_texture.put_with(ctx, || column(&|r| sigma_or_zero(r.omega_texture)))?;
+        let Some((omega, n)) = component.map(select) else { return Ok(()) };
+        io.omega.put_with(ctx, || column(&omega))?;
+        io.n.put_with(ctx, || rates.iter().map(|(_, r)| n(r)).collect())?;
+        io.sigma.put_with(ctx, || column(&|r| sigma_or_zero(omega(r))))
     }
 }
 
@@ -230,15 +232,7 @@ wedge_backends::kernel_bindings! {
 pub struct Flags;
 
 impl Kernel for Flags {
-    fn name(&self) -> &'static str {
-        "motion.flags"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FlagsIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "motion.flags", class: Bandwidth, bindings: FlagsIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/motion_flags.wgsl"), |_| Ok(Uniforms::new()))

@@ -55,9 +55,10 @@ use wedge_graph::{
 
 use super::formulas::{MULTI_VELOCITY_PATHS, OMEGA_T_MAX};
 use super::kernels::filter::{MotionFilterIo, Radiance3Io};
-use super::kernels::FlagsIo;
+use super::kernels::{FlagsIo, RatesIo};
 use crate::defocus::component::rate_settings;
 use crate::defocus::formulas::Mode;
+use crate::defocus::kernels::{RateComponent, Statistic};
 use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
 
 pub struct Motion;
@@ -223,16 +224,16 @@ impl NodeKind for Motion {
             ctx.buffer("rays_per_pixel", Format::U32),
             ctx.buffer("filter_width", Format::F32),
         );
-        let mut b = ctx
-            .pass("rates", "motion.rates", Stage::Bandwidth)
-            .read("velocity", velocity)
-            .read("depth", depth)
-            .read("shadow_velocity", shadow_velocity)
-            .read("occlusion", occlusion)
-            .write("texture_motion", texture_motion)
-            .write("shadow_motion", shadow_motion)
-            .write("n_primary", n_primary)
-            .write("sigma_texture", sigma);
+        let io = RatesIo {
+            shadow_velocity: Some(shadow_velocity),
+            occlusion: Some(occlusion),
+            texture_motion: Some(texture_motion),
+            shadow_motion: Some(shadow_motion),
+            n_primary: Some(n_primary),
+            sigma_texture: Some(sigma),
+            ..RatesIo::new(velocity, depth)
+        };
+        let mut b = io.bind(ctx.pass("rates", "motion.rates", Stage::Bandwidth));
         for (n, v) in motion_rate_settings(f) {
             b = b.param(n, v);
         }
@@ -293,7 +294,7 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
     // 1. Widths and counts from the first pass (the shadow's velocity only for direct light).
     let velocity = ctx.sampler_output(SamplerPass::First, "velocity")?;
     let depth = ctx.sampler_output(SamplerPass::First, "defocus")?;
-    let statistic = c.statistic(ctx)?;
+    let (statistic, component) = (Statistic::of(ctx, c)?, RateComponent::of(ctx, c)?);
     let shadow_velocity = if direct { Some(ctx.sampler_output(SamplerPass::First, "shadow_velocity")?) } else { None };
     let name = c.name;
     let (omega, pixel_length, count, sigma, texture_motion) = (
@@ -304,21 +305,17 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
         ctx.buffer(&format!("{name}_texture_motion"), Format::Vec4),
     );
     let shadow_motion = direct.then(|| ctx.buffer(&format!("{name}_shadow_motion"), Format::Vec4));
-    let mut b = ctx
-        .pass(&format!("{name}_rates"), "motion.rates", Stage::Bandwidth)
-        .read("velocity", velocity)
-        .read("depth", depth)
-        .read_opt("shadow_velocity", shadow_velocity)
-        .read(c.statistic.0, statistic)
-        .write("pixel_length", pixel_length)
-        .write(&format!("omega_{name}"), omega)
-        .write(&format!("n_{name}"), count)
-        .write(&format!("sigma_{name}"), sigma)
-        .write("texture_motion", texture_motion);
-    if let Some(s) = shadow_motion {
-        b = b.write("shadow_motion", s);
-    }
-    for (n, v) in motion_rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()) {
+    let io = RatesIo {
+        pixel_length: Some(pixel_length),
+        omega: Some(omega),
+        n: Some(count),
+        sigma: Some(sigma),
+        texture_motion: Some(texture_motion),
+        shadow_motion,
+        ..RatesIo::inputs(velocity, depth, shadow_velocity, statistic)
+    };
+    let mut b = io.bind(ctx.pass(&format!("{name}_rates"), "motion.rates", Stage::Bandwidth));
+    for (n, v) in motion_rate_settings(f).into_iter().chain(c.rate_params.iter().cloned()).chain([component.param()]) {
         b = b.param(n, v);
     }
     b.finish();

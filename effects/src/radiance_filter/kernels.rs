@@ -6,9 +6,7 @@ use glam::Vec3;
 use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::kernels::indirect::lobe_mixture;
 use wedge_backends::kernels::{luminance, v3};
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
 
 use super::formulas::*;
 use crate::camera_paths::CameraPaths;
@@ -97,21 +95,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for RadianceSample {
-    fn name(&self) -> &'static str {
-        "radiance_filter.sample"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        CameraPaths::specs()
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        SampleIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "radiance_filter.sample", class: Sampling, bindings: SampleIo, params: [CameraPaths], random: true
+    );
     /// WGSL mirror: `shaders/radiance_filter_sample.wgsl` (on the shared `first_vertex.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -174,18 +160,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Radius {
-    fn name(&self) -> &'static str {
-        "radiance_filter.radius"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        RadiusRule::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        RadiusIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "radiance_filter.radius", class: Bandwidth, bindings: RadiusIo, params: [RadiusRule]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/radiance_filter_radius.wgsl"), |ctx| {
@@ -270,18 +247,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Filter {
-    fn name(&self) -> &'static str {
-        "radiance_filter.filter"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        FilterParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FilterIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "radiance_filter.filter", class: Filter, bindings: FilterIo, params: [FilterParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/radiance_filter_filter.wgsl"), |ctx| {
@@ -393,18 +361,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Compose {
-    fn name(&self) -> &'static str {
-        "radiance_filter.compose"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        ComposeParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        ComposeIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "radiance_filter.compose", class: Compose, bindings: ComposeIo, params: [ComposeParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/radiance_filter_compose.wgsl"), |ctx| {

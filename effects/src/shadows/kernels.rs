@@ -2,9 +2,7 @@
 //! `shadows.rates` (n, eq. 3.21), `shadows.visibility` (the pair ΣE, ΣU) and `shadows.shade`
 //! (`r(x)` times the filtered visibility); CPU here, WGSL in `shaders/shadows_*.wgsl`.
 
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, LightIndex, ParamSpec, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, LightIndex, Uniforms, WgslSource};
 
 use super::formulas::{filter_beta, rays_cap, samples_per_pixel, slopes, whole_multiples};
 
@@ -91,18 +89,9 @@ wedge_backends::kernel_bindings! {
 pub struct Bandwidth;
 
 impl Kernel for Bandwidth {
-    fn name(&self) -> &'static str {
-        "shadows.bandwidth"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        BandwidthParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        BandwidthIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "shadows.bandwidth", class: Bandwidth, bindings: BandwidthIo, params: [BandwidthParams]
+    );
     /// WGSL mirror: `shaders/shadows_bandwidth.wgsl` with the formulas of `shaders/shadows_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -144,18 +133,7 @@ fn count_bounds(p: &RateParams) -> (u32, u32) {
 }
 
 impl Kernel for Rates {
-    fn name(&self) -> &'static str {
-        "shadows.rates"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        RateParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        RatesIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "shadows.rates", class: Bandwidth, bindings: RatesIo, params: [RateParams]);
     /// WGSL mirror: `shaders/shadows_rates.wgsl` with the formulas of `shaders/shadows_formulas.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -196,15 +174,7 @@ impl Kernel for Rates {
 pub struct Visibility;
 
 impl Kernel for Visibility {
-    fn name(&self) -> &'static str {
-        "shadows.visibility"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        VisibilityIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "shadows.visibility", class: Filter, bindings: VisibilityIo);
     /// WGSL mirror: `shaders/shadows_visibility.wgsl`.
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -227,18 +197,7 @@ impl Kernel for Visibility {
 pub struct Shade;
 
 impl Kernel for Shade {
-    fn name(&self) -> &'static str {
-        "shadows.shade"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        ShadeParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        ShadeIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "shadows.shade", class: Filter, bindings: ShadeIo, params: [ShadeParams]);
     /// WGSL mirror: `shaders/shadows_shade.wgsl` (the polygon formula term by term).
     fn wgsl(&self) -> Option<WgslSource> {
         Some(

@@ -4,7 +4,7 @@
 //! where no surface is seen). The kernel has both implementations — Rust here for the CPU backend,
 //! `fog.wgsl` for wgpu — and [`registries`] adds both to wedge's own.
 
-use wedge::backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
+use wedge::backends::{BackendError, Kernel, KernelCtx, KernelParams, WgslSource};
 use wedge::graph::{ExpandCtx, Format, GraphError, NodeKind, ParamDecl, PortDecl, Stage};
 use wedge::Registries;
 
@@ -33,18 +33,7 @@ wedge::backends::kernel_bindings! {
 pub struct FogKernel;
 
 impl Kernel for FogKernel {
-    fn name(&self) -> &'static str {
-        "fog.apply"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        FogIo::bindings()
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        FogParams::specs()
-    }
+    wedge::backends::kernel_signature!(name: "fog.apply", class: Compose, bindings: FogIo, params: [FogParams]);
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let (p, eye, io) = (FogParams::read(ctx)?, eye(ctx), FogIo::read(ctx)?);
         let image = io.color.iter().zip(io.position).map(|(c, x)| fogged(&p, eye, *c, *x)).collect();

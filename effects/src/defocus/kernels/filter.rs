@@ -7,7 +7,7 @@
 
 use wedge_backends::kernels::count_non_finite;
 use wedge_backends::kernels::filter_window::{gather, pair_weight, valid_width, Axis, AxisWindowParams, ScreenRadius};
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, WgslSource};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, WgslSource};
 
 wedge_backends::kernel_bindings! {
     /// What a `filter.defocus` pass binds: the composed radiance, its width `Ω_x^d` (pixel⁻¹) and
@@ -45,18 +45,9 @@ pub fn defocus_pixel(
 pub struct DefocusFilter;
 
 impl Kernel for DefocusFilter {
-    fn name(&self) -> &'static str {
-        "filter.defocus"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        AxisWindowParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        DefocusIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "filter.defocus", class: Filter, bindings: DefocusIo, params: [AxisWindowParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_defocus.wgsl"), |ctx| {

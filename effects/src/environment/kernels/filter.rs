@@ -43,9 +43,7 @@ use wedge_scene::Camera;
 use wedge_backends::kernels::filter_window::WindowRadius;
 use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::{count_non_finite, is_finite3, v3};
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
 
 /// Largest `max_radius` a pass may ask for.
 pub const MAX_RADIUS_LIMIT: u32 = 64;
@@ -346,18 +344,9 @@ wedge_backends::kernel_bindings! {
 pub struct EnvironmentFilter;
 
 impl Kernel for EnvironmentFilter {
-    fn name(&self) -> &'static str {
-        "filter.environment"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        FilterParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        EnvironmentFilterIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "filter.environment", class: Filter, bindings: EnvironmentFilterIo, params: [FilterParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_environment.wgsl"), |ctx| {
@@ -392,18 +381,9 @@ impl Kernel for EnvironmentFilter {
 pub struct EnvironmentHistory;
 
 impl Kernel for EnvironmentHistory {
-    fn name(&self) -> &'static str {
-        "filter.environment_history"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        HistoryParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        HistoryIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "filter.environment_history", class: Filter, bindings: HistoryIo, params: [HistoryParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_environment_history.wgsl"), |ctx| {
@@ -453,15 +433,7 @@ pub fn bandwidth_max(a: [f32; 2], b: [f32; 2]) -> [f32; 2] {
 }
 
 impl Kernel for BandwidthMax {
-    fn name(&self) -> &'static str {
-        "bandwidth.max"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        BandwidthMaxIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "bandwidth.max", class: Bandwidth, bindings: BandwidthMaxIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/bandwidth_max.wgsl"), |_| Ok(Uniforms::new()))

@@ -4,10 +4,7 @@
 use glam::Vec3;
 use wedge_backends::kernels::indirect::{path_from_hit, PathParams, PathRays};
 use wedge_backends::rng::{substream, PixelRng};
-use wedge_backends::{
-    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms,
-    WgslSource,
-};
+use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
 use wedge_scene::SceneAt;
 
 use super::{leave, EstimatorParams, RandomStream};
@@ -74,24 +71,17 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for LightFieldReconstruct {
-    fn name(&self) -> &'static str {
-        "light_field.reconstruct"
-    }
-    /// Ray tracing through the splats: its time is the reconstruction rays' (the paper's 189 s of
-    /// 199), and parity judges it as a ray-tracing pass — a reconstruction ray grazing a splat's rim
-    /// or a visibility-conflict boundary flips on float round-off as a scene ray grazing an edge does.
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [EstimatorParams::specs(), ReconstructParams::specs(), RandomStream::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        ReconstructIo::bindings()
-    }
+    // Class `Sampling`: ray tracing through the splats, its time is the reconstruction rays' (the
+    // paper's 189 s of 199), and parity judges it as a ray-tracing pass — a reconstruction ray grazing
+    // a splat's rim or a visibility-conflict boundary flips on float round-off as a scene ray grazing
+    // an edge does.
+    wedge_backends::kernel_signature!(
+        name: "light_field.reconstruct",
+        class: Sampling,
+        bindings: ReconstructIo,
+        params: [EstimatorParams, ReconstructParams, RandomStream],
+        random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/light_field_reconstruct.wgsl"), |ctx| {

@@ -4,10 +4,7 @@ use glam::{Vec2, Vec3};
 use wedge_backends::kernels::indirect::{path_from_hit, PathRays};
 use wedge_backends::kernels::paths::{camera_uniforms, pass_camera};
 use wedge_backends::rng::PixelRng;
-use wedge_backends::{
-    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms,
-    WgslSource,
-};
+use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Sampling, Uniforms, WgslSource};
 
 use super::{camera_sample, leave, EstimatorParams, Primary, RandomStream};
 use crate::light_field::formulas::{kappa, occlusion};
@@ -46,21 +43,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for LightFieldSample {
-    fn name(&self) -> &'static str {
-        "light_field.sample"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [EstimatorParams::specs(), SampleParams::specs(), SamplePass::specs(), RandomStream::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        SampleIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "light_field.sample", class: Sampling, bindings: SampleIo, params: [EstimatorParams, SampleParams, SamplePass, RandomStream], random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/light_field_sample.wgsl"), |ctx| {

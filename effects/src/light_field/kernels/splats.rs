@@ -2,7 +2,7 @@
 //! samples ([`crate::light_field::splats`]).
 
 use wedge_backends::kernels::direct::RAY_EPSILON;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, PutWith};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, PutWith};
 
 use crate::light_field::node::{DEFAULT_ALPHA, DEFAULT_GLOSSY_CAP, DEFAULT_K};
 use crate::light_field::records::{LightSample, Splat, SplatNode};
@@ -47,20 +47,11 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for LightFieldSplats {
-    fn name(&self) -> &'static str {
-        "light_field.splats"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
+    wedge_backends::kernel_signature!(
+        name: "light_field.splats", class: Bandwidth, bindings: SplatsIo, params: [SplatParams]
+    );
     fn host(&self) -> bool {
         true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        SplatParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        SplatsIo::bindings()
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let p = SplatParams::read(ctx)?;

@@ -2,10 +2,9 @@
 //! per pixel; WGSL `shaders/mr_composite.wgsl`.
 
 use glam::Vec3;
-use wedge_backends::{BackendError, Binding, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
-use wedge_graph::Format;
+use wedge_backends::{BackendError, Kernel, KernelCtx, PutWith, Uniforms, WgslSource};
 
-use super::IRRADIANCES;
+use super::CompositeIo;
 use crate::mixed_reality::formulas::composite;
 
 /// `mr.composite`: eq. 6.2 per pixel from the six (filtered) irradiances, `texture` and the real
@@ -15,23 +14,7 @@ use crate::mixed_reality::formulas::composite;
 pub struct MrComposite;
 
 impl Kernel for MrComposite {
-    fn name(&self) -> &'static str {
-        "mr.composite"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::read(n, Format::Vec3)).collect();
-        b.extend([
-            Binding::read("texture", Format::Vec4),
-            Binding::write("out", Format::Vec3),
-            Binding::write_opt("reconstruction", Format::Vec3),
-            // M on its own, for a heatmap.
-            Binding::write_opt("mask", Format::F32),
-        ]);
-        b
-    }
+    wedge_backends::kernel_signature!(name: "mr.composite", class: Compose, bindings: CompositeIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/mr_composite.wgsl"), |_| Ok(Uniforms::new()))
@@ -45,14 +28,14 @@ impl Kernel for MrComposite {
             message: "the scene has no real layer".into(),
         })?;
         let (width, window) = (ctx.width, ctx.window);
-        let e: Vec<&[[f32; 3]]> = IRRADIANCES.iter().map(|n| ctx.read::<[f32; 3]>(n)).collect::<Result<_, _>>()?;
-        let texture = ctx.read::<[f32; 4]>("texture")?;
+        let io = CompositeIo::read(ctx)?;
+        let (texture, e) = (io.texture, [io.e_r_dir, io.e_r_ind, io.e_rv_dir, io.e_rv_ind, io.e_v_dir, io.e_v_ind]);
         let out = ctx.map_pixels(false, |x, y| {
             let i = (y * width + x) as usize;
             let (gx, gy) = window.global_xy(x, y);
             composite([e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i]], texture[i], layer.camera(gx, gy))
         });
-        ctx.put_opt("reconstruction", || {
+        io.reconstruction.put_with(ctx, || {
             (0..out.len())
                 .map(|i| {
                     let (x, y) = window.global_xy(i as u32 % width, i as u32 / width);
@@ -61,7 +44,7 @@ impl Kernel for MrComposite {
                 })
                 .collect::<Vec<_>>()
         })?;
-        ctx.put_opt("mask", || texture.iter().map(|t| t[3]).collect::<Vec<f32>>())?;
-        ctx.put("out", out)
+        io.mask.put_with(ctx, || texture.iter().map(|t| t[3]).collect())?;
+        io.out.put(ctx, out)
     }
 }

@@ -48,5 +48,48 @@ pub mod sample;
 pub use composite::MrComposite;
 pub use sample::{MrSample, REAL_OBJECT};
 
-/// The buffers `mr.sample` writes, in [`sample::MrPixel::e`] order and then the rest.
-pub const IRRADIANCES: [&str; 6] = ["e_r_dir", "e_r_ind", "e_rv_dir", "e_rv_ind", "e_v_dir", "e_v_ind"];
+wedge_backends::kernel_bindings! {
+    /// What an `mr.sample` pass writes: the six irradiances (in [`sample::MrPixel::e`] order, the
+    /// order [`CompositeIo`] reads them), then the filter's and bandwidths' inputs.
+    pub struct SampleIo / SampleData {
+        write e_r_dir: [f32; 3],
+        write e_r_ind: [f32; 3],
+        write e_rv_dir: [f32; 3],
+        write e_rv_ind: [f32; 3],
+        write e_v_dir: [f32; 3],
+        write e_v_ind: [f32; 3],
+        write texture: [f32; 4],
+        write position: [f32; 4],
+        write normal: [f32; 4],
+        write environment: [f32; 4],
+        write depth: [f32; 4],
+        write_opt screen: [f32; 4],
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What an `mr.composite` pass binds: the six (filtered) irradiances, `texture` (`k_V`, `M`), the
+    /// composite and, optionally, the reconstruction and `M` on its own (for a heatmap).
+    pub struct CompositeIo / CompositeData {
+        read e_r_dir: [f32; 3],
+        read e_r_ind: [f32; 3],
+        read e_rv_dir: [f32; 3],
+        read e_rv_ind: [f32; 3],
+        read e_v_dir: [f32; 3],
+        read e_v_ind: [f32; 3],
+        read texture: [f32; 4],
+        write out: [f32; 3],
+        write_opt reconstruction: [f32; 3],
+        write_opt mask: f32,
+    }
+}
+
+/// `Io { e_r_dir: e[0], …, e_v_ind: e[5], rest }`: a [`SampleIo`] or [`CompositeIo`] with the six
+/// irradiances from an array in their declaration order (the node keeps them as `[BufferId; 6]`).
+macro_rules! irradiance_io {
+    ($io:ident, $e:expr, { $($rest:tt)* }) => {{
+        let [e_r_dir, e_r_ind, e_rv_dir, e_rv_ind, e_v_dir, e_v_ind] = $e;
+        $io { e_r_dir, e_r_ind, e_rv_dir, e_rv_ind, e_v_dir, e_v_ind, $($rest)* }
+    }};
+}
+pub(crate) use irradiance_io;

@@ -1,7 +1,6 @@
 //! `mr.sample`: the two-mode sampler of Algorithm 1 (see [`super`]); WGSL `shaders/mr_sample.wgsl`.
 
 use glam::{Vec2, Vec3};
-use wedge_graph::Format;
 use wedge_scene::{Camera, Scene, SceneAt};
 
 use wedge_backends::kernels::environment::{brdf, stratified_entry, uniform_entry};
@@ -11,11 +10,10 @@ use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::screen_trace::{ScreenHit, ScreenTracer};
 use wedge_backends::sobol::{independent2, pair, sequence_key, sobol2};
 use wedge_backends::{
-    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms,
-    WgslSource,
+    BackendError, Counters, Kernel, KernelCtx, KernelParams, PutWith, Sampling, Uniforms, WgslSource,
 };
 
-use super::IRRADIANCES;
+use super::SampleIo;
 
 /// The object id (`position.w − 1`) of the real layer's surfaces: one "object" for the filters'
 /// same-object test, far above any scene's object count (`1 + REAL_OBJECT` is exact in f32).
@@ -501,30 +499,9 @@ pub fn sample_pixel(
 pub struct MrSample;
 
 impl Kernel for MrSample {
-    fn name(&self) -> &'static str {
-        "mr.sample"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [MrParams::specs(), MrCounts::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        let mut b: Vec<Binding> = IRRADIANCES.iter().map(|n| Binding::write(n, Format::Vec3)).collect();
-        b.extend([
-            Binding::write("texture", Format::Vec4),
-            Binding::write("position", Format::Vec4),
-            Binding::write("normal", Format::Vec4),
-            Binding::write("environment", Format::Vec4),
-            Binding::write("depth", Format::Vec4),
-            Binding::write_opt("screen", Format::Vec4),
-        ]);
-        b
-    }
+    wedge_backends::kernel_signature!(
+        name: "mr.sample", class: Sampling, bindings: SampleIo, params: [MrParams, MrCounts], random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/mr_sample.wgsl"), |ctx| {
@@ -553,6 +530,7 @@ impl Kernel for MrSample {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let s = settings(ctx)?;
+        let io = SampleIo::read(ctx)?;
         let (scene, seed, window) = (ctx.scene, ctx.seed, ctx.window);
         let (width, height) = window.full_size();
         let camera = scene.camera;
@@ -568,14 +546,15 @@ impl Kernel for MrSample {
         Counters::add(&ctx.counters.shadow_rays, total(1));
         Counters::add(&ctx.counters.secondary_rays, total(2));
         Counters::add(&ctx.counters.non_finite_samples, px.iter().map(|p| p.non_finite).sum());
-        for (k, name) in IRRADIANCES.iter().enumerate() {
-            ctx.put(name, px.iter().map(|p| p.e[k]).collect::<Vec<_>>())?;
+        let e = [io.e_r_dir, io.e_r_ind, io.e_rv_dir, io.e_rv_ind, io.e_v_dir, io.e_v_ind];
+        for (k, out) in e.into_iter().enumerate() {
+            out.put(ctx, px.iter().map(|p| p.e[k]).collect())?;
         }
-        ctx.put("texture", px.iter().map(|p| p.texture).collect::<Vec<_>>())?;
-        ctx.put("position", px.iter().map(|p| p.position).collect::<Vec<_>>())?;
-        ctx.put("normal", px.iter().map(|p| p.normal).collect::<Vec<_>>())?;
-        ctx.put("environment", px.iter().map(|p| p.environment).collect::<Vec<_>>())?;
-        ctx.put("depth", px.iter().map(|p| p.depth).collect::<Vec<_>>())?;
-        ctx.put_opt("screen", || px.iter().map(|p| p.screen).collect::<Vec<_>>())
+        io.texture.put(ctx, px.iter().map(|p| p.texture).collect())?;
+        io.position.put(ctx, px.iter().map(|p| p.position).collect())?;
+        io.normal.put(ctx, px.iter().map(|p| p.normal).collect())?;
+        io.environment.put(ctx, px.iter().map(|p| p.environment).collect())?;
+        io.depth.put(ctx, px.iter().map(|p| p.depth).collect())?;
+        io.screen.put_with(ctx, || px.iter().map(|p| p.screen).collect())
     }
 }

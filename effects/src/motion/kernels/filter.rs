@@ -28,9 +28,7 @@ use glam::Vec2;
 
 use wedge_backends::kernels::filter_window::{pair_weight, valid_width, window_radius, WindowParams};
 use wedge_backends::kernels::{count_non_finite, is_finite3};
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Reach, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
 
 /// Two velocities (pixels per half shutter) are the same motion when they differ by at most
 /// `VELOCITY_TOLERANCE_PX + VELOCITY_TOLERANCE_REL · max(|a|, |b|)`: half a pixel of blur length
@@ -185,18 +183,9 @@ wedge_backends::kernel_bindings! {
 pub struct MotionFilter;
 
 impl Kernel for MotionFilter {
-    fn name(&self) -> &'static str {
-        "filter.motion"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        WindowParams::specs()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        MotionFilterIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "filter.motion", class: Filter, bindings: MotionFilterIo, params: [WindowParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_motion.wgsl"), |ctx| {
@@ -221,15 +210,7 @@ impl Kernel for MotionFilter {
 pub struct Radiance3Filter;
 
 impl Kernel for Radiance3Filter {
-    fn name(&self) -> &'static str {
-        "filter.radiance3"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        Radiance3Io::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "filter.radiance3", class: Filter, bindings: Radiance3Io);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/filter_radiance3.wgsl"), |_| Ok(Uniforms::new()))

@@ -2,9 +2,7 @@
 //! eqs. 3.15–3.17) and `pixel_filter.blend` (eqs. 3.1, 3.10–3.13, the spike clamp of eq. 3.18).
 
 use glam::Vec3;
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Uniforms, WgslSource};
 
 use super::ThresholdParams;
 
@@ -53,18 +51,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for AdaptiveWidth {
-    fn name(&self) -> &'static str {
-        "pixel_filter.width"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Bandwidth
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [ThresholdParams::specs(), WidthParams::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        WidthIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "pixel_filter.width", class: Bandwidth, bindings: WidthIo, params: [ThresholdParams, WidthParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_width.wgsl"), |ctx| {
@@ -165,18 +154,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Blend {
-    fn name(&self) -> &'static str {
-        "pixel_filter.blend"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [ThresholdParams::specs(), SpikeParams::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        BlendIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "pixel_filter.blend", class: Compose, bindings: BlendIo, params: [ThresholdParams, SpikeParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_blend.wgsl"), |ctx| {

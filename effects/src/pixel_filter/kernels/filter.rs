@@ -3,9 +3,7 @@
 //! eq. 3.14), both run on filter frames only and otherwise keep the last filtered buffer.
 
 use glam::Vec3;
-use wedge_backends::{
-    BackendError, Binding, Kernel, KernelClass, KernelCtx, KernelParams, Output, ParamSpec, Reach, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Output, Reach, Uniforms, WgslSource};
 
 use super::{schedule, ScheduleParams};
 use crate::pixel_filter::formulas::{bilateral_weight, inv_two_sigma2, iteration_sigma, luminance, FILTERED};
@@ -154,18 +152,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Bilateral {
-    fn name(&self) -> &'static str {
-        "pixel_filter.bilateral"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [ScheduleParams::specs(), FilterParams::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        BilateralIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "pixel_filter.bilateral", class: Filter, bindings: BilateralIo, params: [ScheduleParams, FilterParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_bilateral.wgsl"), filter_uniforms)
@@ -335,18 +324,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Separable {
-    fn name(&self) -> &'static str {
-        "pixel_filter.separable"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Filter
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [ScheduleParams::specs(), FilterParams::specs(), PassParams::specs()].concat()
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        SeparableIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "pixel_filter.separable", class: Filter, bindings: SeparableIo, params: [ScheduleParams, FilterParams, PassParams]
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_separable.wgsl"), |ctx| {

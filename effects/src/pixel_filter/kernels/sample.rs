@@ -4,9 +4,7 @@
 
 use glam::Vec3;
 use wedge_backends::rng::PixelRng;
-use wedge_backends::{
-    BackendError, Binding, Counters, Kernel, KernelClass, KernelCtx, KernelParams, ParamSpec, Uniforms, WgslSource,
-};
+use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Uniforms, WgslSource};
 
 use super::{schedule, ScheduleParams};
 use crate::camera_paths::{camera_ray, camera_uniforms, CameraPaths, FirstVertex, PathCount};
@@ -63,21 +61,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for PixelSample {
-    fn name(&self) -> &'static str {
-        "pixel_filter.sample"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [CameraPaths::specs(), SampleParams::specs()].concat()
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        SampleIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "pixel_filter.sample", class: Sampling, bindings: SampleIo, params: [CameraPaths, SampleParams], random: true
+    );
     /// WGSL mirror: `shaders/pixel_filter_sample.wgsl` (with the shared `indirect_path.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -128,15 +114,7 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for Accumulate {
-    fn name(&self) -> &'static str {
-        "pixel_filter.accumulate"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Compose
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        AccumulateIo::bindings()
-    }
+    wedge_backends::kernel_signature!(name: "pixel_filter.accumulate", class: Compose, bindings: AccumulateIo);
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_accumulate.wgsl"), |_| Ok(Uniforms::new()))
@@ -182,21 +160,9 @@ wedge_backends::kernel_bindings! {
 }
 
 impl Kernel for RangeBuffer {
-    fn name(&self) -> &'static str {
-        "pixel_filter.range"
-    }
-    fn class(&self) -> KernelClass {
-        KernelClass::Sampling
-    }
-    fn params(&self) -> Vec<ParamSpec> {
-        [PathCount::specs(), ScheduleParams::specs()].concat()
-    }
-    fn draws_random(&self) -> bool {
-        true
-    }
-    fn bindings(&self) -> Vec<Binding> {
-        RangeIo::bindings()
-    }
+    wedge_backends::kernel_signature!(
+        name: "pixel_filter.range", class: Sampling, bindings: RangeIo, params: [PathCount, ScheduleParams], random: true
+    );
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_range.wgsl"), |ctx| {
