@@ -456,7 +456,7 @@ fn parity_irradiance_and_defocus_filters() {
 fn parity_packed_and_in_bands() {
     let Some(mut gpu) = gpu_or_skip("parity_packed_and_in_bands") else { return };
     gpu.force_packed(true);
-    // The widest packed buffer: defocus.rates' outputs, 4 f32 + 5 u32 per pixel; filter.irradiance's
+    // The widest packed buffer: defocus.rates' outputs, at most 5 f32 + 2 u32 per pixel; filter.irradiance's
     // inputs, 14 floats per pixel.
     gpu.set_binding_limit(20 * W as u64 * 14 * 4);
     let scene = scene();
