@@ -231,6 +231,23 @@ fn a_refused_combination_captures_no_real_layer_first() {
     assert!(!err.contains("no_such_capture"), "refused after trying to capture: {err}");
 }
 
+/// The same refusal for a `camera:` block that opens a lens without a factoring node (issue 34 §2:
+/// nothing is silently a pinhole): mixed reality's photograph cannot be seen through it, and the
+/// pipeline is refused before its real layer is captured, not rendered as a pinhole with a warning.
+#[test]
+fn mixed_reality_through_the_camera_blocks_lens_is_refused_before_its_capture() {
+    let text = format!(
+        "Pipeline(scene: \"builtin:chess\", width: {}, height: {}, seed: 1,\n camera: Some((position: (0.0, 3.4, 3.2), \
+         look_at: (0.0, 0.2, 0.0), vfov_deg: 45.0, aperture_radius: 0.05, focus_distance: Some(2.6))),\n nodes: [\n\
+         (name: \"mr\", kind: \"MixedReality\", params: {{\"capture\": \"no_such_capture.ron\"}}),\n\
+         (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"mr.radiance\"}}),\n])\n",
+        SIZE.0, SIZE.1
+    );
+    let err = refusal(&text);
+    assert!(err.contains("lens or open shutter") && err.contains("one still photograph"), "{err}");
+    assert!(!err.contains("no_such_capture"), "refused after trying to capture: {err}");
+}
+
 const PROGRESSIVE: [&str; 2] = ["PixelFilter", "RadianceFilter"];
 
 /// A camera the progressive nodes sample without a Defocus or Motion node: its scene, size, and the

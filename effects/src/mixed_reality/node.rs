@@ -154,6 +154,17 @@ impl NodeKind for MixedReality {
                 ),
             });
         }
+        // The camera block's lens or open shutter (on a moving scene) is refused for the same reason:
+        // its pinhole paths would put sharp virtual objects into a photograph the block says is not.
+        if !ctx.own_camera().fixed() {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: "cannot render through the `camera:` block's lens or open shutter: the real layer is one \
+                          still photograph (no lens or shutter samples; README \"What does not compose\") — set \
+                          aperture_radius: 0 and equal shutter times for mixed reality"
+                    .into(),
+            });
+        }
         let int = |name: &str| match ctx.param(name) {
             ParamValue::Int(v) => *v,
             other => unreachable!("`{name}` is declared an integer, found {other}"),
