@@ -430,3 +430,42 @@ fn kept_buffers_count_against_the_memory_limit() {
     let e = Model::open(&under).err().expect("refused").to_string();
     assert!(e.contains("(--memory-limit)") && e.contains("--memory-limit SIZE"), "{e}");
 }
+
+/// A change that makes one run larger than the limit (LightField's per-sample buffers grow with
+/// `spp`) is refused as `render` refuses it, and the window keeps the pipeline it had: the same
+/// passes, the same image.
+#[test]
+fn a_change_whose_run_exceeds_the_memory_limit_is_refused_and_the_last_pipeline_kept() {
+    use wedge::graph::ParamValue;
+    use wedge::session::RunMode;
+    use wedge::view::model::Model;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    let pipeline = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/lightfield_ao.ron");
+    let opts = tiny(&pipeline, dir.path());
+    let run_at = |spp: i64| {
+        let params = vec![("ao".to_string(), "spp".to_string(), ParamValue::Int(spp))];
+        let ov = wedge::Overrides { params, ..opts.overrides.clone() };
+        let s = wedge::Session::open(Some(&pipeline), &ov).expect("opens");
+        s.view_memory_estimate(RunMode::Cpu, false).total()
+    };
+    let (small, large) = (run_at(4), run_at(16));
+    assert!(large > small, "spp 16's run is not larger: {large} vs {small}");
+    let limit = wedge::view::ViewOptions { memory_limit: Some((small + large) / 2), ..opts };
+    let mut model = Model::open(&limit).expect("spp 4 fits");
+    model.render_frame().expect("frame");
+    let passes = model.session.schedule.passes.len();
+    let e = model.set_param("ao", "spp", ParamValue::Int(16)).err().expect("spp 16 refused").to_string();
+    assert!(e.contains("(--memory-limit)") && e.contains("--memory-limit SIZE"), "{e}");
+    assert_eq!(model.session.schedule.passes.len(), passes);
+    assert_eq!(
+        model.session.pipeline.nodes.iter().find(|n| n.name == "ao").map(|n| n.params["spp"].clone()),
+        Some(ParamValue::Int(4))
+    );
+    model.render_frame().expect("the last pipeline still renders");
+    // Its average goes on as if no change had been asked for: two frames of a window that saw none.
+    let mut untouched = Model::open(&limit).expect("spp 4 fits");
+    untouched.render_frame().expect("frame");
+    untouched.render_frame().expect("frame");
+    assert_eq!(model.mean().expect("mean").outputs, untouched.mean().expect("mean").outputs);
+}
