@@ -455,7 +455,7 @@ fn a_change_whose_run_exceeds_the_memory_limit_is_refused_and_the_last_pipeline_
     let mut model = Model::open(&limit).expect("spp 4 fits");
     model.render_frame().expect("frame");
     let passes = model.session.schedule.passes.len();
-    let e = model.set_param("ao", "spp", ParamValue::Int(16)).err().expect("spp 16 refused").to_string();
+    let e = model.set_param("ao", "spp", ParamValue::Int(16)).expect_err("spp 16 refused").to_string();
     assert!(e.contains("(--memory-limit)") && e.contains("--memory-limit SIZE"), "{e}");
     assert_eq!(model.session.schedule.passes.len(), passes);
     assert_eq!(
