@@ -4,7 +4,7 @@
 //! sum of components the factoring node blurs, with the emission its camera rays see where its image
 //! declares it.
 
-use wedge_backends::kernels::constant::FillU32Io;
+use wedge_backends::kernels::constant::{FillF32Io, FillU32Io};
 use wedge_backends::kernels::filter_window::Axis;
 use wedge_backends::kernels::irradiance_filter::IrradianceIo;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
@@ -172,6 +172,36 @@ pub fn sum(ctx: &mut ExpandCtx<'_>, name: &str, terms: &[BufferId], extra: Optio
         acc = out;
     }
     acc
+}
+
+/// The component radiances wired into a factoring node's ports (`direct`, `indirect`,
+/// `environment`), or the refusal of a factoring node with none.
+pub fn components(ctx: &ExpandCtx<'_>) -> Result<Vec<BufferId>, GraphError> {
+    let components: Vec<BufferId> =
+        crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
+    if components.is_empty() {
+        return Err(GraphError::Expand { node: ctx.node().into(), message: crate::light_terms::NO_COMPONENT.into() });
+    }
+    Ok(components)
+}
+
+/// A factoring node that does not factor (Defocus through a pinhole, Motion on a static scene):
+/// the components rendered as without it, summed into its `radiance` and `unfiltered`, with a zero
+/// `filter_width` and one ray per pixel for its heatmaps.
+pub fn pass_through(ctx: &mut ExpandCtx<'_>, components: &[BufferId]) {
+    let radiance = sum(ctx, "sum", components, None);
+    let width = ctx.buffer("filter_width", Format::F32);
+    FillF32Io { out: width }
+        .bind(ctx.pass("filter_width", "fill.constant_f32", Stage::Compose))
+        .float("value", 0.0)
+        .finish();
+    let rays = ctx.buffer("rays_per_pixel", Format::U32);
+    FillU32Io { out: rays }.bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose)).int("value", 1).finish();
+    for (port, id) in
+        [("radiance", radiance), ("unfiltered", radiance), ("filter_width", width), ("rays_per_pixel", rays)]
+    {
+        ctx.output(port, id);
+    }
 }
 
 /// What the shared sampler's camera rays see directly (emitters; the map where they miss), summed

@@ -42,18 +42,17 @@
 
 use std::collections::BTreeMap;
 
-use wedge_backends::kernels::constant::{FillF32Io, FillU32Io};
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
-    BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
-    ParamValue, PortDecl, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+    CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue,
+    PortDecl, SamplerPass, SamplerRequest, Stage,
 };
 
 use super::component::rate_settings;
 use super::formulas::Mode;
 use super::kernels::filter::DefocusIo;
 use super::kernels::RatesIo;
-use crate::factored::{filter_chain, sum};
+use crate::factored::{components, filter_chain, pass_through, sum};
 
 pub struct Defocus;
 
@@ -192,32 +191,10 @@ impl NodeKind for Defocus {
         super::component::expand(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let components: Vec<BufferId> =
-            crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
-        if components.is_empty() {
-            return Err(GraphError::Expand {
-                node: ctx.node().into(),
-                message: crate::light_terms::NO_COMPONENT.into(),
-            });
-        }
+        let components = components(ctx)?;
         let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {
             // A pinhole: the components rendered as without a Defocus node; only their sum here.
-            let radiance = sum(ctx, "sum", &components, None);
-            let width = ctx.buffer("filter_width", Format::F32);
-            FillF32Io { out: width }
-                .bind(ctx.pass("filter_width", "fill.constant_f32", Stage::Compose))
-                .float("value", 0.0)
-                .finish();
-            let rays = ctx.buffer("rays_per_pixel", Format::U32);
-            FillU32Io { out: rays }
-                .bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose))
-                .int("value", 1)
-                .finish();
-            for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
-                ctx.output(port, id);
-            }
-            ctx.output("filter_width", width);
-            ctx.output("rays_per_pixel", rays);
+            pass_through(ctx, &components);
             return Ok(());
         };
 

@@ -46,11 +46,11 @@
 
 use std::collections::BTreeMap;
 
-use wedge_backends::kernels::constant::{FillF32Io, FillU32Io, FillVec4Io};
+use wedge_backends::kernels::constant::FillVec4Io;
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue,
-    PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+    PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, Stage,
 };
 
 use super::formulas::{MULTI_VELOCITY_PATHS, OMEGA_T_MAX};
@@ -165,37 +165,16 @@ impl NodeKind for Motion {
         expand_component(ctx, f, c)
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-        let components: Vec<BufferId> =
-            crate::light_terms::COMPONENT_PORTS.into_iter().filter_map(|p| ctx.input(p)).collect();
-        if components.is_empty() {
-            return Err(GraphError::Expand {
-                node: ctx.node().into(),
-                message: crate::light_terms::NO_COMPONENT.into(),
-            });
-        }
+        let components = crate::factored::components(ctx)?;
         let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {
-            // A static scene: the components rendered as without a Motion node; only their sum here.
-            let radiance = sum(ctx, "sum", &components, None);
-            let width = ctx.buffer("filter_width", Format::F32);
-            FillF32Io { out: width }
-                .bind(ctx.pass("filter_width", "fill.constant_f32", Stage::Compose))
-                .float("value", 0.0)
-                .finish();
-            let rays = ctx.buffer("rays_per_pixel", Format::U32);
-            FillU32Io { out: rays }
-                .bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose))
-                .int("value", 1)
-                .finish();
+            // A static scene: the components rendered as without a Motion node; only their sum
+            // here, and no velocity.
+            crate::factored::pass_through(ctx, &components);
             let still = ctx.buffer("velocity", Format::Vec4);
             FillVec4Io { out: still }
                 .bind(ctx.pass("velocity", "fill.constant_vec4", Stage::Compose))
                 .float("value", 0.0)
                 .finish();
-            for (port, id) in [("radiance", radiance), ("unfiltered", radiance)] {
-                ctx.output(port, id);
-            }
-            ctx.output("filter_width", width);
-            ctx.output("rays_per_pixel", rays);
             ctx.output("velocity", still);
             ctx.output("shadow_velocity", still);
             return Ok(());
