@@ -156,7 +156,7 @@ fn defocus_pixel_rates(
     r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32, bandlimit: f32,
     v_p: f32, v_s: f32,
     mu: f32, mode: u32, omega_pix: f32, pixel_scale: f32, light_half_width: f32, omega_v: f32,
-    max_p: u32, max_s: u32, environment_per_primary: f32, width_pixel_limit: u32,
+    max_p: u32, max_s: u32, max_s_shadow: u32, environment_per_primary: f32, width_pixel_limit: u32,
 ) -> DefocusRates {
     let omega_pix_mu = defocus_omega_mu(omega_pix, mu, mode, omega_pix);
     if (!hit) {
@@ -169,9 +169,9 @@ fn defocus_pixel_rates(
     let p = defocus_strata(defocus_primary_rate(d, r_max, omega_pix) * defocus_time_factor(v_p, d), max_p);
     let pp = p * p;
     let qdf = defocus_secondary_strata(
-        defocus_direct_rate(sd, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_s, sd), p, max_s);
+        defocus_direct_rate(sd, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_s, sd), p, max_s_shadow);
     let qdc = defocus_secondary_strata(
-        defocus_direct_rate(d, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_p + v_s, d), p, max_s);
+        defocus_direct_rate(d, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_p + v_s, d), p, max_s_shadow);
     let qif = defocus_secondary_strata(defocus_indirect_rate(si, r_max, z_max, l_p, omega_v, omega_pix), p, max_s);
     let qic = defocus_secondary_strata(
         defocus_indirect_rate(d, r_max, z_max, l_p, omega_v, omega_pix) * defocus_time_factor(v_p, d), p, max_s);

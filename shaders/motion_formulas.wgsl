@@ -55,7 +55,7 @@ struct MotionRates {
     n_environment: u32,
 }
 
-// The constants of formulas.rs MotionParams (max_p, max_s: strata caps).
+// The constants of formulas.rs MotionParams (max_p, max_s, max_s_shadow: strata caps).
 struct MotionConstants {
     mu: f32,
     mode: u32,
@@ -66,6 +66,7 @@ struct MotionConstants {
     omega_v: f32,
     max_p: u32,
     max_s: u32,
+    max_s_shadow: u32,
     multi_paths: u32,
     environment_per_primary: f32,
 }
@@ -114,7 +115,7 @@ fn motion_pixel_rates(
     }
     return MotionRates(
         single, omega_texture, direct, omega_shadow, indirect, environment, l_p, p * p,
-        motion_total(defocus_direct_rate(omega_d, speed_s, s_max, l_p, k.light_half_width, op), p, single, k.max_s),
+        motion_total(defocus_direct_rate(omega_d, speed_s, s_max, l_p, k.light_half_width, op), p, single, k.max_s_shadow),
         motion_total(defocus_indirect_rate(indirect, 0.0, z_max, l_p, k.omega_v, op), p, single, k.max_s),
         motion_total(defocus_environment_rate(environment, 0.0, k.environment_per_primary, op), p, single, k.max_s),
     );

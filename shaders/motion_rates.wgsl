@@ -28,7 +28,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let depth = depth_at(i);
     let k = MotionConstants(
         params.mu, params.mode, params.omega_pix, params.omega_t, params.pixel_scale, params.light_half_width, params.omega_v,
-        params.max_p, params.max_s, params.multi_paths, params.environment_per_primary,
+        params.max_p, params.max_s, params.max_s_shadow, params.multi_paths, params.environment_per_primary,
     );
     // The environment's Ch. 6 bandwidth (formulas.rs bandlimit_of).
     var bandlimit = 0.0;

@@ -727,6 +727,7 @@ fn rates_kernel_matches_the_formulas() {
         omega_v: 2.8,
         max_primary: 256,
         max_per_primary: 1024,
+        max_shadow_per_primary: 1024,
         environment_per_primary: 4.0,
         width_pixel_limit: true,
     };

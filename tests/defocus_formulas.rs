@@ -151,6 +151,7 @@ fn params(mu: f32, mode: Mode) -> RateParams {
         omega_v: 2.8,
         max_primary: 4096,
         max_per_primary: 4096,
+        max_shadow_per_primary: 4096,
         environment_per_primary: 4.0,
         width_pixel_limit: true,
     }
@@ -185,9 +186,13 @@ fn pixel_rates_by_hand_and_caps() {
     assert_eq!(r.n_indirect_factored, 196); // 171.7 → 14²
     assert_eq!(r.n_indirect_combined, 784); // (2.8 + 25)² = 772.84 → 28²
                                             // Caps round down to squares: 64 per primary → s ≤ 8; 10 primaries → p ≤ 3.
-    let capped = RateParams { max_per_primary: 64, max_primary: 10, ..params(1.0, Mode::Literal) };
+    let capped =
+        RateParams { max_per_primary: 64, max_shadow_per_primary: 64, max_primary: 10, ..params(1.0, Mode::Literal) };
     let r = pixel_rates(&stats(0.0, 0.0), &capped);
     assert_eq!((r.n_direct_combined, r.n_indirect_factored, r.n_indirect_combined), (64, 64, 64));
+    // The shadow rays have their own cap: 16 per primary caps direct light alone.
+    let r = pixel_rates(&stats(0.0, 0.0), &RateParams { max_shadow_per_primary: 16, ..capped });
+    assert_eq!((r.n_direct_combined, r.n_indirect_factored, r.n_indirect_combined), (16, 64, 64));
     // r_min = 1, r_max = 500: n_p = 1·(1 + 250)² → p = 251, capped at 3.
     let r = pixel_rates(&stats(1.0, 500.0), &capped);
     assert_eq!(r.n_primary, 9);

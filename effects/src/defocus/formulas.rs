@@ -355,8 +355,12 @@ pub struct RateParams {
     pub omega_v: f32,
     /// Cap on primary rays per pixel (rounded down to a square).
     pub max_primary: u32,
-    /// Cap on secondary rays per primary ray (rounded down to a square).
+    /// Cap on secondary rays per primary ray (rounded down to a square): hemisphere and environment
+    /// samples.
     pub max_per_primary: u32,
+    /// The same for the direct light's shadow rays, whose variance (the light's, in penumbrae)
+    /// secondaries do reduce (docs/DESIGN-NOTES.md "Shadow rays per primary under Motion").
+    pub max_shadow_per_primary: u32,
     /// Environment look-ups per primary ray at the pixel limit ([`environment_rate`]).
     pub environment_per_primary: f32,
     /// The screen-space filter's width capped at `Ω_pix^max` as eq. 5.7 caps `Ω_x^d` (the thesis: an
@@ -391,7 +395,7 @@ pub struct PixelRates {
 /// width that passes the lens's band passes the product's.
 pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
     let max_p = strata_cap(k.max_primary);
-    let max_s = strata_cap(k.max_per_primary);
+    let (max_s, max_s_shadow) = (strata_cap(k.max_per_primary), strata_cap(k.max_shadow_per_primary));
     let omega_pix_mu = omega_mu(k.omega_pix, k.mu, k.mode, k.omega_pix);
     if !s.hit {
         return PixelRates {
@@ -416,20 +420,22 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
     let se = omega_mu(omega_environment(s.r_min, s.bandlimit, l_p, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let (vp, vs) = (s.v_p, s.v_s);
     let p = primary_strata(primary_rate(d, s.r_max, k.omega_pix) * time_factor(vp, d), max_p);
-    let total = |n: f32| {
-        let q = secondary_strata(n, p, max_s);
+    let total_capped = |n: f32, cap: u32| {
+        let q = secondary_strata(n, p, cap);
         p * p * q * q
     };
+    let total = |n: f32| total_capped(n, max_s);
+    let shadows = |n: f32| total_capped(n, max_s_shadow);
     PixelRates {
         omega_defocus: screen_width(d, s.r_min, k.mu, k.width_pixel_limit),
         omega_direct: sd,
         omega_indirect: si,
         pixel_length: l_p,
         n_primary: p * p,
-        n_direct_factored: total(
+        n_direct_factored: shadows(
             direct_rate(sd, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vs, sd),
         ),
-        n_direct_combined: total(
+        n_direct_combined: shadows(
             direct_rate(d, s.r_max, s.s_max, l_p, k.light_half_width, k.omega_pix) * time_factor(vp + vs, d),
         ),
         n_indirect_factored: total(indirect_rate(si, s.r_max, s.z_max, l_p, k.omega_v, k.omega_pix)),

@@ -54,6 +54,8 @@ wedge_backends::kernel_params! {
         light_half_width: Option<f32>,
         light: Option<LightIndex>,
         environment_per_primary: Option<f32>,
+        /// Cap on shadow rays per primary ray (direct light); absent: `max_per_primary`.
+        max_shadow_per_primary: Option<i32>,
         width_pixel_limit: Option<bool>,
         component: Option<RateComponent>,
     }
@@ -128,6 +130,7 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
         omega_v: positive(ctx, "omega_v", p.omega_v, false)?,
         max_primary: scaled_cap(p.max_primary, mu, mode),
         max_per_primary: scaled_cap(p.max_per_primary, mu, mode),
+        max_shadow_per_primary: scaled_cap(o.max_shadow_per_primary.unwrap_or(p.max_per_primary), mu, mode),
         environment_per_primary,
         // Absent (a component's rates, which write no screen width): the thesis's.
         width_pixel_limit: o.width_pixel_limit.unwrap_or(true),
@@ -326,6 +329,7 @@ impl Kernel for Rates {
                     .f32("light_half_width", k.light_half_width)
                     .u32("max_p", formulas::strata_cap(k.max_primary))
                     .u32("max_s", formulas::strata_cap(k.max_per_primary))
+                    .u32("max_s_shadow", formulas::strata_cap(k.max_shadow_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary)
                     .u32("width_pixel_limit", u32::from(k.width_pixel_limit))
                     .u32("component", component_uniform(ctx)?))

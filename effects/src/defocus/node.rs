@@ -140,6 +140,7 @@ impl NodeKind for Defocus {
             ParamDecl::int("initial_paths", 16, 1, 4096, "first-pass paths per pixel (thesis: 16, one lens, shadow and indirect sample each)"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
             ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's defocus suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"The defocus suite\""),
+            ParamDecl::int("max_shadow_per_primary", 1, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary (1 = its default; docs/DESIGN-NOTES.md \"Shadow rays per primary under Motion\")"),
             ParamDecl::int("max_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),
             ParamDecl::boolean("separable", true, "x then y filter passes (O(R) taps) instead of the 2-D reference (O(R²))"),
             ParamDecl::choice(
@@ -167,6 +168,7 @@ impl NodeKind for Defocus {
             "factor",
             "max_primary",
             "max_per_primary",
+            "max_shadow_per_primary",
             "max_radius",
             "separable",
             "lens",

@@ -132,7 +132,10 @@ pub struct MotionParams {
     /// `Ω_v^max` of the receiver's transfer function (Ch. 4: 2.8 diffuse).
     pub omega_v: f32,
     pub max_primary: u32,
+    /// Caps on hemisphere and environment samples, and on shadow rays, per primary ray (Defocus's
+    /// `RateParams`).
     pub max_per_primary: u32,
+    pub max_shadow_per_primary: u32,
     /// Primary rays at multi-velocity pixels (capped by `max_primary`).
     pub multi_paths: u32,
     /// Environment look-ups per primary ray (`crate::defocus::formulas::environment_rate`).
@@ -162,7 +165,7 @@ pub struct MotionRates {
 /// All of App. B's sampling for one pixel (see the module doc).
 pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     let max_p = strata_cap(k.max_primary);
-    let max_s = strata_cap(k.max_per_primary);
+    let (max_s, max_s_shadow) = (strata_cap(k.max_per_primary), strata_cap(k.max_shadow_per_primary));
     let single = s.single();
     let mu = |omega: f32| omega_mu(omega, k.mu, k.mode, k.omega_pix);
     if !s.hit {
@@ -190,10 +193,11 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     } else {
         primary_strata(k.multi_paths as f32, max_p)
     };
-    let total = |n: f32| {
-        let q = if single { secondary_strata(n, p, max_s) } else { 1 };
+    let total_capped = |n: f32, cap: u32| {
+        let q = if single { secondary_strata(n, p, cap) } else { 1 };
         p * p * q * q
     };
+    let total = |n: f32| total_capped(n, max_s);
     let omega_d = direct.min(shadow);
     MotionRates {
         single,
@@ -204,7 +208,10 @@ pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
         omega_environment: environment,
         pixel_length: l_p,
         n_primary: p * p,
-        n_direct: total(direct_rate(omega_d, speed_s, s.s_max, l_p, k.light_half_width, k.omega_pix)),
+        n_direct: total_capped(
+            direct_rate(omega_d, speed_s, s.s_max, l_p, k.light_half_width, k.omega_pix),
+            max_s_shadow,
+        ),
         n_indirect: total(indirect_rate(indirect, 0.0, s.z_max, l_p, k.omega_v, k.omega_pix)),
         n_environment: total(environment_rate(environment, 0.0, k.environment_per_primary, k.omega_pix)),
     }
@@ -225,6 +232,7 @@ mod tests {
             omega_v: 2.8,
             max_primary: 256,
             max_per_primary: 4,
+            max_shadow_per_primary: 4,
             multi_paths: THESIS_MULTI_VELOCITY_PATHS as u32,
             environment_per_primary: 4.0,
         }
@@ -284,6 +292,27 @@ mod tests {
             (4, 4),
             "one look-up on each of 2² timed paths: {moving:?}"
         );
+    }
+
+    #[test]
+    fn shadow_rays_and_hemisphere_samples_have_their_own_caps() {
+        // A penumbra pixel near a reflector on a still receiver: one primary ray, many secondaries
+        // asked for by both the light and the hemisphere.
+        let s = MotionStats {
+            hit: true,
+            depth: 2.0,
+            occluded: true,
+            s_min: 0.2,
+            s_max: 4.0,
+            z_min: 0.01,
+            z_max: 0.02,
+            ..Default::default()
+        };
+        let k = MotionParams { max_per_primary: 1, max_shadow_per_primary: 4, ..params() };
+        let r = pixel_rates(&s, &k);
+        assert_eq!((r.n_primary, r.n_direct, r.n_indirect), (1, 4, 1), "{r:?}");
+        let both = pixel_rates(&s, &params());
+        assert_eq!((both.n_direct, both.n_indirect), (4, 4), "{both:?}");
     }
 
     #[test]

@@ -61,6 +61,7 @@ fn motion_params(ctx: &KernelCtx<'_>) -> Result<MotionParams, BackendError> {
         omega_v: k.omega_v,
         max_primary: k.max_primary,
         max_per_primary: k.max_per_primary,
+        max_shadow_per_primary: k.max_shadow_per_primary,
         multi_paths,
         environment_per_primary: k.environment_per_primary,
     })
@@ -164,6 +165,7 @@ impl Kernel for Rates {
                     .f32("light_half_width", k.light_half_width)
                     .u32("max_p", strata_cap(k.max_primary))
                     .u32("max_s", strata_cap(k.max_per_primary))
+                    .u32("max_s_shadow", strata_cap(k.max_shadow_per_primary))
                     .u32("multi_paths", k.multi_paths)
                     .f32("environment_per_primary", k.environment_per_primary)
                     .u32("component", component_uniform(ctx)?))

@@ -124,7 +124,8 @@ impl NodeKind for Motion {
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one time, shadow and indirect sample each (thesis App. B: 9; 4 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
-            ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's motion suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"One secondary per primary under Motion\""),
+            ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on hemisphere and environment samples per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's motion suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"Shadow rays per primary under Motion\""),
+            ParamDecl::int("max_shadow_per_primary", 4, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary: 4 (2×2 strata), the light's variance in penumbrae is what they reduce"),
             ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64; 16 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_radius", 32, 1, 64, "largest filter half-width in pixels (filter.motion, filter.irradiance)"),
             ParamDecl::choice(
@@ -149,6 +150,7 @@ impl NodeKind for Motion {
             "omega_t",
             "max_primary",
             "max_per_primary",
+            "max_shadow_per_primary",
             "max_radius",
             "multi_paths",
             "initial_paths",
