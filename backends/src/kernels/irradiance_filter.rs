@@ -39,7 +39,34 @@ crate::kernel_bindings! {
     }
 }
 
-/// Eq. 5.31 at pixel `(x, y)`.
+/// A pixel as the weights read it, prepared once per pass rather than per tap (each pixel is a
+/// neighbour of up to 2R + 1 others in a separable pass, and would have its normal normalised and
+/// its width divided as often): hit, lens-averaged position, unit normal (zero where none), and
+/// `g² = (Ω/ℓ_p)²`. The same operations in the same order as per tap, so the same bits.
+#[derive(Clone, Copy)]
+pub struct Neighbour {
+    hit: bool,
+    position: Vec3,
+    normal: Vec3,
+    g2: f32,
+}
+
+/// Every pixel of the pass as a [`Neighbour`].
+pub fn neighbours(position: &[[f32; 4]], normal: &[[f32; 4]], omega: &[f32], pixel_length: &[f32]) -> Vec<Neighbour> {
+    (0..position.len())
+        .map(|j| {
+            let g = omega[j] / pixel_length[j];
+            Neighbour {
+                hit: is_hit(position[j]),
+                position: v3(position[j]),
+                normal: v3(normal[j]).normalize_or_zero(),
+                g2: g * g,
+            }
+        })
+        .collect()
+}
+
+/// Eq. 5.31 at pixel `(x, y)`, its neighbours prepared by [`neighbours`].
 #[allow(clippy::too_many_arguments)]
 pub fn irradiance_pixel(
     x: i32,
@@ -48,32 +75,29 @@ pub fn irradiance_pixel(
     height: i32,
     p: &IrradianceParams,
     value: &[[f32; 3]],
-    position: &[[f32; 4]],
-    normal: &[[f32; 4]],
-    omega: &[f32],
-    pixel_length: &[f32],
+    (omega, pixel_length): (&[f32], &[f32]),
+    prepared: &[Neighbour],
 ) -> [f32; 3] {
     let i = (y * width + x) as usize;
     let centre = value[i];
-    let (om, ell) = (omega[i], pixel_length[i]);
-    if !valid_width(om) || !valid_width(ell) || !is_hit(position[i]) {
+    let (om, ell, me) = (omega[i], pixel_length[i], prepared[i]);
+    if !valid_width(om) || !valid_width(ell) || !me.hit || me.normal == Vec3::ZERO {
         return centre;
     }
-    let ni = v3(normal[i]).normalize_or_zero();
-    if ni == Vec3::ZERO {
-        return centre;
-    }
-    let gi = om / ell;
-    let gi2 = gi * gi;
-    let xi = v3(position[i]);
     let extent = p.axis.extent(p.max_radius.window(om));
     gather(x, y, width, height, extent, value, |j, _| {
-        if !is_hit(position[j]) || ni.dot(v3(normal[j]).normalize_or_zero()) < p.normal_cos {
+        let n = &prepared[j];
+        if !n.hit || me.normal.dot(n.normal) < p.normal_cos {
             return None;
         }
-        let gj = omega[j] / pixel_length[j];
-        pair_weight((v3(position[j]) - xi).length_squared(), gi2, gj * gj)
+        pair_weight((n.position - me.position).length_squared(), me.g2, n.g2)
     })
+}
+
+/// Whether every value is +0.0 (a part no surface of the image has, e.g. the glossy part of a
+/// diffuse scene): the filter's output is then its input, bit for bit, and the pass skips the taps.
+fn all_zero(value: &[[f32; 3]]) -> bool {
+    value.iter().all(|v| v.iter().all(|c| c.to_bits() == 0))
 }
 
 /// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
@@ -105,9 +129,13 @@ impl Kernel for IrradianceFilter {
         let IrradianceData { value, position, normal, omega, pixel_length, .. } = io;
         let p = IrradianceParams::read(ctx)?;
         count_non_finite(ctx, value);
+        if all_zero(value) {
+            return io.out.put(ctx, value.to_vec());
+        }
+        let prepared = neighbours(position, normal, omega, pixel_length);
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let out = ctx.map_pixels(false, |x, y| {
-            irradiance_pixel(x as i32, y as i32, w, h, &p, value, position, normal, omega, pixel_length)
+            irradiance_pixel(x as i32, y as i32, w, h, &p, value, (omega, pixel_length), &prepared)
         });
         io.out.put(ctx, out)
     }
