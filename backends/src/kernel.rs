@@ -880,27 +880,32 @@ impl<'a> KernelCtx<'a> {
         Ok(i as usize)
     }
 
-    /// Evaluate `f(x, y)` for every pixel in parallel (rows across threads). The result depends
-    /// only on `f`, never on the thread count. Progress is reported per row when `report` is set.
+    /// Evaluate `f(x, y)` for every pixel in parallel. The result depends only on `f`, never on
+    /// the thread count. Progress is reported per row when `report` is set.
+    ///
+    /// One indexed parallel iterator over the pixels in row order: rayon collects it straight into
+    /// the output, splitting the range as its threads need — no vector per row, and no copy when
+    /// rows are joined (which a filter pass of a few taps per pixel paid as much as for its taps).
     pub fn map_pixels<T: Send>(&self, report: bool, f: impl Fn(u32, u32) -> T + Sync) -> Vec<T> {
-        let w = self.width;
+        let w = self.width as usize;
         if report {
             self.progress.begin(self.pass, self.height as u64);
         }
-        let rows: Vec<Vec<T>> = (0..self.height)
+        let out: Vec<T> = (0..w * self.height as usize)
             .into_par_iter()
-            .map(|y| {
-                let row = (0..w).map(|x| f(x, y)).collect();
-                if report {
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let value = f(x as u32, y as u32);
+                if report && x + 1 == w {
                     self.progress.advance(1);
                 }
-                row
+                value
             })
             .collect();
         if report {
             self.progress.end();
         }
-        rows.into_iter().flatten().collect()
+        out
     }
 }
 
