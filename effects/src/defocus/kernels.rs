@@ -345,7 +345,9 @@ impl Kernel for Rates {
         let k = rate_params(ctx)?;
         let io = RatesIo::read(ctx)?;
         let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
-        let rates: Vec<PixelRates> = ctx.map_pixels(false, |x, y| {
+        let chosen = component.map(RateComponent::select);
+        // Per pixel only what the outputs need, not the whole `PixelRates` re-read per column.
+        let rows: Vec<Row> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             let at = |b: Option<&[[f32; 4]]>| b.map(|b| b[i]);
             let o = OptionalStats {
@@ -355,22 +357,37 @@ impl Kernel for Rates {
                 velocity: at(io.velocity),
                 shadow_velocity: at(io.shadow_velocity),
             };
-            formulas::pixel_rates(&pixel_stats(io.lens[i], o), &k)
+            let r = formulas::pixel_rates(&pixel_stats(io.lens[i], o), &k);
+            // The count the pixel takes: factored where its (median-filtered) flag is set, else
+            // combined.
+            let factors = io.flag.is_some_and(|g| g[i] != 0);
+            let (omega, n) = chosen.map_or((0.0, 0), |(omega, factored, combined)| {
+                (omega(&r), if factors { factored(&r) } else { combined(&r) })
+            });
+            Row { omega_defocus: r.omega_defocus, pixel_length: r.pixel_length, n_primary: r.n_primary, omega, n }
         });
-        let column = |f: &dyn Fn(&PixelRates) -> f32| rates.iter().map(f).collect::<Vec<f32>>();
+        let column = |f: &dyn Fn(&Row) -> f32| rows.iter().map(f).collect::<Vec<f32>>();
         io.omega_defocus.put_with(ctx, || column(&|r| r.omega_defocus))?;
         io.pixel_length.put(ctx, column(&|r| r.pixel_length))?;
-        io.n_primary.put_with(ctx, || rates.iter().map(|r| r.n_primary).collect())?;
+        io.n_primary.put_with(ctx, || rows.iter().map(|r| r.n_primary).collect())?;
         io.sigma_defocus.put_with(ctx, || column(&|r| sigma_px(r.omega_defocus)))?;
-        let Some((omega, factored, combined)) = component.map(RateComponent::select) else { return Ok(()) };
-        io.omega.put_with(ctx, || column(&omega))?;
-        // The count the pixel takes: factored where its (median-filtered) flag is set, else combined.
-        io.n.put_with(ctx, || {
-            let set = |i: usize| io.flag.is_some_and(|g| g[i] != 0);
-            rates.iter().enumerate().map(|(i, r)| if set(i) { factored(r) } else { combined(r) }).collect()
-        })?;
-        io.sigma.put_with(ctx, || column(&|r| sigma_px(omega(r))))
+        if chosen.is_none() {
+            return Ok(());
+        }
+        io.omega.put_with(ctx, || column(&|r| r.omega))?;
+        io.n.put_with(ctx, || rows.iter().map(|r| r.n).collect())?;
+        io.sigma.put_with(ctx, || column(&|r| sigma_px(r.omega)))
     }
+}
+
+/// One pixel of a `defocus.rates` pass: the columns it may write, and no more.
+struct Row {
+    omega_defocus: f32,
+    pixel_length: f32,
+    n_primary: u32,
+    /// The pass's component's width and the count the pixel takes (0 where it sizes none).
+    omega: f32,
+    n: u32,
 }
 
 wedge_backends::kernel_bindings! {

@@ -183,7 +183,10 @@ impl Kernel for Rates {
         let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
         let shadow = io.shadow_velocity;
         let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
-        let rates: Vec<(MotionStats, MotionRates)> = ctx.map_pixels(false, |x, y| {
+        let chosen = component.map(select);
+        // Per pixel only what the outputs need (a full stats-and-rates record is ~130 bytes, and
+        // writing and re-reading it per column cost more than the formulas).
+        let rows: Vec<Row> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
             let s = motion_stats(
                 io.velocity[i],
@@ -193,30 +196,58 @@ impl Kernel for Rates {
                 at(io.reflectors, i),
                 io.bandlimit.map(|b| b[i]),
             );
-            (s, formulas::pixel_rates(&s, &k))
+            Row::of(&s, &formulas::pixel_rates(&s, &k), chosen)
         });
-        let column = |f: &dyn Fn(&MotionRates) -> f32| rates.iter().map(|(_, r)| f(r)).collect::<Vec<f32>>();
+        let column = |f: &dyn Fn(&Row) -> f32| rows.iter().map(f).collect::<Vec<f32>>();
         io.texture_motion.put_with(ctx, || {
-            rates.iter().map(|(s, r)| [s.v_p[0], s.v_p[1], r.omega_texture, sigma_or_zero(r.omega_texture)]).collect()
+            rows.iter().map(|r| [r.v_p[0], r.v_p[1], r.omega_texture, sigma_or_zero(r.omega_texture)]).collect()
         })?;
         // The shadow's mean velocity as the sampler gave it (zero where unbound).
         io.shadow_motion.put_with(ctx, || {
-            rates
-                .iter()
+            rows.iter()
                 .enumerate()
-                .map(|(i, (_, r))| {
+                .map(|(i, r)| {
                     let v = shadow.map_or([0.0; 4], |s| s[i]);
                     [v[0], v[1], r.omega_shadow, sigma_or_zero(r.omega_shadow)]
                 })
                 .collect()
         })?;
-        io.n_primary.put_with(ctx, || rates.iter().map(|(_, r)| r.n_primary).collect())?;
+        io.n_primary.put_with(ctx, || rows.iter().map(|r| r.n_primary).collect())?;
         io.pixel_length.put_with(ctx, || column(&|r| r.pixel_length))?;
         io.sigma_texture.put_with(ctx, || column(&|r| sigma_or_zero(r.omega_texture)))?;
-        let Some((omega, n)) = component.map(select) else { return Ok(()) };
-        io.omega.put_with(ctx, || column(&omega))?;
-        io.n.put_with(ctx, || rates.iter().map(|(_, r)| n(r)).collect())?;
-        io.sigma.put_with(ctx, || column(&|r| sigma_or_zero(omega(r))))
+        if chosen.is_none() {
+            return Ok(());
+        }
+        io.omega.put_with(ctx, || column(&|r| r.omega))?;
+        io.n.put_with(ctx, || rows.iter().map(|r| r.n).collect())?;
+        io.sigma.put_with(ctx, || column(&|r| sigma_or_zero(r.omega)))
+    }
+}
+
+/// One pixel of a `motion.rates` pass: the columns it may write, and no more.
+struct Row {
+    v_p: [f32; 2],
+    omega_texture: f32,
+    omega_shadow: f32,
+    pixel_length: f32,
+    n_primary: u32,
+    /// The pass's component's width and count (0 where it sizes none).
+    omega: f32,
+    n: u32,
+}
+
+impl Row {
+    fn of(s: &MotionStats, r: &MotionRates, chosen: Option<(Width<MotionRates>, Count<MotionRates>)>) -> Row {
+        let (omega, n) = chosen.map_or((0.0, 0), |(omega, n)| (omega(r), n(r)));
+        Row {
+            v_p: s.v_p,
+            omega_texture: r.omega_texture,
+            omega_shadow: r.omega_shadow,
+            pixel_length: r.pixel_length,
+            n_primary: r.n_primary,
+            omega,
+            n,
+        }
     }
 }
 
