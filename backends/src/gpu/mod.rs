@@ -174,6 +174,24 @@ pub struct GpuBackend {
     /// The pool slots' device buffers a whole run left, by slot: the next whole run writes into
     /// those whose size still fits instead of allocating (issue 38 §2, see `run.rs`).
     pool: Vec<Option<wgpu::Buffer>>,
+    /// Small per-dispatch buffers (counter blocks, read-back staging up to [`SCRATCH_MAX`] bytes)
+    /// by role and size, kept for the next dispatch or run that needs the same (issue 38 §2).
+    scratch: Mutex<Scratch>,
+}
+
+/// Largest scratch buffer kept between dispatches: counters and timestamps, not image read-backs
+/// (kept, those would hold host-visible memory the size of an output for the backend's life).
+const SCRATCH_MAX: u64 = 64 * 1024;
+
+/// Distinct (role, size) scratch buffers kept at most; past it the cache starts over (a viewer
+/// resizing through many sizes must not pile them up).
+const SCRATCH_KEPT: usize = 32;
+
+/// [`GpuBackend`]'s kept scratch buffers and how many were ever created.
+#[derive(Default)]
+struct Scratch {
+    buffers: HashMap<(&'static str, u64), wgpu::Buffer>,
+    created: usize,
 }
 
 impl GpuBackend {
@@ -287,7 +305,43 @@ impl GpuBackend {
             uniform_layouts: HashMap::new(),
             last_plans: Vec::new(),
             pool: Vec::new(),
+            scratch: Mutex::default(),
         })
+    }
+
+    /// Scratch buffers (counter blocks, small read-back staging) created so far: a kept backend's
+    /// later dispatches of the same sizes create none (`tests/parity.rs` `gpu_pool_persists_across_runs`).
+    pub fn scratch_buffers_created(&self) -> usize {
+        self.scratch.lock().unwrap_or_else(|e| e.into_inner()).created
+    }
+
+    /// The `role` buffer of `size` bytes an earlier dispatch left, else `make()`'s, kept for the next
+    /// one when at most [`SCRATCH_MAX`] bytes. Callers use it whole before the next request (a
+    /// dispatch waits for its submission), so one buffer per role and size is enough.
+    fn scratch(
+        &self,
+        role: &'static str,
+        size: u64,
+        make: impl FnOnce() -> Result<wgpu::Buffer, BackendError>,
+    ) -> Result<wgpu::Buffer, BackendError> {
+        let mut kept = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(b) = kept.buffers.get(&(role, size)) {
+            return Ok(b.clone());
+        }
+        let b = make()?;
+        kept.created += 1;
+        if size <= SCRATCH_MAX {
+            if kept.buffers.len() >= SCRATCH_KEPT {
+                kept.buffers.clear();
+            }
+            kept.buffers.insert((role, size), b.clone());
+        }
+        Ok(b)
+    }
+
+    /// Forget the `role` buffer of `size` bytes (after an error left it in an unknown state).
+    fn drop_scratch(&self, role: &'static str, size: u64) {
+        self.scratch.lock().unwrap_or_else(|e| e.into_inner()).buffers.remove(&(role, size));
     }
 
     /// `name (backend, device type)` of the adapter in use.
@@ -425,21 +479,32 @@ impl GpuBackend {
         })
     }
 
-    /// Copy a buffer back to the host.
+    /// Copy a buffer back to the host (through a kept staging buffer where small, [`GpuBackend::scratch`]).
     fn read_bytes(&self, what: &str, buf: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, BackendError> {
         let size = bytes.div_ceil(4) * 4;
-        let staging = self.scoped(what, || {
-            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("wedge readback"),
-                size: size.max(4),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
+        let read = self.read_staged(what, buf, bytes, size);
+        if read.is_err() {
+            self.drop_scratch("wedge readback", size.max(4));
+        }
+        read
+    }
+
+    fn read_staged(&self, what: &str, buf: &wgpu::Buffer, bytes: u64, size: u64) -> Result<Vec<u8>, BackendError> {
+        let staging = self.scratch("wedge readback", size.max(4), || {
+            self.scoped(what, || {
+                self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("wedge readback"),
+                    size: size.max(4),
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+        })?;
+        self.scoped(what, || {
             let mut enc =
                 self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
             enc.copy_buffer_to_buffer(buf, 0, &staging, 0, size);
             self.queue.submit([enc.finish()]);
-            staging
         })?;
         let slice = staging.slice(..size);
         let (tx, rx) = mpsc::channel();
@@ -766,7 +831,9 @@ impl GpuBackend {
         // One counter block (8 × u32, see shaders/common.wgsl) per band, each at an aligned offset;
         // summed in 64 bits after each dispatch.
         let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
-        let counters = self.storage("counters", stride * bands.len() as u64)?;
+        // Cleared before each submission, so a kept one from an earlier dispatch serves as well.
+        let counters_size = stride * bands.len() as u64;
+        let counters = self.scratch("counters", counters_size, || self.storage("counters", counters_size))?;
         // A chunked sampling kernel takes at most `samples_per_dispatch` samples per pixel per
         // dispatch; the next chunk runs while some pixel still has samples left.
         let chunk = if src.chunked { self.samples_per_dispatch.min(src.max_chunk) } else { u32::MAX };
