@@ -61,7 +61,9 @@
 //!
 //! Environment: `WEDGE_BENCH_SCENES=grids,heavy,spheres` picks scenes, `WEDGE_BENCH_MIN_SECS=1` the
 //! minimum timed duration per cell, `WEDGE_BENCH_PYTHON=python3` the interpreter for the Embree side,
-//! `WEDGE_BENCH_MOTION=0` skips the motion tables, `WEDGE_BENCH_REPEATS=3` how many times the Embree
+//! `WEDGE_BENCH_MOTION=0` skips the motion tables, `WEDGE_BENCH_ONLY=passes` measures and prints only the
+//! bare rows and the "passes vs bare traversal" table (a quick check of a kernel change),
+//! `WEDGE_BENCH_REPEATS=3` how many times the Embree
 //! comparison is run (each repetition re-measures wedge's 1-thread cells right before Embree traces
 //! the same rays, so slow phases of a shared machine hit both sides; the table gives medians and the
 //! ratio's range: one run's ratio moved by up to 45% here, DESIGN-NOTES "Re-measured against Embree").
@@ -693,6 +695,7 @@ fn main() {
         }),
     );
     let repeats: usize = std::env::var("WEDGE_BENCH_REPEATS").ok().and_then(|s| s.parse().ok()).unwrap_or(3).max(1);
+    let only_passes = std::env::var("WEDGE_BENCH_ONLY").as_deref() == Ok("passes");
     let (nproc, model) = machine_info();
     println!("# wedge ray throughput\n");
     println!("- machine: {model}, nproc = {nproc}");
@@ -701,7 +704,13 @@ fn main() {
         "- image {W}×{H}, {SHADOW_SAMPLES} shadow rays toward light 0 and {DIFFUSE_SAMPLES} diffuse-bounce rays per primary hit, ≥{:.1} s per cell",
         min.as_secs_f64()
     );
-    let python = if smoke { Err("smoke run (no `--bench`)".to_string()) } else { embree_python() };
+    let python = if smoke {
+        Err("smoke run (no `--bench`)".to_string())
+    } else if only_passes {
+        Err("WEDGE_BENCH_ONLY=passes".to_string())
+    } else {
+        embree_python()
+    };
     match &python {
         Ok(p) => println!("- Embree side: `{p}` with embreex (benches/embree_compare.py)\n"),
         Err(why) => println!("- Embree comparison skipped: {why}\n"),
@@ -740,7 +749,9 @@ fn main() {
         let shadow = shadow_rays(&scene, &points);
         let diffuse = diffuse_rays(&scene, &points);
         drop(points);
-        builds.push((name.clone(), record_bytes, build_table(&input, &primary, &diffuse, min, repeats)));
+        if !only_passes {
+            builds.push((name.clone(), record_bytes, build_table(&input, &primary, &diffuse, min, repeats)));
+        }
         let session = pass_session(name);
         // The smoke run checks the table works on one thread count: each run traces ~5 M rays.
         for &threads in if smoke { &[2usize][..] } else { &[1, 2] } {
@@ -813,6 +824,10 @@ fn main() {
         for (threads, p, s, c, d) in cells {
             rows.push((name.clone(), threads, [primary.len(), shadow.len(), diffuse.len()], p, s, c, d));
         }
+    }
+    if only_passes {
+        pass_table(&passes, &rows);
+        return;
     }
     let motion = (std::env::var("WEDGE_BENCH_MOTION").as_deref() != Ok("0")).then(|| motion_tables(min, smoke));
     // Multi-bounce paths (Indirect's sampler) on `cornell`.

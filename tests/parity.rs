@@ -220,9 +220,12 @@ fn gpu_pool_persists_across_runs() {
     assert!(!session.schedule.history.is_empty(), "the test wants previous-frame buffers");
     let slots = session.schedule.slot_formats.len();
     let first = session.run_frame(&mut gpu, &Silent, 0, 0, None).unwrap();
+    let scratch = gpu.scratch_buffers_created();
     let again = session.run_frame(&mut gpu, &Silent, 0, 0, None).unwrap();
     let next = session.run_frame(&mut gpu, &Silent, 1, 0, Some(&first)).unwrap();
     assert_eq!(first.allocations, slots);
+    // Counter blocks and read-back staging are kept too (at 32×24 every read-back is small enough).
+    assert_eq!(gpu.scratch_buffers_created(), scratch, "later runs create no scratch buffers");
     assert_eq!((again.allocations, next.allocations), (0, 0), "a kept backend's later runs allocate nothing");
     assert_eq!(bytes(&first), bytes(&again), "a run into reused buffers differs from the first");
     let fresh = session.run_frame(&mut GpuBackend::new().unwrap(), &Silent, 1, 0, Some(&first)).unwrap();

@@ -174,6 +174,24 @@ pub struct GpuBackend {
     /// The pool slots' device buffers a whole run left, by slot: the next whole run writes into
     /// those whose size still fits instead of allocating (issue 38 §2, see `run.rs`).
     pool: Vec<Option<wgpu::Buffer>>,
+    /// Small per-dispatch buffers (uniforms, counter blocks, read-back staging up to [`SCRATCH_MAX`]
+    /// bytes) by role, index and size, kept for the next dispatch or run that needs the same (issue 38 §2).
+    scratch: Mutex<Scratch>,
+}
+
+/// Largest scratch buffer kept between dispatches: counters and timestamps, not image read-backs
+/// (kept, those would hold host-visible memory the size of an output for the backend's life).
+const SCRATCH_MAX: u64 = 64 * 1024;
+
+/// Distinct (role, size) scratch buffers kept at most; past it the cache starts over (a viewer
+/// resizing through many sizes must not pile them up).
+const SCRATCH_KEPT: usize = 64;
+
+/// [`GpuBackend`]'s kept scratch buffers and how many were ever created.
+#[derive(Default)]
+struct Scratch {
+    buffers: HashMap<(&'static str, u64, u64), wgpu::Buffer>,
+    created: usize,
 }
 
 impl GpuBackend {
@@ -287,7 +305,71 @@ impl GpuBackend {
             uniform_layouts: HashMap::new(),
             last_plans: Vec::new(),
             pool: Vec::new(),
+            scratch: Mutex::default(),
         })
+    }
+
+    /// Scratch buffers (uniforms, counter blocks, small read-back staging) created so far: a kept backend's
+    /// later dispatches of the same sizes create none (`tests/parity.rs` `gpu_pool_persists_across_runs`).
+    pub fn scratch_buffers_created(&self) -> usize {
+        self.scratch.lock().unwrap_or_else(|e| e.into_inner()).created
+    }
+
+    /// The `role` buffer number `index` of `size` bytes an earlier dispatch left, else `make()`'s,
+    /// kept for the next one when at most [`SCRATCH_MAX`] bytes. Callers are done with it before the
+    /// next request (a dispatch waits for its submission), so one buffer per key is enough.
+    fn scratch(
+        &self,
+        (role, index): (&'static str, u64),
+        size: u64,
+        make: impl FnOnce() -> Result<wgpu::Buffer, BackendError>,
+    ) -> Result<wgpu::Buffer, BackendError> {
+        let mut kept = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(b) = kept.buffers.get(&(role, index, size)) {
+            return Ok(b.clone());
+        }
+        let b = make()?;
+        kept.created += 1;
+        if size <= SCRATCH_MAX {
+            if kept.buffers.len() >= SCRATCH_KEPT {
+                kept.buffers.clear();
+            }
+            kept.buffers.insert((role, index, size), b.clone());
+        }
+        Ok(b)
+    }
+
+    /// Forget the `role` buffer of `size` bytes (after an error left it in an unknown state).
+    fn drop_scratch(&self, role: &'static str, size: u64) {
+        self.scratch.lock().unwrap_or_else(|e| e.into_inner()).buffers.remove(&(role, 0, size));
+    }
+
+    /// A uniform buffer holding `data`: the kept `role` buffer number `index` of its size with
+    /// `data` written into it (ordered before the next submission), else a new one.
+    fn uniform_buffer(&self, role: &'static str, index: u64, data: &[u32]) -> Result<wgpu::Buffer, BackendError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        if bytes.is_empty() {
+            // (What `create_buffer_init` makes of no contents; nothing to keep.)
+            return self.scoped(role, || {
+                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(role),
+                    contents: bytes,
+                    usage: wgpu::BufferUsages::UNIFORM,
+                })
+            });
+        }
+        let buf = self.scratch((role, index), bytes.len() as u64, || {
+            self.scoped(role, || {
+                self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(role),
+                    size: bytes.len() as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+        })?;
+        self.queue.write_buffer(&buf, 0, bytes);
+        Ok(buf)
     }
 
     /// `name (backend, device type)` of the adapter in use.
@@ -425,21 +507,32 @@ impl GpuBackend {
         })
     }
 
-    /// Copy a buffer back to the host.
+    /// Copy a buffer back to the host (through a kept staging buffer where small, [`GpuBackend::scratch`]).
     fn read_bytes(&self, what: &str, buf: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, BackendError> {
         let size = bytes.div_ceil(4) * 4;
-        let staging = self.scoped(what, || {
-            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("wedge readback"),
-                size: size.max(4),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
+        let read = self.read_staged(what, buf, bytes, size);
+        if read.is_err() {
+            self.drop_scratch("wedge readback", size.max(4));
+        }
+        read
+    }
+
+    fn read_staged(&self, what: &str, buf: &wgpu::Buffer, bytes: u64, size: u64) -> Result<Vec<u8>, BackendError> {
+        let staging = self.scratch(("wedge readback", 0), size.max(4), || {
+            self.scoped(what, || {
+                self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("wedge readback"),
+                    size: size.max(4),
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+        })?;
+        self.scoped(what, || {
             let mut enc =
                 self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
             enc.copy_buffer_to_buffer(buf, 0, &staging, 0, size);
             self.queue.submit([enc.finish()]);
-            staging
         })?;
         let slice = staging.slice(..size);
         let (tx, rx) = mpsc::channel();
@@ -766,19 +859,14 @@ impl GpuBackend {
         // One counter block (8 × u32, see shaders/common.wgsl) per band, each at an aligned offset;
         // summed in 64 bits after each dispatch.
         let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
-        let counters = self.storage("counters", stride * bands.len() as u64)?;
+        // Cleared before each submission, so a kept one from an earlier dispatch serves as well.
+        let counters_size = stride * bands.len() as u64;
+        let counters = self.scratch(("counters", 0), counters_size, || self.storage("counters", counters_size))?;
         // A chunked sampling kernel takes at most `samples_per_dispatch` samples per pixel per
         // dispatch; the next chunk runs while some pixel still has samples left.
         let chunk = if src.chunked { self.samples_per_dispatch.min(src.max_chunk) } else { u32::MAX };
-        let uniform = |label: &str, data: &[u32]| {
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(data),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        };
-        let (params_buf, scene_group, buffer_groups) = self.scoped(&what, || {
-            let params_buf = uniform("params", &words);
+        let params_buf = self.uniform_buffer("params", 0, &words)?;
+        let (scene_group, buffer_groups) = self.scoped(&what, || {
             let scene_group = match (&p.g2, &self.scene) {
                 (Some(layout), Some(s)) => Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("scene"),
@@ -823,7 +911,7 @@ impl GpuBackend {
                     })
                 })
                 .collect();
-            (params_buf, scene_group, buffer_groups)
+            (scene_group, buffer_groups)
         })?;
         let mut rays = RayCounts::default();
         let mut time = DispatchTime { seconds: 0.0, from_timestamps: self.timestamps.is_some() };
@@ -831,34 +919,42 @@ impl GpuBackend {
         loop {
             let chunk_end = chunk_begin.saturating_add(chunk);
             let start = Instant::now();
+            // One frame uniform per band, kept across chunks, dispatches and runs.
+            let frame_bufs = bands
+                .iter()
+                .enumerate()
+                .map(|(n, &Band { row0, row_end, first, end })| {
+                    let frame = [
+                        job.width,
+                        job.height,
+                        job.seed,
+                        bound,
+                        f32::INFINITY.to_bits(),
+                        0x3f80_0800,
+                        0x3f80_1000,
+                        row0,
+                        row_end,
+                        first as u32,
+                        chunk_begin,
+                        chunk_end,
+                        (end - first) as u32,
+                        job.frame,
+                        job.window.x0,
+                        job.window.y0,
+                        job.window.full_width,
+                        job.window.full_height,
+                        0,
+                        0,
+                    ];
+                    self.uniform_buffer("frame", n as u64, &frame)
+                })
+                .collect::<Result<Vec<_>, _>>()?;
             self.scoped(&what, || {
                 let frames: Vec<_> = bands
                     .iter()
                     .enumerate()
-                    .map(|(n, &Band { row0, row_end, first, end })| {
-                        let frame = [
-                            job.width,
-                            job.height,
-                            job.seed,
-                            bound,
-                            f32::INFINITY.to_bits(),
-                            0x3f80_0800,
-                            0x3f80_1000,
-                            row0,
-                            row_end,
-                            first as u32,
-                            chunk_begin,
-                            chunk_end,
-                            (end - first) as u32,
-                            job.frame,
-                            job.window.x0,
-                            job.window.y0,
-                            job.window.full_width,
-                            job.window.full_height,
-                            0,
-                            0,
-                        ];
-                        let frame_buf = uniform("frame", &frame);
+                    .map(|(n, _)| {
+                        let frame_buf = &frame_bufs[n];
                         self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                             label: Some("frame"),
                             layout: &p.g0,

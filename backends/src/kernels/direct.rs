@@ -92,7 +92,41 @@ pub fn light_sample(
     centre_factor: Option<Vec3>,
     want_distance: bool,
 ) -> LightSample {
-    let mut out = LightSample { value: Vec3::ZERO, unshadowed: Vec3::ZERO, occluder: None };
+    let none = LightSample { value: Vec3::ZERO, unshadowed: Vec3::ZERO, occluder: None };
+    let origin = shadow_origin(scene, x, n);
+    shadow_ray(light, x, n, origin, u, centre_factor).map_or(none, |ray| ray.trace(scene, light, want_distance))
+}
+
+/// Where the shadow rays from `x` (normal `n`) start: off the surface, by [`RAY_EPSILON`] of the
+/// scene's extent. The same for every sample of a point, so callers with many take it once.
+#[inline]
+pub fn shadow_origin(scene: &SceneAt<'_>, x: Vec3, n: Vec3) -> Vec3 {
+    x + n * (RAY_EPSILON * scene.scene().extent())
+}
+
+/// A light sample's shadow ray, before it is traced: the first half of [`light_sample`], apart so
+/// that a pixel's rays can be made in one loop and traced in the next (independent iterations the
+/// processor overlaps, where one sample at a time waited on each square root and division).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShadowRay {
+    /// The sample's value if the light is visible (before albedo).
+    pub unshadowed: Vec3,
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub tmax: f32,
+}
+
+/// The shadow ray of the sample at `u` on `light` from `x` (normal `n`, rays starting at `origin`,
+/// [`shadow_origin`]), or `None` where the light faces away or lies below the horizon (value 0).
+#[inline]
+pub fn shadow_ray(
+    light: &PreparedLight,
+    x: Vec3,
+    n: Vec3,
+    origin: Vec3,
+    u: Vec2,
+    centre_factor: Option<Vec3>,
+) -> Option<ShadowRay> {
     let y = light.sample_point(u);
     let to = y - x;
     let r2 = to.length_squared();
@@ -101,31 +135,72 @@ pub fn light_sample(
     let ln = light.normal;
     let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
     if cos_x <= 0.0 || cos_y <= 0.0 {
-        return out;
+        return None;
     }
-    out.unshadowed = match centre_factor {
+    let unshadowed = match centre_factor {
         Some(f) => f,
         None => light.radiance * (cos_x * cos_y / r2 * light.area / std::f32::consts::PI),
     };
-    // The shadow ray starts off the surface and aims at `y` from there, stopping just short of the
-    // light so the light's own triangles never count as occluders.
-    let origin = x + n * (RAY_EPSILON * scene.scene().extent());
+    // The shadow ray aims at `y` from its offset origin, stopping just short of the light so the
+    // light's own triangles never count as occluders.
     let seg = y - origin;
     let seg_len = seg.length();
-    let ray_dir = seg / seg_len;
-    let tmax = seg_len * (1.0 - 1e-4);
-    if want_distance {
-        if let Some(hit) = scene.intersect(origin, ray_dir, 0.0, tmax) {
-            let p = origin + ray_dir * hit.t;
-            let distance = (light.centre - p).dot(ln).abs();
-            out.occluder = Some(Occluder { distance, hit, origin, dir: ray_dir });
+    Some(ShadowRay { unshadowed, origin, dir: seg / seg_len, tmax: seg_len * (1.0 - 1e-4) })
+}
+
+impl ShadowRay {
+    /// Trace the ray: the sample's value (`unshadowed` where nothing blocks it), and where blocked
+    /// and `want_distance`, the occluder.
+    #[inline]
+    pub fn trace(&self, scene: &SceneAt<'_>, light: &PreparedLight, want_distance: bool) -> LightSample {
+        let ShadowRay { unshadowed, origin, dir, tmax } = *self;
+        let mut out = LightSample { value: Vec3::ZERO, unshadowed, occluder: None };
+        if want_distance {
+            if let Some(hit) = scene.intersect(origin, dir, 0.0, tmax) {
+                let p = origin + dir * hit.t;
+                let distance = (light.centre - p).dot(light.normal).abs();
+                out.occluder = Some(Occluder { distance, hit, origin, dir });
+                return out;
+            }
+        } else if scene.occluded(origin, dir, 0.0, tmax) {
             return out;
         }
-    } else if scene.occluded(origin, ray_dir, 0.0, tmax) {
-        return out;
+        out.value = unshadowed;
+        out
     }
-    out.value = out.unshadowed;
-    out
+}
+
+/// Shadow rays made per batch by [`light_samples`]: enough independent work to hide the latency of
+/// each ray's square roots and divisions, small enough for the stack.
+const BATCH: usize = 16;
+
+/// [`light_sample`] for samples `0..count` of one point, the sample points `draw(s)`, handing each
+/// result to `each` in sample order: the rays of a batch are made first, then traced (the same numbers
+/// as one [`light_sample`] per sample; measured in docs/DESIGN-NOTES.md "Passes at the rate of their rays").
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn light_samples(
+    scene: &SceneAt<'_>,
+    light: &PreparedLight,
+    (x, n): (Vec3, Vec3),
+    centre_factor: Option<Vec3>,
+    want_distance: bool,
+    count: u32,
+    draw: impl Fn(u32) -> Vec2,
+    mut each: impl FnMut(LightSample),
+) {
+    let origin = shadow_origin(scene, x, n);
+    let none = LightSample { value: Vec3::ZERO, unshadowed: Vec3::ZERO, occluder: None };
+    let mut rays = [None::<ShadowRay>; BATCH];
+    for first in (0..count).step_by(BATCH) {
+        let batch = &mut rays[..(count - first).min(BATCH as u32) as usize];
+        for (s, ray) in (first..).zip(batch.iter_mut()) {
+            *ray = shadow_ray(light, x, n, origin, draw(s), centre_factor);
+        }
+        for ray in batch.iter() {
+            each(ray.map_or(none, |r| r.trace(scene, light, want_distance)));
+        }
+    }
 }
 
 /// Unoccluded diffuse radiance (unit albedo) with the geometry evaluated at the light centre: the
@@ -193,6 +268,8 @@ impl Kernel for DirectLight {
         let window = ctx.window;
         // A Ch. 3 kernel: the scene at the shutter's centre.
         let at = scene.at(0.0);
+        // Each light's per-sample constants once per pass, not per pixel.
+        let prepared: Vec<(usize, PreparedLight)> = lights.iter().map(|&l| (l, at.light(l).prepare())).collect();
 
         let pixel = |px: u32, py: u32| {
             let i = (py * width + px) as usize;
@@ -209,18 +286,22 @@ impl Kernel for DirectLight {
             let mut valid = 0u32;
             let mut bad = 0u64;
             let mut stats = OccluderStats { d2_min: f32::INFINITY, ..Default::default() };
-            for &l in &lights {
-                let light = &at.light(l).prepare();
+            for (l, light) in &prepared {
+                let l = *l;
                 if want_stats {
                     stats.d1 = (light.centre - x).dot(light.normal).abs();
                 }
                 // Keyed by the full image's pixel, so a tile draws what the whole image draws there.
                 let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, l as u32));
                 let factor = centre.then(|| light_centre_factor(light, x, n));
-                for s in 0..extra {
-                    let u =
-                        if stratified { rng.stratified2(s, extra, dim::LIGHT) } else { rng.uniform2(s, dim::LIGHT) };
-                    let ls = light_sample(&at, light, x, n, Vec2::from(u), factor, want_stats);
+                let draw = |s| {
+                    Vec2::from(if stratified {
+                        rng.stratified2(s, extra, dim::LIGHT)
+                    } else {
+                        rng.uniform2(s, dim::LIGHT)
+                    })
+                };
+                light_samples(&at, light, (x, n), factor, want_stats, extra, draw, |ls| {
                     let v = ls.value;
                     if let Some(d2) = ls.occluder.map(|o| o.distance) {
                         stats.occluded += 1;
@@ -233,7 +314,7 @@ impl Kernel for DirectLight {
                     } else {
                         bad += 1;
                     }
-                }
+                });
             }
             // With several lights, each light gets `extra` samples and the estimates add.
             let per_light = valid as f32 / lights.len().max(1) as f32;

@@ -2,8 +2,9 @@
 //! effect reads (thesis Ch. 3–4 shade the point a pixel sees; lens and shutter sampling for Ch. 5 and
 //! App. B belong to a multi-sample primary kernel, not this one).
 
+use glam::Vec3;
 use rayon::prelude::*;
-use wedge_scene::{LensRay, LensShape};
+use wedge_scene::{Hit, LensRay, LensShape};
 
 use crate::bindings::PutWith;
 use crate::kernel::{optional_rows, Counters, Kernel, KernelCtx, Uniforms, WgslSource};
@@ -26,6 +27,10 @@ crate::kernel_bindings! {
 }
 
 pub struct PrimaryGBuffer;
+
+/// Pixels of a row traced per batch (see `run_cpu`): enough independent rays to overlap one
+/// pixel's shading arithmetic with the next's, small enough for the stack.
+const BATCH: usize = 32;
 
 /// Per-pixel G-buffer entry.
 #[derive(Clone, Copy, Default)]
@@ -69,11 +74,15 @@ impl Kernel for PrimaryGBuffer {
         let pixel_angle = 2.0 * (cam.vfov_deg.to_radians() * 0.5).tan() / h as f32;
         // The camera basis once per pass, not per pixel (the same rays as `Camera::generate_ray`).
         let rays = cam.rays(w, h);
-        let texel = |x: u32, y: u32| {
+        // The camera ray through a pixel centre: (origin, direction).
+        let ray = |x: u32, y: u32| {
             let (x, y) = window.global_xy(x, y);
             let pixel = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-            let LensRay { origin: o, dir: d, .. } = rays.ray(pixel, glam::Vec2::splat(0.5), LensShape::Disk);
-            let Some(hit) = scene.intersect(o, d, 0.0, f32::INFINITY) else {
+            let LensRay { origin, dir, .. } = rays.ray(pixel, glam::Vec2::splat(0.5), LensShape::Disk);
+            (origin, dir)
+        };
+        let texel = |(o, d): (Vec3, Vec3), hit: Option<Hit>| {
+            let Some(hit) = hit else {
                 // A camera ray that leaves the scene sees the environment (black without a map).
                 return Texel { emission: scene.background(d).to_array(), ..Texel::default() };
             };
@@ -114,11 +123,23 @@ impl Kernel for PrimaryGBuffer {
             .zip(specular_rows)
             .enumerate()
             .for_each(|(y, ((((p, n), a), e), mut s))| {
-                for x in 0..row {
-                    let t = texel(x as u32, y as u32);
-                    (p[x], n[x], a[x], e[x]) = (t.position, t.normal, t.albedo, t.emission);
-                    if let Some(s) = s.as_mut() {
-                        s[x] = t.specular;
+                // A batch of pixels at a time, in three loops (rays, hits, texels) of independent
+                // iterations the processor overlaps; per pixel the same numbers as one loop.
+                let mut batch = [((Vec3::ZERO, Vec3::ZERO), None::<Hit>); BATCH];
+                for x0 in (0..row).step_by(BATCH) {
+                    let batch = &mut batch[..(row - x0).min(BATCH)];
+                    for (x, (r, _)) in (x0..).zip(batch.iter_mut()) {
+                        *r = ray(x as u32, y as u32);
+                    }
+                    for ((o, d), hit) in batch.iter_mut() {
+                        *hit = scene.intersect(*o, *d, 0.0, f32::INFINITY);
+                    }
+                    for (x, &(r, hit)) in (x0..).zip(batch.iter()) {
+                        let t = texel(r, hit);
+                        (p[x], n[x], a[x], e[x]) = (t.position, t.normal, t.albedo, t.emission);
+                        if let Some(s) = s.as_mut() {
+                            s[x] = t.specular;
+                        }
                     }
                 }
             });
