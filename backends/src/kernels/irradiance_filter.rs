@@ -16,7 +16,7 @@ use glam::Vec3;
 
 use crate::kernel::{Kernel, KernelCtx, WgslSource};
 use crate::kernels::filter_window::{gather, pair_weight, valid_width, Axis, ScreenRadius};
-use crate::kernels::{count_non_finite, v3};
+use crate::kernels::{all_positive_zero, count_non_finite, v3};
 use crate::params::KernelParams;
 use crate::BackendError;
 
@@ -94,12 +94,6 @@ pub fn irradiance_pixel(
     })
 }
 
-/// Whether every value is +0.0 (a part no surface of the image has, e.g. the glossy part of a
-/// diffuse scene): the filter's output is then its input, bit for bit, and the pass skips the taps.
-fn all_zero(value: &[[f32; 3]]) -> bool {
-    value.iter().all(|v| v.iter().all(|c| c.to_bits() == 0))
-}
-
 /// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
 fn is_hit(position: [f32; 4]) -> bool {
     position[3] > 0.0
@@ -129,7 +123,7 @@ impl Kernel for IrradianceFilter {
         let IrradianceData { value, position, normal, omega, pixel_length, .. } = io;
         let p = IrradianceParams::read(ctx)?;
         count_non_finite(ctx, value);
-        if all_zero(value) {
+        if all_positive_zero(value) {
             return io.out.put(ctx, value.to_vec());
         }
         let prepared = neighbours(position, normal, omega, pixel_length);

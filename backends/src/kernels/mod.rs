@@ -59,10 +59,32 @@ pub fn count_non_finite(ctx: &crate::KernelCtx<'_>, value: &[[f32; 3]]) {
     crate::Counters::add(&ctx.counters.non_finite_samples, n);
 }
 
+/// Whether every value is +0.0 (a part no surface of the image has, e.g. the glossy part of a
+/// diffuse scene). A normalised filter of such an image gives +0.0 everywhere, its input bit for
+/// bit, so the filters that check this skip their taps.
+pub fn all_positive_zero(value: &[[f32; 3]]) -> bool {
+    value.iter().all(|v| v.iter().all(|c| c.to_bits() == 0))
+}
+
 /// Rec. 709 luminance (`wedge_scene::environment::luminance`, in f32): the scalar whose variance
 /// the pixel filter's blend works with (reading: the thesis blends RGB radiance with one `s` per
 /// pixel and does not say which scalar its variances are of), and the environment's brightness.
 #[inline]
 pub fn luminance(c: glam::Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::all_positive_zero;
+
+    #[test]
+    fn only_positive_zeros_skip_a_filter() {
+        assert!(all_positive_zero(&[[0.0; 3]; 4]));
+        assert!(all_positive_zero(&[]));
+        // −0.0 would come out of the taps as +0.0: not the input bit for bit, so no skip.
+        assert!(!all_positive_zero(&[[0.0, -0.0, 0.0]]));
+        assert!(!all_positive_zero(&[[0.0; 3], [0.0, 1e-30, 0.0]]));
+        assert!(!all_positive_zero(&[[f32::NAN, 0.0, 0.0]]));
+    }
 }

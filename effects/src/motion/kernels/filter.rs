@@ -27,7 +27,7 @@
 use glam::Vec2;
 
 use wedge_backends::kernels::filter_window::{pair_weight, valid_width, window_radius, WindowParams};
-use wedge_backends::kernels::{count_non_finite, is_finite3};
+use wedge_backends::kernels::{all_positive_zero, count_non_finite, is_finite3};
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
 
 /// Two velocities (pixels per half shutter) are the same motion when they differ by at most
@@ -200,6 +200,9 @@ impl Kernel for MotionFilter {
         let MotionFilterData { value, motion, out } = MotionFilterIo::read(ctx)?;
         let r = WindowParams::read(ctx)?.max_radius.get();
         count_non_finite(ctx, value);
+        if all_positive_zero(value) {
+            return out.put(ctx, value.to_vec());
+        }
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let filtered = ctx.map_pixels(false, |x, y| motion_pixel(x as i32, y as i32, w, h, r, value, motion));
         out.put(ctx, filtered)
