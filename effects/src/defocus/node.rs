@@ -5,7 +5,7 @@
 //! component node of the pipeline (SoftShadows: direct; Indirect: indirect; Environment: the map's
 //! direct light) renders its component for it ([`super::component`]) and this node
 //! 1. asks the shared sampler for the thin lens (`aperture_radius`, `focus_distance`, `lens`) and
-//!    the thesis's first pass: `initial_paths` (16) paths through the pixel centre, one lens sample,
+//!    the thesis's first pass: `initial_paths` (4; the thesis's 16) paths through the pixel centre, one lens sample,
 //!    one shadow ray and one indirect sample each, the centre-of-light form factor (so `k·E = L` where
 //!    the scene factors; docs/EQUATIONS.md reading; `form_factor: "exact"` for an unbiased reference);
 //! 2. computes `Ω_x^d` (5.7, 5.29) and `n_p` (5.24) from the first pass's circles of confusion
@@ -137,7 +137,7 @@ impl NodeKind for Defocus {
             ParamDecl::choice("mode", "consistent", Mode::OPTIONS, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (the thesis's reading: k·E = L where the scene factors), or the per-sample geometry term (unbiased; for comparisons with other renderers)"),
             ParamDecl::boolean("factor", true, "factor L into texture × irradiance (eq. 5.30); false = the thesis's no-factoring ablation"),
-            ParamDecl::int("initial_paths", 16, 1, 4096, "first-pass paths per pixel (thesis: 16, one lens, shadow and indirect sample each)"),
+            ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one lens, shadow and indirect sample each: 4 since issue 35's defocus suite (the thesis's 16 spent 48 rays per pixel before any rate was known; docs/DESIGN-NOTES.md \"Four first-pass paths under a lens\")"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
             ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's defocus suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"The defocus suite\""),
             ParamDecl::int("max_shadow_per_primary", 1, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary (1 = its default; docs/DESIGN-NOTES.md \"Shadow rays per primary under Motion\")"),
