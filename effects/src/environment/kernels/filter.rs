@@ -75,9 +75,43 @@ wedge_backends::kernel_params! {
     }
 }
 
-/// Whether neighbour `j` (position `pj`, normal `nj`) may be averaged into pixel `i`.
-fn compatible(pi: [f32; 4], ni: Vec3, pj: [f32; 4], nj: [f32; 4], normal_cos: f32) -> bool {
-    pj[3] == pi[3] && ni.dot(v3(nj).normalize_or_zero()) >= normal_cos
+/// Whether neighbour `j` (position `pj`, unit normal `nj`) may be averaged into pixel `i`.
+fn compatible(pi: [f32; 4], ni: Vec3, pj: [f32; 4], nj: Vec3, normal_cos: f32) -> bool {
+    pj[3] == pi[3] && ni.dot(nj) >= normal_cos
+}
+
+/// Every pixel's unit normal (zero where none), once per pass rather than per tap: a pixel is a
+/// neighbour of up to 2R + 1 others, each of which normalised its normal twice. The same operation,
+/// so the same bits (the WGSL normalises per tap, as before).
+pub fn unit_normals(normal: &[[f32; 4]]) -> Vec<Vec3> {
+    normal.iter().map(|n| v3(*n).normalize_or_zero()).collect()
+}
+
+/// The used taps of one pixel's window, `(neighbour index, weight exponent)` in tap order, found
+/// once: the weights need the nearest one's exponent before any is summed ([`RelativeWeights`]).
+struct UsedTaps {
+    taps: [(usize, f32); 2 * MAX_RADIUS_LIMIT as usize + 1],
+    len: usize,
+}
+
+impl UsedTaps {
+    fn new(found: impl Iterator<Item = (usize, f32)>) -> UsedTaps {
+        let mut used = UsedTaps { taps: [(0, 0.0); 2 * MAX_RADIUS_LIMIT as usize + 1], len: 0 };
+        for t in found {
+            used.taps[used.len] = t;
+            used.len += 1;
+        }
+        used
+    }
+
+    fn get(&self) -> &[(usize, f32)] {
+        &self.taps[..self.len]
+    }
+
+    /// Their weights relative to the nearest ([`RelativeWeights::new`]).
+    fn weights(&self) -> Option<RelativeWeights> {
+        RelativeWeights::new(self.get().iter().map(|t| t.1))
+    }
 }
 
 /// The mean squared bandwidth `B̄²` of two pixels along `axis`.
@@ -117,7 +151,8 @@ impl RelativeWeights {
     }
 }
 
-/// Eqs. 6.21–6.23 (and 6.26 with `previous`) at pixel `(x, y)`.
+/// Eqs. 6.21–6.23 (and 6.26 with `previous`) at pixel `(x, y)`; `normal` the pass's unit normals
+/// ([`unit_normals`]).
 #[allow(clippy::too_many_arguments)]
 pub fn filter_pixel(
     x: i32,
@@ -127,7 +162,7 @@ pub fn filter_pixel(
     p: &FilterParams,
     value: &[[f32; 3]],
     position: &[[f32; 4]],
-    normal: &[[f32; 4]],
+    normal: &[Vec3],
     bandwidth: &[[f32; 2]],
     previous: Option<&[[f32; 4]]>,
 ) -> [f32; 3] {
@@ -137,7 +172,7 @@ pub fn filter_pixel(
     if !(position[i][3] > 0.0 && bi[axis] >= 0.0 && bi[axis].is_finite()) {
         return centre;
     }
-    let ni = v3(normal[i]).normalize_or_zero();
+    let ni = normal[i];
     let xi = v3(position[i]);
     // Neighbour `k`'s index and weight exponent `2 B̄² d²`, or `None` where it is not used.
     let term = |k: i32| -> Option<(usize, f32)> {
@@ -156,12 +191,13 @@ pub fn filter_pixel(
         let d2 = (v3(position[j]) - xi).length_squared();
         Some((j, 2.0 * mean_b2(bi, bj, axis) * d2))
     };
-    let Some(weights) = RelativeWeights::new(p.max_radius.taps().filter_map(|k| term(k).map(|t| t.1))) else {
+    let used = UsedTaps::new(p.max_radius.taps().filter_map(term));
+    let Some(weights) = used.weights() else {
         return centre;
     };
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for (j, a) in p.max_radius.taps().filter_map(term) {
+    for &(j, a) in used.get() {
         let Some(w) = weights.weight(a) else { continue };
         let v = value[j];
         for c in 0..3 {
@@ -199,7 +235,8 @@ pub fn project(cam: &Camera, p: Vec3, width: u32, height: u32) -> Option<Vec2> {
 }
 
 /// Eqs. 6.24–6.25 at pixel `(x, y)`: the previous frame's raw irradiance x-filtered around the
-/// previous pixel closest to this pixel's position, weights from this pixel's position (rgb, valid).
+/// previous pixel closest to this pixel's position, weights from this pixel's position (rgb, valid);
+/// `normal` and `prev_normal` unit normals ([`unit_normals`]).
 #[allow(clippy::too_many_arguments)]
 pub fn history_pixel(
     x: i32,
@@ -209,11 +246,11 @@ pub fn history_pixel(
     p: &HistoryParams,
     previous_camera: Option<&Camera>,
     position: &[[f32; 4]],
-    normal: &[[f32; 4]],
+    normal: &[Vec3],
     bandwidth: &[[f32; 2]],
     prev_value: &[[f32; 3]],
     prev_position: &[[f32; 4]],
-    prev_normal: &[[f32; 4]],
+    prev_normal: &[Vec3],
     prev_bandwidth: &[[f32; 2]],
 ) -> [f32; 4] {
     let i = (y * width + x) as usize;
@@ -224,7 +261,7 @@ pub fn history_pixel(
         return none;
     }
     let xi = v3(position[i]);
-    let ni = v3(normal[i]).normalize_or_zero();
+    let ni = normal[i];
     let Some(q) = project(cam, xi, width as u32, height as u32) else { return none };
     // Off the previous frame (or not a number): that frame did not see this point, and the nearest
     // edge pixel is another point of the surface.
@@ -270,12 +307,13 @@ pub fn history_pixel(
         Some((j, 2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2))
     };
     // No neighbour near enough to weigh anything: no history (as when there is no neighbour).
-    let Some(weights) = RelativeWeights::new(p.max_radius.taps().filter_map(|k| term(k).map(|t| t.1))) else {
+    let used = UsedTaps::new(p.max_radius.taps().filter_map(term));
+    let Some(weights) = used.weights() else {
         return none;
     };
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for (j, a) in p.max_radius.taps().filter_map(term) {
+    for &(j, a) in used.get() {
         let Some(w) = weights.weight(a) else { continue };
         let v = prev_value[j];
         for c in 0..3 {
@@ -370,8 +408,9 @@ impl Kernel for EnvironmentFilter {
             count_non_finite(ctx, value);
         }
         let (w, h) = (ctx.width as i32, ctx.height as i32);
+        let normal = unit_normals(normal);
         let filtered = ctx.map_pixels(false, |x, y| {
-            filter_pixel(x as i32, y as i32, w, h, &p, value, position, normal, bandwidth, previous)
+            filter_pixel(x as i32, y as i32, w, h, &p, value, position, &normal, bandwidth, previous)
         });
         out.put(ctx, filtered)
     }
@@ -402,12 +441,13 @@ impl Kernel for EnvironmentHistory {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let p = HistoryParams::read_checked(ctx)?;
         let io = HistoryIo::read(ctx)?;
-        let (position, normal, bandwidth) = (io.position, io.normal, io.bandwidth);
-        let (pv, pp, pn, pb) = (io.previous_value, io.previous_position, io.previous_normal, io.previous_bandwidth);
+        let (position, normal, bandwidth) = (io.position, unit_normals(io.normal), io.bandwidth);
+        let (pv, pp, pb) = (io.previous_value, io.previous_position, io.previous_bandwidth);
+        let pn = unit_normals(io.previous_normal);
         let cam = ctx.scene.previous_camera;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let history = ctx.map_pixels(false, |x, y| {
-            history_pixel(x as i32, y as i32, w, h, &p, cam.as_ref(), position, normal, bandwidth, pv, pp, pn, pb)
+            history_pixel(x as i32, y as i32, w, h, &p, cam.as_ref(), position, &normal, bandwidth, pv, pp, &pn, pb)
         });
         io.out.put(ctx, history)
     }
