@@ -32,5 +32,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     bandwidth_put(i, 0.5 * (shown.x + shown.y));
     bandlimit_put(i, rmax(shown.x, shown.y));
     filter_width_put(i, 0.5 * (sigma.x + sigma.y));
-    rays_put(i, env_look_ups(params.base, sigma, params.sigma_ref, params.max_rays));
+    // AdaptiveLookUps::applies: 0 off, 1 glossy receivers, 2 all.
+    var rays = params.base;
+    if (params.adaptive == 2u || (params.adaptive == 1u && env.y > 0.0)) {
+        rays = env_look_ups(params.base, sigma, params.sigma_ref, params.max_rays);
+    }
+    rays_put(i, rays);
 }

@@ -475,14 +475,19 @@ fn an_environment_component_refuses_what_does_not_apply_and_the_port_checks_its_
             ),
         )
     };
-    for (flag, fix) in
-        [("indirect", "Indirect node"), ("temporal", "reprojected"), ("adaptive", "rates set the look-ups")]
-    {
-        let e = refusal(&with(&format!(r#""{flag}": true"#)));
-        assert!(e.contains(&format!("`{flag}: true` does not apply")) && e.contains(fix), "{e}");
+    for (flag, value, fix) in [
+        ("indirect", "true", "Indirect node"),
+        ("temporal", "true", "reprojected"),
+        ("adaptive", r#""all""#, "rates set the look-ups"),
+        ("adaptive", r#""off""#, "rates set the look-ups"),
+    ] {
+        let e = refusal(&with(&format!(r#""{flag}": {value}"#)));
+        assert!(e.contains(&format!("`{flag}: {value}` does not apply")) && e.contains(fix), "{e}");
     }
+    // Stating a default is stating nothing the factoring node ignores.
     let (_, image) = render(&with(""));
     assert!(image.pixels.iter().flatten().all(|v| v.is_finite()));
+    assert_eq!(render(&with(r#""adaptive": "glossy", "temporal": false"#)).1, image);
     // Direct light of an area light is not the environment's: refused at the port with the fix.
     let wrong = pipeline(
         "builtin:envmap_light",

@@ -181,19 +181,34 @@ fn envmap(params: &str, extra: &str) -> String {
 #[test]
 fn the_filter_converges_to_monte_carlo_as_mu_grows() {
     // μ scales every bandwidth (the extension): the filtered image approaches its own unfiltered
-    // Monte Carlo estimate, and with adaptive look-ups the rays grow as the filters shrink.
-    let mut last = f64::INFINITY;
-    let mut rays = 0u64;
-    for mu in [1.0, 4.0, 32.0, 1e4] {
-        let s = session_from_text(&envmap(&format!(r#""mu": {mu}, "adaptive": true"#), ""), &Overrides::default());
-        let r = run(&s);
-        let d = rmse(&output(&s, &r, "color"), &output(&s, &r, "unfiltered"));
-        println!("mu {mu}: RMSE(filtered, unfiltered) {d:.4e}, rays {:?}", r.rays);
-        assert!(d < last, "mu {mu}: {d} after {last}");
-        assert!(r.rays.shadow_rays >= rays, "mu {mu}: rays fell");
-        (last, rays) = (d, r.rays.shadow_rays);
+    // Monte Carlo estimate, and where the look-ups are adaptive the rays grow as the filters shrink —
+    // at every receiver (`all`), and at the glossy ones alone (`glossy`, the default: `envmap`'s torus is glossy, its
+    // ground and sphere diffuse) — and never under `off` (the thesis's count).
+    let mut all_rays = Vec::new();
+    for adaptive in ["all", "glossy", "off"] {
+        let mut last = f64::INFINITY;
+        let mut rays = Vec::new();
+        for mu in [1.0, 4.0, 32.0, 1e4] {
+            let params = format!(r#""mu": {mu}, "adaptive": "{adaptive}""#);
+            let s = session_from_text(&envmap(&params, ""), &Overrides::default());
+            let r = run(&s);
+            let d = rmse(&output(&s, &r, "color"), &output(&s, &r, "unfiltered"));
+            println!("{adaptive}, mu {mu}: RMSE(filtered, unfiltered) {d:.4e}, rays {:?}", r.rays);
+            assert!(d < last, "{adaptive}, mu {mu}: {d} after {last}");
+            (last, rays) = (d, [rays, vec![r.rays.shadow_rays]].concat());
+        }
+        assert!(last < 1e-3, "{adaptive}: {last}");
+        assert!(rays.windows(2).all(|w| w[1] >= w[0]), "{adaptive}: rays fell: {rays:?}");
+        match adaptive {
+            "all" => assert!(rays[3] > 2 * rays[0], "all: the count follows μ: {rays:?}"),
+            // Only the torus's pixels add look-ups: more than at μ = 1, fewer than `all`.
+            "glossy" => assert!(rays[3] > rays[0] && rays[3] < all_rays[3], "glossy: {rays:?} vs all {all_rays:?}"),
+            _ => assert_eq!(rays[0], rays[3], "off: the count does not follow μ"),
+        }
+        if adaptive == "all" {
+            all_rays = rays;
+        }
     }
-    assert!(last < 1e-3, "{last}");
 }
 
 /// Frames `first..=last` of `text` with its camera path on the CPU; their colour images.

@@ -605,15 +605,18 @@ fn as_written(v: f64) -> String {
     }
 }
 
-fn kind_name(kind: &ParamKind) -> &'static str {
+fn kind_name(kind: &ParamKind) -> String {
     match kind {
-        ParamKind::Float { .. } => "a number",
-        ParamKind::Int { .. } => "an integer",
-        ParamKind::Bool { .. } => "true or false",
-        ParamKind::Choice { .. } => "a string",
-        ParamKind::Path { .. } => "a file path string",
-        ParamKind::Vec3 { colour: true, .. } => "a colour, three numbers `(r, g, b)`",
-        ParamKind::Vec3 { .. } => "three numbers `(x, y, z)`",
+        ParamKind::Float { .. } => "a number".into(),
+        ParamKind::Int { .. } => "an integer".into(),
+        ParamKind::Bool { .. } => "true or false".into(),
+        // The options themselves: the fix for a choice written as a bool (`adaptive: true`) or a number.
+        ParamKind::Choice { options, .. } => {
+            format!("one of {}", options.iter().map(|o| format!("{o:?}")).collect::<Vec<_>>().join(", "))
+        }
+        ParamKind::Path { .. } => "a file path string".into(),
+        ParamKind::Vec3 { colour: true, .. } => "a colour, three numbers `(r, g, b)`".into(),
+        ParamKind::Vec3 { .. } => "three numbers `(x, y, z)`".into(),
     }
 }
 

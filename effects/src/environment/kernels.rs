@@ -15,7 +15,8 @@
 //!   `filter_width` (the mean over both axes of the direct light's `B` and its σ in pixels — glossy
 //!   where the surface has a lobe, else diffuse), `bandlimit` (f32: the larger axis of that `B`, what a
 //!   factoring node's rates read as the environment component's own bandwidth), and `rays` (u32) the
-//!   adaptive look-ups.
+//!   look-ups the pixel takes: the adaptive count where `adaptive` ([`AdaptiveLookUps`]) applies to
+//!   it, else `base`.
 
 pub mod filter;
 
@@ -87,6 +88,25 @@ impl Kernel for Curvature {
     }
 }
 
+wedge_backends::param_choice! {
+    /// Where the look-ups follow the filter width ([`formulas::look_ups`], an extension): nowhere (the
+    /// thesis's fixed count), at glossy receivers only (the default: their filters are the narrow
+    /// ones, and measured on the environment suite the diffuse receivers' extra look-ups went to
+    /// error that is not the light's — docs/RESULTS.md), or at every receiver. WGSL: 0, 1, 2.
+    pub enum AdaptiveLookUps { Off = "off", Glossy = "glossy", All = "all" }
+}
+
+impl AdaptiveLookUps {
+    /// Whether a receiver of mean Phong exponent `exponent` (0: diffuse) takes the adaptive count.
+    pub fn applies(self, exponent: f32) -> bool {
+        match self {
+            AdaptiveLookUps::Off => false,
+            AdaptiveLookUps::Glossy => exponent > 0.0,
+            AdaptiveLookUps::All => true,
+        }
+    }
+}
+
 wedge_backends::kernel_params! {
     /// The parameters of `environment.bandwidth` (WGSL: `params.NAME`), checked by [`bandwidth_params`].
     pub struct BandwidthParams {
@@ -94,7 +114,9 @@ wedge_backends::kernel_params! {
         /// `B_e` in cycles per radian: the node's value, or the scene map's (Sec. 6.7: 99% energy).
         b_e: f32,
         max_radius: f32,
-        /// Adaptive look-ups: `base` (the fixed count), `sigma_ref`, `max` ([`formulas::look_ups`]).
+        /// Adaptive look-ups: where (`adaptive`), `base` (the fixed count), `sigma_ref`, `max`
+        /// ([`formulas::look_ups`]).
+        adaptive: AdaptiveLookUps,
         base: u32,
         sigma_ref: f32,
         max_rays: u32,
@@ -132,6 +154,7 @@ fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError
     Ok(BandwidthParams {
         mu,
         b_e,
+        adaptive: p.adaptive,
         max_radius: finite("max_radius", p.max_radius, 0.0)?,
         base: count("base", p.base)?,
         sigma_ref: finite("sigma_ref", p.sigma_ref, 0.0)?,
@@ -172,7 +195,11 @@ pub fn pixel_outputs(s: &PixelStats, footprint: f32, k: &BandwidthParams) -> Pix
         bandwidth: 0.5 * (shown[0] + shown[1]),
         bandlimit: shown[0].max(shown[1]),
         filter_width: 0.5 * (sigma[0] + sigma[1]),
-        rays: formulas::look_ups(k.base, sigma, k.sigma_ref, k.max_rays),
+        rays: if k.adaptive.applies(s.exponent) {
+            formulas::look_ups(k.base, sigma, k.sigma_ref, k.max_rays)
+        } else {
+            k.base
+        },
     }
 }
 

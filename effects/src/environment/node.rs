@@ -10,8 +10,9 @@
 //!    lights by next-event estimation);
 //! 2. computes the screen-space curvature (eq. 6.20, `environment.curvature`) and per pixel the
 //!    bandwidths of the environment's direct light (eq. 6.13 diffuse, 6.17 Phong with `B_ρ(m)`) and of
-//!    the indirect light (6.18), times μ (`environment.bandwidth`); with `adaptive`, submits the
-//!    look-ups its filters need ([`super::formulas::look_ups`], an extension);
+//!    the indirect light (6.18), times μ (`environment.bandwidth`); where `adaptive` applies (glossy
+//!    receivers by default, [`AdaptiveLookUps`]), submits the look-ups its filters need
+//!    ([`super::formulas::look_ups`], an extension);
 //! 3. filters each irradiance — environment diffuse and glossy, indirect diffuse and glossy — with
 //!    the separable Gaussian of eqs. 6.21–6.23 (`filter.environment`); with `temporal`, the previous
 //!    frame's unfiltered irradiance, reprojected (`filter.environment_history`, eqs. 6.24–6.25), joins
@@ -21,7 +22,7 @@
 //!    (a pixel whose jittered rays see two textures keeps its Monte Carlo `L`), as Ch. 5 composes.
 //!
 //! Ch. 6 has no μ and no adaptive rates; both are documented extensions here (μ = 1 and
-//! `adaptive: false` are the thesis).
+//! `adaptive: "off"` are the thesis).
 //!
 //! **Under a factoring node** (Defocus, Motion: [`wedge_graph::factoring`]) the environment's direct
 //! light is one factored component ([`expand_factored`]), as SoftShadows' direct light is: Ch. 6's
@@ -37,7 +38,7 @@ use wedge_graph::{
 };
 
 use super::kernels::filter::{EnvironmentFilterIo, HistoryIo};
-use super::kernels::{BandwidthIo, CurvatureIo};
+use super::kernels::{AdaptiveLookUps, BandwidthIo, CurvatureIo};
 use crate::factored::{compose_component, factor_flags, PartTerms};
 
 pub struct Environment;
@@ -139,7 +140,7 @@ impl NodeKind for Environment {
             PortDecl::new(
                 "rays_per_pixel",
                 Format::U32,
-                "environment look-ups per pixel asked for (16 without `adaptive`)",
+                "environment look-ups per pixel asked for (`primary` × `per_primary` where `adaptive` does not apply)",
             ),
         ]
     }
@@ -175,7 +176,7 @@ impl NodeKind for Environment {
             ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
             ParamDecl::int("max_motion", 32, 0, 4096, "with `temporal`: pixels a point may move between frames and keep its history (bounds the rows the history pass reads)"),
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "occluded look-ups dimmer than this × the map's mean radiance do not set the occluder term (Sec. 6.7: 0.1)"),
-            ParamDecl::boolean("adaptive", false, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension)"),
+            ParamDecl::choice("adaptive", "glossy", AdaptiveLookUps::OPTIONS, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension): at glossy receivers, every receiver, or off (the thesis's fixed count)"),
             ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
             ParamDecl::int("max_rays", 256, 1, 1 << 20, "with `adaptive`: the most look-ups per pixel"),
             ParamDecl::boolean("emission", true, "add the primary hits' emission and the environment where camera rays miss (false where another node adds it)"),
@@ -192,7 +193,9 @@ impl NodeKind for Environment {
         let (primary, per_primary) = (count(ctx, "primary"), count(ctx, "per_primary"));
         let indirect = ctx.param("indirect").as_bool() == Some(true);
         let temporal = ctx.param("temporal").as_bool() == Some(true);
-        let adaptive = ctx.param("adaptive").as_bool() == Some(true);
+        // Counts submitted wherever the look-ups may follow the filters (a scene with no glossy
+        // receiver adds no path under "glossy").
+        let adaptive = !matches!(ctx.param("adaptive"), ParamValue::Str(s) if s == AdaptiveLookUps::Off.as_str());
 
         // 1. The sampler: Algorithm 1's primary rays and look-ups (and one-bounce indirect samples).
         let mut request = SamplerRequest::new()
@@ -237,7 +240,7 @@ impl NodeKind for Environment {
             ..BandwidthIo::inputs(curvature, stats, normal, depth)
         };
         io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
-            .node_params(&["b_e", "mu", "max_radius", "sigma_ref", "max_rays"])
+            .node_params(&["b_e", "mu", "adaptive", "max_radius", "sigma_ref", "max_rays"])
             .int("base", primary * per_primary)
             .reference(if adaptive { Reference::Count } else { Reference::Keep })
             .finish();
@@ -311,8 +314,8 @@ pub(crate) fn curvature_pass(ctx: &mut ExpandCtx<'_>, position: BufferId, normal
     (curvature, magnitude)
 }
 
-/// The parameters that have no meaning for a factored component, with why: refused when set, so
-/// nothing a pipeline states is silently ignored.
+/// The parameters that have no meaning for a factored component, with why: refused at any value but
+/// their default, so nothing a pipeline states is silently ignored.
 const NOT_FACTORED: [(&str, &str); 3] = [
     ("indirect", "the indirect light is the Indirect node's component: wire an Indirect node's radiance to the factoring node's `indirect`"),
     ("temporal", "the factoring node's paths are not reprojected across frames"),
@@ -329,12 +332,15 @@ const NOT_FACTORED: [(&str, &str); 3] = [
 /// factoring node's paths, μ, filter reach, and the emission it adds once); `indirect`, `temporal`
 /// and `adaptive` are refused ([`NOT_FACTORED`]).
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphError> {
-    for (flag, why) in NOT_FACTORED {
-        if ctx.param(flag).as_bool() == Some(true) {
+    let declared = Environment.params();
+    for (name, why) in NOT_FACTORED {
+        let default = declared.iter().find(|d| d.name == name).map(|d| d.default_value());
+        let value = ctx.param(name);
+        if default.as_ref() != Some(value) {
             return Err(GraphError::Expand {
                 node: ctx.node().into(),
                 message: format!(
-                    "`{flag}: true` does not apply under the factoring node `{}` ({}): {why}; remove it (docs/NODES.md \"Composing \
+                    "`{name}: {value}` does not apply under the factoring node `{}` ({}): {why}; remove it (docs/NODES.md \"Composing \
                      effects\")",
                     f.node, f.kind
                 ),
@@ -381,6 +387,7 @@ fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Buffer
         .node_params(&["b_e"])
         .float("mu", 1.0)
         .param("max_radius", f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16)))
+        .param("adaptive", ParamValue::Str(AdaptiveLookUps::Off.as_str().into()))
         .int("base", 1)
         .float("sigma_ref", 1.0)
         .int("max_rays", 1)

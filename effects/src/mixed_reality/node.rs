@@ -38,7 +38,7 @@ use wedge_graph::{
 use super::kernels::sample::MrParams;
 use super::kernels::{irradiance_io, CompositeIo, SampleIo};
 use crate::environment::kernels::filter::BandwidthMaxIo;
-use crate::environment::kernels::BandwidthIo;
+use crate::environment::kernels::{AdaptiveLookUps, BandwidthIo};
 use crate::environment::node::{environment_request, map_params, str_param, PartFilter, NORMAL_DEG};
 
 pub struct MixedReality;
@@ -212,6 +212,7 @@ impl NodeKind for MixedReality {
         };
         io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
             .node_params(&["b_e", "mu", "max_radius"])
+            .param("adaptive", ParamValue::Str(AdaptiveLookUps::Off.as_str().into()))
             .float("sigma_ref", 1.0)
             .int("max_rays", 1)
             .int("base", primary * per_primary)
