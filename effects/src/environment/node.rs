@@ -28,7 +28,10 @@
 //! light is one factored component ([`expand_factored`]), as SoftShadows' direct light is: Ch. 6's
 //! bandwidth (steps 1–2, on the factoring node's first pass, at μ = 1) is the component's own
 //! bandlimit, which the factoring node's rates turn into its irradiance width and look-ups (the lens
-//! or velocity terms added: `crate::defocus::formulas::omega_environment`).
+//! or velocity terms added: `crate::defocus::formulas::omega_environment`). Where `adaptive` applies
+//! (glossy receivers by default) the node also asks the sampler for the paths its own rule gives at
+//! μ = 1 — Ch. 5's rates give a pixel in focus one path, whose single position cannot resolve a
+//! glossy reflection of the map (docs/DESIGN-NOTES.md "Glossy receivers under a factoring node").
 
 use std::collections::BTreeMap;
 
@@ -316,10 +319,9 @@ pub(crate) fn curvature_pass(ctx: &mut ExpandCtx<'_>, position: BufferId, normal
 
 /// The parameters that have no meaning for a factored component, with why: refused at any value but
 /// their default, so nothing a pipeline states is silently ignored.
-const NOT_FACTORED: [(&str, &str); 3] = [
+const NOT_FACTORED: [(&str, &str); 2] = [
     ("indirect", "the indirect light is the Indirect node's component: wire an Indirect node's radiance to the factoring node's `indirect`"),
     ("temporal", "the factoring node's paths are not reprojected across frames"),
-    ("adaptive", "the factoring node's rates set the look-ups"),
 ];
 
 /// Under a factoring node (thesis Ch. 5, App. B; [`wedge_graph::factoring`]): the environment's
@@ -328,9 +330,10 @@ const NOT_FACTORED: [(&str, &str); 3] = [
 /// Ch. 6's bandwidth of the direct light (eqs. 6.13/6.17 from the curvature 6.20, the occluder term
 /// and `B_e`; the glossy part's where the receiver is glossy, the larger axis) on the factoring
 /// node's first pass, at μ = 1 (the factoring node's μ scales the widths it derives); its look-ups
-/// per primary ray are `per_primary`. `primary`, `mu`, `max_radius` and `emission` do not apply (the
-/// factoring node's paths, μ, filter reach, and the emission it adds once); `indirect`, `temporal`
-/// and `adaptive` are refused ([`NOT_FACTORED`]).
+/// per primary ray are `per_primary`. Where `adaptive` applies, its paths are at least
+/// `look_ups / per_primary` (the node's rule, `primary × per_primary` look-ups grown as σ_ref² / σ²,
+/// at μ = 1). `mu`, `max_radius` and `emission` do not apply (the factoring node's μ, filter reach,
+/// and the emission it adds once); `indirect` and `temporal` are refused ([`NOT_FACTORED`]).
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphError> {
     let declared = Environment.params();
     for (name, why) in NOT_FACTORED {
@@ -378,21 +381,36 @@ fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Buffer
     let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
     let (curvature, magnitude) = curvature_pass(ctx, position, normal);
     let (bandlimit, bandwidth) = (ctx.buffer("bandlimit", Format::F32), ctx.buffer("bandwidth", Format::F32));
+    let adaptive = !matches!(ctx.param("adaptive"), ParamValue::Str(s) if s == AdaptiveLookUps::Off.as_str());
+    let rays = adaptive.then(|| ctx.buffer("look_ups", Format::U32));
     let io = BandwidthIo {
         bandlimit: Some(bandlimit),
         bandwidth: Some(bandwidth),
+        rays,
         ..BandwidthIo::inputs(curvature, stats, normal, None)
     };
+    let per_primary = count(ctx, "per_primary");
+    let base = count(ctx, "primary") * per_primary;
     io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
-        .node_params(&["b_e"])
+        .node_params(&["b_e", "adaptive", "sigma_ref", "max_rays"])
         .float("mu", 1.0)
         .param("max_radius", f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16)))
-        .param("adaptive", ParamValue::Str(AdaptiveLookUps::Off.as_str().into()))
-        .int("base", 1)
-        .float("sigma_ref", 1.0)
-        .int("max_rays", 1)
+        .int("base", base)
         .reference(Reference::Keep)
         .finish();
+    // Where `adaptive` applies, paths of `per_primary` look-ups each until the pixel has Algorithm 1's
+    // look-ups grown as its filter narrows (the node's own rule at μ = 1; the factoring node's counts
+    // grow with its μ): a glossy receiver in focus or still, which the factoring node's rates give
+    // one path, gets the paths its glossy reflection needs.
+    if let Some(rays) = rays {
+        ctx.sampler_counts(CountRequest {
+            paths: Some(rays),
+            paths_unit: per_primary as u32,
+            per_primary: vec![],
+            max3: false,
+            beyond_first: false,
+        })?;
+    }
     ctx.output("bandwidth", bandwidth);
     ctx.output("curvature", magnitude);
     Ok(bandlimit)
