@@ -16,7 +16,7 @@ pub(super) struct Cli {
 /// Options every rendering command shares.
 #[derive(Args, Clone)]
 pub(super) struct Common {
-    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`, the defocus suite's `dof_*`, the motion suite's `mo_*`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
+    /// Scene: a built-in name (`grids`, `curved`, `heavy`, `cornell`, `chess`, `spheres`, `motion`, `envmap`, `envmap_light`, `envmap_real`, `envmap_virtual`, `envmap_far`, and the suite's `suite_slats`, `suite_grate`, `suite_contact`, `suite_near_light`, `suite_textured`, `suite_glossy`, `suite_room`, the defocus suite's `dof_*`, the motion suite's `mo_*`, the environment suite's `env_*`), `builtin:NAME`, or a .gltf/.glb/.obj/.ron file.
     #[arg(long)]
     pub(super) scene: Option<String>,
     /// Output directory.
@@ -162,7 +162,8 @@ pub(super) enum Command {
         scene: Option<String>,
         /// Run the bench over the built-in scene suite a node of the pipeline names: the defocus suite
         /// (Defocus: dof_*, each scene's own lens set on the nodes that take a lens), the motion suite
-        /// (Motion: mo_*), else the soft-shadow suite (issue 16: grids, suite_slats, suite_grate, suite_contact,
+        /// (Motion: mo_*), the environment suite (Environment: env_*, each lit by its own map), else the
+        /// soft-shadow suite (issue 16: grids, suite_slats, suite_grate, suite_contact,
         /// suite_near_light, curved, suite_textured, suite_glossy, cornell, suite_room), each into OUT/SCENE/, and write OUT/suite.md (+ .csv, .json, suite_speedup.png): per scene
         /// rays/px, equal-RMSE speedups, bias/variance, filter overhead; the median and the worst.
         #[arg(long)]
