@@ -6,7 +6,7 @@
 #include "rng.wgsl"
 #include "bvh.wgsl"
 #include "sampling.wgsl"
-#include "camera.wgsl"
+#include "camera_path.wgsl"
 #include "pixel_filter_formulas.wgsl"
 
 @compute @workgroup_size(8, 8)
@@ -25,18 +25,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let pixel = pixel_id(gid);
     let xy = global_xy(gid);
-    let c = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
-        params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
+    let c = path_camera();
     let key = rng_key(frame.seed, pixel, params.stream);
     var sum = vec3<f32>(0.0);
     var depth = PF_MISS_DEPTH;
     for (var s = 0u; s < params.count; s = s + 1u) {
-        let jit = rng_uniform2(key, s, DIM_PIXEL);
-        // Through the lens where the camera has an aperture, at the path's own time where the shutter
-        // is open over an interval (camera_paths.rs `camera_ray`).
-        let lens = select(vec2<f32>(0.5), rng_uniform2(key, s, DIM_LENS), c.aperture > 0.0);
-        scene_time = select(0.0, 2.0 * rng_uniform2(key, s, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
-        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
+        let ray = path_camera_ray(c, key, s, xy);
         let hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
         if (hit.hit) {
             let sp = surface(hit.triangle, hit.b1, hit.b2, ray.dir);

@@ -7,7 +7,7 @@
 #include "rng.wgsl"
 #include "bvh.wgsl"
 #include "sampling.wgsl"
-#include "camera.wgsl"
+#include "camera_path.wgsl"
 #include "hemisphere.wgsl"
 #include "indirect_path.wgsl"
 #include "first_vertex.wgsl"
@@ -47,8 +47,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = pixel_index(gid);
     let pixel = pixel_id(gid);
     let xy = global_xy(gid);
-    let c = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
-        params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
+    let c = path_camera();
     let key = rng_key(frame.seed, pixel, params.stream);
     var st = PfStats(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
     if (chunk_resumes()) {
@@ -58,12 +57,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var bad = 0u;
     var j = frame.chunk_begin;
     for (; j < end; j = j + 1u) {
-        let jit = rng_uniform2(key, j, DIM_PIXEL);
-        // Through the lens where the camera has an aperture, at the path's own time where the shutter
-        // is open over an interval (camera_paths.rs `camera_ray`).
-        let lens = select(vec2<f32>(0.5), rng_uniform2(key, j, DIM_LENS), c.aperture > 0.0);
-        scene_time = select(0.0, 2.0 * rng_uniform2(key, j, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
-        let ray = camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
+        let ray = path_camera_ray(c, key, j, xy);
         let s = path_sample(ray.origin, ray.dir, key, j);
         if (is_finite3(s.lv) && is_finite3(s.hv)) {
             st = pf_combine(st, PfStats(s.lv, s.hv, 1.0, 0.0));

@@ -3,8 +3,8 @@
 //! [`camera_ray`] jitters a path over the pixel, the lens and the shutter; [`first_vertex`] shades it
 //! with the shared estimators of `wedge_backends::kernels::indirect` (next-event estimation at every
 //! vertex, the lobe-mixture continuation) and keeps the first vertex's radiance sample;
-//! [`CameraPaths`] runs `count` of them per pixel. WGSL mirror: `shaders/first_vertex.wgsl` (the ray
-//! in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`).
+//! [`CameraPaths`] runs `count` of them per pixel. WGSL mirror: `shaders/first_vertex.wgsl`, and
+//! `shaders/camera_path.wgsl` for the camera and the ray (`path_camera`, `path_camera_ray`).
 
 use glam::{Vec2, Vec3};
 use wedge_backends::kernels::hemisphere::Lobe;
@@ -20,7 +20,7 @@ use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 /// (`t` in [−1, 1], the scene's motion parameter; each a dimension of its own), so the accumulation
 /// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed 002
 /// assumes a pinhole at one instant, and for such a camera the rays are as before, bit for bit). The
-/// WGSL draws the same numbers in `pixel_filter_sample/range.wgsl` and `radiance_filter_sample.wgsl`.
+/// WGSL draws the same numbers in `camera_path.wgsl` (`path_camera_ray`).
 pub fn camera_ray(
     cam: &Camera,
     rng: &PixelRng,
@@ -39,7 +39,8 @@ pub fn shutter_is_open(cam: &Camera) -> bool {
     cam.shutter_open < cam.shutter_close
 }
 
-/// The camera's WGSL uniforms (`camera.wgsl`) and `cam_shutter`, as the progressive kernels read them.
+/// The camera's WGSL uniforms (`camera.wgsl`) and `cam_shutter`, as the progressive kernels read them
+/// (`camera_path.wgsl` `path_camera`).
 pub fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
     wedge_backends::kernels::paths::camera_uniforms(u, cam, LensShape::Disk)
         .u32("cam_shutter", shutter_is_open(cam) as u32)

@@ -41,6 +41,9 @@ pub const SHARED: &[(&str, &str)] = &[
     // A camera path's first vertex and radiance sample, shared by pixel_filter.sample and
     // radiance_filter.sample (wedge-effects' camera_paths.rs first_vertex).
     ("first_vertex.wgsl", include_str!("../../../shaders/first_vertex.wgsl")),
+    // Their camera and the camera ray of a path (camera_paths.rs camera_uniforms, camera_ray), shared
+    // with pixel_filter.range.
+    ("camera_path.wgsl", include_str!("../../../shaders/camera_path.wgsl")),
     // Environment look-ups and next-event estimation of the environment (kernels/environment.rs).
     ("environment_light.wgsl", include_str!("../../../shaders/environment_light.wgsl")),
 ];
