@@ -70,13 +70,35 @@ pub struct Schedule {
     pub culled: Vec<String>,
 }
 
-/// Cull, order, and plan the storage of an expansion.
+/// Cull, order, and plan the storage of an expansion (the module doc's steps, one function each).
 pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
     let Expansion { buffers, passes, sink_inputs, history, .. } = e;
-    let nb = buffers.len();
-    let is_history = |id: BufferId| history.iter().any(|h| h.buffer == id);
+    let writer = writers(&passes, buffers.len())?;
+    check_stages_and_streams(&passes, &buffers, &writer)?;
+    let dag = PassDag::new(&passes, &buffers, &writer, &history)?;
+    let live = dag.live(&passes, &buffers, &writer, &sink_inputs, &history)?;
+    let culled: Vec<String> =
+        passes.iter().enumerate().filter(|(i, _)| !live[*i]).map(|(_, p)| p.name.clone()).collect();
+    let order = dag.order(&passes, &live)?;
+    let (lifetimes, live_history) = lifetimes(&passes, buffers.len(), &writer, &live, &order, &sink_inputs, &history);
+    let (slots, slot_formats, slot_layers) = pool_plan(&buffers, &lifetimes);
+    let passes_in_order: Vec<Pass> = order.iter().map(|&i| passes[i].clone()).collect();
+    Ok(Schedule {
+        passes: passes_in_order,
+        buffers,
+        lifetimes,
+        slots,
+        slot_formats,
+        slot_layers,
+        sink_inputs,
+        history: live_history,
+        culled,
+    })
+}
 
-    // Writer of every buffer (expansion guarantees at most one).
+/// The writer of every buffer (expansion guarantees at most one); a write to a buffer that does not
+/// exist is an error.
+fn writers(passes: &[Pass], nb: usize) -> Result<Vec<Option<usize>>, GraphError> {
     let mut writer: Vec<Option<usize>> = vec![None; nb];
     for (pi, p) in passes.iter().enumerate() {
         for (_, id) in &p.writes {
@@ -89,125 +111,169 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             writer[id.0] = Some(pi);
         }
     }
+    Ok(writer)
+}
 
-    check_stages_and_streams(&passes, &buffers, &writer)?;
+/// The pass DAG: an edge writer → reader per buffer read (previous-frame buffers have none: the
+/// runner fills them before the first pass).
+struct PassDag {
+    g: DiGraph<usize, BufferId>,
+    idx: Vec<NodeIndex>,
+}
 
-    // Pass DAG: writer → reader, per buffer read.
-    let mut g: DiGraph<usize, BufferId> = DiGraph::new();
-    let idx: Vec<NodeIndex> = (0..passes.len()).map(|i| g.add_node(i)).collect();
-    for (pi, p) in passes.iter().enumerate() {
-        for (binding, id) in &p.reads {
-            if is_history(*id) {
-                continue; // filled by the runner before the first pass
+impl PassDag {
+    fn new(
+        passes: &[Pass],
+        buffers: &[BufferInfo],
+        writer: &[Option<usize>],
+        history: &[crate::History],
+    ) -> Result<PassDag, GraphError> {
+        let nb = buffers.len();
+        let is_history = |id: BufferId| history.iter().any(|h| h.buffer == id);
+        let mut g: DiGraph<usize, BufferId> = DiGraph::new();
+        let idx: Vec<NodeIndex> = (0..passes.len()).map(|i| g.add_node(i)).collect();
+        for (pi, p) in passes.iter().enumerate() {
+            for (binding, id) in &p.reads {
+                if is_history(*id) {
+                    continue;
+                }
+                let w = (id.0 < nb).then(|| writer[id.0]).flatten().ok_or_else(|| GraphError::Expand {
+                    node: p.node.clone(),
+                    message: format!(
+                        "pass `{}` reads `{}` (binding `{binding}`), which no pass writes",
+                        p.name,
+                        buffers.get(id.0).map_or("<no such buffer>", |b| b.name.as_str())
+                    ),
+                })?;
+                g.add_edge(idx[w], idx[pi], *id);
             }
-            let w = (id.0 < nb).then(|| writer[id.0]).flatten().ok_or_else(|| GraphError::Expand {
-                node: p.node.clone(),
-                message: format!(
-                    "pass `{}` reads `{}` (binding `{binding}`), which no pass writes",
-                    p.name,
-                    buffers.get(id.0).map_or("<no such buffer>", |b| b.name.as_str())
-                ),
-            })?;
-            g.add_edge(idx[w], idx[pi], *id);
         }
+        Ok(PassDag { g, idx })
     }
 
-    // Culling: keep the passes from which a sink input is reachable, i.e. those reachable from the
-    // sink inputs' writers when walking edges backwards.
-    let mut live = vec![false; passes.len()];
-    let rev = Reversed(&g);
-    for (node, port, id) in &sink_inputs {
-        let w = (id.0 < nb).then(|| writer[id.0]).flatten().ok_or_else(|| GraphError::Expand {
-            node: node.clone(),
-            message: format!("sink input `{port}` is a buffer that no pass writes"),
-        })?;
-        if buffers[id.0].layers != 1 {
-            return Err(GraphError::Expand {
-                node: node.clone(),
-                message: format!(
-                    "sink input `{port}` is `{}`, a per-sample buffer ({} elements per pixel), not an image; \
-                     connect an image output of its node instead",
-                    buffers[id.0].name, buffers[id.0].layers
-                ),
-            });
-        }
-        if live[w] {
-            continue;
-        }
-        let mut dfs = Dfs::new(rev, idx[w]);
+    /// Mark live every pass from which `w`'s pass is reachable (walking edges backwards).
+    fn mark_needed(&self, w: usize, live: &mut [bool]) {
+        let rev = Reversed(&self.g);
+        let mut dfs = Dfs::new(rev, self.idx[w]);
         while let Some(n) = dfs.next(rev) {
             live[n.index()] = true;
         }
     }
-    // A previous-frame buffer read by a live pass keeps its source's writer (and what it needs) live,
-    // which may make more previous-frame buffers read: repeat until nothing changes.
-    loop {
-        let mut changed = false;
-        for h in &history {
-            let read = passes.iter().enumerate().any(|(i, p)| live[i] && p.reads.iter().any(|(_, id)| *id == h.buffer));
-            let Some(w) = writer.get(h.source.0).copied().flatten() else {
-                if read {
-                    return Err(GraphError::Expand {
-                        node: buffers[h.buffer.0].name.clone(),
-                        message: format!(
-                            "asks for the previous frame of `{}`, which no pass writes",
-                            buffers[h.source.0].name
-                        ),
-                    });
-                }
-                continue;
-            };
-            if read && !live[w] {
-                let mut dfs = Dfs::new(rev, idx[w]);
-                while let Some(n) = dfs.next(rev) {
-                    live[n.index()] = true;
-                }
-                changed = true;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
-    let culled: Vec<String> =
-        passes.iter().enumerate().filter(|(i, _)| !live[*i]).map(|(_, p)| p.name.clone()).collect();
 
-    // Deterministic topological order of the live passes (Kahn; ready set ordered by expansion index).
-    let mut indeg = vec![0usize; passes.len()];
-    for e in g.raw_edges() {
-        if live[e.source().index()] && live[e.target().index()] {
-            indeg[e.target().index()] += 1;
+    /// Step 1, culling: the passes from which a sink input is reachable are live; a previous-frame
+    /// buffer read by a live pass keeps its source's writer (and what it needs) live, which may make
+    /// more previous-frame buffers read — repeated until nothing changes.
+    fn live(
+        &self,
+        passes: &[Pass],
+        buffers: &[BufferInfo],
+        writer: &[Option<usize>],
+        sink_inputs: &[(String, String, BufferId)],
+        history: &[crate::History],
+    ) -> Result<Vec<bool>, GraphError> {
+        let nb = buffers.len();
+        let mut live = vec![false; passes.len()];
+        for (node, port, id) in sink_inputs {
+            let w = (id.0 < nb).then(|| writer[id.0]).flatten().ok_or_else(|| GraphError::Expand {
+                node: node.clone(),
+                message: format!("sink input `{port}` is a buffer that no pass writes"),
+            })?;
+            if buffers[id.0].layers != 1 {
+                return Err(GraphError::Expand {
+                    node: node.clone(),
+                    message: format!(
+                        "sink input `{port}` is `{}`, a per-sample buffer ({} elements per pixel), not an image; \
+                         connect an image output of its node instead",
+                        buffers[id.0].name, buffers[id.0].layers
+                    ),
+                });
+            }
+            if !live[w] {
+                self.mark_needed(w, &mut live);
+            }
         }
-    }
-    let key = |i: usize| Reverse((passes[i].stage, i));
-    let mut ready: BinaryHeap<Reverse<(Stage, usize)>> =
-        (0..passes.len()).filter(|&i| live[i] && indeg[i] == 0).map(key).collect();
-    let mut order: Vec<usize> = Vec::new();
-    while let Some(Reverse((_, i))) = ready.pop() {
-        order.push(i);
-        for n in g.neighbors(idx[i]) {
-            let t = n.index();
-            // `neighbors` yields one entry per edge, matching the per-edge in-degree count.
-            indeg[t] -= 1;
-            if indeg[t] == 0 {
-                ready.push(key(t));
+        loop {
+            let mut changed = false;
+            for h in history {
+                let read =
+                    passes.iter().enumerate().any(|(i, p)| live[i] && p.reads.iter().any(|(_, id)| *id == h.buffer));
+                let Some(w) = writer.get(h.source.0).copied().flatten() else {
+                    if read {
+                        return Err(GraphError::Expand {
+                            node: buffers[h.buffer.0].name.clone(),
+                            message: format!(
+                                "asks for the previous frame of `{}`, which no pass writes",
+                                buffers[h.source.0].name
+                            ),
+                        });
+                    }
+                    continue;
+                };
+                if read && !live[w] {
+                    self.mark_needed(w, &mut live);
+                    changed = true;
+                }
+            }
+            if !changed {
+                return Ok(live);
             }
         }
     }
-    let live_count = live.iter().filter(|&&l| l).count();
-    if order.len() != live_count {
-        let stuck = (0..passes.len()).find(|&i| live[i] && indeg[i] > 0).unwrap();
-        return Err(GraphError::Expand {
-            node: passes[stuck].node.clone(),
-            message: format!("pass `{}` is part of a cycle of passes", passes[stuck].name),
-        });
+
+    /// Step 2: a deterministic topological order of the live passes (Kahn; the ready set ordered by
+    /// stage, then expansion index); a cycle is an error naming a pass on it.
+    fn order(&self, passes: &[Pass], live: &[bool]) -> Result<Vec<usize>, GraphError> {
+        let mut indeg = vec![0usize; passes.len()];
+        for e in self.g.raw_edges() {
+            if live[e.source().index()] && live[e.target().index()] {
+                indeg[e.target().index()] += 1;
+            }
+        }
+        let key = |i: usize| Reverse((passes[i].stage, i));
+        let mut ready: BinaryHeap<Reverse<(Stage, usize)>> =
+            (0..passes.len()).filter(|&i| live[i] && indeg[i] == 0).map(key).collect();
+        let mut order: Vec<usize> = Vec::new();
+        while let Some(Reverse((_, i))) = ready.pop() {
+            order.push(i);
+            for n in self.g.neighbors(self.idx[i]) {
+                let t = n.index();
+                // `neighbors` yields one entry per edge, matching the per-edge in-degree count.
+                indeg[t] -= 1;
+                if indeg[t] == 0 {
+                    ready.push(key(t));
+                }
+            }
+        }
+        let live_count = live.iter().filter(|&&l| l).count();
+        if order.len() != live_count {
+            let stuck = (0..passes.len()).find(|&i| live[i] && indeg[i] > 0).unwrap();
+            return Err(GraphError::Expand {
+                node: passes[stuck].node.clone(),
+                message: format!("pass `{}` is part of a cycle of passes", passes[stuck].name),
+            });
+        }
+        Ok(order)
     }
+}
+
+/// Step 3: every live buffer's lifetime — from its writer to its last reader; sink inputs to the end
+/// (a run hands them back); previous-frame buffers from the start (filled before pass 0) to their
+/// last reader and their sources to the end (handed back for the next frame). Also the
+/// previous-frame buffers a scheduled pass reads.
+#[allow(clippy::too_many_arguments)]
+fn lifetimes(
+    passes: &[Pass],
+    nb: usize,
+    writer: &[Option<usize>],
+    live: &[bool],
+    order: &[usize],
+    sink_inputs: &[(String, String, BufferId)],
+    history: &[crate::History],
+) -> (Vec<Option<Lifetime>>, Vec<crate::History>) {
     let mut position = vec![usize::MAX; passes.len()];
     for (pos, &pi) in order.iter().enumerate() {
         position[pi] = pos;
     }
-
-    // Lifetimes.
     let mut lifetimes: Vec<Option<Lifetime>> = vec![None; nb];
     for (b, w) in writer.iter().enumerate() {
         if let Some(w) = *w {
@@ -216,7 +282,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
             }
         }
     }
-    for &pi in &order {
+    for &pi in order {
         for (_, id) in &passes[pi].reads {
             if let Some(l) = lifetimes[id.0].as_mut() {
                 l.last = l.last.max(position[pi]);
@@ -224,27 +290,29 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         }
     }
     let end = order.len().saturating_sub(1);
-    for (_, _, id) in &sink_inputs {
+    for (_, _, id) in sink_inputs {
         if let Some(l) = lifetimes[id.0].as_mut() {
             l.last = end;
         }
     }
-    // Previous-frame buffers exist from the start (filled before pass 0) to their last reader; their
-    // sources to the end (a run hands them back for the next frame).
-    let live_history: Vec<crate::History> = history
-        .iter()
-        .copied()
-        .filter(|h| order.iter().any(|&pi| passes[pi].reads.iter().any(|(_, id)| *id == h.buffer)))
-        .collect();
+    let reads = |pi: usize, h: &crate::History| passes[pi].reads.iter().any(|(_, id)| *id == h.buffer);
+    let live_history: Vec<crate::History> =
+        history.iter().copied().filter(|h| order.iter().any(|&pi| reads(pi, h))).collect();
     for h in &live_history {
-        let last = order.iter().rposition(|&pi| passes[pi].reads.iter().any(|(_, id)| *id == h.buffer)).unwrap_or(0);
+        let last = order.iter().rposition(|&pi| reads(pi, h)).unwrap_or(0);
         lifetimes[h.buffer.0] = Some(Lifetime { first: 0, last });
         if let Some(l) = lifetimes[h.source.0].as_mut() {
             l.last = end;
         }
     }
+    (lifetimes, live_history)
+}
 
-    // Pool plan: greedy interval colouring per format, buffers in order of first write.
+/// Step 4, the pool plan: greedy interval colouring per format and layers, buffers in order of first
+/// write; a slot is reused only after its occupant's last use. Returns each buffer's slot and each
+/// slot's format and layers.
+fn pool_plan(buffers: &[BufferInfo], lifetimes: &[Option<Lifetime>]) -> (Vec<Option<usize>>, Vec<Format>, Vec<u32>) {
+    let nb = buffers.len();
     let mut by_first: Vec<usize> = (0..nb).filter(|&b| lifetimes[b].is_some()).collect();
     by_first.sort_by_key(|&b| (lifetimes[b].unwrap().first, b));
     let mut slots: Vec<Option<usize>> = vec![None; nb];
@@ -265,19 +333,7 @@ pub fn schedule(e: Expansion) -> Result<Schedule, GraphError> {
         slot_last[s] = l.last;
         slots[b] = Some(s);
     }
-
-    let passes_in_order: Vec<Pass> = order.iter().map(|&i| passes[i].clone()).collect();
-    Ok(Schedule {
-        passes: passes_in_order,
-        buffers,
-        lifetimes,
-        slots,
-        slot_formats,
-        slot_layers,
-        sink_inputs,
-        history: live_history,
-        culled,
-    })
+    (slots, slot_formats, slot_layers)
 }
 
 /// Stage order and stream uniqueness over every pass (culled or not), all problems in one error.
