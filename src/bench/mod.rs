@@ -464,65 +464,23 @@ fn fmt_mu(mu: f64) -> String {
     format!("{mu}")
 }
 
-/// Run the whole benchmark (see the module docs) and write its files into `opts.out`.
-pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
-    let t0 = Instant::now();
-    let (dw, dh) = if opts.quick { (Some(128), Some(96)) } else { (None, None) };
-    let base = Overrides {
-        scene: opts.scene.clone(),
-        width: opts.width.or(dw),
-        height: opts.height.or(dh),
-        seed: opts.seed,
-        mu: None,
-        params: opts.params.clone(),
-        ..Overrides::default()
-    };
-    let path = opts.pipeline.as_path();
-    let session = Session::open_with(&opts.registries, Some(path), &base)?;
-    let (width, height, seed) = (session.width, session.height, session.seed);
-    if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
-        // One run at a time, plus the full-size images the report keeps (reference, its two
-        // halves, ours at two seeds, unfiltered, equal-time baseline): 7 × [f32; 3] per pixel.
-        let mut estimate = session.memory_estimate(crate::session::RunMode::Cpu);
-        let pixels = u64::from(width) * u64::from(height);
-        estimate.images = estimate.images.saturating_add(pixels.saturating_mul(7 * 12));
-        estimate.check(limit, &source)?;
-    }
-    let pipeline_name = path.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().into_owned());
-    let scene_spec = opts.scene.clone().unwrap_or_else(|| session.pipeline.pipeline.scene.clone());
-    let scene_name = session.scene.name.clone();
-    let mu_nodes: Vec<f64> = session
-        .pipeline
-        .nodes
-        .iter()
-        .filter(|n| n.kind.params().iter().any(|d| d.name == "mu"))
-        .filter_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64))
-        .collect();
-    // Under a factoring node (Ch. 5's Defocus) its μ is the one that acts (the component nodes
-    // read the factoring node's settings), so it is the pipeline's own.
-    let factoring_mu = session.pipeline.factoring.as_ref().and_then(|f| f.float("mu"));
-    let default_mu = factoring_mu.or(mu_nodes.first().copied());
-    let scene_bytes = match crate::session::scene_source(&session.pipeline, opts.scene.as_deref()) {
-        SceneSource::File(p) => std::fs::read(p).ok(),
-        _ => None,
-    };
-    drop(session);
-    let base = Overrides { seed: Some(seed), width: Some(width), height: Some(height), ..base };
-    std::fs::create_dir_all(&opts.out).map_err(|e| io_err(&opts.out, e))?;
+/// The pipeline's μ: its factoring node's where it has one (the component nodes read the factoring
+/// node's settings, so that μ is the one that acts), else the first node that states one.
+fn own_mu(session: &Session) -> Option<f64> {
+    session.pipeline.factoring.as_ref().and_then(|f| f.float("mu")).or_else(|| {
+        session
+            .pipeline
+            .nodes
+            .iter()
+            .filter(|n| n.kind.params().iter().any(|d| d.name == "mu"))
+            .find_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64))
+    })
+}
 
-    // 1. The reference.
-    let (reference_img, reference) = obtain_reference(opts, &base, &scene_spec, scene_bytes, (width, height, seed))?;
-    let ctx = Ctx { opts, base, reference: reference_img };
-    ctx.log(format!(
-        "reference {} spp {} ({:.1} s), estimated noise RMSE {:.3e}",
-        reference.spp,
-        if reference.from_cache { "from cache" } else { "rendered" },
-        reference.obtain_seconds,
-        reference.noise_rmse
-    ));
-
-    // 2. The pipeline's mu sweep, two seeds each.
-    let mut mus: Vec<Option<f64>> = match default_mu {
+/// The μ values a pipeline with its own μ `own` is measured at (`--mu-values`, else 0.5–4); one run
+/// at the file's settings where it has none.
+fn mu_sweep(opts: &BenchOptions, own: Option<f64>) -> Vec<Option<f64>> {
+    match own {
         None => vec![None],
         Some(_) => opts
             .mu_values
@@ -531,147 +489,315 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
             .into_iter()
             .map(Some)
             .collect(),
-    };
-    let is_default = |m: Option<f64>| match (m, default_mu) {
-        (Some(a), Some(b)) => (a - b).abs() <= 1e-9 * b.abs().max(1.0),
-        (None, _) => true,
-        _ => false,
-    };
-    if !mus.iter().any(|m| is_default(*m)) {
-        mus.push(None);
     }
-    let seed2 = seed.wrapping_add(1);
-    let mut runs: Vec<RunRecord> = Vec::new();
-    // The primary run: seed 1's image, its unfiltered input, seed 2's image, its pixel classes.
-    let mut kept_ours: Option<(Image, Option<Image>, Image, Vec<classes::Partition>)> = None;
-    let pipeline_dir = opts.out.join("pipeline");
-    for &mu in &mus {
-        let s1 = Session::open_with(&opts.registries, Some(path), &ctx.ov(seed, mu))?;
-        let (run1, img1, parts1) = ctx.measure(&s1)?;
-        let s2 = Session::open_with(&opts.registries, Some(path), &ctx.ov(seed2, mu))?;
-        let (_, img2, parts2) = ctx.measure(&s2)?;
-        let shown_mu = mu.or(default_mu);
-        let label = match shown_mu {
-            Some(m) => format!("{} (mu={})", Method::Pipeline.name(), fmt_mu(m)),
-            None => Method::Pipeline.name().to_string(),
+}
+
+/// What the bench learns from opening the pipeline once: the size and seed every run takes, its
+/// names, its own μ and the scene to hand the reference cache.
+struct Setup {
+    base: Overrides,
+    width: u32,
+    height: u32,
+    seed: u32,
+    pipeline_name: String,
+    scene_spec: String,
+    scene_name: String,
+    default_mu: Option<f64>,
+    scene_bytes: Option<Vec<u8>>,
+}
+
+impl Setup {
+    /// Open the pipeline with the bench's overrides and refuse a run over `--memory-limit` (one run
+    /// at a time, plus the full-size images the report keeps).
+    fn open(opts: &BenchOptions) -> Result<Setup, WedgeError> {
+        let (dw, dh) = if opts.quick { (Some(128), Some(96)) } else { (None, None) };
+        let base = Overrides {
+            scene: opts.scene.clone(),
+            width: opts.width.or(dw),
+            height: opts.height.or(dh),
+            seed: opts.seed,
+            mu: None,
+            params: opts.params.clone(),
+            ..Overrides::default()
         };
-        let mut rec = parts1.record(Method::Pipeline, Role::Sweep, label.clone(), shown_mu, None, seed);
-        let msd = stats::mean_squared_difference(&img1, &img2)?;
-        let mse = rec.metrics.rmse * rec.metrics.rmse;
-        rec.bias_variance = Some(split_bias_variance(mse, msd, reference.noise_rmse * reference.noise_rmse));
-        rec.primary = is_default(mu) && !runs.iter().any(|r: &RunRecord| r.primary);
-        ctx.log(format!(
-            "{label}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
-            rec.rays.total, rec.time.total, rec.metrics.rmse
-        ));
-        if rec.primary {
-            crate::outputs::write_run(&pipeline_dir, "render", &run1, width, height)?;
-            let unfiltered = run1.output("unfiltered").map(|b| buffer_to_image(b, width, height));
-            let partitions = pixel_classes(&s1, width, height)?;
-            kept_ours = Some((img1.clone(), unfiltered, img2.clone(), partitions));
+        let path = opts.pipeline.as_path();
+        let session = Session::open_with(&opts.registries, Some(path), &base)?;
+        let (width, height, seed) = (session.width, session.height, session.seed);
+        if let Some((limit, source)) = crate::session::memory_budget(opts.memory_limit) {
+            // The reference, its two halves, ours at two seeds, unfiltered, the equal-time
+            // baseline: 7 × [f32; 3] per pixel.
+            let mut estimate = session.memory_estimate(crate::session::RunMode::Cpu);
+            let pixels = u64::from(width) * u64::from(height);
+            estimate.images = estimate.images.saturating_add(pixels.saturating_mul(7 * 12));
+            estimate.check(limit, &source)?;
         }
-        runs.push(rec);
-        runs.push(parts2.record(
-            Method::Pipeline,
-            Role::SecondSeed,
-            format!("{label} seed {seed2}"),
-            shown_mu,
-            None,
-            seed2,
-        ));
-    }
-    // 2b. Compared pipelines: the same sweep, on this bench's scene, size, seeds and reference.
-    for other in &opts.compare {
-        let name = other.file_stem().map_or("compared".into(), |s| s.to_string_lossy().into_owned());
-        let on_scene = |seed: u32, mu: Option<f64>| Overrides { scene: Some(scene_spec.clone()), ..ctx.ov(seed, mu) };
-        let probe = Session::open_with(&opts.registries, Some(other), &on_scene(seed, None))?;
-        let own_mu = probe.pipeline.factoring.as_ref().and_then(|f| f.float("mu")).or_else(|| {
-            probe
-                .pipeline
-                .nodes
-                .iter()
-                .filter(|n| n.kind.params().iter().any(|d| d.name == "mu"))
-                .find_map(|n| n.params.get("mu").and_then(crate::graph::ParamValue::as_f64))
-        });
-        drop(probe);
-        let sweep: Vec<Option<f64>> = match own_mu {
-            None => vec![None],
-            Some(_) => opts
-                .mu_values
-                .clone()
-                .unwrap_or_else(|| if opts.quick { vec![1.0, 2.0] } else { vec![0.5, 1.0, 2.0, 4.0] })
-                .into_iter()
-                .map(Some)
-                .collect(),
+        let scene_bytes = match crate::session::scene_source(&session.pipeline, opts.scene.as_deref()) {
+            SceneSource::File(p) => std::fs::read(p).ok(),
+            _ => None,
         };
-        for mu in sweep {
-            let shown = mu.or(own_mu);
+        Ok(Setup {
+            base: Overrides { seed: Some(seed), width: Some(width), height: Some(height), ..base },
+            width,
+            height,
+            seed,
+            pipeline_name: path.file_stem().map_or("pipeline".into(), |s| s.to_string_lossy().into_owned()),
+            scene_spec: opts.scene.clone().unwrap_or_else(|| session.pipeline.pipeline.scene.clone()),
+            scene_name: session.scene.name.clone(),
+            default_mu: own_mu(&session),
+            scene_bytes,
+        })
+    }
+}
+
+/// A pipeline's run at one μ, measured at two seeds: the first seed's run, image and record (with
+/// the bias/variance split from the two seeds) and the second seed's image and record.
+struct SeedPair {
+    run: RunResult,
+    image: Image,
+    second_image: Image,
+    record: RunRecord,
+    second: RunRecord,
+}
+
+/// The primary run's images: seed 1's image, its unfiltered input, seed 2's image, its pixel classes.
+type KeptOurs = (Image, Option<Image>, Image, Vec<classes::Partition>);
+
+/// Run the whole benchmark (see the module docs) and write its files into `opts.out`.
+pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
+    let t0 = Instant::now();
+    let setup = Setup::open(opts)?;
+    let (width, height, seed) = (setup.width, setup.height, setup.seed);
+    std::fs::create_dir_all(&opts.out).map_err(|e| io_err(&opts.out, e))?;
+
+    // 1. The reference.
+    let (reference_img, reference) =
+        obtain_reference(opts, &setup.base, &setup.scene_spec, setup.scene_bytes.clone(), (width, height, seed))?;
+    let ctx = Ctx { opts, base: setup.base.clone(), reference: reference_img };
+    ctx.log(format!(
+        "reference {} spp {} ({:.1} s), estimated noise RMSE {:.3e}",
+        reference.spp,
+        if reference.from_cache { "from cache" } else { "rendered" },
+        reference.obtain_seconds,
+        reference.noise_rmse
+    ));
+    let noise2 = reference.noise_rmse * reference.noise_rmse;
+
+    // 2. The pipeline's μ sweep, two seeds each; 2b. the compared pipelines alike.
+    let pipeline_dir = opts.out.join("pipeline");
+    let (mut runs, kept_ours) = ctx.pipeline_sweep(&setup, &pipeline_dir, noise2)?;
+    for other in &opts.compare {
+        ctx.compared_sweep(other, &setup, noise2, &mut runs)?;
+    }
+    // 3. Baseline curves; 4. speedups; 5. equal-time stratified Monte Carlo.
+    ctx.baseline_curves(seed, reference.spp, &mut runs)?;
+    let fits = speedups(&mut runs);
+    let equal_time = ctx.equal_time(seed, &mut runs)?;
+
+    let goals = report::check_goals(&runs, &opts.goals);
+    let (ours, unfiltered, ours_seed2, partitions) =
+        kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
+    let mean_offset = mean_of(&ours) / mean_of(&ctx.reference) - 1.0;
+    let pixel_errors = classes::pixel_errors(&ours, &ours_seed2, &ctx.reference);
+    let error_by_class = classes::class_errors(&partitions, &pixel_errors, noise2);
+    let kept = KeptImages { reference: ctx.reference, ours, unfiltered, equal_time, pixel_errors };
+    let mut result = BenchResult {
+        pipeline_name: setup.pipeline_name,
+        scene: setup.scene_name,
+        width,
+        height,
+        seed,
+        quick: opts.quick,
+        out: opts.out.clone(),
+        csv: opts.out.join("bench.csv"),
+        report: opts.out.join("report.md"),
+        plots: Vec::new(),
+        images: Vec::new(),
+        reference,
+        runs,
+        goals,
+        fits,
+        mean_offset,
+        error_by_class,
+        seconds: 0.0,
+    };
+    report::write_all(&mut result, &kept, &pipeline_dir, t0)?;
+    Ok(result)
+}
+
+impl Ctx<'_> {
+    /// Measure `path` at `mu` and two seeds (the second `seed + 1`), labelled `label`.
+    fn seed_pair(
+        &self,
+        (path, ov): (&Path, &dyn Fn(u32) -> Overrides),
+        (method, label, shown_mu): (Method, String, Option<f64>),
+        seed: u32,
+        noise2: f64,
+    ) -> Result<(SeedPair, Session), WedgeError> {
+        let reg = &self.opts.registries;
+        let s1 = Session::open_with(reg, Some(path), &ov(seed))?;
+        let (run, image, parts1) = self.measure(&s1)?;
+        let seed2 = seed.wrapping_add(1);
+        let (_, second_image, parts2) = self.measure(&Session::open_with(reg, Some(path), &ov(seed2))?)?;
+        let mut record = parts1.record(method, Role::Sweep, label.clone(), shown_mu, None, seed);
+        let msd = stats::mean_squared_difference(&image, &second_image)?;
+        let mse = record.metrics.rmse * record.metrics.rmse;
+        record.bias_variance = Some(split_bias_variance(mse, msd, noise2));
+        self.log(format!(
+            "{label}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
+            record.rays.total, record.time.total, record.metrics.rmse
+        ));
+        let second = parts2.record(method, Role::SecondSeed, format!("{label} seed {seed2}"), shown_mu, None, seed2);
+        Ok((SeedPair { run, image, second_image, record, second }, s1))
+    }
+
+    /// Step 2: the pipeline at each μ of its sweep (and at its own μ, the primary run, whose render
+    /// is written to `pipeline_dir` and whose images and pixel classes the report keeps).
+    fn pipeline_sweep(
+        &self,
+        setup: &Setup,
+        pipeline_dir: &Path,
+        noise2: f64,
+    ) -> Result<(Vec<RunRecord>, Option<KeptOurs>), WedgeError> {
+        let path = self.opts.pipeline.as_path();
+        let default_mu = setup.default_mu;
+        let is_default = |m: Option<f64>| match (m, default_mu) {
+            (Some(a), Some(b)) => (a - b).abs() <= 1e-9 * b.abs().max(1.0),
+            (None, _) => true,
+            _ => false,
+        };
+        let mut mus = mu_sweep(self.opts, default_mu);
+        if !mus.iter().any(|m| is_default(*m)) {
+            mus.push(None);
+        }
+        let mut runs: Vec<RunRecord> = Vec::new();
+        let mut kept: Option<KeptOurs> = None;
+        for &mu in &mus {
+            let shown_mu = mu.or(default_mu);
+            let label = match shown_mu {
+                Some(m) => format!("{} (mu={})", Method::Pipeline.name(), fmt_mu(m)),
+                None => Method::Pipeline.name().to_string(),
+            };
+            let ov = |seed: u32| self.ov(seed, mu);
+            let (mut pair, s1) =
+                self.seed_pair((path, &ov), (Method::Pipeline, label, shown_mu), setup.seed, noise2)?;
+            pair.record.primary = is_default(mu) && !runs.iter().any(|r: &RunRecord| r.primary);
+            if pair.record.primary {
+                let (w, h) = (setup.width, setup.height);
+                crate::outputs::write_run(pipeline_dir, "render", &pair.run, w, h)?;
+                let unfiltered = pair.run.output("unfiltered").map(|b| buffer_to_image(b, w, h));
+                let partitions = pixel_classes(&s1, w, h)?;
+                kept = Some((pair.image, unfiltered, pair.second_image, partitions));
+            }
+            runs.push(pair.record);
+            runs.push(pair.second);
+        }
+        Ok((runs, kept))
+    }
+
+    /// Step 2b: a compared pipeline's sweep at its own μ values, on this bench's scene, size, seeds
+    /// and reference.
+    fn compared_sweep(
+        &self,
+        other: &Path,
+        setup: &Setup,
+        noise2: f64,
+        runs: &mut Vec<RunRecord>,
+    ) -> Result<(), WedgeError> {
+        let name = other.file_stem().map_or("compared".into(), |s| s.to_string_lossy().into_owned());
+        let on_scene =
+            |seed: u32, mu: Option<f64>| Overrides { scene: Some(setup.scene_spec.clone()), ..self.ov(seed, mu) };
+        let own = own_mu(&Session::open_with(&self.opts.registries, Some(other), &on_scene(setup.seed, None))?);
+        for mu in mu_sweep(self.opts, own) {
+            let shown = mu.or(own);
             let label = match shown {
                 Some(m) => format!("{name} (mu={})", fmt_mu(m)),
                 None => name.clone(),
             };
-            let (_, img1, parts1) =
-                ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed, mu))?)?;
-            let (_, img2, parts2) =
-                ctx.measure(&Session::open_with(&opts.registries, Some(other), &on_scene(seed2, mu))?)?;
-            let mut rec = parts1.record(Method::Compared, Role::Sweep, label.clone(), shown, None, seed);
-            let msd = stats::mean_squared_difference(&img1, &img2)?;
-            let mse = rec.metrics.rmse * rec.metrics.rmse;
-            rec.bias_variance = Some(split_bias_variance(mse, msd, reference.noise_rmse * reference.noise_rmse));
-            rec.compared = Some(name.clone());
-            ctx.log(format!(
-                "{label}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
-                rec.rays.total, rec.time.total, rec.metrics.rmse
-            ));
-            runs.push(rec);
-            let mut second =
-                parts2.record(Method::Compared, Role::SecondSeed, format!("{label} seed {seed2}"), shown, None, seed2);
-            second.compared = Some(name.clone());
-            runs.push(second);
+            let ov = |seed: u32| on_scene(seed, mu);
+            let (mut pair, _) = self.seed_pair((other, &ov), (Method::Compared, label, shown), setup.seed, noise2)?;
+            pair.record.compared = Some(name.clone());
+            pair.second.compared = Some(name.clone());
+            runs.push(pair.record);
+            runs.push(pair.second);
         }
+        Ok(())
     }
-    let min_pipeline_rmse = runs
-        .iter()
-        .filter(|r| r.role == Role::Sweep)
-        .map(|r| r.metrics.rmse)
-        .filter(|e| e.is_finite())
-        .fold(f64::INFINITY, f64::min);
 
-    // 3. Baseline curves.
-    let max_spp = (reference.spp / 4).max(16);
-    for method in Method::BASELINES {
-        let sampling = method.sampling().unwrap_or("stratified");
-        let fixed = opts.baseline_spp.clone().or_else(|| opts.quick.then(|| vec![4, 16, 64]));
-        let mut spp = 1u32;
-        let mut i = 0usize;
-        loop {
-            let n = match &fixed {
-                Some(list) => match list.get(i) {
-                    Some(n) => *n,
-                    None => break,
-                },
-                None => spp,
-            };
-            let s = Session::reference_with(&opts.registries, Some(path), n, sampling, &ctx.ov(seed, None))?;
-            let (_, _, parts) = ctx.measure(&s)?;
-            let rec = parts.record(method, Role::Curve, format!("{} {n} spp", method.name()), None, Some(n), seed);
-            ctx.log(format!(
-                "{}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
-                rec.label, rec.rays.total, rec.time.total, rec.metrics.rmse
-            ));
-            let below = rec.metrics.rmse < min_pipeline_rmse;
-            runs.push(rec);
-            i += 1;
-            if fixed.is_none() {
-                if (below && i >= 4) || spp.saturating_mul(2) > max_spp {
-                    break;
+    /// Step 3: each baseline's error curve — doubling spp from 1 until four points lie below the
+    /// pipeline's best error or the spp passes a quarter of the reference's (`--baseline-spp`, or
+    /// `--quick`'s 4, 16, 64, instead).
+    fn baseline_curves(&self, seed: u32, reference_spp: u32, runs: &mut Vec<RunRecord>) -> Result<(), WedgeError> {
+        let (opts, path) = (self.opts, self.opts.pipeline.as_path());
+        let min_pipeline_rmse = runs
+            .iter()
+            .filter(|r| r.role == Role::Sweep)
+            .map(|r| r.metrics.rmse)
+            .filter(|e| e.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let max_spp = (reference_spp / 4).max(16);
+        for method in Method::BASELINES {
+            let sampling = method.sampling().unwrap_or("stratified");
+            let fixed = opts.baseline_spp.clone().or_else(|| opts.quick.then(|| vec![4, 16, 64]));
+            let mut spp = 1u32;
+            let mut i = 0usize;
+            loop {
+                let n = match &fixed {
+                    Some(list) => match list.get(i) {
+                        Some(n) => *n,
+                        None => break,
+                    },
+                    None => spp,
+                };
+                let s = Session::reference_with(&opts.registries, Some(path), n, sampling, &self.ov(seed, None))?;
+                let (_, _, parts) = self.measure(&s)?;
+                let rec = parts.record(method, Role::Curve, format!("{} {n} spp", method.name()), None, Some(n), seed);
+                self.log(format!(
+                    "{}: {:.1} rays/px, {:.2} s, RMSE {:.3e}",
+                    rec.label, rec.rays.total, rec.time.total, rec.metrics.rmse
+                ));
+                let below = rec.metrics.rmse < min_pipeline_rmse;
+                runs.push(rec);
+                i += 1;
+                if fixed.is_none() {
+                    if (below && i >= 4) || spp.saturating_mul(2) > max_spp {
+                        break;
+                    }
+                    spp *= 2;
                 }
-                spp *= 2;
             }
         }
+        Ok(())
     }
 
-    // 4. Speedups.
+    /// Step 5: stratified Monte Carlo at the spp whose time matches the primary run's, for the
+    /// image comparison; its image and spp.
+    fn equal_time(&self, seed: u32, runs: &mut Vec<RunRecord>) -> Result<Option<(Image, u32)>, WedgeError> {
+        let primary_time = runs.iter().find(|r| r.primary).map(|r| r.time.total).unwrap_or(f64::NAN);
+        let curve = runs.iter().filter(|r| r.method == Method::Stratified && r.role == Role::Curve);
+        let Some(n) = equal_time_spp(curve, primary_time) else { return Ok(None) };
+        let path = self.opts.pipeline.as_path();
+        let s = Session::reference_with(&self.opts.registries, Some(path), n, "stratified", &self.ov(seed, None))?;
+        let (_, img, parts) = self.measure(&s)?;
+        let rec = parts.record(
+            Method::Stratified,
+            Role::EqualTime,
+            format!("{} {n} spp (equal time)", Method::Stratified.name()),
+            None,
+            Some(n),
+            seed,
+        );
+        self.log(format!(
+            "{}: {:.2} s vs ours {:.2} s, RMSE {:.3e}",
+            rec.label, rec.time.total, primary_time, rec.metrics.rmse
+        ));
+        runs.push(rec);
+        Ok(Some((img, n)))
+    }
+}
+
+/// Step 4: every sweep run's equal-error speedup against each baseline's curve, by rays and by time;
+/// the baselines' fitted rays curves.
+fn speedups(runs: &mut [RunRecord]) -> Vec<(Method, Option<curves::LogLogFit>)> {
     let mut fits = Vec::new();
     for method in Method::BASELINES {
         let pts: Vec<&RunRecord> = runs.iter().filter(|r| r.method == method && r.role == Role::Curve).collect();
@@ -692,60 +818,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
             });
         }
     }
-
-    // 5. Equal-time stratified Monte Carlo, for the image comparison.
-    let primary_time = runs.iter().find(|r| r.primary).map(|r| r.time.total).unwrap_or(f64::NAN);
-    let mut equal_time = None;
-    if let Some(n) =
-        equal_time_spp(runs.iter().filter(|r| r.method == Method::Stratified && r.role == Role::Curve), primary_time)
-    {
-        let s = Session::reference_with(&opts.registries, Some(path), n, "stratified", &ctx.ov(seed, None))?;
-        let (_, img, parts) = ctx.measure(&s)?;
-        let rec = parts.record(
-            Method::Stratified,
-            Role::EqualTime,
-            format!("{} {n} spp (equal time)", Method::Stratified.name()),
-            None,
-            Some(n),
-            seed,
-        );
-        ctx.log(format!(
-            "{}: {:.2} s vs ours {:.2} s, RMSE {:.3e}",
-            rec.label, rec.time.total, primary_time, rec.metrics.rmse
-        ));
-        runs.push(rec);
-        equal_time = Some((img, n));
-    }
-
-    let goals = report::check_goals(&runs, &opts.goals);
-    let (ours, unfiltered, ours_seed2, partitions) =
-        kept_ours.ok_or_else(|| WedgeError::Usage("no primary pipeline run".into()))?;
-    let mean_offset = mean_of(&ours) / mean_of(&ctx.reference) - 1.0;
-    let pixel_errors = classes::pixel_errors(&ours, &ours_seed2, &ctx.reference);
-    let error_by_class = classes::class_errors(&partitions, &pixel_errors, reference.noise_rmse * reference.noise_rmse);
-    let kept = KeptImages { reference: ctx.reference, ours, unfiltered, equal_time, pixel_errors };
-    let mut result = BenchResult {
-        pipeline_name,
-        scene: scene_name,
-        width,
-        height,
-        seed,
-        quick: opts.quick,
-        out: opts.out.clone(),
-        csv: opts.out.join("bench.csv"),
-        report: opts.out.join("report.md"),
-        plots: Vec::new(),
-        images: Vec::new(),
-        reference,
-        runs,
-        goals,
-        fits,
-        mean_offset,
-        error_by_class,
-        seconds: 0.0,
-    };
-    report::write_all(&mut result, &kept, &pipeline_dir, t0)?;
-    Ok(result)
+    fits
 }
 
 /// The pixel classes of `session`'s image ([`classes::partitions`]): its scene's G-buffer at the
