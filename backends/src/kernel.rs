@@ -841,15 +841,6 @@ impl<'a> KernelCtx<'a> {
             other => Err(self.err(format!("parameter `{name}` must be a string, found {other:?}"))),
         }
     }
-    /// The `sampling` parameter every sampling kernel takes: `true` for `"stratified"` (correlated
-    /// multi-jitter), `false` for `"independent"`.
-    pub fn stratified_param(&self) -> Result<bool, BackendError> {
-        match self.str_param("sampling")? {
-            "stratified" => Ok(true),
-            "independent" => Ok(false),
-            other => Err(self.err(format!("unknown sampling `{other}`; use stratified or independent"))),
-        }
-    }
     pub fn bool_param(&self, name: &str) -> Result<bool, BackendError> {
         match self.params.get(name) {
             Some(ParamValue::Bool(v)) => Ok(*v),

@@ -15,7 +15,7 @@ use glam::Vec3;
 use crate::kernel::{Kernel, KernelCtx, Reach, WgslSource};
 use crate::kernels::filter_window::WindowRadius;
 use crate::kernels::v3;
-use crate::params::KernelParams;
+use crate::params::{AnyLight, KernelParams};
 use crate::BackendError;
 
 pub struct GaussianFilter;
@@ -35,7 +35,7 @@ crate::kernel_params! {
     /// `0..=MAX_RADIUS_LIMIT` as read.
     pub struct GaussianParams {
         axis: u32,
-        plane_light: i32,
+        plane_light: AnyLight,
         max_radius: WindowRadius<MAX_RADIUS_LIMIT>,
         normal_cos: f32,
         reach: FilterReach,
@@ -55,12 +55,10 @@ crate::kernel_bindings! {
 pub const MAX_RADIUS_LIMIT: u32 = 1024;
 
 impl GaussianParams {
-    /// The normal of eq. 3.12's plane: light `plane_light`'s, or 0 (full 3-D distance) for -1.
-    fn plane_normal(&self, ctx: &KernelCtx<'_>) -> Result<Vec3, BackendError> {
-        Ok(match self.plane_light {
-            l if l < 0 => Vec3::ZERO,
-            _ => ctx.scene.lights[ctx.light_param("plane_light")?].normal(),
-        })
+    /// The normal of eq. 3.12's plane: light `plane_light`'s (checked as read), or 0 (full 3-D
+    /// distance) for -1.
+    fn plane_normal(&self, ctx: &KernelCtx<'_>) -> Vec3 {
+        self.plane_light.0.map_or(Vec3::ZERO, |l| ctx.scene.lights[l].normal())
     }
 }
 
@@ -162,7 +160,7 @@ impl Kernel for GaussianFilter {
         Some(
             WgslSource::new(include_str!("../../../shaders/filter_gaussian.wgsl"), |ctx| {
                 let p = GaussianParams::read(ctx)?;
-                Ok(p.uniforms().vec3("plane_normal", p.plane_normal(ctx)?.to_array()))
+                Ok(p.uniforms().vec3("plane_normal", p.plane_normal(ctx).to_array()))
             })
             .with_reach(|ctx| {
                 // The x pass stays in its row; the y pass reads up to `max_radius` rows away.
@@ -179,7 +177,7 @@ impl Kernel for GaussianFilter {
         let g = GaussianParams::read(ctx)?;
         let p = FilterParams {
             axis: g.axis,
-            plane_normal: g.plane_normal(ctx)?,
+            plane_normal: g.plane_normal(ctx),
             max_radius: g.max_radius.get(),
             normal_cos: g.normal_cos,
             mutual: g.reach == FilterReach::Mutual,
