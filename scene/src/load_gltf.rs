@@ -590,39 +590,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
     let root = gltf.document.into_json();
     let mut buffers = Buffers { path, res, blob, loaded: vec![None; root.buffers.len()] };
     let mut d = SceneData::default();
-
-    // Materials in document order, so material i is SceneData material i; textures on first use.
-    let mut image_to_texture: HashMap<usize, u32> = HashMap::new();
-    for (i, m) in root.materials.iter().enumerate() {
-        let (mut mat, two_sided) = material(path, i, m)?;
-        if let Some(info) = &m.pbr_metallic_roughness.base_color_texture {
-            let tex_at = format!("materials[{i}].pbrMetallicRoughness.baseColorTexture.index");
-            let texture = get(path, &root.textures, info.index.value(), "textures", &tex_at)?;
-            let img = texture.source.value();
-            let t = match image_to_texture.get(&img) {
-                Some(&t) => t,
-                None => {
-                    let src_at = format!("textures[{}].source", info.index.value());
-                    d.textures.push(image(path, res, &root, &mut buffers, img, &src_at)?);
-                    let t = (d.textures.len() - 1) as u32;
-                    image_to_texture.insert(img, t);
-                    t
-                }
-            };
-            mat.base_color_texture = Some(t);
-        }
-        d.add_material(mat, two_sided);
-    }
-    let texcoord_set = |material: Option<usize>| -> u32 {
-        material
-            .and_then(|m| root.materials.get(m))
-            .and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref())
-            .map(|t| t.tex_coord)
-            .unwrap_or(0)
-    };
-
-    // Walk the default scene's node tree once: each node at most once (a second visit is a cycle or a
-    // node with two parents, both invalid glTF), so the walk is linear in the node count.
+    add_materials(path, res, &root, &mut buffers, &mut d)?;
     let (scene_index, scene_at) = match root.scene {
         Some(s) => (s.value(), "scene".to_string()),
         None => (0, "scenes".to_string()),
@@ -643,6 +611,69 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             shutter.0
         ));
     }
+    let walk = walk_nodes(path, &root, (scene_index, scene), &animations, shutter, &mut d.warnings)?;
+    add_instances(path, &root, &mut buffers, &walk.instances, &mut d)?;
+    if d.tris.is_empty() {
+        return Err(bad(path, "no triangles in the default scene", "export triangle meshes"));
+    }
+    if let Some((n, world, yfov)) = walk.camera {
+        d.camera = Some(node_camera(path, n, world, yfov, shutter, &d)?);
+    }
+    Ok(d)
+}
+
+/// The materials in document order, so material i is SceneData material i; their base-colour
+/// textures decoded on first use (each image once).
+fn add_materials(
+    path: &Path,
+    res: &Resources,
+    root: &json::Root,
+    buffers: &mut Buffers,
+    d: &mut SceneData,
+) -> Result<(), SceneError> {
+    let mut image_to_texture: HashMap<usize, u32> = HashMap::new();
+    for (i, m) in root.materials.iter().enumerate() {
+        let (mut mat, two_sided) = material(path, i, m)?;
+        if let Some(info) = &m.pbr_metallic_roughness.base_color_texture {
+            let tex_at = format!("materials[{i}].pbrMetallicRoughness.baseColorTexture.index");
+            let texture = get(path, &root.textures, info.index.value(), "textures", &tex_at)?;
+            let img = texture.source.value();
+            let t = match image_to_texture.get(&img) {
+                Some(&t) => t,
+                None => {
+                    let src_at = format!("textures[{}].source", info.index.value());
+                    d.textures.push(image(path, res, root, buffers, img, &src_at)?);
+                    let t = (d.textures.len() - 1) as u32;
+                    image_to_texture.insert(img, t);
+                    t
+                }
+            };
+            mat.base_color_texture = Some(t);
+        }
+        d.add_material(mat, two_sided);
+    }
+    Ok(())
+}
+
+/// What the walk of the default scene's node tree found: the mesh instances with their world
+/// transforms, and the first perspective camera (node, world transform, vertical field of view).
+struct Walk {
+    instances: Vec<Instance>,
+    camera: Option<(usize, Mat4, f32)>,
+}
+
+/// Walk the default scene's (`scene_index`) node tree once: each node at most once (a second visit is a cycle or a
+/// node with two parents, both invalid glTF), so the walk is linear in the node count; each node's
+/// world transform at shutter open and close; triangles counted before any is read (a small file
+/// can instance a mesh millions of times).
+fn walk_nodes(
+    path: &Path,
+    root: &json::Root,
+    (scene_index, scene): (usize, &json::Scene),
+    animations: &Animations,
+    shutter: (f32, f32),
+    warnings: &mut Vec<String>,
+) -> Result<Walk, SceneError> {
     let mut visited = vec![false; root.nodes.len()];
     // (node, parent's world at open and at close, the pivot of the nearest animated ancestor, path)
     let mut todo: Vec<(usize, Mat4, Mat4, Option<Vec3>, String)> = scene
@@ -652,8 +683,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
         .rev()
         .map(|(k, n)| (n.value(), Mat4::IDENTITY, Mat4::IDENTITY, None, format!("scenes[{scene_index}].nodes[{k}]")))
         .collect();
-    let mut instances = Vec::new();
-    let mut camera: Option<(usize, Mat4, f32)> = None;
+    let mut walk = Walk { instances: Vec::new(), camera: None };
     let mut triangles: u64 = 0;
     let mut warned_modes = false;
     while let Some((n, parent, parent_close, pivot, at)) = todo.pop() {
@@ -685,82 +715,13 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
                 "check the scale/matrix of this node and its parents",
             ));
         }
-        if let (None, Some(c)) = (&camera, node.camera) {
-            let c = c.value();
-            let cam = get(path, &root.cameras, c, "cameras", &format!("nodes[{n}].camera"))?;
-            if let Some(p) = &cam.perspective {
-                if !(p.yfov.is_finite() && p.yfov > 0.0 && p.yfov < std::f32::consts::PI) {
-                    return Err(bad(
-                        path,
-                        format!("cameras[{c}].perspective.yfov is {} radians", p.yfov),
-                        "use a vertical field of view with 0 < yfov < π (radians)",
-                    ));
-                }
-                if let Some(a) = p.aspect_ratio {
-                    if !(a.is_finite() && a > 0.0) {
-                        return Err(bad(
-                            path,
-                            format!("cameras[{c}].perspective.aspectRatio is {a}"),
-                            "use a finite aspect ratio > 0 or leave it out",
-                        ));
-                    }
-                }
-                if world_close != world {
-                    d.warnings.push(format!(
-                        "{}: the camera of nodes[{n}] moves over the shutter; wedge blurs object motion only, so the camera stays where it is at shutter open",
-                        path.display()
-                    ));
-                }
-                camera = Some((n, world, p.yfov));
-            }
+        if let (None, Some(c)) = (&walk.camera, node.camera) {
+            walk.camera = camera_of_node(path, root, n, c.value(), (world, world_close), warnings)?;
         }
         if let Some(m) = node.mesh {
             let mesh_index = m.value();
-            let mesh = get(path, &root.meshes, mesh_index, "meshes", &format!("nodes[{n}].mesh"))?;
-            for (p, prim) in mesh.primitives.iter().enumerate() {
-                let pat = format!("meshes[{mesh_index}].primitives[{p}]");
-                match prim.mode {
-                    Checked::Valid(Mode::Triangles) => {}
-                    Checked::Valid(_) => {
-                        if !warned_modes {
-                            d.warnings.push(format!(
-                                "{}: {pat} is not a triangle list (mode 4); primitives of other modes are skipped",
-                                path.display()
-                            ));
-                            warned_modes = true;
-                        }
-                        continue;
-                    }
-                    Checked::Invalid => {
-                        return Err(bad(
-                            path,
-                            format!("{pat}.mode is not a glTF primitive mode"),
-                            "use mode 4 (triangles)",
-                        ))
-                    }
-                }
-                // Count before reading: a small file can instance a mesh millions of times.
-                let counted = match (prim.indices, prim.attributes.get(&Checked::Valid(Semantic::Positions))) {
-                    (Some(i), _) => {
-                        get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.indices"))?.count.0
-                    }
-                    (None, Some(i)) => {
-                        get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.attributes.POSITION"))?
-                            .count
-                            .0
-                    }
-                    (None, None) => 0,
-                };
-                triangles = triangles.saturating_add(counted / 3);
-                if triangles > MAX_TRIANGLES as u64 {
-                    return Err(bad(
-                        path,
-                        format!("the default scene instances more than {MAX_TRIANGLES} triangles (limit reached at nodes[{n}] → {pat})"),
-                        "reduce the instancing or split the scene",
-                    ));
-                }
-            }
-            instances.push(Instance {
+            triangles = count_triangles(path, root, n, mesh_index, triangles, (warnings, &mut warned_modes))?;
+            walk.instances.push(Instance {
                 node: n,
                 mesh: mesh_index,
                 world,
@@ -774,12 +735,115 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             }
         }
     }
+    Ok(walk)
+}
 
-    // Geometry: each primitive is read (and checked) once, however often it is instanced.
+/// Node `n`'s camera `c`, checked: `(n, world at shutter open, yfov)` for a perspective one, `None`
+/// for an orthographic one; a camera that moves over the shutter is warned about (it stays at open).
+fn camera_of_node(
+    path: &Path,
+    root: &json::Root,
+    n: usize,
+    c: usize,
+    (world, world_close): (Mat4, Mat4),
+    warnings: &mut Vec<String>,
+) -> Result<Option<(usize, Mat4, f32)>, SceneError> {
+    let cam = get(path, &root.cameras, c, "cameras", &format!("nodes[{n}].camera"))?;
+    let Some(p) = &cam.perspective else { return Ok(None) };
+    if !(p.yfov.is_finite() && p.yfov > 0.0 && p.yfov < std::f32::consts::PI) {
+        return Err(bad(
+            path,
+            format!("cameras[{c}].perspective.yfov is {} radians", p.yfov),
+            "use a vertical field of view with 0 < yfov < π (radians)",
+        ));
+    }
+    if let Some(a) = p.aspect_ratio {
+        if !(a.is_finite() && a > 0.0) {
+            return Err(bad(
+                path,
+                format!("cameras[{c}].perspective.aspectRatio is {a}"),
+                "use a finite aspect ratio > 0 or leave it out",
+            ));
+        }
+    }
+    if world_close != world {
+        warnings.push(format!(
+            "{}: the camera of nodes[{n}] moves over the shutter; wedge blurs object motion only, so the camera stays where it is at shutter open",
+            path.display()
+        ));
+    }
+    Ok(Some((n, world, p.yfov)))
+}
+
+/// `triangles` plus the triangles node `n` instances of mesh `mesh_index` (its triangle-list
+/// primitives, counted from their accessors before anything is read), refused past
+/// [`MAX_TRIANGLES`]; primitives of other modes are skipped with one warning per file.
+fn count_triangles(
+    path: &Path,
+    root: &json::Root,
+    n: usize,
+    mesh_index: usize,
+    mut triangles: u64,
+    (warnings, warned_modes): (&mut Vec<String>, &mut bool),
+) -> Result<u64, SceneError> {
+    let mesh = get(path, &root.meshes, mesh_index, "meshes", &format!("nodes[{n}].mesh"))?;
+    for (p, prim) in mesh.primitives.iter().enumerate() {
+        let pat = format!("meshes[{mesh_index}].primitives[{p}]");
+        match prim.mode {
+            Checked::Valid(Mode::Triangles) => {}
+            Checked::Valid(_) => {
+                if !*warned_modes {
+                    warnings.push(format!(
+                        "{}: {pat} is not a triangle list (mode 4); primitives of other modes are skipped",
+                        path.display()
+                    ));
+                    *warned_modes = true;
+                }
+                continue;
+            }
+            Checked::Invalid => {
+                return Err(bad(path, format!("{pat}.mode is not a glTF primitive mode"), "use mode 4 (triangles)"))
+            }
+        }
+        let counted = match (prim.indices, prim.attributes.get(&Checked::Valid(Semantic::Positions))) {
+            (Some(i), _) => get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.indices"))?.count.0,
+            (None, Some(i)) => {
+                get(path, &root.accessors, i.value(), "accessors", &format!("{pat}.attributes.POSITION"))?.count.0
+            }
+            (None, None) => 0,
+        };
+        triangles = triangles.saturating_add(counted / 3);
+        if triangles > MAX_TRIANGLES as u64 {
+            return Err(bad(
+                path,
+                format!("the default scene instances more than {MAX_TRIANGLES} triangles (limit reached at nodes[{n}] → {pat})"),
+                "reduce the instancing or split the scene",
+            ));
+        }
+    }
+    Ok(triangles)
+}
+
+/// The instances' triangles in world space, one object per instanced primitive (with its motion
+/// over the shutter): each primitive read and checked once however often it is instanced; a
+/// primitive without a material gets one shared diffuse default.
+fn add_instances(
+    path: &Path,
+    root: &json::Root,
+    buffers: &mut Buffers,
+    instances: &[Instance],
+    d: &mut SceneData,
+) -> Result<(), SceneError> {
+    let texcoord_set = |material: Option<usize>| -> u32 {
+        material
+            .and_then(|m| root.materials.get(m))
+            .and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref())
+            .map(|t| t.tex_coord)
+            .unwrap_or(0)
+    };
     let mut read: HashMap<(usize, usize), Primitive> = HashMap::new();
     let mut default_material: Option<u32> = None;
-    for inst in &instances {
-        let normal_m = inst.world.inverse().transpose();
+    for inst in instances {
         let motion = if inst.world_close == inst.world { None } else { Some(node_motion(path, inst)?) };
         let name = root.nodes[inst.node]
             .name
@@ -793,7 +857,7 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             let data = match read.entry((inst.mesh, p)) {
                 std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
                 std::collections::hash_map::Entry::Vacant(e) => {
-                    e.insert(read_primitive(path, &root, &mut buffers, inst.mesh, p, &texcoord_set)?)
+                    e.insert(read_primitive(path, root, buffers, inst.mesh, p, &texcoord_set)?)
                 }
             };
             let material = match data.material {
@@ -816,81 +880,99 @@ pub(crate) fn load_gltf(path: &Path, res: &Resources) -> Result<SceneData, Scene
             if let Some(m) = motion {
                 d.set_motion(object, m);
             }
-            for tri in data.indices.chunks_exact(3) {
-                let tri = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                let p = tri.map(|i| inst.world.transform_point3(data.positions[i]));
-                if p.iter().any(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE)) {
-                    return Err(bad(
-                        path,
-                        format!(
-                            "nodes[{}] places meshes[{}] vertices at {} (beyond ±{MAX_COORDINATE:e} m or not finite)",
-                            inst.node,
-                            inst.mesh,
-                            p.iter()
-                                .find(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE))
-                                .copied()
-                                .unwrap_or_default()
-                        ),
-                        "check the scale/translation of this node and its parents (units are metres)",
-                    ));
-                }
-                let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
-                let n = match &data.normals {
-                    Some(ns) => tri.map(|i| {
-                        let n = normal_m.transform_vector3(ns[i]).normalize_or_zero();
-                        if n == Vec3::ZERO || !n.is_finite() {
-                            flat
-                        } else {
-                            n
-                        }
-                    }),
-                    None => [flat; 3],
-                };
-                let uv = match &data.uvs {
-                    Some(uv) => tri.map(|i| uv[i]),
-                    None => [Vec2::ZERO; 3],
-                };
-                d.push(p, n, uv, material, object);
-            }
+            push_triangles(path, inst, data, material, object, d)?;
         }
     }
-    if d.tris.is_empty() {
-        return Err(bad(path, "no triangles in the default scene", "export triangle meshes"));
-    }
-    if let Some((n, world, yfov)) = camera {
-        let position = world.transform_point3(Vec3::ZERO);
-        let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-        let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
-        // Aim at the bounds' centre depth along the view direction (glTF gives no focus distance).
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for t in &d.tris {
-            for q in [t.0, t.1, t.2] {
-                lo = lo.min(q);
-                hi = hi.max(q);
-            }
-        }
-        let dist = ((lo + hi) * 0.5 - position).dot(forward).max(1e-2);
-        let cam = Camera {
-            position,
-            look_at: position + forward * dist,
-            up,
-            vfov_deg: yfov.to_degrees(),
-            aperture_radius: 0.0,
-            focus_distance: dist,
-            shutter_open: shutter.0,
-            shutter_close: shutter.1,
-        };
-        cam.validate().map_err(|what| {
-            bad(
+    Ok(())
+}
+
+/// One instanced primitive's triangles, transformed to world space (normals by the inverse
+/// transpose, the flat normal where a vertex normal degenerates); a vertex beyond
+/// ±[`MAX_COORDINATE`] or not finite is refused.
+fn push_triangles(
+    path: &Path,
+    inst: &Instance,
+    data: &Primitive,
+    material: u32,
+    object: u32,
+    d: &mut SceneData,
+) -> Result<(), SceneError> {
+    let normal_m = inst.world.inverse().transpose();
+    for tri in data.indices.chunks_exact(3) {
+        let tri = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+        let p = tri.map(|i| inst.world.transform_point3(data.positions[i]));
+        if let Some(q) = p.iter().find(|q| !(q.is_finite() && q.abs().max_element() <= MAX_COORDINATE)) {
+            return Err(bad(
                 path,
-                format!("the camera of nodes[{n}]: {what} (its transform is degenerate)"),
-                "give the camera node an invertible transform without zero scale",
-            )
-        })?;
-        d.camera = Some(cam);
+                format!(
+                    "nodes[{}] places meshes[{}] vertices at {q} (beyond ±{MAX_COORDINATE:e} m or not finite)",
+                    inst.node, inst.mesh
+                ),
+                "check the scale/translation of this node and its parents (units are metres)",
+            ));
+        }
+        let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        let n = match &data.normals {
+            Some(ns) => tri.map(|i| {
+                let n = normal_m.transform_vector3(ns[i]).normalize_or_zero();
+                if n == Vec3::ZERO || !n.is_finite() {
+                    flat
+                } else {
+                    n
+                }
+            }),
+            None => [flat; 3],
+        };
+        let uv = match &data.uvs {
+            Some(uv) => tri.map(|i| uv[i]),
+            None => [Vec2::ZERO; 3],
+        };
+        d.push(p, n, uv, material, object);
     }
-    Ok(d)
+    Ok(())
+}
+
+/// The camera of node `n` (world transform `world`, vertical field of view `yfov`), aimed at the
+/// scene bounds' centre depth along its view direction (glTF gives no focus distance), with the
+/// shutter; a degenerate transform is refused.
+fn node_camera(
+    path: &Path,
+    n: usize,
+    world: Mat4,
+    yfov: f32,
+    shutter: (f32, f32),
+    d: &SceneData,
+) -> Result<Camera, SceneError> {
+    let position = world.transform_point3(Vec3::ZERO);
+    let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for t in &d.tris {
+        for q in [t.0, t.1, t.2] {
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+    }
+    let dist = ((lo + hi) * 0.5 - position).dot(forward).max(1e-2);
+    let cam = Camera {
+        position,
+        look_at: position + forward * dist,
+        up,
+        vfov_deg: yfov.to_degrees(),
+        aperture_radius: 0.0,
+        focus_distance: dist,
+        shutter_open: shutter.0,
+        shutter_close: shutter.1,
+    };
+    cam.validate().map_err(|what| {
+        bad(
+            path,
+            format!("the camera of nodes[{n}]: {what} (its transform is degenerate)"),
+            "give the camera node an invertible transform without zero scale",
+        )
+    })?;
+    Ok(cam)
 }
 
 /// The motion of a mesh instance over the shutter, from its world transforms at open (`W_o`, where its
