@@ -191,6 +191,11 @@ pub(super) enum Command {
         /// As for `render` (the bench also keeps a few full-size images for its report).
         #[arg(long, value_name = "SIZE", value_parser = parse_size)]
         memory_limit: Option<u64>,
+        /// The μ values of the pipeline's sweep, comma-separated (default 0.5,1,2,4; quick 1,2); the
+        /// pipeline's own μ is added where it is not among them. Large μ at film sizes takes the
+        /// most time (the counts grow as μ²).
+        #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = parse_mu)]
+        mu_values: Option<Vec<f64>>,
         /// Set a node parameter on every run and on the reference: NODE.PARAM=VALUE (repeatable;
         /// e.g. measure an option against the pipeline's default). Under --suite a scene's lens
         /// wins over a --set lens.

@@ -233,6 +233,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
             seed,
             reference_spp,
             memory_limit,
+            mu_values,
             set,
         } => {
             crate::staging::check_output_dir(&out)?;
@@ -245,6 +246,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
                 seed,
                 reference_spp,
                 memory_limit,
+                mu_values,
                 params: set.iter().map(|s| crate::session::parse_set(s)).collect::<Result<_, _>>()?,
                 verbose: true,
                 registries: registries.clone(),
