@@ -198,7 +198,7 @@ impl NodeKind for Environment {
         let temporal = ctx.param("temporal").as_bool() == Some(true);
         // Counts submitted wherever the look-ups may follow the filters (a scene with no glossy
         // receiver adds no path under "glossy").
-        let adaptive = !matches!(ctx.param("adaptive"), ParamValue::Str(s) if s == AdaptiveLookUps::Off.as_str());
+        let adaptive = adapts(ctx);
 
         // 1. The sampler: Algorithm 1's primary rays and look-ups (and one-bounce indirect samples).
         let mut request = SamplerRequest::new()
@@ -317,6 +317,11 @@ pub(crate) fn curvature_pass(ctx: &mut ExpandCtx<'_>, position: BufferId, normal
     (curvature, magnitude)
 }
 
+/// Whether the node's look-ups may follow its filters anywhere (`adaptive` other than `"off"`).
+fn adapts(ctx: &ExpandCtx<'_>) -> bool {
+    !matches!(ctx.param("adaptive"), ParamValue::Str(s) if s == AdaptiveLookUps::Off.as_str())
+}
+
 /// The parameters that have no meaning for a factored component, with why: refused at any value but
 /// their default, so nothing a pipeline states is silently ignored.
 const NOT_FACTORED: [(&str, &str); 2] = [
@@ -374,15 +379,15 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphEr
 /// Ch. 6's bandwidth of the direct light per pixel on the first pass (1/m, μ = 1), the larger of
 /// its axes; at least the widest filter the factoring node's `max_radius` holds (the window floor
 /// that keeps μ consistent: [`super::formulas::window_bandwidth`]). Binds the node's `bandwidth` and
-/// `curvature` heatmap ports from the same passes.
+/// `curvature` heatmap ports from the same passes; where `adaptive` applies, the same pass writes
+/// the node's look-up count and the node asks the sampler for its paths.
 fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<BufferId, GraphError> {
     let position = ctx.sampler_output(SamplerPass::First, "position")?;
     let normal = ctx.sampler_output(SamplerPass::First, "normal")?;
     let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
     let (curvature, magnitude) = curvature_pass(ctx, position, normal);
     let (bandlimit, bandwidth) = (ctx.buffer("bandlimit", Format::F32), ctx.buffer("bandwidth", Format::F32));
-    let adaptive = !matches!(ctx.param("adaptive"), ParamValue::Str(s) if s == AdaptiveLookUps::Off.as_str());
-    let rays = adaptive.then(|| ctx.buffer("look_ups", Format::U32));
+    let rays = adapts(ctx).then(|| ctx.buffer("look_ups", Format::U32));
     let io = BandwidthIo {
         bandlimit: Some(bandlimit),
         bandwidth: Some(bandwidth),
