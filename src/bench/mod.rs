@@ -565,13 +565,14 @@ type KeptOurs = (Image, Option<Image>, Image, Vec<classes::Partition>);
 /// Run the whole benchmark (see the module docs) and write its files into `opts.out`.
 pub fn run(opts: &BenchOptions) -> Result<BenchResult, WedgeError> {
     let t0 = Instant::now();
-    let setup = Setup::open(opts)?;
+    let mut setup = Setup::open(opts)?;
     let (width, height, seed) = (setup.width, setup.height, setup.seed);
     std::fs::create_dir_all(&opts.out).map_err(|e| io_err(&opts.out, e))?;
 
-    // 1. The reference.
+    // 1. The reference (the scene file's bytes go to its cache key).
+    let scene_bytes = setup.scene_bytes.take();
     let (reference_img, reference) =
-        obtain_reference(opts, &setup.base, &setup.scene_spec, setup.scene_bytes.clone(), (width, height, seed))?;
+        obtain_reference(opts, &setup.base, &setup.scene_spec, scene_bytes, (width, height, seed))?;
     let ctx = Ctx { opts, base: setup.base.clone(), reference: reference_img };
     ctx.log(format!(
         "reference {} spp {} ({:.1} s), estimated noise RMSE {:.3e}",
