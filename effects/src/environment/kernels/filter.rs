@@ -38,6 +38,7 @@
 //! counted once in `non_finite_samples` (in the x and history passes; the y pass sees x outputs).
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use wedge_scene::Camera;
 
 use wedge_backends::kernels::filter_window::WindowRadius;
@@ -75,48 +76,113 @@ wedge_backends::kernel_params! {
     }
 }
 
-/// Whether neighbour `j` (position `pj`, unit normal `nj`) may be averaged into pixel `i`.
-fn compatible(pi: [f32; 4], ni: Vec3, pj: [f32; 4], nj: Vec3, normal_cos: f32) -> bool {
-    pj[3] == pi[3] && ni.dot(nj) >= normal_cos
+/// One pixel as a neighbour in a pass, gathered once per pass ([`neighbours`]): a pixel sits in up
+/// to 2R + 1 windows, and each read four buffers and normalised its normal per tap (the CPU time of
+/// Environment's filter, issue 35 §4). The same operations on the same values, so the same bits (the
+/// WGSL reads the buffers per tap, as before).
+#[derive(Clone, Copy)]
+pub struct Neighbour {
+    position: Vec3,
+    /// The object id (`position.w`), NaN where the pixel is nobody's neighbour (the filter: its value
+    /// is not finite, or its bandwidth is negative or NaN; the history: its value is not finite): NaN
+    /// equals no id.
+    object: f32,
+    /// The unit normal (zero where none).
+    normal: Vec3,
+    /// Its squared bandwidth `B²` along the pass's axis.
+    b2: f32,
 }
 
-/// Every pixel's unit normal (zero where none), once per pass rather than per tap: a pixel is a
-/// neighbour of up to 2R + 1 others, each of which normalised its normal twice. The same operation,
-/// so the same bits (the WGSL normalises per tap, as before).
-pub fn unit_normals(normal: &[[f32; 4]]) -> Vec<Vec3> {
-    normal.iter().map(|n| v3(*n).normalize_or_zero()).collect()
+/// Every pixel as a neighbour along `axis`; `usable(j)` says whether pixel `j` may be one at all.
+pub fn neighbours(
+    position: &[[f32; 4]],
+    normal: &[[f32; 4]],
+    bandwidth: &[[f32; 2]],
+    axis: usize,
+    usable: impl Fn(usize) -> bool + Sync,
+) -> Vec<Neighbour> {
+    (0..position.len())
+        .into_par_iter()
+        .map(|j| {
+            let b = bandwidth[j][axis];
+            Neighbour {
+                position: v3(position[j]),
+                object: if usable(j) { position[j][3] } else { f32::NAN },
+                normal: v3(normal[j]).normalize_or_zero(),
+                b2: b * b,
+            }
+        })
+        .collect()
 }
 
-/// The used taps of one pixel's window, `(neighbour index, weight exponent)` in tap order, found
-/// once: the weights need the nearest one's exponent before any is summed ([`RelativeWeights`]).
+/// The used taps of one pixel's window, `(neighbour index, weight exponent)` in tap order, and the
+/// nearest one's exponent: the weights need it before any is summed ([`RelativeWeights`]).
 struct UsedTaps {
-    taps: [(usize, f32); 2 * MAX_RADIUS_LIMIT as usize + 1],
+    index: [u32; 2 * MAX_RADIUS_LIMIT as usize + 1],
+    exponent: [f32; 2 * MAX_RADIUS_LIMIT as usize + 1],
     len: usize,
+    nearest: f32,
 }
 
 impl UsedTaps {
-    fn new(found: impl Iterator<Item = (usize, f32)>) -> UsedTaps {
-        let mut used = UsedTaps { taps: [(0, 0.0); 2 * MAX_RADIUS_LIMIT as usize + 1], len: 0 };
-        for t in found {
-            used.taps[used.len] = t;
-            used.len += 1;
+    /// The taps of pixel `i` (position `xi`, object `oi`, unit normal `ni`, squared bandwidth `b2i`)
+    /// at indices `j` in tap order: neighbour `j` is used where it is on the same object with a
+    /// normal within `normal_cos`, and weighs `exp(−2 B̄² d²)`, `B̄² = ½(B²(i) + B²(j))` (eq. 6.22).
+    fn gather(
+        window: Window,
+        neighbours: &[Neighbour],
+        (xi, oi, ni, b2i): (Vec3, f32, Vec3, f32),
+        normal_cos: f32,
+    ) -> UsedTaps {
+        const N: usize = 2 * MAX_RADIUS_LIMIT as usize + 1;
+        let mut used = UsedTaps { index: [0; N], exponent: [0.0; N], len: 0, nearest: f32::INFINITY };
+        let mut nearest = f32::INFINITY;
+        let taps = neighbours[window.first..].iter().step_by(window.stride).take(window.len);
+        for (t, nb) in taps.enumerate() {
+            if !(nb.object == oi && ni.dot(nb.normal) >= normal_cos) {
+                continue;
+            }
+            let d2 = (nb.position - xi).length_squared();
+            let a = 2.0 * (0.5 * (b2i + nb.b2)) * d2;
+            // `a < nearest` rather than `f32::min`: NaN never becomes the minimum, as in the WGSL.
+            if a < nearest {
+                nearest = a;
+            }
+            let j = window.first + t * window.stride;
+            if let (Some(index), Some(exponent)) = (used.index.get_mut(used.len), used.exponent.get_mut(used.len)) {
+                (*index, *exponent) = (j as u32, a);
+                used.len += 1;
+            }
         }
+        used.nearest = nearest;
         used
     }
 
-    fn get(&self) -> &[(usize, f32)] {
-        &self.taps[..self.len]
-    }
-
-    /// Their weights relative to the nearest ([`RelativeWeights::new`]).
-    fn weights(&self) -> Option<RelativeWeights> {
-        RelativeWeights::new(self.get().iter().map(|t| t.1))
+    /// Each used tap's index and weight, the nearest weighing 1; `None` when no tap weighs
+    /// ([`RelativeWeights::new`]).
+    fn weighted(&self) -> Option<impl Iterator<Item = (usize, f32)> + '_> {
+        let weights = RelativeWeights::from_nearest(self.nearest)?;
+        let taps = self.index[..self.len].iter().zip(&self.exponent[..self.len]);
+        Some(taps.filter_map(move |(&j, &a)| Some((j as usize, weights.weight(a)?))))
     }
 }
 
-/// The mean squared bandwidth `B̄²` of two pixels along `axis`.
-fn mean_b2(bi: [f32; 2], bj: [f32; 2], axis: usize) -> f32 {
-    0.5 * (bi[axis] * bi[axis] + bj[axis] * bj[axis])
+/// Pixel `(x, y)`'s 1-D window of half-width `radius` along `axis`, those off the image left out:
+/// `len` pixels from index `first`, `stride` apart, in tap order.
+struct Window {
+    first: usize,
+    stride: usize,
+    len: usize,
+}
+
+fn window(x: i32, y: i32, width: i32, height: i32, axis: usize, radius: i32) -> Window {
+    let (at, len, stride) = if axis == 0 { (x, width, 1) } else { (y, height, width) };
+    let (lo, hi) = ((-radius).max(-at), radius.min(len - 1 - at));
+    Window {
+        first: (y * width + x + lo * stride) as usize,
+        stride: stride as usize,
+        len: (hi - lo + 1).max(0) as usize,
+    }
 }
 
 /// The largest weight exponent `a` (weight `exp(−a)`) that still weighs: `exp(−87) ≈ 1.6e−38` is just
@@ -138,9 +204,14 @@ struct RelativeWeights {
 impl RelativeWeights {
     /// From every used neighbour's exponent; `None` when there is none, or the nearest is so far that
     /// its absolute weight would be below [`MAX_WEIGHT_EXPONENT`]'s (the pixel has no neighbour).
+    #[cfg(test)]
     fn new(exponents: impl Iterator<Item = f32>) -> Option<RelativeWeights> {
         // `a < a_min` rather than `f32::min`: NaN never becomes the minimum, as in the WGSL mirror.
-        let a_min = exponents.fold(f32::INFINITY, |m, a| if a < m { a } else { m });
+        Self::from_nearest(exponents.fold(f32::INFINITY, |m, a| if a < m { a } else { m }))
+    }
+
+    /// From the nearest used neighbour's exponent (∞ where there is none).
+    fn from_nearest(a_min: f32) -> Option<RelativeWeights> {
         (a_min <= MAX_WEIGHT_EXPONENT).then_some(RelativeWeights { a_min })
     }
 
@@ -151,8 +222,8 @@ impl RelativeWeights {
     }
 }
 
-/// Eqs. 6.21–6.23 (and 6.26 with `previous`) at pixel `(x, y)`; `normal` the pass's unit normals
-/// ([`unit_normals`]).
+/// Eqs. 6.21–6.23 (and 6.26 with `previous`) at pixel `(x, y)`; `neighbours` the pass's
+/// ([`neighbours`]: a neighbour's value finite, its bandwidth along the axis ≥ 0).
 #[allow(clippy::too_many_arguments)]
 pub fn filter_pixel(
     x: i32,
@@ -162,8 +233,8 @@ pub fn filter_pixel(
     p: &FilterParams,
     value: &[[f32; 3]],
     position: &[[f32; 4]],
-    normal: &[Vec3],
     bandwidth: &[[f32; 2]],
+    neighbours: &[Neighbour],
     previous: Option<&[[f32; 4]]>,
 ) -> [f32; 3] {
     let (i, axis) = ((y * width + x) as usize, p.axis as usize);
@@ -172,33 +243,15 @@ pub fn filter_pixel(
     if !(position[i][3] > 0.0 && bi[axis] >= 0.0 && bi[axis].is_finite()) {
         return centre;
     }
-    let ni = normal[i];
-    let xi = v3(position[i]);
-    // Neighbour `k`'s index and weight exponent `2 B̄² d²`, or `None` where it is not used.
-    let term = |k: i32| -> Option<(usize, f32)> {
-        let (jx, jy) = if axis == 0 { (x + k, y) } else { (x, y + k) };
-        if jx < 0 || jy < 0 || jx >= width || jy >= height {
-            return None;
-        }
-        let j = (jy * width + jx) as usize;
-        let bj = bandwidth[j];
-        if !is_finite3(value[j])
-            || !(bj[axis] >= 0.0)
-            || !compatible(position[i], ni, position[j], normal[j], p.normal_cos)
-        {
-            return None;
-        }
-        let d2 = (v3(position[j]) - xi).length_squared();
-        Some((j, 2.0 * mean_b2(bi, bj, axis) * d2))
-    };
-    let used = UsedTaps::new(p.max_radius.taps().filter_map(term));
-    let Some(weights) = used.weights() else {
+    let me = (neighbours[i].position, position[i][3], neighbours[i].normal, bi[axis] * bi[axis]);
+    let taps = window(x, y, width, height, axis, p.max_radius.get());
+    let used = UsedTaps::gather(taps, neighbours, me, p.normal_cos);
+    let Some(weighted) = used.weighted() else {
         return centre;
     };
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for &(j, a) in used.get() {
-        let Some(w) = weights.weight(a) else { continue };
+    for (j, w) in weighted {
         let v = value[j];
         for c in 0..3 {
             sum[c] += w * v[c];
@@ -236,7 +289,8 @@ pub fn project(cam: &Camera, p: Vec3, width: u32, height: u32) -> Option<Vec2> {
 
 /// Eqs. 6.24–6.25 at pixel `(x, y)`: the previous frame's raw irradiance x-filtered around the
 /// previous pixel closest to this pixel's position, weights from this pixel's position (rgb, valid);
-/// `normal` and `prev_normal` unit normals ([`unit_normals`]).
+/// `normal` this frame's unit normals, `previous` the previous frame's pixels as neighbours along x
+/// ([`neighbours`]: a neighbour's value finite).
 #[allow(clippy::too_many_arguments)]
 pub fn history_pixel(
     x: i32,
@@ -250,8 +304,7 @@ pub fn history_pixel(
     bandwidth: &[[f32; 2]],
     prev_value: &[[f32; 3]],
     prev_position: &[[f32; 4]],
-    prev_normal: &[Vec3],
-    prev_bandwidth: &[[f32; 2]],
+    previous: &[Neighbour],
 ) -> [f32; 4] {
     let i = (y * width + x) as usize;
     let none = [0.0; 4];
@@ -292,29 +345,16 @@ pub fn history_pixel(
         }
     }
     let Some((_, px, py)) = best else { return none };
-    let bi = bandwidth[i];
-    // Previous neighbour `k`'s index and weight exponent `2 B̄² d²`, or `None` where it is not used.
-    let term = |k: i32| -> Option<(usize, f32)> {
-        let jx = px + k;
-        if jx < 0 || jx >= width {
-            return None;
-        }
-        let j = (py * width + jx) as usize;
-        if !is_finite3(prev_value[j]) || !compatible(position[i], ni, prev_position[j], prev_normal[j], p.normal_cos) {
-            return None;
-        }
-        let d2 = (v3(prev_position[j]) - xi).length_squared();
-        Some((j, 2.0 * mean_b2(bi, prev_bandwidth[j], 0) * d2))
-    };
+    let bi = bandwidth[i][0];
+    let taps = window(px, py, width, height, 0, p.max_radius.get());
+    let used = UsedTaps::gather(taps, previous, (xi, position[i][3], ni, bi * bi), p.normal_cos);
     // No neighbour near enough to weigh anything: no history (as when there is no neighbour).
-    let used = UsedTaps::new(p.max_radius.taps().filter_map(term));
-    let Some(weights) = used.weights() else {
+    let Some(weighted) = used.weighted() else {
         return none;
     };
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for &(j, a) in used.get() {
-        let Some(w) = weights.weight(a) else { continue };
+    for (j, w) in weighted {
         let v = prev_value[j];
         for c in 0..3 {
             sum[c] += w * v[c];
@@ -407,10 +447,11 @@ impl Kernel for EnvironmentFilter {
         if p.axis == 0 {
             count_non_finite(ctx, value);
         }
-        let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let normal = unit_normals(normal);
+        let (w, h, axis) = (ctx.width as i32, ctx.height as i32, p.axis as usize);
+        let usable = |j: usize| is_finite3(value[j]) && bandwidth[j][axis] >= 0.0;
+        let neighbours = neighbours(position, normal, bandwidth, axis, usable);
         let filtered = ctx.map_pixels(false, |x, y| {
-            filter_pixel(x as i32, y as i32, w, h, &p, value, position, &normal, bandwidth, previous)
+            filter_pixel(x as i32, y as i32, w, h, &p, value, position, bandwidth, &neighbours, previous)
         });
         out.put(ctx, filtered)
     }
@@ -441,13 +482,13 @@ impl Kernel for EnvironmentHistory {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let p = HistoryParams::read_checked(ctx)?;
         let io = HistoryIo::read(ctx)?;
-        let (position, normal, bandwidth) = (io.position, unit_normals(io.normal), io.bandwidth);
-        let (pv, pp, pb) = (io.previous_value, io.previous_position, io.previous_bandwidth);
-        let pn = unit_normals(io.previous_normal);
+        let (position, bandwidth, pv, pp) = (io.position, io.bandwidth, io.previous_value, io.previous_position);
+        let normal: Vec<Vec3> = io.normal.iter().map(|n| v3(*n).normalize_or_zero()).collect();
+        let previous = neighbours(pp, io.previous_normal, io.previous_bandwidth, 0, |j| is_finite3(pv[j]));
         let cam = ctx.scene.previous_camera;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let history = ctx.map_pixels(false, |x, y| {
-            history_pixel(x as i32, y as i32, w, h, &p, cam.as_ref(), position, &normal, bandwidth, pv, pp, &pn, pb)
+            history_pixel(x as i32, y as i32, w, h, &p, cam.as_ref(), position, &normal, bandwidth, pv, pp, &previous)
         });
         io.out.put(ctx, history)
     }
