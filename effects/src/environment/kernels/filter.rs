@@ -115,12 +115,12 @@ pub fn neighbours(
         .collect()
 }
 
-/// The used taps of one pixel's window, `(neighbour index, weight exponent)` in tap order, and the
-/// nearest one's exponent: the weights need it before any is summed ([`RelativeWeights`]).
+/// The taps of one pixel's window: each one's weight exponent in tap order, NaN for a neighbour not
+/// used (NaN weighs nothing and is never the nearest, [`RelativeWeights`]), and the nearest used
+/// one's exponent: the weights need it before any is summed. No branch per tap.
 struct UsedTaps {
-    index: [u32; 2 * MAX_RADIUS_LIMIT as usize + 1],
+    window: Window,
     exponent: [f32; 2 * MAX_RADIUS_LIMIT as usize + 1],
-    len: usize,
     nearest: f32,
 }
 
@@ -134,41 +134,33 @@ impl UsedTaps {
         (xi, oi, ni, b2i): (Vec3, f32, Vec3, f32),
         normal_cos: f32,
     ) -> UsedTaps {
-        const N: usize = 2 * MAX_RADIUS_LIMIT as usize + 1;
-        let mut used = UsedTaps { index: [0; N], exponent: [0.0; N], len: 0, nearest: f32::INFINITY };
+        let mut exponent = [0.0; 2 * MAX_RADIUS_LIMIT as usize + 1];
         let mut nearest = f32::INFINITY;
         let taps = neighbours[window.first..].iter().step_by(window.stride).take(window.len);
-        for (t, nb) in taps.enumerate() {
-            if !(nb.object == oi && ni.dot(nb.normal) >= normal_cos) {
-                continue;
-            }
+        for (e, nb) in exponent.iter_mut().zip(taps) {
+            let used = nb.object == oi && ni.dot(nb.normal) >= normal_cos;
             let d2 = (nb.position - xi).length_squared();
-            let a = 2.0 * (0.5 * (b2i + nb.b2)) * d2;
+            let a = if used { 2.0 * (0.5 * (b2i + nb.b2)) * d2 } else { f32::NAN };
             // `a < nearest` rather than `f32::min`: NaN never becomes the minimum, as in the WGSL.
-            if a < nearest {
-                nearest = a;
-            }
-            let j = window.first + t * window.stride;
-            if let (Some(index), Some(exponent)) = (used.index.get_mut(used.len), used.exponent.get_mut(used.len)) {
-                (*index, *exponent) = (j as u32, a);
-                used.len += 1;
-            }
+            nearest = if a < nearest { a } else { nearest };
+            *e = a;
         }
-        used.nearest = nearest;
-        used
+        UsedTaps { window, exponent, nearest }
     }
 
     /// Each used tap's index and weight, the nearest weighing 1; `None` when no tap weighs
     /// ([`RelativeWeights::new`]).
     fn weighted(&self) -> Option<impl Iterator<Item = (usize, f32)> + '_> {
         let weights = RelativeWeights::from_nearest(self.nearest)?;
-        let taps = self.index[..self.len].iter().zip(&self.exponent[..self.len]);
-        Some(taps.filter_map(move |(&j, &a)| Some((j as usize, weights.weight(a)?))))
+        let Window { first, stride, len } = self.window;
+        let taps = self.exponent[..len].iter().enumerate();
+        Some(taps.filter_map(move |(t, &a)| Some((first + t * stride, weights.weight(a)?))))
     }
 }
 
 /// Pixel `(x, y)`'s 1-D window of half-width `radius` along `axis`, those off the image left out:
 /// `len` pixels from index `first`, `stride` apart, in tap order.
+#[derive(Clone, Copy)]
 struct Window {
     first: usize,
     stride: usize,
