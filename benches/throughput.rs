@@ -454,7 +454,6 @@ fn embree_python() -> Result<String, String> {
     }
 }
 
-/// One ray set for the Embree side: rays plus wedge's per-ray result for each query run on them.
 /// Traversal work per ray: (wide nodes, triangle packs) tested, averaged over `rays`.
 fn traversal_work(scene: &Scene, rays: &[Ray], mode: Mode) -> (f64, f64) {
     use wedge::scene::bvh::traverse::{traverse_counted, TraversalStats};
@@ -466,6 +465,7 @@ fn traversal_work(scene: &Scene, rays: &[Ray], mode: Mode) -> (f64, f64) {
     (stats.nodes as f64 / n, stats.packs as f64 / n)
 }
 
+/// One ray set for the Embree side: rays plus wedge's per-ray result for each query run on them.
 struct RaySet<'a> {
     name: &'static str,
     rays: &'a [Ray],
@@ -675,38 +675,60 @@ fn motion_tables(min: Duration, smoke: bool) -> (Vec<MotionRow>, Vec<(usize, f64
     (rows, scaling, info)
 }
 
-fn main() {
-    // `cargo bench` passes `--bench`; accept and ignore libtest-style arguments.
-    // `cargo test --all-targets` runs this binary without `--bench`: then only a quick smoke run
-    // (grids, one pass per cell, no Embree) so the test suite checks it works without paying for the
-    // numbers or needing Python.
-    let smoke = !std::env::args().any(|a| a == "--bench");
-    let scenes: Vec<String> = std::env::var("WEDGE_BENCH_SCENES")
-        .unwrap_or_else(|_| if smoke { "grids".into() } else { "grids,heavy,spheres".into() })
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .collect();
-    let min = Duration::from_secs_f64(
-        std::env::var("WEDGE_BENCH_MIN_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(if smoke {
-            0.0
-        } else {
-            1.0
-        }),
-    );
-    let repeats: usize = std::env::var("WEDGE_BENCH_REPEATS").ok().and_then(|s| s.parse().ok()).unwrap_or(3).max(1);
-    let only_passes = std::env::var("WEDGE_BENCH_ONLY").as_deref() == Ok("passes");
+/// What to measure: `--bench` and the `WEDGE_BENCH_*` variables (see the module doc).
+struct Settings {
+    /// No `--bench`: the test suite's quick run (grids, one pass per cell, no Embree).
+    smoke: bool,
+    scenes: Vec<String>,
+    /// Minimum timed duration per cell.
+    min: Duration,
+    /// Repetitions of the Embree comparison and of the build table's traversal rates.
+    repeats: usize,
+    /// `WEDGE_BENCH_ONLY=passes`: the bare rows and the "passes vs bare traversal" table only.
+    only_passes: bool,
+}
+
+impl Settings {
+    /// Read the command line and the environment.
+    fn from_env() -> Settings {
+        // `cargo bench` passes `--bench`; accept and ignore libtest-style arguments.
+        // `cargo test --all-targets` runs this binary without `--bench`: then only a quick smoke run
+        // (grids, one pass per cell, no Embree) so the test suite checks it works without paying for the
+        // numbers or needing Python.
+        let smoke = !std::env::args().any(|a| a == "--bench");
+        let scenes: Vec<String> = std::env::var("WEDGE_BENCH_SCENES")
+            .unwrap_or_else(|_| if smoke { "grids".into() } else { "grids,heavy,spheres".into() })
+            .split(',')
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty())
+            .collect();
+        let min = Duration::from_secs_f64(
+            std::env::var("WEDGE_BENCH_MIN_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(if smoke {
+                0.0
+            } else {
+                1.0
+            }),
+        );
+        let repeats: usize = std::env::var("WEDGE_BENCH_REPEATS").ok().and_then(|s| s.parse().ok()).unwrap_or(3).max(1);
+        let only_passes = std::env::var("WEDGE_BENCH_ONLY").as_deref() == Ok("passes");
+        Settings { smoke, scenes, min, repeats, only_passes }
+    }
+}
+
+/// The report's title and setup lines; returns the machine's thread count (the build table's heading)
+/// and the interpreter for the Embree side, or why that comparison is skipped.
+fn print_header(settings: &Settings) -> (usize, Result<String, String>) {
     let (nproc, model) = machine_info();
     println!("# wedge ray throughput\n");
     println!("- machine: {model}, nproc = {nproc}");
 
     println!(
         "- image {W}×{H}, {SHADOW_SAMPLES} shadow rays toward light 0 and {DIFFUSE_SAMPLES} diffuse-bounce rays per primary hit, ≥{:.1} s per cell",
-        min.as_secs_f64()
+        settings.min.as_secs_f64()
     );
-    let python = if smoke {
+    let python = if settings.smoke {
         Err("smoke run (no `--bench`)".to_string())
-    } else if only_passes {
+    } else if settings.only_passes {
         Err("WEDGE_BENCH_ONLY=passes".to_string())
     } else {
         embree_python()
@@ -715,19 +737,32 @@ fn main() {
         Ok(p) => println!("- Embree side: `{p}` with embreex (benches/embree_compare.py)\n"),
         Err(why) => println!("- Embree comparison skipped: {why}\n"),
     }
+    (nproc, python)
+}
 
-    let mut rows = Vec::new();
-    let mut builds = Vec::new();
-    let mut embree = Vec::new();
-    let mut work = Vec::new();
-    let mut passes = Vec::new();
-    for name in &scenes {
+/// A loaded scene and the rays every table traces through it, generated once so only traversal is timed.
+struct SceneRays {
+    name: String,
+    scene: Scene,
+    /// The builder's input triangles, in their input order.
+    input: Vec<[Vec3; 3]>,
+    /// Bytes of one triangle record (the build table's total memory).
+    record_bytes: usize,
+    primary: Vec<Ray>,
+    shadow: Vec<Ray>,
+    diffuse: Vec<Ray>,
+}
+
+impl SceneRays {
+    /// Load the built-in scene `name` (None, said on stderr, when it does not load), print its line of
+    /// the report's header, and generate its primary, shadow and diffuse rays.
+    fn load(name: &str) -> Option<SceneRays> {
         let t = Instant::now();
-        let scene = match wedge::scene::load(&SceneSource::Builtin(name.clone())) {
+        let scene = match wedge::scene::load(&SceneSource::Builtin(name.to_string())) {
             Ok(s) => s,
             Err(e) => {
                 eprintln!("skipping {name}: {e}");
-                continue;
+                return None;
             }
         };
         let load = t.elapsed();
@@ -748,100 +783,184 @@ fn main() {
         let points = hit_points(&scene, &primary);
         let shadow = shadow_rays(&scene, &points);
         let diffuse = diffuse_rays(&scene, &points);
-        drop(points);
-        if !only_passes {
-            builds.push((name.clone(), record_bytes, build_table(&input, &primary, &diffuse, min, repeats)));
+        Some(SceneRays { name: name.to_string(), scene, input, record_bytes, primary, shadow, diffuse })
+    }
+
+    /// The four (rays, query) kinds of the bare rows, the work table and the Embree comparison, in
+    /// their column order: primary closest, shadow any-hit, shadow closest, diffuse closest.
+    fn kinds(&self) -> [(&'static str, &'static str, &[Ray], Mode); 4] {
+        [
+            ("primary", "closest", &self.primary, Mode::Closest),
+            ("shadow", "any", &self.shadow, Mode::AnyHit),
+            ("shadow", "closest", &self.shadow, Mode::Closest),
+            ("diffuse", "closest", &self.diffuse, Mode::Closest),
+        ]
+    }
+}
+
+/// A bare-traversal row: (scene, threads, ray counts (primary, shadow, diffuse), primary closest,
+/// shadow any-hit, shadow closest, diffuse closest cells).
+type BareRow = (String, usize, [usize; 3], Cell, Cell, Cell, Cell);
+/// A "passes vs bare traversal" row: (scene, threads, ray counts (primary, shadow), pass times).
+type PassRow = (String, usize, [usize; 2], PassTimes);
+/// A traversal-work row: the scene and, per ray kind, (rays, query, (nodes, packs) per ray).
+type WorkRow = (String, [(&'static str, &'static str, (f64, f64)); 4]);
+/// One Embree repetition: its JSON output and wedge's 1-thread (rays, query, Mrays/s, hits) per kind.
+type EmbreeRep = (serde_json::Value, [(&'static str, &'static str, f64, u64); 4]);
+
+/// Everything measured on the scenes, one list per table, in scene order.
+#[derive(Default)]
+struct Measured {
+    rows: Vec<BareRow>,
+    builds: Vec<(String, usize, Vec<BuildRow>)>,
+    embree: Vec<(String, Vec<EmbreeRep>)>,
+    work: Vec<WorkRow>,
+    passes: Vec<PassRow>,
+}
+
+impl Measured {
+    /// Measure one scene for every table: build table, passes, bare cells, traversal work, Embree.
+    fn scene(&mut self, s: &SceneRays, settings: &Settings, python: &Result<String, String>) {
+        let (name, min) = (&s.name, settings.min);
+        if !settings.only_passes {
+            let table = build_table(&s.input, &s.primary, &s.diffuse, min, settings.repeats);
+            self.builds.push((name.clone(), s.record_bytes, table));
         }
         let session = pass_session(name);
         // The smoke run checks the table works on one thread count: each run traces ~5 M rays.
-        for &threads in if smoke { &[2usize][..] } else { &[1, 2] } {
+        for &threads in if settings.smoke { &[2usize][..] } else { &[1, 2] } {
             let t = pass_times(&session, threads, ["primary.gbuffer", "direct.light"], min);
-            passes.push((name.clone(), threads, [primary.len(), shadow.len()], t));
+            self.passes.push((name.clone(), threads, [s.primary.len(), s.shadow.len()], t));
         }
         drop(session);
-        let mut cells = Vec::new();
+        let counts = [s.primary.len(), s.shadow.len(), s.diffuse.len()];
         for threads in [1usize, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            let p = measure(&pool, &scene, &primary, Mode::Closest, min);
-            let s = measure(&pool, &scene, &shadow, Mode::AnyHit, min);
-            let c = measure(&pool, &scene, &shadow, Mode::Closest, min);
-            let d = measure(&pool, &scene, &diffuse, Mode::Closest, min);
-            cells.push((threads, p, s, c, d));
+            let [p, sh, c, d] = s.kinds().map(|(.., rays, mode)| measure(&pool, &s.scene, rays, mode, min));
+            self.rows.push((name.clone(), threads, counts, p, sh, c, d));
         }
-        let per_ray = |rays: &[Ray], mode| traversal_work(&scene, rays, mode);
-        work.push((
-            name.clone(),
-            [
-                ("primary", "closest", per_ray(&primary, Mode::Closest)),
-                ("shadow", "any", per_ray(&shadow, Mode::AnyHit)),
-                ("shadow", "closest", per_ray(&shadow, Mode::Closest)),
-                ("diffuse", "closest", per_ray(&diffuse, Mode::Closest)),
-            ],
-        ));
-        if let Ok(py) = &python {
-            let sets = [
-                RaySet {
-                    name: "primary",
-                    rays: &primary,
-                    queries: vec![(Mode::Closest, results(&scene, &primary, Mode::Closest))],
-                },
-                RaySet {
-                    name: "shadow",
-                    rays: &shadow,
-                    queries: vec![
-                        (Mode::AnyHit, results(&scene, &shadow, Mode::AnyHit)),
-                        (Mode::Closest, results(&scene, &shadow, Mode::Closest)),
-                    ],
-                },
-                RaySet {
-                    name: "diffuse",
-                    rays: &diffuse,
-                    queries: vec![(Mode::Closest, results(&scene, &diffuse, Mode::Closest))],
-                },
-            ];
-            // Interleaved repetitions: wedge's four 1-thread cells, then Embree on the same rays.
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-            let mut reps = Vec::new();
-            for _ in 0..repeats {
-                let wedge_1t = [
-                    ("primary", "closest", measure(&pool, &scene, &primary, Mode::Closest, min)),
-                    ("shadow", "any", measure(&pool, &scene, &shadow, Mode::AnyHit, min)),
-                    ("shadow", "closest", measure(&pool, &scene, &shadow, Mode::Closest, min)),
-                    ("diffuse", "closest", measure(&pool, &scene, &diffuse, Mode::Closest, min)),
-                ];
-                match embree_compare(py, name, &input, &sets, min) {
-                    Ok(json) => reps.push((json, wedge_1t.map(|(s, q, c)| (s, q, c.mrays, c.check.0)))),
-                    Err(e) => {
-                        println!("- `{name}`: Embree comparison failed: {e}");
-                        break;
-                    }
-                }
-            }
+        self.work
+            .push((name.clone(), s.kinds().map(|(r, q, rays, mode)| (r, q, traversal_work(&s.scene, rays, mode)))));
+        if let Ok(py) = python {
+            let reps = embree_reps(py, s, settings);
             if !reps.is_empty() {
-                embree.push((name.clone(), reps));
+                self.embree.push((name.clone(), reps));
             }
-        }
-        for (threads, p, s, c, d) in cells {
-            rows.push((name.clone(), threads, [primary.len(), shadow.len(), diffuse.len()], p, s, c, d));
         }
     }
-    if only_passes {
-        pass_table(&passes, &rows);
+}
+
+/// Embree's side (issue 12): `repeats` interleaved repetitions of wedge's four 1-thread cells and then
+/// Embree on the same rays; stops at the first failure (printed), so empty when none succeeded.
+fn embree_reps(python: &str, s: &SceneRays, settings: &Settings) -> Vec<EmbreeRep> {
+    let sets = [
+        RaySet {
+            name: "primary",
+            rays: &s.primary,
+            queries: vec![(Mode::Closest, results(&s.scene, &s.primary, Mode::Closest))],
+        },
+        RaySet {
+            name: "shadow",
+            rays: &s.shadow,
+            queries: vec![
+                (Mode::AnyHit, results(&s.scene, &s.shadow, Mode::AnyHit)),
+                (Mode::Closest, results(&s.scene, &s.shadow, Mode::Closest)),
+            ],
+        },
+        RaySet {
+            name: "diffuse",
+            rays: &s.diffuse,
+            queries: vec![(Mode::Closest, results(&s.scene, &s.diffuse, Mode::Closest))],
+        },
+    ];
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let mut reps = Vec::new();
+    for _ in 0..settings.repeats {
+        let wedge_1t = s.kinds().map(|(r, q, rays, mode)| (r, q, measure(&pool, &s.scene, rays, mode, settings.min)));
+        match embree_compare(python, &s.name, &s.input, &sets, settings.min) {
+            Ok(json) => reps.push((json, wedge_1t.map(|(r, q, c)| (r, q, c.mrays, c.check.0)))),
+            Err(e) => {
+                println!("- `{}`: Embree comparison failed: {e}", s.name);
+                break;
+            }
+        }
+    }
+    reps
+}
+
+/// Multi-bounce path throughput (`Indirect`'s sampler) on `cornell`: image size, paths per pixel, and
+/// per bounce count and thread count (Mrays/s, Mpaths/s, rays per path).
+struct PathRows {
+    size: (u32, u32),
+    spp: u32,
+    rows: Vec<(u32, usize, (f64, f64, f64))>,
+}
+
+impl PathRows {
+    /// 1, 2 and 3 bounces at 1 and 2 threads (a small image and one path per pixel in the smoke run).
+    fn measure(settings: &Settings) -> PathRows {
+        let (size, spp) = if settings.smoke { ((32, 24), 1) } else { ((320, 240), 16) };
+        let mut rows = Vec::new();
+        for bounces in [1u32, 2, 3] {
+            for threads in [1usize, 2] {
+                rows.push((bounces, threads, paths(threads, bounces, size, spp, settings.min)));
+            }
+        }
+        PathRows { size, spp, rows }
+    }
+
+    /// The paths table.
+    fn print(&self) {
+        let (size, spp) = (self.size, self.spp);
+        println!();
+        println!("Paths on `cornell` ({}×{}, {spp} paths per pixel and component; `indirect.sample`, next-event estimation at every vertex):\n", size.0, size.1);
+        println!("| bounces | threads | Mrays/s (bounce + shadow) | rays per path | Mpaths/s |");
+        println!("|---:|---:|---:|---:|---:|");
+        for (bounces, threads, (mrays, mpaths, per)) in &self.rows {
+            println!("| {bounces} | {threads} | {mrays:.2} | {per:.2} | {mpaths:.3} |");
+        }
+    }
+}
+
+/// Setup and the report's header, every scene measured, motion and paths measured, then the tables.
+fn main() {
+    let settings = Settings::from_env();
+    let (nproc, python) = print_header(&settings);
+    let mut measured = Measured::default();
+    for name in &settings.scenes {
+        if let Some(scene) = SceneRays::load(name) {
+            measured.scene(&scene, &settings, &python);
+        }
+    }
+    if settings.only_passes {
+        pass_table(&measured.passes, &measured.rows);
         return;
     }
-    let motion = (std::env::var("WEDGE_BENCH_MOTION").as_deref() != Ok("0")).then(|| motion_tables(min, smoke));
-    // Multi-bounce paths (Indirect's sampler) on `cornell`.
-    let (size, spp) = if smoke { ((32, 24), 1) } else { ((320, 240), 16) };
-    let mut path_rows = Vec::new();
-    for bounces in [1u32, 2, 3] {
-        for threads in [1usize, 2] {
-            path_rows.push((bounces, threads, paths(threads, bounces, size, spp, min)));
+    let motion = (std::env::var("WEDGE_BENCH_MOTION").as_deref() != Ok("0"))
+        .then(|| motion_tables(settings.min, settings.smoke));
+    let paths = PathRows::measure(&settings);
+    bare_table(&measured.rows);
+    pass_table(&measured.passes, &measured.rows);
+    work_table(&measured.work);
+    builds_table(&measured.builds, nproc, &settings);
+    if !measured.embree.is_empty() {
+        embree_table(&measured.embree, settings.repeats);
+    }
+    if let Some((rows, scaling, info)) = motion {
+        motion_table(&rows, &info);
+        if !scaling.is_empty() {
+            scaling_table(&scaling);
         }
     }
+    paths.print();
+}
+
+/// The main table: rays per second of each bare ray kind, its pass counts and checksums.
+fn bare_table(rows: &[BareRow]) {
     println!();
     println!("| scene | threads | primary Mrays/s | shadow (any-hit) Mrays/s | shadow (closest) Mrays/s | diffuse Mrays/s | rays (primary / shadow / diffuse) | passes | checksum |");
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---|");
-    for (name, threads, [np, ns, nd], p, s, c, d) in &rows {
+    for (name, threads, [np, ns, nd], p, s, c, d) in rows {
         println!(
             "| {name} | {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {np} / {ns} / {nd} | {}/{}/{}/{} | p {}:{:x} s {} c {}:{:x} d {}:{:x} |",
             p.mrays,
@@ -861,16 +980,50 @@ fn main() {
             d.check.1
         );
     }
-    pass_table(&passes, &rows);
+}
+
+/// The "passes vs bare traversal" table: each pass's rays per second (first frame, later frames of a
+/// persistent backend) beside the bare rate of the same rays at the same thread count.
+fn pass_table(passes: &[PassRow], rows: &[BareRow]) {
+    println!();
+    println!("Passes vs bare traversal (one persistent `CpuBackend`; first frame apart from the median of the later ones; goal: later / bare ≥ 0.8):\n");
+    println!("| scene | threads | pass | rays | bare Mrays/s | pass first frame Mrays/s | pass later frames Mrays/s | later / bare | frames |");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    for (name, threads, counts, t) in passes {
+        let Some((.., p, s, _, _)) = rows.iter().find(|r| r.0 == *name && r.1 == *threads) else { continue };
+        for (k, (pass, bare)) in
+            [("primary.gbuffer (closest)", p), ("direct.light (any-hit)", s)].into_iter().enumerate()
+        {
+            let rate = |secs: f64| counts[k] as f64 / secs / 1e6;
+            println!(
+                "| {name} | {threads} | {pass} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
+                counts[k],
+                bare.mrays,
+                rate(t.first[k]),
+                rate(t.later[k]),
+                rate(t.later[k]) / bare.mrays,
+                t.frames
+            );
+        }
+    }
+}
+
+/// Wide nodes and triangle packs tested per ray, per scene and ray kind.
+fn work_table(work: &[WorkRow]) {
     println!();
     println!("Traversal work per ray (8-wide nodes whose boxes were tested, 4-triangle packs tested):\n");
     println!("| scene | rays | query | nodes / ray | packs / ray |");
     println!("|---|---|---|---:|---:|");
-    for (name, kinds) in &work {
+    for (name, kinds) in work {
         for (rays, query, (nodes, packs)) in kinds {
             println!("| {name} | {rays} | {query} | {nodes:.1} | {packs:.1} |");
         }
     }
+}
+
+/// The BVH build table: per scene and builder, build time, tree size and memory, and its trace rates.
+fn builds_table(builds: &[(String, usize, Vec<BuildRow>)], nproc: usize, settings: &Settings) {
+    let (min, repeats) = (settings.min, settings.repeats);
     println!();
     println!("BVH builds ({nproc} threads; best of the runs in ≥{:.1} s). Memory: BVH = wide nodes + triangle packs; total adds one triangle record per reference. Primary, diffuse: closest-hit Mrays/s through that tree, 1 thread, a tight loop without the main table's harness (medians of {repeats} measurements interleaved over the trees):\n", min.as_secs_f64());
     println!("| scene | builder | build ms | runs | nodes | depth | BVH MiB | references | total MiB | primary Mrays/s | diffuse Mrays/s |");
@@ -893,113 +1046,80 @@ fn main() {
             );
         }
     }
-    if !embree.is_empty() {
-        println!();
-        println!(
-            "Against Embree 4 (embreex `rtcIntersect1`/`rtcOccluded1`, one thread; Embree's build uses every core); \
-             medians of {repeats} interleaved repetitions, the ratio's range in brackets:\n"
-        );
-        println!("| scene | rays | query | Embree Mrays/s | wedge 1-thread Mrays/s | wedge/Embree (range) | hits Embree | hits wedge | rays agreeing | Embree CPU/wall |");
-        println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
-        for (name, reps) in &embree {
-            let (first, wedge_first) = &reps[0];
-            for (k, (set, q, _, hits)) in wedge_first.iter().enumerate() {
-                let embree_result = |json: &serde_json::Value| {
-                    json["results"]
-                        .as_array()
-                        .into_iter()
-                        .flatten()
-                        .find(|r| r["set"] == *set && r["query"] == *q)
-                        .cloned()
-                };
-                let Some(r) = embree_result(first) else {
-                    continue;
-                };
-                let mut e: Vec<f64> = reps
-                    .iter()
-                    .map(|(j, _)| embree_result(j).and_then(|r| r["mrays"].as_f64()).unwrap_or(f64::NAN))
-                    .collect();
-                let mut w: Vec<f64> = reps.iter().map(|(_, cells)| cells[k].2).collect();
-                let mut ratio: Vec<f64> = w.iter().zip(&e).map(|(w, e)| w / e).collect();
-                let (lo, hi) =
-                    ratio.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
-                println!(
-                    "| {name} | {set} | {q} | {:.2} | {:.2} | {:.2} ({lo:.2}–{hi:.2}) | {} | {hits} | {} / {} | {:.2} |",
-                    median(&mut e),
-                    median(&mut w),
-                    median(&mut ratio),
-                    r["hits"],
-                    r["agree"],
-                    r["rays"],
-                    r["cpu_per_wall"].as_f64().unwrap_or(f64::NAN)
-                );
-            }
-        }
-        println!();
-        for (name, reps) in &embree {
-            let json = &reps[0].0;
-            println!(
-                "- `{name}`: Embree build (rtcCommitScene, quality high, {} threads) {:.0} ms; embreex {}",
-                json["embree"]["cpus"],
-                json["build_seconds"].as_f64().unwrap_or(f64::NAN) * 1e3,
-                json["embree"]["embreex"].as_str().unwrap_or("?")
-            );
-        }
-    }
-    if let Some((rows, scaling, info)) = motion {
-        println!();
-        println!("Motion: rays through moving instances (`Scene::at(t)`) vs the same scene frozen at t = 0 into one static tree — {info}:\n");
-        println!("| rays | query | time | threads | motion Mrays/s | frozen Mrays/s | motion / frozen | hits (motion / frozen) |");
-        println!("|---|---|---|---:|---:|---:|---:|---:|");
-        for (rays, q, time, threads, m, f, hm, hf) in rows {
-            println!("| {rays} | {q} | {time} | {threads} | {m:.2} | {f:.2} | {:.2} | {hm} / {hf} |", m / f);
-        }
-        if !scaling.is_empty() {
-            println!();
-            println!("Instances: primary rays on `spheres` (640×480, random time per ray, 1 thread) with N of its 400 spheres moving, each its own instance (the loop over instances is linear):\n");
-            println!("| moving instances N | Mrays/s | vs N = 0 | hits |");
-            println!("|---:|---:|---:|---:|");
-            let base = scaling[0].1;
-            for (n, m, h) in scaling {
-                println!("| {n} | {m:.2} | {:.2} | {h} |", m / base);
-            }
-        }
+}
+
+/// The Embree table: medians over the repetitions of Embree's and wedge's 1-thread rates, the ratio's
+/// range, hit counts and agreement; then each scene's Embree build line.
+fn embree_table(embree: &[(String, Vec<EmbreeRep>)], repeats: usize) {
+    println!();
+    println!(
+        "Against Embree 4 (embreex `rtcIntersect1`/`rtcOccluded1`, one thread; Embree's build uses every core); \
+         medians of {repeats} interleaved repetitions, the ratio's range in brackets:\n"
+    );
+    println!("| scene | rays | query | Embree Mrays/s | wedge 1-thread Mrays/s | wedge/Embree (range) | hits Embree | hits wedge | rays agreeing | Embree CPU/wall |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for (name, reps) in embree {
+        embree_rows(name, reps);
     }
     println!();
-    println!("Paths on `cornell` ({}×{}, {spp} paths per pixel and component; `indirect.sample`, next-event estimation at every vertex):\n", size.0, size.1);
-    println!("| bounces | threads | Mrays/s (bounce + shadow) | rays per path | Mpaths/s |");
-    println!("|---:|---:|---:|---:|---:|");
-    for (bounces, threads, (mrays, mpaths, per)) in path_rows {
-        println!("| {bounces} | {threads} | {mrays:.2} | {per:.2} | {mpaths:.3} |");
+    for (name, reps) in embree {
+        let json = &reps[0].0;
+        println!(
+            "- `{name}`: Embree build (rtcCommitScene, quality high, {} threads) {:.0} ms; embreex {}",
+            json["embree"]["cpus"],
+            json["build_seconds"].as_f64().unwrap_or(f64::NAN) * 1e3,
+            json["embree"]["embreex"].as_str().unwrap_or("?")
+        );
     }
 }
 
-/// The "passes vs bare traversal" table: each pass's rays per second (first frame, later frames of a
-/// persistent backend) beside the bare rate of the same rays at the same thread count.
-#[allow(clippy::type_complexity)]
-fn pass_table(
-    passes: &[(String, usize, [usize; 2], PassTimes)],
-    rows: &[(String, usize, [usize; 3], Cell, Cell, Cell, Cell)],
-) {
+/// One scene's rows of the Embree table, one per ray kind Embree reported in the first repetition.
+fn embree_rows(name: &str, reps: &[EmbreeRep]) {
+    let (first, wedge_first) = &reps[0];
+    for (k, (set, q, _, hits)) in wedge_first.iter().enumerate() {
+        let embree_result = |json: &serde_json::Value| {
+            json["results"].as_array().into_iter().flatten().find(|r| r["set"] == *set && r["query"] == *q).cloned()
+        };
+        let Some(r) = embree_result(first) else {
+            continue;
+        };
+        let mut e: Vec<f64> =
+            reps.iter().map(|(j, _)| embree_result(j).and_then(|r| r["mrays"].as_f64()).unwrap_or(f64::NAN)).collect();
+        let mut w: Vec<f64> = reps.iter().map(|(_, cells)| cells[k].2).collect();
+        let mut ratio: Vec<f64> = w.iter().zip(&e).map(|(w, e)| w / e).collect();
+        let (lo, hi) = ratio.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        println!(
+            "| {name} | {set} | {q} | {:.2} | {:.2} | {:.2} ({lo:.2}–{hi:.2}) | {} | {hits} | {} / {} | {:.2} |",
+            median(&mut e),
+            median(&mut w),
+            median(&mut ratio),
+            r["hits"],
+            r["agree"],
+            r["rays"],
+            r["cpu_per_wall"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+}
+
+/// The motion table: `motion` through its moving instances against the same scene frozen.
+fn motion_table(rows: &[MotionRow], info: &str) {
     println!();
-    println!("Passes vs bare traversal (one persistent `CpuBackend`; first frame apart from the median of the later ones; goal: later / bare ≥ 0.8):\n");
-    println!("| scene | threads | pass | rays | bare Mrays/s | pass first frame Mrays/s | pass later frames Mrays/s | later / bare | frames |");
-    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
-    for (name, threads, counts, t) in passes {
-        let Some((.., p, s, _, _)) = rows.iter().find(|r| r.0 == *name && r.1 == *threads) else { continue };
-        for (k, (pass, bare)) in
-            [("primary.gbuffer (closest)", p), ("direct.light (any-hit)", s)].into_iter().enumerate()
-        {
-            let rate = |secs: f64| counts[k] as f64 / secs / 1e6;
-            println!(
-                "| {name} | {threads} | {pass} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
-                counts[k],
-                bare.mrays,
-                rate(t.first[k]),
-                rate(t.later[k]),
-                rate(t.later[k]) / bare.mrays,
-                t.frames
-            );
-        }
+    println!("Motion: rays through moving instances (`Scene::at(t)`) vs the same scene frozen at t = 0 into one static tree — {info}:\n");
+    println!("| rays | query | time | threads | motion Mrays/s | frozen Mrays/s | motion / frozen | hits (motion / frozen) |");
+    println!("|---|---|---|---:|---:|---:|---:|---:|");
+    for (rays, q, time, threads, m, f, hm, hf) in rows {
+        println!("| {rays} | {q} | {time} | {threads} | {m:.2} | {f:.2} | {:.2} | {hm} / {hf} |", m / f);
+    }
+}
+
+/// The instance-scaling table: primary rays on `spheres` with N moving instances against N = 0.
+fn scaling_table(scaling: &[(usize, f64, u64)]) {
+    println!();
+    println!("Instances: primary rays on `spheres` (640×480, random time per ray, 1 thread) with N of its 400 spheres moving, each its own instance (the loop over instances is linear):\n");
+    println!("| moving instances N | Mrays/s | vs N = 0 | hits |");
+    println!("|---:|---:|---:|---:|");
+    let base = scaling[0].1;
+    for (n, m, h) in scaling {
+        println!("| {n} | {m:.2} | {:.2} | {h} |", m / base);
     }
 }
