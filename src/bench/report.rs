@@ -364,17 +364,12 @@ pub fn error_range(values: &[f32]) -> Option<(f32, f32)> {
 pub fn summary(r: &BenchResult) -> String {
     let mut s = String::new();
     for g in &r.goals {
-        let measured = if g.name.starts_with("filter overhead") {
-            format!("{:.2}%", 100.0 * g.measured)
-        } else {
-            format!("{}x", ratio(g.measured))
-        };
         let _ = writeln!(
             s,
             "{:<5} {} {} (target {}){}",
             if g.pass { "PASS" } else { "MISS" },
             g.name,
-            measured,
+            goal_measured(g),
             g.target,
             if g.note.is_empty() { String::new() } else { format!(": {}", g.note) }
         );
@@ -398,10 +393,25 @@ pub fn summary(r: &BenchResult) -> String {
     s
 }
 
+/// `report.md`: its sections in reading order, each written by its own function below.
 fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -> String {
-    let out = &r.out;
     let mut s = String::new();
     let w = &mut s;
+    title(w, r);
+    reference_section(w, r);
+    goals_section(w, r);
+    results_section(w, r);
+    speedup_section(w, r);
+    convergence_section(w, r);
+    images_section(w, r, crops);
+    class_table(w, &r.error_by_class);
+    heatmaps_section(w, pipeline_dir, &r.out);
+    definitions_section(w);
+    s
+}
+
+/// The title and the run's setting: scene, size, seed, quick mode, the whole bench's time.
+fn title(w: &mut String, r: &BenchResult) {
     let _ = writeln!(w, "# wedge bench: `{}`\n", r.pipeline_name);
     let _ = writeln!(
         w,
@@ -413,6 +423,11 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
         if r.quick { ", **quick mode**" } else { "" },
         r.seconds
     );
+}
+
+/// How the reference was made or found, and its own noise against ours' error (with a warning when
+/// it is not much better than the method measured).
+fn reference_section(w: &mut String, r: &BenchResult) {
     let rf = &r.reference;
     let _ = writeln!(w, "## Reference\n");
     let _ = writeln!(
@@ -423,7 +438,7 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
         rf.seeds[0],
         rf.seeds[1],
         if rf.from_cache { "**loaded from the cache**" } else { "rendered and cached" },
-        rel(&rf.exr, out),
+        rel(&rf.exr, &r.out),
         rf.key,
         rf.render_seconds,
         rf.obtain_seconds
@@ -441,7 +456,19 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             ""
         }
     );
+}
 
+/// A goal's measured value as the report and the terminal summary print it.
+fn goal_measured(g: &GoalOutcome) -> String {
+    if g.name.starts_with("filter overhead") {
+        format!("{:.2}%", 100.0 * g.measured)
+    } else {
+        format!("{}x", ratio(g.measured))
+    }
+}
+
+/// The goals table: target, measured, PASS/MISS and cause, checked on the pipeline's own run.
+fn goals_section(w: &mut String, r: &BenchResult) {
     let _ = writeln!(w, "## Goals\n");
     let _ = writeln!(
         w,
@@ -450,22 +477,20 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
     );
     let _ = writeln!(w, "| goal | target | measured | result | cause / note |\n|---|---|---|---|---|");
     for g in &r.goals {
-        let measured = if g.name.starts_with("filter overhead") {
-            format!("{:.2}%", 100.0 * g.measured)
-        } else {
-            format!("{}x", ratio(g.measured))
-        };
         let _ = writeln!(
             w,
             "| {} | {} | {} | **{}** | {} |",
             g.name,
             g.target,
-            measured,
+            goal_measured(g),
             if g.pass { "PASS" } else { "MISS" },
             g.note
         );
     }
+}
 
+/// The results table: one row per run (second-seed runs apart), its rays, times and error metrics.
+fn results_section(w: &mut String, r: &BenchResult) {
     let _ = writeln!(w, "\n## Results\n");
     let _ = writeln!(
         w,
@@ -495,45 +520,17 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             x.flip
         );
     }
+}
 
+/// The equal-error speedup table (one row per sweep run) and each baseline's log-log fit.
+fn speedup_section(w: &mut String, r: &BenchResult) {
     let _ = writeln!(w, "\n## Equal-error speedup, bias and variance\n");
     let _ = writeln!(
         w,
         "| ours | RMSE | bias² | variance | independent MC needs rays/px | speedup rays (time) | stratified MC needs rays/px | speedup rays (time) | filter overhead |\n|---|---|---|---|---|---|---|---|---|"
     );
     for x in r.runs.iter().filter(|x| x.role == Role::Sweep) {
-        let bv = x.bias_variance;
-        let cell = |m: Method| match x.speedup(m) {
-            Some(s) => {
-                let flag = if s.extrapolated() { format!(" ⚠ {}", s.flag()) } else { String::new() };
-                (
-                    format!("{}{}", s.rays_needed.map_or("n/a".into(), |e| format!("{:.1}", e.cost)), flag),
-                    format!("{}x ({}x)", ratio(s.rays), ratio(s.time)),
-                )
-            }
-            None => ("n/a".into(), "n/a".into()),
-        };
-        let (ni, si) = cell(Method::Independent);
-        let (ns, ss) = cell(Method::Stratified);
-        let _ = writeln!(
-            w,
-            "| {}{} | {} | {}{} | {} | {} | {} | {} | {} | {:.2}% |",
-            match (&x.compared, x.mu) {
-                (Some(c), Some(m)) => format!("{c}: mu {m}"),
-                (Some(c), None) => c.clone(),
-                (None, m) => format!("mu {}", m.map_or("-".into(), |m| m.to_string())),
-            },
-            if x.primary { " (pipeline's)" } else { "" },
-            sci(x.metrics.rmse, 3),
-            bv.map_or("n/a".into(), |b| sci(b.bias2, 3)),
-            if bv.is_some_and(|b| b.clamped) { " (clamped at 0)" } else { "" },
-            bv.map_or("n/a".into(), |b| sci(b.variance, 3)),
-            ni,
-            si,
-            ns,
-            ss,
-            100.0 * x.time.filter_overhead()
-        );
+        speedup_row(w, x);
     }
     let _ = writeln!(w);
     for (m, fit) in &r.fits {
@@ -552,12 +549,55 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             }
         }
     }
+}
 
+/// One sweep run's row: its error split into bias² and variance, and what each baseline needs for it.
+fn speedup_row(w: &mut String, x: &RunRecord) {
+    let bv = x.bias_variance;
+    let cell = |m: Method| match x.speedup(m) {
+        Some(s) => {
+            let flag = if s.extrapolated() { format!(" ⚠ {}", s.flag()) } else { String::new() };
+            (
+                format!("{}{}", s.rays_needed.map_or("n/a".into(), |e| format!("{:.1}", e.cost)), flag),
+                format!("{}x ({}x)", ratio(s.rays), ratio(s.time)),
+            )
+        }
+        None => ("n/a".into(), "n/a".into()),
+    };
+    let (ni, si) = cell(Method::Independent);
+    let (ns, ss) = cell(Method::Stratified);
+    let _ = writeln!(
+        w,
+        "| {}{} | {} | {}{} | {} | {} | {} | {} | {} | {:.2}% |",
+        match (&x.compared, x.mu) {
+            (Some(c), Some(m)) => format!("{c}: mu {m}"),
+            (Some(c), None) => c.clone(),
+            (None, m) => format!("mu {}", m.map_or("-".into(), |m| m.to_string())),
+        },
+        if x.primary { " (pipeline's)" } else { "" },
+        sci(x.metrics.rmse, 3),
+        bv.map_or("n/a".into(), |b| sci(b.bias2, 3)),
+        if bv.is_some_and(|b| b.clamped) { " (clamped at 0)" } else { "" },
+        bv.map_or("n/a".into(), |b| sci(b.variance, 3)),
+        ni,
+        si,
+        ns,
+        ss,
+        100.0 * x.time.filter_overhead()
+    );
+}
+
+/// Links to the convergence plots.
+fn convergence_section(w: &mut String, r: &BenchResult) {
     let _ = writeln!(w, "\n## Convergence\n");
     for p in &r.plots {
-        let _ = writeln!(w, "![{}]({})", rel(p, out), rel(p, out));
+        let _ = writeln!(w, "![{}]({})", rel(p, &r.out), rel(p, &r.out));
     }
+}
 
+/// The crops side by side, then the squared-error maps (when there are any).
+fn images_section(w: &mut String, r: &BenchResult, crops: &[(String, PathBuf)]) {
+    let out = &r.out;
     let _ = writeln!(w, "\n## Images (centre quarter, sRGB, exposure 1)\n");
     let _ = writeln!(w, "| {} |", crops.iter().map(|c| c.0.clone()).collect::<Vec<_>>().join(" | "));
     let _ = writeln!(w, "|{}", "---|".repeat(crops.len()));
@@ -574,7 +614,10 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
             let _ = writeln!(w, "![{}]({})", rel(e, out), rel(e, out));
         }
     }
-    class_table(w, &r.error_by_class);
+}
+
+/// The pipeline run's own heatmaps (filter width, rays per pixel) where it wrote them.
+fn heatmaps_section(w: &mut String, pipeline_dir: &Path, out: &Path) {
     let heat: Vec<PathBuf> = ["filter_width.png", "rays_per_pixel.png"]
         .iter()
         .map(|n| pipeline_dir.join(n))
@@ -587,7 +630,10 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
         }
         let _ = writeln!(w, "\nFull images of that run: `{}`.", rel(pipeline_dir, out));
     }
+}
 
+/// What the report's columns and terms mean.
+fn definitions_section(w: &mut String) {
     let _ = writeln!(
         w,
         "\n## Definitions\n
@@ -599,7 +645,6 @@ fn markdown(r: &BenchResult, crops: &[(String, PathBuf)], pipeline_dir: &Path) -
 - **Reference noise**: RMSE of the two half references / 2 (each half's noise is that / √2, averaging two gains another √2).
 - **Filter overhead**: (bandwidth + filter time) / sampling time. Timings on a shared machine are noisy."
     );
-    s
 }
 
 /// The "Where the error lives" table: each pixel class's share of the squared error, its bias² and
