@@ -250,44 +250,81 @@ pub(crate) fn write_all(
 ) -> Result<(), WedgeError> {
     let out = result.out.clone();
     let mut set = Staging::new(&out)?;
-    // Every file of the set is named relative to `out`, staged, and moved into place at the end.
-    let rel = |path: &Path| {
-        path.strip_prefix(&out).map(Path::to_path_buf).unwrap_or_else(|_| path.file_name().unwrap_or_default().into())
-    };
-    let write_text = |set: &mut Staging, path: &Path, text: String| -> Result<(), WedgeError> {
-        let staged = set.file(rel(path))?;
-        std::fs::write(&staged, text)
-            .map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
-    };
-    write_text(&mut set, &result.csv, csv(&result.runs))?;
+    write_text(&mut set, &out, &result.csv, csv(&result.runs))?;
+    write_plots(&mut set, result)?;
+    let img_dir = out.join("images");
+    let crops = write_crops(&mut set, &out, &img_dir, kept, result.reference.spp)?;
+    let full_ref = img_dir.join("reference.png");
+    write_png_srgb(&set.file(staged(&full_ref, &out))?, &kept.reference, 1.0)?;
+    let errors = write_error_maps(&mut set, &out, &img_dir, kept, result.reference.noise_rmse)?;
+    result.images = crops.iter().map(|c| c.1.clone()).chain([full_ref]).chain(errors).collect();
 
+    result.seconds = t0.elapsed().as_secs_f64();
+    let md = markdown(result, &crops, pipeline_dir);
+    let report = result.report.clone();
+    write_text(&mut set, &out, &report, md)?;
+    set.commit()?;
+    Ok(())
+}
+
+/// Every file of the set is named relative to `out`, staged, and moved into place at the end.
+fn staged(path: &Path, out: &Path) -> PathBuf {
+    path.strip_prefix(out).map(Path::to_path_buf).unwrap_or_else(|_| path.file_name().unwrap_or_default().into())
+}
+
+/// Stage the text file `path` (under `out`), its error naming `path`.
+fn write_text(set: &mut Staging, out: &Path, path: &Path, text: String) -> Result<(), WedgeError> {
+    let staged = set.file(staged(path, out))?;
+    std::fs::write(&staged, text)
+        .map_err(|source| WedgeError::Image(ImageError::Write { path: path.to_path_buf(), source }))
+}
+
+/// The two convergence plots (RMSE against rays and against time), added to `result.plots`.
+fn write_plots(set: &mut Staging, result: &mut BenchResult) -> Result<(), WedgeError> {
     let rays_plot = plot_for(result, |r| r.rays.total, "rays per pixel (total)", "RMSE vs rays per pixel (log-log)");
     let time_plot = plot_for(result, |r| r.time.total, "time (s)", "RMSE vs render time (log-log)");
     for (name, plot) in [("error_vs_rays.png", rays_plot), ("error_vs_time.png", time_plot)] {
         write_plot(&set.file(name)?, &plot)?;
-        result.plots.push(out.join(name));
+        result.plots.push(result.out.join(name));
     }
+    Ok(())
+}
 
-    let img_dir = out.join("images");
+/// The centre crops the report shows side by side, in its column order: (caption, path) each.
+fn write_crops(
+    set: &mut Staging,
+    out: &Path,
+    img_dir: &Path,
+    kept: &KeptImages,
+    reference_spp: u32,
+) -> Result<Vec<(String, PathBuf)>, WedgeError> {
     let mut crops: Vec<(String, PathBuf)> = Vec::new();
     let mut add = |set: &mut Staging, name: &str, caption: String, img: &Image| -> Result<(), WedgeError> {
         let p = img_dir.join(format!("crop_{name}.png"));
-        write_png_srgb(&set.file(rel(&p))?, &centre_crop(img), 1.0)?;
+        write_png_srgb(&set.file(staged(&p, out))?, &centre_crop(img), 1.0)?;
         crops.push((caption, p));
         Ok(())
     };
     if let Some(u) = &kept.unfiltered {
-        add(&mut set, "input", "input (unfiltered)".into(), u)?;
+        add(set, "input", "input (unfiltered)".into(), u)?;
     }
-    add(&mut set, "ours", Method::Pipeline.name().into(), &kept.ours)?;
+    add(set, "ours", Method::Pipeline.name().into(), &kept.ours)?;
     if let Some((img, n)) = &kept.equal_time {
-        add(&mut set, "equal_time_mc", format!("equal-time {} ({n} spp)", Method::Stratified.name()), img)?;
+        add(set, "equal_time_mc", format!("equal-time {} ({n} spp)", Method::Stratified.name()), img)?;
     }
-    add(&mut set, "reference", format!("reference ({} spp)", result.reference.spp), &kept.reference)?;
-    let full_ref = img_dir.join("reference.png");
-    write_png_srgb(&set.file(rel(&full_ref))?, &kept.reference, 1.0)?;
-    // Where the error is: squared error per pixel of ours and of equal-time stratified MC, on one
-    // log colour range so the two maps compare.
+    add(set, "reference", format!("reference ({reference_spp} spp)"), &kept.reference)?;
+    Ok(crops)
+}
+
+/// Where the error is: squared error per pixel of ours and of equal-time stratified MC, and ours'
+/// bias² and variance per 4×4 block, all on one log colour range so the maps compare; their paths.
+fn write_error_maps(
+    set: &mut Staging,
+    out: &Path,
+    img_dir: &Path,
+    kept: &KeptImages,
+    reference_noise_rmse: f64,
+) -> Result<Vec<PathBuf>, WedgeError> {
     let ours_err = squared_error_map(&kept.ours, &kept.reference);
     let range = error_range(&ours_err);
     let mut errors = vec![(
@@ -305,7 +342,7 @@ pub(crate) fn write_all(
     }
     // Its two parts, per 4×4 block (classes.rs), on the same log range as the squared error.
     let (w, h) = (kept.reference.width, kept.reference.height);
-    let reference_variance = result.reference.noise_rmse * result.reference.noise_rmse;
+    let reference_variance = reference_noise_rmse * reference_noise_rmse;
     errors.push((
         img_dir.join("error_bias2.png"),
         "bias² per 4x4 block: ours (pipeline's mu)".into(),
@@ -318,17 +355,9 @@ pub(crate) fn write_all(
     ));
     for (path, title, values) in &errors {
         let spec = HeatmapSpec { title, unit: "", scale: Scale::Log, range, arrows: None };
-        write_heatmap_png(&set.file(rel(path))?, w, h, values, None, &spec)?;
+        write_heatmap_png(&set.file(staged(path, out))?, w, h, values, None, &spec)?;
     }
-    result.images =
-        crops.iter().map(|c| c.1.clone()).chain([full_ref]).chain(errors.iter().map(|e| e.0.clone())).collect();
-
-    result.seconds = t0.elapsed().as_secs_f64();
-    let md = markdown(result, &crops, pipeline_dir);
-    let report = result.report.clone();
-    write_text(&mut set, &report, md)?;
-    set.commit()?;
-    Ok(())
+    Ok(errors.into_iter().map(|e| e.0).collect())
 }
 
 /// Per pixel, the mean over channels of `(ours − reference)²` (the RMSE's own terms; NaN where either
