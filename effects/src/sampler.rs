@@ -39,8 +39,8 @@ use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
 use wedge_backends::kernels::paths::{TraceIo, PATH_RECORD, RESOLVE_OUTPUTS};
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
-    BufferId, ExpandCtx, Format, GraphError, ParamValue, PerPrimary, Reference, SamplerKind, SamplerPass, SamplerPlan,
-    SamplerRequest, SettingMerge, Stage,
+    BufferId, ExpandCtx, Format, GraphError, ParamValue, PassBuilder, PerPrimary, Reference, SamplerKind, SamplerPass,
+    SamplerPlan, SamplerRequest, SettingMerge, Stage,
 };
 
 /// Thesis Ch. 3/4's first pass for `estimator`: one path per pixel through its centre (a fixed pinhole
@@ -254,6 +254,52 @@ impl SamplerKind for PathSampler {
     }
     fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError> {
         let first_paths = Self::count_setting(plan, "paths")?;
+        let trace_params = Self::trace_params(plan)?;
+        let first = Self::emit_first(ctx, plan, first_paths, &trace_params);
+        let counts = Self::emit_counts(ctx, plan, first_paths)?;
+        Self::emit_adaptive(ctx, plan, first, counts, &trace_params);
+        Ok(())
+    }
+}
+
+/// A count channel as [`CHANNELS`] lists it.
+type Channel = (&'static str, &'static str, TotalBinding, &'static str);
+
+/// What the count stage hands the adaptive pass: its paths per pixel and each bound channel's samples.
+struct PassCounts {
+    paths: BufferId,
+    totals: Vec<(TotalBinding, BufferId)>,
+}
+
+/// Whether a count request's key sets `channel`: by its own name or its estimator's.
+fn sets(key: &str, channel: &str, estimator: &str) -> bool {
+    key == channel || key == estimator
+}
+
+/// `value` spread by `neighbourhood.max3` into a buffer `name` where the request asks (`max3`), else
+/// `value` itself (thesis Sec. 5.8 step 2).
+fn spread(ctx: &mut ExpandCtx<'_>, name: String, value: BufferId, max3: bool) -> BufferId {
+    if !max3 {
+        return value;
+    }
+    let out = ctx.buffer(&name, Format::U32);
+    Neighbourhood3Io { value, out }.bind(ctx.pass(&name, "neighbourhood.max3", Stage::Counts)).finish();
+    out
+}
+
+/// Set `params` on a `paths.trace` pass: both passes trace with the same settings, so the adaptive
+/// one continues the first one's sequences.
+fn with_params<'c, 'a>(mut b: PassBuilder<'c, 'a>, params: &[(&str, ParamValue)]) -> PassBuilder<'c, 'a> {
+    for (n, v) in params {
+        b = b.param(n, v.clone());
+    }
+    b
+}
+
+impl PathSampler {
+    /// The settings both `paths.trace` passes get: the merged plan's (or their defaults), the optional
+    /// ones a node set, each estimator's switch and the first pass's samples per path.
+    fn trace_params(plan: &SamplerPlan) -> Result<Vec<(&'static str, ParamValue)>, GraphError> {
         let mut trace_params: Vec<(&str, ParamValue)> = [
             "light",
             "jitter",
@@ -282,29 +328,44 @@ impl SamplerKind for PathSampler {
         for per_primary in ["shadow_per_primary", "indirect_per_primary", "environment_per_primary"] {
             trace_params.push((per_primary, ParamValue::Int(i64::from(Self::count_setting(plan, per_primary)?))));
         }
+        Ok(trace_params)
+    }
 
-        // 1–2. First pass and its resolve.
+    /// Steps 1–2: the first pass (`first_paths` paths per pixel) and its resolve; returns its record.
+    fn emit_first(
+        ctx: &mut ExpandCtx<'_>,
+        plan: &SamplerPlan,
+        first_paths: u32,
+        trace_params: &[(&str, ParamValue)],
+    ) -> BufferId {
         let first = plan
             .handle(SamplerPass::First, "record")
             .unwrap_or_else(|| ctx.buffer("first_record", Format::Struct(&PATH_RECORD)));
-        let mut b = TraceIo::new(first)
+        let b = TraceIo::new(first)
             .bind(ctx.pass("first", "paths.trace", Stage::Sample))
             .int("count", i64::from(first_paths));
-        for (n, v) in &trace_params {
-            b = b.param(n, v.clone());
-        }
-        b.random().reference(Reference::Continued).finish();
+        with_params(b, trace_params).random().reference(Reference::Continued).finish();
         Self::resolve(ctx, plan, SamplerPass::First, first, Stage::Sample);
+        first
+    }
 
-        // 3. Counts: paths per pixel, then each bound channel's samples over the adaptive pass.
-        let spread = |ctx: &mut ExpandCtx<'_>, name: String, value: BufferId, max3: bool| {
-            if !max3 {
-                return value;
-            }
-            let out = ctx.buffer(&name, Format::U32);
-            Neighbourhood3Io { value, out }.bind(ctx.pass(&name, "neighbourhood.max3", Stage::Counts)).finish();
-            out
-        };
+    /// Step 3: paths per pixel, then each bound channel's samples over the adaptive pass.
+    fn emit_counts(ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan, first_paths: u32) -> Result<PassCounts, GraphError> {
+        let mut path_sources = Self::request_paths(ctx, plan, first_paths);
+        let channels = Self::bound_channels(plan);
+        let rests = Self::spread_rests(ctx, plan, first_paths, &channels, &mut path_sources)?;
+        let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
+        let totals = channels
+            .iter()
+            .map(|&(channel, estimator, binding, _)| {
+                (binding, Self::channel_total(ctx, plan, channel, estimator, paths, &rests))
+            })
+            .collect();
+        Ok(PassCounts { paths, totals })
+    }
+
+    /// The count requests' paths per pixel, as `sampler.combine` sources (buffer, unit, minus).
+    fn request_paths(ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan, first_paths: u32) -> Vec<(BufferId, u32, u32)> {
         let mut path_sources: Vec<(BufferId, u32, u32)> = Vec::new();
         for (k, (_, r)) in plan.requests.iter().enumerate() {
             let Some(paths) = r.paths else { continue };
@@ -312,11 +373,13 @@ impl SamplerKind for PathSampler {
             // A total over both passes includes the first pass's paths; a request beyond it does not.
             path_sources.push((value, r.paths_unit, if r.beyond_first { 0 } else { first_paths }));
         }
-        // Which requests set a channel: by its own name or its estimator's.
-        let sets = |key: &str, channel: &str, estimator: &str| key == channel || key == estimator;
-        // The channels bound in the adaptive pass: the first of each estimator in use, and a later one
-        // where a request names it.
-        let channels: Vec<_> = CHANNELS
+        path_sources
+    }
+
+    /// The channels bound in the adaptive pass: the first of each estimator in use, and a later one
+    /// where a request names it.
+    fn bound_channels(plan: &SamplerPlan) -> Vec<Channel> {
+        CHANNELS
             .into_iter()
             .enumerate()
             .filter(|(index, (channel, estimator, _, _))| {
@@ -325,11 +388,20 @@ impl SamplerKind for PathSampler {
                 plan.estimators.contains(*estimator) && (first_of_estimator || named)
             })
             .map(|(_, c)| c)
-            .collect();
-        // `PerPrimary::Spread`: the samples left after the first pass's, per channel and request; each
-        // asks for paths of about `unit` samples.
+            .collect()
+    }
+
+    /// `PerPrimary::Spread`: the samples left after the first pass's, per channel and request, each
+    /// added to `path_sources` as paths of about `unit` samples. Returns (request, channel, rest).
+    fn spread_rests(
+        ctx: &mut ExpandCtx<'_>,
+        plan: &SamplerPlan,
+        first_paths: u32,
+        channels: &[Channel],
+        path_sources: &mut Vec<(BufferId, u32, u32)>,
+    ) -> Result<Vec<(usize, &'static str, BufferId)>, GraphError> {
         let mut rests: Vec<(usize, &str, BufferId)> = Vec::new();
-        for &(channel, estimator, _, first_setting) in &channels {
+        for &(channel, estimator, _, first_setting) in channels {
             let first = first_paths.saturating_mul(Self::count_setting(plan, first_setting)?);
             for (k, (_, r)) in plan.requests.iter().enumerate() {
                 for (key, per) in &r.per_primary {
@@ -351,72 +423,96 @@ impl SamplerKind for PathSampler {
                 }
             }
         }
-        let paths = Self::combine(ctx, "counts_paths", &path_sources, 0, Reference::Count);
-        let mut totals: Vec<(TotalBinding, BufferId)> = Vec::new();
-        for &(channel, estimator, binding, _) in &channels {
-            // Per path: at least one secondary sample (Ch. 5), except for a channel counted only by
-            // spreads, whose paths may carry none of it.
-            let mut at_least = 1u32;
-            let mut spread_only = None;
-            let mut per_path: Vec<(BufferId, u32, u32)> = Vec::new();
-            for (k, (_, r)) in plan.requests.iter().enumerate() {
-                for (key, per) in &r.per_primary {
-                    if !sets(key, channel, estimator) {
-                        continue;
+        Ok(rests)
+    }
+
+    /// One channel's samples over the adaptive pass (`counts_<channel>`, role `Count`).
+    fn channel_total(
+        ctx: &mut ExpandCtx<'_>,
+        plan: &SamplerPlan,
+        channel: &str,
+        estimator: &str,
+        paths: BufferId,
+        rests: &[(usize, &str, BufferId)],
+    ) -> BufferId {
+        let (per_path, at_least) = Self::per_path(ctx, plan, channel, estimator, paths);
+        let channel_rests: Vec<(BufferId, u32, u32)> =
+            rests.iter().filter(|(_, c, _)| *c == channel).map(|(_, _, id)| (*id, 1, 0)).collect();
+        let rest = Self::max_of(ctx, &format!("counts_{channel}_rest"), &channel_rests);
+        // The channel's samples over the adaptive pass: `paths × per path`, or the spreads' rest
+        // where larger; `paths.trace` splits it evenly over the paths. A reference's count (N
+        // paths) makes it N: one sample per path.
+        let name = format!("counts_{channel}");
+        let total = ctx.buffer(&name, Format::U32);
+        PassTotalIo { paths, per_path, rest, out: total }
+            .bind(ctx.pass(&name, "sampler.pass_total", Stage::Counts))
+            .int("at_least", i64::from(at_least))
+            .reference(Reference::Count)
+            .finish();
+        total
+    }
+
+    /// A channel's samples per path: the per-pixel max of its `Buffer` and `Total` requests (`None`
+    /// without any), and the minimum per path (`at_least`: the largest `Constant`, at least 1).
+    fn per_path(
+        ctx: &mut ExpandCtx<'_>,
+        plan: &SamplerPlan,
+        channel: &str,
+        estimator: &str,
+        paths: BufferId,
+    ) -> (Option<BufferId>, u32) {
+        // Per path: at least one secondary sample (Ch. 5), except for a channel counted only by
+        // spreads, whose paths may carry none of it.
+        let mut at_least = 1u32;
+        let mut spread_only = None;
+        let mut per_path: Vec<(BufferId, u32, u32)> = Vec::new();
+        for (k, (_, r)) in plan.requests.iter().enumerate() {
+            for (key, per) in &r.per_primary {
+                if !sets(key, channel, estimator) {
+                    continue;
+                }
+                spread_only = Some(spread_only.unwrap_or(true) && matches!(per, PerPrimary::Spread { .. }));
+                match per {
+                    PerPrimary::Constant(c) => at_least = at_least.max(*c),
+                    PerPrimary::Buffer(id) => per_path.push((*id, 1, 0)),
+                    PerPrimary::Total(id) => {
+                        // The total over the adaptive pass as s² per path.
+                        let total = spread(ctx, format!("counts_{channel}_max3_{k}"), *id, r.max3);
+                        let name = format!("counts_{channel}_per_path_{k}");
+                        let out = ctx.buffer(&name, Format::U32);
+                        PerPrimaryIo { total, paths, out }
+                            .bind(ctx.pass(&name, "sampler.per_primary", Stage::Counts))
+                            .finish();
+                        per_path.push((out, 1, 0));
                     }
-                    spread_only = Some(spread_only.unwrap_or(true) && matches!(per, PerPrimary::Spread { .. }));
-                    match per {
-                        PerPrimary::Constant(c) => at_least = at_least.max(*c),
-                        PerPrimary::Buffer(id) => per_path.push((*id, 1, 0)),
-                        PerPrimary::Total(id) => {
-                            // The total over the adaptive pass as s² per path.
-                            let total = spread(ctx, format!("counts_{channel}_max3_{k}"), *id, r.max3);
-                            let name = format!("counts_{channel}_per_path_{k}");
-                            let out = ctx.buffer(&name, Format::U32);
-                            PerPrimaryIo { total, paths, out }
-                                .bind(ctx.pass(&name, "sampler.per_primary", Stage::Counts))
-                                .finish();
-                            per_path.push((out, 1, 0));
-                        }
-                        PerPrimary::Spread { .. } => {}
-                    }
+                    PerPrimary::Spread { .. } => {}
                 }
             }
-            if spread_only == Some(true) {
-                at_least = 0;
-            }
-            let per_path = Self::max_of(ctx, &format!("counts_{channel}_per_path"), &per_path);
-            let channel_rests: Vec<(BufferId, u32, u32)> =
-                rests.iter().filter(|(_, c, _)| *c == channel).map(|(_, _, id)| (*id, 1, 0)).collect();
-            let rest = Self::max_of(ctx, &format!("counts_{channel}_rest"), &channel_rests);
-            // The channel's samples over the adaptive pass: `paths × per path`, or the spreads' rest
-            // where larger; `paths.trace` splits it evenly over the paths. A reference's count (N
-            // paths) makes it N: one sample per path.
-            let name = format!("counts_{channel}");
-            let total = ctx.buffer(&name, Format::U32);
-            PassTotalIo { paths, per_path, rest, out: total }
-                .bind(ctx.pass(&name, "sampler.pass_total", Stage::Counts))
-                .int("at_least", i64::from(at_least))
-                .reference(Reference::Count)
-                .finish();
-            totals.push((binding, total));
         }
+        if spread_only == Some(true) {
+            at_least = 0;
+        }
+        (Self::max_of(ctx, &format!("counts_{channel}_per_path"), &per_path), at_least)
+    }
 
-        // 4–5. Adaptive pass continuing the first pass's record and sequences, and its resolve.
+    /// Steps 4–5: the adaptive pass continuing the first pass's record and sequences, and its resolve.
+    fn emit_adaptive(
+        ctx: &mut ExpandCtx<'_>,
+        plan: &SamplerPlan,
+        first: BufferId,
+        counts: PassCounts,
+        trace_params: &[(&str, ParamValue)],
+    ) {
         let last = plan
             .handle(SamplerPass::Final, "record")
             .unwrap_or_else(|| ctx.buffer("final_record", Format::Struct(&PATH_RECORD)));
-        let mut io = TraceIo { previous: Some(first), counts: Some(paths), ..TraceIo::new(last) };
-        for (binding, id) in totals {
+        let mut io = TraceIo { previous: Some(first), counts: Some(counts.paths), ..TraceIo::new(last) };
+        for (binding, id) in counts.totals {
             *binding(&mut io) = Some(id);
         }
-        let mut b = io.bind(ctx.pass("adaptive", "paths.trace", Stage::Adaptive)).int("count", 0);
-        for (n, v) in &trace_params {
-            b = b.param(n, v.clone());
-        }
-        b.random_continuing("first").reference(Reference::Sample).finish();
+        let b = io.bind(ctx.pass("adaptive", "paths.trace", Stage::Adaptive)).int("count", 0);
+        with_params(b, trace_params).random_continuing("first").reference(Reference::Sample).finish();
         Self::resolve(ctx, plan, SamplerPass::Final, last, Stage::Adaptive);
-        Ok(())
     }
 }
 
