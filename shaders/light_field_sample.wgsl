@@ -3,7 +3,7 @@
 // the shutter's centre, traced once), one secondary ray each traced as a path (next-event estimation
 // at `bounces` vertices) at the path's time; the first `layers` kept as LightSample records, the
 // first `primaries` primary hits as LightPrimary records, and their plain Monte Carlo estimate;
-// mirrors effects/src/light_field/kernels/ (sample.rs LightFieldSample::run_cpu, mod.rs camera_sample) with the
+// mirrors effects/src/light_field/kernels/ (sample.rs Setup::pixel and its phases, mod.rs camera_sample) with the
 // same RNG calls and dimensions. Chunked over the paths (a reference's N): between dispatches
 // `estimate` holds the running sums (Σ w·L f cos/pdf, Σ w), the last one their mean.
 #include "common.wgsl"
