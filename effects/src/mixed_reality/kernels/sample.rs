@@ -1,7 +1,7 @@
 //! `mr.sample`: the two-mode sampler of Algorithm 1 (see [`super`]); WGSL `shaders/mr_sample.wgsl`.
 
 use glam::{Vec2, Vec3};
-use wedge_scene::{Camera, Scene, SceneAt};
+use wedge_scene::{Camera, EnvSample, EnvironmentMap, Scene, SceneAt};
 
 use wedge_backends::kernels::environment::{brdf, stratified_entry, uniform_entry};
 use wedge_backends::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
@@ -216,7 +216,8 @@ fn virtual_hit_radiance(
     e.radiance * brdf(Lobe::Phong, kd, ks, m, n, wo, e.dir) * (cos / e.pdf)
 }
 
-/// One primary sample's `per_primary` secondary samples at receiver `r` ([`super`]'s doc).
+/// One primary sample's `per_primary` secondary samples at receiver `r` ([`super`]'s doc): each is a
+/// direct-light look-up and an indirect ray, added to the receiver kind's sums.
 #[allow(clippy::too_many_arguments)]
 fn secondary(
     world: &World<'_>,
@@ -228,57 +229,77 @@ fn secondary(
     r: &Receiver,
     sums: &mut Sums,
 ) {
-    let env = world.scene.scene().environment.as_ref().expect("checked in settings");
-    let origin = r.x + r.n * s.eps;
-    // k_V for dividing a virtual sample's outgoing radiance (0 channels stay 0).
-    let k_v = r.kd + r.ks;
-    let per_k = |l: Vec3| {
+    let at = Secondary::new(world, s, seed, pixel, shift, r);
+    for j in 0..s.per_primary {
+        let q = first + j;
+        let (dir_r, dir_rv) = at.direct(sums, q);
+        let (ind_r, ind_rv) = at.indirect(sums, q);
+        add_sample(sums, r.real, [dir_r, dir_rv, ind_r, ind_rv]);
+    }
+}
+
+/// What [`secondary`]'s samples at one receiver share: the pixel's sequence, the ray origin and the
+/// receiver's lobes, computed once per primary sample.
+struct Secondary<'a> {
+    world: &'a World<'a>,
+    s: &'a MrSettings,
+    seed: u32,
+    pixel: u32,
+    /// The stratified look-ups' shift ([`stratified_entry`]), the pixel's own.
+    shift: u32,
+    r: &'a Receiver,
+    env: &'a EnvironmentMap,
+    /// Secondary rays start off the surface by `s.eps`, so they do not hit it again.
+    origin: Vec3,
+    /// k_V for dividing a virtual sample's outgoing radiance (0 channels stay 0).
+    k_v: Vec3,
+    /// Whether a virtual receiver has a glossy lobe, and how often its indirect direction comes from it
+    /// (the lobes' luminance ratio).
+    glossy: bool,
+    p_glossy: f32,
+}
+
+impl<'a> Secondary<'a> {
+    fn new(world: &'a World<'a>, s: &'a MrSettings, seed: u32, pixel: u32, shift: u32, r: &'a Receiver) -> Self {
+        let env = world.scene.scene().environment.as_ref().expect("checked in settings");
+        let glossy = !r.real && r.m > 0.0 && r.ks.max_element() > 0.0;
+        let (lum_d, lum_s) = (luminance(r.kd), if glossy { luminance(r.ks) } else { 0.0 });
+        let p_glossy = if lum_d + lum_s > 0.0 { lum_s / (lum_d + lum_s) } else { 0.0 };
+        let (origin, k_v) = (r.x + r.n * s.eps, r.kd + r.ks);
+        Secondary { world, s, seed, pixel, shift, r, env, origin, k_v, glossy, p_glossy }
+    }
+
+    /// Sample `index` of pair `pair` of the pixel's sequence.
+    fn draw(&self, pair: u32, index: u32) -> Vec2 {
+        draw(self.s, self.seed, self.pixel, pair, index)
+    }
+
+    /// `l` divided by k_V per channel (a channel where k_V is 0 stays 0): the filters multiply the
+    /// texture back in.
+    fn per_k(&self, l: Vec3) -> Vec3 {
+        let k_v = self.k_v;
         Vec3::new(
             if k_v.x > 0.0 { l.x / k_v.x } else { 0.0 },
             if k_v.y > 0.0 { l.y / k_v.y } else { 0.0 },
             if k_v.z > 0.0 { l.z / k_v.z } else { 0.0 },
         )
-    };
-    let glossy = !r.real && r.m > 0.0 && r.ks.max_element() > 0.0;
-    let (lum_d, lum_s) = (luminance(r.kd), if glossy { luminance(r.ks) } else { 0.0 });
-    let p_glossy = if lum_d + lum_s > 0.0 { lum_s / (lum_d + lum_s) } else { 0.0 };
-    for j in 0..s.per_primary {
-        let q = first + j;
-        if r.real {
-            sums.real_samples += 1;
-        } else {
-            sums.virtual_samples += 1;
-        }
-        // Direct light: look-up q of the table.
+    }
+
+    /// Direct light of sample `q`: look-up `q` of the environment table with one BVH and one
+    /// screen-space shadow ray; `(real world alone, both worlds)` (a virtual receiver has only the latter).
+    fn direct(&self, sums: &mut Sums, q: u32) -> (Vec3, Vec3) {
+        let (s, r) = (self.s, self.r);
         sums.look_ups += 1;
         let entry = if s.stratified {
-            stratified_entry(shift, q)
+            stratified_entry(self.shift, q)
         } else {
-            uniform_entry(draw(s, seed, pixel, pair::ENVIRONMENT, q).x)
+            uniform_entry(self.draw(pair::ENVIRONMENT, q).x)
         };
-        let e = env.table(entry as usize);
+        let e = self.env.table(entry as usize);
         let cos = r.n.dot(e.dir);
         let (mut dir_r, mut dir_rv) = (Vec3::ZERO, Vec3::ZERO);
         if cos > 0.0 && e.pdf > 0.0 {
-            // One BVH and one screen-space shadow ray.
-            sums.shadow_rays += 2;
-            let bright = luminance(e.radiance) >= s.occluder_luminance;
-            let t_v = if bright {
-                world.scene.intersect(origin, e.dir, 0.0, f32::INFINITY).map(|h| h.t)
-            } else {
-                world.scene.occluded(origin, e.dir, 0.0, f32::INFINITY).then_some(f32::INFINITY)
-            };
-            let t_r = match world.screen(sums, origin, e.dir) {
-                ScreenHit::Hit { t, .. } => Some(t),
-                _ => None,
-            };
-            if t_v.is_some() || t_r.is_some() {
-                sums.blocked += 1;
-                let t = t_v.unwrap_or(f32::INFINITY).min(t_r.unwrap_or(f32::INFINITY));
-                if bright && t.is_finite() && t > 0.0 {
-                    sums.occluder = sums.occluder.max(cos / t);
-                }
-            }
+            let (t_v, t_r) = self.shadow_rays(sums, &e, cos);
             let l = e.radiance * (cos / e.pdf);
             if r.real {
                 let lit = l * std::f32::consts::FRAC_1_PI;
@@ -289,97 +310,169 @@ fn secondary(
                     }
                 }
             } else if t_r.is_none() && t_v.is_none() {
-                dir_rv = per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, e.dir));
+                dir_rv = self.per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, e.dir));
             }
         }
-        // Indirect light: one direction from the receiver's BRDF.
-        let u = draw(s, seed, pixel, pair::HEMISPHERE_DIFFUSE, q);
-        let pick = draw(s, seed, pixel, pair::HEMISPHERE_GLOSSY, q);
-        let wi = if glossy && pick.x < p_glossy {
-            sample_glossy(Lobe::Phong, r.m, r.n, r.wo, u).0
+        (dir_r, dir_rv)
+    }
+
+    /// The BVH and the screen-space shadow ray toward look-up `e` (`cos` = its cosine at the receiver):
+    /// the distances to the virtual and the real blocker. A bright look-up's nearest blocker sets the
+    /// occluder term (a dim one's BVH ray only asks whether anything is in the way: `INFINITY`).
+    fn shadow_rays(&self, sums: &mut Sums, e: &EnvSample, cos: f32) -> (Option<f32>, Option<f32>) {
+        let (world, origin) = (self.world, self.origin);
+        sums.shadow_rays += 2;
+        let bright = luminance(e.radiance) >= self.s.occluder_luminance;
+        let t_v = if bright {
+            world.scene.intersect(origin, e.dir, 0.0, f32::INFINITY).map(|h| h.t)
         } else {
-            sample_diffuse(r.n, u)
+            world.scene.occluded(origin, e.dir, 0.0, f32::INFINITY).then_some(f32::INFINITY)
         };
+        let t_r = match world.screen(sums, origin, e.dir) {
+            ScreenHit::Hit { t, .. } => Some(t),
+            _ => None,
+        };
+        if t_v.is_some() || t_r.is_some() {
+            sums.blocked += 1;
+            let t = t_v.unwrap_or(f32::INFINITY).min(t_r.unwrap_or(f32::INFINITY));
+            if bright && t.is_finite() && t > 0.0 {
+                sums.occluder = sums.occluder.max(cos / t);
+            }
+        }
+        (t_v, t_r)
+    }
+
+    /// Indirect light of sample `q`: one direction from the receiver's BRDF, traced in both worlds;
+    /// `(real world alone, both worlds: the nearest hit)`.
+    fn indirect(&self, sums: &mut Sums, q: u32) -> (Vec3, Vec3) {
+        let r = self.r;
+        let wi = self.indirect_direction(q);
         let cos_i = r.n.dot(wi);
         let (mut ind_r, mut ind_rv) = (Vec3::ZERO, Vec3::ZERO);
         if cos_i > 0.0 && wi.is_finite() {
-            // The mixture pdf of the two lobes (diffuse alone: cos/π).
-            let pdf_d = cos_i * std::f32::consts::FRAC_1_PI;
-            let pdf = if glossy {
-                (1.0 - p_glossy) * pdf_d + p_glossy * glossy_pdf(Lobe::Phong, r.m, r.n, r.wo, wi)
-            } else {
-                pdf_d
-            };
+            let pdf = self.indirect_pdf(cos_i, wi);
             sums.ind_rays += 1;
             // One BVH and one screen-space ray.
             sums.indirect_rays += 2;
-            let hit_v = world.scene.intersect(origin, wi, 0.0, f32::INFINITY);
-            let hit_r = world.screen(sums, origin, wi);
-            let l_r = match hit_r {
-                ScreenHit::Hit { t, x, y } => Some((t, world.screen.layer.camera(x, y))),
-                _ => None,
-            };
-            let l_v = hit_v.map(|h| {
-                let sp = world.scene.surface(&h, origin, wi);
-                let mat = &world.scene.scene().materials[sp.material as usize];
-                let kd = world.scene.scene().albedo(&sp);
-                let u_env = draw(s, seed, pixel, pair::PATH, q).x;
-                let l = virtual_hit_radiance(
-                    world,
-                    s,
-                    sums,
-                    sp.position,
-                    sp.shading_normal,
-                    -wi,
-                    (kd, mat.specular, mat.phong_exponent),
-                    u_env,
-                );
-                (h.t, l)
-            });
+            let (l_r, l_v) = self.trace_indirect(sums, wi, q);
             let nearest = match (l_r, l_v) {
                 (Some(a), Some(b)) => Some(if a.0 < b.0 { a } else { b }),
                 (a, b) => a.or(b),
             };
             if let Some((t, _)) = nearest {
-                sums.ind_hits += 1;
-                if sums.ind_hits == 1 {
-                    (sums.z_min, sums.z_max) = (t, t);
-                } else {
-                    sums.z_min = sums.z_min.min(t);
-                    sums.z_max = sums.z_max.max(t);
-                }
+                record_indirect_depth(sums, t);
             }
             if pdf > 0.0 {
-                let weight = |l: Vec3| {
-                    if r.real {
-                        l * (cos_i * std::f32::consts::FRAC_1_PI / pdf)
-                    } else {
-                        per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, wi) * (cos_i / pdf))
-                    }
-                };
                 if let Some((_, l)) = l_r {
-                    ind_r = weight(l);
+                    ind_r = self.indirect_weight(l, wi, cos_i, pdf);
                 }
                 if let Some((_, l)) = nearest {
-                    ind_rv = weight(l);
+                    ind_rv = self.indirect_weight(l, wi, cos_i, pdf);
                 }
             }
         }
-        for v in [dir_r, dir_rv, ind_r, ind_rv] {
-            if !v.is_finite() {
-                sums.non_finite += 1;
-            }
-        }
-        let f = |v: Vec3| if v.is_finite() { v } else { Vec3::ZERO };
-        if r.real {
-            sums.e_r_dir += f(dir_r);
-            sums.e_rv_dir += f(dir_rv);
-            sums.e_r_ind += f(ind_r);
-            sums.e_rv_ind += f(ind_rv);
+        (ind_r, ind_rv)
+    }
+
+    /// Sample `q`'s indirect direction: the glossy lobe with probability `p_glossy`, else the diffuse one.
+    fn indirect_direction(&self, q: u32) -> Vec3 {
+        let r = self.r;
+        let u = self.draw(pair::HEMISPHERE_DIFFUSE, q);
+        let pick = self.draw(pair::HEMISPHERE_GLOSSY, q);
+        if self.glossy && pick.x < self.p_glossy {
+            sample_glossy(Lobe::Phong, r.m, r.n, r.wo, u).0
         } else {
-            sums.e_v_dir += f(dir_rv);
-            sums.e_v_ind += f(ind_rv);
+            sample_diffuse(r.n, u)
         }
+    }
+
+    /// The mixture pdf of the two lobes toward `wi` (diffuse alone: cos/π).
+    fn indirect_pdf(&self, cos_i: f32, wi: Vec3) -> f32 {
+        let r = self.r;
+        let pdf_d = cos_i * std::f32::consts::FRAC_1_PI;
+        if self.glossy {
+            (1.0 - self.p_glossy) * pdf_d + self.p_glossy * glossy_pdf(Lobe::Phong, r.m, r.n, r.wo, wi)
+        } else {
+            pdf_d
+        }
+    }
+
+    /// The indirect ray `wi` in both worlds: `(distance, radiance)` of the real (screen-space) hit, the
+    /// camera image there, and of the virtual (BVH) hit, one environment look-up there.
+    fn trace_indirect(&self, sums: &mut Sums, wi: Vec3, q: u32) -> (Option<IndirectHit>, Option<IndirectHit>) {
+        let (world, origin) = (self.world, self.origin);
+        let hit_v = world.scene.intersect(origin, wi, 0.0, f32::INFINITY);
+        let hit_r = world.screen(sums, origin, wi);
+        let l_r = match hit_r {
+            ScreenHit::Hit { t, x, y } => Some((t, world.screen.layer.camera(x, y))),
+            _ => None,
+        };
+        let l_v = hit_v.map(|h| {
+            let sp = world.scene.surface(&h, origin, wi);
+            let mat = &world.scene.scene().materials[sp.material as usize];
+            let kd = world.scene.scene().albedo(&sp);
+            let u_env = self.draw(pair::PATH, q).x;
+            let l = virtual_hit_radiance(
+                world,
+                self.s,
+                sums,
+                sp.position,
+                sp.shading_normal,
+                -wi,
+                (kd, mat.specular, mat.phong_exponent),
+                u_env,
+            );
+            (h.t, l)
+        });
+        (l_r, l_v)
+    }
+
+    /// Radiance `l` arriving along `wi` as the receiver's estimate: over the diffuse BRDF for a real
+    /// receiver (albedo divided out), through the Phong BRDF and divided by k_V for a virtual one.
+    fn indirect_weight(&self, l: Vec3, wi: Vec3, cos_i: f32, pdf: f32) -> Vec3 {
+        let r = self.r;
+        if r.real {
+            l * (cos_i * std::f32::consts::FRAC_1_PI / pdf)
+        } else {
+            self.per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, wi) * (cos_i / pdf))
+        }
+    }
+}
+
+/// An indirect ray's hit: its distance and the radiance it sends back toward the receiver.
+type IndirectHit = (f32, Vec3);
+
+/// Note an indirect hit at distance `t`: the pixel's hit count and the range of hit distances.
+fn record_indirect_depth(sums: &mut Sums, t: f32) {
+    sums.ind_hits += 1;
+    if sums.ind_hits == 1 {
+        (sums.z_min, sums.z_max) = (t, t);
+    } else {
+        sums.z_min = sums.z_min.min(t);
+        sums.z_max = sums.z_max.max(t);
+    }
+}
+
+/// Count one secondary sample and add its estimates `[dir_r, dir_rv, ind_r, ind_rv]` to its receiver
+/// kind's sums (a virtual receiver has only the both-worlds ones); a non-finite estimate is counted
+/// and adds 0.
+fn add_sample(sums: &mut Sums, real: bool, [dir_r, dir_rv, ind_r, ind_rv]: [Vec3; 4]) {
+    for v in [dir_r, dir_rv, ind_r, ind_rv] {
+        if !v.is_finite() {
+            sums.non_finite += 1;
+        }
+    }
+    let f = |v: Vec3| if v.is_finite() { v } else { Vec3::ZERO };
+    if real {
+        sums.real_samples += 1;
+        sums.e_r_dir += f(dir_r);
+        sums.e_rv_dir += f(dir_rv);
+        sums.e_r_ind += f(ind_r);
+        sums.e_rv_ind += f(ind_rv);
+    } else {
+        sums.virtual_samples += 1;
+        sums.e_v_dir += f(dir_rv);
+        sums.e_v_ind += f(ind_rv);
     }
 }
 
