@@ -1,7 +1,7 @@
 //! `mr.sample`: the two-mode sampler of Algorithm 1 (see [`super`]); WGSL `shaders/mr_sample.wgsl`.
 
 use glam::{Vec2, Vec3};
-use wedge_scene::{Camera, EnvSample, EnvironmentMap, Scene, SceneAt};
+use wedge_scene::{Camera, EnvSample, EnvironmentMap, Hit, RealLayer, Scene, SceneAt};
 
 use wedge_backends::kernels::environment::{brdf, stratified_entry, uniform_entry};
 use wedge_backends::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
@@ -512,44 +512,70 @@ pub fn sample_pixel(
             (Some(_), None) => false,
         };
         let first = i * s.per_primary;
-        if real {
+        let r = if real {
             sums.real_primary += 1;
             let Some(p) = real_point else {
                 // Neither world has a surface here: the camera image shows the environment.
                 continue;
             };
             let n = layer.normal(px, py);
-            let r = Receiver { x: p, n, wo: -d, kd: Vec3::ONE, ks: Vec3::ZERO, m: 0.0, real: true };
-            secondary(&world, s, seed, pixel, shift, first, &r, &mut sums);
+            Receiver { x: p, n, wo: -d, kd: Vec3::ONE, ks: Vec3::ZERO, m: 0.0, real: true }
         } else {
             let h = hit.expect("a virtual sample has a hit");
-            let sp = world.scene.surface(&h, o, d);
-            let mat = &scene.materials[sp.material as usize];
-            let (kd, ks, m) = (scene.albedo(&sp), mat.specular, mat.phong_exponent);
-            sums.virtual_primary += 1;
-            sums.k_v += kd + ks;
-            sums.virtual_position += sp.position;
-            sums.virtual_normal += sp.shading_normal;
-            if sums.virtual_object == 0 {
-                sums.virtual_object = 1 + sp.object;
-            }
-            let glossy = m > 0.0 && ks.max_element() > 0.0;
-            sums.exponent += if glossy { m } else { 0.0 };
-            let c = sp.shading_normal.dot(-d).abs().max(0.05);
-            footprint += h.t * pixel_angle / c.sqrt();
-            let r = Receiver { x: sp.position, n: sp.shading_normal, wo: -d, kd, ks, m, real: false };
-            secondary(&world, s, seed, pixel, shift, first, &r, &mut sums);
-        }
+            let (r, area) = virtual_receiver(&world, &mut sums, &h, o, d, pixel_angle);
+            footprint += area;
+            r
+        };
+        secondary(&world, s, seed, pixel, shift, first, &r, &mut sums);
     }
-    let mean = |v: Vec3, n: u32| if n > 0 { (v / n as f32).to_array() } else { [0.0; 3] };
-    let (nr, nv) = (sums.real_samples, sums.virtual_samples);
-    let total = sums.real_primary + sums.virtual_primary;
-    let m_real = if total > 0 { sums.real_primary as f32 / total as f32 } else { 1.0 };
-    let k_v = mean(sums.k_v, sums.virtual_primary);
-    // The filter's surface: the pixel's majority kind (real on a tie); none where neither has one.
+    let surface = filter_surface(&sums, s, layer, camera, (px, py), pixel_angle, footprint);
+    pixel_outputs(&sums, surface)
+}
+
+/// The virtual surface a camera ray `(o, d)` hit at `h`, as a receiver; its texture, position, normal,
+/// object and Phong exponent go into the pixel's sums, and its footprint term (the hit's
+/// world-space width over one pixel, widened at grazing angles) is returned with it.
+fn virtual_receiver(
+    world: &World<'_>,
+    sums: &mut Sums,
+    h: &Hit,
+    o: Vec3,
+    d: Vec3,
+    pixel_angle: f32,
+) -> (Receiver, f32) {
+    let scene = world.scene.scene();
+    let sp = world.scene.surface(h, o, d);
+    let mat = &scene.materials[sp.material as usize];
+    let (kd, ks, m) = (scene.albedo(&sp), mat.specular, mat.phong_exponent);
+    sums.virtual_primary += 1;
+    sums.k_v += kd + ks;
+    sums.virtual_position += sp.position;
+    sums.virtual_normal += sp.shading_normal;
+    if sums.virtual_object == 0 {
+        sums.virtual_object = 1 + sp.object;
+    }
+    let glossy = m > 0.0 && ks.max_element() > 0.0;
+    sums.exponent += if glossy { m } else { 0.0 };
+    let c = sp.shading_normal.dot(-d).abs().max(0.05);
+    let area = h.t * pixel_angle / c.sqrt();
+    let r = Receiver { x: sp.position, n: sp.shading_normal, wo: -d, kd, ks, m, real: false };
+    (r, area)
+}
+
+/// The filters' surface at the pixel, `(position, normal)` as the buffers hold them: the pixel's
+/// majority kind (real on a tie); none where neither has one.
+fn filter_surface(
+    sums: &Sums,
+    s: &MrSettings,
+    layer: &RealLayer,
+    camera: &Camera,
+    (px, py): (u32, u32),
+    pixel_angle: f32,
+    footprint: f32,
+) -> ([f32; 4], [f32; 4]) {
     let real_surfaces = sums.real_samples / s.per_primary.max(1);
-    let (position, normal) = if real_surfaces > 0 && real_surfaces >= sums.virtual_primary {
-        let p = real_point.expect("real samples have the pixel's real point");
+    if real_surfaces > 0 && real_surfaces >= sums.virtual_primary {
+        let p = layer.position(px, py).expect("real samples have the pixel's real point");
         let n = layer.normal(px, py);
         let z = (p - camera.position).length();
         let c = n.dot((camera.position - p).normalize_or_zero()).abs().max(0.05);
@@ -561,7 +587,17 @@ pub fn sample_pixel(
         ([p.x, p.y, p.z, sums.virtual_object as f32], [n.x, n.y, n.z, footprint / k])
     } else {
         ([0.0; 4], [0.0; 4])
-    };
+    }
+}
+
+/// The pixel's outputs from its sums: each sum over its own sample count, `(position, normal)` from
+/// [`filter_surface`].
+fn pixel_outputs(sums: &Sums, (position, normal): ([f32; 4], [f32; 4])) -> MrPixel {
+    let mean = |v: Vec3, n: u32| if n > 0 { (v / n as f32).to_array() } else { [0.0; 3] };
+    let (nr, nv) = (sums.real_samples, sums.virtual_samples);
+    let total = sums.real_primary + sums.virtual_primary;
+    let m_real = if total > 0 { sums.real_primary as f32 / total as f32 } else { 1.0 };
+    let k_v = mean(sums.k_v, sums.virtual_primary);
     let exponent = if sums.virtual_primary > 0 { sums.exponent / sums.virtual_primary as f32 } else { 0.0 };
     MrPixel {
         e: [
