@@ -116,13 +116,14 @@ pub fn gather(
 ) -> [f32; 3] {
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for dy in -ry..=ry {
-        for dx in -rx..=rx {
-            let (jx, jy) = (x + dx, y + dy);
-            if jx < 0 || jy < 0 || jx >= width || jy >= height {
-                continue;
-            }
-            let j = (jy * width + jx) as usize;
+    // The window clipped to the image once, rather than each tap tested: the same taps in the same
+    // order.
+    let (dy0, dy1) = ((-ry).max(-y), ry.min(height - 1 - y));
+    let (dx0, dx1) = ((-rx).max(-x), rx.min(width - 1 - x));
+    for dy in dy0..=dy1 {
+        let row = (y + dy) * width + x;
+        for dx in dx0..=dx1 {
+            let j = (row + dx) as usize;
             let v = value[j];
             if !is_finite3(v) {
                 continue;
