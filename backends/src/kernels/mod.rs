@@ -47,6 +47,18 @@ pub fn v3(a: [f32; 4]) -> glam::Vec3 {
     glam::Vec3::new(a[0], a[1], a[2])
 }
 
+/// Widen a running range `(min, max)` of a pixel's samples by `v`; `first` (the pixel's first such
+/// sample) starts it at `(v, v)`. The samplers keep the ranges of circles of confusion, occluder
+/// and indirect-hit distances this way.
+pub fn widen_range((min, max): (&mut f32, &mut f32), v: f32, first: bool) {
+    if first {
+        (*min, *max) = (v, v);
+    } else {
+        *min = min.min(v);
+        *max = max.max(v);
+    }
+}
+
 /// Whether all three components are finite.
 pub fn is_finite3(v: [f32; 3]) -> bool {
     v[0].is_finite() && v[1].is_finite() && v[2].is_finite()

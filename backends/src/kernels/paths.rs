@@ -84,7 +84,7 @@ use crate::kernels::direct::{light_centre_factor, light_sample, FormFactor};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays};
-use crate::kernels::luminance;
+use crate::kernels::{luminance, widen_range};
 use crate::params::{KernelParams, Sampling};
 use crate::record;
 use crate::rng::PixelRng;
@@ -749,12 +749,7 @@ fn trace_one(
     let z = (x - s.camera.position).dot(view.forward);
     r.depth += w * z;
     let coc = s.camera.coc_pixels(z, view.height).abs();
-    if r.hits == 1 {
-        (r.r_min, r.r_max) = (coc, coc);
-    } else {
-        r.r_min = r.r_min.min(coc);
-        r.r_max = r.r_max.max(coc);
-    }
+    widen_range((&mut r.r_min, &mut r.r_max), coc, r.hits == 1);
     let mat = &scene.scene().materials[sp.material as usize];
     let (ks, m) = (mat.specular, mat.phong_exponent);
     let glossy = m > 0.0 && ks.max_element() > 0.0;
@@ -818,12 +813,7 @@ fn trace_direct(
         if let Some(o) = ls.occluder {
             let d2 = o.distance;
             r.occluded += 1;
-            if r.occluded == 1 {
-                (r.d2_min, r.d2_max) = (d2, d2);
-            } else {
-                r.d2_min = r.d2_min.min(d2);
-                r.d2_max = r.d2_max.max(d2);
-            }
+            widen_range((&mut r.d2_min, &mut r.d2_max), d2, r.occluded == 1);
             let vs = if s.time {
                 let occluder = scene.surface(&o.hit, o.origin, o.dir);
                 shadow_velocity(projection, x, d1, d2, scene.velocity(&occluder))
@@ -1004,12 +994,7 @@ fn indirect_ray(
     r.bounce_shadow += rays.shadow as u32;
     if let Some(t) = t {
         r.indirect_hits += 1;
-        if r.indirect_hits == 1 {
-            (r.z_min, r.z_max) = (t, t);
-        } else {
-            r.z_min = r.z_min.min(t);
-            r.z_max = r.z_max.max(t);
-        }
+        widen_range((&mut r.z_min, &mut r.z_max), t, r.indirect_hits == 1);
     }
     v
 }

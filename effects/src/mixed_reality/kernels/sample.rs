@@ -5,9 +5,9 @@ use wedge_scene::{Camera, EnvSample, EnvironmentMap, Hit, RealLayer, Scene, Scen
 
 use wedge_backends::kernels::environment::{brdf, stratified_entry, uniform_entry};
 use wedge_backends::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
-use wedge_backends::kernels::luminance;
 use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::screen_trace::{ScreenHit, ScreenTracer};
+use wedge_backends::kernels::{luminance, widen_range};
 use wedge_backends::sobol::{independent2, pair, sequence_key, sobol2};
 use wedge_backends::{
     BackendError, Counters, Kernel, KernelCtx, KernelParams, PutWith, Sampling, Uniforms, WgslSource,
@@ -445,12 +445,7 @@ type IndirectHit = (f32, Vec3);
 /// Note an indirect hit at distance `t`: the pixel's hit count and the range of hit distances.
 fn record_indirect_depth(sums: &mut Sums, t: f32) {
     sums.ind_hits += 1;
-    if sums.ind_hits == 1 {
-        (sums.z_min, sums.z_max) = (t, t);
-    } else {
-        sums.z_min = sums.z_min.min(t);
-        sums.z_max = sums.z_max.max(t);
-    }
+    widen_range((&mut sums.z_min, &mut sums.z_max), t, sums.ind_hits == 1);
 }
 
 /// Count one secondary sample and add its estimates `[dir_r, dir_rv, ind_r, ind_rv]` to its receiver
