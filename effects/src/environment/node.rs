@@ -176,7 +176,7 @@ impl NodeKind for Environment {
             ParamDecl::boolean("indirect", false, "also sample and filter one-bounce indirect light (eq. 6.18)"),
             ParamDecl::int("indirect_per_primary", 4, 1, 4096, "one-bounce indirect samples per primary ray, with `indirect`"),
             ParamDecl::boolean("temporal", false, "join the previous frame's reprojected irradiance in the y pass (eqs. 6.24-6.26)"),
-            ParamDecl::int("max_radius", 15, 1, 64, "filter half-width in pixels (the thesis's 30 × 30 window)"),
+            ParamDecl::int("max_radius", 8, 1, 64, "filter half-width and widest σ in pixels (15: the thesis's 30 × 30 window; 8 measured better, docs/RESULTS.md)"),
             ParamDecl::int("max_motion", 32, 0, 4096, "with `temporal`: pixels a point may move between frames and keep its history (bounds the rows the history pass reads)"),
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "occluded look-ups dimmer than this × the map's mean radiance do not set the occluder term (Sec. 6.7: 0.1)"),
             ParamDecl::choice("adaptive", "glossy", AdaptiveLookUps::OPTIONS, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension): at glossy receivers, every receiver, or off (the thesis's fixed count)"),
