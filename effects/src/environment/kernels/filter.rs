@@ -167,6 +167,7 @@ struct Window {
     len: usize,
 }
 
+/// The [`Window`] of pixel `(x, y)` along `axis`, clipped to the `width` × `height` image.
 fn window(x: i32, y: i32, width: i32, height: i32, axis: usize, radius: i32) -> Window {
     let (at, len, stride) = if axis == 0 { (x, width, 1) } else { (y, height, width) };
     let (lo, hi) = ((-radius).max(-at), radius.min(len - 1 - at));
