@@ -149,7 +149,7 @@ impl UsedTaps {
     }
 
     /// Each used tap's index and weight, the nearest weighing 1; `None` when no tap weighs
-    /// ([`RelativeWeights::new`]).
+    /// ([`RelativeWeights::from_nearest`]).
     fn weighted(&self) -> Option<impl Iterator<Item = (usize, f32)> + '_> {
         let weights = RelativeWeights::from_nearest(self.nearest)?;
         let Window { first, stride, len } = self.window;
