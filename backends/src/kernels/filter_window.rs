@@ -104,42 +104,68 @@ impl Axis {
 
 /// The weighted mean over the window of half-extents `(rx, ry)` around `(x, y)` of the finite
 /// values whose neighbour test `weight(j, (dx, dy))` gives a weight; the centre value where none
-/// does. The irradiance and defocus filters are this loop with their own weights (WGSL: the same order of terms).
+/// does. The defocus filter is this loop with its own weights (WGSL: the same order of terms).
 pub fn gather(
     x: i32,
     y: i32,
     width: i32,
     height: i32,
-    (rx, ry): (i32, i32),
+    extent: (i32, i32),
     value: &[[f32; 3]],
     weight: impl Fn(usize, (i32, i32)) -> Option<f32>,
 ) -> [f32; 3] {
+    let tap = |j: usize, v: &[f32; 3], d: (i32, i32)| {
+        if !is_finite3(*v) {
+            return None;
+        }
+        weight(j, d).map(|w| (w, *v))
+    };
+    gather_taps(x, y, width, height, extent, value, tap).unwrap_or(value[(y * width + x) as usize])
+}
+
+/// The loop under [`gather`], over any per-pixel records: `tap(j, &records[j], (dx, dy))` gives
+/// a neighbour's weight and value or `None` (not used); the weighted mean of the used ones in row
+/// order, `None` where no weight was positive. The window is clipped to the image once and each of
+/// its rows walked as a slice, rather than each tap tested and indexed: the same taps in the same
+/// order (`filter.irradiance` hands it records that fold its per-tap tests into one, [`super::irradiance_filter`]).
+pub fn gather_taps<T>(
+    x: i32,
+    y: i32,
+    width: i32,
+    height: i32,
+    (rx, ry): (i32, i32),
+    records: &[T],
+    tap: impl Fn(usize, &T, (i32, i32)) -> Option<(f32, [f32; 3])>,
+) -> Option<[f32; 3]> {
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    // The window clipped to the image once, rather than each tap tested: the same taps in the same
-    // order.
     let (dy0, dy1) = ((-ry).max(-y), ry.min(height - 1 - y));
     let (dx0, dx1) = ((-rx).max(-x), rx.min(width - 1 - x));
-    for dy in dy0..=dy1 {
-        let row = (y + dy) * width + x;
-        for dx in dx0..=dx1 {
-            let j = (row + dx) as usize;
-            let v = value[j];
-            if !is_finite3(v) {
-                continue;
-            }
-            let Some(w) = weight(j, (dx, dy)) else { continue };
+    let mut add = |j: usize, r: &T, d: (i32, i32)| {
+        if let Some((w, v)) = tap(j, r, d) {
             for c in 0..3 {
                 sum[c] += w * v[c];
             }
             wsum += w;
         }
-    }
-    if wsum > 0.0 {
-        [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum]
+    };
+    if dx0 == dx1 {
+        // One column (a y pass): a strided walk, not one slice per row.
+        let first = ((y + dy0) * width + x + dx0) as usize;
+        let column = records[first..].iter().step_by(width as usize);
+        for ((k, r), dy) in column.enumerate().zip(dy0..=dy1) {
+            add(first + k * width as usize, r, (dx0, dy));
+        }
     } else {
-        value[(y * width + x) as usize]
+        for dy in dy0..=dy1 {
+            let first = ((y + dy) * width + x + dx0) as usize;
+            let row = &records[first..=first + (dx1 - dx0) as usize];
+            for (k, r) in row.iter().enumerate() {
+                add(first + k, r, (dx0 + k as i32, dy));
+            }
+        }
     }
+    (wsum > 0.0).then(|| [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum])
 }
 
 crate::kernel_params! {

@@ -15,8 +15,8 @@
 use glam::Vec3;
 
 use crate::kernel::{Kernel, KernelCtx, WgslSource};
-use crate::kernels::filter_window::{gather, pair_weight, valid_width, Axis, ScreenRadius};
-use crate::kernels::{all_positive_zero, count_non_finite, v3};
+use crate::kernels::filter_window::{gather_taps, pair_weight, valid_width, Axis, ScreenRadius};
+use crate::kernels::{all_positive_zero, count_non_finite, is_finite3, v3};
 use crate::params::KernelParams;
 use crate::BackendError;
 
@@ -39,59 +39,62 @@ crate::kernel_bindings! {
     }
 }
 
-/// A pixel as the weights read it, prepared once per pass rather than per tap (each pixel is a
-/// neighbour of up to 2R + 1 others in a separable pass, and would have its normal normalised and
-/// its width divided as often): hit, lens-averaged position, unit normal (zero where none), and
-/// `g² = (Ω/ℓ_p)²`. The same operations in the same order as per tap, so the same bits.
+/// A pixel as its neighbours' weights read it, prepared once per pass rather than per tap (each
+/// pixel is a neighbour of up to 2R + 1 others in a separable pass, and would have its normal
+/// normalised, its width divided and its value tested as often): lens-averaged position, unit
+/// normal (zero where none), its value, and `g² = (Ω/ℓ_p)²` — NaN where the pixel is nobody's
+/// neighbour (no hit, or a non-finite value), which the rejection test refuses as it refuses any
+/// NaN exponent. One test per tap instead of three, the same decisions and the same operations in
+/// the same order as per tap: the same bits.
 #[derive(Clone, Copy)]
 pub struct Neighbour {
-    hit: bool,
     position: Vec3,
-    normal: Vec3,
     g2: f32,
+    normal: Vec3,
+    value: [f32; 3],
 }
 
 /// Every pixel of the pass as a [`Neighbour`].
-pub fn neighbours(position: &[[f32; 4]], normal: &[[f32; 4]], omega: &[f32], pixel_length: &[f32]) -> Vec<Neighbour> {
-    (0..position.len())
+pub fn neighbours(d: &IrradianceData<'_>) -> Vec<Neighbour> {
+    (0..d.position.len())
         .map(|j| {
-            let g = omega[j] / pixel_length[j];
+            let g = d.omega[j] / d.pixel_length[j];
+            let usable = is_hit(d.position[j]) && is_finite3(d.value[j]);
             Neighbour {
-                hit: is_hit(position[j]),
-                position: v3(position[j]),
-                normal: v3(normal[j]).normalize_or_zero(),
-                g2: g * g,
+                position: v3(d.position[j]),
+                g2: if usable { g * g } else { f32::NAN },
+                normal: v3(d.normal[j]).normalize_or_zero(),
+                value: d.value[j],
             }
         })
         .collect()
 }
 
 /// Eq. 5.31 at pixel `(x, y)`, its neighbours prepared by [`neighbours`].
-#[allow(clippy::too_many_arguments)]
 pub fn irradiance_pixel(
-    x: i32,
-    y: i32,
-    width: i32,
-    height: i32,
+    (x, y): (i32, i32),
+    (width, height): (i32, i32),
     p: &IrradianceParams,
-    value: &[[f32; 3]],
-    (omega, pixel_length): (&[f32], &[f32]),
+    d: &IrradianceData<'_>,
     prepared: &[Neighbour],
 ) -> [f32; 3] {
     let i = (y * width + x) as usize;
-    let centre = value[i];
-    let (om, ell, me) = (omega[i], pixel_length[i], prepared[i]);
-    if !valid_width(om) || !valid_width(ell) || !me.hit || me.normal == Vec3::ZERO {
+    let centre = d.value[i];
+    let (om, ell, me) = (d.omega[i], d.pixel_length[i], prepared[i]);
+    if !valid_width(om) || !valid_width(ell) || !is_hit(d.position[i]) || me.normal == Vec3::ZERO {
         return centre;
     }
+    // The pixel's own `g²` (its record's is NaN where its value is not finite: it still gathers).
+    let g = om / ell;
+    let gi2 = g * g;
     let extent = p.axis.extent(p.max_radius.window(om));
-    gather(x, y, width, height, extent, value, |j, _| {
-        let n = &prepared[j];
-        if !n.hit || me.normal.dot(n.normal) < p.normal_cos {
+    let tap = |_, n: &Neighbour, _| {
+        if me.normal.dot(n.normal) < p.normal_cos {
             return None;
         }
-        pair_weight((n.position - me.position).length_squared(), me.g2, n.g2)
-    })
+        pair_weight((n.position - me.position).length_squared(), gi2, n.g2).map(|w| (w, n.value))
+    };
+    gather_taps(x, y, width, height, extent, prepared, tap).unwrap_or(centre)
 }
 
 /// Whether a pixel's primary rays hit geometry (`position.w > 0`; false for NaN).
@@ -120,17 +123,14 @@ impl Kernel for IrradianceFilter {
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let io = IrradianceIo::read(ctx)?;
-        let IrradianceData { value, position, normal, omega, pixel_length, .. } = io;
         let p = IrradianceParams::read(ctx)?;
-        count_non_finite(ctx, value);
-        if all_positive_zero(value) {
-            return io.out.put(ctx, value.to_vec());
+        count_non_finite(ctx, io.value);
+        if all_positive_zero(io.value) {
+            return io.out.put(ctx, io.value.to_vec());
         }
-        let prepared = neighbours(position, normal, omega, pixel_length);
-        let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let out = ctx.map_pixels(false, |x, y| {
-            irradiance_pixel(x as i32, y as i32, w, h, &p, value, (omega, pixel_length), &prepared)
-        });
+        let prepared = neighbours(&io);
+        let size = (ctx.width as i32, ctx.height as i32);
+        let out = ctx.map_pixels(false, |x, y| irradiance_pixel((x as i32, y as i32), size, &p, &io, &prepared));
         io.out.put(ctx, out)
     }
 }
