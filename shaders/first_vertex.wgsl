@@ -2,7 +2,8 @@
 // first_vertex): emission + next-event estimation there, the indirect
 // estimate f L cos/pdf through one sample of the lobe mixture, its caustic part, and the radiance
 // sample radiance filtering stores (seed 002 Sec. 4.3.1). Shared by pixel_filter.sample and
-// radiance_filter.sample; the including kernel's Params are indirect_path.wgsl's.
+// radiance_filter.sample; the including kernel's Params are indirect_path.wgsl's and CameraPaths'
+// `continues` (0: the path stops at its first vertex, the direct light only).
 #include "indirect_path.wgsl"
 #include "lobe_mixture.wgsl"
 
@@ -49,7 +50,7 @@ fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVer
     v.albedo = kd;
     v.material = sp.material;
     let mix = lobe_mixture(kd, ks, m);
-    if (mix.some) {
+    if (mix.some && params.continues != 0u) {
         // trace_path_split's continuation numbers at bounce 0 (indirect.rs continuation_numbers).
         let wi = lobe_sample(params.lobe, m, n, wo, mix, rng_uniform2(key, j, DIM_BSDF), rng_uniform(key, j, LOBE_SELECT));
         v.sampled = true;

@@ -16,6 +16,7 @@
 const SPLIT_INDIRECT: u32 = 0u;
 const SPLIT_CAUSTICS: u32 = 1u;
 const SPLIT_ALL: u32 = 2u;
+const SPLIT_DIRECT: u32 = 3u;
 
 struct SplitSample {
     lv: vec3<f32>,
@@ -36,6 +37,7 @@ fn path_sample(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> SplitSamp
     if (params.split == SPLIT_CAUSTICS) {
         return SplitSample(v.direct + (v.indirect - v.caustic), v.caustic);
     }
+    // SPLIT_INDIRECT, or SPLIT_DIRECT (its paths stop at the first vertex: indirect is 0).
     return SplitSample(v.direct, v.indirect);
 }
 

@@ -73,6 +73,8 @@ pub struct CameraPaths {
     pub path: PathParams,
     pub stream: u32,
     pub camera: Camera,
+    /// Paths continue past their first vertex (`false`: the direct light there only).
+    pub continues: bool,
 }
 
 impl CameraPaths {
@@ -81,15 +83,19 @@ impl CameraPaths {
         let PathCount { count, stream } = PathCount::read(ctx)?;
         let TracerParams { bounces, brdf } = TracerParams::read(ctx)?;
         let path = PathParams::new(ctx, brdf, bounces, false, 0.0);
-        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera })
+        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera, continues: true })
     }
     /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
     pub fn specs() -> Vec<ParamSpec> {
         [PathCount::specs(), TracerParams::specs()].concat()
     }
-    /// The WGSL's `Params` fields for them: the camera, `count`, `stream` and `indirect_path.wgsl`'s.
+    /// The WGSL's `Params` fields for them: the camera, `count`, `stream`, `continues` and
+    /// `indirect_path.wgsl`'s.
     pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
-        let u = camera_uniforms(u, &self.camera).u32("count", self.count).u32("stream", self.stream);
+        let u = camera_uniforms(u, &self.camera)
+            .u32("count", self.count)
+            .u32("stream", self.stream)
+            .u32("continues", self.continues as u32);
         self.path.uniforms(u, ctx)
     }
     /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
@@ -106,7 +112,8 @@ impl CameraPaths {
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             for j in 0..self.count {
                 let (ray, t) = camera_ray(&self.camera, &rng, j, window.global_xy(px, py), window.full_size());
-                let v = first_vertex(&ctx.scene.at(t), &self.path, ray.origin, ray.dir, &rng, j, &mut rays);
+                let at = ctx.scene.at(t);
+                let v = first_vertex(&at, &self.path, self.continues, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {
                     bad += 1;
                 }
@@ -151,14 +158,15 @@ pub struct FirstVertex {
     pub bounce_distance: Option<f32>,
 }
 
-/// One path through the camera ray `(origin, dir)` up to its first vertex and beyond. Next-event
-/// estimation at the first vertex gives the direct light; the indirect light continues with one
-/// sample of the vertex's lobe mixture (as [`trace_path_split`] continues at later vertices, on the
-/// first vertex's dimensions, which the later vertices do not use).
+/// One path through the camera ray `(origin, dir)` up to its first vertex and, where it `continues`,
+/// beyond. Next-event estimation at the first vertex gives the direct light; the indirect light
+/// continues with one sample of the vertex's lobe mixture (as [`trace_path_split`] continues at
+/// later vertices, on the first vertex's dimensions, which the later vertices do not use).
 #[allow(clippy::too_many_arguments)]
 pub fn first_vertex(
     at: &SceneAt<'_>,
     p: &PathParams,
+    continues: bool,
     origin: Vec3,
     dir: Vec3,
     rng: &PixelRng,
@@ -197,7 +205,7 @@ pub fn first_vertex(
         bounce_distance: None,
     };
     // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
-    if let Some(mix) = lobe_mixture(kd, ks, m) {
+    if let Some(mix) = lobe_mixture(kd, ks, m).filter(|_| continues) {
         let (u, select) = continuation_numbers(rng, j, 0);
         let wi = mix.sample(p.lobe, m, n, wo, u, select);
         v.wi = Some(wi);

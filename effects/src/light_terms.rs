@@ -25,10 +25,15 @@ pub(crate) mod lobes {
 /// A whole path-traced image with next-event estimation at every vertex (area lights and the
 /// environment), `bounces` from the integer parameter of that name.
 pub(crate) fn path_traced(q: &TermQuery<'_>, view: View) -> Terms {
+    first_vertex_direct(view).with(Term::new(TermKind::Indirect, view).detail(q.bounces("bounces")))
+}
+
+/// A camera path's first vertex alone: what it sees directly and next-event estimation there (area
+/// lights through the whole Phong BRDF, the environment).
+pub(crate) fn first_vertex_direct(view: View) -> Terms {
     seen_directly(view)
         .with(Term::new(TermKind::DirectArea, view).detail(lobes::PHONG))
         .with(Term::new(TermKind::DirectEnvironment, view))
-        .with(Term::new(TermKind::Indirect, view).detail(q.bounces("bounces")))
 }
 
 /// `mode: "ao"`: ambient occlusion; else indirect light of `bounces` bounces, its lobes named by

@@ -8,12 +8,24 @@
 //! `indirect.sample`, at `spp` hemisphere samples per component, unfiltered); `direct: false` leaves
 //! the direct light out (an indirect-only baseline); `mode: "ao"` gives plain Monte Carlo ambient
 //! occlusion instead. `bounces: 0, mode: "radiance"` (the default) is the original direct-only node.
+//!
+//! Its own paths start from the `Primary` G-buffer, a pinhole at the shutter's centre. Where the
+//! pipeline's `camera:` block opens a lens or a shutter over an interval (on a moving scene) and no
+//! Defocus/Motion node factors the pipeline, a pinhole image would not be the Monte Carlo image of
+//! that camera (issue 34 §2): the node then traces `spp` camera paths per pixel through the lens and
+//! over the shutter instead, on the one camera-path tracer the progressive nodes sample with
+//! (`camera_paths.rs`, kernel `pixel_filter.sample`): next-event estimation at every vertex through
+//! the scene's materials (the whole Phong BRDF), the emission and the environment its rays see
+//! directly, `bounces` more vertices (`0`: the first vertex's direct light only). What that tracer
+//! does not do — one light of several, the light-centre form factor, independent light samples,
+//! ambient occlusion, indirect light without direct — is refused there, every such setting at once.
 
 use wedge_backends::kernels::compose::ModulateIo;
 use wedge_backends::kernels::direct::DirectIo;
 use wedge_backends::kernels::indirect::{ComposeIo, SampleIo};
 use wedge_graph::{
-    BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage,
+    BufferId, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, PortDecl, Reference, Stage, TermQuery,
+    View,
 };
 
 pub struct MonteCarlo;
@@ -43,11 +55,18 @@ impl NodeKind for MonteCarlo {
         vec![PortDecl::new("radiance", Format::Vec3, "the Monte Carlo estimate")]
     }
     /// Its own paths from the Primary G-buffer (a pinhole): direct light of one or every area light
-    /// with the wired `emission`, indirect light of `bounces`, or ambient occlusion.
-    fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
-        use wedge_graph::{Term, TermKind, Terms, View};
+    /// with the wired `emission`, indirect light of `bounces`, or ambient occlusion. Through the
+    /// camera block's lens or shutter (module doc): a path tracer's terms, seen that way.
+    fn terms(&self, port: &str, q: &TermQuery<'_>) -> Option<wedge_graph::Terms> {
+        use wedge_graph::{Term, TermKind, Terms};
         if port != "radiance" {
             return None;
+        }
+        if let Some(view) = camera_paths_view(q) {
+            return Some(match q.int("bounces").unwrap_or(0) {
+                0 => crate::light_terms::first_vertex_direct(view),
+                _ => crate::light_terms::path_traced(q, view),
+            });
         }
         if q.choice("mode") == Some("ao") {
             return Some(Terms::new().with(Term::new(TermKind::AmbientOcclusion, View::PINHOLE)));
@@ -108,6 +127,11 @@ impl NodeKind for MonteCarlo {
             _ => 0,
         };
         let direct = !ao && matches!(ctx.param("direct"), ParamValue::Bool(true));
+        if ctx.factoring().is_none() && !ctx.own_camera().fixed() {
+            refuse_what_camera_paths_lack(ctx)?;
+            through_the_camera(ctx, spp, bounces);
+            return Ok(());
+        }
         let (albedo, emission, specular) = (ctx.input("albedo"), ctx.input("emission"), ctx.input("specular"));
         if !ao && bounces == 0 {
             if !direct {
@@ -172,6 +196,68 @@ impl NodeKind for MonteCarlo {
         ctx.output("radiance", radiance);
         Ok(())
     }
+}
+
+/// The view of the node's own camera paths where it traces them through the `camera:` block's lens or
+/// over its shutter (no factoring node; module doc), else `None` (a pinhole: the G-buffer's paths).
+fn camera_paths_view(q: &TermQuery<'_>) -> Option<View> {
+    let view = q.camera_view();
+    (!q.factored() && view != View::PINHOLE).then_some(view)
+}
+
+/// The settings the camera-path tracer has no counterpart for (module doc), each with the value it
+/// does take (as RON writes it, `ParamValue`'s `Display`): any other is refused, all at once, before
+/// anything runs.
+const CAMERA_PATHS_LACK: [(&str, &str, &str); 5] = [
+    ("light", "-1", "it samples every area light"),
+    ("form_factor", "\"exact\"", "its next-event estimation takes the exact geometry term"),
+    ("sampling", "\"stratified\"", "its paths are stratified"),
+    ("mode", "\"radiance\"", "it traces radiance, not ambient occlusion"),
+    ("direct", "true", "its paths hold their direct light"),
+];
+
+fn refuse_what_camera_paths_lack(ctx: &ExpandCtx<'_>) -> Result<(), GraphError> {
+    let lacking: Vec<String> = CAMERA_PATHS_LACK
+        .iter()
+        .filter(|(name, taken, _)| ctx.param(name).to_string() != *taken)
+        .map(|(name, taken, why)| format!("`{name}: {}` ({why}; leave it at {taken})", ctx.param(name)))
+        .collect();
+    if lacking.is_empty() {
+        return Ok(());
+    }
+    Err(GraphError::Expand {
+        node: ctx.node().to_string(),
+        message: format!(
+            "traces its own camera paths through the camera: block's lens or open shutter (no Defocus or Motion \
+             node factors the pipeline), on the path tracer PixelFilter samples with, which cannot honour {} — or \
+             give the camera block aperture_radius: 0 and equal shutter times for the pinhole G-buffer estimator",
+            lacking.join(", ")
+        ),
+    })
+}
+
+/// `spp` camera paths per pixel through the camera block's lens and over its shutter, `bounces`
+/// vertices after the first (`split: "all"`), or the first vertex's direct light (`"direct"`); the
+/// mean of each pixel's finite paths is the image.
+fn through_the_camera(ctx: &mut ExpandCtx<'_>, spp: ParamValue, bounces: i64) {
+    use crate::pixel_filter::kernels::sample::SampleIo;
+    let (lv, hv) = (ctx.buffer("paths_lv", Format::Vec4), ctx.buffer("paths_hv", Format::Vec4));
+    let split = if bounces == 0 { "direct" } else { "all" };
+    SampleIo { lv, hv }
+        .bind(ctx.pass("sample", "pixel_filter.sample", Stage::Sample))
+        .param("count", spp)
+        .param("split", ParamValue::Str(split.into()))
+        .param("bounces", ParamValue::Int(bounces.max(1)))
+        .node_params(&["brdf"])
+        .random()
+        .reference(Reference::Sample)
+        .finish();
+    let radiance = ctx.buffer("radiance", Format::Vec3);
+    let value = if bounces == 0 { lv } else { hv };
+    ModulateIo { value, albedo: None, emission: None, out: radiance }
+        .bind(ctx.pass("compose", "compose.modulate", Stage::Compose))
+        .finish();
+    ctx.output("radiance", radiance);
 }
 
 /// A plain `direct.light` pass: `spp` samples from scratch, no occluder statistics.

@@ -44,9 +44,19 @@ impl NodeKind for PixelFilter {
         Some("its progressive path-traced radiance (a running mean of every frame so far)")
     }
     /// A whole path-traced image from its own camera paths: through the camera block's lens where it
-    /// has an aperture, over its shutter where it opens over an interval (`TermQuery::camera_view`).
+    /// has an aperture, over its shutter where it opens over an interval (`TermQuery::camera_view`);
+    /// with `split: "direct"` the paths stop at their first vertex.
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
-        matches!(port, "radiance" | "unfiltered").then(|| crate::light_terms::path_traced(q, q.camera_view()))
+        use crate::light_terms::{first_vertex_direct, path_traced};
+        let view = q.camera_view();
+        let direct_only = q.choice("split") == Some("direct");
+        matches!(port, "radiance" | "unfiltered").then(|| {
+            if direct_only {
+                first_vertex_direct(view)
+            } else {
+                path_traced(q, view)
+            }
+        })
     }
     fn params(&self) -> Vec<ParamDecl> {
         [

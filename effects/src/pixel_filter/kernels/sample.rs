@@ -21,13 +21,16 @@ wedge_backends::param_choice! {
         Caustics = "caustics",
         /// Everything in `L_u` (the thesis's Fig. 3.7).
         All = "all",
+        /// The direct light only (emission and next-event estimation at the first vertex) in `L_lv`,
+        /// the path not continued: nothing to filter (MonteCarlo through a lens, `bounces: 0`).
+        Direct = "direct",
     }
 }
 
 wedge_backends::kernel_params! {
     /// `pixel_filter.sample`'s own parameter (with [`CameraPaths`]'): the split.
     pub struct SampleParams {
-        split: Split = choice("indirect", Split::OPTIONS, "which paths are high-variance and filtered: indirect light, caustic paths (L S+ D E), or all"),
+        split: Split = choice("indirect", Split::OPTIONS, "which paths are high-variance and filtered: indirect light, caustic paths (L S+ D E), all, or none (direct: the direct light only, no indirect traced)"),
     }
 }
 
@@ -35,7 +38,9 @@ wedge_backends::kernel_params! {
 pub struct PixelSample;
 
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<(CameraPaths, SampleParams), BackendError> {
-    Ok((CameraPaths::read(ctx)?, SampleParams::read(ctx)?))
+    let s = SampleParams::read(ctx)?;
+    let paths = CameraPaths::read(ctx)?;
+    Ok((CameraPaths { continues: s.split != Split::Direct, ..paths }, s))
 }
 
 /// One camera path's `(L_lv, L_u)` under `split` (Sec. 3.3, Fig. 3.1).
@@ -44,7 +49,7 @@ pub fn split_path(v: &FirstVertex, split: Split) -> (Vec3, Vec3) {
         return if split == Split::All { (Vec3::ZERO, v.direct) } else { (v.direct, Vec3::ZERO) };
     }
     match split {
-        Split::Indirect => (v.direct, v.indirect),
+        Split::Indirect | Split::Direct => (v.direct, v.indirect),
         Split::Caustics => (v.direct + (v.indirect - v.caustic), v.caustic),
         Split::All => (Vec3::ZERO, v.direct + v.indirect),
     }
