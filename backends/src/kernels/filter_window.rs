@@ -151,10 +151,9 @@ pub fn gather_taps<T>(
     };
     if dx0 == dx1 {
         // One column (a y pass): a strided walk, not one slice per row.
-        let first = ((y + dy0) * width + x + dx0) as usize;
-        let column = records[first..].iter().step_by(width as usize);
-        for ((k, r), dy) in column.enumerate().zip(dy0..=dy1) {
-            add(first + k * width as usize, r, (dx0, dy));
+        let column = Line::along(x + dx0, y, (width, height), 1, ry);
+        for ((j, r), dy) in column.taps(records).zip(dy0..=dy1) {
+            add(j, r, (dx0, dy));
         }
     } else {
         for dy in dy0..=dy1 {
@@ -166,6 +165,37 @@ pub fn gather_taps<T>(
         }
     }
     (wsum > 0.0).then(|| [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum])
+}
+
+/// Pixel `(x, y)`'s 1-D window of half-width `radius` along one image axis (0: x, 1: y), clipped to
+/// the image: `len` pixels from index `first`, `stride` apart, in tap order — a column's walk in
+/// [`gather_taps`], and the Environment filter's separable passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Line {
+    pub first: usize,
+    pub stride: usize,
+    pub len: usize,
+}
+
+impl Line {
+    pub fn along(x: i32, y: i32, (width, height): (i32, i32), axis: usize, radius: i32) -> Line {
+        let (at, extent, stride) = if axis == 0 { (x, width, 1) } else { (y, height, width) };
+        let (lo, hi) = ((-radius).max(-at), radius.min(extent - 1 - at));
+        Line {
+            first: (y * width + x + lo * stride) as usize,
+            stride: stride as usize,
+            len: (hi - lo + 1).max(0) as usize,
+        }
+    }
+    /// Index of tap `t`.
+    pub fn index(&self, t: usize) -> usize {
+        self.first + t * self.stride
+    }
+    /// Each tap's index and record, in tap order.
+    pub fn taps<'a, T>(&self, records: &'a [T]) -> impl Iterator<Item = (usize, &'a T)> + 'a {
+        let Line { first, stride, len } = *self;
+        records[first..].iter().step_by(stride).take(len).enumerate().map(move |(t, r)| (first + t * stride, r))
+    }
 }
 
 crate::kernel_params! {

@@ -41,7 +41,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use wedge_scene::Camera;
 
-use wedge_backends::kernels::filter_window::WindowRadius;
+use wedge_backends::kernels::filter_window::{Line, WindowRadius};
 use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::{count_non_finite, is_finite3, v3};
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, Reach, Uniforms, WgslSource};
@@ -119,7 +119,7 @@ pub fn neighbours(
 /// used (NaN weighs nothing and is never the nearest, [`RelativeWeights`]), and the nearest used
 /// one's exponent: the weights need it before any is summed. No branch per tap.
 struct UsedTaps {
-    window: Window,
+    window: Line,
     exponent: [f32; 2 * MAX_RADIUS_LIMIT as usize + 1],
     nearest: f32,
 }
@@ -129,15 +129,14 @@ impl UsedTaps {
     /// at indices `j` in tap order: neighbour `j` is used where it is on the same object with a
     /// normal within `normal_cos`, and weighs `exp(−2 B̄² d²)`, `B̄² = ½(B²(i) + B²(j))` (eq. 6.22).
     fn gather(
-        window: Window,
+        window: Line,
         neighbours: &[Neighbour],
         (xi, oi, ni, b2i): (Vec3, f32, Vec3, f32),
         normal_cos: f32,
     ) -> UsedTaps {
         let mut exponent = [0.0; 2 * MAX_RADIUS_LIMIT as usize + 1];
         let mut nearest = f32::INFINITY;
-        let taps = neighbours[window.first..].iter().step_by(window.stride).take(window.len);
-        for (e, nb) in exponent.iter_mut().zip(taps) {
+        for (e, (_, nb)) in exponent.iter_mut().zip(window.taps(neighbours)) {
             let used = nb.object == oi && ni.dot(nb.normal) >= normal_cos;
             let d2 = (nb.position - xi).length_squared();
             let a = if used { 2.0 * (0.5 * (b2i + nb.b2)) * d2 } else { f32::NAN };
@@ -152,29 +151,8 @@ impl UsedTaps {
     /// ([`RelativeWeights::from_nearest`]).
     fn weighted(&self) -> Option<impl Iterator<Item = (usize, f32)> + '_> {
         let weights = RelativeWeights::from_nearest(self.nearest)?;
-        let Window { first, stride, len } = self.window;
-        let taps = self.exponent[..len].iter().enumerate();
-        Some(taps.filter_map(move |(t, &a)| Some((first + t * stride, weights.weight(a)?))))
-    }
-}
-
-/// Pixel `(x, y)`'s 1-D window of half-width `radius` along `axis`, those off the image left out:
-/// `len` pixels from index `first`, `stride` apart, in tap order.
-#[derive(Clone, Copy)]
-struct Window {
-    first: usize,
-    stride: usize,
-    len: usize,
-}
-
-/// The [`Window`] of pixel `(x, y)` along `axis`, clipped to the `width` × `height` image.
-fn window(x: i32, y: i32, width: i32, height: i32, axis: usize, radius: i32) -> Window {
-    let (at, len, stride) = if axis == 0 { (x, width, 1) } else { (y, height, width) };
-    let (lo, hi) = ((-radius).max(-at), radius.min(len - 1 - at));
-    Window {
-        first: (y * width + x + lo * stride) as usize,
-        stride: stride as usize,
-        len: (hi - lo + 1).max(0) as usize,
+        let taps = self.exponent[..self.window.len].iter().enumerate();
+        Some(taps.filter_map(move |(t, &a)| Some((self.window.index(t), weights.weight(a)?))))
     }
 }
 
@@ -237,7 +215,7 @@ pub fn filter_pixel(
         return centre;
     }
     let me = (neighbours[i].position, position[i][3], neighbours[i].normal, bi[axis] * bi[axis]);
-    let taps = window(x, y, width, height, axis, p.max_radius.get());
+    let taps = Line::along(x, y, (width, height), axis, p.max_radius.get());
     let used = UsedTaps::gather(taps, neighbours, me, p.normal_cos);
     let Some(weighted) = used.weighted() else {
         return centre;
@@ -339,7 +317,7 @@ pub fn history_pixel(
     }
     let Some((_, px, py)) = best else { return none };
     let bi = bandwidth[i][0];
-    let taps = window(px, py, width, height, 0, p.max_radius.get());
+    let taps = Line::along(px, py, (width, height), 0, p.max_radius.get());
     let used = UsedTaps::gather(taps, previous, (xi, position[i][3], ni, bi * bi), p.normal_cos);
     // No neighbour near enough to weigh anything: no history (as when there is no neighbour).
     let Some(weighted) = used.weighted() else {
