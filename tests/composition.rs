@@ -406,6 +406,49 @@ fn montecarlo_renders_through_the_camera_blocks_lens_and_shutter() {
     }
 }
 
+/// Energy through the lens: MonteCarlo's direct light (`bounces: 0`) plus its indirect light alone
+/// (`direct: false`) is accepted by `Add` (disjoint terms, one camera) and converges to the one node
+/// that traces both, each light and the emission counted once.
+#[test]
+fn montecarlo_through_a_lens_from_parts_equals_one_node() {
+    use common::progressive::rmse;
+    let c = &CAMERAS[0];
+    let whole = montecarlo_pipeline(c, c.open, 4, 1);
+    let node = |name: &str, params: &str| {
+        format!(
+            r#"(name: "{name}", kind: "MonteCarlo", params: {{"spp": 4, {params}}}, inputs: {{"position": "primary.position", "normal": "primary.normal"}}),"#
+        )
+    };
+    let parts = format!(
+        "Pipeline(scene: \"builtin:{}\", width: {}, height: {}, seed: 1,\n camera: Some(({})),\n nodes: [\n \
+         (name: \"primary\", kind: \"Primary\"),\n {}\n {}\n \
+         (name: \"sum\", kind: \"Add\", inputs: {{\"a\": \"direct.radiance\", \"b\": \"indirect.radiance\"}}),\n \
+         (name: \"out\", kind: \"Output\", inputs: {{\"color\": \"sum.radiance\"}}),\n])\n",
+        c.scene,
+        c.size.0,
+        c.size.1,
+        c.open,
+        node("direct", r#""bounces": 0"#),
+        node("indirect", r#""bounces": 1, "direct": false"#),
+    );
+    let size = sized(c.size.0, c.size.1, None, &[]);
+    let s = session_from_text(&parts, &size);
+    let terms = s.pipeline.terms.of("sum", "radiance").expect("declared").to_string();
+    assert!(terms.contains("indirect(1 bounce)") && terms.contains("emission") && terms.ends_with(c.view), "{terms}");
+    let (from_parts, one) = (reference_color(&parts, &size, 1024), reference_color(&whole, &size, 1024));
+    let closed = reference_color(&whole.replace(c.open, c.closed), &size, 1024);
+    let mean = |b: &wedge::backends::BufferData| match b {
+        wedge::backends::BufferData::Vec3(v) => {
+            v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / v.len() as f64
+        }
+        other => panic!("a vec3 image, not {other:?}"),
+    };
+    let (agree, blur) = (rmse(&from_parts, &one), rmse(&one, &closed));
+    println!("MonteCarlo parts vs one node through the lens: RMSE {agree:.4} (lens vs pinhole {blur:.4}), means {:.4} / {:.4}", mean(&from_parts), mean(&one));
+    assert!(agree < 0.25 * blur, "RMSE {agree} from parts, {blur} lens vs pinhole");
+    assert!((mean(&from_parts) / mean(&one) - 1.0).abs() < 0.01, "means {} vs {}", mean(&from_parts), mean(&one));
+}
+
 /// What MonteCarlo's G-buffer estimator does and the camera-path tracer does not is refused through
 /// the lens, every such setting in one message with the value to take.
 #[test]

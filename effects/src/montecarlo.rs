@@ -16,9 +16,9 @@
 //! over the shutter instead, on the one camera-path tracer the progressive nodes sample with
 //! (`camera_paths.rs`, kernel `pixel_filter.sample`): next-event estimation at every vertex through
 //! the scene's materials (the whole Phong BRDF), the emission and the environment its rays see
-//! directly, `bounces` more vertices (`0`: the first vertex's direct light only). What that tracer
-//! does not do — one light of several, the light-centre form factor, independent light samples,
-//! ambient occlusion, indirect light without direct — is refused there, every such setting at once.
+//! directly, `bounces` more vertices (`0`: the first vertex's direct light only; `direct: false`: the
+//! indirect light alone). What that tracer does not do — one light of several, the light-centre form
+//! factor, independent light samples, ambient occlusion — is refused there, every such setting at once.
 
 use wedge_backends::kernels::compose::ModulateIo;
 use wedge_backends::kernels::direct::DirectIo;
@@ -63,9 +63,10 @@ impl NodeKind for MonteCarlo {
             return None;
         }
         if let Some(view) = camera_paths_view(q) {
-            return Some(match q.int("bounces").unwrap_or(0) {
-                0 => crate::light_terms::first_vertex_direct(view),
-                _ => crate::light_terms::path_traced(q, view),
+            return Some(match (q.int("bounces").unwrap_or(0), q.flag("direct")) {
+                (0, _) => crate::light_terms::first_vertex_direct(view),
+                (_, true) => crate::light_terms::path_traced(q, view),
+                (_, false) => crate::light_terms::indirect_or_ao(q, view, ""),
             });
         }
         if q.choice("mode") == Some("ao") {
@@ -127,20 +128,19 @@ impl NodeKind for MonteCarlo {
             _ => 0,
         };
         let direct = !ao && matches!(ctx.param("direct"), ParamValue::Bool(true));
+        if !ao && bounces == 0 && !direct {
+            return Err(GraphError::Expand {
+                node: ctx.node().to_string(),
+                message: "`direct: false` with `bounces: 0` samples nothing; set bounces ≥ 1 or direct: true".into(),
+            });
+        }
         if ctx.factoring().is_none() && !ctx.own_camera().fixed() {
             refuse_what_camera_paths_lack(ctx)?;
-            through_the_camera(ctx, spp, bounces);
+            through_the_camera(ctx, spp, bounces, direct);
             return Ok(());
         }
         let (albedo, emission, specular) = (ctx.input("albedo"), ctx.input("emission"), ctx.input("specular"));
         if !ao && bounces == 0 {
-            if !direct {
-                return Err(GraphError::Expand {
-                    node: ctx.node().to_string(),
-                    message: "`direct: false` with `bounces: 0` samples nothing; set bounces ≥ 1 or direct: true"
-                        .into(),
-                });
-            }
             let estimate = ctx.buffer("estimate", Format::Vec4);
             direct_io(position, normal, estimate)
                 .bind(ctx.pass("sample", "direct.light", Stage::Sample))
@@ -208,12 +208,11 @@ fn camera_paths_view(q: &TermQuery<'_>) -> Option<View> {
 /// The settings the camera-path tracer has no counterpart for (module doc), each with the value it
 /// does take (as RON writes it, `ParamValue`'s `Display`): any other is refused, all at once, before
 /// anything runs.
-const CAMERA_PATHS_LACK: [(&str, &str, &str); 5] = [
+const CAMERA_PATHS_LACK: [(&str, &str, &str); 4] = [
     ("light", "-1", "it samples every area light"),
     ("form_factor", "\"exact\"", "its next-event estimation takes the exact geometry term"),
     ("sampling", "\"stratified\"", "its paths are stratified"),
     ("mode", "\"radiance\"", "it traces radiance, not ambient occlusion"),
-    ("direct", "true", "its paths hold their direct light"),
 ];
 
 fn refuse_what_camera_paths_lack(ctx: &ExpandCtx<'_>) -> Result<(), GraphError> {
@@ -237,12 +236,16 @@ fn refuse_what_camera_paths_lack(ctx: &ExpandCtx<'_>) -> Result<(), GraphError> 
 }
 
 /// `spp` camera paths per pixel through the camera block's lens and over its shutter, `bounces`
-/// vertices after the first (`split: "all"`), or the first vertex's direct light (`"direct"`); the
-/// mean of each pixel's finite paths is the image.
-fn through_the_camera(ctx: &mut ExpandCtx<'_>, spp: ParamValue, bounces: i64) {
+/// vertices after the first (`split: "all"`, or `"indirect"` without the `direct` light), or the
+/// first vertex's direct light (`"direct"`); the mean of each pixel's finite paths is the image.
+fn through_the_camera(ctx: &mut ExpandCtx<'_>, spp: ParamValue, bounces: i64, direct: bool) {
     use crate::pixel_filter::kernels::sample::SampleIo;
     let (lv, hv) = (ctx.buffer("paths_lv", Format::Vec4), ctx.buffer("paths_hv", Format::Vec4));
-    let split = if bounces == 0 { "direct" } else { "all" };
+    let split = match (bounces, direct) {
+        (0, _) => "direct",
+        (_, true) => "all",
+        (_, false) => "indirect",
+    };
     SampleIo { lv, hv }
         .bind(ctx.pass("sample", "pixel_filter.sample", Stage::Sample))
         .param("count", spp)
