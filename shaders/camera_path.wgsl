@@ -2,7 +2,7 @@
 // the including kernel's Params carry `cam_*` and `cam_shutter`) and the camera ray of path `j`
 // through a pixel (camera_paths.rs `camera_ray`): jittered over the pixel, through the lens where the
 // camera has an aperture, at the path's own time (`scene_time`) where the shutter is open over an
-// interval; each its own dimension. Shared by pixel_filter.sample, pixel_filter.range and
+// interval; each its own dimension, independent or (`params.strata` > 0) stratified. Shared by pixel_filter.sample, pixel_filter.range and
 // radiance_filter.sample.
 #include "rng.wgsl"
 #include "scene.wgsl"
@@ -13,9 +13,17 @@ fn path_camera() -> CameraModel {
         params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
 }
 
+// Path j's numbers for `dimension`: independent, or sample j of `params.strata` stratified ones.
+fn path_camera_draw(key: u32, j: u32, dimension: u32) -> vec2<f32> {
+    if (params.strata != 0u) {
+        return rng_stratified2(key, j, params.strata, dimension);
+    }
+    return rng_uniform2(key, j, dimension);
+}
+
 fn path_camera_ray(c: CameraModel, key: u32, j: u32, xy: vec2<u32>) -> LensRay {
-    let jit = rng_uniform2(key, j, DIM_PIXEL);
-    let lens = select(vec2<f32>(0.5), rng_uniform2(key, j, DIM_LENS), c.aperture > 0.0);
-    scene_time = select(0.0, 2.0 * rng_uniform2(key, j, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
+    let jit = path_camera_draw(key, j, DIM_PIXEL);
+    let lens = select(vec2<f32>(0.5), path_camera_draw(key, j, DIM_LENS), c.aperture > 0.0);
+    scene_time = select(0.0, 2.0 * path_camera_draw(key, j, DIM_TIME).x - 1.0, params.cam_shutter != 0u);
     return camera_ray(c, vec2<f32>(f32(xy.x) + jit.x, f32(xy.y) + jit.y), lens);
 }

@@ -449,6 +449,25 @@ fn montecarlo_through_a_lens_from_parts_equals_one_node() {
     assert!((mean(&from_parts) / mean(&one) - 1.0).abs() < 0.01, "means {} vs {}", mean(&from_parts), mean(&one));
 }
 
+/// MonteCarlo's `sampling` through the lens and over the shutter places its camera paths' pixel, lens
+/// and time points: stratified ones give a lower error than independent ones at equal paths (its
+/// default, as over the light through a pinhole).
+#[test]
+fn montecarlo_through_a_lens_stratifies_its_camera_paths() {
+    use common::progressive::rmse;
+    for c in &CAMERAS {
+        let size = sized(c.size.0, c.size.1, None, &[]);
+        let stratified = montecarlo_pipeline(c, c.open, 16, 0);
+        let independent = stratified.replace("\"bounces\": 0}", "\"bounces\": 0, \"sampling\": \"independent\"}");
+        assert_ne!(stratified, independent);
+        let truth = reference_color(&stratified, &size, 1024);
+        let error = |t: &str| rmse(run(&session_from_text(t, &size)).output("color").expect("color"), &truth);
+        let (s, i) = (error(&stratified), error(&independent));
+        println!("MonteCarlo through the {}: RMSE at 16 paths, stratified {s:.4}, independent {i:.4}", c.what);
+        assert!(s < 0.9 * i, "{}: stratified {s} vs independent {i}", c.what);
+    }
+}
+
 /// What MonteCarlo's G-buffer estimator does and the camera-path tracer does not is refused through
 /// the lens, every such setting in one message with the value to take.
 #[test]

@@ -17,20 +17,22 @@ use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
 /// The camera ray of path `j` through pixel (`px`, `py`) and its time: jittered over the pixel, over
 /// the lens where the camera has an aperture and over the shutter where it is open over an interval
-/// (`t` in [−1, 1], the scene's motion parameter; each a dimension of its own), so the accumulation
+/// (`t` in [−1, 1], the scene's motion parameter; each a dimension of its own — independent numbers,
+/// or with `strata` = n > 0 sample `j` of n stratified ones, CMJ per dimension), so the accumulation
 /// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed 002
 /// assumes a pinhole at one instant, and for such a camera the rays are as before, bit for bit). The
 /// WGSL draws the same numbers in `camera_path.wgsl` (`path_camera_ray`).
 pub fn camera_ray(
     cam: &Camera,
     rng: &PixelRng,
-    j: u32,
+    (j, strata): (u32, u32),
     (px, py): (u32, u32),
     (width, height): (u32, u32),
 ) -> (LensRay, f32) {
-    let jit = rng.uniform2(j, dim::PIXEL);
-    let lens = if cam.aperture_radius > 0.0 { Vec2::from(rng.uniform2(j, dim::LENS)) } else { Vec2::splat(0.5) };
-    let t = if shutter_is_open(cam) { 2.0 * rng.uniform2(j, dim::TIME)[0] - 1.0 } else { 0.0 };
+    let draw = |d: u32| if strata > 0 { rng.stratified2(j, strata, d) } else { rng.uniform2(j, d) };
+    let jit = draw(dim::PIXEL);
+    let lens = if cam.aperture_radius > 0.0 { Vec2::from(draw(dim::LENS)) } else { Vec2::splat(0.5) };
+    let t = if shutter_is_open(cam) { 2.0 * draw(dim::TIME)[0] - 1.0 } else { 0.0 };
     (cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), lens, width, height, LensShape::Disk), t)
 }
 
@@ -39,11 +41,12 @@ pub fn shutter_is_open(cam: &Camera) -> bool {
     cam.shutter_open < cam.shutter_close
 }
 
-/// The camera's WGSL uniforms (`camera.wgsl`) and `cam_shutter`, as the progressive kernels read them
-/// (`camera_path.wgsl` `path_camera`).
-pub fn camera_uniforms(u: Uniforms, cam: &Camera) -> Uniforms {
+/// The camera's WGSL uniforms (`camera.wgsl`), `cam_shutter` and [`camera_ray`]'s `strata`, as the
+/// progressive kernels read them (`camera_path.wgsl` `path_camera`, `path_camera_ray`).
+pub fn camera_uniforms(u: Uniforms, cam: &Camera, strata: u32) -> Uniforms {
     wedge_backends::kernels::paths::camera_uniforms(u, cam, LensShape::Disk)
         .u32("cam_shutter", shutter_is_open(cam) as u32)
+        .u32("strata", strata)
 }
 
 wedge_backends::kernel_params! {
@@ -75,6 +78,8 @@ pub struct CameraPaths {
     pub camera: Camera,
     /// Paths continue past their first vertex (`false`: the direct light there only).
     pub continues: bool,
+    /// The camera rays' numbers: independent (0), or `count` stratified ones ([`camera_ray`]).
+    pub strata: u32,
 }
 
 impl CameraPaths {
@@ -83,16 +88,16 @@ impl CameraPaths {
         let PathCount { count, stream } = PathCount::read(ctx)?;
         let TracerParams { bounces, brdf } = TracerParams::read(ctx)?;
         let path = PathParams::new(ctx, brdf, bounces, false, 0.0);
-        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera, continues: true })
+        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera, continues: true, strata: 0 })
     }
     /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
     pub fn specs() -> Vec<ParamSpec> {
         [PathCount::specs(), TracerParams::specs()].concat()
     }
-    /// The WGSL's `Params` fields for them: the camera, `count`, `stream`, `continues` and
+    /// The WGSL's `Params` fields for them: the camera, `strata`, `count`, `stream`, `continues` and
     /// `indirect_path.wgsl`'s.
     pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
-        let u = camera_uniforms(u, &self.camera)
+        let u = camera_uniforms(u, &self.camera, self.strata)
             .u32("count", self.count)
             .u32("stream", self.stream)
             .u32("continues", self.continues as u32);
@@ -111,7 +116,8 @@ impl CameraPaths {
             let rng = PixelRng::new(seed, window.pixel_id(px, py), self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             for j in 0..self.count {
-                let (ray, t) = camera_ray(&self.camera, &rng, j, window.global_xy(px, py), window.full_size());
+                let pixel = window.global_xy(px, py);
+                let (ray, t) = camera_ray(&self.camera, &rng, (j, self.strata), pixel, window.full_size());
                 let at = ctx.scene.at(t);
                 let v = first_vertex(&at, &self.path, self.continues, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {

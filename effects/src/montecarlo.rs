@@ -17,8 +17,9 @@
 //! (`camera_paths.rs`, kernel `pixel_filter.sample`): next-event estimation at every vertex through
 //! the scene's materials (the whole Phong BRDF), the emission and the environment its rays see
 //! directly, `bounces` more vertices (`0`: the first vertex's direct light only; `direct: false`: the
-//! indirect light alone). What that tracer does not do — one light of several, the light-centre form
-//! factor, independent light samples, ambient occlusion — is refused there, every such setting at once.
+//! indirect light alone; `sampling` places the camera rays' pixel, lens and time points, the light
+//! points stay independent). What that tracer does not do — one light of several, the light-centre
+//! form factor, ambient occlusion — is refused there, every such setting at once.
 
 use wedge_backends::kernels::compose::ModulateIo;
 use wedge_backends::kernels::direct::DirectIo;
@@ -92,7 +93,12 @@ impl NodeKind for MonteCarlo {
     fn params(&self) -> Vec<ParamDecl> {
         vec![
             ParamDecl::int("spp", 64, 1, 1 << 20, "light samples per pixel (per light)"),
-            ParamDecl::choice("sampling", "stratified", &["stratified", "independent"], "light sample placement"),
+            ParamDecl::choice(
+                "sampling",
+                "stratified",
+                &["stratified", "independent"],
+                "light sample placement (through a camera block's lens or shutter: the camera paths' pixel, lens and time points)",
+            ),
             ParamDecl::int("light", -1, -1, 1 << 16, "area light index; -1 = every light"),
             ParamDecl::choice(
                 "form_factor",
@@ -208,10 +214,9 @@ fn camera_paths_view(q: &TermQuery<'_>) -> Option<View> {
 /// The settings the camera-path tracer has no counterpart for (module doc), each with the value it
 /// does take (as RON writes it, `ParamValue`'s `Display`): any other is refused, all at once, before
 /// anything runs.
-const CAMERA_PATHS_LACK: [(&str, &str, &str); 4] = [
+const CAMERA_PATHS_LACK: [(&str, &str, &str); 3] = [
     ("light", "-1", "it samples every area light"),
     ("form_factor", "\"exact\"", "its next-event estimation takes the exact geometry term"),
-    ("sampling", "\"stratified\"", "its paths are stratified"),
     ("mode", "\"radiance\"", "it traces radiance, not ambient occlusion"),
 ];
 
@@ -251,7 +256,7 @@ fn through_the_camera(ctx: &mut ExpandCtx<'_>, spp: ParamValue, bounces: i64, di
         .param("count", spp)
         .param("split", ParamValue::Str(split.into()))
         .param("bounces", ParamValue::Int(bounces.max(1)))
-        .node_params(&["brdf"])
+        .node_params(&["brdf", "sampling"])
         .random()
         .reference(Reference::Sample)
         .finish();

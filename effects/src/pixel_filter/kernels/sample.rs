@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use wedge_backends::rng::PixelRng;
-use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Uniforms, WgslSource};
+use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Sampling, Uniforms, WgslSource};
 
 use super::{schedule, ScheduleParams};
 use crate::camera_paths::{camera_ray, camera_uniforms, CameraPaths, FirstVertex, PathCount};
@@ -28,8 +28,11 @@ wedge_backends::param_choice! {
 }
 
 wedge_backends::kernel_params! {
-    /// `pixel_filter.sample`'s own parameter (with [`CameraPaths`]'): the split.
+    /// `pixel_filter.sample`'s own parameters (with [`CameraPaths`]'): the split, and whether the
+    /// paths' camera rays are stratified over the pass's `count` paths (a reference's, MonteCarlo's
+    /// through a lens) or independent (a progressive frame's one path).
     pub struct SampleParams {
+        sampling: Sampling = choice("independent", Sampling::OPTIONS, "the camera rays' pixel, lens and time numbers: stratified over a pixel's paths of the pass (CMJ per dimension) or independent; light and later-vertex numbers stay independent"),
         split: Split = choice("indirect", Split::OPTIONS, "which paths are high-variance and filtered: indirect light, caustic paths (L S+ D E), all, or none (direct: the direct light only, no indirect traced)"),
     }
 }
@@ -40,7 +43,8 @@ pub struct PixelSample;
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<(CameraPaths, SampleParams), BackendError> {
     let s = SampleParams::read(ctx)?;
     let paths = CameraPaths::read(ctx)?;
-    Ok((CameraPaths { continues: s.split != Split::Direct, ..paths }, s))
+    let strata = if s.sampling == Sampling::Stratified { paths.count } else { 0 };
+    Ok((CameraPaths { continues: s.split != Split::Direct, strata, ..paths }, s))
 }
 
 /// One camera path's `(L_lv, L_u)` under `split` (Sec. 3.3, Fig. 3.1).
@@ -172,7 +176,7 @@ impl Kernel for RangeBuffer {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_range.wgsl"), |ctx| {
                 let (update, pass) = schedule(ctx)?;
-                let u = camera_uniforms(PathCount::read(ctx)?.uniforms(), &ctx.scene.camera);
+                let u = camera_uniforms(PathCount::read(ctx)?.uniforms(), &ctx.scene.camera, 0);
                 Ok(u.u32("update", update as u32).f32("pass_index", pass.max(1) as f32))
             })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../../shaders/pixel_filter_formulas.wgsl"))
@@ -196,7 +200,7 @@ impl Kernel for RangeBuffer {
             let rng = PixelRng::new(seed, window.pixel_id(px, py), stream);
             let (mut sum, mut depth) = (Vec3::ZERO, MISS_DEPTH);
             for s in 0..count {
-                let (ray, t) = camera_ray(&cam, &rng, s, window.global_xy(px, py), window.full_size());
+                let (ray, t) = camera_ray(&cam, &rng, (s, 0), window.global_xy(px, py), window.full_size());
                 let at = ctx.scene.at(t);
                 if let Some(hit) = at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) {
                     let sp = at.surface(&hit, ray.origin, ray.dir);
