@@ -115,8 +115,8 @@ impl CameraPaths {
         let out = ctx.map_pixels(true, |px, py| {
             let rng = PixelRng::new(seed, window.pixel_id(px, py), self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
+            let pixel = window.global_xy(px, py);
             for j in 0..self.count {
-                let pixel = window.global_xy(px, py);
                 let (ray, t) = camera_ray(&self.camera, &rng, (j, self.strata), pixel, window.full_size());
                 let at = ctx.scene.at(t);
                 let v = first_vertex(&at, &self.path, self.continues, ray.origin, ray.dir, &rng, j, &mut rays);
