@@ -401,6 +401,12 @@ fn montecarlo_renders_through_the_camera_blocks_lens_and_shutter() {
             let out = String::from_utf8_lossy(&o.stdout);
             assert!(out.contains("out.color = mc.radiance: ") && out.contains(c.view), "{out}");
             assert_eq!(out.contains("indirect(1 bounce)"), bounces == 1, "{out}");
+            // The G-buffer's emission input is not its image's emission, and the note says why.
+            let both = String::from_utf8_lossy(&o.stderr).to_string() + &out;
+            assert!(
+                both.contains("input `emission` of node `mc`") && both.contains("already holds that light"),
+                "{both}"
+            );
             assert!(!out.contains("is not sampled") && !out.contains("rendered at the shutter's centre"), "{out}");
         }
     }

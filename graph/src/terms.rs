@@ -569,11 +569,17 @@ fn unread_inputs(
             !own.iter().any(|(_, o)| o.terms.iter().any(|t| t.via == reference) || o.undeclared.contains(&reference))
         })
         .map(|(port, t)| {
+            // The node's image holds every kind of light the input carries, from its own paths (a
+            // tracer through a camera the G-buffer input was not rendered for).
+            let own_kinds = |kind| own.iter().any(|(_, o)| o.terms.iter().any(|ot| ot.kind == kind && ot.via.is_empty()));
             let why = match &v.factoring {
                 Some(f) => format!(
                     " while `{}` ({}) factors the pipeline: it renders `{}`'s component on the shared sampler and adds the emission seen directly once itself",
                     f.node, f.kind, node.name
                 ),
+                None if t.terms.iter().all(|it| own_kinds(it.kind)) => {
+                    ": its image already holds that light, from its own camera paths".to_string()
+                }
                 None => String::new(),
             };
             format!("{}: input `{port}` of node `{}` ({}) is not added to its image{why}", node.location, node.name, t.sum_label())
