@@ -12,7 +12,7 @@ use wedge_backends::kernels::indirect::{
     continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
 };
 use wedge_backends::rng::{dim, PixelRng};
-use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Uniforms};
+use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms};
 use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
 /// The camera ray of path `j` through pixel (`px`, `py`) and its time: jittered over the pixel, over
@@ -61,10 +61,13 @@ wedge_backends::kernel_params! {
 
 wedge_backends::kernel_params! {
     /// The path tracer's settings, declared alike on both progressive nodes, forwarded to their
-    /// sampling passes and read there ([`CameraPaths::read`]).
+    /// sampling passes and read there ([`CameraPaths::read`]). `sampling` places the camera rays'
+    /// numbers: independent (a progressive frame's one path), or stratified over the pass's paths (a
+    /// stratified reference's, MonteCarlo's through a lens).
     pub struct TracerParams {
         bounces: u32 = int(3, 1, 64, "path vertices after the first, each with next-event estimation"),
         brdf: Lobe,
+        sampling: Sampling = choice("independent", Sampling::OPTIONS, "the camera rays' pixel, lens and time numbers: stratified over a pixel's paths of the pass (CMJ per dimension) or independent; light and later-vertex numbers stay independent"),
     }
 }
 
@@ -86,9 +89,10 @@ impl CameraPaths {
     /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera.
     pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
         let PathCount { count, stream } = PathCount::read(ctx)?;
-        let TracerParams { bounces, brdf } = TracerParams::read(ctx)?;
+        let TracerParams { bounces, brdf, sampling } = TracerParams::read(ctx)?;
         let path = PathParams::new(ctx, brdf, bounces, false, 0.0);
-        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera, continues: true, strata: 0 })
+        let strata = if sampling == Sampling::Stratified { count } else { 0 };
+        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera, continues: true, strata })
     }
     /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
     pub fn specs() -> Vec<ParamSpec> {

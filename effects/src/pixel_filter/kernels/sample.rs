@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use wedge_backends::rng::PixelRng;
-use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Sampling, Uniforms, WgslSource};
+use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Uniforms, WgslSource};
 
 use super::{schedule, ScheduleParams};
 use crate::camera_paths::{camera_ray, camera_uniforms, CameraPaths, FirstVertex, PathCount};
@@ -28,11 +28,8 @@ wedge_backends::param_choice! {
 }
 
 wedge_backends::kernel_params! {
-    /// `pixel_filter.sample`'s own parameters (with [`CameraPaths`]'): the split, and whether the
-    /// paths' camera rays are stratified over the pass's `count` paths (a reference's, MonteCarlo's
-    /// through a lens) or independent (a progressive frame's one path).
+    /// `pixel_filter.sample`'s own parameter (with [`CameraPaths`]'): the split.
     pub struct SampleParams {
-        sampling: Sampling = choice("independent", Sampling::OPTIONS, "the camera rays' pixel, lens and time numbers: stratified over a pixel's paths of the pass (CMJ per dimension) or independent; light and later-vertex numbers stay independent"),
         split: Split = choice("indirect", Split::OPTIONS, "which paths are high-variance and filtered: indirect light, caustic paths (L S+ D E), all, or none (direct: the direct light only, no indirect traced)"),
     }
 }
@@ -43,8 +40,7 @@ pub struct PixelSample;
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<(CameraPaths, SampleParams), BackendError> {
     let s = SampleParams::read(ctx)?;
     let paths = CameraPaths::read(ctx)?;
-    let strata = if s.sampling == Sampling::Stratified { paths.count } else { 0 };
-    Ok((CameraPaths { continues: s.split != Split::Direct, strata, ..paths }, s))
+    Ok((CameraPaths { continues: s.split != Split::Direct, ..paths }, s))
 }
 
 /// One camera path's `(L_lv, L_u)` under `split` (Sec. 3.3, Fig. 3.1).
