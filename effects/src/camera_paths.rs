@@ -86,7 +86,7 @@ pub struct CameraPaths {
 }
 
 impl CameraPaths {
-    /// From the pass's `count`, `stream`, `bounces` and `brdf` and the scene's camera.
+    /// From the pass's `count`, `stream`, `bounces`, `brdf` and `sampling` and the scene's camera.
     pub fn read(ctx: &KernelCtx<'_>) -> Result<CameraPaths, BackendError> {
         let PathCount { count, stream } = PathCount::read(ctx)?;
         let TracerParams { bounces, brdf, sampling } = TracerParams::read(ctx)?;

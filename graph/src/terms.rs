@@ -570,7 +570,7 @@ fn unread_inputs(
         })
         .map(|(port, t)| {
             // The node's image holds every kind of light the input carries, from its own paths (a
-            // tracer through a camera the G-buffer input was not rendered for).
+            // node that traces a camera its inputs were not rendered through).
             let own_kinds = |kind| own.iter().any(|(_, o)| o.terms.iter().any(|ot| ot.kind == kind && ot.via.is_empty()));
             let why = match &v.factoring {
                 Some(f) => format!(
