@@ -29,6 +29,8 @@ use wedge_graph::{
     View,
 };
 
+use crate::pixel_filter::kernels::sample::Split;
+
 pub struct MonteCarlo;
 
 impl NodeKind for MonteCarlo {
@@ -64,10 +66,10 @@ impl NodeKind for MonteCarlo {
             return None;
         }
         if let Some(view) = camera_paths_view(q) {
-            return Some(match (q.int("bounces").unwrap_or(0), q.flag("direct")) {
-                (0, _) => crate::light_terms::first_vertex_direct(view),
-                (_, true) => crate::light_terms::path_traced(q, view),
-                (_, false) => crate::light_terms::indirect_or_ao(q, view, ""),
+            return Some(match camera_paths_split(q.int("bounces").unwrap_or(0), q.flag("direct")) {
+                Split::Direct => crate::light_terms::first_vertex_direct(view),
+                Split::All => crate::light_terms::path_traced(q, view),
+                _ => crate::light_terms::indirect_or_ao(q, view, ""),
             });
         }
         if q.choice("mode") == Some("ao") {
@@ -240,28 +242,34 @@ fn refuse_what_camera_paths_lack(ctx: &ExpandCtx<'_>) -> Result<(), GraphError> 
     })
 }
 
-/// `spp` camera paths per pixel through the camera block's lens and over its shutter, `bounces`
-/// vertices after the first (`split: "all"`, or `"indirect"` without the `direct` light), or the
-/// first vertex's direct light (`"direct"`); the mean of each pixel's finite paths is the image.
+/// The part of its camera paths the node's image is, as `pixel_filter.sample` splits them: `bounces`
+/// vertices after the first (`All`, or `Indirect`'s `L_u` without the `direct` light), or the first
+/// vertex's direct light (`Direct`, `L_lv`). Its terms and its passes both follow from it.
+fn camera_paths_split(bounces: i64, direct: bool) -> Split {
+    match (bounces, direct) {
+        (0, _) => Split::Direct,
+        (_, true) => Split::All,
+        (_, false) => Split::Indirect,
+    }
+}
+
+/// `spp` camera paths per pixel through the camera block's lens and over its shutter, split by
+/// [`camera_paths_split`]; the mean of each pixel's finite paths is the image.
 fn through_the_camera(ctx: &mut ExpandCtx<'_>, spp: ParamValue, bounces: i64, direct: bool) {
     use crate::pixel_filter::kernels::sample::SampleIo;
     let (lv, hv) = (ctx.buffer("paths_lv", Format::Vec4), ctx.buffer("paths_hv", Format::Vec4));
-    let split = match (bounces, direct) {
-        (0, _) => "direct",
-        (_, true) => "all",
-        (_, false) => "indirect",
-    };
+    let split = camera_paths_split(bounces, direct);
     SampleIo { lv, hv }
         .bind(ctx.pass("sample", "pixel_filter.sample", Stage::Sample))
         .param("count", spp)
-        .param("split", ParamValue::Str(split.into()))
+        .param("split", ParamValue::Str(split.as_str().into()))
         .param("bounces", ParamValue::Int(bounces.max(1)))
         .node_params(&["brdf", "sampling"])
         .random()
         .reference(Reference::Sample)
         .finish();
     let radiance = ctx.buffer("radiance", Format::Vec3);
-    let value = if bounces == 0 { lv } else { hv };
+    let value = if split == Split::Direct { lv } else { hv };
     ModulateIo { value, albedo: None, emission: None, out: radiance }
         .bind(ctx.pass("compose", "compose.modulate", Stage::Compose))
         .finish();
