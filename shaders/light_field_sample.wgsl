@@ -3,14 +3,15 @@
 // the shutter's centre, traced once), one secondary ray each traced as a path (next-event estimation
 // at `bounces` vertices) at the path's time; the first `layers` kept as LightSample records, the
 // first `primaries` primary hits as LightPrimary records, and their plain Monte Carlo estimate;
-// mirrors effects/src/light_field/kernels/ (sample.rs Setup::pixel and its phases, mod.rs camera_sample) with the
-// same RNG calls and dimensions. Chunked over the paths (a reference's N): between dispatches
+// mirrors effects/src/light_field/kernels/sample.rs (Setup::pixel and its phases; the camera rays of
+// camera_paths.rs CameraDraws, `camera_path.wgsl`) with the same RNG calls and dimensions. Chunked over the paths (a reference's N): between dispatches
 // `estimate` holds the running sums (Σ w·L f cos/pdf, Σ w), the last one their mean.
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "bvh.wgsl"
 #include "sampling.wgsl"
 #include "camera.wgsl"
+#include "camera_path.wgsl"
 #include "hemisphere.wgsl"
 #include "indirect_path.wgsl"
 #include "light_field_common.wgsl"
@@ -25,14 +26,6 @@ fn lf_kappa(ks: vec3<f32>, m: f32) -> f32 {
         return 4.0 * sqrt(blinn);
     }
     return 0.0;
-}
-
-// mod.rs camera_sample: a stratified (or independent) 2-D number of dimension `dimension`.
-fn lf_camera_draw(key: u32, s: u32, dimension: u32) -> vec2<f32> {
-    if (params.stratified != 0u) {
-        return rng_stratified2(key, s, max(params.count, 1u), dimension);
-    }
-    return rng_uniform2(key, s, dimension);
 }
 
 @compute @workgroup_size(8, 8)
@@ -55,12 +48,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             samples_put(i * layers + s, none);
         }
     }
-    let c = CameraModel(params.cam_position, params.cam_right, params.cam_up, params.cam_forward, params.cam_tan_half,
-        params.cam_aperture, params.cam_focus_distance, params.cam_gaussian);
+    let c = path_camera();
     // A pinhole at the shutter's centre: one camera ray for every path of the pixel.
-    let fixed = params.cam_aperture == 0.0 && params.time == 0u;
+    let fixed = params.cam_aperture == 0.0 && params.cam_shutter == 0u;
     let xy = pixel_xy(gid);
-    let centre = vec2<f32>(f32(xy.x) + 0.5, f32(xy.y) + 0.5);
     let key = rng_key(frame.seed, pixel_id(gid), params.stream);
     var bad = 0u;
     var rays_primary = 0u;
@@ -71,15 +62,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let end = chunk_end_of(params.count);
     var s = frame.chunk_begin;
     for (; s < end; s = s + 1u) {
-        var lens = vec2<f32>(0.5);
-        if (params.cam_aperture > 0.0) {
-            lens = lf_camera_draw(key, s, DIM_LENS);
-        }
-        scene_time = 0.0;
-        if (params.time != 0u) {
-            scene_time = 2.0 * lf_camera_draw(key, s, DIM_TIME).x - 1.0;
-        }
-        let ray = camera_ray(c, centre, lens);
+        // Through the pixel centre (`params.jitter` = 0), at the path's lens point and time.
+        let ray = path_camera_ray(c, key, s, xy);
         if (!fixed || !have_hit) {
             fixed_hit = scene_intersect(ray.origin, ray.dir, 0.0, inf());
             have_hit = true;

@@ -1,6 +1,6 @@
 //! The camera paths of the progressive nodes (`PixelFilter`, `RadianceFilter`; seed 002 Sec. 3.3 and
 //! 4.3.1): one path tracer both sample with, so the two estimate the same radiance the same way.
-//! [`camera_ray`] jitters a path over the pixel, the lens and the shutter; [`first_vertex`] shades it
+//! [`CameraDraws`] jitters a path over the pixel, the lens and the shutter; [`first_vertex`] shades it
 //! with the shared estimators of `wedge_backends::kernels::indirect` (next-event estimation at every
 //! vertex, the lobe-mixture continuation) and keeps the first vertex's radiance sample;
 //! [`CameraPaths`] runs `count` of them per pixel. WGSL mirror: `shaders/first_vertex.wgsl`, and
@@ -15,25 +15,48 @@ use wedge_backends::rng::{dim, PixelRng};
 use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms};
 use wedge_scene::{Camera, LensRay, LensShape, SceneAt};
 
-/// The camera ray of path `j` through pixel (`px`, `py`) and its time: jittered over the pixel, over
-/// the lens where the camera has an aperture and over the shutter where it is open over an interval
-/// (`t` in [−1, 1], the scene's motion parameter; each a dimension of its own — independent numbers,
-/// or with `strata` = n > 0 sample `j` of n stratified ones, CMJ per dimension), so the accumulation
-/// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed 002
-/// assumes a pinhole at one instant, and for such a camera the rays are as before, bit for bit). The
-/// WGSL draws the same numbers in `camera_path.wgsl` (`path_camera_ray`).
-pub fn camera_ray(
-    cam: &Camera,
-    rng: &PixelRng,
-    (j, strata): (u32, u32),
-    (px, py): (u32, u32),
-    (width, height): (u32, u32),
-) -> (LensRay, f32) {
-    let draw = |d: u32| if strata > 0 { rng.stratified2(j, strata, d) } else { rng.uniform2(j, d) };
-    let jit = draw(dim::PIXEL);
-    let lens = if cam.aperture_radius > 0.0 { Vec2::from(draw(dim::LENS)) } else { Vec2::splat(0.5) };
-    let t = if shutter_is_open(cam) { 2.0 * draw(dim::TIME)[0] - 1.0 } else { 0.0 };
-    (cam.ray(Vec2::new(px as f32 + jit[0], py as f32 + jit[1]), lens, width, height, LensShape::Disk), t)
+/// How a pass's camera rays sample the camera — the one camera draw of every node that traces its
+/// own camera paths (PixelFilter, RadianceFilter, MonteCarlo through a lens, LightField; issue 34
+/// §3). Each of the pixel, the lens and the shutter is a dimension of its own (`dim::PIXEL`, `LENS`,
+/// `TIME`): independent numbers, or with `strata` = n > 0 sample `j` of n stratified ones (CMJ per
+/// dimension). WGSL mirror: `camera_path.wgsl` (`path_camera_ray`).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraDraws {
+    /// The lens's aperture shape (a Gaussian lens weighs its rays).
+    pub shape: LensShape,
+    /// Jittered over the pixel, or through its centre (LightField's primary hits).
+    pub jitter: bool,
+    /// Each ray takes its own shutter time `t` in [−1, 1] (the scene's motion parameter), else 0.
+    pub time: bool,
+    pub strata: u32,
+}
+
+impl CameraDraws {
+    /// The progressive nodes' draws: jittered over the pixel, through a disk lens where the camera
+    /// has an aperture and over the shutter where it is open over an interval, so the accumulation
+    /// over frames converges to the image through the lens and over the shutter (issue 34 §2; seed
+    /// 002 assumes a pinhole at one instant, and for such a camera the rays are as before).
+    pub fn jittered(cam: &Camera, strata: u32) -> CameraDraws {
+        CameraDraws { shape: LensShape::Disk, jitter: true, time: shutter_is_open(cam), strata }
+    }
+
+    /// The camera ray of path `j` through pixel (`px`, `py`) of an image `width` × `height`, and its
+    /// time; the lens is sampled where `cam` has an aperture.
+    pub fn ray(
+        &self,
+        cam: &Camera,
+        rng: &PixelRng,
+        j: u32,
+        (px, py): (u32, u32),
+        (width, height): (u32, u32),
+    ) -> (LensRay, f32) {
+        let draw =
+            |d: u32| Vec2::from(if self.strata > 0 { rng.stratified2(j, self.strata, d) } else { rng.uniform2(j, d) });
+        let offset = if self.jitter { draw(dim::PIXEL) } else { Vec2::splat(0.5) };
+        let lens = if cam.aperture_radius > 0.0 { draw(dim::LENS) } else { Vec2::splat(0.5) };
+        let t = if self.time { 2.0 * draw(dim::TIME).x - 1.0 } else { 0.0 };
+        (cam.ray(Vec2::new(px as f32 + offset.x, py as f32 + offset.y), lens, width, height, self.shape), t)
+    }
 }
 
 /// The camera's shutter is open over an interval: each path takes its own time.
@@ -41,12 +64,13 @@ pub fn shutter_is_open(cam: &Camera) -> bool {
     cam.shutter_open < cam.shutter_close
 }
 
-/// The camera's WGSL uniforms (`camera.wgsl`), `cam_shutter` and [`camera_ray`]'s `strata`, as the
-/// progressive kernels read them (`camera_path.wgsl` `path_camera`, `path_camera_ray`).
-pub fn camera_uniforms(u: Uniforms, cam: &Camera, strata: u32) -> Uniforms {
-    wedge_backends::kernels::paths::camera_uniforms(u, cam, LensShape::Disk)
-        .u32("cam_shutter", shutter_is_open(cam) as u32)
-        .u32("strata", strata)
+/// The camera's WGSL uniforms (`camera.wgsl`) and `draws`' as `camera_path.wgsl` reads them
+/// (`path_camera`, `path_camera_ray`): `cam_shutter` (its `time`), `jitter` and `strata`.
+pub fn camera_uniforms(u: Uniforms, cam: &Camera, draws: CameraDraws) -> Uniforms {
+    wedge_backends::kernels::paths::camera_uniforms(u, cam, draws.shape)
+        .u32("cam_shutter", draws.time as u32)
+        .u32("jitter", draws.jitter as u32)
+        .u32("strata", draws.strata)
 }
 
 wedge_backends::kernel_params! {
@@ -72,7 +96,7 @@ wedge_backends::kernel_params! {
 }
 
 /// The camera paths of a progressive sampling pass (`pixel_filter.sample`,
-/// `radiance_filter.sample`): `count` jittered paths per pixel ([`camera_ray`]), each shaded by
+/// `radiance_filter.sample`): `count` jittered paths per pixel ([`CameraDraws::jittered`]), each shaded by
 /// [`first_vertex`] on the stream `stream`.
 pub struct CameraPaths {
     pub count: u32,
@@ -81,7 +105,7 @@ pub struct CameraPaths {
     pub camera: Camera,
     /// Paths continue past their first vertex (`false`: the direct light there only).
     pub continues: bool,
-    /// The camera rays' numbers: independent (0), or `count` stratified ones ([`camera_ray`]).
+    /// The camera rays' numbers: independent (0), or `count` stratified ones ([`CameraDraws`]).
     pub strata: u32,
 }
 
@@ -101,7 +125,7 @@ impl CameraPaths {
     /// The WGSL's `Params` fields for them: the camera, `strata`, `count`, `stream`, `continues` and
     /// `indirect_path.wgsl`'s.
     pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
-        let u = camera_uniforms(u, &self.camera, self.strata)
+        let u = camera_uniforms(u, &self.camera, CameraDraws::jittered(&self.camera, self.strata))
             .u32("count", self.count)
             .u32("stream", self.stream)
             .u32("continues", self.continues as u32);
@@ -116,12 +140,13 @@ impl CameraPaths {
     ) -> Vec<T> {
         // The full image's pixel and size (a tile's window is part of it).
         let (seed, window) = (ctx.seed, ctx.window);
+        let draws = CameraDraws::jittered(&self.camera, self.strata);
         let out = ctx.map_pixels(true, |px, py| {
             let rng = PixelRng::new(seed, window.pixel_id(px, py), self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             let pixel = window.global_xy(px, py);
             for j in 0..self.count {
-                let (ray, t) = camera_ray(&self.camera, &rng, (j, self.strata), pixel, window.full_size());
+                let (ray, t) = draws.ray(&self.camera, &rng, j, pixel, window.full_size());
                 let at = ctx.scene.at(t);
                 let v = first_vertex(&at, &self.path, self.continues, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {

@@ -5,7 +5,8 @@
 //!
 //! - `light_field.sample` (random, reference role `Sample`): per pixel `count` camera paths of one
 //!   secondary ray each (Sec. 2.1: each input sample is one secondary ray of a path). Each path's
-//!   camera ray goes through the pixel centre, through its own lens point (`aperture_radius`,
+//!   camera ray goes through the pixel centre (`crate::camera_paths::CameraDraws`, unjittered),
+//!   through its own lens point (`aperture_radius`,
 //!   `focus_distance`, `lens`: the pass's thin lens, [`pass_camera`]) at its own shutter time where
 //!   `time` is set — else every path has the same camera ray, traced once per pixel (a pinhole at
 //!   the shutter's centre: the `Primary` G-buffer's hit). At the primary hit a direction from the
@@ -50,7 +51,6 @@ use wedge_backends::kernels::hemisphere::{sample_diffuse, Lobe};
 use wedge_backends::kernels::indirect::{lobe_mixture, PathParams, LOBE_SELECT};
 use wedge_backends::rng::{dim, PixelRng};
 use wedge_backends::{BackendError, KernelCtx, KernelParams};
-use wedge_scene::{Camera, LensRay, LensShape};
 
 use super::records::LightPrimary;
 
@@ -114,30 +114,6 @@ struct Primary {
     kd: Vec3,
     ks: Vec3,
     m: f32,
-}
-
-/// The camera ray of sample `s` of `count` and its time: through the pixel centre, from its lens
-/// point and at its shutter time (each its own dimension, stratified over the pixel's samples, or
-/// independent), or — `fixed` — the pinhole ray at the shutter's centre.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn camera_sample(
-    camera: &Camera,
-    shape: LensShape,
-    pixel: Vec2,
-    size: (u32, u32),
-    rng: &PixelRng,
-    s: u32,
-    count: u32,
-    stratified: bool,
-    time: bool,
-) -> (LensRay, f32) {
-    let draw = |dimension: u32| {
-        Vec2::from(if stratified { rng.stratified2(s, count.max(1), dimension) } else { rng.uniform2(s, dimension) })
-    };
-    let lens = if camera.aperture_radius > 0.0 { draw(dim::LENS) } else { Vec2::splat(0.5) };
-    let t = if time { 2.0 * draw(dim::TIME).x - 1.0 } else { 0.0 };
-    (camera.ray(pixel, lens, size.0, size.1, shape), t)
 }
 
 /// A direction leaving a primary hit (sample `s` of `count`): from its lobe mixture (cosine for AO

@@ -1,13 +1,14 @@
 //! `light_field.sample`: the input samples (see [`super`]); WGSL `shaders/light_field_sample.wgsl`.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use wedge_backends::kernels::indirect::{path_from_hit, PathParams, PathRays};
-use wedge_backends::kernels::paths::{camera_uniforms, pass_camera};
+use wedge_backends::kernels::paths::pass_camera;
 use wedge_backends::rng::PixelRng;
 use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Sampling, Uniforms, WgslSource};
-use wedge_scene::{Camera, Hit, LensRay, LensShape, Scene, SceneAt};
+use wedge_scene::{Camera, Hit, LensRay, Scene, SceneAt};
 
-use super::{camera_sample, leave, EstimatorParams, Primary, RandomStream};
+use super::{leave, EstimatorParams, Primary, RandomStream};
+use crate::camera_paths::{self, CameraDraws};
 use crate::light_field::formulas::{kappa, occlusion};
 use crate::light_field::records::{LightPrimary, LightSample, SAMPLE_ESCAPED, SAMPLE_HIT};
 
@@ -50,19 +51,16 @@ impl Kernel for LightFieldSample {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../../shaders/light_field_sample.wgsl"), |ctx| {
-                let (_, p) = EstimatorParams::read_paths(ctx)?;
-                let (own, pass) = (SampleParams::read(ctx)?, SamplePass::read(ctx)?);
-                let (camera, shape) = pass_camera(ctx)?;
+                let s = Setup::read(ctx)?;
                 // The path settings as `indirect_path.wgsl` reads them (`PathParams::uniforms`).
-                let u = camera_uniforms(Uniforms::new(), &camera, shape)
-                    .u32("count", pass.count)
-                    .u32("layers", ctx.layers("samples"))
-                    .u32("primaries", ctx.layers("primary"))
-                    .bool("time", pass.time)
-                    .bool("angular", own.angular)
-                    .u32("stratified", (pass.sampling == Sampling::Stratified) as u32)
-                    .u32("stream", RandomStream::read(ctx)?.stream);
-                Ok(p.uniforms(u, ctx))
+                let u = camera_paths::camera_uniforms(Uniforms::new(), &s.camera, s.draws)
+                    .u32("count", s.count)
+                    .u32("layers", s.layers)
+                    .u32("primaries", s.primaries)
+                    .bool("angular", s.angular)
+                    .u32("stratified", s.stratified as u32)
+                    .u32("stream", s.stream);
+                Ok(s.p.uniforms(u, ctx))
             })
             .with_include("camera.wgsl", include_str!("../../../../shaders/camera.wgsl"))
             .with_include("lobe_mixture.wgsl", include_str!("../../../../shaders/lobe_mixture.wgsl"))
@@ -89,11 +87,12 @@ struct Setup<'s> {
     max_distance: f32,
     angular: bool,
     count: u32,
-    time: bool,
     stratified: bool,
     stream: u32,
     camera: Camera,
-    shape: LensShape,
+    /// Through the pixel centre, from each path's lens point and at its shutter time where the
+    /// pass has a lens / `time`.
+    draws: CameraDraws,
     /// A pinhole at the shutter's centre: one camera ray for every path of a pixel.
     fixed: bool,
     layers: u32,
@@ -130,17 +129,18 @@ impl<'s> Setup<'s> {
             (SampleParams::read(ctx)?.angular, SamplePass::read(ctx)?);
         let RandomStream { stream } = RandomStream::read(ctx)?;
         let (camera, shape) = pass_camera(ctx)?;
+        let stratified = sampling == Sampling::Stratified;
+        let strata = if stratified { count.max(1) } else { 0 };
         Ok(Setup {
             p,
             ao: p.ao,
             max_distance: e.max_distance,
             angular,
             count,
-            time,
-            stratified: sampling == Sampling::Stratified,
+            stratified,
             stream,
             camera,
-            shape,
+            draws: CameraDraws { shape, jitter: false, time, strata },
             fixed: camera.aperture_radius == 0.0 && !time,
             layers: ctx.layers("samples"),
             primaries: ctx.layers("primary"),
@@ -164,21 +164,10 @@ impl<'s> Setup<'s> {
             bad: 0,
         };
         let rng = PixelRng::new(self.seed, i as u32, self.stream);
-        let centre = Vec2::new(px as f32 + 0.5, py as f32 + 0.5);
         let (mut sum, mut sum_w) = (Vec3::ZERO, 0.0f32);
         let mut fixed_hit = None;
         for s in 0..self.count {
-            let (ray, t) = camera_sample(
-                &self.camera,
-                self.shape,
-                centre,
-                (self.width, self.height),
-                &rng,
-                s,
-                self.count,
-                self.stratified,
-                self.time,
-            );
+            let (ray, t) = self.draws.ray(&self.camera, &rng, s, (px, py), (self.width, self.height));
             let cs = CameraSample { s, ray, t, at: self.scene.at(t) };
             let prim = self.primary_hit(&cs, &mut fixed_hit, &mut o.primary_rays);
             if s < self.primaries {

@@ -7,7 +7,7 @@
 //!
 //! - `pixel_filter.sample`: `count` paths per pixel (one per frame in progressive mode), each a
 //!   jittered camera ray (thesis Sec. 3.3: pinhole, box pixel filter; through the lens and over the
-//!   shutter where the camera opens them, `camera_ray`) shaded with the shared
+//!   shutter where the camera opens them, `CameraDraws::jittered`) shaded with the shared
 //!   estimators of `indirect.rs` — next-event estimation at every vertex and the
 //!   one-sample lobe mixture continued by `trace_path_split` — split into the low-variance paths
 //!   `L_lv` and the high-variance paths `L_u` by [`sample::Split`] (Sec. 3.3, Fig. 3.1). Writes the batch's

@@ -7,7 +7,7 @@ use wedge_backends::rng::PixelRng;
 use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Uniforms, WgslSource};
 
 use super::{schedule, ScheduleParams};
-use crate::camera_paths::{camera_ray, camera_uniforms, CameraPaths, FirstVertex, PathCount};
+use crate::camera_paths::{camera_uniforms, CameraDraws, CameraPaths, FirstVertex, PathCount};
 use crate::pixel_filter::formulas::{range_colour, Stats, MISS_DEPTH};
 
 wedge_backends::param_choice! {
@@ -172,7 +172,8 @@ impl Kernel for RangeBuffer {
         Some(
             WgslSource::new(include_str!("../../../../shaders/pixel_filter_range.wgsl"), |ctx| {
                 let (update, pass) = schedule(ctx)?;
-                let u = camera_uniforms(PathCount::read(ctx)?.uniforms(), &ctx.scene.camera, 0);
+                let cam = &ctx.scene.camera;
+                let u = camera_uniforms(PathCount::read(ctx)?.uniforms(), cam, CameraDraws::jittered(cam, 0));
                 Ok(u.u32("update", update as u32).f32("pass_index", pass.max(1) as f32))
             })
             .with_include("pixel_filter_formulas.wgsl", include_str!("../../../../shaders/pixel_filter_formulas.wgsl"))
@@ -192,11 +193,12 @@ impl Kernel for RangeBuffer {
         // The full image's pixel and size (a tile's window is part of it).
         let (seed, width, window) = (ctx.seed, ctx.width, ctx.window);
         let k = pass.max(1) as f32;
+        let draws = CameraDraws::jittered(&cam, 0);
         let out = ctx.map_pixels(false, |px, py| {
             let rng = PixelRng::new(seed, window.pixel_id(px, py), stream);
             let (mut sum, mut depth) = (Vec3::ZERO, MISS_DEPTH);
             for s in 0..count {
-                let (ray, t) = camera_ray(&cam, &rng, (s, 0), window.global_xy(px, py), window.full_size());
+                let (ray, t) = draws.ray(&cam, &rng, s, window.global_xy(px, py), window.full_size());
                 let at = ctx.scene.at(t);
                 if let Some(hit) = at.intersect(ray.origin, ray.dir, 0.0, f32::INFINITY) {
                     let sp = at.surface(&hit, ray.origin, ray.dir);
