@@ -105,8 +105,8 @@ pub struct CameraPaths {
     pub camera: Camera,
     /// Paths continue past their first vertex (`false`: the direct light there only).
     pub continues: bool,
-    /// The camera rays' numbers: independent (0), or `count` stratified ones ([`CameraDraws`]).
-    pub strata: u32,
+    /// The camera rays: jittered, their numbers independent or `count` stratified ones.
+    pub draws: CameraDraws,
 }
 
 impl CameraPaths {
@@ -115,8 +115,9 @@ impl CameraPaths {
         let PathCount { count, stream } = PathCount::read(ctx)?;
         let TracerParams { bounces, brdf, sampling } = TracerParams::read(ctx)?;
         let path = PathParams::new(ctx, brdf, bounces, false, 0.0);
-        let strata = if sampling == Sampling::Stratified { count } else { 0 };
-        Ok(CameraPaths { count, path, stream, camera: ctx.scene.camera, continues: true, strata })
+        let (camera, strata) = (ctx.scene.camera, if sampling == Sampling::Stratified { count } else { 0 });
+        let draws = CameraDraws::jittered(&camera, strata);
+        Ok(CameraPaths { count, path, stream, camera, continues: true, draws })
     }
     /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
     pub fn specs() -> Vec<ParamSpec> {
@@ -125,7 +126,7 @@ impl CameraPaths {
     /// The WGSL's `Params` fields for them: the camera, `strata`, `count`, `stream`, `continues` and
     /// `indirect_path.wgsl`'s.
     pub fn uniforms(&self, u: Uniforms, ctx: &KernelCtx<'_>) -> Uniforms {
-        let u = camera_uniforms(u, &self.camera, CameraDraws::jittered(&self.camera, self.strata))
+        let u = camera_uniforms(u, &self.camera, self.draws)
             .u32("count", self.count)
             .u32("stream", self.stream)
             .u32("continues", self.continues as u32);
@@ -140,13 +141,12 @@ impl CameraPaths {
     ) -> Vec<T> {
         // The full image's pixel and size (a tile's window is part of it).
         let (seed, window) = (ctx.seed, ctx.window);
-        let draws = CameraDraws::jittered(&self.camera, self.strata);
         let out = ctx.map_pixels(true, |px, py| {
             let rng = PixelRng::new(seed, window.pixel_id(px, py), self.stream);
             let (mut state, mut rays, mut bad) = (T::default(), PathRays::default(), 0u64);
             let pixel = window.global_xy(px, py);
             for j in 0..self.count {
-                let (ray, t) = draws.ray(&self.camera, &rng, j, pixel, window.full_size());
+                let (ray, t) = self.draws.ray(&self.camera, &rng, j, pixel, window.full_size());
                 let at = ctx.scene.at(t);
                 let v = first_vertex(&at, &self.path, self.continues, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {
