@@ -3,7 +3,8 @@
 // estimate f L cos/pdf through one sample of the lobe mixture, its caustic part, and the radiance
 // sample radiance filtering stores (seed 002 Sec. 4.3.1). Shared by pixel_filter.sample and
 // radiance_filter.sample; the including kernel's Params are indirect_path.wgsl's and CameraPaths'
-// `continues` (0: the path stops at its first vertex, the direct light only).
+// `continues` (0: the path stops at its first vertex, the direct light only) and `one_light` (≥ 0:
+// the first vertex's direct light is that area light's alone, no emission, environment or background).
 #include "indirect_path.wgsl"
 #include "lobe_mixture.wgsl"
 
@@ -29,7 +30,9 @@ fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVer
         vec3<f32>(0.0), 0u, false, vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
     let hit = scene_intersect(origin, dir, 0.0, inf());
     if (!hit.hit) {
-        v.direct = scene_background(dir);
+        if (params.one_light < 0) {
+            v.direct = scene_background(dir);
+        }
         return v;
     }
     let sp = surface(hit.triangle, hit.b1, hit.b2, dir);
@@ -40,10 +43,12 @@ fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVer
     let kd = albedo(sp);
     let ks = mat.specular;
     let m = mat.phong_exponent;
-    let emitted = emission(sp);
-    let direct = next_event(x, n, wo, kd, ks, m, key, j, 0u);
     v.hit = true;
-    v.direct = emitted + direct;
+    if (params.one_light < 0) {
+        v.direct = emission(sp) + next_event(x, n, wo, kd, ks, m, key, j, 0u);
+    } else {
+        v.direct = light_event(u32(params.one_light), x, n, wo, kd, ks, m, key, j, 0u).total;
+    }
     v.position = x;
     v.normal = n;
     v.distance = hit.t;

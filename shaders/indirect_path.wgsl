@@ -28,44 +28,53 @@ struct NextEvent {
     glossy: vec3<f32>, // the area lights' part through the glossy lobe (indirect.rs next_event_parts)
 }
 
+// Next-event estimation toward area light `l` alone (indirect.rs light_event): one uniform sample of
+// it and its shadow ray; zero where the sample faces away or is blocked.
+fn light_event(l: u32, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
+    let none = NextEvent(vec3<f32>(0.0), vec3<f32>(0.0));
+    let light = scene_light_at(l);
+    let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
+    let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
+    let to = target_point - y;
+    let r2 = dot3(to, to);
+    if (r2 <= 0.0) {
+        return none;
+    }
+    let dir = to / sqrt(r2);
+    let cos_y = dot3(n, dir);
+    let ln = light.normal_area.xyz;
+    var cos_l = dot3(ln, -dir);
+    if (light.two_sided != 0u) {
+        cos_l = abs(cos_l);
+    }
+    if (cos_y <= 0.0 || cos_l <= 0.0) {
+        return none;
+    }
+    let origin = y + n * params.eps;
+    let seg = target_point - origin;
+    let seg_len = length3(seg);
+    rays_shadow = rays_shadow + 1u;
+    if (scene_occluded(origin, seg / seg_len, 0.0, seg_len * bitcast<f32>(0x3f7ff972u))) { // (1.0 - 1e-4) in f32
+        return none;
+    }
+    var f = kd * FRAC_1_PI_F32;
+    let geometry = cos_y * cos_l / r2 * light.normal_area.w;
+    var glossy = vec3<f32>(0.0);
+    if (m > 0.0 && max_element3(ks) > 0.0) {
+        let g = ks * glossy_brdf(params.lobe, m, n, wo, dir);
+        f = f + g;
+        glossy = light.radiance.xyz * g * geometry;
+    }
+    return NextEvent(light.radiance.xyz * f * geometry, glossy);
+}
+
 fn next_event_parts(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
     var sum = vec3<f32>(0.0);
     var glossy_sum = vec3<f32>(0.0);
-    let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
     for (var l = 0u; l < params.light_count; l = l + 1u) {
-        let light = scene_light_at(l);
-        let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
-        let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
-        let to = target_point - y;
-        let r2 = dot3(to, to);
-        if (r2 <= 0.0) {
-            continue;
-        }
-        let dir = to / sqrt(r2);
-        let cos_y = dot3(n, dir);
-        let ln = light.normal_area.xyz;
-        var cos_l = dot3(ln, -dir);
-        if (light.two_sided != 0u) {
-            cos_l = abs(cos_l);
-        }
-        if (cos_y <= 0.0 || cos_l <= 0.0) {
-            continue;
-        }
-        let origin = y + n * params.eps;
-        let seg = target_point - origin;
-        let seg_len = length3(seg);
-        rays_shadow = rays_shadow + 1u;
-        if (scene_occluded(origin, seg / seg_len, 0.0, seg_len * bitcast<f32>(0x3f7ff972u))) { // (1.0 - 1e-4) in f32
-            continue;
-        }
-        var f = kd * FRAC_1_PI_F32;
-        let geometry = cos_y * cos_l / r2 * light.normal_area.w;
-        if (is_glossy) {
-            let g = ks * glossy_brdf(params.lobe, m, n, wo, dir);
-            f = f + g;
-            glossy_sum = glossy_sum + light.radiance.xyz * g * geometry;
-        }
-        sum = sum + light.radiance.xyz * f * geometry;
+        let e = light_event(l, y, n, wo, kd, ks, m, key, sample, bounce);
+        sum = sum + e.total;
+        glossy_sum = glossy_sum + e.glossy;
     }
     // The environment is a light too (indirect.rs next_event).
     return NextEvent(sum + environment_event(y, n, wo, kd, ks, m, key, sample, bounce), glossy_sum);

@@ -483,14 +483,58 @@ fn montecarlo_through_a_lens_refuses_what_its_paths_cannot_do() {
         "\"bounces\": 1, \"light\": 0, \"form_factor\": \"light_centre\", \"mode\": \"ao\"}",
     );
     let err = refusal(&text);
-    for part in
-        ["`light: 0`", "leave it at -1", "`form_factor: \"light_centre\"`", "`mode: \"ao\"`", "aperture_radius: 0"]
-    {
+    for part in [
+        "`light: 0` with `bounces: 1`",
+        "is `bounces: 0`",
+        "`form_factor: \"light_centre\"`",
+        "`mode: \"ao\"`",
+        "aperture_radius: 0",
+    ] {
         assert!(err.contains(part), "{part} missing: {err}");
     }
     assert!(!err.contains("`sampling"), "{err}");
     let pinhole = text.replace(CAMERAS[0].open, CAMERAS[0].closed);
     assert!(build_text(&pinhole, &ov(), None).is_ok(), "the pinhole G-buffer estimator takes them all");
+}
+
+/// MonteCarlo's `light` through the lens and over the shutter (`bounces: 0`): its camera paths' first
+/// vertex takes that area light's direct light alone. On a one-light scene each path's estimate is
+/// the every-light one less what the path sees directly (the same light sample, the same shadow
+/// ray), so the two images are equal bit for bit wherever no path sees an emitter or the sky, and
+/// `wedge graph` names the light and no emission.
+#[test]
+fn montecarlo_through_a_lens_takes_one_lights_direct_light() {
+    for c in &CAMERAS {
+        let size = sized(c.size.0, c.size.1, None, &[]);
+        let every = montecarlo_pipeline(c, c.open, 16, 0);
+        let one = every.replace("\"bounces\": 0}", "\"bounces\": 0, \"light\": 0}");
+        let image = |t: &str| match run(&session_from_text(t, &size)).output("color").expect("color").clone() {
+            wedge::backends::BufferData::Vec3(v) => v,
+            other => panic!("a vec3 image, not {other:?}"),
+        };
+        let (all, light0) = (image(&every), image(&one));
+        let same = all.iter().zip(&light0).filter(|(a, b)| a == b).count();
+        let brighter = all.iter().zip(&light0).all(|(a, b)| (0..3).all(|k| a[k] >= b[k]));
+        println!("MonteCarlo light 0 vs every light, {}: {same} of {} pixels equal", c.what, all.len());
+        assert!(brighter, "{}: the one-light image is never brighter than the every-light one", c.what);
+        // `cornell`'s camera sees its light (those pixels differ); `motion`'s does not.
+        assert!(same * 10 >= all.len() * 6, "{}: {same} of {} equal", c.what, all.len());
+        assert_eq!(same < all.len(), c.scene == "cornell", "{}: {same} of {} equal", c.what, all.len());
+        let s = session_from_text(&one, &size);
+        let terms = s.pipeline.terms.of("mc", "radiance").expect("declared").to_string();
+        assert!(terms.contains("light 0") && !terms.contains("emission") && terms.ends_with(c.view), "{terms}");
+    }
+    // An index the scene does not have is refused, naming it.
+    let bad = montecarlo_pipeline(&CAMERAS[0], CAMERAS[0].open, 4, 0)
+        .replace("\"bounces\": 0}", "\"bounces\": 0, \"light\": 3}");
+    let err = match build_text(&bad, &ov(), None)
+        .map(|s| s.run(&mut wedge::backends::cpu::CpuBackend::new(), &wedge::backends::Silent))
+    {
+        Err(e) => e,
+        Ok(Err(e)) => e.to_string(),
+        Ok(Ok(_)) => panic!("light 3 of a one-light scene must be refused"),
+    };
+    assert!(err.contains("light") && err.contains('3'), "{err}");
 }
 
 /// The lens and time samples of the progressive nodes' camera paths are the same on both backends.
@@ -503,10 +547,12 @@ fn the_progressive_nodes_lens_and_shutter_pass_parity() {
             .expect("parity runs");
         assert!(report.ok(), "{kind}, {}:\n{}", c.what, report.table());
     }
-    // MonteCarlo's paths through the block, whole (`split: "all"`) and stopped at their first
-    // vertex (`"direct"`, `bounces: 0`).
-    for (bounces, c) in [0, 1].iter().flat_map(|b| CAMERAS.iter().map(move |c| (*b, c))) {
-        let s = session_from_text(&montecarlo_pipeline(c, c.open, 4, bounces), &sized(16, 12, None, &[]));
+    // MonteCarlo's paths through the block, whole (`split: "all"`), stopped at their first vertex
+    // (`"direct"`, `bounces: 0`), and there toward one light (`light: 0`).
+    for (bounces, c) in [0, 1, 2].iter().flat_map(|b| CAMERAS.iter().map(move |c| (*b, c))) {
+        let text = montecarlo_pipeline(c, c.open, 4, bounces.min(1));
+        let text = if bounces == 2 { text.replace("\"bounces\": 1}", "\"bounces\": 0, \"light\": 0}") } else { text };
+        let s = session_from_text(&text, &sized(16, 12, None, &[]));
         let report = wedge::backends::parity::run_parity(&s.job(s.seed, 0, &wedge::backends::Silent), &mut gpu)
             .expect("parity runs");
         assert!(report.ok(), "MonteCarlo bounces {bounces}, {}:\n{}", c.what, report.table());

@@ -9,7 +9,7 @@
 use glam::{Vec2, Vec3};
 use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::kernels::indirect::{
-    continuation_numbers, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
+    continuation_numbers, light_event, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
 };
 use wedge_backends::rng::{dim, PixelRng};
 use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms};
@@ -105,6 +105,9 @@ pub struct CameraPaths {
     pub camera: Camera,
     /// Paths continue past their first vertex (`false`: the direct light there only).
     pub continues: bool,
+    /// The first vertex's direct light is area light `l`'s alone — no emission, environment or
+    /// background (MonteCarlo's `light` through a lens); `None`: all of them.
+    pub one_light: Option<usize>,
     /// The camera rays: jittered, their numbers independent or `count` stratified ones.
     pub draws: CameraDraws,
 }
@@ -117,7 +120,7 @@ impl CameraPaths {
         let path = PathParams::new(ctx, brdf, bounces, false, 0.0);
         let (camera, strata) = (ctx.scene.camera, if sampling == Sampling::Stratified { count } else { 0 });
         let draws = CameraDraws::jittered(&camera, strata);
-        Ok(CameraPaths { count, path, stream, camera, continues: true, draws })
+        Ok(CameraPaths { count, path, stream, camera, continues: true, one_light: None, draws })
     }
     /// The parameters [`CameraPaths::read`] reads, for `Kernel::params`.
     pub fn specs() -> Vec<ParamSpec> {
@@ -129,7 +132,8 @@ impl CameraPaths {
         let u = camera_uniforms(u, &self.camera, self.draws)
             .u32("count", self.count)
             .u32("stream", self.stream)
-            .u32("continues", self.continues as u32);
+            .u32("continues", self.continues as u32)
+            .i32("one_light", self.one_light.map_or(-1, |l| l as i32));
         self.path.uniforms(u, ctx)
     }
     /// Every pixel's paths folded into a `T` by `fold(state, j, path)`, which says whether path `j`
@@ -148,7 +152,7 @@ impl CameraPaths {
             for j in 0..self.count {
                 let (ray, t) = self.draws.ray(&self.camera, &rng, j, pixel, window.full_size());
                 let at = ctx.scene.at(t);
-                let v = first_vertex(&at, &self.path, self.continues, ray.origin, ray.dir, &rng, j, &mut rays);
+                let v = first_vertex(&at, self, ray.origin, ray.dir, &rng, j, &mut rays);
                 if !fold(&mut state, j, &v) {
                     bad += 1;
                 }
@@ -193,25 +197,24 @@ pub struct FirstVertex {
     pub bounce_distance: Option<f32>,
 }
 
-/// One path through the camera ray `(origin, dir)` up to its first vertex and, where it `continues`,
-/// beyond. Next-event estimation at the first vertex gives the direct light; the indirect light
-/// continues with one sample of the vertex's lobe mixture (as [`trace_path_split`] continues at
-/// later vertices, on the first vertex's dimensions, which the later vertices do not use).
-#[allow(clippy::too_many_arguments)]
+/// One path of `paths` through the camera ray `(origin, dir)` up to its first vertex and, where it
+/// `continues`, beyond. Next-event estimation at the first vertex gives the direct light (toward
+/// `one_light` alone, where set); the indirect light continues with one sample of the vertex's lobe
+/// mixture (as [`trace_path_split`] continues at later vertices, on the first vertex's dimensions,
+/// which the later vertices do not use).
 pub fn first_vertex(
     at: &SceneAt<'_>,
-    p: &PathParams,
-    continues: bool,
+    paths: &CameraPaths,
     origin: Vec3,
     dir: Vec3,
     rng: &PixelRng,
     j: u32,
     rays: &mut PathRays,
 ) -> FirstVertex {
-    let scene = at.scene();
+    let (scene, p) = (at.scene(), &paths.path);
     let Some(hit) = at.intersect(origin, dir, 0.0, f32::INFINITY) else {
-        // The environment seen directly (black without a map).
-        let bg = scene.background(dir);
+        // The environment seen directly (black without a map), unless one light is asked for.
+        let bg = if paths.one_light.is_some() { Vec3::ZERO } else { scene.background(dir) };
         return FirstVertex {
             direct: bg,
             indirect: Vec3::ZERO,
@@ -227,8 +230,12 @@ pub fn first_vertex(
     let mat = &scene.materials[sp.material as usize];
     let kd = scene.albedo(&sp);
     let (ks, m) = (mat.specular, mat.phong_exponent);
-    let emitted = scene.emission(&sp);
-    let direct = next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays);
+    let (emitted, direct) = match paths.one_light {
+        None => (scene.emission(&sp), next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays)),
+        Some(l) => {
+            (Vec3::ZERO, light_event(at, p, l, x, n, wo, (kd, ks, m), rng, j, 0, rays).map_or(Vec3::ZERO, |e| e.0))
+        }
+    };
     let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
     let mut v = FirstVertex {
         direct: emitted + direct,
@@ -240,7 +247,7 @@ pub fn first_vertex(
         bounce_distance: None,
     };
     // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
-    if let Some(mix) = lobe_mixture(kd, ks, m).filter(|_| continues) {
+    if let Some(mix) = lobe_mixture(kd, ks, m).filter(|_| paths.continues) {
         let (u, select) = continuation_numbers(rng, j, 0);
         let wi = mix.sample(p.lobe, m, n, wo, u, select);
         v.wi = Some(wi);

@@ -18,8 +18,10 @@
 //! the scene's materials (the whole Phong BRDF), the emission and the environment its rays see
 //! directly, `bounces` more vertices (`0`: the first vertex's direct light only; `direct: false`: the
 //! indirect light alone; `sampling` places the camera rays' pixel, lens and time points, the light
-//! points stay independent). What that tracer does not do — one light of several, the light-centre
-//! form factor, ambient occlusion — is refused there, every such setting at once.
+//! points stay independent). `light` ≥ 0 with `bounces: 0` takes that area light's direct light
+//! alone at the first vertex (`CameraPaths::one_light`: no emission, environment or background).
+//! What that tracer does not do — one light with later vertices (they sample every light), the
+//! light-centre form factor, ambient occlusion — is refused there, every such setting at once.
 
 use wedge_backends::kernels::compose::ModulateIo;
 use wedge_backends::kernels::direct::DirectIo;
@@ -67,7 +69,11 @@ impl NodeKind for MonteCarlo {
         }
         if let Some(view) = camera_paths_view(q) {
             return Some(match camera_paths_split(q.int("bounces").unwrap_or(0), q.flag("direct")) {
-                Split::Direct => crate::light_terms::first_vertex_direct(view),
+                Split::Direct => match u32::try_from(q.int("light").unwrap_or(-1)) {
+                    Ok(i) => Terms::new()
+                        .with(Term::new(TermKind::DirectArea, view).detail(crate::light_terms::lobes::PHONG).light(i)),
+                    Err(_) => crate::light_terms::first_vertex_direct(view),
+                },
                 Split::All => crate::light_terms::path_traced(q, view),
                 _ => crate::light_terms::indirect_or_ao(q, view, ""),
             });
@@ -216,18 +222,24 @@ fn camera_paths_view(q: &TermQuery<'_>) -> Option<View> {
 /// The settings the camera-path tracer has no counterpart for (module doc), each with the value it
 /// does take (as RON writes it, `ParamValue`'s `Display`): any other is refused, all at once, before
 /// anything runs.
-const CAMERA_PATHS_LACK: [(&str, &str, &str); 3] = [
-    ("light", "-1", "it samples every area light"),
+const CAMERA_PATHS_LACK: [(&str, &str, &str); 2] = [
     ("form_factor", "\"exact\"", "its next-event estimation takes the exact geometry term"),
     ("mode", "\"radiance\"", "it traces radiance, not ambient occlusion"),
 ];
 
 fn refuse_what_camera_paths_lack(ctx: &ExpandCtx<'_>) -> Result<(), GraphError> {
-    let lacking: Vec<String> = CAMERA_PATHS_LACK
+    let mut lacking: Vec<String> = CAMERA_PATHS_LACK
         .iter()
         .filter(|(name, taken, _)| ctx.param(name).to_string() != *taken)
         .map(|(name, taken, why)| format!("`{name}: {}` ({why}; leave it at {taken})", ctx.param(name)))
         .collect();
+    // One light's direct light is the first vertex's (`bounces: 0`); later vertices sample every light.
+    if let (ParamValue::Int(l @ 0..), ParamValue::Int(b @ 1..)) = (ctx.param("light"), ctx.param("bounces")) {
+        lacking.push(format!(
+            "`light: {l}` with `bounces: {b}` (its paths' later vertices sample every area light; one light's \
+             direct light through the lens is `bounces: 0`, or leave light at -1)"
+        ));
+    }
     if lacking.is_empty() {
         return Ok(());
     }
@@ -264,7 +276,7 @@ fn through_the_camera(ctx: &mut ExpandCtx<'_>, spp: ParamValue, bounces: i64, di
         .param("count", spp)
         .param("split", ParamValue::Str(split.as_str().into()))
         .param("bounces", ParamValue::Int(bounces.max(1)))
-        .node_params(&["brdf", "sampling"])
+        .node_params(&["brdf", "sampling", "light"])
         .random()
         .reference(Reference::Sample)
         .finish();

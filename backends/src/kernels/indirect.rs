@@ -241,43 +241,68 @@ pub fn next_event_parts(
 ) -> (Vec3, Vec3) {
     let mut sum = Vec3::ZERO;
     let mut glossy_sum = Vec3::ZERO;
-    let glossy = m > 0.0 && ks.max_element() > 0.0;
     for l in 0..scene.scene().lights.len() {
-        let light = scene.light(l);
-        let d = dim::LIGHT + bounce * dim::BOUNCE_STRIDE + l as u32 * LIGHT_DIM_STRIDE;
-        let target = light.sample_point(Vec2::from(rng.uniform2(sample, d)));
-        let to = target - y;
-        let r2 = to.length_squared();
-        if r2 <= 0.0 {
-            continue;
+        if let Some((value, glossy)) = light_event(scene, p, l, y, n, wo, (kd, ks, m), rng, sample, bounce, rays) {
+            sum += value;
+            glossy_sum += glossy;
         }
-        let dir = to / r2.sqrt();
-        let cos_y = n.dot(dir);
-        let ln = light.normal();
-        let cos_l = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
-        if cos_y <= 0.0 || cos_l <= 0.0 {
-            continue;
-        }
-        let origin = y + n * p.eps;
-        let seg = target - origin;
-        let seg_len = seg.length();
-        rays.shadow += 1;
-        if scene.occluded(origin, seg / seg_len, 0.0, seg_len * (1.0 - 1e-4)) {
-            continue;
-        }
-        let mut f = kd * std::f32::consts::FRAC_1_PI;
-        let geometry = cos_y * cos_l / r2 * light.area();
-        if glossy {
-            let g = ks * glossy_brdf(p.lobe, m, n, wo, dir);
-            f += g;
-            glossy_sum += light.radiance * g * geometry;
-        }
-        sum += light.radiance * f * geometry;
     }
     // The environment is a light too (thesis Ch. 6: it lights the reflectors of E^ind).
     let total =
         sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow);
     (total, glossy_sum)
+}
+
+/// Next-event estimation toward area light `l` alone: one uniform sample of it and its shadow ray;
+/// the light it sends off the vertex and the part through the glossy lobe, `None` where the sample
+/// faces away or is blocked. [`next_event_parts`] sums it over the lights (a light's dimensions are
+/// its own, so one light's estimate is the same alone or among the others).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn light_event(
+    scene: &SceneAt<'_>,
+    p: &PathParams,
+    l: usize,
+    y: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    (kd, ks, m): (Vec3, Vec3, f32),
+    rng: &PixelRng,
+    sample: u32,
+    bounce: u32,
+    rays: &mut PathRays,
+) -> Option<(Vec3, Vec3)> {
+    let light = scene.light(l);
+    let d = dim::LIGHT + bounce * dim::BOUNCE_STRIDE + l as u32 * LIGHT_DIM_STRIDE;
+    let target = light.sample_point(Vec2::from(rng.uniform2(sample, d)));
+    let to = target - y;
+    let r2 = to.length_squared();
+    if r2 <= 0.0 {
+        return None;
+    }
+    let dir = to / r2.sqrt();
+    let cos_y = n.dot(dir);
+    let ln = light.normal();
+    let cos_l = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
+    if cos_y <= 0.0 || cos_l <= 0.0 {
+        return None;
+    }
+    let origin = y + n * p.eps;
+    let seg = target - origin;
+    let seg_len = seg.length();
+    rays.shadow += 1;
+    if scene.occluded(origin, seg / seg_len, 0.0, seg_len * (1.0 - 1e-4)) {
+        return None;
+    }
+    let mut f = kd * std::f32::consts::FRAC_1_PI;
+    let geometry = cos_y * cos_l / r2 * light.area();
+    let mut glossy = Vec3::ZERO;
+    if m > 0.0 && ks.max_element() > 0.0 {
+        let g = ks * glossy_brdf(p.lobe, m, n, wo, dir);
+        f += g;
+        glossy = light.radiance * g * geometry;
+    }
+    Some((light.radiance * f * geometry, glossy))
 }
 
 /// Trace one path leaving `x` (normal `n`) in direction `wi`. Returns the incident indirect radiance

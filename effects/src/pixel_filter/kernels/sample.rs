@@ -3,6 +3,7 @@
 //! `pixel_filter.range` (the range buffer, Sec. 3.3.3).
 
 use glam::Vec3;
+use wedge_backends::params::AnyLight;
 use wedge_backends::rng::PixelRng;
 use wedge_backends::{BackendError, Counters, Kernel, KernelCtx, KernelParams, Uniforms, WgslSource};
 
@@ -34,13 +35,23 @@ wedge_backends::kernel_params! {
     }
 }
 
+wedge_backends::kernel_params! {
+    /// The one area light whose direct light alone the first vertex takes
+    /// ([`CameraPaths::one_light`]; absent or −1: every light) — set by MonteCarlo through a lens
+    /// (its `light`), not declared by PixelFilter.
+    pub struct OneLight {
+        light: Option<AnyLight>,
+    }
+}
+
 /// `pixel_filter.sample` (see the module doc).
 pub struct PixelSample;
 
 fn sample_settings(ctx: &KernelCtx<'_>) -> Result<(CameraPaths, SampleParams), BackendError> {
     let s = SampleParams::read(ctx)?;
     let paths = CameraPaths::read(ctx)?;
-    Ok((CameraPaths { continues: s.split != Split::Direct, ..paths }, s))
+    let one_light = OneLight::read(ctx)?.light.and_then(|l| l.0);
+    Ok((CameraPaths { continues: s.split != Split::Direct, one_light, ..paths }, s))
 }
 
 /// One camera path's `(L_lv, L_u)` under `split` (Sec. 3.3, Fig. 3.1).
@@ -67,7 +78,7 @@ wedge_backends::kernel_bindings! {
 
 impl Kernel for PixelSample {
     wedge_backends::kernel_signature!(
-        name: "pixel_filter.sample", class: Sampling, bindings: SampleIo, params: [CameraPaths, SampleParams], random: true
+        name: "pixel_filter.sample", class: Sampling, bindings: SampleIo, params: [CameraPaths, SampleParams, OneLight], random: true
     );
     /// WGSL mirror: `shaders/pixel_filter_sample.wgsl` (with the shared `indirect_path.wgsl`).
     fn wgsl(&self) -> Option<WgslSource> {
