@@ -69,10 +69,10 @@ impl NodeKind for MonteCarlo {
         }
         if let Some(view) = camera_paths_view(q) {
             return Some(match camera_paths_split(q.int("bounces").unwrap_or(0), q.flag("direct")) {
-                Split::Direct => match u32::try_from(q.int("light").unwrap_or(-1)) {
-                    Ok(i) => Terms::new()
+                Split::Direct => match one_light(q) {
+                    Some(i) => Terms::new()
                         .with(Term::new(TermKind::DirectArea, view).detail(crate::light_terms::lobes::PHONG).light(i)),
-                    Err(_) => crate::light_terms::first_vertex_direct(view),
+                    None => crate::light_terms::first_vertex_direct(view),
                 },
                 Split::All => crate::light_terms::path_traced(q, view),
                 _ => crate::light_terms::indirect_or_ao(q, view, ""),
@@ -87,9 +87,9 @@ impl NodeKind for MonteCarlo {
         if direct {
             let light = Term::new(TermKind::DirectArea, View::PINHOLE).detail(crate::light_terms::lobes::DIFFUSE);
             t = t
-                .with(match u32::try_from(q.int("light").unwrap_or(-1)) {
-                    Ok(i) => light.light(i),
-                    Err(_) => light,
+                .with(match one_light(q) {
+                    Some(i) => light.light(i),
+                    None => light,
                 })
                 .plus(q.input("emission"));
         }
@@ -210,6 +210,11 @@ impl NodeKind for MonteCarlo {
         ctx.output("radiance", radiance);
         Ok(())
     }
+}
+
+/// The one area light `light` names (`None`: −1, every light).
+fn one_light(q: &TermQuery<'_>) -> Option<u32> {
+    u32::try_from(q.int("light").unwrap_or(-1)).ok()
 }
 
 /// The view of the node's own camera paths where it traces them through the `camera:` block's lens or
