@@ -18,10 +18,11 @@
 //! the scene's materials (the whole Phong BRDF), the emission and the environment its rays see
 //! directly, `bounces` more vertices (`0`: the first vertex's direct light only; `direct: false`: the
 //! indirect light alone; `sampling` places the camera rays' pixel, lens and time points, the light
-//! points stay independent). `light` ≥ 0 with `bounces: 0` takes that area light's direct light
-//! alone at the first vertex (`CameraPaths::one_light`: no emission, environment or background).
-//! What that tracer does not do — one light with later vertices (they sample every light), the
-//! light-centre form factor, ambient occlusion — is refused there, every such setting at once.
+//! points stay independent). `light` ≥ 0 takes that area light's direct light alone at the first
+//! vertex (`CameraPaths::one_light`: no emission, environment or background); with `bounces` ≥ 1 the
+//! later vertices sample every light, as the pinhole estimator's `indirect.sample` does — the same
+//! terms, `direct(area light i) + indirect`. What that tracer does not do — the light-centre form
+//! factor, ambient occlusion — is refused there, every such setting at once.
 
 use wedge_backends::kernels::compose::ModulateIo;
 use wedge_backends::kernels::direct::DirectIo;
@@ -68,13 +69,15 @@ impl NodeKind for MonteCarlo {
             return None;
         }
         if let Some(view) = camera_paths_view(q) {
+            // The first vertex: one area light's direct light alone, or next-event estimation of every light with what the path sees there.
+            let first = || match one_light(q) {
+                Some(i) => Terms::new()
+                    .with(Term::new(TermKind::DirectArea, view).detail(crate::light_terms::lobes::PHONG).light(i)),
+                None => crate::light_terms::first_vertex_direct(view),
+            };
             return Some(match camera_paths_split(q.int("bounces").unwrap_or(0), q.flag("direct")) {
-                Split::Direct => match one_light(q) {
-                    Some(i) => Terms::new()
-                        .with(Term::new(TermKind::DirectArea, view).detail(crate::light_terms::lobes::PHONG).light(i)),
-                    None => crate::light_terms::first_vertex_direct(view),
-                },
-                Split::All => crate::light_terms::path_traced(q, view),
+                Split::Direct => first(),
+                Split::All => first().with(Term::new(TermKind::Indirect, view).detail(q.bounces("bounces"))),
                 _ => crate::light_terms::indirect_or_ao(q, view, ""),
             });
         }
@@ -233,18 +236,11 @@ const CAMERA_PATHS_LACK: [(&str, &str, &str); 2] = [
 ];
 
 fn refuse_what_camera_paths_lack(ctx: &ExpandCtx<'_>) -> Result<(), GraphError> {
-    let mut lacking: Vec<String> = CAMERA_PATHS_LACK
+    let lacking: Vec<String> = CAMERA_PATHS_LACK
         .iter()
         .filter(|(name, taken, _)| ctx.param(name).to_string() != *taken)
         .map(|(name, taken, why)| format!("`{name}: {}` ({why}; leave it at {taken})", ctx.param(name)))
         .collect();
-    // One light's direct light is the first vertex's (`bounces: 0`); later vertices sample every light.
-    if let (ParamValue::Int(l @ 0..), ParamValue::Int(b @ 1..)) = (ctx.param("light"), ctx.param("bounces")) {
-        lacking.push(format!(
-            "`light: {l}` with `bounces: {b}` (its paths' later vertices sample every area light; one light's \
-             direct light through the lens is `bounces: 0`, or leave light at -1)"
-        ));
-    }
     if lacking.is_empty() {
         return Ok(());
     }
