@@ -45,10 +45,6 @@ fn cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
 }
 
-fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    return rmax(cos_theta, 0.0) * FRAC_1_PI_F32;
-}
-
 fn power_cosine(u: vec2<f32>, m: f32) -> vec3<f32> {
     let cos_a = pow(rmax(u.x, 0.0), 1.0 / (m + 1.0));
     let sin_a = sqrt(rmax(1.0 - cos_a * cos_a, 0.0));

@@ -821,14 +821,6 @@ impl<'a> KernelCtx<'a> {
             other => Err(self.err(format!("parameter `{name}` must be three numbers, found {other:?}"))),
         }
     }
-    /// A number parameter that must be finite and > 0 (a width, a threshold).
-    pub fn positive_f32_param(&self, name: &str) -> Result<f32, BackendError> {
-        let v = self.f32_param(name)?;
-        if !(v > 0.0 && v.is_finite()) {
-            return Err(self.err(format!("`{name}` = {v} must be a finite number > 0")));
-        }
-        Ok(v)
-    }
     pub fn int_param(&self, name: &str) -> Result<i64, BackendError> {
         match self.params.get(name) {
             Some(ParamValue::Int(v)) => Ok(*v),

@@ -14,7 +14,7 @@
 //!   `(m+1)/(2π) cos^m θ_h`, so `pdf(ω_i) = (m+1) cos^m θ_h / (8π (ω_o·h))` → weight
 //!   `(m+2)/(m+1) (ω_o·h) cos θ_i`.
 
-use std::f32::consts::{FRAC_1_PI, PI, TAU};
+use std::f32::consts::{PI, TAU};
 
 use glam::{Vec2, Vec3};
 
@@ -61,11 +61,6 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     let sin_t = u.x.max(0.0).sqrt();
     let phi = TAU * u.y;
     Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
-}
-
-#[inline]
-pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) * FRAC_1_PI
 }
 
 /// Power-cosine lobe around +z: `cos α = u.x^{1/(m+1)}`, `φ = 2π u.y` (pdf `(m+1)/(2π) cos^m α`).

@@ -201,11 +201,6 @@ pub fn look_ups(base: u32, sigma: [f32; 2], sigma_ref: f32, max: u32) -> u32 {
     (want.min(max as f32) as u32).max(base).min(max.max(base))
 }
 
-/// The Gaussian weight of eq. 6.23 between two points whose bandwidths' squares average to `b2`.
-pub fn filter_weight(b2: f32, d2: f32) -> f32 {
-    (-2.0 * b2 * d2).exp()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
