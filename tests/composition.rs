@@ -365,6 +365,14 @@ fn the_progressive_nodes_render_through_the_camera_blocks_lens_and_shutter() {
 
 /// A MonteCarlo pipeline (`spp` paths, `bounces`) on `c`'s scene with camera block `camera`, its
 /// G-buffer inputs wired (a pinhole camera shades them).
+/// The `color` output of pipeline text `t` rendered at `size`, as its rgb pixels.
+fn rgb_color(t: &str, size: &Overrides) -> Vec<[f32; 3]> {
+    match run(&session_from_text(t, size)).output("color").expect("color").clone() {
+        wedge::backends::BufferData::Vec3(v) => v,
+        other => panic!("a vec3 image, not {other:?}"),
+    }
+}
+
 fn montecarlo_pipeline(c: &OpenCamera, camera: &str, spp: u32, bounces: u32) -> String {
     format!(
         "Pipeline(scene: \"builtin:{}\", width: {}, height: {}, seed: 1,\n camera: Some(({camera})),\n nodes: [\n \
@@ -502,10 +510,7 @@ fn montecarlo_through_a_lens_takes_one_lights_direct_light() {
         let size = sized(c.size.0, c.size.1, None, &[]);
         let every = montecarlo_pipeline(c, c.open, 16, 0);
         let one = every.replace("\"bounces\": 0}", "\"bounces\": 0, \"light\": 0}");
-        let image = |t: &str| match run(&session_from_text(t, &size)).output("color").expect("color").clone() {
-            wedge::backends::BufferData::Vec3(v) => v,
-            other => panic!("a vec3 image, not {other:?}"),
-        };
+        let image = |t: &str| rgb_color(t, &size);
         let (all, light0) = (image(&every), image(&one));
         let same = all.iter().zip(&light0).filter(|(a, b)| a == b).count();
         let brighter = all.iter().zip(&light0).all(|(a, b)| (0..3).all(|k| a[k] >= b[k]));
@@ -541,10 +546,7 @@ fn montecarlo_through_a_lens_continues_one_lights_paths() {
     for c in &CAMERAS {
         let size = sized(c.size.0, c.size.1, None, &[]);
         let with = |params: &str| montecarlo_pipeline(c, c.open, 8, 1).replace("\"bounces\": 1}", params);
-        let image = |t: &str| match run(&session_from_text(t, &size)).output("color").expect("color").clone() {
-            wedge::backends::BufferData::Vec3(v) => v,
-            other => panic!("a vec3 image, not {other:?}"),
-        };
+        let image = |t: &str| rgb_color(t, &size);
         let whole = with("\"bounces\": 1, \"light\": 0}");
         let direct = image(&with("\"bounces\": 0, \"light\": 0}"));
         let indirect = image(&with("\"bounces\": 1, \"direct\": false}"));

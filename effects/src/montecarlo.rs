@@ -69,7 +69,8 @@ impl NodeKind for MonteCarlo {
             return None;
         }
         if let Some(view) = camera_paths_view(q) {
-            // The first vertex: one area light's direct light alone, or next-event estimation of every light with what the path sees there.
+            // The first vertex: one area light's direct light alone, or next-event estimation of every
+            // light with what the path sees there.
             let first = || match one_light(q) {
                 Some(i) => Terms::new()
                     .with(Term::new(TermKind::DirectArea, view).detail(crate::light_terms::lobes::PHONG).light(i)),
