@@ -42,11 +42,7 @@ fn light_event(l: u32, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>,
     }
     let dir = to / sqrt(r2);
     let cos_y = dot3(n, dir);
-    let ln = light.normal_area.xyz;
-    var cos_l = dot3(ln, -dir);
-    if (light.two_sided != 0u) {
-        cos_l = abs(cos_l);
-    }
+    let cos_l = light_facing_cos(light, dir);
     if (cos_y <= 0.0 || cos_l <= 0.0) {
         return none;
     }

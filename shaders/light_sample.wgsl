@@ -28,10 +28,7 @@ fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: 
     let dir = to / sqrt(r2);
     let cos_x = dot3(n, dir);
     let ln = l.normal_area.xyz;
-    var cos_y = dot3(ln, -dir);
-    if (l.two_sided != 0u) {
-        cos_y = abs(cos_y);
-    }
+    let cos_y = light_facing_cos(l, dir);
     if (cos_x <= 0.0 || cos_y <= 0.0) {
         return r;
     }

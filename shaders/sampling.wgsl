@@ -12,6 +12,16 @@ fn light_sample_point(l: Light, u: vec2<f32>) -> vec3<f32> {
     return (1.0 - su) * l.p0.xyz + su * (1.0 - u.y) * l.p1.xyz + su * u.y * l.p2.xyz;
 }
 
+// The cosine at the light of a sample reached along `dir` (AreaLight::facing_cos): |cos| for a
+// two-sided light, <= 0 where the sample sees the light's back.
+fn light_facing_cos(l: Light, dir: vec3<f32>) -> f32 {
+    let c = dot3(l.normal_area.xyz, -dir);
+    if (l.two_sided != 0u) {
+        return abs(c);
+    }
+    return c;
+}
+
 fn concentric_disk(u: vec2<f32>) -> vec2<f32> {
     let o = 2.0 * u - vec2<f32>(1.0);
     if (o.x == 0.0 && o.y == 0.0) {

@@ -75,6 +75,19 @@ impl AreaLight {
         self.cross().normalize_or_zero()
     }
 
+    /// The cosine at the light of a sample reached along unit direction `dir` (receiver → light),
+    /// against the light's unit normal `normal` ([`AreaLight::normal`], or a [`PreparedLight`]'s):
+    /// `|cos|` for a two-sided light; ≤ 0 where the sample sees the light's back. WGSL:
+    /// `light_facing_cos` in sampling.wgsl.
+    pub fn facing_cos(&self, normal: Vec3, dir: Vec3) -> f32 {
+        let cos = normal.dot(-dir);
+        if self.two_sided {
+            cos.abs()
+        } else {
+            cos
+        }
+    }
+
     /// Centroid.
     pub fn centre(&self) -> Vec3 {
         match self.shape {

@@ -132,8 +132,7 @@ pub fn shadow_ray(
     let r2 = to.length_squared();
     let dir = to / r2.sqrt();
     let cos_x = n.dot(dir);
-    let ln = light.normal;
-    let cos_y = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
+    let cos_y = light.facing_cos(light.normal, dir);
     if cos_x <= 0.0 || cos_y <= 0.0 {
         return None;
     }

@@ -282,8 +282,7 @@ pub fn light_event(
     }
     let dir = to / r2.sqrt();
     let cos_y = n.dot(dir);
-    let ln = light.normal();
-    let cos_l = if light.two_sided { ln.dot(-dir).abs() } else { ln.dot(-dir) };
+    let cos_l = light.facing_cos(light.normal(), dir);
     if cos_y <= 0.0 || cos_l <= 0.0 {
         return None;
     }
