@@ -1,7 +1,8 @@
 // environment_light.wgsl — environment lighting as the path sampler and the indirect paths see it;
-// mirrors backends/src/kernels/environment.rs (stratified_entry, uniform_entry, brdf,
-// environment_event) with the same look-ups and operation order. Needs scene.wgsl (env_table) and,
-// for environment_event, the including kernel's Params `eps` and `lobe`.
+// mirrors backends/src/kernels/environment.rs (stratified_entry, uniform_entry, environment_event)
+// and Vertex::brdf (backends/src/kernels/indirect.rs) with the same look-ups and operation order.
+// Needs scene.wgsl (env_table) and, for environment_event, the including kernel's Params `eps` and
+// `lobe`.
 #include "common.wgsl"
 #include "rng.wgsl"
 #include "hemisphere.wgsl"

@@ -18,14 +18,15 @@ const LIGHT_DIM_STRIDE: u32 = 65536u;
 var<private> rays_secondary: u32 = 0u;
 var<private> rays_shadow: u32 = 0u;
 
-// next_event: one uniform area sample per light, and one environment look-up where the scene has a map.
+// next_event: one uniform area sample per light, and one environment look-up where the scene has a map
+// (indirect.rs next_event's first value).
 fn next_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> vec3<f32> {
     return next_event_parts(y, n, wo, kd, ks, m, key, sample, bounce).total;
 }
 
 struct NextEvent {
     total: vec3<f32>,
-    glossy: vec3<f32>, // the area lights' part through the glossy lobe (indirect.rs next_event_parts)
+    glossy: vec3<f32>, // the area lights' part through the glossy lobe (indirect.rs next_event's second value)
 }
 
 // Next-event estimation toward area light `l` alone (indirect.rs light_event): one uniform sample of

@@ -9,7 +9,7 @@
 use glam::{Vec2, Vec3};
 use wedge_backends::kernels::hemisphere::Lobe;
 use wedge_backends::kernels::indirect::{
-    continuation_numbers, light_event, lobe_mixture, next_event, trace_path_split, LobeValue, PathParams, PathRays,
+    continuation_numbers, light_event, next_event, trace_path_split, LobeValue, PathParams, PathRays, Vertex,
 };
 use wedge_backends::rng::{dim, PixelRng};
 use wedge_backends::{BackendError, Counters, KernelCtx, KernelParams, ParamSpec, Sampling, Uniforms};
@@ -226,15 +226,11 @@ pub fn first_vertex(
         };
     };
     let sp = at.surface(&hit, origin, dir);
-    let (x, n, wo) = (sp.position, sp.shading_normal, -dir);
-    let mat = &scene.materials[sp.material as usize];
-    let kd = scene.albedo(&sp);
-    let (ks, m) = (mat.specular, mat.phong_exponent);
+    let vertex = Vertex::on(scene, &sp, dir);
+    let Vertex { x, n, wo, kd, ks, m } = vertex;
     let (emitted, direct) = match paths.one_light {
-        None => (scene.emission(&sp), next_event(at, p, x, n, wo, kd, ks, m, rng, j, 0, rays)),
-        Some(l) => {
-            (Vec3::ZERO, light_event(at, p, l, x, n, wo, (kd, ks, m), rng, j, 0, rays).map_or(Vec3::ZERO, |e| e.0))
-        }
+        None => (scene.emission(&sp), next_event(at, p, &vertex, rng, j, 0, rays).0),
+        Some(l) => (Vec3::ZERO, light_event(at, p, l, &vertex, rng, j, 0, rays).map_or(Vec3::ZERO, |e| e.0)),
     };
     let surface = Some(FirstSurface { position: x, normal: n, distance: hit.t, albedo: kd, material: sp.material });
     let mut v = FirstVertex {
@@ -247,7 +243,7 @@ pub fn first_vertex(
         bounce_distance: None,
     };
     // The first vertex's lobe mixture (trace_path's continuation, bounce 0's dimensions).
-    if let Some(mix) = lobe_mixture(kd, ks, m).filter(|_| paths.continues) {
+    if let Some(mix) = vertex.mixture().filter(|_| paths.continues) {
         let (u, select) = continuation_numbers(rng, j, 0);
         let wi = mix.sample(p.lobe, m, n, wo, u, select);
         v.wi = Some(wi);

@@ -19,7 +19,7 @@ use glam::Vec3;
 use wedge_scene::environment::TABLE_SIZE;
 use wedge_scene::{EnvSample, SceneAt};
 
-use crate::kernels::hemisphere::{glossy_brdf, Lobe};
+use crate::kernels::indirect::{PathParams, Vertex};
 use crate::rng::{dim, PixelRng};
 
 /// Entry `(shift XOR q) mod 4096`: a pixel's `q`-th stratified look-up (module doc).
@@ -34,29 +34,14 @@ pub fn uniform_entry(u: f32) -> u32 {
     ((u * TABLE_SIZE as f32) as u32).min(TABLE_SIZE as u32 - 1)
 }
 
-/// The BRDF of a Phong (or Blinn-Phong) surface for light arriving along `wi`: `k_d/π + k_s ρ_s`.
-#[inline]
-pub fn brdf(lobe: Lobe, kd: Vec3, ks: Vec3, m: f32, n: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
-    let mut f = kd * std::f32::consts::FRAC_1_PI;
-    if m > 0.0 && ks.max_element() > 0.0 {
-        f += ks * glossy_brdf(lobe, m, n, wo, wi);
-    }
-    f
-}
-
-/// Next-event estimation of the environment at a path vertex `y` (normal `n`, toward the eye `wo`):
-/// one table look-up drawn with dimension `dim::ENVIRONMENT` of the bounce, a shadow ray to infinity,
-/// `L f cos / pdf`. Zero without a map. `shadow_rays` counts the ray.
-#[allow(clippy::too_many_arguments)]
+/// Next-event estimation of the environment at path vertex `v`: one table look-up drawn with
+/// dimension `dim::ENVIRONMENT` of the bounce, a shadow ray to infinity, `L f cos / pdf`. Zero
+/// without a map. `shadow_rays` counts the ray.
 #[inline]
 pub fn environment_event(
     scene: &SceneAt<'_>,
-    lobe: Lobe,
-    eps: f32,
-    y: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    (kd, ks, m): (Vec3, Vec3, f32),
+    p: &PathParams,
+    v: &Vertex,
     rng: &PixelRng,
     sample: u32,
     bounce: u32,
@@ -67,13 +52,13 @@ pub fn environment_event(
     };
     let e: EnvSample =
         env.table(uniform_entry(rng.uniform(sample, dim::ENVIRONMENT + bounce * dim::BOUNCE_STRIDE)) as usize);
-    let cos = n.dot(e.dir);
+    let cos = v.n.dot(e.dir);
     if !(cos > 0.0 && e.pdf > 0.0) {
         return Vec3::ZERO;
     }
     *shadow_rays += 1;
-    if scene.occluded(y + n * eps, e.dir, 0.0, f32::INFINITY) {
+    if scene.occluded(v.x + v.n * p.eps, e.dir, 0.0, f32::INFINITY) {
         return Vec3::ZERO;
     }
-    e.radiance * brdf(lobe, kd, ks, m, n, wo, e.dir) * (cos / e.pdf)
+    e.radiance * v.brdf(p.lobe, e.dir) * (cos / e.pdf)
 }

@@ -27,7 +27,7 @@
 //! hit, and the number traced. Non-finite sample values are counted and excluded from the means.
 
 use glam::{Vec2, Vec3};
-use wedge_scene::SceneAt;
+use wedge_scene::{Scene, SceneAt, SurfacePoint};
 
 use crate::bindings::PutWith;
 use crate::kernel::{Counters, Kernel, KernelCtx, Uniforms, WgslSource};
@@ -199,41 +199,58 @@ pub fn continuation_numbers(rng: &PixelRng, sample: u32, bounce: u32) -> (Vec2, 
     (u, rng.uniform(sample, LOBE_SELECT + bounce * dim::BOUNCE_STRIDE))
 }
 
-/// Next-event estimation at a path vertex: one uniform area sample per light, and one environment
-/// table look-up where the scene has a map ([`environment_event`]).
-#[allow(clippy::too_many_arguments)]
+/// A path vertex as the estimators shade it: its point `x`, shading normal `n`, the direction `wo`
+/// back along the path, and its material's lobes — diffuse albedo `k_d` (textured), Phong `k_s` and
+/// exponent `m`. One value for next-event estimation, the lobe mixture a path continues with and the
+/// shared sampler's estimators (`paths.trace`), rather than six arguments passed down each call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vertex {
+    pub x: Vec3,
+    pub n: Vec3,
+    pub wo: Vec3,
+    pub kd: Vec3,
+    pub ks: Vec3,
+    pub m: f32,
+}
+
+impl Vertex {
+    /// The vertex where a ray travelling along `dir` meets surface `sp` of `scene`.
+    #[inline]
+    pub fn on(scene: &Scene, sp: &SurfacePoint, dir: Vec3) -> Vertex {
+        let mat = &scene.materials[sp.material as usize];
+        let (kd, ks, m) = (scene.albedo(sp), mat.specular, mat.phong_exponent);
+        Vertex { x: sp.position, n: sp.shading_normal, wo: -dir, kd, ks, m }
+    }
+    /// Whether its material has a glossy lobe (`m > 0` and `k_s` not black).
+    #[inline]
+    pub fn glossy(&self) -> bool {
+        self.m > 0.0 && self.ks.max_element() > 0.0
+    }
+    /// Its BRDF for light arriving along `wi`: `k_d/π + k_s ρ_s`.
+    #[inline]
+    pub fn brdf(&self, lobe: Lobe, wi: Vec3) -> Vec3 {
+        let mut f = self.kd * std::f32::consts::FRAC_1_PI;
+        if self.glossy() {
+            f += self.ks * glossy_brdf(lobe, self.m, self.n, self.wo, wi);
+        }
+        f
+    }
+    /// Its lobe mixture ([`lobe_mixture`]).
+    #[inline]
+    pub fn mixture(&self) -> Option<LobeMixture> {
+        lobe_mixture(self.kd, self.ks, self.m)
+    }
+}
+
+/// Next-event estimation at path vertex `v`: one uniform area sample per light, and one environment
+/// table look-up where the scene has a map ([`environment_event`]). Its value, and the part of it the
+/// area lights send through the vertex's glossy lobe (`k_s ρ_s`), which the caustic paths of
+/// `pixel_filter.sample` follow (environment light is left out of that part).
 #[inline]
 pub fn next_event(
     scene: &SceneAt<'_>,
     p: &PathParams,
-    y: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    kd: Vec3,
-    ks: Vec3,
-    m: f32,
-    rng: &PixelRng,
-    sample: u32,
-    bounce: u32,
-    rays: &mut PathRays,
-) -> Vec3 {
-    next_event_parts(scene, p, y, n, wo, kd, ks, m, rng, sample, bounce, rays).0
-}
-
-/// [`next_event`] (its value, bit for bit) and the part of it the area lights send through the
-/// vertex's glossy lobe (`k_s ρ_s`), which the caustic paths of `pixel_filter.sample` follow
-/// (environment light is left out of that part).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-pub fn next_event_parts(
-    scene: &SceneAt<'_>,
-    p: &PathParams,
-    y: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    kd: Vec3,
-    ks: Vec3,
-    m: f32,
+    v: &Vertex,
     rng: &PixelRng,
     sample: u32,
     bounce: u32,
@@ -242,20 +259,18 @@ pub fn next_event_parts(
     let mut sum = Vec3::ZERO;
     let mut glossy_sum = Vec3::ZERO;
     for l in 0..scene.scene().lights.len() {
-        if let Some((value, glossy)) = light_event(scene, p, l, y, n, wo, (kd, ks, m), rng, sample, bounce, rays) {
+        if let Some((value, glossy)) = light_event(scene, p, l, v, rng, sample, bounce, rays) {
             sum += value;
             glossy_sum += glossy;
         }
     }
     // The environment is a light too (thesis Ch. 6: it lights the reflectors of E^ind).
-    let total =
-        sum + environment_event(scene, p.lobe, p.eps, y, n, wo, (kd, ks, m), rng, sample, bounce, &mut rays.shadow);
-    (total, glossy_sum)
+    (sum + environment_event(scene, p, v, rng, sample, bounce, &mut rays.shadow), glossy_sum)
 }
 
 /// Next-event estimation toward area light `l` alone: one uniform sample of it and its shadow ray;
 /// the light it sends off the vertex and the part through the glossy lobe, `None` where the sample
-/// faces away or is blocked. [`next_event_parts`] sums it over the lights (a light's dimensions are
+/// faces away or is blocked. [`next_event`] sums it over the lights (a light's dimensions are
 /// its own, so one light's estimate is the same alone or among the others).
 #[allow(clippy::too_many_arguments)]
 #[inline]
@@ -263,15 +278,13 @@ pub fn light_event(
     scene: &SceneAt<'_>,
     p: &PathParams,
     l: usize,
-    y: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    (kd, ks, m): (Vec3, Vec3, f32),
+    v: &Vertex,
     rng: &PixelRng,
     sample: u32,
     bounce: u32,
     rays: &mut PathRays,
 ) -> Option<(Vec3, Vec3)> {
+    let Vertex { x: y, n, wo, kd, ks, m } = *v;
     let light = scene.light(l);
     let d = dim::LIGHT + bounce * dim::BOUNCE_STRIDE + l as u32 * LIGHT_DIM_STRIDE;
     let target = light.sample_point(Vec2::from(rng.uniform2(sample, d)));
@@ -296,7 +309,7 @@ pub fn light_event(
     let mut f = kd * std::f32::consts::FRAC_1_PI;
     let geometry = cos_y * cos_l / r2 * light.area();
     let mut glossy = Vec3::ZERO;
-    if m > 0.0 && ks.max_element() > 0.0 {
+    if v.glossy() {
         let g = ks * glossy_brdf(p.lobe, m, n, wo, dir);
         f += g;
         glossy = light.radiance * g * geometry;
@@ -325,7 +338,7 @@ pub fn trace_path(
 
 /// [`trace_path`] (its radiance, bit for bit) and the part of it that reached `x` through glossy
 /// scattering only: at every vertex the area lights' glossy part of next-event estimation
-/// ([`next_event_parts`]) times the product of the earlier vertices' glossy parts `k_s ρ_s cos/pdf`
+/// ([`next_event`]) times the product of the earlier vertices' glossy parts `k_s ρ_s cos/pdf`
 /// (the light of `L S+` paths; seed 002 Sec. 3.3's "caustic paths" for Phong surfaces, see
 /// docs/DESIGN-NOTES.md). AO: no caustic part.
 #[inline]
@@ -378,21 +391,16 @@ pub fn path_from_hit(
     let mut caustic = Vec3::ZERO;
     let mut caustic_throughput = Vec3::ONE;
     for bounce in 1..=p.bounces {
-        let sp = scene.surface(&hit, origin, dir);
-        let y = sp.position;
-        let ny = sp.shading_normal;
-        let wo = -dir;
-        let mat = &scene.scene().materials[sp.material as usize];
-        let kd = scene.scene().albedo(&sp);
-        let (ks, m) = (mat.specular, mat.phong_exponent);
-        let (event, glossy_event) = next_event_parts(scene, p, y, ny, wo, kd, ks, m, rng, sample, bounce, rays);
+        let v = Vertex::on(scene.scene(), &scene.surface(&hit, origin, dir), dir);
+        let Vertex { x: y, n: ny, wo, kd, ks, m } = v;
+        let (event, glossy_event) = next_event(scene, p, &v, rng, sample, bounce, rays);
         radiance += throughput * event;
         caustic += caustic_throughput * glossy_event;
         if bounce == p.bounces {
             break;
         }
         // Continue: one-sample mixture of the vertex's lobes.
-        let Some(mix) = lobe_mixture(kd, ks, m) else {
+        let Some(mix) = v.mixture() else {
             break;
         };
         let (u, select) = continuation_numbers(rng, sample, bounce);
@@ -506,43 +514,24 @@ impl Kernel for IndirectSample {
             let (ks, m) = specular.map_or((Vec3::ZERO, 0.0), |s| (v3(s[i]), s[i][3]));
             let glossy = want_glossy && m > 0.0 && ks.max_element() > 0.0;
             let (mut z_min, mut z_max, mut hits, mut traced) = (f32::INFINITY, 0.0f32, 0u32, 0u32);
-            let mut record = |t: Option<f32>| {
-                traced += 1;
-                if let Some(t) = t {
-                    hits += 1;
-                    z_min = z_min.min(t);
-                    z_max = z_max.max(t);
-                }
-            };
-            // Diffuse component.
-            let extra = rays_d.map_or(count, |r| r[i]).saturating_sub(pd[3] as u32);
-            // Keyed by the full image's pixel, so a tile draws what the whole image draws there.
-            let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, COMPONENT_DIFFUSE));
-            let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
-            for s in 0..extra {
-                let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };
-                let wi = sample_diffuse(n, Vec2::from(u));
-                let (v, t) = trace_path(&at, &p, x, n, wi, &rng, s, &mut out.rays);
-                record(t);
-                if v.is_finite() {
-                    sum += v;
-                    valid += 1;
-                } else {
-                    out.bad += 1;
-                }
-            }
-            out.d = continue_mean(pd, sum, valid);
-            // Glossy component.
-            if glossy {
-                let extra = rays_g.map_or(count, |r| r[i]).saturating_sub(pg[3] as u32);
-                let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, COMPONENT_GLOSSY));
+            // One component's `extra` paths, each leaving in the direction `direction(u)` draws with
+            // its weight (0: none traced), on the component's own sub-stream (keyed by the full
+            // image's pixel, so a tile draws what the whole image draws there); their mean
+            // continues `previous`.
+            let mut component = |sub: u32, extra: u32, previous: [f32; 4], direction: &dyn Fn(Vec2) -> (Vec3, f32)| {
+                let rng = PixelRng::new(seed, window.pixel_id(px, py), substream(stream, sub));
                 let (mut sum, mut valid) = (Vec3::ZERO, 0u32);
                 for s in 0..extra {
                     let u = if stratified { rng.stratified2(s, extra, dim::BSDF) } else { rng.uniform2(s, dim::BSDF) };
-                    let (wi, w) = sample_glossy(p.lobe, m, n, wo, Vec2::from(u));
+                    let (wi, w) = direction(Vec2::from(u));
                     let v = if w > 0.0 {
                         let (v, t) = trace_path(&at, &p, x, n, wi, &rng, s, &mut out.rays);
-                        record(t);
+                        traced += 1;
+                        if let Some(t) = t {
+                            hits += 1;
+                            z_min = z_min.min(t);
+                            z_max = z_max.max(t);
+                        }
                         v * w
                     } else {
                         Vec3::ZERO
@@ -554,8 +543,15 @@ impl Kernel for IndirectSample {
                         out.bad += 1;
                     }
                 }
-                out.g = continue_mean(pg, sum, valid);
-            }
+                continue_mean(previous, sum, valid)
+            };
+            let extra = |rays: Option<&[u32]>, previous: [f32; 4]| {
+                rays.map_or(count, |r| r[i]).saturating_sub(previous[3] as u32)
+            };
+            let d = component(COMPONENT_DIFFUSE, extra(rays_d, pd), pd, &|u| (sample_diffuse(n, u), 1.0));
+            let g = glossy
+                .then(|| component(COMPONENT_GLOSSY, extra(rays_g, pg), pg, &|u| sample_glossy(p.lobe, m, n, wo, u)));
+            (out.d, out.g) = (d, g.unwrap_or(pg));
             if hits == 0 {
                 z_min = 0.0;
             }

@@ -83,7 +83,7 @@ use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms,
 use crate::kernels::direct::{light_centre_factor, light_sample, FormFactor};
 use crate::kernels::environment::{stratified_entry, uniform_entry};
 use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
-use crate::kernels::indirect::{trace_path, PathParams, PathRays};
+use crate::kernels::indirect::{trace_path, PathParams, PathRays, Vertex};
 use crate::kernels::{luminance, widen_range};
 use crate::params::{KernelParams, Sampling};
 use crate::record;
@@ -734,8 +734,8 @@ fn trace_one(
         add(&mut r.emission, scene.scene().background(ray.dir) * w);
         return;
     };
-    let (x, n) = (sp.position, sp.shading_normal);
-    let wo = -ray.dir;
+    let v = Vertex::on(scene.scene(), &sp, ray.dir);
+    let (x, n) = (v.x, v.n);
     r.hits += 1;
     r.hit_weight += w;
     add(&mut r.position, x * w);
@@ -750,11 +750,9 @@ fn trace_one(
     r.depth += w * z;
     let coc = s.camera.coc_pixels(z, view.height).abs();
     widen_range((&mut r.r_min, &mut r.r_max), coc, r.hits == 1);
-    let mat = &scene.scene().materials[sp.material as usize];
-    let (ks, m) = (mat.specular, mat.phong_exponent);
-    let glossy = m > 0.0 && ks.max_element() > 0.0;
-    r.exponent += w * if glossy { m } else { 0.0 };
-    let at = PathHit { x, n, wo, kd: scene.scene().albedo(&sp), ks, m, glossy, w };
+    let glossy = v.glossy();
+    r.exponent += w * if glossy { v.m } else { 0.0 };
+    let at = PathHit { v, glossy, w };
     if s.environment && count.environment > 0 {
         trace_environment(scene, s, &at, draws, count.environment, r);
     }
@@ -766,16 +764,11 @@ fn trace_one(
     }
 }
 
-/// The primary hit a path's estimators shade: position, shading normal, direction to the eye,
-/// diffuse albedo, Phong `k_s` and exponent (a lobe where `glossy`), and the path's lens weight.
+/// The primary hit a path's estimators shade: the vertex (a lobe where `glossy`) and the path's
+/// lens weight.
 #[derive(Clone, Copy)]
 struct PathHit {
-    x: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    kd: Vec3,
-    ks: Vec3,
-    m: f32,
+    v: Vertex,
     glossy: bool,
     w: f32,
 }
@@ -792,7 +785,7 @@ fn trace_direct(
     n_shadow: u32,
     r: &mut PathRecord,
 ) {
-    let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
+    let PathHit { v: Vertex { x, n, wo, kd, ks, m }, glossy, w } = *at;
     // Direct: centre-of-light form factor (or, with `exact`, the per-sample geometry term),
     // visibility sampled (eqs. 5.9–5.14); the glossy lobe toward the light centre folds into k
     // (eq. 5.20).
@@ -863,9 +856,8 @@ pub fn occluder_term(cos: f32, t: f32) -> f32 {
 /// infinity; `E_d = L cos/(π pdf)` with `k = k_d` and, where the surface has a lobe, `E_s = L ρ_s
 /// cos/pdf` with `k = k_s` (Phong receivers, eq. 6.14). Occluded samples at least
 /// `occluder_luminance` bright keep the largest [`occluder_term`].
-#[allow(clippy::too_many_arguments)]
 fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Draws, count: u32, r: &mut PathRecord) {
-    let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
+    let PathHit { v: Vertex { x, n, wo, kd, ks, m }, glossy, w } = *at;
     let Some(env) = scene.scene().environment.as_ref() else { return };
     let shift = if s.stratified { uniform_entry(draws.draw(pair::ENVIRONMENT, 0).x) } else { 0 };
     let origin = x + n * s.path.eps;
@@ -919,7 +911,6 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Dr
 }
 
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.
-#[allow(clippy::too_many_arguments)]
 fn trace_indirect(
     scene: &SceneAt<'_>,
     s: &Settings,
@@ -929,7 +920,7 @@ fn trace_indirect(
     count: Secondary,
     r: &mut PathRecord,
 ) {
-    let PathHit { x, n, wo, kd, ks, m, glossy, w } = *at;
+    let PathHit { v: Vertex { x, n, wo, kd, ks, m }, glossy, w } = *at;
 
     // Indirect diffuse: cosine-sampled one-bounce paths; E = incident radiance, k = k_d. Ambient
     // occlusion is not reflected light: its texture is 1 (L = E = the occluded fraction), so a

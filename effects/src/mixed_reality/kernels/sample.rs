@@ -3,8 +3,9 @@
 use glam::{Vec2, Vec3};
 use wedge_scene::{Camera, EnvSample, EnvironmentMap, Hit, RealLayer, Scene, SceneAt};
 
-use wedge_backends::kernels::environment::{brdf, stratified_entry, uniform_entry};
+use wedge_backends::kernels::environment::{stratified_entry, uniform_entry};
 use wedge_backends::kernels::hemisphere::{glossy_pdf, sample_diffuse, sample_glossy, Lobe};
+use wedge_backends::kernels::indirect::Vertex;
 use wedge_backends::kernels::paths::camera_uniforms;
 use wedge_backends::kernels::screen_trace::{ScreenHit, ScreenTracer};
 use wedge_backends::kernels::{luminance, widen_range};
@@ -104,13 +105,8 @@ fn draw(s: &MrSettings, seed: u32, pixel: u32, pair: u32, index: u32) -> Vec2 {
 /// A surface a secondary sample starts from.
 #[derive(Clone, Copy, Debug)]
 struct Receiver {
-    x: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    /// Virtual surfaces: `k_d`, `k_s`, `m`; real ones `(1, 0, 0)` (diffuse; albedo divided out).
-    kd: Vec3,
-    ks: Vec3,
-    m: f32,
+    /// Virtual surfaces: their own; real ones `k_d, k_s, m = (1, 0, 0)` (diffuse; albedo divided out).
+    v: Vertex,
     real: bool,
 }
 
@@ -187,24 +183,14 @@ impl World<'_> {
 
 /// Radiance leaving a virtual hit `y` toward `-d`: one environment look-up `u` with shadow rays in
 /// both worlds (Algorithm 1, line 29).
-#[allow(clippy::too_many_arguments)]
-fn virtual_hit_radiance(
-    world: &World<'_>,
-    s: &MrSettings,
-    sums: &mut Sums,
-    y: Vec3,
-    n: Vec3,
-    wo: Vec3,
-    (kd, ks, m): (Vec3, Vec3, f32),
-    u: f32,
-) -> Vec3 {
+fn virtual_hit_radiance(world: &World<'_>, s: &MrSettings, sums: &mut Sums, v: &Vertex, u: f32) -> Vec3 {
     let env = world.scene.scene().environment.as_ref().expect("checked in settings");
     let e = env.table(uniform_entry(u) as usize);
-    let cos = n.dot(e.dir);
+    let cos = v.n.dot(e.dir);
     if !(cos > 0.0 && e.pdf > 0.0) {
         return Vec3::ZERO;
     }
-    let origin = y + n * s.eps;
+    let origin = v.x + v.n * s.eps;
     sums.shadow_rays += 1;
     if world.scene.occluded(origin, e.dir, 0.0, f32::INFINITY) {
         return Vec3::ZERO;
@@ -213,7 +199,7 @@ fn virtual_hit_radiance(
     if matches!(world.screen(sums, origin, e.dir), ScreenHit::Hit { .. }) {
         return Vec3::ZERO;
     }
-    e.radiance * brdf(Lobe::Phong, kd, ks, m, n, wo, e.dir) * (cos / e.pdf)
+    e.radiance * v.brdf(Lobe::Phong, e.dir) * (cos / e.pdf)
 }
 
 /// One primary sample's `per_primary` secondary samples at receiver `r` ([`super`]'s doc): each is a
@@ -262,10 +248,10 @@ struct Secondary<'a> {
 impl<'a> Secondary<'a> {
     fn new(world: &'a World<'a>, s: &'a MrSettings, seed: u32, pixel: u32, shift: u32, r: &'a Receiver) -> Self {
         let env = world.scene.scene().environment.as_ref().expect("checked in settings");
-        let glossy = !r.real && r.m > 0.0 && r.ks.max_element() > 0.0;
-        let (lum_d, lum_s) = (luminance(r.kd), if glossy { luminance(r.ks) } else { 0.0 });
+        let glossy = !r.real && r.v.glossy();
+        let (lum_d, lum_s) = (luminance(r.v.kd), if glossy { luminance(r.v.ks) } else { 0.0 });
         let p_glossy = if lum_d + lum_s > 0.0 { lum_s / (lum_d + lum_s) } else { 0.0 };
-        let (origin, k_v) = (r.x + r.n * s.eps, r.kd + r.ks);
+        let (origin, k_v) = (r.v.x + r.v.n * s.eps, r.v.kd + r.v.ks);
         Secondary { world, s, seed, pixel, shift, r, env, origin, k_v, glossy, p_glossy }
     }
 
@@ -296,7 +282,7 @@ impl<'a> Secondary<'a> {
             uniform_entry(self.draw(pair::ENVIRONMENT, q).x)
         };
         let e = self.env.table(entry as usize);
-        let cos = r.n.dot(e.dir);
+        let cos = r.v.n.dot(e.dir);
         let (mut dir_r, mut dir_rv) = (Vec3::ZERO, Vec3::ZERO);
         if cos > 0.0 && e.pdf > 0.0 {
             let (t_v, t_r) = self.shadow_rays(sums, &e, cos);
@@ -310,7 +296,7 @@ impl<'a> Secondary<'a> {
                     }
                 }
             } else if t_r.is_none() && t_v.is_none() {
-                dir_rv = self.per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, e.dir));
+                dir_rv = self.per_k(l * r.v.brdf(Lobe::Phong, e.dir));
             }
         }
         (dir_r, dir_rv)
@@ -347,7 +333,7 @@ impl<'a> Secondary<'a> {
     fn indirect(&self, sums: &mut Sums, q: u32) -> (Vec3, Vec3) {
         let r = self.r;
         let wi = self.indirect_direction(q);
-        let cos_i = r.n.dot(wi);
+        let cos_i = r.v.n.dot(wi);
         let (mut ind_r, mut ind_rv) = (Vec3::ZERO, Vec3::ZERO);
         if cos_i > 0.0 && wi.is_finite() {
             let pdf = self.indirect_pdf(cos_i, wi);
@@ -380,9 +366,9 @@ impl<'a> Secondary<'a> {
         let u = self.draw(pair::HEMISPHERE_DIFFUSE, q);
         let pick = self.draw(pair::HEMISPHERE_GLOSSY, q);
         if self.glossy && pick.x < self.p_glossy {
-            sample_glossy(Lobe::Phong, r.m, r.n, r.wo, u).0
+            sample_glossy(Lobe::Phong, r.v.m, r.v.n, r.v.wo, u).0
         } else {
-            sample_diffuse(r.n, u)
+            sample_diffuse(r.v.n, u)
         }
     }
 
@@ -391,7 +377,7 @@ impl<'a> Secondary<'a> {
         let r = self.r;
         let pdf_d = cos_i * std::f32::consts::FRAC_1_PI;
         if self.glossy {
-            (1.0 - self.p_glossy) * pdf_d + self.p_glossy * glossy_pdf(Lobe::Phong, r.m, r.n, r.wo, wi)
+            (1.0 - self.p_glossy) * pdf_d + self.p_glossy * glossy_pdf(Lobe::Phong, r.v.m, r.v.n, r.v.wo, wi)
         } else {
             pdf_d
         }
@@ -408,21 +394,9 @@ impl<'a> Secondary<'a> {
             _ => None,
         };
         let l_v = hit_v.map(|h| {
-            let sp = world.scene.surface(&h, origin, wi);
-            let mat = &world.scene.scene().materials[sp.material as usize];
-            let kd = world.scene.scene().albedo(&sp);
+            let v = Vertex::on(world.scene.scene(), &world.scene.surface(&h, origin, wi), wi);
             let u_env = self.draw(pair::PATH, q).x;
-            let l = virtual_hit_radiance(
-                world,
-                self.s,
-                sums,
-                sp.position,
-                sp.shading_normal,
-                -wi,
-                (kd, mat.specular, mat.phong_exponent),
-                u_env,
-            );
-            (h.t, l)
+            (h.t, virtual_hit_radiance(world, self.s, sums, &v, u_env))
         });
         (l_r, l_v)
     }
@@ -434,7 +408,7 @@ impl<'a> Secondary<'a> {
         if r.real {
             l * (cos_i * std::f32::consts::FRAC_1_PI / pdf)
         } else {
-            self.per_k(l * brdf(Lobe::Phong, r.kd, r.ks, r.m, r.n, r.wo, wi) * (cos_i / pdf))
+            self.per_k(l * r.v.brdf(Lobe::Phong, wi) * (cos_i / pdf))
         }
     }
 }
@@ -514,7 +488,7 @@ pub fn sample_pixel(
                 continue;
             };
             let n = layer.normal(px, py);
-            Receiver { x: p, n, wo: -d, kd: Vec3::ONE, ks: Vec3::ZERO, m: 0.0, real: true }
+            Receiver { v: Vertex { x: p, n, wo: -d, kd: Vec3::ONE, ks: Vec3::ZERO, m: 0.0 }, real: true }
         } else {
             let h = hit.expect("a virtual sample has a hit");
             let (r, area) = virtual_receiver(&world, &mut sums, &h, o, d, pixel_angle);
@@ -540,21 +514,18 @@ fn virtual_receiver(
 ) -> (Receiver, f32) {
     let scene = world.scene.scene();
     let sp = world.scene.surface(h, o, d);
-    let mat = &scene.materials[sp.material as usize];
-    let (kd, ks, m) = (scene.albedo(&sp), mat.specular, mat.phong_exponent);
+    let v = Vertex::on(scene, &sp, d);
     sums.virtual_primary += 1;
-    sums.k_v += kd + ks;
+    sums.k_v += v.kd + v.ks;
     sums.virtual_position += sp.position;
     sums.virtual_normal += sp.shading_normal;
     if sums.virtual_object == 0 {
         sums.virtual_object = 1 + sp.object;
     }
-    let glossy = m > 0.0 && ks.max_element() > 0.0;
-    sums.exponent += if glossy { m } else { 0.0 };
+    sums.exponent += if v.glossy() { v.m } else { 0.0 };
     let c = sp.shading_normal.dot(-d).abs().max(0.05);
     let area = h.t * pixel_angle / c.sqrt();
-    let r = Receiver { x: sp.position, n: sp.shading_normal, wo: -d, kd, ks, m, real: false };
-    (r, area)
+    (Receiver { v, real: false }, area)
 }
 
 /// The filters' surface at the pixel, `(position, normal)` as the buffers hold them: the pixel's
