@@ -40,6 +40,9 @@ pub struct Aovs {
     pub normal: Vec<[f32; 3]>,
     /// Diffuse albedo k_d at the hit (textures included); 0 on misses.
     pub albedo: Vec<[f32; 3]>,
+    /// The id of the object hit (`None` on misses): the bench's moving / static pixel classes read
+    /// its motion. Not written by `--aov`.
+    pub object: Vec<Option<u32>>,
 }
 
 impl Aovs {
@@ -59,21 +62,23 @@ impl Aovs {
             return Err(WedgeError::Usage("primary.gbuffer's outputs have unexpected formats (a bug)".into()));
         };
         let n = pos.len();
-        let (mut position, mut normal, mut albedo) =
-            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut position, mut normal, mut albedo, mut object) =
+            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
         for k in 0..n {
             // position.w = 1 + object id on a hit, 0 on a miss (primary.rs).
             if pos[k][3] > 0.0 {
                 position.push([pos[k][0], pos[k][1], pos[k][2], 1.0]);
                 normal.push([nor[k][0], nor[k][1], nor[k][2]]);
                 albedo.push(alb[k]);
+                object.push(Some(pos[k][3] as u32 - 1));
             } else {
                 position.push([0.0; 4]);
                 normal.push([0.0; 3]);
                 albedo.push([0.0; 3]);
+                object.push(None);
             }
         }
-        Ok(Aovs { width, height, position, normal, albedo })
+        Ok(Aovs { width, height, position, normal, albedo, object })
     }
 
     /// The maps named in `names` (a subset of [`AOV_NAMES`], in any order) as `(file stem, RGBA

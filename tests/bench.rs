@@ -319,6 +319,23 @@ fn tiny_suite(pipeline: PathBuf, out: &Path) -> BenchOptions {
     }
 }
 
+/// The motion suite (issue 35) in small: the report splits the error of a scene with movers into
+/// moving and static pixels (and texture), where the Motion node samples the shutter.
+#[test]
+fn motion_suite_smoke_splits_the_error_into_moving_and_static_pixels() {
+    use wedge::bench::suite::run_suite;
+    use wedge::scene::builtin::SuiteFamily;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let opts = tiny_suite(root.join("pipelines/motion_shadows_indirect.ron"), dir.path());
+    let r = run_suite(&opts, &["builtin:mo_fast_thin".to_string()]).expect("motion suite runs");
+    assert_eq!(r.family, SuiteFamily::Motion);
+    let report = std::fs::read_to_string(dir.path().join("mo_fast_thin/report.md")).unwrap();
+    for needle in ["| motion | static |", "| motion | moving |", "| texture | flat |", "moving = the surface blurs"] {
+        assert!(report.contains(needle), "report lacks {needle:?}:\n{report}");
+    }
+}
+
 /// The environment suite (issue 35) in small: an Environment pipeline picks it, every scene is
 /// described, and a scene runs under its own map (the sun's, not the pipeline's).
 #[test]

@@ -8,6 +8,10 @@
 //! - **focus** (only with a thin lens): *in focus* where the circle of confusion at the hit is at most
 //!   [`IN_FOCUS_COC_PX`] pixels in radius, *out of focus* elsewhere (`Camera::coc_pixels`, the lens
 //!   of the pipeline's factoring node);
+//! - **motion** (only where the pipeline samples the shutter): *moving* where the surface seen
+//!   blurs over at least [`MOVING_BLUR_PX`] pixels in the shutter (its object's velocity at the hit,
+//!   at the shutter's centre, projected into the image: `2 |v|` for `v` in pixels per half shutter,
+//!   t ∈ [−1, 1]), *static* elsewhere;
 //! - **texture**: *texture edge* where the albedo's luminance steps by more than
 //!   [`EDGE_STEP`] to a 4-neighbour (also a neighbour that misses), *flat* elsewhere;
 //! - *background* (the centre ray misses) is its own class in both partitions.
@@ -20,7 +24,8 @@
 //! noisy pixel does not dominate, are the bench's `images/bias2.png` and `images/variance.png`.
 
 use serde::Serialize;
-use wedge_scene::Camera;
+use wedge_backends::kernels::paths::Projection;
+use wedge_scene::{Camera, Scene, Vec3};
 
 use crate::aov::Aovs;
 use crate::image::Image;
@@ -29,6 +34,8 @@ use crate::image::Image;
 pub const IN_FOCUS_COC_PX: f32 = 1.0;
 /// A luminance step of the albedo to a neighbour above this counts as a texture edge.
 pub const EDGE_STEP: f32 = 0.1;
+/// A pixel whose surface blurs over at least this many pixels in the shutter counts as moving.
+pub const MOVING_BLUR_PX: f32 = 1.0;
 
 /// One partition of the image's pixels: a class label per pixel.
 #[derive(Clone, Debug)]
@@ -66,15 +73,39 @@ impl ClassError {
 }
 
 /// The partitions of `aovs`' pixels: focus (when `lens` = `(aperture_radius, focus_distance)` has an
-/// aperture) and texture.
-pub fn partitions(aovs: &Aovs, camera: &Camera, lens: Option<(f32, f32)>) -> Vec<Partition> {
+/// aperture), motion (when `shutter` gives the scene whose motion the pipeline's paths sample) and
+/// texture.
+pub fn partitions(aovs: &Aovs, camera: &Camera, lens: Option<(f32, f32)>, shutter: Option<&Scene>) -> Vec<Partition> {
     let mut out = Vec::new();
     if let Some((aperture_radius, focus_distance)) = lens.filter(|l| l.0 > 0.0) {
         let cam = Camera { aperture_radius, focus_distance, ..*camera };
         out.push(focus_partition(aovs, &cam));
     }
+    if let Some(scene) = shutter.filter(|s| s.has_motion()) {
+        out.push(motion_partition(aovs, camera, scene));
+    }
     out.push(texture_partition(aovs));
     out
+}
+
+fn motion_partition(aovs: &Aovs, camera: &Camera, scene: &Scene) -> Partition {
+    let projection = Projection::new(camera, aovs.height);
+    let label = aovs
+        .position
+        .iter()
+        .zip(&aovs.object)
+        .map(|(p, object)| {
+            let Some(object) = object else { return 0 };
+            let x = Vec3::new(p[0], p[1], p[2]);
+            let v = scene.instance_of(*object).map_or(Vec3::ZERO, |i| i.prepared.velocity(0.0, x));
+            if 2.0 * projection.image_velocity(x, v).length() >= MOVING_BLUR_PX {
+                2
+            } else {
+                1
+            }
+        })
+        .collect();
+    Partition { name: "motion", classes: vec!["background", "static", "moving"], label }
 }
 
 fn focus_partition(aovs: &Aovs, cam: &Camera) -> Partition {
@@ -251,6 +282,25 @@ mod tests {
         // Class b: pixels 1 and 2, mse 0.125, variance 0.25: bias clamped to 0.
         assert_eq!((c[1].class, c[1].bias2, c[1].dominant()), ("b", 0.0, "variance"));
         assert_eq!(summary(&c), "a 67% (bias)");
+    }
+
+    #[test]
+    fn moving_pixels_are_those_whose_surface_blurs_a_pixel_or_more() {
+        let load = |name: &str| wedge_scene::load(&wedge_scene::SceneSource::Builtin(name.into())).unwrap();
+        let (w, h) = (64, 48);
+        let classes_of = |scene: &Scene, shutter: bool| {
+            let aovs = Aovs::render(scene, w, h).unwrap();
+            partitions(&aovs, &scene.camera, None, shutter.then_some(scene))
+        };
+        let moving = load("mo_fast_thin");
+        let p = classes_of(&moving, true);
+        assert_eq!(p.iter().map(|p| p.name).collect::<Vec<_>>(), ["motion", "texture"]);
+        let count = |c: u8| p[0].label.iter().filter(|&&l| l == c).count();
+        // Fast movers over a still backdrop: both classes, the movers the smaller one.
+        assert!(count(2) > 0 && count(1) > count(2), "static {} moving {}", count(1), count(2));
+        // No shutter sampled, or nothing that moves: no motion partition.
+        assert_eq!(classes_of(&moving, false).len(), 1);
+        assert_eq!(classes_of(&load("cornell"), true).len(), 1);
     }
 
     #[test]

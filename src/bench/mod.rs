@@ -823,14 +823,18 @@ fn speedups(runs: &mut [RunRecord]) -> Vec<(Method, Option<curves::LogLogFit>)> 
 }
 
 /// The pixel classes of `session`'s image ([`classes::partitions`]): its scene's G-buffer at the
-/// bench's size, and the lens of its factoring node where it has one.
+/// bench's size, the lens of its factoring node where it has one, and the scene's motion where that
+/// node samples the shutter.
 fn pixel_classes(session: &Session, width: u32, height: u32) -> Result<Vec<classes::Partition>, WedgeError> {
     let aovs = crate::aov::Aovs::render(&session.scene, width, height)?;
     let lens = session.pipeline.factoring.as_ref().and_then(|f| {
         let [aperture, focus] = suite::LENS_PARAMS.map(|n| f.float(n));
         Some((aperture? as f32, focus? as f32))
     });
-    Ok(classes::partitions(&aovs, &session.camera_at(0), lens))
+    let shutter =
+        session.pipeline.factoring.as_ref().and_then(|f| f.bool(crate::graph::factoring::CameraSettings::TIME))
+            == Some(true);
+    Ok(classes::partitions(&aovs, &session.camera_at(0), lens, shutter.then_some(&session.scene)))
 }
 
 /// Mean of every finite channel value of `img` (NaN when there is none).

@@ -701,9 +701,11 @@ fn class_table(w: &mut String, errors: &[classes::ClassError]) {
     }
     let _ = writeln!(
         w,
-        "\nClasses from the scene's pinhole G-buffer: in focus = circle of confusion ≤ {} px; texture edge = albedo \
-         luminance step > {} to a 4-neighbour. bias² = MSE − variance − reference variance per class, clamped at 0.",
+        "\nClasses from the scene's pinhole G-buffer: in focus = circle of confusion ≤ {} px; moving = the surface \
+         blurs over ≥ {} px in the shutter; texture edge = albedo luminance step > {} to a 4-neighbour. bias² = MSE − \
+         variance − reference variance per class, clamped at 0.",
         classes::IN_FOCUS_COC_PX,
+        classes::MOVING_BLUR_PX,
         classes::EDGE_STEP
     );
 }
