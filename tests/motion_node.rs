@@ -194,6 +194,39 @@ fn consistent_mode_converges_to_the_reference_as_mu_grows() {
     assert_eq!(rmse(&render(&default, &ov(2.0)).0, &truth), errors[1]);
 }
 
+/// Under a factoring node SoftShadows fills the first pass's occluder statistics into the pixels
+/// whose paths saw no occluder (Ch. 3 Sec. 3.6's fill, `fill_radius`; docs/DESIGN-NOTES.md
+/// "Occluders filled under a factoring node"): the component's rates read the filled buffer, and the
+/// image is closer to the reference than with the pixels' own statistics (`fill_radius: 0`, the
+/// thesis's Ch. 5 — no fill pass, the rates read the sampler's statistics as before).
+#[test]
+fn the_factored_shadows_fill_unoccluded_pixels_from_their_neighbours() {
+    let filled = pipeline("builtin:mo_shadow_caster", "", "", "motion.radiance");
+    let own = filled.replace(r#"{"light": 0}"#, r#"{"light": 0, "fill_radius": 0}"#);
+    let rates_reads = |text: &str| {
+        let s = session_from_text(text, &Overrides::default());
+        let rates = s.schedule.passes.iter().find(|p| p.name == "shadows.direct_rates").expect("the component's rates");
+        let occlusion = rates.reads.iter().find(|(b, _)| b == "occlusion").expect("occlusion bound").1;
+        let fill = s.schedule.passes.iter().find(|p| p.name == "shadows.fill").map(|p| p.write("out").unwrap());
+        (fill, occlusion)
+    };
+    let (fill, read) = rates_reads(&filled);
+    assert_eq!(fill, Some(read), "the rates read the fill pass's output");
+    assert_eq!(rates_reads(&own).0, None, "no fill pass at fill_radius 0");
+
+    let ov = sized(160, 120, None, &[]);
+    let truth = reference(&filled, 512, &ov);
+    let (a, ra) = render(&filled, &ov);
+    let (b, rb) = render(&own, &ov);
+    let (e_filled, e_own) = (rmse(&a, &truth), rmse(&b, &truth));
+    eprintln!(
+        "RMSE filled {e_filled:.4e} ({} rays), own {e_own:.4e} ({} rays)",
+        ra.rays.total_rays(),
+        rb.rays.total_rays()
+    );
+    assert!(e_filled < 0.9 * e_own, "filled {e_filled} vs own {e_own}");
+}
+
 #[test]
 fn motion_and_defocus_in_one_pipeline_are_refused_with_the_reason() {
     let text = r#"Pipeline(scene: "builtin:motion", width: 32, height: 24, nodes: [

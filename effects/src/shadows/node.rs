@@ -4,7 +4,7 @@
 
 use wedge_graph::{
     Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary,
-    PortDecl, Reference, SamplerPass, Stage, Statistic,
+    PortDecl, Reference, SamplerPass, SamplerRequest, Stage, Statistic,
 };
 
 use wedge_backends::kernels::compose::ModulateIo;
@@ -72,7 +72,7 @@ impl NodeKind for SoftShadows {
         .chain(BandwidthParams::decls())
         .chain(RateParams::decls())
         .chain([
-            ParamDecl::int("fill_radius", 5, 0, 64, "radius (pixels) for averaging d1, d2 into unoccluded pixels"),
+            ParamDecl::int("fill_radius", 5, 0, 64, "radius (pixels) for averaging d1, d2 into unoccluded pixels (also under a factoring node; 0 there: the thesis's Ch. 5, own statistics only)"),
             ParamDecl::choice(
                 "form_factor",
                 "exact",
@@ -179,17 +179,45 @@ impl NodeKind for SoftShadows {
 /// area light `light` as one factored component, which the factoring node renders
 /// ([`wedge_graph::NodeKind::expand_component`]: SepDir flags, the irradiance filter width and counts
 /// of its chapter, the composed term `radiance` carries to it; albedo is the factored `k`, emission is
-/// added there). The Ch. 3 parameters (`mu`, `alpha`, `k`, `initial_rays`, `max_rays`, `fill_radius`,
-/// `form_factor`) do not apply: the factoring node's settings do; `position`, `normal`, `albedo` and
-/// `emission` inputs are not read (the sampler's path-averaged values are).
+/// added there). Of the Ch. 3 parameters only `fill_radius` applies ([`filled_occluders`]); `mu`,
+/// `alpha`, `k`, `initial_rays`, `max_rays` and `form_factor` do not: the factoring node's settings
+/// do; `position`, `normal`, `albedo` and `emission` inputs are not read (the sampler's
+/// path-averaged values are).
 fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
     let light = ctx.param("light").clone();
+    let settings = vec![("light", light.clone())];
+    // The statistic reads the first pass: ask for the estimator now (the factoring node asks again
+    // with the component; identical requests merge).
+    ctx.sampler(SamplerRequest::new().estimator("light").setting("light", light.clone()))?;
+    let statistic = filled_occluders(ctx)?;
     ctx.component(&Component {
         name: "direct",
         estimator: "light",
-        settings: vec![("light", light.clone())],
-        statistic: ("occlusion", Statistic::Sampler("occlusion")),
+        settings,
+        statistic: ("occlusion", statistic),
         rate_params: vec![("light", light)],
         parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
     })
+}
+
+/// The occluder statistics (`d1`, `d2_min`, `d2_max`, occluded rays) the component's width and
+/// counts read: the first pass's, where a pixel's paths saw no occluder filled with the averages of
+/// its neighbours' on the same object within `fill_radius` pixels — Ch. 3 Sec. 3.6's fill, as the
+/// pinhole node does. Without it a penumbra pixel whose few first-pass paths all missed the occluder
+/// has no light term, so eq. 5.18 gives it the narrowest filter (`Ω_pix^max`) and the mutual
+/// rejection keeps its wider neighbours from reaching it (docs/DESIGN-NOTES.md "Occluders filled
+/// under a factoring node"). `fill_radius: 0` reads the pixel's own statistics (the thesis's Ch. 5).
+fn filled_occluders(ctx: &mut ExpandCtx<'_>) -> Result<Statistic, GraphError> {
+    let radius = ctx.param("fill_radius").clone();
+    if matches!(radius, ParamValue::Int(0)) {
+        return Ok(Statistic::Sampler("occlusion"));
+    }
+    let value = ctx.sampler_output(SamplerPass::First, "occlusion")?;
+    let position = ctx.sampler_output(SamplerPass::First, "position")?;
+    let out = ctx.buffer("occlusion_filled", Format::Vec4);
+    FillIo { value, position, out }
+        .bind(ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth))
+        .param("radius", radius)
+        .finish();
+    Ok(Statistic::Buffer(out))
 }
