@@ -3,8 +3,8 @@
 //! separable filter, shade and compose) or as a factoring node's component.
 
 use wedge_graph::{
-    Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part, PerPrimary,
-    PortDecl, Reference, SamplerPass, SamplerRequest, Stage, Statistic,
+    BufferId, Component, CountRequest, ExpandCtx, Format, GraphError, NodeKind, ParamDecl, ParamValue, Part,
+    PerPrimary, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, Statistic,
 };
 
 use wedge_backends::kernels::compose::ModulateIo;
@@ -97,19 +97,13 @@ impl NodeKind for SoftShadows {
         let normal = ctx.required("normal")?;
         let (albedo, emission) = (ctx.input("albedo"), ctx.input("emission"));
         let light = ctx.param("light").clone();
-        let fill_radius = ctx.param("fill_radius").clone();
 
         // The shared sampler's first pass: n_p = 1 path through the pixel centre with `initial_rays`
         // stratified light samples (Ch. 3's first pass); its occluder statistics feed eq. 3.13/3.21.
         let (first, per_path) = centre_path(ctx.node(), "light", "shadow_per_primary", ctx.param("initial_rays"))?;
         ctx.sampler(first.setting("light", light.clone()).setting("form_factor", ctx.param("form_factor").clone()))?;
         let occlusion = ctx.sampler_output(SamplerPass::First, "occlusion")?;
-
-        let filled = ctx.buffer("occlusion_filled", Format::Vec4);
-        FillIo { value: occlusion, position, out: filled }
-            .bind(ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth))
-            .param("radius", fill_radius)
-            .finish();
+        let filled = fill(ctx, occlusion, position);
 
         let beta = ctx.buffer("beta", Format::F32);
         let width_px = ctx.buffer("filter_width", Format::F32);
@@ -208,16 +202,21 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
 /// rejection keeps its wider neighbours from reaching it (docs/DESIGN-NOTES.md "Occluders filled
 /// under a factoring node"). `fill_radius: 0` reads the pixel's own statistics (the thesis's Ch. 5).
 fn filled_occluders(ctx: &mut ExpandCtx<'_>) -> Result<Statistic, GraphError> {
-    let radius = ctx.param("fill_radius").clone();
-    if matches!(radius, ParamValue::Int(0)) {
+    if matches!(ctx.param("fill_radius"), ParamValue::Int(0)) {
         return Ok(Statistic::Sampler("occlusion"));
     }
-    let value = ctx.sampler_output(SamplerPass::First, "occlusion")?;
+    let occlusion = ctx.sampler_output(SamplerPass::First, "occlusion")?;
     let position = ctx.sampler_output(SamplerPass::First, "position")?;
-    let out = ctx.buffer("occlusion_filled", Format::Vec4);
-    FillIo { value, position, out }
+    Ok(Statistic::Buffer(fill(ctx, occlusion, position)))
+}
+
+/// Pass `fill` (`neighbourhood.fill`, radius `fill_radius`): the occluder statistics `occlusion`
+/// with each pixel that has none given its neighbours' averages on the same object (`position.w`).
+fn fill(ctx: &mut ExpandCtx<'_>, occlusion: BufferId, position: BufferId) -> BufferId {
+    let (radius, out) = (ctx.param("fill_radius").clone(), ctx.buffer("occlusion_filled", Format::Vec4));
+    FillIo { value: occlusion, position, out }
         .bind(ctx.pass("fill", "neighbourhood.fill", Stage::Bandwidth))
         .param("radius", radius)
         .finish();
-    Ok(Statistic::Buffer(out))
+    out
 }
