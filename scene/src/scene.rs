@@ -672,8 +672,13 @@ impl<'a> SceneAt<'a> {
     /// World velocity `dx/dt` per unit `t` (per half shutter) of the surface point `sp` of this time
     /// (its object's motion at `sp.position`); zero at rest.
     pub fn velocity(&self, sp: &SurfacePoint) -> Vec3 {
-        match self.scene.instance_of(sp.object) {
-            Some(inst) => inst.prepared.velocity(self.t, sp.position),
+        self.object_velocity(sp.object, sp.position)
+    }
+
+    /// World velocity per unit `t` of point `x` of object `object` at this time; zero at rest.
+    pub fn object_velocity(&self, object: u32, x: Vec3) -> Vec3 {
+        match self.scene.instance_of(object) {
+            Some(inst) => inst.prepared.velocity(self.t, x),
             None => Vec3::ZERO,
         }
     }

@@ -14,7 +14,7 @@
 //!   t ∈ [−1, 1]), *static* elsewhere;
 //! - **texture**: *texture edge* where the albedo's luminance steps by more than
 //!   [`EDGE_STEP`] to a 4-neighbour (also a neighbour that misses), *flat* elsewhere;
-//! - *background* (the centre ray misses) is its own class in both partitions.
+//! - *background* (the centre ray misses) is its own class in every partition.
 //!
 //! Per pixel, from the two seeds `X₁`, `X₂` and the reference `R` (mean over channels):
 //! `mse = (X₁ − R)²`, `variance = (X₁ − X₂)² / 2`. Per class, the means of both and
@@ -89,7 +89,7 @@ pub fn partitions(aovs: &Aovs, camera: &Camera, lens: Option<(f32, f32)>, shutte
 }
 
 fn motion_partition(aovs: &Aovs, camera: &Camera, scene: &Scene) -> Partition {
-    let projection = Projection::new(camera, aovs.height);
+    let (projection, at) = (Projection::new(camera, aovs.height), scene.at(0.0));
     let label = aovs
         .position
         .iter()
@@ -97,8 +97,7 @@ fn motion_partition(aovs: &Aovs, camera: &Camera, scene: &Scene) -> Partition {
         .map(|(p, object)| {
             let Some(object) = object else { return 0 };
             let x = Vec3::new(p[0], p[1], p[2]);
-            let v = scene.instance_of(*object).map_or(Vec3::ZERO, |i| i.prepared.velocity(0.0, x));
-            if 2.0 * projection.image_velocity(x, v).length() >= MOVING_BLUR_PX {
+            if 2.0 * projection.image_velocity(x, at.object_velocity(*object, x)).length() >= MOVING_BLUR_PX {
                 2
             } else {
                 1
