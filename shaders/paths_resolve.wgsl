@@ -38,13 +38,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     radiance_put(i, radiance);
     l_direct_put(i, mean_of(r.l_direct, r.w_direct));
     k_direct_put(i, mean_of(r.k_direct, r.w_direct));
-    e_direct_put(i, mean_of(r.e_direct, r.w_direct));
+    e_direct_put(i, mean_of(r.e_direct, r.w_direct - r.w_direct_missed));
     l_diffuse_put(i, mean_of(r.l_diffuse, r.w_diffuse));
     k_diffuse_put(i, mean_of(r.k_diffuse, r.w_diffuse));
-    e_diffuse_put(i, mean_of(r.e_diffuse, r.w_diffuse));
+    e_diffuse_put(i, mean_of(r.e_diffuse, r.w_diffuse - r.w_diffuse_missed));
     l_glossy_put(i, mean_of(r.l_glossy, r.w_glossy));
     k_glossy_put(i, mean_of(r.k_glossy, r.w_glossy));
-    e_glossy_put(i, mean_of(r.e_glossy, r.w_glossy));
+    e_glossy_put(i, mean_of(r.e_glossy, r.w_glossy - r.w_glossy_missed));
     emission_put(i, mean_of(r.emission, w));
     var position = vec4<f32>(0.0);
     var normal = vec4<f32>(0.0);
@@ -68,9 +68,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     occlusion_put(i, vec4<f32>(hit_mean(r, r.d1), r.d2_min, r.d2_max, f32(r.occluded)));
     depth_put(i, vec4<f32>(r.z_min, r.z_max, f32(r.indirect_hits), f32(r.indirect_rays)));
     counts_put(i, vec4<f32>(f32(r.paths), f32(r.shadow), f32(r.diffuse_samples + r.glossy_samples), f32(r.non_finite)));
-    direct_put(i, vec4<f32>(mean_of(r.e_direct, r.w_direct), f32(r.shadow)));
-    diffuse_put(i, vec4<f32>(mean_of(r.e_diffuse, r.w_diffuse), f32(r.diffuse_samples)));
-    glossy_put(i, vec4<f32>(mean_of(r.e_glossy, r.w_glossy), f32(r.glossy_samples)));
+    direct_put(i, vec4<f32>(mean_of(r.e_direct, r.w_direct - r.w_direct_missed), f32(r.shadow)));
+    diffuse_put(i, vec4<f32>(mean_of(r.e_diffuse, r.w_diffuse - r.w_diffuse_missed), f32(r.diffuse_samples)));
+    glossy_put(i, vec4<f32>(mean_of(r.e_glossy, r.w_glossy - r.w_glossy_missed), f32(r.glossy_samples)));
     velocity_put(i, velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max));
     shadow_velocity_put(i, velocity_stats(r.vs_sum, f32(r.occluded), r.vs_min, r.vs_max));
     l_env_diffuse_put(i, mean_of(r.l_env_diffuse, r.w_env_diffuse));
@@ -80,5 +80,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     k_env_glossy_put(i, mean_of(r.k_env_glossy, r.w_env_glossy));
     e_env_glossy_put(i, mean_of(r.e_env_glossy, r.w_env_glossy - r.w_env_missed));
     environment_put(i, vec4<f32>(r.env_occluder, hit_mean(r, r.exponent), f32(r.env_samples), f32(r.env_occluded)));
-    direct_unshadowed_put(i, vec4<f32>(mean_of(r.u_direct, r.w_direct), f32(r.shadow)));
+    direct_unshadowed_put(i, vec4<f32>(mean_of(r.u_direct, r.w_direct - r.w_direct_missed), f32(r.shadow)));
 }

@@ -170,13 +170,21 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     rec.weight = rec.weight + w;
     if (params.fixed_primary == 0u) {
         // Path weights: every path that carries a component counts for it, a miss as black.
-        rec.w_direct = rec.w_direct + carries(params.direct, count.shadow, w);
-        rec.w_diffuse = rec.w_diffuse + carries(params.indirect, count.diffuse, w);
-        rec.w_glossy = rec.w_glossy + carries(params.indirect * params.glossy, count.glossy, w);
-        rec.w_env_diffuse = rec.w_env_diffuse + carries(params.environment, count.environment, w);
-        rec.w_env_glossy = rec.w_env_glossy + carries(params.environment, count.environment, w);
+        let direct = carries(params.direct, count.shadow, w);
+        let diffuse = carries(params.indirect, count.diffuse, w);
+        let glossy = carries(params.indirect * params.glossy, count.glossy, w);
+        let environment = carries(params.environment, count.environment, w);
+        rec.w_direct = rec.w_direct + direct;
+        rec.w_diffuse = rec.w_diffuse + diffuse;
+        rec.w_glossy = rec.w_glossy + glossy;
+        rec.w_env_diffuse = rec.w_env_diffuse + environment;
+        rec.w_env_glossy = rec.w_env_glossy + environment;
         if (!hit.hit) {
-            rec.w_env_missed = rec.w_env_missed + carries(params.environment, count.environment, w);
+            // E averages over the hits (PathRecord::w_direct_missed in paths.rs).
+            rec.w_direct_missed = rec.w_direct_missed + direct;
+            rec.w_diffuse_missed = rec.w_diffuse_missed + diffuse;
+            rec.w_glossy_missed = rec.w_glossy_missed + glossy;
+            rec.w_env_missed = rec.w_env_missed + environment;
         }
     }
     if (!hit.hit) {

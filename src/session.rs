@@ -1297,31 +1297,31 @@ mod tests {
         let px = 640 * 480u64;
         // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler, analytic
         // irradiance): 17 slots = 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord
-        // (101 words, 404 B) = 960 B/px; the largest pass output is one record (404 B/px); sinks
+        // (104 words, 416 B) = 984 B/px; the largest pass output is one record (416 B/px); sinks
         // filter_width, rays_per_pixel (4 B) + radiance, unfiltered (12 B) = 32 B/px; all 23 buffers
-        // unpooled (11 vec4, 4 vec3, 6 scalar, 2 records) = 1056 B/px; the widest pass binds two
-        // records and two u32 counts (sampler.adaptive) = 816 B/px.
+        // unpooled (11 vec4, 4 vec3, 6 scalar, 2 records) = 1080 B/px; the widest pass binds two
+        // records and two u32 counts (sampler.adaptive) = 840 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
             BufferBytes {
-                pool: 960 * px,
-                pass_outputs: 404 * px,
+                pool: 984 * px,
+                pass_outputs: 416 * px,
                 sinks: 32 * px,
-                unpooled: 1056 * px,
-                pass_bindings: 816 * px,
+                unpooled: 1080 * px,
+                pass_bindings: 840 * px,
                 history: 0
             }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 1396 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 428_851_200);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 1432 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 439_910_400);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 1396 * px);
+        assert_eq!(cpu.buffers, 1432 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (1056 + 404 + 816) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (1080 + 416 + 840) * px);
     }
 
     /// A sequence holds one frame's run, the previous run (sinks + history) and the frame being

@@ -148,12 +148,13 @@ fn records(scene: &wedge::scene::Scene, aperture: f64, focus: f64) -> Vec<PathRe
     <PathRecord as Texel>::slice(&out["record"]).expect("a PathRecord buffer").to_vec()
 }
 
-/// Pixels whose direct component is not separable (eq. 5.30 without the median), among those whose
-/// paths all hit a surface. (Where some paths miss, the background is a texture of 0 that `k` and
-/// `E` both average in: `k̄ Ē = f² k E ≠ f k E = L̄` for a hit fraction `f`, so such silhouettes are
-/// correctly not factored.)
-fn not_separable(recs: &[PathRecord]) -> (usize, usize) {
-    let hit: Vec<&PathRecord> = recs.iter().filter(|r| r.hits > 0 && r.hits == r.paths).collect();
+/// Pixels whose direct component is not separable (eq. 5.30 without the median) among those where
+/// some path hit a surface, and how many of those a silhouette against the background crosses (some
+/// paths missed). There `k` counts a miss as black and `E` averages over the hits
+/// (`PathRecord::w_direct_missed`): `k̄ Ē = f k_hit E_hit = L̄` for a hit fraction `f`, as without
+/// the background — where averaging `E` over every path gave `f² k_hit E_hit`.
+fn not_separable(recs: &[PathRecord]) -> (usize, usize, usize) {
+    let hit: Vec<&PathRecord> = recs.iter().filter(|r| r.hits > 0).collect();
     let bad = hit
         .iter()
         .filter(|r| {
@@ -161,13 +162,15 @@ fn not_separable(recs: &[PathRecord]) -> (usize, usize) {
             !separable(l.to_array(), k.to_array(), e.to_array(), FACTORING_THRESHOLD)
         })
         .count();
-    (bad, hit.len())
+    let silhouette = hit.iter().filter(|r| r.hits < r.paths).count();
+    (bad, hit.len(), silhouette)
 }
 
 #[test]
 fn factoring_is_exact_on_an_untextured_diffuse_scene_and_off_at_blurred_texture_edges() {
     // One diffuse material everywhere (an OBJ without materials), the light-centre form factor in L, k
-    // and E: k is the same for every lens sample, so k·E = L at every pixel, however defocused.
+    // and E: k is the same for every lens sample that hits, so k·E = L at every pixel, however
+    // defocused — at the floor's blurred far edge against the background too.
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("plain.obj"),
@@ -183,14 +186,14 @@ fn factoring_is_exact_on_an_untextured_diffuse_scene_and_off_at_blurred_texture_
     )
     .unwrap();
     let plain = wedge::scene::load(&wedge::scene::SceneSource::File(dir.path().join("plain.ron"))).unwrap();
-    let (bad, hit) = not_separable(&records(&plain, 0.15, 3.0));
-    assert!(hit > 1000, "{hit}");
+    let (bad, hit, silhouette) = not_separable(&records(&plain, 0.15, 3.0));
+    assert!(hit > 1000 && silhouette > 20, "{hit} pixels hit, {silhouette} on the silhouette");
     assert_eq!(bad, 0, "{bad} of {hit} pixels not separable on an untextured scene");
 
     // The chess board's checker under a wide aperture: pixels whose lens samples see both colours
     // are flagged off (k·E ≠ L there).
     let chess = wedge::scene::load(&wedge::scene::SceneSource::Builtin("chess".into())).unwrap();
-    let (bad, hit) = not_separable(&records(&chess, 0.15, 2.6));
+    let (bad, hit, _) = not_separable(&records(&chess, 0.15, 2.6));
     assert!(bad * 20 > hit, "only {bad} of {hit} blurred checker pixels flagged off");
 }
 

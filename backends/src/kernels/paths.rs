@@ -31,8 +31,11 @@
 //!
 //! **Weights.** Where the camera ray moves between a pixel's paths (a lens, jitter), each path weighs
 //! its lens weight `w` whatever its secondary count: the record sums `w·L`, `w·k`, `w·E` per component
-//! (`E` the path's mean over its samples) and `w` per component (so SepDir, eq. 5.30, compares
-//! `Σ wL/Σ w` with `(Σ wk/Σ w)(Σ wE/Σ w)`; per-sample weights were measured worse under a lens,
+//! (`E` the path's mean over its samples) and `w` per component, and apart the `w` of those paths
+//! that missed every surface: `L` and `k` average over every path (a miss is black), `E` — the
+//! irradiance at the surface — over the paths that hit (so SepDir, eq. 5.30, compares `Σ wL/Σ w`
+//! with `(Σ wk/Σ w)(Σ wE/Σ w_hit)`, which a silhouette against the background does not break:
+//! [`PathRecord::w_direct_missed`]; per-sample weights were measured worse under a lens,
 //! `docs/DESIGN-NOTES.md` "Path weights, not sample weights"). Where the camera ray is fixed (a
 //! pinhole through the pixel centre, thesis Ch. 3/4) every path has the same primary hit, and each
 //! *sample* weighs the same: the record sums `w·k·Σe`, `w·k·v`, `w·Σe` and `w·v` (`v` the path's
@@ -93,9 +96,10 @@ use crate::BackendError;
 
 record! {
     /// One pixel's accumulated paths. Sums are weighted by the lens weight `w`; means are
-    /// `sum / weight` (emission: over all paths, a miss counts as black), `sum / w_<component>` (L, k, E
-    /// of a component: see [`PathRecord::w_direct`]) or `sum / hit_weight` (position, normal, depth, d1:
-    /// over paths that hit a surface).
+    /// `sum / weight` (emission: over all paths, a miss counts as black), `sum / w_<component>` (L and k
+    /// of a component: see [`PathRecord::w_direct`]), `sum / (w_<component> − w_<component>_missed)` (its
+    /// E: see [`PathRecord::w_direct_missed`]) or `sum / hit_weight` (position, normal, depth, d1: over
+    /// paths that hit a surface).
     /// (The WGSL struct `PathRecord` is generated from the same list.)
     pub struct PathRecord / PATH_RECORD {
         /// Σ w·L, Σ w·k, Σ w·E of the direct component (f_c form factor, glossy folded into k).
@@ -129,6 +133,17 @@ record! {
         w_direct: f32,
         w_diffuse: f32,
         w_glossy: f32,
+        /// Σ w of the paths that carried the component and missed every surface (path weights only;
+        /// 0 through a fixed pinhole ray). A component's `E` is the irradiance *at the surface*, so it
+        /// is averaged over the paths that hit (`w_<component> − w_<component>_missed`), while `L` and
+        /// `k` count a miss as black. A pixel that a silhouette against the background crosses then
+        /// factors as it would without the background — `k E = c k_hit E_hit`, `L = c (k E)_hit` for
+        /// coverage `c` — instead of `k E = c² k_hit E_hit` (too dark by `c`, and the eq. 5.30 test's
+        /// absolute threshold lets dim silhouettes through), and its `E` is not diluted into its
+        /// neighbours' irradiance filters (`docs/DESIGN-NOTES.md` "Irradiance over the paths that hit").
+        w_direct_missed: f32,
+        w_diffuse_missed: f32,
+        w_glossy_missed: f32,
         /// Σ w·z, z the hit's depth along the optical axis.
         depth: f32,
         /// Range of |r| (circle of confusion in pixels, eq. 5.2) over hits; 0, 0 without hits.
@@ -181,11 +196,9 @@ record! {
         e_env_glossy: vec3,
         w_env_diffuse: f32,
         w_env_glossy: f32,
-        /// Σ w of the paths that carried look-ups and missed every surface (path weights only): the
-        /// environment's `E` is the irradiance *at the surface*, so it is averaged over the paths that
-        /// hit (`w_env_* − w_env_missed`), while `k` and `L` count a miss as black. A pixel that a
-        /// silhouette crosses then factors exactly — `k E = c k_hit E_hit = L` for coverage `c` — and
-        /// its `E` is not diluted into its neighbours' filters.
+        /// Σ w of the paths that carried look-ups and missed every surface: the environment parts' `E`
+        /// is averaged over the paths that hit (`w_env_* − w_env_missed`), as
+        /// [`PathRecord::w_direct_missed`] says for the other components.
         w_env_missed: f32,
         /// The occluder term `cos²θ_occ / z` of eq. 6.13/6.17: its largest value over the occluded
         /// environment samples bright enough to count (0 without any; see [`occluder_term`]).
@@ -222,10 +235,11 @@ impl PathRecord {
             + self.mean_of(self.l_env_glossy, self.w_env_glossy)
             + self.mean_of(self.emission, self.weight)
     }
-    /// Mean (L, k, E) of the direct component.
+    /// Mean (L, k, E) of the direct component (E over the paths that hit: [`PathRecord::w_direct_missed`]).
     pub fn direct(&self) -> (Vec3, Vec3, Vec3) {
         let w = self.w_direct;
-        (self.mean_of(self.l_direct, w), self.mean_of(self.k_direct, w), self.mean_of(self.e_direct, w))
+        let e = self.mean_of(self.e_direct, w - self.w_direct_missed);
+        (self.mean_of(self.l_direct, w), self.mean_of(self.k_direct, w), e)
     }
     /// Lens-averaged position λ and normal (not renormalised).
     pub fn lens_position(&self) -> Vec3 {
@@ -711,15 +725,25 @@ fn trace_one(
     r.paths += 1;
     r.weight += w;
     if !s.fixed_primary {
-        // Path weights: every path that carries a component counts for it, a miss as black.
+        // Path weights: every path that carries a component counts for it, a miss as black (for L
+        // and k; E averages over the hits: `PathRecord::w_direct_missed`).
         let carries = |on: bool, count: u32| if on && count > 0 { w } else { 0.0 };
-        r.w_direct += carries(s.direct, count.shadow);
-        r.w_diffuse += carries(s.indirect, count.diffuse);
-        r.w_glossy += carries(s.indirect && s.glossy, count.glossy);
-        r.w_env_diffuse += carries(s.environment, count.environment);
-        r.w_env_glossy += carries(s.environment, count.environment);
+        let (direct, diffuse, glossy, environment) = (
+            carries(s.direct, count.shadow),
+            carries(s.indirect, count.diffuse),
+            carries(s.indirect && s.glossy, count.glossy),
+            carries(s.environment, count.environment),
+        );
+        r.w_direct += direct;
+        r.w_diffuse += diffuse;
+        r.w_glossy += glossy;
+        r.w_env_diffuse += environment;
+        r.w_env_glossy += environment;
         if hit.is_none() {
-            r.w_env_missed += carries(s.environment, count.environment);
+            r.w_direct_missed += direct;
+            r.w_diffuse_missed += diffuse;
+            r.w_glossy_missed += glossy;
+            r.w_env_missed += environment;
         }
     }
     let sp = hit.map(|h| scene.surface(&h, ray.origin, ray.dir));
@@ -1017,7 +1041,8 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 /// conventions of the existing buffers, every output optional:
 /// - `radiance`: mean L of all components plus emission (the Monte Carlo estimate of the pixel);
 /// - `l_direct`, `k_direct`, `e_direct`, and the same for `diffuse` and `glossy`: lens-weighted
-///   means of L, k, E per component (eqs. 5.9–5.14, 5.21; SepDir/SepInd compare L with k·E);
+///   means of L, k, E per component (eqs. 5.9–5.14, 5.21; SepDir/SepInd compare L with k·E; E, and
+///   every E below, over the paths that hit a surface: [`PathRecord::w_direct_missed`]);
 /// - `emission`: mean emission of the primary hits;
 /// - `position` (λ, w = 1 + object id, 0 where no path hit) and `normal` (unit lens-averaged
 ///   normal, w = projected pixel size at λ, as `primary.gbuffer` computes it): what filters read;
@@ -1036,7 +1061,7 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 ///   range over the paths (misses as 0); `shadow_velocity`: the same over the occluded shadow samples
 ///   (thesis App. B's `v_p`, `v_s` and "distinct velocities");
 /// - `l_env_diffuse`, …, `e_env_glossy`: L, k, E of the environment's diffuse and glossy parts (E
-///   over the paths that hit a surface: [`PathRecord::w_env_missed`]);
+///   over the paths that hit: [`PathRecord::w_env_missed`]);
 ///   `environment`: the occluder term `cos²θ_occ/z` (largest over the bright occluded look-ups, 0
 ///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups.
 pub struct PathsResolve;
@@ -1121,13 +1146,13 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         }
         "l_direct" => mean(r.l_direct, r.w_direct),
         "k_direct" => mean(r.k_direct, r.w_direct),
-        "e_direct" => mean(r.e_direct, r.w_direct),
+        "e_direct" => mean(r.e_direct, r.w_direct - r.w_direct_missed),
         "l_diffuse" => mean(r.l_diffuse, r.w_diffuse),
         "k_diffuse" => mean(r.k_diffuse, r.w_diffuse),
-        "e_diffuse" => mean(r.e_diffuse, r.w_diffuse),
+        "e_diffuse" => mean(r.e_diffuse, r.w_diffuse - r.w_diffuse_missed),
         "l_glossy" => mean(r.l_glossy, r.w_glossy),
         "k_glossy" => mean(r.k_glossy, r.w_glossy),
-        "e_glossy" => mean(r.e_glossy, r.w_glossy),
+        "e_glossy" => mean(r.e_glossy, r.w_glossy - r.w_glossy_missed),
         "emission" => mean(r.emission, r.weight),
         "position" => surface(0),
         "normal" => surface(1),
@@ -1137,9 +1162,9 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "counts" => {
             [r.paths as f32, r.shadow as f32, (r.diffuse_samples + r.glossy_samples) as f32, r.non_finite as f32]
         }
-        "direct" => estimate(e(r.e_direct, r.w_direct), r.shadow),
-        "diffuse" => estimate(e(r.e_diffuse, r.w_diffuse), r.diffuse_samples),
-        "glossy" => estimate(e(r.e_glossy, r.w_glossy), r.glossy_samples),
+        "direct" => estimate(e(r.e_direct, r.w_direct - r.w_direct_missed), r.shadow),
+        "diffuse" => estimate(e(r.e_diffuse, r.w_diffuse - r.w_diffuse_missed), r.diffuse_samples),
+        "glossy" => estimate(e(r.e_glossy, r.w_glossy - r.w_glossy_missed), r.glossy_samples),
         "velocity" => velocity_stats(r.vp_sum, r.hit_weight, r.vp_min, r.vp_max),
         "shadow_velocity" => velocity_stats(r.vs_sum, r.occluded as f32, r.vs_min, r.vs_max),
         "l_env_diffuse" => mean(r.l_env_diffuse, r.w_env_diffuse),
@@ -1149,7 +1174,7 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "k_env_glossy" => mean(r.k_env_glossy, r.w_env_glossy),
         "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy - r.w_env_missed),
         "environment" => [r.env_occluder, hit_mean(r.exponent), r.env_samples as f32, r.env_occluded as f32],
-        "direct_unshadowed" => estimate(e(r.u_direct, r.w_direct), r.shadow),
+        "direct_unshadowed" => estimate(e(r.u_direct, r.w_direct - r.w_direct_missed), r.shadow),
         other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }
 }
