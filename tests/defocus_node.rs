@@ -246,6 +246,35 @@ fn the_consistent_mode_converges_and_the_literal_one_stops() {
     assert_eq!(defocus_error(&[("mu", ParamValue::Float(2.0))], &reference), consistent[1]);
 }
 
+/// A cap on primary rays per pixel, as `defocus_shadows_indirect.ron` states (16; docs/RESULTS.md
+/// "Defocus's primary-ray cap"), binds where a blurred foreground stands over a sharp background
+/// (`dof_foreground` through its suite lens), and in the consistent mode it grows as μ² above 1: the
+/// error still falls towards the reference as μ grows. (At this size the cap is 4: circles of
+/// confusion are counted in pixels, so the counts that 16 bounds at 640×480 are smaller here.)
+#[test]
+fn a_primary_ray_cap_binds_at_mu_1_and_still_converges() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
+    let lens = [("aperture_radius", ParamValue::Float(0.04)), ("focus_distance", ParamValue::Float(4.6))];
+    let ov = |mu: f64, cap: i64| {
+        let mut sets: Vec<(&str, &str, ParamValue)> = lens.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
+        sets.push(("defocus", "max_primary", ParamValue::Int(cap)));
+        Overrides { scene: Some("builtin:dof_foreground".into()), ..sized(64, 48, Some(mu), &sets) }
+    };
+    let s = Session::reference(Some(&path), 512, "stratified", &Overrides { seed: Some(99), ..ov(1.0, 256) }).unwrap();
+    let reference = color(&s, &run(&s));
+    let at = |mu: f64, cap: i64| {
+        let s = Session::open(Some(&path), &ov(mu, cap)).unwrap();
+        let r = run(&s);
+        (rmse(&color(&s, &r), &reference), r.rays.primary_rays as f64 / (64.0 * 48.0))
+    };
+    let uncapped = at(1.0, 256);
+    let capped: Vec<(f64, f64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(mu, 4)).collect();
+    eprintln!("(RMSE, primary rays/px): cap 256 at mu 1 {uncapped:?}; cap 4 at mu 1, 2, 4 {capped:?}");
+    assert!(capped[0].1 < 0.95 * uncapped.1, "the cap binds at mu 1: {capped:?} vs {uncapped:?}");
+    assert!(capped[1].0 < 0.9 * capped[0].0 && capped[2].0 < 0.9 * capped[1].0, "{capped:?}");
+    assert!(capped[2].1 > 4.0 * capped[0].1, "{capped:?}");
+}
+
 #[test]
 fn heatmap_sinks_write_one_png_each_and_need_exactly_one_input() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus_shadows_indirect.ron");
