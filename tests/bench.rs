@@ -65,16 +65,16 @@ fn check_csv(r: &BenchResult) {
         assert!(finite(row, "rays_per_pixel") >= 1.0);
     }
     for row in rows.iter().filter(|x| x[col("role")] == "sweep") {
-        for name in [
-            "variance",
-            "bias2",
-            "filter_overhead",
-            "speedup_rays_vs_independent",
-            "speedup_time_vs_independent",
-            "speedup_rays_vs_stratified",
-            "speedup_time_vs_stratified",
-        ] {
+        for name in
+            ["variance", "bias2", "filter_overhead", "speedup_rays_vs_independent", "speedup_rays_vs_stratified"]
+        {
             assert!(finite(row, name) >= 0.0, "{name}");
+        }
+        // By time: a number, or empty where our error lies beyond the baseline's three runs and
+        // their wall-clock times give no falling error-vs-time fit to extrapolate (a loaded machine
+        // can time 2 spp below 1 spp: curves.rs `cost_for_error`); the ray counts above never vary.
+        for name in ["speedup_time_vs_independent", "speedup_time_vs_stratified"] {
+            assert!(row[col(name)].is_empty() || finite(row, name) >= 0.0, "{name}");
         }
         assert!(["true", "false"].contains(&row[col("extrapolated_vs_independent")].as_str()));
     }
