@@ -9,6 +9,7 @@
 
 mod common;
 
+use common::cameras::{OpenCamera, CAMERAS};
 use common::*;
 use wedge::graph::{ParamValue, Stage};
 use wedge::image::Image;
@@ -249,37 +250,6 @@ fn mixed_reality_through_the_camera_blocks_lens_is_refused_before_its_capture() 
 }
 
 const PROGRESSIVE: [&str; 2] = ["PixelFilter", "RadianceFilter"];
-
-/// A camera the progressive nodes sample without a Defocus or Motion node: its scene, size, and the
-/// camera block that opens it and the one that does not.
-struct OpenCamera {
-    what: &'static str,
-    scene: &'static str,
-    size: (u32, u32),
-    open: &'static str,
-    closed: &'static str,
-    /// How `wedge graph` says the image is seen.
-    view: &'static str,
-}
-
-const CAMERAS: [OpenCamera; 2] = [
-    OpenCamera {
-        what: "lens",
-        scene: "cornell",
-        size: (32, 24),
-        open: "position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.15, focus_distance: Some(2.0)",
-        closed: "position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.0",
-        view: ", through the lens",
-    },
-    OpenCamera {
-        what: "shutter",
-        scene: "motion",
-        size: (96, 72),
-        open: "position: (0, 2.2, 4.2), look_at: (0, 0.35, 0), vfov_deg: 45, shutter: Some((0.0, 1.0))",
-        closed: "position: (0, 2.2, 4.2), look_at: (0, 0.35, 0), vfov_deg: 45, shutter: Some((0.5, 0.5))",
-        view: ", over the shutter",
-    },
-];
 
 /// LightField without a factoring node traces the `camera:` block's lens and shutter (issue 34 §2):
 /// its image is, bit for bit, the one it renders as a component under a Defocus (Motion) node of the

@@ -153,18 +153,19 @@ fn a_pinhole_image_added_to_a_blurred_one_is_refused() {
     );
 }
 
+/// The camera block's lens reaches every node that traces camera rays (SoftShadows alone renders
+/// through it: tests/plain_camera.rs); an image no camera path renders — the G-buffer's one ray per
+/// pixel — is still a pinhole's, and is warned about.
 #[test]
 fn a_lens_no_node_samples_is_warned_about() {
     let d = temp_dir("lens");
     let camera =
         "camera: Some((position: (0.0, 1.0, 3.5), look_at: (0.0, 1.0, 0.0), vfov_deg: 40.0, aperture_radius: 0.05)),";
-    let nodes = format!(
-        "{PRIMARY}\n{SHADOWS}\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"shadows.radiance\"}}),"
-    );
+    let nodes = format!("{PRIMARY}\n(name: \"out\", kind: \"Output\", inputs: {{\"color\": \"primary.emission\"}}),");
     let o = graph(&d, "lens", "builtin:cornell", camera, &nodes);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("warning: lens.ron: the camera block's aperture_radius = 0.05 is not sampled: `out.color` (= `shadows.radiance`) is rendered through a pinhole"), "{out}");
+    assert!(out.contains("warning: lens.ron: the camera block's aperture_radius = 0.05 is not sampled: `out.color` (= `primary.emission`) is rendered through a pinhole"), "{out}");
 }
 
 #[test]

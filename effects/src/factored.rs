@@ -190,15 +190,24 @@ pub fn components(ctx: &ExpandCtx<'_>) -> Result<Vec<BufferId>, GraphError> {
 /// `filter_width` and one ray per pixel for its heatmaps.
 pub fn pass_through(ctx: &mut ExpandCtx<'_>, components: &[BufferId]) {
     let radiance = sum(ctx, "sum", components, None);
+    bind_unfiltered(ctx, radiance, ParamValue::Int(1));
+}
+
+/// An image no filter touched, bound to the node's `radiance` and `unfiltered`, with a zero
+/// `filter_width` and `rays` per pixel for its heatmaps.
+pub fn bind_unfiltered(ctx: &mut ExpandCtx<'_>, radiance: BufferId, rays: ParamValue) {
     let width = ctx.buffer("filter_width", Format::F32);
     FillF32Io { out: width }
         .bind(ctx.pass("filter_width", "fill.constant_f32", Stage::Compose))
         .float("value", 0.0)
         .finish();
-    let rays = ctx.buffer("rays_per_pixel", Format::U32);
-    FillU32Io { out: rays }.bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose)).int("value", 1).finish();
+    let count = ctx.buffer("rays_per_pixel", Format::U32);
+    FillU32Io { out: count }
+        .bind(ctx.pass("rays_per_pixel", FILL_CONSTANT, Stage::Compose))
+        .param("value", rays)
+        .finish();
     for (port, id) in
-        [("radiance", radiance), ("unfiltered", radiance), ("filter_width", width), ("rays_per_pixel", rays)]
+        [("radiance", radiance), ("unfiltered", radiance), ("filter_width", width), ("rays_per_pixel", count)]
     {
         ctx.output(port, id);
     }

@@ -18,6 +18,8 @@
 //!   Ch. 6 filtering and differential compositing (thesis Ch. 6).
 //! - [`factored`]: the passes both factoring nodes build alike (filter chains, the compose of a
 //!   component's factored parts).
+//! - [`plain_camera`]: a component rendered as plain Monte Carlo through the `camera:` block's lens
+//!   and shutter where no factoring node filters them.
 //! - [`pixel_filter`]: `PixelFilter`, progressive path tracing with pixel filtering (Schwenk's
 //!   thesis, seed 002 Ch. 3): accumulation over frames, cross-bilateral filter, perceptual blend.
 //! - [`radiance_filter`]: `RadianceFilter`, progressive path tracing with radiance filtering (seed 002
@@ -65,6 +67,7 @@ pub mod motion;
 pub mod output;
 pub mod params;
 pub mod pixel_filter;
+pub mod plain_camera;
 pub mod primary;
 pub mod radiance_filter;
 pub mod sampler;

@@ -109,10 +109,11 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
         // The hemisphere estimator's glossy part (off: a node that composes no glossy light).
         ("glossy", ParamValue::Bool(true)),
         ("max_distance", ParamValue::Float(0.0)),
-        // A pinhole unless a node asks for a lens (a Defocus node): a camera block's aperture alone
-        // does not make the sampler's rays defocused while `Primary` and the Ch. 3/4 nodes' texture
-        // and emission come from one pinhole ray per pixel (SoftShadows composed a sharp albedo with
-        // lens-averaged irradiance that way: docs/DESIGN-NOTES.md "Independent thin-lens check").
+        // A pinhole unless a node asks for a lens: a factoring node (its components filtered), or a
+        // component node rendering plain Monte Carlo through the camera block (`plain_camera.rs`).
+        // The Ch. 3/4 nodes' own filters take texture and emission from one pinhole ray per pixel,
+        // so they never run under a lens (SoftShadows composed a sharp albedo with lens-averaged
+        // irradiance that way once: docs/DESIGN-NOTES.md "Independent thin-lens check").
         ("aperture_radius", ParamValue::Float(0.0)),
     ]
 }

@@ -285,9 +285,15 @@ pub struct TermQuery<'a> {
 }
 
 impl TermQuery<'_> {
-    /// The view of the shared sampler's paths (the factoring node's camera, else a pinhole).
+    /// The view of the shared sampler's paths: the factoring node's camera, else the camera block's
+    /// (its lens and shutter unfiltered: [`TermQuery::plain_camera`]).
     pub fn sampler_view(&self) -> View {
-        View::of(&CameraSettings::of(self.factoring))
+        self.own_view()
+    }
+    /// No factoring node, and the camera block samples a lens or shutter: the shared sampler's nodes
+    /// render the plain Monte Carlo image through it ([`crate::ExpandCtx::plain_camera`]).
+    pub fn plain_camera(&self) -> bool {
+        self.factoring.is_none() && !CameraSettings::of_block(self.camera, self.scene).fixed()
     }
     /// The view of a node that traces its own camera paths through the pipeline's camera block: its
     /// lens where the block gives an aperture, its shutter where the block opens it over an interval
@@ -442,7 +448,8 @@ fn check_accepted(
     node: &crate::ValidatedNode,
     inputs: &BTreeMap<String, Terms>,
 ) -> Vec<Diagnostic> {
-    let sampler_view = View::of(&CameraSettings::of(v.factoring.as_ref()));
+    let sampler_view =
+        View::of(&CameraSettings::own_paths(v.factoring.as_ref(), v.pipeline.camera.as_ref(), v.scene_facts.as_ref()));
     let mut out = Vec::new();
     for decl in node.kind.inputs() {
         let (Some(accepts), Some(terms)) = (decl.accepts, inputs.get(decl.name)) else { continue };
@@ -647,8 +654,9 @@ impl ValidatedPipeline {
         let views = terms.views();
         if camera.aperture_radius > 0.0 && views.iter().all(|w| !w.lens) {
             out.push(format!(
-                "{}: the camera block's aperture_radius = {} is not sampled: {image} is rendered {} — wire its \
-                 components through a Defocus node for depth of field, or set aperture_radius: 0",
+                "{}: the camera block's aperture_radius = {} is not sampled: {image} is rendered {} (no camera \
+                 path renders it, e.g. a G-buffer image) — take the image of a node that traces camera rays, or \
+                 set aperture_radius: 0",
                 self.path.display(),
                 camera.aperture_radius,
                 View::PINHOLE
@@ -658,7 +666,8 @@ impl ValidatedPipeline {
         if camera.shutter.is_some_and(|(open, close)| open < close) && moving && views.iter().all(|w| !w.shutter) {
             out.push(format!(
                 "{}: the camera block's shutter is open over an interval, but {image} is rendered at the shutter's \
-                 centre — wire its components through a Motion node for motion blur, or give the shutter equal times",
+                 centre (no camera path renders it, e.g. a G-buffer image) — take the image of a node that traces \
+                 camera rays, or give the shutter equal times",
                 self.path.display()
             ));
         }

@@ -1,6 +1,7 @@
 //! Shared helpers for wedge's integration tests: run pipelines at small sizes, compare images.
 #![allow(dead_code)]
 
+pub mod cameras;
 pub mod cli;
 pub mod progressive;
 

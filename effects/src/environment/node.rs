@@ -43,6 +43,7 @@ use wedge_graph::{
 use super::kernels::filter::{EnvironmentFilterIo, HistoryIo};
 use super::kernels::{AdaptiveLookUps, BandwidthIo, CurvatureIo};
 use crate::factored::{compose_component, factor_flags, PartTerms};
+use wedge_backends::kernels::constant::FillF32Io;
 
 pub struct Environment;
 
@@ -183,6 +184,7 @@ impl NodeKind for Environment {
             ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
             ParamDecl::int("max_rays", 256, 1, 1 << 20, "with `adaptive`: the most look-ups per pixel"),
             ParamDecl::boolean("emission", true, "add the primary hits' emission and the environment where camera rays miss (false where another node adds it)"),
+            crate::plain_camera::paths_param(),
         ]);
         params
     }
@@ -192,6 +194,9 @@ impl NodeKind for Environment {
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         if let Some(f) = ctx.factoring() {
             return expand_factored(ctx, f);
+        }
+        if ctx.plain_camera() {
+            return expand_plain(ctx);
         }
         let (primary, per_primary) = (count(ctx, "primary"), count(ctx, "per_primary"));
         let indirect = ctx.param("indirect").as_bool() == Some(true);
@@ -340,26 +345,8 @@ const NOT_FACTORED: [(&str, &str); 2] = [
 /// at μ = 1). `mu`, `max_radius` and `emission` do not apply (the factoring node's μ, filter reach,
 /// and the emission it adds once); `indirect` and `temporal` are refused ([`NOT_FACTORED`]).
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphError> {
-    let declared = Environment.params();
-    for (name, why) in NOT_FACTORED {
-        let default = declared.iter().find(|d| d.name == name).map(|d| d.default_value());
-        let value = ctx.param(name);
-        if default.as_ref() != Some(value) {
-            return Err(GraphError::Expand {
-                node: ctx.node().into(),
-                message: format!(
-                    "`{name}: {value}` does not apply under the factoring node `{}` ({}): {why}; remove it (docs/NODES.md \"Composing \
-                     effects\")",
-                    f.node, f.kind
-                ),
-            });
-        }
-    }
-    // The first pass: one look-up per path, as Ch. 5 takes one shadow ray and one indirect sample.
-    let settings = vec![
-        ("environment_per_primary", ParamValue::Int(1)),
-        ("occluder_threshold", ctx.param("occluder_threshold").clone()),
-    ];
+    refuse_not_factored(ctx, &format!("under the factoring node `{}` ({})", f.node, f.kind))?;
+    let settings = sampled_settings(ctx);
     let mut request = SamplerRequest::new().estimator("environment");
     for (n, v) in &settings {
         request = request.setting(n, v.clone());
@@ -374,6 +361,56 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphEr
         rate_params: vec![("environment_per_primary", ctx.param("per_primary").clone())],
         parts: DIRECT_PARTS.iter().map(|(part, _)| part.clone()).collect(),
     })
+}
+
+/// [`NOT_FACTORED`] at any value but its default, refused: the node renders `under` (e.g. "under
+/// the factoring node `dof` (Defocus)") as a component on the shared sampler's paths.
+fn refuse_not_factored(ctx: &ExpandCtx<'_>, under: &str) -> Result<(), GraphError> {
+    let declared = Environment.params();
+    for (name, why) in NOT_FACTORED {
+        let default = declared.iter().find(|d| d.name == name).map(|d| d.default_value());
+        let value = ctx.param(name);
+        if default.as_ref() != Some(value) {
+            return Err(GraphError::Expand {
+                node: ctx.node().into(),
+                message: format!(
+                    "`{name}: {value}` does not apply {under}: {why}; remove it (docs/NODES.md \"Composing effects\")"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The environment estimator's settings as a component samples it: one look-up per path, as Ch. 5
+/// takes one shadow ray and one indirect sample.
+fn sampled_settings(ctx: &ExpandCtx<'_>) -> Vec<(&'static str, ParamValue)> {
+    vec![
+        ("environment_per_primary", ParamValue::Int(1)),
+        ("occluder_threshold", ctx.param("occluder_threshold").clone()),
+    ]
+}
+
+/// Through the `camera:` block's lens or shutter with no factoring node: the plain Monte Carlo
+/// image of the map's direct light ([`crate::plain_camera`]), with what camera rays see directly
+/// where `emission`; `bandwidth` and `curvature` are 0 (nothing is filtered).
+fn expand_plain(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
+    refuse_not_factored(ctx, "through the `camera:` block's lens or shutter without a Defocus or Motion node")?;
+    let parts: Vec<Part> = DIRECT_PARTS.iter().map(|(part, _)| part.clone()).collect();
+    let emission = ctx.param("emission").as_bool() == Some(true);
+    let c = crate::plain_camera::PlainComponent {
+        estimator: "environment",
+        settings: sampled_settings(ctx),
+        parts: &parts,
+        emission,
+    };
+    crate::plain_camera::expand(ctx, &c)?;
+    for port in ["bandwidth", "curvature"] {
+        let zero = ctx.buffer(port, Format::F32);
+        FillF32Io { out: zero }.bind(ctx.pass(port, "fill.constant_f32", Stage::Compose)).float("value", 0.0).finish();
+        ctx.output(port, zero);
+    }
+    Ok(())
 }
 
 /// Ch. 6's bandwidth of the direct light per pixel on the first pass (1/m, μ = 1), the larger of

@@ -32,22 +32,7 @@ pub struct Indirect;
 /// that lens or shutter would see. Its terms say it is not light, so the factoring node adds no
 /// emission to it ([`crate::factored::seen_directly`]).
 fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
-    // `ao` is stated either way, so that radiance and AO on one sampler conflict (named) rather
-    // than one silently becoming the other.
-    let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
-    let settings = vec![
-        ("bounces", ctx.param("bounces").clone()),
-        ("brdf", ctx.param("brdf").clone()),
-        ("ao", ParamValue::Bool(ao)),
-        ("max_distance", ctx.param("max_distance").clone()),
-    ];
-    let diffuse = |name| Part { name, radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" };
-    let parts = if ao {
-        vec![diffuse("occlusion")]
-    } else {
-        let glossy = Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" };
-        vec![diffuse("diffuse"), glossy]
-    };
+    let (settings, parts) = sampled_component(ctx, true);
     // The statistic reads the first pass: ask for the estimator now (the factoring node asks again
     // with the component; identical requests merge).
     let mut request = SamplerRequest::new().estimator("hemisphere");
@@ -64,6 +49,27 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         rate_params: vec![],
         parts,
     })
+}
+
+/// The hemisphere estimator's settings and the component's parts: AO's one part `occlusion`, or
+/// the diffuse part and, where `glossy`, the glossy one. `ao` is stated either way, so that radiance
+/// and AO on one sampler conflict (named) rather than one silently becoming the other.
+fn sampled_component(ctx: &ExpandCtx<'_>, glossy: bool) -> (Vec<(&'static str, ParamValue)>, Vec<Part>) {
+    let ao = matches!(ctx.param("mode"), ParamValue::Str(m) if m == "ao");
+    let settings = vec![
+        ("bounces", ctx.param("bounces").clone()),
+        ("brdf", ctx.param("brdf").clone()),
+        ("ao", ParamValue::Bool(ao)),
+        ("max_distance", ctx.param("max_distance").clone()),
+    ];
+    let diffuse = |name| Part { name, radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" };
+    let glossy_part = Part { name: "glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" };
+    let parts = match (ao, glossy) {
+        (true, _) => vec![diffuse("occlusion")],
+        (false, true) => vec![diffuse("diffuse"), glossy_part],
+        (false, false) => vec![diffuse("diffuse")],
+    };
+    (settings, parts)
 }
 
 /// The reflector depths (`z_min, z_max`, hits, rays) a pixel's rates and width read: its own first
@@ -153,11 +159,23 @@ impl NodeKind for Indirect {
             ),
         ])
         .chain(filtering::params())
+        .chain([crate::plain_camera::paths_param()])
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         if ctx.factoring().is_some() {
             return expand_factored(ctx);
+        }
+        if ctx.plain_camera() {
+            // The glossy part where `specular` is wired, as its terms say (the pinhole node's rule).
+            let (settings, parts) = sampled_component(ctx, ctx.input("specular").is_some());
+            let c = crate::plain_camera::PlainComponent {
+                estimator: "hemisphere",
+                settings,
+                parts: &parts,
+                emission: false,
+            };
+            return crate::plain_camera::expand(ctx, &c);
         }
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;

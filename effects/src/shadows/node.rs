@@ -13,9 +13,13 @@ use wedge_backends::KernelParams;
 
 use super::kernels::{BandwidthIo, BandwidthParams, RateParams, RatesIo, ShadeIo, VisibilityIo};
 use crate::filtering::{self, Separable};
+use crate::plain_camera::PlainComponent;
 use crate::sampler::centre_path;
 
 pub struct SoftShadows;
+
+/// The direct component's one factored part on the shared sampler (eqs. 5.9–5.14).
+const DIRECT_PART: Part = Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" };
 
 impl NodeKind for SoftShadows {
     fn kind(&self) -> &'static str {
@@ -46,22 +50,24 @@ impl NodeKind for SoftShadows {
         ]
     }
     /// Direct light of its one area light, through the shared sampler's camera (times the albedo:
-    /// the diffuse lobe; as a factoring node's component the glossy lobe toward the light centre
-    /// too, eq. 5.20); without a factoring node also the wired `emission` (a factoring node adds
-    /// emission once itself).
+    /// the diffuse lobe; as a factoring node's component, or through the camera block's lens or
+    /// shutter, the sampler's `L` with the glossy lobe toward the light centre too, eq. 5.20);
+    /// without a factoring node also the emission where `emission` is wired — the wired image
+    /// through a pinhole, what the sampler's camera rays see through the block's lens or shutter
+    /// (a factoring node adds emission once itself).
     fn terms(&self, port: &str, q: &wedge_graph::TermQuery<'_>) -> Option<wedge_graph::Terms> {
-        use crate::light_terms::lobes;
+        use crate::light_terms::{lobes, seen_directly};
         let light = u32::try_from(q.int("light")?).ok()?;
-        let lobes = if q.factored() { lobes::TOWARD_LIGHT_CENTRE } else { lobes::DIFFUSE };
+        let sampled = q.factored() || q.plain_camera();
+        let lobes = if sampled { lobes::TOWARD_LIGHT_CENTRE } else { lobes::DIFFUSE };
         let term =
             wedge_graph::Term::new(wedge_graph::TermKind::DirectArea, q.sampler_view()).light(light).detail(lobes);
         let direct = wedge_graph::Terms::new().with(term);
-        matches!(port, "radiance" | "unfiltered").then(|| {
-            if q.factored() {
-                direct
-            } else {
-                direct.plus(q.input("emission"))
-            }
+        matches!(port, "radiance" | "unfiltered").then(|| match (q.factored(), q.plain_camera()) {
+            (true, _) => direct,
+            (false, true) if q.is_connected("emission") => direct.plus(Some(&seen_directly(q.sampler_view()))),
+            (false, true) => direct,
+            (false, false) => direct.plus(q.input("emission")),
         })
     }
     fn params(&self) -> Vec<ParamDecl> {
@@ -87,11 +93,19 @@ impl NodeKind for SoftShadows {
             ),
         ])
         .chain(filtering::params())
+        .chain([crate::plain_camera::paths_param()])
         .collect()
     }
     fn expand(&self, ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         if ctx.factoring().is_some() {
             return expand_factored(ctx);
+        }
+        if ctx.plain_camera() {
+            let settings =
+                vec![("light", ctx.param("light").clone()), ("form_factor", ctx.param("form_factor").clone())];
+            let emission = ctx.input("emission").is_some();
+            let c = PlainComponent { estimator: "light", settings, parts: &[DIRECT_PART], emission };
+            return crate::plain_camera::expand(ctx, &c);
         }
         let position = ctx.required("position")?;
         let normal = ctx.required("normal")?;
@@ -190,7 +204,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         settings,
         statistic: ("occlusion", statistic),
         rate_params: vec![("light", light)],
-        parts: vec![Part { name: "direct", radiance: "l_direct", texture: "k_direct", irradiance: "e_direct" }],
+        parts: vec![DIRECT_PART],
     })
 }
 
