@@ -85,6 +85,12 @@ fn bad_lenses_are_refused_with_their_position_and_fix() {
             "Some((position: (0.0, 0.9, 3.2), look_at: (0.0, 0.1, 0.7), vfov_deg: 32.0, aperture_radius: -1.0))",
             "aperture_radius",
         ),
+        // A pinhole node under a block that opens a lens: two cameras in one pipeline.
+        (
+            r#""aperture_radius": 0.0"#,
+            "Some((position: (0.0, 0.9, 3.2), look_at: (0.0, 0.1, 0.7), vfov_deg: 32.0, aperture_radius: 0.05))",
+            "a pipeline has one camera",
+        ),
     ] {
         let e = build_error(&pipeline("builtin:chess", lens, "defocus.radiance", camera));
         assert!(e.contains("lens.ron:"), "no file position in: {e}");

@@ -19,7 +19,9 @@
 //! and its `focus_distance` or the distance to `look_at`). A scene file's camera aperture is not
 //! read: a pipeline states its lens. Neither given: a validation error at the node.
 //! `aperture_radius = 0` is a pinhole: the node does not factor, the component nodes render as
-//! without it (Ch. 3/4 constants, which differ from Ch. 5's), and it only sums its inputs.
+//! without it (Ch. 3/4 constants, which differ from Ch. 5's), and it only sums its inputs. Stated
+//! under a `camera:` block that opens a lens it is refused: that lens would still reach every camera
+//! path (`effects/src/plain_camera.rs`), two cameras in one pipeline.
 //!
 //! **Lens and shutter together.** On a scene that moves over the camera's shutter (`shutter:
 //! "sample"`, the default) the node's paths sample the shutter too (camera setting `time`): each path
@@ -99,6 +101,25 @@ fn lens(params: &BTreeMap<String, ParamValue>, camera: Option<&CameraSpec>) -> R
     Ok((aperture, focus))
 }
 
+/// A node that states `aperture_radius: 0` (a pinhole) under a camera block that opens a lens: the
+/// block's lens would still reach every camera path (plain Monte Carlo through it, since this node
+/// then filters nothing), so the pipeline would say two cameras. Refused, naming both.
+fn refuse_a_second_lens(params: &BTreeMap<String, ParamValue>, camera: Option<&CameraSpec>) -> Result<(), Refusal> {
+    let block = camera.map_or(0.0, |c| c.aperture_radius);
+    if params.contains_key("aperture_radius") && block > 0.0 {
+        return Err(Refusal {
+            message: format!(
+                "states aperture_radius = 0 (a pinhole) while the pipeline's `camera:` block opens aperture_radius = \
+                 {block}: a pipeline has one camera"
+            ),
+            help: "remove the node's aperture_radius to blur the block's lens, or set the block's aperture_radius: 0 \
+                   for a pinhole"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
 impl NodeKind for Defocus {
     fn kind(&self) -> &'static str {
         "Defocus"
@@ -160,6 +181,7 @@ impl NodeKind for Defocus {
     ) -> Result<Option<Settings>, Refusal> {
         let (aperture, focus) = lens(params, inputs.camera)?;
         if aperture == 0.0 {
+            refuse_a_second_lens(params, inputs.camera)?;
             return Ok(None);
         }
         let mut s: Settings = [
