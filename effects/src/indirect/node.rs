@@ -167,8 +167,10 @@ impl NodeKind for Indirect {
             return expand_factored(ctx);
         }
         if ctx.plain_camera() {
-            // The glossy part where `specular` is wired, as its terms say (the pinhole node's rule).
-            let (settings, parts) = sampled_component(ctx, ctx.input("specular").is_some());
+            // The glossy part where `specular` is wired, as its terms say; the sampler traces no
+            // glossy samples otherwise (the pinhole node's rule).
+            let (mut settings, parts) = sampled_component(ctx, ctx.input("specular").is_some());
+            settings.push(("glossy", ParamValue::Bool(parts.len() == 2)));
             let c = crate::plain_camera::PlainComponent {
                 estimator: "hemisphere",
                 settings,
