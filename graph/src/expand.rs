@@ -216,12 +216,10 @@ impl<'a> ExpandCtx<'a> {
     pub fn own_camera(&self) -> crate::factoring::CameraSettings {
         crate::factoring::CameraSettings::own_paths(self.factoring(), self.camera.0, self.camera.1.as_ref())
     }
-    /// The camera samples a lens or a shutter and no factoring node filters them: every node renders
-    /// the plain Monte Carlo image through that camera (Defocus and Motion are the filters of those
-    /// dimensions, not the only way to have them: docs/ARCHITECTURE.md "The camera").
-    /// [`crate::TermQuery::plain_camera`] states the same.
+    /// The camera block samples a lens or a shutter and no factoring node filters them
+    /// ([`crate::factoring::CameraSettings::unfiltered`]).
     pub fn plain_camera(&self) -> bool {
-        self.factoring().is_none() && !self.own_camera().fixed()
+        crate::factoring::CameraSettings::unfiltered(self.factoring(), self.camera.0, self.camera.1.as_ref())
     }
     /// A context that sees the validator's light terms (tests, tools; [`crate::expand()`] sets it).
     pub fn with_terms(mut self, terms: &'a crate::terms::TermReport) -> Self {

@@ -205,6 +205,19 @@ impl CameraSettings {
         CameraSettings { lens, time: open && scene.is_none_or(|f| f.motion) }
     }
 
+    /// No factoring node, and the camera block samples a lens or a shutter: nothing filters those
+    /// dimensions, so the nodes whose own filters assume a pinhole render the plain Monte Carlo image
+    /// through the block (Defocus and Motion are the filters of the lens and shutter, not the only
+    /// way to have them: docs/ARCHITECTURE.md "The camera"). One rule for expansion
+    /// ([`crate::ExpandCtx::plain_camera`]) and terms ([`crate::TermQuery::plain_camera`]).
+    pub fn unfiltered(
+        factoring: Option<&Factoring>,
+        camera: Option<&crate::pipeline::CameraSpec>,
+        scene: Option<&SceneFacts>,
+    ) -> bool {
+        factoring.is_none() && !Self::of_block(camera, scene).fixed()
+    }
+
     /// Every path of a pixel has the same camera ray: no aperture (or a zero one) and no time.
     pub fn fixed(&self) -> bool {
         !self.time && self.aperture().is_none_or(|a| a == 0.0)

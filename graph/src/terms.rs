@@ -290,10 +290,10 @@ impl TermQuery<'_> {
     pub fn sampler_view(&self) -> View {
         self.own_view()
     }
-    /// No factoring node, and the camera block samples a lens or shutter: the shared sampler's nodes
-    /// render the plain Monte Carlo image through it ([`crate::ExpandCtx::plain_camera`]).
+    /// The camera block samples a lens or a shutter and no factoring node filters them
+    /// ([`CameraSettings::unfiltered`]).
     pub fn plain_camera(&self) -> bool {
-        self.factoring.is_none() && !CameraSettings::of_block(self.camera, self.scene).fixed()
+        CameraSettings::unfiltered(self.factoring, self.camera, self.scene)
     }
     /// The view of a node that traces its own camera paths through the pipeline's camera block: its
     /// lens where the block gives an aperture, its shutter where the block opens it over an interval
