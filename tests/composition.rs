@@ -421,12 +421,7 @@ fn montecarlo_through_a_lens_from_parts_equals_one_node() {
     assert!(terms.contains("indirect(1 bounce)") && terms.contains("emission") && terms.ends_with(c.view), "{terms}");
     let (from_parts, one) = (reference_color(&parts, &size, 1024), reference_color(&whole, &size, 1024));
     let closed = reference_color(&whole.replace(c.open, c.closed), &size, 1024);
-    let mean = |b: &wedge::backends::BufferData| match b {
-        wedge::backends::BufferData::Vec3(v) => {
-            v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / v.len() as f64
-        }
-        other => panic!("a vec3 image, not {other:?}"),
-    };
+    let mean = common::progressive::mean;
     let (agree, blur) = (rmse(&from_parts, &one), rmse(&one, &closed));
     println!("MonteCarlo parts vs one node through the lens: RMSE {agree:.4} (lens vs pinhole {blur:.4}), means {:.4} / {:.4}", mean(&from_parts), mean(&one));
     assert!(agree < 0.25 * blur, "RMSE {agree} from parts, {blur} lens vs pinhole");

@@ -8,7 +8,7 @@
 mod common;
 
 use common::cameras::{OpenCamera, CAMERAS};
-use common::progressive::rmse;
+use common::progressive::{mean, rmse};
 use common::*;
 use wedge::backends::BufferData;
 
@@ -39,13 +39,6 @@ fn path_traced(scene: &str, size: (u32, u32), camera: &str, spp: u32, bounces: u
 
 fn color(text: &str, size: (u32, u32)) -> BufferData {
     run(&session_from_text(text, &sized(size.0, size.1, None, &[]))).output("color").expect("color").clone()
-}
-
-fn mean(b: &BufferData) -> f64 {
-    match b {
-        BufferData::Vec3(v) => v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / (3 * v.len()) as f64,
-        other => panic!("a vec3 image, not {other:?}"),
-    }
 }
 
 /// Direct light, emission and one bounce through the lens (over the shutter): the image's terms say

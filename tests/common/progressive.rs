@@ -20,6 +20,12 @@ pub fn vec3s(b: &BufferData) -> Vec<[f32; 3]> {
     (0..b.len()).map(|i| [b.component(i, 0), b.component(i, 1), b.component(i, 2)]).collect()
 }
 
+/// The mean of a vec3 image's components.
+pub fn mean(b: &BufferData) -> f64 {
+    let v = vec3s(b);
+    v.iter().map(|p| f64::from(p[0]) + f64::from(p[1]) + f64::from(p[2])).sum::<f64>() / (3 * v.len()) as f64
+}
+
 pub fn rmse(a: &BufferData, b: &BufferData) -> f64 {
     let (a, b) = (vec3s(a), vec3s(b));
     let sum: f64 =
