@@ -191,6 +191,18 @@ fn defocus_separable(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, threshold: f32) -
     return err2 < threshold * threshold;
 }
 
+// The irradiance-weighted texture L / Ē per channel where Ē > 0, else k (formulas.rs `weighted_texture`).
+fn defocus_weighted_texture(l: vec3<f32>, k: vec3<f32>, e_raw: vec3<f32>) -> vec3<f32> {
+    var out = k;
+    for (var c = 0; c < 3; c++) {
+        let w = l[c] / e_raw[c];
+        if (e_raw[c] > 0.0 && is_finite(w)) {
+            out[c] = w;
+        }
+    }
+    return out;
+}
+
 // One component's term of eq. 5.32: k E (filtered E) where factored, else L.
 fn defocus_compose_term(l: vec3<f32>, k: vec3<f32>, e: vec3<f32>, factored: bool) -> vec3<f32> {
     if (factored) {

@@ -7,8 +7,8 @@
 use wedge::effects::defocus::formulas::{
     compose_term, direct_rate, filter_width_px, indirect_rate, lens_std, light_half_width, omega_defocus, omega_direct,
     omega_indirect, omega_mu, omega_u_max, pixel_rates, pixel_scale, primary_rate, primary_strata,
-    secondary_per_primary, secondary_strata, separable, strata_cap, LensShape, Mode, PixelStats, RateParams, ThinLens,
-    FILTER_SHARPNESS, OMEGA_PIX_MAX,
+    secondary_per_primary, secondary_strata, separable, strata_cap, weighted_texture, LensShape, Mode, PixelStats,
+    RateParams, ThinLens, FILTER_SHARPNESS, OMEGA_PIX_MAX,
 };
 use wedge::scene::Vec2;
 
@@ -466,6 +466,16 @@ fn compose_term_eq_5_32() {
     let (l, k, e) = ([0.3, 0.2, 0.1], [0.5, 0.25, 1.0], [0.8, 0.4, 0.2]);
     assert_eq!(compose_term(l, k, e, true), [0.4, 0.1, 0.2]);
     assert_eq!(compose_term(l, k, e, false), l);
+}
+
+/// `L / Ē`: the paths' `k` weighted by the irradiance each brought. Two paths, a lit bright texel
+/// (k 0.8, E 1) and a dim one in shadow (k 0.2, E 0): L = 0.4, Ē = 0.5, so the texture is 0.8 where
+/// the paths' mean is 0.5. Where `k` is constant it is `k`; where Ē is 0 (or L / Ē not finite), `k`.
+#[test]
+fn the_weighted_texture_is_the_irradiance_weighted_mean_of_k() {
+    assert_eq!(weighted_texture([0.4, 0.4, 0.4], [0.5; 3], [0.5; 3]), [0.8; 3]);
+    assert_eq!(weighted_texture([0.25, 0.1, 0.0], [0.5, 0.25, 1.0], [0.5, 0.4, 0.0]), [0.5, 0.25, 1.0]);
+    assert_eq!(weighted_texture([f32::INFINITY, 0.1, 0.1], [0.3; 3], [1.0, -1.0, f32::NAN]), [0.3; 3]);
 }
 
 /// Lens and shutter together (docs/DEFOCUS-MOTION.md DM.8, DM.11, DM.12): a still pixel keeps Ch. 5's

@@ -281,6 +281,39 @@ fn a_primary_ray_cap_binds_at_mu_1_and_still_converges() {
     assert!(capped[2].1 > 4.0 * capped[0].1, "{capped:?}");
 }
 
+/// The irradiance-weighted texture (`texture: "weighted"`, `formulas::weighted_texture`) on the
+/// scene whose blurred highlights bring texture and light together over the lens (`dof_bokeh`
+/// through its suite lens, `defocus_shadows_indirect.ron`): the paths' mean `k` times the mean `Ē`
+/// darkens them (the covariance of the two is lost); `L / Ē` keeps it. The counts are the same, and
+/// the weighted image converges to the reference as μ grows.
+#[test]
+fn the_irradiance_weighted_texture_keeps_blurred_highlights_and_converges() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus_shadows_indirect.ron");
+    let lens = [("aperture_radius", ParamValue::Float(0.05)), ("focus_distance", ParamValue::Float(1.75))];
+    let ov = |mu: f64, texture: &str| {
+        let mut sets: Vec<(&str, &str, ParamValue)> = lens.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
+        sets.push(("defocus", "texture", ParamValue::Str(texture.into())));
+        Overrides { scene: Some("builtin:dof_bokeh".into()), ..sized(64, 48, Some(mu), &sets) }
+    };
+    let s =
+        Session::reference(Some(&path), 1024, "stratified", &Overrides { seed: Some(99), ..ov(1.0, "mean") }).unwrap();
+    let reference = color(&s, &run(&s));
+    let at = |mu: f64, texture: &str| {
+        let s = Session::open(Some(&path), &ov(mu, texture)).unwrap();
+        let r = run(&s);
+        let image = color(&s, &r);
+        let offset = image_mean(&image) / image_mean(&reference) - 1.0;
+        (rmse(&image, &reference), offset, r.rays.total_rays())
+    };
+    let mean = at(1.0, "mean");
+    let weighted: Vec<(f64, f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(mu, "weighted")).collect();
+    eprintln!("(RMSE, mean offset, rays): mean texture at mu 1 {mean:?}; weighted at mu 1, 2, 4 {weighted:?}");
+    assert_eq!(mean.2, weighted[0].2, "the texture does not change the counts");
+    assert!(mean.1 < -0.015, "the paths' mean k darkens the blurred highlights: {mean:?}");
+    assert!(weighted[0].1.abs() < 0.01 && weighted[0].1.abs() < 0.5 * mean.1.abs(), "{weighted:?} vs {mean:?}");
+    assert!(weighted[1].0 < 0.9 * weighted[0].0 && weighted[2].0 < 0.9 * weighted[1].0, "{weighted:?}");
+}
+
 #[test]
 fn heatmap_sinks_write_one_png_each_and_need_exactly_one_input() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus_shadows_indirect.ron");

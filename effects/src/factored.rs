@@ -117,13 +117,15 @@ impl IrradianceFilter {
     }
 }
 
-/// One factored part's buffers for the compose: its `L`, its (filtered) `k` and `E`, and the flag
-/// that says where it factors.
+/// One factored part's buffers for the compose: its `L`, its (filtered) `k` and `E`, the flag
+/// that says where it factors, and its unfiltered `Ē` where the compose takes the
+/// irradiance-weighted texture `L / Ē` for `k` (`defocus::formulas::weighted_texture`).
 pub struct PartTerms {
     pub l: BufferId,
     pub k: BufferId,
     pub e: BufferId,
     pub flag: BufferId,
+    pub e_raw: Option<BufferId>,
 }
 
 /// Eq. 5.32 for a component: `defocus.compose` per part (`<part>_compose`, each adding to the
@@ -141,7 +143,15 @@ pub fn compose_component(
     for (part, t) in parts {
         let name = format!("{}_compose", part.name);
         let out = ctx.buffer(&name, Format::Vec3);
-        let io = ComposeIo { radiance: t.l, texture: t.k, irradiance: t.e, flag: t.flag, previous: radiance, out };
+        let io = ComposeIo {
+            radiance: t.l,
+            texture: t.k,
+            irradiance: t.e,
+            flag: t.flag,
+            previous: radiance,
+            raw_irradiance: t.e_raw,
+            out,
+        };
         io.bind(ctx.pass(&name, "defocus.compose", Stage::Compose)).finish();
         radiance = Some(out);
         unfiltered = Some(match unfiltered {

@@ -323,6 +323,13 @@ impl ParamValue {
             _ => None,
         }
     }
+    /// The text it holds (a choice), else `None`.
+    pub fn as_str(&self) -> Option<&str> {
+        match self {
+            ParamValue::Str(v) => Some(v),
+            _ => None,
+        }
+    }
     /// Three numbers (a [`ParamKind::Vec3`] value), else `None`.
     pub fn as_vec3(&self) -> Option<[f64; 3]> {
         match self {

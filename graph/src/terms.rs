@@ -336,10 +336,7 @@ impl TermQuery<'_> {
         self.params.get(name).and_then(ParamValue::as_bool) == Some(true)
     }
     pub fn choice(&self, name: &str) -> Option<&str> {
-        match self.params.get(name)? {
-            ParamValue::Str(s) => Some(s),
-            _ => None,
-        }
+        self.params.get(name).and_then(ParamValue::as_str)
     }
     /// `N bounce(s)` from the integer parameter `name`.
     pub fn bounces(&self, name: &str) -> String {

@@ -15,7 +15,9 @@
 //! 2. `Stage::Factor`: the flags again on the final `L, k, E`, median (a reference fills 0: it
 //!    composes `L`).
 //! 3. `Stage::Filter`: `filter.irradiance` (5.31) on each part's `E` with this component's width.
-//! 4. `Stage::Compose`: `defocus.compose` (5.32) per part, summed: the component's term, which the
+//! 4. `Stage::Compose`: `defocus.compose` (5.32) per part, summed — with the irradiance-weighted
+//!    texture `L / Ē` (the node's `texture`, default `weighted`) where no filter along the velocity
+//!    changed `k`: the component's term, which the
 //!    node outputs for the Defocus node to sum and blur (5.33) ([`crate::factored`], shared with
 //!    the Motion node).
 
@@ -88,6 +90,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let factor = f.bool("factor").unwrap_or(true);
     let radius = f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16));
     let separable = f.bool("separable").unwrap_or(true);
+    let weighted = f.setting("texture").and_then(ParamValue::as_str) == Some("weighted");
     let first = &c.parts[0];
 
     // 1. Counts from the first pass.
@@ -164,9 +167,9 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
             true,
             Reference::Fill(0),
         )?;
-        let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+        let e_raw = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
-        let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e);
+        let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e_raw);
         let (l, mut k) = (
             ctx.sampler_output(SamplerPass::Final, part.radiance)?,
             ctx.sampler_output(SamplerPass::Final, part.texture)?,
@@ -180,7 +183,10 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
             }
             k = motion_filter(ctx, &format!("{}_filter_texture", part.name), k, texture_motion, &radius);
         }
-        terms.push((part, PartTerms { l, k, e, flag }));
+        // The irradiance-weighted texture replaces the paths' mean `k` (not a `k` filtered along
+        // the velocity, which `L / Ē` would undo).
+        let e_raw = (weighted && along.is_none()).then_some(e_raw);
+        terms.push((part, PartTerms { l, k, e, flag, e_raw }));
     }
     compose_component(ctx, &terms, None, sigma, count);
     Ok(())

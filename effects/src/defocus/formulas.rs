@@ -460,6 +460,24 @@ pub fn separable(l: [f32; 3], k: [f32; 3], e: [f32; 3], threshold: f32) -> bool 
     err2 < threshold * threshold
 }
 
+/// The texture a factored pixel's paths saw, weighted by the irradiance each brought: `L / Ē` per
+/// channel (`Ē` the path-averaged, unfiltered irradiance), where `Ē > 0`; else the plain path mean
+/// `k`. Each path's `L = k E` under the light-centre form factor, so `L / Ē` is the E-weighted mean of
+/// the paths' `k` (times the fraction of paths that hit), which the lens-integrated pixel needs:
+/// `k̄ Ē` misses the covariance of `k` and `E` over the lens (a blurred highlight's paths bring both
+/// its texture and its light), a bias of −1% on `dof_bokeh`. Where `k` is constant over the paths,
+/// `L / Ē = k̄` (docs/DESIGN-NOTES.md "The irradiance-weighted texture").
+pub fn weighted_texture(l: [f32; 3], k: [f32; 3], e_raw: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|c| {
+        let w = l[c] / e_raw[c];
+        if e_raw[c] > 0.0 && w.is_finite() {
+            w
+        } else {
+            k[c]
+        }
+    })
+}
+
 /// One component's term of the composed radiance (thesis eq. 5.32): the factored product `k E` (with
 /// `E` filtered) where the pixel's flag says the component factors, else its lens-integrated `L`.
 pub fn compose_term(l: [f32; 3], k: [f32; 3], e: [f32; 3], factored: bool) -> [f32; 3] {

@@ -399,10 +399,12 @@ wedge_backends::kernel_bindings! {
 
 wedge_backends::kernel_bindings! {
     /// What a `defocus.compose` pass binds: [`FlagsIo`]'s inputs, the flag, the running sum
-    /// (optional: the first part starts at 0) and the new sum.
+    /// (optional: the first part starts at 0), the unfiltered irradiance `Ē` (optional: bound, a
+    /// factored pixel takes the irradiance-weighted texture `L / Ē`, `formulas::weighted_texture`)
+    /// and the new sum.
     pub struct ComposeIo / ComposeData {
         read radiance: [f32; 3], read texture: [f32; 3], read irradiance: [f32; 3], read flag: u32,
-        read_opt previous: [f32; 3], write out: [f32; 3],
+        read_opt previous: [f32; 3], read_opt raw_irradiance: [f32; 3], write out: [f32; 3],
     }
 }
 
@@ -436,7 +438,7 @@ impl Kernel for Flags {
 
 /// `defocus.compose`: one component of eq. 5.32 added to a running sum,
 /// `out = previous + (flag ? k E : L)` with `E` the filtered irradiance and `flag` the (median-filtered)
-/// SepDir / SepInd. One pass per component (direct; indirect diffuse; indirect glossy), each reading
+/// SepDir / SepInd; `k` is the irradiance-weighted `L / Ē` where `raw_irradiance` is bound. One pass per component (direct; indirect diffuse; indirect glossy), each reading
 /// the previous pass's `out` as `previous` (unbound for the first: the sum starts at 0). Non-finite
 /// values pass through unchanged
 /// to the defocus filter, which counts and excludes them (counting here too would count them twice).
@@ -452,10 +454,12 @@ impl Kernel for Compose {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let ComposeData { radiance: l, texture: k, irradiance: e, flag, previous, out } = ComposeIo::read(ctx)?;
+        let ComposeData { radiance: l, texture: k, irradiance: e, flag, previous, raw_irradiance, out } =
+            ComposeIo::read(ctx)?;
         let sum: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            let t = formulas::compose_term(l[i], k[i], e[i], flag[i] != 0);
+            let k = raw_irradiance.map_or(k[i], |raw| formulas::weighted_texture(l[i], k[i], raw[i]));
+            let t = formulas::compose_term(l[i], k, e[i], flag[i] != 0);
             match previous {
                 Some(p) => [p[i][0] + t[0], p[i][1] + t[1], p[i][2] + t[2]],
                 None => t,

@@ -39,7 +39,9 @@
 //! eq. 5.29 as printed — above μ = 1 its clamped widths narrow the filters while the counts stop
 //! growing, so the error rises with μ: DESIGN-NOTES "μ above 1: the clamp of eq. 5.29"), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
-//! `separable`, `motion_filter`, and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
+//! `separable`, `motion_filter`, `texture` (`weighted`, the default: a factored pixel's texture is
+//! `L / Ē`, the paths' `k` weighted by the irradiance each brought — `formulas::weighted_texture`;
+//! `mean`: the paths' mean `k̄`, eq. 5.32 as printed), and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
 //! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
 
 use std::collections::BTreeMap;
@@ -157,6 +159,7 @@ impl NodeKind for Defocus {
             crate::params::mu(1.0, "μ: scales every Ch. 5 bandwidth (eq. 5.29); larger = narrower filters, more rays"),
             ParamDecl::choice("mode", "consistent", Mode::OPTIONS, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
             ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (the thesis's reading: k·E = L where the scene factors), or the per-sample geometry term (unbiased; for comparisons with other renderers)"),
+            ParamDecl::choice("texture", "weighted", &["weighted", "mean"], "a factored pixel's texture: weighted by the irradiance each path brought, L / Ē (the default since issue 35's defocus suites: it keeps the covariance of texture and light over the lens — a blurred highlight's paths bring both — and equals k̄ where k is constant), or the paths' mean k̄ (the thesis, eq. 5.32's k E); docs/DESIGN-NOTES.md \"The irradiance-weighted texture\""),
             ParamDecl::boolean("factor", true, "factor L into texture × irradiance (eq. 5.30); false = the thesis's no-factoring ablation"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one lens, shadow and indirect sample each: 4 since issue 35's defocus suite (the thesis's 16 spent 48 rays per pixel before any rate was known; docs/DESIGN-NOTES.md \"Four first-pass paths under a lens\")"),
             ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
@@ -197,6 +200,7 @@ impl NodeKind for Defocus {
             "initial_paths",
             "motion_filter",
             "width_pixel_limit",
+            "texture",
         ]
         .into_iter()
         .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))

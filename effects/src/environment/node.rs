@@ -299,7 +299,7 @@ impl NodeKind for Environment {
                 ctx.sampler_output(SamplerPass::Final, part.radiance)?,
                 ctx.sampler_output(SamplerPass::Final, part.texture)?,
             );
-            terms.push((part, PartTerms { l, k, e, flag }));
+            terms.push((part, PartTerms { l, k, e, flag, e_raw: None }));
         }
         let emission = if ctx.param("emission").as_bool() == Some(true) {
             Some(ctx.sampler_output(SamplerPass::Final, "emission")?)

@@ -344,7 +344,7 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
         let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
         let k = motion_filter(ctx, &format!("{}_filter_texture", part.name), k, texture_motion, &radius);
         let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
-        terms.push((part, PartTerms { l, k, e, flag }));
+        terms.push((part, PartTerms { l, k, e, flag, e_raw: None }));
     }
     compose_component(ctx, &terms, None, sigma, count);
     Ok(())
