@@ -1,5 +1,4 @@
-// defocus.compose — one component of eq. 5.32 added to the running sum (with the irradiance-weighted
-// texture where `raw_irradiance` is bound); mirrors
+// defocus.compose — one component of eq. 5.32 added to the running sum; mirrors
 // effects/src/defocus/kernels.rs `Compose`.
 #include "common.wgsl"
 #include "defocus_formulas.wgsl"
@@ -10,11 +9,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    var k = texture_at(i);
-    if (raw_irradiance_bound()) {
-        k = defocus_weighted_texture(radiance_at(i), k, raw_irradiance_at(i));
-    }
-    let term = defocus_compose_term(radiance_at(i), k, irradiance_at(i), flag_at(i) != 0u);
+    let term = defocus_compose_term(radiance_at(i), texture_at(i), irradiance_at(i), flag_at(i) != 0u);
     if (previous_bound()) {
         let p = previous_at(i);
         out_put(i, vec3<f32>(p.x + term.x, p.y + term.y, p.z + term.z));

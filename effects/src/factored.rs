@@ -15,7 +15,7 @@ use wedge_graph::{
 
 use crate::add::AddIo;
 use crate::defocus::formulas::FACTORING_THRESHOLD;
-use crate::defocus::kernels::{ComposeIo, FlagsIo};
+use crate::defocus::kernels::{ComposeIo, FlagsIo, WeightedTextureIo};
 
 /// SepDir / SepInd of `part` on the `pass` record (eq. 5.30: `‖L − k E‖` below a threshold, so `k E`
 /// may stand for the pixel's `L`), with the 3×3 median where `median` (Ch. 5: its flags come from
@@ -117,15 +117,36 @@ impl IrradianceFilter {
     }
 }
 
-/// One factored part's buffers for the compose: its `L`, its (filtered) `k` and `E`, the flag
-/// that says where it factors, and its unfiltered `Ē` where the compose takes the
-/// irradiance-weighted texture `L / Ē` for `k` (`defocus::formulas::weighted_texture`).
+/// One factored part's buffers for the compose: its `L`, its (filtered) `k` and `E`, and the flag
+/// that says where it factors.
 pub struct PartTerms {
     pub l: BufferId,
     pub k: BufferId,
     pub e: BufferId,
     pub flag: BufferId,
-    pub e_raw: Option<BufferId>,
+}
+
+/// A part's texture for the compose: the paths' mean `k`, or (`weighted`) the texture weighted by
+/// the irradiance each path brought, `L / Ē` with `Ē` the unfiltered `e_raw`
+/// (`defocus.weighted_texture`, pass `<name>`; docs/DESIGN-NOTES.md "The irradiance-weighted
+/// texture").
+pub fn part_texture(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    weighted: bool,
+    l: BufferId,
+    k: BufferId,
+    e_raw: BufferId,
+) -> BufferId {
+    if !weighted {
+        return k;
+    }
+    let out = ctx.buffer(name, Format::Vec3);
+    WeightedTextureIo { radiance: l, texture: k, irradiance: e_raw, out }
+        // Before the filters: Motion (and Defocus's `motion_filter`) filter it along the velocity.
+        .bind(ctx.pass(name, "defocus.weighted_texture", Stage::Factor))
+        .finish();
+    out
 }
 
 /// Eq. 5.32 for a component: `defocus.compose` per part (`<part>_compose`, each adding to the
@@ -143,15 +164,7 @@ pub fn compose_component(
     for (part, t) in parts {
         let name = format!("{}_compose", part.name);
         let out = ctx.buffer(&name, Format::Vec3);
-        let io = ComposeIo {
-            radiance: t.l,
-            texture: t.k,
-            irradiance: t.e,
-            flag: t.flag,
-            previous: radiance,
-            raw_irradiance: t.e_raw,
-            out,
-        };
+        let io = ComposeIo { radiance: t.l, texture: t.k, irradiance: t.e, flag: t.flag, previous: radiance, out };
         io.bind(ctx.pass(&name, "defocus.compose", Stage::Compose)).finish();
         radiance = Some(out);
         unfiltered = Some(match unfiltered {

@@ -16,8 +16,8 @@
 //!    composes `L`).
 //! 3. `Stage::Filter`: `filter.irradiance` (5.31) on each part's `E` with this component's width.
 //! 4. `Stage::Compose`: `defocus.compose` (5.32) per part, summed — with the irradiance-weighted
-//!    texture `L / Ē` (the node's `texture`, default `weighted`) where no filter along the velocity
-//!    changed `k`: the component's term, which the
+//!    texture `L / Ē` (`defocus.weighted_texture`; the node's `texture`, default `weighted`), which
+//!    `motion_filter` then filters along the velocity: the component's term, which the
 //!    node outputs for the Defocus node to sum and blur (5.33) ([`crate::factored`], shared with
 //!    the Motion node).
 
@@ -27,7 +27,7 @@ use wedge_graph::{
     SamplerPass, SamplerRequest, Stage,
 };
 
-use crate::factored::{compose_component, factor_flags, IrradianceFilter, PartTerms};
+use crate::factored::{compose_component, factor_flags, part_texture, IrradianceFilter, PartTerms};
 
 use super::formulas::OMEGA_PIX_MAX;
 use super::kernels::{RateComponent, RatesIo, Statistic};
@@ -90,7 +90,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let factor = f.bool("factor").unwrap_or(true);
     let radius = f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16));
     let separable = f.bool("separable").unwrap_or(true);
-    let weighted = f.setting("texture").and_then(ParamValue::as_str) == Some("weighted");
+    let weighted = crate::params::weighted_texture(f.setting("texture"));
     let first = &c.parts[0];
 
     // 1. Counts from the first pass.
@@ -170,10 +170,9 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         let e_raw = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
         let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
         let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e_raw);
-        let (l, mut k) = (
-            ctx.sampler_output(SamplerPass::Final, part.radiance)?,
-            ctx.sampler_output(SamplerPass::Final, part.texture)?,
-        );
+        let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
+        let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
+        let mut k = part_texture(ctx, &format!("{}_texture", part.name), weighted, l, k, e_raw);
         // With the shutter and `motion_filter`: App. B's filters along the velocity inside the lens
         // filter (docs/DEFOCUS-MOTION.md Sec. 3) — texture along the primary hit's (B.1), direct
         // irradiance along the shadow's (B.2); each skips pixels that see several velocities.
@@ -183,10 +182,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
             }
             k = motion_filter(ctx, &format!("{}_filter_texture", part.name), k, texture_motion, &radius);
         }
-        // The irradiance-weighted texture replaces the paths' mean `k` (not a `k` filtered along
-        // the velocity, which `L / Ē` would undo).
-        let e_raw = (weighted && along.is_none()).then_some(e_raw);
-        terms.push((part, PartTerms { l, k, e, flag, e_raw }));
+        terms.push((part, PartTerms { l, k, e, flag }));
     }
     compose_component(ctx, &terms, None, sigma, count);
     Ok(())

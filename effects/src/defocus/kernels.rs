@@ -399,12 +399,18 @@ wedge_backends::kernel_bindings! {
 
 wedge_backends::kernel_bindings! {
     /// What a `defocus.compose` pass binds: [`FlagsIo`]'s inputs, the flag, the running sum
-    /// (optional: the first part starts at 0), the unfiltered irradiance `Ē` (optional: bound, a
-    /// factored pixel takes the irradiance-weighted texture `L / Ē`, `formulas::weighted_texture`)
-    /// and the new sum.
+    /// (optional: the first part starts at 0) and the new sum.
     pub struct ComposeIo / ComposeData {
         read radiance: [f32; 3], read texture: [f32; 3], read irradiance: [f32; 3], read flag: u32,
-        read_opt previous: [f32; 3], read_opt raw_irradiance: [f32; 3], write out: [f32; 3],
+        read_opt previous: [f32; 3], write out: [f32; 3],
+    }
+}
+
+wedge_backends::kernel_bindings! {
+    /// What a `defocus.weighted_texture` pass binds: a part's `L`, its paths' mean `k` and
+    /// unfiltered `Ē`, and the texture it writes.
+    pub struct WeightedTextureIo / WeightedTextureData {
+        read radiance: [f32; 3], read texture: [f32; 3], read irradiance: [f32; 3], write out: [f32; 3],
     }
 }
 
@@ -438,7 +444,7 @@ impl Kernel for Flags {
 
 /// `defocus.compose`: one component of eq. 5.32 added to a running sum,
 /// `out = previous + (flag ? k E : L)` with `E` the filtered irradiance and `flag` the (median-filtered)
-/// SepDir / SepInd; `k` is the irradiance-weighted `L / Ē` where `raw_irradiance` is bound. One pass per component (direct; indirect diffuse; indirect glossy), each reading
+/// SepDir / SepInd. One pass per component (direct; indirect diffuse; indirect glossy), each reading
 /// the previous pass's `out` as `previous` (unbound for the first: the sum starts at 0). Non-finite
 /// values pass through unchanged
 /// to the defocus filter, which counts and excludes them (counting here too would count them twice).
@@ -454,17 +460,42 @@ impl Kernel for Compose {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let ComposeData { radiance: l, texture: k, irradiance: e, flag, previous, raw_irradiance, out } =
-            ComposeIo::read(ctx)?;
+        let ComposeData { radiance: l, texture: k, irradiance: e, flag, previous, out } = ComposeIo::read(ctx)?;
         let sum: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
-            let k = raw_irradiance.map_or(k[i], |raw| formulas::weighted_texture(l[i], k[i], raw[i]));
-            let t = formulas::compose_term(l[i], k, e[i], flag[i] != 0);
+            let t = formulas::compose_term(l[i], k[i], e[i], flag[i] != 0);
             match previous {
                 Some(p) => [p[i][0] + t[0], p[i][1] + t[1], p[i][2] + t[2]],
                 None => t,
             }
         });
         out.put(ctx, sum)
+    }
+}
+
+/// `defocus.weighted_texture`: a factored part's texture weighted by the irradiance each path
+/// brought, `L / Ē` per channel where `Ē > 0` (else the paths' mean `k`;
+/// `formulas::weighted_texture`), for the compose (and the filters along the velocity) to take in
+/// place of the paths' mean. WGSL: `shaders/defocus_weighted_texture.wgsl`.
+pub struct WeightedTexture;
+
+impl Kernel for WeightedTexture {
+    wedge_backends::kernel_signature!(
+        name: "defocus.weighted_texture", class: Compose, bindings: WeightedTextureIo
+    );
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/defocus_weighted_texture.wgsl"), |_| Ok(Uniforms::new()))
+                .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let WeightedTextureData { radiance: l, texture: k, irradiance: e, out } = WeightedTextureIo::read(ctx)?;
+        let texture: Vec<[f32; 3]> = ctx.map_pixels(false, |x, y| {
+            let i = (y * ctx.width + x) as usize;
+            formulas::weighted_texture(l[i], k[i], e[i])
+        });
+        out.put(ctx, texture)
     }
 }

@@ -32,5 +32,6 @@ pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::Rates));
     reg.register(Arc::new(kernels::Flags));
     reg.register(Arc::new(kernels::Compose));
+    reg.register(Arc::new(kernels::WeightedTexture));
     reg.register(Arc::new(kernels::filter::DefocusFilter));
 }
