@@ -209,18 +209,6 @@ fn the_filter_converges_to_monte_carlo_as_mu_grows() {
             all_rays = rays;
         }
     }
-    // The irradiance-weighted texture (`texture: "weighted"`) converges the same way.
-    let weighted: Vec<f64> = [1.0, 32.0, 1e4]
-        .iter()
-        .map(|mu| {
-            let s =
-                session_from_text(&envmap(&format!(r#""mu": {mu}, "texture": "weighted""#), ""), &Overrides::default());
-            let r = run(&s);
-            rmse(&output(&s, &r, "color"), &output(&s, &r, "unfiltered"))
-        })
-        .collect();
-    println!("weighted texture, mu 1, 32, 1e4: RMSE(filtered, unfiltered) {weighted:?}");
-    assert!(weighted[0] > weighted[1] && weighted[1] > weighted[2] && weighted[2] < 1e-3, "{weighted:?}");
 }
 
 /// Frames `first..=last` of `text` with its camera path on the CPU; their colour images.

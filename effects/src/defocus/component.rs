@@ -90,7 +90,7 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     let factor = f.bool("factor").unwrap_or(true);
     let radius = f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16));
     let separable = f.bool("separable").unwrap_or(true);
-    let weighted = crate::params::weighted_texture(f.setting("texture"));
+    let weighted = f.setting("texture").and_then(ParamValue::as_str) == Some("weighted");
     let first = &c.parts[0];
 
     // 1. Counts from the first pass.

@@ -42,7 +42,7 @@ use wedge_graph::{
 
 use super::kernels::filter::{EnvironmentFilterIo, HistoryIo};
 use super::kernels::{AdaptiveLookUps, BandwidthIo, CurvatureIo};
-use crate::factored::{compose_component, factor_flags, part_texture, PartTerms};
+use crate::factored::{compose_component, factor_flags, PartTerms};
 use wedge_backends::kernels::constant::FillF32Io;
 
 pub struct Environment;
@@ -183,7 +183,6 @@ impl NodeKind for Environment {
             ParamDecl::choice("adaptive", "glossy", AdaptiveLookUps::OPTIONS, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension): at glossy receivers, every receiver, or off (the thesis's fixed count)"),
             ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
             ParamDecl::int("max_rays", 256, 1, 1 << 20, "with `adaptive`: the most look-ups per pixel"),
-            crate::params::texture("mean", "a factored pixel's texture in k Ẽ: the jittered paths' mean k̄ (eq. 5.32 as Ch. 6 composes), or weighted by the irradiance each path brought, L / Ē, which keeps the covariance of texture and light where a pixel's paths see two surfaces (docs/DESIGN-NOTES.md \"The irradiance-weighted texture\")"),
             ParamDecl::boolean("emission", true, "add the primary hits' emission and the environment where camera rays miss (false where another node adds it)"),
             crate::plain_camera::paths_param(),
         ]);
@@ -269,8 +268,9 @@ impl NodeKind for Environment {
         }
 
         // 3. Per part: the separable filter (6.21–6.23), the previous frame joining its y pass
-        // (6.24–6.26) with `temporal`; 4. composed k·Ē where the pixel factors (eq. 5.30), with
-        // the irradiance-weighted k where `texture` asks.
+        // (6.24–6.26) with `temporal`; 4. composed k·Ē where the pixel factors (eq. 5.30) — the
+        // paths' mean k: the irradiance-weighted one Defocus takes measured the same here
+        // (docs/DESIGN-NOTES.md "The irradiance-weighted texture").
         let position = ctx.sampler_output(SamplerPass::Final, "position")?;
         let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
         let filter = PartFilter {
@@ -281,7 +281,6 @@ impl NodeKind for Environment {
             normal_cos: ParamValue::Float(NORMAL_DEG.to_radians().cos()),
             temporal,
         };
-        let weighted = crate::params::weighted_texture(Some(ctx.param("texture")));
         let mut terms = Vec::new();
         for ((part, _), bw) in parts.iter().zip(&bandwidths) {
             // Eq. 5.30 without Ch. 5's median: a pixel whose rays all see one surface factors exactly
@@ -296,11 +295,12 @@ impl NodeKind for Environment {
                 false,
                 Reference::Fill(0),
             )?;
-            let e_raw = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
-            let e = filter.apply(ctx, part.name, e_raw, *bw);
-            let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
-            let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
-            let k = part_texture(ctx, &format!("{}_texture", part.name), weighted, l, k, e_raw);
+            let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+            let e = filter.apply(ctx, part.name, e, *bw);
+            let (l, k) = (
+                ctx.sampler_output(SamplerPass::Final, part.radiance)?,
+                ctx.sampler_output(SamplerPass::Final, part.texture)?,
+            );
             terms.push((part, PartTerms { l, k, e, flag }));
         }
         let emission = if ctx.param("emission").as_bool() == Some(true) {

@@ -59,7 +59,7 @@ use super::kernels::{FlagsIo, RatesIo};
 use crate::defocus::component::rate_settings;
 use crate::defocus::formulas::Mode;
 use crate::defocus::kernels::{RateComponent, Statistic};
-use crate::factored::{compose_component, part_texture, sum, IrradianceFilter, PartTerms};
+use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
 
 pub struct Motion;
 
@@ -128,7 +128,6 @@ impl NodeKind for Motion {
             ParamDecl::int("max_shadow_per_primary", 4, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary: 4 (2×2 strata), the light's variance in penumbrae is what they reduce"),
             ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64; 16 measured better, DESIGN-NOTES \"Motion\")"),
             ParamDecl::int("max_radius", 32, 1, 64, "largest filter half-width in pixels (filter.motion, filter.irradiance)"),
-            crate::params::texture("mean", "a factored pixel's texture, filtered along v_p (B.1): the paths' mean k̄ (App. B), or weighted by the irradiance each path brought, L / Ē, which keeps the covariance of texture and light over the shutter (docs/DESIGN-NOTES.md \"The irradiance-weighted texture\")"),
             ParamDecl::choice(
                 "multi_filter",
                 "none",
@@ -156,7 +155,6 @@ impl NodeKind for Motion {
             "multi_paths",
             "initial_paths",
             "form_factor",
-            "texture",
         ]
         .into_iter()
         .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
@@ -336,18 +334,19 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
     let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
     let filter =
         IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable: true };
-    let weighted = crate::params::weighted_texture(f.setting("texture"));
     let mut terms = Vec::new();
     for part in &c.parts {
-        let e_raw = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
-        let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e_raw);
+        let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+        let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e);
         if let Some(s) = shadow_motion {
             e = motion_filter(ctx, &format!("{}_filter_shadow", part.name), e, s, &radius);
         }
-        let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
+        // The paths' mean `k`, not the irradiance-weighted one Defocus takes: `L / Ē` carries the
+        // shadow's noise over the shutter into the texture filtered along v_p (measured worse on the
+        // motion suite: docs/DESIGN-NOTES.md "The irradiance-weighted texture").
         let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;
-        let k = part_texture(ctx, &format!("{}_texture", part.name), weighted, l, k, e_raw);
         let k = motion_filter(ctx, &format!("{}_filter_texture", part.name), k, texture_motion, &radius);
+        let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
         terms.push((part, PartTerms { l, k, e, flag }));
     }
     compose_component(ctx, &terms, None, sigma, count);
