@@ -15,7 +15,7 @@ use wedge_graph::{
 
 use crate::add::AddIo;
 use crate::defocus::formulas::FACTORING_THRESHOLD;
-use crate::defocus::kernels::{ComposeIo, FlagsIo, WeightedTextureIo};
+use crate::defocus::kernels::{ComposeIo, FlagsIo};
 
 /// SepDir / SepInd of `part` on the `pass` record (eq. 5.30: `‖L − k E‖` below a threshold, so `k E`
 /// may stand for the pixel's `L`), with the 3×3 median where `median` (Ch. 5: its flags come from
@@ -124,29 +124,6 @@ pub struct PartTerms {
     pub k: BufferId,
     pub e: BufferId,
     pub flag: BufferId,
-}
-
-/// A part's texture for the compose: the paths' mean `k`, or (`weighted`) the texture weighted by
-/// the irradiance each path brought, `L / Ē` with `Ē` the unfiltered `e_raw`
-/// (`defocus.weighted_texture`, pass `<name>`; docs/DESIGN-NOTES.md "The irradiance-weighted
-/// texture").
-pub fn part_texture(
-    ctx: &mut ExpandCtx<'_>,
-    name: &str,
-    weighted: bool,
-    l: BufferId,
-    k: BufferId,
-    e_raw: BufferId,
-) -> BufferId {
-    if !weighted {
-        return k;
-    }
-    let out = ctx.buffer(name, Format::Vec3);
-    WeightedTextureIo { radiance: l, texture: k, irradiance: e_raw, out }
-        // Before the filters: Motion (and Defocus's `motion_filter`) filter it along the velocity.
-        .bind(ctx.pass(name, "defocus.weighted_texture", Stage::Factor))
-        .finish();
-    out
 }
 
 /// Eq. 5.32 for a component: `defocus.compose` per part (`<part>_compose`, each adding to the

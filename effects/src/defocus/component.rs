@@ -27,10 +27,10 @@ use wedge_graph::{
     SamplerPass, SamplerRequest, Stage,
 };
 
-use crate::factored::{compose_component, factor_flags, part_texture, IrradianceFilter, PartTerms};
+use crate::factored::{compose_component, factor_flags, IrradianceFilter, PartTerms};
 
 use super::formulas::OMEGA_PIX_MAX;
-use super::kernels::{RateComponent, RatesIo, Statistic};
+use super::kernels::{RateComponent, RatesIo, Statistic, WeightedTextureIo};
 use crate::motion::kernels::RatesIo as MotionRatesIo;
 use crate::motion::node::{motion_filter, motion_rate_settings};
 
@@ -186,4 +186,27 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
     }
     compose_component(ctx, &terms, None, sigma, count);
     Ok(())
+}
+
+/// A part's texture for the compose: the paths' mean `k`, or (`weighted`) the texture weighted by
+/// the irradiance each path brought, `L / Ē` with `Ē` the unfiltered `e_raw`
+/// (`defocus.weighted_texture`, pass `<name>`; docs/DESIGN-NOTES.md "The irradiance-weighted
+/// texture").
+fn part_texture(
+    ctx: &mut ExpandCtx<'_>,
+    name: &str,
+    weighted: bool,
+    l: BufferId,
+    k: BufferId,
+    e_raw: BufferId,
+) -> BufferId {
+    if !weighted {
+        return k;
+    }
+    let out = ctx.buffer(name, Format::Vec3);
+    WeightedTextureIo { radiance: l, texture: k, irradiance: e_raw, out }
+        // Before the filters: `motion_filter` filters it along the velocity.
+        .bind(ctx.pass(name, "defocus.weighted_texture", Stage::Factor))
+        .finish();
+    out
 }
