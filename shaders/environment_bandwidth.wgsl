@@ -35,7 +35,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // AdaptiveLookUps::applies: 0 off, 1 glossy receivers, 2 all.
     var rays = params.base;
     if (params.adaptive == 2u || (params.adaptive == 1u && env.y > 0.0)) {
-        rays = env_look_ups(params.base, sigma, params.sigma_ref, params.max_rays);
+        // The widths at `count_mu` times the bandwidths (kernels.rs `pixel_outputs`).
+        let sigma_count = vec2<f32>(env_sigma_pixels(shown.x * params.count_mu, footprint, params.max_radius),
+            env_sigma_pixels(shown.y * params.count_mu, footprint, params.max_radius));
+        rays = env_look_ups(params.base, sigma_count, params.sigma_ref, params.max_rays);
     }
     rays_put(i, rays);
 }

@@ -714,7 +714,11 @@ fn an_environment_component_refuses_what_does_not_apply_and_the_port_checks_its_
 /// The Environment node's `adaptive` under a factoring node (docs/DESIGN-NOTES.md "Glossy receivers
 /// under a factoring node"): `off` adds no path to the factoring node's, `glossy` (the default) adds
 /// paths at the glossy torus of `envmap` (in focus, one path each from Ch. 5's rates) and `all` at
-/// every receiver; the added paths bring the image closer to its converged reference.
+/// every receiver; the added paths bring the image closer to its converged reference. The glossy
+/// paths follow the factoring node's μ (DESIGN-NOTES "The glossy count follows the factoring node's
+/// μ"): at Defocus μ 2 `glossy` adds more paths to `off`'s than at μ 1 (160×120; with the count at
+/// μ = 1, as before, it added fewer: 4.00 then 3.77 primary rays per pixel, as Defocus's own counts
+/// grew under it; now 4.00 then 4.70 — `max_rays`, 256 look-ups, binds on much of the torus).
 fn adaptive_look_ups_apply_under_the_factoring_node(with: &dyn Fn(&str) -> String) {
     let truth = reference(&with(""), 256);
     let measure = |adaptive: &str| {
@@ -727,6 +731,17 @@ fn adaptive_look_ups_apply_under_the_factoring_node(with: &dyn Fn(&str) -> Strin
     println!("primary rays, RMSE: off {off:?}, glossy {glossy:?}, all {all:?}");
     assert!(off.0 < glossy.0 && glossy.0 < all.0, "paths: off {off:?}, glossy {glossy:?}, all {all:?}");
     assert!(glossy.1 < 0.8 * off.1, "the glossy torus's paths: {glossy:?} vs off {off:?}");
+    let added_at = |mu: f64| {
+        let rays = |adaptive: &str| {
+            let ov = sized(160, 120, None, &[("defocus", "mu", ParamValue::Float(mu))]);
+            let s = session_from_text(&with(&format!(r#""adaptive": "{adaptive}""#)), &ov);
+            run(&s).rays.primary_rays
+        };
+        rays("glossy") as i64 - rays("off") as i64
+    };
+    let (at_1, at_2) = (added_at(1.0), added_at(2.0));
+    println!("primary rays glossy adds to off: {at_1} at Defocus mu 1, {at_2} at mu 2");
+    assert!(at_2 > at_1, "the glossy count follows the factoring node's mu: {at_1} -> {at_2}");
 }
 
 /// Issue 34 §4, Defocus and Motion together: on a moving scene one Defocus node's paths sample the

@@ -120,6 +120,10 @@ wedge_backends::kernel_params! {
         base: u32,
         sigma_ref: f32,
         max_rays: u32,
+        /// The μ the filters of this pass's bandwidths will be narrowed by after it, which the
+        /// adaptive count follows: 1 where `mu` is the node's own; a factoring node's μ where the
+        /// pass runs at μ = 1 as its statistic ([`pixel_outputs`]).
+        count_mu: f32,
     }
 }
 
@@ -159,6 +163,10 @@ fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError
         base: count("base", p.base)?,
         sigma_ref: finite("sigma_ref", p.sigma_ref, 0.0)?,
         max_rays: count("max_rays", p.max_rays)?,
+        count_mu: match finite("count_mu", p.count_mu, 0.0)? {
+            m if m > 0.0 => m,
+            m => return Err(ctx.err(format!("`count_mu` = {m}; it must be > 0"))),
+        },
     })
 }
 
@@ -190,13 +198,17 @@ pub fn pixel_outputs(s: &PixelStats, footprint: f32, k: &BandwidthParams) -> Pix
     let b = formulas::pixel_bandwidths(s, k.b_e, k.mu, formulas::window_bandwidth(footprint, k.max_radius));
     let shown = if s.exponent > 0.0 { b.direct_glossy } else { b.direct_diffuse };
     let sigma = shown.map(|bx| formulas::sigma_pixels(bx, footprint, k.max_radius));
+    // The widths the count follows: those of the bandwidths times `count_mu` (the same as `sigma`
+    // where it is 1), so under a factoring node the count grows with the node's μ as its filters
+    // narrow, as the node's own count does with its own μ.
+    let sigma_count = shown.map(|bx| formulas::sigma_pixels(bx * k.count_mu, footprint, k.max_radius));
     PixelBandwidths {
         b,
         bandwidth: 0.5 * (shown[0] + shown[1]),
         bandlimit: shown[0].max(shown[1]),
         filter_width: 0.5 * (sigma[0] + sigma[1]),
         rays: if k.adaptive.applies(s.exponent) {
-            formulas::look_ups(k.base, sigma, k.sigma_ref, k.max_rays)
+            formulas::look_ups(k.base, sigma_count, k.sigma_ref, k.max_rays)
         } else {
             k.base
         },

@@ -30,8 +30,9 @@
 //! bandlimit, which the factoring node's rates turn into its irradiance width and look-ups (the lens
 //! or velocity terms added: `crate::defocus::formulas::omega_environment`). Where `adaptive` applies
 //! (glossy receivers by default) the node also asks the sampler for the paths its own rule gives at
-//! μ = 1 — Ch. 5's rates give a pixel in focus one path, whose single position cannot resolve a
-//! glossy reflection of the map (docs/DESIGN-NOTES.md "Glossy receivers under a factoring node").
+//! the factoring node's μ — Ch. 5's rates give a pixel in focus one path, whose single position
+//! cannot resolve a glossy reflection of the map (docs/DESIGN-NOTES.md "Glossy receivers under a
+//! factoring node", and "The glossy count follows the factoring node's μ").
 
 use std::collections::BTreeMap;
 
@@ -250,6 +251,7 @@ impl NodeKind for Environment {
         io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
             .node_params(&["b_e", "mu", "adaptive", "max_radius", "sigma_ref", "max_rays"])
             .int("base", primary * per_primary)
+            .float("count_mu", 1.0)
             .reference(if adaptive { Reference::Count } else { Reference::Keep })
             .finish();
         if adaptive {
@@ -344,7 +346,7 @@ const NOT_FACTORED: [(&str, &str); 2] = [
 /// node's first pass, at μ = 1 (the factoring node's μ scales the widths it derives); its look-ups
 /// per primary ray are `per_primary`. Where `adaptive` applies, its paths are at least
 /// `look_ups / per_primary` (the node's rule, `primary × per_primary` look-ups grown as σ_ref² / σ²,
-/// at μ = 1). `mu`, `max_radius` and `emission` do not apply (the factoring node's μ, filter reach,
+/// with σ at the factoring node's μ). `mu`, `max_radius` and `emission` do not apply (the factoring node's μ, filter reach,
 /// and the emission it adds once); `indirect` and `temporal` are refused ([`NOT_FACTORED`]).
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphError> {
     refuse_not_factored(ctx, &format!("under the factoring node `{}` ({})", f.node, f.kind))?;
@@ -438,14 +440,16 @@ fn first_pass_bandlimit(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Buffer
     io.bind(ctx.pass("bandwidth", "environment.bandwidth", Stage::Bandwidth))
         .node_params(&["b_e", "adaptive", "sigma_ref", "max_rays"])
         .float("mu", 1.0)
+        .param("count_mu", f.setting("mu").cloned().unwrap_or(ParamValue::Float(1.0)))
         .param("max_radius", f.setting("max_radius").cloned().unwrap_or(ParamValue::Int(16)))
         .int("base", base)
         .reference(Reference::Keep)
         .finish();
     // Where `adaptive` applies, paths of `per_primary` look-ups each until the pixel has Algorithm 1's
-    // look-ups grown as its filter narrows (the node's own rule at μ = 1; the factoring node's counts
-    // grow with its μ): a glossy receiver in focus or still, which the factoring node's rates give
-    // one path, gets the paths its glossy reflection needs.
+    // look-ups grown as its filter narrows — the node's own rule, with the widths at the factoring
+    // node's μ (`count_mu`), so the count grows as that μ narrows the filters: a glossy receiver in
+    // focus or still, which the factoring node's rates give one path, gets the paths its glossy
+    // reflection needs at every μ.
     if let Some(rays) = rays {
         ctx.sampler_counts(CountRequest {
             paths: Some(rays),

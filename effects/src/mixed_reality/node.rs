@@ -216,6 +216,7 @@ impl NodeKind for MixedReality {
             .float("sigma_ref", 1.0)
             .int("max_rays", 1)
             .int("base", primary * per_primary)
+            .float("count_mu", 1.0)
             .finish();
         let mut larger = |name: &str, a, b| {
             let out = ctx.buffer(name, Format::Vec2);
