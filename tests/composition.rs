@@ -718,7 +718,7 @@ fn an_environment_component_refuses_what_does_not_apply_and_the_port_checks_its_
 /// paths follow the factoring node's μ (DESIGN-NOTES "The glossy count follows the factoring node's
 /// μ"): at Defocus μ 2 `glossy` adds more paths to `off`'s than at μ 1 (160×120; with the count at
 /// μ = 1, as before, it added fewer: 4.00 then 3.77 primary rays per pixel, as Defocus's own counts
-/// grew under it; now 4.00 then 4.70 — `max_rays`, 256 look-ups, binds on much of the torus).
+/// grew under it; now 4.00 then 4.70 — less than μ² would give, for a limit not found yet).
 fn adaptive_look_ups_apply_under_the_factoring_node(with: &dyn Fn(&str) -> String) {
     let truth = reference(&with(""), 256);
     let measure = |adaptive: &str| {
