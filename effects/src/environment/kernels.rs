@@ -144,10 +144,14 @@ fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError
             Err(ctx.err(format!("`{name}` = {c}; it must be a count >= 1")))
         }
     };
-    let mu = finite("mu", p.mu, 0.0)?;
-    if mu <= 0.0 {
-        return Err(ctx.err(format!("`mu` = {mu}; it must be > 0")));
-    }
+    // A μ scales bandwidths: finite and > 0.
+    let positive = |name: &str, v: f32| -> Result<f32, BackendError> {
+        match finite(name, v, 0.0)? {
+            v if v > 0.0 => Ok(v),
+            v => Err(ctx.err(format!("`{name}` = {v}; it must be > 0"))),
+        }
+    };
+    let mu = positive("mu", p.mu)?;
     // `b_e` = -1 (its declaration's special value; validation admits no other negative): the scene map's B_e.
     let b_e = match p.b_e {
         v if v >= 0.0 && v.is_finite() => v,
@@ -163,10 +167,7 @@ fn bandwidth_params(ctx: &KernelCtx<'_>) -> Result<BandwidthParams, BackendError
         base: count("base", p.base)?,
         sigma_ref: finite("sigma_ref", p.sigma_ref, 0.0)?,
         max_rays: count("max_rays", p.max_rays)?,
-        count_mu: match finite("count_mu", p.count_mu, 0.0)? {
-            m if m > 0.0 => m,
-            m => return Err(ctx.err(format!("`count_mu` = {m}; it must be > 0"))),
-        },
+        count_mu: positive("count_mu", p.count_mu)?,
     })
 }
 
