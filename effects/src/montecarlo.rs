@@ -112,12 +112,7 @@ impl NodeKind for MonteCarlo {
                 "light sample placement (through a camera block's lens or shutter: the camera paths' pixel, lens and time points)",
             ),
             ParamDecl::int("light", -1, -1, 1 << 16, "area light index; -1 = every light"),
-            ParamDecl::choice(
-                "form_factor",
-                "exact",
-                &["exact", "light_centre"],
-                "per-sample geometry term, or the thesis's light-centre approximation",
-            ),
+            crate::params::form_factor("exact", "per-sample geometry term, or the thesis's light-centre approximation"),
             ParamDecl::int(
                 "bounces",
                 0,

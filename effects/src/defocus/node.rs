@@ -53,7 +53,6 @@ use wedge_graph::{
 };
 
 use super::component::rate_settings;
-use super::formulas::Mode;
 use super::kernels::filter::DefocusIo;
 use super::kernels::RatesIo;
 use crate::factored::{components, filter_chain, pass_through, sum};
@@ -157,12 +156,12 @@ impl NodeKind for Defocus {
             ParamDecl::positive("focus_distance", 2.6, 1e9, "distance of the plane in focus along the view direction, world units; default: the camera block's").optional(),
             ParamDecl::choice("lens", "disk", &["disk", "gaussian"], "aperture weight: uniform disk (pbrt, Mitsuba) or the thesis's Gaussian exp(-|u|²/2)"),
             crate::params::mu(1.0, "μ: scales every Ch. 5 bandwidth (eq. 5.29); larger = narrower filters, more rays"),
-            ParamDecl::choice("mode", "consistent", Mode::OPTIONS, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
-            ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (the thesis's reading: k·E = L where the scene factors), or the per-sample geometry term (unbiased; for comparisons with other renderers)"),
+            crate::params::mode(),
+            crate::params::form_factor("light_centre", "light-centre form factor f_c in L, k and E (the thesis's reading: k·E = L where the scene factors), or the per-sample geometry term (unbiased; for comparisons with other renderers)"),
             ParamDecl::choice("texture", "weighted", &["weighted", "mean"], "a factored pixel's texture: weighted by the irradiance each path brought, L / Ē (the default since issue 35's defocus suites: it keeps the covariance of texture and light over the lens — a blurred highlight's paths bring both — and equals k̄ where k is constant), or the paths' mean k̄ (the thesis, eq. 5.32's k E); docs/DESIGN-NOTES.md \"The irradiance-weighted texture\""),
             ParamDecl::boolean("factor", true, "factor L into texture × irradiance (eq. 5.30); false = the thesis's no-factoring ablation"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one lens, shadow and indirect sample each: 4 since issue 35's defocus suite (the thesis's 16 spent 48 rays per pixel before any rate was known; docs/DESIGN-NOTES.md \"Four first-pass paths under a lens\")"),
-            ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
+            crate::params::max_primary(),
             ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's defocus suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"The defocus suite\""),
             ParamDecl::int("max_shadow_per_primary", 1, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary (1 = its default; docs/DESIGN-NOTES.md \"Shadow rays per primary under Motion\")"),
             ParamDecl::int("max_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),

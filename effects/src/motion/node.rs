@@ -57,7 +57,6 @@ use super::formulas::{MULTI_VELOCITY_PATHS, OMEGA_T_MAX};
 use super::kernels::filter::{MotionFilterIo, Radiance3Io};
 use super::kernels::{FlagsIo, RatesIo};
 use crate::defocus::component::rate_settings;
-use crate::defocus::formulas::Mode;
 use crate::defocus::kernels::{RateComponent, Statistic};
 use crate::factored::{compose_component, sum, IrradianceFilter, PartTerms};
 
@@ -120,10 +119,10 @@ impl NodeKind for Motion {
         vec![
             crate::params::mu(1.0, "μ: scales every App. B bandwidth (eq. 5.29); larger = narrower filters, more rays"),
             ParamDecl::positive("omega_t", OMEGA_T_MAX as f64, 1e6, "Ω_t^max, the shutter's bandlimit over t ∈ [−1, 1] (eqs. B.1–B.3; 1 = docs/EQUATIONS.md's reading)"),
-            ParamDecl::choice("mode", "consistent", Mode::OPTIONS, "consistent (Ω scales with μ without a clamp: converges to Monte Carlo as μ grows; the default since issue 35), or literal: eq. 5.29 as printed (clamped at Ω_pix^max: above μ = 1 the filters narrow while the counts stop growing, so the error rises)"),
-            ParamDecl::choice("form_factor", "light_centre", &["light_centre", "exact"], "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
+            crate::params::mode(),
+            crate::params::form_factor("light_centre", "light-centre form factor f_c in L, k and E (k·E = L where the scene factors), or the per-sample geometry term"),
             ParamDecl::int("initial_paths", 4, 1, 4096, "first-pass paths per pixel, one time, shadow and indirect sample each (thesis App. B: 9; 4 measured better, DESIGN-NOTES \"Motion\")"),
-            ParamDecl::int("max_primary", 256, 1, 4096, "cap on primary rays per pixel n_p (rounded down to a square)"),
+            crate::params::max_primary(),
             ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on hemisphere and environment samples per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's motion suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"Shadow rays per primary under Motion\""),
             ParamDecl::int("max_shadow_per_primary", 4, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary: 4 (2×2 strata), the light's variance in penumbrae is what they reduce"),
             ParamDecl::int("multi_paths", MULTI_VELOCITY_PATHS, 1, 4096, "primary rays at pixels that see two or more velocities (thesis: 64; 16 measured better, DESIGN-NOTES \"Motion\")"),

@@ -79,12 +79,7 @@ impl NodeKind for SoftShadows {
         .chain(RateParams::decls())
         .chain([
             ParamDecl::int("fill_radius", 5, 0, 64, "radius (pixels) for averaging d1, d2 into unoccluded pixels (also under a factoring node; 0 there: the thesis's Ch. 5, own statistics only)"),
-            ParamDecl::choice(
-                "form_factor",
-                "exact",
-                &["exact", "light_centre"],
-                "per-sample geometry term (unbiased), or the thesis's light-centre approximation r(x)",
-            ),
+            crate::params::form_factor("exact", "per-sample geometry term (unbiased), or the thesis's light-centre approximation r(x)"),
             ParamDecl::choice(
                 "irradiance",
                 "analytic",
