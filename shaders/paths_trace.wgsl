@@ -302,6 +302,21 @@ fn occluder_term(c: f32, t: f32) -> f32 {
     return 0.0;
 }
 
+// paths.rs `lobe_look_up`: the lobe's half of an MIS look-up pair, L ρ_s cos / (pdf_map + pdf_lobe).
+fn lobe_look_up(m: f32, n: vec3<f32>, wo: vec3<f32>, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let wi = sample_glossy(params.lobe, m, n, wo, u).wi;
+    let c = dot3(n, wi);
+    if (!(c > 0.0 && is_finite3(wi))) {
+        return vec3<f32>(0.0);
+    }
+    rec.env_rays = rec.env_rays + 1u;
+    if (scene_occluded(origin, wi, 0.0, inf())) {
+        return vec3<f32>(0.0);
+    }
+    let pdf = env_pdf(wi) + glossy_pdf(params.lobe, m, n, wo, wi);
+    return env_radiance(wi) * glossy_brdf(params.lobe, m, n, wo, wi) * (c / pdf);
+}
+
 // The environment estimator (paths.rs `trace_environment`, thesis Ch. 6).
 fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
         w: f32, pixel: u32, count: u32) {
@@ -344,10 +359,16 @@ fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, k
             } else {
                 let l = e.radiance * (c / e.pdf);
                 vd = l * FRAC_1_PI_F32;
-                if (is_glossy) {
+                if (is_glossy && params.environment_mis != 0u) {
+                    let p_lobe = glossy_pdf(params.lobe, m, n, wo, e.dir);
+                    vg = e.radiance * glossy_brdf(params.lobe, m, n, wo, e.dir) * (c / (e.pdf + p_lobe));
+                } else if (is_glossy) {
                     vg = l * glossy_brdf(params.lobe, m, n, wo, e.dir);
                 }
             }
+        }
+        if (is_glossy && params.environment_mis != 0u) {
+            vg = vg + lobe_look_up(m, n, wo, origin, draw(pixel, PAIR_ENVIRONMENT_LOBE, q));
         }
         if (is_finite3(vd)) {
             ed = ed + vd;

@@ -10,6 +10,7 @@ const PAIR_HEMISPHERE_GLOSSY: u32 = 4u;
 const PAIR_PATH: u32 = 5u;
 const PAIR_TIME: u32 = 6u;
 const PAIR_ENVIRONMENT: u32 = 7u;
+const PAIR_ENVIRONMENT_LOBE: u32 = 8u;
 
 fn sobol_point(index: u32, dimension: u32) -> u32 {
     if (dimension == 0u) {

@@ -211,6 +211,49 @@ fn the_filter_converges_to_monte_carlo_as_mu_grows() {
     }
 }
 
+/// Mean of every channel of every pixel.
+fn image_mean(img: &Image) -> f64 {
+    img.pixels.iter().flatten().map(|&c| c as f64).sum::<f64>() / (3 * img.pixels.len()) as f64
+}
+
+#[test]
+fn glossy_receivers_take_the_lobe_and_the_map() {
+    // `glossy_sampling: "mis"` pairs each look-up at a glossy receiver with a lobe direction (balance
+    // heuristic). Both estimate the same light: their converged images agree (the table's quadrature
+    // against the continuous map). MIS's estimates vary far less on `envmap`, whose glossy torus
+    // catches the map's table in a sharp lobe (docs/DESIGN-NOTES.md "Glossy receivers: the lobe and
+    // the map"), for one more shadow ray per look-up there; a scene with no glossy receiver renders
+    // the same image either way.
+    let at = |sampling: &str, seed: u32| {
+        envmap(&format!(r#""glossy_sampling": "{sampling}""#), "").replace("seed: 2,", &format!("seed: {seed},"))
+    };
+    let (table, mis) = (reference(&at("table", 2), 512), reference(&at("mis", 2), 512));
+    let (m_table, m_mis) = (image_mean(&table), image_mean(&mis));
+    println!("converged means: table {m_table:.5}, mis {m_mis:.5}");
+    assert!((m_mis / m_table - 1.0).abs() < 5e-3, "{m_mis} vs {m_table}");
+    // The noise of a 64-spp Monte Carlo image: half the RMSE between two seeds' (~ one image's).
+    let noise = |sampling: &str| rmse(&reference(&at(sampling, 3), 64), &reference(&at(sampling, 4), 64)) / 2f64.sqrt();
+    let (n_table, n_mis) = (noise("table"), noise("mis"));
+    println!("64-spp noise RMSE: table {n_table:.4e}, mis {n_mis:.4e} ({:.2}x)", n_table / n_mis);
+    assert!(n_mis < 0.6 * n_table, "{n_mis} vs {n_table}");
+    let rays = |sampling: &str| {
+        let s = session_from_text(&at(sampling, 2), &Overrides::default());
+        run(&s).rays.shadow_rays
+    };
+    let (rays_table, rays_mis) = (rays("table"), rays("mis"));
+    println!("the node's shadow rays: table {rays_table}, mis {rays_mis}");
+    assert!(rays_table < rays_mis && rays_mis < 2 * rays_table, "{rays_mis} vs {rays_table}");
+    // A diffuse sphere under a constant map: no lobe to sample, the same bytes.
+    let dir = tempfile::tempdir().unwrap();
+    let (obj, map) = (sphere_obj(dir.path(), 0.5), constant_map(dir.path(), 2.0));
+    let image = |sampling: &str| {
+        let text = furnace(&obj, &map, &format!(r#""glossy_sampling": "{sampling}""#));
+        let s = session_from_text(&text, &text_overrides());
+        color(&s, &run(&s))
+    };
+    assert_eq!(image("table"), image("mis"));
+}
+
 /// Frames `first..=last` of `text` with its camera path on the CPU; their colour images.
 fn frames(text: &str, first: u32, last: u32) -> Vec<Image> {
     let mut s = session_from_text(text, &Overrides::default());

@@ -46,6 +46,11 @@ pub mod pair {
     /// The environment table: the first coordinate of sample 0 is the pixel's table shift
     /// (`kernels::environment::stratified_entry`); under independent sampling sample `q` picks look-up `q`.
     pub const ENVIRONMENT: u32 = 7;
+    /// The glossy-lobe direction that each environment look-up at a glossy receiver pairs with under
+    /// multiple importance sampling (`kernels::environment::GlossySampling::Mis`).
+    pub const ENVIRONMENT_LOBE: u32 = 8;
+    /// How many pairs there are.
+    pub const COUNT: usize = 9;
 }
 
 /// Point `index` of Sobol' dimension 0 or 1 as a 32-bit fraction.

@@ -98,6 +98,9 @@ fn defaults() -> Vec<(&'static str, ParamValue)> {
         // Relative luminance below which an occluded environment look-up does not set the occluder
         // term (thesis Sec. 6.7's 0.1, read against the map's mean radiance).
         ("occluder_threshold", ParamValue::Float(0.1)),
+        // The environment's light at glossy receivers: the map's table alone (the thesis) or MIS with
+        // the lobe (`kernels::environment::GlossySampling`).
+        ("environment_glossy", ParamValue::Str("table".into())),
         ("jitter", ParamValue::Bool(false)),
         ("lens", ParamValue::Str("disk".into())),
         ("sampling", ParamValue::Str("stratified".into())),
@@ -145,6 +148,7 @@ fn merge_rule(setting: &str) -> SettingMerge {
              `brdf`, `bounces`, `mode` and `max_distance`)"
         }
         "sampling" => "stratified or independent applies to every sequence of the record",
+        "environment_glossy" => "the environment estimator samples every glossy receiver one way",
         _ => "the sampler takes one value of it per pipeline",
     };
     SettingMerge::Equal { why }
@@ -314,6 +318,7 @@ impl PathSampler {
             "glossy",
             "aperture_radius",
             "occluder_threshold",
+            "environment_glossy",
         ]
         .into_iter()
         .map(|n| (n, Self::setting(plan, n)))

@@ -22,6 +22,15 @@ use wedge_scene::{EnvSample, SceneAt};
 use crate::kernels::indirect::{PathParams, Vertex};
 use crate::rng::{dim, PixelRng};
 
+crate::param_choice! {
+    /// How the path sampler estimates the environment's light at a glossy receiver: the map's table
+    /// alone (`table`, thesis Sec. 6.5.2: directions importance-sampled by the map's luminance), or
+    /// each look-up paired with a direction drawn from the receiver's glossy lobe and the two
+    /// combined by multiple importance sampling with the balance heuristic (`mis`). WGSL:
+    /// `params.environment_mis`, 1 = `mis`.
+    pub enum GlossySampling { Table = "table", Mis = "mis" }
+}
+
 /// Entry `(shift XOR q) mod 4096`: a pixel's `q`-th stratified look-up (module doc).
 #[inline]
 pub fn stratified_entry(shift: u32, q: u32) -> u32 {

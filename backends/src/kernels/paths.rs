@@ -24,10 +24,12 @@
 //! - indirect diffuse: `E` = mean incident radiance of cosine-sampled one-bounce paths, `k = k_d`;
 //! - indirect glossy: `E` = mean of `L_i · f cos/pdf` (k_s left out) over lobe samples, `k = k_s`.
 //! - environment (thesis Ch. 6, [`crate::kernels::environment`]): look-ups into the map's
-//!   4096-entry table, stratified per pixel; diffuse `E = L cos/(π pdf)`, glossy `E = L ρ cos/pdf`,
-//!   the largest occluder term `cos θ / t` over bright blocked look-ups, and `w_env_missed` (paths
-//!   whose camera ray saw the sky: `E` averages over the paths that hit). Camera rays that miss add
-//!   the map (`Scene::background`) to emission.
+//!   4096-entry table, stratified per pixel; diffuse `E = L cos/(π pdf)`, glossy `E = L ρ cos/pdf`
+//!   (with `environment_glossy: "mis"` each look-up paired with a lobe direction, pair
+//!   `ENVIRONMENT_LOBE`, under the balance heuristic: [`lobe_look_up`]), the largest occluder term
+//!   `cos θ / t` over bright blocked look-ups, and `w_env_missed` (paths whose camera ray saw the
+//!   sky: `E` averages over the paths that hit). Camera rays that miss add the map
+//!   (`Scene::background`) to emission.
 //!
 //! **Weights.** Where the camera ray moves between a pixel's paths (a lens, jitter), each path weighs
 //! its lens weight `w` whatever its secondary count: the record sums `w·L`, `w·k`, `w·E` per component
@@ -80,12 +82,12 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use wedge_graph::Format;
-use wedge_scene::{Camera, LensShape, PreparedLight, SceneAt};
+use wedge_scene::{Camera, EnvironmentMap, LensShape, PreparedLight, SceneAt};
 
 use crate::kernel::{Binding, Counters, Kernel, KernelClass, KernelCtx, Uniforms, WgslSource};
 use crate::kernels::direct::{light_centre_factor, light_sample, FormFactor};
-use crate::kernels::environment::{stratified_entry, uniform_entry};
-use crate::kernels::hemisphere::{glossy_brdf, sample_diffuse, sample_glossy, Lobe};
+use crate::kernels::environment::{stratified_entry, uniform_entry, GlossySampling};
+use crate::kernels::hemisphere::{glossy_brdf, glossy_pdf, sample_diffuse, sample_glossy, Lobe};
 use crate::kernels::indirect::{trace_path, PathParams, PathRays, Vertex};
 use crate::kernels::{luminance, widen_range};
 use crate::params::{KernelParams, Sampling};
@@ -325,6 +327,8 @@ crate::kernel_params! {
         occluder_threshold: Option<f32>,
         /// Default 0.
         environment_per_primary: Option<u32>,
+        /// Default: the table alone (the thesis).
+        environment_glossy: Option<GlossySampling>,
     }
 }
 
@@ -366,6 +370,9 @@ struct Settings {
     /// is unbound.
     environment: bool,
     environment_per_primary: u32,
+    /// At glossy receivers, each look-up paired with a lobe direction under MIS
+    /// ([`GlossySampling::Mis`]).
+    environment_mis: bool,
     /// Luminance below which an occluded environment sample does not count for the occluder term
     /// (thesis Sec. 6.7: "occluders which block samples with intensity below a threshold of 0.1"):
     /// `occluder_threshold` × the map's mean radiance luminance.
@@ -423,6 +430,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
         path: PathParams::new(ctx, p.brdf, p.bounces, ao, max_distance),
         environment,
         environment_per_primary: p.environment_per_primary.unwrap_or(0),
+        environment_mis: p.environment_glossy == Some(GlossySampling::Mis),
         occluder_luminance: occluder_threshold * mean_luminance,
     })
 }
@@ -433,7 +441,7 @@ fn settings(ctx: &KernelCtx<'_>) -> Result<Settings, BackendError> {
 /// pass's settings draw from are keyed.
 struct Draws {
     stratified: bool,
-    sequences: [Sequence; pair::ENVIRONMENT as usize + 1],
+    sequences: [Sequence; pair::COUNT],
 }
 
 impl Draws {
@@ -446,8 +454,9 @@ impl Draws {
             (pair::HEMISPHERE_GLOSSY, s.indirect && s.glossy),
             (pair::TIME, s.time),
             (pair::ENVIRONMENT, s.environment),
+            (pair::ENVIRONMENT_LOBE, s.environment && s.environment_mis),
         ];
-        let mut sequences = [Sequence::default(); pair::ENVIRONMENT as usize + 1];
+        let mut sequences = [Sequence::default(); pair::COUNT];
         for (p, on) in used {
             if on {
                 sequences[p as usize] = Sequence::new(sequence_key(seed, pixel, s.stream, p));
@@ -509,6 +518,7 @@ impl Kernel for PathsTrace {
                     .u32("time", s.time as u32)
                     .u32("environment", s.environment as u32)
                     .u32("environment_per_primary", s.environment_per_primary)
+                    .u32("environment_mis", s.environment_mis as u32)
                     .f32("occluder_luminance", s.occluder_luminance);
                 Ok(s.path.uniforms(u, ctx))
             })
@@ -879,7 +889,9 @@ pub fn occluder_term(cos: f32, t: f32) -> f32 {
 /// table (stratified: [`crate::kernels::environment::stratified_entry`]), each with a shadow ray to
 /// infinity; `E_d = L cos/(π pdf)` with `k = k_d` and, where the surface has a lobe, `E_s = L ρ_s
 /// cos/pdf` with `k = k_s` (Phong receivers, eq. 6.14). Occluded samples at least
-/// `occluder_luminance` bright keep the largest [`occluder_term`].
+/// `occluder_luminance` bright keep the largest [`occluder_term`]. With `environment_mis` a glossy
+/// receiver's look-up `q` is a pair — the table's direction and one drawn from the lobe
+/// ([`lobe_look_up`]) — and `E_s` sums the two under the balance heuristic.
 fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Draws, count: u32, r: &mut PathRecord) {
     let PathHit { v: Vertex { x, n, wo, kd, ks, m }, glossy, w } = *at;
     let Some(env) = scene.scene().environment.as_ref() else { return };
@@ -913,10 +925,17 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Dr
             } else {
                 let l = e.radiance * (cos / e.pdf);
                 vd = l * std::f32::consts::FRAC_1_PI;
-                if glossy {
+                if glossy && s.environment_mis {
+                    let p_lobe = glossy_pdf(s.path.lobe, m, n, wo, e.dir);
+                    vg = e.radiance * glossy_brdf(s.path.lobe, m, n, wo, e.dir) * (cos / (e.pdf + p_lobe));
+                } else if glossy {
                     vg = l * glossy_brdf(s.path.lobe, m, n, wo, e.dir);
                 }
             }
+        }
+        if glossy && s.environment_mis {
+            let lobe = LobeAt { lobe: s.path.lobe, m, n, wo, origin };
+            vg += lobe_look_up(scene, env, &lobe, draws.draw(pair::ENVIRONMENT_LOBE, q), r);
         }
         for (v, e, valid) in [(vd, &mut ed, &mut valid_d), (vg, &mut eg, &mut valid_g)] {
             if v.is_finite() {
@@ -932,6 +951,35 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Dr
     accumulate(sums, kd, ed, valid_d, w, s.fixed_primary);
     let sums = Sums { l: &mut r.l_env_glossy, k: &mut r.k_env_glossy, e: &mut r.e_env_glossy, w: &mut r.w_env_glossy };
     accumulate(sums, if glossy { ks } else { Vec3::ZERO }, eg, valid_g, w, s.fixed_primary);
+}
+
+/// A glossy receiver's lobe where the environment is looked up.
+struct LobeAt {
+    lobe: Lobe,
+    m: f32,
+    n: Vec3,
+    wo: Vec3,
+    /// The shadow rays' origin, off the surface.
+    origin: Vec3,
+}
+
+/// The lobe's half of an MIS look-up pair: a direction drawn from the glossy lobe with `u`, a shadow
+/// ray, and `L ρ_s cos / (pdf_map + pdf_lobe)` — the balance heuristic's weight times `f / pdf_lobe`
+/// (the table's half is `L ρ_s cos / (pdf + pdf_lobe)` at the table's direction). The map's pdf is the
+/// continuous one the table was drawn from (`EnvironmentMap::pdf`), so the pair estimates the
+/// lighting integral wherever the lobe or the map is sharp; 0 below the surface or occluded.
+fn lobe_look_up(scene: &SceneAt<'_>, env: &EnvironmentMap, at: &LobeAt, u: Vec2, r: &mut PathRecord) -> Vec3 {
+    let (wi, _) = sample_glossy(at.lobe, at.m, at.n, at.wo, u);
+    let cos = at.n.dot(wi);
+    if !(cos > 0.0 && wi.is_finite()) {
+        return Vec3::ZERO;
+    }
+    r.env_rays += 1;
+    if scene.occluded(at.origin, wi, 0.0, f32::INFINITY) {
+        return Vec3::ZERO;
+    }
+    let pdf = env.pdf(wi) + glossy_pdf(at.lobe, at.m, at.n, at.wo, wi);
+    env.radiance(wi) * glossy_brdf(at.lobe, at.m, at.n, at.wo, wi) * (cos / pdf)
 }
 
 /// The indirect estimators (diffuse, and glossy where the surface has a lobe) at hit `x`.

@@ -45,6 +45,7 @@ use super::kernels::filter::{EnvironmentFilterIo, HistoryIo};
 use super::kernels::{AdaptiveLookUps, BandwidthIo, CurvatureIo};
 use crate::factored::{compose_component, factor_flags, PartTerms};
 use wedge_backends::kernels::constant::FillF32Io;
+use wedge_backends::kernels::environment::GlossySampling;
 
 pub struct Environment;
 
@@ -60,6 +61,9 @@ const DIRECT_PARTS: [(Part, &str); 2] = [
         "direct_glossy",
     ),
 ];
+/// The parts whose light depends on the view direction (no temporal history: [`PartFilter`]).
+const GLOSSY_PARTS: [&str; 2] = ["env_glossy", "indirect_glossy"];
+
 const INDIRECT_PARTS: [(Part, &str); 2] = [
     (
         Part { name: "indirect_diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
@@ -184,6 +188,7 @@ impl NodeKind for Environment {
             ParamDecl::choice("adaptive", "glossy", AdaptiveLookUps::OPTIONS, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension): at glossy receivers, every receiver, or off (the thesis's fixed count)"),
             ParamDecl::positive("sigma_ref", 1.0, 64.0, "with `adaptive`: the filter width (px) below which look-ups grow as σ_ref²/(σ_x σ_y)"),
             ParamDecl::int("max_rays", 256, 1, 1 << 20, "with `adaptive`: the most look-ups per pixel"),
+            ParamDecl::choice("glossy_sampling", "mis", GlossySampling::OPTIONS, "the light at glossy receivers: mis (the default since issue 35), each look-up paired with a direction drawn from the receiver's lobe, the two combined by multiple importance sampling (one more shadow ray per look-up at glossy receivers), or table: look-ups into the map's table alone (the thesis: directions drawn by the map's luminance; a sharp lobe catches few); docs/DESIGN-NOTES.md \"Glossy receivers: the lobe and the map\""),
             ParamDecl::boolean("emission", true, "add the primary hits' emission and the environment where camera rays miss (false where another node adds it)"),
             crate::plain_camera::paths_param(),
         ]);
@@ -213,7 +218,8 @@ impl NodeKind for Environment {
             .setting("environment_per_primary", ParamValue::Int(per_primary))
             .setting("jitter", ParamValue::Bool(primary > 1))
             .setting("sampling", ParamValue::Str("stratified".into()))
-            .setting("occluder_threshold", ctx.param("occluder_threshold").clone());
+            .setting("occluder_threshold", ctx.param("occluder_threshold").clone())
+            .setting("environment_glossy", ctx.param("glossy_sampling").clone());
         if indirect {
             request = request
                 .estimator("hemisphere")
@@ -275,7 +281,7 @@ impl NodeKind for Environment {
         // (docs/DESIGN-NOTES.md "The irradiance-weighted texture").
         let position = ctx.sampler_output(SamplerPass::Final, "position")?;
         let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
-        let filter = PartFilter {
+        let mut filter = PartFilter {
             position,
             normal,
             max_radius: ctx.param("max_radius").clone(),
@@ -298,6 +304,10 @@ impl NodeKind for Environment {
                 Reference::Fill(0),
             )?;
             let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
+            // A glossy part's irradiance depends on the direction it is seen from, which the history
+            // pass does not know (it matches world positions): under a moving camera the previous
+            // frame's glossy light is another reflection. Only the diffuse parts join the history.
+            filter.temporal = temporal && !GLOSSY_PARTS.contains(&part.name);
             let e = filter.apply(ctx, part.name, e, *bw);
             let (l, k) = (
                 ctx.sampler_output(SamplerPass::Final, part.radiance)?,
@@ -392,6 +402,7 @@ fn sampled_settings(ctx: &ExpandCtx<'_>) -> Vec<(&'static str, ParamValue)> {
     vec![
         ("environment_per_primary", ParamValue::Int(1)),
         ("occluder_threshold", ctx.param("occluder_threshold").clone()),
+        ("environment_glossy", ctx.param("glossy_sampling").clone()),
     ]
 }
 
