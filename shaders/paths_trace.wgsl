@@ -454,8 +454,9 @@ fn ceil_div(a: u32, b: u32) -> u32 {
     return a / b + select(0u, 1u, a % b != 0u);
 }
 
-// Work units of one path for chunking: its rays (the camera ray, the shadow rays, and per indirect
-// sample of each part a ray and a next-event shadow ray per bounce) in eighths, at least 1.
+// Work units of one path for chunking: its rays (the camera ray, the shadow rays, per indirect
+// sample of each part a ray and a next-event shadow ray per bounce, and per environment look-up one
+// ray, two under MIS, where a glossy receiver adds the lobe's) in eighths, at least 1.
 fn path_units(count: Secondary) -> u32 {
     var rays = 1u;
     if (params.direct != 0u) {
@@ -465,7 +466,7 @@ fn path_units(count: Secondary) -> u32 {
         rays = rays + 2u * (min(count.diffuse, 0x100000u) + min(count.glossy, 0x100000u)) * min(params.bounces, 64u);
     }
     if (params.environment != 0u) {
-        rays = rays + min(count.environment, 0x100000u);
+        rays = rays + (1u + params.environment_mis) * min(count.environment, 0x100000u);
     }
     return max(1u, ceil_div(rays, 8u));
 }
