@@ -1,7 +1,7 @@
 // environment_light.wgsl — environment lighting as the path sampler and the indirect paths see it;
 // mirrors backends/src/kernels/environment.rs (stratified_entry, uniform_entry, environment_event)
 // and Vertex::brdf (backends/src/kernels/indirect.rs) with the same look-ups and operation order.
-// Needs scene.wgsl (env_table) and, for environment_event, the including kernel's Params `eps` and
+// Needs scene.wgsl (env_table) and, for environment_query, the including kernel's Params `eps` and
 // `lobe`.
 #include "common.wgsl"
 #include "rng.wgsl"
@@ -26,22 +26,35 @@ fn surface_brdf(kd: vec3<f32>, ks: vec3<f32>, m: f32, n: vec3<f32>, wo: vec3<f32
     return f;
 }
 
+// A shadow ray a next event asks for (`wanted`: from `origin` along `dir` up to `tmax`) and what the
+// event brings when nothing blocks it: `total`, and `glossy`, the part through the glossy lobe.
+// The caller traces it (indirect_path.wgsl `next_events`: one traversal call site for all events).
+struct ShadowQuery {
+    wanted: bool,
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    tmax: f32,
+    total: vec3<f32>,
+    glossy: vec3<f32>,
+}
+
+fn no_shadow_query() -> ShadowQuery {
+    return ShadowQuery(false, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec3<f32>(0.0));
+}
+
 // Next-event estimation of the environment at a path vertex: one table look-up (DIM_ENVIRONMENT of
-// the bounce), a shadow ray to infinity, L f cos / pdf; zero without a map. Counts the ray in
-// rays_shadow (indirect_path.wgsl).
-fn environment_event(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32,
-        bounce: u32) -> vec3<f32> {
+// the bounce), a shadow ray to infinity, L f cos / pdf; no ray without a map (indirect.rs
+// environment_event).
+fn environment_query(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32,
+        bounce: u32) -> ShadowQuery {
     if (!env_present()) {
-        return vec3<f32>(0.0);
+        return no_shadow_query();
     }
     let e = env_table(env_uniform_entry(rng_uniform(key, sample, DIM_ENVIRONMENT + bounce * DIM_BOUNCE_STRIDE)));
     let c = dot3(n, e.dir);
     if (!(c > 0.0 && e.pdf > 0.0)) {
-        return vec3<f32>(0.0);
+        return no_shadow_query();
     }
-    rays_shadow = rays_shadow + 1u;
-    if (scene_occluded(y + n * params.eps, e.dir, 0.0, inf())) {
-        return vec3<f32>(0.0);
-    }
-    return e.radiance * surface_brdf(kd, ks, m, n, wo, e.dir) * (c / e.pdf);
+    let value = e.radiance * surface_brdf(kd, ks, m, n, wo, e.dir) * (c / e.pdf);
+    return ShadowQuery(true, y + n * params.eps, e.dir, inf(), value, vec3<f32>(0.0));
 }

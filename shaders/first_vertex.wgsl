@@ -44,10 +44,16 @@ fn first_vertex(origin: vec3<f32>, dir: vec3<f32>, key: u32, j: u32) -> FirstVer
     let ks = mat.specular;
     let m = mat.phong_exponent;
     v.hit = true;
-    if (params.one_light < 0) {
-        v.direct = emission(sp) + next_event(x, n, wo, kd, ks, m, key, j, 0u);
+    // Every light and the environment, or light `one_light` alone: one `next_events` call, so one
+    // inlined traversal for both (indirect_path.wgsl).
+    let single = params.one_light >= 0;
+    let first = select(0u, u32(params.one_light), single);
+    let end = select(params.light_count, first + 1u, single);
+    let events = next_events(first, end, !single, x, n, wo, kd, ks, m, key, j, 0u).total;
+    if (single) {
+        v.direct = events;
     } else {
-        v.direct = light_event(u32(params.one_light), x, n, wo, kd, ks, m, key, j, 0u).total;
+        v.direct = emission(sp) + events;
     }
     v.position = x;
     v.normal = n;

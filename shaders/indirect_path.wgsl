@@ -30,30 +30,25 @@ struct NextEvent {
 }
 
 // Next-event estimation toward area light `l` alone (indirect.rs light_event): one uniform sample of
-// it and its shadow ray; zero where the sample faces away or is blocked.
-fn light_event(l: u32, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
-    let none = NextEvent(vec3<f32>(0.0), vec3<f32>(0.0));
+// it and its shadow ray; no ray where the sample faces away.
+fn light_query(l: u32, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> ShadowQuery {
     let light = scene_light_at(l);
     let d = DIM_LIGHT + bounce * DIM_BOUNCE_STRIDE + l * LIGHT_DIM_STRIDE;
     let target_point = light_sample_point(light, rng_uniform2(key, sample, d));
     let to = target_point - y;
     let r2 = dot3(to, to);
     if (r2 <= 0.0) {
-        return none;
+        return no_shadow_query();
     }
     let dir = to / sqrt(r2);
     let cos_y = dot3(n, dir);
     let cos_l = light_facing_cos(light, dir);
     if (cos_y <= 0.0 || cos_l <= 0.0) {
-        return none;
+        return no_shadow_query();
     }
     let origin = y + n * params.eps;
     let seg = target_point - origin;
     let seg_len = length3(seg);
-    rays_shadow = rays_shadow + 1u;
-    if (scene_occluded(origin, seg / seg_len, 0.0, seg_len * bitcast<f32>(0x3f7ff972u))) { // (1.0 - 1e-4) in f32
-        return none;
-    }
     var f = kd * FRAC_1_PI_F32;
     let geometry = cos_y * cos_l / r2 * light.normal_area.w;
     var glossy = vec3<f32>(0.0);
@@ -62,19 +57,49 @@ fn light_event(l: u32, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>,
         f = f + g;
         glossy = light.radiance.xyz * g * geometry;
     }
-    return NextEvent(light.radiance.xyz * f * geometry, glossy);
+    let tmax = seg_len * bitcast<f32>(0x3f7ff972u); // (1.0 - 1e-4) in f32
+    return ShadowQuery(true, origin, seg / seg_len, tmax, light.radiance.xyz * f * geometry, glossy);
 }
 
-fn next_event_parts(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
+// Next events toward the area lights `first..end` and, where `environment`, the environment after
+// them (indirect.rs next_event / light_event), summed in that order. Every event's shadow ray is
+// traced at the one `scene_occluded` call below: lavapipe inlines the whole traversal at each call
+// site, so one site instead of one per kind of event shortens every cold compile of the kernels that
+// include this file (docs/DESIGN-NOTES.md, "Traversal call sites").
+fn next_events(first: u32, end: u32, environment: bool, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>,
+        ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
     var sum = vec3<f32>(0.0);
     var glossy_sum = vec3<f32>(0.0);
-    for (var l = 0u; l < params.light_count; l = l + 1u) {
-        let e = light_event(l, y, n, wo, kd, ks, m, key, sample, bounce);
-        sum = sum + e.total;
-        glossy_sum = glossy_sum + e.glossy;
+    var env = vec3<f32>(0.0);
+    let last = select(end, end + 1u, environment);
+    for (var l = first; l < last; l = l + 1u) {
+        let is_env = l == end;
+        var q: ShadowQuery;
+        if (is_env) {
+            q = environment_query(y, n, wo, kd, ks, m, key, sample, bounce);
+        } else {
+            q = light_query(l, y, n, wo, kd, ks, m, key, sample, bounce);
+        }
+        if (!q.wanted) {
+            continue;
+        }
+        rays_shadow = rays_shadow + 1u;
+        if (scene_occluded(q.origin, q.dir, 0.0, q.tmax)) {
+            continue;
+        }
+        if (is_env) {
+            env = q.total;
+        } else {
+            sum = sum + q.total;
+            glossy_sum = glossy_sum + q.glossy;
+        }
     }
-    // The environment is a light too (indirect.rs next_event).
-    return NextEvent(sum + environment_event(y, n, wo, kd, ks, m, key, sample, bounce), glossy_sum);
+    return NextEvent(sum + env, glossy_sum);
+}
+
+// Every area light, then the environment, which is a light too (indirect.rs next_event).
+fn next_event_parts(y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
+    return next_events(0u, params.light_count, true, y, n, wo, kd, ks, m, key, sample, bounce);
 }
 
 struct PathResult {

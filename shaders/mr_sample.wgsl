@@ -10,10 +10,6 @@
 
 const REAL_OBJECT: u32 = 4194304u;
 
-// environment_light.wgsl's environment_event (not called here) counts into this counter of
-// indirect_path.wgsl; declared so the include compiles without the path tracer.
-var<private> rays_shadow: u32;
-
 
 struct Sums {
     e_r_dir: vec3<f32>,
@@ -141,16 +137,13 @@ fn secondary(pixel: u32, shift: u32, first: u32, x: vec3<f32>, n: vec3<f32>, wo:
         if (c > 0.0 && e.pdf > 0.0) {
             sums.shadow_rays = sums.shadow_rays + 2u;
             let bright = mr_luminance(e.radiance) >= params.occluder_luminance;
-            var has_v = false;
+            // Closest hit where bright, any hit otherwise: one inlined traversal (docs/DESIGN-NOTES.md,
+            // "Traversal call sites").
+            let hv = scene_trace(origin, e.dir, 0.0, inf(), !bright);
+            let has_v = hv.hit;
             var t_v = inf();
-            if (bright) {
-                let hv = scene_intersect(origin, e.dir, 0.0, inf());
-                has_v = hv.hit;
-                if (hv.hit) {
-                    t_v = hv.t;
-                }
-            } else {
-                has_v = scene_occluded(origin, e.dir, 0.0, inf());
+            if (hv.hit && bright) {
+                t_v = hv.t;
             }
             let hr = mr_screen(origin, e.dir);
             let has_r = hr.kind == SCREEN_HIT;

@@ -302,21 +302,6 @@ fn occluder_term(c: f32, t: f32) -> f32 {
     return 0.0;
 }
 
-// paths.rs `lobe_look_up`: the lobe's half of an MIS look-up pair, L ρ_s cos / (pdf_map + pdf_lobe).
-fn lobe_look_up(m: f32, n: vec3<f32>, wo: vec3<f32>, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
-    let wi = sample_glossy(params.lobe, m, n, wo, u).wi;
-    let c = dot3(n, wi);
-    if (!(c > 0.0 && is_finite3(wi))) {
-        return vec3<f32>(0.0);
-    }
-    rec.env_rays = rec.env_rays + 1u;
-    if (scene_occluded(origin, wi, 0.0, inf())) {
-        return vec3<f32>(0.0);
-    }
-    let pdf = env_pdf(wi) + glossy_pdf(params.lobe, m, n, wo, wi);
-    return env_radiance(wi) * glossy_brdf(params.lobe, m, n, wo, wi) * (c / pdf);
-}
-
 // The environment estimator (paths.rs `trace_environment`, thesis Ch. 6).
 fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, ks: vec3<f32>, m: f32, is_glossy: bool,
         w: f32, pixel: u32, count: u32) {
@@ -325,6 +310,7 @@ fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, k
         shift = env_uniform_entry(draw(pixel, PAIR_ENVIRONMENT, 0u).x);
     }
     let origin = x + n * params.eps;
+    let mis = is_glossy && params.environment_mis != 0u;
     var ed = vec3<f32>(0.0);
     var eg = vec3<f32>(0.0);
     var valid_d = 0u;
@@ -339,36 +325,46 @@ fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, k
             entry = env_uniform_entry(draw(pixel, PAIR_ENVIRONMENT, q).x);
         }
         let e = env_table(entry);
-        let c = dot3(n, e.dir);
         var vd = vec3<f32>(0.0);
         var vg = vec3<f32>(0.0);
-        if (c > 0.0 && e.pdf > 0.0) {
-            rec.env_rays = rec.env_rays + 1u;
-            var occluded = false;
-            if (luminance3(e.radiance) >= params.occluder_luminance) {
-                let h = scene_intersect(origin, e.dir, 0.0, inf());
-                if (h.hit) {
-                    rec.env_occluder = rmax(rec.env_occluder, occluder_term(c, h.t));
-                    occluded = true;
-                }
-            } else {
-                occluded = scene_occluded(origin, e.dir, 0.0, inf());
+        // Ray 0 is the table's direction; under MIS ray 1 is the lobe's (paths.rs `lobe_look_up`). One
+        // loop and one `scene_trace` call (any hit or closest by a flag, not `scene_occluded` and
+        // `scene_intersect`): lavapipe inlines the traversal at every call site, and each site costs
+        // compile time on every cold CI machine (docs/DESIGN-NOTES.md, "Traversal call sites").
+        for (var k = 0u; k < select(1u, 2u, mis); k = k + 1u) {
+            let table = k == 0u;
+            var dir = e.dir;
+            if (!table) {
+                dir = sample_glossy(params.lobe, m, n, wo, draw(pixel, PAIR_ENVIRONMENT_LOBE, q)).wi;
             }
-            if (occluded) {
-                rec.env_occluded = rec.env_occluded + 1u;
-            } else {
+            let c = dot3(n, dir);
+            if (!(c > 0.0 && select(is_finite3(dir), e.pdf > 0.0, table))) {
+                continue;
+            }
+            rec.env_rays = rec.env_rays + 1u;
+            // The occluder's distance only where the table's sample is bright enough to count
+            // (closest hit); any hit otherwise.
+            let measure = table && luminance3(e.radiance) >= params.occluder_luminance;
+            let h = scene_trace(origin, dir, 0.0, inf(), !measure);
+            if (h.hit && measure) {
+                rec.env_occluder = rmax(rec.env_occluder, occluder_term(c, h.t));
+            }
+            if (h.hit) {
+                rec.env_occluded = rec.env_occluded + select(0u, 1u, table);
+            } else if (table) {
                 let l = e.radiance * (c / e.pdf);
                 vd = l * FRAC_1_PI_F32;
-                if (is_glossy && params.environment_mis != 0u) {
-                    let p_lobe = glossy_pdf(params.lobe, m, n, wo, e.dir);
-                    vg = e.radiance * glossy_brdf(params.lobe, m, n, wo, e.dir) * (c / (e.pdf + p_lobe));
+                if (mis) {
+                    let p_lobe = glossy_pdf(params.lobe, m, n, wo, dir);
+                    vg = e.radiance * glossy_brdf(params.lobe, m, n, wo, dir) * (c / (e.pdf + p_lobe));
                 } else if (is_glossy) {
-                    vg = l * glossy_brdf(params.lobe, m, n, wo, e.dir);
+                    vg = l * glossy_brdf(params.lobe, m, n, wo, dir);
                 }
+            } else {
+                // L ρ_s cos / (pdf_map + pdf_lobe): the balance heuristic's weight times f / pdf_lobe.
+                let pdf = env_pdf(dir) + glossy_pdf(params.lobe, m, n, wo, dir);
+                vg = vg + env_radiance(dir) * glossy_brdf(params.lobe, m, n, wo, dir) * (c / pdf);
             }
-        }
-        if (is_glossy && params.environment_mis != 0u) {
-            vg = vg + lobe_look_up(m, n, wo, origin, draw(pixel, PAIR_ENVIRONMENT_LOBE, q));
         }
         if (is_finite3(vd)) {
             ed = ed + vd;

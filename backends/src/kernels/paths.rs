@@ -897,6 +897,7 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Dr
     let Some(env) = scene.scene().environment.as_ref() else { return };
     let shift = if s.stratified { uniform_entry(draws.draw(pair::ENVIRONMENT, 0).x) } else { 0 };
     let origin = x + n * s.path.eps;
+    let mis = glossy && s.environment_mis;
     let (mut ed, mut eg, mut valid_d, mut valid_g) = (Vec3::ZERO, Vec3::ZERO, 0u32, 0u32);
     for _ in 0..count {
         let q = r.env_samples;
@@ -925,7 +926,7 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Dr
             } else {
                 let l = e.radiance * (cos / e.pdf);
                 vd = l * std::f32::consts::FRAC_1_PI;
-                if glossy && s.environment_mis {
+                if mis {
                     let p_lobe = glossy_pdf(s.path.lobe, m, n, wo, e.dir);
                     vg = e.radiance * glossy_brdf(s.path.lobe, m, n, wo, e.dir) * (cos / (e.pdf + p_lobe));
                 } else if glossy {
@@ -933,7 +934,7 @@ fn trace_environment(scene: &SceneAt<'_>, s: &Settings, at: &PathHit, draws: &Dr
                 }
             }
         }
-        if glossy && s.environment_mis {
+        if mis {
             let lobe = LobeAt { lobe: s.path.lobe, m, n, wo, origin };
             vg += lobe_look_up(scene, env, &lobe, draws.draw(pair::ENVIRONMENT_LOBE, q), r);
         }
@@ -968,6 +969,7 @@ struct LobeAt {
 /// (the table's half is `L ρ_s cos / (pdf + pdf_lobe)` at the table's direction). The map's pdf is the
 /// continuous one the table was drawn from (`EnvironmentMap::pdf`), so the pair estimates the
 /// lighting integral wherever the lobe or the map is sharp; 0 below the surface or occluded.
+/// (`shaders/paths_trace.wgsl` traces it as ray 1 of the table's loop, to share the traversal.)
 fn lobe_look_up(scene: &SceneAt<'_>, env: &EnvironmentMap, at: &LobeAt, u: Vec2, r: &mut PathRecord) -> Vec3 {
     let (wi, _) = sample_glossy(at.lobe, at.m, at.n, at.wo, u);
     let cos = at.n.dot(wi);

@@ -49,30 +49,49 @@ use wedge_backends::kernels::environment::GlossySampling;
 
 pub struct Environment;
 
-/// The filtered parts: the sampler's `L, k, E` names and the bandwidth output of
-/// `environment.bandwidth` filtering them.
-const DIRECT_PARTS: [(Part, &str); 2] = [
-    (
-        Part { name: "env_diffuse", radiance: "l_env_diffuse", texture: "k_env_diffuse", irradiance: "e_env_diffuse" },
-        "direct_diffuse",
-    ),
-    (
-        Part { name: "env_glossy", radiance: "l_env_glossy", texture: "k_env_glossy", irradiance: "e_env_glossy" },
-        "direct_glossy",
-    ),
-];
-/// The parts whose light depends on the view direction (no temporal history: [`PartFilter`]).
-const GLOSSY_PARTS: [&str; 2] = ["env_glossy", "indirect_glossy"];
+/// A filtered part: the sampler's `L, k, E` names, the bandwidth output of `environment.bandwidth`
+/// filtering it, and whether its light depends on the view direction (glossy: then it keeps no
+/// temporal history, [`PartFilter`]).
+struct FilteredPart {
+    part: Part,
+    bandwidth: &'static str,
+    view_dependent: bool,
+}
 
-const INDIRECT_PARTS: [(Part, &str); 2] = [
-    (
-        Part { name: "indirect_diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
-        "indirect_diffuse",
-    ),
-    (
-        Part { name: "indirect_glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
-        "indirect_glossy",
-    ),
+const DIRECT_PARTS: [FilteredPart; 2] = [
+    FilteredPart {
+        part: Part {
+            name: "env_diffuse",
+            radiance: "l_env_diffuse",
+            texture: "k_env_diffuse",
+            irradiance: "e_env_diffuse",
+        },
+        bandwidth: "direct_diffuse",
+        view_dependent: false,
+    },
+    FilteredPart {
+        part: Part {
+            name: "env_glossy",
+            radiance: "l_env_glossy",
+            texture: "k_env_glossy",
+            irradiance: "e_env_glossy",
+        },
+        bandwidth: "direct_glossy",
+        view_dependent: true,
+    },
+];
+
+const INDIRECT_PARTS: [FilteredPart; 2] = [
+    FilteredPart {
+        part: Part { name: "indirect_diffuse", radiance: "l_diffuse", texture: "k_diffuse", irradiance: "e_diffuse" },
+        bandwidth: "indirect_diffuse",
+        view_dependent: false,
+    },
+    FilteredPart {
+        part: Part { name: "indirect_glossy", radiance: "l_glossy", texture: "k_glossy", irradiance: "e_glossy" },
+        bandwidth: "indirect_glossy",
+        view_dependent: true,
+    },
 ];
 
 /// The normal test of the filters: neighbours whose normals differ by more are not averaged.
@@ -233,10 +252,10 @@ impl NodeKind for Environment {
         let stats = ctx.sampler_output(SamplerPass::First, "environment")?;
         let depth = if indirect { Some(ctx.sampler_output(SamplerPass::First, "depth")?) } else { None };
         let (curvature, magnitude) = curvature_pass(ctx, position, normal);
-        let parts: Vec<&(Part, &str)> =
+        let parts: Vec<&FilteredPart> =
             DIRECT_PARTS.iter().chain(if indirect { &INDIRECT_PARTS[..] } else { &[] }).collect();
         let bandwidths: Vec<BufferId> =
-            parts.iter().map(|(_, b)| ctx.buffer(&format!("bandwidth_{b}"), Format::Vec2)).collect();
+            parts.iter().map(|p| ctx.buffer(&format!("bandwidth_{}", p.bandwidth), Format::Vec2)).collect();
         let (bandwidth, width, rays) = (
             ctx.buffer("bandwidth", Format::F32),
             ctx.buffer("filter_width", Format::F32),
@@ -290,7 +309,7 @@ impl NodeKind for Environment {
             temporal,
         };
         let mut terms = Vec::new();
-        for ((part, _), bw) in parts.iter().zip(&bandwidths) {
+        for (FilteredPart { part, view_dependent, .. }, bw) in parts.iter().zip(&bandwidths) {
             // Eq. 5.30 without Ch. 5's median: a pixel whose rays all see one surface factors exactly
             // (E is averaged over the hits: `PathRecord::w_env_missed`), so the raw test is not noisy
             // and a median would only turn pixels that see two surfaces to k·Ē.
@@ -307,7 +326,7 @@ impl NodeKind for Environment {
             // A glossy part's irradiance depends on the direction it is seen from, which the history
             // pass does not know (it matches world positions): under a moving camera the previous
             // frame's glossy light is another reflection. Only the diffuse parts join the history.
-            filter.temporal = temporal && !GLOSSY_PARTS.contains(&part.name);
+            filter.temporal = temporal && !view_dependent;
             let e = filter.apply(ctx, part.name, e, *bw);
             let (l, k) = (
                 ctx.sampler_output(SamplerPass::Final, part.radiance)?,
@@ -373,7 +392,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphEr
         settings,
         statistic: ("bandlimit", Statistic::Buffer(bandlimit)),
         rate_params: vec![("environment_per_primary", ctx.param("per_primary").clone())],
-        parts: DIRECT_PARTS.iter().map(|(part, _)| part.clone()).collect(),
+        parts: DIRECT_PARTS.iter().map(|p| p.part.clone()).collect(),
     })
 }
 
@@ -411,7 +430,7 @@ fn sampled_settings(ctx: &ExpandCtx<'_>) -> Vec<(&'static str, ParamValue)> {
 /// where `emission`; `bandwidth` and `curvature` are 0 (nothing is filtered).
 fn expand_plain(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
     refuse_not_factored(ctx, "through the `camera:` block's lens or shutter without a Defocus or Motion node")?;
-    let parts: Vec<Part> = DIRECT_PARTS.iter().map(|(part, _)| part.clone()).collect();
+    let parts: Vec<Part> = DIRECT_PARTS.iter().map(|p| p.part.clone()).collect();
     let emission = ctx.param("emission").as_bool() == Some(true);
     let c = crate::plain_camera::PlainComponent {
         estimator: "environment",
