@@ -68,8 +68,8 @@ fi
 # Mesa's software drivers (lavapipe for Vulkan, llvmpipe for GL) compile every shader through LLVM's
 # optimisation passes; on a machine with an empty shader cache (every CI run) that compile was most of
 # the GPU tests' time. `nopt` skips the passes: the outputs are the same bit for bit (checked on the
-# EXRs of three pipelines), shaders run about 2x slower, and the tests' small images do not notice —
-# tests/parity.rs + tests/combination_matrix.rs cold went from 19 min 13 s to 10 min 23 s
+# EXRs of three pipelines), shaders run about 2x slower, and the tests' small images do not notice:
+# tests/parity.rs + tests/combination_matrix.rs with an empty cache took about half as long
 # (docs/DESIGN-NOTES.md, "Cold compiles in CI"). Real GPUs ignore the variable; set it to override.
 export GALLIVM_PERF="${GALLIVM_PERF:-nopt}"
 

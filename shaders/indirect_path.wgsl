@@ -65,7 +65,7 @@ fn light_query(l: u32, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>,
 // them (indirect.rs next_event / light_event), summed in that order. Every event's shadow ray is
 // traced at the one `scene_occluded` call below: lavapipe inlines the whole traversal at each call
 // site, so one site instead of one per kind of event shortens every cold compile of the kernels that
-// include this file (docs/DESIGN-NOTES.md, "Traversal call sites").
+// include this file (docs/DESIGN-NOTES.md, "Cold compiles in CI").
 fn next_events(first: u32, end: u32, environment: bool, y: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>,
         ks: vec3<f32>, m: f32, key: u32, sample: u32, bounce: u32) -> NextEvent {
     var sum = vec3<f32>(0.0);

@@ -43,17 +43,17 @@ fn light_sample(l: Light, x: vec3<f32>, n: vec3<f32>, u: vec2<f32>, use_centre: 
     let ray_dir = seg / seg_len;
     let tmax = seg_len * bitcast<f32>(0x3f7ff972u); // (1.0 - 1e-4) in f32
     // Closest hit where the occluder's distance is wanted, any hit otherwise: one `scene_trace` call
-    // site either way (the traversal is inlined per site; docs/DESIGN-NOTES.md, "Traversal call sites").
+    // site either way (the traversal is inlined per site; docs/DESIGN-NOTES.md, "Cold compiles in CI").
     let hit = scene_trace(origin, ray_dir, 0.0, tmax, !want_distance);
-    if (hit.hit && want_distance) {
-        let p = origin + ray_dir * hit.t;
-        r.occluded = true;
-        r.distance = abs(dot3(l.centre_sigma.xyz - p, ln));
-        r.hit = hit;
-        r.origin = origin;
-        r.dir = ray_dir;
-        return r;
-    } else if (hit.hit) {
+    if (hit.hit) {
+        if (want_distance) {
+            let p = origin + ray_dir * hit.t;
+            r.occluded = true;
+            r.distance = abs(dot3(l.centre_sigma.xyz - p, ln));
+            r.hit = hit;
+            r.origin = origin;
+            r.dir = ray_dir;
+        }
         return r;
     }
     r.value = r.unshadowed;

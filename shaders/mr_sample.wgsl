@@ -138,7 +138,7 @@ fn secondary(pixel: u32, shift: u32, first: u32, x: vec3<f32>, n: vec3<f32>, wo:
             sums.shadow_rays = sums.shadow_rays + 2u;
             let bright = mr_luminance(e.radiance) >= params.occluder_luminance;
             // Closest hit where bright, any hit otherwise: one inlined traversal (docs/DESIGN-NOTES.md,
-            // "Traversal call sites").
+            // "Cold compiles in CI").
             let hv = scene_trace(origin, e.dir, 0.0, inf(), !bright);
             let has_v = hv.hit;
             var t_v = inf();

@@ -330,7 +330,7 @@ fn trace_environment(x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, kd: vec3<f32>, k
         // Ray 0 is the table's direction; under MIS ray 1 is the lobe's (paths.rs `lobe_look_up`). One
         // loop and one `scene_trace` call (any hit or closest by a flag, not `scene_occluded` and
         // `scene_intersect`): lavapipe inlines the traversal at every call site, and each site costs
-        // compile time on every cold CI machine (docs/DESIGN-NOTES.md, "Traversal call sites").
+        // compile time on every cold CI machine (docs/DESIGN-NOTES.md, "Cold compiles in CI").
         for (var k = 0u; k < select(1u, 2u, mis); k = k + 1u) {
             let table = k == 0u;
             var dir = e.dir;
