@@ -40,6 +40,7 @@
 //!   65,535 iterations; 64 on GPUs) until no pixel has samples left; the image does not depend on it.
 
 pub mod bands;
+mod device;
 mod dispatch;
 pub mod run;
 pub mod scene;
@@ -143,16 +144,15 @@ fn storage_size(bytes: u64) -> u64 {
 }
 
 pub struct GpuBackend {
+    /// The process's device for this backend's (APIs, limits) choice, and the kernels compiled on
+    /// it by any backend ([`device`]); `device` and `queue` are its handles.
+    shared: Arc<device::SharedDevice>,
     device: wgpu::Device,
     queue: wgpu::Queue,
-    info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
     /// Largest per-pixel storage binding one dispatch may use: the device's, or less (`set_binding_limit`).
     max_binding: u64,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
-    /// Errors wgpu reported outside an error scope, and device-lost reports.
-    errors: Arc<Mutex<Vec<String>>>,
-    pipelines: HashMap<u64, Arc<KernelPipeline>>,
     /// Entries of the BVH traversal's private stack in the scene kernels being built
     /// ([`traversal_stack_entries`] of the job's scene; set before a run's pipelines are built).
     stack_entries: u32,
@@ -223,55 +223,13 @@ impl GpuBackend {
     /// Open an adapter of one of `backends` (e.g. `wgpu::Backends::GL`; `None`: those
     /// `WGPU_BACKEND` names, else all) with the limits `choice` names.
     pub fn open_on(backends: Option<wgpu::Backends>, choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        if let Some(b) = backends {
-            desc.backends = b;
-        }
-        let instance = wgpu::Instance::new(desc);
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            ..Default::default()
-        }))
-        .map_err(|e| gpu_err(format!("{INSTALL_HINT} (wgpu: {e})")))?;
-        let info = adapter.get_info();
-        let samples_per_dispatch = if info.device_type == wgpu::DeviceType::Cpu {
+        let shared = device::shared(backends, choice)?;
+        let (device, features) = (shared.device.clone(), shared.features);
+        let samples_per_dispatch = if shared.info.device_type == wgpu::DeviceType::Cpu {
             SOFTWARE_SAMPLES_PER_DISPATCH
         } else {
             GPU_SAMPLES_PER_DISPATCH
         };
-        let limits = match choice {
-            LimitsChoice::Adapter => adapter.limits(),
-            LimitsChoice::WebGpuDefault => wgpu::Limits::default(),
-        };
-        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("wedge"),
-            required_features: features,
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| {
-            gpu_err(format!("adapter `{}` refused a device with the requested limits ({choice:?}): {e}", info.name))
-        })?;
-        let errors = Arc::new(Mutex::new(Vec::new()));
-        {
-            let errors = errors.clone();
-            device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-                if let Ok(mut v) = errors.lock() {
-                    v.push(e.to_string());
-                }
-            }));
-        }
-        {
-            let errors = errors.clone();
-            device.set_device_lost_callback(move |reason, message| {
-                if let Ok(mut v) = errors.lock() {
-                    v.push(format!("the GPU device was lost ({reason:?}): {message}"));
-                }
-            });
-        }
         let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
             let qs = device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("wedge timestamps"),
@@ -287,14 +245,12 @@ impl GpuBackend {
             (qs, resolve)
         });
         Ok(GpuBackend {
+            queue: shared.queue.clone(),
+            max_binding: shared.limits.max_storage_buffer_binding_size,
+            limits: shared.limits.clone(),
             device,
-            queue,
-            info,
-            max_binding: limits.max_storage_buffer_binding_size as u64,
-            limits,
+            shared,
             timestamps,
-            errors,
-            pipelines: HashMap::new(),
             stack_entries: wedge_scene::bvh::STACK_SIZE as u32,
             scene: None,
             dummies: Vec::new(),
@@ -374,11 +330,11 @@ impl GpuBackend {
 
     /// `name (backend, device type)` of the adapter in use.
     pub fn adapter_description(&self) -> String {
-        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+        format!("{} ({:?}, {:?})", self.shared.info.name, self.shared.info.backend, self.shared.info.device_type)
     }
     /// Whether the adapter is a CPU emulation (lavapipe/llvmpipe): its timings say nothing about GPUs.
     pub fn is_software(&self) -> bool {
-        self.info.device_type == wgpu::DeviceType::Cpu
+        self.shared.info.device_type == wgpu::DeviceType::Cpu
     }
     pub fn has_timestamps(&self) -> bool {
         self.timestamps.is_some()
@@ -426,13 +382,13 @@ impl GpuBackend {
             "kernel `{name}` needs {} storage buffers in one shader stage even with its buffers packed, over this \
              device's max_storage_buffers_per_shader_stage ({limit}, adapter `{}`); use --backend cpu",
             needed(BindingPlan::Packed),
-            self.info.name
+            self.shared.info.name
         )))
     }
 
     /// Errors wgpu reported asynchronously (uncaptured or device lost) since the last check.
     fn check_async_errors(&self, what: &str) -> Result<(), BackendError> {
-        let mut v = self.errors.lock().map_err(|_| gpu_err("error log poisoned"))?;
+        let mut v = self.shared.errors.lock().map_err(|_| gpu_err("error log poisoned"))?;
         if v.is_empty() {
             return Ok(());
         }
@@ -473,7 +429,7 @@ impl GpuBackend {
             return Err(gpu_err(format!(
                 "{what} needs {bytes} bytes, over this device's max_buffer_size ({} bytes, adapter `{}`); \
                  render smaller (--width/--height), use a smaller scene, or use --backend cpu",
-                self.limits.max_buffer_size, self.info.name
+                self.limits.max_buffer_size, self.shared.info.name
             )));
         }
         Ok(())
@@ -585,7 +541,7 @@ impl GpuBackend {
                 bytes.len(),
                 sizes.join(", "),
                 max_binding,
-                self.info.name
+                self.shared.info.name
             )));
         }
         let data = self.storage_init(&format!("scene `{}`", scene.name), &bytes)?;
@@ -637,8 +593,8 @@ impl GpuBackend {
         uniforms: &crate::kernel::Uniforms,
     ) -> Result<(Arc<KernelPipeline>, crate::kernel::WgslSource, shaders::BindingPlan), BackendError> {
         let source = self.pipeline_source(kernel, uniforms)?;
-        let p = match self.pipelines.get(&source.key) {
-            Some(p) => p.clone(),
+        let p = match self.shared.pipeline(source.key) {
+            Some(p) => p,
             None => self.compile(&source)?,
         };
         Ok((p, source.src, source.plan))
@@ -754,7 +710,7 @@ impl GpuBackend {
             KernelPipeline { pipeline, g0, g1, g2 }
         })?;
         let p = Arc::new(p);
-        self.pipelines.insert(key, p.clone());
+        self.shared.keep_pipeline(key, p.clone());
         Ok(p)
     }
 
@@ -771,7 +727,7 @@ impl GpuBackend {
             let (uniforms, _) = Self::uniforms(job, pass, &Self::wgsl_of(kernel.as_ref())?)?;
             let source = self.pipeline_source(kernel.as_ref(), &uniforms)?;
             scene |= source.src.scene;
-            if !self.pipelines.contains_key(&source.key) && !missing.iter().any(|m| m.key == source.key) {
+            if self.shared.pipeline(source.key).is_none() && !missing.iter().any(|m| m.key == source.key) {
                 missing.push(source);
             }
         }
