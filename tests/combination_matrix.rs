@@ -15,8 +15,8 @@
 //! LightField reading an open scene 14–23% dark (reconstruction rays that crossed no splat were
 //! black; now traced, `gaps: "trace"`), three defaults that lost to their own rays unfiltered, and
 //! a radiance and an AO `Indirect` merging silently on one factoring node's sampler. 48×36 pixels
-//! (113 entries render, 181 are refused; 3–6 min on 2 cores with lavapipe's parity); `--nocapture`
-//! prints it.
+//! (113 entries render, 181 are refused; about 3 min on 2 cores with lavapipe's parity and an empty
+//! shader cache, the entries shared by two workers); `--nocapture` prints it.
 
 mod common;
 
@@ -370,37 +370,73 @@ fn combinations() -> Vec<Vec<&'static Effect>> {
     out
 }
 
+/// One entry's line of the printed matrix, and whether it rendered and passed.
+struct Verdict {
+    line: String,
+    rendered: bool,
+    failure: Option<String>,
+}
+
+fn verdict(camera: Camera, effects: &[&Effect], gpu: &mut Option<GpuBackend>) -> Verdict {
+    let keys: Vec<&str> = effects.iter().map(|e| e.key).collect();
+    let text = pipeline(effects, camera);
+    match outcome(&text, gpu) {
+        Outcome::Refused(reason) => {
+            Verdict { line: format!("{camera:?} {keys:?}: refused, {reason}"), rendered: false, failure: None }
+        }
+        Outcome::Rendered(images) => match check(&images, &text) {
+            Ok(line) => {
+                Verdict { line: format!("{camera:?} {keys:?}: renders, {line}"), rendered: true, failure: None }
+            }
+            Err(why) => Verdict {
+                line: format!("{camera:?} {keys:?}: FAILS, {why}"),
+                rendered: true,
+                failure: Some(format!("{camera:?} {keys:?}: {why}\n{text}")),
+            },
+        },
+    }
+}
+
+/// Every entry's verdict, in matrix order. Two workers, each with its own backend on the process's
+/// shared device (kernels compiled once): lavapipe compiles a kernel on one core at its first
+/// dispatch, and the other worker's CPU renders fill the other core meanwhile (CI time).
+fn verdicts(entries: &[(Camera, Vec<&'static Effect>)]) -> Vec<Verdict> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let found = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                let mut gpu = gpu_or_skip("combination_matrix");
+                loop {
+                    let k = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    let Some((camera, effects)) = entries.get(k) else { break };
+                    let v = verdict(*camera, effects, &mut gpu);
+                    found.lock().unwrap().push((k, v));
+                }
+            });
+        }
+    });
+    let mut found = found.into_inner().unwrap();
+    found.sort_by_key(|(k, _)| *k);
+    found.into_iter().map(|(_, v)| v).collect()
+}
+
 #[test]
 fn every_combination_is_refused_for_a_listed_reason_or_renders_what_its_reference_converges_to() {
-    let mut rendered = 0;
-    let mut failures = Vec::new();
-    let mut gpu = gpu_or_skip("combination_matrix");
     let cameras =
         [Camera::Pinhole, Camera::Defocus, Camera::Motion, Camera::DefocusMotion, Camera::Lens, Camera::Shutter];
-    for camera in cameras {
-        for effects in combinations() {
-            let keys: Vec<&str> = effects.iter().map(|e| e.key).collect();
-            let text = pipeline(&effects, camera);
-            match outcome(&text, &mut gpu) {
-                Outcome::Refused(reason) => println!("{camera:?} {keys:?}: refused, {reason}"),
-                Outcome::Rendered(images) => {
-                    rendered += 1;
-                    match check(&images, &text) {
-                        Ok(line) => println!("{camera:?} {keys:?}: renders, {line}"),
-                        Err(why) => {
-                            println!("{camera:?} {keys:?}: FAILS, {why}");
-                            failures.push(format!("{camera:?} {keys:?}: {why}\n{text}"));
-                        }
-                    }
-                }
-            }
-        }
+    let entries: Vec<_> = cameras.iter().flat_map(|c| combinations().into_iter().map(|e| (*c, e))).collect();
+    let verdicts = verdicts(&entries);
+    for v in &verdicts {
+        println!("{}", v.line);
     }
+    let rendered = verdicts.iter().filter(|v| v.rendered).count();
+    let failures: Vec<&String> = verdicts.iter().filter_map(|v| v.failure.as_ref()).collect();
     assert!(
         failures.is_empty(),
         "{} combination(s) render away from their reference or filter badly:\n{}",
         failures.len(),
-        failures.join("\n")
+        failures.iter().map(|f| f.as_str()).collect::<Vec<_>>().join("\n")
     );
     assert!(rendered >= 20, "only {rendered} combinations render");
 }
