@@ -5,7 +5,8 @@
 //!   wgpu's `Limits::default()` ([`LimitsChoice::WebGpuDefault`], what any WebGPU device offers);
 //!   any wgpu API may be used ([`GpuBackend::open_on`]; the GL backend runs headless through EGL).
 //!   `TIMESTAMP_QUERY` is enabled where offered and then each pass is timed on the device (on
-//!   lavapipe these are CPU-emulation times, not GPU times).
+//!   lavapipe these are CPU-emulation times, not GPU times). One device per (APIs, limits) per
+//!   process, shared with the kernels compiled on it by every backend opened so, but on GL ([`device`]).
 //! - **Generated WGSL**: a kernel's bindings (group 1) and `Params` struct are generated from its
 //!   Rust declaration ([`shaders::binding_header`], [`crate::kernel::Uniforms`]); the kernel only
 //!   calls `NAME_at`/`NAME_put`/`NAME_bound` and reads `params.NAME`.
@@ -221,7 +222,8 @@ impl GpuBackend {
     }
 
     /// Open an adapter of one of `backends` (e.g. `wgpu::Backends::GL`; `None`: those
-    /// `WGPU_BACKEND` names, else all) with the limits `choice` names.
+    /// `WGPU_BACKEND` names, else all) with the limits `choice` names. Backends opened with the same
+    /// `backends` and `choice` share one device and the kernels compiled on it (but on GL; [`device`]).
     pub fn open_on(backends: Option<wgpu::Backends>, choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
         let shared = device::shared(backends, choice)?;
         let (device, features) = (shared.device.clone(), shared.features);
