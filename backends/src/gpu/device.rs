@@ -6,8 +6,8 @@
 //! each `create_compute_pipeline` of the path tracer spends about a second in the driver's own passes
 //! even with a warm shader cache (1.2–3.4 s per pipeline file at 32×24, more than the passes
 //! themselves), and on real drivers it is the stutter of a first frame. A process that opens several
-//! backends — the viewer re-opening one per pipeline, a library user's parity checks, the test
-//! suite — built the same kernels again for each. Pipelines belong to a device, so sharing them
+//! backends — a library user's renders and parity checks side by side, threads of their own, the
+//! test suite — built the same kernels again for each. (wedge's own commands open one per process.) Pipelines belong to a device, so sharing them
 //! means sharing the device; wgpu devices and queues are meant to be shared between threads.
 //!
 //! What stays per backend (in [`super::GpuBackend`]): its buffers and pools, scratch buffers, the
