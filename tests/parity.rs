@@ -191,6 +191,31 @@ fn end_to_end_render_matches_cpu() {
     }
 }
 
+/// Counts the kernels a run said it compiled (`Progress::compiling`).
+#[derive(Default)]
+struct CompileCount(std::sync::atomic::AtomicUsize);
+impl wedge::backends::Progress for CompileCount {
+    fn compiling(&self, _kernel: &str) {
+        self.0.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+/// Backends opened with the same APIs and limits share one device and the kernels compiled on it
+/// (backends/src/gpu/device.rs): after one backend has run a pipeline, a second one opened later
+/// compiles none of its kernels and gives the same bits.
+#[test]
+fn a_second_backend_finds_the_kernels_compiled() {
+    let Some(mut first) = gpu_or_skip("a_second_backend_finds_the_kernels_compiled") else { return };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/shadows.ron");
+    let session = Session::open(Some(&path), &small(16, 12)).unwrap();
+    let a = session.run(&mut first, &Silent).unwrap();
+    let Some(mut second) = gpu_or_skip("a_second_backend_finds_the_kernels_compiled") else { return };
+    let count = CompileCount::default();
+    let b = session.run(&mut second, &count).unwrap();
+    assert_eq!(count.0.load(std::sync::atomic::Ordering::SeqCst), 0, "the second backend compiled kernels");
+    assert_same_bits(&path, "second backend", &a, &b);
+}
+
 #[test]
 fn gpu_pool_allocates_one_buffer_per_slot() {
     let Some(mut gpu) = gpu_or_skip("gpu_pool_allocates_one_buffer_per_slot") else { return };
