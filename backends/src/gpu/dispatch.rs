@@ -138,7 +138,7 @@ impl GpuBackend {
                 .unwrap_or(4),
             BindingPlan::Packed => packed_in.max(packed_out).max(1) * 4,
         };
-        let max_groups = self.limits.max_compute_workgroups_per_dimension;
+        let max_groups = self.shared.limits.max_compute_workgroups_per_dimension;
         if job.width.div_ceil(WORKGROUP) > max_groups {
             return Err(gpu_err(format!(
                 "{what}: {} pixels per row need {} workgroups, over this device's max_compute_workgroups_per_dimension ({max_groups})",
@@ -148,7 +148,7 @@ impl GpuBackend {
         }
         let limits = BindLimits {
             max_binding: self.max_binding,
-            offset_alignment: self.limits.min_storage_buffer_offset_alignment as u64,
+            offset_alignment: self.shared.limits.min_storage_buffer_offset_alignment as u64,
             max_rows: max_groups.saturating_mul(WORKGROUP),
         };
         let bands =
@@ -201,7 +201,7 @@ impl GpuBackend {
         // One counter block (8 × u32, see shaders/common.wgsl) per band, each at an aligned offset;
         // summed in 64 bits after each dispatch. Cleared before each submission, so a kept one from
         // an earlier dispatch serves as well.
-        let stride = (self.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
+        let stride = (self.shared.limits.min_storage_buffer_offset_alignment as u64).max(COUNTER_BLOCK);
         let counters_size = stride * layout.bands.len() as u64;
         let counters = self.scratch(("counters", 0), counters_size, || self.storage("counters", counters_size))?;
         let params = self.uniform_buffer("params", 0, words)?;
@@ -221,7 +221,7 @@ impl GpuBackend {
     /// Group 2: the scene's data and layout, where the kernel reads the scene.
     fn scene_group(&self, p: &KernelPipeline) -> Option<wgpu::BindGroup> {
         match (&p.g2, &self.scene) {
-            (Some(layout), Some(s)) => Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            (Some(layout), Some(s)) => Some(self.shared.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("scene"),
                 layout,
                 entries: &[
@@ -269,7 +269,7 @@ impl GpuBackend {
                         .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
                         .collect(),
                 };
-                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                self.shared.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("buffers"),
                     layout: &p.g1,
                     entries: &entries,
@@ -333,7 +333,8 @@ impl GpuBackend {
         frames: &[wgpu::Buffer],
     ) {
         let frame_groups: Vec<_> = frames.iter().enumerate().map(|(n, f)| self.frame_group(p, bound, n, f)).collect();
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
+        let mut enc =
+            self.shared.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&pass.name) });
         enc.clear_buffer(&bound.counters, 0, None);
         let last = layout.bands.len() - 1;
         for (n, ((g0, g1), band)) in frame_groups.iter().zip(&bound.buffer_groups).zip(&layout.bands).enumerate() {
@@ -370,12 +371,12 @@ impl GpuBackend {
         if let Some((qs, resolve)) = &self.timestamps {
             enc.resolve_query_set(qs, 0..2, resolve, 0);
         }
-        self.queue.submit([enc.finish()]);
+        self.shared.queue.submit([enc.finish()]);
     }
 
     /// Group 0 of band `n`: its frame uniform, the params, its counter block.
     fn frame_group(&self, p: &KernelPipeline, bound: &PassBindings, n: usize, frame: &wgpu::Buffer) -> wgpu::BindGroup {
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        self.shared.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &p.g0,
             entries: &[
@@ -456,7 +457,7 @@ impl GpuBackend {
             Some((_, resolve)) => {
                 let bytes = self.read_bytes(what, resolve, 16)?;
                 let t: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
-                t[1].saturating_sub(t[0]) as f64 * self.queue.get_timestamp_period() as f64 * 1e-9
+                t[1].saturating_sub(t[0]) as f64 * self.shared.queue.get_timestamp_period() as f64 * 1e-9
             }
             None => 0.0,
         };

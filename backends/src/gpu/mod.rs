@@ -145,12 +145,9 @@ fn storage_size(bytes: u64) -> u64 {
 }
 
 pub struct GpuBackend {
-    /// The process's device for this backend's (APIs, limits) choice, and the kernels compiled on
-    /// it by any backend ([`device`]); `device` and `queue` are its handles.
+    /// The process's device for this backend's (APIs, limits) choice, its queue and limits, and the
+    /// kernels compiled on it by any backend ([`device`]).
     shared: Arc<device::SharedDevice>,
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    limits: wgpu::Limits,
     /// Largest per-pixel storage binding one dispatch may use: the device's, or less (`set_binding_limit`).
     max_binding: u64,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
@@ -226,7 +223,7 @@ impl GpuBackend {
     /// `backends` and `choice` share one device and the kernels compiled on it (but on GL; [`device`]).
     pub fn open_on(backends: Option<wgpu::Backends>, choice: LimitsChoice) -> Result<GpuBackend, BackendError> {
         let shared = device::shared(backends, choice)?;
-        let (device, features) = (shared.device.clone(), shared.features);
+        let (device, features) = (&shared.device, shared.features);
         let samples_per_dispatch = if shared.info.device_type == wgpu::DeviceType::Cpu {
             SOFTWARE_SAMPLES_PER_DISPATCH
         } else {
@@ -247,10 +244,7 @@ impl GpuBackend {
             (qs, resolve)
         });
         Ok(GpuBackend {
-            queue: shared.queue.clone(),
             max_binding: shared.limits.max_storage_buffer_binding_size,
-            limits: shared.limits.clone(),
-            device,
             shared,
             timestamps,
             stack_entries: wedge_scene::bvh::STACK_SIZE as u32,
@@ -309,7 +303,7 @@ impl GpuBackend {
         if bytes.is_empty() {
             // (What `create_buffer_init` makes of no contents; nothing to keep.)
             return self.scoped(role, || {
-                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                self.shared.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some(role),
                     contents: bytes,
                     usage: wgpu::BufferUsages::UNIFORM,
@@ -318,7 +312,7 @@ impl GpuBackend {
         }
         let buf = self.scratch((role, index), bytes.len() as u64, || {
             self.scoped(role, || {
-                self.device.create_buffer(&wgpu::BufferDescriptor {
+                self.shared.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(role),
                     size: bytes.len() as u64,
                     usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
@@ -326,7 +320,7 @@ impl GpuBackend {
                 })
             })
         })?;
-        self.queue.write_buffer(&buf, 0, bytes);
+        self.shared.queue.write_buffer(&buf, 0, bytes);
         Ok(buf)
     }
 
@@ -342,7 +336,7 @@ impl GpuBackend {
         self.timestamps.is_some()
     }
     pub fn limits(&self) -> &wgpu::Limits {
-        &self.limits
+        &self.shared.limits
     }
     /// Chunked sampling kernels take at most `n` samples per pixel per dispatch (`u32::MAX`: one
     /// dispatch per pass). Results agree with any `n` to float round-off of the running mean.
@@ -353,7 +347,7 @@ impl GpuBackend {
     /// allows), so passes over it run as bands of rows. For tests and users checking the band path
     /// at small sizes; the scene is still bound whole under the device's own limit.
     pub fn set_binding_limit(&mut self, bytes: u64) {
-        self.max_binding = bytes.min(self.limits.max_storage_buffer_binding_size).max(16);
+        self.max_binding = bytes.min(self.shared.limits.max_storage_buffer_binding_size).max(16);
     }
 
     /// Bind every pass's per-pixel buffers packed (two storage buffers) even where one binding per
@@ -371,7 +365,7 @@ impl GpuBackend {
         scene: bool,
     ) -> Result<shaders::BindingPlan, BackendError> {
         use shaders::BindingPlan;
-        let limit = self.limits.max_storage_buffers_per_shader_stage;
+        let limit = self.shared.limits.max_storage_buffers_per_shader_stage;
         let fixed = 1 + scene as u32;
         let needed = |plan| fixed + shaders::storage_bindings(bindings, plan);
         if !self.force_packed && needed(BindingPlan::Direct) <= limit {
@@ -400,8 +394,8 @@ impl GpuBackend {
 
     /// Run `f` inside validation + out-of-memory error scopes and turn what they catch into errors.
     fn scoped<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, BackendError> {
-        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let oom = self.shared.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let val = self.shared.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let out = f();
         let v = pollster::block_on(val.pop());
         let o = pollster::block_on(oom.pop());
@@ -418,7 +412,8 @@ impl GpuBackend {
     }
 
     fn wait(&self, what: &str) -> Result<(), BackendError> {
-        self.device
+        self.shared
+            .device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| gpu_err(format!("{what}: waiting for the device failed: {e}")))?;
         self.check_async_errors(what)
@@ -427,11 +422,11 @@ impl GpuBackend {
     /// Check one buffer's size against the device's limit. (What one dispatch binds is limited
     /// separately: per-pixel buffers by bands, the scene in `scene_buffers`.)
     fn check_buffer_size(&self, what: &str, bytes: u64) -> Result<(), BackendError> {
-        if bytes > self.limits.max_buffer_size {
+        if bytes > self.shared.limits.max_buffer_size {
             return Err(gpu_err(format!(
                 "{what} needs {bytes} bytes, over this device's max_buffer_size ({} bytes, adapter `{}`); \
                  render smaller (--width/--height), use a smaller scene, or use --backend cpu",
-                self.limits.max_buffer_size, self.shared.info.name
+                self.shared.limits.max_buffer_size, self.shared.info.name
             )));
         }
         Ok(())
@@ -441,7 +436,7 @@ impl GpuBackend {
         self.check_buffer_size(label, bytes)?;
         let size = storage_size(bytes);
         self.scoped(&format!("allocating `{label}`"), || {
-            self.device.create_buffer(&wgpu::BufferDescriptor {
+            self.shared.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
@@ -457,7 +452,7 @@ impl GpuBackend {
             data.push(0);
         }
         self.scoped(&format!("uploading `{label}`"), || {
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            self.shared.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents: &data,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
@@ -478,7 +473,7 @@ impl GpuBackend {
     fn read_staged(&self, what: &str, buf: &wgpu::Buffer, bytes: u64, size: u64) -> Result<Vec<u8>, BackendError> {
         let staging = self.scratch(("wedge readback", 0), size.max(4), || {
             self.scoped(what, || {
-                self.device.create_buffer(&wgpu::BufferDescriptor {
+                self.shared.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("wedge readback"),
                     size: size.max(4),
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -488,9 +483,9 @@ impl GpuBackend {
         })?;
         self.scoped(what, || {
             let mut enc =
-                self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+                self.shared.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
             enc.copy_buffer_to_buffer(buf, 0, &staging, 0, size);
-            self.queue.submit([enc.finish()]);
+            self.shared.queue.submit([enc.finish()]);
         })?;
         let slice = staging.slice(..size);
         let (tx, rx) = mpsc::channel();
@@ -532,7 +527,7 @@ impl GpuBackend {
         }
         let (bytes, offsets) = scene::pack(&arrays);
         // The scene is bound whole (a ray may touch any node or triangle).
-        let max_binding = self.limits.max_storage_buffer_binding_size;
+        let max_binding = self.shared.limits.max_storage_buffer_binding_size;
         if bytes.len() as u64 > max_binding {
             let sizes: Vec<String> =
                 scene::SCENE_ARRAYS.iter().zip(&arrays).map(|(n, a)| format!("{n} {}", a.len())).collect();
@@ -548,7 +543,7 @@ impl GpuBackend {
         }
         let data = self.storage_init(&format!("scene `{}`", scene.name), &bytes)?;
         let layout = self.scoped("uploading the scene layout", || {
-            self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            self.shared.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("scene layout"),
                 contents: bytemuck::cast_slice(&scene::layout(&offsets, scene)),
                 usage: wgpu::BufferUsages::UNIFORM,
@@ -658,11 +653,11 @@ impl GpuBackend {
         };
         let what = format!("compiling kernel `{name}`");
         let p = self.scoped(&what, || {
-            let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            let module = self.shared.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(text.clone().into()),
             });
-            let g0 = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            let g0 = self.shared.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("wedge frame"),
                 entries: &[uniform(0), uniform(1), storage(2, false)],
             });
@@ -682,12 +677,12 @@ impl GpuBackend {
                     e
                 }
             };
-            let g1 = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            let g1 = self.shared.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("wedge buffers"),
                 entries: &g1_entries,
             });
             let g2 = src.scene.then(|| {
-                self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                self.shared.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("wedge scene"),
                     entries: &[storage(0, true), uniform(1)],
                 })
@@ -696,12 +691,12 @@ impl GpuBackend {
             if let Some(g2) = &g2 {
                 layouts.push(Some(g2));
             }
-            let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            let layout = self.shared.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(name),
                 bind_group_layouts: &layouts,
                 immediate_size: 0,
             });
-            let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            let pipeline = self.shared.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(name),
                 layout: Some(&layout),
                 module: &module,

@@ -154,7 +154,7 @@ impl Slots {
         let (_, bytes) = self.shape(job, slot);
         let buf = match self.reuse(slot, bytes).filter(|b| data.len() as u64 <= b.size()) {
             Some(buf) => {
-                gpu.queue.write_buffer(&buf, 0, data);
+                gpu.shared.queue.write_buffer(&buf, 0, data);
                 buf
             }
             None => {
@@ -254,7 +254,7 @@ impl GpuBackend {
         for (binding, d) in out {
             let id = pass.write(&binding).expect("bound");
             let buf = slots.for_write(self, job, id)?;
-            self.queue.write_buffer(&buf, 0, &to_bytes(&d));
+            self.shared.queue.write_buffer(&buf, 0, &to_bytes(&d));
         }
         let kernel = job.kernels.get(&pass.kernel).expect("checked");
         Ok(PassTiming {
