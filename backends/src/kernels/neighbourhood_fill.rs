@@ -57,8 +57,8 @@ fn disk_rows(r: i32) -> Vec<i32> {
 }
 
 /// Pixel `(x, y)`'s output: its own statistic, or the mean of those on its object within the disk
-/// (rows `rows`, [`disk_rows`]), visited row by row as the WGSL mirror does (each row clipped to
-/// the image once), so the sums agree.
+/// (rows `rows`, [`disk_rows`]), visited in the WGSL mirror's order, row by row, so the sums agree
+/// (here each row is clipped to the image once; the mirror tests each tap).
 fn fill_pixel(
     (x, y): (i32, i32),
     (w, h): (i32, i32),
