@@ -25,8 +25,9 @@ struct PassLayout {
     packed_in: u64,
     packed_out: u64,
     bands: Vec<Band>,
-    /// Bit `k` set where binding `k` is bound (the frame uniform's `bound`).
-    bound: u32,
+    /// Bit `k` set where binding `k` is bound (the frame uniform's `bound`, bits 0–31, and
+    /// `bound_hi`, bits 32–63).
+    bound: u64,
 }
 
 impl PassLayout {
@@ -108,8 +109,8 @@ impl GpuBackend {
         reach: Reach,
         what: &str,
     ) -> Result<PassLayout, BackendError> {
-        if buffers.len() > 32 {
-            return Err(gpu_err(format!("kernel `{}` declares more than 32 bindings", pass.kernel)));
+        if buffers.len() > 64 {
+            return Err(gpu_err(format!("kernel `{}` declares more than 64 bindings", pass.kernel)));
         }
         // Elements per pixel of each bound binding (per-sample buffers, `BufferInfo::layers`).
         let layers = |k: usize| {
@@ -161,7 +162,7 @@ impl GpuBackend {
                 layered.join(", ")
             )));
         }
-        let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
+        let bound = buffers.iter().enumerate().fold(0u64, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
         Ok(PassLayout { bindings, plan, packed_offsets, packed_in, packed_out, bands, bound })
     }
 
@@ -295,7 +296,7 @@ impl GpuBackend {
                     job.width,
                     job.height,
                     job.seed,
-                    layout.bound,
+                    layout.bound as u32,
                     f32::INFINITY.to_bits(),
                     0x3f80_0800,
                     0x3f80_1000,
@@ -310,7 +311,7 @@ impl GpuBackend {
                     job.window.y0,
                     job.window.full_width,
                     job.window.full_height,
-                    0,
+                    (layout.bound >> 32) as u32,
                     0,
                 ];
                 self.uniform_buffer("frame", n as u64, &frame)
