@@ -128,22 +128,22 @@ pub fn gather(
 /// order, `None` where no weight was positive. The window is clipped to the image once and each of
 /// its rows walked as a slice, rather than each tap tested and indexed: the same taps in the same
 /// order (`filter.irradiance` hands it records that fold its per-tap tests into one, [`super::irradiance_filter`]).
-pub fn gather_taps<T>(
+pub fn gather_taps<T, const N: usize>(
     x: i32,
     y: i32,
     width: i32,
     height: i32,
     (rx, ry): (i32, i32),
     records: &[T],
-    tap: impl Fn(usize, &T, (i32, i32)) -> Option<(f32, [f32; 3])>,
-) -> Option<[f32; 3]> {
-    let mut sum = [0.0f32; 3];
+    tap: impl Fn(usize, &T, (i32, i32)) -> Option<(f32, [f32; N])>,
+) -> Option<[f32; N]> {
+    let mut sum = [0.0f32; N];
     let mut wsum = 0.0f32;
     let (dy0, dy1) = ((-ry).max(-y), ry.min(height - 1 - y));
     let (dx0, dx1) = ((-rx).max(-x), rx.min(width - 1 - x));
     let mut add = |j: usize, r: &T, d: (i32, i32)| {
         if let Some((w, v)) = tap(j, r, d) {
-            for c in 0..3 {
+            for c in 0..N {
                 sum[c] += w * v[c];
             }
             wsum += w;
@@ -164,7 +164,7 @@ pub fn gather_taps<T>(
             }
         }
     }
-    (wsum > 0.0).then(|| [sum[0] / wsum, sum[1] / wsum, sum[2] / wsum])
+    (wsum > 0.0).then(|| sum.map(|s| s / wsum))
 }
 
 /// Pixel `(x, y)`'s 1-D window of half-width `radius` along one image axis (0: x, 1: y), clipped to
