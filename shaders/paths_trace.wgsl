@@ -213,7 +213,8 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     }
     let z = dot3(x - c.position, c.forward);
     rec.depth = rec.depth + w * z;
-    let coc = abs(coc_pixels(c, z));
+    let signed_coc = coc_pixels(c, z);
+    let coc = abs(signed_coc);
     if (rec.hits == 1u) {
         rec.r_min = coc;
         rec.r_max = coc;
@@ -227,6 +228,7 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     let m = mat.phong_exponent;
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
     rec.exponent = rec.exponent + w * select(0.0, m, is_glossy);
+    let before = radiance_sums();
     if (params.environment != 0u && count.environment > 0u) {
         trace_environment(x, n, wo, kd, ks, m, is_glossy, w, pixel, count.environment);
     }
@@ -236,6 +238,24 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     if (params.indirect != 0u) {
         trace_indirect(x, n, wo, kd, ks, m, is_glossy, w, pixel, key_d, key_g, count);
     }
+    if (signed_coc > NEAR_LAYER_COC) {
+        rec.l_near = rec.l_near + ((radiance_sums() - before) + emission(sp) * w);
+        if (rec.w_near > 0.0) {
+            rec.r_near = rmin(rec.r_near, coc);
+        } else {
+            rec.r_near = coc;
+        }
+        rec.w_near = rec.w_near + w;
+    }
+}
+
+// paths.rs NEAR_LAYER_COC, radiance_sums: the near layer's test, and Σ w·L so far (a path's own
+// radiance is the change it makes).
+const NEAR_LAYER_COC: f32 = 2.0;
+
+fn radiance_sums() -> vec3<f32> {
+    return vec3<f32>(0.0) + rec.l_direct + rec.l_diffuse + rec.l_glossy + rec.l_env_diffuse + rec.l_env_glossy
+        + rec.emission;
 }
 
 // Direct (eqs. 5.9–5.14, glossy folded into k: eq. 5.20); `exact`: per-sample geometry term.

@@ -212,7 +212,25 @@ record! {
         env_samples: u32,
         env_occluded: u32,
         env_rays: u32,
+        /// The near layer (`docs/DESIGN-NOTES.md` "The near layer"): Σ w·L of the paths whose hit is in front
+        /// of the focal plane and blurred over more than [`NEAR_LAYER_COC`] pixels, Σ w of those paths,
+        /// and the least |r| among them (0 without any).
+        l_near: vec3,
+        w_near: f32,
+        r_near: f32,
     }
+}
+
+/// A path belongs to the near layer where its hit's signed circle of confusion (eq. 5.2, positive in
+/// front of the focal plane) exceeds this many pixels.
+pub const NEAR_LAYER_COC: f32 = 2.0;
+
+/// Σ w·L of every component and the emission so far: a path's own radiance is the change it makes.
+fn radiance_sums(r: &PathRecord) -> Vec3 {
+    [r.l_direct, r.l_diffuse, r.l_glossy, r.l_env_diffuse, r.l_env_glossy, r.emission]
+        .iter()
+        .map(|s| Vec3::from(*s))
+        .sum()
 }
 
 fn add(a: &mut [f32; 3], b: Vec3) {
@@ -782,8 +800,10 @@ fn trace_one(
     // Depth along the optical axis and the circle of confusion of this lens sample (eq. 5.2).
     let z = (x - s.camera.position).dot(view.forward);
     r.depth += w * z;
-    let coc = s.camera.coc_pixels(z, view.height).abs();
+    let signed_coc = s.camera.coc_pixels(z, view.height);
+    let coc = signed_coc.abs();
     widen_range((&mut r.r_min, &mut r.r_max), coc, r.hits == 1);
+    let before = radiance_sums(r);
     let glossy = v.glossy();
     r.exponent += w * if glossy { v.m } else { 0.0 };
     let at = PathHit { v, glossy, w };
@@ -795,6 +815,12 @@ fn trace_one(
     }
     if s.indirect {
         trace_indirect(scene, s, &at, draws, (rng_d, rng_g), count, r);
+    }
+    if signed_coc > NEAR_LAYER_COC {
+        let own = radiance_sums(r) - before + scene.scene().emission(&sp) * w;
+        add(&mut r.l_near, own);
+        r.r_near = if r.w_near > 0.0 { r.r_near.min(coc) } else { coc };
+        r.w_near += w;
     }
 }
 
@@ -1113,12 +1139,17 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 /// - `l_env_diffuse`, …, `e_env_glossy`: L, k, E of the environment's diffuse and glossy parts (E
 ///   over the paths that hit: [`PathRecord::w_env_missed`]);
 ///   `environment`: the occluder term `cos²θ_occ/z` (largest over the bright occluded look-ups, 0
-///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups.
+///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups;
+/// - `near`: the near layer — the paths whose hit lies in front of the focal plane, blurred over more
+///   than [`NEAR_LAYER_COC`] pixels — as its radiance over all paths (`Σ_near w L / Σ w`, rgb:
+///   premultiplied by its coverage) and its coverage `Σ_near w / Σ w` (w); `near_coc`: the least
+///   |circle of confusion| among those paths (x; 0 without any). Defocus's `layers` reads them
+///   (`effects/src/defocus/kernels/layers.rs`).
 pub struct PathsResolve;
 
 /// Every output of `paths.resolve`, in binding order (all optional): the single declaration of the
 /// shared sampler's outputs (module doc, "Bindings").
-pub const RESOLVE_OUTPUTS: [(&str, Format); 30] = [
+pub const RESOLVE_OUTPUTS: [(&str, Format); 32] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -1149,6 +1180,8 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 30] = [
     ("e_env_glossy", Format::Vec3),
     ("environment", Format::Vec4),
     ("direct_unshadowed", Format::Vec4),
+    ("near", Format::Vec4),
+    ("near_coc", Format::Vec4),
 ];
 
 /// A mean and its sample count: the estimate convention the world-space filters read.
@@ -1225,6 +1258,11 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy - r.w_env_missed),
         "environment" => [r.env_occluder, hit_mean(r.exponent), r.env_samples as f32, r.env_occluded as f32],
         "direct_unshadowed" => estimate(e(r.u_direct, r.w_direct - r.w_direct_missed), r.shadow),
+        "near" => {
+            let m = mean(r.l_near, r.weight);
+            [m[0], m[1], m[2], if r.weight > 0.0 { r.w_near / r.weight } else { 0.0 }]
+        }
+        "near_coc" => [r.r_near, 0.0, 0.0, 0.0],
         other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }
 }
