@@ -314,6 +314,35 @@ fn the_irradiance_weighted_texture_keeps_blurred_highlights_and_converges() {
     assert!(weighted[1].0 < 0.9 * weighted[0].0 && weighted[2].0 < 0.9 * weighted[1].0, "{weighted:?}");
 }
 
+/// The near layer (`layers: true`, `effects/src/defocus/kernels/layers.rs`) on the scene it is for:
+/// posts and a lattice far out of focus over a sharp checker wall (`dof_foreground` through its suite
+/// lens). It takes the same rays, lowers the error at the pipeline's μ, and the error still falls as
+/// μ grows (the composite tends to the pixel's own estimate).
+#[test]
+fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
+    let lens = [("aperture_radius", ParamValue::Float(0.04)), ("focus_distance", ParamValue::Float(4.6))];
+    let ov = |mu: Option<f64>, layers: bool| {
+        let mut sets: Vec<(&str, &str, ParamValue)> = lens.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
+        sets.push(("defocus", "layers", ParamValue::Bool(layers)));
+        Overrides { scene: Some("builtin:dof_foreground".into()), ..sized(128, 96, mu, &sets) }
+    };
+    let s =
+        Session::reference(Some(&path), 512, "stratified", &Overrides { seed: Some(99), ..ov(None, false) }).unwrap();
+    let reference = color(&s, &run(&s));
+    let at = |mu: Option<f64>, layers: bool| {
+        let s = Session::open(Some(&path), &ov(mu, layers)).unwrap();
+        let r = run(&s);
+        (rmse(&color(&s, &r), &reference), r.rays.total_rays())
+    };
+    let (off, on) = (at(None, false), at(None, true));
+    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), true)).collect();
+    eprintln!("(RMSE, rays): pipeline's mu without layers {off:?}, with {on:?}; with layers at mu 1, 2, 4 {series:?}");
+    assert_eq!(off.1, on.1, "the layers do not change the counts");
+    assert!(on.0 < 0.92 * off.0, "{on:?} vs {off:?}");
+    assert!(series[1].0 < 0.9 * series[0].0 && series[2].0 < 0.9 * series[1].0, "{series:?}");
+}
+
 #[test]
 fn heatmap_sinks_write_one_png_each_and_need_exactly_one_input() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus_shadows_indirect.ron");

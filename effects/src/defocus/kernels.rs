@@ -21,6 +21,7 @@
 //!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
 pub mod filter;
+pub mod layers;
 
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, LightIndex, PutWith, Uniforms, WgslSource};
 use wedge_graph::{BufferId, Component, ExpandCtx, GraphError, ParamValue};

@@ -34,4 +34,5 @@ pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::Compose));
     reg.register(Arc::new(kernels::WeightedTexture));
     reg.register(Arc::new(kernels::filter::DefocusFilter));
+    reg.register(Arc::new(kernels::layers::Layers));
 }

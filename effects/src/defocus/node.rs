@@ -12,7 +12,9 @@
 //!    (`defocus.rates`) and submits `n_p` paths for the second pass (3×3 max, `p²` rounding);
 //! 3. sums its `direct`, `indirect` and `environment` inputs (each a component's eq. 5.32 term) and
 //!    the emission of the primary hits (the map where lens rays miss), and filters the sum in screen
-//!    space (eq. 5.33, `filter.defocus`).
+//!    space (eq. 5.33, `filter.defocus`);
+//! 4. with `layers` (not the thesis; off by default), composites each pixel's blurred near layer over
+//!    its far paths with the near layer's own filter (`defocus.layers`, `kernels/layers.rs`).
 //!
 //! **Lens.** `aperture_radius` and `focus_distance` (world units; focus along the optical axis)
 //! come from the node's parameters, else from the pipeline's `camera:` block (its `aperture_radius`,
@@ -48,12 +50,13 @@ use std::collections::BTreeMap;
 
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
-    CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl, ParamValue,
-    PortDecl, SamplerPass, SamplerRequest, Stage,
+    BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
+    ParamValue, PortDecl, Reference, SamplerPass, SamplerRequest, Stage,
 };
 
 use super::component::rate_settings;
 use super::kernels::filter::DefocusIo;
+use super::kernels::layers::LayersIo;
 use super::kernels::RatesIo;
 use crate::factored::{components, filter_chain, pass_through, sum};
 
@@ -165,6 +168,7 @@ impl NodeKind for Defocus {
             ParamDecl::int("max_per_primary", 1, 1, 4096, "cap on secondary rays per primary ray (rounded down to a square; scaled by max(μ, 1)² in consistent mode): 1 since issue 35's defocus suite (4 = 2×2 strata, the earlier default), see docs/DESIGN-NOTES.md \"The defocus suite\""),
             ParamDecl::int("max_shadow_per_primary", 1, 1, 4096, "cap on shadow rays per primary ray, as max_per_primary (1 = its default; docs/DESIGN-NOTES.md \"Shadow rays per primary under Motion\")"),
             ParamDecl::int("max_radius", 16, 1, 64, "largest filter half-width in pixels (eqs. 5.31, 5.33)"),
+            ParamDecl::boolean("layers", false, "composite the near layer — the paths in front of the focal plane blurred over more than 2 px — over the rest of a pixel where the rest is much sharper, with the near layer's own filter (a blurred foreground over a sharp background: its lens noise filtered away; docs/DESIGN-NOTES.md \"The near layer\"); false: eq. 5.33 alone, the thesis"),
             ParamDecl::boolean("separable", true, "x then y filter passes (O(R) taps) instead of the 2-D reference (O(R²))"),
             ParamDecl::choice(
                 "shutter",
@@ -291,10 +295,35 @@ impl NodeKind for Defocus {
             &[("max_radius", radius)],
             separable,
         );
+        let value =
+            if ctx.param("layers") == &ParamValue::Bool(true) { near_layer(ctx, f, composed, value)? } else { value };
         ctx.output("radiance", value);
         ctx.output("unfiltered", composed);
         ctx.output("filter_width", sigma);
         ctx.output("rays_per_pixel", n_primary);
         Ok(())
     }
+}
+
+/// Step 4 of the module doc, with `layers`: the near layer composited over the rest after eq. 5.33
+/// (`defocus.layers`, `kernels/layers.rs`), at the node's μ and window cap; a reference bypasses it.
+fn near_layer(
+    ctx: &mut ExpandCtx<'_>,
+    f: &Factoring,
+    composed: BufferId,
+    filtered: BufferId,
+) -> Result<BufferId, GraphError> {
+    let near = ctx.sampler_output(SamplerPass::Final, "near")?;
+    let near_coc = ctx.sampler_output(SamplerPass::Final, "near_coc")?;
+    let lens = ctx.sampler_output(SamplerPass::Final, "defocus")?;
+    let (mu, max_radius) =
+        (f.setting("mu").cloned().unwrap_or(ParamValue::Float(1.0)), ctx.param("max_radius").clone());
+    let out = ctx.buffer("layered", Format::Vec3);
+    LayersIo { composed, filtered, near, near_coc, lens, out }
+        .bind(ctx.pass("layers", "defocus.layers", Stage::ImageFilter))
+        .param("mu", mu)
+        .param("max_radius", max_radius)
+        .reference(Reference::Bypass { input: "filtered" })
+        .finish();
+    Ok(out)
 }
