@@ -72,7 +72,7 @@
 //! one-bounce indirect sample).
 //!
 //! **Bindings.** `paths.trace` declares its bindings once, [`TraceIo`] (the sampler binds them
-//! typed). `paths.resolve`'s stay data-driven on purpose: its 30 optional outputs are the shared
+//! typed). `paths.resolve`'s stay data-driven on purpose: its 32 optional outputs are the shared
 //! sampler's named outputs, which nodes ask for by name (`ExpandCtx::sampler_output(pass,
 //! "defocus")`, any node, any crate) and which the sampler binds only where some node holds one —
 //! so [`RESOLVE_OUTPUTS`] is their single declaration, from which come `paths.resolve`'s bindings,
