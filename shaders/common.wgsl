@@ -51,7 +51,7 @@ struct Frame {
     y0: u32,          // image of full_width x full_height; camera rays and random numbers use the
     full_width: u32,  // full image's pixels (global_xy, pixel_id). Without tiles x0 = y0 = 0 and the
     full_height: u32, // full size is the image's.
-    bound_hi: u32,    // bindings 32-63 (`bound`: 0-31)
+    _pad1: u32,
     _pad2: u32,
 }
 
@@ -131,9 +131,6 @@ fn count_cut_loop(reached: u32, end: u32) {
 }
 
 fn is_bound(k: u32) -> bool {
-    if (k >= 32u) {
-        return (frame.bound_hi & (1u << (k - 32u))) != 0u;
-    }
     return (frame.bound & (1u << k)) != 0u;
 }
 

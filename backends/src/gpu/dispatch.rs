@@ -25,9 +25,8 @@ struct PassLayout {
     packed_in: u64,
     packed_out: u64,
     bands: Vec<Band>,
-    /// Bit `k` set where binding `k` is bound (the frame uniform's `bound`, bits 0–31, and
-    /// `bound_hi`, bits 32–63).
-    bound: u64,
+    /// Bit `k` set where binding `k` is bound (the frame uniform's `bound`).
+    bound: u32,
 }
 
 impl PassLayout {
@@ -109,8 +108,8 @@ impl GpuBackend {
         reach: Reach,
         what: &str,
     ) -> Result<PassLayout, BackendError> {
-        if buffers.len() > 64 {
-            return Err(gpu_err(format!("kernel `{}` declares more than 64 bindings", pass.kernel)));
+        if buffers.len() > 32 {
+            return Err(gpu_err(format!("kernel `{}` declares more than 32 bindings", pass.kernel)));
         }
         // Elements per pixel of each bound binding (per-sample buffers, `BufferInfo::layers`).
         let layers = |k: usize| {
@@ -162,7 +161,7 @@ impl GpuBackend {
                 layered.join(", ")
             )));
         }
-        let bound = buffers.iter().enumerate().fold(0u64, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
+        let bound = buffers.iter().enumerate().fold(0u32, |m, (k, b)| if b.is_some() { m | (1 << k) } else { m });
         Ok(PassLayout { bindings, plan, packed_offsets, packed_in, packed_out, bands, bound })
     }
 
@@ -296,7 +295,7 @@ impl GpuBackend {
                     job.width,
                     job.height,
                     job.seed,
-                    layout.bound as u32,
+                    layout.bound,
                     f32::INFINITY.to_bits(),
                     0x3f80_0800,
                     0x3f80_1000,
@@ -311,7 +310,7 @@ impl GpuBackend {
                     job.window.y0,
                     job.window.full_width,
                     job.window.full_height,
-                    (layout.bound >> 32) as u32,
+                    0,
                     0,
                 ];
                 self.uniform_buffer("frame", n as u64, &frame)
