@@ -80,7 +80,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     k_env_glossy_put(i, mean_of(r.k_env_glossy, r.w_env_glossy));
     e_env_glossy_put(i, mean_of(r.e_env_glossy, r.w_env_glossy - r.w_env_missed));
     environment_put(i, vec4<f32>(r.env_occluder, hit_mean(r, r.exponent), f32(r.env_samples), f32(r.env_occluded)));
-    near_put(i, vec4<f32>(mean_of(r.l_near, w), select(0.0, r.w_near / w, w > 0.0)));
-    near_coc_put(i, vec4<f32>(r.r_near, 0.0, 0.0, 0.0));
     direct_unshadowed_put(i, vec4<f32>(mean_of(r.u_direct, r.w_direct - r.w_direct_missed), f32(r.shadow)));
 }

@@ -22,7 +22,8 @@
 //!    sequences (same stream: the union of both passes is one progressive Sobol' set), role `Sample`.
 //!    It splits each channel's total evenly over the pixel's paths, so two nodes' counts do not
 //!    multiply: Ch. 3's shadow rays and Ch. 4's hemisphere samples each come out as asked.
-//! 5. `resolve_final` (`paths.resolve`): the final outputs.
+//! 5. `resolve_final` (`paths.resolve`): the final outputs (and `resolve_near_final`,
+//!    `paths.resolve_near`, where a node holds the near layer; the same after step 2).
 //!
 //! So `wedge reference` of a sampler pipeline is `first` with no paths and every count at N: N
 //! jointly stratified paths per pixel with one secondary sample of each channel.
@@ -36,7 +37,7 @@ use std::sync::Arc;
 
 use wedge_backends::kernels::constant::FillU32Io;
 use wedge_backends::kernels::neighbourhood3::Neighbourhood3Io;
-use wedge_backends::kernels::paths::{TraceIo, PATH_RECORD, RESOLVE_OUTPUTS};
+use wedge_backends::kernels::paths::{TraceIo, NEAR_LAYER_OUTPUTS, PATH_RECORD, RESOLVE_OUTPUTS};
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, KernelRegistry, Uniforms, WgslSource};
 use wedge_graph::{
     BufferId, ExpandCtx, Format, GraphError, ParamValue, PassBuilder, PerPrimary, Reference, SamplerKind, SamplerPass,
@@ -65,6 +66,15 @@ pub fn centre_path(
         .setting("sampling", ParamValue::Str("stratified".into()));
     Ok((request, per_path))
 }
+
+/// A resolve kernel's outputs: (name, format), in binding order.
+type OutputList = [(&'static str, Format)];
+
+/// The kernels that resolve a record, their passes' name prefix and their outputs: `paths.resolve`
+/// (every mean and statistic) and `paths.resolve_near` (the near layer Defocus's `layers` reads; a
+/// kernel apart so that neither exceeds the storage buffers a device binds per stage).
+const RESOLVE_KERNELS: [(&str, &str, &OutputList); 2] =
+    [("paths.resolve", "resolve", &RESOLVE_OUTPUTS), ("paths.resolve_near", "resolve_near", &NEAR_LAYER_OUTPUTS)];
 
 /// Estimator → `paths.trace` switch. `time` is not a secondary estimator: it gives each path its own
 /// shutter time (thesis App. B), so the scene's motion blurs every estimate of the path.
@@ -174,20 +184,23 @@ impl PathSampler {
         }
     }
 
-    /// Write the resolved outputs of `record` that nodes hold handles to, in one pass. Bound by name
-    /// from [`RESOLVE_OUTPUTS`], the one list of the sampler's outputs nodes ask for by name (why it
-    /// is not a typed block: `wedge_backends::kernels::paths`, "Bindings").
+    /// Write the resolved outputs of `record` that nodes hold handles to: one pass per resolve
+    /// kernel with a wanted output ([`RESOLVE_KERNELS`]). Bound by name from the kernels' output
+    /// lists, the one declaration of the sampler's outputs nodes ask for by name (why it is not a
+    /// typed block: `wedge_backends::kernels::paths`, "Bindings").
     fn resolve(ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan, pass: SamplerPass, record: BufferId, stage: Stage) {
-        let wanted: Vec<(&str, BufferId)> =
-            RESOLVE_OUTPUTS.iter().filter_map(|(n, _)| plan.handle(pass, n).map(|id| (*n, id))).collect();
-        if wanted.is_empty() {
-            return;
+        for (kernel, prefix, outputs) in RESOLVE_KERNELS {
+            let wanted: Vec<(&str, BufferId)> =
+                outputs.iter().filter_map(|(n, _)| plan.handle(pass, n).map(|id| (*n, id))).collect();
+            if wanted.is_empty() {
+                continue;
+            }
+            let mut b = ctx.pass(&format!("{prefix}_{}", pass.name()), kernel, stage).read("record", record);
+            for (name, id) in wanted {
+                b = b.write(name, id);
+            }
+            b.finish();
         }
-        let mut b = ctx.pass(&format!("resolve_{}", pass.name()), "paths.resolve", stage).read("record", record);
-        for (name, id) in wanted {
-            b = b.write(name, id);
-        }
-        b.finish();
     }
 
     /// The per-pixel max of `sources` (buffers of unit 1): none, the one buffer itself, or a
@@ -254,7 +267,7 @@ impl SamplerKind for PathSampler {
     }
     fn outputs(&self) -> Vec<(&'static str, Format)> {
         let mut o = vec![("record", Format::Struct(&PATH_RECORD))];
-        o.extend(RESOLVE_OUTPUTS.iter().copied());
+        o.extend(RESOLVE_KERNELS.iter().flat_map(|(_, _, outputs)| outputs.iter().copied()));
         o
     }
     fn emit(&self, ctx: &mut ExpandCtx<'_>, plan: &SamplerPlan) -> Result<(), GraphError> {

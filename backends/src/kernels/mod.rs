@@ -38,6 +38,7 @@ pub fn register(reg: &mut KernelRegistry) {
     reg.register(Arc::new(constant::FillConstantVec4));
     reg.register(Arc::new(paths::PathsTrace));
     reg.register(Arc::new(paths::PathsResolve));
+    reg.register(Arc::new(paths::PathsResolveNear));
 }
 
 // Small helpers every kernel family uses, defined once here.

@@ -72,7 +72,7 @@
 //! one-bounce indirect sample).
 //!
 //! **Bindings.** `paths.trace` declares its bindings once, [`TraceIo`] (the sampler binds them
-//! typed). `paths.resolve`'s stay data-driven on purpose: its 32 optional outputs are the shared
+//! typed). `paths.resolve`'s stay data-driven on purpose: its 30 optional outputs are the shared
 //! sampler's named outputs, which nodes ask for by name (`ExpandCtx::sampler_output(pass,
 //! "defocus")`, any node, any crate) and which the sampler binds only where some node holds one —
 //! so [`RESOLVE_OUTPUTS`] is their single declaration, from which come `paths.resolve`'s bindings,
@@ -1139,17 +1139,12 @@ fn accumulate(sums: Sums<'_>, k: Vec3, e: Vec3, valid: u32, w: f32, fixed_primar
 /// - `l_env_diffuse`, …, `e_env_glossy`: L, k, E of the environment's diffuse and glossy parts (E
 ///   over the paths that hit: [`PathRecord::w_env_missed`]);
 ///   `environment`: the occluder term `cos²θ_occ/z` (largest over the bright occluded look-ups, 0
-///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups;
-/// - `near`: the near layer — the paths whose hit lies in front of the focal plane, blurred over more
-///   than [`NEAR_LAYER_COC`] pixels — as its radiance over all paths (`Σ_near w L / Σ w`, rgb:
-///   premultiplied by its coverage) and its coverage `Σ_near w / Σ w` (w); `near_coc`: the least
-///   |circle of confusion| among those paths (x; 0 without any). Defocus's `layers` reads them
-///   (`effects/src/defocus/kernels/layers.rs`).
+///   without), the mean Phong exponent of the hits (0: no lobe), look-ups, occluded look-ups.
 pub struct PathsResolve;
 
 /// Every output of `paths.resolve`, in binding order (all optional): the single declaration of the
 /// shared sampler's outputs (module doc, "Bindings").
-pub const RESOLVE_OUTPUTS: [(&str, Format); 32] = [
+pub const RESOLVE_OUTPUTS: [(&str, Format); 30] = [
     ("radiance", Format::Vec3),
     ("l_direct", Format::Vec3),
     ("k_direct", Format::Vec3),
@@ -1180,9 +1175,12 @@ pub const RESOLVE_OUTPUTS: [(&str, Format); 32] = [
     ("e_env_glossy", Format::Vec3),
     ("environment", Format::Vec4),
     ("direct_unshadowed", Format::Vec4),
-    ("near", Format::Vec4),
-    ("near_coc", Format::Vec4),
 ];
+
+/// The outputs of `paths.resolve_near` ([`PathsResolveNear`]): the near layer. A kernel of their
+/// own, because `paths.resolve`'s record and 30 outputs with the counters already fill the 32
+/// storage buffers per shader stage many devices (lavapipe among them) bind directly.
+pub const NEAR_LAYER_OUTPUTS: [(&str, Format); 2] = [("near", Format::Vec4), ("near_coc", Format::Vec4)];
 
 /// A mean and its sample count: the estimate convention the world-space filters read.
 fn estimate(e: [f32; 3], samples: u32) -> [f32; 4] {
@@ -1258,11 +1256,6 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
         "e_env_glossy" => mean(r.e_env_glossy, r.w_env_glossy - r.w_env_missed),
         "environment" => [r.env_occluder, hit_mean(r.exponent), r.env_samples as f32, r.env_occluded as f32],
         "direct_unshadowed" => estimate(e(r.u_direct, r.w_direct - r.w_direct_missed), r.shadow),
-        "near" => {
-            let m = mean(r.l_near, r.weight);
-            [m[0], m[1], m[2], if r.weight > 0.0 { r.w_near / r.weight } else { 0.0 }]
-        }
-        "near_coc" => [r.r_near, 0.0, 0.0, 0.0],
         other => unreachable!("RESOLVE_OUTPUTS names `{other}`, which resolve_output does not know"),
     }
 }
@@ -1318,6 +1311,57 @@ impl Kernel for PathsResolve {
             if *format == Format::Vec3 {
                 ctx.put(name, values.into_iter().map(|v| [v[0], v[1], v[2]]).collect::<Vec<_>>())?;
             } else {
+                ctx.put(name, values)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `paths.resolve_near`: the near layer of a [`PathRecord`] ([`NEAR_LAYER_OUTPUTS`], both
+/// optional) — `near`: the radiance of the paths whose hit lies in front of the focal plane, blurred
+/// over more than [`NEAR_LAYER_COC`] pixels, over all paths (`Σ_near w L / Σ w`, rgb: premultiplied
+/// by its coverage) and its coverage `Σ_near w / Σ w` (w); `near_coc`: the least |circle of
+/// confusion| among those paths (x; 0 without any). Defocus's `layers` reads them
+/// (`effects/src/defocus/kernels/layers.rs`). WGSL mirror: `shaders/paths_resolve_near.wgsl`.
+pub struct PathsResolveNear;
+
+/// Output `k` of [`NEAR_LAYER_OUTPUTS`] for one pixel.
+fn resolve_near(k: usize, r: &PathRecord) -> [f32; 4] {
+    match NEAR_LAYER_OUTPUTS[k].0 {
+        "near" => {
+            let m = r.mean_of(r.l_near, r.weight);
+            [m.x, m.y, m.z, if r.weight > 0.0 { r.w_near / r.weight } else { 0.0 }]
+        }
+        "near_coc" => [r.r_near, 0.0, 0.0, 0.0],
+        other => unreachable!("NEAR_LAYER_OUTPUTS names `{other}`, which resolve_near does not know"),
+    }
+}
+
+impl Kernel for PathsResolveNear {
+    fn name(&self) -> &'static str {
+        "paths.resolve_near"
+    }
+    fn class(&self) -> KernelClass {
+        KernelClass::Compose
+    }
+    fn bindings(&self) -> Vec<Binding> {
+        let mut b = vec![Binding::read("record", Format::Struct(&PATH_RECORD))];
+        b.extend(NEAR_LAYER_OUTPUTS.iter().map(|(n, f)| Binding::write_opt(n, *f)));
+        b
+    }
+    fn wgsl(&self) -> Option<WgslSource> {
+        Some(
+            WgslSource::new(include_str!("../../../shaders/paths_resolve_near.wgsl"), |_| Ok(Uniforms::new()))
+                .per_pixel(),
+        )
+    }
+    fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
+        let records = ctx.read::<PathRecord>("record")?;
+        let width = ctx.width;
+        for (k, (name, _)) in NEAR_LAYER_OUTPUTS.iter().enumerate() {
+            if ctx.is_bound(name) {
+                let values = ctx.map_pixels(false, |x, y| resolve_near(k, &records[(y * width + x) as usize]));
                 ctx.put(name, values)?;
             }
         }
