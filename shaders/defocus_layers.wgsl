@@ -8,10 +8,9 @@ const OMEGA_U_MAX: f32 = 1.0;
 const FULL: f32 = 0.9999;
 const LAYER_SEPARATION: f32 = 4.0;
 
-// 16 Ω² of the near layer's width Ω = μ Ω_u / r_near (layers.rs sharpness).
-fn sharpness(mu: f32, r_near: f32) -> f32 {
-    let omega = mu * OMEGA_U_MAX / r_near;
-    return FILTER_SHARPNESS * omega * omega;
+// The near layer's width Ω = μ Ω_u / r_near (layers.rs near_width).
+fn near_width(mu: f32, r_near: f32) -> f32 {
+    return mu * OMEGA_U_MAX / r_near;
 }
 
 // (F, α) of pixel j, or (I, 1) where all its paths are near (layers.rs near_of).
@@ -36,8 +35,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         out_put(i, filtered_at(i));
         return;
     }
-    let g2 = sharpness(params.mu, r);
-    let radius = window_radius(params.mu * OMEGA_U_MAX / r, params.max_radius);
+    let omega = near_width(params.mu, r);
+    let radius = window_radius(omega, params.max_radius);
     var f = vec3<f32>(0.0);
     var alpha = 0.0;
     var wsum = 0.0;
@@ -48,13 +47,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 continue;
             }
             let j = index_at(p.x, p.y);
-            let d2 = f32(dx * dx + dy * dy);
-            let e = g2 * d2;
             let rj = near_coc_at(j).x;
-            if (e > REJECT_EXPONENT || (near_at(j).w > 0.0 && rj > 0.0 && sharpness(params.mu, rj) * d2 > REJECT_EXPONENT)) {
+            var gj = 0.0;
+            if (near_at(j).w > 0.0 && rj > 0.0) {
+                gj = near_width(params.mu, rj);
+            }
+            let w = pair_weight(f32(dx * dx + dy * dy), omega * omega, gj * gj);
+            if (w <= 0.0) {
                 continue;
             }
-            let w = exp(-e);
             let n = near_of(j);
             f = f + w * n.xyz;
             alpha = alpha + w * n.w;

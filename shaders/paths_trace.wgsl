@@ -228,7 +228,12 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     let m = mat.phong_exponent;
     let is_glossy = m > 0.0 && max_element3(ks) > 0.0;
     rec.exponent = rec.exponent + w * select(0.0, m, is_glossy);
-    let before = radiance_sums();
+    // A near-layer path's own radiance is what its estimators add to the sums below.
+    let near = signed_coc > NEAR_LAYER_COC;
+    var before = vec3<f32>(0.0);
+    if (near) {
+        before = radiance_sums();
+    }
     if (params.environment != 0u && count.environment > 0u) {
         trace_environment(x, n, wo, kd, ks, m, is_glossy, w, pixel, count.environment);
     }
@@ -238,7 +243,7 @@ fn trace_one(c: CameraModel, ray: LensRay, hit: Hit, pixel: u32, key_d: u32, key
     if (params.indirect != 0u) {
         trace_indirect(x, n, wo, kd, ks, m, is_glossy, w, pixel, key_d, key_g, count);
     }
-    if (signed_coc > NEAR_LAYER_COC) {
+    if (near) {
         rec.l_near = rec.l_near + ((radiance_sums() - before) + emission(sp) * w);
         if (rec.w_near > 0.0) {
             rec.r_near = rmin(rec.r_near, coc);

@@ -803,7 +803,8 @@ fn trace_one(
     let signed_coc = s.camera.coc_pixels(z, view.height);
     let coc = signed_coc.abs();
     widen_range((&mut r.r_min, &mut r.r_max), coc, r.hits == 1);
-    let before = radiance_sums(r);
+    // A near-layer path's own radiance is what its estimators add to the sums below.
+    let near_before = (signed_coc > NEAR_LAYER_COC).then(|| radiance_sums(r));
     let glossy = v.glossy();
     r.exponent += w * if glossy { v.m } else { 0.0 };
     let at = PathHit { v, glossy, w };
@@ -816,7 +817,7 @@ fn trace_one(
     if s.indirect {
         trace_indirect(scene, s, &at, draws, (rng_d, rng_g), count, r);
     }
-    if signed_coc > NEAR_LAYER_COC {
+    if let Some(before) = near_before {
         let own = radiance_sums(r) - before + scene.scene().emission(&sp) * w;
         add(&mut r.l_near, own);
         r.r_near = if r.w_near > 0.0 { r.r_near.min(coc) } else { coc };

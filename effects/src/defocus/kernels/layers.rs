@@ -8,7 +8,7 @@
 //! (premultiplied by its coverage `α = Σ_near w / Σ w`), `r_near` their least circle of confusion.
 //! `F` and `α` are the foreground's blurred image and coverage, band-limited by the foreground's own
 //! circle of confusion, so they take eq. 5.33's Gaussian at `Ω = μ Ω_u / r_near` (and its rejection
-//! of a neighbour outside whose own near filter the pixel lies). The rest is `(1 − α) T`: its
+//! of a neighbour outside whose own near filter the pixel lies: `filter_window::pair_weight`). The rest is `(1 − α) T`: its
 //! coverage is the foreground's (smooth: `1 − α̃`), its radiance `T = (I − F) / (1 − α)` the pixel's
 //! own far paths (a sharp background is one point for every lens sample that sees it). So a pixel
 //! whose paths are partly near — and whose near paths are blurred over [`LAYER_SEPARATION`] times
@@ -20,9 +20,7 @@
 //! off by default. As μ grows the near filter shrinks to the pixel, `F̃ → F`, `α̃ → α`, and the
 //! composite is `F + (I − F) = I`: the consistent mode's limit is unchanged.
 
-use wedge_backends::kernels::filter_window::{
-    gather_taps, window_radius, Axis, ScreenRadius, FILTER_SHARPNESS, REJECT_EXPONENT,
-};
+use wedge_backends::kernels::filter_window::{gather_taps, pair_weight, window_radius, Axis, ScreenRadius};
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, WgslSource};
 
 use crate::defocus::formulas::OMEGA_U_MAX;
@@ -52,10 +50,9 @@ const FULL: f32 = 0.9999;
 /// not one surface whose blur crosses `NEAR_LAYER_COC` within the pixel, as a receding floor's does).
 pub const LAYER_SEPARATION: f32 = 4.0;
 
-/// The near layer's width `Ω = μ Ω_u / r_near` as `16 Ω²`, the factor of `d²` in a weight's exponent.
-fn sharpness(mu: f32, r_near: f32) -> f32 {
-    let omega = mu * OMEGA_U_MAX / r_near;
-    FILTER_SHARPNESS * omega * omega
+/// The near layer's width `Ω = μ Ω_u / r_near` (eq. 5.7's lens term at its circle of confusion).
+fn near_width(mu: f32, r_near: f32) -> f32 {
+    mu * OMEGA_U_MAX / r_near
 }
 
 /// The near layer pixel `j` lends the filter: its `(F, α)`, or `(I, 1)` where all its paths are near.
@@ -88,16 +85,15 @@ fn layered_pixel(
     if !(a > 0.0 && a < FULL && r > LAYER_SEPARATION * lens[i][0]) {
         return filtered[i];
     }
-    let g2 = sharpness(p.mu, r);
-    let radius = window_radius(p.mu * OMEGA_U_MAX / r, p.max_radius.get());
+    let omega = near_width(p.mu, r);
+    let radius = window_radius(omega, p.max_radius.get());
     let tap = |j: usize, n: &[f32; 4], (dx, dy): (i32, i32)| {
-        let d2 = (dx * dx + dy * dy) as f32;
-        let e = g2 * d2;
+        // A neighbour with near paths rejects the pixel outside its own near filter; one without
+        // (its coverage 0, a sample of the layer's edge) does not.
         let rj = near_coc[j][0];
-        if e > REJECT_EXPONENT || (n[3] > 0.0 && rj > 0.0 && sharpness(p.mu, rj) * d2 > REJECT_EXPONENT) {
-            return None;
-        }
-        Some(((-e).exp(), near_of(j, composed, near)))
+        let gj = if n[3] > 0.0 && rj > 0.0 { near_width(p.mu, rj) } else { 0.0 };
+        let w = pair_weight((dx * dx + dy * dy) as f32, omega * omega, gj * gj)?;
+        Some((w, near_of(j, composed, near)))
     };
     // The centre always passes (d = 0), so the window has a weight.
     let [f0, f1, f2, alpha] = gather_taps(x, y, width, height, (radius, radius), near, tap).unwrap_or(near[i]);
