@@ -1297,31 +1297,31 @@ mod tests {
         let px = 640 * 480u64;
         // From `wedge graph pipelines/shadows.ron` (SoftShadows on the shared sampler, analytic
         // irradiance): 17 slots = 5 vec4 (16 B) + 4 vec3 (12 B) + 6 scalar (4 B) + 2 PathRecord
-        // (104 words, 416 B) = 984 B/px; the largest pass output is one record (416 B/px); sinks
-        // filter_width, rays_per_pixel (4 B) + radiance, unfiltered (12 B) = 32 B/px; all 23 buffers
-        // unpooled (11 vec4, 4 vec3, 6 scalar, 2 records) = 1080 B/px; the widest pass binds two
-        // records and two u32 counts (sampler.adaptive) = 840 B/px.
+        // (109 words, 436 B, the near layer's 5 included) = 1024 B/px; the largest pass output is
+        // one record (436 B/px); sinks filter_width, rays_per_pixel (4 B) + radiance, unfiltered
+        // (12 B) = 32 B/px; all 23 buffers unpooled (11 vec4, 4 vec3, 6 scalar, 2 records) = 1120
+        // B/px; the widest pass binds two records and two u32 counts (sampler.adaptive) = 880 B/px.
         let b = s.schedule.buffer_bytes(640, 480);
         assert_eq!(
             b,
             BufferBytes {
-                pool: 984 * px,
-                pass_outputs: 416 * px,
+                pool: 1024 * px,
+                pass_outputs: 436 * px,
                 sinks: 32 * px,
-                unpooled: 1080 * px,
-                pass_bindings: 840 * px,
+                unpooled: 1120 * px,
+                pass_bindings: 880 * px,
                 history: 0
             }
         );
-        assert_eq!(s.schedule.peak_bytes(640, 480), 1432 * px);
-        assert_eq!(s.schedule.peak_bytes(640, 480), 439_910_400);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 1492 * px);
+        assert_eq!(s.schedule.peak_bytes(640, 480), 458_342_400);
         let cpu = s.memory_estimate(RunMode::Cpu);
-        assert_eq!(cpu.buffers, 1432 * px);
+        assert_eq!(cpu.buffers, 1492 * px);
         assert_eq!(cpu.images, 15 * px);
         assert_eq!(cpu.scene, scene_bytes(&s.scene));
         assert!(cpu.scene > 7660 * 32, "grids has 7660 triangles: {}", cpu.scene);
         assert_eq!(s.memory_estimate(RunMode::Gpu).scene, 2 * cpu.scene);
-        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (1080 + 416 + 840) * px);
+        assert_eq!(s.memory_estimate(RunMode::Parity).buffers, (1120 + 436 + 880) * px);
     }
 
     /// A sequence holds one frame's run, the previous run (sinks + history) and the frame being
