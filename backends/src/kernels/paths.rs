@@ -1261,6 +1261,37 @@ fn resolve_output(k: usize, r: &PathRecord, cam: &Camera, pixel_angle: f32, tan_
     }
 }
 
+/// A resolve kernel's bindings: the record, then each of `outputs`, optional.
+fn resolve_bindings(outputs: &[(&'static str, Format)]) -> Vec<Binding> {
+    let mut b = vec![Binding::read("record", Format::Struct(&PATH_RECORD))];
+    b.extend(outputs.iter().map(|(n, f)| Binding::write_opt(n, *f)));
+    b
+}
+
+/// A resolve kernel's CPU run: each bound one of `outputs`, `value(k, record)` per pixel (a Vec3
+/// output takes the first three components). One output at a time, so a pass computes and stores
+/// only what it binds.
+fn put_resolved(
+    ctx: &mut KernelCtx<'_>,
+    outputs: &[(&'static str, Format)],
+    value: impl Fn(usize, &PathRecord) -> [f32; 4] + Sync,
+) -> Result<(), BackendError> {
+    let records = ctx.read::<PathRecord>("record")?;
+    let width = ctx.width;
+    for (k, (name, format)) in outputs.iter().enumerate() {
+        if !ctx.is_bound(name) {
+            continue;
+        }
+        let values = ctx.map_pixels(false, |x, y| value(k, &records[(y * width + x) as usize]));
+        if *format == Format::Vec3 {
+            ctx.put(name, values.into_iter().map(|v| [v[0], v[1], v[2]]).collect::<Vec<_>>())?;
+        } else {
+            ctx.put(name, values)?;
+        }
+    }
+    Ok(())
+}
+
 /// A velocity's mean (`sum / over`, 0 where `over` is 0) and its per-axis range `max − min`.
 fn velocity_stats(sum: [f32; 2], over: f32, min: [f32; 2], max: [f32; 2]) -> [f32; 4] {
     let mean = |s: f32| if over > 0.0 { s / over } else { 0.0 };
@@ -1275,9 +1306,7 @@ impl Kernel for PathsResolve {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        let mut b = vec![Binding::read("record", Format::Struct(&PATH_RECORD))];
-        b.extend(RESOLVE_OUTPUTS.iter().map(|(n, f)| Binding::write_opt(n, *f)));
-        b
+        resolve_bindings(&RESOLVE_OUTPUTS)
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -1293,29 +1322,11 @@ impl Kernel for PathsResolve {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let records = ctx.read::<PathRecord>("record")?;
         let cam = ctx.scene.camera;
         let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
         let height = ctx.full_size().1;
         let pixel_angle = 2.0 * tan_half / height as f32;
-        let width = ctx.width;
-        for (k, (name, format)) in RESOLVE_OUTPUTS.iter().enumerate() {
-            let column = |ctx: &KernelCtx<'_>| {
-                ctx.map_pixels(false, |x, y| {
-                    resolve_output(k, &records[(y * width + x) as usize], &cam, pixel_angle, tan_half, height)
-                })
-            };
-            if !ctx.is_bound(name) {
-                continue;
-            }
-            let values = column(ctx);
-            if *format == Format::Vec3 {
-                ctx.put(name, values.into_iter().map(|v| [v[0], v[1], v[2]]).collect::<Vec<_>>())?;
-            } else {
-                ctx.put(name, values)?;
-            }
-        }
-        Ok(())
+        put_resolved(ctx, &RESOLVE_OUTPUTS, |k, r| resolve_output(k, r, &cam, pixel_angle, tan_half, height))
     }
 }
 
@@ -1347,9 +1358,7 @@ impl Kernel for PathsResolveNear {
         KernelClass::Compose
     }
     fn bindings(&self) -> Vec<Binding> {
-        let mut b = vec![Binding::read("record", Format::Struct(&PATH_RECORD))];
-        b.extend(NEAR_LAYER_OUTPUTS.iter().map(|(n, f)| Binding::write_opt(n, *f)));
-        b
+        resolve_bindings(&NEAR_LAYER_OUTPUTS)
     }
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
@@ -1358,14 +1367,6 @@ impl Kernel for PathsResolveNear {
         )
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        let records = ctx.read::<PathRecord>("record")?;
-        let width = ctx.width;
-        for (k, (name, _)) in NEAR_LAYER_OUTPUTS.iter().enumerate() {
-            if ctx.is_bound(name) {
-                let values = ctx.map_pixels(false, |x, y| resolve_near(k, &records[(y * width + x) as usize]));
-                ctx.put(name, values)?;
-            }
-        }
-        Ok(())
+        put_resolved(ctx, &NEAR_LAYER_OUTPUTS, resolve_near)
     }
 }

@@ -316,8 +316,9 @@ fn near_layer(
     let near = ctx.sampler_output(SamplerPass::Final, "near")?;
     let near_coc = ctx.sampler_output(SamplerPass::Final, "near_coc")?;
     let lens = ctx.sampler_output(SamplerPass::Final, "defocus")?;
-    let (mu, max_radius) =
-        (f.setting("mu").cloned().unwrap_or(ParamValue::Float(1.0)), ctx.param("max_radius").clone());
+    // The μ the rates and eq. 5.33's widths were computed with (`component::rate_settings`).
+    let mu = f.setting("mu").cloned().unwrap_or_else(|| ctx.param("mu").clone());
+    let max_radius = ctx.param("max_radius").clone();
     let out = ctx.buffer("layered", Format::Vec3);
     LayersIo { composed, filtered, near, near_coc, lens, out }
         .bind(ctx.pass("layers", "defocus.layers", Stage::ImageFilter))

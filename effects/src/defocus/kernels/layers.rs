@@ -3,14 +3,15 @@
 //! Where a blurred foreground lies over a sharp background, eq. 5.33's width comes from the pixel's
 //! least circle of confusion (the sharp background's, ≈ 0), so the filter stays at a pixel and the
 //! lens's variance — which lens samples the foreground blocks — stays too. The sampler splits a
-//! pixel's paths by depth (`paths.resolve`'s `near`, `near_coc`): those in front of the focal plane
-//! and blurred over more than `NEAR_LAYER_COC` pixels form the near layer, `F = Σ_near w L / Σ w`
+//! pixel's paths by depth (`paths.resolve_near`'s `near`, `near_coc`): those in front of the focal
+//! plane and blurred over more than `NEAR_LAYER_COC` pixels form the near layer, `F = Σ_near w L / Σ w`
 //! (premultiplied by its coverage `α = Σ_near w / Σ w`), `r_near` their least circle of confusion.
 //! `F` and `α` are the foreground's blurred image and coverage, band-limited by the foreground's own
 //! circle of confusion, so they take eq. 5.33's Gaussian at `Ω = μ Ω_u / r_near` (and its rejection
-//! of a neighbour outside whose own near filter the pixel lies: `filter_window::pair_weight`). The rest is `(1 − α) T`: its
-//! coverage is the foreground's (smooth: `1 − α̃`), its radiance `T = (I − F) / (1 − α)` the pixel's
-//! own far paths (a sharp background is one point for every lens sample that sees it). So a pixel
+//! of a neighbour outside whose own near filter the pixel lies: `filter_window::pair_weight`). The
+//! rest is `(1 − α) T`: its coverage is the foreground's (smooth: `1 − α̃`), its radiance
+//! `T = (I − F) / (1 − α)` the pixel's own far paths (a sharp background is one point for every
+//! lens sample that sees it). So a pixel
 //! whose paths are partly near — and whose near paths are blurred over [`LAYER_SEPARATION`] times
 //! its least circle of confusion, so the two layers are apart in depth — outputs `F̃ + (1 − α̃) T`.
 //! Every other pixel keeps eq. 5.33's value; a neighbour with only near paths lends the filter its
