@@ -1,6 +1,7 @@
 // defocus.layers — a blurred near layer composited over the rest (docs/DESIGN-NOTES.md "The near layer");
-// mirrors effects/src/defocus/kernels/layers.rs (sharpness, near_of, layered_pixel) term by term and
-// in the same order.
+// mirrors effects/src/defocus/kernels/layers.rs (near_width, LayerInputs::near_tap, layered_pixel) term by
+// term and in the same order; the CPU finds each weight once per distance (filter_window.rs
+// CentreWeights, the same bits), the shader once per tap.
 #include "common.wgsl"
 #include "filter_window.wgsl"
 
@@ -13,7 +14,7 @@ fn near_width(mu: f32, r_near: f32) -> f32 {
     return mu * OMEGA_U_MAX / r_near;
 }
 
-// (F, α) of pixel j, or (I, 1) where all its paths are near (layers.rs near_of).
+// (F, α) of pixel j, or (I, 1) where all its paths are near (layers.rs LayerInputs::near_tap).
 fn near_of(j: u32) -> vec4<f32> {
     let n = near_at(j);
     if (n.w >= FULL) {

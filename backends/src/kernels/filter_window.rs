@@ -58,8 +58,45 @@ fn within_filter(exponent: f32) -> bool {
 /// Sec. 5.8). WGSL: `pair_weight` in filter_window.wgsl (0 for a rejection).
 pub fn pair_weight(d2: f32, gi2: f32, gj2: f32) -> Option<f32> {
     let e_i = FILTER_SHARPNESS * d2 * gi2;
-    let e_j = FILTER_SHARPNESS * d2 * gj2;
-    (within_filter(e_i) && within_filter(e_j)).then(|| (-e_i).exp())
+    (within_filter(e_i) && accepts(d2, gj2)).then(|| (-e_i).exp())
+}
+
+/// Whether neighbour `j` of width² `gj2` keeps a pixel at squared distance `d2` inside its own
+/// filter (`w_j(i) ≥ 0.01`): [`pair_weight`]'s second test.
+fn accepts(d2: f32, gj2: f32) -> bool {
+    within_filter(FILTER_SHARPNESS * d2 * gj2)
+}
+
+/// One centre pixel's `w_i(j)` for every integer squared distance of its 2-D window, each computed
+/// once — a window of half-width `R` has `(R+1)(R+2)/2` distinct `dx² + dy²` up to symmetry against
+/// `(2R+1)²` taps, and `exp` is most of a 2-D tap's cost. [`CentreWeights::pair`] is [`pair_weight`]
+/// bit for bit (the same `f32` exponent, the same `exp`), so a 2-D pass that uses it keeps its bytes.
+pub struct CentreWeights {
+    /// `w_i` at `d² = index`, 0 where `i`'s truncated Gaussian rejects it (a kept weight is ≥ 0.01).
+    table: Vec<f32>,
+}
+
+impl CentreWeights {
+    /// The table of a centre of width² `gi2` over a square window of half-width `radius`.
+    pub fn new(gi2: f32, radius: i32) -> Self {
+        let r = radius.max(0) as usize;
+        let mut table = vec![0.0f32; 2 * r * r + 1];
+        for a in 0..=r {
+            for b in 0..=a {
+                let d2 = a * a + b * b;
+                let e_i = FILTER_SHARPNESS * d2 as f32 * gi2;
+                table[d2] = if within_filter(e_i) { (-e_i).exp() } else { 0.0 };
+            }
+        }
+        CentreWeights { table }
+    }
+
+    /// [`pair_weight`]`(dx² + dy², gi2, gj2)` for a tap `(dx, dy)` of the window.
+    pub fn pair(&self, (dx, dy): (i32, i32), gj2: f32) -> Option<f32> {
+        let d2 = dx * dx + dy * dy;
+        let w = self.table[d2 as usize];
+        (w > 0.0 && accepts(d2 as f32, gj2)).then_some(w)
+    }
 }
 
 /// Whether `w` is a width a pixel filters with (finite and > 0).
@@ -294,6 +331,26 @@ mod tests {
     use super::*;
     use crate::kernels::irradiance_filter::IrradianceParams;
     use crate::params::KernelParams;
+
+    /// The table is `pair_weight` bit for bit at every tap of the window, rejections included —
+    /// widths that bind the cap, that truncate inside it, zero, infinite and NaN.
+    #[test]
+    fn centre_weights_are_pair_weight_bit_for_bit() {
+        let widths = [0.0f32, 0.01, 0.033, 0.1, 0.25, 0.7, 1.0, 3.0, f32::INFINITY, f32::NAN];
+        for &gi in &widths {
+            let radius = window_radius(gi, 16);
+            let table = CentreWeights::new(gi * gi, radius);
+            for &gj in &widths {
+                for dy in -radius..=radius {
+                    for dx in -radius..=radius {
+                        let want = pair_weight((dx * dx + dy * dy) as f32, gi * gi, gj * gj);
+                        let got = table.pair((dx, dy), gj * gj);
+                        assert_eq!(want.map(f32::to_bits), got.map(f32::to_bits), "gi {gi} gj {gj} ({dx}, {dy})");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn the_blocks_declare_the_axis_the_nodes_set() {

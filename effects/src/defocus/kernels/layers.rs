@@ -21,7 +21,7 @@
 //! off by default. As μ grows the near filter shrinks to the pixel, `F̃ → F`, `α̃ → α`, and the
 //! composite is `F + (I − F) = I`: the consistent mode's limit is unchanged.
 
-use wedge_backends::kernels::filter_window::{gather_taps, pair_weight, window_radius, Axis, ScreenRadius};
+use wedge_backends::kernels::filter_window::{gather_taps, window_radius, Axis, CentreWeights, ScreenRadius};
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, WgslSource};
 
 use crate::defocus::formulas::OMEGA_U_MAX;
@@ -56,51 +56,69 @@ fn near_width(mu: f32, r_near: f32) -> f32 {
     mu * OMEGA_U_MAX / r_near
 }
 
-/// The near layer pixel `j` lends the filter: its `(F, α)`, or `(I, 1)` where all its paths are near.
-fn near_of(j: usize, composed: &[[f32; 3]], near: &[[f32; 4]]) -> [f32; 4] {
-    let n = near[j];
-    if n[3] >= FULL {
-        let c = composed[j];
-        [c[0], c[1], c[2], 1.0]
-    } else {
-        n
+/// The buffers a layers pass reads ([`LayersIo`]), by pixel index.
+struct LayerInputs<'a> {
+    composed: &'a [[f32; 3]],
+    filtered: &'a [[f32; 3]],
+    near: &'a [[f32; 4]],
+    near_coc: &'a [[f32; 4]],
+    lens: &'a [[f32; 4]],
+}
+
+/// What pixel `j` lends a neighbour's near filter, found once per pixel rather than once per tap of
+/// every window that holds it: its near width² for the rejection — 0 where it has no near path (its
+/// coverage 0, a sample of the layer's edge, rejects nobody) — and its `(F, α)`, or `(I, 1)` where
+/// all its paths are near.
+#[derive(Clone, Copy, Debug)]
+struct NearTap {
+    g2: f32,
+    value: [f32; 4],
+}
+
+impl LayerInputs<'_> {
+    /// Whether pixel `i` composites its layers: partly near, its near paths blurred over
+    /// [`LAYER_SEPARATION`] times its least circle of confusion.
+    fn mixed(&self, i: usize) -> bool {
+        let (a, r) = (self.near[i][3], self.near_coc[i][0]);
+        a > 0.0 && a < FULL && r > LAYER_SEPARATION * self.lens[i][0]
+    }
+
+    fn near_tap(&self, j: usize, mu: f32) -> NearTap {
+        let (n, rj) = (self.near[j], self.near_coc[j][0]);
+        let gj = if n[3] > 0.0 && rj > 0.0 { near_width(mu, rj) } else { 0.0 };
+        let value = if n[3] >= FULL {
+            let c = self.composed[j];
+            [c[0], c[1], c[2], 1.0]
+        } else {
+            n
+        };
+        NearTap { g2: gj * gj, value }
     }
 }
 
-/// The composite at pixel `(x, y)` (module doc).
-#[allow(clippy::too_many_arguments)]
+/// The composite at pixel `(x, y)` (module doc); `taps[j]` is [`LayerInputs::near_tap`]`(j)`.
 fn layered_pixel(
     x: i32,
     y: i32,
-    width: i32,
-    height: i32,
+    (width, height): (i32, i32),
     p: &LayersParams,
-    composed: &[[f32; 3]],
-    filtered: &[[f32; 3]],
-    near: &[[f32; 4]],
-    near_coc: &[[f32; 4]],
-    lens: &[[f32; 4]],
+    frame: &LayerInputs,
+    taps: &[NearTap],
 ) -> [f32; 3] {
     let i = (y * width + x) as usize;
-    let (a, r) = (near[i][3], near_coc[i][0]);
-    if !(a > 0.0 && a < FULL && r > LAYER_SEPARATION * lens[i][0]) {
-        return filtered[i];
+    if !frame.mixed(i) {
+        return frame.filtered[i];
     }
+    let (own, r) = (frame.near[i], frame.near_coc[i][0]);
     let omega = near_width(p.mu, r);
     let radius = window_radius(omega, p.max_radius.get());
-    let tap = |j: usize, n: &[f32; 4], (dx, dy): (i32, i32)| {
-        // A neighbour with near paths rejects the pixel outside its own near filter; one without
-        // (its coverage 0, a sample of the layer's edge) does not.
-        let rj = near_coc[j][0];
-        let gj = if n[3] > 0.0 && rj > 0.0 { near_width(p.mu, rj) } else { 0.0 };
-        let w = pair_weight((dx * dx + dy * dy) as f32, omega * omega, gj * gj)?;
-        Some((w, near_of(j, composed, near)))
-    };
+    let weights = CentreWeights::new(omega * omega, radius);
+    let tap = |_, t: &NearTap, d: (i32, i32)| Some((weights.pair(d, t.g2)?, t.value));
     // The centre always passes (d = 0), so the window has a weight.
-    let [f0, f1, f2, alpha] = gather_taps(x, y, width, height, (radius, radius), near, tap).unwrap_or(near[i]);
+    let [f0, f1, f2, alpha] = gather_taps(x, y, width, height, (radius, radius), taps, tap).unwrap_or(own);
     let f = [f0, f1, f2];
-    let cover = 1.0 - a;
-    let far = [0, 1, 2].map(|c| (composed[i][c] - near[i][c]) / cover);
+    let cover = 1.0 - own[3];
+    let far = [0, 1, 2].map(|c| (frame.composed[i][c] - own[c]) / cover);
     [0, 1, 2].map(|c| f[c] + (1.0 - alpha) * far[c])
 }
 
@@ -123,10 +141,15 @@ impl Kernel for Layers {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let LayersData { composed, filtered, near, near_coc, lens, out } = LayersIo::read(ctx)?;
         let p = LayersParams::read(ctx)?;
-        let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let v = ctx.map_pixels(false, |x, y| {
-            layered_pixel(x as i32, y as i32, w, h, &p, composed, filtered, near, near_coc, lens)
-        });
+        let frame = LayerInputs { composed, filtered, near, near_coc, lens };
+        if !(0..near.len()).any(|i| frame.mixed(i)) {
+            // No pixel composites (an in-focus frame, a foreground-free view): eq. 5.33's image.
+            return out.put(ctx, filtered.to_vec());
+        }
+        let w = ctx.width as usize;
+        let taps = ctx.map_pixels(false, |x, y| frame.near_tap(y as usize * w + x as usize, p.mu));
+        let size = (ctx.width as i32, ctx.height as i32);
+        let v = ctx.map_pixels(false, |x, y| layered_pixel(x as i32, y as i32, size, &p, &frame, &taps));
         out.put(ctx, v)
     }
 }
@@ -168,13 +191,20 @@ mod tests {
         (composed, near, coc, truth)
     }
 
+    /// `defocus.layers` over a frame as `run_cpu` runs it, row by row.
+    fn layers(p: &LayersParams, frame: &LayerInputs, (w, h): (i32, i32)) -> Vec<[f32; 3]> {
+        let taps: Vec<NearTap> = (0..frame.near.len()).map(|j| frame.near_tap(j, p.mu)).collect();
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| layered_pixel(x, y, (w, h), p, frame, &taps))
+            .collect()
+    }
+
     fn run(mu: f32, composed: &[[f32; 3]], near: &[[f32; 4]], coc: &[[f32; 4]], w: i32, h: i32) -> Vec<[f32; 3]> {
         let p = LayersParams { mu, max_radius: ScreenRadius::clamped(16) };
         let lens = vec![[0.0; 4]; near.len()];
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| layered_pixel(x, y, w, h, &p, composed, composed, near, coc, &lens))
-            .collect()
+        let frame = LayerInputs { composed, filtered: composed, near, near_coc: coc, lens: &lens };
+        layers(&p, &frame, (w, h))
     }
 
     fn mse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
@@ -216,13 +246,13 @@ mod tests {
         let coc = vec![[0.0; 4], [8.0, 0.0, 0.0, 0.0], [0.0; 4], [8.0, 0.0, 0.0, 0.0]];
         let p = LayersParams { mu: 1.0, max_radius: ScreenRadius::clamped(16) };
         let lens = vec![[0.0; 4]; 4];
-        for x in 0..w {
-            assert_eq!(layered_pixel(x, 0, w, h, &p, &composed, &filtered, &near, &coc, &lens), [0.25; 3]);
-        }
+        let frame = LayerInputs { composed: &composed, filtered: &filtered, near: &near, near_coc: &coc, lens: &lens };
+        assert_eq!(layers(&p, &frame, (w, h)), vec![[0.25; 3]; 4]);
         // A mixed pixel whose far paths are blurred too (r_min 3 px against r_near 8) is one surface
         // crossing the split, not a foreground over a background.
         let near = vec![[0.25, 0.25, 0.25, 0.5]; 4];
         let lens = vec![[3.0, 8.0, 0.0, 1.0]; 4];
-        assert_eq!(layered_pixel(1, 0, w, h, &p, &composed, &filtered, &near, &coc, &lens), [0.25; 3]);
+        let frame = LayerInputs { composed: &composed, filtered: &filtered, near: &near, near_coc: &coc, lens: &lens };
+        assert_eq!(layers(&p, &frame, (w, h))[1], [0.25; 3]);
     }
 }
