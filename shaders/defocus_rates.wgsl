@@ -43,10 +43,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
         params.max_p, params.max_s, params.max_s_shadow, params.environment_per_primary, params.width_pixel_limit,
     );
-    omega_defocus_put(i, r.omega_defocus);
+    // The node's screen_scale on eq. 5.33's width (kernels.rs Rates::run_cpu; 1 = the thesis).
+    let omega_defocus = params.screen_scale * r.omega_defocus;
+    omega_defocus_put(i, omega_defocus);
     pixel_length_put(i, r.pixel_length);
     n_primary_put(i, r.n_primary);
-    sigma_defocus_put(i, defocus_sigma_px(r.omega_defocus));
+    sigma_defocus_put(i, defocus_sigma_px(omega_defocus));
     // A component's pass (params.component: 0 direct, 1 indirect, 2 environment; kernels.rs
     // RateComponent): its width, and the count the pixel takes — factored where its (median-filtered)
     // flag is set, else combined.

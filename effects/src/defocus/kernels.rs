@@ -58,6 +58,8 @@ wedge_backends::kernel_params! {
         /// Cap on shadow rays per primary ray (direct light); absent: `max_per_primary`.
         max_shadow_per_primary: Option<i32>,
         width_pixel_limit: Option<bool>,
+        /// The Defocus node's `screen_scale`: eq. 5.33's width times it; absent: 1 (the thesis).
+        screen_scale: Option<f32>,
         component: Option<RateComponent>,
     }
 }
@@ -99,6 +101,12 @@ pub fn scaled_cap(cap: i32, mu: f32, mode: Mode) -> u32 {
         Mode::Consistent => cap as f64 * f64::from(mu.max(1.0)).powi(2),
     };
     scaled.min(MAX_COUNT_CAP as f64) as u32
+}
+
+/// The factor on eq. 5.33's screen-space width (the Defocus node's `screen_scale`), checked: a
+/// finite number > 0, 1 where the pass leaves it out.
+fn screen_scale(ctx: &KernelCtx<'_>) -> Result<f32, BackendError> {
+    RateOptions::read(ctx)?.screen_scale.map_or(Ok(1.0), |v| positive(ctx, "screen_scale", v, false))
 }
 
 /// The pass's rate constants from its parameter block. `pixel_scale` (m) defaults to the scene
@@ -333,6 +341,7 @@ impl Kernel for Rates {
                     .u32("max_s_shadow", formulas::strata_cap(k.max_shadow_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary)
                     .u32("width_pixel_limit", u32::from(k.width_pixel_limit))
+                    .f32("screen_scale", screen_scale(ctx)?)
                     .u32("component", component_uniform(ctx)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
@@ -347,6 +356,7 @@ impl Kernel for Rates {
         let io = RatesIo::read(ctx)?;
         let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
         let chosen = component.map(RateComponent::select);
+        let scale = screen_scale(ctx)?;
         // Per pixel only what the outputs need, not the whole `PixelRates` re-read per column.
         let rows: Vec<Row> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
@@ -365,7 +375,13 @@ impl Kernel for Rates {
             let (omega, n) = chosen.map_or((0.0, 0), |(omega, factored, combined)| {
                 (omega(&r), if factors { factored(&r) } else { combined(&r) })
             });
-            Row { omega_defocus: r.omega_defocus, pixel_length: r.pixel_length, n_primary: r.n_primary, omega, n }
+            Row {
+                omega_defocus: scale * r.omega_defocus,
+                pixel_length: r.pixel_length,
+                n_primary: r.n_primary,
+                omega,
+                n,
+            }
         });
         let column = |f: &dyn Fn(&Row) -> f32| rows.iter().map(f).collect::<Vec<f32>>();
         io.omega_defocus.put_with(ctx, || column(&|r| r.omega_defocus))?;

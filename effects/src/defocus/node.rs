@@ -41,7 +41,8 @@
 //! eq. 5.29 as printed — above μ = 1 its clamped widths narrow the filters while the counts stop
 //! growing, so the error rises with μ: DESIGN-NOTES "μ above 1: the clamp of eq. 5.29"), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
-//! `separable`, `motion_filter`, `texture` (`weighted`, the default: a factored pixel's texture is
+//! `separable`, `motion_filter`, `width_pixel_limit`, `screen_scale` (a factor on eq. 5.33's width,
+//! the rates pass's), `texture` (`weighted`, the default: a factored pixel's texture is
 //! `L / Ē`, the paths' `k` weighted by the irradiance each brought — `formulas::weighted_texture`;
 //! `mean`: the paths' mean `k̄`, eq. 5.32 as printed), and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
 //! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
@@ -177,6 +178,7 @@ impl NodeKind for Defocus {
                 "where the scene moves over the camera's shutter: sample it too (each path its own time; counts take the time factor, docs/DEFOCUS-MOTION.md), or freeze the scene at the shutter's centre (Ch. 5 alone)",
             ),
             ParamDecl::boolean("width_pixel_limit", false, "cap the screen-space filter's width at the pixel limit Ω_pix^max as eq. 5.7 does (the thesis: every in-focus pixel gets a σ = 0.35 px blur, a bias at sharp edges and highlights); false: the lens term alone, μ Ω_u^max / r_min, so in-focus pixels stay sharp. The counts are the same either way (DESIGN-NOTES \"The filters against their own rays\")"),
+            ParamDecl::positive("screen_scale", 1.0, 1e3, "factor on eq. 5.33's screen-space bandwidth, μ Ω_u^max / r_min (not on the counts, the irradiance filters or the near layer's): below 1 a wider lens filter — the variance of a blurred texture where the first pass's paths already exceed eq. 5.24's count — at the cost of bias at bright out-of-focus highlights; 1 = the thesis. Still ∝ μ, so consistent as μ grows (docs/DESIGN-NOTES.md \"The screen filter's scale\")"),
             ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
@@ -203,6 +205,7 @@ impl NodeKind for Defocus {
             "initial_paths",
             "motion_filter",
             "width_pixel_limit",
+            "screen_scale",
             "texture",
         ]
         .into_iter()
@@ -268,8 +271,10 @@ impl NodeKind for Defocus {
         for (n, v) in rate_settings(f) {
             b = b.param(n, v);
         }
-        if let Some(limit) = f.setting("width_pixel_limit") {
-            b = b.param("width_pixel_limit", limit.clone());
+        for name in ["width_pixel_limit", "screen_scale"] {
+            if let Some(v) = f.setting(name) {
+                b = b.param(name, v.clone());
+            }
         }
         b.finish();
         ctx.sampler_counts(CountRequest {
