@@ -314,29 +314,46 @@ fn the_irradiance_weighted_texture_keeps_blurred_highlights_and_converges() {
     assert!(weighted[1].0 < 0.9 * weighted[0].0 && weighted[2].0 < 0.9 * weighted[1].0, "{weighted:?}");
 }
 
+/// `pipelines/defocus.ron` on defocus-suite scene `scene` through the lens (aperture radius, focus
+/// distance) at `size`, with `defocus.<option>` set: a 512-path stratified reference (seed 99) with
+/// the option at `reference_value`, and what a run at (μ or the file's, option value) gives against
+/// it — (RMSE, total rays).
+fn option_against_reference(
+    scene: &str,
+    (aperture, focus): (f64, f64),
+    (w, h): (u32, u32),
+    option: &'static str,
+    reference_value: ParamValue,
+) -> impl Fn(Option<f64>, ParamValue) -> (f64, u64) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
+    let scene = format!("builtin:{scene}");
+    let ov = move |mu: Option<f64>, value: ParamValue| {
+        let sets = [
+            ("defocus", "aperture_radius", ParamValue::Float(aperture)),
+            ("defocus", "focus_distance", ParamValue::Float(focus)),
+            ("defocus", option, value),
+        ];
+        Overrides { scene: Some(scene.clone()), ..sized(w, h, mu, &sets) }
+    };
+    let seeded = Overrides { seed: Some(99), ..ov(None, reference_value) };
+    let s = Session::reference(Some(&path), 512, "stratified", &seeded).unwrap();
+    let reference = color(&s, &run(&s));
+    move |mu, value| {
+        let s = Session::open(Some(&path), &ov(mu, value)).unwrap();
+        let r = run(&s);
+        (rmse(&color(&s, &r), &reference), r.rays.total_rays())
+    }
+}
+
 /// The near layer (`layers: true`, `effects/src/defocus/kernels/layers.rs`) on the scene it is for:
 /// posts and a lattice far out of focus over a sharp checker wall (`dof_foreground` through its suite
 /// lens). It takes the same rays, lowers the error at the pipeline's μ, and the error still falls as
 /// μ grows (the composite tends to the pixel's own estimate).
 #[test]
 fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
-    let lens = [("aperture_radius", ParamValue::Float(0.04)), ("focus_distance", ParamValue::Float(4.6))];
-    let ov = |mu: Option<f64>, layers: bool| {
-        let mut sets: Vec<(&str, &str, ParamValue)> = lens.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
-        sets.push(("defocus", "layers", ParamValue::Bool(layers)));
-        Overrides { scene: Some("builtin:dof_foreground".into()), ..sized(128, 96, mu, &sets) }
-    };
-    let s =
-        Session::reference(Some(&path), 512, "stratified", &Overrides { seed: Some(99), ..ov(None, false) }).unwrap();
-    let reference = color(&s, &run(&s));
-    let at = |mu: Option<f64>, layers: bool| {
-        let s = Session::open(Some(&path), &ov(mu, layers)).unwrap();
-        let r = run(&s);
-        (rmse(&color(&s, &r), &reference), r.rays.total_rays())
-    };
-    let (off, on) = (at(None, false), at(None, true));
-    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), true)).collect();
+    let at = option_against_reference("dof_foreground", (0.04, 4.6), (128, 96), "layers", ParamValue::Bool(false));
+    let (off, on) = (at(None, ParamValue::Bool(false)), at(None, ParamValue::Bool(true)));
+    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Bool(true))).collect();
     eprintln!("(RMSE, rays): pipeline's mu without layers {off:?}, with {on:?}; with layers at mu 1, 2, 4 {series:?}");
     assert_eq!(off.1, on.1, "the layers do not change the counts");
     assert!(on.0 < 0.92 * off.0, "{on:?} vs {off:?}");
@@ -351,22 +368,9 @@ fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
 /// a lower error, and the error still falls as μ grows (the width stays ∝ μ).
 #[test]
 fn a_wider_screen_filter_lowers_a_blurred_textures_error_and_converges() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
-    let lens = [("aperture_radius", ParamValue::Float(0.16)), ("focus_distance", ParamValue::Float(3.0))];
-    let ov = |mu: Option<f64>, scale: f64| {
-        let mut sets: Vec<(&str, &str, ParamValue)> = lens.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
-        sets.push(("defocus", "screen_scale", ParamValue::Float(scale)));
-        Overrides { scene: Some("builtin:dof_receding".into()), ..sized(160, 120, mu, &sets) }
-    };
-    let s = Session::reference(Some(&path), 512, "stratified", &Overrides { seed: Some(99), ..ov(None, 1.0) }).unwrap();
-    let reference = color(&s, &run(&s));
-    let at = |mu: Option<f64>, scale: f64| {
-        let s = Session::open(Some(&path), &ov(mu, scale)).unwrap();
-        let r = run(&s);
-        (rmse(&color(&s, &r), &reference), r.rays.total_rays())
-    };
-    let (thesis, wider) = (at(None, 1.0), at(None, 0.7));
-    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), 0.7)).collect();
+    let at = option_against_reference("dof_receding", (0.16, 3.0), (160, 120), "screen_scale", ParamValue::Float(1.0));
+    let (thesis, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
+    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Float(0.7))).collect();
     eprintln!("(RMSE, rays): pipeline's mu at scale 1 {thesis:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
     assert_eq!(thesis.1, wider.1, "the scale does not change the counts");
     // Measured: 3.03e-2 -> 2.42e-2 at 256,579 rays; then 2.26e-2, 1.28e-2 at mu 2, 4.
