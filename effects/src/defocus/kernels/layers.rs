@@ -83,6 +83,7 @@ impl LayerInputs<'_> {
         a > 0.0 && a < FULL && r > LAYER_SEPARATION * self.lens[i][0]
     }
 
+    /// Pixel `j`'s [`NearTap`] at the node's μ.
     fn near_tap(&self, j: usize, mu: f32) -> NearTap {
         let (n, rj) = (self.near[j], self.near_coc[j][0]);
         let gj = if n[3] > 0.0 && rj > 0.0 { near_width(mu, rj) } else { 0.0 };
