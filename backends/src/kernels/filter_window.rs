@@ -47,6 +47,12 @@ pub fn window_radius(omega: f32, cap: i32) -> i32 {
     }
 }
 
+/// The weight exponent `16 d² g²` of a squared distance `d2` under a width² `g2` — the one
+/// expression [`pair_weight`], [`accepts`] and [`CentreWeights`] share, so their bits agree.
+fn exponent(d2: f32, g2: f32) -> f32 {
+    FILTER_SHARPNESS * d2 * g2
+}
+
 /// Whether a weight exponent `16 d² (Ω/ℓ)²` keeps the weight at or above 0.01 (false for NaN).
 fn within_filter(exponent: f32) -> bool {
     exponent <= REJECT_EXPONENT
@@ -57,14 +63,14 @@ fn within_filter(exponent: f32) -> bool {
 /// `i`'s truncated Gaussian (`w_i(j) < 0.01`) or `i` outside `j`'s filter (`w_j(i) < 0.01`, thesis
 /// Sec. 5.8). WGSL: `pair_weight` in filter_window.wgsl (0 for a rejection).
 pub fn pair_weight(d2: f32, gi2: f32, gj2: f32) -> Option<f32> {
-    let e_i = FILTER_SHARPNESS * d2 * gi2;
+    let e_i = exponent(d2, gi2);
     (within_filter(e_i) && accepts(d2, gj2)).then(|| (-e_i).exp())
 }
 
 /// Whether neighbour `j` of width² `gj2` keeps a pixel at squared distance `d2` inside its own
 /// filter (`w_j(i) ≥ 0.01`): [`pair_weight`]'s second test.
 fn accepts(d2: f32, gj2: f32) -> bool {
-    within_filter(FILTER_SHARPNESS * d2 * gj2)
+    within_filter(exponent(d2, gj2))
 }
 
 /// One centre pixel's `w_i(j)` for every integer squared distance of its 2-D window, each computed
@@ -84,7 +90,7 @@ impl CentreWeights {
         for a in 0..=r {
             for b in 0..=a {
                 let d2 = a * a + b * b;
-                let e_i = FILTER_SHARPNESS * d2 as f32 * gi2;
+                let e_i = exponent(d2 as f32, gi2);
                 table[d2] = if within_filter(e_i) { (-e_i).exp() } else { 0.0 };
             }
         }
