@@ -43,8 +43,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
         params.max_p, params.max_s, params.max_s_shadow, params.environment_per_primary, params.width_pixel_limit,
     );
-    // The node's screen_scale on eq. 5.33's width (kernels.rs Rates::run_cpu; 1 = the thesis).
-    let omega_defocus = params.screen_scale * r.omega_defocus;
+    // The node's screen_scale on eq. 5.33's width, screen_scale_factored where the flag is set
+    // (kernels.rs Rates::run_cpu; 1 = the thesis).
+    let flag_set = flag_bound() && flag_at(i) != 0u;
+    let omega_defocus = select(params.screen_scale, params.screen_scale_factored, flag_set) * r.omega_defocus;
     omega_defocus_put(i, omega_defocus);
     pixel_length_put(i, r.pixel_length);
     n_primary_put(i, r.n_primary);
@@ -65,6 +67,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         n_c = r.n_environment_combined;
     }
     omega_put(i, omega);
-    n_put(i, select(n_c, n_f, flag_bound() && flag_at(i) != 0u));
+    n_put(i, select(n_c, n_f, flag_set));
     sigma_put(i, defocus_sigma_px(omega));
 }

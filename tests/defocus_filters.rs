@@ -158,6 +158,13 @@ fn vec4_of(b: &BufferData) -> &[[f32; 4]] {
     }
 }
 
+fn f32_of(b: &BufferData) -> &[f32] {
+    match b {
+        BufferData::F32(v) => v,
+        other => panic!("expected f32, got {}", other.format()),
+    }
+}
+
 fn u32_of(b: &BufferData) -> &[u32] {
     match b {
         BufferData::U32(v) => v,
@@ -318,6 +325,11 @@ fn parity_defocus_rates_and_flags() {
             bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &p, &stats));
         }
     }
+    // The screen filter's two scales: `screen_scale_factored` where the flag is set.
+    let mut scaled = rate_params(1.0, "consistent", 64, 64);
+    scaled.insert("screen_scale".into(), float(0.85));
+    scaled.insert("screen_scale_factored".into(), float(0.7));
+    bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &scaled, &stats));
     // Only the lens statistics bound: no occluders or reflectors anywhere.
     let lens_only: Buffers = BTreeMap::from([("lens", stats["lens"].clone())]);
     bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &rate_params(1.5, "consistent", 64, 64), &lens_only));
@@ -342,6 +354,74 @@ fn parity_defocus_rates_and_flags() {
     let ones = u32_of(&out["flag"]).iter().filter(|f| **f == 1).count();
     assert!(ones > N / 4 && ones < 3 * N / 4, "both sides of the threshold exercised: {ones} of {N}");
     assert_eq!(u32_of(&out["flag"])[0], 0, "NaN radiance is not separable");
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// `defocus.rates`' eq. 5.33 width on the CPU: `screen_scale_factored` times the thesis's where the
+/// flag is set, `screen_scale` times it elsewhere; without `screen_scale_factored`, `screen_scale`
+/// everywhere.
+#[test]
+fn the_screen_filter_takes_the_factored_scale_where_the_flag_is_set() {
+    let scene = scene();
+    let mut rng = Rng(21);
+    let stats = with_flag(random_stats(&mut rng), &mut rng);
+    let omega = |extra: &[(&str, f64)]| {
+        let mut p = rate_params(1.0, "consistent", 64, 64);
+        for (n, v) in extra {
+            p.insert((*n).into(), float(*v));
+        }
+        let (out, _) = run_cpu(&scene, "defocus.rates", W, H, &p, &stats);
+        f32_of(&out["omega_defocus"]).to_vec()
+    };
+    let thesis = omega(&[]);
+    let both = omega(&[("screen_scale", 0.85), ("screen_scale_factored", 0.7)]);
+    let one = omega(&[("screen_scale", 0.85)]);
+    let flag = u32_of(&stats["flag"]);
+    let (mut set, mut clear) = (0, 0);
+    for i in 0..N {
+        if !thesis[i].is_finite() {
+            continue;
+        }
+        let factor = if flag[i] != 0 { 0.7 } else { 0.85 };
+        assert_eq!(both[i].to_bits(), (factor * thesis[i]).to_bits(), "pixel {i}");
+        assert_eq!(one[i].to_bits(), (0.85 * thesis[i]).to_bits(), "pixel {i}");
+        if flag[i] != 0 {
+            set += 1;
+        } else {
+            clear += 1;
+        }
+    }
+    assert!(set > N / 4 && clear > N / 4, "both kinds of pixel exercised: {set} set, {clear} clear");
+}
+
+/// `defocus.all_factored` on both backends: random flags, a previous result, emission that is 0,
+/// -0, positive or NaN.
+#[test]
+fn parity_defocus_all_factored() {
+    let Some(mut gpu) = gpu_or_skip("parity_defocus_all_factored") else { return };
+    let scene = scene();
+    let mut rng = Rng(22);
+    let mut flags =
+        || BufferData::U32((0..N).map(|_| u32::from(rng.chance(0.7)) * (1 + rng.next() % 3) as u32).collect());
+    let (flag, previous) = (flags(), flags());
+    let emission: Vec<[f32; 3]> = (0..N)
+        .map(|i| match i % 5 {
+            0 => [0.0, 0.0, 0.0],
+            1 => [-0.0, 0.0, -0.0],
+            2 => [0.0, 0.3, 0.0],
+            3 => [f32::NAN, 0.0, 0.0],
+            _ => [0.0; 3],
+        })
+        .collect();
+    let mut bad = Vec::new();
+    let first: Buffers = BTreeMap::from([("flag", flag.clone()), ("emission", vec3s(emission))]);
+    let later: Buffers = BTreeMap::from([("flag", flag), ("previous", previous)]);
+    for inputs in [&first, &later] {
+        bad.extend(parity(&mut gpu, &scene, "defocus.all_factored", W, H, &Params::new(), inputs));
+    }
+    let (out, _) = run_cpu(&scene, "defocus.all_factored", W, H, &Params::new(), &first);
+    let ones = u32_of(&out["out"]).iter().filter(|v| **v == 1).count();
+    assert!(ones > N / 4 && ones < 3 * N / 4, "both results exercised: {ones} of {N}");
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 

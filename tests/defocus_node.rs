@@ -315,24 +315,26 @@ fn the_irradiance_weighted_texture_keeps_blurred_highlights_and_converges() {
 }
 
 /// `pipelines/defocus.ron` on defocus-suite scene `scene` through the lens (aperture radius, focus
-/// distance) at `size`, with `defocus.<option>` set: a 512-path stratified reference (seed 99) with
-/// the option at `reference_value`, and what a run at (μ or the file's, option value) gives against
-/// it — (RMSE, total rays).
+/// distance) at `size`, with the Defocus parameters `fixed` and `defocus.<option>` set: a 512-path
+/// stratified reference (seed 99) with the option at `reference_value`, and what a run at (μ or the
+/// file's, option value) gives against it — (RMSE, total rays).
 fn option_against_reference(
     scene: &str,
     (aperture, focus): (f64, f64),
     (w, h): (u32, u32),
-    option: &'static str,
-    reference_value: ParamValue,
+    fixed: &[(&'static str, ParamValue)],
+    (option, reference_value): (&'static str, ParamValue),
 ) -> impl Fn(Option<f64>, ParamValue) -> (f64, u64) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
     let scene = format!("builtin:{scene}");
+    let fixed: Vec<_> = fixed.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
     let ov = move |mu: Option<f64>, value: ParamValue| {
-        let sets = [
+        let mut sets = vec![
             ("defocus", "aperture_radius", ParamValue::Float(aperture)),
             ("defocus", "focus_distance", ParamValue::Float(focus)),
-            ("defocus", option, value),
         ];
+        sets.extend(fixed.iter().cloned());
+        sets.push(("defocus", option, value));
         Overrides { scene: Some(scene.clone()), ..sized(w, h, mu, &sets) }
     };
     let seeded = Overrides { seed: Some(99), ..ov(None, reference_value) };
@@ -351,7 +353,8 @@ fn option_against_reference(
 /// μ grows (the composite tends to the pixel's own estimate).
 #[test]
 fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
-    let at = option_against_reference("dof_foreground", (0.04, 4.6), (128, 96), "layers", ParamValue::Bool(false));
+    let at =
+        option_against_reference("dof_foreground", (0.04, 4.6), (128, 96), &[], ("layers", ParamValue::Bool(false)));
     let (off, on) = (at(None, ParamValue::Bool(false)), at(None, ParamValue::Bool(true)));
     let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Bool(true))).collect();
     eprintln!("(RMSE, rays): pipeline's mu without layers {off:?}, with {on:?}; with layers at mu 1, 2, 4 {series:?}");
@@ -368,7 +371,13 @@ fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
 /// a lower error, and the error still falls as μ grows (the width stays ∝ μ).
 #[test]
 fn a_wider_screen_filter_lowers_a_blurred_textures_error_and_converges() {
-    let at = option_against_reference("dof_receding", (0.16, 3.0), (160, 120), "screen_scale", ParamValue::Float(1.0));
+    let at = option_against_reference(
+        "dof_receding",
+        (0.16, 3.0),
+        (160, 120),
+        &[],
+        ("screen_scale", ParamValue::Float(1.0)),
+    );
     let (thesis, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
     let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Float(0.7))).collect();
     eprintln!("(RMSE, rays): pipeline's mu at scale 1 {thesis:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
@@ -376,6 +385,54 @@ fn a_wider_screen_filter_lowers_a_blurred_textures_error_and_converges() {
     // Measured: 3.03e-2 -> 2.42e-2 at 256,579 rays; then 2.26e-2, 1.28e-2 at mu 2, 4.
     assert!(wider.0 < 0.85 * thesis.0, "{wider:?} vs {thesis:?}");
     assert!(series[1].0 < series[0].0 && series[2].0 < 0.6 * series[0].0, "{series:?}");
+}
+
+/// `screen_scale_factored` below 1 (a wider eq. 5.33 filter where the pixel's whole radiance
+/// factors: `effects/src/defocus/kernels/all_factored.rs`, `Rates`) on the scene whose error it is
+/// for: a receding diffuse checker floor blurred on both sides of the focal plane (`dof_receding`,
+/// its suite focus), where the first pass's paths exceed eq. 5.24's count and the filter's width
+/// is what averages more lens samples. At 320×240 with 2× the suite's aperture, so the circles of
+/// confusion in pixels are those of the suite's 640×480 (at 160×120 more of its pixels straddle a
+/// checker edge and do not factor). The same rays, a lower error, and the error falls to a fraction
+/// as μ grows (the width stays ∝ μ); `screen_scale` 1 elsewhere.
+#[test]
+fn a_wider_screen_filter_on_factored_pixels_lowers_a_blurred_textures_error_and_converges() {
+    let at = option_against_reference(
+        "dof_receding",
+        (0.08, 3.0),
+        (320, 240),
+        &[("screen_scale", ParamValue::Float(1.0))],
+        ("screen_scale_factored", ParamValue::Float(1.0)),
+    );
+    let (thesis, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
+    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Float(0.7))).collect();
+    eprintln!("(RMSE, rays): pipeline's mu at scale 1 {thesis:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
+    assert_eq!(thesis.1, wider.1, "the scale does not change the counts");
+    // Measured: 2.79e-2 -> 2.39e-2 at 943,157 rays; then 2.48e-2 at mu 2 (the filters halve, the
+    // counts grow 2.6x: the variance the wider filter removed comes back first) and 1.28e-2 at 4.
+    assert!(wider.0 < 0.9 * thesis.0, "{wider:?} vs {thesis:?}");
+    assert!(series[1].0 < 1.1 * series[0].0 && series[2].0 < 0.6 * series[0].0, "{series:?}");
+}
+
+/// Why the wider filter is per pixel: on glossy receivers (`dof_glossy`, its suite lens at 2× the
+/// aperture for 320×240; at 160×120 the highlights are too few pixels to tell) the scales 0.7 where
+/// the radiance factors and the thesis's where a glossy lobe is seen, against 0.7 everywhere
+/// (`screen_scale` 0.7 too). The same rays, and a lower error: the blurred highlights' sharp rims
+/// keep the thesis's filter.
+#[test]
+fn the_factored_scale_keeps_the_thesis_filter_on_blurred_highlights() {
+    let at = option_against_reference(
+        "dof_glossy",
+        (0.1, 3.6),
+        (320, 240),
+        &[("screen_scale_factored", ParamValue::Float(0.7))],
+        ("screen_scale", ParamValue::Float(1.0)),
+    );
+    let (per_pixel, everywhere) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
+    eprintln!("(RMSE, rays): the file's per-pixel scales {per_pixel:?}, 0.7 everywhere {everywhere:?}");
+    assert_eq!(per_pixel.1, everywhere.1, "the scales do not change the counts");
+    // Measured: 5.73e-3 against 6.09e-3 at 1,296,091 rays.
+    assert!(per_pixel.0 < 0.97 * everywhere.0, "{per_pixel:?} vs {everywhere:?}");
 }
 
 #[test]

@@ -217,9 +217,9 @@ pub fn bind_unfiltered(ctx: &mut ExpandCtx<'_>, radiance: BufferId, rays: ParamV
 /// with a factoring node's components where its `radiance` declares that term
 /// ([`crate::light_terms::factoring_sum`]): not where every component is ambient occlusion, which is
 /// not light. The expansion follows the declaration, so `wedge graph`'s terms are what renders.
-pub fn seen_directly(ctx: &mut ExpandCtx<'_>) -> Result<Option<BufferId>, GraphError> {
+pub fn seen_directly(ctx: &mut ExpandCtx<'_>, pass: SamplerPass) -> Result<Option<BufferId>, GraphError> {
     if ctx.output_terms("radiance").is_some_and(|t| !t.holds(TermKind::Emission)) {
         return Ok(None);
     }
-    ctx.sampler_output(SamplerPass::Final, "emission").map(Some)
+    ctx.sampler_output(pass, "emission").map(Some)
 }

@@ -149,6 +149,19 @@ pub struct ExpandCtx<'a> {
     undeclared: std::cell::RefCell<Vec<String>>,
 }
 
+/// The pipeline's sampler plan, or the refusal of a node that `does` something with it outside a
+/// pipeline expansion (a context built by hand without [`ExpandCtx::with_sampler`]).
+fn in_expansion<'p>(
+    node: &str,
+    plan: Option<&'p mut SamplerPlan>,
+    does: &str,
+) -> Result<&'p mut SamplerPlan, GraphError> {
+    plan.ok_or_else(|| GraphError::Expand {
+        node: node.to_string(),
+        message: format!("{does} outside a pipeline expansion"),
+    })
+}
+
 /// What [`ExpandCtx::param`] hands a node for an undeclared name while the expansion runs on to
 /// its error (never used: the expansion is refused).
 static UNDECLARED: ParamValue = ParamValue::Str(String::new());
@@ -253,11 +266,7 @@ impl<'a> ExpandCtx<'a> {
         self
     }
     fn plan(&mut self) -> Result<&mut SamplerPlan, GraphError> {
-        let node = self.node;
-        self.sampler.as_deref_mut().ok_or_else(|| GraphError::Expand {
-            node: node.to_string(),
-            message: "asks for the shared sampler outside a pipeline expansion".into(),
-        })
+        in_expansion(self.node, self.sampler.as_deref_mut(), "asks for the shared sampler")
     }
     /// Ask for the shared sampler with these estimators and settings (merged with other nodes':
     /// identical settings shared, a conflicting one an error naming both nodes).
@@ -268,21 +277,36 @@ impl<'a> ExpandCtx<'a> {
     /// A handle to one of the sampler's resolved outputs after its first or its final pass.
     pub fn sampler_output(&mut self, pass: SamplerPass, name: &str) -> Result<BufferId, GraphError> {
         let node = self.node;
-        let plan = self.sampler.as_deref_mut().ok_or_else(|| GraphError::Expand {
-            node: node.to_string(),
-            message: "reads a sampler output outside a pipeline expansion".into(),
-        })?;
-        plan.output(node, self.expansion, pass, name)
+        in_expansion(node, self.sampler.as_deref_mut(), "reads a sampler output")?.output(
+            node,
+            self.expansion,
+            pass,
+            name,
+        )
     }
     /// Submit this node's per-pixel counts for the adaptive pass (buffers it writes in
     /// `Stage::Bandwidth`).
     pub fn sampler_counts(&mut self, request: CountRequest) -> Result<(), GraphError> {
         let node = self.node;
-        let plan = self.sampler.as_deref_mut().ok_or_else(|| GraphError::Expand {
-            node: node.to_string(),
-            message: "submits sampler counts outside a pipeline expansion".into(),
-        })?;
-        plan.counts(node, self.expansion, request)
+        in_expansion(node, self.sampler.as_deref_mut(), "submits sampler counts")?.counts(node, self.expansion, request)
+    }
+    /// Publish a lighting component's first-pass factoring flag (a u32 buffer, nonzero where the
+    /// component's radiance factors, thesis eq. 5.30) for the factoring node: called from the
+    /// factoring node kind's `expand_component`, which renders the component. The factoring node
+    /// expands after the components wired into it and reads them with
+    /// [`ExpandCtx::factoring_flags`].
+    pub fn publish_factoring_flag(&mut self, flag: BufferId) -> Result<(), GraphError> {
+        let node = self.node;
+        in_expansion(node, self.sampler.as_deref_mut(), "publishes a factoring flag")?.publish_flag(
+            node,
+            self.expansion,
+            flag,
+        )
+    }
+    /// The factoring flags the components published ([`ExpandCtx::publish_factoring_flag`]), in
+    /// expansion order: every component wired into the node asking has published by then.
+    pub fn factoring_flags(&self) -> Vec<BufferId> {
+        self.sampler.as_deref().map_or_else(Vec::new, |p| p.factoring_flags.iter().map(|(_, b)| *b).collect())
     }
     pub fn node(&self) -> &str {
         self.node

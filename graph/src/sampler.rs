@@ -202,6 +202,10 @@ pub struct SamplerPlan {
     pub handles: BTreeMap<(SamplerPass, String), BufferId>,
     /// Count requests, with the node that made each.
     pub requests: Vec<(String, CountRequest)>,
+    /// Lighting components' first-pass factoring flags (u32, nonzero where the component's
+    /// radiance factors into texture × irradiance, thesis eq. 5.30), each with the node that
+    /// published it ([`crate::ExpandCtx::publish_factoring_flag`]), for the factoring node.
+    pub factoring_flags: Vec<(String, BufferId)>,
     pub(crate) kind: Option<Arc<dyn SamplerKind>>,
 }
 
@@ -295,6 +299,23 @@ impl SamplerPlan {
         }
     }
 
+    pub(crate) fn publish_flag(&mut self, node: &str, expansion: &Expansion, flag: BufferId) -> Result<(), GraphError> {
+        self.require_user(node, "publishes a factoring flag")?;
+        match expansion.buffers.get(flag.0).map(|b| b.format) {
+            Some(Format::U32) => {
+                self.factoring_flags.push((node.to_string(), flag));
+                Ok(())
+            }
+            other => Err(GraphError::Expand {
+                node: node.to_string(),
+                message: format!(
+                    "publishes a factoring flag that is {}; flags are u32 buffers",
+                    other.map_or("no buffer".to_string(), |f| format!("a {f} buffer"))
+                ),
+            }),
+        }
+    }
+
     pub(crate) fn output(
         &mut self,
         node: &str,
@@ -360,5 +381,29 @@ impl SamplerPlan {
         }
         self.requests.push((node.to_string(), r));
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expand::BufferInfo;
+
+    #[test]
+    fn a_published_factoring_flag_is_a_u32_buffer_of_a_sampler_user() {
+        let mut e = Expansion::default();
+        for (name, format) in [("shadows.flag", Format::U32), ("shadows.e", Format::Vec3)] {
+            e.buffers.push(BufferInfo { name: name.into(), format, layers: 1 });
+        }
+        let mut plan = SamplerPlan::new(None);
+        let early = plan.publish_flag("shadows", &e, BufferId(0)).unwrap_err().to_string();
+        assert!(early.contains("before asking for the sampler"), "{early}");
+        plan.users.push("shadows".into());
+        plan.publish_flag("shadows", &e, BufferId(0)).unwrap();
+        let wrong = plan.publish_flag("shadows", &e, BufferId(1)).unwrap_err().to_string();
+        assert!(wrong.contains("a vec3<f32> buffer; flags are u32"), "{wrong}");
+        let missing = plan.publish_flag("shadows", &e, BufferId(7)).unwrap_err().to_string();
+        assert!(missing.contains("no buffer"), "{missing}");
+        assert_eq!(plan.factoring_flags, vec![("shadows".to_string(), BufferId(0))]);
     }
 }

@@ -114,6 +114,8 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
         true,
         Reference::Keep,
     )?;
+    // For the factoring node's screen filter (`screen_scale_factored`, node.rs `factored_pixels`).
+    ctx.publish_factoring_flag(flag_first)?;
     let (omega, pixel_length) = (
         ctx.buffer(&format!("{}_omega", c.name), Format::F32),
         ctx.buffer(&format!("{}_pixel_length", c.name), Format::F32),

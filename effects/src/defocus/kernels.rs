@@ -20,6 +20,7 @@
 //! - `radiance`, `texture`, `irradiance` (vec3 rgb): one component's lens-integrated `L`, `k`, `E`
 //!   (eqs. 5.9, 5.13, 5.14 direct; 5.21 indirect), as `paths.resolve` writes them.
 
+pub mod all_factored;
 pub mod filter;
 pub mod layers;
 
@@ -60,6 +61,9 @@ wedge_backends::kernel_params! {
         width_pixel_limit: Option<bool>,
         /// The Defocus node's `screen_scale`: eq. 5.33's width times it; absent: 1 (the thesis).
         screen_scale: Option<f32>,
+        /// Its `screen_scale_factored`: the factor instead where the `flag` binding is set (on the
+        /// node's own pass: `defocus.all_factored`'s pixels); absent: `screen_scale` everywhere.
+        screen_scale_factored: Option<f32>,
         component: Option<RateComponent>,
     }
 }
@@ -103,10 +107,31 @@ pub fn scaled_cap(cap: i32, mu: f32, mode: Mode) -> u32 {
     scaled.min(MAX_COUNT_CAP as f64) as u32
 }
 
-/// The factor on eq. 5.33's screen-space width (the Defocus node's `screen_scale`), checked: a
-/// finite number > 0, 1 where the pass leaves it out.
-fn screen_scale(ctx: &KernelCtx<'_>) -> Result<f32, BackendError> {
-    RateOptions::read(ctx)?.screen_scale.map_or(Ok(1.0), |v| positive(ctx, "screen_scale", v, false))
+/// The factors on eq. 5.33's screen-space width (the Defocus node's `screen_scale`, and
+/// `screen_scale_factored` where the `flag` binding is set), checked: finite numbers > 0; 1 where
+/// the pass leaves `screen_scale` out, `screen_scale` where it leaves the other out.
+fn screen_scales(ctx: &KernelCtx<'_>) -> Result<ScreenScales, BackendError> {
+    let o = RateOptions::read(ctx)?;
+    let other = o.screen_scale.map_or(Ok(1.0), |v| positive(ctx, "screen_scale", v, false))?;
+    let factored = o.screen_scale_factored.map_or(Ok(other), |v| positive(ctx, "screen_scale_factored", v, false))?;
+    Ok(ScreenScales { factored, other })
+}
+
+/// The two factors of [`screen_scales`].
+#[derive(Clone, Copy)]
+struct ScreenScales {
+    factored: f32,
+    other: f32,
+}
+
+impl ScreenScales {
+    fn at(self, flag_set: bool) -> f32 {
+        if flag_set {
+            self.factored
+        } else {
+            self.other
+        }
+    }
 }
 
 /// The pass's rate constants from its parameter block. `pixel_scale` (m) defaults to the scene
@@ -278,7 +303,8 @@ wedge_backends::kernel_bindings! {
         read_opt velocity: [f32; 4],
         read_opt shadow_velocity: [f32; 4],
         /// The component's (median-filtered) factoring flag (eq. 5.30): `n` is `n^f` where it is
-        /// set, else `n^c`; unbound, every pixel is combined.
+        /// set, else `n^c`; unbound, every pixel is combined. On the factoring node's own pass,
+        /// `defocus.all_factored`'s pixels: eq. 5.33's width takes `screen_scale_factored` there.
         read_opt flag: u32,
         write_opt omega_defocus: f32,
         write pixel_length: f32,
@@ -341,7 +367,8 @@ impl Kernel for Rates {
                     .u32("max_s_shadow", formulas::strata_cap(k.max_shadow_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary)
                     .u32("width_pixel_limit", u32::from(k.width_pixel_limit))
-                    .f32("screen_scale", screen_scale(ctx)?)
+                    .f32("screen_scale", screen_scales(ctx)?.other)
+                    .f32("screen_scale_factored", screen_scales(ctx)?.factored)
                     .u32("component", component_uniform(ctx)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
@@ -356,7 +383,7 @@ impl Kernel for Rates {
         let io = RatesIo::read(ctx)?;
         let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
         let chosen = component.map(RateComponent::select);
-        let scale = screen_scale(ctx)?;
+        let scales = screen_scales(ctx)?;
         // Per pixel only what the outputs need, not the whole `PixelRates` re-read per column.
         let rows: Vec<Row> = ctx.map_pixels(false, |x, y| {
             let i = (y * ctx.width + x) as usize;
@@ -370,13 +397,13 @@ impl Kernel for Rates {
             };
             let r = formulas::pixel_rates(&pixel_stats(io.lens[i], o), &k);
             // The count the pixel takes: factored where its (median-filtered) flag is set, else
-            // combined.
+            // combined; eq. 5.33's width, `screen_scale_factored` where it is set.
             let factors = io.flag.is_some_and(|g| g[i] != 0);
             let (omega, n) = chosen.map_or((0.0, 0), |(omega, factored, combined)| {
                 (omega(&r), if factors { factored(&r) } else { combined(&r) })
             });
             Row {
-                omega_defocus: scale * r.omega_defocus,
+                omega_defocus: scales.at(factors) * r.omega_defocus,
                 pixel_length: r.pixel_length,
                 n_primary: r.n_primary,
                 omega,

@@ -27,7 +27,8 @@ pub mod node;
 
 pub use node::Defocus;
 
-/// Register the defocus kernels (`defocus.rates`, `defocus.flags`, `defocus.compose`, `filter.defocus`).
+/// Register the defocus kernels (`defocus.rates`, `defocus.flags`, `defocus.compose`,
+/// `defocus.weighted_texture`, `filter.defocus`, `defocus.layers`, `defocus.all_factored`).
 pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::Rates));
     reg.register(Arc::new(kernels::Flags));
@@ -35,4 +36,5 @@ pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::WeightedTexture));
     reg.register(Arc::new(kernels::filter::DefocusFilter));
     reg.register(Arc::new(kernels::layers::Layers));
+    reg.register(Arc::new(kernels::all_factored::AllFactored));
 }

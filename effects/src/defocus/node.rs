@@ -42,7 +42,8 @@
 //! growing, so the error rises with μ: DESIGN-NOTES "μ above 1: the clamp of eq. 5.29"), `factor` (false: the thesis's no-factoring ablation, Fig. 5.1(e): flags 0, combined
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
 //! `separable`, `motion_filter`, `width_pixel_limit`, `screen_scale` (a factor on eq. 5.33's width,
-//! the rates pass's), `texture` (`weighted`, the default: a factored pixel's texture is
+//! the rates pass's) and `screen_scale_factored` (that factor where every component's first-pass
+//! flag is set and no emitter is seen: `kernels/all_factored.rs`), `texture` (`weighted`, the default: a factored pixel's texture is
 //! `L / Ē`, the paths' `k` weighted by the irradiance each brought — `formulas::weighted_texture`;
 //! `mean`: the paths' mean `k̄`, eq. 5.32 as printed), and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
 //! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
@@ -56,6 +57,7 @@ use wedge_graph::{
 };
 
 use super::component::rate_settings;
+use super::kernels::all_factored::AllFactoredIo;
 use super::kernels::filter::DefocusIo;
 use super::kernels::layers::LayersIo;
 use super::kernels::RatesIo;
@@ -179,6 +181,7 @@ impl NodeKind for Defocus {
             ),
             ParamDecl::boolean("width_pixel_limit", false, "cap the screen-space filter's width at the pixel limit Ω_pix^max as eq. 5.7 does (the thesis: every in-focus pixel gets a σ = 0.35 px blur, a bias at sharp edges and highlights); false: the lens term alone, μ Ω_u^max / r_min, so in-focus pixels stay sharp. The counts are the same either way (DESIGN-NOTES \"The filters against their own rays\")"),
             ParamDecl::positive("screen_scale", 1.0, 1e3, "factor on eq. 5.33's screen-space bandwidth, μ Ω_u^max / r_min (not on the counts, the irradiance filters or the near layer's): below 1 a wider lens filter — the variance of a blurred texture where the first pass's paths already exceed eq. 5.24's count — at the cost of bias at bright out-of-focus highlights; 1 = the thesis. Still ∝ μ, so consistent as μ grows (docs/DESIGN-NOTES.md \"The screen filter's scale\")"),
+            ParamDecl::positive("screen_scale_factored", 1.0, 1e3, "screen_scale where the pixel's whole radiance factors — every lighting component's first-pass flag set (eq. 5.30) and no emitter seen: a diffuse texture under smooth light, whose blurred edges are ramps a wider Gaussian barely changes, where a glossy highlight or an emitter blurs into a disc whose sharp rim it would (docs/DESIGN-NOTES.md \"The screen filter's scale, per pixel\"); absent: screen_scale everywhere, the thesis with screen_scale 1. Still ∝ μ, so consistent as μ grows").optional(),
             ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
@@ -206,6 +209,7 @@ impl NodeKind for Defocus {
             "motion_filter",
             "width_pixel_limit",
             "screen_scale",
+            "screen_scale_factored",
             "texture",
         ]
         .into_iter()
@@ -265,13 +269,14 @@ impl NodeKind for Defocus {
             omega_defocus: Some(omega),
             n_primary: Some(n_primary),
             sigma_defocus: Some(sigma),
+            flag: factored_pixels(ctx, f)?,
             ..RatesIo::new(lens, pixel_length)
         };
         let mut b = io.bind(ctx.pass("rates", "defocus.rates", Stage::Bandwidth));
         for (n, v) in rate_settings(f) {
             b = b.param(n, v);
         }
-        for name in ["width_pixel_limit", "screen_scale"] {
+        for name in ["width_pixel_limit", "screen_scale", "screen_scale_factored"] {
             if let Some(v) = f.setting(name) {
                 b = b.param(name, v.clone());
             }
@@ -286,7 +291,7 @@ impl NodeKind for Defocus {
         })?;
 
         // 3. Σ components + emission (eq. 5.32), then the screen-space defocus filter (eq. 5.33).
-        let emission = crate::factored::seen_directly(ctx)?;
+        let emission = crate::factored::seen_directly(ctx, SamplerPass::Final)?;
         let composed = sum(ctx, "compose", &components, emission);
         let separable = ctx.param("separable") == &ParamValue::Bool(true);
         let radius = ctx.param("max_radius").clone();
@@ -308,6 +313,28 @@ impl NodeKind for Defocus {
         ctx.output("rays_per_pixel", n_primary);
         Ok(())
     }
+}
+
+/// With `screen_scale_factored`: the pixels whose whole radiance factors — every component's
+/// first-pass flag set (eq. 5.30; the flags the components published, `component.rs`) and, where
+/// the node's radiance holds emission, no emitter seen by the first pass's camera paths — ANDed by
+/// `defocus.all_factored` (passes `factored`, `factored_1`, …), for `defocus.rates` to widen eq.
+/// 5.33's filter there. `None` (every pixel takes `screen_scale`) without the option.
+fn factored_pixels(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Option<BufferId>, GraphError> {
+    if f.setting("screen_scale_factored").is_none() {
+        return Ok(None);
+    }
+    let mut emission = crate::factored::seen_directly(ctx, SamplerPass::First)?;
+    let mut previous = None;
+    for (k, flag) in ctx.factoring_flags().into_iter().enumerate() {
+        let name = if k == 0 { "factored".to_string() } else { format!("factored_{k}") };
+        let out = ctx.buffer(&name, Format::U32);
+        AllFactoredIo { flag, previous, emission: emission.take(), out }
+            .bind(ctx.pass(&name, "defocus.all_factored", Stage::Bandwidth))
+            .finish();
+        previous = Some(out);
+    }
+    Ok(previous)
 }
 
 /// Step 4 of the module doc, with `layers`: the near layer composited over the rest after eq. 5.33

@@ -227,7 +227,7 @@ impl NodeKind for Motion {
         })?;
 
         // 3. Σ components + emission, then the 3×3 filter at multi-velocity pixels (App. B).
-        let emission = crate::factored::seen_directly(ctx)?;
+        let emission = crate::factored::seen_directly(ctx, SamplerPass::Final)?;
         let composed = sum(ctx, "compose", &components, emission);
         let final_velocity = ctx.sampler_output(SamplerPass::Final, "velocity")?;
         let multi = ctx.buffer("multi", Format::U32);
