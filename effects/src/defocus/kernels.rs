@@ -357,7 +357,7 @@ impl Kernel for Rates {
     fn wgsl(&self) -> Option<WgslSource> {
         Some(
             WgslSource::new(include_str!("../../../shaders/defocus_rates.wgsl"), |ctx| {
-                let k = rate_params(ctx)?;
+                let (k, scales) = (rate_params(ctx)?, screen_scales(ctx)?);
                 Ok(RatesParams::read(ctx)?
                     .uniforms()
                     .f32("pixel_scale", k.pixel_scale)
@@ -367,8 +367,8 @@ impl Kernel for Rates {
                     .u32("max_s_shadow", formulas::strata_cap(k.max_shadow_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary)
                     .u32("width_pixel_limit", u32::from(k.width_pixel_limit))
-                    .f32("screen_scale", screen_scales(ctx)?.other)
-                    .f32("screen_scale_factored", screen_scales(ctx)?.factored)
+                    .f32("screen_scale", scales.other)
+                    .f32("screen_scale_factored", scales.factored)
                     .u32("component", component_uniform(ctx)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
