@@ -363,6 +363,17 @@ fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
     assert!(series[1].0 < 0.9 * series[0].0 && series[2].0 < 0.9 * series[1].0, "{series:?}");
 }
 
+/// An option at 1 and at 0.7 at the file's μ (1), and at 0.7 over μ 1, 2, 4 — (RMSE, rays) each,
+/// the μ 1 run being the 0.7 one (`defocus.ron` states μ 1).
+fn scale_one_and_wider(
+    at: &impl Fn(Option<f64>, ParamValue) -> (f64, u64),
+) -> ((f64, u64), (f64, u64), Vec<(f64, u64)>) {
+    let (one, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
+    let series = [wider].into_iter().chain([2.0, 4.0].map(|mu| at(Some(mu), ParamValue::Float(0.7)))).collect();
+    eprintln!("(RMSE, rays): the file's mu at 1 {one:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
+    (one, wider, series)
+}
+
 /// `screen_scale` below 1 (a wider eq. 5.33 filter, `effects/src/defocus/kernels.rs` `Rates`) on
 /// the scene whose error it is for: a receding checker floor blurred on both sides of the focal
 /// plane (`dof_receding`, its suite focus), where the first pass's paths exceed eq. 5.24's count
@@ -378,9 +389,7 @@ fn a_wider_screen_filter_lowers_a_blurred_textures_error_and_converges() {
         &[],
         ("screen_scale", ParamValue::Float(1.0)),
     );
-    let (thesis, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
-    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Float(0.7))).collect();
-    eprintln!("(RMSE, rays): pipeline's mu at scale 1 {thesis:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
+    let (thesis, wider, series) = scale_one_and_wider(&at);
     assert_eq!(thesis.1, wider.1, "the scale does not change the counts");
     // Measured: 3.03e-2 -> 2.42e-2 at 256,579 rays; then 2.26e-2, 1.28e-2 at mu 2, 4.
     assert!(wider.0 < 0.85 * thesis.0, "{wider:?} vs {thesis:?}");
@@ -404,9 +413,7 @@ fn a_wider_screen_filter_on_factored_pixels_lowers_a_blurred_textures_error_and_
         &[("screen_scale", ParamValue::Float(1.0))],
         ("screen_scale_factored", ParamValue::Float(1.0)),
     );
-    let (thesis, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
-    let series: Vec<(f64, u64)> = [1.0, 2.0, 4.0].iter().map(|&mu| at(Some(mu), ParamValue::Float(0.7))).collect();
-    eprintln!("(RMSE, rays): pipeline's mu at scale 1 {thesis:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
+    let (thesis, wider, series) = scale_one_and_wider(&at);
     assert_eq!(thesis.1, wider.1, "the scale does not change the counts");
     // Measured: 2.79e-2 -> 2.39e-2 at 943,157 rays; then 2.48e-2 at mu 2 (the filters halve, the
     // counts grow 2.6x: the variance the wider filter removed comes back first) and 1.28e-2 at 4.
@@ -429,7 +436,7 @@ fn the_factored_scale_keeps_the_thesis_filter_on_blurred_highlights() {
         ("screen_scale", ParamValue::Float(1.0)),
     );
     let (per_pixel, everywhere) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
-    eprintln!("(RMSE, rays): the file's per-pixel scales {per_pixel:?}, 0.7 everywhere {everywhere:?}");
+    eprintln!("(RMSE, rays): 0.7 where factored, 1 elsewhere {per_pixel:?}; 0.7 everywhere {everywhere:?}");
     assert_eq!(per_pixel.1, everywhere.1, "the scales do not change the counts");
     // Measured: 5.73e-3 against 6.09e-3 at 1,296,091 rays.
     assert!(per_pixel.0 < 0.97 * everywhere.0, "{per_pixel:?} vs {everywhere:?}");
