@@ -363,11 +363,12 @@ fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
     assert!(series[1].0 < 0.9 * series[0].0 && series[2].0 < 0.9 * series[1].0, "{series:?}");
 }
 
+/// A run's (RMSE, total rays) against its reference.
+type Measured = (f64, u64);
+
 /// An option at 1 and at 0.7 at the file's μ (1), and at 0.7 over μ 1, 2, 4 — (RMSE, rays) each,
 /// the μ 1 run being the 0.7 one (`defocus.ron` states μ 1).
-fn scale_one_and_wider(
-    at: &impl Fn(Option<f64>, ParamValue) -> (f64, u64),
-) -> ((f64, u64), (f64, u64), Vec<(f64, u64)>) {
+fn scale_one_and_wider(at: &impl Fn(Option<f64>, ParamValue) -> Measured) -> (Measured, Measured, Vec<Measured>) {
     let (one, wider) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
     let series = [wider].into_iter().chain([2.0, 4.0].map(|mu| at(Some(mu), ParamValue::Float(0.7)))).collect();
     eprintln!("(RMSE, rays): the file's mu at 1 {one:?}, 0.7 {wider:?}; 0.7 at mu 1, 2, 4 {series:?}");
