@@ -130,6 +130,10 @@ pub trait Texel: Copy + Send + Sync + Default + 'static {
     fn slice(b: &BufferData) -> Option<&[Self]>;
     fn wrap(v: Vec<Self>) -> BufferData;
     fn unwrap(b: BufferData) -> Result<Vec<Self>, BufferData>;
+    /// `len` zero elements (every texel's default is its zero bits).
+    fn zeroed(len: usize) -> Vec<Self> {
+        vec![Self::default(); len]
+    }
 }
 
 macro_rules! texel {
@@ -234,16 +238,28 @@ impl<R: Record> Texel for R {
         }
     }
     fn wrap(v: Vec<Self>) -> BufferData {
-        BufferData::Words { layout: R::LAYOUT, data: bytemuck::cast_slice(&v).to_vec() }
+        BufferData::Words { layout: R::LAYOUT, data: recast(v) }
     }
     fn unwrap(b: BufferData) -> Result<Vec<Self>, BufferData> {
         match b {
-            BufferData::Words { layout, data } if layout == R::LAYOUT && record_matches::<R>() => {
-                Ok(bytemuck::cast_slice(&data).to_vec())
-            }
+            BufferData::Words { layout, data } if layout == R::LAYOUT && record_matches::<R>() => Ok(recast(data)),
             other => Err(other),
         }
     }
+    /// From the allocator's zeroed pages: `vec![R::default(); n]` wrote every byte of ~100 MB of
+    /// path records before `paths.trace` wrote them again (the plain formats' `vec!` already asks
+    /// the allocator for zeroed memory).
+    fn zeroed(len: usize) -> Vec<Self> {
+        bytemuck::zeroed_vec(len)
+    }
+}
+
+/// A vector of records as its words, or back: the same allocation handed over where its length and
+/// capacity are whole elements of the other type (every buffer the backends make: `zeroed`'s, a
+/// kernel's `Vec<R>`), else copied. The sampler's path records are ~100 MB at 640×480; copying them
+/// into words after each `paths.trace` (and back for the next) was ~12% of a one-thread render.
+fn recast<A: bytemuck::Pod, B: bytemuck::Pod>(v: Vec<A>) -> Vec<B> {
+    bytemuck::allocation::try_cast_vec(v).unwrap_or_else(|(_, v)| bytemuck::pod_collect_to_vec(&v))
 }
 
 /// Filling a buffer in place (the CPU backend's persistent pool, issue 38 §2).
@@ -310,6 +326,31 @@ mod tests {
         assert_eq!(back, b);
         assert_eq!(BufferData::zeroed(Format::Struct(&LAYOUT), 3).len(), 3);
         assert_eq!(<Sample as Texel>::unwrap(b).unwrap(), recs);
+    }
+
+    /// `paths.trace`'s records are ~100 MB at 640×480: wrapping them as words and back, and
+    /// zeroing a fresh buffer of them, must not copy or write them (`recast`, `Texel::zeroed`).
+    #[test]
+    fn records_change_hands_without_a_copy() {
+        let recs: Vec<Sample> = (0..1000).map(|k| Sample { count: k, ..Sample::default() }).collect();
+        let at = recs.as_ptr() as usize;
+        let b = <Sample as Texel>::wrap(recs.clone());
+        let BufferData::Words { data, .. } = &b else { panic!("a record buffer is words") };
+        let words_at = data.as_ptr() as usize;
+        let back = <Sample as Texel>::unwrap(b).unwrap();
+        assert_eq!(back, recs, "the same records");
+        assert_eq!(back.as_ptr() as usize, words_at, "unwrap kept the words' allocation");
+        let zeroed = BufferData::zeroed(Format::Struct(&LAYOUT), 7);
+        let words_at = match &zeroed {
+            BufferData::Words { data, .. } => data.as_ptr() as usize,
+            _ => unreachable!(),
+        };
+        let from_zeroed = <Sample as Texel>::unwrap(zeroed).unwrap();
+        assert_eq!(from_zeroed.as_ptr() as usize, words_at, "a zeroed buffer's too");
+        let moved = <Sample as Texel>::wrap(recs);
+        let BufferData::Words { data, .. } = &moved else { panic!("a record buffer is words") };
+        assert_eq!(data.as_ptr() as usize, at, "wrap kept the records' allocation");
+        assert_eq!(<Sample as Texel>::zeroed(5), vec![Sample::default(); 5]);
     }
 
     #[test]

@@ -920,14 +920,12 @@ impl<'a> KernelCtx<'a> {
         let len = self.pixels() * self.layers(binding) as usize;
         if let Some(Ok(v)) = self.recycled.spare.remove(binding).map(T::unwrap) {
             if v.len() == len {
-                // A record type's `unwrap` copies the words: not a reuse.
-                if !matches!(T::FORMAT, Format::Struct(_)) {
-                    self.recycled.reused.insert(binding.to_string());
-                }
+                // A record type's `unwrap` keeps the words' allocation too (`buffer::recast`).
+                self.recycled.reused.insert(binding.to_string());
                 return Ok(v);
             }
         }
-        Ok(vec![T::default(); len])
+        Ok(T::zeroed(len))
     }
 
     /// [`KernelCtx::output_vec`] for an optional write: `None` when the pass left it unbound.
