@@ -246,7 +246,7 @@ impl<R: Record> Texel for R {
             other => Err(other),
         }
     }
-    /// From the allocator's zeroed pages: `vec![R::default(); n]` wrote every byte of ~100 MB of
+    /// From the allocator's zeroed pages: `vec![R::default(); n]` wrote every byte of ~130 MB of
     /// path records before `paths.trace` wrote them again (the plain formats' `vec!` already asks
     /// the allocator for zeroed memory).
     fn zeroed(len: usize) -> Vec<Self> {
@@ -256,7 +256,7 @@ impl<R: Record> Texel for R {
 
 /// A vector of records as its words, or back: the same allocation handed over where its length and
 /// capacity are whole elements of the other type (every buffer the backends make: `zeroed`'s, a
-/// kernel's `Vec<R>`), else copied. The sampler's path records are ~100 MB at 640×480; copying them
+/// kernel's `Vec<R>`), else copied. The sampler's path records are ~130 MB at 640×480; copying them
 /// into words after each `paths.trace` (and back for the next) was ~12% of a one-thread render.
 fn recast<A: bytemuck::Pod, B: bytemuck::Pod>(v: Vec<A>) -> Vec<B> {
     bytemuck::allocation::try_cast_vec(v).unwrap_or_else(|(_, v)| bytemuck::pod_collect_to_vec(&v))
@@ -328,7 +328,7 @@ mod tests {
         assert_eq!(<Sample as Texel>::unwrap(b).unwrap(), recs);
     }
 
-    /// `paths.trace`'s records are ~100 MB at 640×480: wrapping them as words and back, and
+    /// `paths.trace`'s records are ~130 MB at 640×480: wrapping them as words and back, and
     /// zeroing a fresh buffer of them, must not copy or write them (`recast`, `Texel::zeroed`).
     #[test]
     fn records_change_hands_without_a_copy() {
