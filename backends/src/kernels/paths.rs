@@ -1288,8 +1288,8 @@ fn put_resolved(
             out.push(row);
         }
     }
-    rows.into_par_iter().enumerate().for_each(|(y, mut outs)| {
-        for (x, r) in records[y * width..(y + 1) * width].iter().enumerate() {
+    rows.into_par_iter().zip(records.par_chunks(width)).for_each(|(mut outs, row)| {
+        for (x, r) in row.iter().enumerate() {
             for (out, &k) in outs.iter_mut().zip(&bound) {
                 out[x] = value(k, r);
             }
