@@ -60,6 +60,10 @@ pub struct Overrides {
     /// Render without the pipeline's filters at the same rays (`render --unfiltered`,
     /// [`wedge_graph::unfiltered`]): the baseline each filter must beat.
     pub unfiltered: bool,
+    /// The scene's own camera (position, look-at, up, field of view, lens) instead of the view the
+    /// pipeline's `camera:` block states; the block's shutter is kept. `bench --suite` sets it: each
+    /// suite scene is framed by its own camera, whatever camera the pipeline was written for.
+    pub scene_camera: bool,
 }
 
 /// One `--set NODE.PARAM=VALUE` as an override of [`Overrides::params`]: the value is an integer,
@@ -255,6 +259,12 @@ impl Session {
         // layer captured at `capture_spp`), from the facts `wedge graph` decides with.
         let frame = ov.frame.unwrap_or(0);
         let mut scene = load_scene_at(&loaded, &pipeline, ov, frame)?;
+        if ov.scene_camera {
+            // The graph decides with the camera the render sees (a block's lens without a factoring
+            // node is the plain Monte Carlo lens: `CameraSettings::of_block`).
+            let block = pipeline.pipeline.camera.take();
+            pipeline.pipeline.camera = block.map(|c| spec_of_camera(&scene.camera, c.shutter));
+        }
         pipeline.update_factoring(Some(decision_facts(&scene, &pipeline)))?;
         let mut expansion = expand(&pipeline)?;
         apply_scene_requests(&mut scene, &pipeline, frame, ov)?;
@@ -656,13 +666,18 @@ fn load_scene_at(
     // The pipeline's shutter (if it gives one) is when a scene file's animations are sampled.
     let shutter = pipeline.pipeline.camera.as_ref().and_then(|c| c.shutter);
     let mut scene = wedge_scene::load_with_shutter(&source, &scene_opts, shutter)?;
-    if let Some(c) = &pipeline.pipeline.camera {
-        scene.camera = camera_from_spec(c, &scene.camera);
+    match &pipeline.pipeline.camera {
+        Some(c) if ov.scene_camera => {
+            let (open, close) = c.shutter.unwrap_or((scene.camera.shutter_open, scene.camera.shutter_close));
+            (scene.camera.shutter_open, scene.camera.shutter_close) = (open, close);
+        }
+        Some(c) => scene.camera = camera_from_spec(c, &scene.camera),
+        None => {}
     }
     apply_motion(&mut scene, pipeline)?;
-    // Without a camera block the scene's camera gives the path its `up`: check the path's view
-    // against it now (validation checked it against the block's).
-    if pipeline.pipeline.camera.is_none() {
+    // Without a camera block (or with `scene_camera`) the scene's camera gives the path its `up`:
+    // check the path's view against it now (validation checked it against the block's).
+    if pipeline.pipeline.camera.is_none() || ov.scene_camera {
         let up = scene.camera.up;
         wedge_graph::check_camera_path(loaded, (up.x, up.y, up.z))?;
     }
@@ -1224,6 +1239,20 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
         focus_distance: c.focus_distance.unwrap_or((look_at - position).length()),
         shutter_open: c.shutter.map_or(scene.shutter_open, |s| s.0),
         shutter_close: c.shutter.map_or(scene.shutter_close, |s| s.1),
+    }
+}
+
+/// `camera` as a pipeline's `camera:` block with `shutter` (the inverse of [`camera_from_spec`]).
+fn spec_of_camera(camera: &Camera, shutter: Option<(f32, f32)>) -> wedge_graph::CameraSpec {
+    let t = |v: glam::Vec3| (v.x, v.y, v.z);
+    wedge_graph::CameraSpec {
+        position: t(camera.position),
+        look_at: t(camera.look_at),
+        up: t(camera.up),
+        vfov_deg: camera.vfov_deg,
+        aperture_radius: camera.aperture_radius,
+        focus_distance: Some(camera.effective_focus_distance()),
+        shutter,
     }
 }
 

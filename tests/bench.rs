@@ -411,3 +411,37 @@ fn compared_pipelines_share_the_tables() {
     let csv = std::fs::read_to_string(&r.csv).unwrap();
     assert!(csv.lines().any(|l| l.starts_with("compared,sweep,lightfield_indirect")), "{csv}");
 }
+
+/// `--suite` frames each scene with the scene's own camera (`Overrides::scene_camera`): a pipeline
+/// whose `camera:` block was written for another scene would otherwise see the suite scene from
+/// there (`dof_room` came out black under `defocus_motion_shadows_indirect.ron`'s block). The
+/// render, the graph's camera block and the reference all take the scene's view and lens; the
+/// block's shutter stays.
+#[test]
+fn the_suite_frames_each_scene_with_its_own_camera() {
+    use wedge::session::{Overrides, Session};
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let pipeline = root.join("pipelines/defocus_motion_shadows_indirect.ron");
+    let scene = wedge::scene::load(&wedge::scene::SceneSource::Builtin("dof_room".into())).unwrap();
+    let ov =
+        Overrides { scene: Some("builtin:dof_room".into()), width: Some(8), height: Some(6), ..Default::default() };
+    let own = Session::open(Some(&pipeline), &Overrides { scene_camera: true, ..ov.clone() }).unwrap();
+    let cam = own.scene.camera;
+    assert_eq!((cam.position, cam.look_at, cam.up), (scene.camera.position, scene.camera.look_at, scene.camera.up));
+    assert_eq!((cam.vfov_deg, cam.aperture_radius), (scene.camera.vfov_deg, scene.camera.aperture_radius));
+    let block = own.pipeline.pipeline.camera.as_ref().expect("the block stays, with the scene's view");
+    assert_eq!(block.position, (cam.position.x, cam.position.y, cam.position.z));
+    assert_eq!(block.aperture_radius, scene.camera.aperture_radius);
+    assert_eq!(block.focus_distance, Some(scene.camera.effective_focus_distance()));
+    // Without it, the pipeline's block frames the scene, as a render of the pipeline does.
+    let theirs = Session::open(Some(&pipeline), &ov).unwrap();
+    assert_eq!(theirs.scene.camera.position, glam::Vec3::new(0.0, 2.2, 4.2));
+    // The suite sets it on every scene's bench.
+    let dir = tempfile::tempdir().unwrap();
+    wedge::bench::suite::run_suite(&tiny_suite(pipeline, dir.path()), &["builtin:dof_room".into()]).unwrap();
+    let cached = std::fs::read_dir(dir.path().join(".cache")).unwrap().map(|e| e.unwrap().path());
+    let exr = cached.into_iter().find(|p| p.extension().is_some_and(|e| e == "exr")).expect("a cached reference");
+    let img = wedge::image::read_exr(&exr).unwrap();
+    let mean = img.pixels.iter().flatten().map(|&v| f64::from(v)).sum::<f64>() / (3 * img.pixels.len()) as f64;
+    assert!(mean > 0.05, "dof_room's reference is dark (mean {mean}): seen from the pipeline's camera");
+}

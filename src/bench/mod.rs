@@ -106,6 +106,9 @@ pub struct BenchOptions {
     /// With `verbose`: a progress bar (the suite's) that the progress lines go above and whose
     /// message shows the current step; `None`: plain lines on stderr.
     pub progress: Option<indicatif::ProgressBar>,
+    /// Frame the scene with its own camera, not the pipeline's `camera:` block (the block's
+    /// shutter is kept; [`Overrides::scene_camera`]): `--suite` sets it for each of its scenes.
+    pub scene_camera: bool,
 }
 
 impl BenchOptions {
@@ -129,6 +132,7 @@ impl BenchOptions {
             goals: Goals::default(),
             verbose: false,
             progress: None,
+            scene_camera: false,
         }
     }
 }
@@ -518,6 +522,7 @@ impl Setup {
             seed: opts.seed,
             mu: None,
             params: opts.params.clone(),
+            scene_camera: opts.scene_camera,
             ..Overrides::default()
         };
         let path = opts.pipeline.as_path();
@@ -899,6 +904,7 @@ fn obtain_reference(
         spp,
         sampling: "stratified".into(),
         params: opts.params.iter().map(|(n, k, v)| format!("{n}.{k}={v:?}")).collect::<Vec<_>>().join(" "),
+        scene_camera: opts.scene_camera,
     };
     let dir = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let seeds = reference_seeds(seed);

@@ -45,6 +45,8 @@ pub struct ReferenceSpec {
     pub sampling: String,
     /// The `--set` overrides the reference was rendered with (`NODE.PARAM=VALUE`, space-separated).
     pub params: String,
+    /// Framed by the scene's own camera, not the pipeline's block ([`super::BenchOptions::scene_camera`]).
+    pub scene_camera: bool,
 }
 
 /// 64-bit FNV-1a.
@@ -61,7 +63,7 @@ impl ReferenceSpec {
     /// One line naming everything the image depends on (file contents by hash).
     pub fn description(&self) -> String {
         format!(
-            "v{FORMAT_VERSION} wedge {} build {} pipeline {:016x} scene {:?} scene-file {} seed {} size {}x{} spp {} sampling {} set {:?}",
+            "v{FORMAT_VERSION} wedge {} build {} pipeline {:016x} scene {:?} scene-file {} seed {} size {}x{} spp {} sampling {} set {:?} scene-camera {}",
             env!("CARGO_PKG_VERSION"),
             renderer_fingerprint(),
             fnv1a64(self.pipeline_text.as_bytes()),
@@ -72,7 +74,8 @@ impl ReferenceSpec {
             self.height,
             self.spp,
             self.sampling,
-            self.params
+            self.params,
+            self.scene_camera
         )
     }
     /// The cache key: 16 hex digits.
@@ -159,6 +162,7 @@ mod tests {
             spp: 64,
             sampling: "stratified".into(),
             params: String::new(),
+            scene_camera: false,
         }
     }
 
@@ -185,6 +189,9 @@ mod tests {
         assert_ne!(s.key(), base);
         let mut s = spec();
         s.params = "defocus.aperture_radius=Float(0.05)".into();
+        assert_ne!(s.key(), base);
+        let mut s = spec();
+        s.scene_camera = true;
         assert_ne!(s.key(), base);
         assert_eq!(spec().key(), base);
     }

@@ -374,6 +374,9 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
             out: opts.out.join(key),
             cache_dir: Some(cache.clone()),
             progress: bar.clone(),
+            // Each suite scene is seen from its own camera, not from the one the pipeline's
+            // `camera:` block was written for (its shutter is kept).
+            scene_camera: true,
             ..opts.clone()
         };
         let r = super::run(&scene_opts)?;

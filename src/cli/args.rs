@@ -329,6 +329,7 @@ pub(super) fn overrides(c: &Common, mu: Option<f64>) -> Result<Overrides, WedgeE
         without_real_layer: false,
         frame: None,
         unfiltered: false,
+        scene_camera: false,
     })
 }
 
