@@ -60,9 +60,10 @@ pub struct Overrides {
     /// Render without the pipeline's filters at the same rays (`render --unfiltered`,
     /// [`wedge_graph::unfiltered`]): the baseline each filter must beat.
     pub unfiltered: bool,
-    /// The scene's own camera (position, look-at, up, field of view, lens) instead of the view the
-    /// pipeline's `camera:` block states; the block's shutter is kept. `bench --suite` sets it: each
-    /// suite scene is framed by its own camera, whatever camera the pipeline was written for.
+    /// The scene's own camera (position, look-at, up, field of view, and its lens where it has one)
+    /// instead of the view the pipeline's `camera:` block states; the block's shutter is kept, and
+    /// its lens for a pinhole scene. `bench --suite` sets it: each suite scene is framed by its own
+    /// camera, whatever camera the pipeline was written for.
     pub scene_camera: bool,
 }
 
@@ -667,10 +668,7 @@ fn load_scene_at(
     let shutter = pipeline.pipeline.camera.as_ref().and_then(|c| c.shutter);
     let mut scene = wedge_scene::load_with_shutter(&source, &scene_opts, shutter)?;
     match &pipeline.pipeline.camera {
-        Some(c) if ov.scene_camera => {
-            let (open, close) = c.shutter.unwrap_or((scene.camera.shutter_open, scene.camera.shutter_close));
-            (scene.camera.shutter_open, scene.camera.shutter_close) = (open, close);
-        }
+        Some(c) if ov.scene_camera => scene.camera = camera_from_spec(&scene_view(c, &scene.camera), &scene.camera),
         Some(c) => scene.camera = camera_from_spec(c, &scene.camera),
         None => {}
     }
@@ -1240,6 +1238,17 @@ pub fn camera_from_spec(c: &wedge_graph::CameraSpec, scene: &Camera) -> Camera {
         shutter_open: c.shutter.map_or(scene.shutter_open, |s| s.0),
         shutter_close: c.shutter.map_or(scene.shutter_close, |s| s.1),
     }
+}
+
+/// The block `c` with the view of the scene's camera `scene` ([`Overrides::scene_camera`]): its
+/// position, look-at, up and field of view; its lens where it has one (a suite scene states its
+/// lens), else the block's; the block's shutter.
+fn scene_view(c: &wedge_graph::CameraSpec, scene: &Camera) -> wedge_graph::CameraSpec {
+    let own = spec_of_camera(scene, c.shutter);
+    if scene.aperture_radius > 0.0 {
+        return own;
+    }
+    wedge_graph::CameraSpec { aperture_radius: c.aperture_radius, focus_distance: c.focus_distance, ..own }
 }
 
 /// `camera` as a pipeline's `camera:` block with `shutter` (the inverse of [`camera_from_spec`]).

@@ -433,6 +433,12 @@ fn the_suite_frames_each_scene_with_its_own_camera() {
     assert_eq!(block.position, (cam.position.x, cam.position.y, cam.position.z));
     assert_eq!(block.aperture_radius, scene.camera.aperture_radius);
     assert_eq!(block.focus_distance, Some(scene.camera.effective_focus_distance()));
+    // A scene without a lens keeps the pipeline's (the block's aperture 0.04), seen from its own view.
+    let pinhole = wedge::scene::load(&wedge::scene::SceneSource::Builtin("grids".into())).unwrap();
+    assert_eq!(pinhole.camera.aperture_radius, 0.0);
+    let grids = Overrides { scene: Some("builtin:grids".into()), scene_camera: true, ..ov.clone() };
+    let grids = Session::open(Some(&pipeline), &grids).unwrap();
+    assert_eq!((grids.scene.camera.position, grids.scene.camera.aperture_radius), (pinhole.camera.position, 0.04));
     // Without it, the pipeline's block frames the scene, as a render of the pipeline does.
     let theirs = Session::open(Some(&pipeline), &ov).unwrap();
     assert_eq!(theirs.scene.camera.position, glam::Vec3::new(0.0, 2.2, 4.2));

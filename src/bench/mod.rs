@@ -107,7 +107,8 @@ pub struct BenchOptions {
     /// message shows the current step; `None`: plain lines on stderr.
     pub progress: Option<indicatif::ProgressBar>,
     /// Frame the scene with its own camera, not the pipeline's `camera:` block (the block's
-    /// shutter is kept; [`Overrides::scene_camera`]): `--suite` sets it for each of its scenes.
+    /// shutter is kept, and its lens for a scene without one; [`Overrides::scene_camera`]):
+    /// `--suite` sets it for each of its scenes.
     pub scene_camera: bool,
 }
 
