@@ -101,6 +101,19 @@ fn defocus_strata(n: f32, max_strata: u32) -> u32 {
     return clamp(u32(ceil(root)), 1u, m);
 }
 
+// formulas.rs primary_cap: `still` strata per side times 1 + |v| Ω, at most `moving` (`still` where
+// moving <= still).
+fn defocus_primary_cap(still: u32, moving: u32, speed_factor: f32) -> u32 {
+    if (moving <= still) {
+        return still;
+    }
+    let c = f32(still) * speed_factor;
+    if (c >= f32(moving) || !is_finite(c)) {
+        return moving;
+    }
+    return max(u32(c), still);
+}
+
 fn defocus_secondary_strata(n: f32, p: u32, max_s: u32) -> u32 {
     let q = max(p, 1u);
     let p2 = f32(q * q);
@@ -156,7 +169,7 @@ fn defocus_pixel_rates(
     r_min: f32, r_max: f32, depth: f32, hit: bool, s_min: f32, s_max: f32, z_min: f32, z_max: f32, bandlimit: f32,
     v_p: f32, v_s: f32,
     mu: f32, mode: u32, omega_pix: f32, pixel_scale: f32, light_half_width: f32, omega_v: f32,
-    max_p: u32, max_s: u32, max_s_shadow: u32, environment_per_primary: f32, width_pixel_limit: u32,
+    max_p: u32, max_p_moving: u32, max_s: u32, max_s_shadow: u32, environment_per_primary: f32, width_pixel_limit: u32,
 ) -> DefocusRates {
     let omega_pix_mu = defocus_omega_mu(omega_pix, mu, mode, omega_pix);
     if (!hit) {
@@ -166,7 +179,8 @@ fn defocus_pixel_rates(
     let d = defocus_omega_mu(defocus_omega_defocus(r_min, omega_pix), mu, mode, omega_pix);
     let sd = defocus_omega_mu(defocus_omega_direct(r_min, s_min, l_p, light_half_width, omega_pix), mu, mode, omega_pix);
     let si = defocus_omega_mu(defocus_omega_indirect(r_min, z_min, l_p, omega_v, omega_pix), mu, mode, omega_pix);
-    let p = defocus_strata(defocus_primary_rate(d, r_max, omega_pix) * defocus_time_factor(v_p, d), max_p);
+    let cap_p = defocus_primary_cap(max_p, max_p_moving, 1.0 + v_p * d);
+    let p = defocus_strata(defocus_primary_rate(d, r_max, omega_pix) * defocus_time_factor(v_p, d), cap_p);
     let pp = p * p;
     let qdf = defocus_secondary_strata(
         defocus_direct_rate(sd, r_max, s_max, l_p, light_half_width, omega_pix) * defocus_time_factor(v_s, sd), p, max_s_shadow);

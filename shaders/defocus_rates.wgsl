@@ -41,7 +41,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let r = defocus_pixel_rates(
         lens.x, lens.y, lens.z, lens.w > 0.0, s.x, s.y, z.x, z.y, bandlimit, v_p, v_s,
         params.mu, params.mode, params.omega_pix, params.pixel_scale, params.light_half_width, params.omega_v,
-        params.max_p, params.max_s, params.max_s_shadow, params.environment_per_primary, params.width_pixel_limit,
+        params.max_p, params.max_p_moving, params.max_s, params.max_s_shadow, params.environment_per_primary, params.width_pixel_limit,
     );
     // The node's screen_scale on eq. 5.33's width, screen_scale_factored where the flag is set
     // (kernels.rs Rates::run_cpu; 1 = the thesis).

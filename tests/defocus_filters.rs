@@ -330,6 +330,13 @@ fn parity_defocus_rates_and_flags() {
     scaled.insert("screen_scale".into(), float(0.85));
     scaled.insert("screen_scale_factored".into(), float(0.7));
     bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &scaled, &stats));
+    // A moving pixel's cap (`max_primary_moving`): the still cap 16 times 1 + |v| Ω per side, up to 256.
+    let mut moving = rate_params(1.0, "consistent", 16, 64);
+    moving.insert("max_primary_moving".into(), int(256));
+    bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &moving, &stats));
+    let (out, _) = run_cpu(&scene, "defocus.rates", W, H, &moving, &stats);
+    let above = u32_of(&out["n_primary"]).iter().filter(|&&n| n > 16).count();
+    assert!(above > 0 && above < N, "the moving cap binds on some pixels, the still one on others: {above} of {N}");
     // Only the lens statistics bound: no occluders or reflectors anywhere.
     let lens_only: Buffers = BTreeMap::from([("lens", stats["lens"].clone())]);
     bad.extend(parity(&mut gpu, &scene, "defocus.rates", W, H, &rate_params(1.5, "consistent", 64, 64), &lens_only));
@@ -806,6 +813,7 @@ fn rates_kernel_matches_the_formulas() {
         light_half_width: 0.25,
         omega_v: 2.8,
         max_primary: 256,
+        max_primary_moving: 256,
         max_per_primary: 1024,
         max_shadow_per_primary: 1024,
         environment_per_primary: 4.0,

@@ -150,6 +150,7 @@ fn params(mu: f32, mode: Mode) -> RateParams {
         light_half_width: 0.1,
         omega_v: 2.8,
         max_primary: 4096,
+        max_primary_moving: 4096,
         max_per_primary: 4096,
         max_shadow_per_primary: 4096,
         environment_per_primary: 4.0,
@@ -529,4 +530,27 @@ fn the_screen_width_is_the_lens_term_alone_unless_pixel_limited() {
     assert_eq!(screen_width(d, 4.0, 1.0, false), d);
     // μ scales it without bound: the filter vanishes as μ → ∞.
     assert_eq!(screen_width(d, 4.0, 8.0, false), 2.0);
+}
+
+/// `max_primary_moving`: the still cap binds the lens's share, a moving pixel's cap grows with the
+/// time factor's `1 + |v| Ω` per side up to the moving cap; at or below the still cap, the still cap
+/// everywhere (the default: the bits of a pipeline that does not state it).
+#[test]
+fn a_moving_pixels_primary_cap_grows_with_its_time_factor() {
+    use wedge::effects::defocus::formulas::primary_cap;
+    assert_eq!(primary_cap(4, 16, 1.0), 4);
+    assert_eq!(primary_cap(4, 16, 1.9), 7);
+    assert_eq!(primary_cap(4, 16, 9.0), 16);
+    assert_eq!(primary_cap(4, 16, f32::INFINITY), 16);
+    assert_eq!(primary_cap(4, 4, 9.0), 4);
+    assert_eq!(primary_cap(16, 4, 9.0), 16);
+    // r_min = 1, r_max = 500 asks for 251² primaries; a still cap of 16 gives 4², a moving pixel
+    // (|v| Ω = 1.1: 4 · 2.1 → 8 per side) 8², under a moving cap of 256.
+    let k = RateParams { max_primary: 16, max_primary_moving: 256, ..params(1.0, Mode::Literal) };
+    assert_eq!(pixel_rates(&stats(1.0, 500.0), &k).n_primary, 16);
+    let d = omega_mu(omega_defocus(1.0, OMEGA_PIX_MAX), 1.0, Mode::Literal, OMEGA_PIX_MAX);
+    let moving = PixelStats { v_p: 1.1 / d, ..stats(1.0, 500.0) };
+    assert_eq!(pixel_rates(&moving, &k).n_primary, 64);
+    // Absent (= max_primary), the moving pixel keeps the still cap.
+    assert_eq!(pixel_rates(&moving, &RateParams { max_primary_moving: 16, ..k }).n_primary, 16);
 }

@@ -38,7 +38,7 @@ use crate::motion::node::{motion_filter, motion_rate_settings};
 /// diffuse receiver's `Ω_v^max` (a component may override it in its `rate_params`).
 pub fn rate_settings(f: &Factoring) -> Vec<(&'static str, ParamValue)> {
     let omega_v = crate::indirect::formulas::transfer_bandlimit(crate::indirect::formulas::Receiver::Diffuse);
-    ["mu", "mode", "max_primary", "max_per_primary", "max_shadow_per_primary"]
+    ["mu", "mode", "max_primary", "max_primary_moving", "max_per_primary", "max_shadow_per_primary"]
         .into_iter()
         .filter_map(|n| f.setting(n).map(|v| (n, v.clone())))
         .chain([

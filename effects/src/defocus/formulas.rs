@@ -305,6 +305,23 @@ pub fn strata_cap(cap: u32) -> u32 {
     p.max(1)
 }
 
+/// The primary strata per side a pixel may take: `still` (from `max_primary`) times the time
+/// factor's per-side `1 + |v| Ω` (`speed_factor`), at most `moving` (from `max_primary_moving`) —
+/// so the cap binds the lens's share of the count and the shutter's share multiplies after it
+/// (a blurred foreground's lens counts are capped, a mover keeps the time factor's paths:
+/// docs/DESIGN-NOTES.md "Defocus's primary-ray cap under a moving shutter"). `still` where
+/// `moving ≤ still` (the default) or the pixel is still.
+pub fn primary_cap(still: u32, moving: u32, speed_factor: f32) -> u32 {
+    if moving <= still {
+        return still;
+    }
+    let c = still as f32 * speed_factor;
+    if c >= moving as f32 || !c.is_finite() {
+        return moving;
+    }
+    (c as u32).max(still)
+}
+
 /// Secondary rays per primary ray after the 3×3 max filter, which can leave a total `n` that is not
 /// a multiple of the (also filtered) `n_p`: the smallest square `s²` with `n_p s² ≥ n`, at least 1.
 /// Integer arithmetic, so both backends agree exactly.
@@ -355,6 +372,10 @@ pub struct RateParams {
     pub omega_v: f32,
     /// Cap on primary rays per pixel (rounded down to a square).
     pub max_primary: u32,
+    /// Cap on a moving pixel's primary rays where the paths sample the shutter: `max_primary`'s
+    /// strata times the time factor's `1 + |v| Ω` per side, up to this ([`primary_cap`]); at or
+    /// below `max_primary`, `max_primary` everywhere.
+    pub max_primary_moving: u32,
     /// Cap on secondary rays per primary ray (rounded down to a square): hemisphere and environment
     /// samples.
     pub max_per_primary: u32,
@@ -419,7 +440,8 @@ pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
     let si = omega_mu(omega_indirect(s.r_min, s.z_min, l_p, k.omega_v, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let se = omega_mu(omega_environment(s.r_min, s.bandlimit, l_p, k.omega_pix), k.mu, k.mode, k.omega_pix);
     let (vp, vs) = (s.v_p, s.v_s);
-    let p = primary_strata(primary_rate(d, s.r_max, k.omega_pix) * time_factor(vp, d), max_p);
+    let cap_p = primary_cap(max_p, strata_cap(k.max_primary_moving), 1.0 + vp * d);
+    let p = primary_strata(primary_rate(d, s.r_max, k.omega_pix) * time_factor(vp, d), cap_p);
     let total_capped = |n: f32, cap: u32| {
         let q = secondary_strata(n, p, cap);
         p * p * q * q

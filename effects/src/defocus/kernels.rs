@@ -58,6 +58,8 @@ wedge_backends::kernel_params! {
         environment_per_primary: Option<f32>,
         /// Cap on shadow rays per primary ray (direct light); absent: `max_per_primary`.
         max_shadow_per_primary: Option<i32>,
+        /// Cap on a moving pixel's primary rays (`formulas::primary_cap`); absent: `max_primary`.
+        max_primary_moving: Option<i32>,
         width_pixel_limit: Option<bool>,
         /// The Defocus node's `screen_scale`: eq. 5.33's width times it; absent: 1 (the thesis).
         screen_scale: Option<f32>,
@@ -163,6 +165,7 @@ pub fn rate_params(ctx: &KernelCtx<'_>) -> Result<RateParams, BackendError> {
         light_half_width,
         omega_v: positive(ctx, "omega_v", p.omega_v, false)?,
         max_primary: scaled_cap(p.max_primary, mu, mode),
+        max_primary_moving: scaled_cap(o.max_primary_moving.unwrap_or(p.max_primary), mu, mode),
         max_per_primary: scaled_cap(p.max_per_primary, mu, mode),
         max_shadow_per_primary: scaled_cap(o.max_shadow_per_primary.unwrap_or(p.max_per_primary), mu, mode),
         environment_per_primary,
@@ -363,6 +366,7 @@ impl Kernel for Rates {
                     .f32("pixel_scale", k.pixel_scale)
                     .f32("light_half_width", k.light_half_width)
                     .u32("max_p", formulas::strata_cap(k.max_primary))
+                    .u32("max_p_moving", formulas::strata_cap(k.max_primary_moving))
                     .u32("max_s", formulas::strata_cap(k.max_per_primary))
                     .u32("max_s_shadow", formulas::strata_cap(k.max_shadow_per_primary))
                     .f32("environment_per_primary", k.environment_per_primary)
