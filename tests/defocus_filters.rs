@@ -801,10 +801,13 @@ fn rates_kernel_matches_the_formulas() {
     use wedge::effects::defocus::kernels::{pixel_stats, sigma_px, OptionalStats};
     let scene = scene();
     let stats = with_flag(random_stats(&mut Rng(41)), &mut Rng(42));
-    let outs =
-        component_params(2.0, "consistent", 64, 256).map(|p| run_cpu(&scene, "defocus.rates", W, H, &p, &stats).0);
+    let outs = component_params(2.0, "consistent", 64, 256).map(|mut p| {
+        p.insert("max_primary_moving".into(), int(128));
+        run_cpu(&scene, "defocus.rates", W, H, &p, &stats).0
+    });
     let [direct, indirect, environment] = outs;
-    // Consistent mode scales the caps by max(μ, 1)² (kernels::scaled_cap): 64·4, 256·4.
+    // Consistent mode scales the caps by max(μ, 1)² (kernels::scaled_cap): 64·4, 128·4, 256·4 — so
+    // the moving pixels' counts, too, grow without bound as μ does.
     let k = RateParams {
         mu: 2.0,
         mode: Mode::Consistent,
@@ -813,7 +816,7 @@ fn rates_kernel_matches_the_formulas() {
         light_half_width: 0.25,
         omega_v: 2.8,
         max_primary: 256,
-        max_primary_moving: 256,
+        max_primary_moving: 512,
         max_per_primary: 1024,
         max_shadow_per_primary: 1024,
         environment_per_primary: 4.0,
