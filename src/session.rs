@@ -62,8 +62,8 @@ pub struct Overrides {
     pub unfiltered: bool,
     /// The scene's own camera (position, look-at, up, field of view, and its lens where it has one)
     /// instead of the view the pipeline's `camera:` block states; the block's shutter is kept, and
-    /// its lens for a pinhole scene. `bench --suite` sets it: each suite scene is framed by its own
-    /// camera, whatever camera the pipeline was written for.
+    /// its lens for a pinhole scene; a `camera_path` does not move it. `bench --suite` sets it: each
+    /// suite scene is framed by its own camera, whatever camera the pipeline was written for.
     pub scene_camera: bool,
 }
 
@@ -680,8 +680,10 @@ fn load_scene_at(
         wedge_graph::check_camera_path(loaded, (up.x, up.y, up.z))?;
     }
     // A pipeline with a camera path renders its frame 0 (or `ov.frame`) as a single image; before
-    // the scene requests, so a real layer is captured from that frame's camera.
-    if let Some((position, look_at)) = path_at(&pipeline.pipeline.camera_path, frame) {
+    // the scene requests, so a real layer is captured from that frame's camera. Not where the scene
+    // frames itself (`scene_camera`): a path written for the pipeline's scene would move it away.
+    let path = if ov.scene_camera { None } else { path_at(&pipeline.pipeline.camera_path, frame) };
+    if let Some((position, look_at)) = path {
         scene.camera.position = position;
         scene.camera.look_at = look_at;
     }

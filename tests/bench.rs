@@ -439,6 +439,12 @@ fn the_suite_frames_each_scene_with_its_own_camera() {
     let grids = Overrides { scene: Some("builtin:grids".into()), scene_camera: true, ..ov.clone() };
     let grids = Session::open(Some(&pipeline), &grids).unwrap();
     assert_eq!((grids.scene.camera.position, grids.scene.camera.aperture_radius), (pinhole.camera.position, 0.04));
+    // Nor does a camera path written for the pipeline's scene move a suite scene's camera.
+    let temporal = root.join("pipelines/environment_temporal.ron");
+    let env = wedge::scene::load(&wedge::scene::SceneSource::Builtin("env_sun".into())).unwrap();
+    let sun = Overrides { scene: Some("builtin:env_sun".into()), scene_camera: true, ..ov.clone() };
+    let sun = Session::open(Some(&temporal), &sun).unwrap();
+    assert_eq!((sun.scene.camera.position, sun.scene.camera.look_at), (env.camera.position, env.camera.look_at));
     // Without it, the pipeline's block frames the scene, as a render of the pipeline does.
     let theirs = Session::open(Some(&pipeline), &ov).unwrap();
     assert_eq!(theirs.scene.camera.position, glam::Vec3::new(0.0, 2.2, 4.2));
