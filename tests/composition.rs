@@ -13,6 +13,7 @@ use common::cameras::{OpenCamera, CAMERAS};
 use common::*;
 use wedge::graph::{ParamValue, Stage};
 use wedge::image::Image;
+use wedge::outputs::buffer_to_image;
 use wedge::{Overrides, Session};
 
 const SIZE: (u32, u32) = (32, 24);
@@ -165,6 +166,38 @@ fn graph_and_render_make_the_same_decision() {
     let render = common::cli::refused(&run(&["render", "p.ron", "--scene", "motion", "--out", "moving"]), &[]);
     assert_eq!(graph.lines().next(), render.lines().next(), "the same refusal");
     assert!(!dir.join("moving").exists(), "nothing written");
+}
+
+/// A factoring node that does not factor renders its components as they render alone — and takes
+/// each as it then is: `pipelines/motion_environment.ron` on a static scene (`env_sun`, the
+/// environment suite's first) was refused because its Environment node, not factored there, adds
+/// what camera rays see directly, which the `environment` input did not accept. Now it renders, its
+/// image is the Environment node's own bit for bit (counted once: Motion adds no emission when it
+/// does not factor), and a second component that also adds that emission is refused as a double count.
+#[test]
+fn motion_on_a_static_scene_takes_an_environment_rendered_alone() {
+    let shipped = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/motion_environment.ron"))
+        .expect("the shipped pipeline");
+    let ov = Overrides { scene: Some("builtin:env_sun".into()), ..sized(64, 48, None, &[]) };
+    // The Environment node's own image beside Motion's, in the same graph.
+    let both = shipped.replace(r#""unfiltered": "motion.unfiltered""#, r#""unfiltered": "env.radiance""#);
+    let session = build_text(&both, &ov, None).expect("motion_environment.ron builds on a static scene");
+    let terms = session.pipeline.terms.of("motion", "radiance").expect("declared").to_string();
+    assert!(terms.contains("emission") && terms.contains("direct(environment)"), "{terms}");
+    let result = run(&session);
+    let image = |port: &str| buffer_to_image(result.output(port).expect("wired"), 64, 48);
+    let (motion, env) = (image("color"), image("unfiltered"));
+    assert!(image_mean(&motion) > 0.01, "lit by the map: mean {}", image_mean(&motion));
+    assert!(motion.pixels == env.pixels, "Motion's image is the Environment node's, bit for bit");
+    let text = shipped.replace(
+        r#"(name: "motion", kind: "Motion", inputs: {"environment": "env.radiance"}),"#,
+        r#"(name: "primary", kind: "Primary"),
+        (name: "shadows", kind: "SoftShadows", inputs: {"position": "primary.position", "normal": "primary.normal", "albedo": "primary.albedo", "emission": "primary.emission"}),
+        (name: "motion", kind: "Motion", inputs: {"environment": "env.radiance", "direct": "shadows.radiance"}),"#,
+    );
+    let ov = Overrides { scene: Some("builtin:envmap_light".into()), ..ov };
+    let err = build_text(&text, &ov, None).err().expect("two components that each add emission are refused");
+    assert!(err.contains("term-overlap") && err.contains("emission"), "{err}");
 }
 
 /// Ambient occlusion under a factoring node (issue 34 §4): the occlusion a camera with that shutter

@@ -73,9 +73,11 @@ pub(crate) const COMPONENT_INDIRECT: Accepts = Accepts {
           factoring node's lens and shutter; direct light goes to `direct` (README \"What does not compose\")",
 };
 
-/// A factoring node's `environment` input: the environment's direct light, through the sampler's camera.
+/// A factoring node's `environment` input: the environment's direct light (and, from a component
+/// rendered without factoring — Motion on a static scene, a pinhole Defocus — what camera rays see
+/// directly, which the Environment node then adds itself), through the sampler's camera.
 pub(crate) const COMPONENT_ENVIRONMENT: Accepts = Accepts {
-    kinds: &[TermKind::DirectEnvironment],
+    kinds: &[TermKind::DirectEnvironment, TermKind::Emission, TermKind::Background],
     view: AcceptView::Sampler,
     fix: "wire the `radiance` of an Environment node (without `indirect`): it renders the environment's direct light \
           through the factoring node's lens and shutter; indirect light goes to `indirect` (docs/NODES.md \"Composing effects\")",
