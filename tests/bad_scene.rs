@@ -116,9 +116,53 @@ fn a_scene_without_lights_says_so() {
         .unwrap();
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("dark.obj` has no area light"), "{err}");
+    // Refused as the pipeline is checked against the scene, with the node and its position, before
+    // anything renders (graph/src/terms.rs `check_lights_exist`).
+    assert!(
+        err.contains(
+            "error[missing-light]: node `shadows` (SoftShadows) renders area light 0, but the scene has no area light"
+        ),
+        "{err}"
+    );
     assert!(err.contains("add an emissive material"), "{err}");
     assert!(!err.contains("pick 0.."), "{err}");
+}
+
+/// A node that renders an area light the scene lacks is refused by `wedge graph` and `wedge render`
+/// alike, with the node's position in the file, before a pass runs: the light index out of range,
+/// and a shipped pipeline with a SoftShadows node on a scene lit by its map alone (the environment
+/// suite's scenes) — which `wedge bench --suite` then refuses before its first scene renders.
+#[test]
+fn a_node_rendering_a_light_the_scene_lacks_is_refused_up_front() {
+    let out = tempfile::tempdir().unwrap();
+    let wedge =
+        |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).current_dir(repo()).output().unwrap();
+    let dir = out.path().join("img").to_string_lossy().into_owned();
+    let err = stderr(&wedge(&[
+        "render",
+        "pipelines/shadows.ron",
+        "--scene",
+        "grids",
+        "--set",
+        "shadows.light=2",
+        "--out",
+        &dir,
+    ]));
+    assert!(
+        err.contains("pipelines/shadows.ron:11:19: error[missing-light]: node `shadows` (SoftShadows) renders area light 2, but the scene has 1 area light(s): 0..0"),
+        "{err}"
+    );
+    for command in ["graph", "render"] {
+        let mut args = vec![command, "pipelines/environment_shadows.ron", "--scene", "builtin:env_sun"];
+        if command == "render" {
+            args.extend(["--out", &dir]);
+        }
+        let err = stderr(&wedge(&args));
+        let what =
+            "error[missing-light]: node `shadows` (SoftShadows) renders area light 0, but the scene has no area light";
+        assert!(err.contains(what), "{command}: {err}");
+    }
+    assert!(!out.path().join("img").exists(), "nothing written");
 }
 
 /// A pipeline that samples every light (`MonteCarlo` with `light: -1`, `Indirect`'s next-event
@@ -152,6 +196,6 @@ fn sampling_every_light_of_a_scene_without_lights_warns() {
     let o = run(None);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    // SoftShadows' light is sampled by the shared sampler's first pass (SAMPLER-STAGE.md §4).
-    assert!(err.contains("`sampler.first`: `light` = 0") && err.contains("add an emissive material"), "{err}");
+    // The reference is the pipeline's own graph, checked against the scene as a render's is.
+    assert!(err.contains("error[missing-light]") && err.contains("add an emissive material"), "{err}");
 }

@@ -388,10 +388,13 @@ pub(crate) fn check(v: &ValidatedPipeline) -> (TermReport, Vec<Diagnostic>) {
                 own.push((port.name, t));
             }
         }
-        let found = match own.first() {
+        let mut found = match own.first() {
             Some((_, first)) if refused.is_empty() && !upstream_reported => check_sum(node, first),
             _ => refused,
         };
+        if let (Some((_, first)), Some(facts)) = (own.first(), scene) {
+            found.extend(check_lights_exist(node, first, facts));
+        }
         if upstream_reported || !found.is_empty() {
             reported.push(&node.name);
         }
@@ -486,6 +489,42 @@ fn check_accepted(
         });
     }
     out
+}
+
+/// A node's own direct light from an area light the scene does not have: refused with the node's
+/// location before anything renders (the kernel's own check would stop the run at that pass — in a
+/// bench suite, after the scenes before it had rendered).
+fn check_lights_exist(node: &crate::ValidatedNode, terms: &Terms, facts: &crate::SceneFacts) -> Vec<Diagnostic> {
+    let missing = terms.terms.iter().filter_map(|t| {
+        let own_light = t.via.is_empty() && t.kind == TermKind::DirectArea;
+        t.light.filter(|i| own_light && *i >= facts.area_lights)
+    });
+    missing
+        .map(|i| Diagnostic {
+            kind: DiagnosticKind::MissingLight,
+            location: node.location.clone(),
+            message: if facts.area_lights == 0 {
+                format!(
+                    "node `{}` ({}) renders area light {i}, but the scene has no area light (no emissive triangles)",
+                    node.name,
+                    node.kind.kind()
+                )
+            } else {
+                format!(
+                    "node `{}` ({}) renders area light {i}, but the scene has {} area light(s): 0..{}",
+                    node.name,
+                    node.kind.kind(),
+                    facts.area_lights,
+                    facts.area_lights - 1
+                )
+            },
+            help:
+                "add an emissive material to the scene (glTF emissiveFactor, MTL Ke, a `lights` entry in a .ron scene) \
+                   or render one with that light (e.g. --scene grids), set the node's `light` to one the scene has, or \
+                   leave the node out for a scene lit by its environment map alone"
+                    .into(),
+        })
+        .collect()
 }
 
 /// An output that counts one term twice, or sums images of different camera models.

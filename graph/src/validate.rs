@@ -366,6 +366,8 @@ pub enum DiagnosticKind {
     TermOverlap,
     /// An input wired to radiance holding terms (or a camera) it does not take ([`crate::terms::Accepts`]).
     TermNotAccepted,
+    /// A node renders an area light the loaded scene does not have.
+    MissingLight,
 }
 
 impl DiagnosticKind {
@@ -396,6 +398,7 @@ impl DiagnosticKind {
             DiagnosticKind::StageOrder => "stage-order",
             DiagnosticKind::TermOverlap => "term-overlap",
             DiagnosticKind::TermNotAccepted => "term-not-accepted",
+            DiagnosticKind::MissingLight => "missing-light",
         }
     }
 }
