@@ -306,6 +306,36 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     assert!(md.contains("Issue 35's goals"), "{md}");
 }
 
+/// The suite a pipeline gets is its factoring node's: `motion_environment.ron` (Environment first in
+/// its file) the motion suite — on the environment suite's static scenes Motion factors nothing, and
+/// the bench would measure its Environment node alone — and `defocus_environment.ron` the defocus
+/// suite; a pipeline without one keeps the first suite a node names. A pipeline that cannot render
+/// some of the suite's scenes is refused before the first renders, every such scene named, and
+/// nothing is written (`environment_shadows.ron`'s SoftShadows on the map-lit environment scenes).
+#[test]
+fn the_suite_is_the_factoring_nodes_and_every_scene_is_checked_first() {
+    use wedge::bench::suite::{family_of, family_scenes, run_suite};
+    use wedge::scene::builtin::SuiteFamily;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let reg = wedge::Registries::builtin().nodes;
+    let family = |p: &str| family_of(&reg, &root.join("pipelines").join(p)).unwrap();
+    assert_eq!(family("motion_environment.ron"), SuiteFamily::Motion);
+    assert_eq!(family("defocus_environment.ron"), SuiteFamily::Defocus);
+    assert_eq!(family("environment_shadows.ron"), SuiteFamily::Environment);
+    assert_eq!(family("environment_temporal.ron"), SuiteFamily::Environment);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("suite");
+    let opts = tiny_suite(root.join("pipelines/environment_shadows.ron"), &out);
+    let scenes = family_scenes(SuiteFamily::Environment);
+    let err = run_suite(&opts, &scenes).unwrap_err().to_string();
+    assert!(err.contains(&format!("cannot render {} of the suite's {} scenes", scenes.len(), scenes.len())), "{err}");
+    for s in &scenes {
+        assert!(err.contains(&format!("scene `{}`", s.strip_prefix("builtin:").unwrap())), "{s}: {err}");
+    }
+    assert!(err.contains("error[missing-light]") && err.contains("--suite-scenes"), "{err}");
+    assert!(!out.exists(), "nothing written");
+}
+
 /// A suite bench at its smallest (the CI smoke size of a family's suite): 40×30, reference 32 spp,
 /// μ 1, baselines at 2 and 8 spp.
 fn tiny_suite(pipeline: PathBuf, out: &Path) -> BenchOptions {

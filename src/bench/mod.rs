@@ -419,6 +419,21 @@ impl Ctx<'_> {
     }
 }
 
+/// The overrides every session of a bench of `opts` starts from (its runs add a seed and μ).
+pub(crate) fn base_overrides(opts: &BenchOptions) -> Overrides {
+    let (dw, dh) = if opts.quick { (Some(128), Some(96)) } else { (None, None) };
+    Overrides {
+        scene: opts.scene.clone(),
+        width: opts.width.or(dw),
+        height: opts.height.or(dh),
+        seed: opts.seed,
+        mu: None,
+        params: opts.params.clone(),
+        scene_camera: opts.scene_camera,
+        ..Overrides::default()
+    }
+}
+
 struct RunRecordParts {
     rays: RaysPerPixel,
     time: TimeSplit,
@@ -515,17 +530,7 @@ impl Setup {
     /// Open the pipeline with the bench's overrides and refuse a run over `--memory-limit` (one run
     /// at a time, plus the full-size images the report keeps).
     fn open(opts: &BenchOptions) -> Result<Setup, WedgeError> {
-        let (dw, dh) = if opts.quick { (Some(128), Some(96)) } else { (None, None) };
-        let base = Overrides {
-            scene: opts.scene.clone(),
-            width: opts.width.or(dw),
-            height: opts.height.or(dh),
-            seed: opts.seed,
-            mu: None,
-            params: opts.params.clone(),
-            scene_camera: opts.scene_camera,
-            ..Overrides::default()
-        };
+        let base = base_overrides(opts);
         let path = opts.pipeline.as_path();
         let session = Session::open_with(&opts.registries, Some(path), &base)?;
         let (width, height, seed) = (session.width, session.height, session.seed);

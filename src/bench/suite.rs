@@ -65,13 +65,22 @@ fn lens_nodes(registry: &NodeRegistry, pipeline: &Path) -> Result<Vec<String>, W
         .collect())
 }
 
-/// The suite family for `pipeline`: the first suite a node of it names
-/// ([`crate::graph::NodeKind::bench_suite`]: Defocus the defocus suite, Motion the motion suite),
-/// else the soft-shadow suite. A name that is no family is an error naming the node kind.
-/// `registry` knows the pipeline's node kinds (a user's nodes can name a suite too).
+/// The suite family for `pipeline`: the suite its factoring node names, else the first suite a node
+/// of it names in file order ([`crate::graph::NodeKind::bench_suite`]: Defocus the defocus suite,
+/// Motion the motion suite, Environment the environment suite), else the soft-shadow suite. The
+/// factoring node comes first because the suite is there to stress what the pipeline factors: the
+/// environment suite's scenes are static, so `motion_environment.ron` on them would measure its
+/// Environment node alone (Motion factors nothing on a static scene). A name that is no family is
+/// an error naming the node kind. `registry` knows the pipeline's node kinds (a user's nodes can
+/// name a suite too).
 pub fn family_of(registry: &NodeRegistry, pipeline: &Path) -> Result<SuiteFamily, WedgeError> {
     let loaded = crate::session::load_pipeline_or_default(Some(pipeline))?;
-    for node in &loaded.pipeline.nodes {
+    // Decided without a scene (a node factors where a scene could need it); an invalid pipeline
+    // is refused with its own errors when its first scene is checked.
+    let factoring = crate::graph::validate(&loaded, registry).ok().and_then(|v| v.factoring).map(|f| f.node);
+    let nodes = &loaded.pipeline.nodes;
+    let factoring_first = nodes.iter().filter(|n| Some(&n.name) == factoring.as_ref());
+    for node in factoring_first.chain(nodes.iter()) {
         if let Some(name) = registry.get(&node.kind).and_then(|k| k.bench_suite()) {
             return SuiteFamily::parse(name).ok_or_else(|| {
                 let known: Vec<&str> = SuiteFamily::ALL.iter().map(|f| f.name()).collect();
@@ -330,6 +339,54 @@ fn scene_bar(len: u64) -> ProgressBar {
     bar
 }
 
+/// The bench of one suite scene: `opts` on `spec`, into `<opts.out>/<key>/`, with the scene's lens on
+/// the nodes that take one and seen from the scene's own camera.
+fn scene_options(
+    opts: &BenchOptions,
+    spec: &str,
+    key: &str,
+    cache: &Path,
+    bar: Option<ProgressBar>,
+) -> Result<BenchOptions, WedgeError> {
+    let mut params = opts.params.clone();
+    params.extend(lens_params(&opts.registries.nodes, &opts.pipeline, spec)?);
+    Ok(BenchOptions {
+        scene: Some(spec.to_string()),
+        params,
+        out: opts.out.join(key),
+        cache_dir: Some(cache.to_path_buf()),
+        progress: bar,
+        // Each suite scene is seen from its own camera, not from the one the pipeline's
+        // `camera:` block was written for (its shutter is kept).
+        scene_camera: true,
+        ..opts.clone()
+    })
+}
+
+/// The pipeline checked against every suite scene before the first renders — a scene it cannot
+/// render (a light the scene lacks, a combination its motion refuses) would otherwise stop the suite
+/// after the scenes before it, minutes to hours in. Every refusal is reported at once, by scene.
+fn check_scenes(per_scene: &[BenchOptions], keys: &[String]) -> Result<(), WedgeError> {
+    let refused: Vec<String> = per_scene
+        .iter()
+        .zip(keys)
+        .filter_map(|(o, key)| {
+            let session = crate::Session::open_with(&o.registries, Some(&o.pipeline), &super::base_overrides(o));
+            session.err().map(|e| format!("scene `{key}`: {e}"))
+        })
+        .collect();
+    if refused.is_empty() {
+        return Ok(());
+    }
+    Err(WedgeError::Usage(format!(
+        "the pipeline cannot render {} of the suite's {} scenes, so nothing was run:\n{}\n(choose scenes it can \
+         render with --suite-scenes, or bench one scene with --scene)",
+        refused.len(),
+        keys.len(),
+        refused.join("\n")
+    )))
+}
+
 /// Run `opts`' pipeline over `scenes` (scene specs: `builtin:NAME`, a built-in name or a file; the
 /// default suite is [`default_scenes`]), each into `<opts.out>/<key>/`, then write the suite's
 /// table, CSV, JSON and chart into `opts.out`. `opts.scene` must be `None` (the suite chooses the
@@ -350,8 +407,6 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
     let t0 = Instant::now();
     // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them.
     let family = family_of(&opts.registries.nodes, &opts.pipeline)?;
-    std::fs::create_dir_all(&opts.out)
-        .map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
     let cache = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let bar = opts.verbose.then(|| scene_bar(scenes.len() as u64));
     let say = |line: String| match &bar {
@@ -359,27 +414,22 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
         Some(_) => eprintln!("{line}"),
         None => {}
     };
+    let per_scene = scenes
+        .iter()
+        .zip(&keys)
+        .map(|(spec, key)| scene_options(opts, spec, key, &cache, bar.clone()))
+        .collect::<Result<Vec<_>, _>>()?;
+    check_scenes(&per_scene, &keys)?;
+    std::fs::create_dir_all(&opts.out)
+        .map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
     let mut rows = Vec::new();
     let (mut size, mut reference_spp) = ((0, 0), 0);
-    for (spec, key) in scenes.iter().zip(&keys) {
+    for (scene_opts, key) in per_scene.iter().zip(&keys) {
         if let Some(b) = &bar {
             b.set_message(format!("{key}: starting"));
         }
         say(format!("suite: scene `{key}` ({}/{})", rows.len() + 1, scenes.len()));
-        let mut params = opts.params.clone();
-        params.extend(lens_params(&opts.registries.nodes, &opts.pipeline, spec)?);
-        let scene_opts = BenchOptions {
-            scene: Some(spec.clone()),
-            params,
-            out: opts.out.join(key),
-            cache_dir: Some(cache.clone()),
-            progress: bar.clone(),
-            // Each suite scene is seen from its own camera, not from the one the pipeline's
-            // `camera:` block was written for (its shutter is kept).
-            scene_camera: true,
-            ..opts.clone()
-        };
-        let r = super::run(&scene_opts)?;
+        let r = super::run(scene_opts)?;
         let description = wedge_scene::builtin::describe(key).unwrap_or("");
         let row = SuiteRow::from_result(key, description, &r);
         say(format!(
