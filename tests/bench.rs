@@ -306,25 +306,44 @@ fn defocus_suite_smoke_sets_each_scenes_lens_and_splits_the_error() {
     assert!(md.contains("Issue 35's goals"), "{md}");
 }
 
-/// The suite a pipeline gets is its factoring node's: `motion_environment.ron` (Environment first in
-/// its file) the motion suite — on the environment suite's static scenes Motion factors nothing, and
-/// the bench would measure its Environment node alone — and `defocus_environment.ron` the defocus
-/// suite; a pipeline without one keeps the first suite a node names. A pipeline that cannot render
-/// some of the suite's scenes is refused before the first renders, every such scene named, and
-/// nothing is written (`environment_shadows.ron`'s SoftShadows on the map-lit environment scenes).
+/// The suite a pipeline gets is the first that fits, its factoring node's first: `motion_environment.ron`
+/// (Environment first in its file) the motion suite — on the environment suite's static scenes Motion
+/// factors nothing, and the bench would measure its Environment node alone; `defocus_environment.ron`
+/// would be the defocus suite, but its map-less scenes leave its Environment node without a map, so
+/// the environment suite. A pipeline that cannot render some of the scenes is refused before the
+/// first renders, every such scene named, and nothing is written (`environment_shadows.ron`'s
+/// SoftShadows on the map-lit environment scenes; no suite fits it).
 #[test]
-fn the_suite_is_the_factoring_nodes_and_every_scene_is_checked_first() {
-    use wedge::bench::suite::{family_of, family_scenes, run_suite};
+fn the_suite_is_the_first_that_fits_and_every_scene_is_checked_first() {
+    use wedge::bench::suite::{candidate_families, family_scenes, run_suite, suite_for};
     use wedge::scene::builtin::SuiteFamily;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let reg = wedge::Registries::builtin().nodes;
-    let family = |p: &str| family_of(&reg, &root.join("pipelines").join(p)).unwrap();
-    assert_eq!(family("motion_environment.ron"), SuiteFamily::Motion);
-    assert_eq!(family("defocus_environment.ron"), SuiteFamily::Defocus);
-    assert_eq!(family("environment_shadows.ron"), SuiteFamily::Environment);
-    assert_eq!(family("environment_temporal.ron"), SuiteFamily::Environment);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("suite");
+    for (pipeline, candidates, runs) in [
+        ("motion_environment.ron", vec![SuiteFamily::Motion, SuiteFamily::Environment], Some(SuiteFamily::Motion)),
+        (
+            "defocus_environment.ron",
+            vec![SuiteFamily::Defocus, SuiteFamily::Environment],
+            Some(SuiteFamily::Environment),
+        ),
+        ("environment_temporal.ron", vec![SuiteFamily::Environment], Some(SuiteFamily::Environment)),
+        ("environment_shadows.ron", vec![SuiteFamily::Environment], None),
+    ] {
+        let path = root.join("pipelines").join(pipeline);
+        let mut expected = candidates.clone();
+        expected.push(SuiteFamily::Shadows);
+        assert_eq!(candidate_families(&reg, &path).unwrap(), expected, "{pipeline}");
+        let chosen = suite_for(&tiny_suite(path, &out));
+        match runs {
+            Some(f) => assert_eq!(chosen.unwrap(), (f, family_scenes(f)), "{pipeline}"),
+            None => {
+                let err = chosen.unwrap_err().to_string();
+                assert!(err.contains("no suite fits (tried the environment, shadows suites)"), "{err}");
+            }
+        }
+    }
     let opts = tiny_suite(root.join("pipelines/environment_shadows.ron"), &out);
     let scenes = family_scenes(SuiteFamily::Environment);
     let err = run_suite(&opts, &scenes).unwrap_err().to_string();

@@ -65,34 +65,84 @@ fn lens_nodes(registry: &NodeRegistry, pipeline: &Path) -> Result<Vec<String>, W
         .collect())
 }
 
-/// The suite family for `pipeline`: the suite its factoring node names, else the first suite a node
-/// of it names in file order ([`crate::graph::NodeKind::bench_suite`]: Defocus the defocus suite,
-/// Motion the motion suite, Environment the environment suite), else the soft-shadow suite. The
-/// factoring node comes first because the suite is there to stress what the pipeline factors: the
-/// environment suite's scenes are static, so `motion_environment.ron` on them would measure its
-/// Environment node alone (Motion factors nothing on a static scene). A name that is no family is
-/// an error naming the node kind. `registry` knows the pipeline's node kinds (a user's nodes can
-/// name a suite too).
+/// The suite family for `pipeline` as far as its nodes say: the first of [`candidate_families`].
+/// `registry` knows the pipeline's node kinds (a user's nodes can name a suite too).
 pub fn family_of(registry: &NodeRegistry, pipeline: &Path) -> Result<SuiteFamily, WedgeError> {
+    Ok(candidate_families(registry, pipeline)?[0])
+}
+
+/// The suites that could measure `pipeline`, in the order `--suite` tries them: the one its
+/// factoring node names, then those its other nodes name in file order
+/// ([`crate::graph::NodeKind::bench_suite`]: Defocus the defocus suite, Motion the motion suite,
+/// Environment the environment suite), then the soft-shadow suite. The factoring node comes first
+/// because the suite is there to stress what the pipeline factors: the environment suite's scenes
+/// are static, so `motion_environment.ron` on them would measure its Environment node alone (Motion
+/// factors nothing on a static scene). A name that is no family is an error naming the node kind.
+pub fn candidate_families(registry: &NodeRegistry, pipeline: &Path) -> Result<Vec<SuiteFamily>, WedgeError> {
     let loaded = crate::session::load_pipeline_or_default(Some(pipeline))?;
     // Decided without a scene (a node factors where a scene could need it); an invalid pipeline
-    // is refused with its own errors when its first scene is checked.
+    // is refused with its own errors when the scenes are checked.
     let factoring = crate::graph::validate(&loaded, registry).ok().and_then(|v| v.factoring).map(|f| f.node);
     let nodes = &loaded.pipeline.nodes;
     let factoring_first = nodes.iter().filter(|n| Some(&n.name) == factoring.as_ref());
+    let mut families = Vec::new();
     for node in factoring_first.chain(nodes.iter()) {
-        if let Some(name) = registry.get(&node.kind).and_then(|k| k.bench_suite()) {
-            return SuiteFamily::parse(name).ok_or_else(|| {
-                let known: Vec<&str> = SuiteFamily::ALL.iter().map(|f| f.name()).collect();
-                WedgeError::Usage(format!(
-                    "node kind `{}` names the bench suite `{name}`, which is none of {}",
-                    node.kind,
-                    known.join(", ")
-                ))
-            });
+        let Some(name) = registry.get(&node.kind).and_then(|k| k.bench_suite()) else { continue };
+        let family = SuiteFamily::parse(name).ok_or_else(|| {
+            let known: Vec<&str> = SuiteFamily::ALL.iter().map(|f| f.name()).collect();
+            WedgeError::Usage(format!(
+                "node kind `{}` names the bench suite `{name}`, which is none of {}",
+                node.kind,
+                known.join(", ")
+            ))
+        })?;
+        if !families.contains(&family) {
+            families.push(family);
         }
     }
-    Ok(SuiteFamily::Shadows)
+    if !families.contains(&SuiteFamily::Shadows) {
+        families.push(SuiteFamily::Shadows);
+    }
+    Ok(families)
+}
+
+/// The suite `--suite` runs for `opts` without `--suite-scenes`: the first of
+/// [`candidate_families`] whose every scene the pipeline can render (checked as the scenes would
+/// run, `--set` included) — `defocus_environment.ron` needs a map the defocus suite's scenes lack, so
+/// it runs the environment suite. Where none fits, the first family's refusals.
+pub fn suite_for(opts: &BenchOptions) -> Result<(SuiteFamily, Vec<String>), WedgeError> {
+    let families = candidate_families(&opts.registries.nodes, &opts.pipeline)?;
+    let mut first_refusal = None;
+    for &family in &families {
+        let scenes = family_scenes(family);
+        let keys: Vec<String> = scenes.iter().map(|s| scene_key(s)).collect();
+        let per_scene = scenes
+            .iter()
+            .zip(&keys)
+            .map(|(spec, key)| scene_options(opts, spec, key, &opts.out, None))
+            .collect::<Result<Vec<_>, _>>()?;
+        match check_scenes(&per_scene, &keys) {
+            Ok(()) => return Ok((family, scenes)),
+            Err(e) => {
+                first_refusal.get_or_insert(e);
+            }
+        }
+    }
+    let tried: Vec<&str> = families.iter().map(|f| f.name()).collect();
+    Err(match first_refusal {
+        Some(WedgeError::Usage(m)) => {
+            WedgeError::Usage(format!("no suite fits (tried the {} suites); the first: {m}", tried.join(", ")))
+        }
+        Some(other) => other,
+        None => WedgeError::Usage("no suite to run".into()),
+    })
+}
+
+/// The family whose suite holds every one of `scenes` (`builtin:NAME` specs), if one does.
+fn family_of_scenes(scenes: &[String]) -> Option<SuiteFamily> {
+    SuiteFamily::ALL
+        .into_iter()
+        .find(|f| scenes.iter().all(|s| f.scenes().iter().any(|(n, _)| s.strip_prefix("builtin:").unwrap_or(s) == *n)))
 }
 
 /// `--set` overrides that give every lens-taking node of `pipeline` the lens of the built-in scene
@@ -405,8 +455,12 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
         }
     }
     let t0 = Instant::now();
-    // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them.
-    let family = family_of(&opts.registries.nodes, &opts.pipeline)?;
+    // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them;
+    // the goals read are the family's whose suite the scenes are (else the pipeline's first).
+    let family = match family_of_scenes(scenes) {
+        Some(f) => f,
+        None => family_of(&opts.registries.nodes, &opts.pipeline)?,
+    };
     let cache = opts.cache_dir.clone().unwrap_or_else(|| opts.out.join(".cache"));
     let bar = opts.verbose.then(|| scene_bar(scenes.len() as u64));
     let say = |line: String| match &bar {

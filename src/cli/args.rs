@@ -160,8 +160,9 @@ pub(super) enum Command {
         /// .gltf/.glb/.obj/.ron file (as for `render`).
         #[arg(long, conflicts_with_all = ["suite", "suite_scenes"])]
         scene: Option<String>,
-        /// Run the bench over the built-in scene suite the pipeline's factoring node names (else the
-        /// first one a node names; every scene is checked before the first renders): the defocus suite
+        /// Run the bench over the first built-in scene suite that fits the pipeline (the one its
+        /// factoring node names, then its other nodes', in file order, whose every scene it can
+        /// render; checked before the first renders): the defocus suite
         /// (Defocus: dof_*, each scene's own lens set on the nodes that take a lens), the motion suite
         /// (Motion: mo_*), the environment suite (Environment: env_*, each lit by its own map), else the
         /// soft-shadow suite (issue 16: grids, suite_slats, suite_grate, suite_contact,

@@ -99,11 +99,11 @@ fn compare(test: &Path, reference: &Path, heatmap: &Path) -> Result<String, Wedg
     Ok(text)
 }
 
-/// `--suite-scenes`' names as scene specs (every one a built-in), or the whole suite of the
-/// pipeline's family when empty (the defocus suite for a pipeline that takes a lens).
-fn suite_scene_specs(registries: &Registries, pipeline: &Path, names: &[String]) -> Result<Vec<String>, WedgeError> {
+/// `--suite-scenes`' names as scene specs (every one a built-in), or the whole suite that fits the
+/// pipeline when empty ([`crate::bench::suite::suite_for`]).
+fn suite_scene_specs(opts: &crate::bench::BenchOptions, names: &[String]) -> Result<Vec<String>, WedgeError> {
     if names.is_empty() {
-        return Ok(crate::bench::suite::family_scenes(crate::bench::suite::family_of(&registries.nodes, pipeline)?));
+        return Ok(crate::bench::suite::suite_for(opts)?.1);
     }
     names
         .iter()
@@ -253,7 +253,7 @@ fn run(registries: &Registries, cli: Cli) -> Result<String, WedgeError> {
                 ..crate::bench::BenchOptions::new(pipeline, out)
             };
             if suite {
-                let scenes = suite_scene_specs(registries, &opts.pipeline, &suite_scenes)?;
+                let scenes = suite_scene_specs(&opts, &suite_scenes)?;
                 let r = crate::bench::suite::run_suite(&opts, &scenes)?;
                 return Ok(format!("{}\n", crate::bench::suite::summary(&r)));
             }
