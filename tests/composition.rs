@@ -90,7 +90,9 @@ fn environment_next_to_indirect_negotiates_the_sampler_and_sums_to_one_node() {
 }
 
 /// `light` selects what the shadow estimator traces: two SoftShadows nodes of different lights
-/// cannot share one sampler. Refused before anything runs, naming both nodes, the setting and the fix.
+/// cannot share one sampler. Refused before anything runs, naming both nodes, the setting and the fix
+/// — on `cornell` with a second light (a `.ron` scene adding one): on `cornell` alone, node `b`'s
+/// light is one the scene lacks, refused first (`error[missing-light]`).
 #[test]
 fn two_lights_on_one_sampler_are_refused_with_the_fix() {
     let node = |name: &str, light: u32| {
@@ -103,7 +105,14 @@ fn two_lights_on_one_sampler_are_refused_with_the_fix() {
         node("a", 0),
         node("b", 1)
     );
-    let err = refusal(&pipeline("builtin:cornell", &nodes));
+    let missing = refusal(&pipeline("builtin:cornell", &nodes));
+    assert!(missing.contains("error[missing-light]: node `b` (SoftShadows) renders area light 1"), "{missing}");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("two_lights.ron");
+    let second = "Rect(corner: (-0.3, 1.2, 0.6), edge_u: (0.6, 0, 0), edge_v: (0, 0, 0.3), radiance: (4, 4, 4))";
+    std::fs::write(&scene, format!("Scene(builtin: Some(\"cornell\"), lights: [{second}])")).unwrap();
+    let ov = Overrides { scene: Some(scene.to_string_lossy().into_owned()), allow_outside_dir: true, ..ov() };
+    let err = build_text(&pipeline("builtin:cornell", &nodes), &ov, None).err().expect("refused");
     // At the second node's place in the file (line 4: the header, `primary`, `a`, `b`).
     assert!(err.starts_with("test.ron:4:"), "{err}");
     for needle in [
