@@ -719,6 +719,46 @@ fn the_environment_is_a_factored_component_under_defocus_and_motion() {
     }
 }
 
+/// The Environment node's `max_radius` (8 px, its own measured window) caps its component's irradiance
+/// filter under a factoring node, whose own reach (Defocus 16, Motion 32) still bounds the rest: the
+/// texture filter along the velocity, the lens filter, another component's irradiance. A cap at or
+/// above the factoring node's is the factoring node's window, as before (`env.max_radius=64`). The
+/// cap changes no consistency: the windows shrink below it as μ grows (the test above runs with it).
+#[test]
+fn an_environment_components_window_is_its_own_where_smaller() {
+    let radius = |s: &Session, pass: &str| {
+        let p = s.schedule.passes.iter().find(|p| p.name == pass).unwrap_or_else(|| panic!("no pass {pass}"));
+        p.params.get("max_radius").cloned()
+    };
+    for (file, node, own) in [("defocus_environment.ron", "defocus", 16), ("motion_environment.ron", "motion", 32)] {
+        let text = shipped(file);
+        for (set, expected) in [(None, 8), (Some(64), own), (Some(4), 4)] {
+            let params: Vec<(&str, &str, ParamValue)> =
+                set.map(|r| ("env", "max_radius", ParamValue::Int(r))).into_iter().collect();
+            let s = build_text(&text, &sized(64, 48, None, &params), None).expect("builds");
+            for part in ["env.env_diffuse_filter_x", "env.env_glossy_filter_y"] {
+                assert_eq!(radius(&s, part), Some(ParamValue::Int(expected)), "{file} {set:?}: {part}");
+            }
+            if node == "motion" {
+                let texture = radius(&s, "env.env_diffuse_filter_texture");
+                assert_eq!(texture, Some(ParamValue::Int(own)), "{file}: the texture filter keeps Motion's reach");
+            }
+        }
+    }
+    let direct = pipeline(
+        "builtin:envmap_light",
+        &(SHADOWS_UNDER_DEFOCUS.to_string()
+            + r#"    (name: "out", kind: "Output", inputs: {"color": "defocus.radiance"}),"#),
+    );
+    let s = build_text(&direct, &sized(64, 48, None, &[]), None).expect("builds");
+    let filters: Vec<_> = s.schedule.passes.iter().filter(|p| p.kernel == "filter.irradiance").collect();
+    assert!(!filters.is_empty());
+    assert!(
+        filters.iter().all(|p| p.params.get("max_radius") == Some(&ParamValue::Int(16))),
+        "SoftShadows' component keeps Defocus's reach"
+    );
+}
+
 /// What has no meaning for a factored environment component is refused, not ignored, with the fix;
 /// and the factoring node's `environment` input takes nothing but the environment's direct light.
 #[test]

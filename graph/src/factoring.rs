@@ -88,6 +88,9 @@ pub struct Component {
     pub rate_params: Vec<(&'static str, ParamValue)>,
     /// Its parts; the first one's factoring flag selects the count.
     pub parts: Vec<Part>,
+    /// The component node's own cap on its irradiance filter's half-width in pixels (`None`: the
+    /// factoring node's `max_radius` alone): [`Component::irradiance_radius`].
+    pub max_radius: Option<i64>,
 }
 
 /// Where a component's first-pass statistic comes from.
@@ -100,6 +103,15 @@ pub enum Statistic {
 }
 
 impl Component {
+    /// The half-width cap of the component's irradiance filter: the factoring node's (`factoring`,
+    /// its `max_radius`) or the component's own where that is smaller. The factoring node's other
+    /// filters (its texture, along a velocity or through the lens) keep its own.
+    pub fn irradiance_radius(&self, factoring: &ParamValue) -> ParamValue {
+        match (self.max_radius, factoring) {
+            (Some(own), ParamValue::Int(f)) if own < *f => ParamValue::Int(own),
+            _ => factoring.clone(),
+        }
+    }
     /// The buffer holding the component's first-pass statistic.
     pub fn statistic(&self, ctx: &mut crate::ExpandCtx<'_>) -> Result<crate::BufferId, crate::GraphError> {
         match &self.statistic.1 {

@@ -170,7 +170,8 @@ pub fn expand(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Result<(
             Reference::Fill(0),
         )?;
         let e_raw = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;
-        let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable };
+        let max_radius = c.irradiance_radius(&radius);
+        let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius, separable };
         let mut e = filter.apply(ctx, &format!("{}_filter", part.name), e_raw);
         let l = ctx.sampler_output(SamplerPass::Final, part.radiance)?;
         let k = ctx.sampler_output(SamplerPass::Final, part.texture)?;

@@ -201,7 +201,7 @@ impl NodeKind for Environment {
             ParamDecl::boolean("indirect", false, "also sample and filter one-bounce indirect light (eq. 6.18)"),
             ParamDecl::int("indirect_per_primary", 4, 1, 4096, "one-bounce indirect samples per primary ray, with `indirect`"),
             ParamDecl::boolean("temporal", false, "join the previous frame's reprojected irradiance in the y pass (eqs. 6.24-6.26)"),
-            ParamDecl::int("max_radius", 8, 1, 64, "filter half-width and widest σ in pixels (15: the thesis's 30 × 30 window; 8 measured better, docs/RESULTS.md)"),
+            ParamDecl::int("max_radius", 8, 1, 64, "filter half-width and widest σ in pixels (15: the thesis's 30 × 30 window; 8 measured better, docs/RESULTS.md); under a factoring node, the cap of its component's irradiance filter where below the factoring node's"),
             ParamDecl::int("max_motion", 32, 0, 4096, "with `temporal`: pixels a point may move between frames and keep its history (bounds the rows the history pass reads)"),
             ParamDecl::float("occluder_threshold", 0.1, 0.0, 1e6, "occluded look-ups dimmer than this × the map's mean radiance do not set the occluder term (Sec. 6.7: 0.1)"),
             ParamDecl::choice("adaptive", "glossy", AdaptiveLookUps::OPTIONS, "more look-ups where the filter is narrower than `sigma_ref` pixels (an extension): at glossy receivers, every receiver, or off (the thesis's fixed count)"),
@@ -375,8 +375,9 @@ const NOT_FACTORED: [(&str, &str); 2] = [
 /// node's first pass, at μ = 1 (the factoring node's μ scales the widths it derives); its look-ups
 /// per primary ray are `per_primary`. Where `adaptive` applies, its paths are at least
 /// `look_ups / per_primary` (the node's rule, `primary × per_primary` look-ups grown as σ_ref² / σ²,
-/// with σ at the factoring node's μ). `mu`, `max_radius` and `emission` do not apply (the factoring node's μ, filter reach,
-/// and the emission it adds once); `indirect` and `temporal` are refused ([`NOT_FACTORED`]).
+/// with σ at the factoring node's μ). `max_radius` caps the component's irradiance filter where it is
+/// below the factoring node's ([`Component::irradiance_radius`]). `mu` and `emission` do not apply (the
+/// factoring node's μ, and the emission it adds once); `indirect` and `temporal` are refused ([`NOT_FACTORED`]).
 fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphError> {
     refuse_not_factored(ctx, &format!("under the factoring node `{}` ({})", f.node, f.kind))?;
     let settings = sampled_settings(ctx);
@@ -393,6 +394,12 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<(), GraphEr
         statistic: ("bandlimit", Statistic::Buffer(bandlimit)),
         rate_params: vec![("environment_per_primary", ctx.param("per_primary").clone())],
         parts: DIRECT_PARTS.iter().map(|p| p.part.clone()).collect(),
+        // Its own window (8 px, measured better than the thesis's 15 alone: docs/RESULTS.md "The
+        // Environment filter's window") caps the factoring node's for its irradiance.
+        max_radius: match ctx.param("max_radius") {
+            ParamValue::Int(r) => Some(*r),
+            _ => None,
+        },
     })
 }
 

@@ -47,6 +47,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         settings,
         statistic: ("reflectors", Statistic::Buffer(statistic)),
         rate_params: vec![],
+        max_radius: None,
         parts,
     })
 }

@@ -331,8 +331,8 @@ fn expand_component(ctx: &mut ExpandCtx<'_>, f: &Factoring, c: &Component) -> Re
     // composed and summed over parts.
     let position = ctx.sampler_output(SamplerPass::Final, "position")?;
     let normal = ctx.sampler_output(SamplerPass::Final, "normal")?;
-    let filter =
-        IrradianceFilter { position, normal, omega, pixel_length, max_radius: radius.clone(), separable: true };
+    let max_radius = c.irradiance_radius(&radius);
+    let filter = IrradianceFilter { position, normal, omega, pixel_length, max_radius, separable: true };
     let mut terms = Vec::new();
     for part in &c.parts {
         let e = ctx.sampler_output(SamplerPass::Final, part.irradiance)?;

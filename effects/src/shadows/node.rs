@@ -199,6 +199,7 @@ fn expand_factored(ctx: &mut ExpandCtx<'_>) -> Result<(), GraphError> {
         settings,
         statistic: ("occlusion", statistic),
         rate_params: vec![("light", light)],
+        max_radius: None,
         parts: vec![DIRECT_PART],
     })
 }
