@@ -115,14 +115,8 @@ pub fn suite_for(opts: &BenchOptions) -> Result<(SuiteFamily, Vec<String>), Wedg
     let mut first_refusal = None;
     for &family in &families {
         let scenes = family_scenes(family);
-        let keys: Vec<String> = scenes.iter().map(|s| scene_key(s)).collect();
-        let per_scene = scenes
-            .iter()
-            .zip(&keys)
-            .map(|(spec, key)| scene_options(opts, spec, key, &opts.out, None))
-            .collect::<Result<Vec<_>, _>>()?;
-        match check_scenes(&per_scene, &keys) {
-            Ok(()) => return Ok((family, scenes)),
+        match scene_plan(opts, &scenes, &opts.out, None) {
+            Ok(_) => return Ok((family, scenes)),
             Err(e) => {
                 first_refusal.get_or_insert(e);
             }
@@ -138,11 +132,9 @@ pub fn suite_for(opts: &BenchOptions) -> Result<(SuiteFamily, Vec<String>), Wedg
     })
 }
 
-/// The family whose suite holds every one of `scenes` (`builtin:NAME` specs), if one does.
+/// The family whose suite holds every one of `scenes` (scene specs), if one does.
 fn family_of_scenes(scenes: &[String]) -> Option<SuiteFamily> {
-    SuiteFamily::ALL
-        .into_iter()
-        .find(|f| scenes.iter().all(|s| f.scenes().iter().any(|(n, _)| s.strip_prefix("builtin:").unwrap_or(s) == *n)))
+    SuiteFamily::ALL.into_iter().find(|f| scenes.iter().all(|s| f.scenes().iter().any(|(n, _)| scene_key(s) == *n)))
 }
 
 /// `--set` overrides that give every lens-taking node of `pipeline` the lens of the built-in scene
@@ -413,6 +405,30 @@ fn scene_options(
     })
 }
 
+/// Each of `scenes` as its key (its directory under `<opts.out>`) and its bench ([`scene_options`]),
+/// the pipeline checked against every one before any renders ([`check_scenes`]); a key given twice
+/// is refused.
+fn scene_plan(
+    opts: &BenchOptions,
+    scenes: &[String],
+    cache: &Path,
+    bar: Option<ProgressBar>,
+) -> Result<Vec<(String, BenchOptions)>, WedgeError> {
+    let keys: Vec<String> = scenes.iter().map(|s| scene_key(s)).collect();
+    for (i, k) in keys.iter().enumerate() {
+        if keys[..i].contains(k) {
+            return Err(WedgeError::Usage(format!("scene `{k}` appears twice in the suite")));
+        }
+    }
+    let per_scene = scenes
+        .iter()
+        .zip(&keys)
+        .map(|(spec, key)| scene_options(opts, spec, key, cache, bar.clone()))
+        .collect::<Result<Vec<_>, _>>()?;
+    check_scenes(&per_scene, &keys)?;
+    Ok(keys.into_iter().zip(per_scene).collect())
+}
+
 /// The pipeline checked against every suite scene before the first renders — a scene it cannot
 /// render (a light the scene lacks, a combination its motion refuses) would otherwise stop the suite
 /// after the scenes before it, minutes to hours in. Every refusal is reported at once, by scene.
@@ -448,12 +464,6 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
     if scenes.is_empty() {
         return Err(WedgeError::Usage("the scene suite is empty".into()));
     }
-    let keys: Vec<String> = scenes.iter().map(|s| scene_key(s)).collect();
-    for (i, k) in keys.iter().enumerate() {
-        if keys[..i].contains(k) {
-            return Err(WedgeError::Usage(format!("scene `{k}` appears twice in the suite")));
-        }
-    }
     let t0 = Instant::now();
     // Before the scenes run, so a pipeline whose node names no suite fails at once, not after them;
     // the goals read are the family's whose suite the scenes are (else the pipeline's first).
@@ -468,17 +478,12 @@ pub fn run_suite(opts: &BenchOptions, scenes: &[String]) -> Result<SuiteResult, 
         Some(_) => eprintln!("{line}"),
         None => {}
     };
-    let per_scene = scenes
-        .iter()
-        .zip(&keys)
-        .map(|(spec, key)| scene_options(opts, spec, key, &cache, bar.clone()))
-        .collect::<Result<Vec<_>, _>>()?;
-    check_scenes(&per_scene, &keys)?;
+    let plan = scene_plan(opts, scenes, &cache, bar.clone())?;
     std::fs::create_dir_all(&opts.out)
         .map_err(|source| WedgeError::Image(ImageError::Write { path: opts.out.clone(), source }))?;
     let mut rows = Vec::new();
     let (mut size, mut reference_spp) = ((0, 0), 0);
-    for (scene_opts, key) in per_scene.iter().zip(&keys) {
+    for (key, scene_opts) in &plan {
         if let Some(b) = &bar {
             b.set_message(format!("{key}: starting"));
         }
