@@ -536,6 +536,54 @@ fn parity_irradiance_and_defocus_filters() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
+/// The risk-based width's three passes (`effects/src/defocus/kernels/risk.rs`) on random images and
+/// widths — a wide width that is wider, close or narrower, pass-through and NaN widths, NaN values;
+/// noisy values on the right half, none on the left: the terms within float tolerance, the choices
+/// and the selected image exact; both choices taken.
+#[test]
+fn parity_defocus_risk() {
+    let Some(mut gpu) = gpu_or_skip("parity_defocus_risk") else { return };
+    let scene = scene();
+    let mut rng = Rng(31);
+    let narrow = random_image(&mut rng, 0);
+    let jitter = |rng: &mut Rng, v: &[f32; 3], a: f32| v.map(|c| c + a * (rng.unit() - 0.5));
+    let wide: Vec<[f32; 3]> = narrow.iter().map(|v| jitter(&mut rng, v, 0.02)).collect();
+    let value: Vec<[f32; 3]> = (0..N)
+        .map(|i| {
+            if i % 97 == 5 {
+                [f32::NAN; 3]
+            } else {
+                jitter(&mut rng, &narrow[i], if i % W as usize >= W as usize / 2 { 1.0 } else { 0.0 })
+            }
+        })
+        .collect();
+    let omega = random_widths(&mut rng);
+    let omega_wide: Vec<f32> = omega.iter().map(|w| w * rng.range(0.4, 1.1)).collect();
+    let mut bad = Vec::new();
+    let terms_in: Buffers = BTreeMap::from([
+        ("value", vec3s(value)),
+        ("narrow", vec3s(narrow.clone())),
+        ("wide", vec3s(wide.clone())),
+        ("omega", f32s(omega)),
+        ("omega_wide", f32s(omega_wide)),
+    ]);
+    for max_radius in [16, 5] {
+        let p = params(&[("max_radius", int(max_radius))]);
+        bad.extend(parity(&mut gpu, &scene, "defocus.risk_terms", W, H, &p, &terms_in));
+    }
+    let p = params(&[("max_radius", int(16))]);
+    let (terms, _) = run_cpu(&scene, "defocus.risk_terms", W, H, &p, &terms_in);
+    let choice_in: Buffers = BTreeMap::from([("bias", terms["bias"].clone()), ("noise", terms["noise"].clone())]);
+    bad.extend(parity(&mut gpu, &scene, "defocus.risk_choice", W, H, &Params::new(), &choice_in));
+    let (choice, _) = run_cpu(&scene, "defocus.risk_choice", W, H, &Params::new(), &choice_in);
+    let wide_taken = u32_of(&choice["choice"]).iter().filter(|c| **c == 1).count();
+    assert!(wide_taken > N / 10 && wide_taken < 9 * N / 10, "both choices exercised: {wide_taken} of {N}");
+    let select_in: Buffers =
+        BTreeMap::from([("choice", choice["choice"].clone()), ("narrow", vec3s(narrow)), ("wide", vec3s(wide))]);
+    bad.extend(parity(&mut gpu, &scene, "defocus.risk_select", W, H, &Params::new(), &select_in));
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
 /// Every kernel on random inputs, with the GPU binding its buffers packed (two storage buffers) and
 /// split into bands of about 20 rows: the same results as the CPU (the kernels declare their reach:
 /// rates and flags their own pixel, the 3×3 filters one row, the image filters `max_radius` rows).
@@ -558,6 +606,10 @@ fn parity_packed_and_in_bands() {
     for name in ["neighbourhood.max3", "neighbourhood.median3"] {
         bad.extend(parity(&mut gpu, &scene, name, W, H, &Params::new(), &counts));
     }
+    // The risk-based width's box of 7×7 terms (reach 3 rows).
+    let mut terms = || f32s((0..N).map(|_| rng.range(0.0, 1.0)).collect());
+    let terms: Buffers = BTreeMap::from([("bias", terms()), ("noise", terms())]);
+    bad.extend(parity(&mut gpu, &scene, "defocus.risk_choice", W, H, &Params::new(), &terms));
     let value = random_image(&mut rng, 97);
     let omega = random_widths(&mut rng);
     let irr = irradiance_inputs(value.clone(), omega.clone());

@@ -320,28 +320,41 @@ fn the_irradiance_weighted_texture_keeps_blurred_highlights_and_converges() {
 /// file's, option value) gives against it — (RMSE, total rays).
 fn option_against_reference(
     scene: &str,
-    (aperture, focus): (f64, f64),
-    (w, h): (u32, u32),
+    lens: (f64, f64),
+    size: (u32, u32),
     fixed: &[(&'static str, ParamValue)],
     (option, reference_value): (&'static str, ParamValue),
 ) -> impl Fn(Option<f64>, ParamValue) -> (f64, u64) {
+    let at = sets_against_reference(scene, lens, size, fixed, &[(option, reference_value)]);
+    move |mu, value| at(mu, &[(option, value)])
+}
+
+/// [`option_against_reference`] with any Defocus parameters `sets` per run (the reference's are
+/// `reference_sets`, which a reference's bypassed filters ignore).
+fn sets_against_reference(
+    scene: &str,
+    (aperture, focus): (f64, f64),
+    (w, h): (u32, u32),
+    fixed: &[(&'static str, ParamValue)],
+    reference_sets: &[(&'static str, ParamValue)],
+) -> impl Fn(Option<f64>, &[(&'static str, ParamValue)]) -> (f64, u64) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/defocus.ron");
     let scene = format!("builtin:{scene}");
     let fixed: Vec<_> = fixed.iter().map(|(n, v)| ("defocus", *n, v.clone())).collect();
-    let ov = move |mu: Option<f64>, value: ParamValue| {
+    let ov = move |mu: Option<f64>, extra: &[(&'static str, ParamValue)]| {
         let mut sets = vec![
             ("defocus", "aperture_radius", ParamValue::Float(aperture)),
             ("defocus", "focus_distance", ParamValue::Float(focus)),
         ];
         sets.extend(fixed.iter().cloned());
-        sets.push(("defocus", option, value));
+        sets.extend(extra.iter().map(|(n, v)| ("defocus", *n, v.clone())));
         Overrides { scene: Some(scene.clone()), ..sized(w, h, mu, &sets) }
     };
-    let seeded = Overrides { seed: Some(99), ..ov(None, reference_value) };
+    let seeded = Overrides { seed: Some(99), ..ov(None, reference_sets) };
     let s = Session::reference(Some(&path), 512, "stratified", &seeded).unwrap();
     let reference = color(&s, &run(&s));
-    move |mu, value| {
-        let s = Session::open(Some(&path), &ov(mu, value)).unwrap();
+    move |mu, extra| {
+        let s = Session::open(Some(&path), &ov(mu, extra)).unwrap();
         let r = run(&s);
         (rmse(&color(&s, &r), &reference), r.rays.total_rays())
     }
@@ -366,6 +379,10 @@ fn the_near_layer_lowers_a_blurred_foregrounds_error_and_converges() {
 /// A run's (RMSE, total rays) against its reference.
 type Measured = (f64, u64);
 
+/// `screen_scale_wide` at or above `screen_scale`: eq. 5.33's single filter, which the tests of the
+/// screen scales measured (`defocus.ron` states the risk-based width since).
+const SINGLE_FILTER: (&str, ParamValue) = ("screen_scale_wide", ParamValue::Float(1.0));
+
 /// An option at 1 and at 0.7 at the file's μ (1), and at 0.7 over μ 1, 2, 4 — (RMSE, rays) each,
 /// the μ 1 run being the 0.7 one (`defocus.ron` states μ 1).
 fn scale_one_and_wider(at: &impl Fn(Option<f64>, ParamValue) -> Measured) -> (Measured, Measured, Vec<Measured>) {
@@ -387,7 +404,7 @@ fn a_wider_screen_filter_lowers_a_blurred_textures_error_and_converges() {
         "dof_receding",
         (0.16, 3.0),
         (160, 120),
-        &[],
+        &[SINGLE_FILTER],
         ("screen_scale", ParamValue::Float(1.0)),
     );
     let (thesis, wider, series) = scale_one_and_wider(&at);
@@ -411,7 +428,7 @@ fn a_wider_screen_filter_on_factored_pixels_lowers_a_blurred_textures_error_and_
         "dof_receding",
         (0.08, 3.0),
         (320, 240),
-        &[("screen_scale", ParamValue::Float(1.0))],
+        &[("screen_scale", ParamValue::Float(1.0)), SINGLE_FILTER],
         ("screen_scale_factored", ParamValue::Float(1.0)),
     );
     let (thesis, wider, series) = scale_one_and_wider(&at);
@@ -433,7 +450,7 @@ fn the_factored_scale_keeps_the_thesis_filter_on_blurred_highlights() {
         "dof_glossy",
         (0.1, 3.6),
         (320, 240),
-        &[("screen_scale_factored", ParamValue::Float(0.7))],
+        &[("screen_scale_factored", ParamValue::Float(0.7)), SINGLE_FILTER],
         ("screen_scale", ParamValue::Float(1.0)),
     );
     let (per_pixel, everywhere) = (at(None, ParamValue::Float(1.0)), at(None, ParamValue::Float(0.7)));
@@ -441,6 +458,69 @@ fn the_factored_scale_keeps_the_thesis_filter_on_blurred_highlights() {
     assert_eq!(per_pixel.1, everywhere.1, "the scales do not change the counts");
     // Measured: 5.73e-3 against 6.09e-3 at 1,296,091 rays.
     assert!(per_pixel.0 < 0.97 * everywhere.0, "{per_pixel:?} vs {everywhere:?}");
+}
+
+/// The risk-based width (`screen_scale_wide`, `effects/src/defocus/kernels/risk.rs`) on the scene
+/// it is for: a receding checker floor blurred on both sides of the focal plane (`dof_receding`
+/// through 4× its suite aperture at 160×120), where most pixels take the first pass's paths and
+/// eq. 5.33's width is what averages more lens samples. Against `defocus.ron`'s filter alone: the
+/// same rays, a lower error; and the error still falls as μ grows (both widths ∝ μ). Measured:
+/// 2.73e-2 → 2.22e-2 at 256,579 rays; then 2.07e-2, 1.28e-2 at μ 2, 4.
+#[test]
+fn the_risk_based_width_lowers_a_blurred_textures_error_and_converges() {
+    let at = sets_against_reference("dof_receding", (0.16, 3.0), (160, 120), &[], &[]);
+    let wide = [("screen_scale_wide", ParamValue::Float(0.6))];
+    let (alone, risk) = (at(None, &[("screen_scale_wide", ParamValue::Float(1.0))]), at(None, &wide));
+    let series: Vec<Measured> = [2.0, 4.0].iter().map(|&mu| at(Some(mu), &wide)).collect();
+    eprintln!("(RMSE, rays): the file's filter {alone:?}, with the risk-based width {risk:?}; at mu 2, 4 {series:?}");
+    assert_eq!(alone.1, risk.1, "the width does not change the counts");
+    assert!(risk.0 < 0.9 * alone.0, "{risk:?} vs {alone:?}");
+    assert!(series[0].0 < risk.0 && series[1].0 < 0.6 * risk.0, "{series:?}");
+}
+
+/// Why the width is chosen per pixel by risk: on glossy receivers (`dof_glossy`, its suite lens at
+/// 2× the aperture for 320×240) the wide filter everywhere (`screen_scale` 0.6) blurs the blurred
+/// highlights' sharp rims; the risk-based choice between `defocus.ron`'s 0.85 and 0.6 keeps them,
+/// within 3% of the narrow filter alone and below the wide one. Measured: 5.59e-3 (0.85), 6.98e-3
+/// (0.6), 5.63e-3 (by risk) at 1,296,091 rays.
+#[test]
+fn the_risk_based_width_keeps_the_narrow_filter_on_blurred_highlights() {
+    let at = sets_against_reference("dof_glossy", (0.1, 3.6), (320, 240), &[], &[]);
+    // screen_scale_wide at or above screen_scale: no second filter.
+    let off = ("screen_scale_wide", ParamValue::Float(1.0));
+    let (narrow, wide) =
+        (at(None, std::slice::from_ref(&off)), at(None, &[off, ("screen_scale", ParamValue::Float(0.6))]));
+    let risk = at(None, &[("screen_scale_wide", ParamValue::Float(0.6))]);
+    eprintln!("(RMSE, rays): 0.85 {narrow:?}, 0.6 {wide:?}, by risk {risk:?}");
+    assert_eq!(narrow.1, risk.1, "the width does not change the counts");
+    assert!(risk.0 < wide.0 && risk.0 < 1.03 * narrow.0, "{risk:?} vs {narrow:?}, {wide:?}");
+}
+
+/// `screen_scale_wide` at or above `screen_scale` is no wider filter: the node renders eq. 5.33 at
+/// `screen_scale` alone, bit for bit, and its `filter_choice` is 0; below it the choice takes both.
+#[test]
+fn a_wide_scale_not_below_the_screen_scale_is_the_single_filter() {
+    // The Output sink's `rays_per_pixel` reads the node's `filter_choice` here.
+    let text = |wide: &str| {
+        let lens = format!(r#""aperture_radius": 0.16, "focus_distance": 3.0, "screen_scale": 0.85{wide}"#);
+        pipeline("builtin:dof_receding", &lens, "defocus.radiance", "None")
+            .replace(r#""rays_per_pixel": "defocus.rays_per_pixel""#, r#""rays_per_pixel": "defocus.filter_choice""#)
+    };
+    let ov = Overrides { width: Some(160), height: Some(120), ..Default::default() };
+    let choice = |r: &wedge::backends::RunResult| -> Vec<u32> {
+        let b = r.outputs.iter().find(|((_, port), _)| port == "rays_per_pixel").expect("the sink's input").1;
+        <u32 as Texel>::slice(b).expect("a u32 buffer").to_vec()
+    };
+    let (alone, _) = render(&text(""), &ov);
+    for off in ["0.85", "1.0"] {
+        let (img, r) = render(&text(&format!(r#", "screen_scale_wide": {off}"#)), &ov);
+        assert_eq!(img.pixels, alone.pixels, "screen_scale_wide {off}: the single filter");
+        assert!(choice(&r).iter().all(|c| *c == 0));
+    }
+    let (img, r) = render(&text(r#", "screen_scale_wide": 0.6"#), &ov);
+    assert_ne!(img.pixels, alone.pixels);
+    let wide = choice(&r).iter().filter(|c| **c == 1).count();
+    assert!(wide > 0 && wide < 160 * 120, "both filters taken: {wide} wide pixels");
 }
 
 #[test]

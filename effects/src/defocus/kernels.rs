@@ -23,6 +23,7 @@
 pub mod all_factored;
 pub mod filter;
 pub mod layers;
+pub mod risk;
 
 use wedge_backends::{BackendError, Kernel, KernelCtx, KernelParams, LightIndex, PutWith, Uniforms, WgslSource};
 use wedge_graph::{BufferId, Component, ExpandCtx, GraphError, ParamValue};

@@ -37,4 +37,7 @@ pub fn register_kernels(reg: &mut KernelRegistry) {
     reg.register(Arc::new(kernels::filter::DefocusFilter));
     reg.register(Arc::new(kernels::layers::Layers));
     reg.register(Arc::new(kernels::all_factored::AllFactored));
+    reg.register(Arc::new(kernels::risk::RiskTerms));
+    reg.register(Arc::new(kernels::risk::RiskChoice));
+    reg.register(Arc::new(kernels::risk::RiskSelect));
 }

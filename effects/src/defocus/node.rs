@@ -13,6 +13,10 @@
 //! 3. sums its `direct`, `indirect` and `environment` inputs (each a component's eq. 5.32 term) and
 //!    the emission of the primary hits (the map where lens rays miss), and filters the sum in screen
 //!    space (eq. 5.33, `filter.defocus`);
+//!    3b. with `screen_scale_wide` (not the thesis; off by default), filters it at that wider scale
+//!    too and takes per pixel the filter of the smaller estimated squared error, the composed
+//!    image's variance read from the narrower filter's residual (`kernels/risk.rs`; the port
+//!    `filter_choice` says which);
 //! 4. with `layers` (not the thesis; off by default), composites each pixel's blurred near layer over
 //!    its far paths with the near layer's own filter (`defocus.layers`, `kernels/layers.rs`).
 //!
@@ -43,7 +47,7 @@
 //! counts `n^c`, every pixel composes `L`), `max_primary`, `max_per_primary`, `max_radius`,
 //! `separable`, `motion_filter`, `width_pixel_limit`, `screen_scale` (a factor on eq. 5.33's width,
 //! the rates pass's) and `screen_scale_factored` (that factor where every component's first-pass
-//! flag is set and no emitter is seen: `kernels/all_factored.rs`), `texture` (`weighted`, the default: a factored pixel's texture is
+//! flag is set and no emitter is seen: `kernels/all_factored.rs`), `screen_scale_wide` (step 3b), `texture` (`weighted`, the default: a factored pixel's texture is
 //! `L / Ē`, the paths' `k` weighted by the irradiance each brought — `formulas::weighted_texture`;
 //! `mean`: the paths' mean `k̄`, eq. 5.32 as printed), and the camera settings `aperture_radius`, `focus_distance`, `lens` and (on a moving
 //! scene) `time` (a node tracing its own camera rays, LightField, takes the same lens and shutter).
@@ -53,15 +57,17 @@ use std::collections::BTreeMap;
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
-    ParamValue, PortDecl, Reference, SamplerPass, SamplerRequest, Stage,
+    ParamValue, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
 use super::component::rate_settings;
 use super::kernels::all_factored::AllFactoredIo;
 use super::kernels::filter::DefocusIo;
 use super::kernels::layers::LayersIo;
+use super::kernels::risk::{RiskChoiceIo, RiskSelectIo, RiskTermsIo};
 use super::kernels::RatesIo;
 use crate::factored::{components, filter_chain, pass_through, sum};
+use wedge_backends::kernels::constant::FillU32Io;
 
 pub struct Defocus;
 
@@ -127,6 +133,14 @@ fn refuse_a_second_lens(params: &BTreeMap<String, ParamValue>, camera: Option<&C
     Ok(())
 }
 
+/// Whether `screen_scale_wide` asks for a second, wider filter: a factor below `screen_scale`
+/// (default 1). At or above it there is no wider filter to choose, and eq. 5.33 at `screen_scale`
+/// alone is what renders (`--set defocus.screen_scale_wide=1` is the thesis's single filter).
+fn wide_filter(params: &BTreeMap<String, ParamValue>) -> bool {
+    let number = |name: &str| params.get(name).and_then(ParamValue::as_f64);
+    number("screen_scale_wide").is_some_and(|wide| wide < number("screen_scale").unwrap_or(1.0))
+}
+
 impl NodeKind for Defocus {
     fn kind(&self) -> &'static str {
         "Defocus"
@@ -149,6 +163,11 @@ impl NodeKind for Defocus {
                 "rays_per_pixel",
                 Format::U32,
                 "primary rays per pixel asked for the second pass, n_p (eq. 5.24)",
+            ),
+            PortDecl::new(
+                "filter_choice",
+                Format::U32,
+                "which screen filter a pixel took: 1 the wider (screen_scale_wide, by estimated risk), 0 eq. 5.33 at screen_scale",
             ),
         ]
     }
@@ -183,6 +202,7 @@ impl NodeKind for Defocus {
             ParamDecl::boolean("width_pixel_limit", false, "cap the screen-space filter's width at the pixel limit Ω_pix^max as eq. 5.7 does (the thesis: every in-focus pixel gets a σ = 0.35 px blur, a bias at sharp edges and highlights); false: the lens term alone, μ Ω_u^max / r_min, so in-focus pixels stay sharp. The counts are the same either way (DESIGN-NOTES \"The filters against their own rays\")"),
             ParamDecl::positive("screen_scale", 1.0, 1e3, "factor on eq. 5.33's screen-space bandwidth, μ Ω_u^max / r_min (not on the counts, the irradiance filters or the near layer's): below 1 a wider lens filter — the variance of a blurred texture where the first pass's paths already exceed eq. 5.24's count — at the cost of bias at bright out-of-focus highlights; 1 = the thesis. Still ∝ μ, so consistent as μ grows (docs/DESIGN-NOTES.md \"The screen filter's scale\")"),
             ParamDecl::positive("screen_scale_factored", 1.0, 1e3, "screen_scale where the pixel's whole radiance factors — every lighting component's first-pass flag set (eq. 5.30) and no emitter seen: a diffuse texture under smooth light, whose blurred edges are ramps a wider Gaussian barely changes, where a glossy highlight or an emitter blurs into a disc whose sharp rim it would ; absent: screen_scale everywhere, the thesis with screen_scale 1. Still ∝ μ, so consistent as μ grows. Measured at (screen_scale 1, 0.7): every Defocus goal of the suite met, but 11% lost on held-out chess and cornell, so no shipped pipeline sets it (docs/DESIGN-NOTES.md \"The screen filter's scale, per pixel\")").optional(),
+            ParamDecl::positive("screen_scale_wide", 0.6, 1e3, "a second, wider screen filter — eq. 5.33's width times this factor, below screen_scale (at or above it: no second filter, screen_scale's alone) — and per pixel the one of the two with the smaller estimated squared error: the bias the wider adds (from the difference of the two filtered images) against the variance it removes (from the composed image's variance, estimated from what the narrower filter removes: the pixels' noise is independent, the narrower filter unbiased), summed over 7×7 pixels (kernels/risk.rs; docs/DESIGN-NOTES.md \"A per-pixel width by estimated risk\"); absent: screen_scale's filter alone, the thesis with screen_scale 1. Both widths ∝ μ, so consistent as μ grows").optional(),
             ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
@@ -212,9 +232,11 @@ impl NodeKind for Defocus {
             "width_pixel_limit",
             "screen_scale",
             "screen_scale_factored",
+            "screen_scale_wide",
             "texture",
         ]
         .into_iter()
+        .filter(|n| *n != "screen_scale_wide" || wide_filter(params))
         .filter_map(|n| params.get(n).map(|v| (n.to_string(), v.clone())))
         .collect();
         s.insert("aperture_radius".into(), ParamValue::Float(aperture));
@@ -235,6 +257,8 @@ impl NodeKind for Defocus {
         let Some(f) = ctx.factoring().filter(|f| f.node == ctx.node()) else {
             // A pinhole: the components rendered as without a Defocus node; only their sum here.
             pass_through(ctx, &components);
+            let choice = narrow_everywhere(ctx);
+            ctx.output("filter_choice", choice);
             return Ok(());
         };
 
@@ -295,18 +319,12 @@ impl NodeKind for Defocus {
         // 3. Σ components + emission (eq. 5.32), then the screen-space defocus filter (eq. 5.33).
         let emission = crate::factored::seen_directly(ctx, SamplerPass::Final)?;
         let composed = sum(ctx, "compose", &components, emission);
-        let separable = ctx.param("separable") == &ParamValue::Bool(true);
-        let radius = ctx.param("max_radius").clone();
-        let value = filter_chain(
-            ctx,
-            "filter",
-            "filter.defocus",
-            Stage::ImageFilter,
-            composed,
-            |b, value, out| DefocusIo { value, omega, out }.bind(b),
-            &[("max_radius", radius)],
-            separable,
-        );
+        let value = screen_filter(ctx, "filter", composed, omega);
+        let (value, choice) = match f.setting("screen_scale_wide").cloned() {
+            Some(wide) => risk_width(ctx, f, RiskWidth { composed, narrow: value, omega, lens, velocity, wide })?,
+            None => (value, narrow_everywhere(ctx)),
+        };
+        ctx.output("filter_choice", choice);
         let value =
             if ctx.param("layers") == &ParamValue::Bool(true) { near_layer(ctx, f, composed, value)? } else { value };
         ctx.output("radiance", value);
@@ -337,6 +355,80 @@ fn factored_pixels(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Option<Buff
         previous = Some(out);
     }
     Ok(previous)
+}
+
+/// Eq. 5.33 on `value` at width `omega` (`filter.defocus`, passes `<name>_x`, `<name>_y` where the
+/// node is `separable`), in the node's window.
+fn screen_filter(ctx: &mut ExpandCtx<'_>, name: &str, value: BufferId, omega: BufferId) -> BufferId {
+    let separable = ctx.param("separable") == &ParamValue::Bool(true);
+    let radius = ctx.param("max_radius").clone();
+    filter_chain(
+        ctx,
+        name,
+        "filter.defocus",
+        Stage::ImageFilter,
+        value,
+        |b, value, out| DefocusIo { value, omega, out }.bind(b),
+        &[("max_radius", radius)],
+        separable,
+    )
+}
+
+/// The node's `filter_choice` without `screen_scale_wide`: 0 (eq. 5.33 at `screen_scale`) everywhere
+/// (`fill.constant`; culled unless a heatmap reads it).
+fn narrow_everywhere(ctx: &mut ExpandCtx<'_>) -> BufferId {
+    let out = ctx.buffer("filter_choice", Format::U32);
+    FillU32Io { out }.bind(ctx.pass("filter_choice", FILL_CONSTANT, Stage::ImageFilter)).int("value", 0).finish();
+    out
+}
+
+/// What the risk-based width ([`risk_width`]) takes from the node's expansion: eq. 5.32's sum, eq.
+/// 5.33 of it at `screen_scale` and that width, the first pass's lens statistics and velocities
+/// (for the rates pass at the wider scale), and `screen_scale_wide`.
+struct RiskWidth {
+    composed: BufferId,
+    narrow: BufferId,
+    omega: BufferId,
+    lens: BufferId,
+    velocity: Option<BufferId>,
+    wide: ParamValue,
+}
+
+/// Step 3b of the module doc, with `screen_scale_wide` (`kernels/risk.rs`): eq. 5.33's width at the
+/// wider scale (`rates_wide`, the rates pass's width alone; `screen_scale_factored` does not apply
+/// to it), the composed image filtered with it (`filter_wide`), and per pixel the filter of the
+/// smaller estimated error (`risk_terms`, `risk_choice`, `risk_select`; a reference bypasses them,
+/// as it does both filters). Returns the image and the choice (1 = wide), the node's `filter_choice`.
+fn risk_width(ctx: &mut ExpandCtx<'_>, f: &Factoring, w: RiskWidth) -> Result<(BufferId, BufferId), GraphError> {
+    let (omega_wide, scratch) = (ctx.buffer("omega_wide", Format::F32), ctx.buffer("pixel_length_wide", Format::F32));
+    let io = RatesIo { velocity: w.velocity, omega_defocus: Some(omega_wide), ..RatesIo::new(w.lens, scratch) };
+    let mut b = io.bind(ctx.pass("rates_wide", "defocus.rates", Stage::Bandwidth));
+    for (n, v) in rate_settings(f) {
+        b = b.param(n, v);
+    }
+    if let Some(v) = f.setting("width_pixel_limit") {
+        b = b.param("width_pixel_limit", v.clone());
+    }
+    b.param("screen_scale", w.wide).finish();
+    let wide = screen_filter(ctx, "filter_wide", w.composed, omega_wide);
+    let radius = ctx.param("max_radius").clone();
+    let (bias, noise) = (ctx.buffer("risk_bias", Format::F32), ctx.buffer("risk_noise", Format::F32));
+    RiskTermsIo { value: w.composed, narrow: w.narrow, wide, omega: w.omega, omega_wide, bias, noise }
+        .bind(ctx.pass("risk_terms", "defocus.risk_terms", Stage::ImageFilter))
+        .param("max_radius", radius)
+        .finish();
+    // A reference takes the narrow filter (bypassed too): 0 everywhere.
+    let choice = ctx.buffer("risk_choice", Format::U32);
+    RiskChoiceIo { bias, noise, choice }
+        .bind(ctx.pass("risk_choice", "defocus.risk_choice", Stage::ImageFilter))
+        .reference(Reference::Fill(0))
+        .finish();
+    let out = ctx.buffer("risk", Format::Vec3);
+    RiskSelectIo { choice, narrow: w.narrow, wide, out }
+        .bind(ctx.pass("risk_select", "defocus.risk_select", Stage::ImageFilter))
+        .reference(Reference::Bypass { input: "narrow" })
+        .finish();
+    Ok((out, choice))
 }
 
 /// Step 4 of the module doc, with `layers`: the near layer composited over the rest after eq. 5.33
