@@ -57,7 +57,7 @@ use std::collections::BTreeMap;
 use wedge_graph::factoring::{CameraSettings, FactoringInputs, Refusal, Settings};
 use wedge_graph::{
     BufferId, CameraSpec, Component, CountRequest, ExpandCtx, Factoring, Format, GraphError, NodeKind, ParamDecl,
-    ParamValue, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
+    ParamValue, PassBuilder, PortDecl, Reference, SamplerPass, SamplerRequest, Stage, FILL_CONSTANT,
 };
 
 use super::component::rate_settings;
@@ -202,7 +202,7 @@ impl NodeKind for Defocus {
             ParamDecl::boolean("width_pixel_limit", false, "cap the screen-space filter's width at the pixel limit Ω_pix^max as eq. 5.7 does (the thesis: every in-focus pixel gets a σ = 0.35 px blur, a bias at sharp edges and highlights); false: the lens term alone, μ Ω_u^max / r_min, so in-focus pixels stay sharp. The counts are the same either way (DESIGN-NOTES \"The filters against their own rays\")"),
             ParamDecl::positive("screen_scale", 1.0, 1e3, "factor on eq. 5.33's screen-space bandwidth, μ Ω_u^max / r_min (not on the counts, the irradiance filters or the near layer's): below 1 a wider lens filter — the variance of a blurred texture where the first pass's paths already exceed eq. 5.24's count — at the cost of bias at bright out-of-focus highlights; 1 = the thesis. Still ∝ μ, so consistent as μ grows (docs/DESIGN-NOTES.md \"The screen filter's scale\")"),
             ParamDecl::positive("screen_scale_factored", 1.0, 1e3, "screen_scale where the pixel's whole radiance factors — every lighting component's first-pass flag set (eq. 5.30) and no emitter seen: a diffuse texture under smooth light, whose blurred edges are ramps a wider Gaussian barely changes, where a glossy highlight or an emitter blurs into a disc whose sharp rim it would ; absent: screen_scale everywhere, the thesis with screen_scale 1. Still ∝ μ, so consistent as μ grows. Measured at (screen_scale 1, 0.7): every Defocus goal of the suite met, but 11% lost on held-out chess and cornell, so no shipped pipeline sets it (docs/DESIGN-NOTES.md \"The screen filter's scale, per pixel\")").optional(),
-            ParamDecl::positive("screen_scale_wide", 0.6, 1e3, "a second, wider screen filter — eq. 5.33's width times this factor, below screen_scale (at or above it: no second filter, screen_scale's alone) — and per pixel the one of the two with the smaller estimated squared error: the bias the wider adds (from the difference of the two filtered images) against the variance it removes (from the composed image's variance, estimated from what the narrower filter removes: the pixels' noise is independent, the narrower filter unbiased), summed over 7×7 pixels (kernels/risk.rs; docs/DESIGN-NOTES.md \"A per-pixel width by estimated risk\"); absent: screen_scale's filter alone, the thesis with screen_scale 1. Both widths ∝ μ, so consistent as μ grows").optional(),
+            ParamDecl::positive("screen_scale_wide", 0.6, 1e3, "a second, wider screen filter — eq. 5.33's width times this factor, below screen_scale (at or above it: no second filter, screen_scale's alone) — and per pixel the one of the two with the smaller estimated squared error: the bias the wider adds (from the difference of the two filtered images) against the variance it removes (from the composed image's variance, estimated from what the narrower filter removes: the pixels' noise is independent, the narrower filter unbiased), summed over 7×7 pixels (kernels/risk.rs; docs/DESIGN-NOTES.md \"The risk-based width, shipped\"); absent: screen_scale's filter alone, the thesis with screen_scale 1. Both widths ∝ μ, so consistent as μ grows").optional(),
             ParamDecl::boolean("motion_filter", false, "with the shutter sampled: App. B's filters along the velocity inside the lens filter (texture along the primary hit's, direct irradiance along the shadow's; docs/DEFOCUS-MOTION.md Sec. 3); false = Ch. 5's filters only (measured better so far: DESIGN-NOTES \"Lens and shutter together\")"),
         ]
     }
@@ -298,16 +298,8 @@ impl NodeKind for Defocus {
             flag: factored_pixels(ctx, f)?,
             ..RatesIo::new(lens, pixel_length)
         };
-        let mut b = io.bind(ctx.pass("rates", "defocus.rates", Stage::Bandwidth));
-        for (n, v) in rate_settings(f) {
-            b = b.param(n, v);
-        }
-        for name in ["width_pixel_limit", "screen_scale", "screen_scale_factored"] {
-            if let Some(v) = f.setting(name) {
-                b = b.param(name, v.clone());
-            }
-        }
-        b.finish();
+        let b = io.bind(ctx.pass("rates", "defocus.rates", Stage::Bandwidth));
+        with_rate_settings(b, f, &["screen_scale", "screen_scale_factored"]).finish();
         ctx.sampler_counts(CountRequest {
             paths: Some(n_primary),
             paths_unit: 1,
@@ -357,6 +349,20 @@ fn factored_pixels(ctx: &mut ExpandCtx<'_>, f: &Factoring) -> Result<Option<Buff
     Ok(previous)
 }
 
+/// The node's own `defocus.rates` parameters: the rate settings, `width_pixel_limit` and the
+/// settings named in `scales` where given.
+fn with_rate_settings<'c, 'a>(mut b: PassBuilder<'c, 'a>, f: &Factoring, scales: &[&str]) -> PassBuilder<'c, 'a> {
+    for (n, v) in rate_settings(f) {
+        b = b.param(n, v);
+    }
+    for name in ["width_pixel_limit"].iter().chain(scales) {
+        if let Some(v) = f.setting(name) {
+            b = b.param(name, v.clone());
+        }
+    }
+    b
+}
+
 /// Eq. 5.33 on `value` at width `omega` (`filter.defocus`, passes `<name>_x`, `<name>_y` where the
 /// node is `separable`), in the node's window.
 fn screen_filter(ctx: &mut ExpandCtx<'_>, name: &str, value: BufferId, omega: BufferId) -> BufferId {
@@ -402,14 +408,8 @@ struct RiskWidth {
 fn risk_width(ctx: &mut ExpandCtx<'_>, f: &Factoring, w: RiskWidth) -> Result<(BufferId, BufferId), GraphError> {
     let (omega_wide, scratch) = (ctx.buffer("omega_wide", Format::F32), ctx.buffer("pixel_length_wide", Format::F32));
     let io = RatesIo { velocity: w.velocity, omega_defocus: Some(omega_wide), ..RatesIo::new(w.lens, scratch) };
-    let mut b = io.bind(ctx.pass("rates_wide", "defocus.rates", Stage::Bandwidth));
-    for (n, v) in rate_settings(f) {
-        b = b.param(n, v);
-    }
-    if let Some(v) = f.setting("width_pixel_limit") {
-        b = b.param("width_pixel_limit", v.clone());
-    }
-    b.param("screen_scale", w.wide).finish();
+    let b = io.bind(ctx.pass("rates_wide", "defocus.rates", Stage::Bandwidth));
+    with_rate_settings(b, f, &[]).param("screen_scale", w.wide).finish();
     let wide = screen_filter(ctx, "filter_wide", w.composed, omega_wide);
     let radius = ctx.param("max_radius").clone();
     let (bias, noise) = (ctx.buffer("risk_bias", Format::F32), ctx.buffer("risk_noise", Format::F32));

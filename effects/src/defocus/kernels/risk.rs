@@ -1,5 +1,5 @@
 //! The risk-based screen-filter width (the Defocus node's `screen_scale_wide`; docs/DESIGN-NOTES.md
-//! "A per-pixel width by estimated risk"): eq. 5.33's filter at two widths, the node's (`narrow`,
+//! "A per-pixel width by estimated risk" and "The risk-based width, shipped"): eq. 5.33's filter at two widths, the node's (`narrow`,
 //! `screen_scale`) and a wider one (`wide`, `screen_scale_wide`), and per pixel the one whose
 //! estimated squared error is the smaller — the greedy choice among filter scales of adaptive
 //! denoisers (Rousselle et al.'s), with the composed image's variance from the narrow filter's
@@ -19,7 +19,7 @@
 //!      band — has little bias `b_n`; so `σ² = r² / (1 − 2N₀ + ΣN²)`. Not the spread of a pixel's
 //!      paths, nor two halves of them: the paths are stratified over the lens, light and lobe
 //!      together, so both overstate the variance of their mean, 20–30× at blurred highlights
-//!      (measured: docs/DESIGN-NOTES.md "A per-pixel width by estimated risk");
+//!      (measured: docs/DESIGN-NOTES.md "The risk-based width, shipped");
 //!    - the bias: `E[D²] = (b_w − b_n)² + Var D` for `D = wide − narrow`, `Var D = σ² Σ(W − N)²`,
 //!      and a smooth image's bias under a Gaussian grows as its σ², `b_w = k b_n` with `k = σ_w²/σ_n²
 //!      = (Ω_n/Ω_w)²`, so the squared bias `wide` adds is `b_w² − b_n² = g (D² − Var D)` with
