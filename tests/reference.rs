@@ -48,8 +48,10 @@ fn every_pipeline_reference_is_its_graph_without_filters() {
             if p.kernel == FILL_CONSTANT {
                 // The shared sampler's paths and every channel's samples over them are N in a
                 // reference: N paths, one shadow ray / hemisphere sample each (SAMPLER-STAGE.md §4).
-                // Ch. 5's factoring flags are 0 (`Reference::Fill(0)`): a reference composes L.
-                let want = if p.name.ends_with("_flag") { 0 } else { 64 };
+                // Ch. 5's factoring flags are 0 (`Reference::Fill(0)`): a reference composes L; so is
+                // Defocus's risk-based choice of screen filter (both filters are bypassed).
+                let decision = p.name.ends_with("_flag") || p.name.ends_with(".risk_choice");
+                let want = if decision { 0 } else { 64 };
                 assert_eq!(p.params["value"], ParamValue::Int(want), "{name}: {}", p.name);
             }
         }
