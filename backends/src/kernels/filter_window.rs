@@ -49,12 +49,14 @@ pub fn window_radius(omega: f32, cap: i32) -> i32 {
 
 /// The weight exponent `16 d² g²` of a squared distance `d2` under a width² `g2` — the one
 /// expression [`pair_weight`], [`accepts`] and [`CentreWeights`] share, so their bits agree.
-fn exponent(d2: f32, g2: f32) -> f32 {
+#[inline(always)]
+pub fn exponent(d2: f32, g2: f32) -> f32 {
     FILTER_SHARPNESS * d2 * g2
 }
 
 /// Whether a weight exponent `16 d² (Ω/ℓ)²` keeps the weight at or above 0.01 (false for NaN).
-fn within_filter(exponent: f32) -> bool {
+#[inline(always)]
+pub fn within_filter(exponent: f32) -> bool {
     exponent <= REJECT_EXPONENT
 }
 

@@ -9,6 +9,7 @@ pub mod compose;
 pub mod constant;
 pub mod direct;
 pub mod environment;
+pub mod filter_lanes;
 pub mod filter_window;
 pub mod gaussian_filter;
 pub mod hemisphere;
