@@ -48,6 +48,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let flag_set = flag_bound() && flag_at(i) != 0u;
     let omega_defocus = select(params.screen_scale, params.screen_scale_factored, flag_set) * r.omega_defocus;
     omega_defocus_put(i, omega_defocus);
+    // The risk-based width's wider filter: screen_scale_wide on every pixel (kernels.rs Row).
+    omega_defocus_wide_put(i, params.screen_scale_wide * r.omega_defocus);
     pixel_length_put(i, r.pixel_length);
     n_primary_put(i, r.n_primary);
     sigma_defocus_put(i, defocus_sigma_px(omega_defocus));

@@ -67,6 +67,10 @@ wedge_backends::kernel_params! {
         /// Its `screen_scale_factored`: the factor instead where the `flag` binding is set (on the
         /// node's own pass: `defocus.all_factored`'s pixels); absent: `screen_scale` everywhere.
         screen_scale_factored: Option<f32>,
+        /// The Defocus node's `screen_scale_wide`: the factor of the `omega_defocus_wide` output (the
+        /// risk-based width's wider filter, everywhere: `screen_scale_factored` does not apply to it);
+        /// absent: `screen_scale`.
+        screen_scale_wide: Option<f32>,
         component: Option<RateComponent>,
     }
 }
@@ -112,19 +116,22 @@ pub fn scaled_cap(cap: i32, mu: f32, mode: Mode) -> u32 {
 
 /// The factors on eq. 5.33's screen-space width (the Defocus node's `screen_scale`, and
 /// `screen_scale_factored` where the `flag` binding is set), checked: finite numbers > 0; 1 where
-/// the pass leaves `screen_scale` out, `screen_scale` where it leaves the other out.
+/// the pass leaves `screen_scale` out, `screen_scale` where it leaves the others out.
 fn screen_scales(ctx: &KernelCtx<'_>) -> Result<ScreenScales, BackendError> {
     let o = RateOptions::read(ctx)?;
     let other = o.screen_scale.map_or(Ok(1.0), |v| positive(ctx, "screen_scale", v, false))?;
     let factored = o.screen_scale_factored.map_or(Ok(other), |v| positive(ctx, "screen_scale_factored", v, false))?;
-    Ok(ScreenScales { factored, other })
+    let wide = o.screen_scale_wide.map_or(Ok(other), |v| positive(ctx, "screen_scale_wide", v, false))?;
+    Ok(ScreenScales { factored, other, wide })
 }
 
-/// The two factors of [`screen_scales`].
+/// The factors of [`screen_scales`].
 #[derive(Clone, Copy)]
 struct ScreenScales {
     factored: f32,
     other: f32,
+    /// `omega_defocus_wide`'s, on every pixel.
+    wide: f32,
 }
 
 impl ScreenScales {
@@ -311,6 +318,9 @@ wedge_backends::kernel_bindings! {
         /// `defocus.all_factored`'s pixels: eq. 5.33's width takes `screen_scale_factored` there.
         read_opt flag: u32,
         write_opt omega_defocus: f32,
+        /// Eq. 5.33's width at `screen_scale_wide` on every pixel: the risk-based width's wider
+        /// filter (`node.rs` step 3b), from the same rates as `omega_defocus` — no second pass.
+        write_opt omega_defocus_wide: f32,
         write pixel_length: f32,
         write_opt n_primary: u32,
         write_opt omega: f32,
@@ -374,6 +384,7 @@ impl Kernel for Rates {
                     .u32("width_pixel_limit", u32::from(k.width_pixel_limit))
                     .f32("screen_scale", scales.other)
                     .f32("screen_scale_factored", scales.factored)
+                    .f32("screen_scale_wide", scales.wide)
                     .u32("component", component_uniform(ctx)?))
             })
             .with_include("defocus_formulas.wgsl", include_str!("../../../shaders/defocus_formulas.wgsl"))
@@ -409,6 +420,7 @@ impl Kernel for Rates {
             });
             Row {
                 omega_defocus: scales.at(factors) * r.omega_defocus,
+                omega_defocus_wide: scales.wide * r.omega_defocus,
                 pixel_length: r.pixel_length,
                 n_primary: r.n_primary,
                 omega,
@@ -417,6 +429,7 @@ impl Kernel for Rates {
         });
         let column = |f: &dyn Fn(&Row) -> f32| rows.iter().map(f).collect::<Vec<f32>>();
         io.omega_defocus.put_with(ctx, || column(&|r| r.omega_defocus))?;
+        io.omega_defocus_wide.put_with(ctx, || column(&|r| r.omega_defocus_wide))?;
         io.pixel_length.put(ctx, column(&|r| r.pixel_length))?;
         io.n_primary.put_with(ctx, || rows.iter().map(|r| r.n_primary).collect())?;
         io.sigma_defocus.put_with(ctx, || column(&|r| sigma_px(r.omega_defocus)))?;
@@ -432,6 +445,7 @@ impl Kernel for Rates {
 /// One pixel of a `defocus.rates` pass: the columns it may write, and no more.
 struct Row {
     omega_defocus: f32,
+    omega_defocus_wide: f32,
     pixel_length: f32,
     n_primary: u32,
     /// The pass's component's width and the count the pixel takes (0 where it sizes none).

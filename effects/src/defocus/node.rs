@@ -290,16 +290,19 @@ impl NodeKind for Defocus {
             ctx.buffer("rays_per_pixel", Format::U32),
             ctx.buffer("filter_width", Format::F32),
         );
+        // The risk-based width's wider filter takes its width from this pass (step 3b).
+        let omega_wide = f.setting("screen_scale_wide").map(|_| ctx.buffer("omega_wide", Format::F32));
         let io = RatesIo {
             velocity,
             omega_defocus: Some(omega),
+            omega_defocus_wide: omega_wide,
             n_primary: Some(n_primary),
             sigma_defocus: Some(sigma),
             flag: factored_pixels(ctx, f)?,
             ..RatesIo::new(lens, pixel_length)
         };
         let b = io.bind(ctx.pass("rates", "defocus.rates", Stage::Bandwidth));
-        with_rate_settings(b, f, &["screen_scale", "screen_scale_factored"]).finish();
+        with_rate_settings(b, f, &["screen_scale", "screen_scale_factored", "screen_scale_wide"]).finish();
         ctx.sampler_counts(CountRequest {
             paths: Some(n_primary),
             paths_unit: 1,
@@ -312,8 +315,8 @@ impl NodeKind for Defocus {
         let emission = crate::factored::seen_directly(ctx, SamplerPass::Final)?;
         let composed = sum(ctx, "compose", &components, emission);
         let value = screen_filter(ctx, "filter", composed, omega);
-        let (value, choice) = match f.setting("screen_scale_wide").cloned() {
-            Some(wide) => risk_width(ctx, f, RiskWidth { composed, narrow: value, omega, lens, velocity, wide })?,
+        let (value, choice) = match omega_wide {
+            Some(omega_wide) => risk_width(ctx, RiskWidth { composed, narrow: value, omega, omega_wide }),
             None => (value, narrow_everywhere(ctx)),
         };
         ctx.output("filter_choice", choice);
@@ -389,27 +392,23 @@ fn narrow_everywhere(ctx: &mut ExpandCtx<'_>) -> BufferId {
 }
 
 /// What the risk-based width ([`risk_width`]) takes from the node's expansion: eq. 5.32's sum, eq.
-/// 5.33 of it at `screen_scale` and that width, the first pass's lens statistics and velocities
-/// (for the rates pass at the wider scale), and `screen_scale_wide`.
+/// 5.33 of it at `screen_scale` and that width, and the width at `screen_scale_wide` (the node's
+/// rates pass writes both).
 struct RiskWidth {
     composed: BufferId,
     narrow: BufferId,
     omega: BufferId,
-    lens: BufferId,
-    velocity: Option<BufferId>,
-    wide: ParamValue,
+    omega_wide: BufferId,
 }
 
-/// Step 3b of the module doc, with `screen_scale_wide` (`kernels/risk.rs`): eq. 5.33's width at the
-/// wider scale (`rates_wide`, the rates pass's width alone; `screen_scale_factored` does not apply
-/// to it), the composed image filtered with it (`filter_wide`), and per pixel the filter of the
-/// smaller estimated error (`risk_terms`, `risk_choice`, `risk_select`; a reference bypasses them,
-/// as it does both filters). Returns the image and the choice (1 = wide), the node's `filter_choice`.
-fn risk_width(ctx: &mut ExpandCtx<'_>, f: &Factoring, w: RiskWidth) -> Result<(BufferId, BufferId), GraphError> {
-    let (omega_wide, scratch) = (ctx.buffer("omega_wide", Format::F32), ctx.buffer("pixel_length_wide", Format::F32));
-    let io = RatesIo { velocity: w.velocity, omega_defocus: Some(omega_wide), ..RatesIo::new(w.lens, scratch) };
-    let b = io.bind(ctx.pass("rates_wide", "defocus.rates", Stage::Bandwidth));
-    with_rate_settings(b, f, &[]).param("screen_scale", w.wide).finish();
+/// Step 3b of the module doc, with `screen_scale_wide` (`kernels/risk.rs`): the composed image
+/// filtered at eq. 5.33's width at the wider scale (`filter_wide`; the rates pass's
+/// `omega_defocus_wide`, on which `screen_scale_factored` does not act), and per pixel the filter of
+/// the smaller estimated error (`risk_terms`, `risk_choice`, `risk_select`; a reference bypasses
+/// them, as it does both filters). Returns the image and the choice (1 = wide), the node's
+/// `filter_choice`.
+fn risk_width(ctx: &mut ExpandCtx<'_>, w: RiskWidth) -> (BufferId, BufferId) {
+    let omega_wide = w.omega_wide;
     let wide = screen_filter(ctx, "filter_wide", w.composed, omega_wide);
     let radius = ctx.param("max_radius").clone();
     let (bias, noise) = (ctx.buffer("risk_bias", Format::F32), ctx.buffer("risk_noise", Format::F32));
@@ -428,7 +427,7 @@ fn risk_width(ctx: &mut ExpandCtx<'_>, f: &Factoring, w: RiskWidth) -> Result<(B
         .bind(ctx.pass("risk_select", "defocus.risk_select", Stage::ImageFilter))
         .reference(Reference::Bypass { input: "narrow" })
         .finish();
-    Ok((out, choice))
+    (out, choice)
 }
 
 /// Step 4 of the module doc, with `layers`: the near layer composited over the rest after eq. 5.33
