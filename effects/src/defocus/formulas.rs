@@ -414,6 +414,7 @@ pub struct PixelRates {
 /// irradiance the shadow's; factored indirect and environment irradiance none, App. B's reading);
 /// the widths stay Ch. 5's — the lens × shutter band is the intersection of the two (DM.4), so a
 /// width that passes the lens's band passes the product's.
+#[inline(always)]
 pub fn pixel_rates(s: &PixelStats, k: &RateParams) -> PixelRates {
     let max_p = strata_cap(k.max_primary);
     let (max_s, max_s_shadow) = (strata_cap(k.max_per_primary), strata_cap(k.max_shadow_per_primary));

@@ -254,7 +254,15 @@ impl RateComponent {
     pub fn param(self) -> (&'static str, ParamValue) {
         ("component", ParamValue::Str(self.as_str().into()))
     }
+    /// Its width and the count a pixel takes (factored where `factors`, else combined) among the
+    /// pixel's rates.
+    #[inline(always)]
+    fn pick(self, r: &PixelRates, factors: bool) -> (f32, u32) {
+        let (omega, factored, combined) = self.select();
+        (omega(r), if factors { factored(r) } else { combined(r) })
+    }
     /// Its width and its counts (factored, combined) among a pixel's rates.
+    #[inline(always)]
     fn select(self) -> (Width<PixelRates>, Count<PixelRates>, Count<PixelRates>) {
         match self {
             RateComponent::Direct => (|r| r.omega_direct, |r| r.n_direct_factored, |r| r.n_direct_combined),
@@ -398,48 +406,65 @@ impl Kernel for Rates {
         let k = rate_params(ctx)?;
         let io = RatesIo::read(ctx)?;
         let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
-        let chosen = component.map(RateComponent::select);
         let scales = screen_scales(ctx)?;
-        // Per pixel only what the outputs need, not the whole `PixelRates` re-read per column.
-        let rows: Vec<Row> = ctx.map_pixels(false, |x, y| {
-            let i = (y * ctx.width + x) as usize;
-            let at = |b: Option<&[[f32; 4]]>| b.map(|b| b[i]);
-            let o = OptionalStats {
-                occlusion: at(io.occlusion),
-                reflectors: at(io.reflectors),
-                bandlimit: io.bandlimit.map(|b| b[i]),
-                velocity: at(io.velocity),
-                shadow_velocity: at(io.shadow_velocity),
-            };
-            let r = formulas::pixel_rates(&pixel_stats(io.lens[i], o), &k);
-            // The count the pixel takes: factored where its (median-filtered) flag is set, else
-            // combined; eq. 5.33's width, `screen_scale_factored` where it is set.
-            let factors = io.flag.is_some_and(|g| g[i] != 0);
-            let (omega, n) = chosen.map_or((0.0, 0), |(omega, factored, combined)| {
-                (omega(&r), if factors { factored(&r) } else { combined(&r) })
-            });
-            Row {
-                omega_defocus: scales.at(factors) * r.omega_defocus,
-                omega_defocus_wide: scales.wide * r.omega_defocus,
-                pixel_length: r.pixel_length,
-                n_primary: r.n_primary,
-                omega,
-                n,
+        // One loop per component, its choice a constant in each: the rates no output reads (the
+        // other components', every component's on the node's own pass) are never computed.
+        let rows = match component {
+            None => rate_rows(ctx, &io, &k, scales, |_, _| (0.0, 0)),
+            Some(RateComponent::Direct) => rate_rows(ctx, &io, &k, scales, |r, f| RateComponent::Direct.pick(r, f)),
+            Some(RateComponent::Indirect) => rate_rows(ctx, &io, &k, scales, |r, f| RateComponent::Indirect.pick(r, f)),
+            Some(RateComponent::Environment) => {
+                rate_rows(ctx, &io, &k, scales, |r, f| RateComponent::Environment.pick(r, f))
             }
-        });
+        };
         let column = |f: &dyn Fn(&Row) -> f32| rows.iter().map(f).collect::<Vec<f32>>();
         io.omega_defocus.put_with(ctx, || column(&|r| r.omega_defocus))?;
         io.omega_defocus_wide.put_with(ctx, || column(&|r| r.omega_defocus_wide))?;
         io.pixel_length.put(ctx, column(&|r| r.pixel_length))?;
         io.n_primary.put_with(ctx, || rows.iter().map(|r| r.n_primary).collect())?;
         io.sigma_defocus.put_with(ctx, || column(&|r| sigma_px(r.omega_defocus)))?;
-        if chosen.is_none() {
+        if component.is_none() {
             return Ok(());
         }
         io.omega.put_with(ctx, || column(&|r| r.omega))?;
         io.n.put_with(ctx, || rows.iter().map(|r| r.n).collect())?;
         io.sigma.put_with(ctx, || column(&|r| sigma_px(r.omega)))
     }
+}
+
+/// Every pixel's [`Row`] of a `defocus.rates` pass, `chosen(rates, factors)` giving the component's
+/// width and count (`factors`: the pixel's flag is set). Per pixel only what the outputs need.
+fn rate_rows(
+    ctx: &KernelCtx<'_>,
+    io: &RatesData<'_>,
+    k: &RateParams,
+    scales: ScreenScales,
+    chosen: impl Fn(&PixelRates, bool) -> (f32, u32) + Sync,
+) -> Vec<Row> {
+    ctx.map_pixels(false, |x, y| {
+        let i = (y * ctx.width + x) as usize;
+        let at = |b: Option<&[[f32; 4]]>| b.map(|b| b[i]);
+        let o = OptionalStats {
+            occlusion: at(io.occlusion),
+            reflectors: at(io.reflectors),
+            bandlimit: io.bandlimit.map(|b| b[i]),
+            velocity: at(io.velocity),
+            shadow_velocity: at(io.shadow_velocity),
+        };
+        let r = formulas::pixel_rates(&pixel_stats(io.lens[i], o), k);
+        // The count the pixel takes: factored where its (median-filtered) flag is set, else
+        // combined; eq. 5.33's width, `screen_scale_factored` where it is set.
+        let factors = io.flag.is_some_and(|g| g[i] != 0);
+        let (omega, n) = chosen(&r, factors);
+        Row {
+            omega_defocus: scales.at(factors) * r.omega_defocus,
+            omega_defocus_wide: scales.wide * r.omega_defocus,
+            pixel_length: r.pixel_length,
+            n_primary: r.n_primary,
+            omega,
+            n,
+        }
+    })
 }
 
 /// One pixel of a `defocus.rates` pass: the columns it may write, and no more.

@@ -163,6 +163,7 @@ pub struct MotionRates {
 }
 
 /// All of App. B's sampling for one pixel (see the module doc).
+#[inline(always)]
 pub fn pixel_rates(s: &MotionStats, k: &MotionParams) -> MotionRates {
     let max_p = strata_cap(k.max_primary);
     let (max_s, max_s_shadow) = (strata_cap(k.max_per_primary), strata_cap(k.max_shadow_per_primary));

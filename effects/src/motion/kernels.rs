@@ -136,7 +136,16 @@ impl RatesIo {
     }
 }
 
+/// A component's width and count among a pixel's motion rates, the component a constant where it is
+/// inlined (so that the others' are not computed: `rate_rows`).
+#[inline(always)]
+fn pick(c: RateComponent, r: &MotionRates) -> (f32, u32) {
+    let (omega, n) = select(c);
+    (omega(r), n(r))
+}
+
 /// A component's width and count among a pixel's motion rates.
+#[inline(always)]
 fn select(c: RateComponent) -> (Width<MotionRates>, Count<MotionRates>) {
     match c {
         RateComponent::Direct => (|r| r.omega_direct, |r| r.n_direct),
@@ -182,22 +191,15 @@ impl Kernel for Rates {
         let io = RatesIo::read(ctx)?;
         let component = rate_component(ctx, io.omega.is_some() || io.n.is_some() || io.sigma.is_some())?;
         let shadow = io.shadow_velocity;
-        let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
-        let chosen = component.map(select);
-        // Per pixel only what the outputs need (a full stats-and-rates record is ~130 bytes, and
-        // writing and re-reading it per column cost more than the formulas).
-        let rows: Vec<Row> = ctx.map_pixels(false, |x, y| {
-            let i = (y * ctx.width + x) as usize;
-            let s = motion_stats(
-                io.velocity[i],
-                at(shadow, i),
-                io.depth[i],
-                at(io.occlusion, i),
-                at(io.reflectors, i),
-                io.bandlimit.map(|b| b[i]),
-            );
-            Row::of(&s, &formulas::pixel_rates(&s, &k), chosen)
-        });
+        // One loop per component, its choice a constant in each: the rates no output reads are never
+        // computed.
+        let rows = match component {
+            None => rate_rows(ctx, &io, &k, |_| (0.0, 0)),
+            // Literal components in the closures (a captured one is data, not a constant).
+            Some(RateComponent::Direct) => rate_rows(ctx, &io, &k, |r| pick(RateComponent::Direct, r)),
+            Some(RateComponent::Indirect) => rate_rows(ctx, &io, &k, |r| pick(RateComponent::Indirect, r)),
+            Some(RateComponent::Environment) => rate_rows(ctx, &io, &k, |r| pick(RateComponent::Environment, r)),
+        };
         let column = |f: &dyn Fn(&Row) -> f32| rows.iter().map(f).collect::<Vec<f32>>();
         io.texture_motion.put_with(ctx, || {
             rows.iter().map(|r| [r.v_p[0], r.v_p[1], r.omega_texture, sigma_or_zero(r.omega_texture)]).collect()
@@ -215,13 +217,37 @@ impl Kernel for Rates {
         io.n_primary.put_with(ctx, || rows.iter().map(|r| r.n_primary).collect())?;
         io.pixel_length.put_with(ctx, || column(&|r| r.pixel_length))?;
         io.sigma_texture.put_with(ctx, || column(&|r| sigma_or_zero(r.omega_texture)))?;
-        if chosen.is_none() {
+        if component.is_none() {
             return Ok(());
         }
         io.omega.put_with(ctx, || column(&|r| r.omega))?;
         io.n.put_with(ctx, || rows.iter().map(|r| r.n).collect())?;
         io.sigma.put_with(ctx, || column(&|r| sigma_or_zero(r.omega)))
     }
+}
+
+/// Every pixel's [`Row`] of a `motion.rates` pass, `chosen` giving the component's width and count.
+/// Per pixel only what the outputs need (a full stats-and-rates record is ~130 bytes, and writing
+/// and re-reading it per column cost more than the formulas).
+fn rate_rows(
+    ctx: &KernelCtx<'_>,
+    io: &RatesData<'_>,
+    k: &MotionParams,
+    chosen: impl Fn(&MotionRates) -> (f32, u32) + Sync,
+) -> Vec<Row> {
+    let at = |b: Option<&[[f32; 4]]>, i: usize| b.map(|b| b[i]);
+    ctx.map_pixels(false, |x, y| {
+        let i = (y * ctx.width + x) as usize;
+        let s = motion_stats(
+            io.velocity[i],
+            at(io.shadow_velocity, i),
+            io.depth[i],
+            at(io.occlusion, i),
+            at(io.reflectors, i),
+            io.bandlimit.map(|b| b[i]),
+        );
+        Row::of(&s, &formulas::pixel_rates(&s, k), &chosen)
+    })
 }
 
 /// One pixel of a `motion.rates` pass: the columns it may write, and no more.
@@ -237,8 +263,8 @@ struct Row {
 }
 
 impl Row {
-    fn of(s: &MotionStats, r: &MotionRates, chosen: Option<(Width<MotionRates>, Count<MotionRates>)>) -> Row {
-        let (omega, n) = chosen.map_or((0.0, 0), |(omega, n)| (omega(r), n(r)));
+    fn of(s: &MotionStats, r: &MotionRates, chosen: impl Fn(&MotionRates) -> (f32, u32)) -> Row {
+        let (omega, n) = chosen(r);
         Row {
             v_p: s.v_p,
             omega_texture: r.omega_texture,
