@@ -4,8 +4,9 @@
 //! line: the same row (x pass) or column (y pass). Walked tap by tap over per-pixel records, each
 //! tap is a chain of data-dependent branches (the normal test, the two rejections) and one scalar
 //! `exp` — about 9 ns a tap on this project's machine, most of `filter.irradiance`'s time. Here a
-//! pass first lays each line's per-pixel quantities out as arrays, one per quantity, then sums a window [`LANES`] taps at a time with every test a select and the weight
-//! from [`weight_exp`], so the compiler turns a window into vector instructions. A tap outside the
+//! pass first lays each line's per-pixel quantities out as arrays, one per quantity, then sums a
+//! window [`LANES`] taps at a time with every test a select and the weight from [`weight_exp`], so
+//! the compiler turns a window into vector instructions. A tap outside the
 //! window or rejected weighs 0 and adds its value as 0, so a window's sums are those of its accepted
 //! taps, summed per lane and then across lanes (a fixed order: the same bits whatever the thread
 //! count or tiling).
@@ -92,12 +93,13 @@ impl Lines {
     /// lays out the line's records from its pixels' row-major indices (small enough to stay in
     /// cache; a whole pass's records in line order cost more to write than the lanes saved), then
     /// `f(pixel, records, window)` gives each of its pixels' results, `window` the positions within
-    /// `radius(pixel, records, position)` of the pixel on its line, clipped to the line.
+    /// `radius(pixel, records, position)` of the pixel on its line, clipped to the line — `None`
+    /// where the radius is `None` (a pixel that does not filter).
     pub fn map<R, T: Copy + Send + Default>(
         &self,
         records: impl Fn(&[usize]) -> R + Sync,
-        radius: impl Fn(usize, &R, usize) -> usize + Sync,
-        f: impl Fn(usize, &R, Window) -> T + Sync,
+        radius: impl Fn(usize, &R, usize) -> Option<usize> + Sync,
+        f: impl Fn(usize, &R, Option<Window>) -> T + Sync,
     ) -> Vec<T> {
         let len = self.len();
         let count = self.width * self.height / len.max(1);
@@ -110,7 +112,7 @@ impl Lines {
                     let (lo, hi) = (t.saturating_sub(radius), (t + radius).min(len - 1));
                     Window { first: lo, len: hi - lo + 1, centre: t }
                 };
-                pixels.iter().enumerate().map(|(t, &i)| f(i, &r, window(t, radius(i, &r, t)))).collect()
+                pixels.iter().enumerate().map(|(t, &i)| f(i, &r, radius(i, &r, t).map(|d| window(t, d)))).collect()
             })
             .collect();
         if self.along_x {
@@ -208,18 +210,23 @@ mod tests {
         let lines = Lines::of(Axis::Y, 3, 4).unwrap();
         let got = lines.map(
             |pixels| line_array(pixels, usize::MAX, |p| p),
-            |_, _, _| 1,
-            |p, r, w| (p, r[w.centre], w.first, w.len),
+            |_, _, _| Some(1),
+            |p, r, w| w.map(|w| (p, r[w.centre], w.first, w.len)),
         );
         // Pixel (1, 0) = 1: column 1, position 0, window 0..=1.
-        assert_eq!(got[1], (1, 1, 0, 2));
+        assert_eq!(got[1], Some((1, 1, 0, 2)));
         // Pixel (1, 2) = 7: position 2, window 1..=3.
-        assert_eq!(got[7], (7, 7, 1, 3));
+        assert_eq!(got[7], Some((7, 7, 1, 3)));
         assert_eq!(line_array(&[4, 7], 0, |p| p + 1), [&[5, 8][..], &[0; LANES]].concat());
         assert!(Lines::of(Axis::Both, 3, 4).is_none());
-        let rows =
-            Lines::of(Axis::X, 3, 4).unwrap().map(|pixels| pixels.to_vec(), |_, _, _| 0, |p, r, w| (p, r[w.centre]));
-        assert!(rows.iter().enumerate().all(|(i, &(p, q))| p == i && q == i));
+        let rows = Lines::of(Axis::X, 3, 4).unwrap().map(
+            |pixels| pixels.to_vec(),
+            |_, _, _| Some(0),
+            |p, r, w| (p, w.map(|w| r[w.centre])),
+        );
+        assert!(rows.iter().enumerate().all(|(i, &(p, q))| p == i && q == Some(i)));
+        let none = Lines::of(Axis::X, 3, 4).unwrap().map(|_| (), |_, _, _| None, |_, _, w| w.is_none());
+        assert!(none.iter().all(|&n| n));
     }
 
     /// The lane sums are the scalar weighted mean (to rounding), with taps past the window and

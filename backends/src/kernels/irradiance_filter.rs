@@ -165,14 +165,10 @@ fn irradiance_lanes(
 
 /// A separable pass (x or y) of eq. 5.31 on every pixel, line by line as lanes.
 fn separable_pass(lines: &Lines, p: &IrradianceParams, io: &IrradianceData<'_>) -> Vec<[f32; 3]> {
-    let filtering = |i: usize, r: &LineRecords, t: usize| filters(i, io, &r.ordered[t]);
     lines.map(
         |pixels| LineRecords::new(pixels, io),
-        |i, r, t| if filtering(i, r, t) { p.max_radius.window(io.omega[i]) as usize } else { 0 },
-        |i, r, w| match filtering(i, r, w.centre) {
-            true => irradiance_lanes(i, p, io, &r.ordered[w.centre], r, w),
-            false => io.value[i],
-        },
+        |i, r, t| filters(i, io, &r.ordered[t]).then(|| p.max_radius.window(io.omega[i]) as usize),
+        |i, r, w| w.map_or(io.value[i], |w| irradiance_lanes(i, p, io, &r.ordered[w.centre], r, w)),
     )
 }
 
