@@ -255,29 +255,17 @@ impl RateComponent {
         ("component", ParamValue::Str(self.as_str().into()))
     }
     /// Its width and the count a pixel takes (factored where `factors`, else combined) among the
-    /// pixel's rates.
+    /// pixel's rates; inlined, so that a constant component leaves the others' rates unread.
     #[inline(always)]
     fn pick(self, r: &PixelRates, factors: bool) -> (f32, u32) {
-        let (omega, factored, combined) = self.select();
-        (omega(r), if factors { factored(r) } else { combined(r) })
-    }
-    /// Its width and its counts (factored, combined) among a pixel's rates.
-    #[inline(always)]
-    fn select(self) -> (Width<PixelRates>, Count<PixelRates>, Count<PixelRates>) {
-        match self {
-            RateComponent::Direct => (|r| r.omega_direct, |r| r.n_direct_factored, |r| r.n_direct_combined),
-            RateComponent::Indirect => (|r| r.omega_indirect, |r| r.n_indirect_factored, |r| r.n_indirect_combined),
-            RateComponent::Environment => {
-                (|r| r.omega_environment, |r| r.n_environment_factored, |r| r.n_environment_combined)
-            }
-        }
+        let (omega, factored, combined) = match self {
+            RateComponent::Direct => (r.omega_direct, r.n_direct_factored, r.n_direct_combined),
+            RateComponent::Indirect => (r.omega_indirect, r.n_indirect_factored, r.n_indirect_combined),
+            RateComponent::Environment => (r.omega_environment, r.n_environment_factored, r.n_environment_combined),
+        };
+        (omega, if factors { factored } else { combined })
     }
 }
-
-/// A component's width among a pixel's rates (`PixelRates`, `MotionRates`).
-pub type Width<R> = fn(&R) -> f32;
-/// A component's count among a pixel's rates.
-pub type Count<R> = fn(&R) -> u32;
 
 /// A component's first-pass statistic where the rates kernels read it: [`Component::statistic`]
 /// names the binding (`occlusion`, `reflectors` or `bandlimit`), the one place a binding is chosen

@@ -19,8 +19,7 @@ use wedge_graph::BufferId;
 
 use super::formulas::{self, MotionParams, MotionRates, MotionStats};
 use crate::defocus::kernels::{
-    component_uniform, rate_component, rate_params, sigma_px, Count, RateComponent, RateOptions, RatesParams,
-    Statistic, Width,
+    component_uniform, rate_component, rate_params, sigma_px, RateComponent, RateOptions, RatesParams, Statistic,
 };
 use crate::shadows::slopes;
 
@@ -140,17 +139,10 @@ impl RatesIo {
 /// inlined (so that the others' are not computed: `rate_rows`).
 #[inline(always)]
 fn pick(c: RateComponent, r: &MotionRates) -> (f32, u32) {
-    let (omega, n) = select(c);
-    (omega(r), n(r))
-}
-
-/// A component's width and count among a pixel's motion rates.
-#[inline(always)]
-fn select(c: RateComponent) -> (Width<MotionRates>, Count<MotionRates>) {
     match c {
-        RateComponent::Direct => (|r| r.omega_direct, |r| r.n_direct),
-        RateComponent::Indirect => (|r| r.omega_indirect, |r| r.n_indirect),
-        RateComponent::Environment => (|r| r.omega_environment, |r| r.n_environment),
+        RateComponent::Direct => (r.omega_direct, r.n_direct),
+        RateComponent::Indirect => (r.omega_indirect, r.n_indirect),
+        RateComponent::Environment => (r.omega_environment, r.n_environment),
     }
 }
 
