@@ -8,6 +8,8 @@
 //! their majority, and the max is the same as ignoring outside pixels. Integer-only, so both backends
 //! agree bit for bit. WGSL: `shaders/neighbourhood3.wgsl` (one shader, `params.op` picks the filter).
 
+use rayon::prelude::*;
+
 use crate::kernel::{Kernel, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
@@ -26,12 +28,12 @@ fn window(value: &[u32], w: i32, h: i32, x: i32, y: i32) -> [u32; 9] {
     v
 }
 
-/// Largest of the 3×3 window (edges clamped).
+/// Largest of the 3×3 window (edges clamped): the pass's reference, pixel by pixel.
 pub fn max3(value: &[u32], width: u32, height: u32, x: u32, y: u32) -> u32 {
     window(value, width as i32, height as i32, x as i32, y as i32).into_iter().max().unwrap_or(0)
 }
 
-/// Median (5th smallest) of the 3×3 window (edges clamped).
+/// Median (5th smallest) of the 3×3 window (edges clamped): the pass's reference, pixel by pixel.
 pub fn median3(value: &[u32], width: u32, height: u32, x: u32, y: u32) -> u32 {
     let mut v = window(value, width as i32, height as i32, x as i32, y as i32);
     v.sort_unstable();
@@ -53,10 +55,59 @@ crate::kernel_bindings! {
     }
 }
 
-fn run(ctx: &mut KernelCtx<'_>, f: fn(&[u32], u32, u32, u32, u32) -> u32) -> Result<(), BackendError> {
+/// Which 3×3 filter a pass runs, row by row: each row's three source rows (edges clamped) are
+/// reduced per column first (max; or sorted into low, middle, high), then across the three columns
+/// (edges clamped). The same values as [`max3`] and [`median3`] pixel by pixel, without gathering
+/// and sorting nine values per pixel.
+#[derive(Clone, Copy)]
+enum Op {
+    Max,
+    Median,
+}
+
+/// Row `y` of `op` over the `w`-wide image `value` of `h` rows, into `out`.
+fn filter_row(op: Op, value: &[u32], w: usize, h: usize, y: usize, out: &mut [u32]) {
+    let row = |r: usize| &value[r * w..(r + 1) * w];
+    let (above, here, below) = (row(y.saturating_sub(1)), row(y), row((y + 1).min(h - 1)));
+    // The columns either side of `x`, clamped to the image.
+    let sides = |x: usize| (x.saturating_sub(1), (x + 1).min(w - 1));
+    match op {
+        Op::Max => {
+            let column: Vec<u32> = (0..w).map(|x| above[x].max(here[x]).max(below[x])).collect();
+            for (x, o) in out.iter_mut().enumerate() {
+                let (l, r) = sides(x);
+                *o = column[l].max(column[x]).max(column[r]);
+            }
+        }
+        Op::Median => {
+            // The median of nine is the median of (the largest low, the median middle, the
+            // smallest high) of its three sorted columns (Paeth, Graphics Gems I).
+            let column: Vec<[u32; 3]> = (0..w).map(|x| sort3(above[x], here[x], below[x])).collect();
+            for (x, o) in out.iter_mut().enumerate() {
+                let (l, r) = sides(x);
+                let (a, b, c) = (column[l], column[x], column[r]);
+                let low = a[0].max(b[0]).max(c[0]);
+                let high = a[2].min(b[2]).min(c[2]);
+                *o = sort3(low, sort3(a[1], b[1], c[1])[1], high)[1];
+            }
+        }
+    }
+}
+
+/// `a`, `b`, `c` in ascending order.
+#[inline(always)]
+fn sort3(a: u32, b: u32, c: u32) -> [u32; 3] {
+    let (a, b) = (a.min(b), a.max(b));
+    let (b, c) = (b.min(c), b.max(c));
+    let (a, b) = (a.min(b), a.max(b));
+    [a, b, c]
+}
+
+fn run(ctx: &mut KernelCtx<'_>, op: Op) -> Result<(), BackendError> {
     let Neighbourhood3Data { value, out } = Neighbourhood3Io::read(ctx)?;
-    let (w, h) = (ctx.width, ctx.height);
-    let result = ctx.map_pixels(false, |x, y| f(value, w, h, x, y));
+    let (w, h) = (ctx.width as usize, ctx.height as usize);
+    let mut result = out.storage(ctx)?;
+    result.par_chunks_mut(w).enumerate().for_each(|(y, row)| filter_row(op, value, w, h, y, row));
     out.put(ctx, result)
 }
 
@@ -69,7 +120,7 @@ impl Kernel for Max3 {
         Some(wgsl_with_op(0))
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        run(ctx, max3)
+        run(ctx, Op::Max)
     }
 }
 
@@ -82,6 +133,40 @@ impl Kernel for Median3 {
         Some(wgsl_with_op(1))
     }
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
-        run(ctx, median3)
+        run(ctx, Op::Median)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every row of both passes gives the per-pixel window's max and median: random values, every
+    /// 0/1 window (the flags' case), and images one or two pixels thin (where the clamps overlap).
+    #[test]
+    fn the_rows_are_the_per_pixel_windows() {
+        let mut state = 0x9e37_79b9u32;
+        let mut next = |range: u32| {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state % range
+        };
+        for (w, h, range) in [(11, 7, 1000), (11, 7, 2), (1, 6, 5), (2, 2, 3), (9, 1, 4), (3, 3, 2)] {
+            for _ in 0..200 {
+                let value: Vec<u32> = (0..w * h).map(|_| next(range)).collect();
+                for y in 0..h {
+                    for (op, reference) in
+                        [(Op::Max, max3 as fn(&[u32], u32, u32, u32, u32) -> u32), (Op::Median, median3)]
+                    {
+                        let mut row = vec![0; w];
+                        filter_row(op, &value, w, h, y, &mut row);
+                        for (x, got) in row.into_iter().enumerate() {
+                            assert_eq!(got, reference(&value, w as u32, h as u32, x as u32, y as u32), "({x}, {y})");
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -18,6 +18,8 @@
 //! with none keeps its own statistics. Sums in a fixed order: both backends agree bit for bit.
 //! WGSL: `shaders/neighbourhood_others.wgsl`.
 
+use rayon::prelude::*;
+
 use crate::kernel::{Kernel, KernelCtx, Reach, Uniforms, WgslSource};
 use crate::BackendError;
 
@@ -49,27 +51,84 @@ pub const SAME_OBJECT_NEIGHBOUR: (&str, &str) =
 /// The statistics of pixel `(x, y)` from its neighbours (module doc).
 pub fn others(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, x: i32, y: i32) -> [f32; 4] {
     let i = (y * w + x) as usize;
-    let own = value[i];
-    if !(own[3] > 0.0) {
-        return own;
-    }
-    let (mut min_sum, mut max_sum, mut hits, mut n, mut with_hits) = (0.0f32, 0.0f32, 0.0f32, 0u32, 0u32);
-    for v in same_object_neighbours(position, w, h, x, y).map(|j| value[j]).filter(|v| v[3] > 0.0) {
-        n += 1;
-        if v[2] > 0.0 {
-            min_sum += v[0];
-            max_sum += v[1];
-            hits += v[2];
-            with_hits += 1;
+    let mut sums = OthersSums::default();
+    if value[i][3] > 0.0 {
+        for j in same_object_neighbours(position, w, h, x, y) {
+            sums.add(value[j]);
         }
     }
-    if n == 0 {
-        own
-    } else if hits > 0.0 {
-        [min_sum / with_hits as f32, max_sum / with_hits as f32, hits, own[3]]
-    } else {
-        [0.0, 0.0, 0.0, own[3]]
+    sums.statistics(value[i])
+}
+
+/// The sums [`others`] takes over a pixel's neighbours, in their fixed order.
+#[derive(Default)]
+struct OthersSums {
+    min_sum: f32,
+    max_sum: f32,
+    hits: f32,
+    /// Neighbours with samples (`w > 0`).
+    n: u32,
+    /// Of those, the ones with hits (`z > 0`).
+    with_hits: u32,
+}
+
+impl OthersSums {
+    /// Add one neighbour on the pixel's object (one without samples adds nothing).
+    #[inline(always)]
+    fn add(&mut self, v: [f32; 4]) {
+        if v[3] > 0.0 {
+            self.n += 1;
+            if v[2] > 0.0 {
+                self.min_sum += v[0];
+                self.max_sum += v[1];
+                self.hits += v[2];
+                self.with_hits += 1;
+            }
+        }
     }
+
+    /// The pixel's output from its own statistics `own` and these sums (module doc).
+    fn statistics(&self, own: [f32; 4]) -> [f32; 4] {
+        if !(own[3] > 0.0) || self.n == 0 {
+            own
+        } else if self.hits > 0.0 {
+            [self.min_sum / self.with_hits as f32, self.max_sum / self.with_hits as f32, self.hits, own[3]]
+        } else {
+            [0.0, 0.0, 0.0, own[3]]
+        }
+    }
+}
+
+/// Row `y` of the pass: [`others`] for each pixel, the interior read through fixed offsets (the
+/// same neighbours in the same order as [`same_object_neighbours`], so the same bits) and the two
+/// edge pixels, like every pixel of the first and last rows, through [`others`] itself.
+fn others_row(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, y: i32, out: &mut [[f32; 4]]) {
+    let edge = |x: i32| others(value, position, w, h, x, y);
+    if y == 0 || y == h - 1 || w < 3 {
+        out.iter_mut().enumerate().for_each(|(x, o)| *o = edge(x as i32));
+        return;
+    }
+    let wu = w as usize;
+    // Rows, then columns; the pixel itself left out.
+    let offsets =
+        [-(wu as isize) - 1, -(wu as isize), 1 - wu as isize, -1, 1, wu as isize - 1, wu as isize, wu as isize + 1];
+    let row = y as usize * wu;
+    for (x, o) in out.iter_mut().enumerate().take(wu - 1).skip(1) {
+        let i = row + x;
+        let mut sums = OthersSums::default();
+        if value[i][3] > 0.0 {
+            let object = position[i][3];
+            for offset in offsets {
+                let j = i.wrapping_add_signed(offset);
+                if position[j][3] == object {
+                    sums.add(value[j]);
+                }
+            }
+        }
+        *o = sums.statistics(value[i]);
+    }
+    out[0] = edge(0);
+    out[wu - 1] = edge(w - 1);
 }
 
 crate::kernel_bindings! {
@@ -92,7 +151,11 @@ impl Kernel for Others {
     fn run_cpu(&self, ctx: &mut KernelCtx<'_>) -> Result<(), BackendError> {
         let OthersData { value, position, out } = OthersIo::read(ctx)?;
         let (w, h) = (ctx.width as i32, ctx.height as i32);
-        let gathered = ctx.map_pixels(false, |x, y| others(value, position, w, h, x as i32, y as i32));
+        let mut gathered = out.storage(ctx)?;
+        gathered
+            .par_chunks_mut(w as usize)
+            .enumerate()
+            .for_each(|(y, row)| others_row(value, position, w, h, y as i32, row));
         out.put(ctx, gathered)
     }
 }
@@ -125,5 +188,32 @@ mod tests {
         let value = vec![[0.0, 0.0, 0.0, 16.0]; 9];
         let position = vec![[0.0, 0.0, 0.0, 1.0]; 9];
         assert_eq!(others(&value, &position, 3, 3, 1, 1), [0.0, 0.0, 0.0, 16.0]);
+    }
+
+    /// The pass's rows (fixed offsets in the interior) give [`others`]' bits at every pixel: three
+    /// objects, pixels without samples, neighbours without hits, and images one or two pixels thin.
+    #[test]
+    fn the_rows_are_the_per_pixel_statistics() {
+        for (w, h) in [(13, 9), (1, 5), (2, 2), (7, 1)] {
+            let n = (w * h) as usize;
+            let hash = |k: usize, salt: u32| ((k as u32).wrapping_mul(2_654_435_761) ^ salt).wrapping_mul(40_503) >> 16;
+            let value: Vec<[f32; 4]> = (0..n)
+                .map(|k| {
+                    let r = hash(k, 7) as f32 / 65_536.0;
+                    let hits = if hash(k, 3) % 4 == 0 { 0.0 } else { (hash(k, 5) % 9) as f32 };
+                    let samples = if hash(k, 11) % 5 == 0 { 0.0 } else { 16.0 };
+                    [r, r + 0.5, hits, samples]
+                })
+                .collect();
+            let position: Vec<[f32; 4]> = (0..n).map(|k| [0.0, 0.0, 0.0, (hash(k, 13) % 3) as f32]).collect();
+            for y in 0..h {
+                let mut row = vec![[0.0; 4]; w as usize];
+                others_row(&value, &position, w, h, y, &mut row);
+                for (x, got) in row.iter().enumerate() {
+                    let want = others(&value, &position, w, h, x as i32, y);
+                    assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "({x}, {y}) of {w}x{h}");
+                }
+            }
+        }
     }
 }
