@@ -107,7 +107,8 @@ fn run(ctx: &mut KernelCtx<'_>, op: Op) -> Result<(), BackendError> {
     let Neighbourhood3Data { value, out } = Neighbourhood3Io::read(ctx)?;
     let (w, h) = (ctx.width as usize, ctx.height as usize);
     let mut result = out.storage(ctx)?;
-    result.par_chunks_mut(w).enumerate().for_each(|(y, row)| filter_row(op, value, w, h, y, row));
+    // (`max(1)`: chunks of an empty image's empty buffer.)
+    result.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| filter_row(op, value, w, h, y, row));
     out.put(ctx, result)
 }
 

@@ -153,7 +153,8 @@ impl Kernel for Others {
         let (w, h) = (ctx.width as i32, ctx.height as i32);
         let mut gathered = out.storage(ctx)?;
         gathered
-            .par_chunks_mut(w as usize)
+            // (`max(1)`: chunks of an empty image's empty buffer.)
+            .par_chunks_mut((w as usize).max(1))
             .enumerate()
             .for_each(|(y, row)| others_row(value, position, w, h, y as i32, row));
         out.put(ctx, gathered)
