@@ -26,9 +26,13 @@ use crate::BackendError;
 /// `neighbourhood.others` (module doc).
 pub struct Others;
 
+/// A pixel's eight neighbours `(dx, dy)` in their fixed order (rows, then columns; the pixel itself
+/// left out): the order every sum over them takes, here and in the WGSL's loops.
+const NEIGHBOURS: [(i32, i32); 8] = [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)];
+
 /// The indices of pixel `(x, y)`'s eight neighbours inside the `w × h` image that lie on its object
-/// (position `w`), in a fixed order (rows, then columns), the pixel itself left out: the neighbourhood
-/// `others` and the Indirect node's `nearest` read (WGSL: `same_object_neighbour` in common.wgsl).
+/// (position `w`), in the order of [`NEIGHBOURS`]: the neighbourhood `others` and the Indirect
+/// node's `nearest` read (WGSL: `same_object_neighbour` in common.wgsl).
 pub fn same_object_neighbours(
     position: &[[f32; 4]],
     w: i32,
@@ -37,9 +41,10 @@ pub fn same_object_neighbours(
     y: i32,
 ) -> impl Iterator<Item = usize> + '_ {
     let object = position[(y * w + x) as usize][3];
-    (-1..=1)
-        .flat_map(move |dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
-        .filter(move |&(nx, ny)| (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && nx < w && ny < h)
+    NEIGHBOURS
+        .into_iter()
+        .map(move |(dx, dy)| (x + dx, y + dy))
+        .filter(move |&(nx, ny)| nx >= 0 && ny >= 0 && nx < w && ny < h)
         .map(move |(nx, ny)| (ny * w + nx) as usize)
         .filter(move |&j| position[j][3] == object)
 }
@@ -99,9 +104,9 @@ impl OthersSums {
     }
 }
 
-/// Row `y` of the pass: [`others`] for each pixel, the interior read through fixed offsets (the
-/// same neighbours in the same order as [`same_object_neighbours`], so the same bits) and the two
-/// edge pixels, like every pixel of the first and last rows, through [`others`] itself.
+/// Row `y` of the pass: [`others`] for each pixel, the interior read through fixed index offsets
+/// (from [`NEIGHBOURS`], so the same neighbours in the same order: the same bits) and the two edge
+/// pixels, like every pixel of the first and last rows, through [`others`] itself.
 fn others_row(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, y: i32, out: &mut [[f32; 4]]) {
     let edge = |x: i32| others(value, position, w, h, x, y);
     if y == 0 || y == h - 1 || w < 3 {
@@ -109,9 +114,7 @@ fn others_row(value: &[[f32; 4]], position: &[[f32; 4]], w: i32, h: i32, y: i32,
         return;
     }
     let wu = w as usize;
-    // Rows, then columns; the pixel itself left out.
-    let offsets =
-        [-(wu as isize) - 1, -(wu as isize), 1 - wu as isize, -1, 1, wu as isize - 1, wu as isize, wu as isize + 1];
+    let offsets = NEIGHBOURS.map(|(dx, dy)| dy as isize * wu as isize + dx as isize);
     let row = y as usize * wu;
     for (x, o) in out.iter_mut().enumerate().take(wu - 1).skip(1) {
         let i = row + x;
